@@ -1,0 +1,31 @@
+"""Declarative YAML missions for wheeled non-holonomic mobile robots.
+
+The controller and estimator follow "A New On-line Observer-Based Controller
+for Wheeled Non-holonomic Mobile Robots"; ``docs/paper-notes.md`` maps each of
+its equations to the code.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+__version__ = "0.1.0"
+
+if TYPE_CHECKING:
+    from wmr_mission.runner import RunResult, run_mission
+    from wmr_mission.spec.loader import load_mission
+
+__all__ = ["RunResult", "__version__", "load_mission", "run_mission"]
+
+
+def __getattr__(name: str) -> Any:
+    # Lazy: `wmr-mission validate` and `--help` must not pay for numpy/scipy/matplotlib.
+    if name == "load_mission":
+        from wmr_mission.spec.loader import load_mission
+
+        return load_mission
+    if name in ("run_mission", "RunResult"):
+        from wmr_mission import runner
+
+        return getattr(runner, name)
+    raise AttributeError(name)

@@ -1,0 +1,3 @@
+from wmr_mission.cli import main
+
+main()
