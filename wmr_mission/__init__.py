@@ -12,7 +12,8 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
-    from wmr_mission.runner import RunResult, run_mission
+    from wmr_mission.result import RunResult
+    from wmr_mission.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
 __all__ = ["RunResult", "__version__", "load_mission", "run_mission"]
@@ -24,8 +25,12 @@ def __getattr__(name: str) -> Any:
         from wmr_mission.spec.loader import load_mission
 
         return load_mission
-    if name in ("run_mission", "RunResult"):
-        from wmr_mission import runner
+    if name == "run_mission":
+        from wmr_mission.runner import run_mission
 
-        return getattr(runner, name)
+        return run_mission
+    if name == "RunResult":
+        from wmr_mission.result import RunResult
+
+        return RunResult
     raise AttributeError(name)

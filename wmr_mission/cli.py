@@ -8,7 +8,7 @@ never load matplotlib or scipy.
 from __future__ import annotations
 
 import sys
-from enum import Enum
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -23,7 +23,7 @@ app = typer.Typer(
 )
 
 
-class OutputFormat(str, Enum):
+class OutputFormat(StrEnum):
     text = "text"
     json = "json"
 
@@ -79,9 +79,7 @@ def schema() -> None:
 
 @app.command()
 def plot(
-    run_dir: Annotated[
-        Path, typer.Argument(exists=True, file_okay=False, help="A run directory.")
-    ],
+    run_dir: Annotated[Path, typer.Argument(exists=True, file_okay=False, help="A run directory.")],
 ) -> None:
     """Re-draw the figures of RUN_DIR from its saved data."""
     from wmr_mission.output.plots import replot_command

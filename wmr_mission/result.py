@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -15,13 +15,22 @@ IntArray = NDArray[np.int64]
 
 # The first columns of trajectory.csv, in this order (DESIGN.md).
 TRAJECTORY_COLUMNS = (
-    "t", "x", "y", "theta", "x_est", "y_est", "theta_est", "v", "omega", "phase",
+    "t",
+    "x",
+    "y",
+    "theta",
+    "x_est",
+    "y_est",
+    "theta_est",
+    "v",
+    "omega",
+    "phase",
 )
 # Columns that follow them.
 EXTRA_COLUMNS = ("x_ref", "y_ref", "constraint", "phase2_iterations")
 
 
-class Outcome(str, Enum):
+class Outcome(StrEnum):
     success = "success"
     timeout = "timeout"  # a phase timed out with on_timeout: fail
     diverged = "diverged"  # non-finite or runaway state or input

@@ -1,0 +1,50 @@
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wmr_mission.model import f, input_jacobian, state_jacobian, step, wrap_angle
+
+
+def central_difference(fun, point: np.ndarray, h: float = 1e-6) -> np.ndarray:  # type: ignore[no-untyped-def]
+    columns = []
+    for i in range(point.size):
+        e = np.zeros_like(point)
+        e[i] = h
+        columns.append((fun(point + e) - fun(point - e)) / (2 * h))
+    return np.column_stack(columns)
+
+
+def test_step_matches_eq_1_written_out() -> None:
+    x, y, th, v, om, dt = 0.3, -1.2, 0.7, 2.0, -1.5, 0.01
+    expected = (
+        x + dt * v * math.cos(th) - dt**2 / 2 * v * om * math.sin(th),
+        y + dt * v * math.sin(th) + dt**2 / 2 * v * om * math.cos(th),
+        th + dt * om,
+    )
+    assert step(x, y, th, v, om, dt) == pytest.approx(expected, rel=1e-15, abs=1e-15)
+
+
+def test_heading_is_not_wrapped_by_the_model() -> None:
+    assert step(0.0, 0.0, 3.1, 0.0, 10.0, 0.01)[2] == pytest.approx(3.2)
+
+
+def test_jacobians_match_central_differences(rng: np.random.Generator) -> None:
+    for _ in range(200):
+        state = rng.uniform([-10, -10, -7], [10, 10, 7])
+        u = rng.uniform([-10, -20], [10, 20])
+        dt = float(rng.uniform(0.001, 0.1))
+        a_fd = central_difference(lambda s, u=u, dt=dt: f(s, u, dt), state)
+        b_fd = central_difference(lambda w, state=state, dt=dt: f(state, w, dt), u)
+        np.testing.assert_allclose(state_jacobian(state, u, dt), a_fd, atol=1e-6)
+        np.testing.assert_allclose(input_jacobian(state, u, dt), b_fd, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("angle", "wrapped"),
+    [(0.0, 0.0), (math.pi / 2, math.pi / 2), (3 * math.pi, -math.pi), (-7.0, -7.0 + 2 * math.pi)],
+)
+def test_wrap_angle(angle: float, wrapped: float) -> None:
+    assert wrap_angle(angle) == pytest.approx(wrapped)

@@ -1,0 +1,122 @@
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+from test_output_synthetic import circle_run
+
+from wmr_mission.output.plots import (
+    MAX_POINTS_PER_LINE,
+    _clip_half_plane,
+    draw_all,
+    replot_command,
+    thin,
+)
+from wmr_mission.output.rundir import write_run
+
+FIGURES = ["xy.png", "states.png", "estimation_error.png", "inputs.png"]
+
+
+def test_draw_all_writes_four_legible_pngs(tmp_path: Path) -> None:
+    paths = draw_all(circle_run(), tmp_path)
+    assert [p.name for p in paths] == FIGURES
+    for path in paths:
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert path.stat().st_size > 20_000
+        with Image.open(path) as image:
+            width, height = image.size
+        assert 700 <= width <= 2000, path.name
+        assert 400 <= height <= 1600, path.name
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(FIGURES)  # no temporaries
+
+
+def test_thin_keeps_ends_and_bounds_the_points() -> None:
+    k = thin(0, 360_000)
+    assert k.size <= MAX_POINTS_PER_LINE + 1
+    assert (k[0], k[-1]) == (0, 359_999)
+    assert np.all(np.diff(k) > 0)
+    np.testing.assert_array_equal(thin(5, 9), [5, 6, 7, 8])
+    assert thin(3, 3).size == 0
+
+
+def test_half_plane_is_clipped_to_its_inside() -> None:
+    inside = _clip_half_plane((0.0, 4.0, 0.0, 2.0), (1.0, 0.0), 1.0)
+    assert inside[:, 0].max() == pytest.approx(1.0)
+    assert inside[:, 0].min() == pytest.approx(0.0)
+    assert len(inside) == 4
+    assert len(_clip_half_plane((0.0, 4.0, 0.0, 2.0), (1.0, 0.0), -1.0)) == 0
+
+
+def test_long_run_with_a_diverged_tail_still_plots(tmp_path: Path) -> None:
+    run = circle_run(60_000)
+    run.x = run.x.copy()
+    run.x[-100:] = np.inf
+    run.y = np.where(np.arange(run.samples) > 59_800, np.nan, run.y)
+    paths = draw_all(run, tmp_path)
+    assert all(p.stat().st_size > 20_000 for p in paths)
+
+
+def test_replot_redraws_a_written_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_run(
+        circle_run(),
+        tmp_path,
+        mission_sha256="0" * 64,
+        resolved_mission={},
+        mission_file="circle.yaml",
+        plots=False,
+        animate=False,
+    )
+    assert replot_command(tmp_path) == 0
+    printed = capsys.readouterr().out.split()
+    assert printed == [str(tmp_path / name) for name in FIGURES]
+    assert all((tmp_path / name).stat().st_size > 20_000 for name in FIGURES)
+
+
+def test_replot_of_a_broken_run_dir_is_one_line_on_stderr(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_run(
+        circle_run(100),
+        tmp_path,
+        mission_sha256="0" * 64,
+        resolved_mission={},
+        mission_file="circle.yaml",
+        plots=False,
+        animate=False,
+    )
+    (tmp_path / "trajectory.csv").unlink()
+    assert replot_command(tmp_path) == 1
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err == (
+        f"{tmp_path}: trajectory.csv is missing (not a run directory, or an interrupted run)\n"
+    )
+
+
+def test_importing_the_output_modules_does_not_load_matplotlib() -> None:
+    code = (
+        "import sys, wmr_mission.output.rundir, wmr_mission.output.plots, "
+        "wmr_mission.output.animation, wmr_mission.output.report; "
+        "sys.exit('matplotlib' in sys.modules)"
+    )
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_write_run_draws_the_figures_before_the_summary(tmp_path: Path) -> None:
+    written = write_run(
+        circle_run(300),
+        tmp_path,
+        mission_sha256="0" * 64,
+        resolved_mission={},
+        mission_file="circle.yaml",
+        plots=True,
+        animate=False,
+    )
+    names = [p.name for p in written]
+    assert names[3:7] == FIGURES
+    assert names[-1] == "summary.json"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(names)

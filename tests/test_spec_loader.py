@@ -1,0 +1,280 @@
+"""Loading missions: values, defaults, positions and refusals."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from wmr_mission.spec.loader import (
+    MAX_FILE_BYTES,
+    MissionError,
+    check_mission,
+    check_mission_text,
+    load_mission,
+    load_mission_text,
+)
+from wmr_mission.spec.models import (
+    ConstrainedObserver,
+    Ekf,
+    EllipsePath,
+    ExpressionPath,
+    HoldPhase,
+    Mission,
+    RegulatePhase,
+    StayInside,
+    TrackPhase,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+
+MINIMAL = """\
+version: 1
+name: t
+phases:
+  - name: wait
+    hold: {}
+    until: {elapsed: 1}
+"""
+
+
+def test_case2_loads_with_plain_floats() -> None:
+    mission = load_mission(ROOT / "missions" / "case2.yaml")
+    assert isinstance(mission, Mission)
+    orbit = mission.phases[1]
+    assert isinstance(orbit, TrackPhase)
+    assert isinstance(orbit.track.path, EllipsePath)
+    assert orbit.track.path.angular_rate == pytest.approx(0.4 * 3.141592653589793)
+    assert orbit.track.path.start == "current"
+    spiral = mission.phases[0]
+    assert isinstance(spiral, TrackPhase)
+    assert isinstance(spiral.track.path, ExpressionPath)
+    assert spiral.until.reaches == "ellipse"
+    assert spiral.on_timeout == "fail"
+    back = mission.phases[2]
+    assert isinstance(back, RegulatePhase)
+    assert back.constraints == (StayInside(stay_inside="ellipse"),)
+    assert back.until.settled is not None
+    assert back.until.settled.speed == 0.01
+    assert mission.expect.max_constraint_violation is not None
+    assert mission.expect.max_constraint_violation.max == 0.001
+
+
+def test_defaults_reproduce_the_paper() -> None:
+    mission = load_mission_text(MINIMAL, "m.yaml")
+    assert mission.robot.dt == 0.01
+    assert (mission.robot.initial_state.x, mission.robot.initial_state.y) == (0.0, 0.0)
+    assert mission.sensors.measure == ("x", "y", "theta")
+    estimator = mission.estimator
+    assert isinstance(estimator, ConstrainedObserver)
+    assert (estimator.initial_estimate.x, estimator.initial_estimate.y) == (1.0, 1.0)
+    assert mission.controller.Q == (1.0, 1.0, 1.0)
+    assert mission.controller.R == (1.0, 1.0)
+    assert mission.controller.W == (100.0, 100.0, 100.0)
+    assert mission.controller.M == (100.0, 100.0)
+    assert isinstance(mission.phases[0], HoldPhase)
+
+
+def test_default_output_error_bounds_cover_measured_states_only() -> None:
+    text = MINIMAL.replace("phases:", "sensors: {measure: [x, y]}\nphases:").replace(
+        "hold: {}", "regulate: {target: {x: 1}}"
+    )
+    estimator = load_mission_text(text, "m.yaml").estimator
+    assert isinstance(estimator, ConstrainedObserver)
+    assert estimator.output_error_bounds == {"x": (-0.05, 0.05), "y": (-0.05, 0.05)}
+
+
+def test_scalars_use_parameters() -> None:
+    text = MINIMAL.replace("phases:", "parameters: {k: 0.25}\nphases:").replace(
+        "hold: {}", "regulate: {target: {x: 2*k, y: -k, theta: pi/2}}"
+    )
+    phase = load_mission_text(text, "m.yaml").phases[0]
+    assert isinstance(phase, RegulatePhase)
+    assert phase.regulate.target.x == 0.5
+    assert phase.regulate.target.y == -0.25
+    assert phase.regulate.target.theta == pytest.approx(1.5707963267948966)
+
+
+def test_ekf_is_selected_by_type() -> None:
+    text = MINIMAL.replace("phases:", "estimator: {type: ekf}\nphases:")
+    estimator = load_mission_text(text, "m.yaml").estimator
+    assert isinstance(estimator, Ekf)
+    assert estimator.initial_std.theta == 0.5
+    assert estimator.measurement_std is None
+
+
+def test_models_are_frozen() -> None:
+    mission = load_mission_text(MINIMAL, "m.yaml")
+    with pytest.raises(ValueError, match="frozen"):
+        mission.robot.dt = 0.1  # type: ignore[misc]
+
+
+def test_every_error_of_a_file_is_reported_at_once() -> None:
+    text = """\
+version: 1
+name: several
+robot:
+  dtt: 0.01
+  limits: {v: -1}
+sensors:
+  measure: [x, y, z]
+phases:
+  - name: one
+    hold: {}
+    until: {elapsed: 1, elapsd: 2}
+  - name: two
+    regulate: {target: {x: 1, y: 0, theta: bad name}}
+    timeout: 5
+"""
+    mission, diagnostics = check_mission_text(text, "several.yaml")
+    assert mission is None
+    positions = [(d.line, d.column) for d in diagnostics]
+    assert positions == [(4, 3), (5, 15), (7, 19), (11, 25), (13, 44)]
+    messages = "\n".join(d.message for d in diagnostics)
+    assert "did you mean 'dt'?" in messages
+    assert "did you mean 'elapsed'?" in messages
+    assert "greater than 0" in messages
+
+
+def test_mission_error_lists_every_error() -> None:
+    text = MINIMAL.replace("name: t", "name: T").replace("elapsed: 1", "elapsed: -1")
+    with pytest.raises(MissionError) as caught:
+        load_mission_text(text, "m.yaml")
+    lines = str(caught.value).splitlines()
+    assert len(caught.value.diagnostics) == 2
+    assert lines[0].startswith("m.yaml:2:7: name: expected lower-case")
+    assert lines[1].startswith("m.yaml:6:22: phases[0].until.elapsed: should be greater than 0")
+
+
+def test_warnings_do_not_stop_loading() -> None:
+    text = MINIMAL.replace("elapsed: 1", "elapsed: 1.005")
+    mission, diagnostics = check_mission_text(text, "m.yaml")
+    assert mission is not None
+    assert [d.severity for d in diagnostics] == ["warning"]
+    assert load_mission_text(text, "m.yaml") == mission
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("", "the file is empty"),
+        ("- 1\n- 2\n", "a mission is a mapping"),
+        ("42\n", "a mission is a mapping"),
+        ("version: [\n", "YAML syntax error"),
+        ("a: &x 1\nb: *x\n", "anchor '&x' is not allowed"),
+        ("{{{{", "YAML syntax error"),
+        ("version: 1\x00\n", "is not allowed in YAML text"),
+    ],
+)
+def test_odd_inputs_give_a_message(text: str, message: str) -> None:
+    mission, diagnostics = check_mission_text(text, "odd.yaml")
+    assert mission is None
+    assert any(message in d.message for d in diagnostics), diagnostics
+
+
+def test_alias_bomb_is_refused_quickly() -> None:
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x, x]"]
+    lines += [f"a{i}: &a{i} [*a{i - 1}, *a{i - 1}, *a{i - 1}, *a{i - 1}]" for i in range(1, 30)]
+    _, diagnostics = check_mission_text("\n".join(lines) + "\n", "bomb.yaml")
+    assert diagnostics[0].line == 1
+    assert "anchor '&a0' is not allowed" in diagnostics[0].message
+
+
+def test_oversized_file_is_refused_before_reading(tmp_path: Path) -> None:
+    path = tmp_path / "big.yaml"
+    path.write_text(MINIMAL + "# " + "x" * MAX_FILE_BYTES + "\n", encoding="utf-8")
+    mission, diagnostics = check_mission(path)
+    assert mission is None
+    assert [(d.line, d.column) for d in diagnostics] == [(1, 1)]
+    assert "file too large" in diagnostics[0].message
+
+
+def test_ten_megabyte_expression_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "huge.yaml"
+    expression = "+".join(["t"] * 5_000_000)
+    path.write_text(
+        MINIMAL.replace(
+            "hold: {}", f'track: {{path: {{type: expression, x: "{expression}", y: "0"}}}}'
+        ),
+        encoding="utf-8",
+    )
+    _, diagnostics = check_mission(path)
+    assert "file too large" in diagnostics[0].message
+    _, diagnostics = check_mission_text(path.read_text(encoding="utf-8"), "huge.yaml")
+    assert "file too large" in diagnostics[0].message
+
+
+INJECTIONS = [
+    "__import__('os').system('touch x')",
+    "().__class__",
+    "().__class__.__bases__[0].__subclasses__()",
+    "open('x', 'w')",
+    "exec('import os')",
+    "lambda: 0",
+    "t if t else t",
+    "[t for t in ()]",
+    "t.real",
+    "os.system",
+]
+
+
+@pytest.mark.parametrize("expression", INJECTIONS)
+def test_injection_in_expression_is_refused_and_not_executed(
+    expression: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    quoted = expression.replace('"', '\\"')
+    text = MINIMAL.replace(
+        "hold: {}", f'track: {{path: {{type: expression, x: "{quoted}", y: "0"}}}}'
+    )
+    mission, diagnostics = check_mission_text(text, "evil.yaml")
+    assert mission is None
+    assert len(diagnostics) == 1
+    assert diagnostics[0].line == 5
+    assert "phases[0].track.path.x: invalid expression:" in diagnostics[0].message
+    assert os.listdir(tmp_path) == []
+
+
+def test_python_tag_is_refused_and_not_executed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    text = MINIMAL + "description: !!python/object/apply:os.system ['touch x']\n"
+    mission, diagnostics = check_mission_text(text, "evil.yaml")
+    assert mission is None
+    assert "YAML tag '!!python/object/apply:os.system' is not allowed" in diagnostics[0].message
+    assert os.listdir(tmp_path) == []
+
+
+def test_expression_error_points_into_the_expression() -> None:
+    text = MINIMAL.replace("hold: {}", "regulate: {target: {x: '1 + 2*q'}}")
+    _, diagnostics = check_mission_text(text, "m.yaml")
+    (diagnostic,) = diagnostics
+    line = text.splitlines()[diagnostic.line - 1]
+    assert line[diagnostic.column - 1] == "q"
+    assert "unknown name 'q'" in diagnostic.message
+
+
+def test_unknown_key_without_close_match_lists_the_fields() -> None:
+    text = MINIMAL.replace("name: t", "name: t\nrobot: {zzz: 1}")
+    _, diagnostics = check_mission_text(text, "m.yaml")
+    assert diagnostics[0].message == (
+        "unknown field 'zzz'; expected one of: dt, initial_state, limits"
+    )
+
+
+def test_non_utf8_file(tmp_path: Path) -> None:
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes(b"version: 1\nname: caf\xe9\n")
+    _, diagnostics = check_mission(path)
+    assert [(d.line, d.column, d.message) for d in diagnostics] == [
+        (2, 10, "the file is not UTF-8 text")
+    ]
+
+
+def test_unreadable_path_is_a_diagnostic(tmp_path: Path) -> None:
+    _, diagnostics = check_mission(tmp_path)
+    assert "cannot read the file" in diagnostics[0].message
+    with pytest.raises(MissionError, match="cannot read the file"):
+        load_mission(tmp_path / "missing.yaml")

@@ -1,0 +1,163 @@
+"""``wmr-mission bench``: time the estimator + controller step per sample.
+
+The mission runs ``repeat`` times with the fast kernels and once with the
+reference step (wmr_mission.reference), in the same process, without files or
+plots. The runner times exactly the estimator and controller calls of each
+sample (``RunResult.compute_ns``); path look-ups, the plant, the sensors, the
+phase conditions and the recorder are outside the clock. A first untimed run
+takes the one-off cost of loading or compiling the kernels.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wmr_mission import _jit
+from wmr_mission.compiled import CompiledMission, compile_mission
+from wmr_mission.result import RunResult
+from wmr_mission.runner import FAST, run_mission
+
+if TYPE_CHECKING:
+    from wmr_mission.spec.models import Mission
+
+# Average computation time per sample reported in the paper's section IV [us].
+PAPER_US_PER_SAMPLE = {"case study 1": 120.0, "case study 2": 175.0}
+# The speed-up over the reference step the fast kernels are built for.
+TARGET_RATIO = 100.0
+
+
+def _stats(ns: NDArray[np.int64]) -> dict[str, float]:
+    us = ns.astype(np.float64) / 1000.0
+    return {"median_us": float(np.median(us)), "p99_us": float(np.percentile(us, 99))}
+
+
+def _timed_samples(results: list[RunResult]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """(phase index, compute ns) of every timed sample of ``results``.
+
+    The row that closes a run has no step and carries 0 ns: it is left out.
+    """
+    phases = np.concatenate([r.phase for r in results])
+    ns = np.concatenate([r.compute_ns for r in results])
+    timed = ns > 0
+    return phases[timed], ns[timed]
+
+
+def _same_trajectory(a: RunResult, b: RunResult) -> bool:
+    """Both runs visit the same poses within 1e-6 (m, rad) at every sample."""
+    if a.samples != b.samples:
+        return False
+    return all(
+        bool(np.allclose(getattr(a, name), getattr(b, name), rtol=0.0, atol=1e-6))
+        for name in ("x", "y", "theta")
+    )
+
+
+def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, Any]:
+    """Run ``mission`` once untimed, ``repeat`` times with the fast kernels and
+    once with the reference step; return per-phase and overall median and p99
+    microseconds per sample of each, and their ratio (reference / ours)."""
+    from wmr_mission.reference import REFERENCE
+
+    if repeat < 1:
+        raise ValueError(f"repeat must be at least 1, got {repeat}")
+    compiled = mission if isinstance(mission, CompiledMission) else compile_mission(mission)
+    run_mission(compiled, functions=FAST)  # warm-up: loads or compiles the kernels
+    ours = [run_mission(compiled, functions=FAST) for _ in range(repeat)]
+    reference = run_mission(compiled, functions=REFERENCE)
+    our_phase, our_ns = _timed_samples(ours)
+    ref_phase, ref_ns = _timed_samples([reference])
+
+    def row(name: str, kind: str, mine: NDArray[np.int64], theirs: NDArray[np.int64]) -> dict[str, Any]:
+        fast, slow = _stats(mine), _stats(theirs)
+        return {
+            "name": name,
+            "kind": kind,
+            "samples": int(theirs.size),
+            "ours": fast,
+            "reference": slow,
+            "ratio": slow["median_us"] / fast["median_us"],
+        }
+
+    phases = []
+    for index, info in enumerate(reference.phases):
+        mine = our_ns[our_phase == index]
+        theirs = ref_ns[ref_phase == index]
+        if mine.size and theirs.size:
+            phases.append(row(info.name, info.kind, mine, theirs))
+    return {
+        "mission": compiled.name,
+        "dt": compiled.dt,
+        "samples": reference.samples,
+        "outcome": ours[0].outcome.value,
+        "repeat": repeat,
+        "compiled": _jit.COMPILED,
+        "same_trajectory": _same_trajectory(ours[0], reference),
+        "phases": phases,
+        "overall": row("all", "", our_ns, ref_ns),
+        "paper_us_per_sample": dict(PAPER_US_PER_SAMPLE),
+    }
+
+
+def verdict(numbers: dict[str, Any]) -> str:
+    """One line: how the fast step compares with the reference and with dt."""
+    overall = numbers["overall"]
+    ratio = overall["ratio"]
+    share = overall["ours"]["p99_us"] / (numbers["dt"] * 1e6)
+    speed = (
+        f"{ratio:.0f}x below the reference step"
+        if ratio >= TARGET_RATIO
+        else f"only {ratio:.0f}x below the reference step (target {TARGET_RATIO:.0f}x)"
+    )
+    budget = f"p99 uses {100.0 * share:.2g}% of the sampling period"
+    if share >= 1.0:
+        budget = "p99 exceeds the sampling period: not real-time"
+    return f"verdict: median {overall['ours']['median_us']:.3g} us per sample, {speed}; {budget}"
+
+
+def format_report(numbers: dict[str, Any], source: str) -> str:
+    """The table ``wmr-mission bench`` prints."""
+    compiled = "numba-compiled kernels" if numbers["compiled"] else "pure-Python kernels (no numba)"
+    lines = [
+        f"mission {numbers['mission']} ({source}): {numbers['samples']} samples at "
+        f"dt = {numbers['dt']:g} s, outcome {numbers['outcome']}",
+        f"ours: {compiled}, {numbers['repeat']} timed run(s) after a warm-up; "
+        "reference: numpy/scipy step, 1 run",
+        "estimator + controller, microseconds per sample",
+        "",
+        f"{'phase':<16} {'kind':<9} {'samples':>8} {'ours med':>9} {'ours p99':>9} "
+        f"{'ref med':>9} {'ref p99':>9} {'ref/ours':>9}",
+    ]
+    for entry in [*numbers["phases"], numbers["overall"]]:
+        lines.append(
+            f"{entry['name'][:16]:<16} {entry['kind']:<9} {entry['samples']:>8} "
+            f"{entry['ours']['median_us']:>9.2f} {entry['ours']['p99_us']:>9.2f} "
+            f"{entry['reference']['median_us']:>9.1f} {entry['reference']['p99_us']:>9.1f} "
+            f"{entry['ratio']:>8.0f}x"
+        )
+    paper = ", ".join(f"{us:g} us ({name})" for name, us in numbers["paper_us_per_sample"].items())
+    lines += ["", f"the paper reports an average of {paper} per sample"]
+    if not numbers["same_trajectory"]:
+        lines.append("warning: the reference step ran a different trajectory (beyond 1e-6 m)")
+    lines.append(verdict(numbers))
+    return "\n".join(lines)
+
+
+def bench_command(mission_path: str | Path, repeat: int) -> int:
+    """``wmr-mission bench``: exit 0 after printing the table, 1 for an invalid mission."""
+    from wmr_mission.spec.loader import MissionError, load_mission
+
+    try:
+        mission = load_mission(mission_path)
+    except MissionError as error:
+        for diagnostic in error.diagnostics:
+            print(diagnostic, file=sys.stderr)
+        return 1
+    print(f"timing {mission_path} ...", file=sys.stderr)
+    numbers = bench_mission(mission, repeat)
+    print(format_report(numbers, str(mission_path)))
+    return 0

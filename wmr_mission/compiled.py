@@ -1,0 +1,274 @@
+"""A mission compiled for the runner: plain numbers, arrays and callables.
+
+``compile_mission`` is the only place that reads the pydantic models; the
+runner and the kernels see only what is here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Literal, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wmr_mission.sensors import STATE_NAMES, measurement_mask
+
+if TYPE_CHECKING:
+    from wmr_mission.spec.models import Mission
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+FORMS = {"bearing": 0, "deviation": 1, "increment": 2}
+
+
+class Trajectory(Protocol):
+    def sample(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]: ...
+
+
+def no_rows() -> tuple[IntArray, FloatArray]:
+    return np.zeros(0, dtype=np.int64), np.zeros((0, 6))
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """The ``until`` of a phase, in samples and plain numbers (None = absent)."""
+
+    elapsed_samples: int | None = None
+    mission_time: float | None = None
+    # Region rows for "reaches": the region's value is the largest row value.
+    reaches: str | None = None
+    reaches_rows: tuple[IntArray, FloatArray] = field(default_factory=no_rows)
+    near: tuple[float, float, float] | None = None  # x, y, tolerance
+    settled: tuple[float, float, float] | None = None  # position, heading, speed
+    heading: tuple[float, float] | None = None  # target, tolerance
+
+
+@dataclass(frozen=True)
+class CompiledPhase:
+    name: str
+    kind: str  # "track" | "regulate" | "hold"
+    until: Conditions
+    timeout_samples: int | None
+    fail_on_timeout: bool
+    # track: builds the path from the estimated pose at phase entry.
+    make_trajectory: Callable[[tuple[float, float, float]], Trajectory] | None = None
+    # regulate: the target pose; hold: None (the pose at entry).
+    target: tuple[float, float, float] | None = None
+    constraint_rows: tuple[IntArray, FloatArray] = field(default_factory=no_rows)
+    constraints: tuple[tuple[str, str], ...] = ()
+
+
+@dataclass(frozen=True)
+class CompiledMission:
+    name: str
+    dt: float
+    initial_state: FloatArray
+    initial_estimate: FloatArray
+    # Actuator limits: |v|, |omega|, and rates (inf when absent).
+    limits: FloatArray
+    measure_mask: FloatArray
+    noise_std: FloatArray
+    seed: int
+    estimator: str  # "constrained-observer" | "ekf"
+    poles: FloatArray
+    lower_bounds: FloatArray
+    upper_bounds: FloatArray
+    use_bounds: bool
+    max_iterations: int
+    ekf_initial_var: FloatArray
+    ekf_process_var: FloatArray
+    ekf_measurement_var: FloatArray
+    q: FloatArray
+    r: FloatArray
+    w: FloatArray
+    m: FloatArray
+    look_ahead: float
+    regulation_form: int
+    align_radius: float
+    reverse: bool
+    phases: tuple[CompiledPhase, ...]
+    regions: dict[str, dict[str, object]]
+    # Sample budget: the sum of each phase's bound, for pre-sizing the recorder.
+    max_samples: int
+
+
+def _samples(seconds: float, dt: float) -> int:
+    return max(1, round(seconds / dt))
+
+
+def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, FloatArray]:
+    if not parts:
+        return no_rows()
+    kinds = np.concatenate([p[0] for p in parts]).astype(np.int64)
+    params = np.ascontiguousarray(np.vstack([p[1] for p in parts]), dtype=np.float64)
+    return kinds, params
+
+
+def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
+    """Turn a validated mission into the runner's plain form."""
+    from wmr_mission import paths, regions
+
+    dt = float(mission.robot.dt)
+    phases: list[CompiledPhase] = []
+    budget = 0
+    for phase in mission.phases:
+        until = phase.until
+        conditions = Conditions()
+        if until is not None:
+            reaches_rows = no_rows()
+            if until.reaches is not None:
+                reaches_rows = regions.constraint_rows(mission.regions[until.reaches], "inside")
+            conditions = Conditions(
+                elapsed_samples=None if until.elapsed is None else _samples(until.elapsed, dt),
+                mission_time=until.mission_time,
+                reaches=until.reaches,
+                reaches_rows=(
+                    np.ascontiguousarray(reaches_rows[0], dtype=np.int64),
+                    np.ascontiguousarray(reaches_rows[1], dtype=np.float64),
+                ),
+                near=None
+                if until.near is None
+                else (until.near.point[0], until.near.point[1], until.near.tolerance),
+                settled=None
+                if until.settled is None
+                else (until.settled.position, until.settled.heading, until.settled.speed),
+                heading=None
+                if until.heading is None
+                else (until.heading.target, until.heading.tolerance),
+            )
+        bounds = [
+            b
+            for b in (
+                phase.timeout,
+                None if until is None else until.elapsed,
+            )
+            if b is not None
+        ]
+        budget += _samples(min(bounds), dt) + 1 if bounds else _samples(60.0, dt)
+        constraints = []
+        row_parts = []
+        for constraint in phase.constraints:
+            name = getattr(constraint, "stay_inside", None)
+            side: Literal["inside", "outside"] = "inside"
+            if name is None:
+                name = constraint.stay_outside  # type: ignore[union-attr]
+                side = "outside"
+            constraints.append((name, side))
+            row_parts.append(regions.constraint_rows(mission.regions[name], side))
+        kind = (
+            "track"
+            if hasattr(phase, "track")
+            else "regulate"
+            if hasattr(phase, "regulate")
+            else "hold"
+        )
+        make_trajectory = None
+        target = None
+        if kind == "track":
+            path = phase.track.path  # type: ignore[union-attr]
+
+            def make_trajectory(
+                pose: tuple[float, float, float], _path: object = path
+            ) -> Trajectory:
+                return paths.instantiate(_path, mission, pose)  # type: ignore[arg-type]
+
+        elif kind == "regulate":
+            goal = phase.regulate.target  # type: ignore[union-attr]
+            target = (float(goal.x), float(goal.y), float(goal.theta))
+        phases.append(
+            CompiledPhase(
+                name=phase.name,
+                kind=kind,
+                until=conditions,
+                timeout_samples=None if phase.timeout is None else _samples(phase.timeout, dt),
+                fail_on_timeout=phase.on_timeout == "fail",
+                make_trajectory=make_trajectory,
+                target=target,
+                constraint_rows=_stack_rows(row_parts),
+                constraints=tuple(constraints),
+            )
+        )
+    estimator = mission.estimator
+    sensors = mission.sensors
+    mask = measurement_mask(sensors.measure)
+    noise = np.array([sensors.noise_std.x, sensors.noise_std.y, sensors.noise_std.theta])
+    lower = np.full(3, -math.inf)
+    upper = np.full(3, math.inf)
+    poles = np.full(3, 0.9)
+    use_bounds = False
+    max_iterations = 0
+    initial_var = np.ones(3)
+    process_var = np.zeros(3)
+    measurement_var = np.maximum(noise, 1e-3) ** 2
+    if estimator.type == "constrained-observer":
+        poles = np.array([estimator.poles.x, estimator.poles.y, estimator.poles.theta])
+        if estimator.output_error_bounds:
+            use_bounds = True
+            for name, (lo, hi) in estimator.output_error_bounds.items():
+                i = STATE_NAMES.index(name)
+                lower[i] = lo
+                upper[i] = hi
+        max_iterations = estimator.max_iterations
+    else:
+        initial_var = (
+            np.array(
+                [estimator.initial_std.x, estimator.initial_std.y, estimator.initial_std.theta]
+            )
+            ** 2
+        )
+        process_var = (
+            np.array(
+                [estimator.process_std.x, estimator.process_std.y, estimator.process_std.theta]
+            )
+            ** 2
+        )
+        if estimator.measurement_std is not None:
+            for name, std in estimator.measurement_std.items():
+                measurement_var[STATE_NAMES.index(name)] = std**2
+    limits = mission.robot.limits
+    controller = mission.controller
+    initial = mission.robot.initial_state
+    guess = estimator.initial_estimate
+    return CompiledMission(
+        name=mission.name,
+        dt=dt,
+        initial_state=np.array([initial.x, initial.y, initial.theta], dtype=np.float64),
+        initial_estimate=np.array([guess.x, guess.y, guess.theta], dtype=np.float64),
+        limits=np.array(
+            [
+                limits.v,
+                limits.omega,
+                math.inf if limits.v_rate is None else limits.v_rate,
+                math.inf if limits.omega_rate is None else limits.omega_rate,
+            ]
+        ),
+        measure_mask=mask,
+        noise_std=noise,
+        seed=sensors.seed if seed is None else seed,
+        estimator=estimator.type,
+        poles=poles,
+        lower_bounds=lower,
+        upper_bounds=upper,
+        use_bounds=use_bounds,
+        max_iterations=max_iterations,
+        ekf_initial_var=initial_var,
+        ekf_process_var=process_var,
+        ekf_measurement_var=measurement_var,
+        q=np.array(controller.Q, dtype=np.float64),
+        r=np.array(controller.R, dtype=np.float64),
+        w=np.array(controller.W, dtype=np.float64),
+        m=np.array(controller.M, dtype=np.float64),
+        look_ahead=controller.tracking.look_ahead
+        if controller.tracking.output == "look-ahead"
+        else 0.0,
+        regulation_form=FORMS[controller.regulation.form],
+        align_radius=controller.regulation.align_radius,
+        reverse=controller.regulation.reverse,
+        phases=tuple(phases),
+        regions={name: region.model_dump(mode="json") for name, region in mission.regions.items()},
+        max_samples=budget + 1,
+    )

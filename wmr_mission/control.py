@@ -1,0 +1,295 @@
+"""Section III.C: the Case 1 and Case 2 control laws, per sample.
+
+Case 2 (``track`` phases): only the corrective action of eq. (27) on the
+equality constraint "tracking output = reference at k+1":
+``u_k = u_{k-1} + du2_k``.
+
+Case 1 (``regulate`` and ``hold`` phases): the gain-scheduled regulator of
+eqs. (19)-(21), plus the corrective action of eq. (28) at the samples where
+the prediction violates an inequality constraint.
+
+Both end with the actuator limits (magnitude, then optional rate).
+docs/paper-notes.md gives the evidence for each choice below.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wmr_mission._jit import kernel
+from wmr_mission.corrective import corrective_input, row_value
+from wmr_mission.model import jacobian_terms, step, wrap_angle
+from wmr_mission.riccati import MIN_SPEED, regulator_gain, solve_riccati
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+# Scratch arrays of one controller, allocated once per run (see make_workspace).
+Workspace = tuple[
+    FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray
+]
+
+# Regulation forms (controller.regulation.form).
+BEARING = 0  # default: regulate to the target, heading reference = bearing to it
+DEVIATION = 1  # u = -T (x - x_ss): stalls short of the target (Brockett)
+INCREMENT = 2  # literal eq. (19): u_k = u_{k-1} - T dx_{k-1}: brings the robot to rest
+
+# Fields of the per-phase controller memory (``memory`` array).
+ALIGNING = 0  # 1.0 once within align_radius of the target (bearing form)
+CORRECTED = 1  # 1.0 if the corrective action acted at this sample
+DOUBLINGS = 2  # doubling steps of the last Riccati solve
+
+
+@kernel
+def saturate(
+    v: float, omega: float, v_prev: float, omega_prev: float, limits: FloatArray, dt: float
+) -> tuple[float, float]:
+    """Actuator limits: |v| <= limits[0], |omega| <= limits[1], and rate limits
+    limits[2] [m/s^2], limits[3] [rad/s^2] (inf when absent)."""
+    dv = limits[2] * dt
+    dw = limits[3] * dt
+    v = min(max(v, v_prev - dv), v_prev + dv)
+    omega = min(max(omega, omega_prev - dw), omega_prev + dw)
+    v = min(max(v, -limits[0]), limits[0])
+    omega = min(max(omega, -limits[1]), limits[1])
+    return v, omega
+
+
+@kernel
+def input_jacobian_into(theta: float, v: float, omega: float, dt: float, b: FloatArray) -> None:
+    _, _, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
+    b[0, 0] = b11
+    b[0, 1] = b12
+    b[1, 0] = b21
+    b[1, 1] = b22
+    b[2, 0] = 0.0
+    b[2, 1] = dt
+
+
+@kernel
+def track_input(
+    estimate: FloatArray,
+    u_prev: FloatArray,
+    reference: FloatArray,
+    look_ahead: float,
+    w: FloatArray,
+    m: FloatArray,
+    limits: FloatArray,
+    dt: float,
+    work: Workspace,
+    u_out: FloatArray,
+) -> None:
+    """Case 2: ``u_k = u_{k-1} + du2_k`` with du2 of eq. (27), then the limits.
+
+    ``reference`` = (x, y, unit tangent x, unit tangent y) of the path at
+    t_{k+1}. The tracked output is the point ``look_ahead`` ahead of the axle
+    centre, aimed at the reference shifted by ``look_ahead`` along the path's
+    tangent; ``look_ahead = 0`` is the literal eq. (27) on the axle centre.
+    """
+    v_prev = u_prev[0]
+    omega_prev = u_prev[1]
+    # x_{k+1|k} with the previous input held (section III.D).
+    px, py, pth = step(estimate[0], estimate[1], estimate[2], v_prev, omega_prev, dt)
+    c = math.cos(pth)
+    s = math.sin(pth)
+    d, eta, b = work[0], work[1], work[2]
+    # eq. (26): the tracked output G(x_{k+1}) and its Jacobian D.
+    d[0, 0] = 1.0
+    d[0, 1] = 0.0
+    d[0, 2] = -look_ahead * s
+    d[1, 0] = 0.0
+    d[1, 1] = 1.0
+    d[1, 2] = look_ahead * c
+    eta[0] = reference[0] + look_ahead * reference[2] - (px + look_ahead * c)
+    eta[1] = reference[1] + look_ahead * reference[3] - (py + look_ahead * s)
+    # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
+    input_jacobian_into(estimate[2], v_prev, omega_prev, dt, b)
+    dv, dw = corrective_input(d, eta, 2, b, w, m)
+    u_out[0], u_out[1] = saturate(v_prev + dv, omega_prev + dw, v_prev, omega_prev, limits, dt)
+
+
+def make_workspace() -> Workspace:
+    """Scratch arrays for the control kernels: D, eta, B, A, pi, T, doubling
+    scratch, Q-hat."""
+    return (
+        np.zeros((2, 3)),
+        np.zeros(2),
+        np.zeros((3, 2)),
+        np.zeros((3, 3)),
+        np.zeros((3, 3)),
+        np.zeros((2, 3)),
+        np.zeros((8, 3, 3)),
+        np.zeros((3, 3)),
+    )
+
+
+@kernel
+def _solve_gain(
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Workspace
+) -> int:
+    """T of eqs. (20)-(21) at (theta, v, omega) into ``work[5]``; ``q`` is the
+    diagonal of Q-hat. At v == 0 the lateral direction (unreachable) is
+    dropped from the state weight: the solution on the reachable subspace."""
+    a, b, pi, gain, qm = work[3], work[2], work[4], work[5], work[7]
+    a13, a23, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
+    for i in range(3):
+        for j in range(3):
+            a[i, j] = 1.0 if i == j else 0.0
+            qm[i, j] = q[i] if i == j else 0.0
+    a[0, 2] = a13
+    a[1, 2] = a23
+    b[0, 0] = b11
+    b[0, 1] = b12
+    b[1, 0] = b21
+    b[1, 1] = b22
+    b[2, 0] = 0.0
+    b[2, 1] = dt
+    if v == 0.0:
+        # Keep only the weight along the direction the speed input moves the
+        # robot, u = B[:2, 0] / |B[:2, 0]|: Q_xy -> (u^T Q_xy u) u u^T.
+        norm = math.hypot(b11, b21)
+        ux = b11 / norm
+        uy = b21 / norm
+        along = q[0] * ux * ux + q[1] * uy * uy
+        qm[0, 0] = along * ux * ux
+        qm[0, 1] = along * ux * uy
+        qm[1, 0] = along * ux * uy
+        qm[1, 1] = along * uy * uy
+    doublings = solve_riccati(a, b, qm, r, pi, work[6])
+    regulator_gain(a, b, r, pi, gain)
+    return doublings
+
+
+@kernel
+def scheduled_gain(
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Workspace
+) -> int:
+    """Eqs. (20)-(21) for the linearisation at (theta, v, omega): writes T into
+    ``work[5]`` and returns the doubling count.
+
+    For |v| < MIN_SPEED the gain is blended linearly between the at-rest gain
+    and the gain at +-MIN_SPEED (see wmr_mission.riccati), so it is
+    continuous in v."""
+    if abs(v) >= MIN_SPEED:
+        return _solve_gain(theta, v, omega, dt, q, r, work)
+    doublings = _solve_gain(theta, 0.0, omega, dt, q, r, work)
+    if v == 0.0:
+        return doublings
+    at_rest = work[0]
+    gain = work[5]
+    for i in range(2):
+        for j in range(3):
+            at_rest[i, j] = gain[i, j]
+    edge = MIN_SPEED if v > 0.0 else -MIN_SPEED
+    doublings += _solve_gain(theta, edge, omega, dt, q, r, work)
+    alpha = abs(v) / MIN_SPEED
+    for i in range(2):
+        for j in range(3):
+            gain[i, j] = (1.0 - alpha) * at_rest[i, j] + alpha * gain[i, j]
+    return doublings
+
+
+@kernel
+def regulate_input(
+    estimate: FloatArray,
+    estimate_prev: FloatArray,
+    u_prev: FloatArray,
+    target: FloatArray,
+    form: int,
+    align_radius: float,
+    reverse: bool,
+    q: FloatArray,
+    r: FloatArray,
+    w: FloatArray,
+    m: FloatArray,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    limits: FloatArray,
+    dt: float,
+    memory: FloatArray,
+    work: Workspace,
+    u_out: FloatArray,
+) -> None:
+    """Case 1: the gain-scheduled regulator plus, where the prediction violates a
+    constraint row, the corrective action of eq. (28); then the limits.
+
+    ``target`` is the pose x_ss to park at; ``row_kinds``/``row_params`` the
+    phase's inequality constraints (possibly none); ``memory`` the phase's
+    controller memory (ALIGNING, CORRECTED, DOUBLINGS).
+    """
+    v_prev = u_prev[0]
+    omega_prev = u_prev[1]
+    gain = work[5]
+    if form == INCREMENT:
+        # Literal eqs. (14), (19), (29-a): T_{k-1} at (x_{k-1|k-1}, u_{k-1}),
+        # applied to the state increment x_{k|k} - x_{k-1|k-1}.
+        memory[DOUBLINGS] = scheduled_gain(estimate_prev[2], v_prev, omega_prev, dt, q, r, work)
+        ex = estimate[0] - estimate_prev[0]
+        ey = estimate[1] - estimate_prev[1]
+        eth = estimate[2] - estimate_prev[2]
+        v1 = v_prev - (gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
+        omega1 = omega_prev - (gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
+    else:
+        memory[DOUBLINGS] = scheduled_gain(estimate[2], v_prev, omega_prev, dt, q, r, work)
+        ex = estimate[0] - target[0]
+        ey = estimate[1] - target[1]
+        eth = wrap_angle(estimate[2] - target[2])
+        if form == BEARING:
+            distance = math.hypot(ex, ey)
+            if distance < align_radius:
+                memory[ALIGNING] = 1.0
+            elif distance > 2.0 * align_radius:
+                memory[ALIGNING] = 0.0
+            if memory[ALIGNING] == 0.0:
+                # Far: the heading reference is the bearing to the target (or its
+                # reverse), so the lateral error the robot cannot reach at rest
+                # is turned into a heading error it can.
+                bearing = math.atan2(-ey, -ex)
+                eth = wrap_angle(estimate[2] - bearing)
+                if reverse and abs(eth) > 0.5 * math.pi:
+                    eth = wrap_angle(eth - math.pi)
+            else:
+                # Aligning at the target: keep the reachable (longitudinal)
+                # part of the position error, turn to the target heading.
+                c = math.cos(estimate[2])
+                s = math.sin(estimate[2])
+                along = ex * c + ey * s
+                ex = along * c
+                ey = along * s
+        # eq. (19) with dx the deviation from the target.
+        v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
+        omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
+    v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, limits, dt)
+    u_out[0] = v1
+    u_out[1] = omega1
+    memory[CORRECTED] = 0.0
+    if row_kinds.shape[0] == 0:
+        return
+    # eq. (28): predict with the regulator's input, find the violated rows.
+    px, py, _ = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
+    d, eta, b = work[0], work[1], work[2]
+    count = 0
+    for i in range(row_kinds.shape[0]):
+        value, gx, gy = row_value(row_kinds[i], row_params[i], px, py)
+        if value <= 0.0:
+            continue
+        # Keep the two most violated rows: two inputs meet at most two.
+        slot = count
+        if count == 2:
+            slot = 0 if eta[0] > eta[1] else 1
+            if -value >= eta[slot]:
+                continue
+        else:
+            count += 1
+        d[slot, 0] = gx
+        d[slot, 1] = gy
+        d[slot, 2] = 0.0
+        eta[slot] = -value  # E - m(x): saturate to the violated bound
+    if count == 0:
+        return
+    input_jacobian_into(estimate[2], v1, omega1, dt, b)
+    dv, dw = corrective_input(d, eta, count, b, w, m)
+    memory[CORRECTED] = 1.0
+    u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, limits, dt)

@@ -1,0 +1,132 @@
+"""``animation.gif``: the robot's pose and trail over its regions (``run --animate``)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from wmr_mission.output.plots import (
+    draw_regions,
+    finite,
+    phase_color,
+    pyplot,
+    thin,
+    view_box,
+)
+from wmr_mission.output.rundir import atomic_path
+from wmr_mission.result import FloatArray, RunResult
+
+MAX_FRAMES = 200
+FPS = 20
+_DPI = 80
+# Points of the drawn path: plenty at the animation's size, and cheap to redraw each frame.
+TRAIL_POINTS = 4000
+
+
+def frame_samples(samples: int, max_frames: int = MAX_FRAMES) -> np.ndarray:
+    """Sample shown by each frame: evenly spaced, first and last included."""
+    if samples <= 0:
+        return np.zeros(0, dtype=np.int64)
+    count = min(samples, max_frames)
+    return np.unique(np.round(np.linspace(0, samples - 1, count)).astype(np.int64))
+
+
+def robot_outline(x: float, y: float, theta: float, size: float) -> FloatArray:
+    """A triangle pointing along the heading: the robot's pose arrow."""
+    body = np.array([[1.0, 0.0], [-0.6, 0.5], [-0.35, 0.0], [-0.6, -0.5]]) * size
+    c, s = math.cos(theta), math.sin(theta)
+    rotated: FloatArray = body @ np.array([[c, s], [-s, c]]) + np.array([x, y])
+    return rotated
+
+
+def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAMES) -> Path:
+    """Write a GIF of at most ``max_frames`` frames at ``FPS``, whatever the run length.
+
+    The still parts (regions, the whole path in grey, axes) are drawn once; each
+    frame redraws only the trail, the two pose arrows and the title over them.
+    """
+    plt = pyplot()
+    from matplotlib import patches
+    from PIL import Image
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=_DPI)
+    view = view_box(result)
+    draw_regions(ax, result.regions, view)
+    path_points = thin(0, result.samples, TRAIL_POINTS)
+    ax.plot(
+        finite(result.x[path_points]), finite(result.y[path_points]), color="0.85", linewidth=1.0
+    )
+    (trail,) = ax.plot([], [], color="tab:blue", linewidth=1.6, animated=True)
+    size = 0.04 * max(view[1] - view[0], view[3] - view[2])
+    robot = patches.Polygon(
+        np.zeros((4, 2)),
+        closed=True,
+        facecolor="tab:blue",
+        edgecolor="black",
+        label="true pose",
+        animated=True,
+    )
+    estimate = patches.Polygon(
+        np.zeros((4, 2)),
+        closed=True,
+        facecolor="none",
+        edgecolor="tab:orange",
+        linewidth=1.5,
+        label="estimate",
+        animated=True,
+    )
+    ax.add_patch(robot)
+    ax.add_patch(estimate)
+    ax.set_xlim(view[0], view[1])
+    ax.set_ylim(view[2], view[3])
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.legend(handles=[robot, estimate], loc="upper right", fontsize=8)
+    title = ax.set_title(" ", animated=True)
+
+    frames = []
+    try:
+        fig.canvas.draw()
+        background = fig.canvas.copy_from_bbox(fig.bbox)
+        for k in frame_samples(result.samples, max_frames):
+            fig.canvas.restore_region(background)
+            shown = path_points[path_points <= k]
+            trail.set_data(finite(result.x[shown]), finite(result.y[shown]))
+            phase = int(result.phase[k])
+            trail.set_color(phase_color(phase))
+            robot.set_xy(robot_outline(*_pose(result.x, result.y, result.theta, k), size))
+            estimate.set_xy(
+                robot_outline(*_pose(result.x_est, result.y_est, result.theta_est, k), size)
+            )
+            title.set_text(
+                f"{result.mission_name}   t = {result.t[k]:.2f} s   "
+                f"phase: {result.phases[phase].name}"
+            )
+            for artist in (trail, estimate, robot, title):
+                ax.draw_artist(artist)
+            pixels = np.asarray(fig.canvas.buffer_rgba())[..., :3]
+            # The fast octree palette: median cut would take most of the writing time.
+            frames.append(Image.fromarray(pixels).quantize(method=Image.Quantize.FASTOCTREE))
+    finally:
+        plt.close(fig)
+    if not frames:
+        raise ValueError("a run without samples cannot be animated")
+    with atomic_path(path) as tmp:
+        frames[0].save(
+            tmp,
+            format="GIF",
+            save_all=True,
+            append_images=frames[1:],
+            duration=round(1000 / FPS),
+            loop=0,
+        )
+    return path
+
+
+def _pose(x: FloatArray, y: FloatArray, theta: FloatArray, k: int) -> tuple[float, float, float]:
+    # A non-finite pose (divergence) is drawn at the origin rather than breaking the file.
+    pose = (float(x[k]), float(y[k]), float(theta[k]))
+    return pose if all(math.isfinite(v) for v in pose) else (0.0, 0.0, 0.0)

@@ -1,0 +1,85 @@
+"""The short plain-text table printed at the end of ``wmr-mission run``."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+_HEADERS = ("phase", "kind", "duration", "key metric", "estimate < 0.05 after")
+# Right-aligned columns (numbers).
+_RIGHT = (2,)
+
+
+def _seconds(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f} s"
+
+
+def _number(value: float | None, unit: str) -> str:
+    return "-" if value is None else f"{value:.3g}{unit}"
+
+
+def key_metric(phase: dict[str, Any]) -> str:
+    """What tells how a phase went: tracking RMS, error from its target, constraint margin."""
+    parts = []
+    tracking = phase.get("tracking_error")
+    if tracking is not None:
+        parts.append(f"track rms {_number(tracking.get('rms'), ' m')}")
+    target = phase.get("target_error")
+    if target is not None:
+        text = f"end error {_number(target.get('position'), ' m')}"
+        if target.get("heading") is not None:
+            text += f" / {_number(target.get('heading'), ' rad')}"
+        parts.append(text)
+    constraint = phase.get("constraint") or {}
+    if constraint.get("max_violation") is not None:
+        parts.append(f"max constraint {_number(constraint['max_violation'], '')}")
+    return ", ".join(parts) or "-"
+
+
+def _convergence(phase: dict[str, Any]) -> str:
+    # Seconds after the phase start from which every estimation error stays below 0.05.
+    time = (phase.get("estimation") or {}).get("convergence_time")
+    return "never" if time is None else f"{time:.2f} s"
+
+
+def format_table(summary: dict[str, Any], run_dir: str | os.PathLike[str]) -> str:
+    """Phases with their key metrics, the expectations, the outcome and where the files are."""
+    rows = [
+        (
+            str(phase["name"]),
+            str(phase["kind"]),
+            _seconds(phase.get("duration")),
+            key_metric(phase),
+            _convergence(phase),
+        )
+        for phase in summary.get("phases", [])
+    ]
+    widths = [max(len(row[i]) for row in [_HEADERS, *rows]) for i in range(len(_HEADERS))]
+    lines = [
+        "  ".join(
+            cell.rjust(width) if i in _RIGHT else cell.ljust(width)
+            for i, (cell, width) in enumerate(zip(row, widths, strict=True))
+        ).rstrip()
+        for row in [_HEADERS, tuple("-" * w for w in widths), *rows]
+    ]
+    final = summary.get("final") or {}
+    if final.get("position_error") is not None:
+        text = f"final error: {_number(final['position_error'], ' m')}"
+        if final.get("heading_error") is not None:
+            text += f", {_number(final['heading_error'], ' rad')}"
+        lines.append(text)
+    converged = summary.get("estimation_convergence_time")
+    lines.append(
+        "estimation error < 0.05 from: "
+        + ("never" if converged is None else f"t = {converged:.2f} s")
+    )
+    for check in summary.get("expectations", []):
+        verdict = "met" if check["met"] else "NOT MET"
+        value = "null" if check["value"] is None else f"{check['value']:.4g}"
+        lines.append(f"expect {check['metric']} <= {check['max']:g}: {value} ({verdict})")
+    outcome = f"outcome: {summary.get('outcome')} after {_seconds(summary.get('duration'))}"
+    if summary.get("message"):
+        outcome += f" - {summary['message']}"
+    lines.append(outcome)
+    lines.append(f"outputs: {os.fspath(run_dir)}")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,390 @@
+"""The reference step: the estimator and controller equations written the
+straightforward way, with numpy matrices and scipy's solvers.
+
+Every function has the signature and the semantics of its compiled
+counterpart (``wmr_mission.observer``, ``wmr_mission.ekf``,
+``wmr_mission.control``), so ``run_mission(mission, functions=REFERENCE)``
+runs the same mission. It is the oracle the fast kernels are tested against
+and the baseline ``wmr-mission bench`` measures them against. It is written
+from the paper's equations, not from the kernels: matrices are built, scipy
+places the observer poles (``place_poles``) and solves eq. (21)
+(``solve_discrete_are``) at every sample.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import solve_discrete_are
+from scipy.signal import place_poles
+
+from wmr_mission.control import ALIGNING, BEARING, CORRECTED, DOUBLINGS, INCREMENT, Workspace
+from wmr_mission.corrective import ELLIPSE, REGULARISATION
+from wmr_mission.observer import MIN_HEADING_OBSERVABILITY
+from wmr_mission.riccati import MIN_SPEED
+from wmr_mission.runner import StepFunctions
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+# Below this the corrective law has nothing it can move: no correction.
+NOTHING_REACHABLE = 1e-300
+
+
+def wrap_angle(angle: float) -> float:
+    """Angle in [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# --- the plant, eq. (1), and its linearisation, eqs. (7) and (16) ----------
+
+
+def predict(state: FloatArray, v: float, omega: float, dt: float) -> FloatArray:
+    """x_{k+1} = f(x_k, u_k) of eq. (1)."""
+    x, y, theta = state
+    c, s = math.cos(theta), math.sin(theta)
+    h = 0.5 * dt * dt
+    return np.array(
+        [
+            x + dt * v * c - h * v * omega * s,
+            y + dt * v * s + h * v * omega * c,
+            theta + dt * omega,
+        ]
+    )
+
+
+def state_jacobian(theta: float, v: float, omega: float, dt: float) -> FloatArray:
+    """A = df/dx of eq. (1), eq. (7)."""
+    c, s = math.cos(theta), math.sin(theta)
+    h = 0.5 * dt * dt
+    return np.array(
+        [
+            [1.0, 0.0, -dt * v * s - h * v * omega * c],
+            [0.0, 1.0, dt * v * c - h * v * omega * s],
+            [0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def input_jacobian(theta: float, v: float, omega: float, dt: float) -> FloatArray:
+    """B = df/du of eq. (1), eq. (16)."""
+    c, s = math.cos(theta), math.sin(theta)
+    h = 0.5 * dt * dt
+    return np.array(
+        [
+            [dt * c - h * omega * s, -h * v * s],
+            [dt * s + h * omega * c, h * v * c],
+            [0.0, dt],
+        ]
+    )
+
+
+# --- the estimator, eqs. (4)-(12) ------------------------------------------
+
+
+def observer_gain_matrix(a: FloatArray, mask: FloatArray, poles: FloatArray) -> FloatArray:
+    """The gain L of eq. (6), columns = innovations of x, y, theta.
+
+    With the whole pose measured (C = I), scipy places the eigenvalues of
+    (I - L C) A, the transpose of A^T - (C A)^T L^T, at the poles. With C A
+    invertible the closed loop is the diagonal matrix of the poles in
+    ascending order, so the states are ordered by pole first: each state's
+    error then decays at its own pole. Other measurement sets follow the
+    design stated in wmr_mission.observer (unmeasured, hence unobservable,
+    directions keep eigenvalue 1).
+    """
+    measured = mask > 0.0
+    if measured.all():
+        order = np.argsort(poles, kind="stable")
+        permute = np.eye(3)[order]
+        c = np.eye(3)
+        placed = place_poles(permute @ a.T @ permute.T, permute @ (c @ a).T, poles[order])
+        return np.asarray((placed.gain_matrix @ permute).T)
+    if measured[2]:
+        # (I - L C) A = diag(p_x or 1, p_y or 1, p_theta).
+        decay = np.where(measured, poles, 1.0)
+        return np.asarray((np.eye(3) - np.diag(decay) @ np.linalg.inv(a)) @ np.diag(mask))
+    gain = np.zeros((3, 3))
+    if not measured[:2].any():
+        return gain
+    p_pos = float(poles[:2] @ mask[:2]) / float(mask[:2].sum())
+    select = np.diag(mask[:2])
+    # The heading is seen through the measured positions along c.
+    c = select @ a[:2, 2]
+    n2 = float(c @ c)
+    if n2 <= MIN_HEADING_OBSERVABILITY**2:
+        gain[:2, :2] = (1.0 - p_pos) * select
+        return gain
+    p_along = poles[2] * p_pos
+    along = np.outer(c, c) / n2
+    remaining = p_pos * (np.eye(2) - along) + p_along * along
+    gain[:2, :2] = select @ (np.eye(2) - remaining) @ select
+    gain[2, :2] = (1.0 - poles[2]) * (1.0 - p_pos) / n2 * c
+    return gain
+
+
+def observer_step(
+    estimate: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    mask: FloatArray,
+    poles: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    use_bounds: bool,
+    max_iterations: int,
+    gain: FloatArray,
+) -> int:
+    """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L into
+    ``gain``; returns the number of phase-II iterations run."""
+    a = state_jacobian(float(estimate[2]), v, omega, dt)  # eq. (7)
+    gain[:, :] = observer_gain_matrix(a, mask, poles)
+    predicted = predict(estimate, v, omega, dt)  # eq. (5)
+    c = np.diag(mask)
+    innovation = measurement - predicted
+    innovation[2] = wrap_angle(float(innovation[2]))
+    estimate[:] = predicted + gain @ c @ innovation  # eq. (6)
+    if not use_bounds:
+        return 0
+    measured = mask > 0.0
+    iterations = 0
+    while iterations < max_iterations:
+        error = measurement - estimate
+        error[2] = wrap_angle(float(error[2]))
+        above = measured & (error > upper)
+        below = measured & (error < lower)
+        violated = above | below
+        if not violated.any():
+            break
+        # eqs. (9)-(11): the violated outputs saturated to their bounds are
+        # a new measurement; D selects them and H = D^T.
+        d = np.eye(3)[violated]
+        bound = np.where(above, upper, lower)
+        estimate += d.T @ (d @ (error - bound))
+        iterations += 1
+    return iterations
+
+
+def ekf_step(
+    estimate: FloatArray,
+    covariance: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    mask: FloatArray,
+    process_var: FloatArray,
+    measurement_var: FloatArray,
+    work: FloatArray,
+) -> None:
+    """Extended Kalman filter step, in place, Joseph-form covariance update."""
+    a = state_jacobian(float(estimate[2]), v, omega, dt)
+    predicted = predict(estimate, v, omega, dt)
+    p = a @ covariance @ a.T + np.diag(process_var)
+    measured = mask > 0.0
+    c = np.eye(3)[measured]
+    noise = np.diag(measurement_var[measured])
+    s = c @ p @ c.T + noise
+    k = np.linalg.solve(s, c @ p).T  # P C^T S^-1 (P and S symmetric)
+    residual = measurement - predicted
+    residual[2] = wrap_angle(float(residual[2]))
+    estimate[:] = predicted + k @ (c @ residual)
+    i_kc = np.eye(3) - k @ c
+    p = i_kc @ p @ i_kc.T + k @ noise @ k.T
+    covariance[:, :] = 0.5 * (p + p.T)
+
+
+# --- the controller, section III.C ------------------------------------------
+
+
+def saturate(
+    v: float, omega: float, v_prev: float, omega_prev: float, limits: FloatArray, dt: float
+) -> tuple[float, float]:
+    """Rate limits (limits[2], limits[3] per second), then magnitude limits."""
+    v = float(np.clip(v, v_prev - limits[2] * dt, v_prev + limits[2] * dt))
+    omega = float(np.clip(omega, omega_prev - limits[3] * dt, omega_prev + limits[3] * dt))
+    return float(np.clip(v, -limits[0], limits[0])), float(np.clip(omega, -limits[1], limits[1]))
+
+
+def corrective_input(
+    d: FloatArray, eta: FloatArray, b: FloatArray, w: FloatArray, m: FloatArray
+) -> FloatArray:
+    """Eqs. (27)/(28): du = Rw^-1 (D B)^T (D B Rw^-1 (D B)^T)^-1 eta.
+
+    The inverse is regularised to (S + mu I)^-1 with mu = REGULARISATION *
+    trace(S); nothing is corrected when S vanishes.
+    """
+    rw = b.T @ np.diag(w) @ b + np.diag(m)
+    rw_inv = np.linalg.inv(rw)
+    db = d @ b
+    s = db @ rw_inv @ db.T
+    scale = float(np.trace(s))
+    if scale <= NOTHING_REACHABLE:
+        return np.zeros(2)
+    s = s + REGULARISATION * scale * np.eye(s.shape[0])
+    return np.asarray(rw_inv @ db.T @ np.linalg.solve(s, eta))
+
+
+def track_input(
+    estimate: FloatArray,
+    u_prev: FloatArray,
+    reference: FloatArray,
+    look_ahead: float,
+    w: FloatArray,
+    m: FloatArray,
+    limits: FloatArray,
+    dt: float,
+    work: Workspace,
+    u_out: FloatArray,
+) -> None:
+    """Case 2: u_k = u_{k-1} + du2_k, du2 of eq. (27) on the look-ahead point."""
+    v_prev, omega_prev = float(u_prev[0]), float(u_prev[1])
+    predicted = predict(estimate, v_prev, omega_prev, dt)  # x_{k+1|k}, u_{k-1} held
+    heading = np.array([math.cos(predicted[2]), math.sin(predicted[2])])
+    normal = np.array([-heading[1], heading[0]])
+    # eq. (26): G(x) = position + look_ahead * heading, D = dG/dx.
+    output = predicted[:2] + look_ahead * heading
+    d = np.column_stack([np.eye(2), look_ahead * normal])
+    target = reference[:2] + look_ahead * reference[2:4]
+    b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
+    du = corrective_input(d, target - output, b, w, m)
+    u_out[0], u_out[1] = saturate(
+        v_prev + du[0], omega_prev + du[1], v_prev, omega_prev, limits, dt
+    )
+
+
+def riccati_gain(
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray
+) -> FloatArray:
+    """Eqs. (20)-(21) at the linearisation (theta, v, omega).
+
+    At rest only the speed input moves the robot, along ``u = B[:2, 0]``; the
+    lateral direction is unreachable and eq. (21) has no solution on the whole
+    pose. There it is solved on the reachable subspace (along ``u``, heading)
+    with the weight of Q-hat along ``u``: the lateral error is not weighted.
+    """
+    a = state_jacobian(theta, v, omega, dt)
+    b = input_jacobian(theta, v, omega, dt)
+    q_hat, r_hat = np.diag(q), np.diag(r)
+    if v == 0.0:
+        along = b[:2, 0] / np.linalg.norm(b[:2, 0])
+        basis = np.array([[along[0], 0.0], [along[1], 0.0], [0.0, 1.0]])
+        reduced = solve_discrete_are(
+            basis.T @ a @ basis, basis.T @ b, basis.T @ q_hat @ basis, r_hat
+        )
+        pi = basis @ reduced @ basis.T
+    else:
+        pi = solve_discrete_are(a, b, q_hat, r_hat)  # eq. (21)
+    return np.asarray(np.linalg.solve(r_hat + b.T @ pi @ b, b.T @ pi @ a))  # eq. (20)
+
+
+def scheduled_gain(
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray
+) -> FloatArray:
+    """The regulator gain T at (theta, v, omega). Below MIN_SPEED it is blended
+    linearly between the at-rest gain and the gain at +-MIN_SPEED, so that it
+    is continuous in v (see wmr_mission.riccati)."""
+    if abs(v) >= MIN_SPEED:
+        return riccati_gain(theta, v, omega, dt, q, r)
+    at_rest = riccati_gain(theta, 0.0, omega, dt, q, r)
+    if v == 0.0:
+        return at_rest
+    edge = riccati_gain(theta, MIN_SPEED if v > 0.0 else -MIN_SPEED, omega, dt, q, r)
+    share = abs(v) / MIN_SPEED
+    return (1.0 - share) * at_rest + share * edge
+
+
+def constraint_values(
+    row_kinds: IntArray, row_params: FloatArray, position: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Each constraint row's value (violated when > 0) and gradient in (x, y)."""
+    values = np.zeros(row_kinds.shape[0])
+    gradients = np.zeros((row_kinds.shape[0], 2))
+    for i, (kind, p) in enumerate(zip(row_kinds, row_params, strict=True)):
+        if kind == ELLIPSE:
+            cos_phi, sin_phi = math.cos(p[4]), math.sin(p[4])
+            rotation = np.array([[cos_phi, -sin_phi], [sin_phi, cos_phi]])
+            local = rotation.T @ (position - p[:2])
+            scale = 1.0 / p[2:4] ** 2
+            values[i] = p[5] * (local @ (scale * local) - 1.0)
+            gradients[i] = p[5] * rotation @ (2.0 * scale * local)
+        else:
+            values[i] = p[:2] @ position - p[2]
+            gradients[i] = p[:2]
+    return values, gradients
+
+
+def regulate_input(
+    estimate: FloatArray,
+    estimate_prev: FloatArray,
+    u_prev: FloatArray,
+    target: FloatArray,
+    form: int,
+    align_radius: float,
+    reverse: bool,
+    q: FloatArray,
+    r: FloatArray,
+    w: FloatArray,
+    m: FloatArray,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    limits: FloatArray,
+    dt: float,
+    memory: FloatArray,
+    work: Workspace,
+    u_out: FloatArray,
+) -> None:
+    """Case 1: the gain-scheduled regulator, eq. (19), plus eq. (28) where the
+    prediction violates a constraint row; then the limits."""
+    v_prev, omega_prev = float(u_prev[0]), float(u_prev[1])
+    # scipy's solver reports no iteration count.
+    memory[DOUBLINGS] = 0.0
+    if form == INCREMENT:
+        # eq. (19) literally: u_k = u_{k-1} - T_{k-1} (x_{k|k} - x_{k-1|k-1}).
+        gain = scheduled_gain(float(estimate_prev[2]), v_prev, omega_prev, dt, q, r)
+        u = u_prev - gain @ (estimate - estimate_prev)
+    else:
+        gain = scheduled_gain(float(estimate[2]), v_prev, omega_prev, dt, q, r)
+        deviation = estimate - target
+        deviation[2] = wrap_angle(float(deviation[2]))
+        if form == BEARING:
+            distance = float(np.hypot(deviation[0], deviation[1]))
+            if distance < align_radius:
+                memory[ALIGNING] = 1.0
+            elif distance > 2.0 * align_radius:
+                memory[ALIGNING] = 0.0
+            if memory[ALIGNING] == 0.0:
+                # Far from the target: head for it (or back onto it).
+                bearing = math.atan2(-deviation[1], -deviation[0])
+                deviation[2] = wrap_angle(float(estimate[2]) - bearing)
+                if reverse and abs(deviation[2]) > 0.5 * math.pi:
+                    deviation[2] = wrap_angle(float(deviation[2]) - math.pi)
+            else:
+                # At the target: keep the position error along the heading only.
+                heading = np.array([math.cos(estimate[2]), math.sin(estimate[2])])
+                deviation[:2] = (deviation[:2] @ heading) * heading
+        u = -gain @ deviation
+    v, omega = saturate(float(u[0]), float(u[1]), v_prev, omega_prev, limits, dt)
+    u_out[0], u_out[1] = v, omega
+    memory[CORRECTED] = 0.0
+    if row_kinds.shape[0] == 0:
+        return
+    # eq. (28): the rows the prediction violates, at most the two worst.
+    predicted = predict(estimate, v, omega, dt)
+    values, gradients = constraint_values(row_kinds, row_params, predicted[:2])
+    violated = np.flatnonzero(~(values <= 0.0))
+    if violated.size == 0:
+        return
+    worst = violated[np.argsort(-values[violated], kind="stable")][:2]
+    d = np.column_stack([gradients[worst], np.zeros(worst.size)])
+    b = input_jacobian(float(estimate[2]), v, omega, dt)
+    du = corrective_input(d, -values[worst], b, w, m)
+    memory[CORRECTED] = 1.0
+    u_out[0], u_out[1] = saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt)
+
+
+REFERENCE = StepFunctions(observer_step, ekf_step, track_input, regulate_input)

@@ -1,0 +1,103 @@
+"""``wmr-mission run``: load, simulate, judge, write, report."""
+
+from __future__ import annotations
+
+import hashlib
+import sys
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from wmr_mission.result import Outcome, RunResult
+
+
+def _expectation_failures(result: RunResult, expect: dict[str, Any]) -> list[str]:
+    from wmr_mission.output.metrics import check_expectations, summarize
+
+    failures = []
+    for item in check_expectations(summarize(result), expect):
+        if not item["met"]:
+            value = "none" if item["value"] is None else f"{item['value']:.6g}"
+            failures.append(f"{item['metric']} = {value} (max {item['max']:.6g})")
+    return failures
+
+
+def run_command(
+    mission_path: Path, *, out: Path | None, seed: int | None, plots: bool, animate: bool
+) -> int:
+    """Exit code: 0 success, 1 invalid mission or failed run, 2 unusable run directory."""
+    from wmr_mission.spec.loader import MissionError, load_mission
+
+    try:
+        mission = load_mission(mission_path)
+    except MissionError as error:
+        print(error, file=sys.stderr)
+        return 1
+
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.output.report import format_table
+    from wmr_mission.output.rundir import (
+        RunDirExistsError,
+        default_run_dir,
+        prepare_run_dir,
+        write_run,
+    )
+    from wmr_mission.runner import run_mission
+
+    run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
+    try:
+        run_dir = prepare_run_dir(run_dir)
+    except (RunDirExistsError, OSError) as error:
+        print(f"{run_dir}: {error}", file=sys.stderr)
+        return 2
+
+    compiled = compile_mission(mission, seed)
+    result = _simulate(compiled, mission.name)
+    resolved = mission.model_dump(mode="json")
+    expect = resolved.get("expect") or {}
+    if result.outcome is Outcome.success:
+        failures = _expectation_failures(result, expect)
+        if failures:
+            result.outcome = Outcome.expect_failed
+            result.message = "expectation not met: " + "; ".join(failures)
+    write_run(
+        result,
+        run_dir,
+        mission_sha256=hashlib.sha256(mission_path.read_bytes()).hexdigest(),
+        resolved_mission=resolved,
+        mission_file=str(mission_path),
+        plots=plots,
+        animate=animate,
+    )
+    from wmr_mission.output.metrics import summarize
+
+    print(format_table(summarize(result), run_dir))
+    if result.outcome is not Outcome.success:
+        print(f"{mission_path}: {result.outcome.value}: {result.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _simulate(compiled: Any, name: str) -> RunResult:
+    """Run with a progress bar on stderr when the run is longer than a moment."""
+    import typer
+
+    from wmr_mission.runner import run_mission
+
+    total = compiled.max_samples * compiled.dt
+    if compiled.max_samples < 20_000 or not sys.stderr.isatty():
+        return run_mission(compiled)
+    with typer.progressbar(length=1000, label=f"{name}", file=sys.stderr) as bar:
+        done = [0]
+
+        def progress(t: float, budget: float, phase: str) -> None:
+            step = int(1000 * min(t / budget, 1.0)) - done[0]
+            if step > 0:
+                bar.update(step)
+                done[0] += step
+            bar.label = f"{name} [{phase}] t = {t:8.2f} s"
+
+        result = run_mission(compiled, progress=progress)
+        bar.update(1000 - done[0])
+    del total
+    return result

@@ -1,0 +1,341 @@
+"""Semantic checks of a mission, beyond what each field's type says.
+
+Each check returns :class:`Finding` objects that name the data path of the
+offending value; the loader turns the path into a line and column.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Final, Literal
+
+import numpy as np
+
+from wmr_mission.spec.models import (
+    BoxRegion,
+    CircleRegion,
+    Ekf,
+    EllipsePath,
+    EllipseRegion,
+    EllipticalSpiralPath,
+    HoldPhase,
+    Mission,
+    Phase,
+    PolygonRegion,
+    RegulatePhase,
+    StayInside,
+    TrackPhase,
+)
+
+__all__ = ["MAX_SAMPLES", "DataPath", "Finding", "Severity", "check"]
+
+MAX_SAMPLES: Final = 50_000_000
+"""Largest worst-case number of samples of a mission (sum of phase bounds / dt)."""
+
+# Samples of a path when looking for a `reaches` crossing; finer than this only costs time.
+_REACH_SAMPLES: Final = 20_001
+
+DataPath = tuple[str | int, ...]
+Severity = Literal["error", "warning"]
+Pose = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A problem at a data path; ``position`` (line, column) overrides the path's."""
+
+    path: DataPath
+    message: str
+    severity: Severity = "error"
+    at_key: bool = False
+    position: tuple[int, int] | None = None
+
+
+def check(mission: Mission) -> list[Finding]:
+    """Every semantic problem of a mission that passed its schema."""
+    findings = [
+        *_unique_phase_names(mission),
+        *_observability(mission),
+        *_estimator_keys(mission),
+        *_regions(mission),
+        *_phase_rules(mission),
+        *_initial_state(mission),
+        *_timing(mission),
+        *_expectations(mission),
+    ]
+    if not any(f.severity == "error" for f in findings):
+        # sampling paths needs a sound mission (regions of the right kind, bounded phases)
+        findings.extend(_reaches(mission))
+    return findings
+
+
+def _unique_phase_names(mission: Mission) -> Iterator[Finding]:
+    seen: dict[str, int] = {}
+    for index, phase in enumerate(mission.phases):
+        if phase.name in seen:
+            yield Finding(
+                ("phases", index, "name"),
+                f"phase name {phase.name!r} is already used by phases[{seen[phase.name]}]; "
+                "phase names must be unique",
+            )
+        seen.setdefault(phase.name, index)
+
+
+def _moves(mission: Mission) -> bool:
+    return any(isinstance(p, TrackPhase | RegulatePhase) for p in mission.phases)
+
+
+def _observability(mission: Mission) -> Iterator[Finding]:
+    """Structural observability of eq. (1) from the measured states.
+
+    x and y never influence another state, so each is observable only when it
+    is measured. theta steers the motion, so it shows in a measured x or y once
+    the robot moves.
+    """
+    measured = set(mission.sensors.measure)
+    reasons: dict[str, str] = {}
+    for state in ("x", "y"):
+        if state not in measured:
+            reasons[state] = (
+                f"{state} is not measured and no measured state depends on it "
+                f"(in eq. (1) {state} only accumulates the motion; it never feeds back)"
+            )
+    if "theta" not in measured:
+        if not measured & {"x", "y"}:
+            reasons["theta"] = (
+                "theta is not measured, and neither x nor y is, so the direction of motion "
+                "that would reveal it is not seen"
+            )
+        elif not _moves(mission):
+            reasons["theta"] = (
+                "theta is not measured and the mission never moves the robot (only hold "
+                "phases), so the direction of motion that would reveal it is never seen"
+            )
+    shown = "[" + ", ".join(mission.sensors.measure) + "]"
+    for state, reason in reasons.items():
+        yield Finding(
+            ("sensors", "measure"),
+            f"sensors.measure {shown} leaves {state} unobservable for the "
+            f"{mission.estimator.type} estimator: {reason}; measure {state} as well",
+        )
+
+
+def _estimator_keys(mission: Mission) -> Iterator[Finding]:
+    measured = mission.sensors.measure
+    estimator = mission.estimator
+    if isinstance(estimator, Ekf):
+        field, per_state = "measurement_std", estimator.measurement_std
+        why = "the filter has no such measurement"
+    else:
+        field, per_state = "output_error_bounds", estimator.output_error_bounds
+        why = "eq. (4) bounds the output error of measured states only"
+    for state in per_state or {}:
+        if state not in measured:
+            yield Finding(
+                ("estimator", field, state),
+                f"estimator.{field} has {state!r}, which is not measured "
+                f"(sensors.measure is [{', '.join(measured)}]): {why}",
+                at_key=True,
+            )
+
+
+def _regions(mission: Mission) -> Iterator[Finding]:
+    from wmr_mission.regions import is_convex
+
+    for name, region in mission.regions.items():
+        if isinstance(region, PolygonRegion) and not is_convex(region.vertices):
+            yield Finding(
+                ("regions", name, "vertices"),
+                f"polygon {name!r} is not convex (or has no area): the constraint rows of a "
+                "polygon are its edges, which bound a convex region only; split it or use a box",
+            )
+
+
+def _phase_rules(mission: Mission) -> Iterator[Finding]:
+    for index, phase in enumerate(mission.phases):
+        where: DataPath = ("phases", index)
+        if isinstance(phase, TrackPhase):
+            if phase.until.settled is not None:
+                yield Finding(
+                    (*where, "until", "settled"),
+                    "'settled' needs a target pose, so it applies to regulate and hold phases "
+                    "only; a track phase can end on near, reaches, heading or time",
+                    at_key=True,
+                )
+            if phase.constraints:
+                yield Finding(
+                    (*where, "constraints"),
+                    "constraints apply to regulate and hold phases only: a track phase follows "
+                    "its path",
+                    at_key=True,
+                )
+            path = phase.track.path
+            if isinstance(path, EllipsePath | EllipticalSpiralPath) and path.region is not None:
+                region = mission.regions.get(path.region)
+                if region is not None and not isinstance(region, EllipseRegion | CircleRegion):
+                    yield Finding(
+                        (*where, "track", "path", "region"),
+                        f"an {path.type} path needs an ellipse or circle region, but "
+                        f"{path.region!r} is a {region.type}",
+                    )
+        for number, constraint in enumerate(phase.constraints):
+            if isinstance(constraint, StayInside):
+                continue
+            region = mission.regions.get(constraint.stay_outside)
+            if isinstance(region, BoxRegion | PolygonRegion):
+                yield Finding(
+                    (*where, "constraints", number, "stay_outside"),
+                    f"stay_outside needs a region whose outside is convex (ellipse, circle or "
+                    f"half-plane); the outside of {region.type} {constraint.stay_outside!r} is not",
+                )
+
+
+def _initial_state(mission: Mission) -> Iterator[Finding]:
+    from wmr_mission.regions import region_value
+
+    start = mission.robot.initial_state
+    for number, constraint in enumerate(mission.phases[0].constraints):
+        inside = isinstance(constraint, StayInside)
+        name = constraint.stay_inside if isinstance(constraint, StayInside) else constraint.stay_outside
+        region = mission.regions.get(name)
+        if region is None:
+            continue
+        value = float(region_value(region, np.array([start.x]), np.array([start.y]))[0])
+        if (inside and value > 0) or (not inside and value < 0):
+            side, other = ("inside", "outside") if inside else ("outside", "inside")
+            yield Finding(
+                ("phases", 0, "constraints", number),
+                f"robot.initial_state ({start.x:g}, {start.y:g}) is {other} region {name!r}, "
+                f"but the first phase must stay {side} it",
+            )
+
+
+def _bounds(phase: Phase, start_time: float) -> float:
+    """Longest the phase can last when entered at ``start_time`` [s] (inf: unbounded)."""
+    limits = [d for d in (phase.until.elapsed, phase.timeout) if d is not None]
+    if phase.until.mission_time is not None:
+        limits.append(max(0.0, phase.until.mission_time - start_time))
+    return min(limits, default=math.inf)
+
+
+def _multiple_of(duration: float, dt: float) -> bool:
+    samples = duration / dt
+    return abs(samples - round(samples)) <= 1e-6 * max(1.0, samples)
+
+
+def _timing(mission: Mission) -> Iterator[Finding]:
+    dt = mission.robot.dt
+    mission_time = 0.0
+    for index, phase in enumerate(mission.phases):
+        where: DataPath = ("phases", index)
+        durations = {
+            ("until", "elapsed"): phase.until.elapsed,
+            ("until", "mission_time"): phase.until.mission_time,
+            ("timeout",): phase.timeout,
+        }
+        for field, duration in durations.items():
+            if duration is None:
+                continue
+            if field != ("until", "mission_time") and duration < dt:
+                yield Finding(
+                    (*where, *field),
+                    f"{'.'.join(field)} {duration:g} s is shorter than one sample "
+                    f"(robot.dt = {dt:g} s)",
+                )
+            elif not _multiple_of(duration, dt):
+                yield Finding(
+                    (*where, *field),
+                    f"{'.'.join(field)} {duration:g} s is not a multiple of robot.dt = {dt:g} s; "
+                    f"it takes effect at the next whole sample",
+                    severity="warning",
+                )
+        bound = _bounds(phase, mission_time)
+        if math.isinf(bound):
+            yield Finding(
+                where,
+                f"phase {phase.name!r} can never be guaranteed to end: give it a timeout, or "
+                "until.elapsed or until.mission_time",
+            )
+            return
+        mission_time += bound
+    samples = mission_time / dt
+    if samples > MAX_SAMPLES:
+        yield Finding(
+            ("robot", "dt"),
+            f"in the worst case the mission lasts {mission_time:g} s = {samples:.3g} samples at "
+            f"dt = {dt:g} s, more than the limit of {MAX_SAMPLES:,}; shorten the timeouts or "
+            "raise dt",
+        )
+
+
+def _reaches(mission: Mission) -> Iterator[Finding]:
+    """Warn when a phase's path, sampled up to the phase's bound, never crosses its region.
+
+    The robot is assumed to follow each phase perfectly: a track phase starts
+    where the previous one ended (the initial state for the first phase, the
+    previous path's end or the previous target otherwise). Kept this simple on
+    purpose: the check only has to catch a path that plainly misses.
+    """
+    from wmr_mission import paths
+    from wmr_mission.regions import region_value
+
+    start = mission.robot.initial_state
+    pose: Pose = (start.x, start.y, start.theta)
+    dt = mission.robot.dt
+    mission_time = 0.0
+    for index, phase in enumerate(mission.phases):
+        bound = _bounds(phase, mission_time)
+        if math.isinf(bound):
+            return
+        mission_time += bound
+        if isinstance(phase, RegulatePhase):
+            target = phase.regulate.target
+            pose = (target.x, target.y, target.theta)
+            continue
+        if isinstance(phase, HoldPhase):
+            continue
+        try:
+            trajectory = paths.instantiate(phase.track.path, mission, pose)
+            times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
+            with np.errstate(all="ignore"):  # a diverging path is judged by its finite part
+                x, y, dx, dy = trajectory.sample(times)
+        except (ValueError, ArithmeticError) as error:
+            yield Finding(
+                ("phases", index, "track", "path"),
+                f"the path cannot be sampled from its nominal start: {error}",
+                severity="warning",
+            )
+            return
+        name = phase.until.reaches
+        region = mission.regions.get(name) if name is not None else None
+        if region is not None:
+            entry = np.sign(region_value(region, np.array([pose[0]]), np.array([pose[1]])))[0]
+            with np.errstate(all="ignore"):
+                values = region_value(region, x, y)
+            crossed = np.isfinite(values) & (np.sign(values) != entry)
+            if not np.any(crossed):
+                yield Finding(
+                    ("phases", index, "until", "reaches"),
+                    f"the path never reaches region {name!r} within the phase's bound of "
+                    f"{bound:g} s (sampled from its nominal start ({pose[0]:g}, {pose[1]:g})); "
+                    f"the phase will end by timeout (on_timeout: {phase.on_timeout})",
+                    severity="warning",
+                )
+        if np.isfinite(x[-1]) and np.isfinite(y[-1]):
+            heading = math.atan2(float(dy[-1]), float(dx[-1])) if dx[-1] or dy[-1] else pose[2]
+            pose = (float(x[-1]), float(y[-1]), heading)
+
+
+def _expectations(mission: Mission) -> Iterator[Finding]:
+    has_target = any(isinstance(p, RegulatePhase | HoldPhase) for p in mission.phases)
+    for field in ("final_position_error", "final_heading_error"):
+        if getattr(mission.expect, field) is not None and not has_target:
+            yield Finding(
+                ("expect", field),
+                f"expect.{field} is measured from the last regulate or hold target, but the "
+                "mission has no regulate or hold phase",
+                severity="warning",
+                at_key=True,
+            )

@@ -1,0 +1,677 @@
+"""Read a mission file into a :class:`Mission`, with a position for every problem.
+
+The YAML text is composed (never constructed) with PyYAML's safe loader into a
+node tree, and plain data is built from it by hand while a map from each data
+path to its line and column is kept. Only plain YAML is accepted: mappings,
+sequences, text, numbers, booleans and null; no anchors, aliases or tags.
+Every problem of a file is reported at once as ``FILE:LINE:COL: message``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+import typing
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Final, Literal
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from wmr_mission.spec.checks import DataPath, Finding, Severity, check
+from wmr_mission.spec.models import (
+    ABSURD,
+    ACTIONS,
+    IDENTIFIER,
+    MISSION_NAME,
+    PHASE_NAME,
+    Estimator,
+    Mission,
+    PathSpec,
+    RegionSpec,
+)
+
+__all__ = [
+    "MAX_FILE_BYTES",
+    "Diagnostic",
+    "MissionError",
+    "check_mission",
+    "check_mission_text",
+    "load_mission",
+    "load_mission_text",
+]
+
+MAX_FILE_BYTES: Final = 1_000_000
+"""Largest accepted mission file, in bytes."""
+
+MAX_NESTING: Final = 32
+"""Deepest accepted nesting of mappings and sequences."""
+
+# More digits than any sane number has; refused before conversion (int() of a
+# huge digit string is slow and limited).
+_MAX_NUMBER_TEXT: Final = 40
+
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    """One problem of a mission file, at a 1-based line and column."""
+
+    file: str
+    line: int
+    column: int
+    message: str
+    severity: Severity = "error"
+
+    def __str__(self) -> str:
+        if self.severity == "error":
+            return f"{self.file}:{self.line}:{self.column}: {self.message}"
+        return f"{self.file}:{self.line}:{self.column}: {self.severity}: {self.message}"
+
+
+class MissionError(Exception):
+    """A mission file that cannot be used; ``diagnostics`` says why, with positions."""
+
+    def __init__(self, diagnostics: Sequence[Diagnostic]) -> None:
+        self.diagnostics = list(diagnostics)
+        super().__init__("\n".join(str(d) for d in self.diagnostics))
+
+
+# --- YAML to plain data with positions --------------------------------------
+
+
+class _Refused(yaml.MarkedYAMLError):
+    """A YAML feature a mission does not use."""
+
+
+class _NodeLoader(yaml.SafeLoader):
+    """Safe composer that refuses anchors, aliases and deep nesting while composing."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent):
+            raise _Refused(
+                problem=f"alias '*{event.anchor}' is not allowed in a mission: write the value out",
+                problem_mark=event.start_mark,
+            )
+        if getattr(event, "anchor", None) is not None:
+            raise _Refused(
+                problem=f"anchor '&{event.anchor}' is not allowed in a mission: write the value out",
+                problem_mark=event.start_mark,
+            )
+        self._depth += 1
+        try:
+            if self._depth > MAX_NESTING:
+                raise _Refused(
+                    problem=f"nesting deeper than {MAX_NESTING} levels", problem_mark=event.start_mark
+                )
+            return super().compose_node(parent, index)  # type: ignore[no-any-return]
+        finally:
+            self._depth -= 1
+
+
+_TAG = "tag:yaml.org,2002:"
+_FLOAT_12 = re.compile(r"^[-+]?(?:\d+(?:\.\d*)?|\.\d+)[eE][-+]?\d+$")
+
+
+def _tag_message(tag: str) -> str:
+    shown = "!!" + tag[len(_TAG) :] if tag.startswith(_TAG) else tag
+    return (
+        f"YAML tag {shown!r} is not allowed in a mission: only plain mappings, lists, text, "
+        "numbers, booleans and null"
+    )
+
+
+@dataclass
+class Document:
+    """Plain data of a mission file and where each piece of it was written."""
+
+    data: Any
+    values: dict[DataPath, tuple[int, int, int]] = field(default_factory=dict)
+    keys: dict[DataPath, tuple[int, int]] = field(default_factory=dict)
+    # Paths whose value was refused while reading; later errors under them are noise.
+    refused: set[DataPath] = field(default_factory=set)
+
+    def position(self, path: DataPath, *, at_key: bool = False) -> tuple[int, int]:
+        """Line and column of the deepest written part of ``path``."""
+        if at_key and path in self.keys:
+            return self.keys[path]
+        for end in range(len(path), -1, -1):
+            found = self.values.get(path[:end])
+            if found is not None:
+                return found[0], found[1]
+        return 1, 1
+
+    def text_column(self, path: DataPath) -> tuple[int, int] | None:
+        """Line and column of the first character of a one-line text value."""
+        found = self.values.get(path)
+        if found is None or found[2] < 0:
+            return None
+        return found[0], found[1] + found[2]
+
+
+def _mark(mark: yaml.Mark | None) -> tuple[int, int]:
+    return (mark.line + 1, mark.column + 1) if mark is not None else (1, 1)
+
+
+class _Builder:
+    """Plain data from a node tree, recording positions and reading problems."""
+
+    def __init__(self, document: Document) -> None:
+        self.document = document
+        self.findings: list[Finding] = []
+        self._constructor = yaml.SafeLoader("")
+
+    def refuse(self, path: DataPath, message: str, *, at_key: bool = False) -> None:
+        self.document.refused.add(path)
+        self.findings.append(Finding(path, message, at_key=at_key))
+
+    def build(self, node: yaml.Node, path: DataPath) -> Any:
+        line, column = _mark(node.start_mark)
+        one_line = node.start_mark.line == node.end_mark.line
+        offset = -1
+        if isinstance(node, yaml.ScalarNode) and one_line:
+            offset = 1 if node.style in ("'", '"') else 0
+        self.document.values[path] = (line, column, offset)
+        if isinstance(node, yaml.MappingNode):
+            return self._mapping(node, path)
+        if isinstance(node, yaml.SequenceNode):
+            if node.tag != _TAG + "seq":
+                self.refuse(path, _tag_message(node.tag))
+                return None
+            return [self.build(item, (*path, index)) for index, item in enumerate(node.value)]
+        return self._scalar(node, path)
+
+    def _mapping(self, node: yaml.MappingNode, path: DataPath) -> dict[str, Any] | None:
+        if node.tag != _TAG + "map":
+            self.refuse(path, _tag_message(node.tag))
+            return None
+        result: dict[str, Any] = {}
+        for key_node, value_node in node.value:
+            if not isinstance(key_node, yaml.ScalarNode):
+                self.findings.append(
+                    Finding(
+                        path,
+                        "a key must be a plain word, not a list or mapping",
+                        position=_mark(key_node.start_mark),
+                    )
+                )
+                self.document.refused.add(path)
+                continue
+            # The key as written: `on`, `y` or `null` stay words, as in YAML 1.2.
+            key = str(key_node.value)
+            key_path = (*path, key)
+            if key in result:
+                first_line, first_column = self.document.keys[key_path]
+                self.findings.append(
+                    Finding(
+                        key_path,
+                        f"duplicate key {key!r} (first written at {first_line}:{first_column}); "
+                        "each key may appear once",
+                        position=_mark(key_node.start_mark),
+                    )
+                )
+                continue
+            self.document.keys[key_path] = _mark(key_node.start_mark)
+            result[key] = self.build(value_node, key_path)
+        return result
+
+    def _scalar(self, node: yaml.Node, path: DataPath) -> Any:
+        tag, text = node.tag, str(node.value)
+        if tag == _TAG + "str":
+            if isinstance(node, yaml.ScalarNode) and node.style is None and _FLOAT_12.match(text):
+                # YAML 1.2 (and JSON) read `1e-3` as a number; YAML 1.1 as text
+                node.tag = _TAG + "float"
+                return self._number(node, path)
+            return text
+        if tag == _TAG + "null":
+            return None
+        if tag == _TAG + "bool":
+            return self._constructor.construct_yaml_bool(node)  # type: ignore[arg-type]
+        if tag in (_TAG + "int", _TAG + "float"):
+            return self._number(node, path)
+        if tag.startswith(_TAG):
+            kind = tag[len(_TAG) :]
+            self.refuse(path, f"a {kind} value is not allowed here; quote it if you mean text")
+        else:
+            self.refuse(path, _tag_message(tag))
+        return None
+
+    def _number(self, node: yaml.Node, path: DataPath) -> Any:
+        text = str(node.value)
+        if len(text) > _MAX_NUMBER_TEXT:
+            self.refuse(path, f"absurd number {text[:20]}...: at most {_MAX_NUMBER_TEXT} characters")
+            return None
+        try:
+            if node.tag == _TAG + "int":
+                value: float = self._constructor.construct_yaml_int(node)  # type: ignore[arg-type]
+            else:
+                value = self._constructor.construct_yaml_float(node)  # type: ignore[arg-type]
+        except (ValueError, OverflowError):
+            self.refuse(path, f"{text!r} is not a number")
+            return None
+        if not math.isfinite(value):
+            self.refuse(path, f"{text!r} is not allowed: numbers must be finite")
+            return None
+        if abs(value) > ABSURD:
+            self.refuse(path, f"absurd number {text}: magnitudes above {ABSURD:g} are refused")
+            return None
+        return value
+
+
+def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
+    if isinstance(error, yaml.MarkedYAMLError):
+        mark = error.problem_mark or error.context_mark
+        line, column = _mark(mark)
+        parts = [error.context, error.problem]
+        message = "; ".join(p for p in parts if p)
+        if error.context_mark is not None and error.problem_mark is not None:
+            opened = _mark(error.context_mark)
+            if opened != (line, column):
+                message += f" (the construct started at {opened[0]}:{opened[1]})"
+        if not isinstance(error, _Refused):
+            message = f"YAML syntax error: {message}"
+        return line, column, message
+    if isinstance(error, yaml.reader.ReaderError):
+        before = text[: error.position]
+        line = before.count("\n") + 1
+        column = error.position - (before.rfind("\n") + 1) + 1
+        return line, column, f"character {error.character!r} is not allowed in YAML text"
+    return 1, 1, f"YAML error: {error}"
+
+
+def read_document(text: str) -> tuple[Document | None, list[Finding]]:
+    """Compose ``text``; on a syntax error return its position instead of a document."""
+    try:
+        loader = _NodeLoader(text)  # the reader refuses unprintable characters here
+        try:
+            node = loader.get_single_node()
+        finally:
+            loader.dispose()
+    except yaml.YAMLError as error:
+        line, column, message = _syntax_finding(error, text)
+        return None, [Finding((), message, position=(line, column))]
+    if node is None:
+        return None, [Finding((), "the file is empty: expected a mission mapping")]
+    document = Document(data=None)
+    builder = _Builder(document)
+    document.data = builder.build(node, ())
+    findings = builder.findings
+    if document.data is not None and not isinstance(document.data, dict):
+        findings.append(
+            Finding((), "a mission is a mapping of keys (version, name, robot, ..., phases)")
+        )
+    return document, findings
+
+
+# --- pydantic errors to messages ---------------------------------------------
+
+
+def _dotted(path: DataPath) -> str:
+    text = ""
+    for part in path:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text or "the mission"
+
+
+_CONSTRAINT_KEYS: Final = ("stay_inside", "stay_outside")
+
+
+def _is_tag(part: str | int, current: Any, previous: str | int | None) -> bool:
+    """Whether a location part is a union tag rather than a key of ``current``.
+
+    Tags are the ``type`` of a region, path or estimator, and the action key of
+    a phase or constraint (which follows the list index).
+    """
+    if not isinstance(current, dict):
+        return False
+    if current.get("type") == part:
+        return True
+    return isinstance(previous, int) and part in (*ACTIONS, *_CONSTRAINT_KEYS)
+
+
+def _resolve(loc: tuple[str | int, ...], data: Any) -> DataPath:
+    """The data path written in the file for a pydantic error location.
+
+    Parts that are union tags or not in the data (a missing key, a union
+    member's name) are skipped.
+    """
+    path: list[str | int] = []
+    current = data
+    previous: str | int | None = None
+    for part in loc:
+        if _is_tag(part, current, previous):
+            previous = part
+            continue
+        previous = part
+        if isinstance(current, dict) and part in current:
+            path.append(part)
+            current = current[part]
+        elif isinstance(current, list) and isinstance(part, int) and 0 <= part < len(current):
+            path.append(part)
+            current = current[part]
+    return tuple(path)
+
+
+def _model_class(tp: Any, value: Any) -> Any:
+    """Strip Annotated/unions down to the member the value selects."""
+    while True:
+        origin = typing.get_origin(tp)
+        if origin is typing.Annotated:
+            tp = typing.get_args(tp)[0]
+            continue
+        if origin in (typing.Union, _UnionType):
+            members = [a for a in typing.get_args(tp) if a is not type(None)]
+            models = [m for m in (_model_class(a, value) for a in members) if _is_model(m)]
+            chosen = [m for m in models if _selects(m, value)]
+            if chosen:
+                return chosen[0]
+            others = [a for a in members if not _is_model(_model_class(a, value))]
+            return others[0] if others else None
+        return tp
+
+
+_UnionType = type(int | str)
+
+
+def _is_model(tp: Any) -> bool:
+    return isinstance(tp, type) and issubclass(tp, BaseModel)
+
+
+def _selects(model: type[BaseModel], value: Any) -> bool:
+    if not isinstance(value, dict):
+        return False
+    type_field = model.model_fields.get("type")
+    if type_field is not None:
+        return value.get("type") in typing.get_args(type_field.annotation)
+    keys = [k for k in (*ACTIONS, "stay_inside", "stay_outside") if k in model.model_fields]
+    return not keys or any(k in value for k in keys)
+
+
+def _model_at(path: DataPath, data: Any) -> type[BaseModel] | None:
+    """The model class that reads the mapping at ``path`` (None when unknown)."""
+    tp: Any = Mission
+    value = data
+    for part in path:
+        tp = _model_class(tp, value)
+        if _is_model(tp):
+            info = tp.model_fields.get(part)
+            if info is None:
+                return None
+            tp = info.annotation
+        else:
+            origin, args = typing.get_origin(tp), typing.get_args(tp)
+            if origin is list or (origin is tuple and len(args) == 2 and args[1] is Ellipsis):
+                tp = args[0]
+            elif origin is tuple and isinstance(part, int) and part < len(args):
+                tp = args[part]
+            elif origin is dict:
+                tp = args[1]
+            else:
+                return None
+        try:
+            value = value[part]
+        except (KeyError, IndexError, TypeError):
+            return None
+    tp = _model_class(tp, value)
+    return tp if _is_model(tp) else None
+
+
+_PATTERNS: Final = {
+    MISSION_NAME: "lower-case letters, digits, '-' or '_', starting with a letter or digit, "
+    "at most 64 characters",
+    PHASE_NAME: "letters, digits, '-' or '_', starting with a letter or digit, at most 64 "
+    "characters",
+    IDENTIFIER: "an identifier: letters, digits and '_', not starting with a digit",
+}
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _suggest(word: str, choices: Sequence[str]) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def _translate(error: Any, document: Document) -> Finding:
+    kind: str = error["type"]
+    loc: tuple[str | int, ...] = error["loc"]
+    data = document.data
+    path = _resolve(loc, data)
+    where = _dotted(path)
+    context = error.get("ctx") or {}
+    value = error.get("input")
+
+    if kind == "extra_forbidden":
+        key = str(loc[-1])
+        owner = _model_at(path[:-1], data)
+        allowed = [name for name in owner.model_fields] if owner is not None else []
+        parent = _dotted(path[:-1])
+        if key in ACTIONS and owner is not None and any(a in owner.model_fields for a in ACTIONS):
+            return Finding(
+                path,
+                f"a phase has exactly one action (track, regulate or hold), but {parent} "
+                f"also has {key!r}",
+                at_key=True,
+            )
+        if not allowed:
+            return Finding(path, f"unknown field {key!r} in {parent}: it takes no fields", at_key=True)
+        hint = _suggest(key, allowed) or f"; expected one of: {', '.join(allowed)}"
+        return Finding(path, f"unknown field {key!r}{hint}", at_key=True)
+    if kind == "missing":
+        if isinstance(loc[-1], int):
+            return Finding(path, f"{where}: too few items (item {loc[-1]} is missing)")
+        return Finding(path, f"missing field {loc[-1]!r} in {where}")
+    if kind in ("too_short", "too_long"):
+        bound = context.get("min_length" if kind == "too_short" else "max_length")
+        least = "at least" if kind == "too_short" else "at most"
+        items = "item" if bound == 1 else "items"
+        got = context.get("actual_length")
+        return Finding(path, f"{where}: expected {least} {bound} {items}, got {got}")
+    if kind == "phase_action":
+        keys = list(value) if isinstance(value, dict) else []
+        hints = [_suggest(str(k), ACTIONS) for k in keys]
+        hint = next((h for h in hints if h), "")
+        return Finding(
+            path,
+            f"{where}: a phase needs exactly one action key: track, regulate or hold{hint}",
+        )
+    if kind == "constraint_kind":
+        return Finding(path, f"{where}: a constraint is {{stay_inside: REGION}} or "
+                       "{stay_outside: REGION}")
+    if kind in ("union_tag_invalid", "union_tag_not_found"):
+        tags = _type_tags(path)
+        if kind == "union_tag_not_found":
+            return Finding(path, f"{where}: missing field 'type' (one of: {', '.join(tags)})")
+        tag = str(context.get("tag", ""))
+        type_path = (*path, "type") if (*path, "type") in document.values else path
+        hint = _suggest(tag, tags)
+        return Finding(
+            type_path, f"unknown type {tag!r}{hint} (expected one of: {', '.join(tags)})"
+        )
+    if kind == "expression":
+        position = document.text_column(path)
+        column = context.get("column")
+        message = f"{where}: {error['msg']}"
+        if position is not None and isinstance(column, int):
+            # point at the offending character inside the expression
+            return Finding(path, message, position=(position[0], position[1] + column - 1))
+        return Finding(path, message)
+    if kind == "string_pattern_mismatch":
+        described = _PATTERNS.get(str(context.get("pattern")), f"match {context.get('pattern')}")
+        return Finding(path, f"{where}: expected {described}, got {_shown(value)}")
+    if kind == "literal_error":
+        expected = str(context.get("expected", ""))
+        choices = re.findall(r"'([^']*)'", expected)
+        hint = _suggest(str(value), choices) if isinstance(value, str) else ""
+        return Finding(path, f"{where}: expected {expected}, got {_shown(value)}{hint}")
+    message = str(error["msg"])
+    message = re.sub(r"^Input should be", "should be", message)
+    message = re.sub(r"^Value error, ", "", message)
+    if kind.endswith(("_type", "_parsing")) or kind in (
+        "greater_than",
+        "greater_than_equal",
+        "less_than",
+        "less_than_equal",
+        "too_short",
+        "too_long",
+        "finite_number",
+    ):
+        shown = _shown(value) if not isinstance(value, dict | list) else type(value).__name__
+        message = f"{message}, got {shown}"
+    return Finding(path, f"{where}: {message}")
+
+
+def _type_tags(path: DataPath) -> list[str]:
+    """The ``type`` values accepted by the union at ``path``."""
+    union = Estimator if path[:1] == ("estimator",) else RegionSpec
+    if "path" in path:
+        union = PathSpec
+    members = typing.get_args(typing.get_args(union)[0])
+    return [str(typing.get_args(m.model_fields["type"].annotation)[0]) for m in members]
+
+
+_SUGGESTION = re.compile(r"^unknown field '[^']*'; did you mean '([^']*)'\?$")
+_MISSING = re.compile(r"^missing field '([^']*)' in ")
+
+
+def _without_implied_missing(findings: list[Finding]) -> list[Finding]:
+    """Drop "missing field X" where an unknown key next to it is a misspelt X."""
+    suggested = set()
+    for finding in findings:
+        match = _SUGGESTION.match(finding.message)
+        if match:
+            suggested.add((finding.path[:-1], match.group(1)))
+    kept = []
+    for finding in findings:
+        match = _MISSING.match(finding.message)
+        if match and (finding.path, match.group(1)) in suggested:
+            continue
+        kept.append(finding)
+    return kept
+
+
+def _under(path: DataPath, refused: set[DataPath]) -> bool:
+    return any(path[: len(r)] == r for r in refused)
+
+
+def _context(data: dict[str, Any]) -> dict[str, Any]:
+    """Declared parameters and region names, for expressions and region references."""
+    parameters: dict[str, float] = {}
+    raw = data.get("parameters")
+    if isinstance(raw, dict):
+        for name, value in raw.items():
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                parameters[name] = float(value)
+    regions = data.get("regions")
+    names = [name for name in regions if isinstance(name, str)] if isinstance(regions, dict) else []
+    return {"parameters": parameters, "regions": names}
+
+
+# --- entry points ------------------------------------------------------------
+
+
+def _diagnostic(filename: str, document: Document | None, finding: Finding) -> Diagnostic:
+    if finding.position is not None:
+        line, column = finding.position
+    elif document is None:
+        line, column = 1, 1
+    else:
+        line, column = document.position(finding.path, at_key=finding.at_key)
+    return Diagnostic(filename, line, column, finding.message, finding.severity)
+
+
+def check_mission_text(text: str, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
+    """Every problem of a mission text (errors and warnings), and the mission if it has none."""
+    try:
+        return _check(text, filename)
+    except Exception as error:  # last resort: bad input must never show a traceback
+        message = f"internal error while checking ({type(error).__name__}: {error}); please report it"
+        return None, [Diagnostic(filename, 1, 1, message)]
+
+
+def _check(text: str, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
+    if len(text) > MAX_FILE_BYTES:
+        return None, [
+            Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
+        ]
+    document, findings = read_document(text)
+    if document is None:
+        return None, [_diagnostic(filename, None, f) for f in findings]
+    mission: Mission | None = None
+    if isinstance(document.data, dict):
+        try:
+            mission = Mission.model_validate(document.data, context=_context(document.data))
+        except ValidationError as error:
+            translated = []
+            for item in error.errors(include_url=False):
+                path = _resolve(item["loc"], document.data)
+                if not _under(path, document.refused):
+                    translated.append(_translate(item, document))
+            findings.extend(_without_implied_missing(translated))
+    if mission is not None and not findings:
+        findings.extend(check(mission))
+    diagnostics = sorted(
+        {_diagnostic(filename, document, f) for f in findings},
+        key=lambda d: (d.line, d.column, d.message),
+    )
+    if any(d.severity == "error" for d in diagnostics):
+        mission = None
+    return mission, diagnostics
+
+
+def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
+    filename = str(path)
+    try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            return None, [
+                Diagnostic(filename, 1, 1, f"file too large: {size} bytes (at most {MAX_FILE_BYTES})")
+            ]
+        with path.open("rb") as stream:
+            raw = stream.read(MAX_FILE_BYTES + 1)
+    except OSError as error:
+        return None, [Diagnostic(filename, 1, 1, f"cannot read the file: {error.strerror or error}")]
+    if len(raw) > MAX_FILE_BYTES:
+        return None, [Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")]
+    try:
+        return raw.decode("utf-8"), []
+    except UnicodeDecodeError as error:
+        before = raw[: error.start]
+        line = before.count(b"\n") + 1
+        column = len(before) - (before.rfind(b"\n") + 1) + 1
+        return None, [Diagnostic(filename, line, column, "the file is not UTF-8 text")]
+
+
+def check_mission(path: str | Path) -> tuple[Mission | None, list[Diagnostic]]:
+    """Every problem of a mission file (errors and warnings), and the mission if it has none."""
+    text, diagnostics = _read(Path(path))
+    if text is None:
+        return None, diagnostics
+    return check_mission_text(text, str(path))
+
+
+def load_mission_text(text: str, filename: str) -> Mission:
+    """The mission of ``text``; raises :class:`MissionError` with every error."""
+    mission, diagnostics = check_mission_text(text, filename)
+    if mission is None:
+        raise MissionError([d for d in diagnostics if d.severity == "error"])
+    return mission
+
+
+def load_mission(path: str | Path) -> Mission:
+    """The mission of a file; raises :class:`MissionError` with every error."""
+    mission, diagnostics = check_mission(path)
+    if mission is None:
+        raise MissionError([d for d in diagnostics if d.severity == "error"])
+    return mission

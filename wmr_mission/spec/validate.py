@@ -1,0 +1,61 @@
+"""``wmr-mission validate``: check mission files without running them."""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Sequence
+from dataclasses import asdict
+from pathlib import Path
+from typing import Literal
+
+from wmr_mission.spec.loader import Diagnostic, check_mission
+
+__all__ = ["validate_files"]
+
+
+def _summary(diagnostics: Sequence[Diagnostic]) -> str:
+    errors = sum(d.severity == "error" for d in diagnostics)
+    warnings = len(diagnostics) - errors
+    if errors == 0:
+        return "ok" if warnings == 0 else f"ok ({_count(warnings, 'warning')})"
+    parts = [_count(errors, "error")] + ([_count(warnings, "warning")] if warnings else [])
+    return ", ".join(parts)
+
+
+def _count(number: int, word: str) -> str:
+    return f"{number} {word}{'s' if number != 1 else ''}"
+
+
+def validate_files(files: Sequence[Path], fmt: Literal["text", "json"] | str = "text") -> int:
+    """Check every file; 0 when all are valid (warnings allowed), 1 otherwise.
+
+    text: each diagnostic as ``FILE:LINE:COL: message`` on stderr and one
+    ``FILE: ok`` (or a count) line per file on stdout. json: one document on
+    stdout with every file, its validity and its diagnostics.
+    """
+    reports = []
+    all_valid = True
+    for path in files:
+        _, diagnostics = check_mission(path)
+        valid = not any(d.severity == "error" for d in diagnostics)
+        all_valid = all_valid and valid
+        reports.append((str(path), valid, diagnostics))
+        if fmt == "text":
+            for diagnostic in diagnostics:
+                sys.stderr.write(f"{diagnostic}\n")
+            sys.stdout.write(f"{path}: {_summary(diagnostics)}\n")
+    if fmt == "json":
+        document = {
+            "valid": all_valid,
+            "files": [
+                {
+                    "file": name,
+                    "valid": valid,
+                    "diagnostics": [asdict(d) for d in diagnostics],
+                }
+                for name, valid, diagnostics in reports
+            ],
+        }
+        sys.stdout.write(json.dumps(document, indent=2) + "\n")
+    return 0 if all_valid else 1
