@@ -64,7 +64,7 @@ def test_prepare_run_dir_creates_missing_and_accepts_empty(tmp_path: Path) -> No
 def test_prepare_run_dir_refuses_a_non_empty_directory(tmp_path: Path) -> None:
     (tmp_path / "old").mkdir()
     (tmp_path / "old" / "summary.json").write_text("{}\n")
-    with pytest.raises(RunDirExistsError, match=r"old: run directory exists and is not empty"):
+    with pytest.raises(RunDirExistsError, match=r"^run directory exists and is not empty"):
         prepare_run_dir(tmp_path / "old")
     assert (tmp_path / "old" / "summary.json").read_text() == "{}\n"
 

@@ -22,7 +22,7 @@ from scipy.signal import place_poles
 
 from wmr_mission.control import ALIGNING, BEARING, CORRECTED, DOUBLINGS, INCREMENT, Workspace
 from wmr_mission.corrective import ELLIPSE, REGULARISATION
-from wmr_mission.observer import MIN_HEADING_OBSERVABILITY
+from wmr_mission.observer import BOUND_SLACK, MIN_HEADING_OBSERVABILITY
 from wmr_mission.riccati import MIN_SPEED
 from wmr_mission.runner import StepFunctions
 
@@ -155,8 +155,10 @@ def observer_step(
     while iterations < max_iterations:
         error = measurement - estimate
         error[2] = wrap_angle(float(error[2]))
-        above = measured & (error > upper)
-        below = measured & (error < lower)
+        # An output left exactly on its bound by the previous iteration may
+        # round to just beyond it: that is not a violation.
+        above = measured & (error > upper + BOUND_SLACK)
+        below = measured & (error < lower - BOUND_SLACK)
         violated = above | below
         if not violated.any():
             break
@@ -164,7 +166,7 @@ def observer_step(
         # a new measurement; D selects them and H = D^T.
         d = np.eye(3)[violated]
         bound = np.where(above, upper, lower)
-        estimate += d.T @ (d @ (error - bound))
+        estimate += d.T @ (error[violated] - bound[violated])
         iterations += 1
     return iterations
 

@@ -42,8 +42,6 @@ def run_command(
         prepare_run_dir,
         write_run,
     )
-    from wmr_mission.runner import run_mission
-
     run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
     try:
         run_dir = prepare_run_dir(run_dir)
@@ -69,9 +67,11 @@ def run_command(
         plots=plots,
         animate=animate,
     )
-    from wmr_mission.output.metrics import summarize
+    from wmr_mission.output.metrics import check_expectations, summarize
 
-    print(format_table(summarize(result), run_dir))
+    summary = summarize(result)
+    summary["expectations"] = check_expectations(summary, expect)
+    print(format_table(summary, run_dir))
     if result.outcome is not Outcome.success:
         print(f"{mission_path}: {result.outcome.value}: {result.message}", file=sys.stderr)
         return 1

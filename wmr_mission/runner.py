@@ -411,7 +411,11 @@ class _Run:
                 and math.isfinite(estimate[2])
             ):  # fmt: skip
                 self._record(k, state, estimate, u_prev, active, iterations, 0, None)
-                outcome, message = self._diverged(k, active, "the state ran away")
+                cause = (
+                    f"the state ran away (x = {state[0]:.3g} m, y = {state[1]:.3g} m; "
+                    f"last input v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s)"
+                )
+                outcome, message = self._diverged(k, active, cause)
                 break
             if self.progress is not None and k % PROGRESS_EVERY == 0:
                 self.progress(k * dt, budget, phase.name)

@@ -10,7 +10,6 @@ import numpy as np
 from wmr_mission.output.plots import (
     draw_regions,
     finite,
-    phase_color,
     pyplot,
     thin,
     view_box,
@@ -72,7 +71,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
         np.zeros((4, 2)),
         closed=True,
         facecolor="none",
-        edgecolor="tab:orange",
+        edgecolor="tab:red",
         linewidth=1.5,
         label="estimate",
         animated=True,
@@ -96,7 +95,6 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
             shown = path_points[path_points <= k]
             trail.set_data(finite(result.x[shown]), finite(result.y[shown]))
             phase = int(result.phase[k])
-            trail.set_color(phase_color(phase))
             robot.set_xy(robot_outline(*_pose(result.x, result.y, result.theta, k), size))
             estimate.set_xy(
                 robot_outline(*_pose(result.x_est, result.y_est, result.theta_est, k), size)

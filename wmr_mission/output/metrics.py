@@ -130,8 +130,11 @@ def _pose_error(
 def _final(result: RunResult, segments: list[tuple[int, int, int]]) -> dict[str, Any]:
     """Final error of the true pose from the aim of the last phase that has one.
 
-    The aim is a regulate/hold target, or a track phase's last reference point
-    (no heading then); phases are searched from the last one run backwards.
+    The aim is a regulate target, or a track phase's last reference point (no
+    heading then); phases are searched from the last one run backwards. A hold
+    phase keeps the pose it started from, so it has no aim of its own: the
+    error of a mission ending "park, then hold" is measured from the park's
+    target.
     """
     final: dict[str, Any] = {
         "position_error": None,
@@ -144,6 +147,8 @@ def _final(result: RunResult, segments: list[tuple[int, int, int]]) -> dict[str,
     last = result.samples - 1
     for index, start, end in reversed(segments):
         info = result.phases[index]
+        if info.kind == "hold":
+            continue
         target = _phase_target(result, info, start, end)
         if target is None:
             continue

@@ -169,9 +169,13 @@ def draw_regions(
 
 
 def view_box(result: RunResult) -> tuple[float, float, float, float]:
-    """Data limits of the path, the reference and bounded regions, with a margin."""
+    """Data limits of the path, the reference, the targets and bounded regions, with a margin."""
     xs = [finite(result.x), finite(result.x_est), finite(result.x_ref)]
     ys = [finite(result.y), finite(result.y_est), finite(result.y_ref)]
+    targets = [p.target for p in result.phases if p.target is not None]
+    if targets:
+        xs.append(np.array([t[0] for t in targets], dtype=np.float64))
+        ys.append(np.array([t[1] for t in targets], dtype=np.float64))
     for region in result.regions.values():
         extent = _region_extent(region)
         if extent is not None:
@@ -247,8 +251,15 @@ def _draw_marks(ax: Axes, result: RunResult) -> None:
             label="target" if i == 0 else None,
         )
     changes = [tr for tr in result.transitions if tr.to_phase is not None]
+    view = view_box(result)
+    near = 0.03 * max(view[1] - view[0], view[3] - view[2])
+    labelled: list[tuple[float, float]] = []
     for i, tr in enumerate(changes):
         k = _sample_at(result, tr.time)
+        point = (float(result.x[k]), float(result.y[k]))
+        # Changes at (nearly) the same place get their labels stacked, not overprinted.
+        stacked = sum(math.dist(point, other) < near for other in labelled)
+        labelled.append(point)
         ax.plot(
             result.x[k],
             result.y[k],
@@ -260,8 +271,8 @@ def _draw_marks(ax: Axes, result: RunResult) -> None:
         )
         ax.annotate(
             f"{tr.to_phase} ({tr.condition}, t={tr.time:.2f} s)",
-            (float(result.x[k]), float(result.y[k])),
-            xytext=(6, 6),
+            point,
+            xytext=(6, 6 - 11 * stacked),
             textcoords="offset points",
             fontsize=8,
         )
@@ -309,16 +320,21 @@ def draw_xy(result: RunResult, path: Path) -> Path:
 
 
 def _mark_phases(axes: list[Axes], result: RunResult) -> None:
-    """Phase boundaries as vertical lines; names written in the top plot."""
+    """Phase boundaries as vertical lines; names written above the top plot."""
     segments = phase_segments(result.phase)
+    span = float(result.t[-1] - result.t[0]) if result.samples else 0.0
+    row, previous = 0, -math.inf
     for number, (index, start, _end) in enumerate(segments):
         time = float(result.t[start])
-        for ax in axes:
-            if number > 0:
+        if number > 0:
+            for ax in axes:
                 ax.axvline(time, color="0.4", linewidth=0.8, linestyle=":")
+        # Names of phases that start close together go on staggered rows.
+        row = (row + 1) % 3 if time - previous < 0.12 * span else 0
+        previous = time
         axes[0].text(
             time,
-            1.02,
+            1.02 + 0.09 * row,
             f" {result.phases[index].name}",
             transform=axes[0].get_xaxis_transform(),
             fontsize=8,

@@ -62,6 +62,7 @@ _ROWS_PER_BLOCK = 20_000
 _VERSIONED_PACKAGES = ("numpy", "scipy", "pydantic", "numba", "matplotlib")
 
 
+# Messages of both errors leave out the run directory: callers print `RUN_DIR: message`.
 class RunDirError(ValueError):
     """A run directory that cannot be read back (missing or corrupt file); one line."""
 
@@ -76,14 +77,14 @@ def default_run_dir(mission_name: str, now: datetime) -> Path:
 
 
 def prepare_run_dir(path: str | os.PathLike[str]) -> Path:
-    """Create the run directory; refuse one that exists and is not empty."""
+    """Create the run directory; refuse one that exists and is not empty (before a long run)."""
     run_dir = Path(path)
     if run_dir.exists() and not run_dir.is_dir():
-        raise RunDirExistsError(f"{run_dir}: exists and is not a directory; choose another --out")
+        raise RunDirExistsError("exists and is not a directory; choose another --out")
     run_dir.mkdir(parents=True, exist_ok=True)
     if any(run_dir.iterdir()):
         raise RunDirExistsError(
-            f"{run_dir}: run directory exists and is not empty; "
+            "run directory exists and is not empty; "
             "choose another --out or remove it (runs are never overwritten)"
         )
     return run_dir

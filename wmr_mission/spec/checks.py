@@ -126,12 +126,12 @@ def _estimator_keys(mission: Mission) -> Iterator[Finding]:
     measured = mission.sensors.measure
     estimator = mission.estimator
     if isinstance(estimator, Ekf):
-        field, per_state = "measurement_std", estimator.measurement_std
+        field, keys = "measurement_std", list(estimator.measurement_std or {})
         why = "the filter has no such measurement"
     else:
-        field, per_state = "output_error_bounds", estimator.output_error_bounds
+        field, keys = "output_error_bounds", list(estimator.output_error_bounds or {})
         why = "eq. (4) bounds the output error of measured states only"
-    for state in per_state or {}:
+    for state in keys:
         if state not in measured:
             yield Finding(
                 ("estimator", field, state),
@@ -198,7 +198,11 @@ def _initial_state(mission: Mission) -> Iterator[Finding]:
     start = mission.robot.initial_state
     for number, constraint in enumerate(mission.phases[0].constraints):
         inside = isinstance(constraint, StayInside)
-        name = constraint.stay_inside if isinstance(constraint, StayInside) else constraint.stay_outside
+        name = (
+            constraint.stay_inside
+            if isinstance(constraint, StayInside)
+            else constraint.stay_outside
+        )
         region = mission.regions.get(name)
         if region is None:
             continue

@@ -16,7 +16,7 @@ import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Final, Literal
+from typing import Any, Final
 
 import yaml
 from pydantic import BaseModel, ValidationError
@@ -53,7 +53,6 @@ MAX_NESTING: Final = 32
 # More digits than any sane number has; refused before conversion (int() of a
 # huge digit string is slow and limited).
 _MAX_NUMBER_TEXT: Final = 40
-
 
 
 @dataclass(frozen=True)
@@ -95,24 +94,27 @@ class _NodeLoader(yaml.SafeLoader):
         self._depth = 0
 
     def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
-        event = self.peek_event()
+        event: Any = self.peek_event()  # type: ignore[no-untyped-call]
+        mark: Any = event.start_mark
         if isinstance(event, yaml.AliasEvent):
             raise _Refused(
                 problem=f"alias '*{event.anchor}' is not allowed in a mission: write the value out",
-                problem_mark=event.start_mark,
+                problem_mark=mark,
             )
         if getattr(event, "anchor", None) is not None:
             raise _Refused(
-                problem=f"anchor '&{event.anchor}' is not allowed in a mission: write the value out",
-                problem_mark=event.start_mark,
+                problem=f"anchor '&{event.anchor}' is not allowed in a mission: "
+                "write the value out",
+                problem_mark=mark,
             )
         self._depth += 1
         try:
             if self._depth > MAX_NESTING:
                 raise _Refused(
-                    problem=f"nesting deeper than {MAX_NESTING} levels", problem_mark=event.start_mark
+                    problem=f"nesting deeper than {MAX_NESTING} levels",
+                    problem_mark=mark,
                 )
-            return super().compose_node(parent, index)  # type: ignore[no-any-return]
+            return super().compose_node(parent, index)
         finally:
             self._depth -= 1
 
@@ -247,7 +249,9 @@ class _Builder:
     def _number(self, node: yaml.Node, path: DataPath) -> Any:
         text = str(node.value)
         if len(text) > _MAX_NUMBER_TEXT:
-            self.refuse(path, f"absurd number {text[:20]}...: at most {_MAX_NUMBER_TEXT} characters")
+            self.refuse(
+                path, f"absurd number {text[:20]}...: at most {_MAX_NUMBER_TEXT} characters"
+            )
             return None
         try:
             if node.tag == _TAG + "int":
@@ -351,10 +355,10 @@ def _resolve(loc: tuple[str | int, ...], data: Any) -> DataPath:
             previous = part
             continue
         previous = part
-        if isinstance(current, dict) and part in current:
-            path.append(part)
-            current = current[part]
-        elif isinstance(current, list) and isinstance(part, int) and 0 <= part < len(current):
+        written = (isinstance(current, dict) and part in current) or (
+            isinstance(current, list) and isinstance(part, int) and 0 <= part < len(current)
+        )
+        if written:
             path.append(part)
             current = current[part]
     return tuple(path)
@@ -455,7 +459,7 @@ def _translate(error: Any, document: Document) -> Finding:
     if kind == "extra_forbidden":
         key = str(loc[-1])
         owner = _model_at(path[:-1], data)
-        allowed = [name for name in owner.model_fields] if owner is not None else []
+        allowed = list(owner.model_fields) if owner is not None else []
         parent = _dotted(path[:-1])
         if key in ACTIONS and owner is not None and any(a in owner.model_fields for a in ACTIONS):
             return Finding(
@@ -465,7 +469,9 @@ def _translate(error: Any, document: Document) -> Finding:
                 at_key=True,
             )
         if not allowed:
-            return Finding(path, f"unknown field {key!r} in {parent}: it takes no fields", at_key=True)
+            return Finding(
+                path, f"unknown field {key!r} in {parent}: it takes no fields", at_key=True
+            )
         hint = _suggest(key, allowed) or f"; expected one of: {', '.join(allowed)}"
         return Finding(path, f"unknown field {key!r}{hint}", at_key=True)
     if kind == "missing":
@@ -487,8 +493,9 @@ def _translate(error: Any, document: Document) -> Finding:
             f"{where}: a phase needs exactly one action key: track, regulate or hold{hint}",
         )
     if kind == "constraint_kind":
-        return Finding(path, f"{where}: a constraint is {{stay_inside: REGION}} or "
-                       "{stay_outside: REGION}")
+        return Finding(
+            path, f"{where}: a constraint is {{stay_inside: REGION}} or {{stay_outside: REGION}}"
+        )
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         tags = _type_tags(path)
         if kind == "union_tag_not_found":
@@ -596,7 +603,9 @@ def check_mission_text(text: str, filename: str) -> tuple[Mission | None, list[D
     try:
         return _check(text, filename)
     except Exception as error:  # last resort: bad input must never show a traceback
-        message = f"internal error while checking ({type(error).__name__}: {error}); please report it"
+        message = (
+            f"internal error while checking ({type(error).__name__}: {error}); please report it"
+        )
         return None, [Diagnostic(filename, 1, 1, message)]
 
 
@@ -636,14 +645,20 @@ def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
         size = path.stat().st_size
         if size > MAX_FILE_BYTES:
             return None, [
-                Diagnostic(filename, 1, 1, f"file too large: {size} bytes (at most {MAX_FILE_BYTES})")
+                Diagnostic(
+                    filename, 1, 1, f"file too large: {size} bytes (at most {MAX_FILE_BYTES})"
+                )
             ]
         with path.open("rb") as stream:
             raw = stream.read(MAX_FILE_BYTES + 1)
     except OSError as error:
-        return None, [Diagnostic(filename, 1, 1, f"cannot read the file: {error.strerror or error}")]
+        return None, [
+            Diagnostic(filename, 1, 1, f"cannot read the file: {error.strerror or error}")
+        ]
     if len(raw) > MAX_FILE_BYTES:
-        return None, [Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")]
+        return None, [
+            Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
+        ]
     try:
         return raw.decode("utf-8"), []
     except UnicodeDecodeError as error:

@@ -13,7 +13,6 @@ expression is evaluated once, so a loaded model holds plain floats.
 from __future__ import annotations
 
 import math
-import re
 from typing import Annotated, Any, Final, Literal
 
 from pydantic import (
@@ -37,8 +36,8 @@ __all__ = [
     "BoxRegion",
     "CirclePath",
     "CircleRegion",
-    "Constraint",
     "ConstrainedObserver",
+    "Constraint",
     "Controller",
     "Ekf",
     "EllipsePath",
@@ -126,7 +125,9 @@ def _parameters(info: ValidationInfo) -> dict[str, float]:
 def _evaluate_scalar(value: Any, info: ValidationInfo) -> Any:
     """Turn a constant expression into its float; numbers pass through."""
     if isinstance(value, bool):
-        raise PydanticCustomError("scalar_type", "expected a number or an expression, got a boolean")
+        raise PydanticCustomError(
+            "scalar_type", "expected a number or an expression, got a boolean"
+        )
     if isinstance(value, int | float):
         return value
     if not isinstance(value, str):
@@ -309,7 +310,8 @@ def _check_bound(bound: tuple[float, float]) -> tuple[float, float]:
     if not lower < 0 < upper:
         raise PydanticCustomError(
             "output_error_bound",
-            "an output-error bound is [lower, upper] with lower < 0 < upper, got [{lower}, {upper}]",
+            "an output-error bound is [lower, upper] with lower < 0 < upper, "
+            "got [{lower}, {upper}]",
             {"lower": lower, "upper": upper},
         )
     return bound
@@ -324,7 +326,7 @@ def _paper_estimate() -> Pose:
 
 
 def _default_bounds() -> dict[StateName, tuple[float, float]]:
-    return {s: (-0.05, 0.05) for s in STATES}  # type: ignore[misc]
+    return dict.fromkeys(STATES, (-0.05, 0.05))
 
 
 class StatePoles(_Model):
@@ -592,7 +594,9 @@ class EllipsePath(_EllipseGeometry):
     angular_rate: NonzeroScalar = Field(description="w [rad/s], not zero.")
     start: StartAngle = Field(
         default="current",
-        description="'current' (phi0 = atan2(w/b, u/a) of the robot in the ellipse frame) or phi0 [rad].",
+        description=(
+            "'current' (phi0 = atan2(w/b, u/a) of the robot in the ellipse frame) or phi0 [rad]."
+        ),
     )
 
 
@@ -615,7 +619,9 @@ class EllipticalSpiralPath(_EllipseGeometry):
     angular_rate: NonzeroScalar = Field(description="w [rad/s], not zero.")
     start: StartAngle = Field(
         default="current",
-        description="'current' (phi0 = atan2(w/b, u/a) of the robot in the ellipse frame) or phi0 [rad].",
+        description=(
+            "'current' (phi0 = atan2(w/b, u/a) of the robot in the ellipse frame) or phi0 [rad]."
+        ),
     )
 
 
@@ -804,9 +810,12 @@ def _phase_action(value: Any) -> str | None:
             if key in value:
                 return key
         return None
-    for key, cls in zip(ACTIONS, (TrackPhase, RegulatePhase, HoldPhase), strict=True):
-        if isinstance(value, cls):
-            return key
+    if isinstance(value, TrackPhase):
+        return "track"
+    if isinstance(value, RegulatePhase):
+        return "regulate"
+    if isinstance(value, HoldPhase):
+        return "hold"
     return None
 
 
@@ -888,7 +897,9 @@ class Mission(_Model):
 
     version: Literal[1] = Field(description="Mission format version: 1.")
     name: Annotated[str, Field(pattern=MISSION_NAME)] = Field(
-        description="Mission name: lower-case letters, digits, '-' and '_'; used in run directories."
+        description=(
+            "Mission name: lower-case letters, digits, '-' and '_'; used in run directories."
+        )
     )
     description: Annotated[str, Field(max_length=10000)] = Field(
         default="", description="Free text."
@@ -914,9 +925,7 @@ class Mission(_Model):
         description="Named regions.",
         json_schema_extra={"additionalProperties": False},
     )
-    phases: list[Phase] = Field(
-        min_length=1, max_length=10000, description="Phases, run in order."
-    )
+    phases: list[Phase] = Field(min_length=1, max_length=10000, description="Phases, run in order.")
     expect: Expect = Field(default_factory=Expect, description="Acceptance thresholds.")
 
     @model_validator(mode="before")
@@ -934,5 +943,5 @@ class Mission(_Model):
         measure = sensors.get("measure", STATES)
         if not isinstance(measure, list | tuple) or not all(s in STATES for s in measure):
             return data
-        bounds = {s: (-0.05, 0.05) for s in measure}
+        bounds = dict.fromkeys(measure, (-0.05, 0.05))
         return {**data, "estimator": {**estimator, "output_error_bounds": bounds}}

@@ -1,0 +1,174 @@
+"""The paper's case studies end to end through the command line, measured
+from trajectory.csv (not from our own summary)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from wmr_mission.cli import app
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+
+
+def read_trajectory(run_dir: Path) -> dict[str, np.ndarray]:
+    with (run_dir / "trajectory.csv").open(newline="") as handle:
+        rows = list(csv.reader(handle))
+    header, body = rows[0], rows[1:]
+    columns: dict[str, np.ndarray] = {}
+    for i, name in enumerate(header):
+        values = [row[i] for row in body]
+        columns[name] = np.array(values) if name == "phase" else np.array(values, dtype=float)
+    return columns
+
+
+def wrap(a: np.ndarray) -> np.ndarray:
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def distance_to_ellipse(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    s = np.linspace(0, 2 * np.pi, 20000, endpoint=False)
+    ex, ey = 5.5 * np.cos(s), 3 * np.sin(s)
+    return np.array([np.min(np.hypot(ex - px, ey - py)) for px, py in zip(x, y, strict=True)])
+
+
+def run(mission: Path, out: Path, *extra: str) -> tuple[int, str, str]:
+    result = CliRunner().invoke(app, ["run", str(mission), "--out", str(out), *extra])
+    return result.exit_code, result.stdout, result.stderr
+
+
+def first_converged_time(t: np.ndarray, errors: np.ndarray, threshold: float) -> float:
+    above = np.nonzero(np.abs(errors).max(axis=1) >= threshold)[0]
+    return 0.0 if above.size == 0 else float(t[min(above[-1] + 1, t.size - 1)])
+
+
+@pytest.fixture(scope="module")
+def case1(tmp_path_factory: pytest.TempPathFactory) -> dict[str, np.ndarray]:
+    out = tmp_path_factory.mktemp("case1") / "run"
+    code, stdout, stderr = run(MISSIONS / "case1.yaml", out, "--no-plots")
+    assert code == 0, stdout + stderr
+    return read_trajectory(out)
+
+
+@pytest.fixture(scope="module")
+def case2_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("case2") / "run"
+    code, stdout, stderr = run(MISSIONS / "case2.yaml", out)
+    assert code == 0, stdout + stderr
+    return out
+
+
+def test_case_1_phases_in_the_paper_order(case1: dict[str, np.ndarray]) -> None:
+    phases = list(dict.fromkeys(case1["phase"]))
+    assert len(phases) == 4
+    kinds = ["spiral", "orbit", "spiral", "align"]
+    for name, kind in zip(phases, kinds, strict=True):
+        assert kind in name
+
+
+def test_case_1_parks_at_the_origin_facing_zero(case1: dict[str, np.ndarray]) -> None:
+    assert math.hypot(case1["x"][-1], case1["y"][-1]) <= 0.02
+    assert abs(wrap(case1["theta"][-1:]))[0] <= 0.01
+
+
+def test_case_1_stays_on_the_ellipse(case1: dict[str, np.ndarray]) -> None:
+    name = list(dict.fromkeys(case1["phase"]))[1]
+    on = case1["phase"] == name
+    start = case1["t"][on][0]
+    later = on & (case1["t"] >= start + 1.0)
+    rms = math.sqrt(np.mean(distance_to_ellipse(case1["x"][later], case1["y"][later]) ** 2))
+    assert rms <= 0.005
+
+
+def test_case_2_returns_inside_the_ellipse(case2_dir: Path) -> None:
+    c = read_trajectory(case2_dir)
+    assert math.hypot(c["x"][-1], c["y"][-1]) <= 0.05
+    transitions = json.loads((case2_dir / "transitions.json").read_text())
+    imposed = transitions[1]["time"]  # the constraint holds from the return phase on
+    after = c["t"] >= imposed
+    assert np.all((c["x"][after] / 5.5) ** 2 + (c["y"][after] / 3) ** 2 <= 1.001)
+
+
+@pytest.mark.parametrize("mission", ["case1", "case2"])
+def test_estimation_error_below_5_cm_within_a_second(
+    mission: str, case1: dict[str, np.ndarray], case2_dir: Path
+) -> None:
+    c = case1 if mission == "case1" else read_trajectory(case2_dir)
+    errors = np.column_stack(
+        [c["x"] - c["x_est"], c["y"] - c["y_est"], wrap(c["theta"] - c["theta_est"])]
+    )
+    assert first_converged_time(c["t"], errors, 0.05) <= 1.0
+
+
+def test_run_directory_is_complete(case2_dir: Path) -> None:
+    names = {p.name for p in case2_dir.iterdir()}
+    expected = {"trajectory.csv", "summary.json", "transitions.json", "manifest.json"}
+    assert expected | {"xy.png", "states.png", "estimation_error.png", "inputs.png"} <= names
+    header = (case2_dir / "trajectory.csv").read_text().splitlines()[0]
+    assert header.startswith("t,x,y,theta,x_est,y_est,theta_est,v,omega,phase")
+    summary = json.loads((case2_dir / "summary.json").read_text())
+    assert summary["outcome"] == "success"
+    assert set(summary["compute_us_per_sample"]) == {"mean", "median", "p99"}
+    manifest = json.loads((case2_dir / "manifest.json").read_text())
+    assert len(manifest["mission_sha256"]) == 64
+    assert manifest["resolved_mission"]["controller"]["Q"] == [1.0, 1.0, 1.0]
+
+
+def test_same_mission_and_seed_give_identical_trajectories(tmp_path: Path, case2_dir: Path) -> None:
+    code, _, _ = run(MISSIONS / "case2.yaml", tmp_path / "again", "--no-plots")
+    assert code == 0
+    first = (case2_dir / "trajectory.csv").read_bytes()
+    assert (tmp_path / "again" / "trajectory.csv").read_bytes() == first
+
+
+def test_a_diverging_mission_exits_1_with_its_cause_and_keeps_its_outputs(tmp_path: Path) -> None:
+    text = (MISSIONS / "case2.yaml").read_text()
+    text = text.replace("limits: {v: 10, omega: 20}", "limits: {v: 1e9, omega: 1e9}")
+    text = text.replace("  M: [100, 100]\n", "  M: [100, 100]\n  tracking: {output: axle}\n")
+    mission = tmp_path / "literal.yaml"
+    mission.write_text(text)
+    code, stdout, stderr = run(mission, tmp_path / "out", "--no-plots")
+    assert code == 1
+    lines = [line for line in stderr.splitlines() if line]
+    assert len(lines) == 1
+    # The runaway estimate crosses the ellipse on its way out, so the
+    # divergence may be caught one phase later.
+    assert "diverged in phase '" in lines[0]
+    assert "the state ran away" in lines[0]
+    assert "Traceback" not in stdout + stderr
+    c = read_trajectory(tmp_path / "out")
+    assert 5 < c["t"].size < 100
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["outcome"] == "diverged"
+
+
+def test_an_existing_run_directory_is_not_overwritten(tmp_path: Path) -> None:
+    out = tmp_path / "taken"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    code, _, stderr = run(MISSIONS / "park.yaml", out)
+    assert code == 2
+    assert "taken" in stderr
+    assert (out / "keep.txt").read_text() == "mine"
+    assert not (out / "trajectory.csv").exists()
+
+
+def test_unmet_expectation_exits_1(tmp_path: Path) -> None:
+    text = (
+        (MISSIONS / "park.yaml")
+        .read_text()
+        .replace("final_position_error: {max: 0.02}", "final_position_error: {max: 1e-9}")
+    )
+    mission = tmp_path / "strict.yaml"
+    mission.write_text(text)
+    code, stdout, stderr = run(mission, tmp_path / "out", "--no-plots")
+    assert code == 1
+    assert "final_position_error" in stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["outcome"] == "expect-failed"

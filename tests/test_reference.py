@@ -1,0 +1,395 @@
+"""The reference step (numpy/scipy) against the fast kernels: the oracle.
+
+Whole missions: the paper's two case studies and two short missions covering
+the EKF, partial measurement sets, noise, rate limits, the other regulation
+forms and half-plane constraint rows. Then each function on random inputs.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wmr_mission import control, reference
+from wmr_mission.compiled import CompiledMission, compile_mission
+from wmr_mission.corrective import corrective_input_array
+from wmr_mission.ekf import ekf_step
+from wmr_mission.observer import observer_step
+from wmr_mission.reference import REFERENCE
+from wmr_mission.result import RunResult
+from wmr_mission.riccati import MIN_SPEED
+from wmr_mission.runner import FAST, run_mission
+from wmr_mission.sensors import STATE_NAMES, measurement_mask
+from wmr_mission.spec.loader import load_mission, load_mission_text
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+STATE_COLUMNS = ("x", "y", "theta", "x_est", "y_est", "theta_est", "v", "omega")
+SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATE_NAMES, n)]
+DT = 0.01
+
+# EKF, positions measured with noise, rate limits, the literal eq. (19)
+# (increment form) inside a box (four half-plane rows).
+EKF_MISSION = """
+version: 1
+name: oracle-ekf
+robot:
+  limits: {v: 2, omega: 3, v_rate: 5, omega_rate: 20}
+sensors:
+  measure: [x, y]
+  noise_std: {x: 0.01, y: 0.01}
+  seed: 7
+estimator:
+  type: ekf
+  initial_estimate: {x: 0.2, y: -0.1, theta: 0.1}
+controller:
+  regulation: {form: increment}
+regions:
+  yard: {type: box, min: [-1, -1], max: [1.6, 1.2]}
+phases:
+  - name: out
+    track: {path: {type: circle, center: [0, 1], radius: 1, angular_rate: 0.5}}
+    until: {elapsed: 4}
+  - name: back
+    regulate: {target: {x: 0.5, y: 0.5, theta: 0}}
+    constraints: [{stay_inside: yard}]
+    until: {elapsed: 3}
+"""
+
+# The paper's observer with the heading unmeasured and distinct poles, the
+# deviation form, a hold phase that must stay out of a circle.
+OBSERVER_MISSION = """
+version: 1
+name: oracle-observer
+sensors:
+  measure: [x, y]
+  noise_std: {x: 0.002, y: 0.002}
+  seed: 3
+estimator:
+  type: constrained-observer
+  initial_estimate: {x: 0.3, y: -0.2, theta: 0.2}
+  poles: {x: 0.8, y: 0.8, theta: 0.95}
+  output_error_bounds: {x: [-0.02, 0.03], y: [-0.03, 0.02]}
+controller:
+  regulation: {form: deviation}
+regions:
+  rock: {type: circle, center: [1.5, 0.4], radius: 0.3}
+phases:
+  - name: line
+    track: {path: {type: line, heading: 0.2, speed: 0.8}}
+    until: {elapsed: 2.5}
+  - name: stop
+    regulate: {target: {x: 1.6, y: 0.5, theta: 0.5}}
+    constraints: [{stay_outside: rock}]
+    until: {elapsed: 2}
+  - name: wait
+    hold: {}
+    until: {elapsed: 0.5}
+"""
+
+
+def assert_same_run(fast: RunResult, slow: RunResult, tolerance: float = 1e-6) -> None:
+    assert fast.outcome == slow.outcome
+    assert fast.samples == slow.samples
+    assert [(t.time, t.from_phase, t.to_phase, t.condition) for t in fast.transitions] == [
+        (t.time, t.from_phase, t.to_phase, t.condition) for t in slow.transitions
+    ]
+    np.testing.assert_array_equal(fast.phase, slow.phase)
+    np.testing.assert_array_equal(fast.phase2_iterations, slow.phase2_iterations)
+    for name in STATE_COLUMNS:
+        np.testing.assert_allclose(
+            getattr(fast, name), getattr(slow, name), rtol=0.0, atol=tolerance, err_msg=name
+        )
+
+
+def case_study(name: str) -> CompiledMission:
+    return compile_mission(load_mission(MISSIONS / f"{name}.yaml"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["case1", "case2"])
+def test_fast_kernels_follow_the_reference_through_the_case_studies(name: str) -> None:
+    mission = case_study(name)
+    fast = run_mission(mission, functions=FAST)
+    slow = run_mission(mission, functions=REFERENCE)
+    assert fast.outcome.value == "success"
+    assert len(fast.transitions) == len(mission.phases)
+    assert_same_run(fast, slow)
+
+
+@pytest.mark.parametrize("text", [EKF_MISSION, OBSERVER_MISSION], ids=["ekf", "observer"])
+def test_fast_kernels_follow_the_reference_on_other_settings(text: str) -> None:
+    mission = compile_mission(load_mission_text(text, "oracle.yaml"))
+    fast = run_mission(mission, functions=FAST)
+    slow = run_mission(mission, functions=REFERENCE)
+    assert fast.samples > 500
+    assert_same_run(fast, slow)
+
+
+def test_the_extra_missions_exercise_what_they_claim() -> None:
+    """The settings above are not idle: constraints act, phase II acts."""
+    ekf = run_mission(compile_mission(load_mission_text(EKF_MISSION, "a.yaml")))
+    back = ekf.phase == 1
+    assert np.nanmax(ekf.constraint[back]) > -0.5  # the box is close by
+    observer = run_mission(compile_mission(load_mission_text(OBSERVER_MISSION, "b.yaml")))
+    assert observer.phase2_iterations.max() >= 1
+    assert np.nanmax(observer.constraint[observer.phase == 1]) > -0.2
+
+
+# --- unit level ------------------------------------------------------------
+
+
+def random_pose(rng: np.random.Generator) -> np.ndarray:
+    return rng.uniform([-5.0, -5.0, -4.0], [5.0, 5.0, 4.0])
+
+
+def random_speed(rng: np.random.Generator) -> float:
+    return float(rng.choice([-1.0, 1.0]) * rng.uniform(0.05, 5.0))
+
+
+def test_placed_poles_are_the_closed_form_design(rng: np.random.Generator) -> None:
+    """scipy's place_poles with the whole pose measured gives (I - L C) A = diag(poles)."""
+    for _ in range(20):
+        a = reference.state_jacobian(rng.uniform(-4, 4), random_speed(rng), rng.uniform(-3, 3), DT)
+        poles = rng.uniform(0.0, 0.99, 3)
+        gain = reference.observer_gain_matrix(a, np.ones(3), poles)
+        np.testing.assert_allclose((np.eye(3) - gain) @ a, np.diag(poles), atol=1e-12)
+
+
+@pytest.mark.parametrize("measured", SUBSETS, ids=["+".join(s) for s in SUBSETS])
+@pytest.mark.parametrize("bounded", [False, True], ids=["phase-I", "phase-II"])
+def test_observer_step_matches(
+    measured: list[str], bounded: bool, rng: np.random.Generator
+) -> None:
+    mask = measurement_mask(measured)
+    iterations_seen = 0
+    for trial in range(30):
+        estimate = random_pose(rng)
+        # Some samples at rest: the heading is unobservable from positions then.
+        v = 0.0 if trial % 10 == 0 else random_speed(rng)
+        omega = float(rng.uniform(-3, 3))
+        measurement = estimate + rng.normal(0.0, 0.3, 3)
+        poles = rng.uniform(0.0, 0.99, 3)
+        lower = -rng.uniform(0.01, 0.1, 3)
+        upper = rng.uniform(0.01, 0.1, 3)
+        results = []
+        for step_function in (observer_step, reference.observer_step):
+            state = estimate.copy()
+            gain = np.zeros((3, 3))
+            iterations = step_function(
+                state, v, omega, DT, measurement, mask, poles, lower, upper, bounded, 10, gain
+            )
+            results.append((state, gain, iterations))
+        (fast, fast_gain, fast_iterations), (slow, slow_gain, slow_iterations) = results
+        np.testing.assert_allclose(fast, slow, rtol=0.0, atol=1e-9)
+        np.testing.assert_allclose(fast_gain, slow_gain, rtol=0.0, atol=1e-9)
+        assert fast_iterations == slow_iterations
+        iterations_seen += slow_iterations
+    assert (iterations_seen > 0) == bounded
+
+
+def test_phase_two_puts_violated_outputs_on_their_bounds() -> None:
+    estimate = np.array([1.0, 2.0, 0.5])
+    measurement = np.array([1.5, 2.0, 0.5])
+    state = estimate.copy()
+    iterations = reference.observer_step(
+        state, 0.0, 0.0, DT, measurement, np.ones(3), np.full(3, 0.99),
+        np.full(3, -0.05), np.full(3, 0.05), True, 10, np.zeros((3, 3)),
+    )  # fmt: skip
+    assert iterations == 1
+    assert measurement[0] - state[0] == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize("measured", SUBSETS, ids=["+".join(s) for s in SUBSETS])
+def test_ekf_step_matches(measured: list[str], rng: np.random.Generator) -> None:
+    mask = measurement_mask(measured)
+    for _ in range(20):
+        estimate = random_pose(rng)
+        root = rng.normal(0.0, 0.5, (3, 3))
+        covariance = root @ root.T + 0.01 * np.eye(3)
+        v, omega = random_speed(rng), float(rng.uniform(-3, 3))
+        measurement = estimate + rng.normal(0.0, 0.3, 3)
+        process_var = rng.uniform(0.0, 1e-4, 3)
+        measurement_var = rng.uniform(1e-6, 1e-2, 3)
+        outputs = []
+        for step_function in (ekf_step, reference.ekf_step):
+            state, p = estimate.copy(), covariance.copy()
+            step_function(
+                state, p, v, omega, DT, measurement, mask, process_var, measurement_var,
+                np.zeros((4, 3, 3)),
+            )  # fmt: skip
+            outputs.append((state, p))
+        np.testing.assert_allclose(outputs[0][0], outputs[1][0], rtol=0.0, atol=1e-9)
+        np.testing.assert_allclose(outputs[0][1], outputs[1][1], rtol=1e-9, atol=1e-12)
+
+
+def test_corrective_law_matches_for_one_and_two_rows(rng: np.random.Generator) -> None:
+    for rows in (1, 2):
+        for trial in range(50):
+            v = 0.0 if trial % 10 == 0 else random_speed(rng)
+            b = reference.input_jacobian(rng.uniform(-4, 4), v, rng.uniform(-3, 3), DT)
+            d = rng.normal(0.0, 1.0, (rows, 3))
+            eta = rng.normal(0.0, 0.1, rows)
+            w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
+            fast = corrective_input_array(d, eta, b, w, m)
+            slow = reference.corrective_input(d, eta, b, w, m)
+            np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-12)
+            # eq. (26): the linearised constraint is met (regularisation aside).
+            if v != 0.0:
+                np.testing.assert_allclose(d @ b @ slow, eta, rtol=1e-6, atol=1e-12)
+
+
+def test_corrective_law_at_rest_leaves_the_unreachable_part() -> None:
+    """A lateral constraint cannot be moved at rest: no input, not NaN."""
+    b = reference.input_jacobian(0.0, 0.0, 0.0, DT)
+    du = reference.corrective_input(
+        np.array([[0.0, 1.0, 0.0]]), np.array([0.5]), b, np.full(3, 100.0), np.full(2, 100.0)
+    )
+    np.testing.assert_array_equal(du, np.zeros(2))
+
+
+def random_limits(rng: np.random.Generator, rated: bool) -> np.ndarray:
+    rates = rng.uniform(1.0, 50.0, 2) if rated else np.full(2, math.inf)
+    return np.concatenate([rng.uniform(0.5, 10.0, 2), rates])
+
+
+@pytest.mark.parametrize("look_ahead", [0.0, 0.05, 0.3])
+@pytest.mark.parametrize("rated", [False, True], ids=["no-rate-limit", "rate-limit"])
+def test_track_input_matches(look_ahead: float, rated: bool, rng: np.random.Generator) -> None:
+    for _ in range(40):
+        estimate = random_pose(rng)
+        u_prev = np.array([random_speed(rng), rng.uniform(-3, 3)])
+        angle = rng.uniform(-math.pi, math.pi)
+        reference_point = np.concatenate(
+            [estimate[:2] + rng.normal(0.0, 0.2, 2), [math.cos(angle), math.sin(angle)]]
+        )
+        w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
+        limits = random_limits(rng, rated)
+        fast, slow = np.zeros(2), np.zeros(2)
+        control.track_input(
+            estimate, u_prev, reference_point, look_ahead, w, m, limits, DT,
+            control.make_workspace(), fast,
+        )  # fmt: skip
+        reference.track_input(
+            estimate, u_prev, reference_point, look_ahead, w, m, limits, DT,
+            control.make_workspace(), slow,
+        )  # fmt: skip
+        np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
+
+
+def violated_rows(
+    rng: np.random.Generator, position: np.ndarray, violated: int, total: int = 4
+) -> tuple[np.ndarray, np.ndarray]:
+    """``total`` rows of mixed kinds, ``violated`` of them violated by far more
+    than one sample's motion near ``position``."""
+    kinds, params = [], []
+    for i in range(total):
+        is_violated = i < violated
+        margin = rng.uniform(0.5, 2.0)
+        choice = rng.integers(3)
+        if choice == 0:  # half-plane through a point `margin` away
+            angle = rng.uniform(-math.pi, math.pi)
+            normal = np.array([math.cos(angle), math.sin(angle)])
+            offset = normal @ position + (-margin if is_violated else margin)
+            kinds.append(1)
+            params.append([normal[0], normal[1], offset, 0.0, 0.0, 0.0])
+        elif choice == 1:  # stay inside an ellipse (violated: the point is outside)
+            axes = rng.uniform(0.3, 1.0, 2)
+            center = position + (
+                rng.choice([-1.0, 1.0], 2) * (axes + margin) if is_violated else 0.0
+            )
+            size = 1.0 if is_violated else 3.0 + margin
+            kinds.append(0)
+            params.append([*center, *(axes * size), rng.uniform(-3, 3), 1.0])
+        else:  # stay outside an ellipse (violated: the point is inside)
+            axes = rng.uniform(3.0, 5.0, 2)
+            center = position if is_violated else position + 2.0 * axes + margin
+            kinds.append(0)
+            params.append([*center, *axes, rng.uniform(-3, 3), -1.0])
+    order = rng.permutation(total)
+    return np.array(kinds, dtype=np.int64)[order], np.array(params)[order]
+
+
+FORMS = {"bearing": control.BEARING, "deviation": control.DEVIATION, "increment": control.INCREMENT}
+
+
+@pytest.mark.parametrize("violated", [0, 1, 2, 3])
+@pytest.mark.parametrize("form", list(FORMS))
+def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generator) -> None:
+    corrected = 0
+    for trial in range(12):
+        estimate = random_pose(rng)
+        estimate_prev = estimate - rng.normal(0.0, 0.01, 3)
+        target = estimate + rng.normal(0.0, 0.5 if trial % 3 else 0.005, 3)
+        u_prev = np.array([random_speed(rng), rng.uniform(-2, 2)])
+        kinds, params = violated_rows(rng, estimate[:2], violated)
+        q, r = rng.uniform(0.1, 10, 3), rng.uniform(0.1, 10, 2)
+        w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
+        limits = random_limits(rng, bool(trial % 2))
+        outputs = []
+        for regulate in (control.regulate_input, reference.regulate_input):
+            memory = np.array([float(trial % 2), 0.0, 0.0])
+            u = np.zeros(2)
+            regulate(
+                estimate, estimate_prev, u_prev, target, FORMS[form], 0.01, bool(trial % 4),
+                q, r, w, m, kinds, params, limits, DT, memory, control.make_workspace(), u,
+            )  # fmt: skip
+            outputs.append((u, memory))
+        (fast, fast_memory), (slow, slow_memory) = outputs
+        np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
+        assert fast_memory[control.ALIGNING] == slow_memory[control.ALIGNING]
+        assert fast_memory[control.CORRECTED] == slow_memory[control.CORRECTED]
+        corrected += int(slow_memory[control.CORRECTED])
+    assert corrected == (12 if violated else 0)
+
+
+@pytest.mark.parametrize(
+    ("low", "high", "tolerance"),
+    [
+        (0.0, 0.0, 1e-9),  # at rest: the reachable-subspace solution
+        (0.05, 10.0, 1e-9),
+        # Near rest eq. (21) is ill-conditioned: scipy's solution has a relative
+        # residual of ~1e-12 there (the doubling's ~1e-16), so the gains agree
+        # to ~1e-8 only.
+        (1e-5, 0.01, 2e-7),
+    ],
+)
+def test_scheduled_gain_matches(
+    low: float, high: float, tolerance: float, rng: np.random.Generator
+) -> None:
+    work = control.make_workspace()
+    for _ in range(30):
+        theta, omega = rng.uniform(-4, 4), rng.uniform(-3, 3)
+        v = float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
+        q, r = rng.uniform(0.1, 10, 3), rng.uniform(0.1, 10, 2)
+        control.scheduled_gain(theta, v, omega, DT, q, r, work)
+        slow = reference.scheduled_gain(theta, v, omega, DT, q, r)
+        scale = max(1.0, float(np.abs(slow).max()))
+        np.testing.assert_allclose(work[5], slow, rtol=0.0, atol=tolerance * scale)
+
+
+def test_scheduled_gain_is_continuous_at_the_speed_floor() -> None:
+    q, r = np.ones(3), np.ones(2)
+    below = reference.scheduled_gain(0.3, MIN_SPEED * (1 - 1e-9), 0.5, DT, q, r)
+    at = reference.scheduled_gain(0.3, MIN_SPEED, 0.5, DT, q, r)
+    np.testing.assert_allclose(below, at, atol=1e-6)
+
+
+@pytest.mark.parametrize("rated", [False, True])
+def test_saturation_matches(rated: bool, rng: np.random.Generator) -> None:
+    for _ in range(100):
+        v, omega, v_prev, omega_prev = rng.normal(0.0, 10.0, 4)
+        limits = random_limits(rng, rated)
+        assert control.saturate(v, omega, v_prev, omega_prev, limits, DT) == pytest.approx(
+            reference.saturate(v, omega, v_prev, omega_prev, limits, DT), abs=1e-12
+        )
+
+
+def test_wrap_angle_matches_the_kernels() -> None:
+    from wmr_mission.model import wrap_angle
+
+    for angle in (-7.0, -math.pi, -1.0, 0.0, 1.0, math.pi, 7.0, 1e3):
+        assert reference.wrap_angle(angle) == wrap_angle(angle)

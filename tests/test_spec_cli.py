@@ -1,0 +1,133 @@
+"""`wmr-mission validate` and `wmr-mission schema` on the command line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from wmr_mission.cli import app
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = [ROOT / "missions" / "case1.yaml", ROOT / "missions" / "case2.yaml"]
+INVALID = ROOT / "tests" / "data" / "missions" / "invalid"
+WARNING = ROOT / "tests" / "data" / "missions" / "valid" / "warning_not_multiple_of_dt.yaml"
+
+SEVERAL_MISTAKES = """\
+version: 1
+name: several
+robot:
+  dtt: 0.01
+phases:
+  - name: one
+    hold: {}
+    until: {elapsed: -1}
+"""
+
+
+def _validate(*arguments: str) -> tuple[int, str, str]:
+    result = CliRunner().invoke(app, ["validate", *arguments])
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+    return result.exit_code, result.stdout, result.stderr
+
+
+def test_shipped_missions_are_valid() -> None:
+    code, out, err = _validate(*map(str, CASES))
+    assert code == 0
+    assert out.splitlines() == [f"{CASES[0]}: ok", f"{CASES[1]}: ok"]
+    assert err == ""
+
+
+def test_invalid_file_lists_every_error_on_stderr(tmp_path: Path) -> None:
+    path = tmp_path / "several.yaml"
+    path.write_text(SEVERAL_MISTAKES, encoding="utf-8")
+    code, out, err = _validate(str(path))
+    assert code == 1
+    assert err.splitlines() == [
+        f"{path}:4:3: unknown field 'dtt'; did you mean 'dt'?",
+        f"{path}:8:22: phases[0].until.elapsed: should be greater than 0, got -1",
+    ]
+    assert out == f"{path}: 2 errors\n"
+
+
+def test_one_invalid_file_fails_the_batch() -> None:
+    code, out, _ = _validate(str(CASES[0]), str(INVALID / "nan.yaml"))
+    assert code == 1
+    assert out.splitlines()[0].endswith(": ok")
+    assert out.splitlines()[1].endswith(": 1 error")
+
+
+def test_warnings_alone_keep_exit_zero() -> None:
+    code, out, err = _validate(str(WARNING))
+    assert code == 0
+    assert out == f"{WARNING}: ok (1 warning)\n"
+    assert ": warning: until.elapsed 1.005 s is not a multiple" in err
+
+
+def test_json_report(tmp_path: Path) -> None:
+    path = tmp_path / "several.yaml"
+    path.write_text(SEVERAL_MISTAKES, encoding="utf-8")
+    code, out, err = _validate("--format", "json", str(CASES[1]), str(path), str(WARNING))
+    assert code == 1
+    assert err == ""
+    report = json.loads(out)
+    assert report["valid"] is False
+    assert [f["valid"] for f in report["files"]] == [True, False, True]
+    assert report["files"][0]["diagnostics"] == []
+    first = report["files"][1]["diagnostics"][0]
+    assert first == {
+        "file": str(path),
+        "line": 4,
+        "column": 3,
+        "severity": "error",
+        "message": "unknown field 'dtt'; did you mean 'dt'?",
+    }
+    assert report["files"][2]["diagnostics"][0]["severity"] == "warning"
+
+
+def test_missing_file_is_a_usage_error(tmp_path: Path) -> None:
+    code, _, _ = _validate(str(tmp_path / "nope.yaml"))
+    assert code == 2
+
+
+def test_schema_command_prints_the_checked_in_schema() -> None:
+    result = CliRunner().invoke(app, ["schema"])
+    assert result.exit_code == 0
+    assert result.stdout == (ROOT / "schemas" / "mission.schema.json").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("name", ["expression_injection_import.yaml", "python_tag.yaml"])
+def test_validate_in_a_subprocess_executes_nothing(name: str, tmp_path: Path) -> None:
+    completed = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "validate", str(INVALID / name)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert completed.returncode == 1
+    assert "Traceback" not in completed.stderr
+    assert "is not allowed" in completed.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_validate_does_not_import_plotting_or_scipy() -> None:
+    script = (
+        "import sys\n"
+        "from wmr_mission.cli import app\n"
+        "try:\n"
+        f"    app(['validate', {str(CASES[0])!r}, {str(CASES[1])!r}])\n"
+        "except SystemExit as stop:\n"
+        "    code = stop.code\n"
+        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in ('matplotlib', 'scipy'))\n"
+        "print(code, heavy)\n"
+    )
+    completed = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=False
+    )
+    assert completed.returncode == 0, completed.stderr
+    assert completed.stdout.splitlines()[-1] == "0 []"
