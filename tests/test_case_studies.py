@@ -167,7 +167,7 @@ def test_unmet_expectation_exits_1(tmp_path: Path) -> None:
     )
     mission = tmp_path / "strict.yaml"
     mission.write_text(text)
-    code, stdout, stderr = run(mission, tmp_path / "out", "--no-plots")
+    code, _, stderr = run(mission, tmp_path / "out", "--no-plots")
     assert code == 1
     assert "final_position_error" in stderr
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())

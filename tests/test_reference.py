@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from wmr_mission import control, reference
+from wmr_mission.bench import one_blas_thread
 from wmr_mission.compiled import CompiledMission, compile_mission
 from wmr_mission.corrective import corrective_input_array
 from wmr_mission.ekf import ekf_step
@@ -59,11 +60,12 @@ phases:
     until: {elapsed: 3}
 """
 
-# The paper's observer with the heading unmeasured and distinct poles, the
-# deviation form, a hold phase that must stay out of a circle.
-OBSERVER_MISSION = """
+# The paper's observer with the heading unmeasured (seen through the motion),
+# distinct poles and asymmetric bounds, tracking only: at rest the heading is
+# unobservable from positions.
+HEADINGLESS_MISSION = """
 version: 1
-name: oracle-observer
+name: oracle-headingless
 sensors:
   measure: [x, y]
   noise_std: {x: 0.002, y: 0.002}
@@ -73,22 +75,48 @@ estimator:
   initial_estimate: {x: 0.3, y: -0.2, theta: 0.2}
   poles: {x: 0.8, y: 0.8, theta: 0.95}
   output_error_bounds: {x: [-0.02, 0.03], y: [-0.03, 0.02]}
+phases:
+  - name: line
+    track: {path: {type: line, heading: 0.2, speed: 0.8}}
+    until: {elapsed: 2}
+  - name: turn
+    track: {path: {type: circle, center: [1.5, 1.5], radius: 1, angular_rate: 1}}
+    until: {elapsed: 3}
+"""
+
+# The whole pose measured with distinct poles, the deviation form driving
+# straight at a rock it must stay out of, then a hold phase.
+DEVIATION_MISSION = """
+version: 1
+name: oracle-deviation
+sensors:
+  noise_std: {x: 0.001, y: 0.001, theta: 0.001}
+estimator:
+  type: constrained-observer
+  initial_estimate: {x: 0.05, y: -0.05, theta: 0.02}
+  poles: {x: 0.7, y: 0.85, theta: 0.9}
 controller:
   regulation: {form: deviation}
 regions:
-  rock: {type: circle, center: [1.5, 0.4], radius: 0.3}
+  rock: {type: circle, center: [2.744, 0.556], radius: 0.3}
 phases:
   - name: line
     track: {path: {type: line, heading: 0.2, speed: 0.8}}
     until: {elapsed: 2.5}
-  - name: stop
-    regulate: {target: {x: 1.6, y: 0.5, theta: 0.5}}
+  - name: push
+    regulate: {target: {x: 3.332, y: 0.675, theta: 0.2}}
     constraints: [{stay_outside: rock}]
     until: {elapsed: 2}
   - name: wait
     hold: {}
     until: {elapsed: 0.5}
 """
+
+OTHER_MISSIONS = {
+    "ekf": EKF_MISSION,
+    "headingless": HEADINGLESS_MISSION,
+    "deviation": DEVIATION_MISSION,
+}
 
 
 def assert_same_run(fast: RunResult, slow: RunResult, tolerance: float = 1e-6) -> None:
@@ -114,29 +142,38 @@ def case_study(name: str) -> CompiledMission:
 def test_fast_kernels_follow_the_reference_through_the_case_studies(name: str) -> None:
     mission = case_study(name)
     fast = run_mission(mission, functions=FAST)
-    slow = run_mission(mission, functions=REFERENCE)
+    one_thread, _ = one_blas_thread()  # 3x3 BLAS calls: threads only wait
+    with one_thread:
+        slow = run_mission(mission, functions=REFERENCE)
     assert fast.outcome.value == "success"
     assert len(fast.transitions) == len(mission.phases)
     assert_same_run(fast, slow)
 
 
-@pytest.mark.parametrize("text", [EKF_MISSION, OBSERVER_MISSION], ids=["ekf", "observer"])
-def test_fast_kernels_follow_the_reference_on_other_settings(text: str) -> None:
-    mission = compile_mission(load_mission_text(text, "oracle.yaml"))
+@pytest.mark.parametrize("name", list(OTHER_MISSIONS))
+def test_fast_kernels_follow_the_reference_on_other_settings(name: str) -> None:
+    mission = compile_mission(load_mission_text(OTHER_MISSIONS[name], f"{name}.yaml"))
     fast = run_mission(mission, functions=FAST)
     slow = run_mission(mission, functions=REFERENCE)
-    assert fast.samples > 500
+    assert fast.samples > 400
     assert_same_run(fast, slow)
 
 
-def test_the_extra_missions_exercise_what_they_claim() -> None:
-    """The settings above are not idle: constraints act, phase II acts."""
-    ekf = run_mission(compile_mission(load_mission_text(EKF_MISSION, "a.yaml")))
-    back = ekf.phase == 1
-    assert np.nanmax(ekf.constraint[back]) > -0.5  # the box is close by
-    observer = run_mission(compile_mission(load_mission_text(OBSERVER_MISSION, "b.yaml")))
-    assert observer.phase2_iterations.max() >= 1
-    assert np.nanmax(observer.constraint[observer.phase == 1]) > -0.2
+def test_the_other_missions_exercise_what_they_claim() -> None:
+    """The settings above are not idle: constraints and phase II act."""
+    runs = {
+        name: run_mission(compile_mission(load_mission_text(text, f"{name}.yaml")))
+        for name, text in OTHER_MISSIONS.items()
+    }
+    for run in runs.values():
+        assert run.outcome.value == "success"
+    ekf = runs["ekf"]
+    assert np.nanmax(ekf.constraint[ekf.phase == 1]) > -0.1
+    assert runs["headingless"].phase2_iterations.max() >= 1
+    deviation = runs["deviation"]
+    pushing = deviation.phase == 1
+    # It drives at the rock and stops on its boundary.
+    assert -0.05 < np.nanmax(deviation.constraint[pushing]) < 0.02
 
 
 # --- unit level ------------------------------------------------------------

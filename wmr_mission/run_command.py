@@ -42,6 +42,7 @@ def run_command(
         prepare_run_dir,
         write_run,
     )
+
     run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
     try:
         run_dir = prepare_run_dir(run_dir)

@@ -640,12 +640,26 @@ class WaypointsPath(_Model):
     closed: bool = Field(default=False, description="Return to the first point and loop.")
 
 
+def _number_as_text(value: Any) -> Any:
+    """`y: 0` is a constant expression too."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return repr(value)
+    return value
+
+
+ExpressionText = Annotated[
+    str,
+    BeforeValidator(_number_as_text),
+    WithJsonSchema({"type": ["number", "string"]}, mode="validation"),
+]
+
+
 class ExpressionPath(_Model):
     """x(t), y(t) as restricted expressions of phase-local time t [s]."""
 
     type: Literal["expression"] = Field(description="Path kind.")
-    x: str = Field(description="x(t) [m], e.g. '2*exp(0.5*t)*cos(0.4*pi*t)'.")
-    y: str = Field(description="y(t) [m].")
+    x: ExpressionText = Field(description="x(t) [m], e.g. '2*exp(0.5*t)*cos(0.4*pi*t)'.")
+    y: ExpressionText = Field(description="y(t) [m].")
     start: Literal["as-written", "current"] = Field(
         default="as-written",
         description="as-written: as the text says; current: translated so p(0) is the robot.",
@@ -845,10 +859,15 @@ class Expect(_Model):
 
     final_position_error: Threshold | None = Field(
         default=None,
-        description="[m] distance of the final true position from the last regulate/hold target.",
+        description=(
+            "[m] distance of the final true position from the target of the last regulate "
+            "phase run, or from the last reference point if a track phase came after it "
+            "(hold phases keep their entry pose and are skipped)."
+        ),
     )
     final_heading_error: Threshold | None = Field(
-        default=None, description="[rad] wrapped final heading error to that target."
+        default=None,
+        description="[rad] wrapped final heading error to that regulate target.",
     )
     max_constraint_violation: Threshold | None = Field(
         default=None, description="Largest constraint-row value over the run (> 0 = violated)."

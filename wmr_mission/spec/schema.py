@@ -28,8 +28,6 @@ __all__ = [
     "write_generated_files",
 ]
 
-SCHEMA_ID: Final = "https://wmr-mission.invalid/schemas/mission.schema.json"
-
 REFERENCE_BEGIN: Final = "<!-- BEGIN GENERATED REFERENCE: python -m wmr_mission.spec.schema -->"
 REFERENCE_END: Final = "<!-- END GENERATED REFERENCE -->"
 
@@ -39,7 +37,6 @@ def schema_dict() -> dict[str, Any]:
     schema = Mission.model_json_schema(mode="validation")
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "$id": SCHEMA_ID,
         **schema,
     }
 
@@ -84,6 +81,8 @@ def _type_text(annotation: Any) -> str:
         metadata = " ".join(repr(m) for m in arguments[1:])
         if "_evaluate_scalar" in metadata:
             return "scalar"
+        if "_number_as_text" in metadata:
+            return "expression of t"
         if "_start_angle" in metadata:
             return "'current' \\| scalar"
         return _type_text(arguments[0])

@@ -1,0 +1,151 @@
+"""Micro-benchmarks of the per-sample step, fast and reference, and a whole run.
+
+The suite runs them once each as plain tests (``--benchmark-disable``); time
+them with ``pytest tests/test_benchmarks.py --benchmark-enable``.
+"""
+
+from __future__ import annotations
+
+import math
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pytest_benchmark.fixture import BenchmarkFixture
+
+from wmr_mission import control, reference
+from wmr_mission.compiled import CompiledMission, compile_mission
+from wmr_mission.ekf import ekf_step
+from wmr_mission.observer import observer_step
+from wmr_mission.runner import FAST, StepFunctions, run_mission
+from wmr_mission.spec.loader import load_mission, load_mission_text
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+DT = 0.01
+ESTIMATE = np.array([1.0, 2.0, 0.3])
+MEASUREMENT = np.array([1.08, 1.97, 0.31])  # x beyond its bound: phase II acts
+U_PREV = np.array([1.2, 0.4])
+W, M = np.full(3, 100.0), np.full(2, 100.0)
+Q, R = np.ones(3), np.ones(2)
+MASK, POLES = np.ones(3), np.full(3, 0.9)
+LIMITS = np.array([10.0, 20.0, math.inf, math.inf])
+# Stay inside an ellipse the prediction leaves: the corrective action acts.
+ELLIPSE_ROWS = (np.array([0], dtype=np.int64), np.array([[0.0, 0.0, 1.0, 2.0, 0.0, 1.0]]))
+
+OBSERVERS = {"fast": observer_step, "reference": reference.observer_step}
+TRACKERS = {"fast": control.track_input, "reference": reference.track_input}
+REGULATORS = {"fast": control.regulate_input, "reference": reference.regulate_input}
+
+
+@pytest.mark.parametrize("kind", list(OBSERVERS))
+def test_observer_step(benchmark: BenchmarkFixture, kind: str) -> None:
+    estimate = ESTIMATE.copy()
+    gain = np.zeros((3, 3))
+    bounds = np.full(3, 0.05)
+
+    def step() -> int:
+        estimate[:] = ESTIMATE
+        observer = OBSERVERS[kind]
+        return observer(
+            estimate, 1.2, 0.4, DT, MEASUREMENT, MASK, POLES, -bounds, bounds, True, 10, gain
+        )
+
+    assert benchmark(step) == 1
+    assert MEASUREMENT[0] - estimate[0] == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize("kind", ["fast", "reference"])
+def test_ekf_step(benchmark: BenchmarkFixture, kind: str) -> None:
+    function = ekf_step if kind == "fast" else reference.ekf_step
+    estimate, covariance = ESTIMATE.copy(), np.eye(3)
+    process_var, measurement_var = np.full(3, 1e-6), np.full(3, 1e-4)
+    work = np.zeros((4, 3, 3))
+
+    def step() -> None:
+        estimate[:] = ESTIMATE
+        covariance[:, :] = 0.0
+        covariance[[0, 1, 2], [0, 1, 2]] = 1.0
+        function(
+            estimate, covariance, 1.2, 0.4, DT, MEASUREMENT, MASK, process_var, measurement_var,
+            work,
+        )  # fmt: skip
+
+    benchmark(step)
+    # A confident measurement pulls the estimate almost onto it.
+    np.testing.assert_allclose(estimate, MEASUREMENT, atol=1e-3)
+
+
+@pytest.mark.parametrize("kind", list(TRACKERS))
+def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
+    work, u = control.make_workspace(), np.zeros(2)
+    path_point = np.array([1.02, 2.01, 1.0, 0.0])
+
+    def step() -> None:
+        TRACKERS[kind](ESTIMATE, U_PREV, path_point, 0.05, W, M, LIMITS, DT, work, u)
+
+    benchmark(step)
+    assert np.all(np.isfinite(u))
+    assert u[0] != U_PREV[0]
+
+
+@pytest.mark.parametrize("kind", list(REGULATORS))
+@pytest.mark.parametrize("constrained", [False, True], ids=["free", "constrained"])
+def test_regulate_input(benchmark: BenchmarkFixture, kind: str, constrained: bool) -> None:
+    work, u, memory = control.make_workspace(), np.zeros(2), np.zeros(3)
+    kinds, params = ELLIPSE_ROWS if constrained else (np.zeros(0, dtype=np.int64), np.zeros((0, 6)))
+    target = np.array([0.0, 0.0, 0.0])
+
+    def step() -> None:
+        REGULATORS[kind](
+            ESTIMATE, ESTIMATE, U_PREV, target, control.BEARING, 0.01, True, Q, R, W, M,
+            kinds, params, LIMITS, DT, memory, work, u,
+        )  # fmt: skip
+
+    benchmark(step)
+    assert np.all(np.isfinite(u))
+    assert memory[control.CORRECTED] == float(constrained)
+
+
+@pytest.fixture(scope="module")
+def case2() -> CompiledMission:
+    return compile_mission(load_mission(MISSIONS / "case2.yaml"))
+
+
+def test_case_study_2_whole_run(benchmark: BenchmarkFixture, case2: CompiledMission) -> None:
+    result = benchmark(run_mission, case2, functions=FAST)
+    assert result.outcome.value == "success"
+    assert result.samples > 3000
+
+
+def circle_mission(seconds: float) -> CompiledMission:
+    text = f"""
+version: 1
+name: circle
+estimator: {{type: constrained-observer, initial_estimate: {{x: 0, y: 0, theta: 0}}}}
+phases:
+  - name: laps
+    track: {{path: {{type: circle, center: [0, 1], radius: 1, angular_rate: 1}}}}
+    until: {{elapsed: {seconds}}}
+"""
+    return compile_mission(load_mission_text(text, "circle.yaml"))
+
+
+def peak_bytes(mission: CompiledMission, functions: StepFunctions = FAST) -> tuple[int, int]:
+    tracemalloc.start()
+    try:
+        result = run_mission(mission, functions=functions)
+        return result.samples, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_memory_grows_with_the_recorder_only() -> None:
+    """Peak memory per sample stays near the recorder's row size (~120 bytes
+    live + the result's copies): nothing per sample outlives its step."""
+    run_mission(circle_mission(1.0))  # kernels loaded before measuring
+    short_samples, short_peak = peak_bytes(circle_mission(10.0))
+    long_samples, long_peak = peak_bytes(circle_mission(40.0))
+    assert (short_samples, long_samples) == (1001, 4001)
+    per_sample = (long_peak - short_peak) / (long_samples - short_samples)
+    assert per_sample < 400
