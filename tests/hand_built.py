@@ -73,6 +73,7 @@ def mission(
         seed=0,
         estimator="constrained-observer",
         poles=np.full(3, 0.9),
+        heading_motion_floor=0.0,
         lower_bounds=np.full(3, -bounds),
         upper_bounds=np.full(3, bounds),
         use_bounds=True,

@@ -48,7 +48,7 @@ def test_observer_step(benchmark: BenchmarkFixture, kind: str) -> None:
         estimate[:] = ESTIMATE
         observer = OBSERVERS[kind]
         return observer(
-            estimate, 1.2, 0.4, DT, MEASUREMENT, MASK, POLES, -bounds, bounds, True, 10, gain
+            estimate, 1.2, 0.4, DT, MEASUREMENT, MASK, POLES, 0.0, -bounds, bounds, True, 10, gain
         )
 
     assert benchmark(step) == 1

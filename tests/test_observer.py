@@ -51,6 +51,47 @@ def test_full_measurement_error_matrix_is_diagonal() -> None:
     np.testing.assert_allclose(matrix, np.diag(poles), atol=1e-15)
 
 
+@pytest.mark.parametrize("speed", [0.01, 0.05, 0.1, 0.3, 1.0])
+def test_heading_pole_relaxes_below_the_motion_floor(speed: float) -> None:
+    """Moving less than the floor per sample, the heading pole goes towards 1
+    as 1 - (1 - p_theta) |c|^2 / floor^2; at or above it, it is as configured."""
+    mask = measurement_mask(["x", "y"])
+    poles = np.array([0.8, 0.8, 0.9])
+    dt, floor = 0.01, 0.002  # floor = 0.2 m/s at this dt
+    state, u = np.array([0.3, -0.2, 0.4]), np.array([speed, 0.0])
+    eig = np.sort(np.linalg.eigvals(error_matrix(state, u, dt, mask, poles, floor)).real)
+    moved = speed * dt  # |c| with omega = 0
+    heading_pole = 1.0 - 0.1 * min(1.0, moved**2 / floor**2)
+    np.testing.assert_allclose(eig, np.sort([0.8, 0.8, heading_pole]), atol=1e-9)
+
+
+def test_position_noise_at_creeping_speed_does_not_throw_the_heading() -> None:
+    """Positions measured with 2 mm noise while the robot creeps at 1 mm/s:
+    without the floor one sample's noise moves the heading estimate by
+    (1 - p_theta)(1 - p_pos) sigma / (v dt) = 2 rad; with it by at most 0.02 rad."""
+    mask = measurement_mask(["x", "y"])
+    poles = np.array([0.8, 0.8, 0.9])
+    sigma, dt = 0.002, 0.01
+    rng = np.random.default_rng(7)
+    worst = {}
+    for floor in (0.0, sigma):
+        state = np.zeros(3)
+        estimate = state.copy()
+        gain = np.zeros((3, 3))
+        largest = 0.0
+        for _ in range(500):
+            state = np.array(step(*state, 0.001, 0.0, dt))
+            measurement = state + rng.normal(0.0, sigma, 3)
+            observer_step(
+                estimate, 0.001, 0.0, dt, measurement, mask, poles, floor,
+                np.full(3, -np.inf), np.full(3, np.inf), False, 0, gain,
+            )  # fmt: skip
+            largest = max(largest, abs(estimate[2] - state[2]))
+        worst[floor] = largest
+    assert worst[0.0] > 1.0
+    assert worst[sigma] < 0.1
+
+
 def test_heading_from_positions_is_unobservable_at_rest() -> None:
     mask = measurement_mask(["x", "y"])
     poles = np.full(3, 0.9)
@@ -82,6 +123,7 @@ def run_observer(
                 state.copy(),
                 mask,
                 poles,
+                0.0,
                 lower,
                 upper,
                 bounds is not None,
@@ -148,6 +190,7 @@ def test_phase_two_saturates_to_the_violated_bound(rng: np.random.Generator) -> 
             measurement,
             mask,
             np.full(3, 0.9),
+            0.0,
             lower,
             upper,
             True,

@@ -210,6 +210,7 @@ def test_observer_step_matches(
         omega = float(rng.uniform(-3, 3))
         measurement = estimate + rng.normal(0.0, 0.3, 3)
         poles = rng.uniform(0.0, 0.99, 3)
+        floor = float(rng.choice([0.0, 0.05]))  # 0.05 m/sample: above some speeds
         lower = -rng.uniform(0.01, 0.1, 3)
         upper = rng.uniform(0.01, 0.1, 3)
         results = []
@@ -217,8 +218,9 @@ def test_observer_step_matches(
             state = estimate.copy()
             gain = np.zeros((3, 3))
             iterations = step_function(
-                state, v, omega, DT, measurement, mask, poles, lower, upper, bounded, 10, gain
-            )
+                state, v, omega, DT, measurement, mask, poles, floor,
+                lower, upper, bounded, 10, gain,
+            )  # fmt: skip
             results.append((state, gain, iterations))
         (fast, fast_gain, fast_iterations), (slow, slow_gain, slow_iterations) = results
         np.testing.assert_allclose(fast, slow, rtol=0.0, atol=1e-9)
@@ -233,7 +235,7 @@ def test_phase_two_puts_violated_outputs_on_their_bounds() -> None:
     measurement = np.array([1.5, 2.0, 0.5])
     state = estimate.copy()
     iterations = reference.observer_step(
-        state, 0.0, 0.0, DT, measurement, np.ones(3), np.full(3, 0.99),
+        state, 0.0, 0.0, DT, measurement, np.ones(3), np.full(3, 0.99), 0.0,
         np.full(3, -0.05), np.full(3, 0.05), True, 10, np.zeros((3, 3)),
     )  # fmt: skip
     assert iterations == 1

@@ -75,6 +75,9 @@ class CompiledMission:
     seed: int
     estimator: str  # "constrained-observer" | "ekf"
     poles: FloatArray
+    # [m] motion per sample below which one sample of measured positions says
+    # little about an unmeasured heading: the measured positions' noise.
+    heading_motion_floor: float
     lower_bounds: FloatArray
     upper_bounds: FloatArray
     use_bounds: bool
@@ -251,6 +254,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         seed=sensors.seed if seed is None else seed,
         estimator=estimator.type,
         poles=poles,
+        heading_motion_floor=float(np.max(noise[:2] * mask[:2])),
         lower_bounds=lower,
         upper_bounds=upper,
         use_bounds=use_bounds,

@@ -14,7 +14,12 @@ states only through the heading), so no pole placement runs per sample:
   heading/along-``c`` pair gets the poles ``(p_theta, p_pos)`` and the
   position error across ``c`` decays at ``p_pos`` (``p_pos`` the mean of the
   measured positions' poles). At rest the heading is unobservable: its
-  eigenvalue is 1 and no heading correction is made.
+  eigenvalue is 1 and no heading correction is made. Between the two, when
+  the robot moves less per sample than ``motion_floor`` (the position noise),
+  one sample says little about the heading: its pole moves from ``p_theta``
+  towards 1 as ``1 - (1 - p_theta) |c|^2 / motion_floor^2``, so the heading
+  correction per metre of innovation stays below ``1 / motion_floor`` instead
+  of growing as ``1 / |c|``.
 
 Phase II (eqs. (8)-(12)) saturates each output estimation error that left its
 bounds of eq. (4) to the violated bound. The measurement is a selection of
@@ -43,13 +48,20 @@ BOUND_SLACK = 1e-12
 
 @kernel
 def observer_gain(
-    a13: float, a23: float, mask: FloatArray, poles: FloatArray, gain: FloatArray
+    a13: float,
+    a23: float,
+    mask: FloatArray,
+    poles: FloatArray,
+    motion_floor: float,
+    gain: FloatArray,
 ) -> None:
     """Write the 3x3 gain ``L`` of eq. (6) into ``gain``.
 
     Columns are the innovations of x, y, theta; columns of unmeasured states
     are zero. ``mask`` holds 1.0 for measured states, ``poles`` the configured
-    eigenvalues of ``(I - L C) A`` for x, y, theta.
+    eigenvalues of ``(I - L C) A`` for x, y, theta; ``motion_floor`` [m] the
+    motion per sample below which the heading pole relaxes towards 1 (heading
+    unmeasured only).
     """
     for i in range(3):
         for j in range(3):
@@ -85,8 +97,12 @@ def observer_gain(
     # Along c the pair (position, heading) has the 2x2 error matrix
     # [[p_s, p_s n], [-k n, 1 - k n^2]]: det = p_s, trace = p_s + 1 - k n^2.
     # Poles (p_theta, p_pos) need p_s = p_theta p_pos, k n^2 = (1-p_theta)(1-p_pos).
-    p_along = poles[2] * p_pos
-    k = (1.0 - poles[2]) * (1.0 - p_pos) / n2
+    p_theta = poles[2]
+    floor2 = motion_floor * motion_floor
+    if n2 < floor2:
+        p_theta = 1.0 - (1.0 - p_theta) * n2 / floor2
+    p_along = p_theta * p_pos
+    k = (1.0 - p_theta) * (1.0 - p_pos) / n2
     # L_pos = I - P with P = p_pos (I - c c^T / n2) + p_along c c^T / n2, masked.
     d = (p_pos - p_along) / n2
     gain[0, 0] = (1.0 - p_pos + d * cx * cx) * mx
@@ -106,6 +122,7 @@ def observer_step(
     measurement: FloatArray,
     mask: FloatArray,
     poles: FloatArray,
+    motion_floor: float,
     lower: FloatArray,
     upper: FloatArray,
     use_bounds: bool,
@@ -116,7 +133,7 @@ def observer_step(
     measurement xi_{k+1}. Returns the number of phase-II iterations run."""
     # Phase I. eq. (7): A at the filtered estimate x_{k|k}.
     a13, a23, _, _, _, _ = jacobian_terms(estimate[2], v, omega, dt)
-    observer_gain(a13, a23, mask, poles, gain)
+    observer_gain(a13, a23, mask, poles, motion_floor, gain)
     # eq. (5): prediction.
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v, omega, dt)
     # eq. (6): innovation of the measured outputs (heading residual wrapped).
@@ -153,11 +170,16 @@ def observer_step(
 
 
 def error_matrix(
-    state: FloatArray, u: FloatArray, dt: float, mask: FloatArray, poles: FloatArray
+    state: FloatArray,
+    u: FloatArray,
+    dt: float,
+    mask: FloatArray,
+    poles: FloatArray,
+    motion_floor: float = 0.0,
 ) -> FloatArray:
     """``(I - L C) A`` of eq. (7) at (state, u): the phase-I error dynamics."""
     a13, a23, *_ = jacobian_terms(state[2], u[0], u[1], dt)
     gain = np.zeros((3, 3))
-    observer_gain(a13, a23, mask, poles, gain)
+    observer_gain(a13, a23, mask, poles, motion_floor, gain)
     a = np.array([[1.0, 0.0, a13], [0.0, 1.0, a23], [0.0, 0.0, 1.0]])
     return np.asarray((np.eye(3) - gain @ np.diag(mask)) @ a)

@@ -84,7 +84,9 @@ def input_jacobian(theta: float, v: float, omega: float, dt: float) -> FloatArra
 # --- the estimator, eqs. (4)-(12) ------------------------------------------
 
 
-def observer_gain_matrix(a: FloatArray, mask: FloatArray, poles: FloatArray) -> FloatArray:
+def observer_gain_matrix(
+    a: FloatArray, mask: FloatArray, poles: FloatArray, motion_floor: float = 0.0
+) -> FloatArray:
     """The gain L of eq. (6), columns = innovations of x, y, theta.
 
     With the whole pose measured (C = I), scipy places the eigenvalues of
@@ -117,11 +119,15 @@ def observer_gain_matrix(a: FloatArray, mask: FloatArray, poles: FloatArray) -> 
     if n2 <= MIN_HEADING_OBSERVABILITY**2:
         gain[:2, :2] = (1.0 - p_pos) * select
         return gain
-    p_along = poles[2] * p_pos
+    # Moving less than motion_floor per sample: the heading pole relaxes to 1.
+    p_theta = float(poles[2])
+    if n2 < motion_floor**2:
+        p_theta = 1.0 - (1.0 - p_theta) * n2 / motion_floor**2
+    p_along = p_theta * p_pos
     along = np.outer(c, c) / n2
     remaining = p_pos * (np.eye(2) - along) + p_along * along
     gain[:2, :2] = select @ (np.eye(2) - remaining) @ select
-    gain[2, :2] = (1.0 - poles[2]) * (1.0 - p_pos) / n2 * c
+    gain[2, :2] = (1.0 - p_theta) * (1.0 - p_pos) / n2 * c
     return gain
 
 
@@ -133,6 +139,7 @@ def observer_step(
     measurement: FloatArray,
     mask: FloatArray,
     poles: FloatArray,
+    motion_floor: float,
     lower: FloatArray,
     upper: FloatArray,
     use_bounds: bool,
@@ -142,7 +149,7 @@ def observer_step(
     """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L into
     ``gain``; returns the number of phase-II iterations run."""
     a = state_jacobian(float(estimate[2]), v, omega, dt)  # eq. (7)
-    gain[:, :] = observer_gain_matrix(a, mask, poles)
+    gain[:, :] = observer_gain_matrix(a, mask, poles, motion_floor)
     predicted = predict(estimate, v, omega, dt)  # eq. (5)
     c = np.diag(mask)
     innovation = measurement - predicted

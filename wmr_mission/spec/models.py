@@ -352,7 +352,14 @@ class ConstrainedObserver(_Model):
     initial_estimate: Pose = Field(
         default_factory=_paper_estimate, description="Estimate at mission start [m, m, rad]."
     )
-    poles: StatePoles = Field(default_factory=StatePoles, description="Observer poles, phase I.")
+    poles: StatePoles = Field(
+        default_factory=StatePoles,
+        description=(
+            "Observer poles, phase I (eq. 7). With the heading unmeasured, its pole relaxes "
+            "towards 1 while the robot moves less per sample than sensors.noise_std of the "
+            "measured positions (docs/paper-notes.md, eq. 6-7)."
+        ),
+    )
     output_error_bounds: dict[StateName, OutputErrorBound] | None = Field(
         default_factory=_default_bounds,
         description=(
