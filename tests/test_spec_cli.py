@@ -51,14 +51,32 @@ def test_invalid_file_lists_every_error_on_stderr(tmp_path: Path) -> None:
         f"{path}:4:3: unknown field 'dtt'; did you mean 'dt'?",
         f"{path}:8:22: phases[0].until.elapsed: should be greater than 0, got -1",
     ]
-    assert out == f"{path}: 2 errors\n"
+    # Checks across fields wait for a sound file, and the summary says so.
+    assert out == (
+        f"{path}: 2 errors, checks across fields (observability, timing, paths) run once fixed\n"
+    )
+
+
+def test_semantic_errors_need_no_second_pass_note(tmp_path: Path) -> None:
+    path = tmp_path / "unobservable.yaml"
+    path.write_text(
+        "version: 1\nname: blind\nsensors: {measure: [x, theta]}\n"
+        "phases:\n  - {name: wait, hold: {}, until: {elapsed: 1}}\n",
+        encoding="utf-8",
+    )
+    code, out, err = _validate(str(path))
+    assert code == 1
+    assert err.startswith(f"{path}:3:20: sensors.measure [x, theta] leaves y unobservable")
+    assert out == f"{path}: 1 error\n"
 
 
 def test_one_invalid_file_fails_the_batch() -> None:
     code, out, _ = _validate(str(CASES[0]), str(INVALID / "nan.yaml"))
     assert code == 1
     assert out.splitlines()[0].endswith(": ok")
-    assert out.splitlines()[1].endswith(": 1 error")
+    assert out.splitlines()[1].endswith(
+        ": 1 error, checks across fields (observability, timing, paths) run once fixed"
+    )
 
 
 def test_warnings_alone_keep_exit_zero() -> None:
@@ -85,8 +103,10 @@ def test_json_report(tmp_path: Path) -> None:
         "column": 3,
         "severity": "error",
         "message": "unknown field 'dtt'; did you mean 'dt'?",
+        "stage": "schema",
     }
-    assert report["files"][2]["diagnostics"][0]["severity"] == "warning"
+    warning = report["files"][2]["diagnostics"][0]
+    assert (warning["severity"], warning["stage"]) == ("warning", "semantics")
 
 
 def test_missing_file_is_a_usage_error(tmp_path: Path) -> None:

@@ -29,7 +29,10 @@ class OutputFormat(StrEnum):
 
 
 ExistingFile = Annotated[
-    Path, typer.Argument(exists=True, dir_okay=False, readable=True, help="Mission YAML file.")
+    Path,
+    typer.Argument(
+        exists=True, dir_okay=False, readable=True, metavar="MISSION", help="Mission YAML file."
+    ),
 ]
 
 
@@ -57,7 +60,8 @@ def run(
 @app.command()
 def validate(
     files: Annotated[
-        list[Path], typer.Argument(exists=True, dir_okay=False, help="Mission YAML files.")
+        list[Path],
+        typer.Argument(exists=True, dir_okay=False, metavar="FILE", help="Mission YAML files."),
     ],
     format: Annotated[
         OutputFormat, typer.Option("--format", help="Report format.")
@@ -79,7 +83,10 @@ def schema() -> None:
 
 @app.command()
 def plot(
-    run_dir: Annotated[Path, typer.Argument(exists=True, file_okay=False, help="A run directory.")],
+    run_dir: Annotated[
+        Path,
+        typer.Argument(exists=True, file_okay=False, metavar="RUN_DIR", help="A run directory."),
+    ],
 ) -> None:
     """Re-draw the figures of RUN_DIR from its saved data."""
     from wmr_mission.output.plots import replot_command

@@ -180,6 +180,7 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                         f"an {path.type} path needs an ellipse or circle region, but "
                         f"{path.region!r} is a {region.type}",
                     )
+        yield from _target_against_constraints(mission, phase, where)
         for number, constraint in enumerate(phase.constraints):
             if isinstance(constraint, StayInside):
                 continue
@@ -190,6 +191,38 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                     f"stay_outside needs a region whose outside is convex (ellipse, circle or "
                     f"half-plane); the outside of {region.type} {constraint.stay_outside!r} is not",
                 )
+
+
+def _target_against_constraints(
+    mission: Mission, phase: Phase, where: DataPath
+) -> Iterator[Finding]:
+    """A phase that ends on settling at a target beyond its own constraint never
+    settles. (Pushing a target beyond a fence for a fixed time is a fair use.)"""
+    from wmr_mission.regions import region_value
+
+    if not isinstance(phase, RegulatePhase) or phase.until.settled is None:
+        return
+    target = phase.regulate.target
+    for number, constraint in enumerate(phase.constraints):
+        inside = isinstance(constraint, StayInside)
+        name = (
+            constraint.stay_inside
+            if isinstance(constraint, StayInside)
+            else constraint.stay_outside
+        )
+        region = mission.regions.get(name)
+        if region is None:
+            continue
+        value = float(region_value(region, np.array([target.x]), np.array([target.y]))[0])
+        if (inside and value > 0) or (not inside and value < 0):
+            side, other = ("inside", "outside") if inside else ("outside", "inside")
+            yield Finding(
+                (*where, "constraints", number),
+                f"the target ({target.x:g}, {target.y:g}) is {other} region {name!r}, but the "
+                f"phase must stay {side} it: the robot stops at the boundary and until.settled "
+                "can never fire",
+                severity="warning",
+            )
 
 
 def _initial_state(mission: Mission) -> Iterator[Finding]:
@@ -224,6 +257,29 @@ def _bounds(phase: Phase, start_time: float) -> float:
     return min(limits, default=math.inf)
 
 
+def _ends_on_time_only(phase: Phase) -> bool:
+    """No condition on the robot's motion can end the phase early."""
+    until = phase.until
+    return (
+        until.reaches is None
+        and until.near is None
+        and until.settled is None
+        and (until.heading is None)
+    )
+
+
+def _limit(phase: Phase, start_time: float) -> str:
+    """Which bound of ``_bounds`` ends the phase first, in words."""
+    limits: list[tuple[float, str]] = []
+    if phase.until.elapsed is not None:
+        limits.append((phase.until.elapsed, "until.elapsed"))
+    if phase.until.mission_time is not None:
+        limits.append((phase.until.mission_time - start_time, "until.mission_time"))
+    if phase.timeout is not None:
+        limits.append((phase.timeout, f"its timeout (on_timeout: {phase.on_timeout})"))
+    return min(limits, key=lambda item: item[0])[1] if limits else "nothing"
+
+
 def _multiple_of(duration: float, dt: float) -> bool:
     samples = duration / dt
     return abs(samples - round(samples)) <= 1e-6 * max(1.0, samples)
@@ -231,9 +287,21 @@ def _multiple_of(duration: float, dt: float) -> bool:
 
 def _timing(mission: Mission) -> Iterator[Finding]:
     dt = mission.robot.dt
-    mission_time = 0.0
+    mission_time = 0.0  # latest start of the phase
+    earliest = 0.0  # earliest start of the phase
     for index, phase in enumerate(mission.phases):
         where: DataPath = ("phases", index)
+        until = phase.until
+        if until.mission_time is not None and until.mission_time <= earliest and index > 0:
+            yield Finding(
+                (*where, "until", "mission_time"),
+                f"until.mission_time {until.mission_time:g} s is at or before the earliest time "
+                f"phase {phase.name!r} can begin ({earliest:g} s): it would end at its first "
+                "sample",
+                severity="warning",
+            )
+        if _ends_on_time_only(phase):
+            earliest += _bounds(phase, earliest)
         durations = {
             ("until", "elapsed"): phase.until.elapsed,
             ("until", "mission_time"): phase.until.mission_time,
@@ -275,7 +343,8 @@ def _timing(mission: Mission) -> Iterator[Finding]:
 
 
 def _reaches(mission: Mission) -> Iterator[Finding]:
-    """Warn when a phase's path, sampled up to the phase's bound, never crosses its region.
+    """Sample each track phase's path up to the phase's bound: it must be finite,
+    and a `reaches` region should be crossed (warning).
 
     The robot is assumed to follow each phase perfectly: a track phase starts
     where the previous one ended (the initial state for the first phase, the
@@ -300,6 +369,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             continue
         if isinstance(phase, HoldPhase):
             continue
+        assumed = f"assuming the robot starts the phase at ({pose[0]:g}, {pose[1]:g})"
         try:
             trajectory = paths.instantiate(phase.track.path, mission, pose)
             times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
@@ -308,8 +378,19 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         except (ValueError, ArithmeticError) as error:
             yield Finding(
                 ("phases", index, "track", "path"),
-                f"the path cannot be sampled from its nominal start: {error}",
+                f"the path cannot be sampled ({assumed}): {error}",
                 severity="warning",
+            )
+            return
+        finite = np.isfinite(x) & np.isfinite(y) & np.isfinite(dx) & np.isfinite(dy)
+        if not finite.all():
+            first = float(times[int(np.argmin(finite))])
+            yield Finding(
+                ("phases", index, "track", "path"),
+                f"the path (or its direction) is not finite at t = {first:g} s of the phase "
+                f"({assumed}); the run would stop there as diverged",
+                # A phase that may end on a condition of the robot's motion may end first.
+                severity="error" if first == 0.0 or _ends_on_time_only(phase) else "warning",
             )
             return
         name = phase.until.reaches
@@ -323,8 +404,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                 yield Finding(
                     ("phases", index, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
-                    f"{bound:g} s (sampled from its nominal start ({pose[0]:g}, {pose[1]:g})); "
-                    f"the phase will end by timeout (on_timeout: {phase.on_timeout})",
+                    f"{bound:g} s ({assumed}); the phase will end by "
+                    f"{_limit(phase, mission_time - bound)}",
                     severity="warning",
                 )
         if np.isfinite(x[-1]) and np.isfinite(y[-1]):

@@ -14,9 +14,9 @@ import math
 import re
 import typing
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Final
+from typing import Any, Final, Literal
 
 import yaml
 from pydantic import BaseModel, ValidationError
@@ -64,6 +64,9 @@ class Diagnostic:
     column: int
     message: str
     severity: Severity = "error"
+    # "schema": reading the file and checking each field; "semantics": the
+    # checks across fields, which run once the schema stage found no error.
+    stage: Literal["schema", "semantics"] = "schema"
 
     def __str__(self) -> str:
         if self.severity == "error":
@@ -628,10 +631,13 @@ def _check(text: str, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
                 if not _under(path, document.refused):
                     translated.append(_translate(item, document))
             findings.extend(_without_implied_missing(translated))
+    unique = {_diagnostic(filename, document, f) for f in findings}
     if mission is not None and not findings:
-        findings.extend(check(mission))
+        unique |= {
+            replace(_diagnostic(filename, document, f), stage="semantics") for f in check(mission)
+        }
     diagnostics = sorted(
-        {_diagnostic(filename, document, f) for f in findings},
+        unique,
         key=lambda d: (d.line, d.column, d.message),
     )
     if any(d.severity == "error" for d in diagnostics):

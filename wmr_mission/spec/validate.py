@@ -20,6 +20,9 @@ def _summary(diagnostics: Sequence[Diagnostic]) -> str:
     if errors == 0:
         return "ok" if warnings == 0 else f"ok ({_count(warnings, 'warning')})"
     parts = [_count(errors, "error")] + ([_count(warnings, "warning")] if warnings else [])
+    if not any(d.stage == "semantics" for d in diagnostics):
+        # The checks across fields need a mission whose every field is sound.
+        parts.append("checks across fields (observability, timing, paths) run once fixed")
     return ", ".join(parts)
 
 
