@@ -99,9 +99,15 @@ def test_per_phase_values() -> None:
     )
     assert park["tracking_error"] is None
     assert park["target_error"]["position"] == pytest.approx(RADIUS)
-    assert approach["constraint"] == {"max_violation": None, "time_in_violation": 0.0}
+    assert approach["constraint"] == {
+        "max_violation": None,
+        "max_value": None,
+        "time_in_violation": 0.0,
+    }
     # 50 samples at 0.02 > 0
-    assert park["constraint"] == pytest.approx({"max_violation": 0.02, "time_in_violation": 0.5})
+    assert park["constraint"] == pytest.approx(
+        {"max_violation": 0.02, "max_value": 0.02, "time_in_violation": 0.5}
+    )
     assert approach["estimation"]["max_abs_error"] == pytest.approx(
         {"x": 1.0, "y": 1.0, "theta": 0.0}
     )
@@ -225,3 +231,28 @@ def test_expectation_on_the_constraint() -> None:
 def test_unknown_expectation_is_an_error() -> None:
     with pytest.raises(ValueError, match="unknown expectation 'speed'"):
         check_expectations(summarize(circle_run(100)), {"speed": {"max": 1.0}})
+
+
+def test_a_held_constraint_is_no_violation() -> None:
+    """Rows at -0.5 and at rounding level above 0: nothing violated, the margin kept."""
+    run = circle_run()
+    run.constraint[1600:1650] = 5e-8  # on the boundary, held by the corrective action
+    park = summarize(run)["phases"][2]
+    assert park["constraint"] == pytest.approx(
+        {"max_violation": 5e-8, "max_value": 5e-8, "time_in_violation": 0.0}
+    )
+    run.constraint[1600:1650] = -0.5
+    summary = summarize(run)
+    assert summary["max_constraint_violation"] == 0.0
+    assert summary["phases"][2]["constraint"]["max_value"] == pytest.approx(-0.5)
+
+
+def test_per_phase_estimation_overshoot() -> None:
+    """The x/y errors decay from 1 without crossing zero; a heading error that
+    starts at 0.2 in the orbit and swings to -0.05 overshoots by a quarter."""
+    samples = 2001
+    heading = np.zeros(samples)
+    heading[500:1500] = np.linspace(0.2, -0.05, 1000)
+    phases = summarize(circle_run(samples, theta_error=heading))["phases"]
+    assert phases[0]["estimation"]["overshoot"] == pytest.approx({"x": 0.0, "y": 0.0, "theta": 0.0})
+    assert phases[1]["estimation"]["overshoot"]["theta"] == pytest.approx(0.25)

@@ -41,7 +41,7 @@ def run(
     mission: ExistingFile,
     out: Annotated[
         Path | None,
-        typer.Option("--out", help="Run directory [default: runs/<mission-name>-<timestamp>]."),
+        typer.Option("--out", help="Run directory (default: runs/<mission-name>-<timestamp>)."),
     ] = None,
     seed: Annotated[
         int | None, typer.Option("--seed", help="Sensor-noise seed; overrides the mission's.")

@@ -53,6 +53,8 @@ def run_command(
     compiled = compile_mission(mission, seed)
     result = _simulate(compiled, mission.name)
     resolved = mission.model_dump(mode="json")
+    if seed is not None:  # the manifest records the mission as run
+        resolved["sensors"]["seed"] = seed
     expect = resolved.get("expect") or {}
     if result.outcome is Outcome.success:
         failures = _expectation_failures(result, expect)
@@ -74,7 +76,10 @@ def run_command(
     summary["expectations"] = check_expectations(summary, expect)
     print(format_table(summary, run_dir))
     if result.outcome is not Outcome.success:
-        print(f"{mission_path}: {result.outcome.value}: {result.message}", file=sys.stderr)
+        cause = result.message
+        if not cause.startswith(result.outcome.value):
+            cause = f"{result.outcome.value}: {cause}"
+        print(f"{mission_path}: {cause}", file=sys.stderr)
         return 1
     return 0
 
@@ -85,7 +90,6 @@ def _simulate(compiled: Any, name: str) -> RunResult:
 
     from wmr_mission.runner import run_mission
 
-    total = compiled.max_samples * compiled.dt
     if compiled.max_samples < 20_000 or not sys.stderr.isatty():
         return run_mission(compiled)
     with typer.progressbar(length=1000, label=f"{name}", file=sys.stderr) as bar:
@@ -100,5 +104,4 @@ def _simulate(compiled: Any, name: str) -> RunResult:
 
         result = run_mission(compiled, progress=progress)
         bar.update(1000 - done[0])
-    del total
     return result

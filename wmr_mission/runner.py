@@ -33,8 +33,11 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-# A state or input beyond this is a runaway, not a robot [m, m/s].
+# A position beyond this is a runaway, not a robot [m].
 RUNAWAY = 1e6
+# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
+# no wheeled robot drives at 1 km/s or turns 160 times a second.
+RUNAWAY_INPUT = 1e3
 # Reference samples computed per path evaluation (paths are vectorised in t).
 REFERENCE_BLOCK = 1024
 PROGRESS_EVERY = 2000
@@ -86,6 +89,12 @@ class Recorder:
 
     def column(self, name: str) -> FloatArray:
         return self.floats[: self.count, self.FLOAT_COLUMNS.index(name)].copy()
+
+
+def _seconds(samples: int, dt: float) -> float:
+    """``samples * dt`` without its rounding tail (53.48, not 53.480000000000004),
+    for the times people read in transitions.json."""
+    return round(samples * dt, 9)
 
 
 class ActivePhase:
@@ -155,9 +164,9 @@ class ActivePhase:
         dt = self.mission.dt
         x, y, theta = float(estimate[0]), float(estimate[1]), float(estimate[2])
         if until.elapsed_samples is not None and local >= until.elapsed_samples:
-            return "elapsed", local * dt
+            return "elapsed", _seconds(local, dt)
         if until.mission_time is not None and k * dt >= until.mission_time - 0.5 * dt:
-            return "mission_time", k * dt
+            return "mission_time", _seconds(k, dt)
         kinds, params = until.reaches_rows
         if kinds.shape[0]:
             value = max_row_value(kinds, params, x, y)
@@ -181,7 +190,7 @@ class ActivePhase:
             if error <= until.heading[1]:
                 return "heading", error
         if self.phase.timeout_samples is not None and local >= self.phase.timeout_samples:
-            return "timeout", local * dt
+            return "timeout", _seconds(local, dt)
         return None
 
 
@@ -318,7 +327,7 @@ class _Run:
                 if condition == "timeout" and active.phase.fail_on_timeout:
                     active.status = Status.timed_out
                     self.transitions.append(
-                        Transition(k * dt, active.phase.name, None, condition, value)
+                        Transition(_seconds(k, dt), active.phase.name, None, condition, value)
                     )
                     outcome = Outcome.timeout
                     message = (
@@ -332,7 +341,7 @@ class _Run:
                 to = self.phases[index] if index < len(self.phases) else None
                 self.transitions.append(
                     Transition(
-                        k * dt,
+                        _seconds(k, dt),
                         active.phase.name,
                         None if to is None else to.phase.name,
                         condition,
@@ -397,6 +406,13 @@ class _Run:
             )
             if not (math.isfinite(u[0]) and math.isfinite(u[1])):
                 outcome, message = self._diverged(k, active, "the input is not finite")
+                break
+            if abs(u[0]) > RUNAWAY_INPUT or abs(u[1]) > RUNAWAY_INPUT:
+                cause = (
+                    f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
+                    f"beyond {RUNAWAY_INPUT:g} is no robot's)"
+                )
+                outcome, message = self._diverged(k, active, cause)
                 break
             # --- plant, sensors, estimator.
             state[0], state[1], state[2] = step(state[0], state[1], state[2], u[0], u[1], dt)

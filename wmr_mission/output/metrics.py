@@ -22,6 +22,9 @@ STATES = ("x", "y", "theta")
 CONVERGENCE_TOLERANCE = 0.05
 # Tracking-error RMS is also reported without the entry transient of a phase.
 TRACKING_SETTLE_TIME = 1.0  # [s]
+# A constraint row above this counts as violated: a constraint held as an
+# equality by the corrective action sits on 0 to rounding.
+VIOLATION_TOLERANCE = 1e-6
 
 # `expect` key -> where its value lives in the summary.
 _EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
@@ -48,6 +51,13 @@ def _max_or_none(values: FloatArray) -> float | None:
     """Largest finite value, or None when there is none."""
     finite = values[np.isfinite(values)]
     return float(finite.max()) if finite.size else None
+
+
+def _violation(values: FloatArray) -> float | None:
+    """How far the largest constraint-row value is above 0 (0 when never);
+    None when no constraint applied."""
+    largest = _max_or_none(values)
+    return None if largest is None else max(0.0, largest)
 
 
 def _rms_or_none(values: FloatArray) -> float | None:
@@ -207,11 +217,16 @@ def _phase_summary(
         "tracking_error": tracking,
         "target_error": target_error,
         "constraint": {
-            "max_violation": _max_or_none(constraint),
-            "time_in_violation": float(np.count_nonzero(constraint > 0.0)) * result.dt,
+            "max_violation": _violation(constraint),
+            # the largest row value itself: negative = the closest approach
+            "max_value": _max_or_none(constraint),
+            "time_in_violation": (
+                float(np.count_nonzero(constraint > VIOLATION_TOLERANCE)) * result.dt
+            ),
         },
         "estimation": {
             "max_abs_error": {s: _max_or_none(np.abs(e)) for s, e in phase_errors.items()},
+            "overshoot": {s: overshoot(e) for s, e in phase_errors.items()},
             # seconds after the phase start
             "convergence_time": (
                 None if converged is None else float(t[start + converged]) - start_time
@@ -254,7 +269,7 @@ def summarize(result: RunResult) -> dict[str, Any]:
         "final": _final(result, segments),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
         "estimation_overshoot": {state: overshoot(error) for state, error in errors.items()},
-        "max_constraint_violation": _max_or_none(result.constraint),
+        "max_constraint_violation": _violation(result.constraint),
         "phases": [
             _phase_summary(result, errors, index, start, end) for index, start, end in segments
         ],

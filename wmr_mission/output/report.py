@@ -77,9 +77,13 @@ def format_table(summary: dict[str, Any], run_dir: str | os.PathLike[str]) -> st
         verdict = "met" if check["met"] else "NOT MET"
         value = "null" if check["value"] is None else f"{check['value']:.4g}"
         lines.append(f"expect {check['metric']} <= {check['max']:g}: {value} ({verdict})")
-    outcome = f"outcome: {summary.get('outcome')} after {_seconds(summary.get('duration'))}"
-    if summary.get("message"):
-        outcome += f" - {summary['message']}"
+    message = str(summary.get("message") or "")
+    if message.startswith(str(summary.get("outcome"))):  # "diverged in phase ... at t = ..."
+        outcome = f"outcome: {message}"
+    else:
+        outcome = f"outcome: {summary.get('outcome')} after {_seconds(summary.get('duration'))}"
+        if message:
+            outcome += f" - {message}"
     lines.append(outcome)
     lines.append(f"outputs: {os.fspath(run_dir)}")
     return "\n".join(lines) + "\n"
