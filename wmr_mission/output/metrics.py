@@ -213,7 +213,7 @@ def _phase_summary(
         "kind": info.kind,
         "start": start_time,
         "end": float(t[end_sample]),
-        "duration": float(t[end_sample]) - start_time,
+        "duration": round(float(t[end_sample]) - start_time, 9),  # no 20.000000000000004
         "tracking_error": tracking,
         "target_error": target_error,
         "constraint": {
@@ -258,7 +258,7 @@ def summarize(result: RunResult) -> dict[str, Any]:
     segments = phase_segments(result.phase)
     errors = estimation_errors(result)
     converged = convergence_index(errors)
-    duration = float(result.t[-1] - result.t[0]) if result.samples else 0.0
+    duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
     return {
         "outcome": result.outcome.value,
         "message": result.message,
