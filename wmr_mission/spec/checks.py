@@ -193,16 +193,13 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                 )
 
 
-def _target_against_constraints(
-    mission: Mission, phase: Phase, where: DataPath
-) -> Iterator[Finding]:
-    """A phase that ends on settling at a target beyond its own constraint never
-    settles. (Pushing a target beyond a fence for a fixed time is a fair use.)"""
+def _breaches(
+    mission: Mission, phase: Phase, x: float, y: float
+) -> Iterator[tuple[int, str, str, str]]:
+    """(constraint number, region name, required side, actual side) of each
+    constraint of ``phase`` that the point (x, y) breaks."""
     from wmr_mission.regions import region_value
 
-    if not isinstance(phase, RegulatePhase) or phase.until.settled is None:
-        return
-    target = phase.regulate.target
     for number, constraint in enumerate(phase.constraints):
         inside = isinstance(constraint, StayInside)
         name = (
@@ -213,40 +210,38 @@ def _target_against_constraints(
         region = mission.regions.get(name)
         if region is None:
             continue
-        value = float(region_value(region, np.array([target.x]), np.array([target.y]))[0])
+        value = float(region_value(region, np.array([x]), np.array([y]))[0])
         if (inside and value > 0) or (not inside and value < 0):
             side, other = ("inside", "outside") if inside else ("outside", "inside")
-            yield Finding(
-                (*where, "constraints", number),
-                f"the target ({target.x:g}, {target.y:g}) is {other} region {name!r}, but the "
-                f"phase must stay {side} it: the robot stops at the boundary and until.settled "
-                "can never fire",
-                severity="warning",
-            )
+            yield number, name, side, other
+
+
+def _target_against_constraints(
+    mission: Mission, phase: Phase, where: DataPath
+) -> Iterator[Finding]:
+    """A phase that ends on settling at a target beyond its own constraint never
+    settles. (Pushing a target beyond a fence for a fixed time is a fair use.)"""
+    if not isinstance(phase, RegulatePhase) or phase.until.settled is None:
+        return
+    target = phase.regulate.target
+    for number, name, side, other in _breaches(mission, phase, target.x, target.y):
+        yield Finding(
+            (*where, "constraints", number),
+            f"the target ({target.x:g}, {target.y:g}) is {other} region {name!r}, but the "
+            f"phase must stay {side} it: the robot stops at the boundary and until.settled "
+            "can never fire",
+            severity="warning",
+        )
 
 
 def _initial_state(mission: Mission) -> Iterator[Finding]:
-    from wmr_mission.regions import region_value
-
     start = mission.robot.initial_state
-    for number, constraint in enumerate(mission.phases[0].constraints):
-        inside = isinstance(constraint, StayInside)
-        name = (
-            constraint.stay_inside
-            if isinstance(constraint, StayInside)
-            else constraint.stay_outside
+    for number, name, side, other in _breaches(mission, mission.phases[0], start.x, start.y):
+        yield Finding(
+            ("phases", 0, "constraints", number),
+            f"robot.initial_state ({start.x:g}, {start.y:g}) is {other} region {name!r}, "
+            f"but the first phase must stay {side} it",
         )
-        region = mission.regions.get(name)
-        if region is None:
-            continue
-        value = float(region_value(region, np.array([start.x]), np.array([start.y]))[0])
-        if (inside and value > 0) or (not inside and value < 0):
-            side, other = ("inside", "outside") if inside else ("outside", "inside")
-            yield Finding(
-                ("phases", 0, "constraints", number),
-                f"robot.initial_state ({start.x:g}, {start.y:g}) is {other} region {name!r}, "
-                f"but the first phase must stay {side} it",
-            )
 
 
 def _bounds(phase: Phase, start_time: float) -> float:
