@@ -76,10 +76,9 @@ def run_command(
     summary["expectations"] = check_expectations(summary, expect)
     print(format_table(summary, run_dir))
     if result.outcome is not Outcome.success:
-        cause = result.message
-        if not cause.startswith(result.outcome.value):
-            cause = f"{result.outcome.value}: {cause}"
-        print(f"{mission_path}: {cause}", file=sys.stderr)
+        # Every failure message names what happened: "diverged in phase ...",
+        # "phase ... timed out ...", "expectation not met: ...".
+        print(f"{mission_path}: {result.message}", file=sys.stderr)
         return 1
     return 0
 

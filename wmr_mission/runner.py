@@ -404,14 +404,14 @@ class _Run:
                 control_ns,
                 reference_now if reference is not None else None,
             )
-            if not (math.isfinite(u[0]) and math.isfinite(u[1])):
-                outcome, message = self._diverged(k, active, "the input is not finite")
-                break
-            if abs(u[0]) > RUNAWAY_INPUT or abs(u[1]) > RUNAWAY_INPUT:
-                cause = (
-                    f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
-                    f"beyond {RUNAWAY_INPUT:g} is no robot's)"
-                )
+            if not (abs(u[0]) <= RUNAWAY_INPUT and abs(u[1]) <= RUNAWAY_INPUT):  # NaN too
+                if math.isfinite(u[0]) and math.isfinite(u[1]):
+                    cause = (
+                        f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
+                        f"beyond {RUNAWAY_INPUT:g} is no robot's)"
+                    )
+                else:
+                    cause = "the input is not finite"
                 outcome, message = self._diverged(k, active, cause)
                 break
             # --- plant, sensors, estimator.
@@ -458,14 +458,20 @@ class _Run:
         scratch.update(estimate.copy(), u, measurement.copy())
         m = self.m
         work = control.make_workspace()
-        for phase in self.phases:
-            if phase.phase.kind == "track":
+        warmed: set[bool] = set()  # one call per controller: tracking, regulating
+        for active in self.phases:
+            phase = active.phase
+            regulating = phase.kind != "track"
+            if regulating in warmed:
+                continue
+            warmed.add(regulating)
+            if not regulating:
                 self.functions.track_input(
                     estimate.copy(), u.copy(), np.zeros(4), m.look_ahead, m.w, m.m, m.limits,
                     m.dt, work, np.zeros(2),
                 )  # fmt: skip
             else:
-                kinds, params = phase.phase.constraint_rows
+                kinds, params = phase.constraint_rows
                 self.functions.regulate_input(
                     estimate.copy(), estimate.copy(), u.copy(), estimate.copy(),
                     m.regulation_form, m.align_radius, m.reverse, m.q, m.r, m.w, m.m,
@@ -473,7 +479,7 @@ class _Run:
                 )  # fmt: skip
 
     def _diverged(self, k: int, active: ActivePhase, cause: str) -> tuple[Outcome, str]:
-        t = k * self.m.dt
+        t = _seconds(k, self.m.dt)
         self.transitions.append(Transition(t, active.phase.name, None, "diverged", math.nan))
         return (
             Outcome.diverged,

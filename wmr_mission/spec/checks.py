@@ -244,35 +244,33 @@ def _initial_state(mission: Mission) -> Iterator[Finding]:
         )
 
 
+def _limits(phase: Phase, start_time: float) -> list[tuple[float, str]]:
+    """Each time bound of a phase entered at ``start_time``: (seconds, what sets it)."""
+    until = phase.until
+    limits: list[tuple[float, str]] = []
+    if until.elapsed is not None:
+        limits.append((until.elapsed, "until.elapsed"))
+    if until.mission_time is not None:
+        limits.append((max(0.0, until.mission_time - start_time), "until.mission_time"))
+    if phase.timeout is not None:
+        limits.append((phase.timeout, f"its timeout (on_timeout: {phase.on_timeout})"))
+    return limits
+
+
 def _bounds(phase: Phase, start_time: float) -> float:
     """Longest the phase can last when entered at ``start_time`` [s] (inf: unbounded)."""
-    limits = [d for d in (phase.until.elapsed, phase.timeout) if d is not None]
-    if phase.until.mission_time is not None:
-        limits.append(max(0.0, phase.until.mission_time - start_time))
-    return min(limits, default=math.inf)
+    return min((seconds for seconds, _ in _limits(phase, start_time)), default=math.inf)
+
+
+def _limit(phase: Phase, start_time: float) -> str:
+    """What ends the phase first by time, in words."""
+    return min(_limits(phase, start_time), default=(math.inf, "nothing"))[1]
 
 
 def _ends_on_time_only(phase: Phase) -> bool:
     """No condition on the robot's motion can end the phase early."""
     until = phase.until
-    return (
-        until.reaches is None
-        and until.near is None
-        and until.settled is None
-        and (until.heading is None)
-    )
-
-
-def _limit(phase: Phase, start_time: float) -> str:
-    """Which bound of ``_bounds`` ends the phase first, in words."""
-    limits: list[tuple[float, str]] = []
-    if phase.until.elapsed is not None:
-        limits.append((phase.until.elapsed, "until.elapsed"))
-    if phase.until.mission_time is not None:
-        limits.append((phase.until.mission_time - start_time, "until.mission_time"))
-    if phase.timeout is not None:
-        limits.append((phase.timeout, f"its timeout (on_timeout: {phase.on_timeout})"))
-    return min(limits, key=lambda item: item[0])[1] if limits else "nothing"
+    return all(c is None for c in (until.reaches, until.near, until.settled, until.heading))
 
 
 def _multiple_of(duration: float, dt: float) -> bool:
