@@ -26,7 +26,7 @@ def test_table_has_a_row_per_phase_in_fixed_columns() -> None:
     assert rows[0].endswith("  0.29 s")
     assert rows[0][: lines[0].index("duration") + 8].endswith(" 5.00 s")  # right-aligned
     assert "10.00 s" in rows[1]
-    assert lines[-2] == "outcome: success after 20.00 s - all phases done"
+    assert lines[-2] == "outcome: success after 20.00 s of simulated time - all phases done"
     assert lines[-1] == "outputs: runs/circle-20240611-090503"
     assert text.endswith("\n")
 

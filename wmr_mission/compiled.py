@@ -60,6 +60,9 @@ class CompiledPhase:
     target: tuple[float, float, float] | None = None
     constraint_rows: tuple[IntArray, FloatArray] = field(default_factory=no_rows)
     constraints: tuple[tuple[str, str], ...] = ()
+    # For the figures only: the points a path is written through, the phase's colour.
+    points: tuple[tuple[float, float], ...] = ()
+    color: str | None = None
 
 
 @dataclass(frozen=True)
@@ -171,8 +174,11 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         )
         make_trajectory = None
         target = None
+        points: tuple[tuple[float, float], ...] = ()
         if kind == "track":
             path = phase.track.path  # type: ignore[union-attr]
+            # Any path written through points (waypoints and the like) shows them.
+            points = tuple((float(x), float(y)) for x, y in getattr(path, "points", None) or ())
 
             def make_trajectory(
                 pose: tuple[float, float, float], _path: object = path
@@ -193,6 +199,8 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 target=target,
                 constraint_rows=_stack_rows(row_parts),
                 constraints=tuple(constraints),
+                points=points,
+                color=mission.plot.phase_colors.get(phase.name),
             )
         )
     estimator = mission.estimator

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.result import FloatArray, PhaseInfo, RunResult
+from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
 
 STATES = ("x", "y", "theta")
 # |estimation error| below which a state counts as converged; the same number
@@ -312,3 +312,19 @@ def check_expectations(summary: dict[str, Any], expect: dict[str, Any]) -> list[
             }
         )
     return checks
+
+
+def judge(result: RunResult) -> None:
+    """A run that completed but misses an `expect` threshold of its mission ends
+    ``expect-failed``; the message lists every threshold missed."""
+    if result.outcome is not Outcome.success or result.mission is None:
+        return
+    expect = result.mission.get("expect") or {}
+    failures = []
+    for item in check_expectations(summarize(result), expect):
+        if not item["met"]:
+            value = "none" if item["value"] is None else f"{item['value']:.6g}"
+            failures.append(f"{item['metric']} = {value} (max {item['max']:.6g})")
+    if failures:
+        result.outcome = Outcome.expect_failed
+        result.message = "expectation not met: " + "; ".join(failures)

@@ -21,6 +21,7 @@ reads back. ``phase`` holds the phase name; lines end with ``\\n``.
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
@@ -155,21 +156,18 @@ def _csv_field(text: str) -> str:
 def trajectory_csv_text(result: RunResult) -> str:
     """The whole ``trajectory.csv``: header line then one line per sample."""
     names = np.array([_csv_field(p.name) for p in result.phases] or [""], dtype=object)
-    columns: list[list[Any]] = [
-        np.asarray(getattr(result, name), dtype=np.float64).tolist()
-        for name in TRAJECTORY_COLUMNS[:-1]
-    ]
-    columns.append(names[np.asarray(result.phase, dtype=np.int64)].tolist())
-    columns += [
-        np.asarray(getattr(result, name), dtype=np.float64).tolist() for name in EXTRA_COLUMNS[:-1]
-    ]
-    columns.append(np.asarray(result.phase2_iterations, dtype=np.int64).tolist())
-    formats = (
-        [_FLOAT_FORMAT] * (len(TRAJECTORY_COLUMNS) - 1)
-        + ["%s"]
-        + [_FLOAT_FORMAT] * (len(EXTRA_COLUMNS) - 1)
-        + ["%d"]
-    )
+    columns: list[list[Any]] = []
+    formats: list[str] = []
+    for name in CSV_COLUMNS:
+        if name == "phase":
+            columns.append(names[np.asarray(result.phase, dtype=np.int64)].tolist())
+            formats.append("%s")
+        elif name == "phase2_iterations":
+            columns.append(np.asarray(result.phase2_iterations, dtype=np.int64).tolist())
+            formats.append("%d")
+        else:
+            columns.append(np.asarray(getattr(result, name), dtype=np.float64).tolist())
+            formats.append(_FLOAT_FORMAT)
     row_format = ",".join(formats) + "\n"
     parts = [",".join(CSV_COLUMNS) + "\n"]
     for start in range(0, result.samples, _ROWS_PER_BLOCK):
@@ -260,6 +258,9 @@ def run_record(result: RunResult) -> dict[str, Any]:
                 "constraints": [
                     {"region": region, "side": side} for region, side in phase.constraints
                 ],
+                "near": list(phase.near) if phase.near is not None else None,
+                "points": [list(point) for point in phase.points],
+                "color": phase.color,
             }
             for phase in result.phases
         ],
@@ -277,7 +278,7 @@ def manifest_record(
     *,
     mission_sha256: str,
     resolved_mission: Mapping[str, Any],
-    mission_file: str,
+    mission_file: str | None,
 ) -> dict[str, Any]:
     return {
         "mission_file": mission_file,
@@ -289,22 +290,39 @@ def manifest_record(
     }
 
 
+def summary_record(result: RunResult, expect: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The content of ``summary.json``: every metric, and each expectation of
+    ``expect`` (default: the `expect` of ``result.mission``) with its verdict."""
+    summary = summarize(result)
+    if expect is None and result.mission is not None:
+        expect = result.mission.get("expect")
+    if isinstance(expect, Mapping):
+        summary["expectations"] = check_expectations(summary, dict(expect))
+    return summary
+
+
 def write_run(
     result: RunResult,
     out_dir: str | os.PathLike[str],
     *,
-    mission_sha256: str,
-    resolved_mission: Mapping[str, Any],
-    mission_file: str,
+    mission_sha256: str | None = None,
+    resolved_mission: Mapping[str, Any] | None = None,
+    mission_file: str | None = None,
     plots: bool,
     animate: bool,
+    formats: Sequence[str] = ("png",),
 ) -> list[Path]:
     """Write the run directory (made by ``prepare_run_dir``); return the files written.
 
     ``summary.json`` comes last, so its presence marks a complete directory.
-    When ``resolved_mission`` has an ``expect`` section, the summary also lists
-    each expectation and whether it was met.
+    ``resolved_mission`` defaults to ``result.mission``; ``mission_sha256``
+    (the mission file's hash) to the hash of that resolved mission's JSON.
+    When it has an ``expect`` section, the summary also lists each
+    expectation and whether it was met. Figures are written in each of ``formats``.
     """
+    resolved = resolved_mission if resolved_mission is not None else (result.mission or {})
+    if mission_sha256 is None:
+        mission_sha256 = hashlib.sha256(json_text(resolved).encode("utf-8")).hexdigest()
     run_dir = Path(out_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     written = [
@@ -314,7 +332,7 @@ def write_run(
             manifest_record(
                 result,
                 mission_sha256=mission_sha256,
-                resolved_mission=resolved_mission,
+                resolved_mission=resolved,
                 mission_file=mission_file,
             ),
         ),
@@ -323,16 +341,14 @@ def write_run(
     if plots:
         from wmr_mission.output.plots import draw_all
 
-        written += draw_all(result, run_dir)
+        written += draw_all(result, run_dir, formats)
     if animate:
         from wmr_mission.output.animation import write_animation
 
         written.append(write_animation(result, run_dir / ANIMATION_FILE))
-    summary = summarize(result)
-    expect = resolved_mission.get("expect")
-    if isinstance(expect, Mapping):
-        summary["expectations"] = check_expectations(summary, dict(expect))
-    written.append(write_json(run_dir / SUMMARY_FILE, summary))
+    written.append(
+        write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved.get("expect") or {}))
+    )
     return written
 
 
@@ -407,9 +423,32 @@ def _phases_from(run: Any) -> list[PhaseInfo]:
                     )
                 ),
                 constraints=constraints,
+                near=_near_from(record, at),
+                points=tuple(
+                    (_number(point[0], at), _number(point[1], at))
+                    for point in _optional(record, "points", list, at) or []
+                    if isinstance(point, list) and len(point) == 2
+                ),
+                color=_optional(record, "color", str, at),
             )
         )
     return phases
+
+
+def _optional(record: Any, key: str, kind: type, where: str) -> Any:
+    """A field older run directories may lack: None when absent or null."""
+    if not isinstance(record, dict) or record.get(key) is None:
+        return None
+    return _field(record, key, kind, where)
+
+
+def _near_from(record: Any, where: str) -> tuple[float, float, float] | None:
+    near = _optional(record, "near", list, where)
+    if near is None:
+        return None
+    if len(near) != 3:
+        raise RunDirError(f"{where}: 'near' must be [x, y, tolerance]")
+    return _number(near[0], where), _number(near[1], where), _number(near[2], where)
 
 
 def _transitions_from(records: Any) -> list[Transition]:
@@ -575,4 +614,8 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
         ),
         error_bounds=(error_bounds[0], error_bounds[1], error_bounds[2]),
         regions=_field(run, "regions", dict, where),
+        x_meas=data["x_meas"],
+        y_meas=data["y_meas"],
+        theta_meas=data["theta_meas"],
+        mission=_field(manifest, "resolved_mission", dict, MANIFEST_FILE),
     )

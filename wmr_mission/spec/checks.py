@@ -64,6 +64,7 @@ def check(mission: Mission) -> list[Finding]:
         *_initial_state(mission),
         *_timing(mission),
         *_expectations(mission),
+        *_phase_colors(mission),
     ]
     if not any(f.severity == "error" for f in findings):
         # sampling paths needs a sound mission (regions of the right kind, bounded phases)
@@ -417,3 +418,18 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
             severity="warning",
             at_key=True,
         )
+
+
+def _phase_colors(mission: Mission) -> Iterator[Finding]:
+    import difflib
+
+    names = [phase.name for phase in mission.phases]
+    for name in mission.plot.phase_colors:
+        if name not in names:
+            close = difflib.get_close_matches(name, names, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            yield Finding(
+                ("plot", "phase_colors", name),
+                f"plot.phase_colors names no phase {name!r}{hint} (phases: {', '.join(names)})",
+                at_key=True,
+            )

@@ -13,6 +13,7 @@ expression is evaluated once, so a loaded model holds plain floats.
 from __future__ import annotations
 
 import math
+import re
 from typing import Annotated, Any, Final, Literal
 
 from pydantic import (
@@ -56,6 +57,7 @@ __all__ = [
     "Near",
     "PathSpec",
     "Phase",
+    "Plot",
     "PolygonRegion",
     "Pose",
     "RegionSpec",
@@ -348,7 +350,9 @@ class StatePositiveStd(_Model):
 class ConstrainedObserver(_Model):
     """The paper's two-phase constrained estimator, eqs. (4)-(12)."""
 
-    type: Literal["constrained-observer"] = Field(description="Estimator kind.")
+    type: Literal["constrained-observer"] = Field(
+        default="constrained-observer", description="Estimator kind (the default)."
+    )
     initial_estimate: Pose = Field(
         default_factory=_paper_estimate, description="Estimate at mission start [m, m, rad]."
     )
@@ -397,7 +401,18 @@ class Ekf(_Model):
     )
 
 
-Estimator = Annotated[ConstrainedObserver | Ekf, Field(discriminator="type")]
+def _estimator_type(value: Any) -> str | None:
+    """The estimator's `type`; without one, the paper's estimator."""
+    if isinstance(value, dict):
+        kind = value.get("type", "constrained-observer")
+        return kind if isinstance(kind, str) else None
+    return getattr(value, "type", None)
+
+
+Estimator = Annotated[
+    Annotated[ConstrainedObserver, Tag("constrained-observer")] | Annotated[Ekf, Tag("ekf")],
+    Discriminator(_estimator_type),
+]
 
 
 # --- controller ------------------------------------------------------------
@@ -886,6 +901,76 @@ class Expect(_Model):
     duration: Threshold | None = Field(default=None, description="[s] mission time.")
 
 
+# --- figures ---------------------------------------------------------------
+
+
+# The colour names matplotlib knows (CSS4 and its tableau and one-letter colours),
+# spelt out so that `validate` never has to import matplotlib.
+CSS4_COLORS: Final = frozenset(
+    """aliceblue antiquewhite aqua aquamarine azure beige bisque black blanchedalmond blue
+    blueviolet brown burlywood cadetblue chartreuse chocolate coral cornflowerblue cornsilk
+    crimson cyan darkblue darkcyan darkgoldenrod darkgray darkgreen darkgrey darkkhaki
+    darkmagenta darkolivegreen darkorange darkorchid darkred darksalmon darkseagreen
+    darkslateblue darkslategray darkslategrey darkturquoise darkviolet deeppink deepskyblue
+    dimgray dimgrey dodgerblue firebrick floralwhite forestgreen fuchsia gainsboro ghostwhite
+    gold goldenrod gray green greenyellow grey honeydew hotpink indianred indigo ivory khaki
+    lavender lavenderblush lawngreen lemonchiffon lightblue lightcoral lightcyan
+    lightgoldenrodyellow lightgray lightgreen lightgrey lightpink lightsalmon lightseagreen
+    lightskyblue lightslategray lightslategrey lightsteelblue lightyellow lime limegreen linen
+    magenta maroon mediumaquamarine mediumblue mediumorchid mediumpurple mediumseagreen
+    mediumslateblue mediumspringgreen mediumturquoise mediumvioletred midnightblue mintcream
+    mistyrose moccasin navajowhite navy oldlace olive olivedrab orange orangered orchid
+    palegoldenrod palegreen paleturquoise palevioletred papayawhip peachpuff peru pink plum
+    powderblue purple rebeccapurple red rosybrown royalblue saddlebrown salmon sandybrown
+    seagreen seashell sienna silver skyblue slateblue slategray slategrey snow springgreen
+    steelblue tan teal thistle tomato turquoise violet wheat white whitesmoke yellow
+    yellowgreen""".split()  # noqa: SIM905 - 148 names read better as words than as a list
+)
+NAMED_COLORS: Final = CSS4_COLORS | {
+    *(f"tab:{n}" for n in ("blue", "orange", "green", "red", "purple", "brown", "pink")),
+    *(f"tab:{n}" for n in ("gray", "olive", "cyan")),
+    *(f"C{i}" for i in range(10)),
+    *"bgrcmykw",
+}
+_HEX_COLOR: Final = re.compile(r"^#(?:[0-9a-fA-F]{3,4}|[0-9a-fA-F]{6}|[0-9a-fA-F]{8})$")
+
+
+def _color(value: str) -> str:
+    if (
+        value.lower() not in NAMED_COLORS
+        and value not in NAMED_COLORS
+        and not _HEX_COLOR.match(value)
+    ):
+        import difflib
+
+        close = difflib.get_close_matches(value.lower(), sorted(NAMED_COLORS), n=1)
+        hint = f"; did you mean '{close[0]}'?" if close else ""
+        raise PydanticCustomError(
+            "color",
+            "'{value}' is not a colour{hint}: use a name (red, tab:green), '#rrggbb' or C0..C9",
+            {"value": value[:40], "hint": hint},
+        )
+    return value
+
+
+Color = Annotated[str, Field(max_length=64), AfterValidator(_color)]
+PhaseNameKey = Annotated[str, Field(pattern=PHASE_NAME)]
+
+
+class Plot(_Model):
+    """How the figures of a run look."""
+
+    phase_colors: dict[PhaseNameKey, Color] = Field(
+        default_factory=dict,
+        max_length=10000,
+        description=(
+            "Colour of each named phase in the figures: a matplotlib colour (red, tab:green, "
+            "'#1f77b4'); phases not listed take a palette whose colours never repeat."
+        ),
+        json_schema_extra={"additionalProperties": False},
+    )
+
+
 # --- mission ---------------------------------------------------------------
 
 
@@ -953,6 +1038,7 @@ class Mission(_Model):
     )
     phases: list[Phase] = Field(min_length=1, max_length=10000, description="Phases, run in order.")
     expect: Expect = Field(default_factory=Expect, description="Acceptance thresholds.")
+    plot: Plot = Field(default_factory=Plot, description="How the figures look.")
 
     @model_validator(mode="before")
     @classmethod
@@ -964,7 +1050,8 @@ class Mission(_Model):
         sensors = data.get("sensors", {})
         if not (isinstance(estimator, dict) and isinstance(sensors, dict)):
             return data
-        if estimator.get("type") != "constrained-observer" or "output_error_bounds" in estimator:
+        kind = estimator.get("type", "constrained-observer")
+        if kind != "constrained-observer" or "output_error_bounds" in estimator:
             return data
         measure = sensors.get("measure", STATES)
         if not isinstance(measure, list | tuple) or not all(s in STATES for s in measure):
