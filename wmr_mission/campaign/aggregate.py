@@ -57,6 +57,7 @@ class Aggregate:
     """Counts, metric values, axis values and the worst runs seen so far."""
 
     paths: list[str]
+    discrete: set[str] = field(default_factory=set)  # grid and choice axes
     outcomes: Counter[str] = field(default_factory=Counter)
     metric_values: dict[str, list[float]] = field(default_factory=dict)
     axis_values: dict[str, list[float]] = field(default_factory=dict)

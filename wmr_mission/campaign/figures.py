@@ -101,18 +101,19 @@ def _histograms(aggregate: Aggregate) -> Any:
 
 
 def _numeric_axes(aggregate: Aggregate) -> list[str]:
-    """Varied paths with numbers that vary, grid axes first."""
+    """The first two varied paths with numbers that vary, grid and choice axes first."""
     chosen = []
-    for path in aggregate.paths:
+    ordered = sorted(aggregate.paths, key=lambda p: p not in aggregate.discrete)
+    for path in ordered:
         values = np.asarray(aggregate.axis_values.get(path, []), dtype=float)
         if np.isfinite(values).all() and values.size and np.ptp(values) > 0:
             chosen.append(path)
     return chosen[:2]
 
 
-def _edges(values: np.ndarray) -> np.ndarray:
+def _edges(values: np.ndarray, discrete: bool) -> np.ndarray:
     distinct = np.unique(values)
-    if distinct.size <= _BINS:  # a grid or choice: one bin per value
+    if discrete:  # a grid or choice: one bin per value
         middle = (distinct[1:] + distinct[:-1]) / 2
         first = distinct[0] - (middle[0] - distinct[0] if middle.size else 0.5)
         last = distinct[-1] + (distinct[-1] - middle[-1] if middle.size else 0.5)
@@ -128,7 +129,7 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
     fig = _new_figure((7.0, 5.0))
     ax = fig.add_subplot()
     first = np.asarray(aggregate.axis_values[axes[0]], dtype=float)
-    ex = _edges(first)
+    ex = _edges(first, axes[0] in aggregate.discrete)
     if len(axes) == 1:
         index = np.clip(np.searchsorted(ex, first, side="right") - 1, 0, ex.size - 2)
         count = np.bincount(index, minlength=ex.size - 1)
@@ -141,12 +142,24 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
         ax.set_title("Success rate over the varied axis")
     else:
         second = np.asarray(aggregate.axis_values[axes[1]], dtype=float)
-        ey = _edges(second)
+        ey = _edges(second, axes[1] in aggregate.discrete)
         count, _, _ = np.histogram2d(first, second, bins=[ex, ey])
         hits, _, _ = np.histogram2d(first, second, bins=[ex, ey], weights=ok)
         rate = np.divide(hits, count, out=np.full(count.shape, np.nan), where=count > 0)
         mesh = ax.pcolormesh(ex, ey, rate.T, cmap="RdYlGn", vmin=0.0, vmax=1.0)
         fig.colorbar(mesh, ax=ax, label="success rate")
+        if rate.size <= 64:  # few cells: write each rate and its number of runs
+            for i in range(rate.shape[0]):
+                for j in range(rate.shape[1]):
+                    if count[i, j]:
+                        ax.text(
+                            (ex[i] + ex[i + 1]) / 2,
+                            (ey[j] + ey[j + 1]) / 2,
+                            f"{rate[i, j]:.0%}\n{int(count[i, j])}",
+                            ha="center",
+                            va="center",
+                            fontsize=7,
+                        )
         ax.set_xlabel(axes[0])
         ax.set_ylabel(axes[1])
         ax.set_title("Success rate over two varied axes")

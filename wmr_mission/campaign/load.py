@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Final
 
 from pydantic import ValidationError
 
-from wmr_mission.campaign.models import Axis, Campaign
+from wmr_mission.campaign.models import MAX_RUNS, Axis, Campaign
 from wmr_mission.spec.checks import Finding
 from wmr_mission.spec.loader import (
     Diagnostic,
@@ -69,11 +70,16 @@ def override(path: str, value: Any) -> Override:
     return Override(parse_path(path), value, f"--set {text}")
 
 
+# Top-level keys of a campaign that a mission never has.
+_CAMPAIGN_KEYS: Final = ("mission", "runs", "vary")
+
+
 def is_campaign_text(text: str) -> bool:
-    """Whether a file is a campaign: a mapping with a top-level ``mission`` key
-    (a mission has none)."""
+    """Whether a file is a campaign: a mapping with a top-level ``mission``,
+    ``runs`` or ``vary`` key."""
     document, _ = read_document(text)
-    return document is not None and isinstance(document.data, dict) and "mission" in document.data
+    data = document.data if document is not None else None
+    return isinstance(data, dict) and any(key in data for key in _CAMPAIGN_KEYS)
 
 
 def check_file(path: Path) -> list[Diagnostic]:
@@ -119,8 +125,10 @@ def _check(path: Path, text: str) -> tuple[LoadedCampaign | None, list[Diagnosti
                 campaign = Campaign.model_validate(document.data)
             except ValidationError as error:
                 for item in error.errors(include_url=False):
+                    if item["type"] == "none_required":  # an optional key: absent is its None
+                        continue
                     if not _under(_resolve(item["loc"], document.data), document.refused):
-                        findings.append(translate(item, document, Campaign))
+                        findings.append(_of_campaign(translate(item, document, Campaign)))
         diagnostics = [_diagnostic(filename, document, f) for f in findings]
         if campaign is None or diagnostics:
             return None, _sorted(diagnostics)
@@ -131,6 +139,12 @@ def _check(path: Path, text: str) -> tuple[LoadedCampaign | None, list[Diagnosti
             f"internal error while checking ({type(error).__name__}: {error}); please report it"
         )
         return None, [Diagnostic(filename, 1, 1, message)]
+
+
+def _of_campaign(finding: Finding) -> Finding:
+    """The translation names the top level "the mission"; here it is the campaign."""
+    message = finding.message.replace("in the mission", "in the campaign")
+    return replace(finding, message=message)
 
 
 def _under(path: tuple[str | int, ...], refused: set[tuple[str | int, ...]]) -> bool:
@@ -150,14 +164,22 @@ def _check_against_mission(
         line, column = keys.get(data_path, (1, 1))
         return Diagnostic(filename, line, column, message)
 
+    if campaign.total_runs() > MAX_RUNS:
+        return None, [
+            at(
+                ("runs",),
+                f"runs times grid cells is {campaign.total_runs()}: at most {MAX_RUNS} runs",
+            )
+        ]
     mission_path = path.parent / campaign.mission
     if not mission_path.is_file():
         return None, [at(("mission",), f"mission file {str(mission_path)!r} does not exist")]
     mission, mission_diagnostics = check_mission(mission_path)
     if mission is None:
         errors = sum(d.severity == "error" for d in mission_diagnostics)
+        count = f"{errors} error{'s' if errors != 1 else ''}"
         return None, [
-            at(("mission",), f"mission {str(mission_path)!r} is invalid ({errors} errors below)"),
+            at(("mission",), f"mission {str(mission_path)!r} is invalid: {count}, listed with it"),
             *mission_diagnostics,
         ]
     mission_text = mission_path.read_text(encoding="utf-8")

@@ -140,14 +140,6 @@ class Campaign(_Model):
         default_factory=CampaignExpect, description="Thresholds on the campaign's statistics."
     )
 
-    @model_validator(mode="after")
-    def _size(self) -> Campaign:
-        if self.total_runs() > MAX_RUNS:
-            raise ValueError(
-                f"runs times grid cells is {self.total_runs()}: at most {MAX_RUNS} runs"
-            )
-        return self
-
     def grid_cells(self) -> int:
         cells = 1
         for axis in self.vary.values():

@@ -36,7 +36,7 @@ the 4 std that `validate` checked)."""
 METRICS: Final = tuple(_EXPECTATION_PATHS)
 
 # Points kept of each run's path for the campaign's trajectory figure.
-PATH_POINTS: Final = 200
+PATH_POINTS: Final = 600
 
 
 @dataclass(frozen=True)

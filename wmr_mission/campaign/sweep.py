@@ -102,7 +102,8 @@ def _execute(
     campaign = loaded.campaign
     plan = Plan(campaign)
     paths = plan.paths
-    aggregate = Aggregate(paths)
+    discrete = {p for p, axis in campaign.vary.items() if axis.kind in ("grid", "choice")}
+    aggregate = Aggregate(paths, discrete)
     columns = header(paths)
     progress = _Progress(len(plan), progress_stream)
     interrupted = False
