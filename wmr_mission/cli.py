@@ -130,7 +130,9 @@ def sweep(
     ],
     out: Annotated[
         Path | None,
-        typer.Option("--out", help="Campaign directory (default: runs/<campaign-name>-<timestamp>)."),
+        typer.Option(
+            "--out", help="Campaign directory (default: runs/<campaign-name>-<timestamp>)."
+        ),
     ] = None,
     workers: Annotated[
         int | None,

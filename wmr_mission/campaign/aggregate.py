@@ -30,14 +30,19 @@ _RANKING_METRIC: Final = "final_position_error"
 
 
 def clopper_pearson(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
-    """Exact (Clopper-Pearson) interval of a success probability from ``successes`` in ``trials``."""
+    """Exact (Clopper-Pearson) interval of a success probability, from ``successes``
+    in ``trials``."""
     from scipy.stats import beta
 
     if trials == 0:
         return 0.0, 1.0
     tail = (1.0 - confidence) / 2.0
     lo = 0.0 if successes == 0 else float(beta.ppf(tail, successes, trials - successes + 1))
-    hi = 1.0 if successes == trials else float(beta.ppf(1.0 - tail, successes + 1, trials - successes))
+    hi = (
+        1.0
+        if successes == trials
+        else float(beta.ppf(1.0 - tail, successes + 1, trials - successes))
+    )
     return lo, hi
 
 
@@ -72,7 +77,9 @@ class Aggregate:
         for name, value in zip(METRICS, row.metrics, strict=True):
             self.metric_values.setdefault(name, []).append(math.nan if value is None else value)
         for path, value in zip(self.paths, row.values, strict=True):
-            number = value if isinstance(value, int | float) and not isinstance(value, bool) else None
+            number = (
+                value if isinstance(value, int | float) and not isinstance(value, bool) else None
+            )
             self.axis_values.setdefault(path, []).append(math.nan if number is None else number)
         entry = (_badness(row), row.run, row.seed, row.outcome, row.reason)
         if len(self.worst) < WORST_RUNS:
@@ -130,4 +137,3 @@ class Aggregate:
             "outcomes": dict(sorted(self.outcomes.items())),
             "metrics": metrics,
         }
-

@@ -45,7 +45,7 @@ class Interrupted(Exception):
 
 
 class _Executor(Protocol):
-    def submit(self, fn: Callable[..., list[Row]], *args: Any) -> Any: ...
+    def submit(self, fn: Callable[..., list[Row]], /, *args: Any) -> Any: ...
 
 
 def default_workers() -> int:
@@ -137,7 +137,7 @@ def _on_dask(
         raise RuntimeError(
             "--scheduler needs Dask distributed: pip install 'wmr-mission[dask]'"
         ) from None
-    with Client(scheduler) as client:
+    with Client(scheduler) as client:  # type: ignore[no-untyped-call]
         workers = max(1, sum(client.nthreads().values()))
         size = task_size(seconds_per_run, runs, workers)
         yield from _in_order(_DaskPool(client), _wait_dask, loaded, size, runs, workers, stop)
@@ -149,7 +149,7 @@ class _DaskPool:
     def __init__(self, client: Any) -> None:
         self.client = client
 
-    def submit(self, fn: Callable[..., list[Row]], *args: Any) -> Any:
+    def submit(self, fn: Callable[..., list[Row]], /, *args: Any) -> Any:
         return self.client.submit(fn, *args, pure=False)
 
 
@@ -168,7 +168,9 @@ def _wait_dask(futures: list[Any]) -> list[Any]:
     from distributed import wait as dask_wait
 
     try:
-        finished, _ = dask_wait(futures, timeout=_POLL_SECONDS, return_when="FIRST_COMPLETED")
+        finished, _ = dask_wait(  # type: ignore[no-untyped-call]
+            futures, timeout=_POLL_SECONDS, return_when="FIRST_COMPLETED"
+        )
     except (DaskTimeout, TimeoutError):
         return []
     return list(finished)

@@ -87,7 +87,7 @@ def _histograms(aggregate: Aggregate) -> Any:
         if not finite.any():
             ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
         else:
-            bins = np.histogram_bin_edges(values[finite], bins=30)
+            bins = np.histogram_bin_edges(values[finite], bins=30).tolist()
             ax.hist(values[finite & ok], bins=bins, color=_SUCCESS_COLOR, label="success")
             ax.hist(
                 values[finite & ~ok], bins=bins, color=_FAILURE_COLOR, alpha=0.8, label="failure"

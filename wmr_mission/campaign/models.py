@@ -25,8 +25,9 @@ NORMAL_REACH: Final = 4.0
 """A normal axis is checked at mean +- 4 std (a draw beyond: about 6 in 100 000)."""
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
-# A value a mission field may take (a number, a text, a list...): the mission checks it.
-Value = Any
+Std = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+# Values a mission field may take (numbers, texts, lists...): the mission checks each.
+Values = Annotated[list[Any], Field(min_length=1, max_length=10_000)]
 
 
 class _Model(BaseModel):
@@ -45,15 +46,15 @@ class Axis(_Model):
     uniform: tuple[Number, Number] | SkipJsonSchema[None] = Field(
         default=None, description="`[lo, hi]`: drawn uniformly in [lo, hi), lo < hi."
     )
-    normal: tuple[Number, Annotated[float, Field(ge=0, allow_inf_nan=False)]] | SkipJsonSchema[None] = Field(
+    normal: tuple[Number, Std] | SkipJsonSchema[None] = Field(
         default=None, description="`[mean, std]`: drawn from a normal distribution, std >= 0."
     )
-    choice: Annotated[list[Value], Field(min_length=1, max_length=10_000)] | SkipJsonSchema[None] = Field(
+    choice: Values | SkipJsonSchema[None] = Field(
         default=None, description="Values drawn with equal probability."
     )
-    grid: Annotated[list[Value], Field(min_length=1, max_length=10_000)] | SkipJsonSchema[None] = Field(
+    grid: Values | SkipJsonSchema[None] = Field(
         default=None,
-        description="Every value in turn: `runs` draws for each cell of the grid of all grid axes.",
+        description="Every value in turn: `runs` draws for each cell of the grid of grid axes.",
     )
 
     @model_validator(mode="after")
@@ -83,7 +84,6 @@ class Axis(_Model):
             mean, std = self.normal
             return [mean - NORMAL_REACH * std, mean + NORMAL_REACH * std] if std else [mean]
         return list(self.choice if self.choice is not None else self.grid or [])
-
 
 
 class SuccessRate(_Model):

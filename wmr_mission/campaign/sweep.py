@@ -228,7 +228,9 @@ def _regions(loaded: LoadedCampaign) -> dict[str, Any]:
     return regions
 
 
-def _write_worst(loaded: LoadedCampaign, record: dict[str, Any], out_dir: Path, plots: bool) -> None:
+def _write_worst(
+    loaded: LoadedCampaign, record: dict[str, Any], out_dir: Path, plots: bool
+) -> None:
     """Re-simulate each worst run (same values, same seed: the same run) into worst/RUN/."""
     plan = Plan(loaded.campaign)
     mission_sha256 = _sha256(loaded.mission_path)

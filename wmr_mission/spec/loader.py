@@ -431,9 +431,7 @@ def _selects(model: type[BaseModel], value: Any) -> bool:
     return not keys or any(k in value for k in keys)
 
 
-def _model_at(
-    path: DataPath, data: Any, root: type[BaseModel] = Mission
-) -> type[BaseModel] | None:
+def _model_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> type[BaseModel] | None:
     """The model class that reads the mapping at ``path`` (None when unknown)."""
     tp: Any = root
     value = data

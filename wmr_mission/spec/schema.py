@@ -21,8 +21,8 @@ from wmr_mission.spec.models import Mission
 
 __all__ = [
     "REFERENCE_BEGIN",
-    "campaign_schema_text",
     "REFERENCE_END",
+    "campaign_schema_text",
     "reference_markdown",
     "schema_dict",
     "schema_text",
@@ -181,9 +181,7 @@ def write_generated_files(root: Path) -> None:
     """Rewrite the checked-in schema and the reference section of the format doc."""
     (root / "schemas").mkdir(exist_ok=True)
     (root / "schemas" / "mission.schema.json").write_text(schema_text(), encoding="utf-8")
-    (root / "schemas" / "campaign.schema.json").write_text(
-        campaign_schema_text(), encoding="utf-8"
-    )
+    (root / "schemas" / "campaign.schema.json").write_text(campaign_schema_text(), encoding="utf-8")
     doc = root / "docs" / "mission-format.md"
     doc.write_text(replace_reference(doc.read_text(encoding="utf-8")), encoding="utf-8")
 

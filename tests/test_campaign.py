@@ -1,0 +1,205 @@
+"""Campaign runs: determinism per (seed, run), identical rows on any number of
+workers or a Dask cluster, replay of a run, Ctrl-C, statistics."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shlex
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wmr_mission.campaign.aggregate import clopper_pearson
+from wmr_mission.campaign.load import load_campaign
+from wmr_mission.campaign.plan import Draw, Plan
+from wmr_mission.campaign.runs import INVALID, mission_of
+from wmr_mission.campaign.sweep import run_campaign
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data" / "campaigns"
+EVERY = DATA / "valid" / "every_distribution.yaml"
+
+
+def _campaign(tmp_path: Path, runs: int, seed: int = 11, name: str = "c.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(
+        f"""version: 1
+name: headings
+mission: {DATA / "short.yaml"}
+runs: {runs}
+seed: {seed}
+vary:
+  robot.initial_state.theta: {{uniform: [-3.0, 3.0]}}
+  estimator.initial_estimate.y: {{normal: [0.5, 0.2]}}
+  sensors.noise_std.x: {{choice: [0.0, 0.01]}}
+""",
+        encoding="utf-8",
+    )
+    return path
+
+
+def test_run_draws_from_the_spawned_child_of_its_index(tmp_path: Path) -> None:
+    plan = Plan(load_campaign(_campaign(tmp_path, 20)).campaign)
+    children = np.random.SeedSequence(11).spawn(20)
+    for run in (0, 7, 19):
+        rng = np.random.default_rng(children[run])
+        seed = int(rng.integers(2**32, dtype=np.uint64))
+        theta = float(rng.uniform(-3.0, 3.0))
+        y = float(rng.normal(0.5, 0.2))
+        noise = [0.0, 0.01][int(rng.integers(2))]
+        expected = Draw(run, seed, {
+            "robot.initial_state.theta": theta,
+            "estimator.initial_estimate.y": y,
+            "sensors.noise_std.x": noise,
+        })  # fmt: skip
+        assert plan.draw(run) == expected
+
+
+def test_draws_do_not_depend_on_the_number_of_runs(tmp_path: Path) -> None:
+    small = Plan(load_campaign(_campaign(tmp_path, 5, name="a.yaml")).campaign)
+    large = Plan(load_campaign(_campaign(tmp_path, 500, name="b.yaml")).campaign)
+    assert [small.draw(i) for i in range(5)] == [large.draw(i) for i in range(5)]
+    other = Plan(load_campaign(_campaign(tmp_path, 5, seed=12, name="c.yaml")).campaign)
+    assert other.draw(0) != small.draw(0)
+
+
+def test_grid_axes_give_every_cell_runs_times() -> None:
+    plan = Plan(load_campaign(DATA / "valid" / "grid_only.yaml").campaign)
+    cells = [tuple(plan.draw(i).values.values()) for i in range(len(plan))]
+    assert cells == [(0.01, 15), (0.01, 20), (0.02, 15), (0.02, 20)]
+    every = Plan(load_campaign(EVERY).campaign)
+    assert len(every) == 6
+    types = [every.draw(i).values["estimator.type"] for i in range(6)]
+    assert types == ["constrained-observer"] * 3 + ["ekf"] * 3
+
+
+@pytest.mark.parametrize(
+    ("successes", "trials", "lo", "hi"),
+    [
+        # R: binom.test(x, n)$conf.int
+        (0, 10, 0.0, 0.3084971),
+        (10, 10, 0.6915029, 1.0),
+        (5, 10, 0.1870860, 0.8129140),
+        (95, 100, 0.8871651, 0.9835681),
+        # closed forms at the ends: 1 - 0.025^(1/n) and 0.025^(1/n)
+        (0, 2000, 0.0, 1 - 0.025 ** (1 / 2000)),
+        (2000, 2000, 0.025 ** (1 / 2000), 1.0),
+    ],
+)
+def test_clopper_pearson_known_values(successes: int, trials: int, lo: float, hi: float) -> None:
+    got = clopper_pearson(successes, trials)
+    assert got == pytest.approx((lo, hi), abs=5e-7)
+
+
+def test_a_value_the_mission_refuses_is_reported_not_run() -> None:
+    loaded = load_campaign(EVERY)
+    mission, reason = mission_of(loaded, Draw(0, 1, {"robot.dt": -0.5}))
+    assert mission is None
+    assert "--set robot.dt=-0.5" in reason
+    assert "robot.dt: should be greater than 0" in reason
+    assert INVALID == "invalid"
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open(encoding="utf-8", newline="") as stream:
+        return list(csv.DictReader(stream))
+
+
+@pytest.mark.slow
+def test_same_rows_on_one_or_two_workers_and_dask(tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    serial = run_campaign(EVERY, out=tmp_path / "serial", workers=1)
+    pool = run_campaign(EVERY, out=tmp_path / "pool", workers=2)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, dashboard_address=None, processes=False
+    ) as cluster:
+        dask = run_campaign(EVERY, out=tmp_path / "dask", scheduler=cluster.scheduler_address)
+    first = (tmp_path / "serial" / "runs.csv").read_bytes()
+    assert (tmp_path / "pool" / "runs.csv").read_bytes() == first
+    assert (tmp_path / "dask" / "runs.csv").read_bytes() == first
+    header = first.split(b"\n", 1)[0].decode().split(",")
+    assert header[:3] == ["run", "seed", "outcome"]
+    assert header[3:7] == [
+        "robot.initial_state.theta",
+        "estimator.initial_estimate.x",
+        "controller.Q",
+        "estimator.type",
+    ]
+    assert "final_position_error" in header
+    for result in (serial, pool, dask):
+        assert result.summary["runs"] == 6
+        assert list(result.rows["run"]) == list(range(6))
+    assert dask.summary["scheduler"] == cluster.scheduler_address
+
+
+@pytest.mark.slow
+def test_campaign_outputs_and_replay_of_the_worst_run(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    result = run_campaign(_campaign(tmp_path, 16), out=out, workers=2)
+    record = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
+    rows = _rows(out / "runs.csv")
+    assert record == json.loads(json.dumps(result.summary))
+    assert record["runs"] == len(rows) == 16
+    assert record["succeeded"] == sum(r["outcome"] == "success" for r in rows)
+    lo, hi = record["success_interval"]
+    assert lo <= record["success_rate"] <= hi
+    assert sum(record["outcomes"].values()) == 16
+    assert record["interrupted"] is False
+    assert record["missions_per_second"] > 0
+    errors = [float(r["final_position_error"]) for r in rows if r["final_position_error"]]
+    assert record["metrics"]["final_position_error"]["max"] == max(errors)
+    manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
+    assert manifest["resolved_campaign"]["runs"] == 16
+
+    worst = record["worst"][0]
+    row = rows[worst["run"]]
+    assert row["outcome"] == worst["outcome"]
+    # The worst directory is the run re-simulated; the replay command reproduces it.
+    words = shlex.split(worst["replay"])
+    assert words[:2] == ["wmr-mission", "run"]
+    replay = tmp_path / "replay"
+    subprocess.run(
+        [sys.executable, "-m", "wmr_mission", *words[1:], "--out", str(replay), "--no-plots"],
+        capture_output=True,
+        check=False,
+    )
+    kept = out / "worst" / str(worst["run"])
+    assert (replay / "trajectory.csv").read_bytes() == (kept / "trajectory.csv").read_bytes()
+    summary = json.loads((replay / "summary.json").read_text(encoding="utf-8"))
+    assert summary["outcome"] == row["outcome"]
+    assert repr(summary["final"]["position_error"]) == row["final_position_error"]
+    assert summary["seed"] == int(row["seed"])
+
+
+@pytest.mark.slow
+def test_ctrl_c_keeps_finished_runs(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "wmr_mission", "sweep", str(_campaign(tmp_path, 5000)),
+         "--out", str(out), "--workers", "2", "--no-plots"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )  # fmt: skip
+    runs_csv = out / "runs.csv"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if runs_csv.is_file() and runs_csv.read_bytes().count(b"\n") > 20:
+            break
+        time.sleep(0.1)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert b"Traceback" not in stderr
+    record = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
+    rows = _rows(runs_csv)
+    assert record["interrupted"] is True
+    assert 20 <= record["runs"] == len(rows) < 5000
+    assert record["planned_runs"] == 5000
+    assert [int(r["run"]) for r in rows] == sorted(int(r["run"]) for r in rows)
+    assert all(r["outcome"] for r in rows)
