@@ -8,6 +8,7 @@ and only the few worst runs are remembered (to be re-simulated at the end).
 from __future__ import annotations
 
 import heapq
+import json
 import math
 from collections import Counter
 from dataclasses import dataclass, field
@@ -15,6 +16,7 @@ from typing import Any, Final
 
 import numpy as np
 
+from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.runs import METRICS, Row
 
 __all__ = ["WORST_RUNS", "Aggregate", "clopper_pearson"]
@@ -57,12 +59,26 @@ def _badness(row: Row) -> tuple[int, float, int]:
     )
 
 
+def value_label(value: Any) -> str:
+    """A short label of an axis value for figures: a mapping by its ``type``, if any,
+    else by its values (``0.01/0.01/0.02`` for a noise_std)."""
+    if isinstance(value, dict):
+        if "type" in value:
+            return str(value["type"])
+        return "/".join(str(v) for v in value.values())
+    text = value if isinstance(value, str) else json.dumps(value)
+    return text if len(text) <= 24 else text[:21] + "..."
+
+
 @dataclass
 class Aggregate:
-    """Counts, metric values, axis values and the worst runs seen so far."""
+    """Counts, metric values, axis values and the worst runs seen so far.
 
-    paths: list[str]
-    discrete: set[str] = field(default_factory=set)  # grid and choice axes
+    A grid or choice axis is recorded by the index of its value in the list; a
+    uniform or normal one by its value.
+    """
+
+    axes: dict[str, Axis]
     outcomes: Counter[str] = field(default_factory=Counter)
     metric_values: dict[str, list[float]] = field(default_factory=dict)
     axis_values: dict[str, list[float]] = field(default_factory=dict)
@@ -70,17 +86,42 @@ class Aggregate:
     worst: list[tuple[tuple[int, float, int], int, int, str, str]] = field(default_factory=list)
     drawn: list[tuple[bool, np.ndarray]] = field(default_factory=list)
     drawn_failures: int = 0
+    # grid cell (index of each grid axis' value) -> [runs, successes]
+    cells: dict[tuple[int, ...], list[int]] = field(default_factory=dict)
+
+    @property
+    def paths(self) -> list[str]:
+        return list(self.axes)
+
+    @property
+    def discrete(self) -> list[str]:
+        return [path for path, axis in self.axes.items() if axis.kind in ("grid", "choice")]
+
+    def labels(self, path: str) -> list[str]:
+        axis = self.axes[path]
+        return [value_label(v) for v in (axis.grid or axis.choice or [])]
+
+    def _coordinate(self, path: str, value: Any) -> float:
+        axis = self.axes[path]
+        listed = axis.grid if axis.grid is not None else axis.choice
+        if listed is not None:
+            return float(listed.index(value))
+        return float(value) if isinstance(value, int | float) else math.nan
 
     def add(self, row: Row) -> None:
         self.outcomes[row.outcome] += 1
         self.success.append(row.succeeded)
         for name, value in zip(METRICS, row.metrics, strict=True):
             self.metric_values.setdefault(name, []).append(math.nan if value is None else value)
+        cell = []
         for path, value in zip(self.paths, row.values, strict=True):
-            number = (
-                value if isinstance(value, int | float) and not isinstance(value, bool) else None
-            )
-            self.axis_values.setdefault(path, []).append(math.nan if number is None else number)
+            coordinate = self._coordinate(path, value)
+            self.axis_values.setdefault(path, []).append(coordinate)
+            if self.axes[path].grid is not None:
+                cell.append(int(coordinate))
+        counts = self.cells.setdefault(tuple(cell), [0, 0])
+        counts[0] += 1
+        counts[1] += row.succeeded
         entry = (_badness(row), row.run, row.seed, row.outcome, row.reason)
         if len(self.worst) < WORST_RUNS:
             heapq.heappush(self.worst, entry)
@@ -136,4 +177,26 @@ class Aggregate:
             "success_interval": [lo, hi],
             "outcomes": dict(sorted(self.outcomes.items())),
             "metrics": metrics,
+            "cells": self._cell_statistics(),
         }
+
+    def _cell_statistics(self) -> list[dict[str, Any]]:
+        """Success per grid cell, in grid order (empty without grid axes)."""
+        grid = [(p, a.grid) for p, a in self.axes.items() if a.grid is not None]
+        if not grid:
+            return []
+        table = []
+        for cell, (runs, succeeded) in sorted(self.cells.items()):
+            lo, hi = clopper_pearson(succeeded, runs)
+            table.append(
+                {
+                    "values": {
+                        path: values[i] for (path, values), i in zip(grid, cell, strict=True)
+                    },
+                    "runs": runs,
+                    "succeeded": succeeded,
+                    "success_rate": succeeded / runs,
+                    "success_interval": [lo, hi],
+                }
+            )
+        return table

@@ -100,36 +100,38 @@ def _histograms(aggregate: Aggregate) -> Any:
     return fig
 
 
-def _numeric_axes(aggregate: Aggregate) -> list[str]:
-    """The first two varied paths with numbers that vary, grid and choice axes first."""
+def _shown_axes(aggregate: Aggregate) -> list[str]:
+    """The first two axes that vary: grid axes first, then choice, uniform, normal."""
+    order = {"grid": 0, "choice": 1, "uniform": 2, "normal": 3}
     chosen = []
-    ordered = sorted(aggregate.paths, key=lambda p: p not in aggregate.discrete)
-    for path in ordered:
+    for path in sorted(aggregate.paths, key=lambda p: order[aggregate.axes[p].kind]):
         values = np.asarray(aggregate.axis_values.get(path, []), dtype=float)
-        if np.isfinite(values).all() and values.size and np.ptp(values) > 0:
+        if values.size and np.isfinite(values).all() and np.ptp(values) > 0:
             chosen.append(path)
     return chosen[:2]
 
 
-def _edges(values: np.ndarray, discrete: bool) -> np.ndarray:
-    distinct = np.unique(values)
-    if discrete:  # a grid or choice: one bin per value
-        middle = (distinct[1:] + distinct[:-1]) / 2
-        first = distinct[0] - (middle[0] - distinct[0] if middle.size else 0.5)
-        last = distinct[-1] + (distinct[-1] - middle[-1] if middle.size else 0.5)
-        return np.concatenate([[first], middle, [last]])
+def _edges(aggregate: Aggregate, path: str, values: np.ndarray) -> np.ndarray:
+    if path in aggregate.discrete:  # one bin per listed value, centred on its index
+        return np.arange(len(aggregate.labels(path)) + 1) - 0.5
     return np.linspace(values.min(), values.max(), _BINS + 1)
 
 
+def _label_axis(aggregate: Aggregate, path: str, axis: Any) -> None:
+    if path in aggregate.discrete:
+        labels = aggregate.labels(path)
+        axis.set_ticks(range(len(labels)), labels)
+
+
 def _success_over_axes(aggregate: Aggregate) -> Any | None:
-    axes = _numeric_axes(aggregate)
+    axes = _shown_axes(aggregate)
     if not axes:
         return None
     ok = np.asarray(aggregate.success, dtype=float)
     fig = _new_figure((7.0, 5.0))
     ax = fig.add_subplot()
     first = np.asarray(aggregate.axis_values[axes[0]], dtype=float)
-    ex = _edges(first, axes[0] in aggregate.discrete)
+    ex = _edges(aggregate, axes[0], first)
     if len(axes) == 1:
         index = np.clip(np.searchsorted(ex, first, side="right") - 1, 0, ex.size - 2)
         count = np.bincount(index, minlength=ex.size - 1)
@@ -137,12 +139,13 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
         rate = np.divide(hits, count, out=np.full(count.shape, np.nan), where=count > 0)
         ax.bar((ex[1:] + ex[:-1]) / 2, rate, width=np.diff(ex) * 0.9, color=_SUCCESS_COLOR)
         ax.set_xlabel(axes[0])
+        _label_axis(aggregate, axes[0], ax.xaxis)
         ax.set_ylabel("success rate")
         ax.set_ylim(0, 1.05)
         ax.set_title("Success rate over the varied axis")
     else:
         second = np.asarray(aggregate.axis_values[axes[1]], dtype=float)
-        ey = _edges(second, axes[1] in aggregate.discrete)
+        ey = _edges(aggregate, axes[1], second)
         count, _, _ = np.histogram2d(first, second, bins=[ex, ey])
         hits, _, _ = np.histogram2d(first, second, bins=[ex, ey], weights=ok)
         rate = np.divide(hits, count, out=np.full(count.shape, np.nan), where=count > 0)
@@ -158,9 +161,11 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
                             f"{rate[i, j]:.0%}\n{int(count[i, j])}",
                             ha="center",
                             va="center",
-                            fontsize=7,
+                            fontsize=8,
                         )
         ax.set_xlabel(axes[0])
         ax.set_ylabel(axes[1])
+        _label_axis(aggregate, axes[0], ax.xaxis)
+        _label_axis(aggregate, axes[1], ax.yaxis)
         ax.set_title("Success rate over two varied axes")
     return fig

@@ -9,6 +9,7 @@ grid), so a value that breaks the mission is reported before anything runs.
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -171,7 +172,7 @@ def _check_against_mission(
                 f"runs times grid cells is {campaign.total_runs()}: at most {MAX_RUNS} runs",
             )
         ]
-    mission_path = path.parent / campaign.mission
+    mission_path = Path(os.path.normpath(path.parent / campaign.mission))
     if not mission_path.is_file():
         return None, [at(("mission",), f"mission file {str(mission_path)!r} does not exist")]
     mission, mission_diagnostics = check_mission(mission_path)

@@ -102,8 +102,7 @@ def _execute(
     campaign = loaded.campaign
     plan = Plan(campaign)
     paths = plan.paths
-    discrete = {p for p, axis in campaign.vary.items() if axis.kind in ("grid", "choice")}
-    aggregate = Aggregate(paths, discrete)
+    aggregate = Aggregate(dict(campaign.vary))
     columns = header(paths)
     progress = _Progress(len(plan), progress_stream)
     interrupted = False
