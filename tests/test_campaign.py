@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from wmr_mission import run_campaign
 from wmr_mission.campaign.aggregate import clopper_pearson
 from wmr_mission.campaign.load import load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.campaign.runs import INVALID, mission_of
-from wmr_mission.campaign.sweep import run_campaign
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "campaigns"

@@ -12,11 +12,12 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
+    from wmr_mission.campaign.sweep import run_campaign
     from wmr_mission.result import RunResult
     from wmr_mission.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
-__all__ = ["RunResult", "__version__", "load_mission", "run_mission"]
+__all__ = ["RunResult", "__version__", "load_mission", "run_campaign", "run_mission"]
 
 
 def __getattr__(name: str) -> Any:
@@ -29,6 +30,10 @@ def __getattr__(name: str) -> Any:
         from wmr_mission.runner import run_mission
 
         return run_mission
+    if name == "run_campaign":
+        from wmr_mission.campaign.sweep import run_campaign
+
+        return run_campaign
     if name == "RunResult":
         from wmr_mission.result import RunResult
 

@@ -247,6 +247,14 @@ def _write_worst(
         )
 
 
+def _prepare(loaded: LoadedCampaign, out: Path, workers: int, scheduler: str | None) -> Path:
+    """The campaign directory, made empty (refuses one holding files), with its manifest."""
+    out_dir = prepare_run_dir(out)
+    manifest = _manifest(loaded, None if scheduler else workers, scheduler)
+    write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(manifest).encode("utf-8"))
+    return out_dir
+
+
 def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None) -> dict[str, Any]:
     return {
         "campaign_file": str(loaded.path),
@@ -277,11 +285,7 @@ def run_campaign(
     """
     loaded = load_campaign(campaign)
     workers = workers or default_workers()
-    out_dir = None
-    if out is not None:
-        out_dir = prepare_run_dir(Path(out))
-        manifest = _manifest(loaded, None if scheduler else workers, scheduler)
-        write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(manifest).encode("utf-8"))
+    out_dir = None if out is None else _prepare(loaded, Path(out), workers, scheduler)
     rows: list[dict[str, Any]] = []
     summary = _execute(
         loaded,
@@ -320,12 +324,10 @@ def sweep_command(
     workers = workers or default_workers()
     out_dir = out if out is not None else default_run_dir(loaded.campaign.name, datetime.now())
     try:
-        out_dir = prepare_run_dir(out_dir)
+        out_dir = _prepare(loaded, out_dir, workers, scheduler)
     except (RunDirExistsError, OSError) as error:
         print(f"{out_dir}: {error}", file=sys.stderr)
         return 2
-    manifest = _manifest(loaded, None if scheduler else workers, scheduler)
-    write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(manifest).encode("utf-8"))
     try:
         record = _execute(
             loaded,
