@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -203,3 +204,63 @@ def test_ctrl_c_keeps_finished_runs(tmp_path: Path) -> None:
     assert record["planned_runs"] == 5000
     assert [int(r["run"]) for r in rows] == sorted(int(r["run"]) for r in rows)
     assert all(r["outcome"] for r in rows)
+
+
+def test_sweep_exit_codes(tmp_path: Path) -> None:
+    """1 and nothing run for an axis value the mission refuses; 1 for an expect not met."""
+    refused = DATA / "invalid" / "grid_value_breaks_mission.yaml"
+    command = [sys.executable, "-m", "wmr_mission", "sweep", "--no-plots", "--workers", "1"]
+    completed = subprocess.run(
+        [*command, str(refused), "--out", str(tmp_path / "refused")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert completed.returncode == 1
+    assert f"{refused}:7:3: vary 'robot.dt' (grid) at -0.01: " in completed.stderr
+    assert not (tmp_path / "refused").exists()
+
+    strict = tmp_path / "strict.yaml"
+    strict.write_text(
+        f"""version: 1
+name: strict
+mission: {DATA / "short.yaml"}
+runs: 2
+vary:
+  expect.final_position_error.max: {{grid: [1.0e-9]}}
+expect:
+  success_rate: {{min: 0.5}}
+""",
+        encoding="utf-8",
+    )
+    completed = subprocess.run(
+        [*command, str(strict), "--out", str(tmp_path / "strict")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert completed.returncode == 1, completed.stderr
+    assert "expectation not met: success_rate = 0 (min 0.5)" in completed.stderr
+    record = json.loads((tmp_path / "strict" / "campaign.json").read_text(encoding="utf-8"))
+    assert record["outcomes"] == {"expect-failed": 2}
+    assert record["expectations"] == [
+        {"metric": "success_rate", "min": 0.5, "value": 0.0, "met": False}
+    ]
+
+
+def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch) -> None:
+    from wmr_mission.campaign import runs
+
+    loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
+    real = runs.simulate
+
+    def faulty(loaded: Any, draw: Draw) -> Any:
+        if draw.run == 1:
+            raise ZeroDivisionError("float division by zero")
+        return real(loaded, draw)
+
+    monkeypatch.setattr(runs, "simulate", faulty)
+    rows = runs.run_rows(loaded, 0, 3)
+    assert [row.outcome for row in rows] == ["success", runs.ERROR, "success"]
+    assert rows[1].reason.startswith("internal error (ZeroDivisionError: float division by zero)")
+    assert rows[1].values == (0.01, 20)

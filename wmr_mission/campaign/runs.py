@@ -25,11 +25,14 @@ if TYPE_CHECKING:
     from wmr_mission.result import RunResult
     from wmr_mission.spec.models import Mission
 
-__all__ = ["INVALID", "METRICS", "Row", "header", "replay_command", "run_rows", "simulate"]
+__all__ = ["ERROR", "INVALID", "METRICS", "Row", "header", "replay_command", "run_rows", "simulate"]
 
 INVALID: Final = "invalid"
 """Outcome of a run whose drawn values the mission refuses (a normal draw beyond
 the 4 std that `validate` checked)."""
+
+ERROR: Final = "error"
+"""Outcome of a run that raised an exception: a bug, reported with the run's replay."""
 
 # The run's metrics, computed by the code that writes summary.json: every
 # metric an `expect` can bound.
@@ -111,7 +114,13 @@ def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
     rows = []
     for run in range(start, stop):
         draw = plan.draw(run)
-        rows.append(_row(draw, *simulate(loaded, draw)))
+        try:
+            rows.append(_row(draw, *simulate(loaded, draw)))
+        except Exception as error:  # one run's fault must not lose the campaign
+            reason = f"internal error ({type(error).__name__}: {error}); please report it"
+            empty = np.zeros((2, 0), dtype=np.float32)
+            values = tuple(draw.values.values())
+            rows.append(Row(run, draw.seed, ERROR, values, (None,) * len(METRICS), reason, empty))
     return rows
 
 

@@ -106,6 +106,7 @@ def _execute(
     columns = header(paths)
     progress = _Progress(len(plan), progress_stream)
     interrupted = False
+    stopped_by = "Ctrl-C"
     csv_stream = None
     if out_dir is not None:
         csv_stream = (out_dir / RUNS_FILE).open("w", encoding="utf-8", newline="")
@@ -131,12 +132,16 @@ def _execute(
                     progress.update(aggregate)
             except Interrupted:
                 interrupted = True
+            except Exception as error:  # a worker lost: keep what finished
+                interrupted = True
+                stopped_by = f"{type(error).__name__}: {error}"
             runs_seconds = time.perf_counter() - runs_started
     finally:
         progress.close()
         if csv_stream is not None:
             csv_stream.close()
     record = _record(loaded, aggregate, interrupted, runs_seconds, len(plan))
+    record["stopped_by"] = stopped_by if interrupted else None
     record["startup_seconds"] = runs_started - started
     record["workers"] = None if scheduler is not None else workers
     record["scheduler"] = scheduler
@@ -343,8 +348,12 @@ def sweep_command(
         return 2
     print(_report(record, out_dir))
     if record["interrupted"]:
-        print(f"{campaign_path}: interrupted; finished runs kept in {out_dir}", file=sys.stderr)
-        return INTERRUPTED_EXIT
+        print(
+            f"{campaign_path}: interrupted ({record['stopped_by']}); "
+            f"finished runs kept in {out_dir}",
+            file=sys.stderr,
+        )
+        return INTERRUPTED_EXIT if record["stopped_by"] == "Ctrl-C" else 1
     failed = [e for e in record["expectations"] if not e["met"]]
     for expectation in failed:
         print(
