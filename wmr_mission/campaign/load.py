@@ -27,11 +27,13 @@ from wmr_mission.spec.loader import (
     _read,
     _resolve,
     check_mission,
+    check_mission_document,
     check_mission_text,
     parse_path,
     read_document,
     translate,
 )
+from wmr_mission.spec.models import Mission
 
 __all__ = [
     "LoadedCampaign",
@@ -47,13 +49,24 @@ _SEED_PATH: Final = ("sensors", "seed")
 
 
 class LoadedCampaign:
-    """A checked campaign and the mission text it varies."""
+    """A checked campaign and the mission it varies, read once (text and document)."""
 
     def __init__(self, campaign: Campaign, path: Path, mission_path: Path, mission_text: str):
         self.campaign = campaign
         self.path = path
         self.mission_path = mission_path
         self.mission_text = mission_text
+        # Read once here, not per run: reading the YAML costs more than checking it.
+        document, findings = read_document(mission_text)
+        if document is None or findings:
+            raise ValueError(f"{mission_path}: not a checked mission")
+        self.mission_document = document
+
+    def mission_with(
+        self, overrides: Sequence[Override]
+    ) -> tuple[Mission | None, list[Diagnostic]]:
+        """The mission with ``overrides`` set, checked exactly as ``run --set`` checks it."""
+        return check_mission_document(self.mission_document, str(self.mission_path), overrides)
 
 
 def value_text(value: Any) -> str:

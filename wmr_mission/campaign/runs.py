@@ -19,7 +19,6 @@ from wmr_mission.campaign.load import LoadedCampaign, override, value_text
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, summarize
 from wmr_mission.result import Outcome
-from wmr_mission.spec.loader import check_mission_text
 
 if TYPE_CHECKING:
     from wmr_mission.result import RunResult
@@ -76,9 +75,7 @@ def header(paths: Sequence[str]) -> list[str]:
 def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
     """The mission with the run's values, or None and why the mission refuses them."""
     overrides = [override(path, value) for path, value in draw.values.items()]
-    mission, diagnostics = check_mission_text(
-        loaded.mission_text, str(loaded.mission_path), overrides
-    )
+    mission, diagnostics = loaded.mission_with(overrides)
     if mission is None:
         errors = [str(d) for d in diagnostics if d.severity == "error"]
         return None, "; ".join(errors)
