@@ -264,3 +264,31 @@ def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch)
     assert [row.outcome for row in rows] == ["success", runs.ERROR, "success"]
     assert rows[1].reason.startswith("internal error (ZeroDivisionError: float division by zero)")
     assert rows[1].values == (0.01, 20)
+
+
+def test_progress_line_shows_runs_success_and_time_left() -> None:
+    import io
+
+    from wmr_mission.campaign import runs
+    from wmr_mission.campaign.aggregate import Aggregate
+    from wmr_mission.campaign.sweep import _Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
+    aggregate = Aggregate(dict(loaded.campaign.vary))
+    row = runs.run_rows(loaded, 0, 1)[0]
+    stream = Terminal()
+    progress = _Progress(4, stream)
+    aggregate.add(row)
+    progress.update(aggregate)
+    line = stream.getvalue()
+    assert line.startswith("\r[")
+    assert "1/4 runs" in line
+    assert "success 100.0%" in line
+    assert "ETA" in line
+    quiet = io.StringIO()  # not a terminal: no progress line in logs
+    _Progress(4, quiet).update(aggregate)
+    assert quiet.getvalue() == ""
