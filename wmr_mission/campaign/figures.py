@@ -56,11 +56,13 @@ def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
     draw_regions(ax, regions, view)
     successes = [p for ok, p in paths if ok]
     failures = [p for ok, p in paths if not ok]
-    alpha = float(np.clip(20.0 / max(len(successes), 1), 0.03, 0.6))
+    # Fainter the more lines there are, so that where many runs go shows darker.
+    faint = float(np.clip(40.0 / max(len(successes), 1), 0.05, 0.6))
     for path in successes:
-        ax.plot(path[0], path[1], color=_SUCCESS_COLOR, linewidth=0.6, alpha=alpha, zorder=2)
+        ax.plot(path[0], path[1], color=_SUCCESS_COLOR, linewidth=0.6, alpha=faint, zorder=2)
+    faint = float(np.clip(40.0 / max(len(failures), 1), 0.08, 0.8))
     for path in failures:
-        ax.plot(path[0], path[1], color=_FAILURE_COLOR, linewidth=0.9, alpha=0.8, zorder=3)
+        ax.plot(path[0], path[1], color=_FAILURE_COLOR, linewidth=0.6, alpha=faint, zorder=3)
     ax.plot([], [], color=_SUCCESS_COLOR, label=f"success ({aggregate.succeeded})")
     ax.plot([], [], color=_FAILURE_COLOR, label=f"failure ({aggregate.runs - aggregate.succeeded})")
     ax.set_xlim(view[0], view[1])
@@ -88,9 +90,12 @@ def _histograms(aggregate: Aggregate) -> Any:
             ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
         else:
             bins = np.histogram_bin_edges(values[finite], bins=30).tolist()
-            ax.hist(values[finite & ok], bins=bins, color=_SUCCESS_COLOR, label="success")
             ax.hist(
-                values[finite & ~ok], bins=bins, color=_FAILURE_COLOR, alpha=0.8, label="failure"
+                [values[finite & ok], values[finite & ~ok]],
+                bins=bins,
+                stacked=True,
+                color=[_SUCCESS_COLOR, _FAILURE_COLOR],
+                label=["success", "failure"],
             )
             ax.legend(fontsize="x-small")
         missing = int((~finite).sum())
