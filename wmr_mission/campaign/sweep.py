@@ -146,12 +146,13 @@ def _execute(
     record["workers"] = None if scheduler is not None else workers
     record["scheduler"] = scheduler
     if out_dir is not None:
+        # The statistics first: a Ctrl-C while the worst runs are drawn loses no number.
+        write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
         _write_worst(loaded, record, out_dir, plots)
         if plots and aggregate.runs:
             from wmr_mission.campaign.figures import draw_campaign
 
             draw_campaign(aggregate, _regions(loaded), out_dir)
-        write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
     return record
 
 
