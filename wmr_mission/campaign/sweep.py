@@ -25,7 +25,7 @@ from wmr_mission.campaign.engine import (
     execute,
     warm_up,
 )
-from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign
+from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
 from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.runs import Row, header, replay_command, simulate
 from wmr_mission.output.rundir import (
@@ -163,6 +163,7 @@ def _take(
     keep_rows: list[dict[str, Any]] | None,
     columns: list[str],
 ) -> None:
+    paths = aggregate.paths
     for row in rows:
         aggregate.add(row)
         cells = row.cells()
@@ -174,7 +175,11 @@ def _take(
                     "run": row.run,
                     "seed": row.seed,
                     "outcome": row.outcome,
-                    **dict(zip(columns[3 : 3 + len(row.values)], row.values, strict=True)),
+                    # lists and mappings as in runs.csv (JSON text), so that they group
+                    **{
+                        path: value if isinstance(value, int | float | str) else value_text(value)
+                        for path, value in zip(paths, row.values, strict=True)
+                    },
                     **dict(zip(columns[3 + len(row.values) : -1], row.metrics, strict=True)),
                     "reason": row.reason,
                 }
