@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import shlex
 import signal
 import subprocess
@@ -21,6 +22,7 @@ from wmr_mission.campaign.aggregate import clopper_pearson
 from wmr_mission.campaign.load import load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.campaign.runs import INVALID, mission_of
+from wmr_mission.campaign.sweep import sweep_command
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "campaigns"
@@ -186,6 +188,7 @@ def test_ctrl_c_keeps_finished_runs(tmp_path: Path) -> None:
          "--out", str(out), "--workers", "2", "--no-plots"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        start_new_session=True,  # its own process group, as a shell's foreground job
     )  # fmt: skip
     runs_csv = out / "runs.csv"
     deadline = time.monotonic() + 60
@@ -193,7 +196,7 @@ def test_ctrl_c_keeps_finished_runs(tmp_path: Path) -> None:
         if runs_csv.is_file() and runs_csv.read_bytes().count(b"\n") > 20:
             break
         time.sleep(0.1)
-    process.send_signal(signal.SIGINT)
+    os.killpg(process.pid, signal.SIGINT)  # Ctrl-C reaches the parent and its workers
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr
     assert b"Traceback" not in stderr
@@ -206,18 +209,12 @@ def test_ctrl_c_keeps_finished_runs(tmp_path: Path) -> None:
     assert all(r["outcome"] for r in rows)
 
 
-def test_sweep_exit_codes(tmp_path: Path) -> None:
+def test_sweep_exit_codes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """1 and nothing run for an axis value the mission refuses; 1 for an expect not met."""
     refused = DATA / "invalid" / "grid_value_breaks_mission.yaml"
-    command = [sys.executable, "-m", "wmr_mission", "sweep", "--no-plots", "--workers", "1"]
-    completed = subprocess.run(
-        [*command, str(refused), "--out", str(tmp_path / "refused")],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert completed.returncode == 1
-    assert f"{refused}:7:3: vary 'robot.dt' (grid) at -0.01: " in completed.stderr
+    code = sweep_command(refused, out=tmp_path / "refused", workers=1, scheduler=None, plots=False)
+    assert code == 1
+    assert f"{refused}:7:3: vary 'robot.dt' (grid) at -0.01: " in capsys.readouterr().err
     assert not (tmp_path / "refused").exists()
 
     strict = tmp_path / "strict.yaml"
@@ -233,14 +230,9 @@ expect:
 """,
         encoding="utf-8",
     )
-    completed = subprocess.run(
-        [*command, str(strict), "--out", str(tmp_path / "strict")],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert completed.returncode == 1, completed.stderr
-    assert "expectation not met: success_rate = 0 (min 0.5)" in completed.stderr
+    code = sweep_command(strict, out=tmp_path / "strict", workers=1, scheduler=None, plots=False)
+    assert code == 1
+    assert "expectation not met: success_rate = 0 (min 0.5)" in capsys.readouterr().err
     record = json.loads((tmp_path / "strict" / "campaign.json").read_text(encoding="utf-8"))
     assert record["outcomes"] == {"expect-failed": 2}
     assert record["expectations"] == [
