@@ -115,12 +115,18 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 
 @pytest.mark.slow
-def test_same_rows_on_one_or_two_workers_and_dask(tmp_path: Path) -> None:
-    distributed = pytest.importorskip("distributed")
+@pytest.mark.parametrize(
+    "processes",
+    # worker threads by default (fast); worker processes, which unpickle the campaign,
+    # with the full sweeps
+    [False, pytest.param(True, marks=pytest.mark.sweep)],
+)
+def test_same_rows_on_one_or_two_workers_and_dask(tmp_path: Path, processes: bool) -> None:
+    import distributed  # in the test extra
     serial = run_campaign(EVERY, out=tmp_path / "serial", workers=1)
     pool = run_campaign(EVERY, out=tmp_path / "pool", workers=2)
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, dashboard_address=None, processes=False
+        n_workers=2, threads_per_worker=1, dashboard_address=None, processes=processes
     ) as cluster:
         dask = run_campaign(EVERY, out=tmp_path / "dask", scheduler=cluster.scheduler_address)
     first = (tmp_path / "serial" / "runs.csv").read_bytes()
