@@ -123,6 +123,7 @@ def _rows(path: Path) -> list[dict[str, str]]:
 )
 def test_same_rows_on_one_or_two_workers_and_dask(tmp_path: Path, processes: bool) -> None:
     import distributed  # in the test extra
+
     serial = run_campaign(EVERY, out=tmp_path / "serial", workers=1)
     pool = run_campaign(EVERY, out=tmp_path / "pool", workers=2)
     with distributed.LocalCluster(

@@ -26,6 +26,7 @@ from wmr_mission.campaign.runs import Row, run_rows, simulate
 __all__ = [
     "TASK_SECONDS",
     "Interrupted",
+    "SchedulerUnavailable",
     "StopFlag",
     "default_workers",
     "execute",
@@ -38,6 +39,13 @@ TASK_SECONDS: Final = 0.5
 to balance the workers and to stop soon after Ctrl-C."""
 
 _IN_FLIGHT_PER_WORKER: Final = 3
+
+
+_CONNECT_SECONDS: Final = 10
+
+
+class SchedulerUnavailable(RuntimeError):
+    """``--scheduler`` without Dask installed, or an address that does not answer."""
 
 
 class Interrupted(Exception):
@@ -134,10 +142,16 @@ def _on_dask(
     try:
         from distributed import Client
     except ImportError:
-        raise RuntimeError(
+        raise SchedulerUnavailable(
             "--scheduler needs Dask distributed: pip install 'wmr-mission[dask]'"
         ) from None
-    with Client(scheduler) as client:  # type: ignore[no-untyped-call]
+    try:
+        client: Any = Client(scheduler, timeout=_CONNECT_SECONDS)  # type: ignore[no-untyped-call]
+    except (OSError, ValueError, TimeoutError) as error:
+        raise SchedulerUnavailable(
+            f"cannot reach the Dask scheduler {scheduler}: {error}"
+        ) from None
+    with client:
         workers = max(1, sum(client.nthreads().values()))
         size = task_size(seconds_per_run, runs, workers)
         yield from _in_order(_DaskPool(client), _wait_dask, loaded, size, runs, workers, stop)

@@ -20,6 +20,7 @@ from typing import IO, Any, Final
 from wmr_mission.campaign.aggregate import Aggregate
 from wmr_mission.campaign.engine import (
     Interrupted,
+    SchedulerUnavailable,
     StopFlag,
     default_workers,
     execute,
@@ -132,6 +133,8 @@ def _execute(
                     progress.update(aggregate)
             except Interrupted:
                 interrupted = True
+            except SchedulerUnavailable:
+                raise
             except Exception as error:  # a worker lost: keep what finished
                 interrupted = True
                 stopped_by = f"{type(error).__name__}: {error}"
@@ -349,7 +352,7 @@ def sweep_command(
             progress_stream=sys.stderr,
             keep_rows=None,
         )
-    except RuntimeError as error:  # --scheduler without Dask installed
+    except SchedulerUnavailable as error:
         print(f"{campaign_path}: {error}", file=sys.stderr)
         return 2
     print(_report(record, out_dir))
