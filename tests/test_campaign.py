@@ -291,3 +291,33 @@ def test_progress_line_shows_runs_success_and_time_left() -> None:
     quiet = io.StringIO()  # not a terminal: no progress line in logs
     _Progress(4, quiet).update(aggregate)
     assert quiet.getvalue() == ""
+
+
+def test_aggregate_keeps_a_bounded_number_of_paths_and_the_worst_runs() -> None:
+    from wmr_mission.campaign.aggregate import DRAWN_FAILURES, DRAWN_PATHS, WORST_RUNS, Aggregate
+    from wmr_mission.campaign.runs import METRICS, Row
+
+    loaded = load_campaign(EVERY)
+    aggregate = Aggregate(dict(loaded.campaign.vary))
+    path = np.zeros((2, 600), dtype=np.float32)
+    values = (0.0, -1.0, [1, 1, 1], "ekf")
+    total = 3 * (DRAWN_PATHS + DRAWN_FAILURES)
+    for run in range(total):
+        failed = run % 3 == 0
+        error = float(run % 97) / 1000
+        metrics = tuple(error if name == "final_position_error" else 0.0 for name in METRICS)
+        outcome = "timeout" if failed else "success"
+        aggregate.add(Row(run, run, outcome, values, metrics, "", path))
+    kept = aggregate.drawn
+    assert sum(ok for ok, _ in kept) == DRAWN_PATHS
+    assert sum(not ok for ok, _ in kept) == DRAWN_FAILURES
+    worst = aggregate.worst_runs()
+    assert len(worst) == WORST_RUNS
+    # failures first, the largest final position error first, then the earliest run
+    failed_errors = sorted(((run % 97, -run) for run in range(0, total, 3)), reverse=True)[
+        :WORST_RUNS
+    ]
+    assert [run for run, *_ in worst] == [-minus for _, minus in failed_errors]
+    statistics = aggregate.statistics()
+    assert statistics["runs"] == total
+    assert statistics["succeeded"] == total - len(range(0, total, 3))
