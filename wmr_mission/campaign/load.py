@@ -175,8 +175,9 @@ def _check_against_mission(
     filename = str(path)
 
     def at(data_path: tuple[str | int, ...], message: str) -> Diagnostic:
+        # a check across the campaign and its mission, once each field is sound
         line, column = keys.get(data_path, (1, 1))
-        return Diagnostic(filename, line, column, message)
+        return Diagnostic(filename, line, column, message, stage="semantics")
 
     if campaign.total_runs() > MAX_RUNS:
         return None, [
