@@ -321,3 +321,31 @@ def test_aggregate_keeps_a_bounded_number_of_paths_and_the_worst_runs() -> None:
     statistics = aggregate.statistics()
     assert statistics["runs"] == total
     assert statistics["succeeded"] == total - len(range(0, total, 3))
+
+
+@pytest.mark.sweep
+def test_case2_headings_campaign_in_full(tmp_path: Path) -> None:
+    """The shipped 2000-run case-2 campaign: statistics consistent with its rows,
+    and the worst run's replay gives its row again."""
+    out = tmp_path / "out"
+    result = run_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml", out=out)
+    record = result.summary
+    rows = _rows(out / "runs.csv")
+    assert record["runs"] == len(rows) == 2000
+    assert record["succeeded"] == sum(r["outcome"] == "success" for r in rows)
+    lo, hi = record["success_interval"]
+    assert lo < record["success_rate"] < hi
+    assert hi - lo < 0.05  # 2000 runs pin the rate down to a few per cent
+    worst = record["worst"][0]
+    words = shlex.split(worst["replay"])
+    replay = tmp_path / "replay"
+    subprocess.run(
+        [sys.executable, "-m", "wmr_mission", *words[1:], "--out", str(replay), "--no-plots"],
+        capture_output=True,
+        check=False,
+    )
+    summary = json.loads((replay / "summary.json").read_text(encoding="utf-8"))
+    row = rows[worst["run"]]
+    assert summary["outcome"] == row["outcome"] == worst["outcome"]
+    assert repr(summary["max_constraint_violation"]) == row["max_constraint_violation"]
+    assert repr(summary["final"]["position_error"]) == row["final_position_error"]
