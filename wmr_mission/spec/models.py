@@ -947,7 +947,8 @@ def _color(value: str) -> str:
         hint = f"; did you mean '{close[0]}'?" if close else ""
         raise PydanticCustomError(
             "color",
-            "'{value}' is not a colour{hint}: use a name (red, tab:green), '#rrggbb' or C0..C9",
+            "'{value}' is not a colour (a name such as red or tab:green, '#rrggbb', or "
+            "C0..C9){hint}",
             {"value": value[:40], "hint": hint},
         )
     return value
