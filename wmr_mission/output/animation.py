@@ -29,6 +29,11 @@ def frame_samples(samples: int, max_frames: int = MAX_FRAMES) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, samples - 1, count)).astype(np.int64))
 
 
+def glyph_size(view: tuple[float, float, float, float]) -> float:
+    """Length of the robot's arrow [m]: a fixed share of the scene, whatever its scale."""
+    return GLYPH_SIZE * max(view[1] - view[0], view[3] - view[2])
+
+
 def robot_outline(x: float, y: float, theta: float, size: float) -> FloatArray:
     """A triangle pointing along the heading: the robot's pose arrow."""
     body = np.array([[1.0, 0.0], [-0.6, 0.5], [-0.35, 0.0], [-0.6, -0.5]]) * size
@@ -59,7 +64,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
         finite(result.x[path_points]), finite(result.y[path_points]), color="0.85", linewidth=1.0
     )
     (trail,) = ax.plot([], [], color="tab:blue", linewidth=1.6, animated=True)
-    size = GLYPH_SIZE * max(view[1] - view[0], view[3] - view[2])  # scaled to the scene
+    size = glyph_size(view)
     robot = patches.Polygon(
         np.zeros((4, 2)),
         closed=True,
