@@ -539,6 +539,16 @@ def _translate(error: Any, document: Document) -> Finding:
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         tags = _type_tags(path)
         if kind == "union_tag_not_found":
+            misspelt = [
+                k for k in (value if isinstance(value, dict) else {}) if _suggest(k, ["type"])
+            ]
+            if misspelt:  # `typ: ellipse`
+                return Finding(
+                    (*path, misspelt[0]),
+                    f"unknown field {misspelt[0]!r}; did you mean 'type'? "
+                    f"(one of: {', '.join(tags)})",
+                    at_key=True,
+                )
             return Finding(path, f"{where}: missing field 'type' (one of: {', '.join(tags)})")
         tag = str(context.get("tag", ""))
         type_path = (*path, "type") if (*path, "type") in document.values else path
@@ -561,7 +571,11 @@ def _translate(error: Any, document: Document) -> Finding:
         expected = str(context.get("expected", ""))
         choices = re.findall(r"'([^']*)'", expected)
         hint = _suggest(str(value), choices) if isinstance(value, str) else ""
-        return Finding(path, f"{where}: expected {expected}, got {_shown(value)}{hint}")
+        # A mapping's key (`output_error_bounds: {thta: ...}`): point at the key.
+        at_key = loc[-1] == "[key]"
+        return Finding(
+            path, f"{where}: expected {expected}, got {_shown(value)}{hint}", at_key=at_key
+        )
     message = str(error["msg"])
     message = re.sub(r"^Input should be", "should be", message)
     message = re.sub(r"^Value error, ", "", message)
