@@ -172,3 +172,18 @@ def test_the_robot_glyph_scales_with_the_scene() -> None:
     large = glyph_size((0.0, 200.0, -50.0, 50.0))
     assert large / small == pytest.approx(100.0)
     assert math.isclose(small, 0.08)
+
+
+def test_a_run_directory_from_before_the_measurement_column_still_plots(tmp_path: Path) -> None:
+    from wmr_mission.output.rundir import load_run, write_run
+
+    write_run(circle_run(200), tmp_path, plots=False, animate=False)
+    csv = tmp_path / "trajectory.csv"
+    rows = [line.split(",") for line in csv.read_text().splitlines()]
+    measured = [rows[0].index(name) for name in ("x_meas", "y_meas", "theta_meas")]
+    older = [[cell for i, cell in enumerate(row) if i not in measured] for row in rows]
+    csv.write_text("\n".join(",".join(row) for row in older) + "\n")
+    run = load_run(tmp_path)
+    assert run.samples == 200
+    assert np.isnan(run.x_meas).all()
+    assert plot_estimation_error(run).axes

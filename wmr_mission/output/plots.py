@@ -493,26 +493,31 @@ def _mark_phases(axes: Sequence[Axes], result: RunResult, colors: list[Any]) -> 
     segments = phase_segments(result.phase)
     t0 = float(result.t[0]) if result.samples else 0.0
     span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
-    free_from = -1.0  # axis fraction where the previous label ends
+    free_from = -math.inf  # where the previous label ends [s]
     for number, (index, start, end) in enumerate(segments):
         time = float(result.t[start])
         if number > 0:
             for ax in axes:
                 ax.axvline(time, color="0.45", linewidth=0.7, linestyle=":")
-        where = (time - t0) / span
-        room = (float(result.t[end - 1]) - time) / span
+        stop = float(result.t[end - 1])
         name = result.phases[index].name
-        # Label text takes about 0.009 of the axis width per character.
-        label = (
-            f"{index + 1} {name}" if room >= CHARACTER_WIDTH * (len(name) + 3) else str(index + 1)
-        )
-        if where < free_from:
-            continue  # would overprint its neighbour: the xy legend names it
-        free_from = where + CHARACTER_WIDTH * (len(label) + 1)
+        # Label text takes about CHARACTER_WIDTH of the axis width per character.
+        full, short = f"{index + 1} {name}", str(index + 1)
+        at = max(time, free_from)  # pushed right past its neighbour's label
+        chosen = None
+        for label in (full, short):
+            width = CHARACTER_WIDTH * (len(label) + 1) * span
+            # The name only inside its own stretch; the number at least at its start.
+            if at + width <= stop or (label == short and at == time):
+                chosen = label
+                break
+        if chosen is None:
+            continue  # no room: the xy legend names it
+        free_from = at + width
         axes[0].text(
-            time,
+            at,
             1.02,
-            label,
+            chosen,
             transform=axes[0].get_xaxis_transform(),
             fontsize=7.5,
             color=colors[index],

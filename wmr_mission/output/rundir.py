@@ -55,6 +55,9 @@ SUMMARY_FILE = "summary.json"
 ANIMATION_FILE = "animation.gif"
 
 CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
+# Run directories written before the measurement was recorded: still readable.
+MEASUREMENT_COLUMNS = ("x_meas", "y_meas", "theta_meas")
+_OLDER_CSV_COLUMNS = tuple(c for c in CSV_COLUMNS if c not in MEASUREMENT_COLUMNS)
 _FLOAT_FORMAT = "%.12g"
 # Rows formatted per `%` operation: one C-level formatting call per block keeps
 # a 360 000-sample run to about a second and a half.
@@ -472,21 +475,27 @@ def _transitions_from(records: Any) -> list[Transition]:
 def _read_trajectory(path: Path, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
     text = _read_text(path)
     header = next(csv.reader(io.StringIO(text[: text.find("\n") + 1], newline="")), None)
-    if header is None or tuple(header) != CSV_COLUMNS:
+    columns = tuple(header or ())
+    if columns not in (CSV_COLUMNS, _OLDER_CSV_COLUMNS):
         raise RunDirError(f"{path.name}:1: header must be exactly {','.join(CSV_COLUMNS)}")
     try:
-        return _parse_rows_fast(text, phase_names)
+        data = _parse_rows_fast(text, phase_names, columns)
     except ValueError:
         # Find the first bad line and say what is wrong with it.
-        return _parse_rows_checked(text, phase_names, path.name)
+        data = _parse_rows_checked(text, phase_names, path.name, columns)
+    for name in MEASUREMENT_COLUMNS:
+        data.setdefault(name, np.full(data["t"].shape[0], np.nan))
+    return data
 
 
-def _parse_rows_fast(text: str, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
+def _parse_rows_fast(
+    text: str, phase_names: Sequence[str], columns: Sequence[str]
+) -> dict[str, np.ndarray]:
     """numpy's C parser; raises ValueError on anything unexpected."""
     if not text.partition("\n")[2].strip():
         raise ValueError("no samples")  # loadtxt warns on empty input: take the checked path
-    phase_column = CSV_COLUMNS.index("phase")
-    numeric = [i for i in range(len(CSV_COLUMNS)) if i != phase_column]
+    phase_column = list(columns).index("phase")
+    numeric = [i for i in range(len(columns)) if i != phase_column]
     options: dict[str, Any] = {
         "delimiter": ",",
         "skiprows": 1,
@@ -500,7 +509,7 @@ def _parse_rows_fast(text: str, phase_names: Sequence[str]) -> dict[str, np.ndar
     index_of = {name: i for i, name in enumerate(phase_names)}
     if any(name not in index_of for name in known.tolist()):
         raise ValueError("unknown phase")
-    data = {CSV_COLUMNS[i]: values[:, j].copy() for j, i in enumerate(numeric)}
+    data = {columns[i]: values[:, j].copy() for j, i in enumerate(numeric)}
     data["phase"] = np.array([index_of[n] for n in known.tolist()], dtype=np.int64)[inverse]
     iterations = data["phase2_iterations"]
     if not np.all(np.isfinite(iterations) & (iterations == np.round(iterations))):
@@ -510,19 +519,19 @@ def _parse_rows_fast(text: str, phase_names: Sequence[str]) -> dict[str, np.ndar
 
 
 def _parse_rows_checked(
-    text: str, phase_names: Sequence[str], filename: str
+    text: str, phase_names: Sequence[str], filename: str, columns: Sequence[str]
 ) -> dict[str, np.ndarray]:
     """Row by row, naming the first line that does not fit."""
     rows = list(csv.reader(io.StringIO(text, newline="")))[1:]
     for line, row in enumerate(rows, start=2):
-        if len(row) != len(CSV_COLUMNS):
+        if len(row) != len(columns):
             raise RunDirError(
-                f"{filename}:{line}: expected {len(CSV_COLUMNS)} fields, found {len(row)}"
+                f"{filename}:{line}: expected {len(columns)} fields, found {len(row)}"
             )
     data: dict[str, np.ndarray] = {}
-    cells = list(zip(*rows, strict=True)) if rows else [() for _ in CSV_COLUMNS]
+    cells = list(zip(*rows, strict=True)) if rows else [() for _ in columns]
     index_of = {name: i for i, name in enumerate(phase_names)}
-    for name, column in zip(CSV_COLUMNS, cells, strict=True):
+    for name, column in zip(columns, cells, strict=True):
         if name == "phase":
             try:
                 data[name] = np.array([index_of[value] for value in column], dtype=np.int64)

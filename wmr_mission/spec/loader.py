@@ -539,13 +539,13 @@ def _translate(error: Any, document: Document) -> Finding:
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         tags = _type_tags(path)
         if kind == "union_tag_not_found":
-            misspelt = [
+            near_type = [
                 k for k in (value if isinstance(value, dict) else {}) if _suggest(k, ["type"])
             ]
-            if misspelt:  # `typ: ellipse`
+            if near_type:  # `typ: ellipse`
                 return Finding(
-                    (*path, misspelt[0]),
-                    f"unknown field {misspelt[0]!r}; did you mean 'type'? "
+                    (*path, near_type[0]),
+                    f"unknown field {near_type[0]!r}; did you mean 'type'? "
                     f"(one of: {', '.join(tags)})",
                     at_key=True,
                 )
