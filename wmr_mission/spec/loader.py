@@ -321,14 +321,20 @@ def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
     return 1, 1, f"YAML error: {error}"
 
 
+def _compose(text: str) -> yaml.Node | None:
+    """The node tree of one YAML document; raises ``yaml.YAMLError``."""
+    loader = _NodeLoader(text)  # the reader refuses unprintable characters here
+    try:
+        node: yaml.Node | None = loader.get_single_node()
+    finally:
+        loader.dispose()
+    return node
+
+
 def read_document(text: str) -> tuple[Document | None, list[Finding]]:
     """Compose ``text``; on a syntax error return its position instead of a document."""
     try:
-        loader = _NodeLoader(text)  # the reader refuses unprintable characters here
-        try:
-            node = loader.get_single_node()
-        finally:
-            loader.dispose()
+        node = _compose(text)
     except yaml.YAMLError as error:
         line, column, message = _syntax_finding(error, text)
         return None, [Finding((), message, position=(line, column))]
@@ -896,11 +902,7 @@ def read_value(text: str) -> tuple[Any, list[Finding]]:
     if not text.strip():
         return None, []  # `--set description=` sets null, as `description:` would
     try:
-        loader = _NodeLoader(text)
-        try:
-            node = loader.get_single_node()
-        finally:
-            loader.dispose()
+        node = _compose(text)
     except yaml.YAMLError as error:
         _, _, message = _syntax_finding(error, text)
         return None, [Finding((), message)]
