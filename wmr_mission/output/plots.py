@@ -62,8 +62,8 @@ REFERENCE_STYLE: dict[str, Any] = {
 }
 # Width of one character of a phase label, as a fraction of a 9-inch axis.
 CHARACTER_WIDTH = 0.009
-# Legends list each phase while they stay readable; beyond, two columns.
-ONE_COLUMN_PHASES = 12
+# Rows of the xy legend that fit beside the axes; longer legends take more columns.
+LEGEND_ROWS = 20
 
 
 def thin(start: int, stop: int, max_points: int = MAX_POINTS_PER_LINE) -> IntArray:
@@ -458,7 +458,7 @@ def _xy_on(ax: Axes, result: RunResult) -> None:
     phases = _phase_handles(result, colors)
     others, labels = ax.get_legend_handles_labels()
     handles = [*phases, *others]
-    columns = 1 if len(handles) <= ONE_COLUMN_PHASES + 8 else 2
+    columns = math.ceil(len(handles) / LEGEND_ROWS)
     ax.legend(
         handles=handles,
         labels=[h.get_label() for h in phases] + labels,
