@@ -103,7 +103,7 @@ def test_goals_and_waypoints_are_marked() -> None:
     labels = _legend_labels(ax)
     assert "near goal" in labels
     assert "waypoint" in labels
-    assert "goal not reached" not in labels
+    assert "near goal not reached" not in labels
     marker = next(line for line in ax.lines if line.get_label() == "waypoint")
     assert sorted(zip(marker.get_xdata(), marker.get_ydata(), strict=True)) == sorted(waypoints)
     # The same goal, missed: the phase timed out waiting for it.
@@ -111,7 +111,7 @@ def test_goals_and_waypoints_are_marked() -> None:
         run,
         transitions=[Transition(3.0, "orbit", None, "timeout", 3.0)],
     )
-    assert "goal not reached" in _legend_labels(plot_xy(missed))
+    assert "near goal not reached" in _legend_labels(plot_xy(missed))
     view = view_box(run)
     assert view[0] < -1.5 and view[3] > 2.5  # noqa: PT018 - the view holds every goal
 

@@ -319,8 +319,11 @@ def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
         )
     missed = _missed_goal(result)
     goals = sorted({p.near for p in result.phases if p.near is not None})
-    for i, (gx, gy, tolerance) in enumerate(goals):
-        color = "tab:red" if (gx, gy, tolerance) == missed else "black"
+    labelled: set[str] = set()
+    for gx, gy, tolerance in goals:
+        reached = (gx, gy, tolerance) != missed
+        color = "black" if reached else "tab:red"
+        label = "near goal" if reached else "near goal not reached"
         if tolerance >= 0.005 * size:  # a tolerance circle too small to see is left out
             ax.add_patch(
                 patches.Circle(
@@ -341,11 +344,10 @@ def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
             markersize=7,
             mew=1.5,
             linestyle="none",
-            label="near goal" if i == 0 else None,
+            label=None if label in labelled else label,
             zorder=6,
         )
-    if missed is not None:
-        ax.plot([], [], marker="x", color="tab:red", linestyle="none", label="goal not reached")
+        labelled.add(label)
     points = sorted({point for p in result.phases for point in p.points})
     if points:
         ax.plot(
