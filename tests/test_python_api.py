@@ -210,3 +210,12 @@ def test_every_python_block_of_the_docs_runs_and_keeps_the_backend(tmp_path: Pat
     assert completed.returncode == 0, completed.stderr[-3000:]
     assert completed.stdout.splitlines()[-1] == "DOC-OK"
     assert "Traceback" not in completed.stderr
+
+
+def test_bench_checks_the_mission_it_is_given() -> None:
+    from wmr_mission.bench import bench_mission
+
+    mission = load_mission(CASE2)
+    broken = mission.model_copy(update={"robot": mission.robot.model_copy(update={"dt": -1})})
+    with pytest.raises(MissionError, match=r"robot\.dt: should be greater than 0"):
+        bench_mission(broken, repeat=1)
