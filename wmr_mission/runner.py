@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from wmr_mission import control
 from wmr_mission.compiled import CompiledMission, CompiledPhase, Trajectory, compile_mission
+from wmr_mission.constrained_tracking import keep_constraints
 from wmr_mission.corrective import max_row_value
 from wmr_mission.ekf import ekf_step
 from wmr_mission.model import step, wrap_angle
@@ -346,6 +347,7 @@ class _Run:
                         None if to is None else to.phase.name,
                         condition,
                         float(value),
+                        None if to is None else to.phase.lap,
                     )
                 )
                 if to is None:
@@ -371,6 +373,11 @@ class _Run:
                 self.functions.track_input(
                     estimate, u_prev, reference, m.look_ahead, m.w, m.m, m.limits, dt, work, u
                 )
+                kinds, params = phase.constraint_rows
+                if kinds.shape[0]:  # zones win over tracking: eq. (28) with priority
+                    keep_constraints(
+                        estimate, u_prev, kinds, params, m.w, m.m, m.limits, dt, work, u
+                    )
             else:
                 kinds, params = phase.constraint_rows
                 self.functions.regulate_input(
@@ -469,6 +476,11 @@ class _Run:
                 self.functions.track_input(
                     estimate.copy(), u.copy(), np.zeros(4), m.look_ahead, m.w, m.m, m.limits,
                     m.dt, work, np.zeros(2),
+                )  # fmt: skip
+                kinds, params = phase.constraint_rows
+                keep_constraints(
+                    estimate.copy(), u.copy(), kinds, params, m.w, m.m, m.limits, m.dt, work,
+                    np.zeros(2),
                 )  # fmt: skip
             else:
                 kinds, params = phase.constraint_rows
