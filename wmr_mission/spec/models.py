@@ -672,7 +672,10 @@ class PolylinePath(_Model):
 
     type: Literal["polyline"] = Field(description="Path kind.")
     points: list[Point] = Field(
-        min_length=2, max_length=10000, description="At least 2 points [[x, y], ...] [m]."
+        min_length=1,
+        max_length=10000,
+        description="At least 1 point [[x, y], ...] [m] (with start: current, the robot's "
+        "position comes first).",
     )
     speed: PositiveScalar = Field(description="Speed along legs and arcs [m/s], > 0.")
     corner_radius: NonNegativeScalar = Field(
