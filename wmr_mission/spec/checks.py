@@ -16,6 +16,7 @@ import numpy as np
 from wmr_mission.spec.models import (
     BoxRegion,
     CircleRegion,
+    CoveragePath,
     Ekf,
     EllipsePath,
     EllipseRegion,
@@ -186,6 +187,14 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                     at_key=True,
                 )
             path = phase.track.path
+            if isinstance(path, CoveragePath):
+                field = mission.regions.get(path.region)
+                if field is not None and not isinstance(field, BoxRegion | PolygonRegion):
+                    yield Finding(
+                        (*where, "track", "path", "region"),
+                        f"a coverage path covers a box or convex polygon region, but "
+                        f"{path.region!r} is a {field.type}",
+                    )
             if isinstance(path, EllipsePath | EllipticalSpiralPath) and path.region is not None:
                 region = mission.regions.get(path.region)
                 if region is not None and not isinstance(region, EllipseRegion | CircleRegion):
