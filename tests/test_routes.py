@@ -67,9 +67,7 @@ def bezier_bound(points: np.ndarray, closed: bool) -> float:
     bound = 0.0
     for i in range(count) if closed else range(1, count - 1):
         before, after = points[i] - points[i - 1], points[(i + 1) % count] - points[i]
-        turn = math.atan2(
-            before[0] * after[1] - before[1] * after[0], float(np.dot(before, after))
-        )
+        turn = math.atan2(before[0] * after[1] - before[1] * after[0], float(np.dot(before, after)))
         arm = min(np.hypot(*before), np.hypot(*after)) / 3.0
         bound = max(bound, arm * math.sin(abs(turn) / 2.0))
     return bound
@@ -136,14 +134,12 @@ def test_turn_in_place_holds_the_point_and_turns_at_the_turn_rate() -> None:
 
 
 def test_open_polyline_holds_its_last_point_and_closed_one_loops() -> None:
-    open_route = build({"type": "polyline", "points": PATROL.tolist(), "speed": 1, "start": "first"})
+    drawn = {"type": "polyline", "points": PATROL.tolist(), "speed": 1, "start": "first"}
+    open_route = build(drawn)
     x, y, vx, vy = open_route.sample(np.array([open_route.period + 1.0, 1e4]))
     np.testing.assert_allclose([x, y], [[0.5, 0.5], [4.0, 4.0]])
     np.testing.assert_array_equal([vx, vy], 0.0)
-    loop = build(
-        {"type": "polyline", "points": PATROL.tolist(), "speed": 1, "closed": True, "start": "first",
-         "corner_radius": 0.5}
-    )  # fmt: skip
+    loop = build({**drawn, "closed": True, "corner_radius": 0.5})
     t = np.linspace(0.0, loop.period, 11)
     for now, later in zip(loop.sample(t), loop.sample(t + 3 * loop.period), strict=True):
         np.testing.assert_allclose(now, later, atol=1e-9)

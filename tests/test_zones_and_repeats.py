@@ -22,8 +22,8 @@ from wmr_mission.constrained_tracking import (
     keep_reference,
     row_value_with_margin,
 )
-from wmr_mission.control import make_workspace, track_input
-from wmr_mission.corrective import row_value
+from wmr_mission.control import input_jacobian_into, make_workspace, saturate, track_input
+from wmr_mission.corrective import corrective_input, row_value
 from wmr_mission.model import step
 from wmr_mission.regions import constraint_rows
 from wmr_mission.spec.loader import load_mission
@@ -103,7 +103,24 @@ def test_a_reference_inside_a_keep_out_circle_moves_to_its_edge_along_it() -> No
     np.testing.assert_array_equal(outside, [5.0, -2.0, 1.0, 0.0])
 
 
-def drive_through_pond(move_reference: bool) -> np.ndarray:
+def literal_filter(
+    state: np.ndarray, u: np.ndarray, kinds: np.ndarray, params: np.ndarray, dt: float
+) -> None:
+    """The literal reading: eq. (28) on the rows at the predicted axle centre,
+    applied to the tracking input in the input norm of eq. (22)."""
+    px, py, _ = step(state[0], state[1], state[2], u[0], u[1], dt)
+    value, gx, gy = row_value(int(kinds[0]), params[0], px, py)
+    if value <= 0.0:
+        return
+    b = np.zeros((3, 2))
+    input_jacobian_into(state[2], u[0], u[1], dt, b)
+    d = np.zeros((2, 3))
+    d[0, :2] = gx, gy
+    dv, dw = corrective_input(d, np.array([-value, 0.0]), 1, b, W, M)
+    u[0], u[1] = saturate(u[0] + dv, u[1] + dw, u[0], u[1], LIMITS, dt)
+
+
+def drive_through_pond(move_reference: bool, literal: bool = False) -> np.ndarray:
     """A robot tracking y = 0 eastwards at 1 m/s through a pond of radius 1.2 at
     (5, 0.4), with an exact estimate: its positions over 12 s."""
     pond = CircleRegion(type="circle", center=(5.0, 0.4), radius=1.2)
@@ -117,7 +134,10 @@ def drive_through_pond(move_reference: bool) -> np.ndarray:
         if move_reference:
             keep_reference(reference, kinds, params, look_ahead)
         track_input(state, u_prev, reference, look_ahead, W, M, LIMITS, dt, work, u)
-        keep_constraints(state, u_prev, kinds, params, look_ahead, LIMITS, dt, work, u)
+        if literal:
+            literal_filter(state, u, kinds, params, dt)
+        else:
+            keep_constraints(state, u_prev, kinds, params, look_ahead, LIMITS, dt, work, u)
         state[:] = step(state[0], state[1], state[2], u[0], u[1], dt)
         u_prev[:] = u
         positions.append(state[:2].copy())
@@ -128,6 +148,9 @@ def test_the_filter_keeps_the_pond_but_alone_stops_at_its_edge() -> None:
     """Evidence for aiming at the zone's edge (docs/paper-notes.md): with eq. (28)
     given priority alone, the robot never gets past the pond; aimed along its
     edge it goes round and rejoins the path."""
+    literal = drive_through_pond(move_reference=False, literal=True)
+    assert literal[:, 0].max() < 3.9  # stopped at the pond's edge, facing it
+    assert np.abs(literal[-100:] - literal[-1]).max() < 1e-6
     alone = drive_through_pond(move_reference=False)
     assert alone[:, 0].max() < 4.0
     assert np.abs(alone[-100:] - alone[-1]).max() < 1e-9  # at rest at the edge

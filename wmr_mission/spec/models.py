@@ -884,7 +884,11 @@ class _PhaseCommon(_Model):
         default="fail", description="At timeout: fail the mission, or go on to the next phase."
     )
     constraints: tuple[Constraint, ...] = Field(
-        default=(), max_length=64, description="Inequality constraints (regulate and hold only)."
+        default=(),
+        max_length=64,
+        description=(
+            "Keep-in and keep-out zones (eq. (28)); on a track phase they win over the path."
+        ),
     )
 
 
