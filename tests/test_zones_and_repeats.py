@@ -158,7 +158,9 @@ def test_the_filter_keeps_the_pond_but_alone_stops_at_its_edge() -> None:
     # clipped the corrected input (docs/paper-notes.md, "Tracking with constraints")
     assert (1.2 - np.hypot(alone[:, 0] - 5.0, alone[:, 1] - 0.4)).max() < 0.01
     aimed = drive_through_pond(move_reference=True)
-    assert (1.2 - np.hypot(aimed[:, 0] - 5.0, aimed[:, 1] - 0.4)).max() <= 1e-3
+    # never closer than 0.02 m (docs/paper-notes.md): the axle runs about the
+    # look-ahead distance outside the edge
+    assert (1.2 - np.hypot(aimed[:, 0] - 5.0, aimed[:, 1] - 0.4)).max() <= -0.02
     assert aimed[:, 1].min() < 0.4 - 1.2  # round the south side of the pond
     assert aimed[-1, 0] > 9.0
     assert abs(aimed[-1, 1]) < 0.01  # back on the path

@@ -173,6 +173,15 @@ def _regions(mission: Mission) -> Iterator[Finding]:
             )
 
 
+# The regions a path's `region` may name, and how to say so.
+_PATH_REGIONS: Final = {
+    "ellipse": ((EllipseRegion, CircleRegion), "an ellipse or circle"),
+    "elliptical-spiral": ((EllipseRegion, CircleRegion), "an ellipse or circle"),
+    "coverage": ((BoxRegion, PolygonRegion), "a box or convex polygon"),
+}
+_PATHS_ON_REGIONS: Final = (EllipsePath, EllipticalSpiralPath, CoveragePath)
+
+
 def _phase_rules(mission: Mission) -> Iterator[Finding]:
     for run in run_order(mission):
         if run.lap is not None and run.lap > 1:
@@ -187,21 +196,16 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                     at_key=True,
                 )
             path = phase.track.path
-            if isinstance(path, CoveragePath):
-                field = mission.regions.get(path.region)
-                if field is not None and not isinstance(field, BoxRegion | PolygonRegion):
+            name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
+            region = mission.regions.get(name) if name is not None else None
+            if region is not None:
+                kinds, wanted = _PATH_REGIONS[path.type]
+                if not isinstance(region, kinds):
+                    article = "an" if path.type[0] in "aeiou" else "a"
                     yield Finding(
                         (*where, "track", "path", "region"),
-                        f"a coverage path covers a box or convex polygon region, but "
-                        f"{path.region!r} is a {field.type}",
-                    )
-            if isinstance(path, EllipsePath | EllipticalSpiralPath) and path.region is not None:
-                region = mission.regions.get(path.region)
-                if region is not None and not isinstance(region, EllipseRegion | CircleRegion):
-                    yield Finding(
-                        (*where, "track", "path", "region"),
-                        f"an {path.type} path needs an ellipse or circle region, but "
-                        f"{path.region!r} is a {region.type}",
+                        f"{article} {path.type} path needs {wanted} region, but "
+                        f"{name!r} is a {region.type}",
                     )
         yield from _target_against_constraints(mission, phase, where)
         for number, constraint in enumerate(phase.constraints):
