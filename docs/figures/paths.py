@@ -132,6 +132,48 @@ def coverage_figure() -> None:
     plt.close(fig)
 
 
+# One example of each path type, as the mission-format reference writes it.
+EXAMPLES: list[tuple[dict[str, Any], float]] = [
+    ({"type": "line", "start": [0, 0], "heading": 0.5, "speed": 1}, 5.0),
+    ({"type": "circle", "center": [0, 0], "radius": 2, "angular_rate": 1, "start": 0}, 6.3),
+    ({"type": "ellipse", "center": [0, 0], "semi_axes": [5.5, 3], "angular_rate": "0.4*pi",
+      "start": 0}, 5.0),
+    ({"type": "spiral", "initial_radius": 2, "growth_rate": 0.5, "angular_rate": "0.4*pi"}, 2.0),
+    ({"type": "elliptical-spiral", "center": [0, 0], "semi_axes": [5.5, 3], "decay_rate": 0.2,
+      "angular_rate": "0.4*pi", "start": 0}, 15.0),
+    ({"type": "expression", "x": "3*sin(0.5*t)", "y": "2*sin(t)"}, 12.6),
+    ({"type": "waypoints", "points": PATROL.tolist(), "speed": 1, "closed": True,
+      "start": "first"}, 0.0),
+    ({"type": "polyline", "points": PATROL.tolist(), "speed": 1, "closed": True,
+      "corner_radius": 1.0, "start": "first"}, 0.0),
+    ({"type": "coverage", "region": "field", "spacing": 1.0, "speed": 1, "start": "first"}, 0.0),
+]  # fmt: skip
+
+
+def path_types_figure() -> None:
+    fig, axes = plt.subplots(3, 3, figsize=(11, 9.5))
+    for ax, (spec, duration) in zip(axes.ravel(), EXAMPLES, strict=True):
+        if duration > 0.0:
+            path = instantiate(TypeAdapter(PathSpec).validate_python(spec), MISSION, (0, 0, 0))
+            x, y, _, _ = path.sample(np.linspace(0.0, duration, 2001))
+        else:
+            x, y = curve(spec)
+        ax.plot(x, y, color="C0")
+        ax.plot(x[:1], y[:1], "ko", ms=4)
+        if "points" in spec:
+            points = np.array(spec["points"], dtype=float)
+            ax.plot(points[:, 0], points[:, 1], "k.", ms=6)
+        if spec["type"] == "coverage":
+            field = np.array(FIELD + FIELD[:1], dtype=float)
+            ax.plot(field[:, 0], field[:, 1], color="0.6", lw=0.8)
+        ax.set_title(spec["type"], fontsize=10)
+        ax.set_aspect("equal")
+        ax.tick_params(labelsize=7)
+    fig.tight_layout()
+    fig.savefig(IMAGES / "path-types.png", dpi=80)
+    plt.close(fig)
+
+
 def keep_out_figure() -> None:
     result = run_mission(load_mission(ROOT / "missions" / "keep-out.yaml"))
     inside = 1.2 - np.hypot(result.x - 5.0, result.y - 0.4)
@@ -140,6 +182,7 @@ def keep_out_figure() -> None:
 
 
 if __name__ == "__main__":
+    path_types_figure()
     waypoints_figure()
     polyline_figure()
     coverage_figure()
