@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -249,3 +250,17 @@ def test_coverage_lanes_are_at_most_the_spacing_apart_with_semicircle_turns() ->
     assert lanes[0] == pytest.approx(-1.0 + 4.0 / 11.0)
     radii = route.parameters[route.kinds == 1, 2]
     np.testing.assert_allclose(radii, 4.0 / 11.0)  # half the spacing: semicircles
+
+
+def test_compiled_track_phases_expose_the_points_their_paths_are_drawn_through() -> None:
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.spec.loader import load_mission
+
+    root = Path(__file__).resolve().parents[1]
+    patrol = compile_mission(load_mission(root / "missions" / "patrol.yaml"))
+    np.testing.assert_array_equal(patrol.phases[0].points, PATROL)
+    assert patrol.phases[1].points is None  # the dock: a regulate phase
+    coverage = compile_mission(load_mission(root / "missions" / "coverage.yaml"))
+    route = coverage.phases[0].make_trajectory((-1.0, 0.5, 0.0))  # type: ignore[misc]
+    assert isinstance(route, RouteTrajectory)
+    np.testing.assert_array_equal(route.points[1:], coverage.phases[0].points)  # after the robot

@@ -62,6 +62,8 @@ class CompiledPhase:
     constraints: tuple[tuple[str, str], ...] = ()
     # 1, 2, ... for a phase of a repeat (its lap); None outside repeats.
     lap: int | None = None
+    # track: the points its path is drawn through ((m, 2), for figures), or None.
+    points: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -175,8 +177,10 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         )
         make_trajectory = None
         target = None
+        points = None
         if kind == "track":
             path = phase.track.path  # type: ignore[union-attr]
+            points = paths.drawn_points(path, mission)
 
             def make_trajectory(
                 pose: tuple[float, float, float], _path: object = path
@@ -190,6 +194,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
             CompiledPhase(
                 name=run.label,
                 lap=run.lap,
+                points=points,
                 kind=kind,
                 until=conditions,
                 timeout_samples=None if phase.timeout is None else _samples(phase.timeout, dt),

@@ -31,6 +31,7 @@ __all__ = [
     "SpiralTrajectory",
     "Trajectory",
     "WaypointsTrajectory",
+    "drawn_points",
     "ellipse_angle",
     "instantiate",
     "sample_positions",
@@ -472,9 +473,8 @@ def instantiate(path: PathSpec, mission: Mission, pose: tuple[float, float, floa
             points, (x, y), path.start, path.closed, path.speed, path.corner_radius, path.turn_rate
         )
     if isinstance(path, models.CoveragePath):
-        region = mission.regions[path.region]
-        _, rows = constraint_rows(region, "inside")
-        ends = coverage_points(region_vertices(region), rows[:, :3], path.spacing, path.direction)
+        ends = drawn_points(path, mission)
+        assert ends is not None
         radius = 0.5 * path.spacing if path.turn_radius is None else path.turn_radius
         return _joined(ends, (x, y), path.start, False, path.speed, radius, path.turn_rate)
     if isinstance(path, models.ExpressionPath):
@@ -493,6 +493,19 @@ def instantiate(path: PathSpec, mission: Mission, pose: tuple[float, float, floa
             offset_y=y - float(y_start[0]),
         )
     raise ValueError(f"unknown path type {path.type!r}")
+
+
+def drawn_points(path: PathSpec, mission: Mission) -> FloatArray | None:
+    """The points a path is drawn through, ``(m, 2)``, for figures: a waypoint or
+    polyline path's points, a coverage path's lane ends; None for other paths.
+    (With ``start: current`` the route also passes the robot's position.)"""
+    if isinstance(path, models.WaypointsPath | models.PolylinePath):
+        return np.asarray(path.points, dtype=np.float64).reshape(-1, 2)
+    if isinstance(path, models.CoveragePath):
+        region = mission.regions[path.region]
+        _, rows = constraint_rows(region, "inside")
+        return coverage_points(region_vertices(region), rows[:, :3], path.spacing, path.direction)
+    return None
 
 
 def _joined(
