@@ -234,7 +234,7 @@ def test_coverage_path_covers_its_field_and_stays_inside(direction: float) -> No
     route = build(spec)
     _, x, y, _, _ = whole(route, count=50001)
     assert outside_hull(np.array(FIELD, float), x, y) < 1e-9
-    assert share_covered(FIELD, x, y, 0.5) >= 0.97  # measured 0.974 (direction 0) to 0.988
+    assert share_covered(FIELD, x, y, 0.5) >= 0.98  # measured 0.982 (pi/2) to 0.991
     # lanes run along the direction: most of the time the velocity points along it (or back)
     _, _, vx, vy = route.sample(np.linspace(0.0, route.period, 2001))
     along = np.abs(vx * math.cos(direction) + vy * math.sin(direction))

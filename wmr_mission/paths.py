@@ -476,7 +476,10 @@ def instantiate(path: PathSpec, mission: Mission, pose: tuple[float, float, floa
         ends = drawn_points(path, mission)
         assert ends is not None
         radius = 0.5 * path.spacing if path.turn_radius is None else path.turn_radius
-        return _joined(ends, (x, y), path.start, False, path.speed, radius, path.turn_rate)
+        # a turn sharper than a right angle cuts no more than its radius off a lane
+        return _joined(
+            ends, (x, y), path.start, False, path.speed, radius, path.turn_rate, longest_cut=radius
+        )
     if isinstance(path, models.ExpressionPath):
         parameters = dict(mission.parameters)
         written = ExpressionTrajectory(
@@ -516,12 +519,13 @@ def _joined(
     speed: float,
     corner_radius: float,
     turn_rate: float,
+    longest_cut: float = math.inf,
 ) -> RouteTrajectory:
     """The route through ``points``; with ``start: current`` an open route begins
     at the robot and a closed one at its point nearest the robot."""
     if start == "current" and not closed:
         points = np.vstack([robot, points])
-    route = polyline_route(points, speed, closed, corner_radius, turn_rate)
+    route = polyline_route(points, speed, closed, corner_radius, turn_rate, longest_cut)
     if start == "current" and route.closed:
         return replace(route, start_time=route.nearest_time(*robot))
     return route

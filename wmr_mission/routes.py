@@ -131,14 +131,15 @@ def _unit(vector: FloatArray) -> FloatArray:
 
 
 def _corner(
-    before: FloatArray, vertex: FloatArray, after: FloatArray, radius: float
+    before: FloatArray, vertex: FloatArray, after: FloatArray, radius: float, longest_cut: float
 ) -> tuple[FloatArray, FloatArray, tuple[int, list[float]] | None]:
     """Entry point, exit point and the piece of the corner at ``vertex``.
 
     The arc's tangent length ``radius * tan(|turn| / 2)`` may use at most half
-    of each leg it cuts, so neighbouring corners never overlap: a radius that
-    does not fit shrinks to the largest that does. A corner with no room for an arc (a
-    reversal, or ``radius = 0``) is a turn in place.
+    of each leg it cuts, so neighbouring corners never overlap, and at most
+    ``longest_cut``: a radius that does not fit shrinks to the largest that
+    does. A corner with no room for an arc (a reversal, or ``radius = 0``) is a
+    turn in place.
     """
     incoming, outgoing = vertex - before, after - vertex
     e_in, e_out = _unit(incoming), _unit(outgoing)
@@ -146,7 +147,7 @@ def _corner(
     turn = math.atan2(cross, float(np.dot(e_in, e_out)))
     if abs(turn) < _STRAIGHT:
         return vertex, vertex, None
-    room = 0.5 * min(float(np.hypot(*incoming)), float(np.hypot(*outgoing)))
+    room = min(0.5 * float(np.hypot(*incoming)), 0.5 * float(np.hypot(*outgoing)), longest_cut)
     half = math.tan(0.5 * abs(turn))
     fitted = min(radius, room / half) if math.isfinite(half) else 0.0
     if fitted <= 1e-9:
@@ -166,9 +167,11 @@ def polyline_route(
     closed: bool,
     corner_radius: float,
     turn_rate: float,
+    longest_cut: float = math.inf,
 ) -> RouteTrajectory:
     """Straight legs through ``points`` at ``speed``, corners rounded by arcs of
-    ``corner_radius`` (or turned in place at ``turn_rate`` when it is 0).
+    ``corner_radius`` (or turned in place at ``turn_rate`` when it is 0); an arc
+    cuts at most ``longest_cut`` off each leg.
 
     A closed route starts where it leaves the first point's corner and ends
     where it enters it again.
@@ -187,7 +190,7 @@ def polyline_route(
     pieces: dict[int, tuple[int, list[float]]] = {}
     for i in corners:
         entries[i], exits[i], piece = _corner(
-            vertices[i - 1], vertices[i], vertices[(i + 1) % n], corner_radius
+            vertices[i - 1], vertices[i], vertices[(i + 1) % n], corner_radius, longest_cut
         )
         if piece is not None:
             pieces[i] = piece
