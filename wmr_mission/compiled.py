@@ -60,9 +60,11 @@ class CompiledPhase:
     target: tuple[float, float, float] | None = None
     constraint_rows: tuple[IntArray, FloatArray] = field(default_factory=no_rows)
     constraints: tuple[tuple[str, str], ...] = ()
-    # For the figures only: the points a path is written through, the phase's colour.
-    points: tuple[tuple[float, float], ...] = ()
-    color: str | None = None
+    # 1, 2, ... for a phase of a repeat (its lap); None outside repeats.
+    lap: int | None = None
+    # track: the points its path is drawn through ((m, 2), for figures), or None.
+    points: FloatArray | None = None
+    color: str | None = None  # for the figures: from the mission's plot.phase_colors
 
 
 @dataclass(frozen=True)
@@ -117,11 +119,13 @@ def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, Flo
 def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
     """Turn a validated mission into the runner's plain form."""
     from wmr_mission import paths, regions
+    from wmr_mission.spec.repeats import run_order
 
     dt = float(mission.robot.dt)
     phases: list[CompiledPhase] = []
     budget = 0
-    for phase in mission.phases:
+    for run in run_order(mission):  # repeats written out, one phase per lap
+        phase = run.phase
         until = phase.until
         conditions = Conditions()
         if until is not None:
@@ -174,11 +178,10 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         )
         make_trajectory = None
         target = None
-        points: tuple[tuple[float, float], ...] = ()
+        points = None
         if kind == "track":
             path = phase.track.path  # type: ignore[union-attr]
-            # Any path written through points (waypoints and the like) shows them.
-            points = tuple((float(x), float(y)) for x, y in getattr(path, "points", None) or ())
+            points = paths.drawn_points(path, mission)
 
             def make_trajectory(
                 pose: tuple[float, float, float], _path: object = path
@@ -190,7 +193,9 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
             target = (float(goal.x), float(goal.y), float(goal.theta))
         phases.append(
             CompiledPhase(
-                name=phase.name,
+                name=run.label,
+                lap=run.lap,
+                points=points,
                 kind=kind,
                 until=conditions,
                 timeout_samples=None if phase.timeout is None else _samples(phase.timeout, dt),
@@ -199,8 +204,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 target=target,
                 constraint_rows=_stack_rows(row_parts),
                 constraints=tuple(constraints),
-                points=points,
-                color=mission.plot.phase_colors.get(phase.name),
+                color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
             )
         )
     estimator = mission.estimator
