@@ -219,3 +219,21 @@ def test_bench_checks_the_mission_it_is_given() -> None:
     broken = mission.model_copy(update={"robot": mission.robot.model_copy(update={"dt": -1})})
     with pytest.raises(MissionError, match=r"robot\.dt: should be greater than 0"):
         bench_mission(broken, repeat=1)
+
+
+def test_phase_colours_apply_to_every_lap_of_a_repeat() -> None:
+    from wmr_mission.compiled import compile_mission
+
+    repeat = ROOT / "tests" / "data" / "missions" / "valid" / "repeat.yaml"
+    mission = load_mission(repeat, {"plot.phase_colors": {"out": "red", "rest": "#0000ff"}})
+    compiled = compile_mission(mission)
+    assert [(p.name, p.color) for p in compiled.phases] == [
+        ("out#1", "red"), ("back#1", None), ("out#2", "red"), ("back#2", None),
+        ("rest", "#0000ff"),
+    ]  # fmt: skip
+    with pytest.raises(MissionError) as caught:
+        load_mission(repeat, {"plot.phase_colors": {"laps": "red"}})
+    assert str(caught.value) == (
+        "overrides['plot.phase_colors']: plot.phase_colors.laps: no phase is named 'laps' "
+        "(phases: out, back, rest)"
+    )

@@ -459,6 +459,7 @@ def _phase_colors(mission: Mission) -> Iterator[Finding]:
             hint = f"; did you mean {close[0]!r}?" if close else ""
             yield Finding(
                 ("plot", "phase_colors", name),
-                f"plot.phase_colors names no phase {name!r}{hint} (phases: {', '.join(names)})",
+                f"plot.phase_colors.{name}: no phase is named {name!r}{hint} "
+                f"(phases: {', '.join(names)})",
                 at_key=True,
             )
