@@ -26,7 +26,14 @@ from wmr_mission.corrective import max_row_value
 from wmr_mission.ekf import ekf_step
 from wmr_mission.model import step, wrap_angle
 from wmr_mission.observer import observer_step
-from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
+from wmr_mission.result import (
+    EXTRA_COLUMNS,
+    TRAJECTORY_COLUMNS,
+    Outcome,
+    PhaseInfo,
+    RunResult,
+    Transition,
+)
 from wmr_mission.sensors import Sensors
 
 if TYPE_CHECKING:
@@ -55,22 +62,9 @@ class Recorder:
     """Pre-sized columns, one row per sample; grows by doubling if a run
     outlasts its estimate. Sees every step; the kernels never log."""
 
-    FLOAT_COLUMNS = (
-        "t",
-        "x",
-        "y",
-        "theta",
-        "x_est",
-        "y_est",
-        "theta_est",
-        "v",
-        "omega",
-        "x_ref",
-        "y_ref",
-        "constraint",
-        "x_meas",
-        "y_meas",
-        "theta_meas",
+    # The float columns of trajectory.csv, in its order (phase and iterations are kept apart).
+    FLOAT_COLUMNS = tuple(
+        c for c in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS) if c not in ("phase", "phase2_iterations")
     )
 
     def __init__(self, capacity: int) -> None:
