@@ -24,6 +24,14 @@ IntArray = NDArray[np.int64]
 
 FORMS = {"bearing": 0, "deviation": 1, "increment": 2}
 
+# A position farther than this from every coordinate the mission names is a
+# runaway, not a robot [m]: the threshold follows the mission's own scale, so a
+# mission written in map coordinates (y = 5e6) runs like one near the origin.
+RUNAWAY_DISTANCE = 1e6
+# An input beyond this, or beyond ten times the mission's own limit, is a
+# runaway [m/s, rad/s]: no wheeled robot drives at 1 km/s.
+RUNAWAY_INPUT = 1e3
+
 
 class Trajectory(Protocol):
     def sample(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]: ...
@@ -70,6 +78,9 @@ class CompiledMission:
     initial_estimate: FloatArray
     # Actuator limits: |v|, |omega|, and rates (inf when absent).
     limits: FloatArray
+    # |x|, |y| [m] and |v|, |omega| beyond which the run has diverged.
+    runaway_position: float
+    runaway_input: tuple[float, float]
     measure_mask: FloatArray
     noise_std: FloatArray
     seed: int
@@ -101,6 +112,41 @@ class CompiledMission:
 
 def _samples(seconds: float, dt: float) -> int:
     return max(1, round(seconds / dt))
+
+
+def _extent(mission: Mission) -> float:
+    """The largest coordinate magnitude the mission names [m]: start, estimate,
+    regions, targets, points, and each path's first point from the start pose."""
+    from wmr_mission import paths
+
+    start = mission.robot.initial_state
+    guess = mission.estimator.initial_estimate
+    numbers = [start.x, start.y, guess.x, guess.y]
+    for region in mission.regions.values():
+        numbers += _numbers(region.model_dump(mode="json", exclude={"rotation"}))
+    pose = (float(start.x), float(start.y), float(start.theta))
+    for phase in mission.phases:
+        numbers += _numbers(phase.model_dump(mode="json", include={"regulate"}))
+        if phase.until is not None and phase.until.near is not None:
+            numbers += list(phase.until.near.point)
+        if hasattr(phase, "track"):
+            trajectory = paths.instantiate(phase.track.path, mission, pose)
+            x, y, _, _ = trajectory.sample(np.zeros(1))
+            numbers += [float(x[0]), float(y[0])]
+    finite = [abs(float(n)) for n in numbers if math.isfinite(float(n))]
+    return max(finite, default=0.0)
+
+
+def _numbers(value: object) -> list[float]:
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return []
+    if isinstance(value, int | float):
+        return [float(value)]
+    if isinstance(value, dict):
+        return [n for item in value.values() for n in _numbers(item)]
+    if isinstance(value, list | tuple):
+        return [n for item in value for n in _numbers(item)]
+    return []
 
 
 def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, FloatArray]:
@@ -248,6 +294,11 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 math.inf if limits.v_rate is None else limits.v_rate,
                 math.inf if limits.omega_rate is None else limits.omega_rate,
             ]
+        ),
+        runaway_position=RUNAWAY_DISTANCE + _extent(mission),
+        runaway_input=(
+            max(RUNAWAY_INPUT, 10.0 * limits.v),
+            max(RUNAWAY_INPUT, 10.0 * limits.omega),
         ),
         measure_mask=mask,
         noise_std=noise,
