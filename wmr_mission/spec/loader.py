@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 import re
+import stat
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -39,9 +41,11 @@ __all__ = [
     "Diagnostic",
     "MissionError",
     "check_mission",
+    "check_mission_bytes",
     "check_mission_text",
     "load_mission",
     "load_mission_text",
+    "read_source",
 ]
 
 MAX_FILE_BYTES: Final = 1_000_000
@@ -645,17 +649,26 @@ def _check(text: str, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
     return mission, diagnostics
 
 
-def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
+def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
+    """The bytes of a mission file, read once: a run hashes and runs these very bytes.
+
+    Regular files and pipes (``<(...)``) only; a pipe is opened without waiting
+    for a writer, so a FIFO nobody writes to reads as empty instead of hanging.
+    """
     filename = str(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
+        mode = os.stat(path).st_mode
+        if not (stat.S_ISREG(mode) or stat.S_ISFIFO(mode)):
+            kind = "a directory" if stat.S_ISDIR(mode) else "a device or socket"
+            message = f"cannot read the file: it is {kind}, not a regular file"
+            return None, [Diagnostic(filename, 1, 1, message)]
+        if stat.S_ISREG(mode) and os.stat(path).st_size > MAX_FILE_BYTES:
             return None, [
-                Diagnostic(
-                    filename, 1, 1, f"file too large: {size} bytes (at most {MAX_FILE_BYTES})"
-                )
+                Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
             ]
-        with path.open("rb") as stream:
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        os.set_blocking(descriptor, True)
+        with os.fdopen(descriptor, "rb") as stream:
             raw = stream.read(MAX_FILE_BYTES + 1)
     except OSError as error:
         return None, [
@@ -665,21 +678,27 @@ def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
         return None, [
             Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
         ]
+    return raw, []
+
+
+def check_mission_bytes(raw: bytes, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
+    """Every problem of a mission file's bytes, and the mission if it has none."""
     try:
-        return raw.decode("utf-8"), []
+        text = raw.decode("utf-8")
     except UnicodeDecodeError as error:
         before = raw[: error.start]
         line = before.count(b"\n") + 1
         column = len(before) - (before.rfind(b"\n") + 1) + 1
         return None, [Diagnostic(filename, line, column, "the file is not UTF-8 text")]
+    return check_mission_text(text, filename)
 
 
 def check_mission(path: str | Path) -> tuple[Mission | None, list[Diagnostic]]:
     """Every problem of a mission file (errors and warnings), and the mission if it has none."""
-    text, diagnostics = _read(Path(path))
-    if text is None:
+    raw, diagnostics = read_source(path)
+    if raw is None:
         return None, diagnostics
-    return check_mission_text(text, str(path))
+    return check_mission_bytes(raw, str(path))
 
 
 def load_mission_text(text: str, filename: str) -> Mission:
