@@ -125,9 +125,70 @@ class _NodeLoader(yaml.SafeLoader):
         finally:
             self._depth -= 1
 
+    def resolve(self, kind: Any, value: Any, implicit: Any) -> Any:
+        if kind is yaml.ScalarNode and implicit[0]:
+            return _core_tag(value)
+        return super().resolve(kind, value, implicit)  # type: ignore[no-untyped-call]
+
 
 _TAG = "tag:yaml.org,2002:"
-_FLOAT_12 = re.compile(r"^[-+]?(?:\d+(?:\.\d*)?|\.\d+)[eE][-+]?\d+$")
+# The YAML 1.2 core schema: a plain scalar is a null, boolean, integer or float
+# only when it matches these; anything else is text. (PyYAML resolves YAML 1.1,
+# where `yes` is a boolean, `010` octal 8 and `1:30` the number 90.)
+_NULL_12: Final = frozenset({"", "~", "null", "Null", "NULL"})
+_BOOL_12: Final = {"true": True, "True": True, "TRUE": True}
+_BOOL_12.update({"false": False, "False": False, "FALSE": False})
+_INT_12 = re.compile(r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+")
+_FLOAT_12 = re.compile(
+    r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+    r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)"
+)
+# A date or time, which YAML 1.1 reads as a timestamp: refused as ambiguous
+# (quoted, it is text in either version).
+_TIMESTAMP_11 = re.compile(
+    r"[0-9]{4}-[0-9]{1,2}-[0-9]{1,2}(?:(?:[Tt]|[ \t]+)[0-9]{1,2}:[0-9]{2}:[0-9]{2}"
+    r"(?:\.[0-9]*)?(?:[ \t]*(?:Z|[-+][0-9]{1,2}(?::[0-9]{2})?))?)?"
+)
+# What YAML 1.1 would have read from a plain scalar that YAML 1.2 reads as text.
+_BOOL_11 = re.compile(r"y|Y|yes|Yes|YES|n|N|no|No|NO|on|On|ON|off|Off|OFF")
+_SEXAGESIMAL_11 = re.compile(r"[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?")
+_UNDERSCORE_11 = re.compile(r"[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?")
+
+
+def _core_tag(text: str) -> str:
+    """The YAML 1.2 core-schema tag of a plain scalar."""
+    if text in _NULL_12:
+        return _TAG + "null"
+    if text in _BOOL_12:
+        return _TAG + "bool"
+    if _INT_12.fullmatch(text):
+        return _TAG + "int"
+    if _FLOAT_12.fullmatch(text):
+        return _TAG + "float"
+    if _TIMESTAMP_11.fullmatch(text):
+        return _TAG + "timestamp"
+    return _TAG + "str"
+
+
+def yaml11_hint(text: str) -> str:
+    """How a text value was read, when YAML 1.1 would have read it otherwise ('' if not)."""
+    if _BOOL_11.fullmatch(text):
+        return (
+            f" (read as the text {text!r}: in YAML 1.2, which missions use, "
+            "the booleans are true and false)"
+        )
+    if _SEXAGESIMAL_11.fullmatch(text):
+        sign = -1.0 if text.startswith("-") else 1.0
+        value = 0.0
+        for part in text.lstrip("+-").replace("_", "").split(":"):
+            value = value * 60 + float(part)
+        return (
+            f" (read as the text {text!r}: YAML 1.2 has no base-60 numbers; "
+            f"write {sign * value:g})"
+        )
+    if "_" in text and _UNDERSCORE_11.fullmatch(text):
+        return f" (read as the text {text!r}: write numbers without '_')"
+    return ""
 
 
 def _tag_message(tag: str) -> str:
@@ -235,15 +296,14 @@ class _Builder:
     def _scalar(self, node: yaml.Node, path: DataPath) -> Any:
         tag, text = node.tag, str(node.value)
         if tag == _TAG + "str":
-            if isinstance(node, yaml.ScalarNode) and node.style is None and _FLOAT_12.match(text):
-                # YAML 1.2 (and JSON) read `1e-3` as a number; YAML 1.1 as text
-                node.tag = _TAG + "float"
-                return self._number(node, path)
             return text
         if tag == _TAG + "null":
             return None
         if tag == _TAG + "bool":
-            return self._constructor.construct_yaml_bool(node)  # type: ignore[arg-type]
+            if text not in _BOOL_12:
+                self.refuse(path, f"{text!r} is not a boolean: write true or false")
+                return None
+            return _BOOL_12[text]
         if tag in (_TAG + "int", _TAG + "float"):
             return self._number(node, path)
         if tag.startswith(_TAG):
@@ -260,11 +320,17 @@ class _Builder:
                 path, f"absurd number {text[:20]}...: at most {_MAX_NUMBER_TEXT} characters"
             )
             return None
+        digits = text.lstrip("+-")
+        if node.tag == _TAG + "int" and len(digits) > 1 and digits[0] == "0" and digits.isdigit():
+            octal = f", or 0o{digits.lstrip('0')} for octal" if max(digits) < "8" else ""
+            self.refuse(
+                path,
+                f"{text!r} has a leading zero, which YAML 1.1 reads as octal and YAML 1.2 as "
+                f"{int(text)}: write {int(text)}{octal}",
+            )
+            return None
         try:
-            if node.tag == _TAG + "int":
-                value: float = self._constructor.construct_yaml_int(node)  # type: ignore[arg-type]
-            else:
-                value = self._constructor.construct_yaml_float(node)  # type: ignore[arg-type]
+            value = _core_number(text, integer=node.tag == _TAG + "int")
         except (ValueError, OverflowError):
             self.refuse(path, f"{text!r} is not a number")
             return None
@@ -275,6 +341,18 @@ class _Builder:
             self.refuse(path, f"absurd number {text}: magnitudes above {ABSURD:g} are refused")
             return None
         return value
+
+
+def _core_number(text: str, *, integer: bool) -> float:
+    """The value of a YAML 1.2 core-schema integer or float."""
+    if integer:
+        if text.startswith(("0o", "0x")):
+            return int(text[2:], 8 if text[1] == "o" else 16)
+        return int(text, 10)
+    special = {".inf": math.inf, ".nan": math.nan}.get(text.lstrip("+-").lower())
+    if special is not None:
+        return -special if text.startswith("-") else special
+    return float(text)
 
 
 def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
@@ -455,6 +533,13 @@ def _suggest(word: str, choices: Sequence[str]) -> str:
 
 
 def _translate(error: Any, document: Document) -> Finding:
+    finding = _translate_error(error, document)
+    value = error.get("input")
+    hint = yaml11_hint(value) if isinstance(value, str) else ""
+    return replace(finding, message=finding.message + hint) if hint else finding
+
+
+def _translate_error(error: Any, document: Document) -> Finding:
     kind: str = error["type"]
     loc: tuple[str | int, ...] = error["loc"]
     data = document.data

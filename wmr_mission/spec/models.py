@@ -123,6 +123,8 @@ Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-ABSURD, le=AB
 NonNegative = Annotated[Number, Field(ge=0)]
 Positive = Annotated[Number, Field(gt=0), _at_least(SMALLEST_POSITIVE)]
 Duration = Annotated[Number, Field(gt=0)]
+# true or false only, never a text such as 'yes' or 'off'.
+Flag = Annotated[bool, Strict()]
 
 _SCALAR_SCHEMA: Final[dict[str, Any]] = {
     "anyOf": [
@@ -448,7 +450,7 @@ class Regulation(_Model):
     align_radius: Positive = Field(
         default=0.01, description="Within this distance the bearing form turns to the target [m]."
     )
-    reverse: bool = Field(default=True, description="The bearing form may drive backwards.")
+    reverse: Flag = Field(default=True, description="The bearing form may drive backwards.")
 
 
 class Controller(_Model):
@@ -664,7 +666,7 @@ class WaypointsPath(_Model):
         default="current",
         description="current: the robot's position is prepended; first: start at the first point.",
     )
-    closed: bool = Field(default=False, description="Return to the first point and loop.")
+    closed: Flag = Field(default=False, description="Return to the first point and loop.")
 
 
 def _number_as_text(value: Any) -> Any:
