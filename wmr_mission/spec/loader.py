@@ -183,8 +183,7 @@ def yaml11_hint(text: str) -> str:
         for part in text.lstrip("+-").replace("_", "").split(":"):
             value = value * 60 + float(part)
         return (
-            f" (read as the text {text!r}: YAML 1.2 has no base-60 numbers; "
-            f"write {sign * value:g})"
+            f" (read as the text {text!r}: YAML 1.2 has no base-60 numbers; write {sign * value:g})"
         )
     if "_" in text and _UNDERSCORE_11.fullmatch(text):
         return f" (read as the text {text!r}: write numbers without '_')"
