@@ -28,8 +28,8 @@ FORMS = {"bearing": 0, "deviation": 1, "increment": 2}
 # runaway, not a robot [m]: the threshold follows the mission's own scale, so a
 # mission written in map coordinates (y = 5e6) runs like one near the origin.
 RUNAWAY_DISTANCE = 1e6
-# An input beyond this, or beyond ten times the mission's own limit, is a
-# runaway [m/s, rad/s]: no wheeled robot drives at 1 km/s.
+# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
+# no wheeled robot drives at 1 km/s or turns 160 times a second.
 RUNAWAY_INPUT = 1e3
 
 
@@ -78,9 +78,6 @@ class CompiledMission:
     initial_estimate: FloatArray
     # Actuator limits: |v|, |omega|, and rates (inf when absent).
     limits: FloatArray
-    # |x|, |y| [m] and |v|, |omega| beyond which the run has diverged.
-    runaway_position: float
-    runaway_input: tuple[float, float]
     measure_mask: FloatArray
     noise_std: FloatArray
     seed: int
@@ -108,6 +105,9 @@ class CompiledMission:
     regions: dict[str, dict[str, object]]
     # Sample budget: the sum of each phase's bound, for pre-sizing the recorder.
     max_samples: int
+    # |x|, |y| [m] and |v|, |omega| [m/s, rad/s] beyond which the run has diverged.
+    runaway_position: float = RUNAWAY_DISTANCE
+    runaway_input: float = RUNAWAY_INPUT
 
 
 def _samples(seconds: float, dt: float) -> int:
@@ -295,11 +295,6 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 math.inf if limits.omega_rate is None else limits.omega_rate,
             ]
         ),
-        runaway_position=RUNAWAY_DISTANCE + _extent(mission),
-        runaway_input=(
-            max(RUNAWAY_INPUT, 10.0 * limits.v),
-            max(RUNAWAY_INPUT, 10.0 * limits.omega),
-        ),
         measure_mask=mask,
         noise_std=noise,
         seed=sensors.seed if seed is None else seed,
@@ -326,4 +321,5 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         phases=tuple(phases),
         regions={name: region.model_dump(mode="json") for name, region in mission.regions.items()},
         max_samples=budget + 1,
+        runaway_position=RUNAWAY_DISTANCE + _extent(mission),
     )

@@ -418,12 +418,11 @@ class _Run:
                 control_ns,
                 reference_now if reference is not None else None,
             )
-            if not (abs(u[0]) <= m.runaway_input[0] and abs(u[1]) <= m.runaway_input[1]):  # NaN too
+            if not (abs(u[0]) <= m.runaway_input and abs(u[1]) <= m.runaway_input):  # NaN too
                 if math.isfinite(u[0]) and math.isfinite(u[1]):
                     cause = (
                         f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
-                        f"beyond {m.runaway_input[0]:g} m/s or {m.runaway_input[1]:g} rad/s "
-                        "is no robot's)"
+                        f"beyond {m.runaway_input:g} is no robot's)"
                     )
                 else:
                     cause = "the input is not finite"
