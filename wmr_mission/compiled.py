@@ -68,6 +68,10 @@ class CompiledPhase:
     target: tuple[float, float, float] | None = None
     constraint_rows: tuple[IntArray, FloatArray] = field(default_factory=no_rows)
     constraints: tuple[tuple[str, str], ...] = ()
+    # 1, 2, ... for a phase of a repeat (its lap); None outside repeats.
+    lap: int | None = None
+    # track: the points its path is drawn through ((m, 2), for figures), or None.
+    points: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -125,7 +129,9 @@ def _extent(mission: Mission) -> float:
     for region in mission.regions.values():
         numbers += _numbers(region.model_dump(mode="json", exclude={"rotation"}))
     pose = (float(start.x), float(start.y), float(start.theta))
-    for phase in mission.phases:
+    from wmr_mission.spec.repeats import run_order
+
+    for phase in {run.where: run.phase for run in run_order(mission)}.values():
         numbers += _numbers(phase.model_dump(mode="json", include={"regulate"}))
         if phase.until is not None and phase.until.near is not None:
             numbers += list(phase.until.near.point)
@@ -160,11 +166,13 @@ def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, Flo
 def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
     """Turn a validated mission into the runner's plain form."""
     from wmr_mission import paths, regions
+    from wmr_mission.spec.repeats import run_order
 
     dt = float(mission.robot.dt)
     phases: list[CompiledPhase] = []
     budget = 0
-    for phase in mission.phases:
+    for run in run_order(mission):  # repeats written out, one phase per lap
+        phase = run.phase
         until = phase.until
         conditions = Conditions()
         if until is not None:
@@ -217,8 +225,10 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         )
         make_trajectory = None
         target = None
+        points = None
         if kind == "track":
             path = phase.track.path  # type: ignore[union-attr]
+            points = paths.drawn_points(path, mission)
 
             def make_trajectory(
                 pose: tuple[float, float, float], _path: object = path
@@ -230,7 +240,9 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
             target = (float(goal.x), float(goal.y), float(goal.theta))
         phases.append(
             CompiledPhase(
-                name=phase.name,
+                name=run.label,
+                lap=run.lap,
+                points=points,
                 kind=kind,
                 until=conditions,
                 timeout_samples=None if phase.timeout is None else _samples(phase.timeout, dt),

@@ -275,6 +275,7 @@ def write_json(path: Path, value: Any) -> Path:
 
 
 def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]]:
+    """One record per phase change; ``lap`` only where the phase entered is in a repeat."""
     return [
         {
             "time": tr.time,
@@ -282,6 +283,7 @@ def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]
             "to": tr.to_phase,
             "condition": tr.condition,
             "value": tr.value,
+            **({} if tr.lap is None else {"lap": tr.lap}),
         }
         for tr in transitions
     ]
