@@ -751,12 +751,12 @@ def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
     """
     filename = str(path)
     try:
-        mode = os.stat(path).st_mode
-        if not (stat.S_ISREG(mode) or stat.S_ISFIFO(mode)):
-            kind = "a directory" if stat.S_ISDIR(mode) else "a device or socket"
+        info = os.stat(path)
+        if not (stat.S_ISREG(info.st_mode) or stat.S_ISFIFO(info.st_mode)):
+            kind = "a directory" if stat.S_ISDIR(info.st_mode) else "a device or socket"
             message = f"cannot read the file: it is {kind}, not a regular file"
             return None, [Diagnostic(filename, 1, 1, message)]
-        if stat.S_ISREG(mode) and os.stat(path).st_size > MAX_FILE_BYTES:
+        if info.st_size > MAX_FILE_BYTES:
             return None, [
                 Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
             ]
