@@ -605,7 +605,7 @@ def test_plot_reports_a_damaged_run_directory(
 def test_names_with_dollars_are_drawn_as_typed(tmp_path: Path) -> None:
     result = circle_run(200)
     result.phases[0] = type(result.phases[0])("$x", "track")
-    result.mission_name = "$\\frac{1"
+    result.mission_name = "$\\frac{1$"
     from wmr_mission.output.plots import draw_xy
 
     assert draw_xy(result, tmp_path / "xy.png").stat().st_size > 0
