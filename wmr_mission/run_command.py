@@ -122,15 +122,15 @@ def _run(
     except (RunDirExistsError, OSError) as error:
         print(f"{run_dir}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
         return EXIT_RUN_DIR
-    needed = space_needed(compiled.max_samples)
-    free = shutil.disk_usage(run_dir).free
-    if free < needed:
-        print(
-            f"{run_dir}: warning: {free / 1e6:.3g} MB free; this run may write up to "
-            f"{needed / 1e6:.3g} MB",
-            file=sys.stderr,
-        )
     try:
+        needed = space_needed(compiled.max_samples)
+        free = shutil.disk_usage(run_dir).free
+        if free < needed:
+            print(
+                f"{run_dir}: warning: {free / 1e6:.3g} MB free; this run may write up to "
+                f"{needed / 1e6:.3g} MB",
+                file=sys.stderr,
+            )
         result = _simulate(compiled, mission.name)
     except MemoryError:
         release_run_dir(run_dir)
@@ -140,7 +140,7 @@ def _run(
             file=sys.stderr,
         )
         return EXIT_FAILED
-    except BaseException:
+    except BaseException:  # a signal before the loop started: nothing was simulated
         release_run_dir(run_dir)
         raise
     resolved = mission.model_dump(mode="json")
