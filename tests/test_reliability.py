@@ -691,3 +691,20 @@ def test_contradictory_constraints_are_an_error() -> None:
     ring = text.replace("radius: 2}", "radius: 0.99}")
     mission, diagnostics = check_mission_text(ring, "m.yaml")
     assert mission is not None, diagnostics
+
+
+# --- 7, continued: free space is checked before simulating ------------------------
+
+
+def test_too_little_free_space_is_said_before_simulating(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = write_mission(tmp_path, mission_text())
+    usage = run_command_module.shutil.disk_usage(tmp_path)
+    monkeypatch.setattr(
+        run_command_module.shutil, "disk_usage", lambda _: usage._replace(free=1_000_000)
+    )
+    out = tmp_path / "run"
+    assert run_command(path, out=out, seed=None, plots=False, animate=False) == 0
+    stderr = capsys.readouterr().err
+    assert f"{out}: warning: 1 MB free; this run may write up to 4.01 MB" in stderr
