@@ -175,7 +175,8 @@ def test_the_robot_glyph_scales_with_the_scene() -> None:
 
 
 def test_a_run_directory_from_before_the_measurement_column_still_plots(tmp_path: Path) -> None:
-    from wmr_mission.output.rundir import load_run, write_run
+    from wmr_mission.output.reader import load_run
+    from wmr_mission.output.rundir import write_run
 
     write_run(circle_run(200), tmp_path, plots=False, animate=False)
     csv = tmp_path / "trajectory.csv"

@@ -85,6 +85,6 @@ def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
 
 def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
     """The :class:`RunResult` of a run directory written by ``run`` or ``RunResult.write``."""
-    from wmr_mission.output.rundir import load_run as read
+    from wmr_mission.output.reader import load_run as read
 
     return read(run_dir)

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.output.plots import draw_regions, finite, thin, view_box
+from wmr_mission.output.plots import draw_regions, finite, names_as_typed, thin, view_box
 from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, RunResult
 
@@ -91,6 +91,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     ax.set_ylabel("y [m]")
     ax.legend(handles=[robot, estimate], loc="upper right", fontsize=8)
     title = ax.set_title(" ", animated=True)
+    names_as_typed(fig)
 
     frames = []
     canvas.draw()

@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.output.metrics import convergence_index, estimation_errors, phase_segments
-from wmr_mission.output.rundir import RunDirError, atomic_path, load_run
+from wmr_mission.output.reader import RunDirError, load_run
+from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, IntArray, RunResult
 
 if TYPE_CHECKING:
@@ -116,6 +117,16 @@ def _pyplot_figure(figsize: tuple[float, float]) -> Figure:
 
     figure: Figure = plt.figure(figsize=figsize)
     return figure
+
+
+def names_as_typed(drawn: Figure | Axes) -> None:
+    """Names are data: a '$' in a mission, phase or region name is drawn as typed,
+    never parsed as math (unbalanced, it would stop the drawing). Set on the
+    figure's texts, not in rcParams, so that a notebook's settings stay its own."""
+    from matplotlib.text import Text
+
+    for text in drawn.findobj(Text):
+        text.set_parse_math(False)
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -473,6 +484,7 @@ def _xy_on(ax: Axes, result: RunResult) -> None:
         title_fontsize=8,
         alignment="left",
     )
+    names_as_typed(ax)
 
 
 def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
@@ -561,6 +573,7 @@ def _states_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     axes[-1].set_xlabel("t [s]")
     _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: states and estimates")
+    names_as_typed(fig)
 
 
 def plot_states(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
@@ -672,6 +685,7 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate",
         y=1.0,
     )
+    names_as_typed(fig)
 
 
 def plot_estimation_error(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
@@ -719,6 +733,7 @@ def _inputs_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     axes[-1].set_xlabel("t [s]")
     _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: inputs")
+    names_as_typed(fig)
 
 
 def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
