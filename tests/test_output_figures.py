@@ -188,3 +188,14 @@ def test_a_run_directory_from_before_the_measurement_column_still_plots(tmp_path
     assert run.samples == 200
     assert np.isnan(run.x_meas).all()
     assert plot_estimation_error(run).axes
+
+
+def test_names_are_drawn_as_typed_without_changing_the_settings() -> None:
+    run = circle_run(200)
+    run.phases[0] = replace(run.phases[0], name="$x")
+    run.mission_name = "$\\frac{1$"
+    with matplotlib.rc_context({"text.parse_math": True}):
+        ax = plot_xy(run)
+        ax.figure.canvas.draw()  # an unbalanced '$' parsed as math would raise here
+        assert matplotlib.rcParams["text.parse_math"] is True
+    assert "1 $x" in _legend_labels(ax)
