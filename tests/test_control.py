@@ -66,8 +66,9 @@ def test_literal_axle_law_on_the_path_tracks_but_its_heading_dynamics_are_unstab
             [x[k + 1], y[k + 1], dx[k + 1] / speed[k + 1], dy[k + 1] / speed[k + 1]]
         )
         track_input(
-            state, u, reference, 0.0, np.full(3, 100.0), np.full(2, 100.0), limits, dt, work, out
-        )
+            state, u, reference, reference, 0.0, 0.0, np.full(3, 100.0), np.full(2, 100.0),
+            limits, dt, work, out,
+        )  # fmt: skip
         u = out.copy()
         state = np.array(step(*state, u[0], u[1], dt))
         position_error.append(math.hypot(state[0] - x[k + 1], state[1] - y[k + 1]))

@@ -295,9 +295,13 @@ def random_limits(rng: np.random.Generator, rated: bool) -> np.ndarray:
     return np.concatenate([rng.uniform(0.5, 10.0, 2), rates])
 
 
-@pytest.mark.parametrize("look_ahead", [0.0, 0.05, 0.3])
+@pytest.mark.parametrize(
+    ("look_ahead", "error_decay"), [(0.0, 0.0), (0.05, 0.0), (0.3, 0.0), (0.05, 0.9), (0.3, 0.9)]
+)
 @pytest.mark.parametrize("rated", [False, True], ids=["no-rate-limit", "rate-limit"])
-def test_track_input_matches(look_ahead: float, rated: bool, rng: np.random.Generator) -> None:
+def test_track_input_matches(
+    look_ahead: float, error_decay: float, rated: bool, rng: np.random.Generator
+) -> None:
     for _ in range(40):
         estimate = random_pose(rng)
         u_prev = np.array([random_speed(rng), rng.uniform(-3, 3)])
@@ -305,15 +309,21 @@ def test_track_input_matches(look_ahead: float, rated: bool, rng: np.random.Gene
         reference_point = np.concatenate(
             [estimate[:2] + rng.normal(0.0, 0.2, 2), [math.cos(angle), math.sin(angle)]]
         )
+        angle = rng.uniform(-math.pi, math.pi)
+        reference_now = np.concatenate(
+            [estimate[:2] + rng.normal(0.0, 0.2, 2), [math.cos(angle), math.sin(angle)]]
+        )
         w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
         limits = random_limits(rng, rated)
         fast, slow = np.zeros(2), np.zeros(2)
         control.track_input(
-            estimate, u_prev, reference_point, look_ahead, w, m, limits, DT,
+            estimate, u_prev, reference_now, reference_point, look_ahead, error_decay, w, m,
+            limits, DT,
             control.make_workspace(), fast,
         )  # fmt: skip
         reference.track_input(
-            estimate, u_prev, reference_point, look_ahead, w, m, limits, DT,
+            estimate, u_prev, reference_now, reference_point, look_ahead, error_decay, w, m,
+            limits, DT,
             control.make_workspace(), slow,
         )  # fmt: skip
         np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)

@@ -241,8 +241,10 @@ def corrective_input(
 def track_input(
     estimate: FloatArray,
     u_prev: FloatArray,
+    reference_now: FloatArray,
     reference: FloatArray,
     look_ahead: float,
+    error_decay: float,
     w: FloatArray,
     m: FloatArray,
     limits: FloatArray,
@@ -250,17 +252,20 @@ def track_input(
     work: Workspace,
     u_out: FloatArray,
 ) -> None:
-    """Case 2: u_k = u_{k-1} + du2_k, du2 of eq. (27) on the look-ahead point."""
+    """Case 2: u_k = u_{k-1} + du2_k, du2 of eq. (27) on the look-ahead point,
+    aimed so that ``error_decay`` of the output's error at k is left at k+1."""
     v_prev, omega_prev = float(u_prev[0]), float(u_prev[1])
+
+    def output(pose: FloatArray) -> FloatArray:  # eq. (26): position + look_ahead * heading
+        return np.asarray(pose[:2] + look_ahead * np.array([math.cos(pose[2]), math.sin(pose[2])]))
+
+    error_now = reference_now[:2] + look_ahead * reference_now[2:4] - output(estimate)
     predicted = predict(estimate, v_prev, omega_prev, dt)  # x_{k+1|k}, u_{k-1} held
-    heading = np.array([math.cos(predicted[2]), math.sin(predicted[2])])
-    normal = np.array([-heading[1], heading[0]])
-    # eq. (26): G(x) = position + look_ahead * heading, D = dG/dx.
-    output = predicted[:2] + look_ahead * heading
-    d = np.column_stack([np.eye(2), look_ahead * normal])
-    target = reference[:2] + look_ahead * reference[2:4]
+    normal = np.array([-math.sin(predicted[2]), math.cos(predicted[2])])
+    d = np.column_stack([np.eye(2), look_ahead * normal])  # D = dG/dx
+    target = reference[:2] + look_ahead * reference[2:4] - error_decay * error_now
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
-    du = corrective_input(d, target - output, b, w, m)
+    du = corrective_input(d, target - output(predicted), b, w, m)
     u_out[0], u_out[1] = saturate(
         v_prev + du[0], omega_prev + du[1], v_prev, omega_prev, limits, dt
     )

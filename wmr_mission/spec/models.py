@@ -410,8 +410,22 @@ class Tracking(_Model):
         default="look-ahead",
         description="look-ahead: a point ahead of the axle; axle: the literal eq. (27).",
     )
-    look_ahead: Positive = Field(
-        default=0.05, description="Distance of the look-ahead point ahead of the axle [m]."
+    look_ahead: Positive | None = Field(
+        default=None,
+        description=(
+            "Distance of the look-ahead point ahead of the axle [m]; "
+            "null = max(0.05, robot.limits.v * robot.dt), where the law is well conditioned "
+            "at every speed the limits allow."
+        ),
+    )
+    time_constant: NonNegative = Field(
+        default=0.1,
+        description=(
+            "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
+            "time_constant) of the output's error, the path's own motion fed forward; "
+            "0 = close the whole error in one sample (the literal eq. 27; always so for "
+            "output: axle)."
+        ),
     )
 
 
