@@ -115,11 +115,15 @@ def track_input(
     d[1, 0] = 0.0
     d[1, 1] = 1.0
     d[1, 2] = look_ahead * c
-    eta[0] = reference[0] + look_ahead * reference[2] - error_decay * error_x - (px + look_ahead * c)
-    eta[1] = reference[1] + look_ahead * reference[3] - error_decay * error_y - (py + look_ahead * s)
+    eta[0] = (
+        reference[0] + look_ahead * reference[2] - error_decay * error_x - (px + look_ahead * c)
+    )
+    eta[1] = (
+        reference[1] + look_ahead * reference[3] - error_decay * error_y - (py + look_ahead * s)
+    )
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
     input_jacobian_into(estimate[2], v_prev, omega_prev, dt, b)
-    dv, dw = corrective_input(d, eta, 2, b, w, m)
+    dv, dw = corrective_input(d, eta, 2, b, w, m, limits)
     u_out[0], u_out[1] = saturate(v_prev + dv, omega_prev + dw, v_prev, omega_prev, limits, dt)
 
 
@@ -303,6 +307,6 @@ def regulate_input(
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
-    dv, dw = corrective_input(d, eta, count, b, w, m)
+    dv, dw = corrective_input(d, eta, count, b, w, m, limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, limits, dt)
