@@ -264,9 +264,8 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 measurement_var[STATE_NAMES.index(name)] = std**2
     limits = mission.robot.limits
     controller = mission.controller
-    tracking = controller.tracking
     initial = mission.robot.initial_state
-    guess = estimator.initial_estimate
+    guess = initial if estimator.initial_estimate is None else estimator.initial_estimate
     return CompiledMission(
         name=mission.name,
         dt=dt,
