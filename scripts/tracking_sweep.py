@@ -26,7 +26,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +38,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from geometry import distance_to_ellipse  # noqa: E402
 
+from wmr_mission.compiled import compile_mission  # noqa: E402
 from wmr_mission.result import Outcome, RunResult  # noqa: E402
 from wmr_mission.runner import run_mission  # noqa: E402
 from wmr_mission.spec.loader import load_mission_text  # noqa: E402
@@ -68,14 +69,13 @@ class Measured:
     outside: float  # [m] largest distance outside the ellipse on case 2's return
 
 
-def mission_text(start: Start, tracking: dict[str, Any]) -> str:
+def mission_text(start: Start) -> str:
     data = yaml.safe_load((ROOT / "missions" / f"case{start.case}.yaml").read_text())
     data["robot"]["dt"] = start.dt
     data["robot"]["initial_state"]["theta"] = start.heading
     data["estimator"]["initial_estimate"]["theta"] = start.estimate_heading
     data["sensors"]["noise_std"] = dict.fromkeys(("x", "y", "theta"), start.noise)
     data["sensors"]["seed"] = start.seed
-    data.setdefault("controller", {})["tracking"] = tracking
     return yaml.safe_dump(data)
 
 
@@ -115,8 +115,19 @@ def measure(result: RunResult) -> Measured:
 
 
 def run(start: Start, tracking: dict[str, Any]) -> Measured:
-    mission = load_mission_text(mission_text(start, tracking), f"case{start.case}-sweep.yaml")
-    return measure(run_mission(mission))
+    """One run; ``tracking`` overrides the law after validation (``output``,
+    ``look_ahead`` [m], ``time_constant`` [s]), so that laws ``validate``
+    rejects, such as the former one-sample law, can still be measured."""
+    compiled = compile_mission(load_mission_text(mission_text(start), "sweep.yaml"))
+    look_ahead = 0.0 if tracking.get("output") == "axle" else compiled.look_ahead
+    look_ahead = tracking.get("look_ahead", look_ahead)
+    decay = compiled.error_decay
+    if "time_constant" in tracking:
+        tc = tracking["time_constant"]
+        decay = math.exp(-start.dt / tc) if tc > 0 else 0.0
+    if tracking.get("output") == "axle":
+        decay = 0.0
+    return measure(run_mission(replace(compiled, look_ahead=look_ahead, error_decay=decay)))
 
 
 def failures(start: Start, m: Measured) -> list[str]:
