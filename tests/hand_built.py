@@ -54,8 +54,8 @@ def elliptical_spiral(pose: tuple[float, float, float]) -> Trajectory:  # eq. (3
 def mission(
     phases: list[CompiledPhase],
     *,
-    look_ahead: float = 0.05,
-    error_decay: float = 0.0,
+    look_ahead: float = 0.1,
+    error_decay: float = math.exp(-0.1),  # the default law at dt = 0.01: 0.1 m, 0.1 s
     form: int = 0,
     measure: tuple[float, float, float] = (1.0, 1.0, 1.0),
     initial_estimate: tuple[float, float, float] = (1.0, 1.0, 0.0),
