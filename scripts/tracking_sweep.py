@@ -79,6 +79,15 @@ def mission_text(start: Start) -> str:
     return yaml.safe_dump(data)
 
 
+def turn_rate_jitter(omega: np.ndarray) -> float:
+    """RMS of the turn rate about its centred 25-sample mean [rad/s]."""
+    if omega.size <= JITTER_WINDOW:
+        return math.inf
+    mean = np.convolve(omega, np.ones(JITTER_WINDOW) / JITTER_WINDOW, mode="valid")
+    centred = omega[JITTER_WINDOW // 2 : JITTER_WINDOW // 2 + mean.size]
+    return float(np.sqrt(np.mean((centred - mean) ** 2)))
+
+
 def measure(result: RunResult) -> Measured:
     orbit = result.phase == ORBIT
     t0 = result.t[orbit][0] if orbit.any() else math.inf
@@ -86,11 +95,7 @@ def measure(result: RunResult) -> Measured:
     after_2s = orbit & (result.t >= t0 + 2.0)
     omega = result.omega[after_1s]
     at_limit = float(np.mean(np.abs(omega) >= result.limits[1] * (1 - 1e-9))) if omega.size else 1
-    jitter = math.inf
-    if omega.size > JITTER_WINDOW:
-        mean = np.convolve(omega, np.ones(JITTER_WINDOW) / JITTER_WINDOW, mode="valid")
-        centred = omega[JITTER_WINDOW // 2 : JITTER_WINDOW // 2 + mean.size]
-        jitter = float(np.sqrt(np.mean((centred - mean) ** 2)))
+    jitter = turn_rate_jitter(omega)
     rms = math.inf
     if after_2s.any():
         d = distance_to_ellipse(result.x[after_2s], result.y[after_2s], *SEMI_AXES)

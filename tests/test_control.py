@@ -175,3 +175,24 @@ def test_saturation_applies_magnitude_and_rate_limits() -> None:
     limits = np.array([1.0, 2.0, 10.0, 100.0])
     assert saturate(5.0, -5.0, 0.0, 0.0, limits, 0.01) == (pytest.approx(0.1), pytest.approx(-1.0))
     assert saturate(5.0, -5.0, 0.95, -1.99, limits, 0.01) == (1.0, -2.0)
+
+
+def test_scheduled_gain_is_nearly_constant_but_for_the_heading_gain() -> None:
+    # docs/paper-notes.md: the default regulator turns towards the target with
+    # LQR-derived gains; over 0..10 m/s (Q = R = I, dt = 0.01) the longitudinal
+    # and lateral gains stay near 0.995 while the heading gain grows from
+    # 0.995 at rest to 4.53 at 10 m/s.
+    from wmr_mission.control import scheduled_gain
+
+    work = make_workspace()
+    heading_gains = []
+    for v in (0.0, 0.01, 0.1, 1.0, 3.0, 10.0, -10.0):
+        scheduled_gain(0.0, v, 0.0, 0.01, np.ones(3), np.ones(2), work)
+        gain = work[5]
+        assert gain[0, 0] == pytest.approx(0.995, abs=1e-3)  # speed from distance along
+        if v != 0.0:
+            assert 0.97 < abs(gain[1, 1]) < 0.996  # turn rate from lateral error
+        heading_gains.append(gain[1, 2])
+    assert heading_gains[0] == pytest.approx(0.995, abs=1e-3)
+    assert heading_gains[-2] == pytest.approx(4.53, abs=0.01)
+    assert heading_gains[-1] == pytest.approx(heading_gains[-2])
