@@ -85,6 +85,8 @@ def test_case_1_stays_on_the_ellipse(case1: dict[str, np.ndarray]) -> None:
 def test_case_2_returns_inside_the_ellipse(case2_dir: Path) -> None:
     c = read_trajectory(case2_dir)
     assert math.hypot(c["x"][-1], c["y"][-1]) <= 0.05
+    assert math.hypot(c["x"][-1], c["y"][-1]) <= 0.02  # the paper's parking accuracy
+    assert abs(wrap(c["theta"][-1:]))[0] <= 0.01
     transitions = json.loads((case2_dir / "transitions.json").read_text())
     imposed = transitions[1]["time"]  # the constraint holds from the return phase on
     after = c["t"] >= imposed
