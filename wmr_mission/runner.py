@@ -34,11 +34,6 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-# A position beyond this is a runaway, not a robot [m].
-RUNAWAY = 1e6
-# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
-# no wheeled robot drives at 1 km/s or turns 160 times a second.
-RUNAWAY_INPUT = 1e3
 # Reference samples computed per path evaluation (paths are vectorised in t).
 REFERENCE_BLOCK = 1024
 PROGRESS_EVERY = 2000
@@ -292,6 +287,25 @@ class _Run:
         self.phases = [ActivePhase(p, mission, i) for i, p in enumerate(mission.phases)]
 
     def run(self) -> RunResult:
+        try:
+            return self._loop()
+        except KeyboardInterrupt:  # SIGINT, or SIGTERM mapped to it by the command
+            return self._interrupted()
+
+    def _interrupted(self) -> RunResult:
+        """The samples recorded up to the stop; a row the stop cut short is dropped."""
+        recorder = self.recorder
+        if recorder.count and not np.all(np.isfinite(recorder.floats[recorder.count - 1, :9])):
+            recorder.count -= 1
+        last = recorder.count - 1
+        active = self.phases[int(recorder.phase[last]) if last >= 0 else 0]
+        t = round(float(recorder.floats[last, 0]), 9) if last >= 0 else 0.0
+        self.transitions.append(Transition(t, active.phase.name, None, "interrupted", math.nan))
+        return self._result(
+            Outcome.interrupted, f"interrupted in phase '{active.phase.name}' at t = {t:.6g} s"
+        )
+
+    def _loop(self) -> RunResult:
         m = self.m
         dt = m.dt
         state = m.initial_state.copy()
@@ -416,11 +430,11 @@ class _Run:
                 control_ns,
                 reference_now if reference is not None else None,
             )
-            if not (abs(u[0]) <= RUNAWAY_INPUT and abs(u[1]) <= RUNAWAY_INPUT):  # NaN too
+            if not (abs(u[0]) <= m.runaway_input and abs(u[1]) <= m.runaway_input):  # NaN too
                 if math.isfinite(u[0]) and math.isfinite(u[1]):
                     cause = (
                         f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
-                        f"beyond {RUNAWAY_INPUT:g} is no robot's)"
+                        f"beyond {m.runaway_input:g} is no robot's)"
                     )
                 else:
                     cause = "the input is not finite"
@@ -436,8 +450,10 @@ class _Run:
             u_prev[:] = u
             k += 1
             if not (
-                abs(state[0]) < RUNAWAY and abs(state[1]) < RUNAWAY and math.isfinite(state[2])
-                and abs(estimate[0]) < RUNAWAY and abs(estimate[1]) < RUNAWAY
+                abs(state[0]) < m.runaway_position and abs(state[1]) < m.runaway_position
+                and math.isfinite(state[2])
+                and abs(estimate[0]) < m.runaway_position
+                and abs(estimate[1]) < m.runaway_position
                 and math.isfinite(estimate[2])
             ):  # fmt: skip
                 self._record(k, state, estimate, u_prev, active, iterations, 0, None)
