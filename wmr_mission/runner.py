@@ -330,6 +330,7 @@ class _Run:
             np.zeros((4, 3, 3)),
         )
         work = control.make_workspace()
+        path_now = np.zeros(4)  # the path at t_k; the tracking law aims at t_{k+1}'s
         self._warm_up(estimator, estimate, measurement)
         recorder = self.recorder
         outcome = Outcome.success
@@ -386,17 +387,19 @@ class _Run:
             reference = None
             if phase.kind == "track":
                 local = k - active.entry_sample
-                now = active.reference_at(local, float(estimate[2]))
-                reference_now = (float(now[0]), float(now[1]))
+                path_now[:] = active.reference_at(local, float(estimate[2]))
+                reference_now = (float(path_now[0]), float(path_now[1]))
                 reference = active.reference_at(local + 1, float(estimate[2]))
                 kinds, params = phase.constraint_rows
                 if kinds.shape[0]:  # aim along a zone's edge where the path crosses it
+                    keep_reference(path_now, kinds, params, m.look_ahead)
                     keep_reference(reference, kinds, params, m.look_ahead)
             started = time.perf_counter_ns()
             if reference is not None:
                 self.functions.track_input(
-                    estimate, u_prev, reference, m.look_ahead, m.w, m.m, m.limits, dt, work, u
-                )
+                    estimate, u_prev, path_now, reference, m.look_ahead, m.error_decay,
+                    m.w, m.m, m.limits, dt, work, u,
+                )  # fmt: skip
                 if kinds.shape[0]:  # zones win over tracking: eq. (28) with priority
                     keep_constraints(
                         estimate, u_prev, kinds, params, m.look_ahead, m.limits, dt, work, u
@@ -500,8 +503,8 @@ class _Run:
             warmed.add(regulating)
             if not regulating:
                 self.functions.track_input(
-                    estimate.copy(), u.copy(), np.zeros(4), m.look_ahead, m.w, m.m, m.limits,
-                    m.dt, work, np.zeros(2),
+                    estimate.copy(), u.copy(), np.zeros(4), np.zeros(4), m.look_ahead,
+                    m.error_decay, m.w, m.m, m.limits, m.dt, work, np.zeros(2),
                 )  # fmt: skip
                 kinds, params = phase.constraint_rows
                 keep_constraints(
