@@ -330,7 +330,7 @@ class _Parser:
         (first, _), *others = self.undefined
         if not others:
             return first
-        also = ", ".join(f"{short} at column {error.column}" for error, short in others)
+        also = ", ".join(f"{short} at character {error.column}" for error, short in others)
         return ExpressionError(f"{first.message}; also {also}", first.column)
 
     def unknown(self, message: str, short: str, token: _Token) -> None:

@@ -48,6 +48,7 @@ class Outcome(StrEnum):
     timeout = "timeout"  # a phase timed out with on_timeout: fail
     diverged = "diverged"  # non-finite or runaway state or input
     expect_failed = "expect-failed"  # ran to the end, an `expect` threshold not met
+    interrupted = "interrupted"  # stopped by SIGINT or SIGTERM: the samples up to the stop
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,7 @@ class Transition:
     to_phase: str | None
     condition: str  # "elapsed", "reaches", "settled", "timeout", ...
     value: float  # the value of the condition when it fired
+    lap: int | None = None  # the lap of ``to_phase`` when it is in a repeat
 
 
 @dataclass(frozen=True)

@@ -1,11 +1,22 @@
-"""``wmr-mission run``: load, simulate, judge, write, report."""
+"""``wmr-mission run``: load, simulate, judge, write, report.
+
+What can fail is checked before the simulation (the mission, the run
+directory: created, claimed and writable, the free space), and what was
+simulated is written even when the run stops early: on SIGINT or SIGTERM the
+samples up to the stop are written with the outcome ``interrupted`` and the
+command exits 128 + the signal's number (130, 143).
+"""
 
 from __future__ import annotations
 
 import hashlib
+import shutil
+import signal
 import sys
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -13,27 +24,56 @@ from typing import TYPE_CHECKING
 from wmr_mission.result import Outcome, RunResult
 
 if TYPE_CHECKING:
+    from wmr_mission.spec.loader import Override
     from wmr_mission.spec.models import Mission
 
+# Exit codes (README, docs/reliability.md).
+EXIT_FAILED = 1  # invalid mission, or the run failed
+EXIT_RUN_DIR = 2  # the run directory cannot be made or written
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-def _load(mission_path: Path, overrides: Sequence[str]) -> Mission | None:
-    """The checked mission, every diagnostic (warnings too) printed to stderr first."""
-    from wmr_mission.spec.loader import Diagnostic, MissionError, check_mission, parse_override
 
-    parsed = []
-    problems: list[Diagnostic] = []
-    for text in overrides:
+def _overrides(texts: Sequence[str]) -> list[Override] | None:
+    """Each ``--set PATH=VALUE``; None (the problems printed) when one is malformed."""
+    from wmr_mission.spec.loader import MissionError, parse_override
+
+    parsed, problems = [], []
+    for text in texts:
         try:
             parsed.append(parse_override(text))
         except MissionError as error:
             problems += error.diagnostics
-    if problems:
-        print("\n".join(str(d) for d in problems), file=sys.stderr)
-        return None
-    mission, diagnostics = check_mission(mission_path, parsed)
-    for diagnostic in diagnostics:  # the warnings `validate` would print, before running
-        print(diagnostic, file=sys.stderr)
-    return mission
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    return None if problems else parsed
+
+
+@contextmanager
+def _stop_signals() -> Iterator[list[int]]:
+    """SIGTERM stops the run the way Ctrl-C does; yields the signals received.
+
+    Outside the main thread (a run started from a thread) signals cannot be
+    handled and stay as they are.
+    """
+    received: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield received
+        return
+
+    def stop(number: int, frame: object) -> None:
+        received.append(number)
+        raise KeyboardInterrupt
+
+    previous = {number: signal.signal(number, stop) for number in STOP_SIGNALS}
+    try:
+        yield received
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def _signal_exit(received: list[int]) -> int:
+    return 128 + (received[0] if received else signal.SIGINT)
 
 
 def run_command(
@@ -46,63 +86,142 @@ def run_command(
     overrides: Sequence[str] = (),
     formats: Sequence[str] = ("png",),
 ) -> int:
-    """Exit code: 0 success, 1 invalid mission or failed run, 2 unusable run directory."""
-    mission = _load(mission_path, overrides)
-    if mission is None:
-        return 1
+    """Exit code: 0 success; 1 invalid mission or failed run; 2 unusable run
+    directory; 130 or 143 stopped by SIGINT or SIGTERM (its record is written).
 
+    ``overrides``: ``PATH=VALUE`` texts of ``--set``; ``formats``: figure formats.
+    """
+    from wmr_mission.spec.loader import check_mission_bytes, read_source
+
+    with _stop_signals() as received:
+        try:
+            parsed = _overrides(overrides)
+            if parsed is None:
+                return EXIT_FAILED
+            # The file is read once: the bytes hashed are the bytes run.
+            source, diagnostics = read_source(mission_path)
+            mission = None
+            if source is not None:
+                mission, diagnostics = check_mission_bytes(source, str(mission_path), parsed)
+            for diagnostic in diagnostics:  # warnings too, as `validate` prints them
+                print(diagnostic, file=sys.stderr)
+            if mission is None or source is None:
+                return EXIT_FAILED
+            sha256 = hashlib.sha256(source).hexdigest()
+            return _run(mission, sha256, mission_path, out, seed, plots, animate, formats, received)
+        except KeyboardInterrupt:
+            print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
+            return _signal_exit(received)
+
+
+def _run(
+    mission: Mission,
+    sha256: str,
+    mission_path: Path,
+    out: Path | None,
+    seed: int | None,
+    plots: bool,
+    animate: bool,
+    formats: Sequence[str],
+    received: list[int],
+) -> int:
+    from wmr_mission.compiled import compile_mission
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
         RunDirExistsError,
         default_run_dir,
         prepare_run_dir,
+        release_run_dir,
+        space_needed,
         summary_record,
         write_run,
     )
 
+    compiled = compile_mission(mission, seed)
     run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
     try:
-        run_dir = prepare_run_dir(run_dir)
+        run_dir = prepare_run_dir(run_dir, suffix_on_collision=out is None)
     except (RunDirExistsError, OSError) as error:
-        print(f"{run_dir}: {error}", file=sys.stderr)
-        return 2
-
-    started = time.perf_counter()
-    result = _simulate(mission, seed)
-    wall_seconds = time.perf_counter() - started
-    write_run(
-        result,
-        run_dir,
-        mission_sha256=hashlib.sha256(mission_path.read_bytes()).hexdigest(),
-        mission_file=str(mission_path),
-        plots=plots,
-        animate=animate,
-        formats=formats,
-    )
+        print(f"{run_dir}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
+        return EXIT_RUN_DIR
+    try:
+        needed = space_needed(compiled.max_samples)
+        free = shutil.disk_usage(run_dir).free
+        if free < needed:
+            print(
+                f"{run_dir}: warning: {free / 1e6:.3g} MB free; this run may write up to "
+                f"{needed / 1e6:.3g} MB",
+                file=sys.stderr,
+            )
+        started = time.perf_counter()
+        result = _simulate(mission, seed, compiled.max_samples)
+        wall_seconds = time.perf_counter() - started
+    except MemoryError:
+        release_run_dir(run_dir)
+        print(
+            f"{mission_path}: not enough memory to simulate {compiled.max_samples} samples; "
+            "shorten the phases' time bounds or raise dt",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
+    except BaseException:  # a signal before the loop started: nothing was simulated
+        release_run_dir(run_dir)
+        raise
+    # run_mission judged the run by the mission's `expect` (output.metrics.judge).
+    if result.outcome is Outcome.interrupted:
+        name = signal.Signals(received[0]).name if received else "SIGINT"
+        result.message = f"{result.message} by {name}"
+    stopped = result.outcome is Outcome.interrupted
+    try:
+        write_run(
+            result,
+            run_dir,
+            mission_sha256=sha256,
+            mission_file=str(mission_path),
+            # A stopped run writes its data at once; `wmr-mission plot` draws it.
+            plots=plots and not stopped,
+            animate=animate and not stopped,
+            formats=formats,
+        )
+    except OSError as error:
+        print(
+            f"{error.filename or run_dir}: cannot write: {error.strerror or error}; "
+            f"{run_dir} holds only the files written before (no summary.json)",
+            file=sys.stderr,
+        )
+        return EXIT_RUN_DIR
+    except KeyboardInterrupt:
+        print(f"{run_dir}: interrupted while writing; no summary.json", file=sys.stderr)
+        return _signal_exit(received)
     print(format_table(summary_record(result), run_dir, wall_seconds=wall_seconds, result=result))
+    if stopped:
+        print(
+            f"{mission_path}: {result.message}; the samples up to the stop are in {run_dir}",
+            file=sys.stderr,
+        )
+        return _signal_exit(received)
     if result.outcome is not Outcome.success:
         # Every failure message names what happened: "diverged in phase ...",
         # "phase ... timed out ...", "expectation not met: ...".
         print(f"{mission_path}: {result.message}", file=sys.stderr)
-        return 1
+        return EXIT_FAILED
     return 0
 
 
-def _simulate(mission: Mission, seed: int | None) -> RunResult:
+def _simulate(mission: Mission, seed: int | None, max_samples: int) -> RunResult:
     """Run with a progress bar on stderr when the run is longer than a moment."""
     import typer
 
-    from wmr_mission.compiled import compile_mission
     from wmr_mission.runner import run_mission
 
-    if compile_mission(mission).max_samples < 20_000 or not sys.stderr.isatty():
-        return run_mission(mission, seed=seed)
     name = mission.name
+    if max_samples < 20_000 or not sys.stderr.isatty():
+        return run_mission(mission, seed=seed)
     with typer.progressbar(length=1000, label=f"{name}", file=sys.stderr) as bar:
         done = [0]
 
-        def progress(t: float, total: float, phase: str) -> None:
-            step = int(1000 * min(t / total, 1.0)) - done[0]
+        def progress(t: float, budget: float, phase: str) -> None:
+            step = int(1000 * min(t / budget, 1.0)) - done[0]
             if step > 0:
                 bar.update(step)
                 done[0] += step

@@ -24,13 +24,14 @@ from wmr_mission.spec.loader import (
     MissionError,
     Override,
     _diagnostic,
-    _read,
     _resolve,
     check_mission,
     check_mission_document,
     check_mission_text,
+    decode_source,
     parse_path,
     read_document,
+    read_source,
     translate,
 )
 from wmr_mission.spec.models import Mission
@@ -94,6 +95,13 @@ def is_campaign_text(text: str) -> bool:
     document, _ = read_document(text)
     data = document.data if document is not None else None
     return isinstance(data, dict) and any(key in data for key in _CAMPAIGN_KEYS)
+
+
+def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
+    raw, diagnostics = read_source(path)
+    if raw is None:
+        return None, diagnostics
+    return decode_source(raw, str(path))
 
 
 def check_file(path: Path) -> list[Diagnostic]:

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.output.plots import draw_regions, finite, thin, view_box
+from wmr_mission.output.plots import draw_regions, finite, names_as_typed, thin, view_box
 from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, RunResult
 
@@ -27,6 +27,11 @@ def frame_samples(samples: int, max_frames: int = MAX_FRAMES) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     count = min(samples, max_frames)
     return np.unique(np.round(np.linspace(0, samples - 1, count)).astype(np.int64))
+
+
+def glyph_size(view: tuple[float, float, float, float]) -> float:
+    """Length of the robot's arrow [m]: a fixed share of the scene, whatever its scale."""
+    return GLYPH_SIZE * max(view[1] - view[0], view[3] - view[2])
 
 
 def robot_outline(x: float, y: float, theta: float, size: float) -> FloatArray:
@@ -59,7 +64,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
         finite(result.x[path_points]), finite(result.y[path_points]), color="0.85", linewidth=1.0
     )
     (trail,) = ax.plot([], [], color="tab:blue", linewidth=1.6, animated=True)
-    size = GLYPH_SIZE * max(view[1] - view[0], view[3] - view[2])  # scaled to the scene
+    size = glyph_size(view)
     robot = patches.Polygon(
         np.zeros((4, 2)),
         closed=True,
@@ -86,6 +91,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     ax.set_ylabel("y [m]")
     ax.legend(handles=[robot, estimate], loc="upper right", fontsize=8)
     title = ax.set_title(" ", animated=True)
+    names_as_typed(fig)
 
     frames = []
     canvas.draw()

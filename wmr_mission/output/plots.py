@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.output.metrics import convergence_index, estimation_errors, phase_segments
-from wmr_mission.output.rundir import RunDirError, atomic_path, load_run
+from wmr_mission.output.reader import RunDirError, load_run
+from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, IntArray, RunResult
 
 if TYPE_CHECKING:
@@ -62,8 +63,8 @@ REFERENCE_STYLE: dict[str, Any] = {
 }
 # Width of one character of a phase label, as a fraction of a 9-inch axis.
 CHARACTER_WIDTH = 0.009
-# Legends list each phase while they stay readable; beyond, two columns.
-ONE_COLUMN_PHASES = 12
+# Rows of the xy legend that fit beside the axes; longer legends take more columns.
+LEGEND_ROWS = 20
 
 
 def thin(start: int, stop: int, max_points: int = MAX_POINTS_PER_LINE) -> IntArray:
@@ -116,6 +117,16 @@ def _pyplot_figure(figsize: tuple[float, float]) -> Figure:
 
     figure: Figure = plt.figure(figsize=figsize)
     return figure
+
+
+def names_as_typed(drawn: Figure | Axes) -> None:
+    """Names are data: a '$' in a mission, phase or region name is drawn as typed,
+    never parsed as math (unbalanced, it would stop the drawing). Set on the
+    figure's texts, not in rcParams, so that a notebook's settings stay its own."""
+    from matplotlib.text import Text
+
+    for text in drawn.findobj(Text):
+        text.set_parse_math(False)
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -319,8 +330,11 @@ def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
         )
     missed = _missed_goal(result)
     goals = sorted({p.near for p in result.phases if p.near is not None})
-    for i, (gx, gy, tolerance) in enumerate(goals):
-        color = "tab:red" if (gx, gy, tolerance) == missed else "black"
+    labelled: set[str] = set()
+    for gx, gy, tolerance in goals:
+        reached = (gx, gy, tolerance) != missed
+        color = "black" if reached else "tab:red"
+        label = "near goal" if reached else "near goal not reached"
         if tolerance >= 0.005 * size:  # a tolerance circle too small to see is left out
             ax.add_patch(
                 patches.Circle(
@@ -341,11 +355,10 @@ def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
             markersize=7,
             mew=1.5,
             linestyle="none",
-            label="near goal" if i == 0 else None,
+            label=None if label in labelled else label,
             zorder=6,
         )
-    if missed is not None:
-        ax.plot([], [], marker="x", color="tab:red", linestyle="none", label="goal not reached")
+        labelled.add(label)
     points = sorted({point for p in result.phases for point in p.points})
     if points:
         ax.plot(
@@ -458,7 +471,7 @@ def _xy_on(ax: Axes, result: RunResult) -> None:
     phases = _phase_handles(result, colors)
     others, labels = ax.get_legend_handles_labels()
     handles = [*phases, *others]
-    columns = 1 if len(handles) <= ONE_COLUMN_PHASES + 8 else 2
+    columns = math.ceil(len(handles) / LEGEND_ROWS)
     ax.legend(
         handles=handles,
         labels=[h.get_label() for h in phases] + labels,
@@ -471,6 +484,7 @@ def _xy_on(ax: Axes, result: RunResult) -> None:
         title_fontsize=8,
         alignment="left",
     )
+    names_as_typed(ax)
 
 
 def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
@@ -493,26 +507,31 @@ def _mark_phases(axes: Sequence[Axes], result: RunResult, colors: list[Any]) -> 
     segments = phase_segments(result.phase)
     t0 = float(result.t[0]) if result.samples else 0.0
     span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
-    free_from = -1.0  # axis fraction where the previous label ends
+    free_from = -math.inf  # where the previous label ends [s]
     for number, (index, start, end) in enumerate(segments):
         time = float(result.t[start])
         if number > 0:
             for ax in axes:
                 ax.axvline(time, color="0.45", linewidth=0.7, linestyle=":")
-        where = (time - t0) / span
-        room = (float(result.t[end - 1]) - time) / span
+        stop = float(result.t[end - 1])
         name = result.phases[index].name
-        # Label text takes about 0.009 of the axis width per character.
-        label = (
-            f"{index + 1} {name}" if room >= CHARACTER_WIDTH * (len(name) + 3) else str(index + 1)
-        )
-        if where < free_from:
-            continue  # would overprint its neighbour: the xy legend names it
-        free_from = where + CHARACTER_WIDTH * (len(label) + 1)
+        # Label text takes about CHARACTER_WIDTH of the axis width per character.
+        full, short = f"{index + 1} {name}", str(index + 1)
+        at = max(time, free_from)  # pushed right past its neighbour's label
+        chosen = None
+        for label in (full, short):
+            width = CHARACTER_WIDTH * (len(label) + 1) * span
+            # The name only inside its own stretch; the number at least at its start.
+            if at + width <= stop or (label == short and at == time):
+                chosen = label
+                break
+        if chosen is None:
+            continue  # no room: the xy legend names it
+        free_from = at + width
         axes[0].text(
-            time,
+            at,
             1.02,
-            label,
+            chosen,
             transform=axes[0].get_xaxis_transform(),
             fontsize=7.5,
             color=colors[index],
@@ -554,6 +573,7 @@ def _states_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     axes[-1].set_xlabel("t [s]")
     _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: states and estimates")
+    names_as_typed(fig)
 
 
 def plot_states(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
@@ -665,6 +685,7 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate",
         y=1.0,
     )
+    names_as_typed(fig)
 
 
 def plot_estimation_error(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
@@ -712,6 +733,7 @@ def _inputs_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     axes[-1].set_xlabel("t [s]")
     _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: inputs")
+    names_as_typed(fig)
 
 
 def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:

@@ -12,7 +12,9 @@ from __future__ import annotations
 import copy
 import difflib
 import math
+import os
 import re
+import stat
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -41,6 +43,7 @@ __all__ = [
     "MissionError",
     "Override",
     "check_mission",
+    "check_mission_bytes",
     "check_mission_data",
     "check_mission_document",
     "check_mission_text",
@@ -48,6 +51,7 @@ __all__ = [
     "load_mission_data",
     "load_mission_text",
     "parse_override",
+    "read_source",
     "validate_mission",
 ]
 
@@ -133,9 +137,69 @@ class _NodeLoader(yaml.SafeLoader):
         finally:
             self._depth -= 1
 
+    def resolve(self, kind: Any, value: Any, implicit: Any) -> Any:
+        if kind is yaml.ScalarNode and implicit[0]:
+            return _core_tag(value)
+        return super().resolve(kind, value, implicit)  # type: ignore[no-untyped-call]
+
 
 _TAG = "tag:yaml.org,2002:"
-_FLOAT_12 = re.compile(r"^[-+]?(?:\d+(?:\.\d*)?|\.\d+)[eE][-+]?\d+$")
+# The YAML 1.2 core schema: a plain scalar is a null, boolean, integer or float
+# only when it matches these; anything else is text. (PyYAML resolves YAML 1.1,
+# where `yes` is a boolean, `010` octal 8 and `1:30` the number 90.)
+_NULL_12: Final = frozenset({"", "~", "null", "Null", "NULL"})
+_BOOL_12: Final = {"true": True, "True": True, "TRUE": True}
+_BOOL_12.update({"false": False, "False": False, "FALSE": False})
+_INT_12 = re.compile(r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+")
+_FLOAT_12 = re.compile(
+    r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+    r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)"
+)
+# A date or time, which YAML 1.1 reads as a timestamp: refused as ambiguous
+# (quoted, it is text in either version).
+_TIMESTAMP_11 = re.compile(
+    r"[0-9]{4}-[0-9]{1,2}-[0-9]{1,2}(?:(?:[Tt]|[ \t]+)[0-9]{1,2}:[0-9]{2}:[0-9]{2}"
+    r"(?:\.[0-9]*)?(?:[ \t]*(?:Z|[-+][0-9]{1,2}(?::[0-9]{2})?))?)?"
+)
+# What YAML 1.1 would have read from a plain scalar that YAML 1.2 reads as text.
+_BOOL_11 = re.compile(r"y|Y|yes|Yes|YES|n|N|no|No|NO|on|On|ON|off|Off|OFF")
+_SEXAGESIMAL_11 = re.compile(r"[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?")
+_UNDERSCORE_11 = re.compile(r"[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?")
+
+
+def _core_tag(text: str) -> str:
+    """The YAML 1.2 core-schema tag of a plain scalar."""
+    if text in _NULL_12:
+        return _TAG + "null"
+    if text in _BOOL_12:
+        return _TAG + "bool"
+    if _INT_12.fullmatch(text):
+        return _TAG + "int"
+    if _FLOAT_12.fullmatch(text):
+        return _TAG + "float"
+    if _TIMESTAMP_11.fullmatch(text):
+        return _TAG + "timestamp"
+    return _TAG + "str"
+
+
+def yaml11_hint(text: str) -> str:
+    """How a text value was read, when YAML 1.1 would have read it otherwise ('' if not)."""
+    if _BOOL_11.fullmatch(text):
+        return (
+            f" (read as the text {text!r}: in YAML 1.2, which missions use, "
+            "the booleans are true and false)"
+        )
+    if _SEXAGESIMAL_11.fullmatch(text):
+        sign = -1.0 if text.startswith("-") else 1.0
+        value = 0.0
+        for part in text.lstrip("+-").replace("_", "").split(":"):
+            value = value * 60 + float(part)
+        return (
+            f" (read as the text {text!r}: YAML 1.2 has no base-60 numbers; write {sign * value:g})"
+        )
+    if "_" in text and _UNDERSCORE_11.fullmatch(text):
+        return f" (read as the text {text!r}: write numbers without '_')"
+    return ""
 
 
 def _tag_message(tag: str) -> str:
@@ -254,15 +318,14 @@ class _Builder:
     def _scalar(self, node: yaml.Node, path: DataPath) -> Any:
         tag, text = node.tag, str(node.value)
         if tag == _TAG + "str":
-            if isinstance(node, yaml.ScalarNode) and node.style is None and _FLOAT_12.match(text):
-                # YAML 1.2 (and JSON) read `1e-3` as a number; YAML 1.1 as text
-                node.tag = _TAG + "float"
-                return self._number(node, path)
             return text
         if tag == _TAG + "null":
             return None
         if tag == _TAG + "bool":
-            return self._constructor.construct_yaml_bool(node)  # type: ignore[arg-type]
+            if text not in _BOOL_12:
+                self.refuse(path, f"{text!r} is not a boolean: write true or false")
+                return None
+            return _BOOL_12[text]
         if tag in (_TAG + "int", _TAG + "float"):
             return self._number(node, path)
         if tag.startswith(_TAG):
@@ -279,11 +342,17 @@ class _Builder:
                 path, f"absurd number {text[:20]}...: at most {_MAX_NUMBER_TEXT} characters"
             )
             return None
+        digits = text.lstrip("+-")
+        if node.tag == _TAG + "int" and len(digits) > 1 and digits[0] == "0" and digits.isdigit():
+            octal = f", or 0o{digits.lstrip('0')} for octal" if max(digits) < "8" else ""
+            self.refuse(
+                path,
+                f"{text!r} has a leading zero, which YAML 1.1 reads as octal and YAML 1.2 as "
+                f"{int(text)}: write {int(text)}{octal}",
+            )
+            return None
         try:
-            if node.tag == _TAG + "int":
-                value: float = self._constructor.construct_yaml_int(node)  # type: ignore[arg-type]
-            else:
-                value = self._constructor.construct_yaml_float(node)  # type: ignore[arg-type]
+            value = _core_number(text, integer=node.tag == _TAG + "int")
         except (ValueError, OverflowError):
             self.refuse(path, f"{text!r} is not a number")
             return None
@@ -294,6 +363,18 @@ class _Builder:
             self.refuse(path, f"absurd number {text}: magnitudes above {ABSURD:g} are refused")
             return None
         return value
+
+
+def _core_number(text: str, *, integer: bool) -> float:
+    """The value of a YAML 1.2 core-schema integer or float."""
+    if integer:
+        if text.startswith(("0o", "0x")):
+            return int(text[2:], 8 if text[1] == "o" else 16)
+        return int(text, 10)
+    special = {".inf": math.inf, ".nan": math.nan}.get(text.lstrip("+-").lower())
+    if special is not None:
+        return -special if text.startswith("-") else special
+    return float(text)
 
 
 def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
@@ -323,14 +404,20 @@ def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
     return 1, 1, f"YAML error: {error}"
 
 
+def _compose(text: str) -> yaml.Node | None:
+    """The node tree of one YAML document; raises ``yaml.YAMLError``."""
+    loader = _NodeLoader(text)  # the reader refuses unprintable characters here
+    try:
+        node: yaml.Node | None = loader.get_single_node()
+    finally:
+        loader.dispose()
+    return node
+
+
 def read_document(text: str) -> tuple[Document | None, list[Finding]]:
     """Compose ``text``; on a syntax error return its position instead of a document."""
     try:
-        loader = _NodeLoader(text)  # the reader refuses unprintable characters here
-        try:
-            node = loader.get_single_node()
-        finally:
-            loader.dispose()
+        node = _compose(text)
     except yaml.YAMLError as error:
         line, column, message = _syntax_finding(error, text)
         return None, [Finding((), message, position=(line, column))]
@@ -370,7 +457,7 @@ def _is_tag(part: str | int, current: Any, previous: str | int | None) -> bool:
         return False
     if current.get("type") == part:
         return True
-    return isinstance(previous, int) and part in (*ACTIONS, *_CONSTRAINT_KEYS)
+    return isinstance(previous, int) and part in (*ACTIONS, "repeat", *_CONSTRAINT_KEYS)
 
 
 def _resolve(loc: tuple[str | int, ...], data: Any) -> DataPath:
@@ -427,7 +514,7 @@ def _selects(model: type[BaseModel], value: Any) -> bool:
     type_field = model.model_fields.get("type")
     if type_field is not None:
         return value.get("type", type_field.default) in typing.get_args(type_field.annotation)
-    keys = [k for k in (*ACTIONS, "stay_inside", "stay_outside") if k in model.model_fields]
+    keys = [k for k in (*ACTIONS, "repeat", *_CONSTRAINT_KEYS) if k in model.model_fields]
     return not keys or any(k in value for k in keys)
 
 
@@ -481,6 +568,13 @@ def _suggest(word: str, choices: Sequence[str]) -> str:
 
 def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -> Finding:
     """A pydantic error of a ``root`` model (a mission, a campaign) as a positioned finding."""
+    finding = _translate_error(error, document, root)
+    value = error.get("input")
+    hint = yaml11_hint(value) if isinstance(value, str) else ""
+    return replace(finding, message=finding.message + hint) if hint else finding
+
+
+def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> Finding:
     kind: str = error["type"]
     loc: tuple[str | int, ...] = error["loc"]
     data = document.data
@@ -519,11 +613,21 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
         return Finding(path, f"{where}: expected {least} {bound} {items}, got {got}")
     if kind == "phase_action":
         keys = list(value) if isinstance(value, dict) else []
-        hints = [_suggest(str(k), ACTIONS) for k in keys]
+        in_repeat = "repeat" in path
+        if in_repeat and "repeat" in keys:
+            return Finding(
+                (*path, "repeat"),
+                f"{where}: a repeat cannot hold another repeat (repeats do not nest); "
+                "write the inner phases out, or repeat the outer group more times",
+                at_key=True,
+            )
+        actions = ACTIONS if in_repeat else (*ACTIONS, "repeat")
+        hints = [_suggest(str(k), actions) for k in keys]
         hint = next((h for h in hints if h), "")
         return Finding(
             path,
-            f"{where}: a phase needs exactly one action key: track, regulate or hold{hint}",
+            f"{where}: a phase needs exactly one action key: "
+            f"{', '.join(actions[:-1])} or {actions[-1]}{hint}",
         )
     if kind == "constraint_kind":
         keys = [str(k) for k in value] if isinstance(value, dict) else []
@@ -542,6 +646,16 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         tags = _type_tags(path)
         if kind == "union_tag_not_found":
+            near_type = [
+                k for k in (value if isinstance(value, dict) else {}) if _suggest(k, ["type"])
+            ]
+            if near_type:  # `typ: ellipse`
+                return Finding(
+                    (*path, near_type[0]),
+                    f"unknown field {near_type[0]!r}; did you mean 'type'? "
+                    f"(one of: {', '.join(tags)})",
+                    at_key=True,
+                )
             return Finding(path, f"{where}: missing field 'type' (one of: {', '.join(tags)})")
         tag = str(context.get("tag", ""))
         type_path = (*path, "type") if (*path, "type") in document.values else path
@@ -564,7 +678,11 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
         expected = str(context.get("expected", ""))
         choices = re.findall(r"'([^']*)'", expected)
         hint = _suggest(str(value), choices) if isinstance(value, str) else ""
-        return Finding(path, f"{where}: expected {expected}, got {_shown(value)}{hint}")
+        # A mapping's key (`output_error_bounds: {thta: ...}`): point at the key.
+        at_key = loc[-1] == "[key]"
+        return Finding(
+            path, f"{where}: expected {expected}, got {_shown(value)}{hint}", at_key=at_key
+        )
     message = str(error["msg"])
     message = re.sub(r"^Input should be", "should be", message)
     message = re.sub(r"^Value error, ", "", message)
@@ -724,17 +842,26 @@ def check_mission_document(
     return _check_document(fresh, [], filename, overrides)
 
 
-def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
+def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
+    """The bytes of a mission file, read once: a run hashes and runs these very bytes.
+
+    Regular files and pipes (``<(...)``) only; a pipe is opened without waiting
+    for a writer, so a FIFO nobody writes to reads as empty instead of hanging.
+    """
     filename = str(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
+        info = os.stat(path)
+        if not (stat.S_ISREG(info.st_mode) or stat.S_ISFIFO(info.st_mode)):
+            kind = "a directory" if stat.S_ISDIR(info.st_mode) else "a device or socket"
+            message = f"cannot read the file: it is {kind}, not a regular file"
+            return None, [Diagnostic(filename, 1, 1, message)]
+        if info.st_size > MAX_FILE_BYTES:
             return None, [
-                Diagnostic(
-                    filename, 1, 1, f"file too large: {size} bytes (at most {MAX_FILE_BYTES})"
-                )
+                Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
             ]
-        with path.open("rb") as stream:
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        os.set_blocking(descriptor, True)
+        with os.fdopen(descriptor, "rb") as stream:
             raw = stream.read(MAX_FILE_BYTES + 1)
     except OSError as error:
         return None, [
@@ -744,6 +871,21 @@ def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
         return None, [
             Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
         ]
+    return raw, []
+
+
+def check_mission_bytes(
+    raw: bytes, filename: str, overrides: Sequence[Override] = ()
+) -> tuple[Mission | None, list[Diagnostic]]:
+    """Every problem of a mission file's bytes, and the mission if it has none."""
+    text, diagnostics = decode_source(raw, filename)
+    if text is None:
+        return None, diagnostics
+    return check_mission_text(text, filename, overrides)
+
+
+def decode_source(raw: bytes, filename: str) -> tuple[str | None, list[Diagnostic]]:
+    """The text of a file's bytes, or where they stop being UTF-8."""
     try:
         return raw.decode("utf-8"), []
     except UnicodeDecodeError as error:
@@ -757,10 +899,10 @@ def check_mission(
     path: str | Path, overrides: Sequence[Override] = ()
 ) -> tuple[Mission | None, list[Diagnostic]]:
     """Every problem of a mission file (errors and warnings), and the mission if it has none."""
-    text, diagnostics = _read(Path(path))
-    if text is None:
+    raw, diagnostics = read_source(path)
+    if raw is None:
         return None, diagnostics
-    return check_mission_text(text, str(path), overrides)
+    return check_mission_bytes(raw, str(path), overrides)
 
 
 def check_mission_data(
@@ -901,11 +1043,7 @@ def read_value(text: str) -> tuple[Any, list[Finding]]:
     if not text.strip():
         return None, []  # `--set description=` sets null, as `description:` would
     try:
-        loader = _NodeLoader(text)
-        try:
-            node = loader.get_single_node()
-        finally:
-            loader.dispose()
+        node = _compose(text)
     except yaml.YAMLError as error:
         _, _, message = _syntax_finding(error, text)
         return None, [Finding((), message)]

@@ -40,6 +40,7 @@ __all__ = [
     "ConstrainedObserver",
     "Constraint",
     "Controller",
+    "CoveragePath",
     "Ekf",
     "EllipsePath",
     "EllipseRegion",
@@ -59,11 +60,14 @@ __all__ = [
     "Phase",
     "Plot",
     "PolygonRegion",
+    "PolylinePath",
     "Pose",
     "RegionSpec",
     "Regulate",
     "RegulatePhase",
     "Regulation",
+    "Repeat",
+    "RepeatPhase",
     "Robot",
     "Sensors",
     "Settled",
@@ -73,6 +77,7 @@ __all__ = [
     "StateStd",
     "StayInside",
     "StayOutside",
+    "Step",
     "Threshold",
     "Track",
     "TrackPhase",
@@ -93,6 +98,25 @@ PHASE_NAME: Final = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 
 # Larger magnitudes are typing mistakes, not missions (and would overflow the kernels).
 ABSURD: Final = 1e9
+# Plausibility floors: a positive quantity below these is a typing mistake, and
+# its square or inverse would underflow or overflow the kernels. Sizes, speeds
+# and rates of regions and paths [m, m/s, 1/s]; every other positive quantity
+# (limits, standard deviations, weights, tolerances).
+SMALLEST_SIZE: Final = 1e-6
+SMALLEST_POSITIVE: Final = 1e-9
+
+
+def _at_least(floor: float) -> AfterValidator:
+    def check(value: float) -> float:
+        if 0 < value < floor:
+            raise PydanticCustomError(
+                "implausibly_small",
+                "{value} is implausibly small: expected at least {floor}",
+                {"value": f"{value:g}", "floor": f"{floor:g}"},
+            )
+        return value
+
+    return AfterValidator(check)
 
 
 class _Model(BaseModel):
@@ -104,8 +128,10 @@ class _Model(BaseModel):
 # Plain numbers: an int or a float, never a bool or a numeric-looking text.
 Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-ABSURD, le=ABSURD)]
 NonNegative = Annotated[Number, Field(ge=0)]
-Positive = Annotated[Number, Field(gt=0)]
+Positive = Annotated[Number, Field(gt=0), _at_least(SMALLEST_POSITIVE)]
 Duration = Annotated[Number, Field(gt=0)]
+# true or false only, never a text such as 'yes' or 'off'.
+Flag = Annotated[bool, Strict()]
 
 _SCALAR_SCHEMA: Final[dict[str, Any]] = {
     "anyOf": [
@@ -172,6 +198,7 @@ PositiveScalar = Annotated[
     float,
     BeforeValidator(_evaluate_scalar),
     Field(allow_inf_nan=False, gt=0, le=ABSURD),
+    _at_least(SMALLEST_SIZE),
     _scalar_schema({"exclusiveMinimum": 0}),
 ]
 
@@ -323,12 +350,23 @@ OutputErrorBound = Annotated[tuple[Number, Number], AfterValidator(_check_bound)
 Pole = Annotated[Number, Field(ge=0, lt=1)]
 
 
-def _paper_estimate() -> Pose:
-    return Pose(x=1.0, y=1.0, theta=0.0)  # section IV: x_hat(0|0) = [1 1 0]
+# Default output-error bound of eq. (4) [m or rad]: the larger of this and
+# BOUND_NOISE_RATIO times the state's noise std, so that phase II acts on
+# estimation errors, not on the noise (docs/paper-notes.md, eq. (4)).
+DEFAULT_BOUND = 0.05
+BOUND_NOISE_RATIO = 5.0
 
 
 def _default_bounds() -> dict[StateName, tuple[float, float]]:
-    return dict.fromkeys(STATES, (-0.05, 0.05))
+    return dict.fromkeys(STATES, (-DEFAULT_BOUND, DEFAULT_BOUND))
+
+
+def default_bound(noise_std: float) -> float:
+    """Half-width of the default output-error bound for a state with this noise."""
+    return max(DEFAULT_BOUND, BOUND_NOISE_RATIO * noise_std)
+
+
+_INITIAL_ESTIMATE = "Estimate at mission start [m, m, rad]; null = robot.initial_state."
 
 
 class StatePoles(_Model):
@@ -353,9 +391,7 @@ class ConstrainedObserver(_Model):
     type: Literal["constrained-observer"] = Field(
         default="constrained-observer", description="Estimator kind (the default)."
     )
-    initial_estimate: Pose = Field(
-        default_factory=_paper_estimate, description="Estimate at mission start [m, m, rad]."
-    )
+    initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
     poles: StatePoles = Field(
         default_factory=StatePoles,
         description=(
@@ -369,7 +405,7 @@ class ConstrainedObserver(_Model):
         description=(
             "Eq. (4): [lower, upper] bounds on each measured state's output error "
             "[m or rad], lower < 0 < upper; keys must be measured states; null = no phase II. "
-            "Default: [-0.05, 0.05] on every measured state."
+            "Default on every measured state: +-max(0.05, 5 sensors.noise_std)."
         ),
     )
     max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = Field(
@@ -381,9 +417,7 @@ class Ekf(_Model):
     """Baseline extended Kalman filter."""
 
     type: Literal["ekf"] = Field(description="Estimator kind.")
-    initial_estimate: Pose = Field(
-        default_factory=_paper_estimate, description="Estimate at mission start [m, m, rad]."
-    )
+    initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
     initial_std: StatePositiveStd = Field(
         default_factory=lambda: StatePositiveStd(x=1.0, y=1.0, theta=0.5),
         description="Square root of the diagonal of P0 [m, m, rad], > 0.",
@@ -425,8 +459,22 @@ class Tracking(_Model):
         default="look-ahead",
         description="look-ahead: a point ahead of the axle; axle: the literal eq. (27).",
     )
-    look_ahead: Positive = Field(
-        default=0.05, description="Distance of the look-ahead point ahead of the axle [m]."
+    look_ahead: Positive | None = Field(
+        default=None,
+        description=(
+            "Distance of the look-ahead point ahead of the axle [m]; "
+            "null = max(0.05, robot.limits.v * robot.dt), where the law is well conditioned "
+            "at every speed the limits allow."
+        ),
+    )
+    time_constant: NonNegative = Field(
+        default=0.1,
+        description=(
+            "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
+            "time_constant) of the output's error, the path's own motion fed forward; "
+            "0 = close the whole error in one sample (the literal eq. 27; always so for "
+            "output: axle)."
+        ),
     )
 
 
@@ -443,7 +491,7 @@ class Regulation(_Model):
     align_radius: Positive = Field(
         default=0.01, description="Within this distance the bearing form turns to the target [m]."
     )
-    reverse: bool = Field(default=True, description="The bearing form may drive backwards.")
+    reverse: Flag = Field(default=True, description="The bearing form may drive backwards.")
 
 
 class Controller(_Model):
@@ -648,7 +696,8 @@ class EllipticalSpiralPath(_EllipseGeometry):
 
 
 class WaypointsPath(_Model):
-    """A C1 curve through the points, traversed at constant speed."""
+    """A smooth (C1) curve through the points at constant speed, kept close to their
+    convex hull."""
 
     type: Literal["waypoints"] = Field(description="Path kind.")
     points: list[Point] = Field(
@@ -657,9 +706,85 @@ class WaypointsPath(_Model):
     speed: PositiveScalar = Field(description="Speed along the curve [m/s], > 0.")
     start: Literal["current", "first"] = Field(
         default="current",
-        description="current: the robot's position is prepended; first: start at the first point.",
+        description=(
+            "current: an open curve starts at the robot's position, a closed one where it "
+            "passes nearest the robot; first: at the first point."
+        ),
+    )
+    closed: Flag = Field(default=False, description="Return to the first point and loop.")
+
+
+# --- routes drawn through points: polyline and coverage ---------------------
+
+NonNegativeScalar = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=0, le=ABSURD),
+    _scalar_schema({"minimum": 0}),
+]
+
+
+class PolylinePath(_Model):
+    """Straight legs through the points at constant speed, corners rounded by arcs
+    (or turned in place); never leaves the points' convex hull."""
+
+    type: Literal["polyline"] = Field(description="Path kind.")
+    points: list[Point] = Field(
+        min_length=1,
+        max_length=10000,
+        description="At least 1 point [[x, y], ...] [m] (with start: current, the robot's "
+        "position comes first).",
+    )
+    speed: PositiveScalar = Field(description="Speed along legs and arcs [m/s], > 0.")
+    corner_radius: NonNegativeScalar = Field(
+        default=0.0,
+        description=(
+            "Radius of the arc joining two legs [m], >= 0, shrunk where it does not fit in "
+            "half of either leg; 0 = stop and turn in place."
+        ),
+    )
+    turn_rate: PositiveScalar = Field(
+        default=1.0, description="Turn rate of a turn in place [rad/s], > 0."
+    )
+    start: Literal["current", "first"] = Field(
+        default="current",
+        description=(
+            "current: an open route starts at the robot's position, a closed one where it "
+            "passes nearest the robot; first: at the first point."
+        ),
     )
     closed: bool = Field(default=False, description="Return to the first point and loop.")
+
+
+class CoveragePath(_Model):
+    """A boustrophedon (lawnmower) over a box or convex polygon region: parallel
+    lanes, run alternately back and forth, joined by arcs of the turn radius."""
+
+    type: Literal["coverage"] = Field(description="Path kind.")
+    region: RegionName = Field(description="Name of the box or polygon region to cover.")
+    spacing: PositiveScalar = Field(
+        description=(
+            "Largest distance between neighbouring lanes [m], > 0; lanes are spread evenly, "
+            "the outer ones half a spacing inside the field."
+        )
+    )
+    direction: Scalar = Field(default=0.0, description="Direction of the lanes [rad] from +x.")
+    turn_radius: NonNegativeScalar | None = Field(
+        default=None,
+        description=(
+            "Radius of the turns at the lane ends [m], >= 0; default half the spacing "
+            "(a semicircle); 0 = turn in place."
+        ),
+    )
+    turn_rate: PositiveScalar = Field(
+        default=1.0, description="Turn rate of a turn in place [rad/s], > 0."
+    )
+    speed: PositiveScalar = Field(description="Speed along lanes and turns [m/s], > 0.")
+    start: Literal["current", "first"] = Field(
+        default="current",
+        description="current: drive from the robot's position to the first lane; first: start "
+        "on the first lane.",
+    )
 
 
 def _number_as_text(value: Any) -> Any:
@@ -710,7 +835,9 @@ PathSpec = Annotated[
     | SpiralPath
     | EllipticalSpiralPath
     | WaypointsPath
-    | ExpressionPath,
+    | ExpressionPath
+    | PolylinePath
+    | CoveragePath,
     Field(discriminator="type"),
 ]
 
@@ -815,7 +942,11 @@ class _PhaseCommon(_Model):
         default="fail", description="At timeout: fail the mission, or go on to the next phase."
     )
     constraints: tuple[Constraint, ...] = Field(
-        default=(), max_length=64, description="Inequality constraints (regulate and hold only)."
+        default=(),
+        max_length=64,
+        description=(
+            "Keep-in and keep-out zones (eq. (28)); on a track phase they win over the path."
+        ),
     )
 
 
@@ -863,6 +994,46 @@ Phase = Annotated[
         _phase_action,
         custom_error_type="phase_action",
         custom_error_message="a phase needs exactly one action: track, regulate or hold",
+    ),
+]
+
+
+# --- repeats: a group of phases run several times ---------------------------
+
+
+class Repeat(_Model):
+    """Phases run ``times`` times in order (patrol laps); repeats do not nest."""
+
+    times: Annotated[int, Strict(), Field(ge=1, le=10000)] = Field(
+        description="How many times the phases run, 1..10000."
+    )
+    phases: list[Phase] = Field(
+        min_length=1, max_length=1000, description="The phases of one lap, run in order."
+    )
+
+
+class RepeatPhase(_Model):
+    """A group of phases run several times; each run is a lap (transitions.json)."""
+
+    name: Annotated[str, Field(pattern=PHASE_NAME)] = Field(description=_PHASE_DESCRIPTION)
+    repeat: Repeat = Field(description="The phases and how many times they run.")
+
+
+def _step_action(value: Any) -> str | None:
+    if isinstance(value, RepeatPhase) or (isinstance(value, dict) and "repeat" in value):
+        return "repeat"
+    return _phase_action(value)
+
+
+Step = Annotated[
+    Annotated[TrackPhase, Tag("track")]
+    | Annotated[RegulatePhase, Tag("regulate")]
+    | Annotated[HoldPhase, Tag("hold")]
+    | Annotated[RepeatPhase, Tag("repeat")],
+    Discriminator(
+        _step_action,
+        custom_error_type="phase_action",
+        custom_error_message="a phase needs exactly one action: track, regulate, hold or repeat",
     ),
 ]
 
@@ -932,22 +1103,24 @@ NAMED_COLORS: Final = CSS4_COLORS | {
     *(f"C{i}" for i in range(10)),
     *"bgrcmykw",
 }
-_HEX_COLOR: Final = re.compile(r"^#(?:[0-9a-fA-F]{3,4}|[0-9a-fA-F]{6}|[0-9a-fA-F]{8})$")
+HEX_COLOR: Final = re.compile(r"^#(?:[0-9a-fA-F]{3,4}|[0-9a-fA-F]{6}|[0-9a-fA-F]{8})$")
+
+
+def is_color(value: str) -> bool:
+    """Whether matplotlib knows ``value`` as a colour (of the forms a mission may use)."""
+    return value in NAMED_COLORS or value.lower() in NAMED_COLORS or bool(HEX_COLOR.match(value))
 
 
 def _color(value: str) -> str:
-    if (
-        value.lower() not in NAMED_COLORS
-        and value not in NAMED_COLORS
-        and not _HEX_COLOR.match(value)
-    ):
+    if not is_color(value):
         import difflib
 
         close = difflib.get_close_matches(value.lower(), sorted(NAMED_COLORS), n=1)
         hint = f"; did you mean '{close[0]}'?" if close else ""
         raise PydanticCustomError(
             "color",
-            "'{value}' is not a colour{hint}: use a name (red, tab:green), '#rrggbb' or C0..C9",
+            "'{value}' is not a colour (a name such as red or tab:green, '#rrggbb', or "
+            "C0..C9){hint}",
             {"value": value[:40], "hint": hint},
         )
     return value
@@ -1036,14 +1209,17 @@ class Mission(_Model):
         description="Named regions.",
         json_schema_extra={"additionalProperties": False},
     )
-    phases: list[Phase] = Field(min_length=1, max_length=10000, description="Phases, run in order.")
+    phases: list[Step] = Field(
+        min_length=1, max_length=10000, description="Phases (and repeats of phases), run in order."
+    )
     expect: Expect = Field(default_factory=Expect, description="Acceptance thresholds.")
     plot: Plot = Field(default_factory=Plot, description="How the figures look.")
 
     @model_validator(mode="before")
     @classmethod
     def _default_bounds_on_measured_states(cls, data: Any) -> Any:
-        """Default output-error bounds cover the measured states only."""
+        """Default output-error bounds cover the measured states only, each
+        wide enough that the state's noise alone rarely leaves it."""
         if not isinstance(data, dict):
             return data
         estimator = data.get("estimator", {"type": "constrained-observer"})
@@ -1056,5 +1232,12 @@ class Mission(_Model):
         measure = sensors.get("measure", STATES)
         if not isinstance(measure, list | tuple) or not all(s in STATES for s in measure):
             return data
-        bounds = dict.fromkeys(measure, (-0.05, 0.05))
+        noise = sensors.get("noise_std", {})
+        bounds = {}
+        for state in measure:
+            std = noise.get(state, 0.0) if isinstance(noise, dict) else 0.0
+            if isinstance(std, bool) or not isinstance(std, int | float) or not std >= 0:
+                std = 0.0  # the field's own check reports it
+            half_width = default_bound(float(std))
+            bounds[state] = (-half_width, half_width)
         return {**data, "estimator": {**estimator, "output_error_bounds": bounds}}
