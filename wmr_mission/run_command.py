@@ -11,15 +11,10 @@ from typing import Any
 from wmr_mission.result import Outcome, RunResult
 
 
-def _expectation_failures(result: RunResult, expect: dict[str, Any]) -> list[str]:
-    from wmr_mission.output.metrics import check_expectations, summarize
+def _expectation_failures(result: RunResult, mission: dict[str, Any]) -> list[str]:
+    from wmr_mission.output.metrics import check_expectations, summarize, unmet
 
-    failures = []
-    for item in check_expectations(summarize(result), expect):
-        if not item["met"]:
-            value = "none" if item["value"] is None else f"{item['value']:.6g}"
-            failures.append(f"{item['metric']} = {value} (max {item['max']:.6g})")
-    return failures
+    return unmet(check_expectations(summarize(result, mission), mission))
 
 
 def run_command(
@@ -55,9 +50,8 @@ def run_command(
     resolved = mission.model_dump(mode="json")
     if seed is not None:  # the manifest records the mission as run
         resolved["sensors"]["seed"] = seed
-    expect = resolved.get("expect") or {}
     if result.outcome is Outcome.success:
-        failures = _expectation_failures(result, expect)
+        failures = _expectation_failures(result, resolved)
         if failures:
             result.outcome = Outcome.expect_failed
             result.message = "expectation not met: " + "; ".join(failures)
@@ -72,8 +66,8 @@ def run_command(
     )
     from wmr_mission.output.metrics import check_expectations, summarize
 
-    summary = summarize(result)
-    summary["expectations"] = check_expectations(summary, expect)
+    summary = summarize(result, resolved)
+    summary["expectations"] = check_expectations(summary, resolved)
     print(format_table(summary, run_dir))
     if result.outcome is not Outcome.success:
         # Every failure message names what happened: "diverged in phase ...",
