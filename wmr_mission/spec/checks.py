@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Final, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from wmr_mission.spec.models import (
     BoxRegion,
@@ -36,10 +37,13 @@ MAX_SAMPLES: Final = 50_000_000
 
 # Samples of a path when looking for a `reaches` crossing; finer than this only costs time.
 _REACH_SAMPLES: Final = 20_001
+# Below this path speed [m/s] the direction of the path is not defined (a stop or a cusp).
+_STANDSTILL: Final = 1e-6
 
 DataPath = tuple[str | int, ...]
 Severity = Literal["error", "warning"]
 Pose = tuple[float, float, float]
+FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -341,7 +345,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
 
     The robot is assumed to follow each phase perfectly: a track phase starts
     where the previous one ended (the initial state for the first phase, the
-    previous path's end or the previous target otherwise). Kept this simple on
+    previous path's point where it first reaches its `reaches` region or else
+    its end, or the previous target). Kept this simple on
     purpose: the check only has to catch a path that plainly misses.
     """
     from wmr_mission import paths
@@ -388,12 +393,15 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             return
         name = phase.until.reaches
         region = mission.regions.get(name) if name is not None else None
+        followed = times.size  # samples up to the predicted end of the phase
         if region is not None:
             entry = np.sign(region_value(region, np.array([pose[0]]), np.array([pose[1]])))[0]
             with np.errstate(all="ignore"):
                 values = region_value(region, x, y)
             crossed = np.isfinite(values) & (np.sign(values) != entry)
-            if not np.any(crossed):
+            if np.any(crossed):
+                followed = int(np.argmax(crossed)) + 1
+            else:
                 yield Finding(
                     ("phases", index, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
@@ -401,9 +409,61 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                     f"{_limit(phase, mission_time - bound)}",
                     severity="warning",
                 )
-        if np.isfinite(x[-1]) and np.isfinite(y[-1]):
-            heading = math.atan2(float(dy[-1]), float(dx[-1])) if dx[-1] or dy[-1] else pose[2]
-            pose = (float(x[-1]), float(y[-1]), heading)
+        yield from _path_within_limits(mission, index, phase, times[:followed], dx, dy, assumed)
+        last = followed - 1  # the next phase starts where this one is predicted to end
+        if np.isfinite(x[last]) and np.isfinite(y[last]):
+            heading = (
+                math.atan2(float(dy[last]), float(dx[last])) if dx[last] or dy[last] else pose[2]
+            )
+            pose = (float(x[last]), float(y[last]), heading)
+
+
+def _path_within_limits(
+    mission: Mission,
+    index: int,
+    phase: TrackPhase,
+    times: FloatArray,
+    dx: FloatArray,
+    dy: FloatArray,
+    assumed: str,
+) -> Iterator[Finding]:
+    """The path's own speed and turn rate (speed x curvature) against the
+    actuator limits, up to the phase's predicted end: a robot on a path it
+    cannot keep up with falls behind or cuts across, whatever the law.
+
+    An error when the phase's end is known in advance (it ends on time, or on
+    reaching a region the path crosses), a warning when a near or heading
+    condition may end it first.
+    """
+    if times.size < 2:
+        return
+    dx, dy = dx[: times.size], dy[: times.size]
+    speed = np.hypot(dx, dy)
+    with np.errstate(all="ignore"):
+        # heading rate of the path's direction: (dx ddy - dy ddx) / |d|^2
+        turn = (dx * np.gradient(dy, times) - dy * np.gradient(dx, times)) / speed**2
+    turn = np.where(speed > _STANDSTILL, np.abs(turn), 0.0)
+    limits = mission.robot.limits
+    path = phase.track.path
+    field = next((f for f in ("angular_rate", "speed") if f in type(path).model_fields), None)
+    where: DataPath = ("phases", index, "track", "path", *((field,) if field else ()))
+    predictable = phase.until.near is None and phase.until.heading is None
+    for need, limit, what, unit, name in (
+        (speed, limits.v, "a speed", "m/s", "limits.v"),
+        (turn, limits.omega, "a turn rate (speed x curvature)", "rad/s", "limits.omega"),
+    ):
+        over = np.flatnonzero(need > limit * (1.0 + 1e-9))
+        if over.size == 0:
+            continue
+        peak = float(np.max(need[np.isfinite(need)]))
+        yield Finding(
+            where,
+            f"the path needs {what} of up to {peak:.3g} {unit} (from t = "
+            f"{float(times[over[0]]):.3g} s of phase {phase.name!r}), above robot.{name} = "
+            f"{limit:g} {unit} ({assumed}); the robot cannot follow it: slow the path down "
+            f"or raise the limit",
+            severity="error" if predictable else "warning",
+        )
 
 
 def _expectations(mission: Mission) -> Iterator[Finding]:
