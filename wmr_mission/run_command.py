@@ -11,12 +11,6 @@ from typing import Any
 from wmr_mission.result import Outcome, RunResult
 
 
-def _expectation_failures(result: RunResult, mission: dict[str, Any]) -> list[str]:
-    from wmr_mission.output.metrics import check_expectations, summarize, unmet
-
-    return unmet(check_expectations(summarize(result, mission), mission))
-
-
 def run_command(
     mission_path: Path, *, out: Path | None, seed: int | None, plots: bool, animate: bool
 ) -> int:
@@ -30,6 +24,7 @@ def run_command(
         return 1
 
     from wmr_mission.compiled import compile_mission
+    from wmr_mission.output.metrics import judge
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
         RunDirExistsError,
@@ -50,11 +45,7 @@ def run_command(
     resolved = mission.model_dump(mode="json")
     if seed is not None:  # the manifest records the mission as run
         resolved["sensors"]["seed"] = seed
-    if result.outcome is Outcome.success:
-        failures = _expectation_failures(result, resolved)
-        if failures:
-            result.outcome = Outcome.expect_failed
-            result.message = "expectation not met: " + "; ".join(failures)
+    summary = judge(result, resolved)  # a success that misses an `expect` is not one
     write_run(
         result,
         run_dir,
@@ -64,10 +55,6 @@ def run_command(
         plots=plots,
         animate=animate,
     )
-    from wmr_mission.output.metrics import check_expectations, summarize
-
-    summary = summarize(result, resolved)
-    summary["expectations"] = check_expectations(summary, resolved)
     print(format_table(summary, run_dir))
     if result.outcome is not Outcome.success:
         # Every failure message names what happened: "diverged in phase ...",

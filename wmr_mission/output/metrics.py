@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from wmr_mission.result import FloatArray, PhaseInfo, RunResult
+from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
 
 STATES = ("x", "y", "theta")
 # The mission's `expect` settings when a summary is made without a mission.
@@ -102,7 +102,8 @@ def estimation_errors(result: RunResult) -> dict[str, FloatArray]:
 def convergence_index(
     errors: dict[str, FloatArray], tolerance: Mapping[str, float] | None = None
 ) -> int | None:
-    """First sample from which every |error| stays below its state's tolerance to the end, else None."""
+    """First sample from which every |error| stays below its state's tolerance
+    to the end, else None."""
     tolerance = DEFAULT_CONVERGENCE_TOLERANCE if tolerance is None else tolerance
     stacked = np.abs(np.vstack(list(errors.values())))
     limits = np.array([tolerance[state] for state in errors])[:, None]
@@ -407,9 +408,10 @@ def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> di
     errors = estimation_errors(result)
     converged = convergence_index(errors, tolerance)
     duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
-    settled = result.t - (result.t[0] if result.samples else 0.0) >= _settle_time(
-        _expect_of(mission)
-    ) - 1e-9 * result.dt
+    settled = (
+        result.t - (result.t[0] if result.samples else 0.0)
+        >= _settle_time(_expect_of(mission)) - 1e-9 * result.dt
+    )
     return {
         "outcome": result.outcome.value,
         "message": result.message,
@@ -471,9 +473,7 @@ def _applies(phase: Mapping[str, Any], metric: str) -> bool:
     return not metric.startswith("tracking_error") or phase.get("kind") == "track"
 
 
-def _phase_checks(
-    phase: Mapping[str, Any], thresholds: Mapping[str, Any]
-) -> list[dict[str, Any]]:
+def _phase_checks(phase: Mapping[str, Any], thresholds: Mapping[str, Any]) -> list[dict[str, Any]]:
     checks = []
     name = str(phase.get("name"))
     for metric, path in _PHASE_EXPECTATION_PATHS.items():
@@ -527,3 +527,21 @@ def unmet(checks: list[dict[str, Any]]) -> list[str]:
         where = f"{item['phase']}: " if item["phase"] is not None else ""
         lines.append(f"{where}{item['metric']} = {value} (max {item['max']:.6g})")
     return lines
+
+
+def judge(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The run's summary with every `expect` threshold checked.
+
+    A run that ended as a success but misses a threshold is not one: its
+    outcome becomes ``expect-failed`` (in ``result`` too), with the misses as
+    its message. Thresholds are what a mission relaxes, not the outcome.
+    """
+    summary = summarize(result, mission)
+    checks = check_expectations(summary, mission)
+    failures = unmet(checks)
+    if result.outcome is Outcome.success and failures:
+        result.outcome = Outcome.expect_failed
+        result.message = "expectation not met: " + "; ".join(failures)
+        summary["outcome"], summary["message"] = result.outcome.value, result.message
+    summary["expectations"] = checks
+    return summary

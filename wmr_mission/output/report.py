@@ -51,7 +51,8 @@ def key_metric(phase: dict[str, Any]) -> str:
         parts.append(f"max constraint {_number(constraint['max_violation'], '')}")
     jitter = (phase.get("inputs") or {}).get("turn_rate_jitter")
     if jitter is not None:
-        parts.append(f"omega jitter {_number(jitter, ' rad/s')}")
+        # a constant turn rate leaves only rounding (1e-16) about its moving mean
+        parts.append(f"omega jitter {_number(jitter if jitter > 1e-12 else 0.0, ' rad/s')}")
     return ", ".join(parts) or "-"
 
 
@@ -60,7 +61,9 @@ def _at_limit(phase: dict[str, Any]) -> str:
     inputs = phase.get("inputs") or {}
     if not phase.get("settled_samples"):
         return "-"
-    return f"{_percent(inputs.get('speed_at_limit'))} / {_percent(inputs.get('turn_rate_at_limit'))}"
+    return (
+        f"{_percent(inputs.get('speed_at_limit'))} / {_percent(inputs.get('turn_rate_at_limit'))}"
+    )
 
 
 def _convergence(phase: dict[str, Any]) -> str:
@@ -111,8 +114,7 @@ def format_table(summary: dict[str, Any], run_dir: str | os.PathLike[str]) -> st
         lines.append(text)
     converged = summary.get("estimation_convergence_time")
     lines.append(
-        "estimation converged from: "
-        + ("never" if converged is None else f"t = {converged:.2f} s")
+        "estimation converged from: " + ("never" if converged is None else f"t = {converged:.2f} s")
     )
     for check in checks:
         if check.get("phase") is not None and check["met"]:
