@@ -1,0 +1,138 @@
+"""Runs that a control engineer would call failures end as failures.
+
+Each mission in tests/data/verdicts/ is built to be bad: its inputs really sit
+at a limit after the phase's first second, or the robot really is far from its
+path. Every one of them used to end as a plain success. Each test checks the
+premise from trajectory.csv on its own (not from our summary) before the verdict.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from test_case_studies import read_trajectory, run
+
+from wmr_mission.compiled import compile_mission
+from wmr_mission.output.metrics import judge
+from wmr_mission.result import Outcome
+from wmr_mission.runner import run_mission
+from wmr_mission.spec.models import Mission
+
+DATA = Path(__file__).resolve().parent / "data"
+VERDICTS = DATA / "verdicts"
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+
+# mission file, phase, the input that sits at its limit, that limit
+AT_A_LIMIT = [
+    ("reverse_orbit", "orbit", "omega", 20.0),  # case 2 from heading 2*pi/3: flown in reverse
+    ("noisy_axle", "orbit", "omega", 20.0),  # the literal eq. (27) law under 1 cm noise
+    ("noisy_ekf", "circle", "omega", 6.0),  # the shipped noisy-ekf mission, shortened
+    ("pinned_on_a_wall", "go", "omega", 3.0),  # the corrective action near-singular at v ~ 0
+    ("tiny_turn_rate_limit", "park", "omega", 0.1),  # a turn rate limit far too small
+]
+
+
+def _after_first_second(columns: dict[str, np.ndarray], phase: str) -> np.ndarray:
+    on = columns["phase"] == phase
+    return on & (columns["t"] >= columns["t"][on][0] + 1.0 - 1e-9)
+
+
+def _failed(summary: dict[str, object]) -> set[tuple[str | None, str]]:
+    checks = summary["expectations"]
+    assert isinstance(checks, list)
+    return {(c["phase"], c["metric"]) for c in checks if not c["met"]}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "phase", "column", "limit"), AT_A_LIMIT)
+def test_inputs_at_a_limit_are_not_a_success(
+    name: str, phase: str, column: str, limit: float, tmp_path: Path
+) -> None:
+    out = tmp_path / "run"
+    code, stdout, stderr = run(VERDICTS / f"{name}.yaml", out, "--no-plots")
+    columns = read_trajectory(out)
+    later = _after_first_second(columns, phase)
+    at_limit = float(np.mean(np.abs(columns[column][later]) >= limit * (1 - 1e-9)))
+    assert at_limit > 0.01  # the premise: more than 1 % after the phase's first second
+    summary = json.loads((out / "summary.json").read_text())
+    assert code == 1, stdout + stderr
+    assert summary["outcome"] == "expect-failed"
+    assert (phase, "turn_rate_at_limit") in _failed(summary)
+    assert f"{phase}: turn_rate_at_limit = " in summary["message"]
+    assert "NOT MET: " in next(line for line in stdout.splitlines() if line.startswith(phase))
+
+
+@pytest.mark.slow
+def test_a_robot_far_from_its_path_is_not_a_success(tmp_path: Path) -> None:
+    """The line starts 5 m ahead and runs at 1.98 m/s against a 2 m/s limit."""
+    out = tmp_path / "run"
+    code, stdout, stderr = run(VERDICTS / "behind_a_fast_path.yaml", out, "--no-plots")
+    columns = read_trajectory(out)
+    later = _after_first_second(columns, "chase")
+    # the path passed so far is the segment from (5, 0) to the reference point
+    behind = np.clip(5.0 - columns["x"][later], 0.0, None)
+    off = np.hypot(behind, columns["y"][later])
+    assert off.max() > 2.9  # the premise
+    summary = json.loads((out / "summary.json").read_text())
+    assert code == 1, stdout + stderr
+    assert summary["outcome"] == "expect-failed"
+    assert ("chase", "tracking_error_max") in _failed(summary)
+    [chase] = summary["phases"]
+    assert chase["tracking_error"]["max"] == pytest.approx(off.max(), abs=1e-9)
+
+
+UNREACHABLE = DATA / "missions" / "invalid" / "path_faster_than_speed_limit.yaml"
+
+
+def test_an_unreachable_path_is_refused_before_the_run(tmp_path: Path) -> None:
+    """The ellipse at 0.8*pi needs 13.8 m/s against a 10 m/s limit."""
+    code, _, stderr = run(UNREACHABLE, tmp_path / "run")
+    assert code == 1
+    assert f"{UNREACHABLE}:16:66: the path needs a speed of up to 13.8 m/s" in stderr
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rate", ["0.8*pi", "1.2*pi"])
+def test_an_unreachable_path_flown_anyway_is_not_a_success(rate: str) -> None:
+    """Case 2 with the orbit too fast for the limits, run past `validate`: the
+    robot falls off the ellipse, and the verdict says so."""
+    data = yaml.safe_load((MISSIONS / "case2.yaml").read_text())
+    data["phases"][1]["track"]["path"]["angular_rate"] = rate
+    context = {"parameters": {}, "regions": list(data["regions"])}
+    mission = Mission.model_validate(data, context=context)  # the schema only
+    result = run_mission(compile_mission(mission, None))
+    summary = judge(result, mission.model_dump(mode="json"))
+    orbit = summary["phases"][1]
+    assert orbit["name"] == "orbit"
+    assert orbit["tracking_error"]["rms"] > 0.2  # 0.29 m at 0.8*pi, 1.3 m at 1.2*pi
+    assert result.outcome is Outcome.expect_failed
+    assert ("orbit", "tracking_error_max") in _failed(summary)
+
+
+@pytest.mark.slow
+def test_a_relaxed_threshold_is_the_missions_own_call(tmp_path: Path) -> None:
+    """The same tiny turn-rate limit with the phase's expect relaxed to 100 %:
+    the mission says saturation is what it wants, and the run succeeds."""
+    data = yaml.safe_load((VERDICTS / "tiny_turn_rate_limit.yaml").read_text())
+    data["phases"][0]["expect"] = {"turn_rate_at_limit": {"max": 1.0}}
+    mission = tmp_path / "relaxed.yaml"
+    mission.write_text(yaml.safe_dump(data))
+    code, stdout, stderr = run(mission, tmp_path / "run", "--no-plots")
+    assert code == 0, stdout + stderr
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["outcome"] == "success"
+    [check] = [c for c in summary["expectations"] if c["metric"] == "turn_rate_at_limit"]
+    assert check == {
+        "metric": "turn_rate_at_limit",
+        "phase": "park",
+        "max": 1.0,
+        "value": 1.0,
+        "met": True,
+    }
+    assert math.isclose(summary["phases"][0]["inputs"]["turn_rate_at_limit"], 1.0)
