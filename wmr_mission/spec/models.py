@@ -729,7 +729,7 @@ class StateTolerance(_Model):
 
 
 class PhaseExpect(_Model):
-    """Thresholds on one phase's metrics; a key left out takes the mission's `expect` value."""
+    """Thresholds on one phase's metrics; a key left out (or null) takes the mission's value."""
 
     settle_time: NonNegative | None = Field(
         default=None,
@@ -937,7 +937,8 @@ class Expect(PhaseExpect):
     """Acceptance thresholds; `run` exits 1 when one is not met.
 
     The keys settle_time to estimation_rms apply to each phase (a phase's own
-    `expect` overrides them); null turns one off for the whole mission.
+    `expect` overrides them); null turns one off for the whole mission. See
+    "Verdicts" above.
     """
 
     settle_time: NonNegative = Field(
@@ -949,15 +950,24 @@ class Expect(PhaseExpect):
     )
     tracking_error_max: Threshold | None = Field(
         default=Threshold(max=DEFAULT_TRACKING_ERROR_MAX),
-        description="[m] largest distance of the true position from the path after settle_time.",
+        description=(
+            "[m] largest distance of the true position from the path after settle_time; "
+            "{max: 0.1} unless set."
+        ),
     )
     speed_at_limit: Threshold | None = Field(
         default=Threshold(max=DEFAULT_AT_LIMIT),
-        description="Fraction of the samples after settle_time with |v| at limits.v.",
+        description=(
+            "Fraction of the samples after settle_time with |v| at limits.v; "
+            "{max: 0.01} unless set."
+        ),
     )
     turn_rate_at_limit: Threshold | None = Field(
         default=Threshold(max=DEFAULT_AT_LIMIT),
-        description="Fraction of the samples after settle_time with |omega| at limits.omega.",
+        description=(
+            "Fraction of the samples after settle_time with |omega| at limits.omega; "
+            "{max: 0.01} unless set."
+        ),
     )
     convergence_tolerance: StateTolerance = Field(
         default_factory=StateTolerance,
