@@ -10,6 +10,7 @@ import pytest
 from test_output_synthetic import RADIUS, REF_OFFSET, TURN_RATE, circle_run
 
 from wmr_mission.output.metrics import (
+    LOCAL_WINDOW,
     at_limit_fraction,
     check_expectations,
     convergence_index,
@@ -320,30 +321,69 @@ def test_per_phase_estimation_overshoot() -> None:
 
 def _brute_force_distance(
     qx: np.ndarray, qy: np.ndarray, px: np.ndarray, py: np.ndarray
-) -> np.ndarray:
-    """Distance to every segment of the polyline, the smallest kept."""
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distance to every segment of the polyline: the smallest, and its segment."""
     ax, ay = px[:-1], py[:-1]
     sx, sy = px[1:] - ax, py[1:] - ay
     along = np.clip(((qx[:, None] - ax) * sx + (qy[:, None] - ay) * sy) / (sx**2 + sy**2), 0, 1)
-    return np.hypot(qx[:, None] - ax - along * sx, qy[:, None] - ay - along * sy).min(axis=1)
+    distance = np.hypot(qx[:, None] - ax - along * sx, qy[:, None] - ay - along * sy)
+    return distance.min(axis=1), distance.argmin(axis=1)
 
 
-def test_distance_to_path_matches_brute_force_on_a_figure_eight() -> None:
-    t = np.arange(0.0, 2 * math.pi, 0.02)
-    px, py = 3 * np.sin(t), 2 * np.sin(2 * t)  # crosses itself at the origin
-    points = np.random.default_rng(0).uniform([-4, -3], [4, 3], size=(3000, 2))
-    distance = distance_to_path(points[:, 0], points[:, 1], px, py)
-    expected = _brute_force_distance(points[:, 0], points[:, 1], px, py)
-    np.testing.assert_allclose(distance, expected, rtol=0, atol=1e-12)
+def test_distance_to_path_against_brute_force_on_a_figure_eight() -> None:
+    """A robot up to 0.3 m off a figure-eight flown twice (it crosses itself,
+    and its second lap falls between the first one's points), the last samples
+    far behind their reference point: exact where the nearest segment is near
+    the sample's own reference point, never below the true distance, and at
+    most one sampling step above it elsewhere."""
+    t = np.arange(0.0, 4 * math.pi, 0.02)
+    px, py = 3 * np.sin(t), 2 * np.sin(2 * t)
+    rng = np.random.default_rng(0)
+    x = px + rng.uniform(-0.3, 0.3, t.size)
+    y = py + rng.uniform(-0.3, 0.3, t.size)
+    behind = np.arange(t.size - 80, t.size) - 40
+    x[-80:], y[-80:] = px[behind] + 0.05, py[behind]
+    distance = distance_to_path(x, y, px, py)
+    expected, segment = _brute_force_distance(x, y, px, py)
+    step = np.hypot(np.diff(px), np.diff(py)).max()
+    assert np.all(distance >= expected - 1e-12)
+    assert np.all(distance <= expected + step)
+    near_own = np.abs(segment - np.arange(t.size)) < LOCAL_WINDOW
+    np.testing.assert_allclose(distance[near_own], expected[near_own], rtol=0, atol=1e-12)
+    assert np.all(distance[-80:] <= 0.05 + 1e-12)  # behind, but on the path
+    # once round: the nearest segment is the sample's own but near the crossing
+    once = slice(0, t.size // 2)
+    first_lap = distance_to_path(x[once], y[once], px[once], py[once])
+    expected, segment = _brute_force_distance(x[once], y[once], px[once], py[once])
+    near_own = np.abs(segment - np.arange(first_lap.size)) < LOCAL_WINDOW
+    assert near_own.mean() > 0.9
+    np.testing.assert_allclose(first_lap[near_own], expected[near_own], rtol=0, atol=1e-12)
+
+
+def test_distance_to_path_of_a_track_phase_ignores_the_lag() -> None:
+    """On an ellipse flown 2 s behind the reference, the robot is on the path."""
+    t = np.arange(0.0, 20.0, 0.01)
+    px, py = 5.5 * np.cos(0.4 * np.pi * t), 3 * np.sin(0.4 * np.pi * t)
+    x, y = np.roll(px, 200), np.roll(py, 200)
+    x[:200], y[:200] = px[0], py[0]
+    distance = distance_to_path(x, y, px, py)
+    assert distance.max() < 1e-12
 
 
 def test_distance_to_path_is_lateral_and_counts_only_the_path_passed() -> None:
-    px, py = np.linspace(5.0, 10.0, 501), np.zeros(501)  # a line from (5, 0) to (10, 0)
+    px, py = np.linspace(5.0, 10.0, 4), np.zeros(4)  # a line from (5, 0) to (10, 0)
     x, y = np.array([7.0, 7.0, 0.0, np.nan]), np.array([0.3, -2.0, 0.0, 1.0])
     distance = distance_to_path(x, y, px, py)
     np.testing.assert_allclose(distance[:3], [0.3, 2.0, 5.0], atol=1e-12)
     assert math.isnan(distance[3])
     assert np.all(np.isnan(distance_to_path(x, y, np.full(4, np.nan), np.full(4, np.nan))))
+    # reference points missing at the start: the path is the rest, from (25/3, 0)
+    px[:2] = np.nan
+    np.testing.assert_allclose(
+        distance_to_path(x, y, px, py)[:3],
+        [math.hypot(25 / 3 - 7, 0.3), math.hypot(25 / 3 - 7, 2), 25 / 3],
+        atol=1e-12,
+    )
 
 
 def test_at_limit_fraction_counts_both_signs_at_the_limit_only() -> None:

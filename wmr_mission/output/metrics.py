@@ -19,6 +19,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
@@ -35,8 +36,11 @@ VIOLATION_TOLERANCE = 1e-6
 AT_LIMIT_TOLERANCE = 1e-9
 # Turn-rate jitter is measured about a centred moving mean of this many samples.
 JITTER_WINDOW = 25
-# Distance to the path: the segments next to this many nearest reference points are tried.
-_NEAREST_POINTS = 8
+# Distance to the path: the segments within this many reference points of a
+# sample's own, and those next to this many of the path's nearest points, are tried.
+LOCAL_WINDOW = 8
+_NEAREST_POINTS = 4
+_DISTANCE_CHUNK = 65_536  # positions per query
 
 # Mission-wide `expect` key -> where its value lives in the summary.
 _EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
@@ -137,11 +141,18 @@ def overshoot(error: FloatArray, floor: float = 0.0) -> float:
 def distance_to_path(
     x: FloatArray, y: FloatArray, x_ref: FloatArray, y_ref: FloatArray
 ) -> FloatArray:
-    """Distance of each position from the path: the polyline through the finite
-    reference points (in order). NaN where the position is not finite.
+    """Distance of each position ``(x[k], y[k])`` from the path: the polyline
+    through the finite reference points in order (the path passed so far).
+    NaN where the position is not finite.
 
-    The nearest point lies on a segment next to one of the nearest reference
-    points; the reference is sampled every dt, so its segments are short.
+    The segments tried are those within LOCAL_WINDOW points of the sample's own
+    reference point (where a robot that tracks is), and those next to the
+    points of the whole path nearest to it (where a robot that fell behind or
+    cut across is). For the second, the path's points are thinned to one per
+    cell of a grid half as fine as its sampling, else a path run round many
+    times is searched lap by lap. So the distance is never below the true one,
+    is exact when the nearest point lies within the window, and is at most
+    about one sampling step above it otherwise.
     """
     distance = np.full(x.shape, np.nan)
     known = np.isfinite(x_ref) & np.isfinite(y_ref)
@@ -149,23 +160,45 @@ def distance_to_path(
     finite = np.isfinite(x) & np.isfinite(y)
     if px.size == 0 or not finite.any():
         return distance
-    qx, qy = x[finite][:, None], y[finite][:, None]
+    qx, qy = x[finite], y[finite]
     if px.size == 1:
-        distance[finite] = np.hypot(qx - px[0], qy - py[0])[:, 0]
+        distance[finite] = np.hypot(qx - px[0], qy - py[0])
         return distance
-    _, nearest = cKDTree(np.column_stack((px, py))).query(
-        np.column_stack((qx[:, 0], qy[:, 0])), k=min(_NEAREST_POINTS, px.size)
-    )
-    nearest = nearest.reshape(qx.shape[0], -1)
-    # segment i runs from point i to point i + 1
-    segment = np.clip(np.concatenate((nearest - 1, nearest), axis=1), 0, px.size - 2)
-    ax, ay = px[segment], py[segment]
-    sx, sy = px[segment + 1] - ax, py[segment + 1] - ay
+    own = np.maximum(np.cumsum(known) - 1, 0)[finite]  # each sample's reference point
+    steps = np.hypot(np.diff(px), np.diff(py))
+    cell = float(np.median(steps[steps > 0])) / 2 if np.any(steps > 0) else 1.0
+    cells = np.floor(np.column_stack((px, py)) / cell)
+    _, first = np.unique(cells, axis=0, return_index=True)
+    tree = cKDTree(np.column_stack((px[first], py[first])))
+    found = np.empty(qx.size)
+    for start in range(0, qx.size, _DISTANCE_CHUNK):  # bounded memory on long runs
+        part = slice(start, start + _DISTANCE_CHUNK)
+        _, nearest = tree.query(
+            np.column_stack((qx[part], qy[part])), k=min(_NEAREST_POINTS, first.size)
+        )
+        nearest = first[nearest.reshape(qx[part].size, -1)]
+        local = own[part, None] + np.arange(-LOCAL_WINDOW, LOCAL_WINDOW)
+        # segment i runs from point i to point i + 1
+        segments = np.concatenate((local, nearest - 1, nearest), axis=1)
+        found[part] = _distance_to_segments(
+            px, py, np.clip(segments, 0, px.size - 2), qx[part], qy[part]
+        )
+    distance[finite] = found
+    return distance
+
+
+def _distance_to_segments(
+    px: FloatArray, py: FloatArray, segments: NDArray[np.intp], qx: FloatArray, qy: FloatArray
+) -> FloatArray:
+    """Distance of each point (qx[i], qy[i]) from the nearest of its segments (row i)."""
+    ax, ay = px[segments], py[segments]
+    sx, sy = px[segments + 1] - ax, py[segments + 1] - ay
     length2 = sx**2 + sy**2
+    qx, qy = qx[:, None], qy[:, None]
     along = ((qx - ax) * sx + (qy - ay) * sy) / np.where(length2 > 0, length2, 1.0)
     along = np.clip(along, 0.0, 1.0)
-    distance[finite] = np.hypot(qx - ax - along * sx, qy - ay - along * sy).min(axis=1)
-    return distance
+    found: FloatArray = np.hypot(qx - ax - along * sx, qy - ay - along * sy).min(axis=1)
+    return found
 
 
 def at_limit_fraction(values: FloatArray, limit: float) -> float | None:
