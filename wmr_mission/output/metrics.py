@@ -23,11 +23,11 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
+from wmr_mission.spec import models
 
 STATES = ("x", "y", "theta")
 # The mission's `expect` settings when a summary is made without a mission.
-DEFAULT_SETTLE_TIME = 1.0  # [s]
-DEFAULT_CONVERGENCE_TOLERANCE = {"x": 0.05, "y": 0.05, "theta": 0.05}  # [m, m, rad]
+DEFAULT_CONVERGENCE_TOLERANCE = dict.fromkeys(STATES, models.DEFAULT_CONVERGENCE_TOLERANCE)
 # A constraint row above this counts as violated: a constraint held as an
 # equality by the corrective action sits on 0 to rounding.
 VIOLATION_TOLERANCE = 1e-6
@@ -423,7 +423,7 @@ def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str,
 
 def _settle_time(phase_expect: Mapping[str, Any] | None) -> float:
     value = (phase_expect or {}).get("settle_time")
-    return DEFAULT_SETTLE_TIME if value is None else float(value)
+    return models.DEFAULT_SETTLE_TIME if value is None else float(value)
 
 
 def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:

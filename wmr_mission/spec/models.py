@@ -720,12 +720,22 @@ class StateThresholds(_Model):
     theta: NonNegative | None = Field(default=None, description="[rad] bound for theta.")
 
 
+# The paper's "short transient" acceptance, in metres and radians alike.
+DEFAULT_CONVERGENCE_TOLERANCE: Final = 0.05
+
+
 class StateTolerance(_Model):
     """A tolerance per state, in the state's unit."""
 
-    x: Positive = Field(default=0.05, description="[m] tolerance for x, > 0.")
-    y: Positive = Field(default=0.05, description="[m] tolerance for y, > 0.")
-    theta: Positive = Field(default=0.05, description="[rad] tolerance for theta, > 0.")
+    x: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[m] tolerance for x, > 0."
+    )
+    y: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[m] tolerance for y, > 0."
+    )
+    theta: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[rad] tolerance for theta, > 0."
+    )
 
 
 class PhaseExpect(_Model):
