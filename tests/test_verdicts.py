@@ -11,15 +11,17 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 import yaml
+from geometry import distance_to_ellipse
 from test_case_studies import read_trajectory, run
 
 from wmr_mission.compiled import compile_mission
 from wmr_mission.output.metrics import judge
-from wmr_mission.result import Outcome
+from wmr_mission.result import Outcome, RunResult
 from wmr_mission.runner import run_mission
 from wmr_mission.spec.models import Mission
 
@@ -136,3 +138,61 @@ def test_a_relaxed_threshold_is_the_missions_own_call(tmp_path: Path) -> None:
         "met": True,
     }
     assert math.isclose(summary["phases"][0]["inputs"]["turn_rate_at_limit"], 1.0)
+
+
+def _heading_run(case: str, heading: float) -> tuple[dict[str, Any], RunResult]:
+    data = yaml.safe_load((MISSIONS / f"{case}.yaml").read_text())
+    data["robot"]["initial_state"]["theta"] = heading
+    context = {"parameters": {}, "regions": list(data["regions"])}
+    mission = Mission.model_validate(data, context=context)
+    result = run_mission(compile_mission(mission, None))
+    return judge(result, mission.model_dump(mode="json")), result
+
+
+def _misses(result: RunResult) -> list[str]:
+    """Phases (after their first second) with an input at its limit on more than
+    1 % of the samples, or an orbit more than 0.1 m off the ellipse: measured
+    here from the arrays and the exact ellipse, not by the metrics module."""
+    misses = []
+    names = [info.name for info in result.phases]
+    phase = np.array(names)[result.phase]
+    columns = {"t": result.t, "phase": phase}
+    for name in dict.fromkeys(phase):
+        later = _after_first_second(columns, name)
+        if not later.any():
+            continue
+        for values, limit in zip((result.v, result.omega), result.limits, strict=True):
+            if np.mean(np.abs(values[later]) >= limit * (1 - 1e-9)) > 0.01:
+                misses.append(f"{name} at a limit")
+        if name == "orbit":
+            off = distance_to_ellipse(result.x[later], result.y[later])
+            if off.max() > 0.1:
+                misses.append("orbit off the ellipse")
+    return misses
+
+
+def _verdict_agrees(case: str, heading: float) -> None:
+    summary, result = _heading_run(case, heading)
+    misses = _misses(result)
+    if misses:
+        assert summary["outcome"] != "success", (heading, misses)
+    if summary["outcome"] == "success":
+        assert not misses
+
+
+# Headings every 15 degrees; in 21 of 24 the one-step look-ahead law used to fly
+# case 1's orbit partly in reverse at its turn-rate limit, and `run` said success.
+HEADINGS = [round(math.radians(d), 6) for d in range(-180, 180, 15)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("heading", [0.0, 2.094395, -1.308997])
+def test_verdict_agrees_with_the_run_from_other_headings(heading: float) -> None:
+    _verdict_agrees("case2", heading)
+
+
+@pytest.mark.sweep
+@pytest.mark.parametrize("case", ["case1", "case2"])
+@pytest.mark.parametrize("heading", HEADINGS)
+def test_verdict_agrees_with_the_run_from_every_heading(case: str, heading: float) -> None:
+    _verdict_agrees(case, heading)
