@@ -467,6 +467,19 @@ def _path_within_limits(
 
 
 def _expectations(mission: Mission) -> Iterator[Finding]:
+    for index, phase in enumerate(mission.phases):
+        if isinstance(phase, TrackPhase):
+            continue
+        kind = "regulate" if isinstance(phase, RegulatePhase) else "hold"
+        for key in ("tracking_error_rms", "tracking_error_max"):
+            if getattr(phase.expect, key) is not None:
+                yield Finding(
+                    ("phases", index, "expect", key),
+                    f"expect.{key} measures the distance from a path, but phase "
+                    f"{phase.name!r} is a {kind} phase: it is never checked",
+                    severity="warning",
+                    at_key=True,
+                )
     # A track phase's last reference point has a position but no heading.
     has_target = any(isinstance(p, RegulatePhase) for p in mission.phases)
     if mission.expect.final_heading_error is not None and not has_target:
