@@ -519,3 +519,29 @@ def test_judge_turns_a_success_that_misses_a_threshold_into_expect_failed() -> N
     assert judge(clean, mission)["outcome"] == "success"
     diverged = dataclasses.replace(_chattering_orbit(), outcome=Outcome.diverged, message="x")
     assert judge(diverged, mission)["outcome"] == "diverged"
+
+
+def test_a_phase_in_a_repeat_keeps_its_thresholds_on_every_lap() -> None:
+    """A repeated phase runs as name#lap; its own expect applies to each lap."""
+    run = _chattering_orbit()
+    run.phases = [run.phases[0], dataclasses.replace(run.phases[1], name="orbit#1"), run.phases[2]]
+    mission = {
+        "expect": {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
+        "phases": [
+            {"name": "approach", "expect": {}},
+            {
+                "name": "patrol",
+                "repeat": {
+                    "times": 1,
+                    "phases": [{"name": "orbit", "expect": {"turn_rate_at_limit": {"max": 0.2}}}],
+                },
+            },
+            {"name": "park", "expect": {}},
+        ],
+    }
+    checks = check_expectations(summarize(run, mission), mission)
+    assert [(c["phase"], c["max"], c["met"]) for c in checks] == [
+        ("approach", 0.01, True),
+        ("orbit#1", 0.2, True),
+        ("park", 0.01, True),
+    ]

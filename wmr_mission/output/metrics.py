@@ -413,12 +413,26 @@ def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str,
     expect = _expect_of(mission)
     shared = {key: expect.get(key) for key in ("settle_time", *_PHASE_EXPECTATION_PATHS)}
     merged = {}
-    for phase in (mission or {}).get("phases") or []:
+    for phase in _written_phases(mission):
         own = phase.get("expect") or {}
         merged[str(phase.get("name"))] = {
             key: own[key] if own.get(key) is not None else value for key, value in shared.items()
         }
     return merged
+
+
+def _written_phases(mission: Mapping[str, Any] | None) -> list[Mapping[str, Any]]:
+    """The mission's phases as written, those of each repeat group in its place."""
+    phases: list[Mapping[str, Any]] = []
+    for step in (mission or {}).get("phases") or []:
+        repeat = step.get("repeat")
+        phases.extend((repeat.get("phases") or []) if isinstance(repeat, Mapping) else [step])
+    return phases
+
+
+def _written_name(name: str) -> str:
+    """A phase's name as written: a repeated phase runs as ``name#lap``."""
+    return name.split("#", 1)[0]
 
 
 def _settle_time(phase_expect: Mapping[str, Any] | None) -> float:
@@ -468,7 +482,9 @@ def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> di
                 index,
                 start,
                 end,
-                _settle_time(per_phase.get(result.phases[index].name, _expect_of(mission))),
+                _settle_time(
+                    per_phase.get(_written_name(result.phases[index].name), _expect_of(mission))
+                ),
                 tolerance,
             )
             for index, start, end in segments
@@ -545,7 +561,7 @@ def check_expectations(
     ]
     per_phase = phase_expectations(mission)
     for phase in summary.get("phases") or []:
-        thresholds = per_phase.get(str(phase.get("name")), expect)
+        thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
         checks.extend(_phase_checks(phase, thresholds))
     return checks
 

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from wmr_mission.spec.models import (
     BoxRegion,
     CircleRegion,
+    CoveragePath,
     Ekf,
     EllipsePath,
     EllipseRegion,
@@ -26,9 +27,11 @@ from wmr_mission.spec.models import (
     Phase,
     PolygonRegion,
     RegulatePhase,
+    RepeatPhase,
     StayInside,
     TrackPhase,
 )
+from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 
 __all__ = ["MAX_SAMPLES", "DataPath", "Finding", "Severity", "check"]
 
@@ -39,8 +42,9 @@ MAX_SAMPLES: Final = 50_000_000
 _REACH_SAMPLES: Final = 20_001
 # Below this path speed [m/s] the direction of the path is not defined (a stop or a cusp).
 _STANDSTILL: Final = 1e-6
+# A path's turn rate is its turn within this time [s], divided by it.
+TURN_WINDOW: Final = 1.0
 
-DataPath = tuple[str | int, ...]
 Severity = Literal["error", "warning"]
 Pose = tuple[float, float, float]
 FloatArray = NDArray[np.float64]
@@ -59,6 +63,15 @@ class Finding:
 
 def check(mission: Mission) -> list[Finding]:
     """Every semantic problem of a mission that passed its schema."""
+    if run_count(mission) > MAX_RUN_PHASES:
+        return [
+            Finding(
+                ("phases",),
+                f"the mission runs {run_count(mission):,} phases with its repeats written out, "
+                f"more than the limit of {MAX_RUN_PHASES:,}; repeat fewer times",
+                at_key=True,
+            )
+        ]
     findings = [
         *_unique_phase_names(mission),
         *_observability(mission),
@@ -72,23 +85,32 @@ def check(mission: Mission) -> list[Finding]:
     if not any(f.severity == "error" for f in findings):
         # sampling paths needs a sound mission (regions of the right kind, bounded phases)
         findings.extend(_reaches(mission))
-    return findings
+    # a phase of a repeat is checked once per lap: say each finding once
+    return list(dict.fromkeys(findings))
 
 
 def _unique_phase_names(mission: Mission) -> Iterator[Finding]:
-    seen: dict[str, int] = {}
-    for index, phase in enumerate(mission.phases):
-        if phase.name in seen:
+    """Names of phases and repeats, inside repeats too, are unique."""
+    named: list[tuple[DataPath, str]] = []
+    for index, step in enumerate(mission.phases):
+        named.append((("phases", index), step.name))
+        if isinstance(step, RepeatPhase):
+            for number, phase in enumerate(step.repeat.phases):
+                named.append((("phases", index, "repeat", "phases", number), phase.name))
+    seen: dict[str, DataPath] = {}
+    for where, name in named:
+        if name in seen:
+            first = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in seen[name])
             yield Finding(
-                ("phases", index, "name"),
-                f"phase name {phase.name!r} is already used by phases[{seen[phase.name]}]; "
+                (*where, "name"),
+                f"phase name {name!r} is already used by {first.lstrip('.')}; "
                 "phase names must be unique",
             )
-        seen.setdefault(phase.name, index)
+        seen.setdefault(name, where)
 
 
 def _moves(mission: Mission) -> bool:
-    return any(isinstance(p, TrackPhase | RegulatePhase) for p in mission.phases)
+    return any(isinstance(p.phase, TrackPhase | RegulatePhase) for p in run_order(mission))
 
 
 def _observability(mission: Mission) -> Iterator[Finding]:
@@ -157,9 +179,20 @@ def _regions(mission: Mission) -> Iterator[Finding]:
             )
 
 
+# The regions a path's `region` may name, and how to say so.
+_PATH_REGIONS: Final = {
+    "ellipse": ((EllipseRegion, CircleRegion), "an ellipse or circle"),
+    "elliptical-spiral": ((EllipseRegion, CircleRegion), "an ellipse or circle"),
+    "coverage": ((BoxRegion, PolygonRegion), "a box or convex polygon"),
+}
+_PATHS_ON_REGIONS: Final = (EllipsePath, EllipticalSpiralPath, CoveragePath)
+
+
 def _phase_rules(mission: Mission) -> Iterator[Finding]:
-    for index, phase in enumerate(mission.phases):
-        where: DataPath = ("phases", index)
+    for run in run_order(mission):
+        if run.lap is not None and run.lap > 1:
+            continue
+        phase, where = run.phase, run.where
         if isinstance(phase, TrackPhase):
             if phase.until.settled is not None:
                 yield Finding(
@@ -168,21 +201,17 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                     "only; a track phase can end on near, reaches, heading or time",
                     at_key=True,
                 )
-            if phase.constraints:
-                yield Finding(
-                    (*where, "constraints"),
-                    "constraints apply to regulate and hold phases only: a track phase follows "
-                    "its path",
-                    at_key=True,
-                )
             path = phase.track.path
-            if isinstance(path, EllipsePath | EllipticalSpiralPath) and path.region is not None:
-                region = mission.regions.get(path.region)
-                if region is not None and not isinstance(region, EllipseRegion | CircleRegion):
+            name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
+            region = mission.regions.get(name) if name is not None else None
+            if region is not None:
+                kinds, wanted = _PATH_REGIONS[path.type]
+                if not isinstance(region, kinds):
+                    article = "an" if path.type[0] in "aeiou" else "a"
                     yield Finding(
                         (*where, "track", "path", "region"),
-                        f"an {path.type} path needs an ellipse or circle region, but "
-                        f"{path.region!r} is a {region.type}",
+                        f"{article} {path.type} path needs {wanted} region, but "
+                        f"{name!r} is a {region.type}",
                     )
         yield from _target_against_constraints(mission, phase, where)
         for number, constraint in enumerate(phase.constraints):
@@ -240,9 +269,10 @@ def _target_against_constraints(
 
 def _initial_state(mission: Mission) -> Iterator[Finding]:
     start = mission.robot.initial_state
-    for number, name, side, other in _breaches(mission, mission.phases[0], start.x, start.y):
+    first = run_order(mission)[0]
+    for number, name, side, other in _breaches(mission, first.phase, start.x, start.y):
         yield Finding(
-            ("phases", 0, "constraints", number),
+            (*first.where, "constraints", number),
             f"robot.initial_state ({start.x:g}, {start.y:g}) is {other} region {name!r}, "
             f"but the first phase must stay {side} it",
         )
@@ -286,8 +316,8 @@ def _timing(mission: Mission) -> Iterator[Finding]:
     dt = mission.robot.dt
     mission_time = 0.0  # latest start of the phase
     earliest = 0.0  # earliest start of the phase
-    for index, phase in enumerate(mission.phases):
-        where: DataPath = ("phases", index)
+    for index, run in enumerate(run_order(mission)):
+        phase, where = run.phase, run.where
         until = phase.until
         if until.mission_time is not None and until.mission_time <= earliest and index > 0:
             yield Finding(
@@ -356,7 +386,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
     pose: Pose = (start.x, start.y, start.theta)
     dt = mission.robot.dt
     mission_time = 0.0
-    for index, phase in enumerate(mission.phases):
+    for run in run_order(mission):
+        phase, where = run.phase, run.where
         bound = _bounds(phase, mission_time)
         if math.isinf(bound):
             return
@@ -375,7 +406,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                 x, y, dx, dy = trajectory.sample(times)
         except (ValueError, ArithmeticError) as error:
             yield Finding(
-                ("phases", index, "track", "path"),
+                (*where, "track", "path"),
                 f"the path cannot be sampled ({assumed}): {error}",
                 severity="warning",
             )
@@ -384,7 +415,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         if not finite.all():
             first = float(times[int(np.argmin(finite))])
             yield Finding(
-                ("phases", index, "track", "path"),
+                (*where, "track", "path"),
                 f"the path (or its direction) is not finite at t = {first:g} s of the phase "
                 f"({assumed}); the run would stop there as diverged",
                 # A phase that may end on a condition of the robot's motion may end first.
@@ -403,13 +434,13 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                 followed = int(np.argmax(crossed)) + 1
             else:
                 yield Finding(
-                    ("phases", index, "until", "reaches"),
+                    (*where, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
                     f"{bound:g} s ({assumed}); the phase will end by "
                     f"{_limit(phase, mission_time - bound)}",
                     severity="warning",
                 )
-        yield from _path_within_limits(mission, index, phase, times[:followed], dx, dy, assumed)
+        yield from _path_within_limits(mission, where, phase, times[:followed], dx, dy, assumed)
         last = followed - 1  # the next phase starts where this one is predicted to end
         if np.isfinite(x[last]) and np.isfinite(y[last]):
             heading = (
@@ -420,44 +451,44 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
 
 def _path_within_limits(
     mission: Mission,
-    index: int,
+    where: DataPath,
     phase: TrackPhase,
     times: FloatArray,
     dx: FloatArray,
     dy: FloatArray,
     assumed: str,
 ) -> Iterator[Finding]:
-    """The path's own speed and turn rate (speed x curvature) against the
-    actuator limits, up to the phase's predicted end: a robot on a path it
-    cannot keep up with falls behind or cuts across, whatever the law.
+    """The path's own speed, and how fast it turns, against the actuator
+    limits, up to the phase's predicted end: a robot on a path it cannot keep
+    up with falls behind or cuts across, whatever the law.
 
-    An error when the phase's end is known in advance (it ends on time, or on
-    reaching a region the path crosses), a warning when a near or heading
-    condition may end it first.
+    The turn rate is the path's turn within TURN_WINDOW seconds, divided by
+    them (speed x curvature on a smooth path): a corner of a polyline or a lane
+    end is a turn the robot makes up within that time, a circle too tight for
+    the limit is not. The direction is taken up to a reversal, which the robot
+    drives rather than turns. An error when the phase's end is known in advance
+    (it ends on time, or on reaching a region the path crosses), a warning when
+    a near or heading condition may end it first.
     """
     if times.size < 2:
         return
     dx, dy = dx[: times.size], dy[: times.size]
     speed = np.hypot(dx, dy)
-    with np.errstate(all="ignore"):
-        # heading rate of the path's direction: (dx ddy - dy ddx) / |d|^2
-        turn = (dx * np.gradient(dy, times) - dy * np.gradient(dx, times)) / speed**2
-    turn = np.where(speed > _STANDSTILL, np.abs(turn), 0.0)
     limits = mission.robot.limits
     path = phase.track.path
     field = next((f for f in ("angular_rate", "speed") if f in type(path).model_fields), None)
-    where: DataPath = ("phases", index, "track", "path", *((field,) if field else ()))
+    at: DataPath = (*where, "track", "path", *((field,) if field else ()))
     predictable = phase.until.near is None and phase.until.heading is None
     for need, limit, what, unit, name in (
         (speed, limits.v, "a speed", "m/s", "limits.v"),
-        (turn, limits.omega, "a turn rate (speed x curvature)", "rad/s", "limits.omega"),
+        (_turn_rate(times, dx, dy, speed), limits.omega, "a turn rate", "rad/s", "limits.omega"),
     ):
         over = np.flatnonzero(need > limit * (1.0 + 1e-9))
         if over.size == 0:
             continue
         peak = float(np.max(need[np.isfinite(need)]))
         yield Finding(
-            where,
+            at,
             f"the path needs {what} of up to {peak:.3g} {unit} (from t = "
             f"{float(times[over[0]]):.3g} s of phase {phase.name!r}), above robot.{name} = "
             f"{limit:g} {unit} ({assumed}); the robot cannot follow it: slow the path down "
@@ -466,22 +497,39 @@ def _path_within_limits(
         )
 
 
+def _turn_rate(times: FloatArray, dx: FloatArray, dy: FloatArray, speed: FloatArray) -> FloatArray:
+    """|turn of the path's direction over the next TURN_WINDOW s| / TURN_WINDOW,
+    from each sample (over the whole phase when it is shorter)."""
+    moving = speed > _STANDSTILL
+    if not moving.any():
+        return np.zeros(0)
+    # where the path stands still its direction is the last one it had
+    held = np.maximum.accumulate(np.where(moving, np.arange(times.size), 0))
+    held[: int(np.argmax(moving))] = int(np.argmax(moving))
+    axis = np.unwrap(2.0 * np.arctan2(dy[held], dx[held])) / 2.0  # up to a reversal
+    step = float(times[1] - times[0])
+    span = max(1, min(round(TURN_WINDOW / step), times.size - 1))
+    turn: FloatArray = np.abs(axis[span:] - axis[:-span]) / (span * step)
+    return turn
+
+
 def _expectations(mission: Mission) -> Iterator[Finding]:
-    for index, phase in enumerate(mission.phases):
-        if isinstance(phase, TrackPhase):
+    for run in run_order(mission):
+        phase = run.phase
+        if isinstance(phase, TrackPhase) or (run.lap is not None and run.lap > 1):
             continue
         kind = "regulate" if isinstance(phase, RegulatePhase) else "hold"
         for key in ("tracking_error_rms", "tracking_error_max"):
             if getattr(phase.expect, key) is not None:
                 yield Finding(
-                    ("phases", index, "expect", key),
+                    (*run.where, "expect", key),
                     f"expect.{key} measures the distance from a path, but phase "
                     f"{phase.name!r} is a {kind} phase: it is never checked",
                     severity="warning",
                     at_key=True,
                 )
     # A track phase's last reference point has a position but no heading.
-    has_target = any(isinstance(p, RegulatePhase) for p in mission.phases)
+    has_target = any(isinstance(p.phase, RegulatePhase) for p in run_order(mission))
     if mission.expect.final_heading_error is not None and not has_target:
         yield Finding(
             ("expect", "final_heading_error"),
