@@ -82,7 +82,9 @@ def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
     path_point = np.array([1.02, 2.01, 1.0, 0.0])
 
     def step() -> None:
-        TRACKERS[kind](ESTIMATE, U_PREV, path_point, 0.05, W, M, LIMITS, DT, work, u)
+        TRACKERS[kind](
+            ESTIMATE, U_PREV, path_point, path_point, 0.1, 0.9, W, M, LIMITS, DT, work, u
+        )
 
     benchmark(step)
     assert np.all(np.isfinite(u))

@@ -31,4 +31,7 @@ def kernel(fn: F) -> F:
     """Compile ``fn`` with numba (cached on disk) when available; else return it as is."""
     if _njit is None:
         return fn
-    return cast(F, _njit(cache=True, nogil=True)(fn))
+    # error_model="numpy": a division by zero gives inf or nan, as in the
+    # pure-Python build, never a Python exception out of the compiled loop;
+    # the runner reports a non-finite input or state as a divergence.
+    return cast(F, _njit(cache=True, nogil=True, error_model="numpy")(fn))

@@ -34,11 +34,6 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-# A position beyond this is a runaway, not a robot [m].
-RUNAWAY = 1e6
-# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
-# no wheeled robot drives at 1 km/s or turns 160 times a second.
-RUNAWAY_INPUT = 1e3
 # Reference samples computed per path evaluation (paths are vectorised in t).
 REFERENCE_BLOCK = 1024
 PROGRESS_EVERY = 2000
@@ -292,6 +287,25 @@ class _Run:
         self.phases = [ActivePhase(p, mission, i) for i, p in enumerate(mission.phases)]
 
     def run(self) -> RunResult:
+        try:
+            return self._loop()
+        except KeyboardInterrupt:  # SIGINT, or SIGTERM mapped to it by the command
+            return self._interrupted()
+
+    def _interrupted(self) -> RunResult:
+        """The samples recorded up to the stop; a row the stop cut short is dropped."""
+        recorder = self.recorder
+        if recorder.count and not np.all(np.isfinite(recorder.floats[recorder.count - 1, :9])):
+            recorder.count -= 1
+        last = recorder.count - 1
+        active = self.phases[int(recorder.phase[last]) if last >= 0 else 0]
+        t = round(float(recorder.floats[last, 0]), 9) if last >= 0 else 0.0
+        self.transitions.append(Transition(t, active.phase.name, None, "interrupted", math.nan))
+        return self._result(
+            Outcome.interrupted, f"interrupted in phase '{active.phase.name}' at t = {t:.6g} s"
+        )
+
+    def _loop(self) -> RunResult:
         m = self.m
         dt = m.dt
         state = m.initial_state.copy()
@@ -309,6 +323,7 @@ class _Run:
             np.zeros((4, 3, 3)),
         )
         work = control.make_workspace()
+        path_now = np.zeros(4)  # the path at t_k; the tracking law aims at t_{k+1}'s
         self._warm_up(estimator, estimate, measurement)
         recorder = self.recorder
         outcome = Outcome.success
@@ -365,17 +380,19 @@ class _Run:
             reference = None
             if phase.kind == "track":
                 local = k - active.entry_sample
-                now = active.reference_at(local, float(estimate[2]))
-                reference_now = (float(now[0]), float(now[1]))
+                path_now[:] = active.reference_at(local, float(estimate[2]))
+                reference_now = (float(path_now[0]), float(path_now[1]))
                 reference = active.reference_at(local + 1, float(estimate[2]))
                 kinds, params = phase.constraint_rows
                 if kinds.shape[0]:  # aim along a zone's edge where the path crosses it
+                    keep_reference(path_now, kinds, params, m.look_ahead)
                     keep_reference(reference, kinds, params, m.look_ahead)
             started = time.perf_counter_ns()
             if reference is not None:
                 self.functions.track_input(
-                    estimate, u_prev, reference, m.look_ahead, m.w, m.m, m.limits, dt, work, u
-                )
+                    estimate, u_prev, path_now, reference, m.look_ahead, m.error_decay,
+                    m.w, m.m, m.limits, dt, work, u,
+                )  # fmt: skip
                 if kinds.shape[0]:  # zones win over tracking: eq. (28) with priority
                     keep_constraints(
                         estimate, u_prev, kinds, params, m.look_ahead, m.limits, dt, work, u
@@ -413,11 +430,11 @@ class _Run:
                 control_ns,
                 reference_now if reference is not None else None,
             )
-            if not (abs(u[0]) <= RUNAWAY_INPUT and abs(u[1]) <= RUNAWAY_INPUT):  # NaN too
+            if not (abs(u[0]) <= m.runaway_input and abs(u[1]) <= m.runaway_input):  # NaN too
                 if math.isfinite(u[0]) and math.isfinite(u[1]):
                     cause = (
                         f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
-                        f"beyond {RUNAWAY_INPUT:g} is no robot's)"
+                        f"beyond {m.runaway_input:g} is no robot's)"
                     )
                 else:
                     cause = "the input is not finite"
@@ -433,8 +450,10 @@ class _Run:
             u_prev[:] = u
             k += 1
             if not (
-                abs(state[0]) < RUNAWAY and abs(state[1]) < RUNAWAY and math.isfinite(state[2])
-                and abs(estimate[0]) < RUNAWAY and abs(estimate[1]) < RUNAWAY
+                abs(state[0]) < m.runaway_position and abs(state[1]) < m.runaway_position
+                and math.isfinite(state[2])
+                and abs(estimate[0]) < m.runaway_position
+                and abs(estimate[1]) < m.runaway_position
                 and math.isfinite(estimate[2])
             ):  # fmt: skip
                 self._record(k, state, estimate, u_prev, active, iterations, 0, None)
@@ -476,8 +495,8 @@ class _Run:
             warmed.add(regulating)
             if not regulating:
                 self.functions.track_input(
-                    estimate.copy(), u.copy(), np.zeros(4), m.look_ahead, m.w, m.m, m.limits,
-                    m.dt, work, np.zeros(2),
+                    estimate.copy(), u.copy(), np.zeros(4), np.zeros(4), m.look_ahead,
+                    m.error_decay, m.w, m.m, m.limits, m.dt, work, np.zeros(2),
                 )  # fmt: skip
                 kinds, params = phase.constraint_rows
                 keep_constraints(

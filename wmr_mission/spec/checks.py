@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.spec.models import (
+    BOUND_NOISE_RATIO,
     BoxRegion,
     CircleRegion,
     CoveragePath,
@@ -26,6 +27,7 @@ from wmr_mission.spec.models import (
     Mission,
     Phase,
     PolygonRegion,
+    RegionSpec,
     RegulatePhase,
     RepeatPhase,
     StayInside,
@@ -44,6 +46,14 @@ _REACH_SAMPLES: Final = 20_001
 _STANDSTILL: Final = 1e-6
 # A path's turn rate is its turn within this time [s], divided by it.
 TURN_WINDOW: Final = 1.0
+
+# [m/s, rad/s] a limit at or beyond the runner's runaway bound limits nothing.
+NO_LIMIT: Final = 1e3
+# [rad] turn per sample beyond which eq. (1), second order in omega dt, is no
+# longer the robot's motion: its step is 3 % longer than the arc at 0.5 rad.
+LARGEST_TURN_PER_SAMPLE: Final = 0.5
+# Output-error bounds below this many noise standard deviations act on noise.
+BOUND_NOISE_FLOOR: Final = 3.0
 
 Severity = Literal["error", "warning"]
 Pose = tuple[float, float, float]
@@ -79,8 +89,11 @@ def check(mission: Mission) -> list[Finding]:
         *_regions(mission),
         *_phase_rules(mission),
         *_initial_state(mission),
+        *_feasible_sets(mission),
         *_timing(mission),
         *_expectations(mission),
+        *_control(mission),
+        *_estimator_bounds(mission),
     ]
     if not any(f.severity == "error" for f in findings):
         # sampling paths needs a sound mission (regions of the right kind, bounded phases)
@@ -265,6 +278,130 @@ def _target_against_constraints(
             "can never fire",
             severity="warning",
         )
+
+
+# Points tried per phase: a grid over the constrained area, and each region's
+# boundary (a feasible set that is not empty has a boundary point on one of
+# them, or a grid point inside it).
+_GRID = 201
+_BOUNDARY = 2048
+
+
+def _feasible_sets(mission: Mission) -> Iterator[Finding]:
+    """A phase whose constraints no point meets: its inside-sets do not
+    overlap, or an outside-set covers their overlap. Sampled on a grid and on
+    every region's boundary, so a set narrower than both is not seen."""
+    written = {run.where: run.phase for run in run_order(mission)}  # each phase once
+    for where, phase in written.items():
+        sides = []
+        for constraint in phase.constraints:
+            inside = isinstance(constraint, StayInside)
+            name = (
+                constraint.stay_inside
+                if isinstance(constraint, StayInside)
+                else (constraint.stay_outside)
+            )
+            region = mission.regions.get(name)
+            if region is None:
+                return  # reported elsewhere
+            sides.append((name, region, inside))
+        if not sides:
+            continue
+        x, y = _candidates(mission, [region for _, region, _ in sides])
+        meets = np.ones(x.shape, dtype=bool)
+        for _, region, inside in sides:
+            meets &= _meets(region, inside, x, y)
+        if meets.any():
+            continue
+        insides = [name for name, _, inside in sides if inside]
+        inner = np.ones(x.shape, dtype=bool)
+        for _, region, inside in sides:
+            if inside:
+                inner &= _meets(region, True, x, y)
+        if insides and not inner.any():
+            cause = f"the regions it must stay inside ({', '.join(insides)}) do not overlap"
+        else:
+            outsides = [name for name, _, inside in sides if not inside]
+            area = f"inside {', '.join(insides)}" if insides else "of the plane"
+            cause = (
+                f"the regions it must stay outside ({', '.join(outsides)}) cover every point {area}"
+            )
+        yield Finding(
+            (*where, "constraints"),
+            f"phase {phase.name!r} has no point that meets all its constraints: {cause}",
+        )
+
+
+def _meets(region: RegionSpec, inside: bool, x: FloatArray, y: FloatArray) -> NDArray[np.bool_]:
+    from wmr_mission.regions import region_value
+
+    value = region_value(region, x, y)
+    return np.asarray(value <= 1e-9 if inside else value >= -1e-9)
+
+
+def _candidates(mission: Mission, regions: list[RegionSpec]) -> tuple[FloatArray, FloatArray]:
+    from wmr_mission.regions import ellipse_geometry
+
+    start = mission.robot.initial_state
+    xs: list[float] = [start.x]
+    ys: list[float] = [start.y]
+    for run in run_order(mission):
+        phase = run.phase
+        if isinstance(phase, RegulatePhase):
+            xs.append(phase.regulate.target.x)
+            ys.append(phase.regulate.target.y)
+    boundary_x: list[FloatArray] = []
+    boundary_y: list[FloatArray] = []
+    angle = np.linspace(0.0, 2.0 * math.pi, _BOUNDARY, endpoint=False)
+    lines = []
+    for region in regions:
+        if isinstance(region, EllipseRegion | CircleRegion):
+            cx, cy, a, b, rotation = ellipse_geometry(region)
+            u, w = a * np.cos(angle), b * np.sin(angle)
+            c, s = math.cos(rotation), math.sin(rotation)
+            boundary_x.append(cx + c * u - s * w)
+            boundary_y.append(cy + s * u + c * w)
+        elif isinstance(region, BoxRegion | PolygonRegion):
+            corners = (
+                [
+                    region.min,
+                    (region.max[0], region.min[1]),
+                    region.max,
+                    (region.min[0], region.max[1]),
+                ]
+                if isinstance(region, BoxRegion)
+                else region.vertices
+            )
+            points = np.array(corners, dtype=np.float64)
+            ends = np.roll(points, -1, axis=0)
+            share = np.linspace(0.0, 1.0, _BOUNDARY // len(points))[:, None, None]
+            edge = points[None] + share * (ends - points)[None]
+            boundary_x.append(edge[..., 0].ravel())
+            boundary_y.append(edge[..., 1].ravel())
+        else:  # half-plane: its line, sampled below over the area
+            lines.append(region)
+        if boundary_x:
+            xs += [float(boundary_x[-1].min()), float(boundary_x[-1].max())]
+            ys += [float(boundary_y[-1].min()), float(boundary_y[-1].max())]
+    low_x, high_x, low_y, high_y = min(xs), max(xs), min(ys), max(ys)
+    margin = 0.1 * max(high_x - low_x, high_y - low_y) + 1.0
+    low_x, high_x, low_y, high_y = low_x - margin, high_x + margin, low_y - margin, high_y + margin
+    grid_x, grid_y = np.meshgrid(
+        np.linspace(low_x, high_x, _GRID), np.linspace(low_y, high_y, _GRID)
+    )
+    reach = 2.0 * max(
+        high_x - low_x, high_y - low_y, abs(low_x), abs(high_x), abs(low_y), abs(high_y)
+    )
+    for region in lines:
+        nx, ny = region.normal
+        norm = math.hypot(nx, ny)
+        along = np.linspace(-reach, reach, 4 * _BOUNDARY)
+        foot_x, foot_y = nx * region.offset / norm**2, ny * region.offset / norm**2
+        boundary_x.append(foot_x - ny / norm * along)
+        boundary_y.append(foot_y + nx / norm * along)
+    x = np.concatenate([grid_x.ravel(), np.array(xs), *boundary_x])
+    y = np.concatenate([grid_y.ravel(), np.array(ys), *boundary_y])
+    return x, y
 
 
 def _initial_state(mission: Mission) -> Iterator[Finding]:
@@ -538,3 +675,66 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
             severity="warning",
             at_key=True,
         )
+
+
+def _control(mission: Mission) -> Iterator[Finding]:
+    """Traps of the tracking law and of eq. (1) at the configured limits."""
+    from wmr_mission.compiled import tracking_error_decay, tracking_look_ahead
+
+    robot = mission.robot
+    limits = robot.limits
+    if robot.dt * limits.omega > LARGEST_TURN_PER_SAMPLE:
+        yield Finding(
+            ("robot", "limits", "omega"),
+            f"limits.omega * dt = {limits.omega * robot.dt:g} rad per sample: eq. (1) is second "
+            f"order in omega dt and stops being the robot's motion beyond "
+            f"{LARGEST_TURN_PER_SAMPLE:g} rad per sample; lower limits.omega or dt",
+            severity="warning",
+        )
+    if not any(isinstance(p, TrackPhase) for p in mission.phases):
+        return
+    tracking = mission.controller.tracking
+    look_ahead = tracking_look_ahead(mission)
+    if limits.v >= NO_LIMIT and tracking.output == "look-ahead" and tracking.look_ahead is None:
+        yield Finding(
+            ("robot", "limits", "v"),
+            f"limits.v = {limits.v:g} m/s is no limit, but the tracking law ties its look-ahead "
+            f"to it (max(0.05, limits.v * dt) = {look_ahead:g} m); give the robot's real speed "
+            "limit or set controller.tracking.look_ahead",
+        )
+    elif tracking_error_decay(mission) == 0.0 and max(limits.v, limits.omega) >= NO_LIMIT:
+        law = "the literal axle law" if look_ahead == 0.0 else "a one-sample tracking law"
+        yield Finding(
+            ("robot", "limits"),
+            f"{law} closes the whole tracking error in one sample and runs away without "
+            f"actuator limits (limits.v = {limits.v:g}, limits.omega = {limits.omega:g}); "
+            "give the robot's real limits, or a controller.tracking.time_constant > 0",
+            severity="warning",  # a fair way to watch the paper's law diverge
+        )
+    if look_ahead > 0.0 and look_ahead <= 0.5 * limits.v * robot.dt:
+        # det(D B) = dt^2 (look_ahead + v dt / 2): zero at v = -2 look_ahead / dt.
+        yield Finding(
+            ("controller", "tracking", "look_ahead"),
+            f"the look-ahead law is singular at v = {-2 * look_ahead / robot.dt:g} m/s, within "
+            f"limits.v = {limits.v:g} (det(D B) = dt^2 (look_ahead + v dt / 2)); use a "
+            f"look_ahead of at least limits.v * dt = {limits.v * robot.dt:g} m, or leave it unset",
+        )
+
+
+def _estimator_bounds(mission: Mission) -> Iterator[Finding]:
+    """Eq. (4) bounds narrower than the noise make phase II act on the noise."""
+    estimator = mission.estimator
+    if isinstance(estimator, Ekf) or not estimator.output_error_bounds:
+        return
+    noise = mission.sensors.noise_std
+    for state, (lower, upper) in estimator.output_error_bounds.items():
+        std = float(getattr(noise, state))
+        if std > 0 and min(-lower, upper) < BOUND_NOISE_FLOOR * std:
+            yield Finding(
+                ("estimator", "output_error_bounds", state),
+                f"output_error_bounds.{state} [{lower:g}, {upper:g}] is within "
+                f"{BOUND_NOISE_FLOOR:g} noise standard deviations (sensors.noise_std.{state} = "
+                f"{std:g}): phase II of the estimator would act on the noise; use at least "
+                f"+-{BOUND_NOISE_RATIO * std:g} or leave the bounds unset",
+                severity="warning",
+            )
