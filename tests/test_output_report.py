@@ -59,4 +59,6 @@ def test_table_gives_each_phase_its_verdict() -> None:
     assert "0 % / 11.1 %" in orbit
     assert park.endswith("  ok")
     assert "expect orbit: turn_rate_at_limit <= 0.01: 0.1111 (NOT MET)" in lines
-    assert lines[-2].startswith("outcome: expect-failed after 20.00 s - expectation not met:")
+    assert lines[-2].startswith(
+        "outcome: expect-failed after 20.00 s of simulated time - expectation not met:"
+    )
