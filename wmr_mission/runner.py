@@ -278,7 +278,7 @@ def run_mission(
     resolved = checked.model_dump(mode="json")
     resolved["sensors"]["seed"] = result.seed  # the mission as run
     result.mission = resolved
-    judge(result)
+    judge(result, resolved)  # a success that misses an `expect` is not one
     return result
 
 

@@ -348,14 +348,14 @@ def manifest_record(
     }
 
 
-def summary_record(result: RunResult, expect: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """The content of ``summary.json``: every metric, and each expectation of
-    ``expect`` (default: the `expect` of ``result.mission``) with its verdict."""
-    summary = summarize(result)
-    if expect is None and result.mission is not None:
-        expect = result.mission.get("expect")
-    if isinstance(expect, Mapping):
-        summary["expectations"] = check_expectations(summary, dict(expect))
+def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The content of ``summary.json``: every metric and, with a mission (default:
+    ``result.mission``), each of its `expect` thresholds with its verdict."""
+    if mission is None:
+        mission = result.mission
+    summary = summarize(result, mission)
+    if mission is not None and isinstance(mission.get("expect"), Mapping):
+        summary["expectations"] = check_expectations(summary, mission)
     return summary
 
 
@@ -404,8 +404,6 @@ def write_run(
         from wmr_mission.output.animation import write_animation
 
         written.append(write_animation(result, run_dir / ANIMATION_FILE))
-    written.append(
-        write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved.get("expect") or {}))
-    )
+    written.append(write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved)))
     (run_dir / CLAIM_FILE).unlink(missing_ok=True)
     return written
