@@ -46,7 +46,7 @@ def main() -> None:
         "check the mission with the run's values": lambda: loaded.mission_with(overrides),
         "run_mission: check it again": lambda: validate_mission(mission),
         "run_mission: whole (check, loop, judge)": lambda: run_mission(mission, seed=draw.seed),
-        "metrics of the row (summarize)": lambda: summarize(result),
+        "metrics of the row (summarize)": lambda: summarize(result, result.mission),
     }
     for name, step in steps.items():
         print(f"{name:45s} {_median_ms(step, repeat):8.2f} ms")

@@ -97,7 +97,7 @@ def _row(draw: Draw, result: RunResult | None, reason: str) -> Row:
     if result is None:
         empty = np.zeros((2, 0), dtype=np.float32)
         return Row(draw.run, draw.seed, INVALID, values, (None,) * len(METRICS), reason, empty)
-    summary = summarize(result)
+    summary = summarize(result, result.mission)  # as summary.json measures it
     metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[name]) for name in METRICS)
     step = max(1, math.ceil(result.samples / PATH_POINTS))
     path_xy = np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
