@@ -22,14 +22,11 @@ from numpy.typing import NDArray
 from wmr_mission._jit import kernel
 from wmr_mission.corrective import corrective_input, row_value
 from wmr_mission.model import jacobian_terms, step, wrap_angle
+from wmr_mission.params import Controller, Robot, Scratch
 from wmr_mission.riccati import MIN_SPEED, regulator_gain, solve_riccati
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-# Scratch arrays of one controller, allocated once per run (see make_workspace).
-Workspace = tuple[
-    FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray
-]
 
 # Regulation forms (controller.regulation.form).
 BEARING = 0  # default: regulate to the target, heading reference = bearing to it
@@ -73,12 +70,9 @@ def track_input(
     estimate: FloatArray,
     u_prev: FloatArray,
     reference: FloatArray,
-    look_ahead: float,
-    w: FloatArray,
-    m: FloatArray,
-    limits: FloatArray,
-    dt: float,
-    work: Workspace,
+    controller: Controller,
+    robot: Robot,
+    work: Scratch,
     u_out: FloatArray,
 ) -> None:
     """Case 2: ``u_k = u_{k-1} + du2_k`` with du2 of eq. (27), then the limits.
@@ -88,13 +82,15 @@ def track_input(
     centre, aimed at the reference shifted by ``look_ahead`` along the path's
     tangent; ``look_ahead = 0`` is the literal eq. (27) on the axle centre.
     """
+    dt = robot.dt
+    look_ahead = controller.look_ahead
     v_prev = u_prev[0]
     omega_prev = u_prev[1]
     # x_{k+1|k} with the previous input held (section III.D).
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v_prev, omega_prev, dt)
     c = math.cos(pth)
     s = math.sin(pth)
-    d, eta, b = work[0], work[1], work[2]
+    d, eta, b = work.d, work.eta, work.b
     # eq. (26): the tracked output G(x_{k+1}) and its Jacobian D.
     d[0, 0] = 1.0
     d[0, 1] = 0.0
@@ -106,33 +102,20 @@ def track_input(
     eta[1] = reference[1] + look_ahead * reference[3] - (py + look_ahead * s)
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
     input_jacobian_into(estimate[2], v_prev, omega_prev, dt, b)
-    dv, dw = corrective_input(d, eta, 2, b, w, m)
-    u_out[0], u_out[1] = saturate(v_prev + dv, omega_prev + dw, v_prev, omega_prev, limits, dt)
-
-
-def make_workspace() -> Workspace:
-    """Scratch arrays for the control kernels: D, eta, B, A, pi, T, doubling
-    scratch, Q-hat."""
-    return (
-        np.zeros((2, 3)),
-        np.zeros(2),
-        np.zeros((3, 2)),
-        np.zeros((3, 3)),
-        np.zeros((3, 3)),
-        np.zeros((2, 3)),
-        np.zeros((8, 3, 3)),
-        np.zeros((3, 3)),
+    dv, dw = corrective_input(d, eta, 2, b, controller.w, controller.m)
+    u_out[0], u_out[1] = saturate(
+        v_prev + dv, omega_prev + dw, v_prev, omega_prev, robot.limits, dt
     )
 
 
 @kernel
 def _solve_gain(
-    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Workspace
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Scratch
 ) -> int:
-    """T of eqs. (20)-(21) at (theta, v, omega) into ``work[5]``; ``q`` is the
+    """T of eqs. (20)-(21) at (theta, v, omega) into ``work.gain``; ``q`` is the
     diagonal of Q-hat. At v == 0 the lateral direction (unreachable) is
     dropped from the state weight: the solution on the reachable subspace."""
-    a, b, pi, gain, qm = work[3], work[2], work[4], work[5], work[7]
+    a, b, pi, gain, qm = work.a, work.b, work.pi, work.gain, work.q_hat
     a13, a23, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
     for i in range(3):
         for j in range(3):
@@ -157,17 +140,17 @@ def _solve_gain(
         qm[0, 1] = along * ux * uy
         qm[1, 0] = along * ux * uy
         qm[1, 1] = along * uy * uy
-    doublings = solve_riccati(a, b, qm, r, pi, work[6])
+    doublings = solve_riccati(a, b, qm, r, pi, work.doubling)
     regulator_gain(a, b, r, pi, gain)
     return doublings
 
 
 @kernel
 def scheduled_gain(
-    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Workspace
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Scratch
 ) -> int:
     """Eqs. (20)-(21) for the linearisation at (theta, v, omega): writes T into
-    ``work[5]`` and returns the doubling count.
+    ``work.gain`` and returns the doubling count.
 
     For |v| < MIN_SPEED the gain is blended linearly between the at-rest gain
     and the gain at +-MIN_SPEED (see wmr_mission.riccati), so it is
@@ -177,8 +160,8 @@ def scheduled_gain(
     doublings = _solve_gain(theta, 0.0, omega, dt, q, r, work)
     if v == 0.0:
         return doublings
-    at_rest = work[0]
-    gain = work[5]
+    at_rest = work.at_rest
+    gain = work.gain
     for i in range(2):
         for j in range(3):
             at_rest[i, j] = gain[i, j]
@@ -197,19 +180,12 @@ def regulate_input(
     estimate_prev: FloatArray,
     u_prev: FloatArray,
     target: FloatArray,
-    form: int,
-    align_radius: float,
-    reverse: bool,
-    q: FloatArray,
-    r: FloatArray,
-    w: FloatArray,
-    m: FloatArray,
     row_kinds: IntArray,
     row_params: FloatArray,
-    limits: FloatArray,
-    dt: float,
+    controller: Controller,
+    robot: Robot,
     memory: FloatArray,
-    work: Workspace,
+    work: Scratch,
     u_out: FloatArray,
 ) -> None:
     """Case 1: the gain-scheduled regulator plus, where the prediction violates a
@@ -219,9 +195,11 @@ def regulate_input(
     phase's inequality constraints (possibly none); ``memory`` the phase's
     controller memory (ALIGNING, CORRECTED, DOUBLINGS).
     """
+    dt = robot.dt
+    q, r, form = controller.q, controller.r, controller.form
     v_prev = u_prev[0]
     omega_prev = u_prev[1]
-    gain = work[5]
+    gain = work.gain
     if form == INCREMENT:
         # Literal eqs. (14), (19), (29-a): T_{k-1} at (x_{k-1|k-1}, u_{k-1}),
         # applied to the state increment x_{k|k} - x_{k-1|k-1}.
@@ -238,9 +216,9 @@ def regulate_input(
         eth = wrap_angle(estimate[2] - target[2])
         if form == BEARING:
             distance = math.hypot(ex, ey)
-            if distance < align_radius:
+            if distance < controller.align_radius:
                 memory[ALIGNING] = 1.0
-            elif distance > 2.0 * align_radius:
+            elif distance > 2.0 * controller.align_radius:
                 memory[ALIGNING] = 0.0
             if memory[ALIGNING] == 0.0:
                 # Far: the heading reference is the bearing to the target (or its
@@ -248,7 +226,7 @@ def regulate_input(
                 # is turned into a heading error it can.
                 bearing = math.atan2(-ey, -ex)
                 eth = wrap_angle(estimate[2] - bearing)
-                if reverse and abs(eth) > 0.5 * math.pi:
+                if controller.reverse and abs(eth) > 0.5 * math.pi:
                     eth = wrap_angle(eth - math.pi)
             else:
                 # Aligning at the target: keep the reachable (longitudinal)
@@ -261,7 +239,7 @@ def regulate_input(
         # eq. (19) with dx the deviation from the target.
         v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
-    v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, limits, dt)
+    v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, robot.limits, dt)
     u_out[0] = v1
     u_out[1] = omega1
     memory[CORRECTED] = 0.0
@@ -269,7 +247,7 @@ def regulate_input(
         return
     # eq. (28): predict with the regulator's input, find the violated rows.
     px, py, _ = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
-    d, eta, b = work[0], work[1], work[2]
+    d, eta, b = work.d, work.eta, work.b
     count = 0
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value(row_kinds[i], row_params[i], px, py)
@@ -290,6 +268,6 @@ def regulate_input(
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
-    dv, dw = corrective_input(d, eta, count, b, w, m)
+    dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m)
     memory[CORRECTED] = 1.0
-    u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, limits, dt)
+    u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)

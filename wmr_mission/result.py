@@ -35,6 +35,7 @@ class Outcome(StrEnum):
     timeout = "timeout"  # a phase timed out with on_timeout: fail
     diverged = "diverged"  # non-finite or runaway state or input
     expect_failed = "expect-failed"  # ran to the end, an `expect` threshold not met
+    interrupted = "interrupted"  # stopped by the user (Ctrl-C) before the end
 
 
 @dataclass(frozen=True)
@@ -69,7 +70,9 @@ class RunResult:
     the largest constraint-row value of the phase at the true state (> 0 means
     violated; NaN when the phase has no constraint). ``compute_ns`` is the
     wall time of estimator + controller for that sample (not written to the
-    CSV: it is not reproducible).
+    CSV: it is not reproducible). ``loop_ns`` is the wall time of the whole
+    simulation loop (plant, sensors, estimator, controller, phase logic,
+    recording), start-up excluded.
     """
 
     mission_name: str
@@ -98,6 +101,7 @@ class RunResult:
     # Output-error bounds of eq. (4) per state (lower, upper), NaN where unused.
     error_bounds: tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
     regions: dict[str, Any] = field(default_factory=dict)  # name -> region spec (for plots)
+    loop_ns: int = 0
 
     @property
     def samples(self) -> int:
