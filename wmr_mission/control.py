@@ -108,27 +108,32 @@ def track_input(
     )
 
 
+Gain = tuple[float, float, float, float, float, float]  # T of eq. (20), 2x3 row by row
+
+
+@kernel
+def _input_weight(b: Gain, r: FloatArray, i: int, j: int) -> float:
+    """(B R^-1 B^T)[i, j] for B (3x2) row by row."""
+    weight: float = b[2 * i] * b[2 * j] / r[0] + b[2 * i + 1] * b[2 * j + 1] / r[1]
+    return weight
+
+
 @kernel
 def _solve_gain(
-    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Scratch
-) -> int:
-    """T of eqs. (20)-(21) at (theta, v, omega) into ``work.gain``; ``q`` is the
-    diagonal of Q-hat. At v == 0 the lateral direction (unreachable) is
-    dropped from the state weight: the solution on the reachable subspace."""
-    a, b, pi, gain, qm = work.a, work.b, work.pi, work.gain, work.q_hat
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray
+) -> tuple[Gain, int]:
+    """T of eqs. (20)-(21) at (theta, v, omega) and the doubling count; ``q``
+    is the diagonal of Q-hat. At v == 0 the lateral direction (unreachable)
+    is dropped from the state weight: the solution on the reachable subspace."""
     a13, a23, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
-    for i in range(3):
-        for j in range(3):
-            a[i, j] = 1.0 if i == j else 0.0
-            qm[i, j] = q[i] if i == j else 0.0
-    a[0, 2] = a13
-    a[1, 2] = a23
-    b[0, 0] = b11
-    b[0, 1] = b12
-    b[1, 0] = b21
-    b[1, 1] = b22
-    b[2, 0] = 0.0
-    b[2, 1] = dt
+    a = (1.0, 0.0, a13, 0.0, 1.0, a23, 0.0, 0.0, 1.0)
+    b = (b11, b12, b21, b22, 0.0, dt)
+    g = (
+        _input_weight(b, r, 0, 0), _input_weight(b, r, 0, 1), _input_weight(b, r, 0, 2),
+        _input_weight(b, r, 1, 0), _input_weight(b, r, 1, 1), _input_weight(b, r, 1, 2),
+        _input_weight(b, r, 2, 0), _input_weight(b, r, 2, 1), _input_weight(b, r, 2, 2),
+    )  # fmt: skip
+    q_hat = (q[0], 0.0, 0.0, 0.0, q[1], 0.0, 0.0, 0.0, q[2])
     if v == 0.0:
         # Keep only the weight along the direction the speed input moves the
         # robot, u = B[:2, 0] / |B[:2, 0]|: Q_xy -> (u^T Q_xy u) u u^T.
@@ -136,13 +141,10 @@ def _solve_gain(
         ux = b11 / norm
         uy = b21 / norm
         along = q[0] * ux * ux + q[1] * uy * uy
-        qm[0, 0] = along * ux * ux
-        qm[0, 1] = along * ux * uy
-        qm[1, 0] = along * ux * uy
-        qm[1, 1] = along * uy * uy
-    doublings = solve_riccati(a, b, qm, r, pi, work.doubling)
-    regulator_gain(a, b, r, pi, gain)
-    return doublings
+        cross = along * ux * uy
+        q_hat = (along * ux * ux, cross, 0.0, cross, along * uy * uy, 0.0, 0.0, 0.0, q[2])
+    pi, doublings = solve_riccati(a, g, q_hat)
+    return regulator_gain(a, b, r, pi), doublings
 
 
 @kernel
@@ -156,21 +158,25 @@ def scheduled_gain(
     and the gain at +-MIN_SPEED (see wmr_mission.riccati), so it is
     continuous in v."""
     if abs(v) >= MIN_SPEED:
-        return _solve_gain(theta, v, omega, dt, q, r, work)
-    doublings = _solve_gain(theta, 0.0, omega, dt, q, r, work)
-    if v == 0.0:
-        return doublings
-    at_rest = work.at_rest
-    gain = work.gain
-    for i in range(2):
-        for j in range(3):
-            at_rest[i, j] = gain[i, j]
-    edge = MIN_SPEED if v > 0.0 else -MIN_SPEED
-    doublings += _solve_gain(theta, edge, omega, dt, q, r, work)
-    alpha = abs(v) / MIN_SPEED
-    for i in range(2):
-        for j in range(3):
-            gain[i, j] = (1.0 - alpha) * at_rest[i, j] + alpha * gain[i, j]
+        gain, doublings = _solve_gain(theta, v, omega, dt, q, r)
+    else:
+        gain, doublings = _solve_gain(theta, 0.0, omega, dt, q, r)
+        if v != 0.0:
+            edge = MIN_SPEED if v > 0.0 else -MIN_SPEED
+            at_edge, more = _solve_gain(theta, edge, omega, dt, q, r)
+            doublings += more
+            alpha = abs(v) / MIN_SPEED
+            gain = (
+                (1.0 - alpha) * gain[0] + alpha * at_edge[0],
+                (1.0 - alpha) * gain[1] + alpha * at_edge[1],
+                (1.0 - alpha) * gain[2] + alpha * at_edge[2],
+                (1.0 - alpha) * gain[3] + alpha * at_edge[3],
+                (1.0 - alpha) * gain[4] + alpha * at_edge[4],
+                (1.0 - alpha) * gain[5] + alpha * at_edge[5],
+            )
+    out = work.gain
+    out[0, 0], out[0, 1], out[0, 2] = gain[0], gain[1], gain[2]
+    out[1, 0], out[1, 1], out[1, 2] = gain[3], gain[4], gain[5]
     return doublings
 
 

@@ -63,11 +63,6 @@ class Scratch(NamedTuple):
     b: FloatArray  # (3, 2) input Jacobian B of eq. (24)
     aim: FloatArray  # (4,) path point and unit tangent the tracking law aims at
     gain: FloatArray  # (2, 3) regulator gain T of eq. (20)
-    at_rest: FloatArray  # (2, 3) the at-rest gain while blending near rest
-    a: FloatArray  # (3, 3) state Jacobian A of eq. (7)
-    pi: FloatArray  # (3, 3) Riccati solution of eq. (21)
-    q_hat: FloatArray  # (3, 3) state weight of eq. (17) as solved
-    doubling: FloatArray  # (8, 3, 3) iterates of the doubling solution
 
 
 def scratch() -> Scratch:
@@ -77,11 +72,6 @@ def scratch() -> Scratch:
         b=np.zeros((3, 2)),
         aim=np.zeros(4),
         gain=np.zeros((2, 3)),
-        at_rest=np.zeros((2, 3)),
-        a=np.zeros((3, 3)),
-        pi=np.zeros((3, 3)),
-        q_hat=np.zeros((3, 3)),
-        doubling=np.zeros((8, 3, 3)),
     )
 
 
