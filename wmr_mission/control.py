@@ -112,9 +112,9 @@ Gain = tuple[float, float, float, float, float, float]  # T of eq. (20), 2x3 row
 
 
 @kernel
-def _input_weight(b: Gain, r: FloatArray, i: int, j: int) -> float:
-    """(B R^-1 B^T)[i, j] for B (3x2) row by row."""
-    weight: float = b[2 * i] * b[2 * j] / r[0] + b[2 * i + 1] * b[2 * j + 1] / r[1]
+def _input_weight(b: Gain, r0: float, r1: float, i: int, j: int) -> float:
+    """(B R^-1 B^T)[i, j] for B (3x2) row by row, R = diag(r0, r1)."""
+    weight: float = b[2 * i] * b[2 * j] / r0 + b[2 * i + 1] * b[2 * j + 1] / r1
     return weight
 
 
@@ -124,25 +124,32 @@ def _solve_gain(
 ) -> tuple[Gain, int]:
     """T of eqs. (20)-(21) at (theta, v, omega) and the doubling count; ``q``
     is the diagonal of Q-hat. At v == 0 the lateral direction (unreachable)
-    is dropped from the state weight: the solution on the reachable subspace."""
-    a13, a23, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
+    is dropped from the state weight: the solution on the reachable subspace.
+    Plain floats throughout: numpy scalars would make the pure-Python form
+    several times slower."""
+    a13, a23, b11, b12, b21, b22 = jacobian_terms(float(theta), float(v), float(omega), dt)
     a = (1.0, 0.0, a13, 0.0, 1.0, a23, 0.0, 0.0, 1.0)
     b = (b11, b12, b21, b22, 0.0, dt)
+    r0 = float(r[0])
+    r1 = float(r[1])
+    q0 = float(q[0])
+    q1 = float(q[1])
+    q2 = float(q[2])
     g = (
-        _input_weight(b, r, 0, 0), _input_weight(b, r, 0, 1), _input_weight(b, r, 0, 2),
-        _input_weight(b, r, 1, 0), _input_weight(b, r, 1, 1), _input_weight(b, r, 1, 2),
-        _input_weight(b, r, 2, 0), _input_weight(b, r, 2, 1), _input_weight(b, r, 2, 2),
+        _input_weight(b, r0, r1, 0, 0), _input_weight(b, r0, r1, 0, 1), _input_weight(b, r0, r1, 0, 2),
+        _input_weight(b, r0, r1, 1, 0), _input_weight(b, r0, r1, 1, 1), _input_weight(b, r0, r1, 1, 2),
+        _input_weight(b, r0, r1, 2, 0), _input_weight(b, r0, r1, 2, 1), _input_weight(b, r0, r1, 2, 2),
     )  # fmt: skip
-    q_hat = (q[0], 0.0, 0.0, 0.0, q[1], 0.0, 0.0, 0.0, q[2])
+    q_hat = (q0, 0.0, 0.0, 0.0, q1, 0.0, 0.0, 0.0, q2)
     if v == 0.0:
         # Keep only the weight along the direction the speed input moves the
         # robot, u = B[:2, 0] / |B[:2, 0]|: Q_xy -> (u^T Q_xy u) u u^T.
         norm = math.hypot(b11, b21)
         ux = b11 / norm
         uy = b21 / norm
-        along = q[0] * ux * ux + q[1] * uy * uy
+        along = q0 * ux * ux + q1 * uy * uy
         cross = along * ux * uy
-        q_hat = (along * ux * ux, cross, 0.0, cross, along * uy * uy, 0.0, 0.0, 0.0, q[2])
+        q_hat = (along * ux * ux, cross, 0.0, cross, along * uy * uy, 0.0, 0.0, 0.0, q2)
     pi, doublings = solve_riccati(a, g, q_hat)
     return regulator_gain(a, b, r, pi), doublings
 

@@ -44,18 +44,14 @@ Mat3 = tuple[float, float, float, float, float, float, float, float, float]
 
 
 @kernel
-def _dot(a: Mat3, b: Mat3, i: int, j: int) -> float:
-    """(a b)[i, j]."""
-    return a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j]
-
-
-@kernel
 def _mul3(a: Mat3, b: Mat3) -> Mat3:
-    """a b."""
+    """a b, written out: (a b)[i, j] = a[i, 0] b[0, j] + a[i, 1] b[1, j] + a[i, 2] b[2, j]."""
+    a0, a1, a2, a3, a4, a5, a6, a7, a8 = a
+    b0, b1, b2, b3, b4, b5, b6, b7, b8 = b
     return (
-        _dot(a, b, 0, 0), _dot(a, b, 0, 1), _dot(a, b, 0, 2),
-        _dot(a, b, 1, 0), _dot(a, b, 1, 1), _dot(a, b, 1, 2),
-        _dot(a, b, 2, 0), _dot(a, b, 2, 1), _dot(a, b, 2, 2),
+        a0 * b0 + a1 * b3 + a2 * b6, a0 * b1 + a1 * b4 + a2 * b7, a0 * b2 + a1 * b5 + a2 * b8,
+        a3 * b0 + a4 * b3 + a5 * b6, a3 * b1 + a4 * b4 + a5 * b7, a3 * b2 + a4 * b5 + a5 * b8,
+        a6 * b0 + a7 * b3 + a8 * b6, a6 * b1 + a7 * b4 + a8 * b7, a6 * b2 + a7 * b5 + a8 * b8,
     )  # fmt: skip
 
 
