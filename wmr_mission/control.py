@@ -136,10 +136,16 @@ def _solve_gain(
     q1 = float(q[1])
     q2 = float(q[2])
     g = (
-        _input_weight(b, r0, r1, 0, 0), _input_weight(b, r0, r1, 0, 1), _input_weight(b, r0, r1, 0, 2),
-        _input_weight(b, r0, r1, 1, 0), _input_weight(b, r0, r1, 1, 1), _input_weight(b, r0, r1, 1, 2),
-        _input_weight(b, r0, r1, 2, 0), _input_weight(b, r0, r1, 2, 1), _input_weight(b, r0, r1, 2, 2),
-    )  # fmt: skip
+        _input_weight(b, r0, r1, 0, 0),
+        _input_weight(b, r0, r1, 0, 1),
+        _input_weight(b, r0, r1, 0, 2),
+        _input_weight(b, r0, r1, 1, 0),
+        _input_weight(b, r0, r1, 1, 1),
+        _input_weight(b, r0, r1, 1, 2),
+        _input_weight(b, r0, r1, 2, 0),
+        _input_weight(b, r0, r1, 2, 1),
+        _input_weight(b, r0, r1, 2, 2),
+    )
     q_hat = (q0, 0.0, 0.0, 0.0, q1, 0.0, 0.0, 0.0, q2)
     if v == 0.0:
         # Keep only the weight along the direction the speed input moves the
