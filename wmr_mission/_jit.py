@@ -2,7 +2,8 @@
 
 Every kernel is written once, in the subset of Python that numba compiles. When
 numba is missing, or ``WMR_MISSION_NO_JIT=1`` is set, the very same functions
-run as plain Python: slower, same equations.
+run as plain Python: slower, same equations. Compiled kernels are cached on
+disk where a directory can be written (wmr_mission._kernel_cache).
 """
 
 from __future__ import annotations
@@ -27,13 +28,32 @@ except ImportError:  # pragma: no cover - exercised where numba cannot install
     _njit = None
 
 COMPILED = _njit is not None
+_CACHED = False
+if _njit is not None:
+    from wmr_mission import _kernel_cache
+
+    _directory = _kernel_cache.cache_directory()
+    # Where the locator cannot be installed, numba's own cache is tried.
+    _CACHED = _directory is not None
+    if _directory is not None:
+        _kernel_cache.install(_directory)
+
+
+def _compile(fn: F, **options: Any) -> F:
+    assert _njit is not None
+    if _CACHED:
+        try:
+            return cast(F, _njit(cache=True, **options)(fn))
+        except RuntimeError:  # no cache locator after all: compile uncached
+            pass
+    return cast(F, _njit(**options)(fn))
 
 
 def kernel(fn: F) -> F:
     """Compile ``fn`` with numba (cached on disk) when available; else return it as is."""
     if _njit is None:
         return fn
-    return cast(F, _njit(cache=True, nogil=True)(fn))
+    return _compile(fn, nogil=True)
 
 
 def _time_stamp_counter() -> Callable[[], int] | None:
@@ -57,7 +77,7 @@ def _time_stamp_counter() -> Callable[[], int] | None:
     def counter() -> int:
         return read_counter()  # type: ignore[call-arg]
 
-    return cast(Callable[[], int], _njit(cache=True, nogil=True)(counter))
+    return _compile(counter, nogil=True)
 
 
 def _zero() -> int:
@@ -72,9 +92,5 @@ _counter = _time_stamp_counter()
 TICKS_ARE_NS = _njit is None
 TICKS_TIMED = _njit is None or _counter is not None
 ticks: Callable[[], int] = (
-    time.perf_counter_ns
-    if _njit is None
-    else _counter
-    if _counter is not None
-    else cast(Callable[[], int], _njit(cache=True)(_zero))
+    time.perf_counter_ns if _njit is None else _counter if _counter is not None else _compile(_zero)
 )
