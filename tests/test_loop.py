@@ -71,7 +71,8 @@ def test_ctrl_c_between_chunks_returns_what_was_simulated(monkeypatch: pytest.Mo
     assert result.message == f"interrupted in phase 'circle' at t = {calls[-1]:g} s"
     assert result.samples == 2 * runner.CHUNK
     assert result.transitions[-1].condition == "interrupted"
-    assert np.all(np.isfinite(result.x)) and np.all(np.isfinite(result.x_est))
+    assert np.all(np.isfinite(result.x))
+    assert np.all(np.isfinite(result.x_est))
     np.testing.assert_array_equal(result.x, run_mission(mission).x[: result.samples])
 
 
