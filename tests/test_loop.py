@@ -58,6 +58,7 @@ def test_chunk_boundaries_change_nothing(name: str, monkeypatch: pytest.MonkeyPa
 
 def test_ctrl_c_between_chunks_returns_what_was_simulated(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(runner, "CHUNK", 500)
+    monkeypatch.setattr(runner, "FIRST_CHUNK", 500)
     mission = load_mission(MISSIONS / "noisy-observer.yaml")
     calls = []
 

@@ -36,8 +36,10 @@ if TYPE_CHECKING:
 FloatArray = NDArray[np.float64]
 
 # Samples per call of the compiled loop: between calls the runner reports
-# progress and Ctrl-C gets in (a few milliseconds apart when compiled).
+# progress and Ctrl-C gets in (a few milliseconds apart when compiled). A
+# phase starts with short chunks, so a short phase samples little path ahead.
 CHUNK = 4096
+FIRST_CHUNK = 256
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
 MAX_PRESIZED = 2_000_000
 
@@ -280,19 +282,21 @@ class _Run:
         started_ns = time.perf_counter_ns()
         started_ticks = self.ticks()
         index = 0
+        chunk = min(FIRST_CHUNK, CHUNK)
         try:
             while True:
                 k = int(counters[loop.K])
-                path = active.path_ahead(k - active.entry_sample, CHUNK + 1)
-                noise = sensors.ahead(CHUNK)
-                self.recorder.reserve(CHUNK + 2)
-                status = self._call(phase, path, noise, k + CHUNK)
+                path = active.path_ahead(k - active.entry_sample, chunk + 1)
+                noise = sensors.ahead(chunk)
+                self.recorder.reserve(chunk + 2)
+                status = self._call(phase, path, noise, k + chunk)
                 sensors.used(int(counters[loop.NOISE]))
                 counters[loop.NOISE] = 0
                 k = int(counters[loop.K])
                 if status == loop.CHUNK_END:
                     if self.progress is not None:
                         self.progress(k * dt, budget, active.phase.name)
+                    chunk = min(4 * chunk, CHUNK)
                     continue
                 if status != loop.EXITED:
                     cause = self._divergence_cause(status)
@@ -332,6 +336,7 @@ class _Run:
                 active = to
                 signals.memory[:] = 0.0
                 phase = active.enter(k, signals.estimate)
+                chunk = min(FIRST_CHUNK, CHUNK)
         except KeyboardInterrupt:
             k = int(counters[loop.K])
             t = _seconds(k, dt)

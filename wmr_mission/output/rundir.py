@@ -152,18 +152,12 @@ def _csv_field(text: str) -> str:
     return text
 
 
-def trajectory_csv_text(result: RunResult) -> str:
-    """The whole ``trajectory.csv``: header line then one line per sample."""
+def trajectory_csv_blocks(result: RunResult) -> Iterator[str]:
+    """``trajectory.csv`` in pieces: the header line, then blocks of lines, so a
+    long run is never held in memory as one text."""
     names = np.array([_csv_field(p.name) for p in result.phases] or [""], dtype=object)
-    columns: list[list[Any]] = [
-        np.asarray(getattr(result, name), dtype=np.float64).tolist()
-        for name in TRAJECTORY_COLUMNS[:-1]
-    ]
-    columns.append(names[np.asarray(result.phase, dtype=np.int64)].tolist())
-    columns += [
-        np.asarray(getattr(result, name), dtype=np.float64).tolist() for name in EXTRA_COLUMNS[:-1]
-    ]
-    columns.append(np.asarray(result.phase2_iterations, dtype=np.int64).tolist())
+    floats = [getattr(result, name) for name in TRAJECTORY_COLUMNS[:-1]]
+    extra = [getattr(result, name) for name in EXTRA_COLUMNS[:-1]]
     formats = (
         [_FLOAT_FORMAT] * (len(TRAJECTORY_COLUMNS) - 1)
         + ["%s"]
@@ -171,16 +165,30 @@ def trajectory_csv_text(result: RunResult) -> str:
         + ["%d"]
     )
     row_format = ",".join(formats) + "\n"
-    parts = [",".join(CSV_COLUMNS) + "\n"]
+    yield ",".join(CSV_COLUMNS) + "\n"
     for start in range(0, result.samples, _ROWS_PER_BLOCK):
-        rows = zip(*(column[start : start + _ROWS_PER_BLOCK] for column in columns), strict=True)
-        values = tuple(value for row in rows for value in row)
-        parts.append(row_format * (len(values) // len(columns)) % values)
-    return "".join(parts)
+        block = slice(start, start + _ROWS_PER_BLOCK)
+        columns: list[list[Any]] = [
+            np.asarray(column[block], dtype=np.float64).tolist() for column in floats
+        ]
+        columns.append(names[np.asarray(result.phase[block], dtype=np.int64)].tolist())
+        columns += [np.asarray(column[block], dtype=np.float64).tolist() for column in extra]
+        columns.append(np.asarray(result.phase2_iterations[block], dtype=np.int64).tolist())
+        values = tuple(value for row in zip(*columns, strict=True) for value in row)
+        yield row_format * (len(values) // len(columns)) % values
+
+
+def trajectory_csv_text(result: RunResult) -> str:
+    """The whole ``trajectory.csv``: header line then one line per sample."""
+    return "".join(trajectory_csv_blocks(result))
 
 
 def write_trajectory(result: RunResult, path: Path) -> Path:
-    return write_bytes_atomic(path, trajectory_csv_text(result).encode("utf-8"))
+    """Write ``trajectory.csv`` block by block (atomically, like every run file)."""
+    with atomic_path(path) as tmp, tmp.open("w", encoding="utf-8", newline="") as out:
+        for block in trajectory_csv_blocks(result):
+            out.write(block)
+    return path
 
 
 # --- JSON -----------------------------------------------------------------
