@@ -288,7 +288,7 @@ class _Run:
                 k = int(counters[loop.K])
                 path = active.path_ahead(k - active.entry_sample, chunk + 1)
                 noise = sensors.ahead(chunk)
-                self.recorder.reserve(chunk + 2)
+                self.recorder.reserve(2)  # the loop stops early when the recorder is full
                 status = self._call(phase, path, noise, k + chunk)
                 sensors.used(int(counters[loop.NOISE]))
                 counters[loop.NOISE] = 0

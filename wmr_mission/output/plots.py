@@ -8,6 +8,7 @@ points per line: a 360 000-sample run plots in a few seconds.
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
 from pathlib import Path
@@ -24,6 +25,9 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 MAX_POINTS_PER_LINE = 20_000
+# Beyond this many phase segments, phases are drawn as one collection and go
+# unnamed, so a figure costs the same for 10 or 10 000 phases.
+MAX_NAMED_PHASES = 40
 DPI = 120
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
 
@@ -54,15 +58,25 @@ def finite(values: FloatArray) -> FloatArray:
 
 
 def phase_color(index: int) -> Any:
-    plt = pyplot()
-    return plt.get_cmap("tab10")(index % 10)
+    return _palette()[index % 10]
+
+
+@functools.cache
+def _palette() -> tuple[Any, ...]:
+    pyplot()
+    import matplotlib
+
+    return tuple(tuple(color) for color in matplotlib.colormaps["tab10"](np.arange(10)))
 
 
 def _save(fig: Figure, path: Path) -> Path:
     plt = pyplot()
     try:
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", dpi=DPI, bbox_inches="tight")
+            # The layout engine fits legends and labels in one render
+            # (bbox_inches="tight" renders each figure twice).
+            fig.set_layout_engine("constrained")
+            fig.savefig(tmp, format="png", dpi=DPI)
     finally:
         plt.close(fig)
     return path
@@ -208,8 +222,12 @@ def _draw_path(ax: Axes, result: RunResult) -> None:
         linestyle=":",
         label="estimate",
     )
+    segments = phase_segments(result.phase)
+    if len(segments) > MAX_NAMED_PHASES:
+        _draw_path_by_phase(ax, result)
+        return
     labelled: set[int] = set()
-    for index, start, end in phase_segments(result.phase):
+    for index, start, end in segments:
         color = phase_color(index)
         name = result.phases[index].name
         # Include the next phase's first sample so the coloured pieces join.
@@ -235,24 +253,45 @@ def _draw_path(ax: Axes, result: RunResult) -> None:
             )
 
 
+def _draw_path_by_phase(ax: Axes, result: RunResult) -> None:
+    """The path coloured by phase as one collection: thinned over the whole
+    run, not per phase."""
+    from matplotlib.collections import LineCollection
+
+    k = thin(0, result.samples)
+    points = np.column_stack([finite(result.x[k]), finite(result.y[k])])
+    pieces = np.stack([points[:-1], points[1:]], axis=1)
+    colors = [phase_color(int(index)) for index in result.phase[k[:-1]]]
+    ax.add_collection(LineCollection(list(pieces), colors=colors, linewidths=1.6, label="path"))
+    reference = np.column_stack([finite(result.x_ref[k]), finite(result.y_ref[k])])
+    if np.isfinite(reference).any():
+        ax.plot(*reference.T, color="0.3", linewidth=1.0, linestyle="--", label="reference")
+
+
 def _draw_marks(ax: Axes, result: RunResult) -> None:
     if result.samples == 0:
         return
-    targets = {p.target[:2] for p in result.phases if p.target is not None}
-    for i, (tx, ty) in enumerate(sorted(targets)):
+    targets = sorted({p.target[:2] for p in result.phases if p.target is not None})
+    if targets:
         ax.plot(
-            tx,
-            ty,
+            *np.array(targets).T,
             marker="+",
             color="black",
             markersize=12,
             mew=1.5,
             linestyle="none",
-            label="target" if i == 0 else None,
+            label="target",
         )
     changes = [tr for tr in result.transitions if tr.to_phase is not None]
     view = view_box(result)
     near = 0.03 * max(view[1] - view[0], view[3] - view[2])
+    if len(changes) > MAX_NAMED_PHASES:
+        at = np.array([_sample_at(result, tr.time) for tr in changes], dtype=np.int64)
+        ax.plot(
+            result.x[at], result.y[at], marker="D", color="black", markersize=3,
+            linestyle="none", label="phase change",
+        )  # fmt: skip
+        changes = []
     labelled: list[tuple[float, float]] = []
     for i, tr in enumerate(changes):
         k = _sample_at(result, tr.time)
@@ -322,6 +361,9 @@ def draw_xy(result: RunResult, path: Path) -> Path:
 def _mark_phases(axes: list[Axes], result: RunResult) -> None:
     """Phase boundaries as vertical lines; names written above the top plot."""
     segments = phase_segments(result.phase)
+    if len(segments) > MAX_NAMED_PHASES:
+        # Thousands of boundaries would only fill the plot: none are drawn.
+        return
     span = float(result.t[-1] - result.t[0]) if result.samples else 0.0
     row, previous = 0, -math.inf
     for number, (index, start, _end) in enumerate(segments):
