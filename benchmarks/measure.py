@@ -29,20 +29,27 @@ HOUR = ROOT / "benchmarks" / "hour.yaml"
 def loop(repeat: int = 7) -> None:
     import numpy as np
 
+    from wmr_mission.compiled import compile_mission
     from wmr_mission.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     for name in ("case1", "case2"):
-        mission = load_mission(MISSIONS / f"{name}.yaml")
+        mission = compile_mission(load_mission(MISSIONS / f"{name}.yaml"))
         run_mission(mission)  # loads the compiled loop
-        runs = [run_mission(mission) for _ in range(repeat)]
+        runs, cpu_us = [], []
+        for _ in range(repeat):
+            started = time.thread_time_ns()
+            runs.append(run_mission(mission))
+            cpu_us.append((time.thread_time_ns() - started) / runs[-1].samples / 1000)
         loop_us = [r.loop_ns / r.samples / 1000 for r in runs]
         step_us = np.concatenate([r.compute_ns[r.compute_ns > 0] for r in runs]) / 1000
         print(
             f"{name}: {runs[0].samples} samples; loop_us_per_sample median "
             f"{statistics.median(loop_us):.3f} (min {min(loop_us):.3f}) over {repeat} runs; "
+            f"CPU time of run_mission per sample median {statistics.median(cpu_us):.3f} us; "
             f"step median {np.median(step_us):.3f} us, p99 {np.percentile(step_us, 99):.3f} us"
         )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
 def _wall(command: list[str], env: dict[str, str] | None = None) -> float:
@@ -107,11 +114,11 @@ def scale(repeat: int = 5) -> None:
     started = time.perf_counter()
     long = run_mission(hour)
     hour_s = time.perf_counter() - started
-    per_short = statistics.median(times) / result.samples * 1e6
-    print(f"100 s: {result.samples} samples, median {statistics.median(times):.4f} s "
-          f"({per_short:.2f} us per sample)")  # fmt: skip
-    print(f"1 h: {long.samples} samples, {hour_s:.3f} s ({hour_s / long.samples * 1e6:.2f} us "
-          f"per sample); ratio to 36 x the 100-s run: {hour_s / (36 * statistics.median(times)):.3f}")  # fmt: skip
+    short_s = statistics.median(times)
+    print(f"100 s: {result.samples} samples, median {short_s:.4f} s")
+    print(
+        f"1 h: {long.samples} samples, {hour_s:.3f} s; against 36 x 100 s: {hour_s / 36 / short_s:.3f}"
+    )
 
 
 def figures(repeat: int = 3) -> None:
@@ -140,17 +147,19 @@ def dare(repeat: int = 200) -> None:
     import numpy as np
     from scipy.linalg import solve_discrete_are
 
+    from wmr_mission.bench import one_blas_thread
     from wmr_mission.reference import input_jacobian, state_jacobian
 
     a = state_jacobian(0.3, 1.0, 0.5, 0.01)
     b = input_jacobian(0.3, 1.0, 0.5, 0.01)
     q, r = np.eye(3), np.eye(2)
-    solve_discrete_are(a, b, q, r)
     times = []
-    for _ in range(repeat):
-        started = time.perf_counter()
+    with one_blas_thread():
         solve_discrete_are(a, b, q, r)
-        times.append(time.perf_counter() - started)
+        for _ in range(repeat):
+            started = time.perf_counter()
+            solve_discrete_are(a, b, q, r)
+            times.append(time.perf_counter() - started)
     print(
         f"scipy solve_discrete_are, 3 states, 2 inputs: median {statistics.median(times) * 1e6:.0f} us"
     )
