@@ -36,6 +36,9 @@ def pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
+    # Long paths rasterised in pieces: a 1-hour run's overdrawn laps otherwise
+    # take tens of MB of the renderer's memory at once.
+    matplotlib.rcParams["agg.path.chunksize"] = 2000
     import matplotlib.pyplot as plt
 
     return plt
@@ -184,8 +187,8 @@ def draw_regions(
 
 def view_box(result: RunResult) -> tuple[float, float, float, float]:
     """Data limits of the path, the reference, the targets and bounded regions, with a margin."""
-    xs = [finite(result.x), finite(result.x_est), finite(result.x_ref)]
-    ys = [finite(result.y), finite(result.y_est), finite(result.y_ref)]
+    xs = [result.x, result.x_est, result.x_ref]
+    ys = [result.y, result.y_est, result.y_ref]
     targets = [p.target for p in result.phases if p.target is not None]
     if targets:
         xs.append(np.array([t[0] for t in targets], dtype=np.float64))
@@ -195,13 +198,23 @@ def view_box(result: RunResult) -> tuple[float, float, float, float]:
         if extent is not None:
             xs.append(np.asarray(extent[:2], dtype=np.float64))
             ys.append(np.asarray(extent[2:], dtype=np.float64))
-    x_all, y_all = np.concatenate(xs), np.concatenate(ys)
-    x_all, y_all = x_all[np.isfinite(x_all)], y_all[np.isfinite(y_all)]
-    if x_all.size == 0 or y_all.size == 0:
+    # One array at a time: a long run is never copied whole several times over.
+    x_ranges = [r for r in map(_finite_range, xs) if r is not None]
+    y_ranges = [r for r in map(_finite_range, ys) if r is not None]
+    if not x_ranges or not y_ranges:
         return -1.0, 1.0, -1.0, 1.0
-    x0, x1, y0, y1 = x_all.min(), x_all.max(), y_all.min(), y_all.max()
+    x0, x1 = min(r[0] for r in x_ranges), max(r[1] for r in x_ranges)
+    y0, y1 = min(r[0] for r in y_ranges), max(r[1] for r in y_ranges)
     margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
     return float(x0 - margin), float(x1 + margin), float(y0 - margin), float(y1 + margin)
+
+
+def _finite_range(values: FloatArray) -> tuple[float, float] | None:
+    """(min, max) of the finite values, None if there are none."""
+    kept = values[np.isfinite(values)]
+    if kept.size == 0:
+        return None
+    return float(kept.min()), float(kept.max())
 
 
 def _sample_at(result: RunResult, time: float) -> int:
