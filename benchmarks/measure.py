@@ -6,6 +6,7 @@
     python benchmarks/measure.py scale      # run time against samples (100 s and 1 h)
     python benchmarks/measure.py figures    # case study 1's four figures and its animation
     python benchmarks/measure.py dare       # scipy's solve_discrete_are, one 3x3 call
+    python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -163,10 +164,29 @@ def dare(repeat: int = 200) -> None:
     print(f"scipy solve_discrete_are, 3 states, 2 inputs, one BLAS thread: median {median:.0f} us")
 
 
+def dlqr(repeat: int = 200) -> None:
+    import control  # not a dependency: pip install control
+
+    from wmr_mission.bench import one_blas_thread
+    from wmr_mission.reference import input_jacobian, state_jacobian
+
+    a = state_jacobian(0.3, 1.0, 0.5, 0.01)
+    b = input_jacobian(0.3, 1.0, 0.5, 0.01)
+    times = []
+    with one_blas_thread():
+        control.dlqr(a, b, [[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[1, 0], [0, 1]])
+        for _ in range(repeat):
+            started = time.perf_counter()
+            control.dlqr(a, b, [[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[1, 0], [0, 1]])
+            times.append(time.perf_counter() - started)
+    median = statistics.median(times) * 1e6
+    print(f"python-control {control.__version__} dlqr, one BLAS thread: median {median:.0f} us")
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "memory": memory, "scale": scale}
-    jobs |= {"figures": figures, "dare": dare}
+    jobs |= {"figures": figures, "dare": dare, "dlqr": dlqr}
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)

@@ -34,6 +34,7 @@ from wmr_mission.ekf import ekf_step
 from wmr_mission.model import step, wrap_angle
 from wmr_mission.observer import observer_step
 from wmr_mission.params import Controller, Estimator, Robot, Scratch
+from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -115,20 +116,9 @@ class Record(NamedTuple):
     rows: IntArray  # (1,) rows used
 
 
-FLOAT_COLUMNS = (
-    "t",
-    "x",
-    "y",
-    "theta",
-    "x_est",
-    "y_est",
-    "theta_est",
-    "v",
-    "omega",
-    "x_ref",
-    "y_ref",
-    "constraint",
-)
+# The recorder's float columns: the state, estimate and input columns of
+# trajectory.csv, then the path point and the constraint value.
+FLOAT_COLUMNS = TRAJECTORY_COLUMNS[:-1] + EXTRA_COLUMNS[:-1]
 
 
 @kernel
