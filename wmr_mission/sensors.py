@@ -41,6 +41,9 @@ class Sensors:
 
     def ahead(self, rows: int) -> NDArray[np.float64]:
         """The next ``rows`` (or more) rows of noise, not yet used."""
+        if self._ahead.shape[0] < rows and not self._std.any():
+            # Noise-free: zeros, instead of draws scaled by zero.
+            self._ahead = np.zeros((max(rows, self.BLOCK), 3))
         if self._ahead.shape[0] < rows:
             blocks = [self._ahead]
             drawn = self._ahead.shape[0]
