@@ -53,10 +53,16 @@ def loop(repeat: int = 7) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
-def _wall(command: list[str], env: dict[str, str] | None = None) -> float:
+def _wall(command: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
+    """Wall time and CPU time (user + system) of a command [s]."""
+    import resource
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     subprocess.run(command, check=True, capture_output=True, env=env)
-    return time.perf_counter() - started
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
 
 
 def startup(repeat: int = 5) -> None:
@@ -71,9 +77,15 @@ def startup(repeat: int = 5) -> None:
             _wall([sys.executable, "-c", "import wmr_mission.run_command, wmr_mission.runner"])
             for _ in range(repeat)
         ]
-    print(f"run --no-plots case2, cached kernels: median {statistics.median(cached):.2f} s")
-    print(f"run --no-plots case2, first run (kernels compiled): {first:.1f} s")
-    print(f"python -c 'import wmr_mission.runner, ...': median {statistics.median(imports):.2f} s")
+
+    def show(what: str, times: list[tuple[float, float]]) -> None:
+        wall = statistics.median(t[0] for t in times)
+        cpu = statistics.median(t[1] for t in times)
+        print(f"{what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
+
+    show("run --no-plots case2, cached kernels", cached)
+    show("run --no-plots case2, first run (every kernel compiled)", [first])
+    show("python -c 'import wmr_mission.runner, ...'", imports)
 
 
 def _peak_rss_mb(command: list[str]) -> float:
@@ -133,14 +145,16 @@ def figures(repeat: int = 3) -> None:
         draw_all(result, Path(tmp))  # fonts and caches
         four, animation = [], []
         for _ in range(repeat):
-            started = time.perf_counter()
+            started = time.perf_counter(), time.thread_time()
             draw_all(result, Path(tmp))
-            four.append(time.perf_counter() - started)
-            started = time.perf_counter()
+            four.append((time.perf_counter() - started[0], time.thread_time() - started[1]))
+            started = time.perf_counter(), time.thread_time()
             write_animation(result, Path(tmp) / "animation.gif")
-            animation.append(time.perf_counter() - started)
-    print(f"case1: four figures median {statistics.median(four):.2f} s; "
-          f"animation median {statistics.median(animation):.2f} s")  # fmt: skip
+            animation.append((time.perf_counter() - started[0], time.thread_time() - started[1]))
+    for what, times in (("four figures", four), ("animation", animation)):
+        wall = statistics.median(t[0] for t in times)
+        cpu = statistics.median(t[1] for t in times)
+        print(f"case1, {what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
 
 
 def dare(repeat: int = 200) -> None:
