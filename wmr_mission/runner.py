@@ -328,6 +328,7 @@ class _Run:
                         None if to is None else to.phase.name,
                         condition,
                         value,
+                        None if to is None else to.phase.lap,
                     )
                 )
                 if to is None:
