@@ -104,6 +104,9 @@ class ActivePhase:
         self.entry_sample = 0
         self.target = np.zeros(3)
         self._trajectory: Trajectory | None = None
+        # Samples after which the phase ends for sure (elapsed or timeout).
+        bounds = [phase.until.elapsed_samples, phase.timeout_samples]
+        self.bound = min((b for b in bounds if b is not None), default=2**62)
 
     def enter(self, k: int, estimate: FloatArray) -> Phase:
         self.status = Status.running
@@ -286,10 +289,13 @@ class _Run:
         try:
             while True:
                 k = int(counters[loop.K])
-                path = active.path_ahead(k - active.entry_sample, chunk + 1)
-                noise = sensors.ahead(chunk)
+                local = k - active.entry_sample
+                # No further than the phase's own bound: no path sampled past its end.
+                samples = min(chunk, max(1, active.bound - local))
+                path = active.path_ahead(local, samples + 1)
+                noise = sensors.ahead(samples)
                 self.recorder.reserve(2)  # the loop stops early when the recorder is full
-                status = self._call(phase, path, noise, k + chunk)
+                status = self._call(phase, path, noise, k + samples)
                 sensors.used(int(counters[loop.NOISE]))
                 counters[loop.NOISE] = 0
                 k = int(counters[loop.K])
