@@ -12,12 +12,11 @@ import numpy as np
 import pytest
 from test_output_synthetic import circle_run
 
+from wmr_mission.output.reader import RunDirError, load_run
 from wmr_mission.output.rundir import (
-    RunDirError,
     RunDirExistsError,
     atomic_path,
     default_run_dir,
-    load_run,
     prepare_run_dir,
     write_run,
 )
@@ -325,4 +324,8 @@ def test_load_run_of_a_run_without_samples(tmp_path: Path) -> None:
     write(circle_run(10), tmp_path)
     csv_path = tmp_path / "trajectory.csv"
     csv_path.write_text(csv_path.read_text().partition("\n")[0] + "\n")
+    summary_path = tmp_path / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    summary["samples"] = 0  # a run stopped before its first sample says so
+    summary_path.write_text(json.dumps(summary))
     assert load_run(tmp_path).samples == 0

@@ -35,6 +35,7 @@ KERNEL_MODULES = (
     "observer.py",
     "ekf.py",
     "control.py",
+    "constrained_tracking.py",
     "loop.py",
 )
 

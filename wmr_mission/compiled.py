@@ -24,6 +24,14 @@ IntArray = NDArray[np.int64]
 
 FORMS = {"bearing": 0, "deviation": 1, "increment": 2}
 
+# A position farther than this from every coordinate the mission names is a
+# runaway, not a robot [m]: the threshold follows the mission's own scale, so a
+# mission written in map coordinates (y = 5e6) runs like one near the origin.
+RUNAWAY_DISTANCE = 1e6
+# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
+# no wheeled robot drives at 1 km/s or turns 160 times a second.
+RUNAWAY_INPUT = 1e3
+
 
 class Trajectory(Protocol):
     def sample(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]: ...
@@ -101,10 +109,50 @@ class CompiledMission:
     regions: dict[str, dict[str, object]]
     # Sample budget: the sum of each phase's bound, for pre-sizing the recorder.
     max_samples: int
+    # |x|, |y| [m] and |v|, |omega| [m/s, rad/s] beyond which the run has diverged.
+    runaway_position: float = RUNAWAY_DISTANCE
+    runaway_input: float = RUNAWAY_INPUT
 
 
 def _samples(seconds: float, dt: float) -> int:
     return max(1, round(seconds / dt))
+
+
+def _extent(mission: Mission) -> float:
+    """The largest coordinate magnitude the mission names [m]: start, estimate,
+    regions, targets, points, and each path's first point from the start pose."""
+    from wmr_mission import paths
+
+    start = mission.robot.initial_state
+    guess = mission.estimator.initial_estimate
+    numbers = [start.x, start.y, guess.x, guess.y]
+    for region in mission.regions.values():
+        numbers += _numbers(region.model_dump(mode="json", exclude={"rotation"}))
+    pose = (float(start.x), float(start.y), float(start.theta))
+    from wmr_mission.spec.repeats import run_order
+
+    for phase in {run.where: run.phase for run in run_order(mission)}.values():
+        numbers += _numbers(phase.model_dump(mode="json", include={"regulate"}))
+        if phase.until is not None and phase.until.near is not None:
+            numbers += list(phase.until.near.point)
+        if hasattr(phase, "track"):
+            trajectory = paths.instantiate(phase.track.path, mission, pose)
+            x, y, _, _ = trajectory.sample(np.zeros(1))
+            numbers += [float(x[0]), float(y[0])]
+    finite = [abs(float(n)) for n in numbers if math.isfinite(float(n))]
+    return max(finite, default=0.0)
+
+
+def _numbers(value: object) -> list[float]:
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return []
+    if isinstance(value, int | float):
+        return [float(value)]
+    if isinstance(value, dict):
+        return [n for item in value.values() for n in _numbers(item)]
+    if isinstance(value, list | tuple):
+        return [n for item in value for n in _numbers(item)]
+    return []
 
 
 def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, FloatArray]:
@@ -285,4 +333,5 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         phases=tuple(phases),
         regions={name: region.model_dump(mode="json") for name, region in mission.regions.items()},
         max_samples=budget + 1,
+        runaway_position=RUNAWAY_DISTANCE + _extent(mission),
     )

@@ -40,12 +40,6 @@ from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-# A position beyond this is a runaway, not a robot [m].
-RUNAWAY = 1e6
-# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
-# no wheeled robot drives at 1 km/s or turns 160 times a second.
-RUNAWAY_INPUT = 1e3
-
 # Why run_segment returned.
 CHUNK_END = 0
 EXITED = 1
@@ -184,7 +178,6 @@ def record_sample(
 ) -> int:
     """Append one row; returns its index. ``estimate`` and ``u`` are read now."""
     i: int = record.rows[0]
-    record.rows[0] = i + 1
     row = record.floats[i]
     row[0] = t
     row[1] = x
@@ -204,6 +197,8 @@ def record_sample(
     record.phase[i] = phase.number
     record.iterations[i] = iterations
     record.compute[i] = 0
+    # Counted once whole: a stop inside a sample (plain Python) leaves no half row.
+    record.rows[0] = i + 1
     return i
 
 
@@ -296,7 +291,7 @@ def run_segment(
                 scratch,
                 u,
             )
-        if not (abs(u[0]) <= RUNAWAY_INPUT and abs(u[1]) <= RUNAWAY_INPUT):  # NaN too
+        if not (abs(u[0]) <= robot.runaway_input and abs(u[1]) <= robot.runaway_input):  # NaN too
             spent = ticks() - started
             i = record_sample(
                 record, phase, k * dt, x, y, theta, estimate, u, reference_x, reference_y,
@@ -339,8 +334,10 @@ def run_segment(
         u_prev[1] = u[1]
         k += 1
         if not (
-            abs(state[0]) < RUNAWAY and abs(state[1]) < RUNAWAY and math.isfinite(state[2])
-            and abs(estimate[0]) < RUNAWAY and abs(estimate[1]) < RUNAWAY
+            abs(state[0]) < robot.runaway_position and abs(state[1]) < robot.runaway_position
+            and math.isfinite(state[2])
+            and abs(estimate[0]) < robot.runaway_position
+            and abs(estimate[1]) < robot.runaway_position
             and math.isfinite(estimate[2])
         ):  # fmt: skip
             record_sample(

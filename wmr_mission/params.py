@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from wmr_mission.compiled import RUNAWAY_DISTANCE, RUNAWAY_INPUT
+
 if TYPE_CHECKING:
     from wmr_mission.compiled import CompiledMission
 
@@ -25,6 +27,9 @@ class Robot(NamedTuple):
 
     dt: float  # [s] sampling period
     limits: FloatArray  # |v|, |omega|, then rate limits [m/s^2, rad/s^2] (inf when absent)
+    # |x| or |y| [m], |v| or |omega| [m/s, rad/s] beyond which the run has diverged.
+    runaway_position: float = RUNAWAY_DISTANCE
+    runaway_input: float = RUNAWAY_INPUT
 
 
 class Estimator(NamedTuple):
@@ -79,7 +84,7 @@ def scratch() -> Scratch:
 
 def records(m: CompiledMission) -> tuple[Robot, Estimator, Controller]:
     """The records of a compiled mission."""
-    robot = Robot(m.dt, m.limits)
+    robot = Robot(m.dt, m.limits, m.runaway_position, m.runaway_input)
     estimator = Estimator(
         m.estimator == "ekf",
         m.measure_mask,

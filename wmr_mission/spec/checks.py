@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Final, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from wmr_mission.spec.models import (
     BoxRegion,
@@ -25,6 +26,7 @@ from wmr_mission.spec.models import (
     Mission,
     Phase,
     PolygonRegion,
+    RegionSpec,
     RegulatePhase,
     RepeatPhase,
     StayInside,
@@ -73,6 +75,7 @@ def check(mission: Mission) -> list[Finding]:
         *_regions(mission),
         *_phase_rules(mission),
         *_initial_state(mission),
+        *_feasible_sets(mission),
         *_timing(mission),
         *_expectations(mission),
     ]
@@ -259,6 +262,132 @@ def _target_against_constraints(
             "can never fire",
             severity="warning",
         )
+
+
+FloatArray = NDArray[np.float64]
+
+# Points tried per phase: a grid over the constrained area, and each region's
+# boundary (a feasible set that is not empty has a boundary point on one of
+# them, or a grid point inside it).
+_GRID = 201
+_BOUNDARY = 2048
+
+
+def _feasible_sets(mission: Mission) -> Iterator[Finding]:
+    """A phase whose constraints no point meets: its inside-sets do not
+    overlap, or an outside-set covers their overlap. Sampled on a grid and on
+    every region's boundary, so a set narrower than both is not seen."""
+    written = {run.where: run.phase for run in run_order(mission)}  # each phase once
+    for where, phase in written.items():
+        sides = []
+        for constraint in phase.constraints:
+            inside = isinstance(constraint, StayInside)
+            name = (
+                constraint.stay_inside
+                if isinstance(constraint, StayInside)
+                else (constraint.stay_outside)
+            )
+            region = mission.regions.get(name)
+            if region is None:
+                return  # reported elsewhere
+            sides.append((name, region, inside))
+        if not sides:
+            continue
+        x, y = _candidates(mission, [region for _, region, _ in sides])
+        meets = np.ones(x.shape, dtype=bool)
+        for _, region, inside in sides:
+            meets &= _meets(region, inside, x, y)
+        if meets.any():
+            continue
+        insides = [name for name, _, inside in sides if inside]
+        inner = np.ones(x.shape, dtype=bool)
+        for _, region, inside in sides:
+            if inside:
+                inner &= _meets(region, True, x, y)
+        if insides and not inner.any():
+            cause = f"the regions it must stay inside ({', '.join(insides)}) do not overlap"
+        else:
+            outsides = [name for name, _, inside in sides if not inside]
+            area = f"inside {', '.join(insides)}" if insides else "of the plane"
+            cause = (
+                f"the regions it must stay outside ({', '.join(outsides)}) cover every point {area}"
+            )
+        yield Finding(
+            (*where, "constraints"),
+            f"phase {phase.name!r} has no point that meets all its constraints: {cause}",
+        )
+
+
+def _meets(region: RegionSpec, inside: bool, x: FloatArray, y: FloatArray) -> NDArray[np.bool_]:
+    from wmr_mission.regions import region_value
+
+    value = region_value(region, x, y)
+    return np.asarray(value <= 1e-9 if inside else value >= -1e-9)
+
+
+def _candidates(mission: Mission, regions: list[RegionSpec]) -> tuple[FloatArray, FloatArray]:
+    from wmr_mission.regions import ellipse_geometry
+
+    start = mission.robot.initial_state
+    xs: list[float] = [start.x]
+    ys: list[float] = [start.y]
+    for run in run_order(mission):
+        phase = run.phase
+        if isinstance(phase, RegulatePhase):
+            xs.append(phase.regulate.target.x)
+            ys.append(phase.regulate.target.y)
+    boundary_x: list[FloatArray] = []
+    boundary_y: list[FloatArray] = []
+    angle = np.linspace(0.0, 2.0 * math.pi, _BOUNDARY, endpoint=False)
+    lines = []
+    for region in regions:
+        if isinstance(region, EllipseRegion | CircleRegion):
+            cx, cy, a, b, rotation = ellipse_geometry(region)
+            u, w = a * np.cos(angle), b * np.sin(angle)
+            c, s = math.cos(rotation), math.sin(rotation)
+            boundary_x.append(cx + c * u - s * w)
+            boundary_y.append(cy + s * u + c * w)
+        elif isinstance(region, BoxRegion | PolygonRegion):
+            corners = (
+                [
+                    region.min,
+                    (region.max[0], region.min[1]),
+                    region.max,
+                    (region.min[0], region.max[1]),
+                ]
+                if isinstance(region, BoxRegion)
+                else region.vertices
+            )
+            points = np.array(corners, dtype=np.float64)
+            ends = np.roll(points, -1, axis=0)
+            share = np.linspace(0.0, 1.0, _BOUNDARY // len(points))[:, None, None]
+            edge = points[None] + share * (ends - points)[None]
+            boundary_x.append(edge[..., 0].ravel())
+            boundary_y.append(edge[..., 1].ravel())
+        else:  # half-plane: its line, sampled below over the area
+            lines.append(region)
+        if boundary_x:
+            xs += [float(boundary_x[-1].min()), float(boundary_x[-1].max())]
+            ys += [float(boundary_y[-1].min()), float(boundary_y[-1].max())]
+    low_x, high_x, low_y, high_y = min(xs), max(xs), min(ys), max(ys)
+    margin = 0.1 * max(high_x - low_x, high_y - low_y) + 1.0
+    low_x, high_x, low_y, high_y = low_x - margin, high_x + margin, low_y - margin, high_y + margin
+    grid_x, grid_y = np.meshgrid(
+        np.linspace(low_x, high_x, _GRID), np.linspace(low_y, high_y, _GRID)
+    )
+    reach = 2.0 * max(
+        high_x - low_x, high_y - low_y, abs(low_x), abs(high_x), abs(low_y), abs(high_y)
+    )
+    for region in lines:
+        nx, ny = region.normal
+        norm = math.hypot(nx, ny)
+        along = np.linspace(-reach, reach, 4 * _BOUNDARY)
+        foot_x, foot_y = nx * region.offset / norm**2, ny * region.offset / norm**2
+        boundary_x.append(foot_x - ny / norm * along)
+        boundary_y.append(foot_y + nx / norm * along)
+    x = np.concatenate([grid_x.ravel(), np.array(xs), *boundary_x])
+    y = np.concatenate([grid_y.ravel(), np.array(ys), *boundary_y])
+    return x, y
 
 
 def _initial_state(mission: Mission) -> Iterator[Finding]:

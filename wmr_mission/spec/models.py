@@ -96,6 +96,25 @@ PHASE_NAME: Final = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 
 # Larger magnitudes are typing mistakes, not missions (and would overflow the kernels).
 ABSURD: Final = 1e9
+# Plausibility floors: a positive quantity below these is a typing mistake, and
+# its square or inverse would underflow or overflow the kernels. Sizes, speeds
+# and rates of regions and paths [m, m/s, 1/s]; every other positive quantity
+# (limits, standard deviations, weights, tolerances).
+SMALLEST_SIZE: Final = 1e-6
+SMALLEST_POSITIVE: Final = 1e-9
+
+
+def _at_least(floor: float) -> AfterValidator:
+    def check(value: float) -> float:
+        if 0 < value < floor:
+            raise PydanticCustomError(
+                "implausibly_small",
+                "{value} is implausibly small: expected at least {floor}",
+                {"value": f"{value:g}", "floor": f"{floor:g}"},
+            )
+        return value
+
+    return AfterValidator(check)
 
 
 class _Model(BaseModel):
@@ -107,8 +126,10 @@ class _Model(BaseModel):
 # Plain numbers: an int or a float, never a bool or a numeric-looking text.
 Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-ABSURD, le=ABSURD)]
 NonNegative = Annotated[Number, Field(ge=0)]
-Positive = Annotated[Number, Field(gt=0)]
+Positive = Annotated[Number, Field(gt=0), _at_least(SMALLEST_POSITIVE)]
 Duration = Annotated[Number, Field(gt=0)]
+# true or false only, never a text such as 'yes' or 'off'.
+Flag = Annotated[bool, Strict()]
 
 _SCALAR_SCHEMA: Final[dict[str, Any]] = {
     "anyOf": [
@@ -175,6 +196,7 @@ PositiveScalar = Annotated[
     float,
     BeforeValidator(_evaluate_scalar),
     Field(allow_inf_nan=False, gt=0, le=ABSURD),
+    _at_least(SMALLEST_SIZE),
     _scalar_schema({"exclusiveMinimum": 0}),
 ]
 
@@ -433,7 +455,7 @@ class Regulation(_Model):
     align_radius: Positive = Field(
         default=0.01, description="Within this distance the bearing form turns to the target [m]."
     )
-    reverse: bool = Field(default=True, description="The bearing form may drive backwards.")
+    reverse: Flag = Field(default=True, description="The bearing form may drive backwards.")
 
 
 class Controller(_Model):
@@ -653,7 +675,7 @@ class WaypointsPath(_Model):
             "passes nearest the robot; first: at the first point."
         ),
     )
-    closed: bool = Field(default=False, description="Return to the first point and loop.")
+    closed: Flag = Field(default=False, description="Return to the first point and loop.")
 
 
 # --- routes drawn through points: polyline and coverage ---------------------
