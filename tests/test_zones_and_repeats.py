@@ -117,7 +117,7 @@ def literal_filter(
     input_jacobian_into(state[2], u[0], u[1], dt, b)
     d = np.zeros((2, 3))
     d[0, :2] = gx, gy
-    dv, dw = corrective_input(d, np.array([-value, 0.0]), 1, b, W, M)
+    dv, dw = corrective_input(d, np.array([-value, 0.0]), 1, b, W, M, LIMITS)
     u[0], u[1] = saturate(u[0] + dv, u[1] + dw, u[0], u[1], LIMITS, dt)
 
 
@@ -135,14 +135,15 @@ def drive_through_pond(
     state, u, u_prev = np.array([0.0, 0.0, 0.0]), np.zeros(2), np.array([speed, 0.0])
     work = scratch()
     dt, look_ahead = 0.01, 0.05
-    controller = Controller(look_ahead, np.ones(3), np.ones(2), W, M, BEARING, 0.01, False)
+    controller = Controller(look_ahead, 0.0, np.ones(3), np.ones(2), W, M, BEARING, 0.01, False)
     robot = Robot(dt, LIMITS)
     positions = []
     for k in range(round(seconds / dt)):
         reference = np.array([speed * (k + 1) * dt, 0.0, 1.0, 0.0])
         if move_reference:
             keep_reference(reference, kinds, params, look_ahead)
-        track_input(state, u_prev, reference, controller, robot, work, u)
+        # the one-sample law (error_decay 0): the path at t_k is not needed
+        track_input(state, u_prev, reference, reference, controller, robot, work, u)
         if literal:
             literal_filter(state, u, kinds, params, dt)
         else:

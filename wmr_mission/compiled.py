@@ -23,6 +23,8 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 FORMS = {"bearing": 0, "deviation": 1, "increment": 2}
+# [m] the smallest default look-ahead distance (the tracked point ahead of the axle).
+MIN_LOOK_AHEAD = 0.05
 
 # A position farther than this from every coordinate the mission names is a
 # runaway, not a robot [m]: the threshold follows the mission's own scale, so a
@@ -101,7 +103,10 @@ class CompiledMission:
     r: FloatArray
     w: FloatArray
     m: FloatArray
+    # Tracking: the look-ahead distance [m] (0 = the axle, literal eq. (27))
+    # and the fraction of the output's error left after one sample.
     look_ahead: float
+    error_decay: float
     regulation_form: int
     align_radius: float
     reverse: bool
@@ -124,7 +129,7 @@ def _extent(mission: Mission) -> float:
     from wmr_mission import paths
 
     start = mission.robot.initial_state
-    guess = mission.estimator.initial_estimate
+    guess = mission.estimator.initial_estimate or start
     numbers = [start.x, start.y, guess.x, guess.y]
     for region in mission.regions.values():
         numbers += _numbers(region.model_dump(mode="json", exclude={"rotation"}))
@@ -161,6 +166,31 @@ def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, Flo
     kinds = np.concatenate([p[0] for p in parts]).astype(np.int64)
     params = np.ascontiguousarray(np.vstack([p[1] for p in parts]), dtype=np.float64)
     return kinds, params
+
+
+def tracking_look_ahead(mission: Mission) -> float:
+    """The tracked point's distance ahead of the axle [m]; 0 for the literal axle law.
+
+    Unset, it is tied to the limits: ``max(0.05, limits.v * dt)``. The
+    one-sample input sensitivity of the point has determinant
+    ``dt^2 (l + v dt / 2)``, zero at ``v = -2 l / dt``; with ``l >= limits.v * dt``
+    it stays within a factor 3 of ``l dt^2`` at every speed the limits allow
+    (docs/paper-notes.md, eq. (27))."""
+    tracking = mission.controller.tracking
+    if tracking.output == "axle":
+        return 0.0
+    if tracking.look_ahead is not None:
+        return float(tracking.look_ahead)
+    return max(MIN_LOOK_AHEAD, float(mission.robot.limits.v) * float(mission.robot.dt))
+
+
+def tracking_error_decay(mission: Mission) -> float:
+    """Fraction of the tracked output's error left after one sample: 0 for the
+    one-sample laws (``time_constant: 0``, and the literal axle law)."""
+    tracking = mission.controller.tracking
+    if tracking.output == "axle" or tracking.time_constant == 0:
+        return 0.0
+    return math.exp(-float(mission.robot.dt) / float(tracking.time_constant))
 
 
 def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
@@ -293,7 +323,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
     limits = mission.robot.limits
     controller = mission.controller
     initial = mission.robot.initial_state
-    guess = estimator.initial_estimate
+    guess = initial if estimator.initial_estimate is None else estimator.initial_estimate
     return CompiledMission(
         name=mission.name,
         dt=dt,
@@ -324,9 +354,8 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         r=np.array(controller.R, dtype=np.float64),
         w=np.array(controller.W, dtype=np.float64),
         m=np.array(controller.M, dtype=np.float64),
-        look_ahead=controller.tracking.look_ahead
-        if controller.tracking.output == "look-ahead"
-        else 0.0,
+        look_ahead=tracking_look_ahead(mission),
+        error_decay=tracking_error_decay(mission),
         regulation_form=FORMS[controller.regulation.form],
         align_radius=controller.regulation.align_radius,
         reverse=controller.regulation.reverse,

@@ -203,6 +203,20 @@ def record_sample(
 
 
 @kernel
+def path_point(rows: FloatArray, row: int, heading: float, out: FloatArray) -> None:
+    """Point and unit tangent of the path block's ``row`` into ``out``; a path
+    at rest has no tangent: the robot's ``heading`` stands in."""
+    out[0] = rows[row, 0]
+    out[1] = rows[row, 1]
+    if rows[row, 2] != rows[row, 2]:
+        out[2] = math.cos(heading)
+        out[3] = math.sin(heading)
+    else:
+        out[2] = rows[row, 2]
+        out[3] = rows[row, 3]
+
+
+@kernel
 def run_segment(
     robot: Robot,
     estimator: Estimator,
@@ -225,6 +239,7 @@ def run_segment(
     u = signals.u
     u_prev = signals.u_prev
     counters = signals.counters
+    aim_now = scratch.aim_now
     aim = scratch.aim
     capacity = record.floats.shape[0]
     k = counters[K]
@@ -250,26 +265,20 @@ def run_segment(
             # The path point at t_k is recorded; the controller aims at t_{k+1}'s.
             reference_x = path.rows[row, 0]
             reference_y = path.rows[row, 1]
-            aim[0] = path.rows[row + 1, 0]
-            aim[1] = path.rows[row + 1, 1]
-            if path.rows[row + 1, 2] != path.rows[row + 1, 2]:
-                # A path at rest has no tangent: keep the robot's heading.
-                aim[2] = math.cos(estimate[2])
-                aim[3] = math.sin(estimate[2])
-            else:
-                aim[2] = path.rows[row + 1, 2]
-                aim[3] = path.rows[row + 1, 3]
+            path_point(path.rows, row, estimate[2], aim_now)
+            path_point(path.rows, row + 1, estimate[2], aim)
             if phase.constraint_kinds.shape[0]:  # aim along a zone's edge it crosses
-                keep_reference(
-                    aim, phase.constraint_kinds, phase.constraint_params, controller.look_ahead
-                )
+                kinds = phase.constraint_kinds
+                params = phase.constraint_params
+                keep_reference(aim_now, kinds, params, controller.look_ahead)
+                keep_reference(aim, kinds, params, controller.look_ahead)
         x = state[0]
         y = state[1]
         theta = state[2]
         started = ticks()
         # --- controller: u_k from x_{k|k}.
         if phase.tracking:
-            track_input(estimate, u_prev, aim, controller, robot, scratch, u)
+            track_input(estimate, u_prev, aim_now, aim, controller, robot, scratch, u)
             # The filter after the tracking law: zones win over tracking, eq. (28)
             # with priority (wmr_mission.constrained_tracking).
             if phase.constraint_kinds.shape[0]:
@@ -358,7 +367,7 @@ def python_loop(replacements: dict[str, object]) -> types.FunctionType:
     The loop's own helpers run as plain Python too."""
     source = getattr(run_segment, "py_func", run_segment)
     namespace = dict(source.__globals__)
-    for name in ("exit_condition", "record_sample", "step"):
+    for name in ("exit_condition", "record_sample", "path_point", "step"):
         namespace[name] = getattr(namespace[name], "py_func", namespace[name])
     namespace.update(replacements)
     return types.FunctionType(source.__code__, namespace, "run_segment")

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.spec.models import (
+    BOUND_NOISE_RATIO,
     BoxRegion,
     CircleRegion,
     CoveragePath,
@@ -41,6 +42,14 @@ MAX_SAMPLES: Final = 50_000_000
 
 # Samples of a path when looking for a `reaches` crossing; finer than this only costs time.
 _REACH_SAMPLES: Final = 20_001
+
+# [m/s, rad/s] a limit at or beyond the runner's runaway bound limits nothing.
+NO_LIMIT: Final = 1e3
+# [rad] turn per sample beyond which eq. (1), second order in omega dt, is no
+# longer the robot's motion: its step is 3 % longer than the arc at 0.5 rad.
+LARGEST_TURN_PER_SAMPLE: Final = 0.5
+# Output-error bounds below this many noise standard deviations act on noise.
+BOUND_NOISE_FLOOR: Final = 3.0
 
 Severity = Literal["error", "warning"]
 Pose = tuple[float, float, float]
@@ -78,6 +87,8 @@ def check(mission: Mission) -> list[Finding]:
         *_feasible_sets(mission),
         *_timing(mission),
         *_expectations(mission),
+        *_control(mission),
+        *_estimator_bounds(mission),
     ]
     if not any(f.severity == "error" for f in findings):
         # sampling paths needs a sound mission (regions of the right kind, bounded phases)
@@ -575,3 +586,66 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
             severity="warning",
             at_key=True,
         )
+
+
+def _control(mission: Mission) -> Iterator[Finding]:
+    """Traps of the tracking law and of eq. (1) at the configured limits."""
+    from wmr_mission.compiled import tracking_error_decay, tracking_look_ahead
+
+    robot = mission.robot
+    limits = robot.limits
+    if robot.dt * limits.omega > LARGEST_TURN_PER_SAMPLE:
+        yield Finding(
+            ("robot", "limits", "omega"),
+            f"limits.omega * dt = {limits.omega * robot.dt:g} rad per sample: eq. (1) is second "
+            f"order in omega dt and stops being the robot's motion beyond "
+            f"{LARGEST_TURN_PER_SAMPLE:g} rad per sample; lower limits.omega or dt",
+            severity="warning",
+        )
+    if not any(isinstance(p, TrackPhase) for p in mission.phases):
+        return
+    tracking = mission.controller.tracking
+    look_ahead = tracking_look_ahead(mission)
+    if limits.v >= NO_LIMIT and tracking.output == "look-ahead" and tracking.look_ahead is None:
+        yield Finding(
+            ("robot", "limits", "v"),
+            f"limits.v = {limits.v:g} m/s is no limit, but the tracking law ties its look-ahead "
+            f"to it (max(0.05, limits.v * dt) = {look_ahead:g} m); give the robot's real speed "
+            "limit or set controller.tracking.look_ahead",
+        )
+    elif tracking_error_decay(mission) == 0.0 and max(limits.v, limits.omega) >= NO_LIMIT:
+        law = "the literal axle law" if look_ahead == 0.0 else "a one-sample tracking law"
+        yield Finding(
+            ("robot", "limits"),
+            f"{law} closes the whole tracking error in one sample and runs away without "
+            f"actuator limits (limits.v = {limits.v:g}, limits.omega = {limits.omega:g}); "
+            "give the robot's real limits, or a controller.tracking.time_constant > 0",
+            severity="warning",  # a fair way to watch the paper's law diverge
+        )
+    if look_ahead > 0.0 and look_ahead <= 0.5 * limits.v * robot.dt:
+        # det(D B) = dt^2 (look_ahead + v dt / 2): zero at v = -2 look_ahead / dt.
+        yield Finding(
+            ("controller", "tracking", "look_ahead"),
+            f"the look-ahead law is singular at v = {-2 * look_ahead / robot.dt:g} m/s, within "
+            f"limits.v = {limits.v:g} (det(D B) = dt^2 (look_ahead + v dt / 2)); use a "
+            f"look_ahead of at least limits.v * dt = {limits.v * robot.dt:g} m, or leave it unset",
+        )
+
+
+def _estimator_bounds(mission: Mission) -> Iterator[Finding]:
+    """Eq. (4) bounds narrower than the noise make phase II act on the noise."""
+    estimator = mission.estimator
+    if isinstance(estimator, Ekf) or not estimator.output_error_bounds:
+        return
+    noise = mission.sensors.noise_std
+    for state, (lower, upper) in estimator.output_error_bounds.items():
+        std = float(getattr(noise, state))
+        if std > 0 and min(-lower, upper) < BOUND_NOISE_FLOOR * std:
+            yield Finding(
+                ("estimator", "output_error_bounds", state),
+                f"output_error_bounds.{state} [{lower:g}, {upper:g}] is within "
+                f"{BOUND_NOISE_FLOOR:g} noise standard deviations (sensors.noise_std.{state} = "
+                f"{std:g}): phase II of the estimator would act on the noise; use at least "
+                f"+-{BOUND_NOISE_RATIO * std:g} or leave the bounds unset",
+                severity="warning",
+            )

@@ -348,12 +348,23 @@ OutputErrorBound = Annotated[tuple[Number, Number], AfterValidator(_check_bound)
 Pole = Annotated[Number, Field(ge=0, lt=1)]
 
 
-def _paper_estimate() -> Pose:
-    return Pose(x=1.0, y=1.0, theta=0.0)  # section IV: x_hat(0|0) = [1 1 0]
+# Default output-error bound of eq. (4) [m or rad]: the larger of this and
+# BOUND_NOISE_RATIO times the state's noise std, so that phase II acts on
+# estimation errors, not on the noise (docs/paper-notes.md, eq. (4)).
+DEFAULT_BOUND = 0.05
+BOUND_NOISE_RATIO = 5.0
 
 
 def _default_bounds() -> dict[StateName, tuple[float, float]]:
-    return dict.fromkeys(STATES, (-0.05, 0.05))
+    return dict.fromkeys(STATES, (-DEFAULT_BOUND, DEFAULT_BOUND))
+
+
+def default_bound(noise_std: float) -> float:
+    """Half-width of the default output-error bound for a state with this noise."""
+    return max(DEFAULT_BOUND, BOUND_NOISE_RATIO * noise_std)
+
+
+_INITIAL_ESTIMATE = "Estimate at mission start [m, m, rad]; null = robot.initial_state."
 
 
 class StatePoles(_Model):
@@ -376,9 +387,7 @@ class ConstrainedObserver(_Model):
     """The paper's two-phase constrained estimator, eqs. (4)-(12)."""
 
     type: Literal["constrained-observer"] = Field(description="Estimator kind.")
-    initial_estimate: Pose = Field(
-        default_factory=_paper_estimate, description="Estimate at mission start [m, m, rad]."
-    )
+    initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
     poles: StatePoles = Field(
         default_factory=StatePoles,
         description=(
@@ -392,7 +401,7 @@ class ConstrainedObserver(_Model):
         description=(
             "Eq. (4): [lower, upper] bounds on each measured state's output error "
             "[m or rad], lower < 0 < upper; keys must be measured states; null = no phase II. "
-            "Default: [-0.05, 0.05] on every measured state."
+            "Default on every measured state: +-max(0.05, 5 sensors.noise_std)."
         ),
     )
     max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = Field(
@@ -404,9 +413,7 @@ class Ekf(_Model):
     """Baseline extended Kalman filter."""
 
     type: Literal["ekf"] = Field(description="Estimator kind.")
-    initial_estimate: Pose = Field(
-        default_factory=_paper_estimate, description="Estimate at mission start [m, m, rad]."
-    )
+    initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
     initial_std: StatePositiveStd = Field(
         default_factory=lambda: StatePositiveStd(x=1.0, y=1.0, theta=0.5),
         description="Square root of the diagonal of P0 [m, m, rad], > 0.",
@@ -437,8 +444,22 @@ class Tracking(_Model):
         default="look-ahead",
         description="look-ahead: a point ahead of the axle; axle: the literal eq. (27).",
     )
-    look_ahead: Positive = Field(
-        default=0.05, description="Distance of the look-ahead point ahead of the axle [m]."
+    look_ahead: Positive | None = Field(
+        default=None,
+        description=(
+            "Distance of the look-ahead point ahead of the axle [m]; "
+            "null = max(0.05, robot.limits.v * robot.dt), where the law is well conditioned "
+            "at every speed the limits allow."
+        ),
+    )
+    time_constant: NonNegative = Field(
+        default=0.1,
+        description=(
+            "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
+            "time_constant) of the output's error, the path's own motion fed forward; "
+            "0 = close the whole error in one sample (the literal eq. 27; always so for "
+            "output: axle)."
+        ),
     )
 
 
@@ -1109,7 +1130,8 @@ class Mission(_Model):
     @model_validator(mode="before")
     @classmethod
     def _default_bounds_on_measured_states(cls, data: Any) -> Any:
-        """Default output-error bounds cover the measured states only."""
+        """Default output-error bounds cover the measured states only, each
+        wide enough that the state's noise alone rarely leaves it."""
         if not isinstance(data, dict):
             return data
         estimator = data.get("estimator", {"type": "constrained-observer"})
@@ -1121,5 +1143,12 @@ class Mission(_Model):
         measure = sensors.get("measure", STATES)
         if not isinstance(measure, list | tuple) or not all(s in STATES for s in measure):
             return data
-        bounds = dict.fromkeys(measure, (-0.05, 0.05))
+        noise = sensors.get("noise_std", {})
+        bounds = {}
+        for state in measure:
+            std = noise.get(state, 0.0) if isinstance(noise, dict) else 0.0
+            if isinstance(std, bool) or not isinstance(std, int | float) or not std >= 0:
+                std = 0.0  # the field's own check reports it
+            half_width = default_bound(float(std))
+            bounds[state] = (-half_width, half_width)
         return {**data, "estimator": {**estimator, "output_error_bounds": bounds}}
