@@ -230,9 +230,16 @@ def test_summary_lists_the_expectations(tmp_path: Path) -> None:
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["outcome"] == "success"
     assert summary["expectations"] == [
-        {"metric": "final_position_error", "max": 0.05, "value": pytest.approx(2.0), "met": False},
+        {
+            "metric": "final_position_error",
+            "phase": None,
+            "max": 0.05,
+            "value": pytest.approx(2.0),
+            "met": False,
+        },
         {
             "metric": "estimation_convergence_time",
+            "phase": None,
             "max": 1.0,
             "value": pytest.approx(0.29),
             "met": True,

@@ -28,17 +28,6 @@ EXIT_RUN_DIR = 2  # the run directory cannot be made or written
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
-def _expectation_failures(result: RunResult, expect: dict[str, Any]) -> list[str]:
-    from wmr_mission.output.metrics import check_expectations, summarize
-
-    failures = []
-    for item in check_expectations(summarize(result), expect):
-        if not item["met"]:
-            value = "none" if item["value"] is None else f"{item['value']:.6g}"
-            failures.append(f"{item['metric']} = {value} (max {item['max']:.6g})")
-    return failures
-
-
 @contextmanager
 def _stop_signals() -> Iterator[list[int]]:
     """SIGTERM stops the run the way Ctrl-C does; yields the signals received.
@@ -104,7 +93,7 @@ def _run(
     received: list[int],
 ) -> int:
     from wmr_mission.compiled import compile_mission
-    from wmr_mission.output.metrics import check_expectations, summarize
+    from wmr_mission.output.metrics import judge
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
         RunDirExistsError,
@@ -146,15 +135,10 @@ def _run(
     resolved = mission.model_dump(mode="json")
     if seed is not None:  # the manifest records the mission as run
         resolved["sensors"]["seed"] = seed
-    expect = resolved.get("expect") or {}
     if result.outcome is Outcome.interrupted:
         name = signal.Signals(received[0]).name if received else "SIGINT"
         result.message = f"{result.message} by {name}"
-    elif result.outcome is Outcome.success:
-        failures = _expectation_failures(result, expect)
-        if failures:
-            result.outcome = Outcome.expect_failed
-            result.message = "expectation not met: " + "; ".join(failures)
+    summary = judge(result, resolved)  # a success that misses an `expect` is not one
     stopped = result.outcome is Outcome.interrupted
     try:
         write_run(
@@ -177,8 +161,6 @@ def _run(
     except KeyboardInterrupt:
         print(f"{run_dir}: interrupted while writing; no summary.json", file=sys.stderr)
         return _signal_exit(received)
-    summary = summarize(result)
-    summary["expectations"] = check_expectations(summary, expect)
     print(format_table(summary, run_dir))
     if stopped:
         print(

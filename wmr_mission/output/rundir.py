@@ -394,10 +394,9 @@ def write_run(
         from wmr_mission.output.animation import write_animation
 
         written.append(write_animation(result, run_dir / ANIMATION_FILE))
-    summary = summarize(result)
-    expect = resolved_mission.get("expect")
-    if isinstance(expect, Mapping):
-        summary["expectations"] = check_expectations(summary, dict(expect))
+    summary = summarize(result, resolved_mission)
+    if isinstance(resolved_mission.get("expect"), Mapping):
+        summary["expectations"] = check_expectations(summary, resolved_mission)
     written.append(write_json(run_dir / SUMMARY_FILE, summary))
     (run_dir / CLAIM_FILE).unlink(missing_ok=True)
     return written

@@ -42,6 +42,10 @@ MAX_SAMPLES: Final = 50_000_000
 
 # Samples of a path when looking for a `reaches` crossing; finer than this only costs time.
 _REACH_SAMPLES: Final = 20_001
+# Below this path speed [m/s] the direction of the path is not defined (a stop or a cusp).
+_STANDSTILL: Final = 1e-6
+# A path's turn rate is its turn within this time [s], divided by it.
+TURN_WINDOW: Final = 1.0
 
 # [m/s, rad/s] a limit at or beyond the runner's runaway bound limits nothing.
 NO_LIMIT: Final = 1e3
@@ -53,6 +57,7 @@ BOUND_NOISE_FLOOR: Final = 3.0
 
 Severity = Literal["error", "warning"]
 Pose = tuple[float, float, float]
+FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -274,8 +279,6 @@ def _target_against_constraints(
             severity="warning",
         )
 
-
-FloatArray = NDArray[np.float64]
 
 # Points tried per phase: a grid over the constrained area, and each region's
 # boundary (a feasible set that is not empty has a boundary point on one of
@@ -509,7 +512,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
 
     The robot is assumed to follow each phase perfectly: a track phase starts
     where the previous one ended (the initial state for the first phase, the
-    previous path's end or the previous target otherwise). Kept this simple on
+    previous path's point where it first reaches its `reaches` region or else
+    its end, or the previous target). Kept this simple on
     purpose: the check only has to catch a path that plainly misses.
     """
     from wmr_mission import paths
@@ -557,12 +561,15 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             return
         name = phase.until.reaches
         region = mission.regions.get(name) if name is not None else None
+        followed = times.size  # samples up to the predicted end of the phase
         if region is not None:
             entry = np.sign(region_value(region, np.array([pose[0]]), np.array([pose[1]])))[0]
             with np.errstate(all="ignore"):
                 values = region_value(region, x, y)
             crossed = np.isfinite(values) & (np.sign(values) != entry)
-            if not np.any(crossed):
+            if np.any(crossed):
+                followed = int(np.argmax(crossed)) + 1
+            else:
                 yield Finding(
                     (*where, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
@@ -570,12 +577,94 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                     f"{_limit(phase, mission_time - bound)}",
                     severity="warning",
                 )
-        if np.isfinite(x[-1]) and np.isfinite(y[-1]):
-            heading = math.atan2(float(dy[-1]), float(dx[-1])) if dx[-1] or dy[-1] else pose[2]
-            pose = (float(x[-1]), float(y[-1]), heading)
+        yield from _path_within_limits(mission, where, phase, times[:followed], dx, dy, assumed)
+        last = followed - 1  # the next phase starts where this one is predicted to end
+        if np.isfinite(x[last]) and np.isfinite(y[last]):
+            heading = (
+                math.atan2(float(dy[last]), float(dx[last])) if dx[last] or dy[last] else pose[2]
+            )
+            pose = (float(x[last]), float(y[last]), heading)
+
+
+def _path_within_limits(
+    mission: Mission,
+    where: DataPath,
+    phase: TrackPhase,
+    times: FloatArray,
+    dx: FloatArray,
+    dy: FloatArray,
+    assumed: str,
+) -> Iterator[Finding]:
+    """The path's own speed, and how fast it turns, against the actuator
+    limits, up to the phase's predicted end: a robot on a path it cannot keep
+    up with falls behind or cuts across, whatever the law.
+
+    The turn rate is the path's turn within TURN_WINDOW seconds, divided by
+    them (speed x curvature on a smooth path): a corner of a polyline or a lane
+    end is a turn the robot makes up within that time, a circle too tight for
+    the limit is not. The direction is taken up to a reversal, which the robot
+    drives rather than turns. An error when the phase's end is known in advance
+    (it ends on time, or on reaching a region the path crosses), a warning when
+    a near or heading condition may end it first.
+    """
+    if times.size < 2:
+        return
+    dx, dy = dx[: times.size], dy[: times.size]
+    speed = np.hypot(dx, dy)
+    limits = mission.robot.limits
+    path = phase.track.path
+    field = next((f for f in ("angular_rate", "speed") if f in type(path).model_fields), None)
+    at: DataPath = (*where, "track", "path", *((field,) if field else ()))
+    predictable = phase.until.near is None and phase.until.heading is None
+    for need, limit, what, unit, name in (
+        (speed, limits.v, "a speed", "m/s", "limits.v"),
+        (_turn_rate(times, dx, dy, speed), limits.omega, "a turn rate", "rad/s", "limits.omega"),
+    ):
+        over = np.flatnonzero(need > limit * (1.0 + 1e-9))
+        if over.size == 0:
+            continue
+        peak = float(np.max(need[np.isfinite(need)]))
+        yield Finding(
+            at,
+            f"the path needs {what} of up to {peak:.3g} {unit} (from t = "
+            f"{float(times[over[0]]):.3g} s of phase {phase.name!r}), above robot.{name} = "
+            f"{limit:g} {unit} ({assumed}); the robot cannot follow it: slow the path down "
+            f"or raise the limit",
+            severity="error" if predictable else "warning",
+        )
+
+
+def _turn_rate(times: FloatArray, dx: FloatArray, dy: FloatArray, speed: FloatArray) -> FloatArray:
+    """|turn of the path's direction over the next TURN_WINDOW s| / TURN_WINDOW,
+    from each sample (over the whole phase when it is shorter)."""
+    moving = speed > _STANDSTILL
+    if not moving.any():
+        return np.zeros(0)
+    # where the path stands still its direction is the last one it had
+    held = np.maximum.accumulate(np.where(moving, np.arange(times.size), 0))
+    held[: int(np.argmax(moving))] = int(np.argmax(moving))
+    axis = np.unwrap(2.0 * np.arctan2(dy[held], dx[held])) / 2.0  # up to a reversal
+    step = float(times[1] - times[0])
+    span = max(1, min(round(TURN_WINDOW / step), times.size - 1))
+    turn: FloatArray = np.abs(axis[span:] - axis[:-span]) / (span * step)
+    return turn
 
 
 def _expectations(mission: Mission) -> Iterator[Finding]:
+    for run in run_order(mission):
+        phase = run.phase
+        if isinstance(phase, TrackPhase) or (run.lap is not None and run.lap > 1):
+            continue
+        kind = "regulate" if isinstance(phase, RegulatePhase) else "hold"
+        for key in ("tracking_error_rms", "tracking_error_max"):
+            if getattr(phase.expect, key) is not None:
+                yield Finding(
+                    (*run.where, "expect", key),
+                    f"expect.{key} measures the distance from a path, but phase "
+                    f"{phase.name!r} is a {kind} phase: it is never checked",
+                    severity="warning",
+                    at_key=True,
+                )
     # A track phase's last reference point has a position but no heading.
     has_target = any(isinstance(p.phase, RegulatePhase) for p in run_order(mission))
     if mission.expect.final_heading_error is not None and not has_target:

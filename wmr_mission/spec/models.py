@@ -57,6 +57,7 @@ __all__ = [
     "Near",
     "PathSpec",
     "Phase",
+    "PhaseExpect",
     "PolygonRegion",
     "PolylinePath",
     "Pose",
@@ -73,6 +74,8 @@ __all__ = [
     "StateName",
     "StatePoles",
     "StateStd",
+    "StateThresholds",
+    "StateTolerance",
     "StayInside",
     "StayOutside",
     "Step",
@@ -827,6 +830,82 @@ PathSpec = Annotated[
 ]
 
 
+# --- expectations ----------------------------------------------------------
+
+
+class Threshold(_Model):
+    """An upper bound on a run metric."""
+
+    max: NonNegative = Field(description="Largest accepted value, in the metric's unit.")
+
+
+class StateThresholds(_Model):
+    """An upper bound per state, in the state's unit; a state left out is not checked."""
+
+    x: NonNegative | None = Field(default=None, description="[m] bound for x.")
+    y: NonNegative | None = Field(default=None, description="[m] bound for y.")
+    theta: NonNegative | None = Field(default=None, description="[rad] bound for theta.")
+
+
+# The paper's "short transient" acceptance, in metres and radians alike.
+DEFAULT_CONVERGENCE_TOLERANCE: Final = 0.05
+
+
+class StateTolerance(_Model):
+    """A tolerance per state, in the state's unit."""
+
+    x: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[m] tolerance for x, > 0."
+    )
+    y: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[m] tolerance for y, > 0."
+    )
+    theta: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[rad] tolerance for theta, > 0."
+    )
+
+
+class PhaseExpect(_Model):
+    """Thresholds on one phase's metrics; a key left out (or null) takes the mission's value."""
+
+    settle_time: NonNegative | None = Field(
+        default=None,
+        description=(
+            "[s] the start of the phase that the tracking, input and estimation-RMS metrics "
+            "leave out (the entry transient)."
+        ),
+    )
+    tracking_error_rms: Threshold | None = Field(
+        default=None,
+        description="[m] RMS distance of the true position from the path after settle_time.",
+    )
+    tracking_error_max: Threshold | None = Field(
+        default=None,
+        description="[m] largest distance of the true position from the path after settle_time.",
+    )
+    speed_at_limit: Threshold | None = Field(
+        default=None,
+        description="Fraction of the samples after settle_time with |v| at limits.v.",
+    )
+    turn_rate_at_limit: Threshold | None = Field(
+        default=None,
+        description="Fraction of the samples after settle_time with |omega| at limits.omega.",
+    )
+    turn_rate_jitter: Threshold | None = Field(
+        default=None,
+        description=(
+            "[rad/s] RMS of omega about its 25-sample centred moving mean, after settle_time."
+        ),
+    )
+    turn_rate_reversals: Threshold | None = Field(
+        default=None, description="Sign changes of omega after settle_time (a count)."
+    )
+    estimation_rms: StateThresholds | None = Field(
+        default=None,
+        description="RMS estimation error (true - estimate) per state after settle_time.",
+    )
+
+
 # --- phases ----------------------------------------------------------------
 
 
@@ -933,6 +1012,10 @@ class _PhaseCommon(_Model):
             "Keep-in and keep-out zones (eq. (28)); on a track phase they win over the path."
         ),
     )
+    expect: PhaseExpect = Field(
+        default_factory=PhaseExpect,
+        description="Thresholds on this phase's metrics, overriding the mission's expect.",
+    )
 
 
 class TrackPhase(_PhaseCommon):
@@ -1023,17 +1106,57 @@ Step = Annotated[
 ]
 
 
-# --- expectations ----------------------------------------------------------
+# The verdict a run gets unless the mission says otherwise: its inputs do not sit
+# at a limit (the rule of thumb: 1 % of a phase after its first second) and it
+# stays near its path. A mission relaxes them by setting its own values.
+DEFAULT_SETTLE_TIME: Final = 1.0
+DEFAULT_AT_LIMIT: Final = 0.01
+DEFAULT_TRACKING_ERROR_MAX: Final = 0.1
 
 
-class Threshold(_Model):
-    """An upper bound on a run metric."""
+class Expect(PhaseExpect):
+    """Acceptance thresholds; `run` exits 1 when one is not met.
 
-    max: NonNegative = Field(description="Largest accepted value, in the metric's unit.")
+    The keys settle_time to estimation_rms apply to each phase (a phase's own
+    `expect` overrides them); null turns one off for the whole mission. See
+    "Verdicts" above.
+    """
 
-
-class Expect(_Model):
-    """Acceptance thresholds; `run` exits 1 when one is not met."""
+    settle_time: NonNegative = Field(
+        default=DEFAULT_SETTLE_TIME,
+        description=(
+            "[s] the start of each phase that the tracking, input and estimation-RMS metrics "
+            "leave out (the entry transient)."
+        ),
+    )
+    tracking_error_max: Threshold | None = Field(
+        default=Threshold(max=DEFAULT_TRACKING_ERROR_MAX),
+        description=(
+            "[m] largest distance of the true position from the path after settle_time; "
+            "{max: 0.1} unless set."
+        ),
+    )
+    speed_at_limit: Threshold | None = Field(
+        default=Threshold(max=DEFAULT_AT_LIMIT),
+        description=(
+            "Fraction of the samples after settle_time with |v| at limits.v; "
+            "{max: 0.01} unless set."
+        ),
+    )
+    turn_rate_at_limit: Threshold | None = Field(
+        default=Threshold(max=DEFAULT_AT_LIMIT),
+        description=(
+            "Fraction of the samples after settle_time with |omega| at limits.omega; "
+            "{max: 0.01} unless set."
+        ),
+    )
+    convergence_tolerance: StateTolerance = Field(
+        default_factory=StateTolerance,
+        description=(
+            "|estimation error| per state below which the estimate counts as converged "
+            "(estimation_convergence_time) and the floor of the overshoot metric."
+        ),
+    )
 
     final_position_error: Threshold | None = Field(
         default=None,
@@ -1052,7 +1175,10 @@ class Expect(_Model):
     )
     estimation_convergence_time: Threshold | None = Field(
         default=None,
-        description="[s] first time after which every state's |estimation error| stays < 0.05.",
+        description=(
+            "[s] first time after which every state's |estimation error| stays below its "
+            "convergence_tolerance."
+        ),
     )
     duration: Threshold | None = Field(default=None, description="[s] mission time.")
 
