@@ -410,7 +410,11 @@ class _Run:
             for lo, hi in zip(m.lower_bounds, m.upper_bounds, strict=True)
         )
         compute = record.compute[:n]
-        if ns_per_tick != 1.0:
+        if not (self.ticks_are_ns or _jit.TICKS_TIMED):
+            # Compiled where no cheap clock can be read inside the loop (not
+            # x86-64): each sample gets the whole loop's mean.
+            compute[:] = self.loop_ns // max(1, n)
+        elif ns_per_tick != 1.0:
             compute[:] = np.rint(compute * ns_per_tick).astype(np.int64)
         columns = {name: r.column(name) for name in FLOAT_COLUMNS}
         return RunResult(
