@@ -111,9 +111,11 @@ class Record(NamedTuple):
     rows: IntArray  # (1,) rows used
 
 
-# The recorder's float columns: the state, estimate and input columns of
-# trajectory.csv, then the path point and the constraint value.
-FLOAT_COLUMNS = TRAJECTORY_COLUMNS[:-1] + EXTRA_COLUMNS[:-1]
+# The recorder's float columns: those of trajectory.csv, in its order (the
+# phase and the phase-II iterations are kept apart).
+FLOAT_COLUMNS = tuple(
+    c for c in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS) if c not in ("phase", "phase2_iterations")
+)
 
 
 @kernel
@@ -174,9 +176,11 @@ def record_sample(
     u: FloatArray,
     reference_x: float,
     reference_y: float,
+    measured: FloatArray,
     iterations: int,
 ) -> int:
-    """Append one row; returns its index. ``estimate`` and ``u`` are read now."""
+    """Append one row; returns its index. ``estimate``, ``u`` and ``measured``
+    (the measurement of this sample's state, NaN where none) are read now."""
     i: int = record.rows[0]
     row = record.floats[i]
     row[0] = t
@@ -194,6 +198,9 @@ def record_sample(
         row[11] = max_row_value(phase.constraint_kinds, phase.constraint_params, x, y)
     else:
         row[11] = math.nan
+    row[12] = measured[0]
+    row[13] = measured[1]
+    row[14] = measured[2]
     record.phase[i] = phase.number
     record.iterations[i] = iterations
     record.compute[i] = 0
@@ -240,6 +247,7 @@ def run_segment(
     u_prev = signals.u_prev
     counters = signals.counters
     aim_now = scratch.aim_now
+    shown = scratch.measured
     aim = scratch.aim
     capacity = record.floats.shape[0]
     k = counters[K]
@@ -275,6 +283,9 @@ def run_segment(
         x = state[0]
         y = state[1]
         theta = state[2]
+        # The measurement of x_k, which the estimator used for x_{k|k} (none at k = 0).
+        for j in range(3):
+            shown[j] = measurement[j] if k > 0 and estimator.mask[j] > 0.0 else math.nan
         started = ticks()
         # --- controller: u_k from x_{k|k}.
         if phase.tracking:
@@ -304,7 +315,7 @@ def run_segment(
             spent = ticks() - started
             i = record_sample(
                 record, phase, k * dt, x, y, theta, estimate, u, reference_x, reference_y,
-                iterations,
+                shown, iterations,
             )  # fmt: skip
             record.compute[i] = spent
             status = DIVERGED_INPUT
@@ -336,7 +347,7 @@ def run_segment(
         spent = ticks() - started
         i = record_sample(
             record, phase, k * dt, x, y, theta, estimate_prev, u, reference_x, reference_y,
-            recorded_iterations,
+            shown, recorded_iterations,
         )  # fmt: skip
         record.compute[i] = spent
         u_prev[0] = u[0]
@@ -349,9 +360,11 @@ def run_segment(
             and abs(estimate[1]) < robot.runaway_position
             and math.isfinite(estimate[2])
         ):  # fmt: skip
+            for j in range(3):
+                shown[j] = measurement[j] if estimator.mask[j] > 0.0 else math.nan
             record_sample(
                 record, phase, k * dt, state[0], state[1], state[2], estimate, u_prev,
-                math.nan, math.nan, iterations,
+                math.nan, math.nan, shown, iterations,
             )  # fmt: skip
             status = DIVERGED_STATE
             break

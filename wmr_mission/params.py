@@ -70,6 +70,7 @@ class Scratch(NamedTuple):
     aim_now: FloatArray  # (4,) path point and unit tangent at t_k (tracking)
     aim: FloatArray  # (4,) path point and unit tangent at t_{k+1} the tracking law aims at
     gain: FloatArray  # (2, 3) regulator gain T of eq. (20)
+    measured: FloatArray  # (3,) the measurement recorded with a sample (NaN where none)
     h: FloatArray  # (2, 2) weight of the tracking output's motion (constrained tracking)
 
 
@@ -81,6 +82,7 @@ def scratch() -> Scratch:
         aim_now=np.zeros(4),
         aim=np.zeros(4),
         gain=np.zeros((2, 3)),
+        measured=np.zeros(3),
         h=np.zeros((2, 2)),
     )
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING
 
@@ -190,17 +190,26 @@ def run_mission(
 ) -> RunResult:
     """Simulate ``mission`` and return every sample as arrays.
 
-    ``progress(t, t_budget, phase_name)`` is called between chunks of samples.
-    The run stops cleanly on a timeout with ``on_timeout: fail``, on
-    divergence and on Ctrl-C (outcome ``interrupted``); what was produced up
-    to then is in the result.
+    A :class:`Mission` is checked first exactly as a mission file is (raises
+    ``MissionError``), and the run is judged by its ``expect`` thresholds, as
+    ``wmr-mission run`` does. ``progress(t, t_budget, phase_name)`` is called
+    between chunks of samples. The run stops cleanly on a timeout with
+    ``on_timeout: fail``, on divergence and on Ctrl-C (outcome
+    ``interrupted``); what was produced up to then is in the result.
     """
-    compiled = mission if isinstance(mission, CompiledMission) else compile_mission(mission, seed)
-    if isinstance(mission, CompiledMission) and seed is not None:
-        from dataclasses import replace
+    if isinstance(mission, CompiledMission):
+        compiled = mission if seed is None else replace(mission, seed=seed)
+        return _Run(compiled, progress, functions).run()
+    from wmr_mission.output.metrics import judge
+    from wmr_mission.spec.loader import validate_mission
 
-        compiled = replace(mission, seed=seed)
-    return _Run(compiled, progress, functions).run()
+    checked = validate_mission(mission)
+    result = _Run(compile_mission(checked, seed), progress, functions).run()
+    resolved = checked.model_dump(mode="json")
+    resolved["sensors"]["seed"] = result.seed  # the mission as run
+    result.mission = resolved
+    judge(result, resolved)  # a success that misses an `expect` is not one
+    return result
 
 
 def _seconds(samples: int, dt: float) -> float:
@@ -367,9 +376,11 @@ class _Run:
         """The row of the sample the run ends at: no step is taken from it."""
         s = self.signals
         record = loop.record_sample if self.segment is loop.run_segment else _py(loop.record_sample)
+        mask = self.m.measure_mask
+        measured = np.where((mask > 0.0) & (k > 0), s.measurement, math.nan)
         record(
             self.recorder.record, phase, k * self.m.dt, s.state[0], s.state[1], s.state[2],
-            s.estimate, s.u_prev, math.nan, math.nan, int(s.counters[loop.ITERATIONS]),
+            s.estimate, s.u_prev, math.nan, math.nan, measured, int(s.counters[loop.ITERATIONS]),
         )  # fmt: skip
 
     def _divergence_cause(self, status: int) -> str:
@@ -422,7 +433,15 @@ class _Run:
             dt=m.dt,
             seed=m.seed,
             phases=[
-                PhaseInfo(p.name, p.kind, self._target(a), p.constraints)
+                PhaseInfo(
+                    p.name,
+                    p.kind,
+                    self._target(a),
+                    p.constraints,
+                    near=p.until.near,
+                    points=() if p.points is None else tuple(map(tuple, p.points.tolist())),
+                    color=p.color,
+                )
                 for p, a in zip(m.phases, self.phases, strict=True)
             ],
             t=columns["t"],
@@ -447,6 +466,9 @@ class _Run:
             error_bounds=bounds,  # type: ignore[arg-type]
             regions=dict(m.regions),
             loop_ns=self.loop_ns,
+            x_meas=r.column("x_meas"),
+            y_meas=r.column("y_meas"),
+            theta_meas=r.column("theta_meas"),
         )
 
     @staticmethod
