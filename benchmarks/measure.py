@@ -104,10 +104,10 @@ def memory() -> None:
         run = [sys.executable, "-m", "wmr_mission", "run", str(HOUR)]
         plotted = _peak_rss_mb([*run, "--out", f"{tmp}/plots"])
         bare = _peak_rss_mb([*run, "--out", f"{tmp}/bare", "--no-plots"])
-        short = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "fence.yaml")]
+        short = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "case2.yaml")]
         small = _peak_rss_mb([*short, "--out", f"{tmp}/small", "--no-plots"])
     print(f"1-hour mission (360 001 samples): peak RSS {plotted:.0f} MB with figures, ")
-    print(f"  {bare:.0f} MB without; a 10-s mission without figures: {small:.0f} MB")
+    print(f"  {bare:.0f} MB without; case study 2 without figures: {small:.0f} MB")
 
 
 def scale(repeat: int = 5) -> None:
