@@ -18,6 +18,7 @@ from wmr_mission import control, reference
 from wmr_mission.compiled import CompiledMission, compile_mission
 from wmr_mission.ekf import ekf_step
 from wmr_mission.observer import observer_step
+from wmr_mission.params import Controller, Robot, ekf_params, observer_params, scratch
 from wmr_mission.runner import FAST, StepFunctions, run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 
@@ -48,8 +49,9 @@ def test_observer_step(benchmark: BenchmarkFixture, kind: str) -> None:
         estimate[:] = ESTIMATE
         observer = OBSERVERS[kind]
         return observer(
-            estimate, 1.2, 0.4, DT, MEASUREMENT, MASK, POLES, 0.0, -bounds, bounds, True, 10, gain
-        )
+            estimate, 1.2, 0.4, DT, MEASUREMENT,
+            observer_params(MASK, POLES, 0.0, -bounds, bounds, True, 10), gain,
+        )  # fmt: skip
 
     assert benchmark(step) == 1
     assert MEASUREMENT[0] - estimate[0] == pytest.approx(0.05)
@@ -67,8 +69,8 @@ def test_ekf_step(benchmark: BenchmarkFixture, kind: str) -> None:
         covariance[:, :] = 0.0
         covariance[[0, 1, 2], [0, 1, 2]] = 1.0
         function(
-            estimate, covariance, 1.2, 0.4, DT, MEASUREMENT, MASK, process_var, measurement_var,
-            work,
+            estimate, covariance, 1.2, 0.4, DT, MEASUREMENT,
+            ekf_params(MASK, process_var, measurement_var), work,
         )  # fmt: skip
 
     benchmark(step)
@@ -78,13 +80,14 @@ def test_ekf_step(benchmark: BenchmarkFixture, kind: str) -> None:
 
 @pytest.mark.parametrize("kind", list(TRACKERS))
 def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
-    work, u = control.make_workspace(), np.zeros(2)
+    work, u = scratch(), np.zeros(2)
     path_point = np.array([1.02, 2.01, 1.0, 0.0])
+    tracking = Controller(0.1, 0.9, Q, R, W, M, control.BEARING, 0.01, True)
 
     def step() -> None:
         TRACKERS[kind](
-            ESTIMATE, U_PREV, path_point, path_point, 0.1, 0.9, W, M, LIMITS, DT, work, u
-        )
+            ESTIMATE, U_PREV, path_point, path_point, tracking, Robot(DT, LIMITS), work, u
+        )  # fmt: skip
 
     benchmark(step)
     assert np.all(np.isfinite(u))
@@ -94,14 +97,15 @@ def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
 @pytest.mark.parametrize("kind", list(REGULATORS))
 @pytest.mark.parametrize("constrained", [False, True], ids=["free", "constrained"])
 def test_regulate_input(benchmark: BenchmarkFixture, kind: str, constrained: bool) -> None:
-    work, u, memory = control.make_workspace(), np.zeros(2), np.zeros(3)
+    work, u, memory = scratch(), np.zeros(2), np.zeros(3)
+    controller = Controller(0.05, 0.0, Q, R, W, M, control.BEARING, 0.01, True)
     kinds, params = ELLIPSE_ROWS if constrained else (np.zeros(0, dtype=np.int64), np.zeros((0, 6)))
     target = np.array([0.0, 0.0, 0.0])
 
     def step() -> None:
         REGULATORS[kind](
-            ESTIMATE, ESTIMATE, U_PREV, target, control.BEARING, 0.01, True, Q, R, W, M,
-            kinds, params, LIMITS, DT, memory, work, u,
+            ESTIMATE, ESTIMATE, U_PREV, target, kinds, params, controller, Robot(DT, LIMITS),
+            memory, work, u,
         )  # fmt: skip
 
     benchmark(step)

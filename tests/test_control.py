@@ -11,8 +11,9 @@ from geometry import distance_to_ellipse
 from hand_built import ELLIPSE_ROWS, case1, case2, mission, regulate_only, spiral
 
 from wmr_mission.compiled import CompiledPhase, Conditions
-from wmr_mission.control import BEARING, DEVIATION, INCREMENT, make_workspace, saturate, track_input
+from wmr_mission.control import BEARING, DEVIATION, INCREMENT, saturate, track_input
 from wmr_mission.model import step
+from wmr_mission.params import Controller, Robot, scratch
 from wmr_mission.result import Outcome, RunResult
 from wmr_mission.runner import run_mission
 
@@ -58,17 +59,25 @@ def test_literal_axle_law_on_the_path_tracks_but_its_heading_dynamics_are_unstab
     state = np.array([x[0], y[0], math.atan2(dy[0], dx[0])])
     u = np.array([speed[0], turn_rate[0]])
     out = np.zeros(2)
-    work = make_workspace()
-    limits = np.array([1e12, 1e12, np.inf, np.inf])
+    work = scratch()
+    robot = Robot(dt, np.array([1e12, 1e12, np.inf, np.inf]))
+    controller = Controller(
+        0.0,
+        0.0,
+        np.ones(3),
+        np.ones(2),
+        np.full(3, 100.0),
+        np.full(2, 100.0),
+        BEARING,
+        0.01,
+        False,
+    )
     position_error, turn_rate_error = [], []
     for k in range(150):
         reference = np.array(
             [x[k + 1], y[k + 1], dx[k + 1] / speed[k + 1], dy[k + 1] / speed[k + 1]]
         )
-        track_input(
-            state, u, reference, reference, 0.0, 0.0, np.full(3, 100.0), np.full(2, 100.0),
-            limits, dt, work, out,
-        )  # fmt: skip
+        track_input(state, u, reference, reference, controller, robot, work, out)
         u = out.copy()
         state = np.array(step(*state, u[0], u[1], dt))
         position_error.append(math.hypot(state[0] - x[k + 1], state[1] - y[k + 1]))
@@ -184,11 +193,11 @@ def test_scheduled_gain_is_nearly_constant_but_for_the_heading_gain() -> None:
     # 0.995 at rest to 4.53 at 10 m/s.
     from wmr_mission.control import scheduled_gain
 
-    work = make_workspace()
+    work = scratch()
     heading_gains = []
     for v in (0.0, 0.01, 0.1, 1.0, 3.0, 10.0, -10.0):
         scheduled_gain(0.0, v, 0.0, 0.01, np.ones(3), np.ones(2), work)
-        gain = work[5]
+        gain = work.gain
         assert gain[0, 0] == pytest.approx(0.995, abs=1e-3)  # speed from distance along
         if v != 0.0:
             assert 0.97 < abs(gain[1, 1]) < 0.996  # turn rate from lateral error

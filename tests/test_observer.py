@@ -8,6 +8,7 @@ import pytest
 from wmr_mission.model import step
 from wmr_mission.observability import structurally_unobservable, unobservable_states
 from wmr_mission.observer import error_matrix, observer_step
+from wmr_mission.params import observer_params
 from wmr_mission.sensors import STATE_NAMES, measurement_mask
 
 SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATE_NAMES, n)]
@@ -83,8 +84,7 @@ def test_position_noise_at_creeping_speed_does_not_throw_the_heading() -> None:
             state = np.array(step(*state, 0.001, 0.0, dt))
             measurement = state + rng.normal(0.0, sigma, 3)
             observer_step(
-                estimate, 0.001, 0.0, dt, measurement, mask, poles, floor,
-                np.full(3, -np.inf), np.full(3, np.inf), False, 0, gain,
+                estimate, 0.001, 0.0, dt, measurement, observer_params(mask, poles, floor), gain,
             )  # fmt: skip
             largest = max(largest, abs(estimate[2] - state[2]))
         worst[floor] = largest
@@ -121,13 +121,7 @@ def run_observer(
                 omega,
                 0.01,
                 state.copy(),
-                mask,
-                poles,
-                0.0,
-                lower,
-                upper,
-                bounds is not None,
-                10,
+                observer_params(mask, poles, 0.0, lower, upper, bounds is not None, 10),
                 gain,
             )
         )
@@ -188,13 +182,7 @@ def test_phase_two_saturates_to_the_violated_bound(rng: np.random.Generator) -> 
             0.0,
             0.01,
             measurement,
-            mask,
-            np.full(3, 0.9),
-            0.0,
-            lower,
-            upper,
-            True,
-            10,
+            observer_params(mask, np.full(3, 0.9), 0.0, lower, upper, True, 10),
             np.zeros((3, 3)),
         )
         phase_one = before + 0.1 * (measurement - before)  # poles 0.9, at rest

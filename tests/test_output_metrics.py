@@ -62,6 +62,7 @@ def test_summary_key_order_is_fixed() -> None:
         "max_constraint_violation",
         "phases",
         "compute_us_per_sample",
+        "loop_us_per_sample",
     ]
     assert list(summary["phases"][0]) == [
         "name",
@@ -223,6 +224,13 @@ def test_compute_time_in_microseconds() -> None:
             "p99": np.percentile(ns, 99) / 1000,
         }
     )
+
+
+def test_loop_time_per_sample_in_microseconds() -> None:
+    run = circle_run()
+    assert summarize(run)["loop_us_per_sample"] is None  # not timed: a run read back
+    run.loop_ns = 3_000_000
+    assert summarize(run)["loop_us_per_sample"] == pytest.approx(3_000.0 / 2001)
 
 
 def test_diverged_run_gives_nulls_not_warnings() -> None:

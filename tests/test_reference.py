@@ -20,6 +20,7 @@ from wmr_mission.compiled import CompiledMission, compile_mission
 from wmr_mission.corrective import corrective_input_array
 from wmr_mission.ekf import ekf_step
 from wmr_mission.observer import observer_step
+from wmr_mission.params import Controller, Robot, ekf_params, observer_params, scratch
 from wmr_mission.reference import REFERENCE
 from wmr_mission.result import RunResult
 from wmr_mission.riccati import MIN_SPEED
@@ -142,8 +143,7 @@ def case_study(name: str) -> CompiledMission:
 def test_fast_kernels_follow_the_reference_through_the_case_studies(name: str) -> None:
     mission = case_study(name)
     fast = run_mission(mission, functions=FAST)
-    one_thread, _ = one_blas_thread()  # 3x3 BLAS calls: threads only wait
-    with one_thread:
+    with one_blas_thread():  # 3x3 BLAS calls: threads only wait
         slow = run_mission(mission, functions=REFERENCE)
     assert fast.outcome.value == "success"
     assert len(fast.transitions) == len(mission.phases)
@@ -218,8 +218,8 @@ def test_observer_step_matches(
             state = estimate.copy()
             gain = np.zeros((3, 3))
             iterations = step_function(
-                state, v, omega, DT, measurement, mask, poles, floor,
-                lower, upper, bounded, 10, gain,
+                state, v, omega, DT, measurement,
+                observer_params(mask, poles, floor, lower, upper, bounded, 10), gain,
             )  # fmt: skip
             results.append((state, gain, iterations))
         (fast, fast_gain, fast_iterations), (slow, slow_gain, slow_iterations) = results
@@ -235,8 +235,10 @@ def test_phase_two_puts_violated_outputs_on_their_bounds() -> None:
     measurement = np.array([1.5, 2.0, 0.5])
     state = estimate.copy()
     iterations = reference.observer_step(
-        state, 0.0, 0.0, DT, measurement, np.ones(3), np.full(3, 0.99), 0.0,
-        np.full(3, -0.05), np.full(3, 0.05), True, 10, np.zeros((3, 3)),
+        state, 0.0, 0.0, DT, measurement,
+        observer_params(np.ones(3), np.full(3, 0.99), 0.0, np.full(3, -0.05), np.full(3, 0.05),
+                        True, 10),
+        np.zeros((3, 3)),
     )  # fmt: skip
     assert iterations == 1
     assert measurement[0] - state[0] == pytest.approx(0.05)
@@ -257,8 +259,8 @@ def test_ekf_step_matches(measured: list[str], rng: np.random.Generator) -> None
         for step_function in (ekf_step, reference.ekf_step):
             state, p = estimate.copy(), covariance.copy()
             step_function(
-                state, p, v, omega, DT, measurement, mask, process_var, measurement_var,
-                np.zeros((4, 3, 3)),
+                state, p, v, omega, DT, measurement,
+                ekf_params(mask, process_var, measurement_var), np.zeros((4, 3, 3)),
             )  # fmt: skip
             outputs.append((state, p))
         np.testing.assert_allclose(outputs[0][0], outputs[1][0], rtol=0.0, atol=1e-9)
@@ -329,16 +331,16 @@ def test_track_input_matches(
         w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
         limits = random_limits(rng, rated)
         fast, slow = np.zeros(2), np.zeros(2)
+        controller = Controller(
+            look_ahead, error_decay, np.ones(3), np.ones(2), w, m, 0, 0.01, False
+        )
+        robot = Robot(DT, limits)
         control.track_input(
-            estimate, u_prev, reference_now, reference_point, look_ahead, error_decay, w, m,
-            limits, DT,
-            control.make_workspace(), fast,
-        )  # fmt: skip
+            estimate, u_prev, reference_now, reference_point, controller, robot, scratch(), fast
+        )
         reference.track_input(
-            estimate, u_prev, reference_now, reference_point, look_ahead, error_decay, w, m,
-            limits, DT,
-            control.make_workspace(), slow,
-        )  # fmt: skip
+            estimate, u_prev, reference_now, reference_point, controller, robot, scratch(), slow
+        )
         np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
 
 
@@ -395,9 +397,10 @@ def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generat
         for regulate in (control.regulate_input, reference.regulate_input):
             memory = np.array([float(trial % 2), 0.0, 0.0])
             u = np.zeros(2)
+            controller = Controller(0.0, 0.0, q, r, w, m, FORMS[form], 0.01, bool(trial % 4))
             regulate(
-                estimate, estimate_prev, u_prev, target, FORMS[form], 0.01, bool(trial % 4),
-                q, r, w, m, kinds, params, limits, DT, memory, control.make_workspace(), u,
+                estimate, estimate_prev, u_prev, target, kinds, params, controller,
+                Robot(DT, limits), memory, scratch(), u,
             )  # fmt: skip
             outputs.append((u, memory))
         (fast, fast_memory), (slow, slow_memory) = outputs
@@ -422,7 +425,7 @@ def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generat
 def test_scheduled_gain_matches(
     low: float, high: float, tolerance: float, rng: np.random.Generator
 ) -> None:
-    work = control.make_workspace()
+    work = scratch()
     for _ in range(30):
         theta, omega = rng.uniform(-4, 4), rng.uniform(-3, 3)
         v = float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
@@ -430,7 +433,7 @@ def test_scheduled_gain_matches(
         control.scheduled_gain(theta, v, omega, DT, q, r, work)
         slow = reference.scheduled_gain(theta, v, omega, DT, q, r)
         scale = max(1.0, float(np.abs(slow).max()))
-        np.testing.assert_allclose(work[5], slow, rtol=0.0, atol=tolerance * scale)
+        np.testing.assert_allclose(work.gain, slow, rtol=0.0, atol=tolerance * scale)
 
 
 def test_scheduled_gain_is_continuous_at_the_speed_floor() -> None:

@@ -77,14 +77,15 @@ def test_at_rest_the_pair_is_not_stabilisable_and_scipy_has_no_answer(omega: flo
 
 def body_gain(theta: float, v: float) -> np.ndarray:
     from wmr_mission import control
+    from wmr_mission.params import scratch
 
-    work = control.make_workspace()
+    work = scratch()
     doublings = control.scheduled_gain(theta, v, 0.0, 0.01, np.ones(3), np.ones(2), work)
     assert doublings > 0
     rot = np.array(
         [[np.cos(theta), -np.sin(theta), 0], [np.sin(theta), np.cos(theta), 0], [0, 0, 1]]
     )
-    return np.asarray(work[5] @ rot)
+    return np.asarray(work.gain @ rot)
 
 
 @pytest.mark.parametrize("theta", [0.0, 0.8, -2.5])

@@ -22,9 +22,10 @@ from wmr_mission.constrained_tracking import (
     keep_reference,
     row_value_with_margin,
 )
-from wmr_mission.control import input_jacobian_into, make_workspace, saturate, track_input
+from wmr_mission.control import BEARING, input_jacobian_into, saturate, track_input
 from wmr_mission.corrective import corrective_input, row_value
 from wmr_mission.model import step
+from wmr_mission.params import Controller, Robot, scratch
 from wmr_mission.regions import constraint_rows
 from wmr_mission.spec.loader import load_mission
 from wmr_mission.spec.models import CircleRegion
@@ -138,19 +139,21 @@ def drive_through_pond(
     pond = CircleRegion(type="circle", center=(5.0, offset), radius=1.2)
     kinds, params = constraint_rows(pond, "outside")
     state, u, u_prev = np.array([0.0, 0.0, 0.0]), np.zeros(2), np.array([speed, 0.0])
-    work = make_workspace()
+    work = scratch()
     dt, look_ahead = 0.01, 0.05
+    controller = Controller(look_ahead, 0.0, np.ones(3), np.ones(2), W, M, BEARING, 0.01, False)
+    robot = Robot(dt, LIMITS)
     positions = []
     for k in range(round(seconds / dt)):
         reference = np.array([speed * (k + 1) * dt, 0.0, 1.0, 0.0])
         if move_reference:
             keep_reference(reference, kinds, params, look_ahead)
         # the one-sample law (error_decay 0): the path at t_k is not needed
-        track_input(state, u_prev, reference, reference, look_ahead, 0.0, W, M, LIMITS, dt, work, u)
+        track_input(state, u_prev, reference, reference, controller, robot, work, u)
         if literal:
             literal_filter(state, u, kinds, params, dt)
         else:
-            keep_constraints(state, u_prev, kinds, params, look_ahead, LIMITS, dt, work, u)
+            keep_constraints(state, u_prev, kinds, params, controller, robot, work, u)
         state[:] = step(state[0], state[1], state[2], u[0], u[1], dt)
         u_prev[:] = u
         positions.append(state[:2].copy())

@@ -2,12 +2,16 @@
 
 Every kernel is written once, in the subset of Python that numba compiles. When
 numba is missing, or ``WMR_MISSION_NO_JIT=1`` is set, the very same functions
-run as plain Python: slower, same equations.
+run as plain Python: slower, same equations. Compiled kernels are cached on
+disk where a directory can be written (wmr_mission._kernel_cache).
 """
 
 from __future__ import annotations
 
 import os
+import platform
+import sys
+import time
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
@@ -20,11 +24,43 @@ try:
         raise ImportError
     import numba
 
+    # numba's array-math module imports scipy.linalg (half a second) to offer
+    # np.linalg in compiled code; no kernel here uses it, so it is loaded
+    # without: a run needs no scipy.
+    _BLAS = "scipy.linalg.cython_blas"
+    _blocked = _BLAS not in sys.modules
+    if _blocked:
+        sys.modules[_BLAS] = None  # type: ignore[assignment]
+    try:
+        import numba.np.arraymath
+    finally:
+        if _blocked:
+            del sys.modules[_BLAS]
+
     _njit: Callable[..., Any] | None = numba.njit
 except ImportError:  # pragma: no cover - exercised where numba cannot install
     _njit = None
 
 COMPILED = _njit is not None
+_CACHED = False
+if _njit is not None:
+    from wmr_mission import _kernel_cache
+
+    _directory = _kernel_cache.cache_directory()
+    # Where the locator cannot be installed, numba's own cache is tried.
+    _CACHED = _directory is not None
+    if _directory is not None:
+        _kernel_cache.install(_directory)
+
+
+def _compile(fn: F, **options: Any) -> F:
+    assert _njit is not None
+    if _CACHED:
+        try:
+            return cast(F, _njit(cache=True, **options)(fn))
+        except RuntimeError:  # no cache locator after all: compile uncached
+            pass
+    return cast(F, _njit(**options)(fn))
 
 
 def kernel(fn: F) -> F:
@@ -34,4 +70,44 @@ def kernel(fn: F) -> F:
     # error_model="numpy": a division by zero gives inf or nan, as in the
     # pure-Python build, never a Python exception out of the compiled loop;
     # the runner reports a non-finite input or state as a divergence.
-    return cast(F, _njit(cache=True, nogil=True, error_model="numpy")(fn))
+    return _compile(fn, nogil=True, error_model="numpy")
+
+
+def _time_stamp_counter() -> Callable[[], int] | None:
+    """A compiled read of the processor's time-stamp counter (x86-64 only:
+    elsewhere the cycle counter may not be readable from user space)."""
+    if _njit is None or platform.machine().lower() not in ("x86_64", "amd64"):
+        return None
+    from llvmlite import ir
+    from numba import types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def read_counter(typingctx: Any) -> Any:
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            function_type = ir.FunctionType(ir.IntType(64), [])
+            counter = builder.module.declare_intrinsic("llvm.readcyclecounter", fnty=function_type)
+            return builder.call(counter, [])
+
+        return types.int64(), codegen
+
+    def counter() -> int:
+        return read_counter()  # type: ignore[call-arg]
+
+    return _compile(counter, nogil=True)
+
+
+def _zero() -> int:
+    return 0
+
+
+# ``ticks()``: a clock cheap enough to read twice per sample inside the loop.
+# Compiled on x86-64 it counts processor cycles (the runner converts them to
+# nanoseconds against time.perf_counter_ns over the run); as plain Python it
+# is time.perf_counter_ns; compiled elsewhere there is no such clock: 0.
+_counter = _time_stamp_counter()
+TICKS_ARE_NS = _njit is None
+TICKS_TIMED = _njit is None or _counter is not None
+ticks: Callable[[], int] = (
+    time.perf_counter_ns if _njit is None else _counter if _counter is not None else _compile(_zero)
+)

@@ -36,9 +36,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission._jit import kernel
-from wmr_mission.control import Workspace, input_jacobian_into, saturate
+from wmr_mission.control import input_jacobian_into, saturate
 from wmr_mission.corrective import ELLIPSE, REGULARISATION
 from wmr_mission.model import step
+from wmr_mission.params import Controller, Robot, Scratch
 
 __all__ = ["constrained_change", "keep_constraints", "row_value_with_margin"]
 
@@ -119,30 +120,31 @@ def keep_constraints(
     u_prev: FloatArray,
     row_kinds: IntArray,
     row_params: FloatArray,
-    look_ahead: float,
-    limits: FloatArray,
-    dt: float,
-    work: Workspace,
+    controller: Controller,
+    robot: Robot,
+    work: Scratch,
     u: FloatArray,
 ) -> bool:
     """Change the tracking input ``u`` in place so that the predicted tracking
     output keeps the constraint rows shrunk by ``look_ahead`` (so the axle
     centre, ``look_ahead`` behind it, keeps the rows themselves); True when it
     had to."""
+    look_ahead = controller.look_ahead
+    dt = robot.dt
     px, py, pth = step(estimate[0], estimate[1], estimate[2], u[0], u[1], dt)
     c = math.cos(pth)
     s = math.sin(pth)
     qx = px + look_ahead * c
     qy = py + look_ahead * s
     # eq. (24): sensitivity of x_{k+1} to the input, at the tracking input.
-    b = work[2]
+    b = work.b
     input_jacobian_into(estimate[2], u[0], u[1], dt, b)
     # D_t B: the tracking output's sensitivity to the input (eq. (26) D times B).
     t00 = b[0, 0] - look_ahead * s * b[2, 0]
     t01 = b[0, 1] - look_ahead * s * b[2, 1]
     t10 = b[1, 0] + look_ahead * c * b[2, 0]
     t11 = b[1, 1] + look_ahead * c * b[2, 1]
-    a, eta, h = work[0], work[1], work[3]
+    a, eta, h = work.d, work.eta, work.h
     count = 0
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], look_ahead, qx, qy)
@@ -170,7 +172,7 @@ def keep_constraints(
     h[0, 0] += floor
     h[1, 1] += floor
     dv, dw = constrained_change(a, eta, count, h)
-    u[0], u[1] = saturate(u[0] + dv, u[1] + dw, u_prev[0], u_prev[1], limits, dt)
+    u[0], u[1] = saturate(u[0] + dv, u[1] + dw, u_prev[0], u_prev[1], robot.limits, dt)
     return True
 
 

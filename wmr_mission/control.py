@@ -22,14 +22,11 @@ from numpy.typing import NDArray
 from wmr_mission._jit import kernel
 from wmr_mission.corrective import corrective_input, row_value
 from wmr_mission.model import jacobian_terms, step, wrap_angle
+from wmr_mission.params import Controller, Robot, Scratch
 from wmr_mission.riccati import MIN_SPEED, regulator_gain, solve_riccati
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-# Scratch arrays of one controller, allocated once per run (see make_workspace).
-Workspace = tuple[
-    FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray
-]
 
 # Regulation forms (controller.regulation.form).
 BEARING = 0  # default: regulate to the target, heading reference = bearing to it
@@ -74,13 +71,9 @@ def track_input(
     u_prev: FloatArray,
     reference_now: FloatArray,
     reference: FloatArray,
-    look_ahead: float,
-    error_decay: float,
-    w: FloatArray,
-    m: FloatArray,
-    limits: FloatArray,
-    dt: float,
-    work: Workspace,
+    controller: Controller,
+    robot: Robot,
+    work: Scratch,
     u_out: FloatArray,
 ) -> None:
     """Case 2: ``u_k = u_{k-1} + du2_k`` with du2 of eq. (27), then the limits.
@@ -96,6 +89,9 @@ def track_input(
     at t_{k+1} (its own motion, fed forward) minus that remaining error.
     ``error_decay = 0`` closes the whole error in one sample, the paper's form.
     """
+    dt = robot.dt
+    look_ahead = controller.look_ahead
+    error_decay = controller.error_decay
     v_prev = u_prev[0]
     omega_prev = u_prev[1]
     c = math.cos(estimate[2])
@@ -107,7 +103,7 @@ def track_input(
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v_prev, omega_prev, dt)
     c = math.cos(pth)
     s = math.sin(pth)
-    d, eta, b = work[0], work[1], work[2]
+    d, eta, b = work.d, work.eta, work.b
     # eq. (26): the tracked output G(x_{k+1}) and its Jacobian D.
     d[0, 0] = 1.0
     d[0, 1] = 0.0
@@ -123,88 +119,94 @@ def track_input(
     )
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
     input_jacobian_into(estimate[2], v_prev, omega_prev, dt, b)
-    dv, dw = corrective_input(d, eta, 2, b, w, m, limits)
-    u_out[0], u_out[1] = saturate(v_prev + dv, omega_prev + dw, v_prev, omega_prev, limits, dt)
-
-
-def make_workspace() -> Workspace:
-    """Scratch arrays for the control kernels: D, eta, B, A, pi, T, doubling
-    scratch, Q-hat."""
-    return (
-        np.zeros((2, 3)),
-        np.zeros(2),
-        np.zeros((3, 2)),
-        np.zeros((3, 3)),
-        np.zeros((3, 3)),
-        np.zeros((2, 3)),
-        np.zeros((8, 3, 3)),
-        np.zeros((3, 3)),
+    dv, dw = corrective_input(d, eta, 2, b, controller.w, controller.m, robot.limits)
+    u_out[0], u_out[1] = saturate(
+        v_prev + dv, omega_prev + dw, v_prev, omega_prev, robot.limits, dt
     )
+
+
+Gain = tuple[float, float, float, float, float, float]  # T of eq. (20), 2x3 row by row
+
+
+@kernel
+def _input_weight(b: Gain, r0: float, r1: float, i: int, j: int) -> float:
+    """(B R^-1 B^T)[i, j] for B (3x2) row by row, R = diag(r0, r1)."""
+    weight: float = b[2 * i] * b[2 * j] / r0 + b[2 * i + 1] * b[2 * j + 1] / r1
+    return weight
 
 
 @kernel
 def _solve_gain(
-    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Workspace
-) -> int:
-    """T of eqs. (20)-(21) at (theta, v, omega) into ``work[5]``; ``q`` is the
-    diagonal of Q-hat. At v == 0 the lateral direction (unreachable) is
-    dropped from the state weight: the solution on the reachable subspace."""
-    a, b, pi, gain, qm = work[3], work[2], work[4], work[5], work[7]
-    a13, a23, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
-    for i in range(3):
-        for j in range(3):
-            a[i, j] = 1.0 if i == j else 0.0
-            qm[i, j] = q[i] if i == j else 0.0
-    a[0, 2] = a13
-    a[1, 2] = a23
-    b[0, 0] = b11
-    b[0, 1] = b12
-    b[1, 0] = b21
-    b[1, 1] = b22
-    b[2, 0] = 0.0
-    b[2, 1] = dt
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray
+) -> tuple[Gain, int]:
+    """T of eqs. (20)-(21) at (theta, v, omega) and the doubling count; ``q``
+    is the diagonal of Q-hat. At v == 0 the lateral direction (unreachable)
+    is dropped from the state weight: the solution on the reachable subspace.
+    Plain floats throughout: numpy scalars would make the pure-Python form
+    several times slower."""
+    a13, a23, b11, b12, b21, b22 = jacobian_terms(float(theta), float(v), float(omega), dt)
+    a = (1.0, 0.0, a13, 0.0, 1.0, a23, 0.0, 0.0, 1.0)
+    b = (b11, b12, b21, b22, 0.0, dt)
+    r0 = float(r[0])
+    r1 = float(r[1])
+    q0 = float(q[0])
+    q1 = float(q[1])
+    q2 = float(q[2])
+    g = (
+        _input_weight(b, r0, r1, 0, 0),
+        _input_weight(b, r0, r1, 0, 1),
+        _input_weight(b, r0, r1, 0, 2),
+        _input_weight(b, r0, r1, 1, 0),
+        _input_weight(b, r0, r1, 1, 1),
+        _input_weight(b, r0, r1, 1, 2),
+        _input_weight(b, r0, r1, 2, 0),
+        _input_weight(b, r0, r1, 2, 1),
+        _input_weight(b, r0, r1, 2, 2),
+    )
+    q_hat = (q0, 0.0, 0.0, 0.0, q1, 0.0, 0.0, 0.0, q2)
     if v == 0.0:
         # Keep only the weight along the direction the speed input moves the
         # robot, u = B[:2, 0] / |B[:2, 0]|: Q_xy -> (u^T Q_xy u) u u^T.
         norm = math.hypot(b11, b21)
         ux = b11 / norm
         uy = b21 / norm
-        along = q[0] * ux * ux + q[1] * uy * uy
-        qm[0, 0] = along * ux * ux
-        qm[0, 1] = along * ux * uy
-        qm[1, 0] = along * ux * uy
-        qm[1, 1] = along * uy * uy
-    doublings = solve_riccati(a, b, qm, r, pi, work[6])
-    regulator_gain(a, b, r, pi, gain)
-    return doublings
+        along = q0 * ux * ux + q1 * uy * uy
+        cross = along * ux * uy
+        q_hat = (along * ux * ux, cross, 0.0, cross, along * uy * uy, 0.0, 0.0, 0.0, q2)
+    pi, doublings = solve_riccati(a, g, q_hat)
+    return regulator_gain(a, b, r, pi), doublings
 
 
 @kernel
 def scheduled_gain(
-    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Workspace
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Scratch
 ) -> int:
     """Eqs. (20)-(21) for the linearisation at (theta, v, omega): writes T into
-    ``work[5]`` and returns the doubling count.
+    ``work.gain`` and returns the doubling count.
 
     For |v| < MIN_SPEED the gain is blended linearly between the at-rest gain
     and the gain at +-MIN_SPEED (see wmr_mission.riccati), so it is
     continuous in v."""
     if abs(v) >= MIN_SPEED:
-        return _solve_gain(theta, v, omega, dt, q, r, work)
-    doublings = _solve_gain(theta, 0.0, omega, dt, q, r, work)
-    if v == 0.0:
-        return doublings
-    at_rest = work[0]
-    gain = work[5]
-    for i in range(2):
-        for j in range(3):
-            at_rest[i, j] = gain[i, j]
-    edge = MIN_SPEED if v > 0.0 else -MIN_SPEED
-    doublings += _solve_gain(theta, edge, omega, dt, q, r, work)
-    alpha = abs(v) / MIN_SPEED
-    for i in range(2):
-        for j in range(3):
-            gain[i, j] = (1.0 - alpha) * at_rest[i, j] + alpha * gain[i, j]
+        gain, doublings = _solve_gain(theta, v, omega, dt, q, r)
+    else:
+        gain, doublings = _solve_gain(theta, 0.0, omega, dt, q, r)
+        if v != 0.0:
+            edge = MIN_SPEED if v > 0.0 else -MIN_SPEED
+            at_edge, more = _solve_gain(theta, edge, omega, dt, q, r)
+            doublings += more
+            alpha = abs(v) / MIN_SPEED
+            gain = (
+                (1.0 - alpha) * gain[0] + alpha * at_edge[0],
+                (1.0 - alpha) * gain[1] + alpha * at_edge[1],
+                (1.0 - alpha) * gain[2] + alpha * at_edge[2],
+                (1.0 - alpha) * gain[3] + alpha * at_edge[3],
+                (1.0 - alpha) * gain[4] + alpha * at_edge[4],
+                (1.0 - alpha) * gain[5] + alpha * at_edge[5],
+            )
+    out = work.gain
+    out[0, 0], out[0, 1], out[0, 2] = gain[0], gain[1], gain[2]
+    out[1, 0], out[1, 1], out[1, 2] = gain[3], gain[4], gain[5]
     return doublings
 
 
@@ -214,19 +216,12 @@ def regulate_input(
     estimate_prev: FloatArray,
     u_prev: FloatArray,
     target: FloatArray,
-    form: int,
-    align_radius: float,
-    reverse: bool,
-    q: FloatArray,
-    r: FloatArray,
-    w: FloatArray,
-    m: FloatArray,
     row_kinds: IntArray,
     row_params: FloatArray,
-    limits: FloatArray,
-    dt: float,
+    controller: Controller,
+    robot: Robot,
     memory: FloatArray,
-    work: Workspace,
+    work: Scratch,
     u_out: FloatArray,
 ) -> None:
     """Case 1: the gain-scheduled regulator plus, where the prediction violates a
@@ -236,9 +231,11 @@ def regulate_input(
     phase's inequality constraints (possibly none); ``memory`` the phase's
     controller memory (ALIGNING, CORRECTED, DOUBLINGS).
     """
+    dt = robot.dt
+    q, r, form = controller.q, controller.r, controller.form
     v_prev = u_prev[0]
     omega_prev = u_prev[1]
-    gain = work[5]
+    gain = work.gain
     if form == INCREMENT:
         # Literal eqs. (14), (19), (29-a): T_{k-1} at (x_{k-1|k-1}, u_{k-1}),
         # applied to the state increment x_{k|k} - x_{k-1|k-1}.
@@ -255,9 +252,9 @@ def regulate_input(
         eth = wrap_angle(estimate[2] - target[2])
         if form == BEARING:
             distance = math.hypot(ex, ey)
-            if distance < align_radius:
+            if distance < controller.align_radius:
                 memory[ALIGNING] = 1.0
-            elif distance > 2.0 * align_radius:
+            elif distance > 2.0 * controller.align_radius:
                 memory[ALIGNING] = 0.0
             if memory[ALIGNING] == 0.0:
                 # Far: the heading reference is the bearing to the target (or its
@@ -265,7 +262,7 @@ def regulate_input(
                 # is turned into a heading error it can.
                 bearing = math.atan2(-ey, -ex)
                 eth = wrap_angle(estimate[2] - bearing)
-                if reverse and abs(eth) > 0.5 * math.pi:
+                if controller.reverse and abs(eth) > 0.5 * math.pi:
                     eth = wrap_angle(eth - math.pi)
             else:
                 # Aligning at the target: keep the reachable (longitudinal)
@@ -278,7 +275,7 @@ def regulate_input(
         # eq. (19) with dx the deviation from the target.
         v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
-    v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, limits, dt)
+    v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, robot.limits, dt)
     u_out[0] = v1
     u_out[1] = omega1
     memory[CORRECTED] = 0.0
@@ -286,7 +283,7 @@ def regulate_input(
         return
     # eq. (28): predict with the regulator's input, find the violated rows.
     px, py, _ = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
-    d, eta, b = work[0], work[1], work[2]
+    d, eta, b = work.d, work.eta, work.b
     count = 0
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value(row_kinds[i], row_params[i], px, py)
@@ -307,6 +304,6 @@ def regulate_input(
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
-    dv, dw = corrective_input(d, eta, count, b, w, m, limits)
+    dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
     memory[CORRECTED] = 1.0
-    u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, limits, dt)
+    u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)

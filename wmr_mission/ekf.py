@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from wmr_mission._jit import kernel
 from wmr_mission.model import jacobian_terms, step, wrap_angle
+from wmr_mission.params import Estimator
 
 FloatArray = NDArray[np.float64]
 
@@ -28,16 +29,18 @@ def ekf_step(
     omega: float,
     dt: float,
     measurement: FloatArray,
-    mask: FloatArray,
-    process_var: FloatArray,
-    measurement_var: FloatArray,
+    params: Estimator,
     work: FloatArray,
 ) -> None:
     """Advance ``estimate`` and ``covariance`` (3x3) in place: x_{k|k} -> x_{k+1|k+1}.
 
-    ``process_var``/``measurement_var`` are the diagonals of the process and
-    measurement noise covariances; ``work`` is scratch of shape (4, 3, 3).
+    ``params.process_var``/``params.measurement_var`` are the diagonals of the
+    process and measurement noise covariances; ``work`` is scratch of shape
+    (4, 3, 3).
     """
+    mask = params.mask
+    process_var = params.process_var
+    measurement_var = params.measurement_var
     a13, a23, _, _, _, _ = jacobian_terms(estimate[2], v, omega, dt)
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v, omega, dt)
     # P_pred = A P A^T + Qn, with A = I + a e3^T.

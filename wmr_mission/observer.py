@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from wmr_mission._jit import kernel
 from wmr_mission.model import jacobian_terms, step, wrap_angle
+from wmr_mission.params import Estimator
 
 FloatArray = NDArray[np.float64]
 
@@ -120,20 +121,16 @@ def observer_step(
     omega: float,
     dt: float,
     measurement: FloatArray,
-    mask: FloatArray,
-    poles: FloatArray,
-    motion_floor: float,
-    lower: FloatArray,
-    upper: FloatArray,
-    use_bounds: bool,
-    max_iterations: int,
+    params: Estimator,
     gain: FloatArray,
 ) -> int:
     """Advance ``estimate`` (x_{k|k} -> x_{k+1|k+1}) in place with input u_k and
-    measurement xi_{k+1}. Returns the number of phase-II iterations run."""
+    measurement xi_{k+1}; ``gain`` receives L. Returns the number of phase-II
+    iterations run."""
+    mask = params.mask
     # Phase I. eq. (7): A at the filtered estimate x_{k|k}.
     a13, a23, _, _, _, _ = jacobian_terms(estimate[2], v, omega, dt)
-    observer_gain(a13, a23, mask, poles, motion_floor, gain)
+    observer_gain(a13, a23, mask, params.poles, params.motion_floor, gain)
     # eq. (5): prediction.
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v, omega, dt)
     # eq. (6): innovation of the measured outputs (heading residual wrapped).
@@ -143,11 +140,13 @@ def observer_step(
     estimate[0] = px + gain[0, 0] * rx + gain[0, 1] * ry + gain[0, 2] * rth
     estimate[1] = py + gain[1, 0] * rx + gain[1, 1] * ry + gain[1, 2] * rth
     estimate[2] = pth + gain[2, 0] * rx + gain[2, 1] * ry + gain[2, 2] * rth
-    if not use_bounds:
+    if not params.use_bounds:
         return 0
+    lower = params.lower
+    upper = params.upper
     # Phase II, eqs. (8)-(11): iterate on the outputs whose error left eq. (4).
     iterations = 0
-    while iterations < max_iterations:
+    while iterations < params.max_iterations:
         violated = False
         for i in range(3):
             if mask[i] == 0.0:

@@ -20,9 +20,10 @@ from numpy.typing import NDArray
 from scipy.linalg import solve_discrete_are
 from scipy.signal import place_poles
 
-from wmr_mission.control import ALIGNING, BEARING, CORRECTED, DOUBLINGS, INCREMENT, Workspace
+from wmr_mission.control import ALIGNING, BEARING, CORRECTED, DOUBLINGS, INCREMENT
 from wmr_mission.corrective import ELLIPSE, REGULARISATION
 from wmr_mission.observer import BOUND_SLACK, MIN_HEADING_OBSERVABILITY
+from wmr_mission.params import Controller, Estimator, Robot, Scratch
 from wmr_mission.riccati import MIN_SPEED
 from wmr_mission.runner import StepFunctions
 
@@ -134,17 +135,13 @@ def observer_step(
     omega: float,
     dt: float,
     measurement: FloatArray,
-    mask: FloatArray,
-    poles: FloatArray,
-    motion_floor: float,
-    lower: FloatArray,
-    upper: FloatArray,
-    use_bounds: bool,
-    max_iterations: int,
+    params: Estimator,
     gain: FloatArray,
 ) -> int:
     """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L into
     ``gain``; returns the number of phase-II iterations run."""
+    mask, poles, motion_floor = params.mask, params.poles, params.motion_floor
+    lower, upper = params.lower, params.upper
     a = state_jacobian(float(estimate[2]), v, omega, dt)  # eq. (7)
     gain[:, :] = observer_gain_matrix(a, mask, poles, motion_floor)
     predicted = predict(estimate, v, omega, dt)  # eq. (5)
@@ -152,11 +149,11 @@ def observer_step(
     innovation = measurement - predicted
     innovation[2] = wrap_angle(float(innovation[2]))
     estimate[:] = predicted + gain @ c @ innovation  # eq. (6)
-    if not use_bounds:
+    if not params.use_bounds:
         return 0
     measured = mask > 0.0
     iterations = 0
-    while iterations < max_iterations:
+    while iterations < params.max_iterations:
         error = measurement - estimate
         error[2] = wrap_angle(float(error[2]))
         # An output left exactly on its bound by the previous iteration may
@@ -182,12 +179,11 @@ def ekf_step(
     omega: float,
     dt: float,
     measurement: FloatArray,
-    mask: FloatArray,
-    process_var: FloatArray,
-    measurement_var: FloatArray,
+    params: Estimator,
     work: FloatArray,
 ) -> None:
     """Extended Kalman filter step, in place, Joseph-form covariance update."""
+    mask, process_var, measurement_var = params.mask, params.process_var, params.measurement_var
     a = state_jacobian(float(estimate[2]), v, omega, dt)
     predicted = predict(estimate, v, omega, dt)
     p = a @ covariance @ a.T + np.diag(process_var)
@@ -254,17 +250,16 @@ def track_input(
     u_prev: FloatArray,
     reference_now: FloatArray,
     reference: FloatArray,
-    look_ahead: float,
-    error_decay: float,
-    w: FloatArray,
-    m: FloatArray,
-    limits: FloatArray,
-    dt: float,
-    work: Workspace,
+    controller: Controller,
+    robot: Robot,
+    work: Scratch,
     u_out: FloatArray,
 ) -> None:
     """Case 2: u_k = u_{k-1} + du2_k, du2 of eq. (27) on the look-ahead point,
     aimed so that ``error_decay`` of the output's error at k is left at k+1."""
+    look_ahead, error_decay = controller.look_ahead, controller.error_decay
+    w, m = controller.w, controller.m
+    limits, dt = robot.limits, robot.dt
     v_prev, omega_prev = float(u_prev[0]), float(u_prev[1])
 
     def output(pose: FloatArray) -> FloatArray:  # eq. (26): position + look_ahead * heading
@@ -348,23 +343,19 @@ def regulate_input(
     estimate_prev: FloatArray,
     u_prev: FloatArray,
     target: FloatArray,
-    form: int,
-    align_radius: float,
-    reverse: bool,
-    q: FloatArray,
-    r: FloatArray,
-    w: FloatArray,
-    m: FloatArray,
     row_kinds: IntArray,
     row_params: FloatArray,
-    limits: FloatArray,
-    dt: float,
+    controller: Controller,
+    robot: Robot,
     memory: FloatArray,
-    work: Workspace,
+    work: Scratch,
     u_out: FloatArray,
 ) -> None:
     """Case 1: the gain-scheduled regulator, eq. (19), plus eq. (28) where the
     prediction violates a constraint row; then the limits."""
+    form, align_radius, reverse = controller.form, controller.align_radius, controller.reverse
+    q, r, w, m = controller.q, controller.r, controller.w, controller.m
+    limits, dt = robot.limits, robot.dt
     v_prev, omega_prev = float(u_prev[0]), float(u_prev[1])
     # scipy's solver reports no iteration count.
     memory[DOUBLINGS] = 0.0

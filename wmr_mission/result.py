@@ -91,7 +91,9 @@ class RunResult:
     the largest constraint-row value of the phase at the true state (> 0 means
     violated; NaN when the phase has no constraint). ``compute_ns`` is the
     wall time of estimator + controller for that sample (not written to the
-    CSV: it is not reproducible).
+    CSV: it is not reproducible). ``loop_ns`` is the wall time of the whole
+    simulation loop (plant, sensors, estimator, controller, phase logic,
+    recording), start-up excluded.
     """
 
     mission_name: str
@@ -126,6 +128,7 @@ class RunResult:
     # The mission as run, with its defaults (``Mission.model_dump(mode="json")``):
     # its `expect` judges the run; None for a run of a compiled mission.
     mission: dict[str, Any] | None = None
+    loop_ns: int = 0
 
     def __post_init__(self) -> None:
         for name in ("x_meas", "y_meas", "theta_meas"):

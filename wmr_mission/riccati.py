@@ -38,141 +38,120 @@ TOLERANCE = 1e-14  # relative change of the doubling iterate that ends the itera
 MAX_DOUBLINGS = 60
 
 
+# A 3x3 matrix as a tuple of its 9 entries, row by row: numba keeps it in
+# registers, and plain Python reads it far faster than a numpy array.
+Mat3 = tuple[float, float, float, float, float, float, float, float, float]
+
+
 @kernel
-def _inv3(m: FloatArray, out: FloatArray) -> None:
-    a, b, c = m[0, 0], m[0, 1], m[0, 2]
-    d, e, f = m[1, 0], m[1, 1], m[1, 2]
-    g, h, i = m[2, 0], m[2, 1], m[2, 2]
+def _mul3(a: Mat3, b: Mat3) -> Mat3:
+    """a b, written out: (a b)[i, j] = a[i, 0] b[0, j] + a[i, 1] b[1, j] + a[i, 2] b[2, j]."""
+    a0, a1, a2, a3, a4, a5, a6, a7, a8 = a
+    b0, b1, b2, b3, b4, b5, b6, b7, b8 = b
+    return (
+        a0 * b0 + a1 * b3 + a2 * b6, a0 * b1 + a1 * b4 + a2 * b7, a0 * b2 + a1 * b5 + a2 * b8,
+        a3 * b0 + a4 * b3 + a5 * b6, a3 * b1 + a4 * b4 + a5 * b7, a3 * b2 + a4 * b5 + a5 * b8,
+        a6 * b0 + a7 * b3 + a8 * b6, a6 * b1 + a7 * b4 + a8 * b7, a6 * b2 + a7 * b5 + a8 * b8,
+    )  # fmt: skip
+
+
+@kernel
+def _transpose(a: Mat3) -> Mat3:
+    return (a[0], a[3], a[6], a[1], a[4], a[7], a[2], a[5], a[8])
+
+
+@kernel
+def _inv3(m: Mat3) -> Mat3:
+    a, b, c, d, e, f, g, h, i = m
     c00 = e * i - f * h
     c01 = f * g - d * i
     c02 = d * h - e * g
     inv_det = 1.0 / (a * c00 + b * c01 + c * c02)
-    out[0, 0] = c00 * inv_det
-    out[1, 0] = c01 * inv_det
-    out[2, 0] = c02 * inv_det
-    out[0, 1] = (c * h - b * i) * inv_det
-    out[1, 1] = (a * i - c * g) * inv_det
-    out[2, 1] = (b * g - a * h) * inv_det
-    out[0, 2] = (b * f - c * e) * inv_det
-    out[1, 2] = (c * d - a * f) * inv_det
-    out[2, 2] = (a * e - b * d) * inv_det
+    return (
+        c00 * inv_det, (c * h - b * i) * inv_det, (b * f - c * e) * inv_det,
+        c01 * inv_det, (a * i - c * g) * inv_det, (c * d - a * f) * inv_det,
+        c02 * inv_det, (b * g - a * h) * inv_det, (a * e - b * d) * inv_det,
+    )  # fmt: skip
 
 
 @kernel
-def _mul3(a: FloatArray, b: FloatArray, out: FloatArray) -> None:
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+def _symmetric_step(m: Mat3, t: Mat3) -> Mat3:
+    """m + (t + t^T) / 2."""
+    return (
+        m[0] + 0.5 * (t[0] + t[0]), m[1] + 0.5 * (t[1] + t[3]), m[2] + 0.5 * (t[2] + t[6]),
+        m[3] + 0.5 * (t[3] + t[1]), m[4] + 0.5 * (t[4] + t[4]), m[5] + 0.5 * (t[5] + t[7]),
+        m[6] + 0.5 * (t[6] + t[2]), m[7] + 0.5 * (t[7] + t[5]), m[8] + 0.5 * (t[8] + t[8]),
+    )  # fmt: skip
 
 
 @kernel
-def _mul3_at(a: FloatArray, b: FloatArray, out: FloatArray) -> None:
-    """out = a^T b."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = a[0, i] * b[0, j] + a[1, i] * b[1, j] + a[2, i] * b[2, j]
+def solve_riccati(a: Mat3, g: Mat3, q: Mat3) -> tuple[Mat3, int]:
+    """Solve eq. (21) for 3 states by doubling: ``(pi, doublings)``.
 
-
-@kernel
-def _mul3_bt(a: FloatArray, b: FloatArray, out: FloatArray) -> None:
-    """out = a b^T."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
-
-
-@kernel
-def solve_riccati(
-    a: FloatArray, b: FloatArray, q: FloatArray, r: FloatArray, pi: FloatArray, work: FloatArray
-) -> int:
-    """Solve eq. (21) for 3 states and 2 inputs by doubling; write ``pi``.
-
-    ``q`` (3, 3) is Q-hat and ``r`` (2,) the diagonal of R-hat of eq. (17);
-    ``work`` is scratch of shape (8, 3, 3). Returns the number of doublings, or
-    -1 when the iteration did not converge (``pi`` then holds the last iterate).
+    ``g`` is ``B R^-1 B^T`` and ``q`` Q-hat of eq. (17). ``doublings`` is -1
+    when the iteration did not converge (``pi`` is then the last iterate).
     """
-    ak = work[0]
-    gk = work[1]
-    hk = work[2]
-    wk = work[3]
-    wi = work[4]
-    t1 = work[5]
-    t2 = work[6]
-    t3 = work[7]
-    for i in range(3):
-        for j in range(3):
-            ak[i, j] = a[i, j]
-            # G_0 = B R^-1 B^T, H_0 = Q.
-            gk[i, j] = b[i, 0] * b[j, 0] / r[0] + b[i, 1] * b[j, 1] / r[1]
-            hk[i, j] = q[i, j]
+    ak = a
+    gk = g
+    hk = q
     for iteration in range(1, MAX_DOUBLINGS + 1):
         # W = I + G H; everything below uses W^-1.
-        _mul3(gk, hk, wk)
-        for i in range(3):
-            wk[i, i] += 1.0
-        _inv3(wk, wi)
-        # t1 = W^-1 A_k
-        _mul3(wi, ak, t1)
+        w = _mul3(gk, hk)
+        wi = _inv3((w[0] + 1.0, w[1], w[2], w[3], w[4] + 1.0, w[5], w[6], w[7], w[8] + 1.0))
+        t1 = _mul3(wi, ak)
         # H_{k+1} = H_k + A_k^T H_k W^-1 A_k
-        _mul3(hk, t1, t2)
-        _mul3_at(ak, t2, t3)
+        new = _symmetric_step(hk, _mul3(_transpose(ak), _mul3(hk, t1)))
         change = 0.0
         size = 0.0
-        for i in range(3):
-            for j in range(3):
-                new = hk[i, j] + 0.5 * (t3[i, j] + t3[j, i])
-                change = max(change, abs(new - hk[i, j]))
-                size = max(size, abs(new))
-                hk[i, j] = new
+        for i in range(9):
+            change = max(change, abs(new[i] - hk[i]))
+            size = max(size, abs(new[i]))
+        hk = new
         # G_{k+1} = G_k + A_k W^-1 G_k A_k^T
-        _mul3(wi, gk, t2)
-        _mul3_bt(t2, ak, t3)
-        _mul3(ak, t3, t2)
-        for i in range(3):
-            for j in range(3):
-                gk[i, j] = gk[i, j] + 0.5 * (t2[i, j] + t2[j, i])
+        gk = _symmetric_step(gk, _mul3(ak, _mul3(_mul3(wi, gk), _transpose(ak))))
         # A_{k+1} = A_k W^-1 A_k
-        _mul3(ak, t1, t2)
-        for i in range(3):
-            for j in range(3):
-                ak[i, j] = t2[i, j]
+        ak = _mul3(ak, t1)
         if change <= TOLERANCE * size:
-            for i in range(3):
-                for j in range(3):
-                    pi[i, j] = hk[i, j]
-            return iteration
-    for i in range(3):
-        for j in range(3):
-            pi[i, j] = hk[i, j]
-    return -1
+            return hk, iteration
+    return hk, -1
 
 
 @kernel
 def regulator_gain(
-    a: FloatArray, b: FloatArray, r: FloatArray, pi: FloatArray, gain: FloatArray
-) -> None:
-    """Eq. (20): T = (R + B^T pi B)^-1 B^T pi A, written into ``gain`` (2x3)."""
+    a: Mat3, b: tuple[float, float, float, float, float, float], r: FloatArray, pi: Mat3
+) -> tuple[float, float, float, float, float, float]:
+    """Eq. (20): T = (R + B^T pi B)^-1 B^T pi A, row by row; ``b`` is B (3x2)
+    row by row and ``r`` the diagonal of R-hat."""
     # pb = pi B (3x2)
-    pb00 = pi[0, 0] * b[0, 0] + pi[0, 1] * b[1, 0] + pi[0, 2] * b[2, 0]
-    pb10 = pi[1, 0] * b[0, 0] + pi[1, 1] * b[1, 0] + pi[1, 2] * b[2, 0]
-    pb20 = pi[2, 0] * b[0, 0] + pi[2, 1] * b[1, 0] + pi[2, 2] * b[2, 0]
-    pb01 = pi[0, 0] * b[0, 1] + pi[0, 1] * b[1, 1] + pi[0, 2] * b[2, 1]
-    pb11 = pi[1, 0] * b[0, 1] + pi[1, 1] * b[1, 1] + pi[1, 2] * b[2, 1]
-    pb21 = pi[2, 0] * b[0, 1] + pi[2, 1] * b[1, 1] + pi[2, 2] * b[2, 1]
+    pb00 = pi[0] * b[0] + pi[1] * b[2] + pi[2] * b[4]
+    pb10 = pi[3] * b[0] + pi[4] * b[2] + pi[5] * b[4]
+    pb20 = pi[6] * b[0] + pi[7] * b[2] + pi[8] * b[4]
+    pb01 = pi[0] * b[1] + pi[1] * b[3] + pi[2] * b[5]
+    pb11 = pi[3] * b[1] + pi[4] * b[3] + pi[5] * b[5]
+    pb21 = pi[6] * b[1] + pi[7] * b[3] + pi[8] * b[5]
     # S = R + B^T pi B (2x2, symmetric)
-    s00 = r[0] + b[0, 0] * pb00 + b[1, 0] * pb10 + b[2, 0] * pb20
-    s01 = b[0, 0] * pb01 + b[1, 0] * pb11 + b[2, 0] * pb21
-    s11 = r[1] + b[0, 1] * pb01 + b[1, 1] * pb11 + b[2, 1] * pb21
+    s00 = r[0] + b[0] * pb00 + b[2] * pb10 + b[4] * pb20
+    s01 = b[0] * pb01 + b[2] * pb11 + b[4] * pb21
+    s11 = r[1] + b[1] * pb01 + b[3] * pb11 + b[5] * pb21
     det = s00 * s11 - s01 * s01
     i00 = s11 / det
     i01 = -s01 / det
     i11 = s00 / det
-    for j in range(3):
-        # (B^T pi A)[:, j] = pb^T A[:, j]
-        m0 = pb00 * a[0, j] + pb10 * a[1, j] + pb20 * a[2, j]
-        m1 = pb01 * a[0, j] + pb11 * a[1, j] + pb21 * a[2, j]
-        gain[0, j] = i00 * m0 + i01 * m1
-        gain[1, j] = i01 * m0 + i11 * m1
+    # (B^T pi A)[:, j] = pb^T A[:, j]
+    m00 = pb00 * a[0] + pb10 * a[3] + pb20 * a[6]
+    m10 = pb01 * a[0] + pb11 * a[3] + pb21 * a[6]
+    m01 = pb00 * a[1] + pb10 * a[4] + pb20 * a[7]
+    m11 = pb01 * a[1] + pb11 * a[4] + pb21 * a[7]
+    m02 = pb00 * a[2] + pb10 * a[5] + pb20 * a[8]
+    m12 = pb01 * a[2] + pb11 * a[5] + pb21 * a[8]
+    return (
+        i00 * m00 + i01 * m10, i00 * m01 + i01 * m11, i00 * m02 + i01 * m12,
+        i01 * m00 + i11 * m10, i01 * m01 + i11 * m11, i01 * m02 + i11 * m12,
+    )  # fmt: skip
+
+
+def _mat3(m: FloatArray) -> Mat3:
+    return tuple(float(v) for v in np.asarray(m, dtype=np.float64).reshape(9))  # type: ignore[return-value]
 
 
 def dlqr(
@@ -180,22 +159,22 @@ def dlqr(
 ) -> tuple[FloatArray, FloatArray, int]:
     """Array form for tests and notebooks: (T, pi, doublings). ``q`` is the
     diagonal of Q-hat or the whole matrix."""
-    pi = np.zeros((3, 3))
-    gain = np.zeros((2, 3))
-    work = np.zeros((8, 3, 3))
-    doublings = solve_riccati(
-        np.ascontiguousarray(a, dtype=np.float64),
-        np.ascontiguousarray(b, dtype=np.float64),
-        np.ascontiguousarray(np.diag(q) if np.ndim(q) == 1 else q, dtype=np.float64),
-        np.asarray(r, dtype=np.float64),
-        pi,
-        work,
+    b = np.asarray(b, dtype=np.float64)
+    r = np.asarray(r, dtype=np.float64)
+    g = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            g[i, j] = b[i, 0] * b[j, 0] / r[0] + b[i, 1] * b[j, 1] / r[1]
+    q_hat = np.diag(q) if np.ndim(q) == 1 else np.asarray(q, dtype=np.float64)
+    pi, doublings = solve_riccati(_mat3(a), _mat3(g), _mat3(q_hat))
+    rows = b.reshape(6)
+    b6 = (
+        float(rows[0]),
+        float(rows[1]),
+        float(rows[2]),
+        float(rows[3]),
+        float(rows[4]),
+        float(rows[5]),
     )
-    regulator_gain(
-        np.ascontiguousarray(a, dtype=np.float64),
-        np.ascontiguousarray(b, dtype=np.float64),
-        np.asarray(r, dtype=np.float64),
-        pi,
-        gain,
-    )
-    return gain, pi, doublings
+    gain = regulator_gain(_mat3(a), b6, r, pi)
+    return np.array(gain).reshape(2, 3), np.array(pi).reshape(3, 3), doublings

@@ -1,10 +1,11 @@
-"""The phase state machine and the fixed-step loop.
+"""The phase state machine around the compiled loop.
 
-Per sample k, as in the paper's algorithm: the active phase checks its exit
-conditions on the estimate x_{k|k}; its controller computes u_k (Case 1 or
-Case 2 of section III.C); the plant moves to x_{k+1} (eq. (1)); the sensors
-measure it; the estimator produces x_{k+1|k+1} (eqs. (4)-(12), or the EKF).
-The controller sees only estimates; the true state is for the record.
+The fixed-step loop itself (plant, sensors, estimator, controller, exit
+conditions, recording, divergence checks) is :func:`wmr_mission.loop.run_segment`.
+This module runs it chunk by chunk: it enters phases (instantiating paths
+from the estimated pose), samples each track phase's path ahead, draws the
+sensor noise ahead, records transitions, reports progress between chunks,
+and turns Ctrl-C into an ``interrupted`` result holding every sample so far.
 """
 
 from __future__ import annotations
@@ -19,21 +20,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission import control
+from wmr_mission import _jit, control, loop
 from wmr_mission.compiled import CompiledMission, CompiledPhase, Trajectory, compile_mission
-from wmr_mission.constrained_tracking import keep_constraints, keep_reference
 from wmr_mission.corrective import max_row_value
 from wmr_mission.ekf import ekf_step
-from wmr_mission.model import step, wrap_angle
+from wmr_mission.loop import FLOAT_COLUMNS, PathBlock, Phase, Record, Signals
 from wmr_mission.observer import observer_step
-from wmr_mission.result import (
-    EXTRA_COLUMNS,
-    TRAJECTORY_COLUMNS,
-    Outcome,
-    PhaseInfo,
-    RunResult,
-    Transition,
-)
+from wmr_mission.params import records, scratch
+from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
 from wmr_mission.sensors import Sensors
 
 if TYPE_CHECKING:
@@ -41,9 +35,13 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-# Reference samples computed per path evaluation (paths are vectorised in t).
-REFERENCE_BLOCK = 1024
-PROGRESS_EVERY = 2000
+# Samples per call of the compiled loop: between calls the runner reports
+# progress and Ctrl-C gets in (a few milliseconds apart when compiled). A
+# phase starts with short chunks, so a short phase samples little path ahead.
+CHUNK = 4096
+FIRST_CHUNK = 256
+# Largest recorder pre-sized from the mission's sample budget; it grows beyond.
+MAX_PRESIZED = 2_000_000
 
 
 class Status(StrEnum):
@@ -54,45 +52,49 @@ class Status(StrEnum):
 
 
 class Recorder:
-    """Pre-sized columns, one row per sample; grows by doubling if a run
-    outlasts its estimate. Sees every step; the kernels never log."""
-
-    # The float columns of trajectory.csv, in its order (phase and iterations are kept apart).
-    FLOAT_COLUMNS = tuple(
-        c for c in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS) if c not in ("phase", "phase2_iterations")
-    )
+    """Pre-sized columns (wmr_mission.loop.Record), one row per sample; grows
+    by doubling if a run outlasts its estimate. Columns are contiguous, so the
+    result hands them out as views, without copying."""
 
     def __init__(self, capacity: int) -> None:
-        capacity = max(16, min(capacity, 2_000_000))
-        self.floats = np.full((capacity, len(self.FLOAT_COLUMNS)), math.nan)
-        self.phase = np.zeros(capacity, dtype=np.int64)
-        self.iterations = np.zeros(capacity, dtype=np.int64)
-        self.compute_ns = np.zeros(capacity, dtype=np.int64)
-        self.count = 0
+        self.record = self._allocate(max(16, capacity))
 
-    def row(self) -> int:
-        if self.count == self.floats.shape[0]:
-            grow = self.floats.shape[0]
-            self.floats = np.vstack([self.floats, np.full((grow, self.floats.shape[1]), math.nan)])
-            self.phase = np.concatenate([self.phase, np.zeros(grow, dtype=np.int64)])
-            self.iterations = np.concatenate([self.iterations, np.zeros(grow, dtype=np.int64)])
-            self.compute_ns = np.concatenate([self.compute_ns, np.zeros(grow, dtype=np.int64)])
-        self.count += 1
-        return self.count - 1
+    @staticmethod
+    def _allocate(capacity: int) -> Record:
+        # np.empty: pages a short run never writes are never touched.
+        return Record(
+            np.empty((len(FLOAT_COLUMNS), capacity)).T,
+            np.empty(capacity, dtype=np.int64),
+            np.empty(capacity, dtype=np.int64),
+            np.empty(capacity, dtype=np.int64),
+            np.zeros(1, dtype=np.int64),
+        )
+
+    @property
+    def count(self) -> int:
+        return int(self.record.rows[0])
+
+    def reserve(self, rows: int) -> None:
+        """Room for ``rows`` more rows."""
+        old = self.record
+        capacity = old.phase.shape[0]
+        if self.count + rows <= capacity:
+            return
+        grown = self._allocate(max(2 * capacity, self.count + rows))
+        n = self.count
+        grown.floats[:n] = old.floats[:n]
+        for new, kept in zip(grown[1:4], old[1:4], strict=True):
+            new[:n] = kept[:n]
+        grown.rows[0] = n
+        self.record = grown
 
     def column(self, name: str) -> FloatArray:
-        return self.floats[: self.count, self.FLOAT_COLUMNS.index(name)].copy()
-
-
-def _seconds(samples: int, dt: float) -> float:
-    """``samples * dt`` without its rounding tail (53.48, not 53.480000000000004),
-    for the times people read in transitions.json."""
-    return round(samples * dt, 9)
+        return self.record.floats[: self.count, FLOAT_COLUMNS.index(name)]
 
 
 class ActivePhase:
-    """One phase's lifecycle: ``enter`` at its first sample, ``control`` and
-    ``check`` every sample, ``status`` says where it is."""
+    """One phase's lifecycle: ``enter`` at its first sample gives the record
+    the compiled loop runs it with; ``path_ahead`` samples its path."""
 
     def __init__(self, phase: CompiledPhase, mission: CompiledMission, index: int) -> None:
         self.phase = phase
@@ -101,133 +103,60 @@ class ActivePhase:
         self.status = Status.pending
         self.entry_sample = 0
         self.target = np.zeros(3)
-        self.memory = np.zeros(3)
-        self.reference = np.zeros(4)
         self._trajectory: Trajectory | None = None
-        self._block = np.zeros((0, 4))
-        self._block_start = 0
-        self._reaches_sign = 0.0
+        # Samples after which the phase ends for sure (elapsed or timeout).
+        bounds = [phase.until.elapsed_samples, phase.timeout_samples]
+        self.bound = min((b for b in bounds if b is not None), default=2**62)
 
-    def enter(self, k: int, estimate: FloatArray) -> None:
+    def enter(self, k: int, estimate: FloatArray) -> Phase:
         self.status = Status.running
         self.entry_sample = k
-        self.memory[:] = 0.0
         pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
-        if self.phase.kind == "track":
-            assert self.phase.make_trajectory is not None
-            self._trajectory = self.phase.make_trajectory(pose)
-            self._block = np.zeros((0, 4))
-        target = self.phase.target if self.phase.target is not None else pose
-        self.target[:] = target
-        kinds, params = self.phase.until.reaches_rows
-        if kinds.shape[0]:
-            self._reaches_sign = math.copysign(1.0, max_row_value(kinds, params, pose[0], pose[1]))
-
-    def reference_at(self, local_sample: int, heading: float) -> FloatArray:
-        """Path point and unit tangent at phase-local sample ``local_sample``."""
-        offset = local_sample - self._block_start
-        if offset < 0 or offset >= self._block.shape[0]:
-            assert self._trajectory is not None
-            self._block_start = local_sample
-            t = (local_sample + np.arange(REFERENCE_BLOCK, dtype=np.float64)) * self.mission.dt
-            x, y, dx, dy = self._trajectory.sample(t)
-            speed = np.hypot(dx, dy)
-            moving = speed > 1e-12
-            safe = np.where(moving, speed, 1.0)
-            self._block = np.column_stack(
-                [x, y, np.where(moving, dx / safe, np.nan), np.where(moving, dy / safe, np.nan)]
+        phase = self.phase
+        if phase.kind == "track":
+            assert phase.make_trajectory is not None
+            self._trajectory = phase.make_trajectory(pose)
+        self.target[:] = phase.target if phase.target is not None else pose
+        until = phase.until
+        reaches_kinds, reaches_params = until.reaches_rows
+        reaches_sign = 0.0
+        if reaches_kinds.shape[0]:
+            reaches_sign = math.copysign(
+                1.0, max_row_value(reaches_kinds, reaches_params, pose[0], pose[1])
             )
-            offset = 0
-        row = self._block[offset]
-        self.reference[0] = row[0]
-        self.reference[1] = row[1]
-        if math.isnan(row[2]):
-            # A path at rest has no tangent: keep the robot's heading.
-            self.reference[2] = math.cos(heading)
-            self.reference[3] = math.sin(heading)
-        else:
-            self.reference[2] = row[2]
-            self.reference[3] = row[3]
-        return self.reference
-
-    def check(self, k: int, estimate: FloatArray, speed: float) -> tuple[str, float] | None:
-        """The first exit condition that holds at sample k, with its value."""
-        until = self.phase.until
-        local = k - self.entry_sample
-        dt = self.mission.dt
-        x, y, theta = float(estimate[0]), float(estimate[1]), float(estimate[2])
-        if until.elapsed_samples is not None and local >= until.elapsed_samples:
-            return "elapsed", _seconds(local, dt)
-        if until.mission_time is not None and k * dt >= until.mission_time - 0.5 * dt:
-            return "mission_time", _seconds(k, dt)
-        kinds, params = until.reaches_rows
-        if kinds.shape[0]:
-            value = max_row_value(kinds, params, x, y)
-            if value == 0.0 or math.copysign(1.0, value) != self._reaches_sign:
-                return "reaches", value
-        if until.near is not None:
-            distance = math.hypot(x - until.near[0], y - until.near[1])
-            if distance <= until.near[2]:
-                return "near", distance
-        if until.settled is not None:
-            distance = math.hypot(x - self.target[0], y - self.target[1])
-            heading_error = abs(wrap_angle(theta - self.target[2]))
-            if (
-                distance <= until.settled[0]
-                and heading_error <= until.settled[1]
-                and abs(speed) <= until.settled[2]
-            ):
-                return "settled", distance
-        if until.heading is not None:
-            error = abs(wrap_angle(theta - until.heading[0]))
-            if error <= until.heading[1]:
-                return "heading", error
-        if self.phase.timeout_samples is not None and local >= self.phase.timeout_samples:
-            return "timeout", _seconds(local, dt)
-        return None
-
-
-@dataclass
-class _Estimator:
-    mission: CompiledMission
-    functions: StepFunctions
-    covariance: FloatArray
-    gain: FloatArray
-    work: FloatArray
-
-    def update(self, estimate: FloatArray, u: FloatArray, measurement: FloatArray) -> int:
-        m = self.mission
-        if m.estimator == "ekf":
-            self.functions.ekf_step(
-                estimate,
-                self.covariance,
-                u[0],
-                u[1],
-                m.dt,
-                measurement,
-                m.measure_mask,
-                m.ekf_process_var,
-                m.ekf_measurement_var,
-                self.work,
-            )
-            return 0
-        return int(
-            self.functions.observer_step(
-                estimate,
-                u[0],
-                u[1],
-                m.dt,
-                measurement,
-                m.measure_mask,
-                m.poles,
-                m.heading_motion_floor,
-                m.lower_bounds,
-                m.upper_bounds,
-                m.use_bounds,
-                m.max_iterations,
-                self.gain,
-            )
+        kinds, params = phase.constraint_rows
+        return Phase(
+            number=self.index,
+            tracking=phase.kind == "track",
+            entry_sample=k,
+            target=self.target,
+            constraint_kinds=kinds,
+            constraint_params=params,
+            elapsed_samples=-1 if until.elapsed_samples is None else until.elapsed_samples,
+            mission_time=math.nan if until.mission_time is None else until.mission_time,
+            reaches_kinds=reaches_kinds,
+            reaches_params=reaches_params,
+            reaches_sign=reaches_sign,
+            near=np.array(until.near if until.near is not None else (math.nan,) * 3),
+            settled=np.array(until.settled if until.settled is not None else (math.nan,) * 3),
+            heading=np.array(until.heading if until.heading is not None else (math.nan,) * 2),
+            timeout_samples=-1 if phase.timeout_samples is None else phase.timeout_samples,
         )
+
+    def path_ahead(self, local_sample: int, rows: int) -> PathBlock:
+        """The path at phase-local samples ``local_sample`` onwards: point and
+        unit tangent (NaN where the path rests)."""
+        if self._trajectory is None:
+            return PathBlock(0, np.zeros((0, 4)))
+        t = (local_sample + np.arange(rows, dtype=np.float64)) * self.mission.dt
+        x, y, dx, dy = self._trajectory.sample(t)
+        speed = np.hypot(dx, dy)
+        moving = speed > 1e-12
+        safe = np.where(moving, speed, 1.0)
+        block = np.column_stack(
+            [x, y, np.where(moving, dx / safe, np.nan), np.where(moving, dy / safe, np.nan)]
+        )
+        return PathBlock(local_sample, np.ascontiguousarray(block, dtype=np.float64))
 
 
 ProgressCallback = Callable[[float, float, str], None]
@@ -239,7 +168,8 @@ class StepFunctions:
 
     ``FAST`` are the compiled kernels; ``wmr_mission.reference.REFERENCE``
     holds straightforward numpy/scipy versions with the same signatures, used
-    as the oracle in tests and by ``wmr-mission bench``.
+    as the oracle in tests and by ``wmr-mission bench``: the loop then runs as
+    plain Python (wmr_mission.loop.python_loop).
     """
 
     observer_step: Callable[..., int]
@@ -263,9 +193,9 @@ def run_mission(
     A :class:`Mission` is checked first exactly as a mission file is (raises
     ``MissionError``), and the run is judged by its ``expect`` thresholds, as
     ``wmr-mission run`` does. ``progress(t, t_budget, phase_name)`` is called
-    every few thousand samples. The run stops cleanly on a timeout with
-    ``on_timeout: fail`` and on divergence; what was produced up to then is in
-    the result.
+    between chunks of samples. The run stops cleanly on a timeout with
+    ``on_timeout: fail``, on divergence and on Ctrl-C (outcome
+    ``interrupted``); what was produced up to then is in the result.
     """
     if isinstance(mission, CompiledMission):
         compiled = mission if seed is None else replace(mission, seed=seed)
@@ -282,16 +212,72 @@ def run_mission(
     return result
 
 
+def _seconds(samples: int, dt: float) -> float:
+    """``samples * dt`` without its rounding tail (53.48, not 53.480000000000004),
+    for the times people read in transitions.json."""
+    return round(samples * dt, 9)
+
+
 class _Run:
     def __init__(
         self, mission: CompiledMission, progress: ProgressCallback | None, functions: StepFunctions
     ) -> None:
         self.m = mission
         self.progress = progress
-        self.functions = functions
-        self.recorder = Recorder(mission.max_samples)
+        self.recorder = Recorder(min(mission.max_samples, MAX_PRESIZED))
         self.transitions: list[Transition] = []
         self.phases = [ActivePhase(p, mission, i) for i, p in enumerate(mission.phases)]
+        self.robot, self.estimator, self.controller = records(mission)
+        self.scratch = scratch()
+        if functions is FAST:
+            self.segment: Callable[..., int] = loop.run_segment
+            self.ticks: Callable[[], int] = _jit.ticks
+            self.ticks_are_ns = _jit.TICKS_ARE_NS
+        else:
+            self.segment = loop.python_loop(
+                {
+                    "observer_step": functions.observer_step,
+                    "ekf_step": functions.ekf_step,
+                    "track_input": functions.track_input,
+                    "regulate_input": functions.regulate_input,
+                    "ticks": time.perf_counter_ns,
+                }
+            )
+            self.ticks = time.perf_counter_ns
+            self.ticks_are_ns = True
+        m = mission
+        self.signals = Signals(
+            state=m.initial_state.copy(),
+            estimate=m.initial_estimate.copy(),
+            estimate_prev=m.initial_estimate.copy(),
+            measurement=np.zeros(3),
+            u=np.zeros(2),
+            u_prev=np.zeros(2),
+            covariance=np.diag(m.ekf_initial_var).astype(np.float64),
+            observer_gain=np.zeros((3, 3)),
+            ekf_work=np.zeros((4, 3, 3)),
+            memory=np.zeros(3),
+            counters=np.zeros(4, dtype=np.int64),
+            exit_value=np.zeros(1),
+        )
+        self.loop_ns = 0
+        self._started = (time.perf_counter_ns(), self.ticks())
+
+    def _call(self, phase: Phase, path: PathBlock, noise: FloatArray, stop: int) -> int:
+        return int(
+            self.segment(
+                self.robot,
+                self.estimator,
+                self.controller,
+                phase,
+                path,
+                noise,
+                self.signals,
+                self.recorder.record,
+                self.scratch,
+                stop,
+            )
+        )
 
     def run(self) -> RunResult:
         try:
@@ -300,13 +286,12 @@ class _Run:
             return self._interrupted()
 
     def _interrupted(self) -> RunResult:
-        """The samples recorded up to the stop; a row the stop cut short is dropped."""
-        recorder = self.recorder
-        if recorder.count and not np.all(np.isfinite(recorder.floats[recorder.count - 1, :9])):
-            recorder.count -= 1
-        last = recorder.count - 1
-        active = self.phases[int(recorder.phase[last]) if last >= 0 else 0]
-        t = round(float(recorder.floats[last, 0]), 9) if last >= 0 else 0.0
+        """The samples recorded up to the stop. A row is counted only once it is
+        whole, so a stop inside a sample (pure Python) leaves no half row."""
+        record = self.recorder.record
+        last = self.recorder.count - 1
+        active = self.phases[int(record.phase[last]) if last >= 0 else 0]
+        t = round(float(record.floats[last, 0]), 9) if last >= 0 else 0.0
         self.transitions.append(Transition(t, active.phase.name, None, "interrupted", math.nan))
         return self._result(
             Outcome.interrupted, f"interrupted in phase '{active.phase.name}' at t = {t:.6g} s"
@@ -315,209 +300,103 @@ class _Run:
     def _loop(self) -> RunResult:
         m = self.m
         dt = m.dt
-        state = m.initial_state.copy()
-        estimate = m.initial_estimate.copy()
-        estimate_prev = estimate.copy()
-        measurement = np.zeros(3)
-        u = np.zeros(2)
-        u_prev = np.zeros(2)
+        signals = self.signals
+        counters = signals.counters
         sensors = Sensors(m.noise_std, m.seed)
-        estimator = _Estimator(
-            m,
-            self.functions,
-            np.diag(m.ekf_initial_var).astype(np.float64),
-            np.zeros((3, 3)),
-            np.zeros((4, 3, 3)),
-        )
-        work = control.make_workspace()
-        path_now = np.zeros(4)  # the path at t_k; the tracking law aims at t_{k+1}'s
-        self._warm_up(estimator, estimate, measurement)
-        recorder = self.recorder
+        active = self.phases[0]
+        phase = active.enter(0, signals.estimate)
+        # Load (or compile) the loop before the clock: a zero-sample call.
+        self._call(phase, active.path_ahead(0, 2), sensors.ahead(1), 0)
         outcome = Outcome.success
         message = "all phases completed"
-        index = 0
-        active = self.phases[0]
-        active.enter(0, estimate)
-        k = 0
-        iterations = 0
         budget = m.max_samples * dt
+        self._started = (time.perf_counter_ns(), self.ticks())
+        index = 0
+        chunk = min(FIRST_CHUNK, CHUNK)
         while True:
-            # --- phase transitions on x_{k|k} (several may fire at one sample).
-            fired = active.check(k, estimate, u_prev[0])
-            ended = False
-            while fired is not None:
-                condition, value = fired
-                if condition == "timeout" and active.phase.fail_on_timeout:
-                    active.status = Status.timed_out
-                    self.transitions.append(
-                        Transition(_seconds(k, dt), active.phase.name, None, condition, value)
-                    )
-                    outcome = Outcome.timeout
-                    message = (
-                        f"phase '{active.phase.name}' timed out after {value:.6g} s "
-                        f"at t = {k * dt:.6g} s"
-                    )
-                    ended = True
-                    break
-                active.status = Status.done
-                index += 1
-                to = self.phases[index] if index < len(self.phases) else None
+            k = int(counters[loop.K])
+            local = k - active.entry_sample
+            # No further than the phase's own bound: no path sampled past its end.
+            samples = min(chunk, max(1, active.bound - local))
+            path = active.path_ahead(local, samples + 1)
+            noise = sensors.ahead(samples)
+            self.recorder.reserve(2)  # the loop stops early when the recorder is full
+            status = self._call(phase, path, noise, k + samples)
+            sensors.used(int(counters[loop.NOISE]))
+            counters[loop.NOISE] = 0
+            k = int(counters[loop.K])
+            if status == loop.CHUNK_END:
+                if self.progress is not None:
+                    self.progress(k * dt, budget, active.phase.name)
+                chunk = min(4 * chunk, CHUNK)
+                continue
+            if status != loop.EXITED:
+                cause = self._divergence_cause(status)
+                outcome, message = self._diverged(int(counters[loop.K]), active, cause)
+                break
+            condition = loop.CONDITIONS[int(counters[loop.CONDITION])]
+            value = float(signals.exit_value[0])
+            if condition in ("elapsed", "timeout", "mission_time"):
+                value = _seconds(int(value), dt)
+            if condition == "timeout" and active.phase.fail_on_timeout:
+                active.status = Status.timed_out
                 self.transitions.append(
-                    Transition(
-                        _seconds(k, dt),
-                        active.phase.name,
-                        None if to is None else to.phase.name,
-                        condition,
-                        float(value),
-                        None if to is None else to.phase.lap,
-                    )
+                    Transition(_seconds(k, dt), active.phase.name, None, condition, value)
                 )
-                if to is None:
-                    ended = True
-                    break
-                active = to
-                active.enter(k, estimate)
-                fired = active.check(k, estimate, u_prev[0])
-            if ended:
-                self._record(k, state, estimate, u_prev, active, iterations, 0, None, measurement)
+                outcome = Outcome.timeout
+                message = (
+                    f"phase '{active.phase.name}' timed out after {value:.6g} s "
+                    f"at t = {k * dt:.6g} s"
+                )
+                self._close(k, phase)
                 break
-            # --- controller: u_k from x_{k|k}. The path is an input, looked up
-            # before the clock starts; controller + estimator are timed.
-            phase = active.phase
-            reference = None
-            if phase.kind == "track":
-                local = k - active.entry_sample
-                path_now[:] = active.reference_at(local, float(estimate[2]))
-                reference_now = (float(path_now[0]), float(path_now[1]))
-                reference = active.reference_at(local + 1, float(estimate[2]))
-                kinds, params = phase.constraint_rows
-                if kinds.shape[0]:  # aim along a zone's edge where the path crosses it
-                    keep_reference(path_now, kinds, params, m.look_ahead)
-                    keep_reference(reference, kinds, params, m.look_ahead)
-            started = time.perf_counter_ns()
-            if reference is not None:
-                self.functions.track_input(
-                    estimate, u_prev, path_now, reference, m.look_ahead, m.error_decay,
-                    m.w, m.m, m.limits, dt, work, u,
-                )  # fmt: skip
-                if kinds.shape[0]:  # zones win over tracking: eq. (28) with priority
-                    keep_constraints(
-                        estimate, u_prev, kinds, params, m.look_ahead, m.limits, dt, work, u
-                    )
-            else:
-                kinds, params = phase.constraint_rows
-                self.functions.regulate_input(
-                    estimate,
-                    estimate_prev,
-                    u_prev,
-                    active.target,
-                    m.regulation_form,
-                    m.align_radius,
-                    m.reverse,
-                    m.q,
-                    m.r,
-                    m.w,
-                    m.m,
-                    kinds,
-                    params,
-                    m.limits,
-                    dt,
-                    active.memory,
-                    work,
-                    u,
+            active.status = Status.done
+            index += 1
+            to = self.phases[index] if index < len(self.phases) else None
+            self.transitions.append(
+                Transition(
+                    _seconds(k, dt),
+                    active.phase.name,
+                    None if to is None else to.phase.name,
+                    condition,
+                    value,
+                    None if to is None else to.phase.lap,
                 )
-            control_ns = time.perf_counter_ns() - started
-            self._record(
-                k,
-                state,
-                estimate,
-                u,
-                active,
-                iterations,
-                control_ns,
-                reference_now if reference is not None else None,
-                measurement,
             )
-            if not (abs(u[0]) <= m.runaway_input and abs(u[1]) <= m.runaway_input):  # NaN too
-                if math.isfinite(u[0]) and math.isfinite(u[1]):
-                    cause = (
-                        f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
-                        f"beyond {m.runaway_input:g} is no robot's)"
-                    )
-                else:
-                    cause = "the input is not finite"
-                outcome, message = self._diverged(k, active, cause)
+            if to is None:
+                self._close(k, phase)
                 break
-            # --- plant, sensors, estimator.
-            state[0], state[1], state[2] = step(state[0], state[1], state[2], u[0], u[1], dt)
-            sensors.measure(state, measurement)
-            estimate_prev[:] = estimate
-            started = time.perf_counter_ns()
-            iterations = estimator.update(estimate, u, measurement)
-            recorder.compute_ns[recorder.count - 1] += time.perf_counter_ns() - started
-            u_prev[:] = u
-            k += 1
-            if not (
-                abs(state[0]) < m.runaway_position and abs(state[1]) < m.runaway_position
-                and math.isfinite(state[2])
-                and abs(estimate[0]) < m.runaway_position
-                and abs(estimate[1]) < m.runaway_position
-                and math.isfinite(estimate[2])
-            ):  # fmt: skip
-                self._record(k, state, estimate, u_prev, active, iterations, 0, None, measurement)
-                cause = (
-                    f"the state ran away (x = {state[0]:.3g} m, y = {state[1]:.3g} m; "
-                    f"last input v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s)"
-                )
-                outcome, message = self._diverged(k, active, cause)
-                break
-            if self.progress is not None and k % PROGRESS_EVERY == 0:
-                self.progress(k * dt, budget, phase.name)
+            active = to
+            signals.memory[:] = 0.0
+            phase = active.enter(k, signals.estimate)
+            chunk = min(FIRST_CHUNK, CHUNK)
         return self._result(outcome, message)
 
-    def _warm_up(
-        self, estimator: _Estimator, estimate: FloatArray, measurement: FloatArray
-    ) -> None:
-        """Call each kernel the mission uses once, on scratch copies, before the
-        clock runs: a compiled kernel's first call loads it from numba's disk
-        cache (milliseconds), a start-up cost, not a per-sample one."""
-        if self.functions is not FAST:
-            return
-        scratch = _Estimator(
-            self.m,
-            self.functions,
-            estimator.covariance.copy(),
-            estimator.gain.copy(),
-            estimator.work.copy(),
+    def _close(self, k: int, phase: Phase) -> None:
+        """The row of the sample the run ends at: no step is taken from it."""
+        s = self.signals
+        record = loop.record_sample if self.segment is loop.run_segment else _py(loop.record_sample)
+        mask = self.m.measure_mask
+        measured = np.where((mask > 0.0) & (k > 0), s.measurement, math.nan)
+        record(
+            self.recorder.record, phase, k * self.m.dt, s.state[0], s.state[1], s.state[2],
+            s.estimate, s.u_prev, math.nan, math.nan, measured, int(s.counters[loop.ITERATIONS]),
+        )  # fmt: skip
+
+    def _divergence_cause(self, status: int) -> str:
+        s = self.signals
+        u = s.u
+        if status == loop.DIVERGED_INPUT:
+            if math.isfinite(u[0]) and math.isfinite(u[1]):
+                return (
+                    f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
+                    f"beyond {self.m.runaway_input:g} is no robot's)"
+                )
+            return "the input is not finite"
+        return (
+            f"the state ran away (x = {s.state[0]:.3g} m, y = {s.state[1]:.3g} m; "
+            f"last input v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s)"
         )
-        u = np.zeros(2)
-        scratch.update(estimate.copy(), u, measurement.copy())
-        m = self.m
-        work = control.make_workspace()
-        warmed: set[bool] = set()  # one call per controller: tracking, regulating
-        for active in self.phases:
-            phase = active.phase
-            regulating = phase.kind != "track"
-            if regulating in warmed:
-                continue
-            warmed.add(regulating)
-            if not regulating:
-                self.functions.track_input(
-                    estimate.copy(), u.copy(), np.zeros(4), np.zeros(4), m.look_ahead,
-                    m.error_decay, m.w, m.m, m.limits, m.dt, work, np.zeros(2),
-                )  # fmt: skip
-                kinds, params = phase.constraint_rows
-                keep_constraints(
-                    estimate.copy(), u.copy(), kinds, params, m.look_ahead, m.limits, m.dt, work,
-                    np.zeros(2),
-                )  # fmt: skip
-            else:
-                kinds, params = phase.constraint_rows
-                self.functions.regulate_input(
-                    estimate.copy(), estimate.copy(), u.copy(), estimate.copy(),
-                    m.regulation_form, m.align_radius, m.reverse, m.q, m.r, m.w, m.m,
-                    kinds, params, m.limits, m.dt, np.zeros(3), work, np.zeros(2),
-                )  # fmt: skip
 
     def _diverged(self, k: int, active: ActivePhase, cause: str) -> tuple[Outcome, str]:
         t = _seconds(k, self.m.dt)
@@ -527,49 +406,28 @@ class _Run:
             f"diverged in phase '{active.phase.name}' at t = {t:.6g} s: {cause}",
         )
 
-    def _record(
-        self,
-        k: int,
-        state: FloatArray,
-        estimate: FloatArray,
-        u: FloatArray,
-        active: ActivePhase,
-        iterations: int,
-        compute_ns: int,
-        reference: tuple[float, float] | None,
-        measurement: FloatArray,
-    ) -> None:
-        recorder = self.recorder
-        i = recorder.row()
-        row = recorder.floats[i]
-        row[0] = k * self.m.dt
-        row[1:4] = state
-        row[4:7] = estimate
-        row[7:9] = u
-        if reference is not None:
-            # The path point at t_k (the controller aims at t_{k+1}'s).
-            row[9] = reference[0]
-            row[10] = reference[1]
-        kinds, params = active.phase.constraint_rows
-        if kinds.shape[0]:
-            row[11] = max_row_value(kinds, params, float(state[0]), float(state[1]))
-        if k > 0:  # the measurement of x_k, which the estimator used for x_{k|k}
-            measured = self.m.measure_mask
-            row[12] = measurement[0] if measured[0] else math.nan
-            row[13] = measurement[1] if measured[1] else math.nan
-            row[14] = measurement[2] if measured[2] else math.nan
-        recorder.phase[i] = active.index
-        recorder.iterations[i] = iterations
-        recorder.compute_ns[i] = compute_ns
-
     def _result(self, outcome: Outcome, message: str) -> RunResult:
+        started_ns, started_ticks = self._started
+        self.loop_ns = time.perf_counter_ns() - started_ns
+        ns_per_tick = (
+            1.0 if self.ticks_are_ns else self.loop_ns / max(1, self.ticks() - started_ticks)
+        )
         r = self.recorder
         n = r.count
         m = self.m
+        record = r.record
         bounds = tuple(
             (float(lo), float(hi)) if m.use_bounds and math.isfinite(lo) else (math.nan, math.nan)
             for lo, hi in zip(m.lower_bounds, m.upper_bounds, strict=True)
         )
+        compute = record.compute[:n]
+        if not (self.ticks_are_ns or _jit.TICKS_TIMED):
+            # Compiled where no cheap clock can be read inside the loop (not
+            # x86-64): each sample gets the whole loop's mean.
+            compute[:] = self.loop_ns // max(1, n)
+        elif ns_per_tick != 1.0:
+            compute[:] = np.rint(compute * ns_per_tick).astype(np.int64)
+        columns = {name: r.column(name) for name in FLOAT_COLUMNS}
         return RunResult(
             mission_name=m.name,
             dt=m.dt,
@@ -586,27 +444,28 @@ class _Run:
                 )
                 for p, a in zip(m.phases, self.phases, strict=True)
             ],
-            t=r.column("t"),
-            x=r.column("x"),
-            y=r.column("y"),
-            theta=r.column("theta"),
-            x_est=r.column("x_est"),
-            y_est=r.column("y_est"),
-            theta_est=r.column("theta_est"),
-            v=r.column("v"),
-            omega=r.column("omega"),
-            phase=r.phase[:n].copy(),
-            x_ref=r.column("x_ref"),
-            y_ref=r.column("y_ref"),
-            constraint=r.column("constraint"),
-            phase2_iterations=r.iterations[:n].copy(),
-            compute_ns=r.compute_ns[:n].copy(),
+            t=columns["t"],
+            x=columns["x"],
+            y=columns["y"],
+            theta=columns["theta"],
+            x_est=columns["x_est"],
+            y_est=columns["y_est"],
+            theta_est=columns["theta_est"],
+            v=columns["v"],
+            omega=columns["omega"],
+            phase=record.phase[:n],
+            x_ref=columns["x_ref"],
+            y_ref=columns["y_ref"],
+            constraint=columns["constraint"],
+            phase2_iterations=record.iterations[:n],
+            compute_ns=compute,
             transitions=self.transitions,
             outcome=outcome,
             message=message,
             limits=(float(m.limits[0]), float(m.limits[1])),
             error_bounds=bounds,  # type: ignore[arg-type]
             regions=dict(m.regions),
+            loop_ns=self.loop_ns,
             x_meas=r.column("x_meas"),
             y_meas=r.column("y_meas"),
             theta_meas=r.column("theta_meas"),
@@ -617,3 +476,8 @@ class _Run:
         if active.phase.kind == "track" or active.status == Status.pending:
             return active.phase.target
         return (float(active.target[0]), float(active.target[1]), float(active.target[2]))
+
+
+def _py(function: Callable[..., int]) -> Callable[..., int]:
+    """The plain-Python form of a kernel."""
+    return getattr(function, "py_func", function)

@@ -25,10 +25,11 @@ def measurement_mask(measured: Iterable[str]) -> NDArray[np.float64]:
 
 
 class Sensors:
-    """Noisy pose measurements from a seeded generator.
+    """Noise for pose measurements from a seeded generator.
 
-    Noise for a whole run is drawn in blocks (one generator call per block, not
-    per sample); the sequence depends only on the seed, so a run is repeatable.
+    Noise is drawn in blocks of ``BLOCK`` rows (one generator call per block);
+    the loop adds row j to the j-th measurement. The sequence depends only on
+    the seed, however the run is cut into chunks, so a run is repeatable.
     """
 
     BLOCK = 4096
@@ -36,16 +37,22 @@ class Sensors:
     def __init__(self, noise_std: NDArray[np.float64], seed: int) -> None:
         self._std = np.asarray(noise_std, dtype=np.float64).copy()
         self._rng = np.random.default_rng(seed)
-        self._block = np.zeros((0, 3))
-        self._next = 0
+        self._ahead = np.zeros((0, 3))
 
-    def measure(self, state: NDArray[np.float64], out: NDArray[np.float64]) -> None:
-        """Write ``state + noise`` into ``out`` (all three; unmeasured ones are ignored)."""
-        if self._next == self._block.shape[0]:
-            self._block = self._rng.standard_normal((self.BLOCK, 3)) * self._std
-            self._next = 0
-        noise = self._block[self._next]
-        self._next += 1
-        out[0] = state[0] + noise[0]
-        out[1] = state[1] + noise[1]
-        out[2] = state[2] + noise[2]
+    def ahead(self, rows: int) -> NDArray[np.float64]:
+        """The next ``rows`` (or more) rows of noise, not yet used."""
+        if self._ahead.shape[0] < rows and not self._std.any():
+            # Noise-free: zeros, instead of draws scaled by zero.
+            self._ahead = np.zeros((max(rows, self.BLOCK), 3))
+        if self._ahead.shape[0] < rows:
+            blocks = [self._ahead]
+            drawn = self._ahead.shape[0]
+            while drawn < rows:
+                blocks.append(self._rng.standard_normal((self.BLOCK, 3)) * self._std)
+                drawn += self.BLOCK
+            self._ahead = np.ascontiguousarray(np.concatenate(blocks))
+        return self._ahead
+
+    def used(self, rows: int) -> None:
+        """Mark the first ``rows`` rows of :meth:`ahead` as used."""
+        self._ahead = self._ahead[rows:]

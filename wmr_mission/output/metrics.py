@@ -490,7 +490,15 @@ def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> di
             for index, start, end in segments
         ],
         "compute_us_per_sample": compute_time_us(result.compute_ns),
+        "loop_us_per_sample": loop_time_us(result),
     }
+
+
+def loop_time_us(result: RunResult) -> float | None:
+    """Wall time of the whole simulation loop per sample [us] (None when not timed)."""
+    if result.loop_ns <= 0 or result.samples == 0:
+        return None
+    return result.loop_ns / 1000.0 / result.samples
 
 
 def _summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | None:

@@ -207,32 +207,43 @@ def _csv_field(text: str) -> str:
     return text
 
 
+def trajectory_csv_blocks(result: RunResult) -> Iterator[str]:
+    """``trajectory.csv`` in pieces: the header line, then blocks of lines, so a
+    long run is never held in memory as one text."""
+    names = np.array([_csv_field(p.name) for p in result.phases] or [""], dtype=object)
+    formats = [
+        "%s" if name == "phase" else "%d" if name == "phase2_iterations" else _FLOAT_FORMAT
+        for name in CSV_COLUMNS
+    ]
+    row_format = ",".join(formats) + "\n"
+    yield ",".join(CSV_COLUMNS) + "\n"
+    for start in range(0, result.samples, _ROWS_PER_BLOCK):
+        block = slice(start, start + _ROWS_PER_BLOCK)
+        columns: list[list[Any]] = []
+        for name in CSV_COLUMNS:
+            if name == "phase":
+                columns.append(names[np.asarray(result.phase[block], dtype=np.int64)].tolist())
+            elif name == "phase2_iterations":
+                column = np.asarray(result.phase2_iterations[block], dtype=np.int64)
+                columns.append(column.tolist())
+            else:
+                column = np.asarray(getattr(result, name)[block], dtype=np.float64)
+                columns.append(column.tolist())
+        values = tuple(value for row in zip(*columns, strict=True) for value in row)
+        yield row_format * (len(values) // len(columns)) % values
+
+
 def trajectory_csv_text(result: RunResult) -> str:
     """The whole ``trajectory.csv``: header line then one line per sample."""
-    names = np.array([_csv_field(p.name) for p in result.phases] or [""], dtype=object)
-    columns: list[list[Any]] = []
-    formats: list[str] = []
-    for name in CSV_COLUMNS:
-        if name == "phase":
-            columns.append(names[np.asarray(result.phase, dtype=np.int64)].tolist())
-            formats.append("%s")
-        elif name == "phase2_iterations":
-            columns.append(np.asarray(result.phase2_iterations, dtype=np.int64).tolist())
-            formats.append("%d")
-        else:
-            columns.append(np.asarray(getattr(result, name), dtype=np.float64).tolist())
-            formats.append(_FLOAT_FORMAT)
-    row_format = ",".join(formats) + "\n"
-    parts = [",".join(CSV_COLUMNS) + "\n"]
-    for start in range(0, result.samples, _ROWS_PER_BLOCK):
-        rows = zip(*(column[start : start + _ROWS_PER_BLOCK] for column in columns), strict=True)
-        values = tuple(value for row in rows for value in row)
-        parts.append(row_format * (len(values) // len(columns)) % values)
-    return "".join(parts)
+    return "".join(trajectory_csv_blocks(result))
 
 
 def write_trajectory(result: RunResult, path: Path) -> Path:
-    return write_bytes_atomic(path, trajectory_csv_text(result).encode("utf-8"))
+    """Write ``trajectory.csv`` block by block (atomically, like every run file)."""
+    with atomic_path(path) as tmp, tmp.open("w", encoding="utf-8", newline="") as out:
+        for block in trajectory_csv_blocks(result):
+            out.write(block)
+    return path
 
 
 # --- JSON -----------------------------------------------------------------

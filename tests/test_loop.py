@@ -1,0 +1,121 @@
+"""The compiled loop: the same bytes compiled and as plain Python, however the
+run is cut into chunks; Ctrl-C between chunks; a cache nobody can write."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wmr_mission import runner
+from wmr_mission.output.rundir import write_trajectory
+from wmr_mission.result import Outcome, RunResult
+from wmr_mission.runner import run_mission
+from wmr_mission.spec.loader import load_mission
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+COLUMNS = ("t", "x", "y", "theta", "x_est", "y_est", "theta_est", "v", "omega")
+COLUMNS += ("x_ref", "y_ref", "constraint", "phase", "phase2_iterations")
+
+
+def same_arrays(a: RunResult, b: RunResult) -> None:
+    assert a.samples == b.samples
+    for name in COLUMNS:
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    assert a.transitions == b.transitions
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["case1", "case2", "noisy-ekf"])
+def test_pure_python_fallback_writes_the_same_bytes(name: str, tmp_path: Path) -> None:
+    """``WMR_MISSION_NO_JIT=1`` runs the same loop source as plain Python."""
+    out = tmp_path / "fallback"
+    env = {**os.environ, "WMR_MISSION_NO_JIT": "1"}
+    command = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / f"{name}.yaml")]
+    done = subprocess.run(
+        [*command, "--out", str(out), "--no-plots"], env=env, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    fast = write_trajectory(run_mission(load_mission(MISSIONS / f"{name}.yaml")), tmp_path / "f")
+    assert (out / "trajectory.csv").read_bytes() == fast.read_bytes()
+
+
+@pytest.mark.parametrize("name", ["noisy-observer", "fence"])
+def test_chunk_boundaries_change_nothing(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Paths sampled ahead, noise drawn ahead and the recorder's growth join
+    up exactly at chunk boundaries, even at a few samples per chunk."""
+    mission = load_mission(MISSIONS / f"{name}.yaml")
+    whole = run_mission(mission)
+    monkeypatch.setattr(runner, "CHUNK", 7)
+    monkeypatch.setattr(runner, "MAX_PRESIZED", 16)
+    same_arrays(run_mission(mission), whole)
+
+
+def test_ctrl_c_between_chunks_returns_what_was_simulated(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(runner, "CHUNK", 500)
+    monkeypatch.setattr(runner, "FIRST_CHUNK", 500)
+    mission = load_mission(MISSIONS / "noisy-observer.yaml")
+    calls = []
+
+    def progress(t: float, budget: float, phase: str) -> None:
+        calls.append(t)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    result = run_mission(mission, progress=progress)
+    assert result.outcome is Outcome.interrupted
+    # The last sample recorded, just before the progress report the stop came in.
+    assert result.t[-1] == pytest.approx(calls[-1] - 0.01)
+    assert result.message == f"interrupted in phase 'circle' at t = {result.t[-1]:g} s"
+    assert result.samples == 2 * runner.CHUNK
+    assert result.transitions[-1].condition == "interrupted"
+    assert np.all(np.isfinite(result.x))
+    assert np.all(np.isfinite(result.x_est))
+    np.testing.assert_array_equal(result.x, run_mission(mission).x[: result.samples])
+
+
+# Runs in a fresh interpreter where no directory but the temporary one can be
+# written (as with a root-owned install and HOME=/nonexistent), or none at all.
+UNWRITABLE = """
+import sys, tempfile
+allowed = sys.argv[1]
+real = tempfile.TemporaryFile
+def guarded(*args, dir=None, **kwargs):
+    if allowed == "" or not str(dir).startswith(allowed):
+        raise PermissionError(13, "Permission denied", str(dir))
+    return real(*args, dir=dir, **kwargs)
+tempfile.TemporaryFile = guarded
+import wmr_mission.runner  # every kernel is declared at import
+from wmr_mission import model
+print(model.wrap_angle(7.0))
+"""
+
+
+@pytest.mark.parametrize("writable", ["temporary", "nothing"])
+def test_an_unwritable_cache_never_crashes(writable: str, tmp_path: Path) -> None:
+    env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
+    env.update({"HOME": "/nonexistent", "XDG_CACHE_HOME": "/nonexistent", "TMPDIR": str(tmp_path)})
+    env.pop("WMR_MISSION_NO_JIT", None)
+    allowed = str(tmp_path) if writable == "temporary" else ""
+    done = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(UNWRITABLE), allowed],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert float(done.stdout) == pytest.approx(7.0 - 2 * np.pi)
+    notice = done.stderr.strip().splitlines()
+    assert len(notice) == 1, done.stderr
+    cached = list(tmp_path.rglob("*.nbi"))
+    if writable == "temporary":
+        assert str(tmp_path) in notice[0]
+        assert cached
+    else:
+        assert "compiled on every run" in notice[0]
+        assert not cached
