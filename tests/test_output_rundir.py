@@ -81,7 +81,15 @@ def test_trajectory_header_and_column_order(tmp_path: Path) -> None:
     first = ["t", "x", "y", "theta", "x_est", "y_est", "theta_est", "v", "omega", "phase"]
     assert header[:10] == first
     assert header == [*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS]
-    assert header[10:] == ["x_ref", "y_ref", "constraint", "phase2_iterations"]
+    assert header[10:] == [
+        "x_ref",
+        "y_ref",
+        "constraint",
+        "x_meas",
+        "y_meas",
+        "theta_meas",
+        "phase2_iterations",
+    ]
     assert len(lines) == 2001 + 2
     assert lines[-1] == b""  # '\n' after every row
     assert b"\r" not in lines[1]
@@ -96,7 +104,8 @@ def test_trajectory_values_are_12_significant_digits_and_nan(tmp_path: Path) -> 
     assert first[1] == "2"
     assert first[3] == "%.12g" % (math.pi / 2)
     assert first[9] == "approach"
-    assert first[13] == "3"
+    assert first[13:16] == ["nan", "nan", "nan"]  # no measurement recorded
+    assert first[16] == "3"
     park = rows[1 + 1700].split(",")
     assert park[9] == "park"
     assert park[10:12] == ["nan", "nan"]  # no reference outside track phases
@@ -273,7 +282,7 @@ def test_load_run_without_summary_says_incomplete(tmp_path: Path) -> None:
         (
             "trajectory.csv",
             lambda text: text[: text.index("\n", 200)] + "\n1,2\n",
-            r"trajectory.csv:\d+: expected 14 fields, found 2",
+            r"trajectory.csv:\d+: expected 17 fields, found 2",
         ),
         (
             "trajectory.csv",

@@ -74,6 +74,7 @@ class CompiledPhase:
     lap: int | None = None
     # track: the points its path is drawn through ((m, 2), for figures), or None.
     points: FloatArray | None = None
+    color: str | None = None  # for the figures: from the mission's plot.phase_colors
 
 
 @dataclass(frozen=True)
@@ -281,6 +282,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 target=target,
                 constraint_rows=_stack_rows(row_parts),
                 constraints=tuple(constraints),
+                color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
             )
         )
     estimator = mission.estimator

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING
 
@@ -26,7 +26,14 @@ from wmr_mission.corrective import max_row_value
 from wmr_mission.ekf import ekf_step
 from wmr_mission.model import step, wrap_angle
 from wmr_mission.observer import observer_step
-from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
+from wmr_mission.result import (
+    EXTRA_COLUMNS,
+    TRAJECTORY_COLUMNS,
+    Outcome,
+    PhaseInfo,
+    RunResult,
+    Transition,
+)
 from wmr_mission.sensors import Sensors
 
 if TYPE_CHECKING:
@@ -50,19 +57,9 @@ class Recorder:
     """Pre-sized columns, one row per sample; grows by doubling if a run
     outlasts its estimate. Sees every step; the kernels never log."""
 
-    FLOAT_COLUMNS = (
-        "t",
-        "x",
-        "y",
-        "theta",
-        "x_est",
-        "y_est",
-        "theta_est",
-        "v",
-        "omega",
-        "x_ref",
-        "y_ref",
-        "constraint",
+    # The float columns of trajectory.csv, in its order (phase and iterations are kept apart).
+    FLOAT_COLUMNS = tuple(
+        c for c in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS) if c not in ("phase", "phase2_iterations")
     )
 
     def __init__(self, capacity: int) -> None:
@@ -263,16 +260,26 @@ def run_mission(
 ) -> RunResult:
     """Simulate ``mission`` and return every sample as arrays.
 
-    ``progress(t, t_budget, phase_name)`` is called every few thousand samples.
-    The run stops cleanly on a timeout with ``on_timeout: fail`` and on
-    divergence; what was produced up to then is in the result.
+    A :class:`Mission` is checked first exactly as a mission file is (raises
+    ``MissionError``), and the run is judged by its ``expect`` thresholds, as
+    ``wmr-mission run`` does. ``progress(t, t_budget, phase_name)`` is called
+    every few thousand samples. The run stops cleanly on a timeout with
+    ``on_timeout: fail`` and on divergence; what was produced up to then is in
+    the result.
     """
-    compiled = mission if isinstance(mission, CompiledMission) else compile_mission(mission, seed)
-    if isinstance(mission, CompiledMission) and seed is not None:
-        from dataclasses import replace
+    if isinstance(mission, CompiledMission):
+        compiled = mission if seed is None else replace(mission, seed=seed)
+        return _Run(compiled, progress, functions).run()
+    from wmr_mission.output.metrics import judge
+    from wmr_mission.spec.loader import validate_mission
 
-        compiled = replace(mission, seed=seed)
-    return _Run(compiled, progress, functions).run()
+    checked = validate_mission(mission)
+    result = _Run(compile_mission(checked, seed), progress, functions).run()
+    resolved = checked.model_dump(mode="json")
+    resolved["sensors"]["seed"] = result.seed  # the mission as run
+    result.mission = resolved
+    judge(result, resolved)  # a success that misses an `expect` is not one
+    return result
 
 
 class _Run:
@@ -372,7 +379,7 @@ class _Run:
                 active.enter(k, estimate)
                 fired = active.check(k, estimate, u_prev[0])
             if ended:
-                self._record(k, state, estimate, u_prev, active, iterations, 0, None)
+                self._record(k, state, estimate, u_prev, active, iterations, 0, None, measurement)
                 break
             # --- controller: u_k from x_{k|k}. The path is an input, looked up
             # before the clock starts; controller + estimator are timed.
@@ -429,6 +436,7 @@ class _Run:
                 iterations,
                 control_ns,
                 reference_now if reference is not None else None,
+                measurement,
             )
             if not (abs(u[0]) <= m.runaway_input and abs(u[1]) <= m.runaway_input):  # NaN too
                 if math.isfinite(u[0]) and math.isfinite(u[1]):
@@ -456,7 +464,7 @@ class _Run:
                 and abs(estimate[1]) < m.runaway_position
                 and math.isfinite(estimate[2])
             ):  # fmt: skip
-                self._record(k, state, estimate, u_prev, active, iterations, 0, None)
+                self._record(k, state, estimate, u_prev, active, iterations, 0, None, measurement)
                 cause = (
                     f"the state ran away (x = {state[0]:.3g} m, y = {state[1]:.3g} m; "
                     f"last input v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s)"
@@ -529,6 +537,7 @@ class _Run:
         iterations: int,
         compute_ns: int,
         reference: tuple[float, float] | None,
+        measurement: FloatArray,
     ) -> None:
         recorder = self.recorder
         i = recorder.row()
@@ -544,6 +553,11 @@ class _Run:
         kinds, params = active.phase.constraint_rows
         if kinds.shape[0]:
             row[11] = max_row_value(kinds, params, float(state[0]), float(state[1]))
+        if k > 0:  # the measurement of x_k, which the estimator used for x_{k|k}
+            measured = self.m.measure_mask
+            row[12] = measurement[0] if measured[0] else math.nan
+            row[13] = measurement[1] if measured[1] else math.nan
+            row[14] = measurement[2] if measured[2] else math.nan
         recorder.phase[i] = active.index
         recorder.iterations[i] = iterations
         recorder.compute_ns[i] = compute_ns
@@ -561,7 +575,15 @@ class _Run:
             dt=m.dt,
             seed=m.seed,
             phases=[
-                PhaseInfo(p.name, p.kind, self._target(a), p.constraints)
+                PhaseInfo(
+                    p.name,
+                    p.kind,
+                    self._target(a),
+                    p.constraints,
+                    near=p.until.near,
+                    points=() if p.points is None else tuple(map(tuple, p.points.tolist())),
+                    color=p.color,
+                )
                 for p, a in zip(m.phases, self.phases, strict=True)
             ],
             t=r.column("t"),
@@ -585,6 +607,9 @@ class _Run:
             limits=(float(m.limits[0]), float(m.limits[1])),
             error_bounds=bounds,  # type: ignore[arg-type]
             regions=dict(m.regions),
+            x_meas=r.column("x_meas"),
+            y_meas=r.column("y_meas"),
+            theta_meas=r.column("theta_meas"),
         )
 
     @staticmethod
