@@ -7,6 +7,7 @@ its equations to the code. The Python API (``docs/python-api.md``):
 * ``load_mission``, ``mission_from_text``, ``mission_from_dict``: a checked mission;
 * ``run_mission``: check, simulate and judge it; a ``RunResult``;
 * ``plot_xy``, ``plot_states``, ``plot_estimation_error``, ``plot_inputs``: figures;
+* ``run_campaign``: a campaign (``docs/campaigns.md``): its rows and statistics;
 * ``load_run``: a run directory read back; ``MissionError``: what every check raises.
 """
 
@@ -26,6 +27,7 @@ if TYPE_CHECKING:
         mission_from_text,
         run_mission,
     )
+    from wmr_mission.campaign.sweep import run_campaign
     from wmr_mission.output.plots import (
         plot_estimation_error,
         plot_inputs,
@@ -47,6 +49,7 @@ _WHERE = {
     "plot_states": "wmr_mission.output.plots",
     "plot_estimation_error": "wmr_mission.output.plots",
     "plot_inputs": "wmr_mission.output.plots",
+    "run_campaign": "wmr_mission.campaign.sweep",
     "RunResult": "wmr_mission.result",
     "Mission": "wmr_mission.spec.models",
 }
@@ -64,6 +67,7 @@ __all__ = [
     "plot_inputs",
     "plot_states",
     "plot_xy",
+    "run_campaign",
     "run_mission",
 ]
 

@@ -1,4 +1,4 @@
-"""Command line: ``wmr-mission run|validate|schema|plot|bench``, ``--version``.
+"""Command line: ``wmr-mission run|sweep|validate|schema|plot|bench``, ``--version``.
 
 Thin by design: each command parses its flags and calls one function of the
 package. Imports are lazy so that ``validate`` and ``--help`` start fast and
@@ -130,31 +130,75 @@ def run(
 
 
 @app.command()
+def sweep(
+    campaign: Annotated[
+        Path,
+        typer.Argument(
+            exists=True,
+            dir_okay=False,
+            readable=True,
+            metavar="CAMPAIGN",
+            help="Campaign YAML file.",
+        ),
+    ],
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out", help="Campaign directory (default: runs/<campaign-name>-<timestamp>)."
+        ),
+    ] = None,
+    workers: Annotated[
+        int | None,
+        typer.Option("--workers", min=1, help="Local worker processes (default: every core)."),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            metavar="ADDRESS",
+            help="Run on this Dask scheduler (tcp://host:8786); needs wmr-mission[dask].",
+        ),
+    ] = None,
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
+) -> None:
+    """Run CAMPAIGN: its mission many times with fields varied; write runs.csv, campaign.json."""
+    from wmr_mission.campaign.sweep import sweep_command
+
+    raise typer.Exit(
+        sweep_command(campaign, out=out, workers=workers, scheduler=scheduler, plots=not no_plots)
+    )
+
+
+@app.command()
 def validate(
     files: Annotated[
         list[Path],
         typer.Argument(
             exists=True,
             metavar="FILE",
-            help="Mission YAML files; a directory stands for every *.yaml below it.",
+            help="Mission or campaign YAML files; a directory stands for every *.yaml below it.",
         ),
     ],
     format: Annotated[
         OutputFormat, typer.Option("--format", help="Report format.")
     ] = OutputFormat.text,
 ) -> None:
-    """Check mission files without running them (exit 0 all valid, 1 any invalid)."""
+    """Check mission and campaign files without running them (exit 0 all valid, 1 any invalid)."""
     from wmr_mission.spec.validate import validate_files
 
     raise typer.Exit(validate_files(files, fmt=format.value))
 
 
 @app.command()
-def schema() -> None:
+def schema(
+    campaign: Annotated[
+        bool, typer.Option("--campaign", help="Print the campaign schema instead.")
+    ] = False,
+) -> None:
     """Print the mission JSON Schema (for editors: wmr-mission schema > mission.schema.json)."""
-    from wmr_mission.spec.schema import schema_text
+    from wmr_mission.spec.schema import campaign_schema_text, schema_text
 
-    sys.stdout.write(schema_text())
+    sys.stdout.write(campaign_schema_text() if campaign else schema_text())
 
 
 @app.command()

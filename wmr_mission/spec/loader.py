@@ -9,6 +9,7 @@ Every problem of a file is reported at once as ``FILE:LINE:COL: message``.
 
 from __future__ import annotations
 
+import copy
 import difflib
 import math
 import os
@@ -44,6 +45,7 @@ __all__ = [
     "check_mission",
     "check_mission_bytes",
     "check_mission_data",
+    "check_mission_document",
     "check_mission_text",
     "load_mission",
     "load_mission_data",
@@ -516,9 +518,9 @@ def _selects(model: type[BaseModel], value: Any) -> bool:
     return not keys or any(k in value for k in keys)
 
 
-def _model_at(path: DataPath, data: Any) -> type[BaseModel] | None:
+def _model_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> type[BaseModel] | None:
     """The model class that reads the mapping at ``path`` (None when unknown)."""
-    tp: Any = Mission
+    tp: Any = root
     value = data
     for part in path:
         tp = _model_class(tp, value)
@@ -564,14 +566,15 @@ def _suggest(word: str, choices: Sequence[str]) -> str:
     return f"; did you mean {close[0]!r}?" if close else ""
 
 
-def _translate(error: Any, document: Document) -> Finding:
-    finding = _translate_error(error, document)
+def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -> Finding:
+    """A pydantic error of a ``root`` model (a mission, a campaign) as a positioned finding."""
+    finding = _translate_error(error, document, root)
     value = error.get("input")
     hint = yaml11_hint(value) if isinstance(value, str) else ""
     return replace(finding, message=finding.message + hint) if hint else finding
 
 
-def _translate_error(error: Any, document: Document) -> Finding:
+def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> Finding:
     kind: str = error["type"]
     loc: tuple[str | int, ...] = error["loc"]
     data = document.data
@@ -582,7 +585,7 @@ def _translate_error(error: Any, document: Document) -> Finding:
 
     if kind == "extra_forbidden":
         key = str(loc[-1])
-        owner = _model_at(path[:-1], data)
+        owner = _model_at(path[:-1], data, root)
         allowed = list(owner.model_fields) if owner is not None else []
         parent = _dotted(path[:-1])
         if key in ACTIONS and owner is not None and any(a in owner.model_fields for a in ACTIONS):
@@ -807,7 +810,7 @@ def _check_document(
             for item in error.errors(include_url=False):
                 path = _resolve(item["loc"], document.data)
                 if not _under(path, document.refused):
-                    translated.append(_translate(item, document))
+                    translated.append(translate(item, document))
             findings.extend(_without_implied_missing(translated))
     unique = {_diagnostic(filename, document, f) for f in findings}
     if mission is not None and not findings:
@@ -821,6 +824,22 @@ def _check_document(
     if any(d.severity == "error" for d in diagnostics):
         mission = None
     return mission, diagnostics
+
+
+def check_mission_document(
+    document: Document, filename: str, overrides: Sequence[Override] = ()
+) -> tuple[Mission | None, list[Diagnostic]]:
+    """As :func:`check_mission_text` for a text read once with :func:`read_document`
+    (without problems): a campaign checks thousands of overrides of one mission
+    without reading its YAML again. The document is left as it was."""
+    fresh = Document(
+        data=copy.deepcopy(document.data),
+        values=dict(document.values),
+        keys=dict(document.keys),
+        refused=set(document.refused),
+        overrides=dict(document.overrides),
+    )
+    return _check_document(fresh, [], filename, overrides)
 
 
 def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
@@ -859,14 +878,21 @@ def check_mission_bytes(
     raw: bytes, filename: str, overrides: Sequence[Override] = ()
 ) -> tuple[Mission | None, list[Diagnostic]]:
     """Every problem of a mission file's bytes, and the mission if it has none."""
+    text, diagnostics = decode_source(raw, filename)
+    if text is None:
+        return None, diagnostics
+    return check_mission_text(text, filename, overrides)
+
+
+def decode_source(raw: bytes, filename: str) -> tuple[str | None, list[Diagnostic]]:
+    """The text of a file's bytes, or where they stop being UTF-8."""
     try:
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8"), []
     except UnicodeDecodeError as error:
         before = raw[: error.start]
         line = before.count(b"\n") + 1
         column = len(before) - (before.rfind(b"\n") + 1) + 1
         return None, [Diagnostic(filename, line, column, "the file is not UTF-8 text")]
-    return check_mission_text(text, filename, overrides)
 
 
 def check_mission(

@@ -22,6 +22,7 @@ from wmr_mission.spec.models import Mission
 __all__ = [
     "REFERENCE_BEGIN",
     "REFERENCE_END",
+    "campaign_schema_text",
     "reference_markdown",
     "schema_dict",
     "schema_text",
@@ -43,7 +44,19 @@ def schema_dict() -> dict[str, Any]:
 
 def schema_text() -> str:
     """The schema as text: sorted keys, two-space indent, final newline (stable in git)."""
-    return json.dumps(schema_dict(), indent=2, sort_keys=True, ensure_ascii=False) + "\n"
+    return _text(schema_dict())
+
+
+def campaign_schema_text() -> str:
+    """The campaign JSON Schema (draft 2020-12), as text like the mission's."""
+    from wmr_mission.campaign.models import Campaign
+
+    schema = Campaign.model_json_schema(mode="validation")
+    return _text({"$schema": "https://json-schema.org/draft/2020-12/schema", **schema})
+
+
+def _text(schema: dict[str, Any]) -> str:
+    return json.dumps(schema, indent=2, sort_keys=True, ensure_ascii=False) + "\n"
 
 
 # --- field reference -----------------------------------------------------------
@@ -168,6 +181,7 @@ def write_generated_files(root: Path) -> None:
     """Rewrite the checked-in schema and the reference section of the format doc."""
     (root / "schemas").mkdir(exist_ok=True)
     (root / "schemas" / "mission.schema.json").write_text(schema_text(), encoding="utf-8")
+    (root / "schemas" / "campaign.schema.json").write_text(campaign_schema_text(), encoding="utf-8")
     doc = root / "docs" / "mission-format.md"
     doc.write_text(replace_reference(doc.read_text(encoding="utf-8")), encoding="utf-8")
 

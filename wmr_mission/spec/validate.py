@@ -1,4 +1,4 @@
-"""``wmr-mission validate``: check mission files without running them."""
+"""``wmr-mission validate``: check mission and campaign files without running them."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Literal
 
-from wmr_mission.spec.loader import Diagnostic, check_mission
+from wmr_mission.spec.loader import Diagnostic
 
 __all__ = ["validate_files"]
 
@@ -61,7 +61,9 @@ def validate_files(paths: Sequence[Path], fmt: Literal["text", "json"] | str = "
         for problem in problems:
             sys.stderr.write(f"{problem}\n")
     for path in files:
-        _, diagnostics = check_mission(path)
+        from wmr_mission.campaign.load import check_file  # a mission or a campaign
+
+        diagnostics = check_file(path)
         valid = not any(d.severity == "error" for d in diagnostics)
         all_valid = all_valid and valid
         reports.append((str(path), valid, diagnostics))

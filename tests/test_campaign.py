@@ -1,0 +1,351 @@
+"""Campaign runs: determinism per (seed, run), identical rows on any number of
+workers or a Dask cluster, replay of a run, Ctrl-C, statistics."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shlex
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from wmr_mission import run_campaign
+from wmr_mission.campaign.aggregate import clopper_pearson
+from wmr_mission.campaign.load import load_campaign
+from wmr_mission.campaign.plan import Draw, Plan
+from wmr_mission.campaign.runs import INVALID, mission_of
+from wmr_mission.campaign.sweep import sweep_command
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data" / "campaigns"
+EVERY = DATA / "valid" / "every_distribution.yaml"
+
+
+def _campaign(tmp_path: Path, runs: int, seed: int = 11, name: str = "c.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(
+        f"""version: 1
+name: headings
+mission: {DATA / "short.yaml"}
+runs: {runs}
+seed: {seed}
+vary:
+  robot.initial_state.theta: {{uniform: [-3.0, 3.0]}}
+  estimator.initial_estimate.y: {{normal: [0.5, 0.2]}}
+  sensors.noise_std.x: {{choice: [0.0, 0.01]}}
+""",
+        encoding="utf-8",
+    )
+    return path
+
+
+def test_run_draws_from_the_spawned_child_of_its_index(tmp_path: Path) -> None:
+    plan = Plan(load_campaign(_campaign(tmp_path, 20)).campaign)
+    children = np.random.SeedSequence(11).spawn(20)
+    for run in (0, 7, 19):
+        rng = np.random.default_rng(children[run])
+        seed = int(rng.integers(2**32, dtype=np.uint64))
+        theta = float(rng.uniform(-3.0, 3.0))
+        y = float(rng.normal(0.5, 0.2))
+        noise = [0.0, 0.01][int(rng.integers(2))]
+        expected = Draw(run, seed, {
+            "robot.initial_state.theta": theta,
+            "estimator.initial_estimate.y": y,
+            "sensors.noise_std.x": noise,
+        })  # fmt: skip
+        assert plan.draw(run) == expected
+
+
+def test_draws_do_not_depend_on_the_number_of_runs(tmp_path: Path) -> None:
+    small = Plan(load_campaign(_campaign(tmp_path, 5, name="a.yaml")).campaign)
+    large = Plan(load_campaign(_campaign(tmp_path, 500, name="b.yaml")).campaign)
+    assert [small.draw(i) for i in range(5)] == [large.draw(i) for i in range(5)]
+    other = Plan(load_campaign(_campaign(tmp_path, 5, seed=12, name="c.yaml")).campaign)
+    assert other.draw(0) != small.draw(0)
+
+
+def test_grid_axes_give_every_cell_runs_times() -> None:
+    plan = Plan(load_campaign(DATA / "valid" / "grid_only.yaml").campaign)
+    cells = [tuple(plan.draw(i).values.values()) for i in range(len(plan))]
+    assert cells == [(0.01, 15), (0.01, 20), (0.02, 15), (0.02, 20)]
+    every = Plan(load_campaign(EVERY).campaign)
+    assert len(every) == 6
+    types = [every.draw(i).values["estimator.type"] for i in range(6)]
+    assert types == ["constrained-observer"] * 3 + ["ekf"] * 3
+
+
+@pytest.mark.parametrize(
+    ("successes", "trials", "lo", "hi"),
+    [
+        # R: binom.test(x, n)$conf.int
+        (0, 10, 0.0, 0.3084971),
+        (10, 10, 0.6915029, 1.0),
+        (5, 10, 0.1870860, 0.8129140),
+        (95, 100, 0.8871651, 0.9835681),
+        # closed forms at the ends: 1 - 0.025^(1/n) and 0.025^(1/n)
+        (0, 2000, 0.0, 1 - 0.025 ** (1 / 2000)),
+        (2000, 2000, 0.025 ** (1 / 2000), 1.0),
+    ],
+)
+def test_clopper_pearson_known_values(successes: int, trials: int, lo: float, hi: float) -> None:
+    got = clopper_pearson(successes, trials)
+    assert got == pytest.approx((lo, hi), abs=5e-7)
+
+
+def test_a_value_the_mission_refuses_is_reported_not_run() -> None:
+    loaded = load_campaign(EVERY)
+    mission, reason = mission_of(loaded, Draw(0, 1, {"robot.dt": -0.5}))
+    assert mission is None
+    assert "--set robot.dt=-0.5" in reason
+    assert "robot.dt: should be greater than 0" in reason
+    assert INVALID == "invalid"
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open(encoding="utf-8", newline="") as stream:
+        return list(csv.DictReader(stream))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "processes",
+    # worker threads by default (fast); worker processes, which unpickle the campaign,
+    # with the full sweeps
+    [False, pytest.param(True, marks=pytest.mark.sweep)],
+)
+def test_same_rows_on_one_or_two_workers_and_dask(tmp_path: Path, processes: bool) -> None:
+    import distributed  # in the test extra
+
+    serial = run_campaign(EVERY, out=tmp_path / "serial", workers=1)
+    pool = run_campaign(EVERY, out=tmp_path / "pool", workers=2)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, dashboard_address=None, processes=processes
+    ) as cluster:
+        dask = run_campaign(EVERY, out=tmp_path / "dask", scheduler=cluster.scheduler_address)
+    first = (tmp_path / "serial" / "runs.csv").read_bytes()
+    assert (tmp_path / "pool" / "runs.csv").read_bytes() == first
+    assert (tmp_path / "dask" / "runs.csv").read_bytes() == first
+    header = first.split(b"\n", 1)[0].decode().split(",")
+    assert header[:3] == ["run", "seed", "outcome"]
+    assert header[3:7] == [
+        "robot.initial_state.theta",
+        "estimator.initial_estimate.x",
+        "controller.Q",
+        "estimator.type",
+    ]
+    assert "final_position_error" in header
+    for result in (serial, pool, dask):
+        assert result.summary["runs"] == 6
+        assert list(result.rows["run"]) == list(range(6))
+    assert dask.summary["scheduler"] == cluster.scheduler_address
+
+
+@pytest.mark.slow
+def test_campaign_outputs_and_replay_of_the_worst_run(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    result = run_campaign(_campaign(tmp_path, 16), out=out, workers=2)
+    record = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
+    rows = _rows(out / "runs.csv")
+    assert record == json.loads(json.dumps(result.summary))
+    assert record["runs"] == len(rows) == 16
+    assert record["succeeded"] == sum(r["outcome"] == "success" for r in rows)
+    lo, hi = record["success_interval"]
+    assert lo <= record["success_rate"] <= hi
+    assert sum(record["outcomes"].values()) == 16
+    assert record["interrupted"] is False
+    assert record["missions_per_second"] > 0
+    errors = [float(r["final_position_error"]) for r in rows if r["final_position_error"]]
+    assert record["metrics"]["final_position_error"]["max"] == max(errors)
+    manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
+    assert manifest["resolved_campaign"]["runs"] == 16
+
+    worst = record["worst"][0]
+    row = rows[worst["run"]]
+    assert row["outcome"] == worst["outcome"]
+    # The worst directory is the run re-simulated; the replay command reproduces it.
+    words = shlex.split(worst["replay"])
+    assert words[:2] == ["wmr-mission", "run"]
+    replay = tmp_path / "replay"
+    subprocess.run(
+        [sys.executable, "-m", "wmr_mission", *words[1:], "--out", str(replay), "--no-plots"],
+        capture_output=True,
+        check=False,
+    )
+    kept = out / "worst" / str(worst["run"])
+    assert (replay / "trajectory.csv").read_bytes() == (kept / "trajectory.csv").read_bytes()
+    summary = json.loads((replay / "summary.json").read_text(encoding="utf-8"))
+    assert summary["outcome"] == row["outcome"]
+    assert repr(summary["final"]["position_error"]) == row["final_position_error"]
+    assert summary["seed"] == int(row["seed"])
+
+
+@pytest.mark.slow
+def test_ctrl_c_keeps_finished_runs(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "wmr_mission", "sweep", str(_campaign(tmp_path, 5000)),
+         "--out", str(out), "--workers", "2", "--no-plots"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,  # its own process group, as a shell's foreground job
+    )  # fmt: skip
+    runs_csv = out / "runs.csv"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if runs_csv.is_file() and runs_csv.read_bytes().count(b"\n") > 20:
+            break
+        time.sleep(0.1)
+    os.killpg(process.pid, signal.SIGINT)  # Ctrl-C reaches the parent and its workers
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert b"Traceback" not in stderr
+    record = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
+    rows = _rows(runs_csv)
+    assert record["interrupted"] is True
+    assert 20 <= record["runs"] == len(rows) < 5000
+    assert record["planned_runs"] == 5000
+    assert [int(r["run"]) for r in rows] == sorted(int(r["run"]) for r in rows)
+    assert all(r["outcome"] for r in rows)
+
+
+def test_sweep_exit_codes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """1 and nothing run for an axis value the mission refuses; 1 for an expect not met."""
+    refused = DATA / "invalid" / "grid_value_breaks_mission.yaml"
+    code = sweep_command(refused, out=tmp_path / "refused", workers=1, scheduler=None, plots=False)
+    assert code == 1
+    assert f"{refused}:7:3: vary 'robot.dt' (grid) at -0.01: " in capsys.readouterr().err
+    assert not (tmp_path / "refused").exists()
+
+    strict = tmp_path / "strict.yaml"
+    strict.write_text(
+        f"""version: 1
+name: strict
+mission: {DATA / "short.yaml"}
+runs: 2
+vary:
+  expect.final_position_error.max: {{grid: [1.0e-9]}}
+expect:
+  success_rate: {{min: 0.5}}
+""",
+        encoding="utf-8",
+    )
+    code = sweep_command(strict, out=tmp_path / "strict", workers=1, scheduler=None, plots=False)
+    assert code == 1
+    assert "expectation not met: success_rate = 0 (min 0.5)" in capsys.readouterr().err
+    record = json.loads((tmp_path / "strict" / "campaign.json").read_text(encoding="utf-8"))
+    assert record["outcomes"] == {"expect-failed": 2}
+    assert record["expectations"] == [
+        {"metric": "success_rate", "min": 0.5, "value": 0.0, "met": False}
+    ]
+
+
+def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch) -> None:
+    from wmr_mission.campaign import runs
+
+    loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
+    real = runs.simulate
+
+    def faulty(loaded: Any, draw: Draw) -> Any:
+        if draw.run == 1:
+            raise ZeroDivisionError("float division by zero")
+        return real(loaded, draw)
+
+    monkeypatch.setattr(runs, "simulate", faulty)
+    rows = runs.run_rows(loaded, 0, 3)
+    assert [row.outcome for row in rows] == ["success", runs.ERROR, "success"]
+    assert rows[1].reason.startswith("internal error (ZeroDivisionError: float division by zero)")
+    assert rows[1].values == (0.01, 20)
+
+
+def test_progress_line_shows_runs_success_and_time_left() -> None:
+    import io
+
+    from wmr_mission.campaign import runs
+    from wmr_mission.campaign.aggregate import Aggregate
+    from wmr_mission.campaign.sweep import _Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
+    aggregate = Aggregate(dict(loaded.campaign.vary))
+    row = runs.run_rows(loaded, 0, 1)[0]
+    stream = Terminal()
+    progress = _Progress(4, stream)
+    aggregate.add(row)
+    progress.update(aggregate)
+    line = stream.getvalue()
+    assert line.startswith("\r[")
+    assert "1/4 runs" in line
+    assert "success 100.0%" in line
+    assert "ETA" in line
+    quiet = io.StringIO()  # not a terminal: no progress line in logs
+    _Progress(4, quiet).update(aggregate)
+    assert quiet.getvalue() == ""
+
+
+def test_aggregate_keeps_a_bounded_number_of_paths_and_the_worst_runs() -> None:
+    from wmr_mission.campaign.aggregate import DRAWN_FAILURES, DRAWN_PATHS, WORST_RUNS, Aggregate
+    from wmr_mission.campaign.runs import METRICS, Row
+
+    loaded = load_campaign(EVERY)
+    aggregate = Aggregate(dict(loaded.campaign.vary))
+    path = np.zeros((2, 600), dtype=np.float32)
+    values = (0.0, -1.0, [1, 1, 1], "ekf")
+    total = 3 * (DRAWN_PATHS + DRAWN_FAILURES)
+    for run in range(total):
+        failed = run % 3 == 0
+        error = float(run % 97) / 1000
+        metrics = tuple(error if name == "final_position_error" else 0.0 for name in METRICS)
+        outcome = "timeout" if failed else "success"
+        aggregate.add(Row(run, run, outcome, values, metrics, "", path))
+    kept = aggregate.drawn
+    assert sum(ok for ok, _ in kept) == DRAWN_PATHS
+    assert sum(not ok for ok, _ in kept) == DRAWN_FAILURES
+    worst = aggregate.worst_runs()
+    assert len(worst) == WORST_RUNS
+    # failures first, the largest final position error first, then the earliest run
+    failed_errors = sorted(((run % 97, -run) for run in range(0, total, 3)), reverse=True)[
+        :WORST_RUNS
+    ]
+    assert [run for run, *_ in worst] == [-minus for _, minus in failed_errors]
+    statistics = aggregate.statistics()
+    assert statistics["runs"] == total
+    assert statistics["succeeded"] == total - len(range(0, total, 3))
+
+
+@pytest.mark.sweep
+def test_case2_headings_campaign_in_full(tmp_path: Path) -> None:
+    """The shipped 2000-run case-2 campaign: statistics consistent with its rows,
+    and the worst run's replay gives its row again."""
+    out = tmp_path / "out"
+    result = run_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml", out=out)
+    record = result.summary
+    rows = _rows(out / "runs.csv")
+    assert record["runs"] == len(rows) == 2000
+    assert record["succeeded"] == sum(r["outcome"] == "success" for r in rows)
+    lo, hi = record["success_interval"]
+    assert lo < record["success_rate"] < hi
+    assert hi - lo < 0.05  # 2000 runs pin the rate down to a few per cent
+    worst = record["worst"][0]
+    words = shlex.split(worst["replay"])
+    replay = tmp_path / "replay"
+    subprocess.run(
+        [sys.executable, "-m", "wmr_mission", *words[1:], "--out", str(replay), "--no-plots"],
+        capture_output=True,
+        check=False,
+    )
+    summary = json.loads((replay / "summary.json").read_text(encoding="utf-8"))
+    row = rows[worst["run"]]
+    assert summary["outcome"] == row["outcome"] == worst["outcome"]
+    assert repr(summary["max_constraint_violation"]) == row["max_constraint_violation"]
+    assert repr(summary["final"]["position_error"]) == row["final_position_error"]

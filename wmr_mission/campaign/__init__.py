@@ -1,0 +1,1 @@
+"""Campaigns: one mission run many times with fields varied, judged by statistics."""

@@ -1,0 +1,237 @@
+"""Runs of a campaign on a local process pool or a Dask cluster, rows back in run order.
+
+Runs are batched into tasks of about half a second (timed on a run in the
+parent, which also compiles the kernels once before any worker starts: the
+workers are forked from it, or load numba's disk cache it wrote). At most a
+few tasks per worker are in flight, and finished tasks are handed on in run
+order, so memory stays flat however many runs a campaign has.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from typing import Any, Final, Protocol
+
+from wmr_mission.campaign.load import LoadedCampaign
+from wmr_mission.campaign.plan import Plan
+from wmr_mission.campaign.runs import Row, run_rows, simulate
+
+__all__ = [
+    "TASK_SECONDS",
+    "Interrupted",
+    "SchedulerUnavailable",
+    "StopFlag",
+    "default_workers",
+    "execute",
+    "task_size",
+    "warm_up",
+]
+
+TASK_SECONDS: Final = 0.5
+"""Wall time of one task: long enough that sending it costs little, short enough
+to balance the workers and to stop soon after Ctrl-C."""
+
+_IN_FLIGHT_PER_WORKER: Final = 3
+
+
+_CONNECT_SECONDS: Final = 10
+
+
+class SchedulerUnavailable(RuntimeError):
+    """``--scheduler`` without Dask installed, or an address that does not answer."""
+
+
+class Interrupted(Exception):
+    """Ctrl-C during a campaign; the rows handed on so far are complete."""
+
+
+class _Executor(Protocol):
+    def submit(self, fn: Callable[..., list[Row]], /, *args: Any) -> Any: ...
+
+
+def default_workers() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def warm_up(loaded: LoadedCampaign) -> float:
+    """Compile the kernels in this process; return the seconds of one warm run."""
+    plan = Plan(loaded.campaign)
+    simulate(loaded, plan.draw(0))  # compiles (or loads the cache of) every kernel it uses
+    started = time.perf_counter()
+    simulate(loaded, plan.draw(min(1, len(plan) - 1)))
+    return time.perf_counter() - started
+
+
+def task_size(seconds_per_run: float, runs: int, workers: int) -> int:
+    """Runs per task: about TASK_SECONDS of work, yet enough tasks to keep every worker busy."""
+    by_time = max(1, round(TASK_SECONDS / max(seconds_per_run, 1e-6)))
+    by_share = max(1, math.ceil(runs / (4 * workers)))
+    return min(by_time, by_share)
+
+
+def _ignore_interrupt() -> None:
+    # Ctrl-C reaches the whole process group: the parent alone handles it.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class StopFlag:
+    """Ctrl-C, caught: set on SIGINT while active, so the campaign stops between
+    tasks and keeps every finished run. A second Ctrl-C interrupts at once."""
+
+    def __init__(self) -> None:
+        self.stopped = False
+        self._previous: Any = None
+
+    def __enter__(self) -> StopFlag:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._on_interrupt)
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+    def _on_interrupt(self, signum: int, frame: Any) -> None:
+        if self.stopped:
+            raise KeyboardInterrupt
+        self.stopped = True
+
+
+def execute(
+    loaded: LoadedCampaign,
+    *,
+    workers: int,
+    scheduler: str | None,
+    seconds_per_run: float,
+    stop: StopFlag,
+) -> Iterator[list[Row]]:
+    """The rows of every run, task by task, in run order.
+
+    Once ``stop`` is set, the tasks already running finish, their rows are
+    handed on (in run order, after the contiguous ones), and
+    :class:`Interrupted` is raised.
+    """
+    runs = len(Plan(loaded.campaign))
+    if scheduler is not None:
+        yield from _on_dask(loaded, scheduler, seconds_per_run, runs, stop)
+        return
+    if workers == 1:
+        size = task_size(seconds_per_run, runs, 1)
+        for start in range(0, runs, size):
+            if stop.stopped:
+                raise Interrupted
+            yield run_rows(loaded, start, min(start + size, runs))
+        return
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+    size = task_size(seconds_per_run, runs, workers)
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_ignore_interrupt) as pool:
+        yield from _in_order(pool, _wait_local, loaded, size, runs, workers, stop)
+
+
+def _on_dask(
+    loaded: LoadedCampaign, scheduler: str, seconds_per_run: float, runs: int, stop: StopFlag
+) -> Iterator[list[Row]]:
+    try:
+        from distributed import Client
+    except ImportError:
+        raise SchedulerUnavailable(
+            "--scheduler needs Dask distributed: pip install 'wmr-mission[dask]'"
+        ) from None
+    try:
+        client: Any = Client(scheduler, timeout=_CONNECT_SECONDS)  # type: ignore[no-untyped-call]
+    except (OSError, ValueError, TimeoutError) as error:
+        raise SchedulerUnavailable(
+            f"cannot reach the Dask scheduler {scheduler}: {error}"
+        ) from None
+    with client:
+        workers = max(1, sum(client.nthreads().values()))
+        size = task_size(seconds_per_run, runs, workers)
+        yield from _in_order(_DaskPool(client), _wait_dask, loaded, size, runs, workers, stop)
+
+
+class _DaskPool:
+    """A Dask client seen as an executor; tasks are not pure (never reuse a result)."""
+
+    def __init__(self, client: Any) -> None:
+        self.client = client
+
+    def submit(self, fn: Callable[..., list[Row]], /, *args: Any) -> Any:
+        return self.client.submit(fn, *args, pure=False)
+
+
+_POLL_SECONDS: Final = 0.2
+
+Waiter = Callable[[list[Any]], list[Any]]
+
+
+def _wait_local(futures: list[Any]) -> list[Any]:
+    finished, _ = wait(futures, timeout=_POLL_SECONDS, return_when=FIRST_COMPLETED)
+    return list(finished)
+
+
+def _wait_dask(futures: list[Any]) -> list[Any]:
+    from distributed import TimeoutError as DaskTimeout
+    from distributed import wait as dask_wait
+
+    try:
+        finished, _ = dask_wait(  # type: ignore[no-untyped-call]
+            futures, timeout=_POLL_SECONDS, return_when="FIRST_COMPLETED"
+        )
+    except (DaskTimeout, TimeoutError):
+        return []
+    return list(finished)
+
+
+def _in_order(
+    pool: _Executor,
+    wait_some: Waiter,
+    loaded: LoadedCampaign,
+    size: int,
+    runs: int,
+    workers: int,
+    stop: StopFlag,
+) -> Iterator[list[Row]]:
+    starts = iter(range(0, runs, size))
+    pending: dict[Any, int] = {}
+    done: dict[int, list[Row]] = {}
+    next_start = 0
+
+    def submit() -> None:
+        start = next(starts, None)
+        if start is not None:
+            pending[pool.submit(run_rows, loaded, start, min(start + size, runs))] = start
+
+    for _ in range(_IN_FLIGHT_PER_WORKER * workers):
+        submit()
+    while pending and not stop.stopped:
+        for future in wait_some(list(pending)):
+            done[pending.pop(future)] = future.result()
+            submit()
+        while next_start in done:
+            rows = done.pop(next_start)
+            next_start += size
+            yield rows
+    if not stop.stopped:
+        return
+    for future, start in pending.items():
+        if not future.cancel() and _ran_to_end(future):  # was running: let it finish
+            done[start] = future.result()
+    for start in sorted(done):
+        yield done[start]
+    raise Interrupted
+
+
+def _ran_to_end(future: Any) -> bool:
+    try:
+        future.result()
+    except BaseException:
+        return False
+    return True

@@ -1,0 +1,176 @@
+"""Figures of a campaign: every trajectory over the regions, metric histograms,
+success over the varied axes (a heat map for two)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Final
+
+import numpy as np
+
+from wmr_mission.campaign.aggregate import DRAWN_PATHS, Aggregate
+from wmr_mission.campaign.runs import METRICS
+from wmr_mission.output.plots import _new_figure, _region_extent, _save, draw_regions
+
+__all__ = ["draw_campaign"]
+
+_BINS: Final = 12
+_SUCCESS_COLOR: Final = "tab:blue"
+_FAILURE_COLOR: Final = "tab:red"
+
+
+def draw_campaign(
+    aggregate: Aggregate, regions: dict[str, Any], out_dir: Path, formats: Sequence[str] = ("png",)
+) -> list[Path]:
+    figures = {
+        "trajectories": _trajectories(aggregate, regions),
+        "metrics": _histograms(aggregate),
+    }
+    success = _success_over_axes(aggregate)
+    if success is not None:
+        figures["success"] = success
+    written = []
+    for name, figure in figures.items():
+        for fmt in formats:
+            written.append(_save(figure, out_dir / f"{name}.{fmt}"))
+    return written
+
+
+def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
+    fig = _new_figure((7.0, 5.5))
+    ax = fig.add_subplot()
+    paths = aggregate.drawn
+    points = [p for _, p in paths if p.size] or [np.zeros((2, 1), dtype=np.float32)]
+    xs = np.concatenate([p[0] for p in points])
+    ys = np.concatenate([p[1] for p in points])
+    finite = np.isfinite(xs) & np.isfinite(ys)
+    xs, ys = xs[finite], ys[finite]
+    extents = [e for e in (_region_extent(r) for r in regions.values()) if e is not None]
+    x0 = min([float(np.percentile(xs, 0.5)) if xs.size else -1.0] + [e[0] for e in extents])
+    x1 = max([float(np.percentile(xs, 99.5)) if xs.size else 1.0] + [e[1] for e in extents])
+    y0 = min([float(np.percentile(ys, 0.5)) if ys.size else -1.0] + [e[2] for e in extents])
+    y1 = max([float(np.percentile(ys, 99.5)) if ys.size else 1.0] + [e[3] for e in extents])
+    margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
+    view = (x0 - margin, x1 + margin, y0 - margin, y1 + margin)
+    draw_regions(ax, regions, view)
+    successes = [p for ok, p in paths if ok]
+    failures = [p for ok, p in paths if not ok]
+    # Fainter the more lines there are, so that where many runs go shows darker.
+    faint = float(np.clip(40.0 / max(len(successes), 1), 0.05, 0.6))
+    for path in successes:
+        ax.plot(path[0], path[1], color=_SUCCESS_COLOR, linewidth=0.6, alpha=faint, zorder=2)
+    faint = float(np.clip(40.0 / max(len(failures), 1), 0.08, 0.8))
+    for path in failures:
+        ax.plot(path[0], path[1], color=_FAILURE_COLOR, linewidth=0.6, alpha=faint, zorder=3)
+    ax.plot([], [], color=_SUCCESS_COLOR, label=f"success ({aggregate.succeeded})")
+    ax.plot([], [], color=_FAILURE_COLOR, label=f"failure ({aggregate.runs - aggregate.succeeded})")
+    ax.set_xlim(view[0], view[1])
+    ax.set_ylim(view[2], view[3])
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    drawn = len(paths)
+    shown = "every run" if drawn >= aggregate.runs else f"{drawn} of {aggregate.runs} runs"
+    cap = f" (at most {DRAWN_PATHS} successes drawn)" if drawn < aggregate.runs else ""
+    ax.set_title(f"True paths, {shown}{cap}; failures in red")
+    ax.legend(loc="upper right", fontsize="small")
+    ax.grid(True, alpha=0.3)
+    return fig
+
+
+def _histograms(aggregate: Aggregate) -> Any:
+    fig = _new_figure((9.0, 2.6 * ((len(METRICS) + 1) // 2)))
+    for index, name in enumerate(METRICS):
+        ax = fig.add_subplot((len(METRICS) + 1) // 2, 2, index + 1)
+        values = np.asarray(aggregate.metric_values.get(name, []), dtype=float)
+        ok = np.asarray(aggregate.success, dtype=bool)[: values.size]
+        finite = np.isfinite(values)
+        if not finite.any():
+            ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
+        else:
+            bins = np.histogram_bin_edges(values[finite], bins=30).tolist()
+            ax.hist(
+                [values[finite & ok], values[finite & ~ok]],
+                bins=bins,
+                stacked=True,
+                color=[_SUCCESS_COLOR, _FAILURE_COLOR],
+                label=["success", "failure"],
+            )
+            ax.legend(fontsize="x-small")
+        missing = int((~finite).sum())
+        ax.set_title(name + (f" ({missing} runs without a value)" if missing else ""), fontsize=9)
+        ax.set_ylabel("runs")
+    fig.tight_layout()
+    return fig
+
+
+def _shown_axes(aggregate: Aggregate) -> list[str]:
+    """The first two axes that vary: grid axes first, then choice, uniform, normal."""
+    order = {"grid": 0, "choice": 1, "uniform": 2, "normal": 3}
+    chosen = []
+    for path in sorted(aggregate.paths, key=lambda p: order[aggregate.axes[p].kind]):
+        values = np.asarray(aggregate.axis_values.get(path, []), dtype=float)
+        if values.size and np.isfinite(values).all() and np.ptp(values) > 0:
+            chosen.append(path)
+    return chosen[:2]
+
+
+def _edges(aggregate: Aggregate, path: str, values: np.ndarray) -> np.ndarray:
+    if path in aggregate.discrete:  # one bin per listed value, centred on its index
+        return np.arange(len(aggregate.labels(path)) + 1) - 0.5
+    return np.linspace(values.min(), values.max(), _BINS + 1)
+
+
+def _label_axis(aggregate: Aggregate, path: str, axis: Any) -> None:
+    if path in aggregate.discrete:
+        labels = aggregate.labels(path)
+        axis.set_ticks(range(len(labels)), labels)
+
+
+def _success_over_axes(aggregate: Aggregate) -> Any | None:
+    axes = _shown_axes(aggregate)
+    if not axes:
+        return None
+    ok = np.asarray(aggregate.success, dtype=float)
+    fig = _new_figure((7.0, 5.0))
+    ax = fig.add_subplot()
+    first = np.asarray(aggregate.axis_values[axes[0]], dtype=float)
+    ex = _edges(aggregate, axes[0], first)
+    if len(axes) == 1:
+        index = np.clip(np.searchsorted(ex, first, side="right") - 1, 0, ex.size - 2)
+        count = np.bincount(index, minlength=ex.size - 1)
+        hits = np.bincount(index, weights=ok, minlength=ex.size - 1)
+        rate = np.divide(hits, count, out=np.full(count.shape, np.nan), where=count > 0)
+        ax.bar((ex[1:] + ex[:-1]) / 2, rate, width=np.diff(ex) * 0.9, color=_SUCCESS_COLOR)
+        ax.set_xlabel(axes[0])
+        _label_axis(aggregate, axes[0], ax.xaxis)
+        ax.set_ylabel("success rate")
+        ax.set_ylim(0, 1.05)
+        ax.set_title("Success rate over the varied axis")
+    else:
+        second = np.asarray(aggregate.axis_values[axes[1]], dtype=float)
+        ey = _edges(aggregate, axes[1], second)
+        count, _, _ = np.histogram2d(first, second, bins=[ex, ey])
+        hits, _, _ = np.histogram2d(first, second, bins=[ex, ey], weights=ok)
+        rate = np.divide(hits, count, out=np.full(count.shape, np.nan), where=count > 0)
+        mesh = ax.pcolormesh(ex, ey, rate.T, cmap="RdYlGn", vmin=0.0, vmax=1.0)
+        fig.colorbar(mesh, ax=ax, label="success rate")
+        if rate.size <= 64:  # few cells: write each rate and its number of runs
+            for i in range(rate.shape[0]):
+                for j in range(rate.shape[1]):
+                    if count[i, j]:
+                        ax.text(
+                            (ex[i] + ex[i + 1]) / 2,
+                            (ey[j] + ey[j + 1]) / 2,
+                            f"{rate[i, j]:.0%}\n{int(count[i, j])}",
+                            ha="center",
+                            va="center",
+                            fontsize=8,
+                        )
+        ax.set_xlabel(axes[0])
+        ax.set_ylabel(axes[1])
+        _label_axis(aggregate, axes[0], ax.xaxis)
+        _label_axis(aggregate, axes[1], ax.yaxis)
+        ax.set_title("Success rate over two varied axes")
+    return fig

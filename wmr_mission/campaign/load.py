@@ -1,0 +1,242 @@
+"""Read a campaign file into a :class:`Campaign`, with a position for every problem.
+
+The text is read exactly as a mission file is (plain YAML only, positions
+kept); then each varied path is checked against the mission: the mission must
+validate with the axis at each of its extremes (every value of a choice or
+grid), so a value that breaks the mission is reported before anything runs.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, Final
+
+from pydantic import ValidationError
+
+from wmr_mission.campaign.models import MAX_RUNS, Axis, Campaign
+from wmr_mission.spec.checks import Finding
+from wmr_mission.spec.loader import (
+    Diagnostic,
+    MissionError,
+    Override,
+    _diagnostic,
+    _resolve,
+    check_mission,
+    check_mission_document,
+    check_mission_text,
+    decode_source,
+    parse_path,
+    read_document,
+    read_source,
+    translate,
+)
+from wmr_mission.spec.models import Mission
+
+__all__ = [
+    "LoadedCampaign",
+    "check_campaign",
+    "check_file",
+    "is_campaign_text",
+    "load_campaign",
+    "value_text",
+]
+
+# Drawn per run by the campaign itself: varying it would break the replay of a run.
+_SEED_PATH: Final = ("sensors", "seed")
+
+
+class LoadedCampaign:
+    """A checked campaign and the mission it varies, read once (text and document)."""
+
+    def __init__(self, campaign: Campaign, path: Path, mission_path: Path, mission_text: str):
+        self.campaign = campaign
+        self.path = path
+        self.mission_path = mission_path
+        self.mission_text = mission_text
+        # Read once here, not per run: reading the YAML costs more than checking it.
+        document, findings = read_document(mission_text)
+        if document is None or findings:
+            raise ValueError(f"{mission_path}: not a checked mission")
+        self.mission_document = document
+
+    def mission_with(
+        self, overrides: Sequence[Override]
+    ) -> tuple[Mission | None, list[Diagnostic]]:
+        """The mission with ``overrides`` set, checked exactly as ``run --set`` checks it."""
+        return check_mission_document(self.mission_document, str(self.mission_path), overrides)
+
+
+def value_text(value: Any) -> str:
+    """A drawn value as YAML text that reads back to exactly the same value.
+
+    JSON is YAML 1.2, and Python writes the shortest text of a float that
+    reads back to the same float.
+    """
+    return json.dumps(value)
+
+
+def override(path: str, value: Any) -> Override:
+    """The ``--set PATH=VALUE`` of one drawn value, the mission's one override mechanism."""
+    text = f"{path}={value_text(value)}"
+    return Override(parse_path(path), value, f"--set {text}")
+
+
+# Top-level keys of a campaign that a mission never has.
+_CAMPAIGN_KEYS: Final = ("mission", "runs", "vary")
+
+
+def is_campaign_text(text: str) -> bool:
+    """Whether a file is a campaign: a mapping with a top-level ``mission``,
+    ``runs`` or ``vary`` key."""
+    document, _ = read_document(text)
+    data = document.data if document is not None else None
+    return isinstance(data, dict) and any(key in data for key in _CAMPAIGN_KEYS)
+
+
+def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
+    raw, diagnostics = read_source(path)
+    if raw is None:
+        return None, diagnostics
+    return decode_source(raw, str(path))
+
+
+def check_file(path: Path) -> list[Diagnostic]:
+    """Every problem of a mission or campaign file."""
+    text, diagnostics = _read(path)
+    if text is None:
+        return diagnostics
+    if is_campaign_text(text):
+        return _check(path, text)[1]
+    return check_mission_text(text, str(path))[1]
+
+
+def check_campaign(path: str | Path) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
+    """Every problem of a campaign file, and the campaign if it has no error."""
+    path = Path(path)
+    text, diagnostics = _read(path)
+    if text is None:
+        return None, diagnostics
+    return _check(path, text)
+
+
+def load_campaign(path: str | Path) -> LoadedCampaign:
+    """The campaign of a file; raises :class:`MissionError` with every error."""
+    loaded, diagnostics = check_campaign(path)
+    if loaded is None:
+        raise MissionError([d for d in diagnostics if d.severity == "error"])
+    return loaded
+
+
+def _check(path: Path, text: str) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
+    filename = str(path)
+    try:
+        document, findings = read_document(text)
+        if document is None:
+            return None, [_diagnostic(filename, None, f) for f in findings]
+        campaign: Campaign | None = None
+        if not isinstance(document.data, dict):
+            findings.append(
+                Finding((), "a campaign is a mapping of keys (version, name, mission, runs, vary)")
+            )
+        else:
+            try:
+                campaign = Campaign.model_validate(document.data)
+            except ValidationError as error:
+                for item in error.errors(include_url=False):
+                    if item["type"] == "none_required":  # an optional key: absent is its None
+                        continue
+                    if not _under(_resolve(item["loc"], document.data), document.refused):
+                        findings.append(_of_campaign(translate(item, document, Campaign)))
+        diagnostics = [_diagnostic(filename, document, f) for f in findings]
+        if campaign is None or diagnostics:
+            return None, _sorted(diagnostics)
+        loaded, more = _check_against_mission(path, campaign, document.keys)
+        return loaded, _sorted(more)
+    except Exception as error:  # last resort: bad input must never show a traceback
+        message = (
+            f"internal error while checking ({type(error).__name__}: {error}); please report it"
+        )
+        return None, [Diagnostic(filename, 1, 1, message)]
+
+
+def _of_campaign(finding: Finding) -> Finding:
+    """The translation names the top level "the mission"; here it is the campaign."""
+    message = finding.message.replace("in the mission", "in the campaign")
+    return replace(finding, message=message)
+
+
+def _under(path: tuple[str | int, ...], refused: set[tuple[str | int, ...]]) -> bool:
+    return any(path[: len(r)] == r for r in refused)
+
+
+def _sorted(diagnostics: Sequence[Diagnostic]) -> list[Diagnostic]:
+    return sorted(set(diagnostics), key=lambda d: (d.file, d.line, d.column, d.message))
+
+
+def _check_against_mission(
+    path: Path, campaign: Campaign, keys: dict[tuple[str | int, ...], tuple[int, int]]
+) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
+    filename = str(path)
+
+    def at(data_path: tuple[str | int, ...], message: str) -> Diagnostic:
+        # a check across the campaign and its mission, once each field is sound
+        line, column = keys.get(data_path, (1, 1))
+        return Diagnostic(filename, line, column, message, stage="semantics")
+
+    if campaign.total_runs() > MAX_RUNS:
+        return None, [
+            at(
+                ("runs",),
+                f"runs times grid cells is {campaign.total_runs()}: at most {MAX_RUNS} runs",
+            )
+        ]
+    mission_path = Path(os.path.normpath(path.parent / campaign.mission))
+    if not mission_path.is_file():
+        return None, [at(("mission",), f"mission file {str(mission_path)!r} does not exist")]
+    mission, mission_diagnostics = check_mission(mission_path)
+    if mission is None:
+        errors = sum(d.severity == "error" for d in mission_diagnostics)
+        count = f"{errors} error{'s' if errors != 1 else ''}"
+        return None, [
+            at(("mission",), f"mission {str(mission_path)!r} is invalid: {count}, listed with it"),
+            *mission_diagnostics,
+        ]
+    mission_text = mission_path.read_text(encoding="utf-8")
+    problems = [
+        at(("vary", name), problem)
+        for name, axis in campaign.vary.items()
+        for problem in _axis_problems(name, axis, mission_text, str(mission_path))
+    ]
+    if problems:
+        return None, problems
+    return LoadedCampaign(campaign, path, mission_path, mission_text), []
+
+
+def _axis_problems(name: str, axis: Axis, mission_text: str, mission_file: str) -> list[str]:
+    """Why the mission refuses this axis: a malformed path, or the first value it refuses."""
+    try:
+        data_path = parse_path(name)
+    except ValueError as error:
+        return [f"vary {name!r}: {error}"]
+    if data_path == _SEED_PATH:
+        return [
+            "vary 'sensors.seed': each run's sensor seed is drawn from the campaign's seed; "
+            "vary the campaign's seed instead"
+        ]
+    for value in axis.extremes():
+        _, diagnostics = check_mission_text(mission_text, mission_file, [override(name, value)])
+        errors = [d for d in diagnostics if d.severity == "error"]
+        if errors:
+            reasons = "; ".join(_reason(d) for d in errors)
+            return [f"vary {name!r} ({axis.kind}) at {value_text(value)}: {reasons}"]
+    return []
+
+
+def _reason(diagnostic: Diagnostic) -> str:
+    if diagnostic.line:  # a check across fields, placed in the mission file
+        return f"{diagnostic.message} (at {diagnostic.file}:{diagnostic.line})"
+    return diagnostic.message

@@ -1,0 +1,130 @@
+"""One run of a campaign: the mission with the run's values set, simulated, reduced to a row.
+
+The mission is loaded exactly as ``wmr-mission run MISSION --set PATH=VALUE
+... --seed SEED`` loads it, so that the run's ``replay`` command reproduces
+it byte for byte.
+"""
+
+from __future__ import annotations
+
+import math
+import shlex
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Final
+
+import numpy as np
+
+from wmr_mission.campaign.load import LoadedCampaign, override, value_text
+from wmr_mission.campaign.plan import Draw, Plan
+from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, summarize
+from wmr_mission.result import Outcome
+
+if TYPE_CHECKING:
+    from wmr_mission.result import RunResult
+    from wmr_mission.spec.models import Mission
+
+__all__ = ["ERROR", "INVALID", "METRICS", "Row", "header", "replay_command", "run_rows", "simulate"]
+
+INVALID: Final = "invalid"
+"""Outcome of a run whose drawn values the mission refuses (a normal draw beyond
+the 4 std that `validate` checked)."""
+
+ERROR: Final = "error"
+"""Outcome of a run that raised an exception: a bug, reported with the run's replay."""
+
+# The run's metrics, computed by the code that writes summary.json: every
+# metric an `expect` can bound.
+METRICS: Final = tuple(_EXPECTATION_PATHS)
+
+# Points kept of each run's path for the campaign's trajectory figure.
+PATH_POINTS: Final = 600
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of runs.csv, and what the campaign's figures need of the run."""
+
+    run: int
+    seed: int
+    outcome: str
+    values: tuple[Any, ...]
+    metrics: tuple[float | None, ...]
+    reason: str
+    path_xy: np.ndarray  # (2, <= PATH_POINTS) float32, thinned true path
+
+    @property
+    def succeeded(self) -> bool:
+        return self.outcome == Outcome.success.value
+
+    def cells(self) -> list[str]:
+        return [
+            str(self.run),
+            str(self.seed),
+            self.outcome,
+            *(v if isinstance(v, str) else value_text(v) for v in self.values),
+            *("" if m is None else repr(m) for m in self.metrics),
+            self.reason,
+        ]
+
+
+def header(paths: Sequence[str]) -> list[str]:
+    return ["run", "seed", "outcome", *paths, *METRICS, "reason"]
+
+
+def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
+    """The mission with the run's values, or None and why the mission refuses them."""
+    overrides = [override(path, value) for path, value in draw.values.items()]
+    mission, diagnostics = loaded.mission_with(overrides)
+    if mission is None:
+        errors = [str(d) for d in diagnostics if d.severity == "error"]
+        return None, "; ".join(errors)
+    return mission, ""
+
+
+def simulate(loaded: LoadedCampaign, draw: Draw) -> tuple[RunResult | None, str]:
+    """The run's result (None when the mission refuses its values, with the reason)."""
+    from wmr_mission.runner import run_mission
+
+    mission, reason = mission_of(loaded, draw)
+    if mission is None:
+        return None, reason
+    return run_mission(mission, seed=draw.seed), ""
+
+
+def _row(draw: Draw, result: RunResult | None, reason: str) -> Row:
+    values = tuple(draw.values.values())
+    if result is None:
+        empty = np.zeros((2, 0), dtype=np.float32)
+        return Row(draw.run, draw.seed, INVALID, values, (None,) * len(METRICS), reason, empty)
+    summary = summarize(result, result.mission)  # as summary.json measures it
+    metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[name]) for name in METRICS)
+    step = max(1, math.ceil(result.samples / PATH_POINTS))
+    path_xy = np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
+    reason = "" if result.outcome is Outcome.success else result.message
+    return Row(draw.run, draw.seed, result.outcome.value, values, metrics, reason, path_xy)
+
+
+def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
+    """Rows of runs ``start .. stop - 1``: one task of a worker."""
+    plan = Plan(loaded.campaign)
+    rows = []
+    for run in range(start, stop):
+        draw = plan.draw(run)
+        try:
+            rows.append(_row(draw, *simulate(loaded, draw)))
+        except Exception as error:  # one run's fault must not lose the campaign
+            reason = f"internal error ({type(error).__name__}: {error}); please report it"
+            empty = np.zeros((2, 0), dtype=np.float32)
+            values = tuple(draw.values.values())
+            rows.append(Row(run, draw.seed, ERROR, values, (None,) * len(METRICS), reason, empty))
+    return rows
+
+
+def replay_command(loaded: LoadedCampaign, draw: Draw) -> str:
+    """The one-line ``wmr-mission run`` command that reproduces a run byte for byte."""
+    words = ["wmr-mission", "run", str(loaded.mission_path)]
+    for path, value in draw.values.items():
+        words += ["--set", f"{path}={value_text(value)}"]
+    words += ["--seed", str(draw.seed)]
+    return shlex.join(words)

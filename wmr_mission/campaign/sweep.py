@@ -1,0 +1,390 @@
+"""``wmr-mission sweep`` and :func:`run_campaign`: run a campaign, write its outputs.
+
+Outputs (DESIGN "Campaigns"): ``runs.csv`` streamed row by row in run order,
+``campaign.json`` (statistics, worst runs and their replay commands,
+throughput), ``manifest.json``, ``worst/RUN/`` run directories (re-simulated
+at the end) and the figures.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import IO, Any, Final
+
+from wmr_mission.campaign.aggregate import Aggregate
+from wmr_mission.campaign.engine import (
+    Interrupted,
+    SchedulerUnavailable,
+    StopFlag,
+    default_workers,
+    execute,
+    warm_up,
+)
+from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
+from wmr_mission.campaign.plan import Plan
+from wmr_mission.campaign.runs import Row, header, replay_command, simulate
+from wmr_mission.output.rundir import (
+    RunDirExistsError,
+    default_run_dir,
+    json_text,
+    package_versions,
+    prepare_run_dir,
+    write_bytes_atomic,
+    write_run,
+)
+
+__all__ = ["CampaignResult", "run_campaign", "sweep_command"]
+
+RUNS_FILE: Final = "runs.csv"
+CAMPAIGN_FILE: Final = "campaign.json"
+MANIFEST_FILE: Final = "manifest.json"
+WORST_DIR: Final = "worst"
+INTERRUPTED_EXIT: Final = 130  # as a shell reports a command stopped by Ctrl-C
+
+
+@dataclass
+class CampaignResult:
+    """What :func:`run_campaign` returns: the rows and the aggregate (campaign.json)."""
+
+    rows: Any  # a pandas DataFrame when pandas is installed, else a list of dicts
+    summary: dict[str, Any]
+    out_dir: Path | None
+
+
+class _Progress:
+    """One line on stderr: runs done, success so far, ETA (only on a terminal)."""
+
+    def __init__(self, total: int, stream: IO[str] | None) -> None:
+        self.total = total
+        self.stream = stream if stream is not None and stream.isatty() else None
+        self.started = time.perf_counter()
+
+    def update(self, aggregate: Aggregate) -> None:
+        if self.stream is None:
+            return
+        done = aggregate.runs
+        elapsed = time.perf_counter() - self.started
+        eta = elapsed / done * (self.total - done) if done else float("nan")
+        width = 30
+        filled = int(width * done / self.total)
+        rate = aggregate.succeeded / done if done else 0.0
+        self.stream.write(
+            f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} runs, "
+            f"success {rate:6.1%}, ETA {eta:5.0f} s "
+        )
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.stream is not None:
+            self.stream.write("\n")
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _execute(
+    loaded: LoadedCampaign,
+    *,
+    out_dir: Path | None,
+    workers: int,
+    scheduler: str | None,
+    plots: bool,
+    progress_stream: IO[str] | None,
+    keep_rows: list[dict[str, Any]] | None,
+) -> dict[str, Any]:
+    """Run every run; write the outputs to ``out_dir`` (none when None); return campaign.json."""
+    campaign = loaded.campaign
+    plan = Plan(campaign)
+    paths = plan.paths
+    aggregate = Aggregate(dict(campaign.vary))
+    columns = header(paths)
+    progress = _Progress(len(plan), progress_stream)
+    interrupted = False
+    stopped_by = "Ctrl-C"
+    csv_stream = None
+    if out_dir is not None:
+        csv_stream = (out_dir / RUNS_FILE).open("w", encoding="utf-8", newline="")
+    started = time.perf_counter()
+    try:
+        writer = csv.writer(csv_stream, lineterminator="\n") if csv_stream is not None else None
+        if writer is not None:
+            writer.writerow(columns)
+        with StopFlag() as stop:
+            seconds_per_run = warm_up(loaded)
+            runs_started = time.perf_counter()
+            try:
+                for rows in execute(
+                    loaded,
+                    workers=workers,
+                    scheduler=scheduler,
+                    seconds_per_run=seconds_per_run,
+                    stop=stop,
+                ):
+                    _take(rows, aggregate, writer, keep_rows, columns)
+                    if csv_stream is not None:
+                        csv_stream.flush()
+                    progress.update(aggregate)
+            except Interrupted:
+                interrupted = True
+            except SchedulerUnavailable:
+                raise
+            except Exception as error:  # a worker lost: keep what finished
+                interrupted = True
+                stopped_by = f"{type(error).__name__}: {error}"
+            runs_seconds = time.perf_counter() - runs_started
+    finally:
+        progress.close()
+        if csv_stream is not None:
+            csv_stream.close()
+    record = _record(loaded, aggregate, interrupted, runs_seconds, len(plan))
+    record["stopped_by"] = stopped_by if interrupted else None
+    record["startup_seconds"] = runs_started - started
+    record["workers"] = None if scheduler is not None else workers
+    record["scheduler"] = scheduler
+    if out_dir is not None:
+        # The statistics first: a Ctrl-C while the worst runs are drawn loses no number.
+        write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
+        _write_worst(loaded, record, out_dir, plots)
+        if plots and aggregate.runs:
+            from wmr_mission.campaign.figures import draw_campaign
+
+            draw_campaign(aggregate, _regions(loaded), out_dir)
+    return record
+
+
+def _take(
+    rows: list[Row],
+    aggregate: Aggregate,
+    writer: Any,
+    keep_rows: list[dict[str, Any]] | None,
+    columns: list[str],
+) -> None:
+    paths = aggregate.paths
+    for row in rows:
+        aggregate.add(row)
+        cells = row.cells()
+        if writer is not None:
+            writer.writerow(cells)
+        if keep_rows is not None:
+            keep_rows.append(
+                {
+                    "run": row.run,
+                    "seed": row.seed,
+                    "outcome": row.outcome,
+                    # lists and mappings as in runs.csv (JSON text), so that they group
+                    **{
+                        path: value if isinstance(value, int | float | str) else value_text(value)
+                        for path, value in zip(paths, row.values, strict=True)
+                    },
+                    **dict(zip(columns[3 + len(row.values) : -1], row.metrics, strict=True)),
+                    "reason": row.reason,
+                }
+            )
+
+
+def _record(
+    loaded: LoadedCampaign,
+    aggregate: Aggregate,
+    interrupted: bool,
+    runs_seconds: float,
+    planned: int,
+) -> dict[str, Any]:
+    campaign = loaded.campaign
+    plan = Plan(campaign)
+    statistics = aggregate.statistics()
+    worst = [
+        {
+            "run": run,
+            "seed": seed,
+            "outcome": outcome,
+            "reason": reason,
+            "replay": replay_command(loaded, plan.draw(run)),
+        }
+        for run, seed, outcome, reason in aggregate.worst_runs()
+    ]
+    expectations = []
+    if campaign.expect.success_rate is not None:
+        least = campaign.expect.success_rate.min
+        rate = statistics["success_rate"]
+        expectations.append(
+            {
+                "metric": "success_rate",
+                "min": least,
+                "value": rate,
+                "met": rate is not None and rate >= least,
+            }
+        )
+    return {
+        "campaign": campaign.name,
+        "interrupted": interrupted,
+        "planned_runs": planned,
+        **statistics,
+        "expectations": expectations,
+        "worst": worst,
+        "wall_seconds": runs_seconds,
+        "missions_per_second": aggregate.runs / runs_seconds if runs_seconds > 0 else None,
+    }
+
+
+def _regions(loaded: LoadedCampaign) -> dict[str, Any]:
+    from wmr_mission.spec.loader import load_mission_text
+
+    mission = load_mission_text(loaded.mission_text, str(loaded.mission_path))
+    regions: dict[str, Any] = mission.model_dump(mode="json")["regions"]
+    return regions
+
+
+def _write_worst(
+    loaded: LoadedCampaign, record: dict[str, Any], out_dir: Path, plots: bool
+) -> None:
+    """Re-simulate each worst run (same values, same seed: the same run) into worst/RUN/."""
+    plan = Plan(loaded.campaign)
+    mission_sha256 = _sha256(loaded.mission_path)
+    for entry in record["worst"]:
+        result, _ = simulate(loaded, plan.draw(entry["run"]))
+        if result is None:  # the mission refused the drawn values: nothing to write
+            continue
+        write_run(
+            result,
+            out_dir / WORST_DIR / str(entry["run"]),
+            mission_sha256=mission_sha256,
+            mission_file=str(loaded.mission_path),
+            plots=plots,
+            animate=False,
+        )
+
+
+def _prepare(loaded: LoadedCampaign, out: Path, workers: int, scheduler: str | None) -> Path:
+    """The campaign directory, made empty (refuses one holding files), with its manifest."""
+    out_dir = prepare_run_dir(out)
+    manifest = _manifest(loaded, None if scheduler else workers, scheduler)
+    write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(manifest).encode("utf-8"))
+    return out_dir
+
+
+def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None) -> dict[str, Any]:
+    return {
+        "campaign_file": str(loaded.path),
+        "campaign_sha256": _sha256(loaded.path),
+        "mission_file": str(loaded.mission_path),
+        "mission_sha256": _sha256(loaded.mission_path),
+        "resolved_campaign": loaded.campaign.model_dump(mode="json"),
+        "versions": package_versions(),
+        "workers": workers,
+        "scheduler": scheduler,
+    }
+
+
+def run_campaign(
+    campaign: str | Path,
+    *,
+    out: str | Path | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    plots: bool = False,
+) -> CampaignResult:
+    """Run a campaign file; return its rows and its aggregate (the content of campaign.json).
+
+    ``out``: also write the campaign directory there (runs.csv, campaign.json,
+    manifest.json, worst/, figures when ``plots``). ``workers`` defaults to
+    every core; ``scheduler`` is the address of a Dask scheduler. Raises
+    ``MissionError`` (with every problem and its position) for an invalid file.
+    """
+    loaded = load_campaign(campaign)
+    workers = workers or default_workers()
+    out_dir = None if out is None else _prepare(loaded, Path(out), workers, scheduler)
+    rows: list[dict[str, Any]] = []
+    summary = _execute(
+        loaded,
+        out_dir=out_dir,
+        workers=workers,
+        scheduler=scheduler,
+        plots=plots,
+        progress_stream=None,
+        keep_rows=rows,
+    )
+    table: Any = rows
+    try:
+        import pandas
+
+        table = pandas.DataFrame(rows, columns=header(Plan(loaded.campaign).paths))
+    except ImportError:
+        pass
+    return CampaignResult(table, summary, out_dir)
+
+
+def sweep_command(
+    campaign_path: Path,
+    *,
+    out: Path | None,
+    workers: int | None,
+    scheduler: str | None,
+    plots: bool,
+) -> int:
+    """Exit code: 0 the campaign ran and its expect holds, 1 invalid or expect not met,
+    2 unusable output directory or scheduler, 130 interrupted."""
+    loaded, diagnostics = check_campaign(campaign_path)
+    for diagnostic in diagnostics:
+        print(diagnostic, file=sys.stderr)
+    if loaded is None:
+        return 1
+    workers = workers or default_workers()
+    out_dir = out if out is not None else default_run_dir(loaded.campaign.name, datetime.now())
+    try:
+        out_dir = _prepare(loaded, out_dir, workers, scheduler)
+    except (RunDirExistsError, OSError) as error:
+        print(f"{out_dir}: {error}", file=sys.stderr)
+        return 2
+    try:
+        record = _execute(
+            loaded,
+            out_dir=out_dir,
+            workers=workers,
+            scheduler=scheduler,
+            plots=plots,
+            progress_stream=sys.stderr,
+            keep_rows=None,
+        )
+    except SchedulerUnavailable as error:
+        print(f"{campaign_path}: {error}", file=sys.stderr)
+        return 2
+    print(_report(record, out_dir))
+    if record["interrupted"]:
+        print(
+            f"{campaign_path}: interrupted ({record['stopped_by']}); "
+            f"finished runs kept in {out_dir}",
+            file=sys.stderr,
+        )
+        return INTERRUPTED_EXIT if record["stopped_by"] == "Ctrl-C" else 1
+    failed = [e for e in record["expectations"] if not e["met"]]
+    for expectation in failed:
+        print(
+            f"{campaign_path}: expectation not met: success_rate = "
+            f"{expectation['value']:.4g} (min {expectation['min']:.4g})",
+            file=sys.stderr,
+        )
+    return 1 if failed else 0
+
+
+def _report(record: dict[str, Any], out_dir: Path) -> str:
+    lo, hi = record["success_interval"]
+    rate = record["success_rate"]
+    lines = [
+        f"campaign {record['campaign']}: {record['runs']} runs, {record['succeeded']} succeeded"
+        + (f" ({rate:.2%}, 95 % interval {lo:.2%} .. {hi:.2%})" if rate is not None else ""),
+        "outcomes: " + ", ".join(f"{k} {v}" for k, v in record["outcomes"].items()),
+        f"{record['missions_per_second'] or 0:.1f} missions/s over {record['wall_seconds']:.1f} s"
+        f" (start-up {record['startup_seconds']:.1f} s)",
+    ]
+    if record["worst"]:
+        lines.append("worst runs (replay):")
+        lines += [f"  {w['run']}: {w['outcome']}: {w['replay']}" for w in record["worst"]]
+    lines.append(f"written to {out_dir}")
+    return "\n".join(lines)
