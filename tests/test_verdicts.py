@@ -199,3 +199,45 @@ def test_verdict_agrees_with_the_run_from_other_headings(heading: float) -> None
 @pytest.mark.parametrize("heading", HEADINGS)
 def test_verdict_agrees_with_the_run_from_every_heading(case: str, heading: float) -> None:
     _verdict_agrees(case, heading)
+
+
+# --- shipped missions that relax a threshold on purpose -------------------------
+
+
+def _stretches(mask: np.ndarray) -> int:
+    """Number of contiguous runs of True in ``mask``."""
+    return int(np.count_nonzero(np.diff(mask.astype(np.int8)) == 1) + int(mask[0]))
+
+
+@pytest.mark.slow
+def test_fence_drives_to_the_fence_at_full_speed_and_succeeds(tmp_path: Path) -> None:
+    """missions/fence.yaml relaxes `speed_at_limit` on its approach: the premise is
+    one forward run at full speed towards the fence, never a reversal at a limit."""
+    out = tmp_path / "run"
+    code, stdout, stderr = run(MISSIONS / "fence.yaml", out, "--no-plots")
+    assert code == 0, stdout + stderr
+    columns = read_trajectory(out)
+    later = _after_first_second(columns, "approach")
+    at_limit = np.abs(columns["v"][later]) >= 2.0 * (1 - 1e-9)
+    assert 0.01 < at_limit.mean() <= 0.08  # the relaxed threshold covers it, no more
+    assert np.all(columns["v"][later][at_limit] > 0.0)  # forward, towards the fence
+    assert _stretches(at_limit) == 1  # one run, not chatter
+    assert columns["x"].max() <= 3.0 + 1e-3  # and it stops at the fence
+
+
+@pytest.mark.slow
+def test_park_turns_in_place_at_full_rate_once_and_succeeds(tmp_path: Path) -> None:
+    """missions/park.yaml relaxes `turn_rate_at_limit` on its park phase: the premise
+    is a single turn in place at the bay at full rate, never a bang-bang."""
+    out = tmp_path / "run"
+    code, stdout, stderr = run(MISSIONS / "park.yaml", out, "--no-plots")
+    assert code == 0, stdout + stderr
+    columns = read_trajectory(out)
+    later = _after_first_second(columns, "park")
+    omega = columns["omega"][later]
+    at_limit = np.abs(omega) >= 2.0 * (1 - 1e-9)
+    assert 0.01 < at_limit.mean() <= 0.03
+    assert _stretches(at_limit) == 1
+    assert len(set(np.sign(omega[at_limit]))) == 1  # one direction
+    at_the_bay = np.hypot(columns["x"][later], columns["y"][later]) < 0.02
+    assert np.all(at_the_bay[at_limit])  # in place: at the bay while it turns

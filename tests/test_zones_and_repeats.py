@@ -233,11 +233,20 @@ def test_transitions_record_the_lap(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_keep_out_mission_goes_round_the_pond_every_lap(tmp_path: Path) -> None:
-    # The verdict (docs/mission-format.md, "Verdicts"): round the pond the turn
-    # rate sits at its limit on 14 % of the first south leg after its first
-    # second, and the robot is up to 0.85 m off the path as drawn.
-    missed = tuple(f"south#{lap}: turn_rate_at_limit" for lap in (1, 2, 3))
+    # The verdict (docs/mission-format.md, "Verdicts"): on each south leg the
+    # zone filter's hand-overs at the pond's edge put the turn rate and the
+    # speed at their limits (14 % to 20 % of the leg after its first second),
+    # a defect the mission does not hide. Its relaxed `tracking_error_max`
+    # (0.9 m) covers the detour round the pond only: checked below.
+    missed = tuple(
+        f"south#{lap}: {metric}"
+        for lap in (1, 2, 3)
+        for metric in ("turn_rate_at_limit", "speed_at_limit")
+    )
     out = run_dir(MISSIONS / "keep-out.yaml", tmp_path / "run", missed)
+    summary = json.loads((out / "summary.json").read_text())
+    failed = {f"{c['phase']}: {c['metric']}" for c in summary["expectations"] if not c["met"]}
+    assert failed == set(missed)
     run = trajectory(out)
     inside_pond = 1.2 - np.hypot(run["x"] - 5.0, run["y"] - 0.4)
     assert inside_pond.max() <= 1e-3  # noise-free: no sample inside beyond 1 mm
@@ -252,6 +261,13 @@ def test_keep_out_mission_goes_round_the_pond_every_lap(tmp_path: Path) -> None:
         assert run["y"][south].min() < 0.4 - 1.2
         assert run["x"][south].max() > 7.9
         assert abs(run["y"][south][-1]) < 0.05
+        # the premise of the relaxed tracking_error_max: the robot is off the
+        # drawn line (y = 0) only where the pond is in the way, and no farther
+        # than the pond's south edge plus 5 cm
+        off = np.abs(run["y"][south])
+        by_the_pond = np.abs(run["x"][south] - 5.0) <= 1.2 + 0.8
+        assert off[~by_the_pond].max() < 0.05
+        assert off.max() <= (1.2 - 0.4) + 0.05
 
 
 @pytest.mark.slow
@@ -263,10 +279,14 @@ def test_patrol_stays_in_its_yard(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_coverage_mission_covers_its_field(tmp_path: Path) -> None:
-    # The verdict: at the lane ends under the slanted north edge the robot
-    # overshoots, up to 0.37 m off the path, the turn rate at its limit.
-    missed = ("mow: tracking_error_max", "mow: turn_rate_at_limit")
-    run = trajectory(run_dir(MISSIONS / "coverage.yaml", tmp_path / "run", missed))
+    # North-south lanes at 0.5 m/s: the turns between lane ends that are not
+    # abreast tighten to 0.24 m, within the 3 rad/s limit at that speed; run at
+    # 1 m/s along x they asked for more and failed the verdict.
+    out = run_dir(MISSIONS / "coverage.yaml", tmp_path / "run")
+    run = trajectory(out)
+    summary = json.loads((out / "summary.json").read_text())
+    mow_phase = summary["phases"][0]
+    assert mow_phase["tracking_error"]["max"] < 0.01
     mow = run["phase"] == "mow"
     field = [[0, 0], [12, 0], [13, 6], [4, 8], [-1, 4]]
     assert share_covered(field, run["x"][mow], run["y"][mow], 0.5) >= 0.95
