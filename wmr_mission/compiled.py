@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from wmr_mission import disturbances
 from wmr_mission.sensors import STATE_NAMES, measurement_mask
 
 if TYPE_CHECKING:
@@ -85,6 +86,9 @@ class CompiledMission:
     ekf_initial_var: FloatArray
     ekf_process_var: FloatArray
     ekf_measurement_var: FloatArray
+    ekf_innovation_gate: float  # inf: no gating
+    # The true plant's and the sensors' imperfections (wmr_mission.disturbances).
+    disturbances: disturbances.Settings
     q: FloatArray
     r: FloatArray
     w: FloatArray
@@ -207,6 +211,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
     initial_var = np.ones(3)
     process_var = np.zeros(3)
     measurement_var = np.maximum(noise, 1e-3) ** 2
+    innovation_gate = math.inf
     if estimator.type == "constrained-observer":
         poles = np.array([estimator.poles.x, estimator.poles.y, estimator.poles.theta])
         if estimator.output_error_bounds:
@@ -232,6 +237,8 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         if estimator.measurement_std is not None:
             for name, std in estimator.measurement_std.items():
                 measurement_var[STATE_NAMES.index(name)] = std**2
+        if estimator.innovation_gate is not None:
+            innovation_gate = float(estimator.innovation_gate)
     limits = mission.robot.limits
     controller = mission.controller
     initial = mission.robot.initial_state
@@ -262,6 +269,8 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         ekf_initial_var=initial_var,
         ekf_process_var=process_var,
         ekf_measurement_var=measurement_var,
+        ekf_innovation_gate=innovation_gate,
+        disturbances=disturbances.settings(mission),
         q=np.array(controller.Q, dtype=np.float64),
         r=np.array(controller.R, dtype=np.float64),
         w=np.array(controller.W, dtype=np.float64),

@@ -11,7 +11,8 @@ returns to Python (wmr_mission.runner) only when
   next phase and calls again at the same sample),
 * the run diverged (``DIVERGED_INPUT``, ``DIVERGED_STATE``),
 * or the chunk is done (``CHUNK_END``): ``stop`` reached, or a buffer the
-  runner fills ran out: the path block, the pre-drawn noise, the recorder.
+  runner fills ran out: the path block, the pre-drawn random draws (noise and
+  disturbances, wmr_mission.disturbances), the recorder.
 
 Between chunks the runner reports progress and lets Ctrl-C in. The same
 source runs as plain Python without numba, and with the reference step
@@ -30,9 +31,10 @@ from numpy.typing import NDArray
 from wmr_mission._jit import kernel, ticks
 from wmr_mission.control import regulate_input, track_input
 from wmr_mission.corrective import max_row_value
-from wmr_mission.ekf import ekf_step
-from wmr_mission.model import step, wrap_angle
-from wmr_mission.observer import observer_step
+from wmr_mission.disturbances import Disturbances, applied_input, plant_step, sense
+from wmr_mission.ekf import ekf_predict, ekf_step
+from wmr_mission.model import wrap_angle
+from wmr_mission.observer import observer_predict, observer_step
 from wmr_mission.params import Controller, Estimator, Robot, Scratch
 
 FloatArray = NDArray[np.float64]
@@ -57,7 +59,7 @@ ELAPSED, MISSION_TIME, REACHES, NEAR, SETTLED, HEADING, TIMEOUT = range(1, 8)
 # Fields of Signals.counters.
 K = 0  # the sample the loop is at
 ITERATIONS = 1  # phase-II iterations of the estimator's last update
-NOISE = 2  # next unused row of the noise block
+DRAWS = 2  # next unused row of the block of draws
 CONDITION = 3  # the exit condition that fired
 
 
@@ -94,15 +96,19 @@ class Signals(NamedTuple):
     state: FloatArray  # (3,) the plant's true pose
     estimate: FloatArray  # (3,) x_{k|k}
     estimate_prev: FloatArray  # (3,) x_{k-1|k-1}
-    measurement: FloatArray  # (3,)
+    measurement: FloatArray  # (3,) the newest measurement
+    measured: FloatArray  # (3,) the measurement of the sample being recorded (NaN: none)
     u: FloatArray  # (2,) u_k
     u_prev: FloatArray  # (2,) u_{k-1}
     covariance: FloatArray  # (3, 3) EKF
     observer_gain: FloatArray  # (3, 3) L of eq. (6), scratch
     ekf_work: FloatArray  # (4, 3, 3) EKF scratch
     memory: FloatArray  # (3,) the phase's controller memory (wmr_mission.control)
-    counters: IntArray  # K, ITERATIONS, NOISE, CONDITION
+    counters: IntArray  # K, ITERATIONS, DRAWS, CONDITION
     exit_value: FloatArray  # (1,) the value of the condition that fired
+    commands: FloatArray  # (d + 1, 2) the last commands, for the input delay
+    applied: FloatArray  # (2,) the input the plant applies (delayed, lagged)
+    burst: IntArray  # (1,) 1 while a burst of lost measurements goes on
 
 
 class Record(NamedTuple):
@@ -128,6 +134,9 @@ FLOAT_COLUMNS = (
     "x_ref",
     "y_ref",
     "constraint",
+    "x_meas",
+    "y_meas",
+    "theta_meas",
 )
 
 
@@ -190,8 +199,10 @@ def record_sample(
     reference_x: float,
     reference_y: float,
     iterations: int,
+    measured: FloatArray,
 ) -> int:
-    """Append one row; returns its index. ``estimate`` and ``u`` are read now."""
+    """Append one row; returns its index. ``estimate``, ``u`` and ``measured``
+    are read now."""
     i: int = record.rows[0]
     record.rows[0] = i + 1
     row = record.floats[i]
@@ -210,6 +221,9 @@ def record_sample(
         row[11] = max_row_value(phase.constraint_kinds, phase.constraint_params, x, y)
     else:
         row[11] = math.nan
+    row[12] = measured[0]
+    row[13] = measured[1]
+    row[14] = measured[2]
     record.phase[i] = phase.number
     record.iterations[i] = iterations
     record.compute[i] = 0
@@ -221,9 +235,10 @@ def run_segment(
     robot: Robot,
     estimator: Estimator,
     controller: Controller,
+    disturbances: Disturbances,
     phase: Phase,
     path: PathBlock,
-    noise: FloatArray,
+    draws: FloatArray,
     signals: Signals,
     record: Record,
     scratch: Scratch,
@@ -243,7 +258,7 @@ def run_segment(
     capacity = record.floats.shape[0]
     k = counters[K]
     iterations = counters[ITERATIONS]
-    cursor = counters[NOISE]
+    cursor = counters[DRAWS]
     status = CHUNK_END
     while k < stop:
         # --- phase exit on x_{k|k}.
@@ -252,8 +267,8 @@ def run_segment(
             counters[CONDITION] = condition
             status = EXITED
             break
-        # Room for this sample (and a closing row), its measurement, its path.
-        if record.rows[0] + 2 > capacity or cursor >= noise.shape[0]:
+        # Room for this sample (and a closing row), its draws, its path.
+        if record.rows[0] + 2 > capacity or cursor >= draws.shape[0]:
             break
         reference_x = math.nan
         reference_y = math.nan
@@ -299,17 +314,17 @@ def run_segment(
             spent = ticks() - started
             i = record_sample(
                 record, phase, k * dt, x, y, theta, estimate, u, reference_x, reference_y,
-                iterations,
+                iterations, signals.measured,
             )  # fmt: skip
             record.compute[i] = spent
             status = DIVERGED_INPUT
             break
-        # --- plant, sensors.
-        state[0], state[1], state[2] = step(x, y, theta, u[0], u[1], dt)
-        measurement[0] = state[0] + noise[cursor, 0]
-        measurement[1] = state[1] + noise[cursor, 1]
-        measurement[2] = state[2] + noise[cursor, 2]
+        # --- plant and sensors, disturbed (wmr_mission.disturbances).
+        drawn = draws[cursor]
         cursor += 1
+        applied_input(disturbances, k, u, signals.commands, signals.applied)
+        plant_step(state, signals.applied, dt, disturbances, drawn)
+        has_measurement = sense(state, k + 1, disturbances, drawn, signals.burst, measurement)
         # --- estimator: x_{k+1|k+1}; the row of sample k keeps x_{k|k}.
         ex = estimate[0]
         ey = estimate[1]
@@ -318,22 +333,34 @@ def run_segment(
         estimate_prev[1] = ey
         estimate_prev[2] = eth
         recorded_iterations = iterations
+        # A sample without a measurement is a prediction-only step.
         if estimator.ekf:
-            ekf_step(
-                estimate, signals.covariance, u[0], u[1], dt, measurement, estimator,
-                signals.ekf_work,
-            )  # fmt: skip
+            if has_measurement:
+                ekf_step(
+                    estimate, signals.covariance, u[0], u[1], dt, measurement, estimator,
+                    signals.ekf_work,
+                )  # fmt: skip
+            else:
+                ekf_predict(
+                    estimate, signals.covariance, u[0], u[1], dt, estimator, signals.ekf_work
+                )
             iterations = 0
-        else:
+        elif has_measurement:
             iterations = observer_step(
                 estimate, u[0], u[1], dt, measurement, estimator, signals.observer_gain
             )
+        else:
+            iterations = observer_predict(estimate, u[0], u[1], dt)
         spent = ticks() - started
         i = record_sample(
             record, phase, k * dt, x, y, theta, estimate_prev, u, reference_x, reference_y,
-            recorded_iterations,
+            recorded_iterations, signals.measured,
         )  # fmt: skip
         record.compute[i] = spent
+        for n in range(3):
+            signals.measured[n] = (
+                measurement[n] if has_measurement and estimator.mask[n] > 0.0 else math.nan
+            )
         u_prev[0] = u[0]
         u_prev[1] = u[1]
         k += 1
@@ -344,13 +371,13 @@ def run_segment(
         ):  # fmt: skip
             record_sample(
                 record, phase, k * dt, state[0], state[1], state[2], estimate, u_prev,
-                math.nan, math.nan, iterations,
+                math.nan, math.nan, iterations, signals.measured,
             )  # fmt: skip
             status = DIVERGED_STATE
             break
     counters[K] = k
     counters[ITERATIONS] = iterations
-    counters[NOISE] = cursor
+    counters[DRAWS] = cursor
     return status
 
 
@@ -360,7 +387,15 @@ def python_loop(replacements: dict[str, object]) -> types.FunctionType:
     The loop's own helpers run as plain Python too."""
     source = getattr(run_segment, "py_func", run_segment)
     namespace = dict(source.__globals__)
-    for name in ("exit_condition", "record_sample", "step"):
+    for name in (
+        "exit_condition",
+        "record_sample",
+        "applied_input",
+        "plant_step",
+        "sense",
+        "observer_predict",
+        "ekf_predict",
+    ):
         namespace[name] = getattr(namespace[name], "py_func", namespace[name])
     namespace.update(replacements)
     return types.FunctionType(source.__code__, namespace, "run_segment")

@@ -28,6 +28,9 @@ TRAJECTORY_COLUMNS = (
 )
 # Columns that follow them.
 EXTRA_COLUMNS = ("x_ref", "y_ref", "constraint", "phase2_iterations")
+# The measurement the estimate of the row has seen; NaN when there was none
+# (sample 0, between measurement periods, lost) or the state is not measured.
+MEASUREMENT_COLUMNS = ("x_meas", "y_meas", "theta_meas")
 
 
 class Outcome(StrEnum):
@@ -68,7 +71,10 @@ class RunResult:
     (the last row repeats the previous input). ``x_ref, y_ref`` is the path
     point the controller aims at (NaN outside track phases). ``constraint`` is
     the largest constraint-row value of the phase at the true state (> 0 means
-    violated; NaN when the phase has no constraint). ``compute_ns`` is the
+    violated; NaN when the phase has no constraint). ``x_meas, y_meas,
+    theta_meas`` (``measurement``, one row per sample, None: not recorded)
+    is the measurement of the sample, which ``*_est`` has seen (NaN when
+    there was none or the state is not measured). ``compute_ns`` is the
     wall time of estimator + controller for that sample (not written to the
     CSV: it is not reproducible). ``loop_ns`` is the wall time of the whole
     simulation loop (plant, sensors, estimator, controller, phase logic,
@@ -102,6 +108,13 @@ class RunResult:
     error_bounds: tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
     regions: dict[str, Any] = field(default_factory=dict)  # name -> region spec (for plots)
     loop_ns: int = 0
+    measurement: FloatArray | None = None  # (n, 3) x_meas, y_meas, theta_meas
+
+    def measurement_column(self, index: int) -> FloatArray:
+        """Column ``index`` (0: x, 1: y, 2: theta) of the measurements; NaN if not recorded."""
+        if self.measurement is None:
+            return np.full(self.samples, np.nan)
+        return self.measurement[:, index]
 
     @property
     def samples(self) -> int:

@@ -40,6 +40,7 @@ import numpy as np
 from wmr_mission.output.metrics import check_expectations, summarize
 from wmr_mission.result import (
     EXTRA_COLUMNS,
+    MEASUREMENT_COLUMNS,
     TRAJECTORY_COLUMNS,
     Outcome,
     PhaseInfo,
@@ -53,7 +54,7 @@ TRANSITIONS_FILE = "transitions.json"
 SUMMARY_FILE = "summary.json"
 ANIMATION_FILE = "animation.gif"
 
-CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
+CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS + MEASUREMENT_COLUMNS
 _FLOAT_FORMAT = "%.12g"
 # Rows formatted per `%` operation: one C-level formatting call per block keeps
 # a 360 000-sample run to about a second and a half.
@@ -163,6 +164,7 @@ def trajectory_csv_blocks(result: RunResult) -> Iterator[str]:
         + ["%s"]
         + [_FLOAT_FORMAT] * (len(EXTRA_COLUMNS) - 1)
         + ["%d"]
+        + [_FLOAT_FORMAT] * len(MEASUREMENT_COLUMNS)
     )
     row_format = ",".join(formats) + "\n"
     yield ",".join(CSV_COLUMNS) + "\n"
@@ -174,6 +176,10 @@ def trajectory_csv_blocks(result: RunResult) -> Iterator[str]:
         columns.append(names[np.asarray(result.phase[block], dtype=np.int64)].tolist())
         columns += [np.asarray(column[block], dtype=np.float64).tolist() for column in extra]
         columns.append(np.asarray(result.phase2_iterations[block], dtype=np.int64).tolist())
+        columns += [
+            np.asarray(result.measurement_column(i)[block], dtype=np.float64).tolist()
+            for i in range(len(MEASUREMENT_COLUMNS))
+        ]
         values = tuple(value for row in zip(*columns, strict=True) for value in row)
         yield row_format * (len(values) // len(columns)) % values
 
@@ -583,4 +589,5 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
         ),
         error_bounds=(error_bounds[0], error_bounds[1], error_bounds[2]),
         regions=_field(run, "regions", dict, where),
+        measurement=np.column_stack([data[name] for name in MEASUREMENT_COLUMNS]),
     )

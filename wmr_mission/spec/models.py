@@ -39,6 +39,8 @@ __all__ = [
     "ConstrainedObserver",
     "Constraint",
     "Controller",
+    "Disturbances",
+    "Dropout",
     "Ekf",
     "EllipsePath",
     "EllipseRegion",
@@ -54,6 +56,7 @@ __all__ = [
     "LinePath",
     "Mission",
     "Near",
+    "Outliers",
     "PathSpec",
     "Phase",
     "PolygonRegion",
@@ -65,8 +68,10 @@ __all__ = [
     "Robot",
     "Sensors",
     "Settled",
+    "Slip",
     "SpiralPath",
     "StateName",
+    "StateOffset",
     "StatePoles",
     "StateStd",
     "StayInside",
@@ -251,6 +256,47 @@ class Limits(_Model):
     )
 
 
+class StateStd(_Model):
+    """A standard deviation per state."""
+
+    x: NonNegative = Field(default=0.0, description="Standard deviation of x [m].")
+    y: NonNegative = Field(default=0.0, description="Standard deviation of y [m].")
+    theta: NonNegative = Field(default=0.0, description="Standard deviation of theta [rad].")
+
+
+Probability = Annotated[Number, Field(ge=0, le=1)]
+
+
+class Slip(_Model):
+    """Wheel slip of the true plant."""
+
+    longitudinal: Annotated[Number, Field(ge=0, lt=1)] = Field(
+        default=0.0, description="Fraction of v lost to slip, in [0, 1)."
+    )
+    lateral_std: NonNegative = Field(
+        default=0.0,
+        description="Standard deviation of a sideways skid speed, drawn every sample [m/s].",
+    )
+
+
+class Disturbances(_Model):
+    """The true plant departs from eq. (1): noise, delay, lag and slip."""
+
+    process_noise_std: StateStd = Field(
+        default_factory=lambda: StateStd(),
+        description="Gaussian noise added to the true pose every sample [m, m, rad].",
+    )
+    input_delay: NonNegative = Field(
+        default=0.0,
+        description="[s] the plant applies u_{k-d}, d = input_delay / dt (a whole number).",
+    )
+    actuator_time_constant: NonNegative = Field(
+        default=0.0,
+        description="[s] first-order lag of the applied v and omega behind the command; 0 = none.",
+    )
+    slip: Slip = Field(default_factory=lambda: Slip(), description="Wheel slip.")
+
+
 class Robot(_Model):
     """The plant of eq. (1), sampled."""
 
@@ -261,21 +307,50 @@ class Robot(_Model):
         default_factory=Pose, description="True pose at mission start [m, m, rad]."
     )
     limits: Limits = Field(default_factory=Limits, description="Input limits.")
+    disturbances: Disturbances = Field(
+        default_factory=lambda: Disturbances(),
+        description=(
+            "How the true plant departs from eq. (1); the estimator and controller never see "
+            "these settings (docs/disturbances.md). Default: none."
+        ),
+    )
 
 
 # --- sensors ---------------------------------------------------------------
 
 
-class StateStd(_Model):
-    """A standard deviation per state."""
+class StateOffset(_Model):
+    """An offset per state."""
 
-    x: NonNegative = Field(default=0.0, description="Standard deviation of x [m].")
-    y: NonNegative = Field(default=0.0, description="Standard deviation of y [m].")
-    theta: NonNegative = Field(default=0.0, description="Standard deviation of theta [rad].")
+    x: Number = Field(default=0.0, description="Offset of x [m].")
+    y: Number = Field(default=0.0, description="Offset of y [m].")
+    theta: Number = Field(default=0.0, description="Offset of theta [rad].")
+
+
+class Dropout(_Model):
+    """Measurements lost in bursts (a two-state Markov chain per measurement)."""
+
+    probability: Probability = Field(
+        description="Probability that a burst of lost measurements starts at a measurement."
+    )
+    burst: Annotated[Number, Field(ge=1)] = Field(
+        default=1.0,
+        description=(
+            "Mean burst length in measurements, >= 1; lengths are geometric (a lost "
+            "measurement is followed by another with probability 1 - 1/burst)."
+        ),
+    )
+
+
+class Outliers(_Model):
+    """Wild measurements: a large Gaussian error added now and then."""
+
+    probability: Probability = Field(description="Probability that a measurement is an outlier.")
+    std: StateStd = Field(description="Standard deviation of the outlier's error [m, m, rad].")
 
 
 class Sensors(_Model):
-    """Which states are measured, and how noisily."""
+    """Which states are measured, how often, and how they err."""
 
     measure: tuple[StateName, ...] = Field(
         default=STATES,
@@ -288,7 +363,28 @@ class Sensors(_Model):
         description="Additive white Gaussian noise on each measured state [m, m, rad].",
     )
     seed: Annotated[int, Strict(), Field(ge=0, le=2**32 - 1)] = Field(
-        default=0, description="Noise seed, 0 .. 2^32-1; `run --seed` overrides it."
+        default=0,
+        description=(
+            "Seed of every random draw of the run (noise and disturbances), 0 .. 2^32-1; "
+            "`run --seed` overrides it."
+        ),
+    )
+    period: Duration | None = Field(
+        default=None,
+        description=(
+            "[s] time between measurements, a whole multiple of robot.dt; the estimator "
+            "predicts on the samples between. null = every sample."
+        ),
+    )
+    bias: StateOffset = Field(
+        default_factory=lambda: StateOffset(),
+        description="Constant offset added to each measured state [m, m, rad].",
+    )
+    dropout: Dropout | None = Field(
+        default=None, description="Measurements lost in bursts; null = none lost."
+    )
+    outliers: Outliers | None = Field(
+        default=None, description="Wild measurements; null = none."
     )
 
     @field_validator("measure")
@@ -393,6 +489,15 @@ class Ekf(_Model):
         description=(
             "Measurement noise per measured state [m or rad], > 0; "
             "null = sensors.noise_std floored at 0.001."
+        ),
+    )
+    innovation_gate: Positive | None = Field(
+        default=None,
+        description=(
+            "Reject a measurement whose squared Mahalanobis distance r^T S^-1 r exceeds this "
+            "(chi-square with as many degrees of freedom as measured states: 16.27 is its "
+            "0.999 quantile for 3); a rejected measurement is a prediction-only step. "
+            "null = no gating."
         ),
     )
 
