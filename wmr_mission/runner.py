@@ -23,12 +23,12 @@ from numpy.typing import NDArray
 from wmr_mission import _jit, control, loop
 from wmr_mission.compiled import CompiledMission, CompiledPhase, Trajectory, compile_mission
 from wmr_mission.corrective import max_row_value
+from wmr_mission.disturbances import Draws
 from wmr_mission.ekf import ekf_step
 from wmr_mission.loop import FLOAT_COLUMNS, PathBlock, Phase, Record, Signals
 from wmr_mission.observer import observer_step
 from wmr_mission.params import records, scratch
 from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
-from wmr_mission.disturbances import Draws
 
 if TYPE_CHECKING:
     from wmr_mission.spec.models import Mission

@@ -383,9 +383,7 @@ class Sensors(_Model):
     dropout: Dropout | None = Field(
         default=None, description="Measurements lost in bursts; null = none lost."
     )
-    outliers: Outliers | None = Field(
-        default=None, description="Wild measurements; null = none."
-    )
+    outliers: Outliers | None = Field(default=None, description="Wild measurements; null = none.")
 
     @field_validator("measure")
     @classmethod
