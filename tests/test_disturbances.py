@@ -351,3 +351,19 @@ def test_observer_phase_two_clamps_the_estimate_to_the_outliers_bound() -> None:
     assert iterations == 1
     assert estimate[0] - truth[0] == pytest.approx(0.95, abs=1e-12)
     np.testing.assert_allclose(estimate[1:], truth[1:], atol=1e-12)
+
+
+def test_bench_times_the_loop_with_and_without_disturbances() -> None:
+    from wmr_mission.bench import bench_mission, format_report
+
+    mission = copy.deepcopy(BASE)
+    mission["phases"][0]["until"] = {"elapsed": 0.5}
+    calm = load_mission_text(yaml.safe_dump(mission), "calm.yaml")
+    assert bench_mission(calm, 1)["disturbances"] is None
+    mission["robot"]["disturbances"] = {"input_delay": 0.02, "slip": {"lateral_std": 0.01}}
+    numbers = bench_mission(load_mission_text(yaml.safe_dump(mission), "disturbed.yaml"), 1)
+    cost = numbers["disturbances"]
+    assert cost["with_us"] > 0.0
+    assert cost["without_us"] > 0.0
+    assert cost["ratio"] == pytest.approx(cost["with_us"] / cost["without_us"])
+    assert "with the mission's disturbances" in format_report(numbers, "disturbed.yaml")

@@ -71,7 +71,7 @@ class Disturbances(NamedTuple):
     outlier_probability: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Settings:
     """A mission's disturbances in plain numbers (samples where the loop counts)."""
 
@@ -86,6 +86,20 @@ class Settings:
     dropout_burst: float = 1.0
     outlier_probability: float = 0.0
     outlier_std: FloatArray = field(default_factory=lambda: np.zeros(3))
+
+    def active(self) -> bool:
+        """Whether any disturbance is on."""
+        return self != Settings()
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Settings):
+            return NotImplemented
+        return all(
+            np.array_equal(getattr(self, name), getattr(other, name))
+            for name in self.__dataclass_fields__
+        )
+
+    __hash__ = None  # type: ignore[assignment]
 
     def record(self, dt: float) -> Disturbances:
         lag = 1.0 if self.time_constant == 0.0 else -math.expm1(-dt / self.time_constant)
