@@ -344,13 +344,26 @@ def _mark_phases(axes: list[Axes], result: RunResult) -> None:
         )
 
 
+def _draw_measurements(
+    ax: Axes, t: FloatArray, values: FloatArray, label: str = "measurement"
+) -> None:
+    """The measurements as dots (none where lost, between periods or unmeasured)."""
+    seen = np.isfinite(values)
+    if seen.any():
+        ax.plot(
+            t[seen], values[seen], linestyle="none", marker=".", markersize=2.0,
+            color="tab:gray", alpha=0.6, label=label, zorder=1,
+        )  # fmt: skip
+
+
 def draw_states(result: RunResult, path: Path) -> Path:
     """True state against its estimate over time."""
     plt = pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
     k = thin(0, result.samples)
     t = result.t[k]
-    for ax, state in zip(axes, ("x", "y", "theta"), strict=True):
+    for index, (ax, state) in enumerate(zip(axes, ("x", "y", "theta"), strict=True)):
+        _draw_measurements(ax, t, result.measurement_column(index)[k])
         ax.plot(t, finite(getattr(result, state)[k]), color="tab:blue", linewidth=1.2, label="true")
         ax.plot(
             t,
@@ -376,7 +389,12 @@ def draw_estimation_error(result: RunResult, path: Path) -> Path:
     k = thin(0, result.samples)
     t = result.t[k]
     errors = estimation_errors(result)
-    for ax, state, bounds in zip(axes, ("x", "y", "theta"), result.error_bounds, strict=True):
+    for index, (ax, state, bounds) in enumerate(
+        zip(axes, ("x", "y", "theta"), result.error_bounds, strict=True)
+    ):
+        # The measurement's own error (true - measured) beside the estimate's.
+        measured = result.measurement_column(index)[k]
+        _draw_measurements(ax, t, getattr(result, state)[k] - measured, "measurement error")
         ax.plot(t, finite(errors[state][k]), color="tab:blue", linewidth=1.2, label="error")
         for i, bound in enumerate(bounds):
             if math.isfinite(bound):
