@@ -21,7 +21,14 @@ from wmr_mission.output.rundir import (
     prepare_run_dir,
     write_run,
 )
-from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS, Outcome, PhaseInfo, RunResult
+from wmr_mission.result import (
+    EXTRA_COLUMNS,
+    MEASUREMENT_COLUMNS,
+    TRAJECTORY_COLUMNS,
+    Outcome,
+    PhaseInfo,
+    RunResult,
+)
 
 RESOLVED: dict[str, Any] = {
     "version": 1,
@@ -81,8 +88,9 @@ def test_trajectory_header_and_column_order(tmp_path: Path) -> None:
     header = lines[0].decode().split(",")
     first = ["t", "x", "y", "theta", "x_est", "y_est", "theta_est", "v", "omega", "phase"]
     assert header[:10] == first
-    assert header == [*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS]
-    assert header[10:] == ["x_ref", "y_ref", "constraint", "phase2_iterations"]
+    assert header == [*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS, *MEASUREMENT_COLUMNS]
+    assert header[10:14] == ["x_ref", "y_ref", "constraint", "phase2_iterations"]
+    assert header[14:] == ["x_meas", "y_meas", "theta_meas"]
     assert len(lines) == 2001 + 2
     assert lines[-1] == b""  # '\n' after every row
     assert b"\r" not in lines[1]
@@ -267,7 +275,7 @@ def test_load_run_without_summary_says_incomplete(tmp_path: Path) -> None:
         (
             "trajectory.csv",
             lambda text: text[: text.index("\n", 200)] + "\n1,2\n",
-            r"trajectory.csv:\d+: expected 14 fields, found 2",
+            r"trajectory.csv:\d+: expected 17 fields, found 2",
         ),
         (
             "trajectory.csv",
@@ -276,7 +284,7 @@ def test_load_run_without_summary_says_incomplete(tmp_path: Path) -> None:
         ),
         (
             "trajectory.csv",
-            lambda text: text.replace(",3\n", ",1.5\n", 1),
+            lambda text: text.replace(",3,nan,nan,nan\n", ",1.5,nan,nan,nan\n", 1),
             r"trajectory.csv:2: phase2_iterations is not an integer: '1.5'",
         ),
         (
