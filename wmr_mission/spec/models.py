@@ -188,6 +188,33 @@ def _nonzero(value: float) -> float:
 NonzeroScalar = Annotated[Scalar, AfterValidator(_nonzero)]
 
 
+# Disturbance settings accept expressions, so one parameter can scale them all.
+NonNegativeScalar = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=0, le=ABSURD),
+    _scalar_schema({"minimum": 0}),
+]
+ProbabilityScalar = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=0, le=1),
+    _scalar_schema({"minimum": 0, "maximum": 1}),
+]
+SlipFraction = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=0, lt=1),
+    _scalar_schema({"minimum": 0, "exclusiveMaximum": 1}),
+]
+BurstLength = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=1, le=ABSURD),
+    _scalar_schema({"minimum": 1}),
+]
+
+
 def _start_angle(value: Any, info: ValidationInfo) -> Any:
     return value if value == "current" else _evaluate_scalar(value, info)
 
@@ -259,21 +286,18 @@ class Limits(_Model):
 class StateStd(_Model):
     """A standard deviation per state."""
 
-    x: NonNegative = Field(default=0.0, description="Standard deviation of x [m].")
-    y: NonNegative = Field(default=0.0, description="Standard deviation of y [m].")
-    theta: NonNegative = Field(default=0.0, description="Standard deviation of theta [rad].")
-
-
-Probability = Annotated[Number, Field(ge=0, le=1)]
+    x: NonNegativeScalar = Field(default=0.0, description="Standard deviation of x [m].")
+    y: NonNegativeScalar = Field(default=0.0, description="Standard deviation of y [m].")
+    theta: NonNegativeScalar = Field(default=0.0, description="Standard deviation of theta [rad].")
 
 
 class Slip(_Model):
     """Wheel slip of the true plant."""
 
-    longitudinal: Annotated[Number, Field(ge=0, lt=1)] = Field(
+    longitudinal: SlipFraction = Field(
         default=0.0, description="Fraction of v lost to slip, in [0, 1)."
     )
-    lateral_std: NonNegative = Field(
+    lateral_std: NonNegativeScalar = Field(
         default=0.0,
         description="Standard deviation of a sideways skid speed, drawn every sample [m/s].",
     )
@@ -286,11 +310,11 @@ class Disturbances(_Model):
         default_factory=lambda: StateStd(),
         description="Gaussian noise added to the true pose every sample [m, m, rad].",
     )
-    input_delay: NonNegative = Field(
+    input_delay: NonNegativeScalar = Field(
         default=0.0,
         description="[s] the plant applies u_{k-d}, d = input_delay / dt (a whole number).",
     )
-    actuator_time_constant: NonNegative = Field(
+    actuator_time_constant: NonNegativeScalar = Field(
         default=0.0,
         description="[s] first-order lag of the applied v and omega behind the command; 0 = none.",
     )
@@ -322,18 +346,18 @@ class Robot(_Model):
 class StateOffset(_Model):
     """An offset per state."""
 
-    x: Number = Field(default=0.0, description="Offset of x [m].")
-    y: Number = Field(default=0.0, description="Offset of y [m].")
-    theta: Number = Field(default=0.0, description="Offset of theta [rad].")
+    x: Scalar = Field(default=0.0, description="Offset of x [m].")
+    y: Scalar = Field(default=0.0, description="Offset of y [m].")
+    theta: Scalar = Field(default=0.0, description="Offset of theta [rad].")
 
 
 class Dropout(_Model):
     """Measurements lost in bursts (a two-state Markov chain per measurement)."""
 
-    probability: Probability = Field(
+    probability: ProbabilityScalar = Field(
         description="Probability that a burst of lost measurements starts at a measurement."
     )
-    burst: Annotated[Number, Field(ge=1)] = Field(
+    burst: BurstLength = Field(
         default=1.0,
         description=(
             "Mean burst length in measurements, >= 1; lengths are geometric (a lost "
@@ -345,7 +369,9 @@ class Dropout(_Model):
 class Outliers(_Model):
     """Wild measurements: a large Gaussian error added now and then."""
 
-    probability: Probability = Field(description="Probability that a measurement is an outlier.")
+    probability: ProbabilityScalar = Field(
+        description="Probability that a measurement is an outlier."
+    )
     std: StateStd = Field(description="Standard deviation of the outlier's error [m, m, rad].")
 
 
@@ -369,7 +395,7 @@ class Sensors(_Model):
             "`run --seed` overrides it."
         ),
     )
-    period: Duration | None = Field(
+    period: PositiveScalar | None = Field(
         default=None,
         description=(
             "[s] time between measurements, a whole multiple of robot.dt; the estimator "
