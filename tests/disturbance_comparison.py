@@ -1,8 +1,11 @@
-"""The table of docs/disturbances.md: a grid campaign run in one process.
+"""The tables of docs/disturbances.md.
 
-    python tests/disturbance_comparison.py missions/campaigns/estimators-disturbances.yaml
+    python tests/disturbance_comparison.py run MISSION [PATH=VALUE ...]
+    python tests/disturbance_comparison.py campaign CAMPAIGN [FIGURE.png]
 
-Reads the campaign's mission, ``runs``, ``seed`` and its ``grid`` axes
+``run`` runs a mission once with fields overridden by dotted path (as
+``--set`` does; VALUE is YAML) and prints one Markdown row of its metrics.
+``campaign`` reads the campaign's mission, ``runs``, ``seed`` and its ``grid`` axes
 (dotted mission paths, as ``wmr-mission sweep`` does), runs every cell
 ``runs`` times with sensor seeds drawn from ``SeedSequence(seed)``, and
 prints one Markdown row per cell: success rate, then medians over the runs
@@ -27,6 +30,7 @@ from wmr_mission.output.metrics import summarize
 from wmr_mission.result import Outcome, RunResult
 from wmr_mission.runner import run_mission
 from wmr_mission.spec.loader import load_mission_text
+from wmr_mission.spec.models import Mission
 
 
 def set_path(data: dict[str, Any], path: str, value: Any) -> None:
@@ -34,6 +38,14 @@ def set_path(data: dict[str, Any], path: str, value: Any) -> None:
     for key in parents:
         data = data.setdefault(key, {})
     data[last] = copy.deepcopy(value)
+
+
+def overridden(mission_file: Path, settings: list[str]) -> Mission:
+    data = yaml.safe_load(mission_file.read_text(encoding="utf-8"))
+    for setting in settings:
+        path, _, value = setting.partition("=")
+        set_path(data, path, yaml.safe_load(value))
+    return load_mission_text(yaml.safe_dump(data), str(mission_file))
 
 
 def metrics(result: RunResult) -> tuple[bool, float, float, float, float]:
@@ -56,7 +68,18 @@ def label(value: Any) -> str:
     return str(value)
 
 
-def main(campaign_path: str) -> None:
+def run_row(mission_path: str, settings: list[str]) -> None:
+    result = run_mission(overridden(Path(mission_path), settings))
+    summary = summarize(result)
+    _, position, heading, tracking, jitter = metrics(result)
+    final = summary["final"]["position_error"]
+    print(
+        f"| {' '.join(settings) or '(none)'} | {result.outcome.value} | {summary['duration']:g} "
+        f"| {final:.3g} | {position:.3g} | {heading:.3g} | {tracking:.3g} | {jitter:.3g} |"
+    )
+
+
+def campaign_table(campaign_path: str, figure: str | None = None) -> None:
     campaign_file = Path(campaign_path)
     campaign = yaml.safe_load(campaign_file.read_text(encoding="utf-8"))
     mission_file = campaign_file.parent / campaign["mission"]
@@ -72,6 +95,7 @@ def main(campaign_path: str) -> None:
         "| tracking RMS [m] | omega jitter [rad/s] |"
     )
     print("|" + "---|" * (len(axes) + 5))
+    cells = []
     for cell in itertools.product(*axes.values()):
         data = copy.deepcopy(base)
         for path, value in zip(axes, cell, strict=True):
@@ -82,7 +106,41 @@ def main(campaign_path: str) -> None:
         medians = np.nanmedian(rows[:, 1:], axis=0)
         values = " | ".join(f"{m:.3g}" for m in medians)
         print(f"| {' | '.join(label(v) for v in cell)} | {success:.0%} | {values} |", flush=True)
+        cells.append((cell, success, medians))
+    if figure is not None:
+        draw(cells, list(axes), figure)
+
+
+def draw(cells: list[tuple[Any, float, np.ndarray]], axes: list[str], path: str) -> None:
+    """Median estimation and tracking RMS against the first axis, a line per second-axis value."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, panels = plt.subplots(1, 3, figsize=(13, 4))
+    lines: dict[str, list[tuple[float, float, np.ndarray]]] = {}
+    for cell, success, medians in cells:
+        lines.setdefault(label(cell[1]), []).append((float(cell[0]), success, medians))
+    for name, points in lines.items():
+        x = [p[0] for p in points]
+        panels[0].plot(x, [100 * p[1] for p in points], marker="o", label=name)
+        panels[1].plot(x, [p[2][0] for p in points], marker="o", label=name)
+        panels[2].plot(x, [p[2][2] for p in points], marker="o", label=name)
+    titles = ("success [%]", "estimation RMS, position [m]", "tracking RMS [m]")
+    for panel, title in zip(panels, titles, strict=True):
+        panel.set_title(title)
+        panel.set_xlabel(axes[0])
+        panel.grid(True, linewidth=0.4, alpha=0.5)
+    panels[1].set_yscale("log")
+    panels[2].set_yscale("log")
+    panels[0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    if sys.argv[1] == "run":
+        run_row(sys.argv[2], sys.argv[3:])
+    else:
+        campaign_table(sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else None)
