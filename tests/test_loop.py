@@ -31,7 +31,7 @@ def same_arrays(a: RunResult, b: RunResult) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["case2", "noisy-ekf"])
+@pytest.mark.parametrize("name", ["case1", "case2", "noisy-ekf"])
 def test_pure_python_fallback_writes_the_same_bytes(name: str, tmp_path: Path) -> None:
     """``WMR_MISSION_NO_JIT=1`` runs the same loop source as plain Python."""
     out = tmp_path / "fallback"

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import platform
+import sys
 import time
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
@@ -22,6 +23,19 @@ try:
     if _DISABLED:
         raise ImportError
     import numba
+
+    # numba's array-math module imports scipy.linalg (half a second) to offer
+    # np.linalg in compiled code; no kernel here uses it, so it is loaded
+    # without: a run needs no scipy.
+    _BLAS = "scipy.linalg.cython_blas"
+    _blocked = _BLAS not in sys.modules
+    if _blocked:
+        sys.modules[_BLAS] = None  # type: ignore[assignment]
+    try:
+        import numba.np.arraymath
+    finally:
+        if _blocked:
+            del sys.modules[_BLAS]
 
     _njit: Callable[..., Any] | None = numba.njit
 except ImportError:  # pragma: no cover - exercised where numba cannot install

@@ -169,9 +169,9 @@ class Draws:
         # The measurement noise is the seed's own stream, as it was before
         # disturbances existed: a mission without them keeps its trajectory.
         noise = np.random.default_rng(seed)
-        groups: list[tuple[slice, Draw]] = [
-            (slice(0, 3), lambda n: noise.standard_normal((n, 3)) * noise_std)
-        ]
+        groups: list[tuple[slice, Draw]] = []
+        if noise_std.any():  # noise-free: zeros, instead of draws scaled by zero
+            groups.append((slice(0, 3), lambda n: noise.standard_normal((n, 3)) * noise_std))
         process_std = np.asarray(settings.process_noise_std, dtype=np.float64)
         if process_std.any():
             process = stream(seed, PROCESS_STREAM)

@@ -36,6 +36,7 @@ from wmr_mission.ekf import ekf_predict, ekf_step
 from wmr_mission.model import wrap_angle
 from wmr_mission.observer import observer_predict, observer_step
 from wmr_mission.params import Controller, Estimator, Robot, Scratch
+from wmr_mission.result import EXTRA_COLUMNS, MEASUREMENT_COLUMNS, TRAJECTORY_COLUMNS
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -121,23 +122,9 @@ class Record(NamedTuple):
     rows: IntArray  # (1,) rows used
 
 
-FLOAT_COLUMNS = (
-    "t",
-    "x",
-    "y",
-    "theta",
-    "x_est",
-    "y_est",
-    "theta_est",
-    "v",
-    "omega",
-    "x_ref",
-    "y_ref",
-    "constraint",
-    "x_meas",
-    "y_meas",
-    "theta_meas",
-)
+# The recorder's float columns: the state, estimate and input columns of
+# trajectory.csv, then the path point, the constraint value and the measurement.
+FLOAT_COLUMNS = TRAJECTORY_COLUMNS[:-1] + EXTRA_COLUMNS[:-1] + MEASUREMENT_COLUMNS
 
 
 @kernel

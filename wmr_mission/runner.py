@@ -293,7 +293,7 @@ class _Run:
             while True:
                 k = int(counters[loop.K])
                 path = active.path_ahead(k - active.entry_sample, chunk + 1)
-                self.recorder.reserve(chunk + 2)
+                self.recorder.reserve(2)  # the loop stops early when the recorder is full
                 status = self._call(phase, path, draws.ahead(chunk), k + chunk)
                 draws.used(int(counters[loop.DRAWS]))
                 counters[loop.DRAWS] = 0

@@ -8,6 +8,7 @@ points per line: a 360 000-sample run plots in a few seconds.
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
 from pathlib import Path
@@ -24,6 +25,9 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 MAX_POINTS_PER_LINE = 20_000
+# Beyond this many phase segments, phases are drawn as one collection and go
+# unnamed, so a figure costs the same for 10 or 10 000 phases.
+MAX_NAMED_PHASES = 40
 DPI = 120
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
 
@@ -32,6 +36,9 @@ def pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
+    # Long paths rasterised in pieces: a 1-hour run's overdrawn laps otherwise
+    # take tens of MB of the renderer's memory at once.
+    matplotlib.rcParams["agg.path.chunksize"] = 2000
     import matplotlib.pyplot as plt
 
     return plt
@@ -54,15 +61,25 @@ def finite(values: FloatArray) -> FloatArray:
 
 
 def phase_color(index: int) -> Any:
-    plt = pyplot()
-    return plt.get_cmap("tab10")(index % 10)
+    return _palette()[index % 10]
+
+
+@functools.cache
+def _palette() -> tuple[Any, ...]:
+    pyplot()
+    import matplotlib
+
+    return tuple(tuple(color) for color in matplotlib.colormaps["tab10"](np.arange(10)))
 
 
 def _save(fig: Figure, path: Path) -> Path:
     plt = pyplot()
     try:
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", dpi=DPI, bbox_inches="tight")
+            # The layout engine fits legends and labels in one render
+            # (bbox_inches="tight" renders each figure twice).
+            fig.set_layout_engine("constrained")
+            fig.savefig(tmp, format="png", dpi=DPI)
     finally:
         plt.close(fig)
     return path
@@ -170,8 +187,8 @@ def draw_regions(
 
 def view_box(result: RunResult) -> tuple[float, float, float, float]:
     """Data limits of the path, the reference, the targets and bounded regions, with a margin."""
-    xs = [finite(result.x), finite(result.x_est), finite(result.x_ref)]
-    ys = [finite(result.y), finite(result.y_est), finite(result.y_ref)]
+    xs = [result.x, result.x_est, result.x_ref]
+    ys = [result.y, result.y_est, result.y_ref]
     targets = [p.target for p in result.phases if p.target is not None]
     if targets:
         xs.append(np.array([t[0] for t in targets], dtype=np.float64))
@@ -181,13 +198,23 @@ def view_box(result: RunResult) -> tuple[float, float, float, float]:
         if extent is not None:
             xs.append(np.asarray(extent[:2], dtype=np.float64))
             ys.append(np.asarray(extent[2:], dtype=np.float64))
-    x_all, y_all = np.concatenate(xs), np.concatenate(ys)
-    x_all, y_all = x_all[np.isfinite(x_all)], y_all[np.isfinite(y_all)]
-    if x_all.size == 0 or y_all.size == 0:
+    # One array at a time: a long run is never copied whole several times over.
+    x_ranges = [r for r in map(_finite_range, xs) if r is not None]
+    y_ranges = [r for r in map(_finite_range, ys) if r is not None]
+    if not x_ranges or not y_ranges:
         return -1.0, 1.0, -1.0, 1.0
-    x0, x1, y0, y1 = x_all.min(), x_all.max(), y_all.min(), y_all.max()
+    x0, x1 = min(r[0] for r in x_ranges), max(r[1] for r in x_ranges)
+    y0, y1 = min(r[0] for r in y_ranges), max(r[1] for r in y_ranges)
     margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
     return float(x0 - margin), float(x1 + margin), float(y0 - margin), float(y1 + margin)
+
+
+def _finite_range(values: FloatArray) -> tuple[float, float] | None:
+    """(min, max) of the finite values, None if there are none."""
+    kept = values[np.isfinite(values)]
+    if kept.size == 0:
+        return None
+    return float(kept.min()), float(kept.max())
 
 
 def _sample_at(result: RunResult, time: float) -> int:
@@ -208,8 +235,12 @@ def _draw_path(ax: Axes, result: RunResult) -> None:
         linestyle=":",
         label="estimate",
     )
+    segments = phase_segments(result.phase)
+    if len(segments) > MAX_NAMED_PHASES:
+        _draw_path_by_phase(ax, result)
+        return
     labelled: set[int] = set()
-    for index, start, end in phase_segments(result.phase):
+    for index, start, end in segments:
         color = phase_color(index)
         name = result.phases[index].name
         # Include the next phase's first sample so the coloured pieces join.
@@ -235,24 +266,45 @@ def _draw_path(ax: Axes, result: RunResult) -> None:
             )
 
 
+def _draw_path_by_phase(ax: Axes, result: RunResult) -> None:
+    """The path coloured by phase as one collection: thinned over the whole
+    run, not per phase."""
+    from matplotlib.collections import LineCollection
+
+    k = thin(0, result.samples)
+    points = np.column_stack([finite(result.x[k]), finite(result.y[k])])
+    pieces = np.stack([points[:-1], points[1:]], axis=1)
+    colors = [phase_color(int(index)) for index in result.phase[k[:-1]]]
+    ax.add_collection(LineCollection(list(pieces), colors=colors, linewidths=1.6, label="path"))
+    reference = np.column_stack([finite(result.x_ref[k]), finite(result.y_ref[k])])
+    if np.isfinite(reference).any():
+        ax.plot(*reference.T, color="0.3", linewidth=1.0, linestyle="--", label="reference")
+
+
 def _draw_marks(ax: Axes, result: RunResult) -> None:
     if result.samples == 0:
         return
-    targets = {p.target[:2] for p in result.phases if p.target is not None}
-    for i, (tx, ty) in enumerate(sorted(targets)):
+    targets = sorted({p.target[:2] for p in result.phases if p.target is not None})
+    if targets:
         ax.plot(
-            tx,
-            ty,
+            *np.array(targets).T,
             marker="+",
             color="black",
             markersize=12,
             mew=1.5,
             linestyle="none",
-            label="target" if i == 0 else None,
+            label="target",
         )
     changes = [tr for tr in result.transitions if tr.to_phase is not None]
     view = view_box(result)
     near = 0.03 * max(view[1] - view[0], view[3] - view[2])
+    if len(changes) > MAX_NAMED_PHASES:
+        at = np.array([_sample_at(result, tr.time) for tr in changes], dtype=np.int64)
+        ax.plot(
+            result.x[at], result.y[at], marker="D", color="black", markersize=3,
+            linestyle="none", label="phase change",
+        )  # fmt: skip
+        changes = []
     labelled: list[tuple[float, float]] = []
     for i, tr in enumerate(changes):
         k = _sample_at(result, tr.time)
@@ -322,6 +374,9 @@ def draw_xy(result: RunResult, path: Path) -> Path:
 def _mark_phases(axes: list[Axes], result: RunResult) -> None:
     """Phase boundaries as vertical lines; names written above the top plot."""
     segments = phase_segments(result.phase)
+    if len(segments) > MAX_NAMED_PHASES:
+        # Thousands of boundaries would only fill the plot: none are drawn.
+        return
     span = float(result.t[-1] - result.t[0]) if result.samples else 0.0
     row, previous = 0, -math.inf
     for number, (index, start, _end) in enumerate(segments):

@@ -1,0 +1,207 @@
+"""The figures of docs/performance.md that ``wmr-mission bench`` does not give.
+
+    python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
+    python benchmarks/measure.py startup    # wall time of `run --no-plots`, cached and first
+    python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
+    python benchmarks/measure.py scale      # run time against samples (100 s and 1 h)
+    python benchmarks/measure.py figures    # case study 1's four figures and its animation
+    python benchmarks/measure.py dare       # scipy's solve_discrete_are, one 3x3 call
+    python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
+
+Medians over repeats, in one process where that is fair; each prints what it
+measured. Timings depend on the machine and on what else runs on it.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+MISSIONS = ROOT / "missions"
+HOUR = ROOT / "benchmarks" / "hour.yaml"
+
+
+def loop(repeat: int = 7) -> None:
+    import numpy as np
+
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.runner import run_mission
+    from wmr_mission.spec.loader import load_mission
+
+    for name in ("case1", "case2"):
+        mission = compile_mission(load_mission(MISSIONS / f"{name}.yaml"))
+        run_mission(mission)  # loads the compiled loop
+        runs, cpu_us = [], []
+        for _ in range(repeat):
+            started = time.thread_time_ns()
+            runs.append(run_mission(mission))
+            cpu_us.append((time.thread_time_ns() - started) / runs[-1].samples / 1000)
+        loop_us = [r.loop_ns / r.samples / 1000 for r in runs]
+        step_us = np.concatenate([r.compute_ns[r.compute_ns > 0] for r in runs]) / 1000
+        print(
+            f"{name}: {runs[0].samples} samples; loop_us_per_sample median "
+            f"{statistics.median(loop_us):.3f} (min {min(loop_us):.3f}) over {repeat} runs; "
+            f"CPU time of run_mission per sample median {statistics.median(cpu_us):.3f} us; "
+            f"step median {np.median(step_us):.3f} us, p99 {np.percentile(step_us, 99):.3f} us"
+        )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def _wall(command: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
+    """Wall time and CPU time (user + system) of a command [s]."""
+    import resource
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = time.perf_counter()
+    subprocess.run(command, check=True, capture_output=True, env=env)
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+
+
+def startup(repeat: int = 5) -> None:
+    run = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "case2.yaml"), "--no-plots"]
+    with tempfile.TemporaryDirectory() as tmp:
+        _wall([*run, "--out", f"{tmp}/warm"])
+        cached = [_wall([*run, "--out", f"{tmp}/cached{i}"]) for i in range(repeat)]
+        # A cache directory of its own: every kernel compiles, as after an install.
+        env = {**os.environ, "NUMBA_CACHE_DIR": f"{tmp}/fresh-cache"}
+        first = _wall([*run, "--out", f"{tmp}/first"], env)
+        imports = [
+            _wall([sys.executable, "-c", "import wmr_mission.run_command, wmr_mission.runner"])
+            for _ in range(repeat)
+        ]
+
+    def show(what: str, times: list[tuple[float, float]]) -> None:
+        wall = statistics.median(t[0] for t in times)
+        cpu = statistics.median(t[1] for t in times)
+        print(f"{what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
+
+    show("run --no-plots case2, cached kernels", cached)
+    show("run --no-plots case2, first run (every kernel compiled)", [first])
+    show("python -c 'import wmr_mission.runner, ...'", imports)
+
+
+def _peak_rss_mb(command: list[str]) -> float:
+    code = (
+        "import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, "
+        "capture_output=True); print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, *command], check=True, capture_output=True, text=True
+    )
+    return int(done.stdout) / 1024
+
+
+def memory() -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        run = [sys.executable, "-m", "wmr_mission", "run", str(HOUR)]
+        plotted = _peak_rss_mb([*run, "--out", f"{tmp}/plots"])
+        bare = _peak_rss_mb([*run, "--out", f"{tmp}/bare", "--no-plots"])
+        short = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "fence.yaml")]
+        small = _peak_rss_mb([*short, "--out", f"{tmp}/small", "--no-plots"])
+    print(f"1-hour mission (360 001 samples): peak RSS {plotted:.0f} MB with figures, ")
+    print(f"  {bare:.0f} MB without; a 10-s mission without figures: {small:.0f} MB")
+
+
+def scale(repeat: int = 5) -> None:
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.runner import run_mission
+    from wmr_mission.spec.loader import load_mission, load_mission_text
+
+    hour = compile_mission(load_mission(HOUR))
+    text = HOUR.read_text().replace("elapsed: 3600", "elapsed: 100")
+    short = compile_mission(load_mission_text(text, "short.yaml"))
+    run_mission(short)
+    times = []
+    for _ in range(repeat):
+        started = time.perf_counter()
+        result = run_mission(short)
+        times.append(time.perf_counter() - started)
+    started = time.perf_counter()
+    long = run_mission(hour)
+    hour_s = time.perf_counter() - started
+    short_s = statistics.median(times)
+    print(f"100 s: {result.samples} samples, median {short_s:.4f} s")
+    ratio = hour_s / 36 / short_s
+    print(f"1 h: {long.samples} samples, {hour_s:.3f} s; against 36 x 100 s: {ratio:.3f}")
+
+
+def figures(repeat: int = 3) -> None:
+    from wmr_mission.output.animation import write_animation
+    from wmr_mission.output.plots import draw_all, pyplot
+    from wmr_mission.runner import run_mission
+    from wmr_mission.spec.loader import load_mission
+
+    result = run_mission(load_mission(MISSIONS / "case1.yaml"))
+    pyplot()
+    with tempfile.TemporaryDirectory() as tmp:
+        draw_all(result, Path(tmp))  # fonts and caches
+        four, animation = [], []
+        for _ in range(repeat):
+            started = time.perf_counter(), time.thread_time()
+            draw_all(result, Path(tmp))
+            four.append((time.perf_counter() - started[0], time.thread_time() - started[1]))
+            started = time.perf_counter(), time.thread_time()
+            write_animation(result, Path(tmp) / "animation.gif")
+            animation.append((time.perf_counter() - started[0], time.thread_time() - started[1]))
+    for what, times in (("four figures", four), ("animation", animation)):
+        wall = statistics.median(t[0] for t in times)
+        cpu = statistics.median(t[1] for t in times)
+        print(f"case1, {what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
+
+
+def dare(repeat: int = 200) -> None:
+    import numpy as np
+    from scipy.linalg import solve_discrete_are
+
+    from wmr_mission.bench import one_blas_thread
+    from wmr_mission.reference import input_jacobian, state_jacobian
+
+    a = state_jacobian(0.3, 1.0, 0.5, 0.01)
+    b = input_jacobian(0.3, 1.0, 0.5, 0.01)
+    q, r = np.eye(3), np.eye(2)
+    times = []
+    with one_blas_thread():
+        solve_discrete_are(a, b, q, r)
+        for _ in range(repeat):
+            started = time.perf_counter()
+            solve_discrete_are(a, b, q, r)
+            times.append(time.perf_counter() - started)
+    median = statistics.median(times) * 1e6
+    print(f"scipy solve_discrete_are, 3 states, 2 inputs, one BLAS thread: median {median:.0f} us")
+
+
+def dlqr(repeat: int = 200) -> None:
+    import control  # not a dependency: pip install control
+
+    from wmr_mission.bench import one_blas_thread
+    from wmr_mission.reference import input_jacobian, state_jacobian
+
+    a = state_jacobian(0.3, 1.0, 0.5, 0.01)
+    b = input_jacobian(0.3, 1.0, 0.5, 0.01)
+    times = []
+    with one_blas_thread():
+        control.dlqr(a, b, [[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[1, 0], [0, 1]])
+        for _ in range(repeat):
+            started = time.perf_counter()
+            control.dlqr(a, b, [[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[1, 0], [0, 1]])
+            times.append(time.perf_counter() - started)
+    median = statistics.median(times) * 1e6
+    print(f"python-control {control.__version__} dlqr, one BLAS thread: median {median:.0f} us")
+
+
+if __name__ == "__main__":
+    what = sys.argv[1] if len(sys.argv) > 1 else ""
+    jobs = {"loop": loop, "startup": startup, "memory": memory, "scale": scale}
+    jobs |= {"figures": figures, "dare": dare, "dlqr": dlqr}
+    if what not in jobs:
+        print(__doc__, file=sys.stderr)
+        sys.exit(2)
+    jobs[what]()
