@@ -13,6 +13,7 @@ from typing import Final, Literal
 
 import numpy as np
 
+from wmr_mission.output.metrics import CONVERGENCE_TOLERANCE
 from wmr_mission.spec.models import (
     BoxRegion,
     CircleRegion,
@@ -470,6 +471,19 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
                     severity="warning",
                 )
     expect = mission.expect
+    largest = max(
+        abs(b)
+        for name, b in (("x", bias.x), ("y", bias.y), ("theta", bias.theta))
+        if name in measured
+    )
+    if expect.estimation_convergence_time is not None and largest >= CONVERGENCE_TOLERANCE:
+        yield Finding(
+            ("expect", "estimation_convergence_time", "max"),
+            f"the measurement bias ({largest:g}) is at least the {CONVERGENCE_TOLERANCE:g} band "
+            "estimation_convergence_time waits for: the estimate follows the biased "
+            "measurement and may never enter it",
+            severity="warning",
+        )
     for field, threshold, offset, unit in (
         ("final_position_error", expect.final_position_error, position_bias, "m"),
         ("final_heading_error", expect.final_heading_error, heading_bias, "rad"),
