@@ -86,9 +86,6 @@ class CompiledMission:
     ekf_initial_var: FloatArray
     ekf_process_var: FloatArray
     ekf_measurement_var: FloatArray
-    ekf_innovation_gate: float  # inf: no gating
-    # The true plant's and the sensors' imperfections (wmr_mission.disturbances).
-    disturbances: disturbances.Settings
     q: FloatArray
     r: FloatArray
     w: FloatArray
@@ -101,6 +98,9 @@ class CompiledMission:
     regions: dict[str, dict[str, object]]
     # Sample budget: the sum of each phase's bound, for pre-sizing the recorder.
     max_samples: int
+    ekf_innovation_gate: float = math.inf  # inf: no gating
+    # The true plant's and the sensors' imperfections (wmr_mission.disturbances).
+    disturbances: disturbances.Settings = field(default_factory=disturbances.Settings)
 
 
 def _samples(seconds: float, dt: float) -> int:

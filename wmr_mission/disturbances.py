@@ -197,6 +197,10 @@ class Draws:
 
     def ahead(self, rows: int) -> FloatArray:
         """The next ``rows`` (or more) rows of draws, not yet used."""
+        if not self._groups:  # nothing random: the same zeros serve every chunk
+            if self._ahead.shape[0] < rows:
+                self._ahead = np.zeros((max(rows, self.BLOCK), DRAW_COLUMNS))
+            return self._ahead
         if self._ahead.shape[0] < rows:
             blocks = [self._ahead]
             drawn = self._ahead.shape[0]
@@ -211,7 +215,8 @@ class Draws:
 
     def used(self, rows: int) -> None:
         """Mark the first ``rows`` rows of :meth:`ahead` as used."""
-        self._ahead = self._ahead[rows:]
+        if self._groups:
+            self._ahead = self._ahead[rows:]
 
 
 # --- the compiled pieces of the loop (wmr_mission.loop) ------------------------
