@@ -367,3 +367,22 @@ def test_bench_times_the_loop_with_and_without_disturbances() -> None:
     assert cost["without_us"] > 0.0
     assert cost["ratio"] == pytest.approx(cost["with_us"] / cost["without_us"])
     assert "with the mission's disturbances" in format_report(numbers, "disturbed.yaml")
+
+
+def test_every_cell_of_the_estimator_campaign_is_a_valid_mission() -> None:
+    import itertools
+
+    from disturbance_comparison import set_path
+
+    campaign_file = MISSIONS / "campaigns" / "estimators-disturbances.yaml"
+    campaign = yaml.safe_load(campaign_file.read_text(encoding="utf-8"))
+    base = yaml.safe_load((campaign_file.parent / campaign["mission"]).read_text("utf-8"))
+    axes = {path: spec["grid"] for path, spec in campaign["vary"].items()}
+    levels = set()
+    for cell in itertools.product(*axes.values()):
+        data = copy.deepcopy(base)
+        for path, value in zip(axes, cell, strict=True):
+            set_path(data, path, value)
+        mission = load_mission_text(yaml.safe_dump(data), "cell.yaml")
+        levels.add(mission.robot.disturbances.input_delay)
+    assert levels == {0.0, 0.03, 0.06, 0.09}
