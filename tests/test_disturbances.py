@@ -330,6 +330,13 @@ def test_ekf_innovation_gate_rejects_a_wild_measurement() -> None:
     ekf_step(after, after_cov, 1.0, 0.5, 0.01, wild, gated, work)
     np.testing.assert_array_equal(after, predicted)
     np.testing.assert_array_equal(after_cov, predicted_cov)
+    # The reference step (numpy) gates alike.
+    from wmr_mission.reference import ekf_step as reference_ekf_step
+
+    oracle, oracle_cov = estimate.copy(), covariance.copy()
+    reference_ekf_step(oracle, oracle_cov, 1.0, 0.5, 0.01, wild, gated, work)
+    np.testing.assert_allclose(oracle, predicted, atol=1e-15)
+    np.testing.assert_allclose(oracle_cov, predicted_cov, atol=1e-15)
     # Without the gate (or inside it) the measurement is used.
     open_gate = ekf_params(mask, np.full(3, 1e-6), np.full(3, 1e-4))
     used = estimate.copy()
