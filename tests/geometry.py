@@ -25,3 +25,14 @@ def distance_to_ellipse(x: np.ndarray, y: np.ndarray, a: float = 5.5, b: float =
         h = a * a * n * n - a * c * dx + b * b * c * c - b * n * dy
         s = s - g / np.where(np.abs(h) > 1e-300, h, 1e-300)
     return np.hypot(a * np.cos(s) - x, b * np.sin(s) - y)
+
+
+def outside_hull(points: np.ndarray, x: np.ndarray, y: np.ndarray) -> float:
+    """Largest distance [m] of the points (x, y) outside the convex hull of
+    ``points`` (0 when all are inside): the largest outward edge distance, an
+    exact distance for points beyond one edge and a lower bound near a corner."""
+    from scipy.spatial import ConvexHull
+
+    equations = ConvexHull(np.asarray(points, dtype=float)).equations  # unit outward normals
+    values = np.column_stack([x, y]) @ equations[:, :2].T + equations[:, 2]
+    return max(0.0, float(values.max()))

@@ -61,6 +61,10 @@ class CompiledPhase:
     target: tuple[float, float, float] | None = None
     constraint_rows: tuple[IntArray, FloatArray] = field(default_factory=no_rows)
     constraints: tuple[tuple[str, str], ...] = ()
+    # 1, 2, ... for a phase of a repeat (its lap); None outside repeats.
+    lap: int | None = None
+    # track: the points its path is drawn through ((m, 2), for figures), or None.
+    points: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -118,11 +122,13 @@ def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, Flo
 def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
     """Turn a validated mission into the runner's plain form."""
     from wmr_mission import paths, regions
+    from wmr_mission.spec.repeats import run_order
 
     dt = float(mission.robot.dt)
     phases: list[CompiledPhase] = []
     budget = 0
-    for phase in mission.phases:
+    for run in run_order(mission):  # repeats written out, one phase per lap
+        phase = run.phase
         until = phase.until
         conditions = Conditions()
         if until is not None:
@@ -175,8 +181,10 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         )
         make_trajectory = None
         target = None
+        points = None
         if kind == "track":
             path = phase.track.path  # type: ignore[union-attr]
+            points = paths.drawn_points(path, mission)
 
             def make_trajectory(
                 pose: tuple[float, float, float], _path: object = path
@@ -188,7 +196,9 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
             target = (float(goal.x), float(goal.y), float(goal.theta))
         phases.append(
             CompiledPhase(
-                name=phase.name,
+                name=run.label,
+                lap=run.lap,
+                points=points,
                 kind=kind,
                 until=conditions,
                 timeout_samples=None if phase.timeout is None else _samples(phase.timeout, dt),

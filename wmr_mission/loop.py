@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission._jit import kernel, ticks
+from wmr_mission.constrained_tracking import keep_constraints, keep_reference
 from wmr_mission.control import regulate_input, track_input
 from wmr_mission.corrective import max_row_value
 from wmr_mission.disturbances import Disturbances, applied_input, plant_step, sense
@@ -275,6 +276,10 @@ def run_segment(
             else:
                 aim[2] = path.rows[row + 1, 2]
                 aim[3] = path.rows[row + 1, 3]
+            if phase.constraint_kinds.shape[0]:  # aim along a zone's edge it crosses
+                keep_reference(
+                    aim, phase.constraint_kinds, phase.constraint_params, controller.look_ahead
+                )
         x = state[0]
         y = state[1]
         theta = state[2]
@@ -282,6 +287,13 @@ def run_segment(
         # --- controller: u_k from x_{k|k}.
         if phase.tracking:
             track_input(estimate, u_prev, aim, controller, robot, scratch, u)
+            # The filter after the tracking law: zones win over tracking, eq. (28)
+            # with priority (wmr_mission.constrained_tracking).
+            if phase.constraint_kinds.shape[0]:
+                keep_constraints(
+                    estimate, u_prev, phase.constraint_kinds, phase.constraint_params,
+                    controller, robot, scratch, u,
+                )  # fmt: skip
         else:
             regulate_input(
                 estimate,
@@ -296,7 +308,6 @@ def run_segment(
                 scratch,
                 u,
             )
-        # A post-tracking filter on u (the phase's constraint rows) belongs here.
         if not (abs(u[0]) <= RUNAWAY_INPUT and abs(u[1]) <= RUNAWAY_INPUT):  # NaN too
             spent = ticks() - started
             i = record_sample(

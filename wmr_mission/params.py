@@ -64,6 +64,7 @@ class Scratch(NamedTuple):
     b: FloatArray  # (3, 2) input Jacobian B of eq. (24)
     aim: FloatArray  # (4,) path point and unit tangent the tracking law aims at
     gain: FloatArray  # (2, 3) regulator gain T of eq. (20)
+    h: FloatArray  # (2, 2) weight of the tracking output's motion (constrained tracking)
 
 
 def scratch() -> Scratch:
@@ -73,6 +74,7 @@ def scratch() -> Scratch:
         b=np.zeros((3, 2)),
         aim=np.zeros(4),
         gain=np.zeros((2, 3)),
+        h=np.zeros((2, 2)),
     )
 
 

@@ -10,14 +10,15 @@ difference.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from wmr_mission.expressions import Expression, parse
-from wmr_mission.regions import ellipse_geometry
+from wmr_mission.regions import constraint_rows, ellipse_geometry, region_vertices
+from wmr_mission.routes import RouteTrajectory, coverage_points, distinct_points, polyline_route
 from wmr_mission.spec import models
 from wmr_mission.spec.models import Mission, PathSpec
 
@@ -26,9 +27,11 @@ __all__ = [
     "EllipticalSpiralTrajectory",
     "ExpressionTrajectory",
     "LineTrajectory",
+    "RouteTrajectory",
     "SpiralTrajectory",
     "Trajectory",
     "WaypointsTrajectory",
+    "drawn_points",
     "ellipse_angle",
     "instantiate",
     "sample_positions",
@@ -39,7 +42,7 @@ FloatArray = NDArray[np.float64]
 Sample = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
 
 # Dense arc-length table of a waypoint curve: samples per segment.
-_TABLE_SAMPLES_PER_SEGMENT = 64
+_TABLE_SAMPLES_PER_SEGMENT = 128
 
 
 class Trajectory(Protocol):
@@ -201,24 +204,31 @@ class ExpressionTrajectory:
 
 @dataclass(frozen=True)
 class WaypointsTrajectory:
-    """A C1 (indeed C2) cubic spline through the points, traversed at constant speed.
+    """A C1 piecewise cubic through the points, traversed at constant speed.
 
-    The spline is parametrised by cumulative chord length (natural end conditions,
-    or periodic when closed). A dense table of arc length against the spline
-    parameter, built once, turns the distance travelled ``speed * t`` into a
-    spline parameter by cubic Hermite interpolation (the slopes are the exact
-    ``1 / |dp/ds|``), so the velocity returned is the exact derivative of the
-    positions returned and its magnitude is ``speed`` to table accuracy. An open
-    path holds its last point with zero velocity after the end; a closed one loops.
+    The curve is parametrised by cumulative chord length and keeps close to the
+    points' convex hull (``_bezier_coefficients`` bounds how close). A dense
+    table of arc length against the curve parameter, built once, turns the
+    distance travelled ``speed * t`` into a curve parameter by cubic Hermite
+    interpolation (the slopes are the exact ``1 / |dp/ds|``), so the velocity
+    returned is the exact derivative of the positions returned and its magnitude
+    is ``speed`` to table accuracy. An open path holds its last point with zero
+    velocity after the end; a closed one loops, starting ``start_distance``
+    along the curve from its first point.
     """
 
     knots: FloatArray  # (m + 1,) chord-length parameter of each point
     coefficients: FloatArray  # (m, 4, 2) cubic coefficients per segment, highest power first
     table_length: FloatArray  # (n,) arc length at each table entry ...
     table_parameter: FloatArray  # ... the spline parameter there ...
-    table_slope: FloatArray  # ... and d(parameter)/d(arc length) there
+    # d(parameter)/d(arc length) at the start and end of each table interval: the
+    # curve is only G1 at its points, so the two sides of a point differ
+    table_slope_start: FloatArray  # (n - 1,)
+    table_slope_end: FloatArray  # (n - 1,)
     speed: float
     closed: bool
+    points: FloatArray  # (m, 2) the points the curve passes through (for figures)
+    start_distance: float = 0.0
     length: float = field(init=False)
 
     def __post_init__(self) -> None:
@@ -226,7 +236,7 @@ class WaypointsTrajectory:
 
     def sample(self, t: ArrayLike) -> Sample:
         time = _times(t)
-        distance = self.speed * time
+        distance = self.speed * time + self.start_distance
         if self.closed:
             distance = np.mod(distance, self.length)
         moving = (distance < self.length) & (distance >= 0.0)
@@ -239,12 +249,12 @@ class WaypointsTrajectory:
 
     def _parameter_at(self, distance: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Spline parameter at arc length ``distance`` and its derivative (cubic Hermite)."""
-        lengths, parameters, slopes = self.table_length, self.table_parameter, self.table_slope
+        lengths, parameters = self.table_length, self.table_parameter
         j = np.clip(np.searchsorted(lengths, distance, side="right") - 1, 0, len(lengths) - 2)
         h = lengths[j + 1] - lengths[j]
         tau = (distance - lengths[j]) / h
         p0, p1 = parameters[j], parameters[j + 1]
-        m0, m1 = h * slopes[j], h * slopes[j + 1]
+        m0, m1 = h * self.table_slope_start[j], h * self.table_slope_end[j]
         tau2 = tau * tau
         tau3 = tau2 * tau
         parameter = (
@@ -263,10 +273,15 @@ class WaypointsTrajectory:
 
 
 def _evaluate_spline(
-    knots: FloatArray, coefficients: FloatArray, parameter: FloatArray
+    knots: FloatArray,
+    coefficients: FloatArray,
+    parameter: FloatArray,
+    segment: NDArray[np.intp] | None = None,
 ) -> tuple[FloatArray, FloatArray]:
-    """Positions ``(..., 2)`` and derivatives ``(..., 2)`` of a piecewise cubic."""
-    segment = np.clip(np.searchsorted(knots, parameter, side="right") - 1, 0, len(knots) - 2)
+    """Positions ``(..., 2)`` and derivatives ``(..., 2)`` of a piecewise cubic, on
+    the given segments (by default the segment each parameter falls in)."""
+    if segment is None:
+        segment = np.clip(np.searchsorted(knots, parameter, side="right") - 1, 0, len(knots) - 2)
     local = (parameter - knots[segment])[..., None]
     c = coefficients[segment]  # (..., 4, 2)
     position = ((c[..., 0, :] * local + c[..., 1, :]) * local + c[..., 2, :]) * local + c[..., 3, :]
@@ -274,73 +289,65 @@ def _evaluate_spline(
     return position, derivative
 
 
-def _spline_coefficients(points: FloatArray, closed: bool) -> tuple[FloatArray, FloatArray]:
-    """Cubic spline through ``points`` in chord length: ``(knots, coefficients)``.
+def _bezier_coefficients(points: FloatArray, closed: bool) -> tuple[FloatArray, FloatArray]:
+    """Cubic through ``points`` in chord length that keeps close to their hull:
+    ``(knots, coefficients)``.
 
-    ``points`` are distinct consecutive points; a closed path gets its closing
-    segment back to the first point and periodic end conditions, an open one
-    natural end conditions (zero curvature).
+    Each segment is a cubic Bezier curve from P_i to P_i+1 whose inner control
+    points lie on the tangents at its ends: the tangent at a point bisects the
+    turn of the two chords meeting there (along the chord at the ends of an
+    open curve), and its arm is a third of the shorter of those chords. A
+    Bezier curve lies in the convex hull of its control points, and an arm
+    ``a`` at a turn of angle ``phi`` ends within ``a sin(phi / 2)`` of the
+    chord it turns to; so the curve never leaves the hull of the points by
+    more than the largest ``min(chord before, chord after) / 3 * sin(phi / 2)``.
+    (No smooth curve stays inside the hull at a point where it turns: its
+    tangent there points out of the hull on one side.)
     """
     nodes = np.vstack([points, points[:1]]) if closed else points
-    steps = np.hypot(*np.diff(nodes, axis=0).T)  # (m,)
+    chords = np.diff(nodes, axis=0)
+    steps = np.hypot(*chords.T)  # (m,)
     knots = np.concatenate([[0.0], np.cumsum(steps)])
     m = len(steps)
-    slopes = np.diff(nodes, axis=0) / steps[:, None]  # (m, 2)
-    # Second derivatives M at the nodes: h[i-1] M[i-1] + 2 (h[i-1] + h[i]) M[i] + h[i] M[i+1]
-    # = 6 (slope[i] - slope[i-1]).
+    units = chords / steps[:, None]
+    count = len(points)
+    tangents = np.empty((count, 2))
+    arms = np.empty(count)
+    for i in range(count):
+        if not closed and i in (0, count - 1):
+            segment = 0 if i == 0 else m - 1
+            tangents[i], arms[i] = units[segment], steps[segment] / 3.0
+            continue
+        before, after = (i - 1) % m, i % m
+        bisector = units[before] + units[after]
+        norm = math.hypot(float(bisector[0]), float(bisector[1]))
+        if norm < 1e-12:  # the route reverses: leave square to it
+            bisector, norm = np.array([-units[before][1], units[before][0]]), 1.0
+        tangents[i] = bisector / norm
+        arms[i] = min(steps[before], steps[after]) / 3.0
     if closed:
-        size = m  # node m is node 0
-        matrix = np.zeros((size, size))
-        rhs = np.zeros((size, 2))
-        for i in range(size):
-            before, after = (i - 1) % m, i
-            matrix[i, (i - 1) % size] += steps[before]
-            matrix[i, i] += 2.0 * (steps[before] + steps[after])
-            matrix[i, (i + 1) % size] += steps[after]
-            rhs[i] = 6.0 * (slopes[after] - slopes[before])
-        second = np.linalg.solve(matrix, rhs)
-        second = np.vstack([second, second[:1]])
-    else:
-        second = np.zeros((m + 1, 2))
-        if m > 1:
-            inner = m - 1
-            matrix = np.zeros((inner, inner))
-            for k in range(inner):
-                i = k + 1
-                matrix[k, k] = 2.0 * (steps[i - 1] + steps[i])
-                if k > 0:
-                    matrix[k, k - 1] = steps[i - 1]
-                if k < inner - 1:
-                    matrix[k, k + 1] = steps[i]
-            rhs = 6.0 * (slopes[1:] - slopes[:-1])
-            second[1:-1] = np.linalg.solve(matrix, rhs)
+        tangents, arms = np.vstack([tangents, tangents[:1]]), np.concatenate([arms, arms[:1]])
+    start, end = nodes[:-1], nodes[1:]
+    inner_start = start + arms[:-1, None] * tangents[:-1]
+    inner_end = end - arms[1:, None] * tangents[1:]
     h = steps[:, None]
     coefficients = np.empty((m, 4, 2))
-    coefficients[:, 0] = (second[1:] - second[:-1]) / (6.0 * h)
-    coefficients[:, 1] = second[:-1] / 2.0
-    coefficients[:, 2] = slopes - h * (2.0 * second[:-1] + second[1:]) / 6.0
-    coefficients[:, 3] = nodes[:-1]
+    # Bezier to power basis in the local chord-length parameter s = u h
+    coefficients[:, 0] = (-start + 3.0 * inner_start - 3.0 * inner_end + end) / h**3
+    coefficients[:, 1] = (3.0 * start - 6.0 * inner_start + 3.0 * inner_end) / h**2
+    coefficients[:, 2] = 3.0 * (inner_start - start) / h
+    coefficients[:, 3] = start
     return knots, coefficients
-
-
-def _distinct(points: FloatArray, closed: bool) -> FloatArray:
-    """Drop consecutive repeats (and a closing repeat of the first point)."""
-    keep = np.ones(len(points), dtype=bool)
-    keep[1:] = np.any(np.abs(np.diff(points, axis=0)) > 1e-12, axis=1)
-    distinct = points[keep]
-    if closed and len(distinct) > 1 and np.all(np.abs(distinct[-1] - distinct[0]) <= 1e-12):
-        distinct = distinct[:-1]
-    return distinct
 
 
 def waypoints_trajectory(
     points: ArrayLike, speed: float, closed: bool
 ) -> WaypointsTrajectory | LineTrajectory:
     """The constant-speed spline through ``points``; a single point is held still."""
-    distinct = _distinct(np.asarray(points, dtype=np.float64), closed)
+    distinct = distinct_points(points, closed)
     if len(distinct) == 1:
         return LineTrajectory(float(distinct[0, 0]), float(distinct[0, 1]), 0.0, 0.0)
-    knots, coefficients = _spline_coefficients(distinct, closed)
+    knots, coefficients = _bezier_coefficients(distinct, closed)
     segments = len(coefficients)
     parameter = np.concatenate(
         [
@@ -351,11 +358,14 @@ def waypoints_trajectory(
     )
     # Simpson's rule on each table interval: arc length to about 1e-10 relative
     middle = 0.5 * (parameter[1:] + parameter[:-1])
-    rate = _rate_along(knots, coefficients, parameter)
+    # each table interval lies in one segment: evaluate both its ends there
+    segment = np.repeat(np.arange(segments), _TABLE_SAMPLES_PER_SEGMENT)
+    rate_start = _rate_along(knots, coefficients, parameter[:-1], segment)
+    rate_end = _rate_along(knots, coefficients, parameter[1:], segment)
     pieces = (
         np.diff(parameter)
         / 6.0
-        * (rate[:-1] + 4.0 * _rate_along(knots, coefficients, middle) + rate[1:])
+        * (rate_start + 4.0 * _rate_along(knots, coefficients, middle, segment) + rate_end)
     )
     length = np.concatenate([[0.0], np.cumsum(pieces)])
     return WaypointsTrajectory(
@@ -363,15 +373,28 @@ def waypoints_trajectory(
         coefficients=coefficients,
         table_length=length,
         table_parameter=parameter,
-        table_slope=1.0 / np.maximum(rate, 1e-12),  # a chord-length spline keeps |dp/ds| near 1
+        table_slope_start=1.0 / np.maximum(rate_start, 1e-12),
+        table_slope_end=1.0 / np.maximum(rate_end, 1e-12),
         speed=float(speed),
         closed=bool(closed),
+        points=distinct,
     )
 
 
-def _rate_along(knots: FloatArray, coefficients: FloatArray, parameter: FloatArray) -> FloatArray:
-    """|dp/ds| of the spline at ``parameter``."""
-    _, tangent = _evaluate_spline(knots, coefficients, parameter)
+def nearest_distance(trajectory: WaypointsTrajectory, x: float, y: float) -> float:
+    """Arc length from the first point to the table entry nearest (x, y)."""
+    position, _ = _evaluate_spline(
+        trajectory.knots, trajectory.coefficients, trajectory.table_parameter
+    )
+    nearest = np.argmin(np.hypot(position[:, 0] - x, position[:, 1] - y))
+    return float(trajectory.table_length[nearest])
+
+
+def _rate_along(
+    knots: FloatArray, coefficients: FloatArray, parameter: FloatArray, segment: NDArray[np.intp]
+) -> FloatArray:
+    """|dp/ds| of the curve at ``parameter`` on ``segment``."""
+    _, tangent = _evaluate_spline(knots, coefficients, parameter, segment)
     return np.hypot(tangent[..., 0], tangent[..., 1])
 
 
@@ -437,9 +460,26 @@ def instantiate(path: PathSpec, mission: Mission, pose: tuple[float, float, floa
         )
     if isinstance(path, models.WaypointsPath):
         points = np.asarray(path.points, dtype=np.float64)
-        if path.start == "current":
+        if path.start == "current" and not path.closed:
             points = np.vstack([[x, y], points])
-        return waypoints_trajectory(points, path.speed, path.closed)
+        curve = waypoints_trajectory(points, path.speed, path.closed)
+        if path.start == "current" and isinstance(curve, WaypointsTrajectory):
+            # a closed route is joined where it passes nearest the robot
+            return replace(curve, start_distance=nearest_distance(curve, x, y))
+        return curve
+    if isinstance(path, models.PolylinePath):
+        points = np.asarray(path.points, dtype=np.float64)
+        return _joined(
+            points, (x, y), path.start, path.closed, path.speed, path.corner_radius, path.turn_rate
+        )
+    if isinstance(path, models.CoveragePath):
+        ends = drawn_points(path, mission)
+        assert ends is not None
+        radius = 0.5 * path.spacing if path.turn_radius is None else path.turn_radius
+        # a turn sharper than a right angle cuts no more than its radius off a lane
+        return _joined(
+            ends, (x, y), path.start, False, path.speed, radius, path.turn_rate, longest_cut=radius
+        )
     if isinstance(path, models.ExpressionPath):
         parameters = dict(mission.parameters)
         written = ExpressionTrajectory(
@@ -456,6 +496,39 @@ def instantiate(path: PathSpec, mission: Mission, pose: tuple[float, float, floa
             offset_y=y - float(y_start[0]),
         )
     raise ValueError(f"unknown path type {path.type!r}")
+
+
+def drawn_points(path: PathSpec, mission: Mission) -> FloatArray | None:
+    """The points a path is drawn through, ``(m, 2)``, for figures: a waypoint or
+    polyline path's points, a coverage path's lane ends; None for other paths.
+    (With ``start: current`` the route also passes the robot's position.)"""
+    if isinstance(path, models.WaypointsPath | models.PolylinePath):
+        return np.asarray(path.points, dtype=np.float64).reshape(-1, 2)
+    if isinstance(path, models.CoveragePath):
+        region = mission.regions[path.region]
+        _, rows = constraint_rows(region, "inside")
+        return coverage_points(region_vertices(region), rows[:, :3], path.spacing, path.direction)
+    return None
+
+
+def _joined(
+    points: FloatArray,
+    robot: tuple[float, float],
+    start: str,
+    closed: bool,
+    speed: float,
+    corner_radius: float,
+    turn_rate: float,
+    longest_cut: float = math.inf,
+) -> RouteTrajectory:
+    """The route through ``points``; with ``start: current`` an open route begins
+    at the robot and a closed one at its point nearest the robot."""
+    if start == "current" and not closed:
+        points = np.vstack([robot, points])
+    route = polyline_route(points, speed, closed, corner_radius, turn_rate, longest_cut)
+    if start == "current" and route.closed:
+        return replace(route, start_time=route.nearest_time(*robot))
+    return route
 
 
 def sample_positions(

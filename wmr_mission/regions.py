@@ -40,6 +40,7 @@ __all__ = [
     "is_convex",
     "region_outline",
     "region_value",
+    "region_vertices",
     "row_gradients",
     "row_values",
 ]
@@ -216,6 +217,16 @@ def is_convex(vertices: ArrayLike) -> bool:
     dots = np.einsum("ij,ij->i", edges, following)
     winding = float(np.sum(np.arctan2(turns, dots)))
     return abs(winding - direction * 2.0 * math.pi) < 1e-6
+
+
+def region_vertices(region: RegionSpec) -> FloatArray:
+    """``(n, 2)`` corners of a box or convex polygon region."""
+    if isinstance(region, BoxRegion):
+        (x_min, y_min), (x_max, y_max) = region.min, region.max
+        return np.array([[x_min, y_min], [x_max, y_min], [x_max, y_max], [x_min, y_max]])
+    if isinstance(region, PolygonRegion):
+        return np.asarray(region.vertices, dtype=np.float64)
+    raise ValueError(f"a {region.type} region has no corners (expected box or polygon)")
 
 
 def region_outline(

@@ -50,6 +50,7 @@ class Transition:
     to_phase: str | None
     condition: str  # "elapsed", "reaches", "settled", "timeout", ...
     value: float  # the value of the condition when it fired
+    lap: int | None = None  # the lap of ``to_phase`` when it is in a repeat
 
 
 @dataclass(frozen=True)

@@ -104,6 +104,9 @@ class ActivePhase:
         self.entry_sample = 0
         self.target = np.zeros(3)
         self._trajectory: Trajectory | None = None
+        # Samples after which the phase ends for sure (elapsed or timeout).
+        bounds = [phase.until.elapsed_samples, phase.timeout_samples]
+        self.bound = min((b for b in bounds if b is not None), default=2**62)
 
     def enter(self, k: int, estimate: FloatArray) -> Phase:
         self.status = Status.running
@@ -292,9 +295,12 @@ class _Run:
         try:
             while True:
                 k = int(counters[loop.K])
-                path = active.path_ahead(k - active.entry_sample, chunk + 1)
+                local = k - active.entry_sample
+                # No further than the phase's own bound: no path sampled past its end.
+                samples = min(chunk, max(1, active.bound - local))
+                path = active.path_ahead(local, samples + 1)
                 self.recorder.reserve(2)  # the loop stops early when the recorder is full
-                status = self._call(phase, path, draws.ahead(chunk), k + chunk)
+                status = self._call(phase, path, draws.ahead(samples), k + samples)
                 draws.used(int(counters[loop.DRAWS]))
                 counters[loop.DRAWS] = 0
                 k = int(counters[loop.K])
@@ -333,6 +339,7 @@ class _Run:
                         None if to is None else to.phase.name,
                         condition,
                         value,
+                        None if to is None else to.phase.lap,
                     )
                 )
                 if to is None:

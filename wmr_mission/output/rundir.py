@@ -233,6 +233,7 @@ def write_json(path: Path, value: Any) -> Path:
 
 
 def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]]:
+    """One record per phase change; ``lap`` only where the phase entered is in a repeat."""
     return [
         {
             "time": tr.time,
@@ -240,6 +241,7 @@ def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]
             "to": tr.to_phase,
             "condition": tr.condition,
             "value": tr.value,
+            **({} if tr.lap is None else {"lap": tr.lap}),
         }
         for tr in transitions
     ]
@@ -439,9 +441,18 @@ def _transitions_from(records: Any) -> list[Transition]:
                 to_phase=_field(record, "to", (str, type(None)), at),
                 condition=_field(record, "condition", str, at),
                 value=_number(_field(record, "value", (int, float, type(None)), at), at),
+                lap=_lap(record, at),
             )
         )
     return transitions
+
+
+def _lap(record: Any, where: str) -> int | None:
+    """The optional lap of a transition (absent in runs without repeats)."""
+    lap = record.get("lap") if isinstance(record, dict) else None
+    if lap is not None and (isinstance(lap, bool) or not isinstance(lap, int)):
+        raise RunDirError(f"{where}: 'lap' must be a whole number or null")
+    return lap
 
 
 def _read_trajectory(path: Path, phase_names: Sequence[str]) -> dict[str, np.ndarray]:

@@ -17,6 +17,7 @@ from wmr_mission.output.metrics import CONVERGENCE_TOLERANCE
 from wmr_mission.spec.models import (
     BoxRegion,
     CircleRegion,
+    CoveragePath,
     Ekf,
     EllipsePath,
     EllipseRegion,
@@ -26,9 +27,11 @@ from wmr_mission.spec.models import (
     Phase,
     PolygonRegion,
     RegulatePhase,
+    RepeatPhase,
     StayInside,
     TrackPhase,
 )
+from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 
 __all__ = ["MAX_SAMPLES", "DataPath", "Finding", "Severity", "check"]
 
@@ -38,7 +41,6 @@ MAX_SAMPLES: Final = 50_000_000
 # Samples of a path when looking for a `reaches` crossing; finer than this only costs time.
 _REACH_SAMPLES: Final = 20_001
 
-DataPath = tuple[str | int, ...]
 Severity = Literal["error", "warning"]
 Pose = tuple[float, float, float]
 
@@ -56,6 +58,15 @@ class Finding:
 
 def check(mission: Mission) -> list[Finding]:
     """Every semantic problem of a mission that passed its schema."""
+    if run_count(mission) > MAX_RUN_PHASES:
+        return [
+            Finding(
+                ("phases",),
+                f"the mission runs {run_count(mission):,} phases with its repeats written out, "
+                f"more than the limit of {MAX_RUN_PHASES:,}; repeat fewer times",
+                at_key=True,
+            )
+        ]
     findings = [
         *_unique_phase_names(mission),
         *_observability(mission),
@@ -70,23 +81,32 @@ def check(mission: Mission) -> list[Finding]:
     if not any(f.severity == "error" for f in findings):
         # sampling paths needs a sound mission (regions of the right kind, bounded phases)
         findings.extend(_reaches(mission))
-    return findings
+    # a phase of a repeat is checked once per lap: say each finding once
+    return list(dict.fromkeys(findings))
 
 
 def _unique_phase_names(mission: Mission) -> Iterator[Finding]:
-    seen: dict[str, int] = {}
-    for index, phase in enumerate(mission.phases):
-        if phase.name in seen:
+    """Names of phases and repeats, inside repeats too, are unique."""
+    named: list[tuple[DataPath, str]] = []
+    for index, step in enumerate(mission.phases):
+        named.append((("phases", index), step.name))
+        if isinstance(step, RepeatPhase):
+            for number, phase in enumerate(step.repeat.phases):
+                named.append((("phases", index, "repeat", "phases", number), phase.name))
+    seen: dict[str, DataPath] = {}
+    for where, name in named:
+        if name in seen:
+            first = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in seen[name])
             yield Finding(
-                ("phases", index, "name"),
-                f"phase name {phase.name!r} is already used by phases[{seen[phase.name]}]; "
+                (*where, "name"),
+                f"phase name {name!r} is already used by {first.lstrip('.')}; "
                 "phase names must be unique",
             )
-        seen.setdefault(phase.name, index)
+        seen.setdefault(name, where)
 
 
 def _moves(mission: Mission) -> bool:
-    return any(isinstance(p, TrackPhase | RegulatePhase) for p in mission.phases)
+    return any(isinstance(p.phase, TrackPhase | RegulatePhase) for p in run_order(mission))
 
 
 def _observability(mission: Mission) -> Iterator[Finding]:
@@ -155,9 +175,20 @@ def _regions(mission: Mission) -> Iterator[Finding]:
             )
 
 
+# The regions a path's `region` may name, and how to say so.
+_PATH_REGIONS: Final = {
+    "ellipse": ((EllipseRegion, CircleRegion), "an ellipse or circle"),
+    "elliptical-spiral": ((EllipseRegion, CircleRegion), "an ellipse or circle"),
+    "coverage": ((BoxRegion, PolygonRegion), "a box or convex polygon"),
+}
+_PATHS_ON_REGIONS: Final = (EllipsePath, EllipticalSpiralPath, CoveragePath)
+
+
 def _phase_rules(mission: Mission) -> Iterator[Finding]:
-    for index, phase in enumerate(mission.phases):
-        where: DataPath = ("phases", index)
+    for run in run_order(mission):
+        if run.lap is not None and run.lap > 1:
+            continue
+        phase, where = run.phase, run.where
         if isinstance(phase, TrackPhase):
             if phase.until.settled is not None:
                 yield Finding(
@@ -166,21 +197,17 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                     "only; a track phase can end on near, reaches, heading or time",
                     at_key=True,
                 )
-            if phase.constraints:
-                yield Finding(
-                    (*where, "constraints"),
-                    "constraints apply to regulate and hold phases only: a track phase follows "
-                    "its path",
-                    at_key=True,
-                )
             path = phase.track.path
-            if isinstance(path, EllipsePath | EllipticalSpiralPath) and path.region is not None:
-                region = mission.regions.get(path.region)
-                if region is not None and not isinstance(region, EllipseRegion | CircleRegion):
+            name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
+            region = mission.regions.get(name) if name is not None else None
+            if region is not None:
+                kinds, wanted = _PATH_REGIONS[path.type]
+                if not isinstance(region, kinds):
+                    article = "an" if path.type[0] in "aeiou" else "a"
                     yield Finding(
                         (*where, "track", "path", "region"),
-                        f"an {path.type} path needs an ellipse or circle region, but "
-                        f"{path.region!r} is a {region.type}",
+                        f"{article} {path.type} path needs {wanted} region, but "
+                        f"{name!r} is a {region.type}",
                     )
         yield from _target_against_constraints(mission, phase, where)
         for number, constraint in enumerate(phase.constraints):
@@ -238,9 +265,10 @@ def _target_against_constraints(
 
 def _initial_state(mission: Mission) -> Iterator[Finding]:
     start = mission.robot.initial_state
-    for number, name, side, other in _breaches(mission, mission.phases[0], start.x, start.y):
+    first = run_order(mission)[0]
+    for number, name, side, other in _breaches(mission, first.phase, start.x, start.y):
         yield Finding(
-            ("phases", 0, "constraints", number),
+            (*first.where, "constraints", number),
             f"robot.initial_state ({start.x:g}, {start.y:g}) is {other} region {name!r}, "
             f"but the first phase must stay {side} it",
         )
@@ -284,8 +312,8 @@ def _timing(mission: Mission) -> Iterator[Finding]:
     dt = mission.robot.dt
     mission_time = 0.0  # latest start of the phase
     earliest = 0.0  # earliest start of the phase
-    for index, phase in enumerate(mission.phases):
-        where: DataPath = ("phases", index)
+    for index, run in enumerate(run_order(mission)):
+        phase, where = run.phase, run.where
         until = phase.until
         if until.mission_time is not None and until.mission_time <= earliest and index > 0:
             yield Finding(
@@ -353,7 +381,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
     pose: Pose = (start.x, start.y, start.theta)
     dt = mission.robot.dt
     mission_time = 0.0
-    for index, phase in enumerate(mission.phases):
+    for run in run_order(mission):
+        phase, where = run.phase, run.where
         bound = _bounds(phase, mission_time)
         if math.isinf(bound):
             return
@@ -372,7 +401,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                 x, y, dx, dy = trajectory.sample(times)
         except (ValueError, ArithmeticError) as error:
             yield Finding(
-                ("phases", index, "track", "path"),
+                (*where, "track", "path"),
                 f"the path cannot be sampled ({assumed}): {error}",
                 severity="warning",
             )
@@ -381,7 +410,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         if not finite.all():
             first = float(times[int(np.argmin(finite))])
             yield Finding(
-                ("phases", index, "track", "path"),
+                (*where, "track", "path"),
                 f"the path (or its direction) is not finite at t = {first:g} s of the phase "
                 f"({assumed}); the run would stop there as diverged",
                 # A phase that may end on a condition of the robot's motion may end first.
@@ -397,7 +426,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             crossed = np.isfinite(values) & (np.sign(values) != entry)
             if not np.any(crossed):
                 yield Finding(
-                    ("phases", index, "until", "reaches"),
+                    (*where, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
                     f"{bound:g} s ({assumed}); the phase will end by "
                     f"{_limit(phase, mission_time - bound)}",
@@ -410,7 +439,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
 
 def _expectations(mission: Mission) -> Iterator[Finding]:
     # A track phase's last reference point has a position but no heading.
-    has_target = any(isinstance(p, RegulatePhase) for p in mission.phases)
+    has_target = any(isinstance(p.phase, RegulatePhase) for p in run_order(mission))
     if mission.expect.final_heading_error is not None and not has_target:
         yield Finding(
             ("expect", "final_heading_error"),
@@ -454,7 +483,8 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
     if position_bias == 0.0 and heading_bias == 0.0:
         return
     # The estimate settles on the biased measurement: the true pose stays off by the bias.
-    for index, phase in enumerate(mission.phases):
+    for run in run_order(mission):
+        phase = run.phase
         settled = phase.until.settled
         if settled is None:
             continue
@@ -464,7 +494,7 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
         ):
             if offset > tolerance:
                 yield Finding(
-                    ("phases", index, "until", "settled", name),
+                    (*run.where, "until", "settled", name),
                     f"until.settled.{name} {tolerance:g} {unit} is smaller than the measurement "
                     f"bias ({offset:g} {unit}): the estimate settles on the biased measurement, "
                     f"so the true pose ends about {offset:g} {unit} away",

@@ -341,7 +341,7 @@ def _is_tag(part: str | int, current: Any, previous: str | int | None) -> bool:
         return False
     if current.get("type") == part:
         return True
-    return isinstance(previous, int) and part in (*ACTIONS, *_CONSTRAINT_KEYS)
+    return isinstance(previous, int) and part in (*ACTIONS, "repeat", *_CONSTRAINT_KEYS)
 
 
 def _resolve(loc: tuple[str | int, ...], data: Any) -> DataPath:
@@ -398,7 +398,7 @@ def _selects(model: type[BaseModel], value: Any) -> bool:
     type_field = model.model_fields.get("type")
     if type_field is not None:
         return value.get("type") in typing.get_args(type_field.annotation)
-    keys = [k for k in (*ACTIONS, "stay_inside", "stay_outside") if k in model.model_fields]
+    keys = [k for k in (*ACTIONS, "repeat", *_CONSTRAINT_KEYS) if k in model.model_fields]
     return not keys or any(k in value for k in keys)
 
 
@@ -489,11 +489,21 @@ def _translate(error: Any, document: Document) -> Finding:
         return Finding(path, f"{where}: expected {least} {bound} {items}, got {got}")
     if kind == "phase_action":
         keys = list(value) if isinstance(value, dict) else []
-        hints = [_suggest(str(k), ACTIONS) for k in keys]
+        in_repeat = "repeat" in path
+        if in_repeat and "repeat" in keys:
+            return Finding(
+                (*path, "repeat"),
+                f"{where}: a repeat cannot hold another repeat (repeats do not nest); "
+                "write the inner phases out, or repeat the outer group more times",
+                at_key=True,
+            )
+        actions = ACTIONS if in_repeat else (*ACTIONS, "repeat")
+        hints = [_suggest(str(k), actions) for k in keys]
         hint = next((h for h in hints if h), "")
         return Finding(
             path,
-            f"{where}: a phase needs exactly one action key: track, regulate or hold{hint}",
+            f"{where}: a phase needs exactly one action key: "
+            f"{', '.join(actions[:-1])} or {actions[-1]}{hint}",
         )
     if kind == "constraint_kind":
         return Finding(

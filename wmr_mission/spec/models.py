@@ -39,6 +39,7 @@ __all__ = [
     "ConstrainedObserver",
     "Constraint",
     "Controller",
+    "CoveragePath",
     "Disturbances",
     "Dropout",
     "Ekf",
@@ -60,11 +61,14 @@ __all__ = [
     "PathSpec",
     "Phase",
     "PolygonRegion",
+    "PolylinePath",
     "Pose",
     "RegionSpec",
     "Regulate",
     "RegulatePhase",
     "Regulation",
+    "Repeat",
+    "RepeatPhase",
     "Robot",
     "Sensors",
     "Settled",
@@ -76,6 +80,7 @@ __all__ = [
     "StateStd",
     "StayInside",
     "StayOutside",
+    "Step",
     "Threshold",
     "Track",
     "TrackPhase",
@@ -762,7 +767,8 @@ class EllipticalSpiralPath(_EllipseGeometry):
 
 
 class WaypointsPath(_Model):
-    """A C1 curve through the points, traversed at constant speed."""
+    """A smooth (C1) curve through the points at constant speed, kept close to their
+    convex hull."""
 
     type: Literal["waypoints"] = Field(description="Path kind.")
     points: list[Point] = Field(
@@ -771,9 +777,78 @@ class WaypointsPath(_Model):
     speed: PositiveScalar = Field(description="Speed along the curve [m/s], > 0.")
     start: Literal["current", "first"] = Field(
         default="current",
-        description="current: the robot's position is prepended; first: start at the first point.",
+        description=(
+            "current: an open curve starts at the robot's position, a closed one where it "
+            "passes nearest the robot; first: at the first point."
+        ),
     )
     closed: bool = Field(default=False, description="Return to the first point and loop.")
+
+
+# --- routes drawn through points: polyline and coverage ---------------------
+
+
+class PolylinePath(_Model):
+    """Straight legs through the points at constant speed, corners rounded by arcs
+    (or turned in place); never leaves the points' convex hull."""
+
+    type: Literal["polyline"] = Field(description="Path kind.")
+    points: list[Point] = Field(
+        min_length=1,
+        max_length=10000,
+        description="At least 1 point [[x, y], ...] [m] (with start: current, the robot's "
+        "position comes first).",
+    )
+    speed: PositiveScalar = Field(description="Speed along legs and arcs [m/s], > 0.")
+    corner_radius: NonNegativeScalar = Field(
+        default=0.0,
+        description=(
+            "Radius of the arc joining two legs [m], >= 0, shrunk where it does not fit in "
+            "half of either leg; 0 = stop and turn in place."
+        ),
+    )
+    turn_rate: PositiveScalar = Field(
+        default=1.0, description="Turn rate of a turn in place [rad/s], > 0."
+    )
+    start: Literal["current", "first"] = Field(
+        default="current",
+        description=(
+            "current: an open route starts at the robot's position, a closed one where it "
+            "passes nearest the robot; first: at the first point."
+        ),
+    )
+    closed: bool = Field(default=False, description="Return to the first point and loop.")
+
+
+class CoveragePath(_Model):
+    """A boustrophedon (lawnmower) over a box or convex polygon region: parallel
+    lanes, run alternately back and forth, joined by arcs of the turn radius."""
+
+    type: Literal["coverage"] = Field(description="Path kind.")
+    region: RegionName = Field(description="Name of the box or polygon region to cover.")
+    spacing: PositiveScalar = Field(
+        description=(
+            "Largest distance between neighbouring lanes [m], > 0; lanes are spread evenly, "
+            "the outer ones half a spacing inside the field."
+        )
+    )
+    direction: Scalar = Field(default=0.0, description="Direction of the lanes [rad] from +x.")
+    turn_radius: NonNegativeScalar | None = Field(
+        default=None,
+        description=(
+            "Radius of the turns at the lane ends [m], >= 0; default half the spacing "
+            "(a semicircle); 0 = turn in place."
+        ),
+    )
+    turn_rate: PositiveScalar = Field(
+        default=1.0, description="Turn rate of a turn in place [rad/s], > 0."
+    )
+    speed: PositiveScalar = Field(description="Speed along lanes and turns [m/s], > 0.")
+    start: Literal["current", "first"] = Field(
+        default="current",
+        description="current: drive from the robot's position to the first lane; first: start "
+        "on the first lane.",
+    )
 
 
 def _number_as_text(value: Any) -> Any:
@@ -824,7 +899,9 @@ PathSpec = Annotated[
     | SpiralPath
     | EllipticalSpiralPath
     | WaypointsPath
-    | ExpressionPath,
+    | ExpressionPath
+    | PolylinePath
+    | CoveragePath,
     Field(discriminator="type"),
 ]
 
@@ -929,7 +1006,11 @@ class _PhaseCommon(_Model):
         default="fail", description="At timeout: fail the mission, or go on to the next phase."
     )
     constraints: tuple[Constraint, ...] = Field(
-        default=(), max_length=64, description="Inequality constraints (regulate and hold only)."
+        default=(),
+        max_length=64,
+        description=(
+            "Keep-in and keep-out zones (eq. (28)); on a track phase they win over the path."
+        ),
     )
 
 
@@ -977,6 +1058,46 @@ Phase = Annotated[
         _phase_action,
         custom_error_type="phase_action",
         custom_error_message="a phase needs exactly one action: track, regulate or hold",
+    ),
+]
+
+
+# --- repeats: a group of phases run several times ---------------------------
+
+
+class Repeat(_Model):
+    """Phases run ``times`` times in order (patrol laps); repeats do not nest."""
+
+    times: Annotated[int, Strict(), Field(ge=1, le=10000)] = Field(
+        description="How many times the phases run, 1..10000."
+    )
+    phases: list[Phase] = Field(
+        min_length=1, max_length=1000, description="The phases of one lap, run in order."
+    )
+
+
+class RepeatPhase(_Model):
+    """A group of phases run several times; each run is a lap (transitions.json)."""
+
+    name: Annotated[str, Field(pattern=PHASE_NAME)] = Field(description=_PHASE_DESCRIPTION)
+    repeat: Repeat = Field(description="The phases and how many times they run.")
+
+
+def _step_action(value: Any) -> str | None:
+    if isinstance(value, RepeatPhase) or (isinstance(value, dict) and "repeat" in value):
+        return "repeat"
+    return _phase_action(value)
+
+
+Step = Annotated[
+    Annotated[TrackPhase, Tag("track")]
+    | Annotated[RegulatePhase, Tag("regulate")]
+    | Annotated[HoldPhase, Tag("hold")]
+    | Annotated[RepeatPhase, Tag("repeat")],
+    Discriminator(
+        _step_action,
+        custom_error_type="phase_action",
+        custom_error_message="a phase needs exactly one action: track, regulate, hold or repeat",
     ),
 ]
 
@@ -1080,7 +1201,9 @@ class Mission(_Model):
         description="Named regions.",
         json_schema_extra={"additionalProperties": False},
     )
-    phases: list[Phase] = Field(min_length=1, max_length=10000, description="Phases, run in order.")
+    phases: list[Step] = Field(
+        min_length=1, max_length=10000, description="Phases (and repeats of phases), run in order."
+    )
     expect: Expect = Field(default_factory=Expect, description="Acceptance thresholds.")
 
     @model_validator(mode="before")
