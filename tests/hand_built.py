@@ -54,7 +54,8 @@ def elliptical_spiral(pose: tuple[float, float, float]) -> Trajectory:  # eq. (3
 def mission(
     phases: list[CompiledPhase],
     *,
-    look_ahead: float = 0.05,
+    look_ahead: float = 0.1,
+    error_decay: float = math.exp(-0.1),  # the default law at dt = 0.01: 0.1 m, 0.1 s
     form: int = 0,
     measure: tuple[float, float, float] = (1.0, 1.0, 1.0),
     initial_estimate: tuple[float, float, float] = (1.0, 1.0, 0.0),
@@ -86,6 +87,7 @@ def mission(
         w=np.full(3, 100.0),
         m=np.full(2, 100.0),
         look_ahead=look_ahead,
+        error_decay=error_decay,
         regulation_form=form,
         align_radius=0.01,
         reverse=True,

@@ -82,10 +82,12 @@ def test_ekf_step(benchmark: BenchmarkFixture, kind: str) -> None:
 def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
     work, u = scratch(), np.zeros(2)
     path_point = np.array([1.02, 2.01, 1.0, 0.0])
-    controller = Controller(0.05, Q, R, W, M, control.BEARING, 0.01, True)
+    tracking = Controller(0.1, 0.9, Q, R, W, M, control.BEARING, 0.01, True)
 
     def step() -> None:
-        TRACKERS[kind](ESTIMATE, U_PREV, path_point, controller, Robot(DT, LIMITS), work, u)
+        TRACKERS[kind](
+            ESTIMATE, U_PREV, path_point, path_point, tracking, Robot(DT, LIMITS), work, u
+        )  # fmt: skip
 
     benchmark(step)
     assert np.all(np.isfinite(u))
@@ -96,7 +98,7 @@ def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
 @pytest.mark.parametrize("constrained", [False, True], ids=["free", "constrained"])
 def test_regulate_input(benchmark: BenchmarkFixture, kind: str, constrained: bool) -> None:
     work, u, memory = scratch(), np.zeros(2), np.zeros(3)
-    controller = Controller(0.05, Q, R, W, M, control.BEARING, 0.01, True)
+    controller = Controller(0.05, 0.0, Q, R, W, M, control.BEARING, 0.01, True)
     kinds, params = ELLIPSE_ROWS if constrained else (np.zeros(0, dtype=np.int64), np.zeros((0, 6)))
     target = np.array([0.0, 0.0, 0.0])
 

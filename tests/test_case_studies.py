@@ -85,6 +85,8 @@ def test_case_1_stays_on_the_ellipse(case1: dict[str, np.ndarray]) -> None:
 def test_case_2_returns_inside_the_ellipse(case2_dir: Path) -> None:
     c = read_trajectory(case2_dir)
     assert math.hypot(c["x"][-1], c["y"][-1]) <= 0.05
+    assert math.hypot(c["x"][-1], c["y"][-1]) <= 0.02  # the paper's parking accuracy
+    assert abs(wrap(c["theta"][-1:]))[0] <= 0.01
     transitions = json.loads((case2_dir / "transitions.json").read_text())
     imposed = transitions[1]["time"]  # the constraint holds from the return phase on
     after = c["t"] >= imposed
@@ -176,22 +178,28 @@ def _turn_rate_jitter(omega: np.ndarray) -> float:
 
 def test_literal_axle_law_with_the_case_limits_tracks_but_its_turn_rate_chatters() -> None:
     """docs/paper-notes.md, 'Case 2 as written': the limits rescue the literal
-    law, but its unstable heading dynamics show in the turn rate."""
+    law, but its unstable heading dynamics show in the turn rate. The chatter
+    is chaotic (its level depends on the start and on rounding: 1.0, 2.9 and
+    1.9 rad/s from headings 0, 0.3 and -0.3), so it is judged over three starts."""
     from wmr_mission import run_mission
     from wmr_mission.spec.loader import load_mission_text
 
     text = (MISSIONS / "case1.yaml").read_text()
-    axle = text.replace("controller:\n", "controller:\n  tracking: {output: axle}\n", 1)
-    assert axle != text
-    jitter, rms = {}, {}
-    for name, mission_text in (("look-ahead", text), ("axle", axle)):
-        result = run_mission(load_mission_text(mission_text, f"{name}.yaml"))
-        assert result.outcome.value == "success"
-        orbit = result.phase == 1
-        later = orbit & (result.t >= result.t[orbit][0] + 1.0)
-        distance = distance_to_ellipse(result.x[later], result.y[later])
-        rms[name] = math.sqrt(np.mean(distance**2))
-        jitter[name] = _turn_rate_jitter(result.omega[later])
-    assert rms["axle"] < 1e-4  # it does track the ellipse...
-    assert jitter["axle"] > 1.0  # ...with a turn rate jumping by rad/s per sample
-    assert jitter["look-ahead"] < 0.05
+    jitter: dict[str, list[float]] = {"look-ahead": [], "axle": []}
+    for heading in (0.0, 0.3, -0.3):
+        start = text.replace(
+            "initial_state: {x: 0, y: 0, theta: 0}",
+            f"initial_state: {{x: 0, y: 0, theta: {heading}}}",
+        )
+        axle = start.replace("controller:\n", "controller:\n  tracking: {output: axle}\n", 1)
+        assert axle != start
+        for name, mission_text in (("look-ahead", start), ("axle", axle)):
+            result = run_mission(load_mission_text(mission_text, f"{name}.yaml"))
+            assert result.outcome.value == "success"
+            orbit = result.phase == 1
+            later = orbit & (result.t >= result.t[orbit][0] + 1.0)
+            distance = distance_to_ellipse(result.x[later], result.y[later])
+            assert math.sqrt(np.mean(distance**2)) < 1e-4  # it does track the ellipse...
+            jitter[name].append(_turn_rate_jitter(result.omega[later]))
+    assert np.mean(jitter["axle"]) > 1.0  # ...with a turn rate jumping by rad/s per sample
+    assert max(jitter["look-ahead"]) < 0.05

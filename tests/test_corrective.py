@@ -109,3 +109,43 @@ def test_ellipse_row_is_eq_33() -> None:
     for x, y in [(0.0, 0.0), (5.5, 0.0), (1.0, 2.0), (6.0, 1.0)]:
         value, _, _ = row_value(0, params, x, y)
         assert value == pytest.approx((x / 5.5) ** 2 + (y / 3) ** 2 - 1)
+
+
+LIMITS = (10.0, 20.0)  # |v| [m/s], |omega| [rad/s] of the case studies
+
+
+def test_one_nearly_unreachable_row_asks_for_no_more_than_the_inputs_span() -> None:
+    # A lateral gradient while creeping at 1e-9 m/s: the exact law of eq. (28)
+    # asks for a turn rate of order -1e11 rad/s. Truncated to the inputs, the
+    # change stays within the span of the inputs (limit to limit), in the
+    # direction that moves the row.
+    state = np.array([0.0, 0.0, 0.0])
+    b = input_jacobian(state, np.array([1e-9, 0.0]), 0.01)
+    d = np.array([[0.0, 1.0, 0.0]])
+    eta = np.array([-0.01])
+    exact = corrective_input_array(d, eta, b, W, M)
+    assert abs(exact[1]) > 1e10  # the literal answer without an input range
+    du = corrective_input_array(d, eta, b, W, M, LIMITS)
+    assert abs(du[0]) <= 2 * LIMITS[0]
+    assert abs(du[1]) == pytest.approx(2 * LIMITS[1])
+    assert (d @ b @ du)[0] * eta[0] > 0  # towards the constraint, not away
+
+
+@pytest.mark.parametrize("speed", [1e-3, 1e-4, 1e-5, 1e-6])
+def test_two_nearly_dependent_rows_meet_their_reachable_part(speed: float) -> None:
+    # The axle at two constraints while creeping: S = D B Rw^-1 (D B)^T has a
+    # condition number from about 1e8 to 1e12 [~ (2 / (speed dt))^2]. The change
+    # stays within the inputs' span and the reachable (forward) part of eta is
+    # met exactly.
+    b = input_jacobian(np.array([0.0, 0.0, 0.3]), np.array([speed, 0.0]), 0.01)
+    d = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    eta = np.array([0.004, 0.02])
+    weight = np.linalg.inv(b.T @ np.diag(W) @ b + np.diag(M))
+    s = d @ b @ weight @ (d @ b).T
+    values, vectors = np.linalg.eigh(s)
+    assert values[1] / values[0] > 1e7
+    du = corrective_input_array(d, eta, b, W, M, LIMITS)
+    assert np.all(np.abs(du) <= 2 * 2 * np.array(LIMITS))
+    reachable = vectors[:, 1]
+    residual = reachable @ (d @ b @ du - eta)
+    assert abs(residual) <= 1e-9 * abs(reachable @ eta)

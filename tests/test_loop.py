@@ -69,7 +69,9 @@ def test_ctrl_c_between_chunks_returns_what_was_simulated(monkeypatch: pytest.Mo
 
     result = run_mission(mission, progress=progress)
     assert result.outcome is Outcome.interrupted
-    assert result.message == f"interrupted in phase 'circle' at t = {calls[-1]:g} s"
+    # The last sample recorded, just before the progress report the stop came in.
+    assert result.t[-1] == pytest.approx(calls[-1] - 0.01)
+    assert result.message == f"interrupted in phase 'circle' at t = {result.t[-1]:g} s"
     assert result.samples == 2 * runner.CHUNK
     assert result.transitions[-1].condition == "interrupted"
     assert np.all(np.isfinite(result.x))

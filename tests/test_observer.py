@@ -194,3 +194,18 @@ def test_phase_two_saturates_to_the_violated_bound(rng: np.random.Generator) -> 
         inside = ((measurement - phase_one) <= upper) & ((measurement - phase_one) >= lower)
         inside[2] = False  # heading wraps; checked above
         np.testing.assert_allclose(estimate[inside], phase_one[inside], atol=1e-12)
+
+
+def test_phase_two_iteration_matrix_is_not_a_contraction() -> None:
+    # docs/paper-notes.md, eqs. (8)-(12): with H = D^T, (I - H D) A_c has
+    # eigenvalues 0 (violated outputs) and 1 (the others): spectral radius 1,
+    # and its 2-norm exceeds 1 once the robot moves. Phase II lands on the
+    # bound in one step because D (I - H D) = 0, not because it contracts.
+    from wmr_mission.model import state_jacobian
+
+    a = state_jacobian(np.array([0.0, 0.0, 0.7]), np.array([2.0, 0.5]), 0.01)
+    d = np.array([[1.0, 0.0, 0.0]])  # x violated
+    iteration = (np.eye(3) - d.T @ d) @ a
+    assert sorted(np.abs(np.linalg.eigvals(iteration))) == pytest.approx([0.0, 1.0, 1.0])
+    assert np.linalg.norm(iteration, 2) > 1.0
+    np.testing.assert_allclose(d @ (np.eye(3) - d.T @ d), 0.0)

@@ -3,19 +3,26 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from typing import Any
 
 import numpy as np
 import pytest
-from test_output_synthetic import RADIUS, REF_OFFSET, circle_run
+from test_output_synthetic import RADIUS, REF_OFFSET, TURN_RATE, circle_run
 
 from wmr_mission.output.metrics import (
+    LOCAL_WINDOW,
+    at_limit_fraction,
     check_expectations,
     convergence_index,
+    distance_to_path,
+    jitter,
+    judge,
     overshoot,
+    sign_reversals,
     summarize,
     wrap_angle,
 )
-from wmr_mission.result import Outcome, PhaseInfo
+from wmr_mission.result import Outcome, PhaseInfo, RunResult
 
 NO_EXPECT = {
     "final_position_error": None,
@@ -24,6 +31,18 @@ NO_EXPECT = {
     "estimation_convergence_time": None,
     "duration": None,
 }
+
+
+def off_arc(run: RunResult, start: int, end: int) -> np.ndarray:
+    """Distance of the robot from the arc its reference covered in samples
+    start..end-1. The reference runs 0.01 m east of the robot: at sample k it is
+    at angle 0.5 t_k on the circle of radius 2 about (0.01, 0); the nearest point
+    of that arc lies along the ray from the centre, clamped to the arc's ends."""
+    x, y = run.x[start:end] - REF_OFFSET, run.y[start:end]
+    along = TURN_RATE * run.t[start:end]
+    angle = along + wrap_angle(np.arctan2(y, x) - along)
+    angle = np.clip(angle, along[0], along[-1])
+    return np.hypot(x - RADIUS * np.cos(angle), y - RADIUS * np.sin(angle))
 
 
 def test_summary_key_order_is_fixed() -> None:
@@ -37,7 +56,9 @@ def test_summary_key_order_is_fixed() -> None:
         "duration",
         "final",
         "estimation_convergence_time",
+        "convergence_tolerance",
         "estimation_overshoot",
+        "estimation_rms",
         "max_constraint_violation",
         "phases",
         "compute_us_per_sample",
@@ -49,10 +70,13 @@ def test_summary_key_order_is_fixed() -> None:
         "start",
         "end",
         "duration",
+        "settle_time",
+        "settled_samples",
         "tracking_error",
         "target_error",
         "constraint",
         "estimation",
+        "inputs",
         "max_abs_v",
         "max_abs_omega",
         "phase2_iterations",
@@ -91,13 +115,25 @@ def test_final_error_of_a_track_phase_is_from_its_last_reference_point() -> None
 
 
 def test_per_phase_values() -> None:
-    approach, orbit, park = summarize(circle_run())["phases"]
+    run = circle_run()
+    approach, orbit, park = summarize(run)["phases"]
     assert (approach["start"], approach["end"]) == pytest.approx((0.0, 5.0))
     assert orbit["duration"] == pytest.approx(10.0)
     assert park["end"] == pytest.approx(20.0)
+    off_path = off_arc(run, 0, 500)
+    settled = slice(100, 500)  # the approach after its first second
     assert approach["tracking_error"] == pytest.approx(
-        {"rms": REF_OFFSET, "max": REF_OFFSET, "rms_after_1s": REF_OFFSET}
+        {
+            "rms": np.sqrt(np.mean(off_path[settled] ** 2)),
+            "max": off_path[settled].max(),
+            "rms_from_start": np.sqrt(np.mean(off_path[:500] ** 2)),
+            "max_from_start": off_path[:500].max(),
+            "reference_rms": REF_OFFSET,
+        },
+        abs=1e-5,  # the reference polyline cuts the circle's chords by 6e-6 m at most
     )
+    assert approach["settle_time"] == 1.0
+    assert approach["settled_samples"] == 400
     assert park["tracking_error"] is None
     assert park["target_error"]["position"] == pytest.approx(RADIUS)
     assert approach["constraint"] == {
@@ -113,6 +149,19 @@ def test_per_phase_values() -> None:
         {"x": 1.0, "y": 1.0, "theta": 0.0}
     )
     assert approach["estimation"]["convergence_time"] == pytest.approx(0.29)
+    # after the first second the position errors are 0.9**100 and below
+    assert approach["estimation"]["rms"] == pytest.approx(
+        {s: np.sqrt(np.mean(0.9 ** (2 * np.arange(100, 500)))) for s in ("x", "y")} | {"theta": 0}
+    )
+    assert approach["inputs"] == pytest.approx(
+        {
+            "speed_at_limit": 0.0,
+            "turn_rate_at_limit": 0.0,
+            "turn_rate_jitter": 0.0,
+            "turn_rate_reversals": 0,
+        },
+        abs=1e-12,
+    )
     assert orbit["estimation"]["convergence_time"] == 0.0
     assert approach["max_abs_v"] == pytest.approx(1.0)
     assert approach["max_abs_omega"] == pytest.approx(0.5)
@@ -120,14 +169,20 @@ def test_per_phase_values() -> None:
     assert orbit["phase2_iterations"] == {"total": 0, "max": 0}
 
 
-def test_rms_after_one_second_leaves_out_the_entry_transient() -> None:
+def test_settle_time_leaves_out_the_entry_transient() -> None:
     run = circle_run()
-    run.x_ref = run.x_ref.copy()
-    run.x_ref[500:600] = run.x[500:600] + 0.5  # first second of the orbit: 0.5 m off
+    run.x = run.x.copy()
+    run.x[500:600] += 0.5  # first second of the orbit: pushed 0.5 m east, off the path
+    off_path = off_arc(run, 500, 1500)
     orbit = summarize(run)["phases"][1]["tracking_error"]
-    assert orbit["max"] == pytest.approx(0.5)
-    assert orbit["rms"] == pytest.approx(math.sqrt((100 * 0.25 + 900 * 1e-4) / 1000))
-    assert orbit["rms_after_1s"] == pytest.approx(REF_OFFSET)
+    assert orbit["max_from_start"] == pytest.approx(off_path.max(), abs=1e-5)
+    assert orbit["max_from_start"] > 0.3
+    assert orbit["rms_from_start"] == pytest.approx(np.sqrt(np.mean(off_path**2)), abs=1e-5)
+    assert orbit["max"] == pytest.approx(off_path[100:].max(), abs=1e-5)
+    assert orbit["max"] < 0.011
+    longer = summarize(run, {"expect": {"settle_time": 2.0}})["phases"][1]
+    assert longer["settle_time"] == 2.0
+    assert longer["settled_samples"] == 800
 
 
 def test_convergence_time_of_an_error_that_comes_back() -> None:
@@ -193,7 +248,9 @@ def test_diverged_run_gives_nulls_not_warnings() -> None:
     assert summary["final"]["position_error"] is None
     assert summary["estimation_convergence_time"] is None
     orbit = summary["phases"][1]
-    assert orbit["tracking_error"]["rms"] == pytest.approx(REF_OFFSET)  # finite part only
+    # finite part only
+    assert orbit["tracking_error"]["reference_rms"] == pytest.approx(REF_OFFSET)
+    assert 0.0 < orbit["tracking_error"]["max"] <= REF_OFFSET + 1e-5
     json.dumps(summary, allow_nan=False)
 
 
@@ -212,7 +269,7 @@ def test_expectations_met_unmet_and_null() -> None:
         "estimation_convergence_time": {"max": 0.2},
         "duration": {"max": 12.0},
     }
-    checks = check_expectations(summary, expect)
+    checks = check_expectations(summary, {"expect": expect})
     assert [(c["metric"], c["met"]) for c in checks] == [
         ("final_position_error", True),
         ("final_heading_error", False),  # null never meets a threshold
@@ -222,23 +279,24 @@ def test_expectations_met_unmet_and_null() -> None:
     assert checks[1]["value"] is None
     assert checks[2] == {
         "metric": "estimation_convergence_time",
+        "phase": None,
         "max": 0.2,
         "value": pytest.approx(0.29),
         "met": False,
     }
-    assert check_expectations(summary, NO_EXPECT) == []
+    assert check_expectations(summary, {"expect": NO_EXPECT}) == []
 
 
 def test_expectation_on_the_constraint() -> None:
     summary = summarize(circle_run())
-    [check] = check_expectations(summary, {"max_constraint_violation": {"max": 0.001}})
+    [check] = check_expectations(summary, {"expect": {"max_constraint_violation": {"max": 0.001}}})
     assert check["value"] == pytest.approx(0.02)
     assert check["met"] is False
 
 
 def test_unknown_expectation_is_an_error() -> None:
     with pytest.raises(ValueError, match="unknown expectation 'speed'"):
-        check_expectations(summarize(circle_run(100)), {"speed": {"max": 1.0}})
+        check_expectations(summarize(circle_run(100)), {"expect": {"speed": {"max": 1.0}}})
 
 
 def test_a_held_constraint_is_no_violation() -> None:
@@ -264,3 +322,234 @@ def test_per_phase_estimation_overshoot() -> None:
     phases = summarize(circle_run(samples, theta_error=heading))["phases"]
     assert phases[0]["estimation"]["overshoot"] == pytest.approx({"x": 0.0, "y": 0.0, "theta": 0.0})
     assert phases[1]["estimation"]["overshoot"]["theta"] == pytest.approx(0.25)
+
+
+# --- the quality metrics of a phase ---------------------------------------------
+
+
+def _brute_force_distance(
+    qx: np.ndarray, qy: np.ndarray, px: np.ndarray, py: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distance to every segment of the polyline: the smallest, and its segment."""
+    ax, ay = px[:-1], py[:-1]
+    sx, sy = px[1:] - ax, py[1:] - ay
+    along = np.clip(((qx[:, None] - ax) * sx + (qy[:, None] - ay) * sy) / (sx**2 + sy**2), 0, 1)
+    distance = np.hypot(qx[:, None] - ax - along * sx, qy[:, None] - ay - along * sy)
+    return distance.min(axis=1), distance.argmin(axis=1)
+
+
+def test_distance_to_path_against_brute_force_on_a_figure_eight() -> None:
+    """A robot up to 0.3 m off a figure-eight flown twice (it crosses itself,
+    and its second lap falls between the first one's points), the last samples
+    far behind their reference point: exact where the nearest segment is near
+    the sample's own reference point, never below the true distance, and at
+    most one sampling step above it elsewhere."""
+    t = np.arange(0.0, 4 * math.pi, 0.02)
+    px, py = 3 * np.sin(t), 2 * np.sin(2 * t)
+    rng = np.random.default_rng(0)
+    x = px + rng.uniform(-0.3, 0.3, t.size)
+    y = py + rng.uniform(-0.3, 0.3, t.size)
+    behind = np.arange(t.size - 80, t.size) - 40
+    x[-80:], y[-80:] = px[behind] + 0.05, py[behind]
+    distance = distance_to_path(x, y, px, py)
+    expected, segment = _brute_force_distance(x, y, px, py)
+    step = np.hypot(np.diff(px), np.diff(py)).max()
+    assert np.all(distance >= expected - 1e-12)
+    assert np.all(distance <= expected + step)
+    near_own = np.abs(segment - np.arange(t.size)) < LOCAL_WINDOW
+    np.testing.assert_allclose(distance[near_own], expected[near_own], rtol=0, atol=1e-12)
+    assert np.all(distance[-80:] <= 0.05 + 1e-12)  # behind, but on the path
+    # once round: the nearest segment is the sample's own but near the crossing
+    once = slice(0, t.size // 2)
+    first_lap = distance_to_path(x[once], y[once], px[once], py[once])
+    expected, segment = _brute_force_distance(x[once], y[once], px[once], py[once])
+    near_own = np.abs(segment - np.arange(first_lap.size)) < LOCAL_WINDOW
+    assert near_own.mean() > 0.9
+    np.testing.assert_allclose(first_lap[near_own], expected[near_own], rtol=0, atol=1e-12)
+
+
+def test_distance_to_path_of_a_track_phase_ignores_the_lag() -> None:
+    """On an ellipse flown 2 s behind the reference, the robot is on the path."""
+    t = np.arange(0.0, 20.0, 0.01)
+    px, py = 5.5 * np.cos(0.4 * np.pi * t), 3 * np.sin(0.4 * np.pi * t)
+    x, y = np.roll(px, 200), np.roll(py, 200)
+    x[:200], y[:200] = px[0], py[0]
+    distance = distance_to_path(x, y, px, py)
+    assert distance.max() < 1e-12
+
+
+def test_distance_to_path_is_lateral_and_counts_only_the_path_passed() -> None:
+    px, py = np.linspace(5.0, 10.0, 4), np.zeros(4)  # a line from (5, 0) to (10, 0)
+    x, y = np.array([7.0, 7.0, 0.0, np.nan]), np.array([0.3, -2.0, 0.0, 1.0])
+    distance = distance_to_path(x, y, px, py)
+    np.testing.assert_allclose(distance[:3], [0.3, 2.0, 5.0], atol=1e-12)
+    assert math.isnan(distance[3])
+    assert np.all(np.isnan(distance_to_path(x, y, np.full(4, np.nan), np.full(4, np.nan))))
+    # reference points missing at the start: the path is the rest, from (25/3, 0)
+    px[:2] = np.nan
+    np.testing.assert_allclose(
+        distance_to_path(x, y, px, py)[:3],
+        [math.hypot(25 / 3 - 7, 0.3), math.hypot(25 / 3 - 7, 2), 25 / 3],
+        atol=1e-12,
+    )
+
+
+def test_at_limit_fraction_counts_both_signs_at_the_limit_only() -> None:
+    values = np.array([3.0, -3.0, 3.0 * (1 - 1e-12), 2.99, 0.0])
+    assert at_limit_fraction(values, 3.0) == pytest.approx(3 / 5)
+    assert at_limit_fraction(values, math.inf) == 0.0
+    assert at_limit_fraction(np.array([]), 3.0) is None
+
+
+def test_jitter_of_known_signals() -> None:
+    k = np.arange(400)
+    counted = np.ones(400, dtype=bool)
+    # +-a about a constant: the 25-sample mean keeps a/25 of it, so the rest is 24a/25
+    alternating = 0.5 + 2.0 * (-1.0) ** k
+    assert jitter(alternating, counted) == pytest.approx(2.0 * 24 / 25)
+    # a ramp is its own centred moving mean: no jitter
+    assert jitter(0.01 * k, counted) == pytest.approx(0.0, abs=1e-12)
+    # only the counted samples enter
+    step = np.where(k < 200, 0.0, 1.0)
+    assert jitter(step, k >= 250) == pytest.approx(0.0)
+    assert jitter(step, counted) > 0.05
+    assert jitter(np.ones(24), np.ones(24, dtype=bool)) is None
+
+
+def test_sign_reversals_skip_zeros() -> None:
+    assert sign_reversals(np.array([1.0, -1.0, 0.0, -1.0, 2.0, np.nan, 3.0])) == 2
+    assert sign_reversals(np.array([0.0, 0.0])) == 0
+
+
+def test_convergence_tolerance_per_state_in_its_unit() -> None:
+    """3 cm of position error and 0.08 rad of heading error never converge
+    under one 0.05 threshold; they do under 0.05 m and 0.1 rad."""
+    errors = {
+        "x": np.full(10, 0.03),
+        "y": np.full(10, -0.03),
+        "theta": np.array([0.3, 0.2, *[0.08] * 8]),
+    }
+    assert convergence_index(errors) is None
+    assert convergence_index(errors, {"x": 0.05, "y": 0.05, "theta": 0.1}) == 2
+
+
+def test_overshoot_is_relative_to_a_floor_not_to_a_vanishing_start() -> None:
+    """From 1 mm to -45.5 mm: 45.5 times the start, 0.91 of a 0.05 floor."""
+    error = np.array([0.001, -0.0455, 0.0])
+    assert overshoot(error) == pytest.approx(45.5)
+    assert overshoot(error, floor=0.05) == pytest.approx(0.91)
+    # a start above the floor is its own scale
+    assert overshoot(np.array([-1.0, 0.2]), floor=0.05) == pytest.approx(0.2)
+    summary = summarize(circle_run(theta_error=np.r_[0.001, -0.0455, np.zeros(1999)]))
+    assert summary["estimation_overshoot"]["theta"] == pytest.approx(0.91)
+
+
+def _mission(expect: dict[str, Any], **phases: dict[str, Any]) -> dict[str, Any]:
+    return {
+        "expect": expect,
+        "phases": [
+            {"name": name, "expect": phases.get(name, {})} for name in ("approach", "orbit", "park")
+        ],
+    }
+
+
+def _chattering_orbit() -> RunResult:
+    """circle_run with omega at +-20 rad/s (its limit) on 100 samples of the
+    orbit after its first second: 10 % of them."""
+    run = circle_run()
+    run.omega = run.omega.copy()
+    run.omega[700:800] = 20.0 * (-1.0) ** np.arange(100)
+    return run
+
+
+def test_input_at_a_limit_is_measured_after_the_settle_time() -> None:
+    orbit = summarize(_chattering_orbit())["phases"][1]["inputs"]
+    assert orbit["turn_rate_at_limit"] == pytest.approx(100 / 900)
+    assert orbit["speed_at_limit"] == 0.0
+    assert orbit["turn_rate_reversals"] == 99 + 1  # and back to +0.5 after
+    assert orbit["turn_rate_jitter"] > 5.0
+    # the same chatter inside the first second is the entry transient
+    run = circle_run()
+    run.omega = run.omega.copy()
+    run.omega[510:590] = 20.0
+    assert summarize(run)["phases"][1]["inputs"]["turn_rate_at_limit"] == 0.0
+
+
+def test_a_phase_threshold_overrides_the_missions() -> None:
+    run = _chattering_orbit()
+    mission = _mission({"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}})
+    checks = check_expectations(summarize(run, mission), mission)
+    assert [(c["phase"], c["metric"], c["met"]) for c in checks] == [
+        ("approach", "turn_rate_at_limit", True),
+        ("orbit", "turn_rate_at_limit", False),
+        ("park", "turn_rate_at_limit", True),
+    ]
+    relaxed = _mission(
+        {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
+        orbit={"turn_rate_at_limit": {"max": 0.2}, "settle_time": None},
+    )
+    checks = check_expectations(summarize(run, relaxed), relaxed)
+    assert [c["met"] for c in checks] == [True, True, True]
+    assert checks[1]["max"] == 0.2
+
+
+def test_phase_checks_apply_where_they_mean_something() -> None:
+    """Tracking thresholds only on track phases; none on a phase no longer than
+    its settle time; estimation RMS per state."""
+    mission = _mission(
+        {
+            "settle_time": 1.0,
+            "tracking_error_max": {"max": 0.1},
+            "estimation_rms": {"x": 1e-3, "y": None, "theta": 0.01},
+        },
+        approach={"settle_time": 6.0},  # longer than the 5 s phase
+    )
+    checks = check_expectations(summarize(circle_run(), mission), mission)
+    assert [(c["phase"], c["metric"], c["met"]) for c in checks] == [
+        ("orbit", "tracking_error_max", True),
+        ("orbit", "estimation_rms.x", True),
+        ("orbit", "estimation_rms.theta", True),
+        ("park", "estimation_rms.x", True),
+        ("park", "estimation_rms.theta", True),
+    ]
+
+
+def test_judge_turns_a_success_that_misses_a_threshold_into_expect_failed() -> None:
+    mission = _mission({"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}})
+    run = _chattering_orbit()
+    summary = judge(run, mission)
+    assert run.outcome is Outcome.expect_failed
+    assert summary["outcome"] == "expect-failed"
+    assert run.message == ("expectation not met: orbit: turn_rate_at_limit = 0.111111 (max 0.01)")
+    assert summary["expectations"][1]["met"] is False
+    # a clean run stays a success; a divergence keeps its own outcome
+    clean = circle_run()
+    assert judge(clean, mission)["outcome"] == "success"
+    diverged = dataclasses.replace(_chattering_orbit(), outcome=Outcome.diverged, message="x")
+    assert judge(diverged, mission)["outcome"] == "diverged"
+
+
+def test_a_phase_in_a_repeat_keeps_its_thresholds_on_every_lap() -> None:
+    """A repeated phase runs as name#lap; its own expect applies to each lap."""
+    run = _chattering_orbit()
+    run.phases = [run.phases[0], dataclasses.replace(run.phases[1], name="orbit#1"), run.phases[2]]
+    mission = {
+        "expect": {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
+        "phases": [
+            {"name": "approach", "expect": {}},
+            {
+                "name": "patrol",
+                "repeat": {
+                    "times": 1,
+                    "phases": [{"name": "orbit", "expect": {"turn_rate_at_limit": {"max": 0.2}}}],
+                },
+            },
+            {"name": "park", "expect": {}},
+        ],
+    }
+    checks = check_expectations(summarize(run, mission), mission)
+    assert [(c["phase"], c["max"], c["met"]) for c in checks] == [
+        ("approach", 0.01, True),
+        ("orbit#1", 0.2, True),
+        ("park", 0.01, True),
+    ]

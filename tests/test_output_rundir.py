@@ -12,12 +12,11 @@ import numpy as np
 import pytest
 from test_output_synthetic import circle_run
 
+from wmr_mission.output.reader import RunDirError, load_run
 from wmr_mission.output.rundir import (
-    RunDirError,
     RunDirExistsError,
     atomic_path,
     default_run_dir,
-    load_run,
     prepare_run_dir,
     write_run,
 )
@@ -239,9 +238,16 @@ def test_summary_lists_the_expectations(tmp_path: Path) -> None:
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["outcome"] == "success"
     assert summary["expectations"] == [
-        {"metric": "final_position_error", "max": 0.05, "value": pytest.approx(2.0), "met": False},
+        {
+            "metric": "final_position_error",
+            "phase": None,
+            "max": 0.05,
+            "value": pytest.approx(2.0),
+            "met": False,
+        },
         {
             "metric": "estimation_convergence_time",
+            "phase": None,
             "max": 1.0,
             "value": pytest.approx(0.29),
             "met": True,
@@ -333,4 +339,8 @@ def test_load_run_of_a_run_without_samples(tmp_path: Path) -> None:
     write(circle_run(10), tmp_path)
     csv_path = tmp_path / "trajectory.csv"
     csv_path.write_text(csv_path.read_text().partition("\n")[0] + "\n")
+    summary_path = tmp_path / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    summary["samples"] = 0  # a run stopped before its first sample says so
+    summary_path.write_text(json.dumps(summary))
     assert load_run(tmp_path).samples == 0

@@ -267,6 +267,9 @@ def test_ekf_step_matches(measured: list[str], rng: np.random.Generator) -> None
         np.testing.assert_allclose(outputs[0][1], outputs[1][1], rtol=1e-9, atol=1e-12)
 
 
+NO_LIMITS = np.full(4, math.inf)
+
+
 def test_corrective_law_matches_for_one_and_two_rows(rng: np.random.Generator) -> None:
     for rows in (1, 2):
         for trial in range(50):
@@ -276,18 +279,28 @@ def test_corrective_law_matches_for_one_and_two_rows(rng: np.random.Generator) -
             eta = rng.normal(0.0, 0.1, rows)
             w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
             fast = corrective_input_array(d, eta, b, w, m)
-            slow = reference.corrective_input(d, eta, b, w, m)
+            slow = reference.corrective_input(d, eta, b, w, m, NO_LIMITS)
             np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-12)
             # eq. (26): the linearised constraint is met (regularisation aside).
             if v != 0.0:
                 np.testing.assert_allclose(d @ b @ slow, eta, rtol=1e-6, atol=1e-12)
+            # Truncated to an input range: the same in both.
+            limits = np.array([*rng.uniform(0.01, 2.0, 2), math.inf, math.inf])
+            fast = corrective_input_array(d, eta, b, w, m, (limits[0], limits[1]))
+            slow = reference.corrective_input(d, eta, b, w, m, limits)
+            np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-12)
 
 
 def test_corrective_law_at_rest_leaves_the_unreachable_part() -> None:
     """A lateral constraint cannot be moved at rest: no input, not NaN."""
     b = reference.input_jacobian(0.0, 0.0, 0.0, DT)
     du = reference.corrective_input(
-        np.array([[0.0, 1.0, 0.0]]), np.array([0.5]), b, np.full(3, 100.0), np.full(2, 100.0)
+        np.array([[0.0, 1.0, 0.0]]),
+        np.array([0.5]),
+        b,
+        np.full(3, 100.0),
+        np.full(2, 100.0),
+        NO_LIMITS,
     )
     np.testing.assert_array_equal(du, np.zeros(2))
 
@@ -297,9 +310,13 @@ def random_limits(rng: np.random.Generator, rated: bool) -> np.ndarray:
     return np.concatenate([rng.uniform(0.5, 10.0, 2), rates])
 
 
-@pytest.mark.parametrize("look_ahead", [0.0, 0.05, 0.3])
+@pytest.mark.parametrize(
+    ("look_ahead", "error_decay"), [(0.0, 0.0), (0.05, 0.0), (0.3, 0.0), (0.05, 0.9), (0.3, 0.9)]
+)
 @pytest.mark.parametrize("rated", [False, True], ids=["no-rate-limit", "rate-limit"])
-def test_track_input_matches(look_ahead: float, rated: bool, rng: np.random.Generator) -> None:
+def test_track_input_matches(
+    look_ahead: float, error_decay: float, rated: bool, rng: np.random.Generator
+) -> None:
     for _ in range(40):
         estimate = random_pose(rng)
         u_prev = np.array([random_speed(rng), rng.uniform(-3, 3)])
@@ -307,13 +324,23 @@ def test_track_input_matches(look_ahead: float, rated: bool, rng: np.random.Gene
         reference_point = np.concatenate(
             [estimate[:2] + rng.normal(0.0, 0.2, 2), [math.cos(angle), math.sin(angle)]]
         )
+        angle = rng.uniform(-math.pi, math.pi)
+        reference_now = np.concatenate(
+            [estimate[:2] + rng.normal(0.0, 0.2, 2), [math.cos(angle), math.sin(angle)]]
+        )
         w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
         limits = random_limits(rng, rated)
         fast, slow = np.zeros(2), np.zeros(2)
-        controller = Controller(look_ahead, np.ones(3), np.ones(2), w, m, 0, 0.01, False)
+        controller = Controller(
+            look_ahead, error_decay, np.ones(3), np.ones(2), w, m, 0, 0.01, False
+        )
         robot = Robot(DT, limits)
-        control.track_input(estimate, u_prev, reference_point, controller, robot, scratch(), fast)
-        reference.track_input(estimate, u_prev, reference_point, controller, robot, scratch(), slow)
+        control.track_input(
+            estimate, u_prev, reference_now, reference_point, controller, robot, scratch(), fast
+        )
+        reference.track_input(
+            estimate, u_prev, reference_now, reference_point, controller, robot, scratch(), slow
+        )
         np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
 
 
@@ -370,7 +397,7 @@ def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generat
         for regulate in (control.regulate_input, reference.regulate_input):
             memory = np.array([float(trial % 2), 0.0, 0.0])
             u = np.zeros(2)
-            controller = Controller(0.0, q, r, w, m, FORMS[form], 0.01, bool(trial % 4))
+            controller = Controller(0.0, 0.0, q, r, w, m, FORMS[form], 0.01, bool(trial % 4))
             regulate(
                 estimate, estimate_prev, u_prev, target, kinds, params, controller,
                 Robot(DT, limits), memory, scratch(), u,

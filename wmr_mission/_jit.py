@@ -67,7 +67,10 @@ def kernel(fn: F) -> F:
     """Compile ``fn`` with numba (cached on disk) when available; else return it as is."""
     if _njit is None:
         return fn
-    return _compile(fn, nogil=True)
+    # error_model="numpy": a division by zero gives inf or nan, as in the
+    # pure-Python build, never a Python exception out of the compiled loop;
+    # the runner reports a non-finite input or state as a divergence.
+    return _compile(fn, nogil=True, error_model="numpy")
 
 
 def _time_stamp_counter() -> Callable[[], int] | None:

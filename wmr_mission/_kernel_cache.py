@@ -36,6 +36,7 @@ KERNEL_MODULES = (
     "ekf.py",
     "disturbances.py",
     "control.py",
+    "constrained_tracking.py",
     "loop.py",
 )
 

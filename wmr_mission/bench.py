@@ -62,15 +62,17 @@ def _stats(ns: NDArray[np.int64]) -> dict[str, float]:
     }
 
 
-def _timed_samples(results: list[RunResult]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """(phase index, compute ns) of every timed sample of ``results``.
+def _timed_samples(result: RunResult) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """(phase index, compute ns) of every timed sample of ``result``.
 
     The row that closes a run has no step and carries 0 ns: it is left out.
     """
-    phases = np.concatenate([r.phase for r in results])
-    ns = np.concatenate([r.compute_ns for r in results])
-    timed = ns > 0
-    return phases[timed], ns[timed]
+    timed = result.compute_ns > 0
+    return result.phase[timed], result.compute_ns[timed]
+
+
+class NothingToTime(ValueError):
+    """The mission ends before its first step: no sample to time."""
 
 
 def _same_trajectory(a: RunResult, b: RunResult) -> bool:
@@ -92,12 +94,21 @@ def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, 
     if repeat < 1:
         raise ValueError(f"repeat must be at least 1, got {repeat}")
     compiled = mission if isinstance(mission, CompiledMission) else compile_mission(mission)
-    run_mission(compiled, functions=FAST)  # warm-up: loads or compiles the kernels
-    ours = [run_mission(compiled, functions=FAST) for _ in range(repeat)]
+    ours = run_mission(compiled, functions=FAST)  # warm-up: loads or compiles the kernels
+    if not np.any(ours.compute_ns > 0):
+        raise NothingToTime(f"the mission ends at t = {ours.t[-1]:g} s, before its first step")
+    # Only the timed samples of each run are kept: memory grows with the samples
+    # timed, not with whole results.
+    timed, loops = [], []
+    for _ in range(repeat):
+        ours = run_mission(compiled, functions=FAST)
+        timed.append(_timed_samples(ours))
+        loops.append(ours.loop_ns / ours.samples / 1000.0)
     with one_blas_thread():
         reference = run_mission(compiled, functions=REFERENCE)
-    our_phase, our_ns = _timed_samples(ours)
-    ref_phase, ref_ns = _timed_samples([reference])
+    our_phase = np.concatenate([phases for phases, _ in timed])
+    our_ns = np.concatenate([ns for _, ns in timed])
+    ref_phase, ref_ns = _timed_samples(reference)
 
     def row(
         name: str, kind: str, mine: NDArray[np.int64], theirs: NDArray[np.int64]
@@ -122,35 +133,38 @@ def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, 
         "mission": compiled.name,
         "dt": compiled.dt,
         "samples": reference.samples,
-        "outcome": ours[0].outcome.value,
+        "outcome": ours.outcome.value,
         "repeat": repeat,
         "compiled": _jit.COMPILED,
-        "same_trajectory": _same_trajectory(ours[0], reference),
+        "same_trajectory": _same_trajectory(ours, reference),
         "phases": phases,
         "overall": row("all", "", our_ns, ref_ns),
-        "loop": _loop_row(ours, reference),
+        "loop": _loop_row(loops, reference),
         "paper_us_per_sample": dict(PAPER_US_PER_SAMPLE),
-        "disturbances": _disturbance_cost(compiled, ours, repeat),
+        "disturbances": _disturbance_cost(compiled, loops, repeat),
     }
 
 
 def _disturbance_cost(
-    compiled: CompiledMission, ours: list[RunResult], repeat: int
+    compiled: CompiledMission, loops: list[float], repeat: int
 ) -> dict[str, float] | None:
-    """Whole-loop wall time per sample with the mission's disturbances and
-    without them (None when it has none)."""
+    """Whole-loop wall time per sample [us] with the mission's disturbances
+    (``loops``, one per timed run) and without them (None when it has none)."""
     if not compiled.disturbances.active():
         return None
     calm = replace(compiled, disturbances=Settings())
-    without = [run_mission(calm, functions=FAST) for _ in range(repeat)]
-    with_us = float(np.median([r.loop_ns / r.samples for r in ours])) / 1000.0
-    without_us = float(np.median([r.loop_ns / r.samples for r in without])) / 1000.0
+    without = []
+    for _ in range(repeat):
+        result = run_mission(calm, functions=FAST)
+        without.append(result.loop_ns / result.samples / 1000.0)
+    with_us = float(np.median(loops))
+    without_us = float(np.median(without))
     return {"with_us": with_us, "without_us": without_us, "ratio": with_us / without_us}
 
 
-def _loop_row(ours: list[RunResult], reference: RunResult) -> dict[str, float]:
+def _loop_row(ours_us: list[float], reference: RunResult) -> dict[str, float]:
     """Whole-loop wall time per sample: the median of our runs, the reference's."""
-    mine = float(np.median([r.loop_ns / r.samples for r in ours])) / 1000.0
+    mine = float(np.median(ours_us))
     theirs = reference.loop_ns / reference.samples / 1000.0
     return {"ours_us": mine, "reference_us": theirs, "ratio": theirs / mine}
 
@@ -238,6 +252,10 @@ def bench_command(mission_path: str | Path, repeat: int) -> int:
         "(about 1 ms per sample) ...",
         file=sys.stderr,
     )
-    numbers = bench_mission(mission, repeat)
+    try:
+        numbers = bench_mission(mission, repeat)
+    except NothingToTime as error:
+        print(f"{mission_path}: nothing to time: {error}", file=sys.stderr)
+        return 1
     print(format_report(numbers, str(mission_path)))
     return 0

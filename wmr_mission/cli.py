@@ -7,10 +7,13 @@ never load matplotlib or scipy.
 
 from __future__ import annotations
 
+import io
+import os
 import sys
+import warnings
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any, TextIO
 
 import typer
 
@@ -21,6 +24,10 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+
+
+# Timed runs of `bench`: each keeps its per-sample times in memory.
+MAX_REPEAT = 100
 
 
 class OutputFormat(StrEnum):
@@ -44,7 +51,13 @@ def run(
         typer.Option("--out", help="Run directory (default: runs/<mission-name>-<timestamp>)."),
     ] = None,
     seed: Annotated[
-        int | None, typer.Option("--seed", help="Sensor-noise seed; overrides the mission's.")
+        int | None,
+        typer.Option(
+            "--seed",
+            min=0,
+            max=2**32 - 1,
+            help="Sensor-noise seed, 0..2^32-1; overrides the mission's.",
+        ),
     ] = None,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
     animate: Annotated[
@@ -98,7 +111,7 @@ def plot(
 def bench(
     mission: ExistingFile,
     repeat: Annotated[
-        int, typer.Option("--repeat", min=1, help="Runs of the mission to time.")
+        int, typer.Option("--repeat", min=1, max=MAX_REPEAT, help="Runs of the mission to time.")
     ] = 3,
 ) -> None:
     """Time the estimator + controller step per sample against the reference step."""
@@ -107,5 +120,45 @@ def bench(
     raise typer.Exit(bench_command(mission, repeat=repeat))
 
 
+class _QuietPipe:
+    """A standard stream that a closed pipe (``| head -1``) silences instead of
+    failing: the rest of the output goes to the null device and the command
+    ends with its own exit code."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._discard()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._discard()
+
+    def _discard(self) -> None:
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, self._stream.fileno())
+        os.close(null)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
 def main() -> None:
+    if not sys.warnoptions:
+        # Numerical warnings (overflow in a diverging run, ...) are reported by
+        # the run itself as its outcome; library warnings are not for users.
+        warnings.simplefilter("ignore")
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if isinstance(stream, io.TextIOWrapper):
+            # A path that is not UTF-8 is shown escaped rather than failing.
+            stream.reconfigure(errors="backslashreplace")
+            setattr(sys, name, _QuietPipe(stream))
     app()

@@ -24,6 +24,16 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 FORMS = {"bearing": 0, "deviation": 1, "increment": 2}
+# [m] the smallest default look-ahead distance (the tracked point ahead of the axle).
+MIN_LOOK_AHEAD = 0.05
+
+# A position farther than this from every coordinate the mission names is a
+# runaway, not a robot [m]: the threshold follows the mission's own scale, so a
+# mission written in map coordinates (y = 5e6) runs like one near the origin.
+RUNAWAY_DISTANCE = 1e6
+# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
+# no wheeled robot drives at 1 km/s or turns 160 times a second.
+RUNAWAY_INPUT = 1e3
 
 
 class Trajectory(Protocol):
@@ -94,7 +104,10 @@ class CompiledMission:
     r: FloatArray
     w: FloatArray
     m: FloatArray
+    # Tracking: the look-ahead distance [m] (0 = the axle, literal eq. (27))
+    # and the fraction of the output's error left after one sample.
     look_ahead: float
+    error_decay: float
     regulation_form: int
     align_radius: float
     reverse: bool
@@ -102,6 +115,9 @@ class CompiledMission:
     regions: dict[str, dict[str, object]]
     # Sample budget: the sum of each phase's bound, for pre-sizing the recorder.
     max_samples: int
+    # |x|, |y| [m] and |v|, |omega| [m/s, rad/s] beyond which the run has diverged.
+    runaway_position: float = RUNAWAY_DISTANCE
+    runaway_input: float = RUNAWAY_INPUT
     ekf_innovation_gate: float = math.inf  # inf: no gating
     # The true plant's and the sensors' imperfections (wmr_mission.disturbances).
     disturbances: disturbances.Settings = field(default_factory=disturbances.Settings)
@@ -111,12 +127,74 @@ def _samples(seconds: float, dt: float) -> int:
     return max(1, round(seconds / dt))
 
 
+def _extent(mission: Mission) -> float:
+    """The largest coordinate magnitude the mission names [m]: start, estimate,
+    regions, targets, points, and each path's first point from the start pose."""
+    from wmr_mission import paths
+
+    start = mission.robot.initial_state
+    guess = mission.estimator.initial_estimate or start
+    numbers = [start.x, start.y, guess.x, guess.y]
+    for region in mission.regions.values():
+        numbers += _numbers(region.model_dump(mode="json", exclude={"rotation"}))
+    pose = (float(start.x), float(start.y), float(start.theta))
+    from wmr_mission.spec.repeats import run_order
+
+    for phase in {run.where: run.phase for run in run_order(mission)}.values():
+        numbers += _numbers(phase.model_dump(mode="json", include={"regulate"}))
+        if phase.until is not None and phase.until.near is not None:
+            numbers += list(phase.until.near.point)
+        if hasattr(phase, "track"):
+            trajectory = paths.instantiate(phase.track.path, mission, pose)
+            x, y, _, _ = trajectory.sample(np.zeros(1))
+            numbers += [float(x[0]), float(y[0])]
+    finite = [abs(float(n)) for n in numbers if math.isfinite(float(n))]
+    return max(finite, default=0.0)
+
+
+def _numbers(value: object) -> list[float]:
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return []
+    if isinstance(value, int | float):
+        return [float(value)]
+    if isinstance(value, dict):
+        return [n for item in value.values() for n in _numbers(item)]
+    if isinstance(value, list | tuple):
+        return [n for item in value for n in _numbers(item)]
+    return []
+
+
 def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, FloatArray]:
     if not parts:
         return no_rows()
     kinds = np.concatenate([p[0] for p in parts]).astype(np.int64)
     params = np.ascontiguousarray(np.vstack([p[1] for p in parts]), dtype=np.float64)
     return kinds, params
+
+
+def tracking_look_ahead(mission: Mission) -> float:
+    """The tracked point's distance ahead of the axle [m]; 0 for the literal axle law.
+
+    Unset, it is tied to the limits: ``max(0.05, limits.v * dt)``. The
+    one-sample input sensitivity of the point has determinant
+    ``dt^2 (l + v dt / 2)``, zero at ``v = -2 l / dt``; with ``l >= limits.v * dt``
+    it stays within a factor 3 of ``l dt^2`` at every speed the limits allow
+    (docs/paper-notes.md, eq. (27))."""
+    tracking = mission.controller.tracking
+    if tracking.output == "axle":
+        return 0.0
+    if tracking.look_ahead is not None:
+        return float(tracking.look_ahead)
+    return max(MIN_LOOK_AHEAD, float(mission.robot.limits.v) * float(mission.robot.dt))
+
+
+def tracking_error_decay(mission: Mission) -> float:
+    """Fraction of the tracked output's error left after one sample: 0 for the
+    one-sample laws (``time_constant: 0``, and the literal axle law)."""
+    tracking = mission.controller.tracking
+    if tracking.output == "axle" or tracking.time_constant == 0:
+        return 0.0
+    return math.exp(-float(mission.robot.dt) / float(tracking.time_constant))
 
 
 def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
@@ -252,7 +330,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
     limits = mission.robot.limits
     controller = mission.controller
     initial = mission.robot.initial_state
-    guess = estimator.initial_estimate
+    guess = initial if estimator.initial_estimate is None else estimator.initial_estimate
     return CompiledMission(
         name=mission.name,
         dt=dt,
@@ -285,13 +363,13 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         r=np.array(controller.R, dtype=np.float64),
         w=np.array(controller.W, dtype=np.float64),
         m=np.array(controller.M, dtype=np.float64),
-        look_ahead=controller.tracking.look_ahead
-        if controller.tracking.output == "look-ahead"
-        else 0.0,
+        look_ahead=tracking_look_ahead(mission),
+        error_decay=tracking_error_decay(mission),
         regulation_form=FORMS[controller.regulation.form],
         align_radius=controller.regulation.align_radius,
         reverse=controller.regulation.reverse,
         phases=tuple(phases),
         regions={name: region.model_dump(mode="json") for name, region in mission.regions.items()},
         max_samples=budget + 1,
+        runaway_position=RUNAWAY_DISTANCE + _extent(mission),
     )

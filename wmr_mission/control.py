@@ -69,6 +69,7 @@ def input_jacobian_into(theta: float, v: float, omega: float, dt: float, b: Floa
 def track_input(
     estimate: FloatArray,
     u_prev: FloatArray,
+    reference_now: FloatArray,
     reference: FloatArray,
     controller: Controller,
     robot: Robot,
@@ -77,15 +78,27 @@ def track_input(
 ) -> None:
     """Case 2: ``u_k = u_{k-1} + du2_k`` with du2 of eq. (27), then the limits.
 
-    ``reference`` = (x, y, unit tangent x, unit tangent y) of the path at
-    t_{k+1}. The tracked output is the point ``look_ahead`` ahead of the axle
-    centre, aimed at the reference shifted by ``look_ahead`` along the path's
-    tangent; ``look_ahead = 0`` is the literal eq. (27) on the axle centre.
+    ``reference_now`` and ``reference`` = (x, y, unit tangent x, unit tangent
+    y) of the path at t_k and t_{k+1}. The tracked output is the point
+    ``look_ahead`` ahead of the axle centre, aimed at the reference shifted by
+    ``look_ahead`` along the path's tangent; ``look_ahead = 0`` is the literal
+    eq. (27) on the axle centre.
+
+    The constraint of eq. (27) is met at k+1 for the output's error left after
+    one sample, ``error_decay`` times its error at k: the target is the path
+    at t_{k+1} (its own motion, fed forward) minus that remaining error.
+    ``error_decay = 0`` closes the whole error in one sample, the paper's form.
     """
     dt = robot.dt
     look_ahead = controller.look_ahead
+    error_decay = controller.error_decay
     v_prev = u_prev[0]
     omega_prev = u_prev[1]
+    c = math.cos(estimate[2])
+    s = math.sin(estimate[2])
+    # The output's error at k: shifted reference minus G(x_{k|k}).
+    error_x = reference_now[0] + look_ahead * reference_now[2] - (estimate[0] + look_ahead * c)
+    error_y = reference_now[1] + look_ahead * reference_now[3] - (estimate[1] + look_ahead * s)
     # x_{k+1|k} with the previous input held (section III.D).
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v_prev, omega_prev, dt)
     c = math.cos(pth)
@@ -98,11 +111,15 @@ def track_input(
     d[1, 0] = 0.0
     d[1, 1] = 1.0
     d[1, 2] = look_ahead * c
-    eta[0] = reference[0] + look_ahead * reference[2] - (px + look_ahead * c)
-    eta[1] = reference[1] + look_ahead * reference[3] - (py + look_ahead * s)
+    eta[0] = (
+        reference[0] + look_ahead * reference[2] - error_decay * error_x - (px + look_ahead * c)
+    )
+    eta[1] = (
+        reference[1] + look_ahead * reference[3] - error_decay * error_y - (py + look_ahead * s)
+    )
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
     input_jacobian_into(estimate[2], v_prev, omega_prev, dt, b)
-    dv, dw = corrective_input(d, eta, 2, b, controller.w, controller.m)
+    dv, dw = corrective_input(d, eta, 2, b, controller.w, controller.m, robot.limits)
     u_out[0], u_out[1] = saturate(
         v_prev + dv, omega_prev + dw, v_prev, omega_prev, robot.limits, dt
     )
@@ -287,6 +304,6 @@ def regulate_input(
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
-    dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m)
+    dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)

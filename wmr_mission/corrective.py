@@ -8,11 +8,16 @@ predicted state and the input Jacobian ``B`` (3 x 2), eqs. (27)/(28) give
 the smallest change of the input (in the ``Rw`` norm of eq. (22)) that makes
 the linearised constraint ``G(x) + D B du = E`` of eq. (26) hold exactly.
 
-When ``D B Rw^-1 (D B)^T`` is singular or nearly so (robot at rest, or a
-constraint the inputs cannot move in one sample), its inverse is replaced by
-``(S + mu I)^-1`` with ``mu = REGULARISATION * trace(S)``: the Tikhonov
-(least-squares) answer. It meets the reachable part of ``eta`` and ignores the
-unreachable part instead of returning NaN or an unbounded input.
+Near singularity (robot at rest, a row the inputs can hardly move in one
+sample) the exact answer asks for unbounded inputs. When it asks for more than
+the span of the inputs (|dv| > 2 v_max or |domega| > 2 omega_max, from one
+limit to the other), or ``S = D B Rw^-1 (D B)^T`` is singular to rounding, the
+inverse of ``S`` becomes a pseudo-inverse truncated to the inputs: along each
+eigenvector of ``S`` the change that meets that part of ``eta`` is kept when
+it fits within the span and scaled down to it otherwise; eigenvalues below
+``REGULARISATION`` times the largest are dropped. A reachable part is met
+exactly, an unreachable part as far as the inputs allow, and
+``|dv| <= 2 count v_max``, ``|domega| <= 2 count omega_max``.
 """
 
 from __future__ import annotations
@@ -27,18 +32,36 @@ from wmr_mission._jit import kernel
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
+# Eigenvalues of S below this fraction of the largest are rounding, not reach.
 REGULARISATION = 1e-12
 ELLIPSE = 0
 HALF_PLANE = 1
 
 
 @kernel
+def _within_inputs(dv: float, dw: float, limits: FloatArray) -> tuple[float, float]:
+    """(dv, dw) scaled down, direction kept, to at most the span of the inputs,
+    |dv| <= 2 limits[0], |dw| <= 2 limits[1]: from one limit to the other."""
+    scale = 0.5 * max(abs(dv) / limits[0], abs(dw) / limits[1])
+    if scale > 1.0:
+        return dv / scale, dw / scale
+    return dv, dw
+
+
+@kernel
 def corrective_input(
-    d: FloatArray, eta: FloatArray, count: int, b: FloatArray, w: FloatArray, m: FloatArray
+    d: FloatArray,
+    eta: FloatArray,
+    count: int,
+    b: FloatArray,
+    w: FloatArray,
+    m: FloatArray,
+    limits: FloatArray,
 ) -> tuple[float, float]:
     """Eq. (27)/(28) for ``count`` (1 or 2) rows of ``d`` (rows x 3) and ``eta``.
 
-    ``w`` (3,) and ``m`` (2,) are the diagonals of W and M of eq. (22).
+    ``w`` (3,) and ``m`` (2,) are the diagonals of W and M of eq. (22);
+    ``limits[0:2]`` the input range that bounds the change.
     """
     # Rw = B^T W B + M (2x2, symmetric), and its inverse.
     r00 = m[0] + w[0] * b[0, 0] * b[0, 0] + w[1] * b[1, 0] * b[1, 0] + w[2] * b[2, 0] * b[2, 0]
@@ -55,27 +78,50 @@ def corrective_input(
     h10 = i01 * g00 + i11 * g01
     if count == 1:
         s = g00 * h00 + g01 * h10
-        if s <= 1e-300:
+        if not s > 0.0:
             return 0.0, 0.0
-        lam = eta[0] / (s + REGULARISATION * s)
-        return h00 * lam, h10 * lam
+        lam = eta[0] / s
+        return _within_inputs(h00 * lam, h10 * lam, limits)
     g10 = d[1, 0] * b[0, 0] + d[1, 1] * b[1, 0] + d[1, 2] * b[2, 0]
     g11 = d[1, 0] * b[0, 1] + d[1, 1] * b[1, 1] + d[1, 2] * b[2, 1]
     h01 = i00 * g10 + i01 * g11
     h11 = i01 * g10 + i11 * g11
-    # S = DB Rw^-1 DB^T (2x2) + mu I
+    # S = DB Rw^-1 DB^T (2x2, symmetric).
     s00 = g00 * h00 + g01 * h10
     s01 = g00 * h01 + g01 * h11
     s11 = g10 * h01 + g11 * h11
-    if s00 + s11 <= 1e-300:
+    mean = 0.5 * (s00 + s11)
+    radius = math.hypot(0.5 * (s00 - s11), s01)
+    largest = mean + radius
+    if not largest > 0.0:
         return 0.0, 0.0
-    mu = REGULARISATION * (s00 + s11)
-    s00 += mu
-    s11 += mu
-    sdet = s00 * s11 - s01 * s01
-    lam0 = (s11 * eta[0] - s01 * eta[1]) / sdet
-    lam1 = (s00 * eta[1] - s01 * eta[0]) / sdet
-    return h00 * lam0 + h01 * lam1, h10 * lam0 + h11 * lam1
+    if mean - radius > REGULARISATION * largest:
+        # Well posed: the exact answer, kept when it is within the inputs' span.
+        sdet = s00 * s11 - s01 * s01
+        lam0 = (s11 * eta[0] - s01 * eta[1]) / sdet
+        lam1 = (s00 * eta[1] - s01 * eta[0]) / sdet
+        dv = h00 * lam0 + h01 * lam1
+        dw = h10 * lam0 + h11 * lam1
+        if abs(dv) <= 2.0 * limits[0] and abs(dw) <= 2.0 * limits[1]:
+            return dv, dw
+    # Truncated: along each eigenvector (cos a, sin a), (-sin a, cos a) of S,
+    # the change that meets that part of eta, within the inputs' span.
+    angle = 0.5 * math.atan2(2.0 * s01, s00 - s11)
+    ca = math.cos(angle)
+    sa = math.sin(angle)
+    dv = 0.0
+    dw = 0.0
+    for i in range(2):
+        e0, e1, value = (ca, sa, largest) if i == 0 else (-sa, ca, mean - radius)
+        if value <= REGULARISATION * largest:
+            continue  # below rounding: nothing reachable this way
+        lam = (e0 * eta[0] + e1 * eta[1]) / value
+        part_v, part_w = _within_inputs(
+            (h00 * e0 + h01 * e1) * lam, (h10 * e0 + h11 * e1) * lam, limits
+        )
+        dv += part_v
+        dw += part_w
+    return dv, dw
 
 
 @kernel
@@ -113,11 +159,18 @@ def max_row_value(kinds: IntArray, params: FloatArray, x: float, y: float) -> fl
 
 
 def corrective_input_array(
-    d: FloatArray, eta: FloatArray, b: FloatArray, w: FloatArray, m: FloatArray
+    d: FloatArray,
+    eta: FloatArray,
+    b: FloatArray,
+    w: FloatArray,
+    m: FloatArray,
+    input_range: tuple[float, float] = (math.inf, math.inf),
 ) -> FloatArray:
-    """Array form of :func:`corrective_input` for tests and notebooks."""
+    """Array form of :func:`corrective_input` for tests and notebooks;
+    ``input_range`` = (|v|, |omega|) limits (none by default)."""
     rows = np.zeros((2, 3))
     rows[: d.shape[0]] = d
     values = np.zeros(2)
     values[: eta.shape[0]] = eta
-    return np.array(corrective_input(rows, values, d.shape[0], b, w, m))
+    limits = np.array([*input_range, math.inf, math.inf])
+    return np.array(corrective_input(rows, values, d.shape[0], b, w, m, limits))

@@ -42,12 +42,6 @@ from wmr_mission.result import EXTRA_COLUMNS, MEASUREMENT_COLUMNS, TRAJECTORY_CO
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-# A position beyond this is a runaway, not a robot [m].
-RUNAWAY = 1e6
-# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
-# no wheeled robot drives at 1 km/s or turns 160 times a second.
-RUNAWAY_INPUT = 1e3
-
 # Why run_segment returned.
 CHUNK_END = 0
 EXITED = 1
@@ -192,7 +186,6 @@ def record_sample(
     """Append one row; returns its index. ``estimate``, ``u`` and ``measured``
     are read now."""
     i: int = record.rows[0]
-    record.rows[0] = i + 1
     row = record.floats[i]
     row[0] = t
     row[1] = x
@@ -215,7 +208,23 @@ def record_sample(
     record.phase[i] = phase.number
     record.iterations[i] = iterations
     record.compute[i] = 0
+    # Counted once whole: a stop inside a sample (plain Python) leaves no half row.
+    record.rows[0] = i + 1
     return i
+
+
+@kernel
+def path_point(rows: FloatArray, row: int, heading: float, out: FloatArray) -> None:
+    """Point and unit tangent of the path block's ``row`` into ``out``; a path
+    at rest has no tangent: the robot's ``heading`` stands in."""
+    out[0] = rows[row, 0]
+    out[1] = rows[row, 1]
+    if rows[row, 2] != rows[row, 2]:
+        out[2] = math.cos(heading)
+        out[3] = math.sin(heading)
+    else:
+        out[2] = rows[row, 2]
+        out[3] = rows[row, 3]
 
 
 @kernel
@@ -242,6 +251,7 @@ def run_segment(
     u = signals.u
     u_prev = signals.u_prev
     counters = signals.counters
+    aim_now = scratch.aim_now
     aim = scratch.aim
     capacity = record.floats.shape[0]
     k = counters[K]
@@ -267,26 +277,20 @@ def run_segment(
             # The path point at t_k is recorded; the controller aims at t_{k+1}'s.
             reference_x = path.rows[row, 0]
             reference_y = path.rows[row, 1]
-            aim[0] = path.rows[row + 1, 0]
-            aim[1] = path.rows[row + 1, 1]
-            if path.rows[row + 1, 2] != path.rows[row + 1, 2]:
-                # A path at rest has no tangent: keep the robot's heading.
-                aim[2] = math.cos(estimate[2])
-                aim[3] = math.sin(estimate[2])
-            else:
-                aim[2] = path.rows[row + 1, 2]
-                aim[3] = path.rows[row + 1, 3]
+            path_point(path.rows, row, estimate[2], aim_now)
+            path_point(path.rows, row + 1, estimate[2], aim)
             if phase.constraint_kinds.shape[0]:  # aim along a zone's edge it crosses
-                keep_reference(
-                    aim, phase.constraint_kinds, phase.constraint_params, controller.look_ahead
-                )
+                kinds = phase.constraint_kinds
+                params = phase.constraint_params
+                keep_reference(aim_now, kinds, params, controller.look_ahead)
+                keep_reference(aim, kinds, params, controller.look_ahead)
         x = state[0]
         y = state[1]
         theta = state[2]
         started = ticks()
         # --- controller: u_k from x_{k|k}.
         if phase.tracking:
-            track_input(estimate, u_prev, aim, controller, robot, scratch, u)
+            track_input(estimate, u_prev, aim_now, aim, controller, robot, scratch, u)
             # The filter after the tracking law: zones win over tracking, eq. (28)
             # with priority (wmr_mission.constrained_tracking).
             if phase.constraint_kinds.shape[0]:
@@ -308,7 +312,7 @@ def run_segment(
                 scratch,
                 u,
             )
-        if not (abs(u[0]) <= RUNAWAY_INPUT and abs(u[1]) <= RUNAWAY_INPUT):  # NaN too
+        if not (abs(u[0]) <= robot.runaway_input and abs(u[1]) <= robot.runaway_input):  # NaN too
             spent = ticks() - started
             i = record_sample(
                 record, phase, k * dt, x, y, theta, estimate, u, reference_x, reference_y,
@@ -363,8 +367,10 @@ def run_segment(
         u_prev[1] = u[1]
         k += 1
         if not (
-            abs(state[0]) < RUNAWAY and abs(state[1]) < RUNAWAY and math.isfinite(state[2])
-            and abs(estimate[0]) < RUNAWAY and abs(estimate[1]) < RUNAWAY
+            abs(state[0]) < robot.runaway_position and abs(state[1]) < robot.runaway_position
+            and math.isfinite(state[2])
+            and abs(estimate[0]) < robot.runaway_position
+            and abs(estimate[1]) < robot.runaway_position
             and math.isfinite(estimate[2])
         ):  # fmt: skip
             record_sample(
@@ -388,6 +394,7 @@ def python_loop(replacements: dict[str, object]) -> types.FunctionType:
     for name in (
         "exit_condition",
         "record_sample",
+        "path_point",
         "applied_input",
         "plant_step",
         "sense",

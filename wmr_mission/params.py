@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from wmr_mission.compiled import RUNAWAY_DISTANCE, RUNAWAY_INPUT
+
 if TYPE_CHECKING:
     from wmr_mission.compiled import CompiledMission
 
@@ -25,6 +27,9 @@ class Robot(NamedTuple):
 
     dt: float  # [s] sampling period
     limits: FloatArray  # |v|, |omega|, then rate limits [m/s^2, rad/s^2] (inf when absent)
+    # |x| or |y| [m], |v| or |omega| [m/s, rad/s] beyond which the run has diverged.
+    runaway_position: float = RUNAWAY_DISTANCE
+    runaway_input: float = RUNAWAY_INPUT
 
 
 class Estimator(NamedTuple):
@@ -47,6 +52,7 @@ class Controller(NamedTuple):
     """Both control laws of section III.C."""
 
     look_ahead: float  # [m] tracked point ahead of the axle (0: eq. (27) literally)
+    error_decay: float  # fraction of the tracked output's error left after one sample
     q: FloatArray  # diagonal of Q-hat, eq. (17)
     r: FloatArray  # diagonal of R-hat, eq. (17)
     w: FloatArray  # diagonal of W, eq. (22)
@@ -62,7 +68,8 @@ class Scratch(NamedTuple):
     d: FloatArray  # (2, 3) constraint Jacobian D of eq. (26)
     eta: FloatArray  # (2,) constraint residual of eq. (26)
     b: FloatArray  # (3, 2) input Jacobian B of eq. (24)
-    aim: FloatArray  # (4,) path point and unit tangent the tracking law aims at
+    aim_now: FloatArray  # (4,) path point and unit tangent at t_k (tracking)
+    aim: FloatArray  # (4,) path point and unit tangent at t_{k+1} the tracking law aims at
     gain: FloatArray  # (2, 3) regulator gain T of eq. (20)
     h: FloatArray  # (2, 2) weight of the tracking output's motion (constrained tracking)
 
@@ -72,6 +79,7 @@ def scratch() -> Scratch:
         d=np.zeros((2, 3)),
         eta=np.zeros(2),
         b=np.zeros((3, 2)),
+        aim_now=np.zeros(4),
         aim=np.zeros(4),
         gain=np.zeros((2, 3)),
         h=np.zeros((2, 2)),
@@ -80,7 +88,7 @@ def scratch() -> Scratch:
 
 def records(m: CompiledMission) -> tuple[Robot, Estimator, Controller]:
     """The records of a compiled mission."""
-    robot = Robot(m.dt, m.limits)
+    robot = Robot(m.dt, m.limits, m.runaway_position, m.runaway_input)
     estimator = Estimator(
         m.estimator == "ekf",
         m.measure_mask,
@@ -95,7 +103,15 @@ def records(m: CompiledMission) -> tuple[Robot, Estimator, Controller]:
         m.ekf_innovation_gate,
     )
     controller = Controller(
-        m.look_ahead, m.q, m.r, m.w, m.m, m.regulation_form, m.align_radius, m.reverse
+        m.look_ahead,
+        m.error_decay,
+        m.q,
+        m.r,
+        m.w,
+        m.m,
+        m.regulation_form,
+        m.align_radius,
+        m.reverse,
     )
     return robot, estimator, controller
 

@@ -30,9 +30,6 @@ from wmr_mission.runner import StepFunctions
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-# Below this the corrective law has nothing it can move: no correction.
-NOTHING_REACHABLE = 1e-300
-
 
 def wrap_angle(angle: float) -> float:
     """Angle in [-pi, pi)."""
@@ -221,46 +218,65 @@ def saturate(
 
 
 def corrective_input(
-    d: FloatArray, eta: FloatArray, b: FloatArray, w: FloatArray, m: FloatArray
+    d: FloatArray, eta: FloatArray, b: FloatArray, w: FloatArray, m: FloatArray, limits: FloatArray
 ) -> FloatArray:
-    """Eqs. (27)/(28): du = Rw^-1 (D B)^T (D B Rw^-1 (D B)^T)^-1 eta.
+    """Eqs. (27)/(28): du = Rw^-1 (D B)^T S^-1 eta, S = D B Rw^-1 (D B)^T.
 
-    The inverse is regularised to (S + mu I)^-1 with mu = REGULARISATION *
-    trace(S); nothing is corrected when S vanishes.
+    When S is singular to rounding, or du leaves the inputs' span (2 limits),
+    S^-1 becomes the pseudo-inverse truncated to the inputs: each
+    eigen-direction's change is scaled down to fit |dv| <= 2 limits[0],
+    |domega| <= 2 limits[1]; eigenvalues below REGULARISATION times the
+    largest are dropped.
     """
     rw = b.T @ np.diag(w) @ b + np.diag(m)
     rw_inv = np.linalg.inv(rw)
     db = d @ b
     s = db @ rw_inv @ db.T
-    scale = float(np.trace(s))
-    if scale <= NOTHING_REACHABLE:
+    span = 2.0 * limits[:2]
+    values, vectors = np.linalg.eigh(s)
+    largest = values.max()
+    if not largest > 0.0:
         return np.zeros(2)
-    s = s + REGULARISATION * scale * np.eye(s.shape[0])
-    return np.asarray(rw_inv @ db.T @ np.linalg.solve(s, eta))
+    if values.min() > REGULARISATION * largest:
+        du = rw_inv @ db.T @ np.linalg.solve(s, eta)
+        if np.all(np.abs(du) <= span):
+            return np.asarray(du)
+    du = np.zeros(2)
+    for value, vector in zip(values, vectors.T, strict=True):
+        if value <= REGULARISATION * largest:
+            continue
+        part = rw_inv @ db.T @ vector * (vector @ eta) / value
+        du += part / max(1.0, float(np.max(np.abs(part) / span)))
+    return du
 
 
 def track_input(
     estimate: FloatArray,
     u_prev: FloatArray,
+    reference_now: FloatArray,
     reference: FloatArray,
     controller: Controller,
     robot: Robot,
     work: Scratch,
     u_out: FloatArray,
 ) -> None:
-    """Case 2: u_k = u_{k-1} + du2_k, du2 of eq. (27) on the look-ahead point."""
-    look_ahead, w, m = controller.look_ahead, controller.w, controller.m
+    """Case 2: u_k = u_{k-1} + du2_k, du2 of eq. (27) on the look-ahead point,
+    aimed so that ``error_decay`` of the output's error at k is left at k+1."""
+    look_ahead, error_decay = controller.look_ahead, controller.error_decay
+    w, m = controller.w, controller.m
     limits, dt = robot.limits, robot.dt
     v_prev, omega_prev = float(u_prev[0]), float(u_prev[1])
+
+    def output(pose: FloatArray) -> FloatArray:  # eq. (26): position + look_ahead * heading
+        return np.asarray(pose[:2] + look_ahead * np.array([math.cos(pose[2]), math.sin(pose[2])]))
+
+    error_now = reference_now[:2] + look_ahead * reference_now[2:4] - output(estimate)
     predicted = predict(estimate, v_prev, omega_prev, dt)  # x_{k+1|k}, u_{k-1} held
-    heading = np.array([math.cos(predicted[2]), math.sin(predicted[2])])
-    normal = np.array([-heading[1], heading[0]])
-    # eq. (26): G(x) = position + look_ahead * heading, D = dG/dx.
-    output = predicted[:2] + look_ahead * heading
-    d = np.column_stack([np.eye(2), look_ahead * normal])
-    target = reference[:2] + look_ahead * reference[2:4]
+    normal = np.array([-math.sin(predicted[2]), math.cos(predicted[2])])
+    d = np.column_stack([np.eye(2), look_ahead * normal])  # D = dG/dx
+    target = reference[:2] + look_ahead * reference[2:4] - error_decay * error_now
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
-    du = corrective_input(d, target - output, b, w, m)
+    du = corrective_input(d, target - output(predicted), b, w, m, limits)
     u_out[0], u_out[1] = saturate(
         v_prev + du[0], omega_prev + du[1], v_prev, omega_prev, limits, dt
     )
@@ -387,7 +403,7 @@ def regulate_input(
     worst = violated[np.argsort(-values[violated], kind="stable")][:2]
     d = np.column_stack([gradients[worst], np.zeros(worst.size)])
     b = input_jacobian(float(estimate[2]), v, omega, dt)
-    du = corrective_input(d, -values[worst], b, w, m)
+    du = corrective_input(d, -values[worst], b, w, m, limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt)
 

@@ -38,7 +38,7 @@ class Outcome(StrEnum):
     timeout = "timeout"  # a phase timed out with on_timeout: fail
     diverged = "diverged"  # non-finite or runaway state or input
     expect_failed = "expect-failed"  # ran to the end, an `expect` threshold not met
-    interrupted = "interrupted"  # stopped by the user (Ctrl-C) before the end
+    interrupted = "interrupted"  # stopped by SIGINT or SIGTERM: the samples up to the stop
 
 
 @dataclass(frozen=True)

@@ -1,85 +1,178 @@
-"""``wmr-mission run``: load, simulate, judge, write, report."""
+"""``wmr-mission run``: load, simulate, judge, write, report.
+
+What can fail is checked before the simulation (the mission, the run
+directory: created, claimed and writable, the free space), and what was
+simulated is written even when the run stops early: on SIGINT or SIGTERM the
+samples up to the stop are written with the outcome ``interrupted`` and the
+command exits 128 + the signal's number (130, 143).
+"""
 
 from __future__ import annotations
 
 import hashlib
+import shutil
+import signal
 import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 from wmr_mission.result import Outcome, RunResult
 
+# Exit codes (README, docs/reliability.md).
+EXIT_FAILED = 1  # invalid mission, or the run failed
+EXIT_RUN_DIR = 2  # the run directory cannot be made or written
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-def _expectation_failures(result: RunResult, expect: dict[str, Any]) -> list[str]:
-    from wmr_mission.output.metrics import check_expectations, summarize
 
-    failures = []
-    for item in check_expectations(summarize(result), expect):
-        if not item["met"]:
-            value = "none" if item["value"] is None else f"{item['value']:.6g}"
-            failures.append(f"{item['metric']} = {value} (max {item['max']:.6g})")
-    return failures
+@contextmanager
+def _stop_signals() -> Iterator[list[int]]:
+    """SIGTERM stops the run the way Ctrl-C does; yields the signals received.
+
+    Outside the main thread (a run started from a thread) signals cannot be
+    handled and stay as they are.
+    """
+    received: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield received
+        return
+
+    def stop(number: int, frame: object) -> None:
+        received.append(number)
+        raise KeyboardInterrupt
+
+    previous = {number: signal.signal(number, stop) for number in STOP_SIGNALS}
+    try:
+        yield received
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def _signal_exit(received: list[int]) -> int:
+    return 128 + (received[0] if received else signal.SIGINT)
 
 
 def run_command(
     mission_path: Path, *, out: Path | None, seed: int | None, plots: bool, animate: bool
 ) -> int:
-    """Exit code: 0 success, 1 invalid mission or failed run, 2 unusable run directory."""
-    from wmr_mission.spec.loader import MissionError, load_mission
+    """Exit code: 0 success; 1 invalid mission or failed run; 2 unusable run
+    directory; 130 or 143 stopped by SIGINT or SIGTERM (its record is written)."""
+    from wmr_mission.spec.loader import check_mission_bytes, read_source
 
-    try:
-        mission = load_mission(mission_path)
-    except MissionError as error:
-        print(error, file=sys.stderr)
-        return 1
+    with _stop_signals() as received:
+        try:
+            # The file is read once: the bytes hashed are the bytes run.
+            source, diagnostics = read_source(mission_path)
+            mission = None
+            if source is not None:
+                mission, diagnostics = check_mission_bytes(source, str(mission_path))
+            if mission is None or source is None:
+                for diagnostic in diagnostics:
+                    if diagnostic.severity == "error":
+                        print(diagnostic, file=sys.stderr)
+                return EXIT_FAILED
+            sha256 = hashlib.sha256(source).hexdigest()
+            return _run(mission, sha256, mission_path, out, seed, plots, animate, received)
+        except KeyboardInterrupt:
+            print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
+            return _signal_exit(received)
 
+
+def _run(
+    mission: Any,
+    sha256: str,
+    mission_path: Path,
+    out: Path | None,
+    seed: int | None,
+    plots: bool,
+    animate: bool,
+    received: list[int],
+) -> int:
     from wmr_mission.compiled import compile_mission
+    from wmr_mission.output.metrics import judge
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
         RunDirExistsError,
         default_run_dir,
         prepare_run_dir,
+        release_run_dir,
+        space_needed,
         write_run,
     )
 
+    compiled = compile_mission(mission, seed)
     run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
     try:
-        run_dir = prepare_run_dir(run_dir)
+        run_dir = prepare_run_dir(run_dir, suffix_on_collision=out is None)
     except (RunDirExistsError, OSError) as error:
-        print(f"{run_dir}: {error}", file=sys.stderr)
-        return 2
-
-    compiled = compile_mission(mission, seed)
-    result = _simulate(compiled, mission.name)
+        print(f"{run_dir}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
+        return EXIT_RUN_DIR
+    try:
+        needed = space_needed(compiled.max_samples)
+        free = shutil.disk_usage(run_dir).free
+        if free < needed:
+            print(
+                f"{run_dir}: warning: {free / 1e6:.3g} MB free; this run may write up to "
+                f"{needed / 1e6:.3g} MB",
+                file=sys.stderr,
+            )
+        result = _simulate(compiled, mission.name)
+    except MemoryError:
+        release_run_dir(run_dir)
+        print(
+            f"{mission_path}: not enough memory to simulate {compiled.max_samples} samples; "
+            "shorten the phases' time bounds or raise dt",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
+    except BaseException:  # a signal before the loop started: nothing was simulated
+        release_run_dir(run_dir)
+        raise
     resolved = mission.model_dump(mode="json")
     if seed is not None:  # the manifest records the mission as run
         resolved["sensors"]["seed"] = seed
-    expect = resolved.get("expect") or {}
-    if result.outcome is Outcome.success:
-        failures = _expectation_failures(result, expect)
-        if failures:
-            result.outcome = Outcome.expect_failed
-            result.message = "expectation not met: " + "; ".join(failures)
-    write_run(
-        result,
-        run_dir,
-        mission_sha256=hashlib.sha256(mission_path.read_bytes()).hexdigest(),
-        resolved_mission=resolved,
-        mission_file=str(mission_path),
-        plots=plots,
-        animate=animate,
-    )
-    from wmr_mission.output.metrics import check_expectations, summarize
-
-    summary = summarize(result)
-    summary["expectations"] = check_expectations(summary, expect)
+    if result.outcome is Outcome.interrupted:
+        name = signal.Signals(received[0]).name if received else "SIGINT"
+        result.message = f"{result.message} by {name}"
+    summary = judge(result, resolved)  # a success that misses an `expect` is not one
+    stopped = result.outcome is Outcome.interrupted
+    try:
+        write_run(
+            result,
+            run_dir,
+            mission_sha256=sha256,
+            resolved_mission=resolved,
+            mission_file=str(mission_path),
+            # A stopped run writes its data at once; `wmr-mission plot` draws it.
+            plots=plots and not stopped,
+            animate=animate and not stopped,
+        )
+    except OSError as error:
+        print(
+            f"{error.filename or run_dir}: cannot write: {error.strerror or error}; "
+            f"{run_dir} holds only the files written before (no summary.json)",
+            file=sys.stderr,
+        )
+        return EXIT_RUN_DIR
+    except KeyboardInterrupt:
+        print(f"{run_dir}: interrupted while writing; no summary.json", file=sys.stderr)
+        return _signal_exit(received)
     print(format_table(summary, run_dir))
+    if stopped:
+        print(
+            f"{mission_path}: {result.message}; the samples up to the stop are in {run_dir}",
+            file=sys.stderr,
+        )
+        return _signal_exit(received)
     if result.outcome is not Outcome.success:
         # Every failure message names what happened: "diverged in phase ...",
         # "phase ... timed out ...", "expectation not met: ...".
         print(f"{mission_path}: {result.message}", file=sys.stderr)
-        return 1
+        return EXIT_FAILED
     return 0
 
 

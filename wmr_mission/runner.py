@@ -257,6 +257,7 @@ class _Run:
             burst=np.zeros(1, dtype=np.int64),
         )
         self.loop_ns = 0
+        self._started = (time.perf_counter_ns(), self.ticks())
 
     def _call(self, phase: Phase, path: PathBlock, draws: FloatArray, stop: int) -> int:
         return int(
@@ -276,6 +277,24 @@ class _Run:
         )
 
     def run(self) -> RunResult:
+        try:
+            return self._loop()
+        except KeyboardInterrupt:  # SIGINT, or SIGTERM mapped to it by the command
+            return self._interrupted()
+
+    def _interrupted(self) -> RunResult:
+        """The samples recorded up to the stop. A row is counted only once it is
+        whole, so a stop inside a sample (pure Python) leaves no half row."""
+        record = self.recorder.record
+        last = self.recorder.count - 1
+        active = self.phases[int(record.phase[last]) if last >= 0 else 0]
+        t = round(float(record.floats[last, 0]), 9) if last >= 0 else 0.0
+        self.transitions.append(Transition(t, active.phase.name, None, "interrupted", math.nan))
+        return self._result(
+            Outcome.interrupted, f"interrupted in phase '{active.phase.name}' at t = {t:.6g} s"
+        )
+
+    def _loop(self) -> RunResult:
         m = self.m
         dt = m.dt
         signals = self.signals
@@ -288,78 +307,66 @@ class _Run:
         outcome = Outcome.success
         message = "all phases completed"
         budget = m.max_samples * dt
-        started_ns = time.perf_counter_ns()
-        started_ticks = self.ticks()
+        self._started = (time.perf_counter_ns(), self.ticks())
         index = 0
         chunk = min(FIRST_CHUNK, CHUNK)
-        try:
-            while True:
-                k = int(counters[loop.K])
-                local = k - active.entry_sample
-                # No further than the phase's own bound: no path sampled past its end.
-                samples = min(chunk, max(1, active.bound - local))
-                path = active.path_ahead(local, samples + 1)
-                self.recorder.reserve(2)  # the loop stops early when the recorder is full
-                status = self._call(phase, path, draws.ahead(samples), k + samples)
-                draws.used(int(counters[loop.DRAWS]))
-                counters[loop.DRAWS] = 0
-                k = int(counters[loop.K])
-                if status == loop.CHUNK_END:
-                    if self.progress is not None:
-                        self.progress(k * dt, budget, active.phase.name)
-                    chunk = min(4 * chunk, CHUNK)
-                    continue
-                if status != loop.EXITED:
-                    cause = self._divergence_cause(status)
-                    outcome, message = self._diverged(int(counters[loop.K]), active, cause)
-                    break
-                condition = loop.CONDITIONS[int(counters[loop.CONDITION])]
-                value = float(signals.exit_value[0])
-                if condition in ("elapsed", "timeout", "mission_time"):
-                    value = _seconds(int(value), dt)
-                if condition == "timeout" and active.phase.fail_on_timeout:
-                    active.status = Status.timed_out
-                    self.transitions.append(
-                        Transition(_seconds(k, dt), active.phase.name, None, condition, value)
-                    )
-                    outcome = Outcome.timeout
-                    message = (
-                        f"phase '{active.phase.name}' timed out after {value:.6g} s "
-                        f"at t = {k * dt:.6g} s"
-                    )
-                    self._close(k, phase)
-                    break
-                active.status = Status.done
-                index += 1
-                to = self.phases[index] if index < len(self.phases) else None
-                self.transitions.append(
-                    Transition(
-                        _seconds(k, dt),
-                        active.phase.name,
-                        None if to is None else to.phase.name,
-                        condition,
-                        value,
-                        None if to is None else to.phase.lap,
-                    )
-                )
-                if to is None:
-                    self._close(k, phase)
-                    break
-                active = to
-                signals.memory[:] = 0.0
-                phase = active.enter(k, signals.estimate)
-                chunk = min(FIRST_CHUNK, CHUNK)
-        except KeyboardInterrupt:
+        while True:
             k = int(counters[loop.K])
-            t = _seconds(k, dt)
-            self.transitions.append(Transition(t, active.phase.name, None, "interrupted", math.nan))
-            outcome = Outcome.interrupted
-            message = f"interrupted in phase '{active.phase.name}' at t = {t:.6g} s"
-        self.loop_ns = time.perf_counter_ns() - started_ns
-        ns_per_tick = (
-            1.0 if self.ticks_are_ns else self.loop_ns / max(1, self.ticks() - started_ticks)
-        )
-        return self._result(outcome, message, ns_per_tick)
+            local = k - active.entry_sample
+            # No further than the phase's own bound: no path sampled past its end.
+            samples = min(chunk, max(1, active.bound - local))
+            path = active.path_ahead(local, samples + 1)
+            self.recorder.reserve(2)  # the loop stops early when the recorder is full
+            status = self._call(phase, path, draws.ahead(samples), k + samples)
+            draws.used(int(counters[loop.DRAWS]))
+            counters[loop.DRAWS] = 0
+            k = int(counters[loop.K])
+            if status == loop.CHUNK_END:
+                if self.progress is not None:
+                    self.progress(k * dt, budget, active.phase.name)
+                chunk = min(4 * chunk, CHUNK)
+                continue
+            if status != loop.EXITED:
+                cause = self._divergence_cause(status)
+                outcome, message = self._diverged(int(counters[loop.K]), active, cause)
+                break
+            condition = loop.CONDITIONS[int(counters[loop.CONDITION])]
+            value = float(signals.exit_value[0])
+            if condition in ("elapsed", "timeout", "mission_time"):
+                value = _seconds(int(value), dt)
+            if condition == "timeout" and active.phase.fail_on_timeout:
+                active.status = Status.timed_out
+                self.transitions.append(
+                    Transition(_seconds(k, dt), active.phase.name, None, condition, value)
+                )
+                outcome = Outcome.timeout
+                message = (
+                    f"phase '{active.phase.name}' timed out after {value:.6g} s "
+                    f"at t = {k * dt:.6g} s"
+                )
+                self._close(k, phase)
+                break
+            active.status = Status.done
+            index += 1
+            to = self.phases[index] if index < len(self.phases) else None
+            self.transitions.append(
+                Transition(
+                    _seconds(k, dt),
+                    active.phase.name,
+                    None if to is None else to.phase.name,
+                    condition,
+                    value,
+                    None if to is None else to.phase.lap,
+                )
+            )
+            if to is None:
+                self._close(k, phase)
+                break
+            active = to
+            signals.memory[:] = 0.0
+            phase = active.enter(k, signals.estimate)
+            chunk = min(FIRST_CHUNK, CHUNK)
+        return self._result(outcome, message)
 
     def _close(self, k: int, phase: Phase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""
@@ -377,7 +384,7 @@ class _Run:
             if math.isfinite(u[0]) and math.isfinite(u[1]):
                 return (
                     f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
-                    f"beyond {loop.RUNAWAY_INPUT:g} is no robot's)"
+                    f"beyond {self.m.runaway_input:g} is no robot's)"
                 )
             return "the input is not finite"
         return (
@@ -393,7 +400,12 @@ class _Run:
             f"diverged in phase '{active.phase.name}' at t = {t:.6g} s: {cause}",
         )
 
-    def _result(self, outcome: Outcome, message: str, ns_per_tick: float) -> RunResult:
+    def _result(self, outcome: Outcome, message: str) -> RunResult:
+        started_ns, started_ticks = self._started
+        self.loop_ns = time.perf_counter_ns() - started_ns
+        ns_per_tick = (
+            1.0 if self.ticks_are_ns else self.loop_ns / max(1, self.ticks() - started_ticks)
+        )
         r = self.recorder
         n = r.count
         m = self.m

@@ -5,28 +5,44 @@ sign of the output error ``xi - xi_hat`` bounded by eq. (4); heading errors are
 wrapped to [-pi, pi). Values that do not exist (no track phase, no constraint,
 never converged) are ``None`` and become ``null`` in JSON; so does anything
 non-finite, e.g. after a divergence.
+
+Everything here is computed from the recorded arrays of a :class:`RunResult`
+after the run. The quality metrics of a phase (tracking error, inputs,
+estimation RMS) leave out its first ``settle_time`` seconds: the entry
+transient is the controller's job, not a fault.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
-from wmr_mission.result import FloatArray, PhaseInfo, RunResult
+from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
+from wmr_mission.spec import models
 
 STATES = ("x", "y", "theta")
-# |estimation error| below which a state counts as converged; the same number
-# as the paper's "short transient" acceptance and `expect.estimation_convergence_time`.
-CONVERGENCE_TOLERANCE = 0.05
-# Tracking-error RMS is also reported without the entry transient of a phase.
-TRACKING_SETTLE_TIME = 1.0  # [s]
+# The mission's `expect` settings when a summary is made without a mission.
+DEFAULT_CONVERGENCE_TOLERANCE = dict.fromkeys(STATES, models.DEFAULT_CONVERGENCE_TOLERANCE)
 # A constraint row above this counts as violated: a constraint held as an
 # equality by the corrective action sits on 0 to rounding.
 VIOLATION_TOLERANCE = 1e-6
+# An input within this fraction of its limit counts as at the limit (the
+# runner clips to the limit exactly; this only absorbs rounding).
+AT_LIMIT_TOLERANCE = 1e-9
+# Turn-rate jitter is measured about a centred moving mean of this many samples.
+JITTER_WINDOW = 25
+# Distance to the path: the segments within this many reference points of a
+# sample's own, and those next to this many of the path's nearest points, are tried.
+LOCAL_WINDOW = 8
+_NEAREST_POINTS = 4
+_DISTANCE_CHUNK = 65_536  # positions per query
 
-# `expect` key -> where its value lives in the summary.
+# Mission-wide `expect` key -> where its value lives in the summary.
 _EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "final_position_error": ("final", "position_error"),
     "final_heading_error": ("final", "heading_error"),
@@ -34,6 +50,19 @@ _EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "estimation_convergence_time": ("estimation_convergence_time",),
     "duration": ("duration",),
 }
+# Per-phase `expect` key -> where its value lives in a phase's summary. A
+# mission-wide value applies to every phase; a phase's own value overrides it.
+_PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
+    "tracking_error_rms": ("tracking_error", "rms"),
+    "tracking_error_max": ("tracking_error", "max"),
+    "speed_at_limit": ("inputs", "speed_at_limit"),
+    "turn_rate_at_limit": ("inputs", "turn_rate_at_limit"),
+    "turn_rate_jitter": ("inputs", "turn_rate_jitter"),
+    "turn_rate_reversals": ("inputs", "turn_rate_reversals"),
+    "estimation_rms": ("estimation", "rms"),  # per state
+}
+# `expect` keys that set how metrics are measured, not thresholds.
+_SETTINGS = ("settle_time", "convergence_tolerance")
 
 
 def wrap_angle(angle: FloatArray) -> FloatArray:
@@ -74,11 +103,16 @@ def estimation_errors(result: RunResult) -> dict[str, FloatArray]:
     }
 
 
-def convergence_index(errors: dict[str, FloatArray]) -> int | None:
-    """First sample from which every |error| stays below the tolerance to the end, else None."""
+def convergence_index(
+    errors: dict[str, FloatArray], tolerance: Mapping[str, float] | None = None
+) -> int | None:
+    """First sample from which every |error| stays below its state's tolerance
+    to the end, else None."""
+    tolerance = DEFAULT_CONVERGENCE_TOLERANCE if tolerance is None else tolerance
     stacked = np.abs(np.vstack(list(errors.values())))
+    limits = np.array([tolerance[state] for state in errors])[:, None]
     # NaN compares False: a non-finite error is never converged.
-    converged = np.all(stacked < CONVERGENCE_TOLERANCE, axis=0)
+    converged = np.all(stacked < limits, axis=0)
     if converged.size == 0:
         return None
     unconverged = np.flatnonzero(~converged)
@@ -88,16 +122,111 @@ def convergence_index(errors: dict[str, FloatArray]) -> int | None:
     return last + 1 if last + 1 < converged.size else None
 
 
-def overshoot(error: FloatArray) -> float:
-    """Step-response overshoot of an error decaying from ``error[0]``, as a fraction of it.
+def overshoot(error: FloatArray, floor: float = 0.0) -> float:
+    """Step-response overshoot of an error decaying from ``error[0]``.
 
-    max over k of ``-sign(e0) * e[k] / |e0|``; 0 when the error never crosses
-    zero, or when it starts at zero.
+    max over k of ``-sign(e0) * e[k] / max(|e0|, floor)``: how far the error
+    swings past zero, as a fraction of its initial value, or of ``floor`` (the
+    state's convergence tolerance) when it starts smaller, so that a swing
+    from a vanishing initial error is not blown up. 0 when the error never
+    crosses zero, or when it starts at zero.
     """
     if error.size == 0 or not math.isfinite(float(error[0])) or error[0] == 0.0:
         return 0.0
-    crossed = _max_or_none(-np.sign(error[0]) * error / abs(float(error[0])))
+    scale = max(abs(float(error[0])), floor)
+    crossed = _max_or_none(-np.sign(error[0]) * error / scale)
     return max(0.0, crossed) if crossed is not None else 0.0
+
+
+def distance_to_path(
+    x: FloatArray, y: FloatArray, x_ref: FloatArray, y_ref: FloatArray
+) -> FloatArray:
+    """Distance of each position ``(x[k], y[k])`` from the path: the polyline
+    through the finite reference points in order (the path passed so far).
+    NaN where the position is not finite.
+
+    The segments tried are those within LOCAL_WINDOW points of the sample's own
+    reference point (where a robot that tracks is), and those next to the
+    points of the whole path nearest to it (where a robot that fell behind or
+    cut across is). For the second, the path's points are thinned to one per
+    cell of a grid half as fine as its sampling, else a path run round many
+    times is searched lap by lap. So the distance is never below the true one,
+    is exact when the nearest point lies within the window, and is at most
+    about one sampling step above it otherwise.
+    """
+    distance = np.full(x.shape, np.nan)
+    known = np.isfinite(x_ref) & np.isfinite(y_ref)
+    px, py = x_ref[known], y_ref[known]
+    finite = np.isfinite(x) & np.isfinite(y)
+    if px.size == 0 or not finite.any():
+        return distance
+    qx, qy = x[finite], y[finite]
+    if px.size == 1:
+        distance[finite] = np.hypot(qx - px[0], qy - py[0])
+        return distance
+    own = np.maximum(np.cumsum(known) - 1, 0)[finite]  # each sample's reference point
+    steps = np.hypot(np.diff(px), np.diff(py))
+    cell = float(np.median(steps[steps > 0])) / 2 if np.any(steps > 0) else 1.0
+    cells = np.floor(np.column_stack((px, py)) / cell)
+    _, first = np.unique(cells, axis=0, return_index=True)
+    tree = cKDTree(np.column_stack((px[first], py[first])))
+    found = np.empty(qx.size)
+    for start in range(0, qx.size, _DISTANCE_CHUNK):  # bounded memory on long runs
+        part = slice(start, start + _DISTANCE_CHUNK)
+        _, nearest = tree.query(
+            np.column_stack((qx[part], qy[part])), k=min(_NEAREST_POINTS, first.size)
+        )
+        nearest = first[nearest.reshape(qx[part].size, -1)]
+        local = own[part, None] + np.arange(-LOCAL_WINDOW, LOCAL_WINDOW)
+        # segment i runs from point i to point i + 1
+        segments = np.concatenate((local, nearest - 1, nearest), axis=1)
+        found[part] = _distance_to_segments(
+            px, py, np.clip(segments, 0, px.size - 2), qx[part], qy[part]
+        )
+    distance[finite] = found
+    return distance
+
+
+def _distance_to_segments(
+    px: FloatArray, py: FloatArray, segments: NDArray[np.intp], qx: FloatArray, qy: FloatArray
+) -> FloatArray:
+    """Distance of each point (qx[i], qy[i]) from the nearest of its segments (row i)."""
+    ax, ay = px[segments], py[segments]
+    sx, sy = px[segments + 1] - ax, py[segments + 1] - ay
+    length2 = sx**2 + sy**2
+    qx, qy = qx[:, None], qy[:, None]
+    along = ((qx - ax) * sx + (qy - ay) * sy) / np.where(length2 > 0, length2, 1.0)
+    along = np.clip(along, 0.0, 1.0)
+    found: FloatArray = np.hypot(qx - ax - along * sx, qy - ay - along * sy).min(axis=1)
+    return found
+
+
+def at_limit_fraction(values: FloatArray, limit: float) -> float | None:
+    """Fraction of the samples with |value| at ``limit``; None without samples."""
+    if values.size == 0:
+        return None
+    if not math.isfinite(limit):
+        return 0.0
+    return float(np.count_nonzero(np.abs(values) >= limit * (1.0 - AT_LIMIT_TOLERANCE))) / float(
+        values.size
+    )
+
+
+def jitter(values: FloatArray, counted: np.ndarray) -> float | None:
+    """RMS of ``values`` about their centred moving mean of JITTER_WINDOW samples,
+    over the ``counted`` samples whose whole window lies in ``values``."""
+    half = JITTER_WINDOW // 2
+    if values.size < JITTER_WINDOW:
+        return None
+    mean = np.convolve(values, np.full(JITTER_WINDOW, 1.0 / JITTER_WINDOW), mode="valid")
+    deviation = values[half : values.size - half] - mean
+    return _rms_or_none(deviation[counted[half : values.size - half]])
+
+
+def sign_reversals(values: FloatArray) -> int:
+    """How often the sign of ``values`` flips (zeros and non-finite values skipped)."""
+    signs = np.sign(values[np.isfinite(values) & (values != 0.0)])
+    return int(np.count_nonzero(signs[1:] != signs[:-1]))
 
 
 def phase_segments(phase: np.ndarray) -> list[tuple[int, int, int]]:
@@ -179,6 +308,8 @@ def _phase_summary(
     index: int,
     start: int,
     end: int,
+    settle_time: float,
+    tolerance: Mapping[str, float],
 ) -> dict[str, Any]:
     info = result.phases[index]
     t = result.t
@@ -186,17 +317,20 @@ def _phase_summary(
     end_sample = end if end < result.samples else result.samples - 1
     window = slice(start, end)
     start_time = float(t[start])
+    settled = (t[window] - start_time) >= settle_time - 1e-9 * result.dt
 
     tracking = None
     if info.kind == "track":
-        distance = np.hypot(
-            result.x[window] - result.x_ref[window], result.y[window] - result.y_ref[window]
-        )
-        settled = (t[window] - start_time) >= TRACKING_SETTLE_TIME - 1e-9 * result.dt
+        x, y = result.x[window], result.y[window]
+        x_ref, y_ref = result.x_ref[window], result.y_ref[window]
+        off_path = distance_to_path(x, y, x_ref, y_ref)
         tracking = {
-            "rms": _rms_or_none(distance),
-            "max": _max_or_none(distance),
-            "rms_after_1s": _rms_or_none(distance[settled]),
+            "rms": _rms_or_none(off_path[settled]),
+            "max": _max_or_none(off_path[settled]),
+            "rms_from_start": _rms_or_none(off_path),
+            "max_from_start": _max_or_none(off_path),
+            # distance from the reference point of the same sample: lag included
+            "reference_rms": _rms_or_none(np.hypot(x - x_ref, y - y_ref)[settled]),
         }
 
     target_error = None
@@ -204,9 +338,17 @@ def _phase_summary(
         position, heading = _pose_error(result, end_sample, info.target)
         target_error = {"position": position, "heading": heading}
 
+    v, omega = result.v[window], result.omega[window]
+    inputs = {
+        "speed_at_limit": at_limit_fraction(v[settled], result.limits[0]),
+        "turn_rate_at_limit": at_limit_fraction(omega[settled], result.limits[1]),
+        "turn_rate_jitter": jitter(omega, settled),
+        "turn_rate_reversals": sign_reversals(omega[settled]),
+    }
+
     constraint = result.constraint[window]
     phase_errors = {state: error[window] for state, error in errors.items()}
-    converged = convergence_index(phase_errors)
+    converged = convergence_index(phase_errors, tolerance)
     iterations = result.phase2_iterations[window]
     return {
         "name": info.name,
@@ -214,6 +356,8 @@ def _phase_summary(
         "start": start_time,
         "end": float(t[end_sample]),
         "duration": round(float(t[end_sample]) - start_time, 9),  # no 20.000000000000004
+        "settle_time": settle_time,
+        "settled_samples": int(np.count_nonzero(settled)),
         "tracking_error": tracking,
         "target_error": target_error,
         "constraint": {
@@ -225,15 +369,17 @@ def _phase_summary(
             ),
         },
         "estimation": {
+            "rms": {s: _rms_or_none(e[settled]) for s, e in phase_errors.items()},
             "max_abs_error": {s: _max_or_none(np.abs(e)) for s, e in phase_errors.items()},
-            "overshoot": {s: overshoot(e) for s, e in phase_errors.items()},
+            "overshoot": {s: overshoot(e, tolerance[s]) for s, e in phase_errors.items()},
             # seconds after the phase start
             "convergence_time": (
                 None if converged is None else float(t[start + converged]) - start_time
             ),
         },
-        "max_abs_v": _max_or_none(np.abs(result.v[window])),
-        "max_abs_omega": _max_or_none(np.abs(result.omega[window])),
+        "inputs": inputs,
+        "max_abs_v": _max_or_none(np.abs(v)),
+        "max_abs_omega": _max_or_none(np.abs(omega)),
         "phase2_iterations": {
             "total": int(iterations.sum()),
             "max": int(iterations.max()) if iterations.size else 0,
@@ -253,12 +399,66 @@ def compute_time_us(compute_ns: np.ndarray) -> dict[str, float | None]:
     }
 
 
-def summarize(result: RunResult) -> dict[str, Any]:
-    """All metrics of a run, in a fixed key order (the content of ``summary.json``)."""
+def _expect_of(mission: Mapping[str, Any] | None) -> Mapping[str, Any]:
+    expect = (mission or {}).get("expect")
+    return expect if isinstance(expect, Mapping) else {}
+
+
+def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
+    """Per phase name, the phase's `expect` thresholds in force: the mission's
+    per-phase keys, overridden by each key the phase sets itself.
+
+    ``mission`` is the resolved mission (``Mission.model_dump(mode="json")``).
+    """
+    expect = _expect_of(mission)
+    shared = {key: expect.get(key) for key in ("settle_time", *_PHASE_EXPECTATION_PATHS)}
+    merged = {}
+    for phase in _written_phases(mission):
+        own = phase.get("expect") or {}
+        merged[str(phase.get("name"))] = {
+            key: own[key] if own.get(key) is not None else value for key, value in shared.items()
+        }
+    return merged
+
+
+def _written_phases(mission: Mapping[str, Any] | None) -> list[Mapping[str, Any]]:
+    """The mission's phases as written, those of each repeat group in its place."""
+    phases: list[Mapping[str, Any]] = []
+    for step in (mission or {}).get("phases") or []:
+        repeat = step.get("repeat")
+        phases.extend((repeat.get("phases") or []) if isinstance(repeat, Mapping) else [step])
+    return phases
+
+
+def _written_name(name: str) -> str:
+    """A phase's name as written: a repeated phase runs as ``name#lap``."""
+    return name.split("#", 1)[0]
+
+
+def _settle_time(phase_expect: Mapping[str, Any] | None) -> float:
+    value = (phase_expect or {}).get("settle_time")
+    return models.DEFAULT_SETTLE_TIME if value is None else float(value)
+
+
+def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """All metrics of a run, in a fixed key order (the content of ``summary.json``).
+
+    ``mission`` (the resolved mission) sets how metrics are measured: each
+    phase's settle time and the convergence tolerance per state.
+    """
+    tolerance = {
+        **DEFAULT_CONVERGENCE_TOLERANCE,
+        **(_expect_of(mission).get("convergence_tolerance") or {}),
+    }
+    per_phase = phase_expectations(mission)
     segments = phase_segments(result.phase)
     errors = estimation_errors(result)
-    converged = convergence_index(errors)
+    converged = convergence_index(errors, tolerance)
     duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
+    settled = (
+        result.t - (result.t[0] if result.samples else 0.0)
+        >= _settle_time(_expect_of(mission)) - 1e-9 * result.dt
+    )
     return {
         "outcome": result.outcome.value,
         "message": result.message,
@@ -268,10 +468,26 @@ def summarize(result: RunResult) -> dict[str, Any]:
         "duration": duration,
         "final": _final(result, segments),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
-        "estimation_overshoot": {state: overshoot(error) for state, error in errors.items()},
+        "convergence_tolerance": tolerance,
+        "estimation_overshoot": {
+            state: overshoot(error, tolerance[state]) for state, error in errors.items()
+        },
+        # after the mission's settle time from its start
+        "estimation_rms": {state: _rms_or_none(error[settled]) for state, error in errors.items()},
         "max_constraint_violation": _violation(result.constraint),
         "phases": [
-            _phase_summary(result, errors, index, start, end) for index, start, end in segments
+            _phase_summary(
+                result,
+                errors,
+                index,
+                start,
+                end,
+                _settle_time(
+                    per_phase.get(_written_name(result.phases[index].name), _expect_of(mission))
+                ),
+                tolerance,
+            )
+            for index, start, end in segments
         ],
         "compute_us_per_sample": compute_time_us(result.compute_ns),
         "loop_us_per_sample": loop_time_us(result),
@@ -285,10 +501,10 @@ def loop_time_us(result: RunResult) -> float | None:
     return result.loop_ns / 1000.0 / result.samples
 
 
-def _summary_value(summary: dict[str, Any], path: tuple[str, ...]) -> float | None:
+def _summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | None:
     value: Any = summary
     for key in path:
-        if not isinstance(value, dict):
+        if not isinstance(value, Mapping):
             return None
         value = value.get(key)
     if isinstance(value, bool) or not isinstance(value, int | float):
@@ -296,27 +512,93 @@ def _summary_value(summary: dict[str, Any], path: tuple[str, ...]) -> float | No
     return float(value) if math.isfinite(value) else None
 
 
-def check_expectations(summary: dict[str, Any], expect: dict[str, Any]) -> list[dict[str, Any]]:
-    """Each set ``expect`` threshold with the run's value; a missing (null) value never meets one.
+def _check(metric: str, phase: str | None, limit: float, value: float | None) -> dict[str, Any]:
+    return {
+        "metric": metric,
+        "phase": phase,
+        "max": limit,
+        "value": value,
+        "met": value is not None and value <= limit,
+    }
 
-    ``expect`` is ``Expect.model_dump()``: metric -> None or ``{"max": float}``.
-    """
+
+def _applies(phase: Mapping[str, Any], metric: str) -> bool:
+    """A phase-quality threshold needs samples after the settle time; the
+    tracking ones need a track phase."""
+    if not phase.get("settled_samples"):
+        return False
+    return not metric.startswith("tracking_error") or phase.get("kind") == "track"
+
+
+def _phase_checks(phase: Mapping[str, Any], thresholds: Mapping[str, Any]) -> list[dict[str, Any]]:
     checks = []
-    for metric, threshold in expect.items():
-        if threshold is None:
+    name = str(phase.get("name"))
+    for metric, path in _PHASE_EXPECTATION_PATHS.items():
+        threshold = thresholds.get(metric)
+        if threshold is None or not _applies(phase, metric):
             continue
-        if metric not in _EXPECTATION_PATHS:
-            raise ValueError(
-                f"unknown expectation {metric!r}; expected one of {', '.join(_EXPECTATION_PATHS)}"
-            )
-        limit = float(threshold["max"])
-        value = _summary_value(summary, _EXPECTATION_PATHS[metric])
-        checks.append(
-            {
-                "metric": metric,
-                "max": limit,
-                "value": value,
-                "met": value is not None and value <= limit,
-            }
-        )
+        if metric == "estimation_rms":  # a bound per state
+            for state in STATES:
+                if threshold.get(state) is not None:
+                    value = _summary_value(phase, (*path, state))
+                    checks.append(_check(f"{metric}.{state}", name, threshold[state], value))
+            continue
+        checks.append(_check(metric, name, float(threshold["max"]), _summary_value(phase, path)))
     return checks
+
+
+def check_expectations(
+    summary: Mapping[str, Any], mission: Mapping[str, Any] | None
+) -> list[dict[str, Any]]:
+    """Each `expect` threshold in force with the run's value: the mission-wide
+    ones (``phase`` null), then each phase's (``phase`` its name), in run order.
+
+    A missing (null) value never meets a threshold: a non-finite metric after
+    a divergence fails. A phase-quality threshold is not checked where it does
+    not apply (a phase no longer than its settle time; tracking off a track phase).
+    """
+    expect = _expect_of(mission)
+    known = (*_EXPECTATION_PATHS, *_PHASE_EXPECTATION_PATHS, *_SETTINGS)
+    for metric in expect:
+        if metric not in known:
+            raise ValueError(f"unknown expectation {metric!r}; expected one of {', '.join(known)}")
+    checks = [
+        _check(metric, None, float(expect[metric]["max"]), _summary_value(summary, path))
+        for metric, path in _EXPECTATION_PATHS.items()
+        if expect.get(metric) is not None
+    ]
+    per_phase = phase_expectations(mission)
+    for phase in summary.get("phases") or []:
+        thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
+        checks.extend(_phase_checks(phase, thresholds))
+    return checks
+
+
+def unmet(checks: list[dict[str, Any]]) -> list[str]:
+    """Each unmet check in words: ``orbit: turn_rate_at_limit = 0.974 (max 0.01)``."""
+    lines = []
+    for item in checks:
+        if item["met"]:
+            continue
+        value = "none" if item["value"] is None else f"{item['value']:.6g}"
+        where = f"{item['phase']}: " if item["phase"] is not None else ""
+        lines.append(f"{where}{item['metric']} = {value} (max {item['max']:.6g})")
+    return lines
+
+
+def judge(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The run's summary with every `expect` threshold checked.
+
+    A run that ended as a success but misses a threshold is not one: its
+    outcome becomes ``expect-failed`` (in ``result`` too), with the misses as
+    its message. Thresholds are what a mission relaxes, not the outcome.
+    """
+    summary = summarize(result, mission)
+    checks = check_expectations(summary, mission)
+    failures = unmet(checks)
+    if result.outcome is Outcome.success and failures:
+        result.outcome = Outcome.expect_failed
+        result.message = "expectation not met: " + "; ".join(failures)
+        summary["outcome"], summary["message"] = result.outcome.value, result.message
+    summary["expectations"] = checks
+    return summary

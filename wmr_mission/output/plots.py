@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.output.metrics import estimation_errors, phase_segments
-from wmr_mission.output.rundir import RunDirError, atomic_path, load_run
+from wmr_mission.output.reader import RunDirError, load_run
+from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, IntArray, RunResult
 
 if TYPE_CHECKING:
@@ -39,6 +40,9 @@ def pyplot() -> Any:
     # Long paths rasterised in pieces: a 1-hour run's overdrawn laps otherwise
     # take tens of MB of the renderer's memory at once.
     matplotlib.rcParams["agg.path.chunksize"] = 2000
+    # Names are data: a '$' in a mission, phase or region name is drawn as
+    # typed, never parsed as math (unbalanced, it would stop the drawing).
+    matplotlib.rcParams["text.parse_math"] = False
     import matplotlib.pyplot as plt
 
     return plt

@@ -1,4 +1,4 @@
-"""The run directory: write a run's files, and read them back for ``wmr-mission plot``.
+"""The run directory: create it, write a run's files (``reader`` reads them back).
 
 | file | content |
 |---|---|
@@ -20,8 +20,7 @@ reads back. ``phase`` holds the phase name; lines end with ``\\n``.
 
 from __future__ import annotations
 
-import csv
-import io
+import contextlib
 import json
 import math
 import os
@@ -42,8 +41,6 @@ from wmr_mission.result import (
     EXTRA_COLUMNS,
     MEASUREMENT_COLUMNS,
     TRAJECTORY_COLUMNS,
-    Outcome,
-    PhaseInfo,
     RunResult,
     Transition,
 )
@@ -63,13 +60,18 @@ _ROWS_PER_BLOCK = 20_000
 _VERSIONED_PACKAGES = ("numpy", "scipy", "pydantic", "numba", "matplotlib")
 
 
-# Messages of both errors leave out the run directory: callers print `RUN_DIR: message`.
-class RunDirError(ValueError):
-    """A run directory that cannot be read back (missing or corrupt file); one line."""
-
-
+# Its message leaves out the run directory: callers print `RUN_DIR: message`.
 class RunDirExistsError(FileExistsError):
     """The run directory exists and holds files: a run never overwrites another."""
+
+
+# Created exclusively in a run directory before the simulation starts, removed
+# once summary.json is written: two runs never share a directory.
+CLAIM_FILE = ".wmr-mission-run"
+# Bytes of trajectory.csv per sample (14 columns of up to 19 characters), and of
+# the figures and JSON files: the estimate checked against the free space.
+_BYTES_PER_SAMPLE = 200
+_BYTES_OTHER = 4_000_000
 
 
 def default_run_dir(mission_name: str, now: datetime) -> Path:
@@ -77,18 +79,64 @@ def default_run_dir(mission_name: str, now: datetime) -> Path:
     return Path("runs") / f"{mission_name}-{now:%Y%m%d-%H%M%S}"
 
 
-def prepare_run_dir(path: str | os.PathLike[str]) -> Path:
-    """Create the run directory; refuse one that exists and is not empty (before a long run)."""
+def prepare_run_dir(path: str | os.PathLike[str], *, suffix_on_collision: bool = False) -> Path:
+    """Create and claim the run directory before a long run; return it.
+
+    The directory is created, or taken when it exists and is empty, and claimed
+    by creating ``CLAIM_FILE`` exclusively in it: of two runs aimed at one
+    directory at the same moment, exactly one gets it. The other gets
+    ``RunDirExistsError``, or with ``suffix_on_collision`` the first free
+    ``<path>-2``, ``<path>-3``, .... Creating the claim also proves the
+    directory writable before anything is simulated.
+    """
     run_dir = Path(path)
-    if run_dir.exists() and not run_dir.is_dir():
-        raise RunDirExistsError("exists and is not a directory; choose another --out")
-    run_dir.mkdir(parents=True, exist_ok=True)
-    if any(run_dir.iterdir()):
+    if run_dir.is_symlink() and not run_dir.exists():
+        raise RunDirExistsError(
+            f"is a symbolic link to {os.readlink(run_dir)}, which does not exist; "
+            "create the target or choose another --out"
+        )
+    run_dir.parent.mkdir(parents=True, exist_ok=True)
+    for number in range(1, 10_000):
+        candidate = run_dir if number == 1 else run_dir.with_name(f"{run_dir.name}-{number}")
+        try:
+            _claim(candidate)
+        except RunDirExistsError:
+            if not suffix_on_collision:
+                raise
+            continue
+        return candidate
+    raise RunDirExistsError("every suffix up to -9999 is taken; choose another --out")
+
+
+def _claim(run_dir: Path) -> None:
+    try:
+        run_dir.mkdir()
+    except FileExistsError:
+        if not run_dir.is_dir():
+            raise RunDirExistsError("exists and is not a directory; choose another --out") from None
+    claim = run_dir / CLAIM_FILE
+    try:
+        os.close(os.open(claim, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    except FileExistsError:
+        raise RunDirExistsError("another run is writing into this directory") from None
+    if any(entry.name != CLAIM_FILE for entry in run_dir.iterdir()):
+        claim.unlink()
         raise RunDirExistsError(
             "run directory exists and is not empty; "
             "choose another --out or remove it (runs are never overwritten)"
         )
-    return run_dir
+
+
+def release_run_dir(run_dir: Path) -> None:
+    """Remove the claim; remove the directory too when nothing was written into it."""
+    (run_dir / CLAIM_FILE).unlink(missing_ok=True)
+    with contextlib.suppress(OSError):  # it holds the run's files
+        run_dir.rmdir()
+
+
+def space_needed(max_samples: int) -> int:
+    """Bytes a run of at most ``max_samples`` samples may write (an upper estimate)."""
+    return _BYTES_OTHER + _BYTES_PER_SAMPLE * max_samples
 
 
 @contextmanager
@@ -98,15 +146,21 @@ def atomic_path(final: Path) -> Iterator[Path]:
     The temporary name keeps ``final``'s suffix so writers that pick a format
     from the file name (images) still do. On failure the temporary file is removed.
     """
-    tmp = _new_temporary(final)
+    try:
+        tmp = _new_temporary(final)
+    except OSError as error:
+        raise OSError(error.errno, error.strerror, str(final)) from error
     try:
         yield tmp
         with tmp.open("rb+") as written:
             written.flush()
             os.fsync(written.fileno())
         os.replace(tmp, final)
-    except BaseException:
+    except BaseException as error:
         tmp.unlink(missing_ok=True)
+        if isinstance(error, OSError) and error.filename != str(final):
+            # Name the file the user knows, not the temporary one.
+            raise OSError(error.errno, error.strerror, str(final)) from error
         raise
     _sync_directory(final.parent)
 
@@ -229,7 +283,9 @@ def json_text(value: Any) -> str:
 
 
 def write_json(path: Path, value: Any) -> Path:
-    return write_bytes_atomic(path, json_text(value).encode("utf-8"))
+    # A file name that is not UTF-8 holds surrogates: written as JSON escapes
+    # (\udcff), which read back to the same name.
+    return write_bytes_atomic(path, json_text(value).encode("utf-8", "backslashreplace"))
 
 
 def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]]:
@@ -344,261 +400,9 @@ def write_run(
         from wmr_mission.output.animation import write_animation
 
         written.append(write_animation(result, run_dir / ANIMATION_FILE))
-    summary = summarize(result)
-    expect = resolved_mission.get("expect")
-    if isinstance(expect, Mapping):
-        summary["expectations"] = check_expectations(summary, dict(expect))
+    summary = summarize(result, resolved_mission)
+    if isinstance(resolved_mission.get("expect"), Mapping):
+        summary["expectations"] = check_expectations(summary, resolved_mission)
     written.append(write_json(run_dir / SUMMARY_FILE, summary))
+    (run_dir / CLAIM_FILE).unlink(missing_ok=True)
     return written
-
-
-# --- reading back ---------------------------------------------------------
-
-
-def _read_text(path: Path) -> str:
-    if not path.is_file():
-        raise RunDirError(f"{path.name} is missing (not a run directory, or an interrupted run)")
-    try:
-        return path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RunDirError(f"{path.name}: cannot be read: {exc}") from None
-
-
-def _read_json(path: Path) -> Any:
-    text = _read_text(path)
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise RunDirError(
-            f"{path.name}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}"
-        ) from None
-
-
-def _field(record: Any, key: str, kind: type | tuple[type, ...], where: str) -> Any:
-    if not isinstance(record, dict) or key not in record:
-        raise RunDirError(f"{where}: '{key}' is missing")
-    value = record[key]
-    kinds = kind if isinstance(kind, tuple) else (kind,)
-    # JSON true/false are ints to Python; they are never a number here.
-    if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
-        raise RunDirError(f"{where}: '{key}' has the wrong type")
-    return value
-
-
-def _number(value: Any, where: str) -> float:
-    # null stands for NaN (JSON has no NaN).
-    if value is None:
-        return math.nan
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise RunDirError(f"{where}: expected a number or null")
-    return float(value)
-
-
-def _phases_from(run: Any) -> list[PhaseInfo]:
-    where = f"{MANIFEST_FILE}: run.phases"
-    phases = []
-    for i, record in enumerate(_field(run, "phases", list, f"{MANIFEST_FILE}: run")):
-        at = f"{where}[{i}]"
-        target = _field(record, "target", (list, type(None)), at)
-        if target is not None and len(target) != 3:
-            raise RunDirError(f"{at}: 'target' must be [x, y, theta]")
-        constraints = tuple(
-            (
-                str(_field(c, "region", str, f"{at}.constraints")),
-                str(_field(c, "side", str, f"{at}.constraints")),
-            )
-            for c in _field(record, "constraints", list, at)
-        )
-        phases.append(
-            PhaseInfo(
-                name=_field(record, "name", str, at),
-                kind=_field(record, "kind", str, at),
-                target=(
-                    None
-                    if target is None
-                    else (
-                        _number(target[0], at),
-                        _number(target[1], at),
-                        _number(target[2], at),
-                    )
-                ),
-                constraints=constraints,
-            )
-        )
-    return phases
-
-
-def _transitions_from(records: Any) -> list[Transition]:
-    if not isinstance(records, list):
-        raise RunDirError(f"{TRANSITIONS_FILE}: expected a list of transitions")
-    transitions = []
-    for i, record in enumerate(records):
-        at = f"{TRANSITIONS_FILE}: [{i}]"
-        transitions.append(
-            Transition(
-                time=_number(_field(record, "time", (int, float), at), at),
-                from_phase=_field(record, "from", str, at),
-                to_phase=_field(record, "to", (str, type(None)), at),
-                condition=_field(record, "condition", str, at),
-                value=_number(_field(record, "value", (int, float, type(None)), at), at),
-                lap=_lap(record, at),
-            )
-        )
-    return transitions
-
-
-def _lap(record: Any, where: str) -> int | None:
-    """The optional lap of a transition (absent in runs without repeats)."""
-    lap = record.get("lap") if isinstance(record, dict) else None
-    if lap is not None and (isinstance(lap, bool) or not isinstance(lap, int)):
-        raise RunDirError(f"{where}: 'lap' must be a whole number or null")
-    return lap
-
-
-def _read_trajectory(path: Path, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
-    text = _read_text(path)
-    header = next(csv.reader(io.StringIO(text[: text.find("\n") + 1], newline="")), None)
-    if header is None or tuple(header) != CSV_COLUMNS:
-        raise RunDirError(f"{path.name}:1: header must be exactly {','.join(CSV_COLUMNS)}")
-    try:
-        return _parse_rows_fast(text, phase_names)
-    except ValueError:
-        # Find the first bad line and say what is wrong with it.
-        return _parse_rows_checked(text, phase_names, path.name)
-
-
-def _parse_rows_fast(text: str, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
-    """numpy's C parser; raises ValueError on anything unexpected."""
-    if not text.partition("\n")[2].strip():
-        raise ValueError("no samples")  # loadtxt warns on empty input: take the checked path
-    phase_column = CSV_COLUMNS.index("phase")
-    numeric = [i for i in range(len(CSV_COLUMNS)) if i != phase_column]
-    options: dict[str, Any] = {
-        "delimiter": ",",
-        "skiprows": 1,
-        "quotechar": '"',
-        "comments": None,
-        "ndmin": 2,
-    }
-    values = np.loadtxt(io.StringIO(text), usecols=numeric, dtype=np.float64, **options)
-    names = np.loadtxt(io.StringIO(text), usecols=[phase_column], dtype=str, **options)[:, 0]
-    known, inverse = np.unique(names, return_inverse=True)
-    index_of = {name: i for i, name in enumerate(phase_names)}
-    if any(name not in index_of for name in known.tolist()):
-        raise ValueError("unknown phase")
-    data = {CSV_COLUMNS[i]: values[:, j].copy() for j, i in enumerate(numeric)}
-    data["phase"] = np.array([index_of[n] for n in known.tolist()], dtype=np.int64)[inverse]
-    iterations = data["phase2_iterations"]
-    if not np.all(np.isfinite(iterations) & (iterations == np.round(iterations))):
-        raise ValueError("phase2_iterations not integral")
-    data["phase2_iterations"] = iterations.astype(np.int64)
-    return data
-
-
-def _parse_rows_checked(
-    text: str, phase_names: Sequence[str], filename: str
-) -> dict[str, np.ndarray]:
-    """Row by row, naming the first line that does not fit."""
-    rows = list(csv.reader(io.StringIO(text, newline="")))[1:]
-    for line, row in enumerate(rows, start=2):
-        if len(row) != len(CSV_COLUMNS):
-            raise RunDirError(
-                f"{filename}:{line}: expected {len(CSV_COLUMNS)} fields, found {len(row)}"
-            )
-    data: dict[str, np.ndarray] = {}
-    cells = list(zip(*rows, strict=True)) if rows else [() for _ in CSV_COLUMNS]
-    index_of = {name: i for i, name in enumerate(phase_names)}
-    for name, column in zip(CSV_COLUMNS, cells, strict=True):
-        if name == "phase":
-            try:
-                data[name] = np.array([index_of[value] for value in column], dtype=np.int64)
-            except KeyError as exc:
-                line = column.index(exc.args[0]) + 2
-                raise RunDirError(
-                    f"{filename}:{line}: unknown phase {exc.args[0]!r} "
-                    f"({MANIFEST_FILE} lists {', '.join(phase_names)})"
-                ) from None
-            continue
-        dtype = np.int64 if name == "phase2_iterations" else np.float64
-        try:
-            data[name] = np.array(column, dtype=dtype)
-        except ValueError:
-            line, bad = next(
-                (line, value)
-                for line, value in enumerate(column, start=2)
-                if not _parses(value, dtype)
-            )
-            kind = "an integer" if dtype is np.int64 else "a number"
-            raise RunDirError(f"{filename}:{line}: {name} is not {kind}: {bad!r}") from None
-    return data
-
-
-def _parses(text: str, dtype: type) -> bool:
-    try:
-        np.array([text], dtype=dtype)
-    except ValueError:
-        return False
-    return True
-
-
-def _bound(bounds: dict[str, Any], state: str) -> tuple[float, float]:
-    where = f"{MANIFEST_FILE}: run.error_bounds"
-    pair = _field(bounds, state, list, where)
-    if len(pair) != 2:
-        raise RunDirError(f"{where}: '{state}' must be [lower, upper]")
-    return _number(pair[0], where), _number(pair[1], where)
-
-
-def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
-    """Rebuild a run's ``RunResult`` from its directory (``compute_ns`` is not saved: zeros)."""
-    directory = Path(run_dir)
-    if not directory.is_dir():
-        raise RunDirError("not a directory")
-    manifest = _read_json(directory / MANIFEST_FILE)
-    run = _field(manifest, "run", dict, MANIFEST_FILE)
-    where = f"{MANIFEST_FILE}: run"
-    phases = _phases_from(run)
-    limits = _field(run, "limits", dict, where)
-    bounds = _field(run, "error_bounds", dict, where)
-    error_bounds = [_bound(bounds, state) for state in ("x", "y", "theta")]
-    transitions = _transitions_from(_read_json(directory / TRANSITIONS_FILE))
-    summary = _read_json(directory / SUMMARY_FILE)
-    outcome_text = _field(summary, "outcome", str, SUMMARY_FILE)
-    try:
-        outcome = Outcome(outcome_text)
-    except ValueError:
-        raise RunDirError(f"{SUMMARY_FILE}: unknown outcome {outcome_text!r}") from None
-    data = _read_trajectory(directory / TRAJECTORY_FILE, [p.name for p in phases])
-    samples = data["t"].shape[0]
-    seed = _field(manifest, "seed", int, MANIFEST_FILE)
-    return RunResult(
-        mission_name=_field(run, "mission_name", str, where),
-        dt=_number(_field(run, "dt", (int, float), where), where),
-        seed=int(seed),
-        phases=phases,
-        t=data["t"],
-        x=data["x"],
-        y=data["y"],
-        theta=data["theta"],
-        x_est=data["x_est"],
-        y_est=data["y_est"],
-        theta_est=data["theta_est"],
-        v=data["v"],
-        omega=data["omega"],
-        phase=data["phase"],
-        x_ref=data["x_ref"],
-        y_ref=data["y_ref"],
-        constraint=data["constraint"],
-        phase2_iterations=data["phase2_iterations"],
-        compute_ns=np.zeros(samples, dtype=np.int64),
-        transitions=transitions,
-        outcome=outcome,
-        message=_field(summary, "message", str, SUMMARY_FILE),
-        limits=(
-            _number(_field(limits, "v", (int, float), f"{where}.limits"), where),
-            _number(_field(limits, "omega", (int, float), f"{where}.limits"), where),
-        ),
-        error_bounds=(error_bounds[0], error_bounds[1], error_bounds[2]),
-        regions=_field(run, "regions", dict, where),
-        measurement=np.column_stack([data[name] for name in MEASUREMENT_COLUMNS]),
-    )

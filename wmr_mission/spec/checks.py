@@ -12,9 +12,10 @@ from dataclasses import dataclass
 from typing import Final, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
-from wmr_mission.output.metrics import CONVERGENCE_TOLERANCE
 from wmr_mission.spec.models import (
+    BOUND_NOISE_RATIO,
     BoxRegion,
     CircleRegion,
     CoveragePath,
@@ -26,6 +27,7 @@ from wmr_mission.spec.models import (
     Mission,
     Phase,
     PolygonRegion,
+    RegionSpec,
     RegulatePhase,
     RepeatPhase,
     StayInside,
@@ -40,9 +42,22 @@ MAX_SAMPLES: Final = 50_000_000
 
 # Samples of a path when looking for a `reaches` crossing; finer than this only costs time.
 _REACH_SAMPLES: Final = 20_001
+# Below this path speed [m/s] the direction of the path is not defined (a stop or a cusp).
+_STANDSTILL: Final = 1e-6
+# A path's turn rate is its turn within this time [s], divided by it.
+TURN_WINDOW: Final = 1.0
+
+# [m/s, rad/s] a limit at or beyond the runner's runaway bound limits nothing.
+NO_LIMIT: Final = 1e3
+# [rad] turn per sample beyond which eq. (1), second order in omega dt, is no
+# longer the robot's motion: its step is 3 % longer than the arc at 0.5 rad.
+LARGEST_TURN_PER_SAMPLE: Final = 0.5
+# Output-error bounds below this many noise standard deviations act on noise.
+BOUND_NOISE_FLOOR: Final = 3.0
 
 Severity = Literal["error", "warning"]
 Pose = tuple[float, float, float]
+FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -74,8 +89,11 @@ def check(mission: Mission) -> list[Finding]:
         *_regions(mission),
         *_phase_rules(mission),
         *_initial_state(mission),
+        *_feasible_sets(mission),
         *_timing(mission),
         *_expectations(mission),
+        *_control(mission),
+        *_estimator_bounds(mission),
         *_disturbances(mission),
     ]
     if not any(f.severity == "error" for f in findings):
@@ -263,6 +281,130 @@ def _target_against_constraints(
         )
 
 
+# Points tried per phase: a grid over the constrained area, and each region's
+# boundary (a feasible set that is not empty has a boundary point on one of
+# them, or a grid point inside it).
+_GRID = 201
+_BOUNDARY = 2048
+
+
+def _feasible_sets(mission: Mission) -> Iterator[Finding]:
+    """A phase whose constraints no point meets: its inside-sets do not
+    overlap, or an outside-set covers their overlap. Sampled on a grid and on
+    every region's boundary, so a set narrower than both is not seen."""
+    written = {run.where: run.phase for run in run_order(mission)}  # each phase once
+    for where, phase in written.items():
+        sides = []
+        for constraint in phase.constraints:
+            inside = isinstance(constraint, StayInside)
+            name = (
+                constraint.stay_inside
+                if isinstance(constraint, StayInside)
+                else (constraint.stay_outside)
+            )
+            region = mission.regions.get(name)
+            if region is None:
+                return  # reported elsewhere
+            sides.append((name, region, inside))
+        if not sides:
+            continue
+        x, y = _candidates(mission, [region for _, region, _ in sides])
+        meets = np.ones(x.shape, dtype=bool)
+        for _, region, inside in sides:
+            meets &= _meets(region, inside, x, y)
+        if meets.any():
+            continue
+        insides = [name for name, _, inside in sides if inside]
+        inner = np.ones(x.shape, dtype=bool)
+        for _, region, inside in sides:
+            if inside:
+                inner &= _meets(region, True, x, y)
+        if insides and not inner.any():
+            cause = f"the regions it must stay inside ({', '.join(insides)}) do not overlap"
+        else:
+            outsides = [name for name, _, inside in sides if not inside]
+            area = f"inside {', '.join(insides)}" if insides else "of the plane"
+            cause = (
+                f"the regions it must stay outside ({', '.join(outsides)}) cover every point {area}"
+            )
+        yield Finding(
+            (*where, "constraints"),
+            f"phase {phase.name!r} has no point that meets all its constraints: {cause}",
+        )
+
+
+def _meets(region: RegionSpec, inside: bool, x: FloatArray, y: FloatArray) -> NDArray[np.bool_]:
+    from wmr_mission.regions import region_value
+
+    value = region_value(region, x, y)
+    return np.asarray(value <= 1e-9 if inside else value >= -1e-9)
+
+
+def _candidates(mission: Mission, regions: list[RegionSpec]) -> tuple[FloatArray, FloatArray]:
+    from wmr_mission.regions import ellipse_geometry
+
+    start = mission.robot.initial_state
+    xs: list[float] = [start.x]
+    ys: list[float] = [start.y]
+    for run in run_order(mission):
+        phase = run.phase
+        if isinstance(phase, RegulatePhase):
+            xs.append(phase.regulate.target.x)
+            ys.append(phase.regulate.target.y)
+    boundary_x: list[FloatArray] = []
+    boundary_y: list[FloatArray] = []
+    angle = np.linspace(0.0, 2.0 * math.pi, _BOUNDARY, endpoint=False)
+    lines = []
+    for region in regions:
+        if isinstance(region, EllipseRegion | CircleRegion):
+            cx, cy, a, b, rotation = ellipse_geometry(region)
+            u, w = a * np.cos(angle), b * np.sin(angle)
+            c, s = math.cos(rotation), math.sin(rotation)
+            boundary_x.append(cx + c * u - s * w)
+            boundary_y.append(cy + s * u + c * w)
+        elif isinstance(region, BoxRegion | PolygonRegion):
+            corners = (
+                [
+                    region.min,
+                    (region.max[0], region.min[1]),
+                    region.max,
+                    (region.min[0], region.max[1]),
+                ]
+                if isinstance(region, BoxRegion)
+                else region.vertices
+            )
+            points = np.array(corners, dtype=np.float64)
+            ends = np.roll(points, -1, axis=0)
+            share = np.linspace(0.0, 1.0, _BOUNDARY // len(points))[:, None, None]
+            edge = points[None] + share * (ends - points)[None]
+            boundary_x.append(edge[..., 0].ravel())
+            boundary_y.append(edge[..., 1].ravel())
+        else:  # half-plane: its line, sampled below over the area
+            lines.append(region)
+        if boundary_x:
+            xs += [float(boundary_x[-1].min()), float(boundary_x[-1].max())]
+            ys += [float(boundary_y[-1].min()), float(boundary_y[-1].max())]
+    low_x, high_x, low_y, high_y = min(xs), max(xs), min(ys), max(ys)
+    margin = 0.1 * max(high_x - low_x, high_y - low_y) + 1.0
+    low_x, high_x, low_y, high_y = low_x - margin, high_x + margin, low_y - margin, high_y + margin
+    grid_x, grid_y = np.meshgrid(
+        np.linspace(low_x, high_x, _GRID), np.linspace(low_y, high_y, _GRID)
+    )
+    reach = 2.0 * max(
+        high_x - low_x, high_y - low_y, abs(low_x), abs(high_x), abs(low_y), abs(high_y)
+    )
+    for region in lines:
+        nx, ny = region.normal
+        norm = math.hypot(nx, ny)
+        along = np.linspace(-reach, reach, 4 * _BOUNDARY)
+        foot_x, foot_y = nx * region.offset / norm**2, ny * region.offset / norm**2
+        boundary_x.append(foot_x - ny / norm * along)
+        boundary_y.append(foot_y + nx / norm * along)
+    x = np.concatenate([grid_x.ravel(), np.array(xs), *boundary_x])
+    y = np.concatenate([grid_y.ravel(), np.array(ys), *boundary_y])
+    return x, y
+
+
 def _initial_state(mission: Mission) -> Iterator[Finding]:
     start = mission.robot.initial_state
     first = run_order(mission)[0]
@@ -371,7 +513,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
 
     The robot is assumed to follow each phase perfectly: a track phase starts
     where the previous one ended (the initial state for the first phase, the
-    previous path's end or the previous target otherwise). Kept this simple on
+    previous path's point where it first reaches its `reaches` region or else
+    its end, or the previous target). Kept this simple on
     purpose: the check only has to catch a path that plainly misses.
     """
     from wmr_mission import paths
@@ -419,12 +562,15 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             return
         name = phase.until.reaches
         region = mission.regions.get(name) if name is not None else None
+        followed = times.size  # samples up to the predicted end of the phase
         if region is not None:
             entry = np.sign(region_value(region, np.array([pose[0]]), np.array([pose[1]])))[0]
             with np.errstate(all="ignore"):
                 values = region_value(region, x, y)
             crossed = np.isfinite(values) & (np.sign(values) != entry)
-            if not np.any(crossed):
+            if np.any(crossed):
+                followed = int(np.argmax(crossed)) + 1
+            else:
                 yield Finding(
                     (*where, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
@@ -432,12 +578,94 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                     f"{_limit(phase, mission_time - bound)}",
                     severity="warning",
                 )
-        if np.isfinite(x[-1]) and np.isfinite(y[-1]):
-            heading = math.atan2(float(dy[-1]), float(dx[-1])) if dx[-1] or dy[-1] else pose[2]
-            pose = (float(x[-1]), float(y[-1]), heading)
+        yield from _path_within_limits(mission, where, phase, times[:followed], dx, dy, assumed)
+        last = followed - 1  # the next phase starts where this one is predicted to end
+        if np.isfinite(x[last]) and np.isfinite(y[last]):
+            heading = (
+                math.atan2(float(dy[last]), float(dx[last])) if dx[last] or dy[last] else pose[2]
+            )
+            pose = (float(x[last]), float(y[last]), heading)
+
+
+def _path_within_limits(
+    mission: Mission,
+    where: DataPath,
+    phase: TrackPhase,
+    times: FloatArray,
+    dx: FloatArray,
+    dy: FloatArray,
+    assumed: str,
+) -> Iterator[Finding]:
+    """The path's own speed, and how fast it turns, against the actuator
+    limits, up to the phase's predicted end: a robot on a path it cannot keep
+    up with falls behind or cuts across, whatever the law.
+
+    The turn rate is the path's turn within TURN_WINDOW seconds, divided by
+    them (speed x curvature on a smooth path): a corner of a polyline or a lane
+    end is a turn the robot makes up within that time, a circle too tight for
+    the limit is not. The direction is taken up to a reversal, which the robot
+    drives rather than turns. An error when the phase's end is known in advance
+    (it ends on time, or on reaching a region the path crosses), a warning when
+    a near or heading condition may end it first.
+    """
+    if times.size < 2:
+        return
+    dx, dy = dx[: times.size], dy[: times.size]
+    speed = np.hypot(dx, dy)
+    limits = mission.robot.limits
+    path = phase.track.path
+    field = next((f for f in ("angular_rate", "speed") if f in type(path).model_fields), None)
+    at: DataPath = (*where, "track", "path", *((field,) if field else ()))
+    predictable = phase.until.near is None and phase.until.heading is None
+    for need, limit, what, unit, name in (
+        (speed, limits.v, "a speed", "m/s", "limits.v"),
+        (_turn_rate(times, dx, dy, speed), limits.omega, "a turn rate", "rad/s", "limits.omega"),
+    ):
+        over = np.flatnonzero(need > limit * (1.0 + 1e-9))
+        if over.size == 0:
+            continue
+        peak = float(np.max(need[np.isfinite(need)]))
+        yield Finding(
+            at,
+            f"the path needs {what} of up to {peak:.3g} {unit} (from t = "
+            f"{float(times[over[0]]):.3g} s of phase {phase.name!r}), above robot.{name} = "
+            f"{limit:g} {unit} ({assumed}); the robot cannot follow it: slow the path down "
+            f"or raise the limit",
+            severity="error" if predictable else "warning",
+        )
+
+
+def _turn_rate(times: FloatArray, dx: FloatArray, dy: FloatArray, speed: FloatArray) -> FloatArray:
+    """|turn of the path's direction over the next TURN_WINDOW s| / TURN_WINDOW,
+    from each sample (over the whole phase when it is shorter)."""
+    moving = speed > _STANDSTILL
+    if not moving.any():
+        return np.zeros(0)
+    # where the path stands still its direction is the last one it had
+    held = np.maximum.accumulate(np.where(moving, np.arange(times.size), 0))
+    held[: int(np.argmax(moving))] = int(np.argmax(moving))
+    axis = np.unwrap(2.0 * np.arctan2(dy[held], dx[held])) / 2.0  # up to a reversal
+    step = float(times[1] - times[0])
+    span = max(1, min(round(TURN_WINDOW / step), times.size - 1))
+    turn: FloatArray = np.abs(axis[span:] - axis[:-span]) / (span * step)
+    return turn
 
 
 def _expectations(mission: Mission) -> Iterator[Finding]:
+    for run in run_order(mission):
+        phase = run.phase
+        if isinstance(phase, TrackPhase) or (run.lap is not None and run.lap > 1):
+            continue
+        kind = "regulate" if isinstance(phase, RegulatePhase) else "hold"
+        for key in ("tracking_error_rms", "tracking_error_max"):
+            if getattr(phase.expect, key) is not None:
+                yield Finding(
+                    (*run.where, "expect", key),
+                    f"expect.{key} measures the distance from a path, but phase "
+                    f"{phase.name!r} is a {kind} phase: it is never checked",
+                    severity="warning",
+                    at_key=True,
+                )
     # A track phase's last reference point has a position but no heading.
     has_target = any(isinstance(p.phase, RegulatePhase) for p in run_order(mission))
     if mission.expect.final_heading_error is not None and not has_target:
@@ -448,6 +676,69 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
             severity="warning",
             at_key=True,
         )
+
+
+def _control(mission: Mission) -> Iterator[Finding]:
+    """Traps of the tracking law and of eq. (1) at the configured limits."""
+    from wmr_mission.compiled import tracking_error_decay, tracking_look_ahead
+
+    robot = mission.robot
+    limits = robot.limits
+    if robot.dt * limits.omega > LARGEST_TURN_PER_SAMPLE:
+        yield Finding(
+            ("robot", "limits", "omega"),
+            f"limits.omega * dt = {limits.omega * robot.dt:g} rad per sample: eq. (1) is second "
+            f"order in omega dt and stops being the robot's motion beyond "
+            f"{LARGEST_TURN_PER_SAMPLE:g} rad per sample; lower limits.omega or dt",
+            severity="warning",
+        )
+    if not any(isinstance(p, TrackPhase) for p in mission.phases):
+        return
+    tracking = mission.controller.tracking
+    look_ahead = tracking_look_ahead(mission)
+    if limits.v >= NO_LIMIT and tracking.output == "look-ahead" and tracking.look_ahead is None:
+        yield Finding(
+            ("robot", "limits", "v"),
+            f"limits.v = {limits.v:g} m/s is no limit, but the tracking law ties its look-ahead "
+            f"to it (max(0.05, limits.v * dt) = {look_ahead:g} m); give the robot's real speed "
+            "limit or set controller.tracking.look_ahead",
+        )
+    elif tracking_error_decay(mission) == 0.0 and max(limits.v, limits.omega) >= NO_LIMIT:
+        law = "the literal axle law" if look_ahead == 0.0 else "a one-sample tracking law"
+        yield Finding(
+            ("robot", "limits"),
+            f"{law} closes the whole tracking error in one sample and runs away without "
+            f"actuator limits (limits.v = {limits.v:g}, limits.omega = {limits.omega:g}); "
+            "give the robot's real limits, or a controller.tracking.time_constant > 0",
+            severity="warning",  # a fair way to watch the paper's law diverge
+        )
+    if look_ahead > 0.0 and look_ahead <= 0.5 * limits.v * robot.dt:
+        # det(D B) = dt^2 (look_ahead + v dt / 2): zero at v = -2 look_ahead / dt.
+        yield Finding(
+            ("controller", "tracking", "look_ahead"),
+            f"the look-ahead law is singular at v = {-2 * look_ahead / robot.dt:g} m/s, within "
+            f"limits.v = {limits.v:g} (det(D B) = dt^2 (look_ahead + v dt / 2)); use a "
+            f"look_ahead of at least limits.v * dt = {limits.v * robot.dt:g} m, or leave it unset",
+        )
+
+
+def _estimator_bounds(mission: Mission) -> Iterator[Finding]:
+    """Eq. (4) bounds narrower than the noise make phase II act on the noise."""
+    estimator = mission.estimator
+    if isinstance(estimator, Ekf) or not estimator.output_error_bounds:
+        return
+    noise = mission.sensors.noise_std
+    for state, (lower, upper) in estimator.output_error_bounds.items():
+        std = float(getattr(noise, state))
+        if std > 0 and min(-lower, upper) < BOUND_NOISE_FLOOR * std:
+            yield Finding(
+                ("estimator", "output_error_bounds", state),
+                f"output_error_bounds.{state} [{lower:g}, {upper:g}] is within "
+                f"{BOUND_NOISE_FLOOR:g} noise standard deviations (sensors.noise_std.{state} = "
+                f"{std:g}): phase II of the estimator would act on the noise; use at least "
+                f"+-{BOUND_NOISE_RATIO * std:g} or leave the bounds unset",
+                severity="warning",
+            )
 
 
 def _disturbances(mission: Mission) -> Iterator[Finding]:
@@ -501,19 +792,19 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
                     severity="warning",
                 )
     expect = mission.expect
-    largest = max(
-        abs(b)
-        for name, b in (("x", bias.x), ("y", bias.y), ("theta", bias.theta))
-        if name in measured
-    )
-    if expect.estimation_convergence_time is not None and largest >= CONVERGENCE_TOLERANCE:
-        yield Finding(
-            ("expect", "estimation_convergence_time", "max"),
-            f"the measurement bias ({largest:g}) is at least the {CONVERGENCE_TOLERANCE:g} band "
-            "estimation_convergence_time waits for: the estimate follows the biased "
-            "measurement and may never enter it",
-            severity="warning",
-        )
+    convergence = expect.convergence_tolerance
+    if expect.estimation_convergence_time is not None:
+        for name in ("x", "y", "theta"):
+            offset = abs(getattr(bias, name))
+            band = getattr(convergence, name)
+            if name in measured and offset >= band:
+                yield Finding(
+                    ("sensors", "bias", name),
+                    f"the measurement bias of {name} ({offset:g}) is at least its "
+                    f"convergence tolerance ({band:g}) that estimation_convergence_time waits "
+                    "for: the estimate follows the biased measurement and may never enter it",
+                    severity="warning",
+                )
     for field, threshold, offset, unit in (
         ("final_position_error", expect.final_position_error, position_bias, "m"),
         ("final_heading_error", expect.final_heading_error, heading_bias, "rad"),

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 import re
+import stat
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -39,9 +41,11 @@ __all__ = [
     "Diagnostic",
     "MissionError",
     "check_mission",
+    "check_mission_bytes",
     "check_mission_text",
     "load_mission",
     "load_mission_text",
+    "read_source",
 ]
 
 MAX_FILE_BYTES: Final = 1_000_000
@@ -121,9 +125,69 @@ class _NodeLoader(yaml.SafeLoader):
         finally:
             self._depth -= 1
 
+    def resolve(self, kind: Any, value: Any, implicit: Any) -> Any:
+        if kind is yaml.ScalarNode and implicit[0]:
+            return _core_tag(value)
+        return super().resolve(kind, value, implicit)  # type: ignore[no-untyped-call]
+
 
 _TAG = "tag:yaml.org,2002:"
-_FLOAT_12 = re.compile(r"^[-+]?(?:\d+(?:\.\d*)?|\.\d+)[eE][-+]?\d+$")
+# The YAML 1.2 core schema: a plain scalar is a null, boolean, integer or float
+# only when it matches these; anything else is text. (PyYAML resolves YAML 1.1,
+# where `yes` is a boolean, `010` octal 8 and `1:30` the number 90.)
+_NULL_12: Final = frozenset({"", "~", "null", "Null", "NULL"})
+_BOOL_12: Final = {"true": True, "True": True, "TRUE": True}
+_BOOL_12.update({"false": False, "False": False, "FALSE": False})
+_INT_12 = re.compile(r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+")
+_FLOAT_12 = re.compile(
+    r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+    r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)"
+)
+# A date or time, which YAML 1.1 reads as a timestamp: refused as ambiguous
+# (quoted, it is text in either version).
+_TIMESTAMP_11 = re.compile(
+    r"[0-9]{4}-[0-9]{1,2}-[0-9]{1,2}(?:(?:[Tt]|[ \t]+)[0-9]{1,2}:[0-9]{2}:[0-9]{2}"
+    r"(?:\.[0-9]*)?(?:[ \t]*(?:Z|[-+][0-9]{1,2}(?::[0-9]{2})?))?)?"
+)
+# What YAML 1.1 would have read from a plain scalar that YAML 1.2 reads as text.
+_BOOL_11 = re.compile(r"y|Y|yes|Yes|YES|n|N|no|No|NO|on|On|ON|off|Off|OFF")
+_SEXAGESIMAL_11 = re.compile(r"[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?")
+_UNDERSCORE_11 = re.compile(r"[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?")
+
+
+def _core_tag(text: str) -> str:
+    """The YAML 1.2 core-schema tag of a plain scalar."""
+    if text in _NULL_12:
+        return _TAG + "null"
+    if text in _BOOL_12:
+        return _TAG + "bool"
+    if _INT_12.fullmatch(text):
+        return _TAG + "int"
+    if _FLOAT_12.fullmatch(text):
+        return _TAG + "float"
+    if _TIMESTAMP_11.fullmatch(text):
+        return _TAG + "timestamp"
+    return _TAG + "str"
+
+
+def yaml11_hint(text: str) -> str:
+    """How a text value was read, when YAML 1.1 would have read it otherwise ('' if not)."""
+    if _BOOL_11.fullmatch(text):
+        return (
+            f" (read as the text {text!r}: in YAML 1.2, which missions use, "
+            "the booleans are true and false)"
+        )
+    if _SEXAGESIMAL_11.fullmatch(text):
+        sign = -1.0 if text.startswith("-") else 1.0
+        value = 0.0
+        for part in text.lstrip("+-").replace("_", "").split(":"):
+            value = value * 60 + float(part)
+        return (
+            f" (read as the text {text!r}: YAML 1.2 has no base-60 numbers; write {sign * value:g})"
+        )
+    if "_" in text and _UNDERSCORE_11.fullmatch(text):
+        return f" (read as the text {text!r}: write numbers without '_')"
+    return ""
 
 
 def _tag_message(tag: str) -> str:
@@ -231,15 +295,14 @@ class _Builder:
     def _scalar(self, node: yaml.Node, path: DataPath) -> Any:
         tag, text = node.tag, str(node.value)
         if tag == _TAG + "str":
-            if isinstance(node, yaml.ScalarNode) and node.style is None and _FLOAT_12.match(text):
-                # YAML 1.2 (and JSON) read `1e-3` as a number; YAML 1.1 as text
-                node.tag = _TAG + "float"
-                return self._number(node, path)
             return text
         if tag == _TAG + "null":
             return None
         if tag == _TAG + "bool":
-            return self._constructor.construct_yaml_bool(node)  # type: ignore[arg-type]
+            if text not in _BOOL_12:
+                self.refuse(path, f"{text!r} is not a boolean: write true or false")
+                return None
+            return _BOOL_12[text]
         if tag in (_TAG + "int", _TAG + "float"):
             return self._number(node, path)
         if tag.startswith(_TAG):
@@ -256,11 +319,17 @@ class _Builder:
                 path, f"absurd number {text[:20]}...: at most {_MAX_NUMBER_TEXT} characters"
             )
             return None
+        digits = text.lstrip("+-")
+        if node.tag == _TAG + "int" and len(digits) > 1 and digits[0] == "0" and digits.isdigit():
+            octal = f", or 0o{digits.lstrip('0')} for octal" if max(digits) < "8" else ""
+            self.refuse(
+                path,
+                f"{text!r} has a leading zero, which YAML 1.1 reads as octal and YAML 1.2 as "
+                f"{int(text)}: write {int(text)}{octal}",
+            )
+            return None
         try:
-            if node.tag == _TAG + "int":
-                value: float = self._constructor.construct_yaml_int(node)  # type: ignore[arg-type]
-            else:
-                value = self._constructor.construct_yaml_float(node)  # type: ignore[arg-type]
+            value = _core_number(text, integer=node.tag == _TAG + "int")
         except (ValueError, OverflowError):
             self.refuse(path, f"{text!r} is not a number")
             return None
@@ -271,6 +340,18 @@ class _Builder:
             self.refuse(path, f"absurd number {text}: magnitudes above {ABSURD:g} are refused")
             return None
         return value
+
+
+def _core_number(text: str, *, integer: bool) -> float:
+    """The value of a YAML 1.2 core-schema integer or float."""
+    if integer:
+        if text.startswith(("0o", "0x")):
+            return int(text[2:], 8 if text[1] == "o" else 16)
+        return int(text, 10)
+    special = {".inf": math.inf, ".nan": math.nan}.get(text.lstrip("+-").lower())
+    if special is not None:
+        return -special if text.startswith("-") else special
+    return float(text)
 
 
 def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
@@ -451,6 +532,13 @@ def _suggest(word: str, choices: Sequence[str]) -> str:
 
 
 def _translate(error: Any, document: Document) -> Finding:
+    finding = _translate_error(error, document)
+    value = error.get("input")
+    hint = yaml11_hint(value) if isinstance(value, str) else ""
+    return replace(finding, message=finding.message + hint) if hint else finding
+
+
+def _translate_error(error: Any, document: Document) -> Finding:
     kind: str = error["type"]
     loc: tuple[str | int, ...] = error["loc"]
     data = document.data
@@ -655,17 +743,26 @@ def _check(text: str, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
     return mission, diagnostics
 
 
-def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
+def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
+    """The bytes of a mission file, read once: a run hashes and runs these very bytes.
+
+    Regular files and pipes (``<(...)``) only; a pipe is opened without waiting
+    for a writer, so a FIFO nobody writes to reads as empty instead of hanging.
+    """
     filename = str(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
+        info = os.stat(path)
+        if not (stat.S_ISREG(info.st_mode) or stat.S_ISFIFO(info.st_mode)):
+            kind = "a directory" if stat.S_ISDIR(info.st_mode) else "a device or socket"
+            message = f"cannot read the file: it is {kind}, not a regular file"
+            return None, [Diagnostic(filename, 1, 1, message)]
+        if info.st_size > MAX_FILE_BYTES:
             return None, [
-                Diagnostic(
-                    filename, 1, 1, f"file too large: {size} bytes (at most {MAX_FILE_BYTES})"
-                )
+                Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
             ]
-        with path.open("rb") as stream:
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        os.set_blocking(descriptor, True)
+        with os.fdopen(descriptor, "rb") as stream:
             raw = stream.read(MAX_FILE_BYTES + 1)
     except OSError as error:
         return None, [
@@ -675,21 +772,27 @@ def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
         return None, [
             Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
         ]
+    return raw, []
+
+
+def check_mission_bytes(raw: bytes, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
+    """Every problem of a mission file's bytes, and the mission if it has none."""
     try:
-        return raw.decode("utf-8"), []
+        text = raw.decode("utf-8")
     except UnicodeDecodeError as error:
         before = raw[: error.start]
         line = before.count(b"\n") + 1
         column = len(before) - (before.rfind(b"\n") + 1) + 1
         return None, [Diagnostic(filename, line, column, "the file is not UTF-8 text")]
+    return check_mission_text(text, filename)
 
 
 def check_mission(path: str | Path) -> tuple[Mission | None, list[Diagnostic]]:
     """Every problem of a mission file (errors and warnings), and the mission if it has none."""
-    text, diagnostics = _read(Path(path))
-    if text is None:
+    raw, diagnostics = read_source(path)
+    if raw is None:
         return None, diagnostics
-    return check_mission_text(text, str(path))
+    return check_mission_bytes(raw, str(path))
 
 
 def load_mission_text(text: str, filename: str) -> Mission:

@@ -60,6 +60,7 @@ __all__ = [
     "Outliers",
     "PathSpec",
     "Phase",
+    "PhaseExpect",
     "PolygonRegion",
     "PolylinePath",
     "Pose",
@@ -78,6 +79,8 @@ __all__ = [
     "StateOffset",
     "StatePoles",
     "StateStd",
+    "StateThresholds",
+    "StateTolerance",
     "StayInside",
     "StayOutside",
     "Step",
@@ -101,6 +104,25 @@ PHASE_NAME: Final = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 
 # Larger magnitudes are typing mistakes, not missions (and would overflow the kernels).
 ABSURD: Final = 1e9
+# Plausibility floors: a positive quantity below these is a typing mistake, and
+# its square or inverse would underflow or overflow the kernels. Sizes, speeds
+# and rates of regions and paths [m, m/s, 1/s]; every other positive quantity
+# (limits, standard deviations, weights, tolerances).
+SMALLEST_SIZE: Final = 1e-6
+SMALLEST_POSITIVE: Final = 1e-9
+
+
+def _at_least(floor: float) -> AfterValidator:
+    def check(value: float) -> float:
+        if 0 < value < floor:
+            raise PydanticCustomError(
+                "implausibly_small",
+                "{value} is implausibly small: expected at least {floor}",
+                {"value": f"{value:g}", "floor": f"{floor:g}"},
+            )
+        return value
+
+    return AfterValidator(check)
 
 
 class _Model(BaseModel):
@@ -112,8 +134,10 @@ class _Model(BaseModel):
 # Plain numbers: an int or a float, never a bool or a numeric-looking text.
 Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-ABSURD, le=ABSURD)]
 NonNegative = Annotated[Number, Field(ge=0)]
-Positive = Annotated[Number, Field(gt=0)]
+Positive = Annotated[Number, Field(gt=0), _at_least(SMALLEST_POSITIVE)]
 Duration = Annotated[Number, Field(gt=0)]
+# true or false only, never a text such as 'yes' or 'off'.
+Flag = Annotated[bool, Strict()]
 
 _SCALAR_SCHEMA: Final[dict[str, Any]] = {
     "anyOf": [
@@ -180,6 +204,7 @@ PositiveScalar = Annotated[
     float,
     BeforeValidator(_evaluate_scalar),
     Field(allow_inf_nan=False, gt=0, le=ABSURD),
+    _at_least(SMALLEST_SIZE),
     _scalar_schema({"exclusiveMinimum": 0}),
 ]
 
@@ -446,12 +471,23 @@ OutputErrorBound = Annotated[tuple[Number, Number], AfterValidator(_check_bound)
 Pole = Annotated[Number, Field(ge=0, lt=1)]
 
 
-def _paper_estimate() -> Pose:
-    return Pose(x=1.0, y=1.0, theta=0.0)  # section IV: x_hat(0|0) = [1 1 0]
+# Default output-error bound of eq. (4) [m or rad]: the larger of this and
+# BOUND_NOISE_RATIO times the state's noise std, so that phase II acts on
+# estimation errors, not on the noise (docs/paper-notes.md, eq. (4)).
+DEFAULT_BOUND = 0.05
+BOUND_NOISE_RATIO = 5.0
 
 
 def _default_bounds() -> dict[StateName, tuple[float, float]]:
-    return dict.fromkeys(STATES, (-0.05, 0.05))
+    return dict.fromkeys(STATES, (-DEFAULT_BOUND, DEFAULT_BOUND))
+
+
+def default_bound(noise_std: float) -> float:
+    """Half-width of the default output-error bound for a state with this noise."""
+    return max(DEFAULT_BOUND, BOUND_NOISE_RATIO * noise_std)
+
+
+_INITIAL_ESTIMATE = "Estimate at mission start [m, m, rad]; null = robot.initial_state."
 
 
 class StatePoles(_Model):
@@ -474,9 +510,7 @@ class ConstrainedObserver(_Model):
     """The paper's two-phase constrained estimator, eqs. (4)-(12)."""
 
     type: Literal["constrained-observer"] = Field(description="Estimator kind.")
-    initial_estimate: Pose = Field(
-        default_factory=_paper_estimate, description="Estimate at mission start [m, m, rad]."
-    )
+    initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
     poles: StatePoles = Field(
         default_factory=StatePoles,
         description=(
@@ -490,7 +524,7 @@ class ConstrainedObserver(_Model):
         description=(
             "Eq. (4): [lower, upper] bounds on each measured state's output error "
             "[m or rad], lower < 0 < upper; keys must be measured states; null = no phase II. "
-            "Default: [-0.05, 0.05] on every measured state."
+            "Default on every measured state: +-max(0.05, 5 sensors.noise_std)."
         ),
     )
     max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = Field(
@@ -502,9 +536,7 @@ class Ekf(_Model):
     """Baseline extended Kalman filter."""
 
     type: Literal["ekf"] = Field(description="Estimator kind.")
-    initial_estimate: Pose = Field(
-        default_factory=_paper_estimate, description="Estimate at mission start [m, m, rad]."
-    )
+    initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
     initial_std: StatePositiveStd = Field(
         default_factory=lambda: StatePositiveStd(x=1.0, y=1.0, theta=0.5),
         description="Square root of the diagonal of P0 [m, m, rad], > 0.",
@@ -544,8 +576,22 @@ class Tracking(_Model):
         default="look-ahead",
         description="look-ahead: a point ahead of the axle; axle: the literal eq. (27).",
     )
-    look_ahead: Positive = Field(
-        default=0.05, description="Distance of the look-ahead point ahead of the axle [m]."
+    look_ahead: Positive | None = Field(
+        default=None,
+        description=(
+            "Distance of the look-ahead point ahead of the axle [m]; "
+            "null = max(0.05, robot.limits.v * robot.dt), where the law is well conditioned "
+            "at every speed the limits allow."
+        ),
+    )
+    time_constant: NonNegative = Field(
+        default=0.1,
+        description=(
+            "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
+            "time_constant) of the output's error, the path's own motion fed forward; "
+            "0 = close the whole error in one sample (the literal eq. 27; always so for "
+            "output: axle)."
+        ),
     )
 
 
@@ -562,7 +608,7 @@ class Regulation(_Model):
     align_radius: Positive = Field(
         default=0.01, description="Within this distance the bearing form turns to the target [m]."
     )
-    reverse: bool = Field(default=True, description="The bearing form may drive backwards.")
+    reverse: Flag = Field(default=True, description="The bearing form may drive backwards.")
 
 
 class Controller(_Model):
@@ -782,7 +828,7 @@ class WaypointsPath(_Model):
             "passes nearest the robot; first: at the first point."
         ),
     )
-    closed: bool = Field(default=False, description="Return to the first point and loop.")
+    closed: Flag = Field(default=False, description="Return to the first point and loop.")
 
 
 # --- routes drawn through points: polyline and coverage ---------------------
@@ -906,6 +952,82 @@ PathSpec = Annotated[
 ]
 
 
+# --- expectations ----------------------------------------------------------
+
+
+class Threshold(_Model):
+    """An upper bound on a run metric."""
+
+    max: NonNegative = Field(description="Largest accepted value, in the metric's unit.")
+
+
+class StateThresholds(_Model):
+    """An upper bound per state, in the state's unit; a state left out is not checked."""
+
+    x: NonNegative | None = Field(default=None, description="[m] bound for x.")
+    y: NonNegative | None = Field(default=None, description="[m] bound for y.")
+    theta: NonNegative | None = Field(default=None, description="[rad] bound for theta.")
+
+
+# The paper's "short transient" acceptance, in metres and radians alike.
+DEFAULT_CONVERGENCE_TOLERANCE: Final = 0.05
+
+
+class StateTolerance(_Model):
+    """A tolerance per state, in the state's unit."""
+
+    x: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[m] tolerance for x, > 0."
+    )
+    y: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[m] tolerance for y, > 0."
+    )
+    theta: Positive = Field(
+        default=DEFAULT_CONVERGENCE_TOLERANCE, description="[rad] tolerance for theta, > 0."
+    )
+
+
+class PhaseExpect(_Model):
+    """Thresholds on one phase's metrics; a key left out (or null) takes the mission's value."""
+
+    settle_time: NonNegative | None = Field(
+        default=None,
+        description=(
+            "[s] the start of the phase that the tracking, input and estimation-RMS metrics "
+            "leave out (the entry transient)."
+        ),
+    )
+    tracking_error_rms: Threshold | None = Field(
+        default=None,
+        description="[m] RMS distance of the true position from the path after settle_time.",
+    )
+    tracking_error_max: Threshold | None = Field(
+        default=None,
+        description="[m] largest distance of the true position from the path after settle_time.",
+    )
+    speed_at_limit: Threshold | None = Field(
+        default=None,
+        description="Fraction of the samples after settle_time with |v| at limits.v.",
+    )
+    turn_rate_at_limit: Threshold | None = Field(
+        default=None,
+        description="Fraction of the samples after settle_time with |omega| at limits.omega.",
+    )
+    turn_rate_jitter: Threshold | None = Field(
+        default=None,
+        description=(
+            "[rad/s] RMS of omega about its 25-sample centred moving mean, after settle_time."
+        ),
+    )
+    turn_rate_reversals: Threshold | None = Field(
+        default=None, description="Sign changes of omega after settle_time (a count)."
+    )
+    estimation_rms: StateThresholds | None = Field(
+        default=None,
+        description="RMS estimation error (true - estimate) per state after settle_time.",
+    )
+
+
 # --- phases ----------------------------------------------------------------
 
 
@@ -1012,6 +1134,10 @@ class _PhaseCommon(_Model):
             "Keep-in and keep-out zones (eq. (28)); on a track phase they win over the path."
         ),
     )
+    expect: PhaseExpect = Field(
+        default_factory=PhaseExpect,
+        description="Thresholds on this phase's metrics, overriding the mission's expect.",
+    )
 
 
 class TrackPhase(_PhaseCommon):
@@ -1102,17 +1228,57 @@ Step = Annotated[
 ]
 
 
-# --- expectations ----------------------------------------------------------
+# The verdict a run gets unless the mission says otherwise: its inputs do not sit
+# at a limit (the rule of thumb: 1 % of a phase after its first second) and it
+# stays near its path. A mission relaxes them by setting its own values.
+DEFAULT_SETTLE_TIME: Final = 1.0
+DEFAULT_AT_LIMIT: Final = 0.01
+DEFAULT_TRACKING_ERROR_MAX: Final = 0.1
 
 
-class Threshold(_Model):
-    """An upper bound on a run metric."""
+class Expect(PhaseExpect):
+    """Acceptance thresholds; `run` exits 1 when one is not met.
 
-    max: NonNegative = Field(description="Largest accepted value, in the metric's unit.")
+    The keys settle_time to estimation_rms apply to each phase (a phase's own
+    `expect` overrides them); null turns one off for the whole mission. See
+    "Verdicts" above.
+    """
 
-
-class Expect(_Model):
-    """Acceptance thresholds; `run` exits 1 when one is not met."""
+    settle_time: NonNegative = Field(
+        default=DEFAULT_SETTLE_TIME,
+        description=(
+            "[s] the start of each phase that the tracking, input and estimation-RMS metrics "
+            "leave out (the entry transient)."
+        ),
+    )
+    tracking_error_max: Threshold | None = Field(
+        default=Threshold(max=DEFAULT_TRACKING_ERROR_MAX),
+        description=(
+            "[m] largest distance of the true position from the path after settle_time; "
+            "{max: 0.1} unless set."
+        ),
+    )
+    speed_at_limit: Threshold | None = Field(
+        default=Threshold(max=DEFAULT_AT_LIMIT),
+        description=(
+            "Fraction of the samples after settle_time with |v| at limits.v; "
+            "{max: 0.01} unless set."
+        ),
+    )
+    turn_rate_at_limit: Threshold | None = Field(
+        default=Threshold(max=DEFAULT_AT_LIMIT),
+        description=(
+            "Fraction of the samples after settle_time with |omega| at limits.omega; "
+            "{max: 0.01} unless set."
+        ),
+    )
+    convergence_tolerance: StateTolerance = Field(
+        default_factory=StateTolerance,
+        description=(
+            "|estimation error| per state below which the estimate counts as converged "
+            "(estimation_convergence_time) and the floor of the overshoot metric."
+        ),
+    )
 
     final_position_error: Threshold | None = Field(
         default=None,
@@ -1131,7 +1297,10 @@ class Expect(_Model):
     )
     estimation_convergence_time: Threshold | None = Field(
         default=None,
-        description="[s] first time after which every state's |estimation error| stays < 0.05.",
+        description=(
+            "[s] first time after which every state's |estimation error| stays below its "
+            "convergence_tolerance."
+        ),
     )
     duration: Threshold | None = Field(default=None, description="[s] mission time.")
 
@@ -1209,7 +1378,8 @@ class Mission(_Model):
     @model_validator(mode="before")
     @classmethod
     def _default_bounds_on_measured_states(cls, data: Any) -> Any:
-        """Default output-error bounds cover the measured states only."""
+        """Default output-error bounds cover the measured states only, each
+        wide enough that the state's noise alone rarely leaves it."""
         if not isinstance(data, dict):
             return data
         estimator = data.get("estimator", {"type": "constrained-observer"})
@@ -1221,5 +1391,12 @@ class Mission(_Model):
         measure = sensors.get("measure", STATES)
         if not isinstance(measure, list | tuple) or not all(s in STATES for s in measure):
             return data
-        bounds = dict.fromkeys(measure, (-0.05, 0.05))
+        noise = sensors.get("noise_std", {})
+        bounds = {}
+        for state in measure:
+            std = noise.get(state, 0.0) if isinstance(noise, dict) else 0.0
+            if isinstance(std, bool) or not isinstance(std, int | float) or not std >= 0:
+                std = 0.0  # the field's own check reports it
+            half_width = default_bound(float(std))
+            bounds[state] = (-half_width, half_width)
         return {**data, "estimator": {**estimator, "output_error_bounds": bounds}}

@@ -1,0 +1,385 @@
+"""Read a run directory back for ``wmr-mission plot``, trusting nothing in it.
+
+Every file is checked before anything is drawn: JSON shapes and types, names
+(a mission, phase or region name is what a mission file allows, so no text
+reaches a figure as markup), regions against the mission models, the CSV's
+header, fields, numbers and phase names, and its row count against
+``summary.json`` (a file cut at a line boundary is reported, not drawn as if
+complete). A problem is one line naming the file and what is wrong.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from wmr_mission.output.rundir import (
+    CSV_COLUMNS,
+    MANIFEST_FILE,
+    SUMMARY_FILE,
+    TRAJECTORY_FILE,
+    TRANSITIONS_FILE,
+)
+from wmr_mission.result import MEASUREMENT_COLUMNS, Outcome, PhaseInfo, RunResult, Transition
+from wmr_mission.spec.models import MISSION_NAME
+
+
+# Its message leaves out the run directory: callers print `RUN_DIR: message`.
+class RunDirError(ValueError):
+    """A run directory that cannot be read back (missing or corrupt file); one line."""
+
+
+# --- reading back ---------------------------------------------------------
+
+
+def _read_text(path: Path) -> str:
+    if not path.is_file():
+        raise RunDirError(f"{path.name} is missing (not a run directory, or an interrupted run)")
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RunDirError(f"{path.name}: cannot be read: {exc}") from None
+
+
+def _read_json(path: Path) -> Any:
+    text = _read_text(path)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise RunDirError(
+            f"{path.name}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}"
+        ) from None
+
+
+def _field(record: Any, key: str, kind: type | tuple[type, ...], where: str) -> Any:
+    if not isinstance(record, dict) or key not in record:
+        raise RunDirError(f"{where}: '{key}' is missing")
+    value = record[key]
+    kinds = kind if isinstance(kind, tuple) else (kind,)
+    # JSON true/false are ints to Python; they are never a number here.
+    if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
+        raise RunDirError(f"{where}: '{key}' has the wrong type")
+    return value
+
+
+def _number(value: Any, where: str) -> float:
+    # null stands for NaN (JSON has no NaN).
+    if value is None:
+        return math.nan
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise RunDirError(f"{where}: expected a number or null")
+    return float(value)
+
+
+_KINDS = ("track", "regulate", "hold")
+_SIDES = ("inside", "outside")
+# Largest phase-II iteration count a mission allows (estimator.max_iterations).
+_MAX_ITERATIONS = 1000
+
+
+def _name(record: Any, key: str, pattern: str, where: str) -> str:
+    value = _field(record, key, str, where)
+    if not re.match(pattern, value):
+        raise RunDirError(f"{where}: '{key}' {_shown(value)} is not a name a mission allows")
+    return str(value)
+
+
+def _choice(record: Any, key: str, choices: Sequence[str], where: str) -> str:
+    value = _field(record, key, str, where)
+    if value not in choices:
+        raise RunDirError(f"{where}: '{key}' must be one of {', '.join(choices)}")
+    return str(value)
+
+
+def _shown(value: str) -> str:
+    return repr(value if len(value) <= 40 else value[:37] + "...")
+
+
+def _regions_from(run: Any) -> dict[str, Any]:
+    """The regions, each checked against the mission's region models."""
+    from pydantic import TypeAdapter, ValidationError
+
+    from wmr_mission.spec.models import IDENTIFIER, RegionSpec
+
+    where = f"{MANIFEST_FILE}: run.regions"
+    regions = _field(run, "regions", dict, f"{MANIFEST_FILE}: run")
+    adapter: TypeAdapter[Any] = TypeAdapter(RegionSpec)
+    for name, region in regions.items():
+        if not re.match(IDENTIFIER, name):
+            raise RunDirError(f"{where}: {_shown(name)} is not a region name")
+        try:
+            adapter.validate_python(region)
+        except ValidationError as error:
+            first = error.errors(include_url=False)[0]
+            at = ".".join(str(part) for part in first["loc"][1:])
+            raise RunDirError(f"{where}.{name}{'.' + at if at else ''}: {first['msg']}") from None
+    return dict(regions)
+
+
+def _phases_from(run: Any) -> list[PhaseInfo]:
+    where = f"{MANIFEST_FILE}: run.phases"
+    phases = []
+    for i, record in enumerate(_field(run, "phases", list, f"{MANIFEST_FILE}: run")):
+        at = f"{where}[{i}]"
+        target = _field(record, "target", (list, type(None)), at)
+        if target is not None and len(target) != 3:
+            raise RunDirError(f"{at}: 'target' must be [x, y, theta]")
+        constraints = tuple(
+            (
+                str(_field(c, "region", str, f"{at}.constraints")),
+                _choice(c, "side", _SIDES, f"{at}.constraints"),
+            )
+            for c in _field(record, "constraints", list, at)
+        )
+        phases.append(
+            PhaseInfo(
+                name=_field(record, "name", str, at),
+                kind=_choice(record, "kind", _KINDS, at),
+                target=(
+                    None
+                    if target is None
+                    else (
+                        _number(target[0], at),
+                        _number(target[1], at),
+                        _number(target[2], at),
+                    )
+                ),
+                constraints=constraints,
+            )
+        )
+    return phases
+
+
+def _transitions_from(records: Any) -> list[Transition]:
+    if not isinstance(records, list):
+        raise RunDirError(f"{TRANSITIONS_FILE}: expected a list of transitions")
+    transitions = []
+    for i, record in enumerate(records):
+        at = f"{TRANSITIONS_FILE}: [{i}]"
+        transitions.append(
+            Transition(
+                time=_number(_field(record, "time", (int, float), at), at),
+                from_phase=_field(record, "from", str, at),
+                to_phase=_field(record, "to", (str, type(None)), at),
+                condition=_field(record, "condition", str, at),
+                value=_number(_field(record, "value", (int, float, type(None)), at), at),
+                lap=_lap(record, at),
+            )
+        )
+    return transitions
+
+
+def _lap(record: Any, where: str) -> int | None:
+    """The optional lap of a transition (absent in runs without repeats)."""
+    lap = record.get("lap") if isinstance(record, dict) else None
+    if lap is not None and (isinstance(lap, bool) or not isinstance(lap, int)):
+        raise RunDirError(f"{where}: 'lap' must be a whole number or null")
+    return lap
+
+
+def _read_trajectory(path: Path, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
+    text = _read_text(path)
+    header = next(csv.reader(io.StringIO(text[: text.find("\n") + 1], newline="")), None)
+    if header is None or tuple(header) != CSV_COLUMNS:
+        raise RunDirError(f"{path.name}:1: header must be exactly {','.join(CSV_COLUMNS)}")
+    try:
+        return _parse_rows_fast(text, phase_names)
+    except ValueError:
+        # Find the first bad line and say what is wrong with it.
+        return _parse_rows_checked(text, phase_names, path.name)
+
+
+def _parse_rows_fast(text: str, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
+    """numpy's C parser; raises ValueError on anything unexpected."""
+    if not text.partition("\n")[2].strip():
+        raise ValueError("no samples")  # loadtxt warns on empty input: take the checked path
+    phase_column = CSV_COLUMNS.index("phase")
+    numeric = [i for i in range(len(CSV_COLUMNS)) if i != phase_column]
+    options: dict[str, Any] = {
+        "delimiter": ",",
+        "skiprows": 1,
+        "quotechar": '"',
+        "comments": None,
+        "ndmin": 2,
+    }
+    values = np.loadtxt(io.StringIO(text), usecols=numeric, dtype=np.float64, **options)
+    names = np.loadtxt(io.StringIO(text), usecols=[phase_column], dtype=str, **options)[:, 0]
+    known, inverse = np.unique(names, return_inverse=True)
+    index_of = {name: i for i, name in enumerate(phase_names)}
+    if any(name not in index_of for name in known.tolist()):
+        raise ValueError("unknown phase")
+    data = {CSV_COLUMNS[i]: values[:, j].copy() for j, i in enumerate(numeric)}
+    data["phase"] = np.array([index_of[n] for n in known.tolist()], dtype=np.int64)[inverse]
+    iterations = data["phase2_iterations"]
+    if not np.all(
+        np.isfinite(iterations)
+        & (iterations == np.round(iterations))
+        & (iterations >= 0)
+        & (iterations <= _MAX_ITERATIONS)
+    ):
+        raise ValueError("phase2_iterations not a count")
+    data["phase2_iterations"] = iterations.astype(np.int64)
+    return data
+
+
+def _parse_rows_checked(
+    text: str, phase_names: Sequence[str], filename: str
+) -> dict[str, np.ndarray]:
+    """Row by row, naming the first line that does not fit."""
+    rows = list(csv.reader(io.StringIO(text, newline="")))[1:]
+    for line, row in enumerate(rows, start=2):
+        if len(row) != len(CSV_COLUMNS):
+            raise RunDirError(
+                f"{filename}:{line}: expected {len(CSV_COLUMNS)} fields, found {len(row)}"
+            )
+    data: dict[str, np.ndarray] = {}
+    cells = list(zip(*rows, strict=True)) if rows else [() for _ in CSV_COLUMNS]
+    index_of = {name: i for i, name in enumerate(phase_names)}
+    for name, column in zip(CSV_COLUMNS, cells, strict=True):
+        if name == "phase":
+            try:
+                data[name] = np.array([index_of[value] for value in column], dtype=np.int64)
+            except KeyError as exc:
+                line = column.index(exc.args[0]) + 2
+                raise RunDirError(
+                    f"{filename}:{line}: unknown phase {exc.args[0]!r} "
+                    f"({MANIFEST_FILE} lists {', '.join(phase_names)})"
+                ) from None
+            continue
+        dtype = np.int64 if name == "phase2_iterations" else np.float64
+        try:
+            data[name] = np.array(column, dtype=dtype)
+            if dtype is np.int64 and not np.all(
+                (data[name] >= 0) & (data[name] <= _MAX_ITERATIONS)
+            ):
+                raise ValueError("out of range")
+        except (ValueError, OverflowError):
+            line, problem = next(
+                (line, problem)
+                for line, value in enumerate(column, start=2)
+                if (problem := _problem(value, dtype))
+            )
+            raise RunDirError(f"{filename}:{line}: {name} {problem}") from None
+    return data
+
+
+def _problem(text: str, dtype: type) -> str | None:
+    """What is wrong with one CSV cell, or None."""
+    if dtype is not np.int64:
+        try:
+            float(text)
+        except ValueError:
+            return f"is not a number: {text!r}"
+        return None
+    if not re.fullmatch(r"\s*[-+]?\d+\s*", text):
+        return f"is not an integer: {text!r}"
+    if not 0 <= int(text) <= _MAX_ITERATIONS:
+        return f"is out of range 0..{_MAX_ITERATIONS}: {text!r}"
+    return None
+
+
+def _bound(bounds: dict[str, Any], state: str) -> tuple[float, float]:
+    where = f"{MANIFEST_FILE}: run.error_bounds"
+    pair = _field(bounds, state, list, where)
+    if len(pair) != 2:
+        raise RunDirError(f"{where}: '{state}' must be [lower, upper]")
+    return _number(pair[0], where), _number(pair[1], where)
+
+
+def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
+    """Rebuild a run's ``RunResult`` from its directory (``compute_ns`` is not saved: zeros)."""
+    directory = Path(run_dir)
+    if not directory.is_dir():
+        raise RunDirError("not a directory")
+    manifest = _read_json(directory / MANIFEST_FILE)
+    run = _field(manifest, "run", dict, MANIFEST_FILE)
+    where = f"{MANIFEST_FILE}: run"
+    phases = _phases_from(run)
+    limits = _field(run, "limits", dict, where)
+    bounds = _field(run, "error_bounds", dict, where)
+    error_bounds = [_bound(bounds, state) for state in ("x", "y", "theta")]
+    transitions = _transitions_from(_read_json(directory / TRANSITIONS_FILE))
+    summary = _read_json(directory / SUMMARY_FILE)
+    outcome_text = _field(summary, "outcome", str, SUMMARY_FILE)
+    try:
+        outcome = Outcome(outcome_text)
+    except ValueError:
+        raise RunDirError(f"{SUMMARY_FILE}: unknown outcome {outcome_text!r}") from None
+    regions = _regions_from(run)
+    for phase in phases:
+        for region, _ in phase.constraints:
+            if region not in regions:
+                raise RunDirError(
+                    f"{where}.phases: phase {phase.name!r} names region {region!r}, "
+                    "which run.regions does not hold"
+                )
+    data = _read_trajectory(directory / TRAJECTORY_FILE, [p.name for p in phases])
+    samples = data["t"].shape[0]
+    expected = _field(summary, "samples", int, SUMMARY_FILE)
+    if samples != expected:
+        raise RunDirError(
+            f"{TRAJECTORY_FILE}: {samples} rows, but {SUMMARY_FILE} says {expected} samples "
+            "(the file was cut short or changed)"
+        )
+    _check_columns(data)
+    seed = _field(manifest, "seed", int, MANIFEST_FILE)
+    return RunResult(
+        mission_name=_name(run, "mission_name", MISSION_NAME, where),
+        dt=_positive(_field(run, "dt", (int, float), where), f"{where}.dt"),
+        seed=int(seed),
+        phases=phases,
+        t=data["t"],
+        x=data["x"],
+        y=data["y"],
+        theta=data["theta"],
+        x_est=data["x_est"],
+        y_est=data["y_est"],
+        theta_est=data["theta_est"],
+        v=data["v"],
+        omega=data["omega"],
+        phase=data["phase"],
+        x_ref=data["x_ref"],
+        y_ref=data["y_ref"],
+        constraint=data["constraint"],
+        phase2_iterations=data["phase2_iterations"],
+        compute_ns=np.zeros(samples, dtype=np.int64),
+        transitions=transitions,
+        outcome=outcome,
+        message=_field(summary, "message", str, SUMMARY_FILE),
+        limits=(
+            _positive(_field(limits, "v", (int, float), f"{where}.limits"), f"{where}.limits.v"),
+            _positive(
+                _field(limits, "omega", (int, float), f"{where}.limits"), f"{where}.limits.omega"
+            ),
+        ),
+        error_bounds=(error_bounds[0], error_bounds[1], error_bounds[2]),
+        regions=regions,
+        measurement=np.column_stack([data[name] for name in MEASUREMENT_COLUMNS]),
+    )
+
+
+def _positive(value: float, where: str) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise RunDirError(f"{where}: expected a positive number, got {value!r}")
+    return float(value)
+
+
+def _check_columns(data: dict[str, np.ndarray]) -> None:
+    """Sample times finite and increasing; iteration counts as a mission allows."""
+    t = data["t"]
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size == 0 and t.size > 1:
+        bad = np.flatnonzero(np.diff(t) <= 0) + 1
+        if bad.size:
+            raise RunDirError(f"{TRAJECTORY_FILE}:{bad[0] + 2}: t does not increase")
+    if bad.size:
+        raise RunDirError(f"{TRAJECTORY_FILE}:{bad[0] + 2}: t is not a finite number")
