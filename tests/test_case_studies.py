@@ -133,10 +133,14 @@ def test_a_diverging_mission_exits_1_with_its_cause_and_keeps_its_outputs(tmp_pa
     mission.write_text(text)
     code, stdout, stderr = run(mission, tmp_path / "out", "--no-plots")
     assert code == 1
-    lines = [line for line in stderr.splitlines() if line]
-    assert len(lines) == 1
-    assert lines[0].startswith(f"{mission}: diverged in phase 'spiral-out' at t = 0.0")
-    assert "the input ran away" in lines[0]
+    # `run` prints the mission's warnings first (the literal law without limits), then its end
+    *warnings, failure = [line for line in stderr.splitlines() if line]
+    assert [w.split(": warning: ")[0].startswith(f"{mission}:") for w in warnings] == [True] * len(
+        warnings
+    )
+    assert all(": warning: " in w for w in warnings)
+    assert failure.startswith(f"{mission}: diverged in phase 'spiral-out' at t = 0.0")
+    assert "the input ran away" in failure
     assert "Traceback" not in stdout + stderr
     c = read_trajectory(tmp_path / "out")
     assert 5 < c["t"].size < 100

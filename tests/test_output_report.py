@@ -27,7 +27,7 @@ def test_table_has_a_row_per_phase_in_fixed_columns() -> None:
     assert rows[0].endswith("0 % / 0 %         0.29 s                    -")
     assert rows[0][: lines[0].index("duration") + 8].endswith(" 5.00 s")  # right-aligned
     assert "10.00 s" in rows[1]
-    assert lines[-2] == "outcome: success after 20.00 s - all phases done"
+    assert lines[-2] == "outcome: success after 20.00 s of simulated time - all phases done"
     assert lines[-1] == "outputs: runs/circle-20240611-090503"
     assert text.endswith("\n")
 
@@ -59,4 +59,6 @@ def test_table_gives_each_phase_its_verdict() -> None:
     assert "0 % / 11.1 %" in orbit
     assert park.endswith("  ok")
     assert "expect orbit: turn_rate_at_limit <= 0.01: 0.1111 (NOT MET)" in lines
-    assert lines[-2].startswith("outcome: expect-failed after 20.00 s - expectation not met:")
+    assert lines[-2].startswith(
+        "outcome: expect-failed after 20.00 s of simulated time - expectation not met:"
+    )

@@ -20,14 +20,7 @@ from wmr_mission.output.rundir import (
     prepare_run_dir,
     write_run,
 )
-from wmr_mission.result import (
-    EXTRA_COLUMNS,
-    MEASUREMENT_COLUMNS,
-    TRAJECTORY_COLUMNS,
-    Outcome,
-    PhaseInfo,
-    RunResult,
-)
+from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS, Outcome, PhaseInfo, RunResult
 
 RESOLVED: dict[str, Any] = {
     "version": 1,
@@ -87,9 +80,16 @@ def test_trajectory_header_and_column_order(tmp_path: Path) -> None:
     header = lines[0].decode().split(",")
     first = ["t", "x", "y", "theta", "x_est", "y_est", "theta_est", "v", "omega", "phase"]
     assert header[:10] == first
-    assert header == [*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS, *MEASUREMENT_COLUMNS]
-    assert header[10:14] == ["x_ref", "y_ref", "constraint", "phase2_iterations"]
-    assert header[14:] == ["x_meas", "y_meas", "theta_meas"]
+    assert header == [*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS]
+    assert header[10:] == [
+        "x_ref",
+        "y_ref",
+        "constraint",
+        "x_meas",
+        "y_meas",
+        "theta_meas",
+        "phase2_iterations",
+    ]
     assert len(lines) == 2001 + 2
     assert lines[-1] == b""  # '\n' after every row
     assert b"\r" not in lines[1]
@@ -104,7 +104,8 @@ def test_trajectory_values_are_12_significant_digits_and_nan(tmp_path: Path) -> 
     assert first[1] == "2"
     assert first[3] == "%.12g" % (math.pi / 2)
     assert first[9] == "approach"
-    assert first[13] == "3"
+    assert first[13:16] == ["nan", "nan", "nan"]  # no measurement recorded
+    assert first[16] == "3"
     park = rows[1 + 1700].split(",")
     assert park[9] == "park"
     assert park[10:12] == ["nan", "nan"]  # no reference outside track phases
@@ -290,7 +291,7 @@ def test_load_run_without_summary_says_incomplete(tmp_path: Path) -> None:
         ),
         (
             "trajectory.csv",
-            lambda text: text.replace(",3,nan,nan,nan\n", ",1.5,nan,nan,nan\n", 1),
+            lambda text: text.replace(",3\n", ",1.5\n", 1),
             r"trajectory.csv:2: phase2_iterations is not an integer: '1.5'",
         ),
         (

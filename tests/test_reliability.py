@@ -606,9 +606,9 @@ def test_names_with_dollars_are_drawn_as_typed(tmp_path: Path) -> None:
     result = circle_run(200)
     result.phases[0] = type(result.phases[0])("$x", "track")
     result.mission_name = "$\\frac{1$"
-    from wmr_mission.output.plots import draw_xy
+    from wmr_mission.output.plots import draw_all
 
-    assert draw_xy(result, tmp_path / "xy.png").stat().st_size > 0
+    assert all(path.stat().st_size > 0 for path in draw_all(result, tmp_path))
 
 
 # --- 10. streams and pipes --------------------------------------------------------

@@ -2,35 +2,74 @@
 
 The controller and estimator follow "A New On-line Observer-Based Controller
 for Wheeled Non-holonomic Mobile Robots"; ``docs/paper-notes.md`` maps each of
-its equations to the code.
+its equations to the code. The Python API (``docs/python-api.md``):
+
+* ``load_mission``, ``mission_from_text``, ``mission_from_dict``: a checked mission;
+* ``run_mission``: check, simulate and judge it; a ``RunResult``;
+* ``plot_xy``, ``plot_states``, ``plot_estimation_error``, ``plot_inputs``: figures;
+* ``load_run``: a run directory read back; ``MissionError``: what every check raises.
 """
 
 from __future__ import annotations
 
+import importlib
 from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
+    from wmr_mission.api import (
+        MissionError,
+        load_mission,
+        load_run,
+        mission_from_dict,
+        mission_from_text,
+        run_mission,
+    )
+    from wmr_mission.output.plots import (
+        plot_estimation_error,
+        plot_inputs,
+        plot_states,
+        plot_xy,
+    )
     from wmr_mission.result import RunResult
-    from wmr_mission.runner import run_mission
-    from wmr_mission.spec.loader import load_mission
+    from wmr_mission.spec.models import Mission
 
-__all__ = ["RunResult", "__version__", "load_mission", "run_mission"]
+# Lazy: `wmr-mission validate` and `--help` must not pay for numpy/scipy/matplotlib.
+_WHERE = {
+    "MissionError": "wmr_mission.api",
+    "load_mission": "wmr_mission.api",
+    "load_run": "wmr_mission.api",
+    "mission_from_dict": "wmr_mission.api",
+    "mission_from_text": "wmr_mission.api",
+    "run_mission": "wmr_mission.api",
+    "plot_xy": "wmr_mission.output.plots",
+    "plot_states": "wmr_mission.output.plots",
+    "plot_estimation_error": "wmr_mission.output.plots",
+    "plot_inputs": "wmr_mission.output.plots",
+    "RunResult": "wmr_mission.result",
+    "Mission": "wmr_mission.spec.models",
+}
+
+__all__ = [
+    "Mission",
+    "MissionError",
+    "RunResult",
+    "__version__",
+    "load_mission",
+    "load_run",
+    "mission_from_dict",
+    "mission_from_text",
+    "plot_estimation_error",
+    "plot_inputs",
+    "plot_states",
+    "plot_xy",
+    "run_mission",
+]
 
 
 def __getattr__(name: str) -> Any:
-    # Lazy: `wmr-mission validate` and `--help` must not pay for numpy/scipy/matplotlib.
-    if name == "load_mission":
-        from wmr_mission.spec.loader import load_mission
-
-        return load_mission
-    if name == "run_mission":
-        from wmr_mission.runner import run_mission
-
-        return run_mission
-    if name == "RunResult":
-        from wmr_mission.result import RunResult
-
-        return RunResult
-    raise AttributeError(name)
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'wmr_mission' has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)

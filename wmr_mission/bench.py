@@ -88,12 +88,19 @@ def _same_trajectory(a: RunResult, b: RunResult) -> bool:
 def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, Any]:
     """Run ``mission`` once untimed, ``repeat`` times with the fast kernels and
     once with the reference step; return per-phase and overall median and p99
-    microseconds per sample of each, and their ratio (reference / ours)."""
+    microseconds per sample of each, and their ratio (reference / ours).
+
+    A :class:`Mission` is checked first, as a file is (raises ``MissionError``).
+    """
     from wmr_mission.reference import REFERENCE
+    from wmr_mission.spec.loader import validate_mission
 
     if repeat < 1:
         raise ValueError(f"repeat must be at least 1, got {repeat}")
-    compiled = mission if isinstance(mission, CompiledMission) else compile_mission(mission)
+    if isinstance(mission, CompiledMission):
+        compiled = mission
+    else:
+        compiled = compile_mission(validate_mission(mission))
     ours = run_mission(compiled, functions=FAST)  # warm-up: loads or compiles the kernels
     if not np.any(ours.compute_ns > 0):
         raise NothingToTime(f"the mission ends at t = {ours.t[-1]:g} s, before its first step")

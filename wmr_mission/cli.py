@@ -1,4 +1,4 @@
-"""Command line: ``wmr-mission run|validate|schema|plot|bench``.
+"""Command line: ``wmr-mission run|validate|schema|plot|bench``, ``--version``.
 
 Thin by design: each command parses its flags and calls one function of the
 package. Imports are lazy so that ``validate`` and ``--help`` start fast and
@@ -23,6 +23,9 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # Plain help: flags show as flags (`--animate`), not as `--animate <bool>`.
+    rich_markup_mode=None,
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
 
 
@@ -30,9 +33,45 @@ app = typer.Typer(
 MAX_REPEAT = 100
 
 
+def _version(value: bool) -> None:
+    if value:
+        from wmr_mission import __version__
+
+        print(f"wmr-mission {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _main(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    """Run declarative YAML missions for wheeled non-holonomic mobile robots."""
+
+
 class OutputFormat(StrEnum):
     text = "text"
     json = "json"
+
+
+class FigureFormat(StrEnum):
+    png = "png"
+    svg = "svg"
+    pdf = "pdf"
+
+
+FigureFormats = Annotated[
+    list[FigureFormat] | None,
+    typer.Option("--format", help="Figure file format; repeat for several (default: png)."),
+]
+
+
+def _formats(chosen: list[FigureFormat] | None) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(f.value for f in chosen)) if chosen else ("png",)
 
 
 ExistingFile = Annotated[
@@ -59,22 +98,46 @@ def run(
             help="Sensor-noise seed, 0..2^32-1; overrides the mission's.",
         ),
     ] = None,
+    set_: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--set",
+            metavar="PATH=VALUE",
+            help="Override a mission field by its dotted path, VALUE read as YAML "
+            "(--set robot.dt=0.02, --set controller.Q=[1,1,2]); repeatable.",
+        ),
+    ] = None,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
     animate: Annotated[
         bool, typer.Option("--animate", help="Also write animation.gif of the robot.")
     ] = False,
+    format: FigureFormats = None,
 ) -> None:
     """Simulate MISSION and write trajectory, metrics and plots to a run directory."""
     from wmr_mission.run_command import run_command
 
-    raise typer.Exit(run_command(mission, out=out, seed=seed, plots=not no_plots, animate=animate))
+    raise typer.Exit(
+        run_command(
+            mission,
+            out=out,
+            seed=seed,
+            plots=not no_plots,
+            animate=animate,
+            overrides=set_ or (),
+            formats=_formats(format),
+        )
+    )
 
 
 @app.command()
 def validate(
     files: Annotated[
         list[Path],
-        typer.Argument(exists=True, dir_okay=False, metavar="FILE", help="Mission YAML files."),
+        typer.Argument(
+            exists=True,
+            metavar="FILE",
+            help="Mission YAML files; a directory stands for every *.yaml below it.",
+        ),
     ],
     format: Annotated[
         OutputFormat, typer.Option("--format", help="Report format.")
@@ -88,7 +151,7 @@ def validate(
 
 @app.command()
 def schema() -> None:
-    """Print the mission JSON Schema."""
+    """Print the mission JSON Schema (for editors: wmr-mission schema > mission.schema.json)."""
     from wmr_mission.spec.schema import schema_text
 
     sys.stdout.write(schema_text())
@@ -100,11 +163,12 @@ def plot(
         Path,
         typer.Argument(exists=True, file_okay=False, metavar="RUN_DIR", help="A run directory."),
     ],
+    format: FigureFormats = None,
 ) -> None:
     """Re-draw the figures of RUN_DIR from its saved data."""
     from wmr_mission.output.plots import replot_command
 
-    raise typer.Exit(replot_command(run_dir))
+    raise typer.Exit(replot_command(run_dir, _formats(format)))
 
 
 @app.command()

@@ -14,10 +14,10 @@ from typing import TYPE_CHECKING, Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission import disturbances
 from wmr_mission.sensors import STATE_NAMES, measurement_mask
 
 if TYPE_CHECKING:
+    from wmr_mission.disturbances import Settings
     from wmr_mission.spec.models import Mission
 
 FloatArray = NDArray[np.float64]
@@ -75,6 +75,7 @@ class CompiledPhase:
     lap: int | None = None
     # track: the points its path is drawn through ((m, 2), for figures), or None.
     points: FloatArray | None = None
+    color: str | None = None  # for the figures: from the mission's plot.phase_colors
 
 
 @dataclass(frozen=True)
@@ -120,7 +121,20 @@ class CompiledMission:
     runaway_input: float = RUNAWAY_INPUT
     ekf_innovation_gate: float = math.inf  # inf: no gating
     # The true plant's and the sensors' imperfections (wmr_mission.disturbances).
-    disturbances: disturbances.Settings = field(default_factory=disturbances.Settings)
+    disturbances: Settings = field(default_factory=lambda: _no_disturbances())
+
+
+def _no_disturbances() -> Settings:
+    # Imported on use: the disturbance kernels load numba, which validate never needs.
+    from wmr_mission.disturbances import Settings
+
+    return Settings()
+
+
+def _disturbance_settings(mission: Mission) -> Settings:
+    from wmr_mission.disturbances import settings
+
+    return settings(mission)
 
 
 def _samples(seconds: float, dt: float) -> int:
@@ -285,6 +299,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 target=target,
                 constraint_rows=_stack_rows(row_parts),
                 constraints=tuple(constraints),
+                color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
             )
         )
     estimator = mission.estimator
@@ -358,7 +373,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         ekf_process_var=process_var,
         ekf_measurement_var=measurement_var,
         ekf_innovation_gate=innovation_gate,
-        disturbances=disturbances.settings(mission),
+        disturbances=_disturbance_settings(mission),
         q=np.array(controller.Q, dtype=np.float64),
         r=np.array(controller.R, dtype=np.float64),
         w=np.array(controller.W, dtype=np.float64),

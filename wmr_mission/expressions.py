@@ -282,6 +282,8 @@ class _Parser:
         self.parameters = frozenset(parameters)
         self.allow_t = allow_t
         self.program: list[_Instruction] = []
+        # Unknown names and functions: parsing goes on, so that every one is reported.
+        self.undefined: list[tuple[ExpressionError, str]] = []
 
     # -- helpers -------------------------------------------------------
     def advance(self) -> _Token:
@@ -311,10 +313,29 @@ class _Parser:
     def parse(self) -> tuple[_Instruction, ...]:
         if self.token.kind == "end":
             raise ExpressionError("empty expression", 1)
-        self.expression()
-        if self.token.kind != "end":
-            raise self.unexpected("an operator")
+        try:
+            self.expression()
+            if self.token.kind != "end":
+                raise self.unexpected("an operator")
+        except ExpressionError as error:
+            if self.undefined and self.undefined[0][0].column < error.column:
+                raise self.undefined_error() from None
+            raise
+        if self.undefined:
+            raise self.undefined_error()
         return tuple(self.program)
+
+    def undefined_error(self) -> ExpressionError:
+        """The first unknown name in full, and every other one after it."""
+        (first, _), *others = self.undefined
+        if not others:
+            return first
+        also = ", ".join(f"{short} at character {error.column}" for error, short in others)
+        return ExpressionError(f"{first.message}; also {also}", first.column)
+
+    def unknown(self, message: str, short: str, token: _Token) -> None:
+        self.undefined.append((ExpressionError(message, token.column), short))
+        self.program.append(("number", 0.0, token.column))  # stands in while parsing goes on
 
     def expression(self) -> None:
         self.term()
@@ -394,14 +415,15 @@ class _Parser:
         elif name in _CONSTANTS:
             self.program.append(("number", _CONSTANTS[name], token.column))
         else:
-            raise ExpressionError(self.unknown_name_message(name), token.column)
+            short = self.unknown_name(name)
+            self.unknown(f"{short}; allowed: {self.allowed_names()}", short, token)
         self.advance()
 
-    def unknown_name_message(self, name: str) -> str:
+    def unknown_name(self, name: str) -> str:
         candidates = [*self.parameters, *_CONSTANTS, *(["t"] if self.allow_t else [])]
         close = difflib.get_close_matches(name, candidates, n=1)
         hint = f" (did you mean '{close[0]}'?)" if close else ""
-        return f"unknown name '{name}'{hint}; allowed: {self.allowed_names()}"
+        return f"unknown name '{name}'{hint}"
 
     def call(self, token: _Token) -> None:
         name = token.text
@@ -412,11 +434,9 @@ class _Parser:
                 )
             close = difflib.get_close_matches(name, list(FUNCTIONS), n=1)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise ExpressionError(
-                f"function '{name}' is not allowed{hint}; allowed functions: {_ALLOWED_FUNCTIONS}",
-                token.column,
-            )
-        arity = FUNCTIONS[name][1]
+            short = f"function '{name}' is not allowed{hint}"
+            self.unknown(f"{short}; allowed functions: {_ALLOWED_FUNCTIONS}", short, token)
+        arity = FUNCTIONS[name][1] if name in FUNCTIONS else -1
         self.advance()
         opening = self.advance()
         self.enter(token)
@@ -430,6 +450,8 @@ class _Parser:
                 self.advance()
         self.expect_closing(opening)
         self.depth -= 1
+        if arity < 0:
+            return  # unknown: already recorded; its arguments were read for more problems
         if count != arity:
             plural = "argument" if arity == 1 else "arguments"
             raise ExpressionError(

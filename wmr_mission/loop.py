@@ -37,7 +37,7 @@ from wmr_mission.ekf import ekf_predict, ekf_step
 from wmr_mission.model import wrap_angle
 from wmr_mission.observer import observer_predict, observer_step
 from wmr_mission.params import Controller, Estimator, Robot, Scratch
-from wmr_mission.result import EXTRA_COLUMNS, MEASUREMENT_COLUMNS, TRAJECTORY_COLUMNS
+from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -119,7 +119,9 @@ class Record(NamedTuple):
 
 # The recorder's float columns: the state, estimate and input columns of
 # trajectory.csv, then the path point, the constraint value and the measurement.
-FLOAT_COLUMNS = TRAJECTORY_COLUMNS[:-1] + EXTRA_COLUMNS[:-1] + MEASUREMENT_COLUMNS
+FLOAT_COLUMNS = tuple(
+    c for c in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS) if c not in ("phase", "phase2_iterations")
+)
 
 
 @kernel

@@ -3,12 +3,17 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    import pandas
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -27,10 +32,15 @@ TRAJECTORY_COLUMNS = (
     "phase",
 )
 # Columns that follow them.
-EXTRA_COLUMNS = ("x_ref", "y_ref", "constraint", "phase2_iterations")
-# The measurement the estimate of the row has seen; NaN when there was none
-# (sample 0, between measurement periods, lost) or the state is not measured.
-MEASUREMENT_COLUMNS = ("x_meas", "y_meas", "theta_meas")
+EXTRA_COLUMNS = (
+    "x_ref",
+    "y_ref",
+    "constraint",
+    "x_meas",
+    "y_meas",
+    "theta_meas",
+    "phase2_iterations",
+)
 
 
 class Outcome(StrEnum):
@@ -61,6 +71,11 @@ class PhaseInfo:
     target: tuple[float, float, float] | None = None
     # Names of the regions constrained in this phase and how ("inside"/"outside").
     constraints: tuple[tuple[str, str], ...] = ()
+    # The phase's `until: near` goal: (x, y, tolerance), else None.
+    near: tuple[float, float, float] | None = None
+    # Points a track phase's path is written through (waypoints), for the figures.
+    points: tuple[tuple[float, float], ...] = ()
+    color: str | None = None  # from the mission's `plot.phase_colors`
 
 
 @dataclass
@@ -69,17 +84,14 @@ class RunResult:
 
     ``x, y, theta`` are the plant's true state, ``*_est`` the estimator's
     filtered estimate, ``v, omega`` the input applied from t[k] to t[k+1]
-    (the last row repeats the previous input). ``x_ref, y_ref`` is the path
+    (the last row repeats the previous input). ``*_meas`` is the measurement
+    the estimator received at t[k] (NaN at k = 0 and for unmeasured states).
+    ``x_ref, y_ref`` is the path
     point the controller aims at (NaN outside track phases). ``constraint`` is
     the largest constraint-row value of the phase at the true state (> 0 means
-    violated; NaN when the phase has no constraint). ``x_meas, y_meas,
-    theta_meas`` (``measurement``, one row per sample, None: not recorded)
-    is the measurement of the sample, which ``*_est`` has seen (NaN when
-    there was none or the state is not measured). ``compute_ns`` is the
+    violated; NaN when the phase has no constraint). ``compute_ns`` is the
     wall time of estimator + controller for that sample (not written to the
-    CSV: it is not reproducible). ``loop_ns`` is the wall time of the whole
-    simulation loop (plant, sensors, estimator, controller, phase logic,
-    recording), start-up excluded.
+    CSV: it is not reproducible).
     """
 
     mission_name: str
@@ -108,15 +120,63 @@ class RunResult:
     # Output-error bounds of eq. (4) per state (lower, upper), NaN where unused.
     error_bounds: tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
     regions: dict[str, Any] = field(default_factory=dict)  # name -> region spec (for plots)
-    loop_ns: int = 0
-    measurement: FloatArray | None = None  # (n, 3) x_meas, y_meas, theta_meas
+    loop_ns: int = 0  # wall time of the whole simulation loop, start-up excluded
+    x_meas: FloatArray = field(default_factory=lambda: np.zeros(0))
+    y_meas: FloatArray = field(default_factory=lambda: np.zeros(0))
+    theta_meas: FloatArray = field(default_factory=lambda: np.zeros(0))
+    # The mission as run, with its defaults (``Mission.model_dump(mode="json")``):
+    # its `expect` judges the run; None for a run of a compiled mission.
+    mission: dict[str, Any] | None = None
 
-    def measurement_column(self, index: int) -> FloatArray:
-        """Column ``index`` (0: x, 1: y, 2: theta) of the measurements; NaN if not recorded."""
-        if self.measurement is None:
-            return np.full(self.samples, np.nan)
-        return self.measurement[:, index]
+    def __post_init__(self) -> None:
+        for name in ("x_meas", "y_meas", "theta_meas"):
+            if getattr(self, name).shape[0] != self.t.shape[0]:  # not recorded: none known
+                setattr(self, name, np.full(self.t.shape[0], np.nan))
 
     @property
     def samples(self) -> int:
         return int(self.t.shape[0])
+
+    @property
+    def phase_names(self) -> list[str]:
+        """The phases' names in mission order; ``phase`` indexes this list."""
+        return [info.name for info in self.phases]
+
+    def summary(self) -> dict[str, Any]:
+        """Every metric of the run: exactly what ``summary.json`` holds."""
+        from wmr_mission.output.rundir import summary_record
+
+        return summary_record(self)
+
+    def to_dataframe(self) -> pandas.DataFrame:
+        """The samples as a pandas DataFrame, columns as in ``trajectory.csv``
+        (``phase`` holds the phase names). Needs pandas."""
+        try:
+            import pandas
+        except ImportError:
+            raise ImportError(
+                "RunResult.to_dataframe needs pandas: pip install 'wmr-mission[dataframe]'"
+            ) from None
+        columns: dict[str, Any] = {
+            name: getattr(self, name) for name in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS)
+        }
+        columns["phase"] = pandas.Categorical.from_codes(self.phase, categories=self.phase_names)
+        return pandas.DataFrame(columns)
+
+    def write(
+        self,
+        out_dir: str | os.PathLike[str],
+        *,
+        plots: bool = True,
+        animate: bool = False,
+        formats: tuple[str, ...] = ("png",),
+    ) -> Path:
+        """Write a run directory, as ``wmr-mission run --out`` does; return its path.
+
+        The directory must be new or empty (a run never overwrites another).
+        """
+        from wmr_mission.output.rundir import prepare_run_dir, write_run
+
+        directory = prepare_run_dir(out_dir)
+        write_run(self, directory, mission_file=None, plots=plots, animate=animate, formats=formats)
+        return directory

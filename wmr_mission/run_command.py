@@ -14,18 +14,38 @@ import shutil
 import signal
 import sys
 import threading
-from collections.abc import Iterator
+import time
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from wmr_mission.result import Outcome, RunResult
+
+if TYPE_CHECKING:
+    from wmr_mission.spec.loader import Override
+    from wmr_mission.spec.models import Mission
 
 # Exit codes (README, docs/reliability.md).
 EXIT_FAILED = 1  # invalid mission, or the run failed
 EXIT_RUN_DIR = 2  # the run directory cannot be made or written
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def _overrides(texts: Sequence[str]) -> list[Override] | None:
+    """Each ``--set PATH=VALUE``; None (the problems printed) when one is malformed."""
+    from wmr_mission.spec.loader import MissionError, parse_override
+
+    parsed, problems = [], []
+    for text in texts:
+        try:
+            parsed.append(parse_override(text))
+        except MissionError as error:
+            problems += error.diagnostics
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    return None if problems else parsed
 
 
 @contextmanager
@@ -57,43 +77,55 @@ def _signal_exit(received: list[int]) -> int:
 
 
 def run_command(
-    mission_path: Path, *, out: Path | None, seed: int | None, plots: bool, animate: bool
+    mission_path: Path,
+    *,
+    out: Path | None,
+    seed: int | None,
+    plots: bool,
+    animate: bool,
+    overrides: Sequence[str] = (),
+    formats: Sequence[str] = ("png",),
 ) -> int:
     """Exit code: 0 success; 1 invalid mission or failed run; 2 unusable run
-    directory; 130 or 143 stopped by SIGINT or SIGTERM (its record is written)."""
+    directory; 130 or 143 stopped by SIGINT or SIGTERM (its record is written).
+
+    ``overrides``: ``PATH=VALUE`` texts of ``--set``; ``formats``: figure formats.
+    """
     from wmr_mission.spec.loader import check_mission_bytes, read_source
 
     with _stop_signals() as received:
         try:
+            parsed = _overrides(overrides)
+            if parsed is None:
+                return EXIT_FAILED
             # The file is read once: the bytes hashed are the bytes run.
             source, diagnostics = read_source(mission_path)
             mission = None
             if source is not None:
-                mission, diagnostics = check_mission_bytes(source, str(mission_path))
+                mission, diagnostics = check_mission_bytes(source, str(mission_path), parsed)
+            for diagnostic in diagnostics:  # warnings too, as `validate` prints them
+                print(diagnostic, file=sys.stderr)
             if mission is None or source is None:
-                for diagnostic in diagnostics:
-                    if diagnostic.severity == "error":
-                        print(diagnostic, file=sys.stderr)
                 return EXIT_FAILED
             sha256 = hashlib.sha256(source).hexdigest()
-            return _run(mission, sha256, mission_path, out, seed, plots, animate, received)
+            return _run(mission, sha256, mission_path, out, seed, plots, animate, formats, received)
         except KeyboardInterrupt:
             print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
             return _signal_exit(received)
 
 
 def _run(
-    mission: Any,
+    mission: Mission,
     sha256: str,
     mission_path: Path,
     out: Path | None,
     seed: int | None,
     plots: bool,
     animate: bool,
+    formats: Sequence[str],
     received: list[int],
 ) -> int:
     from wmr_mission.compiled import compile_mission
-    from wmr_mission.output.metrics import judge
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
         RunDirExistsError,
@@ -101,6 +133,7 @@ def _run(
         prepare_run_dir,
         release_run_dir,
         space_needed,
+        summary_record,
         write_run,
     )
 
@@ -120,7 +153,9 @@ def _run(
                 f"{needed / 1e6:.3g} MB",
                 file=sys.stderr,
             )
-        result = _simulate(compiled, mission.name)
+        started = time.perf_counter()
+        result = _simulate(mission, seed, compiled.max_samples)
+        wall_seconds = time.perf_counter() - started
     except MemoryError:
         release_run_dir(run_dir)
         print(
@@ -132,24 +167,21 @@ def _run(
     except BaseException:  # a signal before the loop started: nothing was simulated
         release_run_dir(run_dir)
         raise
-    resolved = mission.model_dump(mode="json")
-    if seed is not None:  # the manifest records the mission as run
-        resolved["sensors"]["seed"] = seed
+    # run_mission judged the run by the mission's `expect` (output.metrics.judge).
     if result.outcome is Outcome.interrupted:
         name = signal.Signals(received[0]).name if received else "SIGINT"
         result.message = f"{result.message} by {name}"
-    summary = judge(result, resolved)  # a success that misses an `expect` is not one
     stopped = result.outcome is Outcome.interrupted
     try:
         write_run(
             result,
             run_dir,
             mission_sha256=sha256,
-            resolved_mission=resolved,
             mission_file=str(mission_path),
             # A stopped run writes its data at once; `wmr-mission plot` draws it.
             plots=plots and not stopped,
             animate=animate and not stopped,
+            formats=formats,
         )
     except OSError as error:
         print(
@@ -161,7 +193,7 @@ def _run(
     except KeyboardInterrupt:
         print(f"{run_dir}: interrupted while writing; no summary.json", file=sys.stderr)
         return _signal_exit(received)
-    print(format_table(summary, run_dir))
+    print(format_table(summary_record(result), run_dir, wall_seconds=wall_seconds, result=result))
     if stopped:
         print(
             f"{mission_path}: {result.message}; the samples up to the stop are in {run_dir}",
@@ -176,14 +208,15 @@ def _run(
     return 0
 
 
-def _simulate(compiled: Any, name: str) -> RunResult:
+def _simulate(mission: Mission, seed: int | None, max_samples: int) -> RunResult:
     """Run with a progress bar on stderr when the run is longer than a moment."""
     import typer
 
     from wmr_mission.runner import run_mission
 
-    if compiled.max_samples < 20_000 or not sys.stderr.isatty():
-        return run_mission(compiled)
+    name = mission.name
+    if max_samples < 20_000 or not sys.stderr.isatty():
+        return run_mission(mission, seed=seed)
     with typer.progressbar(length=1000, label=f"{name}", file=sys.stderr) as bar:
         done = [0]
 
@@ -194,6 +227,6 @@ def _simulate(compiled: Any, name: str) -> RunResult:
                 done[0] += step
             bar.label = f"{name} [{phase}] t = {t:8.2f} s"
 
-        result = run_mission(compiled, progress=progress)
+        result = run_mission(mission, seed=seed, progress=progress)
         bar.update(1000 - done[0])
     return result

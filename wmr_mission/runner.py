@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING
 
@@ -195,12 +195,19 @@ def run_mission(
     divergence and on Ctrl-C (outcome ``interrupted``); what was produced up
     to then is in the result.
     """
-    compiled = mission if isinstance(mission, CompiledMission) else compile_mission(mission, seed)
-    if isinstance(mission, CompiledMission) and seed is not None:
-        from dataclasses import replace
+    if isinstance(mission, CompiledMission):
+        compiled = mission if seed is None else replace(mission, seed=seed)
+        return _Run(compiled, progress, functions).run()
+    from wmr_mission.output.metrics import judge
+    from wmr_mission.spec.loader import validate_mission
 
-        compiled = replace(mission, seed=seed)
-    return _Run(compiled, progress, functions).run()
+    checked = validate_mission(mission)
+    result = _Run(compile_mission(checked, seed), progress, functions).run()
+    resolved = checked.model_dump(mode="json")
+    resolved["sensors"]["seed"] = result.seed  # the mission as run
+    result.mission = resolved
+    judge(result, resolved)  # a success that misses an `expect` is not one
+    return result
 
 
 def _seconds(samples: int, dt: float) -> float:
@@ -423,7 +430,15 @@ class _Run:
             dt=m.dt,
             seed=m.seed,
             phases=[
-                PhaseInfo(p.name, p.kind, self._target(a), p.constraints)
+                PhaseInfo(
+                    p.name,
+                    p.kind,
+                    self._target(a),
+                    p.constraints,
+                    near=p.until.near,
+                    points=() if p.points is None else tuple(map(tuple, p.points.tolist())),
+                    color=p.color,
+                )
                 for p, a in zip(m.phases, self.phases, strict=True)
             ],
             t=columns["t"],
@@ -448,7 +463,9 @@ class _Run:
             error_bounds=bounds,  # type: ignore[arg-type]
             regions=dict(m.regions),
             loop_ns=self.loop_ns,
-            measurement=record.floats[:n, FLOAT_COLUMNS.index("x_meas") :][:, :3],
+            x_meas=r.column("x_meas"),
+            y_meas=r.column("y_meas"),
+            theta_meas=r.column("theta_meas"),
         )
 
     @staticmethod

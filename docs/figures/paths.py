@@ -21,7 +21,7 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial import ConvexHull
 
 from wmr_mission import load_mission, run_mission
-from wmr_mission.output.plots import draw_xy
+from wmr_mission.output.plots import plot_xy
 from wmr_mission.paths import RouteTrajectory, instantiate
 from wmr_mission.spec.models import Mission, PathSpec
 
@@ -178,7 +178,10 @@ def keep_out_figure() -> None:
     result = run_mission(load_mission(ROOT / "missions" / "keep-out.yaml"))
     inside = 1.2 - np.hypot(result.x - 5.0, result.y - 0.4)
     print(f"keep-out: deepest sample inside the pond {inside.max():.4f} m (negative: never)")
-    draw_xy(result, IMAGES / "keep-out-xy.png")
+    fig, ax = plt.subplots(figsize=(9, 6.5))
+    plot_xy(result, ax=ax)
+    fig.savefig(IMAGES / "keep-out-xy.png", dpi=120, bbox_inches="tight")
+    plt.close(fig)
 
 
 if __name__ == "__main__":

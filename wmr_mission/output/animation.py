@@ -4,16 +4,11 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from wmr_mission.output.plots import (
-    draw_regions,
-    finite,
-    pyplot,
-    thin,
-    view_box,
-)
+from wmr_mission.output.plots import draw_regions, finite, names_as_typed, thin, view_box
 from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, RunResult
 
@@ -22,6 +17,8 @@ FPS = 20
 _DPI = 80
 # Points of the drawn path: plenty at the animation's size, and cheap to redraw each frame.
 TRAIL_POINTS = 4000
+# Length of the robot's arrow, as a fraction of the scene's extent.
+GLYPH_SIZE = 0.04
 
 
 def frame_samples(samples: int, max_frames: int = MAX_FRAMES) -> np.ndarray:
@@ -30,6 +27,11 @@ def frame_samples(samples: int, max_frames: int = MAX_FRAMES) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     count = min(samples, max_frames)
     return np.unique(np.round(np.linspace(0, samples - 1, count)).astype(np.int64))
+
+
+def glyph_size(view: tuple[float, float, float, float]) -> float:
+    """Length of the robot's arrow [m]: a fixed share of the scene, whatever its scale."""
+    return GLYPH_SIZE * max(view[1] - view[0], view[3] - view[2])
 
 
 def robot_outline(x: float, y: float, theta: float, size: float) -> FloatArray:
@@ -46,11 +48,15 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     The still parts (regions, the whole path in grey, axes) are drawn once; each
     frame redraws only the trail, the two pose arrows and the title over them.
     """
-    plt = pyplot()
     from matplotlib import patches
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
     from PIL import Image
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=_DPI)
+    # Its own Agg canvas: no pyplot, so a notebook's backend is never touched.
+    fig = Figure(figsize=(6.4, 4.8), dpi=_DPI)
+    canvas: Any = FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
     view = view_box(result)
     draw_regions(ax, result.regions, view)
     path_points = thin(0, result.samples, TRAIL_POINTS)
@@ -58,7 +64,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
         finite(result.x[path_points]), finite(result.y[path_points]), color="0.85", linewidth=1.0
     )
     (trail,) = ax.plot([], [], color="tab:blue", linewidth=1.6, animated=True)
-    size = 0.04 * max(view[1] - view[0], view[3] - view[2])
+    size = glyph_size(view)
     robot = patches.Polygon(
         np.zeros((4, 2)),
         closed=True,
@@ -85,31 +91,28 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     ax.set_ylabel("y [m]")
     ax.legend(handles=[robot, estimate], loc="upper right", fontsize=8)
     title = ax.set_title(" ", animated=True)
+    names_as_typed(fig)
 
     frames = []
-    try:
-        fig.canvas.draw()
-        background = fig.canvas.copy_from_bbox(fig.bbox)
-        for k in frame_samples(result.samples, max_frames):
-            fig.canvas.restore_region(background)
-            shown = path_points[path_points <= k]
-            trail.set_data(finite(result.x[shown]), finite(result.y[shown]))
-            phase = int(result.phase[k])
-            robot.set_xy(robot_outline(*_pose(result.x, result.y, result.theta, k), size))
-            estimate.set_xy(
-                robot_outline(*_pose(result.x_est, result.y_est, result.theta_est, k), size)
-            )
-            title.set_text(
-                f"{result.mission_name}   t = {result.t[k]:.2f} s   "
-                f"phase: {result.phases[phase].name}"
-            )
-            for artist in (trail, estimate, robot, title):
-                ax.draw_artist(artist)
-            pixels = np.asarray(fig.canvas.buffer_rgba())[..., :3]
-            # The fast octree palette: median cut would take most of the writing time.
-            frames.append(Image.fromarray(pixels).quantize(method=Image.Quantize.FASTOCTREE))
-    finally:
-        plt.close(fig)
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    for k in frame_samples(result.samples, max_frames):
+        canvas.restore_region(background)
+        shown = path_points[path_points <= k]
+        trail.set_data(finite(result.x[shown]), finite(result.y[shown]))
+        phase = int(result.phase[k])
+        robot.set_xy(robot_outline(*_pose(result.x, result.y, result.theta, k), size))
+        estimate.set_xy(
+            robot_outline(*_pose(result.x_est, result.y_est, result.theta_est, k), size)
+        )
+        title.set_text(
+            f"{result.mission_name}   t = {result.t[k]:.2f} s   phase: {result.phases[phase].name}"
+        )
+        for artist in (trail, estimate, robot, title):
+            ax.draw_artist(artist)
+        pixels = np.asarray(canvas.buffer_rgba())[..., :3]
+        # The fast octree palette: median cut would take most of the writing time.
+        frames.append(Image.fromarray(pixels).quantize(method=Image.Quantize.FASTOCTREE))
     if not frames:
         raise ValueError("a run without samples cannot be animated")
     with atomic_path(path) as tmp:

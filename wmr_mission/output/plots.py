@@ -1,22 +1,31 @@
-"""Figures of a run: ``xy.png``, ``states.png``, ``estimation_error.png``, ``inputs.png``.
+"""Figures of a run: the path in the plane, states, estimation error, inputs.
 
-matplotlib is imported inside the functions, with the Agg backend, so that
-importing this module (and ``wmr-mission validate``) stays light and no display
-is ever needed. Long runs are thinned to at most ``MAX_POINTS_PER_LINE``
-points per line: a 360 000-sample run plots in a few seconds.
+Two ways in, one drawing code:
+
+* ``plot_xy``, ``plot_states``, ``plot_estimation_error``, ``plot_inputs`` draw
+  on axes a caller gives (or new ones from pyplot) and return them: for
+  notebooks. They never change matplotlib's backend.
+* ``draw_all`` writes the figure files of a run directory (``xy.png`` ...) on
+  figures of their own (``matplotlib.figure.Figure``, no pyplot), in PNG, SVG
+  or PDF.
+
+matplotlib is imported inside the functions, so importing this module (and
+``wmr-mission validate``) stays light. Long runs are thinned to at most
+``MAX_POINTS_PER_LINE`` points per line: a 360 000-sample run plots in a few
+seconds.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wmr_mission.output.metrics import estimation_errors, phase_segments
+from wmr_mission.output.metrics import convergence_index, estimation_errors, phase_segments
 from wmr_mission.output.reader import RunDirError, load_run
 from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, IntArray, RunResult
@@ -25,27 +34,37 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+__all__ = [
+    "FIGURE_FORMATS",
+    "FIGURE_NAMES",
+    "draw_all",
+    "phase_colors",
+    "plot_estimation_error",
+    "plot_inputs",
+    "plot_states",
+    "plot_xy",
+    "replot_command",
+]
+
 MAX_POINTS_PER_LINE = 20_000
-# Beyond this many phase segments, phases are drawn as one collection and go
-# unnamed, so a figure costs the same for 10 or 10 000 phases.
-MAX_NAMED_PHASES = 40
 DPI = 120
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
-
-
-def pyplot() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    # Long paths rasterised in pieces: a 1-hour run's overdrawn laps otherwise
-    # take tens of MB of the renderer's memory at once.
-    matplotlib.rcParams["agg.path.chunksize"] = 2000
-    # Names are data: a '$' in a mission, phase or region name is drawn as
-    # typed, never parsed as math (unbalanced, it would stop the drawing).
-    matplotlib.rcParams["text.parse_math"] = False
-    import matplotlib.pyplot as plt
-
-    return plt
+STATES = ("x", "y", "theta")
+FIGURE_FORMATS = ("png", "svg", "pdf")
+FIGURE_NAMES = ("xy", "states", "estimation_error", "inputs")
+# The reference is drawn over the path, thin and dark, so a well-tracked path
+# does not hide it.
+REFERENCE_STYLE: dict[str, Any] = {
+    "color": "black",
+    "linewidth": 0.8,
+    "linestyle": (0, (4, 3)),
+    "alpha": 0.8,
+    "zorder": 4,
+}
+# Width of one character of a phase label, as a fraction of a 9-inch axis.
+CHARACTER_WIDTH = 0.009
+# Rows of the xy legend that fit beside the axes; longer legends take more columns.
+LEGEND_ROWS = 20
 
 
 def thin(start: int, stop: int, max_points: int = MAX_POINTS_PER_LINE) -> IntArray:
@@ -64,28 +83,55 @@ def finite(values: FloatArray) -> FloatArray:
     return np.where(np.isfinite(values), values, np.nan)
 
 
-def phase_color(index: int) -> Any:
-    return _palette()[index % 10]
+def phase_colors(result: RunResult) -> list[Any]:
+    """One colour per phase: the mission's `plot.phase_colors`, else a palette.
+
+    Up to 10 phases take matplotlib's tab10; more take evenly spaced colours of
+    a continuous map, visited with a stride so that neighbours differ: colours
+    never repeat.
+    """
+    from matplotlib import colormaps
+
+    count = len(result.phases)
+    if count <= 10:
+        palette = [colormaps["tab10"](i) for i in range(count)]
+    else:
+        spread = colormaps["turbo"](np.linspace(0.05, 0.95, count))
+        stride = next(s for s in range(max(2, count // 3), count) if math.gcd(s, count) == 1)
+        palette = [tuple(spread[(i * stride) % count]) for i in range(count)]
+    return [
+        info.color if info.color is not None else palette[i] for i, info in enumerate(result.phases)
+    ]
 
 
-@functools.cache
-def _palette() -> tuple[Any, ...]:
-    pyplot()
-    import matplotlib
+def _new_figure(figsize: tuple[float, float]) -> Figure:
+    """A figure outside pyplot: no backend, no global state, nothing to close."""
+    from matplotlib.figure import Figure
 
-    return tuple(tuple(color) for color in matplotlib.colormaps["tab10"](np.arange(10)))
+    return Figure(figsize=figsize, dpi=DPI)
+
+
+def _pyplot_figure(figsize: tuple[float, float]) -> Figure:
+    """A figure from pyplot, with whatever backend the caller uses (a notebook's)."""
+    import matplotlib.pyplot as plt
+
+    figure: Figure = plt.figure(figsize=figsize)
+    return figure
+
+
+def names_as_typed(drawn: Figure | Axes) -> None:
+    """Names are data: a '$' in a mission, phase or region name is drawn as typed,
+    never parsed as math (unbalanced, it would stop the drawing). Set on the
+    figure's texts, not in rcParams, so that a notebook's settings stay its own."""
+    from matplotlib.text import Text
+
+    for text in drawn.findobj(Text):
+        text.set_parse_math(False)
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    plt = pyplot()
-    try:
-        with atomic_path(path) as tmp:
-            # The layout engine fits legends and labels in one render
-            # (bbox_inches="tight" renders each figure twice).
-            fig.set_layout_engine("constrained")
-            fig.savefig(tmp, format="png", dpi=DPI)
-    finally:
-        plt.close(fig)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight")
     return path
 
 
@@ -139,19 +185,20 @@ def _clip_half_plane(
 def draw_regions(
     ax: Axes, regions: dict[str, Any], view: tuple[float, float, float, float]
 ) -> None:
-    """Each region as a light patch with its outline; a half-plane is shaded inside ``view``."""
+    """Each region as a light grey patch with its outline; a half-plane is shaded inside ``view``.
+
+    Grey, so that region colours never compete with the phases' colours.
+    """
     from matplotlib import patches
 
-    colors = pyplot().get_cmap("Dark2")
-    for number, (name, region) in enumerate(regions.items()):
+    for name, region in regions.items():
         kind = region.get("type")
-        color = colors(number % 8)
         style: dict[str, Any] = {
-            "facecolor": (*color[:3], 0.06 if kind == "half-plane" else 0.1),
-            "edgecolor": color,
-            "linewidth": 1.3,
+            "facecolor": (0.5, 0.5, 0.5, 0.07 if kind == "half-plane" else 0.1),
+            "edgecolor": "0.35",
+            "linewidth": 1.0,
+            "zorder": 1,
         }
-        label = f"region {name}"
         patch: Any
         if kind == "ellipse":
             (a, b) = region["semi_axes"]
@@ -182,43 +229,35 @@ def draw_regions(
             patch = patches.Polygon(inside, **style)
         else:
             continue
-        patch.set_label(label)
+        patch.set_label(f"region {name}")
         ax.add_patch(patch)
 
 
-# --- xy.png ---------------------------------------------------------------
+# --- the path in the plane ------------------------------------------------
 
 
 def view_box(result: RunResult) -> tuple[float, float, float, float]:
-    """Data limits of the path, the reference, the targets and bounded regions, with a margin."""
-    xs = [result.x, result.x_est, result.x_ref]
-    ys = [result.y, result.y_est, result.y_ref]
-    targets = [p.target for p in result.phases if p.target is not None]
-    if targets:
-        xs.append(np.array([t[0] for t in targets], dtype=np.float64))
-        ys.append(np.array([t[1] for t in targets], dtype=np.float64))
+    """Data limits of the path, the reference, goals and bounded regions, with a margin."""
+    xs = [finite(result.x), finite(result.x_est), finite(result.x_ref)]
+    ys = [finite(result.y), finite(result.y_est), finite(result.y_ref)]
+    marks = [p.target[:2] for p in result.phases if p.target is not None]
+    marks += [p.near[:2] for p in result.phases if p.near is not None]
+    marks += [point for p in result.phases for point in p.points]
+    if marks:
+        xs.append(np.array([m[0] for m in marks], dtype=np.float64))
+        ys.append(np.array([m[1] for m in marks], dtype=np.float64))
     for region in result.regions.values():
         extent = _region_extent(region)
         if extent is not None:
             xs.append(np.asarray(extent[:2], dtype=np.float64))
             ys.append(np.asarray(extent[2:], dtype=np.float64))
-    # One array at a time: a long run is never copied whole several times over.
-    x_ranges = [r for r in map(_finite_range, xs) if r is not None]
-    y_ranges = [r for r in map(_finite_range, ys) if r is not None]
-    if not x_ranges or not y_ranges:
+    x_all, y_all = np.concatenate(xs), np.concatenate(ys)
+    x_all, y_all = x_all[np.isfinite(x_all)], y_all[np.isfinite(y_all)]
+    if x_all.size == 0 or y_all.size == 0:
         return -1.0, 1.0, -1.0, 1.0
-    x0, x1 = min(r[0] for r in x_ranges), max(r[1] for r in x_ranges)
-    y0, y1 = min(r[0] for r in y_ranges), max(r[1] for r in y_ranges)
+    x0, x1, y0, y1 = x_all.min(), x_all.max(), y_all.min(), y_all.max()
     margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
     return float(x0 - margin), float(x1 + margin), float(y0 - margin), float(y1 + margin)
-
-
-def _finite_range(values: FloatArray) -> tuple[float, float] | None:
-    """(min, max) of the finite values, None if there are none."""
-    kept = values[np.isfinite(values)]
-    if kept.size == 0:
-        return None
-    return float(kept.min()), float(kept.max())
 
 
 def _sample_at(result: RunResult, time: float) -> int:
@@ -227,111 +266,168 @@ def _sample_at(result: RunResult, time: float) -> int:
     return min(k, result.samples - 1)
 
 
-def _draw_path(ax: Axes, result: RunResult) -> None:
-    if result.samples == 0:
-        return
+def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
     every = thin(0, result.samples)
     ax.plot(
         finite(result.x_est[every]),
         finite(result.y_est[every]),
-        color="0.55",
+        color="0.5",
         linewidth=0.8,
         linestyle=":",
         label="estimate",
+        zorder=3,
     )
-    segments = phase_segments(result.phase)
-    if len(segments) > MAX_NAMED_PHASES:
-        _draw_path_by_phase(ax, result)
-        return
-    labelled: set[int] = set()
-    for index, start, end in segments:
-        color = phase_color(index)
-        name = result.phases[index].name
+    referenced = False
+    for index, start, end in phase_segments(result.phase):
         # Include the next phase's first sample so the coloured pieces join.
         k = thin(start, min(end + 1, result.samples))
         ax.plot(
             finite(result.x[k]),
             finite(result.y[k]),
-            color=color,
-            linewidth=1.6,
-            label=name if index not in labelled else None,
+            color=colors[index],
+            linewidth=2.2,
+            solid_capstyle="round",
+            zorder=2,
         )
-        labelled.add(index)
         ref = thin(start, end)
         if np.isfinite(result.x_ref[ref]).any():
             ax.plot(
                 finite(result.x_ref[ref]),
                 finite(result.y_ref[ref]),
-                color=color,
-                linewidth=1.0,
-                linestyle="--",
-                alpha=0.9,
-                label=f"{name} reference",
+                label=None if referenced else "reference",
+                **REFERENCE_STYLE,
             )
+            referenced = True
 
 
-def _draw_path_by_phase(ax: Axes, result: RunResult) -> None:
-    """The path coloured by phase as one collection: thinned over the whole
-    run, not per phase."""
-    from matplotlib.collections import LineCollection
+def _phase_handles(result: RunResult, colors: list[Any]) -> list[Any]:
+    """One legend entry per phase that ran, numbered as on the figure."""
+    from matplotlib.lines import Line2D
 
-    k = thin(0, result.samples)
-    points = np.column_stack([finite(result.x[k]), finite(result.y[k])])
-    pieces = np.stack([points[:-1], points[1:]], axis=1)
-    colors = [phase_color(int(index)) for index in result.phase[k[:-1]]]
-    ax.add_collection(LineCollection(list(pieces), colors=colors, linewidths=1.6, label="path"))
-    reference = np.column_stack([finite(result.x_ref[k]), finite(result.y_ref[k])])
-    if np.isfinite(reference).any():
-        ax.plot(*reference.T, color="0.3", linewidth=1.0, linestyle="--", label="reference")
+    ran = sorted({int(i) for i in np.unique(result.phase)}) if result.samples else []
+    return [
+        Line2D([], [], color=colors[i], linewidth=2.2, label=f"{i + 1} {result.phases[i].name}")
+        for i in ran
+    ]
 
 
-def _draw_marks(ax: Axes, result: RunResult) -> None:
-    if result.samples == 0:
-        return
+def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
+    """Regulate targets, `near` goals (a circle of their tolerance) and path points."""
+    from matplotlib import patches
+
     targets = sorted({p.target[:2] for p in result.phases if p.target is not None})
-    if targets:
+    for i, (tx, ty) in enumerate(targets):
         ax.plot(
-            *np.array(targets).T,
+            tx,
+            ty,
             marker="+",
             color="black",
             markersize=12,
             mew=1.5,
             linestyle="none",
-            label="target",
+            label="target" if i == 0 else None,
+            zorder=6,
         )
-    changes = [tr for tr in result.transitions if tr.to_phase is not None]
-    view = view_box(result)
-    near = 0.03 * max(view[1] - view[0], view[3] - view[2])
-    if len(changes) > MAX_NAMED_PHASES:
-        at = np.array([_sample_at(result, tr.time) for tr in changes], dtype=np.int64)
+    missed = _missed_goal(result)
+    goals = sorted({p.near for p in result.phases if p.near is not None})
+    labelled: set[str] = set()
+    for gx, gy, tolerance in goals:
+        reached = (gx, gy, tolerance) != missed
+        color = "black" if reached else "tab:red"
+        label = "near goal" if reached else "near goal not reached"
+        if tolerance >= 0.005 * size:  # a tolerance circle too small to see is left out
+            ax.add_patch(
+                patches.Circle(
+                    (gx, gy),
+                    tolerance,
+                    fill=False,
+                    edgecolor=color,
+                    linewidth=0.8,
+                    linestyle="--",
+                    zorder=6,
+                )
+            )
         ax.plot(
-            result.x[at], result.y[at], marker="D", color="black", markersize=3,
-            linestyle="none", label="phase change",
-        )  # fmt: skip
-        changes = []
-    labelled: list[tuple[float, float]] = []
-    for i, tr in enumerate(changes):
+            gx,
+            gy,
+            marker="x",
+            color=color,
+            markersize=7,
+            mew=1.5,
+            linestyle="none",
+            label=None if label in labelled else label,
+            zorder=6,
+        )
+        labelled.add(label)
+    points = sorted({point for p in result.phases for point in p.points})
+    if points:
+        ax.plot(
+            [p[0] for p in points],
+            [p[1] for p in points],
+            marker="o",
+            markersize=4,
+            markerfacecolor="white",
+            markeredgecolor="0.2",
+            linestyle="none",
+            label="waypoint",
+            zorder=5,
+        )
+
+
+def _missed_goal(result: RunResult) -> tuple[float, float, float] | None:
+    """The `near` goal of a phase that timed out waiting for it."""
+    for tr in result.transitions:
+        if tr.to_phase is None and tr.condition == "timeout":
+            info = next((p for p in result.phases if p.name == tr.from_phase), None)
+            if info is not None and info.near is not None:
+                return info.near
+    return None
+
+
+def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
+    """Each phase change as a dot labelled with the number of the phase it enters;
+    changes at (nearly) one place share one label ("2,3")."""
+    changes = [tr for tr in result.transitions if tr.to_phase is not None]
+    number = {info.name: i + 1 for i, info in enumerate(result.phases)}
+    clusters: list[tuple[tuple[float, float], list[int]]] = []
+    for tr in changes:
         k = _sample_at(result, tr.time)
         point = (float(result.x[k]), float(result.y[k]))
-        # Changes at (nearly) the same place get their labels stacked, not overprinted.
-        stacked = sum(math.dist(point, other) < near for other in labelled)
-        labelled.append(point)
+        if not all(math.isfinite(v) for v in point):
+            continue
+        close = next((c for c in clusters if math.dist(c[0], point) < 0.04 * size), None)
+        if close is None:
+            clusters.append((point, [number[str(tr.to_phase)]]))
+        elif number[str(tr.to_phase)] not in close[1]:
+            close[1].append(number[str(tr.to_phase)])
+    for i, (point, numbers) in enumerate(clusters):
         ax.plot(
-            result.x[k],
-            result.y[k],
-            marker="D",
+            *point,
+            marker="o",
             color="black",
-            markersize=5,
+            markersize=3.5,
             linestyle="none",
-            label="phase change" if i == 0 else None,
+            label="phase change (number of the next phase)" if i == 0 else None,
+            zorder=7,
         )
+        shown = numbers if len(numbers) <= 4 else [*numbers[:3], "..."]
         ax.annotate(
-            f"{tr.to_phase} ({tr.condition}, t={tr.time:.2f} s)",
+            ",".join(str(n) for n in shown),
             point,
-            xytext=(6, 6 - 11 * stacked),
+            xytext=(4, 4),
             textcoords="offset points",
-            fontsize=8,
+            fontsize=7,
+            zorder=8,
+            bbox={
+                "boxstyle": "round,pad=0.15",
+                "facecolor": "white",
+                "edgecolor": "none",
+                "alpha": 0.8,
+            },
         )
+
+
+def _draw_ends(ax: Axes, result: RunResult) -> None:
     ax.plot(
         result.x[0],
         result.y[0],
@@ -341,26 +437,30 @@ def _draw_marks(ax: Axes, result: RunResult) -> None:
         markersize=8,
         linestyle="none",
         label="start",
+        zorder=7,
     )
     ax.plot(
         result.x[-1],
         result.y[-1],
         marker="s",
         color="black",
-        markersize=7,
+        markersize=6,
         linestyle="none",
         label="end",
+        zorder=7,
     )
 
 
-def draw_xy(result: RunResult, path: Path) -> Path:
-    """The path in the plane, coloured by phase, like the paper's Fig. 2 and 3."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9, 6.5))
+def _xy_on(ax: Axes, result: RunResult) -> None:
+    colors = phase_colors(result)
     view = view_box(result)
+    size = max(view[1] - view[0], view[3] - view[2])
     draw_regions(ax, result.regions, view)
-    _draw_path(ax, result)
-    _draw_marks(ax, result)
+    if result.samples:
+        _draw_path(ax, result, colors)
+        _draw_changes(ax, result, size)
+        _draw_ends(ax, result)
+    _draw_goals(ax, result, size)
     ax.set_xlim(view[0], view[1])
     ax.set_ylim(view[2], view[3])
     ax.set_aspect("equal", adjustable="box")
@@ -368,61 +468,96 @@ def draw_xy(result: RunResult, path: Path) -> Path:
     ax.set_ylabel("y [m]")
     ax.set_title(f"{result.mission_name}: path in the plane ({result.outcome.value})")
     ax.grid(True, linewidth=0.4, alpha=0.5)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    return _save(fig, path)
+    phases = _phase_handles(result, colors)
+    others, labels = ax.get_legend_handles_labels()
+    handles = [*phases, *others]
+    columns = math.ceil(len(handles) / LEGEND_ROWS)
+    ax.legend(
+        handles=handles,
+        labels=[h.get_label() for h in phases] + labels,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        fontsize=8,
+        frameon=False,
+        ncols=columns,
+        title="phases" if phases else None,
+        title_fontsize=8,
+        alignment="left",
+    )
+    names_as_typed(ax)
 
 
-# --- time plots -----------------------------------------------------------
+def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
+    """The path in the plane, coloured by phase, over the regions (the paper's Fig. 2, 3).
+
+    Draws on ``ax``, or on a new pyplot figure; returns the axes.
+    """
+    if ax is None:
+        ax = _pyplot_figure((9, 6.5)).add_subplot()
+    _xy_on(ax, result)
+    return ax
 
 
-def _mark_phases(axes: list[Axes], result: RunResult) -> None:
-    """Phase boundaries as vertical lines; names written above the top plot."""
+# --- over time ------------------------------------------------------------
+
+
+def _mark_phases(axes: Sequence[Axes], result: RunResult, colors: list[Any]) -> None:
+    """Phase boundaries as dotted lines; above the top plot, each phase's number,
+    and its name where its stretch is wide enough to hold it."""
     segments = phase_segments(result.phase)
-    if len(segments) > MAX_NAMED_PHASES:
-        # Thousands of boundaries would only fill the plot: none are drawn.
-        return
-    span = float(result.t[-1] - result.t[0]) if result.samples else 0.0
-    row, previous = 0, -math.inf
-    for number, (index, start, _end) in enumerate(segments):
+    t0 = float(result.t[0]) if result.samples else 0.0
+    span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
+    free_from = -math.inf  # where the previous label ends [s]
+    for number, (index, start, end) in enumerate(segments):
         time = float(result.t[start])
         if number > 0:
             for ax in axes:
-                ax.axvline(time, color="0.4", linewidth=0.8, linestyle=":")
-        # Names of phases that start close together go on staggered rows.
-        row = (row + 1) % 3 if time - previous < 0.12 * span else 0
-        previous = time
+                ax.axvline(time, color="0.45", linewidth=0.7, linestyle=":")
+        stop = float(result.t[end - 1])
+        name = result.phases[index].name
+        # Label text takes about CHARACTER_WIDTH of the axis width per character.
+        full, short = f"{index + 1} {name}", str(index + 1)
+        at = max(time, free_from)  # pushed right past its neighbour's label
+        chosen = None
+        for label in (full, short):
+            width = CHARACTER_WIDTH * (len(label) + 1) * span
+            # The name only inside its own stretch; the number at least at its start.
+            if at + width <= stop or (label == short and at == time):
+                chosen = label
+                break
+        if chosen is None:
+            continue  # no room: the xy legend names it
+        free_from = at + width
         axes[0].text(
-            time,
-            1.02 + 0.09 * row,
-            f" {result.phases[index].name}",
+            at,
+            1.02,
+            chosen,
             transform=axes[0].get_xaxis_transform(),
-            fontsize=8,
-            color=phase_color(index),
+            fontsize=7.5,
+            color=colors[index],
             va="bottom",
             ha="left",
+            clip_on=False,
         )
 
 
-def _draw_measurements(
-    ax: Axes, t: FloatArray, values: FloatArray, label: str = "measurement"
-) -> None:
-    """The measurements as dots (none where lost, between periods or unmeasured)."""
-    seen = np.isfinite(values)
-    if seen.any():
-        ax.plot(
-            t[seen], values[seen], linestyle="none", marker=".", markersize=2.0,
-            color="tab:gray", alpha=0.6, label=label, zorder=1,
-        )  # fmt: skip
+def _figure_axes(
+    axes: Sequence[Axes] | None, shape: tuple[int, int], figsize: tuple[float, float]
+) -> tuple[Figure, list[Axes]]:
+    if axes is not None:
+        chosen = list(np.asarray(axes, dtype=object).ravel())
+        if len(chosen) != shape[0] * shape[1]:
+            raise ValueError(f"expected {shape[0] * shape[1]} axes, got {len(chosen)}")
+        return chosen[0].get_figure(), chosen
+    figure = _pyplot_figure(figsize)
+    made = figure.subplots(*shape, sharex="col", squeeze=False)
+    return figure, list(made.ravel())
 
 
-def draw_states(result: RunResult, path: Path) -> Path:
-    """True state against its estimate over time."""
-    plt = pyplot()
-    fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
+def _states_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     k = thin(0, result.samples)
     t = result.t[k]
-    for index, (ax, state) in enumerate(zip(axes, ("x", "y", "theta"), strict=True)):
-        _draw_measurements(ax, t, result.measurement_column(index)[k])
+    for ax, state in zip(axes, STATES, strict=True):
         ax.plot(t, finite(getattr(result, state)[k]), color="tab:blue", linewidth=1.2, label="true")
         ax.plot(
             t,
@@ -436,53 +571,132 @@ def draw_states(result: RunResult, path: Path) -> Path:
         ax.grid(True, linewidth=0.4, alpha=0.5)
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("t [s]")
-    _mark_phases(list(axes), result)
+    _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: states and estimates")
-    return _save(fig, path)
+    names_as_typed(fig)
 
 
-def draw_estimation_error(result: RunResult, path: Path) -> Path:
-    """Estimation error (true - estimate) per state with the output-error bounds of eq. (4)."""
-    plt = pyplot()
-    fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
-    k = thin(0, result.samples)
-    t = result.t[k]
+def plot_states(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+    """True state against its estimate over time: three axes (x, y, theta); returns the figure."""
+    fig, chosen = _figure_axes(axes, (3, 1), (9, 7.5))
+    _states_on(fig, chosen, result)
+    return fig
+
+
+def _start_window(result: RunResult, errors: dict[str, FloatArray]) -> float:
+    """Seconds shown in the start column: five times the time the estimate
+    takes to converge, at least 20 samples, at most the run."""
+    if result.samples < 2:
+        return 1.0
+    duration = float(result.t[-1] - result.t[0])
+    converged = convergence_index(errors)
+    settle = float(result.t[converged] - result.t[0]) if converged is not None else duration
+    return min(duration, max(5.0 * settle, 20.0 * result.dt, 0.1))
+
+
+def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
+    """Left: the start, at full scale; right: the whole run, at the scale of the bounds.
+
+    Eq. (4) bounds the output error, measurement - estimate, so the bounds are
+    drawn with that; true - estimate, the estimation error, is drawn beside it.
+    """
     errors = estimation_errors(result)
-    for index, (ax, state, bounds) in enumerate(
-        zip(axes, ("x", "y", "theta"), result.error_bounds, strict=True)
-    ):
-        # The measurement's own error (true - measured) beside the estimate's.
-        measured = result.measurement_column(index)[k]
-        _draw_measurements(ax, t, getattr(result, state)[k] - measured, "measurement error")
-        ax.plot(t, finite(errors[state][k]), color="tab:blue", linewidth=1.2, label="error")
-        for i, bound in enumerate(bounds):
-            if math.isfinite(bound):
-                ax.axhline(
-                    bound,
-                    color="tab:red",
-                    linewidth=1.0,
-                    linestyle="--",
-                    label="eq. (4) bound" if i == 0 else None,
+    window = _start_window(result, errors)
+    early = thin(0, int(np.searchsorted(result.t, result.t[0] + window, side="right")))
+    every = thin(0, result.samples)
+    for row, (state, bounds) in enumerate(zip(STATES, result.error_bounds, strict=True)):
+        unit = "rad" if state == "theta" else "m"
+        measured = getattr(result, f"{state}_meas")
+        output_error = finite(measured - getattr(result, f"{state}_est"))
+        true_error = finite(errors[state])
+        for column, k in enumerate((early, every)):
+            ax = axes[2 * row + column]
+            if np.isfinite(output_error).any():
+                ax.plot(
+                    result.t[k],
+                    output_error[k],
+                    color="tab:blue",
+                    linewidth=1.8,
+                    label="measurement - estimate",
                 )
-        # Linear near zero, logarithmic beyond: the 1 m start and the 0.05 band both show.
-        ax.set_yscale("symlog", linthresh=0.01)
-        reach = np.abs(np.concatenate([errors[state][k], np.asarray(bounds)]))
-        reach = reach[np.isfinite(reach)]
-        top = 1.5 * max(float(reach.max()) if reach.size else 0.0, 0.1)
-        ax.set_ylim(-top, top)
-        ax.set_ylabel(f"{state} error [{'rad' if state == 'theta' else 'm'}]")
-        ax.grid(True, linewidth=0.4, alpha=0.5)
-        ax.legend(loc="upper right", fontsize=8)
+            # Dashed on top: without noise the two coincide, and both stay visible.
+            ax.plot(
+                result.t[k],
+                true_error[k],
+                color="tab:orange",
+                linewidth=1.0,
+                linestyle=(0, (3, 2)),
+                label="true - estimate",
+            )
+            for i, bound in enumerate(bounds):
+                if math.isfinite(bound):
+                    ax.axhline(
+                        bound,
+                        color="tab:red",
+                        linewidth=1.0,
+                        linestyle="--",
+                        label="eq. (4) bound" if i == 0 else None,
+                    )
+            ax.axhline(0.0, color="0.3", linewidth=0.5)
+            ax.grid(True, linewidth=0.4, alpha=0.5)
+        # The whole run at the scale of the bounds and of the error after the start.
+        late = every[result.t[every] > result.t[0] + window]
+        reach = [abs(b) for b in bounds if math.isfinite(b)]
+        for values in (output_error, true_error):
+            tail = values[late]
+            tail = tail[np.isfinite(tail)]
+            if tail.size:
+                reach.append(float(np.abs(tail).max()))
+        top = 1.3 * max(max(reach, default=0.0), 1e-6)
+        axes[2 * row + 1].set_ylim(-top, top)
+        axes[2 * row].set_ylabel(f"{state} error [{unit}]")
+        if not np.isfinite(output_error).any():
+            axes[2 * row + 1].text(
+                0.99,
+                0.04,
+                f"{state} not measured",
+                ha="right",
+                transform=axes[2 * row + 1].transAxes,
+                fontsize=8,
+            )
+    # Padded: the phase labels sit between the titles and the plots.
+    axes[0].set_title(f"start: first {window:.3g} s, full scale", fontsize=9, pad=14)
+    axes[1].set_title("whole run, at the scale of the bounds", fontsize=9, pad=14)
+    handles, labels = axes[1].get_legend_handles_labels()
+    for ax in axes:
+        handles_here, labels_here = ax.get_legend_handles_labels()
+        for handle, label in zip(handles_here, labels_here, strict=True):
+            if label not in labels:
+                handles.append(handle)
+                labels.append(label)
+    fig.legend(
+        handles,
+        labels,
+        loc="lower center",
+        ncols=3,
+        fontsize=8,
+        frameon=False,
+        bbox_to_anchor=(0.5, -0.01),
+    )
+    axes[-2].set_xlabel("t [s]")
     axes[-1].set_xlabel("t [s]")
-    _mark_phases(list(axes), result)
-    fig.suptitle(f"{result.mission_name}: estimation error (true - estimate)")
-    return _save(fig, path)
+    _mark_phases([axes[1], axes[3], axes[5]], result, phase_colors(result))
+    fig.suptitle(
+        f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate",
+        y=1.0,
+    )
+    names_as_typed(fig)
 
 
-def draw_inputs(result: RunResult, path: Path) -> Path:
-    """Linear speed and turn rate with their limits."""
-    plt = pyplot()
-    fig, axes = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+def plot_estimation_error(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+    """Measurement - estimate against the eq. (4) bounds, and true - estimate, per state:
+    six axes (3 rows x: start, whole run); returns the figure."""
+    fig, chosen = _figure_axes(axes, (3, 2), (11, 7.5))
+    _estimation_on(fig, chosen, result)
+    return fig
+
+
+def _inputs_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     k = thin(0, result.samples)
     t = result.t[k]
     for ax, name, label, limit in zip(
@@ -517,27 +731,55 @@ def draw_inputs(result: RunResult, path: Path) -> Path:
         ax.grid(True, linewidth=0.4, alpha=0.5)
         ax.legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("t [s]")
-    _mark_phases(list(axes), result)
+    _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: inputs")
+    names_as_typed(fig)
+
+
+def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+    """Linear speed and turn rate with their limits: two axes; returns the figure."""
+    fig, chosen = _figure_axes(axes, (2, 1), (9, 5.5))
+    _inputs_on(fig, chosen, result)
+    return fig
+
+
+# --- files ----------------------------------------------------------------
+
+
+def _write(result: RunResult, name: str, path: Path) -> Path:
+    if name == "xy":
+        fig = _new_figure((9, 6.5))
+        _xy_on(fig.add_subplot(), result)
+    elif name == "states":
+        fig = _new_figure((9, 7.5))
+        _states_on(fig, list(fig.subplots(3, 1, sharex=True)), result)
+    elif name == "estimation_error":
+        fig = _new_figure((11, 7.5))
+        _estimation_on(fig, list(fig.subplots(3, 2, sharex="col").ravel()), result)
+    else:
+        fig = _new_figure((9, 5.5))
+        _inputs_on(fig, list(fig.subplots(2, 1, sharex=True)), result)
     return _save(fig, path)
 
 
-def draw_all(result: RunResult, out_dir: Path) -> list[Path]:
-    """Write the four figures into ``out_dir``; return their paths."""
+def draw_all(result: RunResult, out_dir: Path, formats: Sequence[str] = ("png",)) -> list[Path]:
+    """Write the four figures into ``out_dir`` in each format; return their paths."""
     directory = Path(out_dir)
+    unknown = [f for f in formats if f not in FIGURE_FORMATS]
+    if unknown:
+        raise ValueError(f"unknown figure format {unknown[0]!r}; expected one of png, svg, pdf")
     return [
-        draw_xy(result, directory / "xy.png"),
-        draw_states(result, directory / "states.png"),
-        draw_estimation_error(result, directory / "estimation_error.png"),
-        draw_inputs(result, directory / "inputs.png"),
+        _write(result, name, directory / f"{name}.{fmt}")
+        for fmt in formats
+        for name in FIGURE_NAMES
     ]
 
 
-def replot_command(run_dir: Path) -> int:
+def replot_command(run_dir: Path, formats: Sequence[str] = ("png",)) -> int:
     """``wmr-mission plot RUN_DIR``: re-draw the figures from the saved data."""
     try:
         result = load_run(run_dir)
-        paths = draw_all(result, run_dir)
+        paths = draw_all(result, run_dir, formats)
     except (RunDirError, OSError) as exc:
         print(f"{run_dir}: {exc}", file=sys.stderr)
         return 1

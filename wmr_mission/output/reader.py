@@ -29,8 +29,12 @@ from wmr_mission.output.rundir import (
     TRAJECTORY_FILE,
     TRANSITIONS_FILE,
 )
-from wmr_mission.result import MEASUREMENT_COLUMNS, Outcome, PhaseInfo, RunResult, Transition
-from wmr_mission.spec.models import MISSION_NAME
+from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
+from wmr_mission.spec.models import MISSION_NAME, is_color
+
+# Run directories written before the measurement was recorded: still readable.
+MEASUREMENT_COLUMNS = ("x_meas", "y_meas", "theta_meas")
+_OLDER_CSV_COLUMNS = tuple(c for c in CSV_COLUMNS if c not in MEASUREMENT_COLUMNS)
 
 
 # Its message leaves out the run directory: callers print `RUN_DIR: message`.
@@ -154,9 +158,50 @@ def _phases_from(run: Any) -> list[PhaseInfo]:
                     )
                 ),
                 constraints=constraints,
+                near=_near_from(record, at),
+                points=_points_from(record, at),
+                color=_color_from(record, at),
             )
         )
     return phases
+
+
+def _optional(record: Any, key: str, kind: type, where: str) -> Any:
+    """A field older run directories lack: None when absent or null."""
+    if not isinstance(record, dict) or record.get(key) is None:
+        return None
+    return _field(record, key, kind, where)
+
+
+def _near_from(record: Any, where: str) -> tuple[float, float, float] | None:
+    near = _optional(record, "near", list, where)
+    if near is None:
+        return None
+    if len(near) != 3:
+        raise RunDirError(f"{where}: 'near' must be [x, y, tolerance]")
+    x, y, tolerance = (_number(value, where) for value in near)
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise RunDirError(f"{where}: 'near' must be finite")
+    return x, y, _positive(tolerance, f"{where}.near")
+
+
+def _points_from(record: Any, where: str) -> tuple[tuple[float, float], ...]:
+    points = _optional(record, "points", list, where) or []
+    if not all(isinstance(point, list) and len(point) == 2 for point in points):
+        raise RunDirError(f"{where}: 'points' must be a list of [x, y]")
+    pairs = tuple((_number(point[0], where), _number(point[1], where)) for point in points)
+    if not all(math.isfinite(x) and math.isfinite(y) for x, y in pairs):
+        raise RunDirError(f"{where}: 'points' must be finite")
+    return pairs
+
+
+def _color_from(record: Any, where: str) -> str | None:
+    color = _optional(record, "color", str, where)
+    if color is None:
+        return None
+    if not is_color(color):
+        raise RunDirError(f"{where}: 'color' {_shown(color)} is not a colour")
+    return str(color)
 
 
 def _transitions_from(records: Any) -> list[Transition]:
@@ -189,21 +234,27 @@ def _lap(record: Any, where: str) -> int | None:
 def _read_trajectory(path: Path, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
     text = _read_text(path)
     header = next(csv.reader(io.StringIO(text[: text.find("\n") + 1], newline="")), None)
-    if header is None or tuple(header) != CSV_COLUMNS:
+    columns = tuple(header or ())
+    if columns not in (CSV_COLUMNS, _OLDER_CSV_COLUMNS):
         raise RunDirError(f"{path.name}:1: header must be exactly {','.join(CSV_COLUMNS)}")
     try:
-        return _parse_rows_fast(text, phase_names)
+        data = _parse_rows_fast(text, phase_names, columns)
     except ValueError:
         # Find the first bad line and say what is wrong with it.
-        return _parse_rows_checked(text, phase_names, path.name)
+        data = _parse_rows_checked(text, phase_names, path.name, columns)
+    for name in MEASUREMENT_COLUMNS:
+        data.setdefault(name, np.full(data["t"].shape[0], np.nan))
+    return data
 
 
-def _parse_rows_fast(text: str, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
+def _parse_rows_fast(
+    text: str, phase_names: Sequence[str], columns: Sequence[str]
+) -> dict[str, np.ndarray]:
     """numpy's C parser; raises ValueError on anything unexpected."""
     if not text.partition("\n")[2].strip():
         raise ValueError("no samples")  # loadtxt warns on empty input: take the checked path
-    phase_column = CSV_COLUMNS.index("phase")
-    numeric = [i for i in range(len(CSV_COLUMNS)) if i != phase_column]
+    phase_column = list(columns).index("phase")
+    numeric = [i for i in range(len(columns)) if i != phase_column]
     options: dict[str, Any] = {
         "delimiter": ",",
         "skiprows": 1,
@@ -217,7 +268,7 @@ def _parse_rows_fast(text: str, phase_names: Sequence[str]) -> dict[str, np.ndar
     index_of = {name: i for i, name in enumerate(phase_names)}
     if any(name not in index_of for name in known.tolist()):
         raise ValueError("unknown phase")
-    data = {CSV_COLUMNS[i]: values[:, j].copy() for j, i in enumerate(numeric)}
+    data = {columns[i]: values[:, j].copy() for j, i in enumerate(numeric)}
     data["phase"] = np.array([index_of[n] for n in known.tolist()], dtype=np.int64)[inverse]
     iterations = data["phase2_iterations"]
     if not np.all(
@@ -232,19 +283,19 @@ def _parse_rows_fast(text: str, phase_names: Sequence[str]) -> dict[str, np.ndar
 
 
 def _parse_rows_checked(
-    text: str, phase_names: Sequence[str], filename: str
+    text: str, phase_names: Sequence[str], filename: str, columns: Sequence[str]
 ) -> dict[str, np.ndarray]:
     """Row by row, naming the first line that does not fit."""
     rows = list(csv.reader(io.StringIO(text, newline="")))[1:]
     for line, row in enumerate(rows, start=2):
-        if len(row) != len(CSV_COLUMNS):
+        if len(row) != len(columns):
             raise RunDirError(
-                f"{filename}:{line}: expected {len(CSV_COLUMNS)} fields, found {len(row)}"
+                f"{filename}:{line}: expected {len(columns)} fields, found {len(row)}"
             )
     data: dict[str, np.ndarray] = {}
-    cells = list(zip(*rows, strict=True)) if rows else [() for _ in CSV_COLUMNS]
+    cells = list(zip(*rows, strict=True)) if rows else [() for _ in columns]
     index_of = {name: i for i, name in enumerate(phase_names)}
-    for name, column in zip(CSV_COLUMNS, cells, strict=True):
+    for name, column in zip(columns, cells, strict=True):
         if name == "phase":
             try:
                 data[name] = np.array([index_of[value] for value in column], dtype=np.int64)
@@ -363,7 +414,10 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
         ),
         error_bounds=(error_bounds[0], error_bounds[1], error_bounds[2]),
         regions=regions,
-        measurement=np.column_stack([data[name] for name in MEASUREMENT_COLUMNS]),
+        x_meas=data["x_meas"],
+        y_meas=data["y_meas"],
+        theta_meas=data["theta_meas"],
+        mission=_optional(manifest, "resolved_mission", dict, MANIFEST_FILE),
     )
 
 

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from wmr_mission.result import RunResult
 
 _HEADERS = (
     "phase",
@@ -82,9 +86,48 @@ def _verdict(phase: dict[str, Any], checks: list[dict[str, Any]]) -> str:
     return "ok" if mine else "-"
 
 
-def format_table(summary: dict[str, Any], run_dir: str | os.PathLike[str]) -> str:
+def _aim(final: dict[str, Any], phases: list[dict[str, Any]]) -> str:
+    """What the final error is measured from."""
+    target = final.get("target") or {}
+    name = target.get("phase")
+    if name is None:
+        return ""
+    kinds = {phase.get("name"): phase.get("kind") for phase in phases}
+    if kinds.get(name) == "track":
+        return f" (from the last reference point of phase '{name}')"
+    return f" (from the target of phase '{name}')"
+
+
+def unreached(result: RunResult) -> list[str]:
+    """For a run that timed out: what its phase was waiting for, and how far it was."""
+    ended = [tr for tr in result.transitions if tr.to_phase is None and tr.condition == "timeout"]
+    if not ended or result.samples == 0:
+        return []
+    name = ended[-1].from_phase
+    info = next(p for p in result.phases if p.name == name)
+    if info.near is None:
+        return [f"not reached: the `until` condition of phase '{name}' (it timed out)"]
+    gx, gy, tolerance = info.near
+    distance = math.hypot(float(result.x[-1]) - gx, float(result.y[-1]) - gy)
+    return [
+        f"not reached: near ({gx:g}, {gy:g}) within {tolerance:g} m of phase '{name}': "
+        f"{distance:.3g} m away when it timed out"
+    ]
+
+
+def format_table(
+    summary: dict[str, Any],
+    run_dir: str | os.PathLike[str],
+    *,
+    wall_seconds: float | None = None,
+    result: RunResult | None = None,
+) -> str:
     """Phases with their key metrics and verdicts, the mission-wide expectations,
-    the outcome and where the files are."""
+    the outcome and where the files are.
+
+    ``wall_seconds``: the computer's time for the run, shown beside the
+    simulated time; ``result``: the run, to say which goal a timed-out phase missed.
+    """
     checks = list(summary.get("expectations", []))
     rows = [
         (
@@ -111,7 +154,9 @@ def format_table(summary: dict[str, Any], run_dir: str | os.PathLike[str]) -> st
         text = f"final error: {_number(final['position_error'], ' m')}"
         if final.get("heading_error") is not None:
             text += f", {_number(final['heading_error'], ' rad')}"
-        lines.append(text)
+        lines.append(text + _aim(final, summary.get("phases", [])))
+    if result is not None:
+        lines += unreached(result)
     converged = summary.get("estimation_convergence_time")
     lines.append(
         "estimation converged from: " + ("never" if converged is None else f"t = {converged:.2f} s")
@@ -127,7 +172,12 @@ def format_table(summary: dict[str, Any], run_dir: str | os.PathLike[str]) -> st
     if message.startswith(str(summary.get("outcome"))):  # "diverged in phase ... at t = ..."
         outcome = f"outcome: {message}"
     else:
-        outcome = f"outcome: {summary.get('outcome')} after {_seconds(summary.get('duration'))}"
+        outcome = (
+            f"outcome: {summary.get('outcome')} after {_seconds(summary.get('duration'))} "
+            "of simulated time"
+        )
+        if wall_seconds is not None:
+            outcome += f" ({wall_seconds:.2f} s of wall time)"
         if message:
             outcome += f" - {message}"
     lines.append(outcome)

@@ -21,6 +21,7 @@ reads back. ``phase`` holds the phase name; lines end with ``\\n``.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import math
 import os
@@ -39,7 +40,6 @@ import numpy as np
 from wmr_mission.output.metrics import check_expectations, summarize
 from wmr_mission.result import (
     EXTRA_COLUMNS,
-    MEASUREMENT_COLUMNS,
     TRAJECTORY_COLUMNS,
     RunResult,
     Transition,
@@ -51,7 +51,7 @@ TRANSITIONS_FILE = "transitions.json"
 SUMMARY_FILE = "summary.json"
 ANIMATION_FILE = "animation.gif"
 
-CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS + MEASUREMENT_COLUMNS
+CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
 _FLOAT_FORMAT = "%.12g"
 # Rows formatted per `%` operation: one C-level formatting call per block keeps
 # a 360 000-sample run to about a second and a half.
@@ -68,9 +68,9 @@ class RunDirExistsError(FileExistsError):
 # Created exclusively in a run directory before the simulation starts, removed
 # once summary.json is written: two runs never share a directory.
 CLAIM_FILE = ".wmr-mission-run"
-# Bytes of trajectory.csv per sample (14 columns of up to 19 characters), and of
+# Bytes of trajectory.csv per sample (17 columns of up to 19 characters), and of
 # the figures and JSON files: the estimate checked against the free space.
-_BYTES_PER_SAMPLE = 200
+_BYTES_PER_SAMPLE = 250
 _BYTES_OTHER = 4_000_000
 
 
@@ -207,48 +207,32 @@ def _csv_field(text: str) -> str:
     return text
 
 
-def trajectory_csv_blocks(result: RunResult) -> Iterator[str]:
-    """``trajectory.csv`` in pieces: the header line, then blocks of lines, so a
-    long run is never held in memory as one text."""
-    names = np.array([_csv_field(p.name) for p in result.phases] or [""], dtype=object)
-    floats = [getattr(result, name) for name in TRAJECTORY_COLUMNS[:-1]]
-    extra = [getattr(result, name) for name in EXTRA_COLUMNS[:-1]]
-    formats = (
-        [_FLOAT_FORMAT] * (len(TRAJECTORY_COLUMNS) - 1)
-        + ["%s"]
-        + [_FLOAT_FORMAT] * (len(EXTRA_COLUMNS) - 1)
-        + ["%d"]
-        + [_FLOAT_FORMAT] * len(MEASUREMENT_COLUMNS)
-    )
-    row_format = ",".join(formats) + "\n"
-    yield ",".join(CSV_COLUMNS) + "\n"
-    for start in range(0, result.samples, _ROWS_PER_BLOCK):
-        block = slice(start, start + _ROWS_PER_BLOCK)
-        columns: list[list[Any]] = [
-            np.asarray(column[block], dtype=np.float64).tolist() for column in floats
-        ]
-        columns.append(names[np.asarray(result.phase[block], dtype=np.int64)].tolist())
-        columns += [np.asarray(column[block], dtype=np.float64).tolist() for column in extra]
-        columns.append(np.asarray(result.phase2_iterations[block], dtype=np.int64).tolist())
-        columns += [
-            np.asarray(result.measurement_column(i)[block], dtype=np.float64).tolist()
-            for i in range(len(MEASUREMENT_COLUMNS))
-        ]
-        values = tuple(value for row in zip(*columns, strict=True) for value in row)
-        yield row_format * (len(values) // len(columns)) % values
-
-
 def trajectory_csv_text(result: RunResult) -> str:
     """The whole ``trajectory.csv``: header line then one line per sample."""
-    return "".join(trajectory_csv_blocks(result))
+    names = np.array([_csv_field(p.name) for p in result.phases] or [""], dtype=object)
+    columns: list[list[Any]] = []
+    formats: list[str] = []
+    for name in CSV_COLUMNS:
+        if name == "phase":
+            columns.append(names[np.asarray(result.phase, dtype=np.int64)].tolist())
+            formats.append("%s")
+        elif name == "phase2_iterations":
+            columns.append(np.asarray(result.phase2_iterations, dtype=np.int64).tolist())
+            formats.append("%d")
+        else:
+            columns.append(np.asarray(getattr(result, name), dtype=np.float64).tolist())
+            formats.append(_FLOAT_FORMAT)
+    row_format = ",".join(formats) + "\n"
+    parts = [",".join(CSV_COLUMNS) + "\n"]
+    for start in range(0, result.samples, _ROWS_PER_BLOCK):
+        rows = zip(*(column[start : start + _ROWS_PER_BLOCK] for column in columns), strict=True)
+        values = tuple(value for row in rows for value in row)
+        parts.append(row_format * (len(values) // len(columns)) % values)
+    return "".join(parts)
 
 
 def write_trajectory(result: RunResult, path: Path) -> Path:
-    """Write ``trajectory.csv`` block by block (atomically, like every run file)."""
-    with atomic_path(path) as tmp, tmp.open("w", encoding="utf-8", newline="") as out:
-        for block in trajectory_csv_blocks(result):
-            out.write(block)
-    return path
+    return write_bytes_atomic(path, trajectory_csv_text(result).encode("utf-8"))
 
 
 # --- JSON -----------------------------------------------------------------
@@ -332,6 +316,9 @@ def run_record(result: RunResult) -> dict[str, Any]:
                 "constraints": [
                     {"region": region, "side": side} for region, side in phase.constraints
                 ],
+                "near": list(phase.near) if phase.near is not None else None,
+                "points": [list(point) for point in phase.points],
+                "color": phase.color,
             }
             for phase in result.phases
         ],
@@ -349,7 +336,7 @@ def manifest_record(
     *,
     mission_sha256: str,
     resolved_mission: Mapping[str, Any],
-    mission_file: str,
+    mission_file: str | None,
 ) -> dict[str, Any]:
     return {
         "mission_file": mission_file,
@@ -361,22 +348,39 @@ def manifest_record(
     }
 
 
+def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The content of ``summary.json``: every metric and, with a mission (default:
+    ``result.mission``), each of its `expect` thresholds with its verdict."""
+    if mission is None:
+        mission = result.mission
+    summary = summarize(result, mission)
+    if mission is not None and isinstance(mission.get("expect"), Mapping):
+        summary["expectations"] = check_expectations(summary, mission)
+    return summary
+
+
 def write_run(
     result: RunResult,
     out_dir: str | os.PathLike[str],
     *,
-    mission_sha256: str,
-    resolved_mission: Mapping[str, Any],
-    mission_file: str,
+    mission_sha256: str | None = None,
+    resolved_mission: Mapping[str, Any] | None = None,
+    mission_file: str | None = None,
     plots: bool,
     animate: bool,
+    formats: Sequence[str] = ("png",),
 ) -> list[Path]:
     """Write the run directory (made by ``prepare_run_dir``); return the files written.
 
     ``summary.json`` comes last, so its presence marks a complete directory.
-    When ``resolved_mission`` has an ``expect`` section, the summary also lists
-    each expectation and whether it was met.
+    ``resolved_mission`` defaults to ``result.mission``; ``mission_sha256``
+    (the mission file's hash) to the hash of that resolved mission's JSON.
+    When it has an ``expect`` section, the summary also lists each
+    expectation and whether it was met. Figures are written in each of ``formats``.
     """
+    resolved = resolved_mission if resolved_mission is not None else (result.mission or {})
+    if mission_sha256 is None:
+        mission_sha256 = hashlib.sha256(json_text(resolved).encode("utf-8")).hexdigest()
     run_dir = Path(out_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     written = [
@@ -386,7 +390,7 @@ def write_run(
             manifest_record(
                 result,
                 mission_sha256=mission_sha256,
-                resolved_mission=resolved_mission,
+                resolved_mission=resolved,
                 mission_file=mission_file,
             ),
         ),
@@ -395,14 +399,11 @@ def write_run(
     if plots:
         from wmr_mission.output.plots import draw_all
 
-        written += draw_all(result, run_dir)
+        written += draw_all(result, run_dir, formats)
     if animate:
         from wmr_mission.output.animation import write_animation
 
         written.append(write_animation(result, run_dir / ANIMATION_FILE))
-    summary = summarize(result, resolved_mission)
-    if isinstance(resolved_mission.get("expect"), Mapping):
-        summary["expectations"] = check_expectations(summary, resolved_mission)
-    written.append(write_json(run_dir / SUMMARY_FILE, summary))
+    written.append(write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved)))
     (run_dir / CLAIM_FILE).unlink(missing_ok=True)
     return written

@@ -94,6 +94,7 @@ def check(mission: Mission) -> list[Finding]:
         *_expectations(mission),
         *_control(mission),
         *_estimator_bounds(mission),
+        *_phase_colors(mission),
         *_disturbances(mission),
     ]
     if not any(f.severity == "error" for f in findings):
@@ -676,6 +677,22 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
             severity="warning",
             at_key=True,
         )
+
+
+def _phase_colors(mission: Mission) -> Iterator[Finding]:
+    import difflib
+
+    names = list(dict.fromkeys(run.phase.name for run in run_order(mission)))  # repeats once
+    for name in mission.plot.phase_colors:
+        if name not in names:
+            close = difflib.get_close_matches(name, names, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            yield Finding(
+                ("plot", "phase_colors", name),
+                f"plot.phase_colors.{name}: no phase is named {name!r}{hint} "
+                f"(phases: {', '.join(names)})",
+                at_key=True,
+            )
 
 
 def _control(mission: Mission) -> Iterator[Finding]:

@@ -40,12 +40,17 @@ __all__ = [
     "MAX_FILE_BYTES",
     "Diagnostic",
     "MissionError",
+    "Override",
     "check_mission",
     "check_mission_bytes",
+    "check_mission_data",
     "check_mission_text",
     "load_mission",
+    "load_mission_data",
     "load_mission_text",
+    "parse_override",
     "read_source",
+    "validate_mission",
 ]
 
 MAX_FILE_BYTES: Final = 1_000_000
@@ -73,13 +78,18 @@ class Diagnostic:
     stage: Literal["schema", "semantics"] = "schema"
 
     def __str__(self) -> str:
+        # line 0: not from a file's text (a `--set`, a dict), so no position to give
+        where = f"{self.file}:{self.line}:{self.column}" if self.line else self.file
         if self.severity == "error":
-            return f"{self.file}:{self.line}:{self.column}: {self.message}"
-        return f"{self.file}:{self.line}:{self.column}: {self.severity}: {self.message}"
+            return f"{where}: {self.message}"
+        return f"{where}: {self.severity}: {self.message}"
 
 
-class MissionError(Exception):
-    """A mission file that cannot be used; ``diagnostics`` says why, with positions."""
+class MissionError(ValueError):
+    """A mission that cannot be used; ``diagnostics`` says why, with positions.
+
+    Raised for files, texts, dicts, overrides and models alike.
+    """
 
     def __init__(self, diagnostics: Sequence[Diagnostic]) -> None:
         self.diagnostics = list(diagnostics)
@@ -207,16 +217,27 @@ class Document:
     keys: dict[DataPath, tuple[int, int]] = field(default_factory=dict)
     # Paths whose value was refused while reading; later errors under them are noise.
     refused: set[DataPath] = field(default_factory=set)
+    # Paths set from outside the text, and how the user wrote each (`--set PATH=VALUE`).
+    overrides: dict[DataPath, str] = field(default_factory=dict)
 
     def position(self, path: DataPath, *, at_key: bool = False) -> tuple[int, int]:
-        """Line and column of the deepest written part of ``path``."""
+        """Line and column of the deepest written part of ``path``; (0, 0) when
+        nothing of it was written in a text (a mission built from a dict)."""
         if at_key and path in self.keys:
             return self.keys[path]
         for end in range(len(path), -1, -1):
             found = self.values.get(path[:end])
             if found is not None:
                 return found[0], found[1]
-        return 1, 1
+        return 0, 0
+
+    def override_of(self, path: DataPath) -> str | None:
+        """How the user wrote the override that set ``path`` (or a parent of it)."""
+        for end in range(len(path), 0, -1):
+            source = self.overrides.get(path[:end])
+            if source is not None:
+                return source
+        return None
 
     def text_column(self, path: DataPath) -> tuple[int, int] | None:
         """Line and column of the first character of a one-line text value."""
@@ -366,6 +387,12 @@ def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
                 message += f" (the construct started at {opened[0]}:{opened[1]})"
         if not isinstance(error, _Refused):
             message = f"YAML syntax error: {message}"
+        if error.problem == "mapping values are not allowed here":
+            # `description: at 0.5 m/s: it cannot` - the second ': ' starts a mapping
+            message += (
+                "; a text holding ': ' must be quoted, e.g. key: \"at 0.5 m/s: it cannot\", "
+                "or written as a block (key: >-, then the text on indented lines)"
+            )
         return line, column, message
     if isinstance(error, yaml.reader.ReaderError):
         before = text[: error.position]
@@ -375,14 +402,20 @@ def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
     return 1, 1, f"YAML error: {error}"
 
 
+def _compose(text: str) -> yaml.Node | None:
+    """The node tree of one YAML document; raises ``yaml.YAMLError``."""
+    loader = _NodeLoader(text)  # the reader refuses unprintable characters here
+    try:
+        node: yaml.Node | None = loader.get_single_node()
+    finally:
+        loader.dispose()
+    return node
+
+
 def read_document(text: str) -> tuple[Document | None, list[Finding]]:
     """Compose ``text``; on a syntax error return its position instead of a document."""
     try:
-        loader = _NodeLoader(text)  # the reader refuses unprintable characters here
-        try:
-            node = loader.get_single_node()
-        finally:
-            loader.dispose()
+        node = _compose(text)
     except yaml.YAMLError as error:
         line, column, message = _syntax_finding(error, text)
         return None, [Finding((), message, position=(line, column))]
@@ -478,7 +511,7 @@ def _selects(model: type[BaseModel], value: Any) -> bool:
         return False
     type_field = model.model_fields.get("type")
     if type_field is not None:
-        return value.get("type") in typing.get_args(type_field.annotation)
+        return value.get("type", type_field.default) in typing.get_args(type_field.annotation)
     keys = [k for k in (*ACTIONS, "repeat", *_CONSTRAINT_KEYS) if k in model.model_fields]
     return not keys or any(k in value for k in keys)
 
@@ -594,12 +627,32 @@ def _translate_error(error: Any, document: Document) -> Finding:
             f"{', '.join(actions[:-1])} or {actions[-1]}{hint}",
         )
     if kind == "constraint_kind":
+        keys = [str(k) for k in value] if isinstance(value, dict) else []
+        close = [(k, _suggest(k, _CONSTRAINT_KEYS)) for k in keys]
+        misspelt = next(((k, hint) for k, hint in close if hint), None)
+        if misspelt is not None:
+            return Finding(
+                (*path, misspelt[0]),
+                f"unknown constraint {misspelt[0]!r}{misspelt[1]} "
+                "(a constraint is {stay_inside: REGION} or {stay_outside: REGION})",
+                at_key=True,
+            )
         return Finding(
             path, f"{where}: a constraint is {{stay_inside: REGION}} or {{stay_outside: REGION}}"
         )
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         tags = _type_tags(path)
         if kind == "union_tag_not_found":
+            near_type = [
+                k for k in (value if isinstance(value, dict) else {}) if _suggest(k, ["type"])
+            ]
+            if near_type:  # `typ: ellipse`
+                return Finding(
+                    (*path, near_type[0]),
+                    f"unknown field {near_type[0]!r}; did you mean 'type'? "
+                    f"(one of: {', '.join(tags)})",
+                    at_key=True,
+                )
             return Finding(path, f"{where}: missing field 'type' (one of: {', '.join(tags)})")
         tag = str(context.get("tag", ""))
         type_path = (*path, "type") if (*path, "type") in document.values else path
@@ -622,7 +675,11 @@ def _translate_error(error: Any, document: Document) -> Finding:
         expected = str(context.get("expected", ""))
         choices = re.findall(r"'([^']*)'", expected)
         hint = _suggest(str(value), choices) if isinstance(value, str) else ""
-        return Finding(path, f"{where}: expected {expected}, got {_shown(value)}{hint}")
+        # A mapping's key (`output_error_bounds: {thta: ...}`): point at the key.
+        at_key = loc[-1] == "[key]"
+        return Finding(
+            path, f"{where}: expected {expected}, got {_shown(value)}{hint}", at_key=at_key
+        )
     message = str(error["msg"])
     message = re.sub(r"^Input should be", "should be", message)
     message = re.sub(r"^Value error, ", "", message)
@@ -646,7 +703,8 @@ def _type_tags(path: DataPath) -> list[str]:
     if "path" in path:
         union = PathSpec
     members = typing.get_args(typing.get_args(union)[0])
-    return [str(typing.get_args(m.model_fields["type"].annotation)[0]) for m in members]
+    models = [_model_class(m, None) for m in members]
+    return [str(typing.get_args(m.model_fields["type"].annotation)[0]) for m in models]
 
 
 _SUGGESTION = re.compile(r"^unknown field '[^']*'; did you mean '([^']*)'\?$")
@@ -690,19 +748,28 @@ def _context(data: dict[str, Any]) -> dict[str, Any]:
 
 
 def _diagnostic(filename: str, document: Document | None, finding: Finding) -> Diagnostic:
-    if finding.position is not None:
+    source = document.override_of(finding.path) if document is not None else None
+    if source is not None:
+        filename, line, column = source, 0, 0
+    elif finding.position is not None:
         line, column = finding.position
     elif document is None:
         line, column = 1, 1
     else:
         line, column = document.position(finding.path, at_key=finding.at_key)
-    return Diagnostic(filename, line, column, finding.message, finding.severity)
+    message = finding.message
+    where = _dotted(finding.path)
+    if line == 0 and finding.path and not message.startswith(where):
+        message = f"{where}: {message}"  # no position to point at: name the field
+    return Diagnostic(filename, line, column, message, finding.severity)
 
 
-def check_mission_text(text: str, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
+def check_mission_text(
+    text: str, filename: str = "<text>", overrides: Sequence[Override] = ()
+) -> tuple[Mission | None, list[Diagnostic]]:
     """Every problem of a mission text (errors and warnings), and the mission if it has none."""
     try:
-        return _check(text, filename)
+        return _check(text, filename, overrides)
     except Exception as error:  # last resort: bad input must never show a traceback
         message = (
             f"internal error while checking ({type(error).__name__}: {error}); please report it"
@@ -710,7 +777,9 @@ def check_mission_text(text: str, filename: str) -> tuple[Mission | None, list[D
         return None, [Diagnostic(filename, 1, 1, message)]
 
 
-def _check(text: str, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
+def _check(
+    text: str, filename: str, overrides: Sequence[Override] = ()
+) -> tuple[Mission | None, list[Diagnostic]]:
     if len(text) > MAX_FILE_BYTES:
         return None, [
             Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
@@ -718,6 +787,17 @@ def _check(text: str, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
     document, findings = read_document(text)
     if document is None:
         return None, [_diagnostic(filename, None, f) for f in findings]
+    return _check_document(document, findings, filename, overrides)
+
+
+def _check_document(
+    document: Document, findings: list[Finding], filename: str, overrides: Sequence[Override]
+) -> tuple[Mission | None, list[Diagnostic]]:
+    """Apply the overrides, then validate the data and run the checks across fields."""
+    for override in overrides:
+        problem = _apply(document, override)
+        if problem is not None:
+            return None, [Diagnostic(override.source, 0, 0, problem)]
     mission: Mission | None = None
     if isinstance(document.data, dict):
         try:
@@ -775,7 +855,9 @@ def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
     return raw, []
 
 
-def check_mission_bytes(raw: bytes, filename: str) -> tuple[Mission | None, list[Diagnostic]]:
+def check_mission_bytes(
+    raw: bytes, filename: str, overrides: Sequence[Override] = ()
+) -> tuple[Mission | None, list[Diagnostic]]:
     """Every problem of a mission file's bytes, and the mission if it has none."""
     try:
         text = raw.decode("utf-8")
@@ -784,28 +866,211 @@ def check_mission_bytes(raw: bytes, filename: str) -> tuple[Mission | None, list
         line = before.count(b"\n") + 1
         column = len(before) - (before.rfind(b"\n") + 1) + 1
         return None, [Diagnostic(filename, line, column, "the file is not UTF-8 text")]
-    return check_mission_text(text, filename)
+    return check_mission_text(text, filename, overrides)
 
 
-def check_mission(path: str | Path) -> tuple[Mission | None, list[Diagnostic]]:
+def check_mission(
+    path: str | Path, overrides: Sequence[Override] = ()
+) -> tuple[Mission | None, list[Diagnostic]]:
     """Every problem of a mission file (errors and warnings), and the mission if it has none."""
     raw, diagnostics = read_source(path)
     if raw is None:
         return None, diagnostics
-    return check_mission_bytes(raw, str(path))
+    return check_mission_bytes(raw, str(path), overrides)
 
 
-def load_mission_text(text: str, filename: str) -> Mission:
+def check_mission_data(
+    data: Any, source: str = "<dict>", overrides: Sequence[Override] = ()
+) -> tuple[Mission | None, list[Diagnostic]]:
+    """As :func:`check_mission_text`, for plain data (a dict as ``yaml.safe_load`` gives)."""
+    try:
+        plain = _plain(data)
+    except TypeError as error:
+        return None, [Diagnostic(source, 0, 0, str(error))]
+    findings = []
+    if not isinstance(plain, dict):
+        findings.append(
+            Finding((), "a mission is a mapping of keys (version, name, robot, ..., phases)")
+        )
+    try:
+        return _check_document(Document(data=plain), findings, source, overrides)
+    except Exception as error:  # last resort, as for texts
+        message = (
+            f"internal error while checking ({type(error).__name__}: {error}); please report it"
+        )
+        return None, [Diagnostic(source, 0, 0, message)]
+
+
+def _plain(value: Any) -> Any:
+    """A deep copy as YAML would give it: dicts with text keys, lists, scalars."""
+    if isinstance(value, dict):
+        for key in value:
+            if not isinstance(key, str):
+                raise TypeError(f"a key must be text, got {key!r}")
+        return {key: _plain(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(item) for item in value]
+    if hasattr(value, "tolist") and hasattr(value, "dtype"):  # numpy arrays and scalars
+        return _plain(value.tolist())
+    return value
+
+
+def _raise_errors(mission: Mission | None, diagnostics: list[Diagnostic]) -> Mission:
+    if mission is None:
+        raise MissionError([d for d in diagnostics if d.severity == "error"])
+    return mission
+
+
+def load_mission_text(
+    text: str, filename: str = "<text>", overrides: Sequence[Override] = ()
+) -> Mission:
     """The mission of ``text``; raises :class:`MissionError` with every error."""
-    mission, diagnostics = check_mission_text(text, filename)
-    if mission is None:
-        raise MissionError([d for d in diagnostics if d.severity == "error"])
-    return mission
+    return _raise_errors(*check_mission_text(text, filename, overrides))
 
 
-def load_mission(path: str | Path) -> Mission:
+def load_mission(path: str | Path, overrides: Sequence[Override] = ()) -> Mission:
     """The mission of a file; raises :class:`MissionError` with every error."""
-    mission, diagnostics = check_mission(path)
-    if mission is None:
-        raise MissionError([d for d in diagnostics if d.severity == "error"])
-    return mission
+    return _raise_errors(*check_mission(path, overrides))
+
+
+def load_mission_data(
+    data: Any, source: str = "<dict>", overrides: Sequence[Override] = ()
+) -> Mission:
+    """The mission of plain data; raises :class:`MissionError` with every error."""
+    return _raise_errors(*check_mission_data(data, source, overrides))
+
+
+def validate_mission(mission: Mission) -> Mission:
+    """``mission`` checked as a file would be; raises :class:`MissionError`.
+
+    A model built with ``model_copy(update=...)`` or ``model_validate`` skips
+    the checks across fields (and ``model_copy`` every check): this runs them.
+    """
+    data = mission.model_dump(mode="json", warnings=False)
+    return load_mission_data(data, source=f"mission {mission.name!r}")
+
+
+# --- overrides: `--set PATH=VALUE` -------------------------------------------
+
+
+@dataclass(frozen=True)
+class Override:
+    """One field set from outside the mission text.
+
+    ``path`` is a data path such as ``("robot", "dt")`` or ``("phases", 1,
+    "timeout")``; ``source`` is how the user wrote it, and names it in every
+    message about that field (``--set robot.dt=-1``).
+    """
+
+    path: DataPath
+    value: Any
+    source: str
+
+    @classmethod
+    def at(cls, dotted: str, value: Any, source: str | None = None) -> Override:
+        """An override at a dotted path (``robot.initial_state.theta``, ``phases[1].timeout``)."""
+        path = parse_path(dotted)
+        return cls(path, value, source if source is not None else f"{dotted}={value!r}")
+
+
+_PATH_PART = re.compile(r"^([A-Za-z0-9_-]+)((?:\[\d+\])*)$")
+
+
+def parse_path(dotted: str) -> DataPath:
+    """``a.b[2].c`` or ``a.b.2.c`` as a data path; raises ValueError when malformed."""
+    path: list[str | int] = []
+    for part in dotted.split("."):
+        match = _PATH_PART.match(part)
+        if match is None:
+            raise ValueError(
+                f"{dotted!r} is not a field path: expected names joined by '.', "
+                "e.g. robot.initial_state.theta or phases[1].timeout"
+            )
+        name, indices = match.groups()
+        path.append(int(name) if name.isdigit() else name)
+        path.extend(int(i) for i in re.findall(r"\d+", indices))
+    return tuple(path)
+
+
+def parse_override(text: str) -> Override:
+    """``PATH=VALUE`` as given to ``--set``; VALUE is read as a YAML value.
+
+    Raises :class:`MissionError` naming ``--set TEXT`` when it is malformed.
+    """
+    source = f"--set {text}"
+    dotted, equals, value_text = text.partition("=")
+    if not equals:
+        raise MissionError([Diagnostic(source, 0, 0, "expected PATH=VALUE, e.g. robot.dt=0.02")])
+    try:
+        path = parse_path(dotted.strip())
+    except ValueError as error:
+        raise MissionError([Diagnostic(source, 0, 0, str(error))]) from None
+    document, findings = read_value(value_text)
+    if findings:
+        message = "; ".join(f.message for f in findings)
+        raise MissionError([Diagnostic(source, 0, 0, f"VALUE is not a YAML value: {message}")])
+    return Override(path, document, source)
+
+
+def read_value(text: str) -> tuple[Any, list[Finding]]:
+    """One YAML value (``0.5``, ``[1, 1, 2]``, ``{x: 1}``, ``text``), read as in a file."""
+    if not text.strip():
+        return None, []  # `--set description=` sets null, as `description:` would
+    try:
+        node = _compose(text)
+    except yaml.YAMLError as error:
+        _, _, message = _syntax_finding(error, text)
+        return None, [Finding((), message)]
+    if node is None:
+        return None, []
+    builder = _Builder(Document(data=None))
+    value = builder.build(node, ())
+    return value, builder.findings
+
+
+def _apply(document: Document, override: Override) -> str | None:
+    """Set the override's value in the document's data; a message when the path cannot hold it."""
+    current = document.data
+    path = override.path
+    resolved: list[str | int] = []
+    for depth, part in enumerate(path):
+        last = depth == len(path) - 1
+        where = _dotted(tuple(resolved)) if resolved else "the mission"
+        if isinstance(current, list):
+            index = _list_index(current, part)
+            if index is None:
+                return (
+                    f"{where} has {len(current)} items (0 to {len(current) - 1}), no item {part!r}"
+                )
+            resolved.append(index)
+            if last:
+                current[index] = override.value
+            else:
+                current = current[index]
+            continue
+        if not isinstance(current, dict):
+            return f"{where} is a {type(current).__name__}, not a mapping: it has no field {part!r}"
+        key = str(part)
+        resolved.append(key)
+        if last:
+            current[key] = override.value
+        else:
+            if current.get(key) is None:
+                current[key] = {}  # a section the file leaves to its defaults
+            current = current[key]
+    written = tuple(resolved)
+    for positions in (document.values, document.keys):
+        for known in [p for p in positions if p[: len(written)] == written]:
+            del positions[known]
+    document.overrides[written] = override.source
+    return None
+
+
+def _list_index(items: list[Any], part: str | int) -> int | None:
+    """An item by index, or (for phases) by name."""
+    if isinstance(part, int):
+        return part if 0 <= part < len(items) else None
+    for index, item in enumerate(items):
+        if isinstance(item, dict) and item.get("name") == part:
+            return index
+    return None

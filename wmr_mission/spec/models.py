@@ -13,6 +13,7 @@ expression is evaluated once, so a loaded model holds plain floats.
 from __future__ import annotations
 
 import math
+import re
 from typing import Annotated, Any, Final, Literal
 
 from pydantic import (
@@ -61,6 +62,7 @@ __all__ = [
     "PathSpec",
     "Phase",
     "PhaseExpect",
+    "Plot",
     "PolygonRegion",
     "PolylinePath",
     "Pose",
@@ -509,7 +511,9 @@ class StatePositiveStd(_Model):
 class ConstrainedObserver(_Model):
     """The paper's two-phase constrained estimator, eqs. (4)-(12)."""
 
-    type: Literal["constrained-observer"] = Field(description="Estimator kind.")
+    type: Literal["constrained-observer"] = Field(
+        default="constrained-observer", description="Estimator kind (the default)."
+    )
     initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
     poles: StatePoles = Field(
         default_factory=StatePoles,
@@ -563,7 +567,18 @@ class Ekf(_Model):
     )
 
 
-Estimator = Annotated[ConstrainedObserver | Ekf, Field(discriminator="type")]
+def _estimator_type(value: Any) -> str | None:
+    """The estimator's `type`; without one, the paper's estimator."""
+    if isinstance(value, dict):
+        kind = value.get("type", "constrained-observer")
+        return kind if isinstance(kind, str) else None
+    return getattr(value, "type", None)
+
+
+Estimator = Annotated[
+    Annotated[ConstrainedObserver, Tag("constrained-observer")] | Annotated[Ekf, Tag("ekf")],
+    Discriminator(_estimator_type),
+]
 
 
 # --- controller ------------------------------------------------------------
@@ -1305,6 +1320,78 @@ class Expect(PhaseExpect):
     duration: Threshold | None = Field(default=None, description="[s] mission time.")
 
 
+# --- figures ---------------------------------------------------------------
+
+
+# The colour names matplotlib knows (CSS4 and its tableau and one-letter colours),
+# spelt out so that `validate` never has to import matplotlib.
+CSS4_COLORS: Final = frozenset(
+    """aliceblue antiquewhite aqua aquamarine azure beige bisque black blanchedalmond blue
+    blueviolet brown burlywood cadetblue chartreuse chocolate coral cornflowerblue cornsilk
+    crimson cyan darkblue darkcyan darkgoldenrod darkgray darkgreen darkgrey darkkhaki
+    darkmagenta darkolivegreen darkorange darkorchid darkred darksalmon darkseagreen
+    darkslateblue darkslategray darkslategrey darkturquoise darkviolet deeppink deepskyblue
+    dimgray dimgrey dodgerblue firebrick floralwhite forestgreen fuchsia gainsboro ghostwhite
+    gold goldenrod gray green greenyellow grey honeydew hotpink indianred indigo ivory khaki
+    lavender lavenderblush lawngreen lemonchiffon lightblue lightcoral lightcyan
+    lightgoldenrodyellow lightgray lightgreen lightgrey lightpink lightsalmon lightseagreen
+    lightskyblue lightslategray lightslategrey lightsteelblue lightyellow lime limegreen linen
+    magenta maroon mediumaquamarine mediumblue mediumorchid mediumpurple mediumseagreen
+    mediumslateblue mediumspringgreen mediumturquoise mediumvioletred midnightblue mintcream
+    mistyrose moccasin navajowhite navy oldlace olive olivedrab orange orangered orchid
+    palegoldenrod palegreen paleturquoise palevioletred papayawhip peachpuff peru pink plum
+    powderblue purple rebeccapurple red rosybrown royalblue saddlebrown salmon sandybrown
+    seagreen seashell sienna silver skyblue slateblue slategray slategrey snow springgreen
+    steelblue tan teal thistle tomato turquoise violet wheat white whitesmoke yellow
+    yellowgreen""".split()  # noqa: SIM905 - 148 names read better as words than as a list
+)
+NAMED_COLORS: Final = CSS4_COLORS | {
+    *(f"tab:{n}" for n in ("blue", "orange", "green", "red", "purple", "brown", "pink")),
+    *(f"tab:{n}" for n in ("gray", "olive", "cyan")),
+    *(f"C{i}" for i in range(10)),
+    *"bgrcmykw",
+}
+HEX_COLOR: Final = re.compile(r"^#(?:[0-9a-fA-F]{3,4}|[0-9a-fA-F]{6}|[0-9a-fA-F]{8})$")
+
+
+def is_color(value: str) -> bool:
+    """Whether matplotlib knows ``value`` as a colour (of the forms a mission may use)."""
+    return value in NAMED_COLORS or value.lower() in NAMED_COLORS or bool(HEX_COLOR.match(value))
+
+
+def _color(value: str) -> str:
+    if not is_color(value):
+        import difflib
+
+        close = difflib.get_close_matches(value.lower(), sorted(NAMED_COLORS), n=1)
+        hint = f"; did you mean '{close[0]}'?" if close else ""
+        raise PydanticCustomError(
+            "color",
+            "'{value}' is not a colour (a name such as red or tab:green, '#rrggbb', or "
+            "C0..C9){hint}",
+            {"value": value[:40], "hint": hint},
+        )
+    return value
+
+
+Color = Annotated[str, Field(max_length=64), AfterValidator(_color)]
+PhaseNameKey = Annotated[str, Field(pattern=PHASE_NAME)]
+
+
+class Plot(_Model):
+    """How the figures of a run look."""
+
+    phase_colors: dict[PhaseNameKey, Color] = Field(
+        default_factory=dict,
+        max_length=10000,
+        description=(
+            "Colour of each named phase in the figures: a matplotlib colour (red, tab:green, "
+            "'#1f77b4'); phases not listed take a palette whose colours never repeat."
+        ),
+        json_schema_extra={"additionalProperties": False},
+    )
+
+
 # --- mission ---------------------------------------------------------------
 
 
@@ -1374,6 +1461,7 @@ class Mission(_Model):
         min_length=1, max_length=10000, description="Phases (and repeats of phases), run in order."
     )
     expect: Expect = Field(default_factory=Expect, description="Acceptance thresholds.")
+    plot: Plot = Field(default_factory=Plot, description="How the figures look.")
 
     @model_validator(mode="before")
     @classmethod
@@ -1386,7 +1474,8 @@ class Mission(_Model):
         sensors = data.get("sensors", {})
         if not (isinstance(estimator, dict) and isinstance(sensors, dict)):
             return data
-        if estimator.get("type") != "constrained-observer" or "output_error_bounds" in estimator:
+        kind = estimator.get("type", "constrained-observer")
+        if kind != "constrained-observer" or "output_error_bounds" in estimator:
             return data
         measure = sensors.get("measure", STATES)
         if not isinstance(measure, list | tuple) or not all(s in STATES for s in measure):

@@ -30,15 +30,36 @@ def _count(number: int, word: str) -> str:
     return f"{number} {word}{'s' if number != 1 else ''}"
 
 
-def validate_files(files: Sequence[Path], fmt: Literal["text", "json"] | str = "text") -> int:
+def mission_files(paths: Sequence[Path]) -> tuple[list[Path], list[Diagnostic]]:
+    """Files as given; a directory stands for every ``*.yaml`` below it, in sorted order."""
+    files: list[Path] = []
+    problems = []
+    for path in paths:
+        if not path.is_dir():
+            files.append(path)
+            continue
+        found = sorted(p for p in path.rglob("*.yaml") if p.is_file())
+        if not found:
+            problems.append(Diagnostic(str(path), 0, 0, "no mission files (*.yaml) below it"))
+        files += found
+    return files, problems
+
+
+def validate_files(paths: Sequence[Path], fmt: Literal["text", "json"] | str = "text") -> int:
     """Check every file; 0 when all are valid (warnings allowed), 1 otherwise.
+
+    A directory stands for every ``*.yaml`` below it.
 
     text: each diagnostic as ``FILE:LINE:COL: message`` on stderr and one
     ``FILE: ok`` (or a count) line per file on stdout. json: one document on
     stdout with every file, its validity and its diagnostics.
     """
+    files, problems = mission_files(paths)
     reports = []
-    all_valid = True
+    all_valid = not problems
+    if fmt == "text":
+        for problem in problems:
+            sys.stderr.write(f"{problem}\n")
     for path in files:
         _, diagnostics = check_mission(path)
         valid = not any(d.severity == "error" for d in diagnostics)
@@ -51,6 +72,7 @@ def validate_files(files: Sequence[Path], fmt: Literal["text", "json"] | str = "
     if fmt == "json":
         document = {
             "valid": all_valid,
+            "problems": [asdict(d) for d in problems],
             "files": [
                 {
                     "file": name,

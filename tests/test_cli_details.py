@@ -1,0 +1,179 @@
+"""The command line never misleads: flags, versions, overrides, warnings, times and verdicts."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from wmr_mission import __version__
+from wmr_mission.cli import app
+
+ROOT = Path(__file__).resolve().parents[1]
+FIGURES = ("xy", "states", "estimation_error", "inputs")
+VALID = ROOT / "tests" / "data" / "missions" / "valid"
+
+# Drives along +x at 0.1 m/s for 2 s towards a goal 10 m away: times out far from it.
+SHORT_OF_GOAL = """\
+version: 1
+name: short-of-goal
+robot: {limits: {v: 2, omega: 4}}
+phases:
+  - name: go
+    track: {path: {type: line, heading: 0, speed: 0.1}}
+    until: {near: {point: [10, 0], tolerance: 0.1}}
+    timeout: 2
+"""
+
+
+def _invoke(*arguments: str) -> tuple[int, str, str]:
+    result = CliRunner().invoke(app, list(arguments))
+    return result.exit_code, result.stdout, result.stderr
+
+
+def test_version_and_short_help() -> None:
+    code, out, _ = _invoke("--version")
+    assert (code, out) == (0, f"wmr-mission {__version__}\n")
+    for arguments in (["-h"], ["run", "-h"], ["validate", "-h"], ["plot", "-h"]):
+        code, out, _ = _invoke(*arguments)
+        assert code == 0, arguments
+        assert out.startswith("Usage: wmr-mission"), arguments
+
+
+def test_boolean_options_show_as_flags() -> None:
+    code, out, _ = _invoke("run", "--help")
+    assert code == 0
+    assert "<bool>" not in out
+    lines = {line.split()[0]: line for line in out.splitlines() if line.strip().startswith("--")}
+    assert lines["--no-plots"].split()[1] == "Write"
+    assert lines["--animate"].split()[1] == "Also"
+    assert "PATH=VALUE" in lines["--set"]
+    assert "--format" in lines
+
+
+def _write(tmp_path: Path, text: str, name: str = "m.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.mark.slow
+def test_run_names_simulated_and_wall_time_and_prints_warnings_first(tmp_path: Path) -> None:
+    # One stream, unbuffered: the order of the lines is the order they were written in.
+    completed = subprocess.run(
+        [
+            *(sys.executable, "-u", "-m", "wmr_mission", "run"),
+            *(str(VALID / "warning_not_multiple_of_dt.yaml"), "--out", str(tmp_path / "r")),
+            "--no-plots",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        check=False,
+    )
+    assert completed.returncode == 0, completed.stdout
+    output = completed.stdout
+    warning = "8:22: warning: until.elapsed 1.005 s is not a multiple of robot.dt = 0.01 s"
+    assert output.index(warning) < output.index("phase  kind") < output.index("outcome:")
+    outcome = next(line for line in output.splitlines() if line.startswith("outcome:"))
+    assert outcome.startswith("outcome: success after 1.00 s of simulated time (")
+    assert " s of wall time) - all phases completed" in outcome
+
+
+@pytest.mark.slow
+def test_a_failed_run_says_what_it_missed(tmp_path: Path) -> None:
+    mission = _write(tmp_path, SHORT_OF_GOAL)
+    code, out, err = _invoke("run", str(mission), "--out", str(tmp_path / "r"), "--no-plots")
+    assert code == 1
+    final = next(line for line in out.splitlines() if line.startswith("final error:"))
+    assert final.endswith("(from the last reference point of phase 'go')")
+    missed = next(line for line in out.splitlines() if line.startswith("not reached:"))
+    match = re.fullmatch(
+        r"not reached: near \(10, 0\) within 0\.1 m of phase 'go': ([0-9.]+) m away "
+        "when it timed out",
+        missed,
+    )
+    assert match is not None, missed
+    assert 8.0 < float(match.group(1)) < 10.0
+    assert "phase 'go' timed out" in err
+
+
+def test_validate_a_directory_recurses_into_yaml_files(tmp_path: Path) -> None:
+    (tmp_path / "deeper").mkdir()
+    good = (VALID / "minimal.yaml").read_text()
+    _write(tmp_path, good, "a.yaml")
+    _write(tmp_path / "deeper", good.replace("name: minimal", "name: b"), "b.yaml")
+    _write(tmp_path, "not a mission", "notes.txt")
+    code, out, _ = _invoke("validate", str(tmp_path))
+    assert code == 0
+    assert out.splitlines() == [f"{tmp_path / 'a.yaml'}: ok", f"{tmp_path / 'deeper/b.yaml'}: ok"]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    code, out, err = _invoke("validate", str(empty))
+    assert code == 1
+    assert err == f"{empty}: no mission files (*.yaml) below it\n"
+
+
+@pytest.mark.slow
+def test_set_overrides_a_field_and_the_manifest_records_it(tmp_path: Path) -> None:
+    mission = VALID / "minimal.yaml"
+    out_dir = tmp_path / "r"
+    code, _, err = _invoke(
+        "run", str(mission), "--out", str(out_dir), "--no-plots",
+        "--set", "robot.dt=0.02", "--set", "controller.Q=[1, 1, 2]",
+        "--set", "robot.initial_state={x: 1, y: 2}",
+    )  # fmt: skip
+    assert code == 0, err
+    resolved = json.loads((out_dir / "manifest.json").read_text())["resolved_mission"]
+    assert resolved["robot"]["dt"] == 0.02
+    assert resolved["controller"]["Q"] == [1.0, 1.0, 2.0]
+    assert resolved["robot"]["initial_state"] == {"x": 1.0, "y": 2.0, "theta": 0.0}
+    trajectory = (out_dir / "trajectory.csv").read_text().splitlines()
+    assert trajectory[2].startswith("0.02,1,2,")
+
+
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        ("robot.dt=-1", "--set robot.dt=-1: robot.dt: should be greater than 0, got -1"),
+        ("robot.dtt=1", "--set robot.dtt=1: robot.dtt: unknown field 'dtt'; did you mean 'dt'?"),
+        ("robot.dt", "--set robot.dt: expected PATH=VALUE, e.g. robot.dt=0.02"),
+        ("robot.dt=[1,", "--set robot.dt=[1,: VALUE is not a YAML value: YAML syntax error"),
+        ("phases[3].timeout=1", "--set phases[3].timeout=1: phases has 1 items (0 to 0)"),
+        ("name.x=1", "--set name.x=1: name is a str, not a mapping: it has no field 'x'"),
+        ("robot..dt=1", "--set robot..dt=1: 'robot..dt' is not a field path"),
+        ("robot.dt=!!python/none 1", "--set robot.dt=!!python/none 1: VALUE is not a YAML value"),
+    ],
+)
+def test_a_bad_set_names_itself_and_the_field(setting: str, message: str, tmp_path: Path) -> None:
+    code, _, err = _invoke(
+        "run", str(VALID / "minimal.yaml"), "--out", str(tmp_path / "r"), "--set", setting
+    )
+    assert code == 1
+    assert err.startswith(message), err
+    assert "Traceback" not in err
+    assert not (tmp_path / "r").exists()  # nothing ran
+
+
+@pytest.mark.slow
+def test_run_and_plot_write_the_chosen_formats(tmp_path: Path) -> None:
+    out_dir = tmp_path / "r"
+    code, _, err = _invoke(
+        "run", str(VALID / "minimal.yaml"), "--out", str(out_dir), "--format", "svg"
+    )
+    assert code == 0, err
+    figures = sorted(p.name for p in out_dir.iterdir() if p.suffix in (".png", ".svg", ".pdf"))
+    assert figures == ["estimation_error.svg", "inputs.svg", "states.svg", "xy.svg"]
+    assert (out_dir / "xy.svg").read_text().lstrip().startswith("<?xml")
+    code, out, _ = _invoke("plot", str(out_dir), "--format", "pdf")
+    assert code == 0
+    assert out.split() == [str(out_dir / f"{name}.pdf") for name in FIGURES]
+    assert (out_dir / "xy.pdf").read_bytes()[:5] == b"%PDF-"
+    code, _, err = _invoke("plot", str(out_dir), "--format", "gif")
+    assert code == 2
+    assert "gif" in err
