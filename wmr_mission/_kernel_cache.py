@@ -34,6 +34,7 @@ KERNEL_MODULES = (
     "riccati.py",
     "observer.py",
     "ekf.py",
+    "disturbances.py",
     "control.py",
     "constrained_tracking.py",
     "loop.py",

@@ -11,6 +11,9 @@ plots. Two figures per sample are compared:
   path, plant, sensors, estimator, controller, recording) over the samples
   (``RunResult.loop_ns``).
 
+A mission with disturbances (wmr_mission.disturbances) is also timed without
+them: the whole loop per sample with and without, in the same process.
+
 A first untimed run takes the one-off cost of loading or compiling the kernels.
 The reference step runs with BLAS limited to one thread: its matrices are
 3x3, so BLAS threads only add waiting (on a busy machine, milliseconds per
@@ -21,6 +24,7 @@ from __future__ import annotations
 
 import sys
 from contextlib import AbstractContextManager
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -29,6 +33,7 @@ from numpy.typing import NDArray
 
 from wmr_mission import _jit
 from wmr_mission.compiled import CompiledMission, compile_mission
+from wmr_mission.disturbances import Settings
 from wmr_mission.result import RunResult
 from wmr_mission.runner import FAST, run_mission
 
@@ -143,7 +148,25 @@ def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, 
         "overall": row("all", "", our_ns, ref_ns),
         "loop": _loop_row(loops, reference),
         "paper_us_per_sample": dict(PAPER_US_PER_SAMPLE),
+        "disturbances": _disturbance_cost(compiled, loops, repeat),
     }
+
+
+def _disturbance_cost(
+    compiled: CompiledMission, loops: list[float], repeat: int
+) -> dict[str, float] | None:
+    """Whole-loop wall time per sample [us] with the mission's disturbances
+    (``loops``, one per timed run) and without them (None when it has none)."""
+    if not compiled.disturbances.active():
+        return None
+    calm = replace(compiled, disturbances=Settings())
+    without = []
+    for _ in range(repeat):
+        result = run_mission(calm, functions=FAST)
+        without.append(result.loop_ns / result.samples / 1000.0)
+    with_us = float(np.median(loops))
+    without_us = float(np.median(without))
+    return {"with_us": with_us, "without_us": without_us, "ratio": with_us / without_us}
 
 
 def _loop_row(ours_us: list[float], reference: RunResult) -> dict[str, float]:
@@ -223,6 +246,12 @@ def format_report(numbers: dict[str, Any], source: str) -> str:
         f"whole loop per sample: ours {loop['ours_us']:.3g} us, "
         f"reference {loop['reference_us']:.3g} us ({loop['ratio']:.0f}x)",
     ]
+    cost = numbers["disturbances"]
+    if cost is not None:
+        lines.append(
+            f"whole loop per sample with the mission's disturbances: {cost['with_us']:.3g} us, "
+            f"without them: {cost['without_us']:.3g} us ({cost['ratio']:.2f}x)"
+        )
     if not numbers["same_trajectory"]:
         lines.append("warning: the reference step ran a different trajectory (beyond 1e-6 m)")
     lines += [TARGET_WORDS, verdict(numbers)]

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from wmr_mission.sensors import STATE_NAMES, measurement_mask
 
 if TYPE_CHECKING:
+    from wmr_mission.disturbances import Settings
     from wmr_mission.spec.models import Mission
 
 FloatArray = NDArray[np.float64]
@@ -118,6 +119,22 @@ class CompiledMission:
     # |x|, |y| [m] and |v|, |omega| [m/s, rad/s] beyond which the run has diverged.
     runaway_position: float = RUNAWAY_DISTANCE
     runaway_input: float = RUNAWAY_INPUT
+    ekf_innovation_gate: float = math.inf  # inf: no gating
+    # The true plant's and the sensors' imperfections (wmr_mission.disturbances).
+    disturbances: Settings = field(default_factory=lambda: _no_disturbances())
+
+
+def _no_disturbances() -> Settings:
+    # Imported on use: the disturbance kernels load numba, which validate never needs.
+    from wmr_mission.disturbances import Settings
+
+    return Settings()
+
+
+def _disturbance_settings(mission: Mission) -> Settings:
+    from wmr_mission.disturbances import settings
+
+    return settings(mission)
 
 
 def _samples(seconds: float, dt: float) -> int:
@@ -297,6 +314,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
     initial_var = np.ones(3)
     process_var = np.zeros(3)
     measurement_var = np.maximum(noise, 1e-3) ** 2
+    innovation_gate = math.inf
     if estimator.type == "constrained-observer":
         poles = np.array([estimator.poles.x, estimator.poles.y, estimator.poles.theta])
         if estimator.output_error_bounds:
@@ -322,6 +340,8 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         if estimator.measurement_std is not None:
             for name, std in estimator.measurement_std.items():
                 measurement_var[STATE_NAMES.index(name)] = std**2
+        if estimator.innovation_gate is not None:
+            innovation_gate = float(estimator.innovation_gate)
     limits = mission.robot.limits
     controller = mission.controller
     initial = mission.robot.initial_state
@@ -352,6 +372,8 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         ekf_initial_var=initial_var,
         ekf_process_var=process_var,
         ekf_measurement_var=measurement_var,
+        ekf_innovation_gate=innovation_gate,
+        disturbances=_disturbance_settings(mission),
         q=np.array(controller.Q, dtype=np.float64),
         r=np.array(controller.R, dtype=np.float64),
         w=np.array(controller.W, dtype=np.float64),

@@ -6,7 +6,8 @@ the Joseph form ``P = (I - K C) P (I - K C)^T + K R K^T`` (stays symmetric and
 positive definite where the short form drifts), heading residual wrapped.
 Unmeasured states are handled by zero rows of ``C``: their innovation is zero
 and their measurement variance is set to 1, which leaves the gain exactly zero
-on them.
+on them. An optional innovation gate (a Mahalanobis test) rejects a wild
+measurement; a sample without a measurement is the prediction alone.
 """
 
 from __future__ import annotations
@@ -19,6 +20,57 @@ from wmr_mission.model import jacobian_terms, step, wrap_angle
 from wmr_mission.params import Estimator
 
 FloatArray = NDArray[np.float64]
+
+
+@kernel
+def _predict(
+    estimate: FloatArray,
+    covariance: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    process_var: FloatArray,
+    work: FloatArray,
+) -> tuple[float, float, float]:
+    """The predicted pose (returned) and covariance ``A P A^T + Qn`` (into
+    ``work[0]``); ``work[1]`` and ``work[2]`` are scratch."""
+    a13, a23, _, _, _, _ = jacobian_terms(estimate[2], v, omega, dt)
+    # P_pred = A P A^T + Qn, with A = I + a e3^T.
+    p = covariance
+    pp = work[0]
+    a = work[1]
+    for i in range(3):
+        for j in range(3):
+            a[i, j] = 1.0 if i == j else 0.0
+    a[0, 2] = a13
+    a[1, 2] = a23
+    tmp = work[2]
+    for i in range(3):
+        for j in range(3):
+            tmp[i, j] = a[i, 0] * p[0, j] + a[i, 1] * p[1, j] + a[i, 2] * p[2, j]
+    for i in range(3):
+        for j in range(3):
+            pp[i, j] = tmp[i, 0] * a[j, 0] + tmp[i, 1] * a[j, 1] + tmp[i, 2] * a[j, 2]
+        pp[i, i] += process_var[i]
+    return step(estimate[0], estimate[1], estimate[2], v, omega, dt)
+
+
+@kernel
+def ekf_predict(
+    estimate: FloatArray,
+    covariance: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    params: Estimator,
+    work: FloatArray,
+) -> None:
+    """A sample without a measurement (between periods, lost or gated): the
+    prediction alone, x_{k+1|k} and P_{k+1|k}."""
+    estimate[0], estimate[1], estimate[2] = _predict(
+        estimate, covariance, v, omega, dt, params.process_var, work
+    )
+    covariance[:, :] = work[0]
 
 
 @kernel
@@ -39,27 +91,10 @@ def ekf_step(
     (4, 3, 3).
     """
     mask = params.mask
-    process_var = params.process_var
     measurement_var = params.measurement_var
-    a13, a23, _, _, _, _ = jacobian_terms(estimate[2], v, omega, dt)
-    px, py, pth = step(estimate[0], estimate[1], estimate[2], v, omega, dt)
-    # P_pred = A P A^T + Qn, with A = I + a e3^T.
     p = covariance
     pp = work[0]
-    a = work[1]
-    for i in range(3):
-        for j in range(3):
-            a[i, j] = 1.0 if i == j else 0.0
-    a[0, 2] = a13
-    a[1, 2] = a23
-    tmp = work[2]
-    for i in range(3):
-        for j in range(3):
-            tmp[i, j] = a[i, 0] * p[0, j] + a[i, 1] * p[1, j] + a[i, 2] * p[2, j]
-    for i in range(3):
-        for j in range(3):
-            pp[i, j] = tmp[i, 0] * a[j, 0] + tmp[i, 1] * a[j, 1] + tmp[i, 2] * a[j, 2]
-        pp[i, i] += process_var[i]
+    px, py, pth = _predict(estimate, p, v, omega, dt, params.process_var, work)
     # S = C P C^T + Rn on the full pose, unmeasured rows made inert.
     s = work[1]
     for i in range(3):
@@ -92,6 +127,19 @@ def ekf_step(
     r0 = (measurement[0] - px) * mask[0]
     r1 = (measurement[1] - py) * mask[1]
     r2 = wrap_angle(measurement[2] - pth) * mask[2]
+    # Innovation gate: the squared Mahalanobis distance r^T S^-1 r (unmeasured
+    # states have r = 0). A rejected measurement leaves the prediction.
+    distance2 = (
+        r0 * (inv[0, 0] * r0 + inv[0, 1] * r1 + inv[0, 2] * r2)
+        + r1 * (inv[1, 0] * r0 + inv[1, 1] * r1 + inv[1, 2] * r2)
+        + r2 * (inv[2, 0] * r0 + inv[2, 1] * r1 + inv[2, 2] * r2)
+    )
+    if distance2 > params.innovation_gate:
+        estimate[0] = px
+        estimate[1] = py
+        estimate[2] = pth
+        p[:, :] = pp
+        return
     estimate[0] = px + k[0, 0] * r0 + k[0, 1] * r1 + k[0, 2] * r2
     estimate[1] = py + k[1, 0] * r0 + k[1, 1] * r1 + k[1, 2] * r2
     estimate[2] = pth + k[2, 0] * r0 + k[2, 1] * r1 + k[2, 2] * r2

@@ -11,7 +11,8 @@ returns to Python (wmr_mission.runner) only when
   next phase and calls again at the same sample),
 * the run diverged (``DIVERGED_INPUT``, ``DIVERGED_STATE``),
 * or the chunk is done (``CHUNK_END``): ``stop`` reached, or a buffer the
-  runner fills ran out: the path block, the pre-drawn noise, the recorder.
+  runner fills ran out: the path block, the pre-drawn random draws (noise and
+  disturbances, wmr_mission.disturbances), the recorder.
 
 Between chunks the runner reports progress and lets Ctrl-C in. The same
 source runs as plain Python without numba, and with the reference step
@@ -31,9 +32,10 @@ from wmr_mission._jit import kernel, ticks
 from wmr_mission.constrained_tracking import keep_constraints, keep_reference
 from wmr_mission.control import regulate_input, track_input
 from wmr_mission.corrective import max_row_value
-from wmr_mission.ekf import ekf_step
-from wmr_mission.model import step, wrap_angle
-from wmr_mission.observer import observer_step
+from wmr_mission.disturbances import Disturbances, applied_input, plant_step, sense
+from wmr_mission.ekf import ekf_predict, ekf_step
+from wmr_mission.model import wrap_angle
+from wmr_mission.observer import observer_predict, observer_step
 from wmr_mission.params import Controller, Estimator, Robot, Scratch
 from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS
 
@@ -53,7 +55,7 @@ ELAPSED, MISSION_TIME, REACHES, NEAR, SETTLED, HEADING, TIMEOUT = range(1, 8)
 # Fields of Signals.counters.
 K = 0  # the sample the loop is at
 ITERATIONS = 1  # phase-II iterations of the estimator's last update
-NOISE = 2  # next unused row of the noise block
+DRAWS = 2  # next unused row of the block of draws
 CONDITION = 3  # the exit condition that fired
 
 
@@ -90,15 +92,19 @@ class Signals(NamedTuple):
     state: FloatArray  # (3,) the plant's true pose
     estimate: FloatArray  # (3,) x_{k|k}
     estimate_prev: FloatArray  # (3,) x_{k-1|k-1}
-    measurement: FloatArray  # (3,)
+    measurement: FloatArray  # (3,) the newest measurement
+    measured: FloatArray  # (3,) the measurement of the sample being recorded (NaN: none)
     u: FloatArray  # (2,) u_k
     u_prev: FloatArray  # (2,) u_{k-1}
     covariance: FloatArray  # (3, 3) EKF
     observer_gain: FloatArray  # (3, 3) L of eq. (6), scratch
     ekf_work: FloatArray  # (4, 3, 3) EKF scratch
     memory: FloatArray  # (3,) the phase's controller memory (wmr_mission.control)
-    counters: IntArray  # K, ITERATIONS, NOISE, CONDITION
+    counters: IntArray  # K, ITERATIONS, DRAWS, CONDITION
     exit_value: FloatArray  # (1,) the value of the condition that fired
+    commands: FloatArray  # (d + 1, 2) the last commands, for the input delay
+    applied: FloatArray  # (2,) the input the plant applies (delayed, lagged)
+    burst: IntArray  # (1,) 1 while a burst of lost measurements goes on
 
 
 class Record(NamedTuple):
@@ -111,8 +117,8 @@ class Record(NamedTuple):
     rows: IntArray  # (1,) rows used
 
 
-# The recorder's float columns: those of trajectory.csv, in its order (the
-# phase and the phase-II iterations are kept apart).
+# The recorder's float columns: the state, estimate and input columns of
+# trajectory.csv, then the path point, the constraint value and the measurement.
 FLOAT_COLUMNS = tuple(
     c for c in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS) if c not in ("phase", "phase2_iterations")
 )
@@ -176,11 +182,11 @@ def record_sample(
     u: FloatArray,
     reference_x: float,
     reference_y: float,
-    measured: FloatArray,
     iterations: int,
+    measured: FloatArray,
 ) -> int:
     """Append one row; returns its index. ``estimate``, ``u`` and ``measured``
-    (the measurement of this sample's state, NaN where none) are read now."""
+    are read now."""
     i: int = record.rows[0]
     row = record.floats[i]
     row[0] = t
@@ -228,9 +234,10 @@ def run_segment(
     robot: Robot,
     estimator: Estimator,
     controller: Controller,
+    disturbances: Disturbances,
     phase: Phase,
     path: PathBlock,
-    noise: FloatArray,
+    draws: FloatArray,
     signals: Signals,
     record: Record,
     scratch: Scratch,
@@ -247,12 +254,11 @@ def run_segment(
     u_prev = signals.u_prev
     counters = signals.counters
     aim_now = scratch.aim_now
-    shown = scratch.measured
     aim = scratch.aim
     capacity = record.floats.shape[0]
     k = counters[K]
     iterations = counters[ITERATIONS]
-    cursor = counters[NOISE]
+    cursor = counters[DRAWS]
     status = CHUNK_END
     while k < stop:
         # --- phase exit on x_{k|k}.
@@ -261,8 +267,8 @@ def run_segment(
             counters[CONDITION] = condition
             status = EXITED
             break
-        # Room for this sample (and a closing row), its measurement, its path.
-        if record.rows[0] + 2 > capacity or cursor >= noise.shape[0]:
+        # Room for this sample (and a closing row), its draws, its path.
+        if record.rows[0] + 2 > capacity or cursor >= draws.shape[0]:
             break
         reference_x = math.nan
         reference_y = math.nan
@@ -283,9 +289,6 @@ def run_segment(
         x = state[0]
         y = state[1]
         theta = state[2]
-        # The measurement of x_k, which the estimator used for x_{k|k} (none at k = 0).
-        for j in range(3):
-            shown[j] = measurement[j] if k > 0 and estimator.mask[j] > 0.0 else math.nan
         started = ticks()
         # --- controller: u_k from x_{k|k}.
         if phase.tracking:
@@ -315,17 +318,17 @@ def run_segment(
             spent = ticks() - started
             i = record_sample(
                 record, phase, k * dt, x, y, theta, estimate, u, reference_x, reference_y,
-                shown, iterations,
+                iterations, signals.measured,
             )  # fmt: skip
             record.compute[i] = spent
             status = DIVERGED_INPUT
             break
-        # --- plant, sensors.
-        state[0], state[1], state[2] = step(x, y, theta, u[0], u[1], dt)
-        measurement[0] = state[0] + noise[cursor, 0]
-        measurement[1] = state[1] + noise[cursor, 1]
-        measurement[2] = state[2] + noise[cursor, 2]
+        # --- plant and sensors, disturbed (wmr_mission.disturbances).
+        drawn = draws[cursor]
         cursor += 1
+        applied_input(disturbances, k, u, signals.commands, signals.applied)
+        plant_step(state, signals.applied, dt, disturbances, drawn)
+        has_measurement = sense(state, k + 1, disturbances, drawn, signals.burst, measurement)
         # --- estimator: x_{k+1|k+1}; the row of sample k keeps x_{k|k}.
         ex = estimate[0]
         ey = estimate[1]
@@ -334,22 +337,34 @@ def run_segment(
         estimate_prev[1] = ey
         estimate_prev[2] = eth
         recorded_iterations = iterations
+        # A sample without a measurement is a prediction-only step.
         if estimator.ekf:
-            ekf_step(
-                estimate, signals.covariance, u[0], u[1], dt, measurement, estimator,
-                signals.ekf_work,
-            )  # fmt: skip
+            if has_measurement:
+                ekf_step(
+                    estimate, signals.covariance, u[0], u[1], dt, measurement, estimator,
+                    signals.ekf_work,
+                )  # fmt: skip
+            else:
+                ekf_predict(
+                    estimate, signals.covariance, u[0], u[1], dt, estimator, signals.ekf_work
+                )
             iterations = 0
-        else:
+        elif has_measurement:
             iterations = observer_step(
                 estimate, u[0], u[1], dt, measurement, estimator, signals.observer_gain
             )
+        else:
+            iterations = observer_predict(estimate, u[0], u[1], dt)
         spent = ticks() - started
         i = record_sample(
             record, phase, k * dt, x, y, theta, estimate_prev, u, reference_x, reference_y,
-            shown, recorded_iterations,
+            recorded_iterations, signals.measured,
         )  # fmt: skip
         record.compute[i] = spent
+        for n in range(3):
+            signals.measured[n] = (
+                measurement[n] if has_measurement and estimator.mask[n] > 0.0 else math.nan
+            )
         u_prev[0] = u[0]
         u_prev[1] = u[1]
         k += 1
@@ -360,17 +375,15 @@ def run_segment(
             and abs(estimate[1]) < robot.runaway_position
             and math.isfinite(estimate[2])
         ):  # fmt: skip
-            for j in range(3):
-                shown[j] = measurement[j] if estimator.mask[j] > 0.0 else math.nan
             record_sample(
                 record, phase, k * dt, state[0], state[1], state[2], estimate, u_prev,
-                math.nan, math.nan, shown, iterations,
+                math.nan, math.nan, iterations, signals.measured,
             )  # fmt: skip
             status = DIVERGED_STATE
             break
     counters[K] = k
     counters[ITERATIONS] = iterations
-    counters[NOISE] = cursor
+    counters[DRAWS] = cursor
     return status
 
 
@@ -380,7 +393,16 @@ def python_loop(replacements: dict[str, object]) -> types.FunctionType:
     The loop's own helpers run as plain Python too."""
     source = getattr(run_segment, "py_func", run_segment)
     namespace = dict(source.__globals__)
-    for name in ("exit_condition", "record_sample", "path_point", "step"):
+    for name in (
+        "exit_condition",
+        "record_sample",
+        "path_point",
+        "applied_input",
+        "plant_step",
+        "sense",
+        "observer_predict",
+        "ekf_predict",
+    ):
         namespace[name] = getattr(namespace[name], "py_func", namespace[name])
     namespace.update(replacements)
     return types.FunctionType(source.__code__, namespace, "run_segment")

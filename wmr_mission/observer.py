@@ -168,6 +168,16 @@ def observer_step(
     return iterations
 
 
+@kernel
+def observer_predict(estimate: FloatArray, v: float, omega: float, dt: float) -> int:
+    """A sample without a measurement (between periods, or lost): eq. (5)
+    alone, no innovation and no phase II. Returns 0 phase-II iterations."""
+    estimate[0], estimate[1], estimate[2] = step(
+        estimate[0], estimate[1], estimate[2], v, omega, dt
+    )
+    return 0
+
+
 def error_matrix(
     state: FloatArray,
     u: FloatArray,

@@ -45,6 +45,7 @@ class Estimator(NamedTuple):
     max_iterations: int
     process_var: FloatArray  # diagonals of the EKF's noise covariances
     measurement_var: FloatArray
+    innovation_gate: float  # EKF: largest accepted r^T S^-1 r (inf: no gating)
 
 
 class Controller(NamedTuple):
@@ -101,6 +102,7 @@ def records(m: CompiledMission) -> tuple[Robot, Estimator, Controller]:
         m.max_iterations,
         m.ekf_process_var,
         m.ekf_measurement_var,
+        m.ekf_innovation_gate,
     )
     controller = Controller(
         m.look_ahead,
@@ -137,12 +139,18 @@ def observer_params(
         max_iterations,
         np.zeros(3),
         np.ones(3),
+        np.inf,
     )
 
 
-def ekf_params(mask: FloatArray, process_var: FloatArray, measurement_var: FloatArray) -> Estimator:
+def ekf_params(
+    mask: FloatArray,
+    process_var: FloatArray,
+    measurement_var: FloatArray,
+    innovation_gate: float = np.inf,
+) -> Estimator:
     """The EKF: for tests and notebooks."""
     return Estimator(
         True, mask, np.full(3, 0.9), 0.0, np.full(3, -np.inf), np.full(3, np.inf), False, 0,
-        process_var, measurement_var,
+        process_var, measurement_var, innovation_gate,
     )  # fmt: skip

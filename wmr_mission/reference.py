@@ -194,7 +194,12 @@ def ekf_step(
     k = np.linalg.solve(s, c @ p).T  # P C^T S^-1 (P and S symmetric)
     residual = measurement - predicted
     residual[2] = wrap_angle(float(residual[2]))
-    estimate[:] = predicted + k @ (c @ residual)
+    innovation = c @ residual
+    if float(innovation @ np.linalg.solve(s, innovation)) > params.innovation_gate:
+        estimate[:] = predicted  # gated: the prediction alone
+        covariance[:, :] = p
+        return
+    estimate[:] = predicted + k @ innovation
     i_kc = np.eye(3) - k @ c
     p = i_kc @ p @ i_kc.T + k @ noise @ k.T
     covariance[:, :] = 0.5 * (p + p.T)

@@ -4,7 +4,7 @@ The fixed-step loop itself (plant, sensors, estimator, controller, exit
 conditions, recording, divergence checks) is :func:`wmr_mission.loop.run_segment`.
 This module runs it chunk by chunk: it enters phases (instantiating paths
 from the estimated pose), samples each track phase's path ahead, draws the
-sensor noise ahead, records transitions, reports progress between chunks,
+noise and disturbances ahead, records transitions, reports progress between chunks,
 and turns Ctrl-C into an ``interrupted`` result holding every sample so far.
 """
 
@@ -23,12 +23,12 @@ from numpy.typing import NDArray
 from wmr_mission import _jit, control, loop
 from wmr_mission.compiled import CompiledMission, CompiledPhase, Trajectory, compile_mission
 from wmr_mission.corrective import max_row_value
+from wmr_mission.disturbances import Draws
 from wmr_mission.ekf import ekf_step
 from wmr_mission.loop import FLOAT_COLUMNS, PathBlock, Phase, Record, Signals
 from wmr_mission.observer import observer_step
 from wmr_mission.params import records, scratch
 from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
-from wmr_mission.sensors import Sensors
 
 if TYPE_CHECKING:
     from wmr_mission.spec.models import Mission
@@ -228,6 +228,7 @@ class _Run:
         self.transitions: list[Transition] = []
         self.phases = [ActivePhase(p, mission, i) for i, p in enumerate(mission.phases)]
         self.robot, self.estimator, self.controller = records(mission)
+        self.disturbances = mission.disturbances.record(mission.dt)
         self.scratch = scratch()
         if functions is FAST:
             self.segment: Callable[..., int] = loop.run_segment
@@ -251,6 +252,7 @@ class _Run:
             estimate=m.initial_estimate.copy(),
             estimate_prev=m.initial_estimate.copy(),
             measurement=np.zeros(3),
+            measured=np.full(3, math.nan),
             u=np.zeros(2),
             u_prev=np.zeros(2),
             covariance=np.diag(m.ekf_initial_var).astype(np.float64),
@@ -259,19 +261,23 @@ class _Run:
             memory=np.zeros(3),
             counters=np.zeros(4, dtype=np.int64),
             exit_value=np.zeros(1),
+            commands=np.zeros((self.disturbances.input_delay + 1, 2)),
+            applied=np.zeros(2),
+            burst=np.zeros(1, dtype=np.int64),
         )
         self.loop_ns = 0
         self._started = (time.perf_counter_ns(), self.ticks())
 
-    def _call(self, phase: Phase, path: PathBlock, noise: FloatArray, stop: int) -> int:
+    def _call(self, phase: Phase, path: PathBlock, draws: FloatArray, stop: int) -> int:
         return int(
             self.segment(
                 self.robot,
                 self.estimator,
                 self.controller,
+                self.disturbances,
                 phase,
                 path,
-                noise,
+                draws,
                 self.signals,
                 self.recorder.record,
                 self.scratch,
@@ -302,11 +308,11 @@ class _Run:
         dt = m.dt
         signals = self.signals
         counters = signals.counters
-        sensors = Sensors(m.noise_std, m.seed)
+        draws = Draws(m.noise_std, m.disturbances, m.seed)
         active = self.phases[0]
         phase = active.enter(0, signals.estimate)
         # Load (or compile) the loop before the clock: a zero-sample call.
-        self._call(phase, active.path_ahead(0, 2), sensors.ahead(1), 0)
+        self._call(phase, active.path_ahead(0, 2), draws.ahead(1), 0)
         outcome = Outcome.success
         message = "all phases completed"
         budget = m.max_samples * dt
@@ -319,11 +325,10 @@ class _Run:
             # No further than the phase's own bound: no path sampled past its end.
             samples = min(chunk, max(1, active.bound - local))
             path = active.path_ahead(local, samples + 1)
-            noise = sensors.ahead(samples)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
-            status = self._call(phase, path, noise, k + samples)
-            sensors.used(int(counters[loop.NOISE]))
-            counters[loop.NOISE] = 0
+            status = self._call(phase, path, draws.ahead(samples), k + samples)
+            draws.used(int(counters[loop.DRAWS]))
+            counters[loop.DRAWS] = 0
             k = int(counters[loop.K])
             if status == loop.CHUNK_END:
                 if self.progress is not None:
@@ -376,11 +381,9 @@ class _Run:
         """The row of the sample the run ends at: no step is taken from it."""
         s = self.signals
         record = loop.record_sample if self.segment is loop.run_segment else _py(loop.record_sample)
-        mask = self.m.measure_mask
-        measured = np.where((mask > 0.0) & (k > 0), s.measurement, math.nan)
         record(
             self.recorder.record, phase, k * self.m.dt, s.state[0], s.state[1], s.state[2],
-            s.estimate, s.u_prev, math.nan, math.nan, measured, int(s.counters[loop.ITERATIONS]),
+            s.estimate, s.u_prev, math.nan, math.nan, int(s.counters[loop.ITERATIONS]), s.measured,
         )  # fmt: skip
 
     def _divergence_cause(self, status: int) -> str:

@@ -95,6 +95,7 @@ def check(mission: Mission) -> list[Finding]:
         *_control(mission),
         *_estimator_bounds(mission),
         *_phase_colors(mission),
+        *_disturbances(mission),
     ]
     if not any(f.severity == "error" for f in findings):
         # sampling paths needs a sound mission (regions of the right kind, bounded phases)
@@ -753,5 +754,82 @@ def _estimator_bounds(mission: Mission) -> Iterator[Finding]:
                 f"{BOUND_NOISE_FLOOR:g} noise standard deviations (sensors.noise_std.{state} = "
                 f"{std:g}): phase II of the estimator would act on the noise; use at least "
                 f"+-{BOUND_NOISE_RATIO * std:g} or leave the bounds unset",
+                severity="warning",
+            )
+
+
+def _disturbances(mission: Mission) -> Iterator[Finding]:
+    """Delays and periods in whole samples; a disturbance that makes a
+    configured tolerance or expectation implausible (warning)."""
+    dt = mission.robot.dt
+    sensors = mission.sensors
+    durations = {
+        ("robot", "disturbances", "input_delay"): mission.robot.disturbances.input_delay,
+        ("sensors", "period"): sensors.period,
+    }
+    for path, duration in durations.items():
+        if duration is None or duration == 0.0:
+            continue
+        if duration < dt or not _multiple_of(duration, dt):
+            yield Finding(
+                path,
+                f"{'.'.join(path)} {duration:g} s must be a whole multiple of robot.dt = "
+                f"{dt:g} s (it counts samples)",
+            )
+    if sensors.dropout is not None and sensors.dropout.probability == 1.0:
+        yield Finding(
+            ("sensors", "dropout", "probability"),
+            "every measurement is lost: the estimator only ever predicts",
+            severity="warning",
+        )
+    measured = set(sensors.measure)
+    bias = sensors.bias
+    position_bias = math.hypot(
+        bias.x if "x" in measured else 0.0, bias.y if "y" in measured else 0.0
+    )
+    heading_bias = abs(bias.theta) if "theta" in measured else 0.0
+    if position_bias == 0.0 and heading_bias == 0.0:
+        return
+    # The estimate settles on the biased measurement: the true pose stays off by the bias.
+    for run in run_order(mission):
+        phase = run.phase
+        settled = phase.until.settled
+        if settled is None:
+            continue
+        for name, tolerance, offset, unit in (
+            ("position", settled.position, position_bias, "m"),
+            ("heading", settled.heading, heading_bias, "rad"),
+        ):
+            if offset > tolerance:
+                yield Finding(
+                    (*run.where, "until", "settled", name),
+                    f"until.settled.{name} {tolerance:g} {unit} is smaller than the measurement "
+                    f"bias ({offset:g} {unit}): the estimate settles on the biased measurement, "
+                    f"so the true pose ends about {offset:g} {unit} away",
+                    severity="warning",
+                )
+    expect = mission.expect
+    convergence = expect.convergence_tolerance
+    if expect.estimation_convergence_time is not None:
+        for name in ("x", "y", "theta"):
+            offset = abs(getattr(bias, name))
+            band = getattr(convergence, name)
+            if name in measured and offset >= band:
+                yield Finding(
+                    ("sensors", "bias", name),
+                    f"the measurement bias of {name} ({offset:g}) is at least its "
+                    f"convergence tolerance ({band:g}) that estimation_convergence_time waits "
+                    "for: the estimate follows the biased measurement and may never enter it",
+                    severity="warning",
+                )
+    for field, threshold, offset, unit in (
+        ("final_position_error", expect.final_position_error, position_bias, "m"),
+        ("final_heading_error", expect.final_heading_error, heading_bias, "rad"),
+    ):
+        if threshold is not None and offset > threshold.max:
+            yield Finding(
+                ("expect", field, "max"),
+                f"expect.{field} {threshold.max:g} {unit} is below the measurement bias "
+                f"({offset:g} {unit}): the robot ends where the biased measurement says",
                 severity="warning",
             )

@@ -41,6 +41,8 @@ __all__ = [
     "Constraint",
     "Controller",
     "CoveragePath",
+    "Disturbances",
+    "Dropout",
     "Ekf",
     "EllipsePath",
     "EllipseRegion",
@@ -56,6 +58,7 @@ __all__ = [
     "LinePath",
     "Mission",
     "Near",
+    "Outliers",
     "PathSpec",
     "Phase",
     "PhaseExpect",
@@ -72,8 +75,10 @@ __all__ = [
     "Robot",
     "Sensors",
     "Settled",
+    "Slip",
     "SpiralPath",
     "StateName",
+    "StateOffset",
     "StatePoles",
     "StateStd",
     "StateThresholds",
@@ -215,6 +220,33 @@ def _nonzero(value: float) -> float:
 NonzeroScalar = Annotated[Scalar, AfterValidator(_nonzero)]
 
 
+# Disturbance settings accept expressions, so one parameter can scale them all.
+NonNegativeScalar = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=0, le=ABSURD),
+    _scalar_schema({"minimum": 0}),
+]
+ProbabilityScalar = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=0, le=1),
+    _scalar_schema({"minimum": 0, "maximum": 1}),
+]
+SlipFraction = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=0, lt=1),
+    _scalar_schema({"minimum": 0, "exclusiveMaximum": 1}),
+]
+BurstLength = Annotated[
+    float,
+    BeforeValidator(_evaluate_scalar),
+    Field(allow_inf_nan=False, ge=1, le=ABSURD),
+    _scalar_schema({"minimum": 1}),
+]
+
+
 def _start_angle(value: Any, info: ValidationInfo) -> Any:
     return value if value == "current" else _evaluate_scalar(value, info)
 
@@ -283,6 +315,44 @@ class Limits(_Model):
     )
 
 
+class StateStd(_Model):
+    """A standard deviation per state."""
+
+    x: NonNegativeScalar = Field(default=0.0, description="Standard deviation of x [m].")
+    y: NonNegativeScalar = Field(default=0.0, description="Standard deviation of y [m].")
+    theta: NonNegativeScalar = Field(default=0.0, description="Standard deviation of theta [rad].")
+
+
+class Slip(_Model):
+    """Wheel slip of the true plant."""
+
+    longitudinal: SlipFraction = Field(
+        default=0.0, description="Fraction of v lost to slip, in [0, 1)."
+    )
+    lateral_std: NonNegativeScalar = Field(
+        default=0.0,
+        description="Standard deviation of a sideways skid speed, drawn every sample [m/s].",
+    )
+
+
+class Disturbances(_Model):
+    """The true plant departs from eq. (1): noise, delay, lag and slip."""
+
+    process_noise_std: StateStd = Field(
+        default_factory=lambda: StateStd(),
+        description="Gaussian noise added to the true pose every sample [m, m, rad].",
+    )
+    input_delay: NonNegativeScalar = Field(
+        default=0.0,
+        description="[s] the plant applies u_{k-d}, d = input_delay / dt (a whole number).",
+    )
+    actuator_time_constant: NonNegativeScalar = Field(
+        default=0.0,
+        description="[s] first-order lag of the applied v and omega behind the command; 0 = none.",
+    )
+    slip: Slip = Field(default_factory=lambda: Slip(), description="Wheel slip.")
+
+
 class Robot(_Model):
     """The plant of eq. (1), sampled."""
 
@@ -293,21 +363,52 @@ class Robot(_Model):
         default_factory=Pose, description="True pose at mission start [m, m, rad]."
     )
     limits: Limits = Field(default_factory=Limits, description="Input limits.")
+    disturbances: Disturbances = Field(
+        default_factory=lambda: Disturbances(),
+        description=(
+            "How the true plant departs from eq. (1); the estimator and controller never see "
+            "these settings (docs/disturbances.md). Default: none."
+        ),
+    )
 
 
 # --- sensors ---------------------------------------------------------------
 
 
-class StateStd(_Model):
-    """A standard deviation per state."""
+class StateOffset(_Model):
+    """An offset per state."""
 
-    x: NonNegative = Field(default=0.0, description="Standard deviation of x [m].")
-    y: NonNegative = Field(default=0.0, description="Standard deviation of y [m].")
-    theta: NonNegative = Field(default=0.0, description="Standard deviation of theta [rad].")
+    x: Scalar = Field(default=0.0, description="Offset of x [m].")
+    y: Scalar = Field(default=0.0, description="Offset of y [m].")
+    theta: Scalar = Field(default=0.0, description="Offset of theta [rad].")
+
+
+class Dropout(_Model):
+    """Measurements lost in bursts (a two-state Markov chain per measurement)."""
+
+    probability: ProbabilityScalar = Field(
+        description="Probability that a burst of lost measurements starts at a measurement."
+    )
+    burst: BurstLength = Field(
+        default=1.0,
+        description=(
+            "Mean burst length in measurements, >= 1; lengths are geometric (a lost "
+            "measurement is followed by another with probability 1 - 1/burst)."
+        ),
+    )
+
+
+class Outliers(_Model):
+    """Wild measurements: a large Gaussian error added now and then."""
+
+    probability: ProbabilityScalar = Field(
+        description="Probability that a measurement is an outlier."
+    )
+    std: StateStd = Field(description="Standard deviation of the outlier's error [m, m, rad].")
 
 
 class Sensors(_Model):
-    """Which states are measured, and how noisily."""
+    """Which states are measured, how often, and how they err."""
 
     measure: tuple[StateName, ...] = Field(
         default=STATES,
@@ -320,8 +421,27 @@ class Sensors(_Model):
         description="Additive white Gaussian noise on each measured state [m, m, rad].",
     )
     seed: Annotated[int, Strict(), Field(ge=0, le=2**32 - 1)] = Field(
-        default=0, description="Noise seed, 0 .. 2^32-1; `run --seed` overrides it."
+        default=0,
+        description=(
+            "Seed of every random draw of the run (noise and disturbances), 0 .. 2^32-1; "
+            "`run --seed` overrides it."
+        ),
     )
+    period: PositiveScalar | None = Field(
+        default=None,
+        description=(
+            "[s] time between measurements, a whole multiple of robot.dt; the estimator "
+            "predicts on the samples between. null = every sample."
+        ),
+    )
+    bias: StateOffset = Field(
+        default_factory=lambda: StateOffset(),
+        description="Constant offset added to each measured state [m, m, rad].",
+    )
+    dropout: Dropout | None = Field(
+        default=None, description="Measurements lost in bursts; null = none lost."
+    )
+    outliers: Outliers | None = Field(default=None, description="Wild measurements; null = none.")
 
     @field_validator("measure")
     @classmethod
@@ -434,6 +554,15 @@ class Ekf(_Model):
         description=(
             "Measurement noise per measured state [m or rad], > 0; "
             "null = sensors.noise_std floored at 0.001."
+        ),
+    )
+    innovation_gate: Positive | None = Field(
+        default=None,
+        description=(
+            "Reject a measurement whose squared Mahalanobis distance r^T S^-1 r exceeds this "
+            "(chi-square with as many degrees of freedom as measured states: 16.27 is its "
+            "0.999 quantile for 3); a rejected measurement is a prediction-only step. "
+            "null = no gating."
         ),
     )
 
@@ -718,13 +847,6 @@ class WaypointsPath(_Model):
 
 
 # --- routes drawn through points: polyline and coverage ---------------------
-
-NonNegativeScalar = Annotated[
-    float,
-    BeforeValidator(_evaluate_scalar),
-    Field(allow_inf_nan=False, ge=0, le=ABSURD),
-    _scalar_schema({"minimum": 0}),
-]
 
 
 class PolylinePath(_Model):
