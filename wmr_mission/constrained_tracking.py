@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from wmr_mission._jit import kernel
 from wmr_mission.control import input_jacobian_into, saturate
-from wmr_mission.corrective import ELLIPSE, REGULARISATION
+from wmr_mission.corrective import ELLIPSE, REGULARISATION, kept_row_slot
 from wmr_mission.model import step
 from wmr_mission.params import Controller, Robot, Scratch
 
@@ -150,14 +150,9 @@ def keep_constraints(
         value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], look_ahead, qx, qy)
         if value <= 0.0:
             continue
-        # Keep the two most violated rows: two inputs meet at most two.
-        slot = count
-        if count == 2:
-            slot = 0 if eta[0] > eta[1] else 1
-            if -value >= eta[slot]:
-                continue
-        else:
-            count += 1
+        slot, count = kept_row_slot(value, count, eta)
+        if slot < 0:
+            continue
         a[slot, 0] = gx * t00 + gy * t10
         a[slot, 1] = gx * t01 + gy * t11
         eta[slot] = -value  # saturate to the violated bound

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission._jit import kernel
-from wmr_mission.corrective import corrective_input, row_value
+from wmr_mission.corrective import corrective_input, kept_row_slot, row_value
 from wmr_mission.model import jacobian_terms, step, wrap_angle
 from wmr_mission.params import Controller, Robot, Scratch
 from wmr_mission.riccati import MIN_SPEED, regulator_gain, solve_riccati
@@ -289,14 +289,9 @@ def regulate_input(
         value, gx, gy = row_value(row_kinds[i], row_params[i], px, py)
         if value <= 0.0:
             continue
-        # Keep the two most violated rows: two inputs meet at most two.
-        slot = count
-        if count == 2:
-            slot = 0 if eta[0] > eta[1] else 1
-            if -value >= eta[slot]:
-                continue
-        else:
-            count += 1
+        slot, count = kept_row_slot(value, count, eta)
+        if slot < 0:
+            continue
         d[slot, 0] = gx
         d[slot, 1] = gy
         d[slot, 2] = 0.0

@@ -125,6 +125,20 @@ def corrective_input(
 
 
 @kernel
+def kept_row_slot(value: float, count: int, eta: FloatArray) -> tuple[int, int]:
+    """Where a violated row (``value > 0``) goes among the two rows eq. (28) keeps
+    (two inputs meet at most two), and the new count of kept rows. ``eta`` holds
+    the kept rows' ``-value``; slot -1: this row is no more violated than both.
+    """
+    if count < 2:
+        return count, count + 1
+    slot = 0 if eta[0] > eta[1] else 1  # the less violated of the two kept
+    if -value >= eta[slot]:
+        return -1, count
+    return slot, count
+
+
+@kernel
 def row_value(kind: int, p: FloatArray, x: float, y: float) -> tuple[float, float, float]:
     """Value ``c`` of one constraint row (satisfied when ``c <= 0``) and its gradient.
 
