@@ -26,6 +26,8 @@ See :func:`wmr_mission.control.scheduled_gain`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -36,6 +38,12 @@ FloatArray = NDArray[np.float64]
 MIN_SPEED = 1e-3  # [m/s] below it the gain is blended with the at-rest gain
 TOLERANCE = 1e-14  # relative change of the doubling iterate that ends the iteration
 MAX_DOUBLINGS = 60
+# Newton's method from a warm start (:func:`newton_riccati`) gives up, and the
+# caller solves by doubling, after this many steps or when its first step
+# changes the solution by more than NEWTON_REACH of its size: the warm start
+# was too far to trust.
+NEWTON_STEPS = 6
+NEWTON_REACH = 0.5
 
 
 # A 3x3 matrix as a tuple of its 9 entries, row by row: numba keeps it in
@@ -114,6 +122,160 @@ def solve_riccati(a: Mat3, g: Mat3, q: Mat3) -> tuple[Mat3, int]:
         if change <= TOLERANCE * size:
             return hk, iteration
     return hk, -1
+
+
+@kernel
+def scalar_solution(q: float, b: float, r: float) -> float:
+    """Eq. (21) for one state with a = 1: ``p = q + p - p^2 b^2 / (r + b^2 p)``,
+    i.e. ``b^2 p^2 - q b^2 p - q r = 0``; its root ``p >= 0``."""
+    return 0.5 * q + math.sqrt(0.25 * q * q + q * r / (b * b))
+
+
+Row6 = tuple[float, float, float, float, float, float]
+
+
+@kernel
+def _symmetric_product(u0: float, u1: float, u2: float, w0: float, w1: float, w2: float) -> Row6:
+    """The coefficients of ``u^T X w + w^T X u`` (halved on the diagonal) on
+    the unknowns X00, X01, X02, X11, X12, X22 of a symmetric X."""
+    return (u0 * w0, u0 * w1 + u1 * w0, u0 * w2 + u2 * w0, u1 * w1, u1 * w2 + u2 * w1, u2 * w2)
+
+
+@kernel
+def _row(system: FloatArray, n: int, unit: Row6, other: Row6, rhs: float) -> None:
+    system[n, 0] = unit[0] + other[0]
+    system[n, 1] = unit[1] + other[1]
+    system[n, 2] = unit[2] + other[2]
+    system[n, 3] = unit[3] + other[3]
+    system[n, 4] = unit[4] + other[4]
+    system[n, 5] = unit[5] + other[5]
+    system[n, 6] = rhs
+
+
+@kernel
+def _lyapunov(e: Mat3, c: Mat3, system: FloatArray) -> Mat3:
+    """The symmetric X with ``X - F^T X F = c`` for F = I - ``e`` (``c``
+    symmetric), as ``X e + e^T X - e^T X e = c``: no cancellation when F is
+    near I, as it is at dt = 0.01. Six unknowns X00, X01, X02, X11, X12, X22;
+    Gaussian elimination with partial pivoting in ``system`` (6x7 scratch)."""
+    # Column j of e and of F: the row of unknown (i, j) is
+    # sym(unit_i, e_j) + sym(e_i, F_j), sym(u, w) = u^T X w + w^T X u.
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = e
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = (
+        1.0 - e00, -e01, -e02, -e10, 1.0 - e11, -e12, -e20, -e21, 1.0 - e22,
+    )  # fmt: skip
+    _row(system, 0, _symmetric_product(1.0, 0.0, 0.0, e00, e10, e20),
+         _symmetric_product(e00, e10, e20, f00, f10, f20), c[0])  # fmt: skip
+    _row(system, 1, _symmetric_product(1.0, 0.0, 0.0, e01, e11, e21),
+         _symmetric_product(e00, e10, e20, f01, f11, f21), c[1])  # fmt: skip
+    _row(system, 2, _symmetric_product(1.0, 0.0, 0.0, e02, e12, e22),
+         _symmetric_product(e00, e10, e20, f02, f12, f22), c[2])  # fmt: skip
+    _row(system, 3, _symmetric_product(0.0, 1.0, 0.0, e01, e11, e21),
+         _symmetric_product(e01, e11, e21, f01, f11, f21), c[4])  # fmt: skip
+    _row(system, 4, _symmetric_product(0.0, 1.0, 0.0, e02, e12, e22),
+         _symmetric_product(e01, e11, e21, f02, f12, f22), c[5])  # fmt: skip
+    _row(system, 5, _symmetric_product(0.0, 0.0, 1.0, e02, e12, e22),
+         _symmetric_product(e02, e12, e22, f02, f12, f22), c[8])  # fmt: skip
+    for col in range(6):
+        pivot = col
+        for row in range(col + 1, 6):
+            if abs(system[row, col]) > abs(system[pivot, col]):
+                pivot = row
+        if pivot != col:
+            for n in range(col, 7):
+                system[col, n], system[pivot, n] = system[pivot, n], system[col, n]
+        for row in range(col + 1, 6):
+            factor = system[row, col] / system[col, col]
+            for n in range(col + 1, 7):
+                system[row, n] -= factor * system[col, n]
+    for row in range(5, -1, -1):
+        total = system[row, 6]
+        for n in range(row + 1, 6):
+            total -= system[row, n] * system[n, 6]
+        system[row, 6] = total / system[row, row]
+    x0 = system[0, 6]
+    x1 = system[1, 6]
+    x2 = system[2, 6]
+    x3 = system[3, 6]
+    x4 = system[4, 6]
+    x5 = system[5, 6]
+    return (x0, x1, x2, x1, x3, x4, x2, x4, x5)
+
+
+@kernel
+def newton_riccati(
+    a: Mat3,
+    b: tuple[float, float, float, float, float, float],
+    r: FloatArray,
+    q: Mat3,
+    pi: Mat3,
+    system: FloatArray,
+) -> tuple[Mat3, int]:
+    """Solve eq. (21) by Newton's method (Hewer) from ``pi``, a nearby solution:
+    ``(pi, steps)``; ``-steps`` when it gave up (the caller then solves by doubling).
+
+    Each step linearises eq. (21) at ``pi``: with F = A - B T the closed loop
+    of its gain (eq. (20)), the correction D solves the discrete Lyapunov
+    equation ``D - F^T D F = residual of eq. (21) at pi``. Convergence is
+    quadratic near the solution, so the next correction, the error left, is
+    foreseen from the last two: ``c_next = c^2 (c / c_prev^2)``, relative to
+    the solution. The iteration stops once that is below TOLERANCE, the
+    doubling's bound on its last change. Near rest eq. (21) is so
+    ill-conditioned that the corrections stall at 1e-14..1e-12 of the
+    solution, its rounding noise, where a bound on the correction itself
+    would never be met. The result is trusted only if it converged within
+    NEWTON_STEPS, its first correction was within NEWTON_REACH, and it is
+    positive definite (with Q-hat > 0 the one positive semi-definite solution
+    is the stabilising one). ``system`` is (6, 7) scratch."""
+    previous = 0.0  # the relative size of the last correction
+    for iteration in range(1, NEWTON_STEPS + 1):
+        t = regulator_gain(a, b, r, pi)
+        # With N = A - I and E = B T - N = I - F (F the closed loop), the
+        # residual Q + A^T pi F - pi of eq. (21) is Q + N^T pi F - pi E: the
+        # large terms of pi, which cancel, are never formed.
+        e = (
+            b[0] * t[0] + b[1] * t[3] - a[0] + 1.0, b[0] * t[1] + b[1] * t[4] - a[1],
+            b[0] * t[2] + b[1] * t[5] - a[2],
+            b[2] * t[0] + b[3] * t[3] - a[3], b[2] * t[1] + b[3] * t[4] - a[4] + 1.0,
+            b[2] * t[2] + b[3] * t[5] - a[5],
+            b[4] * t[0] + b[5] * t[3] - a[6], b[4] * t[1] + b[5] * t[4] - a[7],
+            b[4] * t[2] + b[5] * t[5] - a[8] + 1.0,
+        )  # fmt: skip
+        pe = _mul3(pi, e)
+        npf = _mul3(
+            (a[0] - 1.0, a[3], a[6], a[1], a[4] - 1.0, a[7], a[2], a[5], a[8] - 1.0),  # N^T
+            (pi[0] - pe[0], pi[1] - pe[1], pi[2] - pe[2],
+             pi[3] - pe[3], pi[4] - pe[4], pi[5] - pe[5],
+             pi[6] - pe[6], pi[7] - pe[7], pi[8] - pe[8]),
+        )  # fmt: skip
+        residual = _symmetric_step(
+            q,
+            (npf[0] - pe[0], npf[1] - pe[1], npf[2] - pe[2],
+             npf[3] - pe[3], npf[4] - pe[4], npf[5] - pe[5],
+             npf[6] - pe[6], npf[7] - pe[7], npf[8] - pe[8]),
+        )  # fmt: skip
+        correction = _lyapunov(e, residual, system)
+        new = _symmetric_step(pi, correction)  # pi + correction: both symmetric
+        change = 0.0
+        size = 0.0
+        for i in range(9):
+            change = max(change, abs(new[i] - pi[i]))
+            size = max(size, abs(new[i]))
+        pi = new
+        relative = change / size
+        if iteration == 1 and not relative <= NEWTON_REACH:
+            return pi, -1
+        # c_next <= TOLERANCE, without dividing by a c_prev of 0.
+        foreseen = relative * relative * relative <= TOLERANCE * previous * previous
+        previous = relative
+        if relative == 0.0 or (iteration > 1 and foreseen):
+            minor = pi[0] * pi[4] - pi[1] * pi[3]
+            det = pi[0] * (pi[4] * pi[8] - pi[5] * pi[7]) - pi[1] * (pi[3] * pi[8] - pi[5] * pi[6])
+            det += pi[2] * (pi[3] * pi[7] - pi[4] * pi[6])
+            if pi[0] > 0.0 and minor > 0.0 and det > 0.0:
+                return pi, iteration
+            return pi, -iteration
+    return pi, -NEWTON_STEPS
 
 
 @kernel
