@@ -204,9 +204,7 @@ def _solve_gain(
         p4 = m[slot + 4] + m[slot + 10]
         p5 = m[slot + 5] + m[slot + 11]
         p8 = m[slot + 6] + m[slot + 12]
-        pi, steps = newton_riccati(
-            a, b, r, qb, (p0, p1, p2, p1, p4, p5, p2, p5, p8), work.lyapunov
-        )
+        pi, steps = newton_riccati(a, b, r, qb, (p0, p1, p2, p1, p4, p5, p2, p5, p8), work.lyapunov)
         memory[NEWTON] = abs(steps)
     if steps < 0:
         r0 = float(r[0])

@@ -39,9 +39,9 @@ MIN_SPEED = 1e-3  # [m/s] below it the gain is blended with the at-rest gain
 TOLERANCE = 1e-14  # relative change of the doubling iterate that ends the iteration
 MAX_DOUBLINGS = 60
 # Newton's method from a warm start (:func:`newton_riccati`) gives up, and the
-# caller solves by doubling, after this many steps or when its first step
-# changes the solution by more than NEWTON_REACH of its size: the warm start
-# was too far to trust.
+# caller solves by doubling, after this many steps or when a step changes
+# the solution by more than NEWTON_REACH of its size: the warm start was too
+# far to trust.
 NEWTON_STEPS = 6
 NEWTON_REACH = 0.5
 
@@ -181,6 +181,9 @@ def _lyapunov(e: Mat3, c: Mat3, system: FloatArray) -> Mat3:
         for row in range(col + 1, 6):
             if abs(system[row, col]) > abs(system[pivot, col]):
                 pivot = row
+        if system[pivot, col] == 0.0:  # singular: F has eigenvalues l1 l2 = 1
+            nan = math.nan
+            return (nan, nan, nan, nan, nan, nan, nan, nan, nan)
         if pivot != col:
             for n in range(col, 7):
                 system[col, n], system[pivot, n] = system[pivot, n], system[col, n]
@@ -262,9 +265,9 @@ def newton_riccati(
             change = max(change, abs(new[i] - pi[i]))
             size = max(size, abs(new[i]))
         pi = new
-        relative = change / size
-        if iteration == 1 and not relative <= NEWTON_REACH:
-            return pi, -1
+        if not change <= NEWTON_REACH * size:  # too far to trust, or not a number
+            return pi, -iteration
+        relative = change / size if change > 0.0 else 0.0
         # c_next <= TOLERANCE, without dividing by a c_prev of 0.
         foreseen = relative * relative * relative <= TOLERANCE * previous * previous
         previous = relative
