@@ -305,7 +305,7 @@ def test_newton_gives_up_after_newton_steps(rng: np.random.Generator) -> None:
         p = np.array(exact).reshape(3, 3)
         d = rng.normal(size=(3, 3))
         d = (d + d.T) * rng.uniform(0.05, 0.45) * np.abs(p).max() / np.abs(d + d.T).max()
-        pi, steps = newton_riccati(a, b, np.ones(2), q, _mat3(p + d), np.zeros((6, 7)))  # type: ignore[arg-type]
+        pi, steps = newton_riccati(a, b, np.ones(2), q, _mat3(p + d), np.zeros(42), 0)  # type: ignore[arg-type]
         outcomes.add(steps)
         if steps > 0:
             np.testing.assert_allclose(pi, exact, rtol=0, atol=1e-10 * np.abs(p).max())
@@ -325,10 +325,10 @@ def test_newton_does_not_trust_a_solution_that_is_not_the_stabilising_one() -> N
     negative = 0.5 - np.sqrt(0.25 + 1.0 * 1.0 / 0.1**2)
     stabilising = scalar_solution(2.0, 0.2, 0.5)
     start = np.diag([negative, stabilising, 1.0 / 0.75])
-    pi, steps = newton_riccati(a, b, r, _mat3(q), _mat3(start), np.zeros((6, 7)))
+    pi, steps = newton_riccati(a, b, r, _mat3(q), _mat3(start), np.zeros(42), 0)
     np.testing.assert_allclose(np.array(pi).reshape(3, 3), start, atol=1e-12)
     assert steps < 0
     # From the stabilising solution it is trusted.
     start[0, 0] = scalar_solution(1.0, 0.1, 1.0)
-    _, steps = newton_riccati(a, b, r, _mat3(q), _mat3(start), np.zeros((6, 7)))
+    _, steps = newton_riccati(a, b, r, _mat3(q), _mat3(start), np.zeros(42), 0)
     assert steps > 0

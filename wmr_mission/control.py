@@ -52,7 +52,8 @@ NEWTON = 3  # Newton steps of this sample's Riccati solve (0: none)
 # solution before (0.0 after a cold start).
 WARM_MOVING = 4
 WARM_EDGE = 17
-MEMORY_SIZE = 30
+SYSTEM = 30  # scratch: the linear system of a Newton step, 6 rows of 7
+MEMORY_SIZE = 72
 
 
 @kernel
@@ -204,7 +205,9 @@ def _solve_gain(
         p4 = m[slot + 4] + m[slot + 10]
         p5 = m[slot + 5] + m[slot + 11]
         p8 = m[slot + 6] + m[slot + 12]
-        pi, steps = newton_riccati(a, b, r, qb, (p0, p1, p2, p1, p4, p5, p2, p5, p8), work.lyapunov)
+        pi, steps = newton_riccati(
+            a, b, r, qb, (p0, p1, p2, p1, p4, p5, p2, p5, p8), memory, SYSTEM
+        )
         memory[NEWTON] = abs(steps)
     if steps < 0:
         r0 = float(r[0])

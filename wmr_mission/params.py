@@ -73,7 +73,6 @@ class Scratch(NamedTuple):
     gain: FloatArray  # (2, 3) regulator gain T of eq. (20)
     measured: FloatArray  # (3,) the measurement recorded with a sample (NaN where none)
     h: FloatArray  # (2, 2) weight of the tracking output's motion (constrained tracking)
-    lyapunov: FloatArray  # (6, 7) the linear system of a Newton step of eq. (21)
 
 
 def scratch() -> Scratch:
@@ -86,7 +85,6 @@ def scratch() -> Scratch:
         gain=np.zeros((2, 3)),
         measured=np.zeros(3),
         h=np.zeros((2, 2)),
-        lyapunov=np.zeros((6, 7)),
     )
 
 

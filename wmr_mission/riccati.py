@@ -142,66 +142,70 @@ def _symmetric_product(u0: float, u1: float, u2: float, w0: float, w1: float, w2
 
 
 @kernel
-def _row(system: FloatArray, n: int, unit: Row6, other: Row6, rhs: float) -> None:
-    system[n, 0] = unit[0] + other[0]
-    system[n, 1] = unit[1] + other[1]
-    system[n, 2] = unit[2] + other[2]
-    system[n, 3] = unit[3] + other[3]
-    system[n, 4] = unit[4] + other[4]
-    system[n, 5] = unit[5] + other[5]
-    system[n, 6] = rhs
+def _row(system: FloatArray, at: int, unit: Row6, other: Row6, rhs: float) -> None:
+    system[at] = unit[0] + other[0]
+    system[at + 1] = unit[1] + other[1]
+    system[at + 2] = unit[2] + other[2]
+    system[at + 3] = unit[3] + other[3]
+    system[at + 4] = unit[4] + other[4]
+    system[at + 5] = unit[5] + other[5]
+    system[at + 6] = rhs
 
 
 @kernel
-def _lyapunov(e: Mat3, c: Mat3, system: FloatArray) -> Mat3:
+def _lyapunov(e: Mat3, c: Mat3, system: FloatArray, at: int) -> Mat3:
     """The symmetric X with ``X - F^T X F = c`` for F = I - ``e`` (``c``
     symmetric), as ``X e + e^T X - e^T X e = c``: no cancellation when F is
     near I, as it is at dt = 0.01. Six unknowns X00, X01, X02, X11, X12, X22;
-    Gaussian elimination with partial pivoting in ``system`` (6x7 scratch)."""
+    Gaussian elimination with partial pivoting in ``system[at : at + 42]``:
+    scratch, 6 rows of 7, row by row."""
     # Column j of e and of F: the row of unknown (i, j) is
     # sym(unit_i, e_j) + sym(e_i, F_j), sym(u, w) = u^T X w + w^T X u.
     e00, e01, e02, e10, e11, e12, e20, e21, e22 = e
     f00, f01, f02, f10, f11, f12, f20, f21, f22 = (
         1.0 - e00, -e01, -e02, -e10, 1.0 - e11, -e12, -e20, -e21, 1.0 - e22,
     )  # fmt: skip
-    _row(system, 0, _symmetric_product(1.0, 0.0, 0.0, e00, e10, e20),
+    _row(system, at, _symmetric_product(1.0, 0.0, 0.0, e00, e10, e20),
          _symmetric_product(e00, e10, e20, f00, f10, f20), c[0])  # fmt: skip
-    _row(system, 1, _symmetric_product(1.0, 0.0, 0.0, e01, e11, e21),
+    _row(system, at + 7, _symmetric_product(1.0, 0.0, 0.0, e01, e11, e21),
          _symmetric_product(e00, e10, e20, f01, f11, f21), c[1])  # fmt: skip
-    _row(system, 2, _symmetric_product(1.0, 0.0, 0.0, e02, e12, e22),
+    _row(system, at + 14, _symmetric_product(1.0, 0.0, 0.0, e02, e12, e22),
          _symmetric_product(e00, e10, e20, f02, f12, f22), c[2])  # fmt: skip
-    _row(system, 3, _symmetric_product(0.0, 1.0, 0.0, e01, e11, e21),
+    _row(system, at + 21, _symmetric_product(0.0, 1.0, 0.0, e01, e11, e21),
          _symmetric_product(e01, e11, e21, f01, f11, f21), c[4])  # fmt: skip
-    _row(system, 4, _symmetric_product(0.0, 1.0, 0.0, e02, e12, e22),
+    _row(system, at + 28, _symmetric_product(0.0, 1.0, 0.0, e02, e12, e22),
          _symmetric_product(e01, e11, e21, f02, f12, f22), c[5])  # fmt: skip
-    _row(system, 5, _symmetric_product(0.0, 0.0, 1.0, e02, e12, e22),
+    _row(system, at + 35, _symmetric_product(0.0, 0.0, 1.0, e02, e12, e22),
          _symmetric_product(e02, e12, e22, f02, f12, f22), c[8])  # fmt: skip
     for col in range(6):
         pivot = col
         for row in range(col + 1, 6):
-            if abs(system[row, col]) > abs(system[pivot, col]):
+            if abs(system[at + 7 * row + col]) > abs(system[at + 7 * pivot + col]):
                 pivot = row
-        if system[pivot, col] == 0.0:  # singular: F has eigenvalues l1 l2 = 1
+        if system[at + 7 * pivot + col] == 0.0:  # singular: F has eigenvalues l1 l2 = 1
             nan = math.nan
             return (nan, nan, nan, nan, nan, nan, nan, nan, nan)
         if pivot != col:
             for n in range(col, 7):
-                system[col, n], system[pivot, n] = system[pivot, n], system[col, n]
+                system[at + 7 * col + n], system[at + 7 * pivot + n] = (
+                    system[at + 7 * pivot + n],
+                    system[at + 7 * col + n],
+                )
         for row in range(col + 1, 6):
-            factor = system[row, col] / system[col, col]
+            factor = system[at + 7 * row + col] / system[at + 7 * col + col]
             for n in range(col + 1, 7):
-                system[row, n] -= factor * system[col, n]
+                system[at + 7 * row + n] -= factor * system[at + 7 * col + n]
     for row in range(5, -1, -1):
-        total = system[row, 6]
+        total = system[at + 7 * row + 6]
         for n in range(row + 1, 6):
-            total -= system[row, n] * system[n, 6]
-        system[row, 6] = total / system[row, row]
-    x0 = system[0, 6]
-    x1 = system[1, 6]
-    x2 = system[2, 6]
-    x3 = system[3, 6]
-    x4 = system[4, 6]
-    x5 = system[5, 6]
+            total -= system[at + 7 * row + n] * system[at + 7 * n + 6]
+        system[at + 7 * row + 6] = total / system[at + 7 * row + row]
+    x0 = system[at + 6]
+    x1 = system[at + 13]
+    x2 = system[at + 20]
+    x3 = system[at + 27]
+    x4 = system[at + 34]
+    x5 = system[at + 41]
     return (x0, x1, x2, x1, x3, x4, x2, x4, x5)
 
 
@@ -213,6 +217,7 @@ def newton_riccati(
     q: Mat3,
     pi: Mat3,
     system: FloatArray,
+    at: int,
 ) -> tuple[Mat3, int]:
     """Solve eq. (21) by Newton's method (Hewer) from ``pi``, a nearby solution:
     ``(pi, steps)``; ``-steps`` when it gave up (the caller then solves by doubling).
@@ -229,7 +234,7 @@ def newton_riccati(
     would never be met. The result is trusted only if it converged within
     NEWTON_STEPS, its first correction was within NEWTON_REACH, and it is
     positive definite (with Q-hat > 0 the one positive semi-definite solution
-    is the stabilising one). ``system`` is (6, 7) scratch."""
+    is the stabilising one). ``system[at : at + 42]`` is scratch."""
     previous = 0.0  # the relative size of the last correction
     for iteration in range(1, NEWTON_STEPS + 1):
         t = regulator_gain(a, b, r, pi)
@@ -257,7 +262,7 @@ def newton_riccati(
              npf[3] - pe[3], npf[4] - pe[4], npf[5] - pe[5],
              npf[6] - pe[6], npf[7] - pe[7], npf[8] - pe[8]),
         )  # fmt: skip
-        correction = _lyapunov(e, residual, system)
+        correction = _lyapunov(e, residual, system, at)
         new = _symmetric_step(pi, correction)  # pi + correction: both symmetric
         change = 0.0
         size = 0.0
