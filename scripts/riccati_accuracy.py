@@ -82,12 +82,14 @@ def main() -> None:
         memory, work = np.zeros(control.MEMORY_SIZE), scratch()
         worst = {"near rest": [0.0, 0.0, 0.0], "moving": [0.0, 0.0, 0.0]}
         steps = []
+        doubled = 0
         for n, k in enumerate(samples):
             theta, v, omega = result.theta_est[k], result.v[k - 1], result.omega[k - 1]
             if result.phase[k] != result.phase[k - 1]:
                 memory[:] = 0.0  # a new phase, as the runner does
             control.scheduled_gain(theta, v, omega, dt, q, r, memory, work)
             steps.append(memory[control.NEWTON])
+            doubled += memory[control.DOUBLINGS] > 0
             if n % EVERY or v == 0.0:
                 continue
             moving = abs(v) >= riccati.MIN_SPEED
@@ -115,7 +117,8 @@ def main() -> None:
         counts = np.bincount(np.array(steps[1:], dtype=int))
         print(
             f"{name}: {len(samples)} regulation samples; "
-            f"Newton steps per sample (0, 1, 2, ...): {counts.tolist()}"
+            f"Newton steps per sample (0, 1, 2, ...): {counts.tolist()}; "
+            f"solved by doubling: {doubled}"
         )
         for regime, (newton, doubling, scipy_error) in worst.items():
             print(

@@ -8,10 +8,18 @@ the usual ``pi = Q + A^T pi A - A^T pi B (R + B^T pi B)^-1 B^T pi A``, and the
 gain of eq. (20), ``T = R^-1 B^T (pi^-1 + B R^-1 B^T)^-1 A``, equals
 ``(R + B^T pi B)^-1 B^T pi A``. The second forms need no inverse of ``pi``.
 
-We solve it with the structure-preserving doubling algorithm: quadratic
-convergence whatever the start, so about a dozen 3x3 steps where the
-fixed-point iteration of eq. (21) needs ~800 (closed-loop spectral radius
-~0.99 at dt = 0.01), and no scipy call with its fixed cost in the loop.
+Three solvers, chosen per sample by :func:`wmr_mission.control.scheduled_gain`
+(docs/paper-notes.md gives the evidence):
+
+* at rest, :func:`scalar_solution`: eq. (21) splits into scalar equations;
+* moving, :func:`newton_riccati`: Newton steps from the previous samples'
+  solution, two per sample on a smooth run;
+* otherwise :func:`solve_riccati`, the structure-preserving doubling:
+  quadratic convergence whatever the start, so about a dozen 3x3 steps where
+  the fixed-point iteration of eq. (21) needs ~800 (closed-loop spectral
+  radius ~0.99 at dt = 0.01).
+
+None calls scipy, with its fixed cost, in the loop.
 
 At rest (v = 0) the pair (A, B) is not stabilisable: the lateral direction is
 unreachable and eq. (21) has no solution (scipy fails or returns a non-solution
