@@ -177,8 +177,8 @@ def test_at_rest_the_closed_form_equals_the_doubling_on_the_reachable_subspace(
         assert memory[control.NEWTON] == memory[control.DOUBLINGS] == 0  # no iteration
 
 
-def weaving_run(count: int = 400) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(theta, v, omega) of a robot slowing from 2 to 0.2 m/s while weaving, dt = 0.01."""
+def weaving_run(count: int = 250) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(theta, v, omega) of a robot slowing from 2 to 0.35 m/s while weaving, dt = 0.01."""
     t = np.arange(count) * 0.01
     v = 1.8 * np.exp(-t) + 0.2
     omega = 1.5 * np.sin(2.0 * t)

@@ -101,6 +101,17 @@ def _symmetric_step(m: Mat3, t: Mat3) -> Mat3:
 
 
 @kernel
+def _change(new: Mat3, old: Mat3) -> tuple[float, float]:
+    """The largest entry of ``new - old`` and of ``new``, in magnitude."""
+    change = 0.0
+    size = 0.0
+    for i in range(9):
+        change = max(change, abs(new[i] - old[i]))
+        size = max(size, abs(new[i]))
+    return change, size
+
+
+@kernel
 def solve_riccati(a: Mat3, g: Mat3, q: Mat3) -> tuple[Mat3, int]:
     """Solve eq. (21) for 3 states by doubling: ``(pi, doublings)``.
 
@@ -117,11 +128,7 @@ def solve_riccati(a: Mat3, g: Mat3, q: Mat3) -> tuple[Mat3, int]:
         t1 = _mul3(wi, ak)
         # H_{k+1} = H_k + A_k^T H_k W^-1 A_k
         new = _symmetric_step(hk, _mul3(_transpose(ak), _mul3(hk, t1)))
-        change = 0.0
-        size = 0.0
-        for i in range(9):
-            change = max(change, abs(new[i] - hk[i]))
-            size = max(size, abs(new[i]))
+        change, size = _change(new, hk)
         hk = new
         # G_{k+1} = G_k + A_k W^-1 G_k A_k^T
         gk = _symmetric_step(gk, _mul3(ak, _mul3(_mul3(wi, gk), _transpose(ak))))
@@ -272,11 +279,7 @@ def newton_riccati(
         )  # fmt: skip
         correction = _lyapunov(e, residual, system, at)
         new = _symmetric_step(pi, correction)  # pi + correction: both symmetric
-        change = 0.0
-        size = 0.0
-        for i in range(9):
-            change = max(change, abs(new[i] - pi[i]))
-            size = max(size, abs(new[i]))
+        change, size = _change(new, pi)
         pi = new
         if not change <= NEWTON_REACH * size:  # too far to trust, or not a number
             return pi, -iteration
