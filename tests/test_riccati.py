@@ -332,3 +332,10 @@ def test_newton_does_not_trust_a_solution_that_is_not_the_stabilising_one() -> N
     start[0, 0] = scalar_solution(1.0, 0.1, 1.0)
     _, steps = newton_riccati(a, b, r, _mat3(q), _mat3(start), np.zeros(42), 0)
     assert steps > 0
+
+
+def test_a_controller_memory_too_small_is_refused() -> None:
+    # Compiled code checks no bounds: a memory of the old size (3) would be
+    # written past its end.
+    with pytest.raises(ValueError, match="MEMORY_SIZE"):
+        control.scheduled_gain(0.0, 0.5, 0.0, 0.01, np.ones(3), np.ones(2), np.zeros(3), scratch())

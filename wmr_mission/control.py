@@ -257,6 +257,8 @@ def scheduled_gain(
     and the gain at +-MIN_SPEED (see wmr_mission.riccati), so it is
     continuous in v. ``memory`` keeps the solutions for |v| >= MIN_SPEED and
     at +-MIN_SPEED from sample to sample: the next sample's warm starts."""
+    if memory.shape[0] < MEMORY_SIZE:  # compiled code checks no bounds
+        raise ValueError("the controller memory holds MEMORY_SIZE numbers")
     memory[NEWTON] = 0.0
     memory[DOUBLINGS] = 0.0
     v = float(v)
