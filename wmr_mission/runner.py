@@ -122,7 +122,7 @@ class ActivePhase:
         reaches_sign = 0.0
         if reaches_kinds.shape[0]:
             reaches_sign = math.copysign(
-                1.0, max_row_value(reaches_kinds, reaches_params, pose[0], pose[1])
+                1.0, _max_row_value(reaches_kinds, reaches_params, pose[0], pose[1])
             )
         kinds, params = phase.constraint_rows
         return Phase(
@@ -158,6 +158,10 @@ class ActivePhase:
         )
         return PathBlock(local_sample, np.ascontiguousarray(block, dtype=np.float64))
 
+
+# Called once per phase or run: plain Python (wmr_mission._jit.plain).
+_max_row_value = _jit.plain(max_row_value)
+_record_sample = _jit.plain(loop.record_sample)
 
 ProgressCallback = Callable[[float, float, str], None]
 
@@ -380,8 +384,7 @@ class _Run:
     def _close(self, k: int, phase: Phase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""
         s = self.signals
-        record = loop.record_sample if self.segment is loop.run_segment else _py(loop.record_sample)
-        record(
+        _record_sample(
             self.recorder.record, phase, k * self.m.dt, s.state[0], s.state[1], s.state[2],
             s.estimate, s.u_prev, math.nan, math.nan, int(s.counters[loop.ITERATIONS]), s.measured,
         )  # fmt: skip
@@ -479,8 +482,3 @@ class _Run:
         if active.phase.kind == "track" or active.status == Status.pending:
             return active.phase.target
         return (float(active.target[0]), float(active.target[1]), float(active.target[2]))
-
-
-def _py(function: Callable[..., int]) -> Callable[..., int]:
-    """The plain-Python form of a kernel."""
-    return getattr(function, "py_func", function)
