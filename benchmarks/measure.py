@@ -3,6 +3,7 @@
     python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
     python benchmarks/measure.py startup    # wall time of `run --no-plots`: first, second, cached
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
+    python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
     python benchmarks/measure.py scale      # run time against samples (100 s and 1 h)
     python benchmarks/measure.py figures    # case study 1's four figures and its animation
@@ -66,6 +67,33 @@ def _wall(command: list[str], env: dict[str, str] | None = None) -> tuple[float,
     return wall, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
 
 
+# Where loading the cached compiled loop goes, in a process of its own.
+_LOADING = """
+import sys, time
+import numpy
+from wmr_mission.compiled import compile_mission
+from wmr_mission.spec.loader import load_mission
+mission = load_mission(sys.argv[1])
+t0 = time.perf_counter()
+import numba
+t1 = time.perf_counter()
+from numba.core.registry import cpu_target
+cpu_target.target_context.refresh()
+t2 = time.perf_counter()
+from wmr_mission import _jit, runner
+t3 = time.perf_counter()
+_jit.ticks()
+t4 = time.perf_counter()
+runner.run_mission(compile_mission(mission))
+t5 = time.perf_counter()
+runner.run_mission(compile_mission(mission))
+t6 = time.perf_counter()
+print(f"numba import {t1 - t0:.3f} s, numba's target set-up {t2 - t1:.3f} s, "
+      f"declaring the kernels {t3 - t2:.3f} s, loading ticks {t4 - t3:.3f} s, "
+      f"first run_mission (loads run_segment) {t5 - t4:.3f} s, second {t6 - t5:.3f} s")
+"""
+
+
 def startup(repeat: int = 5) -> None:
     """What a user sees after an install: the first run (plain Python, the loop
     compiling in the background), a second run while it compiles, the runs after
@@ -93,6 +121,13 @@ def startup(repeat: int = 5) -> None:
             _wall([sys.executable, "-c", "import wmr_mission.run_command, wmr_mission.runner"], env)
             for _ in range(repeat)
         ]
+        loading = subprocess.run(
+            [sys.executable, "-c", _LOADING, str(MISSIONS / "case2.yaml")],
+            env=env,
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout
 
     def show(what: str, times: list[tuple[float, float]]) -> None:
         wall = statistics.median(t[0] for t in times)
@@ -108,6 +143,29 @@ def startup(repeat: int = 5) -> None:
         [compiling],
     )
     show("python -c 'import wmr_mission.run_command, wmr_mission.runner'", imports)
+    print(f"loading the compiled loop, step by step: {loading.strip()}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def plain() -> None:
+    """Every example mission as plain Python: its sample budget (what `run`
+    compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample."""
+    os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the kernels are declared
+    from wmr_mission.background_compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.runner import run_mission
+    from wmr_mission.spec.loader import load_mission
+
+    print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
+    for path in sorted(MISSIONS.glob("*.yaml")):
+        mission = compile_mission(load_mission(path))
+        started = time.perf_counter()
+        result = run_mission(mission)
+        seconds = time.perf_counter() - started
+        print(
+            f"  {path.name:20s} budget {mission.max_samples:6d}, ran {result.samples:6d} samples "
+            f"in {seconds:5.2f} s: {seconds / result.samples * 1e6:4.0f} us per sample"
+        )
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -267,7 +325,7 @@ def dlqr(repeat: int = 200) -> None:
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
-    jobs |= {"scale": scale}
+    jobs |= {"plain": plain, "scale": scale}
     jobs |= {"figures": figures, "dare": dare, "dlqr": dlqr}
     if what not in jobs:
         print(__doc__, file=sys.stderr)
