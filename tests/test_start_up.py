@@ -53,7 +53,18 @@ def start():
     with open(record, "a") as f:
         f.write(f"started, NO_JIT={os.environ.get('WMR_MISSION_NO_JIT')}\\n")
 background_compile._start = start
-atexit.register(lambda: open(record, "a").write(f"numba loaded: {'numba' in sys.modules}\\n"))
+def loaded():
+    # Each compiled function Python calls loads its own cache entry.
+    called = sorted({
+        value.py_func.__name__
+        for name, module in list(sys.modules.items()) if name.startswith("wmr_mission")
+        for value in vars(module).values() if getattr(value, "signatures", None)
+    })
+    with open(record, "a") as f:
+        f.write(f"numba loaded: {'numba' in sys.modules}\\n")
+        if called:
+            f.write(f"compiled entries: {' '.join(called)}\\n")
+atexit.register(loaded)
 sys.argv[0] = "wmr-mission"
 from wmr_mission.cli import main
 main()
@@ -127,7 +138,10 @@ def test_the_background_compile_marks_the_cache_ready(tmp_path: Path) -> None:
     record = tmp_path / "record"
     stderr = _run(_env(cache), tmp_path / "next", record, "fence")
     assert "wmr-mission:" not in stderr
-    assert record.read_text().splitlines() == ["numba loaded: True"]
+    assert record.read_text().splitlines() == [
+        "numba loaded: True",
+        "compiled entries: run_segment",
+    ]
     # A marker of other kernel sources is no marker.
     ready.write_text("0" * 64)
     _run(_env(cache), tmp_path / "edited", record, "fence")

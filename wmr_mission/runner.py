@@ -236,7 +236,6 @@ class _Run:
         self.scratch = scratch()
         if functions is FAST:
             self.segment: Callable[..., int] = loop.run_segment
-            self.ticks: Callable[[], int] = _jit.ticks
             self.ticks_are_ns = _jit.TICKS_ARE_NS
         else:
             self.segment = loop.python_loop(
@@ -248,7 +247,6 @@ class _Run:
                     "ticks": time.perf_counter_ns,
                 }
             )
-            self.ticks = time.perf_counter_ns
             self.ticks_are_ns = True
         m = mission
         self.signals = Signals(
@@ -263,17 +261,20 @@ class _Run:
             observer_gain=np.zeros((3, 3)),
             ekf_work=np.zeros((4, 3, 3)),
             memory=np.zeros(3),
-            counters=np.zeros(4, dtype=np.int64),
+            counters=np.zeros(loop.CLOCK + 1, dtype=np.int64),
             exit_value=np.zeros(1),
             commands=np.zeros((self.disturbances.input_delay + 1, 2)),
             applied=np.zeros(2),
             burst=np.zeros(1, dtype=np.int64),
         )
         self.loop_ns = 0
-        self._started = (time.perf_counter_ns(), self.ticks())
+        # The wall clock and the loop's ticks at the loop's start and at its
+        # last return, to convert ticks to nanoseconds.
+        self._started = (time.perf_counter_ns(), 0)
+        self._returned_ns = self._started[0]
 
     def _call(self, phase: Phase, path: PathBlock, draws: FloatArray, stop: int) -> int:
-        return int(
+        status = int(
             self.segment(
                 self.robot,
                 self.estimator,
@@ -288,6 +289,8 @@ class _Run:
                 stop,
             )
         )
+        self._returned_ns = time.perf_counter_ns()
+        return status
 
     def run(self) -> RunResult:
         try:
@@ -320,7 +323,7 @@ class _Run:
         outcome = Outcome.success
         message = "all phases completed"
         budget = m.max_samples * dt
-        self._started = (time.perf_counter_ns(), self.ticks())
+        self._started = (self._returned_ns, int(counters[loop.CLOCK]))
         index = 0
         chunk = min(FIRST_CHUNK, CHUNK)
         while True:
@@ -415,9 +418,8 @@ class _Run:
     def _result(self, outcome: Outcome, message: str) -> RunResult:
         started_ns, started_ticks = self._started
         self.loop_ns = time.perf_counter_ns() - started_ns
-        ns_per_tick = (
-            1.0 if self.ticks_are_ns else self.loop_ns / max(1, self.ticks() - started_ticks)
-        )
+        ticks = int(self.signals.counters[loop.CLOCK]) - started_ticks
+        ns_per_tick = 1.0 if self.ticks_are_ns else (self._returned_ns - started_ns) / max(1, ticks)
         r = self.recorder
         n = r.count
         m = self.m
