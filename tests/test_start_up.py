@@ -177,6 +177,30 @@ def test_a_long_mission_or_the_setting_compiles_in_the_foreground(
     assert printed[1] == declared  # nothing declared yet: the run compiles as before
 
 
+def test_the_warm_up_compiles_the_loop_every_mission_runs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import numba
+
+    from wmr_mission.spec.loader import check_mission_bytes
+
+    argument_types = set()
+    compiled_loop = loop.run_segment
+
+    def spy(*arguments: object) -> int:
+        argument_types.add(numba.typeof(arguments))
+        return int(compiled_loop(*arguments))
+
+    monkeypatch.setattr(loop, "run_segment", spy)
+    warm_up, _ = check_mission_bytes(background_compile.WARM_UP_MISSION, "warm-up.yaml", [])
+    assert warm_up is not None
+    run_mission(compile_mission(warm_up))
+    assert len(argument_types) == 1
+    for path in sorted(MISSIONS.glob("*.yaml")):
+        run_mission(compile_mission(load_mission(path)))
+        assert len(argument_types) == 1, path.name
+
+
 def test_the_bound_is_the_sample_budget_of_a_case_study() -> None:
     for name in ("case1", "case2"):
         budget = compile_mission(load_mission(MISSIONS / f"{name}.yaml")).max_samples
