@@ -10,7 +10,8 @@ detached process at low priority::
     python -m wmr_mission.background_compile
 
 It compiles the kernels into the cache (wmr_mission._kernel_cache) by running
-a tiny mission, then writes a ready marker holding the kernels' source stamp:
+a tiny mission, then writes a ready marker holding the kernels' source stamp (and the
+Python and numba versions):
 the runs after it load the compiled loop. A lock file lets one such process
 run at a time. A longer mission compiles in the foreground, with a notice.
 The library's ``run_mission``, ``bench`` and ``sweep`` always compile in the
@@ -64,9 +65,18 @@ phases:
 """
 
 
+def ready_stamp() -> str:
+    """What the ready marker holds: what numba's cache entries depend on, the
+    kernels' sources, the interpreter and numba's version."""
+    from importlib.metadata import version  # loaded already by pydantic
+
+    stamp = _kernel_cache.kernel_sources_stamp()
+    return f"{stamp} {sys.implementation.cache_tag} numba-{version('numba')}"
+
+
 def _ready(directory: Path) -> bool:
     try:
-        return (directory / READY).read_text() == _kernel_cache.kernel_sources_stamp()
+        return (directory / READY).read_text() == ready_stamp()
     except OSError:
         return False
 
@@ -162,7 +172,7 @@ def main() -> int:
             return 0
         # The stamp of the sources compiled, read before: an edit meanwhile
         # leaves a stale marker, never a wrong one.
-        stamp = _kernel_cache.kernel_sources_stamp()
+        stamp = ready_stamp()
         compile_kernels()
         partial = directory / f"{READY}.{os.getpid()}"
         partial.write_text(stamp)
