@@ -68,10 +68,14 @@ phases:
 def ready_stamp() -> str:
     """What the ready marker holds: what numba's cache entries depend on, the
     kernels' sources, the interpreter and numba's version."""
-    from importlib.metadata import version  # loaded already by pydantic
+    from importlib import metadata  # loaded already by pydantic
 
+    try:
+        numba = metadata.version("numba")
+    except metadata.PackageNotFoundError:  # installed without its metadata
+        numba = "unknown"
     stamp = _kernel_cache.kernel_sources_stamp()
-    return f"{stamp} {sys.implementation.cache_tag} numba-{version('numba')}"
+    return f"{stamp} {sys.implementation.cache_tag} numba-{numba}"
 
 
 def _ready(directory: Path) -> bool:
