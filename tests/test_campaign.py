@@ -251,14 +251,14 @@ def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch)
     from wmr_mission.campaign import runs
 
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    real = runs.simulate
+    real = runs.mission_of
 
     def faulty(loaded: Any, draw: Draw) -> Any:
         if draw.run == 1:
             raise ZeroDivisionError("float division by zero")
         return real(loaded, draw)
 
-    monkeypatch.setattr(runs, "simulate", faulty)
+    monkeypatch.setattr(runs, "mission_of", faulty)
     rows = runs.run_rows(loaded, 0, 3)
     assert [row.outcome for row in rows] == ["success", runs.ERROR, "success"]
     assert rows[1].reason.startswith("internal error (ZeroDivisionError: float division by zero)")
@@ -349,3 +349,78 @@ def test_case2_headings_campaign_in_full(tmp_path: Path) -> None:
     assert summary["outcome"] == row["outcome"] == worst["outcome"]
     assert repr(summary["max_constraint_violation"]) == row["max_constraint_violation"]
     assert repr(summary["final"]["position_error"]) == row["final_position_error"]
+
+
+def _lagging_circle_run() -> Any:
+    """circle_run with each reference point 20 samples ahead on the robot's own
+    circle: the robot is on the path (a few micrometres off its chords), 2 cm
+    behind its own reference point."""
+    import dataclasses
+
+    from test_output_synthetic import DT, RADIUS, TURN_RATE, circle_run
+
+    run = circle_run()
+    ahead = TURN_RATE * (run.t + 20 * DT)
+    tracking = np.isfinite(run.x_ref)
+    x_ref = np.where(tracking, RADIUS * np.cos(ahead), np.nan)
+    y_ref = np.where(tracking, RADIUS * np.sin(ahead), np.nan)
+    return dataclasses.replace(run, x_ref=x_ref, y_ref=y_ref)
+
+
+def test_a_row_is_judged_as_judge_judges_it_on_either_side_of_the_bound() -> None:
+    """judge_run_metrics checks a tracking threshold against the distance to the
+    own reference point first; between that bound and the true distance to the
+    path it must fall back to the latter, and it always agrees with judge."""
+    import copy
+
+    from wmr_mission.output.metrics import judge, judge_run_metrics, summarize
+    from wmr_mission.result import Outcome
+
+    def mission(limit: float) -> dict[str, Any]:
+        expect = {"settle_time": 1.0, "tracking_error_max": {"max": limit}}
+        phases = [{"name": name, "expect": {}} for name in ("approach", "orbit", "park")]
+        return {"expect": expect, "phases": phases}
+
+    run = _lagging_circle_run()
+    orbit = summarize(run, mission(1.0))["phases"][1]["tracking_error"]
+    exact, bound = orbit["max"], orbit["reference_rms"]  # the lag is the same at every sample
+    assert exact < bound / 100
+    outcomes = []
+    for limit in (2 * bound, bound / 2, exact / 2):
+        judged, fast = copy.deepcopy(run), copy.deepcopy(run)
+        summary = judge(judged, mission(limit))
+        metrics = judge_run_metrics(fast, mission(limit))
+        assert (fast.outcome, fast.message) == (judged.outcome, judged.message)
+        assert metrics == {key: summary[key] for key in metrics}
+        outcomes.append(fast.outcome)
+    assert outcomes == [Outcome.success, Outcome.success, Outcome.expect_failed]
+
+
+@pytest.mark.slow
+def test_a_row_is_the_run_its_replay_runs() -> None:
+    """Each row (mission checked once, compiled per run, judged on the run's
+    metrics alone) is the run `run --set ... --seed` gives: its outcome, message,
+    metrics and path, over case2-headings runs that succeed and that fail."""
+    from wmr_mission.campaign.runs import METRICS, PATH_POINTS, run_row, simulate
+    from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, summarize
+
+    loaded = load_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml")
+    plan = Plan(loaded.campaign)
+    outcomes = set()
+    for run in range(24):
+        draw = plan.draw(run)
+        row = run_row(loaded, draw)
+        result, reason = simulate(loaded, draw)
+        assert result is not None, reason
+        summary = summarize(result, result.mission)
+        metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[m]) for m in METRICS)
+        assert row.outcome == result.outcome.value
+        assert row.reason == ("" if row.succeeded else result.message)
+        assert row.metrics == metrics
+        step = -(-result.samples // PATH_POINTS)
+        assert (
+            row.path_xy.tobytes()
+            == np.vstack([result.x[::step], result.y[::step]]).astype(np.float32).tobytes()
+        )
+        outcomes.add(row.outcome)
+    assert len(outcomes) >= 2, outcomes  # successes and failures both compared

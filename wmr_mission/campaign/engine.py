@@ -21,7 +21,7 @@ from typing import Any, Final, Protocol
 
 from wmr_mission.campaign.load import LoadedCampaign
 from wmr_mission.campaign.plan import Plan
-from wmr_mission.campaign.runs import Row, run_rows, simulate
+from wmr_mission.campaign.runs import Row, run_row, run_rows
 
 __all__ = [
     "TASK_SECONDS",
@@ -63,9 +63,9 @@ def default_workers() -> int:
 def warm_up(loaded: LoadedCampaign) -> float:
     """Compile the kernels in this process; return the seconds of one warm run."""
     plan = Plan(loaded.campaign)
-    simulate(loaded, plan.draw(0))  # compiles (or loads the cache of) every kernel it uses
+    run_row(loaded, plan.draw(0))  # compiles (or loads the cache of) every kernel it uses
     started = time.perf_counter()
-    simulate(loaded, plan.draw(min(1, len(plan) - 1)))
+    run_row(loaded, plan.draw(min(1, len(plan) - 1)))
     return time.perf_counter() - started
 
 
