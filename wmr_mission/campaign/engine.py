@@ -30,6 +30,7 @@ __all__ = [
     "StopFlag",
     "default_workers",
     "execute",
+    "local_pool",
     "task_size",
     "warm_up",
 ]
@@ -129,11 +130,17 @@ def execute(
                 raise Interrupted
             yield run_rows(loaded, start, min(start + size, runs))
         return
+    size = task_size(seconds_per_run, runs, workers)
+    with local_pool(workers) as pool:
+        yield from _in_order(pool, _wait_local, loaded, size, runs, workers, stop)
+
+
+def local_pool(workers: int) -> ProcessPoolExecutor:
+    """Worker processes forked from this one where the system can (they find the
+    kernels loaded), which leave Ctrl-C to it."""
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-    size = task_size(seconds_per_run, runs, workers)
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_ignore_interrupt) as pool:
-        yield from _in_order(pool, _wait_local, loaded, size, runs, workers, stop)
+    return ProcessPoolExecutor(workers, mp_context=context, initializer=_ignore_interrupt)
 
 
 def _on_dask(
