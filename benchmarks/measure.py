@@ -243,12 +243,13 @@ def campaign(repeat: int = 40) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         command = [sys.executable, "-m", "wmr_mission", "sweep", str(CAMPAIGN), "--workers", "2"]
         # exit 1 when the campaign's expect is not met: still a measurement
-        wall, _ = _wall([*command, "--no-plots", "--out", f"{tmp}/bare"], check=False)
+        wall, cpu = _wall([*command, "--no-plots", "--out", f"{tmp}/bare"], check=False)
         record = json.loads(Path(f"{tmp}/bare/campaign.json").read_text(encoding="utf-8"))
         print(
             f"sweep --workers 2 --no-plots: {record['runs']} runs, missions_per_second "
             f"{record['missions_per_second']:.1f}; end to end {wall:.2f} s = "
-            f"{record['runs'] / wall:.1f} runs/s (start-up {record['startup_seconds']:.2f} s)"
+            f"{record['runs'] / wall:.1f} runs/s (start-up {record['startup_seconds']:.2f} s); "
+            f"CPU {cpu:.1f} s = {1000 * cpu / record['runs']:.2f} ms per run"
         )
         wall, _ = _wall([*command, "--out", f"{tmp}/plots"], check=False)
         runs = record["runs"]
