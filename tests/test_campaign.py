@@ -424,3 +424,20 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
         )
         outcomes.add(row.outcome)
     assert len(outcomes) >= 2, outcomes  # successes and failures both compared
+
+
+def test_a_value_that_breaks_a_check_across_fields_is_reported_not_run(tmp_path: Path) -> None:
+    """A run's own check covers the checks across fields: a start outside the
+    region the first phase must stay inside (the axis's extremes are inside)."""
+    path = tmp_path / "start.yaml"
+    path.write_text(
+        f"version: 1\nname: start\nmission: {DATA / 'short.yaml'}\nruns: 2\n"
+        "vary:\n  robot.initial_state.x: {uniform: [-1.0, 1.0]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(path)
+    mission, reason = mission_of(loaded, Draw(0, 1, {"robot.initial_state.x": 5.0}))
+    assert mission is None
+    assert "robot.initial_state (5, 0.5) is outside region 'yard'" in reason
+    mission, reason = mission_of(loaded, Draw(0, 1, {"robot.initial_state.x": 0.5}))
+    assert mission is not None and mission.robot.initial_state.x == 0.5 and reason == ""
