@@ -207,6 +207,8 @@ def campaign(repeat: int = 40) -> None:
     """Where a campaign run's time goes (one process, medians over ``repeat`` runs
     of case2-headings), then `sweep` end to end on 2 workers: campaign.json's
     missions_per_second, and the command's wall time from start to exit."""
+    import csv
+    import io
     import json
 
     from wmr_mission.campaign.load import load_campaign
@@ -220,7 +222,8 @@ def campaign(repeat: int = 40) -> None:
     plan = Plan(loaded.campaign)
     run_row(loaded, plan.draw(0))  # loads the kernels
     stages: dict[str, list[float]] = {"mission": [], "compile": [], "loop": [], "judge": []}
-    stages["whole row"] = []
+    stages |= {"whole row": [], "csv line": []}
+    writer = csv.writer(io.StringIO(), lineterminator="\n")
     for run in range(1, repeat + 1):
         draw = plan.draw(run)
         times = [time.perf_counter()]
@@ -234,6 +237,8 @@ def campaign(repeat: int = 40) -> None:
         judge_run_metrics(result, mission.model_dump(mode="json"))
         times.append(time.perf_counter())
         row: Row = run_row(loaded, draw)
+        times.append(time.perf_counter())
+        writer.writerow(row.cells())  # what the campaign process does with a row
         times.append(time.perf_counter())
         assert len(row.metrics) == len(METRICS)
         for stage, start, end in zip(stages, times, times[1:], strict=False):
