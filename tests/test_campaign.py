@@ -440,4 +440,37 @@ def test_a_value_that_breaks_a_check_across_fields_is_reported_not_run(tmp_path:
     assert mission is None
     assert "robot.initial_state (5, 0.5) is outside region 'yard'" in reason
     mission, reason = mission_of(loaded, Draw(0, 1, {"robot.initial_state.x": 0.5}))
-    assert mission is not None and mission.robot.initial_state.x == 0.5 and reason == ""
+    assert mission is not None
+    assert mission.robot.initial_state.x == 0.5
+    assert reason == ""
+
+
+def test_a_normal_draw_beyond_the_checked_extremes_gets_every_check(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """validate ran the sampling checks at mean +- 4 std: a draw within needs
+    only the run's own checks, a draw beyond gets the mission's every check."""
+    from wmr_mission.campaign import runs
+
+    loaded = load_campaign(EVERY)  # estimator.initial_estimate.x: normal [-1.0, 0.1]
+    axis = loaded.campaign.vary["estimator.initial_estimate.x"]
+    assert axis.within_extremes(-1.4)
+    assert not axis.within_extremes(-1.4001)
+    checked: list[float] = []
+    real = runs.checked_mission
+
+    def counted(loaded: Any, draw: Draw) -> Any:
+        checked.append(draw.values["estimator.initial_estimate.x"])
+        return real(loaded, draw)
+
+    monkeypatch.setattr(runs, "checked_mission", counted)
+    values = Plan(loaded.campaign).draw(0).values
+    for x in (-1.0, -1.4, -1.5):
+        mission, reason = runs.mission_of(
+            loaded, Draw(0, 1, {**values, "estimator.initial_estimate.x": x})
+        )
+        assert mission is not None
+        assert reason == ""
+        assert mission.estimator.initial_estimate is not None
+        assert mission.estimator.initial_estimate.x == x
+    assert checked == [-1.5]

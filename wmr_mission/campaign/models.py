@@ -90,8 +90,8 @@ class Axis(_Model):
         normal draw may fall beyond them, any other draw may not."""
         if self.normal is None:
             return True
-        low, *rest = self.extremes()
-        return bool(low <= value <= (rest or [low])[-1])
+        extremes = self.extremes()
+        return bool(min(extremes) <= value <= max(extremes))
 
 
 class SuccessRate(_Model):
