@@ -123,7 +123,7 @@ def simulate(loaded: LoadedCampaign, draw: Draw) -> tuple[RunResult | None, str]
     return run_mission(mission, seed=draw.seed), ""
 
 
-def _invalid(draw: Draw, outcome: str, reason: str) -> Row:
+def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
     empty = np.zeros((2, 0), dtype=np.float32)
     values = tuple(draw.values.values())
     return Row(draw.run, draw.seed, outcome, values, (None,) * len(METRICS), reason, empty)
@@ -137,7 +137,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
 
     mission, reason = mission_of(loaded, draw)
     if mission is None:
-        return _invalid(draw, INVALID, reason)
+        return _not_run(draw, INVALID, reason)
     result = run_mission(compile_mission(mission, draw.seed))
     summary = judge_run_metrics(result, mission.model_dump(mode="json"))
     metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[name]) for name in METRICS)
@@ -158,7 +158,7 @@ def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
             rows.append(run_row(loaded, draw))
         except Exception as error:  # one run's fault must not lose the campaign
             reason = f"internal error ({type(error).__name__}: {error}); please report it"
-            rows.append(_invalid(draw, ERROR, reason))
+            rows.append(_not_run(draw, ERROR, reason))
     return rows
 
 

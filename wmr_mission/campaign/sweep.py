@@ -248,7 +248,7 @@ def _write_worst(
 ) -> None:
     """Re-simulate each worst run (same values, same seed: the same run) into
     worst/RUN/, and draw the campaign's figures: with several workers, the runs
-    on worker processes while this one draws (figures take longer than runs)."""
+    on worker processes while this one draws (a figure takes longer than a run)."""
     runs = [entry["run"] for entry in record["worst"]]
     mission_sha256 = _sha256(loaded.mission_path)
     if workers > 1 and runs:
