@@ -651,9 +651,10 @@ def _off_path_bound(
     x: FloatArray, y: FloatArray, x_ref: FloatArray, y_ref: FloatArray
 ) -> FloatArray:
     """At least :func:`distance_to_path` at every sample: the distance to the
-    sample's own reference point, a relative 1e-9 above it for rounding (or
-    the distance to the path itself where a reference point is missing)."""
-    own: FloatArray = np.hypot(x - x_ref, y - y_ref) * (1.0 + 1e-9)
+    sample's own reference point, a relative 1e-9 and 1e-12 m above it for
+    rounding (or the distance to the path itself where a reference point is
+    missing)."""
+    own: FloatArray = np.hypot(x - x_ref, y - y_ref) * (1.0 + 1e-9) + 1e-12
     return own if np.isfinite(own).all() else distance_to_path(x, y, x_ref, y_ref)
 
 
