@@ -474,3 +474,38 @@ def test_a_normal_draw_beyond_the_checked_extremes_gets_every_check(
         assert mission.estimator.initial_estimate is not None
         assert mission.estimator.initial_estimate.x == x
     assert checked == [-1.5]
+
+
+def test_a_row_is_judged_as_judge_judges_it_on_every_phase_threshold() -> None:
+    """The row's verdict reads only what the thresholds need of each phase:
+    every kind of phase threshold, met and missed, gives judge's outcome and
+    message."""
+    import copy
+
+    from wmr_mission.output.metrics import judge, judge_run_metrics
+    from wmr_mission.result import Outcome
+
+    run = _lagging_circle_run()
+    run.omega = run.omega.copy()
+    run.omega[700:800] = 20.0 * (-1.0) ** np.arange(100)  # chatter at the limit in orbit
+    everything = {
+        "settle_time": 1.0,
+        "tracking_error_rms": {"max": 0.5},
+        "tracking_error_max": {"max": 0.5},
+        "speed_at_limit": {"max": 0.01},
+        "turn_rate_at_limit": {"max": 0.01},
+        "turn_rate_jitter": {"max": 1.0},
+        "turn_rate_reversals": {"max": 10},
+        "estimation_rms": {"x": 1e-3, "y": 1.0, "theta": None},
+    }
+    for approach in ({}, {"estimation_rms": {"x": 1e-9, "y": None, "theta": None}}):
+        names = ("approach", "orbit", "park")
+        phases = [{"name": n, "expect": approach if n == "approach" else {}} for n in names]
+        mission = {"expect": everything, "phases": phases}
+        judged, fast = copy.deepcopy(run), copy.deepcopy(run)
+        judge(judged, mission)
+        judge_run_metrics(fast, mission)
+        assert fast.outcome is judged.outcome is Outcome.expect_failed
+        assert fast.message == judged.message
+        assert "orbit: turn_rate_at_limit" in fast.message
+    assert "approach: estimation_rms.x" in fast.message

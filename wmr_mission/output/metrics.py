@@ -311,7 +311,10 @@ def _phase_summary(
     settle_time: float,
     tolerance: Mapping[str, float],
     off_path_of: OffPath,
+    checked_only: bool = False,
 ) -> dict[str, Any]:
+    """A phase's summary; ``checked_only``: only what its `expect` thresholds
+    read (:func:`check_expectations`), for a verdict at half the cost."""
     info = result.phases[index]
     t = result.t
     # A phase lasts until the next one begins (or the run ends).
@@ -328,6 +331,29 @@ def _phase_summary(
         tracking = {
             "rms": _rms_or_none(off_path[settled]),
             "max": _max_or_none(off_path[settled]),
+        }
+
+    v, omega = result.v[window], result.omega[window]
+    inputs = {
+        "speed_at_limit": at_limit_fraction(v[settled], result.limits[0]),
+        "turn_rate_at_limit": at_limit_fraction(omega[settled], result.limits[1]),
+        "turn_rate_jitter": jitter(omega, settled),
+        "turn_rate_reversals": sign_reversals(omega[settled]),
+    }
+    phase_errors = {state: error[window] for state, error in errors.items()}
+    rms = {s: _rms_or_none(e[settled]) for s, e in phase_errors.items()}
+    if checked_only:
+        return {
+            "name": info.name,
+            "kind": info.kind,
+            "settled_samples": int(np.count_nonzero(settled)),
+            "tracking_error": tracking,
+            "inputs": inputs,
+            "estimation": {"rms": rms},
+        }
+
+    if tracking is not None:
+        tracking |= {
             "rms_from_start": _rms_or_none(off_path),
             "max_from_start": _max_or_none(off_path),
             # distance from the reference point of the same sample: lag included
@@ -339,16 +365,7 @@ def _phase_summary(
         position, heading = _pose_error(result, end_sample, info.target)
         target_error = {"position": position, "heading": heading}
 
-    v, omega = result.v[window], result.omega[window]
-    inputs = {
-        "speed_at_limit": at_limit_fraction(v[settled], result.limits[0]),
-        "turn_rate_at_limit": at_limit_fraction(omega[settled], result.limits[1]),
-        "turn_rate_jitter": jitter(omega, settled),
-        "turn_rate_reversals": sign_reversals(omega[settled]),
-    }
-
     constraint = result.constraint[window]
-    phase_errors = {state: error[window] for state, error in errors.items()}
     converged = convergence_index(phase_errors, tolerance)
     iterations = result.phase2_iterations[window]
     return {
@@ -370,7 +387,7 @@ def _phase_summary(
             ),
         },
         "estimation": {
-            "rms": {s: _rms_or_none(e[settled]) for s, e in phase_errors.items()},
+            "rms": rms,
             "max_abs_error": {s: _max_or_none(np.abs(e)) for s, e in phase_errors.items()},
             "overshoot": {s: overshoot(e, tolerance[s]) for s, e in phase_errors.items()},
             # seconds after the phase start
@@ -466,9 +483,13 @@ OffPath = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], FloatArray]
 
 
 def _phase_summaries(
-    result: RunResult, mission: Mapping[str, Any] | None, off_path: OffPath
+    result: RunResult,
+    mission: Mapping[str, Any] | None,
+    off_path: OffPath,
+    checked_only: bool = False,
 ) -> list[dict[str, Any]]:
-    """Each phase's summary, its tracking error measured by ``off_path``."""
+    """Each phase's summary (see :func:`_phase_summary`), its tracking error
+    measured by ``off_path``."""
     tolerance = _tolerance(mission)
     per_phase = phase_expectations(mission)
     errors = estimation_errors(result)
@@ -484,6 +505,7 @@ def _phase_summaries(
             ),
             tolerance,
             off_path,
+            checked_only,
         )
         for index, start, end in phase_segments(result.phase)
     ]
@@ -639,7 +661,7 @@ def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> d
     summary = run_metrics(result, mission)
     if result.outcome is not Outcome.success:  # judging changes only a success
         return summary
-    phases = _phase_summaries(result, mission, _off_path_bound)
+    phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True)
     checks = check_expectations({**summary, "phases": phases}, mission)
     if any(not c["met"] and c["metric"].startswith("tracking_error") for c in checks):
         checks = check_expectations(summarize(result, mission), mission)
