@@ -131,3 +131,14 @@ TICKS_TIMED = _njit is None or _counter is not None
 ticks: Callable[[], int] = (
     time.perf_counter_ns if _njit is None else _counter if _counter is not None else _compile(_zero)
 )
+
+
+def uncounted(fn: F) -> F:
+    """:func:`kernel` without numba's reference counting (``_nrt=False``),
+    for the loop: it allocates nothing, and the arrays it is handed stay
+    held by its Python caller for the call. Each array then reaches the
+    kernels it calls uncounted, so no call pays atomic count updates for
+    the records it passes."""
+    if _njit is None:
+        return fn
+    return _compile(fn, nogil=True, error_model="numpy", _nrt=False)

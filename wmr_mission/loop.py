@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel, ticks
+from wmr_mission._jit import kernel, ticks, uncounted
 from wmr_mission.constrained_tracking import keep_constraints, keep_reference
 from wmr_mission.control import regulate_input, track_input
 from wmr_mission.corrective import max_row_value
@@ -232,7 +232,7 @@ def path_point(rows: FloatArray, row: int, heading: float, out: FloatArray) -> N
         out[3] = rows[row, 3]
 
 
-@kernel
+@uncounted
 def run_segment(
     robot: Robot,
     estimator: Estimator,
