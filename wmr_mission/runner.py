@@ -146,17 +146,19 @@ class ActivePhase:
     def path_ahead(self, local_sample: int, rows: int) -> PathBlock:
         """The path at phase-local samples ``local_sample`` onwards: point and
         unit tangent (NaN where the path rests)."""
-        if self._trajectory is None:
-            return PathBlock(0, np.zeros((0, 4)))
+        if self._trajectory is None or rows == 0:
+            return PathBlock(local_sample, np.zeros((0, 4)))
         t = (local_sample + np.arange(rows, dtype=np.float64)) * self.mission.dt
         x, y, dx, dy = self._trajectory.sample(t)
+        block = np.empty((rows, 4))
+        block[:, 0] = x
+        block[:, 1] = y
+        block[:, 2:] = np.nan
         speed = np.hypot(dx, dy)
         moving = speed > 1e-12
-        safe = np.where(moving, speed, 1.0)
-        block = np.column_stack(
-            [x, y, np.where(moving, dx / safe, np.nan), np.where(moving, dy / safe, np.nan)]
-        )
-        return PathBlock(local_sample, np.ascontiguousarray(block, dtype=np.float64))
+        np.divide(dx, speed, out=block[:, 2], where=moving)
+        np.divide(dy, speed, out=block[:, 3], where=moving)
+        return PathBlock(local_sample, block)
 
 
 # Called once per phase or run: plain Python (wmr_mission._jit.plain).
@@ -329,9 +331,10 @@ class _Run:
         while True:
             k = int(counters[loop.K])
             local = k - active.entry_sample
-            # No further than the phase's own bound: no path sampled past its end.
+            # No further than the phase's own bound: no path sampled past its end;
+            # at the bound the phase exits before it reads any.
             samples = min(chunk, max(1, active.bound - local))
-            path = active.path_ahead(local, samples + 1)
+            path = active.path_ahead(local, samples + 1 if local < active.bound else 0)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
             status = self._call(phase, path, draws.ahead(samples), k + samples)
             draws.used(int(counters[loop.DRAWS]))
