@@ -37,7 +37,8 @@ FloatArray = NDArray[np.float64]
 
 # Samples per call of the compiled loop: between calls the runner reports
 # progress and Ctrl-C gets in (a few milliseconds apart when compiled). A
-# phase starts with short chunks, so a short phase samples little path ahead.
+# track phase whose end cannot be foreseen starts with short chunks, so a
+# short phase samples little path ahead (ActivePhase.first_chunk).
 CHUNK = 4096
 FIRST_CHUNK = 256
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
@@ -107,6 +108,13 @@ class ActivePhase:
         # Samples after which the phase ends for sure (elapsed or timeout).
         bounds = [phase.until.elapsed_samples, phase.timeout_samples]
         self.bound = min((b for b in bounds if b is not None), default=2**62)
+        # Its first chunk: short only where a path is sampled ahead of an end
+        # that cannot be foreseen, so such a phase samples little path it never
+        # uses; any other runs to its bound (or CHUNK) in one call.
+        until = phase.until
+        foreseen = (until.mission_time, until.reaches, until.near, until.settled, until.heading)
+        unforeseen = any(c is not None for c in foreseen)
+        self.first_chunk = FIRST_CHUNK if phase.kind == "track" and unforeseen else CHUNK
 
     def enter(self, k: int, estimate: FloatArray) -> Phase:
         self.status = Status.running
@@ -327,7 +335,7 @@ class _Run:
         budget = m.max_samples * dt
         self._started = (self._returned_ns, int(counters[loop.CLOCK]))
         index = 0
-        chunk = min(FIRST_CHUNK, CHUNK)
+        chunk = active.first_chunk
         while True:
             k = int(counters[loop.K])
             local = k - active.entry_sample
@@ -384,7 +392,7 @@ class _Run:
             active = to
             signals.memory[:] = 0.0
             phase = active.enter(k, signals.estimate)
-            chunk = min(FIRST_CHUNK, CHUNK)
+            chunk = active.first_chunk
         return self._result(outcome, message)
 
     def _close(self, k: int, phase: Phase) -> None:
