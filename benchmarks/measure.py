@@ -135,12 +135,11 @@ def scale(repeat: int = 5) -> None:
 
 def figures(repeat: int = 3) -> None:
     from wmr_mission.output.animation import write_animation
-    from wmr_mission.output.plots import draw_all, pyplot
+    from wmr_mission.output.plots import draw_all
     from wmr_mission.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     result = run_mission(load_mission(MISSIONS / "case1.yaml"))
-    pyplot()
     with tempfile.TemporaryDirectory() as tmp:
         draw_all(result, Path(tmp))  # fonts and caches
         four, animation = [], []

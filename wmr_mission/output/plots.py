@@ -48,6 +48,10 @@ __all__ = [
 
 MAX_POINTS_PER_LINE = 20_000
 DPI = 120
+PAD = 0.1  # margin round a figure's drawing [in]
+# Bottom of the estimation figure's axes: room below for its legend.
+ESTIMATION_BOTTOM = 0.14
+PNG_COMPRESSION = 1  # zlib level: fast, files about a fifth larger than at the default 6
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
 STATES = ("x", "y", "theta")
 FIGURE_FORMATS = ("png", "svg", "pdf")
@@ -65,6 +69,10 @@ REFERENCE_STYLE: dict[str, Any] = {
 CHARACTER_WIDTH = 0.009
 # Rows of the xy legend that fit beside the axes; longer legends take more columns.
 LEGEND_ROWS = 20
+# Phases the xy legend names; the others are counted in its last entry.
+MAX_LEGEND_PHASES = 2 * LEGEND_ROWS
+# Places of phase changes numbered on the xy figure, evenly chosen when there are more.
+MAX_CHANGE_LABELS = 40
 
 
 def thin(start: int, stop: int, max_points: int = MAX_POINTS_PER_LINE) -> IntArray:
@@ -130,9 +138,42 @@ def names_as_typed(drawn: Figure | Axes) -> None:
 
 
 def _save(fig: Figure, path: Path) -> Path:
+    """Write ``fig`` cropped to what is drawn, with a margin of PAD inches.
+
+    A PNG is drawn once and its pixels cropped: ``bbox_inches="tight"`` would
+    measure every text and then draw the figure a second time. Only when
+    something is drawn up to the canvas's edge (it may reach beyond) is it
+    drawn the way other formats are, measured and redrawn.
+    """
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight")
+        if path.suffix != ".png" or not _save_cropped(fig, tmp):
+            fig.savefig(tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight", pad_inches=PAD)
     return path
+
+
+def _save_cropped(fig: Figure, path: Path) -> bool:
+    """Draw ``fig`` once and write the part that holds its drawing as a PNG;
+    False (nothing written) when the drawing touches the canvas's edge."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    canvas: Any = FigureCanvasAgg(fig)
+    canvas.draw()
+    pixels = np.asarray(canvas.buffer_rgba())
+    drawn = np.any(pixels != pixels[0, 0], axis=2)  # the corner holds the background
+    rows, columns = np.flatnonzero(drawn.any(axis=1)), np.flatnonzero(drawn.any(axis=0))
+    if rows.size == 0:
+        return False
+    height, width = drawn.shape
+    if rows[0] == 0 or columns[0] == 0 or rows[-1] == height - 1 or columns[-1] == width - 1:
+        return False
+    pad = round(PAD * DPI)
+    top, bottom = max(0, rows[0] - pad), min(height, rows[-1] + 1 + pad)
+    left, right = max(0, columns[0] - pad), min(width, columns[-1] + 1 + pad)
+    image = Image.fromarray(pixels[top:bottom, left:right, :3])
+    # Fast compression: the default level takes longer than the drawing.
+    image.save(path, format="png", dpi=(DPI, DPI), compress_level=PNG_COMPRESSION)
+    return True
 
 
 # --- regions --------------------------------------------------------------
@@ -267,6 +308,10 @@ def _sample_at(result: RunResult, time: float) -> int:
 
 
 def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
+    """The estimate, the true path coloured by phase (one collection, whatever
+    the number of phases) and the reference (one line, broken between phases)."""
+    from matplotlib.collections import LineCollection
+
     every = thin(0, result.samples)
     ax.plot(
         finite(result.x_est[every]),
@@ -277,38 +322,50 @@ def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
         label="estimate",
         zorder=3,
     )
-    referenced = False
-    for index, start, end in phase_segments(result.phase):
-        # Include the next phase's first sample so the coloured pieces join.
-        k = thin(start, min(end + 1, result.samples))
-        ax.plot(
-            finite(result.x[k]),
-            finite(result.y[k]),
-            color=colors[index],
-            linewidth=2.2,
-            solid_capstyle="round",
+    segments = phase_segments(result.phase)
+    starts = np.array([start for _, start, _ in segments], dtype=np.int64)
+    # Thinned once for the whole run, each phase's first and last sample kept.
+    kept = np.union1d(every, np.concatenate((starts, np.maximum(starts - 1, 0))))
+    cuts = np.searchsorted(kept, starts[1:])
+    x, y = finite(result.x[kept]), finite(result.y[kept])
+    # Each piece runs to the next phase's first sample, so the coloured pieces join.
+    pieces = [
+        np.column_stack((x[a : b + 1], y[a : b + 1]))
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, kept.size - 1], strict=True)
+    ]
+    ax.add_collection(
+        LineCollection(
+            pieces,
+            colors=[colors[index] for index, _, _ in segments],
+            linewidths=2.2,
+            capstyle="round",
+            joinstyle="round",
             zorder=2,
-        )
-        ref = thin(start, end)
-        if np.isfinite(result.x_ref[ref]).any():
-            ax.plot(
-                finite(result.x_ref[ref]),
-                finite(result.y_ref[ref]),
-                label=None if referenced else "reference",
-                **REFERENCE_STYLE,
-            )
-            referenced = True
+        ),
+        autolim=False,
+    )
+    x_ref, y_ref = (
+        np.insert(finite(result.x_ref[kept]), cuts, np.nan),
+        np.insert(finite(result.y_ref[kept]), cuts, np.nan),
+    )
+    if np.isfinite(x_ref).any():
+        ax.plot(x_ref, y_ref, label="reference", **REFERENCE_STYLE)
 
 
 def _phase_handles(result: RunResult, colors: list[Any]) -> list[Any]:
     """One legend entry per phase that ran, numbered as on the figure."""
     from matplotlib.lines import Line2D
 
-    ran = sorted({int(i) for i in np.unique(result.phase)}) if result.samples else []
-    return [
+    ran = [int(i) for i in np.unique(result.phase)] if result.samples else []
+    shown = ran if len(ran) <= MAX_LEGEND_PHASES else ran[: MAX_LEGEND_PHASES - 1]
+    handles = [
         Line2D([], [], color=colors[i], linewidth=2.2, label=f"{i + 1} {result.phases[i].name}")
-        for i in ran
+        for i in shown
     ]
+    if len(shown) < len(ran):
+        more = f"... {len(ran) - len(shown)} more, to {ran[-1] + 1} {result.phases[ran[-1]].name}"
+        handles.append(Line2D([], [], linestyle="none", label=more))
+    return handles
 
 
 def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
@@ -384,33 +441,57 @@ def _missed_goal(result: RunResult) -> tuple[float, float, float] | None:
     return None
 
 
-def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
-    """Each phase change as a dot labelled with the number of the phase it enters;
-    changes at (nearly) one place share one label ("2,3")."""
-    changes = [tr for tr in result.transitions if tr.to_phase is not None]
+def _change_places(
+    result: RunResult, radius: float
+) -> list[tuple[tuple[float, float], dict[int, None]]]:
+    """Each place of phase changes and the numbers of the phases entered there,
+    in order: a change within ``radius`` of an earlier place joins the first such place."""
     number = {info.name: i + 1 for i, info in enumerate(result.phases)}
-    clusters: list[tuple[tuple[float, float], list[int]]] = []
-    for tr in changes:
+    places: list[tuple[tuple[float, float], dict[int, None]]] = []  # numbers kept in order
+    # Places by grid cell of side ``radius``: those near a point are in the 3 x 3 cells round it.
+    cells: dict[tuple[int, int], list[int]] = {}
+    for tr in result.transitions:
+        if tr.to_phase is None:
+            continue
         k = _sample_at(result, tr.time)
         point = (float(result.x[k]), float(result.y[k]))
         if not all(math.isfinite(v) for v in point):
             continue
-        close = next((c for c in clusters if math.dist(c[0], point) < 0.04 * size), None)
-        if close is None:
-            clusters.append((point, [number[str(tr.to_phase)]]))
-        elif number[str(tr.to_phase)] not in close[1]:
-            close[1].append(number[str(tr.to_phase)])
-    for i, (point, numbers) in enumerate(clusters):
-        ax.plot(
-            *point,
-            marker="o",
-            color="black",
-            markersize=3.5,
-            linestyle="none",
-            label="phase change (number of the next phase)" if i == 0 else None,
-            zorder=7,
-        )
-        shown = numbers if len(numbers) <= 4 else [*numbers[:3], "..."]
+        cx, cy = math.floor(point[0] / radius), math.floor(point[1] / radius)
+        near = [
+            i
+            for dx in (-1, 0, 1)
+            for dy in (-1, 0, 1)
+            for i in cells.get((cx + dx, cy + dy), ())
+            if math.dist(places[i][0], point) < radius
+        ]
+        if not near:
+            cells.setdefault((cx, cy), []).append(len(places))
+            places.append((point, {}))
+        places[min(near, default=len(places) - 1)][1][number[str(tr.to_phase)]] = None
+    return places
+
+
+def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
+    """Each phase change as a dot labelled with the number of the phase it enters;
+    changes at (nearly) one place share one label ("2,3"). At most
+    MAX_CHANGE_LABELS places are labelled, evenly chosen, so that the drawing
+    costs the same however many phases there are."""
+    places = _change_places(result, 0.04 * size)
+    if not places:
+        return
+    ax.plot(
+        [point[0] for point, _ in places],
+        [point[1] for point, _ in places],
+        marker="o",
+        color="black",
+        markersize=3.5,
+        linestyle="none",
+        label="phase change (number of the next phase)",
+        zorder=7,
+    )
+    for point, numbers in places[:: math.ceil(len(places) / MAX_CHANGE_LABELS)]:
+        shown = list(numbers) if len(numbers) <= 4 else [*list(numbers)[:3], "..."]
         ax.annotate(
             ",".join(str(n) for n in shown),
             point,
@@ -502,17 +583,32 @@ def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
 
 
 def _mark_phases(axes: Sequence[Axes], result: RunResult, colors: list[Any]) -> None:
-    """Phase boundaries as dotted lines; above the top plot, each phase's number,
-    and its name where its stretch is wide enough to hold it."""
+    """Phase boundaries as dotted lines (one collection per axes); above the top
+    plot, each phase's number, and its name where its stretch is wide enough to
+    hold it (the labels need room, so there are never more than about 50)."""
+    from matplotlib.collections import LineCollection
+
     segments = phase_segments(result.phase)
     t0 = float(result.t[0]) if result.samples else 0.0
     span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
+    changes = result.t[[start for _, start, _ in segments[1:]]]
+    # From the bottom to the top of each axes (x in data, y in axes units), as
+    # axvline draws them; they leave the data limits alone.
+    lines = [((time, 0.0), (time, 1.0)) for time in changes.tolist()]
+    for ax in axes:
+        ax.add_collection(
+            LineCollection(
+                lines,
+                transform=ax.get_xaxis_transform(),
+                colors="0.45",
+                linewidths=0.7,
+                linestyles=":",
+            ),
+            autolim=False,
+        )
     free_from = -math.inf  # where the previous label ends [s]
-    for number, (index, start, end) in enumerate(segments):
+    for index, start, end in segments:
         time = float(result.t[start])
-        if number > 0:
-            for ax in axes:
-                ax.axvline(time, color="0.45", linewidth=0.7, linestyle=":")
         stop = float(result.t[end - 1])
         name = result.phases[index].name
         # Label text takes about CHARACTER_WIDTH of the axis width per character.
@@ -676,15 +772,12 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         ncols=3,
         fontsize=8,
         frameon=False,
-        bbox_to_anchor=(0.5, -0.01),
+        bbox_to_anchor=(0.5, 0.0),
     )
     axes[-2].set_xlabel("t [s]")
     axes[-1].set_xlabel("t [s]")
     _mark_phases([axes[1], axes[3], axes[5]], result, phase_colors(result))
-    fig.suptitle(
-        f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate",
-        y=1.0,
-    )
+    fig.suptitle(f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate")
     names_as_typed(fig)
 
 
@@ -692,6 +785,8 @@ def plot_estimation_error(result: RunResult, axes: Sequence[Axes] | None = None)
     """Measurement - estimate against the eq. (4) bounds, and true - estimate, per state:
     six axes (3 rows x: start, whole run); returns the figure."""
     fig, chosen = _figure_axes(axes, (3, 2), (11, 7.5))
+    if axes is None:
+        fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
     _estimation_on(fig, chosen, result)
     return fig
 
@@ -748,13 +843,15 @@ def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
 
 def _write(result: RunResult, name: str, path: Path) -> Path:
     if name == "xy":
-        fig = _new_figure((9, 6.5))
+        fig = _new_figure((11.5, 6.5))
+        fig.subplots_adjust(left=0.07, right=0.74)  # the legend's room, on the canvas
         _xy_on(fig.add_subplot(), result)
     elif name == "states":
         fig = _new_figure((9, 7.5))
         _states_on(fig, list(fig.subplots(3, 1, sharex=True)), result)
     elif name == "estimation_error":
         fig = _new_figure((11, 7.5))
+        fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
         _estimation_on(fig, list(fig.subplots(3, 2, sharex="col").ravel()), result)
     else:
         fig = _new_figure((9, 5.5))

@@ -5,8 +5,8 @@
 | ``trajectory.csv`` | one row per sample (``TRAJECTORY_COLUMNS`` then ``EXTRA_COLUMNS``) |
 | ``manifest.json`` | mission file and hash, resolved mission, seed, versions, ``run`` |
 | ``transitions.json`` | each phase change |
-| ``*.png``, ``animation.gif`` | figures (optional) |
-| ``summary.json`` | metrics; written last: its presence means the directory is complete |
+| ``summary.json`` | metrics; written after the data: its presence means the data is complete |
+| ``*.png``, ``animation.gif`` | figures (optional), drawn last |
 
 Every file is written to a temporary file in the same directory, synced, and
 renamed over its final name, so an interrupted run never leaves a half-written
@@ -364,6 +364,11 @@ def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) 
     ``result.mission``), each of its `expect` thresholds with its verdict."""
     if mission is None:
         mission = result.mission
+    if result.judged is not None and mission is result.mission:
+        # Judged at the end of the run; a stop since names its signal in the message.
+        summary = dict(result.judged)
+        summary["outcome"], summary["message"] = result.outcome.value, result.message
+        return summary
     summary = summarize(result, mission)
     if mission is not None and isinstance(mission.get("expect"), Mapping):
         summary["expectations"] = check_expectations(summary, mission)
@@ -383,11 +388,12 @@ def write_run(
 ) -> list[Path]:
     """Write the run directory (made by ``prepare_run_dir``); return the files written.
 
-    ``summary.json`` comes last, so its presence marks a complete directory.
-    ``resolved_mission`` defaults to ``result.mission``; ``mission_sha256``
-    (the mission file's hash) to the hash of that resolved mission's JSON.
-    When it has an ``expect`` section, the summary also lists each
-    expectation and whether it was met. Figures are written in each of ``formats``.
+    The data first, then ``summary.json``, then the figures (``write_figures``),
+    so a figure that cannot be drawn never loses the data or the summary; the
+    claim is removed last. ``resolved_mission`` defaults to ``result.mission``;
+    ``mission_sha256`` (the mission file's hash) to the hash of that resolved
+    mission's JSON. When it has an ``expect`` section, the summary also lists
+    each expectation and whether it was met. Figures are written in each of ``formats``.
     """
     resolved = resolved_mission if resolved_mission is not None else (result.mission or {})
     if mission_sha256 is None:
@@ -406,7 +412,21 @@ def write_run(
             ),
         ),
         write_json(run_dir / TRANSITIONS_FILE, transitions_record(result.transitions)),
+        write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved)),
     ]
+    try:
+        written += write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
+    finally:
+        (run_dir / CLAIM_FILE).unlink(missing_ok=True)
+    return written
+
+
+def write_figures(
+    result: RunResult, run_dir: Path, *, plots: bool, animate: bool, formats: Sequence[str]
+) -> list[Path]:
+    """The four figures in each of ``formats`` and, with ``animate``, the
+    animation; return the files written."""
+    written = []
     if plots:
         from wmr_mission.output.plots import draw_all
 
@@ -415,6 +435,4 @@ def write_run(
         from wmr_mission.output.animation import write_animation
 
         written.append(write_animation(result, run_dir / ANIMATION_FILE))
-    written.append(write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved)))
-    (run_dir / CLAIM_FILE).unlink(missing_ok=True)
     return written
