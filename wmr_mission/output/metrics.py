@@ -109,10 +109,10 @@ def convergence_index(
     """First sample from which every |error| stays below its state's tolerance
     to the end, else None."""
     tolerance = DEFAULT_CONVERGENCE_TOLERANCE if tolerance is None else tolerance
-    stacked = np.abs(np.vstack(list(errors.values())))
-    limits = np.array([tolerance[state] for state in errors])[:, None]
-    # NaN compares False: a non-finite error is never converged.
-    converged = np.all(stacked < limits, axis=0)
+    converged = np.ones(len(next(iter(errors.values()))), dtype=bool)
+    for state, error in errors.items():  # state by state: no copy of all three
+        # NaN compares False: a non-finite error is never converged.
+        converged &= np.abs(error) < tolerance[state]
     if converged.size == 0:
         return None
     unconverged = np.flatnonzero(~converged)
@@ -156,20 +156,23 @@ def distance_to_path(
     """
     distance = np.full(x.shape, np.nan)
     known = np.isfinite(x_ref) & np.isfinite(y_ref)
-    px, py = x_ref[known], y_ref[known]
     finite = np.isfinite(x) & np.isfinite(y)
+    # Copies only where something is missing: a long run's columns are large.
+    px, py = (x_ref, y_ref) if known.all() else (x_ref[known], y_ref[known])
     if px.size == 0 or not finite.any():
         return distance
-    qx, qy = x[finite], y[finite]
+    qx, qy = (x, y) if finite.all() else (x[finite], y[finite])
     if px.size == 1:
         distance[finite] = np.hypot(qx - px[0], qy - py[0])
         return distance
     own = np.maximum(np.cumsum(known) - 1, 0)[finite]  # each sample's reference point
     steps = np.hypot(np.diff(px), np.diff(py))
     cell = float(np.median(steps[steps > 0])) / 2 if np.any(steps > 0) else 1.0
-    # One point per cell: the first the path passes in it.
-    cells = np.floor(px / cell), np.floor(py / cell)
-    _, first = np.unique(np.column_stack(cells), axis=0, return_index=True)
+    # One point per cell: the first the path passes in it (a stable sort by cell).
+    column, row = np.floor(px / cell), np.floor(py / cell)
+    order = np.lexsort((row, column))
+    column, row = column[order], row[order]
+    first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
     grid = _PointGrid(px[first], py[first], cell)
     found = np.empty(qx.size)
     last = px.size - 2  # segment i runs from point i to point i + 1

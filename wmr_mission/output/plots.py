@@ -25,7 +25,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wmr_mission.output.metrics import convergence_index, estimation_errors, phase_segments
+from wmr_mission.output.metrics import (
+    convergence_index,
+    estimation_errors,
+    phase_segments,
+    wrap_angle,
+)
 from wmr_mission.output.reader import RunDirError, load_run
 from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, IntArray, RunResult
@@ -49,6 +54,9 @@ __all__ = [
 MAX_POINTS_PER_LINE = 20_000
 DPI = 120
 PAD = 0.1  # margin round a figure's drawing [in]
+# Points per piece of a long line when drawing files: Agg's memory grows with
+# the length of one piece in pixels, so a run of many laps is drawn in pieces.
+LINE_PIECE = 1000
 # Bottom of the estimation figure's axes: room below for its legend.
 ESTIMATION_BOTTOM = 0.14
 PNG_COMPRESSION = 1  # zlib level: fast, files about a fifth larger than at the default 6
@@ -71,6 +79,8 @@ CHARACTER_WIDTH = 0.009
 LEGEND_ROWS = 20
 # Phases the xy legend names; the others are counted in its last entry.
 MAX_LEGEND_PHASES = 2 * LEGEND_ROWS
+# Phase boundaries drawn over time: about one per pixel of a figure's width.
+MAX_PHASE_LINES = 1000
 # Places of phase changes numbered on the xy figure, evenly chosen when there are more.
 MAX_CHANGE_LABELS = 40
 
@@ -145,7 +155,11 @@ def _save(fig: Figure, path: Path) -> Path:
     something is drawn up to the canvas's edge (it may reach beyond) is it
     drawn the way other formats are, measured and redrawn.
     """
-    with atomic_path(path) as tmp:
+    from matplotlib import rc_context
+
+    # Long lines in pieces: a line round many laps would otherwise take Agg
+    # tens of megabytes of scanline cells.
+    with atomic_path(path) as tmp, rc_context({"agg.path.chunksize": LINE_PIECE}):
         if path.suffix != ".png" or not _save_cropped(fig, tmp):
             fig.savefig(tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight", pad_inches=PAD)
     return path
@@ -279,8 +293,8 @@ def draw_regions(
 
 def view_box(result: RunResult) -> tuple[float, float, float, float]:
     """Data limits of the path, the reference, goals and bounded regions, with a margin."""
-    xs = [finite(result.x), finite(result.x_est), finite(result.x_ref)]
-    ys = [finite(result.y), finite(result.y_est), finite(result.y_ref)]
+    xs = [result.x, result.x_est, result.x_ref]
+    ys = [result.y, result.y_est, result.y_ref]
     marks = [p.target[:2] for p in result.phases if p.target is not None]
     marks += [p.near[:2] for p in result.phases if p.near is not None]
     marks += [point for p in result.phases for point in p.points]
@@ -292,13 +306,23 @@ def view_box(result: RunResult) -> tuple[float, float, float, float]:
         if extent is not None:
             xs.append(np.asarray(extent[:2], dtype=np.float64))
             ys.append(np.asarray(extent[2:], dtype=np.float64))
-    x_all, y_all = np.concatenate(xs), np.concatenate(ys)
-    x_all, y_all = x_all[np.isfinite(x_all)], y_all[np.isfinite(y_all)]
-    if x_all.size == 0 or y_all.size == 0:
+    x_range, y_range = _finite_range(xs), _finite_range(ys)
+    if x_range is None or y_range is None:
         return -1.0, 1.0, -1.0, 1.0
-    x0, x1, y0, y1 = x_all.min(), x_all.max(), y_all.min(), y_all.max()
+    (x0, x1), (y0, y1) = x_range, y_range
     margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
-    return float(x0 - margin), float(x1 + margin), float(y0 - margin), float(y1 + margin)
+    return x0 - margin, x1 + margin, y0 - margin, y1 + margin
+
+
+def _finite_range(arrays: list[FloatArray]) -> tuple[float, float] | None:
+    """Smallest and largest finite value of the arrays, one array at a time
+    (a long run's columns are not copied together)."""
+    low, high = math.inf, -math.inf
+    for values in arrays:
+        kept = values[np.isfinite(values)]
+        if kept.size:
+            low, high = min(low, float(kept.min())), max(high, float(kept.max()))
+    return (low, high) if low <= high else None
 
 
 def _sample_at(result: RunResult, time: float) -> int:
@@ -328,15 +352,20 @@ def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
     kept = np.union1d(every, np.concatenate((starts, np.maximum(starts - 1, 0))))
     cuts = np.searchsorted(kept, starts[1:])
     x, y = finite(result.x[kept]), finite(result.y[kept])
-    # Each piece runs to the next phase's first sample, so the coloured pieces join.
-    pieces = [
-        np.column_stack((x[a : b + 1], y[a : b + 1]))
-        for a, b in zip(np.r_[0, cuts], np.r_[cuts, kept.size - 1], strict=True)
-    ]
+    # Each phase's line runs to the next phase's first sample, so the coloured
+    # lines join; it is cut into pieces of LINE_PIECE points (for Agg's memory).
+    pieces, piece_colors = [], []
+    for (index, _, _), a, b in zip(
+        segments, np.r_[0, cuts], np.r_[cuts, kept.size - 1], strict=True
+    ):
+        for start in range(a, max(a + 1, b), LINE_PIECE - 1):
+            stop = min(start + LINE_PIECE, b + 1)
+            pieces.append(np.column_stack((x[start:stop], y[start:stop])))
+            piece_colors.append(colors[index])
     ax.add_collection(
         LineCollection(
             pieces,
-            colors=[colors[index] for index, _, _ in segments],
+            colors=piece_colors,
             linewidths=2.2,
             capstyle="round",
             joinstyle="round",
@@ -369,53 +398,58 @@ def _phase_handles(result: RunResult, colors: list[Any]) -> list[Any]:
 
 
 def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
-    """Regulate targets, `near` goals (a circle of their tolerance) and path points."""
+    """Regulate targets, `near` goals (a circle of their tolerance) and path
+    points: one artist per kind, however many phases."""
     from matplotlib import patches
+    from matplotlib.collections import PatchCollection
 
     targets = sorted({p.target[:2] for p in result.phases if p.target is not None})
-    for i, (tx, ty) in enumerate(targets):
+    if targets:
         ax.plot(
-            tx,
-            ty,
+            [t[0] for t in targets],
+            [t[1] for t in targets],
             marker="+",
             color="black",
             markersize=12,
             mew=1.5,
             linestyle="none",
-            label="target" if i == 0 else None,
+            label="target",
             zorder=6,
         )
     missed = _missed_goal(result)
     goals = sorted({p.near for p in result.phases if p.near is not None})
-    labelled: set[str] = set()
-    for gx, gy, tolerance in goals:
-        reached = (gx, gy, tolerance) != missed
-        color = "black" if reached else "tab:red"
-        label = "near goal" if reached else "near goal not reached"
-        if tolerance >= 0.005 * size:  # a tolerance circle too small to see is left out
-            ax.add_patch(
-                patches.Circle(
-                    (gx, gy),
-                    tolerance,
-                    fill=False,
-                    edgecolor=color,
-                    linewidth=0.8,
-                    linestyle="--",
+    reached = [goal for goal in goals if goal != missed]
+    for chosen, color, label in (
+        (reached, "black", "near goal"),
+        ([goal for goal in goals if goal == missed], "tab:red", "near goal not reached"),
+    ):
+        if not chosen:
+            continue
+        # A tolerance circle too small to see is left out.
+        circles = [patches.Circle((gx, gy), r) for gx, gy, r in chosen if r >= 0.005 * size]
+        if circles:
+            ax.add_collection(
+                PatchCollection(
+                    circles,
+                    facecolors="none",
+                    edgecolors=color,
+                    linewidths=0.8,
+                    linestyles="--",
                     zorder=6,
-                )
+                ),
+                autolim=False,
             )
         ax.plot(
-            gx,
-            gy,
+            [g[0] for g in chosen],
+            [g[1] for g in chosen],
             marker="x",
             color=color,
             markersize=7,
             mew=1.5,
             linestyle="none",
-            label=None if label in labelled else label,
+            label=label,
             zorder=6,
         )
-        labelled.add(label)
     points = sorted({point for p in result.phases for point in p.points})
     if points:
         ax.plot(
@@ -592,6 +626,9 @@ def _mark_phases(axes: Sequence[Axes], result: RunResult, colors: list[Any]) -> 
     t0 = float(result.t[0]) if result.samples else 0.0
     span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
     changes = result.t[[start for _, start, _ in segments[1:]]]
+    # At most one line per MAX_PHASE_LINES-th of the run: more would only fill it in.
+    _, apart = np.unique(np.floor((changes - t0) / span * MAX_PHASE_LINES), return_index=True)
+    changes = changes[apart]
     # From the bottom to the top of each axes (x in data, y in axes units), as
     # axvline draws them; they leave the data limits alone.
     lines = [((time, 0.0), (time, 1.0)) for time in changes.tolist()]
@@ -679,15 +716,25 @@ def plot_states(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
     return fig
 
 
-def _start_window(result: RunResult, errors: dict[str, FloatArray]) -> float:
+def _start_window(result: RunResult) -> float:
     """Seconds shown in the start column: five times the time the estimate
     takes to converge, at least 20 samples, at most the run."""
     if result.samples < 2:
         return 1.0
     duration = float(result.t[-1] - result.t[0])
-    converged = convergence_index(errors)
+    converged = convergence_index(estimation_errors(result))
     settle = float(result.t[converged] - result.t[0]) if converged is not None else duration
     return min(duration, max(5.0 * settle, 20.0 * result.dt, 0.1))
+
+
+def _errors_at(result: RunResult, state: str, k: IntArray) -> tuple[FloatArray, FloatArray]:
+    """Measurement - estimate and true - estimate of ``state`` at samples ``k``
+    (the heading's wrapped, as output.metrics.estimation_errors has it)."""
+    estimate = getattr(result, f"{state}_est")[k]
+    true_error = getattr(result, state)[k] - estimate
+    if state == "theta":
+        true_error = wrap_angle(true_error)
+    return finite(getattr(result, f"{state}_meas")[k] - estimate), finite(true_error)
 
 
 def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
@@ -696,21 +743,19 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     Eq. (4) bounds the output error, measurement - estimate, so the bounds are
     drawn with that; true - estimate, the estimation error, is drawn beside it.
     """
-    errors = estimation_errors(result)
-    window = _start_window(result, errors)
+    window = _start_window(result)
     early = thin(0, int(np.searchsorted(result.t, result.t[0] + window, side="right")))
     every = thin(0, result.samples)
     for row, (state, bounds) in enumerate(zip(STATES, result.error_bounds, strict=True)):
         unit = "rad" if state == "theta" else "m"
-        measured = getattr(result, f"{state}_meas")
-        output_error = finite(measured - getattr(result, f"{state}_est"))
-        true_error = finite(errors[state])
+        measured = bool(np.isfinite(getattr(result, f"{state}_meas")).any())
         for column, k in enumerate((early, every)):
             ax = axes[2 * row + column]
-            if np.isfinite(output_error).any():
+            output_error, true_error = _errors_at(result, state, k)
+            if measured:
                 ax.plot(
                     result.t[k],
-                    output_error[k],
+                    output_error,
                     color="tab:blue",
                     linewidth=1.8,
                     label="measurement - estimate",
@@ -718,7 +763,7 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
             # Dashed on top: without noise the two coincide, and both stay visible.
             ax.plot(
                 result.t[k],
-                true_error[k],
+                true_error,
                 color="tab:orange",
                 linewidth=1.0,
                 linestyle=(0, (3, 2)),
@@ -738,15 +783,14 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         # The whole run at the scale of the bounds and of the error after the start.
         late = every[result.t[every] > result.t[0] + window]
         reach = [abs(b) for b in bounds if math.isfinite(b)]
-        for values in (output_error, true_error):
-            tail = values[late]
+        for tail in _errors_at(result, state, late):
             tail = tail[np.isfinite(tail)]
             if tail.size:
                 reach.append(float(np.abs(tail).max()))
         top = 1.3 * max(max(reach, default=0.0), 1e-6)
         axes[2 * row + 1].set_ylim(-top, top)
         axes[2 * row].set_ylabel(f"{state} error [{unit}]")
-        if not np.isfinite(output_error).any():
+        if not measured:
             axes[2 * row + 1].text(
                 0.99,
                 0.04,

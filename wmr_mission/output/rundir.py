@@ -54,8 +54,9 @@ ANIMATION_FILE = "animation.gif"
 CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
 _FLOAT_FORMAT = "%.12g"
 # Rows formatted per `%` operation: one C-level formatting call per block keeps
-# a 360 000-sample run to about a second and a half.
-_ROWS_PER_BLOCK = 20_000
+# a 360 000-sample run to about a second and a half, and a block's Python
+# numbers to a few megabytes.
+_ROWS_PER_BLOCK = 4_000
 # Packages whose versions decide the numbers of a run.
 _VERSIONED_PACKAGES = ("numpy", "scipy", "pydantic", "numba", "matplotlib")
 
