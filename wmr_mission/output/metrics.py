@@ -40,7 +40,7 @@ JITTER_WINDOW = 25
 LOCAL_WINDOW = 8
 _NEAREST_POINTS = 4
 _DISTANCE_CHUNK = 4096  # positions per block: bounded memory on long runs
-_CANDIDATES = 1 << 18  # candidate distances per block of the nearest-points search
+_CANDIDATES = 1 << 16  # candidate distances per block of the nearest-points search
 
 # Mission-wide `expect` key -> where its value lives in the summary.
 _EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
