@@ -4,7 +4,7 @@
     python benchmarks/measure.py startup    # wall time of `run --no-plots`, cached and first
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
     python benchmarks/measure.py scale      # run time against samples (100 s and 1 h)
-    python benchmarks/measure.py figures    # case study 1's four figures and its animation
+    python benchmarks/measure.py figures    # case study 1's figures and animation; 10 000 phases
     python benchmarks/measure.py dare       # scipy's solve_discrete_are, one 3x3 call
     python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
 
@@ -88,24 +88,28 @@ def startup(repeat: int = 5) -> None:
     show("python -c 'import wmr_mission.runner, ...'", imports)
 
 
-def _peak_rss_mb(command: list[str]) -> float:
+def _peak_rss(command: list[str]) -> tuple[float, float]:
+    """Peak resident memory [MB] and wall time [s] of a command."""
     code = (
-        "import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, "
-        "capture_output=True); print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
+        "import resource, subprocess, sys, time; started = time.perf_counter(); "
+        "subprocess.run(sys.argv[1:], check=True, capture_output=True); "
+        "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, "
+        "time.perf_counter() - started)"
     )
     done = subprocess.run(
         [sys.executable, "-c", code, *command], check=True, capture_output=True, text=True
     )
-    return int(done.stdout) / 1024
+    rss_kb, wall = done.stdout.split()
+    return int(rss_kb) / 1024, float(wall)
 
 
 def memory() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         run = [sys.executable, "-m", "wmr_mission", "run", str(HOUR)]
-        plotted = _peak_rss_mb([*run, "--out", f"{tmp}/plots"])
-        bare = _peak_rss_mb([*run, "--out", f"{tmp}/bare", "--no-plots"])
+        plotted, _ = _peak_rss([*run, "--out", f"{tmp}/plots"])
+        bare, _ = _peak_rss([*run, "--out", f"{tmp}/bare", "--no-plots"])
         short = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "case2.yaml")]
-        small = _peak_rss_mb([*short, "--out", f"{tmp}/small", "--no-plots"])
+        small, _ = _peak_rss([*short, "--out", f"{tmp}/small", "--no-plots"])
     print(f"1-hour mission (360 001 samples): peak RSS {plotted:.0f} MB with figures, ")
     print(f"  {bare:.0f} MB without; case study 2 without figures: {small:.0f} MB")
 
@@ -154,6 +158,36 @@ def figures(repeat: int = 3) -> None:
         wall = statistics.median(t[0] for t in times)
         cpu = statistics.median(t[1] for t in times)
         print(f"case1, {what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
+    # A mission of many short phases: `run` with and without its figures.
+    with tempfile.TemporaryDirectory() as tmp:
+        mission = Path(tmp) / "phases.yaml"
+        mission.write_text(MANY_PHASES)
+        run = [sys.executable, "-m", "wmr_mission", "run", str(mission)]
+        bare_rss, bare_wall = _peak_rss([*run, "--no-plots", "--out", f"{tmp}/bare"])
+        plotted_rss, plotted_wall = _peak_rss([*run, "--out", f"{tmp}/plotted"])
+    print(
+        f"10 000 phases, 50 001 samples: run {plotted_wall:.1f} s and {plotted_rss:.0f} MB "
+        f"with figures, {bare_wall:.1f} s and {bare_rss:.0f} MB without"
+    )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+# 10 000 phases of 0.05 s: a repeat of a lap piece and a pause, 5 000 times.
+MANY_PHASES = """version: 1
+name: phases
+estimator: {type: constrained-observer, initial_estimate: {x: 0, y: 0, theta: 0}}
+phases:
+  - name: laps
+    repeat:
+      times: 5000
+      phases:
+        - name: go
+          track: {path: {type: circle, center: [0, 1], radius: 1, angular_rate: 1}}
+          until: {elapsed: 0.05}
+        - name: pause
+          hold: {}
+          until: {elapsed: 0.05}
+"""
 
 
 def dare(repeat: int = 200) -> None:

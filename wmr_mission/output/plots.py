@@ -173,8 +173,8 @@ def _save_cropped(fig: Figure, path: Path) -> bool:
 
     canvas: Any = FigureCanvasAgg(fig)
     canvas.draw()
-    pixels = np.asarray(canvas.buffer_rgba())
-    drawn = np.any(pixels != pixels[0, 0], axis=2)  # the corner holds the background
+    pixels = np.asarray(canvas.buffer_rgba()).view(np.uint32)[:, :, 0]  # one RGBA pixel each
+    drawn = pixels != pixels[0, 0]  # the corner holds the background
     rows, columns = np.flatnonzero(drawn.any(axis=1)), np.flatnonzero(drawn.any(axis=0))
     if rows.size == 0:
         return False
@@ -182,11 +182,17 @@ def _save_cropped(fig: Figure, path: Path) -> bool:
     if rows[0] == 0 or columns[0] == 0 or rows[-1] == height - 1 or columns[-1] == width - 1:
         return False
     pad = round(PAD * DPI)
-    top, bottom = max(0, rows[0] - pad), min(height, rows[-1] + 1 + pad)
-    left, right = max(0, columns[0] - pad), min(width, columns[-1] + 1 + pad)
-    image = Image.fromarray(pixels[top:bottom, left:right, :3])
+    box = (
+        max(0, int(columns[0]) - pad),
+        max(0, int(rows[0]) - pad),
+        min(width, int(columns[-1]) + 1 + pad),
+        min(height, int(rows[-1]) + 1 + pad),
+    )
+    image = Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
     # Fast compression: the default level takes longer than the drawing.
-    image.save(path, format="png", dpi=(DPI, DPI), compress_level=PNG_COMPRESSION)
+    image.crop(box).convert("RGB").save(
+        path, format="png", dpi=(DPI, DPI), compress_level=PNG_COMPRESSION
+    )
     return True
 
 
