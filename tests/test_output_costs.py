@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 from scipy.spatial import cKDTree
+from test_output_figures import _many_phases
 from test_output_synthetic import circle_run
 
 import wmr_mission.output.metrics as metrics_module
@@ -24,7 +25,7 @@ from wmr_mission.output.metrics import LOCAL_WINDOW, _PointGrid, distance_to_pat
 from wmr_mission.output.plots import MAX_LEGEND_PHASES
 from wmr_mission.output.reader import load_run
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
-from wmr_mission.result import PhaseInfo, RunResult, Transition
+from wmr_mission.result import PhaseInfo, RunResult
 from wmr_mission.run_command import run_command
 
 MISSION = """version: 1
@@ -236,20 +237,14 @@ def test_distance_to_path_on_random_paths_against_brute_force(samples: int) -> N
 def _cut(count: int) -> RunResult:
     """A 20 000-sample run cut into ``count`` phases of equal length, every
     other one a regulate phase with a target of its own and a `near` goal."""
-    run = circle_run(20_000)
+    run = _many_phases(count, 20_000)
     phases = [
-        PhaseInfo(f"leg-{i + 1}", "track", near=(math.cos(i), math.sin(i), 0.3))
+        replace(info, near=(math.cos(i), math.sin(i), 0.3))
         if i % 2
-        else PhaseInfo(f"leg-{i + 1}", "regulate", target=(math.cos(i), math.sin(i), 0.0))
-        for i in range(count)
+        else replace(info, kind="regulate", target=(math.cos(i), math.sin(i), 0.0))
+        for i, info in enumerate(run.phases)
     ]
-    phase = (np.arange(run.samples) * count // run.samples).astype(np.int64)
-    starts = np.flatnonzero(np.diff(phase)) + 1
-    transitions = [
-        Transition(float(run.t[k]), phases[i].name, phases[i + 1].name, "elapsed", 1.0)
-        for i, k in enumerate(starts)
-    ]
-    return replace(run, phases=phases, phase=phase, transitions=transitions)
+    return replace(run, phases=phases)
 
 
 def _artists(run: RunResult) -> list[int]:

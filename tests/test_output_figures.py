@@ -29,9 +29,9 @@ from wmr_mission.result import PhaseInfo, RunResult, Transition
 from wmr_mission.spec.models import NAMED_COLORS
 
 
-def _many_phases(count: int) -> RunResult:
+def _many_phases(count: int, samples: int = 2001) -> RunResult:
     """circle_run cut into ``count`` phases of equal length."""
-    run = circle_run()
+    run = circle_run(samples)
     phases = [PhaseInfo(f"leg-{i + 1}", "track") for i in range(count)]
     phase = (np.arange(run.samples) * count // run.samples).astype(np.int64)
     starts = np.flatnonzero(np.diff(phase)) + 1
