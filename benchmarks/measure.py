@@ -1,7 +1,9 @@
 """The figures of docs/performance.md that ``wmr-mission bench`` does not give.
 
     python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
-    python benchmarks/measure.py startup    # wall time of `run --no-plots`, cached and first
+    python benchmarks/measure.py startup    # wall time of `run --no-plots`: first, second, cached
+    python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
+    python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
     python benchmarks/measure.py scale      # run time against samples (100 s and 1 h)
     python benchmarks/measure.py figures    # case study 1's figures and animation; 10 000 phases
@@ -66,27 +68,150 @@ def _wall(command: list[str], env: dict[str, str] | None = None) -> tuple[float,
     return wall, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
 
 
+# Where loading the cached compiled loop goes, in a process of its own.
+_LOADING = """
+import sys, time
+import numpy
+from wmr_mission.compiled import compile_mission
+from wmr_mission.spec.loader import load_mission
+mission = load_mission(sys.argv[1])
+t0 = time.perf_counter()
+from wmr_mission import _jit  # numba, its array-math module loaded without scipy
+t1 = time.perf_counter()
+from numba.core.registry import cpu_target
+cpu_target.target_context.refresh()
+t2 = time.perf_counter()
+from wmr_mission import runner
+t3 = time.perf_counter()
+runner.run_mission(compile_mission(mission))
+t4 = time.perf_counter()
+runner.run_mission(compile_mission(mission))
+t5 = time.perf_counter()
+_jit.ticks()  # a run does not call it: what one more compiled entry would cost
+t6 = time.perf_counter()
+print(f"numba import {t1 - t0:.3f} s, numba's target set-up {t2 - t1:.3f} s, "
+      f"declaring the kernels {t3 - t2:.3f} s, first run_mission (loads run_segment) "
+      f"{t4 - t3:.3f} s, second {t5 - t4:.3f} s; one more entry (ticks) {t6 - t5:.3f} s")
+"""
+
+
 def startup(repeat: int = 5) -> None:
+    """What a user sees after an install: the first run (plain Python, the loop
+    compiling in the background), a second run while it compiles, the runs after
+    it finished; and a run that compiles in the foreground (a long mission)."""
+    from wmr_mission.background_compile import FOREGROUND, NO_JIT, READY
+
     run = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "case2.yaml"), "--no-plots"]
+    user = {k: v for k, v in os.environ.items() if k not in (FOREGROUND, NO_JIT)}
     with tempfile.TemporaryDirectory() as tmp:
-        _wall([*run, "--out", f"{tmp}/warm"])
-        cached = [_wall([*run, "--out", f"{tmp}/cached{i}"]) for i in range(repeat)]
-        # A cache directory of its own: every kernel compiles, as after an install.
-        env = {**os.environ, "NUMBA_CACHE_DIR": f"{tmp}/fresh-cache"}
+        # A cache directory of its own: nothing compiled yet, as after an install.
+        env = {**user, "NUMBA_CACHE_DIR": f"{tmp}/cache"}
+        started = time.perf_counter()
         first = _wall([*run, "--out", f"{tmp}/first"], env)
+        second = _wall([*run, "--out", f"{tmp}/second"], env)
+        ready = Path(tmp, "cache", "wmr_mission", READY)
+        while not ready.exists():
+            if time.perf_counter() - started > 600:
+                raise SystemExit("the background compile did not finish within 10 minutes")
+            time.sleep(0.2)
+        compiled_after = time.perf_counter() - started
+        cached = [_wall([*run, "--out", f"{tmp}/cached{i}"], env) for i in range(repeat)]
+        foreground = {**env, "NUMBA_CACHE_DIR": f"{tmp}/fresh", FOREGROUND: "1"}
+        compiling = _wall([*run, "--out", f"{tmp}/foreground"], foreground)
         imports = [
-            _wall([sys.executable, "-c", "import wmr_mission.run_command, wmr_mission.runner"])
+            _wall([sys.executable, "-c", "import wmr_mission.run_command, wmr_mission.runner"], env)
             for _ in range(repeat)
         ]
+        loading = subprocess.run(
+            [sys.executable, "-c", _LOADING, str(MISSIONS / "case2.yaml")],
+            env=env,
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout
 
     def show(what: str, times: list[tuple[float, float]]) -> None:
         wall = statistics.median(t[0] for t in times)
         cpu = statistics.median(t[1] for t in times)
         print(f"{what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
 
-    show("run --no-plots case2, cached kernels", cached)
-    show("run --no-plots case2, first run (every kernel compiled)", [first])
-    show("python -c 'import wmr_mission.runner, ...'", imports)
+    show("run --no-plots case2, first run after install (plain Python)", [first])
+    show("run --no-plots case2, second run (the loop still compiling)", [second])
+    print(f"background compile done {compiled_after:.1f} s after the first run started")
+    show("run --no-plots case2, after the background compile (compiled, cached)", cached)
+    show(
+        "run --no-plots case2, compiling in the foreground (a long mission's first run)",
+        [compiling],
+    )
+    show("python -c 'import wmr_mission.run_command, wmr_mission.runner'", imports)
+    print(f"loading the compiled loop, step by step: {loading.strip()}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def plain() -> None:
+    """Every example mission as plain Python: its sample budget (what `run`
+    compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample."""
+    os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the kernels are declared
+    from wmr_mission.background_compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.runner import run_mission
+    from wmr_mission.spec.loader import load_mission
+
+    print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
+    for path in sorted(MISSIONS.glob("*.yaml")):
+        mission = compile_mission(load_mission(path))
+        started = time.perf_counter()
+        result = run_mission(mission)
+        seconds = time.perf_counter() - started
+        print(
+            f"  {path.name:20s} budget {mission.max_samples:6d}, ran {result.samples:6d} samples "
+            f"in {seconds:5.2f} s: {seconds / result.samples * 1e6:4.0f} us per sample"
+        )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def compile_times(mission: str = "case2") -> None:
+    """Numba's compile events for a first run of a case study, with an empty
+    cache: seconds spent in each function itself (callees excluded)."""
+    import collections
+    import shutil
+
+    cache = tempfile.mkdtemp()
+    os.environ["NUMBA_CACHE_DIR"] = cache  # before numba loads
+    os.environ.pop("WMR_MISSION_NO_JIT", None)
+    from numba.core import event
+
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.spec.loader import load_mission
+
+    events = event.RecordingListener()
+    event.register("numba:compile", events)
+    from wmr_mission.runner import run_mission
+
+    started = time.perf_counter()
+    run_mission(compile_mission(load_mission(MISSIONS / f"{mission}.yaml")))
+    wall = time.perf_counter() - started
+    shutil.rmtree(cache)
+    own: dict[str, float] = collections.defaultdict(float)
+    count: collections.Counter[str] = collections.Counter()
+    open_events: list[list[float]] = []  # [start, seconds in callees]
+    for stamp, record in events.buffer:
+        if record.is_start:
+            open_events.append([stamp, 0.0])
+            continue
+        start, callees = open_events.pop()
+        name = record.data["dispatcher"].py_func.__qualname__
+        own[name] += stamp - start - callees
+        count[name] += 1
+        if open_events:
+            open_events[-1][1] += stamp - start
+    print(f"{mission}: first run_mission, every kernel compiled: {wall:.1f} s wall")
+    for name, seconds in sorted(own.items(), key=lambda item: -item[1])[:12]:
+        print(f"  {name:40s} {seconds:5.2f} s in {count[name]} compile(s)")
+    print(
+        f"  all {len(own)} functions: {sum(own.values()):.1f} s in {sum(count.values())} compiles"
+    )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
 def _peak_rss(command: list[str]) -> tuple[float, float]:
@@ -285,7 +410,8 @@ def dlqr(repeat: int = 200) -> None:
 
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
-    jobs = {"loop": loop, "startup": startup, "memory": memory, "scale": scale}
+    jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
+    jobs |= {"plain": plain, "scale": scale}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     if what not in jobs:
         print(__doc__, file=sys.stderr)

@@ -12,6 +12,7 @@ import os
 import platform
 import sys
 import time
+import types
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
@@ -71,6 +72,25 @@ def kernel(fn: F) -> F:
     # pure-Python build, never a Python exception out of the compiled loop;
     # the runner reports a non-finite input or state as a divergence.
     return _compile(fn, nogil=True, error_model="numpy")
+
+
+def plain(function: F, _made: dict[int, Any] | None = None) -> F:
+    """The plain-Python form of a kernel, calling the plain-Python form of the
+    kernels it calls: the same bytes, and no compiled entry loaded from the
+    cache (each costs tens of milliseconds) for a call made once per run."""
+    source = getattr(function, "py_func", None)
+    if source is None:
+        return function
+    made = {} if _made is None else _made
+    if id(function) not in made:
+        namespace = dict(source.__globals__)
+        made[id(function)] = types.FunctionType(
+            source.__code__, namespace, source.__name__, source.__defaults__, source.__closure__
+        )
+        for name, value in namespace.items():
+            if hasattr(value, "py_func"):
+                namespace[name] = plain(value, made)
+    return cast(F, made[id(function)])
 
 
 def _time_stamp_counter() -> Callable[[], int] | None:

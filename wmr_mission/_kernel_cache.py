@@ -17,6 +17,7 @@ numba's own cache has two gaps this closes:
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import sys
@@ -65,8 +66,10 @@ def _candidates() -> list[tuple[Path, bool]]:
     return candidates
 
 
+@functools.cache
 def cache_directory() -> Path | None:
-    """The first writable cache directory, or None; prints the notice."""
+    """The first writable cache directory, or None; prints the notice (once:
+    `run` asks before the kernels are declared, wmr_mission._jit after)."""
     for directory, notice in _candidates():
         if _writable(directory):
             if notice:
@@ -106,6 +109,8 @@ def install(directory: Path) -> bool:
 
     class KernelLocator(base):  # type: ignore[misc, valid-type]
         def __init__(self, py_func: Any, py_file: str) -> None:
+            # numba names the source file in its "cannot cache" warnings.
+            self._py_file = py_file
             self._lineno = py_func.__code__.co_firstlineno
             self._path = str(directory)
 

@@ -211,6 +211,23 @@ def tracking_error_decay(mission: Mission) -> float:
     return math.exp(-float(mission.robot.dt) / float(tracking.time_constant))
 
 
+def sample_budget(mission: Mission) -> int:
+    """The samples a run may take: each phase's bound (its timeout or elapsed
+    time, 60 s without either) summed over the phases as run. Loads no kernel."""
+    from wmr_mission.spec.repeats import run_order
+
+    dt = float(mission.robot.dt)
+    budget = 0
+    for run in run_order(mission):
+        phase = run.phase
+        until = phase.until
+        bounds = [
+            b for b in (phase.timeout, None if until is None else until.elapsed) if b is not None
+        ]
+        budget += _samples(min(bounds), dt) + 1 if bounds else _samples(60.0, dt)
+    return budget + 1
+
+
 def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
     """Turn a validated mission into the runner's plain form."""
     from wmr_mission import paths, regions
@@ -218,7 +235,6 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
 
     dt = float(mission.robot.dt)
     phases: list[CompiledPhase] = []
-    budget = 0
     for run in run_order(mission):  # repeats written out, one phase per lap
         phase = run.phase
         until = phase.until
@@ -245,15 +261,6 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 if until.heading is None
                 else (until.heading.target, until.heading.tolerance),
             )
-        bounds = [
-            b
-            for b in (
-                phase.timeout,
-                None if until is None else until.elapsed,
-            )
-            if b is not None
-        ]
-        budget += _samples(min(bounds), dt) + 1 if bounds else _samples(60.0, dt)
         constraints = []
         row_parts = []
         for constraint in phase.constraints:
@@ -385,6 +392,6 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         reverse=controller.regulation.reverse,
         phases=tuple(phases),
         regions={name: region.model_dump(mode="json") for name, region in mission.regions.items()},
-        max_samples=budget + 1,
+        max_samples=sample_budget(mission),
         runaway_position=RUNAWAY_DISTANCE + _extent(mission),
     )

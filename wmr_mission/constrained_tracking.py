@@ -145,7 +145,8 @@ def keep_constraints(
     t10 = b[1, 0] + look_ahead * c * b[2, 0]
     t11 = b[1, 1] + look_ahead * c * b[2, 1]
     a, eta, h = work.d, work.eta, work.h
-    count = 0
+    # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
+    count = int(np.int64(0))
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], look_ahead, qx, qy)
         if value <= 0.0:

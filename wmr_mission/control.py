@@ -119,7 +119,8 @@ def track_input(
     )
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
     input_jacobian_into(estimate[2], v_prev, omega_prev, dt, b)
-    dv, dw = corrective_input(d, eta, 2, b, controller.w, controller.m, robot.limits)
+    both = int(np.int64(2))  # not the literal 2: one compiled corrective_input for all
+    dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
     u_out[0], u_out[1] = saturate(
         v_prev + dv, omega_prev + dw, v_prev, omega_prev, robot.limits, dt
     )
@@ -284,7 +285,8 @@ def regulate_input(
     # eq. (28): predict with the regulator's input, find the violated rows.
     px, py, _ = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
     d, eta, b = work.d, work.eta, work.b
-    count = 0
+    # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
+    count = int(np.int64(0))
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value(row_kinds[i], row_params[i], px, py)
         if value <= 0.0:

@@ -70,7 +70,10 @@ def ekf_predict(
     estimate[0], estimate[1], estimate[2] = _predict(
         estimate, covariance, v, omega, dt, params.process_var, work
     )
-    covariance[:, :] = work[0]
+    # Element by element: a slice assignment compiles numba's shape-error text (~3 s).
+    for i in range(3):
+        for j in range(3):
+            covariance[i, j] = work[0, i, j]
 
 
 @kernel
@@ -138,7 +141,9 @@ def ekf_step(
         estimate[0] = px
         estimate[1] = py
         estimate[2] = pth
-        p[:, :] = pp
+        for i in range(3):
+            for j in range(3):
+                p[i, j] = pp[i, j]
         return
     estimate[0] = px + k[0, 0] * r0 + k[0, 1] * r1 + k[0, 2] * r2
     estimate[1] = py + k[1, 0] * r0 + k[1, 1] * r1 + k[1, 2] * r2

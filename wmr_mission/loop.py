@@ -57,6 +57,7 @@ K = 0  # the sample the loop is at
 ITERATIONS = 1  # phase-II iterations of the estimator's last update
 DRAWS = 2  # next unused row of the block of draws
 CONDITION = 3  # the exit condition that fired
+CLOCK = 4  # ticks() as the call returned: Python reads the clock without calling it
 
 
 class Phase(NamedTuple):
@@ -100,7 +101,7 @@ class Signals(NamedTuple):
     observer_gain: FloatArray  # (3, 3) L of eq. (6), scratch
     ekf_work: FloatArray  # (4, 3, 3) EKF scratch
     memory: FloatArray  # (3,) the phase's controller memory (wmr_mission.control)
-    counters: IntArray  # K, ITERATIONS, DRAWS, CONDITION
+    counters: IntArray  # K, ITERATIONS, DRAWS, CONDITION, CLOCK
     exit_value: FloatArray  # (1,) the value of the condition that fired
     commands: FloatArray  # (d + 1, 2) the last commands, for the input delay
     applied: FloatArray  # (2,) the input the plant applies (delayed, lagged)
@@ -384,6 +385,7 @@ def run_segment(
     counters[K] = k
     counters[ITERATIONS] = iterations
     counters[DRAWS] = cursor
+    counters[CLOCK] = ticks()
     return status
 
 

@@ -125,7 +125,8 @@ def _run(
     formats: Sequence[str],
     received: list[int],
 ) -> int:
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.background_compile import prepare
+    from wmr_mission.compiled import compile_mission, sample_budget
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
         RunDirExistsError,
@@ -137,6 +138,10 @@ def _run(
         write_run,
     )
 
+    # Before any kernel is declared: plain Python while the loop is not compiled.
+    notice = prepare(sample_budget(mission))
+    if notice is not None:
+        print(notice, file=sys.stderr)
     compiled = compile_mission(mission, seed)
     run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
     try:

@@ -122,7 +122,7 @@ class ActivePhase:
         reaches_sign = 0.0
         if reaches_kinds.shape[0]:
             reaches_sign = math.copysign(
-                1.0, max_row_value(reaches_kinds, reaches_params, pose[0], pose[1])
+                1.0, _max_row_value(reaches_kinds, reaches_params, pose[0], pose[1])
             )
         kinds, params = phase.constraint_rows
         return Phase(
@@ -158,6 +158,10 @@ class ActivePhase:
         )
         return PathBlock(local_sample, np.ascontiguousarray(block, dtype=np.float64))
 
+
+# Called once per phase or run: plain Python (wmr_mission._jit.plain).
+_max_row_value = _jit.plain(max_row_value)
+_record_sample = _jit.plain(loop.record_sample)
 
 ProgressCallback = Callable[[float, float, str], None]
 
@@ -232,7 +236,6 @@ class _Run:
         self.scratch = scratch()
         if functions is FAST:
             self.segment: Callable[..., int] = loop.run_segment
-            self.ticks: Callable[[], int] = _jit.ticks
             self.ticks_are_ns = _jit.TICKS_ARE_NS
         else:
             self.segment = loop.python_loop(
@@ -244,7 +247,6 @@ class _Run:
                     "ticks": time.perf_counter_ns,
                 }
             )
-            self.ticks = time.perf_counter_ns
             self.ticks_are_ns = True
         m = mission
         self.signals = Signals(
@@ -259,17 +261,20 @@ class _Run:
             observer_gain=np.zeros((3, 3)),
             ekf_work=np.zeros((4, 3, 3)),
             memory=np.zeros(3),
-            counters=np.zeros(4, dtype=np.int64),
+            counters=np.zeros(loop.CLOCK + 1, dtype=np.int64),
             exit_value=np.zeros(1),
             commands=np.zeros((self.disturbances.input_delay + 1, 2)),
             applied=np.zeros(2),
             burst=np.zeros(1, dtype=np.int64),
         )
         self.loop_ns = 0
-        self._started = (time.perf_counter_ns(), self.ticks())
+        # The wall clock and the loop's ticks at the loop's start and at its
+        # last return, to convert ticks to nanoseconds.
+        self._started = (time.perf_counter_ns(), 0)
+        self._returned_ns = self._started[0]
 
     def _call(self, phase: Phase, path: PathBlock, draws: FloatArray, stop: int) -> int:
-        return int(
+        status = int(
             self.segment(
                 self.robot,
                 self.estimator,
@@ -284,6 +289,8 @@ class _Run:
                 stop,
             )
         )
+        self._returned_ns = time.perf_counter_ns()
+        return status
 
     def run(self) -> RunResult:
         try:
@@ -316,7 +323,7 @@ class _Run:
         outcome = Outcome.success
         message = "all phases completed"
         budget = m.max_samples * dt
-        self._started = (time.perf_counter_ns(), self.ticks())
+        self._started = (self._returned_ns, int(counters[loop.CLOCK]))
         index = 0
         chunk = min(FIRST_CHUNK, CHUNK)
         while True:
@@ -380,8 +387,7 @@ class _Run:
     def _close(self, k: int, phase: Phase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""
         s = self.signals
-        record = loop.record_sample if self.segment is loop.run_segment else _py(loop.record_sample)
-        record(
+        _record_sample(
             self.recorder.record, phase, k * self.m.dt, s.state[0], s.state[1], s.state[2],
             s.estimate, s.u_prev, math.nan, math.nan, int(s.counters[loop.ITERATIONS]), s.measured,
         )  # fmt: skip
@@ -412,9 +418,8 @@ class _Run:
     def _result(self, outcome: Outcome, message: str) -> RunResult:
         started_ns, started_ticks = self._started
         self.loop_ns = time.perf_counter_ns() - started_ns
-        ns_per_tick = (
-            1.0 if self.ticks_are_ns else self.loop_ns / max(1, self.ticks() - started_ticks)
-        )
+        ticks = int(self.signals.counters[loop.CLOCK]) - started_ticks
+        ns_per_tick = 1.0 if self.ticks_are_ns else (self._returned_ns - started_ns) / max(1, ticks)
         r = self.recorder
         n = r.count
         m = self.m
@@ -479,8 +484,3 @@ class _Run:
         if active.phase.kind == "track" or active.status == Status.pending:
             return active.phase.target
         return (float(active.target[0]), float(active.target[1]), float(active.target[2]))
-
-
-def _py(function: Callable[..., int]) -> Callable[..., int]:
-    """The plain-Python form of a kernel."""
-    return getattr(function, "py_func", function)

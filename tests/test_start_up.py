@@ -1,0 +1,244 @@
+"""Start-up: the first run after an install runs as plain Python while the
+loop compiles in a background process (wmr_mission.background_compile); the
+kernel cache's locator; the plain-Python form of a kernel."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import shutil
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from wmr_mission import _jit, _kernel_cache, background_compile, loop, runner
+from wmr_mission.compiled import compile_mission
+from wmr_mission.output.rundir import write_trajectory
+from wmr_mission.runner import run_mission
+from wmr_mission.spec.loader import load_mission
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+PLAIN_NOTICE = "running as plain Python while the simulation loop compiles in the background"
+
+pytestmark = pytest.mark.skipif(not _jit.COMPILED, reason="the compiled build only")
+
+
+def _env(cache: Path, **more: str) -> dict[str, str]:
+    """A user's environment, without the test suite's setting, the kernel cache in ``cache``."""
+    env = {
+        key: value
+        for key, value in os.environ.items()
+        if key not in (background_compile.FOREGROUND, background_compile.NO_JIT)
+    }
+    return {**env, "NUMBA_CACHE_DIR": str(cache), **more}
+
+
+# Runs `wmr-mission run` with the background process replaced by a record of
+# its start: the process itself is tested on its own below.
+RUN_RECORDING_THE_START = """
+import atexit, os, sys, tempfile
+record = sys.argv.pop(1)
+if sys.argv[1] == "--unwritable":  # no directory can be written (as root too)
+    sys.argv.pop(1)
+    def unwritable(*args, dir=None, **kwargs):
+        raise PermissionError(13, "Permission denied", str(dir))
+    tempfile.TemporaryFile = unwritable
+from wmr_mission import background_compile
+def start():
+    with open(record, "a") as f:
+        f.write(f"started, NO_JIT={os.environ.get('WMR_MISSION_NO_JIT')}\\n")
+background_compile._start = start
+def loaded():
+    # Each compiled function Python calls loads its own cache entry.
+    called = sorted({
+        value.py_func.__name__
+        for name, module in list(sys.modules.items()) if name.startswith("wmr_mission")
+        for value in vars(module).values() if getattr(value, "signatures", None)
+    })
+    with open(record, "a") as f:
+        f.write(f"numba loaded: {'numba' in sys.modules}\\n")
+        if called:
+            f.write(f"compiled entries: {' '.join(called)}\\n")
+atexit.register(loaded)
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import main
+main()
+"""
+
+
+def _run(env: dict[str, str], out: Path, record: Path, mission: str = "case2", *flags: str) -> str:
+    run = ["run", str(MISSIONS / f"{mission}.yaml"), "--no-plots", "--out", str(out)]
+    done = subprocess.run(
+        [sys.executable, "-c", RUN_RECORDING_THE_START, str(record), *flags, *run],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    return done.stderr
+
+
+@pytest.mark.slow
+def test_a_first_run_runs_as_plain_python_and_starts_the_compile(tmp_path: Path) -> None:
+    record = tmp_path / "record"
+    stderr = _run(_env(tmp_path / "empty-cache"), tmp_path / "first", record)
+    assert stderr.count(PLAIN_NOTICE) == 1, stderr
+    # Started once, without the plain-Python setting: it compiles.
+    assert record.read_text().splitlines() == ["started, NO_JIT=None", "numba loaded: False"]
+    compiled = write_trajectory(run_mission(load_mission(MISSIONS / "case2.yaml")), tmp_path / "c")
+    assert (tmp_path / "first" / "trajectory.csv").read_bytes() == compiled.read_bytes()
+
+
+@pytest.mark.slow
+def test_without_a_writable_cache_a_short_run_is_plain_python_and_starts_nothing(
+    tmp_path: Path,
+) -> None:
+    record = tmp_path / "record"
+    stderr = _run(_env(tmp_path / "c"), tmp_path / "first", record, "fence", "--unwritable")
+    assert "running as plain Python: no cache" in stderr
+    assert record.read_text().splitlines() == ["numba loaded: False"]
+
+
+def _cache_of_this_session(tmp_path: Path) -> Path:
+    """A copy of the kernels this test session compiled (their index does not
+    name its directory)."""
+    run_mission(compile_mission(load_mission(MISSIONS / "fence.yaml")))
+    source = _kernel_cache.cache_directory()
+    assert source is not None
+    cache = tmp_path / "cache"
+    shutil.copytree(
+        source,
+        cache / "wmr_mission",
+        ignore=shutil.ignore_patterns("*.lock", "*.pyc", background_compile.READY),
+    )
+    return cache
+
+
+def test_the_background_compile_marks_the_cache_ready(tmp_path: Path) -> None:
+    """Here on kernels already compiled, so that it takes seconds, not a compile."""
+    cache = _cache_of_this_session(tmp_path)
+    ready = cache / "wmr_mission" / background_compile.READY
+    command = [sys.executable, "-m", "wmr_mission.background_compile"]
+    # Another one holds the lock: this one leaves the work to it.
+    with open(cache / "wmr_mission" / background_compile.LOCK, "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        done = subprocess.run(command, env=_env(cache), capture_output=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        assert not ready.exists()
+    done = subprocess.run(command, env=_env(cache), capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert ready.read_text().split()[0] == _kernel_cache.kernel_sources_stamp()
+    assert ready.read_text() == background_compile.ready_stamp()
+    # Ready: `run` loads the compiled loop, says nothing and starts nothing.
+    record = tmp_path / "record"
+    stderr = _run(_env(cache), tmp_path / "next", record, "fence")
+    assert "wmr-mission:" not in stderr
+    assert record.read_text().splitlines() == [
+        "numba loaded: True",
+        "compiled entries: run_segment",
+    ]
+    # A marker of other kernel sources, or of another numba, is no marker.
+    ready.write_text(background_compile.ready_stamp().replace("numba-", "numba-0.1+"))
+    _run(_env(cache), tmp_path / "edited", record, "fence")
+    assert "started, NO_JIT=None" in record.read_text()
+
+
+PREPARE = """
+import sys
+from wmr_mission.background_compile import prepare
+print(prepare(int(sys.argv[1])))
+print("wmr_mission._jit" in sys.modules, "numba" in sys.modules)
+"""
+
+
+@pytest.mark.parametrize(
+    ("samples", "foreground", "notice", "declared"),
+    [
+        (30_001, "", "compiling the simulation loop for this long mission", "False False"),
+        (30_001, "1", "None", "False False"),
+        (100, "1", "None", "False False"),
+    ],
+)
+def test_a_long_mission_or_the_setting_compiles_in_the_foreground(
+    samples: int, foreground: str, notice: str, declared: str, tmp_path: Path
+) -> None:
+    env = _env(tmp_path / "cache", WMR_MISSION_FOREGROUND_COMPILE=foreground)
+    done = subprocess.run(
+        [sys.executable, "-c", PREPARE, str(samples)], env=env, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    printed = done.stdout.splitlines()
+    assert notice in printed[0]
+    assert printed[1] == declared  # nothing declared yet: the run compiles as before
+
+
+def test_the_warm_up_compiles_the_loop_every_mission_runs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import numba
+
+    from wmr_mission.spec.loader import check_mission_bytes
+
+    argument_types = set()
+    compiled_loop = loop.run_segment
+
+    def spy(*arguments: object) -> int:
+        argument_types.add(numba.typeof(arguments))
+        return int(compiled_loop(*arguments))
+
+    monkeypatch.setattr(loop, "run_segment", spy)
+    warm_up, _ = check_mission_bytes(background_compile.WARM_UP_MISSION, "warm-up.yaml", [])
+    assert warm_up is not None
+    run_mission(compile_mission(warm_up))
+    assert len(argument_types) == 1
+    for path in sorted(MISSIONS.glob("*.yaml")):
+        run_mission(compile_mission(load_mission(path)))
+        assert len(argument_types) == 1, path.name
+
+
+def test_the_bound_is_the_sample_budget_of_a_case_study() -> None:
+    for name in ("case1", "case2"):
+        budget = compile_mission(load_mission(MISSIONS / f"{name}.yaml")).max_samples
+        assert budget <= background_compile.PLAIN_PYTHON_SAMPLES
+
+
+def test_numba_names_the_source_file_when_a_kernel_cannot_be_cached() -> None:
+    """NUMBA_OPT=0 makes some kernels uncachable; numba's warning then reads the
+    locator's source file."""
+    from numba.core import caching
+
+    impl = caching.CompileResultCacheImpl(loop.record_sample.py_func)
+    assert type(impl._locator).__name__ == "KernelLocator"
+    result = SimpleNamespace(
+        lifted=[SimpleNamespace(can_cache=False)],
+        fndesc=SimpleNamespace(qualname="record_sample"),
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert impl.check_cachable(result) is False
+    assert caught[0].filename == loop.__file__
+    assert "Cannot cache compiled function" in str(caught[0].message)
+
+
+def test_the_plain_form_of_a_kernel_calls_no_compiled_code() -> None:
+    plain = _jit.plain(loop.record_sample)
+    called = plain.__globals__["max_row_value"]
+    assert not hasattr(called, "py_func")
+    assert not hasattr(called.__globals__["row_value"], "py_func")
+    # A row outside case 2's ellipse, written compiled and as plain Python.
+    mission = compile_mission(load_mission(MISSIONS / "case2.yaml"))
+    estimate = np.array([5.2, 1.0, 0.3])
+    phase = runner.ActivePhase(mission.phases[-1], mission, 2).enter(7, estimate)
+    rows = []
+    for write in (loop.record_sample, plain):
+        record = runner.Recorder(4).record
+        write(record, phase, 0.07, 5.3, 1.1, 0.2, estimate, np.ones(2), np.nan, np.nan, 3, estimate)
+        rows.append(record.floats[0].copy())
+    assert rows[0][11] > 0.0  # the ellipse's row is violated there
+    np.testing.assert_array_equal(rows[0], rows[1])
