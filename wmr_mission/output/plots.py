@@ -77,6 +77,10 @@ REFERENCE_STYLE: dict[str, Any] = {
 CHARACTER_WIDTH = 0.009
 # Rows of the xy legend that fit beside the axes; longer legends take more columns.
 LEGEND_ROWS = 20
+# The xy figure of a file [in]: the axes, and room at the right for a
+# legend of one column, widened by LEGEND_COLUMN_WIDTH for each further column.
+XY_WIDTH, XY_LEFT, XY_AXES_WIDTH = 11.5, 0.8, 7.7
+LEGEND_COLUMN_WIDTH = 2.8
 # Phases the xy legend names; the others are counted in its last entry.
 MAX_LEGEND_PHASES = 2 * LEGEND_ROWS
 # Phase boundaries drawn over time: about one per pixel of a figure's width.
@@ -572,7 +576,8 @@ def _draw_ends(ax: Axes, result: RunResult) -> None:
     )
 
 
-def _xy_on(ax: Axes, result: RunResult) -> None:
+def _xy_on(ax: Axes, result: RunResult) -> int:
+    """Draw the path in the plane on ``ax``; return the legend's columns."""
     colors = phase_colors(result)
     view = view_box(result)
     size = max(view[1] - view[0], view[3] - view[2])
@@ -606,6 +611,7 @@ def _xy_on(ax: Axes, result: RunResult) -> None:
         alignment="left",
     )
     names_as_typed(ax)
+    return columns
 
 
 def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
@@ -893,9 +899,12 @@ def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
 
 def _write(result: RunResult, name: str, path: Path) -> Path:
     if name == "xy":
-        fig = _new_figure((11.5, 6.5))
-        fig.subplots_adjust(left=0.07, right=0.74)  # the legend's room, on the canvas
-        _xy_on(fig.add_subplot(), result)
+        fig = _new_figure((XY_WIDTH, 6.5))
+        columns = _xy_on(fig.add_subplot(), result)
+        # Room on the canvas for the legend at the right, a column's width each.
+        width = XY_WIDTH + LEGEND_COLUMN_WIDTH * (columns - 1)
+        fig.set_size_inches(width, 6.5)
+        fig.subplots_adjust(left=XY_LEFT / width, right=(XY_LEFT + XY_AXES_WIDTH) / width)
     elif name == "states":
         fig = _new_figure((9, 7.5))
         _states_on(fig, list(fig.subplots(3, 1, sharex=True)), result)
