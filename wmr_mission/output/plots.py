@@ -59,7 +59,7 @@ PAD = 0.1  # margin round a figure's drawing [in]
 LINE_PIECE = 1000
 # Bottom of the estimation figure's axes: room below for its legend.
 ESTIMATION_BOTTOM = 0.14
-PNG_COMPRESSION = 1  # zlib level: fast, files about a fifth larger than at the default 6
+PNG_COMPRESSION = 1  # zlib level: fast; the files are larger than at the default 6
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
 STATES = ("x", "y", "theta")
 FIGURE_FORMATS = ("png", "svg", "pdf")
