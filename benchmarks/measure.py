@@ -10,6 +10,7 @@
     python benchmarks/measure.py distance   # summary.json's distance to the path, 360 001 samples
     python benchmarks/measure.py dare       # scipy's solve_discrete_are, one 3x3 call
     python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
+    python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep throughput
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -56,13 +57,15 @@ def loop(repeat: int = 7) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
-def _wall(command: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
+def _wall(
+    command: list[str], env: dict[str, str] | None = None, *, check: bool = True
+) -> tuple[float, float]:
     """Wall time and CPU time (user + system) of a command [s]."""
     import resource
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
-    subprocess.run(command, check=True, capture_output=True, env=env)
+    subprocess.run(command, check=check, capture_output=True, env=env)
     wall = time.perf_counter() - started
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
@@ -408,11 +411,74 @@ def dlqr(repeat: int = 200) -> None:
     print(f"python-control {control.__version__} dlqr, one BLAS thread: median {median:.0f} us")
 
 
+CAMPAIGN = MISSIONS / "campaigns" / "case2-headings.yaml"
+
+
+def campaign(repeat: int = 40) -> None:
+    """Where a campaign run's time goes (one process, medians over ``repeat`` runs
+    of case2-headings), then `sweep` end to end on 2 workers: campaign.json's
+    missions_per_second, and the command's wall time from start to exit."""
+    import csv
+    import io
+    import json
+
+    from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.plan import Plan
+    from wmr_mission.campaign.runs import METRICS, Row, mission_of, run_row
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.output.metrics import judge_run_metrics
+    from wmr_mission.runner import run_mission
+
+    loaded = load_campaign(CAMPAIGN)
+    plan = Plan(loaded.campaign)
+    run_row(loaded, plan.draw(0))  # loads the kernels
+    stages: dict[str, list[float]] = {"mission": [], "compile": [], "loop": [], "judge": []}
+    stages |= {"whole row": [], "csv line": []}
+    writer = csv.writer(io.StringIO(), lineterminator="\n")
+    for run in range(1, repeat + 1):
+        draw = plan.draw(run)
+        times = [time.perf_counter()]
+        mission, _ = mission_of(loaded, draw)
+        times.append(time.perf_counter())
+        assert mission is not None
+        compiled = compile_mission(mission, draw.seed)
+        times.append(time.perf_counter())
+        result = run_mission(compiled)
+        times.append(time.perf_counter())
+        judge_run_metrics(result, mission.model_dump(mode="json"))
+        times.append(time.perf_counter())
+        row: Row = run_row(loaded, draw)
+        times.append(time.perf_counter())
+        writer.writerow(row.cells())  # what the campaign process does with a row
+        times.append(time.perf_counter())
+        assert len(row.metrics) == len(METRICS)
+        for stage, start, end in zip(stages, times, times[1:], strict=False):
+            stages[stage].append((end - start) * 1000)
+    print(f"case2-headings, one process, median over {repeat} runs [ms]:")
+    print("  " + ", ".join(f"{k} {statistics.median(v):.2f}" for k, v in stages.items()))
+    with tempfile.TemporaryDirectory() as tmp:
+        command = [sys.executable, "-m", "wmr_mission", "sweep", str(CAMPAIGN), "--workers", "2"]
+        # exit 1 when the campaign's expect is not met: still a measurement
+        wall, cpu = _wall([*command, "--no-plots", "--out", f"{tmp}/bare"], check=False)
+        record = json.loads(Path(f"{tmp}/bare/campaign.json").read_text(encoding="utf-8"))
+        print(
+            f"sweep --workers 2 --no-plots: {record['runs']} runs, missions_per_second "
+            f"{record['missions_per_second']:.1f}; end to end {wall:.2f} s = "
+            f"{record['runs'] / wall:.1f} runs/s (start-up {record['startup_seconds']:.2f} s); "
+            f"CPU {cpu:.1f} s = {1000 * cpu / record['runs']:.2f} ms per run"
+        )
+        wall, _ = _wall([*command, "--out", f"{tmp}/plots"], check=False)
+        runs = record["runs"]
+        print(f"sweep --workers 2 with figures: end to end {wall:.2f} s = {runs / wall:.1f} runs/s")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
+    jobs |= {"campaign": campaign}
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)

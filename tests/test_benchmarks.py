@@ -97,7 +97,7 @@ def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
 @pytest.mark.parametrize("kind", list(REGULATORS))
 @pytest.mark.parametrize("constrained", [False, True], ids=["free", "constrained"])
 def test_regulate_input(benchmark: BenchmarkFixture, kind: str, constrained: bool) -> None:
-    work, u, memory = scratch(), np.zeros(2), np.zeros(3)
+    work, u, memory = scratch(), np.zeros(2), np.zeros(control.MEMORY_SIZE)
     controller = Controller(0.05, 0.0, Q, R, W, M, control.BEARING, 0.01, True)
     kinds, params = ELLIPSE_ROWS if constrained else (np.zeros(0, dtype=np.int64), np.zeros((0, 6)))
     target = np.array([0.0, 0.0, 0.0])

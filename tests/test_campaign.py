@@ -251,14 +251,14 @@ def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch)
     from wmr_mission.campaign import runs
 
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    real = runs.simulate
+    real = runs.mission_of
 
     def faulty(loaded: Any, draw: Draw) -> Any:
         if draw.run == 1:
             raise ZeroDivisionError("float division by zero")
         return real(loaded, draw)
 
-    monkeypatch.setattr(runs, "simulate", faulty)
+    monkeypatch.setattr(runs, "mission_of", faulty)
     rows = runs.run_rows(loaded, 0, 3)
     assert [row.outcome for row in rows] == ["success", runs.ERROR, "success"]
     assert rows[1].reason.startswith("internal error (ZeroDivisionError: float division by zero)")
@@ -349,3 +349,163 @@ def test_case2_headings_campaign_in_full(tmp_path: Path) -> None:
     assert summary["outcome"] == row["outcome"] == worst["outcome"]
     assert repr(summary["max_constraint_violation"]) == row["max_constraint_violation"]
     assert repr(summary["final"]["position_error"]) == row["final_position_error"]
+
+
+def _lagging_circle_run() -> Any:
+    """circle_run with each reference point 20 samples ahead on the robot's own
+    circle: the robot is on the path (a few micrometres off its chords), 2 cm
+    behind its own reference point."""
+    import dataclasses
+
+    from test_output_synthetic import DT, RADIUS, TURN_RATE, circle_run
+
+    run = circle_run()
+    ahead = TURN_RATE * (run.t + 20 * DT)
+    tracking = np.isfinite(run.x_ref)
+    x_ref = np.where(tracking, RADIUS * np.cos(ahead), np.nan)
+    y_ref = np.where(tracking, RADIUS * np.sin(ahead), np.nan)
+    return dataclasses.replace(run, x_ref=x_ref, y_ref=y_ref)
+
+
+def test_a_row_is_judged_as_judge_judges_it_on_either_side_of_the_bound() -> None:
+    """judge_run_metrics checks a tracking threshold against the distance to the
+    own reference point first; between that bound and the true distance to the
+    path it must fall back to the latter, and it always agrees with judge."""
+    import copy
+
+    from wmr_mission.output.metrics import judge, judge_run_metrics, summarize
+    from wmr_mission.result import Outcome
+
+    def mission(limit: float) -> dict[str, Any]:
+        expect = {"settle_time": 1.0, "tracking_error_max": {"max": limit}}
+        phases = [{"name": name, "expect": {}} for name in ("approach", "orbit", "park")]
+        return {"expect": expect, "phases": phases}
+
+    run = _lagging_circle_run()
+    orbit = summarize(run, mission(1.0))["phases"][1]["tracking_error"]
+    exact, bound = orbit["max"], orbit["reference_rms"]  # the lag is the same at every sample
+    assert exact < bound / 100
+    outcomes = []
+    for limit in (2 * bound, bound / 2, exact / 2):
+        judged, fast = copy.deepcopy(run), copy.deepcopy(run)
+        summary = judge(judged, mission(limit))
+        metrics = judge_run_metrics(fast, mission(limit))
+        assert (fast.outcome, fast.message) == (judged.outcome, judged.message)
+        assert metrics == {key: summary[key] for key in metrics}
+        outcomes.append(fast.outcome)
+    assert outcomes == [Outcome.success, Outcome.success, Outcome.expect_failed]
+
+
+@pytest.mark.slow
+def test_a_row_is_the_run_its_replay_runs() -> None:
+    """Each row (mission checked once, compiled per run, judged on the run's
+    metrics alone) is the run `run --set ... --seed` gives: its outcome, message,
+    metrics and path, over case2-headings runs that succeed and that fail."""
+    from wmr_mission.campaign.runs import METRICS, PATH_POINTS, run_row, simulate
+    from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, summarize
+
+    loaded = load_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml")
+    plan = Plan(loaded.campaign)
+    outcomes = set()
+    for run in range(24):
+        draw = plan.draw(run)
+        row = run_row(loaded, draw)
+        result, reason = simulate(loaded, draw)
+        assert result is not None, reason
+        summary = summarize(result, result.mission)
+        metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[m]) for m in METRICS)
+        assert row.outcome == result.outcome.value
+        assert row.reason == ("" if row.succeeded else result.message)
+        assert row.metrics == metrics
+        step = -(-result.samples // PATH_POINTS)
+        assert (
+            row.path_xy.tobytes()
+            == np.vstack([result.x[::step], result.y[::step]]).astype(np.float32).tobytes()
+        )
+        outcomes.add(row.outcome)
+    assert len(outcomes) >= 2, outcomes  # successes and failures both compared
+
+
+def test_a_value_that_breaks_a_check_across_fields_is_reported_not_run(tmp_path: Path) -> None:
+    """A run's own check covers the checks across fields: a start outside the
+    region the first phase must stay inside (the axis's extremes are inside)."""
+    path = tmp_path / "start.yaml"
+    path.write_text(
+        f"version: 1\nname: start\nmission: {DATA / 'short.yaml'}\nruns: 2\n"
+        "vary:\n  robot.initial_state.x: {uniform: [-1.0, 1.0]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(path)
+    mission, reason = mission_of(loaded, Draw(0, 1, {"robot.initial_state.x": 5.0}))
+    assert mission is None
+    assert "robot.initial_state (5, 0.5) is outside region 'yard'" in reason
+    mission, reason = mission_of(loaded, Draw(0, 1, {"robot.initial_state.x": 0.5}))
+    assert mission is not None
+    assert mission.robot.initial_state.x == 0.5
+    assert reason == ""
+
+
+def test_a_normal_draw_beyond_the_checked_extremes_gets_every_check(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """validate ran the sampling checks at mean +- 4 std: a draw within needs
+    only the run's own checks, a draw beyond gets the mission's every check."""
+    from wmr_mission.campaign import runs
+
+    loaded = load_campaign(EVERY)  # estimator.initial_estimate.x: normal [-1.0, 0.1]
+    axis = loaded.campaign.vary["estimator.initial_estimate.x"]
+    assert axis.within_extremes(-1.4)
+    assert not axis.within_extremes(-1.4001)
+    checked: list[float] = []
+    real = runs.checked_mission
+
+    def counted(loaded: Any, draw: Draw) -> Any:
+        checked.append(draw.values["estimator.initial_estimate.x"])
+        return real(loaded, draw)
+
+    monkeypatch.setattr(runs, "checked_mission", counted)
+    values = Plan(loaded.campaign).draw(0).values
+    for x in (-1.0, -1.4, -1.5):
+        mission, reason = runs.mission_of(
+            loaded, Draw(0, 1, {**values, "estimator.initial_estimate.x": x})
+        )
+        assert mission is not None
+        assert reason == ""
+        assert mission.estimator.initial_estimate is not None
+        assert mission.estimator.initial_estimate.x == x
+    assert checked == [-1.5]
+
+
+def test_a_row_is_judged_as_judge_judges_it_on_every_phase_threshold() -> None:
+    """The row's verdict reads only what the thresholds need of each phase:
+    every kind of phase threshold, met and missed, gives judge's outcome and
+    message."""
+    import copy
+
+    from wmr_mission.output.metrics import judge, judge_run_metrics
+    from wmr_mission.result import Outcome
+
+    run = _lagging_circle_run()
+    run.omega = run.omega.copy()
+    run.omega[700:800] = 20.0 * (-1.0) ** np.arange(100)  # chatter at the limit in orbit
+    everything = {
+        "settle_time": 1.0,
+        "tracking_error_rms": {"max": 0.5},
+        "tracking_error_max": {"max": 0.5},
+        "speed_at_limit": {"max": 0.01},
+        "turn_rate_at_limit": {"max": 0.01},
+        "turn_rate_jitter": {"max": 1.0},
+        "turn_rate_reversals": {"max": 10},
+        "estimation_rms": {"x": 1e-3, "y": 1.0, "theta": None},
+    }
+    for approach in ({}, {"estimation_rms": {"x": 1e-9, "y": None, "theta": None}}):
+        names = ("approach", "orbit", "park")
+        phases = [{"name": n, "expect": approach if n == "approach" else {}} for n in names]
+        mission = {"expect": everything, "phases": phases}
+        judged, fast = copy.deepcopy(run), copy.deepcopy(run)
+        judge(judged, mission)
+        judge_run_metrics(fast, mission)
+        assert fast.outcome is judged.outcome is Outcome.expect_failed
+        assert fast.message == judged.message
+        assert "orbit: turn_rate_at_limit" in fast.message
+    assert "approach: estimation_rms.x" in fast.message

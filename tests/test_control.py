@@ -191,12 +191,13 @@ def test_scheduled_gain_is_nearly_constant_but_for_the_heading_gain() -> None:
     # LQR-derived gains; over 0..10 m/s (Q = R = I, dt = 0.01) the longitudinal
     # and lateral gains stay near 0.995 while the heading gain grows from
     # 0.995 at rest to 4.53 at 10 m/s.
-    from wmr_mission.control import scheduled_gain
+    from wmr_mission.control import MEMORY_SIZE, scheduled_gain
 
     work = scratch()
     heading_gains = []
     for v in (0.0, 0.01, 0.1, 1.0, 3.0, 10.0, -10.0):
-        scheduled_gain(0.0, v, 0.0, 0.01, np.ones(3), np.ones(2), work)
+        memory = np.zeros(MEMORY_SIZE)
+        scheduled_gain(0.0, v, 0.0, 0.01, np.ones(3), np.ones(2), memory, work)
         gain = work.gain
         assert gain[0, 0] == pytest.approx(0.995, abs=1e-3)  # speed from distance along
         if v != 0.0:

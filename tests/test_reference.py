@@ -395,7 +395,8 @@ def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generat
         limits = random_limits(rng, bool(trial % 2))
         outputs = []
         for regulate in (control.regulate_input, reference.regulate_input):
-            memory = np.array([float(trial % 2), 0.0, 0.0])
+            memory = np.zeros(control.MEMORY_SIZE)
+            memory[control.ALIGNING] = float(trial % 2)
             u = np.zeros(2)
             controller = Controller(0.0, 0.0, q, r, w, m, FORMS[form], 0.01, bool(trial % 4))
             regulate(
@@ -430,7 +431,7 @@ def test_scheduled_gain_matches(
         theta, omega = rng.uniform(-4, 4), rng.uniform(-3, 3)
         v = float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
         q, r = rng.uniform(0.1, 10, 3), rng.uniform(0.1, 10, 2)
-        control.scheduled_gain(theta, v, omega, DT, q, r, work)
+        control.scheduled_gain(theta, v, omega, DT, q, r, np.zeros(control.MEMORY_SIZE), work)
         slow = reference.scheduled_gain(theta, v, omega, DT, q, r)
         scale = max(1.0, float(np.abs(slow).max()))
         np.testing.assert_allclose(work.gain, slow, rtol=0.0, atol=tolerance * scale)

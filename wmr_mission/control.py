@@ -23,7 +23,14 @@ from wmr_mission._jit import kernel
 from wmr_mission.corrective import corrective_input, kept_row_slot, row_value
 from wmr_mission.model import jacobian_terms, step, wrap_angle
 from wmr_mission.params import Controller, Robot, Scratch
-from wmr_mission.riccati import MIN_SPEED, regulator_gain, solve_riccati
+from wmr_mission.riccati import (
+    MIN_SPEED,
+    Mat3,
+    newton_riccati,
+    regulator_gain,
+    scalar_solution,
+    solve_riccati,
+)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -33,10 +40,20 @@ BEARING = 0  # default: regulate to the target, heading reference = bearing to i
 DEVIATION = 1  # u = -T (x - x_ss): stalls short of the target (Brockett)
 INCREMENT = 2  # literal eq. (19): u_k = u_{k-1} - T dx_{k-1}: brings the robot to rest
 
-# Fields of the per-phase controller memory (``memory`` array).
+# Fields of the per-phase controller memory (``memory`` array), zeroed at
+# phase entry (wmr_mission.runner).
 ALIGNING = 0  # 1.0 once within align_radius of the target (bearing form)
 CORRECTED = 1  # 1.0 if the corrective action acted at this sample
-DOUBLINGS = 2  # doubling steps of the last Riccati solve
+DOUBLINGS = 2  # doubling steps of this sample's Riccati solve (0: none)
+NEWTON = 3  # Newton steps of this sample's Riccati solve (0: none)
+# The last solution of eq. (21) for |v| >= MIN_SPEED and the last at +-MIN_SPEED:
+# the speed it was solved at (0.0: none yet), then pi in the body frame,
+# (0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2), then its change from the
+# solution before (0.0 after a cold start).
+WARM_MOVING = 4
+WARM_EDGE = 17
+SYSTEM = 30  # scratch: the linear system of a Newton step, 6 rows of 7
+MEMORY_SIZE = 72
 
 
 @kernel
@@ -137,65 +154,131 @@ def _input_weight(b: Gain, r0: float, r1: float, i: int, j: int) -> float:
 
 
 @kernel
+def _gain_at_rest(omega: float, dt: float, qb: Mat3, r: FloatArray) -> Gain:
+    """T of eqs. (20)-(21) at v = 0 on the reachable subspace, in closed form,
+    in the body frame (``qb`` is Q-hat seen from it).
+
+    At rest A = I and B = [[b11, 0], [b21, 0], [0, dt]]: the speed input moves
+    the robot along u = (b11, b21) / |(b11, b21)|, the turn rate turns it, and
+    the lateral direction is unreachable. With the state weight kept along u
+    only, Q_xy -> (u^T Q_xy u) u u^T, eq. (21) splits into two scalar
+    equations with a = 1 (riccati.scalar_solution)."""
+    _, _, b11, _, b21, _ = jacobian_terms(0.0, 0.0, omega, dt)
+    norm = math.hypot(b11, b21)
+    ux = b11 / norm
+    uy = b21 / norm
+    along = scalar_solution(qb[0] * ux * ux + 2.0 * qb[1] * ux * uy + qb[4] * uy * uy, norm, r[0])
+    turn = scalar_solution(qb[8], dt, r[1])
+    pi = (along * ux * ux, along * ux * uy, 0.0, along * ux * uy, along * uy * uy, 0.0, 0.0, 0.0,
+          turn)  # fmt: skip
+    identity = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    return regulator_gain(identity, (b11, 0.0, b21, 0.0, 0.0, dt), r, pi)
+
+
+@kernel
 def _solve_gain(
-    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray
-) -> tuple[Gain, int]:
-    """T of eqs. (20)-(21) at (theta, v, omega) and the doubling count; ``q``
-    is the diagonal of Q-hat. At v == 0 the lateral direction (unreachable)
-    is dropped from the state weight: the solution on the reachable subspace.
-    Plain floats throughout: numpy scalars would make the pure-Python form
-    several times slower."""
-    a13, a23, b11, b12, b21, b22 = jacobian_terms(float(theta), float(v), float(omega), dt)
+    v: float,
+    omega: float,
+    dt: float,
+    qb: Mat3,
+    r: FloatArray,
+    memory: FloatArray,
+    slot: int,
+    work: Scratch,
+) -> Gain:
+    """T of eqs. (20)-(21) at (v != 0, omega) in the body frame (``qb`` is
+    Q-hat seen from it). By Newton's method from the solutions the previous
+    two samples left in ``memory[slot:]``, extrapolated, when there are any
+    at a speed of the same sign; else, or if Newton gives up, by doubling.
+    Writes the new solution there and the steps taken to ``memory[NEWTON]``
+    and ``memory[DOUBLINGS]``."""
+    a13, a23, b11, b12, b21, b22 = jacobian_terms(0.0, v, omega, dt)
     a = (1.0, 0.0, a13, 0.0, 1.0, a23, 0.0, 0.0, 1.0)
     b = (b11, b12, b21, b22, 0.0, dt)
-    r0 = float(r[0])
-    r1 = float(r[1])
-    q0 = float(q[0])
-    q1 = float(q[1])
-    q2 = float(q[2])
-    g = (
-        _input_weight(b, r0, r1, 0, 0),
-        _input_weight(b, r0, r1, 0, 1),
-        _input_weight(b, r0, r1, 0, 2),
-        _input_weight(b, r0, r1, 1, 0),
-        _input_weight(b, r0, r1, 1, 1),
-        _input_weight(b, r0, r1, 1, 2),
-        _input_weight(b, r0, r1, 2, 0),
-        _input_weight(b, r0, r1, 2, 1),
-        _input_weight(b, r0, r1, 2, 2),
-    )
-    q_hat = (q0, 0.0, 0.0, 0.0, q1, 0.0, 0.0, 0.0, q2)
-    if v == 0.0:
-        # Keep only the weight along the direction the speed input moves the
-        # robot, u = B[:2, 0] / |B[:2, 0]|: Q_xy -> (u^T Q_xy u) u u^T.
-        norm = math.hypot(b11, b21)
-        ux = b11 / norm
-        uy = b21 / norm
-        along = q0 * ux * ux + q1 * uy * uy
-        cross = along * ux * uy
-        q_hat = (along * ux * ux, cross, 0.0, cross, along * uy * uy, 0.0, 0.0, 0.0, q2)
-    pi, doublings = solve_riccati(a, g, q_hat)
-    return regulator_gain(a, b, r, pi), doublings
+    m = memory
+    warm = m[slot] * v > 0.0  # solved at a speed of the same sign
+    steps = -1
+    if warm:
+        # The last solution plus its last change (0 after a cold start).
+        p0 = m[slot + 1] + m[slot + 7]
+        p1 = m[slot + 2] + m[slot + 8]
+        p2 = m[slot + 3] + m[slot + 9]
+        p4 = m[slot + 4] + m[slot + 10]
+        p5 = m[slot + 5] + m[slot + 11]
+        p8 = m[slot + 6] + m[slot + 12]
+        pi, steps = newton_riccati(
+            a, b, r, qb, (p0, p1, p2, p1, p4, p5, p2, p5, p8), memory, SYSTEM
+        )
+        memory[NEWTON] = abs(steps)
+    if steps < 0:
+        r0 = float(r[0])
+        r1 = float(r[1])
+        g = (
+            _input_weight(b, r0, r1, 0, 0),
+            _input_weight(b, r0, r1, 0, 1),
+            _input_weight(b, r0, r1, 0, 2),
+            _input_weight(b, r0, r1, 1, 0),
+            _input_weight(b, r0, r1, 1, 1),
+            _input_weight(b, r0, r1, 1, 2),
+            _input_weight(b, r0, r1, 2, 0),
+            _input_weight(b, r0, r1, 2, 1),
+            _input_weight(b, r0, r1, 2, 2),
+        )
+        pi, doublings = solve_riccati(a, g, qb)
+        memory[DOUBLINGS] = doublings
+    stored = (pi[0], pi[1], pi[2], pi[4], pi[5], pi[8])
+    for n in range(6):
+        m[slot + 7 + n] = stored[n] - m[slot + 1 + n] if warm else 0.0
+        m[slot + 1 + n] = stored[n]
+    m[slot] = v
+    return regulator_gain(a, b, r, pi)
 
 
 @kernel
 def scheduled_gain(
-    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray, work: Scratch
-) -> int:
+    theta: float,
+    v: float,
+    omega: float,
+    dt: float,
+    q: FloatArray,
+    r: FloatArray,
+    memory: FloatArray,
+    work: Scratch,
+) -> None:
     """Eqs. (20)-(21) for the linearisation at (theta, v, omega): writes T into
-    ``work.gain`` and returns the doubling count.
+    ``work.gain``, and the Riccati steps taken into ``memory[NEWTON]`` and
+    ``memory[DOUBLINGS]``.
+
+    Eq. (1) turns with the heading: A(theta) = Rot A(0) Rot^T and
+    B(theta) = Rot B(0) with Rot the rotation by theta of (x, y), so eq. (21)
+    is solved in the body frame, where only Q-hat turns (not at all when it
+    weighs x and y alike), and T(theta) = T_body Rot^T.
 
     For |v| < MIN_SPEED the gain is blended linearly between the at-rest gain
     and the gain at +-MIN_SPEED (see wmr_mission.riccati), so it is
-    continuous in v."""
+    continuous in v. ``memory`` keeps the solutions for |v| >= MIN_SPEED and
+    at +-MIN_SPEED from sample to sample: the next sample's warm starts."""
+    if memory.shape[0] < MEMORY_SIZE:  # compiled code checks no bounds
+        raise ValueError("the controller memory holds MEMORY_SIZE numbers")
+    memory[NEWTON] = 0.0
+    memory[DOUBLINGS] = 0.0
+    v = float(v)
+    omega = float(omega)
+    c = math.cos(theta)
+    s = math.sin(theta)
+    q0 = float(q[0])
+    q1 = float(q[1])
+    cross = (q1 - q0) * c * s
+    # Rot^T Q Rot on (x, y).
+    qb = (q0 * c * c + q1 * s * s, cross, 0.0, cross, q0 * s * s + q1 * c * c, 0.0, 0.0, 0.0,
+          float(q[2]))  # fmt: skip
     if abs(v) >= MIN_SPEED:
-        gain, doublings = _solve_gain(theta, v, omega, dt, q, r)
+        gain = _solve_gain(v, omega, dt, qb, r, memory, WARM_MOVING, work)
     else:
-        gain, doublings = _solve_gain(theta, 0.0, omega, dt, q, r)
+        gain = _gain_at_rest(omega, dt, qb, r)
         if v != 0.0:
             edge = MIN_SPEED if v > 0.0 else -MIN_SPEED
-            at_edge, more = _solve_gain(theta, edge, omega, dt, q, r)
-            doublings += more
+            at_edge = _solve_gain(edge, omega, dt, qb, r, memory, WARM_EDGE, work)
             alpha = abs(v) / MIN_SPEED
             gain = (
                 (1.0 - alpha) * gain[0] + alpha * at_edge[0],
@@ -206,9 +289,8 @@ def scheduled_gain(
                 (1.0 - alpha) * gain[5] + alpha * at_edge[5],
             )
     out = work.gain
-    out[0, 0], out[0, 1], out[0, 2] = gain[0], gain[1], gain[2]
-    out[1, 0], out[1, 1], out[1, 2] = gain[3], gain[4], gain[5]
-    return doublings
+    out[0, 0], out[0, 1], out[0, 2] = gain[0] * c - gain[1] * s, gain[0] * s + gain[1] * c, gain[2]
+    out[1, 0], out[1, 1], out[1, 2] = gain[3] * c - gain[4] * s, gain[3] * s + gain[4] * c, gain[5]
 
 
 @kernel
@@ -230,7 +312,7 @@ def regulate_input(
 
     ``target`` is the pose x_ss to park at; ``row_kinds``/``row_params`` the
     phase's inequality constraints (possibly none); ``memory`` the phase's
-    controller memory (ALIGNING, CORRECTED, DOUBLINGS).
+    controller memory (MEMORY_SIZE fields: ALIGNING, CORRECTED, ...).
     """
     dt = robot.dt
     q, r, form = controller.q, controller.r, controller.form
@@ -240,14 +322,14 @@ def regulate_input(
     if form == INCREMENT:
         # Literal eqs. (14), (19), (29-a): T_{k-1} at (x_{k-1|k-1}, u_{k-1}),
         # applied to the state increment x_{k|k} - x_{k-1|k-1}.
-        memory[DOUBLINGS] = scheduled_gain(estimate_prev[2], v_prev, omega_prev, dt, q, r, work)
+        scheduled_gain(estimate_prev[2], v_prev, omega_prev, dt, q, r, memory, work)
         ex = estimate[0] - estimate_prev[0]
         ey = estimate[1] - estimate_prev[1]
         eth = estimate[2] - estimate_prev[2]
         v1 = v_prev - (gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = omega_prev - (gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
     else:
-        memory[DOUBLINGS] = scheduled_gain(estimate[2], v_prev, omega_prev, dt, q, r, work)
+        scheduled_gain(estimate[2], v_prev, omega_prev, dt, q, r, memory, work)
         ex = estimate[0] - target[0]
         ey = estimate[1] - target[1]
         eth = wrap_angle(estimate[2] - target[2])

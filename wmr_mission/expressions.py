@@ -11,6 +11,7 @@ whole array of times at once and never recurses, however long the expression.
 from __future__ import annotations
 
 import difflib
+import functools
 import math
 import re
 from collections.abc import Callable, Collection, Mapping
@@ -499,5 +500,10 @@ def parse(text: str, parameters: Collection[str], *, allow_t: bool = True) -> Ex
         raise ExpressionError(
             f"expression is too long ({len(text)} characters; at most {MAX_EXPRESSION_LENGTH})", 1
         )
-    program = _Parser(text, parameters, allow_t).parse()
-    return Expression(text=text, program=program)
+    return _parsed(text, frozenset(parameters), allow_t)
+
+
+@functools.lru_cache(maxsize=256)
+def _parsed(text: str, parameters: frozenset[str], allow_t: bool) -> Expression:
+    # A campaign parses the same few texts for each of its runs; an Expression is immutable.
+    return Expression(text=text, program=_Parser(text, parameters, allow_t).parse())

@@ -100,7 +100,9 @@ class Signals(NamedTuple):
     covariance: FloatArray  # (3, 3) EKF
     observer_gain: FloatArray  # (3, 3) L of eq. (6), scratch
     ekf_work: FloatArray  # (4, 3, 3) EKF scratch
-    memory: FloatArray  # (3,) the phase's controller memory (wmr_mission.control)
+    # (MEMORY_SIZE,) the phase's controller memory, with the warm starts of
+    # eq. (21) (wmr_mission.control); zeroed at phase entry.
+    memory: FloatArray
     counters: IntArray  # K, ITERATIONS, DRAWS, CONDITION, CLOCK
     exit_value: FloatArray  # (1,) the value of the condition that fired
     commands: FloatArray  # (d + 1, 2) the last commands, for the input delay

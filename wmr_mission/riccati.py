@@ -8,10 +8,18 @@ the usual ``pi = Q + A^T pi A - A^T pi B (R + B^T pi B)^-1 B^T pi A``, and the
 gain of eq. (20), ``T = R^-1 B^T (pi^-1 + B R^-1 B^T)^-1 A``, equals
 ``(R + B^T pi B)^-1 B^T pi A``. The second forms need no inverse of ``pi``.
 
-We solve it with the structure-preserving doubling algorithm: quadratic
-convergence whatever the start, so about a dozen 3x3 steps where the
-fixed-point iteration of eq. (21) needs ~800 (closed-loop spectral radius
-~0.99 at dt = 0.01), and no scipy call with its fixed cost in the loop.
+Three solvers, chosen per sample by :func:`wmr_mission.control.scheduled_gain`
+(docs/paper-notes.md gives the evidence):
+
+* at rest, :func:`scalar_solution`: eq. (21) splits into scalar equations;
+* moving, :func:`newton_riccati`: Newton steps from the previous samples'
+  solution, two per sample on a smooth run;
+* otherwise :func:`solve_riccati`, the structure-preserving doubling:
+  quadratic convergence whatever the start, so about a dozen 3x3 steps where
+  the fixed-point iteration of eq. (21) needs ~800 (closed-loop spectral
+  radius ~0.99 at dt = 0.01).
+
+None calls scipy, with its fixed cost, in the loop.
 
 At rest (v = 0) the pair (A, B) is not stabilisable: the lateral direction is
 unreachable and eq. (21) has no solution (scipy fails or returns a non-solution
@@ -26,6 +34,8 @@ See :func:`wmr_mission.control.scheduled_gain`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -36,6 +46,12 @@ FloatArray = NDArray[np.float64]
 MIN_SPEED = 1e-3  # [m/s] below it the gain is blended with the at-rest gain
 TOLERANCE = 1e-14  # relative change of the doubling iterate that ends the iteration
 MAX_DOUBLINGS = 60
+# Newton's method from a warm start (:func:`newton_riccati`) gives up, and the
+# caller solves by doubling, after this many steps or when a step changes
+# the solution by more than NEWTON_REACH of its size: the warm start was too
+# far to trust.
+NEWTON_STEPS = 6
+NEWTON_REACH = 0.5
 
 
 # A 3x3 matrix as a tuple of its 9 entries, row by row: numba keeps it in
@@ -85,6 +101,17 @@ def _symmetric_step(m: Mat3, t: Mat3) -> Mat3:
 
 
 @kernel
+def _change(new: Mat3, old: Mat3) -> tuple[float, float]:
+    """The largest entry of ``new - old`` and of ``new``, in magnitude."""
+    change = 0.0
+    size = 0.0
+    for i in range(9):
+        change = max(change, abs(new[i] - old[i]))
+        size = max(size, abs(new[i]))
+    return change, size
+
+
+@kernel
 def solve_riccati(a: Mat3, g: Mat3, q: Mat3) -> tuple[Mat3, int]:
     """Solve eq. (21) for 3 states by doubling: ``(pi, doublings)``.
 
@@ -101,11 +128,7 @@ def solve_riccati(a: Mat3, g: Mat3, q: Mat3) -> tuple[Mat3, int]:
         t1 = _mul3(wi, ak)
         # H_{k+1} = H_k + A_k^T H_k W^-1 A_k
         new = _symmetric_step(hk, _mul3(_transpose(ak), _mul3(hk, t1)))
-        change = 0.0
-        size = 0.0
-        for i in range(9):
-            change = max(change, abs(new[i] - hk[i]))
-            size = max(size, abs(new[i]))
+        change, size = _change(new, hk)
         hk = new
         # G_{k+1} = G_k + A_k W^-1 G_k A_k^T
         gk = _symmetric_step(gk, _mul3(ak, _mul3(_mul3(wi, gk), _transpose(ak))))
@@ -114,6 +137,164 @@ def solve_riccati(a: Mat3, g: Mat3, q: Mat3) -> tuple[Mat3, int]:
         if change <= TOLERANCE * size:
             return hk, iteration
     return hk, -1
+
+
+@kernel
+def scalar_solution(q: float, b: float, r: float) -> float:
+    """Eq. (21) for one state with a = 1: ``p = q + p - p^2 b^2 / (r + b^2 p)``,
+    i.e. ``b^2 p^2 - q b^2 p - q r = 0``; its root ``p >= 0``."""
+    return 0.5 * q + math.sqrt(0.25 * q * q + q * r / (b * b))
+
+
+Row6 = tuple[float, float, float, float, float, float]
+
+
+@kernel
+def _symmetric_product(u0: float, u1: float, u2: float, w0: float, w1: float, w2: float) -> Row6:
+    """The coefficients of ``u^T X w + w^T X u`` (halved on the diagonal) on
+    the unknowns X00, X01, X02, X11, X12, X22 of a symmetric X."""
+    return (u0 * w0, u0 * w1 + u1 * w0, u0 * w2 + u2 * w0, u1 * w1, u1 * w2 + u2 * w1, u2 * w2)
+
+
+@kernel
+def _row(system: FloatArray, at: int, unit: Row6, other: Row6, rhs: float) -> None:
+    system[at] = unit[0] + other[0]
+    system[at + 1] = unit[1] + other[1]
+    system[at + 2] = unit[2] + other[2]
+    system[at + 3] = unit[3] + other[3]
+    system[at + 4] = unit[4] + other[4]
+    system[at + 5] = unit[5] + other[5]
+    system[at + 6] = rhs
+
+
+@kernel
+def _lyapunov(e: Mat3, c: Mat3, system: FloatArray, at: int) -> Mat3:
+    """The symmetric X with ``X - F^T X F = c`` for F = I - ``e`` (``c``
+    symmetric), as ``X e + e^T X - e^T X e = c``: no cancellation when F is
+    near I, as it is at dt = 0.01. Six unknowns X00, X01, X02, X11, X12, X22;
+    Gaussian elimination with partial pivoting in ``system[at : at + 42]``:
+    scratch, 6 rows of 7, row by row."""
+    # Column j of e and of F: the row of unknown (i, j) is
+    # sym(unit_i, e_j) + sym(e_i, F_j), sym(u, w) = u^T X w + w^T X u.
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = e
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = (
+        1.0 - e00, -e01, -e02, -e10, 1.0 - e11, -e12, -e20, -e21, 1.0 - e22,
+    )  # fmt: skip
+    _row(system, at, _symmetric_product(1.0, 0.0, 0.0, e00, e10, e20),
+         _symmetric_product(e00, e10, e20, f00, f10, f20), c[0])  # fmt: skip
+    _row(system, at + 7, _symmetric_product(1.0, 0.0, 0.0, e01, e11, e21),
+         _symmetric_product(e00, e10, e20, f01, f11, f21), c[1])  # fmt: skip
+    _row(system, at + 14, _symmetric_product(1.0, 0.0, 0.0, e02, e12, e22),
+         _symmetric_product(e00, e10, e20, f02, f12, f22), c[2])  # fmt: skip
+    _row(system, at + 21, _symmetric_product(0.0, 1.0, 0.0, e01, e11, e21),
+         _symmetric_product(e01, e11, e21, f01, f11, f21), c[4])  # fmt: skip
+    _row(system, at + 28, _symmetric_product(0.0, 1.0, 0.0, e02, e12, e22),
+         _symmetric_product(e01, e11, e21, f02, f12, f22), c[5])  # fmt: skip
+    _row(system, at + 35, _symmetric_product(0.0, 0.0, 1.0, e02, e12, e22),
+         _symmetric_product(e02, e12, e22, f02, f12, f22), c[8])  # fmt: skip
+    for col in range(6):
+        pivot = col
+        for row in range(col + 1, 6):
+            if abs(system[at + 7 * row + col]) > abs(system[at + 7 * pivot + col]):
+                pivot = row
+        if system[at + 7 * pivot + col] == 0.0:  # singular: F has eigenvalues l1 l2 = 1
+            nan = math.nan
+            return (nan, nan, nan, nan, nan, nan, nan, nan, nan)
+        if pivot != col:
+            for n in range(col, 7):
+                system[at + 7 * col + n], system[at + 7 * pivot + n] = (
+                    system[at + 7 * pivot + n],
+                    system[at + 7 * col + n],
+                )
+        for row in range(col + 1, 6):
+            factor = system[at + 7 * row + col] / system[at + 7 * col + col]
+            for n in range(col + 1, 7):
+                system[at + 7 * row + n] -= factor * system[at + 7 * col + n]
+    for row in range(5, -1, -1):
+        total = system[at + 7 * row + 6]
+        for n in range(row + 1, 6):
+            total -= system[at + 7 * row + n] * system[at + 7 * n + 6]
+        system[at + 7 * row + 6] = total / system[at + 7 * row + row]
+    x0 = system[at + 6]
+    x1 = system[at + 13]
+    x2 = system[at + 20]
+    x3 = system[at + 27]
+    x4 = system[at + 34]
+    x5 = system[at + 41]
+    return (x0, x1, x2, x1, x3, x4, x2, x4, x5)
+
+
+@kernel
+def newton_riccati(
+    a: Mat3,
+    b: tuple[float, float, float, float, float, float],
+    r: FloatArray,
+    q: Mat3,
+    pi: Mat3,
+    system: FloatArray,
+    at: int,
+) -> tuple[Mat3, int]:
+    """Solve eq. (21) by Newton's method (Hewer) from ``pi``, a nearby solution:
+    ``(pi, steps)``; ``-steps`` when it gave up (the caller then solves by doubling).
+
+    Each step linearises eq. (21) at ``pi``: with F = A - B T the closed loop
+    of its gain (eq. (20)), the correction D solves the discrete Lyapunov
+    equation ``D - F^T D F = residual of eq. (21) at pi``. Convergence is
+    quadratic near the solution, so the next correction, the error left, is
+    foreseen from the last two: ``c_next = c^2 (c / c_prev^2)``, relative to
+    the solution. The iteration stops once that is below TOLERANCE, the
+    doubling's bound on its last change. Near rest eq. (21) is so
+    ill-conditioned that the corrections stall at 1e-14..1e-12 of the
+    solution, its rounding noise, where a bound on the correction itself
+    would never be met. The result is trusted only if it converged within
+    NEWTON_STEPS, its first correction was within NEWTON_REACH, and it is
+    positive definite (with Q-hat > 0 the one positive semi-definite solution
+    is the stabilising one). ``system[at : at + 42]`` is scratch."""
+    previous = 0.0  # the relative size of the last correction
+    for iteration in range(1, NEWTON_STEPS + 1):
+        t = regulator_gain(a, b, r, pi)
+        # With N = A - I and E = B T - N = I - F (F the closed loop), the
+        # residual Q + A^T pi F - pi of eq. (21) is Q + N^T pi F - pi E: the
+        # large terms of pi, which cancel, are never formed.
+        e = (
+            b[0] * t[0] + b[1] * t[3] - a[0] + 1.0, b[0] * t[1] + b[1] * t[4] - a[1],
+            b[0] * t[2] + b[1] * t[5] - a[2],
+            b[2] * t[0] + b[3] * t[3] - a[3], b[2] * t[1] + b[3] * t[4] - a[4] + 1.0,
+            b[2] * t[2] + b[3] * t[5] - a[5],
+            b[4] * t[0] + b[5] * t[3] - a[6], b[4] * t[1] + b[5] * t[4] - a[7],
+            b[4] * t[2] + b[5] * t[5] - a[8] + 1.0,
+        )  # fmt: skip
+        pe = _mul3(pi, e)
+        npf = _mul3(
+            (a[0] - 1.0, a[3], a[6], a[1], a[4] - 1.0, a[7], a[2], a[5], a[8] - 1.0),  # N^T
+            (pi[0] - pe[0], pi[1] - pe[1], pi[2] - pe[2],
+             pi[3] - pe[3], pi[4] - pe[4], pi[5] - pe[5],
+             pi[6] - pe[6], pi[7] - pe[7], pi[8] - pe[8]),
+        )  # fmt: skip
+        residual = _symmetric_step(
+            q,
+            (npf[0] - pe[0], npf[1] - pe[1], npf[2] - pe[2],
+             npf[3] - pe[3], npf[4] - pe[4], npf[5] - pe[5],
+             npf[6] - pe[6], npf[7] - pe[7], npf[8] - pe[8]),
+        )  # fmt: skip
+        correction = _lyapunov(e, residual, system, at)
+        new = _symmetric_step(pi, correction)  # pi + correction: both symmetric
+        change, size = _change(new, pi)
+        pi = new
+        if not change <= NEWTON_REACH * size:  # too far to trust, or not a number
+            return pi, -iteration
+        relative = change / size if change > 0.0 else 0.0
+        # c_next <= TOLERANCE, without dividing by a c_prev of 0.
+        foreseen = relative * relative * relative <= TOLERANCE * previous * previous
+        previous = relative
+        if relative == 0.0 or (iteration > 1 and foreseen):
+            minor = pi[0] * pi[4] - pi[1] * pi[3]
+            det = pi[0] * (pi[4] * pi[8] - pi[5] * pi[7]) - pi[1] * (pi[3] * pi[8] - pi[5] * pi[6])
+            det += pi[2] * (pi[3] * pi[7] - pi[4] * pi[6])
+            if pi[0] > 0.0 and minor > 0.0 and det > 0.0:
+                return pi, iteration
+            return pi, -iteration
+    return pi, -NEWTON_STEPS
 
 
 @kernel

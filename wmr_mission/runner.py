@@ -260,7 +260,7 @@ class _Run:
             covariance=np.diag(m.ekf_initial_var).astype(np.float64),
             observer_gain=np.zeros((3, 3)),
             ekf_work=np.zeros((4, 3, 3)),
-            memory=np.zeros(3),
+            memory=np.zeros(control.MEMORY_SIZE),
             counters=np.zeros(loop.CLOCK + 1, dtype=np.int64),
             exit_value=np.zeros(1),
             commands=np.zeros((self.disturbances.input_delay + 1, 2)),

@@ -34,16 +34,17 @@ _RANKING_METRIC: Final = "final_position_error"
 def clopper_pearson(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
     """Exact (Clopper-Pearson) interval of a success probability, from ``successes``
     in ``trials``."""
-    from scipy.stats import beta
+    # The beta distribution's quantile, without importing scipy.stats (a second).
+    from scipy.special import betaincinv
 
     if trials == 0:
         return 0.0, 1.0
     tail = (1.0 - confidence) / 2.0
-    lo = 0.0 if successes == 0 else float(beta.ppf(tail, successes, trials - successes + 1))
+    lo = 0.0 if successes == 0 else float(betaincinv(successes, trials - successes + 1, tail))
     hi = (
         1.0
         if successes == trials
-        else float(beta.ppf(1.0 - tail, successes + 1, trials - successes))
+        else float(betaincinv(successes + 1, trials - successes, 1.0 - tail))
     )
     return lo, hi
 

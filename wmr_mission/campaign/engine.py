@@ -21,7 +21,7 @@ from typing import Any, Final, Protocol
 
 from wmr_mission.campaign.load import LoadedCampaign
 from wmr_mission.campaign.plan import Plan
-from wmr_mission.campaign.runs import Row, run_rows, simulate
+from wmr_mission.campaign.runs import Row, run_row, run_rows
 
 __all__ = [
     "TASK_SECONDS",
@@ -30,6 +30,7 @@ __all__ = [
     "StopFlag",
     "default_workers",
     "execute",
+    "local_pool",
     "task_size",
     "warm_up",
 ]
@@ -63,9 +64,9 @@ def default_workers() -> int:
 def warm_up(loaded: LoadedCampaign) -> float:
     """Compile the kernels in this process; return the seconds of one warm run."""
     plan = Plan(loaded.campaign)
-    simulate(loaded, plan.draw(0))  # compiles (or loads the cache of) every kernel it uses
+    run_row(loaded, plan.draw(0))  # compiles (or loads the cache of) every kernel it uses
     started = time.perf_counter()
-    simulate(loaded, plan.draw(min(1, len(plan) - 1)))
+    run_row(loaded, plan.draw(min(1, len(plan) - 1)))
     return time.perf_counter() - started
 
 
@@ -129,11 +130,17 @@ def execute(
                 raise Interrupted
             yield run_rows(loaded, start, min(start + size, runs))
         return
+    size = task_size(seconds_per_run, runs, workers)
+    with local_pool(workers) as pool:
+        yield from _in_order(pool, _wait_local, loaded, size, runs, workers, stop)
+
+
+def local_pool(workers: int) -> ProcessPoolExecutor:
+    """Worker processes forked from this one where the system can (they find the
+    kernels loaded), which leave Ctrl-C to it."""
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-    size = task_size(seconds_per_run, runs, workers)
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_ignore_interrupt) as pool:
-        yield from _in_order(pool, _wait_local, loaded, size, runs, workers, stop)
+    return ProcessPoolExecutor(workers, mp_context=context, initializer=_ignore_interrupt)
 
 
 def _on_dask(

@@ -18,11 +18,14 @@ from typing import Any, Final
 from pydantic import ValidationError
 
 from wmr_mission.campaign.models import MAX_RUNS, Axis, Campaign
-from wmr_mission.spec.checks import Finding
+from wmr_mission.spec.checks import Finding, check_across_fields
 from wmr_mission.spec.loader import (
     Diagnostic,
+    Document,
     MissionError,
     Override,
+    _apply,
+    _context,
     _diagnostic,
     _resolve,
     check_mission,
@@ -68,6 +71,32 @@ class LoadedCampaign:
     ) -> tuple[Mission | None, list[Diagnostic]]:
         """The mission with ``overrides`` set, checked exactly as ``run --set`` checks it."""
         return check_mission_document(self.mission_document, str(self.mission_path), overrides)
+
+    def mission_across_fields(self, overrides: Sequence[Override]) -> Mission | None:
+        """The mission with ``overrides`` set when its fields and the checks across
+        them (``check_across_fields``) accept it, else None (:meth:`mission_with`
+        then says why). The checks that sample paths and regions are left out:
+        `validate` ran them with each axis at its extremes."""
+        document = Document(data=_copy(self.mission_document.data))
+        if any(_apply(document, override) is not None for override in overrides):
+            return None
+        try:
+            mission = Mission.model_validate(document.data, context=_context(document.data))
+        except ValidationError:
+            return None
+        if any(f.severity == "error" for f in check_across_fields(mission)):
+            return None
+        return mission
+
+
+def _copy(data: Any) -> Any:
+    """A copy of plain data (mappings, lists, scalars), as ``copy.deepcopy`` makes
+    it at a fifth of the cost."""
+    if isinstance(data, dict):
+        return {key: _copy(item) for key, item in data.items()}
+    if isinstance(data, list):
+        return [_copy(item) for item in data]
+    return data
 
 
 def value_text(value: Any) -> str:

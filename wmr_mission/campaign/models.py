@@ -85,6 +85,14 @@ class Axis(_Model):
             return [mean - NORMAL_REACH * std, mean + NORMAL_REACH * std] if std else [mean]
         return list(self.choice if self.choice is not None else self.grid or [])
 
+    def within_extremes(self, value: Any) -> bool:
+        """Whether a drawn value lies within the extremes `validate` checked: a
+        normal draw may fall beyond them, any other draw may not."""
+        if self.normal is None:
+            return True
+        extremes = self.extremes()
+        return bool(min(extremes) <= value <= max(extremes))
+
 
 class SuccessRate(_Model):
     """A lower bound on the fraction of successful runs."""

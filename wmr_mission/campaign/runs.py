@@ -17,14 +17,24 @@ import numpy as np
 
 from wmr_mission.campaign.load import LoadedCampaign, override, value_text
 from wmr_mission.campaign.plan import Draw, Plan
-from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, summarize
+from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, judge_run_metrics
 from wmr_mission.result import Outcome
 
 if TYPE_CHECKING:
     from wmr_mission.result import RunResult
     from wmr_mission.spec.models import Mission
 
-__all__ = ["ERROR", "INVALID", "METRICS", "Row", "header", "replay_command", "run_rows", "simulate"]
+__all__ = [
+    "ERROR",
+    "INVALID",
+    "METRICS",
+    "Row",
+    "header",
+    "replay_command",
+    "run_row",
+    "run_rows",
+    "simulate",
+]
 
 INVALID: Final = "invalid"
 """Outcome of a run whose drawn values the mission refuses (a normal draw beyond
@@ -73,7 +83,27 @@ def header(paths: Sequence[str]) -> list[str]:
 
 
 def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
-    """The mission with the run's values, or None and why the mission refuses them."""
+    """The mission with the run's values, or None and why the mission refuses them.
+
+    Checked as ``run --set`` checks it (:func:`checked_mission`), except that
+    the checks that sample paths and regions run only for a value beyond the
+    extremes `validate` ran them at (a normal draw beyond 4 std): they cost
+    more than the run.
+    """
+    overrides = [override(path, value) for path, value in draw.values.items()]
+    vary = loaded.campaign.vary
+    if all(
+        path in vary and vary[path].within_extremes(value) for path, value in draw.values.items()
+    ):
+        mission = loaded.mission_across_fields(overrides)
+        if mission is not None:
+            return mission, ""
+    return checked_mission(loaded, draw)
+
+
+def checked_mission(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
+    """The mission with the run's values checked exactly as ``run --set`` checks
+    it, or None and every error."""
     overrides = [override(path, value) for path, value in draw.values.items()]
     mission, diagnostics = loaded.mission_with(overrides)
     if mission is None:
@@ -83,25 +113,38 @@ def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]
 
 
 def simulate(loaded: LoadedCampaign, draw: Draw) -> tuple[RunResult | None, str]:
-    """The run's result (None when the mission refuses its values, with the reason)."""
+    """The run as its ``replay`` command runs it, for its run directory (None
+    when the mission refuses its values, with the reason)."""
     from wmr_mission.runner import run_mission
 
-    mission, reason = mission_of(loaded, draw)
+    mission, reason = checked_mission(loaded, draw)
     if mission is None:
         return None, reason
     return run_mission(mission, seed=draw.seed), ""
 
 
-def _row(draw: Draw, result: RunResult | None, reason: str) -> Row:
+def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
+    empty = np.zeros((2, 0), dtype=np.float32)
     values = tuple(draw.values.values())
-    if result is None:
-        empty = np.zeros((2, 0), dtype=np.float32)
-        return Row(draw.run, draw.seed, INVALID, values, (None,) * len(METRICS), reason, empty)
-    summary = summarize(result, result.mission)  # as summary.json measures it
+    return Row(draw.run, draw.seed, outcome, values, (None,) * len(METRICS), reason, empty)
+
+
+def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
+    """One run reduced to its row: simulated and judged as ``run_mission`` does
+    (the same samples, the same outcome), its metrics from the code of summary.json."""
+    from wmr_mission.compiled import compile_mission
+    from wmr_mission.runner import run_mission
+
+    mission, reason = mission_of(loaded, draw)
+    if mission is None:
+        return _not_run(draw, INVALID, reason)
+    result = run_mission(compile_mission(mission, draw.seed))
+    summary = judge_run_metrics(result, mission.model_dump(mode="json"))
     metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[name]) for name in METRICS)
     step = max(1, math.ceil(result.samples / PATH_POINTS))
     path_xy = np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
     reason = "" if result.outcome is Outcome.success else result.message
+    values = tuple(draw.values.values())
     return Row(draw.run, draw.seed, result.outcome.value, values, metrics, reason, path_xy)
 
 
@@ -112,12 +155,10 @@ def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
     for run in range(start, stop):
         draw = plan.draw(run)
         try:
-            rows.append(_row(draw, *simulate(loaded, draw)))
+            rows.append(run_row(loaded, draw))
         except Exception as error:  # one run's fault must not lose the campaign
             reason = f"internal error ({type(error).__name__}: {error}); please report it"
-            empty = np.zeros((2, 0), dtype=np.float32)
-            values = tuple(draw.values.values())
-            rows.append(Row(run, draw.seed, ERROR, values, (None,) * len(METRICS), reason, empty))
+            rows.append(_not_run(draw, ERROR, reason))
     return rows
 
 

@@ -24,6 +24,7 @@ from wmr_mission.campaign.engine import (
     StopFlag,
     default_workers,
     execute,
+    local_pool,
     warm_up,
 )
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
@@ -151,11 +152,7 @@ def _execute(
     if out_dir is not None:
         # The statistics first: a Ctrl-C while the worst runs are drawn loses no number.
         write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
-        _write_worst(loaded, record, out_dir, plots)
-        if plots and aggregate.runs:
-            from wmr_mission.campaign.figures import draw_campaign
-
-            draw_campaign(aggregate, _regions(loaded), out_dir)
+        _write_worst(loaded, record, aggregate, out_dir, plots, workers if scheduler is None else 1)
     return record
 
 
@@ -242,23 +239,54 @@ def _regions(loaded: LoadedCampaign) -> dict[str, Any]:
 
 
 def _write_worst(
-    loaded: LoadedCampaign, record: dict[str, Any], out_dir: Path, plots: bool
+    loaded: LoadedCampaign,
+    record: dict[str, Any],
+    aggregate: Aggregate,
+    out_dir: Path,
+    plots: bool,
+    workers: int,
 ) -> None:
-    """Re-simulate each worst run (same values, same seed: the same run) into worst/RUN/."""
-    plan = Plan(loaded.campaign)
+    """Re-simulate each worst run (same values, same seed: the same run) into
+    worst/RUN/, and draw the campaign's figures: with several workers, the runs
+    on worker processes while this one draws (a figure takes longer than a run)."""
+    runs = [entry["run"] for entry in record["worst"]]
     mission_sha256 = _sha256(loaded.mission_path)
-    for entry in record["worst"]:
-        result, _ = simulate(loaded, plan.draw(entry["run"]))
-        if result is None:  # the mission refused the drawn values: nothing to write
-            continue
-        write_run(
-            result,
-            out_dir / WORST_DIR / str(entry["run"]),
-            mission_sha256=mission_sha256,
-            mission_file=str(loaded.mission_path),
-            plots=plots,
-            animate=False,
-        )
+    if workers > 1 and runs:
+        with local_pool(min(workers, len(runs))) as pool:
+            written = [
+                pool.submit(_write_run_dir, loaded, run, out_dir, plots, mission_sha256)
+                for run in runs
+            ]
+            _draw(loaded, aggregate, out_dir, plots)
+            for future in written:
+                future.result()
+        return
+    for run in runs:
+        _write_run_dir(loaded, run, out_dir, plots, mission_sha256)
+    _draw(loaded, aggregate, out_dir, plots)
+
+
+def _write_run_dir(
+    loaded: LoadedCampaign, run: int, out_dir: Path, plots: bool, mission_sha256: str
+) -> None:
+    result, _ = simulate(loaded, Plan(loaded.campaign).draw(run))
+    if result is None:  # the mission refused the drawn values: nothing to write
+        return
+    write_run(
+        result,
+        out_dir / WORST_DIR / str(run),
+        mission_sha256=mission_sha256,
+        mission_file=str(loaded.mission_path),
+        plots=plots,
+        animate=False,
+    )
+
+
+def _draw(loaded: LoadedCampaign, aggregate: Aggregate, out_dir: Path, plots: bool) -> None:
+    if plots and aggregate.runs:
+        from wmr_mission.campaign.figures import draw_campaign
+
+        draw_campaign(aggregate, _regions(loaded), out_dir)
 
 
 def _prepare(loaded: LoadedCampaign, out: Path, workers: int, scheduler: str | None) -> Path:

@@ -15,7 +15,7 @@ transient is the controller's job, not a fault.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -431,7 +431,11 @@ def _phase_summary(
     end: int,
     settle_time: float,
     tolerance: Mapping[str, float],
+    off_path_of: OffPath,
+    checked_only: bool = False,
 ) -> dict[str, Any]:
+    """A phase's summary; ``checked_only``: only what its `expect` thresholds
+    read (:func:`check_expectations`), for a verdict at half the cost."""
     info = result.phases[index]
     t = result.t
     # A phase lasts until the next one begins (or the run ends).
@@ -444,10 +448,33 @@ def _phase_summary(
     if info.kind == "track":
         x, y = result.x[window], result.y[window]
         x_ref, y_ref = result.x_ref[window], result.y_ref[window]
-        off_path = distance_to_path(x, y, x_ref, y_ref)
+        off_path = off_path_of(x, y, x_ref, y_ref)
         tracking = {
             "rms": _rms_or_none(off_path[settled]),
             "max": _max_or_none(off_path[settled]),
+        }
+
+    v, omega = result.v[window], result.omega[window]
+    inputs = {
+        "speed_at_limit": at_limit_fraction(v[settled], result.limits[0]),
+        "turn_rate_at_limit": at_limit_fraction(omega[settled], result.limits[1]),
+        "turn_rate_jitter": jitter(omega, settled),
+        "turn_rate_reversals": sign_reversals(omega[settled]),
+    }
+    phase_errors = {state: error[window] for state, error in errors.items()}
+    rms = {s: _rms_or_none(e[settled]) for s, e in phase_errors.items()}
+    if checked_only:
+        return {
+            "name": info.name,
+            "kind": info.kind,
+            "settled_samples": int(np.count_nonzero(settled)),
+            "tracking_error": tracking,
+            "inputs": inputs,
+            "estimation": {"rms": rms},
+        }
+
+    if tracking is not None:
+        tracking |= {
             "rms_from_start": _rms_or_none(off_path),
             "max_from_start": _max_or_none(off_path),
             # distance from the reference point of the same sample: lag included
@@ -459,16 +486,7 @@ def _phase_summary(
         position, heading = _pose_error(result, end_sample, info.target)
         target_error = {"position": position, "heading": heading}
 
-    v, omega = result.v[window], result.omega[window]
-    inputs = {
-        "speed_at_limit": at_limit_fraction(v[settled], result.limits[0]),
-        "turn_rate_at_limit": at_limit_fraction(omega[settled], result.limits[1]),
-        "turn_rate_jitter": jitter(omega, settled),
-        "turn_rate_reversals": sign_reversals(omega[settled]),
-    }
-
     constraint = result.constraint[window]
-    phase_errors = {state: error[window] for state, error in errors.items()}
     converged = convergence_index(phase_errors, tolerance)
     iterations = result.phase2_iterations[window]
     return {
@@ -490,7 +508,7 @@ def _phase_summary(
             ),
         },
         "estimation": {
-            "rms": {s: _rms_or_none(e[settled]) for s, e in phase_errors.items()},
+            "rms": rms,
             "max_abs_error": {s: _max_or_none(np.abs(e)) for s, e in phase_errors.items()},
             "overshoot": {s: overshoot(e, tolerance[s]) for s, e in phase_errors.items()},
             # seconds after the phase start
@@ -556,6 +574,14 @@ def _written_name(name: str) -> str:
     return name.split("#", 1)[0]
 
 
+def _tolerance(mission: Mapping[str, Any] | None) -> dict[str, float]:
+    """Convergence tolerance per state: the mission's, else the default."""
+    return {
+        **DEFAULT_CONVERGENCE_TOLERANCE,
+        **(_expect_of(mission).get("convergence_tolerance") or {}),
+    }
+
+
 def _settle_time(phase_expect: Mapping[str, Any] | None) -> float:
     value = (phase_expect or {}).get("settle_time")
     return models.DEFAULT_SETTLE_TIME if value is None else float(value)
@@ -567,12 +593,49 @@ def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> di
     ``mission`` (the resolved mission) sets how metrics are measured: each
     phase's settle time and the convergence tolerance per state.
     """
-    tolerance = {
-        **DEFAULT_CONVERGENCE_TOLERANCE,
-        **(_expect_of(mission).get("convergence_tolerance") or {}),
-    }
+    summary = run_metrics(result, mission)
+    summary["phases"] = _phase_summaries(result, mission, distance_to_path)
+    summary["compute_us_per_sample"] = compute_time_us(result.compute_ns)
+    summary["loop_us_per_sample"] = loop_time_us(result)
+    return summary
+
+
+OffPath = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], FloatArray]
+
+
+def _phase_summaries(
+    result: RunResult,
+    mission: Mapping[str, Any] | None,
+    off_path: OffPath,
+    checked_only: bool = False,
+) -> list[dict[str, Any]]:
+    """Each phase's summary (see :func:`_phase_summary`), its tracking error
+    measured by ``off_path``."""
+    tolerance = _tolerance(mission)
     per_phase = phase_expectations(mission)
-    segments = phase_segments(result.phase)
+    errors = estimation_errors(result)
+    return [
+        _phase_summary(
+            result,
+            errors,
+            index,
+            start,
+            end,
+            _settle_time(
+                per_phase.get(_written_name(result.phases[index].name), _expect_of(mission))
+            ),
+            tolerance,
+            off_path,
+            checked_only,
+        )
+        for index, start, end in phase_segments(result.phase)
+    ]
+
+
+def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The mission-wide metrics of :func:`summarize` (its keys before ``phases``),
+    without the per-phase ones: what a campaign's row needs."""
+    tolerance = _tolerance(mission)
     errors = estimation_errors(result)
     converged = convergence_index(errors, tolerance)
     duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
@@ -587,7 +650,7 @@ def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> di
         "seed": result.seed,
         "samples": result.samples,
         "duration": duration,
-        "final": _final(result, segments),
+        "final": _final(result, phase_segments(result.phase)),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
         "convergence_tolerance": tolerance,
         "estimation_overshoot": {
@@ -596,22 +659,6 @@ def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> di
         # after the mission's settle time from its start
         "estimation_rms": {state: _rms_or_none(error[settled]) for state, error in errors.items()},
         "max_constraint_violation": _violation(result.constraint),
-        "phases": [
-            _phase_summary(
-                result,
-                errors,
-                index,
-                start,
-                end,
-                _settle_time(
-                    per_phase.get(_written_name(result.phases[index].name), _expect_of(mission))
-                ),
-                tolerance,
-            )
-            for index, start, end in segments
-        ],
-        "compute_us_per_sample": compute_time_us(result.compute_ns),
-        "loop_us_per_sample": loop_time_us(result),
     }
 
 
@@ -716,12 +763,51 @@ def judge(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any
     """
     summary = summarize(result, mission)
     checks = check_expectations(summary, mission)
+    _judged(result, summary, checks)
+    summary["expectations"] = checks
+    if mission is not None and mission is result.mission:  # summary.json reuses it
+        result.judged = summary
+    return summary
+
+
+def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any]:
+    """:func:`run_metrics`, with the run judged as :func:`judge` judges it (the
+    same outcome and message, in ``result`` too): a campaign's row, at a
+    fraction of the cost.
+
+    A tracking-error threshold is checked first against the distance to each
+    sample's own reference point: that point ends a segment
+    :func:`distance_to_path` tries, so the distance to the path is never above
+    it, and a phase within its threshold by it is within it. Only when that
+    bound misses a threshold is the distance to the path computed.
+    """
+    summary = run_metrics(result, mission)
+    if result.outcome is not Outcome.success:  # judging changes only a success
+        return summary
+    phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True)
+    checks = check_expectations({**summary, "phases": phases}, mission)
+    if any(not c["met"] and c["metric"].startswith("tracking_error") for c in checks):
+        checks = check_expectations(summarize(result, mission), mission)
+    _judged(result, summary, checks)
+    return summary
+
+
+def _off_path_bound(
+    x: FloatArray, y: FloatArray, x_ref: FloatArray, y_ref: FloatArray
+) -> FloatArray:
+    """At least :func:`distance_to_path` at every sample: the distance to the
+    sample's own reference point, a relative 1e-9 and 1e-12 m above it for
+    rounding (or the distance to the path itself where a reference point is
+    missing)."""
+    own: FloatArray = np.hypot(x - x_ref, y - y_ref) * (1.0 + 1e-9) + 1e-12
+    return own if np.isfinite(own).all() else distance_to_path(x, y, x_ref, y_ref)
+
+
+def _judged(result: RunResult, summary: dict[str, Any], checks: list[dict[str, Any]]) -> None:
+    """A success that misses a threshold becomes ``expect-failed``, in
+    ``result`` and ``summary``, with the misses as its message."""
     failures = unmet(checks)
     if result.outcome is Outcome.success and failures:
         result.outcome = Outcome.expect_failed
         result.message = "expectation not met: " + "; ".join(failures)
         summary["outcome"], summary["message"] = result.outcome.value, result.message
-    summary["expectations"] = checks
-    if mission is not None and mission is result.mission:  # summary.json reuses it
-        result.judged = summary
-    return summary

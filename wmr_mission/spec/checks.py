@@ -35,7 +35,7 @@ from wmr_mission.spec.models import (
 )
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 
-__all__ = ["MAX_SAMPLES", "DataPath", "Finding", "Severity", "check"]
+__all__ = ["MAX_SAMPLES", "DataPath", "Finding", "Severity", "check", "check_across_fields"]
 
 MAX_SAMPLES: Final = 50_000_000
 """Largest worst-case number of samples of a mission (sum of phase bounds / dt)."""
@@ -73,6 +73,19 @@ class Finding:
 
 def check(mission: Mission) -> list[Finding]:
     """Every semantic problem of a mission that passed its schema."""
+    findings = check_across_fields(mission)
+    if run_count(mission) <= MAX_RUN_PHASES:
+        findings.extend(_feasible_sets(mission))
+        if not any(f.severity == "error" for f in findings):
+            # sampling paths needs a sound mission (regions of the right kind, bounded phases)
+            findings.extend(_reaches(mission))
+    # a phase of a repeat is checked once per lap: say each finding once
+    return list(dict.fromkeys(findings))
+
+
+def check_across_fields(mission: Mission) -> list[Finding]:
+    """The checks of :func:`check` that sample neither paths nor regions: tens of
+    microseconds where those take milliseconds (a campaign runs these per run)."""
     if run_count(mission) > MAX_RUN_PHASES:
         return [
             Finding(
@@ -82,14 +95,13 @@ def check(mission: Mission) -> list[Finding]:
                 at_key=True,
             )
         ]
-    findings = [
+    return [
         *_unique_phase_names(mission),
         *_observability(mission),
         *_estimator_keys(mission),
         *_regions(mission),
         *_phase_rules(mission),
         *_initial_state(mission),
-        *_feasible_sets(mission),
         *_timing(mission),
         *_expectations(mission),
         *_control(mission),
@@ -97,11 +109,6 @@ def check(mission: Mission) -> list[Finding]:
         *_phase_colors(mission),
         *_disturbances(mission),
     ]
-    if not any(f.severity == "error" for f in findings):
-        # sampling paths needs a sound mission (regions of the right kind, bounded phases)
-        findings.extend(_reaches(mission))
-    # a phase of a repeat is checked once per lap: say each finding once
-    return list(dict.fromkeys(findings))
 
 
 def _unique_phase_names(mission: Mission) -> Iterator[Finding]:
