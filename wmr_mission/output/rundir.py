@@ -279,9 +279,17 @@ def json_text(value: Any) -> str:
 
 
 def write_json(path: Path, value: Any) -> Path:
+    """``json_text(value)`` into ``path``, streamed: the summary of thousands of
+    phases is never held as one text."""
     # A file name that is not UTF-8 holds surrogates: written as JSON escapes
     # (\udcff), which read back to the same name.
-    return write_bytes_atomic(path, json_text(value).encode("utf-8", "backslashreplace"))
+    with (
+        atomic_path(path) as tmp,
+        tmp.open("w", encoding="utf-8", errors="backslashreplace", newline="") as out,
+    ):
+        json.dump(jsonable(value), out, indent=2, allow_nan=False, ensure_ascii=False)
+        out.write("\n")
+    return path
 
 
 def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]]:
