@@ -278,3 +278,16 @@ def test_the_figures_artists_do_not_grow_with_the_number_of_phases() -> None:
         MAX_LEGEND_PHASES - 1
     )
     assert "... 3961 more, to 4000 leg-4000" in texts
+
+
+def test_json_files_are_streamed_byte_for_byte_as_json_text(tmp_path: Path) -> None:
+    value = {
+        "phases": [
+            {"name": f"leg-{i}", "rms": np.float64(i / 3), "gap": math.nan} for i in range(3)
+        ],
+        "file": "m\udcff.yaml",  # a file name that is not UTF-8
+        "point": (1, np.int64(2)),
+        "é": None,
+    }
+    path = rundir_module.write_json(tmp_path / "x.json", value)
+    assert path.read_bytes() == rundir_module.json_text(value).encode("utf-8", "backslashreplace")
