@@ -397,9 +397,9 @@ def write_run(
 ) -> list[Path]:
     """Write the run directory (made by ``prepare_run_dir``); return the files written.
 
-    The data first, then ``summary.json``, then the figures (``write_figures``),
-    so a figure that cannot be drawn never loses the data or the summary; the
-    claim is removed last. ``resolved_mission`` defaults to ``result.mission``;
+    The data first, then ``summary.json`` (and the claim is removed), then the
+    figures (``write_figures``), so a figure that cannot be drawn never loses
+    the data or the summary. ``resolved_mission`` defaults to ``result.mission``;
     ``mission_sha256`` (the mission file's hash) to the hash of that resolved
     mission's JSON. When it has an ``expect`` section, the summary also lists
     each expectation and whether it was met. Figures are written in each of ``formats``.
@@ -423,11 +423,8 @@ def write_run(
         write_json(run_dir / TRANSITIONS_FILE, transitions_record(result.transitions)),
         write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved)),
     ]
-    try:
-        written += write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
-    finally:
-        (run_dir / CLAIM_FILE).unlink(missing_ok=True)
-    return written
+    (run_dir / CLAIM_FILE).unlink(missing_ok=True)  # the record is complete
+    return written + write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
 
 
 def write_figures(
