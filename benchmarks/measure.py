@@ -6,7 +6,8 @@
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
     python benchmarks/measure.py scale      # run time against samples (100 s and 1 h)
-    python benchmarks/measure.py figures    # case study 1's four figures and its animation
+    python benchmarks/measure.py figures    # case study 1's figures and animation; 10 000 phases
+    python benchmarks/measure.py distance   # summary.json's distance to the path, 360 001 samples
     python benchmarks/measure.py dare       # scipy's solve_discrete_are, one 3x3 call
     python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
     python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep throughput
@@ -216,26 +217,61 @@ def compile_times(mission: str = "case2") -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
-def _peak_rss_mb(command: list[str]) -> float:
+def _peak_rss(command: list[str]) -> tuple[float, float]:
+    """Peak resident memory [MB] and wall time [s] of a command."""
     code = (
-        "import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, "
-        "capture_output=True); print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
+        "import resource, subprocess, sys, time; started = time.perf_counter(); "
+        "subprocess.run(sys.argv[1:], check=True, capture_output=True); "
+        "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, "
+        "time.perf_counter() - started)"
     )
     done = subprocess.run(
         [sys.executable, "-c", code, *command], check=True, capture_output=True, text=True
     )
-    return int(done.stdout) / 1024
+    rss_kb, wall = done.stdout.split()
+    return int(rss_kb) / 1024, float(wall)
 
 
 def memory() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         run = [sys.executable, "-m", "wmr_mission", "run", str(HOUR)]
-        plotted = _peak_rss_mb([*run, "--out", f"{tmp}/plots"])
-        bare = _peak_rss_mb([*run, "--out", f"{tmp}/bare", "--no-plots"])
+        plotted, _ = _peak_rss([*run, "--out", f"{tmp}/plots"])
+        bare, _ = _peak_rss([*run, "--out", f"{tmp}/bare", "--no-plots"])
         short = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "case2.yaml")]
-        small = _peak_rss_mb([*short, "--out", f"{tmp}/small", "--no-plots"])
+        small, _ = _peak_rss([*short, "--out", f"{tmp}/small", "--no-plots"])
     print(f"1-hour mission (360 001 samples): peak RSS {plotted:.0f} MB with figures, ")
     print(f"  {bare:.0f} MB without; case study 2 without figures: {small:.0f} MB")
+    # Where it goes: resident memory after each step of a run, in one process.
+    done = subprocess.run(
+        [sys.executable, "-c", _MEMORY_STEPS, str(HOUR), str(MISSIONS / "case2.yaml")],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    print(done.stdout, end="")
+
+
+_MEMORY_STEPS = """
+import sys, tempfile
+from pathlib import Path
+
+def resident():
+    return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
+
+import wmr_mission.runner, wmr_mission.spec.loader, wmr_mission.output.rundir
+print(f"  imports: {resident():.0f} MB")
+from wmr_mission.runner import run_mission
+from wmr_mission.spec.loader import load_mission
+run_mission(load_mission(Path(sys.argv[2])))
+print(f"  + the compiled loop loaded (case study 2 run): {resident():.0f} MB")
+result = run_mission(load_mission(Path(sys.argv[1])))
+print(f"  + the 1-hour run, judged: {resident():.0f} MB")
+import matplotlib.figure, matplotlib.backends.backend_agg
+print(f"  + matplotlib imported: {resident():.0f} MB")
+with tempfile.TemporaryDirectory() as tmp:
+    result.write(Path(tmp) / "run")
+print(f"  + its run directory written, figures included: {resident():.0f} MB")
+"""
 
 
 def scale(repeat: int = 5) -> None:
@@ -263,12 +299,11 @@ def scale(repeat: int = 5) -> None:
 
 def figures(repeat: int = 3) -> None:
     from wmr_mission.output.animation import write_animation
-    from wmr_mission.output.plots import draw_all, pyplot
+    from wmr_mission.output.plots import draw_all
     from wmr_mission.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     result = run_mission(load_mission(MISSIONS / "case1.yaml"))
-    pyplot()
     with tempfile.TemporaryDirectory() as tmp:
         draw_all(result, Path(tmp))  # fonts and caches
         four, animation = [], []
@@ -279,10 +314,61 @@ def figures(repeat: int = 3) -> None:
             started = time.perf_counter(), time.thread_time()
             write_animation(result, Path(tmp) / "animation.gif")
             animation.append((time.perf_counter() - started[0], time.thread_time() - started[1]))
+        gif_mb = (Path(tmp) / "animation.gif").stat().st_size / 1e6
+        png_mb = sum(path.stat().st_size for path in Path(tmp).glob("*.png")) / 1e6
     for what, times in (("four figures", four), ("animation", animation)):
         wall = statistics.median(t[0] for t in times)
         cpu = statistics.median(t[1] for t in times)
         print(f"case1, {what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
+    print(f"case1, files: four PNGs {png_mb:.2f} MB, animation.gif {gif_mb:.2f} MB")
+    # A mission of many short phases: `run` with and without its figures.
+    with tempfile.TemporaryDirectory() as tmp:
+        mission = Path(tmp) / "phases.yaml"
+        mission.write_text(MANY_PHASES)
+        run = [sys.executable, "-m", "wmr_mission", "run", str(mission)]
+        bare_rss, bare_wall = _peak_rss([*run, "--no-plots", "--out", f"{tmp}/bare"])
+        plotted_rss, plotted_wall = _peak_rss([*run, "--out", f"{tmp}/plotted"])
+    print(
+        f"10 000 phases, 50 001 samples: run {plotted_wall:.1f} s and {plotted_rss:.0f} MB "
+        f"with figures, {bare_wall:.1f} s and {bare_rss:.0f} MB without"
+    )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+# 10 000 phases of 0.05 s: a repeat of a lap piece and a pause, 5 000 times.
+MANY_PHASES = """version: 1
+name: phases
+estimator: {type: constrained-observer, initial_estimate: {x: 0, y: 0, theta: 0}}
+phases:
+  - name: laps
+    repeat:
+      times: 5000
+      phases:
+        - name: go
+          track: {path: {type: circle, center: [0, 1], radius: 1, angular_rate: 1}}
+          until: {elapsed: 0.05}
+        - name: pause
+          hold: {}
+          until: {elapsed: 0.05}
+"""
+
+
+def distance() -> None:
+    """The distance to the path of 360 001 positions round 573 laps of a circle
+    sampled every 1 cm, the robot off it by noise of each size."""
+    import numpy as np
+
+    from wmr_mission.output.metrics import distance_to_path
+
+    t = np.arange(360_001) * 0.01
+    x_ref, y_ref = np.cos(t), 1 + np.sin(t)
+    rng = np.random.default_rng(0)
+    for noise in (0.001, 0.01, 0.1):
+        x = x_ref + rng.normal(0, noise, t.size)
+        y = y_ref + rng.normal(0, noise, t.size)
+        started = time.process_time()
+        distance_to_path(x, y, x_ref, y_ref)
+        print(f"robot off by {noise} m (normal noise): {time.process_time() - started:.2f} s CPU")
 
 
 def dare(repeat: int = 200) -> None:
@@ -391,7 +477,8 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale}
-    jobs |= {"figures": figures, "dare": dare, "dlqr": dlqr, "campaign": campaign}
+    jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
+    jobs |= {"campaign": campaign}
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)

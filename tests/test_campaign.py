@@ -509,3 +509,30 @@ def test_a_row_is_judged_as_judge_judges_it_on_every_phase_threshold() -> None:
         assert fast.message == judged.message
         assert "orbit: turn_rate_at_limit" in fast.message
     assert "approach: estimation_rms.x" in fast.message
+
+
+def test_sweep_draws_its_figures_with_one_collection_per_outcome(tmp_path: Path) -> None:
+    """The figures are written, and the trajectories are one artist per outcome
+    whatever the number of runs (2000 lines as 2000 artists took seconds)."""
+    from wmr_mission.campaign import figures
+
+    out = tmp_path / "drawn"
+    code = sweep_command(_campaign(tmp_path, 6), out=out, workers=1, scheduler=None, plots=True)
+    assert code in (0, 1)
+    for name in ("trajectories", "metrics", "success"):
+        assert (out / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    loaded = load_campaign(_campaign(tmp_path, 1))
+    regions = {"yard": {"type": "box", "min": [-3, -2], "max": [2, 2]}}
+    counts = []
+    for runs in (3, 30):
+        aggregate = figures.Aggregate(dict(loaded.campaign.vary))
+        for run in range(runs):
+            path = np.vstack([np.linspace(-1, 0, 50), np.full(50, 0.01 * run)]).astype(np.float32)
+            aggregate.drawn.append((run % 3 != 0, path))
+            aggregate.drawn_failures += run % 3 == 0
+        ax = figures._trajectories(aggregate, regions).axes[0]
+        drawn = [c for c in ax.collections if len(c.get_segments()) > 0 and c.get_label() != "yard"]
+        counts.append((len(ax.lines), len(drawn), sum(len(c.get_segments()) for c in drawn)))
+    assert counts[0][:2] == counts[1][:2]  # the same artists for 3 runs as for 30
+    assert counts[1][2] == 30  # every run's path is drawn

@@ -47,7 +47,7 @@ def test_write_run_animates_on_request(tmp_path: Path) -> None:
         plots=False,
         animate=True,
     )
-    assert [p.name for p in written][-2:] == ["animation.gif", "summary.json"]
+    assert [p.name for p in written][-2:] == ["summary.json", "animation.gif"]
     with Image.open(tmp_path / "animation.gif") as gif:
         assert isinstance(gif, GifImagePlugin.GifImageFile)
         assert gif.n_frames == 120

@@ -29,9 +29,9 @@ from wmr_mission.result import PhaseInfo, RunResult, Transition
 from wmr_mission.spec.models import NAMED_COLORS
 
 
-def _many_phases(count: int) -> RunResult:
+def _many_phases(count: int, samples: int = 2001) -> RunResult:
     """circle_run cut into ``count`` phases of equal length."""
-    run = circle_run()
+    run = circle_run(samples)
     phases = [PhaseInfo(f"leg-{i + 1}", "track") for i in range(count)]
     phase = (np.arange(run.samples) * count // run.samples).astype(np.int64)
     starts = np.flatnonzero(np.diff(phase)) + 1
@@ -87,10 +87,10 @@ def test_phase_changes_are_numbered_once_per_place() -> None:
 def test_reference_is_drawn_over_the_path() -> None:
     ax = plot_xy(circle_run())
     reference = [line for line in ax.lines if line.get_linestyle() == "--"]
-    path = [line for line in ax.lines if line.get_linewidth() > 2.0]
+    path = [lines for lines in ax.collections if lines.get_linewidth()[0] > 2.0]
     assert reference
     assert path
-    assert min(line.get_zorder() for line in reference) > max(line.get_zorder() for line in path)
+    assert min(line.get_zorder() for line in reference) > max(lines.get_zorder() for lines in path)
     assert REFERENCE_STYLE["color"] == "black"
 
 

@@ -106,7 +106,7 @@ def test_importing_the_output_modules_does_not_load_matplotlib() -> None:
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
 
 
-def test_write_run_draws_the_figures_before_the_summary(tmp_path: Path) -> None:
+def test_write_run_writes_the_summary_before_the_figures(tmp_path: Path) -> None:
     written = write_run(
         circle_run(300),
         tmp_path,
@@ -117,6 +117,6 @@ def test_write_run_draws_the_figures_before_the_summary(tmp_path: Path) -> None:
         animate=False,
     )
     names = [p.name for p in written]
-    assert names[3:7] == FIGURES
-    assert names[-1] == "summary.json"
+    assert names[3] == "summary.json"
+    assert names[4:8] == FIGURES
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(names)

@@ -444,14 +444,14 @@ def test_a_full_disk_while_writing_is_a_message_and_keeps_what_was_written(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = write_mission(tmp_path, mission_text())
-    real = Path.write_bytes
+    real = json.dump
 
-    def full(self: Path, data: Any) -> int:
-        if ".manifest." in self.name:
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self))
-        return real(self, data)
+    def full(value: Any, out: Any, **options: Any) -> None:
+        if ".manifest." in out.name:  # JSON files are streamed into their temporary file
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), out.name)
+        real(value, out, **options)
 
-    monkeypatch.setattr(Path, "write_bytes", full)
+    monkeypatch.setattr(json, "dump", full)
     out = tmp_path / "run"
     assert run_command(path, out=out, seed=None, plots=False, animate=False) == 2
     stderr = capsys.readouterr().err

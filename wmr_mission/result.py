@@ -129,6 +129,10 @@ class RunResult:
     # its `expect` judges the run; None for a run of a compiled mission.
     mission: dict[str, Any] | None = None
     loop_ns: int = 0
+    # summary.json's metrics and verdicts as ``output.metrics.judge`` found them
+    # by ``mission``: computed once per run, for the file, the table and the API.
+    # Not copied by ``dataclasses.replace``.
+    judged: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("x_meas", "y_meas", "theta_meas"):

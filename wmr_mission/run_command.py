@@ -177,16 +177,14 @@ def _run(
         name = signal.Signals(received[0]).name if received else "SIGINT"
         result.message = f"{result.message} by {name}"
     stopped = result.outcome is Outcome.interrupted
-    try:
+    try:  # the data and summary.json first: a figure that fails never loses them
         write_run(
             result,
             run_dir,
             mission_sha256=sha256,
             mission_file=str(mission_path),
-            # A stopped run writes its data at once; `wmr-mission plot` draws it.
-            plots=plots and not stopped,
-            animate=animate and not stopped,
-            formats=formats,
+            plots=False,
+            animate=False,
         )
     except OSError as error:
         print(
@@ -199,6 +197,10 @@ def _run(
         print(f"{run_dir}: interrupted while writing; no summary.json", file=sys.stderr)
         return _signal_exit(received)
     print(format_table(summary_record(result), run_dir, wall_seconds=wall_seconds, result=result))
+    # A stopped run writes its data at once; `wmr-mission plot` draws it.
+    drawn = _draw(
+        result, run_dir, plots and not stopped, animate and not stopped, formats, received
+    )
     if stopped:
         print(
             f"{mission_path}: {result.message}; the samples up to the stop are in {run_dir}",
@@ -209,6 +211,40 @@ def _run(
         # Every failure message names what happened: "diverged in phase ...",
         # "phase ... timed out ...", "expectation not met: ...".
         print(f"{mission_path}: {result.message}", file=sys.stderr)
+        return EXIT_FAILED
+    return drawn
+
+
+def _draw(
+    result: RunResult,
+    run_dir: Path,
+    plots: bool,
+    animate: bool,
+    formats: Sequence[str],
+    received: list[int],
+) -> int:
+    """Draw the figures of a written run: 0, or the exit code of a failure,
+    said in one line (the data and summary.json stay)."""
+    from wmr_mission.output.rundir import write_figures
+
+    kept = f"the data and summary.json are in {run_dir}; `wmr-mission plot {run_dir}` draws again"
+    try:
+        write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
+    except OSError as error:
+        print(
+            f"{error.filename or run_dir}: cannot write: {error.strerror or error}; {kept}",
+            file=sys.stderr,
+        )
+        return EXIT_RUN_DIR
+    except KeyboardInterrupt:
+        print(f"{run_dir}: interrupted while drawing; {kept}", file=sys.stderr)
+        return _signal_exit(received)
+    except Exception as error:  # a fault in drawing must not look like a lost run
+        print(
+            f"{run_dir}: cannot draw the figures ({type(error).__name__}: {error}); {kept}; "
+            "please report it",
+            file=sys.stderr,
+        )
         return EXIT_FAILED
     return 0
 

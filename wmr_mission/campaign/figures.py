@@ -38,6 +38,8 @@ def draw_campaign(
 
 
 def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
+    from matplotlib.collections import LineCollection
+
     fig = _new_figure((7.0, 5.5))
     ax = fig.add_subplot()
     paths = aggregate.drawn
@@ -57,12 +59,16 @@ def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
     successes = [p for ok, p in paths if ok]
     failures = [p for ok, p in paths if not ok]
     # Fainter the more lines there are, so that where many runs go shows darker.
-    faint = float(np.clip(40.0 / max(len(successes), 1), 0.05, 0.6))
-    for path in successes:
-        ax.plot(path[0], path[1], color=_SUCCESS_COLOR, linewidth=0.6, alpha=faint, zorder=2)
-    faint = float(np.clip(40.0 / max(len(failures), 1), 0.08, 0.8))
-    for path in failures:
-        ax.plot(path[0], path[1], color=_FAILURE_COLOR, linewidth=0.6, alpha=faint, zorder=3)
+    # One collection per outcome: one artist whatever the number of runs.
+    for drawn_paths, color, lightest, darkest, order in (
+        (successes, _SUCCESS_COLOR, 0.05, 0.6, 2),
+        (failures, _FAILURE_COLOR, 0.08, 0.8, 3),
+    ):
+        faint = float(np.clip(40.0 / max(len(drawn_paths), 1), lightest, darkest))
+        lines = LineCollection(
+            [p.T for p in drawn_paths], colors=color, linewidths=0.6, alpha=faint, zorder=order
+        )
+        ax.add_collection(lines, autolim=False)
     ax.plot([], [], color=_SUCCESS_COLOR, label=f"success ({aggregate.succeeded})")
     ax.plot([], [], color=_FAILURE_COLOR, label=f"failure ({aggregate.runs - aggregate.succeeded})")
     ax.set_xlim(view[0], view[1])

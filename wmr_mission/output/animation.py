@@ -46,13 +46,19 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     """Write a GIF of at most ``max_frames`` frames at ``FPS``, whatever the run length.
 
     The still parts (regions, the whole path in grey, axes) are drawn once; each
-    frame redraws only the trail, the two pose arrows and the title over them.
+    frame redraws only the trail and the two pose arrows over them, and writes
+    its title with PIL (matplotlib would lay out and render its glyphs anew for
+    every frame: most of the time). Every frame takes the palette of the last
+    one, which holds every colour drawn.
     """
     from matplotlib import patches
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from PIL import Image
+    from PIL import Image, ImageDraw
 
+    samples = frame_samples(result.samples, max_frames)
+    if samples.size == 0:
+        raise ValueError("a run without samples cannot be animated")
     # Its own Agg canvas: no pyplot, so a notebook's backend is never touched.
     fig = Figure(figsize=(6.4, 4.8), dpi=_DPI)
     canvas: Any = FigureCanvasAgg(fig)
@@ -90,31 +96,32 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.legend(handles=[robot, estimate], loc="upper right", fontsize=8)
-    title = ax.set_title(" ", animated=True)
     names_as_typed(fig)
-
-    frames = []
     canvas.draw()
     background = canvas.copy_from_bbox(fig.bbox)
-    for k in frame_samples(result.samples, max_frames):
+    title_font, title_at = _title_style(fig, ax)
+
+    def frame(k: int) -> Any:
         canvas.restore_region(background)
         shown = path_points[path_points <= k]
         trail.set_data(finite(result.x[shown]), finite(result.y[shown]))
-        phase = int(result.phase[k])
         robot.set_xy(robot_outline(*_pose(result.x, result.y, result.theta, k), size))
         estimate.set_xy(
             robot_outline(*_pose(result.x_est, result.y_est, result.theta_est, k), size)
         )
-        title.set_text(
-            f"{result.mission_name}   t = {result.t[k]:.2f} s   phase: {result.phases[phase].name}"
-        )
-        for artist in (trail, estimate, robot, title):
+        for artist in (trail, estimate, robot):
             ax.draw_artist(artist)
-        pixels = np.asarray(canvas.buffer_rgba())[..., :3]
-        # The fast octree palette: median cut would take most of the writing time.
-        frames.append(Image.fromarray(pixels).quantize(method=Image.Quantize.FASTOCTREE))
-    if not frames:
-        raise ValueError("a run without samples cannot be animated")
+        width, height = canvas.get_width_height()
+        image = Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
+        image = image.convert("RGB")
+        phase = result.phases[int(result.phase[k])].name
+        title = f"{result.mission_name}   t = {result.t[k]:.2f} s   phase: {phase}"
+        ImageDraw.Draw(image).text(title_at, title, font=title_font, fill="black", anchor="md")
+        return image
+
+    # The fast octree palette of the last frame: median cut would take most of the time.
+    palette = frame(int(samples[-1])).quantize(method=Image.Quantize.FASTOCTREE)
+    frames = [frame(int(k)).quantize(palette=palette, dither=Image.Dither.NONE) for k in samples]
     with atomic_path(path) as tmp:
         frames[0].save(
             tmp,
@@ -123,8 +130,28 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
             append_images=frames[1:],
             duration=round(1000 / FPS),
             loop=0,
+            # Frames are cropped to what changed; filling the unchanged pixels
+            # of that box with transparency would cost a third of the time.
+            optimize=False,
         )
     return path
+
+
+def _title_style(fig: Any, ax: Any) -> tuple[Any, tuple[float, float]]:
+    """The font of an axes title (in pixels) and where its text's bottom centre
+    goes in the image, as matplotlib places it."""
+    from matplotlib import font_manager, rcParams
+    from matplotlib.font_manager import FontProperties
+    from PIL import ImageFont
+
+    properties = FontProperties(size=rcParams["axes.titlesize"])
+    font = ImageFont.truetype(
+        font_manager.findfont(properties), round(properties.get_size_in_points() * _DPI / 72)
+    )
+    pad = float(rcParams["axes.titlepad"]) * _DPI / 72
+    box = ax.get_window_extent()
+    height = fig.bbox.height
+    return font, ((box.x0 + box.x1) / 2, height - box.y1 - pad)
 
 
 def _pose(x: FloatArray, y: FloatArray, theta: FloatArray, k: int) -> tuple[float, float, float]:

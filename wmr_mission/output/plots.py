@@ -25,7 +25,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wmr_mission.output.metrics import convergence_index, estimation_errors, phase_segments
+from wmr_mission.output.metrics import (
+    convergence_index,
+    estimation_errors,
+    phase_segments,
+    wrap_angle,
+)
 from wmr_mission.output.reader import RunDirError, load_run
 from wmr_mission.output.rundir import atomic_path
 from wmr_mission.result import FloatArray, IntArray, RunResult
@@ -48,6 +53,13 @@ __all__ = [
 
 MAX_POINTS_PER_LINE = 20_000
 DPI = 120
+PAD = 0.1  # margin round a figure's drawing [in]
+# Points per piece of a long line when drawing files: Agg's memory grows with
+# the length of one piece in pixels, so a run of many laps is drawn in pieces.
+LINE_PIECE = 1000
+# Bottom of the estimation figure's axes: room below for its legend.
+ESTIMATION_BOTTOM = 0.14
+PNG_COMPRESSION = 1  # zlib level: fast; the files are larger than at the default 6
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
 STATES = ("x", "y", "theta")
 FIGURE_FORMATS = ("png", "svg", "pdf")
@@ -65,6 +77,16 @@ REFERENCE_STYLE: dict[str, Any] = {
 CHARACTER_WIDTH = 0.009
 # Rows of the xy legend that fit beside the axes; longer legends take more columns.
 LEGEND_ROWS = 20
+# The xy figure of a file [in]: the axes, and room at the right for a
+# legend of one column, widened by LEGEND_COLUMN_WIDTH for each further column.
+XY_WIDTH, XY_LEFT, XY_AXES_WIDTH = 11.5, 0.8, 7.7
+LEGEND_COLUMN_WIDTH = 2.8
+# Phases the xy legend names; the others are counted in its last entry.
+MAX_LEGEND_PHASES = 2 * LEGEND_ROWS
+# Phase boundaries drawn over time: about one per pixel of a figure's width.
+MAX_PHASE_LINES = 1000
+# Places of phase changes numbered on the xy figure, evenly chosen when there are more.
+MAX_CHANGE_LABELS = 40
 
 
 def thin(start: int, stop: int, max_points: int = MAX_POINTS_PER_LINE) -> IntArray:
@@ -130,9 +152,52 @@ def names_as_typed(drawn: Figure | Axes) -> None:
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight")
+    """Write ``fig`` cropped to what is drawn, with a margin of PAD inches.
+
+    A PNG is drawn once and its pixels cropped: ``bbox_inches="tight"`` would
+    measure every text and then draw the figure a second time. Only when
+    something is drawn up to the canvas's edge (it may reach beyond) is it
+    drawn the way other formats are, measured and redrawn.
+    """
+    from matplotlib import rc_context
+
+    # Long lines in pieces: a line round many laps would otherwise take Agg
+    # tens of megabytes of scanline cells.
+    with atomic_path(path) as tmp, rc_context({"agg.path.chunksize": LINE_PIECE}):
+        if path.suffix != ".png" or not _save_cropped(fig, tmp):
+            fig.savefig(tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight", pad_inches=PAD)
     return path
+
+
+def _save_cropped(fig: Figure, path: Path) -> bool:
+    """Draw ``fig`` once and write the part that holds its drawing as a PNG;
+    False (nothing written) when the drawing touches the canvas's edge."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    canvas: Any = FigureCanvasAgg(fig)
+    canvas.draw()
+    pixels = np.asarray(canvas.buffer_rgba()).view(np.uint32)[:, :, 0]  # one RGBA pixel each
+    drawn = pixels != pixels[0, 0]  # the corner holds the background
+    rows, columns = np.flatnonzero(drawn.any(axis=1)), np.flatnonzero(drawn.any(axis=0))
+    if rows.size == 0:
+        return False
+    height, width = drawn.shape
+    if rows[0] == 0 or columns[0] == 0 or rows[-1] == height - 1 or columns[-1] == width - 1:
+        return False
+    pad = round(PAD * DPI)
+    box = (
+        max(0, int(columns[0]) - pad),
+        max(0, int(rows[0]) - pad),
+        min(width, int(columns[-1]) + 1 + pad),
+        min(height, int(rows[-1]) + 1 + pad),
+    )
+    image = Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
+    # Fast compression: the default level takes longer than the drawing.
+    image.crop(box).convert("RGB").save(
+        path, format="png", dpi=(DPI, DPI), compress_level=PNG_COMPRESSION
+    )
+    return True
 
 
 # --- regions --------------------------------------------------------------
@@ -238,8 +303,8 @@ def draw_regions(
 
 def view_box(result: RunResult) -> tuple[float, float, float, float]:
     """Data limits of the path, the reference, goals and bounded regions, with a margin."""
-    xs = [finite(result.x), finite(result.x_est), finite(result.x_ref)]
-    ys = [finite(result.y), finite(result.y_est), finite(result.y_ref)]
+    xs = [result.x, result.x_est, result.x_ref]
+    ys = [result.y, result.y_est, result.y_ref]
     marks = [p.target[:2] for p in result.phases if p.target is not None]
     marks += [p.near[:2] for p in result.phases if p.near is not None]
     marks += [point for p in result.phases for point in p.points]
@@ -251,13 +316,23 @@ def view_box(result: RunResult) -> tuple[float, float, float, float]:
         if extent is not None:
             xs.append(np.asarray(extent[:2], dtype=np.float64))
             ys.append(np.asarray(extent[2:], dtype=np.float64))
-    x_all, y_all = np.concatenate(xs), np.concatenate(ys)
-    x_all, y_all = x_all[np.isfinite(x_all)], y_all[np.isfinite(y_all)]
-    if x_all.size == 0 or y_all.size == 0:
+    x_range, y_range = _finite_range(xs), _finite_range(ys)
+    if x_range is None or y_range is None:
         return -1.0, 1.0, -1.0, 1.0
-    x0, x1, y0, y1 = x_all.min(), x_all.max(), y_all.min(), y_all.max()
+    (x0, x1), (y0, y1) = x_range, y_range
     margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
-    return float(x0 - margin), float(x1 + margin), float(y0 - margin), float(y1 + margin)
+    return x0 - margin, x1 + margin, y0 - margin, y1 + margin
+
+
+def _finite_range(arrays: list[FloatArray]) -> tuple[float, float] | None:
+    """Smallest and largest finite value of the arrays, one array at a time
+    (a long run's columns are not copied together)."""
+    low, high = math.inf, -math.inf
+    for values in arrays:
+        kept = values[np.isfinite(values)]
+        if kept.size:
+            low, high = min(low, float(kept.min())), max(high, float(kept.max()))
+    return (low, high) if low <= high else None
 
 
 def _sample_at(result: RunResult, time: float) -> int:
@@ -267,6 +342,10 @@ def _sample_at(result: RunResult, time: float) -> int:
 
 
 def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
+    """The estimate, the true path coloured by phase (one collection, whatever
+    the number of phases) and the reference (one line, broken between phases)."""
+    from matplotlib.collections import LineCollection
+
     every = thin(0, result.samples)
     ax.plot(
         finite(result.x_est[every]),
@@ -277,88 +356,110 @@ def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
         label="estimate",
         zorder=3,
     )
-    referenced = False
-    for index, start, end in phase_segments(result.phase):
-        # Include the next phase's first sample so the coloured pieces join.
-        k = thin(start, min(end + 1, result.samples))
-        ax.plot(
-            finite(result.x[k]),
-            finite(result.y[k]),
-            color=colors[index],
-            linewidth=2.2,
-            solid_capstyle="round",
+    segments = phase_segments(result.phase)
+    starts = np.array([start for _, start, _ in segments], dtype=np.int64)
+    # Thinned once for the whole run, each phase's first and last sample kept.
+    kept = np.union1d(every, np.concatenate((starts, np.maximum(starts - 1, 0))))
+    cuts = np.searchsorted(kept, starts[1:])
+    x, y = finite(result.x[kept]), finite(result.y[kept])
+    # Each phase's line runs to the next phase's first sample, so the coloured
+    # lines join; it is cut into pieces of LINE_PIECE points (for Agg's memory).
+    pieces, piece_colors = [], []
+    for (index, _, _), a, b in zip(
+        segments, np.r_[0, cuts], np.r_[cuts, kept.size - 1], strict=True
+    ):
+        for start in range(a, max(a + 1, b), LINE_PIECE - 1):
+            stop = min(start + LINE_PIECE, b + 1)
+            pieces.append(np.column_stack((x[start:stop], y[start:stop])))
+            piece_colors.append(colors[index])
+    ax.add_collection(
+        LineCollection(
+            pieces,
+            colors=piece_colors,
+            linewidths=2.2,
+            capstyle="round",
+            joinstyle="round",
             zorder=2,
-        )
-        ref = thin(start, end)
-        if np.isfinite(result.x_ref[ref]).any():
-            ax.plot(
-                finite(result.x_ref[ref]),
-                finite(result.y_ref[ref]),
-                label=None if referenced else "reference",
-                **REFERENCE_STYLE,
-            )
-            referenced = True
+        ),
+        autolim=False,
+    )
+    x_ref, y_ref = (
+        np.insert(finite(result.x_ref[kept]), cuts, np.nan),
+        np.insert(finite(result.y_ref[kept]), cuts, np.nan),
+    )
+    if np.isfinite(x_ref).any():
+        ax.plot(x_ref, y_ref, label="reference", **REFERENCE_STYLE)
 
 
 def _phase_handles(result: RunResult, colors: list[Any]) -> list[Any]:
     """One legend entry per phase that ran, numbered as on the figure."""
     from matplotlib.lines import Line2D
 
-    ran = sorted({int(i) for i in np.unique(result.phase)}) if result.samples else []
-    return [
+    ran = [int(i) for i in np.unique(result.phase)] if result.samples else []
+    shown = ran if len(ran) <= MAX_LEGEND_PHASES else ran[: MAX_LEGEND_PHASES - 1]
+    handles = [
         Line2D([], [], color=colors[i], linewidth=2.2, label=f"{i + 1} {result.phases[i].name}")
-        for i in ran
+        for i in shown
     ]
+    if len(shown) < len(ran):
+        more = f"... {len(ran) - len(shown)} more, to {ran[-1] + 1} {result.phases[ran[-1]].name}"
+        handles.append(Line2D([], [], linestyle="none", label=more))
+    return handles
 
 
 def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
-    """Regulate targets, `near` goals (a circle of their tolerance) and path points."""
+    """Regulate targets, `near` goals (a circle of their tolerance) and path
+    points: one artist per kind, however many phases."""
     from matplotlib import patches
+    from matplotlib.collections import PatchCollection
 
     targets = sorted({p.target[:2] for p in result.phases if p.target is not None})
-    for i, (tx, ty) in enumerate(targets):
+    if targets:
         ax.plot(
-            tx,
-            ty,
+            [t[0] for t in targets],
+            [t[1] for t in targets],
             marker="+",
             color="black",
             markersize=12,
             mew=1.5,
             linestyle="none",
-            label="target" if i == 0 else None,
+            label="target",
             zorder=6,
         )
     missed = _missed_goal(result)
     goals = sorted({p.near for p in result.phases if p.near is not None})
-    labelled: set[str] = set()
-    for gx, gy, tolerance in goals:
-        reached = (gx, gy, tolerance) != missed
-        color = "black" if reached else "tab:red"
-        label = "near goal" if reached else "near goal not reached"
-        if tolerance >= 0.005 * size:  # a tolerance circle too small to see is left out
-            ax.add_patch(
-                patches.Circle(
-                    (gx, gy),
-                    tolerance,
-                    fill=False,
-                    edgecolor=color,
-                    linewidth=0.8,
-                    linestyle="--",
+    reached = [goal for goal in goals if goal != missed]
+    for chosen, color, label in (
+        (reached, "black", "near goal"),
+        ([goal for goal in goals if goal == missed], "tab:red", "near goal not reached"),
+    ):
+        if not chosen:
+            continue
+        # A tolerance circle too small to see is left out.
+        circles = [patches.Circle((gx, gy), r) for gx, gy, r in chosen if r >= 0.005 * size]
+        if circles:
+            ax.add_collection(
+                PatchCollection(
+                    circles,
+                    facecolors="none",
+                    edgecolors=color,
+                    linewidths=0.8,
+                    linestyles="--",
                     zorder=6,
-                )
+                ),
+                autolim=False,
             )
         ax.plot(
-            gx,
-            gy,
+            [g[0] for g in chosen],
+            [g[1] for g in chosen],
             marker="x",
             color=color,
             markersize=7,
             mew=1.5,
             linestyle="none",
-            label=None if label in labelled else label,
+            label=label,
             zorder=6,
         )
-        labelled.add(label)
     points = sorted({point for p in result.phases for point in p.points})
     if points:
         ax.plot(
@@ -384,33 +485,57 @@ def _missed_goal(result: RunResult) -> tuple[float, float, float] | None:
     return None
 
 
-def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
-    """Each phase change as a dot labelled with the number of the phase it enters;
-    changes at (nearly) one place share one label ("2,3")."""
-    changes = [tr for tr in result.transitions if tr.to_phase is not None]
+def _change_places(
+    result: RunResult, radius: float
+) -> list[tuple[tuple[float, float], dict[int, None]]]:
+    """Each place of phase changes and the numbers of the phases entered there,
+    in order: a change within ``radius`` of an earlier place joins the first such place."""
     number = {info.name: i + 1 for i, info in enumerate(result.phases)}
-    clusters: list[tuple[tuple[float, float], list[int]]] = []
-    for tr in changes:
+    places: list[tuple[tuple[float, float], dict[int, None]]] = []  # numbers kept in order
+    # Places by grid cell of side ``radius``: those near a point are in the 3 x 3 cells round it.
+    cells: dict[tuple[int, int], list[int]] = {}
+    for tr in result.transitions:
+        if tr.to_phase is None:
+            continue
         k = _sample_at(result, tr.time)
         point = (float(result.x[k]), float(result.y[k]))
         if not all(math.isfinite(v) for v in point):
             continue
-        close = next((c for c in clusters if math.dist(c[0], point) < 0.04 * size), None)
-        if close is None:
-            clusters.append((point, [number[str(tr.to_phase)]]))
-        elif number[str(tr.to_phase)] not in close[1]:
-            close[1].append(number[str(tr.to_phase)])
-    for i, (point, numbers) in enumerate(clusters):
-        ax.plot(
-            *point,
-            marker="o",
-            color="black",
-            markersize=3.5,
-            linestyle="none",
-            label="phase change (number of the next phase)" if i == 0 else None,
-            zorder=7,
-        )
-        shown = numbers if len(numbers) <= 4 else [*numbers[:3], "..."]
+        cx, cy = math.floor(point[0] / radius), math.floor(point[1] / radius)
+        near = [
+            i
+            for dx in (-1, 0, 1)
+            for dy in (-1, 0, 1)
+            for i in cells.get((cx + dx, cy + dy), ())
+            if math.dist(places[i][0], point) < radius
+        ]
+        if not near:
+            cells.setdefault((cx, cy), []).append(len(places))
+            places.append((point, {}))
+        places[min(near, default=len(places) - 1)][1][number[str(tr.to_phase)]] = None
+    return places
+
+
+def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
+    """Each phase change as a dot labelled with the number of the phase it enters;
+    changes at (nearly) one place share one label ("2,3"). At most
+    MAX_CHANGE_LABELS places are labelled, evenly chosen, so that the drawing
+    costs the same however many phases there are."""
+    places = _change_places(result, 0.04 * size)
+    if not places:
+        return
+    ax.plot(
+        [point[0] for point, _ in places],
+        [point[1] for point, _ in places],
+        marker="o",
+        color="black",
+        markersize=3.5,
+        linestyle="none",
+        label="phase change (number of the next phase)",
+        zorder=7,
+    )
+    for point, numbers in places[:: math.ceil(len(places) / MAX_CHANGE_LABELS)]:
+        shown = list(numbers) if len(numbers) <= 4 else [*list(numbers)[:3], "..."]
         ax.annotate(
             ",".join(str(n) for n in shown),
             point,
@@ -451,7 +576,8 @@ def _draw_ends(ax: Axes, result: RunResult) -> None:
     )
 
 
-def _xy_on(ax: Axes, result: RunResult) -> None:
+def _xy_on(ax: Axes, result: RunResult) -> int:
+    """Draw the path in the plane on ``ax``; return the legend's columns."""
     colors = phase_colors(result)
     view = view_box(result)
     size = max(view[1] - view[0], view[3] - view[2])
@@ -485,6 +611,7 @@ def _xy_on(ax: Axes, result: RunResult) -> None:
         alignment="left",
     )
     names_as_typed(ax)
+    return columns
 
 
 def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
@@ -502,17 +629,35 @@ def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
 
 
 def _mark_phases(axes: Sequence[Axes], result: RunResult, colors: list[Any]) -> None:
-    """Phase boundaries as dotted lines; above the top plot, each phase's number,
-    and its name where its stretch is wide enough to hold it."""
+    """Phase boundaries as dotted lines (one collection per axes); above the top
+    plot, each phase's number, and its name where its stretch is wide enough to
+    hold it (the labels need room, so there are never more than about 50)."""
+    from matplotlib.collections import LineCollection
+
     segments = phase_segments(result.phase)
     t0 = float(result.t[0]) if result.samples else 0.0
     span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
+    changes = result.t[[start for _, start, _ in segments[1:]]]
+    # At most one line per MAX_PHASE_LINES-th of the run: more would only fill it in.
+    _, apart = np.unique(np.floor((changes - t0) / span * MAX_PHASE_LINES), return_index=True)
+    changes = changes[apart]
+    # From the bottom to the top of each axes (x in data, y in axes units), as
+    # axvline draws them; they leave the data limits alone.
+    lines = [((time, 0.0), (time, 1.0)) for time in changes.tolist()]
+    for ax in axes:
+        ax.add_collection(
+            LineCollection(
+                lines,
+                transform=ax.get_xaxis_transform(),
+                colors="0.45",
+                linewidths=0.7,
+                linestyles=":",
+            ),
+            autolim=False,
+        )
     free_from = -math.inf  # where the previous label ends [s]
-    for number, (index, start, end) in enumerate(segments):
+    for index, start, end in segments:
         time = float(result.t[start])
-        if number > 0:
-            for ax in axes:
-                ax.axvline(time, color="0.45", linewidth=0.7, linestyle=":")
         stop = float(result.t[end - 1])
         name = result.phases[index].name
         # Label text takes about CHARACTER_WIDTH of the axis width per character.
@@ -583,15 +728,25 @@ def plot_states(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
     return fig
 
 
-def _start_window(result: RunResult, errors: dict[str, FloatArray]) -> float:
+def _start_window(result: RunResult) -> float:
     """Seconds shown in the start column: five times the time the estimate
     takes to converge, at least 20 samples, at most the run."""
     if result.samples < 2:
         return 1.0
     duration = float(result.t[-1] - result.t[0])
-    converged = convergence_index(errors)
+    converged = convergence_index(estimation_errors(result))
     settle = float(result.t[converged] - result.t[0]) if converged is not None else duration
     return min(duration, max(5.0 * settle, 20.0 * result.dt, 0.1))
+
+
+def _errors_at(result: RunResult, state: str, k: IntArray) -> tuple[FloatArray, FloatArray]:
+    """Measurement - estimate and true - estimate of ``state`` at samples ``k``
+    (the heading's wrapped, as output.metrics.estimation_errors has it)."""
+    estimate = getattr(result, f"{state}_est")[k]
+    true_error = getattr(result, state)[k] - estimate
+    if state == "theta":
+        true_error = wrap_angle(true_error)
+    return finite(getattr(result, f"{state}_meas")[k] - estimate), finite(true_error)
 
 
 def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
@@ -600,21 +755,19 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     Eq. (4) bounds the output error, measurement - estimate, so the bounds are
     drawn with that; true - estimate, the estimation error, is drawn beside it.
     """
-    errors = estimation_errors(result)
-    window = _start_window(result, errors)
+    window = _start_window(result)
     early = thin(0, int(np.searchsorted(result.t, result.t[0] + window, side="right")))
     every = thin(0, result.samples)
     for row, (state, bounds) in enumerate(zip(STATES, result.error_bounds, strict=True)):
         unit = "rad" if state == "theta" else "m"
-        measured = getattr(result, f"{state}_meas")
-        output_error = finite(measured - getattr(result, f"{state}_est"))
-        true_error = finite(errors[state])
+        measured = bool(np.isfinite(getattr(result, f"{state}_meas")).any())
         for column, k in enumerate((early, every)):
             ax = axes[2 * row + column]
-            if np.isfinite(output_error).any():
+            output_error, true_error = _errors_at(result, state, k)
+            if measured:
                 ax.plot(
                     result.t[k],
-                    output_error[k],
+                    output_error,
                     color="tab:blue",
                     linewidth=1.8,
                     label="measurement - estimate",
@@ -622,7 +775,7 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
             # Dashed on top: without noise the two coincide, and both stay visible.
             ax.plot(
                 result.t[k],
-                true_error[k],
+                true_error,
                 color="tab:orange",
                 linewidth=1.0,
                 linestyle=(0, (3, 2)),
@@ -642,15 +795,14 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         # The whole run at the scale of the bounds and of the error after the start.
         late = every[result.t[every] > result.t[0] + window]
         reach = [abs(b) for b in bounds if math.isfinite(b)]
-        for values in (output_error, true_error):
-            tail = values[late]
+        for tail in _errors_at(result, state, late):
             tail = tail[np.isfinite(tail)]
             if tail.size:
                 reach.append(float(np.abs(tail).max()))
         top = 1.3 * max(max(reach, default=0.0), 1e-6)
         axes[2 * row + 1].set_ylim(-top, top)
         axes[2 * row].set_ylabel(f"{state} error [{unit}]")
-        if not np.isfinite(output_error).any():
+        if not measured:
             axes[2 * row + 1].text(
                 0.99,
                 0.04,
@@ -676,15 +828,12 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         ncols=3,
         fontsize=8,
         frameon=False,
-        bbox_to_anchor=(0.5, -0.01),
+        bbox_to_anchor=(0.5, 0.0),
     )
     axes[-2].set_xlabel("t [s]")
     axes[-1].set_xlabel("t [s]")
     _mark_phases([axes[1], axes[3], axes[5]], result, phase_colors(result))
-    fig.suptitle(
-        f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate",
-        y=1.0,
-    )
+    fig.suptitle(f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate")
     names_as_typed(fig)
 
 
@@ -692,6 +841,8 @@ def plot_estimation_error(result: RunResult, axes: Sequence[Axes] | None = None)
     """Measurement - estimate against the eq. (4) bounds, and true - estimate, per state:
     six axes (3 rows x: start, whole run); returns the figure."""
     fig, chosen = _figure_axes(axes, (3, 2), (11, 7.5))
+    if axes is None:
+        fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
     _estimation_on(fig, chosen, result)
     return fig
 
@@ -748,13 +899,18 @@ def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
 
 def _write(result: RunResult, name: str, path: Path) -> Path:
     if name == "xy":
-        fig = _new_figure((9, 6.5))
-        _xy_on(fig.add_subplot(), result)
+        fig = _new_figure((XY_WIDTH, 6.5))
+        columns = _xy_on(fig.add_subplot(), result)
+        # Room on the canvas for the legend at the right, a column's width each.
+        width = XY_WIDTH + LEGEND_COLUMN_WIDTH * (columns - 1)
+        fig.set_size_inches(width, 6.5)
+        fig.subplots_adjust(left=XY_LEFT / width, right=(XY_LEFT + XY_AXES_WIDTH) / width)
     elif name == "states":
         fig = _new_figure((9, 7.5))
         _states_on(fig, list(fig.subplots(3, 1, sharex=True)), result)
     elif name == "estimation_error":
         fig = _new_figure((11, 7.5))
+        fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
         _estimation_on(fig, list(fig.subplots(3, 2, sharex="col").ravel()), result)
     else:
         fig = _new_figure((9, 5.5))

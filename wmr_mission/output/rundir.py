@@ -5,8 +5,8 @@
 | ``trajectory.csv`` | one row per sample (``TRAJECTORY_COLUMNS`` then ``EXTRA_COLUMNS``) |
 | ``manifest.json`` | mission file and hash, resolved mission, seed, versions, ``run`` |
 | ``transitions.json`` | each phase change |
-| ``*.png``, ``animation.gif`` | figures (optional) |
-| ``summary.json`` | metrics; written last: its presence means the directory is complete |
+| ``summary.json`` | metrics; written after the data: its presence means the data is complete |
+| ``*.png``, ``animation.gif`` | figures (optional), drawn last |
 
 Every file is written to a temporary file in the same directory, synced, and
 renamed over its final name, so an interrupted run never leaves a half-written
@@ -54,8 +54,9 @@ ANIMATION_FILE = "animation.gif"
 CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
 _FLOAT_FORMAT = "%.12g"
 # Rows formatted per `%` operation: one C-level formatting call per block keeps
-# a 360 000-sample run to about a second and a half.
-_ROWS_PER_BLOCK = 20_000
+# a 360 000-sample run to about a second and a half, and a block's Python
+# numbers to a few megabytes.
+_ROWS_PER_BLOCK = 4_000
 # Packages whose versions decide the numbers of a run.
 _VERSIONED_PACKAGES = ("numpy", "scipy", "pydantic", "numba", "matplotlib")
 
@@ -278,9 +279,17 @@ def json_text(value: Any) -> str:
 
 
 def write_json(path: Path, value: Any) -> Path:
+    """``json_text(value)`` into ``path``, streamed: the summary of thousands of
+    phases is never held as one text."""
     # A file name that is not UTF-8 holds surrogates: written as JSON escapes
     # (\udcff), which read back to the same name.
-    return write_bytes_atomic(path, json_text(value).encode("utf-8", "backslashreplace"))
+    with (
+        atomic_path(path) as tmp,
+        tmp.open("w", encoding="utf-8", errors="backslashreplace", newline="") as out,
+    ):
+        json.dump(jsonable(value), out, indent=2, allow_nan=False, ensure_ascii=False)
+        out.write("\n")
+    return path
 
 
 def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]]:
@@ -364,6 +373,11 @@ def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) 
     ``result.mission``), each of its `expect` thresholds with its verdict."""
     if mission is None:
         mission = result.mission
+    if result.judged is not None and mission is result.mission:
+        # Judged at the end of the run; a stop since names its signal in the message.
+        summary = dict(result.judged)
+        summary["outcome"], summary["message"] = result.outcome.value, result.message
+        return summary
     summary = summarize(result, mission)
     if mission is not None and isinstance(mission.get("expect"), Mapping):
         summary["expectations"] = check_expectations(summary, mission)
@@ -383,11 +397,12 @@ def write_run(
 ) -> list[Path]:
     """Write the run directory (made by ``prepare_run_dir``); return the files written.
 
-    ``summary.json`` comes last, so its presence marks a complete directory.
-    ``resolved_mission`` defaults to ``result.mission``; ``mission_sha256``
-    (the mission file's hash) to the hash of that resolved mission's JSON.
-    When it has an ``expect`` section, the summary also lists each
-    expectation and whether it was met. Figures are written in each of ``formats``.
+    The data first, then ``summary.json`` (and the claim is removed), then the
+    figures (``write_figures``), so a figure that cannot be drawn never loses
+    the data or the summary. ``resolved_mission`` defaults to ``result.mission``;
+    ``mission_sha256`` (the mission file's hash) to the hash of that resolved
+    mission's JSON. When it has an ``expect`` section, the summary also lists
+    each expectation and whether it was met. Figures are written in each of ``formats``.
     """
     resolved = resolved_mission if resolved_mission is not None else (result.mission or {})
     if mission_sha256 is None:
@@ -406,7 +421,18 @@ def write_run(
             ),
         ),
         write_json(run_dir / TRANSITIONS_FILE, transitions_record(result.transitions)),
+        write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved)),
     ]
+    (run_dir / CLAIM_FILE).unlink(missing_ok=True)  # the record is complete
+    return written + write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
+
+
+def write_figures(
+    result: RunResult, run_dir: Path, *, plots: bool, animate: bool, formats: Sequence[str]
+) -> list[Path]:
+    """The four figures in each of ``formats`` and, with ``animate``, the
+    animation; return the files written."""
+    written = []
     if plots:
         from wmr_mission.output.plots import draw_all
 
@@ -415,6 +441,4 @@ def write_run(
         from wmr_mission.output.animation import write_animation
 
         written.append(write_animation(result, run_dir / ANIMATION_FILE))
-    written.append(write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved)))
-    (run_dir / CLAIM_FILE).unlink(missing_ok=True)
     return written
