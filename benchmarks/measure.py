@@ -34,26 +34,43 @@ HOUR = ROOT / "benchmarks" / "hour.yaml"
 def loop(repeat: int = 7) -> None:
     import numpy as np
 
+    from wmr_mission import runner
     from wmr_mission.compiled import compile_mission
-    from wmr_mission.runner import run_mission
+    from wmr_mission.loop import PathBlock
     from wmr_mission.spec.loader import load_mission
 
+    # Time spent sampling paths ahead (Python, between calls of the compiled loop).
+    path_ns = [0]
+    path_ahead = runner.ActivePhase.path_ahead
+
+    def timed_path_ahead(self: runner.ActivePhase, local_sample: int, rows: int) -> PathBlock:
+        started = time.perf_counter_ns()
+        block = path_ahead(self, local_sample, rows)
+        path_ns[0] += time.perf_counter_ns() - started
+        return block
+
+    runner.ActivePhase.path_ahead = timed_path_ahead  # type: ignore[method-assign]
     for name in ("case1", "case2"):
         mission = compile_mission(load_mission(MISSIONS / f"{name}.yaml"))
-        run_mission(mission)  # loads the compiled loop
-        runs, cpu_us = [], []
+        runner.run_mission(mission)  # loads the compiled loop
+        runs, cpu_us, path_us = [], [], []
         for _ in range(repeat):
+            path_ns[0] = 0
             started = time.thread_time_ns()
-            runs.append(run_mission(mission))
+            runs.append(runner.run_mission(mission))
             cpu_us.append((time.thread_time_ns() - started) / runs[-1].samples / 1000)
+            path_us.append(path_ns[0] / runs[-1].samples / 1000)
         loop_us = [r.loop_ns / r.samples / 1000 for r in runs]
         step_us = np.concatenate([r.compute_ns[r.compute_ns > 0] for r in runs]) / 1000
         print(
             f"{name}: {runs[0].samples} samples; loop_us_per_sample median "
             f"{statistics.median(loop_us):.3f} (min {min(loop_us):.3f}) over {repeat} runs; "
             f"CPU time of run_mission per sample median {statistics.median(cpu_us):.3f} us; "
-            f"step median {np.median(step_us):.3f} us, p99 {np.percentile(step_us, 99):.3f} us"
+            f"step median {np.median(step_us):.3f} us, mean {np.mean(step_us):.3f} us, "
+            f"p99 {np.percentile(step_us, 99):.3f} us; sampling paths ahead median "
+            f"{statistics.median(path_us):.3f} us per sample"
         )
+    runner.ActivePhase.path_ahead = path_ahead  # type: ignore[method-assign]
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
