@@ -134,11 +134,12 @@ ticks: Callable[[], int] = (
 
 
 def uncounted(fn: F) -> F:
-    """:func:`kernel` without numba's reference counting (``_nrt=False``),
+    """:func:`kernel` without numba's reference counting (``_nrt=False``,
+    an option numba accepts though it documents it only for its developers),
     for the loop: it allocates nothing, and the arrays it is handed stay
     held by its Python caller for the call. Each array then reaches the
     kernels it calls uncounted, so no call pays atomic count updates for
-    the records it passes."""
+    the records it passes (docs/performance.md)."""
     if _njit is None:
         return fn
     return _compile(fn, nogil=True, error_model="numpy", _nrt=False)
