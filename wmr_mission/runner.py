@@ -108,13 +108,14 @@ class ActivePhase:
         # Samples after which the phase ends for sure (elapsed or timeout).
         bounds = [phase.until.elapsed_samples, phase.timeout_samples]
         self.bound = min((b for b in bounds if b is not None), default=2**62)
-        # Its first chunk: short only where a path is sampled ahead of an end
-        # that cannot be foreseen, so such a phase samples little path it never
-        # uses; any other runs to its bound (or CHUNK) in one call.
+        # Its first chunk: short only for a track phase whose end cannot be
+        # foreseen (a condition other than elapsed and timeout), so it samples
+        # little path it never uses; any other phase runs to its bound (or
+        # CHUNK) per call.
         until = phase.until
-        foreseen = (until.mission_time, until.reaches, until.near, until.settled, until.heading)
-        unforeseen = any(c is not None for c in foreseen)
-        self.first_chunk = FIRST_CHUNK if phase.kind == "track" and unforeseen else CHUNK
+        conditions = (until.mission_time, until.reaches, until.near, until.settled, until.heading)
+        unforeseen = phase.kind == "track" and any(c is not None for c in conditions)
+        self.first_chunk = min(FIRST_CHUNK, CHUNK) if unforeseen else CHUNK
 
     def enter(self, k: int, estimate: FloatArray) -> Phase:
         self.status = Status.running
