@@ -242,3 +242,22 @@ def test_the_plain_form_of_a_kernel_calls_no_compiled_code() -> None:
         rows.append(record.floats[0].copy())
     assert rows[0][11] > 0.0  # the ellipse's row is violated there
     np.testing.assert_array_equal(rows[0], rows[1])
+
+
+def test_the_loop_is_compiled_counted_where_numba_lacks_the_option(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Without numba's developer option `_nrt` the loop compiles as any kernel
+    (reference counted) rather than failing at its first call."""
+    from numba.core import cpu
+
+    from wmr_mission import _jit
+
+    monkeypatch.delattr(cpu.CPUTargetOptions.__mro__[1], "_nrt")
+
+    def steer(x: float) -> float:
+        return 2.0 * x
+
+    compiled = _jit.uncounted(steer)
+    assert compiled(1.5) == 3.0
+    assert "_nrt" not in compiled.targetoptions  # type: ignore[attr-defined]

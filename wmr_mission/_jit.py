@@ -142,4 +142,16 @@ def uncounted(fn: F) -> F:
     the records it passes (docs/performance.md)."""
     if _njit is None:
         return fn
+    if not _accepts_nrt_option():  # a numba without the option: counted, still correct
+        return kernel(fn)
     return _compile(fn, nogil=True, error_model="numpy", _nrt=False)
+
+
+def _accepts_nrt_option() -> bool:
+    """Whether this numba knows ``_nrt``: an unknown option would only fail at
+    the first call, as a KeyError out of the compiler."""
+    try:
+        from numba.core.cpu import CPUTargetOptions
+    except ImportError:  # pragma: no cover - a numba without its CPU target module
+        return False
+    return hasattr(CPUTargetOptions, "_nrt")
