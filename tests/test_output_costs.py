@@ -130,6 +130,23 @@ def test_run_says_a_figure_fault_in_one_line_and_keeps_the_summary(
     assert load_run(out).outcome.value == "success"
 
 
+def test_plot_says_a_figure_fault_in_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`wmr-mission plot` on a fault in drawing: one line and exit 1, no traceback."""
+    mission = tmp_path / "short.yaml"
+    mission.write_text(MISSION)
+    out = tmp_path / "run"
+    assert run_command(mission, out=out, seed=None, plots=False, animate=False) == 0
+    capsys.readouterr()
+    monkeypatch.setattr(plots_module, "draw_all", _broken_drawing)
+    assert plots_module.replot_command(out) == 1
+    assert capsys.readouterr().err == (
+        f"{out}: cannot draw the figures (RuntimeError: a fault in drawing); "
+        "the data are unchanged; please report it\n"
+    )
+
+
 # --- memory ------------------------------------------------------------------------
 
 
