@@ -251,6 +251,12 @@ def _write_worst(
     on worker processes while this one draws (a figure takes longer than a run)."""
     runs = [entry["run"] for entry in record["worst"]]
     mission_sha256 = _sha256(loaded.mission_path)
+    if plots:
+        # Loaded once here, before the pool forks: each worker would spend half
+        # a second importing matplotlib for its first figure.
+        import matplotlib.backends.backend_agg
+        import matplotlib.collections
+        import matplotlib.figure  # noqa: F401
     if workers > 1 and runs:
         with local_pool(min(workers, len(runs))) as pool:
             written = [
