@@ -536,3 +536,40 @@ def test_sweep_draws_its_figures_with_one_collection_per_outcome(tmp_path: Path)
         counts.append((len(ax.lines), len(drawn), sum(len(c.get_segments()) for c in drawn)))
     assert counts[0][:2] == counts[1][:2]  # the same artists for 3 runs as for 30
     assert counts[1][2] == 30  # every run's path is drawn
+
+
+def test_a_value_between_checked_extremes_is_checked_as_run_checks_it(tmp_path: Path) -> None:
+    """A continuous axis of a field the path reads: c = ±1 give a finite path,
+    |c| < 0.5 does not. Those runs are invalid, as `run --set` says, never
+    simulated (they would be judged diverged)."""
+    mission = tmp_path / "m.yaml"
+    mission.write_text(
+        """version: 1
+name: nonmono
+parameters: {c: 1.0}
+robot: {dt: 0.02, initial_state: {x: 0, y: 0, theta: 0}, limits: {v: 2, omega: 3}}
+estimator: {type: constrained-observer}
+phases:
+  - name: line
+    track: {path: {type: expression, x: "0.2*t", y: "sqrt(c*c - 0.25) - sqrt(0.75)"}}
+    until: {elapsed: 1}
+""",
+        encoding="utf-8",
+    )
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text(
+        "version: 1\nname: nonmono-c\nmission: m.yaml\nruns: 12\nseed: 1\n"
+        "vary:\n  parameters.c: {uniform: [-1.0, 1.0]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(campaign)
+    plan = Plan(loaded.campaign)
+    outcomes = []
+    for run in range(12):
+        draw = plan.draw(run)
+        mission_run, _ = mission_of(loaded, draw)
+        inside = abs(draw.values["parameters.c"]) < 0.5
+        assert (mission_run is None) == inside
+        outcomes.append(inside)
+    assert any(outcomes)  # values inside the gap were drawn
+    assert not all(outcomes)  # and values outside it

@@ -5,6 +5,7 @@ data. Counts and allocated bytes, never wall-clock time."""
 
 from __future__ import annotations
 
+import json
 import math
 import tracemalloc
 from dataclasses import replace
@@ -21,6 +22,7 @@ from test_output_synthetic import circle_run
 import wmr_mission.output.metrics as metrics_module
 import wmr_mission.output.plots as plots_module
 import wmr_mission.output.rundir as rundir_module
+from wmr_mission.api import load_mission, run_mission
 from wmr_mission.output.metrics import LOCAL_WINDOW, _PointGrid, distance_to_path, summarize
 from wmr_mission.output.plots import MAX_LEGEND_PHASES
 from wmr_mission.output.reader import load_run
@@ -145,6 +147,19 @@ def test_plot_says_a_figure_fault_in_one_line(
         f"{out}: cannot draw the figures (RuntimeError: a fault in drawing); "
         "the data are unchanged; please report it\n"
     )
+
+
+def test_a_callers_edit_of_the_summary_never_reaches_summary_json(tmp_path: Path) -> None:
+    """The summary kept from judging is handed out as a copy, nested values too."""
+    mission = tmp_path / "short.yaml"
+    mission.write_text(MISSION)
+    result = run_mission(load_mission(mission))
+    edited = result.summary()
+    edited["final"]["position_error"] = 123.0
+    assert result.summary()["final"]["position_error"] != 123.0
+    result.write(tmp_path / "run", plots=False)
+    written = json.loads((tmp_path / "run" / SUMMARY_FILE).read_text(encoding="utf-8"))
+    assert written["final"]["position_error"] != 123.0
 
 
 # --- memory ------------------------------------------------------------------------

@@ -261,3 +261,36 @@ def test_the_loop_is_compiled_counted_where_numba_lacks_the_option(
     compiled = _jit.uncounted(steer)
     assert compiled(1.5) == 3.0
     assert "_nrt" not in compiled.targetoptions  # type: ignore[attr-defined]
+
+
+def test_an_unreadable_ready_marker_is_no_ready_cache(tmp_path: Path) -> None:
+    """A marker that is not text (a torn write, a disk fault) means not ready,
+    never a traceback out of `run`."""
+    (tmp_path / background_compile.READY).write_bytes(b"\xff\xfe")
+    assert background_compile._ready(tmp_path) is False
+
+
+def test_the_background_compile_imports_the_installed_package(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A wmr_mission/ in the user's working directory is never what the
+    background process runs: it is started without the working directory on
+    its path."""
+    started: list[list[str]] = []
+    monkeypatch.setattr(
+        background_compile.subprocess, "Popen", lambda args, **kw: started.append(args)
+    )
+    background_compile._start()
+    monkeypatch.undo()  # the probe below starts a real process
+    (command,) = started
+    assert command[-2:] == ["-m", "wmr_mission.background_compile"]
+    impostor = tmp_path / "wmr_mission"
+    impostor.mkdir()
+    (impostor / "__init__.py").write_text("")
+    probe = [*command[:-2], "-c", "import wmr_mission; print(wmr_mission.__file__)"]
+    found = subprocess.run(probe, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert found.returncode == 0, found.stderr
+    assert (
+        Path(found.stdout.strip()).resolve()
+        == Path(background_compile.__file__).with_name("__init__.py").resolve()
+    )

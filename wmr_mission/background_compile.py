@@ -81,7 +81,7 @@ def ready_stamp() -> str:
 def _ready(directory: Path) -> bool:
     try:
         return (directory / READY).read_text() == ready_stamp()
-    except OSError:
+    except (OSError, ValueError):  # unreadable or not text: not ready
         return False
 
 
@@ -138,7 +138,8 @@ def _start() -> None:
     # No process to spare: the next run tries again.
     with contextlib.suppress(OSError):
         subprocess.Popen(
-            [sys.executable, "-m", "wmr_mission.background_compile"],
+            # -P: the installed package, never a wmr_mission/ in the working directory
+            [sys.executable, "-P", "-m", "wmr_mission.background_compile"],
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,

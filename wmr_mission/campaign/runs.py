@@ -9,20 +9,22 @@ from __future__ import annotations
 
 import math
 import shlex
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
 from wmr_mission.campaign.load import LoadedCampaign, override, value_text
+from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, judge_run_metrics
 from wmr_mission.result import Outcome
+from wmr_mission.spec.models import LinePath, Mission, RegulatePhase, TrackPhase
+from wmr_mission.spec.repeats import run_order
 
 if TYPE_CHECKING:
     from wmr_mission.result import RunResult
-    from wmr_mission.spec.models import Mission
 
 __all__ = [
     "ERROR",
@@ -86,9 +88,9 @@ def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]
     """The mission with the run's values, or None and why the mission refuses them.
 
     Checked as ``run --set`` checks it (:func:`checked_mission`), except that
-    the checks that sample paths and regions run only for a value beyond the
-    extremes `validate` ran them at (a normal draw beyond 4 std): they cost
-    more than the run.
+    the checks that sample paths and regions (they cost more than the run) are
+    left out where `validate`'s checks at the axes' values cover the run: no
+    varied field is one they read, or one discrete axis is.
     """
     overrides = [override(path, value) for path, value in draw.values.items()]
     vary = loaded.campaign.vary
@@ -96,9 +98,52 @@ def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]
         path in vary and vary[path].within_extremes(value) for path, value in draw.values.items()
     ):
         mission = loaded.mission_across_fields(overrides)
-        if mission is not None:
+        if mission is not None and _sampled_by_validate(vary, mission):
             return mission, ""
     return checked_mission(loaded, draw)
+
+
+# What the checks that sample paths and regions read (spec.checks: _feasible_sets,
+# _reaches): the initial heading only through a line path without a heading.
+_SAMPLED_FIELDS: Final = (
+    "regions",
+    "phases",
+    "parameters",
+    "robot.dt",
+    "robot.limits",
+    "robot.initial_state.x",
+    "robot.initial_state.y",
+)
+
+
+def _sampled_by_validate(vary: Mapping[str, Axis], mission: Mission) -> bool:
+    """Whether the checks `validate` ran at the axes' values cover this run:
+    none of the varied fields is read by the sampling checks, or only one is and
+    `validate` checked each value it takes (choice, grid). A value between the
+    extremes of a continuous axis can break a path the extremes do not."""
+    read = [path for path in vary if _read_by_sampling_checks(path, mission)]
+    return not read or (len(read) == 1 and vary[read[0]].kind in ("choice", "grid"))
+
+
+def _read_by_sampling_checks(path: str, mission: Mission) -> bool:
+    if path == "robot.initial_state.theta":
+        return _first_path_heads_along_the_robot(mission)
+    return any(
+        path == field or path.startswith(f"{field}.") or field.startswith(f"{path}.")
+        for field in _SAMPLED_FIELDS
+    )
+
+
+def _first_path_heads_along_the_robot(mission: Mission) -> bool:
+    """A line path without a heading of its own, tracked before any phase sets
+    the pose: the only sampled path that starts from the initial heading."""
+    for run in run_order(mission):
+        if isinstance(run.phase, RegulatePhase):
+            return False
+        if isinstance(run.phase, TrackPhase):
+            path = run.phase.track.path
+            return isinstance(path, LinePath) and path.heading is None
+    return False
 
 
 def checked_mission(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:

@@ -263,9 +263,13 @@ def _write_worst(
                 pool.submit(_write_run_dir, loaded, run, out_dir, plots, mission_sha256)
                 for run in runs
             ]
-            _draw(loaded, aggregate, out_dir, plots)
-            for future in written:
-                future.result()
+            try:
+                _draw(loaded, aggregate, out_dir, plots)
+                for future in written:
+                    future.result()
+            except KeyboardInterrupt:  # stop now: leave the runs not started
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
         return
     for run in runs:
         _write_run_dir(loaded, run, out_dir, plots, mission_sha256)

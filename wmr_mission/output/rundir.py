@@ -21,6 +21,7 @@ reads back. ``phase`` holds the phase name; lines end with ``\\n``.
 from __future__ import annotations
 
 import contextlib
+import copy
 import hashlib
 import json
 import math
@@ -375,7 +376,7 @@ def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) 
         mission = result.mission
     if result.judged is not None and mission is result.mission:
         # Judged at the end of the run; a stop since names its signal in the message.
-        summary = dict(result.judged)
+        summary = copy.deepcopy(result.judged)  # a caller's edit never reaches the result
         summary["outcome"], summary["message"] = result.outcome.value, result.message
         return summary
     summary = summarize(result, mission)
