@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from wmr_mission._jit import kernel
 from wmr_mission.control import input_jacobian_into, saturate
-from wmr_mission.corrective import ELLIPSE, REGULARISATION, kept_row_slot
+from wmr_mission.corrective import ELLIPSE, REGULARISATION, kept_row_slot, row_value_with_margin
 from wmr_mission.model import step
 from wmr_mission.params import Controller, Robot, Scratch
 
@@ -81,37 +81,6 @@ def constrained_change(
     lam0 = (s11 * eta[0] - s01 * eta[1]) / sdet
     lam1 = (s00 * eta[1] - s01 * eta[0]) / sdet
     return p00 * lam0 + p01 * lam1, p10 * lam0 + p11 * lam1
-
-
-@kernel
-def row_value_with_margin(
-    kind: int, p: FloatArray, margin: float, x: float, y: float
-) -> tuple[float, float, float]:
-    """``corrective.row_value`` of the row with its allowed side shrunk by ``margin``.
-
-    A point that keeps the shrunk row keeps the row itself with every point
-    within ``margin`` of it: exactly for half-planes and circles (offset, or
-    radius -+ margin); for an ellipse the semi-axes move by ``margin``, which
-    is exact on its axes and off by ``O(margin^2 / radius of curvature)``
-    elsewhere.
-    """
-    if kind != ELLIPSE:
-        return p[0] * x + p[1] * y - (p[2] - margin), p[0], p[1]
-    sign = p[5]
-    a = max(p[2] - sign * margin, 1e-9)
-    b = max(p[3] - sign * margin, 1e-9)
-    cos_phi = math.cos(p[4])
-    sin_phi = math.sin(p[4])
-    dx = x - p[0]
-    dy = y - p[1]
-    u = cos_phi * dx + sin_phi * dy
-    w = -sin_phi * dx + cos_phi * dy
-    ia2 = 1.0 / (a * a)
-    ib2 = 1.0 / (b * b)
-    value = sign * (u * u * ia2 + w * w * ib2 - 1.0)
-    gu = 2.0 * u * ia2
-    gw = 2.0 * w * ib2
-    return value, sign * (gu * cos_phi - gw * sin_phi), sign * (gu * sin_phi + gw * cos_phi)
 
 
 @kernel

@@ -139,27 +139,44 @@ def kept_row_slot(value: float, count: int, eta: FloatArray) -> tuple[int, int]:
 
 
 @kernel
+def row_value_with_margin(
+    kind: int, p: FloatArray, margin: float, x: float, y: float
+) -> tuple[float, float, float]:
+    """:func:`row_value` of the row with its allowed side shrunk by ``margin``.
+
+    A point that keeps the shrunk row keeps the row itself with every point
+    within ``margin`` of it: exactly for half-planes and circles (offset, or
+    radius -+ margin); for an ellipse the semi-axes move by ``margin``, which
+    is exact on its axes and off by ``O(margin^2 / radius of curvature)``
+    elsewhere.
+    """
+    if kind != ELLIPSE:
+        return p[0] * x + p[1] * y - (p[2] - margin), p[0], p[1]
+    sign = p[5]
+    a = max(p[2] - sign * margin, 1e-9)
+    b = max(p[3] - sign * margin, 1e-9)
+    cos_phi = math.cos(p[4])
+    sin_phi = math.sin(p[4])
+    dx = x - p[0]
+    dy = y - p[1]
+    u = cos_phi * dx + sin_phi * dy
+    w = -sin_phi * dx + cos_phi * dy
+    ia2 = 1.0 / (a * a)
+    ib2 = 1.0 / (b * b)
+    value = sign * (u * u * ia2 + w * w * ib2 - 1.0)
+    gu = 2.0 * u * ia2
+    gw = 2.0 * w * ib2
+    return value, sign * (gu * cos_phi - gw * sin_phi), sign * (gu * sin_phi + gw * cos_phi)
+
+
+@kernel
 def row_value(kind: int, p: FloatArray, x: float, y: float) -> tuple[float, float, float]:
     """Value ``c`` of one constraint row (satisfied when ``c <= 0``) and its gradient.
 
     Rows are described in docs/architecture.md; an ellipse row with sign +1 is
     eq. (33) written as ``G(x) - 1 <= 0``.
     """
-    if kind == ELLIPSE:
-        cos_phi = math.cos(p[4])
-        sin_phi = math.sin(p[4])
-        dx = x - p[0]
-        dy = y - p[1]
-        u = cos_phi * dx + sin_phi * dy
-        w = -sin_phi * dx + cos_phi * dy
-        ia2 = 1.0 / (p[2] * p[2])
-        ib2 = 1.0 / (p[3] * p[3])
-        sign = p[5]
-        value = sign * (u * u * ia2 + w * w * ib2 - 1.0)
-        gu = 2.0 * u * ia2
-        gw = 2.0 * w * ib2
-        return value, sign * (gu * cos_phi - gw * sin_phi), sign * (gu * sin_phi + gw * cos_phi)
-    return p[0] * x + p[1] * y - p[2], p[0], p[1]
+    return row_value_with_margin(kind, p, 0.0, x, y)
 
 
 @kernel
