@@ -20,8 +20,8 @@ from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, judge_run_metrics
 from wmr_mission.result import Outcome
-from wmr_mission.spec.models import LinePath, Mission, RegulatePhase, TrackPhase
-from wmr_mission.spec.repeats import run_order
+from wmr_mission.spec.checks import read_by_sampling_checks
+from wmr_mission.spec.models import Mission
 
 if TYPE_CHECKING:
     from wmr_mission.result import RunResult
@@ -103,47 +103,13 @@ def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]
     return checked_mission(loaded, draw)
 
 
-# What the checks that sample paths and regions read (spec.checks: _feasible_sets,
-# _reaches): the initial heading only through a line path without a heading.
-_SAMPLED_FIELDS: Final = (
-    "regions",
-    "phases",
-    "parameters",
-    "robot.dt",
-    "robot.limits",
-    "robot.initial_state.x",
-    "robot.initial_state.y",
-)
-
-
 def _sampled_by_validate(vary: Mapping[str, Axis], mission: Mission) -> bool:
     """Whether the checks `validate` ran at the axes' values cover this run:
     none of the varied fields is read by the sampling checks, or only one is and
     `validate` checked each value it takes (choice, grid). A value between the
     extremes of a continuous axis can break a path the extremes do not."""
-    read = [path for path in vary if _read_by_sampling_checks(path, mission)]
+    read = [path for path in vary if read_by_sampling_checks(path, mission)]
     return not read or (len(read) == 1 and vary[read[0]].kind in ("choice", "grid"))
-
-
-def _read_by_sampling_checks(path: str, mission: Mission) -> bool:
-    if path == "robot.initial_state.theta":
-        return _first_path_heads_along_the_robot(mission)
-    return any(
-        path == field or path.startswith(f"{field}.") or field.startswith(f"{path}.")
-        for field in _SAMPLED_FIELDS
-    )
-
-
-def _first_path_heads_along_the_robot(mission: Mission) -> bool:
-    """A line path without a heading of its own, tracked before any phase sets
-    the pose: the only sampled path that starts from the initial heading."""
-    for run in run_order(mission):
-        if isinstance(run.phase, RegulatePhase):
-            return False
-        if isinstance(run.phase, TrackPhase):
-            path = run.phase.track.path
-            return isinstance(path, LinePath) and path.heading is None
-    return False
 
 
 def checked_mission(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:

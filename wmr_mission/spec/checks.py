@@ -24,6 +24,7 @@ from wmr_mission.spec.models import (
     EllipseRegion,
     EllipticalSpiralPath,
     HoldPhase,
+    LinePath,
     Mission,
     Phase,
     PolygonRegion,
@@ -294,6 +295,43 @@ def _target_against_constraints(
 # them, or a grid point inside it).
 _GRID = 201
 _BOUNDARY = 2048
+
+
+# What the checks that sample paths and regions (_feasible_sets, _reaches) read:
+# keep in step with them. The initial heading only through a line path
+# without a heading (read_by_sampling_checks).
+_SAMPLED_FIELDS: Final = (
+    "regions",
+    "phases",
+    "parameters",
+    "robot.dt",
+    "robot.limits",
+    "robot.initial_state.x",
+    "robot.initial_state.y",
+)
+
+
+def read_by_sampling_checks(path: str, mission: Mission) -> bool:
+    """Whether the field at dotted ``path`` is one the sampling checks read
+    (a campaign leaves them out of runs that vary none of those)."""
+    if path == "robot.initial_state.theta":
+        return _first_path_heads_along_the_robot(mission)
+    return any(
+        path == field or path.startswith(f"{field}.") or field.startswith(f"{path}.")
+        for field in _SAMPLED_FIELDS
+    )
+
+
+def _first_path_heads_along_the_robot(mission: Mission) -> bool:
+    """A line path without a heading of its own, tracked before any phase sets
+    the pose: the only sampled path that starts from the initial heading."""
+    for run in run_order(mission):
+        if isinstance(run.phase, RegulatePhase):
+            return False
+        if isinstance(run.phase, TrackPhase):
+            path = run.phase.track.path
+            return isinstance(path, LinePath) and path.heading is None
+    return False
 
 
 def _feasible_sets(mission: Mission) -> Iterator[Finding]:
