@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -94,12 +95,13 @@ def _rms_or_none(values: FloatArray) -> float | None:
     return float(np.sqrt(np.mean(finite**2))) if finite.size else None
 
 
-def estimation_errors(result: RunResult) -> dict[str, FloatArray]:
-    """True minus estimated state per sample, heading wrapped."""
+def estimation_errors(result: RunResult, window: slice = slice(None)) -> dict[str, FloatArray]:
+    """True minus estimated state per sample (of ``window``), heading wrapped."""
+    r, w = result, window
     return {
-        "x": result.x - result.x_est,
-        "y": result.y - result.y_est,
-        "theta": wrap_angle(result.theta - result.theta_est),
+        "x": r.x[w] - r.x_est[w],
+        "y": r.y[w] - r.y_est[w],
+        "theta": wrap_angle(r.theta[w] - r.theta_est[w]),
     }
 
 
@@ -423,71 +425,106 @@ def _final(result: RunResult, segments: list[tuple[int, int, int]]) -> dict[str,
     return final
 
 
-def _phase_summary(
-    result: RunResult,
-    errors: dict[str, FloatArray],
-    index: int,
-    start: int,
-    end: int,
-    settle_time: float,
-    tolerance: Mapping[str, float],
-    off_path_of: OffPath,
-    checked_only: bool = False,
-) -> dict[str, Any]:
-    """A phase's summary; ``checked_only``: only what its `expect` thresholds
-    read (:func:`check_expectations`), for a verdict at half the cost."""
-    info = result.phases[index]
-    t = result.t
-    # A phase lasts until the next one begins (or the run ends).
-    end_sample = end if end < result.samples else result.samples - 1
-    window = slice(start, end)
-    start_time = float(t[start])
-    settled = (t[window] - start_time) >= settle_time - 1e-9 * result.dt
+OffPath = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], FloatArray]
 
+
+class _PhaseSamples:
+    """A phase's stretch of the run, and the samples its quality metrics count
+    (those after its settle time). What only some metrics read is computed on
+    first use."""
+
+    def __init__(
+        self, result: RunResult, start: int, end: int, settle_time: float, off_path_of: OffPath
+    ) -> None:
+        self.result = result
+        self.window = slice(start, end)
+        self.start_time = float(result.t[start])
+        self.settle_time = settle_time
+        self.settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
+        self.omega = result.omega[self.window]
+        self._off_path_of = off_path_of
+
+    @cached_property
+    def off_path(self) -> FloatArray:
+        """Distance of each sample from the path (of a track phase)."""
+        r, window = self.result, self.window
+        return self._off_path_of(r.x[window], r.y[window], r.x_ref[window], r.y_ref[window])
+
+    @cached_property
+    def errors(self) -> dict[str, FloatArray]:
+        return estimation_errors(self.result, self.window)
+
+
+# How each per-phase `expect` metric (_PHASE_EXPECTATION_PATHS) is measured.
+_PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
+    "tracking_error_rms": lambda p: _rms_or_none(p.off_path[p.settled]),
+    "tracking_error_max": lambda p: _max_or_none(p.off_path[p.settled]),
+    "speed_at_limit": lambda p: at_limit_fraction(
+        p.result.v[p.window][p.settled], p.result.limits[0]
+    ),
+    "turn_rate_at_limit": lambda p: at_limit_fraction(p.omega[p.settled], p.result.limits[1]),
+    "turn_rate_jitter": lambda p: jitter(p.omega, p.settled),
+    "turn_rate_reversals": lambda p: sign_reversals(p.omega[p.settled]),
+    "estimation_rms": lambda p: {s: _rms_or_none(e[p.settled]) for s, e in p.errors.items()},
+}
+
+
+def _measured(phase: _PhaseSamples, metrics: list[str]) -> dict[str, dict[str, Any]]:
+    """The values of per-phase ``metrics``, placed as in a phase's summary."""
+    values: dict[str, dict[str, Any]] = {}
+    for metric in metrics:
+        section, key = _PHASE_EXPECTATION_PATHS[metric]
+        values.setdefault(section, {})[key] = _PHASE_METRICS[metric](phase)
+    return values
+
+
+def _checked_phase_summary(
+    info: PhaseInfo, phase: _PhaseSamples, thresholds: Mapping[str, Any]
+) -> dict[str, Any]:
+    """What :func:`check_expectations` reads of a phase's summary: the value of
+    each threshold set that applies to the phase, as :func:`_phase_summary` has it."""
+    summary = {
+        "name": info.name,
+        "kind": info.kind,
+        "settled_samples": int(np.count_nonzero(phase.settled)),
+    }
+    checked = [
+        metric
+        for metric in _PHASE_EXPECTATION_PATHS
+        if thresholds.get(metric) is not None and _applies(summary, metric)
+    ]
+    return summary | _measured(phase, checked)
+
+
+def _phase_summary(
+    result: RunResult, info: PhaseInfo, phase: _PhaseSamples, tolerance: Mapping[str, float]
+) -> dict[str, Any]:
+    t = result.t
+    window, settled, start_time = phase.window, phase.settled, phase.start_time
+    # A phase lasts until the next one begins (or the run ends).
+    end_sample = window.stop if window.stop < result.samples else result.samples - 1
+    track = info.kind == "track"
+    quality = _measured(
+        phase, [m for m in _PHASE_EXPECTATION_PATHS if track or not m.startswith("tracking")]
+    )
     tracking = None
-    if info.kind == "track":
+    if track:
         x, y = result.x[window], result.y[window]
         x_ref, y_ref = result.x_ref[window], result.y_ref[window]
-        off_path = off_path_of(x, y, x_ref, y_ref)
-        tracking = {
-            "rms": _rms_or_none(off_path[settled]),
-            "max": _max_or_none(off_path[settled]),
-        }
-
-    v, omega = result.v[window], result.omega[window]
-    inputs = {
-        "speed_at_limit": at_limit_fraction(v[settled], result.limits[0]),
-        "turn_rate_at_limit": at_limit_fraction(omega[settled], result.limits[1]),
-        "turn_rate_jitter": jitter(omega, settled),
-        "turn_rate_reversals": sign_reversals(omega[settled]),
-    }
-    phase_errors = {state: error[window] for state, error in errors.items()}
-    rms = {s: _rms_or_none(e[settled]) for s, e in phase_errors.items()}
-    if checked_only:
-        return {
-            "name": info.name,
-            "kind": info.kind,
-            "settled_samples": int(np.count_nonzero(settled)),
-            "tracking_error": tracking,
-            "inputs": inputs,
-            "estimation": {"rms": rms},
-        }
-
-    if tracking is not None:
-        tracking |= {
-            "rms_from_start": _rms_or_none(off_path),
-            "max_from_start": _max_or_none(off_path),
+        tracking = quality["tracking_error"] | {
+            "rms_from_start": _rms_or_none(phase.off_path),
+            "max_from_start": _max_or_none(phase.off_path),
             # distance from the reference point of the same sample: lag included
             "reference_rms": _rms_or_none(np.hypot(x - x_ref, y - y_ref)[settled]),
         }
 
     target_error = None
-    if info.kind != "track" and info.target is not None:
+    if not track and info.target is not None:
         position, heading = _pose_error(result, end_sample, info.target)
         target_error = {"position": position, "heading": heading}
 
     constraint = result.constraint[window]
-    converged = convergence_index(phase_errors, tolerance)
+    converged = convergence_index(phase.errors, tolerance)
     iterations = result.phase2_iterations[window]
     return {
         "name": info.name,
@@ -495,7 +532,7 @@ def _phase_summary(
         "start": start_time,
         "end": float(t[end_sample]),
         "duration": round(float(t[end_sample]) - start_time, 9),  # no 20.000000000000004
-        "settle_time": settle_time,
+        "settle_time": phase.settle_time,
         "settled_samples": int(np.count_nonzero(settled)),
         "tracking_error": tracking,
         "target_error": target_error,
@@ -508,17 +545,17 @@ def _phase_summary(
             ),
         },
         "estimation": {
-            "rms": rms,
-            "max_abs_error": {s: _max_or_none(np.abs(e)) for s, e in phase_errors.items()},
-            "overshoot": {s: overshoot(e, tolerance[s]) for s, e in phase_errors.items()},
+            "rms": quality["estimation"]["rms"],
+            "max_abs_error": {s: _max_or_none(np.abs(e)) for s, e in phase.errors.items()},
+            "overshoot": {s: overshoot(e, tolerance[s]) for s, e in phase.errors.items()},
             # seconds after the phase start
             "convergence_time": (
-                None if converged is None else float(t[start + converged]) - start_time
+                None if converged is None else float(t[window.start + converged]) - start_time
             ),
         },
-        "inputs": inputs,
-        "max_abs_v": _max_or_none(np.abs(v)),
-        "max_abs_omega": _max_or_none(np.abs(omega)),
+        "inputs": quality["inputs"],
+        "max_abs_v": _max_or_none(np.abs(result.v[window])),
+        "max_abs_omega": _max_or_none(np.abs(phase.omega)),
         "phase2_iterations": {
             "total": int(iterations.sum()),
             "max": int(iterations.max()) if iterations.size else 0,
@@ -600,9 +637,6 @@ def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> di
     return summary
 
 
-OffPath = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], FloatArray]
-
-
 def _phase_summaries(
     result: RunResult,
     mission: Mapping[str, Any] | None,
@@ -610,26 +644,21 @@ def _phase_summaries(
     checked_only: bool = False,
 ) -> list[dict[str, Any]]:
     """Each phase's summary (see :func:`_phase_summary`), its tracking error
-    measured by ``off_path``."""
+    measured by ``off_path``; ``checked_only``: only what its `expect`
+    thresholds read (:func:`_checked_phase_summary`), for a verdict at a
+    fraction of the cost."""
     tolerance = _tolerance(mission)
     per_phase = phase_expectations(mission)
-    errors = estimation_errors(result)
-    return [
-        _phase_summary(
-            result,
-            errors,
-            index,
-            start,
-            end,
-            _settle_time(
-                per_phase.get(_written_name(result.phases[index].name), _expect_of(mission))
-            ),
-            tolerance,
-            off_path,
-            checked_only,
-        )
-        for index, start, end in phase_segments(result.phase)
-    ]
+    summaries = []
+    for index, start, end in phase_segments(result.phase):
+        info = result.phases[index]
+        expect = per_phase.get(_written_name(info.name), _expect_of(mission))
+        phase = _PhaseSamples(result, start, end, _settle_time(expect), off_path)
+        if checked_only:
+            summaries.append(_checked_phase_summary(info, phase, expect))
+        else:
+            summaries.append(_phase_summary(result, info, phase, tolerance))
+    return summaries
 
 
 def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
