@@ -141,21 +141,23 @@ def _samples(seconds: float, dt: float) -> int:
     return max(1, round(seconds / dt))
 
 
-def _extent(mission: Mission) -> float:
+def _extent(mission: Mission, regions: dict[str, dict[str, object]]) -> float:
     """The largest coordinate magnitude the mission names [m]: start, estimate,
-    regions, targets, points, and each path's first point from the start pose."""
+    regions (``regions`` dumped, less their rotation), targets, points, and
+    each path's first point from the start pose."""
     from wmr_mission import paths
 
     start = mission.robot.initial_state
     guess = mission.estimator.initial_estimate or start
     numbers = [start.x, start.y, guess.x, guess.y]
-    for region in mission.regions.values():
-        numbers += _numbers(region.model_dump(mode="json", exclude={"rotation"}))
+    for region in regions.values():
+        numbers += _numbers({key: value for key, value in region.items() if key != "rotation"})
     pose = (float(start.x), float(start.y), float(start.theta))
     from wmr_mission.spec.repeats import run_order
 
     for phase in {run.where: run.phase for run in run_order(mission)}.values():
-        numbers += _numbers(phase.model_dump(mode="json", include={"regulate"}))
+        if hasattr(phase, "regulate"):
+            numbers += _numbers(phase.regulate.model_dump(mode="json"))
         if phase.until is not None and phase.until.near is not None:
             numbers += list(phase.until.near.point)
         if hasattr(phase, "track"):
@@ -353,6 +355,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
     controller = mission.controller
     initial = mission.robot.initial_state
     guess = initial if estimator.initial_estimate is None else estimator.initial_estimate
+    dumped_regions = {name: r.model_dump(mode="json") for name, r in mission.regions.items()}
     return CompiledMission(
         name=mission.name,
         dt=dt,
@@ -391,7 +394,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         align_radius=controller.regulation.align_radius,
         reverse=controller.regulation.reverse,
         phases=tuple(phases),
-        regions={name: region.model_dump(mode="json") for name, region in mission.regions.items()},
+        regions=dumped_regions,
         max_samples=sample_budget(mission),
-        runaway_position=RUNAWAY_DISTANCE + _extent(mission),
+        runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),
     )

@@ -663,15 +663,33 @@ def _phase_summaries(
 
 def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The mission-wide metrics of :func:`summarize` (its keys before ``phases``),
-    without the per-phase ones: what a campaign's row needs."""
+    without the per-phase ones."""
     tolerance = _tolerance(mission)
     errors = estimation_errors(result)
-    converged = convergence_index(errors, tolerance)
-    duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
+    summary = _bounded_metrics(result, tolerance, errors)
     settled = (
         result.t - (result.t[0] if result.samples else 0.0)
         >= _settle_time(_expect_of(mission)) - 1e-9 * result.dt
     )
+    summary |= {
+        "convergence_tolerance": tolerance,
+        "estimation_overshoot": {
+            state: overshoot(error, tolerance[state]) for state, error in errors.items()
+        },
+        # after the mission's settle time from its start
+        "estimation_rms": {state: _rms_or_none(error[settled]) for state, error in errors.items()},
+    }
+    summary["max_constraint_violation"] = summary.pop("max_constraint_violation")  # last
+    return summary
+
+
+def _bounded_metrics(
+    result: RunResult, tolerance: Mapping[str, float], errors: dict[str, FloatArray]
+) -> dict[str, Any]:
+    """The run's outcome and the mission-wide metrics an `expect` can bound
+    (_EXPECTATION_PATHS), as :func:`run_metrics` has them."""
+    converged = convergence_index(errors, tolerance)
+    duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
     return {
         "outcome": result.outcome.value,
         "message": result.message,
@@ -681,12 +699,6 @@ def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> 
         "duration": duration,
         "final": _final(result, phase_segments(result.phase)),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
-        "convergence_tolerance": tolerance,
-        "estimation_overshoot": {
-            state: overshoot(error, tolerance[state]) for state, error in errors.items()
-        },
-        # after the mission's settle time from its start
-        "estimation_rms": {state: _rms_or_none(error[settled]) for state, error in errors.items()},
         "max_constraint_violation": _violation(result.constraint),
     }
 
@@ -800,9 +812,10 @@ def judge(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any
 
 
 def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any]:
-    """:func:`run_metrics`, with the run judged as :func:`judge` judges it (the
-    same outcome and message, in ``result`` too): a campaign's row, at a
-    fraction of the cost.
+    """The keys of :func:`run_metrics` a campaign's row records (the outcome and
+    the metrics an `expect` bounds mission-wide), with the run judged as
+    :func:`judge` judges it (the same outcome and message, in ``result`` too),
+    at a fraction of the cost.
 
     A tracking-error threshold is checked first against the distance to each
     sample's own reference point: that point ends a segment
@@ -810,7 +823,7 @@ def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> d
     it, and a phase within its threshold by it is within it. Only when that
     bound misses a threshold is the distance to the path computed.
     """
-    summary = run_metrics(result, mission)
+    summary = _bounded_metrics(result, _tolerance(mission), estimation_errors(result))
     if result.outcome is not Outcome.success:  # judging changes only a success
         return summary
     phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True)

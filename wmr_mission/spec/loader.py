@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import difflib
+import functools
 import math
 import os
 import re
@@ -1002,6 +1003,7 @@ class Override:
 _PATH_PART = re.compile(r"^([A-Za-z0-9_-]+)((?:\[\d+\])*)$")
 
 
+@functools.lru_cache(maxsize=256)  # a campaign sets the same paths in each of its runs
 def parse_path(dotted: str) -> DataPath:
     """``a.b[2].c`` or ``a.b.2.c`` as a data path; raises ValueError when malformed."""
     path: list[str | int] = []
