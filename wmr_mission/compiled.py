@@ -18,7 +18,7 @@ from wmr_mission.sensors import STATE_NAMES, measurement_mask
 
 if TYPE_CHECKING:
     from wmr_mission.disturbances import Settings
-    from wmr_mission.spec.models import Mission
+    from wmr_mission.spec.models import Mission, Until
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -230,6 +230,30 @@ def sample_budget(mission: Mission) -> int:
     return budget + 1
 
 
+def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:
+    from wmr_mission import regions
+
+    reaches_rows = no_rows()
+    if until.reaches is not None:
+        reaches_rows = regions.constraint_rows(mission.regions[until.reaches], "inside")
+    return Conditions(
+        elapsed_samples=None if until.elapsed is None else _samples(until.elapsed, dt),
+        mission_time=until.mission_time,
+        reaches=until.reaches,
+        reaches_rows=(
+            np.ascontiguousarray(reaches_rows[0], dtype=np.int64),
+            np.ascontiguousarray(reaches_rows[1], dtype=np.float64),
+        ),
+        near=None
+        if until.near is None
+        else (until.near.point[0], until.near.point[1], until.near.tolerance),
+        settled=None
+        if until.settled is None
+        else (until.settled.position, until.settled.heading, until.settled.speed),
+        heading=None if until.heading is None else (until.heading.target, until.heading.tolerance),
+    )
+
+
 def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
     """Turn a validated mission into the runner's plain form."""
     from wmr_mission import paths, regions
@@ -239,30 +263,6 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
     phases: list[CompiledPhase] = []
     for run in run_order(mission):  # repeats written out, one phase per lap
         phase = run.phase
-        until = phase.until
-        conditions = Conditions()
-        if until is not None:
-            reaches_rows = no_rows()
-            if until.reaches is not None:
-                reaches_rows = regions.constraint_rows(mission.regions[until.reaches], "inside")
-            conditions = Conditions(
-                elapsed_samples=None if until.elapsed is None else _samples(until.elapsed, dt),
-                mission_time=until.mission_time,
-                reaches=until.reaches,
-                reaches_rows=(
-                    np.ascontiguousarray(reaches_rows[0], dtype=np.int64),
-                    np.ascontiguousarray(reaches_rows[1], dtype=np.float64),
-                ),
-                near=None
-                if until.near is None
-                else (until.near.point[0], until.near.point[1], until.near.tolerance),
-                settled=None
-                if until.settled is None
-                else (until.settled.position, until.settled.heading, until.settled.speed),
-                heading=None
-                if until.heading is None
-                else (until.heading.target, until.heading.tolerance),
-            )
         constraints = []
         row_parts = []
         for constraint in phase.constraints:
@@ -301,7 +301,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 lap=run.lap,
                 points=points,
                 kind=kind,
-                until=conditions,
+                until=_conditions(phase.until, mission, dt),
                 timeout_samples=None if phase.timeout is None else _samples(phase.timeout, dt),
                 fail_on_timeout=phase.on_timeout == "fail",
                 make_trajectory=make_trajectory,

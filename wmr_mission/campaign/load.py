@@ -77,7 +77,12 @@ class LoadedCampaign:
         them (``check_across_fields``) accept it, else None (:meth:`mission_with`
         then says why). The checks that sample paths and regions are left out:
         `validate` ran them with each axis at its extremes."""
-        document = Document(data=_copy(self.mission_document.data))
+        # Overrides write inside the top-level sections they name: only those are copied.
+        written = {str(override.path[0]) for override in overrides}
+        data = self.mission_document.data
+        document = Document(
+            data={key: _copy(value) if key in written else value for key, value in data.items()}
+        )
         if any(_apply(document, override) is not None for override in overrides):
             return None
         try:

@@ -1063,12 +1063,12 @@ def _apply(document: Document, override: Override) -> str | None:
     resolved: list[str | int] = []
     for depth, part in enumerate(path):
         last = depth == len(path) - 1
-        where = _dotted(tuple(resolved)) if resolved else "the mission"
         if isinstance(current, list):
             index = _list_index(current, part)
             if index is None:
                 return (
-                    f"{where} has {len(current)} items (0 to {len(current) - 1}), no item {part!r}"
+                    f"{_where(resolved)} has {len(current)} items (0 to {len(current) - 1}), "
+                    f"no item {part!r}"
                 )
             resolved.append(index)
             if last:
@@ -1077,7 +1077,10 @@ def _apply(document: Document, override: Override) -> str | None:
                 current = current[index]
             continue
         if not isinstance(current, dict):
-            return f"{where} is a {type(current).__name__}, not a mapping: it has no field {part!r}"
+            return (
+                f"{_where(resolved)} is a {type(current).__name__}, not a mapping: "
+                f"it has no field {part!r}"
+            )
         key = str(part)
         resolved.append(key)
         if last:
@@ -1092,6 +1095,10 @@ def _apply(document: Document, override: Override) -> str | None:
             del positions[known]
     document.overrides[written] = override.source
     return None
+
+
+def _where(resolved: list[str | int]) -> str:
+    return _dotted(tuple(resolved)) if resolved else "the mission"
 
 
 def _list_index(items: list[Any], part: str | int) -> int | None:
