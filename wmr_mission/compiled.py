@@ -153,14 +153,15 @@ def _extent(mission: Mission, regions: dict[str, dict[str, object]]) -> float:
     for region in regions.values():
         numbers += _numbers({key: value for key, value in region.items() if key != "rotation"})
     pose = (float(start.x), float(start.y), float(start.theta))
+    from wmr_mission.spec.models import RegulatePhase, TrackPhase
     from wmr_mission.spec.repeats import run_order
 
     for phase in {run.where: run.phase for run in run_order(mission)}.values():
-        if hasattr(phase, "regulate"):
+        if isinstance(phase, RegulatePhase):
             numbers += _numbers(phase.regulate.model_dump(mode="json"))
         if phase.until is not None and phase.until.near is not None:
             numbers += list(phase.until.near.point)
-        if hasattr(phase, "track"):
+        if isinstance(phase, TrackPhase):
             trajectory = paths.instantiate(phase.track.path, mission, pose)
             x, y, _, _ = trajectory.sample(np.zeros(1))
             numbers += [float(x[0]), float(y[0])]
@@ -257,6 +258,7 @@ def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:
 def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
     """Turn a validated mission into the runner's plain form."""
     from wmr_mission import paths, regions
+    from wmr_mission.spec.models import RegulatePhase, StayInside, TrackPhase
     from wmr_mission.spec.repeats import run_order
 
     dt = float(mission.robot.dt)
@@ -266,25 +268,20 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         constraints = []
         row_parts = []
         for constraint in phase.constraints:
-            name = getattr(constraint, "stay_inside", None)
-            side: Literal["inside", "outside"] = "inside"
-            if name is None:
-                name = constraint.stay_outside  # type: ignore[union-attr]
-                side = "outside"
+            side: Literal["inside", "outside"]
+            if isinstance(constraint, StayInside):
+                name, side = constraint.stay_inside, "inside"
+            else:
+                name, side = constraint.stay_outside, "outside"
             constraints.append((name, side))
             row_parts.append(regions.constraint_rows(mission.regions[name], side))
-        kind = (
-            "track"
-            if hasattr(phase, "track")
-            else "regulate"
-            if hasattr(phase, "regulate")
-            else "hold"
-        )
+        kind = "hold"
         make_trajectory = None
         target = None
         points = None
-        if kind == "track":
-            path = phase.track.path  # type: ignore[union-attr]
+        if isinstance(phase, TrackPhase):
+            kind = "track"
+            path = phase.track.path
             points = paths.drawn_points(path, mission)
 
             def make_trajectory(
@@ -292,8 +289,9 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
             ) -> Trajectory:
                 return paths.instantiate(_path, mission, pose)  # type: ignore[arg-type]
 
-        elif kind == "regulate":
-            goal = phase.regulate.target  # type: ignore[union-attr]
+        elif isinstance(phase, RegulatePhase):
+            kind = "regulate"
+            goal = phase.regulate.target
             target = (float(goal.x), float(goal.y), float(goal.theta))
         phases.append(
             CompiledPhase(
@@ -374,7 +372,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         seed=sensors.seed if seed is None else seed,
         estimator=estimator.type,
         poles=poles,
-        heading_motion_floor=float(np.max(noise[:2] * mask[:2])),
+        heading_motion_floor=float((noise[:2] * mask[:2]).max()),
         lower_bounds=lower,
         upper_bounds=upper,
         use_bounds=use_bounds,
