@@ -511,6 +511,69 @@ def test_a_row_is_judged_as_judge_judges_it_on_every_phase_threshold() -> None:
     assert "approach: estimation_rms.x" in fast.message
 
 
+def test_a_row_measures_of_each_phase_only_what_its_thresholds_read(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """With only turn_rate_at_limit set, the row's verdict measures neither the
+    tracking error, the jitter nor the reversals of any phase (they cost more
+    than the rest of the verdict), and still gives judge's outcome and message."""
+    import copy
+
+    from wmr_mission.output import metrics
+    from wmr_mission.result import Outcome
+
+    run = _lagging_circle_run()
+    run.omega = run.omega.copy()
+    run.omega[700:800] = 20.0 * (-1.0) ** np.arange(100)  # chatter at the limit in orbit
+    phases = [{"name": n, "expect": {}} for n in ("approach", "orbit", "park")]
+    mission = {
+        "expect": {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
+        "phases": phases,
+    }
+    judged, fast = copy.deepcopy(run), copy.deepcopy(run)
+    metrics.judge(judged, mission)
+
+    def unread(*_: Any) -> None:
+        raise AssertionError("measured, but no threshold reads it")
+
+    for name in ("_off_path_bound", "distance_to_path", "jitter", "sign_reversals"):
+        monkeypatch.setattr(metrics, name, unread)
+    metrics.judge_run_metrics(fast, mission)
+    assert fast.outcome is judged.outcome is Outcome.expect_failed
+    assert fast.message == judged.message
+    assert "orbit: turn_rate_at_limit" in fast.message
+
+
+def test_a_run_leaves_the_mission_it_varies_as_read(tmp_path: Path) -> None:
+    """Each run sets its values in a copy of the sections they are in (robot,
+    and robot.disturbances, which the file leaves out), and shares the others
+    with every run: the mission read once per campaign stays as read."""
+    import copy
+
+    path = tmp_path / "c.yaml"
+    path.write_text(
+        f"version: 1\nname: c\nmission: {DATA / 'short.yaml'}\nruns: 6\nvary:\n"
+        "  robot.initial_state.x: {uniform: [-1.5, -0.5]}\n"
+        "  robot.disturbances.input_delay: {choice: [0.0, 0.04]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(path)
+    read = copy.deepcopy(loaded.mission_document.data)
+    plan = Plan(loaded.campaign)
+    delays = set()
+    for run in range(len(plan)):
+        draw = plan.draw(run)
+        mission, reason = mission_of(loaded, draw)
+        assert mission is not None, reason
+        assert mission.robot.initial_state.x == draw.values["robot.initial_state.x"]
+        assert (
+            mission.robot.disturbances.input_delay == draw.values["robot.disturbances.input_delay"]
+        )
+        delays.add(mission.robot.disturbances.input_delay)
+    assert delays == {0.0, 0.04}
+    assert loaded.mission_document.data == read
+
+
 def test_sweep_draws_its_figures_with_one_collection_per_outcome(tmp_path: Path) -> None:
     """The figures are written, and the trajectories are one artist per outcome
     whatever the number of runs (2000 lines as 2000 artists took seconds)."""

@@ -368,6 +368,55 @@ def test_distance_to_path_against_brute_force_on_a_figure_eight() -> None:
     np.testing.assert_allclose(first_lap[near_own], expected[near_own], rtol=0, atol=1e-12)
 
 
+def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -> None:
+    """A row's verdict tries a tracking threshold against each sample's distance
+    to its own reference point (from the squares, not np.hypot) before the
+    distance to the path: that bound must never be below it, at any scale.
+    The tight case: a robot off a straight path square to it at its reference
+    point, where the two distances are the same number but for rounding."""
+    from wmr_mission.output.metrics import _off_path_bound
+
+    rng = np.random.default_rng(3)
+    s = np.arange(0.0, 40.0, 0.02)
+    across = np.array([-0.7, 1.0]) / math.hypot(-0.7, 1.0)  # square to the path
+    for scale in (1e-6, 1e-3, 1.0, 1e3, 1e6):
+        px, py = scale * s, scale * (0.7 * s + 2.0)
+        off = scale * rng.uniform(-0.3, 0.3, s.size)
+        for x, y in (
+            (px + off * across[0], py + off * across[1]),
+            (px + off, py + scale * rng.uniform(-0.3, 0.3, s.size)),
+        ):
+            bound = _off_path_bound(x, y, px, py)
+            assert np.all(bound >= distance_to_path(x, y, px, py))
+            assert np.all(bound <= np.hypot(x - px, y - py) * (1 + 1e-8) + 1e-11)
+    # a reference point missing: the distance to the path itself
+    px[5] = np.nan
+    np.testing.assert_array_equal(_off_path_bound(x, y, px, py), distance_to_path(x, y, px, py))
+
+
+def test_phase_segments_are_the_stretches_of_one_phase() -> None:
+    """(phase, first sample, one past the last) of each stretch, as a loop over
+    the samples finds them, on random phase columns and the edge cases."""
+    from wmr_mission.output.metrics import phase_segments
+
+    def by_loop(phase: np.ndarray) -> list[tuple[int, int, int]]:
+        stretches: list[tuple[int, int, int]] = []
+        for k, value in enumerate(phase.tolist()):
+            if stretches and stretches[-1][0] == value:
+                stretches[-1] = (value, stretches[-1][1], k + 1)
+            else:
+                stretches.append((value, k, k + 1))
+        return stretches
+
+    rng = np.random.default_rng(5)
+    columns = [np.zeros(0, np.int64), np.array([4]), np.array([0, 1, 0, 1]), np.zeros(7, np.int64)]
+    columns += [np.repeat(rng.integers(0, 4, 30), rng.integers(1, 9, 30)) for _ in range(20)]
+    for phase in columns:
+        segments = phase_segments(phase)
+        assert segments == by_loop(phase)
+        assert all(type(n) is int for segment in segments for n in segment)
+
+
 def test_distance_to_path_of_a_track_phase_ignores_the_lag() -> None:
     """On an ellipse flown 2 s behind the reference, the robot is on the path."""
     t = np.arange(0.0, 20.0, 0.01)
