@@ -441,7 +441,7 @@ class _PhaseSamples:
         self.start_time = float(result.t[start])
         self.settle_time = settle_time
         self.settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
-        self.omega = result.omega[self.window]
+        self.v, self.omega = result.v[self.window], result.omega[self.window]
         self._off_path_of = off_path_of
 
     @cached_property
@@ -459,9 +459,7 @@ class _PhaseSamples:
 _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
     "tracking_error_rms": lambda p: _rms_or_none(p.off_path[p.settled]),
     "tracking_error_max": lambda p: _max_or_none(p.off_path[p.settled]),
-    "speed_at_limit": lambda p: at_limit_fraction(
-        p.result.v[p.window][p.settled], p.result.limits[0]
-    ),
+    "speed_at_limit": lambda p: at_limit_fraction(p.v[p.settled], p.result.limits[0]),
     "turn_rate_at_limit": lambda p: at_limit_fraction(p.omega[p.settled], p.result.limits[1]),
     "turn_rate_jitter": lambda p: jitter(p.omega, p.settled),
     "turn_rate_reversals": lambda p: sign_reversals(p.omega[p.settled]),
@@ -499,13 +497,14 @@ def _checked_phase_summary(
 def _phase_summary(
     result: RunResult, info: PhaseInfo, phase: _PhaseSamples, tolerance: Mapping[str, float]
 ) -> dict[str, Any]:
+    """A phase's summary in ``summary.json``."""
     t = result.t
     window, settled, start_time = phase.window, phase.settled, phase.start_time
     # A phase lasts until the next one begins (or the run ends).
     end_sample = window.stop if window.stop < result.samples else result.samples - 1
     track = info.kind == "track"
     quality = _measured(
-        phase, [m for m in _PHASE_EXPECTATION_PATHS if track or not m.startswith("tracking")]
+        phase, [m for m in _PHASE_EXPECTATION_PATHS if track or not m.startswith("tracking_error")]
     )
     tracking = None
     if track:
@@ -554,7 +553,7 @@ def _phase_summary(
             ),
         },
         "inputs": quality["inputs"],
-        "max_abs_v": _max_or_none(np.abs(result.v[window])),
+        "max_abs_v": _max_or_none(np.abs(phase.v)),
         "max_abs_omega": _max_or_none(np.abs(phase.omega)),
         "phase2_iterations": {
             "total": int(iterations.sum()),
@@ -679,7 +678,8 @@ def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> 
         # after the mission's settle time from its start
         "estimation_rms": {state: _rms_or_none(error[settled]) for state, error in errors.items()},
     }
-    summary["max_constraint_violation"] = summary.pop("max_constraint_violation")  # last
+    # last in summary.json, whose key order is fixed
+    summary["max_constraint_violation"] = summary.pop("max_constraint_violation")
     return summary
 
 
