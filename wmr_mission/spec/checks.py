@@ -6,6 +6,7 @@ offending value; the loader turns the path into a line and column.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -316,6 +317,11 @@ def read_by_sampling_checks(path: str, mission: Mission) -> bool:
     (a campaign leaves them out of runs that vary none of those)."""
     if path == "robot.initial_state.theta":
         return _first_path_heads_along_the_robot(mission)
+    return _in_sampled_fields(path)
+
+
+@functools.lru_cache(maxsize=256)  # a campaign asks once per run of each path it varies
+def _in_sampled_fields(path: str) -> bool:
     return any(
         path == field or path.startswith(f"{field}.") or field.startswith(f"{path}.")
         for field in _SAMPLED_FIELDS
