@@ -166,11 +166,11 @@ class Draws:
 
     def __init__(self, noise_std: FloatArray, settings: Settings, seed: int) -> None:
         noise_std = np.asarray(noise_std, dtype=np.float64).copy()
-        # The measurement noise is the seed's own stream, as it was before
-        # disturbances existed: a mission without them keeps its trajectory.
-        noise = np.random.default_rng(seed)
         groups: list[tuple[slice, Draw]] = []
         if noise_std.any():  # noise-free: zeros, instead of draws scaled by zero
+            # The measurement noise is the seed's own stream, as it was before
+            # disturbances existed: a mission without them keeps its trajectory.
+            noise = np.random.default_rng(seed)
             groups.append((slice(0, 3), lambda n: noise.standard_normal((n, 3)) * noise_std))
         process_std = np.asarray(settings.process_noise_std, dtype=np.float64)
         if process_std.any():
@@ -202,7 +202,7 @@ class Draws:
                 self._ahead = np.zeros((max(rows, self.BLOCK), DRAW_COLUMNS))
             return self._ahead
         if self._ahead.shape[0] < rows:
-            blocks = [self._ahead]
+            blocks = [self._ahead] if self._ahead.shape[0] else []
             drawn = self._ahead.shape[0]
             while drawn < rows:
                 block = np.zeros((self.BLOCK, DRAW_COLUMNS))
@@ -210,7 +210,7 @@ class Draws:
                     block[:, columns] = draw(self.BLOCK)
                 blocks.append(block)
                 drawn += self.BLOCK
-            self._ahead = np.ascontiguousarray(np.concatenate(blocks))
+            self._ahead = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
         return self._ahead
 
     def used(self, rows: int) -> None:
