@@ -89,9 +89,6 @@ class Recorder:
         grown.rows[0] = n
         self.record = grown
 
-    def column(self, name: str) -> FloatArray:
-        return self.record.floats[: self.count, FLOAT_COLUMNS.index(name)]
-
 
 class ActivePhase:
     """One phase's lifecycle: ``enter`` at its first sample gives the record
@@ -449,8 +446,8 @@ class _Run:
             # x86-64): each sample gets the whole loop's mean.
             compute[:] = self.loop_ns // max(1, n)
         elif ns_per_tick != 1.0:
-            compute[:] = np.rint(compute * ns_per_tick).astype(np.int64)
-        columns = {name: r.column(name) for name in FLOAT_COLUMNS}
+            compute[:] = np.rint(compute * ns_per_tick)
+        columns = dict(zip(FLOAT_COLUMNS, record.floats[:n].T, strict=True))
         return RunResult(
             mission_name=m.name,
             dt=m.dt,
@@ -489,9 +486,9 @@ class _Run:
             error_bounds=bounds,  # type: ignore[arg-type]
             regions=dict(m.regions),
             loop_ns=self.loop_ns,
-            x_meas=r.column("x_meas"),
-            y_meas=r.column("y_meas"),
-            theta_meas=r.column("theta_meas"),
+            x_meas=columns["x_meas"],
+            y_meas=columns["y_meas"],
+            theta_meas=columns["theta_meas"],
         )
 
     @staticmethod
