@@ -48,6 +48,10 @@ TRAJECTORY_SHA256 = {
     "noisy-observer": "9b2f1e2c64da60b54b1dc695bf768356213462f6d561c7105dba826b9502f1c0",
 }
 
+# sha256 of missions/disturbed.yaml's trajectory.csv: every disturbance on, its
+# draws across a block boundary (5 107 samples).
+DISTURBED_SHA256 = "852f152296b1b8e8afbdb4238818ecf0f5b680295772417987e80b4c17c939de"
+
 # A circle tracked for 20 s at dt = 0.01 (2000 samples), perfect sensors.
 BASE: dict[str, Any] = {
     "version": 1,
@@ -178,6 +182,7 @@ def test_disturbed_runs_are_byte_identical_and_chunking_changes_nothing(
 ) -> None:
     mission = load_mission(MISSIONS / "disturbed.yaml")
     first = trajectory_csv_text(run_mission(mission))
+    assert hashlib.sha256(first.encode()).hexdigest() == DISTURBED_SHA256
     assert trajectory_csv_text(run_mission(mission)) == first
     monkeypatch.setattr(runner, "CHUNK", 7)
     monkeypatch.setattr(runner, "MAX_PRESIZED", 16)
