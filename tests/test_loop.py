@@ -75,8 +75,8 @@ def test_a_phase_ends_at_its_bound_in_one_call_and_noise_is_drawn_as_used(
     ahead = Draws.ahead
     blocks: list[np.ndarray] = []  # held, so no two blocks share an id
 
-    def recorded(self: Draws, rows: int) -> np.ndarray:
-        drawn = ahead(self, rows)
+    def recorded(self: Draws) -> np.ndarray:
+        drawn = ahead(self)
         block = drawn if drawn.base is None else drawn.base
         if not any(block is known for known in blocks):
             blocks.append(block)

@@ -197,25 +197,21 @@ class Draws:
         self._groups = groups
         self._ahead = np.zeros((0, DRAW_COLUMNS))
 
-    def ahead(self, rows: int) -> FloatArray:
-        """The next ``rows`` (or more) rows of draws, not yet used."""
+    def ahead(self) -> FloatArray:
+        """The rows drawn and not yet used; the next block is drawn only once
+        none are left (the loop stops where they run out)."""
         if not self._groups:  # nothing random: the same zeros serve every chunk
-            if self._ahead.shape[0] < rows:
-                self._ahead = np.zeros((max(rows, self.BLOCK), DRAW_COLUMNS))
+            if self._ahead.shape[0] == 0:
+                self._ahead = np.zeros((self.BLOCK, DRAW_COLUMNS))
             return self._ahead
-        if self._ahead.shape[0] < rows:
-            blocks = [self._ahead] if self._ahead.shape[0] else []
-            drawn = self._ahead.shape[0]
-            while drawn < rows:
-                block = np.zeros((self.BLOCK, DRAW_COLUMNS))
-                for first, draw, scale in self._groups:
-                    values = draw(self.BLOCK)
-                    # Column by column: numpy is slow along rows of three.
-                    for j in range(scale.shape[0]):
-                        np.multiply(values[:, j], scale[j], out=block[:, first + j])
-                blocks.append(block)
-                drawn += self.BLOCK
-            self._ahead = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+        if self._ahead.shape[0] == 0:
+            block = np.zeros((self.BLOCK, DRAW_COLUMNS))
+            for first, draw, scale in self._groups:
+                values = draw(self.BLOCK)
+                # Column by column: numpy is slow along rows of three.
+                for j in range(scale.shape[0]):
+                    np.multiply(values[:, j], scale[j], out=block[:, first + j])
+            self._ahead = block
         return self._ahead
 
     def used(self, rows: int) -> None:

@@ -327,7 +327,7 @@ class _Run:
         active = self.phases[0]
         phase = active.enter(0, signals.estimate)
         # Load (or compile) the loop before the clock: a zero-sample call.
-        self._call(phase, active.path_ahead(0, 0), draws.ahead(1), 0)
+        self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
         outcome = Outcome.success
         message = "all phases completed"
         budget = m.max_samples * dt
@@ -340,12 +340,11 @@ class _Run:
             # At its bound (elapsed or timeout) the phase exits before it steps,
             # so a call that reaches the bound goes on to see it exit; the path
             # is sampled up to the bound, never past it. The loop also stops
-            # where the draws drawn so far run out: a block is drawn only once
-            # the last one is used up.
+            # where the draws drawn so far run out (Draws.ahead).
             stop = k + min(chunk, active.bound - local + 1)
             path = active.path_ahead(local, min(chunk, active.bound - local) + 1)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
-            status = self._call(phase, path, draws.ahead(1), stop)
+            status = self._call(phase, path, draws.ahead(), stop)
             draws.used(int(counters[loop.DRAWS]))
             counters[loop.DRAWS] = 0
             k = int(counters[loop.K])
