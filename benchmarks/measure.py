@@ -11,6 +11,7 @@
     python benchmarks/measure.py dare       # scipy's solve_discrete_are, one 3x3 call
     python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
     python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep throughput
+    python benchmarks/measure.py runner     # the runner's Python around the compiled loop
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -25,6 +26,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 MISSIONS = ROOT / "missions"
@@ -490,12 +492,65 @@ def campaign(repeat: int = 40) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def runner_cost(repeat: int = 3) -> None:
+    """The runner's own time around the compiled loop, per run of case2-headings
+    (its runs 1-200, compiled beforehand, each run ``repeat`` times): medians
+    of ``run_mission``, of its calls of the compiled loop (passing the records
+    in included) and of the rest, the runner's Python."""
+    from wmr_mission import loop, runner
+    from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.plan import Plan
+    from wmr_mission.campaign.runs import mission_of
+    from wmr_mission.compiled import CompiledMission, compile_mission
+
+    loaded = load_campaign(CAMPAIGN)
+    plan = Plan(loaded.campaign)
+    missions: list[CompiledMission] = []
+    for run in range(201):
+        draw = plan.draw(run)
+        mission, _ = mission_of(loaded, draw)
+        assert mission is not None
+        missions.append(compile_mission(mission, draw.seed))
+    runner.run_mission(missions[0])  # loads the compiled loop
+    run_segment = loop.run_segment
+    inside = [0, 0]  # ns in the compiled loop, calls
+
+    def timed_segment(*args: Any) -> int:
+        started = time.perf_counter_ns()
+        status = run_segment(*args)
+        inside[0] += time.perf_counter_ns() - started
+        inside[1] += 1
+        return status
+
+    loop.run_segment = timed_segment  # type: ignore[assignment]  # read as a run starts
+    whole, compiled, calls = [], [], []
+    try:
+        for _ in range(repeat):
+            for compiled_mission in missions[1:]:
+                inside[:] = [0, 0]
+                started = time.perf_counter_ns()
+                runner.run_mission(compiled_mission)
+                whole.append((time.perf_counter_ns() - started) / 1000)
+                compiled.append(inside[0] / 1000)
+                calls.append(inside[1])
+    finally:
+        loop.run_segment = run_segment
+    rest = [w - c for w, c in zip(whole, compiled, strict=True)]
+    print(
+        f"case2-headings runs 1-200, {repeat} times each, medians per run: run_mission "
+        f"{statistics.median(whole):.0f} us; the compiled loop "
+        f"{statistics.median(compiled):.0f} us in {statistics.mean(calls):.2f} calls; "
+        f"the rest {statistics.median(rest):.0f} us"
+    )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
-    jobs |= {"campaign": campaign}
+    jobs |= {"campaign": campaign, "runner": runner_cost}
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)

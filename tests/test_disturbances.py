@@ -48,6 +48,10 @@ TRAJECTORY_SHA256 = {
     "noisy-observer": "9b2f1e2c64da60b54b1dc695bf768356213462f6d561c7105dba826b9502f1c0",
 }
 
+# sha256 of missions/disturbed.yaml's trajectory.csv: every disturbance on, its
+# draws across a block boundary (5 107 samples).
+DISTURBED_SHA256 = "852f152296b1b8e8afbdb4238818ecf0f5b680295772417987e80b4c17c939de"
+
 # A circle tracked for 20 s at dt = 0.01 (2000 samples), perfect sensors.
 BASE: dict[str, Any] = {
     "version": 1,
@@ -161,15 +165,21 @@ def test_each_disturbance_draws_from_its_own_stream() -> None:
         outlier_probability=0.1,
         outlier_std=np.ones(3),
     )
-    alone = Draws(noise_std, process, seed=5).ahead(5000)
-    together = Draws(noise_std, everything, seed=5).ahead(5000)
+
+    def two_blocks(draws: Draws) -> np.ndarray:
+        first = draws.ahead()
+        draws.used(first.shape[0])
+        return np.concatenate([first, draws.ahead()])
+
+    alone = two_blocks(Draws(noise_std, process, seed=5))
+    together = two_blocks(Draws(noise_std, everything, seed=5))
     np.testing.assert_array_equal(alone[:, :6], together[:, :6])
     # The measurement noise is the seed's own stream, as before disturbances existed.
     first = np.random.default_rng(5).standard_normal((Draws.BLOCK, 3)) * noise_std
     np.testing.assert_array_equal(together[: Draws.BLOCK, :3], first)
     assert np.all(alone[:, 6:] == 0.0)
     assert np.all(together[:, 6:] != 0.0)
-    other_seed = Draws(noise_std, everything, seed=6).ahead(5000)
+    other_seed = two_blocks(Draws(noise_std, everything, seed=6))
     assert not np.any(other_seed == together)
 
 
@@ -178,6 +188,7 @@ def test_disturbed_runs_are_byte_identical_and_chunking_changes_nothing(
 ) -> None:
     mission = load_mission(MISSIONS / "disturbed.yaml")
     first = trajectory_csv_text(run_mission(mission))
+    assert hashlib.sha256(first.encode()).hexdigest() == DISTURBED_SHA256
     assert trajectory_csv_text(run_mission(mission)) == first
     monkeypatch.setattr(runner, "CHUNK", 7)
     monkeypatch.setattr(runner, "MAX_PRESIZED", 16)

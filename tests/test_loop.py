@@ -8,11 +8,13 @@ import subprocess
 import sys
 import textwrap
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-from wmr_mission import runner
+from wmr_mission import loop, runner
+from wmr_mission.disturbances import Draws
 from wmr_mission.output.rundir import write_trajectory
 from wmr_mission.result import Outcome, RunResult
 from wmr_mission.runner import run_mission
@@ -54,6 +56,40 @@ def test_chunk_boundaries_change_nothing(name: str, monkeypatch: pytest.MonkeyPa
     monkeypatch.setattr(runner, "CHUNK", 7)
     monkeypatch.setattr(runner, "MAX_PRESIZED", 16)
     same_arrays(run_mission(mission), whole)
+
+
+def test_a_phase_ends_at_its_bound_in_one_call_and_noise_is_drawn_as_used(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """noisy-observer: a 30 s circle (until elapsed), then a stop. One call
+    loads the loop, then one per phase: the circle exits at its bound in the
+    call that reaches it. The run is shorter than a block of draws, so it
+    draws one block: the next is drawn only once the last is used up."""
+    segment = loop.run_segment
+    calls = []
+
+    def counted(*args: Any) -> int:
+        calls.append(args[-1])  # stop
+        return int(segment(*args))
+
+    ahead = Draws.ahead
+    blocks: list[np.ndarray] = []  # held, so no two blocks share an id
+
+    def recorded(self: Draws) -> np.ndarray:
+        drawn = ahead(self)
+        block = drawn if drawn.base is None else drawn.base
+        if not any(block is known for known in blocks):
+            blocks.append(block)
+        return drawn
+
+    monkeypatch.setattr(loop, "run_segment", counted)
+    monkeypatch.setattr(Draws, "ahead", recorded)
+    result = run_mission(load_mission(MISSIONS / "noisy-observer.yaml"))
+    assert result.outcome is Outcome.success
+    assert [t.condition for t in result.transitions] == ["elapsed", "settled"]
+    assert 3000 < result.samples < Draws.BLOCK
+    assert len(calls) == 3
+    assert len(blocks) == 1
 
 
 def test_ctrl_c_between_chunks_returns_what_was_simulated(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -151,6 +151,7 @@ def stream(seed: int, index: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index,)))
 
 
+# n rows of unscaled draws (standard normal or uniform) of a group of columns.
 Draw = Callable[[int], FloatArray]
 
 
@@ -166,51 +167,51 @@ class Draws:
 
     def __init__(self, noise_std: FloatArray, settings: Settings, seed: int) -> None:
         noise_std = np.asarray(noise_std, dtype=np.float64).copy()
-        # The measurement noise is the seed's own stream, as it was before
-        # disturbances existed: a mission without them keeps its trajectory.
-        noise = np.random.default_rng(seed)
-        groups: list[tuple[slice, Draw]] = []
+        # (first column, draw, scale of each column)
+        groups: list[tuple[int, Draw, FloatArray]] = []
         if noise_std.any():  # noise-free: zeros, instead of draws scaled by zero
-            groups.append((slice(0, 3), lambda n: noise.standard_normal((n, 3)) * noise_std))
+            # The measurement noise is the seed's own stream, as it was before
+            # disturbances existed: a mission without them keeps its trajectory.
+            noise = np.random.default_rng(seed)
+            groups.append((MEASUREMENT_NOISE, lambda n: noise.standard_normal((n, 3)), noise_std))
         process_std = np.asarray(settings.process_noise_std, dtype=np.float64)
         if process_std.any():
             process = stream(seed, PROCESS_STREAM)
-            groups.append((slice(3, 6), lambda n: process.standard_normal((n, 3)) * process_std))
+            groups.append((PROCESS_NOISE, lambda n: process.standard_normal((n, 3)), process_std))
         if settings.skid_std > 0.0:
             skid = stream(seed, SKID_STREAM)
-            skid_std = settings.skid_std
-            groups.append((slice(6, 7), lambda n: skid.standard_normal((n, 1)) * skid_std))
+            skid_std = np.array([settings.skid_std])
+            groups.append((SKID, lambda n: skid.standard_normal((n, 1)), skid_std))
         if settings.dropout_probability > 0.0:
             dropout = stream(seed, DROPOUT_STREAM)
-            groups.append((slice(7, 8), lambda n: dropout.random((n, 1))))
+            groups.append((DROPOUT, lambda n: dropout.random((n, 1)), np.ones(1)))
         if settings.outlier_probability > 0.0:
             outliers = stream(seed, OUTLIER_STREAM)
-            outlier_std = np.asarray(settings.outlier_std, dtype=np.float64)
+            outlier_scale = np.concatenate([[1.0], settings.outlier_std])
 
             def outlier(n: int) -> FloatArray:
-                which = outliers.random((n, 1))
-                return np.hstack([which, outliers.standard_normal((n, 3)) * outlier_std])
+                which = outliers.random((n, 1))  # drawn first: the stream's order
+                return np.hstack([which, outliers.standard_normal((n, 3))])
 
-            groups.append((slice(8, 12), outlier))
+            groups.append((OUTLIER, outlier, outlier_scale))
         self._groups = groups
         self._ahead = np.zeros((0, DRAW_COLUMNS))
 
-    def ahead(self, rows: int) -> FloatArray:
-        """The next ``rows`` (or more) rows of draws, not yet used."""
+    def ahead(self) -> FloatArray:
+        """The rows drawn and not yet used; the next block is drawn only once
+        none are left (the loop stops where they run out)."""
         if not self._groups:  # nothing random: the same zeros serve every chunk
-            if self._ahead.shape[0] < rows:
-                self._ahead = np.zeros((max(rows, self.BLOCK), DRAW_COLUMNS))
+            if self._ahead.shape[0] == 0:
+                self._ahead = np.zeros((self.BLOCK, DRAW_COLUMNS))
             return self._ahead
-        if self._ahead.shape[0] < rows:
-            blocks = [self._ahead]
-            drawn = self._ahead.shape[0]
-            while drawn < rows:
-                block = np.zeros((self.BLOCK, DRAW_COLUMNS))
-                for columns, draw in self._groups:
-                    block[:, columns] = draw(self.BLOCK)
-                blocks.append(block)
-                drawn += self.BLOCK
-            self._ahead = np.ascontiguousarray(np.concatenate(blocks))
+        if self._ahead.shape[0] == 0:
+            block = np.zeros((self.BLOCK, DRAW_COLUMNS))
+            for first, draw, scale in self._groups:
+                values = draw(self.BLOCK)
+                # Column by column: numpy is slow along rows of three.
+                for j in range(scale.shape[0]):
+                    np.multiply(values[:, j], scale[j], out=block[:, first + j])
+            self._ahead = block
         return self._ahead
 
     def used(self, rows: int) -> None:

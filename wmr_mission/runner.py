@@ -89,9 +89,6 @@ class Recorder:
         grown.rows[0] = n
         self.record = grown
 
-    def column(self, name: str) -> FloatArray:
-        return self.record.floats[: self.count, FLOAT_COLUMNS.index(name)]
-
 
 class ActivePhase:
     """One phase's lifecycle: ``enter`` at its first sample gives the record
@@ -162,11 +159,11 @@ class ActivePhase:
         block = np.empty((rows, 4))
         block[:, 0] = x
         block[:, 1] = y
-        block[:, 2:] = np.nan
         speed = np.hypot(dx, dy)
         moving = speed > 1e-12
         np.divide(dx, speed, out=block[:, 2], where=moving)
         np.divide(dy, speed, out=block[:, 3], where=moving)
+        block[~moving, 2:] = np.nan  # only where it rests: numpy fills two columns slowly
         return PathBlock(local_sample, block)
 
 
@@ -330,7 +327,7 @@ class _Run:
         active = self.phases[0]
         phase = active.enter(0, signals.estimate)
         # Load (or compile) the loop before the clock: a zero-sample call.
-        self._call(phase, active.path_ahead(0, 2), draws.ahead(1), 0)
+        self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
         outcome = Outcome.success
         message = "all phases completed"
         budget = m.max_samples * dt
@@ -340,12 +337,14 @@ class _Run:
         while True:
             k = int(counters[loop.K])
             local = k - active.entry_sample
-            # No further than the phase's own bound: no path sampled past its end;
-            # at the bound the phase exits before it reads any.
-            samples = min(chunk, max(1, active.bound - local))
-            path = active.path_ahead(local, samples + 1 if local < active.bound else 0)
+            # At its bound (elapsed or timeout) the phase exits before it steps,
+            # so a call that reaches the bound goes on to see it exit; the path
+            # is sampled up to the bound, never past it. The loop also stops
+            # where the draws drawn so far run out (Draws.ahead).
+            stop = k + min(chunk, active.bound - local + 1)
+            path = active.path_ahead(local, min(chunk, active.bound - local) + 1)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
-            status = self._call(phase, path, draws.ahead(samples), k + samples)
+            status = self._call(phase, path, draws.ahead(), stop)
             draws.used(int(counters[loop.DRAWS]))
             counters[loop.DRAWS] = 0
             k = int(counters[loop.K])
@@ -446,8 +445,8 @@ class _Run:
             # x86-64): each sample gets the whole loop's mean.
             compute[:] = self.loop_ns // max(1, n)
         elif ns_per_tick != 1.0:
-            compute[:] = np.rint(compute * ns_per_tick).astype(np.int64)
-        columns = {name: r.column(name) for name in FLOAT_COLUMNS}
+            compute[:] = np.rint(compute * ns_per_tick)
+        columns = dict(zip(FLOAT_COLUMNS, record.floats[:n].T, strict=True))
         return RunResult(
             mission_name=m.name,
             dt=m.dt,
@@ -486,9 +485,9 @@ class _Run:
             error_bounds=bounds,  # type: ignore[arg-type]
             regions=dict(m.regions),
             loop_ns=self.loop_ns,
-            x_meas=r.column("x_meas"),
-            y_meas=r.column("y_meas"),
-            theta_meas=r.column("theta_meas"),
+            x_meas=columns["x_meas"],
+            y_meas=columns["y_meas"],
+            theta_meas=columns["theta_meas"],
         )
 
     @staticmethod

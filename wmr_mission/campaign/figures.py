@@ -10,6 +10,7 @@ from typing import Any, Final
 import numpy as np
 
 from wmr_mission.campaign.aggregate import DRAWN_PATHS, Aggregate
+from wmr_mission.campaign.coverage import runs_per_pixel
 from wmr_mission.campaign.runs import METRICS
 from wmr_mission.output.plots import _new_figure, _region_extent, _save, draw_regions
 
@@ -18,6 +19,10 @@ __all__ = ["draw_campaign"]
 _BINS: Final = 12
 _SUCCESS_COLOR: Final = "tab:blue"
 _FAILURE_COLOR: Final = "tab:red"
+# The part of a colormap used: light enough to show the crowd, still a colour
+# (not near-black) at its darkest, and a pixel one run crosses still visible.
+_LIGHTEST: Final = 0.35
+_DARKEST: Final = 0.9
 
 
 def draw_campaign(
@@ -38,8 +43,6 @@ def draw_campaign(
 
 
 def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
-    from matplotlib.collections import LineCollection
-
     fig = _new_figure((7.0, 5.5))
     ax = fig.add_subplot()
     paths = aggregate.drawn
@@ -56,33 +59,47 @@ def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
     margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
     view = (x0 - margin, x1 + margin, y0 - margin, y1 + margin)
     draw_regions(ax, regions, view)
-    successes = [p for ok, p in paths if ok]
-    failures = [p for ok, p in paths if not ok]
-    # Fainter the more lines there are, so that where many runs go shows darker.
-    # One collection per outcome: one artist whatever the number of runs.
-    for drawn_paths, color, lightest, darkest, order in (
-        (successes, _SUCCESS_COLOR, 0.05, 0.6, 2),
-        (failures, _FAILURE_COLOR, 0.08, 0.8, 3),
-    ):
-        faint = float(np.clip(40.0 / max(len(drawn_paths), 1), lightest, darkest))
-        lines = LineCollection(
-            [p.T for p in drawn_paths], colors=color, linewidths=0.6, alpha=faint, zorder=order
-        )
-        ax.add_collection(lines, autolim=False)
-    ax.plot([], [], color=_SUCCESS_COLOR, label=f"success ({aggregate.succeeded})")
-    ax.plot([], [], color=_FAILURE_COLOR, label=f"failure ({aggregate.runs - aggregate.succeeded})")
     ax.set_xlim(view[0], view[1])
     ax.set_ylim(view[2], view[3])
     ax.set_aspect("equal", adjustable="box")
+    # Every run as one image, a pixel of the image per pixel of the axes: the
+    # runs through each pixel, darker where more pass; failures over successes.
+    ax.apply_aspect()
+    box = ax.get_window_extent()
+    shape = (max(1, round(box.height)), max(1, round(box.width)))
+    for outcome, colormap, order in ((True, "Blues", 2), (False, "Reds", 3)):
+        counts = runs_per_pixel([p for ok, p in paths if ok is outcome], view, shape)
+        ax.imshow(
+            _shaded(counts, colormap),
+            extent=view,
+            origin="lower",
+            interpolation="nearest",
+            zorder=order,
+        )
+    ax.plot([], [], color=_SUCCESS_COLOR, label=f"success ({aggregate.succeeded})")
+    ax.plot([], [], color=_FAILURE_COLOR, label=f"failure ({aggregate.runs - aggregate.succeeded})")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     drawn = len(paths)
     shown = "every run" if drawn >= aggregate.runs else f"{drawn} of {aggregate.runs} runs"
     cap = f" (at most {DRAWN_PATHS} successes drawn)" if drawn < aggregate.runs else ""
-    ax.set_title(f"True paths, {shown}{cap}; failures in red")
+    ax.set_title(f"True paths, {shown}{cap}, darker where more pass; failures in red")
     ax.legend(loc="upper right", fontsize="small")
     ax.grid(True, alpha=0.3)
     return fig
+
+
+def _shaded(counts: np.ndarray, colormap: str) -> np.ndarray:
+    """RGBA pixels: transparent where no run passes, else the colormap from
+    light (one run, still visible) to dark (the most runs through a pixel),
+    on a log scale so that a lone run and a crowd both show."""
+    from matplotlib import colormaps
+
+    pixels = np.zeros((*counts.shape, 4))
+    passed = counts > 0
+    level = np.log1p(counts[passed]) / np.log1p(max(int(counts.max()), 1))
+    pixels[passed] = colormaps[colormap](_LIGHTEST + (_DARKEST - _LIGHTEST) * level)
+    return pixels
 
 
 def _histograms(aggregate: Aggregate) -> Any:
@@ -95,19 +112,24 @@ def _histograms(aggregate: Aggregate) -> Any:
         if not finite.any():
             ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
         else:
-            bins = np.histogram_bin_edges(values[finite], bins=30).tolist()
-            ax.hist(
-                [values[finite & ok], values[finite & ~ok]],
-                bins=bins,
-                stacked=True,
-                color=[_SUCCESS_COLOR, _FAILURE_COLOR],
-                label=["success", "failure"],
-            )
-            ax.legend(fontsize="x-small")
+            # Stacked as two filled outlines, failures on top of successes:
+            # one artist each where bars would be sixty rectangles.
+            edges = np.histogram_bin_edges(values[finite], bins=30)
+            successes, _ = np.histogram(values[finite & ok], bins=edges)
+            failures, _ = np.histogram(values[finite & ~ok], bins=edges)
+            # An outline, so that a bin of one run among thousands still shows.
+            for counts, color, label in (
+                (successes + failures, _FAILURE_COLOR, "failure"),
+                (successes, _SUCCESS_COLOR, "success"),
+            ):
+                ax.stairs(counts, edges, fill=True, color=color, linewidth=1.0, label=label)
+            handles, labels = ax.get_legend_handles_labels()
+            ax.legend(handles[::-1], labels[::-1], fontsize="x-small")
         missing = int((~finite).sum())
         ax.set_title(name + (f" ({missing} runs without a value)" if missing else ""), fontsize=9)
         ax.set_ylabel("runs")
-    fig.tight_layout()
+    # Fixed margins: fitting them to the texts would cost a second drawing.
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.04, top=0.96, wspace=0.2, hspace=0.35)
     return fig
 
 

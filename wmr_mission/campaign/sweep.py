@@ -248,7 +248,7 @@ def _write_worst(
 ) -> None:
     """Re-simulate each worst run (same values, same seed: the same run) into
     worst/RUN/, and draw the campaign's figures: with several workers, the runs
-    on worker processes while this one draws (a figure takes longer than a run)."""
+    on worker processes while this one draws, then takes the runs left."""
     runs = [entry["run"] for entry in record["worst"]]
     mission_sha256 = _sha256(loaded.mission_path)
     if plots:
@@ -265,8 +265,14 @@ def _write_worst(
             ]
             try:
                 _draw(loaded, aggregate, out_dir, plots)
+                # The runs no worker has started yet, this process writes itself,
+                # from the last: no core waits while one worker writes the last run.
+                for run, future in zip(reversed(runs), reversed(written), strict=True):
+                    if future.cancel():
+                        _write_run_dir(loaded, run, out_dir, plots, mission_sha256)
                 for future in written:
-                    future.result()
+                    if not future.cancelled():
+                        future.result()
             except KeyboardInterrupt:  # stop now: leave the runs not started
                 pool.shutdown(wait=False, cancel_futures=True)
                 raise
