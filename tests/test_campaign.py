@@ -167,6 +167,10 @@ def test_campaign_outputs_and_replay_of_the_worst_run(tmp_path: Path) -> None:
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["resolved_campaign"]["runs"] == 16
 
+    # Each worst run has its directory, those of the workers and the one this process takes
+    written = sorted(int(d.name) for d in (out / "worst").iterdir())
+    assert written == sorted(w["run"] for w in record["worst"])
+    assert len(written) == 5
     worst = record["worst"][0]
     row = rows[worst["run"]]
     assert row["outcome"] == worst["outcome"]

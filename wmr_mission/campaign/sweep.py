@@ -248,7 +248,7 @@ def _write_worst(
 ) -> None:
     """Re-simulate each worst run (same values, same seed: the same run) into
     worst/RUN/, and draw the campaign's figures: with several workers, the runs
-    on worker processes while this one draws, then takes the runs left."""
+    on worker processes while this one draws."""
     runs = [entry["run"] for entry in record["worst"]]
     mission_sha256 = _sha256(loaded.mission_path)
     if plots:
@@ -258,21 +258,23 @@ def _write_worst(
         import matplotlib.collections
         import matplotlib.figure  # noqa: F401
     if workers > 1 and runs:
-        with local_pool(min(workers, len(runs))) as pool:
+        # The campaign's three figures cost this process about what one run
+        # directory costs a worker (about a second of CPU each, case2-headings):
+        # where the workers' last round would not be full, this process takes
+        # the last run after drawing, and no core waits at the end.
+        own = runs[-1:] if len(runs) > workers and len(runs) % workers else []
+        pooled = runs[: len(runs) - len(own)]
+        with local_pool(min(workers, len(pooled))) as pool:
             written = [
                 pool.submit(_write_run_dir, loaded, run, out_dir, plots, mission_sha256)
-                for run in runs
+                for run in pooled
             ]
             try:
                 _draw(loaded, aggregate, out_dir, plots)
-                # The runs no worker has started yet, this process writes itself,
-                # from the last: no core waits while one worker writes the last run.
-                for run, future in zip(reversed(runs), reversed(written), strict=True):
-                    if future.cancel():
-                        _write_run_dir(loaded, run, out_dir, plots, mission_sha256)
+                for run in own:
+                    _write_run_dir(loaded, run, out_dir, plots, mission_sha256)
                 for future in written:
-                    if not future.cancelled():
-                        future.result()
+                    future.result()
             except KeyboardInterrupt:  # stop now: leave the runs not started
                 pool.shutdown(wait=False, cancel_futures=True)
                 raise
