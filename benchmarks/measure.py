@@ -12,6 +12,7 @@
     python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
     python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep throughput
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
+    python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -545,12 +546,60 @@ def runner_cost(repeat: int = 3) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def drawing(repeat: int = 3) -> None:
+    """CPU seconds of what a campaign draws after its runs (case2-headings, 2000
+    runs): the walk counting the runs through each pixel, each campaign figure
+    built and saved, and one worst run's directory with its four figures."""
+    from wmr_mission.campaign import figures
+    from wmr_mission.campaign.aggregate import Aggregate
+    from wmr_mission.campaign.coverage import runs_per_pixel
+    from wmr_mission.campaign.engine import StopFlag, execute, warm_up
+    from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.sweep import _regions, _write_run_dir
+    from wmr_mission.output.plots import _save
+
+    loaded = load_campaign(CAMPAIGN)
+    aggregate = Aggregate(dict(loaded.campaign.vary))
+    with StopFlag() as stop:
+        seconds = warm_up(loaded)
+        for rows in execute(loaded, workers=2, scheduler=None, seconds_per_run=seconds, stop=stop):
+            for row in rows:
+                aggregate.add(row)
+    regions = _regions(loaded)
+    paths = [p for _, p in aggregate.drawn]
+
+    def cpu(job: Any) -> float:
+        times = []
+        for _ in range(repeat):
+            started = time.process_time()
+            job()
+            times.append(time.process_time() - started)
+        return statistics.median(times)
+
+    print(f"case2-headings, {aggregate.runs} runs, CPU seconds, median of {repeat}:")
+    walk = cpu(lambda: runs_per_pixel(paths, (-6.5, 6.5, -3.7, 3.7), (389, 651)))
+    points = sum(p.shape[1] for p in paths)
+    print(f"  runs through each pixel, {len(paths)} paths of {points} points: {walk:.3f}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, build in (
+            ("trajectories", lambda: figures._trajectories(aggregate, regions)),
+            ("metrics", lambda: figures._histograms(aggregate)),
+            ("success", lambda: figures._success_over_axes(aggregate)),
+        ):
+            cost = cpu(lambda b=build, n=name: _save(b(), Path(tmp) / f"{n}.png"))
+            print(f"  {name}.png built and saved: {cost:.3f}")
+        worst = [run for run, *_ in aggregate.worst_runs()]
+        directory = cpu(lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True, ""))
+        print(f"  one worst run's directory with its four figures: {directory:.3f}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
-    jobs |= {"campaign": campaign, "runner": runner_cost}
+    jobs |= {"campaign": campaign, "runner": runner_cost, "drawing": drawing}
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)
