@@ -191,6 +191,44 @@ def test_campaign_outputs_and_replay_of_the_worst_run(tmp_path: Path) -> None:
     assert summary["seed"] == int(row["seed"])
 
 
+@pytest.mark.parametrize("stage", ["runs", "worst"])
+def test_a_ctrl_c_inside_a_run_stops_the_campaign_never_the_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, stage: str
+) -> None:
+    """``run_mission`` turns a Ctrl-C into an ``interrupted`` result; in a
+    campaign that is the campaign's Ctrl-C: no row and no worst-run directory
+    says ``interrupted`` (neither would be what its replay gives), the sweep
+    exits 130 and keeps what finished."""
+    from wmr_mission import runner
+    from wmr_mission.result import Outcome
+
+    real = runner.run_mission
+    calls = {"runs": 0, "worst": 0}
+
+    def ctrl_c_on_the_fourth(*args: Any, **kwargs: Any) -> Any:
+        kind = "worst" if "seed" in kwargs else "runs"  # a worst run is re-simulated with its seed
+        calls[kind] += 1
+        result = real(*args, **kwargs)
+        if kind == stage and calls[kind] == 4:
+            result.outcome = Outcome.interrupted
+        return result
+
+    monkeypatch.setattr(runner, "run_mission", ctrl_c_on_the_fourth)
+    out = tmp_path / "out"
+    code = sweep_command(_campaign(tmp_path, 8), out=out, workers=1, scheduler=None, plots=False)
+    assert code == 130
+    record = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
+    assert record["interrupted"] is True
+    rows = _rows(out / "runs.csv")
+    assert all(r["outcome"] != "interrupted" for r in rows)
+    assert len(rows) == record["runs"] == (8 if stage == "worst" else 0)  # a task holds 8 runs
+    written = list((out / "worst").iterdir()) if (out / "worst").exists() else []
+    assert len(written) == (3 if stage == "worst" else 0)
+    for directory in written:
+        summary = json.loads((directory / "summary.json").read_text(encoding="utf-8"))
+        assert summary["outcome"] != "interrupted"
+
+
 @pytest.mark.slow
 def test_ctrl_c_keeps_finished_runs(tmp_path: Path) -> None:
     out = tmp_path / "out"

@@ -77,8 +77,14 @@ def test_non_finite_points_and_runaways_draw_what_is_finite() -> None:
     assert counts[0].sum() == 10
     assert counts[4].sum() == 10
     assert counts[1:4].sum() == 0
-    runaway = _path((0.5, 2.5), (1e30, 2.5))  # far off the canvas: bounded work
-    assert runs_per_pixel([runaway], VIEW, SHAPE)[2].sum() >= 1
+    # A runaway: its way off the canvas is drawn to the edge, and costs no more
+    for far in (300.0, 1e5, 1e30):
+        runaway = runs_per_pixel([_path((0.5, 2.5), (far, 2.5))], VIEW, SHAPE)
+        assert runaway[2].sum() == 10
+        assert runaway.sum() == 10
+    entering = runs_per_pixel([_path((-1e6, -1e6), (1e6, 1e6))], VIEW, SHAPE)
+    assert entering.sum() >= 5  # the diagonal's part on the canvas
+    assert all(entering[row].sum() >= 1 for row in range(SHAPE[0]))
     assert runs_per_pixel([], VIEW, SHAPE).sum() == 0
     single = runs_per_pixel([_path((3.5, 3.5))], VIEW, SHAPE)
     assert single[3, 3] == 1

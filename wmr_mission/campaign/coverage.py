@@ -18,17 +18,23 @@ __all__ = ["runs_per_pixel"]
 
 
 @kernel
+def _clip(p: float, q: float, t0: float, t1: float) -> tuple[float, float]:
+    """One edge of Liang and Barsky's clipping: the part of [t0, t1] where p t <= q."""
+    if p == 0.0:
+        return (t0, t1) if q >= 0.0 else (1.0, 0.0)
+    if p < 0.0:
+        return max(t0, q / p), t1
+    return t0, min(t1, q / p)
+
+
+@kernel
 def _count_runs(
-    xs: np.ndarray,
-    ys: np.ndarray,
-    starts: np.ndarray,
-    counts: np.ndarray,
-    last_run: np.ndarray,
-    longest: int,
+    xs: np.ndarray, ys: np.ndarray, starts: np.ndarray, counts: np.ndarray, last_run: np.ndarray
 ) -> None:
-    """Walk each run's polyline (in pixel units) one pixel at a time and count
-    the run once in every pixel it reaches. ``last_run[pixel]`` remembers the
-    last run counted there, so that a run lapping a pixel counts once."""
+    """Walk each run's polyline (in pixel units), clipped to the canvas, one
+    pixel at a time, and count the run once in every pixel it reaches.
+    ``last_run[pixel]`` remembers the last run counted there, so that a run
+    lapping a pixel counts once."""
     rows, columns = counts.shape
     for run in range(starts.size - 1):
         first, end = starts[run], starts[run + 1]
@@ -39,10 +45,18 @@ def _count_runs(
             du, dv = 0.0, 0.0  # the last point, or one before a non-finite one
             if i + 1 < end and math.isfinite(xs[i + 1]) and math.isfinite(ys[i + 1]):
                 du, dv = xs[i + 1] - u0, ys[i + 1] - v0
-            steps = int(max(1.0, min(math.ceil(max(abs(du), abs(dv))), longest)))
-            for k in range(steps):
-                u = u0 + du * (k / steps)
-                v = v0 + dv * (k / steps)
+            # The part of the segment on the canvas: a runaway's exit still
+            # shows, and the walk is never longer than the canvas is wide.
+            t0, t1 = _clip(-du, u0, 0.0, 1.0)
+            t0, t1 = _clip(du, columns - u0, t0, t1)
+            t0, t1 = _clip(-dv, v0, t0, t1)
+            t0, t1 = _clip(dv, rows - v0, t0, t1)
+            if t0 > t1:
+                continue
+            steps = math.ceil(max(abs(du), abs(dv)) * (t1 - t0))
+            for k in range(steps + 1):
+                t = t0 + (t1 - t0) * (k / steps) if steps else t0
+                u, v = u0 + du * t, v0 + dv * t
                 if 0.0 <= u < columns and 0.0 <= v < rows:
                     row, column = int(v), int(u)
                     if last_run[row, column] != run:
@@ -65,7 +79,5 @@ def runs_per_pixel(
     ys = (points[1] - y0) * (rows / (y1 - y0))
     starts = np.concatenate([[0], np.cumsum([p.shape[1] for p in paths])]).astype(np.int64)
     last_run = np.full(shape, -1, dtype=np.int64)
-    # A segment longer than the canvas twice over mostly lies off it: walked
-    # in that many steps at most, a runaway costs no more than a crossing.
-    _count_runs(xs, ys, starts, counts, last_run, 2 * (rows + columns))
+    _count_runs(xs, ys, starts, counts, last_run)
     return counts

@@ -245,9 +245,31 @@ def _check_against_mission(
         for name, axis in campaign.vary.items()
         for problem in _axis_problems(name, axis, mission_text, str(mission_path))
     ]
+    problems += [at(("vary", inner), problem) for inner, problem in _overlaps(list(campaign.vary))]
     if problems:
         return None, problems
     return LoadedCampaign(campaign, path, mission_path, mission_text), []
+
+
+def _overlaps(names: list[str]) -> list[tuple[str, str]]:
+    """Varied paths inside another varied path: each run would write one value
+    into the other (into the value a choice or grid shares between runs)."""
+    parsed = {}
+    for name in names:
+        try:
+            parsed[name] = parse_path(name)
+        except ValueError:  # said by its axis's own check
+            continue
+    return [
+        (
+            inner,
+            f"vary {inner!r} lies inside {outer!r}, also varied; "
+            f"vary either {outer!r} or the fields inside it",
+        )
+        for inner, inner_path in parsed.items()
+        for outer, outer_path in parsed.items()
+        if len(outer_path) < len(inner_path) and inner_path[: len(outer_path)] == outer_path
+    ]
 
 
 def _axis_problems(name: str, axis: Axis, mission_text: str, mission_file: str) -> list[str]:

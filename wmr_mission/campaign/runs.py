@@ -131,7 +131,16 @@ def simulate(loaded: LoadedCampaign, draw: Draw) -> tuple[RunResult | None, str]
     mission, reason = checked_mission(loaded, draw)
     if mission is None:
         return None, reason
-    return run_mission(mission, seed=draw.seed), ""
+    return _uninterrupted(run_mission(mission, seed=draw.seed)), ""
+
+
+def _uninterrupted(result: RunResult) -> RunResult:
+    """A campaign's run is never cut short: a Ctrl-C that ``run_mission`` turned
+    into an ``interrupted`` result stops the campaign, not the run, whose row
+    or directory would no longer be what its ``replay`` gives."""
+    if result.outcome is Outcome.interrupted:
+        raise KeyboardInterrupt
+    return result
 
 
 def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
@@ -149,7 +158,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     mission, reason = mission_of(loaded, draw)
     if mission is None:
         return _not_run(draw, INVALID, reason)
-    result = run_mission(compile_mission(mission, draw.seed))
+    result = _uninterrupted(run_mission(compile_mission(mission, draw.seed)))
     summary = judge_run_metrics(result, mission.model_dump(mode="json"))
     metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[name]) for name in METRICS)
     step = max(1, math.ceil(result.samples / PATH_POINTS))

@@ -132,7 +132,7 @@ def _execute(
                     if csv_stream is not None:
                         csv_stream.flush()
                     progress.update(aggregate)
-            except Interrupted:
+            except (Interrupted, KeyboardInterrupt):  # a second Ctrl-C stops at once
                 interrupted = True
             except SchedulerUnavailable:
                 raise
@@ -152,7 +152,14 @@ def _execute(
     if out_dir is not None:
         # The statistics first: a Ctrl-C while the worst runs are drawn loses no number.
         write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
-        _write_worst(loaded, record, aggregate, out_dir, plots, workers if scheduler is None else 1)
+        try:
+            _write_worst(
+                loaded, record, aggregate, out_dir, plots, workers if scheduler is None else 1
+            )
+        except KeyboardInterrupt:  # every run is in runs.csv; the worst runs' directories stop
+            record["interrupted"] = True
+            record["stopped_by"] = "Ctrl-C"
+            write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
     return record
 
 
