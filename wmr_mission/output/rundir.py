@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import functools
 import hashlib
 import json
 import math
@@ -310,6 +311,13 @@ def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]
 
 def package_versions() -> dict[str, str | None]:
     """Versions of Python and of the packages that decide a run's numbers (null: not installed)."""
+    return dict(_package_versions())
+
+
+@functools.cache
+def _package_versions() -> dict[str, str | None]:
+    # Read once per process (20 ms of package metadata): a campaign's worst
+    # runs, forked from the process that wrote its manifest, read none.
     from wmr_mission import __version__
 
     versions: dict[str, str | None] = {
