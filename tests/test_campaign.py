@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from wmr_mission import run_campaign
+from wmr_mission import _jit
 from wmr_mission.campaign.aggregate import clopper_pearson
 from wmr_mission.campaign.load import load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
@@ -166,6 +167,7 @@ def test_campaign_outputs_and_replay_of_the_worst_run(tmp_path: Path) -> None:
     assert record["metrics"]["final_position_error"]["max"] == max(errors)
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["resolved_campaign"]["runs"] == 16
+    assert manifest["loop"] == ("compiled" if _jit.COMPILED else "plain Python")
 
     # Each worst run has its directory, those of the workers and the one this process takes
     written = sorted(int(d.name) for d in (out / "worst").iterdir())

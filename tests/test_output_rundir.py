@@ -215,6 +215,7 @@ def test_json_files_are_deterministic_and_finite(tmp_path: Path) -> None:
         "resolved_mission",
         "seed",
         "versions",
+        "loop",
         "run",
     ]
     assert manifest["mission_sha256"] == "ab" * 32

@@ -5,6 +5,7 @@ kernel cache's locator; the plain-Python form of a kernel."""
 from __future__ import annotations
 
 import fcntl
+import json
 import os
 import shutil
 import subprocess
@@ -93,6 +94,9 @@ def test_a_first_run_runs_as_plain_python_and_starts_the_compile(tmp_path: Path)
     assert record.read_text().splitlines() == ["started, NO_JIT=None", "numba loaded: False"]
     compiled = write_trajectory(run_mission(load_mission(MISSIONS / "case2.yaml")), tmp_path / "c")
     assert (tmp_path / "first" / "trajectory.csv").read_bytes() == compiled.read_bytes()
+    # The run directory says so: its loop_us_per_sample is plain Python's
+    manifest = json.loads((tmp_path / "first" / "manifest.json").read_text(encoding="utf-8"))
+    assert manifest["loop"] == "plain Python"
 
 
 @pytest.mark.slow
@@ -143,6 +147,8 @@ def test_the_background_compile_marks_the_cache_ready(tmp_path: Path) -> None:
         "numba loaded: True",
         "compiled entries: run_segment",
     ]
+    manifest = json.loads((tmp_path / "next" / "manifest.json").read_text(encoding="utf-8"))
+    assert manifest["loop"] == "compiled"
     # A marker of other kernel sources, or of another numba, is no marker.
     ready.write_text(background_compile.ready_stamp().replace("numba-", "numba-0.1+"))
     _run(_env(cache), tmp_path / "edited", record, "fence")

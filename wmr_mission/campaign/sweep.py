@@ -34,6 +34,7 @@ from wmr_mission.output.rundir import (
     RunDirExistsError,
     default_run_dir,
     json_text,
+    loop_build,
     package_versions,
     prepare_run_dir,
     write_bytes_atomic,
@@ -330,6 +331,7 @@ def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None
         "mission_sha256": _sha256(loaded.mission_path),
         "resolved_campaign": loaded.campaign.model_dump(mode="json"),
         "versions": package_versions(),
+        "loop": loop_build(),
         "workers": workers,
         "scheduler": scheduler,
     }

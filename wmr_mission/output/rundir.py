@@ -373,8 +373,19 @@ def manifest_record(
         "resolved_mission": resolved_mission,
         "seed": result.seed,
         "versions": package_versions(),
+        "loop": loop_build(),
         "run": run_record(result),
     }
+
+
+def loop_build() -> str:
+    """How this process ran the loop: ``compiled`` by numba, or ``plain Python``
+    (the first runs after an install, ``WMR_MISSION_NO_JIT=1``, no numba), a
+    hundred times slower per sample: summary.json's ``loop_us_per_sample`` is
+    read against it."""
+    from wmr_mission._jit import COMPILED
+
+    return "compiled" if COMPILED else "plain Python"
 
 
 def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
