@@ -17,8 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wmr_mission import run_campaign
-from wmr_mission import _jit
+from wmr_mission import _jit, run_campaign
 from wmr_mission.campaign.aggregate import clopper_pearson
 from wmr_mission.campaign.load import load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
