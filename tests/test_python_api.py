@@ -145,6 +145,12 @@ def test_result_summary_dataframe_and_run_directory(tmp_path: Path) -> None:
     assert sorted(p.suffix for p in out.glob("xy.*")) == [".svg"]
     again = load_run(out)
     assert again.samples == result.samples
+    # How the loop ran is known for the run simulated here, not for one rebuilt
+    assert json.loads((out / "manifest.json").read_text())["loop"] in ("compiled", "plain Python")
+    rewritten = json.loads(
+        (again.write(tmp_path / "again", plots=False) / "manifest.json").read_text()
+    )
+    assert rewritten["loop"] is None
     # trajectory.csv keeps 12 significant digits
     assert again.summary()["final"]["position_error"] == pytest.approx(
         summary["final"]["position_error"], rel=1e-9

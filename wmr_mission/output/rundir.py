@@ -373,7 +373,9 @@ def manifest_record(
         "resolved_mission": resolved_mission,
         "seed": result.seed,
         "versions": package_versions(),
-        "loop": loop_build(),
+        # How the loop ran, known only for a run simulated in this process
+        # (one rebuilt from its directory carries no timing).
+        "loop": loop_build() if result.loop_ns > 0 else None,
         "run": run_record(result),
     }
 
