@@ -215,7 +215,9 @@ def _write_png(path: Path, rgb: np.ndarray) -> None:
     """
     height, width, _ = rgb.shape
     lines = np.zeros((height, 1 + 3 * width), dtype=np.uint8)  # a 0 before each row: no filter
-    lines[:, 1:] = rgb.reshape(height, 3 * width)
+    pixels = lines[:, 1:].reshape(height, width, 3)  # a view of the bytes after the zeros
+    for channel in range(3):  # one at a time: numpy copies runs of 3 bytes slowly
+        pixels[:, :, channel] = rgb[:, :, channel]
     per_metre = round(DPI / 0.0254)
     chunks = (
         (b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)),  # 8-bit RGB
