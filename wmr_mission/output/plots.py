@@ -173,9 +173,9 @@ def _save(fig: Figure, path: Path) -> Path:
     """
     from matplotlib import rc_context
 
-    from wmr_mission.output.ticks import shown_ticks_only
+    from wmr_mission.output.unseen import skip_unseen
 
-    shown_ticks_only(fig)
+    skip_unseen(fig)
     # Long lines in pieces: a line round many laps would otherwise take Agg
     # tens of megabytes of scanline cells.
     with atomic_path(path) as tmp, rc_context({"agg.path.chunksize": LINE_PIECE}):
@@ -843,9 +843,11 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
                 transform=axes[2 * row + 1].transAxes,
                 fontsize=8,
             )
-    # Padded: the phase labels sit between the titles and the plots.
-    axes[0].set_title(f"start: first {window:.3g} s, full scale", fontsize=9, pad=14)
-    axes[1].set_title("whole run, at the scale of the bounds", fontsize=9, pad=14)
+    # Padded: the phase labels sit between the titles and the plots. At the
+    # axes' top (y=1): nothing else is drawn above them, so matplotlib need not
+    # measure the axes' tick labels once more to find room.
+    axes[0].set_title(f"start: first {window:.3g} s, full scale", fontsize=9, pad=14, y=1.0)
+    axes[1].set_title("whole run, at the scale of the bounds", fontsize=9, pad=14, y=1.0)
     handles, labels = axes[1].get_legend_handles_labels()
     for ax in axes:
         handles_here, labels_here = ax.get_legend_handles_labels()
