@@ -931,7 +931,8 @@ def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
 # --- files ----------------------------------------------------------------
 
 
-def _write(result: RunResult, name: str, path: Path) -> Path:
+def _figure(result: RunResult, name: str) -> Figure:
+    """The figure of a run's file ``name`` (one of FIGURE_NAMES)."""
     if name == "xy":
         fig = _new_figure((XY_WIDTH, 6.5))
         columns = _xy_on(fig.add_subplot(), result)
@@ -949,7 +950,7 @@ def _write(result: RunResult, name: str, path: Path) -> Path:
     else:
         fig = _new_figure((9, 5.5))
         _inputs_on(fig, list(fig.subplots(2, 1, sharex=True)), result)
-    return _save(fig, path)
+    return fig
 
 
 def draw_all(result: RunResult, out_dir: Path, formats: Sequence[str] = ("png",)) -> list[Path]:
@@ -959,7 +960,7 @@ def draw_all(result: RunResult, out_dir: Path, formats: Sequence[str] = ("png",)
     if unknown:
         raise ValueError(f"unknown figure format {unknown[0]!r}; expected one of png, svg, pdf")
     return [
-        _write(result, name, directory / f"{name}.{fmt}")
+        _save(_figure(result, name), directory / f"{name}.{fmt}")
         for fmt in formats
         for name in FIGURE_NAMES
     ]
