@@ -13,6 +13,7 @@
     python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep throughput
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
+    python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -546,18 +547,53 @@ def runner_cost(repeat: int = 3) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
-def drawing(repeat: int = 3) -> None:
+def _drawing_code_at(commit: str) -> tuple[Any, Any]:
+    """plots.py and campaign/figures.py as they were at ``commit``, loaded beside
+    today's (the rest of the package is today's): both drawn in one process."""
+    import types
+
+    modules = []
+    for name, path in (
+        ("plots_then", "wmr_mission/output/plots.py"),
+        ("figures_then", "wmr_mission/campaign/figures.py"),
+    ):
+        shown = ["git", "-C", str(ROOT), "show", f"{commit}:{path}"]
+        text = subprocess.run(shown, check=True, capture_output=True, text=True).stdout
+        text = text.replace("from wmr_mission.output.plots import", "from plots_then import")
+        module = types.ModuleType(name)
+        sys.modules[name] = module
+        exec(compile(text, f"{commit}:{path}", "exec"), module.__dict__)
+        modules.append(module)
+    return modules[0], modules[1]
+
+
+def _run_figure(plots: Any, result: Any, name: str, path: Path) -> None:
+    if hasattr(plots, "_figure"):
+        plots._save(plots._figure(result, name), path)
+    else:  # before the figure was built apart from its file
+        plots._write(result, name, path)
+
+
+def drawing(repeat: int = 5) -> None:
     """CPU seconds of what a campaign draws after its runs (case2-headings, 2000
     runs): the walk counting the runs through each pixel, each campaign figure
-    built and saved, and one worst run's directory with its four figures."""
+    built and saved, each figure of the first worst run, and its whole
+    directory. ``drawing COMMIT`` also draws each figure with the drawing code
+    of COMMIT, in turn with today's, and prints both and their ratio."""
     from wmr_mission.campaign import figures
     from wmr_mission.campaign.aggregate import Aggregate
     from wmr_mission.campaign.coverage import runs_per_pixel
     from wmr_mission.campaign.engine import StopFlag, execute, warm_up
     from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.plan import Plan
+    from wmr_mission.campaign.runs import simulate
     from wmr_mission.campaign.sweep import _regions, _write_run_dir
-    from wmr_mission.output.plots import _save
+    from wmr_mission.output import plots
 
+    against = sys.argv[2] if len(sys.argv) > 2 else None
+    codes = {"now": (plots, figures)}
+    if against is not None:
+        codes[against] = _drawing_code_at(against)
     loaded = load_campaign(CAMPAIGN)
     aggregate = Aggregate(dict(loaded.campaign.vary))
     with StopFlag() as stop:
@@ -567,30 +603,59 @@ def drawing(repeat: int = 3) -> None:
                 aggregate.add(row)
     regions = _regions(loaded)
     paths = [p for _, p in aggregate.drawn]
+    worst = [run for run, *_ in aggregate.worst_runs()]
+    result, _ = simulate(loaded, Plan(loaded.campaign).draw(worst[0]))
 
-    def cpu(job: Any) -> float:
-        times = []
+    def cpu(jobs: dict[str, Any]) -> dict[str, float]:
+        """Median CPU seconds of each job, the jobs taken in turn in every round."""
+        for job in jobs.values():
+            job()  # fonts, caches
+        times: dict[str, list[float]] = {key: [] for key in jobs}
         for _ in range(repeat):
-            started = time.process_time()
-            job()
-            times.append(time.process_time() - started)
-        return statistics.median(times)
+            for key, job in jobs.items():
+                started = time.process_time()
+                job()
+                times[key].append(time.process_time() - started)
+        return {key: statistics.median(spent) for key, spent in times.items()}
+
+    def show(what: str, spent: dict[str, float]) -> None:
+        line = f"  {what}: {spent['now']:.3f}"
+        if against is not None:
+            line += f" ({against}: {spent[against]:.3f}, ratio {spent['now'] / spent[against]:.2f})"
+        print(line)
 
     print(f"case2-headings, {aggregate.runs} runs, CPU seconds, median of {repeat}:")
-    walk = cpu(lambda: runs_per_pixel(paths, (-6.5, 6.5, -3.7, 3.7), (389, 651)))
+    walk = cpu({"now": lambda: runs_per_pixel(paths, (-6.5, 6.5, -3.7, 3.7), (389, 651))})
     points = sum(p.shape[1] for p in paths)
-    print(f"  runs through each pixel, {len(paths)} paths of {points} points: {walk:.3f}")
+    print(f"  runs through each pixel, {len(paths)} paths of {points} points: {walk['now']:.3f}")
     with tempfile.TemporaryDirectory() as tmp:
         for name, build in (
-            ("trajectories", lambda: figures._trajectories(aggregate, regions)),
-            ("metrics", lambda: figures._histograms(aggregate)),
-            ("success", lambda: figures._success_over_axes(aggregate)),
+            ("trajectories", lambda f: f._trajectories(aggregate, regions)),
+            ("metrics", lambda f: f._histograms(aggregate)),
+            ("success", lambda f: f._success_over_axes(aggregate)),
         ):
-            cost = cpu(lambda b=build, n=name: _save(b(), Path(tmp) / f"{n}.png"))
-            print(f"  {name}.png built and saved: {cost:.3f}")
-        worst = [run for run, *_ in aggregate.worst_runs()]
-        directory = cpu(lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True, ""))
-        print(f"  one worst run's directory with its four figures: {directory:.3f}")
+            spent = cpu(
+                {
+                    key: lambda p=p, f=f, b=build, n=name: p._save(b(f), Path(tmp) / f"{n}.png")
+                    for key, (p, f) in codes.items()
+                }
+            )
+            show(f"{name}.png built and saved", spent)
+        total = dict.fromkeys(codes, 0.0)
+        for name in plots.FIGURE_NAMES:
+            spent = cpu(
+                {
+                    key: lambda p=p, n=name: _run_figure(p, result, n, Path(tmp) / f"{n}.png")
+                    for key, (p, _) in codes.items()
+                }
+            )
+            show(f"worst run {worst[0]}, {name}.png", spent)
+            total = {key: total[key] + spent[key] for key in codes}
+        show(f"worst run {worst[0]}, its four figures", total)
+        directory = cpu(
+            {"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True, "")}
+        )
+        print(f"  one worst run's directory with its four figures: {directory['now']:.3f}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
