@@ -574,12 +574,38 @@ def _run_figure(plots: Any, result: Any, name: str, path: Path) -> None:
         plots._write(result, name, path)
 
 
+def _ticks(result: Any) -> tuple[int, int, int]:
+    """Ticks made for a run's four figures as files draw them, as matplotlib
+    alone makes them, and drawn."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from wmr_mission.output.plots import FIGURE_NAMES, _figure
+    from wmr_mission.output.unseen import skip_unseen
+
+    made, alone, drawn = 0, 0, 0
+    for name in FIGURE_NAMES:
+        for lean in (True, False):
+            fig = _figure(result, name)
+            if lean:
+                skip_unseen(fig)
+            FigureCanvasAgg(fig).draw()
+            for axis in (a for ax in fig.axes for a in (ax.xaxis, ax.yaxis)):
+                ticks = len(axis.majorTicks) + len(axis.minorTicks)
+                if lean:
+                    made, drawn = made + ticks, drawn + len(axis._update_ticks())
+                else:
+                    alone += ticks
+    return made, alone, drawn
+
+
 def drawing(repeat: int = 5) -> None:
     """CPU seconds of what a campaign draws after its runs (case2-headings, 2000
     runs): the walk counting the runs through each pixel, each campaign figure
     built and saved, each figure of the first worst run, and its whole
     directory. ``drawing COMMIT`` also draws each figure with the drawing code
     of COMMIT, in turn with today's, and prints both and their ratio."""
+    import gc
+
     from wmr_mission.campaign import figures
     from wmr_mission.campaign.aggregate import Aggregate
     from wmr_mission.campaign.coverage import runs_per_pixel
@@ -607,12 +633,16 @@ def drawing(repeat: int = 5) -> None:
     result, _ = simulate(loaded, Plan(loaded.campaign).draw(worst[0]))
 
     def cpu(jobs: dict[str, Any]) -> dict[str, float]:
-        """Median CPU seconds of each job, the jobs taken in turn in every round."""
+        """Median CPU seconds of each job, the jobs taken in turn in every round.
+        Each starts with the previous one's garbage collected: a figure leaves
+        thousands of artists in cycles, and whichever job ran next would pay
+        for collecting them."""
         for job in jobs.values():
             job()  # fonts, caches
         times: dict[str, list[float]] = {key: [] for key in jobs}
         for _ in range(repeat):
             for key, job in jobs.items():
+                gc.collect()
                 started = time.process_time()
                 job()
                 times[key].append(time.process_time() - started)
@@ -656,6 +686,8 @@ def drawing(repeat: int = 5) -> None:
             {"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True, "")}
         )
         print(f"  one worst run's directory with its four figures: {directory['now']:.3f}")
+    made, plain, drawn = _ticks(result)
+    print(f"  ticks of its four figures: {made} made ({plain} by matplotlib alone), {drawn} drawn")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
