@@ -169,7 +169,8 @@ def _save(fig: Figure, path: Path) -> Path:
     A PNG is drawn once and its pixels cropped: ``bbox_inches="tight"`` would
     measure every text and then draw the figure a second time. Only when
     something is drawn up to the canvas's edge (it may reach beyond) is it
-    drawn the way other formats are, measured and redrawn.
+    drawn the way other formats are, measured and redrawn. Either way, what
+    would be worked out and never drawn is left out first (output.unseen).
     """
     from matplotlib import rc_context
 
