@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel
+from wmr_mission._jit import inlined, kernel
 from wmr_mission.corrective import corrective_input, kept_row_slot, row_value
 from wmr_mission.model import jacobian_terms, step, wrap_angle
 from wmr_mission.params import Controller, Robot, Scratch
@@ -294,7 +294,7 @@ def scheduled_gain(
     out[1, 0], out[1, 1], out[1, 2] = gain[3] * c - gain[4] * s, gain[3] * s + gain[4] * c, gain[5]
 
 
-@kernel
+@inlined
 def regulate_input(
     estimate: FloatArray,
     estimate_prev: FloatArray,

@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel, ticks, uncounted
+from wmr_mission._jit import inlined, kernel, ticks, uncounted
 from wmr_mission.constrained_tracking import keep_constraints, keep_reference
 from wmr_mission.control import regulate_input, track_input
 from wmr_mission.corrective import max_row_value
@@ -127,7 +127,7 @@ FLOAT_COLUMNS = tuple(
 )
 
 
-@kernel
+@inlined
 def exit_condition(
     phase: Phase, k: int, dt: float, estimate: FloatArray, speed: float, value: FloatArray
 ) -> int:

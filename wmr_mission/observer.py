@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel
+from wmr_mission._jit import inlined, kernel
 from wmr_mission.model import jacobian_terms, step, wrap_angle
 from wmr_mission.params import Estimator
 
@@ -114,7 +114,7 @@ def observer_gain(
     gain[2, 1] = k * cy
 
 
-@kernel
+@inlined
 def observer_step(
     estimate: FloatArray,
     v: float,
