@@ -87,7 +87,7 @@ def main() -> None:
             theta, v, omega = result.theta_est[k], result.v[k - 1], result.omega[k - 1]
             if result.phase[k] != result.phase[k - 1]:
                 memory[:] = 0.0  # a new phase, as the runner does
-            control.scheduled_gain(theta, v, omega, dt, q, r, memory, work)
+            control.scheduled_gain(theta, v, omega, dt, q, r, memory, work.gain)
             steps.append(memory[control.NEWTON])
             doubled += memory[control.DOUBLINGS] > 0
             if n % EVERY or v == 0.0:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 import shlex
 import signal
@@ -19,6 +20,7 @@ import pytest
 
 from wmr_mission import _jit, run_campaign
 from wmr_mission.campaign.aggregate import clopper_pearson
+from wmr_mission.campaign.engine import LAST_TASK_SECONDS, task_size, tasks
 from wmr_mission.campaign.load import load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.campaign.runs import INVALID, mission_of
@@ -98,6 +100,59 @@ def test_grid_axes_give_every_cell_runs_times() -> None:
 def test_clopper_pearson_known_values(successes: int, trials: int, lo: float, hi: float) -> None:
     got = clopper_pearson(successes, trials)
     assert got == pytest.approx((lo, hi), abs=5e-7)
+
+
+@pytest.mark.parametrize("trials", [1, 2, 7, 99, 100, 101, 2000, 10**5, 10**7])
+def test_clopper_pearson_against_scipy(trials: int) -> None:
+    """The interval's beta quantiles, written out, against scipy's betaincinv:
+    to 1e-12 (relative) up to 10^5 runs, 1e-9 at ten million; and the closed
+    forms of the ends, 1 - 0.025^(1/n) and 0.025^(1/n), to 1e-9."""
+    from scipy.special import betaincinv
+
+    tolerance = 1e-12 if trials <= 10**5 else 1e-9
+    counts = {0, 1, 2, 3, 10, trials // 10, trials // 2, int(0.866 * trials), trials - 1, trials}
+    for successes in sorted(c for c in counts if 0 <= c <= trials):
+        lo, hi = clopper_pearson(successes, trials)
+        want_lo = 0.0 if successes == 0 else betaincinv(successes, trials - successes + 1, 0.025)
+        want_hi = (
+            1.0 if successes == trials else betaincinv(successes + 1, trials - successes, 0.975)
+        )
+        assert lo == pytest.approx(float(want_lo), rel=tolerance, abs=0.0)
+        assert hi == pytest.approx(float(want_hi), rel=tolerance, abs=0.0)
+    assert clopper_pearson(0, trials)[1] == pytest.approx(
+        -math.expm1(math.log(0.025) / trials), rel=1e-9
+    )
+    assert clopper_pearson(trials, trials)[0] == pytest.approx(0.025 ** (1 / trials), rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("seconds_per_run", "runs", "workers"),
+    [(0.0045, 2000, 2), (0.0045, 2000, 1), (0.0045, 10, 2), (0.5, 7, 3), (1e-4, 10**6, 8)],
+)
+def test_tasks_cover_every_run_once_and_shrink_at_the_end(
+    seconds_per_run: float, runs: int, workers: int
+) -> None:
+    batches = tasks(seconds_per_run, runs, workers)
+    assert [run for batch in batches for run in batch] == list(range(runs))
+    sizes = [len(batch) for batch in batches]
+    size = task_size(seconds_per_run, runs, workers)
+    assert max(sizes) == size
+    assert sizes == sorted(sizes, reverse=True)  # the short ones last
+    # toward the end, no task longer than half a worker's share of what is left,
+    # or than LAST_TASK_SECONDS of runs
+    least = max(1, round(LAST_TASK_SECONDS / seconds_per_run))
+    left = runs
+    for length in sizes:
+        assert length in (size, left) or length <= max(math.ceil(left / (2 * workers)), least)
+        left -= length
+
+
+def test_the_last_tasks_end_together() -> None:
+    """2000 runs of 4.5 ms on 2 workers: the last task is a twentieth of a
+    second, not a whole half-second task that one worker runs alone."""
+    sizes = [len(batch) for batch in tasks(0.0045, 2000, 2)]
+    assert sizes[0] == 111  # about half a second
+    assert sizes[-1] * 0.0045 <= 0.06
 
 
 def test_a_value_the_mission_refuses_is_reported_not_run() -> None:

@@ -197,7 +197,7 @@ def test_scheduled_gain_is_nearly_constant_but_for_the_heading_gain() -> None:
     heading_gains = []
     for v in (0.0, 0.01, 0.1, 1.0, 3.0, 10.0, -10.0):
         memory = np.zeros(MEMORY_SIZE)
-        scheduled_gain(0.0, v, 0.0, 0.01, np.ones(3), np.ones(2), memory, work)
+        scheduled_gain(0.0, v, 0.0, 0.01, np.ones(3), np.ones(2), memory, work.gain)
         gain = work.gain
         assert gain[0, 0] == pytest.approx(0.995, abs=1e-3)  # speed from distance along
         if v != 0.0:

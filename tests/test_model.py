@@ -48,3 +48,14 @@ def test_jacobians_match_central_differences(rng: np.random.Generator) -> None:
 )
 def test_wrap_angle(angle: float, wrapped: float) -> None:
     assert wrap_angle(angle) == pytest.approx(wrapped)
+
+
+def test_wrap_angle_is_the_remainder_to_the_bit(rng: np.random.Generator) -> None:
+    # The kernel skips the remainder for angles already in range; it must give
+    # the bits of the plain formula everywhere, the edges of the range included.
+    edges = [0.0, -0.0, math.pi, -math.pi, 2 * math.pi, -2 * math.pi, 1e300, -1e300]
+    edges += [math.nextafter(a, b) for a in (math.pi, -math.pi) for b in (-math.inf, math.inf)]
+    edges += [math.nextafter(math.pi, math.inf) - math.pi, math.inf, -math.inf, math.nan]
+    for angle in [*edges, *rng.uniform(-20.0, 20.0, 20_000), *rng.normal(0.0, 1e6, 1_000)]:
+        expected = (angle + math.pi) % (2.0 * math.pi) - math.pi
+        assert np.float64(wrap_angle(angle)).tobytes() == np.float64(expected).tobytes(), angle

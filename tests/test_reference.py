@@ -431,7 +431,7 @@ def test_scheduled_gain_matches(
         theta, omega = rng.uniform(-4, 4), rng.uniform(-3, 3)
         v = float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
         q, r = rng.uniform(0.1, 10, 3), rng.uniform(0.1, 10, 2)
-        control.scheduled_gain(theta, v, omega, DT, q, r, np.zeros(control.MEMORY_SIZE), work)
+        control.scheduled_gain(theta, v, omega, DT, q, r, np.zeros(control.MEMORY_SIZE), work.gain)
         slow = reference.scheduled_gain(theta, v, omega, DT, q, r)
         scale = max(1.0, float(np.abs(slow).max()))
         np.testing.assert_allclose(work.gain, slow, rtol=0.0, atol=tolerance * scale)

@@ -89,7 +89,7 @@ def test_at_rest_the_pair_is_not_stabilisable_and_scipy_has_no_answer(omega: flo
 def body_gain(theta: float, v: float) -> np.ndarray:
     work = scratch()
     memory = np.zeros(control.MEMORY_SIZE)
-    control.scheduled_gain(theta, v, 0.0, 0.01, np.ones(3), np.ones(2), memory, work)
+    control.scheduled_gain(theta, v, 0.0, 0.01, np.ones(3), np.ones(2), memory, work.gain)
     # At rest the closed form; elsewhere a cold doubling solve.
     assert (memory[control.DOUBLINGS] > 0) == (v != 0.0)
     rot = np.array(
@@ -172,7 +172,7 @@ def test_at_rest_the_closed_form_equals_the_doubling_on_the_reachable_subspace(
         q_hat[2, 2] = q[2]
         doubling, _, _ = dlqr(a, b, q_hat, r)
         work, memory = scratch(), np.zeros(control.MEMORY_SIZE)
-        control.scheduled_gain(theta, 0.0, omega, 0.01, q, r, memory, work)
+        control.scheduled_gain(theta, 0.0, omega, 0.01, q, r, memory, work.gain)
         np.testing.assert_allclose(work.gain, doubling, rtol=0, atol=1e-12 * np.abs(doubling).max())
         assert memory[control.NEWTON] == memory[control.DOUBLINGS] == 0  # no iteration
 
@@ -190,13 +190,15 @@ def test_warm_started_solution_agrees_with_the_cold_doubling_and_scipy() -> None
     memory, work = np.zeros(control.MEMORY_SIZE), scratch()
     newton_steps = []
     for theta, v, omega in zip(*weaving_run(), strict=True):
-        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work)
+        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
         warm = work.gain.copy()
         newton_steps.append(memory[control.NEWTON])
         if len(newton_steps) > 1:
             assert memory[control.DOUBLINGS] == 0  # Newton from the previous samples
         cold = scratch()
-        control.scheduled_gain(theta, v, omega, 0.01, q, r, np.zeros(control.MEMORY_SIZE), cold)
+        control.scheduled_gain(
+            theta, v, omega, 0.01, q, r, np.zeros(control.MEMORY_SIZE), cold.gain
+        )
         np.testing.assert_allclose(warm, cold.gain, rtol=0, atol=1e-12 * np.abs(cold.gain).max())
         # scipy's own solution is good to ~1e-12 here (a 40-digit solution
         # agrees with the warm-started one to ~1e-15).
@@ -230,10 +232,12 @@ def test_near_rest_the_warm_started_blend_agrees_with_the_cold_one() -> None:
     for k, v in enumerate(speeds):
         omega = 1.5 * np.exp(-0.01 * k)
         theta = 1.5 * (1.0 - np.exp(-0.01 * k))
-        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work)
+        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
         steps.append((memory[control.NEWTON], memory[control.DOUBLINGS]))
         cold = scratch()
-        control.scheduled_gain(theta, v, omega, 0.01, q, r, np.zeros(control.MEMORY_SIZE), cold)
+        control.scheduled_gain(
+            theta, v, omega, 0.01, q, r, np.zeros(control.MEMORY_SIZE), cold.gain
+        )
         np.testing.assert_allclose(work.gain, cold.gain, rtol=0, atol=1e-10)
     newton, doublings = np.array(steps).T
     # Doubling only where there is no solution at +-MIN_SPEED of the same sign.
@@ -254,7 +258,7 @@ def test_each_fallback_to_the_doubling() -> None:
 
     def gain(theta: float, v: float, omega: float, memory: np.ndarray) -> np.ndarray:
         work = scratch()
-        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work)
+        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
         return work.gain
 
     def cold(theta: float, v: float, omega: float) -> np.ndarray:
@@ -338,4 +342,6 @@ def test_a_controller_memory_too_small_is_refused() -> None:
     # Compiled code checks no bounds: a memory of the old size (3) would be
     # written past its end.
     with pytest.raises(ValueError, match="MEMORY_SIZE"):
-        control.scheduled_gain(0.0, 0.5, 0.0, 0.01, np.ones(3), np.ones(2), np.zeros(3), scratch())
+        control.scheduled_gain(
+            0.0, 0.5, 0.0, 0.01, np.ones(3), np.ones(2), np.zeros(3), scratch().gain
+        )

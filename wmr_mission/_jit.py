@@ -74,6 +74,18 @@ def kernel(fn: F) -> F:
     return _compile(fn, nogil=True, error_model="numpy")
 
 
+def inlined(fn: F) -> F:
+    """:func:`kernel`, compiled into each compiled function that calls it
+    (numba's ``inline="always"``) instead of called there: for the kernels the
+    loop runs once per sample with whole records (a phase, the controller, the
+    estimator), which cost more to pass, tens of machine words each, than much
+    of their work (docs/performance.md). From Python it is called like any
+    kernel."""
+    if _njit is None:
+        return fn
+    return _compile(fn, nogil=True, error_model="numpy", inline="always")
+
+
 def plain(function: F, _made: dict[int, Any] | None = None) -> F:
     """The plain-Python form of a kernel, calling the plain-Python form of the
     kernels it calls: the same bytes, and no compiled entry loaded from the

@@ -35,7 +35,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel
+from wmr_mission._jit import inlined, kernel
 from wmr_mission.control import input_jacobian_into, saturate
 from wmr_mission.corrective import ELLIPSE, REGULARISATION, kept_row_slot, row_value_with_margin
 from wmr_mission.model import step
@@ -83,7 +83,7 @@ def constrained_change(
     return p00 * lam0 + p01 * lam1, p10 * lam0 + p11 * lam1
 
 
-@kernel
+@inlined
 def keep_constraints(
     estimate: FloatArray,
     u_prev: FloatArray,

@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel
+from wmr_mission._jit import inlined, kernel
 from wmr_mission.corrective import corrective_input, kept_row_slot, row_value
 from wmr_mission.model import jacobian_terms, step, wrap_angle
 from wmr_mission.params import Controller, Robot, Scratch
@@ -111,13 +111,16 @@ def track_input(
     error_decay = controller.error_decay
     v_prev = u_prev[0]
     omega_prev = u_prev[1]
-    c = math.cos(estimate[2])
-    s = math.sin(estimate[2])
+    # Read once: after the writes to the scratch arrays below the compiler
+    # would read the heading again and recompute its sine and cosine.
+    x, y, theta = estimate[0], estimate[1], estimate[2]
+    c = math.cos(theta)
+    s = math.sin(theta)
     # The output's error at k: shifted reference minus G(x_{k|k}).
-    error_x = reference_now[0] + look_ahead * reference_now[2] - (estimate[0] + look_ahead * c)
-    error_y = reference_now[1] + look_ahead * reference_now[3] - (estimate[1] + look_ahead * s)
+    error_x = reference_now[0] + look_ahead * reference_now[2] - (x + look_ahead * c)
+    error_y = reference_now[1] + look_ahead * reference_now[3] - (y + look_ahead * s)
     # x_{k+1|k} with the previous input held (section III.D).
-    px, py, pth = step(estimate[0], estimate[1], estimate[2], v_prev, omega_prev, dt)
+    px, py, pth = step(x, y, theta, v_prev, omega_prev, dt)
     c = math.cos(pth)
     s = math.sin(pth)
     d, eta, b = work.d, work.eta, work.b
@@ -135,7 +138,7 @@ def track_input(
         reference[1] + look_ahead * reference[3] - error_decay * error_y - (py + look_ahead * s)
     )
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
-    input_jacobian_into(estimate[2], v_prev, omega_prev, dt, b)
+    input_jacobian_into(theta, v_prev, omega_prev, dt, b)
     both = int(np.int64(2))  # not the literal 2: one compiled corrective_input for all
     dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
     u_out[0], u_out[1] = saturate(
@@ -184,7 +187,6 @@ def _solve_gain(
     r: FloatArray,
     memory: FloatArray,
     slot: int,
-    work: Scratch,
 ) -> Gain:
     """T of eqs. (20)-(21) at (v != 0, omega) in the body frame (``qb`` is
     Q-hat seen from it). By Newton's method from the solutions the previous
@@ -243,10 +245,10 @@ def scheduled_gain(
     q: FloatArray,
     r: FloatArray,
     memory: FloatArray,
-    work: Scratch,
+    out: FloatArray,
 ) -> None:
-    """Eqs. (20)-(21) for the linearisation at (theta, v, omega): writes T into
-    ``work.gain``, and the Riccati steps taken into ``memory[NEWTON]`` and
+    """Eqs. (20)-(21) for the linearisation at (theta, v, omega): writes T
+    (2x3) into ``out``, and the Riccati steps taken into ``memory[NEWTON]`` and
     ``memory[DOUBLINGS]``.
 
     Eq. (1) turns with the heading: A(theta) = Rot A(0) Rot^T and
@@ -273,12 +275,12 @@ def scheduled_gain(
     qb = (q0 * c * c + q1 * s * s, cross, 0.0, cross, q0 * s * s + q1 * c * c, 0.0, 0.0, 0.0,
           float(q[2]))  # fmt: skip
     if abs(v) >= MIN_SPEED:
-        gain = _solve_gain(v, omega, dt, qb, r, memory, WARM_MOVING, work)
+        gain = _solve_gain(v, omega, dt, qb, r, memory, WARM_MOVING)
     else:
         gain = _gain_at_rest(omega, dt, qb, r)
         if v != 0.0:
             edge = MIN_SPEED if v > 0.0 else -MIN_SPEED
-            at_edge = _solve_gain(edge, omega, dt, qb, r, memory, WARM_EDGE, work)
+            at_edge = _solve_gain(edge, omega, dt, qb, r, memory, WARM_EDGE)
             alpha = abs(v) / MIN_SPEED
             gain = (
                 (1.0 - alpha) * gain[0] + alpha * at_edge[0],
@@ -288,12 +290,11 @@ def scheduled_gain(
                 (1.0 - alpha) * gain[4] + alpha * at_edge[4],
                 (1.0 - alpha) * gain[5] + alpha * at_edge[5],
             )
-    out = work.gain
     out[0, 0], out[0, 1], out[0, 2] = gain[0] * c - gain[1] * s, gain[0] * s + gain[1] * c, gain[2]
     out[1, 0], out[1, 1], out[1, 2] = gain[3] * c - gain[4] * s, gain[3] * s + gain[4] * c, gain[5]
 
 
-@kernel
+@inlined
 def regulate_input(
     estimate: FloatArray,
     estimate_prev: FloatArray,
@@ -322,14 +323,14 @@ def regulate_input(
     if form == INCREMENT:
         # Literal eqs. (14), (19), (29-a): T_{k-1} at (x_{k-1|k-1}, u_{k-1}),
         # applied to the state increment x_{k|k} - x_{k-1|k-1}.
-        scheduled_gain(estimate_prev[2], v_prev, omega_prev, dt, q, r, memory, work)
+        scheduled_gain(estimate_prev[2], v_prev, omega_prev, dt, q, r, memory, gain)
         ex = estimate[0] - estimate_prev[0]
         ey = estimate[1] - estimate_prev[1]
         eth = estimate[2] - estimate_prev[2]
         v1 = v_prev - (gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = omega_prev - (gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
     else:
-        scheduled_gain(estimate[2], v_prev, omega_prev, dt, q, r, memory, work)
+        scheduled_gain(estimate[2], v_prev, omega_prev, dt, q, r, memory, gain)
         ex = estimate[0] - target[0]
         ey = estimate[1] - target[1]
         eth = wrap_angle(estimate[2] - target[2])

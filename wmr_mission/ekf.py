@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel
+from wmr_mission._jit import inlined, kernel
 from wmr_mission.model import jacobian_terms, step, wrap_angle
 from wmr_mission.params import Estimator
 
@@ -55,7 +55,7 @@ def _predict(
     return step(estimate[0], estimate[1], estimate[2], v, omega, dt)
 
 
-@kernel
+@inlined
 def ekf_predict(
     estimate: FloatArray,
     covariance: FloatArray,
@@ -76,7 +76,7 @@ def ekf_predict(
             covariance[i, j] = work[0, i, j]
 
 
-@kernel
+@inlined
 def ekf_step(
     estimate: FloatArray,
     covariance: FloatArray,

@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel, ticks, uncounted
+from wmr_mission._jit import inlined, kernel, ticks, uncounted
 from wmr_mission.constrained_tracking import keep_constraints, keep_reference
 from wmr_mission.control import regulate_input, track_input
 from wmr_mission.corrective import max_row_value
@@ -127,7 +127,7 @@ FLOAT_COLUMNS = tuple(
 )
 
 
-@kernel
+@inlined
 def exit_condition(
     phase: Phase, k: int, dt: float, estimate: FloatArray, speed: float, value: FloatArray
 ) -> int:
@@ -148,16 +148,16 @@ def exit_condition(
         if reached == 0.0 or math.copysign(1.0, reached) != phase.reaches_sign:
             value[0] = reached
             return REACHES
-    distance = math.hypot(x - phase.near[0], y - phase.near[1])
-    if distance <= phase.near[2]:
-        value[0] = distance
-        return NEAR
+    if phase.near[2] == phase.near[2]:
+        distance = math.hypot(x - phase.near[0], y - phase.near[1])
+        if distance <= phase.near[2]:
+            value[0] = distance
+            return NEAR
     if phase.settled[0] == phase.settled[0]:
         distance = math.hypot(x - phase.target[0], y - phase.target[1])
-        heading_error = abs(wrap_angle(theta - phase.target[2]))
         if (
             distance <= phase.settled[0]
-            and heading_error <= phase.settled[1]
+            and abs(wrap_angle(theta - phase.target[2])) <= phase.settled[1]
             and abs(speed) <= phase.settled[2]
         ):
             value[0] = distance

@@ -55,10 +55,18 @@ def jacobian_terms(
     )
 
 
+TWO_PI = 2.0 * math.pi
+
+
 @kernel
 def wrap_angle(angle: float) -> float:
     """Angle in [-pi, pi)."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+    shifted = angle + math.pi
+    # Already in [0, 2 pi): the remainder is ``shifted`` itself, to the bit, and
+    # the floating-point remainder (a library call) is the slow part.
+    if 0.0 <= shifted < TWO_PI:
+        return shifted - math.pi
+    return shifted % TWO_PI - math.pi
 
 
 # Array forms with the project-wide argument order f(state, input, dt): for

@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission._jit import kernel
+from wmr_mission._jit import inlined, kernel
 from wmr_mission.model import jacobian_terms, step, wrap_angle
 from wmr_mission.params import Estimator
 
@@ -114,7 +114,7 @@ def observer_gain(
     gain[2, 1] = k * cy
 
 
-@kernel
+@inlined
 def observer_step(
     estimate: FloatArray,
     v: float,
@@ -128,11 +128,14 @@ def observer_step(
     measurement xi_{k+1}; ``gain`` receives L. Returns the number of phase-II
     iterations run."""
     mask = params.mask
+    # Read once: the writes to ``gain`` below could alias ``estimate`` for the
+    # compiler, which would then read the heading again and recompute its sine.
+    x, y, theta = estimate[0], estimate[1], estimate[2]
     # Phase I. eq. (7): A at the filtered estimate x_{k|k}.
-    a13, a23, _, _, _, _ = jacobian_terms(estimate[2], v, omega, dt)
+    a13, a23, _, _, _, _ = jacobian_terms(theta, v, omega, dt)
     observer_gain(a13, a23, mask, params.poles, params.motion_floor, gain)
     # eq. (5): prediction.
-    px, py, pth = step(estimate[0], estimate[1], estimate[2], v, omega, dt)
+    px, py, pth = step(x, y, theta, v, omega, dt)
     # eq. (6): innovation of the measured outputs (heading residual wrapped).
     rx = (measurement[0] - px) * mask[0]
     ry = (measurement[1] - py) * mask[1]

@@ -2,9 +2,10 @@
 
 Runs are batched into tasks of about half a second (timed on a run in the
 parent, which also compiles the kernels once before any worker starts: the
-workers are forked from it, or load numba's disk cache it wrote). At most a
-few tasks per worker are in flight, and finished tasks are handed on in run
-order, so memory stays flat however many runs a campaign has.
+workers are forked from it, or load numba's disk cache it wrote); the last
+tasks are shorter, so that the workers finish together. At most a few tasks
+per worker are in flight, and finished tasks are handed on in run order, so
+memory stays flat however many runs a campaign has.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.runs import Row, run_row, run_rows
 
 __all__ = [
+    "LAST_TASK_SECONDS",
     "TASK_SECONDS",
     "Interrupted",
     "SchedulerUnavailable",
@@ -32,12 +34,17 @@ __all__ = [
     "execute",
     "local_pool",
     "task_size",
+    "tasks",
     "warm_up",
 ]
 
 TASK_SECONDS: Final = 0.5
 """Wall time of one task: long enough that sending it costs little, short enough
 to balance the workers and to stop soon after Ctrl-C."""
+
+LAST_TASK_SECONDS: Final = 0.05
+"""Wall time of the shortest task, at the end: a worker that finishes early then
+waits at most this long for the others."""
 
 _IN_FLIGHT_PER_WORKER: Final = 3
 
@@ -75,6 +82,23 @@ def task_size(seconds_per_run: float, runs: int, workers: int) -> int:
     by_time = max(1, round(TASK_SECONDS / max(seconds_per_run, 1e-6)))
     by_share = max(1, math.ceil(runs / (4 * workers)))
     return min(by_time, by_share)
+
+
+def tasks(seconds_per_run: float, runs: int, workers: int) -> list[range]:
+    """The runs of each task, in run order: :func:`task_size` runs each, then,
+    once fewer runs are left than two such tasks per worker, half of a worker's
+    share of what is left (no fewer than LAST_TASK_SECONDS of runs), so that the
+    last tasks end together instead of one worker finishing a whole task alone."""
+    size = task_size(seconds_per_run, runs, workers)
+    least = min(size, max(1, round(LAST_TASK_SECONDS / max(seconds_per_run, 1e-6))))
+    bounds = []
+    start = 0
+    while start < runs:
+        share = math.ceil((runs - start) / (2 * workers))
+        stop = min(runs, start + min(size, max(least, share)))
+        bounds.append(range(start, stop))
+        start = stop
+    return bounds
 
 
 def _ignore_interrupt() -> None:
@@ -124,15 +148,14 @@ def execute(
         yield from _on_dask(loaded, scheduler, seconds_per_run, runs, stop)
         return
     if workers == 1:
-        size = task_size(seconds_per_run, runs, 1)
-        for start in range(0, runs, size):
+        for task in tasks(seconds_per_run, runs, 1):
             if stop.stopped:
                 raise Interrupted
-            yield run_rows(loaded, start, min(start + size, runs))
+            yield run_rows(loaded, task.start, task.stop)
         return
-    size = task_size(seconds_per_run, runs, workers)
     with local_pool(workers) as pool:
-        yield from _in_order(pool, _wait_local, loaded, size, runs, workers, stop)
+        batches = tasks(seconds_per_run, runs, workers)
+        yield from _in_order(pool, _wait_local, loaded, batches, workers, stop)
 
 
 def local_pool(workers: int) -> ProcessPoolExecutor:
@@ -160,8 +183,8 @@ def _on_dask(
         ) from None
     with client:
         workers = max(1, sum(client.nthreads().values()))
-        size = task_size(seconds_per_run, runs, workers)
-        yield from _in_order(_DaskPool(client), _wait_dask, loaded, size, runs, workers, stop)
+        batches = tasks(seconds_per_run, runs, workers)
+        yield from _in_order(_DaskPool(client), _wait_dask, loaded, batches, workers, stop)
 
 
 class _DaskPool:
@@ -201,20 +224,20 @@ def _in_order(
     pool: _Executor,
     wait_some: Waiter,
     loaded: LoadedCampaign,
-    size: int,
-    runs: int,
+    batches: list[range],
     workers: int,
     stop: StopFlag,
 ) -> Iterator[list[Row]]:
-    starts = iter(range(0, runs, size))
-    pending: dict[Any, int] = {}
+    waiting = iter(range(len(batches)))
+    pending: dict[Any, int] = {}  # future -> its task's index in ``batches``
     done: dict[int, list[Row]] = {}
-    next_start = 0
+    next_task = 0
 
     def submit() -> None:
-        start = next(starts, None)
-        if start is not None:
-            pending[pool.submit(run_rows, loaded, start, min(start + size, runs))] = start
+        task = next(waiting, None)
+        if task is not None:
+            runs = batches[task]
+            pending[pool.submit(run_rows, loaded, runs.start, runs.stop)] = task
 
     for _ in range(_IN_FLIGHT_PER_WORKER * workers):
         submit()
@@ -222,17 +245,16 @@ def _in_order(
         for future in wait_some(list(pending)):
             done[pending.pop(future)] = future.result()
             submit()
-        while next_start in done:
-            rows = done.pop(next_start)
-            next_start += size
-            yield rows
+        while next_task in done:
+            yield done.pop(next_task)
+            next_task += 1
     if not stop.stopped:
         return
-    for future, start in pending.items():
+    for future, task in pending.items():
         if not future.cancel() and _ran_to_end(future):  # was running: let it finish
-            done[start] = future.result()
-    for start in sorted(done):
-        yield done[start]
+            done[task] = future.result()
+    for task in sorted(done):
+        yield done[task]
     raise Interrupted
 
 

@@ -239,16 +239,16 @@ def _check_against_mission(
             at(("mission",), f"mission {str(mission_path)!r} is invalid: {count}, listed with it"),
             *mission_diagnostics,
         ]
-    mission_text = mission_path.read_text(encoding="utf-8")
+    loaded = LoadedCampaign(campaign, path, mission_path, mission_path.read_text(encoding="utf-8"))
     problems = [
         at(("vary", name), problem)
         for name, axis in campaign.vary.items()
-        for problem in _axis_problems(name, axis, mission_text, str(mission_path))
+        for problem in _axis_problems(name, axis, loaded)
     ]
     problems += [at(("vary", inner), problem) for inner, problem in _overlaps(list(campaign.vary))]
     if problems:
         return None, problems
-    return LoadedCampaign(campaign, path, mission_path, mission_text), []
+    return loaded, []
 
 
 def _overlaps(names: list[str]) -> list[tuple[str, str]]:
@@ -272,7 +272,7 @@ def _overlaps(names: list[str]) -> list[tuple[str, str]]:
     ]
 
 
-def _axis_problems(name: str, axis: Axis, mission_text: str, mission_file: str) -> list[str]:
+def _axis_problems(name: str, axis: Axis, loaded: LoadedCampaign) -> list[str]:
     """Why the mission refuses this axis: a malformed path, or the first value it refuses."""
     try:
         data_path = parse_path(name)
@@ -284,7 +284,7 @@ def _axis_problems(name: str, axis: Axis, mission_text: str, mission_file: str) 
             "vary the campaign's seed instead"
         ]
     for value in axis.extremes():
-        _, diagnostics = check_mission_text(mission_text, mission_file, [override(name, value)])
+        _, diagnostics = loaded.mission_with([override(name, value)])
         errors = [d for d in diagnostics if d.severity == "error"]
         if errors:
             reasons = "; ".join(_reason(d) for d in errors)

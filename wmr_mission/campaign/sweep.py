@@ -129,6 +129,8 @@ def _execute(
                     seconds_per_run=seconds_per_run,
                     stop=stop,
                 ):
+                    if plots and out_dir is not None and not aggregate.runs:
+                        _load_matplotlib()  # while the workers run: no core waits for it
                     _take(rows, aggregate, writer, keep_rows, columns)
                     if csv_stream is not None:
                         csv_stream.flush()
@@ -260,11 +262,7 @@ def _write_worst(
     runs = [entry["run"] for entry in record["worst"]]
     mission_sha256 = _sha256(loaded.mission_path)
     if plots:
-        # Loaded once here, before the pool forks: each worker would spend half
-        # a second importing matplotlib for its first figure.
-        import matplotlib.backends.backend_agg
-        import matplotlib.collections
-        import matplotlib.figure  # noqa: F401
+        _load_matplotlib()  # before the pool forks, if not yet loaded
     if workers > 1 and runs:
         # The campaign's three figures cost this process about what one run
         # directory costs a worker (about a second of CPU each, case2-headings):
@@ -290,6 +288,14 @@ def _write_worst(
     for run in runs:
         _write_run_dir(loaded, run, out_dir, plots, mission_sha256)
     _draw(loaded, aggregate, out_dir, plots)
+
+
+def _load_matplotlib() -> None:
+    """matplotlib's modules for the figures, loaded in this process (about 0.4 s
+    of CPU): the worst runs' workers fork from it and find them loaded."""
+    import matplotlib.backends.backend_agg
+    import matplotlib.collections
+    import matplotlib.figure  # noqa: F401
 
 
 def _write_run_dir(
