@@ -1,7 +1,9 @@
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -180,3 +182,26 @@ def test_shown_ticks_draw_as_the_default_ticks_over_any_view() -> None:
                 ax.yaxis.set_major_locator(locator())
             figures.append(fig)
         np.testing.assert_array_equal(*map(_drawn, figures), err_msg=f"{low} + {span}")
+
+
+def test_estimation_titles_need_no_room_from_the_exponents_beside_them() -> None:
+    """The estimation figure's titles are placed at their axes' top without
+    matplotlib's search for room: the search would only move them for a y
+    exponent they overlap, and errors of a nanometre give the top row one."""
+    run = circle_run()
+    run = replace(
+        run,
+        x_est=run.x + 1e-9 * np.cos(run.t),
+        error_bounds=((math.nan, math.nan), run.error_bounds[1], run.error_bounds[2]),
+    )
+    fig = _figure(run, "estimation_error")
+    skip_unseen(fig)
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for ax in fig.axes[:2]:
+        exponent = ax.yaxis.offsetText
+        assert exponent.get_text(), "no exponent: the test would show nothing"
+        title = ax.title.get_window_extent(renderer)
+        assert not title.overlaps(exponent.get_window_extent(renderer))
+        assert title.y0 >= ax.get_window_extent(renderer).y1
