@@ -4,7 +4,8 @@
 
 Every ``*.png`` under BEFORE_DIR is compared with the file of the same relative
 path under AFTER_DIR; for each that differs it prints how many pixels differ,
-by how much at most, and where. Exit 1 when any differs or is missing. For
+by how much at most, and where; and each PNG found in one tree only. Exit 1
+when any differs or is missing. For
 changes to the drawing code that should not change what the figures show:
 write the same runs and campaigns before and after, then compare.
 """
@@ -47,6 +48,11 @@ def main(before: Path, after: Path) -> int:
                 f"{name}: {rows.size} pixels differ, by up to {gap.max()} of 255, "
                 f"in columns {columns.min()}-{columns.max()}, rows {rows.min()}-{rows.max()}"
             )
+            differing += 1
+    for extra in sorted(after.rglob("*.png")):
+        name = extra.relative_to(after)
+        if not (before / name).exists():
+            print(f"{name}: missing in {before}")
             differing += 1
     print(f"{compared} PNGs compared, {differing} differ")
     return 1 if differing else 0

@@ -155,6 +155,30 @@ def test_the_last_tasks_end_together() -> None:
     assert sizes[-1] * 0.0045 <= 0.06
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute")])
+def test_matplotlib_is_loaded_while_the_runs_run_only_when_they_last(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, after_seconds: float, loaded_in: str
+) -> None:
+    """A campaign of a second or less loads matplotlib after its runs, so that
+    its import never counts in the runs' time (missions_per_second); a longer
+    one loads it while the workers run."""
+    from wmr_mission.campaign import sweep
+
+    callers: list[str] = []
+    load = sweep._load_matplotlib
+
+    def recorded() -> None:
+        callers.append(sys._getframe(1).f_code.co_name)
+        load()
+
+    monkeypatch.setattr(sweep, "_load_matplotlib", recorded)
+    monkeypatch.setattr(sweep, "LOAD_EARLY_AFTER_SECONDS", after_seconds)
+    run_campaign(_campaign(tmp_path, 6), out=tmp_path / "out", workers=2, plots=True)
+    assert callers[0] == loaded_in
+    assert (tmp_path / "out" / "trajectories.png").is_file()
+
+
 def test_a_value_the_mission_refuses_is_reported_not_run() -> None:
     loaded = load_campaign(EVERY)
     mission, reason = mission_of(loaded, Draw(0, 1, {"robot.dt": -0.5}))
@@ -706,6 +730,21 @@ def test_sweep_draws_its_figures_with_one_image_per_outcome(tmp_path: Path) -> N
             assert rows.size == sum(ok is outcome for ok, _ in aggregate.drawn)
         artists.append(len(ax.get_children()))
     assert artists[0] == artists[1]  # the same artists for 3 runs as for 30
+
+
+def test_a_dollar_in_a_varied_value_is_drawn_as_typed(tmp_path: Path) -> None:
+    """Values are data: a choice of texts with '$' in them labels the success
+    figure's axis as typed (parsed as math, the first stopped the drawing)."""
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text(
+        "version: 1\nname: dollars\nmission: " + str(DATA / "short.yaml") + "\n"
+        "runs: 4\nseed: 1\nvary:\n  description: {choice: ['$\\frac{$', 'x']}\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "out"
+    code = sweep_command(campaign, out=out, workers=1, scheduler=None, plots=True)
+    assert code in (0, 1)
+    assert (out / "success.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_a_value_between_checked_extremes_is_checked_as_run_checks_it(tmp_path: Path) -> None:

@@ -8,10 +8,12 @@ import re
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from wmr_mission.campaign.load import check_campaign, check_file
+from wmr_mission.spec.checks import Finding
 from wmr_mission.spec.schema import campaign_schema_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,6 +86,37 @@ def test_error_names_the_axis_and_the_value() -> None:
     assert "'robot.dt'" in error.message
     assert "-0.01" in error.message
     assert "should be greater than 0" in error.message
+
+
+def test_a_fault_of_the_checker_at_an_axis_value_is_placed_at_the_axis(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Bad input never gets a traceback, nor loses its place: a checker that
+    fails at one axis value is reported at that axis, with the value."""
+    from wmr_mission.spec import loader
+
+    checked = loader._check_document
+
+    def failing(
+        document: loader.Document, findings: list[Finding], filename: str, overrides: list[Any]
+    ) -> object:
+        if overrides:  # the mission itself checks; an axis value breaks the checker
+            raise OverflowError("cannot convert float infinity to integer")
+        return checked(document, findings, filename, overrides)
+
+    monkeypatch.setattr(loader, "_check_document", failing)
+    path = DATA / "invalid" / "grid_value_breaks_mission.yaml"
+    _, diagnostics = check_campaign(path)
+    (error,) = diagnostics
+    assert (error.line, error.column) == _expected_position(path)
+    assert "vary 'robot.dt'" in error.message
+    assert "internal error while checking (OverflowError" in error.message
+
+
+def _expected_position(path: Path) -> tuple[int, int]:
+    match = EXPECT.match(path.read_text(encoding="utf-8").splitlines()[0])
+    assert match is not None
+    return int(match[1]), int(match[2])
 
 
 def _check_jsonschema(files: list[Path]) -> tuple[int, set[str]]:

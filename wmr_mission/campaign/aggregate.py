@@ -19,7 +19,7 @@ import numpy as np
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.runs import METRICS, Row
 
-__all__ = ["WORST_RUNS", "Aggregate", "beta_quantile", "clopper_pearson", "incomplete_beta"]
+__all__ = ["WORST_RUNS", "Aggregate", "clopper_pearson"]
 
 WORST_RUNS: Final = 5
 """Runs kept as full run directories under worst/."""
@@ -37,26 +37,27 @@ def clopper_pearson(successes: int, trials: int, confidence: float = 0.95) -> tu
     if trials == 0:
         return 0.0, 1.0
     tail = (1.0 - confidence) / 2.0
-    lo = 0.0 if successes == 0 else beta_quantile(successes, trials - successes + 1, tail)
-    hi = (
-        1.0 if successes == trials else beta_quantile(successes + 1, trials - successes, 1.0 - tail)
-    )
+    failures = trials - successes
+    lo = 0.0 if successes == 0 else _beta_quantile(successes, failures + 1, tail)
+    hi = 1.0 if failures == 0 else _beta_quantile(successes + 1, failures, 1.0 - tail)
     return lo, hi
 
 
-def beta_quantile(a: float, b: float, p: float) -> float:
+def _beta_quantile(a: float, b: float, p: float) -> float:
     """The x in (0, 1) where the regularized incomplete beta function
     I_x(a, b) reaches ``p`` (0 < p < 1; a, b > 0): Newton's method from the
     mean, kept inside a bracket that bisection shrinks where a step leaves it.
 
     Written out rather than imported: ``scipy.special`` costs a campaign a
-    fifth of a second to import, serially, after its runs. The tests hold it
-    to scipy's ``betaincinv``."""
+    fifth of a second to import, serially, after its runs. Held to scipy's
+    ``betaincinv`` where the interval uses it: whole a, b (counts of runs, up
+    to ten million) and p = 0.025 or 0.975 (tests/test_campaign.py); far
+    tails (p of 1e-12 and less) are not its business."""
     log_beta = _log_beta(a, b)
     lo, hi = 0.0, 1.0
     x = a / (a + b)
     for _ in range(_MAX_STEPS):
-        excess = incomplete_beta(a, b, x) - p
+        excess = _incomplete_beta(a, b, x) - p
         if excess == 0.0:
             return x
         if excess < 0.0:
@@ -80,7 +81,7 @@ _FRACTION_TERMS: Final = 10_000
 _TINY: Final = 1e-300
 
 
-def incomplete_beta(a: float, b: float, x: float) -> float:
+def _incomplete_beta(a: float, b: float, x: float) -> float:
     """The regularized incomplete beta function I_x(a, b) (a, b > 0), by its
     continued fraction, evaluated on the side of (a + 1) / (a + b + 2) where it
     converges fast (the symmetry I_x(a, b) = 1 - I_{1-x}(b, a))."""

@@ -152,7 +152,8 @@ def _edges(aggregate: Aggregate, path: str, values: np.ndarray) -> np.ndarray:
 
 def _label_axis(aggregate: Aggregate, path: str, axis: Any) -> None:
     if path in aggregate.discrete:
-        labels = aggregate.labels(path)
+        # Values are data: a '$' in one is drawn as typed, never parsed as math.
+        labels = [label.replace("$", r"\$") for label in aggregate.labels(path)]
         axis.set_ticks(range(len(labels)), labels)
 
 

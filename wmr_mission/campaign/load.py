@@ -32,6 +32,7 @@ from wmr_mission.spec.loader import (
     check_mission_document,
     check_mission_text,
     decode_source,
+    internal_error,
     parse_path,
     read_document,
     read_source,
@@ -191,10 +192,7 @@ def _check(path: Path, text: str) -> tuple[LoadedCampaign | None, list[Diagnosti
         loaded, more = _check_against_mission(path, campaign, document.keys)
         return loaded, _sorted(more)
     except Exception as error:  # last resort: bad input must never show a traceback
-        message = (
-            f"internal error while checking ({type(error).__name__}: {error}); please report it"
-        )
-        return None, [Diagnostic(filename, 1, 1, message)]
+        return None, [internal_error(filename, error)]
 
 
 def _of_campaign(finding: Finding) -> Finding:

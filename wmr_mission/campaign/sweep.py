@@ -48,6 +48,11 @@ CAMPAIGN_FILE: Final = "campaign.json"
 MANIFEST_FILE: Final = "manifest.json"
 WORST_DIR: Final = "worst"
 INTERRUPTED_EXIT: Final = 130  # as a shell reports a command stopped by Ctrl-C
+LOAD_EARLY_AFTER_SECONDS: Final = 2.0
+"""Runs that last longer on the workers (estimated) have matplotlib loaded, for
+the figures, while they run: the workers have tasks queued for the time it
+takes (about 0.4 s), and no core waits for it after them. Shorter campaigns
+load it after their runs, so that it never counts in their runs' time."""
 
 
 @dataclass
@@ -120,6 +125,13 @@ def _execute(
             writer.writerow(columns)
         with StopFlag() as stop:
             seconds_per_run = warm_up(loaded)
+            load_early = (
+                plots
+                and out_dir is not None
+                and scheduler is None
+                and workers > 1
+                and len(plan) * seconds_per_run / workers > LOAD_EARLY_AFTER_SECONDS
+            )
             runs_started = time.perf_counter()
             try:
                 for rows in execute(
@@ -129,8 +141,9 @@ def _execute(
                     seconds_per_run=seconds_per_run,
                     stop=stop,
                 ):
-                    if plots and out_dir is not None and not aggregate.runs:
-                        _load_matplotlib()  # while the workers run: no core waits for it
+                    if load_early:  # while the workers run: no core waits for it
+                        _load_matplotlib()
+                        load_early = False
                     _take(rows, aggregate, writer, keep_rows, columns)
                     if csv_stream is not None:
                         csv_stream.flush()

@@ -48,6 +48,7 @@ __all__ = [
     "check_mission_data",
     "check_mission_document",
     "check_mission_text",
+    "internal_error",
     "load_mission",
     "load_mission_data",
     "load_mission_text",
@@ -775,10 +776,13 @@ def check_mission_text(
     try:
         return _check(text, filename, overrides)
     except Exception as error:  # last resort: bad input must never show a traceback
-        message = (
-            f"internal error while checking ({type(error).__name__}: {error}); please report it"
-        )
-        return None, [Diagnostic(filename, 1, 1, message)]
+        return None, [internal_error(filename, error)]
+
+
+def internal_error(filename: str, error: Exception, line: int = 1, column: int = 1) -> Diagnostic:
+    """The last resort of a check: bad input must never show a traceback."""
+    message = f"internal error while checking ({type(error).__name__}: {error}); please report it"
+    return Diagnostic(filename, line, column, message)
 
 
 def _check(
@@ -840,7 +844,10 @@ def check_mission_document(
         refused=set(document.refused),
         overrides=dict(document.overrides),
     )
-    return _check_document(fresh, [], filename, overrides)
+    try:
+        return _check_document(fresh, [], filename, overrides)
+    except Exception as error:  # last resort, as for a text
+        return None, [internal_error(filename, error)]
 
 
 def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
@@ -922,10 +929,7 @@ def check_mission_data(
     try:
         return _check_document(Document(data=plain), findings, source, overrides)
     except Exception as error:  # last resort, as for texts
-        message = (
-            f"internal error while checking ({type(error).__name__}: {error}); please report it"
-        )
-        return None, [Diagnostic(source, 0, 0, message)]
+        return None, [internal_error(source, error, 0, 0)]
 
 
 def _plain(value: Any) -> Any:
