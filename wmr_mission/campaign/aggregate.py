@@ -57,7 +57,7 @@ def _beta_quantile(a: float, b: float, p: float) -> float:
     lo, hi = 0.0, 1.0
     x = a / (a + b)
     for _ in range(_MAX_STEPS):
-        excess = _incomplete_beta(a, b, x) - p
+        excess = _incomplete_beta(a, b, x, log_beta) - p
         if excess == 0.0:
             return x
         if excess < 0.0:
@@ -81,15 +81,16 @@ _FRACTION_TERMS: Final = 10_000
 _TINY: Final = 1e-300
 
 
-def _incomplete_beta(a: float, b: float, x: float) -> float:
-    """The regularized incomplete beta function I_x(a, b) (a, b > 0), by its
-    continued fraction, evaluated on the side of (a + 1) / (a + b + 2) where it
-    converges fast (the symmetry I_x(a, b) = 1 - I_{1-x}(b, a))."""
+def _incomplete_beta(a: float, b: float, x: float, log_beta: float) -> float:
+    """The regularized incomplete beta function I_x(a, b) (a, b > 0; ``log_beta``
+    is log B(a, b)), by its continued fraction, evaluated on the side of
+    (a + 1) / (a + b + 2) where it converges fast (the symmetry
+    I_x(a, b) = 1 - I_{1-x}(b, a))."""
     if x <= 0.0:
         return 0.0
     if x >= 1.0:
         return 1.0
-    front = math.exp(a * math.log(x) + b * math.log1p(-x) - _log_beta(a, b))
+    front = math.exp(a * math.log(x) + b * math.log1p(-x) - log_beta)
     if x < (a + 1.0) / (a + b + 2.0):
         return front * _beta_fraction(a, b, x) / a
     return 1.0 - front * _beta_fraction(b, a, 1.0 - x) / b

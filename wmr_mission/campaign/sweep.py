@@ -278,7 +278,8 @@ def _write_worst(
         _load_matplotlib()  # before the pool forks, if not yet loaded
     if workers > 1 and runs:
         # The campaign's three figures cost this process about what one run
-        # directory costs a worker (about a second of CPU each, case2-headings):
+        # directory costs a worker (about 0.65 s of CPU each, case2-headings:
+        # `python benchmarks/measure.py drawing`):
         # where the workers' last round would not be full, this process takes
         # the last run after drawing, and no core waits at the end.
         own = runs[-1:] if len(runs) > workers and len(runs) % workers else []
