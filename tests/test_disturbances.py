@@ -8,7 +8,6 @@ a wrong probability or a missing draw fails them by far.
 from __future__ import annotations
 
 import copy
-import hashlib
 import math
 import os
 import subprocess
@@ -19,6 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from pinned_trajectories import assert_matches_pin
 from scipy import stats
 
 from wmr_mission import runner
@@ -34,23 +34,13 @@ from wmr_mission.spec.loader import load_mission, load_mission_text
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 ALPHA = 1e-6  # false-alarm probability of each bound
-MEASURED = ("x_meas", "y_meas", "theta_meas")
 
-# sha256 of trajectory.csv without the measurement columns, computed by the
-# same code before disturbances existed: a mission without them runs exactly
-# as it did. Re-computed once since, when eq. (21) came to be solved by warm-
-# started Newton steps in the body frame (solutions 1e-15 apart, every run
-# still within 3.1e-11 of the reference step as before: docs/paper-notes.md).
-TRAJECTORY_SHA256 = {
-    "case1": "ad8b42d02a60450d51a1023b997b123422c5cf17b00f3d6ec8a75b6259b836e5",
-    "case2": "ebb9729b5f2948ccc7fe4b326b06ef82bf8cc2f08bedbbdb51ae31b38051cafc",
-    "noisy-ekf": "ac730965bfc1143dcce1a4203d65f1b5e0570799d9f806300a782f9c4ec51738",
-    "noisy-observer": "9b2f1e2c64da60b54b1dc695bf768356213462f6d561c7105dba826b9502f1c0",
-}
-
-# sha256 of missions/disturbed.yaml's trajectory.csv: every disturbance on, its
-# draws across a block boundary (5 107 samples).
-DISTURBED_SHA256 = "852f152296b1b8e8afbdb4238818ecf0f5b680295772417987e80b4c17c939de"
+# Missions without disturbances, pinned (tests/pinned_trajectories.py) when
+# their trajectory.csv still had, less the measurement columns, the sha256 of
+# the same code before disturbances existed (re-computed once since, when
+# eq. (21) came to be solved by warm-started Newton steps: docs/paper-notes.md):
+# a mission without them runs as it did.
+UNDISTURBED = ("case1", "case2", "noisy-ekf", "noisy-observer")
 
 # A circle tracked for 20 s at dt = 0.01 (2000 samples), perfect sensors.
 BASE: dict[str, Any] = {
@@ -134,13 +124,9 @@ def applied_inputs(r: RunResult) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", sorted(TRAJECTORY_SHA256))
+@pytest.mark.parametrize("name", UNDISTURBED)
 def test_without_disturbances_the_trajectory_is_unchanged(name: str) -> None:
-    text = trajectory_csv_text(run_mission(load_mission(MISSIONS / f"{name}.yaml")))
-    lines = [line.split(",") for line in text.splitlines()]  # no phase name holds a comma
-    kept = [i for i, column in enumerate(lines[0]) if column not in MEASURED]
-    before = "".join(",".join(line[i] for i in kept) + "\n" for line in lines)
-    assert hashlib.sha256(before.encode()).hexdigest() == TRAJECTORY_SHA256[name]
+    assert_matches_pin(name, run_mission(load_mission(MISSIONS / f"{name}.yaml")))
 
 
 def test_the_measurement_columns_hold_what_the_estimator_saw() -> None:
@@ -187,8 +173,10 @@ def test_disturbed_runs_are_byte_identical_and_chunking_changes_nothing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     mission = load_mission(MISSIONS / "disturbed.yaml")
-    first = trajectory_csv_text(run_mission(mission))
-    assert hashlib.sha256(first.encode()).hexdigest() == DISTURBED_SHA256
+    result = run_mission(mission)
+    # every disturbance on, its draws across a block boundary (5 107 samples)
+    assert_matches_pin("disturbed", result)
+    first = trajectory_csv_text(result)
     assert trajectory_csv_text(run_mission(mission)) == first
     monkeypatch.setattr(runner, "CHUNK", 7)
     monkeypatch.setattr(runner, "MAX_PRESIZED", 16)

@@ -4,6 +4,7 @@ import dataclasses
 import json
 import math
 import os
+import re
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -215,9 +216,14 @@ def test_json_files_are_deterministic_and_finite(tmp_path: Path) -> None:
         "resolved_mission",
         "seed",
         "versions",
+        "environment",
         "loop",
         "run",
     ]
+    environment = manifest["environment"]
+    assert list(environment) == ["fingerprint", "libc", "libm", "numpy_simd", "numba_cpu"]
+    assert re.fullmatch("[0-9a-f]{8}", environment["fingerprint"])
+    assert re.fullmatch("[0-9a-f]{8}", environment["libm"])
     assert manifest["mission_sha256"] == "ab" * 32
     assert manifest["resolved_mission"] == RESOLVED
     assert {"python", "wmr-mission", "numpy", "scipy", "pydantic", "matplotlib"} <= set(

@@ -135,7 +135,7 @@ def test_validate_in_a_subprocess_executes_nothing(name: str, tmp_path: Path) ->
     assert list(tmp_path.iterdir()) == []
 
 
-def test_validate_does_not_import_plotting_or_scipy() -> None:
+def test_validate_does_not_import_plotting_scipy_or_numba() -> None:
     script = (
         "import sys\n"
         "from wmr_mission.cli import app\n"
@@ -143,7 +143,8 @@ def test_validate_does_not_import_plotting_or_scipy() -> None:
         f"    app(['validate', {str(CASES[0])!r}, {str(CASES[1])!r}])\n"
         "except SystemExit as stop:\n"
         "    code = stop.code\n"
-        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in ('matplotlib', 'scipy'))\n"
+        "heavy = ('matplotlib', 'scipy', 'numba')\n"
+        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in heavy)\n"
         "print(code, heavy)\n"
     )
     completed = subprocess.run(

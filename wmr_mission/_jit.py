@@ -20,6 +20,11 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 _DISABLED = os.environ.get("WMR_MISSION_NO_JIT", "") not in ("", "0")
 
+# With Intel's short vector math library installed (icc_rt), numba would
+# vectorise loops of math functions with it: results chosen by the CPU's SIMD
+# level (wmr_mission.scalar_math). Read by numba at import.
+os.environ["NUMBA_DISABLE_INTEL_SVML"] = "1"
+
 try:
     if _DISABLED:
         raise ImportError

@@ -39,6 +39,7 @@ KERNEL_MODULES = (
     "control.py",
     "constrained_tracking.py",
     "loop.py",
+    "scalar_math.py",
     "campaign/coverage.py",
 )
 

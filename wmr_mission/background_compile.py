@@ -42,8 +42,9 @@ FOREGROUND = "WMR_MISSION_FOREGROUND_COMPILE"
 NO_JIT = "WMR_MISSION_NO_JIT"
 
 # One short run compiles what any mission runs: the loop's argument types do
-# not depend on the mission (tests/test_start_up.py), and Python calls no
-# other compiled function.
+# not depend on the mission (tests/test_start_up.py), and the only other
+# compiled function Python calls, the math of paths (wmr_mission.scalar_math),
+# has one argument type, whatever the function: the sine here compiles it.
 WARM_UP_MISSION = b"""
 version: 1
 name: warm-up
@@ -54,7 +55,7 @@ regions:
   far: {type: ellipse, center: [50, 0], semi_axes: [1, 1]}
 phases:
   - name: track
-    track: {path: {type: expression, x: "0.1*t", y: "0"}}
+    track: {path: {type: expression, x: "0.1*t", y: "0.01*sin(t)"}}
     constraints: [{stay_inside: field}]
     until: {reaches: far}
     timeout: 0.05

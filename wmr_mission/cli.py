@@ -112,6 +112,15 @@ def run(
         bool, typer.Option("--animate", help="Also write animation.gif of the robot.")
     ] = False,
     format: FigureFormats = None,
+    expect_environment: Annotated[
+        str | None,
+        typer.Option(
+            "--expect-environment",
+            metavar="FINGERPRINT",
+            help="The environment fingerprint the command was recorded in (a campaign's "
+            "replay commands carry it); a one-line warning when this one differs.",
+        ),
+    ] = None,
 ) -> None:
     """Simulate MISSION and write trajectory, metrics and plots to a run directory."""
     from wmr_mission.run_command import run_command
@@ -125,6 +134,7 @@ def run(
             animate=animate,
             overrides=set_ or (),
             formats=_formats(format),
+            expected_environment=expect_environment,
         )
     )
 
@@ -160,12 +170,28 @@ def sweep(
         ),
     ] = None,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
+    allow_mixed_cluster: Annotated[
+        bool,
+        typer.Option(
+            "--allow-mixed-cluster",
+            help="Run on a Dask cluster whose workers differ from this machine in what "
+            "decides the bytes (versions, C math library); their rows may then differ in "
+            "the last digits from a local run's. Refused by default.",
+        ),
+    ] = False,
 ) -> None:
     """Run CAMPAIGN: its mission many times with fields varied; write runs.csv, campaign.json."""
     from wmr_mission.campaign.sweep import sweep_command
 
     raise typer.Exit(
-        sweep_command(campaign, out=out, workers=workers, scheduler=scheduler, plots=not no_plots)
+        sweep_command(
+            campaign,
+            out=out,
+            workers=workers,
+            scheduler=scheduler,
+            plots=not no_plots,
+            allow_mixed_cluster=allow_mixed_cluster,
+        )
     )
 
 

@@ -346,7 +346,7 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         )
         if estimator.measurement_std is not None:
             for name, std in estimator.measurement_std.items():
-                measurement_var[STATE_NAMES.index(name)] = std**2
+                measurement_var[STATE_NAMES.index(name)] = std * std  # not pow(): exact
         if estimator.innovation_gate is not None:
             innovation_gate = float(estimator.innovation_gate)
     limits = mission.robot.limits

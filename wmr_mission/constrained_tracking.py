@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from wmr_mission._jit import inlined, kernel
 from wmr_mission.control import input_jacobian_into, saturate
 from wmr_mission.corrective import ELLIPSE, REGULARISATION, kept_row_slot, row_value_with_margin
-from wmr_mission.model import step
+from wmr_mission.model import hypot, step
 from wmr_mission.params import Controller, Robot, Scratch
 
 __all__ = ["constrained_change", "keep_constraints", "row_value_with_margin"]
@@ -178,7 +178,7 @@ def keep_reference(
             else:
                 reference[0] = x - value * gx
                 reference[1] = y - value * gy
-            norm = math.hypot(gx, gy)
+            norm = hypot(gx, gy)
             if norm == 0.0:
                 continue
             nx = gx / norm

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from wmr_mission._jit import inlined, kernel
 from wmr_mission.corrective import corrective_input, kept_row_slot, row_value
-from wmr_mission.model import jacobian_terms, step, wrap_angle
+from wmr_mission.model import hypot, jacobian_terms, step, wrap_angle
 from wmr_mission.params import Controller, Robot, Scratch
 from wmr_mission.riccati import (
     MIN_SPEED,
@@ -167,7 +167,7 @@ def _gain_at_rest(omega: float, dt: float, qb: Mat3, r: FloatArray) -> Gain:
     only, Q_xy -> (u^T Q_xy u) u u^T, eq. (21) splits into two scalar
     equations with a = 1 (riccati.scalar_solution)."""
     _, _, b11, _, b21, _ = jacobian_terms(0.0, 0.0, omega, dt)
-    norm = math.hypot(b11, b21)
+    norm = hypot(b11, b21)
     ux = b11 / norm
     uy = b21 / norm
     along = scalar_solution(qb[0] * ux * ux + 2.0 * qb[1] * ux * uy + qb[4] * uy * uy, norm, r[0])
@@ -335,7 +335,7 @@ def regulate_input(
         ey = estimate[1] - target[1]
         eth = wrap_angle(estimate[2] - target[2])
         if form == BEARING:
-            distance = math.hypot(ex, ey)
+            distance = hypot(ex, ey)
             if distance < controller.align_radius:
                 memory[ALIGNING] = 1.0
             elif distance > 2.0 * controller.align_radius:

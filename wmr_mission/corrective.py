@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission._jit import kernel
+from wmr_mission.model import hypot
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -91,7 +92,7 @@ def corrective_input(
     s01 = g00 * h01 + g01 * h11
     s11 = g10 * h01 + g11 * h11
     mean = 0.5 * (s00 + s11)
-    radius = math.hypot(0.5 * (s00 - s11), s01)
+    radius = hypot(0.5 * (s00 - s11), s01)
     largest = mean + radius
     if not largest > 0.0:
         return 0.0, 0.0

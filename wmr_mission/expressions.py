@@ -4,8 +4,10 @@ Mission text is data: an expression is tokenised and parsed here by a small
 recursive-descent parser that knows only numbers, ``t``, ``pi``, ``e``, declared
 parameters, ``+ - * / **``, parentheses and a fixed list of math functions. It
 never reaches ``eval``, ``exec``, ``compile`` or the import system. The parser
-emits a postfix program, so evaluation is a loop over numpy ufuncs applied to a
+emits a postfix program, so evaluation is a loop over functions applied to a
 whole array of times at once and never recurses, however long the expression.
+The transcendental functions and ``**`` are wmr_mission.scalar_math's, which
+give the same bits on every CPU; arithmetic and the exact functions are numpy's.
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from typing import Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from wmr_mission import scalar_math
 
 __all__ = [
     "FUNCTIONS",
@@ -37,23 +41,24 @@ MAX_NESTING_DEPTH: Final = 50
 """Deepest accepted nesting of parentheses, calls, signs and powers."""
 
 FloatArray = NDArray[np.float64]
-_Ufunc = Callable[..., FloatArray]
+_Function = Callable[..., FloatArray | float]
+_math = scalar_math.function_of
 
-# name -> (numpy function, number of arguments)
-FUNCTIONS: Final[dict[str, tuple[_Ufunc, int]]] = {
-    "sin": (np.sin, 1),
-    "cos": (np.cos, 1),
-    "tan": (np.tan, 1),
-    "asin": (np.arcsin, 1),
-    "acos": (np.arccos, 1),
-    "atan": (np.arctan, 1),
-    "atan2": (np.arctan2, 2),
-    "sinh": (np.sinh, 1),
-    "cosh": (np.cosh, 1),
-    "tanh": (np.tanh, 1),
-    "exp": (np.exp, 1),
-    "log": (np.log, 1),
-    "log10": (np.log10, 1),
+# name -> (function, number of arguments)
+FUNCTIONS: Final[dict[str, tuple[_Function, int]]] = {
+    "sin": (_math(scalar_math.SIN), 1),
+    "cos": (_math(scalar_math.COS), 1),
+    "tan": (_math(scalar_math.TAN), 1),
+    "asin": (_math(scalar_math.ASIN), 1),
+    "acos": (_math(scalar_math.ACOS), 1),
+    "atan": (_math(scalar_math.ATAN), 1),
+    "atan2": (_math(scalar_math.ATAN2), 2),
+    "sinh": (_math(scalar_math.SINH), 1),
+    "cosh": (_math(scalar_math.COSH), 1),
+    "tanh": (_math(scalar_math.TANH), 1),
+    "exp": (_math(scalar_math.EXP), 1),
+    "log": (_math(scalar_math.LOG), 1),
+    "log10": (_math(scalar_math.LOG10), 1),
     "sqrt": (np.sqrt, 1),
     "abs": (np.abs, 1),
     "min": (np.minimum, 2),
@@ -65,12 +70,12 @@ FUNCTIONS: Final[dict[str, tuple[_Ufunc, int]]] = {
 }
 
 _CONSTANTS: Final = {"pi": math.pi, "e": math.e}
-_BINARY: Final[dict[str, _Ufunc]] = {
+_BINARY: Final[dict[str, _Function]] = {
     "+": np.add,
     "-": np.subtract,
     "*": np.multiply,
     "/": np.divide,
-    "**": np.power,
+    "**": _math(scalar_math.POWER),
 }
 _ALLOWED_OPERATORS: Final = "+ - * / **"
 _ALLOWED_FUNCTIONS: Final = ", ".join(FUNCTIONS)

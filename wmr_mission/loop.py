@@ -34,7 +34,7 @@ from wmr_mission.control import regulate_input, track_input
 from wmr_mission.corrective import max_row_value
 from wmr_mission.disturbances import Disturbances, applied_input, plant_step, sense
 from wmr_mission.ekf import ekf_predict, ekf_step
-from wmr_mission.model import wrap_angle
+from wmr_mission.model import hypot, wrap_angle
 from wmr_mission.observer import observer_predict, observer_step
 from wmr_mission.params import Controller, Estimator, Robot, Scratch
 from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS
@@ -149,12 +149,12 @@ def exit_condition(
             value[0] = reached
             return REACHES
     if phase.near[2] == phase.near[2]:
-        distance = math.hypot(x - phase.near[0], y - phase.near[1])
+        distance = hypot(x - phase.near[0], y - phase.near[1])
         if distance <= phase.near[2]:
             value[0] = distance
             return NEAR
     if phase.settled[0] == phase.settled[0]:
-        distance = math.hypot(x - phase.target[0], y - phase.target[1])
+        distance = hypot(x - phase.target[0], y - phase.target[1])
         if (
             distance <= phase.settled[0]
             and abs(wrap_angle(theta - phase.target[2])) <= phase.settled[1]

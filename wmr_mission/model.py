@@ -69,6 +69,22 @@ def wrap_angle(angle: float) -> float:
     return shifted % TWO_PI - math.pi
 
 
+@kernel
+def hypot(x: float, y: float) -> float:
+    """sqrt(x^2 + y^2) without overflow, in IEEE arithmetic alone.
+
+    ``math.hypot`` is the C library's in compiled code but CPython's own
+    algorithm as plain Python; they differ in the last bit about once in 500
+    calls, and the plain-Python build must give the compiled build's bytes."""
+    big, small = abs(x), abs(y)
+    if big < small:
+        big, small = small, big
+    if big == 0.0 or big == math.inf:  # (0, 0), or an infinite side (NaN goes on to NaN)
+        return big
+    ratio = small / big
+    return big * math.sqrt(1.0 + ratio * ratio)
+
+
 # Array forms with the project-wide argument order f(state, input, dt): for
 # tests, the reference step and notebooks. The per-sample loop uses the scalar
 # kernels above.

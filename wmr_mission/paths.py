@@ -2,9 +2,10 @@
 
 ``instantiate`` turns a path of the mission (plus the robot's pose at phase
 entry, for ``start: current``) into a :class:`Trajectory` whose ``sample``
-returns positions and velocities for a whole array of phase-local times with
-pure numpy. Primitives have analytic velocities; expression paths use a central
-difference.
+returns positions and velocities for a whole array of phase-local times:
+numpy's arithmetic, and wmr_mission.scalar_math's sin, cos and exp, which give
+the same bits on every CPU. Primitives have analytic velocities; expression
+paths use a central difference.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from wmr_mission import scalar_math
 from wmr_mission.expressions import Expression, parse
 from wmr_mission.regions import constraint_rows, ellipse_geometry, region_vertices
 from wmr_mission.routes import RouteTrajectory, coverage_points, distinct_points, polyline_route
@@ -95,7 +97,7 @@ class EllipseTrajectory:
 
     def sample(self, t: ArrayLike) -> Sample:
         angle = self.angular_rate * _times(t) + self.phase
-        cos, sin = np.cos(angle), np.sin(angle)
+        cos, sin = scalar_math.cos(angle), scalar_math.sin(angle)
         u, w = self.a * cos, self.b * sin
         du, dw = -self.a * self.angular_rate * sin, self.b * self.angular_rate * cos
         return _placed(self.cx, self.cy, self.rotation, u, w, du, dw)
@@ -115,11 +117,11 @@ class SpiralTrajectory:
     def sample(self, t: ArrayLike) -> Sample:
         time = _times(t)
         angle = self.angular_rate * time + self.phase
-        cos, sin = np.cos(angle), np.sin(angle)
+        cos, sin = scalar_math.cos(angle), scalar_math.sin(angle)
         g, w = self.growth_rate, self.angular_rate
         # a spiral grown past float64 gives inf or nan, the caller's to judge
         with np.errstate(over="ignore", invalid="ignore"):
-            radius = self.initial_radius * np.exp(g * time)
+            radius = self.initial_radius * scalar_math.exp(g * time)
             return (
                 self.cx + radius * cos,
                 self.cy + radius * sin,
@@ -144,9 +146,9 @@ class EllipticalSpiralTrajectory:
     def sample(self, t: ArrayLike) -> Sample:
         time = _times(t)
         angle = self.angular_rate * time + self.phase
-        cos, sin = np.cos(angle), np.sin(angle)
+        cos, sin = scalar_math.cos(angle), scalar_math.sin(angle)
         with np.errstate(over="ignore", invalid="ignore"):  # far negative times overflow
-            scale = np.exp(-self.decay_rate * time)
+            scale = scalar_math.exp(-self.decay_rate * time)
             u, w = self.a * scale * cos, self.b * scale * sin
             du = -self.decay_rate * u - self.angular_rate * self.a * scale * sin
             dw = -self.decay_rate * w + self.angular_rate * self.b * scale * cos
@@ -331,10 +333,11 @@ def _bezier_coefficients(points: FloatArray, closed: bool) -> tuple[FloatArray, 
     inner_start = start + arms[:-1, None] * tangents[:-1]
     inner_end = end - arms[1:, None] * tangents[1:]
     h = steps[:, None]
+    h2 = h * h  # products, not h**3: numpy's power is chosen by CPU (wmr_mission.scalar_math)
     coefficients = np.empty((m, 4, 2))
     # Bezier to power basis in the local chord-length parameter s = u h
-    coefficients[:, 0] = (-start + 3.0 * inner_start - 3.0 * inner_end + end) / h**3
-    coefficients[:, 1] = (3.0 * start - 6.0 * inner_start + 3.0 * inner_end) / h**2
+    coefficients[:, 0] = (-start + 3.0 * inner_start - 3.0 * inner_end + end) / (h2 * h)
+    coefficients[:, 1] = (3.0 * start - 6.0 * inner_start + 3.0 * inner_end) / h2
     coefficients[:, 2] = 3.0 * (inner_start - start) / h
     coefficients[:, 3] = start
     return knots, coefficients

@@ -75,7 +75,7 @@ def _edge_rows(vertices: ArrayLike) -> FloatArray:
     else:
         normals = np.column_stack([edges[:, 1], -edges[:, 0]])
     normals /= np.hypot(normals[:, 0], normals[:, 1])[:, None]
-    offsets = np.einsum("ij,ij->i", normals, points)
+    offsets = normals[:, 0] * points[:, 0] + normals[:, 1] * points[:, 1]
     return np.column_stack([normals, offsets])
 
 
@@ -182,8 +182,10 @@ def region_value(region: RegionSpec, x: ArrayLike, y: ArrayLike) -> FloatArray:
 
 
 def _signed_area(points: FloatArray) -> float:
+    # Products written out, not np.dot: BLAS's kernels, chosen by CPU, round
+    # differently, and the sign orients the rows the simulation uses.
     x, y = points[:, 0], points[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
 
 def is_convex(vertices: ArrayLike) -> bool:

@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from wmr_mission import scalar_math
+
 __all__ = [
     "TURN_CREEP",
     "RouteTrajectory",
@@ -91,16 +93,17 @@ class RouteTrajectory:
         radius = p[arc, 2]
         direction = np.sign(p[arc, 4])
         angle = p[arc, 3] + direction * self.speed * local[arc] / radius
-        x[arc] = p[arc, 0] + radius * np.cos(angle)
-        y[arc] = p[arc, 1] + radius * np.sin(angle)
-        vx[arc] = -direction * self.speed * np.sin(angle)
-        vy[arc] = direction * self.speed * np.cos(angle)
+        cos, sin = scalar_math.cos(angle), scalar_math.sin(angle)
+        x[arc] = p[arc, 0] + radius * cos
+        y[arc] = p[arc, 1] + radius * sin
+        vx[arc] = -direction * self.speed * sin
+        vy[arc] = direction * self.speed * cos
         turn = kind == TURN
         heading = p[turn, 2] + np.sign(p[turn, 3]) * self.turn_rate * local[turn]
         x[turn] = p[turn, 0]
         y[turn] = p[turn, 1]
-        vx[turn] = TURN_CREEP * np.cos(heading)
-        vy[turn] = TURN_CREEP * np.sin(heading)
+        vx[turn] = TURN_CREEP * scalar_math.cos(heading)
+        vy[turn] = TURN_CREEP * scalar_math.sin(heading)
         vx = np.where(moving, vx, 0.0)
         vy = np.where(moving, vy, 0.0)
         return x, y, vx, vy
@@ -144,7 +147,9 @@ def _corner(
     incoming, outgoing = vertex - before, after - vertex
     e_in, e_out = _unit(incoming), _unit(outgoing)
     cross = float(e_in[0] * e_out[1] - e_in[1] * e_out[0])
-    turn = math.atan2(cross, float(np.dot(e_in, e_out)))
+    # written out, not np.dot: BLAS's kernels, chosen by CPU, may fuse a multiply-add
+    dot = float(e_in[0] * e_out[0] + e_in[1] * e_out[1])
+    turn = math.atan2(cross, dot)
     if abs(turn) < _STRAIGHT:
         return vertex, vertex, None
     room = min(0.5 * float(np.hypot(*incoming)), 0.5 * float(np.hypot(*outgoing)), longest_cut)
@@ -244,7 +249,7 @@ def coverage_points(
     edges = np.asarray(rows, dtype=np.float64)
     along = np.array([math.cos(direction), math.sin(direction)])
     across = np.array([-along[1], along[0]])
-    offsets = corners @ across
+    offsets = corners[:, 0] * across[0] + corners[:, 1] * across[1]  # not BLAS: see _corner
     low, high = float(offsets.min()), float(offsets.max())
     count = max(1, math.ceil((high - low) / spacing - 1e-9))
     step = (high - low) / count

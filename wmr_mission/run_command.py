@@ -85,12 +85,16 @@ def run_command(
     animate: bool,
     overrides: Sequence[str] = (),
     formats: Sequence[str] = ("png",),
+    expected_environment: str | None = None,
 ) -> int:
     """Exit code: 0 success; 1 invalid mission or failed run; 2 unusable run
     directory; 130 or 143 stopped by SIGINT or SIGTERM (its record is written).
 
-    ``overrides``: ``PATH=VALUE`` texts of ``--set``; ``formats``: figure formats.
+    ``overrides``: ``PATH=VALUE`` texts of ``--set``; ``formats``: figure formats;
+    ``expected_environment``: the fingerprint of ``--expect-environment``.
     """
+    if expected_environment is not None:
+        _check_environment(expected_environment)
     from wmr_mission.spec.loader import check_mission_bytes, read_source
 
     with _stop_signals() as received:
@@ -112,6 +116,21 @@ def run_command(
         except KeyboardInterrupt:
             print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
             return _signal_exit(received)
+
+
+def _check_environment(expected: str) -> None:
+    """One line on stderr when this environment is not the one a command was
+    recorded in: the run may then differ from the recorded one in the last digits."""
+    from wmr_mission.environment import own_fingerprint
+
+    mine = own_fingerprint()
+    if mine != expected:
+        print(
+            f"wmr-mission: warning: this environment's fingerprint is {mine}, not {expected} "
+            "as where the command was recorded: the results may differ in the last digits "
+            '(manifest.json\'s "versions" and "environment" say what this one is)',
+            file=sys.stderr,
+        )
 
 
 def _run(

@@ -14,6 +14,7 @@ import math
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -28,8 +29,10 @@ __all__ = [
     "LAST_TASK_SECONDS",
     "TASK_SECONDS",
     "Interrupted",
+    "MixedCluster",
     "SchedulerUnavailable",
     "StopFlag",
+    "check_cluster",
     "default_workers",
     "execute",
     "local_pool",
@@ -54,6 +57,10 @@ _CONNECT_SECONDS: Final = 10
 
 class SchedulerUnavailable(RuntimeError):
     """``--scheduler`` without Dask installed, or an address that does not answer."""
+
+
+class MixedCluster(SchedulerUnavailable):
+    """Dask workers that differ from this process in what decides a run's bytes."""
 
 
 class Interrupted(Exception):
@@ -136,6 +143,7 @@ def execute(
     scheduler: str | None,
     seconds_per_run: float,
     stop: StopFlag,
+    allow_mixed_cluster: bool = False,
 ) -> Iterator[list[Row]]:
     """The rows of every run, task by task, in run order.
 
@@ -145,7 +153,7 @@ def execute(
     """
     runs = len(Plan(loaded.campaign))
     if scheduler is not None:
-        yield from _on_dask(loaded, scheduler, seconds_per_run, runs, stop)
+        yield from _on_dask(loaded, scheduler, seconds_per_run, runs, stop, allow_mixed_cluster)
         return
     if workers == 1:
         for task in tasks(seconds_per_run, runs, 1):
@@ -167,7 +175,12 @@ def local_pool(workers: int) -> ProcessPoolExecutor:
 
 
 def _on_dask(
-    loaded: LoadedCampaign, scheduler: str, seconds_per_run: float, runs: int, stop: StopFlag
+    loaded: LoadedCampaign,
+    scheduler: str,
+    seconds_per_run: float,
+    runs: int,
+    stop: StopFlag,
+    allow_mixed_cluster: bool,
 ) -> Iterator[list[Row]]:
     try:
         from distributed import Client
@@ -182,9 +195,43 @@ def _on_dask(
             f"cannot reach the Dask scheduler {scheduler}: {error}"
         ) from None
     with client:
+        check_cluster(client, allow_mixed_cluster)
         workers = max(1, sum(client.nthreads().values()))
         batches = tasks(seconds_per_run, runs, workers)
         yield from _in_order(_DaskPool(client), _wait_dask, loaded, batches, workers, stop)
+
+
+def check_cluster(client: Any, allow_mixed_cluster: bool) -> None:
+    """Before the first run: every worker's versions and C math library against
+    this process's (which simulates the worst runs again). Raises
+    :class:`MixedCluster` naming what differs where, unless ``allow_mixed_cluster``,
+    which says it in one line on stderr instead."""
+    from wmr_mission.environment import differences, machine_record
+
+    mine = machine_record()
+    try:
+        theirs = client.run(machine_record)
+    except Exception as error:  # a worker that cannot import wmr_mission cannot run either
+        raise SchedulerUnavailable(
+            f"cannot ask the Dask workers what they run ({type(error).__name__}: {error})"
+        ) from None
+    found = [
+        f"{worker}: {'; '.join(differ)}"
+        for worker, record in sorted(theirs.items())
+        if (differ := differences(mine, record))
+    ]
+    if not found:
+        return
+    what = f"{len(found)} of {len(theirs)} Dask workers differ from this machine: " + " | ".join(
+        found
+    )
+    if not allow_mixed_cluster:
+        raise MixedCluster(
+            f"{what}; their rows could differ in the last digits from this machine's "
+            "(docs/reliability.md): give every worker the same versions, or pass "
+            "--allow-mixed-cluster"
+        )
+    print(f"wmr-mission: warning: {what}", file=sys.stderr)
 
 
 class _DaskPool:

@@ -183,9 +183,12 @@ def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
 
 
 def replay_command(loaded: LoadedCampaign, draw: Draw) -> str:
-    """The one-line ``wmr-mission run`` command that reproduces a run byte for byte."""
+    """The one-line ``wmr-mission run`` command that reproduces a run byte for byte
+    (in an environment of the same fingerprint: ``run`` warns in another)."""
+    from wmr_mission.environment import own_fingerprint
+
     words = ["wmr-mission", "run", str(loaded.mission_path)]
     for path, value in draw.values.items():
         words += ["--set", f"{path}={value_text(value)}"]
-    words += ["--seed", str(draw.seed)]
+    words += ["--seed", str(draw.seed), "--expect-environment", own_fingerprint()]
     return shlex.join(words)

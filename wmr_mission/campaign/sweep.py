@@ -30,6 +30,7 @@ from wmr_mission.campaign.engine import (
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
 from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.runs import Row, header, replay_command, simulate
+from wmr_mission.environment import environment
 from wmr_mission.output.rundir import (
     RunDirExistsError,
     default_run_dir,
@@ -105,6 +106,7 @@ def _execute(
     plots: bool,
     progress_stream: IO[str] | None,
     keep_rows: list[dict[str, Any]] | None,
+    allow_mixed_cluster: bool = False,
 ) -> dict[str, Any]:
     """Run every run; write the outputs to ``out_dir`` (none when None); return campaign.json."""
     campaign = loaded.campaign
@@ -140,6 +142,7 @@ def _execute(
                     scheduler=scheduler,
                     seconds_per_run=seconds_per_run,
                     stop=stop,
+                    allow_mixed_cluster=allow_mixed_cluster,
                 ):
                     if load_early:  # while the workers run: no core waits for it
                         _load_matplotlib()
@@ -351,6 +354,7 @@ def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None
         "mission_sha256": _sha256(loaded.mission_path),
         "resolved_campaign": loaded.campaign.model_dump(mode="json"),
         "versions": package_versions(),
+        "environment": environment(),
         "loop": loop_build(),
         "workers": workers,
         "scheduler": scheduler,
@@ -364,13 +368,16 @@ def run_campaign(
     workers: int | None = None,
     scheduler: str | None = None,
     plots: bool = False,
+    allow_mixed_cluster: bool = False,
 ) -> CampaignResult:
     """Run a campaign file; return its rows and its aggregate (the content of campaign.json).
 
     ``out``: also write the campaign directory there (runs.csv, campaign.json,
     manifest.json, worst/, figures when ``plots``). ``workers`` defaults to
-    every core; ``scheduler`` is the address of a Dask scheduler. Raises
-    ``MissionError`` (with every problem and its position) for an invalid file.
+    every core; ``scheduler`` is the address of a Dask scheduler, refused when
+    its workers differ from this process in what decides the bytes unless
+    ``allow_mixed_cluster``. Raises ``MissionError`` (with every problem and its
+    position) for an invalid file.
     """
     loaded = load_campaign(campaign)
     workers = workers or default_workers()
@@ -384,6 +391,7 @@ def run_campaign(
         plots=plots,
         progress_stream=None,
         keep_rows=rows,
+        allow_mixed_cluster=allow_mixed_cluster,
     )
     table: Any = rows
     try:
@@ -402,9 +410,10 @@ def sweep_command(
     workers: int | None,
     scheduler: str | None,
     plots: bool,
+    allow_mixed_cluster: bool = False,
 ) -> int:
     """Exit code: 0 the campaign ran and its expect holds, 1 invalid or expect not met,
-    2 unusable output directory or scheduler, 130 interrupted."""
+    2 unusable output directory or scheduler (or a mixed cluster), 130 interrupted."""
     loaded, diagnostics = check_campaign(campaign_path)
     for diagnostic in diagnostics:
         print(diagnostic, file=sys.stderr)
@@ -426,6 +435,7 @@ def sweep_command(
             plots=plots,
             progress_stream=sys.stderr,
             keep_rows=None,
+            allow_mixed_cluster=allow_mixed_cluster,
         )
     except SchedulerUnavailable as error:
         print(f"{campaign_path}: {error}", file=sys.stderr)

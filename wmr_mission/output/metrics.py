@@ -341,7 +341,13 @@ def jitter(values: FloatArray, counted: np.ndarray) -> float | None:
     half = JITTER_WINDOW // 2
     if values.size < JITTER_WINDOW:
         return None
-    mean = np.convolve(values, np.full(JITTER_WINDOW, 1.0 / JITTER_WINDOW), mode="valid")
+    # Summed in order, not by np.convolve: its products are BLAS's, whose
+    # kernels, chosen by the CPU, round differently (docs/reliability.md).
+    windows = values.size - JITTER_WINDOW + 1
+    total = np.zeros(windows)
+    for offset in range(JITTER_WINDOW):
+        total += values[offset : offset + windows]
+    mean = total / JITTER_WINDOW
     deviation = values[half : values.size - half] - mean
     return _rms_or_none(deviation[counted[half : values.size - half]])
 

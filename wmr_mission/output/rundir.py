@@ -3,7 +3,7 @@
 | file | content |
 |---|---|
 | ``trajectory.csv`` | one row per sample (``TRAJECTORY_COLUMNS`` then ``EXTRA_COLUMNS``) |
-| ``manifest.json`` | mission file and hash, resolved mission, seed, versions, ``run`` |
+| ``manifest.json`` | mission file and hash, resolved mission, seed, versions, environment, run |
 | ``transitions.json`` | each phase change |
 | ``summary.json`` | metrics; written after the data: its presence means the data is complete |
 | ``*.png``, ``animation.gif`` | figures (optional), drawn last |
@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from wmr_mission.environment import environment
 from wmr_mission.output.metrics import check_expectations, summarize
 from wmr_mission.result import (
     EXTRA_COLUMNS,
@@ -373,6 +374,8 @@ def manifest_record(
         "resolved_mission": resolved_mission,
         "seed": result.seed,
         "versions": package_versions(),
+        # What else decides the bytes, and its fingerprint (wmr_mission.environment).
+        "environment": environment(),
         # How the loop ran, known only for a run simulated in this process
         # (one rebuilt from its directory carries no timing).
         "loop": loop_build() if result.loop_ns > 0 else None,
