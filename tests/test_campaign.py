@@ -103,26 +103,27 @@ def test_clopper_pearson_known_values(successes: int, trials: int, lo: float, hi
 
 
 @pytest.mark.parametrize("trials", [1, 2, 7, 99, 100, 101, 2000, 10**5, 10**7])
-def test_clopper_pearson_against_scipy(trials: int) -> None:
-    """The interval's beta quantiles, written out, against scipy's betaincinv:
-    to 1e-12 (relative) up to 10^5 runs, 1e-9 at ten million; and the closed
-    forms of the ends, 1 - 0.025^(1/n) and 0.025^(1/n), to 1e-9."""
-    from scipy.special import betaincinv
-
-    tolerance = 1e-12 if trials <= 10**5 else 1e-9
+def test_clopper_pearson_closed_forms_and_symmetry(trials: int) -> None:
+    """Where the beta quantiles have closed forms (0, 1, n - 1 or n successes of
+    n: Beta(1, n) and Beta(n, 1)), the interval has their digits, to 1e-12
+    (relative) up to ten million runs; and swapping successes and failures
+    mirrors the interval."""
+    lower_one = -math.expm1(math.log1p(-0.025) / trials)  # 1 - 0.975^(1/n)
+    upper_all_but_one = 0.975 ** (1 / trials)
+    assert clopper_pearson(0, trials)[1] == pytest.approx(
+        -math.expm1(math.log(0.025) / trials), rel=1e-12
+    )
+    assert clopper_pearson(trials, trials)[0] == pytest.approx(0.025 ** (1 / trials), rel=1e-12)
+    assert clopper_pearson(1, trials)[0] == pytest.approx(lower_one, rel=1e-12)
+    assert clopper_pearson(trials - 1, trials)[1] == pytest.approx(upper_all_but_one, rel=1e-12)
     counts = {0, 1, 2, 3, 10, trials // 10, trials // 2, int(0.866 * trials), trials - 1, trials}
     for successes in sorted(c for c in counts if 0 <= c <= trials):
         lo, hi = clopper_pearson(successes, trials)
-        want_lo = 0.0 if successes == 0 else betaincinv(successes, trials - successes + 1, 0.025)
-        want_hi = (
-            1.0 if successes == trials else betaincinv(successes + 1, trials - successes, 0.975)
-        )
-        assert lo == pytest.approx(float(want_lo), rel=tolerance, abs=0.0)
-        assert hi == pytest.approx(float(want_hi), rel=tolerance, abs=0.0)
-    assert clopper_pearson(0, trials)[1] == pytest.approx(
-        -math.expm1(math.log(0.025) / trials), rel=1e-9
-    )
-    assert clopper_pearson(trials, trials)[0] == pytest.approx(0.025 ** (1 / trials), rel=1e-12)
+        mirrored_lo, mirrored_hi = clopper_pearson(trials - successes, trials)
+        assert 0.0 <= lo <= successes / trials <= hi <= 1.0
+        assert lo < hi
+        assert lo == pytest.approx(1.0 - mirrored_hi, rel=1e-12, abs=1e-15)
+        assert hi == pytest.approx(1.0 - mirrored_lo, rel=1e-12, abs=1e-15)
 
 
 @pytest.mark.parametrize(
