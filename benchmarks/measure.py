@@ -567,35 +567,17 @@ def _drawing_code_at(commit: str) -> tuple[Any, Any]:
     return modules[0], modules[1]
 
 
+def _saved(plots: Any, figure: Any, path: Path) -> None:
+    """``figure`` written as ``plots`` writes figure files (by the name it had then)."""
+    save = getattr(plots, "save_figure", None) or plots._save
+    save(figure, path)
+
+
 def _run_figure(plots: Any, result: Any, name: str, path: Path) -> None:
     if hasattr(plots, "_figure"):
-        plots._save(plots._figure(result, name), path)
+        _saved(plots, plots._figure(result, name), path)
     else:  # before the figure was built apart from its file
         plots._write(result, name, path)
-
-
-def _ticks(result: Any) -> tuple[int, int, int]:
-    """Ticks made for a run's four figures as files draw them, as matplotlib
-    alone makes them, and drawn."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    from wmr_mission.output.plots import FIGURE_NAMES, _figure
-    from wmr_mission.output.unseen import skip_unseen
-
-    made, alone, drawn = 0, 0, 0
-    for name in FIGURE_NAMES:
-        for lean in (True, False):
-            fig = _figure(result, name)
-            if lean:
-                skip_unseen(fig)
-            FigureCanvasAgg(fig).draw()
-            for axis in (a for ax in fig.axes for a in (ax.xaxis, ax.yaxis)):
-                ticks = len(axis.majorTicks) + len(axis.minorTicks)
-                if lean:
-                    made, drawn = made + ticks, drawn + len(axis._update_ticks())
-                else:
-                    alone += ticks
-    return made, alone, drawn
 
 
 def drawing(repeat: int = 5) -> None:
@@ -666,7 +648,7 @@ def drawing(repeat: int = 5) -> None:
         ):
             spent = cpu(
                 {
-                    key: lambda p=p, f=f, b=build, n=name: p._save(b(f), Path(tmp) / f"{n}.png")
+                    key: lambda p=p, f=f, b=build, n=name: _saved(p, b(f), Path(tmp) / f"{n}.png")
                     for key, (p, f) in codes.items()
                 }
             )
@@ -686,8 +668,6 @@ def drawing(repeat: int = 5) -> None:
             {"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True, "")}
         )
         print(f"  one worst run's directory with its four figures: {directory['now']:.3f}")
-    made, plain, drawn = _ticks(result)
-    print(f"  ticks of its four figures: {made} made ({plain} by matplotlib alone), {drawn} drawn")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
