@@ -437,8 +437,7 @@ def test_sweep_shows_each_step_as_it_starts(
     )
     assert "starting" in seen["warm_up"]
     assert "runs" not in seen["warm_up"]
-    assert "4/4 runs, success 100.0%" in seen["_draw"]
-    assert "0 s left" in seen["_draw"]
+    assert "4/4 runs, success 100.0%, 0 s left" in seen["_draw"]
     assert "worst runs and figures" in seen["_draw"]
     quiet = io.StringIO()  # not a terminal: nothing in logs
     sweep._execute(

@@ -72,7 +72,7 @@ def _runs_detail(aggregate: Aggregate, total: int, started: float) -> str:
     done = aggregate.runs
     rate = aggregate.succeeded / done if done else 0.0
     left = (time.perf_counter() - started) / done * (total - done) if done else math.nan
-    return f"{done}/{total} runs, success {rate:6.1%}, {left:4.0f} s left"
+    return f"{done}/{total} runs, success {rate:.1%}, {left:.0f} s left"
 
 
 def _sha256(path: Path) -> str:
