@@ -552,6 +552,14 @@ def _drawing_code_at(commit: str) -> tuple[Any, Any]:
     today's (the rest of the package is today's): both drawn in one process."""
     import types
 
+    # Modules of the drawing code since removed, loaded under their names.
+    for name, path in (("wmr_mission.output.unseen", "wmr_mission/output/unseen.py"),):
+        shown = ["git", "-C", str(ROOT), "show", f"{commit}:{path}"]
+        found = subprocess.run(shown, check=False, capture_output=True, text=True)
+        if found.returncode == 0 and name not in sys.modules:
+            module = types.ModuleType(name)
+            sys.modules[name] = module
+            exec(compile(found.stdout, f"{commit}:{path}", "exec"), module.__dict__)
     modules = []
     for name, path in (
         ("plots_then", "wmr_mission/output/plots.py"),
