@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import re
 import subprocess
@@ -211,3 +212,29 @@ def test_a_failure_is_said_once(tmp_path: Path) -> None:
         assert row.endswith("NOT MET")
     assert "speed_at_limit" not in result.stdout
     assert result.stderr.startswith(f"{ROOT / 'missions' / 'keep-out.yaml'}: expectation not met: ")
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_a_long_run_shows_its_progress_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A mission of more than 20 000 samples shows its phase and time as it
+    runs, on a terminal only; the run is the same either way."""
+    from wmr_mission import run_command
+    from wmr_mission.compiled import sample_budget
+    from wmr_mission.spec.loader import load_mission
+
+    mission = load_mission(ROOT / "missions" / "coverage.yaml")
+    budget = sample_budget(mission)
+    assert budget > 20_000
+    shown = []
+    for stream in (_Terminal(), io.StringIO()):
+        monkeypatch.setattr(sys, "stderr", stream)
+        result = run_command._simulate(mission, None, budget)
+        shown.append(stream.getvalue())
+    assert "coverage [" in shown[0]
+    assert " t = " in shown[0]
+    assert result.samples > 20_000
+    assert shown[1] == ""

@@ -38,9 +38,9 @@ class Steps:
         console = Console(file=stream, highlight=False)
         console.width = min(console.width, WIDTH)
         self._progress = Progress(
-            TextColumn("{task.description}"),
+            TextColumn("{task.description}", markup=False),
             BarColumn(bar_width=30),
-            TextColumn("{task.fields[detail]}"),
+            TextColumn("{task.fields[detail]}", markup=False),
             TimeElapsedColumn(),
             console=console,
             auto_refresh=False,
