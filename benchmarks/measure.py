@@ -14,6 +14,7 @@
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
+    python benchmarks/measure.py png        # Pillow writing case study 2's PNGs, per zlib level
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -679,12 +680,45 @@ def drawing(repeat: int = 5) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def png(repeat: int = 7) -> None:
+    """CPU milliseconds for Pillow to write each of case study 2's four
+    figures (drawn once), at its default zlib level and at the one files use."""
+    import io
+
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from PIL import Image
+
+    from wmr_mission.output.plots import FIGURE_NAMES, PNG_OPTIONS, _figure
+    from wmr_mission.runner import run_mission
+    from wmr_mission.spec.loader import load_mission
+
+    result = run_mission(load_mission(MISSIONS / "case2.yaml"))
+    for name in FIGURE_NAMES:
+        canvas: Any = FigureCanvasAgg(_figure(result, name))
+        canvas.draw()
+        image = Image.fromarray(np.asarray(canvas.buffer_rgba()))
+        shown = []
+        for options in ({}, PNG_OPTIONS):
+            times, size = [], 0
+            for _ in range(repeat):
+                stream = io.BytesIO()
+                started = time.process_time()
+                image.save(stream, format="png", **options)
+                times.append(time.process_time() - started)
+                size = stream.tell()
+            what = "default" if not options else f"compress_level {options['compress_level']}"
+            shown.append(f"{what} {statistics.median(times) * 1000:.1f} ms, {size / 1024:.0f} kB")
+        print(f"{name}.png: " + "; ".join(shown))
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
-    jobs |= {"campaign": campaign, "runner": runner_cost, "drawing": drawing}
+    jobs |= {"campaign": campaign, "runner": runner_cost, "drawing": drawing, "png": png}
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)
