@@ -26,7 +26,7 @@ def _rows(lines: list[str]) -> dict[str, list[str]]:
 
 def test_table_has_a_row_per_phase_in_fixed_columns() -> None:
     summary = summarize(circle_run())
-    text = format_table(summary, Path("runs/circle-20240611-090503"))
+    text = format_table(summary, Path("runs/circle-20240611-090503"), width=100)
     lines = text.splitlines()
     header = next(line for line in lines if line.startswith("phase "))
     assert header.split("  ")[0] == "phase"
@@ -90,7 +90,7 @@ def test_table_gives_each_phase_its_verdict() -> None:
         "phases": [{"name": name, "expect": {}} for name in ("approach", "orbit", "park")],
     }
     summary = judge(run, mission)
-    lines = format_table(summary, "out").splitlines()
+    lines = format_table(summary, "out", width=100).splitlines()
     rows = _rows(lines)
     assert rows["approach"][0].endswith("  ok")
     assert rows["orbit"][0].endswith("  NOT MET")
