@@ -4,6 +4,7 @@ workers or a Dask cluster, replay of a run, Ctrl-C, statistics."""
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import os
@@ -103,26 +104,27 @@ def test_clopper_pearson_known_values(successes: int, trials: int, lo: float, hi
 
 
 @pytest.mark.parametrize("trials", [1, 2, 7, 99, 100, 101, 2000, 10**5, 10**7])
-def test_clopper_pearson_against_scipy(trials: int) -> None:
-    """The interval's beta quantiles, written out, against scipy's betaincinv:
-    to 1e-12 (relative) up to 10^5 runs, 1e-9 at ten million; and the closed
-    forms of the ends, 1 - 0.025^(1/n) and 0.025^(1/n), to 1e-9."""
-    from scipy.special import betaincinv
-
-    tolerance = 1e-12 if trials <= 10**5 else 1e-9
+def test_clopper_pearson_closed_forms_and_symmetry(trials: int) -> None:
+    """Where the beta quantiles have closed forms (0, 1, n - 1 or n successes of
+    n: Beta(1, n) and Beta(n, 1)), the interval has their digits, to 1e-12
+    (relative) up to ten million runs; and swapping successes and failures
+    mirrors the interval."""
+    lower_one = -math.expm1(math.log1p(-0.025) / trials)  # 1 - 0.975^(1/n)
+    upper_all_but_one = 0.975 ** (1 / trials)
+    assert clopper_pearson(0, trials)[1] == pytest.approx(
+        -math.expm1(math.log(0.025) / trials), rel=1e-12
+    )
+    assert clopper_pearson(trials, trials)[0] == pytest.approx(0.025 ** (1 / trials), rel=1e-12)
+    assert clopper_pearson(1, trials)[0] == pytest.approx(lower_one, rel=1e-12)
+    assert clopper_pearson(trials - 1, trials)[1] == pytest.approx(upper_all_but_one, rel=1e-12)
     counts = {0, 1, 2, 3, 10, trials // 10, trials // 2, int(0.866 * trials), trials - 1, trials}
     for successes in sorted(c for c in counts if 0 <= c <= trials):
         lo, hi = clopper_pearson(successes, trials)
-        want_lo = 0.0 if successes == 0 else betaincinv(successes, trials - successes + 1, 0.025)
-        want_hi = (
-            1.0 if successes == trials else betaincinv(successes + 1, trials - successes, 0.975)
-        )
-        assert lo == pytest.approx(float(want_lo), rel=tolerance, abs=0.0)
-        assert hi == pytest.approx(float(want_hi), rel=tolerance, abs=0.0)
-    assert clopper_pearson(0, trials)[1] == pytest.approx(
-        -math.expm1(math.log(0.025) / trials), rel=1e-9
-    )
-    assert clopper_pearson(trials, trials)[0] == pytest.approx(0.025 ** (1 / trials), rel=1e-12)
+        mirrored_lo, mirrored_hi = clopper_pearson(trials - successes, trials)
+        assert 0.0 <= lo <= successes / trials <= hi <= 1.0
+        assert lo < hi
+        assert lo == pytest.approx(1.0 - mirrored_hi, rel=1e-12, abs=1e-15)
+        assert hi == pytest.approx(1.0 - mirrored_lo, rel=1e-12, abs=1e-15)
 
 
 @pytest.mark.parametrize(
@@ -156,7 +158,9 @@ def test_the_last_tasks_end_together() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute")])
+@pytest.mark.parametrize(
+    ("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute_steps")]
+)
 def test_matplotlib_is_loaded_while_the_runs_run_only_when_they_last(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, after_seconds: float, loaded_in: str
 ) -> None:
@@ -388,32 +392,91 @@ def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch)
     assert rows[1].values == (0.01, 20)
 
 
-def test_progress_line_shows_runs_success_and_time_left() -> None:
-    import io
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
 
-    from wmr_mission.campaign import runs
-    from wmr_mission.campaign.aggregate import Aggregate
-    from wmr_mission.campaign.sweep import _Progress
 
-    class Terminal(io.StringIO):
-        def isatty(self) -> bool:
-            return True
+def _watch(monkeypatch: pytest.MonkeyPatch, stream: io.StringIO, *names: str) -> dict[str, str]:
+    """What ``stream`` shows when each of sweep's functions ``names`` is called."""
+    from wmr_mission.campaign import sweep
 
+    seen: dict[str, str] = {}
+
+    def watching(name: str, function: Any) -> Any:
+        def watched(*arguments: Any) -> Any:
+            seen[name] = stream.getvalue()
+            return function(*arguments)
+
+        return watched
+
+    for name in names:
+        monkeypatch.setattr(sweep, name, watching(name, getattr(sweep, name)))
+    return seen
+
+
+def test_sweep_shows_each_step_as_it_starts(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On a terminal: the first step before the kernels load, the runs counted
+    with their success and time left, then drawing as a step of its own."""
+    from wmr_mission.campaign import sweep
+
+    stream = _Terminal()
+    seen = _watch(monkeypatch, stream, "warm_up", "_draw")
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    aggregate = Aggregate(dict(loaded.campaign.vary))
-    row = runs.run_rows(loaded, 0, 1)[0]
-    stream = Terminal()
-    progress = _Progress(4, stream)
-    aggregate.add(row)
-    progress.update(aggregate)
-    line = stream.getvalue()
-    assert line.startswith("\r[")
-    assert "1/4 runs" in line
-    assert "success 100.0%" in line
-    assert "ETA" in line
-    quiet = io.StringIO()  # not a terminal: no progress line in logs
-    _Progress(4, quiet).update(aggregate)
+    out = sweep._prepare(loaded, tmp_path / "c", 1, None)
+    sweep._execute(
+        loaded,
+        out_dir=out,
+        workers=1,
+        scheduler=None,
+        plots=True,
+        progress_stream=stream,
+        keep_rows=None,
+    )
+    assert "starting" in seen["warm_up"]
+    assert "runs" not in seen["warm_up"]
+    assert "4/4 runs, success 100.0%, 0 s left" in seen["_draw"]
+    assert "worst runs and figures" in seen["_draw"]
+    quiet = io.StringIO()  # not a terminal: nothing in logs
+    sweep._execute(
+        loaded,
+        out_dir=None,
+        workers=1,
+        scheduler=None,
+        plots=False,
+        progress_stream=quiet,
+        keep_rows=None,
+    )
     assert quiet.getvalue() == ""
+
+
+def test_sweep_says_at_once_that_it_was_interrupted(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """When the runs stop on Ctrl-C, the notice comes before campaign.json is written."""
+    from wmr_mission.campaign import engine, sweep
+
+    def stopped(*arguments: Any, **options: Any) -> Any:
+        yield from []
+        raise engine.Interrupted
+
+    monkeypatch.setattr(sweep, "execute", stopped)
+    stream = _Terminal()
+    seen = _watch(monkeypatch, stream, "_record")
+    loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
+    record = sweep._execute(
+        loaded,
+        out_dir=None,
+        workers=1,
+        scheduler=None,
+        plots=False,
+        progress_stream=stream,
+        keep_rows=None,
+    )
+    assert record["interrupted"]
+    assert sweep.INTERRUPTED_NOTICE in seen["_record"]
 
 
 def test_aggregate_keeps_a_bounded_number_of_paths_and_the_worst_runs() -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import re
 import subprocess
@@ -79,7 +80,8 @@ def test_run_names_simulated_and_wall_time_and_prints_warnings_first(tmp_path: P
     assert completed.returncode == 0, completed.stdout
     output = completed.stdout
     warning = "8:22: warning: until.elapsed 1.005 s is not a multiple of robot.dt = 0.01 s"
-    assert output.index(warning) < output.index("phase  kind") < output.index("outcome:")
+    header = next(line for line in output.splitlines() if line.startswith("phase "))
+    assert output.index(warning) < output.index(header) < output.index("outcome:")
     outcome = next(line for line in output.splitlines() if line.startswith("outcome:"))
     assert outcome.startswith("outcome: success after 1.00 s of simulated time (")
     assert " s of wall time) - all phases completed" in outcome
@@ -177,3 +179,62 @@ def test_run_and_plot_write_the_chosen_formats(tmp_path: Path) -> None:
     code, _, err = _invoke("plot", str(out_dir), "--format", "gif")
     assert code == 2
     assert "gif" in err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mission", sorted(p.name for p in (ROOT / "missions").glob("*.yaml")))
+def test_the_run_table_fits_in_100_columns(mission: str, tmp_path: Path) -> None:
+    """Every shipped mission's table, on a console 100 columns wide."""
+    result = CliRunner(env={"COLUMNS": "100"}).invoke(
+        app, ["run", str(ROOT / "missions" / mission), "--out", str(tmp_path / "r"), "--no-plots"]
+    )
+    lines = result.stdout.splitlines()
+    header = next(i for i, line in enumerate(lines) if line.startswith("phase "))
+    assert lines[header + 1].startswith("─" * 10)
+    assert lines[-1] == f"outputs: {tmp_path / 'r'}"
+    assert max(map(len, lines)) <= 100, "\n".join(line for line in lines if len(line) > 100)
+
+
+@pytest.mark.slow
+def test_a_failure_is_said_once(tmp_path: Path) -> None:
+    """keep-out's legs south sit at their limits: each threshold missed is
+    named, with its value, once (the message on stderr); the table marks the
+    phases."""
+    result = CliRunner(env={"COLUMNS": "100"}).invoke(
+        app, ["run", str(ROOT / "missions" / "keep-out.yaml"), "--out", str(tmp_path / "r")]
+    )
+    assert result.exit_code == 1
+    said = result.stdout + result.stderr
+    for leg in ("south#1", "south#2", "south#3"):
+        for metric in ("speed_at_limit", "turn_rate_at_limit"):
+            assert said.count(f"{leg}: {metric} = ") == 1, (leg, metric)
+        row = next(line for line in result.stdout.splitlines() if line.startswith(leg))
+        assert row.endswith("NOT MET")
+    assert "speed_at_limit" not in result.stdout
+    assert result.stderr.startswith(f"{ROOT / 'missions' / 'keep-out.yaml'}: expectation not met: ")
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_a_long_run_shows_its_progress_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A mission of more than 20 000 samples shows its phase and time as it
+    runs, on a terminal only; the run is the same either way."""
+    from wmr_mission import run_command
+    from wmr_mission.compiled import sample_budget
+    from wmr_mission.spec.loader import load_mission
+
+    mission = load_mission(ROOT / "missions" / "coverage.yaml")
+    budget = sample_budget(mission)
+    assert budget > 20_000
+    shown = []
+    for stream in (_Terminal(), io.StringIO()):
+        monkeypatch.setattr(sys, "stderr", stream)
+        result = run_command._simulate(mission, None, budget)
+        shown.append(stream.getvalue())
+    assert "coverage [" in shown[0]
+    assert " t = " in shown[0]
+    assert result.samples > 20_000
+    assert shown[1] == ""

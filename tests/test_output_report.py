@@ -7,44 +7,81 @@ from test_output_synthetic import circle_run
 from wmr_mission.output.metrics import check_expectations, judge, summarize
 from wmr_mission.output.report import format_table
 
+UNDER_THE_TABLE = ("final error:", "estimation converged", "not reached", "expect ", "outcome:")
+
+
+def _rows(lines: list[str]) -> dict[str, list[str]]:
+    """Each phase's lines of the table: its row and the lines its cells wrap onto."""
+    header = next(i for i, line in enumerate(lines) if line.startswith("phase "))
+    rows: dict[str, list[str]] = {}
+    for line in lines[header + 2 :]:
+        if line.startswith(UNDER_THE_TABLE):
+            break
+        if not line.startswith(" "):
+            rows[line.split()[0]] = [line]
+        else:
+            rows[list(rows)[-1]].append(line)
+    return rows
+
 
 def test_table_has_a_row_per_phase_in_fixed_columns() -> None:
     summary = summarize(circle_run())
-    text = format_table(summary, Path("runs/circle-20240611-090503"))
+    text = format_table(summary, Path("runs/circle-20240611-090503"), width=100)
     lines = text.splitlines()
-    assert lines[0].split("  ")[0] == "phase"
-    assert lines[0].endswith("verdict")
-    rows = lines[2:5]
-    assert [row.split()[0] for row in rows] == ["approach", "orbit", "park"]
+    header = next(line for line in lines if line.startswith("phase "))
+    assert header.split("  ")[0] == "phase"
+    assert header.endswith("verdict")
+    rows = _rows(lines)
+    assert list(rows) == ["approach", "orbit", "park"]
     # every column starts where its header starts
-    headers = ("kind", "key metric", "at limit v/omega", "estimate converged after", "verdict")
-    for header in headers:
-        column = lines[0].index(header)
-        assert all(row[column - 2 : column] == "  " for row in rows), header
-    assert "off path rms 0.00525 m max 0.01 m, omega jitter 0 rad/s" in rows[0]
-    assert "end error 2 m" in rows[2]
-    assert "max constraint 0.02" in rows[2]
-    assert rows[0].endswith("0 % / 0 %         0.29 s                    -")
-    assert rows[0][: lines[0].index("duration") + 8].endswith(" 5.00 s")  # right-aligned
-    assert "10.00 s" in rows[1]
+    for name in ("kind", "key metric", "converged", "verdict"):
+        column = header.index(name)
+        assert all(row[0][column - 2 : column] == "  " for row in rows.values()), name
+        assert all(row[0][column] != " " for row in rows.values()), name
+    metric = header.index("key metric")
+    assert [line[metric:].split("  ")[0] for line in rows["approach"]] == [
+        "off path rms 0.00525 m",
+        "off path max 0.01 m",
+        "omega jitter 0 rad/s",
+    ]
+    assert [line[metric:].split("  ")[0] for line in rows["park"]][:3] == [
+        "end error 2 m",
+        "end heading error 0.996 rad",
+        "max constraint 0.02",
+    ]
+    assert rows["approach"][0].endswith("0 % / 0 %  0.29 s     -")
+    # right-aligned under its header
+    end = header.index("duration") + len("duration")
+    assert rows["approach"][0][:end].endswith(" 5.00 s")
+    assert rows["orbit"][0][:end].endswith("10.00 s")
     assert lines[-2] == "outcome: success after 20.00 s of simulated time - all phases done"
     assert lines[-1] == "outputs: runs/circle-20240611-090503"
     assert text.endswith("\n")
+    assert max(map(len, lines)) <= 100
 
 
-def test_table_lists_expectations() -> None:
+def test_table_lists_expectations_and_leaves_a_failure_to_its_message() -> None:
+    """Met ones with their values; unmet ones are the failure's message, which
+    `run` prints once, on stderr."""
     summary = summarize(circle_run())
     summary["expectations"] = check_expectations(
         summary, {"expect": {"final_position_error": {"max": 0.05}, "duration": {"max": 30.0}}}
     )
     text = format_table(summary, "out")
-    assert "expect final_position_error <= 0.05: 2 (NOT MET)" in text
     assert "expect duration <= 30: 20 (met)" in text
+    assert "expect final_position_error <= 0.05: 2 (NOT MET)" in text  # not in the message
+    summary["outcome"] = "expect-failed"
+    summary["message"] = "expectation not met: final_position_error = 2 (max 0.05)"
+    text = format_table(summary, "out")
+    assert "expect duration <= 30: 20 (met)" in text
+    assert "final_position_error <= 0.05" not in text
+    assert "expectation not met" not in text
+    assert "outcome: expect-failed after 20.00 s of simulated time\n" in text
 
 
 def test_table_gives_each_phase_its_verdict() -> None:
-    """The orbit's turn rate sits at its limit on 11 % of it: its row says so,
-    and so does a line under the table; the phases that passed say ok."""
+    """The orbit's turn rate sits at its limit on 11 % of it: its row says so;
+    the phases that passed say ok."""
     run = circle_run()
     run.omega = run.omega.copy()
     run.omega[700:800] = 20.0
@@ -52,13 +89,26 @@ def test_table_gives_each_phase_its_verdict() -> None:
         "expect": {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
         "phases": [{"name": name, "expect": {}} for name in ("approach", "orbit", "park")],
     }
-    lines = format_table(judge(run, mission), "out").splitlines()
-    approach, orbit, park = lines[2:5]
-    assert approach.endswith("  ok")
-    assert orbit.endswith("  NOT MET: turn_rate_at_limit")
-    assert "0 % / 11.1 %" in orbit
-    assert park.endswith("  ok")
-    assert "expect orbit: turn_rate_at_limit <= 0.01: 0.1111 (NOT MET)" in lines
-    assert lines[-2].startswith(
-        "outcome: expect-failed after 20.00 s of simulated time - expectation not met:"
+    summary = judge(run, mission)
+    lines = format_table(summary, "out", width=100).splitlines()
+    rows = _rows(lines)
+    assert rows["approach"][0].endswith("  ok")
+    assert rows["orbit"][0].endswith("  NOT MET")
+    assert "0 % / 11.1 %" in rows["orbit"][0]
+    assert rows["park"][0].endswith("  ok")
+    assert lines[-2] == "outcome: expect-failed after 20.00 s of simulated time"
+    # The reason, once: in the message `run` prints on stderr.
+    assert (
+        summary["message"] == "expectation not met: orbit: turn_rate_at_limit = 0.111111 (max 0.01)"
     )
+    assert not [line for line in lines if "turn_rate_at_limit" in line]
+
+
+def test_a_narrower_table_wraps_its_cells_within_the_width() -> None:
+    summary = summarize(circle_run())
+    for width in (100, 80, 72):
+        lines = format_table(summary, "out", width=width).splitlines()
+        table = lines[: lines.index(next(line for line in lines if line.startswith("final")))]
+        assert len(table) > 5
+        assert max(map(len, table)) <= width
+        assert list(_rows(lines)) == ["approach", "orbit", "park"]

@@ -10,9 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
-import warnings
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -118,8 +116,8 @@ def _cache_of_this_session(tmp_path: Path) -> Path:
     cache = tmp_path / "cache"
     shutil.copytree(
         source,
-        cache / "wmr_mission",
-        ignore=shutil.ignore_patterns("*.lock", "*.pyc", background_compile.READY),
+        cache / "wmr_mission" / source.name,
+        ignore=shutil.ignore_patterns("*.lock", background_compile.READY),
     )
     return cache
 
@@ -127,10 +125,11 @@ def _cache_of_this_session(tmp_path: Path) -> Path:
 def test_the_background_compile_marks_the_cache_ready(tmp_path: Path) -> None:
     """Here on kernels already compiled, so that it takes seconds, not a compile."""
     cache = _cache_of_this_session(tmp_path)
-    ready = cache / "wmr_mission" / background_compile.READY
+    (kernels,) = (cache / "wmr_mission").iterdir()
+    ready = kernels / background_compile.READY
     command = [sys.executable, "-m", "wmr_mission.background_compile"]
     # Another one holds the lock: this one leaves the work to it.
-    with open(cache / "wmr_mission" / background_compile.LOCK, "a") as lock:
+    with open(kernels / background_compile.LOCK, "a") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         done = subprocess.run(command, env=_env(cache), capture_output=True, timeout=120)
         assert done.returncode == 0, done.stderr
@@ -214,22 +213,65 @@ def test_the_bound_is_the_sample_budget_of_a_case_study() -> None:
         assert budget <= background_compile.PLAIN_PYTHON_SAMPLES
 
 
-def test_numba_names_the_source_file_when_a_kernel_cannot_be_cached() -> None:
-    """NUMBA_OPT=0 makes some kernels uncachable; numba's warning then reads the
-    locator's source file."""
-    from numba.core import caching
+def test_the_kernels_are_cached_in_the_directory_chosen() -> None:
+    """numba is pointed at the directory by NUMBA_CACHE_DIR alone, and the
+    compiled loop's entry is there."""
+    from numba.core import config
 
-    impl = caching.CompileResultCacheImpl(loop.record_sample.py_func)
-    assert type(impl._locator).__name__ == "KernelLocator"
-    result = SimpleNamespace(
-        lifted=[SimpleNamespace(can_cache=False)],
-        fndesc=SimpleNamespace(qualname="record_sample"),
-    )
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        assert impl.check_cachable(result) is False
-    assert caught[0].filename == loop.__file__
-    assert "Cannot cache compiled function" in str(caught[0].message)
+    directory = _kernel_cache.cache_directory()
+    assert directory is not None
+    assert directory.name.startswith(_kernel_cache.PREFIX)
+    run_mission(compile_mission(load_mission(MISSIONS / "fence.yaml")))
+    assert config.CACHE_DIR == os.environ["NUMBA_CACHE_DIR"] == str(directory)
+    assert list(directory.glob("*/loop.run_segment-*.nbi"))
+
+
+def _sources(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A copy of the kernel modules, taken as the package's."""
+    package = tmp_path / "package"
+    for name in _kernel_cache.KERNEL_MODULES:
+        (package / name).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(_kernel_cache.PACKAGE / name, package / name)
+    monkeypatch.setattr(_kernel_cache, "PACKAGE", package)
+    _kernel_cache.cache_directory.cache_clear()
+    return package
+
+
+def _chosen(cache: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(cache))
+    _kernel_cache.cache_directory.cache_clear()
+    directory = _kernel_cache.cache_directory()
+    assert directory is not None
+    return directory
+
+
+def test_an_edit_to_any_kernel_module_is_a_new_cache_directory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """numba judges a cached function by its own file: an edited control law
+    would leave loop.py's compiled copy of it stale. Here the directory
+    changes with every kernel module, and the earlier one is removed."""
+    try:
+        package = _sources(tmp_path, monkeypatch)
+        cache = tmp_path / "cache"
+        first = _chosen(cache, monkeypatch)
+        assert first.parent == cache / "wmr_mission"
+        (first / "kept").write_text("")
+        assert _chosen(cache, monkeypatch) == first  # unchanged sources: the same
+        assert (first / "kept").exists()
+        seen = {first}
+        for name in ("control.py", "campaign/coverage.py"):
+            with open(package / name, "a") as module:
+                module.write("\n# edited\n")
+            directory = _chosen(cache, monkeypatch)
+            assert directory not in seen, name
+            seen.add(directory)
+            assert [p.name for p in directory.parent.iterdir()] == [directory.name]
+        # A process started by this one, NUMBA_CACHE_DIR inherited, takes it as it is.
+        assert _chosen(directory, monkeypatch) == directory
+    finally:
+        monkeypatch.undo()
+        _kernel_cache.cache_directory.cache_clear()
 
 
 def test_the_plain_form_of_a_kernel_calls_no_compiled_code() -> None:

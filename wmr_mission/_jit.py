@@ -8,9 +8,9 @@ disk where a directory can be written (wmr_mission._kernel_cache).
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import platform
-import sys
 import time
 import types
 from collections.abc import Callable
@@ -25,38 +25,23 @@ _DISABLED = os.environ.get("WMR_MISSION_NO_JIT", "") not in ("", "0")
 # level (wmr_mission.scalar_math). Read by numba at import.
 os.environ["NUMBA_DISABLE_INTEL_SVML"] = "1"
 
-try:
-    if _DISABLED:
-        raise ImportError
-    import numba
-
-    # numba's array-math module imports scipy.linalg (half a second) to offer
-    # np.linalg in compiled code; no kernel here uses it, so it is loaded
-    # without: a run needs no scipy.
-    _BLAS = "scipy.linalg.cython_blas"
-    _blocked = _BLAS not in sys.modules
-    if _blocked:
-        sys.modules[_BLAS] = None  # type: ignore[assignment]
-    try:
-        import numba.np.arraymath
-    finally:
-        if _blocked:
-            del sys.modules[_BLAS]
-
-    _njit: Callable[..., Any] | None = numba.njit
-except ImportError:  # pragma: no cover - exercised where numba cannot install
-    _njit = None
-
-COMPILED = _njit is not None
+_njit: Callable[..., Any] | None = None
 _CACHED = False
-if _njit is not None:
+if not _DISABLED and importlib.util.find_spec("numba") is not None:
     from wmr_mission import _kernel_cache
 
     _directory = _kernel_cache.cache_directory()
-    # Where the locator cannot be installed, numba's own cache is tried.
-    _CACHED = _directory is not None
-    if _directory is not None:
-        _kernel_cache.install(_directory)
+    if _directory is not None:  # before numba loads: it reads its cache directory then
+        _kernel_cache.point_numba_at(_directory)
+        _CACHED = True
+    try:
+        import numba
+
+        _njit = numba.njit
+    except ImportError:  # pragma: no cover - a numba that cannot load (another numpy)
+        _njit = None
+
+COMPILED = _njit is not None
 
 
 def _compile(fn: F, **options: Any) -> F:

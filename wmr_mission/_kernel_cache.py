@@ -1,18 +1,21 @@
 """Where numba keeps the compiled kernels, and when they are stale.
 
-numba's own cache has two gaps this closes:
+numba caches a compiled function beside its source (``__pycache__``) or in
+the user's home, and judges it by its own source file. Both fall short here,
+and both are closed by one public setting: the directory numba caches in,
+``NUMBA_CACHE_DIR``, chosen here and set before numba loads.
 
-* It writes beside the source (``__pycache__``) or under the user's home. An
-  install by root run by another user, with no writable home (many
-  containers), has neither: numba raises ``cannot cache function ...: no
-  locator available`` at import. Here the first writable of
-  ``$NUMBA_CACHE_DIR``, the package's ``__pycache__``, the user cache
-  directory and a per-user temporary directory is used; with none, kernels
-  compile on every run. Either fallback prints one line of notice.
-* It judges a cached function by its own source file only, so the compiled
-  loop (wmr_mission/loop.py) would keep a stale copy of a control law edited
-  in wmr_mission/control.py. Here every kernel's stamp is the hash of all
-  kernel modules together.
+* An install by root run by another user, with no writable home (many
+  containers), has neither place: numba raises ``cannot cache function ...:
+  no locator available``. Here the first writable of ``$NUMBA_CACHE_DIR``,
+  the package's ``__pycache__``, the user cache directory and a per-user
+  temporary directory is used; with none, kernels compile on every run.
+  Either fallback prints one line of notice.
+* Judged by its own source file, the compiled loop (wmr_mission/loop.py)
+  would keep a stale copy of a control law edited in wmr_mission/control.py.
+  Here the directory is named after the hash of all kernel modules together:
+  an edit to any of them is a new directory, compiled afresh, and the
+  directories of earlier sources are removed.
 """
 
 from __future__ import annotations
@@ -20,10 +23,10 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any
 
 PACKAGE = Path(__file__).resolve().parent
 # The modules holding kernels or what they call: a change to any recompiles all.
@@ -42,6 +45,19 @@ KERNEL_MODULES = (
     "scalar_math.py",
     "campaign/coverage.py",
 )
+# What the kernels' directories are called: this prefix, then their sources' stamp.
+PREFIX = "kernels-"
+
+
+def kernel_sources_stamp() -> str:
+    digest = hashlib.sha256()
+    for name in KERNEL_MODULES:
+        digest.update((PACKAGE / name).read_bytes())
+    return digest.hexdigest()
+
+
+def _name() -> str:
+    return PREFIX + kernel_sources_stamp()[:16]
 
 
 def _writable(directory: Path) -> bool:
@@ -56,15 +72,19 @@ def _writable(directory: Path) -> bool:
 def _candidates() -> list[tuple[Path, bool]]:
     """Cache directories in order of preference, each with whether using it
     deserves a notice (a temporary directory is lost on reboot)."""
+    name = _name()
     candidates = []
     configured = os.environ.get("NUMBA_CACHE_DIR")
     if configured:
-        candidates.append((Path(configured) / "wmr_mission", False))
-    candidates.append((PACKAGE / "__pycache__", False))
+        # The choice of the process that started this one (a worker, the
+        # background compile) is taken as it is.
+        chosen = Path(configured)
+        candidates.append((chosen if chosen.name == name else chosen / "wmr_mission" / name, False))
+    candidates.append((PACKAGE / "__pycache__" / name, False))
     user_cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    candidates.append((Path(user_cache) / "wmr-mission" / "numba", False))
+    candidates.append((Path(user_cache) / "wmr-mission" / "numba" / name, False))
     user = getattr(os, "getuid", lambda: "user")()
-    candidates.append((Path(tempfile.gettempdir()) / f"wmr-mission-numba-{user}", True))
+    candidates.append((Path(tempfile.gettempdir()) / f"wmr-mission-numba-{user}" / name, True))
     return candidates
 
 
@@ -73,7 +93,10 @@ def cache_directory() -> Path | None:
     """The first writable cache directory, or None; prints the notice (once:
     `run` asks before the kernels are declared, wmr_mission._jit after)."""
     for directory, notice in _candidates():
+        fresh = not directory.exists()
         if _writable(directory):
+            if fresh:
+                _remove_earlier(directory)
             if notice:
                 print(
                     f"wmr-mission: no writable cache beside the package or in the home "
@@ -89,51 +112,20 @@ def cache_directory() -> Path | None:
     return None
 
 
-def kernel_sources_stamp() -> str:
-    digest = hashlib.sha256()
-    for name in KERNEL_MODULES:
-        digest.update((PACKAGE / name).read_bytes())
-    return digest.hexdigest()
+def _remove_earlier(directory: Path) -> None:
+    """Remove the kernels compiled from earlier sources beside ``directory``
+    (numba takes a missing cache file as one not yet written)."""
+    for sibling in directory.parent.glob(PREFIX + "*"):
+        if sibling != directory:
+            shutil.rmtree(sibling, ignore_errors=True)
 
 
-def install(directory: Path) -> bool:
-    """Put a locator for this package's kernels in front of numba's own.
-    False when this numba's caching internals are not the expected ones."""
-    try:
-        from numba.core import caching
-    except ImportError:  # pragma: no cover - numba without its caching module
-        return False
-    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
-    base = getattr(caching, "_CacheLocator", None)
-    if impl is None or base is None or not isinstance(impl.__dict__.get("_locator_classes"), list):
-        return False
-    stamp = kernel_sources_stamp()
+def point_numba_at(directory: Path) -> None:
+    """Make ``directory`` numba's cache: ``NUMBA_CACHE_DIR``, read by numba as
+    it loads (and again before each compile), and inherited by the processes
+    this one starts."""
+    os.environ["NUMBA_CACHE_DIR"] = str(directory)
+    if "numba" in sys.modules:  # loaded before this package: read the setting now
+        from numba.core.config import reload_config
 
-    class KernelLocator(base):  # type: ignore[misc, valid-type]
-        def __init__(self, py_func: Any, py_file: str) -> None:
-            # numba names the source file in its "cannot cache" warnings.
-            self._py_file = py_file
-            self._lineno = py_func.__code__.co_firstlineno
-            self._path = str(directory)
-
-        def ensure_cache_path(self) -> None:
-            os.makedirs(self._path, exist_ok=True)
-
-        def get_cache_path(self) -> str:
-            return self._path
-
-        def get_source_stamp(self) -> str:
-            return stamp
-
-        def get_disambiguator(self) -> str:
-            return str(self._lineno)
-
-        @classmethod
-        def from_function(cls, py_func: Any, py_file: str) -> KernelLocator | None:
-            module = getattr(py_func, "__module__", "") or ""
-            if module.split(".")[0] != "wmr_mission":
-                return None
-            return cls(py_func, py_file)
-
-    impl._locator_classes.insert(0, KernelLocator)
-    return True
+        reload_config()  # type: ignore[no-untyped-call]

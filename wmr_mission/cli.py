@@ -16,6 +16,31 @@ from pathlib import Path
 from typing import Annotated, Any, TextIO
 
 import typer
+from typer.core import TyperCommand
+
+
+class _Command(TyperCommand):
+    """Help that names each argument alone: ``MISSION``, not ``{MISSION}`` in
+    the usage line nor ``MISSION <file>`` under Arguments."""
+
+    def collect_usage_pieces(self, ctx: Any) -> list[str]:
+        return [
+            piece.replace("{", "").replace("}", "") for piece in super().collect_usage_pieces(ctx)
+        ]
+
+    def format_options(self, ctx: Any, formatter: Any) -> None:
+        parameters = [p for p in self.get_params(ctx) if not getattr(p, "hidden", False)]
+        arguments = [
+            (f"{p.metavar}{'...' if p.nargs != 1 else ''}", getattr(p, "help", None) or "")
+            for p in parameters
+            if p.param_type_name == "argument"
+        ]
+        options = [p.get_help_record(ctx) for p in parameters if p.param_type_name == "option"]
+        for title, records in (("Arguments", arguments), ("Options", options)):
+            if records:
+                with formatter.section(title):
+                    formatter.write_dl([record for record in records if record is not None])
+
 
 app = typer.Typer(
     name="wmr-mission",
@@ -27,6 +52,7 @@ app = typer.Typer(
     rich_markup_mode=None,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
+command = app.command(cls=_Command)
 
 
 # Timed runs of `bench`: each keeps its per-sample times in memory.
@@ -66,7 +92,11 @@ class FigureFormat(StrEnum):
 
 FigureFormats = Annotated[
     list[FigureFormat] | None,
-    typer.Option("--format", help="Figure file format; repeat for several (default: png)."),
+    typer.Option(
+        "--format",
+        metavar="FORMAT",
+        help="Figure file format: png, svg or pdf; repeat for several (default: png).",
+    ),
 ]
 
 
@@ -82,20 +112,25 @@ ExistingFile = Annotated[
 ]
 
 
-@app.command()
+@command
 def run(
     mission: ExistingFile,
     out: Annotated[
         Path | None,
-        typer.Option("--out", help="Run directory (default: runs/<mission-name>-<timestamp>)."),
+        typer.Option(
+            "--out",
+            metavar="DIR",
+            help="Run directory (default: runs/<mission-name>-<timestamp>).",
+        ),
     ] = None,
     seed: Annotated[
         int | None,
         typer.Option(
             "--seed",
+            metavar="N",
             min=0,
             max=2**32 - 1,
-            help="Sensor-noise seed, 0..2^32-1; overrides the mission's.",
+            help="Sensor-noise seed; overrides the mission's.",
         ),
     ] = None,
     set_: Annotated[
@@ -139,7 +174,7 @@ def run(
     )
 
 
-@app.command()
+@command
 def sweep(
     campaign: Annotated[
         Path,
@@ -154,12 +189,16 @@ def sweep(
     out: Annotated[
         Path | None,
         typer.Option(
-            "--out", help="Campaign directory (default: runs/<campaign-name>-<timestamp>)."
+            "--out",
+            metavar="DIR",
+            help="Campaign directory (default: runs/<campaign-name>-<timestamp>).",
         ),
     ] = None,
     workers: Annotated[
         int | None,
-        typer.Option("--workers", min=1, help="Local worker processes (default: every core)."),
+        typer.Option(
+            "--workers", metavar="N", min=1, help="Local worker processes (default: every core)."
+        ),
     ] = None,
     scheduler: Annotated[
         str | None,
@@ -195,7 +234,7 @@ def sweep(
     )
 
 
-@app.command()
+@command
 def validate(
     files: Annotated[
         list[Path],
@@ -206,7 +245,8 @@ def validate(
         ),
     ],
     format: Annotated[
-        OutputFormat, typer.Option("--format", help="Report format.")
+        OutputFormat,
+        typer.Option("--format", metavar="FORMAT", help="Report format: text or json."),
     ] = OutputFormat.text,
 ) -> None:
     """Check mission and campaign files without running them (exit 0 all valid, 1 any invalid)."""
@@ -215,7 +255,7 @@ def validate(
     raise typer.Exit(validate_files(files, fmt=format.value))
 
 
-@app.command()
+@command
 def schema(
     campaign: Annotated[
         bool, typer.Option("--campaign", help="Print the campaign schema instead.")
@@ -227,7 +267,7 @@ def schema(
     sys.stdout.write(campaign_schema_text() if campaign else schema_text())
 
 
-@app.command()
+@command
 def plot(
     run_dir: Annotated[
         Path,
@@ -241,11 +281,14 @@ def plot(
     raise typer.Exit(replot_command(run_dir, _formats(format)))
 
 
-@app.command()
+@command
 def bench(
     mission: ExistingFile,
     repeat: Annotated[
-        int, typer.Option("--repeat", min=1, max=MAX_REPEAT, help="Runs of the mission to time.")
+        int,
+        typer.Option(
+            "--repeat", metavar="N", min=1, max=MAX_REPEAT, help="Runs of the mission to time."
+        ),
     ] = 3,
 ) -> None:
     """Time the estimator + controller step per sample against the reference step."""

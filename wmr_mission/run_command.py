@@ -215,7 +215,10 @@ def _run(
     except KeyboardInterrupt:
         print(f"{run_dir}: interrupted while writing; no summary.json", file=sys.stderr)
         return _signal_exit(received)
-    print(format_table(summary_record(result), run_dir, wall_seconds=wall_seconds, result=result))
+    print(
+        format_table(summary_record(result), run_dir, wall_seconds=wall_seconds, result=result),
+        end="",
+    )
     # A stopped run writes its data at once; `wmr-mission plot` draws it.
     drawn = _draw(
         result, run_dir, plots and not stopped, animate and not stopped, formats, received
@@ -269,24 +272,22 @@ def _draw(
 
 
 def _simulate(mission: Mission, seed: int | None, max_samples: int) -> RunResult:
-    """Run with a progress bar on stderr when the run is longer than a moment."""
-    import typer
-
+    """Run with a progress bar on stderr (a terminal) when the run is longer than a moment."""
+    from wmr_mission.output.progress import Steps
     from wmr_mission.runner import run_mission
 
-    name = mission.name
     if max_samples < 20_000 or not sys.stderr.isatty():
         return run_mission(mission, seed=seed)
-    with typer.progressbar(length=1000, label=f"{name}", file=sys.stderr) as bar:
-        done = [0]
+    name = mission.name
+    steps = Steps(sys.stderr)
+    steps.step(name, total=1000)
 
-        def progress(t: float, budget: float, phase: str) -> None:
-            step = int(1000 * min(t / budget, 1.0)) - done[0]
-            if step > 0:
-                bar.update(step)
-                done[0] += step
-            bar.label = f"{name} [{phase}] t = {t:8.2f} s"
+    def progress(t: float, budget: float, phase: str) -> None:
+        steps.update(1000 * min(t / budget, 1.0), description=f"{name} [{phase}] t = {t:8.2f} s")
 
+    try:
         result = run_mission(mission, seed=seed, progress=progress)
-        bar.update(1000 - done[0])
+        steps.update(1000)
+    finally:
+        steps.close()
     return result

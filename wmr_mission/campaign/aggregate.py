@@ -33,119 +33,16 @@ _RANKING_METRIC: Final = "final_position_error"
 
 def clopper_pearson(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
     """Exact (Clopper-Pearson) interval of a success probability, from ``successes``
-    in ``trials``: quantiles of beta distributions."""
+    in ``trials``: quantiles of beta distributions (scipy's ``betaincinv``)."""
+    from scipy.special import betaincinv
+
     if trials == 0:
         return 0.0, 1.0
     tail = (1.0 - confidence) / 2.0
     failures = trials - successes
-    lo = 0.0 if successes == 0 else _beta_quantile(successes, failures + 1, tail)
-    hi = 1.0 if failures == 0 else _beta_quantile(successes + 1, failures, 1.0 - tail)
+    lo = 0.0 if successes == 0 else float(betaincinv(successes, failures + 1, tail))
+    hi = 1.0 if failures == 0 else float(betaincinv(successes + 1, failures, 1.0 - tail))
     return lo, hi
-
-
-def _beta_quantile(a: float, b: float, p: float) -> float:
-    """The x in (0, 1) where the regularized incomplete beta function
-    I_x(a, b) reaches ``p`` (0 < p < 1; a, b > 0): Newton's method from the
-    mean, kept inside a bracket that bisection shrinks where a step leaves it.
-
-    Written out rather than imported: ``scipy.special`` costs a campaign a
-    fifth of a second to import, serially, after its runs. Held to scipy's
-    ``betaincinv`` where the interval uses it: whole a, b (counts of runs, up
-    to ten million) and p = 0.025 or 0.975 (tests/test_campaign.py); far
-    tails (p of 1e-12 and less) are not its business."""
-    log_beta = _log_beta(a, b)
-    lo, hi = 0.0, 1.0
-    x = a / (a + b)
-    for _ in range(_MAX_STEPS):
-        excess = _incomplete_beta(a, b, x, log_beta) - p
-        if excess == 0.0:
-            return x
-        if excess < 0.0:
-            lo = x
-        else:
-            hi = x
-        density = math.exp((a - 1.0) * math.log(x) + (b - 1.0) * math.log1p(-x) - log_beta)
-        # where the density underflows (far out in a tail), bisection alone
-        after = x - excess / density if 0.0 < density < math.inf else math.nan
-        if not lo < after < hi:
-            after = 0.5 * (lo + hi)
-        if abs(after - x) <= _RELATIVE_STEP * x:
-            return after
-        x = after
-    return x
-
-
-_MAX_STEPS: Final = 200
-_RELATIVE_STEP: Final = 1e-15  # a step this small: converged, to the last digits
-_FRACTION_TERMS: Final = 10_000
-_TINY: Final = 1e-300
-
-
-def _incomplete_beta(a: float, b: float, x: float, log_beta: float) -> float:
-    """The regularized incomplete beta function I_x(a, b) (a, b > 0; ``log_beta``
-    is log B(a, b)), by its continued fraction, evaluated on the side of
-    (a + 1) / (a + b + 2) where it converges fast (the symmetry
-    I_x(a, b) = 1 - I_{1-x}(b, a))."""
-    if x <= 0.0:
-        return 0.0
-    if x >= 1.0:
-        return 1.0
-    front = math.exp(a * math.log(x) + b * math.log1p(-x) - log_beta)
-    if x < (a + 1.0) / (a + b + 2.0):
-        return front * _beta_fraction(a, b, x) / a
-    return 1.0 - front * _beta_fraction(b, a, 1.0 - x) / b
-
-
-def _log_beta(a: float, b: float) -> float:
-    """log B(a, b). For a large argument, lgamma(a + b) - lgamma(b) would
-    subtract two large numbers (losing 1e-8 of the result at ten million runs
-    and one success); Stirling's form of their difference keeps every digit."""
-    small, large = sorted((a, b))
-    if large < _STIRLING_FROM:
-        return math.lgamma(a) + math.lgamma(b) - math.lgamma(a + b)
-    rise = (  # lgamma(small + large) - lgamma(large)
-        (large - 0.5) * math.log1p(small / large)
-        + small * math.log(small + large)
-        - small
-        + _stirling_rest(small + large)
-        - _stirling_rest(large)
-    )
-    return math.lgamma(small) - rise
-
-
-_STIRLING_FROM: Final = 100.0
-
-
-def _stirling_rest(x: float) -> float:
-    """lgamma(x) less Stirling's (x - 1/2) log x - x + log(2 pi) / 2, for x >= 100:
-    its asymptotic series, whose first omitted term, 1 / (1188 x^9), is below
-    1e-20 there."""
-    inverse = 1.0 / x
-    square = inverse * inverse
-    return inverse * (
-        1.0 / 12.0 - square * (1.0 / 360.0 - square * (1.0 / 1260.0 - square * (1.0 / 1680.0)))
-    )
-
-
-def _beta_fraction(a: float, b: float, x: float) -> float:
-    """The continued fraction of I_x(a, b), by the modified Lentz method."""
-    c = 1.0
-    d = 1.0 - (a + b) * x / (a + 1.0)
-    d = 1.0 / (d if abs(d) > _TINY else _TINY)
-    fraction = d
-    for m in range(1, _FRACTION_TERMS):
-        for numerator in (
-            m * (b - m) * x / ((a + 2 * m - 1.0) * (a + 2 * m)),
-            -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1.0)),
-        ):
-            d = 1.0 + numerator * d
-            d = 1.0 / (d if abs(d) > _TINY else _TINY)
-            c = 1.0 + numerator / c
-            c = c if abs(c) > _TINY else _TINY
-            fraction *= d * c
-        if abs(d * c - 1.0) < _RELATIVE_STEP:
-            break
-    return fraction
 
 
 def _badness(row: Row) -> tuple[int, float, int]:

@@ -12,7 +12,7 @@ import numpy as np
 from wmr_mission.campaign.aggregate import DRAWN_PATHS, Aggregate
 from wmr_mission.campaign.coverage import runs_per_pixel
 from wmr_mission.campaign.runs import METRICS
-from wmr_mission.output.plots import _new_figure, _region_extent, _save, draw_regions
+from wmr_mission.output.plots import _new_figure, _region_extent, draw_regions, save_figure
 
 __all__ = ["draw_campaign"]
 
@@ -38,7 +38,7 @@ def draw_campaign(
     written = []
     for name, figure in figures.items():
         for fmt in formats:
-            written.append(_save(figure, out_dir / f"{name}.{fmt}"))
+            written.append(save_figure(figure, out_dir / f"{name}.{fmt}"))
     return written
 
 

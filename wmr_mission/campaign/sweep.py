@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import math
 import sys
 import time
 from dataclasses import dataclass
@@ -31,6 +32,7 @@ from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campa
 from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.runs import Row, header, replay_command, simulate
 from wmr_mission.environment import environment
+from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     RunDirExistsError,
     default_run_dir,
@@ -49,6 +51,7 @@ CAMPAIGN_FILE: Final = "campaign.json"
 MANIFEST_FILE: Final = "manifest.json"
 WORST_DIR: Final = "worst"
 INTERRUPTED_EXIT: Final = 130  # as a shell reports a command stopped by Ctrl-C
+INTERRUPTED_NOTICE: Final = "interrupted: stopping; the finished runs are kept"
 LOAD_EARLY_AFTER_SECONDS: Final = 2.0
 """Runs that last longer on the workers (estimated) have matplotlib loaded, for
 the figures, while they run: the workers have tasks queued for the time it
@@ -65,32 +68,12 @@ class CampaignResult:
     out_dir: Path | None
 
 
-class _Progress:
-    """One line on stderr: runs done, success so far, ETA (only on a terminal)."""
-
-    def __init__(self, total: int, stream: IO[str] | None) -> None:
-        self.total = total
-        self.stream = stream if stream is not None and stream.isatty() else None
-        self.started = time.perf_counter()
-
-    def update(self, aggregate: Aggregate) -> None:
-        if self.stream is None:
-            return
-        done = aggregate.runs
-        elapsed = time.perf_counter() - self.started
-        eta = elapsed / done * (self.total - done) if done else float("nan")
-        width = 30
-        filled = int(width * done / self.total)
-        rate = aggregate.succeeded / done if done else 0.0
-        self.stream.write(
-            f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} runs, "
-            f"success {rate:6.1%}, ETA {eta:5.0f} s "
-        )
-        self.stream.flush()
-
-    def close(self) -> None:
-        if self.stream is not None:
-            self.stream.write("\n")
+def _runs_detail(aggregate: Aggregate, total: int, started: float) -> str:
+    """Runs done of ``total``, the success rate so far and the time left."""
+    done = aggregate.runs
+    rate = aggregate.succeeded / done if done else 0.0
+    left = (time.perf_counter() - started) / done * (total - done) if done else math.nan
+    return f"{done}/{total} runs, success {rate:.1%}, {left:.0f} s left"
 
 
 def _sha256(path: Path) -> str:
@@ -108,13 +91,33 @@ def _execute(
     keep_rows: list[dict[str, Any]] | None,
     allow_mixed_cluster: bool = False,
 ) -> dict[str, Any]:
-    """Run every run; write the outputs to ``out_dir`` (none when None); return campaign.json."""
+    """Run every run; write the outputs to ``out_dir`` (none when None); return
+    campaign.json. Its steps are shown on ``progress_stream`` if a terminal."""
+    progress = Steps(progress_stream)
+    try:
+        return _execute_steps(
+            loaded, out_dir, workers, scheduler, plots, keep_rows, progress, allow_mixed_cluster
+        )
+    finally:
+        progress.close()
+
+
+def _execute_steps(
+    loaded: LoadedCampaign,
+    out_dir: Path | None,
+    workers: int,
+    scheduler: str | None,
+    plots: bool,
+    keep_rows: list[dict[str, Any]] | None,
+    progress: Steps,
+    allow_mixed_cluster: bool,
+) -> dict[str, Any]:
     campaign = loaded.campaign
     plan = Plan(campaign)
     paths = plan.paths
     aggregate = Aggregate(dict(campaign.vary))
     columns = header(paths)
-    progress = _Progress(len(plan), progress_stream)
+    progress.step("starting")  # the kernels loaded, a run timed, the workers started
     interrupted = False
     stopped_by = "Ctrl-C"
     csv_stream = None
@@ -135,6 +138,7 @@ def _execute(
                 and len(plan) * seconds_per_run / workers > LOAD_EARLY_AFTER_SECONDS
             )
             runs_started = time.perf_counter()
+            progress.step("runs", total=len(plan))
             try:
                 for rows in execute(
                     loaded,
@@ -150,8 +154,11 @@ def _execute(
                     _take(rows, aggregate, writer, keep_rows, columns)
                     if csv_stream is not None:
                         csv_stream.flush()
-                    progress.update(aggregate)
+                    progress.update(
+                        aggregate.runs, _runs_detail(aggregate, len(plan), runs_started)
+                    )
             except (Interrupted, KeyboardInterrupt):  # a second Ctrl-C stops at once
+                progress.say(INTERRUPTED_NOTICE)
                 interrupted = True
             except SchedulerUnavailable:
                 raise
@@ -160,7 +167,6 @@ def _execute(
                 stopped_by = f"{type(error).__name__}: {error}"
             runs_seconds = time.perf_counter() - runs_started
     finally:
-        progress.close()
         if csv_stream is not None:
             csv_stream.close()
     record = _record(loaded, aggregate, interrupted, runs_seconds, len(plan))
@@ -169,6 +175,7 @@ def _execute(
     record["workers"] = None if scheduler is not None else workers
     record["scheduler"] = scheduler
     if out_dir is not None:
+        progress.step("worst runs and figures" if plots else "worst runs")
         # The statistics first: a Ctrl-C while the worst runs are drawn loses no number.
         write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
         try:
@@ -176,6 +183,7 @@ def _execute(
                 loaded, record, aggregate, out_dir, plots, workers if scheduler is None else 1
             )
         except KeyboardInterrupt:  # every run is in runs.csv; the worst runs' directories stop
+            progress.say(INTERRUPTED_NOTICE)
             record["interrupted"] = True
             record["stopped_by"] = "Ctrl-C"
             write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))

@@ -1,25 +1,31 @@
-"""The short plain-text table printed at the end of ``wmr-mission run``."""
+"""The short plain-text table printed at the end of ``wmr-mission run``.
+
+Laid out by rich within :data:`WIDTH` columns (fewer on a narrower terminal):
+a long cell wraps inside its column.
+"""
 
 from __future__ import annotations
 
+import io
 import math
 import os
+import shutil
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from wmr_mission.result import RunResult
 
-_HEADERS = (
-    "phase",
-    "kind",
-    "duration",
-    "key metric",
-    "at limit v/omega",
-    "estimate converged after",
-    "verdict",
+WIDTH = 100
+# (header, right-aligned): numbers right-aligned.
+_COLUMNS = (
+    ("phase", False),
+    ("kind", False),
+    ("duration", True),
+    ("key metric", False),
+    ("at limit\nv / omega", False),
+    ("estimate\nconverged", False),
+    ("verdict", False),
 )
-# Right-aligned columns (numbers).
-_RIGHT = (2,)
 
 
 def _seconds(value: float | None) -> str:
@@ -35,21 +41,18 @@ def _percent(value: float | None) -> str:
 
 
 def key_metric(phase: dict[str, Any]) -> str:
-    """What tells how a phase went: distance from its path after the settle time,
-    error from its target, constraint margin, turn-rate jitter."""
+    """What tells how a phase went, a line each: distance from its path after
+    the settle time, error from its target, constraint margin, turn-rate jitter."""
     parts = []
     tracking = phase.get("tracking_error")
     if tracking is not None:
-        parts.append(
-            f"off path rms {_number(tracking.get('rms'), ' m')} "
-            f"max {_number(tracking.get('max'), ' m')}"
-        )
+        parts.append(f"off path rms {_number(tracking.get('rms'), ' m')}")
+        parts.append(f"off path max {_number(tracking.get('max'), ' m')}")
     target = phase.get("target_error")
     if target is not None:
-        text = f"end error {_number(target.get('position'), ' m')}"
+        parts.append(f"end error {_number(target.get('position'), ' m')}")
         if target.get("heading") is not None:
-            text += f" / {_number(target.get('heading'), ' rad')}"
-        parts.append(text)
+            parts.append(f"end heading error {_number(target.get('heading'), ' rad')}")
     constraint = phase.get("constraint") or {}
     if constraint.get("max_violation") is not None:
         parts.append(f"max constraint {_number(constraint['max_violation'], '')}")
@@ -57,7 +60,7 @@ def key_metric(phase: dict[str, Any]) -> str:
     if jitter is not None:
         # a constant turn rate leaves only rounding (1e-16) about its moving mean
         parts.append(f"omega jitter {_number(jitter if jitter > 1e-12 else 0.0, ' rad/s')}")
-    return ", ".join(parts) or "-"
+    return "\n".join(parts) or "-"
 
 
 def _at_limit(phase: dict[str, Any]) -> str:
@@ -78,11 +81,11 @@ def _convergence(phase: dict[str, Any]) -> str:
 
 
 def _verdict(phase: dict[str, Any], checks: list[dict[str, Any]]) -> str:
-    """'ok', or the phase's thresholds that were not met."""
+    """'ok', 'NOT MET' (the failure's message says which threshold), or '-'
+    for a phase without thresholds."""
     mine = [c for c in checks if c.get("phase") == phase["name"]]
-    failed = [str(c["metric"]) for c in mine if not c["met"]]
-    if failed:
-        return "NOT MET: " + ", ".join(failed)
+    if any(not c["met"] for c in mine):
+        return "NOT MET"
     return "ok" if mine else "-"
 
 
@@ -115,22 +118,22 @@ def unreached(result: RunResult) -> list[str]:
     ]
 
 
-def format_table(
-    summary: dict[str, Any],
-    run_dir: str | os.PathLike[str],
-    *,
-    wall_seconds: float | None = None,
-    result: RunResult | None = None,
-) -> str:
-    """Phases with their key metrics and verdicts, the mission-wide expectations,
-    the outcome and where the files are.
+def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: int) -> list[str]:
+    from rich import box
+    from rich.console import Console
+    from rich.table import Table
 
-    ``wall_seconds``: the computer's time for the run, shown beside the
-    simulated time; ``result``: the run, to say which goal a timed-out phase missed.
-    """
-    checks = list(summary.get("expectations", []))
-    rows = [
-        (
+    table = Table(
+        box=box.SIMPLE_HEAD,
+        show_edge=False,
+        pad_edge=False,
+        collapse_padding=True,
+        header_style=None,
+    )
+    for header, right in _COLUMNS:
+        table.add_column(header, justify="right" if right else "left", overflow="fold")
+    for phase in summary.get("phases", []):
+        table.add_row(
             str(phase["name"]),
             str(phase["kind"]),
             _seconds(phase.get("duration")),
@@ -139,16 +142,36 @@ def format_table(
             _convergence(phase),
             _verdict(phase, checks),
         )
-        for phase in summary.get("phases", [])
-    ]
-    widths = [max(len(row[i]) for row in [_HEADERS, *rows]) for i in range(len(_HEADERS))]
-    lines = [
-        "  ".join(
-            cell.rjust(width) if i in _RIGHT else cell.ljust(width)
-            for i, (cell, width) in enumerate(zip(row, widths, strict=True))
-        ).rstrip()
-        for row in [_HEADERS, tuple("-" * w for w in widths), *rows]
-    ]
+    # Plain text: no colours, no markup read in names.
+    console = Console(
+        file=io.StringIO(), width=width, color_system=None, highlight=False, markup=False
+    )
+    console.print(table)
+    text = console.file.getvalue()  # type: ignore[attr-defined]  # the StringIO above
+    return [line.rstrip() for line in text.splitlines() if line.strip()]
+
+
+def format_table(
+    summary: dict[str, Any],
+    run_dir: str | os.PathLike[str],
+    *,
+    wall_seconds: float | None = None,
+    result: RunResult | None = None,
+    width: int | None = None,
+) -> str:
+    """Phases with their key metrics and verdicts, the mission-wide expectations,
+    the outcome and where the files are; the table within ``width`` columns
+    (by default WIDTH, or the terminal's width where it is narrower).
+
+    ``wall_seconds``: the computer's time for the run, shown beside the
+    simulated time; ``result``: the run, to say which goal a timed-out phase
+    missed. A failed run's message (what failed, and by how much) is not
+    repeated here: ``run`` prints it once, on stderr.
+    """
+    if width is None:
+        width = min(WIDTH, shutil.get_terminal_size((WIDTH, 24)).columns)
+    checks = list(summary.get("expectations", []))
+    lines = _phase_table(summary, checks, width)
     final = summary.get("final") or {}
     if final.get("position_error") is not None:
         text = f"final error: {_number(final['position_error'], ' m')}"
@@ -161,25 +184,22 @@ def format_table(
     lines.append(
         "estimation converged from: " + ("never" if converged is None else f"t = {converged:.2f} s")
     )
+    outcome = summary.get("outcome")
     for check in checks:
-        if check.get("phase") is not None and check["met"]:
-            continue  # the verdict column says it; an unmet one is spelt out below
+        if check["met"] and check.get("phase") is not None:
+            continue  # the verdict column says it
+        if not check["met"] and outcome == "expect-failed":
+            continue  # in the failure's message
         verdict = "met" if check["met"] else "NOT MET"
         value = "null" if check["value"] is None else f"{check['value']:.4g}"
         where = "" if check.get("phase") is None else f"{check['phase']}: "
         lines.append(f"expect {where}{check['metric']} <= {check['max']:g}: {value} ({verdict})")
+    line = f"outcome: {outcome} after {_seconds(summary.get('duration'))} of simulated time"
+    if wall_seconds is not None:
+        line += f" ({wall_seconds:.2f} s of wall time)"
     message = str(summary.get("message") or "")
-    if message.startswith(str(summary.get("outcome"))):  # "diverged in phase ... at t = ..."
-        outcome = f"outcome: {message}"
-    else:
-        outcome = (
-            f"outcome: {summary.get('outcome')} after {_seconds(summary.get('duration'))} "
-            "of simulated time"
-        )
-        if wall_seconds is not None:
-            outcome += f" ({wall_seconds:.2f} s of wall time)"
-        if message:
-            outcome += f" - {message}"
-    lines.append(outcome)
+    if outcome == "success" and message:
+        line += f" - {message}"
+    lines.append(line)
     lines.append(f"outputs: {os.fspath(run_dir)}")
     return "\n".join(lines) + "\n"
