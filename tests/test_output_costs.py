@@ -23,7 +23,8 @@ import wmr_mission.output.metrics as metrics_module
 import wmr_mission.output.plots as plots_module
 import wmr_mission.output.rundir as rundir_module
 from wmr_mission.api import load_mission, run_mission
-from wmr_mission.output.metrics import LOCAL_WINDOW, _PointGrid, distance_to_path, summarize
+from wmr_mission.output.metrics import LOCAL_WINDOW, distance_to_path, summarize
+from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.plots import MAX_LEGEND_PHASES
 from wmr_mission.output.reader import load_run
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
@@ -202,7 +203,7 @@ def test_nearest_points_agree_with_a_kd_tree() -> None:
             px, py = rng.uniform(-5, 5, (2, count))
         qx, qy = rng.normal(0, 10 ** rng.uniform(-1, 3), (2, 500))
         cell = 10 ** rng.uniform(-3, 0)
-        found = _PointGrid(px, py, cell).nearest(qx, qy, 4, np.zeros(qx.size))
+        found = PointGrid(px, py, cell).nearest(qx, qy, 4, np.zeros(qx.size))
         _, expected = cKDTree(np.column_stack((px, py))).query(
             np.column_stack((qx, qy)), k=min(4, count)
         )
