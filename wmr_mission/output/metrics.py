@@ -338,6 +338,7 @@ class _Judged:
 
     numbers: MissionNumbers
     inputs_from: float | None
+    ended_by: Mapping[str, str]  # phase name -> the `until` condition that ended it
 
 
 class _PhaseSamples:
@@ -363,6 +364,7 @@ class _PhaseSamples:
         self.v, self.omega = result.v[self.window], result.omega[self.window]
         self._off_path_of = off_path_of
         self.numbers = judged.numbers
+        self.ended_by = judged.ended_by
         # the first sample of the phase whose inputs are judged (past the end: none)
         self.first_judged = (
             end
@@ -390,8 +392,9 @@ class _PhaseSamples:
         if self.info.kind != "track":
             return None
         r, w = self.result, self.window
+        timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
         return track_quality(
-            r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones
+            r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed
         )
 
     @cached_property
@@ -660,7 +663,8 @@ def _phase_summaries(
     per_phase = phase_expectations(mission)
     numbers = mission_numbers(mission, result.dt, result.limits)
     inputs_from = input_metrics.first_judged(result.t, estimation_errors(result), numbers)
-    judged = _Judged(numbers, inputs_from)
+    ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
+    judged = _Judged(numbers, inputs_from, ended_by)
     summaries = []
     for index, start, end in phase_segments(result.phase):
         info = result.phases[index]

@@ -14,8 +14,9 @@ Two stretches of a phase are not judged as tracking:
 
 - the **entry**: the least time the limits need to take out the gap to the
   reference the phase starts with (:meth:`MissionNumbers.recovery_time`); a
-  phase that ends before it does is judged at its last sample (it was too
-  short for the limits to join its path, and it has not tracked it);
+  phase that runs for a set time (``until: elapsed`` or ``mission_time``) and
+  ends before the entry does is judged at its last sample: it was too short
+  for the limits to join its path, and tracking it was all it was for;
 - a **detour a zone forces**: where a zone lies across the straight way from
   the robot to its reference point, or the path runs into a zone within the
   time a smooth detour needs to start (half a turn at the turn-rate limit and
@@ -238,12 +239,15 @@ def track_quality(
     ry: FloatArray,
     numbers: MissionNumbers,
     zones: Sequence[Zone],
+    timed: bool = False,
 ) -> dict[str, Any]:
     """The tracking metrics of a track phase's samples (``tracking`` in a phase's
     summary): ``cross_track_error_max`` and ``along_track_lag_max`` (the largest
     |lag|) over the samples judged, ``entry_time`` [s], ``detour_time`` [s] and
     ``detour_offset_max`` [m], with what the defaults of their thresholds read:
-    the reference's top speed [m/s] and how far the zones reach into the path [m]."""
+    the reference's top speed [m/s] and how far the zones reach into the path [m].
+    ``timed``: the phase ran for a set time (it ended on ``elapsed`` or
+    ``mission_time``), so tracking was all it was for."""
     known = np.isfinite(rx) & np.isfinite(ry)
     metrics: dict[str, Any] = {
         "cross_track_error_max": None,
@@ -265,10 +269,10 @@ def track_quality(
         math.hypot(px[0] - rx[0], py[0] - ry[0]), float(reference_speed[0])
     )
     excused = t - t[0] < entry - 1e-9 * dt
-    # The entry is a prefix, not judged; a phase that ends in it (too short for the
-    # limits to join the path) is judged at its end: it has not tracked its path.
+    # The entry is a prefix, not judged; a phase that runs for a set time and ends
+    # in it (too short for the limits to join the path) is judged at its end.
     after_entry = min(int(np.count_nonzero(excused)), t.size - 1)
-    ended_in_entry = bool(excused[-1])
+    ended_in_entry = bool(excused[-1]) and timed
     cross, lag = place_on_path(px, py, rx, ry, numbers.tracking_tolerance, after_entry)
     detour = np.zeros(t.size, dtype=bool)
     if zones:
