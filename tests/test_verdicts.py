@@ -167,7 +167,7 @@ def test_a_threshold_is_the_missions_own_call(tmp_path: Path) -> None:
     code, _, stderr = run(mission, tmp_path / "strict", "--no-plots")
     assert code == 1
     assert stderr.endswith("expectation not met: park: turn_rate_at_limit = 1 (max 0.5)\n")
-    # The robot turns for 10 s at 0.1 rad/s: at least half a turn with a 4 s longer phase.
+    # 40 s at its 0.1 rad/s limit turn 4 rad, more than half a turn: a fight by its rule.
     data["phases"][0]["until"] = {"elapsed": 40}
     data["phases"][0]["expect"] = {}
     mission.write_text(yaml.safe_dump(data))
