@@ -72,6 +72,18 @@ def test_the_depth_of_an_ellipse_is_its_distance_in_metres(
     np.testing.assert_array_equal(keep_out.beyond(x, y), -reference > 0)
 
 
+def test_a_robot_held_on_an_ellipses_edge_is_on_it_to_a_micrometre() -> None:
+    region = {"type": "ellipse", "center": [0.0, 0.0], "semi_axes": [5.5, 3.0], "rotation": 0.3}
+    angle = np.linspace(0.0, 2 * np.pi, 1000)
+    c, s = math.cos(0.3), math.sin(0.3)
+    scale = 1.0 + 1e-8 * np.sin(7 * angle)  # a few nanometres either side of the edge
+    u, w = 5.5 * scale * np.cos(angle), 3.0 * scale * np.sin(angle)
+    x, y = u * c - w * s, u * s + w * c
+    zone = Zone("e", region, True)
+    assert abs(zone.deepest(x, y)) <= 1e-6
+    assert zone.deepest(x, y) >= float(np.max(zone.depth(x, y)))
+
+
 def test_the_depth_of_the_other_regions_by_hand() -> None:
     box = Zone("b", {"type": "box", "min": [0.0, 0.0], "max": [4.0, 2.0]}, True)
     x, y = np.array([1.0, 5.0, 5.0, 3.9]), np.array([1.0, 1.0, 3.0, 1.8])

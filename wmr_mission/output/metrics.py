@@ -654,15 +654,18 @@ def _phase_summaries(
     mission: Mapping[str, Any] | None,
     off_path: OffPath,
     checked_only: bool = False,
+    errors: dict[str, FloatArray] | None = None,
 ) -> list[dict[str, Any]]:
     """Each phase's summary (see :func:`_phase_summary`), its tracking error
     measured by ``off_path``; ``checked_only``: only what its `expect`
     thresholds read (:func:`_checked_phase_summary`), for a verdict at a
-    fraction of the cost."""
+    fraction of the cost. ``errors``: the run's estimation errors, if at hand."""
     tolerance = _tolerance(mission)
     per_phase = phase_expectations(mission)
     numbers = mission_numbers(mission, result.dt, result.limits)
-    inputs_from = input_metrics.first_judged(result.t, estimation_errors(result), numbers)
+    errors = estimation_errors(result) if errors is None else errors
+    inputs_from = input_metrics.first_judged(result.t, errors, numbers)
+    del errors  # not kept while the phases are measured: bounded memory
     ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
     judged = _Judged(numbers, inputs_from, ended_by)
     summaries = []
@@ -886,10 +889,12 @@ def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> d
     it, and a phase within its threshold by it is within it. Only when that
     bound misses a threshold is the distance to the path computed.
     """
-    summary = _bounded_metrics(result, _tolerance(mission), estimation_errors(result))
+    errors = estimation_errors(result)
+    summary = _bounded_metrics(result, _tolerance(mission), errors)
     if result.outcome is not Outcome.success:  # judging changes only a success
         return summary
-    phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True)
+    phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True, errors=errors)
+    del errors
     checks = check_expectations({**summary, "phases": phases}, mission)
     if any(not c["met"] and c["metric"].startswith("tracking_error") for c in checks):
         checks = check_expectations(summarize(result, mission), mission)

@@ -58,14 +58,27 @@ _WAY_POINTS = np.linspace(0.0, 1.0, 9)[1:]
 MOVING = 0.5
 MOVING_WINDOW = 10.0
 _CHUNK = 4096  # positions per block of the search: bounded memory on long runs
+_CANDIDATES = 1 << 15  # below this many position-segment pairs, every segment is tried
 
 # A path as searched: the arc length at each point, the points, and each segment's
 # step and length (segment i from point i to point i + 1).
 _Path = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
 
 
+def path_steps(rx: FloatArray, ry: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Each segment's step (x, y) and length: segment i from point i to point i + 1."""
+    sx, sy = np.diff(rx), np.diff(ry)
+    return sx, sy, np.sqrt(sx * sx + sy * sy)  # as hypot, at a fraction of its cost
+
+
 def place_on_path(
-    px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray, near: float, first: int = 0
+    px: FloatArray,
+    py: FloatArray,
+    rx: FloatArray,
+    ry: FloatArray,
+    near: float,
+    first: int = 0,
+    steps: tuple[FloatArray, FloatArray, FloatArray] | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Cross-track error and along-track lag [m] of each position (px, py) against
     the reference points (rx, ry) of the same samples (all finite); NaN before
@@ -77,10 +90,10 @@ def place_on_path(
     a path sampled finely), else among the segments round it, and then along
     the path, a Newton step at a time, while it lies beyond them.
     Where the robot is farther than ``near`` from the place found, the path's
-    nearest points anywhere are tried too, and win when nearer by NEAR_EQUAL."""
+    nearest points anywhere are tried too, and win when nearer by NEAR_EQUAL.
+    ``steps``: :func:`path_steps` of the reference points, if at hand."""
     n = rx.size
-    sx, sy = np.diff(rx), np.diff(ry)
-    length = np.sqrt(sx * sx + sy * sy)  # as hypot, at a fraction of its cost (no overflow here)
+    sx, sy, length = path_steps(rx, ry) if steps is None else steps
     moving = length > 0
     if not moving.any():  # a reference that stands still: a point
         cross = np.hypot(px - rx[0], py - ry[0])
@@ -107,7 +120,8 @@ def place_on_path(
         ux, uy = direction(own)
         guess = arc[part] - ((rx[part] - qx) * ux + (ry[part] - qy) * uy)
         # Most often the guess's own segment holds the foot of the perpendicular.
-        segment = np.clip(np.searchsorted(arc, guess, side="right") - 1, 0, n - 2)
+        # (np.minimum and np.maximum: np.clip costs several times more on small arrays)
+        segment = np.maximum(np.minimum(np.searchsorted(arc, guess, side="right") - 1, n - 2), 0)
         ax, ay, ex, ey, step = rx[segment], ry[segment], sx[segment], sy[segment], length[segment]
         along = ((qx - ax) * ex + (qy - ay) * ey) / np.where(step > 0, step * step, 1.0)
         inside = (along > 0.0) & (along < 1.0)
@@ -149,8 +163,8 @@ def _search(
     outer end of the segments searched (so that the place may be beyond)."""
     arc = path[0]
     last = arc.size - 2
-    centre = np.clip(np.searchsorted(arc, guess, side="right") - 1, 0, last)
-    segments = np.clip(centre[:, None] + np.arange(-_SEARCH, _SEARCH + 1), 0, last)
+    centre = np.searchsorted(arc, guess, side="right") - 1
+    segments = np.maximum(np.minimum(centre[:, None] + np.arange(-_SEARCH, _SEARCH + 1), last), 0)
     distance, at, chosen, along = _nearest_of(segments, path, px, py, rows)
     beyond = ((chosen == segments[:, 0]) & (along <= 0.0) & (chosen > 0)) | (
         (chosen == segments[:, -1]) & (along >= 1.0) & (chosen < last)
@@ -167,7 +181,8 @@ def _nearest_of(
     qx, qy = px[rows][:, None], py[rows][:, None]
     ax, ay, ex, ey = rx[segments], ry[segments], sx[segments], sy[segments]
     squared = length[segments] ** 2
-    along = np.clip(((qx - ax) * ex + (qy - ay) * ey) / np.where(squared > 0, squared, 1.0), 0, 1)
+    along = ((qx - ax) * ex + (qy - ay) * ey) / np.where(squared > 0, squared, 1.0)
+    along = np.maximum(np.minimum(along, 1.0), 0.0)
     dx, dy = qx - ax - along * ex, qy - ay - along * ey
     distance = np.sqrt(dx * dx + dy * dy)
     best = np.argmin(distance, axis=1)
@@ -180,11 +195,17 @@ def _nearest_of(
 def _nearest_anywhere(
     rows: NDArray[np.intp], reach: FloatArray, path: _Path, px: FloatArray, py: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """The nearest point of the whole path to positions ``rows``: the segments next to
-    the path's points nearest them (one point kept per cell of a grid half as fine
-    as the path's sampling, so a path run round many times is not searched lap by lap;
-    the first pass through a cell is the one kept)."""
+    """The nearest point of the whole path to positions ``rows``: of every segment
+    for a few positions, else of the segments next to the path's points nearest
+    them (one point kept per cell of a grid half as fine as the path's sampling,
+    so a path run round many times is not searched lap by lap; the first pass
+    through a cell is the one kept)."""
     arc, rx, ry, _, _, length = path
+    last = arc.size - 2
+    if rows.size * (last + 1) <= _CANDIDATES:  # few enough to try every segment
+        every = np.broadcast_to(np.arange(last + 1), (rows.size, last + 1))
+        distance, at, _, _ = _nearest_of(every, path, px, py, rows)
+        return distance, at
     steps = length[length > 0]
     cell = float(np.median(steps)) / 2
     column, row = np.floor(rx / cell), np.floor(ry / cell)
@@ -192,7 +213,6 @@ def _nearest_anywhere(
     column, row = column[order], row[order]
     first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
     grid = PointGrid(rx[first], ry[first], cell)
-    last = arc.size - 2
     distance, at = np.empty(rows.size), np.empty(rows.size)
     for start in range(0, rows.size, _CHUNK):
         part = slice(start, start + _CHUNK)
@@ -264,7 +284,9 @@ def track_quality(
     if t.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
         return metrics  # no reference, or the run diverged
     dt = numbers.dt
-    reference_speed = _speed(rx, ry, dt)
+    steps = path_steps(rx, ry)
+    # [m/s] from each reference point to the next (the last repeats the one before)
+    reference_speed = np.concatenate((steps[2], steps[2][-1:])) / dt if t.size > 1 else np.zeros(1)
     entry = numbers.recovery_time(
         math.hypot(px[0] - rx[0], py[0] - ry[0]), float(reference_speed[0])
     )
@@ -273,7 +295,9 @@ def track_quality(
     # in it (too short for the limits to join the path) is judged at its end.
     after_entry = min(int(np.count_nonzero(excused)), t.size - 1)
     ended_in_entry = bool(excused[-1]) and timed
-    cross, lag = place_on_path(px, py, rx, ry, numbers.tracking_tolerance, after_entry)
+    if excused[-1] and not timed and not zones:  # nothing to measure
+        return metrics | {"entry_time": entry, "reference_speed_max": float(reference_speed.max())}
+    cross, lag = place_on_path(px, py, rx, ry, numbers.tracking_tolerance, after_entry, steps)
     detour = np.zeros(t.size, dtype=bool)
     if zones:
         detour, rejoining = _detours(px, py, rx, ry, reference_speed, numbers, zones)

@@ -25,6 +25,9 @@ from numpy.typing import NDArray
 from wmr_mission.output.numbers import MissionNumbers
 from wmr_mission.result import FloatArray
 
+# [m] depths are known to this: far below any tolerance, and what a robot held on
+# a zone's edge by the corrective action rounds to.
+RESOLUTION = 1e-6
 # Newton steps at most for the distance to an ellipse (a handful are needed:
 # each at least halves the distance to the pole the start is near).
 _NEWTON_STEPS = 100
@@ -57,17 +60,22 @@ class Zone:
         return np.asarray(radius > 1.0 if self.keep_inside else radius < 1.0)
 
     def deepest(self, x: FloatArray, y: FloatArray) -> float:
-        """The largest :meth:`depth` of the points (-inf for none): for an
-        ellipse, found exactly only for the points that its distance bounds
-        (see :func:`_ellipse`) leave in the running."""
+        """The largest :meth:`depth` of the points (-inf for none), to
+        RESOLUTION: for an ellipse, found exactly only for the points that its
+        distance bounds (see :func:`_ellipse`) leave in the running, and not at
+        all where the largest upper bound is within RESOLUTION of 0 (a robot
+        held on the edge)."""
         if x.size == 0:
             return -math.inf
         if self.region["type"] != "ellipse":
             return float(np.max(self.depth(x, y)))
         radius, a, b = _scaled_radius(self.region, x, y)
         beyond = radius - 1.0 if self.keep_inside else 1.0 - radius
-        least = beyond * np.where(beyond > 0, min(a, b), max(a, b))  # depth is at least
-        most = beyond * np.where(beyond > 0, max(a, b), min(a, b))  # and at most this
+        most = beyond * np.where(beyond > 0, max(a, b), min(a, b))  # the depth is at most
+        highest = float(np.max(most))
+        if abs(highest) <= RESOLUTION:
+            return highest
+        least = beyond * np.where(beyond > 0, min(a, b), max(a, b))  # and at least this
         contenders = np.flatnonzero(most >= np.max(least))
         return float(np.max(self.depth(x[contenders], y[contenders])))
 
@@ -98,7 +106,7 @@ def intrusion_max(
             continue
         first = 0
         if beyond[0]:
-            start = float(zone.depth(x[:1], y[:1])[0])
+            start = zone.deepest(x[:1], y[:1])
             out = np.flatnonzero(~beyond)
             left = int(out[0]) if out.size else x.size
             if left * numbers.dt <= numbers.recovery_time(start, 0.0):
