@@ -723,7 +723,13 @@ def test_a_row_measures_of_each_phase_only_what_its_thresholds_read(
     def unread(*_: Any) -> None:
         raise AssertionError("measured, but no threshold reads it")
 
-    for name in ("_off_path_bound", "distance_to_path", "track_quality", "intrusion_max"):
+    for name in (
+        "_off_path_bound",
+        "distance_to_path",
+        "track_quality",
+        "intrusion_max",
+        "stall_time",
+    ):
         monkeypatch.setattr(metrics, name, unread)
     monkeypatch.setattr(metrics.input_metrics, "input_quality", unread)
     metrics.judge_run_metrics(fast, mission)

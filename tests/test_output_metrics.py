@@ -73,6 +73,7 @@ def test_summary_key_order_is_fixed() -> None:
         "tracking_error",
         "tracking",
         "target_error",
+        "regulation",
         "constraint",
         "estimation",
         "inputs",

@@ -20,6 +20,7 @@ from test_output_synthetic import circle_run
 from wmr_mission.output import inputs
 from wmr_mission.output.metrics import check_expectations, judge, summarize
 from wmr_mission.output.numbers import mission_numbers
+from wmr_mission.output.regulation import stall_time
 from wmr_mission.output.tracking import place_on_path, track_quality
 from wmr_mission.output.zones import Zone, intrusion_max
 from wmr_mission.result import Outcome
@@ -280,6 +281,35 @@ def test_inputs_are_judged_from_the_estimates_first_convergence() -> None:
     # 0.08 m each way: 0.9^k <= 0.08 / 2^0.5 first at k = 28
     assert inputs.first_judged(t, errors, noisy) == pytest.approx(0.28)
     assert inputs.first_judged(t, {**errors, "theta": np.ones(t.size)}, NUMBERS) is None
+
+
+# --- regulation -----------------------------------------------------------------------
+
+
+def test_a_regulator_is_judged_by_its_progress_to_its_target() -> None:
+    """A window is 2.05 s here (half a turn at 3 rad/s and ten time constants,
+    more than 20 time constants): each must take out 10 % of the error."""
+    t = np.arange(0.0, 10.0, 0.01)
+    zero = np.zeros(t.size)
+    goal = (0.05, 0.05)
+    steady = 4.0 * np.exp(-t / 2.0)  # 4 m out, the error halving every 1.4 s
+    assert stall_time(steady, zero, zero, (0.0, 0.0, 0.0), goal, NUMBERS) == 0.0
+    # stops 1.5 m short at 2.5 s, facing 0.5 rad off (either error would do): a
+    # window from t takes out 2.5 - t m, less than 10 % of 4 - t from t = 2.34 s,
+    # and the last window starts 2.05 s before the end
+    short = np.maximum(4.0 - t, 1.5)
+    off = np.full(t.size, 0.5)
+    stalled = stall_time(short, zero, off, (0.0, 0.0, 0.0), goal, NUMBERS)
+    assert stalled == pytest.approx(7.94 - 2.34 + 0.01, abs=0.015)
+    # at the target it may rest; turning in place towards the heading is progress
+    turning = np.maximum(1.0 - t, 0.0)
+    assert stall_time(zero, zero, turning, (0.0, 0.0, 0.0), goal, NUMBERS) == 0.0
+    # a limit cycle in place, 3 mm either way
+    shaking = 0.5 + 0.003 * (-1.0) ** np.arange(t.size)
+    assert stall_time(shaking, zero, off, (0.0, 0.0, 0.0), goal, NUMBERS) == pytest.approx(7.95)
+    # a target beyond a keep-out zone: the robot stops as near as it allows
+    rock = Zone("rock", {"type": "circle", "center": [0.0, 0.0], "radius": 1.0}, False)
+    assert stall_time(short, zero, off, (0.0, 0.0, 0.0), goal, NUMBERS, [rock]) is None
 
 
 # --- the thresholds -------------------------------------------------------------------

@@ -392,3 +392,26 @@ def test_noise_driven_turn_rate_jitter_is_not_a_success(tmp_path: Path) -> None:
     assert check["value"] == pytest.approx(spread, rel=0.05)
     orbit_summary = next(p for p in summary["phases"] if p["name"] == "orbit")
     assert orbit_summary["tracking"]["cross_track_error_max"] < 0.03  # it tracks well
+
+
+@pytest.mark.slow
+def test_a_regulator_that_stalls_short_of_its_target_is_not_a_success(tmp_path: Path) -> None:
+    """The deviation LQR parks for 20 s and stalls 2.1 m short: a phase that runs
+    for a set time has no goal to time out on, and its progress is what is judged."""
+    out = tmp_path / "run"
+    code, stdout, stderr = run(VERDICTS / "deviation_stalls.yaml", out, "--no-plots")
+    columns = read_trajectory(out)
+    # the premise: far from the target at the end, and hardly moving for the last 5 s
+    assert math.hypot(columns["x"][-1], columns["y"][-1]) > 2.0
+    moved = math.hypot(columns["x"][-1] - columns["x"][-500], columns["y"][-1] - columns["y"][-500])
+    assert moved < 0.1
+    assert code == 1, stdout + stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert _failed(summary) == {("park", "stall_time")}
+    [park] = summary["phases"]
+    assert park["regulation"]["stall_time"] > 10.0
+    # a regulator that gets there makes progress all the way
+    code, stdout, stderr = run(MISSIONS / "park.yaml", tmp_path / "park", "--no-plots")
+    assert code == 0, stdout + stderr
+    park = json.loads((tmp_path / "park" / "summary.json").read_text())["phases"][0]
+    assert park["regulation"]["stall_time"] == 0.0

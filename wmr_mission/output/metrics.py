@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from wmr_mission.output import inputs as input_metrics
 from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.numbers import MissionNumbers, mission_numbers
+from wmr_mission.output.regulation import stall_time
 from wmr_mission.output.tracking import track_quality
 from wmr_mission.output.zones import intrusion_max, zones_of
 from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
@@ -66,6 +67,7 @@ _PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "detour_offset_max": ("tracking", "detour_offset_max"),
     "detour_time": ("tracking", "detour_time"),
     "zone_intrusion_max": ("constraint", "intrusion_max"),
+    "stall_time": ("regulation", "stall_time"),
     "speed_jump_max": ("inputs", "speed_jump_max"),
     "turn_rate_jump_max": ("inputs", "turn_rate_jump_max"),
     "speed_reversals": ("inputs", "speed_reversals"),
@@ -87,6 +89,7 @@ _WHERE_MEASURED = frozenset(
         "detour_offset_max",
         "detour_time",
         "zone_intrusion_max",
+        "stall_time",
         "speed_jump_max",
         "turn_rate_jump_max",
         "speed_reversals",
@@ -339,6 +342,7 @@ class _Judged:
     numbers: MissionNumbers
     inputs_from: float | None
     ended_by: Mapping[str, str]  # phase name -> the `until` condition that ended it
+    goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
 
 
 class _PhaseSamples:
@@ -365,6 +369,7 @@ class _PhaseSamples:
         self._off_path_of = off_path_of
         self.numbers = judged.numbers
         self.ended_by = judged.ended_by
+        self.goals = judged.goals
         # the first sample of the phase whose inputs are judged (past the end: none)
         self.first_judged = (
             end
@@ -417,6 +422,21 @@ class _PhaseSamples:
         )
 
     @cached_property
+    def stall(self) -> float | None:
+        """Time away from its goal without progress (regulate phases)."""
+        if self.info.kind != "regulate" or self.info.target is None:
+            return None
+        r, w, numbers = self.result, self.window, self.numbers
+        goal = self.goals.get(
+            _written_name(self.info.name),
+            (
+                numbers.tracking_tolerance,
+                numbers.convergence_tolerance["theta"] + numbers.heading_noise,
+            ),
+        )
+        return stall_time(r.x[w], r.y[w], r.theta[w], self.info.target, goal, numbers, self.zones)
+
+    @cached_property
     def intrusion(self) -> float | None:
         r, w = self.result, self.window
         return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers)
@@ -455,6 +475,7 @@ _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
         )
     },
     "zone_intrusion_max": lambda p: p.intrusion,
+    "stall_time": lambda p: p.stall,
     **{key: _input_value(key) for key in _INPUT_METRICS},
     "speed_at_limit": lambda p: at_limit_fraction(p.v[p.settled], p.result.limits[0]),
     "turn_rate_at_limit": lambda p: at_limit_fraction(p.omega[p.settled], p.result.limits[1]),
@@ -539,6 +560,7 @@ def _phase_summary(
         "tracking_error": tracking,
         "tracking": phase.tracking,
         "target_error": target_error,
+        "regulation": quality["regulation"] if info.kind == "regulate" else None,
         "constraint": {
             "max_violation": _violation(constraint),
             # the largest row value itself: negative = the closest approach
@@ -618,6 +640,24 @@ def _written_phases(mission: Mapping[str, Any] | None) -> list[Mapping[str, Any]
     return phases
 
 
+def _goals(
+    mission: Mapping[str, Any] | None, numbers: MissionNumbers
+) -> dict[str, tuple[float, float]]:
+    """Per phase name as written, the position and heading tolerances of its goal:
+    its `settled` condition widened by a noise std (the estimator averages noise, so
+    a true pose beyond that is the controller's), else the tracking tolerance and
+    the heading's convergence tolerance and noise."""
+    goals = {}
+    for phase in _written_phases(mission):
+        settled = (phase.get("until") or {}).get("settled")
+        if isinstance(settled, Mapping):
+            goals[str(phase.get("name"))] = (
+                float(settled["position"]) + numbers.position_noise,
+                float(settled["heading"]) + numbers.heading_noise,
+            )
+    return goals
+
+
 def _written_name(name: str) -> str:
     """A phase's name as written: a repeated phase runs as ``name#lap``."""
     return name.split("#", 1)[0]
@@ -667,7 +707,7 @@ def _phase_summaries(
     inputs_from = input_metrics.first_judged(result.t, errors, numbers)
     del errors  # not kept while the phases are measured: bounded memory
     ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
-    judged = _Judged(numbers, inputs_from, ended_by)
+    judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers))
     summaries = []
     for index, start, end in phase_segments(result.phase):
         info = result.phases[index]

@@ -187,7 +187,7 @@ def _ellipse_frame(
     """Points in the ellipse's own axes, the major axis first, and its semi-axes."""
     cx, cy = region["center"]
     a, b = (float(v) for v in region["semi_axes"])
-    rotation = float(region["rotation"])
+    rotation = float(region.get("rotation", 0.0))
     c, s = math.cos(rotation), math.sin(rotation)
     u, w = c * (x - cx) + s * (y - cy), -s * (x - cx) + c * (y - cy)
     if a < b:

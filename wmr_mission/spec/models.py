@@ -1026,6 +1026,10 @@ _PHASE_METRICS: Final = {
         "[m] deepest the true position went beyond a zone's edge (into a stay_outside "
         "region, out of a stay_inside one)."
     ),
+    "stall_time": (
+        "[s] time a regulate phase spends away from its goal without taking 10 % of its "
+        "error out over the next 20 time constants (or half a turn and 10 time constants)."
+    ),
     "speed_jump_max": "[m/s] largest change of v from one sample to the next.",
     "turn_rate_jump_max": "[rad/s] largest change of omega from one sample to the next.",
     "speed_reversals": (
@@ -1082,6 +1086,7 @@ class PhaseExpect(_Model):
     detour_offset_max: Threshold | Auto | None = _phase_metric("detour_offset_max")
     detour_time: Threshold | None = _phase_metric("detour_time")
     zone_intrusion_max: Threshold | None = _phase_metric("zone_intrusion_max")
+    stall_time: Threshold | None = _phase_metric("stall_time")
     speed_jump_max: Threshold | Auto | None = _phase_metric("speed_jump_max")
     turn_rate_jump_max: Threshold | Auto | None = _phase_metric("turn_rate_jump_max")
     speed_reversals: Threshold | None = _phase_metric("speed_reversals")
@@ -1304,6 +1309,7 @@ DEFAULT_SETTLE_TIME: Final = 1.0
 DEFAULT_ZONE_INTRUSION_MAX: Final = 0.005
 DEFAULT_REVERSALS: Final = 3
 DEFAULT_FIGHT_TIME: Final = 0.0
+DEFAULT_STALL_TIME: Final = 0.0
 
 
 class Expect(PhaseExpect):
@@ -1337,6 +1343,9 @@ class Expect(PhaseExpect):
     )
     zone_intrusion_max: Threshold | None = _mission_metric(
         "zone_intrusion_max", Threshold(max=DEFAULT_ZONE_INTRUSION_MAX), " {max: 0.005} unless set."
+    )
+    stall_time: Threshold | None = _mission_metric(
+        "stall_time", Threshold(max=DEFAULT_STALL_TIME), " {max: 0} unless set."
     )
     speed_jump_max: Threshold | Auto | None = _mission_metric(
         "speed_jump_max", "auto", " auto: limits.v, half the range."
