@@ -38,9 +38,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from geometry import distance_to_ellipse  # noqa: E402
 
-from wmr_mission.compiled import compile_mission  # noqa: E402
-from wmr_mission.result import Outcome, RunResult  # noqa: E402
-from wmr_mission.runner import run_mission  # noqa: E402
+from wmr_mission.output.result import Outcome, RunResult  # noqa: E402
+from wmr_mission.sim.plan import compile_mission  # noqa: E402
+from wmr_mission.sim.runner import run_mission  # noqa: E402
 from wmr_mission.spec.loader import load_mission_text  # noqa: E402
 
 ORBIT = 1  # phase index of the orbit in both case studies

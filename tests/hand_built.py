@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from wmr_mission.compiled import CompiledMission, CompiledPhase, Conditions, Trajectory
+from wmr_mission.sim.plan import CompiledMission, CompiledPhase, Conditions, Trajectory
 
 RATE = 0.4 * math.pi  # eqs. (30)-(32)
 ELLIPSE_ROWS = (np.array([0]), np.array([[0.0, 0.0, 5.5, 3.0, 0.0, 1.0]]))

@@ -14,12 +14,13 @@ import numpy as np
 import pytest
 from pytest_benchmark.fixture import BenchmarkFixture
 
-from wmr_mission import control, reference
-from wmr_mission.compiled import CompiledMission, compile_mission
-from wmr_mission.ekf import ekf_step
-from wmr_mission.observer import observer_step
-from wmr_mission.params import Controller, Robot, ekf_params, observer_params, scratch
-from wmr_mission.runner import FAST, StepFunctions, run_mission
+from wmr_mission.controllers import paper
+from wmr_mission.estimators.ekf import ekf_step
+from wmr_mission.estimators.observer import observer_step
+from wmr_mission.kernels.records import Controller, Robot, ekf_params, observer_params, scratch
+from wmr_mission.sim import reference
+from wmr_mission.sim.plan import CompiledMission, compile_mission
+from wmr_mission.sim.runner import FAST, StepFunctions, run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -35,8 +36,8 @@ LIMITS = np.array([10.0, 20.0, math.inf, math.inf])
 ELLIPSE_ROWS = (np.array([0], dtype=np.int64), np.array([[0.0, 0.0, 1.0, 2.0, 0.0, 1.0]]))
 
 OBSERVERS = {"fast": observer_step, "reference": reference.observer_step}
-TRACKERS = {"fast": control.track_input, "reference": reference.track_input}
-REGULATORS = {"fast": control.regulate_input, "reference": reference.regulate_input}
+TRACKERS = {"fast": paper.track_input, "reference": reference.track_input}
+REGULATORS = {"fast": paper.regulate_input, "reference": reference.regulate_input}
 
 
 @pytest.mark.parametrize("kind", list(OBSERVERS))
@@ -82,7 +83,7 @@ def test_ekf_step(benchmark: BenchmarkFixture, kind: str) -> None:
 def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
     work, u = scratch(), np.zeros(2)
     path_point = np.array([1.02, 2.01, 1.0, 0.0])
-    tracking = Controller(0.1, 0.9, Q, R, W, M, control.BEARING, 0.01, True)
+    tracking = Controller(0.1, 0.9, Q, R, W, M, paper.BEARING, 0.01, True)
 
     def step() -> None:
         TRACKERS[kind](
@@ -97,8 +98,8 @@ def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
 @pytest.mark.parametrize("kind", list(REGULATORS))
 @pytest.mark.parametrize("constrained", [False, True], ids=["free", "constrained"])
 def test_regulate_input(benchmark: BenchmarkFixture, kind: str, constrained: bool) -> None:
-    work, u, memory = scratch(), np.zeros(2), np.zeros(control.MEMORY_SIZE)
-    controller = Controller(0.05, 0.0, Q, R, W, M, control.BEARING, 0.01, True)
+    work, u, memory = scratch(), np.zeros(2), np.zeros(paper.MEMORY_SIZE)
+    controller = Controller(0.05, 0.0, Q, R, W, M, paper.BEARING, 0.01, True)
     kinds, params = ELLIPSE_ROWS if constrained else (np.zeros(0, dtype=np.int64), np.zeros((0, 6)))
     target = np.array([0.0, 0.0, 0.0])
 
@@ -110,7 +111,7 @@ def test_regulate_input(benchmark: BenchmarkFixture, kind: str, constrained: boo
 
     benchmark(step)
     assert np.all(np.isfinite(u))
-    assert memory[control.CORRECTED] == float(constrained)
+    assert memory[paper.CORRECTED] == float(constrained)
 
 
 @pytest.fixture(scope="module")

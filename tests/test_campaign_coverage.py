@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from wmr_mission._jit import plain
 from wmr_mission.campaign import coverage
 from wmr_mission.campaign.coverage import runs_per_pixel
+from wmr_mission.kernels.jit import plain
 
 VIEW = (0.0, 10.0, 0.0, 5.0)  # 1 m per pixel on a 10 x 5 canvas
 SHAPE = (5, 10)

@@ -10,12 +10,12 @@ import pytest
 from geometry import distance_to_ellipse
 from hand_built import ELLIPSE_ROWS, case1, case2, mission, regulate_only, spiral
 
-from wmr_mission.compiled import CompiledPhase, Conditions
-from wmr_mission.control import BEARING, DEVIATION, INCREMENT, saturate, track_input
-from wmr_mission.model import step
-from wmr_mission.params import Controller, Robot, scratch
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.controllers.paper import BEARING, DEVIATION, INCREMENT, saturate, track_input
+from wmr_mission.kernels.model import step
+from wmr_mission.kernels.records import Controller, Robot, scratch
+from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.sim.plan import CompiledPhase, Conditions
+from wmr_mission.sim.runner import run_mission
 
 
 def wrap(a: np.ndarray | float) -> np.ndarray | float:
@@ -191,7 +191,7 @@ def test_scheduled_gain_is_nearly_constant_but_for_the_heading_gain() -> None:
     # LQR-derived gains; over 0..10 m/s (Q = R = I, dt = 0.01) the longitudinal
     # and lateral gains stay near 0.995 while the heading gain grows from
     # 0.995 at rest to 4.53 at 10 m/s.
-    from wmr_mission.control import MEMORY_SIZE, scheduled_gain
+    from wmr_mission.controllers.paper import MEMORY_SIZE, scheduled_gain
 
     work = scratch()
     heading_gains = []

@@ -21,15 +21,15 @@ import yaml
 from pinned_trajectories import assert_matches_pin
 from scipy import stats
 
-from wmr_mission import runner
-from wmr_mission.disturbances import Draws, Settings
-from wmr_mission.ekf import ekf_predict, ekf_step
-from wmr_mission.model import step
-from wmr_mission.observer import observer_step
+from wmr_mission.estimators.ekf import ekf_predict, ekf_step
+from wmr_mission.estimators.observer import observer_step
+from wmr_mission.kernels.disturbances import Draws, Settings
+from wmr_mission.kernels.model import step
+from wmr_mission.kernels.records import ekf_params, observer_params
+from wmr_mission.output.result import Outcome, RunResult
 from wmr_mission.output.rundir import trajectory_csv_text, write_trajectory
-from wmr_mission.params import ekf_params, observer_params
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.sim import runner
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -338,7 +338,7 @@ def test_ekf_innovation_gate_rejects_a_wild_measurement() -> None:
     np.testing.assert_array_equal(after, predicted)
     np.testing.assert_array_equal(after_cov, predicted_cov)
     # The reference step (numpy) gates alike.
-    from wmr_mission.reference import ekf_step as reference_ekf_step
+    from wmr_mission.sim.reference import ekf_step as reference_ekf_step
 
     oracle, oracle_cov = estimate.copy(), covariance.copy()
     reference_ekf_step(oracle, oracle_cov, 1.0, 0.5, 0.01, wild, gated, work)
@@ -368,7 +368,7 @@ def test_observer_phase_two_clamps_the_estimate_to_the_outliers_bound() -> None:
 
 
 def test_bench_times_the_loop_with_and_without_disturbances() -> None:
-    from wmr_mission.bench import bench_mission, format_report
+    from wmr_mission.commands.bench import bench_mission, format_report
 
     mission = copy.deepcopy(BASE)
     mission["phases"][0]["until"] = {"elapsed": 0.5}

@@ -13,11 +13,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wmr_mission import loop, runner
-from wmr_mission.disturbances import Draws
+from wmr_mission.kernels import loop
+from wmr_mission.kernels.disturbances import Draws
+from wmr_mission.output.result import Outcome, RunResult
 from wmr_mission.output.rundir import write_trajectory
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.sim import runner
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -126,8 +127,8 @@ def guarded(*args, dir=None, **kwargs):
         raise PermissionError(13, "Permission denied", str(dir))
     return real(*args, dir=dir, **kwargs)
 tempfile.TemporaryFile = guarded
-import wmr_mission.runner  # every kernel is declared at import
-from wmr_mission import model
+import wmr_mission.sim.runner  # every kernel is declared at import
+from wmr_mission.kernels import model
 print(model.wrap_angle(7.0))
 """
 

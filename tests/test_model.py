@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from wmr_mission.model import f, hypot, input_jacobian, state_jacobian, step, wrap_angle
+from wmr_mission.kernels.model import f, hypot, input_jacobian, state_jacobian, step, wrap_angle
 
 
 def central_difference(fun, point: np.ndarray, h: float = 1e-6) -> np.ndarray:  # type: ignore[no-untyped-def]

@@ -5,17 +5,17 @@ import itertools
 import numpy as np
 import pytest
 
-from wmr_mission.model import step
-from wmr_mission.observability import structurally_unobservable, unobservable_states
-from wmr_mission.observer import error_matrix, observer_step
-from wmr_mission.params import observer_params
-from wmr_mission.sensors import STATE_NAMES, measurement_mask
+from wmr_mission.basics import STATE_NAMES, measurement_mask
+from wmr_mission.estimators.observability import structurally_unobservable, unobservable_states
+from wmr_mission.estimators.observer import error_matrix, observer_step
+from wmr_mission.kernels.model import step
+from wmr_mission.kernels.records import observer_params
 
 SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATE_NAMES, n)]
 
 
 def expected_eigenvalues(measured: list[str], poles: np.ndarray, moving: bool) -> list[float]:
-    """The design of wmr_mission.observer, written out per measurement set."""
+    """The design of wmr_mission.estimators.observer, written out per measurement set."""
     names = set(measured)
     if "theta" in names:
         return [poles[i] if STATE_NAMES[i] in names else 1.0 for i in range(3)]
@@ -201,7 +201,7 @@ def test_phase_two_iteration_matrix_is_not_a_contraction() -> None:
     # eigenvalues 0 (violated outputs) and 1 (the others): spectral radius 1,
     # and its 2-norm exceeds 1 once the robot moves. Phase II lands on the
     # bound in one step because D (I - H D) = 0, not because it contracts.
-    from wmr_mission.model import state_jacobian
+    from wmr_mission.kernels.model import state_jacobian
 
     a = state_jacobian(np.array([0.0, 0.0, 0.7]), np.array([2.0, 0.5]), 0.01)
     d = np.array([[1.0, 0.0, 0.0]])  # x violated

@@ -19,16 +19,16 @@ from scipy.spatial import cKDTree
 from test_output_figures import _many_phases
 from test_output_synthetic import circle_run
 
+import wmr_mission.output.figures as plots_module
 import wmr_mission.output.metrics as metrics_module
-import wmr_mission.output.plots as plots_module
 import wmr_mission.output.rundir as rundir_module
 from wmr_mission.api import load_mission, run_mission
+from wmr_mission.commands.run import run_command
+from wmr_mission.output.figures import MAX_LEGEND_PHASES
 from wmr_mission.output.metrics import LOCAL_WINDOW, _PointGrid, distance_to_path, summarize
-from wmr_mission.output.plots import MAX_LEGEND_PHASES
 from wmr_mission.output.reader import load_run
+from wmr_mission.output.result import PhaseInfo, RunResult
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
-from wmr_mission.result import PhaseInfo, RunResult
-from wmr_mission.run_command import run_command
 
 MISSION = """version: 1
 name: short

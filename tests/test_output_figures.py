@@ -15,7 +15,7 @@ from matplotlib.colors import is_color_like, to_rgba
 from test_output_synthetic import circle_run
 
 from wmr_mission.output.animation import glyph_size
-from wmr_mission.output.plots import (
+from wmr_mission.output.figures import (
     REFERENCE_STYLE,
     draw_all,
     phase_colors,
@@ -25,7 +25,7 @@ from wmr_mission.output.plots import (
     plot_xy,
     view_box,
 )
-from wmr_mission.result import PhaseInfo, RunResult, Transition
+from wmr_mission.output.result import PhaseInfo, RunResult, Transition
 from wmr_mission.spec.models import NAMED_COLORS
 
 

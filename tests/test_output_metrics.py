@@ -22,7 +22,7 @@ from wmr_mission.output.metrics import (
     summarize,
     wrap_angle,
 )
-from wmr_mission.result import Outcome, PhaseInfo, RunResult
+from wmr_mission.output.result import Outcome, PhaseInfo, RunResult
 
 NO_EXPECT = {
     "final_position_error": None,

@@ -14,6 +14,13 @@ import pytest
 from test_output_synthetic import circle_run
 
 from wmr_mission.output.reader import RunDirError, load_run
+from wmr_mission.output.result import (
+    EXTRA_COLUMNS,
+    TRAJECTORY_COLUMNS,
+    Outcome,
+    PhaseInfo,
+    RunResult,
+)
 from wmr_mission.output.rundir import (
     RunDirExistsError,
     atomic_path,
@@ -21,7 +28,6 @@ from wmr_mission.output.rundir import (
     prepare_run_dir,
     write_run,
 )
-from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS, Outcome, PhaseInfo, RunResult
 
 RESOLVED: dict[str, Any] = {
     "version": 1,

@@ -7,8 +7,13 @@ import numpy as np
 import pytest
 from pydantic import TypeAdapter
 
-from wmr_mission.paths import Trajectory, WaypointsTrajectory, instantiate, sample_positions
-from wmr_mission.regions import region_value
+from wmr_mission.geometry.paths import (
+    Trajectory,
+    WaypointsTrajectory,
+    instantiate,
+    sample_positions,
+)
+from wmr_mission.geometry.regions import region_value
 from wmr_mission.spec.models import Mission, PathSpec
 
 PATH = TypeAdapter(PathSpec)

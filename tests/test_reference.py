@@ -14,18 +14,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wmr_mission import control, reference
-from wmr_mission.bench import one_blas_thread
-from wmr_mission.compiled import CompiledMission, compile_mission
-from wmr_mission.corrective import corrective_input_array
-from wmr_mission.ekf import ekf_step
-from wmr_mission.observer import observer_step
-from wmr_mission.params import Controller, Robot, ekf_params, observer_params, scratch
-from wmr_mission.reference import REFERENCE
-from wmr_mission.result import RunResult
-from wmr_mission.riccati import MIN_SPEED
-from wmr_mission.runner import FAST, run_mission
-from wmr_mission.sensors import STATE_NAMES, measurement_mask
+from wmr_mission.basics import STATE_NAMES, measurement_mask
+from wmr_mission.commands.bench import one_blas_thread
+from wmr_mission.controllers import paper
+from wmr_mission.estimators.ekf import ekf_step
+from wmr_mission.estimators.observer import observer_step
+from wmr_mission.kernels.corrective import corrective_input_array
+from wmr_mission.kernels.records import Controller, Robot, ekf_params, observer_params, scratch
+from wmr_mission.kernels.riccati import MIN_SPEED
+from wmr_mission.output.result import RunResult
+from wmr_mission.sim import reference
+from wmr_mission.sim.plan import CompiledMission, compile_mission
+from wmr_mission.sim.reference import REFERENCE
+from wmr_mission.sim.runner import FAST, run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -335,7 +336,7 @@ def test_track_input_matches(
             look_ahead, error_decay, np.ones(3), np.ones(2), w, m, 0, 0.01, False
         )
         robot = Robot(DT, limits)
-        control.track_input(
+        paper.track_input(
             estimate, u_prev, reference_now, reference_point, controller, robot, scratch(), fast
         )
         reference.track_input(
@@ -377,7 +378,7 @@ def violated_rows(
     return np.array(kinds, dtype=np.int64)[order], np.array(params)[order]
 
 
-FORMS = {"bearing": control.BEARING, "deviation": control.DEVIATION, "increment": control.INCREMENT}
+FORMS = {"bearing": paper.BEARING, "deviation": paper.DEVIATION, "increment": paper.INCREMENT}
 
 
 @pytest.mark.parametrize("violated", [0, 1, 2, 3])
@@ -394,9 +395,9 @@ def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generat
         w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
         limits = random_limits(rng, bool(trial % 2))
         outputs = []
-        for regulate in (control.regulate_input, reference.regulate_input):
-            memory = np.zeros(control.MEMORY_SIZE)
-            memory[control.ALIGNING] = float(trial % 2)
+        for regulate in (paper.regulate_input, reference.regulate_input):
+            memory = np.zeros(paper.MEMORY_SIZE)
+            memory[paper.ALIGNING] = float(trial % 2)
             u = np.zeros(2)
             controller = Controller(0.0, 0.0, q, r, w, m, FORMS[form], 0.01, bool(trial % 4))
             regulate(
@@ -406,9 +407,9 @@ def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generat
             outputs.append((u, memory))
         (fast, fast_memory), (slow, slow_memory) = outputs
         np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
-        assert fast_memory[control.ALIGNING] == slow_memory[control.ALIGNING]
-        assert fast_memory[control.CORRECTED] == slow_memory[control.CORRECTED]
-        corrected += int(slow_memory[control.CORRECTED])
+        assert fast_memory[paper.ALIGNING] == slow_memory[paper.ALIGNING]
+        assert fast_memory[paper.CORRECTED] == slow_memory[paper.CORRECTED]
+        corrected += int(slow_memory[paper.CORRECTED])
     assert corrected == (12 if violated else 0)
 
 
@@ -431,7 +432,7 @@ def test_scheduled_gain_matches(
         theta, omega = rng.uniform(-4, 4), rng.uniform(-3, 3)
         v = float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
         q, r = rng.uniform(0.1, 10, 3), rng.uniform(0.1, 10, 2)
-        control.scheduled_gain(theta, v, omega, DT, q, r, np.zeros(control.MEMORY_SIZE), work.gain)
+        paper.scheduled_gain(theta, v, omega, DT, q, r, np.zeros(paper.MEMORY_SIZE), work.gain)
         slow = reference.scheduled_gain(theta, v, omega, DT, q, r)
         scale = max(1.0, float(np.abs(slow).max()))
         np.testing.assert_allclose(work.gain, slow, rtol=0.0, atol=tolerance * scale)
@@ -449,13 +450,13 @@ def test_saturation_matches(rated: bool, rng: np.random.Generator) -> None:
     for _ in range(100):
         v, omega, v_prev, omega_prev = rng.normal(0.0, 10.0, 4)
         limits = random_limits(rng, rated)
-        assert control.saturate(v, omega, v_prev, omega_prev, limits, DT) == pytest.approx(
+        assert paper.saturate(v, omega, v_prev, omega_prev, limits, DT) == pytest.approx(
             reference.saturate(v, omega, v_prev, omega_prev, limits, DT), abs=1e-12
         )
 
 
 def test_wrap_angle_matches_the_kernels() -> None:
-    from wmr_mission.model import wrap_angle
+    from wmr_mission.kernels.model import wrap_angle
 
     for angle in (-7.0, -math.pi, -1.0, 0.0, 1.0, math.pi, 7.0, 1e3):
         assert reference.wrap_angle(angle) == wrap_angle(angle)

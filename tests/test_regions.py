@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pydantic import TypeAdapter
 
-from wmr_mission.regions import (
+from wmr_mission.geometry.regions import (
     ELLIPSE_ROW,
     HALF_PLANE_ROW,
     constraint_rows,

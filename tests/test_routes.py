@@ -12,8 +12,8 @@ from geometry import outside_hull
 from pydantic import TypeAdapter
 from scipy.interpolate import CubicSpline
 
-from wmr_mission.paths import RouteTrajectory, WaypointsTrajectory, instantiate
-from wmr_mission.routes import TURN_CREEP
+from wmr_mission.geometry.paths import RouteTrajectory, WaypointsTrajectory, instantiate
+from wmr_mission.geometry.routes import TURN_CREEP
 from wmr_mission.spec.models import Mission, PathSpec
 
 PATH = TypeAdapter(PathSpec)
@@ -253,7 +253,7 @@ def test_coverage_lanes_are_at_most_the_spacing_apart_with_semicircle_turns() ->
 
 
 def test_compiled_track_phases_expose_the_points_their_paths_are_drawn_through() -> None:
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.sim.plan import compile_mission
     from wmr_mission.spec.loader import load_mission
 
     root = Path(__file__).resolve().parents[1]

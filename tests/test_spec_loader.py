@@ -88,7 +88,7 @@ def test_default_output_error_bounds_cover_measured_states_only() -> None:
 
 def test_default_initial_estimate_is_the_initial_state() -> None:
     # A mission starting at (5, 5) used to begin 5.7 m off, at the paper's [1, 1, 0].
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.sim.plan import compile_mission
 
     text = MINIMAL.replace("phases:", "robot: {initial_state: {x: 5, y: 5, theta: 2}}\nphases:")
     for estimator in ("", "estimator: {type: ekf}\n"):

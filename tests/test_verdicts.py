@@ -19,10 +19,10 @@ import yaml
 from geometry import distance_to_ellipse
 from test_case_studies import read_trajectory, run
 
-from wmr_mission.compiled import compile_mission
 from wmr_mission.output.metrics import judge
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.sim.plan import compile_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.models import Mission
 
 DATA = Path(__file__).resolve().parent / "data"

@@ -16,17 +16,17 @@ from test_routes import share_covered
 from typer.testing import CliRunner
 
 from wmr_mission.cli import app
-from wmr_mission.constrained_tracking import (
+from wmr_mission.controllers.constrained_tracking import (
     constrained_change,
     keep_constraints,
     keep_reference,
     row_value_with_margin,
 )
-from wmr_mission.control import BEARING, input_jacobian_into, saturate, track_input
-from wmr_mission.corrective import corrective_input, row_value
-from wmr_mission.model import step
-from wmr_mission.params import Controller, Robot, scratch
-from wmr_mission.regions import constraint_rows
+from wmr_mission.controllers.paper import BEARING, input_jacobian_into, saturate, track_input
+from wmr_mission.geometry.regions import constraint_rows
+from wmr_mission.kernels.corrective import corrective_input, row_value
+from wmr_mission.kernels.model import step
+from wmr_mission.kernels.records import Controller, Robot, scratch
 from wmr_mission.spec.loader import load_mission
 from wmr_mission.spec.models import CircleRegion
 from wmr_mission.spec.repeats import run_order

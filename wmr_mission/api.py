@@ -16,7 +16,7 @@ from wmr_mission.spec import loader
 from wmr_mission.spec.loader import MissionError, Override
 
 if TYPE_CHECKING:
-    from wmr_mission.result import RunResult
+    from wmr_mission.output.result import RunResult
     from wmr_mission.spec.models import Mission
 
 __all__ = [
@@ -72,7 +72,7 @@ def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
     :class:`MissionError` when the mission is invalid (e.g. a copy made with
     ``model_copy(update=...)``, which pydantic does not validate).
     """
-    from wmr_mission.runner import run_mission as simulate
+    from wmr_mission.sim.runner import run_mission as simulate
     from wmr_mission.spec.models import Mission
 
     if not isinstance(mission, Mission):

@@ -21,8 +21,8 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial import ConvexHull
 
 from wmr_mission import load_mission, run_mission
-from wmr_mission.output.plots import plot_xy
-from wmr_mission.paths import RouteTrajectory, instantiate
+from wmr_mission.geometry.paths import RouteTrajectory, instantiate
+from wmr_mission.output.figures import plot_xy
 from wmr_mission.spec.models import Mission, PathSpec
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from wmr_mission._jit import kernel
+from wmr_mission.kernels.jit import kernel
 
 __all__ = ["runs_per_pixel"]
 

@@ -11,8 +11,8 @@ import numpy as np
 
 from wmr_mission.campaign.aggregate import DRAWN_PATHS, Aggregate
 from wmr_mission.campaign.coverage import runs_per_pixel
-from wmr_mission.campaign.runs import METRICS
-from wmr_mission.output.plots import _new_figure, _region_extent, draw_regions, save_figure
+from wmr_mission.campaign.rows import METRICS
+from wmr_mission.output.figures import _new_figure, _region_extent, draw_regions, save_figure
 
 __all__ = ["draw_campaign"]
 

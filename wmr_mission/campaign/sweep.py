@@ -30,8 +30,8 @@ from wmr_mission.campaign.engine import (
 )
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
 from wmr_mission.campaign.plan import Plan
-from wmr_mission.campaign.runs import Row, header, replay_command, simulate
-from wmr_mission.environment import environment
+from wmr_mission.campaign.rows import Row, header, replay_command, simulate
+from wmr_mission.output.environment import environment
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     RunDirExistsError,

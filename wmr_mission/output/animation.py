@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.output.plots import draw_regions, finite, names_as_typed, thin, view_box
+from wmr_mission.output.figures import draw_regions, finite, names_as_typed, thin, view_box
+from wmr_mission.output.result import FloatArray, RunResult
 from wmr_mission.output.rundir import atomic_path
-from wmr_mission.result import FloatArray, RunResult
 
 MAX_FRAMES = 200
 FPS = 20

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
+from wmr_mission.output.result import FloatArray, Outcome, PhaseInfo, RunResult
 from wmr_mission.spec import models
 
 STATES = ("x", "y", "theta")

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from wmr_mission.output.result import Outcome, PhaseInfo, RunResult, Transition
 from wmr_mission.output.rundir import (
     CSV_COLUMNS,
     MANIFEST_FILE,
@@ -29,7 +30,6 @@ from wmr_mission.output.rundir import (
     TRAJECTORY_FILE,
     TRANSITIONS_FILE,
 )
-from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
 from wmr_mission.spec.models import MISSION_NAME, is_color
 
 # Run directories written before the measurement was recorded: still readable.

@@ -39,9 +39,9 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.environment import environment
+from wmr_mission.output.environment import environment
 from wmr_mission.output.metrics import check_expectations, summarize
-from wmr_mission.result import (
+from wmr_mission.output.result import (
     EXTRA_COLUMNS,
     TRAJECTORY_COLUMNS,
     RunResult,
@@ -374,7 +374,7 @@ def manifest_record(
         "resolved_mission": resolved_mission,
         "seed": result.seed,
         "versions": package_versions(),
-        # What else decides the bytes, and its fingerprint (wmr_mission.environment).
+        # What else decides the bytes, and its fingerprint (wmr_mission.output.environment).
         "environment": environment(),
         # How the loop ran, known only for a run simulated in this process
         # (one rebuilt from its directory carries no timing).
@@ -388,7 +388,7 @@ def loop_build() -> str:
     (the first runs after an install, ``WMR_MISSION_NO_JIT=1``, no numba), a
     hundred times slower per sample: summary.json's ``loop_us_per_sample`` is
     read against it."""
-    from wmr_mission._jit import COMPILED
+    from wmr_mission.kernels.jit import COMPILED
 
     return "compiled" if COMPILED else "plain Python"
 
@@ -459,7 +459,7 @@ def write_figures(
     animation; return the files written."""
     written = []
     if plots:
-        from wmr_mission.output.plots import draw_all
+        from wmr_mission.output.figures import draw_all
 
         written += draw_all(result, run_dir, formats)
     if animate:

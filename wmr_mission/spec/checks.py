@@ -192,7 +192,7 @@ def _estimator_keys(mission: Mission) -> Iterator[Finding]:
 
 
 def _regions(mission: Mission) -> Iterator[Finding]:
-    from wmr_mission.regions import is_convex
+    from wmr_mission.geometry.regions import is_convex
 
     for name, region in mission.regions.items():
         if isinstance(region, PolygonRegion) and not is_convex(region.vertices):
@@ -255,7 +255,7 @@ def _breaches(
 ) -> Iterator[tuple[int, str, str, str]]:
     """(constraint number, region name, required side, actual side) of each
     constraint of ``phase`` that the point (x, y) breaks."""
-    from wmr_mission.regions import region_value
+    from wmr_mission.geometry.regions import region_value
 
     for number, constraint in enumerate(phase.constraints):
         inside = isinstance(constraint, StayInside)
@@ -386,14 +386,14 @@ def _feasible_sets(mission: Mission) -> Iterator[Finding]:
 
 
 def _meets(region: RegionSpec, inside: bool, x: FloatArray, y: FloatArray) -> NDArray[np.bool_]:
-    from wmr_mission.regions import region_value
+    from wmr_mission.geometry.regions import region_value
 
     value = region_value(region, x, y)
     return np.asarray(value <= 1e-9 if inside else value >= -1e-9)
 
 
 def _candidates(mission: Mission, regions: list[RegionSpec]) -> tuple[FloatArray, FloatArray]:
-    from wmr_mission.regions import ellipse_geometry
+    from wmr_mission.geometry.regions import ellipse_geometry
 
     start = mission.robot.initial_state
     xs: list[float] = [start.x]
@@ -569,8 +569,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
     its end, or the previous target). Kept this simple on
     purpose: the check only has to catch a path that plainly misses.
     """
-    from wmr_mission import paths
-    from wmr_mission.regions import region_value
+    from wmr_mission.geometry import paths
+    from wmr_mission.geometry.regions import region_value
 
     start = mission.robot.initial_state
     pose: Pose = (start.x, start.y, start.theta)
@@ -748,7 +748,7 @@ def _phase_colors(mission: Mission) -> Iterator[Finding]:
 
 def _control(mission: Mission) -> Iterator[Finding]:
     """Traps of the tracking law and of eq. (1) at the configured limits."""
-    from wmr_mission.compiled import tracking_error_decay, tracking_look_ahead
+    from wmr_mission.sim.plan import tracking_error_decay, tracking_look_ahead
 
     robot = mission.robot
     limits = robot.limits
