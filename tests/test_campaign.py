@@ -250,7 +250,7 @@ def test_campaign_outputs_and_replay_of_the_worst_run(tmp_path: Path) -> None:
     assert record["metrics"]["final_position_error"]["max"] == max(errors)
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["resolved_campaign"]["runs"] == 16
-    assert manifest["loop"] == ("compiled" if jit.COMPILED else "plain Python")
+    assert manifest["loop"] == ("compiled" if jit.compiling() else "plain Python")
 
     # Each worst run has its directory, those of the workers and the one this process takes
     written = sorted(int(d.name) for d in (out / "worst").iterdir())

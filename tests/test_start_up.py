@@ -27,7 +27,7 @@ from wmr_mission.spec.loader import load_mission
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 PLAIN_NOTICE = "running as plain Python while the simulation loop compiles in the background"
 
-pytestmark = pytest.mark.skipif(not jit.COMPILED, reason="the compiled build only")
+pytestmark = pytest.mark.skipif(not jit.compiling(), reason="the compiled build only")
 
 
 def _env(cache: Path, **more: str) -> dict[str, str]:
@@ -57,11 +57,8 @@ def start():
 background_compile._start = start
 def loaded():
     # Each compiled function Python calls loads its own cache entry.
-    called = sorted({
-        value.py_func.__name__
-        for name, module in list(sys.modules.items()) if name.startswith("wmr_mission")
-        for value in vars(module).values() if getattr(value, "signatures", None)
-    })
+    from wmr_mission.kernels import jit
+    called = jit.entries()
     with open(record, "a") as f:
         f.write(f"numba loaded: {'numba' in sys.modules}\\n")
         if called:
@@ -161,7 +158,8 @@ PREPARE = """
 import sys
 from wmr_mission.commands.background_compile import prepare
 print(prepare(int(sys.argv[1])))
-print("wmr_mission.kernels.jit" in sys.modules, "numba" in sys.modules)
+from wmr_mission.kernels import jit
+print(jit.loaded(), "numba" in sys.modules)
 """
 
 
@@ -183,31 +181,21 @@ def test_a_long_mission_or_the_setting_compiles_in_the_foreground(
     assert done.returncode == 0, done.stderr
     printed = done.stdout.splitlines()
     assert notice in printed[0]
-    assert printed[1] == declared  # nothing declared yet: the run compiles as before
+    assert printed[1] == declared  # nothing loaded yet: the run compiles as before
 
 
-def test_the_warm_up_compiles_the_loop_every_mission_runs(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    import numba
-
+def test_the_warm_up_compiles_the_loop_every_mission_runs() -> None:
     from wmr_mission.spec.loader import check_mission_bytes
 
-    argument_types = set()
-    compiled_loop = loop.run_segment
-
-    def spy(*arguments: object) -> int:
-        argument_types.add(numba.typeof(arguments))
-        return int(compiled_loop(*arguments))
-
-    monkeypatch.setattr(loop, "run_segment", spy)
+    compiled_loop = jit.compiled(loop.run_segment, counted=False)
     warm_up, _ = check_mission_bytes(background_compile.WARM_UP_MISSION, "warm-up.yaml", [])
     assert warm_up is not None
     run_mission(compile_mission(warm_up))
-    assert len(argument_types) == 1
+    warmed_up = set(compiled_loop.signatures)  # type: ignore[attr-defined]
+    assert len(warmed_up) == 1
     for path in sorted(MISSIONS.glob("*.yaml")):
         run_mission(compile_mission(load_mission(path)))
-        assert len(argument_types) == 1, path.name
+        assert set(compiled_loop.signatures) == warmed_up, path.name  # type: ignore[attr-defined]
 
 
 def test_the_bound_is_the_sample_budget_of_a_case_study() -> None:
@@ -287,7 +275,7 @@ def test_the_plain_form_of_a_kernel_calls_no_compiled_code() -> None:
     estimate = np.array([5.2, 1.0, 0.3])
     phase = runner.ActivePhase(mission.phases[-1], mission, 2).enter(7, estimate)
     rows = []
-    for write in (loop.record_sample, plain):
+    for write in (jit.compiled(loop.record_sample), plain):
         record = runner.Recorder(4).record
         write(record, phase, 0.07, 5.3, 1.1, 0.2, estimate, np.ones(2), np.nan, np.nan, 3, estimate)
         rows.append(record.floats[0].copy())
@@ -309,7 +297,7 @@ def test_the_loop_is_compiled_counted_where_numba_lacks_the_option(
     def steer(x: float) -> float:
         return 2.0 * x
 
-    compiled = jit.uncounted(steer)
+    compiled = jit.compiled(steer, counted=False)
     assert compiled(1.5) == 3.0
     assert "_nrt" not in compiled.targetoptions  # type: ignore[attr-defined]
 

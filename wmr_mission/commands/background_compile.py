@@ -22,14 +22,12 @@ test suite sets it: no process outlives a test).
 from __future__ import annotations
 
 import contextlib
-import importlib
-import importlib.util
 import os
 import subprocess
 import sys
 from pathlib import Path
 
-from wmr_mission.kernels import cache
+from wmr_mission.kernels import cache, jit
 
 # As plain Python the example missions take 0.1-0.9 ms per sample (`python
 # benchmarks/measure.py plain`), a compile of the loop 20-30 s: up to this
@@ -39,7 +37,7 @@ PLAIN_PYTHON_SAMPLES = 30_000
 READY = "kernels-ready"
 LOCK = "compiling.lock"
 FOREGROUND = "WMR_MISSION_FOREGROUND_COMPILE"
-NO_JIT = "WMR_MISSION_NO_JIT"
+NO_JIT = jit.NO_JIT
 
 # One short run compiles what any mission runs: the loop's argument types do
 # not depend on the mission (tests/test_start_up.py), and the only other
@@ -87,16 +85,15 @@ def _ready(directory: Path) -> bool:
 
 
 def prepare(max_samples: int) -> str | None:
-    """Called by ``run`` before any kernel is declared: declares them as plain
-    Python and starts the background compile when the compiled loop is not in
+    """Called by ``run`` before the loop is loaded: chooses plain Python for
+    this run and starts the background compile when the compiled loop is not in
     the cache and ``max_samples`` is short enough. Returns the line of notice
     to print, or None (the compiled loop, cached: nothing to say)."""
     if (
-        "wmr_mission.kernels.jit" in sys.modules  # declared already (a library caller)
+        jit.loaded()  # compiled already (a library caller)
         or os.environ.get(FOREGROUND, "") not in ("", "0")
-        or os.environ.get(NO_JIT, "") not in ("", "0")
+        or not jit.compiling()  # WMR_MISSION_NO_JIT=1, or no numba
         or os.name != "posix"  # a detached low-priority process with a lock
-        or importlib.util.find_spec("numba") is None
     ):
         return None
     directory = cache.cache_directory()
@@ -109,7 +106,7 @@ def prepare(max_samples: int) -> str | None:
             "wmr-mission: compiling the simulation loop for this long mission "
             "(about 20 s, once: later runs load it from the cache)"
         )
-    _declare_plain_python()
+    jit.choose_plain_python()
     if directory is None:
         return "wmr-mission: running as plain Python: no cache to keep a compiled loop in"
     _start()
@@ -117,20 +114,6 @@ def prepare(max_samples: int) -> str | None:
         "wmr-mission: running as plain Python while the simulation loop compiles "
         "in the background for the next runs"
     )
-
-
-def _declare_plain_python() -> None:
-    """Declare the kernels as plain Python, as ``WMR_MISSION_NO_JIT=1`` does,
-    without passing that setting on to processes this one starts."""
-    before = os.environ.get(NO_JIT)
-    os.environ[NO_JIT] = "1"
-    try:
-        importlib.import_module("wmr_mission.kernels.jit")
-    finally:
-        if before is None:
-            del os.environ[NO_JIT]
-        else:
-            os.environ[NO_JIT] = before
 
 
 def _start() -> None:

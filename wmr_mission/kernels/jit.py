@@ -1,9 +1,25 @@
-"""Optional compilation of the per-sample kernels.
+"""Kernels: plain Python, compiled by numba only where compiled code needs them.
 
-Every kernel is written once, in the subset of Python that numba compiles. When
-numba is missing, or ``WMR_MISSION_NO_JIT=1`` is set, the very same functions
-run as plain Python: slower, same equations. Compiled kernels are cached on
-disk where a directory can be written (wmr_mission.kernels.cache).
+Every per-sample function is written once, in the subset of Python numba
+compiles, and declared with :func:`kernel` (or :func:`inlined`). Declaring
+loads nothing: a kernel called from Python runs as plain Python, so a module
+of kernels can be imported by whoever needs its other contents (a mission's
+settings, for validation) without paying for numba.
+
+Numba is loaded by the first :func:`compiled` call, which returns the
+compiled form of an entry point that Python calls (the loop, the math of
+paths, a campaign's pixel counts). Once loaded, numba is told two things
+through its public extension API: a kernel named in compiled code is its own
+compiled dispatcher (``typeof_impl``), and an inlined kernel is compiled into
+each caller (``overload`` with ``inline="always"``). The compiled loop is the
+same machine code as if every kernel had been an ``njit`` function all along.
+
+When numba is missing, ``WMR_MISSION_NO_JIT=1`` is set, or the run chose plain
+Python (:func:`choose_plain_python`: the first runs after an install,
+wmr_mission.commands.background_compile), :func:`compiled` returns the plain
+form instead: slower, the same equations, the same bytes. Compiled entry
+points are cached on disk where a directory can be written
+(wmr_mission.kernels.cache).
 """
 
 from __future__ import annotations
@@ -13,55 +29,73 @@ import os
 import platform
 import time
 import types
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, TypeVar, cast
 
 F = TypeVar("F", bound=Callable[..., Any])
 
-_DISABLED = os.environ.get("WMR_MISSION_NO_JIT", "") not in ("", "0")
+NO_JIT = "WMR_MISSION_NO_JIT"
 
 # With Intel's short vector math library installed (icc_rt), numba would
 # vectorise loops of math functions with it: results chosen by the CPU's SIMD
-# level (wmr_mission.kernels.scalar_math). Read by numba at import.
+# level (wmr_mission.kernels.scalar_math). Read by numba as it loads.
 os.environ["NUMBA_DISABLE_INTEL_SVML"] = "1"
 
-_njit: Callable[..., Any] | None = None
-_CACHED = False
-if not _DISABLED and importlib.util.find_spec("numba") is not None:
-    from wmr_mission.kernels import cache
-
-    _directory = cache.cache_directory()
-    if _directory is not None:  # before numba loads: it reads its cache directory then
-        cache.point_numba_at(_directory)
-        _CACHED = True
-    try:
-        import numba
-
-        _njit = numba.njit
-    except ImportError:  # pragma: no cover - a numba that cannot load (another numpy)
-        _njit = None
-
-COMPILED = _njit is not None
+# Options of every compiled kernel. error_model="numpy": a division by zero
+# gives inf or nan, as in plain Python, never a Python exception out of the
+# compiled loop; the runner reports a non-finite input or state as a divergence.
+_OPTIONS: dict[str, Any] = {"nogil": True, "error_model": "numpy"}
 
 
-def _compile(fn: F, **options: Any) -> F:
-    assert _njit is not None
-    if _CACHED:
-        try:
-            return cast(F, _njit(cache=True, **options)(fn))
-        except RuntimeError:  # no cache locator after all: compile uncached
-            pass
-    return cast(F, _njit(**options)(fn))
+class Kernel:
+    """A per-sample function. Called from Python it runs as plain Python; named
+    in compiled code it is compiled (once numba is loaded, see the module)."""
+
+    def __init__(self, function: Callable[..., Any], inline: bool) -> None:
+        self.py_func = function
+        self.inline = inline
+        self.__name__ = function.__name__
+        self.__qualname__ = function.__qualname__
+        self.__module__ = function.__module__
+        self.__doc__ = function.__doc__
+        self._dispatcher: Any = None
+
+    def __call__(self, *args: Any) -> Any:
+        return self.py_func(*args)
+
+    def __repr__(self) -> str:
+        return f"<kernel {self.__module__}.{self.__qualname__}>"
+
+    def dispatcher(self) -> Any:
+        """numba's dispatcher of this kernel (numba loaded)."""
+        if self._dispatcher is None:
+            self._dispatcher = _njit()(cache=_state.cached, **_OPTIONS)(self.py_func)
+        return self._dispatcher
+
+
+class _State:
+    plain_chosen = False  # choose_plain_python() was called
+    numba: Any = None  # the numba module, once loaded
+    cached = False  # compiled code is kept on disk
+    kernels: list[Kernel] = []  # noqa: RUF012 - every declared kernel
+    hooks: list[Callable[[], None]] = []  # noqa: RUF012 - run once numba is loaded
+    entries: dict[tuple[int, bool], Any] = {}  # noqa: RUF012 - compiled entry points
+
+
+_state = _State()
+
+
+def _declare(function: Callable[..., Any], inline: bool) -> Kernel:
+    declared = Kernel(function, inline)
+    _state.kernels.append(declared)
+    if _state.numba is not None and inline:
+        _teach_inline(declared)
+    return declared
 
 
 def kernel(fn: F) -> F:
-    """Compile ``fn`` with numba (cached on disk) when available; else return it as is."""
-    if _njit is None:
-        return fn
-    # error_model="numpy": a division by zero gives inf or nan, as in the
-    # pure-Python build, never a Python exception out of the compiled loop;
-    # the runner reports a non-finite input or state as a divergence.
-    return _compile(fn, nogil=True, error_model="numpy")
+    """Declare ``fn`` a kernel (see the module)."""
+    return cast(F, _declare(fn, inline=False))
 
 
 def inlined(fn: F) -> F:
@@ -69,84 +103,116 @@ def inlined(fn: F) -> F:
     (numba's ``inline="always"``) instead of called there: for the kernels the
     loop runs once per sample with whole records (a phase, the controller, the
     estimator), which cost more to pass, tens of machine words each, than much
-    of their work (docs/performance.md). From Python it is called like any
-    kernel."""
-    if _njit is None:
-        return fn
-    return _compile(fn, nogil=True, error_model="numpy", inline="always")
+    of their work (docs/performance.md)."""
+    return cast(F, _declare(fn, inline=True))
 
 
-def plain(function: F, _made: dict[int, Any] | None = None) -> F:
-    """The plain-Python form of a kernel, calling the plain-Python form of the
-    kernels it calls: the same bytes, and no compiled entry loaded from the
-    cache (each costs tens of milliseconds) for a call made once per run."""
-    source = getattr(function, "py_func", None)
-    if source is None:
-        return function
-    made = {} if _made is None else _made
-    if id(function) not in made:
-        namespace = dict(source.__globals__)
-        made[id(function)] = types.FunctionType(
-            source.__code__, namespace, source.__name__, source.__defaults__, source.__closure__
-        )
-        for name, value in namespace.items():
-            if hasattr(value, "py_func"):
-                namespace[name] = plain(value, made)
-    return cast(F, made[id(function)])
+def when_loaded(hook: Callable[[], None]) -> None:
+    """Run ``hook`` once numba is loaded (now if it is): for what numba must
+    be taught before it compiles (wmr_mission.kernels.variants)."""
+    if _state.numba is not None:
+        hook()
+    else:
+        _state.hooks.append(hook)
 
 
-def _time_stamp_counter() -> Callable[[], int] | None:
-    """A compiled read of the processor's time-stamp counter (x86-64 only:
-    elsewhere the cycle counter may not be readable from user space)."""
-    if _njit is None or platform.machine().lower() not in ("x86_64", "amd64"):
-        return None
-    from llvmlite import ir
-    from numba import types
-    from numba.extending import intrinsic
-
-    @intrinsic
-    def read_counter(typingctx: Any) -> Any:
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            function_type = ir.FunctionType(ir.IntType(64), [])
-            counter = builder.module.declare_intrinsic("llvm.readcyclecounter", fnty=function_type)
-            return builder.call(counter, [])
-
-        return types.int64(), codegen
-
-    def counter() -> int:
-        return read_counter()  # type: ignore[call-arg]
-
-    return _compile(counter, nogil=True)
+def choose_plain_python() -> None:
+    """Run this process's kernels as plain Python, without loading numba (a
+    first run while the compiled loop is not cached yet)."""
+    _state.plain_chosen = True
 
 
-def _zero() -> int:
-    return 0
+def compiling() -> bool:
+    """Whether :func:`compiled` compiles here: numba is installed, not turned
+    off by ``WMR_MISSION_NO_JIT=1``, and plain Python was not chosen."""
+    if _state.plain_chosen or os.environ.get(NO_JIT, "") not in ("", "0"):
+        return False
+    return _state.numba is not None or importlib.util.find_spec("numba") is not None
 
 
-# ``ticks()``: a clock cheap enough to read twice per sample inside the loop.
-# Compiled on x86-64 it counts processor cycles (the runner converts them to
-# nanoseconds against time.perf_counter_ns over the run); as plain Python it
-# is time.perf_counter_ns; compiled elsewhere there is no such clock: 0.
-_counter = _time_stamp_counter()
-TICKS_ARE_NS = _njit is None
-TICKS_TIMED = _njit is None or _counter is not None
-ticks: Callable[[], int] = (
-    time.perf_counter_ns if _njit is None else _counter if _counter is not None else _compile(_zero)
-)
+def loaded() -> bool:
+    """Whether this process loaded numba for its kernels."""
+    return _state.numba is not None
 
 
-def uncounted(fn: F) -> F:
-    """:func:`kernel` without numba's reference counting (``_nrt=False``,
+def entries() -> list[str]:
+    """The names of the compiled functions this process called or compiled,
+    each loaded from the cache or compiled once."""
+    dispatchers = [*_state.entries.values(), *(k._dispatcher for k in (*_state.kernels, ticks))]
+    return sorted({d.py_func.__name__ for d in dispatchers if d is not None and d.signatures})
+
+
+def _njit() -> Any:
+    assert _state.numba is not None
+    return _state.numba.njit
+
+
+def load() -> bool:
+    """Load numba (once) and teach it the kernels; False when not compiling."""
+    if _state.numba is not None:
+        return True
+    if not compiling():
+        return False
+    from wmr_mission.kernels import cache
+
+    directory = cache.cache_directory()
+    if directory is not None:  # before numba loads: it reads its cache directory then
+        cache.point_numba_at(directory)
+    try:
+        import numba
+    except ImportError:  # pragma: no cover - a numba that cannot load (another numpy)
+        _state.plain_chosen = True
+        return False
+    from numba.extending import typeof_impl
+
+    _state.numba = numba
+    _state.cached = directory is not None
+
+    @typeof_impl.register(Kernel)
+    def _typeof_kernel(value: Kernel, context: Any) -> Any:
+        # An inlined kernel has no type of its own: numba finds its overload.
+        return None if value.inline else numba.types.Dispatcher(value.dispatcher())
+
+    for declared in _state.kernels:
+        if declared.inline:
+            _teach_inline(declared)
+    _teach_ticks()
+    hooks, _state.hooks = _state.hooks, []
+    for hook in hooks:
+        hook()
+    return True
+
+
+def _teach_inline(declared: Kernel) -> None:
+    from numba.extending import overload
+
+    def implementation(*args: Any) -> Callable[..., Any]:
+        return declared.py_func
+
+    overload(declared, jit_options=cast(Any, _OPTIONS), inline="always", strict=False)(
+        implementation
+    )
+
+
+def compiled(fn: F, *, counted: bool = True) -> F:
+    """The form of ``fn`` Python should call: numba's compiled dispatcher
+    (cached on disk) when compiling, else plain Python (:func:`plain`).
+
+    ``counted=False`` compiles without numba's reference counting (``_nrt=False``,
     an option numba accepts though it documents it only for its developers),
-    for the loop: it allocates nothing, and the arrays it is handed stay
-    held by its Python caller for the call. Each array then reaches the
-    kernels it calls uncounted, so no call pays atomic count updates for
+    for the loop: it allocates nothing, and the arrays it is handed stay held
+    by its Python caller for the call, so no call pays atomic count updates for
     the records it passes (docs/performance.md)."""
-    if _njit is None:
-        return fn
-    if not _accepts_nrt_option():  # a numba without the option: counted, still correct
-        return kernel(fn)
-    return _compile(fn, nogil=True, error_model="numpy", _nrt=False)
+    if not load():
+        return plain(fn)
+    source = getattr(fn, "py_func", fn)
+    key = (id(source), counted)
+    if key not in _state.entries:
+        options = dict(_OPTIONS)
+        if not counted and _accepts_nrt_option():  # else counted: still correct
+            options["_nrt"] = False
+        _state.entries[key] = _njit()(cache=_state.cached, **options)(source)
+    return cast(F, _state.entries[key])
 
 
 def _accepts_nrt_option() -> bool:
@@ -157,3 +223,84 @@ def _accepts_nrt_option() -> bool:
     except ImportError:  # pragma: no cover - a numba without its CPU target module
         return False
     return hasattr(CPUTargetOptions, "_nrt")
+
+
+def plain(
+    function: F,
+    substitutes: Mapping[Any, Callable[..., Any]] | None = None,
+    _made: dict[int, Any] | None = None,
+) -> F:
+    """The plain-Python form of a kernel or entry point: a copy of the function
+    calling the plain-Python copies of the kernels it names, and
+    ``substitutes[k]`` (itself made plain) wherever it names a kernel ``k``
+    there: the loop with the reference step in place of the fast kernels
+    (wmr_mission.sim.reference), or with a variant's step in place of the
+    step that chooses it by its record's type (wmr_mission.kernels.variants).
+    The same bytes as compiled, and no call through :class:`Kernel` per sample."""
+    substitutes = substitutes or {}
+    made = {} if _made is None else _made
+    if _substituted(function, substitutes):
+        function = cast(F, substitutes[function])
+    source = getattr(function, "py_func", function)
+    if not isinstance(source, types.FunctionType):
+        return function
+    if id(source) not in made:
+        namespace = dict(source.__globals__)
+        made[id(source)] = types.FunctionType(
+            source.__code__, namespace, source.__name__, source.__defaults__, source.__closure__
+        )
+        for name, value in source.__globals__.items():
+            if isinstance(value, Kernel) or _substituted(value, substitutes):
+                namespace[name] = plain(value, substitutes, made)
+    return cast(F, made[id(source)])
+
+
+def _substituted(value: Any, substitutes: Mapping[Any, Callable[..., Any]]) -> bool:
+    try:
+        return value in substitutes
+    except TypeError:  # unhashable
+        return False
+
+
+# ``ticks()``: a clock cheap enough to read twice per sample inside the loop.
+# Compiled on x86-64 it counts processor cycles (the runner converts them to
+# nanoseconds against time.perf_counter_ns over the run); as plain Python it
+# is time.perf_counter_ns; compiled elsewhere there is no such clock: 0.
+def _nanoseconds() -> int:
+    return time.perf_counter_ns()
+
+
+ticks = Kernel(_nanoseconds, inline=False)
+
+
+def cycle_counter() -> bool:
+    """Whether compiled code can read the processor's cycle counter here
+    (x86-64 only: elsewhere it may not be readable from user space)."""
+    return platform.machine().lower() in ("x86_64", "amd64")
+
+
+def _teach_ticks() -> None:
+    if not cycle_counter():
+
+        def zero() -> int:
+            return 0
+
+        ticks._dispatcher = _njit()(nogil=True)(zero)
+        return
+    from llvmlite import ir
+    from numba import types as numba_types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def read_counter(typingctx: Any) -> Any:
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            function_type = ir.FunctionType(ir.IntType(64), [])
+            counter = builder.module.declare_intrinsic("llvm.readcyclecounter", fnty=function_type)
+            return builder.call(counter, [])
+
+        return numba_types.int64(), codegen
+
+    def counter() -> int:
+        return read_counter()  # type: ignore[call-arg]
+
+    ticks._dispatcher = _njit()(nogil=True, cache=_state.cached)(counter)

@@ -16,13 +16,13 @@ returns to Python (wmr_mission.sim.runner) only when
 
 Between chunks the runner reports progress and lets Ctrl-C in. The same
 source runs as plain Python without numba, and with the reference step
-(wmr_mission.sim.reference) through :func:`python_loop`.
+(wmr_mission.sim.reference) in place of the fast kernels
+(wmr_mission.kernels.jit.plain).
 """
 
 from __future__ import annotations
 
 import math
-import types
 from typing import NamedTuple
 
 import numpy as np
@@ -34,7 +34,7 @@ from wmr_mission.estimators.ekf import ekf_predict, ekf_step
 from wmr_mission.estimators.observer import observer_predict, observer_step
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.disturbances import Disturbances, applied_input, plant_step, sense
-from wmr_mission.kernels.jit import inlined, kernel, ticks, uncounted
+from wmr_mission.kernels.jit import inlined, kernel, ticks
 from wmr_mission.kernels.model import hypot, wrap_angle
 from wmr_mission.kernels.records import Controller, Estimator, Robot, Scratch
 from wmr_mission.output.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS
@@ -232,7 +232,6 @@ def path_point(rows: FloatArray, row: int, heading: float, out: FloatArray) -> N
         out[3] = rows[row, 3]
 
 
-@uncounted
 def run_segment(
     robot: Robot,
     estimator: Estimator,
@@ -389,24 +388,3 @@ def run_segment(
     counters[DRAWS] = cursor
     counters[CLOCK] = ticks()
     return status
-
-
-def python_loop(replacements: dict[str, object]) -> types.FunctionType:
-    """:func:`run_segment` as plain Python, with some of the functions it calls
-    replaced (``{"track_input": ..., ...}``): the loop the reference step runs in.
-    The loop's own helpers run as plain Python too."""
-    source = getattr(run_segment, "py_func", run_segment)
-    namespace = dict(source.__globals__)
-    for name in (
-        "exit_condition",
-        "record_sample",
-        "path_point",
-        "applied_input",
-        "plant_step",
-        "sense",
-        "observer_predict",
-        "ekf_predict",
-    ):
-        namespace[name] = getattr(namespace[name], "py_func", namespace[name])
-    namespace.update(replacements)
-    return types.FunctionType(source.__code__, namespace, "run_segment")

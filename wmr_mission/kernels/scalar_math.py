@@ -23,12 +23,13 @@ and which variant of it the CPU selects (docs/reliability.md).
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Callable
 from typing import Any, Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from wmr_mission.kernels import jit
 
 __all__ = ["ARITY", "CODES", "cos", "exp", "function_of", "sin"]
 
@@ -152,15 +153,14 @@ _compiled: Callable[[int, FloatArray, FloatArray, FloatArray], None] | None = No
 
 
 def _compiled_each() -> Callable[[int, FloatArray, FloatArray, FloatArray], None] | None:
-    """:func:`_each` compiled, once the simulation's kernels are loaded
-    (wmr_mission.kernels.jit imported, with numba); None before, or without numba.
+    """:func:`_each` compiled, once the simulation's kernels are loaded (numba
+    loaded by wmr_mission.kernels.jit); None before, or without numba.
     Validating a mission samples its paths too, and must not pay for numba."""
     global _compiled
-    jit = sys.modules.get("wmr_mission.kernels.jit")
-    if jit is None or not jit.COMPILED:
+    if not jit.loaded():
         return None
     if _compiled is None:
-        _compiled = jit.kernel(_each)
+        _compiled = jit.compiled(_each)
     return _compiled
 
 

@@ -93,7 +93,7 @@ def numpy_simd() -> list[str]:
 def numba_cpu() -> str | None:
     """The CPU numba compiles the loop for, when this process runs it compiled."""
     jit = sys.modules.get("wmr_mission.kernels.jit")
-    if jit is None or not jit.COMPILED:
+    if jit is None or not jit.loaded():
         return None
     from llvmlite import binding
     from numba.core import config

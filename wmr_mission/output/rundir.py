@@ -388,9 +388,9 @@ def loop_build() -> str:
     (the first runs after an install, ``WMR_MISSION_NO_JIT=1``, no numba), a
     hundred times slower per sample: summary.json's ``loop_us_per_sample`` is
     read against it."""
-    from wmr_mission.kernels.jit import COMPILED
+    from wmr_mission.kernels import jit
 
-    return "compiled" if COMPILED else "plain Python"
+    return "compiled" if jit.loaded() else "plain Python"
 
 
 def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:

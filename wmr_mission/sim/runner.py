@@ -182,7 +182,7 @@ class StepFunctions:
     ``FAST`` are the compiled kernels; ``wmr_mission.sim.reference.REFERENCE``
     holds straightforward numpy/scipy versions with the same signatures, used
     as the oracle in tests and by ``wmr-mission bench``: the loop then runs as
-    plain Python (wmr_mission.kernels.loop.python_loop).
+    plain Python (wmr_mission.kernels.jit.plain).
     """
 
     observer_step: Callable[..., int]
@@ -243,18 +243,18 @@ class _Run:
         self.robot, self.estimator, self.controller = records(mission)
         self.disturbances = mission.disturbances.record(mission.dt)
         self.scratch = scratch()
-        if functions is FAST:
-            self.segment: Callable[..., int] = loop.run_segment
-            self.ticks_are_ns = jit.TICKS_ARE_NS
+        if functions is FAST and jit.compiling():
+            self.segment: Callable[..., int] = jit.compiled(loop.run_segment, counted=False)
+            self.ticks_are_ns = False
         else:
-            self.segment = loop.python_loop(
+            self.segment = jit.plain(
+                loop.run_segment,
                 {
-                    "observer_step": functions.observer_step,
-                    "ekf_step": functions.ekf_step,
-                    "track_input": functions.track_input,
-                    "regulate_input": functions.regulate_input,
-                    "ticks": time.perf_counter_ns,
-                }
+                    observer_step: functions.observer_step,
+                    ekf_step: functions.ekf_step,
+                    paper.track_input: functions.track_input,
+                    paper.regulate_input: functions.regulate_input,
+                },
             )
             self.ticks_are_ns = True
         m = mission
@@ -441,7 +441,7 @@ class _Run:
             for lo, hi in zip(m.lower_bounds, m.upper_bounds, strict=True)
         )
         compute = record.compute[:n]
-        if not (self.ticks_are_ns or jit.TICKS_TIMED):
+        if not (self.ticks_are_ns or jit.cycle_counter()):
             # Compiled where no cheap clock can be read inside the loop (not
             # x86-64): each sample gets the whole loop's mean.
             compute[:] = self.loop_ns // max(1, n)
