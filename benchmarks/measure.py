@@ -41,22 +41,22 @@ def loop(repeat: int = 7) -> None:
 
     from wmr_mission.kernels.loop import PathBlock
     from wmr_mission.sim import runner
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.spec.loader import load_mission
 
     # Time spent sampling paths ahead (Python, between calls of the compiled loop).
     path_ns = [0]
-    path_ahead = runner.ActivePhase.path_ahead
+    path_ahead = runner.PhaseRun.path_ahead
 
-    def timed_path_ahead(self: runner.ActivePhase, local_sample: int, rows: int) -> PathBlock:
+    def timed_path_ahead(self: runner.PhaseRun, local_sample: int, rows: int) -> PathBlock:
         started = time.perf_counter_ns()
         block = path_ahead(self, local_sample, rows)
         path_ns[0] += time.perf_counter_ns() - started
         return block
 
-    runner.ActivePhase.path_ahead = timed_path_ahead  # type: ignore[method-assign]
+    runner.PhaseRun.path_ahead = timed_path_ahead  # type: ignore[method-assign]
     for name in ("case1", "case2"):
-        mission = compile_mission(load_mission(MISSIONS / f"{name}.yaml"))
+        mission = plan_mission(load_mission(MISSIONS / f"{name}.yaml"))
         runner.run_mission(mission)  # loads the compiled loop
         runs, cpu_us, path_us = [], [], []
         for _ in range(repeat):
@@ -75,7 +75,7 @@ def loop(repeat: int = 7) -> None:
             f"p99 {np.percentile(step_us, 99):.3f} us; sampling paths ahead median "
             f"{statistics.median(path_us):.3f} us per sample"
         )
-    runner.ActivePhase.path_ahead = path_ahead  # type: ignore[method-assign]
+    runner.PhaseRun.path_ahead = path_ahead  # type: ignore[method-assign]
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -97,7 +97,7 @@ def _wall(
 _LOADING = """
 import sys, time
 import numpy
-from wmr_mission.sim.plan import compile_mission
+from wmr_mission.sim.plan import plan_mission
 from wmr_mission.spec.loader import load_mission
 mission = load_mission(sys.argv[1])
 t0 = time.perf_counter()
@@ -108,9 +108,9 @@ cpu_target.target_context.refresh()
 t2 = time.perf_counter()
 from wmr_mission.sim import runner
 t3 = time.perf_counter()
-runner.run_mission(compile_mission(mission))
+runner.run_mission(plan_mission(mission))
 t4 = time.perf_counter()
-runner.run_mission(compile_mission(mission))
+runner.run_mission(plan_mission(mission))
 t5 = time.perf_counter()
 jit.ticks()  # a run does not call it: what one more compiled entry would cost
 t6 = time.perf_counter()
@@ -181,13 +181,13 @@ def plain() -> None:
     compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample."""
     os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the kernels are declared
     from wmr_mission.commands.background_compile import PLAIN_PYTHON_SAMPLES
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
     for path in sorted(MISSIONS.glob("*.yaml")):
-        mission = compile_mission(load_mission(path))
+        mission = plan_mission(load_mission(path))
         started = time.perf_counter()
         result = run_mission(mission)
         seconds = time.perf_counter() - started
@@ -209,7 +209,7 @@ def compile_times(mission: str = "case2") -> None:
     os.environ.pop("WMR_MISSION_NO_JIT", None)
     from numba.core import event
 
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.spec.loader import load_mission
 
     events = event.RecordingListener()
@@ -217,7 +217,7 @@ def compile_times(mission: str = "case2") -> None:
     from wmr_mission.sim.runner import run_mission
 
     started = time.perf_counter()
-    run_mission(compile_mission(load_mission(MISSIONS / f"{mission}.yaml")))
+    run_mission(plan_mission(load_mission(MISSIONS / f"{mission}.yaml")))
     wall = time.perf_counter() - started
     shutil.rmtree(cache)
     own: dict[str, float] = collections.defaultdict(float)
@@ -300,13 +300,13 @@ print(f"  + its run directory written, figures included: {resident():.0f} MB")
 
 
 def scale(repeat: int = 5) -> None:
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission, load_mission_text
 
-    hour = compile_mission(load_mission(HOUR))
+    hour = plan_mission(load_mission(HOUR))
     text = HOUR.read_text().replace("elapsed: 3600", "elapsed: 100")
-    short = compile_mission(load_mission_text(text, "short.yaml"))
+    short = plan_mission(load_mission_text(text, "short.yaml"))
     run_mission(short)
     times = []
     for _ in range(repeat):
@@ -451,7 +451,7 @@ def campaign(repeat: int = 40) -> None:
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import METRICS, Row, mission_of, run_row
     from wmr_mission.output.metrics import judge_run_metrics
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
 
     loaded = load_campaign(CAMPAIGN)
@@ -466,7 +466,7 @@ def campaign(repeat: int = 40) -> None:
         mission, _ = mission_of(loaded, draw)
         times.append(time.perf_counter())
         assert mission is not None
-        compiled = compile_mission(mission, draw.seed)
+        compiled = plan_mission(mission, draw.seed)
         times.append(time.perf_counter())
         result = run_mission(compiled)
         times.append(time.perf_counter())
@@ -508,16 +508,16 @@ def runner_cost(repeat: int = 3) -> None:
     from wmr_mission.campaign.rows import mission_of
     from wmr_mission.kernels import loop
     from wmr_mission.sim import runner
-    from wmr_mission.sim.plan import CompiledMission, compile_mission
+    from wmr_mission.sim.plan import MissionPlan, plan_mission
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
-    missions: list[CompiledMission] = []
+    missions: list[MissionPlan] = []
     for run in range(201):
         draw = plan.draw(run)
         mission, _ = mission_of(loaded, draw)
         assert mission is not None
-        missions.append(compile_mission(mission, draw.seed))
+        missions.append(plan_mission(mission, draw.seed))
     runner.run_mission(missions[0])  # loads the compiled loop
     run_segment = loop.run_segment
     inside = [0, 0]  # ns in the compiled loop, calls

@@ -589,7 +589,7 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
     metrics alone) is the run `run --set ... --seed` gives: its outcome, message,
     metrics and path, over case2-headings runs that succeed and that fail."""
     from wmr_mission.campaign.rows import METRICS, PATH_POINTS, run_row, simulate
-    from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, summarize
+    from wmr_mission.output.metrics import EXPECTATION_PATHS, summarize, summary_value
 
     loaded = load_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml")
     plan = Plan(loaded.campaign)
@@ -600,7 +600,7 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
         result, reason = simulate(loaded, draw)
         assert result is not None, reason
         summary = summarize(result, result.mission)
-        metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[m]) for m in METRICS)
+        metrics = tuple(summary_value(summary, EXPECTATION_PATHS[m]) for m in METRICS)
         assert row.outcome == result.outcome.value
         assert row.reason == ("" if row.succeeded else result.message)
         assert row.metrics == metrics

@@ -10,11 +10,11 @@ import pytest
 from geometry import distance_to_ellipse
 from hand_built import ELLIPSE_ROWS, case1, case2, mission, regulate_only, spiral
 
-from wmr_mission.controllers.paper import BEARING, DEVIATION, INCREMENT, saturate, track_input
-from wmr_mission.kernels.model import step
-from wmr_mission.kernels.records import Controller, Robot, scratch
+from wmr_mission.controllers.paper import BEARING, DEVIATION, INCREMENT, PaperTuning, track_input
+from wmr_mission.kernels.model import saturate, step
+from wmr_mission.kernels.records import Plant, scratch
 from wmr_mission.output.result import Outcome, RunResult
-from wmr_mission.sim.plan import CompiledPhase, Conditions
+from wmr_mission.sim.plan import Conditions, PhasePlan
 from wmr_mission.sim.runner import run_mission
 
 
@@ -24,7 +24,7 @@ def wrap(a: np.ndarray | float) -> np.ndarray | float:
 
 def test_literal_axle_law_diverges_from_the_paper_start_and_is_detected() -> None:
     # Eq. (27) on the axle centre, no actuator limits, from x0 = 0, estimate [1, 1, 0].
-    phases = [CompiledPhase("spiral", "track", Conditions(elapsed_samples=500), None, True, spiral)]
+    phases = [PhasePlan("spiral", "track", Conditions(elapsed_samples=500), None, True, spiral)]
     result = run_mission(mission(phases, look_ahead=0.0, error_decay=0.0, limits=(1e12, 1e12)))
     assert result.outcome is Outcome.diverged
     assert "diverged in phase 'spiral'" in result.message
@@ -37,7 +37,7 @@ def test_literal_axle_law_diverges_from_the_paper_start_and_is_detected() -> Non
 
 
 def test_default_look_ahead_law_converges_from_the_paper_start() -> None:
-    phases = [CompiledPhase("spiral", "track", Conditions(elapsed_samples=90), None, True, spiral)]
+    phases = [PhasePlan("spiral", "track", Conditions(elapsed_samples=90), None, True, spiral)]
     result = run_mission(mission(phases))
     assert result.outcome is Outcome.success
     error = np.hypot(result.x - result.x_ref, result.y - result.y_ref)
@@ -60,8 +60,8 @@ def test_literal_axle_law_on_the_path_tracks_but_its_heading_dynamics_are_unstab
     u = np.array([speed[0], turn_rate[0]])
     out = np.zeros(2)
     work = scratch()
-    robot = Robot(dt, np.array([1e12, 1e12, np.inf, np.inf]))
-    controller = Controller(
+    robot = Plant(dt, np.array([1e12, 1e12, np.inf, np.inf]))
+    controller = PaperTuning(
         0.0,
         0.0,
         np.ones(3),
@@ -133,7 +133,7 @@ def test_increment_form_of_eq_19_brings_the_robot_to_rest_not_to_the_target() ->
     still = run_mission(regulate_only((0.0, 0.0, 0.0), 20.0, start, form=INCREMENT))
     assert _path_length(still) == 0.0
     phases = [
-        CompiledPhase(
+        PhasePlan(
             "regulate", "regulate", Conditions(elapsed_samples=2000), None, True, None,
             (0.0, 0.0, 0.0),
         )
@@ -169,7 +169,7 @@ def test_bearing_form_parks_position_and_heading(start: tuple[float, float, floa
 def test_constraint_rows_keep_the_robot_inside_while_regulating() -> None:
     # A target outside the ellipse: the robot must stop on the boundary.
     phases = [
-        CompiledPhase(
+        PhasePlan(
             "out", "regulate", Conditions(elapsed_samples=1500), None, True, None,
             (8.0, 0.0, 0.0), ELLIPSE_ROWS, (("ellipse", "inside"),),
         )

@@ -22,8 +22,8 @@ from wmr_mission.output.environment import (
     libm_digest,
     machine_record,
     own_fingerprint,
+    package_versions,
 )
-from wmr_mission.output.rundir import package_versions
 
 DATA = Path(__file__).resolve().parent / "data" / "campaigns"
 WARNING = "warning: this environment's fingerprint is"

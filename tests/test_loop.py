@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wmr_mission.kernels.disturbances import Draws
 from wmr_mission.output.result import Outcome, RunResult
 from wmr_mission.output.rundir import write_trajectory
 from wmr_mission.sim import runner
+from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 

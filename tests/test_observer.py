@@ -5,23 +5,22 @@ import itertools
 import numpy as np
 import pytest
 
-from wmr_mission.basics import STATE_NAMES, measurement_mask
+from wmr_mission.basics import STATES, measurement_mask
 from wmr_mission.estimators.observability import structurally_unobservable, unobservable_states
-from wmr_mission.estimators.observer import error_matrix, observer_step
+from wmr_mission.estimators.observer import error_matrix, observer_step, observer_tuning
 from wmr_mission.kernels.model import step
-from wmr_mission.kernels.records import observer_params
 
-SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATE_NAMES, n)]
+SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATES, n)]
 
 
 def expected_eigenvalues(measured: list[str], poles: np.ndarray, moving: bool) -> list[float]:
     """The design of wmr_mission.estimators.observer, written out per measurement set."""
     names = set(measured)
     if "theta" in names:
-        return [poles[i] if STATE_NAMES[i] in names else 1.0 for i in range(3)]
-    positions = [i for i in (0, 1) if STATE_NAMES[i] in names]
+        return [poles[i] if STATES[i] in names else 1.0 for i in range(3)]
+    positions = [i for i in (0, 1) if STATES[i] in names]
     p_pos = float(np.mean(poles[positions]))
-    values = [1.0 if STATE_NAMES[i] not in names else p_pos for i in (0, 1)]
+    values = [1.0 if STATES[i] not in names else p_pos for i in (0, 1)]
     values.append(poles[2] if moving else 1.0)
     return values
 
@@ -84,7 +83,7 @@ def test_position_noise_at_creeping_speed_does_not_throw_the_heading() -> None:
             state = np.array(step(*state, 0.001, 0.0, dt))
             measurement = state + rng.normal(0.0, sigma, 3)
             observer_step(
-                estimate, 0.001, 0.0, dt, measurement, observer_params(mask, poles, floor), gain,
+                estimate, 0.001, 0.0, dt, measurement, observer_tuning(mask, poles, floor), gain,
             )  # fmt: skip
             largest = max(largest, abs(estimate[2] - state[2]))
         worst[floor] = largest
@@ -121,7 +120,7 @@ def run_observer(
                 omega,
                 0.01,
                 state.copy(),
-                observer_params(mask, poles, 0.0, lower, upper, bounds is not None, 10),
+                observer_tuning(mask, poles, 0.0, lower, upper, bounds is not None, 10),
                 gain,
             )
         )
@@ -145,7 +144,7 @@ def test_paper_measurement_x_theta_leaves_y_unobservable() -> None:
 
 
 def test_full_measurement_converges_within_a_second() -> None:
-    states, estimates, _ = run_observer(list(STATE_NAMES), np.array([1.0, 1.0, 0.0]), 100)
+    states, estimates, _ = run_observer(list(STATES), np.array([1.0, 1.0, 0.0]), 100)
     assert np.abs(states - estimates)[-1].max() < 0.05
 
 
@@ -160,7 +159,7 @@ def test_position_only_recovers_the_heading_while_moving() -> None:
 
 def test_phase_two_keeps_every_output_error_inside_its_bounds() -> None:
     states, estimates, iterations = run_observer(
-        list(STATE_NAMES), np.array([1.0, -2.0, 0.5]), 50, bounds=0.05
+        list(STATES), np.array([1.0, -2.0, 0.5]), 50, bounds=0.05
     )
     errors = states - estimates
     assert np.all(np.abs(errors) <= 0.05 + 1e-12)
@@ -182,7 +181,7 @@ def test_phase_two_saturates_to_the_violated_bound(rng: np.random.Generator) -> 
             0.0,
             0.01,
             measurement,
-            observer_params(mask, np.full(3, 0.9), 0.0, lower, upper, True, 10),
+            observer_tuning(mask, np.full(3, 0.9), 0.0, lower, upper, True, 10),
             np.zeros((3, 3)),
         )
         phase_one = before + 0.1 * (measurement - before)  # poles 0.9, at rest

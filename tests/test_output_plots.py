@@ -12,13 +12,13 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from PIL import Image
 from test_output_synthetic import circle_run
 
+from wmr_mission.commands.plot import replot_command
 from wmr_mission.output.figures import (
     DPI,
     MAX_POINTS_PER_LINE,
     _clip_half_plane,
     _figure,
     draw_all,
-    replot_command,
     thin,
 )
 from wmr_mission.output.rundir import write_run

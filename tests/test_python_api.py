@@ -228,11 +228,11 @@ def test_bench_checks_the_mission_it_is_given() -> None:
 
 
 def test_phase_colours_apply_to_every_lap_of_a_repeat() -> None:
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
 
     repeat = ROOT / "tests" / "data" / "missions" / "valid" / "repeat.yaml"
     mission = load_mission(repeat, {"plot.phase_colors": {"out": "red", "rest": "#0000ff"}})
-    compiled = compile_mission(mission)
+    compiled = plan_mission(mission)
     assert [(p.name, p.color) for p in compiled.phases] == [
         ("out#1", "red"), ("back#1", None), ("out#2", "red"), ("back#2", None),
         ("rest", "#0000ff"),

@@ -10,6 +10,7 @@ from pydantic import TypeAdapter
 from wmr_mission.geometry.regions import (
     ELLIPSE_ROW,
     HALF_PLANE_ROW,
+    RegionSpec,
     constraint_rows,
     is_convex,
     region_outline,
@@ -17,7 +18,6 @@ from wmr_mission.geometry.regions import (
     row_gradients,
     row_values,
 )
-from wmr_mission.spec.models import RegionSpec
 
 REGION = TypeAdapter(RegionSpec)
 

@@ -98,7 +98,9 @@ def test_checked_in_reference_is_current() -> None:
 
 
 def test_reference_lists_every_field() -> None:
-    from wmr_mission.spec.models import Ekf, ExpressionPath, Mission, Robot
+    from wmr_mission.estimators.ekf import Ekf
+    from wmr_mission.geometry.paths.expression import ExpressionPath
+    from wmr_mission.spec.models import Mission, Robot
 
     text = reference_markdown()
     for model in (Mission, Robot, Ekf, ExpressionPath):

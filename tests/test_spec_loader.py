@@ -8,6 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from wmr_mission.estimators.ekf import Ekf
+from wmr_mission.estimators.observer import ConstrainedObserver
+from wmr_mission.geometry.paths.ellipse import EllipsePath
+from wmr_mission.geometry.paths.expression import ExpressionPath
 from wmr_mission.spec.loader import (
     MAX_FILE_BYTES,
     MissionError,
@@ -17,10 +21,6 @@ from wmr_mission.spec.loader import (
     load_mission_text,
 )
 from wmr_mission.spec.models import (
-    ConstrainedObserver,
-    Ekf,
-    EllipsePath,
-    ExpressionPath,
     HoldPhase,
     Mission,
     RegulatePhase,
@@ -88,12 +88,12 @@ def test_default_output_error_bounds_cover_measured_states_only() -> None:
 
 def test_default_initial_estimate_is_the_initial_state() -> None:
     # A mission starting at (5, 5) used to begin 5.7 m off, at the paper's [1, 1, 0].
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
 
     text = MINIMAL.replace("phases:", "robot: {initial_state: {x: 5, y: 5, theta: 2}}\nphases:")
     for estimator in ("", "estimator: {type: ekf}\n"):
         mission = load_mission_text(text.replace("phases:", estimator + "phases:"), "m.yaml")
-        np.testing.assert_array_equal(compile_mission(mission).initial_estimate, [5.0, 5.0, 2.0])
+        np.testing.assert_array_equal(plan_mission(mission).initial_estimate, [5.0, 5.0, 2.0])
 
 
 def test_default_output_error_bounds_stay_clear_of_the_noise() -> None:

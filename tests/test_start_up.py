@@ -16,11 +16,13 @@ import numpy as np
 import pytest
 
 from wmr_mission.commands import background_compile
+from wmr_mission.controllers import CONTROLLERS
+from wmr_mission.estimators import ESTIMATORS
 from wmr_mission.kernels import cache as kernel_cache
 from wmr_mission.kernels import jit, loop
 from wmr_mission.output.rundir import write_trajectory
 from wmr_mission.sim import runner
-from wmr_mission.sim.plan import compile_mission
+from wmr_mission.sim.plan import plan_mission
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 
@@ -110,7 +112,7 @@ def test_without_a_writable_cache_a_short_run_is_plain_python_and_starts_nothing
 def _cache_of_this_session(tmp_path: Path) -> Path:
     """A copy of the kernels this test session compiled (their index does not
     name its directory)."""
-    run_mission(compile_mission(load_mission(MISSIONS / "fence.yaml")))
+    run_mission(plan_mission(load_mission(MISSIONS / "fence.yaml")))
     source = kernel_cache.cache_directory()
     assert source is not None
     cache = tmp_path / "cache"
@@ -185,22 +187,19 @@ def test_a_long_mission_or_the_setting_compiles_in_the_foreground(
 
 
 def test_the_warm_up_compiles_the_loop_every_mission_runs() -> None:
-    from wmr_mission.spec.loader import check_mission_bytes
-
     compiled_loop = jit.compiled(loop.run_segment, counted=False)
-    warm_up, _ = check_mission_bytes(background_compile.WARM_UP_MISSION, "warm-up.yaml", [])
-    assert warm_up is not None
-    run_mission(compile_mission(warm_up))
+    for warm_up in background_compile.warm_up_missions():
+        run_mission(plan_mission(warm_up))
     warmed_up = set(compiled_loop.signatures)  # type: ignore[attr-defined]
-    assert len(warmed_up) == 1
+    assert len(warmed_up) == len(ESTIMATORS.names()) * len(CONTROLLERS.names())
     for path in sorted(MISSIONS.glob("*.yaml")):
-        run_mission(compile_mission(load_mission(path)))
+        run_mission(plan_mission(load_mission(path)))
         assert set(compiled_loop.signatures) == warmed_up, path.name  # type: ignore[attr-defined]
 
 
 def test_the_bound_is_the_sample_budget_of_a_case_study() -> None:
     for name in ("case1", "case2"):
-        budget = compile_mission(load_mission(MISSIONS / f"{name}.yaml")).max_samples
+        budget = plan_mission(load_mission(MISSIONS / f"{name}.yaml")).max_samples
         assert budget <= background_compile.PLAIN_PYTHON_SAMPLES
 
 
@@ -212,7 +211,7 @@ def test_the_kernels_are_cached_in_the_directory_chosen() -> None:
     directory = kernel_cache.cache_directory()
     assert directory is not None
     assert directory.name.startswith(kernel_cache.PREFIX)
-    run_mission(compile_mission(load_mission(MISSIONS / "fence.yaml")))
+    run_mission(plan_mission(load_mission(MISSIONS / "fence.yaml")))
     assert config.CACHE_DIR == os.environ["NUMBA_CACHE_DIR"] == str(directory)
     assert list(directory.glob("*/loop.run_segment-*.nbi"))
 
@@ -271,9 +270,9 @@ def test_the_plain_form_of_a_kernel_calls_no_compiled_code() -> None:
     assert not hasattr(called, "py_func")
     assert not hasattr(called.__globals__["row_value"], "py_func")
     # A row outside case 2's ellipse, written compiled and as plain Python.
-    mission = compile_mission(load_mission(MISSIONS / "case2.yaml"))
+    mission = plan_mission(load_mission(MISSIONS / "case2.yaml"))
     estimate = np.array([5.2, 1.0, 0.3])
-    phase = runner.ActivePhase(mission.phases[-1], mission, 2).enter(7, estimate)
+    phase = runner.PhaseRun(mission.phases[-1], mission, 2).enter(7, estimate)
     rows = []
     for write in (jit.compiled(loop.record_sample), plain):
         record = runner.Recorder(4).record

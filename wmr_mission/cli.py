@@ -276,7 +276,7 @@ def plot(
     format: FigureFormats = None,
 ) -> None:
     """Re-draw the figures of RUN_DIR from its saved data."""
-    from wmr_mission.output.figures import replot_command
+    from wmr_mission.commands.plot import replot_command
 
     raise typer.Exit(replot_command(run_dir, _formats(format)))
 

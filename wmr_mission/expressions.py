@@ -21,8 +21,9 @@ from dataclasses import dataclass
 from typing import Final
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import scalar_math
 
 __all__ = [
@@ -40,7 +41,6 @@ MAX_EXPRESSION_LENGTH: Final = 1000
 MAX_NESTING_DEPTH: Final = 50
 """Deepest accepted nesting of parentheses, calls, signs and powers."""
 
-FloatArray = NDArray[np.float64]
 _Function = Callable[..., FloatArray | float]
 _math = scalar_math.function_of
 

@@ -18,7 +18,7 @@ import numpy as np
 from wmr_mission.campaign.load import LoadedCampaign, override, value_text
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
-from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, judge_run_metrics
+from wmr_mission.output.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
 from wmr_mission.output.result import Outcome
 from wmr_mission.spec.checks import read_by_sampling_checks
 from wmr_mission.spec.models import Mission
@@ -47,7 +47,7 @@ ERROR: Final = "error"
 
 # The run's metrics, computed by the code that writes summary.json: every
 # metric an `expect` can bound.
-METRICS: Final = tuple(_EXPECTATION_PATHS)
+METRICS: Final = tuple(EXPECTATION_PATHS)
 
 # Points kept of each run's path for the campaign's trajectory figure.
 PATH_POINTS: Final = 600
@@ -152,15 +152,15 @@ def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
 def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     """One run reduced to its row: simulated and judged as ``run_mission`` does
     (the same samples, the same outcome), its metrics from the code of summary.json."""
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
 
     mission, reason = mission_of(loaded, draw)
     if mission is None:
         return _not_run(draw, INVALID, reason)
-    result = _uninterrupted(run_mission(compile_mission(mission, draw.seed)))
+    result = _uninterrupted(run_mission(plan_mission(mission, draw.seed)))
     summary = judge_run_metrics(result, mission.model_dump(mode="json"))
-    metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[name]) for name in METRICS)
+    metrics = tuple(summary_value(summary, EXPECTATION_PATHS[name]) for name in METRICS)
     step = max(1, math.ceil(result.samples / PATH_POINTS))
     path_xy = np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
     reason = "" if result.outcome is Outcome.success else result.message

@@ -26,8 +26,12 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wmr_mission.kernels import cache, jit
+
+if TYPE_CHECKING:
+    from wmr_mission.spec.models import Mission
 
 # As plain Python the example missions take 0.1-0.9 ms per sample (`python
 # benchmarks/measure.py plain`), a compile of the loop 20-30 s: up to this
@@ -39,10 +43,11 @@ LOCK = "compiling.lock"
 FOREGROUND = "WMR_MISSION_FOREGROUND_COMPILE"
 NO_JIT = jit.NO_JIT
 
-# One short run compiles what any mission runs: the loop's argument types do
-# not depend on the mission (tests/test_start_up.py), and the only other
-# compiled function Python calls, the math of paths (wmr_mission.kernels.scalar_math),
-# has one argument type, whatever the function: the sine here compiles it.
+# A short run per built-in estimator and controller compiles what any mission
+# runs: the loop's argument types depend on the mission only through those
+# (tests/test_start_up.py), and the only other compiled function Python
+# calls, the math of paths (wmr_mission.kernels.scalar_math), has one argument
+# type, whatever the function: the sine here compiles it.
 WARM_UP_MISSION = b"""
 version: 1
 name: warm-up
@@ -131,15 +136,35 @@ def _start() -> None:
         )
 
 
+def warm_up_missions() -> list[Mission]:
+    """The warm-up mission with each built-in estimator and controller: the
+    compiled loop is specialised to the types of their tuning records
+    (wmr_mission.kernels.variants), every other argument type is the same for
+    every mission."""
+    from wmr_mission.controllers import CONTROLLERS
+    from wmr_mission.estimators import ESTIMATORS
+    from wmr_mission.spec.loader import Override, check_mission_bytes
+
+    missions = []
+    for estimator in ESTIMATORS.names():
+        for controller in CONTROLLERS.names():
+            overrides = [
+                Override(("estimator", "type"), estimator, f"estimator.type={estimator}"),
+                Override(("controller", "type"), controller, f"controller.type={controller}"),
+            ]
+            mission, diagnostics = check_mission_bytes(WARM_UP_MISSION, "warm-up.yaml", overrides)
+            assert mission is not None, diagnostics
+            missions.append(mission)
+    return missions
+
+
 def compile_kernels() -> None:
     """Compile every kernel the loop runs into the cache."""
-    from wmr_mission.sim.plan import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
-    from wmr_mission.spec.loader import check_mission_bytes
 
-    mission, diagnostics = check_mission_bytes(WARM_UP_MISSION, "warm-up.yaml", [])
-    assert mission is not None, diagnostics
-    run_mission(compile_mission(mission))  # compiled: not judged, no metrics loaded
+    for mission in warm_up_missions():
+        run_mission(plan_mission(mission))  # compiled: not judged, no metrics loaded
 
 
 def main() -> int:

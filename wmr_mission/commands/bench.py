@@ -32,10 +32,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.kernels import jit
-from wmr_mission.kernels.disturbances import Settings
 from wmr_mission.output.result import RunResult
-from wmr_mission.sim.plan import CompiledMission, compile_mission
-from wmr_mission.sim.runner import FAST, run_mission
+from wmr_mission.sim.draws import DisturbancePlan
+from wmr_mission.sim.plan import MissionPlan, plan_mission
+from wmr_mission.sim.runner import run_mission
 
 if TYPE_CHECKING:
     from wmr_mission.spec.models import Mission
@@ -85,7 +85,7 @@ def _same_trajectory(a: RunResult, b: RunResult) -> bool:
     )
 
 
-def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, Any]:
+def bench_mission(mission: Mission | MissionPlan, repeat: int) -> dict[str, Any]:
     """Run ``mission`` once untimed, ``repeat`` times with the fast kernels and
     once with the reference step; return per-phase and overall median and p99
     microseconds per sample of each, and their ratio (reference / ours).
@@ -97,22 +97,19 @@ def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, 
 
     if repeat < 1:
         raise ValueError(f"repeat must be at least 1, got {repeat}")
-    if isinstance(mission, CompiledMission):
-        compiled = mission
-    else:
-        compiled = compile_mission(validate_mission(mission))
-    ours = run_mission(compiled, functions=FAST)  # warm-up: loads or compiles the kernels
+    plan = mission if isinstance(mission, MissionPlan) else plan_mission(validate_mission(mission))
+    ours = run_mission(plan)  # warm-up: loads or compiles the kernels
     if not np.any(ours.compute_ns > 0):
         raise NothingToTime(f"the mission ends at t = {ours.t[-1]:g} s, before its first step")
     # Only the timed samples of each run are kept: memory grows with the samples
     # timed, not with whole results.
     timed, loops = [], []
     for _ in range(repeat):
-        ours = run_mission(compiled, functions=FAST)
+        ours = run_mission(plan)
         timed.append(_timed_samples(ours))
         loops.append(ours.loop_ns / ours.samples / 1000.0)
     with one_blas_thread():
-        reference = run_mission(compiled, functions=REFERENCE)
+        reference = run_mission(plan, substitutes=REFERENCE)
     our_phase = np.concatenate([phases for phases, _ in timed])
     our_ns = np.concatenate([ns for _, ns in timed])
     ref_phase, ref_ns = _timed_samples(reference)
@@ -137,8 +134,8 @@ def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, 
         if mine.size and theirs.size:
             phases.append(row(info.name, info.kind, mine, theirs))
     return {
-        "mission": compiled.name,
-        "dt": compiled.dt,
+        "mission": plan.name,
+        "dt": plan.dt,
         "samples": reference.samples,
         "outcome": ours.outcome.value,
         "repeat": repeat,
@@ -148,21 +145,21 @@ def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, 
         "overall": row("all", "", our_ns, ref_ns),
         "loop": _loop_row(loops, reference),
         "paper_us_per_sample": dict(PAPER_US_PER_SAMPLE),
-        "disturbances": _disturbance_cost(compiled, loops, repeat),
+        "disturbances": _disturbance_cost(plan, loops, repeat),
     }
 
 
 def _disturbance_cost(
-    compiled: CompiledMission, loops: list[float], repeat: int
+    plan: MissionPlan, loops: list[float], repeat: int
 ) -> dict[str, float] | None:
     """Whole-loop wall time per sample [us] with the mission's disturbances
     (``loops``, one per timed run) and without them (None when it has none)."""
-    if not compiled.disturbances.active():
+    if not plan.disturbances.active():
         return None
-    calm = replace(compiled, disturbances=Settings())
+    calm = replace(plan, disturbances=DisturbancePlan())
     without = []
     for _ in range(repeat):
-        result = run_mission(calm, functions=FAST)
+        result = run_mission(calm)
         without.append(result.loop_ns / result.samples / 1000.0)
     with_us = float(np.median(loops))
     without_us = float(np.median(without))
@@ -217,11 +214,11 @@ def verdict(numbers: dict[str, Any]) -> str:
 
 def format_report(numbers: dict[str, Any], source: str) -> str:
     """The table ``wmr-mission bench`` prints."""
-    compiled = "numba-compiled loop" if numbers["compiled"] else "pure-Python loop (no numba)"
+    built = "numba-compiled loop" if numbers["compiled"] else "pure-Python loop (no numba)"
     lines = [
         f"mission {numbers['mission']} ({source}): {numbers['samples']} samples at "
         f"dt = {numbers['dt']:g} s, outcome {numbers['outcome']}",
-        f"ours: {compiled}, {numbers['repeat']} timed run(s) after a warm-up; "
+        f"ours: {built}, {numbers['repeat']} timed run(s) after a warm-up; "
         f"reference: numpy/scipy step, 1 run, BLAS on 1 thread",
         "the step (controller, plant, sensors, estimator), microseconds per sample",
         "",

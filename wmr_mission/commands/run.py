@@ -155,13 +155,13 @@ def _run(
         summary_record,
         write_run,
     )
-    from wmr_mission.sim.plan import compile_mission, sample_budget
+    from wmr_mission.sim.plan import plan_mission, sample_budget
 
     # Before any kernel is declared: plain Python while the loop is not compiled.
     notice = prepare(sample_budget(mission))
     if notice is not None:
         print(notice, file=sys.stderr)
-    compiled = compile_mission(mission, seed)
+    compiled = plan_mission(mission, seed)
     run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
     try:
         run_dir = prepare_run_dir(run_dir, suffix_on_collision=out is None)

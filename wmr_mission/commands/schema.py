@@ -17,6 +17,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
+from wmr_mission.fields import Registry
 from wmr_mission.spec.models import Mission
 
 __all__ = [
@@ -62,8 +63,18 @@ def _text(schema: dict[str, Any]) -> str:
 # --- field reference -----------------------------------------------------------
 
 
+def _registry(annotation: Any) -> Registry[Any] | None:
+    """The registry whose variants an annotation takes (wmr_mission.fields.Registry)."""
+    if typing.get_origin(annotation) is not typing.Annotated:
+        return None
+    return next((m for m in typing.get_args(annotation)[1:] if isinstance(m, Registry)), None)
+
+
 def _models(annotation: Any) -> list[type[BaseModel]]:
     """Models mentioned anywhere in an annotation, in order."""
+    registry = _registry(annotation)
+    if registry is not None:
+        return [variant.settings for variant in registry]
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return [annotation]
     found: list[type[BaseModel]] = []
@@ -83,13 +94,16 @@ def _all_models() -> list[type[BaseModel]]:
             continue
         ordered.append(model)
         for info in model.model_fields.values():
-            pending.extend(m for m in _models(info.annotation) if m not in ordered)
+            pending.extend(m for m in _models(info.rebuild_annotation()) if m not in ordered)
     return ordered
 
 
 def _type_text(annotation: Any) -> str:
     """A short human name for a field type, as written in YAML."""
     origin, arguments = typing.get_origin(annotation), typing.get_args(annotation)
+    registry = _registry(annotation)
+    if registry is not None:
+        return " \\| ".join(_type_text(variant.settings) for variant in registry)
     if origin is typing.Annotated:
         metadata = " ".join(repr(m) for m in arguments[1:])
         if "_evaluate_scalar" in metadata:

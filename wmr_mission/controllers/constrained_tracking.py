@@ -33,23 +33,19 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
-from wmr_mission.controllers.paper import input_jacobian_into, saturate
+from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.kernels.corrective import (
-    ELLIPSE,
+    ELLIPSE_ROW,
     REGULARISATION,
     kept_row_slot,
     row_value_with_margin,
 )
 from wmr_mission.kernels.jit import inlined, kernel
-from wmr_mission.kernels.model import hypot, step
-from wmr_mission.kernels.records import Controller, Robot, Scratch
+from wmr_mission.kernels.model import hypot, input_jacobian_into, saturate, step
+from wmr_mission.kernels.records import Plant, Scratch
 
 __all__ = ["constrained_change", "keep_constraints", "row_value_with_margin"]
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @kernel
@@ -94,8 +90,8 @@ def keep_constraints(
     u_prev: FloatArray,
     row_kinds: IntArray,
     row_params: FloatArray,
-    controller: Controller,
-    robot: Robot,
+    look_ahead: float,
+    robot: Plant,
     work: Scratch,
     u: FloatArray,
 ) -> bool:
@@ -103,7 +99,6 @@ def keep_constraints(
     output keeps the constraint rows shrunk by ``look_ahead`` (so the axle
     centre, ``look_ahead`` behind it, keeps the rows themselves); True when it
     had to."""
-    look_ahead = controller.look_ahead
     dt = robot.dt
     px, py, pth = step(estimate[0], estimate[1], estimate[2], u[0], u[1], dt)
     c = math.cos(pth)
@@ -172,7 +167,7 @@ def keep_reference(
             if value <= 0.0:
                 continue
             moved = True
-            if row_kinds[i] == ELLIPSE:
+            if row_kinds[i] == ELLIPSE_ROW:
                 # on the ray from the centre: G(scale * d) = 1 with G = value / sign + 1
                 scale = 1.0 / math.sqrt(max(value * p[5] + 1.0, 1e-300))
                 reference[0] = p[0] + scale * (x - p[0])

@@ -15,14 +15,27 @@ docs/paper-notes.md gives the evidence for each choice below.
 from __future__ import annotations
 
 import math
+from typing import Literal, NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
+from pydantic import Field
 
+from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.controllers.constrained_tracking import keep_constraints, keep_reference
+from wmr_mission.controllers.registry import ControllerSettings, ControllerType
+from wmr_mission.fields import Flag, Model, NonNegative, Positive
 from wmr_mission.kernels.corrective import corrective_input, kept_row_slot, row_value
 from wmr_mission.kernels.jit import inlined, kernel
-from wmr_mission.kernels.model import hypot, jacobian_terms, step, wrap_angle
-from wmr_mission.kernels.records import Controller, Robot, Scratch
+from wmr_mission.kernels.loop import EnteredPhase
+from wmr_mission.kernels.model import (
+    hypot,
+    input_jacobian_into,
+    jacobian_terms,
+    saturate,
+    step,
+    wrap_angle,
+)
+from wmr_mission.kernels.records import Plant, Scratch, scratch
 from wmr_mission.kernels.riccati import (
     MIN_SPEED,
     Mat3,
@@ -32,8 +45,93 @@ from wmr_mission.kernels.riccati import (
     solve_riccati,
 )
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
+# --- settings: the mission's `controller: {type: paper, ...}` -----------------
+
+# [m] the smallest default look-ahead distance (the tracked point ahead of the axle).
+MIN_LOOK_AHEAD = 0.05
+
+
+class Tracking(Model):
+    """Case 2 law: which point of the robot follows the path."""
+
+    output: Literal["look-ahead", "axle"] = Field(
+        default="look-ahead",
+        description="look-ahead: a point ahead of the axle; axle: the literal eq. (27).",
+    )
+    look_ahead: Positive | None = Field(
+        default=None,
+        description=(
+            "Distance of the look-ahead point ahead of the axle [m]; "
+            "null = max(0.05, robot.limits.v * robot.dt), where the law is well conditioned "
+            "at every speed the limits allow."
+        ),
+    )
+    time_constant: NonNegative = Field(
+        default=0.1,
+        description=(
+            "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
+            "time_constant) of the output's error, the path's own motion fed forward; "
+            "0 = close the whole error in one sample (the literal eq. 27; always so for "
+            "output: axle)."
+        ),
+    )
+
+
+class Regulation(Model):
+    """Case 1 law: how a target pose is approached."""
+
+    form: Literal["bearing", "deviation", "increment"] = Field(
+        default="bearing",
+        description=(
+            "bearing: drive to the point then turn (parks); deviation: LQR on the pose "
+            "error; increment: the literal eq. (19)."
+        ),
+    )
+    align_radius: Positive = Field(
+        default=0.01, description="Within this distance the bearing form turns to the target [m]."
+    )
+    reverse: Flag = Field(default=True, description="The bearing form may drive backwards.")
+
+
+class PaperController(ControllerSettings):
+    """The two-component controller: gain-scheduled LQR and corrective control."""
+
+    type: Literal["paper"] = Field(
+        default="paper", description="Controller kind (the default): the paper's."
+    )
+
+    Q: tuple[NonNegative, NonNegative, NonNegative] = Field(
+        default=(1.0, 1.0, 1.0), description="Eq. (17) state weights (diagonal), >= 0."
+    )
+    R: tuple[Positive, Positive] = Field(
+        default=(1.0, 1.0), description="Eq. (17) input weights (diagonal), > 0."
+    )
+    W: tuple[Positive, Positive, Positive] = Field(
+        default=(100.0, 100.0, 100.0), description="Eq. (22) constraint weights (diagonal), > 0."
+    )
+    M: tuple[Positive, Positive] = Field(
+        default=(100.0, 100.0), description="Eq. (22) input weights (diagonal), > 0."
+    )
+    tracking: Tracking = Field(default_factory=Tracking, description="Path tracking output.")
+    regulation: Regulation = Field(default_factory=Regulation, description="Regulation form.")
+
+
+# --- the kernels ---------------------------------------------------------------
+
+
+class PaperTuning(NamedTuple):
+    """What the control laws of section III.C read."""
+
+    look_ahead: float  # [m] tracked point ahead of the axle (0: eq. (27) literally)
+    error_decay: float  # fraction of the tracked output's error left after one sample
+    q: FloatArray  # diagonal of Q-hat, eq. (17)
+    r: FloatArray  # diagonal of R-hat, eq. (17)
+    w: FloatArray  # diagonal of W, eq. (22)
+    m: FloatArray  # diagonal of M, eq. (22)
+    form: int  # regulation form (BEARING, ...)
+    align_radius: float  # [m]
+    reverse: bool
+
 
 # Regulation forms (controller.regulation.form).
 BEARING = 0  # default: regulate to the target, heading reference = bearing to it
@@ -57,39 +155,13 @@ MEMORY_SIZE = 72
 
 
 @kernel
-def saturate(
-    v: float, omega: float, v_prev: float, omega_prev: float, limits: FloatArray, dt: float
-) -> tuple[float, float]:
-    """Actuator limits: |v| <= limits[0], |omega| <= limits[1], and rate limits
-    limits[2] [m/s^2], limits[3] [rad/s^2] (inf when absent)."""
-    dv = limits[2] * dt
-    dw = limits[3] * dt
-    v = min(max(v, v_prev - dv), v_prev + dv)
-    omega = min(max(omega, omega_prev - dw), omega_prev + dw)
-    v = min(max(v, -limits[0]), limits[0])
-    omega = min(max(omega, -limits[1]), limits[1])
-    return v, omega
-
-
-@kernel
-def input_jacobian_into(theta: float, v: float, omega: float, dt: float, b: FloatArray) -> None:
-    _, _, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
-    b[0, 0] = b11
-    b[0, 1] = b12
-    b[1, 0] = b21
-    b[1, 1] = b22
-    b[2, 0] = 0.0
-    b[2, 1] = dt
-
-
-@kernel
 def track_input(
     estimate: FloatArray,
     u_prev: FloatArray,
     reference_now: FloatArray,
     reference: FloatArray,
-    controller: Controller,
-    robot: Robot,
+    controller: PaperTuning,
+    robot: Plant,
     work: Scratch,
     u_out: FloatArray,
 ) -> None:
@@ -302,8 +374,8 @@ def regulate_input(
     target: FloatArray,
     row_kinds: IntArray,
     row_params: FloatArray,
-    controller: Controller,
-    robot: Robot,
+    controller: PaperTuning,
+    robot: Plant,
     memory: FloatArray,
     work: Scratch,
     u_out: FloatArray,
@@ -387,3 +459,94 @@ def regulate_input(
     dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)
+
+
+# --- the controller as the loop runs it ----------------------------------------
+
+# Regulation forms by name (controller.regulation.form).
+FORMS = {"bearing": BEARING, "deviation": DEVIATION, "increment": INCREMENT}
+
+
+@inlined
+def next_input(
+    tuning: PaperTuning,
+    phase: EnteredPhase,
+    aim_now: FloatArray,
+    aim: FloatArray,
+    estimate: FloatArray,
+    estimate_prev: FloatArray,
+    u_prev: FloatArray,
+    plant: Plant,
+    memory: FloatArray,
+    scratch: Scratch,
+    u: FloatArray,
+) -> None:
+    """u_k from x_{k|k}: Case 2 along a path, the zones of the phase first
+    (eq. (28) with priority); Case 1 to a pose."""
+    kinds = phase.constraint_kinds
+    params = phase.constraint_params
+    if phase.tracking:
+        if kinds.shape[0]:  # aim along a zone's edge it crosses
+            keep_reference(aim_now, kinds, params, tuning.look_ahead)
+            keep_reference(aim, kinds, params, tuning.look_ahead)
+        track_input(estimate, u_prev, aim_now, aim, tuning, plant, scratch, u)
+        # The filter after the tracking law: zones win over tracking
+        # (wmr_mission.controllers.constrained_tracking).
+        if kinds.shape[0]:
+            keep_constraints(estimate, u_prev, kinds, params, tuning.look_ahead, plant, scratch, u)
+    else:
+        regulate_input(
+            estimate, estimate_prev, u_prev, phase.target, kinds, params, tuning, plant, memory,
+            scratch, u,
+        )  # fmt: skip
+
+
+def look_ahead(settings: PaperController, dt: float, speed_limit: float) -> float:
+    """The tracked point's distance ahead of the axle [m]; 0 for the literal axle law.
+
+    Unset, it is tied to the limits: ``max(0.05, limits.v * dt)``. The
+    one-sample input sensitivity of the point has determinant
+    ``dt^2 (l + v dt / 2)``, zero at ``v = -2 l / dt``; with ``l >= limits.v * dt``
+    it stays within a factor 3 of ``l dt^2`` at every speed the limits allow
+    (docs/paper-notes.md, eq. (27))."""
+    tracking = settings.tracking
+    if tracking.output == "axle":
+        return 0.0
+    if tracking.look_ahead is not None:
+        return float(tracking.look_ahead)
+    return max(MIN_LOOK_AHEAD, float(speed_limit) * float(dt))
+
+
+def error_decay(settings: PaperController, dt: float) -> float:
+    """Fraction of the tracked output's error left after one sample: 0 for the
+    one-sample laws (``time_constant: 0``, and the literal axle law)."""
+    tracking = settings.tracking
+    if tracking.output == "axle" or tracking.time_constant == 0:
+        return 0.0
+    return math.exp(-float(dt) / float(tracking.time_constant))
+
+
+def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
+    regulation = settings.regulation
+    return PaperTuning(
+        look_ahead=look_ahead(settings, plant.dt, plant.limits[0]),
+        error_decay=error_decay(settings, plant.dt),
+        q=np.array(settings.Q, dtype=np.float64),
+        r=np.array(settings.R, dtype=np.float64),
+        w=np.array(settings.W, dtype=np.float64),
+        m=np.array(settings.M, dtype=np.float64),
+        form=FORMS[regulation.form],
+        align_radius=regulation.align_radius,
+        reverse=regulation.reverse,
+    )
+
+
+# Registered by wmr_mission.controllers.
+CONTROLLER = ControllerType(
+    settings=PaperController,
+    tuning_record=PaperTuning,
+    tuning_of=tuning_of,
+    memory_size=MEMORY_SIZE,
+    new_scratch=scratch,
+    step=next_input,
+)

@@ -1,0 +1,23 @@
+"""The estimators a mission may name: one module each (wmr_mission.estimators.registry).
+
+* ``constrained-observer``: the paper's two-phase constrained estimator, eqs.
+  (4)-(12) (wmr_mission.estimators.observer), the default;
+* ``ekf``: a baseline extended Kalman filter (wmr_mission.estimators.ekf).
+"""
+
+from __future__ import annotations
+
+from wmr_mission.estimators import ekf, observer
+from wmr_mission.estimators.registry import (
+    ESTIMATORS,
+    EstimatorSettings,
+    EstimatorType,
+    Measurements,
+    register,
+)
+
+__all__ = ["ESTIMATORS", "EstimatorSettings", "EstimatorType", "Measurements", "register"]
+
+# The built-in estimators, in the order the schema lists them.
+register(observer.ESTIMATOR)
+register(ekf.ESTIMATOR)

@@ -12,14 +12,80 @@ measurement; a sample without a measurement is the prediction alone.
 
 from __future__ import annotations
 
-import numpy as np
-from numpy.typing import NDArray
+import math
+from typing import Literal, NamedTuple
 
+import numpy as np
+from pydantic import Field
+
+from wmr_mission.basics import STATES, FloatArray, StateName
+from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
+from wmr_mission.fields import Model, Positive, StateStd
 from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.model import jacobian_terms, step, wrap_angle
-from wmr_mission.kernels.records import Estimator
 
-FloatArray = NDArray[np.float64]
+# The smallest measurement noise the filter assumes by default [m or rad]: a
+# noise-free sensor would make the gain singular.
+MEASUREMENT_STD_FLOOR = 1e-3
+
+
+# --- settings: the mission's `estimator: {type: ekf, ...}` ---------------------
+
+
+class StatePositiveStd(Model):
+    """A strictly positive standard deviation per state."""
+
+    x: Positive = Field(default=1.0, description="Standard deviation of x [m].")
+    y: Positive = Field(default=1.0, description="Standard deviation of y [m].")
+    theta: Positive = Field(default=0.5, description="Standard deviation of theta [rad].")
+
+
+class Ekf(EstimatorSettings):
+    """Baseline extended Kalman filter."""
+
+    type: Literal["ekf"] = Field(description="Estimator kind.")
+    initial_std: StatePositiveStd = Field(
+        default_factory=lambda: StatePositiveStd(x=1.0, y=1.0, theta=0.5),
+        description="Square root of the diagonal of P0 [m, m, rad], > 0.",
+    )
+    process_std: StateStd = Field(
+        default_factory=lambda: StateStd(x=0.001, y=0.001, theta=0.001),
+        description="Process noise per sample [m, m, rad], >= 0.",
+    )
+    measurement_std: dict[StateName, Positive] | None = Field(
+        default=None,
+        description=(
+            "Measurement noise per measured state [m or rad], > 0; "
+            "null = sensors.noise_std floored at 0.001."
+        ),
+    )
+    innovation_gate: Positive | None = Field(
+        default=None,
+        description=(
+            "Reject a measurement whose squared Mahalanobis distance r^T S^-1 r exceeds this "
+            "(chi-square with as many degrees of freedom as measured states: 16.27 is its "
+            "0.999 quantile for 3); a rejected measurement is a prediction-only step. "
+            "null = no gating."
+        ),
+    )
+
+
+# --- the kernels ---------------------------------------------------------------
+
+
+class EkfTuning(NamedTuple):
+    """What the filter's kernels read."""
+
+    mask: FloatArray  # 1.0 for each measured state (x, y, theta)
+    process_var: FloatArray  # diagonals of the noise covariances
+    measurement_var: FloatArray
+    innovation_gate: float  # largest accepted r^T S^-1 r (inf: no gating)
+    initial_var: FloatArray  # diagonal of P0
+
+
+class EkfMemory(NamedTuple):
+    covariance: FloatArray  # (3, 3) P
+    work: FloatArray  # (4, 3, 3) scratch
 
 
 @kernel
@@ -62,7 +128,7 @@ def ekf_predict(
     v: float,
     omega: float,
     dt: float,
-    params: Estimator,
+    params: EkfTuning,
     work: FloatArray,
 ) -> None:
     """A sample without a measurement (between periods, lost or gated): the
@@ -84,7 +150,7 @@ def ekf_step(
     omega: float,
     dt: float,
     measurement: FloatArray,
-    params: Estimator,
+    params: EkfTuning,
     work: FloatArray,
 ) -> None:
     """Advance ``estimate`` and ``covariance`` (3x3) in place: x_{k|k} -> x_{k+1|k+1}.
@@ -168,3 +234,69 @@ def ekf_step(
             mean = 0.5 * (p[i, j] + p[j, i])
             p[i, j] = mean
             p[j, i] = mean
+
+
+# --- the estimator as the loop runs it -----------------------------------------
+
+
+@inlined
+def next_estimate(
+    tuning: EkfTuning,
+    memory: EkfMemory,
+    estimate: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    measured: bool,
+) -> int:
+    """x_{k|k} -> x_{k+1|k+1}; a sample without a measurement is the prediction
+    alone. No iterations to count: 0."""
+    if measured:
+        ekf_step(estimate, memory.covariance, v, omega, dt, measurement, tuning, memory.work)
+    else:
+        ekf_predict(estimate, memory.covariance, v, omega, dt, tuning, memory.work)
+    return 0
+
+
+def tuning_of(settings: Ekf, measurements: Measurements) -> EkfTuning:
+    measurement_var = np.maximum(measurements.noise_std, MEASUREMENT_STD_FLOOR) ** 2
+    if settings.measurement_std is not None:
+        for name, std in settings.measurement_std.items():
+            measurement_var[STATES.index(name)] = std * std  # not pow(): exact
+    initial, process = settings.initial_std, settings.process_std
+    return EkfTuning(
+        mask=measurements.mask,
+        process_var=np.array([process.x, process.y, process.theta]) ** 2,
+        measurement_var=measurement_var,
+        innovation_gate=(
+            math.inf if settings.innovation_gate is None else float(settings.innovation_gate)
+        ),
+        initial_var=np.array([initial.x, initial.y, initial.theta]) ** 2,
+    )
+
+
+def new_memory(tuning: EkfTuning, initial_estimate: FloatArray) -> EkfMemory:
+    return EkfMemory(
+        covariance=np.diag(tuning.initial_var).astype(np.float64), work=np.zeros((4, 3, 3))
+    )
+
+
+def ekf_tuning(
+    mask: FloatArray,
+    process_var: FloatArray,
+    measurement_var: FloatArray,
+    innovation_gate: float = np.inf,
+) -> EkfTuning:
+    """The filter's record from plain numbers: for tests and notebooks."""
+    return EkfTuning(mask, process_var, measurement_var, innovation_gate, np.ones(3))
+
+
+# Registered by wmr_mission.estimators.
+ESTIMATOR = EstimatorType(
+    settings=Ekf,
+    tuning_record=EkfTuning,
+    tuning_of=tuning_of,
+    new_memory=new_memory,
+    step=next_estimate,
+)

@@ -14,7 +14,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.basics import STATE_NAMES, measurement_mask
+from wmr_mission.basics import STATES, measurement_mask
 from wmr_mission.kernels.model import state_jacobian
 
 
@@ -48,7 +48,7 @@ def unobservable_states(
     rank = int(np.sum(singular > tol))
     null_space = vt[rank:]
     hidden = []
-    for i, name in enumerate(STATE_NAMES):
+    for i, name in enumerate(STATES):
         if null_space.size and np.linalg.norm(null_space[:, i]) > 1e-8:
             hidden.append(name)
     return hidden

@@ -31,14 +31,118 @@ The loop still checks and counts, up to ``max_iterations``.
 
 from __future__ import annotations
 
-import numpy as np
-from numpy.typing import NDArray
+import math
+from typing import Annotated, Literal, NamedTuple, Self
 
+import numpy as np
+from pydantic import AfterValidator, Field, Strict
+from pydantic_core import PydanticCustomError
+
+from wmr_mission.basics import STATES, FloatArray, StateName
+from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
+from wmr_mission.fields import Model, Number
 from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.model import jacobian_terms, step, wrap_angle
-from wmr_mission.kernels.records import Estimator
 
-FloatArray = NDArray[np.float64]
+# --- settings: the mission's `estimator: {type: constrained-observer, ...}` ----
+
+
+def _check_bound(bound: tuple[float, float]) -> tuple[float, float]:
+    lower, upper = bound
+    if not lower < 0 < upper:
+        raise PydanticCustomError(
+            "output_error_bound",
+            "an output-error bound is [lower, upper] with lower < 0 < upper, "
+            "got [{lower}, {upper}]",
+            {"lower": lower, "upper": upper},
+        )
+    return bound
+
+
+OutputErrorBound = Annotated[tuple[Number, Number], AfterValidator(_check_bound)]
+Pole = Annotated[Number, Field(ge=0, lt=1)]
+
+
+# Default output-error bound of eq. (4) [m or rad]: the larger of this and
+# BOUND_NOISE_RATIO times the state's noise std, so that phase II acts on
+# estimation errors, not on the noise (docs/paper-notes.md, eq. (4)).
+DEFAULT_BOUND = 0.05
+BOUND_NOISE_RATIO = 5.0
+
+
+def _default_bounds() -> dict[StateName, tuple[float, float]]:
+    return dict.fromkeys(STATES, (-DEFAULT_BOUND, DEFAULT_BOUND))
+
+
+def default_bound(noise_std: float) -> float:
+    """Half-width of the default output-error bound for a state with this noise."""
+    return max(DEFAULT_BOUND, BOUND_NOISE_RATIO * noise_std)
+
+
+class StatePoles(Model):
+    """Eigenvalues of the observer error dynamics (I - L C) A, per state."""
+
+    x: Pole = Field(default=0.9, description="Pole for x, in [0, 1).")
+    y: Pole = Field(default=0.9, description="Pole for y, in [0, 1).")
+    theta: Pole = Field(default=0.9, description="Pole for theta, in [0, 1).")
+
+
+class ConstrainedObserver(EstimatorSettings):
+    """The paper's two-phase constrained estimator, eqs. (4)-(12)."""
+
+    type: Literal["constrained-observer"] = Field(
+        default="constrained-observer", description="Estimator kind (the default)."
+    )
+    poles: StatePoles = Field(
+        default_factory=StatePoles,
+        description=(
+            "Observer poles, phase I (eq. 7). With the heading unmeasured, its pole relaxes "
+            "towards 1 while the robot moves less per sample than sensors.noise_std of the "
+            "measured positions (docs/paper-notes.md, eq. 6-7)."
+        ),
+    )
+    output_error_bounds: dict[StateName, OutputErrorBound] | None = Field(
+        default_factory=_default_bounds,
+        description=(
+            "Eq. (4): [lower, upper] bounds on each measured state's output error "
+            "[m or rad], lower < 0 < upper; keys must be measured states; null = no phase II. "
+            "Default on every measured state: +-max(0.05, 5 sensors.noise_std)."
+        ),
+    )
+    max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = Field(
+        default=10, description="Phase II iterations per sample, 1..1000."
+    )
+
+    def with_sensors(self, measured_noise: dict[str, float]) -> Self:
+        """Default output-error bounds cover the measured states only, each
+        wide enough that the state's noise alone rarely leaves it."""
+        if "output_error_bounds" in self.model_fields_set:
+            return self
+        bounds = {
+            state: (-default_bound(std), default_bound(std))
+            for state, std in measured_noise.items()
+        }
+        return self.model_copy(update={"output_error_bounds": bounds})
+
+
+# --- the kernels ---------------------------------------------------------------
+
+
+class ObserverTuning(NamedTuple):
+    """What the observer's kernels read."""
+
+    mask: FloatArray  # 1.0 for each measured state (x, y, theta)
+    poles: FloatArray  # eigenvalues of (I - L C) A per state, phase I
+    motion_floor: float  # [m] motion per sample below which the heading pole relaxes
+    lower: FloatArray  # output-error bounds of eq. (4) (phase II)
+    upper: FloatArray
+    use_bounds: bool
+    max_iterations: int
+
+
+class ObserverMemory(NamedTuple):
+    gain: FloatArray  # (3, 3) L of eq. (6), scratch
+
 
 # Below this |c| (metres moved per sample along the measured positions) the
 # heading is treated as unobservable at that sample: no heading correction.
@@ -121,7 +225,7 @@ def observer_step(
     omega: float,
     dt: float,
     measurement: FloatArray,
-    params: Estimator,
+    params: ObserverTuning,
     gain: FloatArray,
 ) -> int:
     """Advance ``estimate`` (x_{k|k} -> x_{k+1|k+1}) in place with input u_k and
@@ -195,3 +299,88 @@ def error_matrix(
     observer_gain(a13, a23, mask, poles, motion_floor, gain)
     a = np.array([[1.0, 0.0, a13], [0.0, 1.0, a23], [0.0, 0.0, 1.0]])
     return np.asarray((np.eye(3) - gain @ np.diag(mask)) @ a)
+
+
+# --- the estimator as the loop runs it -----------------------------------------
+
+
+@inlined
+def next_estimate(
+    tuning: ObserverTuning,
+    memory: ObserverMemory,
+    estimate: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    measured: bool,
+) -> int:
+    """x_{k|k} -> x_{k+1|k+1}: phases I and II with a measurement, the
+    prediction of eq. (5) alone without one."""
+    if measured:
+        return observer_step(estimate, v, omega, dt, measurement, tuning, memory.gain)
+    return observer_predict(estimate, v, omega, dt)
+
+
+def tuning_of(settings: ConstrainedObserver, measurements: Measurements) -> ObserverTuning:
+    lower = np.full(3, -math.inf)
+    upper = np.full(3, math.inf)
+    if settings.output_error_bounds:
+        for name, (lo, hi) in settings.output_error_bounds.items():
+            lower[STATES.index(name)] = lo
+            upper[STATES.index(name)] = hi
+    poles = settings.poles
+    return ObserverTuning(
+        mask=measurements.mask,
+        poles=np.array([poles.x, poles.y, poles.theta]),
+        # The measured positions' noise: one sample of them says little about
+        # an unmeasured heading below it (docs/paper-notes.md, eqs. (6)-(7)).
+        motion_floor=float(measurements.noise_std[:2].max()),
+        lower=lower,
+        upper=upper,
+        use_bounds=bool(settings.output_error_bounds),
+        max_iterations=settings.max_iterations,
+    )
+
+
+def new_memory(tuning: ObserverTuning, initial_estimate: FloatArray) -> ObserverMemory:
+    return ObserverMemory(gain=np.zeros((3, 3)))
+
+
+def error_bounds(tuning: ObserverTuning) -> tuple[tuple[float, float], ...]:
+    return tuple(
+        (float(lo), float(hi)) if tuning.use_bounds and math.isfinite(lo) else (math.nan, math.nan)
+        for lo, hi in zip(tuning.lower, tuning.upper, strict=True)
+    )
+
+
+def observer_tuning(
+    mask: FloatArray,
+    poles: FloatArray,
+    motion_floor: float = 0.0,
+    lower: FloatArray | None = None,
+    upper: FloatArray | None = None,
+    use_bounds: bool = False,
+    max_iterations: int = 0,
+) -> ObserverTuning:
+    """The observer's record from plain numbers: for tests and notebooks."""
+    return ObserverTuning(
+        mask,
+        poles,
+        motion_floor,
+        np.full(3, -np.inf) if lower is None else lower,
+        np.full(3, np.inf) if upper is None else upper,
+        use_bounds,
+        max_iterations,
+    )
+
+
+# Registered by wmr_mission.estimators.
+ESTIMATOR = EstimatorType(
+    settings=ConstrainedObserver,
+    tuning_record=ObserverTuning,
+    tuning_of=tuning_of,
+    new_memory=new_memory,
+    step=next_estimate,
+    error_bounds=error_bounds,
+)

@@ -1,14 +1,16 @@
-"""Regions: constraint rows for the kernels and a signed value for phase conditions.
+"""Regions: what a mission writes of them, constraint rows for the kernels, and a
+signed value for phase conditions.
 
 A region reaches the corrective control of eqs. (22)-(28) as rows of a ``(q, 6)``
-float array plus a ``(q,)`` integer kind (docs/architecture.md, "Constraint
-rows"); a row is satisfied when its value ``c(x, y) <= 0``:
+float array plus a ``(q,)`` integer kind (wmr_mission.kernels.corrective,
+docs/architecture.md "Constraint rows"); a row is satisfied when its value
+``c(x, y) <= 0``:
 
-- kind 0, ellipse ``cx, cy, a, b, phi, sign``:
+- kind ``ELLIPSE_ROW``, ellipse ``cx, cy, a, b, phi, sign``:
   ``sign * ((u/a)^2 + (w/b)^2 - 1)`` with ``[u, w] = Rot(-phi) [x - cx, y - cy]``;
   with ``sign = +1`` this is eq. (33) written as ``G - 1 <= 0``.
-- kind 1, half-plane ``nx, ny, offset, 0, 0, 0``: ``nx*x + ny*y - offset``, with a
-  unit normal so the value is a signed distance.
+- kind ``HALF_PLANE_ROW``, half-plane ``nx, ny, offset, 0, 0, 0``:
+  ``nx*x + ny*y - offset``, with a unit normal so the value is a signed distance.
 
 A circle is an ellipse with equal semi-axes; a box and a convex polygon are one
 half-plane row per edge. The functions here are the readable numpy reference;
@@ -18,23 +20,24 @@ the runner's compiled kernel implements the same formulas.
 from __future__ import annotations
 
 import math
-from typing import Final, Literal
+from typing import Annotated, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+from pydantic import Field, field_validator, model_validator
+from pydantic_core import PydanticCustomError
 
-from wmr_mission.spec.models import (
-    BoxRegion,
-    CircleRegion,
-    EllipseRegion,
-    HalfPlaneRegion,
-    PolygonRegion,
-    RegionSpec,
-)
+from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.fields import Model, Point, PositiveScalar, Scalar
+from wmr_mission.kernels.corrective import ELLIPSE_ROW, HALF_PLANE_ROW
 
 __all__ = [
-    "ELLIPSE_ROW",
-    "HALF_PLANE_ROW",
+    "BoxRegion",
+    "CircleRegion",
+    "EllipseRegion",
+    "HalfPlaneRegion",
+    "PolygonRegion",
+    "RegionSpec",
     "constraint_rows",
     "ellipse_geometry",
     "is_convex",
@@ -45,11 +48,81 @@ __all__ = [
     "row_values",
 ]
 
-ELLIPSE_ROW: Final = 0
-HALF_PLANE_ROW: Final = 1
-
-FloatArray = NDArray[np.float64]
 Side = Literal["inside", "outside"]
+
+
+class EllipseRegion(Model):
+    """Inside: ((u/a)^2 + (w/b)^2 <= 1), [u, w] = Rot(-rotation)(p - center); eq. (33)."""
+
+    type: Literal["ellipse"] = Field(description="Region kind.")
+    center: Point = Field(default=(0.0, 0.0), description="Centre [x, y] [m].")
+    semi_axes: tuple[PositiveScalar, PositiveScalar] = Field(
+        description="Semi-axes [a, b] along the rotated x and y axes [m], > 0."
+    )
+    rotation: Scalar = Field(default=0.0, description="Rotation of the a axis from +x [rad].")
+
+
+class CircleRegion(Model):
+    """Inside: |p - center| <= radius."""
+
+    type: Literal["circle"] = Field(description="Region kind.")
+    center: Point = Field(default=(0.0, 0.0), description="Centre [x, y] [m].")
+    radius: PositiveScalar = Field(description="Radius [m], > 0.")
+
+
+class BoxRegion(Model):
+    """Axis-aligned box: min <= p <= max componentwise."""
+
+    type: Literal["box"] = Field(description="Region kind.")
+    min: Point = Field(description="Lower-left corner [x, y] [m].")
+    max: Point = Field(description="Upper-right corner [x, y] [m], greater than min.")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> BoxRegion:
+        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+            raise PydanticCustomError(
+                "box_order", "a box needs min < max in both x and y (min is the lower-left corner)"
+            )
+        return self
+
+
+class PolygonRegion(Model):
+    """Convex polygon; inside is the interior."""
+
+    type: Literal["polygon"] = Field(description="Region kind.")
+    vertices: list[Point] = Field(
+        min_length=3,
+        max_length=1000,
+        description="At least 3 vertices [[x, y], ...] [m], convex, either orientation.",
+    )
+
+    @field_validator("vertices")
+    @classmethod
+    def _distinct(cls, vertices: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        if len(set(vertices)) != len(vertices):
+            raise PydanticCustomError("repeated_vertex", "a polygon vertex is repeated")
+        return vertices
+
+
+class HalfPlaneRegion(Model):
+    """Inside: normal . p <= offset."""
+
+    type: Literal["half-plane"] = Field(description="Region kind.")
+    normal: Point = Field(description="Outward normal [nx, ny], not zero.")
+    offset: Scalar = Field(description="Offset c of nx*x + ny*y <= c [m times |normal|].")
+
+    @field_validator("normal")
+    @classmethod
+    def _nonzero_normal(cls, normal: tuple[float, float]) -> tuple[float, float]:
+        if normal == (0.0, 0.0):
+            raise PydanticCustomError("zero_normal", "a half-plane normal must not be [0, 0]")
+        return normal
+
+
+RegionSpec = Annotated[
+    EllipseRegion | CircleRegion | BoxRegion | PolygonRegion | HalfPlaneRegion,
+    Field(discriminator="type"),
+]
 
 
 def ellipse_geometry(region: RegionSpec) -> tuple[float, float, float, float, float]:
@@ -100,7 +173,7 @@ def _half_plane_rows(region: RegionSpec) -> FloatArray:
     raise ValueError(f"unknown region type {region.type!r}")
 
 
-def constraint_rows(region: RegionSpec, side: Side) -> tuple[NDArray[np.int64], FloatArray]:
+def constraint_rows(region: RegionSpec, side: Side) -> tuple[IntArray, FloatArray]:
     """Constraint rows keeping the robot on ``side`` of ``region``: ``(kind (q,), params (q, 6))``.
 
     ``stay_outside`` is possible for an ellipse, a circle or a half-plane only: the
@@ -126,7 +199,7 @@ def constraint_rows(region: RegionSpec, side: Side) -> tuple[NDArray[np.int64], 
     return np.full(len(rows), HALF_PLANE_ROW, dtype=np.int64), params
 
 
-def row_values(kind: NDArray[np.int64], params: FloatArray, x: float, y: float) -> FloatArray:
+def row_values(kind: IntArray, params: FloatArray, x: float, y: float) -> FloatArray:
     """Value ``c`` of each row at the point ``(x, y)``; ``c <= 0`` is satisfied."""
     values = np.empty(len(kind))
     for i, (row_kind, p) in enumerate(zip(kind, params, strict=True)):
@@ -138,7 +211,7 @@ def row_values(kind: NDArray[np.int64], params: FloatArray, x: float, y: float) 
     return values
 
 
-def row_gradients(kind: NDArray[np.int64], params: FloatArray, x: float, y: float) -> FloatArray:
+def row_gradients(kind: IntArray, params: FloatArray, x: float, y: float) -> FloatArray:
     """Gradient ``[dc/dx, dc/dy]`` of each row at ``(x, y)``, shape ``(q, 2)``."""
     gradients = np.empty((len(kind), 2))
     for i, (row_kind, p) in enumerate(zip(kind, params, strict=True)):

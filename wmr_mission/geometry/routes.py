@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import scalar_math
 
 __all__ = [
@@ -29,7 +30,6 @@ __all__ = [
     "polyline_route",
 ]
 
-FloatArray = NDArray[np.float64]
 Sample = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
 
 LEG = 0  # start x, y; unit direction x, y; length

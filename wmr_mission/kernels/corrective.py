@@ -25,18 +25,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
+from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.kernels.jit import kernel
 from wmr_mission.kernels.model import hypot
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
 # Eigenvalues of S below this fraction of the largest are rounding, not reach.
 REGULARISATION = 1e-12
-ELLIPSE = 0
-HALF_PLANE = 1
+# Kinds of constraint rows (wmr_mission.geometry.regions builds them).
+ELLIPSE_ROW = 0
+HALF_PLANE_ROW = 1
 
 
 @kernel
@@ -151,7 +149,7 @@ def row_value_with_margin(
     is exact on its axes and off by ``O(margin^2 / radius of curvature)``
     elsewhere.
     """
-    if kind != ELLIPSE:
+    if kind != ELLIPSE_ROW:
         return p[0] * x + p[1] * y - (p[2] - margin), p[0], p[1]
     sign = p[5]
     a = max(p[2] - sign * margin, 1e-9)

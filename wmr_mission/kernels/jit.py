@@ -27,6 +27,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import platform
+import threading
 import time
 import types
 from collections.abc import Callable, Mapping
@@ -68,14 +69,16 @@ class Kernel:
 
     def dispatcher(self) -> Any:
         """numba's dispatcher of this kernel (numba loaded)."""
-        if self._dispatcher is None:
-            self._dispatcher = _njit()(cache=_state.cached, **_OPTIONS)(self.py_func)
+        with _lock:
+            if self._dispatcher is None:
+                self._dispatcher = _njit()(cache=_state.cached, **_OPTIONS)(self.py_func)
         return self._dispatcher
 
 
 class _State:
     plain_chosen = False  # choose_plain_python() was called
     numba: Any = None  # the numba module, once loaded
+    ready = False  # numba loaded and taught the kernels
     cached = False  # compiled code is kept on disk
     kernels: list[Kernel] = []  # noqa: RUF012 - every declared kernel
     hooks: list[Callable[[], None]] = []  # noqa: RUF012 - run once numba is loaded
@@ -83,13 +86,16 @@ class _State:
 
 
 _state = _State()
+# Loading numba and compiling entry points happen once, whichever thread asks first.
+_lock = threading.RLock()
 
 
 def _declare(function: Callable[..., Any], inline: bool) -> Kernel:
     declared = Kernel(function, inline)
-    _state.kernels.append(declared)
-    if _state.numba is not None and inline:
-        _teach_inline(declared)
+    with _lock:
+        _state.kernels.append(declared)
+        if _state.numba is not None and inline:
+            _teach_inline(declared)
     return declared
 
 
@@ -110,10 +116,11 @@ def inlined(fn: F) -> F:
 def when_loaded(hook: Callable[[], None]) -> None:
     """Run ``hook`` once numba is loaded (now if it is): for what numba must
     be taught before it compiles (wmr_mission.kernels.variants)."""
-    if _state.numba is not None:
-        hook()
-    else:
-        _state.hooks.append(hook)
+    with _lock:
+        if _state.numba is not None:
+            hook()
+        else:
+            _state.hooks.append(hook)
 
 
 def choose_plain_python() -> None:
@@ -132,7 +139,7 @@ def compiling() -> bool:
 
 def loaded() -> bool:
     """Whether this process loaded numba for its kernels."""
-    return _state.numba is not None
+    return _state.ready
 
 
 def entries() -> list[str]:
@@ -149,6 +156,13 @@ def _njit() -> Any:
 
 def load() -> bool:
     """Load numba (once) and teach it the kernels; False when not compiling."""
+    if _state.ready:
+        return True
+    with _lock:
+        return _load()
+
+
+def _load() -> bool:
     if _state.numba is not None:
         return True
     if not compiling():
@@ -165,7 +179,6 @@ def load() -> bool:
         return False
     from numba.extending import typeof_impl
 
-    _state.numba = numba
     _state.cached = directory is not None
 
     @typeof_impl.register(Kernel)
@@ -173,6 +186,7 @@ def load() -> bool:
         # An inlined kernel has no type of its own: numba finds its overload.
         return None if value.inline else numba.types.Dispatcher(value.dispatcher())
 
+    _state.numba = numba  # from here on, kernels declared later are taught at once
     for declared in _state.kernels:
         if declared.inline:
             _teach_inline(declared)
@@ -180,6 +194,7 @@ def load() -> bool:
     hooks, _state.hooks = _state.hooks, []
     for hook in hooks:
         hook()
+    _state.ready = True
     return True
 
 
@@ -207,12 +222,17 @@ def compiled(fn: F, *, counted: bool = True) -> F:
         return plain(fn)
     source = getattr(fn, "py_func", fn)
     key = (id(source), counted)
+    with _lock:
+        return cast(F, _entry(source, key, counted))
+
+
+def _entry(source: Callable[..., Any], key: tuple[int, bool], counted: bool) -> Any:
     if key not in _state.entries:
         options = dict(_OPTIONS)
         if not counted and _accepts_nrt_option():  # else counted: still correct
             options["_nrt"] = False
         _state.entries[key] = _njit()(cache=_state.cached, **options)(source)
-    return cast(F, _state.entries[key])
+    return _state.entries[key]
 
 
 def _accepts_nrt_option() -> bool:

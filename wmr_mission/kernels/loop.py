@@ -23,24 +23,15 @@ source runs as plain Python without numba, and with the reference step
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
-import numpy as np
-from numpy.typing import NDArray
-
-from wmr_mission.controllers.constrained_tracking import keep_constraints, keep_reference
-from wmr_mission.controllers.paper import regulate_input, track_input
-from wmr_mission.estimators.ekf import ekf_predict, ekf_step
-from wmr_mission.estimators.observer import observer_predict, observer_step
+from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.kernels.corrective import max_row_value
-from wmr_mission.kernels.disturbances import Disturbances, applied_input, plant_step, sense
+from wmr_mission.kernels.disturbances import Actuation, Sensing, applied_input, plant_step, sense
 from wmr_mission.kernels.jit import inlined, kernel, ticks
 from wmr_mission.kernels.model import hypot, wrap_angle
-from wmr_mission.kernels.records import Controller, Estimator, Robot, Scratch
-from wmr_mission.output.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
+from wmr_mission.kernels.records import Plant
+from wmr_mission.kernels.variants import control_step, estimator_step
 
 # Why run_segment returned.
 CHUNK_END = 0
@@ -60,11 +51,12 @@ CONDITION = 3  # the exit condition that fired
 CLOCK = 4  # ticks() as the call returned: Python reads the clock without calling it
 
 
-class Phase(NamedTuple):
-    """One phase as the loop sees it; absent conditions are -1 or NaN."""
+class EnteredPhase(NamedTuple):
+    """A phase as the loop runs it, from the sample it was entered at; absent
+    conditions are -1 or NaN."""
 
     number: int  # index in the mission's phases
-    tracking: bool
+    tracking: bool  # a path to follow (PathBlock); else a pose to reach
     entry_sample: int
     target: FloatArray  # (3,) the pose a regulate or hold phase parks at
     constraint_kinds: IntArray  # constraint rows (docs/architecture.md)
@@ -97,11 +89,10 @@ class Signals(NamedTuple):
     measured: FloatArray  # (3,) the measurement of the sample being recorded (NaN: none)
     u: FloatArray  # (2,) u_k
     u_prev: FloatArray  # (2,) u_{k-1}
-    covariance: FloatArray  # (3, 3) EKF
-    observer_gain: FloatArray  # (3, 3) L of eq. (6), scratch
-    ekf_work: FloatArray  # (4, 3, 3) EKF scratch
-    # (MEMORY_SIZE,) the phase's controller memory, with the warm starts of
-    # eq. (21) (wmr_mission.controllers.paper); zeroed at phase entry.
+    aim_now: FloatArray  # (4,) path point and unit tangent at t_k (tracking)
+    aim: FloatArray  # (4,) path point and unit tangent at t_{k+1} the controller aims at
+    # The controller's memory within a phase (wmr_mission.controllers.registry);
+    # zeroed at phase entry.
     memory: FloatArray
     counters: IntArray  # K, ITERATIONS, DRAWS, CONDITION, CLOCK
     exit_value: FloatArray  # (1,) the value of the condition that fired
@@ -110,7 +101,7 @@ class Signals(NamedTuple):
     burst: IntArray  # (1,) 1 while a burst of lost measurements goes on
 
 
-class Record(NamedTuple):
+class Recording(NamedTuple):
     """Pre-sized columns, one row per sample; ``rows[0]`` rows are used."""
 
     floats: FloatArray  # (capacity, len(FLOAT_COLUMNS))
@@ -120,16 +111,31 @@ class Record(NamedTuple):
     rows: IntArray  # (1,) rows used
 
 
-# The recorder's float columns: the state, estimate and input columns of
-# trajectory.csv, then the path point, the constraint value and the measurement.
-FLOAT_COLUMNS = tuple(
-    c for c in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS) if c not in ("phase", "phase2_iterations")
+# The recording's float columns, as record_sample writes them (named as the
+# run's arrays, wmr_mission.output.result): time, state, estimate and input,
+# then the path point, the constraint value and the measurement.
+FLOAT_COLUMNS = (
+    "t",
+    "x",
+    "y",
+    "theta",
+    "x_est",
+    "y_est",
+    "theta_est",
+    "v",
+    "omega",
+    "x_ref",
+    "y_ref",
+    "constraint",
+    "x_meas",
+    "y_meas",
+    "theta_meas",
 )
 
 
 @inlined
 def exit_condition(
-    phase: Phase, k: int, dt: float, estimate: FloatArray, speed: float, value: FloatArray
+    phase: EnteredPhase, k: int, dt: float, estimate: FloatArray, speed: float, value: FloatArray
 ) -> int:
     """The first exit condition of ``phase`` that holds at sample k (0: none);
     its value goes to ``value[0]``."""
@@ -175,8 +181,8 @@ def exit_condition(
 
 @kernel
 def record_sample(
-    record: Record,
-    phase: Phase,
+    record: Recording,
+    phase: EnteredPhase,
     t: float,
     x: float,
     y: float,
@@ -233,21 +239,28 @@ def path_point(rows: FloatArray, row: int, heading: float, out: FloatArray) -> N
 
 
 def run_segment(
-    robot: Robot,
-    estimator: Estimator,
-    controller: Controller,
-    disturbances: Disturbances,
-    phase: Phase,
+    plant: Plant,
+    actuation: Actuation,
+    sensing: Sensing,
+    estimator: Any,
+    estimator_memory: Any,
+    controller: Any,
+    scratch: Any,
+    phase: EnteredPhase,
     path: PathBlock,
     draws: FloatArray,
     signals: Signals,
-    record: Record,
-    scratch: Scratch,
+    record: Recording,
     stop: int,
 ) -> int:
     """Run ``phase`` from sample ``signals.counters[K]`` up to ``stop``; returns
-    why it stopped (CHUNK_END, EXITED, DIVERGED_INPUT, DIVERGED_STATE)."""
-    dt = robot.dt
+    why it stopped (CHUNK_END, EXITED, DIVERGED_INPUT, DIVERGED_STATE).
+
+    ``estimator`` and ``controller`` are the tuning records of the mission's
+    estimator and controller (their types choose the steps run,
+    wmr_mission.kernels.variants), ``estimator_memory`` and ``scratch`` their
+    working arrays."""
+    dt = plant.dt
     state = signals.state
     estimate = signals.estimate
     estimate_prev = signals.estimate_prev
@@ -255,8 +268,8 @@ def run_segment(
     u = signals.u
     u_prev = signals.u_prev
     counters = signals.counters
-    aim_now = scratch.aim_now
-    aim = scratch.aim
+    aim_now = signals.aim_now
+    aim = signals.aim
     capacity = record.floats.shape[0]
     k = counters[K]
     iterations = counters[ITERATIONS]
@@ -283,40 +296,16 @@ def run_segment(
             reference_y = path.rows[row, 1]
             path_point(path.rows, row, estimate[2], aim_now)
             path_point(path.rows, row + 1, estimate[2], aim)
-            if phase.constraint_kinds.shape[0]:  # aim along a zone's edge it crosses
-                kinds = phase.constraint_kinds
-                params = phase.constraint_params
-                keep_reference(aim_now, kinds, params, controller.look_ahead)
-                keep_reference(aim, kinds, params, controller.look_ahead)
         x = state[0]
         y = state[1]
         theta = state[2]
         started = ticks()
         # --- controller: u_k from x_{k|k}.
-        if phase.tracking:
-            track_input(estimate, u_prev, aim_now, aim, controller, robot, scratch, u)
-            # The filter after the tracking law: zones win over tracking, eq. (28)
-            # with priority (wmr_mission.controllers.constrained_tracking).
-            if phase.constraint_kinds.shape[0]:
-                keep_constraints(
-                    estimate, u_prev, phase.constraint_kinds, phase.constraint_params,
-                    controller, robot, scratch, u,
-                )  # fmt: skip
-        else:
-            regulate_input(
-                estimate,
-                estimate_prev,
-                u_prev,
-                phase.target,
-                phase.constraint_kinds,
-                phase.constraint_params,
-                controller,
-                robot,
-                signals.memory,
-                scratch,
-                u,
-            )
-        if not (abs(u[0]) <= robot.runaway_input and abs(u[1]) <= robot.runaway_input):  # NaN too
+        control_step(
+            controller, phase, aim_now, aim, estimate, estimate_prev, u_prev, plant,
+            signals.memory, scratch, u,
+        )  # fmt: skip
+        if not (abs(u[0]) <= plant.runaway_input and abs(u[1]) <= plant.runaway_input):  # NaN too
             spent = ticks() - started
             i = record_sample(
                 record, phase, k * dt, x, y, theta, estimate, u, reference_x, reference_y,
@@ -328,9 +317,9 @@ def run_segment(
         # --- plant and sensors, disturbed (wmr_mission.kernels.disturbances).
         drawn = draws[cursor]
         cursor += 1
-        applied_input(disturbances, k, u, signals.commands, signals.applied)
-        plant_step(state, signals.applied, dt, disturbances, drawn)
-        has_measurement = sense(state, k + 1, disturbances, drawn, signals.burst, measurement)
+        applied_input(actuation, k, u, signals.commands, signals.applied)
+        plant_step(state, signals.applied, dt, actuation, drawn)
+        has_measurement = sense(state, k + 1, sensing, drawn, signals.burst, measurement)
         # --- estimator: x_{k+1|k+1}; the row of sample k keeps x_{k|k}.
         ex = estimate[0]
         ey = estimate[1]
@@ -339,24 +328,9 @@ def run_segment(
         estimate_prev[1] = ey
         estimate_prev[2] = eth
         recorded_iterations = iterations
-        # A sample without a measurement is a prediction-only step.
-        if estimator.ekf:
-            if has_measurement:
-                ekf_step(
-                    estimate, signals.covariance, u[0], u[1], dt, measurement, estimator,
-                    signals.ekf_work,
-                )  # fmt: skip
-            else:
-                ekf_predict(
-                    estimate, signals.covariance, u[0], u[1], dt, estimator, signals.ekf_work
-                )
-            iterations = 0
-        elif has_measurement:
-            iterations = observer_step(
-                estimate, u[0], u[1], dt, measurement, estimator, signals.observer_gain
-            )
-        else:
-            iterations = observer_predict(estimate, u[0], u[1], dt)
+        iterations = estimator_step(
+            estimator, estimator_memory, estimate, u[0], u[1], dt, measurement, has_measurement
+        )
         spent = ticks() - started
         i = record_sample(
             record, phase, k * dt, x, y, theta, estimate_prev, u, reference_x, reference_y,
@@ -365,16 +339,16 @@ def run_segment(
         record.compute[i] = spent
         for n in range(3):
             signals.measured[n] = (
-                measurement[n] if has_measurement and estimator.mask[n] > 0.0 else math.nan
+                measurement[n] if has_measurement and sensing.measured[n] > 0.0 else math.nan
             )
         u_prev[0] = u[0]
         u_prev[1] = u[1]
         k += 1
         if not (
-            abs(state[0]) < robot.runaway_position and abs(state[1]) < robot.runaway_position
+            abs(state[0]) < plant.runaway_position and abs(state[1]) < plant.runaway_position
             and math.isfinite(state[2])
-            and abs(estimate[0]) < robot.runaway_position
-            and abs(estimate[1]) < robot.runaway_position
+            and abs(estimate[0]) < plant.runaway_position
+            and abs(estimate[1]) < plant.runaway_position
             and math.isfinite(estimate[2])
         ):  # fmt: skip
             record_sample(

@@ -10,11 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.kernels.jit import kernel
-
-FloatArray = NDArray[np.float64]
 
 
 @kernel
@@ -83,6 +81,32 @@ def hypot(x: float, y: float) -> float:
         return big
     ratio = small / big
     return big * math.sqrt(1.0 + ratio * ratio)
+
+
+@kernel
+def saturate(
+    v: float, omega: float, v_prev: float, omega_prev: float, limits: FloatArray, dt: float
+) -> tuple[float, float]:
+    """Actuator limits: |v| <= limits[0], |omega| <= limits[1], and rate limits
+    limits[2] [m/s^2], limits[3] [rad/s^2] (inf when absent)."""
+    dv = limits[2] * dt
+    dw = limits[3] * dt
+    v = min(max(v, v_prev - dv), v_prev + dv)
+    omega = min(max(omega, omega_prev - dw), omega_prev + dw)
+    v = min(max(v, -limits[0]), limits[0])
+    omega = min(max(omega, -limits[1]), limits[1])
+    return v, omega
+
+
+@kernel
+def input_jacobian_into(theta: float, v: float, omega: float, dt: float, b: FloatArray) -> None:
+    _, _, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
+    b[0, 0] = b11
+    b[0, 1] = b12
+    b[1, 0] = b21
+    b[1, 1] = b22
+    b[2, 0] = 0.0
+    b[2, 1] = dt
 
 
 # Array forms with the project-wide argument order f(state, input, dt): for

@@ -37,11 +37,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.kernels.jit import kernel
-
-FloatArray = NDArray[np.float64]
 
 MIN_SPEED = 1e-3  # [m/s] below it the gain is blended with the at-rest gain
 TOLERANCE = 1e-14  # relative change of the doubling iterate that ends the iteration

@@ -27,13 +27,13 @@ from collections.abc import Callable
 from typing import Any, Final
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
 
 __all__ = ["ARITY", "CODES", "cos", "exp", "function_of", "sin"]
 
-FloatArray = NDArray[np.float64]
 
 SIN, COS, TAN, ASIN, ACOS, ATAN, SINH, COSH, TANH, EXP, LOG, LOG10, ATAN2, POWER = range(14)
 

@@ -29,6 +29,7 @@ import platform
 import struct
 import sys
 from collections.abc import Mapping
+from importlib import metadata
 from typing import Any
 
 __all__ = [
@@ -115,7 +116,6 @@ def fingerprint(versions: Mapping[str, str | None], libc: str, libm: str) -> str
 @functools.cache
 def own_fingerprint() -> str:
     """This process's fingerprint."""
-    from wmr_mission.output.rundir import package_versions
 
     return fingerprint(package_versions(), _libc(), libm_digest())
 
@@ -136,7 +136,6 @@ def environment() -> dict[str, Any]:
 def machine_record() -> dict[str, Any]:
     """This process's ``versions`` and ``environment``: what a Dask worker
     reports before a campaign runs on it."""
-    from wmr_mission.output.rundir import package_versions
 
     return {"versions": package_versions(), "environment": environment()}
 
@@ -158,3 +157,30 @@ def differences(mine: Mapping[str, Any], theirs: Mapping[str, Any]) -> list[str]
         if mine["environment"][name] != theirs["environment"][name]
     ]
     return found
+
+
+# Packages whose versions decide the numbers of a run.
+_VERSIONED_PACKAGES = ("numpy", "scipy", "pydantic", "numba", "matplotlib")
+
+
+def package_versions() -> dict[str, str | None]:
+    """Versions of Python and of the packages that decide a run's numbers (null: not installed)."""
+    return dict(_package_versions())
+
+
+@functools.cache
+def _package_versions() -> dict[str, str | None]:
+    # Read once per process (20 ms of package metadata): a campaign's worst
+    # runs, forked from the process that wrote its manifest, read none.
+    from wmr_mission import __version__
+
+    versions: dict[str, str | None] = {
+        "python": platform.python_version(),
+        "wmr-mission": __version__,
+    }
+    for package in _VERSIONED_PACKAGES:
+        try:
+            versions[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            versions[package] = None
+    return versions

@@ -18,27 +18,27 @@ seconds.
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from wmr_mission.basics import STATES, FloatArray, IntArray
+from wmr_mission.output.files import atomic_path
 from wmr_mission.output.metrics import (
     convergence_index,
     estimation_errors,
     phase_segments,
     wrap_angle,
 )
-from wmr_mission.output.reader import RunDirError, load_run
-from wmr_mission.output.result import FloatArray, IntArray, RunResult
-from wmr_mission.output.rundir import atomic_path
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+
+    from wmr_mission.output.result import RunResult
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -49,7 +49,6 @@ __all__ = [
     "plot_inputs",
     "plot_states",
     "plot_xy",
-    "replot_command",
     "save_figure",
 ]
 
@@ -66,7 +65,6 @@ ESTIMATION_BOTTOM = 0.14
 # benchmarks/measure.py png`).
 PNG_OPTIONS: dict[str, Any] = {"compress_level": 1}
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
-STATES = ("x", "y", "theta")
 FIGURE_FORMATS = ("png", "svg", "pdf")
 FIGURE_NAMES = ("xy", "states", "estimation_error", "inputs")
 # The reference is drawn over the path, thin and dark, so a well-tracked path
@@ -131,7 +129,7 @@ def phase_colors(result: RunResult) -> list[Any]:
     ]
 
 
-def _new_figure(figsize: tuple[float, float]) -> Figure:
+def new_figure(figsize: tuple[float, float]) -> Figure:
     """A figure outside pyplot: no backend, no global state, nothing to close."""
     from matplotlib.figure import Figure
 
@@ -183,7 +181,7 @@ def save_figure(fig: Figure, path: Path) -> Path:
 # --- regions --------------------------------------------------------------
 
 
-def _region_extent(region: dict[str, Any]) -> tuple[float, float, float, float] | None:
+def region_extent(region: dict[str, Any]) -> tuple[float, float, float, float] | None:
     """Bounding box (xmin, xmax, ymin, ymax) of a bounded region, else None."""
     kind = region.get("type")
     if kind == "ellipse":
@@ -292,7 +290,7 @@ def view_box(result: RunResult) -> tuple[float, float, float, float]:
         xs.append(np.array([m[0] for m in marks], dtype=np.float64))
         ys.append(np.array([m[1] for m in marks], dtype=np.float64))
     for region in result.regions.values():
-        extent = _region_extent(region)
+        extent = region_extent(region)
         if extent is not None:
             xs.append(np.asarray(extent[:2], dtype=np.float64))
             ys.append(np.asarray(extent[2:], dtype=np.float64))
@@ -882,21 +880,21 @@ def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
 def _figure(result: RunResult, name: str) -> Figure:
     """The figure of a run's file ``name`` (one of FIGURE_NAMES)."""
     if name == "xy":
-        fig = _new_figure((XY_WIDTH, 6.5))
+        fig = new_figure((XY_WIDTH, 6.5))
         columns = _xy_on(fig.add_subplot(), result)
         # Room on the canvas for the legend at the right, a column's width each.
         width = XY_WIDTH + LEGEND_COLUMN_WIDTH * (columns - 1)
         fig.set_size_inches(width, 6.5)
         fig.subplots_adjust(left=XY_LEFT / width, right=(XY_LEFT + XY_AXES_WIDTH) / width)
     elif name == "states":
-        fig = _new_figure((9, 7.5))
+        fig = new_figure((9, 7.5))
         _states_on(fig, list(fig.subplots(3, 1, sharex=True)), result)
     elif name == "estimation_error":
-        fig = _new_figure((11, 7.5))
+        fig = new_figure((11, 7.5))
         fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
         _estimation_on(fig, list(fig.subplots(3, 2, sharex="col").ravel()), result)
     else:
-        fig = _new_figure((9, 5.5))
+        fig = new_figure((9, 5.5))
         _inputs_on(fig, list(fig.subplots(2, 1, sharex=True)), result)
     return fig
 
@@ -912,27 +910,3 @@ def draw_all(result: RunResult, out_dir: Path, formats: Sequence[str] = ("png",)
         for fmt in formats
         for name in FIGURE_NAMES
     ]
-
-
-def replot_command(run_dir: Path, formats: Sequence[str] = ("png",)) -> int:
-    """``wmr-mission plot RUN_DIR``: re-draw the figures from the saved data."""
-    try:
-        result = load_run(run_dir)
-    except (RunDirError, OSError) as exc:
-        print(f"{run_dir}: {exc}", file=sys.stderr)
-        return 1
-    try:
-        paths = draw_all(result, run_dir, formats)
-    except OSError as exc:
-        print(f"{run_dir}: {exc}", file=sys.stderr)
-        return 1
-    except Exception as error:  # a fault in drawing: one line, never a traceback
-        print(
-            f"{run_dir}: cannot draw the figures ({type(error).__name__}: {error}); "
-            "the data are unchanged; please report it",
-            file=sys.stderr,
-        )
-        return 1
-    for path in paths:
-        print(path)
-    return 0

@@ -10,37 +10,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
+
+from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.output import rundir
 
 if TYPE_CHECKING:
     import pandas
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
-# The first columns of trajectory.csv, in this order (DESIGN.md).
-TRAJECTORY_COLUMNS = (
-    "t",
-    "x",
-    "y",
-    "theta",
-    "x_est",
-    "y_est",
-    "theta_est",
-    "v",
-    "omega",
-    "phase",
-)
-# Columns that follow them.
-EXTRA_COLUMNS = (
-    "x_ref",
-    "y_ref",
-    "constraint",
-    "x_meas",
-    "y_meas",
-    "theta_meas",
-    "phase2_iterations",
-)
 
 
 class Outcome(StrEnum):
@@ -64,7 +39,9 @@ class Transition:
 
 
 @dataclass(frozen=True)
-class PhaseInfo:
+class PhaseRecord:
+    """What a run records of one of its phases (manifest.json keeps it)."""
+
     name: str
     kind: str  # "track" | "regulate" | "hold"
     # Pose the phase regulates to (regulate/hold), else None.
@@ -99,7 +76,7 @@ class RunResult:
     mission_name: str
     dt: float
     seed: int
-    phases: list[PhaseInfo]
+    phases: list[PhaseRecord]
     t: FloatArray
     x: FloatArray
     y: FloatArray
@@ -140,6 +117,17 @@ class RunResult:
                 setattr(self, name, np.full(self.t.shape[0], np.nan))
 
     @property
+    def succeeded(self) -> bool:
+        return self.outcome is Outcome.success
+
+    def miss_expectations(self, unmet: list[str]) -> None:
+        """A success that misses `expect` thresholds is not one: ``expect-failed``,
+        with the misses as its message."""
+        if self.succeeded and unmet:
+            self.outcome = Outcome.expect_failed
+            self.message = "expectation not met: " + "; ".join(unmet)
+
+    @property
     def samples(self) -> int:
         return int(self.t.shape[0])
 
@@ -150,9 +138,7 @@ class RunResult:
 
     def summary(self) -> dict[str, Any]:
         """Every metric of the run: exactly what ``summary.json`` holds."""
-        from wmr_mission.output.rundir import summary_record
-
-        return summary_record(self)
+        return rundir.summary_record(self)
 
     def to_dataframe(self) -> pandas.DataFrame:
         """The samples as a pandas DataFrame, columns as in ``trajectory.csv``
@@ -163,9 +149,7 @@ class RunResult:
             raise ImportError(
                 "RunResult.to_dataframe needs pandas: pip install 'wmr-mission[dataframe]'"
             ) from None
-        columns: dict[str, Any] = {
-            name: getattr(self, name) for name in (*TRAJECTORY_COLUMNS, *EXTRA_COLUMNS)
-        }
+        columns: dict[str, Any] = {name: getattr(self, name) for name in rundir.CSV_COLUMNS}
         columns["phase"] = pandas.Categorical.from_codes(self.phase, categories=self.phase_names)
         return pandas.DataFrame(columns)
 
@@ -181,8 +165,8 @@ class RunResult:
 
         The directory must be new or empty (a run never overwrites another).
         """
-        from wmr_mission.output.rundir import prepare_run_dir, write_run
-
-        directory = prepare_run_dir(out_dir)
-        write_run(self, directory, mission_file=None, plots=plots, animate=animate, formats=formats)
+        directory = rundir.prepare_run_dir(out_dir)
+        rundir.write_run(
+            self, directory, mission_file=None, plots=plots, animate=animate, formats=formats
+        )
         return directory

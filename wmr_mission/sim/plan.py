@@ -1,7 +1,9 @@
-"""A mission compiled for the runner: plain numbers, arrays and callables.
+"""A mission planned for the runner: plain numbers, records and path makers.
 
-``compile_mission`` is the only place that reads the pydantic models; the
-runner and the kernels see only what is here.
+:func:`plan_mission` is where the simulation reads the validated mission; the
+runner and the kernels see only the plan. (Each variant builds its own tuning
+record from its settings: wmr_mission.estimators, wmr_mission.controllers,
+wmr_mission.geometry.paths.)
 """
 
 from __future__ import annotations
@@ -9,35 +11,19 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal, Protocol
+from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
 
-from wmr_mission.basics import STATE_NAMES, measurement_mask
-
-if TYPE_CHECKING:
-    from wmr_mission.kernels.disturbances import Settings
-    from wmr_mission.spec.models import Mission, Until
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
-FORMS = {"bearing": 0, "deviation": 1, "increment": 2}
-# [m] the smallest default look-ahead distance (the tracked point ahead of the axle).
-MIN_LOOK_AHEAD = 0.05
-
-# A position farther than this from every coordinate the mission names is a
-# runaway, not a robot [m]: the threshold follows the mission's own scale, so a
-# mission written in map coordinates (y = 5e6) runs like one near the origin.
-RUNAWAY_DISTANCE = 1e6
-# An input beyond this, whatever the limits say, is a runaway [m/s, rad/s]:
-# no wheeled robot drives at 1 km/s or turns 160 times a second.
-RUNAWAY_INPUT = 1e3
-
-
-class Trajectory(Protocol):
-    def sample(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]: ...
+from wmr_mission.basics import STATES, FloatArray, IntArray, measurement_mask, samples
+from wmr_mission.controllers import CONTROLLERS, ControllerType
+from wmr_mission.estimators import ESTIMATORS, EstimatorType, Measurements
+from wmr_mission.geometry import paths, regions
+from wmr_mission.geometry.paths import Trajectory
+from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
+from wmr_mission.sim.draws import DisturbancePlan
+from wmr_mission.spec.models import Mission, RegulatePhase, StayInside, TrackPhase, Until
+from wmr_mission.spec.repeats import run_order
 
 
 def no_rows() -> tuple[IntArray, FloatArray]:
@@ -59,9 +45,11 @@ class Conditions:
 
 
 @dataclass(frozen=True)
-class CompiledPhase:
+class PhasePlan:
+    """One phase of the run, repeats written out."""
+
     name: str
-    kind: str  # "track" | "regulate" | "hold"
+    kind: str  # the phase's action: "track" | "regulate" | "hold"
     until: Conditions
     timeout_samples: int | None
     fail_on_timeout: bool
@@ -79,90 +67,79 @@ class CompiledPhase:
 
 
 @dataclass(frozen=True)
-class CompiledMission:
+class MissionPlan:
     name: str
-    dt: float
+    plant: Plant  # period, limits, and where the run counts as diverged
     initial_state: FloatArray
     initial_estimate: FloatArray
-    # Actuator limits: |v|, |omega|, and rates (inf when absent).
-    limits: FloatArray
-    measure_mask: FloatArray
-    noise_std: FloatArray
+    measured: FloatArray  # 1.0 for each measured state
+    noise_std: FloatArray  # of each measured state's measurement [m, m, rad], 0 elsewhere
     seed: int
-    estimator: str  # "constrained-observer" | "ekf"
-    poles: FloatArray
-    # [m] motion per sample below which one sample of measured positions says
-    # little about an unmeasured heading: the measured positions' noise.
-    heading_motion_floor: float
-    lower_bounds: FloatArray
-    upper_bounds: FloatArray
-    use_bounds: bool
-    max_iterations: int
-    ekf_initial_var: FloatArray
-    ekf_process_var: FloatArray
-    ekf_measurement_var: FloatArray
-    q: FloatArray
-    r: FloatArray
-    w: FloatArray
-    m: FloatArray
-    # Tracking: the look-ahead distance [m] (0 = the axle, literal eq. (27))
-    # and the fraction of the output's error left after one sample.
-    look_ahead: float
-    error_decay: float
-    regulation_form: int
-    align_radius: float
-    reverse: bool
-    phases: tuple[CompiledPhase, ...]
+    estimator: EstimatorType
+    estimator_tuning: Any  # the estimator's tuning record
+    controller: ControllerType
+    controller_tuning: Any  # the controller's tuning record
+    phases: tuple[PhasePlan, ...]
     regions: dict[str, dict[str, object]]
     # Sample budget: the sum of each phase's bound, for pre-sizing the recorder.
     max_samples: int
-    # |x|, |y| [m] and |v|, |omega| [m/s, rad/s] beyond which the run has diverged.
-    runaway_position: float = RUNAWAY_DISTANCE
-    runaway_input: float = RUNAWAY_INPUT
-    ekf_innovation_gate: float = math.inf  # inf: no gating
     # The true plant's and the sensors' imperfections (wmr_mission.kernels.disturbances).
-    disturbances: Settings = field(default_factory=lambda: _no_disturbances())
+    disturbances: DisturbancePlan = field(default_factory=DisturbancePlan)
+
+    @property
+    def dt(self) -> float:
+        return self.plant.dt
 
 
-def _no_disturbances() -> Settings:
-    # Imported on use: the disturbance kernels load numba, which validate never needs.
-    from wmr_mission.kernels.disturbances import Settings
-
-    return Settings()
+def _bound(seconds: float, dt: float) -> int:
+    """A phase's duration in samples: at least one."""
+    return max(1, samples(seconds, dt))
 
 
-def _disturbance_settings(mission: Mission) -> Settings:
-    from wmr_mission.kernels.disturbances import settings
+def disturbance_plan(mission: Mission) -> DisturbancePlan:
+    """The disturbances of a validated mission."""
+    dt = float(mission.robot.dt)
+    plant = mission.robot.disturbances
+    sensors = mission.sensors
 
-    return settings(mission)
+    def per_state(values: object) -> FloatArray:
+        return np.array([getattr(values, name) for name in STATES], dtype=np.float64)
+
+    dropout = sensors.dropout
+    outliers = sensors.outliers
+    return DisturbancePlan(
+        process_noise_std=per_state(plant.process_noise_std),
+        input_delay=samples(plant.input_delay, dt),
+        time_constant=float(plant.actuator_time_constant),
+        slip=float(plant.slip.longitudinal),
+        skid_std=float(plant.slip.lateral_std),
+        period=1 if sensors.period is None else max(1, samples(sensors.period, dt)),
+        bias=per_state(sensors.bias),
+        dropout_probability=0.0 if dropout is None else float(dropout.probability),
+        dropout_burst=1.0 if dropout is None else float(dropout.burst),
+        outlier_probability=0.0 if outliers is None else float(outliers.probability),
+        outlier_std=np.zeros(3) if outliers is None else per_state(outliers.std),
+    )
 
 
-def _samples(seconds: float, dt: float) -> int:
-    return max(1, round(seconds / dt))
-
-
-def _extent(mission: Mission, regions: dict[str, dict[str, object]]) -> float:
+def _extent(mission: Mission, dumped_regions: dict[str, dict[str, object]]) -> float:
     """The largest coordinate magnitude the mission names [m]: start, estimate,
-    regions (``regions`` dumped, less their rotation), targets, points, and
+    regions (``dumped_regions``, less their rotation), targets, points, and
     each path's first point from the start pose."""
-    from wmr_mission.geometry import paths
-
     start = mission.robot.initial_state
     guess = mission.estimator.initial_estimate or start
     numbers = [start.x, start.y, guess.x, guess.y]
-    for region in regions.values():
+    for region in dumped_regions.values():
         numbers += _numbers({key: value for key, value in region.items() if key != "rotation"})
     pose = (float(start.x), float(start.y), float(start.theta))
-    from wmr_mission.spec.models import RegulatePhase, TrackPhase
-    from wmr_mission.spec.repeats import run_order
-
+    context = mission.path_context()
     for phase in {run.where: run.phase for run in run_order(mission)}.values():
         if isinstance(phase, RegulatePhase):
             numbers += _numbers(phase.regulate.model_dump(mode="json"))
         if phase.until is not None and phase.until.near is not None:
             numbers += list(phase.until.near.point)
         if isinstance(phase, TrackPhase):
-            trajectory = paths.instantiate(phase.track.path, mission, pose)
+            trajectory = paths.trajectory(phase.track.path, context, pose)
             x, y, _, _ = trajectory.sample(np.zeros(1))
             numbers += [float(x[0]), float(y[0])]
     finite = [abs(float(n)) for n in numbers if math.isfinite(float(n))]
@@ -189,36 +166,9 @@ def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, Flo
     return kinds, params
 
 
-def tracking_look_ahead(mission: Mission) -> float:
-    """The tracked point's distance ahead of the axle [m]; 0 for the literal axle law.
-
-    Unset, it is tied to the limits: ``max(0.05, limits.v * dt)``. The
-    one-sample input sensitivity of the point has determinant
-    ``dt^2 (l + v dt / 2)``, zero at ``v = -2 l / dt``; with ``l >= limits.v * dt``
-    it stays within a factor 3 of ``l dt^2`` at every speed the limits allow
-    (docs/paper-notes.md, eq. (27))."""
-    tracking = mission.controller.tracking
-    if tracking.output == "axle":
-        return 0.0
-    if tracking.look_ahead is not None:
-        return float(tracking.look_ahead)
-    return max(MIN_LOOK_AHEAD, float(mission.robot.limits.v) * float(mission.robot.dt))
-
-
-def tracking_error_decay(mission: Mission) -> float:
-    """Fraction of the tracked output's error left after one sample: 0 for the
-    one-sample laws (``time_constant: 0``, and the literal axle law)."""
-    tracking = mission.controller.tracking
-    if tracking.output == "axle" or tracking.time_constant == 0:
-        return 0.0
-    return math.exp(-float(mission.robot.dt) / float(tracking.time_constant))
-
-
 def sample_budget(mission: Mission) -> int:
     """The samples a run may take: each phase's bound (its timeout or elapsed
-    time, 60 s without either) summed over the phases as run. Loads no kernel."""
-    from wmr_mission.spec.repeats import run_order
-
+    time, 60 s without either) summed over the phases as run."""
     dt = float(mission.robot.dt)
     budget = 0
     for run in run_order(mission):
@@ -227,18 +177,16 @@ def sample_budget(mission: Mission) -> int:
         bounds = [
             b for b in (phase.timeout, None if until is None else until.elapsed) if b is not None
         ]
-        budget += _samples(min(bounds), dt) + 1 if bounds else _samples(60.0, dt)
+        budget += _bound(min(bounds), dt) + 1 if bounds else _bound(60.0, dt)
     return budget + 1
 
 
 def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:
-    from wmr_mission.geometry import regions
-
     reaches_rows = no_rows()
     if until.reaches is not None:
         reaches_rows = regions.constraint_rows(mission.regions[until.reaches], "inside")
     return Conditions(
-        elapsed_samples=None if until.elapsed is None else _samples(until.elapsed, dt),
+        elapsed_samples=None if until.elapsed is None else _bound(until.elapsed, dt),
         mission_time=until.mission_time,
         reaches=until.reaches,
         reaches_rows=(
@@ -255,14 +203,9 @@ def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:
     )
 
 
-def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMission:
-    """Turn a validated mission into the runner's plain form."""
-    from wmr_mission.geometry import paths, regions
-    from wmr_mission.spec.models import RegulatePhase, StayInside, TrackPhase
-    from wmr_mission.spec.repeats import run_order
-
-    dt = float(mission.robot.dt)
-    phases: list[CompiledPhase] = []
+def _phases(mission: Mission, dt: float) -> tuple[PhasePlan, ...]:
+    context = mission.path_context()
+    phases: list[PhasePlan] = []
     for run in run_order(mission):  # repeats written out, one phase per lap
         phase = run.phase
         constraints = []
@@ -282,25 +225,23 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
         if isinstance(phase, TrackPhase):
             kind = "track"
             path = phase.track.path
-            points = paths.drawn_points(path, mission)
+            points = paths.drawn_points(path, context)
 
-            def make_trajectory(
-                pose: tuple[float, float, float], _path: object = path
-            ) -> Trajectory:
-                return paths.instantiate(_path, mission, pose)  # type: ignore[arg-type]
+            def make_trajectory(pose: tuple[float, float, float], _path: Any = path) -> Trajectory:
+                return paths.trajectory(_path, context, pose)
 
         elif isinstance(phase, RegulatePhase):
             kind = "regulate"
             goal = phase.regulate.target
             target = (float(goal.x), float(goal.y), float(goal.theta))
         phases.append(
-            CompiledPhase(
+            PhasePlan(
                 name=run.label,
                 lap=run.lap,
                 points=points,
                 kind=kind,
                 until=_conditions(phase.until, mission, dt),
-                timeout_samples=None if phase.timeout is None else _samples(phase.timeout, dt),
+                timeout_samples=None if phase.timeout is None else _bound(phase.timeout, dt),
                 fail_on_timeout=phase.on_timeout == "fail",
                 make_trajectory=make_trajectory,
                 target=target,
@@ -309,56 +250,20 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
             )
         )
-    estimator = mission.estimator
+    return tuple(phases)
+
+
+def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
+    """Turn a validated mission into the runner's plain form."""
+    dt = float(mission.robot.dt)
     sensors = mission.sensors
-    mask = measurement_mask(sensors.measure)
-    noise = np.array([sensors.noise_std.x, sensors.noise_std.y, sensors.noise_std.theta])
-    lower = np.full(3, -math.inf)
-    upper = np.full(3, math.inf)
-    poles = np.full(3, 0.9)
-    use_bounds = False
-    max_iterations = 0
-    initial_var = np.ones(3)
-    process_var = np.zeros(3)
-    measurement_var = np.maximum(noise, 1e-3) ** 2
-    innovation_gate = math.inf
-    if estimator.type == "constrained-observer":
-        poles = np.array([estimator.poles.x, estimator.poles.y, estimator.poles.theta])
-        if estimator.output_error_bounds:
-            use_bounds = True
-            for name, (lo, hi) in estimator.output_error_bounds.items():
-                i = STATE_NAMES.index(name)
-                lower[i] = lo
-                upper[i] = hi
-        max_iterations = estimator.max_iterations
-    else:
-        initial_var = (
-            np.array(
-                [estimator.initial_std.x, estimator.initial_std.y, estimator.initial_std.theta]
-            )
-            ** 2
-        )
-        process_var = (
-            np.array(
-                [estimator.process_std.x, estimator.process_std.y, estimator.process_std.theta]
-            )
-            ** 2
-        )
-        if estimator.measurement_std is not None:
-            for name, std in estimator.measurement_std.items():
-                measurement_var[STATE_NAMES.index(name)] = std * std  # not pow(): exact
-        if estimator.innovation_gate is not None:
-            innovation_gate = float(estimator.innovation_gate)
+    measured = measurement_mask(sensors.measure)
+    measured_noise = sensors.measured_noise()
+    noise_std = np.array([measured_noise.get(state, 0.0) for state in STATES])
     limits = mission.robot.limits
-    controller = mission.controller
-    initial = mission.robot.initial_state
-    guess = initial if estimator.initial_estimate is None else estimator.initial_estimate
     dumped_regions = {name: r.model_dump(mode="json") for name, r in mission.regions.items()}
-    return CompiledMission(
-        name=mission.name,
+    plant = Plant(
         dt=dt,
-        initial_state=np.array([initial.x, initial.y, initial.theta], dtype=np.float64),
-        initial_estimate=np.array([guess.x, guess.y, guess.theta], dtype=np.float64),
         limits=np.array(
             [
                 limits.v,
@@ -367,32 +272,28 @@ def compile_mission(mission: Mission, seed: int | None = None) -> CompiledMissio
                 math.inf if limits.omega_rate is None else limits.omega_rate,
             ]
         ),
-        measure_mask=mask,
-        noise_std=noise,
+        runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),
+        runaway_input=RUNAWAY_INPUT,
+    )
+    estimator = ESTIMATORS.of(mission.estimator)
+    controller = CONTROLLERS.of(mission.controller)
+    initial = mission.robot.initial_state
+    written = mission.estimator.initial_estimate
+    guess = initial if written is None else written
+    return MissionPlan(
+        name=mission.name,
+        plant=plant,
+        initial_state=np.array([initial.x, initial.y, initial.theta], dtype=np.float64),
+        initial_estimate=np.array([guess.x, guess.y, guess.theta], dtype=np.float64),
+        measured=measured,
+        noise_std=noise_std,
         seed=sensors.seed if seed is None else seed,
-        estimator=estimator.type,
-        poles=poles,
-        heading_motion_floor=float((noise[:2] * mask[:2]).max()),
-        lower_bounds=lower,
-        upper_bounds=upper,
-        use_bounds=use_bounds,
-        max_iterations=max_iterations,
-        ekf_initial_var=initial_var,
-        ekf_process_var=process_var,
-        ekf_measurement_var=measurement_var,
-        ekf_innovation_gate=innovation_gate,
-        disturbances=_disturbance_settings(mission),
-        q=np.array(controller.Q, dtype=np.float64),
-        r=np.array(controller.R, dtype=np.float64),
-        w=np.array(controller.W, dtype=np.float64),
-        m=np.array(controller.M, dtype=np.float64),
-        look_ahead=tracking_look_ahead(mission),
-        error_decay=tracking_error_decay(mission),
-        regulation_form=FORMS[controller.regulation.form],
-        align_radius=controller.regulation.align_radius,
-        reverse=controller.regulation.reverse,
-        phases=tuple(phases),
+        estimator=estimator,
+        estimator_tuning=estimator.tuning_of(mission.estimator, Measurements(measured, noise_std)),
+        controller=controller,
+        controller_tuning=controller.tuning_of(mission.controller, plant),
+        phases=_phases(mission, dt),
         regions=dumped_regions,
         max_samples=sample_budget(mission),
-        runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),
+        disturbances=disturbance_plan(mission),
     )

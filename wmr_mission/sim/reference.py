@@ -3,7 +3,7 @@ straightforward way, with numpy matrices and scipy's solvers.
 
 Every function has the signature and the semantics of its compiled
 counterpart (``wmr_mission.estimators.observer``, ``wmr_mission.estimators.ekf``,
-``wmr_mission.controllers.paper``), so ``run_mission(mission, functions=REFERENCE)``
+``wmr_mission.controllers.paper``), so ``run_mission(mission, substitutes=REFERENCE)``
 runs the same mission. It is the oracle the fast kernels are tested against
 and the baseline ``wmr-mission bench`` measures them against. It is written
 from the paper's equations, not from the kernels: matrices are built, scipy
@@ -14,21 +14,29 @@ places the observer poles (``place_poles``) and solves eq. (21)
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.linalg import solve_discrete_are
 from scipy.signal import place_poles
 
-from wmr_mission.controllers.paper import ALIGNING, BEARING, CORRECTED, DOUBLINGS, INCREMENT
-from wmr_mission.estimators.observer import BOUND_SLACK, MIN_HEADING_OBSERVABILITY
-from wmr_mission.kernels.corrective import ELLIPSE, REGULARISATION
-from wmr_mission.kernels.records import Controller, Estimator, Robot, Scratch
+from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.controllers import paper
+from wmr_mission.controllers.paper import (
+    ALIGNING,
+    BEARING,
+    CORRECTED,
+    DOUBLINGS,
+    INCREMENT,
+    PaperTuning,
+)
+from wmr_mission.estimators import ekf, observer
+from wmr_mission.estimators.ekf import EkfTuning
+from wmr_mission.estimators.observer import BOUND_SLACK, MIN_HEADING_OBSERVABILITY, ObserverTuning
+from wmr_mission.kernels.corrective import ELLIPSE_ROW, REGULARISATION
+from wmr_mission.kernels.records import Plant, Scratch
 from wmr_mission.kernels.riccati import MIN_SPEED
-from wmr_mission.sim.runner import StepFunctions
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 def wrap_angle(angle: float) -> float:
@@ -135,7 +143,7 @@ def observer_step(
     omega: float,
     dt: float,
     measurement: FloatArray,
-    params: Estimator,
+    params: ObserverTuning,
     gain: FloatArray,
 ) -> int:
     """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L into
@@ -179,7 +187,7 @@ def ekf_step(
     omega: float,
     dt: float,
     measurement: FloatArray,
-    params: Estimator,
+    params: EkfTuning,
     work: FloatArray,
 ) -> None:
     """Extended Kalman filter step, in place, Joseph-form covariance update."""
@@ -255,8 +263,8 @@ def track_input(
     u_prev: FloatArray,
     reference_now: FloatArray,
     reference: FloatArray,
-    controller: Controller,
-    robot: Robot,
+    controller: PaperTuning,
+    robot: Plant,
     work: Scratch,
     u_out: FloatArray,
 ) -> None:
@@ -330,7 +338,7 @@ def constraint_values(
     values = np.zeros(row_kinds.shape[0])
     gradients = np.zeros((row_kinds.shape[0], 2))
     for i, (kind, p) in enumerate(zip(row_kinds, row_params, strict=True)):
-        if kind == ELLIPSE:
+        if kind == ELLIPSE_ROW:
             cos_phi, sin_phi = math.cos(p[4]), math.sin(p[4])
             rotation = np.array([[cos_phi, -sin_phi], [sin_phi, cos_phi]])
             local = rotation.T @ (position - p[:2])
@@ -350,8 +358,8 @@ def regulate_input(
     target: FloatArray,
     row_kinds: IntArray,
     row_params: FloatArray,
-    controller: Controller,
-    robot: Robot,
+    controller: PaperTuning,
+    robot: Plant,
     memory: FloatArray,
     work: Scratch,
     u_out: FloatArray,
@@ -408,4 +416,11 @@ def regulate_input(
     u_out[0], u_out[1] = saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt)
 
 
-REFERENCE = StepFunctions(observer_step, ekf_step, track_input, regulate_input)
+# The fast kernels and their reference forms: ``run_mission(mission,
+# substitutes=REFERENCE)`` runs the loop as plain Python with these in place.
+REFERENCE: dict[Any, Callable[..., Any]] = {
+    observer.observer_step: observer_step,
+    ekf.ekf_step: ekf_step,
+    paper.track_input: track_input,
+    paper.regulate_input: regulate_input,
+}

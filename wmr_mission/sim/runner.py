@@ -12,34 +12,29 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping
+from dataclasses import replace
 from enum import StrEnum
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
-from wmr_mission.controllers import paper
-from wmr_mission.estimators.ekf import ekf_step
-from wmr_mission.estimators.observer import observer_step
-from wmr_mission.kernels import jit, loop
+from wmr_mission.basics import FloatArray
+from wmr_mission.geometry.paths import Trajectory
+from wmr_mission.kernels import jit, loop, variants
 from wmr_mission.kernels.corrective import max_row_value
-from wmr_mission.kernels.disturbances import Draws
-from wmr_mission.kernels.loop import FLOAT_COLUMNS, PathBlock, Phase, Record, Signals
-from wmr_mission.kernels.records import records, scratch
-from wmr_mission.output.result import Outcome, PhaseInfo, RunResult, Transition
-from wmr_mission.sim.plan import CompiledMission, CompiledPhase, Trajectory, compile_mission
-
-if TYPE_CHECKING:
-    from wmr_mission.spec.models import Mission
-
-FloatArray = NDArray[np.float64]
+from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
+from wmr_mission.output.metrics import judge
+from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
+from wmr_mission.sim.draws import Draws
+from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
+from wmr_mission.spec.loader import validate_mission
+from wmr_mission.spec.models import Mission
 
 # Samples per call of the compiled loop: between calls the runner reports
 # progress and Ctrl-C gets in (a few milliseconds apart when compiled). A
 # track phase whose end cannot be foreseen starts with short chunks, so a
-# short phase samples little path ahead (ActivePhase.first_chunk).
+# short phase samples little path ahead (PhaseRun.first_chunk).
 CHUNK = 4096
 FIRST_CHUNK = 256
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
@@ -54,7 +49,7 @@ class Status(StrEnum):
 
 
 class Recorder:
-    """Pre-sized columns (wmr_mission.kernels.loop.Record), one row per sample; grows
+    """Pre-sized columns (wmr_mission.kernels.loop.Recording), one row per sample; grows
     by doubling if a run outlasts its estimate. Columns are contiguous, so the
     result hands them out as views, without copying."""
 
@@ -62,9 +57,9 @@ class Recorder:
         self.record = self._allocate(max(16, capacity))
 
     @staticmethod
-    def _allocate(capacity: int) -> Record:
+    def _allocate(capacity: int) -> Recording:
         # np.empty: pages a short run never writes are never touched.
-        return Record(
+        return Recording(
             np.empty((len(FLOAT_COLUMNS), capacity)).T,
             np.empty(capacity, dtype=np.int64),
             np.empty(capacity, dtype=np.int64),
@@ -91,11 +86,11 @@ class Recorder:
         self.record = grown
 
 
-class ActivePhase:
-    """One phase's lifecycle: ``enter`` at its first sample gives the record
-    the compiled loop runs it with; ``path_ahead`` samples its path."""
+class PhaseRun:
+    """One phase's lifecycle in a run: ``enter`` at its first sample gives the
+    record the compiled loop runs it with; ``path_ahead`` samples its path."""
 
-    def __init__(self, phase: CompiledPhase, mission: CompiledMission, index: int) -> None:
+    def __init__(self, phase: PhasePlan, mission: MissionPlan, index: int) -> None:
         self.phase = phase
         self.mission = mission
         self.index = index
@@ -115,7 +110,7 @@ class ActivePhase:
         unforeseen = phase.kind == "track" and any(c is not None for c in conditions)
         self.first_chunk = min(FIRST_CHUNK, CHUNK) if unforeseen else CHUNK
 
-    def enter(self, k: int, estimate: FloatArray) -> Phase:
+    def enter(self, k: int, estimate: FloatArray) -> EnteredPhase:
         self.status = Status.running
         self.entry_sample = k
         pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
@@ -132,7 +127,7 @@ class ActivePhase:
                 1.0, _max_row_value(reaches_kinds, reaches_params, pose[0], pose[1])
             )
         kinds, params = phase.constraint_rows
-        return Phase(
+        return EnteredPhase(
             number=self.index,
             tracking=phase.kind == "track",
             entry_sample=k,
@@ -175,31 +170,12 @@ _record_sample = jit.plain(loop.record_sample)
 ProgressCallback = Callable[[float, float, str], None]
 
 
-@dataclass(frozen=True)
-class StepFunctions:
-    """The per-sample estimator and controller functions the loop calls.
-
-    ``FAST`` are the compiled kernels; ``wmr_mission.sim.reference.REFERENCE``
-    holds straightforward numpy/scipy versions with the same signatures, used
-    as the oracle in tests and by ``wmr-mission bench``: the loop then runs as
-    plain Python (wmr_mission.kernels.jit.plain).
-    """
-
-    observer_step: Callable[..., int]
-    ekf_step: Callable[..., None]
-    track_input: Callable[..., None]
-    regulate_input: Callable[..., None]
-
-
-FAST = StepFunctions(observer_step, ekf_step, paper.track_input, paper.regulate_input)
-
-
 def run_mission(
-    mission: Mission | CompiledMission,
+    mission: Mission | MissionPlan,
     *,
     seed: int | None = None,
     progress: ProgressCallback | None = None,
-    functions: StepFunctions = FAST,
+    substitutes: Mapping[Any, Callable[..., Any]] | None = None,
 ) -> RunResult:
     """Simulate ``mission`` and return every sample as arrays.
 
@@ -209,15 +185,16 @@ def run_mission(
     between chunks of samples. The run stops cleanly on a timeout with
     ``on_timeout: fail``, on divergence and on Ctrl-C (outcome
     ``interrupted``); what was produced up to then is in the result.
-    """
-    if isinstance(mission, CompiledMission):
-        compiled = mission if seed is None else replace(mission, seed=seed)
-        return _Run(compiled, progress, functions).run()
-    from wmr_mission.output.metrics import judge
-    from wmr_mission.spec.loader import validate_mission
 
+    ``substitutes`` replaces kernels by functions of the same signature (the
+    reference step, wmr_mission.sim.reference.REFERENCE): the loop then runs
+    as plain Python.
+    """
+    if isinstance(mission, MissionPlan):
+        plan = mission if seed is None else replace(mission, seed=seed)
+        return _Run(plan, progress, substitutes).run()
     checked = validate_mission(mission)
-    result = _Run(compile_mission(checked, seed), progress, functions).run()
+    result = _Run(plan_mission(checked, seed), progress, substitutes).run()
     resolved = checked.model_dump(mode="json")
     resolved["sensors"]["seed"] = result.seed  # the mission as run
     result.mission = resolved
@@ -233,31 +210,31 @@ def _seconds(samples: int, dt: float) -> float:
 
 class _Run:
     def __init__(
-        self, mission: CompiledMission, progress: ProgressCallback | None, functions: StepFunctions
+        self,
+        mission: MissionPlan,
+        progress: ProgressCallback | None,
+        substitutes: Mapping[Any, Callable[..., Any]] | None,
     ) -> None:
-        self.m = mission
+        m = self.m = mission
         self.progress = progress
-        self.recorder = Recorder(min(mission.max_samples, MAX_PRESIZED))
+        self.recorder = Recorder(min(m.max_samples, MAX_PRESIZED))
         self.transitions: list[Transition] = []
-        self.phases = [ActivePhase(p, mission, i) for i, p in enumerate(mission.phases)]
-        self.robot, self.estimator, self.controller = records(mission)
-        self.disturbances = mission.disturbances.record(mission.dt)
-        self.scratch = scratch()
-        if functions is FAST and jit.compiling():
+        self.phases = [PhaseRun(p, m, i) for i, p in enumerate(m.phases)]
+        self.actuation, self.sensing = m.disturbances.records(m.dt, m.measured)
+        self.estimator_memory = m.estimator.new_memory(m.estimator_tuning, m.initial_estimate)
+        self.scratch = m.controller.new_scratch()
+        if not substitutes and jit.compiling():
             self.segment: Callable[..., int] = jit.compiled(loop.run_segment, counted=False)
             self.ticks_are_ns = False
         else:
-            self.segment = jit.plain(
-                loop.run_segment,
-                {
-                    observer_step: functions.observer_step,
-                    ekf_step: functions.ekf_step,
-                    paper.track_input: functions.track_input,
-                    paper.regulate_input: functions.regulate_input,
-                },
-            )
+            # The plain loop runs this mission's estimator and controller
+            # steps, as the compiled loop does (wmr_mission.kernels.variants).
+            steps = {
+                variants.estimator_step: m.estimator.step,
+                variants.control_step: m.controller.step,
+            }
+            self.segment = jit.plain(loop.run_segment, {**steps, **(substitutes or {})})
             self.ticks_are_ns = True
-        m = mission
         self.signals = Signals(
             state=m.initial_state.copy(),
             estimate=m.initial_estimate.copy(),
@@ -266,13 +243,12 @@ class _Run:
             measured=np.full(3, math.nan),
             u=np.zeros(2),
             u_prev=np.zeros(2),
-            covariance=np.diag(m.ekf_initial_var).astype(np.float64),
-            observer_gain=np.zeros((3, 3)),
-            ekf_work=np.zeros((4, 3, 3)),
-            memory=np.zeros(paper.MEMORY_SIZE),
+            aim_now=np.zeros(4),
+            aim=np.zeros(4),
+            memory=np.zeros(m.controller.memory_size),
             counters=np.zeros(loop.CLOCK + 1, dtype=np.int64),
             exit_value=np.zeros(1),
-            commands=np.zeros((self.disturbances.input_delay + 1, 2)),
+            commands=np.zeros((self.actuation.input_delay + 1, 2)),
             applied=np.zeros(2),
             burst=np.zeros(1, dtype=np.int64),
         )
@@ -282,19 +258,22 @@ class _Run:
         self._started = (time.perf_counter_ns(), 0)
         self._returned_ns = self._started[0]
 
-    def _call(self, phase: Phase, path: PathBlock, draws: FloatArray, stop: int) -> int:
+    def _call(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
+        m = self.m
         status = int(
             self.segment(
-                self.robot,
-                self.estimator,
-                self.controller,
-                self.disturbances,
+                m.plant,
+                self.actuation,
+                self.sensing,
+                m.estimator_tuning,
+                self.estimator_memory,
+                m.controller_tuning,
+                self.scratch,
                 phase,
                 path,
                 draws,
                 self.signals,
                 self.recorder.record,
-                self.scratch,
                 stop,
             )
         )
@@ -396,7 +375,7 @@ class _Run:
             chunk = active.first_chunk
         return self._result(outcome, message)
 
-    def _close(self, k: int, phase: Phase) -> None:
+    def _close(self, k: int, phase: EnteredPhase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""
         s = self.signals
         _record_sample(
@@ -411,7 +390,7 @@ class _Run:
             if math.isfinite(u[0]) and math.isfinite(u[1]):
                 return (
                     f"the input ran away (v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s; "
-                    f"beyond {self.m.runaway_input:g} is no robot's)"
+                    f"beyond {self.m.plant.runaway_input:g} is no robot's)"
                 )
             return "the input is not finite"
         return (
@@ -419,7 +398,7 @@ class _Run:
             f"last input v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s)"
         )
 
-    def _diverged(self, k: int, active: ActivePhase, cause: str) -> tuple[Outcome, str]:
+    def _diverged(self, k: int, active: PhaseRun, cause: str) -> tuple[Outcome, str]:
         t = _seconds(k, self.m.dt)
         self.transitions.append(Transition(t, active.phase.name, None, "diverged", math.nan))
         return (
@@ -436,10 +415,7 @@ class _Run:
         n = r.count
         m = self.m
         record = r.record
-        bounds = tuple(
-            (float(lo), float(hi)) if m.use_bounds and math.isfinite(lo) else (math.nan, math.nan)
-            for lo, hi in zip(m.lower_bounds, m.upper_bounds, strict=True)
-        )
+        bounds = m.estimator.error_bounds(m.estimator_tuning)
         compute = record.compute[:n]
         if not (self.ticks_are_ns or jit.cycle_counter()):
             # Compiled where no cheap clock can be read inside the loop (not
@@ -453,7 +429,7 @@ class _Run:
             dt=m.dt,
             seed=m.seed,
             phases=[
-                PhaseInfo(
+                PhaseRecord(
                     p.name,
                     p.kind,
                     self._target(a),
@@ -482,7 +458,7 @@ class _Run:
             transitions=self.transitions,
             outcome=outcome,
             message=message,
-            limits=(float(m.limits[0]), float(m.limits[1])),
+            limits=(float(m.plant.limits[0]), float(m.plant.limits[1])),
             error_bounds=bounds,  # type: ignore[arg-type]
             regions=dict(m.regions),
             loop_ns=self.loop_ns,
@@ -492,7 +468,7 @@ class _Run:
         )
 
     @staticmethod
-    def _target(active: ActivePhase) -> tuple[float, float, float] | None:
+    def _target(active: PhaseRun) -> tuple[float, float, float] | None:
         if active.phase.kind == "track" or active.status == Status.pending:
             return active.phase.target
         return (float(active.target[0]), float(active.target[1]), float(active.target[2]))

@@ -20,22 +20,20 @@ import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Final, Literal
+from typing import Annotated, Any, Final, Literal
 
 import yaml
 from pydantic import BaseModel, ValidationError
+from pydantic.fields import FieldInfo
 
+from wmr_mission.fields import ABSURD, IDENTIFIER, Registry, type_name
+from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.spec.checks import DataPath, Finding, Severity, check
 from wmr_mission.spec.models import (
-    ABSURD,
     ACTIONS,
-    IDENTIFIER,
     MISSION_NAME,
     PHASE_NAME,
-    Estimator,
     Mission,
-    PathSpec,
-    RegionSpec,
 )
 
 __all__ = [
@@ -485,10 +483,27 @@ def _resolve(loc: tuple[str | int, ...], data: Any) -> DataPath:
     return tuple(path)
 
 
+def _registry(tp: Any) -> Registry[Any] | None:
+    """The registry an annotation is filled by (wmr_mission.fields.Registry), if any."""
+    if typing.get_origin(tp) is typing.Annotated:
+        found = [m for m in typing.get_args(tp)[1:] if isinstance(m, Registry)]
+        return found[0] if found else None
+    return None
+
+
+def _field_type(info: FieldInfo) -> Any:
+    """A field's type with the registry that fills it, if any."""
+    registry = next((m for m in info.metadata if isinstance(m, Registry)), None)
+    return info.annotation if registry is None else Annotated[info.annotation, registry]
+
+
 def _model_class(tp: Any, value: Any) -> Any:
     """Strip Annotated/unions down to the member the value selects."""
     while True:
         origin = typing.get_origin(tp)
+        registry = _registry(tp)
+        if registry is not None:
+            return registry.settings_for(value)
         if origin is typing.Annotated:
             tp = typing.get_args(tp)[0]
             continue
@@ -530,7 +545,7 @@ def _model_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> typ
             info = tp.model_fields.get(part)
             if info is None:
                 return None
-            tp = info.annotation
+            tp = _field_type(info)
         else:
             origin, args = typing.get_origin(tp), typing.get_args(tp)
             if origin is list or (origin is tuple and len(args) == 2 and args[1] is Ellipsis):
@@ -646,7 +661,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
             path, f"{where}: a constraint is {{stay_inside: REGION}} or {{stay_outside: REGION}}"
         )
     if kind in ("union_tag_invalid", "union_tag_not_found"):
-        tags = _type_tags(path)
+        tags = _type_tags(path, data, root)
         if kind == "union_tag_not_found":
             near_type = [
                 k for k in (value if isinstance(value, dict) else {}) if _suggest(k, ["type"])
@@ -702,14 +717,15 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     return Finding(path, f"{where}: {message}")
 
 
-def _type_tags(path: DataPath) -> list[str]:
-    """The ``type`` values accepted by the union at ``path``."""
-    union = Estimator if path[:1] == ("estimator",) else RegionSpec
-    if "path" in path:
-        union = PathSpec
-    members = typing.get_args(typing.get_args(union)[0])
-    models = [_model_class(m, None) for m in members]
-    return [str(typing.get_args(m.model_fields["type"].annotation)[0]) for m in models]
+def _type_tags(path: DataPath, data: Any, root: type[BaseModel]) -> list[str]:
+    """The ``type`` values accepted by the union at ``path``: a registry's
+    (a path, the estimator, the controller), else a region's."""
+    owner = _model_at(path[:-1], data, root)
+    info = None if owner is None else owner.model_fields.get(str(path[-1]))
+    registry = None if info is None else _registry(_field_type(info))
+    if registry is not None:
+        return list(registry.names())
+    return [type_name(m) for m in typing.get_args(typing.get_args(RegionSpec)[0])]
 
 
 _SUGGESTION = re.compile(r"^unknown field '[^']*'; did you mean '([^']*)'\?$")
