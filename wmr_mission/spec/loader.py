@@ -300,7 +300,13 @@ class _Builder:
                 self.document.refused.add(path)
                 continue
             # The key as written: `on`, `y` or `null` stay words, as in YAML 1.2.
-            key = str(key_node.value)
+            key = _characters(str(key_node.value))
+            if key is None:
+                self.findings.append(
+                    Finding(path, _LONE_SURROGATE, position=_mark(key_node.start_mark))
+                )
+                self.document.refused.add(path)
+                continue
             key_path = (*path, key)
             if key in result:
                 first_line, first_column = self.document.keys[key_path]
@@ -320,7 +326,10 @@ class _Builder:
     def _scalar(self, node: yaml.Node, path: DataPath) -> Any:
         tag, text = node.tag, str(node.value)
         if tag == _TAG + "str":
-            return text
+            characters = _characters(text)
+            if characters is None:
+                self.refuse(path, _LONE_SURROGATE)
+            return characters
         if tag == _TAG + "null":
             return None
         if tag == _TAG + "bool":
@@ -365,6 +374,26 @@ class _Builder:
             self.refuse(path, f"absurd number {text}: magnitudes above {ABSURD:g} are refused")
             return None
         return value
+
+
+_SURROGATE = re.compile(r"[\ud800-\udfff]")
+_LONE_SURROGATE: Final = (
+    "a text holds a lone surrogate escape (\\ud800 to \\udfff), half of a character: "
+    "write the character itself, a pair of escapes as JSON writes it (\\ud83d\\ude00), "
+    "or \\U and its 8 hex digits (\\U0001F600)"
+)
+
+
+def _characters(text: str) -> str | None:
+    """``text`` with each pair of surrogate escapes (``"\\ud83d\\ude00"``, as JSON
+    writes a character beyond U+FFFF) joined into its character; None when a
+    surrogate stands alone, which is no character at all."""
+    if _SURROGATE.search(text) is None:
+        return text
+    try:
+        return text.encode("utf-16-le", "surrogatepass").decode("utf-16-le")
+    except UnicodeDecodeError:
+        return None
 
 
 def _core_number(text: str, *, integer: bool) -> float:
