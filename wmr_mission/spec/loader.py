@@ -30,6 +30,7 @@ from wmr_mission.spec.models import (
     ABSURD,
     ACTIONS,
     IDENTIFIER,
+    LARGEST_SEED,
     MISSION_NAME,
     PHASE_NAME,
     Estimator,
@@ -370,8 +371,11 @@ class _Builder:
         if not math.isfinite(value):
             self.refuse(path, f"{text!r} is not allowed: numbers must be finite")
             return None
-        if abs(value) > ABSURD:
-            self.refuse(path, f"absurd number {text}: magnitudes above {ABSURD:g} are refused")
+        # Integers up to the largest seed: the fields bound them (a seed to
+        # 2^32 - 1, every other number to ABSURD).
+        largest = f"{LARGEST_SEED}" if isinstance(value, int) else f"{ABSURD:g}"
+        if abs(value) > float(largest):
+            self.refuse(path, f"absurd number {text}: magnitudes above {largest} are refused")
             return None
         return value
 

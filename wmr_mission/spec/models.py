@@ -106,6 +106,9 @@ PHASE_NAME: Final = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 
 # Larger magnitudes are typing mistakes, not missions (and would overflow the kernels).
 ABSURD: Final = 1e9
+# The largest seed (numpy's seeds are 32-bit): the one field whose range goes
+# beyond ABSURD, so integers are read up to it and the fields bound them.
+LARGEST_SEED: Final = 2**32 - 1
 # Plausibility floors: a positive quantity below these is a typing mistake, and
 # its square or inverse would underflow or overflow the kernels. Sizes, speeds
 # and rates of regions and paths [m, m/s, 1/s]; every other positive quantity
@@ -420,7 +423,7 @@ class Sensors(_Model):
         default_factory=StateStd,
         description="Additive white Gaussian noise on each measured state [m, m, rad].",
     )
-    seed: Annotated[int, Strict(), Field(ge=0, le=2**32 - 1)] = Field(
+    seed: Annotated[int, Strict(), Field(ge=0, le=LARGEST_SEED)] = Field(
         default=0,
         description=(
             "Seed of every random draw of the run (noise and disturbances), 0 .. 2^32-1; "
