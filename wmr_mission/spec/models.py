@@ -359,7 +359,7 @@ class Disturbances(_Model):
 class Robot(_Model):
     """The plant of eq. (1), sampled."""
 
-    dt: Annotated[Number, Field(gt=0, le=1)] = Field(
+    dt: Annotated[Number, Field(gt=0, le=1), _at_least(SMALLEST_POSITIVE)] = Field(
         default=0.01, description="Sampling period [s], in (0, 1]."
     )
     initial_state: Pose = Field(
@@ -716,6 +716,14 @@ class HalfPlaneRegion(_Model):
     def _nonzero_normal(cls, normal: tuple[float, float]) -> tuple[float, float]:
         if normal == (0.0, 0.0):
             raise PydanticCustomError("zero_normal", "a half-plane normal must not be [0, 0]")
+        length = math.hypot(*normal)
+        if length < SMALLEST_POSITIVE:  # its square, which scales the offset, would underflow
+            raise PydanticCustomError(
+                "implausibly_small",
+                "a half-plane normal of length {length} is implausibly short: "
+                "expected at least {floor}",
+                {"length": f"{length:g}", "floor": f"{SMALLEST_POSITIVE:g}"},
+            )
         return normal
 
 
