@@ -55,6 +55,7 @@ __all__ = [
     "load_mission_text",
     "parse_override",
     "read_source",
+    "resolved_path",
     "validate_mission",
 ]
 
@@ -1132,6 +1133,23 @@ def _apply(document: Document, override: Override) -> str | None:
             del positions[known]
     document.overrides[written] = override.source
     return None
+
+
+def resolved_path(data: Any, path: DataPath) -> DataPath:
+    """``path`` as :func:`_apply` lands it in ``data``: a list item by its index
+    (``phases.go`` is ``phases[0]`` when the first phase is named go), a mapping's
+    key as text; past the data, the sections it would create, by name."""
+    resolved: list[str | int] = []
+    current = data
+    for part in path:
+        if isinstance(current, list):
+            index = _list_index(current, part)
+            resolved.append(part if index is None else index)
+            current = None if index is None else current[index]
+        else:
+            resolved.append(str(part))
+            current = current.get(str(part)) if isinstance(current, dict) else None
+    return tuple(resolved)
 
 
 def _where(resolved: list[str | int]) -> str:
