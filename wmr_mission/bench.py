@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from wmr_mission import _jit
 from wmr_mission.compiled import CompiledMission, compile_mission
 from wmr_mission.disturbances import Settings
-from wmr_mission.result import RunResult
+from wmr_mission.result import Outcome, RunResult
 from wmr_mission.runner import FAST, run_mission
 
 if TYPE_CHECKING:
@@ -101,18 +101,18 @@ def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, 
         compiled = mission
     else:
         compiled = compile_mission(validate_mission(mission))
-    ours = run_mission(compiled, functions=FAST)  # warm-up: loads or compiles the kernels
+    ours = _whole(run_mission(compiled, functions=FAST))  # warm-up: loads or compiles the kernels
     if not np.any(ours.compute_ns > 0):
         raise NothingToTime(f"the mission ends at t = {ours.t[-1]:g} s, before its first step")
     # Only the timed samples of each run are kept: memory grows with the samples
     # timed, not with whole results.
     timed, loops = [], []
     for _ in range(repeat):
-        ours = run_mission(compiled, functions=FAST)
+        ours = _whole(run_mission(compiled, functions=FAST))
         timed.append(_timed_samples(ours))
         loops.append(ours.loop_ns / ours.samples / 1000.0)
     with one_blas_thread():
-        reference = run_mission(compiled, functions=REFERENCE)
+        reference = _whole(run_mission(compiled, functions=REFERENCE))
     our_phase = np.concatenate([phases for phases, _ in timed])
     our_ns = np.concatenate([ns for _, ns in timed])
     ref_phase, ref_ns = _timed_samples(reference)
@@ -152,6 +152,14 @@ def bench_mission(mission: Mission | CompiledMission, repeat: int) -> dict[str, 
     }
 
 
+def _whole(result: RunResult) -> RunResult:
+    """A timed run is never cut short: ``run_mission`` turns Ctrl-C into an
+    ``interrupted`` result, which here stops the whole benchmark."""
+    if result.outcome is Outcome.interrupted:
+        raise KeyboardInterrupt
+    return result
+
+
 def _disturbance_cost(
     compiled: CompiledMission, loops: list[float], repeat: int
 ) -> dict[str, float] | None:
@@ -162,7 +170,7 @@ def _disturbance_cost(
     calm = replace(compiled, disturbances=Settings())
     without = []
     for _ in range(repeat):
-        result = run_mission(calm, functions=FAST)
+        result = _whole(run_mission(calm, functions=FAST))
         without.append(result.loop_ns / result.samples / 1000.0)
     with_us = float(np.median(loops))
     without_us = float(np.median(without))
@@ -259,7 +267,19 @@ def format_report(numbers: dict[str, Any], source: str) -> str:
 
 
 def bench_command(mission_path: str | Path, repeat: int) -> int:
-    """``wmr-mission bench``: exit 0 after printing the table, 1 for an invalid mission."""
+    """``wmr-mission bench``: exit 0 after printing the table, 1 for an invalid
+    mission, 130 or 143 stopped by SIGINT or SIGTERM (nothing is printed)."""
+    from wmr_mission.stopping import STOP_SIGNALS, StopSignals
+
+    with StopSignals(STOP_SIGNALS) as stop:
+        try:
+            return _bench(mission_path, repeat)
+        except KeyboardInterrupt:
+            print(f"{mission_path}: interrupted by {stop.name}; nothing timed", file=sys.stderr)
+            return stop.exit_code
+
+
+def _bench(mission_path: str | Path, repeat: int) -> int:
     from wmr_mission.spec.loader import MissionError, load_mission
 
     try:

@@ -106,6 +106,9 @@ PHASE_NAME: Final = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 
 # Larger magnitudes are typing mistakes, not missions (and would overflow the kernels).
 ABSURD: Final = 1e9
+# The largest seed (numpy's seeds are 32-bit): the one field whose range goes
+# beyond ABSURD, so integers are read up to it and the fields bound them.
+LARGEST_SEED: Final = 2**32 - 1
 # Plausibility floors: a positive quantity below these is a typing mistake, and
 # its square or inverse would underflow or overflow the kernels. Sizes, speeds
 # and rates of regions and paths [m, m/s, 1/s]; every other positive quantity
@@ -356,7 +359,7 @@ class Disturbances(_Model):
 class Robot(_Model):
     """The plant of eq. (1), sampled."""
 
-    dt: Annotated[Number, Field(gt=0, le=1)] = Field(
+    dt: Annotated[Number, Field(gt=0, le=1), _at_least(SMALLEST_POSITIVE)] = Field(
         default=0.01, description="Sampling period [s], in (0, 1]."
     )
     initial_state: Pose = Field(
@@ -420,7 +423,7 @@ class Sensors(_Model):
         default_factory=StateStd,
         description="Additive white Gaussian noise on each measured state [m, m, rad].",
     )
-    seed: Annotated[int, Strict(), Field(ge=0, le=2**32 - 1)] = Field(
+    seed: Annotated[int, Strict(), Field(ge=0, le=LARGEST_SEED)] = Field(
         default=0,
         description=(
             "Seed of every random draw of the run (noise and disturbances), 0 .. 2^32-1; "
@@ -713,6 +716,14 @@ class HalfPlaneRegion(_Model):
     def _nonzero_normal(cls, normal: tuple[float, float]) -> tuple[float, float]:
         if normal == (0.0, 0.0):
             raise PydanticCustomError("zero_normal", "a half-plane normal must not be [0, 0]")
+        length = math.hypot(*normal)
+        if length < SMALLEST_POSITIVE:  # its square, which scales the offset, would underflow
+            raise PydanticCustomError(
+                "implausibly_small",
+                "a half-plane normal of length {length} is implausibly short: "
+                "expected at least {floor}",
+                {"length": f"{length:g}", "floor": f"{SMALLEST_POSITIVE:g}"},
+            )
         return normal
 
 
