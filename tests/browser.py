@@ -6,14 +6,18 @@ would show (console errors and warnings, uncaught exceptions, failed loads,
 dialogs such as ``alert``), evaluate expressions, send real mouse events and
 take a screenshot.
 
-    with Page.open(path) as page:
+    with Browser() as browser, browser.open(path) as page:
         assert page.problems() == []
         page.evaluate("document.title")
+
+One browser serves many pages (each a new tab); ``Page.open(path)`` starts one
+for a single page.
 """
 
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import os
 import select
@@ -51,10 +55,13 @@ def find_chromium() -> str | None:
     return None
 
 
-class Page:
-    """One Chromium with one page, spoken to over fds 3 (commands) and 4 (replies, events)."""
+class Browser:
+    """One headless Chromium, spoken to over fds 3 (commands) and 4 (replies, events)."""
 
-    def __init__(self, binary: str, width: int, height: int) -> None:
+    def __init__(self) -> None:
+        binary = find_chromium()
+        if binary is None:
+            raise RuntimeError("Chromium is not installed (apt-get install -y chromium)")
         self._profile = tempfile.mkdtemp(prefix="chromium-profile-")
         to_chrome_r, self._to_chrome = os.pipe()
         self._from_chrome, from_chrome_w = os.pipe()
@@ -76,7 +83,6 @@ class Page:
                 binary,
                 *FLAGS,
                 f"--user-data-dir={self._profile}",
-                f"--window-size={width},{height}",
                 "--remote-debugging-pipe",
                 "about:blank",
             ],
@@ -91,35 +97,8 @@ class Page:
         self._id = 0
         self._dialogs = 0
         self.events: list[dict[str, Any]] = []
-        self._session: str | None = None
 
-    @classmethod
-    def open(
-        cls, html: Path, *, width: int = 1280, height: int = 900, timeout: float = 30.0
-    ) -> Page:
-        binary = find_chromium()
-        if binary is None:
-            raise RuntimeError("Chromium is not installed (apt-get install -y chromium)")
-        page = cls(binary, width, height)
-        try:
-            target = page.send("Target.createTarget", {"url": "about:blank"})["targetId"]
-            page._session = page.send(
-                "Target.attachToTarget", {"targetId": target, "flatten": True}
-            )["sessionId"]
-            for domain in ("Page", "Runtime", "Log"):
-                page.send(f"{domain}.enable")
-            page.send(
-                "Emulation.setDeviceMetricsOverride",
-                {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
-            )
-            page.send("Page.navigate", {"url": html.resolve().as_uri()})
-            page.wait_for("Page.loadEventFired", timeout)
-        except BaseException:
-            page.close()
-            raise
-        return page
-
-    def __enter__(self) -> Page:
+    def __enter__(self) -> Browser:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -150,11 +129,17 @@ class Page:
             os.write(self._to_chrome, json.dumps(dismiss).encode() + b"\0")
         return message
 
-    def send(self, method: str, params: dict[str, Any] | None = None, timeout: float = 30.0) -> Any:
+    def send(
+        self,
+        method: str,
+        params: dict[str, Any] | None = None,
+        session: str | None = None,
+        timeout: float = 30.0,
+    ) -> Any:
         self._id += 1
         message: dict[str, Any] = {"id": self._id, "method": method, "params": params or {}}
-        if self._session is not None:
-            message["sessionId"] = self._session
+        if session is not None:
+            message["sessionId"] = session
         os.write(self._to_chrome, json.dumps(message).encode() + b"\0")
         deadline = time.monotonic() + timeout
         while True:
@@ -165,16 +150,85 @@ class Page:
                 return reply["result"]
             self.events.append(reply)
 
-    def wait_for(self, method: str, timeout: float = 30.0) -> dict[str, Any]:
+    def wait_for(self, method: str, session: str, timeout: float = 30.0) -> dict[str, Any]:
+        def matches(event: dict[str, Any]) -> bool:
+            return event.get("method") == method and event.get("sessionId") == session
+
         for i, event in enumerate(self.events):
-            if event.get("method") == method:
+            if matches(event):
                 return self.events.pop(i)
         deadline = time.monotonic() + timeout
         while True:
             event = self._read(deadline)
-            if event.get("method") == method:
+            if matches(event):
                 return event
             self.events.append(event)
+
+    def open(
+        self, html: Path, *, width: int = 1280, height: int = 900, timeout: float = 30.0
+    ) -> Page:
+        """``html`` in a new tab of ``width`` x ``height`` CSS pixels, loaded."""
+        target = self.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+        session = self.send("Target.attachToTarget", {"targetId": target, "flatten": True})[
+            "sessionId"
+        ]
+        page = Page(self, target, session)
+        try:
+            for domain in ("Page", "Runtime", "Log"):
+                page.send(f"{domain}.enable")
+            page.send(
+                "Emulation.setDeviceMetricsOverride",
+                {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False},
+            )
+            page.send("Page.navigate", {"url": html.resolve().as_uri()})
+            self.wait_for("Page.loadEventFired", session, timeout)
+        except BaseException:
+            page.close()
+            raise
+        return page
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):  # already gone
+            self.send("Browser.close", timeout=5)
+        try:
+            self._process.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait()
+        os.close(self._to_chrome)
+        os.close(self._from_chrome)
+        shutil.rmtree(self._profile, ignore_errors=True)
+
+
+class Page:
+    """One tab of a :class:`Browser`."""
+
+    def __init__(self, browser: Browser, target: str, session: str) -> None:
+        self.browser = browser
+        self._target = target
+        self._session = session
+        self._own_browser = False
+
+    @classmethod
+    def open(cls, html: Path, *, width: int = 1280, height: int = 900) -> Page:
+        """A browser of its own with ``html`` loaded; closing the page closes it."""
+        browser = Browser()
+        try:
+            page = browser.open(html, width=width, height=height)
+        except BaseException:
+            browser.close()
+            raise
+        page._own_browser = True
+        return page
+
+    def __enter__(self) -> Page:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def send(self, method: str, params: dict[str, Any] | None = None) -> Any:
+        return self.browser.send(method, params, session=self._session)
 
     def evaluate(self, expression: str) -> Any:
         reply = self.send(
@@ -206,7 +260,9 @@ class Page:
         """Console errors and warnings, uncaught exceptions, failed loads and dialogs so far."""
         self.evaluate("0")  # takes in the events sent up to now
         found = []
-        for event in self.events:
+        for event in self.browser.events:
+            if event.get("sessionId") != self._session:
+                continue
             method, params = event.get("method"), event.get("params", {})
             if method == "Runtime.consoleAPICalled" and params["type"] in (
                 "error",
@@ -227,19 +283,12 @@ class Page:
         return found
 
     def close(self) -> None:
-        try:
-            self._session = None
-            self.send("Browser.close", timeout=5)
-        except Exception:  # already gone
-            pass
-        try:
-            self._process.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            self._process.kill()
-            self._process.wait()
-        os.close(self._to_chrome)
-        os.close(self._from_chrome)
-        shutil.rmtree(self._profile, ignore_errors=True)
+        browser = self.browser
+        with contextlib.suppress(Exception):  # the browser is gone
+            browser.send("Target.closeTarget", {"targetId": self._target}, timeout=5)
+        browser.events = [e for e in browser.events if e.get("sessionId") != self._session]
+        if self._own_browser:
+            browser.close()
 
 
 # Non-transparent pixels of each <canvas> (by data-plot), and the pixels near a

@@ -3,6 +3,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 import numpy as np
@@ -46,11 +47,20 @@ vary:
 @pytest.fixture(scope="session")
 def campaign_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from wmr_mission import run_campaign
+    from wmr_mission.campaign import sweep
 
     root = tmp_path_factory.mktemp("looking")
     mission = Path(__file__).parent / "data" / "campaigns" / "short.yaml"
     path = root / "looking.yaml"
     path.write_text(LOOKING_CAMPAIGN.format(mission=mission), encoding="utf-8")
     out = root / "campaign"
-    run_campaign(path, out=out, workers=1, plots=True)
+    write_run = sweep.write_run
+
+    def without_figures(*args: Any, **kwargs: Any) -> Any:
+        return write_run(*args, **{**kwargs, "plots": False})
+
+    # The campaign's figures, not the worst runs' (most of the time, and unused).
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(sweep, "write_run", without_figures)
+        run_campaign(path, out=out, workers=1, plots=True)
     return out

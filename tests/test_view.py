@@ -11,16 +11,18 @@ import csv
 import dataclasses
 import json
 import re
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from browser import CANVAS_INK, Page, find_chromium, pixels_near
+from browser import CANVAS_INK, Browser, Page, find_chromium, pixels_near
 from test_output_synthetic import circle_run
 from typer.testing import CliRunner
 
 from wmr_mission.cli import app
+from wmr_mission.output.campaign_reader import load_campaign_dir
 from wmr_mission.output.view import (
     MAX_DISPLAY_SAMPLES,
     build_page,
@@ -36,6 +38,17 @@ needs_chromium = pytest.mark.skipif(
     reason="Chromium is not installed (apt-get install -y chromium): "
     "the reports are not opened in a browser",
 )
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Browser]:
+    """One headless Chromium for the module's pages (each test opens its own tab)."""
+    if CHROMIUM is None:
+        pytest.skip("Chromium is not installed")
+    with Browser() as chromium:
+        yield chromium
+
+
 # matplotlib's tab10, the colours of circle_run's three phases.
 TAB10 = ((31, 119, 180), (255, 127, 14), (44, 160, 44))
 HOSTILE = "<script>alert(1)</script>"
@@ -202,12 +215,14 @@ def _ink_in_column(page: Page, selector: str, x: int) -> int:
 
 
 @needs_chromium
-def test_run_report_draws_every_plot_without_a_console_error(run_dir: Path) -> None:
+def test_run_report_draws_every_plot_without_a_console_error(
+    browser: Browser, run_dir: Path
+) -> None:
     report = _view(run_dir)
     meta = json.loads(
         re.search(r'id="meta">(.*?)</script>', report.read_text(encoding="utf-8")).group(1)  # type: ignore[union-attr]
     )
-    with Page.open(report) as page:
+    with browser.open(report) as page:
         assert page.problems() == []
         assert page.evaluate("document.body.dataset.rendered") == "1"
         ink = page.evaluate(CANVAS_INK)
@@ -232,8 +247,10 @@ def test_run_report_draws_every_plot_without_a_console_error(run_dir: Path) -> N
 
 
 @needs_chromium
-def test_hover_on_a_time_plot_follows_the_time_on_every_plot(run_dir: Path) -> None:
-    with Page.open(_view(run_dir)) as page:
+def test_hover_on_a_time_plot_follows_the_time_on_every_plot(
+    browser: Browser, run_dir: Path
+) -> None:
+    with browser.open(_view(run_dir)) as page:
         box = _rect(page, 'canvas[data-plot="v"]')
         xy_overlay = (
             "document.querySelector('canvas[data-plot=\"xy\"] + canvas.overlay').toDataURL()"
@@ -261,8 +278,8 @@ def test_hover_on_a_time_plot_follows_the_time_on_every_plot(run_dir: Path) -> N
 
 
 @needs_chromium
-def test_brushing_a_span_zooms_every_time_plot(run_dir: Path) -> None:
-    with Page.open(_view(run_dir)) as page:
+def test_brushing_a_span_zooms_every_time_plot(browser: Browser, run_dir: Path) -> None:
+    with browser.open(_view(run_dir)) as page:
         box = _rect(page, 'canvas[data-plot="x"]')
         before = page.evaluate("document.querySelector('canvas[data-plot=\"omega\"]').toDataURL()")
         y = box["y"] + box["height"] / 2
@@ -295,10 +312,12 @@ def test_brushing_a_span_zooms_every_time_plot(run_dir: Path) -> None:
 
 
 @needs_chromium
-def test_a_failing_run_shows_its_verdicts_and_opens_at_its_end(campaign_dir: Path) -> None:
+def test_a_failing_run_shows_its_verdicts_and_opens_at_its_end(
+    browser: Browser, campaign_dir: Path
+) -> None:
     run = _failed_worst_run(campaign_dir)
     summary = json.loads((run / "summary.json").read_text(encoding="utf-8"))
-    with Page.open(_view(run)) as page:
+    with browser.open(_view(run)) as page:
         assert page.problems() == []
         verdicts = page.evaluate(
             "[...document.querySelectorAll('table')][1].tBodies[0].rows.length"
@@ -330,11 +349,11 @@ def _hostile_run(tmp_path: Path) -> Path:
 
 
 @needs_chromium
-def test_names_from_the_files_are_shown_as_text(tmp_path: Path) -> None:
+def test_names_from_the_files_are_shown_as_text(browser: Browser, tmp_path: Path) -> None:
     run = _hostile_run(tmp_path)
     report = _view(run)
     assert HOSTILE not in report.read_text(encoding="utf-8")
-    with Page.open(report) as page:
+    with browser.open(report) as page:
         assert page.problems() == []  # no alert dialog, no error
         assert page.evaluate("document.scripts.length") == 3
         assert page.evaluate("document.images.length") == 0
@@ -364,10 +383,12 @@ def _replays(page: Page) -> list[str]:
 
 
 @needs_chromium
-def test_campaign_report_lists_every_run_with_its_replay(campaign_dir: Path) -> None:
+def test_campaign_report_lists_every_run_with_its_replay(
+    browser: Browser, campaign_dir: Path
+) -> None:
     summary = json.loads((campaign_dir / "campaign.json").read_text(encoding="utf-8"))
     rows = _rows(campaign_dir / "runs.csv")
-    with Page.open(_view(campaign_dir)) as page:
+    with browser.open(_view(campaign_dir)) as page:
         assert page.problems() == []
         assert page.evaluate("document.body.dataset.rendered") == "1"
         shown = _table(page)
@@ -390,9 +411,9 @@ def test_campaign_report_lists_every_run_with_its_replay(campaign_dir: Path) -> 
 
 
 @needs_chromium
-def test_campaign_table_filters_and_sorts(campaign_dir: Path) -> None:
+def test_campaign_table_filters_and_sorts(browser: Browser, campaign_dir: Path) -> None:
     rows = _rows(campaign_dir / "runs.csv")
-    with Page.open(_view(campaign_dir)) as page:
+    with browser.open(_view(campaign_dir)) as page:
         page.evaluate(
             "(() => { const s = document.querySelector('select'); s.value = 'expect-failed';"
             " s.dispatchEvent(new Event('change')); })()"
@@ -421,7 +442,9 @@ def test_campaign_table_filters_and_sorts(campaign_dir: Path) -> None:
 
 
 @needs_chromium
-def test_campaign_text_is_shown_as_text(campaign_dir: Path, tmp_path: Path) -> None:
+def test_campaign_text_is_shown_as_text(
+    browser: Browser, campaign_dir: Path, tmp_path: Path
+) -> None:
     copy = tmp_path / "campaign"
     copy.mkdir()
     for name in ("campaign.json", "manifest.json"):
@@ -429,20 +452,20 @@ def test_campaign_text_is_shown_as_text(campaign_dir: Path, tmp_path: Path) -> N
     lines = (campaign_dir / "runs.csv").read_text(encoding="utf-8").splitlines(keepends=True)
     lines[1] = lines[1].rstrip("\n") + '"<img src=x onerror=alert(3)>"\n'
     (copy / "runs.csv").write_text("".join(lines), encoding="utf-8")
-    with Page.open(_view(copy)) as page:
+    with browser.open(_view(copy)) as page:
         assert page.problems() == []
         assert page.evaluate("document.images.length") == 0
         assert "<img src=x onerror=alert(3)>" in page.evaluate("document.body.innerText")
 
 
 @needs_chromium
-def test_a_one_hour_run_loads(tmp_path: Path) -> None:
+def test_a_one_hour_run_loads(browser: Browser, tmp_path: Path) -> None:
     """360 001 samples: the page is thinned to MAX_DISPLAY_SAMPLES points per signal."""
     result = circle_run(360_001)
     meta, series = run_meta(result, {})
     report = tmp_path / "hour.html"
     report.write_text(build_page("hour", meta, series), encoding="utf-8")
-    with Page.open(report) as page:
+    with browser.open(report) as page:
         assert page.problems() == []
         assert page.evaluate("document.body.dataset.rendered") == "1"
         ink = page.evaluate(CANVAS_INK)
@@ -456,3 +479,21 @@ def test_the_pages_phases_are_the_runs_in_their_colours() -> None:
     assert [p["name"] for p in meta["phases"]] == ["approach", "orbit", "park"]
     assert [_rgb(p["color"]) for p in meta["phases"]] == list(TAB10)
     assert [p["target"] for p in meta["phases"]] == [None, None, [0.0, 0.0, 0.0]]
+
+
+def test_a_large_campaigns_table_keeps_every_failure(
+    campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from wmr_mission.output import view
+
+    rows = _rows(campaign_dir / "runs.csv")
+    failed = [r["run"] for r in rows if r["outcome"] != "success"]
+    monkeypatch.setattr(view, "MAX_TABLE_ROWS", len(failed) + 2)
+    meta = view.campaign_meta(campaign_dir, tmp_path / "report.html")
+    kept = [row[0] for row in meta["rows"]]
+    successes = [r["run"] for r in rows if r["outcome"] == "success"][:2]
+    assert kept == sorted(failed + successes, key=int)
+    assert meta["total_rows"] == len(rows) > len(kept)
+    campaign = load_campaign_dir(campaign_dir)
+    index = {row[0]: i for i, row in enumerate(campaign.rows)}
+    assert meta["replays"] == [campaign.replay(index[run]) for run in kept]

@@ -732,14 +732,20 @@
         } else if (meta.types[j] === "float64" && cell !== "") {
           td.textContent = fmt(Number(cell), 5);
           td.title = cell;
-        } else td.textContent = cell;
+        } else {
+          td.textContent = cell;
+          if (j === columns.length - 1) td.title = cell;  // the reason, in full below
+        }
         tr.append(td);
       });
       const code = el("code", { class: "replay", text: r.replay });
       const button = el("button", { text: "Copy" });
       button.addEventListener("click", () => copy(r.replay, code, button));
+      const reason = r.cells[columns.length - 1];
       const replay = el("tr", { class: "replay" },
-        el("td", { colspan: String(columns.length) }, el("span", { class: "note", text: "replay " }), button, " ", code));
+        el("td", { colspan: String(columns.length) },
+          reason ? el("div", { class: "why", text: reason }) : null,
+          el("span", { class: "note", text: "replay " }), button, " ", code));
       return [tr, replay];
     }
 

@@ -41,7 +41,7 @@ REPORT_FILE: Final = "report.html"
 MAX_DISPLAY_SAMPLES: Final = 8000
 # Rows of a campaign's table: every run that did not succeed, then successes
 # in run order up to this many (runs.csv has them all).
-MAX_TABLE_ROWS: Final = 20_000
+MAX_TABLE_ROWS: Final = 10_000
 # Significant digits of plotted values: far below a pixel; readouts show 6.
 _DIGITS: Final = 7
 _TIME_DIGITS: Final = 10
