@@ -2,6 +2,7 @@
 
     python benchmarks/looking.py                  # benchmarks/hour.yaml (1 h) and case study 2
     python benchmarks/looking.py --campaign DIR   # also the report of a campaign directory
+    python benchmarks/looking.py --large-campaign # also 10 000 runs of the tests' campaign
 
 For each run: the time of `view` (the command, Python start-up included), the
 page's size, and in headless Chromium (tests/browser.py) the time from
@@ -100,6 +101,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--campaign", type=Path, help="a campaign directory to report too")
+    parser.add_argument(
+        "--large-campaign",
+        action="store_true",
+        help="sweep the campaign of tests/conftest.py with 5000 draws per grid cell "
+        "(10 000 runs, about a minute on two cores) and report it too",
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         for mission in (ROOT / "benchmarks" / "hour.yaml", ROOT / "missions" / "case2.yaml"):
@@ -116,6 +123,20 @@ def main() -> None:
             report(out, args.repeat, exports=True)
             if mission.stem == "hour":
                 mcap_split(out)
+        if args.large_campaign:
+            from conftest import LOOKING_CAMPAIGN
+
+            campaign = Path(scratch) / "large.yaml"
+            mission = ROOT / "tests" / "data" / "campaigns" / "short.yaml"
+            text = LOOKING_CAMPAIGN.format(mission=mission).replace("runs: 4", "runs: 5000")
+            campaign.write_text(text, encoding="utf-8")
+            out = Path(scratch) / "large-campaign"
+            subprocess.run(
+                [*WMR, "sweep", str(campaign), "--out", str(out)],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )  # exit 0 or 1: the campaign has no expect to meet
+            report(out, args.repeat, exports=False)
     if args.campaign is not None:
         report(args.campaign, args.repeat, exports=False)
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import math
 import re
 from collections.abc import Iterator
 from pathlib import Path
@@ -275,6 +276,34 @@ def test_hover_on_a_time_plot_follows_the_time_on_every_plot(
             overlay = f'canvas[data-plot="{plot}"] + canvas.overlay'
             assert _ink_in_column(page, overlay, column) > 50, plot
         assert page.evaluate(xy_overlay) != xy_before
+
+
+@needs_chromium
+def test_hover_on_the_path_puts_its_time_on_every_plot(browser: Browser, run_dir: Path) -> None:
+    report = _view(run_dir)
+    view_box = json.loads(
+        re.search(r'id="meta">(.*?)</script>', report.read_text(encoding="utf-8")).group(1)  # type: ignore[union-attr]
+    )["view"]
+    with browser.open(report) as page:
+        box = _rect(page, 'canvas[data-plot="xy"]')
+        # the x-y plot's mapping (view.js, xyPlot): equal scales, centred, 44 px margins
+        width, height, pad = 620, 500, 44
+        x0, x1, y0, y1 = view_box
+        scale = min((width - 2 * pad) / (x1 - x0), (height - 2 * pad) / (y1 - y0))
+        # t = 10 s: the circle at angle 5 rad, a place the robot passes once
+        x, y = 2.0 * math.cos(5.0), 2.0 * math.sin(5.0)
+        page.mouse(
+            "mouseMoved",
+            box["x"] + width / 2 + (x - (x0 + x1) / 2) * scale,
+            box["y"] + height / 2 - (y - (y0 + y1) / 2) * scale,
+        )
+        readout = _readout(page)
+        assert float(readout["t [s]"][0]) == pytest.approx(10.0, abs=2.0 / scale)
+        assert readout["phase"] == ["orbit"]
+        plot = _rect(page, 'canvas[data-plot="omega"]')
+        t_column = round(60 + (plot["width"] - 72) * float(readout["t [s]"][0]) / 20.0)
+        overlay = 'canvas[data-plot="omega"] + canvas.overlay'
+        assert _ink_in_column(page, overlay, t_column) > 50
 
 
 @needs_chromium
