@@ -12,7 +12,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 import re
 import shlex
 from dataclasses import dataclass
@@ -248,7 +247,3 @@ def cell_value(cell: str, kind: str) -> Any:
     if kind == "bool":
         return cell == "true"
     return cell
-
-
-def finite_or_none(value: float | None) -> float | None:
-    return value if value is not None and math.isfinite(value) else None
