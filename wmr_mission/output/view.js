@@ -166,9 +166,10 @@
     top.append(el("div", { class: "side" },
       el("div", { class: "note", text: "Hover a plot to follow a time on every plot; drag across a time plot to zoom all of them to that span, double-click to zoom out." }),
       el("table", { id: "readout" }, readout), legend));
-    for (const [i, p] of phases.entries()) {
+    for (const [i, p] of phases.slice(0, 40).entries()) {
       legend.append(el("div", { class: "key" }, swatch(p.color), `${i + 1}. ${p.name} (${p.kind})`));
     }
+    if (phases.length > 40) legend.append(el("div", { class: "key", text: `and ${phases.length - 40} more phases` }));
     legend.append(el("div", { class: "key" }, swatch(STYLES.estimate.color, "dashed"), "estimate"));
     legend.append(el("div", { class: "key" }, swatch(STYLES.reference.color, "dotted"), "reference"));
     for (const r of meta.regions) {
@@ -405,11 +406,16 @@
       }), [false, false, true, true, false]));
 
     root.append(el("h2", { text: "Phases" }));
+    const colorOf = new Map(phases.map((p) => [p.name, p.color]));
+    const shownPhases = meta.phase_table.slice(0, 2000);
+    if (meta.phase_table.length > shownPhases.length) {
+      root.append(el("p", { class: "note", text: `The first ${shownPhases.length} of ${meta.phase_table.length} phases (summary.json has them all).` }));
+    }
     root.append(table(
       ["phase", "kind", "start [s]", "end [s]", "duration [s]", "tracking rms [m]", "tracking max [m]",
         "target error [m]", "heading error [rad]", "max violation", "v at limit", "ω at limit"],
-      meta.phase_table.map((p) => {
-        const color = (phases.find((q) => q.name === p.name) || {}).color || "#999";
+      shownPhases.map((p) => {
+        const color = colorOf.get(p.name) || "#999";
         const tr = el("tr", { class: "clickable" },
           el("td", { class: "name" }, swatch(color), " ", p.name), el("td", { text: p.kind }),
           ...[p.start, p.end, p.duration, p.tracking_rms, p.tracking_max, p.target_position,
