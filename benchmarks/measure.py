@@ -15,6 +15,7 @@
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
     python benchmarks/measure.py png        # Pillow writing case study 2's PNGs, per zlib level
+    python benchmarks/measure.py checks     # checking campaigns of 10 000 values, and of 1 MB
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -604,12 +605,13 @@ def drawing(repeat: int = 5) -> None:
     from wmr_mission.campaign import figures
     from wmr_mission.campaign.aggregate import Aggregate
     from wmr_mission.campaign.coverage import runs_per_pixel
-    from wmr_mission.campaign.engine import StopFlag, execute, warm_up
+    from wmr_mission.campaign.engine import execute, warm_up
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import simulate
     from wmr_mission.campaign.sweep import _regions, _write_run_dir
     from wmr_mission.output import figures as plots
+    from wmr_mission.stopping import StopSignals
 
     against = sys.argv[2] if len(sys.argv) > 2 else None
     codes = {"now": (plots, figures)}
@@ -617,7 +619,7 @@ def drawing(repeat: int = 5) -> None:
         codes[against] = _drawing_code_at(against)
     loaded = load_campaign(CAMPAIGN)
     aggregate = Aggregate(dict(loaded.campaign.vary))
-    with StopFlag() as stop:
+    with StopSignals() as stop:
         seconds = warm_up(loaded)
         for rows in execute(loaded, workers=2, scheduler=None, seconds_per_run=seconds, stop=stop):
             for row in rows:
@@ -677,9 +679,7 @@ def drawing(repeat: int = 5) -> None:
             show(f"worst run {worst[0]}, {name}.png", spent)
             total = {key: total[key] + spent[key] for key in codes}
         show(f"worst run {worst[0]}, its four figures", total)
-        directory = cpu(
-            {"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True, "")}
-        )
+        directory = cpu({"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True)})
         print(f"  one worst run's directory with its four figures: {directory['now']:.3f}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
@@ -717,12 +717,55 @@ def png(repeat: int = 7) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def checks(repeat: int = 3) -> None:
+    """Seconds ``validate`` spends on a campaign (``check_file``): one axis of
+    10 000 choice values, all the same or all different, and a campaign of
+    nearly a megabyte, which is refused for its size."""
+    from wmr_mission.campaign.load import MAX_CAMPAIGN_BYTES, check_file
+
+    mission = ROOT / "tests" / "data" / "campaigns" / "short.yaml"
+    axes = {
+        "10 000 values, all the same": ", ".join(["0.0100"] * 10_000),
+        "10 000 values, all different": ", ".join(f"0.{i:04d}" for i in range(10_000)),
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        files = {}
+        for name, values in axes.items():
+            files[name] = Path(tmp) / f"{len(files)}.yaml"
+            files[name].write_text(
+                f"version: 1\nname: c\nmission: {mission}\nruns: 2\n"
+                f"vary:\n  sensors.noise_std.x: {{choice: [{values}]}}\n"
+            )
+        files["nearly 1 MB"] = Path(tmp) / "large.yaml"
+        line = f"  sensors.noise_std.x: {{choice: [{axes['10 000 values, all the same']}]}}\n"
+        files["nearly 1 MB"].write_text(
+            f"version: 1\nname: c\nmission: {mission}\nruns: 2\nvary:\n" + line * 12
+        )
+        for name, path in files.items():
+            spent = []
+            for _ in range(repeat):
+                started = time.perf_counter()
+                problems = check_file(path)
+                spent.append(time.perf_counter() - started)
+            said = "valid" if not problems else problems[0].message[:60]
+            print(
+                f"{name} ({path.stat().st_size} bytes, limit {MAX_CAMPAIGN_BYTES}): "
+                f"{statistics.median(spent):.3f} s, {said}"
+            )
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
-    jobs |= {"campaign": campaign, "runner": runner_cost, "drawing": drawing, "png": png}
+    jobs |= {
+        "campaign": campaign,
+        "runner": runner_cost,
+        "drawing": drawing,
+        "png": png,
+        "checks": checks,
+    }
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)

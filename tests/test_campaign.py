@@ -27,6 +27,7 @@ from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.campaign.rows import INVALID, mission_of
 from wmr_mission.campaign.sweep import sweep_command
 from wmr_mission.kernels import jit
+from wmr_mission.stopping import StopSignals
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "campaigns"
@@ -159,9 +160,7 @@ def test_the_last_tasks_end_together() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    ("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute_steps")]
-)
+@pytest.mark.parametrize(("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute")])
 def test_matplotlib_is_loaded_while_the_runs_run_only_when_they_last(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, after_seconds: float, loaded_in: str
 ) -> None:
@@ -426,30 +425,36 @@ def test_sweep_shows_each_step_as_it_starts(
     stream = _Terminal()
     seen = _watch(monkeypatch, stream, "warm_up", "_draw")
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    out = sweep._prepare(loaded, tmp_path / "c", 1, None)
-    sweep._execute(
-        loaded,
-        out_dir=out,
-        workers=1,
-        scheduler=None,
-        plots=True,
-        progress_stream=stream,
-        keep_rows=None,
-    )
+    out, manifest = sweep._prepare(loaded, tmp_path / "c", 1, None, suffix=False)
+    with StopSignals() as stop:
+        sweep._campaign(
+            loaded,
+            out_dir=out,
+            manifest=manifest,
+            workers=1,
+            scheduler=None,
+            plots=True,
+            progress_stream=stream,
+            keep_rows=None,
+            stop=stop,
+        )
     assert "starting" in seen["warm_up"]
     assert "runs" not in seen["warm_up"]
     assert "4/4 runs, success 100.0%, 0 s left" in seen["_draw"]
     assert "worst runs and figures" in seen["_draw"]
     quiet = io.StringIO()  # not a terminal: nothing in logs
-    sweep._execute(
-        loaded,
-        out_dir=None,
-        workers=1,
-        scheduler=None,
-        plots=False,
-        progress_stream=quiet,
-        keep_rows=None,
-    )
+    with StopSignals() as stop:
+        sweep._campaign(
+            loaded,
+            out_dir=None,
+            manifest=b"",
+            workers=1,
+            scheduler=None,
+            plots=False,
+            progress_stream=quiet,
+            keep_rows=None,
+            stop=stop,
+        )
     assert quiet.getvalue() == ""
 
 
@@ -467,15 +472,18 @@ def test_sweep_says_at_once_that_it_was_interrupted(
     stream = _Terminal()
     seen = _watch(monkeypatch, stream, "_record")
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    record = sweep._execute(
-        loaded,
-        out_dir=None,
-        workers=1,
-        scheduler=None,
-        plots=False,
-        progress_stream=stream,
-        keep_rows=None,
-    )
+    with StopSignals() as stop:
+        record = sweep._campaign(
+            loaded,
+            out_dir=None,
+            manifest=b"",
+            workers=1,
+            scheduler=None,
+            plots=False,
+            progress_stream=stream,
+            keep_rows=None,
+            stop=stop,
+        ).record
     assert record["interrupted"]
     assert sweep.INTERRUPTED_NOTICE in seen["_record"]
 

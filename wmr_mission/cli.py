@@ -1,4 +1,4 @@
-"""Command line: ``wmr-mission run|sweep|validate|schema|plot|bench``, ``--version``.
+"""Command line: ``wmr-mission run|sweep|validate|schema|plot|view|export|bench``, ``--version``.
 
 Thin by design: each command parses its flags and calls one function of the
 package. Imports are lazy so that ``validate`` and ``--help`` start fast and
@@ -279,6 +279,62 @@ def plot(
     from wmr_mission.commands.plot import replot_command
 
     raise typer.Exit(replot_command(run_dir, _formats(format)))
+
+
+OutputDirectory = Annotated[
+    Path,
+    typer.Argument(
+        exists=True,
+        file_okay=False,
+        metavar="DIR",
+        help="A run directory or a campaign directory.",
+    ),
+]
+
+
+@command
+def view(
+    directory: OutputDirectory,
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", metavar="FILE", help="The HTML report (default: DIR/report.html)."),
+    ] = None,
+) -> None:
+    """Write a self-contained HTML report of DIR that opens offline; print its path."""
+    from wmr_mission.review.view import view_command
+
+    raise typer.Exit(view_command(directory, out))
+
+
+class ExportFormat(StrEnum):
+    mcap = "mcap"
+    parquet = "parquet"
+
+
+@command
+def export(
+    directory: OutputDirectory,
+    format: Annotated[
+        ExportFormat,
+        typer.Option(
+            "--format",
+            metavar="FORMAT",
+            help="mcap (a run, for Foxglove) or parquet (trajectory.csv or runs.csv).",
+        ),
+    ],
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            metavar="PATH",
+            help="The file (default: DIR/run.mcap, DIR/trajectory.parquet or DIR/runs.parquet).",
+        ),
+    ] = None,
+) -> None:
+    """Write DIR's data as MCAP or Parquet (the export extra); print the file's path."""
+    from wmr_mission.review.export import export_command
+
+    raise typer.Exit(export_command(directory, format.value, out))
 
 
 @command

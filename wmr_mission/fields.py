@@ -41,6 +41,9 @@ IDENTIFIER: Final = r"^[A-Za-z_][A-Za-z0-9_]*$"
 
 # Larger magnitudes are typing mistakes, not missions (and would overflow the kernels).
 ABSURD: Final = 1e9
+# The largest seed (numpy's seeds are 32-bit): the one field whose range goes
+# beyond ABSURD, so integers are read up to it and the fields bound them.
+LARGEST_SEED: Final = 2**32 - 1
 # Plausibility floors: a positive quantity below these is a typing mistake, and
 # its square or inverse would underflow or overflow the kernels. Sizes, speeds
 # and rates of regions and paths [m, m/s, 1/s]; every other positive quantity
@@ -49,7 +52,7 @@ SMALLEST_SIZE: Final = 1e-6
 SMALLEST_POSITIVE: Final = 1e-9
 
 
-def _at_least(floor: float) -> AfterValidator:
+def at_least(floor: float) -> AfterValidator:
     def check(value: float) -> float:
         if 0 < value < floor:
             raise PydanticCustomError(
@@ -73,7 +76,7 @@ class Model(BaseModel):
 # Plain numbers: an int or a float, never a bool or a numeric-looking text.
 Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-ABSURD, le=ABSURD)]
 NonNegative = Annotated[Number, Field(ge=0)]
-Positive = Annotated[Number, Field(gt=0), _at_least(SMALLEST_POSITIVE)]
+Positive = Annotated[Number, Field(gt=0), at_least(SMALLEST_POSITIVE)]
 Duration = Annotated[Number, Field(gt=0)]
 # true or false only, never a text such as 'yes' or 'off'.
 Flag = Annotated[bool, Strict()]
@@ -143,7 +146,7 @@ PositiveScalar = Annotated[
     float,
     BeforeValidator(_evaluate_scalar),
     Field(allow_inf_nan=False, gt=0, le=ABSURD),
-    _at_least(SMALLEST_SIZE),
+    at_least(SMALLEST_SIZE),
     _scalar_schema({"exclusiveMinimum": 0}),
 ]
 

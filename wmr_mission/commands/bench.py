@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.kernels import jit
-from wmr_mission.output.result import RunResult
+from wmr_mission.output.result import Outcome, RunResult
 from wmr_mission.sim.draws import DisturbancePlan
 from wmr_mission.sim.plan import MissionPlan, plan_mission
 from wmr_mission.sim.runner import run_mission
@@ -98,18 +98,18 @@ def bench_mission(mission: Mission | MissionPlan, repeat: int) -> dict[str, Any]
     if repeat < 1:
         raise ValueError(f"repeat must be at least 1, got {repeat}")
     plan = mission if isinstance(mission, MissionPlan) else plan_mission(validate_mission(mission))
-    ours = run_mission(plan)  # warm-up: loads or compiles the kernels
+    ours = _whole(run_mission(plan))  # warm-up: loads or compiles the kernels
     if not np.any(ours.compute_ns > 0):
         raise NothingToTime(f"the mission ends at t = {ours.t[-1]:g} s, before its first step")
     # Only the timed samples of each run are kept: memory grows with the samples
     # timed, not with whole results.
     timed, loops = [], []
     for _ in range(repeat):
-        ours = run_mission(plan)
+        ours = _whole(run_mission(plan))
         timed.append(_timed_samples(ours))
         loops.append(ours.loop_ns / ours.samples / 1000.0)
     with one_blas_thread():
-        reference = run_mission(plan, substitutes=REFERENCE)
+        reference = _whole(run_mission(plan, substitutes=REFERENCE))
     our_phase = np.concatenate([phases for phases, _ in timed])
     our_ns = np.concatenate([ns for _, ns in timed])
     ref_phase, ref_ns = _timed_samples(reference)
@@ -149,6 +149,14 @@ def bench_mission(mission: Mission | MissionPlan, repeat: int) -> dict[str, Any]
     }
 
 
+def _whole(result: RunResult) -> RunResult:
+    """A timed run is never cut short: ``run_mission`` turns Ctrl-C into an
+    ``interrupted`` result, which here stops the whole benchmark."""
+    if result.outcome is Outcome.interrupted:
+        raise KeyboardInterrupt
+    return result
+
+
 def _disturbance_cost(
     plan: MissionPlan, loops: list[float], repeat: int
 ) -> dict[str, float] | None:
@@ -159,7 +167,7 @@ def _disturbance_cost(
     calm = replace(plan, disturbances=DisturbancePlan())
     without = []
     for _ in range(repeat):
-        result = run_mission(calm)
+        result = _whole(run_mission(calm))
         without.append(result.loop_ns / result.samples / 1000.0)
     with_us = float(np.median(loops))
     without_us = float(np.median(without))
@@ -256,7 +264,19 @@ def format_report(numbers: dict[str, Any], source: str) -> str:
 
 
 def bench_command(mission_path: str | Path, repeat: int) -> int:
-    """``wmr-mission bench``: exit 0 after printing the table, 1 for an invalid mission."""
+    """``wmr-mission bench``: exit 0 after printing the table, 1 for an invalid
+    mission, 130 or 143 stopped by SIGINT or SIGTERM (nothing is printed)."""
+    from wmr_mission.stopping import STOP_SIGNALS, StopSignals
+
+    with StopSignals(STOP_SIGNALS) as stop:
+        try:
+            return _bench(mission_path, repeat)
+        except KeyboardInterrupt:
+            print(f"{mission_path}: interrupted by {stop.name}; nothing timed", file=sys.stderr)
+            return stop.exit_code
+
+
+def _bench(mission_path: str | Path, repeat: int) -> int:
     from wmr_mission.spec.loader import MissionError, load_mission
 
     try:

@@ -13,7 +13,6 @@ import hashlib
 import shutil
 import signal
 import sys
-import threading
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -50,26 +49,11 @@ def _overrides(texts: Sequence[str]) -> list[Override] | None:
 
 @contextmanager
 def _stop_signals() -> Iterator[list[int]]:
-    """SIGTERM stops the run the way Ctrl-C does; yields the signals received.
+    """SIGTERM stops the run the way Ctrl-C does; yields the signals received."""
+    from wmr_mission.stopping import StopSignals
 
-    Outside the main thread (a run started from a thread) signals cannot be
-    handled and stay as they are.
-    """
-    received: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield received
-        return
-
-    def stop(number: int, frame: object) -> None:
-        received.append(number)
-        raise KeyboardInterrupt
-
-    previous = {number: signal.signal(number, stop) for number in STOP_SIGNALS}
-    try:
-        yield received
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+    with StopSignals(STOP_SIGNALS) as stop:
+        yield stop.received
 
 
 def _signal_exit(received: list[int]) -> int:

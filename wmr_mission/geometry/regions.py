@@ -28,7 +28,7 @@ from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.fields import Model, Point, PositiveScalar, Scalar
+from wmr_mission.fields import SMALLEST_POSITIVE, Model, Point, PositiveScalar, Scalar
 from wmr_mission.kernels.corrective import ELLIPSE_ROW, HALF_PLANE_ROW
 
 __all__ = [
@@ -116,6 +116,14 @@ class HalfPlaneRegion(Model):
     def _nonzero_normal(cls, normal: tuple[float, float]) -> tuple[float, float]:
         if normal == (0.0, 0.0):
             raise PydanticCustomError("zero_normal", "a half-plane normal must not be [0, 0]")
+        length = math.hypot(*normal)
+        if length < SMALLEST_POSITIVE:  # its square, which scales the offset, would underflow
+            raise PydanticCustomError(
+                "implausibly_small",
+                "a half-plane normal of length {length} is implausibly short: "
+                "expected at least {floor}",
+                {"length": f"{length:g}", "floor": f"{SMALLEST_POSITIVE:g}"},
+            )
         return normal
 
 

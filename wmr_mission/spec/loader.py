@@ -26,7 +26,7 @@ import yaml
 from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
 
-from wmr_mission.fields import ABSURD, IDENTIFIER, Registry, type_name
+from wmr_mission.fields import ABSURD, IDENTIFIER, LARGEST_SEED, Registry, type_name
 from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.spec.checks import DataPath, Finding, Severity, check
 from wmr_mission.spec.models import (
@@ -52,6 +52,7 @@ __all__ = [
     "load_mission_text",
     "parse_override",
     "read_source",
+    "resolved_path",
     "validate_mission",
 ]
 
@@ -298,7 +299,13 @@ class _Builder:
                 self.document.refused.add(path)
                 continue
             # The key as written: `on`, `y` or `null` stay words, as in YAML 1.2.
-            key = str(key_node.value)
+            key = _characters(str(key_node.value))
+            if key is None:
+                self.findings.append(
+                    Finding(path, _LONE_SURROGATE, position=_mark(key_node.start_mark))
+                )
+                self.document.refused.add(path)
+                continue
             key_path = (*path, key)
             if key in result:
                 first_line, first_column = self.document.keys[key_path]
@@ -318,7 +325,10 @@ class _Builder:
     def _scalar(self, node: yaml.Node, path: DataPath) -> Any:
         tag, text = node.tag, str(node.value)
         if tag == _TAG + "str":
-            return text
+            characters = _characters(text)
+            if characters is None:
+                self.refuse(path, _LONE_SURROGATE)
+            return characters
         if tag == _TAG + "null":
             return None
         if tag == _TAG + "bool":
@@ -359,10 +369,33 @@ class _Builder:
         if not math.isfinite(value):
             self.refuse(path, f"{text!r} is not allowed: numbers must be finite")
             return None
-        if abs(value) > ABSURD:
-            self.refuse(path, f"absurd number {text}: magnitudes above {ABSURD:g} are refused")
+        # Integers up to the largest seed: the fields bound them (a seed to
+        # 2^32 - 1, every other number to ABSURD).
+        largest = f"{LARGEST_SEED}" if isinstance(value, int) else f"{ABSURD:g}"
+        if abs(value) > float(largest):
+            self.refuse(path, f"absurd number {text}: magnitudes above {largest} are refused")
             return None
         return value
+
+
+_SURROGATE = re.compile(r"[\ud800-\udfff]")
+_LONE_SURROGATE: Final = (
+    "a text holds a lone surrogate escape (\\ud800 to \\udfff), half of a character: "
+    "write the character itself, a pair of escapes as JSON writes it (\\ud83d\\ude00), "
+    "or \\U and its 8 hex digits (\\U0001F600)"
+)
+
+
+def _characters(text: str) -> str | None:
+    """``text`` with each pair of surrogate escapes (``"\\ud83d\\ude00"``, as JSON
+    writes a character beyond U+FFFF) joined into its character; None when a
+    surrogate stands alone, which is no character at all."""
+    if _SURROGATE.search(text) is None:
+        return text
+    try:
+        return text.encode("utf-16-le", "surrogatepass").decode("utf-16-le")
+    except UnicodeDecodeError:
+        return None
 
 
 def _core_number(text: str, *, integer: bool) -> float:
@@ -1115,6 +1148,23 @@ def _apply(document: Document, override: Override) -> str | None:
             del positions[known]
     document.overrides[written] = override.source
     return None
+
+
+def resolved_path(data: Any, path: DataPath) -> DataPath:
+    """``path`` as :func:`_apply` lands it in ``data``: a list item by its index
+    (``phases.go`` is ``phases[0]`` when the first phase is named go), a mapping's
+    key as text; past the data, the sections it would create, by name."""
+    resolved: list[str | int] = []
+    current = data
+    for part in path:
+        if isinstance(current, list):
+            index = _list_index(current, part)
+            resolved.append(part if index is None else index)
+            current = None if index is None else current[index]
+        else:
+            resolved.append(str(part))
+            current = current.get(str(part)) if isinstance(current, dict) else None
+    return tuple(resolved)
 
 
 def _where(resolved: list[str | int]) -> str:

@@ -36,6 +36,8 @@ from wmr_mission.estimators import ESTIMATORS, EstimatorSettings
 from wmr_mission.estimators.observer import ConstrainedObserver
 from wmr_mission.fields import (
     IDENTIFIER,
+    LARGEST_SEED,
+    SMALLEST_POSITIVE,
     BurstLength,
     Duration,
     Model,
@@ -52,6 +54,7 @@ from wmr_mission.fields import (
     SlipFraction,
     StateOffset,
     StateStd,
+    at_least,
 )
 from wmr_mission.geometry import paths
 from wmr_mission.geometry.paths import PATHS, PathSettings
@@ -148,7 +151,7 @@ class Disturbances(Model):
 class Robot(Model):
     """The plant of eq. (1), sampled."""
 
-    dt: Annotated[Number, Field(gt=0, le=1)] = Field(
+    dt: Annotated[Number, Field(gt=0, le=1), at_least(SMALLEST_POSITIVE)] = Field(
         default=0.01, description="Sampling period [s], in (0, 1]."
     )
     initial_state: Pose = Field(
@@ -201,7 +204,7 @@ class Sensors(Model):
         default_factory=StateStd,
         description="Additive white Gaussian noise on each measured state [m, m, rad].",
     )
-    seed: Annotated[int, Strict(), Field(ge=0, le=2**32 - 1)] = Field(
+    seed: Annotated[int, Strict(), Field(ge=0, le=LARGEST_SEED)] = Field(
         default=0,
         description=(
             "Seed of every random draw of the run (noise and disturbances), 0 .. 2^32-1; "
