@@ -264,6 +264,26 @@ def test_an_edit_to_any_kernel_module_is_a_new_cache_directory(
         kernel_cache.cache_directory.cache_clear()
 
 
+def test_every_module_of_kernels_is_in_the_stamp_of_the_cache() -> None:
+    """The cache directory is named after the sources of the kernels: a kernel
+    declared in a module left out of it would be loaded stale after an edit."""
+    import importlib
+    import pkgutil
+
+    import wmr_mission
+
+    for module in pkgutil.walk_packages(wmr_mission.__path__, "wmr_mission."):
+        if not module.name.endswith("__main__"):
+            importlib.import_module(module.name)
+    declaring = {
+        str(Path(sys.modules[k.__module__].__file__ or "").relative_to(kernel_cache.PACKAGE))
+        for k in jit._state.kernels
+        if k.__module__.startswith("wmr_mission.")
+    }
+    assert declaring
+    assert declaring <= set(kernel_cache.KERNEL_MODULES)
+
+
 def test_the_plain_form_of_a_kernel_calls_no_compiled_code() -> None:
     plain = jit.plain(loop.record_sample)
     called = plain.__globals__["max_row_value"]

@@ -61,7 +61,7 @@ MAX_REPEAT = 100
 
 def _version(value: bool) -> None:
     if value:
-        from wmr_mission import __version__
+        from wmr_mission.version import __version__
 
         print(f"wmr-mission {__version__}")
         raise typer.Exit(0)

@@ -42,6 +42,7 @@ KERNEL_MODULES = (
     "controllers/paper.py",
     "controllers/constrained_tracking.py",
     "kernels/loop.py",
+    "kernels/variants.py",
     "kernels/scalar_math.py",
     "campaign/coverage.py",
 )

@@ -172,7 +172,7 @@ def package_versions() -> dict[str, str | None]:
 def _package_versions() -> dict[str, str | None]:
     # Read once per process (20 ms of package metadata): a campaign's worst
     # runs, forked from the process that wrote its manifest, read none.
-    from wmr_mission import __version__
+    from wmr_mission.version import __version__
 
     versions: dict[str, str | None] = {
         "python": platform.python_version(),

@@ -400,7 +400,7 @@ def run_table(result: RunResult, columns: list[str]) -> Any:
     """trajectory.csv as a pyarrow table: the same columns, phase a dictionary."""
     import pyarrow as pa
 
-    from wmr_mission import __version__
+    from wmr_mission.version import __version__
 
     arrays = []
     for name in columns:
@@ -427,8 +427,8 @@ def campaign_table(campaign: CampaignDir) -> Any:
     """runs.csv as a pyarrow table: the same columns, typed by ``column_types``."""
     import pyarrow as pa
 
-    from wmr_mission import __version__
     from wmr_mission.campaign.reader import cell_value
+    from wmr_mission.version import __version__
 
     kinds = {
         "int64": pa.int64(),

@@ -493,7 +493,7 @@ def _is_tag(part: str | int, current: Any, previous: str | int | None) -> bool:
     return isinstance(previous, int) and part in (*ACTIONS, "repeat", *_CONSTRAINT_KEYS)
 
 
-def _resolve(loc: tuple[str | int, ...], data: Any) -> DataPath:
+def written_path(loc: tuple[str | int, ...], data: Any) -> DataPath:
     """The data path written in the file for a pydantic error location.
 
     Parts that are union tags or not in the data (a missing key, a union
@@ -628,7 +628,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     kind: str = error["type"]
     loc: tuple[str | int, ...] = error["loc"]
     data = document.data
-    path = _resolve(loc, data)
+    path = written_path(loc, data)
     where = _dotted(path)
     context = error.get("ctx") or {}
     value = error.get("input")
@@ -785,7 +785,7 @@ def _under(path: DataPath, refused: set[DataPath]) -> bool:
     return any(path[: len(r)] == r for r in refused)
 
 
-def _context(data: dict[str, Any]) -> dict[str, Any]:
+def validation_context(data: dict[str, Any]) -> dict[str, Any]:
     """Declared parameters and region names, for expressions and region references."""
     parameters: dict[str, float] = {}
     raw = data.get("parameters")
@@ -801,7 +801,7 @@ def _context(data: dict[str, Any]) -> dict[str, Any]:
 # --- entry points ------------------------------------------------------------
 
 
-def _diagnostic(filename: str, document: Document | None, finding: Finding) -> Diagnostic:
+def diagnostic(filename: str, document: Document | None, finding: Finding) -> Diagnostic:
     source = document.override_of(finding.path) if document is not None else None
     if source is not None:
         filename, line, column = source, 0, 0
@@ -843,7 +843,7 @@ def _check(
         ]
     document, findings = read_document(text)
     if document is None:
-        return None, [_diagnostic(filename, None, f) for f in findings]
+        return None, [diagnostic(filename, None, f) for f in findings]
     return _check_document(document, findings, filename, overrides)
 
 
@@ -852,24 +852,26 @@ def _check_document(
 ) -> tuple[Mission | None, list[Diagnostic]]:
     """Apply the overrides, then validate the data and run the checks across fields."""
     for override in overrides:
-        problem = _apply(document, override)
+        problem = apply_override(document, override)
         if problem is not None:
             return None, [Diagnostic(override.source, 0, 0, problem)]
     mission: Mission | None = None
     if isinstance(document.data, dict):
         try:
-            mission = Mission.model_validate(document.data, context=_context(document.data))
+            mission = Mission.model_validate(
+                document.data, context=validation_context(document.data)
+            )
         except ValidationError as error:
             translated = []
             for item in error.errors(include_url=False):
-                path = _resolve(item["loc"], document.data)
+                path = written_path(item["loc"], document.data)
                 if not _under(path, document.refused):
                     translated.append(translate(item, document))
             findings.extend(_without_implied_missing(translated))
-    unique = {_diagnostic(filename, document, f) for f in findings}
+    unique = {diagnostic(filename, document, f) for f in findings}
     if mission is not None and not findings:
         unique |= {
-            replace(_diagnostic(filename, document, f), stage="semantics") for f in check(mission)
+            replace(diagnostic(filename, document, f), stage="semantics") for f in check(mission)
         }
     diagnostics = sorted(
         unique,
@@ -1109,7 +1111,7 @@ def read_value(text: str) -> tuple[Any, list[Finding]]:
     return value, builder.findings
 
 
-def _apply(document: Document, override: Override) -> str | None:
+def apply_override(document: Document, override: Override) -> str | None:
     """Set the override's value in the document's data; a message when the path cannot hold it."""
     current = document.data
     path = override.path
@@ -1151,7 +1153,7 @@ def _apply(document: Document, override: Override) -> str | None:
 
 
 def resolved_path(data: Any, path: DataPath) -> DataPath:
-    """``path`` as :func:`_apply` lands it in ``data``: a list item by its index
+    """``path`` as :func:`apply_override` lands it in ``data``: a list item by its index
     (``phases.go`` is ``phases[0]`` when the first phase is named go), a mapping's
     key as text; past the data, the sections it would create, by name."""
     resolved: list[str | int] = []
