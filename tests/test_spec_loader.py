@@ -111,6 +111,30 @@ def test_default_output_error_bounds_stay_clear_of_the_noise() -> None:
     }
 
 
+def test_the_noise_has_one_meaning_however_it_is_written() -> None:
+    """sensors.noise_std is read once (Sensors.measured_noise): the default
+    bounds, the warning on bounds inside the noise, the estimators' defaults
+    and the draws all follow a noise written as an expression as they follow
+    the number (the default bounds once took an expression for no noise)."""
+    from wmr_mission.sim.plan import plan_mission
+
+    plans = []
+    for noise in ("0.02", "2*k"):
+        text = MINIMAL.replace(
+            "phases:",
+            f"parameters: {{k: 0.01}}\nsensors: {{measure: [x, y], noise_std: {{x: {noise}, "
+            "y: 0.001, theta: 0.3}}\nphases:",
+        ).replace("hold: {}", "regulate: {target: {x: 1}}")
+        mission = load_mission_text(text, "m.yaml")
+        assert mission.sensors.measured_noise() == {"x": 0.02, "y": 0.001}
+        assert isinstance(mission.estimator, ConstrainedObserver)
+        assert mission.estimator.output_error_bounds == {"x": (-0.1, 0.1), "y": (-0.05, 0.05)}
+        plans.append(plan_mission(mission))
+    for plan in plans:  # theta is not measured: it has no noise to draw
+        np.testing.assert_array_equal(plan.noise_std, [0.02, 0.001, 0.0])
+        assert plan.estimator_tuning.motion_floor == 0.02
+
+
 def test_scalars_use_parameters() -> None:
     text = MINIMAL.replace("phases:", "parameters: {k: 0.25}\nphases:").replace(
         "hold: {}", "regulate: {target: {x: 2*k, y: -k, theta: pi/2}}"

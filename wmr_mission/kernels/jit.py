@@ -82,7 +82,7 @@ class _State:
     cached = False  # compiled code is kept on disk
     kernels: list[Kernel] = []  # noqa: RUF012 - every declared kernel
     hooks: list[Callable[[], None]] = []  # noqa: RUF012 - run once numba is loaded
-    entries: dict[tuple[int, bool], Any] = {}  # noqa: RUF012 - compiled entry points
+    entries: dict[tuple[int, bool, bool], Any] = {}  # noqa: RUF012 - compiled entry points
 
 
 _state = _State()
@@ -209,9 +209,13 @@ def _teach_inline(declared: Kernel) -> None:
     )
 
 
-def compiled(fn: F, *, counted: bool = True) -> F:
+def compiled(fn: F, *, counted: bool = True, cached: bool = True) -> F:
     """The form of ``fn`` Python should call: numba's compiled dispatcher
     (cached on disk) when compiling, else plain Python (:func:`plain`).
+
+    ``cached=False`` keeps what it compiles in memory only: for a loop that
+    runs kernels from outside the package (a plug-in), whose edits the cache's
+    stamp (wmr_mission.kernels.cache) does not see.
 
     ``counted=False`` compiles without numba's reference counting (``_nrt=False``,
     an option numba accepts though it documents it only for its developers),
@@ -221,18 +225,14 @@ def compiled(fn: F, *, counted: bool = True) -> F:
     if not load():
         return plain(fn)
     source = getattr(fn, "py_func", fn)
-    key = (id(source), counted)
+    key = (id(source), counted, cached)
     with _lock:
-        return cast(F, _entry(source, key, counted))
-
-
-def _entry(source: Callable[..., Any], key: tuple[int, bool], counted: bool) -> Any:
-    if key not in _state.entries:
-        options = dict(_OPTIONS)
-        if not counted and _accepts_nrt_option():  # else counted: still correct
-            options["_nrt"] = False
-        _state.entries[key] = _njit()(cache=_state.cached, **options)(source)
-    return _state.entries[key]
+        if key not in _state.entries:
+            options = dict(_OPTIONS)
+            if not counted and _accepts_nrt_option():  # else counted: still correct
+                options["_nrt"] = False
+            _state.entries[key] = _njit()(cache=cached and _state.cached, **options)(source)
+        return cast(F, _state.entries[key])
 
 
 def _accepts_nrt_option() -> bool:

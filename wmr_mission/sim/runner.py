@@ -224,7 +224,14 @@ class _Run:
         self.estimator_memory = m.estimator.new_memory(m.estimator_tuning, m.initial_estimate)
         self.scratch = m.controller.new_scratch()
         if not substitutes and jit.compiling():
-            self.segment: Callable[..., int] = jit.compiled(loop.run_segment, counted=False)
+            # A loop running a plug-in's kernels is compiled afresh in each
+            # process: the cache's stamp covers the package's sources only.
+            parts: list[Any] = [m.estimator.tuning_record, m.estimator.step]
+            parts += [m.controller.tuning_record, m.controller.step]
+            cached = all(part.__module__.startswith("wmr_mission.") for part in parts)
+            self.segment: Callable[..., int] = jit.compiled(
+                loop.run_segment, counted=False, cached=cached
+            )
             self.ticks_are_ns = False
         else:
             # The plain loop runs this mission's estimator and controller
