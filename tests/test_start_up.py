@@ -187,14 +187,21 @@ def test_a_long_mission_or_the_setting_compiles_in_the_foreground(
 
 
 def test_the_warm_up_compiles_the_loop_every_mission_runs() -> None:
-    compiled_loop = jit.compiled(loop.run_segment, counted=False)
+    """One loop per built-in estimator and controller, one signature each:
+    every shipped mission runs one of them as the warm-up compiled it."""
+    loops = [
+        jit.compiled(runner.bound_loop(e.step, c.step), counted=False)
+        for e in ESTIMATORS
+        for c in CONTROLLERS
+    ]
     for warm_up in background_compile.warm_up_missions():
         run_mission(plan_mission(warm_up))
-    warmed_up = set(compiled_loop.signatures)  # type: ignore[attr-defined]
-    assert len(warmed_up) == len(ESTIMATORS.names()) * len(CONTROLLERS.names())
+    warmed_up = [set(compiled.signatures) for compiled in loops]  # type: ignore[attr-defined]
+    assert [len(s) for s in warmed_up] == [1] * len(loops)
     for path in sorted(MISSIONS.glob("*.yaml")):
         run_mission(plan_mission(load_mission(path)))
-        assert set(compiled_loop.signatures) == warmed_up, path.name  # type: ignore[attr-defined]
+        after = [set(compiled.signatures) for compiled in loops]  # type: ignore[attr-defined]
+        assert after == warmed_up, path.name
 
 
 def test_the_bound_is_the_sample_budget_of_a_case_study() -> None:

@@ -9,13 +9,17 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import pytest
+from pydantic import Field
 
-from wmr_mission.api import MissionError, mission_from_text
+from wmr_mission.api import MissionError, mission_from_text, run_mission
+from wmr_mission.controllers import CONTROLLERS, ControllerSettings, ControllerType
 from wmr_mission.kernels import jit
 from wmr_mission.kernels.model import step, wrap_angle
+from wmr_mission.kernels.records import Plant
 
 TESTS = Path(__file__).resolve().parent
 DT, SPEED, TURN, TURN_SAMPLES, BLEND = 0.01, 0.5, 1.0, 30, 0.75
@@ -136,4 +140,61 @@ def test_a_type_nobody_registered_is_refused_with_the_registered_ones() -> None:
         "unknown type 'toy-measured-pose'" in m and "constrained-observer, ekf" in m
         for m in messages
     ), messages
-    assert any("toy-turns" in m and "paper" in m for m in messages), messages
+    assert any(m.endswith("unknown type 'toy-turns' (expected one of: paper)") for m in messages), (
+        messages
+    )
+    # The fields of a type nobody registered are not reported one by one.
+    assert not any("unknown field" in m for m in messages), messages
+
+
+class Logged(ControllerSettings):
+    """A control law of plain Python objects: it keeps every estimate in a list."""
+
+    type: Literal["test-logged"] = Field(description="Controller kind.")
+    speed: float
+
+
+class LoggedTuning(NamedTuple):
+    speed: float
+
+
+ESTIMATES_SEEN: list[float] = []
+
+
+def logged_step(
+    tuning: LoggedTuning, phase: Any, aim_now: Any, aim: Any, estimate: np.ndarray,
+    estimate_prev: Any, u_prev: Any, plant: Plant, memory: Any, scratch: Any, u: np.ndarray,
+) -> None:  # fmt: skip
+    ESTIMATES_SEEN.append(float(estimate[0]))  # no numba compiles this
+    u[0], u[1] = tuning.speed, 0.0
+
+
+def test_a_step_numba_cannot_compile_runs_in_a_plain_python_loop() -> None:
+    """A variant that says its step does not compile runs the loop as plain
+    Python, whatever the build: the seam for plug-ins of plain Python objects."""
+    logged = ControllerType(
+        settings=Logged,
+        tuning_record=LoggedTuning,
+        tuning_of=lambda settings, plant: LoggedTuning(settings.speed),
+        memory_size=0,
+        new_scratch=lambda: None,
+        step=logged_step,
+        compiles=False,
+    )
+    CONTROLLERS.register(logged)
+    ESTIMATES_SEEN.clear()
+    try:
+        text = MISSION.replace("estimator: {type: toy-measured-pose, blend: 0.75}\n", "")
+        text = text.replace(
+            f"controller: {{type: toy-turns, speed: {SPEED}, turn_rate: {TURN}, "
+            f"turn_samples: {TURN_SAMPLES}}}",
+            "controller: {type: test-logged, speed: 0.25}",
+        )
+        result = run_mission(mission_from_text(text, filename="logged.yaml"))
+    finally:
+        CONTROLLERS.unregister("test-logged")
+    assert result.samples == 101
+    assert list(result.x_est[:-1]) == ESTIMATES_SEEN
+    assert np.all(result.v == 0.25)
+    with pytest.raises(MissionError, match="unknown type 'test-logged'"):
+        mission_from_text(text, filename="logged.yaml")

@@ -22,10 +22,13 @@ import numpy as np
 from pydantic import Field
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.controllers.registry import ControllerSettings, ControllerType
-from wmr_mission.controllers.registry import register as register_controller
-from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
-from wmr_mission.estimators.registry import register as register_estimator
+from wmr_mission.controllers.registry import CONTROLLERS, ControllerSettings, ControllerType
+from wmr_mission.estimators.registry import (
+    ESTIMATORS,
+    EstimatorSettings,
+    EstimatorType,
+    Measurements,
+)
 from wmr_mission.kernels.jit import inlined
 from wmr_mission.kernels.model import saturate, step, wrap_angle
 from wmr_mission.kernels.records import Plant
@@ -152,5 +155,5 @@ CONTROLLER = ControllerType(
 
 # --- the registrations ---------------------------------------------------------------
 
-register_estimator(ESTIMATOR)
-register_controller(CONTROLLER)
+ESTIMATORS.register(ESTIMATOR)
+CONTROLLERS.register(CONTROLLER)

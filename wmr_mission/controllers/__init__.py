@@ -8,14 +8,9 @@
 from __future__ import annotations
 
 from wmr_mission.controllers import paper
-from wmr_mission.controllers.registry import (
-    CONTROLLERS,
-    ControllerSettings,
-    ControllerType,
-    register,
-)
+from wmr_mission.controllers.registry import CONTROLLERS, ControllerSettings, ControllerType
 
-__all__ = ["CONTROLLERS", "ControllerSettings", "ControllerType", "register"]
+__all__ = ["CONTROLLERS", "ControllerSettings", "ControllerType"]
 
 # The built-in controllers, in the order the schema lists them.
-register(paper.CONTROLLER)
+CONTROLLERS.register(paper.CONTROLLER)

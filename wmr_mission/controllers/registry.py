@@ -6,7 +6,7 @@ A controller type is one module holding
   of :class:`ControllerSettings` with ``type: Literal[NAME]``;
 * its tuning record: a ``NamedTuple`` of numbers and arrays, built once per run
   by ``tuning_of(settings, plant)``, which its kernel reads; the type of this
-  record is what the compiled loop dispatches on (wmr_mission.kernels.variants);
+  record says which step a loop was compiled for;
 * ``memory_size``: how many numbers it carries from sample to sample within a
   phase (the runner zeroes them at each phase's entry), and ``new_scratch()``:
   the arrays it works in (any ``NamedTuple`` of arrays);
@@ -19,7 +19,8 @@ A controller type is one module holding
   are ``phase.constraint_kinds`` and ``phase.constraint_params``. ``plant`` is
   wmr_mission.kernels.records.Plant: the period and the input limits.
 
-and one registration: ``register(ControllerType(...))``.
+and one registration: ``CONTROLLERS.register(ControllerType(...))``. The runner
+binds the step into the loop (wmr_mission.kernels.variants).
 """
 
 from __future__ import annotations
@@ -29,7 +30,6 @@ from dataclasses import dataclass
 from typing import Any, Final, NamedTuple
 
 from wmr_mission.fields import Model, Registry
-from wmr_mission.kernels import variants
 from wmr_mission.kernels.records import Plant
 
 DEFAULT: Final = "paper"
@@ -51,20 +51,9 @@ class ControllerType:
     memory_size: int
     new_scratch: Callable[[], Any]
     step: Callable[..., None]
+    # False for a step numba cannot compile (plain Python objects): a mission
+    # naming it runs its loop as plain Python.
+    compiles: bool = True
 
 
 CONTROLLERS: Registry[ControllerType] = Registry("controller", default=DEFAULT)
-
-
-def register(controller: ControllerType) -> ControllerType:
-    """Make ``controller`` one a mission may name, and the law the loop runs
-    for its tuning record."""
-    variants.CONTROL_STEPS[controller.tuning_record] = controller.step
-    return CONTROLLERS.register(controller)
-
-
-def unregister(name: str) -> None:
-    """Forget the controller of type ``name`` (a plug-in's, in tests)."""
-    controller = CONTROLLERS[name]
-    del variants.CONTROL_STEPS[controller.tuning_record]
-    CONTROLLERS.unregister(name)

@@ -13,11 +13,10 @@ from wmr_mission.estimators.registry import (
     EstimatorSettings,
     EstimatorType,
     Measurements,
-    register,
 )
 
-__all__ = ["ESTIMATORS", "EstimatorSettings", "EstimatorType", "Measurements", "register"]
+__all__ = ["ESTIMATORS", "EstimatorSettings", "EstimatorType", "Measurements"]
 
 # The built-in estimators, in the order the schema lists them.
-register(observer.ESTIMATOR)
-register(ekf.ESTIMATOR)
+ESTIMATORS.register(observer.ESTIMATOR)
+ESTIMATORS.register(ekf.ESTIMATOR)

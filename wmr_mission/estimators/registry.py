@@ -6,7 +6,7 @@ An estimator type is one module holding
   of :class:`EstimatorSettings` with ``type: Literal[NAME]``;
 * its tuning record: a ``NamedTuple`` of numbers and arrays, built once per run
   by ``tuning_of(settings, measurements)``, which its kernel reads; the type of this
-  record is what the compiled loop dispatches on (wmr_mission.kernels.variants);
+  record says which step a loop was compiled for;
 * its memory: the arrays it carries from sample to sample (``new_memory(tuning,
   initial_estimate)``, any ``NamedTuple`` of arrays);
 * its step, a kernel (wmr_mission.kernels.jit): ``step(tuning, memory,
@@ -16,8 +16,9 @@ An estimator type is one module holding
   which ones the sensors measure is ``measurements.mask``); it returns a count the
   run records per sample (the constrained observer's phase-II iterations).
 
-and one registration: ``register(EstimatorType(...))``. The compiled loop then
-runs the step compiled; a plain-Python loop runs it as Python.
+and one registration: ``ESTIMATORS.register(EstimatorType(...))``. The runner
+binds the step into the loop (wmr_mission.kernels.variants): compiled, it is
+compiled into it; as plain Python, it runs as Python.
 """
 
 from __future__ import annotations
@@ -30,7 +31,6 @@ from pydantic import Field
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.fields import Model, Pose, Registry
-from wmr_mission.kernels import variants
 
 DEFAULT: Final = "constrained-observer"
 
@@ -77,20 +77,9 @@ class EstimatorType:
     # The output-error bounds of eq. (4) the run reports per state (lower,
     # upper), NaN where there are none (the figures draw them).
     error_bounds: Callable[[Any], tuple[tuple[float, float], ...]] = no_error_bounds
+    # False for a step numba cannot compile (plain Python objects): a mission
+    # naming it runs its loop as plain Python.
+    compiles: bool = True
 
 
 ESTIMATORS: Registry[EstimatorType] = Registry("estimator", default=DEFAULT)
-
-
-def register(estimator: EstimatorType) -> EstimatorType:
-    """Make ``estimator`` one a mission may name, and the step the loop runs
-    for its tuning record."""
-    variants.ESTIMATOR_STEPS[estimator.tuning_record] = estimator.step
-    return ESTIMATORS.register(estimator)
-
-
-def unregister(name: str) -> None:
-    """Forget the estimator of type ``name`` (a plug-in's, in tests)."""
-    estimator = ESTIMATORS[name]
-    del variants.ESTIMATOR_STEPS[estimator.tuning_record]
-    ESTIMATORS.unregister(name)

@@ -8,11 +8,13 @@ settings, for validation) without paying for numba.
 
 Numba is loaded by the first :func:`compiled` call, which returns the
 compiled form of an entry point that Python calls (the loop, the math of
-paths, a campaign's pixel counts). Once loaded, numba is told two things
-through its public extension API: a kernel named in compiled code is its own
-compiled dispatcher (``typeof_impl``), and an inlined kernel is compiled into
-each caller (``overload`` with ``inline="always"``). The compiled loop is the
-same machine code as if every kernel had been an ``njit`` function all along.
+paths, a campaign's pixel counts). Once loaded, numba is told through its
+public extension API (``typeof_impl``) that a kernel named in compiled code is
+its own compiled dispatcher, made then; a kernel shows the options it is
+compiled with (``targetoptions``), so an inlined one is compiled into each
+caller as numba inlines an ``njit(inline="always")`` function. The compiled
+loop is the same machine code as if every kernel had been an ``njit``
+function all along.
 
 When numba is missing, ``WMR_MISSION_NO_JIT=1`` is set, or the run chose plain
 Python (:func:`choose_plain_python`: the first runs after an install,
@@ -55,6 +57,8 @@ class Kernel:
     def __init__(self, function: Callable[..., Any], inline: bool) -> None:
         self.py_func = function
         self.inline = inline
+        # What numba reads of a function it may inline, as of its dispatchers.
+        self.targetoptions = {**_OPTIONS, **({"inline": "always"} if inline else {})}
         self.__name__ = function.__name__
         self.__qualname__ = function.__qualname__
         self.__module__ = function.__module__
@@ -71,7 +75,7 @@ class Kernel:
         """numba's dispatcher of this kernel (numba loaded)."""
         with _lock:
             if self._dispatcher is None:
-                self._dispatcher = _njit()(cache=_state.cached, **_OPTIONS)(self.py_func)
+                self._dispatcher = _njit()(cache=_state.cached, **self.targetoptions)(self.py_func)
         return self._dispatcher
 
 
@@ -81,7 +85,6 @@ class _State:
     ready = False  # numba loaded and taught the kernels
     cached = False  # compiled code is kept on disk
     kernels: list[Kernel] = []  # noqa: RUF012 - every declared kernel
-    hooks: list[Callable[[], None]] = []  # noqa: RUF012 - run once numba is loaded
     entries: dict[tuple[int, bool, bool], Any] = {}  # noqa: RUF012 - compiled entry points
 
 
@@ -94,8 +97,6 @@ def _declare(function: Callable[..., Any], inline: bool) -> Kernel:
     declared = Kernel(function, inline)
     with _lock:
         _state.kernels.append(declared)
-        if _state.numba is not None and inline:
-            _teach_inline(declared)
     return declared
 
 
@@ -111,16 +112,6 @@ def inlined(fn: F) -> F:
     estimator), which cost more to pass, tens of machine words each, than much
     of their work (docs/performance.md)."""
     return cast(F, _declare(fn, inline=True))
-
-
-def when_loaded(hook: Callable[[], None]) -> None:
-    """Run ``hook`` once numba is loaded (now if it is): for what numba must
-    be taught before it compiles (wmr_mission.kernels.variants)."""
-    with _lock:
-        if _state.numba is not None:
-            hook()
-        else:
-            _state.hooks.append(hook)
 
 
 def choose_plain_python() -> None:
@@ -183,30 +174,12 @@ def _load() -> bool:
 
     @typeof_impl.register(Kernel)
     def _typeof_kernel(value: Kernel, context: Any) -> Any:
-        # An inlined kernel has no type of its own: numba finds its overload.
-        return None if value.inline else numba.types.Dispatcher(value.dispatcher())
+        return numba.types.Dispatcher(value.dispatcher())
 
-    _state.numba = numba  # from here on, kernels declared later are taught at once
-    for declared in _state.kernels:
-        if declared.inline:
-            _teach_inline(declared)
+    _state.numba = numba
     _teach_ticks()
-    hooks, _state.hooks = _state.hooks, []
-    for hook in hooks:
-        hook()
     _state.ready = True
     return True
-
-
-def _teach_inline(declared: Kernel) -> None:
-    from numba.extending import overload
-
-    def implementation(*args: Any) -> Callable[..., Any]:
-        return declared.py_func
-
-    overload(declared, jit_options=cast(Any, _OPTIONS), inline="always", strict=False)(
-        implementation
-    )
 
 
 def compiled(fn: F, *, counted: bool = True, cached: bool = True) -> F:
@@ -245,6 +218,21 @@ def _accepts_nrt_option() -> bool:
     return hasattr(CPUTargetOptions, "_nrt")
 
 
+def bind(function: F, bindings: Mapping[str, Callable[..., Any]]) -> F:
+    """A copy of ``function`` with some of the names it calls bound to other
+    functions of the same signatures: the loop for one mission's estimator
+    and controller (wmr_mission.sim.runner). Compiled, each copy is a function
+    of its own, its kernels inlined as the original's are."""
+    source = getattr(function, "py_func", function)
+    namespace = {**source.__globals__, **bindings}
+    return cast(
+        F,
+        types.FunctionType(
+            source.__code__, namespace, source.__name__, source.__defaults__, source.__closure__
+        ),
+    )
+
+
 def plain(
     function: F,
     substitutes: Mapping[Any, Callable[..., Any]] | None = None,
@@ -254,9 +242,8 @@ def plain(
     calling the plain-Python copies of the kernels it names, and
     ``substitutes[k]`` (itself made plain) wherever it names a kernel ``k``
     there: the loop with the reference step in place of the fast kernels
-    (wmr_mission.sim.reference), or with a variant's step in place of the
-    step that chooses it by its record's type (wmr_mission.kernels.variants).
-    The same bytes as compiled, and no call through :class:`Kernel` per sample."""
+    (wmr_mission.sim.reference). The same bytes as compiled, and no call
+    through :class:`Kernel` per sample."""
     substitutes = substitutes or {}
     made = {} if _made is None else _made
     if _substituted(function, substitutes):

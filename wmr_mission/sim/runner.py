@@ -10,6 +10,7 @@ and turns Ctrl-C into an ``interrupted`` result holding every sample so far.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -21,7 +22,7 @@ import numpy as np
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.geometry.paths import Trajectory
-from wmr_mission.kernels import jit, loop, variants
+from wmr_mission.kernels import jit, loop
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
 from wmr_mission.output.metrics import judge
@@ -170,6 +171,16 @@ _record_sample = jit.plain(loop.record_sample)
 ProgressCallback = Callable[[float, float, str], None]
 
 
+@functools.cache
+def bound_loop(estimator_step: Callable[..., int], control_step: Callable[..., None]) -> Any:
+    """The loop for one estimator and one controller: ``run_segment`` with
+    their steps bound to the names it calls them by (wmr_mission.kernels.variants),
+    one copy per pair, so each is compiled and cached once."""
+    return jit.bind(
+        loop.run_segment, {"estimator_step": estimator_step, "control_step": control_step}
+    )
+
+
 def run_mission(
     mission: Mission | MissionPlan,
     *,
@@ -223,24 +234,18 @@ class _Run:
         self.actuation, self.sensing = m.disturbances.records(m.dt, m.measured)
         self.estimator_memory = m.estimator.new_memory(m.estimator_tuning, m.initial_estimate)
         self.scratch = m.controller.new_scratch()
-        if not substitutes and jit.compiling():
+        segment = bound_loop(m.estimator.step, m.controller.step)
+        compiles = m.estimator.compiles and m.controller.compiles
+        if not substitutes and compiles and jit.compiling():
             # A loop running a plug-in's kernels is compiled afresh in each
             # process: the cache's stamp covers the package's sources only.
             parts: list[Any] = [m.estimator.tuning_record, m.estimator.step]
             parts += [m.controller.tuning_record, m.controller.step]
             cached = all(part.__module__.startswith("wmr_mission.") for part in parts)
-            self.segment: Callable[..., int] = jit.compiled(
-                loop.run_segment, counted=False, cached=cached
-            )
+            self.segment: Callable[..., int] = jit.compiled(segment, counted=False, cached=cached)
             self.ticks_are_ns = False
         else:
-            # The plain loop runs this mission's estimator and controller
-            # steps, as the compiled loop does (wmr_mission.kernels.variants).
-            steps = {
-                variants.estimator_step: m.estimator.step,
-                variants.control_step: m.controller.step,
-            }
-            self.segment = jit.plain(loop.run_segment, {**steps, **(substitutes or {})})
+            self.segment = jit.plain(segment, substitutes)
             self.ticks_are_ns = True
         self.signals = Signals(
             state=m.initial_state.copy(),

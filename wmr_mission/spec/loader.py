@@ -724,6 +724,14 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     if kind == "string_pattern_mismatch":
         described = _PATTERNS.get(str(context.get("pattern")), f"match {context.get('pattern')}")
         return Finding(path, f"{where}: expected {described}, got {_shown(value)}")
+    registry = _section_registry(path[:-1], data, root) if path[-1:] == ("type",) else None
+    if kind == "literal_error" and registry is not None:
+        # The one type registered (the controller's): refused as a union refuses.
+        names = list(registry.names())
+        hint = _suggest(str(value), names) if isinstance(value, str) else ""
+        return Finding(
+            path, f"unknown type {_shown(value)}{hint} (expected one of: {', '.join(names)})"
+        )
     if kind == "literal_error":
         expected = str(context.get("expected", ""))
         choices = re.findall(r"'([^']*)'", expected)
@@ -750,12 +758,19 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     return Finding(path, f"{where}: {message}")
 
 
+def _section_registry(path: DataPath, data: Any, root: type[BaseModel]) -> Registry[Any] | None:
+    """The registry whose variants the section at ``path`` is written in, if any."""
+    if not path:
+        return None
+    owner = _model_at(path[:-1], data, root)
+    info = None if owner is None else owner.model_fields.get(str(path[-1]))
+    return None if info is None else _registry(_field_type(info))
+
+
 def _type_tags(path: DataPath, data: Any, root: type[BaseModel]) -> list[str]:
     """The ``type`` values accepted by the union at ``path``: a registry's
     (a path, the estimator, the controller), else a region's."""
-    owner = _model_at(path[:-1], data, root)
-    info = None if owner is None else owner.model_fields.get(str(path[-1]))
-    registry = None if info is None else _registry(_field_type(info))
+    registry = _section_registry(path, data, root)
     if registry is not None:
         return list(registry.names())
     return [type_name(m) for m in typing.get_args(typing.get_args(RegionSpec)[0])]
@@ -763,6 +778,17 @@ def _type_tags(path: DataPath, data: Any, root: type[BaseModel]) -> list[str]:
 
 _SUGGESTION = re.compile(r"^unknown field '[^']*'; did you mean '([^']*)'\?$")
 _MISSING = re.compile(r"^missing field '([^']*)' in ")
+
+
+def _without_fields_of_unknown_types(findings: list[Finding]) -> list[Finding]:
+    """Drop "unknown field" in a section whose type is unknown: its fields are
+    another type's."""
+    unknown = {f.path[:-1] for f in findings if f.message.startswith("unknown type")}
+    return [
+        f
+        for f in findings
+        if not (f.message.startswith("unknown field") and f.path[:-1] in unknown)
+    ]
 
 
 def _without_implied_missing(findings: list[Finding]) -> list[Finding]:
@@ -867,7 +893,7 @@ def _check_document(
                 path = written_path(item["loc"], document.data)
                 if not _under(path, document.refused):
                     translated.append(translate(item, document))
-            findings.extend(_without_implied_missing(translated))
+            findings.extend(_without_fields_of_unknown_types(_without_implied_missing(translated)))
     unique = {diagnostic(filename, document, f) for f in findings}
     if mission is not None and not findings:
         unique |= {
