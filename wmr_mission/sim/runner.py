@@ -22,7 +22,7 @@ import numpy as np
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.geometry.paths import Trajectory
-from wmr_mission.kernels import jit, loop
+from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
 from wmr_mission.output.metrics import judge
@@ -145,6 +145,10 @@ class PhaseRun:
             heading=np.array(until.heading if until.heading is not None else (math.nan,) * 2),
             timeout_samples=-1 if phase.timeout_samples is None else phase.timeout_samples,
         )
+
+    @property
+    def tracks_a_path(self) -> bool:
+        return self._trajectory is not None
 
     def path_ahead(self, local_sample: int, rows: int) -> PathBlock:
         """The path at phase-local samples ``local_sample`` onwards: point and
@@ -318,7 +322,10 @@ class _Run:
         draws = Draws(m.noise_std, m.disturbances, m.seed)
         active = self.phases[0]
         phase = active.enter(0, signals.estimate)
-        # Load (or compile) the loop before the clock: a zero-sample call.
+        # Load (or compile) the loop and the paths' math before the clock: a
+        # zero-sample call.
+        if any(p.tracks_a_path for p in self.phases):
+            scalar_math.load()
         self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
         outcome = Outcome.success
         message = "all phases completed"
