@@ -71,8 +71,8 @@ def mcap_split(directory: Path) -> None:
 
     import numpy as np
 
-    from wmr_mission.output import export
     from wmr_mission.output.reader import load_run
+    from wmr_mission.review import export
 
     r = load_run(directory)
     summary = json.loads((directory / "summary.json").read_text(encoding="utf-8"))

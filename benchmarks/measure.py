@@ -40,24 +40,24 @@ HOUR = ROOT / "benchmarks" / "hour.yaml"
 def loop(repeat: int = 7) -> None:
     import numpy as np
 
-    from wmr_mission import runner
-    from wmr_mission.compiled import compile_mission
-    from wmr_mission.loop import PathBlock
+    from wmr_mission.kernels.loop import PathBlock
+    from wmr_mission.sim import runner
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.spec.loader import load_mission
 
     # Time spent sampling paths ahead (Python, between calls of the compiled loop).
     path_ns = [0]
-    path_ahead = runner.ActivePhase.path_ahead
+    path_ahead = runner.PhaseRun.path_ahead
 
-    def timed_path_ahead(self: runner.ActivePhase, local_sample: int, rows: int) -> PathBlock:
+    def timed_path_ahead(self: runner.PhaseRun, local_sample: int, rows: int) -> PathBlock:
         started = time.perf_counter_ns()
         block = path_ahead(self, local_sample, rows)
         path_ns[0] += time.perf_counter_ns() - started
         return block
 
-    runner.ActivePhase.path_ahead = timed_path_ahead  # type: ignore[method-assign]
+    runner.PhaseRun.path_ahead = timed_path_ahead  # type: ignore[method-assign]
     for name in ("case1", "case2"):
-        mission = compile_mission(load_mission(MISSIONS / f"{name}.yaml"))
+        mission = plan_mission(load_mission(MISSIONS / f"{name}.yaml"))
         runner.run_mission(mission)  # loads the compiled loop
         runs, cpu_us, path_us = [], [], []
         for _ in range(repeat):
@@ -76,7 +76,7 @@ def loop(repeat: int = 7) -> None:
             f"p99 {np.percentile(step_us, 99):.3f} us; sampling paths ahead median "
             f"{statistics.median(path_us):.3f} us per sample"
         )
-    runner.ActivePhase.path_ahead = path_ahead  # type: ignore[method-assign]
+    runner.PhaseRun.path_ahead = path_ahead  # type: ignore[method-assign]
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -98,26 +98,27 @@ def _wall(
 _LOADING = """
 import sys, time
 import numpy
-from wmr_mission.compiled import compile_mission
+from wmr_mission.sim.plan import plan_mission
 from wmr_mission.spec.loader import load_mission
 mission = load_mission(sys.argv[1])
+from wmr_mission.kernels import jit, model
 t0 = time.perf_counter()
-from wmr_mission import _jit  # numba, its array-math module loaded without scipy
+jit.load()  # numba, its array-math module loaded without scipy; taught the kernels
 t1 = time.perf_counter()
 from numba.core.registry import cpu_target
 cpu_target.target_context.refresh()
 t2 = time.perf_counter()
-from wmr_mission import runner
+from wmr_mission.sim import runner
 t3 = time.perf_counter()
-runner.run_mission(compile_mission(mission))
+runner.run_mission(plan_mission(mission))
 t4 = time.perf_counter()
-runner.run_mission(compile_mission(mission))
+runner.run_mission(plan_mission(mission))
 t5 = time.perf_counter()
-_jit.ticks()  # a run does not call it: what one more compiled entry would cost
+jit.compiled(model.wrap_angle)(0.0)  # a run does not call it: one more compiled entry
 t6 = time.perf_counter()
 print(f"numba import {t1 - t0:.3f} s, numba's target set-up {t2 - t1:.3f} s, "
-      f"declaring the kernels {t3 - t2:.3f} s, first run_mission (loads run_segment) "
-      f"{t4 - t3:.3f} s, second {t5 - t4:.3f} s; one more entry (ticks) {t6 - t5:.3f} s")
+      f"importing the runner {t3 - t2:.3f} s, first run_mission (loads run_segment) "
+      f"{t4 - t3:.3f} s, second {t5 - t4:.3f} s; one more entry (wrap_angle) {t6 - t5:.3f} s")
 """
 
 
@@ -125,7 +126,7 @@ def startup(repeat: int = 5) -> None:
     """What a user sees after an install: the first run (plain Python, the loop
     compiling in the background), a second run while it compiles, the runs after
     it finished; and a run that compiles in the foreground (a long mission)."""
-    from wmr_mission.background_compile import FOREGROUND, NO_JIT, READY
+    from wmr_mission.commands.background_compile import FOREGROUND, NO_JIT, READY
 
     run = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "case2.yaml"), "--no-plots"]
     user = {k: v for k, v in os.environ.items() if k not in (FOREGROUND, NO_JIT)}
@@ -145,7 +146,10 @@ def startup(repeat: int = 5) -> None:
         foreground = {**env, "NUMBA_CACHE_DIR": f"{tmp}/fresh", FOREGROUND: "1"}
         compiling = _wall([*run, "--out", f"{tmp}/foreground"], foreground)
         imports = [
-            _wall([sys.executable, "-c", "import wmr_mission.run_command, wmr_mission.runner"], env)
+            _wall(
+                [sys.executable, "-c", "import wmr_mission.commands.run, wmr_mission.sim.runner"],
+                env,
+            )
             for _ in range(repeat)
         ]
         loading = subprocess.run(
@@ -169,7 +173,7 @@ def startup(repeat: int = 5) -> None:
         "run --no-plots case2, compiling in the foreground (a long mission's first run)",
         [compiling],
     )
-    show("python -c 'import wmr_mission.run_command, wmr_mission.runner'", imports)
+    show("python -c 'import wmr_mission.commands.run, wmr_mission.sim.runner'", imports)
     print(f"loading the compiled loop, step by step: {loading.strip()}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
@@ -177,15 +181,15 @@ def startup(repeat: int = 5) -> None:
 def plain() -> None:
     """Every example mission as plain Python: its sample budget (what `run`
     compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample."""
-    os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the kernels are declared
-    from wmr_mission.background_compile import PLAIN_PYTHON_SAMPLES
-    from wmr_mission.compiled import compile_mission
-    from wmr_mission.runner import run_mission
+    os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the loop is loaded
+    from wmr_mission.commands.background_compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
     for path in sorted(MISSIONS.glob("*.yaml")):
-        mission = compile_mission(load_mission(path))
+        mission = plan_mission(load_mission(path))
         started = time.perf_counter()
         result = run_mission(mission)
         seconds = time.perf_counter() - started
@@ -207,15 +211,15 @@ def compile_times(mission: str = "case2") -> None:
     os.environ.pop("WMR_MISSION_NO_JIT", None)
     from numba.core import event
 
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.spec.loader import load_mission
 
     events = event.RecordingListener()
     event.register("numba:compile", events)
-    from wmr_mission.runner import run_mission
+    from wmr_mission.sim.runner import run_mission
 
     started = time.perf_counter()
-    run_mission(compile_mission(load_mission(MISSIONS / f"{mission}.yaml")))
+    run_mission(plan_mission(load_mission(MISSIONS / f"{mission}.yaml")))
     wall = time.perf_counter() - started
     shutil.rmtree(cache)
     own: dict[str, float] = collections.defaultdict(float)
@@ -281,9 +285,9 @@ from pathlib import Path
 def resident():
     return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
 
-import wmr_mission.runner, wmr_mission.spec.loader, wmr_mission.output.rundir
+import wmr_mission.sim.runner, wmr_mission.spec.loader, wmr_mission.output.rundir
 print(f"  imports: {resident():.0f} MB")
-from wmr_mission.runner import run_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 run_mission(load_mission(Path(sys.argv[2])))
 print(f"  + the compiled loop loaded (case study 2 run): {resident():.0f} MB")
@@ -298,13 +302,13 @@ print(f"  + its run directory written, figures included: {resident():.0f} MB")
 
 
 def scale(repeat: int = 5) -> None:
-    from wmr_mission.compiled import compile_mission
-    from wmr_mission.runner import run_mission
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission, load_mission_text
 
-    hour = compile_mission(load_mission(HOUR))
+    hour = plan_mission(load_mission(HOUR))
     text = HOUR.read_text().replace("elapsed: 3600", "elapsed: 100")
-    short = compile_mission(load_mission_text(text, "short.yaml"))
+    short = plan_mission(load_mission_text(text, "short.yaml"))
     run_mission(short)
     times = []
     for _ in range(repeat):
@@ -322,8 +326,8 @@ def scale(repeat: int = 5) -> None:
 
 def figures(repeat: int = 3) -> None:
     from wmr_mission.output.animation import write_animation
-    from wmr_mission.output.plots import draw_all
-    from wmr_mission.runner import run_mission
+    from wmr_mission.output.figures import draw_all
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     result = run_mission(load_mission(MISSIONS / "case1.yaml"))
@@ -398,8 +402,8 @@ def dare(repeat: int = 200) -> None:
     import numpy as np
     from scipy.linalg import solve_discrete_are
 
-    from wmr_mission.bench import one_blas_thread
-    from wmr_mission.reference import input_jacobian, state_jacobian
+    from wmr_mission.commands.bench import one_blas_thread
+    from wmr_mission.sim.reference import input_jacobian, state_jacobian
 
     a = state_jacobian(0.3, 1.0, 0.5, 0.01)
     b = input_jacobian(0.3, 1.0, 0.5, 0.01)
@@ -418,8 +422,8 @@ def dare(repeat: int = 200) -> None:
 def dlqr(repeat: int = 200) -> None:
     import control  # not a dependency: pip install control
 
-    from wmr_mission.bench import one_blas_thread
-    from wmr_mission.reference import input_jacobian, state_jacobian
+    from wmr_mission.commands.bench import one_blas_thread
+    from wmr_mission.sim.reference import input_jacobian, state_jacobian
 
     a = state_jacobian(0.3, 1.0, 0.5, 0.01)
     b = input_jacobian(0.3, 1.0, 0.5, 0.01)
@@ -447,10 +451,10 @@ def campaign(repeat: int = 40) -> None:
 
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
-    from wmr_mission.campaign.runs import METRICS, Row, mission_of, run_row
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.campaign.rows import METRICS, Row, mission_of, run_row
     from wmr_mission.output.metrics import judge_run_metrics
-    from wmr_mission.runner import run_mission
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
@@ -464,7 +468,7 @@ def campaign(repeat: int = 40) -> None:
         mission, _ = mission_of(loaded, draw)
         times.append(time.perf_counter())
         assert mission is not None
-        compiled = compile_mission(mission, draw.seed)
+        compiled = plan_mission(mission, draw.seed)
         times.append(time.perf_counter())
         result = run_mission(compiled)
         times.append(time.perf_counter())
@@ -501,20 +505,21 @@ def runner_cost(repeat: int = 3) -> None:
     (its runs 1-200, compiled beforehand, each run ``repeat`` times): medians
     of ``run_mission``, of its calls of the compiled loop (passing the records
     in included) and of the rest, the runner's Python."""
-    from wmr_mission import loop, runner
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
-    from wmr_mission.campaign.runs import mission_of
-    from wmr_mission.compiled import CompiledMission, compile_mission
+    from wmr_mission.campaign.rows import mission_of
+    from wmr_mission.kernels import loop
+    from wmr_mission.sim import runner
+    from wmr_mission.sim.plan import MissionPlan, plan_mission
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
-    missions: list[CompiledMission] = []
+    missions: list[MissionPlan] = []
     for run in range(201):
         draw = plan.draw(run)
         mission, _ = mission_of(loaded, draw)
         assert mission is not None
-        missions.append(compile_mission(mission, draw.seed))
+        missions.append(plan_mission(mission, draw.seed))
     runner.run_mission(missions[0])  # loads the compiled loop
     run_segment = loop.run_segment
     inside = [0, 0]  # ns in the compiled loop, calls
@@ -564,12 +569,12 @@ def _drawing_code_at(commit: str) -> tuple[Any, Any]:
             exec(compile(found.stdout, f"{commit}:{path}", "exec"), module.__dict__)
     modules = []
     for name, path in (
-        ("plots_then", "wmr_mission/output/plots.py"),
+        ("plots_then", "wmr_mission/output/figures.py"),
         ("figures_then", "wmr_mission/campaign/figures.py"),
     ):
         shown = ["git", "-C", str(ROOT), "show", f"{commit}:{path}"]
         text = subprocess.run(shown, check=True, capture_output=True, text=True).stdout
-        text = text.replace("from wmr_mission.output.plots import", "from plots_then import")
+        text = text.replace("from wmr_mission.output.figures import", "from plots_then import")
         module = types.ModuleType(name)
         sys.modules[name] = module
         exec(compile(text, f"{commit}:{path}", "exec"), module.__dict__)
@@ -604,9 +609,9 @@ def drawing(repeat: int = 5) -> None:
     from wmr_mission.campaign.engine import execute, warm_up
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
-    from wmr_mission.campaign.runs import simulate
+    from wmr_mission.campaign.rows import simulate
     from wmr_mission.campaign.sweep import _regions, _write_run_dir
-    from wmr_mission.output import plots
+    from wmr_mission.output import figures as plots
     from wmr_mission.stopping import StopSignals
 
     against = sys.argv[2] if len(sys.argv) > 2 else None
@@ -689,8 +694,8 @@ def png(repeat: int = 7) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
-    from wmr_mission.output.plots import FIGURE_NAMES, PNG_OPTIONS, _figure
-    from wmr_mission.runner import run_mission
+    from wmr_mission.output.figures import FIGURE_NAMES, PNG_OPTIONS, _figure
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     result = run_mission(load_mission(MISSIONS / "case2.yaml"))

@@ -42,8 +42,8 @@ from wmr_mission.campaign import engine, sweep
 from wmr_mission.campaign.load import MAX_CAMPAIGN_BYTES, LoadedCampaign, check_campaign, check_file
 from wmr_mission.campaign.sweep import sweep_command
 from wmr_mission.cli import app
+from wmr_mission.commands.run import run_command
 from wmr_mission.output.rundir import CLAIM_FILE
-from wmr_mission.run_command import run_command
 from wmr_mission.spec.loader import check_mission_text, parse_override
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -17,7 +17,7 @@ from test_output_synthetic import REGIONS, circle_run
 from typer.testing import CliRunner
 
 from wmr_mission.cli import app
-from wmr_mission.output.export import export_command
+from wmr_mission.review.export import export_command
 
 pq = pytest.importorskip("pyarrow.parquet")
 
@@ -143,7 +143,7 @@ def test_mcap_messages_read_back_equal_to_the_csv(run_dir: Path) -> None:
 def test_mcap_regions_are_foxglove_scene_entities(run_dir: Path) -> None:
     from pydantic import TypeAdapter
 
-    from wmr_mission.regions import region_outline
+    from wmr_mission.geometry.regions import region_outline
     from wmr_mission.spec.models import RegionSpec
 
     export_command(run_dir, "mcap")

@@ -22,16 +22,16 @@ from browser import CANVAS_INK, Browser, Page, find_chromium, pixels_near
 from test_output_synthetic import circle_run
 from typer.testing import CliRunner
 
+from wmr_mission.campaign.reader import load_campaign_dir
 from wmr_mission.cli import app
-from wmr_mission.output.campaign_reader import load_campaign_dir
-from wmr_mission.output.view import (
+from wmr_mission.output.result import RunResult, Transition
+from wmr_mission.review.view import (
     MAX_DISPLAY_SAMPLES,
     build_page,
     run_meta,
     thin_signal,
     view_command,
 )
-from wmr_mission.result import RunResult, Transition
 
 CHROMIUM = find_chromium()
 needs_chromium = pytest.mark.skipif(
@@ -513,7 +513,7 @@ def test_the_pages_phases_are_the_runs_in_their_colours() -> None:
 def test_a_large_campaigns_table_keeps_every_failure(
     campaign_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from wmr_mission.output import view
+    from wmr_mission.review import view
 
     rows = _rows(campaign_dir / "runs.csv")
     failed = [r["run"] for r in rows if r["outcome"] != "success"]

@@ -17,7 +17,7 @@ from wmr_mission.spec import loader
 from wmr_mission.spec.loader import MissionError, Override
 
 if TYPE_CHECKING:
-    from wmr_mission.result import RunResult
+    from wmr_mission.output.result import RunResult
     from wmr_mission.spec.models import Mission
 
 __all__ = [
@@ -96,7 +96,7 @@ def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
     :class:`MissionError` when the mission is invalid (e.g. a copy made with
     ``model_copy(update=...)``, which pydantic does not validate).
     """
-    from wmr_mission.runner import run_mission as simulate
+    from wmr_mission.sim.runner import run_mission as simulate
     from wmr_mission.spec.models import Mission
 
     if not isinstance(mission, Mission):
@@ -110,7 +110,7 @@ def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
 def _checked_seed(seed: object) -> int:
     """A sensor seed is an integer in 0 .. 2^32 - 1, as ``--seed`` and ``sensors.seed``
     take it: TypeError or ValueError otherwise."""
-    from wmr_mission.spec.models import LARGEST_SEED
+    from wmr_mission.fields import LARGEST_SEED
 
     if isinstance(seed, bool) or not isinstance(seed, numbers.Integral):
         raise TypeError(f"seed is an integer in 0 .. {LARGEST_SEED}, got {seed!r}")

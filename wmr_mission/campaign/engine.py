@@ -26,7 +26,7 @@ from typing import Any, Final, Protocol
 
 from wmr_mission.campaign.load import LoadedCampaign
 from wmr_mission.campaign.plan import Plan
-from wmr_mission.campaign.runs import Row, run_row, run_rows
+from wmr_mission.campaign.rows import Row, run_row, run_rows
 from wmr_mission.stopping import StopSignals
 
 __all__ = [
@@ -337,7 +337,7 @@ def check_cluster(client: Any, allow_mixed_cluster: bool) -> None:
     this process's (which simulates the worst runs again). Raises
     :class:`MixedCluster` naming what differs where, unless ``allow_mixed_cluster``,
     which says it in one line on stderr instead."""
-    from wmr_mission.environment import differences, machine_record
+    from wmr_mission.output.environment import differences, machine_record
 
     mine = machine_record()
     try:

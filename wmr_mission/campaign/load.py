@@ -26,20 +26,20 @@ from wmr_mission.spec.loader import (
     Document,
     MissionError,
     Override,
-    _apply,
-    _context,
-    _diagnostic,
-    _resolve,
+    apply_override,
     check_mission_bytes,
     check_mission_document,
     check_mission_text,
     decode_source,
+    diagnostic,
     internal_error,
     parse_path,
     read_document,
     read_source,
     resolved_path,
     translate,
+    validation_context,
+    written_path,
 )
 from wmr_mission.spec.models import Mission
 
@@ -99,10 +99,12 @@ class LoadedCampaign:
         document = Document(
             data={key: _copy(value) if key in written else value for key, value in data.items()}
         )
-        if any(_apply(document, override) is not None for override in overrides):
+        if any(apply_override(document, override) is not None for override in overrides):
             return None
         try:
-            mission = Mission.model_validate(document.data, context=_context(document.data))
+            mission = Mission.model_validate(
+                document.data, context=validation_context(document.data)
+            )
         except ValidationError:
             return None
         if any(f.severity == "error" for f in check_across_fields(mission)):
@@ -218,7 +220,7 @@ def _check(
     try:
         document, findings = read if read is not None else read_document(text)
         if document is None:
-            return None, [_diagnostic(filename, None, f) for f in findings]
+            return None, [diagnostic(filename, None, f) for f in findings]
         campaign: Campaign | None = None
         if not isinstance(document.data, dict):
             findings.append(
@@ -231,9 +233,9 @@ def _check(
                 for item in error.errors(include_url=False):
                     if item["type"] == "none_required":  # an optional key: absent is its None
                         continue
-                    if not _under(_resolve(item["loc"], document.data), document.refused):
+                    if not _under(written_path(item["loc"], document.data), document.refused):
                         findings.append(_of_campaign(translate(item, document, Campaign)))
-        diagnostics = [_diagnostic(filename, document, f) for f in findings]
+        diagnostics = [diagnostic(filename, document, f) for f in findings]
         if campaign is None or diagnostics:
             return None, _sorted(diagnostics)
         campaign_sha256 = hashlib.sha256(raw).hexdigest()

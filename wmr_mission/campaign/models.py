@@ -12,7 +12,8 @@ from typing import Annotated, Any, Final, Literal
 from pydantic import BaseModel, ConfigDict, Field, Strict, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
-from wmr_mission.spec.models import LARGEST_SEED, MISSION_NAME
+from wmr_mission.fields import LARGEST_SEED
+from wmr_mission.spec.models import MISSION_NAME
 
 __all__ = ["DISTRIBUTIONS", "MAX_RUNS", "Axis", "Campaign", "CampaignExpect", "SuccessRate"]
 

@@ -43,20 +43,17 @@ from wmr_mission.campaign.engine import (
 )
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
 from wmr_mission.campaign.plan import Plan
-from wmr_mission.campaign.runs import Row, header, replay_command, simulate
-from wmr_mission.environment import environment
+from wmr_mission.campaign.rows import Row, header, replay_command, simulate
+from wmr_mission.output.environment import environment, package_versions
+from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     CLAIM_FILE,
     RunDirExistsError,
-    atomic_path,
     default_run_dir,
-    json_text,
     loop_build,
-    package_versions,
     prepare_run_dir,
     release_run_dir,
-    write_bytes_atomic,
     write_run,
 )
 from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals

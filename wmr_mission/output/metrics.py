@@ -17,15 +17,17 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
+from wmr_mission.basics import STATES, FloatArray
 from wmr_mission.spec import models
 
-STATES = ("x", "y", "theta")
+if TYPE_CHECKING:
+    from wmr_mission.output.result import PhaseRecord, RunResult
+
 # The mission's `expect` settings when a summary is made without a mission.
 DEFAULT_CONVERGENCE_TOLERANCE = dict.fromkeys(STATES, models.DEFAULT_CONVERGENCE_TOLERANCE)
 # A constraint row above this counts as violated: a constraint held as an
@@ -44,7 +46,7 @@ _DISTANCE_CHUNK = 4096  # positions per block: bounded memory on long runs
 _CANDIDATES = 1 << 16  # candidate distances per block of the nearest-points search
 
 # Mission-wide `expect` key -> where its value lives in the summary.
-_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
+EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "final_position_error": ("final", "position_error"),
     "final_heading_error": ("final", "heading_error"),
     "max_constraint_violation": ("max_constraint_violation",),
@@ -53,7 +55,7 @@ _EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
 }
 # Per-phase `expect` key -> where its value lives in a phase's summary. A
 # mission-wide value applies to every phase; a phase's own value overrides it.
-_PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
+PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "tracking_error_rms": ("tracking_error", "rms"),
     "tracking_error_max": ("tracking_error", "max"),
     "speed_at_limit": ("inputs", "speed_at_limit"),
@@ -368,7 +370,7 @@ def phase_segments(phase: np.ndarray) -> list[tuple[int, int, int]]:
 
 
 def _phase_target(
-    result: RunResult, info: PhaseInfo, start: int, end: int
+    result: RunResult, info: PhaseRecord, start: int, end: int
 ) -> tuple[float, float, float | None] | None:
     """The pose a phase aims at: its target, or for a track phase its last reference point."""
     if info.kind == "track":
@@ -461,7 +463,7 @@ class _PhaseSamples:
         return estimation_errors(self.result, self.window)
 
 
-# How each per-phase `expect` metric (_PHASE_EXPECTATION_PATHS) is measured.
+# How each per-phase `expect` metric (PHASE_EXPECTATION_PATHS) is measured.
 _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
     "tracking_error_rms": lambda p: _rms_or_none(p.off_path[p.settled]),
     "tracking_error_max": lambda p: _max_or_none(p.off_path[p.settled]),
@@ -477,13 +479,13 @@ def _measured(phase: _PhaseSamples, metrics: list[str]) -> dict[str, dict[str, A
     """The values of per-phase ``metrics``, placed as in a phase's summary."""
     values: dict[str, dict[str, Any]] = {}
     for metric in metrics:
-        section, key = _PHASE_EXPECTATION_PATHS[metric]
+        section, key = PHASE_EXPECTATION_PATHS[metric]
         values.setdefault(section, {})[key] = _PHASE_METRICS[metric](phase)
     return values
 
 
 def _checked_phase_summary(
-    info: PhaseInfo, phase: _PhaseSamples, thresholds: Mapping[str, Any]
+    info: PhaseRecord, phase: _PhaseSamples, thresholds: Mapping[str, Any]
 ) -> dict[str, Any]:
     """What :func:`check_expectations` reads of a phase's summary: the value of
     each threshold set that applies to the phase, as :func:`_phase_summary` has it."""
@@ -494,14 +496,14 @@ def _checked_phase_summary(
     }
     checked = [
         metric
-        for metric in _PHASE_EXPECTATION_PATHS
+        for metric in PHASE_EXPECTATION_PATHS
         if thresholds.get(metric) is not None and _applies(summary, metric)
     ]
     return summary | _measured(phase, checked)
 
 
 def _phase_summary(
-    result: RunResult, info: PhaseInfo, phase: _PhaseSamples, tolerance: Mapping[str, float]
+    result: RunResult, info: PhaseRecord, phase: _PhaseSamples, tolerance: Mapping[str, float]
 ) -> dict[str, Any]:
     """A phase's summary in ``summary.json``."""
     t = result.t
@@ -510,7 +512,7 @@ def _phase_summary(
     end_sample = window.stop if window.stop < result.samples else result.samples - 1
     track = info.kind == "track"
     quality = _measured(
-        phase, [m for m in _PHASE_EXPECTATION_PATHS if track or not m.startswith("tracking_error")]
+        phase, [m for m in PHASE_EXPECTATION_PATHS if track or not m.startswith("tracking_error")]
     )
     tracking = None
     if track:
@@ -592,7 +594,7 @@ def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str,
     ``mission`` is the resolved mission (``Mission.model_dump(mode="json")``).
     """
     expect = _expect_of(mission)
-    shared = {key: expect.get(key) for key in ("settle_time", *_PHASE_EXPECTATION_PATHS)}
+    shared = {key: expect.get(key) for key in ("settle_time", *PHASE_EXPECTATION_PATHS)}
     merged = {}
     for phase in _written_phases(mission):
         own = phase.get("expect") or {}
@@ -693,7 +695,7 @@ def _bounded_metrics(
     result: RunResult, tolerance: Mapping[str, float], errors: dict[str, FloatArray]
 ) -> dict[str, Any]:
     """The run's outcome and the mission-wide metrics an `expect` can bound
-    (_EXPECTATION_PATHS), as :func:`run_metrics` has them."""
+    (EXPECTATION_PATHS), as :func:`run_metrics` has them."""
     converged = convergence_index(errors, tolerance)
     duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
     return {
@@ -716,7 +718,7 @@ def loop_time_us(result: RunResult) -> float | None:
     return result.loop_ns / 1000.0 / result.samples
 
 
-def _summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | None:
+def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | None:
     value: Any = summary
     for key in path:
         if not isinstance(value, Mapping):
@@ -748,17 +750,17 @@ def _applies(phase: Mapping[str, Any], metric: str) -> bool:
 def _phase_checks(phase: Mapping[str, Any], thresholds: Mapping[str, Any]) -> list[dict[str, Any]]:
     checks = []
     name = str(phase.get("name"))
-    for metric, path in _PHASE_EXPECTATION_PATHS.items():
+    for metric, path in PHASE_EXPECTATION_PATHS.items():
         threshold = thresholds.get(metric)
         if threshold is None or not _applies(phase, metric):
             continue
         if metric == "estimation_rms":  # a bound per state
             for state in STATES:
                 if threshold.get(state) is not None:
-                    value = _summary_value(phase, (*path, state))
+                    value = summary_value(phase, (*path, state))
                     checks.append(_check(f"{metric}.{state}", name, threshold[state], value))
             continue
-        checks.append(_check(metric, name, float(threshold["max"]), _summary_value(phase, path)))
+        checks.append(_check(metric, name, float(threshold["max"]), summary_value(phase, path)))
     return checks
 
 
@@ -773,13 +775,13 @@ def check_expectations(
     not apply (a phase no longer than its settle time; tracking off a track phase).
     """
     expect = _expect_of(mission)
-    known = (*_EXPECTATION_PATHS, *_PHASE_EXPECTATION_PATHS, *_SETTINGS)
+    known = (*EXPECTATION_PATHS, *PHASE_EXPECTATION_PATHS, *_SETTINGS)
     for metric in expect:
         if metric not in known:
             raise ValueError(f"unknown expectation {metric!r}; expected one of {', '.join(known)}")
     checks = [
-        _check(metric, None, float(expect[metric]["max"]), _summary_value(summary, path))
-        for metric, path in _EXPECTATION_PATHS.items()
+        _check(metric, None, float(expect[metric]["max"]), summary_value(summary, path))
+        for metric, path in EXPECTATION_PATHS.items()
         if expect.get(metric) is not None
     ]
     per_phase = phase_expectations(mission)
@@ -830,7 +832,7 @@ def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> d
     bound misses a threshold is the distance to the path computed.
     """
     summary = _bounded_metrics(result, _tolerance(mission), estimation_errors(result))
-    if result.outcome is not Outcome.success:  # judging changes only a success
+    if not result.succeeded:  # judging changes only a success
         return summary
     phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True)
     checks = check_expectations({**summary, "phases": phases}, mission)
@@ -856,7 +858,6 @@ def _judged(result: RunResult, summary: dict[str, Any], checks: list[dict[str, A
     """A success that misses a threshold becomes ``expect-failed``, in
     ``result`` and ``summary``, with the misses as its message."""
     failures = unmet(checks)
-    if result.outcome is Outcome.success and failures:
-        result.outcome = Outcome.expect_failed
-        result.message = "expectation not met: " + "; ".join(failures)
+    if result.succeeded and failures:
+        result.miss_expectations(failures)
         summary["outcome"], summary["message"] = result.outcome.value, result.message
