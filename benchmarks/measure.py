@@ -15,6 +15,7 @@
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
     python benchmarks/measure.py png        # Pillow writing case study 2's PNGs, per zlib level
+    python benchmarks/measure.py checks     # checking campaigns of 10 000 values, and of 1 MB
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -39,24 +40,24 @@ HOUR = ROOT / "benchmarks" / "hour.yaml"
 def loop(repeat: int = 7) -> None:
     import numpy as np
 
-    from wmr_mission import runner
-    from wmr_mission.compiled import compile_mission
-    from wmr_mission.loop import PathBlock
+    from wmr_mission.kernels.loop import PathBlock
+    from wmr_mission.sim import runner
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.spec.loader import load_mission
 
     # Time spent sampling paths ahead (Python, between calls of the compiled loop).
     path_ns = [0]
-    path_ahead = runner.ActivePhase.path_ahead
+    path_ahead = runner.PhaseRun.path_ahead
 
-    def timed_path_ahead(self: runner.ActivePhase, local_sample: int, rows: int) -> PathBlock:
+    def timed_path_ahead(self: runner.PhaseRun, local_sample: int, rows: int) -> PathBlock:
         started = time.perf_counter_ns()
         block = path_ahead(self, local_sample, rows)
         path_ns[0] += time.perf_counter_ns() - started
         return block
 
-    runner.ActivePhase.path_ahead = timed_path_ahead  # type: ignore[method-assign]
+    runner.PhaseRun.path_ahead = timed_path_ahead  # type: ignore[method-assign]
     for name in ("case1", "case2"):
-        mission = compile_mission(load_mission(MISSIONS / f"{name}.yaml"))
+        mission = plan_mission(load_mission(MISSIONS / f"{name}.yaml"))
         runner.run_mission(mission)  # loads the compiled loop
         runs, cpu_us, path_us = [], [], []
         for _ in range(repeat):
@@ -75,7 +76,7 @@ def loop(repeat: int = 7) -> None:
             f"p99 {np.percentile(step_us, 99):.3f} us; sampling paths ahead median "
             f"{statistics.median(path_us):.3f} us per sample"
         )
-    runner.ActivePhase.path_ahead = path_ahead  # type: ignore[method-assign]
+    runner.PhaseRun.path_ahead = path_ahead  # type: ignore[method-assign]
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -97,26 +98,27 @@ def _wall(
 _LOADING = """
 import sys, time
 import numpy
-from wmr_mission.compiled import compile_mission
+from wmr_mission.sim.plan import plan_mission
 from wmr_mission.spec.loader import load_mission
 mission = load_mission(sys.argv[1])
+from wmr_mission.kernels import jit, model
 t0 = time.perf_counter()
-from wmr_mission import _jit  # numba, its array-math module loaded without scipy
+jit.load()  # numba, its array-math module loaded without scipy; taught the kernels
 t1 = time.perf_counter()
 from numba.core.registry import cpu_target
 cpu_target.target_context.refresh()
 t2 = time.perf_counter()
-from wmr_mission import runner
+from wmr_mission.sim import runner
 t3 = time.perf_counter()
-runner.run_mission(compile_mission(mission))
+runner.run_mission(plan_mission(mission))
 t4 = time.perf_counter()
-runner.run_mission(compile_mission(mission))
+runner.run_mission(plan_mission(mission))
 t5 = time.perf_counter()
-_jit.ticks()  # a run does not call it: what one more compiled entry would cost
+jit.compiled(model.wrap_angle)(0.0)  # a run does not call it: one more compiled entry
 t6 = time.perf_counter()
 print(f"numba import {t1 - t0:.3f} s, numba's target set-up {t2 - t1:.3f} s, "
-      f"declaring the kernels {t3 - t2:.3f} s, first run_mission (loads run_segment) "
-      f"{t4 - t3:.3f} s, second {t5 - t4:.3f} s; one more entry (ticks) {t6 - t5:.3f} s")
+      f"importing the runner {t3 - t2:.3f} s, first run_mission (loads run_segment) "
+      f"{t4 - t3:.3f} s, second {t5 - t4:.3f} s; one more entry (wrap_angle) {t6 - t5:.3f} s")
 """
 
 
@@ -124,7 +126,7 @@ def startup(repeat: int = 5) -> None:
     """What a user sees after an install: the first run (plain Python, the loop
     compiling in the background), a second run while it compiles, the runs after
     it finished; and a run that compiles in the foreground (a long mission)."""
-    from wmr_mission.background_compile import FOREGROUND, NO_JIT, READY
+    from wmr_mission.commands.background_compile import FOREGROUND, NO_JIT, READY
 
     run = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "case2.yaml"), "--no-plots"]
     user = {k: v for k, v in os.environ.items() if k not in (FOREGROUND, NO_JIT)}
@@ -144,7 +146,10 @@ def startup(repeat: int = 5) -> None:
         foreground = {**env, "NUMBA_CACHE_DIR": f"{tmp}/fresh", FOREGROUND: "1"}
         compiling = _wall([*run, "--out", f"{tmp}/foreground"], foreground)
         imports = [
-            _wall([sys.executable, "-c", "import wmr_mission.run_command, wmr_mission.runner"], env)
+            _wall(
+                [sys.executable, "-c", "import wmr_mission.commands.run, wmr_mission.sim.runner"],
+                env,
+            )
             for _ in range(repeat)
         ]
         loading = subprocess.run(
@@ -168,7 +173,7 @@ def startup(repeat: int = 5) -> None:
         "run --no-plots case2, compiling in the foreground (a long mission's first run)",
         [compiling],
     )
-    show("python -c 'import wmr_mission.run_command, wmr_mission.runner'", imports)
+    show("python -c 'import wmr_mission.commands.run, wmr_mission.sim.runner'", imports)
     print(f"loading the compiled loop, step by step: {loading.strip()}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
@@ -176,15 +181,15 @@ def startup(repeat: int = 5) -> None:
 def plain() -> None:
     """Every example mission as plain Python: its sample budget (what `run`
     compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample."""
-    os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the kernels are declared
-    from wmr_mission.background_compile import PLAIN_PYTHON_SAMPLES
-    from wmr_mission.compiled import compile_mission
-    from wmr_mission.runner import run_mission
+    os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the loop is loaded
+    from wmr_mission.commands.background_compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
     for path in sorted(MISSIONS.glob("*.yaml")):
-        mission = compile_mission(load_mission(path))
+        mission = plan_mission(load_mission(path))
         started = time.perf_counter()
         result = run_mission(mission)
         seconds = time.perf_counter() - started
@@ -206,15 +211,15 @@ def compile_times(mission: str = "case2") -> None:
     os.environ.pop("WMR_MISSION_NO_JIT", None)
     from numba.core import event
 
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.spec.loader import load_mission
 
     events = event.RecordingListener()
     event.register("numba:compile", events)
-    from wmr_mission.runner import run_mission
+    from wmr_mission.sim.runner import run_mission
 
     started = time.perf_counter()
-    run_mission(compile_mission(load_mission(MISSIONS / f"{mission}.yaml")))
+    run_mission(plan_mission(load_mission(MISSIONS / f"{mission}.yaml")))
     wall = time.perf_counter() - started
     shutil.rmtree(cache)
     own: dict[str, float] = collections.defaultdict(float)
@@ -280,9 +285,9 @@ from pathlib import Path
 def resident():
     return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
 
-import wmr_mission.runner, wmr_mission.spec.loader, wmr_mission.output.rundir
+import wmr_mission.sim.runner, wmr_mission.spec.loader, wmr_mission.output.rundir
 print(f"  imports: {resident():.0f} MB")
-from wmr_mission.runner import run_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 run_mission(load_mission(Path(sys.argv[2])))
 print(f"  + the compiled loop loaded (case study 2 run): {resident():.0f} MB")
@@ -297,13 +302,13 @@ print(f"  + its run directory written, figures included: {resident():.0f} MB")
 
 
 def scale(repeat: int = 5) -> None:
-    from wmr_mission.compiled import compile_mission
-    from wmr_mission.runner import run_mission
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission, load_mission_text
 
-    hour = compile_mission(load_mission(HOUR))
+    hour = plan_mission(load_mission(HOUR))
     text = HOUR.read_text().replace("elapsed: 3600", "elapsed: 100")
-    short = compile_mission(load_mission_text(text, "short.yaml"))
+    short = plan_mission(load_mission_text(text, "short.yaml"))
     run_mission(short)
     times = []
     for _ in range(repeat):
@@ -321,8 +326,8 @@ def scale(repeat: int = 5) -> None:
 
 def figures(repeat: int = 3) -> None:
     from wmr_mission.output.animation import write_animation
-    from wmr_mission.output.plots import draw_all
-    from wmr_mission.runner import run_mission
+    from wmr_mission.output.figures import draw_all
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     result = run_mission(load_mission(MISSIONS / "case1.yaml"))
@@ -397,8 +402,8 @@ def dare(repeat: int = 200) -> None:
     import numpy as np
     from scipy.linalg import solve_discrete_are
 
-    from wmr_mission.bench import one_blas_thread
-    from wmr_mission.reference import input_jacobian, state_jacobian
+    from wmr_mission.commands.bench import one_blas_thread
+    from wmr_mission.sim.reference import input_jacobian, state_jacobian
 
     a = state_jacobian(0.3, 1.0, 0.5, 0.01)
     b = input_jacobian(0.3, 1.0, 0.5, 0.01)
@@ -417,8 +422,8 @@ def dare(repeat: int = 200) -> None:
 def dlqr(repeat: int = 200) -> None:
     import control  # not a dependency: pip install control
 
-    from wmr_mission.bench import one_blas_thread
-    from wmr_mission.reference import input_jacobian, state_jacobian
+    from wmr_mission.commands.bench import one_blas_thread
+    from wmr_mission.sim.reference import input_jacobian, state_jacobian
 
     a = state_jacobian(0.3, 1.0, 0.5, 0.01)
     b = input_jacobian(0.3, 1.0, 0.5, 0.01)
@@ -446,10 +451,10 @@ def campaign(repeat: int = 40) -> None:
 
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
-    from wmr_mission.campaign.runs import METRICS, Row, mission_of, run_row
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.campaign.rows import METRICS, Row, mission_of, run_row
     from wmr_mission.output.metrics import judge_run_metrics
-    from wmr_mission.runner import run_mission
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
@@ -463,7 +468,7 @@ def campaign(repeat: int = 40) -> None:
         mission, _ = mission_of(loaded, draw)
         times.append(time.perf_counter())
         assert mission is not None
-        compiled = compile_mission(mission, draw.seed)
+        compiled = plan_mission(mission, draw.seed)
         times.append(time.perf_counter())
         result = run_mission(compiled)
         times.append(time.perf_counter())
@@ -500,20 +505,21 @@ def runner_cost(repeat: int = 3) -> None:
     (its runs 1-200, compiled beforehand, each run ``repeat`` times): medians
     of ``run_mission``, of its calls of the compiled loop (passing the records
     in included) and of the rest, the runner's Python."""
-    from wmr_mission import loop, runner
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
-    from wmr_mission.campaign.runs import mission_of
-    from wmr_mission.compiled import CompiledMission, compile_mission
+    from wmr_mission.campaign.rows import mission_of
+    from wmr_mission.kernels import loop
+    from wmr_mission.sim import runner
+    from wmr_mission.sim.plan import MissionPlan, plan_mission
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
-    missions: list[CompiledMission] = []
+    missions: list[MissionPlan] = []
     for run in range(201):
         draw = plan.draw(run)
         mission, _ = mission_of(loaded, draw)
         assert mission is not None
-        missions.append(compile_mission(mission, draw.seed))
+        missions.append(plan_mission(mission, draw.seed))
     runner.run_mission(missions[0])  # loads the compiled loop
     run_segment = loop.run_segment
     inside = [0, 0]  # ns in the compiled loop, calls
@@ -563,12 +569,12 @@ def _drawing_code_at(commit: str) -> tuple[Any, Any]:
             exec(compile(found.stdout, f"{commit}:{path}", "exec"), module.__dict__)
     modules = []
     for name, path in (
-        ("plots_then", "wmr_mission/output/plots.py"),
+        ("plots_then", "wmr_mission/output/figures.py"),
         ("figures_then", "wmr_mission/campaign/figures.py"),
     ):
         shown = ["git", "-C", str(ROOT), "show", f"{commit}:{path}"]
         text = subprocess.run(shown, check=True, capture_output=True, text=True).stdout
-        text = text.replace("from wmr_mission.output.plots import", "from plots_then import")
+        text = text.replace("from wmr_mission.output.figures import", "from plots_then import")
         module = types.ModuleType(name)
         sys.modules[name] = module
         exec(compile(text, f"{commit}:{path}", "exec"), module.__dict__)
@@ -600,12 +606,13 @@ def drawing(repeat: int = 5) -> None:
     from wmr_mission.campaign import figures
     from wmr_mission.campaign.aggregate import Aggregate
     from wmr_mission.campaign.coverage import runs_per_pixel
-    from wmr_mission.campaign.engine import StopFlag, execute, warm_up
+    from wmr_mission.campaign.engine import execute, warm_up
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
-    from wmr_mission.campaign.runs import simulate
+    from wmr_mission.campaign.rows import simulate
     from wmr_mission.campaign.sweep import _regions, _write_run_dir
-    from wmr_mission.output import plots
+    from wmr_mission.output import figures as plots
+    from wmr_mission.stopping import StopSignals
 
     against = sys.argv[2] if len(sys.argv) > 2 else None
     codes = {"now": (plots, figures)}
@@ -613,7 +620,7 @@ def drawing(repeat: int = 5) -> None:
         codes[against] = _drawing_code_at(against)
     loaded = load_campaign(CAMPAIGN)
     aggregate = Aggregate(dict(loaded.campaign.vary))
-    with StopFlag() as stop:
+    with StopSignals() as stop:
         seconds = warm_up(loaded)
         for rows in execute(loaded, workers=2, scheduler=None, seconds_per_run=seconds, stop=stop):
             for row in rows:
@@ -673,9 +680,7 @@ def drawing(repeat: int = 5) -> None:
             show(f"worst run {worst[0]}, {name}.png", spent)
             total = {key: total[key] + spent[key] for key in codes}
         show(f"worst run {worst[0]}, its four figures", total)
-        directory = cpu(
-            {"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True, "")}
-        )
+        directory = cpu({"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True)})
         print(f"  one worst run's directory with its four figures: {directory['now']:.3f}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
@@ -689,8 +694,8 @@ def png(repeat: int = 7) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
-    from wmr_mission.output.plots import FIGURE_NAMES, PNG_OPTIONS, _figure
-    from wmr_mission.runner import run_mission
+    from wmr_mission.output.figures import FIGURE_NAMES, PNG_OPTIONS, _figure
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     result = run_mission(load_mission(MISSIONS / "case2.yaml"))
@@ -713,12 +718,55 @@ def png(repeat: int = 7) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def checks(repeat: int = 3) -> None:
+    """Seconds ``validate`` spends on a campaign (``check_file``): one axis of
+    10 000 choice values, all the same or all different, and a campaign of
+    nearly a megabyte, which is refused for its size."""
+    from wmr_mission.campaign.load import MAX_CAMPAIGN_BYTES, check_file
+
+    mission = ROOT / "tests" / "data" / "campaigns" / "short.yaml"
+    axes = {
+        "10 000 values, all the same": ", ".join(["0.0100"] * 10_000),
+        "10 000 values, all different": ", ".join(f"0.{i:04d}" for i in range(10_000)),
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        files = {}
+        for name, values in axes.items():
+            files[name] = Path(tmp) / f"{len(files)}.yaml"
+            files[name].write_text(
+                f"version: 1\nname: c\nmission: {mission}\nruns: 2\n"
+                f"vary:\n  sensors.noise_std.x: {{choice: [{values}]}}\n"
+            )
+        files["nearly 1 MB"] = Path(tmp) / "large.yaml"
+        line = f"  sensors.noise_std.x: {{choice: [{axes['10 000 values, all the same']}]}}\n"
+        files["nearly 1 MB"].write_text(
+            f"version: 1\nname: c\nmission: {mission}\nruns: 2\nvary:\n" + line * 12
+        )
+        for name, path in files.items():
+            spent = []
+            for _ in range(repeat):
+                started = time.perf_counter()
+                problems = check_file(path)
+                spent.append(time.perf_counter() - started)
+            said = "valid" if not problems else problems[0].message[:60]
+            print(
+                f"{name} ({path.stat().st_size} bytes, limit {MAX_CAMPAIGN_BYTES}): "
+                f"{statistics.median(spent):.3f} s, {said}"
+            )
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
-    jobs |= {"campaign": campaign, "runner": runner_cost, "drawing": drawing, "png": png}
+    jobs |= {
+        "campaign": campaign,
+        "runner": runner_cost,
+        "drawing": drawing,
+        "png": png,
+        "checks": checks,
+    }
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from wmr_mission.runner import run_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission_text
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -46,7 +46,7 @@ import json, math, sys
 import numpy as np
 from pathlib import Path
 from wmr_mission.output.rundir import trajectory_csv_text
-from wmr_mission.runner import run_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 
 out = Path(sys.argv[1])
@@ -83,7 +83,7 @@ np.savez(sys.argv[1], exp=np.exp(x), log=np.log(np.abs(x)), power=np.power(np.ab
 
 
 def _numpy_levels(tmp: Path) -> None:
-    from wmr_mission.environment import numpy_simd
+    from wmr_mission.output.environment import numpy_simd
 
     levels = numpy_simd()
     child = NUMPY_CHILD.format(n=ARGUMENTS)

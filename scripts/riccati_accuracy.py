@@ -2,13 +2,13 @@
 
 Runs case studies 1 and 2 (missions/case1.yaml, case2.yaml), replays the
 linearisation point (theta, v, omega) of every regulation sample through
-``wmr_mission.control.scheduled_gain`` as the loop does (warm-started Newton
+``wmr_mission.controllers.paper.scheduled_gain`` as the loop does (warm-started Newton
 steps), and at every 25th sample compares three solutions of the same
 body-frame problem with one computed to 40 digits (Newton's method in
 mpmath, ``pip install mpmath``; not a dependency):
 
 * the warm-started Newton solution the run used,
-* the doubling from scratch (``wmr_mission.riccati.solve_riccati``),
+* the doubling from scratch (``wmr_mission.kernels.riccati.solve_riccati``),
 * ``scipy.linalg.solve_discrete_are``.
 
 It prints the largest relative error of the gain T of eq. (20) for each,
@@ -26,10 +26,11 @@ import mpmath  # type: ignore[import-untyped]
 import numpy as np
 from scipy.linalg import solve_discrete_are
 
-from wmr_mission import control, riccati
-from wmr_mission.model import jacobian_terms
-from wmr_mission.params import scratch
-from wmr_mission.runner import run_mission
+from wmr_mission.controllers import paper
+from wmr_mission.kernels import riccati
+from wmr_mission.kernels.model import jacobian_terms
+from wmr_mission.kernels.records import scratch
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -79,7 +80,7 @@ def main() -> None:
         dt = result.dt
         kinds = [p.kind for p in result.phases]
         samples = [k for k in range(1, result.samples) if kinds[result.phase[k]] != "track"]
-        memory, work = np.zeros(control.MEMORY_SIZE), scratch()
+        memory, work = np.zeros(paper.MEMORY_SIZE), scratch()
         worst = {"near rest": [0.0, 0.0, 0.0], "moving": [0.0, 0.0, 0.0]}
         steps = []
         doubled = 0
@@ -87,14 +88,14 @@ def main() -> None:
             theta, v, omega = result.theta_est[k], result.v[k - 1], result.omega[k - 1]
             if result.phase[k] != result.phase[k - 1]:
                 memory[:] = 0.0  # a new phase, as the runner does
-            control.scheduled_gain(theta, v, omega, dt, q, r, memory, work.gain)
-            steps.append(memory[control.NEWTON])
-            doubled += memory[control.DOUBLINGS] > 0
+            paper.scheduled_gain(theta, v, omega, dt, q, r, memory, work.gain)
+            steps.append(memory[paper.NEWTON])
+            doubled += memory[paper.DOUBLINGS] > 0
             if n % EVERY or v == 0.0:
                 continue
             moving = abs(v) >= riccati.MIN_SPEED
             speed = v if moving else np.copysign(riccati.MIN_SPEED, v)
-            slot = control.WARM_MOVING if moving else control.WARM_EDGE
+            slot = paper.WARM_MOVING if moving else paper.WARM_EDGE
             s = memory[slot + 1 : slot + 7]
             warm = np.array([[s[0], s[1], s[2]], [s[1], s[3], s[4]], [s[2], s[4], s[5]]])
             a13, a23, b11, b12, b21, b22 = jacobian_terms(0.0, speed, omega, dt)

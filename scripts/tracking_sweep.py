@@ -38,9 +38,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from geometry import distance_to_ellipse  # noqa: E402
 
-from wmr_mission.compiled import compile_mission  # noqa: E402
-from wmr_mission.result import Outcome, RunResult  # noqa: E402
-from wmr_mission.runner import run_mission  # noqa: E402
+from wmr_mission.output.result import Outcome, RunResult  # noqa: E402
+from wmr_mission.sim.plan import plan_mission  # noqa: E402
+from wmr_mission.sim.runner import run_mission  # noqa: E402
 from wmr_mission.spec.loader import load_mission_text  # noqa: E402
 
 ORBIT = 1  # phase index of the orbit in both case studies
@@ -123,16 +123,18 @@ def run(start: Start, tracking: dict[str, Any]) -> Measured:
     """One run; ``tracking`` overrides the law after validation (``output``,
     ``look_ahead`` [m], ``time_constant`` [s]), so that laws ``validate``
     rejects, such as the former one-sample law, can still be measured."""
-    compiled = compile_mission(load_mission_text(mission_text(start), "sweep.yaml"))
-    look_ahead = 0.0 if tracking.get("output") == "axle" else compiled.look_ahead
+    plan = plan_mission(load_mission_text(mission_text(start), "sweep.yaml"))
+    law = plan.controller_tuning
+    look_ahead = 0.0 if tracking.get("output") == "axle" else law.look_ahead
     look_ahead = tracking.get("look_ahead", look_ahead)
-    decay = compiled.error_decay
+    decay = law.error_decay
     if "time_constant" in tracking:
         tc = tracking["time_constant"]
         decay = math.exp(-start.dt / tc) if tc > 0 else 0.0
     if tracking.get("output") == "axle":
         decay = 0.0
-    return measure(run_mission(replace(compiled, look_ahead=look_ahead, error_decay=decay)))
+    law = law._replace(look_ahead=look_ahead, error_decay=decay)
+    return measure(run_mission(replace(plan, controller_tuning=law)))
 
 
 def failures(start: Start, m: Measured) -> list[str]:

@@ -31,8 +31,8 @@ import numpy as np
 import yaml
 
 from wmr_mission.output.metrics import summarize
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission_text
 from wmr_mission.spec.models import Mission
 

@@ -1,4 +1,4 @@
-"""Missions built directly as CompiledMission, independent of the YAML front-end:
+"""Missions built directly as MissionPlan, independent of the YAML front-end:
 the numerical core is tested on its own with these."""
 
 from __future__ import annotations
@@ -8,7 +8,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-from wmr_mission.compiled import CompiledMission, CompiledPhase, Conditions, Trajectory
+from wmr_mission.controllers import paper
+from wmr_mission.controllers.paper import PaperTuning
+from wmr_mission.estimators import observer
+from wmr_mission.estimators.observer import observer_tuning
+from wmr_mission.geometry.paths import Trajectory
+from wmr_mission.kernels.records import Plant
+from wmr_mission.sim.plan import Conditions, MissionPlan, PhasePlan
 
 RATE = 0.4 * math.pi  # eqs. (30)-(32)
 ELLIPSE_ROWS = (np.array([0]), np.array([[0.0, 0.0, 5.5, 3.0, 0.0, 1.0]]))
@@ -52,7 +58,7 @@ def elliptical_spiral(pose: tuple[float, float, float]) -> Trajectory:  # eq. (3
 
 
 def mission(
-    phases: list[CompiledPhase],
+    phases: list[PhasePlan],
     *,
     look_ahead: float = 0.1,
     error_decay: float = math.exp(-0.1),  # the default law at dt = 0.01: 0.1 m, 0.1 s
@@ -62,35 +68,33 @@ def mission(
     initial_state: tuple[float, float, float] = (0.0, 0.0, 0.0),
     limits: tuple[float, float] = (10.0, 20.0),
     bounds: float = 0.05,
-) -> CompiledMission:
-    return CompiledMission(
+) -> MissionPlan:
+    mask = np.array(measure)
+    plant = Plant(0.01, np.array([limits[0], limits[1], np.inf, np.inf]))
+    return MissionPlan(
         name="hand-built",
-        dt=0.01,
+        plant=plant,
         initial_state=np.array(initial_state),
         initial_estimate=np.array(initial_estimate),
-        limits=np.array([limits[0], limits[1], np.inf, np.inf]),
-        measure_mask=np.array(measure),
+        measured=mask,
         noise_std=np.zeros(3),
         seed=0,
-        estimator="constrained-observer",
-        poles=np.full(3, 0.9),
-        heading_motion_floor=0.0,
-        lower_bounds=np.full(3, -bounds),
-        upper_bounds=np.full(3, bounds),
-        use_bounds=True,
-        max_iterations=10,
-        ekf_initial_var=np.ones(3),
-        ekf_process_var=np.full(3, 1e-8),
-        ekf_measurement_var=np.full(3, 1e-6),
-        q=np.ones(3),
-        r=np.ones(2),
-        w=np.full(3, 100.0),
-        m=np.full(2, 100.0),
-        look_ahead=look_ahead,
-        error_decay=error_decay,
-        regulation_form=form,
-        align_radius=0.01,
-        reverse=True,
+        estimator=observer.ESTIMATOR,
+        estimator_tuning=observer_tuning(
+            mask, np.full(3, 0.9), 0.0, np.full(3, -bounds), np.full(3, bounds), True, 10
+        ),
+        controller=paper.CONTROLLER,
+        controller_tuning=PaperTuning(
+            look_ahead=look_ahead,
+            error_decay=error_decay,
+            q=np.ones(3),
+            r=np.ones(2),
+            w=np.full(3, 100.0),
+            m=np.full(2, 100.0),
+            form=form,
+            align_radius=0.01,
+            reverse=True,
+        ),
         phases=tuple(phases),
         regions={
             "ellipse": {"type": "ellipse", "center": [0, 0], "semi_axes": [5.5, 3], "rotation": 0}
@@ -99,9 +103,9 @@ def mission(
     )
 
 
-def spiral_then_ellipse(seconds_on_ellipse: float = 20.0) -> list[CompiledPhase]:
+def spiral_then_ellipse(seconds_on_ellipse: float = 20.0) -> list[PhasePlan]:
     return [
-        CompiledPhase(
+        PhasePlan(
             "spiral",
             "track",
             Conditions(reaches="ellipse", reaches_rows=ELLIPSE_ROWS),
@@ -109,7 +113,7 @@ def spiral_then_ellipse(seconds_on_ellipse: float = 20.0) -> list[CompiledPhase]
             True,
             spiral,
         ),
-        CompiledPhase(
+        PhasePlan(
             "ellipse",
             "track",
             Conditions(elapsed_samples=round(seconds_on_ellipse * 100)),
@@ -120,10 +124,10 @@ def spiral_then_ellipse(seconds_on_ellipse: float = 20.0) -> list[CompiledPhase]
     ]
 
 
-def case1(**options: object) -> CompiledMission:
+def case1(**options: object) -> MissionPlan:
     phases = [
         *spiral_then_ellipse(),
-        CompiledPhase(
+        PhasePlan(
             "elliptical-spiral",
             "track",
             Conditions(near=(0.0, 0.0, 0.02)),
@@ -131,7 +135,7 @@ def case1(**options: object) -> CompiledMission:
             True,
             elliptical_spiral,
         ),
-        CompiledPhase(
+        PhasePlan(
             "park",
             "regulate",
             Conditions(settled=(0.02, 0.005, 0.01)),
@@ -144,10 +148,10 @@ def case1(**options: object) -> CompiledMission:
     return mission(phases, **options)  # type: ignore[arg-type]
 
 
-def case2(**options: object) -> CompiledMission:
+def case2(**options: object) -> MissionPlan:
     phases = [
         *spiral_then_ellipse(),
-        CompiledPhase(
+        PhasePlan(
             "return", "regulate", Conditions(settled=(0.01, 0.01, 0.01)), 12000, True, None,
             (0.0, 0.0, 0.0), ELLIPSE_ROWS, (("ellipse", "inside"),),
         ),
@@ -160,9 +164,9 @@ def regulate_only(
     seconds: float,
     initial_state: tuple[float, float, float],
     **options: object,
-) -> CompiledMission:
+) -> MissionPlan:
     phases = [
-        CompiledPhase(
+        PhasePlan(
             "regulate",
             "regulate",
             Conditions(elapsed_samples=round(seconds * 100)),

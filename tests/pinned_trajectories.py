@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.result import RunResult
+from wmr_mission.output.result import RunResult
 
 PINNED = Path(__file__).resolve().parent / "data" / "pinned"
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -131,7 +131,7 @@ def _json_text(pin: dict[str, Any]) -> str:
 
 
 def _pin(names: list[str]) -> None:
-    from wmr_mission.runner import run_mission
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     PINNED.mkdir(parents=True, exist_ok=True)

@@ -52,7 +52,7 @@ def outputs(out: Path, files: list[Path]) -> dict[str, str]:
     """Run each mission and campaign of ``files`` into ``out``; their bytes."""
     from wmr_mission.campaign.sweep import sweep_command
     from wmr_mission.output.rundir import write_run
-    from wmr_mission.runner import run_mission
+    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
     found: dict[str, str] = {}

@@ -10,13 +10,13 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from wmr_mission.bench import (
+from wmr_mission.cli import app
+from wmr_mission.commands.bench import (
     PAPER_US_PER_SAMPLE,
     bench_command,
     bench_mission,
     format_report,
 )
-from wmr_mission.cli import app
 from wmr_mission.spec.loader import load_mission_text
 
 SHORT_MISSION = """

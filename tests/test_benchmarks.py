@@ -14,12 +14,16 @@ import numpy as np
 import pytest
 from pytest_benchmark.fixture import BenchmarkFixture
 
-from wmr_mission import control, reference
-from wmr_mission.compiled import CompiledMission, compile_mission
-from wmr_mission.ekf import ekf_step
-from wmr_mission.observer import observer_step
-from wmr_mission.params import Controller, Robot, ekf_params, observer_params, scratch
-from wmr_mission.runner import FAST, StepFunctions, run_mission
+from wmr_mission.controllers import paper
+from wmr_mission.controllers.paper import PaperTuning
+from wmr_mission.estimators import ekf, observer
+from wmr_mission.estimators.ekf import ekf_tuning
+from wmr_mission.estimators.observer import observer_tuning
+from wmr_mission.kernels import jit
+from wmr_mission.kernels.records import Plant, scratch
+from wmr_mission.sim import reference
+from wmr_mission.sim.plan import MissionPlan, plan_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -34,9 +38,10 @@ LIMITS = np.array([10.0, 20.0, math.inf, math.inf])
 # Stay inside an ellipse the prediction leaves: the corrective action acts.
 ELLIPSE_ROWS = (np.array([0], dtype=np.int64), np.array([[0.0, 0.0, 1.0, 2.0, 0.0, 1.0]]))
 
-OBSERVERS = {"fast": observer_step, "reference": reference.observer_step}
-TRACKERS = {"fast": control.track_input, "reference": reference.track_input}
-REGULATORS = {"fast": control.regulate_input, "reference": reference.regulate_input}
+# "fast": the kernels as the loop runs them, compiled (plain Python without numba).
+OBSERVERS = {"fast": jit.compiled(observer.observer_step), "reference": reference.observer_step}
+TRACKERS = {"fast": jit.compiled(paper.track_input), "reference": reference.track_input}
+REGULATORS = {"fast": jit.compiled(paper.regulate_input), "reference": reference.regulate_input}
 
 
 @pytest.mark.parametrize("kind", list(OBSERVERS))
@@ -50,7 +55,7 @@ def test_observer_step(benchmark: BenchmarkFixture, kind: str) -> None:
         observer = OBSERVERS[kind]
         return observer(
             estimate, 1.2, 0.4, DT, MEASUREMENT,
-            observer_params(MASK, POLES, 0.0, -bounds, bounds, True, 10), gain,
+            observer_tuning(MASK, POLES, 0.0, -bounds, bounds, True, 10), gain,
         )  # fmt: skip
 
     assert benchmark(step) == 1
@@ -59,7 +64,7 @@ def test_observer_step(benchmark: BenchmarkFixture, kind: str) -> None:
 
 @pytest.mark.parametrize("kind", ["fast", "reference"])
 def test_ekf_step(benchmark: BenchmarkFixture, kind: str) -> None:
-    function = ekf_step if kind == "fast" else reference.ekf_step
+    function = jit.compiled(ekf.ekf_step) if kind == "fast" else reference.ekf_step
     estimate, covariance = ESTIMATE.copy(), np.eye(3)
     process_var, measurement_var = np.full(3, 1e-6), np.full(3, 1e-4)
     work = np.zeros((4, 3, 3))
@@ -70,7 +75,7 @@ def test_ekf_step(benchmark: BenchmarkFixture, kind: str) -> None:
         covariance[[0, 1, 2], [0, 1, 2]] = 1.0
         function(
             estimate, covariance, 1.2, 0.4, DT, MEASUREMENT,
-            ekf_params(MASK, process_var, measurement_var), work,
+            ekf_tuning(MASK, process_var, measurement_var), work,
         )  # fmt: skip
 
     benchmark(step)
@@ -82,11 +87,11 @@ def test_ekf_step(benchmark: BenchmarkFixture, kind: str) -> None:
 def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
     work, u = scratch(), np.zeros(2)
     path_point = np.array([1.02, 2.01, 1.0, 0.0])
-    tracking = Controller(0.1, 0.9, Q, R, W, M, control.BEARING, 0.01, True)
+    tracking = PaperTuning(0.1, 0.9, Q, R, W, M, paper.BEARING, 0.01, True)
 
     def step() -> None:
         TRACKERS[kind](
-            ESTIMATE, U_PREV, path_point, path_point, tracking, Robot(DT, LIMITS), work, u
+            ESTIMATE, U_PREV, path_point, path_point, tracking, Plant(DT, LIMITS), work, u
         )  # fmt: skip
 
     benchmark(step)
@@ -97,34 +102,34 @@ def test_track_input(benchmark: BenchmarkFixture, kind: str) -> None:
 @pytest.mark.parametrize("kind", list(REGULATORS))
 @pytest.mark.parametrize("constrained", [False, True], ids=["free", "constrained"])
 def test_regulate_input(benchmark: BenchmarkFixture, kind: str, constrained: bool) -> None:
-    work, u, memory = scratch(), np.zeros(2), np.zeros(control.MEMORY_SIZE)
-    controller = Controller(0.05, 0.0, Q, R, W, M, control.BEARING, 0.01, True)
+    work, u, memory = scratch(), np.zeros(2), np.zeros(paper.MEMORY_SIZE)
+    controller = PaperTuning(0.05, 0.0, Q, R, W, M, paper.BEARING, 0.01, True)
     kinds, params = ELLIPSE_ROWS if constrained else (np.zeros(0, dtype=np.int64), np.zeros((0, 6)))
     target = np.array([0.0, 0.0, 0.0])
 
     def step() -> None:
         REGULATORS[kind](
-            ESTIMATE, ESTIMATE, U_PREV, target, kinds, params, controller, Robot(DT, LIMITS),
+            ESTIMATE, ESTIMATE, U_PREV, target, kinds, params, controller, Plant(DT, LIMITS),
             memory, work, u,
         )  # fmt: skip
 
     benchmark(step)
     assert np.all(np.isfinite(u))
-    assert memory[control.CORRECTED] == float(constrained)
+    assert memory[paper.CORRECTED] == float(constrained)
 
 
 @pytest.fixture(scope="module")
-def case2() -> CompiledMission:
-    return compile_mission(load_mission(MISSIONS / "case2.yaml"))
+def case2() -> MissionPlan:
+    return plan_mission(load_mission(MISSIONS / "case2.yaml"))
 
 
-def test_case_study_2_whole_run(benchmark: BenchmarkFixture, case2: CompiledMission) -> None:
-    result = benchmark(run_mission, case2, functions=FAST)
+def test_case_study_2_whole_run(benchmark: BenchmarkFixture, case2: MissionPlan) -> None:
+    result = benchmark(run_mission, case2)
     assert result.outcome.value == "success"
     assert result.samples > 3000
 
 
-def circle_mission(seconds: float) -> CompiledMission:
+def circle_mission(seconds: float) -> MissionPlan:
     text = f"""
 version: 1
 name: circle
@@ -134,13 +139,13 @@ phases:
     track: {{path: {{type: circle, center: [0, 1], radius: 1, angular_rate: 1}}}}
     until: {{elapsed: {seconds}}}
 """
-    return compile_mission(load_mission_text(text, "circle.yaml"))
+    return plan_mission(load_mission_text(text, "circle.yaml"))
 
 
-def peak_bytes(mission: CompiledMission, functions: StepFunctions = FAST) -> tuple[int, int]:
+def peak_bytes(mission: MissionPlan) -> tuple[int, int]:
     tracemalloc.start()
     try:
-        result = run_mission(mission, functions=functions)
+        result = run_mission(mission)
         return result.samples, tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

@@ -19,13 +19,15 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wmr_mission import _jit, run_campaign
+from wmr_mission import run_campaign
 from wmr_mission.campaign.aggregate import clopper_pearson
 from wmr_mission.campaign.engine import LAST_TASK_SECONDS, task_size, tasks
 from wmr_mission.campaign.load import load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
-from wmr_mission.campaign.runs import INVALID, mission_of
+from wmr_mission.campaign.rows import INVALID, mission_of
 from wmr_mission.campaign.sweep import sweep_command
+from wmr_mission.kernels import jit
+from wmr_mission.stopping import StopSignals
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "campaigns"
@@ -158,9 +160,7 @@ def test_the_last_tasks_end_together() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    ("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute_steps")]
-)
+@pytest.mark.parametrize(("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute")])
 def test_matplotlib_is_loaded_while_the_runs_run_only_when_they_last(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, after_seconds: float, loaded_in: str
 ) -> None:
@@ -249,7 +249,7 @@ def test_campaign_outputs_and_replay_of_the_worst_run(tmp_path: Path) -> None:
     assert record["metrics"]["final_position_error"]["max"] == max(errors)
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["resolved_campaign"]["runs"] == 16
-    assert manifest["loop"] == ("compiled" if _jit.COMPILED else "plain Python")
+    assert manifest["loop"] == ("compiled" if jit.compiling() else "plain Python")
 
     # Each worst run has its directory, those of the workers and the one this process takes
     written = sorted(int(d.name) for d in (out / "worst").iterdir())
@@ -283,8 +283,8 @@ def test_a_ctrl_c_inside_a_run_stops_the_campaign_never_the_run(
     campaign that is the campaign's Ctrl-C: no row and no worst-run directory
     says ``interrupted`` (neither would be what its replay gives), the sweep
     exits 130 and keeps what finished."""
-    from wmr_mission import runner
-    from wmr_mission.result import Outcome
+    from wmr_mission.output.result import Outcome
+    from wmr_mission.sim import runner
 
     real = runner.run_mission
     calls = {"runs": 0, "worst": 0}
@@ -375,7 +375,7 @@ expect:
 
 
 def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch) -> None:
-    from wmr_mission.campaign import runs
+    from wmr_mission.campaign import rows as runs
 
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
     real = runs.mission_of
@@ -425,30 +425,36 @@ def test_sweep_shows_each_step_as_it_starts(
     stream = _Terminal()
     seen = _watch(monkeypatch, stream, "warm_up", "_draw")
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    out = sweep._prepare(loaded, tmp_path / "c", 1, None)
-    sweep._execute(
-        loaded,
-        out_dir=out,
-        workers=1,
-        scheduler=None,
-        plots=True,
-        progress_stream=stream,
-        keep_rows=None,
-    )
+    out, manifest = sweep._prepare(loaded, tmp_path / "c", 1, None, suffix=False)
+    with StopSignals() as stop:
+        sweep._campaign(
+            loaded,
+            out_dir=out,
+            manifest=manifest,
+            workers=1,
+            scheduler=None,
+            plots=True,
+            progress_stream=stream,
+            keep_rows=None,
+            stop=stop,
+        )
     assert "starting" in seen["warm_up"]
     assert "runs" not in seen["warm_up"]
     assert "4/4 runs, success 100.0%, 0 s left" in seen["_draw"]
     assert "worst runs and figures" in seen["_draw"]
     quiet = io.StringIO()  # not a terminal: nothing in logs
-    sweep._execute(
-        loaded,
-        out_dir=None,
-        workers=1,
-        scheduler=None,
-        plots=False,
-        progress_stream=quiet,
-        keep_rows=None,
-    )
+    with StopSignals() as stop:
+        sweep._campaign(
+            loaded,
+            out_dir=None,
+            manifest=b"",
+            workers=1,
+            scheduler=None,
+            plots=False,
+            progress_stream=quiet,
+            keep_rows=None,
+            stop=stop,
+        )
     assert quiet.getvalue() == ""
 
 
@@ -466,22 +472,25 @@ def test_sweep_says_at_once_that_it_was_interrupted(
     stream = _Terminal()
     seen = _watch(monkeypatch, stream, "_record")
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    record = sweep._execute(
-        loaded,
-        out_dir=None,
-        workers=1,
-        scheduler=None,
-        plots=False,
-        progress_stream=stream,
-        keep_rows=None,
-    )
+    with StopSignals() as stop:
+        record = sweep._campaign(
+            loaded,
+            out_dir=None,
+            manifest=b"",
+            workers=1,
+            scheduler=None,
+            plots=False,
+            progress_stream=stream,
+            keep_rows=None,
+            stop=stop,
+        ).record
     assert record["interrupted"]
     assert sweep.INTERRUPTED_NOTICE in seen["_record"]
 
 
 def test_aggregate_keeps_a_bounded_number_of_paths_and_the_worst_runs() -> None:
     from wmr_mission.campaign.aggregate import DRAWN_FAILURES, DRAWN_PATHS, WORST_RUNS, Aggregate
-    from wmr_mission.campaign.runs import METRICS, Row
+    from wmr_mission.campaign.rows import METRICS, Row
 
     loaded = load_campaign(EVERY)
     aggregate = Aggregate(dict(loaded.campaign.vary))
@@ -560,7 +569,7 @@ def test_a_row_is_judged_as_judge_judges_it_on_either_side_of_the_bound() -> Non
     import copy
 
     from wmr_mission.output.metrics import judge, judge_run_metrics, summarize
-    from wmr_mission.result import Outcome
+    from wmr_mission.output.result import Outcome
 
     def mission(limit: float) -> dict[str, Any]:
         expect = {"settle_time": 1.0, "tracking_error_max": {"max": limit}}
@@ -587,8 +596,8 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
     """Each row (mission checked once, compiled per run, judged on the run's
     metrics alone) is the run `run --set ... --seed` gives: its outcome, message,
     metrics and path, over case2-headings runs that succeed and that fail."""
-    from wmr_mission.campaign.runs import METRICS, PATH_POINTS, run_row, simulate
-    from wmr_mission.output.metrics import _EXPECTATION_PATHS, _summary_value, summarize
+    from wmr_mission.campaign.rows import METRICS, PATH_POINTS, run_row, simulate
+    from wmr_mission.output.metrics import EXPECTATION_PATHS, summarize, summary_value
 
     loaded = load_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml")
     plan = Plan(loaded.campaign)
@@ -599,7 +608,7 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
         result, reason = simulate(loaded, draw)
         assert result is not None, reason
         summary = summarize(result, result.mission)
-        metrics = tuple(_summary_value(summary, _EXPECTATION_PATHS[m]) for m in METRICS)
+        metrics = tuple(summary_value(summary, EXPECTATION_PATHS[m]) for m in METRICS)
         assert row.outcome == result.outcome.value
         assert row.reason == ("" if row.succeeded else result.message)
         assert row.metrics == metrics
@@ -636,7 +645,7 @@ def test_a_normal_draw_beyond_the_checked_extremes_gets_every_check(
 ) -> None:
     """validate ran the sampling checks at mean +- 4 std: a draw within needs
     only the run's own checks, a draw beyond gets the mission's every check."""
-    from wmr_mission.campaign import runs
+    from wmr_mission.campaign import rows as runs
 
     loaded = load_campaign(EVERY)  # estimator.initial_estimate.x: normal [-1.0, 0.1]
     axis = loaded.campaign.vary["estimator.initial_estimate.x"]
@@ -669,7 +678,7 @@ def test_a_row_is_judged_as_judge_judges_it_on_every_phase_threshold() -> None:
     import copy
 
     from wmr_mission.output.metrics import judge, judge_run_metrics
-    from wmr_mission.result import Outcome
+    from wmr_mission.output.result import Outcome
 
     run = _lagging_circle_run()
     run.omega = run.omega.copy()
@@ -707,7 +716,7 @@ def test_a_row_measures_of_each_phase_only_what_its_thresholds_read(
     import copy
 
     from wmr_mission.output import metrics
-    from wmr_mission.result import Outcome
+    from wmr_mission.output.result import Outcome
 
     run = _lagging_circle_run()
     run.omega = run.omega.copy()

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from wmr_mission._jit import plain
-from wmr_mission.campaign import coverage
 from wmr_mission.campaign.coverage import runs_per_pixel
+from wmr_mission.kernels import jit
 
 VIEW = (0.0, 10.0, 0.0, 5.0)  # 1 m per pixel on a 10 x 5 canvas
 SHAPE = (5, 10)
@@ -91,15 +91,11 @@ def test_non_finite_points_and_runaways_draw_what_is_finite() -> None:
     assert single.sum() == 1
 
 
-def test_compiled_and_plain_python_count_the_same() -> None:
+def test_compiled_and_plain_python_count_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
     rng = np.random.default_rng(11)
     paths = [np.cumsum(rng.normal(0, 0.3, (2, 200)), axis=1).astype(np.float32) for _ in range(8)]
     view, shape = (-4.0, 4.0, -3.0, 3.0), (60, 80)
     counts = runs_per_pixel(paths, view, shape)
-    compiled = coverage._count_runs
-    try:
-        coverage._count_runs = plain(compiled)
-        np.testing.assert_array_equal(runs_per_pixel(paths, view, shape), counts)
-    finally:
-        coverage._count_runs = compiled
+    monkeypatch.setattr(jit, "compiled", lambda function, **options: jit.plain(function))
+    np.testing.assert_array_equal(runs_per_pixel(paths, view, shape), counts)
     assert counts.max() >= 2  # random walks from the origin share pixels there

@@ -13,8 +13,8 @@ from typing import Any
 import pytest
 
 from wmr_mission.campaign.load import check_campaign, check_file
+from wmr_mission.commands.schema import campaign_schema_text
 from wmr_mission.spec.checks import Finding
-from wmr_mission.spec.schema import campaign_schema_text
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "campaigns"
@@ -76,7 +76,7 @@ def test_shipped_campaigns_point_editors_at_the_schema(path: Path) -> None:
 
 def test_checked_in_campaign_schema_is_current() -> None:
     checked_in = (ROOT / "schemas" / "campaign.schema.json").read_text(encoding="utf-8")
-    assert checked_in == campaign_schema_text(), "run: python -m wmr_mission.spec.schema"
+    assert checked_in == campaign_schema_text(), "run: python -m wmr_mission.commands.schema"
 
 
 def test_error_names_the_axis_and_the_value() -> None:

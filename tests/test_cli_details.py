@@ -222,8 +222,8 @@ class _Terminal(io.StringIO):
 def test_a_long_run_shows_its_progress_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
     """A mission of more than 20 000 samples shows its phase and time as it
     runs, on a terminal only; the run is the same either way."""
-    from wmr_mission import run_command
-    from wmr_mission.compiled import sample_budget
+    from wmr_mission.commands import run
+    from wmr_mission.sim.plan import sample_budget
     from wmr_mission.spec.loader import load_mission
 
     mission = load_mission(ROOT / "missions" / "coverage.yaml")
@@ -232,7 +232,7 @@ def test_a_long_run_shows_its_progress_on_a_terminal(monkeypatch: pytest.MonkeyP
     shown = []
     for stream in (_Terminal(), io.StringIO()):
         monkeypatch.setattr(sys, "stderr", stream)
-        result = run_command._simulate(mission, None, budget)
+        result = run._simulate(mission, None, budget)
         shown.append(stream.getvalue())
     assert "coverage [" in shown[0]
     assert " t = " in shown[0]

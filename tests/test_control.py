@@ -10,12 +10,12 @@ import pytest
 from geometry import distance_to_ellipse
 from hand_built import ELLIPSE_ROWS, case1, case2, mission, regulate_only, spiral
 
-from wmr_mission.compiled import CompiledPhase, Conditions
-from wmr_mission.control import BEARING, DEVIATION, INCREMENT, saturate, track_input
-from wmr_mission.model import step
-from wmr_mission.params import Controller, Robot, scratch
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.controllers.paper import BEARING, DEVIATION, INCREMENT, PaperTuning, track_input
+from wmr_mission.kernels.model import saturate, step
+from wmr_mission.kernels.records import Plant, scratch
+from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.sim.plan import Conditions, PhasePlan
+from wmr_mission.sim.runner import run_mission
 
 
 def wrap(a: np.ndarray | float) -> np.ndarray | float:
@@ -24,7 +24,7 @@ def wrap(a: np.ndarray | float) -> np.ndarray | float:
 
 def test_literal_axle_law_diverges_from_the_paper_start_and_is_detected() -> None:
     # Eq. (27) on the axle centre, no actuator limits, from x0 = 0, estimate [1, 1, 0].
-    phases = [CompiledPhase("spiral", "track", Conditions(elapsed_samples=500), None, True, spiral)]
+    phases = [PhasePlan("spiral", "track", Conditions(elapsed_samples=500), None, True, spiral)]
     result = run_mission(mission(phases, look_ahead=0.0, error_decay=0.0, limits=(1e12, 1e12)))
     assert result.outcome is Outcome.diverged
     assert "diverged in phase 'spiral'" in result.message
@@ -37,7 +37,7 @@ def test_literal_axle_law_diverges_from_the_paper_start_and_is_detected() -> Non
 
 
 def test_default_look_ahead_law_converges_from_the_paper_start() -> None:
-    phases = [CompiledPhase("spiral", "track", Conditions(elapsed_samples=90), None, True, spiral)]
+    phases = [PhasePlan("spiral", "track", Conditions(elapsed_samples=90), None, True, spiral)]
     result = run_mission(mission(phases))
     assert result.outcome is Outcome.success
     error = np.hypot(result.x - result.x_ref, result.y - result.y_ref)
@@ -60,8 +60,8 @@ def test_literal_axle_law_on_the_path_tracks_but_its_heading_dynamics_are_unstab
     u = np.array([speed[0], turn_rate[0]])
     out = np.zeros(2)
     work = scratch()
-    robot = Robot(dt, np.array([1e12, 1e12, np.inf, np.inf]))
-    controller = Controller(
+    robot = Plant(dt, np.array([1e12, 1e12, np.inf, np.inf]))
+    controller = PaperTuning(
         0.0,
         0.0,
         np.ones(3),
@@ -133,7 +133,7 @@ def test_increment_form_of_eq_19_brings_the_robot_to_rest_not_to_the_target() ->
     still = run_mission(regulate_only((0.0, 0.0, 0.0), 20.0, start, form=INCREMENT))
     assert _path_length(still) == 0.0
     phases = [
-        CompiledPhase(
+        PhasePlan(
             "regulate", "regulate", Conditions(elapsed_samples=2000), None, True, None,
             (0.0, 0.0, 0.0),
         )
@@ -169,7 +169,7 @@ def test_bearing_form_parks_position_and_heading(start: tuple[float, float, floa
 def test_constraint_rows_keep_the_robot_inside_while_regulating() -> None:
     # A target outside the ellipse: the robot must stop on the boundary.
     phases = [
-        CompiledPhase(
+        PhasePlan(
             "out", "regulate", Conditions(elapsed_samples=1500), None, True, None,
             (8.0, 0.0, 0.0), ELLIPSE_ROWS, (("ellipse", "inside"),),
         )
@@ -191,7 +191,7 @@ def test_scheduled_gain_is_nearly_constant_but_for_the_heading_gain() -> None:
     # LQR-derived gains; over 0..10 m/s (Q = R = I, dt = 0.01) the longitudinal
     # and lateral gains stay near 0.995 while the heading gain grows from
     # 0.995 at rest to 4.53 at 10 m/s.
-    from wmr_mission.control import MEMORY_SIZE, scheduled_gain
+    from wmr_mission.controllers.paper import MEMORY_SIZE, scheduled_gain
 
     work = scratch()
     heading_gains = []

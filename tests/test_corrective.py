@@ -3,8 +3,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wmr_mission.corrective import corrective_input_array, max_row_value, row_value
-from wmr_mission.model import f, input_jacobian
+from wmr_mission.kernels.corrective import corrective_input_array, max_row_value, row_value
+from wmr_mission.kernels.model import f, input_jacobian
 
 W = np.full(3, 100.0)
 M = np.full(2, 100.0)

@@ -21,15 +21,14 @@ import yaml
 from pinned_trajectories import assert_matches_pin
 from scipy import stats
 
-from wmr_mission import runner
-from wmr_mission.disturbances import Draws, Settings
-from wmr_mission.ekf import ekf_predict, ekf_step
-from wmr_mission.model import step
-from wmr_mission.observer import observer_step
+from wmr_mission.estimators.ekf import ekf_predict, ekf_step, ekf_tuning
+from wmr_mission.estimators.observer import observer_step, observer_tuning
+from wmr_mission.kernels.model import step
+from wmr_mission.output.result import Outcome, RunResult
 from wmr_mission.output.rundir import trajectory_csv_text, write_trajectory
-from wmr_mission.params import ekf_params, observer_params
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.sim import runner
+from wmr_mission.sim.draws import DisturbancePlan, Draws
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -155,8 +154,8 @@ def test_the_measurement_columns_hold_what_the_estimator_saw() -> None:
 
 def test_each_disturbance_draws_from_its_own_stream() -> None:
     noise_std = np.array([0.01, 0.02, 0.03])
-    process = Settings(process_noise_std=np.array([0.1, 0.2, 0.3]))
-    everything = Settings(
+    process = DisturbancePlan(process_noise_std=np.array([0.1, 0.2, 0.3]))
+    everything = DisturbancePlan(
         process_noise_std=np.array([0.1, 0.2, 0.3]),
         skid_std=0.5,
         dropout_probability=0.1,
@@ -344,7 +343,7 @@ def test_ekf_innovation_gate_rejects_a_wild_measurement() -> None:
     estimate, covariance = np.array([1.0, 2.0, 0.3]), np.diag([0.01, 0.01, 0.001])
     wild = np.array(step(1.0, 2.0, 0.3, 1.0, 0.5, 0.01)) + np.array([0.5, 0.0, 0.0])
     work = np.zeros((4, 3, 3))
-    gated = ekf_params(mask, np.full(3, 1e-6), np.full(3, 1e-4), innovation_gate=16.27)
+    gated = ekf_tuning(mask, np.full(3, 1e-6), np.full(3, 1e-4), innovation_gate=16.27)
     predicted, predicted_cov = estimate.copy(), covariance.copy()
     ekf_predict(predicted, predicted_cov, 1.0, 0.5, 0.01, gated, work)
     after, after_cov = estimate.copy(), covariance.copy()
@@ -352,14 +351,14 @@ def test_ekf_innovation_gate_rejects_a_wild_measurement() -> None:
     np.testing.assert_array_equal(after, predicted)
     np.testing.assert_array_equal(after_cov, predicted_cov)
     # The reference step (numpy) gates alike.
-    from wmr_mission.reference import ekf_step as reference_ekf_step
+    from wmr_mission.sim.reference import ekf_step as reference_ekf_step
 
     oracle, oracle_cov = estimate.copy(), covariance.copy()
     reference_ekf_step(oracle, oracle_cov, 1.0, 0.5, 0.01, wild, gated, work)
     np.testing.assert_allclose(oracle, predicted, atol=1e-15)
     np.testing.assert_allclose(oracle_cov, predicted_cov, atol=1e-15)
     # Without the gate (or inside it) the measurement is used.
-    open_gate = ekf_params(mask, np.full(3, 1e-6), np.full(3, 1e-4))
+    open_gate = ekf_tuning(mask, np.full(3, 1e-6), np.full(3, 1e-4))
     used = estimate.copy()
     ekf_step(used, covariance.copy(), 1.0, 0.5, 0.01, wild, open_gate, work)
     assert used[0] - predicted[0] > 0.4
@@ -370,7 +369,7 @@ def test_observer_phase_two_clamps_the_estimate_to_the_outliers_bound() -> None:
     a 1 m outlier in x with bounds of +-0.05 m the estimate is 0.95 m off."""
     truth = np.array(step(1.0, 2.0, 0.3, 1.0, 0.5, 0.01))
     outlier = truth + np.array([1.0, 0.0, 0.0])
-    params = observer_params(
+    params = observer_tuning(
         np.ones(3), np.full(3, 0.9), lower=np.full(3, -0.05), upper=np.full(3, 0.05),
         use_bounds=True, max_iterations=10,
     )  # fmt: skip
@@ -382,7 +381,7 @@ def test_observer_phase_two_clamps_the_estimate_to_the_outliers_bound() -> None:
 
 
 def test_bench_times_the_loop_with_and_without_disturbances() -> None:
-    from wmr_mission.bench import bench_mission, format_report
+    from wmr_mission.commands.bench import bench_mission, format_report
 
     mission = copy.deepcopy(BASE)
     mission["phases"][0]["until"] = {"elapsed": 0.5}

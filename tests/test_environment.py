@@ -16,14 +16,14 @@ import pytest
 
 from wmr_mission.campaign.engine import MixedCluster, check_cluster
 from wmr_mission.campaign.sweep import sweep_command
-from wmr_mission.environment import (
+from wmr_mission.output.environment import (
     environment,
     fingerprint,
     libm_digest,
     machine_record,
     own_fingerprint,
+    package_versions,
 )
-from wmr_mission.output.rundir import package_versions
 
 DATA = Path(__file__).resolve().parent / "data" / "campaigns"
 WARNING = "warning: this environment's fingerprint is"
@@ -163,7 +163,7 @@ def test_sweep_refuses_a_cluster_whose_worker_has_another_c_library(
         # The worker process as on a CPU whose C library gives other last bits.
         client.run(
             exec,
-            "import wmr_mission.environment as e\n"
+            "import wmr_mission.output.environment as e\n"
             "e.libm_digest = lambda: '0badf00d'\n"
             "e.own_fingerprint.cache_clear()\n",
         )

@@ -13,11 +13,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wmr_mission import loop, runner
-from wmr_mission.disturbances import Draws
+from wmr_mission.output.result import Outcome, RunResult
 from wmr_mission.output.rundir import write_trajectory
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.sim import runner
+from wmr_mission.sim.draws import Draws
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
@@ -67,12 +67,12 @@ def test_a_phase_ends_at_its_bound_in_one_call_and_noise_is_drawn_as_used(
     loads the loop, then one per phase: the circle exits at its bound in the
     call that reaches it. The run is shorter than a block of draws, so it
     draws one block: the next is drawn only once the last is used up."""
-    segment = loop.run_segment
+    call = runner._Run._call
     calls = []
 
-    def counted(*args: Any) -> int:
+    def counted(self: runner._Run, *args: Any) -> int:
         calls.append(args[-1])  # stop
-        return int(segment(*args))
+        return call(self, *args)
 
     ahead = Draws.ahead
     blocks: list[np.ndarray] = []  # held, so no two blocks share an id
@@ -84,7 +84,7 @@ def test_a_phase_ends_at_its_bound_in_one_call_and_noise_is_drawn_as_used(
             blocks.append(block)
         return drawn
 
-    monkeypatch.setattr(loop, "run_segment", counted)
+    monkeypatch.setattr(runner._Run, "_call", counted)
     monkeypatch.setattr(Draws, "ahead", recorded)
     result = run_mission(load_mission(MISSIONS / "noisy-observer.yaml"))
     assert result.outcome is Outcome.success
@@ -128,9 +128,8 @@ def guarded(*args, dir=None, **kwargs):
         raise PermissionError(13, "Permission denied", str(dir))
     return real(*args, dir=dir, **kwargs)
 tempfile.TemporaryFile = guarded
-import wmr_mission.runner  # every kernel is declared at import
-from wmr_mission import model
-print(model.wrap_angle(7.0))
+from wmr_mission.kernels import jit, model
+print(jit.compiled(model.wrap_angle)(7.0))
 """
 
 

@@ -5,23 +5,22 @@ import itertools
 import numpy as np
 import pytest
 
-from wmr_mission.model import step
-from wmr_mission.observability import structurally_unobservable, unobservable_states
-from wmr_mission.observer import error_matrix, observer_step
-from wmr_mission.params import observer_params
-from wmr_mission.sensors import STATE_NAMES, measurement_mask
+from wmr_mission.basics import STATES, measurement_mask
+from wmr_mission.estimators.observability import structurally_unobservable, unobservable_states
+from wmr_mission.estimators.observer import error_matrix, observer_step, observer_tuning
+from wmr_mission.kernels.model import step
 
-SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATE_NAMES, n)]
+SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATES, n)]
 
 
 def expected_eigenvalues(measured: list[str], poles: np.ndarray, moving: bool) -> list[float]:
-    """The design of wmr_mission.observer, written out per measurement set."""
+    """The design of wmr_mission.estimators.observer, written out per measurement set."""
     names = set(measured)
     if "theta" in names:
-        return [poles[i] if STATE_NAMES[i] in names else 1.0 for i in range(3)]
-    positions = [i for i in (0, 1) if STATE_NAMES[i] in names]
+        return [poles[i] if STATES[i] in names else 1.0 for i in range(3)]
+    positions = [i for i in (0, 1) if STATES[i] in names]
     p_pos = float(np.mean(poles[positions]))
-    values = [1.0 if STATE_NAMES[i] not in names else p_pos for i in (0, 1)]
+    values = [1.0 if STATES[i] not in names else p_pos for i in (0, 1)]
     values.append(poles[2] if moving else 1.0)
     return values
 
@@ -84,7 +83,7 @@ def test_position_noise_at_creeping_speed_does_not_throw_the_heading() -> None:
             state = np.array(step(*state, 0.001, 0.0, dt))
             measurement = state + rng.normal(0.0, sigma, 3)
             observer_step(
-                estimate, 0.001, 0.0, dt, measurement, observer_params(mask, poles, floor), gain,
+                estimate, 0.001, 0.0, dt, measurement, observer_tuning(mask, poles, floor), gain,
             )  # fmt: skip
             largest = max(largest, abs(estimate[2] - state[2]))
         worst[floor] = largest
@@ -121,7 +120,7 @@ def run_observer(
                 omega,
                 0.01,
                 state.copy(),
-                observer_params(mask, poles, 0.0, lower, upper, bounds is not None, 10),
+                observer_tuning(mask, poles, 0.0, lower, upper, bounds is not None, 10),
                 gain,
             )
         )
@@ -145,7 +144,7 @@ def test_paper_measurement_x_theta_leaves_y_unobservable() -> None:
 
 
 def test_full_measurement_converges_within_a_second() -> None:
-    states, estimates, _ = run_observer(list(STATE_NAMES), np.array([1.0, 1.0, 0.0]), 100)
+    states, estimates, _ = run_observer(list(STATES), np.array([1.0, 1.0, 0.0]), 100)
     assert np.abs(states - estimates)[-1].max() < 0.05
 
 
@@ -160,7 +159,7 @@ def test_position_only_recovers_the_heading_while_moving() -> None:
 
 def test_phase_two_keeps_every_output_error_inside_its_bounds() -> None:
     states, estimates, iterations = run_observer(
-        list(STATE_NAMES), np.array([1.0, -2.0, 0.5]), 50, bounds=0.05
+        list(STATES), np.array([1.0, -2.0, 0.5]), 50, bounds=0.05
     )
     errors = states - estimates
     assert np.all(np.abs(errors) <= 0.05 + 1e-12)
@@ -182,7 +181,7 @@ def test_phase_two_saturates_to_the_violated_bound(rng: np.random.Generator) -> 
             0.0,
             0.01,
             measurement,
-            observer_params(mask, np.full(3, 0.9), 0.0, lower, upper, True, 10),
+            observer_tuning(mask, np.full(3, 0.9), 0.0, lower, upper, True, 10),
             np.zeros((3, 3)),
         )
         phase_one = before + 0.1 * (measurement - before)  # poles 0.9, at rest
@@ -201,7 +200,7 @@ def test_phase_two_iteration_matrix_is_not_a_contraction() -> None:
     # eigenvalues 0 (violated outputs) and 1 (the others): spectral radius 1,
     # and its 2-norm exceeds 1 once the robot moves. Phase II lands on the
     # bound in one step because D (I - H D) = 0, not because it contracts.
-    from wmr_mission.model import state_jacobian
+    from wmr_mission.kernels.model import state_jacobian
 
     a = state_jacobian(np.array([0.0, 0.0, 0.7]), np.array([2.0, 0.5]), 0.01)
     d = np.array([[1.0, 0.0, 0.0]])  # x violated

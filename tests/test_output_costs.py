@@ -19,17 +19,19 @@ from scipy.spatial import cKDTree
 from test_output_figures import _many_phases
 from test_output_synthetic import circle_run
 
+import wmr_mission.commands.plot as plot_command
+import wmr_mission.output.figures as plots_module
 import wmr_mission.output.metrics as metrics_module
-import wmr_mission.output.plots as plots_module
 import wmr_mission.output.rundir as rundir_module
 from wmr_mission.api import load_mission, run_mission
+from wmr_mission.commands.run import run_command
+from wmr_mission.output.figures import MAX_LEGEND_PHASES
+from wmr_mission.output.files import json_text, write_json
 from wmr_mission.output.metrics import LOCAL_WINDOW, distance_to_path, summarize
 from wmr_mission.output.nearest import PointGrid
-from wmr_mission.output.plots import MAX_LEGEND_PHASES
 from wmr_mission.output.reader import load_run
+from wmr_mission.output.result import PhaseRecord, RunResult
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
-from wmr_mission.result import PhaseInfo, RunResult
-from wmr_mission.run_command import run_command
 
 MISSION = """version: 1
 name: short
@@ -51,7 +53,7 @@ def _laps(samples: int) -> RunResult:
     run = circle_run(samples)
     return replace(
         run,
-        phases=[PhaseInfo("laps", "track")],
+        phases=[PhaseRecord("laps", "track")],
         phase=np.zeros(samples, dtype=np.int64),
         x_ref=run.x + 0.01,
         y_ref=run.y.copy(),
@@ -142,8 +144,8 @@ def test_plot_says_a_figure_fault_in_one_line(
     out = tmp_path / "run"
     assert run_command(mission, out=out, seed=None, plots=False, animate=False) == 0
     capsys.readouterr()
-    monkeypatch.setattr(plots_module, "draw_all", _broken_drawing)
-    assert plots_module.replot_command(out) == 1
+    monkeypatch.setattr(plot_command, "draw_all", _broken_drawing)
+    assert plot_command.replot_command(out) == 1
     assert capsys.readouterr().err == (
         f"{out}: cannot draw the figures (RuntimeError: a fault in drawing); "
         "the data are unchanged; please report it\n"
@@ -322,5 +324,5 @@ def test_json_files_are_streamed_byte_for_byte_as_json_text(tmp_path: Path) -> N
         "point": (1, np.int64(2)),
         "é": None,
     }
-    path = rundir_module.write_json(tmp_path / "x.json", value)
-    assert path.read_bytes() == rundir_module.json_text(value).encode("utf-8", "backslashreplace")
+    path = write_json(tmp_path / "x.json", value)
+    assert path.read_bytes() == json_text(value).encode("utf-8", "backslashreplace")

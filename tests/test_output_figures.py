@@ -15,7 +15,7 @@ from matplotlib.colors import is_color_like, to_rgba
 from test_output_synthetic import circle_run
 
 from wmr_mission.output.animation import glyph_size
-from wmr_mission.output.plots import (
+from wmr_mission.output.figures import (
     REFERENCE_STYLE,
     draw_all,
     phase_colors,
@@ -25,14 +25,14 @@ from wmr_mission.output.plots import (
     plot_xy,
     view_box,
 )
-from wmr_mission.result import PhaseInfo, RunResult, Transition
+from wmr_mission.output.result import PhaseRecord, RunResult, Transition
 from wmr_mission.spec.models import NAMED_COLORS
 
 
 def _many_phases(count: int, samples: int = 2001) -> RunResult:
     """circle_run cut into ``count`` phases of equal length."""
     run = circle_run(samples)
-    phases = [PhaseInfo(f"leg-{i + 1}", "track") for i in range(count)]
+    phases = [PhaseRecord(f"leg-{i + 1}", "track") for i in range(count)]
     phase = (np.arange(run.samples) * count // run.samples).astype(np.int64)
     starts = np.flatnonzero(np.diff(phase)) + 1
     transitions = [

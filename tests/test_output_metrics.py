@@ -20,7 +20,7 @@ from wmr_mission.output.metrics import (
     summarize,
     wrap_angle,
 )
-from wmr_mission.result import Outcome, PhaseInfo, RunResult
+from wmr_mission.output.result import Outcome, PhaseRecord, RunResult
 
 NO_EXPECT = {
     "final_position_error": None,
@@ -266,7 +266,7 @@ def test_diverged_run_gives_nulls_not_warnings() -> None:
 
 def test_hold_without_target_falls_back_to_an_earlier_phase() -> None:
     run = circle_run()
-    run.phases = [*run.phases[:2], PhaseInfo("wait", "hold")]
+    run.phases = [*run.phases[:2], PhaseRecord("wait", "hold")]
     final = summarize(run)["final"]
     assert final["target"]["phase"] == "orbit"
 

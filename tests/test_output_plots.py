@@ -12,13 +12,13 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from PIL import Image
 from test_output_synthetic import circle_run
 
-from wmr_mission.output.plots import (
+from wmr_mission.commands.plot import replot_command
+from wmr_mission.output.figures import (
     DPI,
     MAX_POINTS_PER_LINE,
     _clip_half_plane,
     _figure,
     draw_all,
-    replot_command,
     thin,
 )
 from wmr_mission.output.rundir import write_run
@@ -104,7 +104,7 @@ def test_replot_of_a_broken_run_dir_is_one_line_on_stderr(
 
 def test_importing_the_output_modules_does_not_load_matplotlib() -> None:
     code = (
-        "import sys, wmr_mission.output.rundir, wmr_mission.output.plots, "
+        "import sys, wmr_mission.output.rundir, wmr_mission.output.figures, "
         "wmr_mission.output.animation, wmr_mission.output.report; "
         "sys.exit('matplotlib' in sys.modules)"
     )

@@ -21,9 +21,9 @@ from wmr_mission.output import inputs
 from wmr_mission.output.metrics import check_expectations, judge, summarize
 from wmr_mission.output.numbers import mission_numbers
 from wmr_mission.output.regulation import stall_time
+from wmr_mission.output.result import Outcome
 from wmr_mission.output.tracking import place_on_path, track_quality
 from wmr_mission.output.zones import Zone, intrusion_max
-from wmr_mission.result import Outcome
 from wmr_mission.spec.loader import load_mission_text
 
 NUMBERS = mission_numbers(None, 0.01, (2.0, 3.0))  # tau 0.1 s, look-ahead 0.05 m, no noise

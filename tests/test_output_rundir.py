@@ -13,15 +13,21 @@ import numpy as np
 import pytest
 from test_output_synthetic import circle_run
 
+from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError, load_run
+from wmr_mission.output.result import (
+    Outcome,
+    PhaseRecord,
+    RunResult,
+)
 from wmr_mission.output.rundir import (
+    EXTRA_COLUMNS,
+    TRAJECTORY_COLUMNS,
     RunDirExistsError,
-    atomic_path,
     default_run_dir,
     prepare_run_dir,
     write_run,
 )
-from wmr_mission.result import EXTRA_COLUMNS, TRAJECTORY_COLUMNS, Outcome, PhaseInfo, RunResult
 
 RESOLVED: dict[str, Any] = {
     "version": 1,
@@ -163,7 +169,7 @@ def test_same_result_twice_gives_byte_identical_csv(tmp_path: Path) -> None:
 
 def test_phase_names_needing_quotes_round_trip(tmp_path: Path) -> None:
     run = circle_run(50)
-    run.phases = [PhaseInfo('go, "fast"', "track"), *run.phases[1:]]
+    run.phases = [PhaseRecord('go, "fast"', "track"), *run.phases[1:]]
     run.transitions = []
     write(run, tmp_path)
     assert '"go, ""fast"""' in (tmp_path / "trajectory.csv").read_text()

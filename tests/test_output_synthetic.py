@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
+from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 
 DT = 0.01
 RADIUS = 2.0
@@ -63,9 +63,9 @@ def circle_run(samples: int = 2001, *, theta_error: np.ndarray | None = None) ->
         dt=DT,
         seed=7,
         phases=[
-            PhaseInfo("approach", "track"),
-            PhaseInfo("orbit", "track"),
-            PhaseInfo(
+            PhaseRecord("approach", "track"),
+            PhaseRecord("orbit", "track"),
+            PhaseRecord(
                 "park", "regulate", target=(0.0, 0.0, 0.0), constraints=(("ellipse", "inside"),)
             ),
         ],

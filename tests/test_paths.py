@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 from pydantic import TypeAdapter
 
-from wmr_mission.paths import Trajectory, WaypointsTrajectory, instantiate, sample_positions
-from wmr_mission.regions import region_value
-from wmr_mission.spec.models import Mission, PathSpec
+from wmr_mission.geometry import paths
+from wmr_mission.geometry.paths import PathSpec, Trajectory, sample_positions
+from wmr_mission.geometry.paths.waypoints import WaypointsTrajectory
+from wmr_mission.geometry.regions import region_value
+from wmr_mission.spec.models import Mission
 
 PATH = TypeAdapter(PathSpec)
 MISSION = Mission.model_validate(
@@ -32,7 +34,7 @@ W = 0.4 * math.pi
 
 def trajectory(spec: dict[str, Any], pose: tuple[float, float, float] = ORIGIN) -> Trajectory:
     path = PATH.validate_python(spec, context={"parameters": MISSION.parameters})
-    return instantiate(path, MISSION, pose)
+    return paths.trajectory(path, MISSION.path_context(), pose)
 
 
 def test_spiral_is_eq_30() -> None:

@@ -219,7 +219,7 @@ def test_every_python_block_of_the_docs_runs_and_keeps_the_backend(tmp_path: Pat
 
 
 def test_bench_checks_the_mission_it_is_given() -> None:
-    from wmr_mission.bench import bench_mission
+    from wmr_mission.commands.bench import bench_mission
 
     mission = load_mission(CASE2)
     broken = mission.model_copy(update={"robot": mission.robot.model_copy(update={"dt": -1})})
@@ -228,11 +228,11 @@ def test_bench_checks_the_mission_it_is_given() -> None:
 
 
 def test_phase_colours_apply_to_every_lap_of_a_repeat() -> None:
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.sim.plan import plan_mission
 
     repeat = ROOT / "tests" / "data" / "missions" / "valid" / "repeat.yaml"
     mission = load_mission(repeat, {"plot.phase_colors": {"out": "red", "rest": "#0000ff"}})
-    compiled = compile_mission(mission)
+    compiled = plan_mission(mission)
     assert [(p.name, p.color) for p in compiled.phases] == [
         ("out#1", "red"), ("back#1", None), ("out#2", "red"), ("back#2", None),
         ("rest", "#0000ff"),

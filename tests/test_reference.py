@@ -14,24 +14,34 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wmr_mission import control, reference
-from wmr_mission.bench import one_blas_thread
-from wmr_mission.compiled import CompiledMission, compile_mission
-from wmr_mission.corrective import corrective_input_array
-from wmr_mission.ekf import ekf_step
-from wmr_mission.observer import observer_step
-from wmr_mission.params import Controller, Robot, ekf_params, observer_params, scratch
-from wmr_mission.reference import REFERENCE
-from wmr_mission.result import RunResult
-from wmr_mission.riccati import MIN_SPEED
-from wmr_mission.runner import FAST, run_mission
-from wmr_mission.sensors import STATE_NAMES, measurement_mask
+from wmr_mission.basics import STATES, measurement_mask
+from wmr_mission.commands.bench import one_blas_thread
+from wmr_mission.controllers import paper
+from wmr_mission.controllers.paper import PaperTuning
+from wmr_mission.estimators import ekf, observer
+from wmr_mission.estimators.ekf import ekf_tuning
+from wmr_mission.estimators.observer import observer_tuning
+from wmr_mission.kernels import jit
+from wmr_mission.kernels.corrective import corrective_input_array
+from wmr_mission.kernels.model import saturate
+from wmr_mission.kernels.records import Plant, scratch
+from wmr_mission.kernels.riccati import MIN_SPEED
+from wmr_mission.output.result import RunResult
+from wmr_mission.sim import reference
+from wmr_mission.sim.plan import MissionPlan, plan_mission
+from wmr_mission.sim.reference import REFERENCE
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 STATE_COLUMNS = ("x", "y", "theta", "x_est", "y_est", "theta_est", "v", "omega")
-SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATE_NAMES, n)]
+SUBSETS = [list(c) for n in (1, 2, 3) for c in itertools.combinations(STATES, n)]
 DT = 0.01
+# The fast kernels as the loop runs them: compiled (plain Python without numba).
+observer_step = jit.compiled(observer.observer_step)
+ekf_step = jit.compiled(ekf.ekf_step)
+track_input = jit.compiled(paper.track_input)
+regulate_input = jit.compiled(paper.regulate_input)
 
 # EKF, positions measured with noise, rate limits, the literal eq. (19)
 # (increment form) inside a box (four half-plane rows).
@@ -134,17 +144,17 @@ def assert_same_run(fast: RunResult, slow: RunResult, tolerance: float = 1e-6) -
         )
 
 
-def case_study(name: str) -> CompiledMission:
-    return compile_mission(load_mission(MISSIONS / f"{name}.yaml"))
+def case_study(name: str) -> MissionPlan:
+    return plan_mission(load_mission(MISSIONS / f"{name}.yaml"))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["case1", "case2"])
 def test_fast_kernels_follow_the_reference_through_the_case_studies(name: str) -> None:
     mission = case_study(name)
-    fast = run_mission(mission, functions=FAST)
+    fast = run_mission(mission)
     with one_blas_thread():  # 3x3 BLAS calls: threads only wait
-        slow = run_mission(mission, functions=REFERENCE)
+        slow = run_mission(mission, substitutes=REFERENCE)
     assert fast.outcome.value == "success"
     assert len(fast.transitions) == len(mission.phases)
     assert_same_run(fast, slow)
@@ -152,9 +162,9 @@ def test_fast_kernels_follow_the_reference_through_the_case_studies(name: str) -
 
 @pytest.mark.parametrize("name", list(OTHER_MISSIONS))
 def test_fast_kernels_follow_the_reference_on_other_settings(name: str) -> None:
-    mission = compile_mission(load_mission_text(OTHER_MISSIONS[name], f"{name}.yaml"))
-    fast = run_mission(mission, functions=FAST)
-    slow = run_mission(mission, functions=REFERENCE)
+    mission = plan_mission(load_mission_text(OTHER_MISSIONS[name], f"{name}.yaml"))
+    fast = run_mission(mission)
+    slow = run_mission(mission, substitutes=REFERENCE)
     assert fast.samples > 400
     assert_same_run(fast, slow)
 
@@ -162,7 +172,7 @@ def test_fast_kernels_follow_the_reference_on_other_settings(name: str) -> None:
 def test_the_other_missions_exercise_what_they_claim() -> None:
     """The settings above are not idle: constraints and phase II act."""
     runs = {
-        name: run_mission(compile_mission(load_mission_text(text, f"{name}.yaml")))
+        name: run_mission(plan_mission(load_mission_text(text, f"{name}.yaml")))
         for name, text in OTHER_MISSIONS.items()
     }
     for run in runs.values():
@@ -219,7 +229,7 @@ def test_observer_step_matches(
             gain = np.zeros((3, 3))
             iterations = step_function(
                 state, v, omega, DT, measurement,
-                observer_params(mask, poles, floor, lower, upper, bounded, 10), gain,
+                observer_tuning(mask, poles, floor, lower, upper, bounded, 10), gain,
             )  # fmt: skip
             results.append((state, gain, iterations))
         (fast, fast_gain, fast_iterations), (slow, slow_gain, slow_iterations) = results
@@ -236,7 +246,7 @@ def test_phase_two_puts_violated_outputs_on_their_bounds() -> None:
     state = estimate.copy()
     iterations = reference.observer_step(
         state, 0.0, 0.0, DT, measurement,
-        observer_params(np.ones(3), np.full(3, 0.99), 0.0, np.full(3, -0.05), np.full(3, 0.05),
+        observer_tuning(np.ones(3), np.full(3, 0.99), 0.0, np.full(3, -0.05), np.full(3, 0.05),
                         True, 10),
         np.zeros((3, 3)),
     )  # fmt: skip
@@ -260,7 +270,7 @@ def test_ekf_step_matches(measured: list[str], rng: np.random.Generator) -> None
             state, p = estimate.copy(), covariance.copy()
             step_function(
                 state, p, v, omega, DT, measurement,
-                ekf_params(mask, process_var, measurement_var), np.zeros((4, 3, 3)),
+                ekf_tuning(mask, process_var, measurement_var), np.zeros((4, 3, 3)),
             )  # fmt: skip
             outputs.append((state, p))
         np.testing.assert_allclose(outputs[0][0], outputs[1][0], rtol=0.0, atol=1e-9)
@@ -331,11 +341,11 @@ def test_track_input_matches(
         w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
         limits = random_limits(rng, rated)
         fast, slow = np.zeros(2), np.zeros(2)
-        controller = Controller(
+        controller = PaperTuning(
             look_ahead, error_decay, np.ones(3), np.ones(2), w, m, 0, 0.01, False
         )
-        robot = Robot(DT, limits)
-        control.track_input(
+        robot = Plant(DT, limits)
+        track_input(
             estimate, u_prev, reference_now, reference_point, controller, robot, scratch(), fast
         )
         reference.track_input(
@@ -377,7 +387,7 @@ def violated_rows(
     return np.array(kinds, dtype=np.int64)[order], np.array(params)[order]
 
 
-FORMS = {"bearing": control.BEARING, "deviation": control.DEVIATION, "increment": control.INCREMENT}
+FORMS = {"bearing": paper.BEARING, "deviation": paper.DEVIATION, "increment": paper.INCREMENT}
 
 
 @pytest.mark.parametrize("violated", [0, 1, 2, 3])
@@ -394,21 +404,21 @@ def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generat
         w, m = rng.uniform(1, 200, 3), rng.uniform(1, 200, 2)
         limits = random_limits(rng, bool(trial % 2))
         outputs = []
-        for regulate in (control.regulate_input, reference.regulate_input):
-            memory = np.zeros(control.MEMORY_SIZE)
-            memory[control.ALIGNING] = float(trial % 2)
+        for regulate in (regulate_input, reference.regulate_input):
+            memory = np.zeros(paper.MEMORY_SIZE)
+            memory[paper.ALIGNING] = float(trial % 2)
             u = np.zeros(2)
-            controller = Controller(0.0, 0.0, q, r, w, m, FORMS[form], 0.01, bool(trial % 4))
+            controller = PaperTuning(0.0, 0.0, q, r, w, m, FORMS[form], 0.01, bool(trial % 4))
             regulate(
                 estimate, estimate_prev, u_prev, target, kinds, params, controller,
-                Robot(DT, limits), memory, scratch(), u,
+                Plant(DT, limits), memory, scratch(), u,
             )  # fmt: skip
             outputs.append((u, memory))
         (fast, fast_memory), (slow, slow_memory) = outputs
         np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
-        assert fast_memory[control.ALIGNING] == slow_memory[control.ALIGNING]
-        assert fast_memory[control.CORRECTED] == slow_memory[control.CORRECTED]
-        corrected += int(slow_memory[control.CORRECTED])
+        assert fast_memory[paper.ALIGNING] == slow_memory[paper.ALIGNING]
+        assert fast_memory[paper.CORRECTED] == slow_memory[paper.CORRECTED]
+        corrected += int(slow_memory[paper.CORRECTED])
     assert corrected == (12 if violated else 0)
 
 
@@ -431,7 +441,7 @@ def test_scheduled_gain_matches(
         theta, omega = rng.uniform(-4, 4), rng.uniform(-3, 3)
         v = float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
         q, r = rng.uniform(0.1, 10, 3), rng.uniform(0.1, 10, 2)
-        control.scheduled_gain(theta, v, omega, DT, q, r, np.zeros(control.MEMORY_SIZE), work.gain)
+        paper.scheduled_gain(theta, v, omega, DT, q, r, np.zeros(paper.MEMORY_SIZE), work.gain)
         slow = reference.scheduled_gain(theta, v, omega, DT, q, r)
         scale = max(1.0, float(np.abs(slow).max()))
         np.testing.assert_allclose(work.gain, slow, rtol=0.0, atol=tolerance * scale)
@@ -449,13 +459,13 @@ def test_saturation_matches(rated: bool, rng: np.random.Generator) -> None:
     for _ in range(100):
         v, omega, v_prev, omega_prev = rng.normal(0.0, 10.0, 4)
         limits = random_limits(rng, rated)
-        assert control.saturate(v, omega, v_prev, omega_prev, limits, DT) == pytest.approx(
+        assert saturate(v, omega, v_prev, omega_prev, limits, DT) == pytest.approx(
             reference.saturate(v, omega, v_prev, omega_prev, limits, DT), abs=1e-12
         )
 
 
 def test_wrap_angle_matches_the_kernels() -> None:
-    from wmr_mission.model import wrap_angle
+    from wmr_mission.kernels.model import wrap_angle
 
     for angle in (-7.0, -math.pi, -1.0, 0.0, 1.0, math.pi, 7.0, 1e3):
         assert reference.wrap_angle(angle) == wrap_angle(angle)

@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 from pydantic import TypeAdapter
 
-from wmr_mission.regions import (
+from wmr_mission.geometry.regions import (
     ELLIPSE_ROW,
     HALF_PLANE_ROW,
+    RegionSpec,
     constraint_rows,
     is_convex,
     region_outline,
@@ -17,7 +18,6 @@ from wmr_mission.regions import (
     row_gradients,
     row_values,
 )
-from wmr_mission.spec.models import RegionSpec
 
 REGION = TypeAdapter(RegionSpec)
 

@@ -29,16 +29,16 @@ import pytest
 from test_output_synthetic import circle_run
 from typer.testing import CliRunner
 
-import wmr_mission.run_command as run_command_module
-import wmr_mission.runner as runner_module
+import wmr_mission.commands.run as run_command_module
+import wmr_mission.sim.runner as runner_module
 from wmr_mission.cli import app
-from wmr_mission.compiled import compile_mission
-from wmr_mission.output.plots import replot_command
+from wmr_mission.commands.plot import replot_command
+from wmr_mission.commands.run import run_command
 from wmr_mission.output.reader import load_run
+from wmr_mission.output.result import Outcome
 from wmr_mission.output.rundir import CLAIM_FILE, prepare_run_dir, write_run
-from wmr_mission.result import Outcome
-from wmr_mission.run_command import run_command
-from wmr_mission.runner import run_mission
+from wmr_mission.sim.plan import plan_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import check_mission_text, load_mission_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -375,11 +375,11 @@ def test_implausibly_small_sizes_are_refused_with_a_position(region: str, where:
 _TINY_REGION_RUN = """
 import dataclasses, hashlib, sys
 import numpy as np
-from wmr_mission.compiled import compile_mission
+from wmr_mission.sim.plan import plan_mission
 from wmr_mission.output.rundir import trajectory_csv_text
-from wmr_mission.runner import run_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission_text
-mission = compile_mission(load_mission_text(sys.stdin.read(), "m.yaml"))
+mission = plan_mission(load_mission_text(sys.stdin.read(), "m.yaml"))
 phase = mission.phases[0]
 kinds, params = phase.constraint_rows
 params = params.copy()
@@ -427,8 +427,8 @@ def test_a_mission_in_map_coordinates_runs_like_one_at_the_origin() -> None:
             )
         )
 
-    compiled = compile_mission(load_mission_text(placed(500_000.0, 5_000_000.0), "m.yaml"))
-    assert compiled.runaway_position > 5e6
+    compiled = plan_mission(load_mission_text(placed(500_000.0, 5_000_000.0), "m.yaml"))
+    assert compiled.plant.runaway_position > 5e6
     far = run_mission(compiled)
     near = run_mission(load_mission_text(placed(0.0, 0.0), "m.yaml"))
     assert far.outcome is Outcome.success, far.message
@@ -606,7 +606,7 @@ def test_names_with_dollars_are_drawn_as_typed(tmp_path: Path) -> None:
     result = circle_run(200)
     result.phases[0] = type(result.phases[0])("$x", "track")
     result.mission_name = "$\\frac{1$"
-    from wmr_mission.output.plots import draw_all
+    from wmr_mission.output.figures import draw_all
 
     assert all(path.stat().st_size > 0 for path in draw_all(result, tmp_path))
 

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from wmr_mission import control, reference
-from wmr_mission.model import input_jacobian, state_jacobian
-from wmr_mission.params import scratch
-from wmr_mission.riccati import (
+from wmr_mission.controllers import paper
+from wmr_mission.kernels.model import input_jacobian, state_jacobian
+from wmr_mission.kernels.records import scratch
+from wmr_mission.kernels.riccati import (
     MIN_SPEED,
     NEWTON_STEPS,
     Mat3,
@@ -17,6 +17,7 @@ from wmr_mission.riccati import (
     scalar_solution,
     solve_riccati,
 )
+from wmr_mission.sim import reference
 
 
 def paper_pair(
@@ -88,10 +89,10 @@ def test_at_rest_the_pair_is_not_stabilisable_and_scipy_has_no_answer(omega: flo
 
 def body_gain(theta: float, v: float) -> np.ndarray:
     work = scratch()
-    memory = np.zeros(control.MEMORY_SIZE)
-    control.scheduled_gain(theta, v, 0.0, 0.01, np.ones(3), np.ones(2), memory, work.gain)
+    memory = np.zeros(paper.MEMORY_SIZE)
+    paper.scheduled_gain(theta, v, 0.0, 0.01, np.ones(3), np.ones(2), memory, work.gain)
     # At rest the closed form; elsewhere a cold doubling solve.
-    assert (memory[control.DOUBLINGS] > 0) == (v != 0.0)
+    assert (memory[paper.DOUBLINGS] > 0) == (v != 0.0)
     rot = np.array(
         [[np.cos(theta), -np.sin(theta), 0], [np.sin(theta), np.cos(theta), 0], [0, 0, 1]]
     )
@@ -171,10 +172,10 @@ def test_at_rest_the_closed_form_equals_the_doubling_on_the_reachable_subspace(
         q_hat[:2, :2] = (u @ np.diag(q[:2]) @ u) * np.outer(u, u)
         q_hat[2, 2] = q[2]
         doubling, _, _ = dlqr(a, b, q_hat, r)
-        work, memory = scratch(), np.zeros(control.MEMORY_SIZE)
-        control.scheduled_gain(theta, 0.0, omega, 0.01, q, r, memory, work.gain)
+        work, memory = scratch(), np.zeros(paper.MEMORY_SIZE)
+        paper.scheduled_gain(theta, 0.0, omega, 0.01, q, r, memory, work.gain)
         np.testing.assert_allclose(work.gain, doubling, rtol=0, atol=1e-12 * np.abs(doubling).max())
-        assert memory[control.NEWTON] == memory[control.DOUBLINGS] == 0  # no iteration
+        assert memory[paper.NEWTON] == memory[paper.DOUBLINGS] == 0  # no iteration
 
 
 def weaving_run(count: int = 250) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -187,25 +188,23 @@ def weaving_run(count: int = 250) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def test_warm_started_solution_agrees_with_the_cold_doubling_and_scipy() -> None:
     q, r = np.array([1.0, 2.0, 0.5]), np.array([1.0, 0.5])
-    memory, work = np.zeros(control.MEMORY_SIZE), scratch()
+    memory, work = np.zeros(paper.MEMORY_SIZE), scratch()
     newton_steps = []
     for theta, v, omega in zip(*weaving_run(), strict=True):
-        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
+        paper.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
         warm = work.gain.copy()
-        newton_steps.append(memory[control.NEWTON])
+        newton_steps.append(memory[paper.NEWTON])
         if len(newton_steps) > 1:
-            assert memory[control.DOUBLINGS] == 0  # Newton from the previous samples
+            assert memory[paper.DOUBLINGS] == 0  # Newton from the previous samples
         cold = scratch()
-        control.scheduled_gain(
-            theta, v, omega, 0.01, q, r, np.zeros(control.MEMORY_SIZE), cold.gain
-        )
+        paper.scheduled_gain(theta, v, omega, 0.01, q, r, np.zeros(paper.MEMORY_SIZE), cold.gain)
         np.testing.assert_allclose(warm, cold.gain, rtol=0, atol=1e-12 * np.abs(cold.gain).max())
         # scipy's own solution is good to ~1e-12 here (a 40-digit solution
         # agrees with the warm-started one to ~1e-15).
         slow = reference.scheduled_gain(theta, v, omega, 0.01, q, r)
         np.testing.assert_allclose(warm, slow, rtol=0, atol=1e-11 * np.abs(slow).max())
         # The stored body-frame solution satisfies eq. (21).
-        s = memory[control.WARM_MOVING + 1 : control.WARM_MOVING + 7]
+        s = memory[paper.WARM_MOVING + 1 : paper.WARM_MOVING + 7]
         pi = np.array([[s[0], s[1], s[2]], [s[1], s[3], s[4]], [s[2], s[4], s[5]]])
         a, b = paper_pair(0.0, v, omega)
         c, s_ = np.cos(theta), np.sin(theta)
@@ -226,18 +225,16 @@ def test_near_rest_the_warm_started_blend_agrees_with_the_cold_one() -> None:
     # Eq. (21) is ill-conditioned there (closed-loop radius 0.99999): the
     # doubling itself is only good to ~2e-11 (docs/paper-notes.md).
     q, r = np.ones(3), np.ones(2)
-    memory, work = np.zeros(control.MEMORY_SIZE), scratch()
+    memory, work = np.zeros(paper.MEMORY_SIZE), scratch()
     speeds = 0.8 * MIN_SPEED * np.cos(0.01 * np.arange(300))  # through 0 at k = 157
     steps = []
     for k, v in enumerate(speeds):
         omega = 1.5 * np.exp(-0.01 * k)
         theta = 1.5 * (1.0 - np.exp(-0.01 * k))
-        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
-        steps.append((memory[control.NEWTON], memory[control.DOUBLINGS]))
+        paper.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
+        steps.append((memory[paper.NEWTON], memory[paper.DOUBLINGS]))
         cold = scratch()
-        control.scheduled_gain(
-            theta, v, omega, 0.01, q, r, np.zeros(control.MEMORY_SIZE), cold.gain
-        )
+        paper.scheduled_gain(theta, v, omega, 0.01, q, r, np.zeros(paper.MEMORY_SIZE), cold.gain)
         np.testing.assert_allclose(work.gain, cold.gain, rtol=0, atol=1e-10)
     newton, doublings = np.array(steps).T
     # Doubling only where there is no solution at +-MIN_SPEED of the same sign.
@@ -250,7 +247,7 @@ def test_near_rest_the_warm_started_blend_agrees_with_the_cold_one() -> None:
 
 
 def step_counts(memory: np.ndarray) -> tuple[int, int]:
-    return int(memory[control.NEWTON]), int(memory[control.DOUBLINGS])
+    return int(memory[paper.NEWTON]), int(memory[paper.DOUBLINGS])
 
 
 def test_each_fallback_to_the_doubling() -> None:
@@ -258,14 +255,14 @@ def test_each_fallback_to_the_doubling() -> None:
 
     def gain(theta: float, v: float, omega: float, memory: np.ndarray) -> np.ndarray:
         work = scratch()
-        control.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
+        paper.scheduled_gain(theta, v, omega, 0.01, q, r, memory, work.gain)
         return work.gain
 
     def cold(theta: float, v: float, omega: float) -> np.ndarray:
-        return gain(theta, v, omega, np.zeros(control.MEMORY_SIZE))
+        return gain(theta, v, omega, np.zeros(paper.MEMORY_SIZE))
 
     # No warm start (a phase's first sample): doubling.
-    memory = np.zeros(control.MEMORY_SIZE)
+    memory = np.zeros(paper.MEMORY_SIZE)
     gain(0.3, 0.5, 0.2, memory)
     assert step_counts(memory)[0] == 0
     assert step_counts(memory)[1] > 0
@@ -278,14 +275,14 @@ def test_each_fallback_to_the_doubling() -> None:
     assert step_counts(memory)[0] == 0
     assert step_counts(memory)[1] > 0
     # A warm start too far off (5 cm/s, then 1.1 mm/s): one Newton step, then doubling.
-    memory = np.zeros(control.MEMORY_SIZE)
+    memory = np.zeros(paper.MEMORY_SIZE)
     gain(0.0, 0.05, 0.5, memory)
     assert np.array_equal(gain(0.0, 0.0011, 0.5, memory), cold(0.0, 0.0011, 0.5))
     assert step_counts(memory)[0] == 1
     assert step_counts(memory)[1] > 0
     # No weight on the position: the Newton step's Lyapunov system is singular.
     q = np.array([0.0, 0.0, 1.0])
-    memory = np.zeros(control.MEMORY_SIZE)
+    memory = np.zeros(paper.MEMORY_SIZE)
     gain(0.3, 0.5, 0.2, memory)
     assert np.array_equal(gain(0.31, 0.51, 0.2, memory), cold(0.31, 0.51, 0.2))
     assert step_counts(memory)[0] == 1
@@ -342,6 +339,6 @@ def test_a_controller_memory_too_small_is_refused() -> None:
     # Compiled code checks no bounds: a memory of the old size (3) would be
     # written past its end.
     with pytest.raises(ValueError, match="MEMORY_SIZE"):
-        control.scheduled_gain(
+        paper.scheduled_gain(
             0.0, 0.5, 0.0, 0.01, np.ones(3), np.ones(2), np.zeros(3), scratch().gain
         )

@@ -12,9 +12,11 @@ from geometry import outside_hull
 from pydantic import TypeAdapter
 from scipy.interpolate import CubicSpline
 
-from wmr_mission.paths import RouteTrajectory, WaypointsTrajectory, instantiate
-from wmr_mission.routes import TURN_CREEP
-from wmr_mission.spec.models import Mission, PathSpec
+from wmr_mission.geometry import paths
+from wmr_mission.geometry.paths import PathSpec
+from wmr_mission.geometry.paths.waypoints import WaypointsTrajectory
+from wmr_mission.geometry.routes import TURN_CREEP, RouteTrajectory
+from wmr_mission.spec.models import Mission
 
 PATH = TypeAdapter(PathSpec)
 FIELD = [[0, 0], [12, 0], [13, 6], [4, 8], [-1, 4]]
@@ -39,7 +41,7 @@ ORIGIN = (0.0, 0.0, 0.0)
 
 
 def build(spec: dict[str, Any], pose: tuple[float, float, float] = ORIGIN) -> Any:
-    return instantiate(PATH.validate_python(spec), MISSION, pose)
+    return paths.trajectory(PATH.validate_python(spec), MISSION.path_context(), pose)
 
 
 def whole(trajectory: Any, extra: float = 0.0, count: int = 40001) -> tuple[np.ndarray, ...]:
@@ -253,14 +255,14 @@ def test_coverage_lanes_are_at_most_the_spacing_apart_with_semicircle_turns() ->
 
 
 def test_compiled_track_phases_expose_the_points_their_paths_are_drawn_through() -> None:
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.spec.loader import load_mission
 
     root = Path(__file__).resolve().parents[1]
-    patrol = compile_mission(load_mission(root / "missions" / "patrol.yaml"))
+    patrol = plan_mission(load_mission(root / "missions" / "patrol.yaml"))
     np.testing.assert_array_equal(patrol.phases[0].points, PATROL)
     assert patrol.phases[1].points is None  # the dock: a regulate phase
-    coverage = compile_mission(load_mission(root / "missions" / "coverage.yaml"))
+    coverage = plan_mission(load_mission(root / "missions" / "coverage.yaml"))
     route = coverage.phases[0].make_trajectory((-1.0, 0.5, 0.0))  # type: ignore[misc]
     assert isinstance(route, RouteTrajectory)
     np.testing.assert_array_equal(route.points[1:], coverage.phases[0].points)  # after the robot

@@ -37,8 +37,8 @@ import pytest
 from pinned_trajectories import assert_close
 from same_bytes_outputs import outputs
 
-from wmr_mission import _jit
-from wmr_mission.environment import numpy_simd
+from wmr_mission.kernels import jit
+from wmr_mission.output.environment import numpy_simd
 
 TESTS = Path(__file__).resolve().parent
 SAME_BYTES = TESTS / "data" / "same-bytes"
@@ -113,19 +113,20 @@ def test_the_lowered_environment_is_taken() -> None:
     check = (
         "import json, os\n"
         "from threadpoolctl import threadpool_info\n"
-        "from wmr_mission import environment, runner\n"
+        "from wmr_mission.kernels import jit\nfrom wmr_mission.output import environment\n"
+        "jit.load()\n"
         "blas = [i.get('architecture') for i in threadpool_info() if i['user_api'] == 'blas']\n"
         "loader = os.popen('/lib64/ld-linux-x86-64.so.2 --list-diagnostics').read()\n"
         "print(json.dumps([environment.numpy_simd(), environment.numba_cpu(), blas, loader]))\n"
     )
-    env = lowered(compiled=_jit.COMPILED)
+    env = lowered(compiled=jit.compiling())
     done = subprocess.run(
         [sys.executable, "-c", check], env=env, capture_output=True, text=True, timeout=900
     )
     assert done.returncode == 0, done.stderr
     numpy_levels, numba_cpu, blas, loader = json.loads(done.stdout)
     assert numpy_levels == []
-    assert numba_cpu == ("x86-64-v2" if _jit.COMPILED else None)
+    assert numba_cpu == ("x86-64-v2" if jit.compiling() else None)
     assert blas in ([], ["Nehalem"])  # numpy's OpenBLAS, when it is loaded
     if "dl_hwcaps_subdirs_active=" in loader:  # glibc 2.33 and later
         active = int(loader.split("dl_hwcaps_subdirs_active=")[1].split()[0], 16)
@@ -138,7 +139,7 @@ def test_the_bytes_do_not_depend_on_the_simd_level(tmp_path: Path) -> None:
     ours = outputs(tmp_path / "here", SHORT)
     assert any(name.endswith("runs.csv") for name in ours)
     assert_same(ours, finish(plain))
-    if _jit.COMPILED:
+    if jit.compiling():
         assert_same(ours, finish(compiled))
     else:
         compiled.communicate(timeout=900)
@@ -147,7 +148,7 @@ def test_the_bytes_do_not_depend_on_the_simd_level(tmp_path: Path) -> None:
 @pytest.mark.sweep
 def test_every_shipped_mission_gives_the_same_bytes_at_a_lower_simd_level(tmp_path: Path) -> None:
     ours = outputs(tmp_path / "here", MISSIONS)
-    assert_same(ours, outputs_in(lowered(compiled=_jit.COMPILED), tmp_path / "there", MISSIONS))
+    assert_same(ours, outputs_in(lowered(compiled=jit.compiling()), tmp_path / "there", MISSIONS))
 
 
 def _trajectory(text: str) -> tuple[list[str], np.ndarray, list[str]]:

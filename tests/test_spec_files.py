@@ -10,8 +10,13 @@ from pathlib import Path
 
 import pytest
 
+from wmr_mission.commands.schema import (
+    REFERENCE_BEGIN,
+    REFERENCE_END,
+    reference_markdown,
+    schema_text,
+)
 from wmr_mission.spec.loader import Diagnostic, check_mission
-from wmr_mission.spec.schema import REFERENCE_BEGIN, REFERENCE_END, reference_markdown, schema_text
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "missions"
@@ -81,17 +86,21 @@ def test_shipped_missions_point_editors_at_the_schema(path: Path) -> None:
 
 def test_checked_in_schema_is_current() -> None:
     checked_in = (ROOT / "schemas" / "mission.schema.json").read_text(encoding="utf-8")
-    assert checked_in == schema_text(), "run: python -m wmr_mission.spec.schema"
+    assert checked_in == schema_text(), "run: python -m wmr_mission.commands.schema"
 
 
 def test_checked_in_reference_is_current() -> None:
     document = (ROOT / "docs" / "mission-format.md").read_text(encoding="utf-8")
     inside = document.split(REFERENCE_BEGIN, 1)[1].split(REFERENCE_END, 1)[0]
-    assert inside.strip() == reference_markdown().strip(), "run: python -m wmr_mission.spec.schema"
+    assert inside.strip() == reference_markdown().strip(), (
+        "run: python -m wmr_mission.commands.schema"
+    )
 
 
 def test_reference_lists_every_field() -> None:
-    from wmr_mission.spec.models import Ekf, ExpressionPath, Mission, Robot
+    from wmr_mission.estimators.ekf import Ekf
+    from wmr_mission.geometry.paths.expression import ExpressionPath
+    from wmr_mission.spec.models import Mission, Robot
 
     text = reference_markdown()
     for model in (Mission, Robot, Ekf, ExpressionPath):

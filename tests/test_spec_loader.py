@@ -8,6 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from wmr_mission.estimators.ekf import Ekf
+from wmr_mission.estimators.observer import ConstrainedObserver
+from wmr_mission.geometry.paths.ellipse import EllipsePath
+from wmr_mission.geometry.paths.expression import ExpressionPath
 from wmr_mission.spec.loader import (
     MAX_FILE_BYTES,
     MissionError,
@@ -17,10 +21,6 @@ from wmr_mission.spec.loader import (
     load_mission_text,
 )
 from wmr_mission.spec.models import (
-    ConstrainedObserver,
-    Ekf,
-    EllipsePath,
-    ExpressionPath,
     HoldPhase,
     Mission,
     RegulatePhase,
@@ -88,12 +88,12 @@ def test_default_output_error_bounds_cover_measured_states_only() -> None:
 
 def test_default_initial_estimate_is_the_initial_state() -> None:
     # A mission starting at (5, 5) used to begin 5.7 m off, at the paper's [1, 1, 0].
-    from wmr_mission.compiled import compile_mission
+    from wmr_mission.sim.plan import plan_mission
 
     text = MINIMAL.replace("phases:", "robot: {initial_state: {x: 5, y: 5, theta: 2}}\nphases:")
     for estimator in ("", "estimator: {type: ekf}\n"):
         mission = load_mission_text(text.replace("phases:", estimator + "phases:"), "m.yaml")
-        np.testing.assert_array_equal(compile_mission(mission).initial_estimate, [5.0, 5.0, 2.0])
+        np.testing.assert_array_equal(plan_mission(mission).initial_estimate, [5.0, 5.0, 2.0])
 
 
 def test_default_output_error_bounds_stay_clear_of_the_noise() -> None:
@@ -109,6 +109,30 @@ def test_default_output_error_bounds_stay_clear_of_the_noise() -> None:
         "y": (-0.05, 0.05),
         "theta": (-0.25, 0.25),
     }
+
+
+def test_the_noise_has_one_meaning_however_it_is_written() -> None:
+    """sensors.noise_std is read once (Sensors.measured_noise): the default
+    bounds, the warning on bounds inside the noise, the estimators' defaults
+    and the draws all follow a noise written as an expression as they follow
+    the number (the default bounds once took an expression for no noise)."""
+    from wmr_mission.sim.plan import plan_mission
+
+    plans = []
+    for noise in ("0.02", "2*k"):
+        text = MINIMAL.replace(
+            "phases:",
+            f"parameters: {{k: 0.01}}\nsensors: {{measure: [x, y], noise_std: {{x: {noise}, "
+            "y: 0.001, theta: 0.3}}\nphases:",
+        ).replace("hold: {}", "regulate: {target: {x: 1}}")
+        mission = load_mission_text(text, "m.yaml")
+        assert mission.sensors.measured_noise() == {"x": 0.02, "y": 0.001}
+        assert isinstance(mission.estimator, ConstrainedObserver)
+        assert mission.estimator.output_error_bounds == {"x": (-0.1, 0.1), "y": (-0.05, 0.05)}
+        plans.append(plan_mission(mission))
+    for plan in plans:  # theta is not measured: it has no noise to draw
+        np.testing.assert_array_equal(plan.noise_std, [0.02, 0.001, 0.0])
+        assert plan.estimator_tuning.motion_floor == 0.02
 
 
 def test_scalars_use_parameters() -> None:

@@ -1,5 +1,5 @@
 """Start-up: the first run after an install runs as plain Python while the
-loop compiles in a background process (wmr_mission.background_compile); the
+loop compiles in a background process (wmr_mission.commands.background_compile); the
 kernel cache's locator; the plain-Python form of a kernel."""
 
 from __future__ import annotations
@@ -15,16 +15,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wmr_mission import _jit, _kernel_cache, background_compile, loop, runner
-from wmr_mission.compiled import compile_mission
+from wmr_mission.commands import background_compile
+from wmr_mission.controllers import CONTROLLERS
+from wmr_mission.estimators import ESTIMATORS
+from wmr_mission.kernels import cache as kernel_cache
+from wmr_mission.kernels import jit, loop
 from wmr_mission.output.rundir import write_trajectory
-from wmr_mission.runner import run_mission
+from wmr_mission.sim import runner
+from wmr_mission.sim.plan import plan_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 PLAIN_NOTICE = "running as plain Python while the simulation loop compiles in the background"
 
-pytestmark = pytest.mark.skipif(not _jit.COMPILED, reason="the compiled build only")
+pytestmark = pytest.mark.skipif(not jit.compiling(), reason="the compiled build only")
 
 
 def _env(cache: Path, **more: str) -> dict[str, str]:
@@ -47,18 +52,15 @@ if sys.argv[1] == "--unwritable":  # no directory can be written (as root too)
     def unwritable(*args, dir=None, **kwargs):
         raise PermissionError(13, "Permission denied", str(dir))
     tempfile.TemporaryFile = unwritable
-from wmr_mission import background_compile
+from wmr_mission.commands import background_compile
 def start():
     with open(record, "a") as f:
         f.write(f"started, NO_JIT={os.environ.get('WMR_MISSION_NO_JIT')}\\n")
 background_compile._start = start
 def loaded():
     # Each compiled function Python calls loads its own cache entry.
-    called = sorted({
-        value.py_func.__name__
-        for name, module in list(sys.modules.items()) if name.startswith("wmr_mission")
-        for value in vars(module).values() if getattr(value, "signatures", None)
-    })
+    from wmr_mission.kernels import jit
+    called = jit.entries()
     with open(record, "a") as f:
         f.write(f"numba loaded: {'numba' in sys.modules}\\n")
         if called:
@@ -110,8 +112,8 @@ def test_without_a_writable_cache_a_short_run_is_plain_python_and_starts_nothing
 def _cache_of_this_session(tmp_path: Path) -> Path:
     """A copy of the kernels this test session compiled (their index does not
     name its directory)."""
-    run_mission(compile_mission(load_mission(MISSIONS / "fence.yaml")))
-    source = _kernel_cache.cache_directory()
+    run_mission(plan_mission(load_mission(MISSIONS / "fence.yaml")))
+    source = kernel_cache.cache_directory()
     assert source is not None
     cache = tmp_path / "cache"
     shutil.copytree(
@@ -127,7 +129,7 @@ def test_the_background_compile_marks_the_cache_ready(tmp_path: Path) -> None:
     cache = _cache_of_this_session(tmp_path)
     (kernels,) = (cache / "wmr_mission").iterdir()
     ready = kernels / background_compile.READY
-    command = [sys.executable, "-m", "wmr_mission.background_compile"]
+    command = [sys.executable, "-m", "wmr_mission.commands.background_compile"]
     # Another one holds the lock: this one leaves the work to it.
     with open(kernels / background_compile.LOCK, "a") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
@@ -136,7 +138,7 @@ def test_the_background_compile_marks_the_cache_ready(tmp_path: Path) -> None:
         assert not ready.exists()
     done = subprocess.run(command, env=_env(cache), capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert ready.read_text().split()[0] == _kernel_cache.kernel_sources_stamp()
+    assert ready.read_text().split()[0] == kernel_cache.kernel_sources_stamp()
     assert ready.read_text() == background_compile.ready_stamp()
     # Ready: `run` loads the compiled loop, says nothing and starts nothing.
     record = tmp_path / "record"
@@ -156,9 +158,10 @@ def test_the_background_compile_marks_the_cache_ready(tmp_path: Path) -> None:
 
 PREPARE = """
 import sys
-from wmr_mission.background_compile import prepare
+from wmr_mission.commands.background_compile import prepare
 print(prepare(int(sys.argv[1])))
-print("wmr_mission._jit" in sys.modules, "numba" in sys.modules)
+from wmr_mission.kernels import jit
+print(jit.loaded(), "numba" in sys.modules)
 """
 
 
@@ -180,36 +183,30 @@ def test_a_long_mission_or_the_setting_compiles_in_the_foreground(
     assert done.returncode == 0, done.stderr
     printed = done.stdout.splitlines()
     assert notice in printed[0]
-    assert printed[1] == declared  # nothing declared yet: the run compiles as before
+    assert printed[1] == declared  # nothing loaded yet: the run compiles as before
 
 
-def test_the_warm_up_compiles_the_loop_every_mission_runs(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    import numba
-
-    from wmr_mission.spec.loader import check_mission_bytes
-
-    argument_types = set()
-    compiled_loop = loop.run_segment
-
-    def spy(*arguments: object) -> int:
-        argument_types.add(numba.typeof(arguments))
-        return int(compiled_loop(*arguments))
-
-    monkeypatch.setattr(loop, "run_segment", spy)
-    warm_up, _ = check_mission_bytes(background_compile.WARM_UP_MISSION, "warm-up.yaml", [])
-    assert warm_up is not None
-    run_mission(compile_mission(warm_up))
-    assert len(argument_types) == 1
+def test_the_warm_up_compiles_the_loop_every_mission_runs() -> None:
+    """One loop per built-in estimator and controller, one signature each:
+    every shipped mission runs one of them as the warm-up compiled it."""
+    loops = [
+        jit.compiled(runner.bound_loop(e.step, c.step), counted=False)
+        for e in ESTIMATORS
+        for c in CONTROLLERS
+    ]
+    for warm_up in background_compile.warm_up_missions():
+        run_mission(plan_mission(warm_up))
+    warmed_up = [set(compiled.signatures) for compiled in loops]  # type: ignore[attr-defined]
+    assert [len(s) for s in warmed_up] == [1] * len(loops)
     for path in sorted(MISSIONS.glob("*.yaml")):
-        run_mission(compile_mission(load_mission(path)))
-        assert len(argument_types) == 1, path.name
+        run_mission(plan_mission(load_mission(path)))
+        after = [set(compiled.signatures) for compiled in loops]  # type: ignore[attr-defined]
+        assert after == warmed_up, path.name
 
 
 def test_the_bound_is_the_sample_budget_of_a_case_study() -> None:
     for name in ("case1", "case2"):
-        budget = compile_mission(load_mission(MISSIONS / f"{name}.yaml")).max_samples
+        budget = plan_mission(load_mission(MISSIONS / f"{name}.yaml")).max_samples
         assert budget <= background_compile.PLAIN_PYTHON_SAMPLES
 
 
@@ -218,10 +215,10 @@ def test_the_kernels_are_cached_in_the_directory_chosen() -> None:
     compiled loop's entry is there."""
     from numba.core import config
 
-    directory = _kernel_cache.cache_directory()
+    directory = kernel_cache.cache_directory()
     assert directory is not None
-    assert directory.name.startswith(_kernel_cache.PREFIX)
-    run_mission(compile_mission(load_mission(MISSIONS / "fence.yaml")))
+    assert directory.name.startswith(kernel_cache.PREFIX)
+    run_mission(plan_mission(load_mission(MISSIONS / "fence.yaml")))
     assert config.CACHE_DIR == os.environ["NUMBA_CACHE_DIR"] == str(directory)
     assert list(directory.glob("*/loop.run_segment-*.nbi"))
 
@@ -229,18 +226,18 @@ def test_the_kernels_are_cached_in_the_directory_chosen() -> None:
 def _sources(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """A copy of the kernel modules, taken as the package's."""
     package = tmp_path / "package"
-    for name in _kernel_cache.KERNEL_MODULES:
+    for name in kernel_cache.KERNEL_MODULES:
         (package / name).parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy(_kernel_cache.PACKAGE / name, package / name)
-    monkeypatch.setattr(_kernel_cache, "PACKAGE", package)
-    _kernel_cache.cache_directory.cache_clear()
+        shutil.copy(kernel_cache.PACKAGE / name, package / name)
+    monkeypatch.setattr(kernel_cache, "PACKAGE", package)
+    kernel_cache.cache_directory.cache_clear()
     return package
 
 
 def _chosen(cache: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(cache))
-    _kernel_cache.cache_directory.cache_clear()
-    directory = _kernel_cache.cache_directory()
+    kernel_cache.cache_directory.cache_clear()
+    directory = kernel_cache.cache_directory()
     assert directory is not None
     return directory
 
@@ -260,7 +257,7 @@ def test_an_edit_to_any_kernel_module_is_a_new_cache_directory(
         assert _chosen(cache, monkeypatch) == first  # unchanged sources: the same
         assert (first / "kept").exists()
         seen = {first}
-        for name in ("control.py", "campaign/coverage.py"):
+        for name in ("controllers/paper.py", "campaign/coverage.py"):
             with open(package / name, "a") as module:
                 module.write("\n# edited\n")
             directory = _chosen(cache, monkeypatch)
@@ -271,20 +268,40 @@ def test_an_edit_to_any_kernel_module_is_a_new_cache_directory(
         assert _chosen(directory, monkeypatch) == directory
     finally:
         monkeypatch.undo()
-        _kernel_cache.cache_directory.cache_clear()
+        kernel_cache.cache_directory.cache_clear()
+
+
+def test_every_module_of_kernels_is_in_the_stamp_of_the_cache() -> None:
+    """The cache directory is named after the sources of the kernels: a kernel
+    declared in a module left out of it would be loaded stale after an edit."""
+    import importlib
+    import pkgutil
+
+    import wmr_mission
+
+    for module in pkgutil.walk_packages(wmr_mission.__path__, "wmr_mission."):
+        if not module.name.endswith("__main__"):
+            importlib.import_module(module.name)
+    declaring = {
+        str(Path(sys.modules[k.__module__].__file__ or "").relative_to(kernel_cache.PACKAGE))
+        for k in jit._state.kernels
+        if k.__module__.startswith("wmr_mission.")
+    }
+    assert declaring
+    assert declaring <= set(kernel_cache.KERNEL_MODULES)
 
 
 def test_the_plain_form_of_a_kernel_calls_no_compiled_code() -> None:
-    plain = _jit.plain(loop.record_sample)
+    plain = jit.plain(loop.record_sample)
     called = plain.__globals__["max_row_value"]
     assert not hasattr(called, "py_func")
     assert not hasattr(called.__globals__["row_value"], "py_func")
     # A row outside case 2's ellipse, written compiled and as plain Python.
-    mission = compile_mission(load_mission(MISSIONS / "case2.yaml"))
+    mission = plan_mission(load_mission(MISSIONS / "case2.yaml"))
     estimate = np.array([5.2, 1.0, 0.3])
-    phase = runner.ActivePhase(mission.phases[-1], mission, 2).enter(7, estimate)
+    phase = runner.PhaseRun(mission.phases[-1], mission, 2).enter(7, estimate)
     rows = []
-    for write in (loop.record_sample, plain):
+    for write in (jit.compiled(loop.record_sample), plain):
         record = runner.Recorder(4).record
         write(record, phase, 0.07, 5.3, 1.1, 0.2, estimate, np.ones(2), np.nan, np.nan, 3, estimate)
         rows.append(record.floats[0].copy())
@@ -299,14 +316,14 @@ def test_the_loop_is_compiled_counted_where_numba_lacks_the_option(
     (reference counted) rather than failing at its first call."""
     from numba.core import cpu
 
-    from wmr_mission import _jit
+    from wmr_mission.kernels import jit
 
     monkeypatch.delattr(cpu.CPUTargetOptions.__mro__[1], "_nrt")
 
     def steer(x: float) -> float:
         return 2.0 * x
 
-    compiled = _jit.uncounted(steer)
+    compiled = jit.compiled(steer, counted=False)
     assert compiled(1.5) == 3.0
     assert "_nrt" not in compiled.targetoptions  # type: ignore[attr-defined]
 
@@ -331,7 +348,7 @@ def test_the_background_compile_imports_the_installed_package(
     background_compile._start()
     monkeypatch.undo()  # the probe below starts a real process
     (command,) = started
-    assert command[-2:] == ["-m", "wmr_mission.background_compile"]
+    assert command[-2:] == ["-m", "wmr_mission.commands.background_compile"]
     impostor = tmp_path / "wmr_mission"
     impostor.mkdir()
     (impostor / "__init__.py").write_text("")
@@ -340,5 +357,5 @@ def test_the_background_compile_imports_the_installed_package(
     assert found.returncode == 0, found.stderr
     assert (
         Path(found.stdout.strip()).resolve()
-        == Path(background_compile.__file__).with_name("__init__.py").resolve()
+        == Path(background_compile.__file__).parent.with_name("__init__.py").resolve()
     )

@@ -23,10 +23,10 @@ import yaml
 from geometry import distance_to_ellipse
 from test_case_studies import read_trajectory, run
 
-from wmr_mission.compiled import compile_mission
 from wmr_mission.output.metrics import judge
-from wmr_mission.result import Outcome, RunResult
-from wmr_mission.runner import run_mission
+from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.sim.plan import plan_mission
+from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.models import Mission
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -125,7 +125,7 @@ def _run_past_validate(data: dict[str, Any]) -> tuple[dict[str, Any], RunResult]
     """Run a mission that passed its schema, whatever `validate` says of it."""
     context = {"parameters": data.get("parameters", {}), "regions": list(data.get("regions", {}))}
     mission = Mission.model_validate(data, context=context)
-    result = run_mission(compile_mission(mission, None))
+    result = run_mission(plan_mission(mission, None))
     return judge(result, mission.model_dump(mode="json")), result
 
 

@@ -16,19 +16,18 @@ from test_routes import share_covered
 from typer.testing import CliRunner
 
 from wmr_mission.cli import app
-from wmr_mission.constrained_tracking import (
+from wmr_mission.controllers.constrained_tracking import (
     constrained_change,
     keep_constraints,
     keep_reference,
     row_value_with_margin,
 )
-from wmr_mission.control import BEARING, input_jacobian_into, saturate, track_input
-from wmr_mission.corrective import corrective_input, row_value
-from wmr_mission.model import step
-from wmr_mission.params import Controller, Robot, scratch
-from wmr_mission.regions import constraint_rows
+from wmr_mission.controllers.paper import BEARING, PaperTuning, track_input
+from wmr_mission.geometry.regions import CircleRegion, constraint_rows
+from wmr_mission.kernels.corrective import corrective_input, row_value
+from wmr_mission.kernels.model import input_jacobian_into, saturate, step
+from wmr_mission.kernels.records import Plant, scratch
 from wmr_mission.spec.loader import load_mission
-from wmr_mission.spec.models import CircleRegion
 from wmr_mission.spec.repeats import run_order
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -141,8 +140,8 @@ def drive_through_pond(
     state, u, u_prev = np.array([0.0, 0.0, 0.0]), np.zeros(2), np.array([speed, 0.0])
     work = scratch()
     dt, look_ahead = 0.01, 0.05
-    controller = Controller(look_ahead, 0.0, np.ones(3), np.ones(2), W, M, BEARING, 0.01, False)
-    robot = Robot(dt, LIMITS)
+    controller = PaperTuning(look_ahead, 0.0, np.ones(3), np.ones(2), W, M, BEARING, 0.01, False)
+    robot = Plant(dt, LIMITS)
     positions = []
     for k in range(round(seconds / dt)):
         reference = np.array([speed * (k + 1) * dt, 0.0, 1.0, 0.0])
@@ -153,7 +152,7 @@ def drive_through_pond(
         if literal:
             literal_filter(state, u, kinds, params, dt)
         else:
-            keep_constraints(state, u_prev, kinds, params, controller, robot, work, u)
+            keep_constraints(state, u_prev, kinds, params, controller.look_ahead, robot, work, u)
         state[:] = step(state[0], state[1], state[2], u[0], u[1], dt)
         u_prev[:] = u
         positions.append(state[:2].copy())

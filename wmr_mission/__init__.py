@@ -16,7 +16,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from wmr_mission.version import __version__
 
 if TYPE_CHECKING:
     from wmr_mission.api import (
@@ -28,13 +28,13 @@ if TYPE_CHECKING:
         run_mission,
     )
     from wmr_mission.campaign.sweep import run_campaign
-    from wmr_mission.output.plots import (
+    from wmr_mission.output.figures import (
         plot_estimation_error,
         plot_inputs,
         plot_states,
         plot_xy,
     )
-    from wmr_mission.result import RunResult
+    from wmr_mission.output.result import RunResult
     from wmr_mission.spec.models import Mission
 
 # Lazy: `wmr-mission validate` and `--help` must not pay for numpy/scipy/matplotlib.
@@ -45,12 +45,12 @@ _WHERE = {
     "mission_from_dict": "wmr_mission.api",
     "mission_from_text": "wmr_mission.api",
     "run_mission": "wmr_mission.api",
-    "plot_xy": "wmr_mission.output.plots",
-    "plot_states": "wmr_mission.output.plots",
-    "plot_estimation_error": "wmr_mission.output.plots",
-    "plot_inputs": "wmr_mission.output.plots",
+    "plot_xy": "wmr_mission.output.figures",
+    "plot_states": "wmr_mission.output.figures",
+    "plot_estimation_error": "wmr_mission.output.figures",
+    "plot_inputs": "wmr_mission.output.figures",
     "run_campaign": "wmr_mission.campaign.sweep",
-    "RunResult": "wmr_mission.result",
+    "RunResult": "wmr_mission.output.result",
     "Mission": "wmr_mission.spec.models",
 }
 

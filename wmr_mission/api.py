@@ -8,6 +8,7 @@ each function at work.
 
 from __future__ import annotations
 
+import numbers
 import os
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
@@ -16,7 +17,7 @@ from wmr_mission.spec import loader
 from wmr_mission.spec.loader import MissionError, Override
 
 if TYPE_CHECKING:
-    from wmr_mission.result import RunResult
+    from wmr_mission.output.result import RunResult
     from wmr_mission.spec.models import Mission
 
 __all__ = [
@@ -30,9 +31,22 @@ __all__ = [
 
 
 def _overrides(overrides: Mapping[str, Any] | None) -> list[Override]:
-    """``{"robot.dt": 0.02}`` as overrides; a malformed path raises MissionError."""
+    """``{"robot.dt": 0.02}`` as overrides; a malformed path raises MissionError,
+    anything but a mapping of texts TypeError."""
+    if overrides is None:
+        return []
+    if not isinstance(overrides, Mapping):
+        raise TypeError(
+            "overrides is a mapping of dotted paths to values, e.g. {'robot.dt': 0.02}, "
+            f"got {type(overrides).__name__}"
+        )
     parsed = []
-    for dotted, value in (overrides or {}).items():
+    for dotted, value in overrides.items():
+        if not isinstance(dotted, str):
+            raise TypeError(
+                f"overrides: a path is a text such as 'robot.dt' or 'phases[1].timeout', "
+                f"got {dotted!r}"
+            )
         source = f"overrides[{dotted!r}]"
         try:
             parsed.append(Override(loader.parse_path(dotted), value, source))
@@ -55,6 +69,11 @@ def mission_from_text(
     text: str, overrides: Mapping[str, Any] | None = None, *, filename: str = "<text>"
 ) -> Mission:
     """The mission of a YAML text; messages give ``filename:LINE:COL``."""
+    if not isinstance(text, str):
+        raise TypeError(
+            f"mission_from_text takes the YAML text as a str, got {type(text).__name__}"
+            + (" (decode it, or give the file to load_mission)" if isinstance(text, bytes) else "")
+        )
     return loader.load_mission_text(text, filename, _overrides(overrides))
 
 
@@ -62,6 +81,11 @@ def mission_from_dict(
     data: Mapping[str, Any], overrides: Mapping[str, Any] | None = None
 ) -> Mission:
     """The mission of plain data (what ``yaml.safe_load`` of a mission file gives)."""
+    if not isinstance(data, Mapping):
+        raise TypeError(
+            f"mission_from_dict takes a mapping (version, name, ..., phases), "
+            f"got {type(data).__name__}"
+        )
     return loader.load_mission_data(dict(data), "<dict>", _overrides(overrides))
 
 
@@ -72,7 +96,7 @@ def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
     :class:`MissionError` when the mission is invalid (e.g. a copy made with
     ``model_copy(update=...)``, which pydantic does not validate).
     """
-    from wmr_mission.runner import run_mission as simulate
+    from wmr_mission.sim.runner import run_mission as simulate
     from wmr_mission.spec.models import Mission
 
     if not isinstance(mission, Mission):
@@ -80,7 +104,20 @@ def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
             f"run_mission takes a Mission (from load_mission, mission_from_text or "
             f"mission_from_dict), got {type(mission).__name__}"
         )
-    return simulate(mission, seed=seed)
+    return simulate(mission, seed=None if seed is None else _checked_seed(seed))
+
+
+def _checked_seed(seed: object) -> int:
+    """A sensor seed is an integer in 0 .. 2^32 - 1, as ``--seed`` and ``sensors.seed``
+    take it: TypeError or ValueError otherwise."""
+    from wmr_mission.fields import LARGEST_SEED
+
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral):
+        raise TypeError(f"seed is an integer in 0 .. {LARGEST_SEED}, got {seed!r}")
+    value = int(seed)
+    if not 0 <= value <= LARGEST_SEED:
+        raise ValueError(f"seed is an integer in 0 .. {LARGEST_SEED}, got {value}")
+    return value
 
 
 def load_run(run_dir: str | os.PathLike[str]) -> RunResult:

@@ -1,4 +1,4 @@
-"""Command line: ``wmr-mission run|sweep|validate|schema|plot|bench``, ``--version``.
+"""Command line: ``wmr-mission run|sweep|validate|schema|plot|view|export|bench``, ``--version``.
 
 Thin by design: each command parses its flags and calls one function of the
 package. Imports are lazy so that ``validate`` and ``--help`` start fast and
@@ -61,7 +61,7 @@ MAX_REPEAT = 100
 
 def _version(value: bool) -> None:
     if value:
-        from wmr_mission import __version__
+        from wmr_mission.version import __version__
 
         print(f"wmr-mission {__version__}")
         raise typer.Exit(0)
@@ -158,7 +158,7 @@ def run(
     ] = None,
 ) -> None:
     """Simulate MISSION and write trajectory, metrics and plots to a run directory."""
-    from wmr_mission.run_command import run_command
+    from wmr_mission.commands.run import run_command
 
     raise typer.Exit(
         run_command(
@@ -250,7 +250,7 @@ def validate(
     ] = OutputFormat.text,
 ) -> None:
     """Check mission and campaign files without running them (exit 0 all valid, 1 any invalid)."""
-    from wmr_mission.spec.validate import validate_files
+    from wmr_mission.commands.validate import validate_files
 
     raise typer.Exit(validate_files(files, fmt=format.value))
 
@@ -262,7 +262,7 @@ def schema(
     ] = False,
 ) -> None:
     """Print the mission JSON Schema (for editors: wmr-mission schema > mission.schema.json)."""
-    from wmr_mission.spec.schema import campaign_schema_text, schema_text
+    from wmr_mission.commands.schema import campaign_schema_text, schema_text
 
     sys.stdout.write(campaign_schema_text() if campaign else schema_text())
 
@@ -276,9 +276,65 @@ def plot(
     format: FigureFormats = None,
 ) -> None:
     """Re-draw the figures of RUN_DIR from its saved data."""
-    from wmr_mission.output.plots import replot_command
+    from wmr_mission.commands.plot import replot_command
 
     raise typer.Exit(replot_command(run_dir, _formats(format)))
+
+
+OutputDirectory = Annotated[
+    Path,
+    typer.Argument(
+        exists=True,
+        file_okay=False,
+        metavar="DIR",
+        help="A run directory or a campaign directory.",
+    ),
+]
+
+
+@command
+def view(
+    directory: OutputDirectory,
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", metavar="FILE", help="The HTML report (default: DIR/report.html)."),
+    ] = None,
+) -> None:
+    """Write a self-contained HTML report of DIR that opens offline; print its path."""
+    from wmr_mission.review.view import view_command
+
+    raise typer.Exit(view_command(directory, out))
+
+
+class ExportFormat(StrEnum):
+    mcap = "mcap"
+    parquet = "parquet"
+
+
+@command
+def export(
+    directory: OutputDirectory,
+    format: Annotated[
+        ExportFormat,
+        typer.Option(
+            "--format",
+            metavar="FORMAT",
+            help="mcap (a run, for Foxglove) or parquet (trajectory.csv or runs.csv).",
+        ),
+    ],
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            metavar="PATH",
+            help="The file (default: DIR/run.mcap, DIR/trajectory.parquet or DIR/runs.parquet).",
+        ),
+    ] = None,
+) -> None:
+    """Write DIR's data as MCAP or Parquet (the export extra); print the file's path."""
+    from wmr_mission.review.export import export_command
+
+    raise typer.Exit(export_command(directory, format.value, out))
 
 
 @command
@@ -292,7 +348,7 @@ def bench(
     ] = 3,
 ) -> None:
     """Time the estimator + controller step per sample against the reference step."""
-    from wmr_mission.bench import bench_command
+    from wmr_mission.commands.bench import bench_command
 
     raise typer.Exit(bench_command(mission, repeat=repeat))
 

@@ -6,7 +6,7 @@ parameters, ``+ - * / **``, parentheses and a fixed list of math functions. It
 never reaches ``eval``, ``exec``, ``compile`` or the import system. The parser
 emits a postfix program, so evaluation is a loop over functions applied to a
 whole array of times at once and never recurses, however long the expression.
-The transcendental functions and ``**`` are wmr_mission.scalar_math's, which
+The transcendental functions and ``**`` are wmr_mission.kernels.scalar_math's, which
 give the same bits on every CPU; arithmetic and the exact functions are numpy's.
 """
 
@@ -21,9 +21,10 @@ from dataclasses import dataclass
 from typing import Final
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from wmr_mission import scalar_math
+from wmr_mission.basics import FloatArray
+from wmr_mission.kernels import scalar_math
 
 __all__ = [
     "FUNCTIONS",
@@ -40,7 +41,6 @@ MAX_EXPRESSION_LENGTH: Final = 1000
 MAX_NESTING_DEPTH: Final = 50
 """Deepest accepted nesting of parentheses, calls, signs and powers."""
 
-FloatArray = NDArray[np.float64]
 _Function = Callable[..., FloatArray | float]
 _math = scalar_math.function_of
 

@@ -21,9 +21,11 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial import ConvexHull
 
 from wmr_mission import load_mission, run_mission
-from wmr_mission.output.plots import plot_xy
-from wmr_mission.paths import RouteTrajectory, instantiate
-from wmr_mission.spec.models import Mission, PathSpec
+from wmr_mission.geometry import paths
+from wmr_mission.geometry.paths import PathSpec
+from wmr_mission.geometry.routes import RouteTrajectory
+from wmr_mission.output.figures import plot_xy
+from wmr_mission.spec.models import Mission
 
 ROOT = Path(__file__).resolve().parents[2]
 IMAGES = ROOT / "docs" / "images"
@@ -43,7 +45,9 @@ MISSION = Mission.model_validate(
 
 
 def curve(spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    path = instantiate(TypeAdapter(PathSpec).validate_python(spec), MISSION, (0.0, 0.0, 0.0))
+    path = paths.trajectory(
+        TypeAdapter(PathSpec).validate_python(spec), MISSION.path_context(), (0.0, 0.0, 0.0)
+    )
     duration = path.period if isinstance(path, RouteTrajectory) else path.length / path.speed
     x, y, _, _ = path.sample(np.linspace(0.0, duration, 20001))
     return x, y
@@ -154,7 +158,9 @@ def path_types_figure() -> None:
     fig, axes = plt.subplots(3, 3, figsize=(11, 9.5))
     for ax, (spec, duration) in zip(axes.ravel(), EXAMPLES, strict=True):
         if duration > 0.0:
-            path = instantiate(TypeAdapter(PathSpec).validate_python(spec), MISSION, (0, 0, 0))
+            path = paths.trajectory(
+                TypeAdapter(PathSpec).validate_python(spec), MISSION.path_context(), (0, 0, 0)
+            )
             x, y, _, _ = path.sample(np.linspace(0.0, duration, 2001))
         else:
             x, y = curve(spec)

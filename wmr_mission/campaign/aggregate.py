@@ -17,7 +17,7 @@ from typing import Any, Final
 import numpy as np
 
 from wmr_mission.campaign.models import Axis
-from wmr_mission.campaign.runs import METRICS, Row
+from wmr_mission.campaign.rows import METRICS, Row
 
 __all__ = ["WORST_RUNS", "Aggregate", "clopper_pearson"]
 

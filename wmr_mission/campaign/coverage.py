@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from wmr_mission._jit import kernel
+from wmr_mission.kernels import jit
+from wmr_mission.kernels.jit import kernel
 
 __all__ = ["runs_per_pixel"]
 
@@ -79,5 +80,5 @@ def runs_per_pixel(
     ys = (points[1] - y0) * (rows / (y1 - y0))
     starts = np.concatenate([[0], np.cumsum([p.shape[1] for p in paths])]).astype(np.int64)
     last_run = np.full(shape, -1, dtype=np.int64)
-    _count_runs(xs, ys, starts, counts, last_run)
+    jit.compiled(_count_runs)(xs, ys, starts, counts, last_run)
     return counts

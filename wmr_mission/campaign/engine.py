@@ -10,34 +10,43 @@ memory stays flat however many runs a campaign has.
 
 from __future__ import annotations
 
+import asyncio
+import ctypes
+import logging
 import math
 import multiprocessing
 import os
 import signal
 import sys
-import threading
 import time
-from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections.abc import Callable, Generator, Iterator
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
+from contextlib import contextmanager
 from typing import Any, Final, Protocol
 
 from wmr_mission.campaign.load import LoadedCampaign
 from wmr_mission.campaign.plan import Plan
-from wmr_mission.campaign.runs import Row, run_row, run_rows
+from wmr_mission.campaign.rows import Row, run_row, run_rows
+from wmr_mission.stopping import StopSignals
 
 __all__ = [
+    "DASK_LOGS",
     "LAST_TASK_SECONDS",
     "TASK_SECONDS",
     "Interrupted",
     "MixedCluster",
+    "SchedulerLost",
     "SchedulerUnavailable",
-    "StopFlag",
     "check_cluster",
     "default_workers",
     "execute",
     "local_pool",
+    "one_line",
+    "reach_scheduler",
+    "silence",
     "task_size",
     "tasks",
+    "usable_workers",
     "warm_up",
 ]
 
@@ -54,9 +63,17 @@ _IN_FLIGHT_PER_WORKER: Final = 3
 
 _CONNECT_SECONDS: Final = 10
 
+# The libraries whose logs a Dask client writes to stderr.
+DASK_LOGS: Final = ("distributed", "tornado")
+
 
 class SchedulerUnavailable(RuntimeError):
-    """``--scheduler`` without Dask installed, or an address that does not answer."""
+    """``--scheduler`` without Dask installed, or an address where no Dask
+    scheduler answers: said before anything is written or run."""
+
+
+class SchedulerLost(RuntimeError):
+    """The Dask scheduler stopped answering during the runs."""
 
 
 class MixedCluster(SchedulerUnavailable):
@@ -73,6 +90,22 @@ class _Executor(Protocol):
 
 def default_workers() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def usable_workers(requested: int | None) -> int:
+    """Local worker processes for ``requested`` (None: every core), at most one
+    per core this process may use: runs are pure computation, so another
+    process would only wait for a core, at the cost of a fork and its memory.
+
+    Raises TypeError or ValueError for anything but a positive integer.
+    """
+    if requested is None:
+        return default_workers()
+    if isinstance(requested, bool) or not isinstance(requested, int):
+        raise TypeError(f"workers is a positive integer or None, got {requested!r}")
+    if requested < 1:
+        raise ValueError(f"workers is a positive integer or None, got {requested}")
+    return min(requested, default_workers())
 
 
 def warm_up(loaded: LoadedCampaign) -> float:
@@ -108,32 +141,20 @@ def tasks(seconds_per_run: float, runs: int, workers: int) -> list[range]:
     return bounds
 
 
-def _ignore_interrupt() -> None:
-    # Ctrl-C reaches the whole process group: the parent alone handles it.
+def _start_worker(parent: int) -> None:
+    """A pool worker: Ctrl-C, which reaches the whole process group, is the
+    parent's to handle; SIGTERM ends it (it inherits the parent's handlers);
+    and it dies with its parent, however the parent ends (even by SIGKILL)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+    if os.getppid() != parent:  # the parent ended before the line above
+        os._exit(1)
 
 
-class StopFlag:
-    """Ctrl-C, caught: set on SIGINT while active, so the campaign stops between
-    tasks and keeps every finished run. A second Ctrl-C interrupts at once."""
-
-    def __init__(self) -> None:
-        self.stopped = False
-        self._previous: Any = None
-
-    def __enter__(self) -> StopFlag:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._on_interrupt)
-        return self
-
-    def __exit__(self, *_: object) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-
-    def _on_interrupt(self, signum: int, frame: Any) -> None:
-        if self.stopped:
-            raise KeyboardInterrupt
-        self.stopped = True
+_PR_SET_PDEATHSIG: Final = 1
 
 
 def execute(
@@ -142,9 +163,9 @@ def execute(
     workers: int,
     scheduler: str | None,
     seconds_per_run: float,
-    stop: StopFlag,
+    stop: StopSignals,
     allow_mixed_cluster: bool = False,
-) -> Iterator[list[Row]]:
+) -> Generator[list[Row], None, None]:
     """The rows of every run, task by task, in run order.
 
     Once ``stop`` is set, the tasks already running finish, their rows are
@@ -166,12 +187,86 @@ def execute(
         yield from _in_order(pool, _wait_local, loaded, batches, workers, stop)
 
 
-def local_pool(workers: int) -> ProcessPoolExecutor:
+@contextmanager
+def local_pool(workers: int, *, writes: bool = False) -> Iterator[ProcessPoolExecutor]:
     """Worker processes forked from this one where the system can (they find the
-    kernels loaded), which leave Ctrl-C to it."""
+    kernels loaded), which leave Ctrl-C to it; however this process ends, none
+    outlives it. Left by an exception (a second Ctrl-C, a fault), the tasks not
+    started are dropped and those under way stopped at once, unless they
+    ``write`` files: those finish, so that no temporary file is left."""
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-    return ProcessPoolExecutor(workers, mp_context=context, initializer=_ignore_interrupt)
+    pool = ProcessPoolExecutor(
+        workers, mp_context=context, initializer=_start_worker, initargs=(os.getpid(),)
+    )
+    try:
+        yield pool
+    except BaseException:
+        if not writes:
+            for process in list((pool._processes or {}).values()):
+                process.terminate()
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def reach_scheduler(address: str) -> None:
+    """Raise :class:`SchedulerUnavailable`, in one line, unless a Dask scheduler
+    answers at ``address`` within _CONNECT_SECONDS.
+
+    Asked before anything is written: distributed's client waits forever for a
+    server that accepts and never answers (its handshake has no time limit),
+    and reads an HTTP server's reply as the length of a message.
+    """
+    try:
+        from distributed.comm.core import connect
+        from distributed.security import Security
+    except ImportError:
+        raise SchedulerUnavailable(
+            "--scheduler needs Dask distributed: pip install 'wmr-mission[dask]'"
+        ) from None
+
+    async def identity() -> Any:
+        arguments = Security().get_connection_args("client")  # type: ignore[no-untyped-call]
+        comm = await connect(address, timeout=_CONNECT_SECONDS, **arguments)  # type: ignore[no-untyped-call]
+        try:
+            await comm.write({"op": "identity"})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def ask() -> Any:
+        return asyncio.run(asyncio.wait_for(identity(), _CONNECT_SECONDS))
+
+    where = f"cannot use the Dask scheduler {address}"
+    # In a thread of its own: the caller may be running an event loop (a notebook).
+    with ThreadPoolExecutor(1) as thread:
+        try:
+            reply = thread.submit(ask).result()
+        except TimeoutError:
+            raise SchedulerUnavailable(
+                f"{where}: no answer within {_CONNECT_SECONDS:g} s "
+                "(the address `dask scheduler` prints, e.g. tcp://host:8786)"
+            ) from None
+        except Exception as error:
+            if address.startswith("tls://") and isinstance(error, TypeError):
+                reason = (
+                    "tls:// needs certificates in dask's configuration "
+                    "(distributed.comm.tls: ca-file, client.cert, client.key)"
+                )
+            elif isinstance(error, OSError | ValueError):  # refused, or not an address
+                reason = one_line(error)
+            else:  # a server of another kind: its reply read as a message's length...
+                reason = f"it answers, but not as a Dask scheduler ({type(error).__name__})"
+            raise SchedulerUnavailable(f"{where}: {reason}") from None
+    if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
+        raise SchedulerUnavailable(f"{where}: it answers, but not as a Dask scheduler")
+
+
+def one_line(error: BaseException) -> str:
+    """An exception in one line: its type and its message's first line."""
+    lines = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {lines[0]}" if lines else type(error).__name__
 
 
 def _on_dask(
@@ -179,7 +274,7 @@ def _on_dask(
     scheduler: str,
     seconds_per_run: float,
     runs: int,
-    stop: StopFlag,
+    stop: StopSignals,
     allow_mixed_cluster: bool,
 ) -> Iterator[list[Row]]:
     try:
@@ -188,17 +283,53 @@ def _on_dask(
         raise SchedulerUnavailable(
             "--scheduler needs Dask distributed: pip install 'wmr-mission[dask]'"
         ) from None
+    restore = silence(*DASK_LOGS)
     try:
-        client: Any = Client(scheduler, timeout=_CONNECT_SECONDS)  # type: ignore[no-untyped-call]
-    except (OSError, ValueError, TimeoutError) as error:
-        raise SchedulerUnavailable(
-            f"cannot reach the Dask scheduler {scheduler}: {error}"
-        ) from None
-    with client:
-        check_cluster(client, allow_mixed_cluster)
-        workers = max(1, sum(client.nthreads().values()))
-        batches = tasks(seconds_per_run, runs, workers)
-        yield from _in_order(_DaskPool(client), _wait_dask, loaded, batches, workers, stop)
+        try:
+            client: Any = Client(scheduler, timeout=_CONNECT_SECONDS)  # type: ignore[no-untyped-call]
+        except Exception as error:
+            raise SchedulerUnavailable(
+                f"cannot use the Dask scheduler {scheduler}: {one_line(error)}"
+            ) from None
+        with client:
+            check_cluster(client, allow_mixed_cluster)
+            workers = max(1, sum(client.nthreads().values()))
+            batches = tasks(seconds_per_run, runs, workers)
+            try:
+                yield from _in_order(_DaskPool(client), _wait_dask, loaded, batches, workers, stop)
+            except Interrupted:
+                raise
+            except Exception as error:
+                if client.status != "running":
+                    raise SchedulerLost(f"lost the Dask scheduler {scheduler}") from error
+                raise
+    finally:
+        restore()
+
+
+def silence(*names: str) -> Callable[[], None]:
+    """Drop the log records of the libraries ``names``; return what restores them.
+
+    A scheduler that dies makes distributed log dozens of lines of tracebacks,
+    some of them while the client closes, after the campaign has said in one
+    line what happened: the command line keeps them dropped to its end.
+    """
+    loggers = [
+        logging.getLogger(key)
+        for key in list(logging.root.manager.loggerDict)
+        if any(key == name or key.startswith(f"{name}.") for name in names)
+    ]
+    loggers += [logging.getLogger(name) for name in names]
+    kept = [(logger, logger.handlers[:], logger.propagate) for logger in loggers]
+    for logger in loggers:
+        logger.handlers = [logging.NullHandler()]  # none at all: logging's last resort
+        logger.propagate = False
+
+    def restore() -> None:
+        for logger, handlers, propagate in kept:
+            logger.handlers, logger.propagate = handlers, propagate
+
+    return restore
 
 
 def check_cluster(client: Any, allow_mixed_cluster: bool) -> None:
@@ -206,7 +337,7 @@ def check_cluster(client: Any, allow_mixed_cluster: bool) -> None:
     this process's (which simulates the worst runs again). Raises
     :class:`MixedCluster` naming what differs where, unless ``allow_mixed_cluster``,
     which says it in one line on stderr instead."""
-    from wmr_mission.environment import differences, machine_record
+    from wmr_mission.output.environment import differences, machine_record
 
     mine = machine_record()
     try:
@@ -273,7 +404,7 @@ def _in_order(
     loaded: LoadedCampaign,
     batches: list[range],
     workers: int,
-    stop: StopFlag,
+    stop: StopSignals,
 ) -> Iterator[list[Row]]:
     waiting = iter(range(len(batches)))
     pending: dict[Any, int] = {}  # future -> its task's index in ``batches``
@@ -308,6 +439,8 @@ def _in_order(
 def _ran_to_end(future: Any) -> bool:
     try:
         future.result()
-    except BaseException:
+    except (KeyboardInterrupt, SystemExit):  # a second signal: stop waiting
+        raise
+    except BaseException:  # failed or cancelled (Dask's cancellation is a BaseException)
         return False
     return True

@@ -11,8 +11,8 @@ import numpy as np
 
 from wmr_mission.campaign.aggregate import DRAWN_PATHS, Aggregate
 from wmr_mission.campaign.coverage import runs_per_pixel
-from wmr_mission.campaign.runs import METRICS
-from wmr_mission.output.plots import _new_figure, _region_extent, draw_regions, save_figure
+from wmr_mission.campaign.rows import METRICS
+from wmr_mission.output.figures import draw_regions, new_figure, region_extent, save_figure
 
 __all__ = ["draw_campaign"]
 
@@ -43,7 +43,7 @@ def draw_campaign(
 
 
 def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
-    fig = _new_figure((7.0, 5.5))
+    fig = new_figure((7.0, 5.5))
     ax = fig.add_subplot()
     paths = aggregate.drawn
     points = [p for _, p in paths if p.size] or [np.zeros((2, 1), dtype=np.float32)]
@@ -51,7 +51,7 @@ def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
     ys = np.concatenate([p[1] for p in points])
     finite = np.isfinite(xs) & np.isfinite(ys)
     xs, ys = xs[finite], ys[finite]
-    extents = [e for e in (_region_extent(r) for r in regions.values()) if e is not None]
+    extents = [e for e in (region_extent(r) for r in regions.values()) if e is not None]
     x0 = min([float(np.percentile(xs, 0.5)) if xs.size else -1.0] + [e[0] for e in extents])
     x1 = max([float(np.percentile(xs, 99.5)) if xs.size else 1.0] + [e[1] for e in extents])
     y0 = min([float(np.percentile(ys, 0.5)) if ys.size else -1.0] + [e[2] for e in extents])
@@ -103,7 +103,7 @@ def _shaded(counts: np.ndarray, colormap: str) -> np.ndarray:
 
 
 def _histograms(aggregate: Aggregate) -> Any:
-    fig = _new_figure((9.0, 2.6 * ((len(METRICS) + 1) // 2)))
+    fig = new_figure((9.0, 2.6 * ((len(METRICS) + 1) // 2)))
     for index, name in enumerate(METRICS):
         ax = fig.add_subplot((len(METRICS) + 1) // 2, 2, index + 1)
         values = np.asarray(aggregate.metric_values.get(name, []), dtype=float)
@@ -162,7 +162,7 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
     if not axes:
         return None
     ok = np.asarray(aggregate.success, dtype=float)
-    fig = _new_figure((7.0, 5.0))
+    fig = new_figure((7.0, 5.0))
     ax = fig.add_subplot()
     first = np.asarray(aggregate.axis_values[axes[0]], dtype=float)
     ex = _edges(aggregate, axes[0], first)

@@ -8,8 +8,10 @@ grid), so a value that breaks the mission is reported before anything runs.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -18,25 +20,26 @@ from typing import Any, Final
 from pydantic import ValidationError
 
 from wmr_mission.campaign.models import MAX_RUNS, Axis, Campaign
-from wmr_mission.spec.checks import Finding, check_across_fields
+from wmr_mission.spec.checks import DataPath, Finding, check_across_fields, read_by_sampling_checks
 from wmr_mission.spec.loader import (
     Diagnostic,
     Document,
     MissionError,
     Override,
-    _apply,
-    _context,
-    _diagnostic,
-    _resolve,
-    check_mission,
+    apply_override,
+    check_mission_bytes,
     check_mission_document,
     check_mission_text,
     decode_source,
+    diagnostic,
     internal_error,
     parse_path,
     read_document,
     read_source,
+    resolved_path,
     translate,
+    validation_context,
+    written_path,
 )
 from wmr_mission.spec.models import Mission
 
@@ -54,13 +57,25 @@ _SEED_PATH: Final = ("sensors", "seed")
 
 
 class LoadedCampaign:
-    """A checked campaign and the mission it varies, read once (text and document)."""
+    """A checked campaign and the mission it varies, each file read once: the
+    hashes are of the bytes checked and run, whatever happens to the files since."""
 
-    def __init__(self, campaign: Campaign, path: Path, mission_path: Path, mission_text: str):
+    def __init__(
+        self,
+        campaign: Campaign,
+        path: Path,
+        mission_path: Path,
+        mission_text: str,
+        *,
+        campaign_sha256: str,
+        mission_sha256: str,
+    ):
         self.campaign = campaign
         self.path = path
         self.mission_path = mission_path
         self.mission_text = mission_text
+        self.campaign_sha256 = campaign_sha256
+        self.mission_sha256 = mission_sha256
         # Read once here, not per run: reading the YAML costs more than checking it.
         document, findings = read_document(mission_text)
         if document is None or findings:
@@ -84,10 +99,12 @@ class LoadedCampaign:
         document = Document(
             data={key: _copy(value) if key in written else value for key, value in data.items()}
         )
-        if any(_apply(document, override) is not None for override in overrides):
+        if any(apply_override(document, override) is not None for override in overrides):
             return None
         try:
-            mission = Mission.model_validate(document.data, context=_context(document.data))
+            mission = Mission.model_validate(
+                document.data, context=validation_context(document.data)
+            )
         except ValidationError:
             return None
         if any(f.severity == "error" for f in check_across_fields(mission)):
@@ -122,40 +139,60 @@ def override(path: str, value: Any) -> Override:
 
 # Top-level keys of a campaign that a mission never has.
 _CAMPAIGN_KEYS: Final = ("mission", "runs", "vary")
+# One of them at the start of a line: how a campaign too large to read is told
+# from a mission (reading YAML costs about 5 s a megabyte).
+_CAMPAIGN_KEY_LINE: Final = re.compile(r"^(?:mission|runs|vary)[ \t]*:", re.MULTILINE)
+
+MAX_CAMPAIGN_BYTES: Final = 100_000
+"""Largest accepted campaign file (a mission may be ten times larger): room for
+an axis of 10 000 values, which `validate` checks in 0.23 s when they repeat
+one value and 1.4 s when all differ (`python benchmarks/measure.py checks`).
+A larger one is refused before it is read, which alone would take seconds."""
 
 
 def is_campaign_text(text: str) -> bool:
     """Whether a file is a campaign: a mapping with a top-level ``mission``,
     ``runs`` or ``vary`` key."""
-    document, _ = read_document(text)
-    data = document.data if document is not None else None
-    return isinstance(data, dict) and any(key in data for key in _CAMPAIGN_KEYS)
+    if len(text) > MAX_CAMPAIGN_BYTES:
+        return _CAMPAIGN_KEY_LINE.search(text) is not None
+    return _campaign_document(read_document(text)) is not None
 
 
-def _read(path: Path) -> tuple[str | None, list[Diagnostic]]:
-    raw, diagnostics = read_source(path)
-    if raw is None:
-        return None, diagnostics
-    return decode_source(raw, str(path))
+def _campaign_document(read: tuple[Document | None, list[Finding]]) -> Document | None:
+    data = read[0].data if read[0] is not None else None
+    if isinstance(data, dict) and any(key in data for key in _CAMPAIGN_KEYS):
+        return read[0]
+    return None
 
 
 def check_file(path: Path) -> list[Diagnostic]:
     """Every problem of a mission or campaign file."""
-    text, diagnostics = _read(path)
+    raw, diagnostics = read_source(path)
+    if raw is None:
+        return diagnostics
+    text, diagnostics = decode_source(raw, str(path))
     if text is None:
         return diagnostics
-    if is_campaign_text(text):
-        return _check(path, text)[1]
+    if len(raw) > MAX_CAMPAIGN_BYTES:
+        if is_campaign_text(text):
+            return _check(path, raw, text)[1]
+        return check_mission_text(text, str(path))[1]
+    read = read_document(text)  # once: a file of many values takes a while to read
+    if _campaign_document(read) is not None:
+        return _check(path, raw, text, read)[1]
     return check_mission_text(text, str(path))[1]
 
 
 def check_campaign(path: str | Path) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
     """Every problem of a campaign file, and the campaign if it has no error."""
     path = Path(path)
-    text, diagnostics = _read(path)
+    raw, diagnostics = read_source(path)
+    if raw is None:
+        return None, diagnostics
+    text, diagnostics = decode_source(raw, str(path))
     if text is None:
         return None, diagnostics
-    return _check(path, text)
+    return _check(path, raw, text)
 
 
 def load_campaign(path: str | Path) -> LoadedCampaign:
@@ -166,12 +203,24 @@ def load_campaign(path: str | Path) -> LoadedCampaign:
     return loaded
 
 
-def _check(path: Path, text: str) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
+def _check(
+    path: Path,
+    raw: bytes,
+    text: str,
+    read: tuple[Document | None, list[Finding]] | None = None,
+) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
     filename = str(path)
+    if len(raw) > MAX_CAMPAIGN_BYTES:
+        message = (
+            f"campaign file too large: more than {MAX_CAMPAIGN_BYTES} bytes; a campaign names "
+            "its mission and the values of a few fields (draw many values with uniform or "
+            "normal, or split the campaign)"
+        )
+        return None, [Diagnostic(filename, 1, 1, message)]
     try:
-        document, findings = read_document(text)
+        document, findings = read if read is not None else read_document(text)
         if document is None:
-            return None, [_diagnostic(filename, None, f) for f in findings]
+            return None, [diagnostic(filename, None, f) for f in findings]
         campaign: Campaign | None = None
         if not isinstance(document.data, dict):
             findings.append(
@@ -184,12 +233,13 @@ def _check(path: Path, text: str) -> tuple[LoadedCampaign | None, list[Diagnosti
                 for item in error.errors(include_url=False):
                     if item["type"] == "none_required":  # an optional key: absent is its None
                         continue
-                    if not _under(_resolve(item["loc"], document.data), document.refused):
+                    if not _under(written_path(item["loc"], document.data), document.refused):
                         findings.append(_of_campaign(translate(item, document, Campaign)))
-        diagnostics = [_diagnostic(filename, document, f) for f in findings]
+        diagnostics = [diagnostic(filename, document, f) for f in findings]
         if campaign is None or diagnostics:
             return None, _sorted(diagnostics)
-        loaded, more = _check_against_mission(path, campaign, document.keys)
+        campaign_sha256 = hashlib.sha256(raw).hexdigest()
+        loaded, more = _check_against_mission(path, campaign, document.keys, campaign_sha256)
         return loaded, _sorted(more)
     except Exception as error:  # last resort: bad input must never show a traceback
         return None, [internal_error(filename, error)]
@@ -210,7 +260,10 @@ def _sorted(diagnostics: Sequence[Diagnostic]) -> list[Diagnostic]:
 
 
 def _check_against_mission(
-    path: Path, campaign: Campaign, keys: dict[tuple[str | int, ...], tuple[int, int]]
+    path: Path,
+    campaign: Campaign,
+    keys: dict[tuple[str | int, ...], tuple[int, int]],
+    campaign_sha256: str,
 ) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
     filename = str(path)
 
@@ -229,45 +282,71 @@ def _check_against_mission(
     mission_path = Path(os.path.normpath(path.parent / campaign.mission))
     if not mission_path.is_file():
         return None, [at(("mission",), f"mission file {str(mission_path)!r} does not exist")]
-    mission, mission_diagnostics = check_mission(mission_path)
-    if mission is None:
+    # Read once: the text checked is the text every run and worst run runs, and
+    # the one hashed into the manifests, whatever happens to the file since.
+    raw, mission_diagnostics = read_source(mission_path)
+    mission = None
+    if raw is not None:
+        mission, mission_diagnostics = check_mission_bytes(raw, str(mission_path))
+    if mission is None or raw is None:
         errors = sum(d.severity == "error" for d in mission_diagnostics)
         count = f"{errors} error{'s' if errors != 1 else ''}"
         return None, [
             at(("mission",), f"mission {str(mission_path)!r} is invalid: {count}, listed with it"),
             *mission_diagnostics,
         ]
-    loaded = LoadedCampaign(campaign, path, mission_path, mission_path.read_text(encoding="utf-8"))
+    loaded = LoadedCampaign(
+        campaign,
+        path,
+        mission_path,
+        raw.decode("utf-8"),
+        campaign_sha256=campaign_sha256,
+        mission_sha256=hashlib.sha256(raw).hexdigest(),
+    )
     problems = [
         at(("vary", name), problem)
         for name, axis in campaign.vary.items()
         for problem in _axis_problems(name, axis, loaded)
     ]
-    problems += [at(("vary", inner), problem) for inner, problem in _overlaps(list(campaign.vary))]
+    data = loaded.mission_document.data
+    problems += [
+        at(("vary", name), problem) for name, problem in _overlaps(list(campaign.vary), data)
+    ]
     if problems:
         return None, problems
     return loaded, []
 
 
-def _overlaps(names: list[str]) -> list[tuple[str, str]]:
-    """Varied paths inside another varied path: each run would write one value
-    into the other (into the value a choice or grid shares between runs)."""
-    parsed = {}
+def _overlaps(names: list[str], mission: Any) -> list[tuple[str, str]]:
+    """Varied paths that are one field, or inside another varied path: each run
+    would write one value over the other (into the value a choice or grid
+    shares between runs). Paths are compared as they land in the mission: a
+    phase by its name or its index is one phase."""
+    landed = {}
     for name in names:
         try:
-            parsed[name] = parse_path(name)
+            landed[name] = resolved_path(mission, parse_path(name))
         except ValueError:  # said by its axis's own check
             continue
-    return [
+    first: dict[DataPath, str] = {}
+    found = []
+    for name, path in landed.items():
+        if path in first:  # said at the second
+            message = f"vary {name!r} is the same field as {first[path]!r}; vary it once"
+            found.append((name, message))
+        else:
+            first[path] = name
+    found += [
         (
             inner,
             f"vary {inner!r} lies inside {outer!r}, also varied; "
             f"vary either {outer!r} or the fields inside it",
         )
-        for inner, inner_path in parsed.items()
-        for outer, outer_path in parsed.items()
+        for inner, inner_path in landed.items()
+        for outer_path, outer in first.items()
         if len(outer_path) < len(inner_path) and inner_path[: len(outer_path)] == outer_path
     ]
+    return found
 
 
 def _axis_problems(name: str, axis: Axis, loaded: LoadedCampaign) -> list[str]:
@@ -281,13 +360,32 @@ def _axis_problems(name: str, axis: Axis, loaded: LoadedCampaign) -> list[str]:
             "vary 'sensors.seed': each run's sensor seed is drawn from the campaign's seed; "
             "vary the campaign's seed instead"
         ]
+    checked = set()
     for value in axis.extremes():
+        text = value_text(value)
+        if text in checked:  # a value repeated in a choice: one check
+            continue
+        checked.add(text)
+        if _accepted_without_sampling(name, value, loaded):
+            continue
         _, diagnostics = loaded.mission_with([override(name, value)])
         errors = [d for d in diagnostics if d.severity == "error"]
         if errors:
             reasons = "; ".join(_reason(d) for d in errors)
-            return [f"vary {name!r} ({axis.kind}) at {value_text(value)}: {reasons}"]
+            return [f"vary {name!r} ({axis.kind}) at {text}: {reasons}"]
     return []
+
+
+def _accepted_without_sampling(name: str, value: Any, loaded: LoadedCampaign) -> bool:
+    """Whether the mission accepts ``value`` at ``name`` by its fields and the
+    checks across them, where ``name`` is a field the checks that sample paths
+    and regions never read: they then say of it what they said of the mission
+    (nothing), at a tenth of the cost of checking it whole."""
+    try:
+        mission = loaded.mission_across_fields([override(name, value)])
+        return mission is not None and not read_by_sampling_checks(name, mission)
+    except Exception:  # the whole check says what is wrong, at the axis
+        return False
 
 
 def _reason(diagnostic: Diagnostic) -> str:

@@ -12,6 +12,7 @@ from typing import Annotated, Any, Final, Literal
 from pydantic import BaseModel, ConfigDict, Field, Strict, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
+from wmr_mission.fields import LARGEST_SEED
 from wmr_mission.spec.models import MISSION_NAME
 
 __all__ = ["DISTRIBUTIONS", "MAX_RUNS", "Axis", "Campaign", "CampaignExpect", "SuccessRate"]
@@ -135,7 +136,7 @@ class Campaign(_Model):
     runs: Annotated[int, Strict(), Field(ge=1, le=MAX_RUNS)] = Field(
         description="Random draws; per grid cell when there are grid axes."
     )
-    seed: Annotated[int, Strict(), Field(ge=0, le=2**32 - 1)] = Field(
+    seed: Annotated[int, Strict(), Field(ge=0, le=LARGEST_SEED)] = Field(
         default=0,
         description="Root seed: run i draws its values and its sensor seed from "
         "SeedSequence(seed).spawn(...)[i].",

@@ -1,18 +1,27 @@
 """``wmr-mission sweep`` and :func:`run_campaign`: run a campaign, write its outputs.
 
-Outputs (DESIGN "Campaigns"): ``runs.csv`` streamed row by row in run order,
-``campaign.json`` (statistics, worst runs and their replay commands,
+Outputs (DESIGN "Campaigns"): ``runs.csv`` written as tasks finish, in run
+order, ``campaign.json`` (statistics, worst runs and their replay commands,
 throughput), ``manifest.json``, ``worst/RUN/`` run directories (re-simulated
 at the end) and the figures.
+
+What stops a campaign early never loses a finished run (docs/reliability.md,
+"Campaigns"): a signal (SIGINT, SIGTERM) stops it between two tasks, a write
+that fails (a full disk) stops it at the last complete row, and either way
+``runs.csv`` holds every finished run and ``campaign.json`` says why it
+stopped. A campaign stopped before its first run leaves nothing behind, so
+that the same ``--out`` can be used again.
 """
 
 from __future__ import annotations
 
 import csv
-import hashlib
+import io
 import math
+import os
 import sys
 import time
+from contextlib import closing
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -20,29 +29,34 @@ from typing import IO, Any, Final
 
 from wmr_mission.campaign.aggregate import Aggregate
 from wmr_mission.campaign.engine import (
+    DASK_LOGS,
     Interrupted,
+    SchedulerLost,
     SchedulerUnavailable,
-    StopFlag,
-    default_workers,
     execute,
     local_pool,
+    one_line,
+    reach_scheduler,
+    silence,
+    usable_workers,
     warm_up,
 )
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
 from wmr_mission.campaign.plan import Plan
-from wmr_mission.campaign.runs import Row, header, replay_command, simulate
-from wmr_mission.environment import environment
+from wmr_mission.campaign.rows import Row, header, replay_command, simulate
+from wmr_mission.output.environment import environment, package_versions
+from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
+    CLAIM_FILE,
     RunDirExistsError,
     default_run_dir,
-    json_text,
     loop_build,
-    package_versions,
     prepare_run_dir,
-    write_bytes_atomic,
+    release_run_dir,
     write_run,
 )
+from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
 
@@ -50,7 +64,8 @@ RUNS_FILE: Final = "runs.csv"
 CAMPAIGN_FILE: Final = "campaign.json"
 MANIFEST_FILE: Final = "manifest.json"
 WORST_DIR: Final = "worst"
-INTERRUPTED_EXIT: Final = 130  # as a shell reports a command stopped by Ctrl-C
+EXIT_FAILED: Final = 1  # an invalid file, an expect not met, a worker lost, a fault in drawing
+EXIT_OUTPUT: Final = 2  # a usage error: an unusable --out or scheduler, a write that fails
 INTERRUPTED_NOTICE: Final = "interrupted: stopping; the finished runs are kept"
 LOAD_EARLY_AFTER_SECONDS: Final = 2.0
 """Runs that last longer on the workers (estimated) have matplotlib loaded, for
@@ -76,133 +91,333 @@ def _runs_detail(aggregate: Aggregate, total: int, started: float) -> str:
     return f"{done}/{total} runs, success {rate:.1%}, {left:.0f} s left"
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+class _RunsFile:
+    """``runs.csv``, written as the tasks finish: each task's rows in one piece,
+    and a piece that cannot be written whole (a full disk) taken back, so that
+    the file never ends inside a row. It stays open to the end: a file removed
+    during the sweep (with its directory) is written again from it."""
+
+    def __init__(self, path: Path, columns: list[str]) -> None:
+        self.path = path
+        self.size = 0
+        self._fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
+        try:
+            self.append([columns])
+        except BaseException:
+            os.close(self._fd)
+            raise
+
+    def append(self, lines: list[list[str]]) -> None:
+        text = io.StringIO()
+        csv.writer(text, lineterminator="\n").writerows(lines)
+        # A file name that is not UTF-8 (in a reason) is written escaped.
+        data = memoryview(text.getvalue().encode("utf-8", "backslashreplace"))
+        try:
+            while data:
+                data = data[os.write(self._fd, data) :]
+        except OSError as error:
+            os.ftruncate(self._fd, self.size)  # back to the last complete row
+            os.lseek(self._fd, self.size, os.SEEK_SET)
+            raise OSError(error.errno, error.strerror, str(self.path)) from error
+        self.size = os.lseek(self._fd, 0, os.SEEK_CUR)
+
+    def finish(self) -> bool:
+        """Sync the file; when it was removed meanwhile, write it again (and its
+        directory); return whether it was."""
+        os.fsync(self._fd)
+        if os.fstat(self._fd).st_nlink > 0:
+            return False
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(self.path) as tmp, tmp.open("wb") as out:
+            offset = 0
+            while offset < self.size:
+                piece = os.pread(self._fd, 1 << 20, offset)
+                out.write(piece)
+                offset += len(piece)
+        return True
+
+    def close(self) -> None:
+        os.close(self._fd)
+
+
+@dataclass
+class _Fault:
+    """What could not be written or drawn: one line for stderr, an exit code,
+    and the exception, which :func:`run_campaign` raises."""
+
+    message: str
+    code: int
+    error: BaseException
+
+
+@dataclass
+class _Runs:
+    """What the runs gave, and why they stopped before the end (None: they did
+    not); ``interrupted``: by a signal (Ctrl-C, SIGTERM)."""
+
+    aggregate: Aggregate
+    stopped_by: str | None
+    interrupted: bool
+    fault: _Fault | None
+    startup_seconds: float
+    runs_seconds: float
 
 
 def _execute(
     loaded: LoadedCampaign,
     *,
+    runs_file: _RunsFile | None,
+    workers: int,
+    scheduler: str | None,
+    plots: bool,
+    progress: Steps,
+    keep_rows: list[dict[str, Any]] | None,
+    stop: StopSignals,
+    allow_mixed_cluster: bool,
+) -> _Runs:
+    """Run every run, each task's rows into ``runs_file`` (none when None).
+
+    A signal before the runs (during the warm-up) raises KeyboardInterrupt:
+    nothing was run. During them, the first one stops them between two tasks;
+    after them, signals are held (``stop.mode``) for the record to be written.
+    """
+    plan = Plan(loaded.campaign)
+    aggregate = Aggregate(dict(loaded.campaign.vary))
+    columns = header(plan.paths)
+    stopped_by: str | None = None
+    interrupted = False
+    fault: _Fault | None = None
+    started = time.perf_counter()
+    progress.step("starting")  # the kernels loaded, a run timed, the workers started
+    seconds_per_run = warm_up(loaded)
+    load_early = (
+        plots
+        and runs_file is not None
+        and scheduler is None
+        and workers > 1
+        and len(plan) * seconds_per_run / workers > LOAD_EARLY_AFTER_SECONDS
+    )
+    runs_started = time.perf_counter()
+    progress.step("runs", total=len(plan))
+    try:
+        stop.mode = GENTLE
+        with closing(
+            execute(
+                loaded,
+                workers=workers,
+                scheduler=scheduler,
+                seconds_per_run=seconds_per_run,
+                stop=stop,
+                allow_mixed_cluster=allow_mixed_cluster,
+            )
+        ) as batches:
+            for rows in batches:
+                if load_early:  # while the workers run: no core waits for it
+                    _load_matplotlib()
+                    load_early = False
+                if runs_file is not None:
+                    try:
+                        runs_file.append([row.cells() for row in rows])
+                    except OSError as error:  # the rows so far are kept; stop
+                        fault = _Fault(_cannot_write(error), EXIT_OUTPUT, error)
+                        break
+                _take(rows, aggregate, keep_rows, columns)
+                progress.update(aggregate.runs, _runs_detail(aggregate, len(plan), runs_started))
+    except (Interrupted, KeyboardInterrupt):  # a second signal stops at once
+        if not stop.stopped:  # else said as the signal came (stop.notify)
+            progress.say(INTERRUPTED_NOTICE)
+        interrupted = True
+    except SchedulerUnavailable:
+        raise
+    except SchedulerLost as error:  # keep what finished
+        stopped_by = str(error)
+    except Exception as error:  # a worker lost: keep what finished
+        stopped_by = one_line(error)
+    finally:
+        stop.mode = HOLD  # what ran is written whole, whatever signal comes
+    runs_seconds = time.perf_counter() - runs_started
+    if fault is not None:
+        stopped_by = fault.message
+    elif interrupted or stop.stopped:  # also a signal after the last task: the rest is left
+        interrupted = True
+        stopped_by = stop.name
+    return _Runs(aggregate, stopped_by, interrupted, fault, runs_started - started, runs_seconds)
+
+
+def _cannot_write(error: OSError) -> str:
+    return f"{error.filename}: cannot write: {error.strerror or error}"
+
+
+def _campaign(
+    loaded: LoadedCampaign,
+    *,
     out_dir: Path | None,
+    manifest: bytes,
     workers: int,
     scheduler: str | None,
     plots: bool,
     progress_stream: IO[str] | None,
     keep_rows: list[dict[str, Any]] | None,
+    stop: StopSignals,
     allow_mixed_cluster: bool = False,
-) -> dict[str, Any]:
-    """Run every run; write the outputs to ``out_dir`` (none when None); return
-    campaign.json. Its steps are shown on ``progress_stream`` if a terminal."""
+) -> _Ended:
+    """Run the campaign and write its directory (none when ``out_dir`` is None);
+    its steps are shown on ``progress_stream`` if a terminal."""
     progress = Steps(progress_stream)
+    stop.notify = lambda: progress.say(INTERRUPTED_NOTICE)
     try:
-        return _execute_steps(
-            loaded, out_dir, workers, scheduler, plots, keep_rows, progress, allow_mixed_cluster
-        )
+        return _campaign_steps(
+            loaded, out_dir, manifest, workers, scheduler, plots, progress, keep_rows, stop,
+            allow_mixed_cluster,
+        )  # fmt: skip
     finally:
+        stop.notify = None
         progress.close()
 
 
-def _execute_steps(
+def _campaign_steps(
     loaded: LoadedCampaign,
     out_dir: Path | None,
+    manifest: bytes,
     workers: int,
     scheduler: str | None,
     plots: bool,
-    keep_rows: list[dict[str, Any]] | None,
     progress: Steps,
+    keep_rows: list[dict[str, Any]] | None,
+    stop: StopSignals,
     allow_mixed_cluster: bool,
-) -> dict[str, Any]:
-    campaign = loaded.campaign
-    plan = Plan(campaign)
-    paths = plan.paths
-    aggregate = Aggregate(dict(campaign.vary))
-    columns = header(paths)
-    progress.step("starting")  # the kernels loaded, a run timed, the workers started
-    interrupted = False
-    stopped_by = "Ctrl-C"
-    csv_stream = None
-    if out_dir is not None:
-        csv_stream = (out_dir / RUNS_FILE).open("w", encoding="utf-8", newline="")
-    started = time.perf_counter()
+) -> _Ended:
+    plan = Plan(loaded.campaign)
+    runs_file = None if out_dir is None else _RunsFile(out_dir / RUNS_FILE, header(plan.paths))
     try:
-        writer = csv.writer(csv_stream, lineterminator="\n") if csv_stream is not None else None
-        if writer is not None:
-            writer.writerow(columns)
-        with StopFlag() as stop:
-            seconds_per_run = warm_up(loaded)
-            load_early = (
-                plots
-                and out_dir is not None
-                and scheduler is None
-                and workers > 1
-                and len(plan) * seconds_per_run / workers > LOAD_EARLY_AFTER_SECONDS
-            )
-            runs_started = time.perf_counter()
-            progress.step("runs", total=len(plan))
-            try:
-                for rows in execute(
-                    loaded,
-                    workers=workers,
-                    scheduler=scheduler,
-                    seconds_per_run=seconds_per_run,
-                    stop=stop,
-                    allow_mixed_cluster=allow_mixed_cluster,
-                ):
-                    if load_early:  # while the workers run: no core waits for it
-                        _load_matplotlib()
-                        load_early = False
-                    _take(rows, aggregate, writer, keep_rows, columns)
-                    if csv_stream is not None:
-                        csv_stream.flush()
-                    progress.update(
-                        aggregate.runs, _runs_detail(aggregate, len(plan), runs_started)
-                    )
-            except (Interrupted, KeyboardInterrupt):  # a second Ctrl-C stops at once
-                progress.say(INTERRUPTED_NOTICE)
-                interrupted = True
-            except SchedulerUnavailable:
-                raise
-            except Exception as error:  # a worker lost: keep what finished
-                interrupted = True
-                stopped_by = f"{type(error).__name__}: {error}"
-            runs_seconds = time.perf_counter() - runs_started
-    finally:
-        if csv_stream is not None:
-            csv_stream.close()
-    record = _record(loaded, aggregate, interrupted, runs_seconds, len(plan))
-    record["stopped_by"] = stopped_by if interrupted else None
-    record["startup_seconds"] = runs_started - started
-    record["workers"] = None if scheduler is not None else workers
-    record["scheduler"] = scheduler
-    if out_dir is not None:
-        progress.step("worst runs and figures" if plots else "worst runs")
-        # The statistics first: a Ctrl-C while the worst runs are drawn loses no number.
-        write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
         try:
-            _write_worst(
-                loaded, record, aggregate, out_dir, plots, workers if scheduler is None else 1
+            runs = _execute(
+                loaded,
+                runs_file=runs_file,
+                workers=workers,
+                scheduler=scheduler,
+                plots=plots,
+                progress=progress,
+                keep_rows=keep_rows,
+                stop=stop,
+                allow_mixed_cluster=allow_mixed_cluster,
             )
-        except KeyboardInterrupt:  # every run is in runs.csv; the worst runs' directories stop
-            progress.say(INTERRUPTED_NOTICE)
-            record["interrupted"] = True
-            record["stopped_by"] = "Ctrl-C"
-            write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
-    return record
+        except BaseException:  # before the first run (a signal while compiling, no
+            if runs_file is not None:  # scheduler): nothing to keep, a retry may use --out
+                runs_file.close()
+                runs_file = None
+            if out_dir is not None:
+                _discard(out_dir)
+            raise
+        record = _record(loaded, runs.aggregate, runs.stopped_by, runs.runs_seconds, len(plan))
+        record["startup_seconds"] = runs.startup_seconds
+        record["workers"] = None if scheduler is not None else workers
+        record["scheduler"] = scheduler
+        if out_dir is None or runs_file is None:
+            return _Ended(record, [], runs.fault, runs.interrupted)
+        notices: list[str] = []
+        try:  # signals held (stop.mode): the record of what ran is written whole
+            if runs_file.finish():
+                write_bytes_atomic(out_dir / MANIFEST_FILE, manifest)
+                notices.append(
+                    f"{out_dir}: removed during the sweep; written again, with its "
+                    f"{runs.aggregate.runs} runs"
+                )
+            _write_record(out_dir, record)
+        except OSError as error:
+            message = (
+                f"{error.filename or out_dir}: cannot write: {error.strerror or error}; "
+                f"runs.csv holds the {runs.aggregate.runs} runs done"
+            )
+            if runs.fault is not None:
+                message = f"{runs.fault.message}; {message}"
+            return _Ended(record, notices, _Fault(message, EXIT_OUTPUT, error), False)
+        if runs.fault is not None:
+            message = (
+                f"{runs.fault.message}; the campaign stopped after {runs.aggregate.runs} runs, "
+                f"which runs.csv and campaign.json hold"
+            )
+            return _Ended(record, notices, _Fault(message, EXIT_OUTPUT, runs.fault.error), False)
+        if runs.interrupted or stop.stopped:  # worst runs and figures are left: a stop is quick
+            if not record["interrupted"]:  # a signal while campaign.json was written
+                _stopped(record, stop, out_dir)
+            return _Ended(record, notices, None, True)
+        progress.step("worst runs and figures" if plots else "worst runs")
+        stop.mode = RAISE  # a signal stops the worst runs and the figures at once
+        fault = _worst_and_figures(loaded, record, runs.aggregate, out_dir, plots, workers, stop)
+        return _Ended(record, notices, fault, record["stopped_by"] == stop.name)
+    finally:
+        if runs_file is not None:
+            runs_file.close()
+        if out_dir is not None:
+            (out_dir / CLAIM_FILE).unlink(missing_ok=True)  # the record is written
+
+
+@dataclass
+class _Ended:
+    """How a campaign ended: campaign.json, notices for stderr, the fault that
+    stopped it (if one did), and whether a signal stopped it."""
+
+    record: dict[str, Any]
+    notices: list[str]
+    fault: _Fault | None
+    interrupted: bool
+
+
+def _write_record(out_dir: Path, record: dict[str, Any]) -> None:
+    write_bytes_atomic(out_dir / CAMPAIGN_FILE, json_text(record).encode("utf-8"))
+
+
+def _stopped(record: dict[str, Any], stop: StopSignals, out_dir: Path) -> None:
+    """Mark the record stopped by a signal that came after the runs, and write it."""
+    stop.mode = HOLD
+    record["interrupted"] = True
+    record["stopped_by"] = stop.name
+    _write_record(out_dir, record)
+
+
+def _worst_and_figures(
+    loaded: LoadedCampaign,
+    record: dict[str, Any],
+    aggregate: Aggregate,
+    out_dir: Path,
+    plots: bool,
+    workers: int,
+    stop: StopSignals,
+) -> _Fault | None:
+    """worst/ and the figures, after campaign.json: a fault here costs only them."""
+    kept = f"runs.csv and campaign.json are in {out_dir}"
+    try:
+        _write_worst(loaded, record, aggregate, out_dir, plots, workers)
+    except KeyboardInterrupt:  # every run is in runs.csv; the worst runs' directories stop
+        _stopped(record, stop, out_dir)
+    except OSError as error:
+        return _Fault(f"{_cannot_write(error)}; {kept}", EXIT_OUTPUT, error)
+    except Exception as error:  # a fault in drawing must not look like a lost campaign
+        message = (
+            f"{out_dir}: cannot write the worst runs or the figures ({one_line(error)}); "
+            f"{kept}; please report it"
+        )
+        return _Fault(message, EXIT_FAILED, error)
+    return None
+
+
+def _discard(out_dir: Path) -> None:
+    """Leave no trace of a campaign that ran nothing: a retry may use the same --out."""
+    for name in (RUNS_FILE, MANIFEST_FILE, CAMPAIGN_FILE):
+        (out_dir / name).unlink(missing_ok=True)
+    release_run_dir(out_dir)
 
 
 def _take(
     rows: list[Row],
     aggregate: Aggregate,
-    writer: Any,
     keep_rows: list[dict[str, Any]] | None,
     columns: list[str],
 ) -> None:
     paths = aggregate.paths
     for row in rows:
         aggregate.add(row)
-        cells = row.cells()
-        if writer is not None:
-            writer.writerow(cells)
         if keep_rows is not None:
             keep_rows.append(
                 {
@@ -223,7 +438,7 @@ def _take(
 def _record(
     loaded: LoadedCampaign,
     aggregate: Aggregate,
-    interrupted: bool,
+    stopped_by: str | None,
     runs_seconds: float,
     planned: int,
 ) -> dict[str, Any]:
@@ -254,7 +469,8 @@ def _record(
         )
     return {
         "campaign": campaign.name,
-        "interrupted": interrupted,
+        "interrupted": stopped_by is not None,
+        "stopped_by": stopped_by,
         "planned_runs": planned,
         **statistics,
         "expectations": expectations,
@@ -284,7 +500,6 @@ def _write_worst(
     worst/RUN/, and draw the campaign's figures: with several workers, the runs
     on worker processes while this one draws."""
     runs = [entry["run"] for entry in record["worst"]]
-    mission_sha256 = _sha256(loaded.mission_path)
     if plots:
         _load_matplotlib()  # before the pool forks, if not yet loaded
     if workers > 1 and runs:
@@ -295,23 +510,18 @@ def _write_worst(
         # the last run after drawing, and no core waits at the end.
         own = runs[-1:] if len(runs) > workers and len(runs) % workers else []
         pooled = runs[: len(runs) - len(own)]
-        with local_pool(min(workers, len(pooled))) as pool:
-            written = [
-                pool.submit(_write_run_dir, loaded, run, out_dir, plots, mission_sha256)
-                for run in pooled
-            ]
-            try:
-                _draw(loaded, aggregate, out_dir, plots)
-                for run in own:
-                    _write_run_dir(loaded, run, out_dir, plots, mission_sha256)
-                for future in written:
-                    future.result()
-            except KeyboardInterrupt:  # stop now: leave the runs not started
-                pool.shutdown(wait=False, cancel_futures=True)
-                raise
+        # A worker writing a run directory is let finish it (no temporary file
+        # left); the runs not started are dropped.
+        with local_pool(min(workers, len(pooled)), writes=True) as pool:
+            written = [pool.submit(_write_run_dir, loaded, run, out_dir, plots) for run in pooled]
+            _draw(loaded, aggregate, out_dir, plots)
+            for run in own:
+                _write_run_dir(loaded, run, out_dir, plots)
+            for future in written:
+                future.result()
         return
     for run in runs:
-        _write_run_dir(loaded, run, out_dir, plots, mission_sha256)
+        _write_run_dir(loaded, run, out_dir, plots)
     _draw(loaded, aggregate, out_dir, plots)
 
 
@@ -323,16 +533,14 @@ def _load_matplotlib() -> None:
     import matplotlib.figure  # noqa: F401
 
 
-def _write_run_dir(
-    loaded: LoadedCampaign, run: int, out_dir: Path, plots: bool, mission_sha256: str
-) -> None:
+def _write_run_dir(loaded: LoadedCampaign, run: int, out_dir: Path, plots: bool) -> None:
     result, _ = simulate(loaded, Plan(loaded.campaign).draw(run))
     if result is None:  # the mission refused the drawn values: nothing to write
         return
     write_run(
         result,
         out_dir / WORST_DIR / str(run),
-        mission_sha256=mission_sha256,
+        mission_sha256=loaded.mission_sha256,  # the text that ran, read once
         mission_file=str(loaded.mission_path),
         plots=plots,
         animate=False,
@@ -346,20 +554,28 @@ def _draw(loaded: LoadedCampaign, aggregate: Aggregate, out_dir: Path, plots: bo
         draw_campaign(aggregate, _regions(loaded), out_dir)
 
 
-def _prepare(loaded: LoadedCampaign, out: Path, workers: int, scheduler: str | None) -> Path:
-    """The campaign directory, made empty (refuses one holding files), with its manifest."""
-    out_dir = prepare_run_dir(out)
-    manifest = _manifest(loaded, None if scheduler else workers, scheduler)
-    write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(manifest).encode("utf-8"))
-    return out_dir
+def _prepare(
+    loaded: LoadedCampaign, out: Path, workers: int, scheduler: str | None, *, suffix: bool
+) -> tuple[Path, bytes]:
+    """The campaign directory, made empty (refuses one holding files; with
+    ``suffix``, takes the next free ``-2``, ``-3``, ... instead) and claimed, with
+    its manifest; return it and the manifest's bytes."""
+    out_dir = prepare_run_dir(out, suffix_on_collision=suffix)
+    manifest = json_text(_manifest(loaded, None if scheduler else workers, scheduler))
+    try:
+        write_bytes_atomic(out_dir / MANIFEST_FILE, manifest.encode("utf-8"))
+    except BaseException:
+        _discard(out_dir)
+        raise
+    return out_dir, manifest.encode("utf-8")
 
 
 def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None) -> dict[str, Any]:
     return {
         "campaign_file": str(loaded.path),
-        "campaign_sha256": _sha256(loaded.path),
+        "campaign_sha256": loaded.campaign_sha256,
         "mission_file": str(loaded.mission_path),
-        "mission_sha256": _sha256(loaded.mission_path),
+        "mission_sha256": loaded.mission_sha256,
         "resolved_campaign": loaded.campaign.model_dump(mode="json"),
         "versions": package_versions(),
         "environment": environment(),
@@ -382,25 +598,40 @@ def run_campaign(
 
     ``out``: also write the campaign directory there (runs.csv, campaign.json,
     manifest.json, worst/, figures when ``plots``). ``workers`` defaults to
-    every core; ``scheduler`` is the address of a Dask scheduler, refused when
-    its workers differ from this process in what decides the bytes unless
-    ``allow_mixed_cluster``. Raises ``MissionError`` (with every problem and its
-    position) for an invalid file.
+    every core, and is at most that; ``scheduler`` is the address of a Dask
+    scheduler, refused when its workers differ from this process in what
+    decides the bytes unless ``allow_mixed_cluster``. Raises ``MissionError``
+    (with every problem and its position) for an invalid file, TypeError or
+    ValueError for a bad argument,
+    ``SchedulerUnavailable`` (a RuntimeError) when no Dask scheduler answers at
+    ``scheduler``, and the error of a write that failed once every run done
+    is kept.
     """
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise TypeError(f"scheduler is an address such as 'tcp://host:8786', got {scheduler!r}")
+    used = usable_workers(workers)
     loaded = load_campaign(campaign)
-    workers = workers or default_workers()
-    out_dir = None if out is None else _prepare(loaded, Path(out), workers, scheduler)
-    rows: list[dict[str, Any]] = []
-    summary = _execute(
-        loaded,
-        out_dir=out_dir,
-        workers=workers,
-        scheduler=scheduler,
-        plots=plots,
-        progress_stream=None,
-        keep_rows=rows,
-        allow_mixed_cluster=allow_mixed_cluster,
+    if scheduler is not None:
+        reach_scheduler(scheduler)
+    out_dir, manifest = (
+        (None, b"") if out is None else _prepare(loaded, Path(out), used, scheduler, suffix=False)
     )
+    rows: list[dict[str, Any]] = []
+    with StopSignals() as stop:
+        ended = _campaign(
+            loaded,
+            out_dir=out_dir,
+            manifest=manifest,
+            workers=used,
+            scheduler=scheduler,
+            plots=plots,
+            progress_stream=None,
+            keep_rows=rows,
+            stop=stop,
+            allow_mixed_cluster=allow_mixed_cluster,
+        )
+    if ended.fault is not None:
+        raise ended.fault.error
     table: Any = rows
     try:
         import pandas
@@ -408,7 +639,7 @@ def run_campaign(
         table = pandas.DataFrame(rows, columns=header(Plan(loaded.campaign).paths))
     except ImportError:
         pass
-    return CampaignResult(table, summary, out_dir)
+    return CampaignResult(table, ended.record, out_dir)
 
 
 def sweep_command(
@@ -420,42 +651,86 @@ def sweep_command(
     plots: bool,
     allow_mixed_cluster: bool = False,
 ) -> int:
-    """Exit code: 0 the campaign ran and its expect holds, 1 invalid or expect not met,
-    2 unusable output directory or scheduler (or a mixed cluster), 130 interrupted."""
+    """Exit code: 0 the campaign ran and its expect holds; 1 invalid, expect not
+    met or a worker lost; 2 unusable output directory or scheduler (or a mixed
+    cluster), or a write that failed; 130 or 143 stopped by SIGINT or SIGTERM
+    (what ran is kept)."""
+    with StopSignals(STOP_SIGNALS) as stop:
+        try:
+            return _sweep(campaign_path, out, workers, scheduler, plots, stop, allow_mixed_cluster)
+        except KeyboardInterrupt:
+            print(
+                f"{campaign_path}: interrupted by {stop.name} before the first run; "
+                "nothing was written",
+                file=sys.stderr,
+            )
+            return stop.exit_code
+
+
+def _sweep(
+    campaign_path: Path,
+    out: Path | None,
+    workers: int | None,
+    scheduler: str | None,
+    plots: bool,
+    stop: StopSignals,
+    allow_mixed_cluster: bool,
+) -> int:
     loaded, diagnostics = check_campaign(campaign_path)
     for diagnostic in diagnostics:
         print(diagnostic, file=sys.stderr)
     if loaded is None:
-        return 1
-    workers = workers or default_workers()
+        return EXIT_FAILED
+    used = usable_workers(workers)
+    if workers is not None and used < workers and scheduler is None:
+        print(
+            f"--workers {workers}: {used} workers, one per core this sweep may use "
+            "(more would only wait for a core)",
+            file=sys.stderr,
+        )
+    if scheduler is not None:
+        try:
+            reach_scheduler(scheduler)
+        except SchedulerUnavailable as error:
+            print(f"{campaign_path}: {error}", file=sys.stderr)
+            return EXIT_OUTPUT
+        silence(*DASK_LOGS)  # to the end: they log while the client closes
     out_dir = out if out is not None else default_run_dir(loaded.campaign.name, datetime.now())
     try:
-        out_dir = _prepare(loaded, out_dir, workers, scheduler)
+        out_dir, manifest = _prepare(loaded, out_dir, used, scheduler, suffix=out is None)
     except (RunDirExistsError, OSError) as error:
-        print(f"{out_dir}: {error}", file=sys.stderr)
-        return 2
+        print(f"{out_dir}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
+        return EXIT_OUTPUT
     try:
-        record = _execute(
+        ended = _campaign(
             loaded,
             out_dir=out_dir,
-            workers=workers,
+            manifest=manifest,
+            workers=used,
             scheduler=scheduler,
             plots=plots,
             progress_stream=sys.stderr,
             keep_rows=None,
+            stop=stop,
             allow_mixed_cluster=allow_mixed_cluster,
         )
-    except SchedulerUnavailable as error:
+    except SchedulerUnavailable as error:  # nothing ran, nothing is left
         print(f"{campaign_path}: {error}", file=sys.stderr)
-        return 2
+        return EXIT_OUTPUT
+    record = ended.record
+    for notice in ended.notices:
+        print(notice, file=sys.stderr)
     print(_report(record, out_dir))
+    if ended.fault is not None:
+        print(ended.fault.message, file=sys.stderr)
+        return ended.fault.code
     if record["interrupted"]:
         print(
             f"{campaign_path}: interrupted ({record['stopped_by']}); "
-            f"finished runs kept in {out_dir}",
+            f"the {record['runs']} finished runs are kept in {out_dir}",
             file=sys.stderr,
         )
-        return INTERRUPTED_EXIT if record["stopped_by"] == "Ctrl-C" else 1
+        return stop.exit_code if ended.interrupted else EXIT_FAILED
     failed = [e for e in record["expectations"] if not e["met"]]
     for expectation in failed:
         print(
@@ -463,7 +738,7 @@ def sweep_command(
             f"{expectation['value']:.4g} (min {expectation['min']:.4g})",
             file=sys.stderr,
         )
-    return 1 if failed else 0
+    return EXIT_FAILED if failed else 0
 
 
 def _report(record: dict[str, Any], out_dir: Path) -> str:

@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wmr_mission.output.plots import draw_regions, finite, names_as_typed, thin, view_box
-from wmr_mission.output.rundir import atomic_path
-from wmr_mission.result import FloatArray, RunResult
+from wmr_mission.basics import FloatArray
+from wmr_mission.output.figures import draw_regions, finite, names_as_typed, thin, view_box
+from wmr_mission.output.files import atomic_path
+
+if TYPE_CHECKING:
+    from wmr_mission.output.result import RunResult
 
 MAX_FRAMES = 200
 FPS = 20

@@ -33,8 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.output.numbers import MissionNumbers
-from wmr_mission.result import FloatArray
 
 # Inputs this close to their limit (relative) are at it: the runner clips exactly.
 AT_LIMIT = 1e-9

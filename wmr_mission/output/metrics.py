@@ -20,21 +20,23 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from wmr_mission.basics import STATES, FloatArray
 from wmr_mission.output import inputs as input_metrics
 from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.numbers import MissionNumbers, mission_numbers
 from wmr_mission.output.regulation import stall_time
 from wmr_mission.output.tracking import track_quality
 from wmr_mission.output.zones import intrusion_max, zones_of
-from wmr_mission.result import FloatArray, Outcome, PhaseInfo, RunResult
 from wmr_mission.spec import models
 
-STATES = ("x", "y", "theta")
+if TYPE_CHECKING:
+    from wmr_mission.output.result import PhaseRecord, RunResult
+
 # The mission's `expect` settings when a summary is made without a mission.
 DEFAULT_CONVERGENCE_TOLERANCE = dict.fromkeys(STATES, models.DEFAULT_CONVERGENCE_TOLERANCE)
 # A constraint row above this counts as violated: a constraint held as an
@@ -50,7 +52,7 @@ _NEAREST_POINTS = 4
 _DISTANCE_CHUNK = 4096  # positions per block: bounded memory on long runs
 
 # Mission-wide `expect` key -> where its value lives in the summary.
-_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
+EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "final_position_error": ("final", "position_error"),
     "final_heading_error": ("final", "heading_error"),
     "max_constraint_violation": ("max_constraint_violation",),
@@ -59,7 +61,7 @@ _EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
 }
 # Per-phase `expect` key -> where its value lives in a phase's summary. A
 # mission-wide value applies to every phase; a phase's own value overrides it.
-_PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
+PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "tracking_error_rms": ("tracking_error", "rms"),
     "tracking_error_max": ("tracking_error", "max"),
     "cross_track_error_max": ("tracking", "cross_track_error_max"),
@@ -268,7 +270,7 @@ def phase_segments(phase: np.ndarray) -> list[tuple[int, int, int]]:
 
 
 def _phase_target(
-    result: RunResult, info: PhaseInfo, start: int, end: int
+    result: RunResult, info: PhaseRecord, start: int, end: int
 ) -> tuple[float, float, float | None] | None:
     """The pose a phase aims at: its target, or for a track phase its last reference point."""
     if info.kind == "track":
@@ -353,7 +355,7 @@ class _PhaseSamples:
     def __init__(
         self,
         result: RunResult,
-        info: PhaseInfo,
+        info: PhaseRecord,
         span: tuple[int, int],
         settle_time: float,
         off_path_of: OffPath,
@@ -461,7 +463,7 @@ def _input_value(key: str) -> Callable[[_PhaseSamples], Any]:
     return lambda p: p.inputs[key]
 
 
-# How each per-phase `expect` metric (_PHASE_EXPECTATION_PATHS) is measured.
+# How each per-phase `expect` metric (PHASE_EXPECTATION_PATHS) is measured.
 _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
     "tracking_error_rms": lambda p: _rms_or_none(p.off_path[p.settled]),
     "tracking_error_max": lambda p: _max_or_none(p.off_path[p.settled]),
@@ -487,13 +489,13 @@ def _measured(phase: _PhaseSamples, metrics: list[str]) -> dict[str, dict[str, A
     """The values of per-phase ``metrics``, placed as in a phase's summary."""
     values: dict[str, dict[str, Any]] = {}
     for metric in metrics:
-        section, key = _PHASE_EXPECTATION_PATHS[metric]
+        section, key = PHASE_EXPECTATION_PATHS[metric]
         values.setdefault(section, {})[key] = _PHASE_METRICS[metric](phase)
     return values
 
 
 def _checked_phase_summary(
-    info: PhaseInfo, phase: _PhaseSamples, thresholds: Mapping[str, Any]
+    info: PhaseRecord, phase: _PhaseSamples, thresholds: Mapping[str, Any]
 ) -> dict[str, Any]:
     """What :func:`check_expectations` reads of a phase's summary: the value of
     each threshold set that applies to the phase, as :func:`_phase_summary` has it."""
@@ -504,7 +506,7 @@ def _checked_phase_summary(
     }
     checked = [
         metric
-        for metric in _PHASE_EXPECTATION_PATHS
+        for metric in PHASE_EXPECTATION_PATHS
         if thresholds.get(metric) is not None and _applies(summary, metric)
     ]
     values: dict[str, Any] = _measured(phase, checked)
@@ -514,7 +516,7 @@ def _checked_phase_summary(
 
 
 def _phase_summary(
-    result: RunResult, info: PhaseInfo, phase: _PhaseSamples, tolerance: Mapping[str, float]
+    result: RunResult, info: PhaseRecord, phase: _PhaseSamples, tolerance: Mapping[str, float]
 ) -> dict[str, Any]:
     """A phase's summary in ``summary.json``."""
     t = result.t
@@ -526,7 +528,7 @@ def _phase_summary(
         phase,
         [
             m
-            for m, (section, _) in _PHASE_EXPECTATION_PATHS.items()
+            for m, (section, _) in PHASE_EXPECTATION_PATHS.items()
             if section != "tracking" and (track or section != "tracking_error")
         ],
     )
@@ -621,7 +623,7 @@ def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str,
     ``mission`` is the resolved mission (``Mission.model_dump(mode="json")``).
     """
     expect = _expect_of(mission)
-    shared = {key: expect.get(key) for key in ("settle_time", *_PHASE_EXPECTATION_PATHS)}
+    shared = {key: expect.get(key) for key in ("settle_time", *PHASE_EXPECTATION_PATHS)}
     merged = {}
     for phase in _written_phases(mission):
         own = phase.get("expect") or {}
@@ -747,7 +749,7 @@ def _bounded_metrics(
     result: RunResult, tolerance: Mapping[str, float], errors: dict[str, FloatArray]
 ) -> dict[str, Any]:
     """The run's outcome and the mission-wide metrics an `expect` can bound
-    (_EXPECTATION_PATHS), as :func:`run_metrics` has them."""
+    (EXPECTATION_PATHS), as :func:`run_metrics` has them."""
     converged = convergence_index(errors, tolerance)
     duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
     return {
@@ -770,7 +772,7 @@ def loop_time_us(result: RunResult) -> float | None:
     return result.loop_ns / 1000.0 / result.samples
 
 
-def _summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | None:
+def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | None:
     value: Any = summary
     for key in path:
         if not isinstance(value, Mapping):
@@ -802,7 +804,7 @@ def _applies(phase: Mapping[str, Any], metric: str) -> bool:
     return not metric.startswith("tracking_error") or phase.get("kind") == "track"
 
 
-_TRACKING = frozenset(m for m, path in _PHASE_EXPECTATION_PATHS.items() if path[0] == "tracking")
+_TRACKING = frozenset(m for m, path in PHASE_EXPECTATION_PATHS.items() if path[0] == "tracking")
 
 
 def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumbers) -> float | None:
@@ -833,17 +835,17 @@ def _phase_checks(
 ) -> list[dict[str, Any]]:
     checks = []
     name = str(phase.get("name"))
-    for metric, path in _PHASE_EXPECTATION_PATHS.items():
+    for metric, path in PHASE_EXPECTATION_PATHS.items():
         threshold = thresholds.get(metric)
         if threshold is None or not _applies(phase, metric):
             continue
         if metric == "estimation_rms":  # a bound per state
             for state in STATES:
                 if threshold.get(state) is not None:
-                    value = _summary_value(phase, (*path, state))
+                    value = summary_value(phase, (*path, state))
                     checks.append(_check(f"{metric}.{state}", name, threshold[state], value))
             continue
-        value = _summary_value(phase, path)
+        value = summary_value(phase, path)
         if metric in _WHERE_MEASURED and value is None:
             continue
         bound = auto_threshold(metric, phase, numbers) if threshold == "auto" else threshold["max"]
@@ -873,13 +875,13 @@ def check_expectations(
         (float(limits.get("v", defaults.v)), float(limits.get("omega", defaults.omega))),
     )
     expect = _expect_of(mission)
-    known = (*_EXPECTATION_PATHS, *_PHASE_EXPECTATION_PATHS, *_SETTINGS)
+    known = (*EXPECTATION_PATHS, *PHASE_EXPECTATION_PATHS, *_SETTINGS)
     for metric in expect:
         if metric not in known:
             raise ValueError(f"unknown expectation {metric!r}; expected one of {', '.join(known)}")
     checks = [
-        _check(metric, None, float(expect[metric]["max"]), _summary_value(summary, path))
-        for metric, path in _EXPECTATION_PATHS.items()
+        _check(metric, None, float(expect[metric]["max"]), summary_value(summary, path))
+        for metric, path in EXPECTATION_PATHS.items()
         if expect.get(metric) is not None
     ]
     per_phase = phase_expectations(mission)
@@ -931,7 +933,7 @@ def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> d
     """
     errors = estimation_errors(result)
     summary = _bounded_metrics(result, _tolerance(mission), errors)
-    if result.outcome is not Outcome.success:  # judging changes only a success
+    if not result.succeeded:  # judging changes only a success
         return summary
     phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True, errors=errors)
     del errors
@@ -958,7 +960,6 @@ def _judged(result: RunResult, summary: dict[str, Any], checks: list[dict[str, A
     """A success that misses a threshold becomes ``expect-failed``, in
     ``result`` and ``summary``, with the misses as its message."""
     failures = unmet(checks)
-    if result.outcome is Outcome.success and failures:
-        result.outcome = Outcome.expect_failed
-        result.message = "expectation not met: " + "; ".join(failures)
+    if result.succeeded and failures:
+        result.miss_expectations(failures)
         summary["outcome"], summary["message"] = result.outcome.value, result.message

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.result import FloatArray
+from wmr_mission.basics import FloatArray
 
 __all__ = ["PointGrid"]
 

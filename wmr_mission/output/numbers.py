@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from wmr_mission.controllers.paper import Tracking
 from wmr_mission.spec import models
 
 STATES = ("x", "y", "theta")
@@ -72,7 +73,7 @@ def mission_numbers(
 ) -> MissionNumbers:
     """The numbers of the resolved ``mission`` (``Mission.model_dump(mode="json")``),
     or the defaults where it says nothing; ``dt`` and ``limits`` are the run's."""
-    defaults = models.Tracking()
+    defaults = Tracking()
     tracking = _get(mission, "controller", "tracking") or {}
     axle = tracking.get("output", defaults.output) == "axle"
     time_constant = 0.0 if axle else float(tracking.get("time_constant", defaults.time_constant))

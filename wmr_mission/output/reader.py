@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.output.rundir import (
     CSV_COLUMNS,
     MANIFEST_FILE,
@@ -29,7 +30,6 @@ from wmr_mission.output.rundir import (
     TRAJECTORY_FILE,
     TRANSITIONS_FILE,
 )
-from wmr_mission.result import Outcome, PhaseInfo, RunResult, Transition
 from wmr_mission.spec.models import MISSION_NAME, is_color
 
 # Run directories written before the measurement was recorded: still readable.
@@ -112,7 +112,8 @@ def _regions_from(run: Any) -> dict[str, Any]:
     """The regions, each checked against the mission's region models."""
     from pydantic import TypeAdapter, ValidationError
 
-    from wmr_mission.spec.models import IDENTIFIER, RegionSpec
+    from wmr_mission.fields import IDENTIFIER
+    from wmr_mission.geometry.regions import RegionSpec
 
     where = f"{MANIFEST_FILE}: run.regions"
     regions = _field(run, "regions", dict, f"{MANIFEST_FILE}: run")
@@ -129,7 +130,7 @@ def _regions_from(run: Any) -> dict[str, Any]:
     return dict(regions)
 
 
-def _phases_from(run: Any) -> list[PhaseInfo]:
+def _phases_from(run: Any) -> list[PhaseRecord]:
     where = f"{MANIFEST_FILE}: run.phases"
     phases = []
     for i, record in enumerate(_field(run, "phases", list, f"{MANIFEST_FILE}: run")):
@@ -145,7 +146,7 @@ def _phases_from(run: Any) -> list[PhaseInfo]:
             for c in _field(record, "constraints", list, at)
         )
         phases.append(
-            PhaseInfo(
+            PhaseRecord(
                 name=_field(record, "name", str, at),
                 kind=_choice(record, "kind", _KINDS, at),
                 target=(

@@ -16,9 +16,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.output.numbers import MissionNumbers
 from wmr_mission.output.zones import Zone
-from wmr_mission.result import FloatArray
 
 # The share of its error a regulator takes out in every window, away from its goal.
 PROGRESS = 0.1

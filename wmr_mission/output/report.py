@@ -13,7 +13,7 @@ import shutil
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from wmr_mission.result import RunResult
+    from wmr_mission.output.result import RunResult
 
 WIDTH = 100
 # (header, right-aligned): numbers right-aligned.

@@ -22,31 +22,21 @@ from __future__ import annotations
 
 import contextlib
 import copy
-import functools
 import hashlib
-import json
-import math
 import os
-import platform
-import secrets
 from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
 from datetime import datetime
-from enum import Enum
-from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from wmr_mission.environment import environment
+from wmr_mission.output.environment import environment, package_versions
+from wmr_mission.output.files import atomic_path, json_text, write_json
 from wmr_mission.output.metrics import check_expectations, summarize
-from wmr_mission.result import (
-    EXTRA_COLUMNS,
-    TRAJECTORY_COLUMNS,
-    RunResult,
-    Transition,
-)
+
+if TYPE_CHECKING:
+    from wmr_mission.output.result import RunResult, Transition
 
 TRAJECTORY_FILE = "trajectory.csv"
 MANIFEST_FILE = "manifest.json"
@@ -54,14 +44,35 @@ TRANSITIONS_FILE = "transitions.json"
 SUMMARY_FILE = "summary.json"
 ANIMATION_FILE = "animation.gif"
 
+# The first columns of trajectory.csv, in this order (DESIGN.md).
+TRAJECTORY_COLUMNS = (
+    "t",
+    "x",
+    "y",
+    "theta",
+    "x_est",
+    "y_est",
+    "theta_est",
+    "v",
+    "omega",
+    "phase",
+)
+# Columns that follow them.
+EXTRA_COLUMNS = (
+    "x_ref",
+    "y_ref",
+    "constraint",
+    "x_meas",
+    "y_meas",
+    "theta_meas",
+    "phase2_iterations",
+)
 CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
 _FLOAT_FORMAT = "%.12g"
 # Rows formatted per `%` operation: one C-level formatting call per block keeps
 # a 360 000-sample run to about a second and a half, and a block's Python
 # numbers to a few megabytes.
 _ROWS_PER_BLOCK = 4_000
-# Packages whose versions decide the numbers of a run.
-_VERSIONED_PACKAGES = ("numpy", "scipy", "pydantic", "numba", "matplotlib")
 
 
 # Its message leaves out the run directory: callers print `RUN_DIR: message`.
@@ -143,64 +154,6 @@ def space_needed(max_samples: int) -> int:
     return _BYTES_OTHER + _BYTES_PER_SAMPLE * max_samples
 
 
-@contextmanager
-def atomic_path(final: Path) -> Iterator[Path]:
-    """Yield a temporary path beside ``final``; on success sync it and rename it to ``final``.
-
-    The temporary name keeps ``final``'s suffix so writers that pick a format
-    from the file name (images) still do. On failure the temporary file is removed.
-    """
-    try:
-        tmp = _new_temporary(final)
-    except OSError as error:
-        raise OSError(error.errno, error.strerror, str(final)) from error
-    try:
-        yield tmp
-        with tmp.open("rb+") as written:
-            written.flush()
-            os.fsync(written.fileno())
-        os.replace(tmp, final)
-    except BaseException as error:
-        tmp.unlink(missing_ok=True)
-        if isinstance(error, OSError) and error.filename != str(final):
-            # Name the file the user knows, not the temporary one.
-            raise OSError(error.errno, error.strerror, str(final)) from error
-        raise
-    _sync_directory(final.parent)
-
-
-def _new_temporary(final: Path) -> Path:
-    # Not tempfile.mkstemp: its files are private (0600); run files get the usual umask.
-    for _ in range(100):
-        tmp = final.with_name(f".{final.stem}.{secrets.token_hex(4)}.tmp{final.suffix}")
-        try:
-            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-        except FileExistsError:
-            continue
-        return tmp
-    raise FileExistsError(f"{final.parent}: cannot create a temporary file")
-
-
-def _sync_directory(directory: Path) -> None:
-    # Makes the rename itself durable; not every platform can open a directory.
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
-def write_bytes_atomic(path: Path, data: bytes) -> Path:
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(data)
-    return path
-
-
 # --- trajectory.csv -------------------------------------------------------
 
 
@@ -253,48 +206,6 @@ def write_trajectory(result: RunResult, path: Path) -> Path:
 # --- JSON -----------------------------------------------------------------
 
 
-def jsonable(value: Any) -> Any:
-    """Plain JSON data: tuples as lists, numpy scalars as numbers, NaN and infinities as null."""
-    if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return [jsonable(v) for v in value.tolist()]
-    if isinstance(value, Enum):
-        return jsonable(value.value)
-    if isinstance(value, bool | str) or value is None:
-        return value
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, int | np.integer):
-        return int(value)
-    if isinstance(value, float | np.floating):
-        number = float(value)
-        return number if math.isfinite(number) else None
-    if isinstance(value, os.PathLike):
-        return os.fspath(value)
-    raise TypeError(f"cannot write {type(value).__name__} to JSON")
-
-
-def json_text(value: Any) -> str:
-    return json.dumps(jsonable(value), indent=2, allow_nan=False, ensure_ascii=False) + "\n"
-
-
-def write_json(path: Path, value: Any) -> Path:
-    """``json_text(value)`` into ``path``, streamed: the summary of thousands of
-    phases is never held as one text."""
-    # A file name that is not UTF-8 holds surrogates: written as JSON escapes
-    # (\udcff), which read back to the same name.
-    with (
-        atomic_path(path) as tmp,
-        tmp.open("w", encoding="utf-8", errors="backslashreplace", newline="") as out,
-    ):
-        json.dump(jsonable(value), out, indent=2, allow_nan=False, ensure_ascii=False)
-        out.write("\n")
-    return path
-
-
 def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]]:
     """One record per phase change; ``lap`` only where the phase entered is in a repeat."""
     return [
@@ -308,29 +219,6 @@ def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]
         }
         for tr in transitions
     ]
-
-
-def package_versions() -> dict[str, str | None]:
-    """Versions of Python and of the packages that decide a run's numbers (null: not installed)."""
-    return dict(_package_versions())
-
-
-@functools.cache
-def _package_versions() -> dict[str, str | None]:
-    # Read once per process (20 ms of package metadata): a campaign's worst
-    # runs, forked from the process that wrote its manifest, read none.
-    from wmr_mission import __version__
-
-    versions: dict[str, str | None] = {
-        "python": platform.python_version(),
-        "wmr-mission": __version__,
-    }
-    for package in _VERSIONED_PACKAGES:
-        try:
-            versions[package] = metadata.version(package)
-        except metadata.PackageNotFoundError:
-            versions[package] = None
-    return versions
 
 
 def run_record(result: RunResult) -> dict[str, Any]:
@@ -374,7 +262,7 @@ def manifest_record(
         "resolved_mission": resolved_mission,
         "seed": result.seed,
         "versions": package_versions(),
-        # What else decides the bytes, and its fingerprint (wmr_mission.environment).
+        # What else decides the bytes, and its fingerprint (wmr_mission.output.environment).
         "environment": environment(),
         # How the loop ran, known only for a run simulated in this process
         # (one rebuilt from its directory carries no timing).
@@ -388,9 +276,9 @@ def loop_build() -> str:
     (the first runs after an install, ``WMR_MISSION_NO_JIT=1``, no numba), a
     hundred times slower per sample: summary.json's ``loop_us_per_sample`` is
     read against it."""
-    from wmr_mission._jit import COMPILED
+    from wmr_mission.kernels import jit
 
-    return "compiled" if COMPILED else "plain Python"
+    return "compiled" if jit.loaded() else "plain Python"
 
 
 def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -459,7 +347,7 @@ def write_figures(
     animation; return the files written."""
     written = []
     if plots:
-        from wmr_mission.output.plots import draw_all
+        from wmr_mission.output.figures import draw_all
 
         written += draw_all(result, run_dir, formats)
     if animate:

@@ -15,21 +15,30 @@ from typing import Final, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.spec.models import (
-    BOUND_NOISE_RATIO,
+from wmr_mission.basics import FloatArray, whole_samples
+from wmr_mission.controllers import paper
+from wmr_mission.controllers.paper import PaperController
+from wmr_mission.estimators.ekf import Ekf
+from wmr_mission.estimators.observer import BOUND_NOISE_RATIO, ConstrainedObserver
+from wmr_mission.geometry import paths
+from wmr_mission.geometry.paths.coverage import CoveragePath
+from wmr_mission.geometry.paths.ellipse import EllipsePath
+from wmr_mission.geometry.paths.elliptical_spiral import EllipticalSpiralPath
+from wmr_mission.geometry.paths.line import LinePath
+from wmr_mission.geometry.regions import (
     BoxRegion,
     CircleRegion,
-    CoveragePath,
-    Ekf,
-    EllipsePath,
     EllipseRegion,
-    EllipticalSpiralPath,
-    HoldPhase,
-    LinePath,
-    Mission,
-    Phase,
     PolygonRegion,
     RegionSpec,
+    ellipse_geometry,
+    is_convex,
+    region_value,
+)
+from wmr_mission.spec.models import (
+    HoldPhase,
+    Mission,
+    Phase,
     RegulatePhase,
     RepeatPhase,
     StayInside,
@@ -59,7 +68,6 @@ BOUND_NOISE_FLOOR: Final = 3.0
 
 Severity = Literal["error", "warning"]
 Pose = tuple[float, float, float]
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -178,9 +186,11 @@ def _estimator_keys(mission: Mission) -> Iterator[Finding]:
     if isinstance(estimator, Ekf):
         field, keys = "measurement_std", list(estimator.measurement_std or {})
         why = "the filter has no such measurement"
-    else:
+    elif isinstance(estimator, ConstrainedObserver):
         field, keys = "output_error_bounds", list(estimator.output_error_bounds or {})
         why = "eq. (4) bounds the output error of measured states only"
+    else:
+        return
     for state in keys:
         if state not in measured:
             yield Finding(
@@ -192,7 +202,6 @@ def _estimator_keys(mission: Mission) -> Iterator[Finding]:
 
 
 def _regions(mission: Mission) -> Iterator[Finding]:
-    from wmr_mission.regions import is_convex
 
     for name, region in mission.regions.items():
         if isinstance(region, PolygonRegion) and not is_convex(region.vertices):
@@ -255,7 +264,6 @@ def _breaches(
 ) -> Iterator[tuple[int, str, str, str]]:
     """(constraint number, region name, required side, actual side) of each
     constraint of ``phase`` that the point (x, y) breaks."""
-    from wmr_mission.regions import region_value
 
     for number, constraint in enumerate(phase.constraints):
         inside = isinstance(constraint, StayInside)
@@ -386,14 +394,12 @@ def _feasible_sets(mission: Mission) -> Iterator[Finding]:
 
 
 def _meets(region: RegionSpec, inside: bool, x: FloatArray, y: FloatArray) -> NDArray[np.bool_]:
-    from wmr_mission.regions import region_value
 
     value = region_value(region, x, y)
     return np.asarray(value <= 1e-9 if inside else value >= -1e-9)
 
 
 def _candidates(mission: Mission, regions: list[RegionSpec]) -> tuple[FloatArray, FloatArray]:
-    from wmr_mission.regions import ellipse_geometry
 
     start = mission.robot.initial_state
     xs: list[float] = [start.x]
@@ -497,11 +503,6 @@ def _ends_on_time_only(phase: Phase) -> bool:
     return all(c is None for c in (until.reaches, until.near, until.settled, until.heading))
 
 
-def _multiple_of(duration: float, dt: float) -> bool:
-    samples = duration / dt
-    return abs(samples - round(samples)) <= 1e-6 * max(1.0, samples)
-
-
 def _timing(mission: Mission) -> Iterator[Finding]:
     dt = mission.robot.dt
     mission_time = 0.0  # latest start of the phase
@@ -533,7 +534,7 @@ def _timing(mission: Mission) -> Iterator[Finding]:
                     f"{'.'.join(field)} {duration:g} s is shorter than one sample "
                     f"(robot.dt = {dt:g} s)",
                 )
-            elif not _multiple_of(duration, dt):
+            elif not whole_samples(duration, dt):
                 yield Finding(
                     (*where, *field),
                     f"{'.'.join(field)} {duration:g} s is not a multiple of robot.dt = {dt:g} s; "
@@ -569,8 +570,6 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
     its end, or the previous target). Kept this simple on
     purpose: the check only has to catch a path that plainly misses.
     """
-    from wmr_mission import paths
-    from wmr_mission.regions import region_value
 
     start = mission.robot.initial_state
     pose: Pose = (start.x, start.y, start.theta)
@@ -590,7 +589,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             continue
         assumed = f"assuming the robot starts the phase at ({pose[0]:g}, {pose[1]:g})"
         try:
-            trajectory = paths.instantiate(phase.track.path, mission, pose)
+            trajectory = paths.trajectory(phase.track.path, mission.path_context(), pose)
             times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
             with np.errstate(all="ignore"):  # a diverging path is judged by its finite part
                 x, y, dx, dy = trajectory.sample(times)
@@ -666,7 +665,9 @@ def _path_within_limits(
     speed = np.hypot(dx, dy)
     limits = mission.robot.limits
     path = phase.track.path
-    field = next((f for f in ("angular_rate", "speed") if f in type(path).model_fields), None)
+    field = next(
+        (f for f in ("angular_rate", "speed") if f in getattr(type(path), "model_fields", {})), None
+    )
     at: DataPath = (*where, "track", "path", *((field,) if field else ()))
     predictable = phase.until.near is None and phase.until.heading is None
     for need, limit, what, unit, name in (
@@ -755,7 +756,6 @@ def _phase_colors(mission: Mission) -> Iterator[Finding]:
 
 def _control(mission: Mission) -> Iterator[Finding]:
     """Traps of the tracking law and of eq. (1) at the configured limits."""
-    from wmr_mission.compiled import tracking_error_decay, tracking_look_ahead
 
     robot = mission.robot
     limits = robot.limits
@@ -769,8 +769,11 @@ def _control(mission: Mission) -> Iterator[Finding]:
         )
     if not any(isinstance(p, TrackPhase) for p in mission.phases):
         return
-    tracking = mission.controller.tracking
-    look_ahead = tracking_look_ahead(mission)
+    controller = mission.controller
+    if not isinstance(controller, PaperController):
+        return
+    tracking = controller.tracking
+    look_ahead = paper.look_ahead(controller, robot.dt, limits.v)
     if limits.v >= NO_LIMIT and tracking.output == "look-ahead" and tracking.look_ahead is None:
         yield Finding(
             ("robot", "limits", "v"),
@@ -778,7 +781,7 @@ def _control(mission: Mission) -> Iterator[Finding]:
             f"to it (max(0.05, limits.v * dt) = {look_ahead:g} m); give the robot's real speed "
             "limit or set controller.tracking.look_ahead",
         )
-    elif tracking_error_decay(mission) == 0.0 and max(limits.v, limits.omega) >= NO_LIMIT:
+    elif paper.error_decay(controller, robot.dt) == 0.0 and max(limits.v, limits.omega) >= NO_LIMIT:
         law = "the literal axle law" if look_ahead == 0.0 else "a one-sample tracking law"
         yield Finding(
             ("robot", "limits"),
@@ -800,11 +803,11 @@ def _control(mission: Mission) -> Iterator[Finding]:
 def _estimator_bounds(mission: Mission) -> Iterator[Finding]:
     """Eq. (4) bounds narrower than the noise make phase II act on the noise."""
     estimator = mission.estimator
-    if isinstance(estimator, Ekf) or not estimator.output_error_bounds:
+    if not isinstance(estimator, ConstrainedObserver) or not estimator.output_error_bounds:
         return
-    noise = mission.sensors.noise_std
+    noise = mission.sensors.measured_noise()
     for state, (lower, upper) in estimator.output_error_bounds.items():
-        std = float(getattr(noise, state))
+        std = noise.get(state, 0.0)
         if std > 0 and min(-lower, upper) < BOUND_NOISE_FLOOR * std:
             yield Finding(
                 ("estimator", "output_error_bounds", state),
@@ -828,7 +831,7 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
     for path, duration in durations.items():
         if duration is None or duration == 0.0:
             continue
-        if duration < dt or not _multiple_of(duration, dt):
+        if duration < dt or not whole_samples(duration, dt):
             yield Finding(
                 path,
                 f"{'.'.join(path)} {duration:g} s must be a whole multiple of robot.dt = "

@@ -20,22 +20,20 @@ import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Final, Literal
+from typing import Annotated, Any, Final, Literal
 
 import yaml
 from pydantic import BaseModel, ValidationError
+from pydantic.fields import FieldInfo
 
+from wmr_mission.fields import ABSURD, IDENTIFIER, LARGEST_SEED, Registry, type_name
+from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.spec.checks import DataPath, Finding, Severity, check
 from wmr_mission.spec.models import (
-    ABSURD,
     ACTIONS,
-    IDENTIFIER,
     MISSION_NAME,
     PHASE_NAME,
-    Estimator,
     Mission,
-    PathSpec,
-    RegionSpec,
 )
 
 __all__ = [
@@ -54,6 +52,7 @@ __all__ = [
     "load_mission_text",
     "parse_override",
     "read_source",
+    "resolved_path",
     "validate_mission",
 ]
 
@@ -300,7 +299,13 @@ class _Builder:
                 self.document.refused.add(path)
                 continue
             # The key as written: `on`, `y` or `null` stay words, as in YAML 1.2.
-            key = str(key_node.value)
+            key = _characters(str(key_node.value))
+            if key is None:
+                self.findings.append(
+                    Finding(path, _LONE_SURROGATE, position=_mark(key_node.start_mark))
+                )
+                self.document.refused.add(path)
+                continue
             key_path = (*path, key)
             if key in result:
                 first_line, first_column = self.document.keys[key_path]
@@ -320,7 +325,10 @@ class _Builder:
     def _scalar(self, node: yaml.Node, path: DataPath) -> Any:
         tag, text = node.tag, str(node.value)
         if tag == _TAG + "str":
-            return text
+            characters = _characters(text)
+            if characters is None:
+                self.refuse(path, _LONE_SURROGATE)
+            return characters
         if tag == _TAG + "null":
             return None
         if tag == _TAG + "bool":
@@ -361,10 +369,33 @@ class _Builder:
         if not math.isfinite(value):
             self.refuse(path, f"{text!r} is not allowed: numbers must be finite")
             return None
-        if abs(value) > ABSURD:
-            self.refuse(path, f"absurd number {text}: magnitudes above {ABSURD:g} are refused")
+        # Integers up to the largest seed: the fields bound them (a seed to
+        # 2^32 - 1, every other number to ABSURD).
+        largest = f"{LARGEST_SEED}" if isinstance(value, int) else f"{ABSURD:g}"
+        if abs(value) > float(largest):
+            self.refuse(path, f"absurd number {text}: magnitudes above {largest} are refused")
             return None
         return value
+
+
+_SURROGATE = re.compile(r"[\ud800-\udfff]")
+_LONE_SURROGATE: Final = (
+    "a text holds a lone surrogate escape (\\ud800 to \\udfff), half of a character: "
+    "write the character itself, a pair of escapes as JSON writes it (\\ud83d\\ude00), "
+    "or \\U and its 8 hex digits (\\U0001F600)"
+)
+
+
+def _characters(text: str) -> str | None:
+    """``text`` with each pair of surrogate escapes (``"\\ud83d\\ude00"``, as JSON
+    writes a character beyond U+FFFF) joined into its character; None when a
+    surrogate stands alone, which is no character at all."""
+    if _SURROGATE.search(text) is None:
+        return text
+    try:
+        return text.encode("utf-16-le", "surrogatepass").decode("utf-16-le")
+    except UnicodeDecodeError:
+        return None
 
 
 def _core_number(text: str, *, integer: bool) -> float:
@@ -462,7 +493,7 @@ def _is_tag(part: str | int, current: Any, previous: str | int | None) -> bool:
     return isinstance(previous, int) and part in (*ACTIONS, "repeat", *_CONSTRAINT_KEYS)
 
 
-def _resolve(loc: tuple[str | int, ...], data: Any) -> DataPath:
+def written_path(loc: tuple[str | int, ...], data: Any) -> DataPath:
     """The data path written in the file for a pydantic error location.
 
     Parts that are union tags or not in the data (a missing key, a union
@@ -485,10 +516,27 @@ def _resolve(loc: tuple[str | int, ...], data: Any) -> DataPath:
     return tuple(path)
 
 
+def _registry(tp: Any) -> Registry[Any] | None:
+    """The registry an annotation is filled by (wmr_mission.fields.Registry), if any."""
+    if typing.get_origin(tp) is typing.Annotated:
+        found = [m for m in typing.get_args(tp)[1:] if isinstance(m, Registry)]
+        return found[0] if found else None
+    return None
+
+
+def _field_type(info: FieldInfo) -> Any:
+    """A field's type with the registry that fills it, if any."""
+    registry = next((m for m in info.metadata if isinstance(m, Registry)), None)
+    return info.annotation if registry is None else Annotated[info.annotation, registry]
+
+
 def _model_class(tp: Any, value: Any) -> Any:
     """Strip Annotated/unions down to the member the value selects."""
     while True:
         origin = typing.get_origin(tp)
+        registry = _registry(tp)
+        if registry is not None:
+            return registry.settings_for(value)
         if origin is typing.Annotated:
             tp = typing.get_args(tp)[0]
             continue
@@ -530,7 +578,7 @@ def _model_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> typ
             info = tp.model_fields.get(part)
             if info is None:
                 return None
-            tp = info.annotation
+            tp = _field_type(info)
         else:
             origin, args = typing.get_origin(tp), typing.get_args(tp)
             if origin is list or (origin is tuple and len(args) == 2 and args[1] is Ellipsis):
@@ -580,7 +628,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     kind: str = error["type"]
     loc: tuple[str | int, ...] = error["loc"]
     data = document.data
-    path = _resolve(loc, data)
+    path = written_path(loc, data)
     where = _dotted(path)
     context = error.get("ctx") or {}
     value = error.get("input")
@@ -646,7 +694,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
             path, f"{where}: a constraint is {{stay_inside: REGION}} or {{stay_outside: REGION}}"
         )
     if kind in ("union_tag_invalid", "union_tag_not_found"):
-        tags = _type_tags(path)
+        tags = _type_tags(path, data, root)
         if kind == "union_tag_not_found":
             near_type = [
                 k for k in (value if isinstance(value, dict) else {}) if _suggest(k, ["type"])
@@ -676,6 +724,14 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     if kind == "string_pattern_mismatch":
         described = _PATTERNS.get(str(context.get("pattern")), f"match {context.get('pattern')}")
         return Finding(path, f"{where}: expected {described}, got {_shown(value)}")
+    registry = _section_registry(path[:-1], data, root) if path[-1:] == ("type",) else None
+    if kind == "literal_error" and registry is not None:
+        # The one type registered (the controller's): refused as a union refuses.
+        names = list(registry.names())
+        hint = _suggest(str(value), names) if isinstance(value, str) else ""
+        return Finding(
+            path, f"unknown type {_shown(value)}{hint} (expected one of: {', '.join(names)})"
+        )
     if kind == "literal_error":
         expected = str(context.get("expected", ""))
         choices = re.findall(r"'([^']*)'", expected)
@@ -702,18 +758,37 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     return Finding(path, f"{where}: {message}")
 
 
-def _type_tags(path: DataPath) -> list[str]:
-    """The ``type`` values accepted by the union at ``path``."""
-    union = Estimator if path[:1] == ("estimator",) else RegionSpec
-    if "path" in path:
-        union = PathSpec
-    members = typing.get_args(typing.get_args(union)[0])
-    models = [_model_class(m, None) for m in members]
-    return [str(typing.get_args(m.model_fields["type"].annotation)[0]) for m in models]
+def _section_registry(path: DataPath, data: Any, root: type[BaseModel]) -> Registry[Any] | None:
+    """The registry whose variants the section at ``path`` is written in, if any."""
+    if not path:
+        return None
+    owner = _model_at(path[:-1], data, root)
+    info = None if owner is None else owner.model_fields.get(str(path[-1]))
+    return None if info is None else _registry(_field_type(info))
+
+
+def _type_tags(path: DataPath, data: Any, root: type[BaseModel]) -> list[str]:
+    """The ``type`` values accepted by the union at ``path``: a registry's
+    (a path, the estimator, the controller), else a region's."""
+    registry = _section_registry(path, data, root)
+    if registry is not None:
+        return list(registry.names())
+    return [type_name(m) for m in typing.get_args(typing.get_args(RegionSpec)[0])]
 
 
 _SUGGESTION = re.compile(r"^unknown field '[^']*'; did you mean '([^']*)'\?$")
 _MISSING = re.compile(r"^missing field '([^']*)' in ")
+
+
+def _without_fields_of_unknown_types(findings: list[Finding]) -> list[Finding]:
+    """Drop "unknown field" in a section whose type is unknown: its fields are
+    another type's."""
+    unknown = {f.path[:-1] for f in findings if f.message.startswith("unknown type")}
+    return [
+        f
+        for f in findings
+        if not (f.message.startswith("unknown field") and f.path[:-1] in unknown)
+    ]
 
 
 def _without_implied_missing(findings: list[Finding]) -> list[Finding]:
@@ -736,7 +811,7 @@ def _under(path: DataPath, refused: set[DataPath]) -> bool:
     return any(path[: len(r)] == r for r in refused)
 
 
-def _context(data: dict[str, Any]) -> dict[str, Any]:
+def validation_context(data: dict[str, Any]) -> dict[str, Any]:
     """Declared parameters and region names, for expressions and region references."""
     parameters: dict[str, float] = {}
     raw = data.get("parameters")
@@ -752,7 +827,7 @@ def _context(data: dict[str, Any]) -> dict[str, Any]:
 # --- entry points ------------------------------------------------------------
 
 
-def _diagnostic(filename: str, document: Document | None, finding: Finding) -> Diagnostic:
+def diagnostic(filename: str, document: Document | None, finding: Finding) -> Diagnostic:
     source = document.override_of(finding.path) if document is not None else None
     if source is not None:
         filename, line, column = source, 0, 0
@@ -794,7 +869,7 @@ def _check(
         ]
     document, findings = read_document(text)
     if document is None:
-        return None, [_diagnostic(filename, None, f) for f in findings]
+        return None, [diagnostic(filename, None, f) for f in findings]
     return _check_document(document, findings, filename, overrides)
 
 
@@ -803,24 +878,26 @@ def _check_document(
 ) -> tuple[Mission | None, list[Diagnostic]]:
     """Apply the overrides, then validate the data and run the checks across fields."""
     for override in overrides:
-        problem = _apply(document, override)
+        problem = apply_override(document, override)
         if problem is not None:
             return None, [Diagnostic(override.source, 0, 0, problem)]
     mission: Mission | None = None
     if isinstance(document.data, dict):
         try:
-            mission = Mission.model_validate(document.data, context=_context(document.data))
+            mission = Mission.model_validate(
+                document.data, context=validation_context(document.data)
+            )
         except ValidationError as error:
             translated = []
             for item in error.errors(include_url=False):
-                path = _resolve(item["loc"], document.data)
+                path = written_path(item["loc"], document.data)
                 if not _under(path, document.refused):
                     translated.append(translate(item, document))
-            findings.extend(_without_implied_missing(translated))
-    unique = {_diagnostic(filename, document, f) for f in findings}
+            findings.extend(_without_fields_of_unknown_types(_without_implied_missing(translated)))
+    unique = {diagnostic(filename, document, f) for f in findings}
     if mission is not None and not findings:
         unique |= {
-            replace(_diagnostic(filename, document, f), stage="semantics") for f in check(mission)
+            replace(diagnostic(filename, document, f), stage="semantics") for f in check(mission)
         }
     diagnostics = sorted(
         unique,
@@ -1060,7 +1137,7 @@ def read_value(text: str) -> tuple[Any, list[Finding]]:
     return value, builder.findings
 
 
-def _apply(document: Document, override: Override) -> str | None:
+def apply_override(document: Document, override: Override) -> str | None:
     """Set the override's value in the document's data; a message when the path cannot hold it."""
     current = document.data
     path = override.path
@@ -1099,6 +1176,23 @@ def _apply(document: Document, override: Override) -> str | None:
             del positions[known]
     document.overrides[written] = override.source
     return None
+
+
+def resolved_path(data: Any, path: DataPath) -> DataPath:
+    """``path`` as :func:`apply_override` lands it in ``data``: a list item by its index
+    (``phases.go`` is ``phases[0]`` when the first phase is named go), a mapping's
+    key as text; past the data, the sections it would create, by name."""
+    resolved: list[str | int] = []
+    current = data
+    for part in path:
+        if isinstance(current, list):
+            index = _list_index(current, part)
+            resolved.append(part if index is None else index)
+            current = None if index is None else current[index]
+        else:
+            resolved.append(str(part))
+            current = current.get(str(part)) if isinstance(current, dict) else None
+    return tuple(resolved)
 
 
 def _where(resolved: list[str | int]) -> str:

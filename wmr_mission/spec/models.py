@@ -1,86 +1,89 @@
 """Typed model of a mission file (format version 1).
 
-Every model forbids unknown keys and is frozen. Defaults reproduce section IV
-of "A New On-line Observer-Based Controller for Wheeled Non-holonomic Mobile
-Robots". Units are SI, angles in radians.
+Every model forbids unknown keys and is frozen (wmr_mission.fields). Defaults
+reproduce section IV of "A New On-line Observer-Based Controller for Wheeled
+Non-holonomic Mobile Robots". Units are SI, angles in radians.
 
-A *Scalar* field accepts a number or a text holding a constant expression
-(``"0.4*pi"``, ``"2*k"`` with ``k`` a declared parameter). The loader passes
-the declared parameters and region names in the validation context; the
-expression is evaluated once, so a loaded model holds plain floats.
+The sections written in several variants are registries
+(wmr_mission.fields.Registry): the path of a track phase
+(wmr_mission.geometry.paths), the estimator (wmr_mission.estimators) and the
+controller (wmr_mission.controllers). A variant registered after this module
+is loaded rebuilds the models that embed it, so the mission accepts it.
 """
 
 from __future__ import annotations
 
-import math
 import re
 from typing import Annotated, Any, Final, Literal
 
 from pydantic import (
     AfterValidator,
-    BaseModel,
-    BeforeValidator,
     ConfigDict,
     Discriminator,
     Field,
     Strict,
     Tag,
-    ValidationInfo,
-    WithJsonSchema,
+    ValidatorFunctionWrapHandler,
     field_validator,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
 
+from wmr_mission.basics import STATES, StateName
+from wmr_mission.controllers import CONTROLLERS, ControllerSettings
+from wmr_mission.controllers.paper import PaperController
+from wmr_mission.estimators import ESTIMATORS, EstimatorSettings
+from wmr_mission.estimators.observer import ConstrainedObserver
+from wmr_mission.fields import (
+    IDENTIFIER,
+    LARGEST_SEED,
+    SMALLEST_POSITIVE,
+    BurstLength,
+    Duration,
+    Model,
+    NonNegative,
+    NonNegativeScalar,
+    Number,
+    Point,
+    Pose,
+    Positive,
+    PositiveScalar,
+    ProbabilityScalar,
+    RegionName,
+    Scalar,
+    SlipFraction,
+    StateOffset,
+    StateStd,
+    at_least,
+)
+from wmr_mission.geometry import paths
+from wmr_mission.geometry.paths import PATHS, PathSettings
+from wmr_mission.geometry.regions import RegionSpec
+
 __all__ = [
-    "STATES",
-    "BoxRegion",
-    "CirclePath",
-    "CircleRegion",
-    "ConstrainedObserver",
+    "ACTIONS",
     "Constraint",
-    "Controller",
-    "CoveragePath",
     "Disturbances",
     "Dropout",
-    "Ekf",
-    "EllipsePath",
-    "EllipseRegion",
-    "EllipticalSpiralPath",
-    "Estimator",
     "Expect",
-    "ExpressionPath",
-    "HalfPlaneRegion",
     "HeadingCondition",
     "Hold",
     "HoldPhase",
     "Limits",
-    "LinePath",
     "Mission",
     "Near",
     "Outliers",
-    "PathSpec",
     "Phase",
     "PhaseExpect",
     "Plot",
-    "PolygonRegion",
-    "PolylinePath",
-    "Pose",
-    "RegionSpec",
     "Regulate",
     "RegulatePhase",
-    "Regulation",
     "Repeat",
     "RepeatPhase",
     "Robot",
     "Sensors",
     "Settled",
     "Slip",
-    "SpiralPath",
-    "StateName",
-    "StateOffset",
-    "StatePoles",
-    "StateStd",
     "StateThresholds",
     "StateTolerance",
     "StayInside",
@@ -89,220 +92,20 @@ __all__ = [
     "Threshold",
     "Track",
     "TrackPhase",
-    "Tracking",
     "Until",
-    "WaypointsPath",
 ]
-
-STATES: Final = ("x", "y", "theta")
-StateName = Literal["x", "y", "theta"]
 
 # Names an expression already gives a meaning to; a parameter may not hide them.
 RESERVED_NAMES: Final = frozenset({"t", "pi", "e"})
 
-IDENTIFIER: Final = r"^[A-Za-z_][A-Za-z0-9_]*$"
 MISSION_NAME: Final = r"^[a-z0-9][a-z0-9_-]{0,63}$"
 PHASE_NAME: Final = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
-
-# Larger magnitudes are typing mistakes, not missions (and would overflow the kernels).
-ABSURD: Final = 1e9
-# Plausibility floors: a positive quantity below these is a typing mistake, and
-# its square or inverse would underflow or overflow the kernels. Sizes, speeds
-# and rates of regions and paths [m, m/s, 1/s]; every other positive quantity
-# (limits, standard deviations, weights, tolerances).
-SMALLEST_SIZE: Final = 1e-6
-SMALLEST_POSITIVE: Final = 1e-9
-
-
-def _at_least(floor: float) -> AfterValidator:
-    def check(value: float) -> float:
-        if 0 < value < floor:
-            raise PydanticCustomError(
-                "implausibly_small",
-                "{value} is implausibly small: expected at least {floor}",
-                {"value": f"{value:g}", "floor": f"{floor:g}"},
-            )
-        return value
-
-    return AfterValidator(check)
-
-
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-# --- scalars ---------------------------------------------------------------
-
-# Plain numbers: an int or a float, never a bool or a numeric-looking text.
-Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-ABSURD, le=ABSURD)]
-NonNegative = Annotated[Number, Field(ge=0)]
-Positive = Annotated[Number, Field(gt=0), _at_least(SMALLEST_POSITIVE)]
-Duration = Annotated[Number, Field(gt=0)]
-# true or false only, never a text such as 'yes' or 'off'.
-Flag = Annotated[bool, Strict()]
-
-_SCALAR_SCHEMA: Final[dict[str, Any]] = {
-    "anyOf": [
-        {"type": "number"},
-        {"type": "string", "description": "constant expression, e.g. '0.4*pi' or '2*k'"},
-    ]
-}
-
-
-def _parameters(info: ValidationInfo) -> dict[str, float]:
-    context = info.context
-    if isinstance(context, dict):
-        parameters = context.get("parameters")
-        if isinstance(parameters, dict):
-            return parameters
-    return {}
-
-
-def _evaluate_scalar(value: Any, info: ValidationInfo) -> Any:
-    """Turn a constant expression into its float; numbers pass through."""
-    if isinstance(value, bool):
-        raise PydanticCustomError(
-            "scalar_type", "expected a number or an expression, got a boolean"
-        )
-    if isinstance(value, int | float):
-        return value
-    if not isinstance(value, str):
-        raise PydanticCustomError(
-            "scalar_type",
-            "expected a number or an expression text, got {kind}",
-            {"kind": type(value).__name__},
-        )
-    from wmr_mission.expressions import ExpressionError, parse
-
-    parameters = _parameters(info)
-    try:
-        result = parse(value, parameters, allow_t=False).constant(parameters)
-    except ExpressionError as error:
-        raise PydanticCustomError(
-            "expression",
-            "invalid expression: {message}",
-            {"message": error.message, "column": error.column},
-        ) from None
-    if not math.isfinite(result):
-        raise PydanticCustomError(
-            "expression", "the expression '{text}' is not a finite number", {"text": value[:60]}
-        )
-    return result
-
-
-def _scalar_schema(extra: dict[str, Any]) -> WithJsonSchema:
-    return WithJsonSchema(
-        {"anyOf": [{"type": "number", **extra}, _SCALAR_SCHEMA["anyOf"][1]]}, mode="validation"
-    )
-
-
-Scalar = Annotated[
-    float,
-    BeforeValidator(_evaluate_scalar),
-    Field(allow_inf_nan=False, ge=-ABSURD, le=ABSURD),
-    _scalar_schema({}),
-]
-PositiveScalar = Annotated[
-    float,
-    BeforeValidator(_evaluate_scalar),
-    Field(allow_inf_nan=False, gt=0, le=ABSURD),
-    _at_least(SMALLEST_SIZE),
-    _scalar_schema({"exclusiveMinimum": 0}),
-]
-
-
-def _nonzero(value: float) -> float:
-    if value == 0:
-        raise PydanticCustomError("nonzero", "must not be zero")
-    return value
-
-
-NonzeroScalar = Annotated[Scalar, AfterValidator(_nonzero)]
-
-
-# Disturbance settings accept expressions, so one parameter can scale them all.
-NonNegativeScalar = Annotated[
-    float,
-    BeforeValidator(_evaluate_scalar),
-    Field(allow_inf_nan=False, ge=0, le=ABSURD),
-    _scalar_schema({"minimum": 0}),
-]
-ProbabilityScalar = Annotated[
-    float,
-    BeforeValidator(_evaluate_scalar),
-    Field(allow_inf_nan=False, ge=0, le=1),
-    _scalar_schema({"minimum": 0, "maximum": 1}),
-]
-SlipFraction = Annotated[
-    float,
-    BeforeValidator(_evaluate_scalar),
-    Field(allow_inf_nan=False, ge=0, lt=1),
-    _scalar_schema({"minimum": 0, "exclusiveMaximum": 1}),
-]
-BurstLength = Annotated[
-    float,
-    BeforeValidator(_evaluate_scalar),
-    Field(allow_inf_nan=False, ge=1, le=ABSURD),
-    _scalar_schema({"minimum": 1}),
-]
-
-
-def _start_angle(value: Any, info: ValidationInfo) -> Any:
-    return value if value == "current" else _evaluate_scalar(value, info)
-
-
-# `current` or a starting angle [rad] on the curve.
-StartAngle = Annotated[
-    Literal["current"] | float,
-    BeforeValidator(_start_angle),
-    WithJsonSchema(
-        {
-            "anyOf": [
-                {"type": "number"},
-                {"type": "string", "description": "'current' or a constant expression"},
-            ]
-        },
-        mode="validation",
-    ),
-]
-
-Point = tuple[Scalar, Scalar]
-
-
-def _known_region(name: str, info: ValidationInfo) -> str:
-    """With a loader context, a region reference must name a declared region."""
-    context = info.context
-    if isinstance(context, dict) and isinstance(context.get("regions"), list | tuple):
-        declared: list[str] = list(context["regions"])
-        if name not in declared:
-            import difflib
-
-            close = difflib.get_close_matches(name, declared, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
-            known = ", ".join(repr(n) for n in declared) or "none"
-            raise PydanticCustomError(
-                "undefined_region",
-                "undefined region '{name}'{hint} (declared regions: {known})",
-                {"name": name, "hint": hint, "known": known},
-            )
-    return name
-
-
-RegionName = Annotated[str, Field(pattern=IDENTIFIER, max_length=64), AfterValidator(_known_region)]
 
 
 # --- robot -----------------------------------------------------------------
 
 
-class Pose(_Model):
-    """A pose in the world frame."""
-
-    x: Scalar = Field(default=0.0, description="Position x [m].")
-    y: Scalar = Field(default=0.0, description="Position y [m].")
-    theta: Scalar = Field(default=0.0, description="Heading [rad], counter-clockwise from +x.")
-
-
-class Limits(_Model):
+class Limits(Model):
     """Actuator limits; inputs are saturated to them."""
 
     v: Positive = Field(default=10.0, description="Largest |v|, linear speed [m/s].")
@@ -315,15 +118,7 @@ class Limits(_Model):
     )
 
 
-class StateStd(_Model):
-    """A standard deviation per state."""
-
-    x: NonNegativeScalar = Field(default=0.0, description="Standard deviation of x [m].")
-    y: NonNegativeScalar = Field(default=0.0, description="Standard deviation of y [m].")
-    theta: NonNegativeScalar = Field(default=0.0, description="Standard deviation of theta [rad].")
-
-
-class Slip(_Model):
+class Slip(Model):
     """Wheel slip of the true plant."""
 
     longitudinal: SlipFraction = Field(
@@ -335,7 +130,7 @@ class Slip(_Model):
     )
 
 
-class Disturbances(_Model):
+class Disturbances(Model):
     """The true plant departs from eq. (1): noise, delay, lag and slip."""
 
     process_noise_std: StateStd = Field(
@@ -353,10 +148,10 @@ class Disturbances(_Model):
     slip: Slip = Field(default_factory=lambda: Slip(), description="Wheel slip.")
 
 
-class Robot(_Model):
+class Robot(Model):
     """The plant of eq. (1), sampled."""
 
-    dt: Annotated[Number, Field(gt=0, le=1)] = Field(
+    dt: Annotated[Number, Field(gt=0, le=1), at_least(SMALLEST_POSITIVE)] = Field(
         default=0.01, description="Sampling period [s], in (0, 1]."
     )
     initial_state: Pose = Field(
@@ -372,18 +167,7 @@ class Robot(_Model):
     )
 
 
-# --- sensors ---------------------------------------------------------------
-
-
-class StateOffset(_Model):
-    """An offset per state."""
-
-    x: Scalar = Field(default=0.0, description="Offset of x [m].")
-    y: Scalar = Field(default=0.0, description="Offset of y [m].")
-    theta: Scalar = Field(default=0.0, description="Offset of theta [rad].")
-
-
-class Dropout(_Model):
+class Dropout(Model):
     """Measurements lost in bursts (a two-state Markov chain per measurement)."""
 
     probability: ProbabilityScalar = Field(
@@ -398,7 +182,7 @@ class Dropout(_Model):
     )
 
 
-class Outliers(_Model):
+class Outliers(Model):
     """Wild measurements: a large Gaussian error added now and then."""
 
     probability: ProbabilityScalar = Field(
@@ -407,7 +191,7 @@ class Outliers(_Model):
     std: StateStd = Field(description="Standard deviation of the outlier's error [m, m, rad].")
 
 
-class Sensors(_Model):
+class Sensors(Model):
     """Which states are measured, how often, and how they err."""
 
     measure: tuple[StateName, ...] = Field(
@@ -420,7 +204,7 @@ class Sensors(_Model):
         default_factory=StateStd,
         description="Additive white Gaussian noise on each measured state [m, m, rad].",
     )
-    seed: Annotated[int, Strict(), Field(ge=0, le=2**32 - 1)] = Field(
+    seed: Annotated[int, Strict(), Field(ge=0, le=LARGEST_SEED)] = Field(
         default=0,
         description=(
             "Seed of every random draw of the run (noise and disturbances), 0 .. 2^32-1; "
@@ -453,530 +237,23 @@ class Sensors(_Model):
             )
         return measure
 
-
-# --- estimator -------------------------------------------------------------
-
-
-def _check_bound(bound: tuple[float, float]) -> tuple[float, float]:
-    lower, upper = bound
-    if not lower < 0 < upper:
-        raise PydanticCustomError(
-            "output_error_bound",
-            "an output-error bound is [lower, upper] with lower < 0 < upper, "
-            "got [{lower}, {upper}]",
-            {"lower": lower, "upper": upper},
-        )
-    return bound
-
-
-OutputErrorBound = Annotated[tuple[Number, Number], AfterValidator(_check_bound)]
-Pole = Annotated[Number, Field(ge=0, lt=1)]
-
-
-# Default output-error bound of eq. (4) [m or rad]: the larger of this and
-# BOUND_NOISE_RATIO times the state's noise std, so that phase II acts on
-# estimation errors, not on the noise (docs/paper-notes.md, eq. (4)).
-DEFAULT_BOUND = 0.05
-BOUND_NOISE_RATIO = 5.0
-
-
-def _default_bounds() -> dict[StateName, tuple[float, float]]:
-    return dict.fromkeys(STATES, (-DEFAULT_BOUND, DEFAULT_BOUND))
-
-
-def default_bound(noise_std: float) -> float:
-    """Half-width of the default output-error bound for a state with this noise."""
-    return max(DEFAULT_BOUND, BOUND_NOISE_RATIO * noise_std)
-
-
-_INITIAL_ESTIMATE = "Estimate at mission start [m, m, rad]; null = robot.initial_state."
-
-
-class StatePoles(_Model):
-    """Eigenvalues of the observer error dynamics (I - L C) A, per state."""
-
-    x: Pole = Field(default=0.9, description="Pole for x, in [0, 1).")
-    y: Pole = Field(default=0.9, description="Pole for y, in [0, 1).")
-    theta: Pole = Field(default=0.9, description="Pole for theta, in [0, 1).")
-
-
-class StatePositiveStd(_Model):
-    """A strictly positive standard deviation per state."""
-
-    x: Positive = Field(default=1.0, description="Standard deviation of x [m].")
-    y: Positive = Field(default=1.0, description="Standard deviation of y [m].")
-    theta: Positive = Field(default=0.5, description="Standard deviation of theta [rad].")
-
-
-class ConstrainedObserver(_Model):
-    """The paper's two-phase constrained estimator, eqs. (4)-(12)."""
-
-    type: Literal["constrained-observer"] = Field(
-        default="constrained-observer", description="Estimator kind (the default)."
-    )
-    initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
-    poles: StatePoles = Field(
-        default_factory=StatePoles,
-        description=(
-            "Observer poles, phase I (eq. 7). With the heading unmeasured, its pole relaxes "
-            "towards 1 while the robot moves less per sample than sensors.noise_std of the "
-            "measured positions (docs/paper-notes.md, eq. 6-7)."
-        ),
-    )
-    output_error_bounds: dict[StateName, OutputErrorBound] | None = Field(
-        default_factory=_default_bounds,
-        description=(
-            "Eq. (4): [lower, upper] bounds on each measured state's output error "
-            "[m or rad], lower < 0 < upper; keys must be measured states; null = no phase II. "
-            "Default on every measured state: +-max(0.05, 5 sensors.noise_std)."
-        ),
-    )
-    max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = Field(
-        default=10, description="Phase II iterations per sample, 1..1000."
-    )
-
-
-class Ekf(_Model):
-    """Baseline extended Kalman filter."""
-
-    type: Literal["ekf"] = Field(description="Estimator kind.")
-    initial_estimate: Pose | None = Field(default=None, description=_INITIAL_ESTIMATE)
-    initial_std: StatePositiveStd = Field(
-        default_factory=lambda: StatePositiveStd(x=1.0, y=1.0, theta=0.5),
-        description="Square root of the diagonal of P0 [m, m, rad], > 0.",
-    )
-    process_std: StateStd = Field(
-        default_factory=lambda: StateStd(x=0.001, y=0.001, theta=0.001),
-        description="Process noise per sample [m, m, rad], >= 0.",
-    )
-    measurement_std: dict[StateName, Positive] | None = Field(
-        default=None,
-        description=(
-            "Measurement noise per measured state [m or rad], > 0; "
-            "null = sensors.noise_std floored at 0.001."
-        ),
-    )
-    innovation_gate: Positive | None = Field(
-        default=None,
-        description=(
-            "Reject a measurement whose squared Mahalanobis distance r^T S^-1 r exceeds this "
-            "(chi-square with as many degrees of freedom as measured states: 16.27 is its "
-            "0.999 quantile for 3); a rejected measurement is a prediction-only step. "
-            "null = no gating."
-        ),
-    )
-
-
-def _estimator_type(value: Any) -> str | None:
-    """The estimator's `type`; without one, the paper's estimator."""
-    if isinstance(value, dict):
-        kind = value.get("type", "constrained-observer")
-        return kind if isinstance(kind, str) else None
-    return getattr(value, "type", None)
-
-
-Estimator = Annotated[
-    Annotated[ConstrainedObserver, Tag("constrained-observer")] | Annotated[Ekf, Tag("ekf")],
-    Discriminator(_estimator_type),
-]
-
-
-# --- controller ------------------------------------------------------------
-
-
-class Tracking(_Model):
-    """Case 2 law: which point of the robot follows the path."""
-
-    output: Literal["look-ahead", "axle"] = Field(
-        default="look-ahead",
-        description="look-ahead: a point ahead of the axle; axle: the literal eq. (27).",
-    )
-    look_ahead: Positive | None = Field(
-        default=None,
-        description=(
-            "Distance of the look-ahead point ahead of the axle [m]; "
-            "null = max(0.05, robot.limits.v * robot.dt), where the law is well conditioned "
-            "at every speed the limits allow."
-        ),
-    )
-    time_constant: NonNegative = Field(
-        default=0.1,
-        description=(
-            "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
-            "time_constant) of the output's error, the path's own motion fed forward; "
-            "0 = close the whole error in one sample (the literal eq. 27; always so for "
-            "output: axle)."
-        ),
-    )
-
-
-class Regulation(_Model):
-    """Case 1 law: how a target pose is approached."""
-
-    form: Literal["bearing", "deviation", "increment"] = Field(
-        default="bearing",
-        description=(
-            "bearing: drive to the point then turn (parks); deviation: LQR on the pose "
-            "error; increment: the literal eq. (19)."
-        ),
-    )
-    align_radius: Positive = Field(
-        default=0.01, description="Within this distance the bearing form turns to the target [m]."
-    )
-    reverse: Flag = Field(default=True, description="The bearing form may drive backwards.")
-
-
-class Controller(_Model):
-    """The two-component controller: gain-scheduled LQR and corrective control."""
-
-    Q: tuple[NonNegative, NonNegative, NonNegative] = Field(
-        default=(1.0, 1.0, 1.0), description="Eq. (17) state weights (diagonal), >= 0."
-    )
-    R: tuple[Positive, Positive] = Field(
-        default=(1.0, 1.0), description="Eq. (17) input weights (diagonal), > 0."
-    )
-    W: tuple[Positive, Positive, Positive] = Field(
-        default=(100.0, 100.0, 100.0), description="Eq. (22) constraint weights (diagonal), > 0."
-    )
-    M: tuple[Positive, Positive] = Field(
-        default=(100.0, 100.0), description="Eq. (22) input weights (diagonal), > 0."
-    )
-    tracking: Tracking = Field(default_factory=Tracking, description="Path tracking output.")
-    regulation: Regulation = Field(default_factory=Regulation, description="Regulation form.")
-
-
-# --- regions ---------------------------------------------------------------
-
-
-class EllipseRegion(_Model):
-    """Inside: ((u/a)^2 + (w/b)^2 <= 1), [u, w] = Rot(-rotation)(p - center); eq. (33)."""
-
-    type: Literal["ellipse"] = Field(description="Region kind.")
-    center: Point = Field(default=(0.0, 0.0), description="Centre [x, y] [m].")
-    semi_axes: tuple[PositiveScalar, PositiveScalar] = Field(
-        description="Semi-axes [a, b] along the rotated x and y axes [m], > 0."
-    )
-    rotation: Scalar = Field(default=0.0, description="Rotation of the a axis from +x [rad].")
-
-
-class CircleRegion(_Model):
-    """Inside: |p - center| <= radius."""
-
-    type: Literal["circle"] = Field(description="Region kind.")
-    center: Point = Field(default=(0.0, 0.0), description="Centre [x, y] [m].")
-    radius: PositiveScalar = Field(description="Radius [m], > 0.")
-
-
-class BoxRegion(_Model):
-    """Axis-aligned box: min <= p <= max componentwise."""
-
-    type: Literal["box"] = Field(description="Region kind.")
-    min: Point = Field(description="Lower-left corner [x, y] [m].")
-    max: Point = Field(description="Upper-right corner [x, y] [m], greater than min.")
-
-    @model_validator(mode="after")
-    def _ordered(self) -> BoxRegion:
-        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
-            raise PydanticCustomError(
-                "box_order", "a box needs min < max in both x and y (min is the lower-left corner)"
-            )
-        return self
-
-
-class PolygonRegion(_Model):
-    """Convex polygon; inside is the interior."""
-
-    type: Literal["polygon"] = Field(description="Region kind.")
-    vertices: list[Point] = Field(
-        min_length=3,
-        max_length=1000,
-        description="At least 3 vertices [[x, y], ...] [m], convex, either orientation.",
-    )
-
-    @field_validator("vertices")
-    @classmethod
-    def _distinct(cls, vertices: list[tuple[float, float]]) -> list[tuple[float, float]]:
-        if len(set(vertices)) != len(vertices):
-            raise PydanticCustomError("repeated_vertex", "a polygon vertex is repeated")
-        return vertices
-
-
-class HalfPlaneRegion(_Model):
-    """Inside: normal . p <= offset."""
-
-    type: Literal["half-plane"] = Field(description="Region kind.")
-    normal: Point = Field(description="Outward normal [nx, ny], not zero.")
-    offset: Scalar = Field(description="Offset c of nx*x + ny*y <= c [m times |normal|].")
-
-    @field_validator("normal")
-    @classmethod
-    def _nonzero_normal(cls, normal: tuple[float, float]) -> tuple[float, float]:
-        if normal == (0.0, 0.0):
-            raise PydanticCustomError("zero_normal", "a half-plane normal must not be [0, 0]")
-        return normal
-
-
-RegionSpec = Annotated[
-    EllipseRegion | CircleRegion | BoxRegion | PolygonRegion | HalfPlaneRegion,
-    Field(discriminator="type"),
-]
-
-
-# --- paths -----------------------------------------------------------------
-
-
-class LinePath(_Model):
-    """p(t) = p0 + speed*t*(cos h, sin h)."""
-
-    type: Literal["line"] = Field(description="Path kind.")
-    start: Literal["current"] | Point = Field(
-        default="current", description="'current' (the robot's position) or [x, y] [m]."
-    )
-    heading: Scalar | None = Field(
-        default=None, description="Direction h [rad]; give heading or towards."
-    )
-    towards: Point | None = Field(
-        default=None, description="A point [x, y] [m] the line heads to; give heading or towards."
-    )
-    speed: PositiveScalar = Field(description="Speed along the line [m/s], > 0.")
-
-    @model_validator(mode="after")
-    def _one_direction(self) -> LinePath:
-        if (self.heading is None) == (self.towards is None):
-            raise PydanticCustomError(
-                "line_direction", "a line path needs exactly one of 'heading' or 'towards'"
-            )
-        return self
-
-
-class CirclePath(_Model):
-    """p = c + r(cos(wt + phi0), sin(wt + phi0))."""
-
-    type: Literal["circle"] = Field(description="Path kind.")
-    center: Point = Field(description="Centre [x, y] [m].")
-    radius: PositiveScalar = Field(description="Radius [m], > 0.")
-    angular_rate: NonzeroScalar = Field(description="w [rad/s], not zero; > 0 counter-clockwise.")
-    start: StartAngle = Field(
-        default="current",
-        description="'current' (phi0 = polar angle of the robot about the centre) or phi0 [rad].",
-    )
-
-
-class _EllipseGeometry(_Model):
-    region: RegionName | None = Field(
-        default=None, description="Name of an ellipse or circle region giving the geometry."
-    )
-    center: Point | None = Field(default=None, description="Centre [x, y] [m], without region.")
-    semi_axes: tuple[PositiveScalar, PositiveScalar] | None = Field(
-        default=None, description="Semi-axes [a, b] [m], without region."
-    )
-    rotation: Scalar | None = Field(
-        default=None, description="Rotation [rad] (default 0), without region."
-    )
-
-    @model_validator(mode="after")
-    def _one_geometry(self) -> _EllipseGeometry:
-        explicit = self.center is not None or self.semi_axes is not None
-        if self.region is not None and (explicit or self.rotation is not None):
-            raise PydanticCustomError(
-                "ellipse_geometry",
-                "give either 'region' or 'center' + 'semi_axes' (+ 'rotation'), not both",
-            )
-        if self.region is None and (self.center is None or self.semi_axes is None):
-            raise PydanticCustomError(
-                "ellipse_geometry", "give either 'region' or both 'center' and 'semi_axes'"
-            )
-        return self
-
-
-class EllipsePath(_EllipseGeometry):
-    """Eq. (31): p = c + Rot(rotation)(a cos(wt + phi0), b sin(wt + phi0))."""
-
-    type: Literal["ellipse"] = Field(description="Path kind.")
-    angular_rate: NonzeroScalar = Field(description="w [rad/s], not zero.")
-    start: StartAngle = Field(
-        default="current",
-        description=(
-            "'current' (phi0 = atan2(w/b, u/a) of the robot in the ellipse frame) or phi0 [rad]."
-        ),
-    )
-
-
-class SpiralPath(_Model):
-    """Eq. (30): r = r0 exp(growth_rate t), angle w t + phi0."""
-
-    type: Literal["spiral"] = Field(description="Path kind.")
-    center: Point = Field(default=(0.0, 0.0), description="Centre [x, y] [m].")
-    initial_radius: PositiveScalar = Field(description="r0 [m], > 0.")
-    growth_rate: Scalar = Field(description="Radial growth rate [1/s]; < 0 spirals in.")
-    angular_rate: NonzeroScalar = Field(description="w [rad/s], not zero.")
-    start: StartAngle = Field(default=0.0, description="'current' or phi0 [rad].")
-
-
-class EllipticalSpiralPath(_EllipseGeometry):
-    """Eq. (32): the ellipse of eq. (31) scaled by exp(-decay_rate t)."""
-
-    type: Literal["elliptical-spiral"] = Field(description="Path kind.")
-    decay_rate: PositiveScalar = Field(description="Decay rate [1/s], > 0.")
-    angular_rate: NonzeroScalar = Field(description="w [rad/s], not zero.")
-    start: StartAngle = Field(
-        default="current",
-        description=(
-            "'current' (phi0 = atan2(w/b, u/a) of the robot in the ellipse frame) or phi0 [rad]."
-        ),
-    )
-
-
-class WaypointsPath(_Model):
-    """A smooth (C1) curve through the points at constant speed, kept close to their
-    convex hull."""
-
-    type: Literal["waypoints"] = Field(description="Path kind.")
-    points: list[Point] = Field(
-        min_length=2, max_length=10000, description="At least 2 points [[x, y], ...] [m]."
-    )
-    speed: PositiveScalar = Field(description="Speed along the curve [m/s], > 0.")
-    start: Literal["current", "first"] = Field(
-        default="current",
-        description=(
-            "current: an open curve starts at the robot's position, a closed one where it "
-            "passes nearest the robot; first: at the first point."
-        ),
-    )
-    closed: Flag = Field(default=False, description="Return to the first point and loop.")
-
-
-# --- routes drawn through points: polyline and coverage ---------------------
-
-
-class PolylinePath(_Model):
-    """Straight legs through the points at constant speed, corners rounded by arcs
-    (or turned in place); never leaves the points' convex hull."""
-
-    type: Literal["polyline"] = Field(description="Path kind.")
-    points: list[Point] = Field(
-        min_length=1,
-        max_length=10000,
-        description="At least 1 point [[x, y], ...] [m] (with start: current, the robot's "
-        "position comes first).",
-    )
-    speed: PositiveScalar = Field(description="Speed along legs and arcs [m/s], > 0.")
-    corner_radius: NonNegativeScalar = Field(
-        default=0.0,
-        description=(
-            "Radius of the arc joining two legs [m], >= 0, shrunk where it does not fit in "
-            "half of either leg; 0 = stop and turn in place."
-        ),
-    )
-    turn_rate: PositiveScalar = Field(
-        default=1.0, description="Turn rate of a turn in place [rad/s], > 0."
-    )
-    start: Literal["current", "first"] = Field(
-        default="current",
-        description=(
-            "current: an open route starts at the robot's position, a closed one where it "
-            "passes nearest the robot; first: at the first point."
-        ),
-    )
-    closed: bool = Field(default=False, description="Return to the first point and loop.")
-
-
-class CoveragePath(_Model):
-    """A boustrophedon (lawnmower) over a box or convex polygon region: parallel
-    lanes, run alternately back and forth, joined by arcs of the turn radius."""
-
-    type: Literal["coverage"] = Field(description="Path kind.")
-    region: RegionName = Field(description="Name of the box or polygon region to cover.")
-    spacing: PositiveScalar = Field(
-        description=(
-            "Largest distance between neighbouring lanes [m], > 0; lanes are spread evenly, "
-            "the outer ones half a spacing inside the field."
-        )
-    )
-    direction: Scalar = Field(default=0.0, description="Direction of the lanes [rad] from +x.")
-    turn_radius: NonNegativeScalar | None = Field(
-        default=None,
-        description=(
-            "Radius of the turns at the lane ends [m], >= 0; default half the spacing "
-            "(a semicircle); 0 = turn in place."
-        ),
-    )
-    turn_rate: PositiveScalar = Field(
-        default=1.0, description="Turn rate of a turn in place [rad/s], > 0."
-    )
-    speed: PositiveScalar = Field(description="Speed along lanes and turns [m/s], > 0.")
-    start: Literal["current", "first"] = Field(
-        default="current",
-        description="current: drive from the robot's position to the first lane; first: start "
-        "on the first lane.",
-    )
-
-
-def _number_as_text(value: Any) -> Any:
-    """`y: 0` is a constant expression too."""
-    if isinstance(value, int | float) and not isinstance(value, bool):
-        return repr(value)
-    return value
-
-
-ExpressionText = Annotated[
-    str,
-    BeforeValidator(_number_as_text),
-    WithJsonSchema({"type": ["number", "string"]}, mode="validation"),
-]
-
-
-class ExpressionPath(_Model):
-    """x(t), y(t) as restricted expressions of phase-local time t [s]."""
-
-    type: Literal["expression"] = Field(description="Path kind.")
-    x: ExpressionText = Field(description="x(t) [m], e.g. '2*exp(0.5*t)*cos(0.4*pi*t)'.")
-    y: ExpressionText = Field(description="y(t) [m].")
-    start: Literal["as-written", "current"] = Field(
-        default="as-written",
-        description="as-written: as the text says; current: translated so p(0) is the robot.",
-    )
-
-    @field_validator("x", "y")
-    @classmethod
-    def _parses(cls, text: str, info: ValidationInfo) -> str:
-        from wmr_mission.expressions import ExpressionError, parse
-
-        try:
-            parse(text, _parameters(info), allow_t=True)
-        except ExpressionError as error:
-            raise PydanticCustomError(
-                "expression",
-                "invalid expression: {message}",
-                {"message": error.message, "column": error.column},
-            ) from None
-        return text
-
-
-PathSpec = Annotated[
-    LinePath
-    | CirclePath
-    | EllipsePath
-    | SpiralPath
-    | EllipticalSpiralPath
-    | WaypointsPath
-    | ExpressionPath
-    | PolylinePath
-    | CoveragePath,
-    Field(discriminator="type"),
-]
+    def measured_noise(self) -> dict[str, float]:
+        """The standard deviation of each measured state's noise [m or rad], in
+        the order ``measure`` lists them: the one reading of ``noise_std``
+        (a state not measured has no measurement to be noisy)."""
+        return {state: float(getattr(self.noise_std, state)) for state in self.measure}
 
 
 # --- expectations ----------------------------------------------------------
 
 
-class Threshold(_Model):
+class Threshold(Model):
     """An upper bound on a run metric."""
 
     max: NonNegative = Field(description="Largest accepted value, in the metric's unit.")
 
 
-class StateThresholds(_Model):
+class StateThresholds(Model):
     """An upper bound per state, in the state's unit; a state left out is not checked."""
 
     x: NonNegative | None = Field(default=None, description="[m] bound for x.")
@@ -988,7 +265,7 @@ class StateThresholds(_Model):
 DEFAULT_CONVERGENCE_TOLERANCE: Final = 0.05
 
 
-class StateTolerance(_Model):
+class StateTolerance(Model):
     """A tolerance per state, in the state's unit."""
 
     x: Positive = Field(
@@ -1069,7 +346,7 @@ def _mission_metric(name: str, default: Threshold | str | None, rule: str = "") 
     return Field(default=default, description=f"{_PHASE_METRICS[name]}{rule}")
 
 
-class PhaseExpect(_Model):
+class PhaseExpect(Model):
     """Thresholds on one phase's metrics; a key left out (or null) takes the mission's value."""
 
     settle_time: NonNegative | None = Field(
@@ -1105,14 +382,14 @@ class PhaseExpect(_Model):
 # --- phases ----------------------------------------------------------------
 
 
-class Near(_Model):
+class Near(Model):
     """The estimated position is within tolerance of a point."""
 
     point: Point = Field(description="Point [x, y] [m].")
     tolerance: Positive = Field(description="Distance [m], > 0.")
 
 
-class Settled(_Model):
+class Settled(Model):
     """The estimated pose is at the target and the robot has stopped (regulate/hold only)."""
 
     position: Positive = Field(description="Position tolerance [m], > 0.")
@@ -1120,14 +397,14 @@ class Settled(_Model):
     speed: Positive = Field(default=0.01, description="Largest |v| [m/s], > 0.")
 
 
-class HeadingCondition(_Model):
+class HeadingCondition(Model):
     """The estimated heading is within tolerance of a target (wrapped)."""
 
     target: Scalar = Field(description="Target heading [rad].")
     tolerance: Positive = Field(description="Tolerance [rad], > 0.")
 
 
-class Until(_Model):
+class Until(Model):
     """Exit conditions: the phase ends when ANY given one holds."""
 
     elapsed: Duration | None = Field(default=None, description="Phase time [s], > 0.")
@@ -1141,13 +418,13 @@ class Until(_Model):
     heading: HeadingCondition | None = Field(default=None, description="Heading reached.")
 
 
-class StayInside(_Model):
+class StayInside(Model):
     """Keep the robot inside a region (the corrective control of eqs. (22)-(28))."""
 
     stay_inside: RegionName = Field(description="Region name.")
 
 
-class StayOutside(_Model):
+class StayOutside(Model):
     """Keep the robot outside a region (ellipse, circle or half-plane)."""
 
     stay_outside: RegionName = Field(description="Region name.")
@@ -1172,26 +449,28 @@ Constraint = Annotated[
 ]
 
 
-class Track(_Model):
+class Track(Model):
     """Follow a path (the Case 2 law)."""
 
-    path: PathSpec = Field(description="The path, instantiated at phase entry.")
+    path: Annotated[PathSettings, PATHS] = Field(
+        description="The path, instantiated at phase entry."
+    )
 
 
-class Regulate(_Model):
+class Regulate(Model):
     """Drive to a target pose (the Case 1 law)."""
 
     target: Pose = Field(description="Target pose [m, m, rad].")
 
 
-class Hold(_Model):
+class Hold(Model):
     """Regulate to the pose estimated at phase entry."""
 
 
 _PHASE_DESCRIPTION: Final = "Unique phase name: letters, digits, '-' and '_', at most 64."
 
 
-class _PhaseCommon(_Model):
+class _PhaseCommon(Model):
     name: Annotated[str, Field(pattern=PHASE_NAME)] = Field(description=_PHASE_DESCRIPTION)
     until: Until = Field(default_factory=Until, description="Exit conditions (any of).")
     timeout: Duration | None = Field(
@@ -1265,7 +544,7 @@ Phase = Annotated[
 # --- repeats: a group of phases run several times ---------------------------
 
 
-class Repeat(_Model):
+class Repeat(Model):
     """Phases run ``times`` times in order (patrol laps); repeats do not nest."""
 
     times: Annotated[int, Strict(), Field(ge=1, le=10000)] = Field(
@@ -1276,7 +555,7 @@ class Repeat(_Model):
     )
 
 
-class RepeatPhase(_Model):
+class RepeatPhase(Model):
     """A group of phases run several times; each run is a lap (transitions.json)."""
 
     name: Annotated[str, Field(pattern=PHASE_NAME)] = Field(description=_PHASE_DESCRIPTION)
@@ -1461,7 +740,7 @@ Color = Annotated[str, Field(max_length=64), AfterValidator(_color)]
 PhaseNameKey = Annotated[str, Field(pattern=PHASE_NAME)]
 
 
-class Plot(_Model):
+class Plot(Model):
     """How the figures of a run look."""
 
     phase_colors: dict[PhaseNameKey, Color] = Field(
@@ -1495,7 +774,7 @@ ParameterName = Annotated[str, Field(pattern=IDENTIFIER, max_length=64)]
 RegionKey = Annotated[str, Field(pattern=IDENTIFIER, max_length=64)]
 
 
-class Mission(_Model):
+class Mission(Model):
     """A mission: a robot, its sensors and estimator, a controller, regions and phases."""
 
     model_config = ConfigDict(
@@ -1529,11 +808,13 @@ class Mission(_Model):
     )
     robot: Robot = Field(default_factory=Robot, description="The robot.")
     sensors: Sensors = Field(default_factory=Sensors, description="Its sensors.")
-    estimator: Estimator = Field(
+    estimator: Annotated[EstimatorSettings, ESTIMATORS] = Field(
         default_factory=lambda: ConstrainedObserver(type="constrained-observer"),
         description="State estimator.",
     )
-    controller: Controller = Field(default_factory=Controller, description="The controller.")
+    controller: Annotated[ControllerSettings, CONTROLLERS] = Field(
+        default_factory=PaperController, description="The controller."
+    )
     regions: dict[RegionKey, RegionSpec] = Field(
         default_factory=dict,
         max_length=1000,
@@ -1546,29 +827,30 @@ class Mission(_Model):
     expect: Expect = Field(default_factory=Expect, description="Acceptance thresholds.")
     plot: Plot = Field(default_factory=Plot, description="How the figures look.")
 
-    @model_validator(mode="before")
+    def path_context(self) -> paths.Context:
+        """What the mission's paths may refer to: its regions and parameters."""
+        return paths.Context(regions=self.regions, parameters=self.parameters)
+
+    @model_validator(mode="wrap")
     @classmethod
-    def _default_bounds_on_measured_states(cls, data: Any) -> Any:
-        """Default output-error bounds cover the measured states only, each
-        wide enough that the state's noise alone rarely leaves it."""
-        if not isinstance(data, dict):
-            return data
-        estimator = data.get("estimator", {"type": "constrained-observer"})
-        sensors = data.get("sensors", {})
-        if not (isinstance(estimator, dict) and isinstance(sensors, dict)):
-            return data
-        kind = estimator.get("type", "constrained-observer")
-        if kind != "constrained-observer" or "output_error_bounds" in estimator:
-            return data
-        measure = sensors.get("measure", STATES)
-        if not isinstance(measure, list | tuple) or not all(s in STATES for s in measure):
-            return data
-        noise = sensors.get("noise_std", {})
-        bounds = {}
-        for state in measure:
-            std = noise.get(state, 0.0) if isinstance(noise, dict) else 0.0
-            if isinstance(std, bool) or not isinstance(std, int | float) or not std >= 0:
-                std = 0.0  # the field's own check reports it
-            half_width = default_bound(float(std))
-            bounds[state] = (-half_width, half_width)
-        return {**data, "estimator": {**estimator, "output_error_bounds": bounds}}
+    def _estimator_follows_the_sensors(
+        cls, data: Any, handler: ValidatorFunctionWrapHandler
+    ) -> Mission:
+        """Estimator settings whose defaults follow the sensors, completed by
+        them (wmr_mission.estimators.registry.EstimatorSettings.with_sensors)."""
+        mission: Mission = handler(data)
+        estimator = mission.estimator.with_sensors(mission.sensors.measured_noise())
+        if estimator is mission.estimator:
+            return mission
+        return mission.model_copy(update={"estimator": estimator})
+
+
+def _rebuild() -> None:
+    """A variant registered after the models were built: rebuild those that
+    embed a registry, inner ones first, so the mission accepts it."""
+    for model in (Track, TrackPhase, Repeat, RepeatPhase, Mission):
+        model.model_rebuild(force=True)
+
+
+for _registry in (PATHS, ESTIMATORS, CONTROLLERS):
+    _registry.on_change(_rebuild)

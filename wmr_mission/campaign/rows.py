@@ -1,0 +1,194 @@
+"""One run of a campaign: the mission with the run's values set, simulated, reduced to a row.
+
+The mission is loaded exactly as ``wmr-mission run MISSION --set PATH=VALUE
+... --seed SEED`` loads it, so that the run's ``replay`` command reproduces
+it byte for byte.
+"""
+
+from __future__ import annotations
+
+import math
+import shlex
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Final
+
+import numpy as np
+
+from wmr_mission.campaign.load import LoadedCampaign, override, value_text
+from wmr_mission.campaign.models import Axis
+from wmr_mission.campaign.plan import Draw, Plan
+from wmr_mission.output.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
+from wmr_mission.output.result import Outcome
+from wmr_mission.spec.checks import read_by_sampling_checks
+from wmr_mission.spec.models import Mission
+
+if TYPE_CHECKING:
+    from wmr_mission.output.result import RunResult
+
+__all__ = [
+    "ERROR",
+    "INVALID",
+    "METRICS",
+    "Row",
+    "header",
+    "replay_command",
+    "run_row",
+    "run_rows",
+    "simulate",
+]
+
+INVALID: Final = "invalid"
+"""Outcome of a run whose drawn values the mission refuses (a normal draw beyond
+the 4 std that `validate` checked)."""
+
+ERROR: Final = "error"
+"""Outcome of a run that raised an exception: a bug, reported with the run's replay."""
+
+# The run's metrics, computed by the code that writes summary.json: every
+# metric an `expect` can bound.
+METRICS: Final = tuple(EXPECTATION_PATHS)
+
+# Points kept of each run's path for the campaign's trajectory figure.
+PATH_POINTS: Final = 600
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of runs.csv, and what the campaign's figures need of the run."""
+
+    run: int
+    seed: int
+    outcome: str
+    values: tuple[Any, ...]
+    metrics: tuple[float | None, ...]
+    reason: str
+    path_xy: np.ndarray  # (2, <= PATH_POINTS) float32, thinned true path
+
+    @property
+    def succeeded(self) -> bool:
+        return self.outcome == Outcome.success.value
+
+    def cells(self) -> list[str]:
+        return [
+            str(self.run),
+            str(self.seed),
+            self.outcome,
+            *(v if isinstance(v, str) else value_text(v) for v in self.values),
+            *("" if m is None else repr(m) for m in self.metrics),
+            self.reason,
+        ]
+
+
+def header(paths: Sequence[str]) -> list[str]:
+    return ["run", "seed", "outcome", *paths, *METRICS, "reason"]
+
+
+def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
+    """The mission with the run's values, or None and why the mission refuses them.
+
+    Checked as ``run --set`` checks it (:func:`checked_mission`), except that
+    the checks that sample paths and regions (they cost more than the run) are
+    left out where `validate`'s checks at the axes' values cover the run: no
+    varied field is one they read, or one discrete axis is.
+    """
+    overrides = [override(path, value) for path, value in draw.values.items()]
+    vary = loaded.campaign.vary
+    if all(
+        path in vary and vary[path].within_extremes(value) for path, value in draw.values.items()
+    ):
+        mission = loaded.mission_across_fields(overrides)
+        if mission is not None and _sampled_by_validate(vary, mission):
+            return mission, ""
+    return checked_mission(loaded, draw)
+
+
+def _sampled_by_validate(vary: Mapping[str, Axis], mission: Mission) -> bool:
+    """Whether the checks `validate` ran at the axes' values cover this run:
+    none of the varied fields is read by the sampling checks, or only one is and
+    `validate` checked each value it takes (choice, grid). A value between the
+    extremes of a continuous axis can break a path the extremes do not."""
+    read = [path for path in vary if read_by_sampling_checks(path, mission)]
+    return not read or (len(read) == 1 and vary[read[0]].kind in ("choice", "grid"))
+
+
+def checked_mission(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
+    """The mission with the run's values checked exactly as ``run --set`` checks
+    it, or None and every error."""
+    overrides = [override(path, value) for path, value in draw.values.items()]
+    mission, diagnostics = loaded.mission_with(overrides)
+    if mission is None:
+        errors = [str(d) for d in diagnostics if d.severity == "error"]
+        return None, "; ".join(errors)
+    return mission, ""
+
+
+def simulate(loaded: LoadedCampaign, draw: Draw) -> tuple[RunResult | None, str]:
+    """The run as its ``replay`` command runs it, for its run directory (None
+    when the mission refuses its values, with the reason)."""
+    from wmr_mission.sim.runner import run_mission
+
+    mission, reason = checked_mission(loaded, draw)
+    if mission is None:
+        return None, reason
+    return _uninterrupted(run_mission(mission, seed=draw.seed)), ""
+
+
+def _uninterrupted(result: RunResult) -> RunResult:
+    """A campaign's run is never cut short: a Ctrl-C that ``run_mission`` turned
+    into an ``interrupted`` result stops the campaign, not the run, whose row
+    or directory would no longer be what its ``replay`` gives."""
+    if result.outcome is Outcome.interrupted:
+        raise KeyboardInterrupt
+    return result
+
+
+def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
+    empty = np.zeros((2, 0), dtype=np.float32)
+    values = tuple(draw.values.values())
+    return Row(draw.run, draw.seed, outcome, values, (None,) * len(METRICS), reason, empty)
+
+
+def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
+    """One run reduced to its row: simulated and judged as ``run_mission`` does
+    (the same samples, the same outcome), its metrics from the code of summary.json."""
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
+
+    mission, reason = mission_of(loaded, draw)
+    if mission is None:
+        return _not_run(draw, INVALID, reason)
+    result = _uninterrupted(run_mission(plan_mission(mission, draw.seed)))
+    summary = judge_run_metrics(result, mission.model_dump(mode="json"))
+    metrics = tuple(summary_value(summary, EXPECTATION_PATHS[name]) for name in METRICS)
+    step = max(1, math.ceil(result.samples / PATH_POINTS))
+    path_xy = np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
+    reason = "" if result.outcome is Outcome.success else result.message
+    values = tuple(draw.values.values())
+    return Row(draw.run, draw.seed, result.outcome.value, values, metrics, reason, path_xy)
+
+
+def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
+    """Rows of runs ``start .. stop - 1``: one task of a worker."""
+    plan = Plan(loaded.campaign)
+    rows = []
+    for run in range(start, stop):
+        draw = plan.draw(run)
+        try:
+            rows.append(run_row(loaded, draw))
+        except Exception as error:  # one run's fault must not lose the campaign
+            reason = f"internal error ({type(error).__name__}: {error}); please report it"
+            rows.append(_not_run(draw, ERROR, reason))
+    return rows
+
+
+def replay_command(loaded: LoadedCampaign, draw: Draw) -> str:
+    """The one-line ``wmr-mission run`` command that reproduces a run byte for byte
+    (in an environment of the same fingerprint: ``run`` warns in another)."""
+    from wmr_mission.output.environment import own_fingerprint
+
+    words = ["wmr-mission", "run", str(loaded.mission_path)]
+    for path, value in draw.values.items():
+        words += ["--set", f"{path}={value_text(value)}"]
+    words += ["--seed", str(draw.seed), "--expect-environment", own_fingerprint()]
+    return shlex.join(words)

@@ -1,0 +1,34 @@
+"""``wmr-mission plot RUN_DIR``: the figures of a run directory, drawn again from its data."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from wmr_mission.output.figures import draw_all
+from wmr_mission.output.reader import RunDirError, load_run
+
+
+def replot_command(run_dir: Path, formats: Sequence[str] = ("png",)) -> int:
+    """``wmr-mission plot RUN_DIR``: re-draw the figures from the saved data."""
+    try:
+        result = load_run(run_dir)
+    except (RunDirError, OSError) as exc:
+        print(f"{run_dir}: {exc}", file=sys.stderr)
+        return 1
+    try:
+        paths = draw_all(result, run_dir, formats)
+    except OSError as exc:
+        print(f"{run_dir}: {exc}", file=sys.stderr)
+        return 1
+    except Exception as error:  # a fault in drawing: one line, never a traceback
+        print(
+            f"{run_dir}: cannot draw the figures ({type(error).__name__}: {error}); "
+            "the data are unchanged; please report it",
+            file=sys.stderr,
+        )
+        return 1
+    for path in paths:
+        print(path)
+    return 0

@@ -1,0 +1,277 @@
+"""``wmr-mission run``: load, simulate, judge, write, report.
+
+What can fail is checked before the simulation (the mission, the run
+directory: created, claimed and writable, the free space), and what was
+simulated is written even when the run stops early: on SIGINT or SIGTERM the
+samples up to the stop are written with the outcome ``interrupted`` and the
+command exits 128 + the signal's number (130, 143).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import signal
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from datetime import datetime
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from wmr_mission.output.result import Outcome, RunResult
+
+if TYPE_CHECKING:
+    from wmr_mission.spec.loader import Override
+    from wmr_mission.spec.models import Mission
+
+# Exit codes (README, docs/reliability.md).
+EXIT_FAILED = 1  # invalid mission, or the run failed
+EXIT_RUN_DIR = 2  # the run directory cannot be made or written
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def _overrides(texts: Sequence[str]) -> list[Override] | None:
+    """Each ``--set PATH=VALUE``; None (the problems printed) when one is malformed."""
+    from wmr_mission.spec.loader import MissionError, parse_override
+
+    parsed, problems = [], []
+    for text in texts:
+        try:
+            parsed.append(parse_override(text))
+        except MissionError as error:
+            problems += error.diagnostics
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    return None if problems else parsed
+
+
+@contextmanager
+def _stop_signals() -> Iterator[list[int]]:
+    """SIGTERM stops the run the way Ctrl-C does; yields the signals received."""
+    from wmr_mission.stopping import StopSignals
+
+    with StopSignals(STOP_SIGNALS) as stop:
+        yield stop.received
+
+
+def _signal_exit(received: list[int]) -> int:
+    return 128 + (received[0] if received else signal.SIGINT)
+
+
+def run_command(
+    mission_path: Path,
+    *,
+    out: Path | None,
+    seed: int | None,
+    plots: bool,
+    animate: bool,
+    overrides: Sequence[str] = (),
+    formats: Sequence[str] = ("png",),
+    expected_environment: str | None = None,
+) -> int:
+    """Exit code: 0 success; 1 invalid mission or failed run; 2 unusable run
+    directory; 130 or 143 stopped by SIGINT or SIGTERM (its record is written).
+
+    ``overrides``: ``PATH=VALUE`` texts of ``--set``; ``formats``: figure formats;
+    ``expected_environment``: the fingerprint of ``--expect-environment``.
+    """
+    if expected_environment is not None:
+        _check_environment(expected_environment)
+    from wmr_mission.spec.loader import check_mission_bytes, read_source
+
+    with _stop_signals() as received:
+        try:
+            parsed = _overrides(overrides)
+            if parsed is None:
+                return EXIT_FAILED
+            # The file is read once: the bytes hashed are the bytes run.
+            source, diagnostics = read_source(mission_path)
+            mission = None
+            if source is not None:
+                mission, diagnostics = check_mission_bytes(source, str(mission_path), parsed)
+            for diagnostic in diagnostics:  # warnings too, as `validate` prints them
+                print(diagnostic, file=sys.stderr)
+            if mission is None or source is None:
+                return EXIT_FAILED
+            sha256 = hashlib.sha256(source).hexdigest()
+            return _run(mission, sha256, mission_path, out, seed, plots, animate, formats, received)
+        except KeyboardInterrupt:
+            print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
+            return _signal_exit(received)
+
+
+def _check_environment(expected: str) -> None:
+    """One line on stderr when this environment is not the one a command was
+    recorded in: the run may then differ from the recorded one in the last digits."""
+    from wmr_mission.output.environment import own_fingerprint
+
+    mine = own_fingerprint()
+    if mine != expected:
+        print(
+            f"wmr-mission: warning: this environment's fingerprint is {mine}, not {expected} "
+            "as where the command was recorded: the results may differ in the last digits "
+            '(manifest.json\'s "versions" and "environment" say what this one is)',
+            file=sys.stderr,
+        )
+
+
+def _run(
+    mission: Mission,
+    sha256: str,
+    mission_path: Path,
+    out: Path | None,
+    seed: int | None,
+    plots: bool,
+    animate: bool,
+    formats: Sequence[str],
+    received: list[int],
+) -> int:
+    from wmr_mission.commands.background_compile import prepare
+    from wmr_mission.output.report import format_table
+    from wmr_mission.output.rundir import (
+        RunDirExistsError,
+        default_run_dir,
+        prepare_run_dir,
+        release_run_dir,
+        space_needed,
+        summary_record,
+        write_run,
+    )
+    from wmr_mission.sim.plan import plan_mission, sample_budget
+
+    # Before any kernel is declared: plain Python while the loop is not compiled.
+    notice = prepare(sample_budget(mission))
+    if notice is not None:
+        print(notice, file=sys.stderr)
+    compiled = plan_mission(mission, seed)
+    run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
+    try:
+        run_dir = prepare_run_dir(run_dir, suffix_on_collision=out is None)
+    except (RunDirExistsError, OSError) as error:
+        print(f"{run_dir}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
+        return EXIT_RUN_DIR
+    try:
+        needed = space_needed(compiled.max_samples)
+        free = shutil.disk_usage(run_dir).free
+        if free < needed:
+            print(
+                f"{run_dir}: warning: {free / 1e6:.3g} MB free; this run may write up to "
+                f"{needed / 1e6:.3g} MB",
+                file=sys.stderr,
+            )
+        started = time.perf_counter()
+        result = _simulate(mission, seed, compiled.max_samples)
+        wall_seconds = time.perf_counter() - started
+    except MemoryError:
+        release_run_dir(run_dir)
+        print(
+            f"{mission_path}: not enough memory to simulate {compiled.max_samples} samples; "
+            "shorten the phases' time bounds or raise dt",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
+    except BaseException:  # a signal before the loop started: nothing was simulated
+        release_run_dir(run_dir)
+        raise
+    # run_mission judged the run by the mission's `expect` (output.metrics.judge).
+    if result.outcome is Outcome.interrupted:
+        name = signal.Signals(received[0]).name if received else "SIGINT"
+        result.message = f"{result.message} by {name}"
+    stopped = result.outcome is Outcome.interrupted
+    try:  # the data and summary.json first: a figure that fails never loses them
+        write_run(
+            result,
+            run_dir,
+            mission_sha256=sha256,
+            mission_file=str(mission_path),
+            plots=False,
+            animate=False,
+        )
+    except OSError as error:
+        print(
+            f"{error.filename or run_dir}: cannot write: {error.strerror or error}; "
+            f"{run_dir} holds only the files written before (no summary.json)",
+            file=sys.stderr,
+        )
+        return EXIT_RUN_DIR
+    except KeyboardInterrupt:
+        print(f"{run_dir}: interrupted while writing; no summary.json", file=sys.stderr)
+        return _signal_exit(received)
+    print(
+        format_table(summary_record(result), run_dir, wall_seconds=wall_seconds, result=result),
+        end="",
+    )
+    # A stopped run writes its data at once; `wmr-mission plot` draws it.
+    drawn = _draw(
+        result, run_dir, plots and not stopped, animate and not stopped, formats, received
+    )
+    if stopped:
+        print(
+            f"{mission_path}: {result.message}; the samples up to the stop are in {run_dir}",
+            file=sys.stderr,
+        )
+        return _signal_exit(received)
+    if result.outcome is not Outcome.success:
+        # Every failure message names what happened: "diverged in phase ...",
+        # "phase ... timed out ...", "expectation not met: ...".
+        print(f"{mission_path}: {result.message}", file=sys.stderr)
+        return EXIT_FAILED
+    return drawn
+
+
+def _draw(
+    result: RunResult,
+    run_dir: Path,
+    plots: bool,
+    animate: bool,
+    formats: Sequence[str],
+    received: list[int],
+) -> int:
+    """Draw the figures of a written run: 0, or the exit code of a failure,
+    said in one line (the data and summary.json stay)."""
+    from wmr_mission.output.rundir import write_figures
+
+    kept = f"the data and summary.json are in {run_dir}; `wmr-mission plot {run_dir}` draws again"
+    try:
+        write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
+    except OSError as error:
+        print(
+            f"{error.filename or run_dir}: cannot write: {error.strerror or error}; {kept}",
+            file=sys.stderr,
+        )
+        return EXIT_RUN_DIR
+    except KeyboardInterrupt:
+        print(f"{run_dir}: interrupted while drawing; {kept}", file=sys.stderr)
+        return _signal_exit(received)
+    except Exception as error:  # a fault in drawing must not look like a lost run
+        print(
+            f"{run_dir}: cannot draw the figures ({type(error).__name__}: {error}); {kept}; "
+            "please report it",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
+    return 0
+
+
+def _simulate(mission: Mission, seed: int | None, max_samples: int) -> RunResult:
+    """Run with a progress bar on stderr (a terminal) when the run is longer than a moment."""
+    from wmr_mission.output.progress import Steps
+    from wmr_mission.sim.runner import run_mission
+
+    if max_samples < 20_000 or not sys.stderr.isatty():
+        return run_mission(mission, seed=seed)
+    name = mission.name
+    steps = Steps(sys.stderr)
+    steps.step(name, total=1000)
+
+    def progress(t: float, budget: float, phase: str) -> None:
+        steps.update(1000 * min(t / budget, 1.0), description=f"{name} [{phase}] t = {t:8.2f} s")
+
+    try:
+        result = run_mission(mission, seed=seed, progress=progress)
+        steps.update(1000)
+    finally:
+        steps.close()
+    return result

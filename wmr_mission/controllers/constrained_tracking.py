@@ -1,0 +1,192 @@
+"""Tracking inside keep-in and outside keep-out zones: eq. (28) with priority over eq. (27).
+
+The paper treats its two kinds of constraint in separate cases: a track phase
+(Case 2) holds the equality "tracking output = reference" by eq. (27), and a
+regulate phase (Case 1) holds inequality rows by eq. (28). A path drawn
+through a keep-out zone needs both at once, and with two inputs both cannot
+always hold: the zone must win. So at a track phase with constraints the
+tracking input ``u_track`` of eq. (27) is filtered, per sample:
+
+* predict ``x_{k+1}`` with ``u_track``; evaluate every row of the phase's
+  regions at the predicted tracking output (the look-ahead point, which
+  reaches a zone first), each row's allowed side shrunk by the look-ahead
+  distance, so that the axle centre behind it keeps the row itself;
+* none violated: ``u = u_track``, tracking untouched;
+* otherwise ``u = u_track + du``, where ``du`` puts the (at most two) most
+  violated rows on their bounds, to first order (eq. (28): ``A du = eta``,
+  ``A`` the rows' ``D B``, ``eta = -c``), and among those changes is the one
+  that moves the tracking output least from where eq. (27) sends it:
+  ``du = H^-1 A^T (A H^-1 A^T)^-1 eta`` with ``H = (D_t B)^T (D_t B)``, ``D_t``
+  the tracking output's Jacobian of eq. (26). That is eq. (28) with the
+  tracking output's motion as its norm in place of eq. (22)'s input norm: the
+  rows have priority and tracking keeps everything they leave free. With one
+  row active on the tracking output, its motion loses exactly the component
+  into the zone and keeps the one along the zone's edge, so the robot slides
+  round a keep-out zone instead of stopping at it.
+
+Then the actuator limits. docs/paper-notes.md, "Tracking with constraints",
+records this departure from the paper and the evidence for the norm.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.kernels.corrective import (
+    ELLIPSE_ROW,
+    REGULARISATION,
+    kept_row_slot,
+    row_value_with_margin,
+)
+from wmr_mission.kernels.jit import inlined, kernel
+from wmr_mission.kernels.model import hypot, input_jacobian_into, saturate, step
+from wmr_mission.kernels.records import Plant, Scratch
+
+__all__ = ["constrained_change", "keep_constraints", "row_value_with_margin"]
+
+
+@kernel
+def constrained_change(
+    a: FloatArray, eta: FloatArray, count: int, h: FloatArray
+) -> tuple[float, float]:
+    """``du = H^-1 A^T (A H^-1 A^T)^-1 eta`` for ``count`` (1 or 2) rows of ``a``
+    (rows x 2): the change of the input, smallest in the norm ``du^T H du``, that
+    meets ``A du = eta``. ``H`` (2x2) is symmetric positive definite. A nearly
+    singular ``A H^-1 A^T`` is regularised as in ``corrective.corrective_input``."""
+    det = h[0, 0] * h[1, 1] - h[0, 1] * h[1, 0]
+    i00 = h[1, 1] / det
+    i01 = -h[0, 1] / det
+    i11 = h[0, 0] / det
+    # columns of H^-1 A^T
+    p00 = i00 * a[0, 0] + i01 * a[0, 1]
+    p10 = i01 * a[0, 0] + i11 * a[0, 1]
+    s00 = a[0, 0] * p00 + a[0, 1] * p10
+    if count == 1:
+        if s00 <= 1e-300:
+            return 0.0, 0.0
+        lam = eta[0] / (s00 + REGULARISATION * s00)
+        return p00 * lam, p10 * lam
+    p01 = i00 * a[1, 0] + i01 * a[1, 1]
+    p11 = i01 * a[1, 0] + i11 * a[1, 1]
+    s01 = a[0, 0] * p01 + a[0, 1] * p11
+    s11 = a[1, 0] * p01 + a[1, 1] * p11
+    if s00 + s11 <= 1e-300:
+        return 0.0, 0.0
+    mu = REGULARISATION * (s00 + s11)
+    s00 += mu
+    s11 += mu
+    sdet = s00 * s11 - s01 * s01
+    lam0 = (s11 * eta[0] - s01 * eta[1]) / sdet
+    lam1 = (s00 * eta[1] - s01 * eta[0]) / sdet
+    return p00 * lam0 + p01 * lam1, p10 * lam0 + p11 * lam1
+
+
+@inlined
+def keep_constraints(
+    estimate: FloatArray,
+    u_prev: FloatArray,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    look_ahead: float,
+    robot: Plant,
+    work: Scratch,
+    u: FloatArray,
+) -> bool:
+    """Change the tracking input ``u`` in place so that the predicted tracking
+    output keeps the constraint rows shrunk by ``look_ahead`` (so the axle
+    centre, ``look_ahead`` behind it, keeps the rows themselves); True when it
+    had to."""
+    dt = robot.dt
+    px, py, pth = step(estimate[0], estimate[1], estimate[2], u[0], u[1], dt)
+    c = math.cos(pth)
+    s = math.sin(pth)
+    qx = px + look_ahead * c
+    qy = py + look_ahead * s
+    # eq. (24): sensitivity of x_{k+1} to the input, at the tracking input.
+    b = work.b
+    input_jacobian_into(estimate[2], u[0], u[1], dt, b)
+    # D_t B: the tracking output's sensitivity to the input (eq. (26) D times B).
+    t00 = b[0, 0] - look_ahead * s * b[2, 0]
+    t01 = b[0, 1] - look_ahead * s * b[2, 1]
+    t10 = b[1, 0] + look_ahead * c * b[2, 0]
+    t11 = b[1, 1] + look_ahead * c * b[2, 1]
+    a, eta, h = work.d, work.eta, work.h
+    # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
+    count = int(np.int64(0))
+    for i in range(row_kinds.shape[0]):
+        value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], look_ahead, qx, qy)
+        if value <= 0.0:
+            continue
+        slot, count = kept_row_slot(value, count, eta)
+        if slot < 0:
+            continue
+        a[slot, 0] = gx * t00 + gy * t10
+        a[slot, 1] = gx * t01 + gy * t11
+        eta[slot] = -value  # saturate to the violated bound
+    if count == 0:
+        return False
+    h[0, 0] = t00 * t00 + t10 * t10
+    h[0, 1] = t00 * t01 + t10 * t11
+    h[1, 0] = h[0, 1]
+    h[1, 1] = t01 * t01 + t11 * t11
+    # keep H invertible when the output is the axle itself (look_ahead = 0)
+    floor = REGULARISATION * (h[0, 0] + h[1, 1])
+    h[0, 0] += floor
+    h[1, 1] += floor
+    dv, dw = constrained_change(a, eta, count, h)
+    u[0], u[1] = saturate(u[0] + dv, u[1] + dw, u_prev[0], u_prev[1], robot.limits, dt)
+    return True
+
+
+@kernel
+def keep_reference(
+    reference: FloatArray, row_kinds: IntArray, row_params: FloatArray, margin: float
+) -> bool:
+    """Move a reference point (x, y, unit tangent x, y) that lies beyond the
+    rows, shrunk by ``margin``, back onto their boundary, its tangent along the
+    boundary; True when it moved.
+
+    A one-sample filter alone cannot bring the robot round a zone the path
+    crosses: where the path's point lies straight through the zone, every
+    motion it allows leads away from the point, and the robot stops at the
+    edge. Aimed at the reference moved onto the zone's edge, the tracking law
+    follows the edge and rejoins the path where it leaves the zone. Half-plane
+    rows project exactly; an ellipse row scales the point along its ray from
+    the centre (the nearest point for a circle). Two passes over the rows
+    settle a point beyond two of them (a corner).
+    """
+    moved = False
+    for _ in range(2):
+        for i in range(row_kinds.shape[0]):
+            p = row_params[i]
+            x, y = reference[0], reference[1]
+            value, gx, gy = row_value_with_margin(row_kinds[i], p, margin, x, y)
+            if value <= 0.0:
+                continue
+            moved = True
+            if row_kinds[i] == ELLIPSE_ROW:
+                # on the ray from the centre: G(scale * d) = 1 with G = value / sign + 1
+                scale = 1.0 / math.sqrt(max(value * p[5] + 1.0, 1e-300))
+                reference[0] = p[0] + scale * (x - p[0])
+                reference[1] = p[1] + scale * (y - p[1])
+                _, gx, gy = row_value_with_margin(
+                    row_kinds[i], p, margin, reference[0], reference[1]
+                )
+            else:
+                reference[0] = x - value * gx
+                reference[1] = y - value * gy
+            norm = hypot(gx, gy)
+            if norm == 0.0:
+                continue
+            nx = gx / norm
+            ny = gy / norm
+            along = reference[2] * -ny + reference[3] * nx
+            if along != 0.0:
+                # the tangent of the boundary, in the path's sense of travel
+                sense = math.copysign(1.0, along)
+                reference[2] = -ny * sense
+                reference[3] = nx * sense
+    return moved

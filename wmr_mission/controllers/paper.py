@@ -1,0 +1,552 @@
+"""Section III.C: the Case 1 and Case 2 control laws, per sample.
+
+Case 2 (``track`` phases): only the corrective action of eq. (27) on the
+equality constraint "tracking output = reference at k+1":
+``u_k = u_{k-1} + du2_k``.
+
+Case 1 (``regulate`` and ``hold`` phases): the gain-scheduled regulator of
+eqs. (19)-(21), plus the corrective action of eq. (28) at the samples where
+the prediction violates an inequality constraint.
+
+Both end with the actuator limits (magnitude, then optional rate).
+docs/paper-notes.md gives the evidence for each choice below.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, NamedTuple
+
+import numpy as np
+from pydantic import Field
+
+from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.controllers.constrained_tracking import keep_constraints, keep_reference
+from wmr_mission.controllers.registry import ControllerSettings, ControllerType
+from wmr_mission.fields import Flag, Model, NonNegative, Positive
+from wmr_mission.kernels.corrective import corrective_input, kept_row_slot, row_value
+from wmr_mission.kernels.jit import inlined, kernel
+from wmr_mission.kernels.loop import EnteredPhase
+from wmr_mission.kernels.model import (
+    hypot,
+    input_jacobian_into,
+    jacobian_terms,
+    saturate,
+    step,
+    wrap_angle,
+)
+from wmr_mission.kernels.records import Plant, Scratch, scratch
+from wmr_mission.kernels.riccati import (
+    MIN_SPEED,
+    Mat3,
+    newton_riccati,
+    regulator_gain,
+    scalar_solution,
+    solve_riccati,
+)
+
+# --- settings: the mission's `controller: {type: paper, ...}` -----------------
+
+# [m] the smallest default look-ahead distance (the tracked point ahead of the axle).
+MIN_LOOK_AHEAD = 0.05
+
+
+class Tracking(Model):
+    """Case 2 law: which point of the robot follows the path."""
+
+    output: Literal["look-ahead", "axle"] = Field(
+        default="look-ahead",
+        description="look-ahead: a point ahead of the axle; axle: the literal eq. (27).",
+    )
+    look_ahead: Positive | None = Field(
+        default=None,
+        description=(
+            "Distance of the look-ahead point ahead of the axle [m]; "
+            "null = max(0.05, robot.limits.v * robot.dt), where the law is well conditioned "
+            "at every speed the limits allow."
+        ),
+    )
+    time_constant: NonNegative = Field(
+        default=0.1,
+        description=(
+            "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
+            "time_constant) of the output's error, the path's own motion fed forward; "
+            "0 = close the whole error in one sample (the literal eq. 27; always so for "
+            "output: axle)."
+        ),
+    )
+
+
+class Regulation(Model):
+    """Case 1 law: how a target pose is approached."""
+
+    form: Literal["bearing", "deviation", "increment"] = Field(
+        default="bearing",
+        description=(
+            "bearing: drive to the point then turn (parks); deviation: LQR on the pose "
+            "error; increment: the literal eq. (19)."
+        ),
+    )
+    align_radius: Positive = Field(
+        default=0.01, description="Within this distance the bearing form turns to the target [m]."
+    )
+    reverse: Flag = Field(default=True, description="The bearing form may drive backwards.")
+
+
+class PaperController(ControllerSettings):
+    """The two-component controller: gain-scheduled LQR and corrective control."""
+
+    type: Literal["paper"] = Field(
+        default="paper", description="Controller kind (the default): the paper's."
+    )
+
+    Q: tuple[NonNegative, NonNegative, NonNegative] = Field(
+        default=(1.0, 1.0, 1.0), description="Eq. (17) state weights (diagonal), >= 0."
+    )
+    R: tuple[Positive, Positive] = Field(
+        default=(1.0, 1.0), description="Eq. (17) input weights (diagonal), > 0."
+    )
+    W: tuple[Positive, Positive, Positive] = Field(
+        default=(100.0, 100.0, 100.0), description="Eq. (22) constraint weights (diagonal), > 0."
+    )
+    M: tuple[Positive, Positive] = Field(
+        default=(100.0, 100.0), description="Eq. (22) input weights (diagonal), > 0."
+    )
+    tracking: Tracking = Field(default_factory=Tracking, description="Path tracking output.")
+    regulation: Regulation = Field(default_factory=Regulation, description="Regulation form.")
+
+
+# --- the kernels ---------------------------------------------------------------
+
+
+class PaperTuning(NamedTuple):
+    """What the control laws of section III.C read."""
+
+    look_ahead: float  # [m] tracked point ahead of the axle (0: eq. (27) literally)
+    error_decay: float  # fraction of the tracked output's error left after one sample
+    q: FloatArray  # diagonal of Q-hat, eq. (17)
+    r: FloatArray  # diagonal of R-hat, eq. (17)
+    w: FloatArray  # diagonal of W, eq. (22)
+    m: FloatArray  # diagonal of M, eq. (22)
+    form: int  # regulation form (BEARING, ...)
+    align_radius: float  # [m]
+    reverse: bool
+
+
+# Regulation forms (controller.regulation.form).
+BEARING = 0  # default: regulate to the target, heading reference = bearing to it
+DEVIATION = 1  # u = -T (x - x_ss): stalls short of the target (Brockett)
+INCREMENT = 2  # literal eq. (19): u_k = u_{k-1} - T dx_{k-1}: brings the robot to rest
+
+# Fields of the per-phase controller memory (``memory`` array), zeroed at
+# phase entry (wmr_mission.sim.runner).
+ALIGNING = 0  # 1.0 once within align_radius of the target (bearing form)
+CORRECTED = 1  # 1.0 if the corrective action acted at this sample
+DOUBLINGS = 2  # doubling steps of this sample's Riccati solve (0: none)
+NEWTON = 3  # Newton steps of this sample's Riccati solve (0: none)
+# The last solution of eq. (21) for |v| >= MIN_SPEED and the last at +-MIN_SPEED:
+# the speed it was solved at (0.0: none yet), then pi in the body frame,
+# (0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2), then its change from the
+# solution before (0.0 after a cold start).
+WARM_MOVING = 4
+WARM_EDGE = 17
+SYSTEM = 30  # scratch: the linear system of a Newton step, 6 rows of 7
+MEMORY_SIZE = 72
+
+
+@kernel
+def track_input(
+    estimate: FloatArray,
+    u_prev: FloatArray,
+    reference_now: FloatArray,
+    reference: FloatArray,
+    controller: PaperTuning,
+    robot: Plant,
+    work: Scratch,
+    u_out: FloatArray,
+) -> None:
+    """Case 2: ``u_k = u_{k-1} + du2_k`` with du2 of eq. (27), then the limits.
+
+    ``reference_now`` and ``reference`` = (x, y, unit tangent x, unit tangent
+    y) of the path at t_k and t_{k+1}. The tracked output is the point
+    ``look_ahead`` ahead of the axle centre, aimed at the reference shifted by
+    ``look_ahead`` along the path's tangent; ``look_ahead = 0`` is the literal
+    eq. (27) on the axle centre.
+
+    The constraint of eq. (27) is met at k+1 for the output's error left after
+    one sample, ``error_decay`` times its error at k: the target is the path
+    at t_{k+1} (its own motion, fed forward) minus that remaining error.
+    ``error_decay = 0`` closes the whole error in one sample, the paper's form.
+    """
+    dt = robot.dt
+    look_ahead = controller.look_ahead
+    error_decay = controller.error_decay
+    v_prev = u_prev[0]
+    omega_prev = u_prev[1]
+    # Read once: after the writes to the scratch arrays below the compiler
+    # would read the heading again and recompute its sine and cosine.
+    x, y, theta = estimate[0], estimate[1], estimate[2]
+    c = math.cos(theta)
+    s = math.sin(theta)
+    # The output's error at k: shifted reference minus G(x_{k|k}).
+    error_x = reference_now[0] + look_ahead * reference_now[2] - (x + look_ahead * c)
+    error_y = reference_now[1] + look_ahead * reference_now[3] - (y + look_ahead * s)
+    # x_{k+1|k} with the previous input held (section III.D).
+    px, py, pth = step(x, y, theta, v_prev, omega_prev, dt)
+    c = math.cos(pth)
+    s = math.sin(pth)
+    d, eta, b = work.d, work.eta, work.b
+    # eq. (26): the tracked output G(x_{k+1}) and its Jacobian D.
+    d[0, 0] = 1.0
+    d[0, 1] = 0.0
+    d[0, 2] = -look_ahead * s
+    d[1, 0] = 0.0
+    d[1, 1] = 1.0
+    d[1, 2] = look_ahead * c
+    eta[0] = (
+        reference[0] + look_ahead * reference[2] - error_decay * error_x - (px + look_ahead * c)
+    )
+    eta[1] = (
+        reference[1] + look_ahead * reference[3] - error_decay * error_y - (py + look_ahead * s)
+    )
+    # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
+    input_jacobian_into(theta, v_prev, omega_prev, dt, b)
+    both = int(np.int64(2))  # not the literal 2: one compiled corrective_input for all
+    dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
+    u_out[0], u_out[1] = saturate(
+        v_prev + dv, omega_prev + dw, v_prev, omega_prev, robot.limits, dt
+    )
+
+
+Gain = tuple[float, float, float, float, float, float]  # T of eq. (20), 2x3 row by row
+
+
+@kernel
+def _input_weight(b: Gain, r0: float, r1: float, i: int, j: int) -> float:
+    """(B R^-1 B^T)[i, j] for B (3x2) row by row, R = diag(r0, r1)."""
+    weight: float = b[2 * i] * b[2 * j] / r0 + b[2 * i + 1] * b[2 * j + 1] / r1
+    return weight
+
+
+@kernel
+def _gain_at_rest(omega: float, dt: float, qb: Mat3, r: FloatArray) -> Gain:
+    """T of eqs. (20)-(21) at v = 0 on the reachable subspace, in closed form,
+    in the body frame (``qb`` is Q-hat seen from it).
+
+    At rest A = I and B = [[b11, 0], [b21, 0], [0, dt]]: the speed input moves
+    the robot along u = (b11, b21) / |(b11, b21)|, the turn rate turns it, and
+    the lateral direction is unreachable. With the state weight kept along u
+    only, Q_xy -> (u^T Q_xy u) u u^T, eq. (21) splits into two scalar
+    equations with a = 1 (riccati.scalar_solution)."""
+    _, _, b11, _, b21, _ = jacobian_terms(0.0, 0.0, omega, dt)
+    norm = hypot(b11, b21)
+    ux = b11 / norm
+    uy = b21 / norm
+    along = scalar_solution(qb[0] * ux * ux + 2.0 * qb[1] * ux * uy + qb[4] * uy * uy, norm, r[0])
+    turn = scalar_solution(qb[8], dt, r[1])
+    pi = (along * ux * ux, along * ux * uy, 0.0, along * ux * uy, along * uy * uy, 0.0, 0.0, 0.0,
+          turn)  # fmt: skip
+    identity = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    return regulator_gain(identity, (b11, 0.0, b21, 0.0, 0.0, dt), r, pi)
+
+
+@kernel
+def _solve_gain(
+    v: float,
+    omega: float,
+    dt: float,
+    qb: Mat3,
+    r: FloatArray,
+    memory: FloatArray,
+    slot: int,
+) -> Gain:
+    """T of eqs. (20)-(21) at (v != 0, omega) in the body frame (``qb`` is
+    Q-hat seen from it). By Newton's method from the solutions the previous
+    two samples left in ``memory[slot:]``, extrapolated, when there are any
+    at a speed of the same sign; else, or if Newton gives up, by doubling.
+    Writes the new solution there and the steps taken to ``memory[NEWTON]``
+    and ``memory[DOUBLINGS]``."""
+    a13, a23, b11, b12, b21, b22 = jacobian_terms(0.0, v, omega, dt)
+    a = (1.0, 0.0, a13, 0.0, 1.0, a23, 0.0, 0.0, 1.0)
+    b = (b11, b12, b21, b22, 0.0, dt)
+    m = memory
+    warm = m[slot] * v > 0.0  # solved at a speed of the same sign
+    steps = -1
+    if warm:
+        # The last solution plus its last change (0 after a cold start).
+        p0 = m[slot + 1] + m[slot + 7]
+        p1 = m[slot + 2] + m[slot + 8]
+        p2 = m[slot + 3] + m[slot + 9]
+        p4 = m[slot + 4] + m[slot + 10]
+        p5 = m[slot + 5] + m[slot + 11]
+        p8 = m[slot + 6] + m[slot + 12]
+        pi, steps = newton_riccati(
+            a, b, r, qb, (p0, p1, p2, p1, p4, p5, p2, p5, p8), memory, SYSTEM
+        )
+        memory[NEWTON] = abs(steps)
+    if steps < 0:
+        r0 = float(r[0])
+        r1 = float(r[1])
+        g = (
+            _input_weight(b, r0, r1, 0, 0),
+            _input_weight(b, r0, r1, 0, 1),
+            _input_weight(b, r0, r1, 0, 2),
+            _input_weight(b, r0, r1, 1, 0),
+            _input_weight(b, r0, r1, 1, 1),
+            _input_weight(b, r0, r1, 1, 2),
+            _input_weight(b, r0, r1, 2, 0),
+            _input_weight(b, r0, r1, 2, 1),
+            _input_weight(b, r0, r1, 2, 2),
+        )
+        pi, doublings = solve_riccati(a, g, qb)
+        memory[DOUBLINGS] = doublings
+    stored = (pi[0], pi[1], pi[2], pi[4], pi[5], pi[8])
+    for n in range(6):
+        m[slot + 7 + n] = stored[n] - m[slot + 1 + n] if warm else 0.0
+        m[slot + 1 + n] = stored[n]
+    m[slot] = v
+    return regulator_gain(a, b, r, pi)
+
+
+@kernel
+def scheduled_gain(
+    theta: float,
+    v: float,
+    omega: float,
+    dt: float,
+    q: FloatArray,
+    r: FloatArray,
+    memory: FloatArray,
+    out: FloatArray,
+) -> None:
+    """Eqs. (20)-(21) for the linearisation at (theta, v, omega): writes T
+    (2x3) into ``out``, and the Riccati steps taken into ``memory[NEWTON]`` and
+    ``memory[DOUBLINGS]``.
+
+    Eq. (1) turns with the heading: A(theta) = Rot A(0) Rot^T and
+    B(theta) = Rot B(0) with Rot the rotation by theta of (x, y), so eq. (21)
+    is solved in the body frame, where only Q-hat turns (not at all when it
+    weighs x and y alike), and T(theta) = T_body Rot^T.
+
+    For |v| < MIN_SPEED the gain is blended linearly between the at-rest gain
+    and the gain at +-MIN_SPEED (see wmr_mission.kernels.riccati), so it is
+    continuous in v. ``memory`` keeps the solutions for |v| >= MIN_SPEED and
+    at +-MIN_SPEED from sample to sample: the next sample's warm starts."""
+    if memory.shape[0] < MEMORY_SIZE:  # compiled code checks no bounds
+        raise ValueError("the controller memory holds MEMORY_SIZE numbers")
+    memory[NEWTON] = 0.0
+    memory[DOUBLINGS] = 0.0
+    v = float(v)
+    omega = float(omega)
+    c = math.cos(theta)
+    s = math.sin(theta)
+    q0 = float(q[0])
+    q1 = float(q[1])
+    cross = (q1 - q0) * c * s
+    # Rot^T Q Rot on (x, y).
+    qb = (q0 * c * c + q1 * s * s, cross, 0.0, cross, q0 * s * s + q1 * c * c, 0.0, 0.0, 0.0,
+          float(q[2]))  # fmt: skip
+    if abs(v) >= MIN_SPEED:
+        gain = _solve_gain(v, omega, dt, qb, r, memory, WARM_MOVING)
+    else:
+        gain = _gain_at_rest(omega, dt, qb, r)
+        if v != 0.0:
+            edge = MIN_SPEED if v > 0.0 else -MIN_SPEED
+            at_edge = _solve_gain(edge, omega, dt, qb, r, memory, WARM_EDGE)
+            alpha = abs(v) / MIN_SPEED
+            gain = (
+                (1.0 - alpha) * gain[0] + alpha * at_edge[0],
+                (1.0 - alpha) * gain[1] + alpha * at_edge[1],
+                (1.0 - alpha) * gain[2] + alpha * at_edge[2],
+                (1.0 - alpha) * gain[3] + alpha * at_edge[3],
+                (1.0 - alpha) * gain[4] + alpha * at_edge[4],
+                (1.0 - alpha) * gain[5] + alpha * at_edge[5],
+            )
+    out[0, 0], out[0, 1], out[0, 2] = gain[0] * c - gain[1] * s, gain[0] * s + gain[1] * c, gain[2]
+    out[1, 0], out[1, 1], out[1, 2] = gain[3] * c - gain[4] * s, gain[3] * s + gain[4] * c, gain[5]
+
+
+@inlined
+def regulate_input(
+    estimate: FloatArray,
+    estimate_prev: FloatArray,
+    u_prev: FloatArray,
+    target: FloatArray,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    controller: PaperTuning,
+    robot: Plant,
+    memory: FloatArray,
+    work: Scratch,
+    u_out: FloatArray,
+) -> None:
+    """Case 1: the gain-scheduled regulator plus, where the prediction violates a
+    constraint row, the corrective action of eq. (28); then the limits.
+
+    ``target`` is the pose x_ss to park at; ``row_kinds``/``row_params`` the
+    phase's inequality constraints (possibly none); ``memory`` the phase's
+    controller memory (MEMORY_SIZE fields: ALIGNING, CORRECTED, ...).
+    """
+    dt = robot.dt
+    q, r, form = controller.q, controller.r, controller.form
+    v_prev = u_prev[0]
+    omega_prev = u_prev[1]
+    gain = work.gain
+    if form == INCREMENT:
+        # Literal eqs. (14), (19), (29-a): T_{k-1} at (x_{k-1|k-1}, u_{k-1}),
+        # applied to the state increment x_{k|k} - x_{k-1|k-1}.
+        scheduled_gain(estimate_prev[2], v_prev, omega_prev, dt, q, r, memory, gain)
+        ex = estimate[0] - estimate_prev[0]
+        ey = estimate[1] - estimate_prev[1]
+        eth = estimate[2] - estimate_prev[2]
+        v1 = v_prev - (gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
+        omega1 = omega_prev - (gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
+    else:
+        scheduled_gain(estimate[2], v_prev, omega_prev, dt, q, r, memory, gain)
+        ex = estimate[0] - target[0]
+        ey = estimate[1] - target[1]
+        eth = wrap_angle(estimate[2] - target[2])
+        if form == BEARING:
+            distance = hypot(ex, ey)
+            if distance < controller.align_radius:
+                memory[ALIGNING] = 1.0
+            elif distance > 2.0 * controller.align_radius:
+                memory[ALIGNING] = 0.0
+            if memory[ALIGNING] == 0.0:
+                # Far: the heading reference is the bearing to the target (or its
+                # reverse), so the lateral error the robot cannot reach at rest
+                # is turned into a heading error it can.
+                bearing = math.atan2(-ey, -ex)
+                eth = wrap_angle(estimate[2] - bearing)
+                if controller.reverse and abs(eth) > 0.5 * math.pi:
+                    eth = wrap_angle(eth - math.pi)
+            else:
+                # Aligning at the target: keep the reachable (longitudinal)
+                # part of the position error, turn to the target heading.
+                c = math.cos(estimate[2])
+                s = math.sin(estimate[2])
+                along = ex * c + ey * s
+                ex = along * c
+                ey = along * s
+        # eq. (19) with dx the deviation from the target.
+        v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
+        omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
+    v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, robot.limits, dt)
+    u_out[0] = v1
+    u_out[1] = omega1
+    memory[CORRECTED] = 0.0
+    if row_kinds.shape[0] == 0:
+        return
+    # eq. (28): predict with the regulator's input, find the violated rows.
+    px, py, _ = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
+    d, eta, b = work.d, work.eta, work.b
+    # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
+    count = int(np.int64(0))
+    for i in range(row_kinds.shape[0]):
+        value, gx, gy = row_value(row_kinds[i], row_params[i], px, py)
+        if value <= 0.0:
+            continue
+        slot, count = kept_row_slot(value, count, eta)
+        if slot < 0:
+            continue
+        d[slot, 0] = gx
+        d[slot, 1] = gy
+        d[slot, 2] = 0.0
+        eta[slot] = -value  # E - m(x): saturate to the violated bound
+    if count == 0:
+        return
+    input_jacobian_into(estimate[2], v1, omega1, dt, b)
+    dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
+    memory[CORRECTED] = 1.0
+    u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)
+
+
+# --- the controller as the loop runs it ----------------------------------------
+
+# Regulation forms by name (controller.regulation.form).
+FORMS = {"bearing": BEARING, "deviation": DEVIATION, "increment": INCREMENT}
+
+
+@inlined
+def next_input(
+    tuning: PaperTuning,
+    phase: EnteredPhase,
+    aim_now: FloatArray,
+    aim: FloatArray,
+    estimate: FloatArray,
+    estimate_prev: FloatArray,
+    u_prev: FloatArray,
+    plant: Plant,
+    memory: FloatArray,
+    scratch: Scratch,
+    u: FloatArray,
+) -> None:
+    """u_k from x_{k|k}: Case 2 along a path, the zones of the phase first
+    (eq. (28) with priority); Case 1 to a pose."""
+    kinds = phase.constraint_kinds
+    params = phase.constraint_params
+    if phase.tracking:
+        if kinds.shape[0]:  # aim along a zone's edge it crosses
+            keep_reference(aim_now, kinds, params, tuning.look_ahead)
+            keep_reference(aim, kinds, params, tuning.look_ahead)
+        track_input(estimate, u_prev, aim_now, aim, tuning, plant, scratch, u)
+        # The filter after the tracking law: zones win over tracking
+        # (wmr_mission.controllers.constrained_tracking).
+        if kinds.shape[0]:
+            keep_constraints(estimate, u_prev, kinds, params, tuning.look_ahead, plant, scratch, u)
+    else:
+        regulate_input(
+            estimate, estimate_prev, u_prev, phase.target, kinds, params, tuning, plant, memory,
+            scratch, u,
+        )  # fmt: skip
+
+
+def look_ahead(settings: PaperController, dt: float, speed_limit: float) -> float:
+    """The tracked point's distance ahead of the axle [m]; 0 for the literal axle law.
+
+    Unset, it is tied to the limits: ``max(0.05, limits.v * dt)``. The
+    one-sample input sensitivity of the point has determinant
+    ``dt^2 (l + v dt / 2)``, zero at ``v = -2 l / dt``; with ``l >= limits.v * dt``
+    it stays within a factor 3 of ``l dt^2`` at every speed the limits allow
+    (docs/paper-notes.md, eq. (27))."""
+    tracking = settings.tracking
+    if tracking.output == "axle":
+        return 0.0
+    if tracking.look_ahead is not None:
+        return float(tracking.look_ahead)
+    return max(MIN_LOOK_AHEAD, float(speed_limit) * float(dt))
+
+
+def error_decay(settings: PaperController, dt: float) -> float:
+    """Fraction of the tracked output's error left after one sample: 0 for the
+    one-sample laws (``time_constant: 0``, and the literal axle law)."""
+    tracking = settings.tracking
+    if tracking.output == "axle" or tracking.time_constant == 0:
+        return 0.0
+    return math.exp(-float(dt) / float(tracking.time_constant))
+
+
+def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
+    regulation = settings.regulation
+    return PaperTuning(
+        look_ahead=look_ahead(settings, plant.dt, plant.limits[0]),
+        error_decay=error_decay(settings, plant.dt),
+        q=np.array(settings.Q, dtype=np.float64),
+        r=np.array(settings.R, dtype=np.float64),
+        w=np.array(settings.W, dtype=np.float64),
+        m=np.array(settings.M, dtype=np.float64),
+        form=FORMS[regulation.form],
+        align_radius=regulation.align_radius,
+        reverse=regulation.reverse,
+    )
+
+
+# Registered by wmr_mission.controllers.
+CONTROLLER = ControllerType(
+    settings=PaperController,
+    tuning_record=PaperTuning,
+    tuning_of=tuning_of,
+    memory_size=MEMORY_SIZE,
+    new_scratch=scratch,
+    step=next_input,
+)

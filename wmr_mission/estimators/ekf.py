@@ -1,0 +1,302 @@
+"""A baseline extended Kalman filter on the same plant and measurements, so a
+mission can compare the paper's estimator with the standard one.
+
+Predict with eq. (1) and its Jacobian; update with the measured subset using
+the Joseph form ``P = (I - K C) P (I - K C)^T + K R K^T`` (stays symmetric and
+positive definite where the short form drifts), heading residual wrapped.
+Unmeasured states are handled by zero rows of ``C``: their innovation is zero
+and their measurement variance is set to 1, which leaves the gain exactly zero
+on them. An optional innovation gate (a Mahalanobis test) rejects a wild
+measurement; a sample without a measurement is the prediction alone.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, NamedTuple
+
+import numpy as np
+from pydantic import Field
+
+from wmr_mission.basics import STATES, FloatArray, StateName
+from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
+from wmr_mission.fields import Model, Positive, StateStd
+from wmr_mission.kernels.jit import inlined, kernel
+from wmr_mission.kernels.model import jacobian_terms, step, wrap_angle
+
+# The smallest measurement noise the filter assumes by default [m or rad]: a
+# noise-free sensor would make the gain singular.
+MEASUREMENT_STD_FLOOR = 1e-3
+
+
+# --- settings: the mission's `estimator: {type: ekf, ...}` ---------------------
+
+
+class StatePositiveStd(Model):
+    """A strictly positive standard deviation per state."""
+
+    x: Positive = Field(default=1.0, description="Standard deviation of x [m].")
+    y: Positive = Field(default=1.0, description="Standard deviation of y [m].")
+    theta: Positive = Field(default=0.5, description="Standard deviation of theta [rad].")
+
+
+class Ekf(EstimatorSettings):
+    """Baseline extended Kalman filter."""
+
+    type: Literal["ekf"] = Field(description="Estimator kind.")
+    initial_std: StatePositiveStd = Field(
+        default_factory=lambda: StatePositiveStd(x=1.0, y=1.0, theta=0.5),
+        description="Square root of the diagonal of P0 [m, m, rad], > 0.",
+    )
+    process_std: StateStd = Field(
+        default_factory=lambda: StateStd(x=0.001, y=0.001, theta=0.001),
+        description="Process noise per sample [m, m, rad], >= 0.",
+    )
+    measurement_std: dict[StateName, Positive] | None = Field(
+        default=None,
+        description=(
+            "Measurement noise per measured state [m or rad], > 0; "
+            "null = sensors.noise_std floored at 0.001."
+        ),
+    )
+    innovation_gate: Positive | None = Field(
+        default=None,
+        description=(
+            "Reject a measurement whose squared Mahalanobis distance r^T S^-1 r exceeds this "
+            "(chi-square with as many degrees of freedom as measured states: 16.27 is its "
+            "0.999 quantile for 3); a rejected measurement is a prediction-only step. "
+            "null = no gating."
+        ),
+    )
+
+
+# --- the kernels ---------------------------------------------------------------
+
+
+class EkfTuning(NamedTuple):
+    """What the filter's kernels read."""
+
+    mask: FloatArray  # 1.0 for each measured state (x, y, theta)
+    process_var: FloatArray  # diagonals of the noise covariances
+    measurement_var: FloatArray
+    innovation_gate: float  # largest accepted r^T S^-1 r (inf: no gating)
+    initial_var: FloatArray  # diagonal of P0
+
+
+class EkfMemory(NamedTuple):
+    covariance: FloatArray  # (3, 3) P
+    work: FloatArray  # (4, 3, 3) scratch
+
+
+@kernel
+def _predict(
+    estimate: FloatArray,
+    covariance: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    process_var: FloatArray,
+    work: FloatArray,
+) -> tuple[float, float, float]:
+    """The predicted pose (returned) and covariance ``A P A^T + Qn`` (into
+    ``work[0]``); ``work[1]`` and ``work[2]`` are scratch."""
+    a13, a23, _, _, _, _ = jacobian_terms(estimate[2], v, omega, dt)
+    # P_pred = A P A^T + Qn, with A = I + a e3^T.
+    p = covariance
+    pp = work[0]
+    a = work[1]
+    for i in range(3):
+        for j in range(3):
+            a[i, j] = 1.0 if i == j else 0.0
+    a[0, 2] = a13
+    a[1, 2] = a23
+    tmp = work[2]
+    for i in range(3):
+        for j in range(3):
+            tmp[i, j] = a[i, 0] * p[0, j] + a[i, 1] * p[1, j] + a[i, 2] * p[2, j]
+    for i in range(3):
+        for j in range(3):
+            pp[i, j] = tmp[i, 0] * a[j, 0] + tmp[i, 1] * a[j, 1] + tmp[i, 2] * a[j, 2]
+        pp[i, i] += process_var[i]
+    return step(estimate[0], estimate[1], estimate[2], v, omega, dt)
+
+
+@inlined
+def ekf_predict(
+    estimate: FloatArray,
+    covariance: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    params: EkfTuning,
+    work: FloatArray,
+) -> None:
+    """A sample without a measurement (between periods, lost or gated): the
+    prediction alone, x_{k+1|k} and P_{k+1|k}."""
+    estimate[0], estimate[1], estimate[2] = _predict(
+        estimate, covariance, v, omega, dt, params.process_var, work
+    )
+    # Element by element: a slice assignment compiles numba's shape-error text (~3 s).
+    for i in range(3):
+        for j in range(3):
+            covariance[i, j] = work[0, i, j]
+
+
+@inlined
+def ekf_step(
+    estimate: FloatArray,
+    covariance: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    params: EkfTuning,
+    work: FloatArray,
+) -> None:
+    """Advance ``estimate`` and ``covariance`` (3x3) in place: x_{k|k} -> x_{k+1|k+1}.
+
+    ``params.process_var``/``params.measurement_var`` are the diagonals of the
+    process and measurement noise covariances; ``work`` is scratch of shape
+    (4, 3, 3).
+    """
+    mask = params.mask
+    measurement_var = params.measurement_var
+    p = covariance
+    pp = work[0]
+    px, py, pth = _predict(estimate, p, v, omega, dt, params.process_var, work)
+    # S = C P C^T + Rn on the full pose, unmeasured rows made inert.
+    s = work[1]
+    for i in range(3):
+        for j in range(3):
+            s[i, j] = pp[i, j] * mask[i] * mask[j]
+        s[i, i] += measurement_var[i] if mask[i] > 0.0 else 1.0
+    # K = P C^T S^-1 (3x3 with zero columns for unmeasured states).
+    c00 = s[1, 1] * s[2, 2] - s[1, 2] * s[2, 1]
+    c01 = s[1, 2] * s[2, 0] - s[1, 0] * s[2, 2]
+    c02 = s[1, 0] * s[2, 1] - s[1, 1] * s[2, 0]
+    det = s[0, 0] * c00 + s[0, 1] * c01 + s[0, 2] * c02
+    inv = work[3]
+    inv[0, 0] = c00 / det
+    inv[1, 0] = c01 / det
+    inv[2, 0] = c02 / det
+    inv[0, 1] = (s[0, 2] * s[2, 1] - s[0, 1] * s[2, 2]) / det
+    inv[1, 1] = (s[0, 0] * s[2, 2] - s[0, 2] * s[2, 0]) / det
+    inv[2, 1] = (s[0, 1] * s[2, 0] - s[0, 0] * s[2, 1]) / det
+    inv[0, 2] = (s[0, 1] * s[1, 2] - s[0, 2] * s[1, 1]) / det
+    inv[1, 2] = (s[0, 2] * s[1, 0] - s[0, 0] * s[1, 2]) / det
+    inv[2, 2] = (s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]) / det
+    k = work[2]
+    for i in range(3):
+        for j in range(3):
+            k[i, j] = (
+                pp[i, 0] * mask[0] * inv[0, j]
+                + pp[i, 1] * mask[1] * inv[1, j]
+                + pp[i, 2] * mask[2] * inv[2, j]
+            ) * mask[j]
+    r0 = (measurement[0] - px) * mask[0]
+    r1 = (measurement[1] - py) * mask[1]
+    r2 = wrap_angle(measurement[2] - pth) * mask[2]
+    # Innovation gate: the squared Mahalanobis distance r^T S^-1 r (unmeasured
+    # states have r = 0). A rejected measurement leaves the prediction.
+    distance2 = (
+        r0 * (inv[0, 0] * r0 + inv[0, 1] * r1 + inv[0, 2] * r2)
+        + r1 * (inv[1, 0] * r0 + inv[1, 1] * r1 + inv[1, 2] * r2)
+        + r2 * (inv[2, 0] * r0 + inv[2, 1] * r1 + inv[2, 2] * r2)
+    )
+    if distance2 > params.innovation_gate:
+        estimate[0] = px
+        estimate[1] = py
+        estimate[2] = pth
+        for i in range(3):
+            for j in range(3):
+                p[i, j] = pp[i, j]
+        return
+    estimate[0] = px + k[0, 0] * r0 + k[0, 1] * r1 + k[0, 2] * r2
+    estimate[1] = py + k[1, 0] * r0 + k[1, 1] * r1 + k[1, 2] * r2
+    estimate[2] = pth + k[2, 0] * r0 + k[2, 1] * r1 + k[2, 2] * r2
+    # Joseph form: P = (I - K C) P_pred (I - K C)^T + K Rn K^T.
+    ikc = work[1]
+    for i in range(3):
+        for j in range(3):
+            ikc[i, j] = (1.0 if i == j else 0.0) - k[i, j] * mask[j]
+    for i in range(3):
+        for j in range(3):
+            inv[i, j] = ikc[i, 0] * pp[0, j] + ikc[i, 1] * pp[1, j] + ikc[i, 2] * pp[2, j]
+    for i in range(3):
+        for j in range(3):
+            value = inv[i, 0] * ikc[j, 0] + inv[i, 1] * ikc[j, 1] + inv[i, 2] * ikc[j, 2]
+            for n in range(3):
+                if mask[n] > 0.0:
+                    value += k[i, n] * measurement_var[n] * k[j, n]
+            p[i, j] = value
+    for i in range(3):
+        for j in range(i + 1, 3):
+            mean = 0.5 * (p[i, j] + p[j, i])
+            p[i, j] = mean
+            p[j, i] = mean
+
+
+# --- the estimator as the loop runs it -----------------------------------------
+
+
+@inlined
+def next_estimate(
+    tuning: EkfTuning,
+    memory: EkfMemory,
+    estimate: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    measured: bool,
+) -> int:
+    """x_{k|k} -> x_{k+1|k+1}; a sample without a measurement is the prediction
+    alone. No iterations to count: 0."""
+    if measured:
+        ekf_step(estimate, memory.covariance, v, omega, dt, measurement, tuning, memory.work)
+    else:
+        ekf_predict(estimate, memory.covariance, v, omega, dt, tuning, memory.work)
+    return 0
+
+
+def tuning_of(settings: Ekf, measurements: Measurements) -> EkfTuning:
+    measurement_var = np.maximum(measurements.noise_std, MEASUREMENT_STD_FLOOR) ** 2
+    if settings.measurement_std is not None:
+        for name, std in settings.measurement_std.items():
+            measurement_var[STATES.index(name)] = std * std  # not pow(): exact
+    initial, process = settings.initial_std, settings.process_std
+    return EkfTuning(
+        mask=measurements.mask,
+        process_var=np.array([process.x, process.y, process.theta]) ** 2,
+        measurement_var=measurement_var,
+        innovation_gate=(
+            math.inf if settings.innovation_gate is None else float(settings.innovation_gate)
+        ),
+        initial_var=np.array([initial.x, initial.y, initial.theta]) ** 2,
+    )
+
+
+def new_memory(tuning: EkfTuning, initial_estimate: FloatArray) -> EkfMemory:
+    return EkfMemory(
+        covariance=np.diag(tuning.initial_var).astype(np.float64), work=np.zeros((4, 3, 3))
+    )
+
+
+def ekf_tuning(
+    mask: FloatArray,
+    process_var: FloatArray,
+    measurement_var: FloatArray,
+    innovation_gate: float = np.inf,
+) -> EkfTuning:
+    """The filter's record from plain numbers: for tests and notebooks."""
+    return EkfTuning(mask, process_var, measurement_var, innovation_gate, np.ones(3))
+
+
+# Registered by wmr_mission.estimators.
+ESTIMATOR = EstimatorType(
+    settings=Ekf,
+    tuning_record=EkfTuning,
+    tuning_of=tuning_of,
+    new_memory=new_memory,
+    step=next_estimate,
+)

@@ -1,0 +1,386 @@
+"""The paper's two-phase constrained estimator, eqs. (4)-(12).
+
+Phase I (eqs. (5)-(7)) predicts with the nonlinear model and corrects with a
+gain ``L`` that puts the eigenvalues of ``(I - L C) A`` at configured poles.
+The gain is in closed form, exploiting ``A = I + a e3^T`` (eq. (1) couples the
+states only through the heading), so no pole placement runs per sample:
+
+* heading measured: each measured state's error decays at its own pole and
+  the heading innovation removes the heading-to-position coupling, so
+  ``(I - L C) A = diag(p_x or 1, p_y or 1, p_theta)`` exactly (1 for an
+  unmeasured, hence unobservable, position);
+* heading not measured: the heading is observed through the measured
+  positions along ``c = (a13, a23)`` (masked) while the robot moves; the
+  heading/along-``c`` pair gets the poles ``(p_theta, p_pos)`` and the
+  position error across ``c`` decays at ``p_pos`` (``p_pos`` the mean of the
+  measured positions' poles). At rest the heading is unobservable: its
+  eigenvalue is 1 and no heading correction is made. Between the two, when
+  the robot moves less per sample than ``motion_floor`` (the position noise),
+  one sample says little about the heading: its pole moves from ``p_theta``
+  towards 1 as ``1 - (1 - p_theta) |c|^2 / motion_floor^2``, so the heading
+  correction per metre of innovation stays below ``1 / motion_floor`` instead
+  of growing as ``1 / |c|``.
+
+Phase II (eqs. (8)-(12)) saturates each output estimation error that left its
+bounds of eq. (4) to the violated bound. The measurement is a selection of
+states, so ``D`` of eq. (12) selects the violated outputs and ``H = D^T`` makes
+``I - H D`` zero on them: the iteration of eq. (10) lands on the bound in one
+step, and ``(I - H D) A_c`` is contracting because it only removes directions.
+The loop still checks and counts, up to ``max_iterations``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal, NamedTuple, Self
+
+import numpy as np
+from pydantic import AfterValidator, Field, Strict
+from pydantic_core import PydanticCustomError
+
+from wmr_mission.basics import STATES, FloatArray, StateName
+from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
+from wmr_mission.fields import Model, Number
+from wmr_mission.kernels.jit import inlined, kernel
+from wmr_mission.kernels.model import jacobian_terms, step, wrap_angle
+
+# --- settings: the mission's `estimator: {type: constrained-observer, ...}` ----
+
+
+def _check_bound(bound: tuple[float, float]) -> tuple[float, float]:
+    lower, upper = bound
+    if not lower < 0 < upper:
+        raise PydanticCustomError(
+            "output_error_bound",
+            "an output-error bound is [lower, upper] with lower < 0 < upper, "
+            "got [{lower}, {upper}]",
+            {"lower": lower, "upper": upper},
+        )
+    return bound
+
+
+OutputErrorBound = Annotated[tuple[Number, Number], AfterValidator(_check_bound)]
+Pole = Annotated[Number, Field(ge=0, lt=1)]
+
+
+# Default output-error bound of eq. (4) [m or rad]: the larger of this and
+# BOUND_NOISE_RATIO times the state's noise std, so that phase II acts on
+# estimation errors, not on the noise (docs/paper-notes.md, eq. (4)).
+DEFAULT_BOUND = 0.05
+BOUND_NOISE_RATIO = 5.0
+
+
+def _default_bounds() -> dict[StateName, tuple[float, float]]:
+    return dict.fromkeys(STATES, (-DEFAULT_BOUND, DEFAULT_BOUND))
+
+
+def default_bound(noise_std: float) -> float:
+    """Half-width of the default output-error bound for a state with this noise."""
+    return max(DEFAULT_BOUND, BOUND_NOISE_RATIO * noise_std)
+
+
+class StatePoles(Model):
+    """Eigenvalues of the observer error dynamics (I - L C) A, per state."""
+
+    x: Pole = Field(default=0.9, description="Pole for x, in [0, 1).")
+    y: Pole = Field(default=0.9, description="Pole for y, in [0, 1).")
+    theta: Pole = Field(default=0.9, description="Pole for theta, in [0, 1).")
+
+
+class ConstrainedObserver(EstimatorSettings):
+    """The paper's two-phase constrained estimator, eqs. (4)-(12)."""
+
+    type: Literal["constrained-observer"] = Field(
+        default="constrained-observer", description="Estimator kind (the default)."
+    )
+    poles: StatePoles = Field(
+        default_factory=StatePoles,
+        description=(
+            "Observer poles, phase I (eq. 7). With the heading unmeasured, its pole relaxes "
+            "towards 1 while the robot moves less per sample than sensors.noise_std of the "
+            "measured positions (docs/paper-notes.md, eq. 6-7)."
+        ),
+    )
+    output_error_bounds: dict[StateName, OutputErrorBound] | None = Field(
+        default_factory=_default_bounds,
+        description=(
+            "Eq. (4): [lower, upper] bounds on each measured state's output error "
+            "[m or rad], lower < 0 < upper; keys must be measured states; null = no phase II. "
+            "Default on every measured state: +-max(0.05, 5 sensors.noise_std)."
+        ),
+    )
+    max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = Field(
+        default=10, description="Phase II iterations per sample, 1..1000."
+    )
+
+    def with_sensors(self, measured_noise: dict[str, float]) -> Self:
+        """Default output-error bounds cover the measured states only, each
+        wide enough that the state's noise alone rarely leaves it."""
+        if "output_error_bounds" in self.model_fields_set:
+            return self
+        bounds = {
+            state: (-default_bound(std), default_bound(std))
+            for state, std in measured_noise.items()
+        }
+        return self.model_copy(update={"output_error_bounds": bounds})
+
+
+# --- the kernels ---------------------------------------------------------------
+
+
+class ObserverTuning(NamedTuple):
+    """What the observer's kernels read."""
+
+    mask: FloatArray  # 1.0 for each measured state (x, y, theta)
+    poles: FloatArray  # eigenvalues of (I - L C) A per state, phase I
+    motion_floor: float  # [m] motion per sample below which the heading pole relaxes
+    lower: FloatArray  # output-error bounds of eq. (4) (phase II)
+    upper: FloatArray
+    use_bounds: bool
+    max_iterations: int
+
+
+class ObserverMemory(NamedTuple):
+    gain: FloatArray  # (3, 3) L of eq. (6), scratch
+
+
+# Below this |c| (metres moved per sample along the measured positions) the
+# heading is treated as unobservable at that sample: no heading correction.
+MIN_HEADING_OBSERVABILITY = 1e-12
+# Output errors within this of a bound count as on it (phase II).
+BOUND_SLACK = 1e-12
+
+
+@kernel
+def observer_gain(
+    a13: float,
+    a23: float,
+    mask: FloatArray,
+    poles: FloatArray,
+    motion_floor: float,
+    gain: FloatArray,
+) -> None:
+    """Write the 3x3 gain ``L`` of eq. (6) into ``gain``.
+
+    Columns are the innovations of x, y, theta; columns of unmeasured states
+    are zero. ``mask`` holds 1.0 for measured states, ``poles`` the configured
+    eigenvalues of ``(I - L C) A`` for x, y, theta; ``motion_floor`` [m] the
+    motion per sample below which the heading pole relaxes towards 1 (heading
+    unmeasured only).
+    """
+    for i in range(3):
+        for j in range(3):
+            gain[i, j] = 0.0
+    mx = mask[0]
+    my = mask[1]
+    if mask[2] > 0.0:
+        gain[2, 2] = 1.0 - poles[2]
+        # Measured position i: error decays at p_i; the heading innovation
+        # carries p_i * a_i3 to cancel the coupling term of A.
+        # Unmeasured position i: only the coupling is cancelled (eigenvalue 1).
+        if mx > 0.0:
+            gain[0, 0] = 1.0 - poles[0]
+            gain[0, 2] = poles[0] * a13
+        else:
+            gain[0, 2] = a13
+        if my > 0.0:
+            gain[1, 1] = 1.0 - poles[1]
+            gain[1, 2] = poles[1] * a23
+        else:
+            gain[1, 2] = a23
+        return
+    if mx + my == 0.0:
+        return
+    p_pos = (poles[0] * mx + poles[1] * my) / (mx + my)
+    cx = a13 * mx
+    cy = a23 * my
+    n2 = cx * cx + cy * cy
+    if n2 <= MIN_HEADING_OBSERVABILITY * MIN_HEADING_OBSERVABILITY:
+        gain[0, 0] = (1.0 - p_pos) * mx
+        gain[1, 1] = (1.0 - p_pos) * my
+        return
+    # Along c the pair (position, heading) has the 2x2 error matrix
+    # [[p_s, p_s n], [-k n, 1 - k n^2]]: det = p_s, trace = p_s + 1 - k n^2.
+    # Poles (p_theta, p_pos) need p_s = p_theta p_pos, k n^2 = (1-p_theta)(1-p_pos).
+    p_theta = poles[2]
+    floor2 = motion_floor * motion_floor
+    if n2 < floor2:
+        p_theta = 1.0 - (1.0 - p_theta) * n2 / floor2
+    p_along = p_theta * p_pos
+    k = (1.0 - p_theta) * (1.0 - p_pos) / n2
+    # L_pos = I - P with P = p_pos (I - c c^T / n2) + p_along c c^T / n2, masked.
+    d = (p_pos - p_along) / n2
+    gain[0, 0] = (1.0 - p_pos + d * cx * cx) * mx
+    gain[0, 1] = d * cx * cy * mx * my
+    gain[1, 0] = d * cx * cy * mx * my
+    gain[1, 1] = (1.0 - p_pos + d * cy * cy) * my
+    gain[2, 0] = k * cx
+    gain[2, 1] = k * cy
+
+
+@inlined
+def observer_step(
+    estimate: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    params: ObserverTuning,
+    gain: FloatArray,
+) -> int:
+    """Advance ``estimate`` (x_{k|k} -> x_{k+1|k+1}) in place with input u_k and
+    measurement xi_{k+1}; ``gain`` receives L. Returns the number of phase-II
+    iterations run."""
+    mask = params.mask
+    # Read once: the writes to ``gain`` below could alias ``estimate`` for the
+    # compiler, which would then read the heading again and recompute its sine.
+    x, y, theta = estimate[0], estimate[1], estimate[2]
+    # Phase I. eq. (7): A at the filtered estimate x_{k|k}.
+    a13, a23, _, _, _, _ = jacobian_terms(theta, v, omega, dt)
+    observer_gain(a13, a23, mask, params.poles, params.motion_floor, gain)
+    # eq. (5): prediction.
+    px, py, pth = step(x, y, theta, v, omega, dt)
+    # eq. (6): innovation of the measured outputs (heading residual wrapped).
+    rx = (measurement[0] - px) * mask[0]
+    ry = (measurement[1] - py) * mask[1]
+    rth = wrap_angle(measurement[2] - pth) * mask[2]
+    estimate[0] = px + gain[0, 0] * rx + gain[0, 1] * ry + gain[0, 2] * rth
+    estimate[1] = py + gain[1, 0] * rx + gain[1, 1] * ry + gain[1, 2] * rth
+    estimate[2] = pth + gain[2, 0] * rx + gain[2, 1] * ry + gain[2, 2] * rth
+    if not params.use_bounds:
+        return 0
+    lower = params.lower
+    upper = params.upper
+    # Phase II, eqs. (8)-(11): iterate on the outputs whose error left eq. (4).
+    iterations = 0
+    while iterations < params.max_iterations:
+        violated = False
+        for i in range(3):
+            if mask[i] == 0.0:
+                continue
+            error = measurement[i] - estimate[i]
+            if i == 2:
+                error = wrap_angle(error)
+            # Rounding of the previous update must not count as a violation.
+            if error > upper[i] + BOUND_SLACK:
+                # z - h'(x) with z saturated to the upper bound, H = D^T.
+                estimate[i] += error - upper[i]
+                violated = True
+            elif error < lower[i] - BOUND_SLACK:
+                estimate[i] += error - lower[i]
+                violated = True
+        if not violated:
+            break
+        iterations += 1
+    return iterations
+
+
+@kernel
+def observer_predict(estimate: FloatArray, v: float, omega: float, dt: float) -> int:
+    """A sample without a measurement (between periods, or lost): eq. (5)
+    alone, no innovation and no phase II. Returns 0 phase-II iterations."""
+    estimate[0], estimate[1], estimate[2] = step(
+        estimate[0], estimate[1], estimate[2], v, omega, dt
+    )
+    return 0
+
+
+def error_matrix(
+    state: FloatArray,
+    u: FloatArray,
+    dt: float,
+    mask: FloatArray,
+    poles: FloatArray,
+    motion_floor: float = 0.0,
+) -> FloatArray:
+    """``(I - L C) A`` of eq. (7) at (state, u): the phase-I error dynamics."""
+    a13, a23, *_ = jacobian_terms(state[2], u[0], u[1], dt)
+    gain = np.zeros((3, 3))
+    observer_gain(a13, a23, mask, poles, motion_floor, gain)
+    a = np.array([[1.0, 0.0, a13], [0.0, 1.0, a23], [0.0, 0.0, 1.0]])
+    return np.asarray((np.eye(3) - gain @ np.diag(mask)) @ a)
+
+
+# --- the estimator as the loop runs it -----------------------------------------
+
+
+@inlined
+def next_estimate(
+    tuning: ObserverTuning,
+    memory: ObserverMemory,
+    estimate: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    measured: bool,
+) -> int:
+    """x_{k|k} -> x_{k+1|k+1}: phases I and II with a measurement, the
+    prediction of eq. (5) alone without one."""
+    if measured:
+        return observer_step(estimate, v, omega, dt, measurement, tuning, memory.gain)
+    return observer_predict(estimate, v, omega, dt)
+
+
+def tuning_of(settings: ConstrainedObserver, measurements: Measurements) -> ObserverTuning:
+    lower = np.full(3, -math.inf)
+    upper = np.full(3, math.inf)
+    if settings.output_error_bounds:
+        for name, (lo, hi) in settings.output_error_bounds.items():
+            lower[STATES.index(name)] = lo
+            upper[STATES.index(name)] = hi
+    poles = settings.poles
+    return ObserverTuning(
+        mask=measurements.mask,
+        poles=np.array([poles.x, poles.y, poles.theta]),
+        # The measured positions' noise: one sample of them says little about
+        # an unmeasured heading below it (docs/paper-notes.md, eqs. (6)-(7)).
+        motion_floor=float(measurements.noise_std[:2].max()),
+        lower=lower,
+        upper=upper,
+        use_bounds=bool(settings.output_error_bounds),
+        max_iterations=settings.max_iterations,
+    )
+
+
+def new_memory(tuning: ObserverTuning, initial_estimate: FloatArray) -> ObserverMemory:
+    return ObserverMemory(gain=np.zeros((3, 3)))
+
+
+def error_bounds(tuning: ObserverTuning) -> tuple[tuple[float, float], ...]:
+    return tuple(
+        (float(lo), float(hi)) if tuning.use_bounds and math.isfinite(lo) else (math.nan, math.nan)
+        for lo, hi in zip(tuning.lower, tuning.upper, strict=True)
+    )
+
+
+def observer_tuning(
+    mask: FloatArray,
+    poles: FloatArray,
+    motion_floor: float = 0.0,
+    lower: FloatArray | None = None,
+    upper: FloatArray | None = None,
+    use_bounds: bool = False,
+    max_iterations: int = 0,
+) -> ObserverTuning:
+    """The observer's record from plain numbers: for tests and notebooks."""
+    return ObserverTuning(
+        mask,
+        poles,
+        motion_floor,
+        np.full(3, -np.inf) if lower is None else lower,
+        np.full(3, np.inf) if upper is None else upper,
+        use_bounds,
+        max_iterations,
+    )
+
+
+# Registered by wmr_mission.estimators.
+ESTIMATOR = EstimatorType(
+    settings=ConstrainedObserver,
+    tuning_record=ObserverTuning,
+    tuning_of=tuning_of,
+    new_memory=new_memory,
+    step=next_estimate,
+    error_bounds=error_bounds,
+)

@@ -1,0 +1,85 @@
+"""What an estimator is, and the registry of them.
+
+An estimator type is one module holding
+
+* its settings: the model of the mission's ``estimator:`` section, a subclass
+  of :class:`EstimatorSettings` with ``type: Literal[NAME]``;
+* its tuning record: a ``NamedTuple`` of numbers and arrays, built once per run
+  by ``tuning_of(settings, measurements)``, which its kernel reads; the type of this
+  record says which step a loop was compiled for;
+* its memory: the arrays it carries from sample to sample (``new_memory(tuning,
+  initial_estimate)``, any ``NamedTuple`` of arrays);
+* its step, a kernel (wmr_mission.kernels.jit): ``step(tuning, memory,
+  estimate, v, omega, dt, measurement, measured) -> int`` advances ``estimate``
+  in place from x_{k|k} to x_{k+1|k+1} with the input applied over the sample
+  and, when ``measured``, the measurement of sample k+1 (all three states:
+  which ones the sensors measure is ``measurements.mask``); it returns a count the
+  run records per sample (the constrained observer's phase-II iterations).
+
+and one registration: ``ESTIMATORS.register(EstimatorType(...))``. The runner
+binds the step into the loop (wmr_mission.kernels.variants): compiled, it is
+compiled into it; as plain Python, it runs as Python.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Final, NamedTuple, Self
+
+from pydantic import Field
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.fields import Model, Pose, Registry
+
+DEFAULT: Final = "constrained-observer"
+
+
+class EstimatorSettings(Model):
+    """What every estimator's settings hold."""
+
+    type: str
+    initial_estimate: Pose | None = Field(
+        default=None,
+        description="Estimate at mission start [m, m, rad]; null = robot.initial_state.",
+    )
+
+    def with_sensors(self, measured_noise: dict[str, float]) -> Self:
+        """These settings completed by what the sensors measure (the standard
+        deviation of each measured state's noise): defaults that follow the
+        sensors. As written by default."""
+        return self
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """What the sensors give an estimator: which states they measure and how
+    noisy each is (0 for a state not measured), from ``sensors:``."""
+
+    mask: FloatArray  # 1.0 for each measured state (x, y, theta)
+    noise_std: FloatArray  # [m, m, rad]
+
+
+def no_error_bounds(tuning: Any) -> tuple[tuple[float, float], ...]:
+    nan = float("nan")
+    return ((nan, nan),) * 3
+
+
+@dataclass(frozen=True)
+class EstimatorType:
+    """One estimator a mission may name (see the module)."""
+
+    settings: type[EstimatorSettings]
+    tuning_record: type[NamedTuple]
+    tuning_of: Callable[[Any, Measurements], Any]
+    new_memory: Callable[[Any, FloatArray], Any]
+    step: Callable[..., int]
+    # The output-error bounds of eq. (4) the run reports per state (lower,
+    # upper), NaN where there are none (the figures draw them).
+    error_bounds: Callable[[Any], tuple[tuple[float, float], ...]] = no_error_bounds
+    # False for a step numba cannot compile (plain Python objects): a mission
+    # naming it runs its loop as plain Python.
+    compiles: bool = True
+
+
+ESTIMATORS: Registry[EstimatorType] = Registry("estimator", default=DEFAULT)

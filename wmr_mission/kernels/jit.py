@@ -1,0 +1,313 @@
+"""Kernels: plain Python, compiled by numba only where compiled code needs them.
+
+Every per-sample function is written once, in the subset of Python numba
+compiles, and declared with :func:`kernel` (or :func:`inlined`). Declaring
+loads nothing: a kernel called from Python runs as plain Python, so a module
+of kernels can be imported by whoever needs its other contents (a mission's
+settings, for validation) without paying for numba.
+
+Numba is loaded by the first :func:`compiled` call, which returns the
+compiled form of an entry point that Python calls (the loop, the math of
+paths, a campaign's pixel counts). Once loaded, numba is told through its
+public extension API (``typeof_impl``) that a kernel named in compiled code is
+its own compiled dispatcher, made then; a kernel shows the options it is
+compiled with (``targetoptions``), so an inlined one is compiled into each
+caller as numba inlines an ``njit(inline="always")`` function. The compiled
+loop is the same machine code as if every kernel had been an ``njit``
+function all along.
+
+When numba is missing, ``WMR_MISSION_NO_JIT=1`` is set, or the run chose plain
+Python (:func:`choose_plain_python`: the first runs after an install,
+wmr_mission.commands.background_compile), :func:`compiled` returns the plain
+form instead: slower, the same equations, the same bytes. Compiled entry
+points are cached on disk where a directory can be written
+(wmr_mission.kernels.cache).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import platform
+import threading
+import time
+import types
+from collections.abc import Callable, Mapping
+from typing import Any, TypeVar, cast
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+NO_JIT = "WMR_MISSION_NO_JIT"
+
+# With Intel's short vector math library installed (icc_rt), numba would
+# vectorise loops of math functions with it: results chosen by the CPU's SIMD
+# level (wmr_mission.kernels.scalar_math). Read by numba as it loads.
+os.environ["NUMBA_DISABLE_INTEL_SVML"] = "1"
+
+# Options of every compiled kernel. error_model="numpy": a division by zero
+# gives inf or nan, as in plain Python, never a Python exception out of the
+# compiled loop; the runner reports a non-finite input or state as a divergence.
+_OPTIONS: dict[str, Any] = {"nogil": True, "error_model": "numpy"}
+
+
+class Kernel:
+    """A per-sample function. Called from Python it runs as plain Python; named
+    in compiled code it is compiled (once numba is loaded, see the module)."""
+
+    def __init__(self, function: Callable[..., Any], inline: bool) -> None:
+        self.py_func = function
+        self.inline = inline
+        # What numba reads of a function it may inline, as of its dispatchers.
+        self.targetoptions = {**_OPTIONS, **({"inline": "always"} if inline else {})}
+        self.__name__ = function.__name__
+        self.__qualname__ = function.__qualname__
+        self.__module__ = function.__module__
+        self.__doc__ = function.__doc__
+        self._dispatcher: Any = None
+
+    def __call__(self, *args: Any) -> Any:
+        return self.py_func(*args)
+
+    def __repr__(self) -> str:
+        return f"<kernel {self.__module__}.{self.__qualname__}>"
+
+    def dispatcher(self) -> Any:
+        """numba's dispatcher of this kernel (numba loaded)."""
+        with _lock:
+            if self._dispatcher is None:
+                self._dispatcher = _njit()(cache=_state.cached, **self.targetoptions)(self.py_func)
+        return self._dispatcher
+
+
+class _State:
+    plain_chosen = False  # choose_plain_python() was called
+    numba: Any = None  # the numba module, once loaded
+    ready = False  # numba loaded and taught the kernels
+    cached = False  # compiled code is kept on disk
+    kernels: list[Kernel] = []  # noqa: RUF012 - every declared kernel
+    entries: dict[tuple[int, bool, bool], Any] = {}  # noqa: RUF012 - compiled entry points
+
+
+_state = _State()
+# Loading numba and compiling entry points happen once, whichever thread asks first.
+_lock = threading.RLock()
+
+
+def _declare(function: Callable[..., Any], inline: bool) -> Kernel:
+    declared = Kernel(function, inline)
+    with _lock:
+        _state.kernels.append(declared)
+    return declared
+
+
+def kernel(fn: F) -> F:
+    """Declare ``fn`` a kernel (see the module)."""
+    return cast(F, _declare(fn, inline=False))
+
+
+def inlined(fn: F) -> F:
+    """:func:`kernel`, compiled into each compiled function that calls it
+    (numba's ``inline="always"``) instead of called there: for the kernels the
+    loop runs once per sample with whole records (a phase, the controller, the
+    estimator), which cost more to pass, tens of machine words each, than much
+    of their work (docs/performance.md)."""
+    return cast(F, _declare(fn, inline=True))
+
+
+def choose_plain_python() -> None:
+    """Run this process's kernels as plain Python, without loading numba (a
+    first run while the compiled loop is not cached yet)."""
+    _state.plain_chosen = True
+
+
+def compiling() -> bool:
+    """Whether :func:`compiled` compiles here: numba is installed, not turned
+    off by ``WMR_MISSION_NO_JIT=1``, and plain Python was not chosen."""
+    if _state.plain_chosen or os.environ.get(NO_JIT, "") not in ("", "0"):
+        return False
+    return _state.numba is not None or importlib.util.find_spec("numba") is not None
+
+
+def loaded() -> bool:
+    """Whether this process loaded numba for its kernels."""
+    return _state.ready
+
+
+def entries() -> list[str]:
+    """The names of the compiled functions this process called or compiled,
+    each loaded from the cache or compiled once."""
+    dispatchers = [*_state.entries.values(), *(k._dispatcher for k in (*_state.kernels, ticks))]
+    return sorted({d.py_func.__name__ for d in dispatchers if d is not None and d.signatures})
+
+
+def _njit() -> Any:
+    assert _state.numba is not None
+    return _state.numba.njit
+
+
+def load() -> bool:
+    """Load numba (once) and teach it the kernels; False when not compiling."""
+    if _state.ready:
+        return True
+    with _lock:
+        return _load()
+
+
+def _load() -> bool:
+    if _state.numba is not None:
+        return True
+    if not compiling():
+        return False
+    from wmr_mission.kernels import cache
+
+    directory = cache.cache_directory()
+    if directory is not None:  # before numba loads: it reads its cache directory then
+        cache.point_numba_at(directory)
+    try:
+        import numba
+    except ImportError:  # pragma: no cover - a numba that cannot load (another numpy)
+        _state.plain_chosen = True
+        return False
+    from numba.extending import typeof_impl
+
+    _state.cached = directory is not None
+
+    @typeof_impl.register(Kernel)
+    def _typeof_kernel(value: Kernel, context: Any) -> Any:
+        return numba.types.Dispatcher(value.dispatcher())
+
+    _state.numba = numba
+    _teach_ticks()
+    _state.ready = True
+    return True
+
+
+def compiled(fn: F, *, counted: bool = True, cached: bool = True) -> F:
+    """The form of ``fn`` Python should call: numba's compiled dispatcher
+    (cached on disk) when compiling, else plain Python (:func:`plain`).
+
+    ``cached=False`` keeps what it compiles in memory only: for a loop that
+    runs kernels from outside the package (a plug-in), whose edits the cache's
+    stamp (wmr_mission.kernels.cache) does not see.
+
+    ``counted=False`` compiles without numba's reference counting (``_nrt=False``,
+    an option numba accepts though it documents it only for its developers),
+    for the loop: it allocates nothing, and the arrays it is handed stay held
+    by its Python caller for the call, so no call pays atomic count updates for
+    the records it passes (docs/performance.md)."""
+    if not load():
+        return plain(fn)
+    source = getattr(fn, "py_func", fn)
+    key = (id(source), counted, cached)
+    with _lock:
+        if key not in _state.entries:
+            options = dict(_OPTIONS)
+            if not counted and _accepts_nrt_option():  # else counted: still correct
+                options["_nrt"] = False
+            _state.entries[key] = _njit()(cache=cached and _state.cached, **options)(source)
+        return cast(F, _state.entries[key])
+
+
+def _accepts_nrt_option() -> bool:
+    """Whether this numba knows ``_nrt``: an unknown option would only fail at
+    the first call, as a KeyError out of the compiler."""
+    try:
+        from numba.core.cpu import CPUTargetOptions
+    except ImportError:  # pragma: no cover - a numba without its CPU target module
+        return False
+    return hasattr(CPUTargetOptions, "_nrt")
+
+
+def bind(function: F, bindings: Mapping[str, Callable[..., Any]]) -> F:
+    """A copy of ``function`` with some of the names it calls bound to other
+    functions of the same signatures: the loop for one mission's estimator
+    and controller (wmr_mission.sim.runner). Compiled, each copy is a function
+    of its own, its kernels inlined as the original's are."""
+    source = getattr(function, "py_func", function)
+    namespace = {**source.__globals__, **bindings}
+    return cast(
+        F,
+        types.FunctionType(
+            source.__code__, namespace, source.__name__, source.__defaults__, source.__closure__
+        ),
+    )
+
+
+def plain(
+    function: F,
+    substitutes: Mapping[Any, Callable[..., Any]] | None = None,
+    _made: dict[int, Any] | None = None,
+) -> F:
+    """The plain-Python form of a kernel or entry point: a copy of the function
+    calling the plain-Python copies of the kernels it names, and
+    ``substitutes[k]`` (itself made plain) wherever it names a kernel ``k``
+    there: the loop with the reference step in place of the fast kernels
+    (wmr_mission.sim.reference). The same bytes as compiled, and no call
+    through :class:`Kernel` per sample."""
+    substitutes = substitutes or {}
+    made = {} if _made is None else _made
+    if _substituted(function, substitutes):
+        function = cast(F, substitutes[function])
+    source = getattr(function, "py_func", function)
+    if not isinstance(source, types.FunctionType):
+        return function
+    if id(source) not in made:
+        namespace = dict(source.__globals__)
+        made[id(source)] = types.FunctionType(
+            source.__code__, namespace, source.__name__, source.__defaults__, source.__closure__
+        )
+        for name, value in source.__globals__.items():
+            if isinstance(value, Kernel) or _substituted(value, substitutes):
+                namespace[name] = plain(value, substitutes, made)
+    return cast(F, made[id(source)])
+
+
+def _substituted(value: Any, substitutes: Mapping[Any, Callable[..., Any]]) -> bool:
+    try:
+        return value in substitutes
+    except TypeError:  # unhashable
+        return False
+
+
+# ``ticks()``: a clock cheap enough to read twice per sample inside the loop.
+# Compiled on x86-64 it counts processor cycles (the runner converts them to
+# nanoseconds against time.perf_counter_ns over the run); as plain Python it
+# is time.perf_counter_ns; compiled elsewhere there is no such clock: 0.
+def _nanoseconds() -> int:
+    return time.perf_counter_ns()
+
+
+ticks = Kernel(_nanoseconds, inline=False)
+
+
+def cycle_counter() -> bool:
+    """Whether compiled code can read the processor's cycle counter here
+    (x86-64 only: elsewhere it may not be readable from user space)."""
+    return platform.machine().lower() in ("x86_64", "amd64")
+
+
+def _teach_ticks() -> None:
+    if not cycle_counter():
+
+        def zero() -> int:
+            return 0
+
+        ticks._dispatcher = _njit()(nogil=True)(zero)
+        return
+    from llvmlite import ir
+    from numba import types as numba_types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def read_counter(typingctx: Any) -> Any:
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            function_type = ir.FunctionType(ir.IntType(64), [])
+            counter = builder.module.declare_intrinsic("llvm.readcyclecounter", fnty=function_type)
+            return builder.call(counter, [])
+
+        return numba_types.int64(), codegen
+
+    def counter() -> int:
+        return read_counter()  # type: ignore[call-arg]
+
+    ticks._dispatcher = _njit()(nogil=True, cache=_state.cached)(counter)

@@ -1,0 +1,131 @@
+"""The plant: the discrete-time unicycle of eq. (1) and its Jacobians.
+
+Names: ``v`` is the linear speed [m/s] (the paper's ``w``), ``omega`` the turn
+rate [rad/s] (the paper's ``v``). The heading is never wrapped here; angles are
+wrapped only where they are compared (:func:`wrap_angle`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.kernels.jit import kernel
+
+
+@kernel
+def step(
+    x: float, y: float, theta: float, v: float, omega: float, dt: float
+) -> tuple[float, float, float]:
+    """One sample of eq. (1): the pose at k+1 from the pose and input at k."""
+    c = math.cos(theta)
+    s = math.sin(theta)
+    half_dt2_v_omega = 0.5 * dt * dt * v * omega
+    return (
+        x + dt * v * c - half_dt2_v_omega * s,
+        y + dt * v * s + half_dt2_v_omega * c,
+        theta + dt * omega,
+    )
+
+
+@kernel
+def jacobian_terms(
+    theta: float, v: float, omega: float, dt: float
+) -> tuple[float, float, float, float, float, float]:
+    """The non-trivial entries of A = df/dx and B = df/du of eq. (1).
+
+    A = [[1, 0, a13], [0, 1, a23], [0, 0, 1]],
+    B = [[b11, b12], [b21, b22], [0, dt]].
+    Returned as (a13, a23, b11, b12, b21, b22).
+    """
+    c = math.cos(theta)
+    s = math.sin(theta)
+    h = 0.5 * dt * dt
+    return (
+        -dt * v * s - h * v * omega * c,
+        dt * v * c - h * v * omega * s,
+        dt * c - h * omega * s,
+        -h * v * s,
+        dt * s + h * omega * c,
+        h * v * c,
+    )
+
+
+TWO_PI = 2.0 * math.pi
+
+
+@kernel
+def wrap_angle(angle: float) -> float:
+    """Angle in [-pi, pi)."""
+    shifted = angle + math.pi
+    # Already in [0, 2 pi): the remainder is ``shifted`` itself, to the bit, and
+    # the floating-point remainder (a library call) is the slow part.
+    if 0.0 <= shifted < TWO_PI:
+        return shifted - math.pi
+    return shifted % TWO_PI - math.pi
+
+
+@kernel
+def hypot(x: float, y: float) -> float:
+    """sqrt(x^2 + y^2) without overflow, in IEEE arithmetic alone.
+
+    ``math.hypot`` is the C library's in compiled code but CPython's own
+    algorithm as plain Python; they differ in the last bit about once in 500
+    calls, and the plain-Python build must give the compiled build's bytes."""
+    big, small = abs(x), abs(y)
+    if big < small:
+        big, small = small, big
+    if big == 0.0 or big == math.inf:  # (0, 0), or an infinite side (NaN goes on to NaN)
+        return big
+    ratio = small / big
+    return big * math.sqrt(1.0 + ratio * ratio)
+
+
+@kernel
+def saturate(
+    v: float, omega: float, v_prev: float, omega_prev: float, limits: FloatArray, dt: float
+) -> tuple[float, float]:
+    """Actuator limits: |v| <= limits[0], |omega| <= limits[1], and rate limits
+    limits[2] [m/s^2], limits[3] [rad/s^2] (inf when absent)."""
+    dv = limits[2] * dt
+    dw = limits[3] * dt
+    v = min(max(v, v_prev - dv), v_prev + dv)
+    omega = min(max(omega, omega_prev - dw), omega_prev + dw)
+    v = min(max(v, -limits[0]), limits[0])
+    omega = min(max(omega, -limits[1]), limits[1])
+    return v, omega
+
+
+@kernel
+def input_jacobian_into(theta: float, v: float, omega: float, dt: float, b: FloatArray) -> None:
+    _, _, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
+    b[0, 0] = b11
+    b[0, 1] = b12
+    b[1, 0] = b21
+    b[1, 1] = b22
+    b[2, 0] = 0.0
+    b[2, 1] = dt
+
+
+# Array forms with the project-wide argument order f(state, input, dt): for
+# tests, the reference step and notebooks. The per-sample loop uses the scalar
+# kernels above.
+
+
+def f(state: FloatArray, u: FloatArray, dt: float) -> FloatArray:
+    """Eq. (1) on arrays: ``state = [x, y, theta]``, ``u = [v, omega]``."""
+    return np.array(step(state[0], state[1], state[2], u[0], u[1], dt))
+
+
+def state_jacobian(state: FloatArray, u: FloatArray, dt: float) -> FloatArray:
+    """A = df/dx at (state, u), eq. (7)."""
+    a13, a23, *_ = jacobian_terms(state[2], u[0], u[1], dt)
+    return np.array([[1.0, 0.0, a13], [0.0, 1.0, a23], [0.0, 0.0, 1.0]])
+
+
+def input_jacobian(state: FloatArray, u: FloatArray, dt: float) -> FloatArray:
+    """B = df/du at (state, u), eq. (16)."""
+    _, _, b11, b12, b21, b22 = jacobian_terms(state[2], u[0], u[1], dt)
+    return np.array([[b11, b12], [b21, b22], [0.0, dt]])

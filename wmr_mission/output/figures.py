@@ -1,0 +1,912 @@
+"""Figures of a run: the path in the plane, states, estimation error, inputs.
+
+Two ways in, one drawing code:
+
+* ``plot_xy``, ``plot_states``, ``plot_estimation_error``, ``plot_inputs`` draw
+  on axes a caller gives (or new ones from pyplot) and return them: for
+  notebooks. They never change matplotlib's backend.
+* ``draw_all`` writes the figure files of a run directory (``xy.png`` ...) on
+  figures of their own (``matplotlib.figure.Figure``, no pyplot), in PNG, SVG
+  or PDF.
+
+matplotlib is imported inside the functions, so importing this module (and
+``wmr-mission validate``) stays light. Long runs are thinned to at most
+``MAX_POINTS_PER_LINE`` points per line: a 360 000-sample run plots in a few
+seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from wmr_mission.basics import STATES, FloatArray, IntArray
+from wmr_mission.output.files import atomic_path
+from wmr_mission.output.metrics import (
+    convergence_index,
+    estimation_errors,
+    phase_segments,
+    wrap_angle,
+)
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from wmr_mission.output.result import RunResult
+
+__all__ = [
+    "FIGURE_FORMATS",
+    "FIGURE_NAMES",
+    "draw_all",
+    "phase_colors",
+    "plot_estimation_error",
+    "plot_inputs",
+    "plot_states",
+    "plot_xy",
+    "save_figure",
+]
+
+MAX_POINTS_PER_LINE = 20_000
+DPI = 120
+PAD = 0.1  # margin round a figure's drawing [in]
+# Points per piece of a long line when drawing files: Agg's memory grows with
+# the length of one piece in pixels, so a run of many laps is drawn in pieces.
+LINE_PIECE = 1000
+# Bottom of the estimation figure's axes: room below for its legend.
+ESTIMATION_BOTTOM = 0.14
+# Pillow writes the PNGs at zlib level 1: 22 ms for case study 2's xy.png
+# against 30 ms at its default, the file 19 % larger (`python
+# benchmarks/measure.py png`).
+PNG_OPTIONS: dict[str, Any] = {"compress_level": 1}
+STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
+FIGURE_FORMATS = ("png", "svg", "pdf")
+FIGURE_NAMES = ("xy", "states", "estimation_error", "inputs")
+# The reference is drawn over the path, thin and dark, so a well-tracked path
+# does not hide it.
+REFERENCE_STYLE: dict[str, Any] = {
+    "color": "black",
+    "linewidth": 0.8,
+    "linestyle": (0, (4, 3)),
+    "alpha": 0.8,
+    "zorder": 4,
+}
+# Width of one character of a phase label, as a fraction of a 9-inch axis.
+CHARACTER_WIDTH = 0.009
+# Rows of the xy legend that fit beside the axes; longer legends take more columns.
+LEGEND_ROWS = 20
+# The xy figure of a file [in]: the axes, and room at the right for a
+# legend of one column, widened by LEGEND_COLUMN_WIDTH for each further column.
+XY_WIDTH, XY_LEFT, XY_AXES_WIDTH = 11.5, 0.8, 7.7
+LEGEND_COLUMN_WIDTH = 2.8
+# Phases the xy legend names; the others are counted in its last entry.
+MAX_LEGEND_PHASES = 2 * LEGEND_ROWS
+# Phase boundaries drawn over time: about one per pixel of a figure's width.
+MAX_PHASE_LINES = 1000
+# Places of phase changes numbered on the xy figure, evenly chosen when there are more.
+MAX_CHANGE_LABELS = 40
+
+
+def thin(start: int, stop: int, max_points: int = MAX_POINTS_PER_LINE) -> IntArray:
+    """Sample indices start..stop-1, evenly thinned to at most ``max_points``, last one kept."""
+    if stop <= start:
+        return np.zeros(0, dtype=np.int64)
+    step = max(1, math.ceil((stop - start) / max_points))
+    indices = np.arange(start, stop, step, dtype=np.int64)
+    if indices[-1] != stop - 1:
+        indices = np.append(indices, stop - 1)
+    return indices
+
+
+def finite(values: FloatArray) -> FloatArray:
+    """Non-finite values as NaN: matplotlib leaves a gap instead of failing on inf."""
+    return np.where(np.isfinite(values), values, np.nan)
+
+
+def phase_colors(result: RunResult) -> list[Any]:
+    """One colour per phase: the mission's `plot.phase_colors`, else a palette.
+
+    Up to 10 phases take matplotlib's tab10; more take evenly spaced colours of
+    a continuous map, visited with a stride so that neighbours differ: colours
+    never repeat.
+    """
+    from matplotlib import colormaps
+
+    count = len(result.phases)
+    if count <= 10:
+        palette = [colormaps["tab10"](i) for i in range(count)]
+    else:
+        spread = colormaps["turbo"](np.linspace(0.05, 0.95, count))
+        stride = next(s for s in range(max(2, count // 3), count) if math.gcd(s, count) == 1)
+        palette = [tuple(spread[(i * stride) % count]) for i in range(count)]
+    return [
+        info.color if info.color is not None else palette[i] for i, info in enumerate(result.phases)
+    ]
+
+
+def new_figure(figsize: tuple[float, float]) -> Figure:
+    """A figure outside pyplot: no backend, no global state, nothing to close."""
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, dpi=DPI)
+
+
+def _pyplot_figure(figsize: tuple[float, float]) -> Figure:
+    """A figure from pyplot, with whatever backend the caller uses (a notebook's)."""
+    import matplotlib.pyplot as plt
+
+    figure: Figure = plt.figure(figsize=figsize)
+    return figure
+
+
+def names_as_typed(drawn: Artist) -> None:
+    """Names are data: a '$' in a mission, phase or region name is drawn as typed,
+    never parsed as math (unbalanced, it would stop the drawing). Set on the
+    figure's texts, not in rcParams, so that a notebook's settings stay its own.
+
+    The axes' axis (ticks and axis labels) are passed over: they hold numbers
+    and fixed words, and walking them would make every tick before the figure
+    has its final size, ticks the drawing then throws away.
+    """
+    from matplotlib.axis import Axis
+    from matplotlib.text import Text
+
+    for child in drawn.get_children():
+        if isinstance(child, Text):
+            child.set_parse_math(False)
+        elif not isinstance(child, Axis):
+            names_as_typed(child)
+
+
+def save_figure(fig: Figure, path: Path) -> Path:
+    """Write ``fig`` in the format its suffix names, cropped to what is drawn
+    with a margin of PAD inches, through a temporary file."""
+    from matplotlib import rc_context
+
+    options: dict[str, Any] = {"pil_kwargs": PNG_OPTIONS} if path.suffix == ".png" else {}
+    # Long lines in pieces: a line round many laps would otherwise take Agg
+    # tens of megabytes of scanline cells.
+    with atomic_path(path) as tmp, rc_context({"agg.path.chunksize": LINE_PIECE}):
+        fig.savefig(
+            tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight", pad_inches=PAD, **options
+        )
+    return path
+
+
+# --- regions --------------------------------------------------------------
+
+
+def region_extent(region: dict[str, Any]) -> tuple[float, float, float, float] | None:
+    """Bounding box (xmin, xmax, ymin, ymax) of a bounded region, else None."""
+    kind = region.get("type")
+    if kind == "ellipse":
+        (cx, cy), (a, b) = region["center"], region["semi_axes"]
+        phi = float(region.get("rotation") or 0.0)
+        half_w = math.hypot(a * math.cos(phi), b * math.sin(phi))
+        half_h = math.hypot(a * math.sin(phi), b * math.cos(phi))
+        return cx - half_w, cx + half_w, cy - half_h, cy + half_h
+    if kind == "circle":
+        (cx, cy), r = region["center"], region["radius"]
+        return cx - r, cx + r, cy - r, cy + r
+    if kind == "box":
+        (x0, y0), (x1, y1) = region["min"], region["max"]
+        return x0, x1, y0, y1
+    if kind == "polygon":
+        vertices = np.asarray(region["vertices"], dtype=np.float64)
+        return (
+            float(vertices[:, 0].min()),
+            float(vertices[:, 0].max()),
+            float(vertices[:, 1].min()),
+            float(vertices[:, 1].max()),
+        )
+    return None
+
+
+def _clip_half_plane(
+    box: tuple[float, float, float, float], normal: tuple[float, float], offset: float
+) -> FloatArray:
+    """The part of a box where ``normal . p <= offset`` (one Sutherland-Hodgman pass)."""
+    x0, x1, y0, y1 = box
+    corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+    nx, ny = normal
+    kept: list[tuple[float, float]] = []
+    for (px, py), (qx, qy) in zip(corners, corners[1:] + corners[:1], strict=True):
+        cp, cq = nx * px + ny * py - offset, nx * qx + ny * qy - offset
+        if cp <= 0.0:
+            kept.append((px, py))
+        if cp * cq < 0.0:
+            s = cp / (cp - cq)
+            kept.append((px + s * (qx - px), py + s * (qy - py)))
+    return np.asarray(kept, dtype=np.float64).reshape(-1, 2)
+
+
+def draw_regions(
+    ax: Axes, regions: dict[str, Any], view: tuple[float, float, float, float]
+) -> None:
+    """Each region as a light grey patch with its outline; a half-plane is shaded inside ``view``.
+
+    Grey, so that region colours never compete with the phases' colours.
+    """
+    from matplotlib import patches
+
+    for name, region in regions.items():
+        kind = region.get("type")
+        style: dict[str, Any] = {
+            "facecolor": (0.5, 0.5, 0.5, 0.07 if kind == "half-plane" else 0.1),
+            "edgecolor": "0.35",
+            "linewidth": 1.0,
+            "zorder": 1,
+        }
+        patch: Any
+        if kind == "ellipse":
+            (a, b) = region["semi_axes"]
+            patch = patches.Ellipse(
+                tuple(region["center"]),
+                2 * a,
+                2 * b,
+                angle=math.degrees(float(region.get("rotation") or 0.0)),
+                **style,
+            )
+        elif kind == "circle":
+            patch = patches.Circle(tuple(region["center"]), region["radius"], **style)
+        elif kind == "box":
+            (x0, y0), (x1, y1) = region["min"], region["max"]
+            patch = patches.Rectangle((x0, y0), x1 - x0, y1 - y0, **style)
+        elif kind == "polygon":
+            patch = patches.Polygon(np.asarray(region["vertices"], dtype=np.float64), **style)
+        elif kind == "half-plane":
+            x0, x1, y0, y1 = view
+            # Far beyond the view, so the shading survives the equal-aspect adjustment.
+            reach = 10.0 * max(x1 - x0, y1 - y0, 1.0)
+            cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+            big = (cx - reach, cx + reach, cy - reach, cy + reach)
+            normal = (float(region["normal"][0]), float(region["normal"][1]))
+            inside = _clip_half_plane(big, normal, float(region["offset"]))
+            if inside.shape[0] < 3:
+                continue
+            patch = patches.Polygon(inside, **style)
+        else:
+            continue
+        patch.set_label(f"region {name}")
+        ax.add_patch(patch)
+
+
+# --- the path in the plane ------------------------------------------------
+
+
+def view_box(result: RunResult) -> tuple[float, float, float, float]:
+    """Data limits of the path, the reference, goals and bounded regions, with a margin."""
+    xs = [result.x, result.x_est, result.x_ref]
+    ys = [result.y, result.y_est, result.y_ref]
+    marks = [p.target[:2] for p in result.phases if p.target is not None]
+    marks += [p.near[:2] for p in result.phases if p.near is not None]
+    marks += [point for p in result.phases for point in p.points]
+    if marks:
+        xs.append(np.array([m[0] for m in marks], dtype=np.float64))
+        ys.append(np.array([m[1] for m in marks], dtype=np.float64))
+    for region in result.regions.values():
+        extent = region_extent(region)
+        if extent is not None:
+            xs.append(np.asarray(extent[:2], dtype=np.float64))
+            ys.append(np.asarray(extent[2:], dtype=np.float64))
+    x_range, y_range = _finite_range(xs), _finite_range(ys)
+    if x_range is None or y_range is None:
+        return -1.0, 1.0, -1.0, 1.0
+    (x0, x1), (y0, y1) = x_range, y_range
+    margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
+    return x0 - margin, x1 + margin, y0 - margin, y1 + margin
+
+
+def _finite_range(arrays: list[FloatArray]) -> tuple[float, float] | None:
+    """Smallest and largest finite value of the arrays, one array at a time
+    (a long run's columns are not copied together)."""
+    low, high = math.inf, -math.inf
+    for values in arrays:
+        kept = values[np.isfinite(values)]
+        if kept.size:
+            low, high = min(low, float(kept.min())), max(high, float(kept.max()))
+    return (low, high) if low <= high else None
+
+
+def _sample_at(result: RunResult, time: float) -> int:
+    """First sample at or after ``time``."""
+    k = int(np.searchsorted(result.t, time - 1e-9 * result.dt, side="left"))
+    return min(k, result.samples - 1)
+
+
+def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
+    """The estimate, the true path coloured by phase (one collection, whatever
+    the number of phases) and the reference (one line, broken between phases)."""
+    from matplotlib.collections import LineCollection
+
+    every = thin(0, result.samples)
+    ax.plot(
+        finite(result.x_est[every]),
+        finite(result.y_est[every]),
+        color="0.5",
+        linewidth=0.8,
+        linestyle=":",
+        label="estimate",
+        zorder=3,
+    )
+    segments = phase_segments(result.phase)
+    starts = np.array([start for _, start, _ in segments], dtype=np.int64)
+    # Thinned once for the whole run, each phase's first and last sample kept.
+    kept = np.union1d(every, np.concatenate((starts, np.maximum(starts - 1, 0))))
+    cuts = np.searchsorted(kept, starts[1:])
+    x, y = finite(result.x[kept]), finite(result.y[kept])
+    # Each phase's line runs to the next phase's first sample, so the coloured
+    # lines join; it is cut into pieces of LINE_PIECE points (for Agg's memory).
+    pieces, piece_colors = [], []
+    for (index, _, _), a, b in zip(
+        segments, np.r_[0, cuts], np.r_[cuts, kept.size - 1], strict=True
+    ):
+        for start in range(a, max(a + 1, b), LINE_PIECE - 1):
+            stop = min(start + LINE_PIECE, b + 1)
+            pieces.append(np.column_stack((x[start:stop], y[start:stop])))
+            piece_colors.append(colors[index])
+    ax.add_collection(
+        LineCollection(
+            pieces,
+            colors=piece_colors,
+            linewidths=2.2,
+            capstyle="round",
+            joinstyle="round",
+            zorder=2,
+        ),
+        autolim=False,
+    )
+    x_ref, y_ref = (
+        np.insert(finite(result.x_ref[kept]), cuts, np.nan),
+        np.insert(finite(result.y_ref[kept]), cuts, np.nan),
+    )
+    if np.isfinite(x_ref).any():
+        ax.plot(x_ref, y_ref, label="reference", **REFERENCE_STYLE)
+
+
+def _phase_handles(result: RunResult, colors: list[Any]) -> list[Any]:
+    """One legend entry per phase that ran, numbered as on the figure."""
+    from matplotlib.lines import Line2D
+
+    ran = [int(i) for i in np.unique(result.phase)] if result.samples else []
+    shown = ran if len(ran) <= MAX_LEGEND_PHASES else ran[: MAX_LEGEND_PHASES - 1]
+    handles = [
+        Line2D([], [], color=colors[i], linewidth=2.2, label=f"{i + 1} {result.phases[i].name}")
+        for i in shown
+    ]
+    if len(shown) < len(ran):
+        more = f"... {len(ran) - len(shown)} more, to {ran[-1] + 1} {result.phases[ran[-1]].name}"
+        handles.append(Line2D([], [], linestyle="none", label=more))
+    return handles
+
+
+def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
+    """Regulate targets, `near` goals (a circle of their tolerance) and path
+    points: one artist per kind, however many phases."""
+    from matplotlib import patches
+    from matplotlib.collections import PatchCollection
+
+    targets = sorted({p.target[:2] for p in result.phases if p.target is not None})
+    if targets:
+        ax.plot(
+            [t[0] for t in targets],
+            [t[1] for t in targets],
+            marker="+",
+            color="black",
+            markersize=12,
+            mew=1.5,
+            linestyle="none",
+            label="target",
+            zorder=6,
+        )
+    missed = _missed_goal(result)
+    goals = sorted({p.near for p in result.phases if p.near is not None})
+    reached = [goal for goal in goals if goal != missed]
+    for chosen, color, label in (
+        (reached, "black", "near goal"),
+        ([goal for goal in goals if goal == missed], "tab:red", "near goal not reached"),
+    ):
+        if not chosen:
+            continue
+        # A tolerance circle too small to see is left out.
+        circles = [patches.Circle((gx, gy), r) for gx, gy, r in chosen if r >= 0.005 * size]
+        if circles:
+            ax.add_collection(
+                PatchCollection(
+                    circles,
+                    facecolors="none",
+                    edgecolors=color,
+                    linewidths=0.8,
+                    linestyles="--",
+                    zorder=6,
+                ),
+                autolim=False,
+            )
+        ax.plot(
+            [g[0] for g in chosen],
+            [g[1] for g in chosen],
+            marker="x",
+            color=color,
+            markersize=7,
+            mew=1.5,
+            linestyle="none",
+            label=label,
+            zorder=6,
+        )
+    points = sorted({point for p in result.phases for point in p.points})
+    if points:
+        ax.plot(
+            [p[0] for p in points],
+            [p[1] for p in points],
+            marker="o",
+            markersize=4,
+            markerfacecolor="white",
+            markeredgecolor="0.2",
+            linestyle="none",
+            label="waypoint",
+            zorder=5,
+        )
+
+
+def _missed_goal(result: RunResult) -> tuple[float, float, float] | None:
+    """The `near` goal of a phase that timed out waiting for it."""
+    for tr in result.transitions:
+        if tr.to_phase is None and tr.condition == "timeout":
+            info = next((p for p in result.phases if p.name == tr.from_phase), None)
+            if info is not None and info.near is not None:
+                return info.near
+    return None
+
+
+def _change_places(
+    result: RunResult, radius: float
+) -> list[tuple[tuple[float, float], dict[int, None]]]:
+    """Each place of phase changes and the numbers of the phases entered there,
+    in order: a change within ``radius`` of an earlier place joins the first such place."""
+    number = {info.name: i + 1 for i, info in enumerate(result.phases)}
+    places: list[tuple[tuple[float, float], dict[int, None]]] = []  # numbers kept in order
+    # Places by grid cell of side ``radius``: those near a point are in the 3 x 3 cells round it.
+    cells: dict[tuple[int, int], list[int]] = {}
+    for tr in result.transitions:
+        if tr.to_phase is None:
+            continue
+        k = _sample_at(result, tr.time)
+        point = (float(result.x[k]), float(result.y[k]))
+        if not all(math.isfinite(v) for v in point):
+            continue
+        cx, cy = math.floor(point[0] / radius), math.floor(point[1] / radius)
+        near = [
+            i
+            for dx in (-1, 0, 1)
+            for dy in (-1, 0, 1)
+            for i in cells.get((cx + dx, cy + dy), ())
+            if math.dist(places[i][0], point) < radius
+        ]
+        if not near:
+            cells.setdefault((cx, cy), []).append(len(places))
+            places.append((point, {}))
+        places[min(near, default=len(places) - 1)][1][number[str(tr.to_phase)]] = None
+    return places
+
+
+def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
+    """Each phase change as a dot labelled with the number of the phase it enters;
+    changes at (nearly) one place share one label ("2,3"). At most
+    MAX_CHANGE_LABELS places are labelled, evenly chosen, so that the drawing
+    costs the same however many phases there are."""
+    places = _change_places(result, 0.04 * size)
+    if not places:
+        return
+    ax.plot(
+        [point[0] for point, _ in places],
+        [point[1] for point, _ in places],
+        marker="o",
+        color="black",
+        markersize=3.5,
+        linestyle="none",
+        label="phase change (number of the next phase)",
+        zorder=7,
+    )
+    for point, numbers in places[:: math.ceil(len(places) / MAX_CHANGE_LABELS)]:
+        shown = list(numbers) if len(numbers) <= 4 else [*list(numbers)[:3], "..."]
+        ax.annotate(
+            ",".join(str(n) for n in shown),
+            point,
+            xytext=(4, 4),
+            textcoords="offset points",
+            fontsize=7,
+            zorder=8,
+            bbox={
+                "boxstyle": "round,pad=0.15",
+                "facecolor": "white",
+                "edgecolor": "none",
+                "alpha": 0.8,
+            },
+        )
+
+
+def _draw_ends(ax: Axes, result: RunResult) -> None:
+    ax.plot(
+        result.x[0],
+        result.y[0],
+        marker="o",
+        markerfacecolor="white",
+        markeredgecolor="black",
+        markersize=8,
+        linestyle="none",
+        label="start",
+        zorder=7,
+    )
+    ax.plot(
+        result.x[-1],
+        result.y[-1],
+        marker="s",
+        color="black",
+        markersize=6,
+        linestyle="none",
+        label="end",
+        zorder=7,
+    )
+
+
+def _xy_on(ax: Axes, result: RunResult) -> int:
+    """Draw the path in the plane on ``ax``; return the legend's columns."""
+    colors = phase_colors(result)
+    view = view_box(result)
+    size = max(view[1] - view[0], view[3] - view[2])
+    draw_regions(ax, result.regions, view)
+    if result.samples:
+        _draw_path(ax, result, colors)
+        _draw_changes(ax, result, size)
+        _draw_ends(ax, result)
+    _draw_goals(ax, result, size)
+    ax.set_xlim(view[0], view[1])
+    ax.set_ylim(view[2], view[3])
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(f"{result.mission_name}: path in the plane ({result.outcome.value})")
+    ax.grid(True, linewidth=0.4, alpha=0.5)
+    phases = _phase_handles(result, colors)
+    others, labels = ax.get_legend_handles_labels()
+    handles = [*phases, *others]
+    columns = math.ceil(len(handles) / LEGEND_ROWS)
+    ax.legend(
+        handles=handles,
+        labels=[h.get_label() for h in phases] + labels,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        fontsize=8,
+        frameon=False,
+        ncols=columns,
+        title="phases" if phases else None,
+        title_fontsize=8,
+        alignment="left",
+    )
+    names_as_typed(ax)
+    return columns
+
+
+def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
+    """The path in the plane, coloured by phase, over the regions (the paper's Fig. 2, 3).
+
+    Draws on ``ax``, or on a new pyplot figure; returns the axes.
+    """
+    if ax is None:
+        ax = _pyplot_figure((9, 6.5)).add_subplot()
+    _xy_on(ax, result)
+    return ax
+
+
+# --- over time ------------------------------------------------------------
+
+
+def _mark_phases(axes: Sequence[Axes], result: RunResult, colors: list[Any]) -> None:
+    """Phase boundaries as dotted lines (one collection per axes); above the top
+    plot, each phase's number, and its name where its stretch is wide enough to
+    hold it (the labels need room, so there are never more than about 50)."""
+    from matplotlib.collections import LineCollection
+
+    segments = phase_segments(result.phase)
+    t0 = float(result.t[0]) if result.samples else 0.0
+    span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
+    changes = result.t[[start for _, start, _ in segments[1:]]]
+    # At most one line per MAX_PHASE_LINES-th of the run: more would only fill it in.
+    _, apart = np.unique(np.floor((changes - t0) / span * MAX_PHASE_LINES), return_index=True)
+    changes = changes[apart]
+    # From the bottom to the top of each axes (x in data, y in axes units), as
+    # axvline draws them; they leave the data limits alone.
+    lines = [((time, 0.0), (time, 1.0)) for time in changes.tolist()]
+    for ax in axes:
+        ax.add_collection(
+            LineCollection(
+                lines,
+                transform=ax.get_xaxis_transform(),
+                colors="0.45",
+                linewidths=0.7,
+                linestyles=":",
+            ),
+            autolim=False,
+        )
+    free_from = -math.inf  # where the previous label ends [s]
+    for index, start, end in segments:
+        time = float(result.t[start])
+        stop = float(result.t[end - 1])
+        name = result.phases[index].name
+        # Label text takes about CHARACTER_WIDTH of the axis width per character.
+        full, short = f"{index + 1} {name}", str(index + 1)
+        at = max(time, free_from)  # pushed right past its neighbour's label
+        chosen = None
+        for label in (full, short):
+            width = CHARACTER_WIDTH * (len(label) + 1) * span
+            # The name only inside its own stretch; the number at least at its start.
+            if at + width <= stop or (label == short and at == time):
+                chosen = label
+                break
+        if chosen is None:
+            continue  # no room: the xy legend names it
+        free_from = at + width
+        axes[0].text(
+            at,
+            1.02,
+            chosen,
+            transform=axes[0].get_xaxis_transform(),
+            fontsize=7.5,
+            color=colors[index],
+            va="bottom",
+            ha="left",
+            clip_on=False,
+        )
+
+
+def _figure_axes(
+    axes: Sequence[Axes] | None, shape: tuple[int, int], figsize: tuple[float, float]
+) -> tuple[Figure, list[Axes]]:
+    if axes is not None:
+        chosen = list(np.asarray(axes, dtype=object).ravel())
+        if len(chosen) != shape[0] * shape[1]:
+            raise ValueError(f"expected {shape[0] * shape[1]} axes, got {len(chosen)}")
+        return chosen[0].get_figure(), chosen
+    figure = _pyplot_figure(figsize)
+    made = figure.subplots(*shape, sharex="col", squeeze=False)
+    return figure, list(made.ravel())
+
+
+def _states_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
+    k = thin(0, result.samples)
+    t = result.t[k]
+    for ax, state in zip(axes, STATES, strict=True):
+        ax.plot(t, finite(getattr(result, state)[k]), color="tab:blue", linewidth=1.2, label="true")
+        ax.plot(
+            t,
+            finite(getattr(result, f"{state}_est")[k]),
+            color="tab:orange",
+            linewidth=1.0,
+            linestyle="--",
+            label="estimate",
+        )
+        ax.set_ylabel(STATE_LABELS[state])
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("t [s]")
+    _mark_phases(axes, result, phase_colors(result))
+    fig.suptitle(f"{result.mission_name}: states and estimates")
+    names_as_typed(fig)
+
+
+def plot_states(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+    """True state against its estimate over time: three axes (x, y, theta); returns the figure."""
+    fig, chosen = _figure_axes(axes, (3, 1), (9, 7.5))
+    _states_on(fig, chosen, result)
+    return fig
+
+
+def _start_window(result: RunResult) -> float:
+    """Seconds shown in the start column: five times the time the estimate
+    takes to converge, at least 20 samples, at most the run."""
+    if result.samples < 2:
+        return 1.0
+    duration = float(result.t[-1] - result.t[0])
+    converged = convergence_index(estimation_errors(result))
+    settle = float(result.t[converged] - result.t[0]) if converged is not None else duration
+    return min(duration, max(5.0 * settle, 20.0 * result.dt, 0.1))
+
+
+def _errors_at(result: RunResult, state: str, k: IntArray) -> tuple[FloatArray, FloatArray]:
+    """Measurement - estimate and true - estimate of ``state`` at samples ``k``
+    (the heading's wrapped, as output.metrics.estimation_errors has it)."""
+    estimate = getattr(result, f"{state}_est")[k]
+    true_error = getattr(result, state)[k] - estimate
+    if state == "theta":
+        true_error = wrap_angle(true_error)
+    return finite(getattr(result, f"{state}_meas")[k] - estimate), finite(true_error)
+
+
+def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
+    """Left: the start, at full scale; right: the whole run, at the scale of the bounds.
+
+    Eq. (4) bounds the output error, measurement - estimate, so the bounds are
+    drawn with that; true - estimate, the estimation error, is drawn beside it.
+    """
+    window = _start_window(result)
+    early = thin(0, int(np.searchsorted(result.t, result.t[0] + window, side="right")))
+    every = thin(0, result.samples)
+    for row, (state, bounds) in enumerate(zip(STATES, result.error_bounds, strict=True)):
+        unit = "rad" if state == "theta" else "m"
+        measured = bool(np.isfinite(getattr(result, f"{state}_meas")).any())
+        for column, k in enumerate((early, every)):
+            ax = axes[2 * row + column]
+            output_error, true_error = _errors_at(result, state, k)
+            if measured:
+                ax.plot(
+                    result.t[k],
+                    output_error,
+                    color="tab:blue",
+                    linewidth=1.8,
+                    label="measurement - estimate",
+                )
+            # Dashed on top: without noise the two coincide, and both stay visible.
+            ax.plot(
+                result.t[k],
+                true_error,
+                color="tab:orange",
+                linewidth=1.0,
+                linestyle=(0, (3, 2)),
+                label="true - estimate",
+            )
+            for i, bound in enumerate(bounds):
+                if math.isfinite(bound):
+                    ax.axhline(
+                        bound,
+                        color="tab:red",
+                        linewidth=1.0,
+                        linestyle="--",
+                        label="eq. (4) bound" if i == 0 else None,
+                    )
+            ax.axhline(0.0, color="0.3", linewidth=0.5)
+            ax.grid(True, linewidth=0.4, alpha=0.5)
+        # The whole run at the scale of the bounds and of the error after the start.
+        late = every[result.t[every] > result.t[0] + window]
+        reach = [abs(b) for b in bounds if math.isfinite(b)]
+        for tail in _errors_at(result, state, late):
+            tail = tail[np.isfinite(tail)]
+            if tail.size:
+                reach.append(float(np.abs(tail).max()))
+        top = 1.3 * max(max(reach, default=0.0), 1e-6)
+        axes[2 * row + 1].set_ylim(-top, top)
+        axes[2 * row].set_ylabel(f"{state} error [{unit}]")
+        if not measured:
+            axes[2 * row + 1].text(
+                0.99,
+                0.04,
+                f"{state} not measured",
+                ha="right",
+                transform=axes[2 * row + 1].transAxes,
+                fontsize=8,
+            )
+    # Padded: the phase labels sit between the titles and the plots. At the
+    # axes' top (y=1): nothing else is drawn above them, so matplotlib need not
+    # measure the axes' tick labels once more to find room.
+    axes[0].set_title(f"start: first {window:.3g} s, full scale", fontsize=9, pad=14, y=1.0)
+    axes[1].set_title("whole run, at the scale of the bounds", fontsize=9, pad=14, y=1.0)
+    handles, labels = axes[1].get_legend_handles_labels()
+    for ax in axes:
+        handles_here, labels_here = ax.get_legend_handles_labels()
+        for handle, label in zip(handles_here, labels_here, strict=True):
+            if label not in labels:
+                handles.append(handle)
+                labels.append(label)
+    fig.legend(
+        handles,
+        labels,
+        loc="lower center",
+        ncols=3,
+        fontsize=8,
+        frameon=False,
+        bbox_to_anchor=(0.5, 0.0),
+    )
+    axes[-2].set_xlabel("t [s]")
+    axes[-1].set_xlabel("t [s]")
+    _mark_phases([axes[1], axes[3], axes[5]], result, phase_colors(result))
+    fig.suptitle(f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate")
+    names_as_typed(fig)
+
+
+def plot_estimation_error(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+    """Measurement - estimate against the eq. (4) bounds, and true - estimate, per state:
+    six axes (3 rows x: start, whole run); returns the figure."""
+    fig, chosen = _figure_axes(axes, (3, 2), (11, 7.5))
+    if axes is None:
+        fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
+    _estimation_on(fig, chosen, result)
+    return fig
+
+
+def _inputs_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
+    k = thin(0, result.samples)
+    t = result.t[k]
+    for ax, name, label, limit in zip(
+        axes,
+        ("v", "omega"),
+        ("v [m/s]", "omega [rad/s]"),
+        result.limits,
+        strict=True,
+    ):
+        values = finite(getattr(result, name)[k])
+        ax.plot(t, values, color="tab:blue", linewidth=1.0, drawstyle="steps-post", label=name)
+        if math.isfinite(limit):
+            unit = label.split(" ")[1].strip("[]")
+            peak = float(np.nanmax(np.abs(values))) if np.isfinite(values).any() else 0.0
+            # Far-away limits would flatten the signal: name them instead of drawing them.
+            shown = peak >= 0.5 * limit
+            for sign in (1.0, -1.0):
+                ax.axhline(
+                    sign * limit,
+                    color="tab:red",
+                    linewidth=1.0,
+                    linestyle="--",
+                    label=(f"limit ±{limit:g} {unit}" + ("" if shown else " (off scale)"))
+                    if sign > 0
+                    else None,
+                )
+            if not shown and np.isfinite(values).any():
+                low, high = np.nanmin(values), np.nanmax(values)
+                margin = max(0.1 * (high - low), 0.05 * limit)
+                ax.set_ylim(low - margin, high + margin)
+        ax.set_ylabel(label)
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+        ax.legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("t [s]")
+    _mark_phases(axes, result, phase_colors(result))
+    fig.suptitle(f"{result.mission_name}: inputs")
+    names_as_typed(fig)
+
+
+def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+    """Linear speed and turn rate with their limits: two axes; returns the figure."""
+    fig, chosen = _figure_axes(axes, (2, 1), (9, 5.5))
+    _inputs_on(fig, chosen, result)
+    return fig
+
+
+# --- files ----------------------------------------------------------------
+
+
+def _figure(result: RunResult, name: str) -> Figure:
+    """The figure of a run's file ``name`` (one of FIGURE_NAMES)."""
+    if name == "xy":
+        fig = new_figure((XY_WIDTH, 6.5))
+        columns = _xy_on(fig.add_subplot(), result)
+        # Room on the canvas for the legend at the right, a column's width each.
+        width = XY_WIDTH + LEGEND_COLUMN_WIDTH * (columns - 1)
+        fig.set_size_inches(width, 6.5)
+        fig.subplots_adjust(left=XY_LEFT / width, right=(XY_LEFT + XY_AXES_WIDTH) / width)
+    elif name == "states":
+        fig = new_figure((9, 7.5))
+        _states_on(fig, list(fig.subplots(3, 1, sharex=True)), result)
+    elif name == "estimation_error":
+        fig = new_figure((11, 7.5))
+        fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
+        _estimation_on(fig, list(fig.subplots(3, 2, sharex="col").ravel()), result)
+    else:
+        fig = new_figure((9, 5.5))
+        _inputs_on(fig, list(fig.subplots(2, 1, sharex=True)), result)
+    return fig
+
+
+def draw_all(result: RunResult, out_dir: Path, formats: Sequence[str] = ("png",)) -> list[Path]:
+    """Write the four figures into ``out_dir`` in each format; return their paths."""
+    directory = Path(out_dir)
+    unknown = [f for f in formats if f not in FIGURE_FORMATS]
+    if unknown:
+        raise ValueError(f"unknown figure format {unknown[0]!r}; expected one of png, svg, pdf")
+    return [
+        save_figure(_figure(result, name), directory / f"{name}.{fmt}")
+        for fmt in formats
+        for name in FIGURE_NAMES
+    ]

@@ -1,0 +1,299 @@
+"""A mission planned for the runner: plain numbers, records and path makers.
+
+:func:`plan_mission` is where the simulation reads the validated mission; the
+runner and the kernels see only the plan. (Each variant builds its own tuning
+record from its settings: wmr_mission.estimators, wmr_mission.controllers,
+wmr_mission.geometry.paths.)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from wmr_mission.basics import STATES, FloatArray, IntArray, measurement_mask, samples
+from wmr_mission.controllers import CONTROLLERS, ControllerType
+from wmr_mission.estimators import ESTIMATORS, EstimatorType, Measurements
+from wmr_mission.geometry import paths, regions
+from wmr_mission.geometry.paths import Trajectory
+from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
+from wmr_mission.sim.draws import DisturbancePlan
+from wmr_mission.spec.models import Mission, RegulatePhase, StayInside, TrackPhase, Until
+from wmr_mission.spec.repeats import run_order
+
+
+def no_rows() -> tuple[IntArray, FloatArray]:
+    return np.zeros(0, dtype=np.int64), np.zeros((0, 6))
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """The ``until`` of a phase, in samples and plain numbers (None = absent)."""
+
+    elapsed_samples: int | None = None
+    mission_time: float | None = None
+    # Region rows for "reaches": the region's value is the largest row value.
+    reaches: str | None = None
+    reaches_rows: tuple[IntArray, FloatArray] = field(default_factory=no_rows)
+    near: tuple[float, float, float] | None = None  # x, y, tolerance
+    settled: tuple[float, float, float] | None = None  # position, heading, speed
+    heading: tuple[float, float] | None = None  # target, tolerance
+
+
+@dataclass(frozen=True)
+class PhasePlan:
+    """One phase of the run, repeats written out."""
+
+    name: str
+    kind: str  # the phase's action: "track" | "regulate" | "hold"
+    until: Conditions
+    timeout_samples: int | None
+    fail_on_timeout: bool
+    # track: builds the path from the estimated pose at phase entry.
+    make_trajectory: Callable[[tuple[float, float, float]], Trajectory] | None = None
+    # regulate: the target pose; hold: None (the pose at entry).
+    target: tuple[float, float, float] | None = None
+    constraint_rows: tuple[IntArray, FloatArray] = field(default_factory=no_rows)
+    constraints: tuple[tuple[str, str], ...] = ()
+    # 1, 2, ... for a phase of a repeat (its lap); None outside repeats.
+    lap: int | None = None
+    # track: the points its path is drawn through ((m, 2), for figures), or None.
+    points: FloatArray | None = None
+    color: str | None = None  # for the figures: from the mission's plot.phase_colors
+
+
+@dataclass(frozen=True)
+class MissionPlan:
+    name: str
+    plant: Plant  # period, limits, and where the run counts as diverged
+    initial_state: FloatArray
+    initial_estimate: FloatArray
+    measured: FloatArray  # 1.0 for each measured state
+    noise_std: FloatArray  # of each measured state's measurement [m, m, rad], 0 elsewhere
+    seed: int
+    estimator: EstimatorType
+    estimator_tuning: Any  # the estimator's tuning record
+    controller: ControllerType
+    controller_tuning: Any  # the controller's tuning record
+    phases: tuple[PhasePlan, ...]
+    regions: dict[str, dict[str, object]]
+    # Sample budget: the sum of each phase's bound, for pre-sizing the recorder.
+    max_samples: int
+    # The true plant's and the sensors' imperfections (wmr_mission.kernels.disturbances).
+    disturbances: DisturbancePlan = field(default_factory=DisturbancePlan)
+
+    @property
+    def dt(self) -> float:
+        return self.plant.dt
+
+
+def _bound(seconds: float, dt: float) -> int:
+    """A phase's duration in samples: at least one."""
+    return max(1, samples(seconds, dt))
+
+
+def disturbance_plan(mission: Mission) -> DisturbancePlan:
+    """The disturbances of a validated mission."""
+    dt = float(mission.robot.dt)
+    plant = mission.robot.disturbances
+    sensors = mission.sensors
+
+    def per_state(values: object) -> FloatArray:
+        return np.array([getattr(values, name) for name in STATES], dtype=np.float64)
+
+    dropout = sensors.dropout
+    outliers = sensors.outliers
+    return DisturbancePlan(
+        process_noise_std=per_state(plant.process_noise_std),
+        input_delay=samples(plant.input_delay, dt),
+        time_constant=float(plant.actuator_time_constant),
+        slip=float(plant.slip.longitudinal),
+        skid_std=float(plant.slip.lateral_std),
+        period=1 if sensors.period is None else max(1, samples(sensors.period, dt)),
+        bias=per_state(sensors.bias),
+        dropout_probability=0.0 if dropout is None else float(dropout.probability),
+        dropout_burst=1.0 if dropout is None else float(dropout.burst),
+        outlier_probability=0.0 if outliers is None else float(outliers.probability),
+        outlier_std=np.zeros(3) if outliers is None else per_state(outliers.std),
+    )
+
+
+def _extent(mission: Mission, dumped_regions: dict[str, dict[str, object]]) -> float:
+    """The largest coordinate magnitude the mission names [m]: start, estimate,
+    regions (``dumped_regions``, less their rotation), targets, points, and
+    each path's first point from the start pose."""
+    start = mission.robot.initial_state
+    guess = mission.estimator.initial_estimate or start
+    numbers = [start.x, start.y, guess.x, guess.y]
+    for region in dumped_regions.values():
+        numbers += _numbers({key: value for key, value in region.items() if key != "rotation"})
+    pose = (float(start.x), float(start.y), float(start.theta))
+    context = mission.path_context()
+    for phase in {run.where: run.phase for run in run_order(mission)}.values():
+        if isinstance(phase, RegulatePhase):
+            numbers += _numbers(phase.regulate.model_dump(mode="json"))
+        if phase.until is not None and phase.until.near is not None:
+            numbers += list(phase.until.near.point)
+        if isinstance(phase, TrackPhase):
+            trajectory = paths.trajectory(phase.track.path, context, pose)
+            x, y, _, _ = trajectory.sample(np.zeros(1))
+            numbers += [float(x[0]), float(y[0])]
+    finite = [abs(float(n)) for n in numbers if math.isfinite(float(n))]
+    return max(finite, default=0.0)
+
+
+def _numbers(value: object) -> list[float]:
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return []
+    if isinstance(value, int | float):
+        return [float(value)]
+    if isinstance(value, dict):
+        return [n for item in value.values() for n in _numbers(item)]
+    if isinstance(value, list | tuple):
+        return [n for item in value for n in _numbers(item)]
+    return []
+
+
+def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, FloatArray]:
+    if not parts:
+        return no_rows()
+    kinds = np.concatenate([p[0] for p in parts]).astype(np.int64)
+    params = np.ascontiguousarray(np.vstack([p[1] for p in parts]), dtype=np.float64)
+    return kinds, params
+
+
+def sample_budget(mission: Mission) -> int:
+    """The samples a run may take: each phase's bound (its timeout or elapsed
+    time, 60 s without either) summed over the phases as run."""
+    dt = float(mission.robot.dt)
+    budget = 0
+    for run in run_order(mission):
+        phase = run.phase
+        until = phase.until
+        bounds = [
+            b for b in (phase.timeout, None if until is None else until.elapsed) if b is not None
+        ]
+        budget += _bound(min(bounds), dt) + 1 if bounds else _bound(60.0, dt)
+    return budget + 1
+
+
+def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:
+    reaches_rows = no_rows()
+    if until.reaches is not None:
+        reaches_rows = regions.constraint_rows(mission.regions[until.reaches], "inside")
+    return Conditions(
+        elapsed_samples=None if until.elapsed is None else _bound(until.elapsed, dt),
+        mission_time=until.mission_time,
+        reaches=until.reaches,
+        reaches_rows=(
+            np.ascontiguousarray(reaches_rows[0], dtype=np.int64),
+            np.ascontiguousarray(reaches_rows[1], dtype=np.float64),
+        ),
+        near=None
+        if until.near is None
+        else (until.near.point[0], until.near.point[1], until.near.tolerance),
+        settled=None
+        if until.settled is None
+        else (until.settled.position, until.settled.heading, until.settled.speed),
+        heading=None if until.heading is None else (until.heading.target, until.heading.tolerance),
+    )
+
+
+def _phases(mission: Mission, dt: float) -> tuple[PhasePlan, ...]:
+    context = mission.path_context()
+    phases: list[PhasePlan] = []
+    for run in run_order(mission):  # repeats written out, one phase per lap
+        phase = run.phase
+        constraints = []
+        row_parts = []
+        for constraint in phase.constraints:
+            side: Literal["inside", "outside"]
+            if isinstance(constraint, StayInside):
+                name, side = constraint.stay_inside, "inside"
+            else:
+                name, side = constraint.stay_outside, "outside"
+            constraints.append((name, side))
+            row_parts.append(regions.constraint_rows(mission.regions[name], side))
+        kind = "hold"
+        make_trajectory = None
+        target = None
+        points = None
+        if isinstance(phase, TrackPhase):
+            kind = "track"
+            path = phase.track.path
+            points = paths.drawn_points(path, context)
+
+            def make_trajectory(pose: tuple[float, float, float], _path: Any = path) -> Trajectory:
+                return paths.trajectory(_path, context, pose)
+
+        elif isinstance(phase, RegulatePhase):
+            kind = "regulate"
+            goal = phase.regulate.target
+            target = (float(goal.x), float(goal.y), float(goal.theta))
+        phases.append(
+            PhasePlan(
+                name=run.label,
+                lap=run.lap,
+                points=points,
+                kind=kind,
+                until=_conditions(phase.until, mission, dt),
+                timeout_samples=None if phase.timeout is None else _bound(phase.timeout, dt),
+                fail_on_timeout=phase.on_timeout == "fail",
+                make_trajectory=make_trajectory,
+                target=target,
+                constraint_rows=_stack_rows(row_parts),
+                constraints=tuple(constraints),
+                color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
+            )
+        )
+    return tuple(phases)
+
+
+def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
+    """Turn a validated mission into the runner's plain form."""
+    dt = float(mission.robot.dt)
+    sensors = mission.sensors
+    measured = measurement_mask(sensors.measure)
+    measured_noise = sensors.measured_noise()
+    noise_std = np.array([measured_noise.get(state, 0.0) for state in STATES])
+    limits = mission.robot.limits
+    dumped_regions = {name: r.model_dump(mode="json") for name, r in mission.regions.items()}
+    plant = Plant(
+        dt=dt,
+        limits=np.array(
+            [
+                limits.v,
+                limits.omega,
+                math.inf if limits.v_rate is None else limits.v_rate,
+                math.inf if limits.omega_rate is None else limits.omega_rate,
+            ]
+        ),
+        runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),
+        runaway_input=RUNAWAY_INPUT,
+    )
+    estimator = ESTIMATORS.of(mission.estimator)
+    controller = CONTROLLERS.of(mission.controller)
+    initial = mission.robot.initial_state
+    written = mission.estimator.initial_estimate
+    guess = initial if written is None else written
+    return MissionPlan(
+        name=mission.name,
+        plant=plant,
+        initial_state=np.array([initial.x, initial.y, initial.theta], dtype=np.float64),
+        initial_estimate=np.array([guess.x, guess.y, guess.theta], dtype=np.float64),
+        measured=measured,
+        noise_std=noise_std,
+        seed=sensors.seed if seed is None else seed,
+        estimator=estimator,
+        estimator_tuning=estimator.tuning_of(mission.estimator, Measurements(measured, noise_std)),
+        controller=controller,
+        controller_tuning=controller.tuning_of(mission.controller, plant),
+        phases=_phases(mission, dt),
+        regions=dumped_regions,
+        max_samples=sample_budget(mission),
+        disturbances=disturbance_plan(mission),
+    )

@@ -1,0 +1,426 @@
+"""The reference step: the estimator and controller equations written the
+straightforward way, with numpy matrices and scipy's solvers.
+
+Every function has the signature and the semantics of its compiled
+counterpart (``wmr_mission.estimators.observer``, ``wmr_mission.estimators.ekf``,
+``wmr_mission.controllers.paper``), so ``run_mission(mission, substitutes=REFERENCE)``
+runs the same mission. It is the oracle the fast kernels are tested against
+and the baseline ``wmr-mission bench`` measures them against. It is written
+from the paper's equations, not from the kernels: matrices are built, scipy
+places the observer poles (``place_poles``) and solves eq. (21)
+(``solve_discrete_are``) at every sample.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from scipy.linalg import solve_discrete_are
+from scipy.signal import place_poles
+
+from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.controllers import paper
+from wmr_mission.controllers.paper import (
+    ALIGNING,
+    BEARING,
+    CORRECTED,
+    DOUBLINGS,
+    INCREMENT,
+    PaperTuning,
+)
+from wmr_mission.estimators import ekf, observer
+from wmr_mission.estimators.ekf import EkfTuning
+from wmr_mission.estimators.observer import BOUND_SLACK, MIN_HEADING_OBSERVABILITY, ObserverTuning
+from wmr_mission.kernels.corrective import ELLIPSE_ROW, REGULARISATION
+from wmr_mission.kernels.records import Plant, Scratch
+from wmr_mission.kernels.riccati import MIN_SPEED
+
+
+def wrap_angle(angle: float) -> float:
+    """Angle in [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# --- the plant, eq. (1), and its linearisation, eqs. (7) and (16) ----------
+
+
+def predict(state: FloatArray, v: float, omega: float, dt: float) -> FloatArray:
+    """x_{k+1} = f(x_k, u_k) of eq. (1)."""
+    x, y, theta = state
+    c, s = math.cos(theta), math.sin(theta)
+    h = 0.5 * dt * dt
+    return np.array(
+        [
+            x + dt * v * c - h * v * omega * s,
+            y + dt * v * s + h * v * omega * c,
+            theta + dt * omega,
+        ]
+    )
+
+
+def state_jacobian(theta: float, v: float, omega: float, dt: float) -> FloatArray:
+    """A = df/dx of eq. (1), eq. (7)."""
+    c, s = math.cos(theta), math.sin(theta)
+    h = 0.5 * dt * dt
+    return np.array(
+        [
+            [1.0, 0.0, -dt * v * s - h * v * omega * c],
+            [0.0, 1.0, dt * v * c - h * v * omega * s],
+            [0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def input_jacobian(theta: float, v: float, omega: float, dt: float) -> FloatArray:
+    """B = df/du of eq. (1), eq. (16)."""
+    c, s = math.cos(theta), math.sin(theta)
+    h = 0.5 * dt * dt
+    return np.array(
+        [
+            [dt * c - h * omega * s, -h * v * s],
+            [dt * s + h * omega * c, h * v * c],
+            [0.0, dt],
+        ]
+    )
+
+
+# --- the estimator, eqs. (4)-(12) ------------------------------------------
+
+
+def observer_gain_matrix(
+    a: FloatArray, mask: FloatArray, poles: FloatArray, motion_floor: float = 0.0
+) -> FloatArray:
+    """The gain L of eq. (6), columns = innovations of x, y, theta.
+
+    With the whole pose measured (C = I), scipy places the eigenvalues of
+    (I - L C) A, the transpose of A^T - (C A)^T L^T, at the poles. With C A
+    invertible the closed loop is the diagonal matrix of the poles in
+    ascending order, so the states are ordered by pole first: each state's
+    error then decays at its own pole. Other measurement sets follow the
+    design stated in wmr_mission.estimators.observer (unmeasured, hence unobservable,
+    directions keep eigenvalue 1).
+    """
+    measured = mask > 0.0
+    if measured.all():
+        order = np.argsort(poles, kind="stable")
+        permute = np.eye(3)[order]
+        c = np.eye(3)
+        placed = place_poles(permute @ a.T @ permute.T, permute @ (c @ a).T, poles[order])
+        return np.asarray((placed.gain_matrix @ permute).T)
+    if measured[2]:
+        # (I - L C) A = diag(p_x or 1, p_y or 1, p_theta).
+        decay = np.where(measured, poles, 1.0)
+        return np.asarray((np.eye(3) - np.diag(decay) @ np.linalg.inv(a)) @ np.diag(mask))
+    gain = np.zeros((3, 3))
+    if not measured[:2].any():
+        return gain
+    p_pos = float(poles[:2] @ mask[:2]) / float(mask[:2].sum())
+    select = np.diag(mask[:2])
+    # The heading is seen through the measured positions along c.
+    c = select @ a[:2, 2]
+    n2 = float(c @ c)
+    if n2 <= MIN_HEADING_OBSERVABILITY**2:
+        gain[:2, :2] = (1.0 - p_pos) * select
+        return gain
+    # Moving less than motion_floor per sample: the heading pole relaxes to 1.
+    p_theta = float(poles[2])
+    if n2 < motion_floor**2:
+        p_theta = 1.0 - (1.0 - p_theta) * n2 / motion_floor**2
+    p_along = p_theta * p_pos
+    along = np.outer(c, c) / n2
+    remaining = p_pos * (np.eye(2) - along) + p_along * along
+    gain[:2, :2] = select @ (np.eye(2) - remaining) @ select
+    gain[2, :2] = (1.0 - p_theta) * (1.0 - p_pos) / n2 * c
+    return gain
+
+
+def observer_step(
+    estimate: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    params: ObserverTuning,
+    gain: FloatArray,
+) -> int:
+    """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L into
+    ``gain``; returns the number of phase-II iterations run."""
+    mask, poles, motion_floor = params.mask, params.poles, params.motion_floor
+    lower, upper = params.lower, params.upper
+    a = state_jacobian(float(estimate[2]), v, omega, dt)  # eq. (7)
+    gain[:, :] = observer_gain_matrix(a, mask, poles, motion_floor)
+    predicted = predict(estimate, v, omega, dt)  # eq. (5)
+    c = np.diag(mask)
+    innovation = measurement - predicted
+    innovation[2] = wrap_angle(float(innovation[2]))
+    estimate[:] = predicted + gain @ c @ innovation  # eq. (6)
+    if not params.use_bounds:
+        return 0
+    measured = mask > 0.0
+    iterations = 0
+    while iterations < params.max_iterations:
+        error = measurement - estimate
+        error[2] = wrap_angle(float(error[2]))
+        # An output left exactly on its bound by the previous iteration may
+        # round to just beyond it: that is not a violation.
+        above = measured & (error > upper + BOUND_SLACK)
+        below = measured & (error < lower - BOUND_SLACK)
+        violated = above | below
+        if not violated.any():
+            break
+        # eqs. (9)-(11): the violated outputs saturated to their bounds are
+        # a new measurement; D selects them and H = D^T.
+        d = np.eye(3)[violated]
+        bound = np.where(above, upper, lower)
+        estimate += d.T @ (error[violated] - bound[violated])
+        iterations += 1
+    return iterations
+
+
+def ekf_step(
+    estimate: FloatArray,
+    covariance: FloatArray,
+    v: float,
+    omega: float,
+    dt: float,
+    measurement: FloatArray,
+    params: EkfTuning,
+    work: FloatArray,
+) -> None:
+    """Extended Kalman filter step, in place, Joseph-form covariance update."""
+    mask, process_var, measurement_var = params.mask, params.process_var, params.measurement_var
+    a = state_jacobian(float(estimate[2]), v, omega, dt)
+    predicted = predict(estimate, v, omega, dt)
+    p = a @ covariance @ a.T + np.diag(process_var)
+    measured = mask > 0.0
+    c = np.eye(3)[measured]
+    noise = np.diag(measurement_var[measured])
+    s = c @ p @ c.T + noise
+    k = np.linalg.solve(s, c @ p).T  # P C^T S^-1 (P and S symmetric)
+    residual = measurement - predicted
+    residual[2] = wrap_angle(float(residual[2]))
+    innovation = c @ residual
+    if float(innovation @ np.linalg.solve(s, innovation)) > params.innovation_gate:
+        estimate[:] = predicted  # gated: the prediction alone
+        covariance[:, :] = p
+        return
+    estimate[:] = predicted + k @ innovation
+    i_kc = np.eye(3) - k @ c
+    p = i_kc @ p @ i_kc.T + k @ noise @ k.T
+    covariance[:, :] = 0.5 * (p + p.T)
+
+
+# --- the controller, section III.C ------------------------------------------
+
+
+def saturate(
+    v: float, omega: float, v_prev: float, omega_prev: float, limits: FloatArray, dt: float
+) -> tuple[float, float]:
+    """Rate limits (limits[2], limits[3] per second), then magnitude limits."""
+    v = float(np.clip(v, v_prev - limits[2] * dt, v_prev + limits[2] * dt))
+    omega = float(np.clip(omega, omega_prev - limits[3] * dt, omega_prev + limits[3] * dt))
+    return float(np.clip(v, -limits[0], limits[0])), float(np.clip(omega, -limits[1], limits[1]))
+
+
+def corrective_input(
+    d: FloatArray, eta: FloatArray, b: FloatArray, w: FloatArray, m: FloatArray, limits: FloatArray
+) -> FloatArray:
+    """Eqs. (27)/(28): du = Rw^-1 (D B)^T S^-1 eta, S = D B Rw^-1 (D B)^T.
+
+    When S is singular to rounding, or du leaves the inputs' span (2 limits),
+    S^-1 becomes the pseudo-inverse truncated to the inputs: each
+    eigen-direction's change is scaled down to fit |dv| <= 2 limits[0],
+    |domega| <= 2 limits[1]; eigenvalues below REGULARISATION times the
+    largest are dropped.
+    """
+    rw = b.T @ np.diag(w) @ b + np.diag(m)
+    rw_inv = np.linalg.inv(rw)
+    db = d @ b
+    s = db @ rw_inv @ db.T
+    span = 2.0 * limits[:2]
+    values, vectors = np.linalg.eigh(s)
+    largest = values.max()
+    if not largest > 0.0:
+        return np.zeros(2)
+    if values.min() > REGULARISATION * largest:
+        du = rw_inv @ db.T @ np.linalg.solve(s, eta)
+        if np.all(np.abs(du) <= span):
+            return np.asarray(du)
+    du = np.zeros(2)
+    for value, vector in zip(values, vectors.T, strict=True):
+        if value <= REGULARISATION * largest:
+            continue
+        part = rw_inv @ db.T @ vector * (vector @ eta) / value
+        du += part / max(1.0, float(np.max(np.abs(part) / span)))
+    return du
+
+
+def track_input(
+    estimate: FloatArray,
+    u_prev: FloatArray,
+    reference_now: FloatArray,
+    reference: FloatArray,
+    controller: PaperTuning,
+    robot: Plant,
+    work: Scratch,
+    u_out: FloatArray,
+) -> None:
+    """Case 2: u_k = u_{k-1} + du2_k, du2 of eq. (27) on the look-ahead point,
+    aimed so that ``error_decay`` of the output's error at k is left at k+1."""
+    look_ahead, error_decay = controller.look_ahead, controller.error_decay
+    w, m = controller.w, controller.m
+    limits, dt = robot.limits, robot.dt
+    v_prev, omega_prev = float(u_prev[0]), float(u_prev[1])
+
+    def output(pose: FloatArray) -> FloatArray:  # eq. (26): position + look_ahead * heading
+        return np.asarray(pose[:2] + look_ahead * np.array([math.cos(pose[2]), math.sin(pose[2])]))
+
+    error_now = reference_now[:2] + look_ahead * reference_now[2:4] - output(estimate)
+    predicted = predict(estimate, v_prev, omega_prev, dt)  # x_{k+1|k}, u_{k-1} held
+    normal = np.array([-math.sin(predicted[2]), math.cos(predicted[2])])
+    d = np.column_stack([np.eye(2), look_ahead * normal])  # D = dG/dx
+    target = reference[:2] + look_ahead * reference[2:4] - error_decay * error_now
+    b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
+    du = corrective_input(d, target - output(predicted), b, w, m, limits)
+    u_out[0], u_out[1] = saturate(
+        v_prev + du[0], omega_prev + du[1], v_prev, omega_prev, limits, dt
+    )
+
+
+def riccati_gain(
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray
+) -> FloatArray:
+    """Eqs. (20)-(21) at the linearisation (theta, v, omega).
+
+    At rest only the speed input moves the robot, along ``u = B[:2, 0]``; the
+    lateral direction is unreachable and eq. (21) has no solution on the whole
+    pose. There it is solved on the reachable subspace (along ``u``, heading)
+    with the weight of Q-hat along ``u``: the lateral error is not weighted.
+    """
+    a = state_jacobian(theta, v, omega, dt)
+    b = input_jacobian(theta, v, omega, dt)
+    q_hat, r_hat = np.diag(q), np.diag(r)
+    if v == 0.0:
+        along = b[:2, 0] / np.linalg.norm(b[:2, 0])
+        basis = np.array([[along[0], 0.0], [along[1], 0.0], [0.0, 1.0]])
+        reduced = solve_discrete_are(
+            basis.T @ a @ basis, basis.T @ b, basis.T @ q_hat @ basis, r_hat
+        )
+        pi = basis @ reduced @ basis.T
+    else:
+        pi = solve_discrete_are(a, b, q_hat, r_hat)  # eq. (21)
+    return np.asarray(np.linalg.solve(r_hat + b.T @ pi @ b, b.T @ pi @ a))  # eq. (20)
+
+
+def scheduled_gain(
+    theta: float, v: float, omega: float, dt: float, q: FloatArray, r: FloatArray
+) -> FloatArray:
+    """The regulator gain T at (theta, v, omega). Below MIN_SPEED it is blended
+    linearly between the at-rest gain and the gain at +-MIN_SPEED, so that it
+    is continuous in v (see wmr_mission.kernels.riccati)."""
+    if abs(v) >= MIN_SPEED:
+        return riccati_gain(theta, v, omega, dt, q, r)
+    at_rest = riccati_gain(theta, 0.0, omega, dt, q, r)
+    if v == 0.0:
+        return at_rest
+    edge = riccati_gain(theta, MIN_SPEED if v > 0.0 else -MIN_SPEED, omega, dt, q, r)
+    share = abs(v) / MIN_SPEED
+    return (1.0 - share) * at_rest + share * edge
+
+
+def constraint_values(
+    row_kinds: IntArray, row_params: FloatArray, position: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Each constraint row's value (violated when > 0) and gradient in (x, y)."""
+    values = np.zeros(row_kinds.shape[0])
+    gradients = np.zeros((row_kinds.shape[0], 2))
+    for i, (kind, p) in enumerate(zip(row_kinds, row_params, strict=True)):
+        if kind == ELLIPSE_ROW:
+            cos_phi, sin_phi = math.cos(p[4]), math.sin(p[4])
+            rotation = np.array([[cos_phi, -sin_phi], [sin_phi, cos_phi]])
+            local = rotation.T @ (position - p[:2])
+            scale = 1.0 / p[2:4] ** 2
+            values[i] = p[5] * (local @ (scale * local) - 1.0)
+            gradients[i] = p[5] * rotation @ (2.0 * scale * local)
+        else:
+            values[i] = p[:2] @ position - p[2]
+            gradients[i] = p[:2]
+    return values, gradients
+
+
+def regulate_input(
+    estimate: FloatArray,
+    estimate_prev: FloatArray,
+    u_prev: FloatArray,
+    target: FloatArray,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    controller: PaperTuning,
+    robot: Plant,
+    memory: FloatArray,
+    work: Scratch,
+    u_out: FloatArray,
+) -> None:
+    """Case 1: the gain-scheduled regulator, eq. (19), plus eq. (28) where the
+    prediction violates a constraint row; then the limits."""
+    form, align_radius, reverse = controller.form, controller.align_radius, controller.reverse
+    q, r, w, m = controller.q, controller.r, controller.w, controller.m
+    limits, dt = robot.limits, robot.dt
+    v_prev, omega_prev = float(u_prev[0]), float(u_prev[1])
+    # scipy's solver reports no iteration count.
+    memory[DOUBLINGS] = 0.0
+    if form == INCREMENT:
+        # eq. (19) literally: u_k = u_{k-1} - T_{k-1} (x_{k|k} - x_{k-1|k-1}).
+        gain = scheduled_gain(float(estimate_prev[2]), v_prev, omega_prev, dt, q, r)
+        u = u_prev - gain @ (estimate - estimate_prev)
+    else:
+        gain = scheduled_gain(float(estimate[2]), v_prev, omega_prev, dt, q, r)
+        deviation = estimate - target
+        deviation[2] = wrap_angle(float(deviation[2]))
+        if form == BEARING:
+            distance = float(np.hypot(deviation[0], deviation[1]))
+            if distance < align_radius:
+                memory[ALIGNING] = 1.0
+            elif distance > 2.0 * align_radius:
+                memory[ALIGNING] = 0.0
+            if memory[ALIGNING] == 0.0:
+                # Far from the target: head for it (or back onto it).
+                bearing = math.atan2(-deviation[1], -deviation[0])
+                deviation[2] = wrap_angle(float(estimate[2]) - bearing)
+                if reverse and abs(deviation[2]) > 0.5 * math.pi:
+                    deviation[2] = wrap_angle(float(deviation[2]) - math.pi)
+            else:
+                # At the target: keep the position error along the heading only.
+                heading = np.array([math.cos(estimate[2]), math.sin(estimate[2])])
+                deviation[:2] = (deviation[:2] @ heading) * heading
+        u = -gain @ deviation
+    v, omega = saturate(float(u[0]), float(u[1]), v_prev, omega_prev, limits, dt)
+    u_out[0], u_out[1] = v, omega
+    memory[CORRECTED] = 0.0
+    if row_kinds.shape[0] == 0:
+        return
+    # eq. (28): the rows the prediction violates, at most the two worst.
+    predicted = predict(estimate, v, omega, dt)
+    values, gradients = constraint_values(row_kinds, row_params, predicted[:2])
+    violated = np.flatnonzero(~(values <= 0.0))
+    if violated.size == 0:
+        return
+    worst = violated[np.argsort(-values[violated], kind="stable")][:2]
+    d = np.column_stack([gradients[worst], np.zeros(worst.size)])
+    b = input_jacobian(float(estimate[2]), v, omega, dt)
+    du = corrective_input(d, -values[worst], b, w, m, limits)
+    memory[CORRECTED] = 1.0
+    u_out[0], u_out[1] = saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt)
+
+
+# The fast kernels and their reference forms: ``run_mission(mission,
+# substitutes=REFERENCE)`` runs the loop as plain Python with these in place.
+REFERENCE: dict[Any, Callable[..., Any]] = {
+    observer.observer_step: observer_step,
+    ekf.ekf_step: ekf_step,
+    paper.track_input: track_input,
+    paper.regulate_input: regulate_input,
+}
