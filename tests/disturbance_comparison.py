@@ -4,19 +4,23 @@
     python tests/disturbance_comparison.py campaign CAMPAIGN [FIGURE.png]
 
 ``run`` runs a mission once with fields overridden by dotted path (as
-``--set`` does; VALUE is YAML) and prints one Markdown row of its metrics.
-``campaign`` reads the campaign's mission, ``runs``, ``seed`` and its ``grid`` axes
-(dotted mission paths, as ``wmr-mission sweep`` does), runs every cell
-``runs`` times with sensor seeds drawn from ``SeedSequence(seed)``, and
-prints one Markdown row per cell: success rate, then medians over the runs
-of the estimation RMS (position and heading, whole run), the tracking RMS of
-the first (track) phase and the input jitter (RMS of the change of omega
-from one sample to the next). Kept beside the tests: it is a measurement of
-the product, not part of it.
+``--set`` does; VALUE is YAML) and prints one Markdown row of its metrics,
+ending with the thresholds its verdict missed. ``campaign`` reads the
+campaign's mission, ``runs``, ``seed`` and its ``grid`` axes (dotted mission
+paths, as ``wmr-mission sweep`` does), runs every cell ``runs`` times with
+sensor seeds drawn from ``SeedSequence(seed)``, and prints one Markdown row
+per cell: success rate, then medians over the runs of the estimation RMS
+(position and heading, whole run), the RMS distance from the reference point
+in the first (track) phase and the input jitter (RMS of the change of omega
+from one sample to the next), then the thresholds missed most often (in how
+many of the runs). The outcome and the thresholds are the product's verdict
+(docs/mission-format.md, "Verdicts"). Kept beside the tests: it is a
+measurement of the product, not part of it.
 """
 
 from __future__ import annotations
 
+import collections
 import copy
 import itertools
 import sys
@@ -48,6 +52,17 @@ def overridden(mission_file: Path, settings: list[str]) -> Mission:
     return load_mission_text(yaml.safe_dump(data), str(mission_file))
 
 
+def missed(result: RunResult) -> list[str]:
+    """The thresholds the run's verdict missed, by metric (phases left out)."""
+    return sorted({line.split(" = ")[0].split(": ")[-1] for line in _unmet(result)})
+
+
+def _unmet(result: RunResult) -> list[str]:
+    if result.outcome is not Outcome.expect_failed:
+        return []
+    return result.message.removeprefix("expectation not met: ").split("; ")
+
+
 def metrics(result: RunResult) -> tuple[bool, float, float, float, float]:
     position = np.hypot(result.x - result.x_est, result.y - result.y_est)
     heading = np.angle(np.exp(1j * (result.theta - result.theta_est)))
@@ -76,7 +91,8 @@ def run_row(mission_path: str, settings: list[str]) -> None:
     final = summary["final"]["position_error"]
     print(
         f"| {' '.join(settings) or '(none)'} | {result.outcome.value} | {summary['duration']:g} "
-        f"| {final:.3g} | {position:.3g} | {heading:.3g} | {tracking:.3g} | {jitter:.3g} |"
+        f"| {final:.3g} | {position:.3g} | {heading:.3g} | {tracking:.3g} | {jitter:.3g} "
+        f"| {', '.join(missed(result)) or '-'} |"
     )
 
 
@@ -93,20 +109,26 @@ def campaign_table(campaign_path: str, figure: str | None = None) -> None:
     ]
     print(
         f"| {' | '.join(axes)} | success | est. position RMS [m] | est. heading RMS [rad] "
-        "| tracking RMS [m] | omega jitter [rad/s] |"
+        "| off the reference point, RMS [m] | omega jitter [rad/s] | missed most (runs) |"
     )
-    print("|" + "---|" * (len(axes) + 5))
+    print("|" + "---|" * (len(axes) + 6))
     cells = []
     for cell in itertools.product(*axes.values()):
         data = copy.deepcopy(base)
         for path, value in zip(axes, cell, strict=True):
             set_path(data, path, value)
         mission = load_mission_text(yaml.safe_dump(data), str(mission_file))
-        rows = np.array([metrics(run_mission(mission, seed=seed)) for seed in seeds])
+        results = [run_mission(mission, seed=seed) for seed in seeds]
+        rows = np.array([metrics(result) for result in results])
+        misses = collections.Counter(m for result in results for m in missed(result))
+        most = ", ".join(f"{m} ({n})" for m, n in misses.most_common(2)) or "-"
         success = rows[:, 0].mean()
         medians = np.nanmedian(rows[:, 1:], axis=0)
         values = " | ".join(f"{m:.3g}" for m in medians)
-        print(f"| {' | '.join(label(v) for v in cell)} | {success:.0%} | {values} |", flush=True)
+        print(
+            f"| {' | '.join(label(v) for v in cell)} | {success:.0%} | {values} | {most} |",
+            flush=True,
+        )
         cells.append((cell, success, medians))
     if figure is not None:
         draw(cells, list(axes), figure)

@@ -710,8 +710,9 @@ def test_a_row_measures_of_each_phase_only_what_its_thresholds_read(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """With only turn_rate_at_limit set, the row's verdict measures neither the
-    tracking error, the jitter nor the reversals of any phase (they cost more
-    than the rest of the verdict), and still gives judge's outcome and message."""
+    tracking error, the tracking against the timed reference, the zones nor the
+    input quality of any phase (they cost more than the rest of the verdict),
+    and still gives judge's outcome and message."""
     import copy
 
     from wmr_mission.output import metrics
@@ -731,8 +732,15 @@ def test_a_row_measures_of_each_phase_only_what_its_thresholds_read(
     def unread(*_: Any) -> None:
         raise AssertionError("measured, but no threshold reads it")
 
-    for name in ("_off_path_bound", "distance_to_path", "jitter", "sign_reversals"):
+    for name in (
+        "_off_path_bound",
+        "distance_to_path",
+        "track_quality",
+        "intrusion_max",
+        "stall_time",
+    ):
         monkeypatch.setattr(metrics, name, unread)
+    monkeypatch.setattr(metrics.input_metrics, "input_quality", unread)
     metrics.judge_run_metrics(fast, mission)
     assert fast.outcome is judged.outcome is Outcome.expect_failed
     assert fast.message == judged.message

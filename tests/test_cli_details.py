@@ -197,20 +197,20 @@ def test_the_run_table_fits_in_100_columns(mission: str, tmp_path: Path) -> None
 
 @pytest.mark.slow
 def test_a_failure_is_said_once(tmp_path: Path) -> None:
-    """keep-out's legs south sit at their limits: each threshold missed is
-    named, with its value, once (the message on stderr); the table marks the
-    phases."""
+    """keep-out's legs south kick their inputs at the pond's edge: each
+    threshold missed is named, with its value, once (the message on stderr);
+    the table marks the phases."""
     result = CliRunner(env={"COLUMNS": "100"}).invoke(
         app, ["run", str(ROOT / "missions" / "keep-out.yaml"), "--out", str(tmp_path / "r")]
     )
     assert result.exit_code == 1
     said = result.stdout + result.stderr
     for leg in ("south#1", "south#2", "south#3"):
-        for metric in ("speed_at_limit", "turn_rate_at_limit"):
+        for metric in ("speed_jump_max", "turn_rate_jump_max"):
             assert said.count(f"{leg}: {metric} = ") == 1, (leg, metric)
         row = next(line for line in result.stdout.splitlines() if line.startswith(leg))
         assert row.endswith("NOT MET")
-    assert "speed_at_limit" not in result.stdout
+    assert "speed_jump_max" not in result.stdout
     assert result.stderr.startswith(f"{ROOT / 'missions' / 'keep-out.yaml'}: expectation not met: ")
 
 

@@ -42,8 +42,10 @@ def test_pure_python_fallback_writes_the_same_bytes(name: str, tmp_path: Path) -
     done = subprocess.run(
         [*command, "--out", str(out), "--no-plots"], env=env, capture_output=True, text=True
     )
-    assert done.returncode == 0, done.stderr
-    fast = write_trajectory(run_mission(load_mission(MISSIONS / f"{name}.yaml")), tmp_path / "f")
+    result = run_mission(load_mission(MISSIONS / f"{name}.yaml"))
+    # the same verdict (noisy-ekf's turn rate jitters: expect-failed), the same bytes
+    assert done.returncode == (0 if result.outcome is Outcome.success else 1), done.stderr
+    fast = write_trajectory(result, tmp_path / "f")
     assert (out / "trajectory.csv").read_bytes() == fast.read_bytes()
 
 

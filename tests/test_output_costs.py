@@ -27,7 +27,8 @@ from wmr_mission.api import load_mission, run_mission
 from wmr_mission.commands.run import run_command
 from wmr_mission.output.figures import MAX_LEGEND_PHASES
 from wmr_mission.output.files import json_text, write_json
-from wmr_mission.output.metrics import LOCAL_WINDOW, _PointGrid, distance_to_path, summarize
+from wmr_mission.output.metrics import LOCAL_WINDOW, distance_to_path, summarize
+from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.reader import load_run
 from wmr_mission.output.result import PhaseRecord, RunResult
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
@@ -204,7 +205,7 @@ def test_nearest_points_agree_with_a_kd_tree() -> None:
             px, py = rng.uniform(-5, 5, (2, count))
         qx, qy = rng.normal(0, 10 ** rng.uniform(-1, 3), (2, 500))
         cell = 10 ** rng.uniform(-3, 0)
-        found = _PointGrid(px, py, cell).nearest(qx, qy, 4, np.zeros(qx.size))
+        found = PointGrid(px, py, cell).nearest(qx, qy, 4, np.zeros(qx.size))
         _, expected = cKDTree(np.column_stack((px, py))).query(
             np.column_stack((qx, qy)), k=min(4, count)
         )

@@ -7,15 +7,18 @@ never converged) are ``None`` and become ``null`` in JSON; so does anything
 non-finite, e.g. after a divergence.
 
 Everything here is computed from the recorded arrays of a :class:`RunResult`
-after the run. The quality metrics of a phase (tracking error, inputs,
-estimation RMS) leave out its first ``settle_time`` seconds: the entry
-transient is the controller's job, not a fault.
+after the run. A track phase is judged against its timed reference
+(wmr_mission.output.tracking), the inputs by their quality
+(wmr_mission.output.inputs), the zones by the true position
+(wmr_mission.output.zones); `tracking_error_*`, `*_at_limit` and the
+estimation RMS leave out a phase's first ``settle_time`` seconds.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
@@ -23,6 +26,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray
+from wmr_mission.output import inputs as input_metrics
+from wmr_mission.output.nearest import PointGrid
+from wmr_mission.output.numbers import MissionNumbers, mission_numbers
+from wmr_mission.output.regulation import stall_time
+from wmr_mission.output.tracking import track_quality
+from wmr_mission.output.zones import intrusion_max, zones_of
 from wmr_mission.spec import models
 
 if TYPE_CHECKING:
@@ -36,14 +45,11 @@ VIOLATION_TOLERANCE = 1e-6
 # An input within this fraction of its limit counts as at the limit (the
 # runner clips to the limit exactly; this only absorbs rounding).
 AT_LIMIT_TOLERANCE = 1e-9
-# Turn-rate jitter is measured about a centred moving mean of this many samples.
-JITTER_WINDOW = 25
 # Distance to the path: the segments within this many reference points of a
 # sample's own, and those next to this many of the path's nearest points, are tried.
 LOCAL_WINDOW = 8
 _NEAREST_POINTS = 4
 _DISTANCE_CHUNK = 4096  # positions per block: bounded memory on long runs
-_CANDIDATES = 1 << 16  # candidate distances per block of the nearest-points search
 
 # Mission-wide `expect` key -> where its value lives in the summary.
 EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
@@ -58,12 +64,49 @@ EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
 PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "tracking_error_rms": ("tracking_error", "rms"),
     "tracking_error_max": ("tracking_error", "max"),
+    "cross_track_error_max": ("tracking", "cross_track_error_max"),
+    "along_track_lag_max": ("tracking", "along_track_lag_max"),
+    "detour_offset_max": ("tracking", "detour_offset_max"),
+    "detour_time": ("tracking", "detour_time"),
+    "zone_intrusion_max": ("constraint", "intrusion_max"),
+    "stall_time": ("regulation", "stall_time"),
+    "speed_jump_max": ("inputs", "speed_jump_max"),
+    "turn_rate_jump_max": ("inputs", "turn_rate_jump_max"),
+    "speed_reversals": ("inputs", "speed_reversals"),
+    "turn_rate_reversals": ("inputs", "turn_rate_reversals"),
+    "speed_fight_time": ("inputs", "speed_fight_time"),
+    "turn_rate_fight_time": ("inputs", "turn_rate_fight_time"),
+    "turn_rate_jitter": ("inputs", "turn_rate_jitter"),
     "speed_at_limit": ("inputs", "speed_at_limit"),
     "turn_rate_at_limit": ("inputs", "turn_rate_at_limit"),
-    "turn_rate_jitter": ("inputs", "turn_rate_jitter"),
-    "turn_rate_reversals": ("inputs", "turn_rate_reversals"),
     "estimation_rms": ("estimation", "rms"),  # per state
 }
+# The per-phase metrics checked where they were measured: null where they do not
+# apply (no track phase, no zone, no detour, inputs never judged); a run whose
+# values are not finite has diverged, which fails it already.
+_WHERE_MEASURED = frozenset(
+    {
+        "cross_track_error_max",
+        "along_track_lag_max",
+        "detour_offset_max",
+        "detour_time",
+        "zone_intrusion_max",
+        "stall_time",
+        "speed_jump_max",
+        "turn_rate_jump_max",
+        "speed_reversals",
+        "turn_rate_reversals",
+        "speed_fight_time",
+        "turn_rate_fight_time",
+        "turn_rate_jitter",
+    }
+)
+# An `auto` turn-rate jitter allows this share of the turn-rate limit besides
+# what the heading noise explains.
+JITTER_FLOOR = 0.01
+# An `auto` along-track lag allows the distance the reference covers in this many
+# time constants: the designed error dynamics take out 95 % of an error in them.
+LAG_TIME_CONSTANTS = 3.0
 # `expect` keys that set how metrics are measured, not thresholds.
 _SETTINGS = ("settle_time", "convergence_tolerance")
 
@@ -177,7 +220,7 @@ def distance_to_path(
     order = np.lexsort((row, column))
     column, row = column[order], row[order]
     first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
-    grid = _PointGrid(px[first], py[first], cell)
+    grid = PointGrid(px[first], py[first], cell)
     found = np.empty(qx.size)
     last = px.size - 2  # segment i runs from point i to point i + 1
     for start in range(0, qx.size, _DISTANCE_CHUNK):  # bounded memory on long runs
@@ -190,126 +233,6 @@ def distance_to_path(
         found[part] = np.minimum(near, _distance_to_segments(px, py, segments, qx[part], qy[part]))
     distance[finite] = found
     return distance
-
-
-class _PointGrid:
-    """The k points nearest a position, exactly, by numpy alone.
-
-    The points are bucketed in square cells of side ``cell``, then 2, 4, ...
-    times that. At each size, the points of the 3 x 3 cells round a position's
-    cell are its candidates: the k nearest of them are the k nearest of all
-    when the k-th is no farther than the edge of those 9 cells (or when they
-    hold every point). A position not settled at one size is tried at the
-    next, up to the size where 2 x 2 cells hold the whole path; those left
-    (far off the path) are measured against every point.
-    """
-
-    def __init__(self, px: FloatArray, py: FloatArray, cell: float) -> None:
-        self.px, self.py = px, py
-        self.origin = (float(px.min()), float(py.min()))
-        self.cell = cell
-        self._levels: dict[float, Any] = {}  # cell size -> buckets, made once
-
-    def nearest(
-        self, qx: FloatArray, qy: FloatArray, k: int, reach: FloatArray
-    ) -> NDArray[np.intp]:
-        """Indices (len(qx), min(k, points)) of the points nearest each position;
-        ``reach`` guesses how far they are (it only sets where the search starts)."""
-        k = min(k, self.px.size)
-        found = np.zeros((qx.size, k), dtype=np.intp)
-        # The first size whose cells' reach (at least one side) covers the guess.
-        doublings = np.log2(np.maximum(reach + 2 * self.cell, self.cell) / self.cell)
-        level = np.ceil(np.nan_to_num(doublings, nan=0.0, posinf=64.0)).astype(np.int64)
-        unsettled = np.ones(qx.size, dtype=bool)
-        size = self.cell
-        while unsettled.any():
-            if size not in self._levels:
-                self._levels[size] = self._buckets(size)
-            buckets = self._levels[size]
-            if buckets is None:  # 2 x 2 cells hold the whole path
-                pending = np.flatnonzero(unsettled)
-                found[pending] = self._every_point(qx[pending], qy[pending], k)
-                break
-            pending = np.flatnonzero(unsettled & (level <= 0))
-            level -= 1
-            settled = np.zeros(pending.size, dtype=bool)
-            rows = max(1, _CANDIDATES // (9 * buckets[3]))
-            for start in range(0, pending.size, rows):
-                part = pending[start : start + rows]
-                chosen, ok = self._search(buckets, size, qx[part], qy[part], k)
-                found[part[ok]] = chosen[ok]
-                settled[start : start + rows] = ok
-            unsettled[pending[settled]] = False
-            size *= 2
-        return found
-
-    def _buckets(
-        self, size: float
-    ) -> tuple[NDArray[np.int64], NDArray[np.intp], NDArray[np.int64], int, int, int] | None:
-        """Sorted cell keys of the points and where each cell's points start in
-        ``order``, the order, the most points in a cell, the grid's columns and rows."""
-        column = np.floor((self.px - self.origin[0]) / size).astype(np.int64)
-        row = np.floor((self.py - self.origin[1]) / size).astype(np.int64)
-        columns, rows = int(column.max()) + 1, int(row.max()) + 1
-        if columns <= 2 and rows <= 2:
-            return None
-        keys = column * rows + row
-        order = np.argsort(keys, kind="stable")
-        cells, starts, counts = np.unique(keys[order], return_index=True, return_counts=True)
-        return cells, order, np.column_stack((starts, counts)), int(counts.max()), columns, rows
-
-    def _search(
-        self,
-        buckets: tuple[NDArray[np.int64], NDArray[np.intp], NDArray[np.int64], int, int, int],
-        size: float,
-        qx: FloatArray,
-        qy: FloatArray,
-        k: int,
-    ) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-        """The k nearest candidates of each position in its 3 x 3 cells, and
-        whether they are its k nearest of all."""
-        cells, order, spans, most, columns, rows = buckets
-        # Cell of each position, clipped: a position far outside is never settled here.
-        u = (qx - self.origin[0]) / size
-        v = (qy - self.origin[1]) / size
-        column = np.clip(np.floor(u), -2, columns + 1).astype(np.int64)
-        row = np.clip(np.floor(v), -2, rows + 1).astype(np.int64)
-        shift = np.arange(-1, 2)
-        near_column = (column[:, None] + shift)[:, :, None]  # (n, 3, 1)
-        near_row = (row[:, None] + shift)[:, None, :]  # (n, 1, 3)
-        inside = (near_column >= 0) & (near_column < columns) & (near_row >= 0) & (near_row < rows)
-        keys = (near_column * rows + near_row).reshape(qx.size, 9)
-        at = np.minimum(np.searchsorted(cells, keys), cells.size - 1)
-        held = inside.reshape(qx.size, 9) & (cells[at] == keys)
-        slot = np.arange(most)
-        taken = held[:, :, None] & (slot < spans[at, 1][:, :, None])  # (n, 9, most)
-        where = np.minimum(spans[at, 0][:, :, None] + slot, order.size - 1)
-        candidate = order[where].reshape(qx.size, -1)
-        taken = taken.reshape(qx.size, -1)
-        squared = np.where(
-            taken,
-            (self.px[candidate] - qx[:, None]) ** 2 + (self.py[candidate] - qy[:, None]) ** 2,
-            np.inf,
-        )
-        best = np.argpartition(squared, k - 1, axis=1)[:, :k]
-        chosen = np.take_along_axis(candidate, best, axis=1)
-        kth = np.take_along_axis(squared, best, axis=1).max(axis=1)
-        # Distance to the edge of the 3 x 3 cells: every point outside is farther.
-        edge = (
-            np.minimum.reduce((u - (column - 1), column + 2 - u, v - (row - 1), row + 2 - v)) * size
-        )
-        whole = (column <= 1) & (column >= columns - 2) & (row <= 1) & (row >= rows - 2)
-        ok = np.isfinite(kth) & ((kth <= np.maximum(edge, 0.0) ** 2) | whole)
-        return chosen, ok
-
-    def _every_point(self, qx: FloatArray, qy: FloatArray, k: int) -> NDArray[np.intp]:
-        found = np.empty((qx.size, k), dtype=np.intp)
-        rows = max(1, _CANDIDATES // self.px.size)
-        for start in range(0, qx.size, rows):
-            part = slice(start, start + rows)
-            squared = (self.px - qx[part, None]) ** 2 + (self.py - qy[part, None]) ** 2
-            found[part] = np.argpartition(squared, k - 1, axis=1)[:, :k]
-        return found
 
 
 def _distance_to_segments(
@@ -335,29 +258,6 @@ def at_limit_fraction(values: FloatArray, limit: float) -> float | None:
     return float(np.count_nonzero(np.abs(values) >= limit * (1.0 - AT_LIMIT_TOLERANCE))) / float(
         values.size
     )
-
-
-def jitter(values: FloatArray, counted: np.ndarray) -> float | None:
-    """RMS of ``values`` about their centred moving mean of JITTER_WINDOW samples,
-    over the ``counted`` samples whose whole window lies in ``values``."""
-    half = JITTER_WINDOW // 2
-    if values.size < JITTER_WINDOW:
-        return None
-    # Summed in order, not by np.convolve: its products are BLAS's, whose
-    # kernels, chosen by the CPU, round differently (docs/reliability.md).
-    windows = values.size - JITTER_WINDOW + 1
-    total = np.zeros(windows)
-    for offset in range(JITTER_WINDOW):
-        total += values[offset : offset + windows]
-    mean = total / JITTER_WINDOW
-    deviation = values[half : values.size - half] - mean
-    return _rms_or_none(deviation[counted[half : values.size - half]])
-
-
-def sign_reversals(values: FloatArray) -> int:
-    """How often the sign of ``values`` flips (zeros and non-finite values skipped)."""
-    signs = np.sign(values[np.isfinite(values) & (values != 0.0)])
-    return int(np.count_nonzero(signs[1:] != signs[:-1]))
 
 
 def phase_segments(phase: np.ndarray) -> list[tuple[int, int, int]]:
@@ -436,21 +336,48 @@ def _final(result: RunResult, segments: list[tuple[int, int, int]]) -> dict[str,
 OffPath = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], FloatArray]
 
 
+@dataclass(frozen=True)
+class _Judged:
+    """What every phase of a run is judged by: the mission's numbers and when
+    [s] the estimate first came within its tolerance (None: never)."""
+
+    numbers: MissionNumbers
+    inputs_from: float | None
+    ended_by: Mapping[str, str]  # phase name -> the `until` condition that ended it
+    goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
+
+
 class _PhaseSamples:
     """A phase's stretch of the run, and the samples its quality metrics count
     (those after its settle time). What only some metrics read is computed on
     first use."""
 
     def __init__(
-        self, result: RunResult, start: int, end: int, settle_time: float, off_path_of: OffPath
+        self,
+        result: RunResult,
+        info: PhaseRecord,
+        span: tuple[int, int],
+        settle_time: float,
+        off_path_of: OffPath,
+        judged: _Judged,
     ) -> None:
-        self.result = result
+        start, end = span
+        self.result, self.info = result, info
         self.window = slice(start, end)
         self.start_time = float(result.t[start])
         self.settle_time = settle_time
         self.settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
         self.v, self.omega = result.v[self.window], result.omega[self.window]
         self._off_path_of = off_path_of
+        self.numbers = judged.numbers
+        self.ended_by = judged.ended_by
+        self.goals = judged.goals
+        # the first sample of the phase whose inputs are judged (past the end: none)
+        self.first_judged = (
+            end
+            if judged.inputs_from is None
+            else max(start, int(np.searchsorted(result.t, judged.inputs_from - 1e-9 * result.dt)))
+        )
 
     @cached_property
     def off_path(self) -> FloatArray:
@@ -462,15 +389,98 @@ class _PhaseSamples:
     def errors(self) -> dict[str, FloatArray]:
         return estimation_errors(self.result, self.window)
 
+    @cached_property
+    def zones(self) -> list[Any]:
+        return zones_of(self.info.constraints, self.result.regions)
+
+    @cached_property
+    def tracking(self) -> dict[str, Any] | None:
+        """Tracking against the timed reference (track phases)."""
+        if self.info.kind != "track":
+            return None
+        r, w = self.result, self.window
+        timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
+        return track_quality(
+            r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed
+        )
+
+    @cached_property
+    def inputs(self) -> dict[str, Any]:
+        """The input-quality metrics of the judged samples (None where none is)."""
+        r, first, stop = self.result, self.first_judged, self.window.stop
+        if first >= stop:
+            return dict.fromkeys(_INPUT_METRICS)
+        judged = slice(first, stop)
+        x, y = r.x[judged], r.y[judged]
+        progress: input_metrics.Progress
+        if self.info.kind == "track":
+            progress = input_metrics.progress_along(x, y, r.x_ref[judged], r.y_ref[judged])
+        elif self.info.target is not None:
+            progress = input_metrics.progress_to(x, y, self.info.target[:2])
+        else:
+            progress = lambda a, b: 0.0  # noqa: E731 - no aim known: nothing is progress
+        return input_metrics.input_quality(
+            r.t[judged], r.v[judged], r.omega[judged], self.numbers, progress
+        )
+
+    @cached_property
+    def stall(self) -> float | None:
+        """Time away from its goal without progress (regulate phases)."""
+        if self.info.kind != "regulate" or self.info.target is None:
+            return None
+        r, w, numbers = self.result, self.window, self.numbers
+        goal = self.goals.get(
+            _written_name(self.info.name),
+            (
+                numbers.tracking_tolerance,
+                numbers.convergence_tolerance["theta"] + numbers.heading_noise,
+            ),
+        )
+        return stall_time(r.x[w], r.y[w], r.theta[w], self.info.target, goal, numbers, self.zones)
+
+    @cached_property
+    def intrusion(self) -> float | None:
+        r, w = self.result, self.window
+        return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers)
+
+
+_INPUT_METRICS = (
+    "speed_jump_max",
+    "turn_rate_jump_max",
+    "speed_reversals",
+    "turn_rate_reversals",
+    "speed_fight_time",
+    "turn_rate_fight_time",
+    "turn_rate_jitter",
+)
+
+
+def _tracking_value(key: str) -> Callable[[_PhaseSamples], Any]:
+    return lambda p: None if p.tracking is None else p.tracking[key]
+
+
+def _input_value(key: str) -> Callable[[_PhaseSamples], Any]:
+    return lambda p: p.inputs[key]
+
 
 # How each per-phase `expect` metric (PHASE_EXPECTATION_PATHS) is measured.
 _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
     "tracking_error_rms": lambda p: _rms_or_none(p.off_path[p.settled]),
     "tracking_error_max": lambda p: _max_or_none(p.off_path[p.settled]),
+    **{
+        key: _tracking_value(key)
+        for key in (
+            "cross_track_error_max",
+            "along_track_lag_max",
+            "detour_offset_max",
+            "detour_time",
+        )
+    },
+    "zone_intrusion_max": lambda p: p.intrusion,
+    "stall_time": lambda p: p.stall,
+    **{key: _input_value(key) for key in _INPUT_METRICS},
     "speed_at_limit": lambda p: at_limit_fraction(p.v[p.settled], p.result.limits[0]),
     "turn_rate_at_limit": lambda p: at_limit_fraction(p.omega[p.settled], p.result.limits[1]),
-    "turn_rate_jitter": lambda p: jitter(p.omega, p.settled),
-    "turn_rate_reversals": lambda p: sign_reversals(p.omega[p.settled]),
     "estimation_rms": lambda p: {s: _rms_or_none(e[p.settled]) for s, e in p.errors.items()},
 }
 
@@ -499,7 +509,10 @@ def _checked_phase_summary(
         for metric in PHASE_EXPECTATION_PATHS
         if thresholds.get(metric) is not None and _applies(summary, metric)
     ]
-    return summary | _measured(phase, checked)
+    values: dict[str, Any] = _measured(phase, checked)
+    if "tracking" in values:  # with what the `auto` thresholds read
+        values["tracking"] = phase.tracking
+    return summary | values
 
 
 def _phase_summary(
@@ -512,7 +525,12 @@ def _phase_summary(
     end_sample = window.stop if window.stop < result.samples else result.samples - 1
     track = info.kind == "track"
     quality = _measured(
-        phase, [m for m in PHASE_EXPECTATION_PATHS if track or not m.startswith("tracking_error")]
+        phase,
+        [
+            m
+            for m, (section, _) in PHASE_EXPECTATION_PATHS.items()
+            if section != "tracking" and (track or section != "tracking_error")
+        ],
     )
     tracking = None
     if track:
@@ -542,7 +560,9 @@ def _phase_summary(
         "settle_time": phase.settle_time,
         "settled_samples": int(np.count_nonzero(settled)),
         "tracking_error": tracking,
+        "tracking": phase.tracking,
         "target_error": target_error,
+        "regulation": quality["regulation"] if info.kind == "regulate" else None,
         "constraint": {
             "max_violation": _violation(constraint),
             # the largest row value itself: negative = the closest approach
@@ -550,6 +570,7 @@ def _phase_summary(
             "time_in_violation": (
                 float(np.count_nonzero(constraint > VIOLATION_TOLERANCE)) * result.dt
             ),
+            "intrusion_max": quality["constraint"]["intrusion_max"],
         },
         "estimation": {
             "rms": quality["estimation"]["rms"],
@@ -560,7 +581,15 @@ def _phase_summary(
                 None if converged is None else float(t[window.start + converged]) - start_time
             ),
         },
-        "inputs": quality["inputs"],
+        "inputs": {
+            # seconds after the phase start from which the input quality is judged
+            "judged_from": (
+                float(t[phase.first_judged]) - start_time
+                if phase.first_judged < window.stop
+                else None
+            ),
+            **quality["inputs"],
+        },
         "max_abs_v": _max_or_none(np.abs(phase.v)),
         "max_abs_omega": _max_or_none(np.abs(phase.omega)),
         "phase2_iterations": {
@@ -613,6 +642,24 @@ def _written_phases(mission: Mapping[str, Any] | None) -> list[Mapping[str, Any]
     return phases
 
 
+def _goals(
+    mission: Mapping[str, Any] | None, numbers: MissionNumbers
+) -> dict[str, tuple[float, float]]:
+    """Per phase name as written, the position and heading tolerances of its goal:
+    its `settled` condition widened by a noise std (the estimator averages noise, so
+    a true pose beyond that is the controller's), else the tracking tolerance and
+    the heading's convergence tolerance and noise."""
+    goals = {}
+    for phase in _written_phases(mission):
+        settled = (phase.get("until") or {}).get("settled")
+        if isinstance(settled, Mapping):
+            goals[str(phase.get("name"))] = (
+                float(settled["position"]) + numbers.position_noise,
+                float(settled["heading"]) + numbers.heading_noise,
+            )
+    return goals
+
+
 def _written_name(name: str) -> str:
     """A phase's name as written: a repeated phase runs as ``name#lap``."""
     return name.split("#", 1)[0]
@@ -649,18 +696,25 @@ def _phase_summaries(
     mission: Mapping[str, Any] | None,
     off_path: OffPath,
     checked_only: bool = False,
+    errors: dict[str, FloatArray] | None = None,
 ) -> list[dict[str, Any]]:
     """Each phase's summary (see :func:`_phase_summary`), its tracking error
     measured by ``off_path``; ``checked_only``: only what its `expect`
     thresholds read (:func:`_checked_phase_summary`), for a verdict at a
-    fraction of the cost."""
+    fraction of the cost. ``errors``: the run's estimation errors, if at hand."""
     tolerance = _tolerance(mission)
     per_phase = phase_expectations(mission)
+    numbers = mission_numbers(mission, result.dt, result.limits)
+    errors = estimation_errors(result) if errors is None else errors
+    inputs_from = input_metrics.first_judged(result.t, errors, numbers)
+    del errors  # not kept while the phases are measured: bounded memory
+    ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
+    judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers))
     summaries = []
     for index, start, end in phase_segments(result.phase):
         info = result.phases[index]
         expect = per_phase.get(_written_name(info.name), _expect_of(mission))
-        phase = _PhaseSamples(result, start, end, _settle_time(expect), off_path)
+        phase = _PhaseSamples(result, info, (start, end), _settle_time(expect), off_path, judged)
         if checked_only:
             summaries.append(_checked_phase_summary(info, phase, expect))
         else:
@@ -741,13 +795,44 @@ def _check(metric: str, phase: str | None, limit: float, value: float | None) ->
 
 def _applies(phase: Mapping[str, Any], metric: str) -> bool:
     """A phase-quality threshold needs samples after the settle time; the
-    tracking ones need a track phase."""
+    tracking ones need a track phase. (Those of _WHERE_MEASURED are checked
+    where they have a value.)"""
+    if metric in _WHERE_MEASURED:
+        return metric not in _TRACKING or phase.get("kind") == "track"
     if not phase.get("settled_samples"):
         return False
     return not metric.startswith("tracking_error") or phase.get("kind") == "track"
 
 
-def _phase_checks(phase: Mapping[str, Any], thresholds: Mapping[str, Any]) -> list[dict[str, Any]]:
+_TRACKING = frozenset(m for m, path in PHASE_EXPECTATION_PATHS.items() if path[0] == "tracking")
+
+
+def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumbers) -> float | None:
+    """The bound an `auto` threshold stands for in ``phase`` (its summary), from
+    the mission's numbers (docs/mission-format.md, "Verdicts", says why)."""
+    tolerance = numbers.tracking_tolerance
+    tracking = phase.get("tracking") or {}
+    if metric == "cross_track_error_max":
+        return tolerance
+    if metric == "along_track_lag_max":
+        speed = tracking.get("reference_speed_max")
+        if speed is None:
+            return None
+        return tolerance + LAG_TIME_CONSTANTS * numbers.time_constant * float(speed)
+    if metric == "detour_offset_max":
+        return (tracking.get("zone_reach") or 0.0) + numbers.look_ahead + tolerance
+    if metric == "speed_jump_max":
+        return numbers.v_limit
+    if metric == "turn_rate_jump_max":
+        return numbers.omega_limit
+    if metric == "turn_rate_jitter":
+        return JITTER_FLOOR * numbers.omega_limit + numbers.heading_noise / numbers.time_constant
+    raise ValueError(f"{metric} has no auto threshold")
+
+
+def _phase_checks(
+    phase: Mapping[str, Any], thresholds: Mapping[str, Any], numbers: MissionNumbers
+) -> list[dict[str, Any]]:
     checks = []
     name = str(phase.get("name"))
     for metric, path in PHASE_EXPECTATION_PATHS.items():
@@ -760,7 +845,12 @@ def _phase_checks(phase: Mapping[str, Any], thresholds: Mapping[str, Any]) -> li
                     value = summary_value(phase, (*path, state))
                     checks.append(_check(f"{metric}.{state}", name, threshold[state], value))
             continue
-        checks.append(_check(metric, name, float(threshold["max"]), summary_value(phase, path)))
+        value = summary_value(phase, path)
+        if metric in _WHERE_MEASURED and value is None:
+            continue
+        bound = auto_threshold(metric, phase, numbers) if threshold == "auto" else threshold["max"]
+        if bound is not None:
+            checks.append(_check(metric, name, float(bound), value))
     return checks
 
 
@@ -768,12 +858,22 @@ def check_expectations(
     summary: Mapping[str, Any], mission: Mapping[str, Any] | None
 ) -> list[dict[str, Any]]:
     """Each `expect` threshold in force with the run's value: the mission-wide
-    ones (``phase`` null), then each phase's (``phase`` its name), in run order.
+    ones (``phase`` null), then each phase's (``phase`` its name), in run order;
+    an `auto` one with the bound it stands for in the phase (:func:`auto_threshold`).
 
     A missing (null) value never meets a threshold: a non-finite metric after
     a divergence fails. A phase-quality threshold is not checked where it does
-    not apply (a phase no longer than its settle time; tracking off a track phase).
+    not apply (a phase no longer than its settle time; tracking off a track phase;
+    the metrics of _WHERE_MEASURED where they have no value).
     """
+    robot = (mission or {}).get("robot") or {}
+    limits = robot.get("limits") or {}
+    defaults = models.Limits()
+    numbers = mission_numbers(
+        mission,
+        float(robot.get("dt", models.Robot.model_fields["dt"].default)),
+        (float(limits.get("v", defaults.v)), float(limits.get("omega", defaults.omega))),
+    )
     expect = _expect_of(mission)
     known = (*EXPECTATION_PATHS, *PHASE_EXPECTATION_PATHS, *_SETTINGS)
     for metric in expect:
@@ -787,7 +887,7 @@ def check_expectations(
     per_phase = phase_expectations(mission)
     for phase in summary.get("phases") or []:
         thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
-        checks.extend(_phase_checks(phase, thresholds))
+        checks.extend(_phase_checks(phase, thresholds, numbers))
     return checks
 
 
@@ -831,10 +931,12 @@ def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> d
     it, and a phase within its threshold by it is within it. Only when that
     bound misses a threshold is the distance to the path computed.
     """
-    summary = _bounded_metrics(result, _tolerance(mission), estimation_errors(result))
+    errors = estimation_errors(result)
+    summary = _bounded_metrics(result, _tolerance(mission), errors)
     if not result.succeeded:  # judging changes only a success
         return summary
-    phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True)
+    phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True, errors=errors)
+    del errors
     checks = check_expectations({**summary, "phases": phases}, mission)
     if any(not c["met"] and c["metric"].startswith("tracking_error") for c in checks):
         checks = check_expectations(summarize(result, mission), mission)

@@ -41,13 +41,17 @@ def _percent(value: float | None) -> str:
 
 
 def key_metric(phase: dict[str, Any]) -> str:
-    """What tells how a phase went, a line each: distance from its path after
-    the settle time, error from its target, constraint margin, turn-rate jitter."""
+    """What tells how a phase went, a line each: how far off its path and how far
+    behind its reference (entry and detours left out), the detours, error from
+    its target, constraint margin, turn-rate jitter."""
     parts = []
-    tracking = phase.get("tracking_error")
+    tracking = phase.get("tracking")
     if tracking is not None:
-        parts.append(f"off path rms {_number(tracking.get('rms'), ' m')}")
-        parts.append(f"off path max {_number(tracking.get('max'), ' m')}")
+        parts.append(f"cross-track max {_number(tracking.get('cross_track_error_max'), ' m')}")
+        parts.append(f"lag max {_number(tracking.get('along_track_lag_max'), ' m')}")
+        if tracking.get("detour_time"):
+            offset = _number(tracking.get("detour_offset_max"), " m")
+            parts.append(f"detour {_seconds(tracking['detour_time'])}, {offset} off")
     target = phase.get("target_error")
     if target is not None:
         parts.append(f"end error {_number(target.get('position'), ' m')}")

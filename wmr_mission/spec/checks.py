@@ -710,11 +710,18 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
         if isinstance(phase, TrackPhase) or (run.lap is not None and run.lap > 1):
             continue
         kind = "regulate" if isinstance(phase, RegulatePhase) else "hold"
-        for key in ("tracking_error_rms", "tracking_error_max"):
+        for key in (
+            "tracking_error_rms",
+            "tracking_error_max",
+            "cross_track_error_max",
+            "along_track_lag_max",
+            "detour_offset_max",
+            "detour_time",
+        ):
             if getattr(phase.expect, key) is not None:
                 yield Finding(
                     (*run.where, "expect", key),
-                    f"expect.{key} measures the distance from a path, but phase "
+                    f"expect.{key} measures the tracking of a path, but phase "
                     f"{phase.name!r} is a {kind} phase: it is never checked",
                     severity="warning",
                     at_key=True,

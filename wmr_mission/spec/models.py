@@ -279,41 +279,100 @@ class StateTolerance(Model):
     )
 
 
+# A threshold `expect` derives from the mission's own numbers (docs/mission-format.md,
+# "Verdicts"); the value used is in summary.json's `expectations`.
+Auto = Literal["auto"]
+
+# What each per-phase metric measures (docs/run-directory.md has the whole story).
+_PHASE_METRICS: Final = {
+    "tracking_error_rms": "[m] RMS distance of the true position from the path after settle_time.",
+    "tracking_error_max": (
+        "[m] largest distance of the true position from the path after settle_time."
+    ),
+    "cross_track_error_max": (
+        "[m] largest distance of the true position from its place on the path (track "
+        "phases; the entry and detours a zone forces left out)."
+    ),
+    "along_track_lag_max": (
+        "[m] largest arc length between the robot's place on the path and its reference "
+        "point, behind or ahead (track phases; the entry and detours left out)."
+    ),
+    "detour_offset_max": "[m] largest distance from the path during a detour a zone forces.",
+    "detour_time": "[s] time spent on detours a zone forces.",
+    "zone_intrusion_max": (
+        "[m] deepest the true position went beyond a zone's edge (into a stay_outside "
+        "region, out of a stay_inside one)."
+    ),
+    "stall_time": (
+        "[s] time a regulate phase spends away from its goal without taking 10 % of its "
+        "error out over the next 20 time constants (or half a turn and 10 time constants)."
+    ),
+    "speed_jump_max": "[m/s] largest change of v from one sample to the next.",
+    "turn_rate_jump_max": "[rad/s] largest change of omega from one sample to the next.",
+    "speed_reversals": (
+        "Most sign reversals of v within any 10 time constants (a count; values within "
+        "5 % of limits.v of zero not counted)."
+    ),
+    "turn_rate_reversals": (
+        "Most sign reversals of omega within any 10 time constants (a count; values within "
+        "5 % of limits.omega plus 3 heading-noise std per time constant of zero not counted)."
+    ),
+    "speed_fight_time": (
+        "[s] time v spends at its limit in stretches of a time constant or more that "
+        "reverse or turn less than half their distance into progress."
+    ),
+    "turn_rate_fight_time": (
+        "[s] time omega spends at its limit in stretches of a time constant or more that "
+        "reverse or turn more than half a turn."
+    ),
+    "turn_rate_jitter": (
+        "[rad/s] 1.4826 times the median absolute deviation of omega from its centred "
+        "moving mean over two time constants."
+    ),
+    "speed_at_limit": "Fraction of the samples after settle_time with |v| at limits.v.",
+    "turn_rate_at_limit": (
+        "Fraction of the samples after settle_time with |omega| at limits.omega."
+    ),
+}
+
+
+def _phase_metric(name: str) -> Any:
+    """A per-phase threshold of a phase's own `expect`: null takes the mission's."""
+    return Field(default=None, description=_PHASE_METRICS[name])
+
+
+def _mission_metric(name: str, default: Threshold | str | None, rule: str = "") -> Any:
+    """A per-phase threshold of the mission's `expect`, with its default."""
+    return Field(default=default, description=f"{_PHASE_METRICS[name]}{rule}")
+
+
 class PhaseExpect(Model):
     """Thresholds on one phase's metrics; a key left out (or null) takes the mission's value."""
 
     settle_time: NonNegative | None = Field(
         default=None,
         description=(
-            "[s] the start of the phase that the tracking, input and estimation-RMS metrics "
+            "[s] the start of the phase that tracking_error_*, *_at_limit and estimation_rms "
             "leave out (the entry transient)."
         ),
     )
-    tracking_error_rms: Threshold | None = Field(
-        default=None,
-        description="[m] RMS distance of the true position from the path after settle_time.",
-    )
-    tracking_error_max: Threshold | None = Field(
-        default=None,
-        description="[m] largest distance of the true position from the path after settle_time.",
-    )
-    speed_at_limit: Threshold | None = Field(
-        default=None,
-        description="Fraction of the samples after settle_time with |v| at limits.v.",
-    )
-    turn_rate_at_limit: Threshold | None = Field(
-        default=None,
-        description="Fraction of the samples after settle_time with |omega| at limits.omega.",
-    )
-    turn_rate_jitter: Threshold | None = Field(
-        default=None,
-        description=(
-            "[rad/s] RMS of omega about its 25-sample centred moving mean, after settle_time."
-        ),
-    )
-    turn_rate_reversals: Threshold | None = Field(
-        default=None, description="Sign changes of omega after settle_time (a count)."
-    )
+    tracking_error_rms: Threshold | None = _phase_metric("tracking_error_rms")
+    tracking_error_max: Threshold | None = _phase_metric("tracking_error_max")
+    cross_track_error_max: Threshold | Auto | None = _phase_metric("cross_track_error_max")
+    along_track_lag_max: Threshold | Auto | None = _phase_metric("along_track_lag_max")
+    detour_offset_max: Threshold | Auto | None = _phase_metric("detour_offset_max")
+    detour_time: Threshold | None = _phase_metric("detour_time")
+    zone_intrusion_max: Threshold | None = _phase_metric("zone_intrusion_max")
+    stall_time: Threshold | None = _phase_metric("stall_time")
+    speed_jump_max: Threshold | Auto | None = _phase_metric("speed_jump_max")
+    turn_rate_jump_max: Threshold | Auto | None = _phase_metric("turn_rate_jump_max")
+    speed_reversals: Threshold | None = _phase_metric("speed_reversals")
+    turn_rate_reversals: Threshold | None = _phase_metric("turn_rate_reversals")
+    speed_fight_time: Threshold | None = _phase_metric("speed_fight_time")
+    turn_rate_fight_time: Threshold | None = _phase_metric("turn_rate_fight_time")
+    turn_rate_jitter: Threshold | Auto | None = _phase_metric("turn_rate_jitter")
+    speed_at_limit: Threshold | None = _phase_metric("speed_at_limit")
+    turn_rate_at_limit: Threshold | None = _phase_metric("turn_rate_at_limit")
     estimation_rms: StateThresholds | None = Field(
         default=None,
         description="RMS estimation error (true - estimate) per state after settle_time.",
@@ -522,49 +581,73 @@ Step = Annotated[
 ]
 
 
-# The verdict a run gets unless the mission says otherwise: its inputs do not sit
-# at a limit (the rule of thumb: 1 % of a phase after its first second) and it
-# stays near its path. A mission relaxes them by setting its own values.
+# The verdict a run gets unless the mission says otherwise (docs/mission-format.md,
+# "Verdicts", says why each is what it is): tracking judged against the timed
+# reference, zones held by the true robot, inputs judged by their quality.
 DEFAULT_SETTLE_TIME: Final = 1.0
-DEFAULT_AT_LIMIT: Final = 0.01
-DEFAULT_TRACKING_ERROR_MAX: Final = 0.1
+DEFAULT_ZONE_INTRUSION_MAX: Final = 0.005
+DEFAULT_REVERSALS: Final = 3
+DEFAULT_FIGHT_TIME: Final = 0.0
+DEFAULT_STALL_TIME: Final = 0.0
 
 
 class Expect(PhaseExpect):
     """Acceptance thresholds; `run` exits 1 when one is not met.
 
     The keys settle_time to estimation_rms apply to each phase (a phase's own
-    `expect` overrides them); null turns one off for the whole mission. See
-    "Verdicts" above.
+    `expect` overrides them); null turns one off for the whole mission; auto
+    derives it from the mission's numbers. See "Verdicts" above.
     """
 
     settle_time: NonNegative = Field(
         default=DEFAULT_SETTLE_TIME,
         description=(
-            "[s] the start of each phase that the tracking, input and estimation-RMS metrics "
+            "[s] the start of each phase that tracking_error_*, *_at_limit and estimation_rms "
             "leave out (the entry transient)."
         ),
     )
-    tracking_error_max: Threshold | None = Field(
-        default=Threshold(max=DEFAULT_TRACKING_ERROR_MAX),
-        description=(
-            "[m] largest distance of the true position from the path after settle_time; "
-            "{max: 0.1} unless set."
-        ),
+    cross_track_error_max: Threshold | Auto | None = _mission_metric(
+        "cross_track_error_max", "auto", " auto: 0.1 m + the position noise std."
     )
-    speed_at_limit: Threshold | None = Field(
-        default=Threshold(max=DEFAULT_AT_LIMIT),
-        description=(
-            "Fraction of the samples after settle_time with |v| at limits.v; "
-            "{max: 0.01} unless set."
-        ),
+    along_track_lag_max: Threshold | Auto | None = _mission_metric(
+        "along_track_lag_max",
+        "auto",
+        " auto: 0.1 m + the position noise std + 3 time constants at the reference's top speed.",
     )
-    turn_rate_at_limit: Threshold | None = Field(
-        default=Threshold(max=DEFAULT_AT_LIMIT),
-        description=(
-            "Fraction of the samples after settle_time with |omega| at limits.omega; "
-            "{max: 0.01} unless set."
-        ),
+    detour_offset_max: Threshold | Auto | None = _mission_metric(
+        "detour_offset_max",
+        "auto",
+        " auto: how far the phase's zones reach into the path + the look-ahead + 0.1 m + "
+        "the position noise std.",
+    )
+    zone_intrusion_max: Threshold | None = _mission_metric(
+        "zone_intrusion_max", Threshold(max=DEFAULT_ZONE_INTRUSION_MAX), " {max: 0.005} unless set."
+    )
+    stall_time: Threshold | None = _mission_metric(
+        "stall_time", Threshold(max=DEFAULT_STALL_TIME), " {max: 0} unless set."
+    )
+    speed_jump_max: Threshold | Auto | None = _mission_metric(
+        "speed_jump_max", "auto", " auto: limits.v, half the range."
+    )
+    turn_rate_jump_max: Threshold | Auto | None = _mission_metric(
+        "turn_rate_jump_max", "auto", " auto: limits.omega, half the range."
+    )
+    speed_reversals: Threshold | None = _mission_metric(
+        "speed_reversals", Threshold(max=DEFAULT_REVERSALS), " {max: 3} unless set."
+    )
+    turn_rate_reversals: Threshold | None = _mission_metric(
+        "turn_rate_reversals", Threshold(max=DEFAULT_REVERSALS), " {max: 3} unless set."
+    )
+    speed_fight_time: Threshold | None = _mission_metric(
+        "speed_fight_time", Threshold(max=DEFAULT_FIGHT_TIME), " {max: 0} unless set."
+    )
+    turn_rate_fight_time: Threshold | None = _mission_metric(
+        "turn_rate_fight_time", Threshold(max=DEFAULT_FIGHT_TIME), " {max: 0} unless set."
+    )
+    turn_rate_jitter: Threshold | Auto | None = _mission_metric(
+        "turn_rate_jitter",
+        "auto",
+        " auto: 1 % of limits.omega + the heading noise std per time constant.",
     )
     convergence_tolerance: StateTolerance = Field(
         default_factory=StateTolerance,

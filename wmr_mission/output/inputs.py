@@ -1,0 +1,197 @@
+"""The inputs of a phase judged by their quality, not by touching a limit.
+
+Judged from the first sample at which the estimate is within its
+convergence tolerance of the truth, widened by three noise standard
+deviations (before it the law acts on an initial estimate the estimator is
+still correcting):
+
+- **jumps**: the largest one-sample change of ``v`` (``omega``). More than
+  its limit, half the range ``[-limit, limit]``, is a kick.
+- **reversals**: the most sign reversals of ``v`` (``omega``) within any
+  window of REVERSAL_WINDOW time constants, not counting values within
+  REVERSAL_FLOOR of the limit of zero (plus three times the turn rate the
+  heading noise makes, for ``omega``): noise about zero and a slow sign change
+  are not chatter.
+- **fight time**: the time an input spends at its limit in stretches of one
+  time constant or more that are not a deliberate drive. A stretch is
+  deliberate when it keeps one sign and, for ``v``, turns at least half the
+  distance it drives at the limit into progress (towards the target; on a path,
+  along it or towards the reference point, whichever is more); for ``omega``,
+  turns at most half a turn.
+- **turn-rate jitter**: the spread of ``omega`` about its centred moving mean
+  over two time constants, robust (1.4826 times the median absolute
+  deviation: the few samples of a manoeuvre do not count), after the first
+  REVERSAL_WINDOW time constants of what is judged (the law's switch at the
+  phase's entry).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.output.numbers import MissionNumbers
+
+# Inputs this close to their limit (relative) are at it: the runner clips exactly.
+AT_LIMIT = 1e-9
+# Values within this share of the limit of zero are not counted as reversing.
+REVERSAL_FLOOR = 0.05
+# [time constants] the window reversals are counted in: an oscillation at the
+# design's own rate (period 2 pi tau) reverses floor(10 / pi) = 3 times in it.
+REVERSAL_WINDOW = 10.0
+# A deliberate drive at the speed limit turns at least this share of its distance into progress.
+DELIBERATE = 0.5
+ROBUST_STD = 1.4826  # times the median absolute deviation: a Gaussian's std
+
+# [m] the progress made from sample a to sample b (a < b).
+Progress = Callable[[int, int], float]
+
+
+def first_judged(
+    t: FloatArray,
+    errors: dict[str, FloatArray],
+    numbers: MissionNumbers,
+) -> float | None:
+    """[s] when the estimate first comes within its convergence tolerance of the
+    truth, each state's widened by three noise std, the position's x and y
+    together (within the ellipse of their tolerances); None if it never does."""
+    tolerance = {
+        state: numbers.convergence_tolerance[state] + 3.0 * numbers.noise[state] for state in errors
+    }
+    within = np.hypot(errors["x"] / tolerance["x"], errors["y"] / tolerance["y"]) <= 1.0
+    within &= np.abs(errors["theta"]) <= tolerance["theta"]
+    found = np.flatnonzero(within)
+    return float(t[found[0]]) if found.size else None
+
+
+def input_quality(
+    t: FloatArray,
+    v: FloatArray,
+    omega: FloatArray,
+    numbers: MissionNumbers,
+    progress: Progress,
+) -> dict[str, Any]:
+    """The input metrics of a phase's judged samples (``inputs`` in its summary)."""
+    tau, dt = numbers.time_constant, numbers.dt
+
+    def drives(a: int, b: int) -> bool:  # half the distance driven at the limit is progress
+        return progress(a, b) >= DELIBERATE * numbers.v_limit * (b - a) * dt
+
+    def turns(a: int, b: int) -> bool:  # at most half a turn (a sample's turn for rounding)
+        return (b - a) * dt * numbers.omega_limit <= math.pi + 2.0 * numbers.omega_limit * dt
+
+    metrics: dict[str, Any] = {}
+    for name, values, limit, deliberate in (
+        ("speed", v, numbers.v_limit, drives),
+        ("turn_rate", omega, numbers.omega_limit, turns),
+    ):
+        floor = REVERSAL_FLOOR * limit
+        if name == "turn_rate":  # three times what raw heading noise makes of the turn rate
+            floor += 3.0 * numbers.heading_noise / tau
+        jumps = np.abs(np.diff(values))
+        metrics[f"{name}_jump_max"] = _finite(jumps.max()) if jumps.size else 0.0
+        metrics[f"{name}_reversals"] = most_reversals(t, values, floor, REVERSAL_WINDOW * tau)
+        metrics[f"{name}_fight_time"] = fight_time(values, limit, numbers, deliberate)
+    metrics["turn_rate_jitter"] = jitter(omega, numbers)
+    return metrics
+
+
+def _finite(value: Any) -> float | None:
+    number = float(value)
+    return number if math.isfinite(number) else None
+
+
+def most_reversals(t: FloatArray, values: FloatArray, floor: float, window: float) -> int:
+    """The most sign reversals of ``values`` within any ``window`` [s]; values
+    within ``floor`` of zero are skipped. A reversal happens at the sample that
+    brings the new sign."""
+    counted = np.flatnonzero(np.abs(values) > floor)
+    signs = np.sign(values[counted])
+    times = t[counted[1:][signs[1:] != signs[:-1]]]
+    if times.size == 0:
+        return 0
+    dt = float(t[1] - t[0]) if t.size > 1 else 0.0
+    # reversals in [time, time + window), half a sample short of it against rounding
+    ends = np.searchsorted(times, times + window - 0.5 * dt, side="right")
+    return int((ends - np.arange(times.size)).max())
+
+
+def fight_time(
+    values: FloatArray,
+    limit: float,
+    numbers: MissionNumbers,
+    deliberate: Callable[[int, int], bool],
+) -> float:
+    """[s] spent at ``limit`` in stretches of one time constant or more (two
+    samples at least) that change sign or are not ``deliberate(a, b)``."""
+    magnitude = np.abs(values)
+    if not math.isfinite(limit) or values.size == 0 or magnitude.max() < limit * (1.0 - AT_LIMIT):
+        return 0.0
+    at = (magnitude >= limit * (1.0 - AT_LIMIT)).astype(np.int8)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], at, [0]))))
+    shortest = max(2, round(numbers.time_constant / numbers.dt))
+    fought = 0
+    for a, b in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
+        if b - a < shortest:
+            continue
+        one_sign = bool(np.all(values[a:b] > 0) or np.all(values[a:b] < 0))
+        if not (one_sign and deliberate(a, b)):
+            fought += b - a
+    return fought * numbers.dt
+
+
+def jitter(omega: FloatArray, numbers: MissionNumbers) -> float | None:
+    """[rad/s] robust spread of ``omega`` about its centred moving mean over two
+    time constants, after the first REVERSAL_WINDOW time constants; None when
+    fewer samples are left."""
+    half = max(2, round(numbers.time_constant / numbers.dt))
+    window = 2 * half + 1
+    skip = round(REVERSAL_WINDOW * numbers.time_constant / numbers.dt)
+    if omega.size < skip + window:
+        return None
+    # Summed in order, not by np.convolve: its products are BLAS's, whose
+    # kernels, chosen by the CPU, round differently (docs/reliability.md).
+    centres = omega.size - window + 1
+    total = np.zeros(centres)
+    for offset in range(window):
+        total += omega[offset : offset + centres]
+    deviation = omega[half : half + centres] - total / window
+    deviation = deviation[max(0, skip - half) :]
+    return _finite(ROBUST_STD * np.median(np.abs(deviation)))
+
+
+def progress_along(x: FloatArray, y: FloatArray, rx: FloatArray, ry: FloatArray) -> Progress:
+    """Progress from sample a to b on a path: the robot's travel, step by step,
+    projected on the path's direction (the reference's own step) or on the
+    direction to the reference point, whichever adds up to more."""
+
+    def progress(a: int, b: int) -> float:
+        end = min(b, x.size - 1)
+        if end <= a:
+            return 0.0
+        dx, dy = np.diff(x[a : end + 1]), np.diff(y[a : end + 1])
+        along_path = (np.diff(rx[a : end + 1]), np.diff(ry[a : end + 1]))
+        towards = (rx[a:end] - x[a:end], ry[a:end] - y[a:end])
+        best = -math.inf
+        for ux, uy in (along_path, towards):
+            norm = np.hypot(ux, uy)
+            ok = norm > 0
+            best = max(best, float(np.sum((dx[ok] * ux[ok] + dy[ok] * uy[ok]) / norm[ok])))
+        return best
+
+    return progress
+
+
+def progress_to(x: FloatArray, y: FloatArray, aim: tuple[float, float]) -> Progress:
+    """Progress from sample a to b: how much nearer the aim the robot came."""
+
+    def progress(a: int, b: int) -> float:
+        end = min(b, x.size - 1)
+        before = math.hypot(float(x[a]) - aim[0], float(y[a]) - aim[1])
+        return before - math.hypot(float(x[end]) - aim[0], float(y[end]) - aim[1])
+
+    return progress

@@ -1,0 +1,100 @@
+"""The numbers of a mission that its verdicts are made of.
+
+The input limits, the sampling period, the sensors' noise, the tracking law's
+time constant and look-ahead: every default threshold of `expect` that is not
+a fixed number is derived from these (docs/mission-format.md, "Verdicts").
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from wmr_mission.controllers.paper import Tracking
+from wmr_mission.spec import models
+
+STATES = ("x", "y", "theta")
+# [m] the fixed part of the tracking tolerance: about a quarter of a small
+# robot's width; the sensors' position noise is added to it.
+TRACKING_TOLERANCE = 0.1
+# Five time constants leave under 1 % of an error (exp(-5) = 0.0067).
+SETTLING = 5.0
+# Below this share of the limit, a gap is closed at that share at least.
+LEAST_CLOSING = 0.1
+# The look-ahead when the mission leaves it unset: max(MIN_LOOK_AHEAD, limits.v * dt).
+MIN_LOOK_AHEAD = 0.05
+
+
+@dataclass(frozen=True)
+class MissionNumbers:
+    dt: float  # [s]
+    v_limit: float  # [m/s]
+    omega_limit: float  # [rad/s]
+    time_constant: float  # [s] of the tracking law; one sample for the one-sample laws
+    look_ahead: float  # [m] of the tracked point ahead of the axle; 0 for the axle law
+    noise: Mapping[str, float]  # std of each measured state [m, m, rad]; 0 if not measured
+    convergence_tolerance: Mapping[str, float]  # expect.convergence_tolerance
+
+    @property
+    def position_noise(self) -> float:
+        """[m] the larger of the x and y noise std."""
+        return max(self.noise["x"], self.noise["y"])
+
+    @property
+    def heading_noise(self) -> float:
+        return self.noise["theta"]
+
+    @property
+    def tracking_tolerance(self) -> float:
+        """[m] how far off its path (or behind) a robot that tracks may be, noise aside."""
+        return TRACKING_TOLERANCE + self.position_noise
+
+    def recovery_time(self, error: float, reference_speed: float) -> float:
+        """[s] the least time the limits need to take out a position error while the
+        reference moves on: turn round (at most half a turn at the turn-rate limit),
+        close the gap at the speed the limit leaves over the reference's (a tenth of
+        the limit at least), and settle (five time constants)."""
+        closing = max(self.v_limit - reference_speed, LEAST_CLOSING * self.v_limit)
+        return error / closing + math.pi / self.omega_limit + SETTLING * self.time_constant
+
+
+def _get(mapping: Any, *keys: str) -> Any:
+    for key in keys:
+        if not isinstance(mapping, Mapping):
+            return None
+        mapping = mapping.get(key)
+    return mapping
+
+
+def mission_numbers(
+    mission: Mapping[str, Any] | None, dt: float, limits: tuple[float, float]
+) -> MissionNumbers:
+    """The numbers of the resolved ``mission`` (``Mission.model_dump(mode="json")``),
+    or the defaults where it says nothing; ``dt`` and ``limits`` are the run's."""
+    defaults = Tracking()
+    tracking = _get(mission, "controller", "tracking") or {}
+    axle = tracking.get("output", defaults.output) == "axle"
+    time_constant = 0.0 if axle else float(tracking.get("time_constant", defaults.time_constant))
+    look_ahead = tracking.get("look_ahead")
+    if axle:
+        look_ahead = 0.0
+    elif look_ahead is None:
+        look_ahead = max(MIN_LOOK_AHEAD, limits[0] * dt)
+    measured = _get(mission, "sensors", "measure") or STATES
+    noise_std = _get(mission, "sensors", "noise_std") or {}
+    noise = {s: float(noise_std.get(s) or 0.0) if s in measured else 0.0 for s in STATES}
+    tolerance = _get(mission, "expect", "convergence_tolerance") or {}
+    return MissionNumbers(
+        dt=dt,
+        v_limit=limits[0],
+        omega_limit=limits[1],
+        # A law cannot act faster than one sample: the one-sample laws' time constant.
+        time_constant=max(time_constant, dt),
+        look_ahead=float(look_ahead),
+        noise=noise,
+        convergence_tolerance={
+            s: float(tolerance.get(s) or models.DEFAULT_CONVERGENCE_TOLERANCE) for s in STATES
+        },
+    )

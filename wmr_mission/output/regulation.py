@@ -1,0 +1,66 @@
+"""A regulate phase judged by its progress to its target: no stall, no limit cycle.
+
+Away from its goal, a regulator that works takes a share of its error out in
+every stretch of time long enough to turn round and settle: PROGRESS of the
+position error (or of the distance the speed limit covers in the stretch) or
+of the heading error, in every WINDOW. A robot that stops short of its target,
+or shakes in place in a limit cycle, does not; the time it spends so is
+``stall_time``. A phase whose `until` is a goal that is never met times out
+too; one that runs for a set time is judged by this alone.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.output.numbers import MissionNumbers
+from wmr_mission.output.zones import Zone
+
+# The share of its error a regulator takes out in every window, away from its goal.
+PROGRESS = 0.1
+# [time constants] a window is at least this long, and at least half a turn at
+# the turn-rate limit and ten time constants (to turn round, then settle).
+WINDOW = 20.0
+
+
+def stall_time(
+    x: FloatArray,
+    y: FloatArray,
+    theta: FloatArray,
+    target: tuple[float, float, float],
+    goal: tuple[float, float],
+    numbers: MissionNumbers,
+    zones: Sequence[Zone] = (),
+) -> float | None:
+    """[s] the samples from which a whole window away from the goal (position and
+    heading tolerances ``goal``) takes out neither PROGRESS of the position error
+    (or of what the speed limit covers in the window) nor of the heading error;
+    None for a target beyond one of the phase's zones (the robot stops as near as
+    the zone allows) or after a divergence."""
+    tx, ty, heading_target = target
+    point_x, point_y = np.array([tx]), np.array([ty])
+    if any(zone.depth(point_x, point_y)[0] > 0.0 for zone in zones):
+        return None
+    if not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(theta).all()):
+        return None
+    tau, dt = numbers.time_constant, numbers.dt
+    span = max(WINDOW * tau, math.pi / numbers.omega_limit + 10.0 * tau)
+    window = max(2, round(span / dt))
+    if x.size <= window:
+        return 0.0
+    position = np.hypot(x - tx, y - ty)
+    heading = np.abs((theta - heading_target + np.pi) % (2 * np.pi) - np.pi)
+    at_goal = (position <= goal[0]) & (heading <= goal[1])
+    reached = np.concatenate(([0], np.cumsum(at_goal, dtype=np.int64)))
+    away = reached[window + 1 :] - reached[: -window - 1] == 0  # no sample of k..k+window at it
+    start, end = position[:-window], position[window:]
+    closer = start - end >= PROGRESS * np.minimum(start, numbers.v_limit * window * dt)
+    turn_start, turn_end = heading[:-window], heading[window:]
+    turned = turn_start - turn_end >= PROGRESS * np.minimum(
+        turn_start, numbers.omega_limit * window * dt
+    )
+    return float(np.count_nonzero(away & ~closer & ~turned)) * dt

@@ -1,0 +1,353 @@
+"""A track phase judged against its timed reference.
+
+Each sample's *place on the path* is the point of the polyline through the
+phase's reference points nearest the robot; where the path passes about as
+near elsewhere (a lap run again, a path back over itself), the one nearest the
+sample's own reference point along the path. From it:
+
+- the **cross-track error**: the robot's distance from its place [m];
+- the **along-track lag**: the arc length from its place to the sample's own
+  reference point [m], > 0 behind the reference, < 0 ahead of it. A robot
+  stalled on its path is on it (no cross-track error) and ever further behind.
+
+Two stretches of a phase are not judged as tracking:
+
+- the **entry**: the least time the limits need to take out the gap to the
+  reference the phase starts with (:meth:`MissionNumbers.recovery_time`); a
+  phase that runs for a set time (``until: elapsed`` or ``mission_time``) and
+  ends before the entry does is judged at its last sample: it was too short
+  for the limits to join its path, and tracking it was all it was for;
+- a **detour a zone forces**: where a zone lies across the straight way from
+  the robot to its reference point, or the path runs into a zone within the
+  time a smooth detour needs to start (half a turn at the turn-rate limit and
+  five time constants), while the robot keeps moving at half the reference's
+  speed or more; and then the time to take out what the detour left. A robot
+  that stops where a zone blocks its way is stalled, not detouring.
+
+A zone "lies across the way" when it is within the look-ahead and the tracking
+tolerance of it: the tracked point runs that far ahead of the axle, and a
+robot that tracks is that far off its path. How far off the path a detour
+takes the robot is its own metric (``detour_offset_max``), as is how long it
+lasts (``detour_time``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.output.nearest import PointGrid
+from wmr_mission.output.numbers import SETTLING, MissionNumbers
+from wmr_mission.output.zones import Zone
+
+# [m] places on the path this much farther than the nearest are not "about as near".
+NEAR_EQUAL = 0.01
+# Segments on each side of the estimated place that are searched.
+_SEARCH = 2
+# Newton steps along the path from the first estimate of the place.
+_STEPS = 4
+# Points of the way from the robot to its reference point tried against the zones.
+_WAY_POINTS = np.linspace(0.0, 1.0, 9)[1:]
+# A detour keeps at least this share of the reference's speed (a mean over
+# MOVING_WINDOW time constants): less is a stall.
+MOVING = 0.5
+MOVING_WINDOW = 10.0
+_CHUNK = 4096  # positions per block of the search: bounded memory on long runs
+_CANDIDATES = 1 << 15  # below this many position-segment pairs, every segment is tried
+
+# A path as searched: the arc length at each point, the points, and each segment's
+# step and length (segment i from point i to point i + 1).
+_Path = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
+
+
+def path_steps(rx: FloatArray, ry: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Each segment's step (x, y) and length: segment i from point i to point i + 1."""
+    sx, sy = np.diff(rx), np.diff(ry)
+    return sx, sy, np.sqrt(sx * sx + sy * sy)  # as hypot, at a fraction of its cost
+
+
+def place_on_path(
+    px: FloatArray,
+    py: FloatArray,
+    rx: FloatArray,
+    ry: FloatArray,
+    near: float,
+    first: int = 0,
+    steps: tuple[FloatArray, FloatArray, FloatArray] | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """Cross-track error and along-track lag [m] of each position (px, py) against
+    the reference points (rx, ry) of the same samples (all finite); NaN before
+    sample ``first``, where they are not wanted.
+
+    The place is looked for where the robot's error, seen from its own reference
+    point along the path's direction there, puts it: on that segment if the
+    foot of the perpendicular is on it (the nearest within a few micrometres on
+    a path sampled finely), else among the segments round it, and then along
+    the path, a Newton step at a time, while it lies beyond them.
+    Where the robot is farther than ``near`` from the place found, the path's
+    nearest points anywhere are tried too, and win when nearer by NEAR_EQUAL.
+    ``steps``: :func:`path_steps` of the reference points, if at hand."""
+    n = rx.size
+    sx, sy, length = path_steps(rx, ry) if steps is None else steps
+    moving = length > 0
+    if not moving.any():  # a reference that stands still: a point
+        cross = np.hypot(px - rx[0], py - ry[0])
+        cross[:first] = np.nan
+        return cross, np.where(np.isnan(cross), np.nan, 0.0)
+    arc = np.concatenate(([0.0], np.cumsum(length)))
+    # Where the path stands still, the direction it last had (or first has).
+    held = None
+    if not moving.all():
+        held = np.maximum.accumulate(np.where(moving, np.arange(n - 1), -1))
+        held[held < 0] = int(np.argmax(moving))
+    del moving
+
+    def direction(segment: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
+        along = segment if held is None else held[segment]
+        return sx[along] / length[along], sy[along] / length[along]
+
+    cross, place = np.full(n, np.nan), np.full(n, np.nan)
+    path = (arc, rx, ry, sx, sy, length)
+    for start in range(first, n, _CHUNK):  # bounded memory on long runs
+        stop = min(start + _CHUNK, n)
+        own = np.minimum(np.arange(start, stop), n - 2)  # the last point: the last segment
+        qx, qy, part = px[start:stop], py[start:stop], slice(start, stop)
+        ux, uy = direction(own)
+        guess = arc[part] - ((rx[part] - qx) * ux + (ry[part] - qy) * uy)
+        # Most often the guess's own segment holds the foot of the perpendicular.
+        # (np.minimum and np.maximum: np.clip costs several times more on small arrays)
+        segment = np.maximum(np.minimum(np.searchsorted(arc, guess, side="right") - 1, n - 2), 0)
+        ax, ay, ex, ey, step = rx[segment], ry[segment], sx[segment], sy[segment], length[segment]
+        along = ((qx - ax) * ex + (qy - ay) * ey) / np.where(step > 0, step * step, 1.0)
+        inside = (along > 0.0) & (along < 1.0)
+        dx, dy = qx - ax - along * ex, qy - ay - along * ey
+        cross[part] = np.where(inside, np.sqrt(dx * dx + dy * dy), np.nan)
+        place[part] = arc[segment] + along * step
+        pending = np.flatnonzero(~inside) + start
+        guess = guess[pending - start]
+        for attempt in range(_STEPS):
+            if pending.size == 0:
+                break
+            distance, at, segment, beyond = _search(pending, guess, path, px, py)
+            if attempt == _STEPS - 1:
+                beyond[:] = False
+            cross[pending[~beyond]] = distance[~beyond]
+            place[pending[~beyond]] = at[~beyond]
+            # Beyond the segments searched: a Newton step along the path from there.
+            rows, seg, at = pending[beyond], segment[beyond], at[beyond]
+            ux, uy = direction(seg)
+            footx = rx[seg] + (at - arc[seg]) * ux
+            footy = ry[seg] + (at - arc[seg]) * uy
+            guess = at + (px[rows] - footx) * ux + (py[rows] - footy) * uy
+            pending = rows
+    far = np.flatnonzero(cross > near)
+    if far.size:
+        distance, at = _nearest_anywhere(far, cross[far], path, px, py)
+        better = distance < cross[far] - NEAR_EQUAL
+        cross[far[better]] = distance[better]
+        place[far[better]] = at[better]
+    lag = np.subtract(arc, place, out=place)
+    return cross, lag
+
+
+def _search(
+    rows: NDArray[np.intp], guess: FloatArray, path: _Path, px: FloatArray, py: FloatArray
+) -> tuple[FloatArray, FloatArray, NDArray[np.intp], NDArray[np.bool_]]:
+    """For positions ``rows``, the nearest point of the segments round the arc
+    length ``guess``: distance, arc length, segment, and whether it lies at the
+    outer end of the segments searched (so that the place may be beyond)."""
+    arc = path[0]
+    last = arc.size - 2
+    centre = np.searchsorted(arc, guess, side="right") - 1
+    segments = np.maximum(np.minimum(centre[:, None] + np.arange(-_SEARCH, _SEARCH + 1), last), 0)
+    distance, at, chosen, along = _nearest_of(segments, path, px, py, rows)
+    beyond = ((chosen == segments[:, 0]) & (along <= 0.0) & (chosen > 0)) | (
+        (chosen == segments[:, -1]) & (along >= 1.0) & (chosen < last)
+    )
+    return distance, at, chosen, beyond
+
+
+def _nearest_of(
+    segments: NDArray[np.intp], path: _Path, px: FloatArray, py: FloatArray, rows: NDArray[np.intp]
+) -> tuple[FloatArray, FloatArray, NDArray[np.intp], FloatArray]:
+    """Of each row's segments (i from point i to i + 1), the nearest point to
+    position ``rows[row]``: its distance, arc length, segment and fraction along it."""
+    arc, rx, ry, sx, sy, length = path
+    qx, qy = px[rows][:, None], py[rows][:, None]
+    ax, ay, ex, ey = rx[segments], ry[segments], sx[segments], sy[segments]
+    squared = length[segments] ** 2
+    along = ((qx - ax) * ex + (qy - ay) * ey) / np.where(squared > 0, squared, 1.0)
+    along = np.maximum(np.minimum(along, 1.0), 0.0)
+    dx, dy = qx - ax - along * ex, qy - ay - along * ey
+    distance = np.sqrt(dx * dx + dy * dy)
+    best = np.argmin(distance, axis=1)
+    pick = np.arange(rows.size)
+    chosen = segments[pick, best]
+    fraction = along[pick, best]
+    return distance[pick, best], arc[chosen] + fraction * length[chosen], chosen, fraction
+
+
+def _nearest_anywhere(
+    rows: NDArray[np.intp], reach: FloatArray, path: _Path, px: FloatArray, py: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The nearest point of the whole path to positions ``rows``: of every segment
+    for a few positions, else of the segments next to the path's points nearest
+    them (one point kept per cell of a grid half as fine as the path's sampling,
+    so a path run round many times is not searched lap by lap; the first pass
+    through a cell is the one kept)."""
+    arc, rx, ry, _, _, length = path
+    last = arc.size - 2
+    if rows.size * (last + 1) <= _CANDIDATES:  # few enough to try every segment
+        every = np.broadcast_to(np.arange(last + 1), (rows.size, last + 1))
+        distance, at, _, _ = _nearest_of(every, path, px, py, rows)
+        return distance, at
+    steps = length[length > 0]
+    cell = float(np.median(steps)) / 2
+    column, row = np.floor(rx / cell), np.floor(ry / cell)
+    order = np.lexsort((row, column))
+    column, row = column[order], row[order]
+    first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
+    grid = PointGrid(rx[first], ry[first], cell)
+    distance, at = np.empty(rows.size), np.empty(rows.size)
+    for start in range(0, rows.size, _CHUNK):
+        part = slice(start, start + _CHUNK)
+        points = first[grid.nearest(px[rows[part]], py[rows[part]], 4, reach[part])]
+        segments = np.clip(np.concatenate((points - 1, points), axis=1), 0, last)
+        d, a, _, _ = _nearest_of(segments, path, px, py, rows[part])
+        distance[part], at[part] = d, a
+    return distance, at
+
+
+def _mean_over(values: FloatArray, samples: int) -> FloatArray:
+    """Mean over a centred window of ``samples`` (fewer at the ends)."""
+    samples = max(1, min(samples, values.size))
+    total = np.concatenate(([0.0], np.cumsum(values)))
+    half = samples // 2
+    k = np.arange(values.size)
+    lo, hi = np.maximum(k - half, 0), np.minimum(k - half + samples, values.size)
+    mean: FloatArray = (total[hi] - total[lo]) / (hi - lo)
+    return mean
+
+
+def _any_within(flags: NDArray[np.bool_], samples: int) -> NDArray[np.bool_]:
+    """Whether any of each sample and the ``samples`` after it is flagged."""
+    count = np.concatenate(([0], np.cumsum(flags, dtype=np.int64)))
+    k = np.arange(flags.size)
+    found: NDArray[np.bool_] = count[np.minimum(k + samples + 1, flags.size)] - count[k] > 0
+    return found
+
+
+def _speed(x: FloatArray, y: FloatArray, dt: float) -> FloatArray:
+    """[m/s] from each sample to the next (the last repeats the one before)."""
+    if x.size < 2:
+        return np.zeros(x.size)
+    dx, dy = np.diff(x), np.diff(y)
+    step = np.sqrt(dx * dx + dy * dy) / dt
+    return np.concatenate((step, step[-1:]))
+
+
+def track_quality(
+    t: FloatArray,
+    px: FloatArray,
+    py: FloatArray,
+    rx: FloatArray,
+    ry: FloatArray,
+    numbers: MissionNumbers,
+    zones: Sequence[Zone],
+    timed: bool = False,
+) -> dict[str, Any]:
+    """The tracking metrics of a track phase's samples (``tracking`` in a phase's
+    summary): ``cross_track_error_max`` and ``along_track_lag_max`` (the largest
+    |lag|) over the samples judged, ``entry_time`` [s], ``detour_time`` [s] and
+    ``detour_offset_max`` [m], with what the defaults of their thresholds read:
+    the reference's top speed [m/s] and how far the zones reach into the path [m].
+    ``timed``: the phase ran for a set time (it ended on ``elapsed`` or
+    ``mission_time``), so tracking was all it was for."""
+    known = np.isfinite(rx) & np.isfinite(ry)
+    metrics: dict[str, Any] = {
+        "cross_track_error_max": None,
+        "along_track_lag_max": None,
+        "entry_time": None,
+        "detour_time": 0.0,
+        "detour_offset_max": None,
+        "reference_speed_max": None,
+        "zone_reach": None,
+    }
+    if not known.all():
+        t, px, py, rx, ry = t[known], px[known], py[known], rx[known], ry[known]
+    del known
+    if t.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
+        return metrics  # no reference, or the run diverged
+    dt = numbers.dt
+    steps = path_steps(rx, ry)
+    # [m/s] from each reference point to the next (the last repeats the one before)
+    reference_speed = np.concatenate((steps[2], steps[2][-1:])) / dt if t.size > 1 else np.zeros(1)
+    entry = numbers.recovery_time(
+        math.hypot(px[0] - rx[0], py[0] - ry[0]), float(reference_speed[0])
+    )
+    excused = t - t[0] < entry - 1e-9 * dt
+    # The entry is a prefix, not judged; a phase that runs for a set time and ends
+    # in it (too short for the limits to join the path) is judged at its end.
+    after_entry = min(int(np.count_nonzero(excused)), t.size - 1)
+    ended_in_entry = bool(excused[-1]) and timed
+    if excused[-1] and not timed and not zones:  # nothing to measure
+        return metrics | {"entry_time": entry, "reference_speed_max": float(reference_speed.max())}
+    cross, lag = place_on_path(px, py, rx, ry, numbers.tracking_tolerance, after_entry, steps)
+    detour = np.zeros(t.size, dtype=bool)
+    if zones:
+        detour, rejoining = _detours(px, py, rx, ry, reference_speed, numbers, zones)
+        excused |= detour | rejoining
+        reach = max(float(np.max(zone.depth(rx, ry))) for zone in zones)
+        metrics["zone_reach"] = max(0.0, reach)
+    judged = ~excused
+    judged[-1] |= ended_in_entry
+    offset = cross[detour & ~np.isnan(cross)]
+    metrics |= {
+        "cross_track_error_max": float(cross[judged].max()) if judged.any() else None,
+        "along_track_lag_max": float(np.abs(lag[judged]).max()) if judged.any() else None,
+        "entry_time": entry,
+        "detour_time": float(np.count_nonzero(detour)) * dt,
+        "detour_offset_max": float(offset.max()) if offset.size else None,
+        "reference_speed_max": float(reference_speed.max()),
+    }
+    return metrics
+
+
+def _detours(
+    px: FloatArray,
+    py: FloatArray,
+    rx: FloatArray,
+    ry: FloatArray,
+    reference_speed: FloatArray,
+    numbers: MissionNumbers,
+    zones: Sequence[Zone],
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """The samples of a detour a zone forces, and those after one that the robot
+    needs to rejoin its reference."""
+    clearance = numbers.look_ahead + numbers.tracking_tolerance
+    blocked = np.zeros(px.size, dtype=bool)
+    for fraction in _WAY_POINTS:
+        qx, qy = px + fraction * (rx - px), py + fraction * (ry - py)
+        for zone in zones:
+            blocked |= zone.depth(qx, qy, within=clearance) > -clearance
+    on_the_path = np.zeros(px.size, dtype=bool)
+    for zone in zones:
+        on_the_path |= zone.depth(rx, ry, within=clearance) > -clearance
+    # A smooth detour starts before the path meets the zone: half a turn and settling ahead.
+    lead = (math.pi / numbers.omega_limit + SETTLING * numbers.time_constant) / numbers.dt
+    blocked |= _any_within(on_the_path, round(lead))
+    window = max(1, round(MOVING_WINDOW * numbers.time_constant / numbers.dt))
+    speed = _speed(px, py, numbers.dt)
+    moving = _mean_over(speed, window) >= MOVING * _mean_over(reference_speed, window)
+    detour = blocked & moving
+    rejoining = np.zeros(px.size, dtype=bool)
+    for k in np.flatnonzero(blocked[:-1] & ~blocked[1:]) + 1:
+        gap = math.hypot(px[k] - rx[k], py[k] - ry[k])
+        needed = numbers.recovery_time(gap, float(reference_speed[k]))
+        rejoining[k : k + math.ceil(needed / numbers.dt - 1e-9)] = True
+    return detour, rejoining

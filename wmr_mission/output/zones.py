@@ -1,0 +1,244 @@
+"""How far points are from the forbidden side of a phase's zones, in metres.
+
+A zone is a region with the side the robot must keep to (``stay_inside`` or
+``stay_outside``). :func:`depth` is its signed distance: > 0 on the
+forbidden side (that deep into a keep-out zone, that far out of a keep-in
+one), < 0 on the allowed side (minus the distance to the edge). The
+constraint rows of the kernels (wmr_mission.regions) are not distances for
+ellipses; the verdicts need metres.
+
+``within`` bounds the work: points farther than that from the edge on the
+allowed side only need to be known as such, and get ``-inf`` where finding
+the exact distance would cost an iteration (ellipses).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.output.numbers import MissionNumbers
+
+# [m] depths are known to this: far below any tolerance, and what a robot held on
+# a zone's edge by the corrective action rounds to.
+RESOLUTION = 1e-6
+# Newton steps at most for the distance to an ellipse (a handful are needed:
+# each at least halves the distance to the pole the start is near).
+_NEWTON_STEPS = 100
+
+
+@dataclass(frozen=True)
+class Zone:
+    """A region of a phase and the side the robot keeps to."""
+
+    name: str
+    region: Mapping[str, Any]  # the region as written (model_dump): type and its numbers
+    keep_inside: bool
+
+    def depth(self, x: FloatArray, y: FloatArray, within: float = math.inf) -> FloatArray:
+        """Signed distance [m] of each point from the zone's edge, > 0 on the
+        forbidden side; ``-inf`` on the allowed side farther than ``within``
+        where the exact distance is not computed."""
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        if self.region["type"] == "ellipse":  # the allowed side's far points skipped
+            outside = _ellipse(self.region, x, y, self.keep_inside, within)
+        else:
+            outside = _outside_by(self.region, x, y)
+        return outside if self.keep_inside else -outside
+
+    def beyond(self, x: FloatArray, y: FloatArray) -> NDArray[np.bool_]:
+        """Whether each point is on the forbidden side (its depth > 0)."""
+        if self.region["type"] != "ellipse":
+            return np.asarray(self.depth(x, y) > 0.0)
+        radius = _scaled_radius(self.region, x, y)[0]
+        return np.asarray(radius > 1.0 if self.keep_inside else radius < 1.0)
+
+    def deepest(self, x: FloatArray, y: FloatArray) -> float:
+        """The largest :meth:`depth` of the points (-inf for none), to
+        RESOLUTION: for an ellipse, found exactly only for the points that its
+        distance bounds (see :func:`_ellipse`) leave in the running, and not at
+        all where the largest upper bound is within RESOLUTION of 0 (a robot
+        held on the edge)."""
+        if x.size == 0:
+            return -math.inf
+        if self.region["type"] != "ellipse":
+            return float(np.max(self.depth(x, y)))
+        radius, a, b = _scaled_radius(self.region, x, y)
+        beyond = radius - 1.0 if self.keep_inside else 1.0 - radius
+        most = beyond * np.where(beyond > 0, max(a, b), min(a, b))  # the depth is at most
+        highest = float(np.max(most))
+        if abs(highest) <= RESOLUTION:
+            return highest
+        least = beyond * np.where(beyond > 0, min(a, b), max(a, b))  # and at least this
+        contenders = np.flatnonzero(most >= np.max(least))
+        return float(np.max(self.depth(x[contenders], y[contenders])))
+
+    def __str__(self) -> str:
+        return f"{'stay_inside' if self.keep_inside else 'stay_outside'} {self.name}"
+
+
+def zones_of(constraints: tuple[tuple[str, str], ...], regions: Mapping[str, Any]) -> list[Zone]:
+    """A phase's zones from its constraints ((region, "inside" | "outside"), as
+    :class:`wmr_mission.output.result.PhaseRecord` has them)."""
+    return [Zone(name, regions[name], side == "inside") for name, side in constraints]
+
+
+def intrusion_max(
+    x: FloatArray, y: FloatArray, zones: Sequence[Zone], numbers: MissionNumbers
+) -> float | None:
+    """[m] the deepest a phase's positions go beyond the edge of any of its zones
+    (0 when they never do; None without zones or after a divergence). A phase
+    that starts beyond a zone is given the time the limits need to leave it by
+    the shortest way (:meth:`MissionNumbers.recovery_time`); if it takes longer,
+    its start counts too."""
+    if not zones:
+        return None
+    deepest = 0.0
+    for zone in zones:
+        beyond = zone.beyond(x, y)
+        if not beyond.any():
+            continue
+        first = 0
+        if beyond[0]:
+            start = zone.deepest(x[:1], y[:1])
+            out = np.flatnonzero(~beyond)
+            left = int(out[0]) if out.size else x.size
+            if left * numbers.dt <= numbers.recovery_time(start, 0.0):
+                first = left
+        counted = np.flatnonzero(beyond[first:]) + first
+        if counted.size:
+            deepest = max(deepest, zone.deepest(x[counted], y[counted]))
+    return deepest if math.isfinite(deepest) else None
+
+
+def _outside_by(region: Mapping[str, Any], x: FloatArray, y: FloatArray) -> Any:
+    """Signed distance from the region: > 0 outside, < 0 inside."""
+    kind = region["type"]
+    if kind == "circle":
+        cx, cy = region["center"]
+        return np.hypot(x - cx, y - cy) - float(region["radius"])
+    if kind == "half-plane":
+        nx, ny = region["normal"]
+        norm = math.hypot(nx, ny)
+        return (nx * x + ny * y - float(region["offset"])) / norm
+    if kind == "box":
+        (x0, y0), (x1, y1) = region["min"], region["max"]
+        qx = np.abs(x - (x0 + x1) / 2) - (x1 - x0) / 2
+        qy = np.abs(y - (y0 + y1) / 2) - (y1 - y0) / 2
+        return np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(
+            np.maximum(qx, qy), 0.0
+        )
+    if kind == "polygon":
+        return _polygon_outside_by(np.asarray(region["vertices"], float), x, y)
+    raise ValueError(f"unknown region type {kind!r}")
+
+
+def _polygon_outside_by(vertices: FloatArray, x: FloatArray, y: FloatArray) -> Any:
+    """A convex polygon (validate refuses others): inside, the distance to the
+    nearest edge's line; outside, to the nearest edge."""
+    ax, ay = vertices[:, 0], vertices[:, 1]
+    bx, by = np.roll(ax, -1), np.roll(ay, -1)
+    ex, ey = bx - ax, by - ay
+    length = np.hypot(ex, ey)
+    # outward normals: the polygon's orientation decides which side is out
+    area = float(np.sum(ax * by - bx * ay))
+    sign = 1.0 if area > 0 else -1.0
+    nx, ny = sign * ey / length, -sign * ex / length
+    rows = (x[:, None] - ax) * nx + (y[:, None] - ay) * ny  # signed distance to each edge's line
+    outside = rows.max(axis=1)
+    along = np.clip(((x[:, None] - ax) * ex + (y[:, None] - ay) * ey) / length**2, 0.0, 1.0)
+    to_edges = np.hypot(x[:, None] - ax - along * ex, y[:, None] - ay - along * ey).min(axis=1)
+    return np.where(outside > 0, to_edges, outside)
+
+
+def _ellipse(
+    region: Mapping[str, Any], x: FloatArray, y: FloatArray, inside_allowed: bool, within: float
+) -> FloatArray:
+    """Signed distance from an ellipse region, > 0 outside; ``+-inf`` for points
+    on the allowed side (inside when ``inside_allowed``) surely farther than
+    ``within`` from the edge.
+
+    With ``r`` a point's scaled radius, ``((u/a)^2 + (w/b)^2)^0.5``, its distance
+    from the edge is at least ``|1 - r| min(a, b)``: the ellipse ``E`` holds the
+    disk ``B`` of radius ``min(a, b)``, and ``r E + |1 - r| B`` lies within ``E``
+    (r < 1) or within ``r E`` (r > 1). That bound picks the points whose
+    distance is found (the foot of the ellipse's normal through them)."""
+    u, w, a, b = _ellipse_frame(region, x, y)
+    radius = np.sqrt((u / a) ** 2 + (w / b) ** 2)
+    if a == b:
+        return np.asarray((radius - 1.0) * a, dtype=float)
+    inside = radius < 1.0
+    found = np.where(inside, -np.inf, np.inf)
+    wanted = (np.abs(1.0 - radius) * b <= within) | (inside != inside_allowed)
+    distance = _to_ellipse(np.abs(u[wanted]), np.abs(w[wanted]), a, b)
+    found[wanted] = np.where(inside[wanted], -distance, distance)
+    return found
+
+
+def _ellipse_frame(
+    region: Mapping[str, Any], x: FloatArray, y: FloatArray
+) -> tuple[FloatArray, FloatArray, float, float]:
+    """Points in the ellipse's own axes, the major axis first, and its semi-axes."""
+    cx, cy = region["center"]
+    a, b = (float(v) for v in region["semi_axes"])
+    rotation = float(region.get("rotation", 0.0))
+    c, s = math.cos(rotation), math.sin(rotation)
+    u, w = c * (x - cx) + s * (y - cy), -s * (x - cx) + c * (y - cy)
+    if a < b:
+        return w, u, b, a
+    return u, w, a, b
+
+
+def _scaled_radius(
+    region: Mapping[str, Any], x: FloatArray, y: FloatArray
+) -> tuple[FloatArray, float, float]:
+    u, w, a, b = _ellipse_frame(region, x, y)
+    return np.sqrt((u / a) ** 2 + (w / b) ** 2), a, b
+
+
+def _to_ellipse(u: FloatArray, w: FloatArray, a: float, b: float) -> FloatArray:
+    """Distance of points (u, w) >= 0 from the ellipse (u/a)^2 + (w/b)^2 = 1, a > b.
+
+    Off the axes the nearest point is ``(a^2 u / (t + a^2), b^2 w / (t + b^2))``
+    for the root ``t > -b^2`` of ``(a u / (t + a^2))^2 + (b w / (t + b^2))^2 = 1``,
+    decreasing and convex in ``t``, at least 1 at ``t = b w - b^2``. On the
+    minor axis it is the axis' end; on the major axis, the end, or nearer the
+    centre than ``(a^2 - b^2) / a``, the point where the ellipse's normal passes
+    through it."""
+    distance = np.empty(u.shape)
+    off_axes = (u > 0.0) & (w > 0.0)
+    if off_axes.any():
+        pu, pw = u[off_axes], w[off_axes]
+        au, bw = a * pu, b * pw
+        # Newton's method from the left of the root: the function is convex and
+        # decreasing, so each step lands nearer the root and never beyond it.
+        # Outside the ellipse t = 0 is left of it (the function is r^2 > 1 there).
+        t = np.where((pu / a) ** 2 + (pw / b) ** 2 > 1.0, 0.0, bw - b**2)
+        for _ in range(_NEWTON_STEPS):
+            first, second = au / (t + a**2), bw / (t + b**2)
+            slope = -2.0 * (first**2 / (t + a**2) + second**2 / (t + b**2))
+            step = (first**2 + second**2 - 1.0) / slope
+            t = t - step
+            if not np.any(np.abs(step) > 1e-15 * (np.abs(t) + a**2)):
+                break
+        # t + a^2 >= a^2 - b^2 > 0; t + b^2 may vanish near the major axis, so
+        # the foot's second coordinate comes from the ellipse's equation.
+        foot = a**2 * pu / (t + a**2)
+        height = b * np.sqrt(np.clip(1.0 - (foot / a) ** 2, 0.0, 1.0))
+        distance[off_axes] = np.hypot(foot - pu, height - pw)
+    minor = (u == 0.0) & (w > 0.0)
+    distance[minor] = np.abs(w[minor] - b)
+    major = w == 0.0
+    if major.any():
+        pu = u[major]
+        inner = pu * a < a**2 - b**2
+        foot = np.where(inner, a**2 * pu / np.where(inner, a**2 - b**2, 1.0), a)
+        height = b * np.sqrt(np.clip(1.0 - (foot / a) ** 2, 0.0, 1.0))
+        distance[major] = np.where(inner, np.hypot(foot - pu, height), np.abs(pu - a))
+    return distance
