@@ -19,13 +19,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.basics import STATES, FloatArray
+from wmr_mission.basics import STATES, FloatArray, cached_value
 from wmr_mission.output import inputs as input_metrics
 from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.numbers import MissionNumbers, mission_numbers
@@ -379,21 +378,21 @@ class _PhaseSamples:
             else max(start, int(np.searchsorted(result.t, judged.inputs_from - 1e-9 * result.dt)))
         )
 
-    @cached_property
+    @cached_value
     def off_path(self) -> FloatArray:
         """Distance of each sample from the path (of a track phase)."""
         r, window = self.result, self.window
         return self._off_path_of(r.x[window], r.y[window], r.x_ref[window], r.y_ref[window])
 
-    @cached_property
+    @cached_value
     def errors(self) -> dict[str, FloatArray]:
         return estimation_errors(self.result, self.window)
 
-    @cached_property
+    @cached_value
     def zones(self) -> list[Any]:
         return zones_of(self.info.constraints, self.result.regions)
 
-    @cached_property
+    @cached_value
     def tracking(self) -> dict[str, Any] | None:
         """Tracking against the timed reference (track phases)."""
         if self.info.kind != "track":
@@ -404,7 +403,7 @@ class _PhaseSamples:
             r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed
         )
 
-    @cached_property
+    @cached_value
     def inputs(self) -> dict[str, Any]:
         """The input-quality metrics of the judged samples (None where none is)."""
         r, first, stop = self.result, self.first_judged, self.window.stop
@@ -423,7 +422,7 @@ class _PhaseSamples:
             r.t[judged], r.v[judged], r.omega[judged], self.numbers, progress
         )
 
-    @cached_property
+    @cached_value
     def stall(self) -> float | None:
         """Time away from its goal without progress (regulate phases)."""
         if self.info.kind != "regulate" or self.info.target is None:
@@ -438,7 +437,7 @@ class _PhaseSamples:
         )
         return stall_time(r.x[w], r.y[w], r.theta[w], self.info.target, goal, numbers, self.zones)
 
-    @cached_property
+    @cached_value
     def intrusion(self) -> float | None:
         r, w = self.result, self.window
         return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers)
