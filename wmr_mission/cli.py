@@ -104,6 +104,12 @@ def _formats(chosen: list[FigureFormat] | None) -> tuple[str, ...]:
     return tuple(dict.fromkeys(f.value for f in chosen)) if chosen else ("png",)
 
 
+class BackendName(StrEnum):
+    sim = "sim"
+    irsim = "irsim"
+    ros2 = "ros2"
+
+
 ExistingFile = Annotated[
     Path,
     typer.Argument(
@@ -156,6 +162,15 @@ def run(
             "replay commands carry it); a one-line warning when this one differs.",
         ),
     ] = None,
+    backend: Annotated[
+        BackendName | None,
+        typer.Option(
+            "--backend",
+            metavar="NAME",
+            help="The plant: sim (our simulator), irsim (IR-SIM), ros2 (a robot over ROS 2, "
+            "in real time); default: the mission's backend.type, else sim.",
+        ),
+    ] = None,
 ) -> None:
     """Simulate MISSION and write trajectory, metrics and plots to a run directory."""
     from wmr_mission.commands.run import run_command
@@ -170,8 +185,30 @@ def run(
             overrides=set_ or (),
             formats=_formats(format),
             expected_environment=expect_environment,
+            backend=None if backend is None else backend.value,
         )
     )
+
+
+@app.command(name="serve-robot", cls=_Command)
+def serve_robot(
+    mission: ExistingFile,
+    seed: Annotated[
+        int | None,
+        typer.Option(
+            "--seed",
+            metavar="N",
+            min=0,
+            max=2**32 - 1,
+            help="Sensor-noise seed; overrides the mission's.",
+        ),
+    ] = None,
+) -> None:
+    """A stand-in robot over ROS 2: MISSION's plant, disturbances and sensors in real
+    time, on cmd_vel and odom, until Ctrl-C (for `run --backend ros2`)."""
+    from wmr_mission.commands.serve_robot import serve_robot_command
+
+    raise typer.Exit(serve_robot_command(mission, seed=seed))
 
 
 @command

@@ -18,11 +18,12 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from wmr_mission.output.result import Outcome, RunResult
 
 if TYPE_CHECKING:
+    from wmr_mission.sim.plant_side import PlantSide
     from wmr_mission.spec.loader import Override
     from wmr_mission.spec.models import Mission
 
@@ -70,12 +71,14 @@ def run_command(
     overrides: Sequence[str] = (),
     formats: Sequence[str] = ("png",),
     expected_environment: str | None = None,
+    backend: str | None = None,
 ) -> int:
     """Exit code: 0 success; 1 invalid mission or failed run; 2 unusable run
     directory; 130 or 143 stopped by SIGINT or SIGTERM (its record is written).
 
     ``overrides``: ``PATH=VALUE`` texts of ``--set``; ``formats``: figure formats;
-    ``expected_environment``: the fingerprint of ``--expect-environment``.
+    ``expected_environment``: the fingerprint of ``--expect-environment``;
+    ``backend``: the plant (``--backend``), else the mission's ``backend.type``.
     """
     if expected_environment is not None:
         _check_environment(expected_environment)
@@ -96,10 +99,32 @@ def run_command(
             if mission is None or source is None:
                 return EXIT_FAILED
             sha256 = hashlib.sha256(source).hexdigest()
-            return _run(mission, sha256, mission_path, out, seed, plots, animate, formats, received)
+            args = (mission, sha256, mission_path, out, seed, plots, animate, formats, received)
+            name = backend or mission.backend.type
+            if name == "sim":
+                return _run(*args)
+            return _run_on_backend(name, *args)
         except KeyboardInterrupt:
             print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
             return _signal_exit(received)
+
+
+def _run_on_backend(
+    name: str, mission: Mission, sha256: str, mission_path: Path, out: Path | None,
+    seed: int | None, *args: Any,
+) -> int:  # fmt: skip
+    """``_run`` with another plant than our simulator (wmr_mission.backends):
+    one line and exit 1 when it cannot be used (its extra missing, no robot)."""
+    from wmr_mission.backends import BackendError, open_backend
+    from wmr_mission.sim.plan import plan_mission
+
+    settings = mission.backend.model_copy(update={"type": name})
+    try:
+        with open_backend(name, plan_mission(mission, seed), settings) as plant:
+            return _run(mission, sha256, mission_path, out, seed, *args, plant=plant)
+    except BackendError as error:
+        print(f"{mission_path}: {error}", file=sys.stderr)
+        return EXIT_FAILED
 
 
 def _check_environment(expected: str) -> None:
@@ -127,6 +152,8 @@ def _run(
     animate: bool,
     formats: Sequence[str],
     received: list[int],
+    *,
+    plant: PlantSide | None = None,
 ) -> int:
     from wmr_mission.commands.background_compile import prepare
     from wmr_mission.output.report import format_table
@@ -142,7 +169,8 @@ def _run(
     from wmr_mission.sim.plan import plan_mission, sample_budget
 
     # Before any kernel is declared: plain Python while the loop is not compiled.
-    notice = prepare(sample_budget(mission))
+    # Another plant runs the loop as plain Python: nothing to compile.
+    notice = prepare(sample_budget(mission)) if plant is None else None
     if notice is not None:
         print(notice, file=sys.stderr)
     compiled = plan_mission(mission, seed)
@@ -162,7 +190,7 @@ def _run(
                 file=sys.stderr,
             )
         started = time.perf_counter()
-        result = _simulate(mission, seed, compiled.max_samples)
+        result = _simulate(mission, seed, compiled.max_samples, plant)
         wall_seconds = time.perf_counter() - started
     except MemoryError:
         release_run_dir(run_dir)
@@ -255,13 +283,15 @@ def _draw(
     return 0
 
 
-def _simulate(mission: Mission, seed: int | None, max_samples: int) -> RunResult:
+def _simulate(
+    mission: Mission, seed: int | None, max_samples: int, plant: PlantSide | None = None
+) -> RunResult:
     """Run with a progress bar on stderr (a terminal) when the run is longer than a moment."""
     from wmr_mission.output.progress import Steps
     from wmr_mission.sim.runner import run_mission
 
     if max_samples < 20_000 or not sys.stderr.isatty():
-        return run_mission(mission, seed=seed)
+        return run_mission(mission, seed=seed, plant=plant)
     name = mission.name
     steps = Steps(sys.stderr)
     steps.step(name, total=1000)
@@ -270,7 +300,7 @@ def _simulate(mission: Mission, seed: int | None, max_samples: int) -> RunResult
         steps.update(1000 * min(t / budget, 1.0), description=f"{name} [{phase}] t = {t:8.2f} s")
 
     try:
-        result = run_mission(mission, seed=seed, progress=progress)
+        result = run_mission(mission, seed=seed, progress=progress, plant=plant)
         steps.update(1000)
     finally:
         steps.close()

@@ -16,6 +16,7 @@ estimation RMS leave out a phase's first ``settle_time`` seconds.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -57,7 +58,11 @@ EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "max_constraint_violation": ("max_constraint_violation",),
     "estimation_convergence_time": ("estimation_convergence_time",),
     "duration": ("duration",),
+    "deadline_misses": ("realtime", "deadline_misses"),
+    "command_latency_p99": ("realtime", "latency_ms", "p99"),
 }
+# Thresholds on a real-time run's pace: not checked where the run was not one.
+REALTIME_EXPECTATIONS = ("deadline_misses", "command_latency_p99")
 # Per-phase `expect` key -> where its value lives in a phase's summary. A
 # mission-wide value applies to every phase; a phase's own value overrides it.
 PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
@@ -761,6 +766,9 @@ def _bounded_metrics(
         "final": _final(result, phase_segments(result.phase)),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
         "max_constraint_violation": _violation(result.constraint),
+        # A real-time run's pace and command latency (wmr_mission.backends); absent in
+        # our simulator, whose summary keeps its bytes.
+        **({} if result.realtime is None else {"realtime": copy.deepcopy(result.realtime)}),
     }
 
 
@@ -882,6 +890,7 @@ def check_expectations(
         _check(metric, None, float(expect[metric]["max"]), summary_value(summary, path))
         for metric, path in EXPECTATION_PATHS.items()
         if expect.get(metric) is not None
+        and (metric not in REALTIME_EXPECTATIONS or "realtime" in summary)
     ]
     per_phase = phase_expectations(mission)
     for phase in summary.get("phases") or []:

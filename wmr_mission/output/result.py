@@ -24,6 +24,7 @@ class Outcome(StrEnum):
     diverged = "diverged"  # non-finite or runaway state or input
     expect_failed = "expect-failed"  # ran to the end, an `expect` threshold not met
     interrupted = "interrupted"  # stopped by SIGINT or SIGTERM: the samples up to the stop
+    failed = "failed"  # the plant side stopped the run (a robot's measurements stopped)
 
 
 @dataclass(frozen=True)
@@ -106,6 +107,11 @@ class RunResult:
     # its `expect` judges the run; None for a run of a compiled mission.
     mission: dict[str, Any] | None = None
     loop_ns: int = 0
+    # A run on another plant (wmr_mission.backends): summary.json's `realtime`
+    # (deadline misses, command latency, the zero command at the end) and
+    # manifest.json's `backend` (its type, versions, settings). None in our simulator.
+    realtime: dict[str, Any] | None = None
+    backend: dict[str, Any] | None = None
     # summary.json's metrics and verdicts as ``output.metrics.judge`` found them
     # by ``mission``: computed once per run, for the file, the table and the API.
     # Not copied by ``dataclasses.replace``.

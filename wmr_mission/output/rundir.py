@@ -268,6 +268,8 @@ def manifest_record(
         # (one rebuilt from its directory carries no timing).
         "loop": loop_build() if result.loop_ns > 0 else None,
         "run": run_record(result),
+        # Another plant than our simulator: which, its versions and settings.
+        **({} if result.backend is None else {"backend": result.backend}),
     }
 
 

@@ -29,6 +29,7 @@ from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
+from wmr_mission.sim.plant_side import PlantSide, PlantStopped
 from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
 
@@ -191,6 +192,7 @@ def run_mission(
     seed: int | None = None,
     progress: ProgressCallback | None = None,
     substitutes: Mapping[Any, Callable[..., Any]] | None = None,
+    plant: PlantSide | None = None,
 ) -> RunResult:
     """Simulate ``mission`` and return every sample as arrays.
 
@@ -204,16 +206,36 @@ def run_mission(
     ``substitutes`` replaces kernels by functions of the same signature (the
     reference step, wmr_mission.sim.reference.REFERENCE): the loop then runs
     as plain Python.
+
+    ``plant``: a plant other than the loop's own (wmr_mission.sim.plant_side,
+    wmr_mission.backends); told to stop on every way out of the run.
     """
     if isinstance(mission, MissionPlan):
         plan = mission if seed is None else replace(mission, seed=seed)
-        return _Run(plan, progress, substitutes).run()
+        return _run(plan, progress, substitutes, plant)
     checked = validate_mission(mission)
-    result = _Run(plan_mission(checked, seed), progress, substitutes).run()
+    result = _run(plan_mission(checked, seed), progress, substitutes, plant)
     resolved = checked.model_dump(mode="json")
     resolved["sensors"]["seed"] = result.seed  # the mission as run
     result.mission = resolved
     judge(result, resolved)  # a success that misses an `expect` is not one
+    return result
+
+
+def _run(
+    plan: MissionPlan,
+    progress: ProgressCallback | None,
+    substitutes: Mapping[Any, Callable[..., Any]] | None,
+    plant: PlantSide | None,
+) -> RunResult:
+    if plant is None:
+        return _Run(plan, progress, substitutes).run()
+    try:
+        result = _Run(plan, progress, {**(substitutes or {}), **plant.substitutes()}, plant).run()
+    finally:
+        plant.stop()  # a zero command on every way out, before the record is made
+    result.realtime = plant.report()
+    result.backend = plant.describe()
     return result
 
 
@@ -229,8 +251,10 @@ class _Run:
         mission: MissionPlan,
         progress: ProgressCallback | None,
         substitutes: Mapping[Any, Callable[..., Any]] | None,
+        plant: PlantSide | None = None,
     ) -> None:
         m = self.m = mission
+        self.plant = plant
         self.progress = progress
         self.recorder = Recorder(min(m.max_samples, MAX_PRESIZED))
         self.transitions: list[Transition] = []
@@ -301,18 +325,21 @@ class _Run:
             return self._loop()
         except KeyboardInterrupt:  # SIGINT, or SIGTERM mapped to it by the command
             return self._interrupted()
+        except PlantStopped as stopped:  # the plant side's cause: measurements stopped
+            return self._interrupted(Outcome.failed, str(stopped))
 
-    def _interrupted(self) -> RunResult:
+    def _interrupted(
+        self, outcome: Outcome = Outcome.interrupted, cause: str = "interrupted"
+    ) -> RunResult:
         """The samples recorded up to the stop. A row is counted only once it is
         whole, so a stop inside a sample (pure Python) leaves no half row."""
         record = self.recorder.record
         last = self.recorder.count - 1
         active = self.phases[int(record.phase[last]) if last >= 0 else 0]
         t = round(float(record.floats[last, 0]), 9) if last >= 0 else 0.0
-        self.transitions.append(Transition(t, active.phase.name, None, "interrupted", math.nan))
-        return self._result(
-            Outcome.interrupted, f"interrupted in phase '{active.phase.name}' at t = {t:.6g} s"
-        )
+        condition = "interrupted" if outcome is Outcome.interrupted else "failed"
+        self.transitions.append(Transition(t, active.phase.name, None, condition, math.nan))
+        return self._result(outcome, f"{cause} in phase '{active.phase.name}' at t = {t:.6g} s")
 
     def _loop(self) -> RunResult:
         m = self.m
@@ -327,6 +354,8 @@ class _Run:
         if any(p.tracks_a_path for p in self.phases):
             scalar_math.load()
         self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
+        if self.plant is not None:
+            self.plant.start(signals.state)
         outcome = Outcome.success
         message = "all phases completed"
         budget = m.max_samples * dt

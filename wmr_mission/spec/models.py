@@ -59,6 +59,7 @@ from wmr_mission.fields import (
 from wmr_mission.geometry import paths
 from wmr_mission.geometry.paths import PATHS, PathSettings
 from wmr_mission.geometry.regions import RegionSpec
+from wmr_mission.spec.backend import Backend
 
 __all__ = [
     "ACTIONS",
@@ -680,6 +681,20 @@ class Expect(PhaseExpect):
         ),
     )
     duration: Threshold | None = Field(default=None, description="[s] mission time.")
+    deadline_misses: Threshold | None = Field(
+        default=None,
+        description=(
+            "Samples whose step ended after their deadline, in a real-time run (backend ros2); "
+            "not checked in a simulation."
+        ),
+    )
+    command_latency_p99: Threshold | None = Field(
+        default=None,
+        description=(
+            "[ms] 99th percentile of the time from reading a measurement to publishing the "
+            "command computed from it, in a real-time run; not checked in a simulation."
+        ),
+    )
 
 
 # --- figures ---------------------------------------------------------------
@@ -826,6 +841,9 @@ class Mission(Model):
     )
     expect: Expect = Field(default_factory=Expect, description="Acceptance thresholds.")
     plot: Plot = Field(default_factory=Plot, description="How the figures look.")
+    backend: Backend = Field(
+        default_factory=Backend, description="The plant: our simulator, IR-SIM or ROS 2."
+    )
 
     def path_context(self) -> paths.Context:
         """What the mission's paths may refer to: its regions and parameters."""

@@ -1,0 +1,33 @@
+"""A ROS 2 listener for tests/test_backends.py: prints "ready" once subscribed,
+and at SIGTERM the count of Twists heard on cmd_vel and the last one."""
+
+import signal
+import sys
+import threading
+
+import rclpy
+from geometry_msgs.msg import Twist
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+
+heard: list[tuple[float, float]] = []
+done = threading.Event()
+signal.signal(signal.SIGTERM, lambda *_: done.set())
+rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+node = rclpy.create_node("wmr_mission_test_listener")
+qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+node.create_subscription(Twist, "cmd_vel", lambda m: heard.append((m.linear.x, m.angular.z)), qos)
+executor = SingleThreadedExecutor()
+executor.add_node(node)
+spinner = threading.Thread(target=executor.spin, daemon=True)
+spinner.start()
+print("ready", flush=True)
+done.wait()
+executor.shutdown()
+spinner.join()
+v, omega = heard[-1] if heard else (float("nan"), float("nan"))
+print(f"heard {len(heard)} last {v!r} {omega!r}", flush=True)
+node.destroy_node()
+rclpy.try_shutdown()
+sys.exit(0)

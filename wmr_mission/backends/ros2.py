@@ -1,0 +1,248 @@
+"""ros2: a robot over ROS 2, in real time (docs/backends.md).
+
+Each sample: wait for the tick (every dt of wall clock, Pace), take the
+newest ``nav_msgs/Odometry`` from ``odom`` as the robot's pose and as the
+measurement (a dropout when older than ``stale_after``; the run stops,
+failed, when older than ``stop_after``), run the estimator and the controller,
+publish ``geometry_msgs/Twist`` on ``cmd_vel``. Whatever ends the run, a zero
+command is published first, and summary.json's ``realtime`` says so.
+
+rclpy's own signal handlers are left out (SignalHandlerOptions.NO): they
+would shut the context down on Ctrl-C before the zero command could go;
+SIGINT and SIGTERM stay the command's (wmr_mission.stopping).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Mapping
+from importlib import metadata
+from typing import Any, NamedTuple
+
+from wmr_mission.backends.realtime import Pace
+from wmr_mission.backends.registry import BackendError, missing
+from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.kernels import disturbances
+from wmr_mission.kernels.disturbances import Actuation, Sensing
+from wmr_mission.kernels.model import wrap_angle
+from wmr_mission.sim.plan import MissionPlan
+from wmr_mission.sim.plant_side import PlantStopped
+from wmr_mission.spec.backend import Backend
+
+
+class Pose(NamedTuple):
+    x: float
+    y: float
+    theta: float
+    received: float  # time.perf_counter() at arrival
+
+
+class Node:
+    """An rclpy node of its own context, spun by a thread."""
+
+    def __init__(self, name: str) -> None:
+        try:
+            import rclpy
+            from rclpy.executors import SingleThreadedExecutor
+            from rclpy.signals import SignalHandlerOptions
+        except ImportError as error:
+            raise missing("ros2", error) from None
+        self.rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._spinner = threading.Thread(target=self._spin, name=f"{name}-spin", daemon=True)
+        self._spinner.start()
+
+    def _spin(self) -> None:
+        with contextlib.suppress(Exception):  # the context shut down under it
+            self.executor.spin()
+
+    def qos(self, reliability: str, depth: int) -> Any:
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+        policy = ReliabilityPolicy.RELIABLE
+        if reliability == "best_effort":
+            policy = ReliabilityPolicy.BEST_EFFORT
+        return QoSProfile(depth=depth, reliability=policy)
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self._spinner.join()  # else the process can abort at exit
+        self.node.destroy_node()
+        self.rclpy.try_shutdown(context=self.context)
+
+
+def messages() -> tuple[Any, Any]:
+    """geometry_msgs/Twist and nav_msgs/Odometry."""
+    try:
+        from geometry_msgs.msg import Twist
+        from nav_msgs.msg import Odometry
+    except ImportError as error:
+        raise missing("ros2", error) from None
+    return Twist, Odometry
+
+
+def versions() -> dict[str, str]:
+    found = {}
+    for package in ("ros-rclpy", "ros-rmw-fastrtps-cpp"):
+        with contextlib.suppress(metadata.PackageNotFoundError):
+            found[package] = metadata.version(package)
+    try:
+        from rclpy.utilities import get_rmw_implementation_identifier
+
+        found["rmw"] = get_rmw_implementation_identifier()
+    except ImportError:  # pragma: no cover - an rclpy without it
+        pass
+    return found
+
+
+class Ros2Plant:
+    """A robot behind ``cmd_vel`` and ``odom`` in place of the loop's plant
+    and sensors (wmr_mission.sim.plant_side)."""
+
+    def __init__(self, plan: MissionPlan, settings: Backend) -> None:
+        Twist, Odometry = messages()
+        self.settings = settings
+        self.dt = plan.dt
+        self.pace = Pace(plan.dt)
+        self.latest: Pose | None = None
+        self.fresh = False
+        self.dropouts = 0
+        self.zero_sent = False
+        self._twist = Twist
+        self.ros = Node("wmr_mission")
+        node = self.ros.node
+        self.publisher = node.create_publisher(
+            Twist, settings.cmd_vel, self.ros.qos(settings.cmd_vel_reliability, 1)
+        )
+        node.create_subscription(
+            Odometry, settings.odom, self._on_odom, self.ros.qos(settings.odom_reliability, 5)
+        )
+
+    def _on_odom(self, message: Any) -> None:
+        pose = message.pose.pose
+        q = pose.orientation
+        theta = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        self.latest = Pose(pose.position.x, pose.position.y, theta, time.perf_counter())
+
+    def wait_for_robot(self) -> None:
+        """Until the first measurement, at most ``wait_for_robot`` seconds."""
+        limit = time.perf_counter() + self.settings.wait_for_robot
+        while self.latest is None:
+            if time.perf_counter() > limit:
+                raise BackendError(
+                    f"no measurement on '{self.settings.odom}' within "
+                    f"{self.settings.wait_for_robot:g} s: is the robot (or `wmr-mission "
+                    "serve-robot MISSION`) running, with the same ROS_DOMAIN_ID?"
+                )
+            time.sleep(0.01)
+
+    # --- wmr_mission.sim.plant_side.PlantSide ----------------------------------------
+
+    def substitutes(self) -> Mapping[Any, Callable[..., Any]]:
+        return {
+            disturbances.applied_input: self.command,
+            disturbances.plant_step: self.next_tick,
+            disturbances.sense: self.measure,
+        }
+
+    def start(self, state: FloatArray) -> None:
+        assert self.latest is not None
+        self._take_pose(state, self.latest)
+        self.pace.start()
+
+    def stop(self) -> None:
+        if self.zero_sent:
+            return
+        self.publisher.publish(self._twist())  # v = 0, omega = 0
+        self.zero_sent = True
+        print(f"ros2: zero command published on '{self.settings.cmd_vel}'", file=sys.stderr)
+
+    def report(self) -> dict[str, Any]:
+        return {
+            **self.pace.record(),
+            "dropouts": self.dropouts,
+            "zero_command_sent": self.zero_sent,
+        }
+
+    def describe(self) -> dict[str, Any]:
+        return {
+            "type": "ros2",
+            "versions": versions(),
+            "settings": self.settings.model_dump(mode="json", exclude={"type"}),
+        }
+
+    # --- the loop's plant and sensors, replaced ----------------------------------------
+
+    def command(
+        self, actuation: Actuation, k: int, u: FloatArray, commands: FloatArray, applied: FloatArray
+    ) -> None:
+        """u_k published (the robot applies it: its own delay and lag)."""
+        message = self._twist()
+        message.linear.x = float(u[0])
+        message.angular.z = float(u[1])
+        self.publisher.publish(message)
+        self.pace.commanded()
+        applied[0] = u[0]
+        applied[1] = u[1]
+
+    def next_tick(
+        self,
+        state: FloatArray,
+        applied: FloatArray,
+        dt: float,
+        actuation: Actuation,
+        draws: FloatArray,
+    ) -> None:
+        """The next tick; the robot's newest pose as the state recorded."""
+        self.pace.wait()
+        latest = self.latest
+        assert latest is not None
+        age = self.pace.tick - latest.received
+        if age > self.settings.stop_after:
+            raise PlantStopped(
+                f"measurements stopped: none on '{self.settings.odom}' for {age:.3g} s "
+                f"(stop_after {self.settings.stop_after:g} s)"
+            )
+        self.fresh = age <= self.settings.stale_after
+        self._take_pose(state, latest)
+
+    def measure(
+        self,
+        state: FloatArray,
+        k: int,
+        sensing: Sensing,
+        draws: FloatArray,
+        burst: IntArray,
+        measurement: FloatArray,
+    ) -> bool:
+        """The odometry as the measurement; a stale one is a dropout."""
+        if not self.fresh:
+            self.dropouts += 1
+            return False
+        measurement[:] = state
+        return True
+
+    @staticmethod
+    def _take_pose(state: FloatArray, pose: Pose) -> None:
+        state[0] = pose.x
+        state[1] = pose.y
+        state[2] = state[2] + wrap_angle(pose.theta - state[2])  # ours is not wrapped
+
+
+@contextlib.contextmanager
+def open_plant(plan: MissionPlan, settings: Backend) -> Iterator[Ros2Plant]:
+    plant = Ros2Plant(plan, settings)
+    try:
+        plant.wait_for_robot()
+        yield plant
+    finally:
+        plant.stop()
+        plant.ros.close()

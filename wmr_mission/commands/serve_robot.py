@@ -1,0 +1,39 @@
+"""``wmr-mission serve-robot MISSION``: the mission's plant and sensors as a
+ROS 2 robot, for ``run --backend ros2`` without a robot (docs/backends.md)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from wmr_mission.commands.run import EXIT_FAILED, STOP_SIGNALS
+
+
+def serve_robot_command(mission_path: Path, *, seed: int | None) -> int:
+    """Exit code: 1 invalid mission or ROS 2 missing; 130 or 143 when stopped
+    by SIGINT or SIGTERM, its way of ending."""
+    from wmr_mission.backends import BackendError
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.spec.loader import check_mission_bytes, read_source
+    from wmr_mission.stopping import StopSignals
+
+    with StopSignals(STOP_SIGNALS) as stop:
+        try:
+            source, diagnostics = read_source(mission_path)
+            mission = None
+            if source is not None:
+                mission, diagnostics = check_mission_bytes(source, str(mission_path), [])
+            for diagnostic in diagnostics:
+                print(diagnostic, file=sys.stderr)
+            if mission is None:
+                return EXIT_FAILED
+            from wmr_mission.backends.robot import serve
+
+            serve(plan_mission(mission, seed), mission.backend)
+        except BackendError as error:
+            print(f"{mission_path}: {error}", file=sys.stderr)
+            return EXIT_FAILED
+        except KeyboardInterrupt:
+            print(f"serve-robot: stopped by {stop.name}", file=sys.stderr)
+            return stop.exit_code
+    return 0

@@ -1,0 +1,68 @@
+"""The mission's `backend:` section: which plant runs the mission, and how a
+robot behind ROS 2 is reached (docs/backends.md)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from wmr_mission.fields import Duration, Model
+
+# A ROS 2 topic or frame name: letters, digits, '_' and '/' (relative or absolute).
+ROS_NAME = r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$"
+RosName = Annotated[str, Field(pattern=ROS_NAME, max_length=256)]
+Reliability = Literal["reliable", "best_effort"]
+
+
+class Backend(Model):
+    """Where the mission's plant is: our simulator, IR-SIM, or a robot over ROS 2."""
+
+    type: Literal["sim", "irsim", "ros2"] = Field(
+        default="sim",
+        description=(
+            "sim: our simulator (eq. (1), compiled); irsim: IR-SIM's differential-drive "
+            "robot as the true plant; ros2: a robot (or `wmr-mission serve-robot`) over ROS 2, "
+            "in real time. `run --backend` overrides it."
+        ),
+    )
+    cmd_vel: RosName = Field(
+        default="cmd_vel", description="ros2: topic of the commands (geometry_msgs/Twist)."
+    )
+    odom: RosName = Field(
+        default="odom", description="ros2: topic of the measurements (nav_msgs/Odometry)."
+    )
+    frame_id: RosName = Field(
+        default="odom", description="ros2: the odometry's frame (serve-robot publishes it)."
+    )
+    child_frame_id: RosName = Field(
+        default="base_link", description="ros2: the robot's frame (serve-robot publishes it)."
+    )
+    cmd_vel_reliability: Reliability = Field(
+        default="reliable",
+        description="ros2: QoS reliability of cmd_vel (reliable reaches either kind of reader).",
+    )
+    odom_reliability: Reliability = Field(
+        default="best_effort",
+        description="ros2: QoS reliability of odom (best_effort hears either kind of writer).",
+    )
+    stale_after: Duration = Field(
+        default=0.1, description="[s] ros2: an older measurement counts as a dropout."
+    )
+    stop_after: Duration = Field(
+        default=0.5,
+        description="[s] ros2: this long without a measurement, the run stops, failed.",
+    )
+    wait_for_robot: Duration = Field(
+        default=10.0,
+        description="[s] ros2: the longest wait for the first measurement before the run.",
+    )
+
+    @model_validator(mode="after")
+    def _stop_after_stale(self) -> Backend:
+        if self.stop_after <= self.stale_after:
+            raise ValueError(
+                f"stop_after ({self.stop_after:g} s) must be longer than "
+                f"stale_after ({self.stale_after:g} s)"
+            )
+        return self
