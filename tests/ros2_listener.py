@@ -1,5 +1,6 @@
 """A ROS 2 listener for tests/test_backends.py: prints "ready" once subscribed,
-and at SIGTERM the count of Twists heard on cmd_vel and the last one."""
+"first" when the first Twist on cmd_vel arrives, and at SIGTERM the count of
+Twists heard and the last one."""
 
 import signal
 import sys
@@ -17,7 +18,15 @@ signal.signal(signal.SIGTERM, lambda *_: done.set())
 rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
 node = rclpy.create_node("wmr_mission_test_listener")
 qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
-node.create_subscription(Twist, "cmd_vel", lambda m: heard.append((m.linear.x, m.angular.z)), qos)
+
+
+def hear(message: Twist) -> None:
+    heard.append((message.linear.x, message.angular.z))
+    if len(heard) == 1:
+        print("first", flush=True)
+
+
+node.create_subscription(Twist, "cmd_vel", hear, qos)
 executor = SingleThreadedExecutor()
 executor.add_node(node)
 spinner = threading.Thread(target=executor.spin, daemon=True)

@@ -9,6 +9,7 @@ import json
 import math
 import os
 import random
+import select
 import signal
 import subprocess
 import sys
@@ -213,11 +214,22 @@ def listener(env: dict[str, str]) -> contextlib.AbstractContextManager[subproces
     )
 
 
+def first_heard(process: subprocess.Popen[str], timeout: float = 60.0) -> None:
+    """Wait until the listener hears the run's first command: the run is under
+    way, however long its start and the discovery took on a busy machine."""
+    assert process.stdout is not None
+    ready, _, _ = select.select([process.stdout], [], [], timeout)
+    assert ready, f"no command heard within {timeout} s"
+    line = process.stdout.readline()
+    assert line.strip() == "first", line
+
+
 def last_heard(process: subprocess.Popen[str]) -> tuple[int, float, float]:
     """The listener stopped: how many commands it heard, and the last one."""
     process.send_signal(signal.SIGTERM)
     out, _ = process.communicate(timeout=10)
-    words = out.split()
+    [last] = [line for line in out.splitlines() if line.startswith("heard ")]
+    words = last.split()
     return int(words[1]), float(words[3]), float(words[4])
 
 
@@ -262,7 +274,8 @@ def test_robot_killed_mid_mission_stops_the_run_failed(
     out = tmp_path / "run"
     with robot(ros_env) as stand_in, listener(ros_env) as heard:
         done = run_ros2(out, ros_env)
-        time.sleep(2.0)  # discovery and a second of the mission
+        first_heard(heard)
+        time.sleep(1.0)  # a second of the mission
         stand_in.kill()
         _, stderr = done.communicate(timeout=30)
         count, v, omega = last_heard(heard)
@@ -284,7 +297,8 @@ def test_a_signal_sends_zero_and_keeps_the_samples(
     out = tmp_path / "run"
     with robot(ros_env), listener(ros_env) as heard:
         done = run_ros2(out, ros_env)
-        time.sleep(2.0)
+        first_heard(heard)
+        time.sleep(0.5)
         done.send_signal(stop)
         _, stderr = done.communicate(timeout=30)
         count, v, omega = last_heard(heard)
