@@ -341,3 +341,42 @@ def test_a_missing_extra_is_one_line_with_the_pip_command(tmp_path: Path) -> Non
         lines = done.stderr.strip().splitlines()
         assert len(lines) == 1, done.stderr
         assert lines[0].endswith(f"pip install 'wmr-mission[{name}]'")
+
+
+# A run whose measurement step fails at its 100th sample: the fault of a plant
+# side, or of anything between two samples.
+FAILING_RUN = """
+import sys
+from wmr_mission.backends import ros2
+from wmr_mission.cli import main
+
+measure = ros2.Ros2Plant.measure
+calls = [0]
+
+def failing(self, *arguments):
+    calls[0] += 1
+    if calls[0] == 100:
+        raise RuntimeError("the odometry driver broke")
+    return measure(self, *arguments)
+
+ros2.Ros2Plant.measure = failing
+sys.argv[0] = "wmr-mission"
+main()
+"""
+
+
+@needs_ros2
+def test_an_exception_in_the_run_sends_zero_first(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    out = tmp_path / "run"
+    with robot(ros_env), listener(ros_env) as heard:
+        done = subprocess.run(
+            [sys.executable, "-c", FAILING_RUN, "run", str(SHORT), "--backend", "ros2",
+             "--out", str(out), "--no-plots"],
+            env=ros_env, capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+        count, v, omega = last_heard(heard)
+    assert done.returncode != 0, done.stderr
+    assert "the odometry driver broke" in done.stderr
+    assert "zero command published on 'cmd_vel'" in done.stderr
+    assert count >= 99  # the commands before the fault, then the zero
+    assert (v, omega) == (0.0, 0.0)
