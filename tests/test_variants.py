@@ -178,7 +178,7 @@ def test_a_step_numba_cannot_compile_runs_in_a_plain_python_loop() -> None:
         tuning_record=LoggedTuning,
         tuning_of=lambda settings, plant: LoggedTuning(settings.speed),
         memory_size=0,
-        new_scratch=lambda: None,
+        new_scratch=lambda tuning: None,
         step=logged_step,
         compiles=False,
     )

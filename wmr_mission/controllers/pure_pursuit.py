@@ -126,6 +126,6 @@ CONTROLLER = ControllerType(
     tuning_record=PurePursuitTuning,
     tuning_of=tuning_of,
     memory_size=paper.MEMORY_SIZE,  # the paper's regulator's memory
-    new_scratch=scratch,
+    new_scratch=lambda tuning: scratch(),
     step=next_input,
 )

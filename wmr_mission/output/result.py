@@ -24,6 +24,7 @@ class Outcome(StrEnum):
     diverged = "diverged"  # non-finite or runaway state or input
     expect_failed = "expect-failed"  # ran to the end, an `expect` threshold not met
     interrupted = "interrupted"  # stopped by SIGINT or SIGTERM: the samples up to the stop
+    failed = "failed"  # a plug-in's code raised, or its step returned the wrong shape
 
 
 @dataclass(frozen=True)

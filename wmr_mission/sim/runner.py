@@ -27,8 +27,10 @@ from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
 from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
+from wmr_mission.plugins import PluginFailed, failure_message
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
+from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
 
@@ -208,7 +210,8 @@ def run_mission(
     if isinstance(mission, MissionPlan):
         plan = mission if seed is None else replace(mission, seed=seed)
         return _Run(plan, progress, substitutes).run()
-    checked = validate_mission(mission)
+    with importing_entries():  # a run imports its plug-ins
+        checked = validate_mission(mission)
     result = _Run(plan_mission(checked, seed), progress, substitutes).run()
     resolved = checked.model_dump(mode="json")
     resolved["sensors"]["seed"] = result.seed  # the mission as run
@@ -236,17 +239,34 @@ class _Run:
         self.transitions: list[Transition] = []
         self.phases = [PhaseRun(p, m, i) for i, p in enumerate(m.phases)]
         self.actuation, self.sensing = m.disturbances.records(m.dt, m.measured)
-        self.estimator_memory = m.estimator.new_memory(m.estimator_tuning, m.initial_estimate)
-        self.scratch = m.controller.new_scratch()
+        # A `type: python` plug-in: made here, for this run; an exception out
+        # of its code ends the run failed (PluginFailed), never the tool.
+        self.plugin = m.estimator.plugin or m.controller.plugin
+        self.failure: str | None = None
+        try:
+            self.estimator_memory = m.estimator.new_memory(m.estimator_tuning, m.initial_estimate)
+            self.scratch = m.controller.new_scratch(m.controller_tuning)
+        except Exception as error:
+            if not self.plugin:
+                raise
+            self.failure = f"making the plug-in raised {failure_message(error)}"
+            self.estimator_memory = self.scratch = None
         segment = bound_loop(m.estimator.step, m.controller.step)
         compiles = m.estimator.compiles and m.controller.compiles
+        if self.plugin and compiles and jit.compiling():
+            compiles = jit.typeable(self.estimator_memory, self.scratch)
         if not substitutes and compiles and jit.compiling():
             # A loop running a plug-in's kernels is compiled afresh in each
             # process: the cache's stamp covers the package's sources only.
             parts: list[Any] = [m.estimator.tuning_record, m.estimator.step]
             parts += [m.controller.tuning_record, m.controller.step]
-            cached = all(part.__module__.startswith("wmr_mission.") for part in parts)
-            self.segment: Callable[..., int] = jit.compiled(segment, counted=False, cached=cached)
+            cached = not self.plugin and all(
+                part.__module__.startswith("wmr_mission.") for part in parts
+            )
+            # A jitclass plug-in's objects are reference counted.
+            self.segment: Callable[..., int] = jit.compiled(
+                segment, counted=self.plugin, cached=cached
+            )
             self.ticks_are_ns = False
         else:
             self.segment = jit.plain(segment, substitutes)
@@ -276,7 +296,23 @@ class _Run:
 
     def _call(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
         m = self.m
-        status = int(
+        try:
+            status = self._segment(phase, path, draws, stop)
+        except Exception as error:
+            if not self.plugin:
+                raise
+            # The rows recorded are the samples done: the failed one is the next.
+            k = self.recorder.count
+            raise PluginFailed(
+                f"a plug-in failed at sample {k} (t = {_seconds(k, m.dt):.6g} s): "
+                f"{failure_message(error)}"
+            ) from error
+        self._returned_ns = time.perf_counter_ns()
+        return status
+
+    def _segment(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
+        m = self.m
+        return int(
             self.segment(
                 m.plant,
                 self.actuation,
@@ -293,14 +329,25 @@ class _Run:
                 stop,
             )
         )
-        self._returned_ns = time.perf_counter_ns()
-        return status
 
     def run(self) -> RunResult:
         try:
+            if self.failure is not None:
+                return self._failed(self.failure)
             return self._loop()
         except KeyboardInterrupt:  # SIGINT, or SIGTERM mapped to it by the command
             return self._interrupted()
+        except PluginFailed as failed:
+            return self._failed(str(failed))
+
+    def _failed(self, message: str) -> RunResult:
+        """A plug-in's failure: the samples done before it, outcome failed."""
+        record = self.recorder.record
+        last = self.recorder.count - 1
+        active = self.phases[int(record.phase[last]) if last >= 0 else 0]
+        t = _seconds(self.recorder.count, self.m.dt)
+        self.transitions.append(Transition(t, active.phase.name, None, "failed", math.nan))
+        return self._result(Outcome.failed, message)
 
     def _interrupted(self) -> RunResult:
         """The samples recorded up to the stop. A row is counted only once it is
