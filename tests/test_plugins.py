@@ -14,10 +14,10 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import plugin_examples
 import pytest
 from typer.testing import CliRunner
 
-import plugin_examples
 from wmr_mission.api import MissionError, mission_from_text, run_mission
 from wmr_mission.cli import app
 from wmr_mission.kernels.model import step, wrap_angle
