@@ -28,7 +28,10 @@ name: plugged
 robot: {{dt: 0.01, initial_state: {{x: 0.1, y: -0.1, theta: 0.5}}, limits: {{v: 5, omega: 10}}}}
 sensors: {{noise_std: {{x: 0.005, y: 0.005, theta: 0.005}}, period: 0.02, seed: 3}}
 estimator: {estimator}
-controller: {{type: python, entry: "plugin_examples:{controller}", params: {{x: 10, y: 64, theta: 16}}}}
+controller:
+  type: python
+  entry: "plugin_examples:{controller}"
+  params: {{x: 10, y: 64, theta: 16}}
 phases:
   - name: eight
     track: {{path: {{type: expression, x: "3*sin(0.5*t)", y: "3*sin(0.5*t)*cos(0.5*t)"}}}}
@@ -115,8 +118,12 @@ def _run(tmp_path: Path, text: str) -> tuple[int, str, dict[str, object] | None]
     return result.exit_code, result.stderr, written
 
 
-ENTRY_LINE = 6  # the controller's line in MISSION
-ENTRY_COLUMN = mission("plain").splitlines()[ENTRY_LINE - 1].index('"plugin_examples') + 1
+# Where the controller's entry is written in MISSION.
+ENTRY_LINE, ENTRY_COLUMN = next(
+    (number, line.index('"plugin_examples') + 1)
+    for number, line in enumerate(mission("plain").splitlines(), start=1)
+    if "entry:" in line
+)
 
 
 @pytest.mark.parametrize(
@@ -145,8 +152,9 @@ def test_an_entry_that_does_not_load_is_refused_at_its_position(
         run_mission(mission_from_text(text))
 
 
-def test_a_module_that_raises_on_import_is_refused_with_where(tmp_path: Path,
-                                                              monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+def test_a_module_that_raises_on_import_is_refused_with_where(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     (tmp_path / "exploding.py").write_text("x = 1\nraise ZeroDivisionError('at import')\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     text = mission("plain").replace("plugin_examples:plain", "exploding:make")
@@ -170,7 +178,8 @@ def test_validate_checks_an_entry_s_syntax_and_imports_it_only_when_asked(
     path.write_text(mission("plain").replace("plugin_examples:plain", "noisy:make"))
     validate = CliRunner().invoke(app, ["validate", str(path)])
     assert validate.exit_code == 0, validate.stderr
-    assert not marker.exists() and "noisy" not in sys.modules  # never imported
+    assert not marker.exists()  # never imported
+    assert "noisy" not in sys.modules
     checked = CliRunner().invoke(app, ["validate", "--check-entries", str(path)])
     assert checked.exit_code == 0, checked.stderr
     assert marker.exists()  # --check-entries imports it, as a run does
