@@ -189,8 +189,8 @@ def _controller_costs(plan: MissionPlan, repeat: int) -> list[dict[str, Any]]:
 
     plans = {}
     for controller in CONTROLLERS:
-        if not controller.step.__module__.startswith("wmr_mission."):
-            continue  # a plug-in's
+        if controller.plugin or not controller.step.__module__.startswith("wmr_mission."):
+            continue  # a plug-in's, or one registered from outside the package
         name = type_name(controller.settings)
         settings = controller.settings.model_validate({"type": name})  # its defaults
         tuning = controller.tuning_of(settings, plan.plant)
