@@ -137,11 +137,13 @@ def test_a_type_nobody_registered_is_refused_with_the_registered_ones() -> None:
         mission_from_text(MISSION, filename="toys.yaml")
     messages = [d.message for d in refused.value.diagnostics]
     assert any(
-        "unknown type 'toy-measured-pose'" in m and "constrained-observer, ekf" in m
+        "unknown type 'toy-measured-pose'" in m and "constrained-observer, ekf, python" in m
         for m in messages
     ), messages
     assert any(
-        m.endswith("unknown type 'toy-turns' (expected one of: paper, pure-pursuit, kanayama)")
+        m.endswith(
+            "unknown type 'toy-turns' (expected one of: paper, pure-pursuit, kanayama, python)"
+        )
         for m in messages
     ), messages
     # The fields of a type nobody registered are not reported one by one.

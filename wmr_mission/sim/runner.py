@@ -341,11 +341,20 @@ class _Run:
             return self._failed(str(failed))
 
     def _failed(self, message: str) -> RunResult:
-        """A plug-in's failure: the samples done before it, outcome failed."""
+        """A plug-in's failure: the samples done before it, outcome failed; a
+        failure at the first sample keeps the start (a run has a row)."""
+        m = self.m
+        t = _seconds(self.recorder.count, m.dt)  # the sample that failed
+        if self.recorder.count == 0:
+            nan = math.nan
+            _record_sample(
+                self.recorder.record, self.phases[0].enter(0, m.initial_estimate), 0.0,
+                m.initial_state[0], m.initial_state[1], m.initial_state[2], m.initial_estimate,
+                np.zeros(2), nan, nan, 0, np.full(3, nan),
+            )  # fmt: skip
         record = self.recorder.record
         last = self.recorder.count - 1
         active = self.phases[int(record.phase[last]) if last >= 0 else 0]
-        t = _seconds(self.recorder.count, self.m.dt)
         self.transitions.append(Transition(t, active.phase.name, None, "failed", math.nan))
         return self._result(Outcome.failed, message)
 
