@@ -147,3 +147,41 @@ class Blend:
 def blend(params: dict[str, float], setup: Any) -> Blend:
     CALLS.clear()
     return Blend(params["blend"], setup.dt, setup.initial_estimate)
+
+
+class Drawn:
+    """The same estimator without the record of its calls: plain and compiled."""
+
+    def __init__(self, blend: float, dt: float, x: Any) -> None:
+        self.blend = blend
+        self.dt = dt
+        self.x = x
+
+    def step(self, measurement: Any, applied: Any) -> tuple[float, float, float]:
+        x, y, theta = self.x[0], self.x[1], self.x[2]
+        v, omega = applied[0], applied[1]
+        h = 0.5 * self.dt * self.dt * v * omega
+        x, y, theta = (
+            x + self.dt * v * math.cos(theta) - h * math.sin(theta),
+            y + self.dt * v * math.sin(theta) + h * math.cos(theta),
+            theta + self.dt * omega,
+        )
+        if measurement is not None:
+            x += self.blend * (measurement[0] - x)
+            y += self.blend * (measurement[1] - y)
+            theta += self.blend * math.atan2(
+                math.sin(measurement[2] - theta), math.cos(measurement[2] - theta)
+            )
+        self.x[0], self.x[1], self.x[2] = x, y, theta
+        return x, y, theta
+
+
+CompiledDrawn = jitclass([("blend", float64), ("dt", float64), ("x", float64[:])])(Drawn)
+
+
+def drawn(params: dict[str, float], setup: Any) -> Drawn:
+    return Drawn(params["blend"], setup.dt, np.array(setup.initial_estimate))
+
+
+def compiled_drawn(params: dict[str, float], setup: Any) -> Any:
+    return CompiledDrawn(params["blend"], setup.dt, np.array(setup.initial_estimate))

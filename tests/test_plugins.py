@@ -107,6 +107,23 @@ def test_an_estimator_plug_in_gets_each_measurement_or_none() -> None:
     assert measured[1:].sum() > 100
 
 
+def test_a_plain_and_a_compiled_estimator_give_the_same_trajectory() -> None:
+    """The estimator's step in the compiled loop: None between measurements
+    and each measurement typed as numba compiles them."""
+    runs = {
+        entry: run_mission(mission_from_text(mission("plain", (
+            f'{{type: python, entry: "plugin_examples:{entry}", params: {{blend: 0.5}}}}'
+        ))))
+        for entry in ("drawn", "compiled_drawn", "blend")
+    }  # fmt: skip
+    for result in runs.values():
+        assert result.outcome.value == "success", result.message
+    for column in COLUMNS:
+        plain = getattr(runs["drawn"], column).tobytes()
+        assert getattr(runs["compiled_drawn"], column).tobytes() == plain, column
+        assert getattr(runs["blend"], column).tobytes() == plain, column  # checked above
+
+
 def _run(tmp_path: Path, text: str) -> tuple[int, str, dict[str, object] | None]:
     path = tmp_path / "plugged.yaml"
     path.write_text(text, encoding="utf-8")
@@ -221,3 +238,21 @@ def test_a_plug_in_that_fails_ends_the_run_failed_with_its_message_and_sample(
     # The samples done before it are kept; failed at the first, the start is.
     assert summary["samples"] == max(sample, 1)
     assert said in err
+
+
+def test_the_loop_is_compiled_for_a_jitclass_plug_in_only() -> None:
+    """What the runner asks before compiling the loop: numba can type a
+    jitclass plug-in's object, not a plain one's (then the loop is plain)."""
+    from wmr_mission.controllers.plugin import ControllerSetup
+    from wmr_mission.estimators.plugin import EstimatorSetup
+    from wmr_mission.kernels import jit
+
+    gains = {"x": 1.0, "y": 1.0, "theta": 1.0}
+    controller = ControllerSetup(0.01, 1.0, 1.0)
+    estimator = EstimatorSetup(0.01, (True, True, True), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0))
+    # With numba off (WMR_MISSION_NO_JIT=1) every loop is plain Python.
+    compiling = jit.compiling()
+    assert jit.typeable(plugin_examples.compiled(gains, controller)) == compiling
+    assert jit.typeable(plugin_examples.compiled_drawn({"blend": 0.5}, estimator)) == compiling
+    assert not jit.typeable(plugin_examples.plain(gains, controller))
+    assert not jit.typeable(plugin_examples.drawn({"blend": 0.5}, estimator))
