@@ -256,3 +256,34 @@ def test_the_loop_is_compiled_for_a_jitclass_plug_in_only() -> None:
     assert jit.typeable(plugin_examples.compiled_drawn({"blend": 0.5}, estimator)) == compiling
     assert not jit.typeable(plugin_examples.plain(gains, controller))
     assert not jit.typeable(plugin_examples.drawn({"blend": 0.5}, estimator))
+
+
+def test_a_campaign_runs_plug_ins_and_counts_one_that_fails(tmp_path: Path) -> None:
+    """Campaigns apply unchanged: the entry varies like any field, the workers
+    import the plug-in, and a failing one is a `failed` row, not a lost campaign."""
+    from wmr_mission import run_campaign
+
+    path = tmp_path / "plugged.yaml"
+    path.write_text(mission("plain"), encoding="utf-8")
+    campaign = tmp_path / "campaign.yaml"
+    campaign.write_text(
+        f"""version: 1
+name: plugged
+mission: {path}
+runs: 2
+seed: 5
+vary:
+  controller.entry: {{grid: ["plugin_examples:plain", "plugin_examples:gives_up"]}}
+""",
+        encoding="utf-8",
+    )
+    done = run_campaign(campaign, workers=2)
+    summary = done.summary
+    assert summary["outcomes"] == {"failed": 2, "success": 2}
+    cells = {cell["values"]["controller.entry"]: cell for cell in summary["cells"]}
+    assert cells["plugin_examples:plain"]["succeeded"] == 2
+    assert cells["plugin_examples:gives_up"]["succeeded"] == 0
+    rows = done.rows.to_dict("records") if hasattr(done.rows, "to_dict") else done.rows
+    for row in rows:
+        if row["outcome"] == "failed":
+            assert row["reason"].startswith("a plug-in failed at sample 25 (t = 0.25 s)")
