@@ -16,6 +16,7 @@
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
     python benchmarks/measure.py png        # Pillow writing case study 2's PNGs, per zlib level
     python benchmarks/measure.py checks     # checking campaigns of 10 000 values, and of 1 MB
+    python benchmarks/measure.py plugins    # Kanayama's law built in and as plug-ins, per sample
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -755,6 +756,47 @@ def checks(repeat: int = 3) -> None:
             )
 
 
+def plugins(repeat: int = 7) -> None:
+    """The whole loop per sample [us] on missions/figure-eight.yaml with
+    Kanayama's law built in (compiled), as a numba jitclass plug-in and as a
+    plain-Python plug-in (tests/plugin_examples.py), runs alternating in one
+    process after one untimed run each; medians."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from wmr_mission.api import load_mission
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
+
+    gains = {"x": 10, "y": 64, "theta": 16}
+    controllers = {
+        "built in (kanayama)": {"type": "kanayama"},
+        "jitclass plug-in": {
+            "type": "python",
+            "entry": "plugin_examples:compiled",
+            "params": gains,
+        },
+        "plain-Python plug-in": {
+            "type": "python",
+            "entry": "plugin_examples:plain",
+            "params": gains,
+        },
+    }
+    plans = {
+        name: plan_mission(load_mission(MISSIONS / "figure-eight.yaml", {"controller": settings}))
+        for name, settings in controllers.items()
+    }
+    for plan in plans.values():
+        run_mission(plan)  # loads or compiles
+    times: dict[str, list[float]] = {name: [] for name in plans}
+    for _ in range(repeat):
+        for name, plan in plans.items():
+            result = run_mission(plan)
+            times[name].append(result.loop_ns / result.samples / 1000.0)
+    built_in = statistics.median(times["built in (kanayama)"])
+    for name, us in times.items():
+        median = statistics.median(us)
+        print(f"{name:<22} {median:8.3f} us per sample ({median / built_in:6.1f}x built in)")
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
@@ -766,6 +808,7 @@ if __name__ == "__main__":
         "drawing": drawing,
         "png": png,
         "checks": checks,
+        "plugins": plugins,
     }
     if what not in jobs:
         print(__doc__, file=sys.stderr)

@@ -596,6 +596,7 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
     """Each row (mission checked once, compiled per run, judged on the run's
     metrics alone) is the run `run --set ... --seed` gives: its outcome, message,
     metrics and path, over case2-headings runs that succeed and that fail."""
+    from wmr_mission.campaign.comparison import comparison_metrics
     from wmr_mission.campaign.rows import METRICS, PATH_POINTS, run_row, simulate
     from wmr_mission.output.metrics import EXPECTATION_PATHS, summarize, summary_value
 
@@ -608,7 +609,11 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
         result, reason = simulate(loaded, draw)
         assert result is not None, reason
         summary = summarize(result, result.mission)
-        metrics = tuple(summary_value(summary, EXPECTATION_PATHS[m]) for m in METRICS)
+        metrics = (
+            *(summary_value(summary, path) for path in EXPECTATION_PATHS.values()),
+            *comparison_metrics(result, result.mission),
+        )
+        assert len(metrics) == len(METRICS)
         assert row.outcome == result.outcome.value
         assert row.reason == ("" if row.succeeded else result.message)
         assert row.metrics == metrics

@@ -137,12 +137,15 @@ def test_a_type_nobody_registered_is_refused_with_the_registered_ones() -> None:
         mission_from_text(MISSION, filename="toys.yaml")
     messages = [d.message for d in refused.value.diagnostics]
     assert any(
-        "unknown type 'toy-measured-pose'" in m and "constrained-observer, ekf" in m
+        "unknown type 'toy-measured-pose'" in m and "constrained-observer, ekf, python" in m
         for m in messages
     ), messages
-    assert any(m.endswith("unknown type 'toy-turns' (expected one of: paper)") for m in messages), (
-        messages
-    )
+    assert any(
+        m.endswith(
+            "unknown type 'toy-turns' (expected one of: paper, pure-pursuit, kanayama, python)"
+        )
+        for m in messages
+    ), messages
     # The fields of a type nobody registered are not reported one by one.
     assert not any("unknown field" in m for m in messages), messages
 
@@ -177,7 +180,7 @@ def test_a_step_numba_cannot_compile_runs_in_a_plain_python_loop() -> None:
         tuning_record=LoggedTuning,
         tuning_of=lambda settings, plant: LoggedTuning(settings.speed),
         memory_size=0,
-        new_scratch=lambda: None,
+        new_scratch=lambda tuning: None,
         step=logged_step,
         compiles=False,
     )

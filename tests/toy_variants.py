@@ -140,7 +140,7 @@ def controller_tuning(settings: Turns, plant: Plant) -> TurnsTuning:
     return TurnsTuning(float(settings.speed), float(settings.turn_rate), settings.turn_samples)
 
 
-def controller_scratch() -> TurnsScratch:
+def controller_scratch(tuning: TurnsTuning) -> TurnsScratch:
     return TurnsScratch(np.zeros(2))
 
 

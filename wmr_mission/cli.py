@@ -285,11 +285,18 @@ def validate(
         OutputFormat,
         typer.Option("--format", metavar="FORMAT", help="Report format: text or json."),
     ] = OutputFormat.text,
+    check_entries: Annotated[
+        bool,
+        typer.Option(
+            "--check-entries",
+            help="Also import each `type: python` entry (runs its module's code, as a run does).",
+        ),
+    ] = False,
 ) -> None:
     """Check mission and campaign files without running them (exit 0 all valid, 1 any invalid)."""
     from wmr_mission.commands.validate import validate_files
 
-    raise typer.Exit(validate_files(files, fmt=format.value))
+    raise typer.Exit(validate_files(files, fmt=format.value, check_entries=check_entries))
 
 
 @command

@@ -85,6 +85,8 @@ class Aggregate:
     drawn_failures: int = 0
     # grid cell (index of each grid axis' value) -> [runs, successes]
     cells: dict[tuple[int, ...], list[int]] = field(default_factory=dict)
+    # grid cell -> metric -> its values over the cell's runs (NaN: none)
+    cell_metrics: dict[tuple[int, ...], dict[str, list[float]]] = field(default_factory=dict)
 
     @property
     def paths(self) -> list[str]:
@@ -119,6 +121,9 @@ class Aggregate:
         counts = self.cells.setdefault(tuple(cell), [0, 0])
         counts[0] += 1
         counts[1] += row.succeeded
+        in_cell = self.cell_metrics.setdefault(tuple(cell), {})
+        for name, value in zip(METRICS, row.metrics, strict=True):
+            in_cell.setdefault(name, []).append(math.nan if value is None else value)
         entry = (_badness(row), row.run, row.seed, row.outcome, row.reason)
         if len(self.worst) < WORST_RUNS:
             heapq.heappush(self.worst, entry)
@@ -153,20 +158,7 @@ class Aggregate:
         ``metrics`` (per metric: p50, p95, p99, max over the runs that have it)."""
         runs, succeeded = self.runs, self.succeeded
         lo, hi = clopper_pearson(succeeded, runs)
-        metrics: dict[str, dict[str, float | None]] = {}
-        for name in METRICS:
-            values = np.asarray(self.metric_values.get(name, []), dtype=float)
-            values = values[np.isfinite(values)]
-            if values.size == 0:
-                metrics[name] = {"p50": None, "p95": None, "p99": None, "max": None}
-                continue
-            p50, p95, p99 = np.percentile(values, [50, 95, 99])
-            metrics[name] = {
-                "p50": float(p50),
-                "p95": float(p95),
-                "p99": float(p99),
-                "max": float(values.max()),
-            }
+        metrics = _percentiles(self.metric_values)
         return {
             "runs": runs,
             "succeeded": succeeded,
@@ -194,6 +186,26 @@ class Aggregate:
                     "succeeded": succeeded,
                     "success_rate": succeeded / runs,
                     "success_interval": [lo, hi],
+                    "metrics": _percentiles(self.cell_metrics[cell]),
                 }
             )
         return table
+
+
+def _percentiles(metric_values: dict[str, list[float]]) -> dict[str, dict[str, float | None]]:
+    """Per metric: p50, p95, p99 and max over the runs that have it."""
+    metrics: dict[str, dict[str, float | None]] = {}
+    for name in METRICS:
+        values = np.asarray(metric_values.get(name, []), dtype=float)
+        values = values[np.isfinite(values)]
+        if values.size == 0:
+            metrics[name] = {"p50": None, "p95": None, "p99": None, "max": None}
+            continue
+        p50, p95, p99 = np.percentile(values, [50, 95, 99])
+        metrics[name] = {
+            "p50": float(p50),
+            "p95": float(p95),
+            "p99": float(p99),
+            "max": float(values.max()),
+        }
+    return metrics

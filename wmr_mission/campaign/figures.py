@@ -1,5 +1,6 @@
 """Figures of a campaign: every trajectory over the regions, metric histograms,
-success over the varied axes (a heat map for two)."""
+success over the varied axes (a heat map for two), and each cell of the grid
+side by side (a head-to-head of controllers or estimators)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ from typing import Any, Final
 
 import numpy as np
 
-from wmr_mission.campaign.aggregate import DRAWN_PATHS, Aggregate
+from wmr_mission.campaign.aggregate import DRAWN_PATHS, Aggregate, clopper_pearson, value_label
+from wmr_mission.campaign.comparison import COMPARISON_METRICS
 from wmr_mission.campaign.coverage import runs_per_pixel
 from wmr_mission.campaign.rows import METRICS
 from wmr_mission.output.figures import draw_regions, new_figure, region_extent, save_figure
@@ -35,6 +37,9 @@ def draw_campaign(
     success = _success_over_axes(aggregate)
     if success is not None:
         figures["success"] = success
+    compared = _side_by_side(aggregate)
+    if compared is not None:
+        figures["comparison"] = compared
     written = []
     for name, figure in figures.items():
         for fmt in formats:
@@ -202,4 +207,53 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
         _label_axis(aggregate, axes[0], ax.xaxis)
         _label_axis(aggregate, axes[1], ax.yaxis)
         ax.set_title("Success rate over two varied axes")
+    return fig
+
+
+def _side_by_side(aggregate: Aggregate) -> Any | None:
+    """Each grid cell side by side: its success rate with its 95 % interval
+    (Clopper-Pearson), and the median and 5-95 % range of the comparison
+    metrics over its runs (wmr_mission.campaign.comparison)."""
+    grid = [(path, axis.grid) for path, axis in aggregate.axes.items() if axis.grid is not None]
+    cells = sorted(aggregate.cells)
+    if not grid or len(cells) < 2:
+        return None
+    names = [
+        "/".join(value_label(values[i]) for (_, values), i in zip(grid, cell, strict=True))
+        for cell in cells
+    ]
+    names = [name.replace("$", r"\$") for name in names]  # data, never parsed as math
+    positions = np.arange(len(cells))
+    panels = ("success rate", *COMPARISON_METRICS)
+    fig = new_figure((3.2 * len(panels), 0.9 + 0.32 * len(cells)))
+    for index, panel in enumerate(panels):
+        ax = fig.add_subplot(1, len(panels), index + 1)
+        if panel == "success rate":
+            rates, low, high = [], [], []
+            for cell in cells:
+                runs, succeeded = aggregate.cells[cell]
+                lo, hi = clopper_pearson(succeeded, runs)
+                rates.append(succeeded / runs)
+                low.append(succeeded / runs - lo)
+                high.append(hi - succeeded / runs)
+            ax.barh(positions, rates, xerr=[low, high], color=_SUCCESS_COLOR, capsize=3)
+            ax.set_xlim(0, 1.05)
+        else:
+            smallest = np.inf
+            for y, cell in zip(positions, cells, strict=True):
+                values = np.asarray(aggregate.cell_metrics[cell].get(panel, []), dtype=float)
+                values = values[np.isfinite(values)]
+                if values.size == 0:
+                    continue
+                lo, median, hi = np.percentile(values, [5, 50, 95])
+                smallest = min(smallest, lo)
+                ax.plot([lo, hi], [y, y], color=_SUCCESS_COLOR, linewidth=2)
+                ax.plot([median], [y], "o", color="black", markersize=4)
+            if 0.0 < smallest < np.inf:  # cells apart by orders of magnitude
+                ax.set_xscale("log")
+        ax.set_title(panel, fontsize=9)
+        ax.set_yticks(positions, names if index == 0 else [""] * len(cells), fontsize=8)
+        ax.invert_yaxis()
+        ax.grid(axis="x", alpha=0.3)
+    fig.subplots_adjust(left=0.18, right=0.99, bottom=0.12, top=0.85, wspace=0.15)
     return fig

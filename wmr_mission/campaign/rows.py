@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
+from wmr_mission.campaign.comparison import COMPARISON_METRICS, comparison_metrics
 from wmr_mission.campaign.load import LoadedCampaign, override, value_text
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
@@ -45,9 +46,10 @@ the 4 std that `validate` checked)."""
 ERROR: Final = "error"
 """Outcome of a run that raised an exception: a bug, reported with the run's replay."""
 
-# The run's metrics, computed by the code that writes summary.json: every
-# metric an `expect` can bound.
-METRICS: Final = tuple(EXPECTATION_PATHS)
+# The run's metrics: every metric an `expect` can bound, computed by the code
+# that writes summary.json, then how the robot was driven (a head-to-head's
+# figures, wmr_mission.campaign.comparison).
+METRICS: Final = (*EXPECTATION_PATHS, *COMPARISON_METRICS)
 
 # Points kept of each run's path for the campaign's trajectory figure.
 PATH_POINTS: Final = 600
@@ -159,8 +161,12 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     if mission is None:
         return _not_run(draw, INVALID, reason)
     result = _uninterrupted(run_mission(plan_mission(mission, draw.seed)))
-    summary = judge_run_metrics(result, mission.model_dump(mode="json"))
-    metrics = tuple(summary_value(summary, EXPECTATION_PATHS[name]) for name in METRICS)
+    summary_mission = mission.model_dump(mode="json")
+    summary = judge_run_metrics(result, summary_mission)
+    metrics = (
+        *(summary_value(summary, path) for path in EXPECTATION_PATHS.values()),
+        *comparison_metrics(result, summary_mission),
+    )
     step = max(1, math.ceil(result.samples / PATH_POINTS))
     path_xy = np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
     reason = "" if result.outcome is Outcome.success else result.message

@@ -56,6 +56,7 @@ from wmr_mission.output.rundir import (
     release_run_dir,
     write_run,
 )
+from wmr_mission.spec.checks import importing_entries
 from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
@@ -610,7 +611,8 @@ def run_campaign(
     if scheduler is not None and not isinstance(scheduler, str):
         raise TypeError(f"scheduler is an address such as 'tcp://host:8786', got {scheduler!r}")
     used = usable_workers(workers)
-    loaded = load_campaign(campaign)
+    with importing_entries():  # a campaign's runs import the mission's plug-ins
+        loaded = load_campaign(campaign)
     if scheduler is not None:
         reach_scheduler(scheduler)
     out_dir, manifest = (

@@ -143,11 +143,15 @@ def warm_up_missions() -> list[Mission]:
     every mission."""
     from wmr_mission.controllers import CONTROLLERS
     from wmr_mission.estimators import ESTIMATORS
+    from wmr_mission.fields import type_name
     from wmr_mission.spec.loader import Override, check_mission_bytes
 
+    # A plug-in's loop is compiled for the user's code, never cached: none here.
+    estimators = [type_name(e.settings) for e in ESTIMATORS if not e.plugin]
+    controllers = [type_name(c.settings) for c in CONTROLLERS if not c.plugin]
     missions = []
-    for estimator in ESTIMATORS.names():
-        for controller in CONTROLLERS.names():
+    for estimator in estimators:
+        for controller in controllers:
             overrides = [
                 Override(("estimator", "type"), estimator, f"estimator.type={estimator}"),
                 Override(("controller", "type"), controller, f"controller.type={controller}"),

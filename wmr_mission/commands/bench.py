@@ -14,6 +14,10 @@ plots. Two figures per sample are compared:
 A mission with disturbances (wmr_mission.kernels.disturbances) is also timed without
 them: the whole loop per sample with and without, in the same process.
 
+The built-in controllers (wmr_mission.controllers) are timed on the same
+mission in place of its own: the whole loop per sample with each, runs
+alternating, and its ratio to the paper's controller.
+
 A first untimed run takes the one-off cost of loading or compiling the kernels.
 The reference step runs with BLAS limited to one thread: its matrices are
 3x3, so BLAS threads only add waiting (on a busy machine, milliseconds per
@@ -22,6 +26,7 @@ call), which would flatter the ratio.
 
 from __future__ import annotations
 
+import math
 import sys
 from contextlib import AbstractContextManager
 from dataclasses import replace
@@ -146,6 +151,7 @@ def bench_mission(mission: Mission | MissionPlan, repeat: int) -> dict[str, Any]
         "loop": _loop_row(loops, reference),
         "paper_us_per_sample": dict(PAPER_US_PER_SAMPLE),
         "disturbances": _disturbance_cost(plan, loops, repeat),
+        "controllers": _controller_costs(plan, repeat),
     }
 
 
@@ -172,6 +178,36 @@ def _disturbance_cost(
     with_us = float(np.median(loops))
     without_us = float(np.median(without))
     return {"with_us": with_us, "without_us": without_us, "ratio": with_us / without_us}
+
+
+def _controller_costs(plan: MissionPlan, repeat: int) -> list[dict[str, Any]]:
+    """Whole-loop wall time per sample [us] of ``plan`` with each built-in
+    controller at its default settings, runs alternating between them (one
+    untimed run each first), and its ratio to the paper's controller's."""
+    from wmr_mission.controllers import CONTROLLERS
+    from wmr_mission.fields import type_name
+
+    plans = {}
+    for controller in CONTROLLERS:
+        if controller.plugin or not controller.step.__module__.startswith("wmr_mission."):
+            continue  # a plug-in's, or one registered from outside the package
+        name = type_name(controller.settings)
+        settings = controller.settings.model_validate({"type": name})  # its defaults
+        tuning = controller.tuning_of(settings, plan.plant)
+        plans[name] = replace(plan, controller=controller, controller_tuning=tuning)
+    for each in plans.values():
+        _whole(run_mission(each))  # loads or compiles its loop
+    times: dict[str, list[float]] = {name: [] for name in plans}
+    for _ in range(repeat):
+        for name, each in plans.items():
+            result = _whole(run_mission(each))
+            times[name].append(result.loop_ns / result.samples / 1000.0)
+    medians = {name: float(np.median(us)) for name, us in times.items()}
+    paper = medians.get("paper", math.nan)
+    return [
+        {"controller": name, "loop_us": us, "ratio_to_paper": us / paper}
+        for name, us in medians.items()
+    ]
 
 
 def _loop_row(ours_us: list[float], reference: RunResult) -> dict[str, float]:
@@ -256,6 +292,14 @@ def format_report(numbers: dict[str, Any], source: str) -> str:
         lines.append(
             f"whole loop per sample with the mission's disturbances: {cost['with_us']:.3g} us, "
             f"without them: {cost['without_us']:.3g} us ({cost['ratio']:.2f}x)"
+        )
+    if numbers["controllers"]:
+        lines.append(
+            "whole loop per sample with each built-in controller in place of the mission's: "
+            + ", ".join(
+                f"{c['controller']} {c['loop_us']:.3g} us ({c['ratio_to_paper']:.2f}x paper)"
+                for c in numbers["controllers"]
+            )
         )
     if not numbers["same_trajectory"]:
         lines.append("warning: the reference step ran a different trajectory (beyond 1e-6 m)")

@@ -82,6 +82,7 @@ def run_command(
     """
     if expected_environment is not None:
         _check_environment(expected_environment)
+    from wmr_mission.spec.checks import importing_entries
     from wmr_mission.spec.loader import check_mission_bytes, read_source
 
     with _stop_signals() as received:
@@ -93,7 +94,8 @@ def run_command(
             source, diagnostics = read_source(mission_path)
             mission = None
             if source is not None:
-                mission, diagnostics = check_mission_bytes(source, str(mission_path), parsed)
+                with importing_entries():  # a run imports its plug-ins
+                    mission, diagnostics = check_mission_bytes(source, str(mission_path), parsed)
             for diagnostic in diagnostics:  # warnings too, as `validate` prints them
                 print(diagnostic, file=sys.stderr)
             if mission is None or source is None:

@@ -5,10 +5,12 @@ from __future__ import annotations
 import json
 import sys
 from collections.abc import Sequence
+from contextlib import nullcontext
 from dataclasses import asdict
 from pathlib import Path
 from typing import Literal
 
+from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import Diagnostic
 
 __all__ = ["validate_files"]
@@ -45,10 +47,14 @@ def mission_files(paths: Sequence[Path]) -> tuple[list[Path], list[Diagnostic]]:
     return files, problems
 
 
-def validate_files(paths: Sequence[Path], fmt: Literal["text", "json"] | str = "text") -> int:
+def validate_files(
+    paths: Sequence[Path], fmt: Literal["text", "json"] | str = "text", check_entries: bool = False
+) -> int:
     """Check every file; 0 when all are valid (warnings allowed), 1 otherwise.
 
-    A directory stands for every ``*.yaml`` below it.
+    A directory stands for every ``*.yaml`` below it. A ``type: python``
+    entry is checked for its syntax only, unless ``check_entries``: then it
+    is imported, as a run imports it (its module's code runs).
 
     text: each diagnostic as ``FILE:LINE:COL: message`` on stderr and one
     ``FILE: ok`` (or a count) line per file on stdout. json: one document on
@@ -63,7 +69,8 @@ def validate_files(paths: Sequence[Path], fmt: Literal["text", "json"] | str = "
     for path in files:
         from wmr_mission.campaign.load import check_file  # a mission or a campaign
 
-        diagnostics = check_file(path)
+        with importing_entries() if check_entries else nullcontext():
+            diagnostics = check_file(path)
         valid = not any(d.severity == "error" for d in diagnostics)
         all_valid = all_valid and valid
         reports.append((str(path), valid, diagnostics))

@@ -547,6 +547,6 @@ CONTROLLER = ControllerType(
     tuning_record=PaperTuning,
     tuning_of=tuning_of,
     memory_size=MEMORY_SIZE,
-    new_scratch=scratch,
+    new_scratch=lambda tuning: scratch(),
     step=next_input,
 )

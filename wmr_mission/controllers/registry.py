@@ -8,8 +8,9 @@ A controller type is one module holding
   by ``tuning_of(settings, plant)``, which its kernel reads; the type of this
   record says which step a loop was compiled for;
 * ``memory_size``: how many numbers it carries from sample to sample within a
-  phase (the runner zeroes them at each phase's entry), and ``new_scratch()``:
-  the arrays it works in (any ``NamedTuple`` of arrays);
+  phase (the runner zeroes them at each phase's entry), and
+  ``new_scratch(tuning)``: what it works in, made for each run (any
+  ``NamedTuple`` of arrays, or of a plug-in's objects);
 * its control law, a kernel (wmr_mission.kernels.jit): ``step(tuning, phase,
   aim_now, aim, estimate, estimate_prev, u_prev, plant, memory, scratch, u)``
   writes u_k = (v, omega) into ``u``. ``phase`` is the phase as the loop runs
@@ -49,11 +50,15 @@ class ControllerType:
     tuning_record: type[NamedTuple]
     tuning_of: Callable[[Any, Plant], Any]
     memory_size: int
-    new_scratch: Callable[[], Any]
+    new_scratch: Callable[[Any], Any]
     step: Callable[..., None]
     # False for a step numba cannot compile (plain Python objects): a mission
     # naming it runs its loop as plain Python.
     compiles: bool = True
+    # True for a type that runs code the mission names (``type: python``): its
+    # loop is compiled only when numba can type the plug-in, never cached, and
+    # an exception out of it ends the run ``failed`` (wmr_mission.sim.runner).
+    plugin: bool = False
 
 
 CONTROLLERS: Registry[ControllerType] = Registry("controller", default=DEFAULT)

@@ -58,6 +58,7 @@ class Measurements:
 
     mask: FloatArray  # 1.0 for each measured state (x, y, theta)
     noise_std: FloatArray  # [m, m, rad]
+    dt: float  # [s] the sampling period
 
 
 def no_error_bounds(tuning: Any) -> tuple[tuple[float, float], ...]:
@@ -80,6 +81,10 @@ class EstimatorType:
     # False for a step numba cannot compile (plain Python objects): a mission
     # naming it runs its loop as plain Python.
     compiles: bool = True
+    # True for a type that runs code the mission names (``type: python``): its
+    # loop is compiled only when numba can type the plug-in, never cached, and
+    # an exception out of it ends the run ``failed`` (wmr_mission.sim.runner).
+    plugin: bool = False
 
 
 ESTIMATORS: Registry[EstimatorType] = Registry("estimator", default=DEFAULT)

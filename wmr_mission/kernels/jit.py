@@ -208,6 +208,20 @@ def compiled(fn: F, *, counted: bool = True, cached: bool = True) -> F:
         return cast(F, _state.entries[key])
 
 
+def typeable(*values: Any) -> bool:
+    """Whether numba can pass each of ``values`` into compiled code (a plug-in's
+    objects: a numba ``@jitclass`` instance can be, a plain Python object
+    cannot); False when not compiling."""
+    if not load():
+        return False
+    for value in values:
+        try:
+            _state.numba.typeof(value)
+        except (ValueError, TypeError):
+            return False
+    return True
+
+
 def _accepts_nrt_option() -> bool:
     """Whether this numba knows ``_nrt``: an unknown option would only fail at
     the first call, as a KeyError out of the compiler."""

@@ -24,7 +24,9 @@ class Outcome(StrEnum):
     diverged = "diverged"  # non-finite or runaway state or input
     expect_failed = "expect-failed"  # ran to the end, an `expect` threshold not met
     interrupted = "interrupted"  # stopped by SIGINT or SIGTERM: the samples up to the stop
-    failed = "failed"  # the plant side stopped the run (a robot's measurements stopped)
+    # the plant side stopped the run (a robot's measurements stopped), or a
+    # plug-in's code raised, or its step returned the wrong shape
+    failed = "failed"
 
 
 @dataclass(frozen=True)

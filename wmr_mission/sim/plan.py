@@ -289,7 +289,9 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         noise_std=noise_std,
         seed=sensors.seed if seed is None else seed,
         estimator=estimator,
-        estimator_tuning=estimator.tuning_of(mission.estimator, Measurements(measured, noise_std)),
+        estimator_tuning=estimator.tuning_of(
+            mission.estimator, Measurements(measured, noise_std, dt)
+        ),
         controller=controller,
         controller_tuning=controller.tuning_of(mission.controller, plant),
         phases=_phases(mission, dt),

@@ -27,9 +27,11 @@ from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
 from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
+from wmr_mission.plugins import PluginFailed, failure_message
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
 from wmr_mission.sim.plant_side import PlantSide, PlantStopped
+from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
 
@@ -213,7 +215,8 @@ def run_mission(
     if isinstance(mission, MissionPlan):
         plan = mission if seed is None else replace(mission, seed=seed)
         return _run(plan, progress, substitutes, plant)
-    checked = validate_mission(mission)
+    with importing_entries():  # a run imports its plug-ins
+        checked = validate_mission(mission)
     result = _run(plan_mission(checked, seed), progress, substitutes, plant)
     resolved = checked.model_dump(mode="json")
     resolved["sensors"]["seed"] = result.seed  # the mission as run
@@ -260,17 +263,34 @@ class _Run:
         self.transitions: list[Transition] = []
         self.phases = [PhaseRun(p, m, i) for i, p in enumerate(m.phases)]
         self.actuation, self.sensing = m.disturbances.records(m.dt, m.measured)
-        self.estimator_memory = m.estimator.new_memory(m.estimator_tuning, m.initial_estimate)
-        self.scratch = m.controller.new_scratch()
+        # A `type: python` plug-in: made here, for this run; an exception out
+        # of its code ends the run failed (PluginFailed), never the tool.
+        self.plugin = m.estimator.plugin or m.controller.plugin
+        self.failure: str | None = None
+        try:
+            self.estimator_memory = m.estimator.new_memory(m.estimator_tuning, m.initial_estimate)
+            self.scratch = m.controller.new_scratch(m.controller_tuning)
+        except Exception as error:
+            if not self.plugin:
+                raise
+            self.failure = f"making the plug-in raised {failure_message(error)}"
+            self.estimator_memory = self.scratch = None
         segment = bound_loop(m.estimator.step, m.controller.step)
         compiles = m.estimator.compiles and m.controller.compiles
+        if self.plugin and compiles and jit.compiling():
+            compiles = jit.typeable(self.estimator_memory, self.scratch)
         if not substitutes and compiles and jit.compiling():
             # A loop running a plug-in's kernels is compiled afresh in each
             # process: the cache's stamp covers the package's sources only.
             parts: list[Any] = [m.estimator.tuning_record, m.estimator.step]
             parts += [m.controller.tuning_record, m.controller.step]
-            cached = all(part.__module__.startswith("wmr_mission.") for part in parts)
-            self.segment: Callable[..., int] = jit.compiled(segment, counted=False, cached=cached)
+            cached = not self.plugin and all(
+                part.__module__.startswith("wmr_mission.") for part in parts
+            )
+            # A jitclass plug-in's objects are reference counted.
+            self.segment: Callable[..., int] = jit.compiled(
+                segment, counted=self.plugin, cached=cached
+            )
             self.ticks_are_ns = False
         else:
             self.segment = jit.plain(segment, substitutes)
@@ -300,7 +320,23 @@ class _Run:
 
     def _call(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
         m = self.m
-        status = int(
+        try:
+            status = self._segment(phase, path, draws, stop)
+        except Exception as error:
+            if not self.plugin:
+                raise
+            # The rows recorded are the samples done: the failed one is the next.
+            k = self.recorder.count
+            raise PluginFailed(
+                f"a plug-in failed at sample {k} (t = {_seconds(k, m.dt):.6g} s): "
+                f"{failure_message(error)}"
+            ) from error
+        self._returned_ns = time.perf_counter_ns()
+        return status
+
+    def _segment(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
+        m = self.m
+        return int(
             self.segment(
                 m.plant,
                 self.actuation,
@@ -317,16 +353,36 @@ class _Run:
                 stop,
             )
         )
-        self._returned_ns = time.perf_counter_ns()
-        return status
 
     def run(self) -> RunResult:
         try:
+            if self.failure is not None:
+                return self._failed(self.failure)
             return self._loop()
         except KeyboardInterrupt:  # SIGINT, or SIGTERM mapped to it by the command
             return self._interrupted()
         except PlantStopped as stopped:  # the plant side's cause: measurements stopped
             return self._interrupted(Outcome.failed, str(stopped))
+        except PluginFailed as failed:
+            return self._failed(str(failed))
+
+    def _failed(self, message: str) -> RunResult:
+        """A plug-in's failure: the samples done before it, outcome failed; a
+        failure at the first sample keeps the start (a run has a row)."""
+        m = self.m
+        t = _seconds(self.recorder.count, m.dt)  # the sample that failed
+        if self.recorder.count == 0:
+            nan = math.nan
+            _record_sample(
+                self.recorder.record, self.phases[0].enter(0, m.initial_estimate), 0.0,
+                m.initial_state[0], m.initial_state[1], m.initial_state[2], m.initial_estimate,
+                np.zeros(2), nan, nan, 0, np.full(3, nan),
+            )  # fmt: skip
+        record = self.recorder.record
+        last = self.recorder.count - 1
+        active = self.phases[int(record.phase[last]) if last >= 0 else 0]
+        self.transitions.append(Transition(t, active.phase.name, None, "failed", math.nan))
+        return self._result(Outcome.failed, message)
 
     def _interrupted(
         self, outcome: Outcome = Outcome.interrupted, cause: str = "interrupted"

@@ -9,6 +9,8 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Final, Literal
 
@@ -18,8 +20,10 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray, whole_samples
 from wmr_mission.controllers import paper
 from wmr_mission.controllers.paper import PaperController
+from wmr_mission.controllers.plugin import PythonController
 from wmr_mission.estimators.ekf import Ekf
 from wmr_mission.estimators.observer import BOUND_NOISE_RATIO, ConstrainedObserver
+from wmr_mission.estimators.plugin import PythonEstimator
 from wmr_mission.geometry import paths
 from wmr_mission.geometry.paths.coverage import CoveragePath
 from wmr_mission.geometry.paths.ellipse import EllipsePath
@@ -35,6 +39,7 @@ from wmr_mission.geometry.regions import (
     is_convex,
     region_value,
 )
+from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec.models import (
     HoldPhase,
     Mission,
@@ -81,9 +86,37 @@ class Finding:
     position: tuple[int, int] | None = None
 
 
+# Whether the checks import the `type: python` entries: only for a run and
+# for `validate --check-entries` (importing runs the module's code).
+_IMPORTING_ENTRIES: ContextVar[bool] = ContextVar("importing_entries", default=False)
+
+
+@contextmanager
+def importing_entries() -> Iterator[None]:
+    """Within, the checks of a mission import its ``type: python`` entries and
+    report one that does not load at its ``entry`` (wmr_mission.plugins)."""
+    token = _IMPORTING_ENTRIES.set(True)
+    try:
+        yield
+    finally:
+        _IMPORTING_ENTRIES.reset(token)
+
+
+def _entries(mission: Mission) -> Iterator[Finding]:
+    """Each ``type: python`` entry imports and names a callable."""
+    for section, settings in (("controller", mission.controller), ("estimator", mission.estimator)):
+        if isinstance(settings, PythonController | PythonEstimator):
+            try:
+                load_entry(settings.entry)
+            except EntryError as error:
+                yield Finding((section, "entry"), str(error))
+
+
 def check(mission: Mission) -> list[Finding]:
     """Every semantic problem of a mission that passed its schema."""
     findings = check_across_fields(mission)
+    if _IMPORTING_ENTRIES.get():
+        findings.extend(_entries(mission))
     if run_count(mission) <= MAX_RUN_PHASES:
         findings.extend(_feasible_sets(mission))
         if not any(f.severity == "error" for f in findings):

@@ -1,0 +1,63 @@
+"""What a head-to-head campaign compares per run (wmr_mission.campaign.comparison),
+against the same figures computed sample by sample from the run's arrays."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wmr_mission.api import load_mission, run_mission
+from wmr_mission.campaign.comparison import SETTLED_WITHIN, comparison_metrics
+from wmr_mission.output.inputs import REVERSAL_WINDOW, ROBUST_STD
+from wmr_mission.output.numbers import mission_numbers
+
+FROM_BEHIND = {"robot.initial_state.theta": 3.0, "controller.type": "kanayama"}
+
+
+@pytest.mark.parametrize("changes", [{}, FROM_BEHIND])
+def test_the_comparison_metrics_are_what_the_samples_say(changes: dict[str, object]) -> None:
+    result = run_mission(load_mission("missions/controllers.yaml", changes))
+    settle_time = 3.0  # the mission's expect.settle_time
+    rms, jitter, saturation, settled_at = comparison_metrics(result, result.mission)
+
+    track_rows = [k for k in range(result.samples) if result.phase[k] == 0]
+    start = result.t[track_rows[0]]
+    squares = []
+    last_outside = None
+    for k in track_rows:
+        error = math.hypot(result.x[k] - result.x_ref[k], result.y[k] - result.y_ref[k])
+        if result.t[k] - start >= settle_time - 1e-9:
+            squares.append(error * error)
+        if error > SETTLED_WITHIN:
+            last_outside = k
+    assert rms == pytest.approx(math.sqrt(sum(squares) / len(squares)), rel=1e-12)
+    if last_outside is None:
+        assert settled_at == 0.0
+    else:
+        assert settled_at == pytest.approx(result.t[last_outside + 1] - start, abs=1e-9)
+
+    stepped = range(result.samples - 1)  # the closing row takes no step
+    v_limit, omega_limit = result.limits
+    at_limit = [
+        abs(result.v[k]) >= v_limit * (1 - 1e-9) or abs(result.omega[k]) >= omega_limit * (1 - 1e-9)
+        for k in stepped
+    ]
+    assert saturation == sum(at_limit) / len(at_limit)
+
+    # the spread summary.json's turn_rate_jitter measures: about the centred
+    # mean over two time constants, after the first REVERSAL_WINDOW of them
+    numbers = mission_numbers(result.mission, result.dt, result.limits)
+    omega = result.omega[:-1]
+    half = max(2, round(numbers.time_constant / numbers.dt))
+    skip = round(REVERSAL_WINDOW * numbers.time_constant / numbers.dt)
+    deviations = [
+        omega[k] - sum(omega[k - half : k + half + 1]) / (2 * half + 1)
+        for k in range(max(half, skip), omega.size - half)
+    ]
+    assert jitter == pytest.approx(ROBUST_STD * np.median(np.abs(deviations)), rel=1e-9)
+    if changes:  # from behind: a turn at the limits and a time to settle
+        assert saturation > 0.0
+        assert settled_at is not None
+        assert settled_at > 0.05

@@ -1,0 +1,92 @@
+"""What a head-to-head campaign compares controllers (and estimators) by, per run.
+
+Beside the metrics an ``expect`` bounds (wmr_mission.output.metrics), each
+row of ``runs.csv`` carries four figures of how the robot was driven, from
+the run's samples:
+
+* ``reference_error_rms`` [m]: RMS distance from the robot to the path's point
+  of the same instant, over the samples of track phases after each one's
+  settle time (``expect.settle_time``, 1 s unless written);
+* ``turn_rate_jitter`` [rad/s]: the robust spread of the turn rate about its
+  centred moving mean, the whole run, measured as summary.json's per phase
+  (wmr_mission.output.inputs.jitter);
+* ``input_saturation``: the fraction of samples with the speed or the turn
+  rate at its limit;
+* ``settle_time`` [s]: from the start of the first track phase, the time
+  after which the robot stays within ``SETTLED_WITHIN`` of the reference
+  point for every later sample of a track phase (None: not by the end).
+
+They are cheap (no distance to the whole path), so every campaign row has them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, Final
+
+import numpy as np
+
+from wmr_mission.output.inputs import jitter
+from wmr_mission.output.metrics import AT_LIMIT_TOLERANCE
+from wmr_mission.output.numbers import mission_numbers
+from wmr_mission.output.result import RunResult
+from wmr_mission.spec.models import DEFAULT_SETTLE_TIME
+
+COMPARISON_METRICS: Final = (
+    "reference_error_rms",
+    "turn_rate_jitter",
+    "input_saturation",
+    "settle_time",
+)
+SETTLED_WITHIN: Final = 0.05  # [m] distance to the reference point counted as settled
+
+
+def comparison_metrics(
+    result: RunResult, mission: Mapping[str, Any] | None
+) -> tuple[float | None, ...]:
+    """The run's COMPARISON_METRICS, in that order."""
+    expect = (mission or {}).get("expect") or {}
+    settle = expect.get("settle_time")
+    settle_time = DEFAULT_SETTLE_TIME if settle is None else float(settle)
+    stepped = slice(0, max(0, result.samples - 1))  # the closing row takes no step
+    v, omega = result.v[stepped], result.omega[stepped]
+    saturated = None
+    if v.size:
+        near = 1.0 - AT_LIMIT_TOLERANCE  # an infinite limit is never reached
+        limit_v, limit_omega = result.limits
+        at_limit = (np.abs(v) >= limit_v * near) | (np.abs(omega) >= limit_omega * near)
+        saturated = float(np.count_nonzero(at_limit)) / float(v.size)
+    rms, settled_at = _reference_error(result, settle_time)
+    turns = (
+        jitter(omega, mission_numbers(mission, result.dt, result.limits)) if omega.size else None
+    )
+    return rms, turns, saturated, settled_at
+
+
+def _reference_error(result: RunResult, settle_time: float) -> tuple[float | None, float | None]:
+    """(RMS distance to the reference after each track phase's settle time,
+    time to settle within SETTLED_WITHIN) over the track phases' samples."""
+    track = [i for i, phase in enumerate(result.phases) if phase.kind == "track"]
+    tracked = np.isin(result.phase, track) & np.isfinite(result.x_ref)
+    if not tracked.any():
+        return None, None
+    # IEEE operations alone (no library hypot, no pairwise sums): the same
+    # bits on every CPU (docs/reliability.md).
+    dx, dy = result.x - result.x_ref, result.y - result.y_ref
+    error = np.sqrt(dx * dx + dy * dy)
+    settled = np.zeros(result.samples, dtype=bool)
+    for number in track:
+        rows = np.flatnonzero(result.phase == number)
+        if rows.size:
+            settled[rows] = result.t[rows] - result.t[rows[0]] >= settle_time - 1e-9 * result.dt
+    counted = error[tracked & settled]
+    rms = math.sqrt(math.fsum(counted * counted) / counted.size) if counted.size else None
+    samples = np.flatnonzero(tracked)
+    outside = samples[error[samples] > SETTLED_WITHIN]
+    if outside.size == 0:
+        return rms, 0.0
+    if outside[-1] == samples[-1]:
+        return rms, None  # not settled by the end
+    after = samples[np.searchsorted(samples, outside[-1]) + 1]
+    return rms, round(float(result.t[after] - result.t[samples[0]]), 9)
