@@ -24,6 +24,7 @@ class Outcome(StrEnum):
     diverged = "diverged"  # non-finite or runaway state or input
     expect_failed = "expect-failed"  # ran to the end, an `expect` threshold not met
     interrupted = "interrupted"  # stopped by SIGINT or SIGTERM: the samples up to the stop
+    breached = "breached"  # the geofence breached, and its reaction failed the mission
 
 
 @dataclass(frozen=True)
@@ -36,6 +37,10 @@ class Transition:
     condition: str  # "elapsed", "reaches", "settled", "timeout", ...
     value: float  # the value of the condition when it fired
     lap: int | None = None  # the lap of ``to_phase`` when it is in a repeat
+    # The reaction that fired, as written ("retry: 2 (1 of 2)", "detour",
+    # "then: resume"), and why, in words; None where the phases just ran in order.
+    reaction: str | None = None
+    why: str | None = None
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,14 @@ from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
+from wmr_mission.sim.reactions import (
+    BREACH_CHUNK,
+    Breach,
+    Decision,
+    Reactor,
+    breach_at,
+    nearest_ahead,
+)
 from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
 
@@ -38,6 +46,8 @@ from wmr_mission.spec.models import Mission
 # short phase samples little path ahead (PhaseRun.first_chunk).
 CHUNK = 4096
 FIRST_CHUNK = 256
+# [s] how far ahead of where it was left a resumed phase looks for its path.
+RESUME_HORIZON = 120.0
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
 MAX_PRESIZED = 2_000_000
 
@@ -99,6 +109,10 @@ class PhaseRun:
         self.entry_sample = 0
         self.target = np.zeros(3)
         self._trajectory: Trajectory | None = None
+        # Samples the path is ahead of the phase's clock: where a resumed phase
+        # rejoined its path (wmr_mission.sim.reactions.nearest_ahead).
+        self.path_shift = 0
+        self.left_at = 0  # the path's sample the phase was last left at
         # Samples after which the phase ends for sure (elapsed or timeout).
         bounds = [phase.until.elapsed_samples, phase.timeout_samples]
         self.bound = min((b for b in bounds if b is not None), default=2**62)
@@ -111,12 +125,20 @@ class PhaseRun:
         unforeseen = phase.kind == "track" and any(c is not None for c in conditions)
         self.first_chunk = min(FIRST_CHUNK, CHUNK) if unforeseen else CHUNK
 
-    def enter(self, k: int, estimate: FloatArray) -> EnteredPhase:
+    def enter(self, k: int, estimate: FloatArray, resume_from: int | None = None) -> EnteredPhase:
+        """The phase entered at sample k; ``resume_from`` (the path's sample the
+        phase was left at) keeps its path, rejoined where it passes nearest ahead."""
         self.status = Status.running
         self.entry_sample = k
         pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
         phase = self.phase
-        if phase.kind == "track":
+        self.path_shift = 0
+        if phase.kind == "track" and resume_from is not None and self._trajectory is not None:
+            horizon = min(self.bound, round(RESUME_HORIZON / self.mission.dt))
+            self.path_shift = nearest_ahead(
+                self._trajectory.sample, resume_from, horizon, self.mission.dt, *pose[:2]
+            )
+        elif phase.kind == "track":
             assert phase.make_trajectory is not None
             self._trajectory = phase.make_trajectory(pose)
         self.target[:] = phase.target if phase.target is not None else pose
@@ -155,7 +177,8 @@ class PhaseRun:
         unit tangent (NaN where the path rests)."""
         if self._trajectory is None or rows == 0:
             return PathBlock(local_sample, np.zeros((0, 4)))
-        t = (local_sample + np.arange(rows, dtype=np.float64)) * self.mission.dt
+        start = local_sample + self.path_shift
+        t = (start + np.arange(rows, dtype=np.float64)) * self.mission.dt
         x, y, dx, dy = self._trajectory.sample(t)
         block = np.empty((rows, 4))
         block[:, 0] = x
@@ -333,20 +356,38 @@ class _Run:
         self._started = (self._returned_ns, int(counters[loop.CLOCK]))
         index = 0
         chunk = active.first_chunk
+        reactor = None if m.reactions is None else Reactor(m.reactions)
         while True:
             k = int(counters[loop.K])
             local = k - active.entry_sample
+            # A watched geofence is checked between calls: short ones.
+            watched = reactor is not None and reactor.plan.watches(active.index)
+            size = min(chunk, BREACH_CHUNK) if watched else chunk
             # At its bound (elapsed or timeout) the phase exits before it steps,
             # so a call that reaches the bound goes on to see it exit; the path
             # is sampled up to the bound, never past it. The loop also stops
             # where the draws drawn so far run out (Draws.ahead).
-            stop = k + min(chunk, active.bound - local + 1)
-            path = active.path_ahead(local, min(chunk, active.bound - local) + 1)
+            stop = k + min(size, active.bound - local + 1)
+            path = active.path_ahead(local, min(size, active.bound - local) + 1)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
+            recorded = self.recorder.count
             status = self._call(phase, path, draws.ahead(), stop)
             draws.used(int(counters[loop.DRAWS]))
             counters[loop.DRAWS] = 0
             k = int(counters[loop.K])
+            decision: Decision | None = None
+            if watched and status in (loop.CHUNK_END, loop.EXITED):
+                assert reactor is not None
+                decision = self._breach(reactor, active, recorded, k)
+            if decision is not None:
+                assert reactor is not None
+                ended = self._follow(reactor, decision, active, k, phase)
+                if ended is not None:
+                    outcome, message = ended
+                    break
+                active, phase = self._entered(decision, active, k)
+                chunk = active.first_chunk
+                continue
             if status == loop.CHUNK_END:
                 if self.progress is not None:
                     self.progress(k * dt, budget, active.phase.name)
@@ -360,6 +401,20 @@ class _Run:
             value = float(signals.exit_value[0])
             if condition in ("elapsed", "timeout", "mission_time"):
                 value = _seconds(int(value), dt)
+            if reactor is not None:
+                if condition == "timeout":
+                    decision = reactor.react(active.index, "timeout")
+                    why = f"phase '{active.phase.name}' timed out after {value:.6g} s"
+                else:
+                    decision = reactor.completed(active.index)
+                    why = None
+                ended = self._follow(reactor, decision, active, k, phase, condition, value, why)
+                if ended is not None:
+                    outcome, message = ended
+                    break
+                active, phase = self._entered(decision, active, k)
+                chunk = active.first_chunk
+                continue
             if condition == "timeout" and active.phase.fail_on_timeout:
                 active.status = Status.timed_out
                 self.transitions.append(
@@ -383,6 +438,11 @@ class _Run:
                     condition,
                     value,
                     None if to is None else to.phase.lap,
+                    *(
+                        ("next", f"phase '{active.phase.name}' timed out after {value:.6g} s")
+                        if condition == "timeout"
+                        else ()
+                    ),
                 )
             )
             if to is None:
@@ -393,6 +453,91 @@ class _Run:
             phase = active.enter(k, signals.estimate)
             chunk = active.first_chunk
         return self._result(outcome, message)
+
+    def _breach(self, reactor: Reactor, active: PhaseRun, recorded: int, k: int) -> Decision | None:
+        """The reaction to a breach among the rows the last call recorded, if any."""
+        plan = reactor.plan
+        breach = breach_at(plan, self.recorder.record.floats, recorded, self.recorder.count)
+        if breach is None:
+            return None
+        self._breach_seen: Breach = breach
+        return reactor.react(active.index, "breach")
+
+    def _follow(
+        self,
+        reactor: Reactor,
+        decision: Decision,
+        active: PhaseRun,
+        k: int,
+        phase: EnteredPhase,
+        condition: str = "breach",
+        value: float = math.nan,
+        why: str | None = None,
+    ) -> tuple[Outcome, str] | None:
+        """Record the transition ``decision`` makes; the run's end, if it ends."""
+        dt = self.m.dt
+        t = _seconds(k, dt)
+        if condition == "breach":
+            b = self._breach_seen
+            value = round(b.depth, 9)
+            keep = next(z.keep for z in reactor.plan.zones if z.name == b.zone)
+            side = "outside keep-in" if keep == "in" else "inside keep-out"
+            why = (
+                f"the {b.position} position went {b.depth:.3g} m {side} zone '{b.zone}' "
+                f"(margin {reactor.plan.margin:g} m) at t = {_seconds(b.sample, dt):.6g} s"
+            )
+        to = None if decision.enter is None else self.phases[decision.enter]
+        if decision.contingency is not None and why is not None:
+            why = f"{why}; contingency '{decision.contingency}'"
+        self.transitions.append(
+            Transition(
+                t,
+                active.phase.name,
+                None if to is None else to.phase.name,
+                condition,
+                value,
+                None if to is None else to.phase.lap,
+                decision.reaction,
+                why,
+            )
+        )
+        if to is not None:
+            return None
+        self._close(k, phase)
+        fired = [tr for tr in self.transitions if tr.reaction is not None]
+        if decision.failure is None:
+            active.status = Status.done
+            if not fired:
+                return Outcome.success, "all phases completed"
+            return Outcome.success, f"all phases completed after {len(fired)} reaction(s)"
+        active.status = Status.timed_out if decision.failure == "timeout" else Status.done
+        outcome = Outcome.timeout if decision.failure == "timeout" else Outcome.breached
+        last = fired[-1] if fired else None
+        cause = next(
+            (
+                tr.why
+                for tr in reversed(self.transitions)
+                if tr.why is not None and tr.condition in ("timeout", "breach")
+            ),
+            None,
+        )
+        if cause is None:
+            cause = f"phase '{active.phase.name}' failed at t = {t:.6g} s"
+        reaction = "" if last is None else f" (reaction: {last.reaction})"
+        return outcome, f"{cause}{reaction}"
+
+    def _entered(
+        self, decision: Decision, active: PhaseRun, k: int
+    ) -> tuple[PhaseRun, EnteredPhase]:
+        """Enter the phase ``decision`` names at sample k."""
+        assert decision.enter is not None
+        if active.status == Status.running:
+            active.status = Status.done
+        active.left_at = k - active.entry_sample + active.path_shift
+        to = self.phases[decision.enter]
+        self.signals.memory[:] = 0.0
+        resume = to.left_at if decision.how == "resume" else None
+        return to, to.enter(k, self.signals.estimate, resume)
 
     def _close(self, k: int, phase: EnteredPhase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""

@@ -35,6 +35,7 @@ from wmr_mission.geometry.regions import (
     is_convex,
     region_value,
 )
+from wmr_mission.spec import graph
 from wmr_mission.spec.models import (
     HoldPhase,
     Mission,
@@ -118,6 +119,7 @@ def check_across_fields(mission: Mission) -> list[Finding]:
         *_estimator_bounds(mission),
         *_phase_colors(mission),
         *_disturbances(mission),
+        *(Finding(e.path, e.message, at_key=e.at_key) for e in graph.prove(mission)),
     ]
 
 
