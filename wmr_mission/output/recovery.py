@@ -25,10 +25,10 @@ class _Transition(Protocol):  # wmr_mission.output.result.Transition
 
 def fired(transition: _Transition) -> list[str]:
     """The reactions a transition records, by kind: ``retry``, ``goto``,
-    ``next``, ``fail``, ``then`` (a contingency's end) or a contingency's name;
+    ``next``, ``fail`` or a contingency's name;
     a retry whose count is spent records the retry and what followed it."""
-    if transition.reaction is None:
-        return []
+    if transition.reaction is None or transition.reaction.startswith("then:"):
+        return []  # a contingency's end is part of the contingency
     kinds = []
     for part in transition.reaction.split(" spent: "):
         word = part.split(":", 1)[0].split(" ", 1)[0]
