@@ -37,7 +37,6 @@ from wmr_mission.spec.models import (
 from wmr_mission.spec.reactions import BUILT_IN_CONTINGENCIES, Goto, Retry, reaction_text
 
 __all__ = [
-    "BREACH_CHUNK",
     "Breach",
     "Decision",
     "ReactionPlan",
@@ -48,10 +47,6 @@ __all__ = [
     "contingency_phases",
     "reaction_plan",
 ]
-
-# Samples per call of the loop while a geofence is watched: a breach is seen
-# at most this many samples after the sample it happens at.
-BREACH_CHUNK: Final = 8
 
 # The built-in contingencies' phases end settled within these tolerances, or
 # at their timeout.
@@ -230,7 +225,8 @@ def depth(zone: Zone, x: FloatArray, y: FloatArray) -> FloatArray:
 
 @dataclass(frozen=True)
 class Breach:
-    sample: int  # the first sample breaching, by index in the recording
+    sample: int  # the first row breaching, by index in the recording
+    time: float  # [s] its time
     zone: str
     depth: float  # [m] on the wrong side of the zone's boundary
     position: Literal["true", "estimate"]
@@ -249,7 +245,13 @@ def breach_at(plan: ReactionPlan, floats: FloatArray, start: int, stop: int) -> 
             hits = np.flatnonzero(d > plan.margin)
             if hits.size and (first is None or start + int(hits[0]) < first.sample):
                 j = int(hits[0])
-                first = Breach(start + j, zone.name, float(d[j]), position)  # type: ignore[arg-type]
+                first = Breach(
+                    start + j,
+                    round(float(rows[j, 0]), 9),
+                    zone.name,
+                    float(d[j]),
+                    position,  # type: ignore[arg-type]
+                )
     return first
 
 

@@ -25,12 +25,12 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
+from wmr_mission.output import recovery
 from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
 from wmr_mission.sim.reactions import (
-    BREACH_CHUNK,
     Breach,
     Decision,
     Reactor,
@@ -360,25 +360,24 @@ class _Run:
         while True:
             k = int(counters[loop.K])
             local = k - active.entry_sample
-            # A watched geofence is checked between calls: short ones.
             watched = reactor is not None and reactor.plan.watches(active.index)
-            size = min(chunk, BREACH_CHUNK) if watched else chunk
             # At its bound (elapsed or timeout) the phase exits before it steps,
             # so a call that reaches the bound goes on to see it exit; the path
             # is sampled up to the bound, never past it. The loop also stops
             # where the draws drawn so far run out (Draws.ahead).
-            stop = k + min(size, active.bound - local + 1)
-            path = active.path_ahead(local, min(size, active.bound - local) + 1)
+            stop = k + min(chunk, active.bound - local + 1)
+            path = active.path_ahead(local, min(chunk, active.bound - local) + 1)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
-            recorded = self.recorder.count
-            status = self._call(phase, path, draws.ahead(), stop)
+            block = draws.ahead()
+            saved = self._saved() if watched else None
+            status = self._call(phase, path, block, stop)
+            decision: Decision | None = None
+            if saved is not None and status in (loop.CHUNK_END, loop.EXITED):
+                assert reactor is not None
+                decision = self._breach(reactor, active, saved, phase, path, block)
             draws.used(int(counters[loop.DRAWS]))
             counters[loop.DRAWS] = 0
             k = int(counters[loop.K])
-            decision: Decision | None = None
-            if watched and status in (loop.CHUNK_END, loop.EXITED):
-                assert reactor is not None
-                decision = self._breach(reactor, active, recorded, k)
             if decision is not None:
                 assert reactor is not None
                 ended = self._follow(reactor, decision, active, k, phase)
@@ -454,12 +453,37 @@ class _Run:
             chunk = active.first_chunk
         return self._result(outcome, message)
 
-    def _breach(self, reactor: Reactor, active: PhaseRun, recorded: int, k: int) -> Decision | None:
-        """The reaction to a breach among the rows the last call recorded, if any."""
-        plan = reactor.plan
-        breach = breach_at(plan, self.recorder.record.floats, recorded, self.recorder.count)
+    def _saved(self) -> tuple[int, list[tuple[FloatArray, FloatArray]]]:
+        """What a call of the loop changes, copied: the recorded rows, and every
+        array the loop carries from sample to sample."""
+        carried = [*self.signals, *self.estimator_memory, *self.scratch]
+        arrays = [a for a in carried if isinstance(a, np.ndarray)]
+        return self.recorder.count, [(a, a.copy()) for a in arrays]
+
+    def _breach(
+        self,
+        reactor: Reactor,
+        active: PhaseRun,
+        saved: tuple[int, list[tuple[FloatArray, FloatArray]]],
+        phase: EnteredPhase,
+        path: PathBlock,
+        block: FloatArray,
+    ) -> Decision | None:
+        """The reaction to a breach among the rows the last call recorded, if
+        any. The call is then run again from the state before it, up to the
+        sample that breached: the reaction fires at the next sample, as if
+        the loop had checked the geofence itself (the same samples: the loop
+        is a function of the state it is called with)."""
+        recorded, arrays = saved
+        record = self.recorder.record
+        breach = breach_at(reactor.plan, record.floats, recorded, self.recorder.count)
         if breach is None:
             return None
+        for array, copy in arrays:
+            array[...] = copy
+        record.rows[0] = recorded
+        start = int(self.signals.counters[loop.K])
+        self._call(phase, path, block, start + breach.sample - recorded + 1)
         self._breach_seen: Breach = breach
         return reactor.react(active.index, "breach")
 
@@ -484,7 +508,7 @@ class _Run:
             side = "outside keep-in" if keep == "in" else "inside keep-out"
             why = (
                 f"the {b.position} position went {b.depth:.3g} m {side} zone '{b.zone}' "
-                f"(margin {reactor.plan.margin:g} m) at t = {_seconds(b.sample, dt):.6g} s"
+                f"(margin {reactor.plan.margin:g} m) at t = {b.time:.6g} s"
             )
         to = None if decision.enter is None else self.phases[decision.enter]
         if decision.contingency is not None and why is not None:
@@ -504,12 +528,12 @@ class _Run:
         if to is not None:
             return None
         self._close(k, phase)
-        fired = [tr for tr in self.transitions if tr.reaction is not None]
+        fired = [tr for tr in self.transitions if recovery.fired(tr)]
         if decision.failure is None:
             active.status = Status.done
             if not fired:
                 return Outcome.success, "all phases completed"
-            return Outcome.success, f"all phases completed after {len(fired)} reaction(s)"
+            return Outcome.success, f"completed, {len(fired)} reaction{'s' * (len(fired) > 1)}"
         active.status = Status.timed_out if decision.failure == "timeout" else Status.done
         outcome = Outcome.timeout if decision.failure == "timeout" else Outcome.breached
         last = fired[-1] if fired else None

@@ -276,6 +276,14 @@ def prove(mission: Mission) -> Iterator[GraphError]:
                 f"phase {phase.name!r} can never be guaranteed to end: give it a timeout, or "
                 "until.elapsed or until.mission_time",
             )
+    for name in BUILT_IN_CONTINGENCIES:
+        # a built-in contingency's phase is named after it
+        if name in graph.callers and name in labels and name not in mission.contingencies:
+            yield GraphError(
+                (*labels[name], "name"),
+                f"phase name {name!r} is taken by the built-in contingency a reaction runs; "
+                "name the phase otherwise",
+            )
     for name in mission.contingencies:
         if name not in graph.named and name not in BUILT_IN_CONTINGENCIES:
             yield GraphError(
