@@ -349,3 +349,43 @@ def test_every_proved_graph_ends_within_its_bound() -> None:
         assert result.transitions[-1].to_phase is None  # it ended
     assert proved >= 10
     assert refused >= 5
+
+
+VERDICT = """
+phases:
+  - name: aside
+    regulate: {target: {x: 1, y: 1.5, theta: 0}}
+    until: {settled: {position: 0.05, heading: 0.05}}
+    timeout: 20
+    expect: {turn_rate_jitter: {max: 0.05}}  # its turns aside jitter by 0.11 rad/s
+    on_failure: {reaction}
+  - name: on
+    hold: {}
+    until: {elapsed: 1}
+"""
+
+
+def test_a_missed_verdict_runs_on_failure_at_the_phase_end() -> None:
+    result = _run(VERDICT.replace("{reaction}", "return-home"))
+    first = result.transitions[0]
+    assert (first.from_phase, first.to_phase, first.condition) == (
+        "aside",
+        "return-home",
+        "verdict",
+    )
+    assert first.reaction == "return-home"
+    assert "aside: turn_rate_jitter = 0.1" in (first.why or "")
+    # the verdict stays missed: the robot went home, the mission failed
+    assert result.outcome is Outcome.expect_failed
+    assert math.hypot(result.x[-1], result.y[-1]) < 0.05
+    assert "on" not in {result.phase_names[i] for i in np.unique(result.phase)}
+
+
+def test_a_met_verdict_fires_nothing() -> None:
+    met = VERDICT.replace("{reaction}", "return-home").replace("max: 0.05", "max: 1.0")
+    result = _run(met)
+    assert result.outcome is Outcome.success
+    assert _reactions(result) == []
+    plain = _run(met.replace("    on_failure: return-home\n", ""))
+    assert np.array_equal(plain.x, result.x)
+    assert np.array_equal(plain.omega, result.omega)

@@ -23,6 +23,8 @@ from wmr_mission.geometry.regions import (
     ellipse_geometry,
     region_value,
 )
+from wmr_mission.output.metrics import check_expectations, summarize, unmet
+from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import (
     Contingency,
     Hold,
@@ -45,6 +47,7 @@ __all__ = [
     "breach_at",
     "built_in_contingency",
     "contingency_phases",
+    "missed_verdicts",
     "reaction_plan",
 ]
 
@@ -53,8 +56,8 @@ __all__ = [
 _SETTLED: Final = Settled(position=0.05, heading=0.05)
 _BUILT_IN_TIMEOUT: Final = 120.0
 
-Event = Literal["timeout", "breach"]
-_EVENT_INDEX: Final = {"timeout": 0, "breach": 1}
+Event = Literal["timeout", "breach", "verdict"]
+_EVENT_INDEX: Final = {"timeout": 0, "breach": 1, "verdict": 2}
 
 
 def built_in_contingency(name: str, mission: Mission) -> Contingency:
@@ -75,10 +78,11 @@ def built_in_contingency(name: str, mission: Mission) -> Contingency:
     return Contingency(phases=[phase], then="fail")
 
 
-def _reactions_of(phase: Phase, mission: Mission | None) -> tuple[Any, Any]:
-    """The reactions to a timeout and to a breach of ``phase``: its own, else the
-    mission's (``mission`` is None for a contingency's phase); the specific one
-    before ``on_failure``; a timeout fails by default."""
+def _reactions_of(phase: Phase, mission: Mission | None) -> tuple[Any, Any, Any]:
+    """The reactions to a timeout, a breach and a missed verdict of ``phase``:
+    its own, else the mission's (``mission`` is None for a contingency's phase);
+    the specific one before ``on_failure``; a timeout fails by default, a
+    verdict without ``on_failure`` is judged after the run only."""
     levels = [phase] if mission is None else [phase, mission]
     timeout = next(
         (r for level in levels for r in (level.on_timeout, level.on_failure) if r is not None),
@@ -88,7 +92,8 @@ def _reactions_of(phase: Phase, mission: Mission | None) -> tuple[Any, Any]:
         (r for level in levels for r in (level.on_breach, level.on_failure) if r is not None),
         None if mission is None else "fail",
     )
-    return timeout, breach
+    verdict = next((level.on_failure for level in levels if level.on_failure is not None), None)
+    return timeout, breach, verdict
 
 
 def used_contingencies(mission: Mission) -> list[str]:
@@ -152,16 +157,23 @@ class ReactionPlan:
     """The reactions of a planned mission, in phase indices."""
 
     main_count: int  # the mission's phases come first; contingencies' after them
-    # per phase: (reaction to a timeout, reaction to a breach or None: not watched)
-    reactions: tuple[tuple[Any, Any], ...]
+    # per phase: the reactions to a timeout, to a breach (None: not watched) and
+    # to a missed verdict (None: judged after the run only)
+    reactions: tuple[tuple[Any, Any, Any], ...]
     contingency_of: tuple[str | None, ...]
     contingencies: dict[str, ContingencySpan]
     goto: dict[str, int]  # a top-level phase's name -> its index
     zones: tuple[Zone, ...] = ()
     margin: float = 0.0
+    # the mission as written with its defaults, whose `expect` judges a phase
+    # at its end where it reacts to a missed verdict (None: none does)
+    written: dict[str, Any] | None = None
 
     def watches(self, index: int) -> bool:
         return bool(self.zones) and self.reactions[index][1] is not None
+
+    def judges(self, index: int) -> bool:
+        return self.reactions[index][2] is not None
 
 
 def reaction_plan(mission: Mission, main_labels: list[str]) -> ReactionPlan | None:
@@ -179,7 +191,7 @@ def reaction_plan(mission: Mission, main_labels: list[str]) -> ReactionPlan | No
         )
     ):
         return None
-    reactions: list[tuple[Any, Any]] = [_reactions_of(p, mission) for p in phases]
+    reactions: list[tuple[Any, Any, Any]] = [_reactions_of(p, mission) for p in phases]
     contingency_of: list[str | None] = [None] * len(phases)
     spans: dict[str, ContingencySpan] = {}
     for name in used_contingencies(mission):
@@ -200,7 +212,9 @@ def reaction_plan(mission: Mission, main_labels: list[str]) -> ReactionPlan | No
         zones = [Zone(n, mission.regions[n], "in") for n in fence.keep_in]
         zones += [Zone(n, mission.regions[n], "out") for n in fence.keep_out]
         margin = float(fence.margin)
+    judged = any(r[2] is not None for r in reactions)
     return ReactionPlan(
+        written=mission.model_dump(mode="json") if judged else None,
         main_count=len(phases),
         reactions=tuple(reactions),
         contingency_of=tuple(contingency_of),
@@ -262,7 +276,7 @@ class Decision:
 
     enter: int | None
     how: Literal["fresh", "resume"] = "fresh"
-    failure: str | None = None  # "timeout" | "breach" | "contingency-spent"
+    failure: str | None = None  # what failed: "timeout", "breach" or "verdict"
     reaction: str | None = None  # the reaction that fired, as written
     contingency: str | None = None  # the contingency it entered
 
@@ -326,6 +340,14 @@ class Reactor:
         self.runs[reaction] = used + 1
         self.callers[reaction] = (index, event)
         return Decision(span.first, reaction=written, contingency=reaction)
+
+
+def missed_verdicts(result: RunResult, written: dict[str, Any]) -> list[str]:
+    """The `expect` thresholds of a phase's one entry, ``result`` (its samples
+    alone), that it missed, as summary.json words them."""
+    summary = summarize(result, written)
+    checks = check_expectations(summary, written)
+    return unmet([c for c in checks if c["phase"] is not None])
 
 
 def replace_reaction(decision: Decision, reaction: str) -> Decision:

@@ -35,6 +35,7 @@ from wmr_mission.sim.reactions import (
     Decision,
     Reactor,
     breach_at,
+    missed_verdicts,
     nearest_ahead,
 )
 from wmr_mission.spec.loader import validate_mission
@@ -194,6 +195,7 @@ class PhaseRun:
 # Called once per phase or run: plain Python (wmr_mission.kernels.jit.plain).
 _max_row_value = jit.plain(max_row_value)
 _record_sample = jit.plain(loop.record_sample)
+
 
 ProgressCallback = Callable[[float, float, str], None]
 
@@ -401,9 +403,14 @@ class _Run:
             if condition in ("elapsed", "timeout", "mission_time"):
                 value = _seconds(int(value), dt)
             if reactor is not None:
+                missed = self._missed(reactor, active, k) if condition != "timeout" else []
                 if condition == "timeout":
                     decision = reactor.react(active.index, "timeout")
                     why = f"phase '{active.phase.name}' timed out after {value:.6g} s"
+                elif missed:
+                    decision = reactor.react(active.index, "verdict")
+                    condition, value = "verdict", float(len(missed))
+                    why = "missed " + "; ".join(missed)
                 else:
                     decision = reactor.completed(active.index)
                     why = None
@@ -452,6 +459,43 @@ class _Run:
             phase = active.enter(k, signals.estimate)
             chunk = active.first_chunk
         return self._result(outcome, message)
+
+    def _missed(self, reactor: Reactor, active: PhaseRun, k: int) -> list[str]:
+        """The verdicts the phase just ended missed over its samples since it was
+        entered, where it reacts to a missed verdict."""
+        written = reactor.plan.written
+        if written is None or not reactor.plan.judges(active.index):
+            return []
+        # this entry's samples alone (row i is sample i), as the run's record has them
+        floats = self.recorder.record.floats[active.entry_sample : k].copy()
+        columns = dict(zip(FLOAT_COLUMNS, floats.T, strict=True))
+        p = active.phase
+        entry = RunResult(
+            mission_name=self.m.name,
+            dt=self.m.dt,
+            seed=self.m.seed,
+            phases=[
+                PhaseRecord(
+                    p.name,
+                    p.kind,
+                    self._target(active),
+                    p.constraints,
+                    near=p.until.near,
+                    points=() if p.points is None else tuple(map(tuple, p.points.tolist())),
+                )
+            ],
+            **columns,
+            phase=np.zeros(len(floats), dtype=np.int64),
+            phase2_iterations=np.zeros(len(floats), dtype=np.int64),
+            compute_ns=np.zeros(len(floats), dtype=np.int64),
+            transitions=[],
+            outcome=Outcome.success,
+            message="",
+            limits=(float(self.m.plant.limits[0]), float(self.m.plant.limits[1])),
+            error_bounds=self.m.estimator.error_bounds(self.m.estimator_tuning),  # type: ignore[arg-type]
+            regions=dict(self.m.regions),
+        )
+        return missed_verdicts(entry, written)
 
     def _saved(self) -> tuple[int, list[tuple[FloatArray, FloatArray]]]:
         """What a call of the loop changes, copied: the recorded rows, and every
@@ -535,13 +579,17 @@ class _Run:
                 return Outcome.success, "all phases completed"
             return Outcome.success, f"completed, {len(fired)} reaction{'s' * (len(fired) > 1)}"
         active.status = Status.timed_out if decision.failure == "timeout" else Status.done
-        outcome = Outcome.timeout if decision.failure == "timeout" else Outcome.breached
+        outcome = {
+            "timeout": Outcome.timeout,
+            "breach": Outcome.breached,
+            "verdict": Outcome.expect_failed,
+        }[decision.failure or "timeout"]
         last = fired[-1] if fired else None
         cause = next(
             (
                 tr.why
                 for tr in reversed(self.transitions)
-                if tr.why is not None and tr.condition in ("timeout", "breach")
+                if tr.why is not None and tr.condition in ("timeout", "breach", "verdict")
             ),
             None,
         )

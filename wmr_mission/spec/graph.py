@@ -130,9 +130,13 @@ class _Graph:
             levels: list[tuple[Any, DataPath]] = [(node.phase, node.where)]
             if node.contingency is None:
                 levels.append((mission, ()))
-            for event in ("on_timeout", "on_breach"):
+            for event in ("on_timeout", "on_breach", "on_failure"):
                 reaction, where = self._effective(levels, event)
                 if event == "on_breach" and not watched:
+                    continue
+                if event == "on_failure":  # a missed verdict: none, judged after the run
+                    if reaction is not None:
+                        found.append((index, reaction, where, event))
                     continue
                 if reaction is None:
                     reaction = "fail" if event == "on_timeout" or node.contingency is None else None
@@ -159,7 +163,7 @@ class _Graph:
     @staticmethod
     def _effective(levels: list[tuple[Any, DataPath]], event: str) -> tuple[Any, DataPath]:
         for level, where in levels:
-            for key in (event, "on_failure"):
+            for key in dict.fromkeys((event, "on_failure")):
                 reaction = getattr(level, key)
                 if reaction is not None:
                     return reaction, (*where, key)

@@ -433,8 +433,8 @@ class _PhaseCommon(Model):
     )
     on_failure: Reaction | None = Field(
         default=None,
-        description="When the phase fails in a way without a reaction of its own (a timeout, a "
-        "breach); unset: the mission's on_failure.",
+        description="When a verdict of the phase is missed at its end, and at a timeout or breach "
+        "without a reaction of its own; unset: the mission's on_failure.",
     )
     constraints: tuple[Constraint, ...] = Field(
         default=(),
