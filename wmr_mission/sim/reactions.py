@@ -1,9 +1,11 @@
-"""Reactions: what the run does next when a phase times out or breaches its geofence.
+"""Reactions: what the run does next when a phase times out, breaches the
+geofence or misses a verdict.
 
 A decision taken between chunks of the compiled loop, which stays as it is:
 the runner hands each phase's end (its exit condition, a timeout, a breach
-seen in the samples just recorded) to :class:`Reactor`, which says which
-phase to enter and how, or how the run ends. Every count is per run and never
+seen in the samples just recorded, a verdict missed over its samples) to
+:class:`Reactor`, which says which phase to enter and how, or how the run
+ends. Every count is per run and never
 reset, so a run enters at most a bounded number of phases (the proof of
 wmr_mission.spec.graph).
 """
@@ -313,7 +315,7 @@ class Reactor:
         return Decision(None, failure=cause, reaction="then: fail")
 
     def react(self, index: int, event: Event) -> Decision:
-        """Phase ``index`` timed out or breached: its reaction decides."""
+        """Phase ``index`` timed out, breached or missed a verdict: its reaction decides."""
         reaction = self.plan.reactions[index][_EVENT_INDEX[event]]
         written = reaction_text(reaction)
         if isinstance(reaction, Retry):

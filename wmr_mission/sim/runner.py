@@ -224,7 +224,9 @@ def run_mission(
     ``wmr-mission run`` does. ``progress(t, t_budget, phase_name)`` is called
     between chunks of samples. The run stops cleanly on a timeout with
     ``on_timeout: fail``, on divergence and on Ctrl-C (outcome
-    ``interrupted``); what was produced up to then is in the result.
+    ``interrupted``); what was produced up to then is in the result. A
+    mission's reactions (a timeout, a geofence breach, a missed verdict) are
+    decided between chunks (wmr_mission.sim.reactions).
 
     ``substitutes`` replaces kernels by functions of the same signature (the
     reference step, wmr_mission.sim.reference.REFERENCE): the loop then runs
