@@ -17,6 +17,7 @@ from typing import Any, Final
 import numpy as np
 
 from wmr_mission.campaign.models import Axis
+from wmr_mission.campaign.recovery import RecoveryCounts
 from wmr_mission.campaign.rows import METRICS, Row
 
 __all__ = ["WORST_RUNS", "Aggregate", "clopper_pearson"]
@@ -87,6 +88,7 @@ class Aggregate:
     cells: dict[tuple[int, ...], list[int]] = field(default_factory=dict)
     # grid cell -> metric -> its values over the cell's runs (NaN: none)
     cell_metrics: dict[tuple[int, ...], dict[str, list[float]]] = field(default_factory=dict)
+    recovery: RecoveryCounts = field(default_factory=RecoveryCounts)
 
     @property
     def paths(self) -> list[str]:
@@ -110,6 +112,7 @@ class Aggregate:
     def add(self, row: Row) -> None:
         self.outcomes[row.outcome] += 1
         self.success.append(row.succeeded)
+        self.recovery.add(row)
         for name, value in zip(METRICS, row.metrics, strict=True):
             self.metric_values.setdefault(name, []).append(math.nan if value is None else value)
         cell = []
@@ -167,6 +170,7 @@ class Aggregate:
             "outcomes": dict(sorted(self.outcomes.items())),
             "metrics": metrics,
             "cells": self._cell_statistics(),
+            "recovery": self.recovery.statistics(clopper_pearson),
         }
 
     def _cell_statistics(self) -> list[dict[str, Any]]:

@@ -19,6 +19,7 @@ from wmr_mission.campaign.comparison import COMPARISON_METRICS, comparison_metri
 from wmr_mission.campaign.load import LoadedCampaign, override, value_text
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
+from wmr_mission.output import recovery
 from wmr_mission.output.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
 from wmr_mission.output.result import Outcome
 from wmr_mission.spec.checks import read_by_sampling_checks
@@ -66,6 +67,8 @@ class Row:
     metrics: tuple[float | None, ...]
     reason: str
     path_xy: np.ndarray  # (2, <= PATH_POINTS) float32, thinned true path
+    # the reactions that fired, one kind per firing (wmr_mission.output.recovery.fired)
+    fired: tuple[str, ...] = ()
 
     @property
     def succeeded(self) -> bool:
@@ -171,7 +174,8 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     path_xy = np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
     reason = "" if result.outcome is Outcome.success else result.message
     values = tuple(draw.values.values())
-    return Row(draw.run, draw.seed, result.outcome.value, values, metrics, reason, path_xy)
+    fired = tuple(kind for tr in result.transitions for kind in recovery.fired(tr))
+    return Row(draw.run, draw.seed, result.outcome.value, values, metrics, reason, path_xy, fired)
 
 
 def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:

@@ -43,6 +43,7 @@ from wmr_mission.campaign.engine import (
 )
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
 from wmr_mission.campaign.plan import Plan
+from wmr_mission.campaign.recovery import recovery_report
 from wmr_mission.campaign.rows import Row, header, replay_command, simulate
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
@@ -753,6 +754,9 @@ def _report(record: dict[str, Any], out_dir: Path) -> str:
         f"{record['missions_per_second'] or 0:.1f} missions/s over {record['wall_seconds']:.1f} s"
         f" (start-up {record['startup_seconds']:.1f} s)",
     ]
+    recovered = record.get("recovery")
+    if recovered and recovered["needed"]:
+        lines.append(recovery_report(recovered))
     if record["worst"]:
         lines.append("worst runs (replay):")
         lines += [f"  {w['run']}: {w['outcome']}: {w['replay']}" for w in record["worst"]]

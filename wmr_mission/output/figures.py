@@ -530,6 +530,43 @@ def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
         )
 
 
+def _draw_reactions(ax: Axes, result: RunResult) -> None:
+    """Each reaction that fired (a retry, a goto, a contingency, ...) where the
+    robot was, labelled with the reaction as written; at most
+    MAX_CHANGE_LABELS labels."""
+    fired = [tr for tr in result.transitions if tr.reaction is not None]
+    if not fired:
+        return
+    points = [_sample_at(result, tr.time) for tr in fired]
+    ax.plot(
+        [result.x[k] for k in points],
+        [result.y[k] for k in points],
+        marker="X",
+        color="crimson",
+        markeredgecolor="white",
+        markersize=9,
+        linestyle="none",
+        label="reaction fired",
+        zorder=9,
+    )
+    for tr, k in list(zip(fired, points, strict=True))[:MAX_CHANGE_LABELS]:
+        ax.annotate(
+            f"{tr.condition}: {tr.reaction}",
+            (float(result.x[k]), float(result.y[k])),
+            xytext=(6, -10),
+            textcoords="offset points",
+            fontsize=7,
+            color="crimson",
+            zorder=9,
+            bbox={
+                "boxstyle": "round,pad=0.15",
+                "facecolor": "white",
+                "edgecolor": "none",
+                "alpha": 0.8,
+            },
+        )
+
+
 def _draw_ends(ax: Axes, result: RunResult) -> None:
     ax.plot(
         result.x[0],
@@ -563,6 +600,7 @@ def _xy_on(ax: Axes, result: RunResult) -> int:
     if result.samples:
         _draw_path(ax, result, colors)
         _draw_changes(ax, result, size)
+        _draw_reactions(ax, result)
         _draw_ends(ax, result)
     _draw_goals(ax, result, size)
     ax.set_xlim(view[0], view[1])

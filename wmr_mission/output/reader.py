@@ -219,9 +219,19 @@ def _transitions_from(records: Any) -> list[Transition]:
                 condition=_field(record, "condition", str, at),
                 value=_number(_field(record, "value", (int, float, type(None)), at), at),
                 lap=_lap(record, at),
+                reaction=_optional_text(record, "reaction", at),
+                why=_optional_text(record, "why", at),
             )
         )
     return transitions
+
+
+def _optional_text(record: Any, key: str, where: str) -> str | None:
+    """An optional text of a transition (absent where no reaction fired)."""
+    text = record.get(key) if isinstance(record, dict) else None
+    if text is not None and not isinstance(text, str):
+        raise RunDirError(f"{where}: {key!r} must be a text or null")
+    return text
 
 
 def _lap(record: Any, where: str) -> int | None:

@@ -27,6 +27,7 @@ class Outcome(StrEnum):
     # the plant side stopped the run (a robot's measurements stopped), or a
     # plug-in's code raised, or its step returned the wrong shape
     failed = "failed"
+    breached = "breached"  # the geofence breached, and its reaction failed the mission
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,10 @@ class Transition:
     condition: str  # "elapsed", "reaches", "settled", "timeout", ...
     value: float  # the value of the condition when it fired
     lap: int | None = None  # the lap of ``to_phase`` when it is in a repeat
+    # The reaction that fired, as written ("retry: 2 (1 of 2)", "detour",
+    # "then: resume"), and why, in words; None where the phases just ran in order.
+    reaction: str | None = None
+    why: str | None = None
 
 
 @dataclass(frozen=True)

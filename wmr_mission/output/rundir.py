@@ -34,6 +34,7 @@ import numpy as np
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_json
 from wmr_mission.output.metrics import check_expectations, summarize
+from wmr_mission.output.recovery import recovery_record
 
 if TYPE_CHECKING:
     from wmr_mission.output.result import RunResult, Transition
@@ -216,6 +217,8 @@ def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]
             "condition": tr.condition,
             "value": tr.value,
             **({} if tr.lap is None else {"lap": tr.lap}),
+            **({} if tr.reaction is None else {"reaction": tr.reaction}),
+            **({} if tr.why is None else {"why": tr.why}),
         }
         for tr in transitions
     ]
@@ -292,10 +295,12 @@ def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) 
         # Judged at the end of the run; a stop since names its signal in the message.
         summary = copy.deepcopy(result.judged)  # a caller's edit never reaches the result
         summary["outcome"], summary["message"] = result.outcome.value, result.message
+        summary["recovery"] = recovery_record(result.transitions, result.succeeded)
         return summary
     summary = summarize(result, mission)
     if mission is not None and isinstance(mission.get("expect"), Mapping):
         summary["expectations"] = check_expectations(summary, mission)
+    summary["recovery"] = recovery_record(result.transitions, result.succeeded)
     return summary
 
 

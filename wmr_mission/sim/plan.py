@@ -22,8 +22,9 @@ from wmr_mission.geometry import paths, regions
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
 from wmr_mission.sim.draws import DisturbancePlan
-from wmr_mission.spec.models import Mission, RegulatePhase, StayInside, TrackPhase, Until
-from wmr_mission.spec.repeats import run_order
+from wmr_mission.sim.reactions import ReactionPlan, contingency_phases, reaction_plan
+from wmr_mission.spec.models import Mission, Phase, RegulatePhase, StayInside, TrackPhase, Until
+from wmr_mission.spec.repeats import run_count, run_order
 
 
 def no_rows() -> tuple[IntArray, FloatArray]:
@@ -85,6 +86,9 @@ class MissionPlan:
     max_samples: int
     # The true plant's and the sensors' imperfections (wmr_mission.kernels.disturbances).
     disturbances: DisturbancePlan = field(default_factory=DisturbancePlan)
+    # What the run does at a timeout or a breach; None: fail at a timeout with
+    # on_timeout fail, else go on (wmr_mission.sim.reactions).
+    reactions: ReactionPlan | None = None
 
     @property
     def dt(self) -> float:
@@ -204,53 +208,54 @@ def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:
 
 
 def _phases(mission: Mission, dt: float) -> tuple[PhasePlan, ...]:
+    written = [(run.phase, run.label, run.lap) for run in run_order(mission)]
+    # then the phases of the contingencies a reaction names (none without reactions)
+    written += [(phase, label, None) for label, phase in contingency_phases(mission)]
+    return tuple(_phase(phase, label, lap, mission, dt) for phase, label, lap in written)
+
+
+def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: float) -> PhasePlan:
     context = mission.path_context()
-    phases: list[PhasePlan] = []
-    for run in run_order(mission):  # repeats written out, one phase per lap
-        phase = run.phase
-        constraints = []
-        row_parts = []
-        for constraint in phase.constraints:
-            side: Literal["inside", "outside"]
-            if isinstance(constraint, StayInside):
-                name, side = constraint.stay_inside, "inside"
-            else:
-                name, side = constraint.stay_outside, "outside"
-            constraints.append((name, side))
-            row_parts.append(regions.constraint_rows(mission.regions[name], side))
-        kind = "hold"
-        make_trajectory = None
-        target = None
-        points = None
-        if isinstance(phase, TrackPhase):
-            kind = "track"
-            path = phase.track.path
-            points = paths.drawn_points(path, context)
+    constraints = []
+    row_parts = []
+    for constraint in phase.constraints:
+        side: Literal["inside", "outside"]
+        if isinstance(constraint, StayInside):
+            name, side = constraint.stay_inside, "inside"
+        else:
+            name, side = constraint.stay_outside, "outside"
+        constraints.append((name, side))
+        row_parts.append(regions.constraint_rows(mission.regions[name], side))
+    kind = "hold"
+    make_trajectory = None
+    target = None
+    points = None
+    if isinstance(phase, TrackPhase):
+        kind = "track"
+        path = phase.track.path
+        points = paths.drawn_points(path, context)
 
-            def make_trajectory(pose: tuple[float, float, float], _path: Any = path) -> Trajectory:
-                return paths.trajectory(_path, context, pose)
+        def make_trajectory(pose: tuple[float, float, float], _path: Any = path) -> Trajectory:
+            return paths.trajectory(_path, context, pose)
 
-        elif isinstance(phase, RegulatePhase):
-            kind = "regulate"
-            goal = phase.regulate.target
-            target = (float(goal.x), float(goal.y), float(goal.theta))
-        phases.append(
-            PhasePlan(
-                name=run.label,
-                lap=run.lap,
-                points=points,
-                kind=kind,
-                until=_conditions(phase.until, mission, dt),
-                timeout_samples=None if phase.timeout is None else _bound(phase.timeout, dt),
-                fail_on_timeout=phase.on_timeout == "fail",
-                make_trajectory=make_trajectory,
-                target=target,
-                constraint_rows=_stack_rows(row_parts),
-                constraints=tuple(constraints),
-                color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
-            )
-        )
-    return tuple(phases)
+    elif isinstance(phase, RegulatePhase):
+        kind = "regulate"
+        goal = phase.regulate.target
+        target = (float(goal.x), float(goal.y), float(goal.theta))
+    return PhasePlan(
+        name=label,
+        lap=lap,
+        points=points,
+        kind=kind,
+        until=_conditions(phase.until, mission, dt),
+        timeout_samples=None if phase.timeout is None else _bound(phase.timeout, dt),
+        fail_on_timeout=phase.on_timeout in (None, "fail"),
+        make_trajectory=make_trajectory,
+        target=target,
+        constraint_rows=_stack_rows(row_parts),
+        constraints=tuple(constraints),
+        color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
+    )
 
 
 def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
@@ -277,6 +282,7 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
     )
     estimator = ESTIMATORS.of(mission.estimator)
     controller = CONTROLLERS.of(mission.controller)
+    phases = _phases(mission, dt)
     initial = mission.robot.initial_state
     written = mission.estimator.initial_estimate
     guess = initial if written is None else written
@@ -294,7 +300,8 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         ),
         controller=controller,
         controller_tuning=controller.tuning_of(mission.controller, plant),
-        phases=_phases(mission, dt),
+        phases=phases,
+        reactions=reaction_plan(mission, [p.name for p in phases[: run_count(mission)]]),
         regions=dumped_regions,
         max_samples=sample_budget(mission),
         disturbances=disturbance_plan(mission),

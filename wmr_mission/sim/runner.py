@@ -25,12 +25,21 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
+from wmr_mission.output import recovery
 from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.plugins import PluginFailed, failure_message
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
 from wmr_mission.sim.plant_side import PlantSide, PlantStopped
+from wmr_mission.sim.reactions import (
+    Breach,
+    Decision,
+    Reactor,
+    breach_at,
+    missed_verdicts,
+    nearest_ahead,
+)
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
@@ -41,6 +50,8 @@ from wmr_mission.spec.models import Mission
 # short phase samples little path ahead (PhaseRun.first_chunk).
 CHUNK = 4096
 FIRST_CHUNK = 256
+# [s] how far ahead of where it was left a resumed phase looks for its path.
+RESUME_HORIZON = 120.0
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
 MAX_PRESIZED = 2_000_000
 
@@ -102,6 +113,10 @@ class PhaseRun:
         self.entry_sample = 0
         self.target = np.zeros(3)
         self._trajectory: Trajectory | None = None
+        # Samples the path is ahead of the phase's clock: where a resumed phase
+        # rejoined its path (wmr_mission.sim.reactions.nearest_ahead).
+        self.path_shift = 0
+        self.left_at = 0  # the path's sample the phase was last left at
         # Samples after which the phase ends for sure (elapsed or timeout).
         bounds = [phase.until.elapsed_samples, phase.timeout_samples]
         self.bound = min((b for b in bounds if b is not None), default=2**62)
@@ -114,12 +129,20 @@ class PhaseRun:
         unforeseen = phase.kind == "track" and any(c is not None for c in conditions)
         self.first_chunk = min(FIRST_CHUNK, CHUNK) if unforeseen else CHUNK
 
-    def enter(self, k: int, estimate: FloatArray) -> EnteredPhase:
+    def enter(self, k: int, estimate: FloatArray, resume_from: int | None = None) -> EnteredPhase:
+        """The phase entered at sample k; ``resume_from`` (the path's sample the
+        phase was left at) keeps its path, rejoined where it passes nearest ahead."""
         self.status = Status.running
         self.entry_sample = k
         pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
         phase = self.phase
-        if phase.kind == "track":
+        self.path_shift = 0
+        if phase.kind == "track" and resume_from is not None and self._trajectory is not None:
+            horizon = min(self.bound, round(RESUME_HORIZON / self.mission.dt))
+            self.path_shift = nearest_ahead(
+                self._trajectory.sample, resume_from, horizon, self.mission.dt, *pose[:2]
+            )
+        elif phase.kind == "track":
             assert phase.make_trajectory is not None
             self._trajectory = phase.make_trajectory(pose)
         self.target[:] = phase.target if phase.target is not None else pose
@@ -158,7 +181,8 @@ class PhaseRun:
         unit tangent (NaN where the path rests)."""
         if self._trajectory is None or rows == 0:
             return PathBlock(local_sample, np.zeros((0, 4)))
-        t = (local_sample + np.arange(rows, dtype=np.float64)) * self.mission.dt
+        start = local_sample + self.path_shift
+        t = (start + np.arange(rows, dtype=np.float64)) * self.mission.dt
         x, y, dx, dy = self._trajectory.sample(t)
         block = np.empty((rows, 4))
         block[:, 0] = x
@@ -174,6 +198,7 @@ class PhaseRun:
 # Called once per phase or run: plain Python (wmr_mission.kernels.jit.plain).
 _max_row_value = jit.plain(max_row_value)
 _record_sample = jit.plain(loop.record_sample)
+
 
 ProgressCallback = Callable[[float, float, str], None]
 
@@ -203,7 +228,9 @@ def run_mission(
     ``wmr-mission run`` does. ``progress(t, t_budget, phase_name)`` is called
     between chunks of samples. The run stops cleanly on a timeout with
     ``on_timeout: fail``, on divergence and on Ctrl-C (outcome
-    ``interrupted``); what was produced up to then is in the result.
+    ``interrupted``); what was produced up to then is in the result. A
+    mission's reactions (a timeout, a geofence breach, a missed verdict) are
+    decided between chunks (wmr_mission.sim.reactions).
 
     ``substitutes`` replaces kernels by functions of the same signature (the
     reference step, wmr_mission.sim.reference.REFERENCE): the loop then runs
@@ -418,9 +445,11 @@ class _Run:
         self._started = (self._returned_ns, int(counters[loop.CLOCK]))
         index = 0
         chunk = active.first_chunk
+        reactor = None if m.reactions is None else Reactor(m.reactions)
         while True:
             k = int(counters[loop.K])
             local = k - active.entry_sample
+            watched = reactor is not None and reactor.plan.watches(active.index)
             # At its bound (elapsed or timeout) the phase exits before it steps,
             # so a call that reaches the bound goes on to see it exit; the path
             # is sampled up to the bound, never past it. The loop also stops
@@ -428,10 +457,25 @@ class _Run:
             stop = k + min(chunk, active.bound - local + 1)
             path = active.path_ahead(local, min(chunk, active.bound - local) + 1)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
-            status = self._call(phase, path, draws.ahead(), stop)
+            block = draws.ahead()
+            saved = self._saved() if watched else None
+            status = self._call(phase, path, block, stop)
+            decision: Decision | None = None
+            if saved is not None and status in (loop.CHUNK_END, loop.EXITED):
+                assert reactor is not None
+                decision = self._breach(reactor, active, saved, phase, path, block)
             draws.used(int(counters[loop.DRAWS]))
             counters[loop.DRAWS] = 0
             k = int(counters[loop.K])
+            if decision is not None:
+                assert reactor is not None
+                ended = self._follow(reactor, decision, active, k, phase)
+                if ended is not None:
+                    outcome, message = ended
+                    break
+                active, phase = self._entered(decision, active, k)
+                chunk = active.first_chunk
+                continue
             if status == loop.CHUNK_END:
                 if self.progress is not None:
                     self.progress(k * dt, budget, active.phase.name)
@@ -445,6 +489,25 @@ class _Run:
             value = float(signals.exit_value[0])
             if condition in ("elapsed", "timeout", "mission_time"):
                 value = _seconds(int(value), dt)
+            if reactor is not None:
+                missed = self._missed(reactor, active, k) if condition != "timeout" else []
+                if condition == "timeout":
+                    decision = reactor.react(active.index, "timeout")
+                    why = f"phase '{active.phase.name}' timed out after {value:.6g} s"
+                elif missed:
+                    decision = reactor.react(active.index, "verdict")
+                    condition, value = "verdict", float(len(missed))
+                    why = "missed " + "; ".join(missed)
+                else:
+                    decision = reactor.completed(active.index)
+                    why = None
+                ended = self._follow(reactor, decision, active, k, phase, condition, value, why)
+                if ended is not None:
+                    outcome, message = ended
+                    break
+                active, phase = self._entered(decision, active, k)
+                chunk = active.first_chunk
+                continue
             if condition == "timeout" and active.phase.fail_on_timeout:
                 active.status = Status.timed_out
                 self.transitions.append(
@@ -468,6 +531,11 @@ class _Run:
                     condition,
                     value,
                     None if to is None else to.phase.lap,
+                    *(
+                        ("next", f"phase '{active.phase.name}' timed out after {value:.6g} s")
+                        if condition == "timeout"
+                        else ()
+                    ),
                 )
             )
             if to is None:
@@ -478,6 +546,157 @@ class _Run:
             phase = active.enter(k, signals.estimate)
             chunk = active.first_chunk
         return self._result(outcome, message)
+
+    def _missed(self, reactor: Reactor, active: PhaseRun, k: int) -> list[str]:
+        """The verdicts the phase just ended missed over its samples since it was
+        entered, where it reacts to a missed verdict."""
+        written = reactor.plan.written
+        if written is None or not reactor.plan.judges(active.index):
+            return []
+        # this entry's samples alone (row i is sample i), as the run's record has them
+        floats = self.recorder.record.floats[active.entry_sample : k].copy()
+        columns = dict(zip(FLOAT_COLUMNS, floats.T, strict=True))
+        p = active.phase
+        entry = RunResult(
+            mission_name=self.m.name,
+            dt=self.m.dt,
+            seed=self.m.seed,
+            phases=[
+                PhaseRecord(
+                    p.name,
+                    p.kind,
+                    self._target(active),
+                    p.constraints,
+                    near=p.until.near,
+                    points=() if p.points is None else tuple(map(tuple, p.points.tolist())),
+                )
+            ],
+            **columns,
+            phase=np.zeros(len(floats), dtype=np.int64),
+            phase2_iterations=np.zeros(len(floats), dtype=np.int64),
+            compute_ns=np.zeros(len(floats), dtype=np.int64),
+            transitions=[],
+            outcome=Outcome.success,
+            message="",
+            limits=(float(self.m.plant.limits[0]), float(self.m.plant.limits[1])),
+            error_bounds=self.m.estimator.error_bounds(self.m.estimator_tuning),  # type: ignore[arg-type]
+            regions=dict(self.m.regions),
+        )
+        return missed_verdicts(entry, written)
+
+    def _saved(self) -> tuple[int, list[tuple[FloatArray, FloatArray]]]:
+        """What a call of the loop changes, copied: the recorded rows, and every
+        array the loop carries from sample to sample."""
+        carried = [*self.signals, *self.estimator_memory, *self.scratch]
+        arrays = [a for a in carried if isinstance(a, np.ndarray)]
+        return self.recorder.count, [(a, a.copy()) for a in arrays]
+
+    def _breach(
+        self,
+        reactor: Reactor,
+        active: PhaseRun,
+        saved: tuple[int, list[tuple[FloatArray, FloatArray]]],
+        phase: EnteredPhase,
+        path: PathBlock,
+        block: FloatArray,
+    ) -> Decision | None:
+        """The reaction to a breach among the rows the last call recorded, if
+        any. The call is then run again from the state before it, up to the
+        sample that breached: the reaction fires at the next sample, as if
+        the loop had checked the geofence itself (the same samples: the loop
+        is a function of the state it is called with)."""
+        recorded, arrays = saved
+        record = self.recorder.record
+        breach = breach_at(reactor.plan, record.floats, recorded, self.recorder.count)
+        if breach is None:
+            return None
+        for array, copy in arrays:
+            array[...] = copy
+        record.rows[0] = recorded
+        start = int(self.signals.counters[loop.K])
+        self._call(phase, path, block, start + breach.sample - recorded + 1)
+        self._breach_seen: Breach = breach
+        return reactor.react(active.index, "breach")
+
+    def _follow(
+        self,
+        reactor: Reactor,
+        decision: Decision,
+        active: PhaseRun,
+        k: int,
+        phase: EnteredPhase,
+        condition: str = "breach",
+        value: float = math.nan,
+        why: str | None = None,
+    ) -> tuple[Outcome, str] | None:
+        """Record the transition ``decision`` makes; the run's end, if it ends."""
+        dt = self.m.dt
+        t = _seconds(k, dt)
+        if condition == "breach":
+            b = self._breach_seen
+            value = round(b.depth, 9)
+            keep = next(z.keep for z in reactor.plan.zones if z.name == b.zone)
+            side = "outside keep-in" if keep == "in" else "inside keep-out"
+            why = (
+                f"the {b.position} position went {b.depth:.3g} m {side} zone '{b.zone}' "
+                f"(margin {reactor.plan.margin:g} m) at t = {b.time:.6g} s"
+            )
+        to = None if decision.enter is None else self.phases[decision.enter]
+        if decision.contingency is not None and why is not None:
+            why = f"{why}; contingency '{decision.contingency}'"
+        self.transitions.append(
+            Transition(
+                t,
+                active.phase.name,
+                None if to is None else to.phase.name,
+                condition,
+                value,
+                None if to is None else to.phase.lap,
+                decision.reaction,
+                why,
+            )
+        )
+        if to is not None:
+            return None
+        self._close(k, phase)
+        fired = [tr for tr in self.transitions if recovery.fired(tr)]
+        if decision.failure is None:
+            active.status = Status.done
+            if not fired:
+                return Outcome.success, "all phases completed"
+            return Outcome.success, f"completed, {len(fired)} reaction{'s' * (len(fired) > 1)}"
+        active.status = Status.timed_out if decision.failure == "timeout" else Status.done
+        outcome = {
+            "timeout": Outcome.timeout,
+            "breach": Outcome.breached,
+            "verdict": Outcome.expect_failed,
+        }[decision.failure or "timeout"]
+        last = fired[-1] if fired else None
+        cause = next(
+            (
+                tr.why
+                for tr in reversed(self.transitions)
+                if tr.why is not None and tr.condition in ("timeout", "breach", "verdict")
+            ),
+            None,
+        )
+        if cause is None:
+            cause = f"phase '{active.phase.name}' failed at t = {t:.6g} s"
+        reaction = "" if last is None else f" (reaction: {last.reaction})"
+        return outcome, f"{cause}{reaction}"
+
+    def _entered(
+        self, decision: Decision, active: PhaseRun, k: int
+    ) -> tuple[PhaseRun, EnteredPhase]:
+        """Enter the phase ``decision`` names at sample k."""
+        assert decision.enter is not None
+        if active.status == Status.running:
+            active.status = Status.done
+        active.left_at = k - active.entry_sample + active.path_shift
+        to = self.phases[decision.enter]
+        self.signals.memory[:] = 0.0
+        resume = to.left_at if decision.how == "resume" else None
+        return to, to.enter(k, self.signals.estimate, resume)
 
     def _close(self, k: int, phase: EnteredPhase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""

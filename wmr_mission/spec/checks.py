@@ -40,6 +40,7 @@ from wmr_mission.geometry.regions import (
     region_value,
 )
 from wmr_mission.plugins import EntryError, load_entry
+from wmr_mission.spec import graph
 from wmr_mission.spec.models import (
     HoldPhase,
     Mission,
@@ -151,6 +152,7 @@ def check_across_fields(mission: Mission) -> list[Finding]:
         *_estimator_bounds(mission),
         *_phase_colors(mission),
         *_disturbances(mission),
+        *(Finding(e.path, e.message, at_key=e.at_key) for e in graph.prove(mission)),
     ]
 
 

@@ -60,10 +60,12 @@ from wmr_mission.geometry import paths
 from wmr_mission.geometry.paths import PATHS, PathSettings
 from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.spec.backend import Backend
+from wmr_mission.spec.reactions import Geofence, Reaction, Then
 
 __all__ = [
     "ACTIONS",
     "Constraint",
+    "Contingency",
     "Disturbances",
     "Dropout",
     "Expect",
@@ -478,8 +480,21 @@ class _PhaseCommon(Model):
         default=None,
         description="Phase time limit [s], > 0; needed unless until has elapsed or mission_time.",
     )
-    on_timeout: Literal["fail", "next"] = Field(
-        default="fail", description="At timeout: fail the mission, or go on to the next phase."
+    on_timeout: Reaction | None = Field(
+        default=None,
+        description=(
+            "At timeout: fail the mission, go on to the next phase, or another reaction "
+            "(see Reactions); unset: the mission's on_timeout, else fail."
+        ),
+    )
+    on_breach: Reaction | None = Field(
+        default=None,
+        description="When the geofence is breached; unset: the mission's on_breach, else fail.",
+    )
+    on_failure: Reaction | None = Field(
+        default=None,
+        description="When a verdict of the phase is missed at its end, and at a timeout or breach "
+        "without a reaction of its own; unset: the mission's on_failure.",
     )
     constraints: tuple[Constraint, ...] = Field(
         default=(),
@@ -580,6 +595,29 @@ Step = Annotated[
         custom_error_message="a phase needs exactly one action: track, regulate, hold or repeat",
     ),
 ]
+
+
+class Contingency(Model):
+    """Phases a reaction runs, and what follows them."""
+
+    phases: list[Phase] = Field(
+        min_length=1, max_length=1000, description="The phases, run in order (no repeats)."
+    )
+    then: Then = Field(
+        default="resume",
+        description=(
+            "Once its last phase ends: resume (rejoin the phase that called it where its path "
+            "passes nearest ahead), next (the phase after that one), end (the mission ends: a "
+            "success after recovery), fail, or {goto: PHASE}."
+        ),
+    )
+    times: Annotated[int, Strict(), Field(ge=1, le=100)] = Field(
+        default=1,
+        description=(
+            "How many times it may run in one run, 1..100; a reaction calling it once they are "
+            "spent fails the mission."
+        ),
+    )
 
 
 # The verdict a run gets unless the mission says otherwise (docs/mission-format.md,
@@ -840,6 +878,24 @@ class Mission(Model):
         min_length=1, max_length=10000, description="Phases (and repeats of phases), run in order."
     )
     expect: Expect = Field(default_factory=Expect, description="Acceptance thresholds.")
+    geofence: Geofence | None = Field(
+        default=None, description="Zones watched in every phase (see Reactions)."
+    )
+    on_timeout: Reaction | None = Field(
+        default=None, description="Every phase's on_timeout unless it sets its own."
+    )
+    on_breach: Reaction | None = Field(
+        default=None, description="Every phase's on_breach unless it sets its own."
+    )
+    on_failure: Reaction | None = Field(
+        default=None, description="Every phase's on_failure unless it sets its own."
+    )
+    contingencies: dict[PhaseNameKey, Contingency] = Field(
+        default_factory=dict,
+        max_length=100,
+        description="Named phase lists a reaction may run (hold and return-home are built in).",
+        json_schema_extra={"additionalProperties": False},
+    )
     plot: Plot = Field(default_factory=Plot, description="How the figures look.")
     backend: Backend = Field(
         default_factory=Backend, description="The plant: our simulator, IR-SIM or ROS 2."
@@ -866,7 +922,7 @@ class Mission(Model):
 def _rebuild() -> None:
     """A variant registered after the models were built: rebuild those that
     embed a registry, inner ones first, so the mission accepts it."""
-    for model in (Track, TrackPhase, Repeat, RepeatPhase, Mission):
+    for model in (Track, TrackPhase, Repeat, RepeatPhase, Contingency, Mission):
         model.model_rebuild(force=True)
 
 

@@ -1,0 +1,320 @@
+"""The phase graph of a mission's reactions, proved before anything runs.
+
+Nodes are the phases as they run (repeats written out) and the phases of
+each contingency; edges are what may follow a phase: its exit condition met
+(the next phase, or what follows a contingency), and each of its reactions.
+Two kinds of edge are counted: a retry (``retry: {times: N}``) and entering a
+contingency (its ``times``). Counts are per run and never reset, so a run
+takes each counted edge at most its count and, between two counted edges,
+only uncounted ones. :func:`prove` checks that the uncounted edges form no
+cycle; then every path through the graph ends, after at most
+``(1 + sum of the counts) * phases`` phase entries. No count is reset by
+re-entering a phase (a loop inside a loop does not restart the inner loop's
+count, the mistake that makes MAVLink ``DO_JUMP`` missions loop for ever).
+
+The other proofs: every ``goto`` names a phase written at the top of
+``phases``; every text reaction is fail, next or a contingency's name; every
+contingency is named by some reaction; ``on_breach`` has a geofence to watch;
+a contingency's phases each end by a time bound.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any, Final
+
+from wmr_mission.spec.models import Contingency, Mission, Phase
+from wmr_mission.spec.reactions import BUILT_IN_CONTINGENCIES, Goto, Retry
+from wmr_mission.spec.repeats import DataPath, run_order
+
+__all__ = ["GraphError", "prove"]
+
+_END: Final = -1
+_FAIL: Final = -2
+
+
+@dataclass(frozen=True)
+class GraphError:
+    path: DataPath
+    message: str
+    at_key: bool = False
+
+
+@dataclass(frozen=True)
+class _Node:
+    label: str
+    phase: Phase
+    where: DataPath
+    contingency: str | None  # the contingency it belongs to
+
+
+@dataclass(frozen=True)
+class _Edge:
+    to: int
+    counted: bool
+    where: DataPath | None  # the reaction that makes it (None: the phase's own order)
+
+
+def _dotted(path: DataPath) -> str:
+    return "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path).lstrip(".")
+
+
+class _Graph:
+    def __init__(self, mission: Mission) -> None:
+        self.mission = mission
+        self.errors: list[GraphError] = []
+        runs = run_order(mission)
+        self.nodes = [_Node(r.label, r.phase, r.where, None) for r in runs]
+        self.main_count = len(self.nodes)
+        self.top = {r.label: i for i, r in enumerate(runs) if r.lap is None}
+        self.in_repeat = {r.phase.name for r in runs if r.lap is not None}
+        self.spans: dict[str, tuple[int, int, Contingency]] = {}
+        for name, contingency in mission.contingencies.items():
+            first = len(self.nodes)
+            for j, phase in enumerate(contingency.phases):
+                where = ("contingencies", name, "phases", j)
+                self.nodes.append(_Node(phase.name, phase, where, name))
+            self.spans[name] = (first, len(self.nodes) - 1, contingency)
+        self.named: set[str] = set()  # contingencies some reaction names
+        self.callers: dict[str, list[int]] = {}
+        self.edges: list[list[_Edge]] = [[] for _ in self.nodes]
+
+    # --- targets ---------------------------------------------------------
+
+    def goto(self, goto: Goto, where: DataPath) -> int | None:
+        target = self.top.get(goto.goto)
+        if target is not None:
+            return target
+        name = goto.goto
+        if name in self.in_repeat:
+            why = f"phase {name!r} is inside a repeat; a goto enters a phase written at the top"
+        elif any(n.label == name for n in self.nodes[self.main_count :]):
+            why = f"phase {name!r} belongs to a contingency; a goto enters a mission phase"
+        else:
+            names = ", ".join(sorted(self.top)) or "none"
+            why = f"no phase is named {name!r} (phases a goto may enter: {names})"
+        self.errors.append(GraphError((*where, "goto"), why))
+        return None
+
+    def completed(self, index: int) -> list[tuple[int, DataPath | None]]:
+        """Where a phase goes when it ends by its exit condition."""
+        node = self.nodes[index]
+        if node.contingency is None:
+            return [(index + 1 if index + 1 < self.main_count else _END, None)]
+        _, last, contingency = self.spans[node.contingency]
+        if index < last:
+            return [(index + 1, None)]
+        then = contingency.then
+        where: DataPath = ("contingencies", node.contingency, "then")
+        if isinstance(then, Goto):
+            target = self.goto(then, where)
+            return [] if target is None else [(target, where)]
+        if then == "end":
+            return [(_END, where)]
+        if then == "fail":
+            return [(_FAIL, where)]
+        callers = self.callers.get(node.contingency, [])
+        if then == "resume":
+            return [(c, where) for c in callers]
+        return [(to, where) for c in callers for to, _ in self.completed(c)]  # next
+
+    # --- edges -----------------------------------------------------------
+
+    def reactions(self) -> None:
+        """The reaction edges; a contingency's callers first, for `resume`."""
+        mission = self.mission
+        watched = mission.geofence is not None
+        found: list[tuple[int, Any, DataPath, str]] = []
+        for index, node in enumerate(self.nodes):
+            levels: list[tuple[Any, DataPath]] = [(node.phase, node.where)]
+            if node.contingency is None:
+                levels.append((mission, ()))
+            for event in ("on_timeout", "on_breach", "on_failure"):
+                reaction, where = self._effective(levels, event)
+                if event == "on_breach" and not watched:
+                    continue
+                if event == "on_failure":  # a missed verdict: none, judged after the run
+                    if reaction is not None:
+                        found.append((index, reaction, where, event))
+                    continue
+                if reaction is None:
+                    reaction = "fail" if event == "on_timeout" or node.contingency is None else None
+                if reaction is not None:
+                    found.append((index, reaction, where, event))
+        if not watched:
+            for level, where in [(mission, ()), *((n.phase, n.where) for n in self.nodes)]:
+                if level.on_breach is not None:
+                    self.errors.append(
+                        GraphError(
+                            (*where, "on_breach"),
+                            "on_breach has nothing to watch: give the mission a geofence "
+                            "(keep_in, keep_out)",
+                            at_key=True,
+                        )
+                    )
+        for index, reaction, _, _ in found:
+            name = reaction.retry.then if isinstance(reaction, Retry) else reaction
+            if isinstance(name, str) and name not in ("fail", "next"):
+                self.callers.setdefault(name, []).append(index)
+        for index, reaction, where, _ in found:
+            self._edges_of(index, reaction, where)
+
+    @staticmethod
+    def _effective(levels: list[tuple[Any, DataPath]], event: str) -> tuple[Any, DataPath]:
+        for level, where in levels:
+            for key in dict.fromkeys((event, "on_failure")):
+                reaction = getattr(level, key)
+                if reaction is not None:
+                    return reaction, (*where, key)
+        return None, ()
+
+    def _edges_of(self, index: int, reaction: Any, where: DataPath) -> None:
+        edges = self.edges[index]
+        if isinstance(reaction, Retry):
+            edges.append(_Edge(index, True, where))
+            reaction, where = reaction.retry.then, (*where, "retry", "then")
+        if isinstance(reaction, Goto):
+            target = self.goto(reaction, where)
+            if target is not None:
+                edges.append(_Edge(target, False, where))
+        elif reaction == "fail":
+            edges.append(_Edge(_FAIL, False, where))
+        elif reaction == "next":
+            edges.extend(_Edge(to, False, where) for to, _ in self.completed(index))
+        elif reaction in self.spans:
+            self.named.add(reaction)
+            edges.append(_Edge(self.spans[reaction][0], True, where))
+        elif reaction in BUILT_IN_CONTINGENCIES:
+            edges.append(_Edge(_FAIL, True, where))  # a failsafe: it ends failed
+        elif reaction in ("goto", "retry"):
+            form = "{goto: PHASE}" if reaction == "goto" else "{retry: {times: N}}"
+            self.errors.append(GraphError(where, f"{reaction!r} needs its argument: {form}"))
+        else:
+            written = ", ".join(sorted(self.spans)) or "none written"
+            self.errors.append(
+                GraphError(
+                    where,
+                    f"{reaction!r} is not a reaction: fail, next, a contingency's name "
+                    f"(hold, return-home; this mission's: {written}), {{goto: PHASE}} or "
+                    "{retry: {times: N}}",
+                )
+            )
+
+    def order(self) -> None:
+        for index in range(len(self.nodes)):
+            for to, where in self.completed(index):
+                self.edges[index].append(_Edge(to, False, where))
+
+    # --- proofs ----------------------------------------------------------
+
+    def unbounded_cycle(self) -> list[tuple[int, _Edge]] | None:
+        """A cycle of uncounted edges, or None (Kahn's order, then a walk)."""
+        n = len(self.nodes)
+        free = [[e for e in edges if not e.counted and e.to >= 0] for edges in self.edges]
+        indegree = [0] * n
+        for edges in free:
+            for e in edges:
+                indegree[e.to] += 1
+        ready = [i for i in range(n) if indegree[i] == 0]
+        left = set(range(n))
+        while ready:
+            i = ready.pop()
+            left.discard(i)
+            for e in free[i]:
+                indegree[e.to] -= 1
+                if indegree[e.to] == 0:
+                    ready.append(e.to)
+        if not left:
+            return None
+        # every node left has an uncounted edge into the nodes left: walk until one repeats
+        i = min(left)
+        seen: dict[int, int] = {}
+        walk: list[tuple[int, _Edge]] = []
+        while i not in seen:
+            seen[i] = len(walk)
+            edge = next(e for e in free[i] if e.to in left)
+            walk.append((i, edge))
+            i = edge.to
+        return walk[seen[i] :]
+
+    def reaches_end(self) -> bool:
+        todo, seen = [0], {0}
+        while todo:
+            for e in self.edges[todo.pop()]:
+                if e.to == _END:
+                    return True
+                if e.to >= 0 and e.to not in seen:
+                    seen.add(e.to)
+                    todo.append(e.to)
+        return False
+
+
+def prove(mission: Mission) -> Iterator[GraphError]:
+    """Every problem of the mission's phase graph (none for a mission without reactions)."""
+    graph = _Graph(mission)
+    for name in mission.contingencies:
+        if name in BUILT_IN_CONTINGENCIES:
+            yield GraphError(
+                ("contingencies", name),
+                f"contingency {name!r} is built in; name yours otherwise",
+                at_key=True,
+            )
+    graph.reactions()
+    graph.order()
+    yield from graph.errors
+    labels = {n.label: n.where for n in graph.nodes[: graph.main_count]}
+    for node in graph.nodes[graph.main_count :]:
+        phase = node.phase
+        if node.label in labels:
+            yield GraphError(
+                (*node.where, "name"),
+                f"phase name {node.label!r} is already used by {_dotted(labels[node.label])}; "
+                "phase names must be unique",
+            )
+        labels.setdefault(node.label, node.where)
+        until = phase.until
+        if phase.timeout is None and until.elapsed is None and until.mission_time is None:
+            yield GraphError(
+                node.where,
+                f"phase {phase.name!r} can never be guaranteed to end: give it a timeout, or "
+                "until.elapsed or until.mission_time",
+            )
+    for name in BUILT_IN_CONTINGENCIES:
+        # a built-in contingency's phase is named after it
+        if name in graph.callers and name in labels and name not in mission.contingencies:
+            yield GraphError(
+                (*labels[name], "name"),
+                f"phase name {name!r} is taken by the built-in contingency a reaction runs; "
+                "name the phase otherwise",
+            )
+    for name in mission.contingencies:
+        if name not in graph.named and name not in BUILT_IN_CONTINGENCIES:
+            yield GraphError(
+                ("contingencies", name),
+                f"contingency {name!r} is unreachable: no reaction names it",
+                at_key=True,
+            )
+    if graph.errors:
+        return  # the cycles of a graph with a missing target mean little
+    cycle = graph.unbounded_cycle()
+    if cycle is not None:
+        names = " -> ".join(
+            [*(graph.nodes[i].label for i, _ in cycle), graph.nodes[cycle[0][0]].label]
+        )
+        # the reaction that leads back (a goto, a `then`), else any reaction on the way
+        written = [(i, e) for i, e in cycle if e.where is not None]
+        back = [e for i, e in written if e.to <= i] or [e for _, e in written]
+        where = back[0].where if back else graph.nodes[cycle[0][0]].where
+        assert where is not None
+        yield GraphError(
+            where,
+            f"these phases can loop for ever: {names}; bound the loop with "
+            "{retry: {times: N}} or by running a contingency (its times)",
+        )
+    elif not graph.reaches_end():
+        yield GraphError(
+            ("phases",),
+            "no path through the phases and their reactions ends in success",
+            at_key=True,
+        )
