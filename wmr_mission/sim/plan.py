@@ -262,6 +262,9 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
     noise_std = np.array([measured_noise.get(state, 0.0) for state in STATES])
     limits = mission.robot.limits
     dumped_regions = {name: r.model_dump(mode="json") for name, r in mission.regions.items()}
+    estimator = ESTIMATORS.of(mission.estimator)
+    estimator_tuning = estimator.tuning_of(mission.estimator, Measurements(measured, noise_std))
+    controller = CONTROLLERS.of(mission.controller)
     plant = Plant(
         dt=dt,
         limits=np.array(
@@ -274,9 +277,8 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         ),
         runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),
         runaway_input=RUNAWAY_INPUT,
+        constraint_margin=float(estimator.constraint_margin(estimator_tuning)),
     )
-    estimator = ESTIMATORS.of(mission.estimator)
-    controller = CONTROLLERS.of(mission.controller)
     initial = mission.robot.initial_state
     written = mission.estimator.initial_estimate
     guess = initial if written is None else written
@@ -289,7 +291,7 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         noise_std=noise_std,
         seed=sensors.seed if seed is None else seed,
         estimator=estimator,
-        estimator_tuning=estimator.tuning_of(mission.estimator, Measurements(measured, noise_std)),
+        estimator_tuning=estimator_tuning,
         controller=controller,
         controller_tuning=controller.tuning_of(mission.controller, plant),
         phases=_phases(mission, dt),

@@ -670,7 +670,11 @@ class Expect(PhaseExpect):
         description="[rad] wrapped final heading error to that regulate target.",
     )
     max_constraint_violation: Threshold | None = Field(
-        default=None, description="Largest constraint-row value over the run (> 0 = violated)."
+        default=None,
+        description=(
+            "Largest constraint-row value (> 0 = violated) over the states each phase's "
+            "inputs produced: from a phase's second sample."
+        ),
     )
     estimation_convergence_time: Threshold | None = Field(
         default=None,
