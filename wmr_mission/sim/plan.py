@@ -22,7 +22,14 @@ from wmr_mission.geometry import paths, regions
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
 from wmr_mission.sim.draws import DisturbancePlan
-from wmr_mission.spec.models import Mission, RegulatePhase, StayInside, TrackPhase, Until
+from wmr_mission.spec.models import (
+    Limits,
+    Mission,
+    RegulatePhase,
+    StayInside,
+    TrackPhase,
+    Until,
+)
 from wmr_mission.spec.repeats import run_order
 
 
@@ -119,7 +126,15 @@ def disturbance_plan(mission: Mission) -> DisturbancePlan:
         dropout_burst=1.0 if dropout is None else float(dropout.burst),
         outlier_probability=0.0 if outliers is None else float(outliers.probability),
         outlier_std=np.zeros(3) if outliers is None else per_state(outliers.std),
+        acceleration=_acceleration(mission.robot.limits),
     )
+
+
+def _acceleration(limits: Limits) -> tuple[float, float]:
+    """The robot's acceleration limits [m/s^2, rad/s^2], inf where none."""
+    if limits.acceleration is None:
+        return math.inf, math.inf
+    return float(limits.acceleration.v), float(limits.acceleration.omega)
 
 
 def _extent(mission: Mission, dumped_regions: dict[str, dict[str, object]]) -> float:
@@ -271,8 +286,12 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
             [
                 limits.v,
                 limits.omega,
-                math.inf if limits.v_rate is None else limits.v_rate,
-                math.inf if limits.omega_rate is None else limits.omega_rate,
+                # the command's rate: the tighter of v_rate and the robot's acceleration
+                min(math.inf if limits.v_rate is None else limits.v_rate, _acceleration(limits)[0]),
+                min(
+                    math.inf if limits.omega_rate is None else limits.omega_rate,
+                    _acceleration(limits)[1],
+                ),
             ]
         ),
         runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),

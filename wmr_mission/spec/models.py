@@ -105,6 +105,13 @@ PHASE_NAME: Final = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 # --- robot -----------------------------------------------------------------
 
 
+class Acceleration(Model):
+    """The robot's largest changes of its inputs per second."""
+
+    v: Positive = Field(description="Largest |dv/dt|, linear acceleration [m/s^2].")
+    omega: Positive = Field(description="Largest |domega/dt|, turn-rate acceleration [rad/s^2].")
+
+
 class Limits(Model):
     """Actuator limits; inputs are saturated to them."""
 
@@ -115,6 +122,14 @@ class Limits(Model):
     )
     omega_rate: Positive | None = Field(
         default=None, description="Largest |domega/dt| [rad/s^2]; null = unlimited."
+    )
+    acceleration: Acceleration | None = Field(
+        default=None,
+        description=(
+            "The robot's own acceleration limits: the plant applies the commands no faster, "
+            "and the controller (its zone filter too) commands no faster (the tighter of "
+            "these and v_rate, omega_rate); null = unlimited."
+        ),
     )
 
 
