@@ -603,7 +603,8 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
     loaded = load_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml")
     plan = Plan(loaded.campaign)
     outcomes = set()
-    for run in range(24):
+    # runs 0..23 all succeed; 105 and 287 fail (max_constraint_violation, spiral-out)
+    for run in [*range(12), 105, 287]:
         draw = plan.draw(run)
         row = run_row(loaded, draw)
         result, reason = simulate(loaded, draw)

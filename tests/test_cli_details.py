@@ -197,21 +197,26 @@ def test_the_run_table_fits_in_100_columns(mission: str, tmp_path: Path) -> None
 
 @pytest.mark.slow
 def test_a_failure_is_said_once(tmp_path: Path) -> None:
-    """keep-out's legs south kick their inputs at the pond's edge: each
+    """disturbed's circle kicks its turn rate and its stop stalls: each
     threshold missed is named, with its value, once (the message on stderr);
     the table marks the phases."""
+    mission = ROOT / "missions" / "disturbed.yaml"
     result = CliRunner(env={"COLUMNS": "100"}).invoke(
-        app, ["run", str(ROOT / "missions" / "keep-out.yaml"), "--out", str(tmp_path / "r")]
+        app, ["run", str(mission), "--out", str(tmp_path / "r")]
     )
     assert result.exit_code == 1
     said = result.stdout + result.stderr
-    for leg in ("south#1", "south#2", "south#3"):
-        for metric in ("speed_jump_max", "turn_rate_jump_max"):
-            assert said.count(f"{leg}: {metric} = ") == 1, (leg, metric)
-        row = next(line for line in result.stdout.splitlines() if line.startswith(leg))
+    missed = {
+        "circle": ("turn_rate_jump_max", "turn_rate_reversals", "turn_rate_fight_time"),
+        "stop": ("stall_time",),
+    }
+    for phase, metrics in missed.items():
+        for metric in metrics:
+            assert said.count(f"{phase}: {metric} = ") == 1, (phase, metric)
+        row = next(line for line in result.stdout.splitlines() if line.startswith(phase))
         assert row.endswith("NOT MET")
-    assert "speed_jump_max" not in result.stdout
-    assert result.stderr.startswith(f"{ROOT / 'missions' / 'keep-out.yaml'}: expectation not met: ")
+    assert "turn_rate_jump_max" not in result.stdout
+    assert result.stderr.startswith(f"{mission}: expectation not met: ")
 
 
 class _Terminal(io.StringIO):

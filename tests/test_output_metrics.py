@@ -57,6 +57,7 @@ def test_summary_key_order_is_fixed() -> None:
         "convergence_tolerance",
         "estimation_overshoot",
         "estimation_rms",
+        "constraint_margin",  # a run with constraints
         "max_constraint_violation",
         "phases",
         "compute_us_per_sample",

@@ -52,9 +52,9 @@ def test_a_robot_stalled_at_a_zone_is_unsound(tmp_path: Path) -> None:
     mission = DATA / "stalled.yaml"
     run_dir = run(mission, tmp_path)
     trajectory = read_trajectory(run_dir / "trajectory.csv")
-    # Premise: the robot stops at the circle's edge, on the line, ~10 m behind its reference.
+    # Premise: the robot stops at the wall across its line, ~10 m behind its reference.
     end = len(trajectory.phase) - 2  # the last sample with a reference point
-    assert trajectory["x"][end] == pytest.approx(3.9, abs=0.05)
+    assert trajectory["x"][end] == pytest.approx(3.85, abs=0.01)
     assert np.abs(trajectory["y"]).max() < 1e-3
     assert trajectory["x_ref"][end] - trajectory["x"][end] > 9.5
     assert summary(run_dir)["outcome"] == "expect-failed"  # along_track_lag_max
@@ -92,21 +92,30 @@ def test_noise_driven_orbit_jitter_is_unsound(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_a_parking_limit_cycle_is_unsound(tmp_path: Path) -> None:
+    """The limit cycle the bearing form locked into with the target abeam,
+    before its hysteresis (docs/paper-notes.md; the product parks there now,
+    tests/test_parking.py): the turn rate +-3.19 rad/s and the speed
+    +-0.16 m/s by turns at every sample, the robot still for 30 s."""
     mission = DATA / "parking-limit-cycle.yaml"
-    run_dir = run(mission, tmp_path)
-    trajectory = read_trajectory(run_dir / "trajectory.csv")
-    park = np.array([name == "park" for name in trajectory.phase])
-    omega, x, y = trajectory["omega"][park], trajectory["x"][park], trajectory["y"][park]
-    # Premise: the turn rate reverses at (nearly) every sample of the last 20 s, at
-    # about +-3.2 rad/s, while the robot moves less than 1 cm.
-    last = omega[-2000:]
-    assert np.mean(np.sign(last[1:]) != np.sign(last[:-1])) > 0.99
-    assert np.abs(last).min() > 2.5
-    assert math.hypot(x[-1] - x[-2000], y[-1] - y[-2000]) < 0.01
-    assert summary(run_dir)["outcome"] == "timeout"
+    dt = 0.01
+    t = np.arange(0, 30 + dt / 2, dt)
+    sign = np.where(np.arange(t.size) % 2 == 0, 1.0, -1.0)
+    columns = {
+        "t": t,
+        "x": 4.99 + 0.0008 * (sign + 1) / 2,  # 0.16 m/s for 5 ms, forth and back
+        "y": np.zeros_like(t),
+        "theta": 0.016 * (sign + 1) / 2,
+        "v": 0.16 * sign,
+        "omega": 3.19 * sign,
+        "x_ref": np.full_like(t, np.nan),
+        "y_ref": np.full_like(t, np.nan),
+    }
+    for state in ("x", "y", "theta"):
+        columns[f"{state}_est"] = columns[state]
+    write_run(tmp_path / "run", columns, "park")
 
-    problems = problems_of(judge(mission, run_dir), "park")
-    assert problems[0].startswith("stalled: from t = 2.00 s")
+    problems = problems_of(judge(mission, tmp_path / "run"), "park")
+    assert problems[0].startswith("stalled: from t = ")
     assert "never reached its goal (settled) in truth" in problems
     assert any(p.startswith("kick: omega jumps") for p in problems)
     assert any(p.startswith("chatter: omega reverses") for p in problems)
@@ -136,20 +145,21 @@ def test_a_detour_a_zone_forces_is_not_a_tracking_failure(tmp_path: Path) -> Non
     mission = DATA / "detour.yaml"
     run_dir = run(mission, tmp_path)
     result = summary(run_dir)
-    # The product used to fail it on tracking_error_max; now on the kick alone.
-    assert result["outcome"] == "expect-failed"
-    assert result["message"] == ("expectation not met: go: turn_rate_jump_max = 4.51377 (max 3)")
+    # The product used to fail it on tracking_error_max, then on the zone
+    # filter's kick alone; it is a success.
+    assert result["outcome"] == "success"
 
     verdict = judge(mission, run_dir)
     go = verdict.phases[0]
     # 0.35 m off the line round the zone, and back on it: no tracking problem.
-    assert go.metrics["detour_cross_max"] == pytest.approx(0.35, abs=0.02)
+    # 0.44 m: the zone's reach into the path (0.3 m), the look-ahead and the margin
+    assert go.metrics["detour_cross_max"] == pytest.approx(0.44, abs=0.01)
     assert go.metrics["cross_track_max"] < 1e-3
     assert go.metrics["lag_max"] < 1e-3
-    # Today's zone filter kicks the turn rate from -3 to 1.5 rad/s in one sample:
-    # that, and only that, is what the judge holds against the run.
-    assert [p.split(":")[0] for p in go.problems] == ["kick"]
-    assert "omega jumps from -3 to 1.51" in go.problems[0]
+    # The zone filter kicked the turn rate from -3 to 1.5 rad/s in one sample at
+    # the zone's edge, which the judge held against the run; it kicks no more.
+    assert go.problems == []
+    assert verdict.sound
 
 
 def write_run(run_dir: Path, columns: dict[str, np.ndarray], phase: str) -> None:

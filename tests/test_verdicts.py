@@ -290,16 +290,16 @@ def test_park_turns_in_place_at_full_rate_once_and_succeeds(tmp_path: Path) -> N
 
 @pytest.mark.slow
 def test_a_robot_stalled_at_a_zone_is_not_a_success(tmp_path: Path) -> None:
-    """A 14 s line at 1 m/s through the centre of a keep-out circle: the robot
-    stops at the circle's edge, on the line, and ends about 10 m behind its
+    """A 14 s line at 1 m/s into a wall across it (a keep-in half-plane): the
+    robot stops at the wall, on the line, and ends about 10 m behind its
     reference. On the line it is never off its path (that alone used to make
     it a success); behind its reference it is."""
     out = tmp_path / "run"
     code, stdout, stderr = run(SOUNDNESS / "stalled.yaml", out, "--no-plots")
     columns = read_trajectory(out)
-    # the premise: stopped at the edge (x = 4), on the line, ~10 m behind
+    # the premise: stopped at the wall (x = 4), on the line, ~10 m behind
     last = -2  # the last sample with a reference point
-    assert columns["x"][last] == pytest.approx(3.9, abs=0.05)
+    assert columns["x"][last] == pytest.approx(3.85, abs=0.01)
     assert np.abs(columns["y"]).max() < 1e-3
     behind = columns["x_ref"][last] - columns["x"][last]
     assert behind > 9.5
@@ -335,20 +335,21 @@ def test_a_drive_at_the_speed_limit_to_its_target_is_a_success(tmp_path: Path) -
 
 @pytest.mark.slow
 def test_a_detour_a_zone_forces_is_not_a_tracking_error(tmp_path: Path) -> None:
-    """A line past a keep-out circle 0.7 m off it: the robot goes round, 0.35 m
-    off the line, and is back on it. That is a detour, measured as one; what
-    fails the run is the zone filter's kick of the turn rate at the zone's edge."""
+    """A line past a keep-out circle 0.7 m off it: the robot goes round, 0.44 m
+    off the line, and is back on it. That is a detour, measured as one, and the
+    run a success (the former zone filter failed it on its kick of the turn rate
+    at the zone's edge, 4.5 rad/s in one sample)."""
     out = tmp_path / "run"
     code, stdout, stderr = run(SOUNDNESS / "detour.yaml", out, "--no-plots")
     columns = read_trajectory(out)
     off = np.abs(columns["y"])
-    assert off.max() == pytest.approx(0.35, abs=0.02)  # the premise: round the zone...
+    assert off.max() == pytest.approx(0.44, abs=0.01)  # the premise: round the zone...
     assert off[columns["t"] > 12].max() < 1e-3  # ...and back on the line
     jumps = np.abs(np.diff(columns["omega"]))
-    assert jumps.max() > 3.0  # a kick of more than the 3 rad/s limit in one sample
-    assert code == 1, stdout + stderr
+    assert jumps.max() < 3.0  # no kick of the 3 rad/s limit in one sample
+    assert code == 0, stdout + stderr
     summary = json.loads((out / "summary.json").read_text())
-    assert _failed(summary) == {("go", "turn_rate_jump_max")}
+    assert _failed(summary) == set()
     [go] = summary["phases"]
     assert go["tracking"]["detour_offset_max"] == pytest.approx(off.max(), abs=0.01)
     assert 2.0 < go["tracking"]["detour_time"] < 6.0

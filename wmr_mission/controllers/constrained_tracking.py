@@ -45,7 +45,12 @@ from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.model import hypot, input_jacobian_into, saturate, step
 from wmr_mission.kernels.records import Plant, Scratch
 
-__all__ = ["constrained_change", "keep_constraints", "row_value_with_margin"]
+__all__ = [
+    "aim_round_zones",
+    "constrained_change",
+    "keep_constraints",
+    "row_value_with_margin",
+]
 
 
 @kernel
@@ -94,12 +99,20 @@ def keep_constraints(
     robot: Plant,
     work: Scratch,
     u: FloatArray,
+    barrier_rate: float = 1.0,
 ) -> bool:
     """Change the tracking input ``u`` in place so that the predicted tracking
     output keeps the constraint rows shrunk by ``look_ahead`` (so the axle
-    centre, ``look_ahead`` behind it, keeps the rows themselves); True when it
-    had to."""
+    centre, ``look_ahead`` behind it, keeps the rows themselves) and by the
+    estimate's margin (``robot.constraint_margin``), as a discrete-time
+    barrier: a row's value at the output may fall to ``1 - barrier_rate`` of
+    its value now and no lower (1: onto the bound in one sample); True when
+    it had to."""
     dt = robot.dt
+    margin = look_ahead + robot.constraint_margin
+    keep = 1.0 - barrier_rate
+    ox = estimate[0] + look_ahead * math.cos(estimate[2])  # the output now
+    oy = estimate[1] + look_ahead * math.sin(estimate[2])
     px, py, pth = step(estimate[0], estimate[1], estimate[2], u[0], u[1], dt)
     c = math.cos(pth)
     s = math.sin(pth)
@@ -117,7 +130,10 @@ def keep_constraints(
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
     for i in range(row_kinds.shape[0]):
-        value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], look_ahead, qx, qy)
+        value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, qx, qy)
+        if keep > 0.0:
+            now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
+            value -= keep * now
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
@@ -137,7 +153,23 @@ def keep_constraints(
     h[0, 0] += floor
     h[1, 1] += floor
     dv, dw = constrained_change(a, eta, count, h)
-    u[0], u[1] = saturate(u[0] + dv, u[1] + dw, u_prev[0], u_prev[1], robot.limits, dt)
+    v_track = u[0]
+    omega_track = u[1]
+    u[0], u[1] = saturate(v_track + dv, omega_track + dw, u_prev[0], u_prev[1], robot.limits, dt)
+    if keep > 0.0:
+        # The limits clipped the change (a turn tighter than the robot can
+        # make): what the rows still lack, to first order, taken from the
+        # speed alone, whose sensitivity does not vanish at the turn limit.
+        extra = 0.0
+        for slot in range(count):
+            lacking = a[slot, 0] * (u[0] - v_track) + a[slot, 1] * (u[1] - omega_track)
+            lacking -= eta[slot]
+            if lacking > 0.0 and abs(a[slot, 0]) > 1e-12:
+                step_v = -lacking / a[slot, 0]
+                if abs(step_v) > abs(extra):
+                    extra = step_v
+        if extra != 0.0:
+            u[0], u[1] = saturate(u[0] + extra, u[1], u_prev[0], u_prev[1], robot.limits, dt)
     return True
 
 
@@ -189,4 +221,90 @@ def keep_reference(
                 sense = math.copysign(1.0, along)
                 reference[2] = -ny * sense
                 reference[3] = nx * sense
+    return moved
+
+
+@kernel
+def _sideways_to_edge(
+    p: FloatArray, margin: float, x: float, y: float, nx: float, ny: float
+) -> float:
+    """How far along the unit direction (nx, ny) the point (x, y), inside the
+    keep-out ellipse row ``p`` grown by ``margin``, reaches its edge (> 0)."""
+    a = p[2] + margin
+    b = p[3] + margin
+    cos_phi = math.cos(p[4])
+    sin_phi = math.sin(p[4])
+    dx = x - p[0]
+    dy = y - p[1]
+    u = cos_phi * dx + sin_phi * dy
+    w = -sin_phi * dx + cos_phi * dy
+    du = cos_phi * nx + sin_phi * ny
+    dw = -sin_phi * nx + cos_phi * ny
+    ia2 = 1.0 / (a * a)
+    ib2 = 1.0 / (b * b)
+    qa = du * du * ia2 + dw * dw * ib2
+    qb = 2.0 * (u * du * ia2 + w * dw * ib2)
+    qc = u * u * ia2 + w * w * ib2 - 1.0  # < 0 inside
+    reach: float = (-qb + math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))) / (2.0 * qa)
+    return reach
+
+
+@kernel
+def aim_round_zones(
+    aim: FloatArray, row_kinds: IntArray, row_params: FloatArray, look_ahead: float, margin: float
+) -> bool:
+    """Move the point the tracked output aims at, ``aim[:2] + look_ahead *
+    aim[2:]`` (x, y, unit tangent of the path), out of every row shrunk by
+    ``look_ahead + margin`` (where ``keep_constraints`` lets the output go),
+    its tangent kept; True when it moved.
+
+    The output's aim moves continuously as the path goes through a zone, so
+    the tracking law is handed no jump at a zone's edge. A keep-out ellipse
+    moves the aim sideways, across the path, to the side the zone's edge
+    faces where the path entered it, and to the left of the direction of
+    travel where the path meets the edge head-on (the saddle, a path through
+    a circle's centre): the robot goes round, never stopping where the two
+    sides balance. Other rows project the aim onto
+    their edge (half-planes exactly, keep-in ellipses along the ray from the
+    centre). Two passes settle an aim beyond two rows.
+    """
+    grown = 2.0 * look_ahead + margin
+    x = aim[0] + look_ahead * aim[2]
+    y = aim[1] + look_ahead * aim[3]
+    moved = False
+    for _ in range(2):
+        for i in range(row_kinds.shape[0]):
+            p = row_params[i]
+            value, gx, gy = row_value_with_margin(row_kinds[i], p, grown, x, y)
+            if value <= 0.0:
+                continue
+            moved = True
+            if row_kinds[i] != ELLIPSE_ROW:
+                x -= value * gx
+                y -= value * gy
+            elif p[5] < 0.0:
+                # The side the zone's edge faces where the path entered it
+                # (back along the path from the aim): the aim leaves across
+                # the path by the way that is empty there, so it moves on
+                # from the entry without a jump and keeps its side through
+                # the zone; head-on (the saddle), to the left of travel.
+                back = _sideways_to_edge(p, grown, x, y, -aim[2], -aim[3])
+                _, gx, gy = row_value_with_margin(
+                    row_kinds[i], p, grown, x - back * aim[2], y - back * aim[3]
+                )
+                nx = -aim[3]
+                ny = aim[2]
+                if nx * gx + ny * gy > 0.0:  # the gradient points into a keep-out zone
+                    nx = -nx
+                    ny = -ny
+                reach = _sideways_to_edge(p, grown, x, y, nx, ny)
+                x += reach * nx
+                y += reach * ny
+            else:
+                scale = 1.0 / math.sqrt(max(value + 1.0, 1e-300))
+                x = p[0] + scale * (x - p[0])
+                y = p[1] + scale * (y - p[1])
+    if moved:
+        aim[0] = x - look_ahead * aim[2]
+        aim[1] = y - look_ahead * aim[3]
     return moved

@@ -21,10 +21,14 @@ import numpy as np
 from pydantic import Field
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.controllers.constrained_tracking import keep_constraints, keep_reference
+from wmr_mission.controllers.constrained_tracking import aim_round_zones, keep_constraints
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.fields import Flag, Model, NonNegative, Positive
-from wmr_mission.kernels.corrective import corrective_input, kept_row_slot, row_value
+from wmr_mission.kernels.corrective import (
+    corrective_input,
+    kept_row_slot,
+    row_value_with_margin,
+)
 from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.loop import EnteredPhase
 from wmr_mission.kernels.model import (
@@ -49,6 +53,11 @@ from wmr_mission.kernels.riccati import (
 
 # [m] the smallest default look-ahead distance (the tracked point ahead of the axle).
 MIN_LOOK_AHEAD = 0.05
+# [s] time constant of a zone's barrier: a zone's value may shrink by dt / BARRIER_TIME
+# of itself per sample (the tracking error's time constant, Tracking.time_constant).
+BARRIER_TIME = 0.1
+# Largest fraction of the bearing error the tracked output turns by per sample.
+HEADING_STEP = 0.3
 
 
 class Tracking(Model):
@@ -131,6 +140,13 @@ class PaperTuning(NamedTuple):
     form: int  # regulation form (BEARING, ...)
     align_radius: float  # [m]
     reverse: bool
+    # Fraction of a zone's value the prediction must shed per sample, gamma of
+    # the discrete-time barrier c(k+1) <= (1 - gamma) c(k): 1 puts a violated
+    # prediction straight onto the bound (the one-sample eq. (28)).
+    barrier_rate: float = 1.0
+    # [m] the largest error of the tracked output closed at error_decay's pace;
+    # a larger one is closed as this one is (inf: no such bound).
+    error_reach: float = math.inf
 
 
 # Regulation forms (controller.regulation.form).
@@ -151,7 +167,11 @@ NEWTON = 3  # Newton steps of this sample's Riccati solve (0: none)
 WARM_MOVING = 4
 WARM_EDGE = 17
 SYSTEM = 30  # scratch: the linear system of a Newton step, 6 rows of 7
-MEMORY_SIZE = 72
+REVERSING = 72  # 1.0 while the bearing form drives backwards to its target
+MEMORY_SIZE = 73
+# [rad] how far past abeam (pi/2) the target must be to change the direction
+# of travel of the bearing form.
+REVERSE_HYSTERESIS = 0.2
 
 
 @kernel
@@ -203,12 +223,19 @@ def track_input(
     d[1, 0] = 0.0
     d[1, 1] = 1.0
     d[1, 2] = look_ahead * c
-    eta[0] = (
-        reference[0] + look_ahead * reference[2] - error_decay * error_x - (px + look_ahead * c)
-    )
-    eta[1] = (
-        reference[1] + look_ahead * reference[3] - error_decay * error_y - (py + look_ahead * s)
-    )
+    # The error left at k+1. Far from the path, closing the same fraction of
+    # a larger error turns the output's heading by more than a sample can
+    # follow (it overshoots and turns back at the limit): the error closed
+    # per sample is at most what error_reach leaves.
+    left_x = error_decay * error_x
+    left_y = error_decay * error_y
+    distance = hypot(error_x, error_y)
+    if distance > controller.error_reach:
+        kept = 1.0 - (1.0 - error_decay) * controller.error_reach / distance
+        left_x = kept * error_x
+        left_y = kept * error_y
+    eta[0] = reference[0] + look_ahead * reference[2] - left_x - (px + look_ahead * c)
+    eta[1] = reference[1] + look_ahead * reference[3] - left_y - (py + look_ahead * s)
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
     input_jacobian_into(theta, v_prev, omega_prev, dt, b)
     both = int(np.int64(2))  # not the literal 2: one compiled corrective_input for all
@@ -418,8 +445,17 @@ def regulate_input(
                 # is turned into a heading error it can.
                 bearing = math.atan2(-ey, -ex)
                 eth = wrap_angle(estimate[2] - bearing)
-                if controller.reverse and abs(eth) > 0.5 * math.pi:
-                    eth = wrap_angle(eth - math.pi)
+                if controller.reverse:
+                    # Backwards when the target is behind, with hysteresis: a
+                    # target abeam (|eth| = pi/2) chose forwards and backwards
+                    # by turns, every sample, for good (a limit cycle).
+                    if memory[REVERSING] == 0.0:
+                        if abs(eth) > 0.5 * math.pi + REVERSE_HYSTERESIS:
+                            memory[REVERSING] = 1.0
+                    elif abs(eth) < 0.5 * math.pi - REVERSE_HYSTERESIS:
+                        memory[REVERSING] = 0.0
+                    if memory[REVERSING] != 0.0:
+                        eth = wrap_angle(eth - math.pi)
             else:
                 # Aligning at the target: keep the reachable (longitudinal)
                 # part of the position error, turn to the target heading.
@@ -437,13 +473,23 @@ def regulate_input(
     memory[CORRECTED] = 0.0
     if row_kinds.shape[0] == 0:
         return
-    # eq. (28): predict with the regulator's input, find the violated rows.
+    # eq. (28): predict with the regulator's input, find the rows it breaks:
+    # each row shrunk by the estimate's margin, and held as a discrete-time
+    # barrier, c(k+1) <= (1 - gamma) c(k): a row is approached, and left when
+    # broken, by a fraction gamma of its value per sample, not in one jump.
     px, py, _ = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
     d, eta, b = work.d, work.eta, work.b
+    margin = robot.constraint_margin
+    keep = 1.0 - controller.barrier_rate
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
     for i in range(row_kinds.shape[0]):
-        value, gx, gy = row_value(row_kinds[i], row_params[i], px, py)
+        value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
+        if keep > 0.0:
+            now, _, _ = row_value_with_margin(
+                row_kinds[i], row_params[i], margin, estimate[0], estimate[1]
+            )
+            value -= keep * now
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
@@ -452,7 +498,7 @@ def regulate_input(
         d[slot, 0] = gx
         d[slot, 1] = gy
         d[slot, 2] = 0.0
-        eta[slot] = -value  # E - m(x): saturate to the violated bound
+        eta[slot] = -value  # E - m(x): saturate to the barrier's bound
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
@@ -486,14 +532,24 @@ def next_input(
     kinds = phase.constraint_kinds
     params = phase.constraint_params
     if phase.tracking:
-        if kinds.shape[0]:  # aim along a zone's edge it crosses
-            keep_reference(aim_now, kinds, params, tuning.look_ahead)
-            keep_reference(aim, kinds, params, tuning.look_ahead)
+        path_x = aim_now[0]
+        path_y = aim_now[1]
+        if kinds.shape[0] and aim_round_zones(
+            aim_now, kinds, params, tuning.look_ahead, plant.constraint_margin
+        ):
+            # Aimed round a zone the path crosses: the path's own motion fed
+            # forward, the aim's move closed as an error, at the law's pace
+            # (its kinks at the zone's edge are no jumps of the input).
+            aim[0] += aim_now[0] - path_x
+            aim[1] += aim_now[1] - path_y
         track_input(estimate, u_prev, aim_now, aim, tuning, plant, scratch, u)
         # The filter after the tracking law: zones win over tracking
         # (wmr_mission.controllers.constrained_tracking).
         if kinds.shape[0]:
-            keep_constraints(estimate, u_prev, kinds, params, tuning.look_ahead, plant, scratch, u)
+            keep_constraints(
+                estimate, u_prev, kinds, params, tuning.look_ahead, plant, scratch, u,
+                tuning.barrier_rate,
+            )  # fmt: skip
     else:
         regulate_input(
             estimate, estimate_prev, u_prev, phase.target, kinds, params, tuning, plant, memory,
@@ -526,6 +582,23 @@ def error_decay(settings: PaperController, dt: float) -> float:
     return math.exp(-float(dt) / float(tracking.time_constant))
 
 
+def error_reach(settings: PaperController, dt: float, speed_limit: float) -> float:
+    """[m] The largest output error closed at ``error_decay``'s pace.
+
+    The look-ahead point moves sideways by ``l omega dt`` per sample, so
+    closing ``1 - decay`` of a sideways error ``e`` turns the heading by
+    ``(1 - decay) e / l``: beyond about one radian per sample's worth the
+    heading overshoots and the turn rate swings from limit to limit. Errors
+    larger than ``HEADING_STEP l / (1 - decay)`` are closed as that one is,
+    turning at most HEADING_STEP of the bearing error per sample; inf for the
+    one-sample laws (decay 0) and the axle law (docs/paper-notes.md, eq. (27))."""
+    decay = error_decay(settings, dt)
+    distance = look_ahead(settings, dt, speed_limit)
+    if decay == 0.0 or distance == 0.0:
+        return math.inf
+    return HEADING_STEP * distance / (1.0 - decay)
+
+
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
     regulation = settings.regulation
     return PaperTuning(
@@ -538,6 +611,8 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         form=FORMS[regulation.form],
         align_radius=regulation.align_radius,
         reverse=regulation.reverse,
+        barrier_rate=min(1.0, float(plant.dt) / BARRIER_TIME),
+        error_reach=error_reach(settings, plant.dt, plant.limits[0]),
     )
 
 

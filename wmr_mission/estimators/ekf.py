@@ -293,10 +293,22 @@ def ekf_tuning(
 
 
 # Registered by wmr_mission.estimators.
+def constraint_margin(tuning: EkfTuning) -> float:
+    """[m] Three standard deviations of the position's error: a measured
+    coordinate's filtered variance stays below its measurement variance (an
+    update never leaves P above R there), so three measurement std bound it;
+    an unmeasured one is bounded by nothing the filter knows ahead, and its
+    initial std stands in."""
+    measured = tuning.mask[0] and tuning.mask[1]
+    variance = tuning.measurement_var if measured else tuning.initial_var
+    return 3.0 * math.sqrt(max(float(variance[0]), float(variance[1])))
+
+
 ESTIMATOR = EstimatorType(
     settings=Ekf,
     tuning_record=EkfTuning,
     tuning_of=tuning_of,
     new_memory=new_memory,
     step=next_estimate,
+    constraint_margin=constraint_margin,
 )

@@ -354,6 +354,21 @@ def error_bounds(tuning: ObserverTuning) -> tuple[tuple[float, float], ...]:
     )
 
 
+def constraint_margin(tuning: ObserverTuning) -> float:
+    """[m] The widest output-error bound of eq. (4) on x and y: phase II keeps
+    the measured position within it of the estimate, so the true position is
+    within it plus the noise. With the position unmeasured or unbounded, three
+    noise std of the measured positions (0 without noise)."""
+    widths = [
+        max(-float(tuning.lower[i]), float(tuning.upper[i]))
+        for i in range(2)
+        if tuning.use_bounds and tuning.mask[i] and math.isfinite(tuning.lower[i])
+    ]
+    if len(widths) == 2:
+        return max(widths)
+    return 3.0 * tuning.motion_floor
+
+
 def observer_tuning(
     mask: FloatArray,
     poles: FloatArray,
@@ -383,4 +398,5 @@ ESTIMATOR = EstimatorType(
     new_memory=new_memory,
     step=next_estimate,
     error_bounds=error_bounds,
+    constraint_margin=constraint_margin,
 )

@@ -66,6 +66,10 @@ def no_error_bounds(tuning: Any) -> tuple[tuple[float, float], ...]:
     return ((nan, nan),) * 3
 
 
+def no_margin(tuning: Any) -> float:
+    return 0.0
+
+
 @dataclass(frozen=True)
 class EstimatorType:
     """One estimator a mission may name (see the module)."""
@@ -78,6 +82,9 @@ class EstimatorType:
     # The output-error bounds of eq. (4) the run reports per state (lower,
     # upper), NaN where there are none (the figures draw them).
     error_bounds: Callable[[Any], tuple[tuple[float, float], ...]] = no_error_bounds
+    # [m] how far the estimated position may be from the true one: the margin
+    # every zone is kept with (``Plant.constraint_margin``).
+    constraint_margin: Callable[[Any], float] = no_margin
     # False for a step numba cannot compile (plain Python objects): a mission
     # naming it runs its loop as plain Python.
     compiles: bool = True

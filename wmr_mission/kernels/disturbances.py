@@ -44,6 +44,10 @@ class Actuation(NamedTuple):
     input_delay: int  # d [samples]
     lag: float  # 1 - exp(-dt / tau) per sample; 1.0 = no lag
     slip: float  # fraction of v lost
+    # the largest change of the applied v and omega in one sample (the robot's
+    # acceleration limits times dt; inf: none)
+    speed_step: float = math.inf
+    turn_step: float = math.inf
 
 
 class Sensing(NamedTuple):
@@ -73,12 +77,22 @@ def applied_input(
     oldest = (k + 1) % slots  # the slot of u_{k-d}
     v = commands[oldest, 0]
     omega = commands[oldest, 1]
+    before_v = applied[0]
+    before_omega = applied[1]
     if actuation.lag < 1.0:
         applied[0] += actuation.lag * (v - applied[0])
         applied[1] += actuation.lag * (omega - applied[1])
     else:
         applied[0] = v
         applied[1] = omega
+    if actuation.speed_step != math.inf:  # the robot accelerates no faster
+        applied[0] = min(
+            max(applied[0], before_v - actuation.speed_step), before_v + actuation.speed_step
+        )
+    if actuation.turn_step != math.inf:
+        applied[1] = min(
+            max(applied[1], before_omega - actuation.turn_step), before_omega + actuation.turn_step
+        )
 
 
 @kernel

@@ -32,6 +32,10 @@ class Plant(NamedTuple):
     # |x| or |y| [m], |v| or |omega| [m/s, rad/s] beyond which the run has diverged.
     runaway_position: float = RUNAWAY_DISTANCE
     runaway_input: float = RUNAWAY_INPUT
+    # [m] every zone's allowed side shrunk by this: what the estimate may be off
+    # by, so that the true robot keeps a zone the estimate keeps (the estimator's
+    # ``constraint_margin``; docs/paper-notes.md, eq. (28)).
+    constraint_margin: float = 0.0
 
 
 class Scratch(NamedTuple):

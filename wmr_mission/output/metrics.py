@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.basics import STATES, FloatArray, cached_value
+from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
 from wmr_mission.output import inputs as input_metrics
 from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.numbers import MissionNumbers, mission_numbers
@@ -132,9 +132,18 @@ def _max_or_none(values: FloatArray) -> float | None:
     return float(finite.max()) if finite.size else None
 
 
-def _violation(values: FloatArray) -> float | None:
-    """How far the largest constraint-row value is above 0 (0 when never);
-    None when no constraint applied."""
+def _violation(values: FloatArray, phase: IntArray | None = None) -> float | None:
+    """How far the largest constraint-row value is above 0 (0 when never) over
+    the states a phase's own inputs produced; None when no constraint applied.
+
+    A phase's first sample is the state it was entered in, which the phase
+    before it (or the mission's initial state) produced: no input of the phase
+    has acted on it yet (docs/paper-notes.md, eq. (33))."""
+    values = values.copy()
+    if phase is None:  # one phase's samples
+        values[:1] = np.nan
+    else:
+        values[[start for _, start, _ in phase_segments(phase)]] = np.nan
     largest = _max_or_none(values)
     return None if largest is None else max(0.0, largest)
 
@@ -744,6 +753,9 @@ def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> 
         # after the mission's settle time from its start
         "estimation_rms": {state: _rms_or_none(error[settled]) for state, error in errors.items()},
     }
+    if any(phase.constraints for phase in result.phases):
+        # [m] the zones' allowed side shrunk by the estimate's uncertainty
+        summary["constraint_margin"] = result.constraint_margin
     # last in summary.json, whose key order is fixed
     summary["max_constraint_violation"] = summary.pop("max_constraint_violation")
     return summary
@@ -765,7 +777,7 @@ def _bounded_metrics(
         "duration": duration,
         "final": _final(result, phase_segments(result.phase)),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
-        "max_constraint_violation": _violation(result.constraint),
+        "max_constraint_violation": _violation(result.constraint, result.phase),
         # A real-time run's pace and command latency (wmr_mission.backends); absent in
         # our simulator, whose summary keeps its bytes.
         **({} if result.realtime is None else {"realtime": copy.deepcopy(result.realtime)}),

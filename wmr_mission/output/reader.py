@@ -425,6 +425,7 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
         ),
         error_bounds=(error_bounds[0], error_bounds[1], error_bounds[2]),
         regions=regions,
+        constraint_margin=_number(run.get("constraint_margin", 0.0), where),
         x_meas=data["x_meas"],
         y_meas=data["y_meas"],
         theta_meas=data["theta_meas"],

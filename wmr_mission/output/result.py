@@ -107,6 +107,8 @@ class RunResult:
     # Output-error bounds of eq. (4) per state (lower, upper), NaN where unused.
     error_bounds: tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
     regions: dict[str, Any] = field(default_factory=dict)  # name -> region spec (for plots)
+    # [m] the margin the controller kept every zone with (Plant.constraint_margin)
+    constraint_margin: float = 0.0
     x_meas: FloatArray = field(default_factory=lambda: np.zeros(0))
     y_meas: FloatArray = field(default_factory=lambda: np.zeros(0))
     theta_meas: FloatArray = field(default_factory=lambda: np.zeros(0))

@@ -249,7 +249,11 @@ def run_record(result: RunResult) -> dict[str, Any]:
             for state, bound in zip(("x", "y", "theta"), result.error_bounds, strict=True)
         },
         "regions": result.regions,
-    }
+    } | (
+        {"constraint_margin": result.constraint_margin}
+        if any(phase.constraints for phase in result.phases)
+        else {}
+    )
 
 
 def manifest_record(

@@ -53,6 +53,7 @@ class DisturbancePlan:
     dropout_burst: float = 1.0
     outlier_probability: float = 0.0
     outlier_std: FloatArray = field(default_factory=lambda: np.zeros(3))
+    acceleration: tuple[float, float] = (math.inf, math.inf)  # the robot's [m/s^2, rad/s^2]
 
     def active(self) -> bool:
         """Whether any disturbance is on."""
@@ -72,7 +73,8 @@ class DisturbancePlan:
         """The records the loop's plant and sensors read; ``measured`` is 1.0
         for each measured state."""
         lag = 1.0 if self.time_constant == 0.0 else -math.expm1(-dt / self.time_constant)
-        actuation = Actuation(self.input_delay, lag, self.slip)
+        speed, turn = self.acceleration
+        actuation = Actuation(self.input_delay, lag, self.slip, speed * dt, turn * dt)
         sensing = Sensing(
             measured,
             self.period,

@@ -23,7 +23,15 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
 from wmr_mission.sim.draws import DisturbancePlan
 from wmr_mission.sim.reactions import ReactionPlan, contingency_phases, reaction_plan
-from wmr_mission.spec.models import Mission, Phase, RegulatePhase, StayInside, TrackPhase, Until
+from wmr_mission.spec.models import (
+    Limits,
+    Mission,
+    Phase,
+    RegulatePhase,
+    StayInside,
+    TrackPhase,
+    Until,
+)
 from wmr_mission.spec.repeats import run_count, run_order
 
 
@@ -123,7 +131,15 @@ def disturbance_plan(mission: Mission) -> DisturbancePlan:
         dropout_burst=1.0 if dropout is None else float(dropout.burst),
         outlier_probability=0.0 if outliers is None else float(outliers.probability),
         outlier_std=np.zeros(3) if outliers is None else per_state(outliers.std),
+        acceleration=_acceleration(mission.robot.limits),
     )
+
+
+def _acceleration(limits: Limits) -> tuple[float, float]:
+    """The robot's acceleration limits [m/s^2, rad/s^2], inf where none."""
+    if limits.acceleration is None:
+        return math.inf, math.inf
+    return float(limits.acceleration.v), float(limits.acceleration.omega)
 
 
 def _extent(mission: Mission, dumped_regions: dict[str, dict[str, object]]) -> float:
@@ -267,21 +283,27 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
     noise_std = np.array([measured_noise.get(state, 0.0) for state in STATES])
     limits = mission.robot.limits
     dumped_regions = {name: r.model_dump(mode="json") for name, r in mission.regions.items()}
+    estimator = ESTIMATORS.of(mission.estimator)
+    estimator_tuning = estimator.tuning_of(mission.estimator, Measurements(measured, noise_std, dt))
+    controller = CONTROLLERS.of(mission.controller)
     plant = Plant(
         dt=dt,
         limits=np.array(
             [
                 limits.v,
                 limits.omega,
-                math.inf if limits.v_rate is None else limits.v_rate,
-                math.inf if limits.omega_rate is None else limits.omega_rate,
+                # the command's rate: the tighter of v_rate and the robot's acceleration
+                min(math.inf if limits.v_rate is None else limits.v_rate, _acceleration(limits)[0]),
+                min(
+                    math.inf if limits.omega_rate is None else limits.omega_rate,
+                    _acceleration(limits)[1],
+                ),
             ]
         ),
         runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),
         runaway_input=RUNAWAY_INPUT,
+        constraint_margin=float(estimator.constraint_margin(estimator_tuning)),
     )
-    estimator = ESTIMATORS.of(mission.estimator)
-    controller = CONTROLLERS.of(mission.controller)
     phases = _phases(mission, dt)
     initial = mission.robot.initial_state
     written = mission.estimator.initial_estimate
@@ -295,9 +317,7 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         noise_std=noise_std,
         seed=sensors.seed if seed is None else seed,
         estimator=estimator,
-        estimator_tuning=estimator.tuning_of(
-            mission.estimator, Measurements(measured, noise_std, dt)
-        ),
+        estimator_tuning=estimator_tuning,
         controller=controller,
         controller_tuning=controller.tuning_of(mission.controller, plant),
         phases=phases,

@@ -29,6 +29,8 @@ from wmr_mission.controllers.paper import (
     CORRECTED,
     DOUBLINGS,
     INCREMENT,
+    REVERSE_HYSTERESIS,
+    REVERSING,
     PaperTuning,
 )
 from wmr_mission.estimators import ekf, observer
@@ -282,7 +284,11 @@ def track_input(
     predicted = predict(estimate, v_prev, omega_prev, dt)  # x_{k+1|k}, u_{k-1} held
     normal = np.array([-math.sin(predicted[2]), math.cos(predicted[2])])
     d = np.column_stack([np.eye(2), look_ahead * normal])  # D = dG/dx
-    target = reference[:2] + look_ahead * reference[2:4] - error_decay * error_now
+    left = error_decay * error_now
+    distance = float(np.hypot(error_now[0], error_now[1]))
+    if distance > controller.error_reach:  # at most error_reach's share closed
+        left = (1.0 - (1.0 - error_decay) * controller.error_reach / distance) * error_now
+    target = reference[:2] + look_ahead * reference[2:4] - left
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
     du = corrective_input(d, target - output(predicted), b, w, m, limits)
     u_out[0], u_out[1] = saturate(
@@ -351,6 +357,18 @@ def constraint_values(
     return values, gradients
 
 
+def shrunk(row_params: FloatArray, row_kinds: IntArray, margin: float) -> FloatArray:
+    """The rows with their allowed side shrunk by ``margin`` [m]: a half-plane's
+    offset, an ellipse's semi-axes (grown for a keep-out one)."""
+    params = row_params.copy()
+    for i, kind in enumerate(row_kinds):
+        if kind == ELLIPSE_ROW:
+            params[i, 2:4] = np.maximum(params[i, 2:4] - params[i, 5] * margin, 1e-9)
+        else:
+            params[i, 2] -= margin
+    return params
+
+
 def regulate_input(
     estimate: FloatArray,
     estimate_prev: FloatArray,
@@ -390,8 +408,13 @@ def regulate_input(
                 # Far from the target: head for it (or back onto it).
                 bearing = math.atan2(-deviation[1], -deviation[0])
                 deviation[2] = wrap_angle(float(estimate[2]) - bearing)
-                if reverse and abs(deviation[2]) > 0.5 * math.pi:
-                    deviation[2] = wrap_angle(float(deviation[2]) - math.pi)
+                if reverse:  # backwards past abeam, with hysteresis
+                    if abs(deviation[2]) > 0.5 * math.pi + REVERSE_HYSTERESIS:
+                        memory[REVERSING] = 1.0
+                    elif abs(deviation[2]) < 0.5 * math.pi - REVERSE_HYSTERESIS:
+                        memory[REVERSING] = 0.0
+                    if memory[REVERSING]:
+                        deviation[2] = wrap_angle(float(deviation[2]) - math.pi)
             else:
                 # At the target: keep the position error along the heading only.
                 heading = np.array([math.cos(estimate[2]), math.sin(estimate[2])])
@@ -404,7 +427,14 @@ def regulate_input(
         return
     # eq. (28): the rows the prediction violates, at most the two worst.
     predicted = predict(estimate, v, omega, dt)
-    values, gradients = constraint_values(row_kinds, row_params, predicted[:2])
+    values, gradients = constraint_values(
+        row_kinds, shrunk(row_params, row_kinds, robot.constraint_margin), predicted[:2]
+    )
+    if controller.barrier_rate < 1.0:  # the barrier c(k+1) <= (1 - gamma) c(k)
+        now, _ = constraint_values(
+            row_kinds, shrunk(row_params, row_kinds, robot.constraint_margin), estimate[:2]
+        )
+        values = values - (1.0 - controller.barrier_rate) * now
     violated = np.flatnonzero(~(values <= 0.0))
     if violated.size == 0:
         return

@@ -784,6 +784,7 @@ class _Run:
             limits=(float(m.plant.limits[0]), float(m.plant.limits[1])),
             error_bounds=bounds,  # type: ignore[arg-type]
             regions=dict(m.regions),
+            constraint_margin=float(m.plant.constraint_margin),
             loop_ns=self.loop_ns,
             x_meas=columns["x_meas"],
             y_meas=columns["y_meas"],

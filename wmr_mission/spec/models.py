@@ -108,6 +108,13 @@ PHASE_NAME: Final = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 # --- robot -----------------------------------------------------------------
 
 
+class Acceleration(Model):
+    """The robot's largest changes of its inputs per second."""
+
+    v: Positive = Field(description="Largest |dv/dt|, linear acceleration [m/s^2].")
+    omega: Positive = Field(description="Largest |domega/dt|, turn-rate acceleration [rad/s^2].")
+
+
 class Limits(Model):
     """Actuator limits; inputs are saturated to them."""
 
@@ -118,6 +125,14 @@ class Limits(Model):
     )
     omega_rate: Positive | None = Field(
         default=None, description="Largest |domega/dt| [rad/s^2]; null = unlimited."
+    )
+    acceleration: Acceleration | None = Field(
+        default=None,
+        description=(
+            "The robot's own acceleration limits: the plant applies the commands no faster, "
+            "and the controller (its zone filter too) commands no faster (the tighter of "
+            "these and v_rate, omega_rate); null = unlimited."
+        ),
     )
 
 
@@ -709,7 +724,11 @@ class Expect(PhaseExpect):
         description="[rad] wrapped final heading error to that regulate target.",
     )
     max_constraint_violation: Threshold | None = Field(
-        default=None, description="Largest constraint-row value over the run (> 0 = violated)."
+        default=None,
+        description=(
+            "Largest constraint-row value (> 0 = violated) over the states each phase's "
+            "inputs produced: from a phase's second sample."
+        ),
     )
     estimation_convergence_time: Threshold | None = Field(
         default=None,
