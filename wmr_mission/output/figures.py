@@ -18,7 +18,7 @@ seconds.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -48,6 +48,7 @@ __all__ = [
     "plot_estimation_error",
     "plot_inputs",
     "plot_states",
+    "plot_verdicts",
     "plot_xy",
     "save_figure",
 ]
@@ -66,7 +67,8 @@ ESTIMATION_BOTTOM = 0.14
 PNG_OPTIONS: dict[str, Any] = {"compress_level": 1}
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
 FIGURE_FORMATS = ("png", "svg", "pdf")
-FIGURE_NAMES = ("xy", "states", "estimation_error", "inputs")
+# The verdicts first: a failing run's figures open on its failure.
+FIGURE_NAMES = ("verdicts", "xy", "states", "estimation_error", "inputs")
 # The reference is drawn over the path, thin and dark, so a well-tracked path
 # does not hide it.
 REFERENCE_STYLE: dict[str, Any] = {
@@ -874,12 +876,207 @@ def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
     return fig
 
 
+# --- the verdicts ---------------------------------------------------------
+
+# Panels' height and the room above them for the title and the failure [in].
+PANEL_HEIGHT, VERDICT_HEADER = 1.45, 1.1
+# Failing samples marked per check at most (evenly chosen).
+MAX_MARKS = 2000
+# Level checks written in words on a panel at most; the others counted.
+MAX_WORDS = 3
+FAILED_COLOR = "tab:red"
+SIGNAL_COLORS = ("tab:blue", "tab:orange", "tab:green")
+
+
+def _verdicts_on(fig: Figure, result: RunResult) -> None:
+    """The error signals the `expect` checks bound, over time, one panel each:
+    the bounds drawn over their phases, the samples beyond them marked, the
+    first failure's time drawn across every panel; failing panels on top."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+
+    from wmr_mission.output.signals import PANELS, Check, panel_of, run_signals
+
+    signals = run_signals(result)
+    failed = signals.failed()
+    shown = [
+        p
+        for p in PANELS
+        if p in signals.lines or any(panel_of(c.metric) == p for c in signals.checks)
+    ]
+    first_failing = list(dict.fromkeys(panel_of(c.metric) for c in failed))
+    order = first_failing + [p for p in shown if p not in first_failing]
+    if not order:
+        order = ["saturation"]
+    fig.set_size_inches(9.0, PANEL_HEIGHT * len(order) + VERDICT_HEADER)
+    axes = list(fig.subplots(len(order), 1, sharex=True, squeeze=False)[:, 0])
+    k = thin(0, result.samples)
+    t = result.t
+    for ax, panel in zip(axes, order, strict=True):
+        drawn = signals.lines.get(panel, {})
+        colors = {name: SIGNAL_COLORS[i % 3] for i, name in enumerate(drawn)}
+        for name, values in drawn.items():
+            ax.plot(t[k], finite(values[k]), color=colors[name], linewidth=1.0, label=name)
+        checks = [c for c in signals.checks if panel_of(c.metric) == panel]
+        bounds, bound_colors = [], []
+        for check in (c for c in checks if c.peak):
+            from wmr_mission.output.signals import PEAK
+
+            name = PEAK[check.metric][1]
+            start, end = check.span
+            ends = (float(t[start]), float(t[max(end - 1, start)]))
+            signs = (1.0, -1.0) if check.metric == "along_track_lag_max" else (1.0,)
+            for sign in signs:
+                bounds.append([(ends[0], sign * check.bound), (ends[1], sign * check.bound)])
+                bound_colors.append(FAILED_COLOR if not check.met else colors.get(name, "0.2"))
+            if check.over.size and name in drawn:
+                marks = check.over[thin(0, check.over.size, MAX_MARKS)]
+                ax.plot(
+                    t[marks],
+                    finite(drawn[name][marks]),
+                    linestyle="none",
+                    marker="x",
+                    markersize=4,
+                    color=FAILED_COLOR,
+                    zorder=6,
+                )
+        if bounds:
+            ax.add_collection(
+                LineCollection(bounds, colors=bound_colors, linewidths=1.2, linestyles="--"),
+                autolim=True,
+            )
+        _level_words(ax, [c for c in checks if not c.peak])
+        for check in (c for c in checks if not c.met and not c.peak):
+            start, end = check.span
+            ax.axvspan(
+                float(t[start]), float(t[max(end - 1, start)]), color=FAILED_COLOR, alpha=0.08
+            )
+        if panel == "saturation":
+            ax.axhline(1.0, color="0.2", linewidth=0.8, linestyle=":")
+        _verdict_limits(ax, drawn, checks)
+        ax.set_ylabel(PANELS[panel], fontsize=8)
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+        handles, labels = ax.get_legend_handles_labels()
+        if any(c.peak for c in checks):
+            handles.append(Line2D([], [], color="0.2", linestyle="--", linewidth=1.2))
+            labels.append("expect max")
+        if any(c.over.size for c in checks):
+            handles.append(Line2D([], [], color=FAILED_COLOR, linestyle="none", marker="x"))
+            labels.append("beyond it")
+        if handles:
+            ax.legend(
+                handles,
+                labels,
+                loc="upper left",
+                bbox_to_anchor=(1.01, 1.0),
+                fontsize=7,
+                frameon=False,
+            )
+    axes[-1].set_xlabel("t [s]")
+    if result.samples:
+        axes[-1].set_xlim(float(t[0]), float(t[-1]))
+    first: Check | None = next((c for c in failed if c.first_over is not None), None)
+    if first is not None and first.first_over is not None:
+        when = float(t[first.first_over])
+        for ax in axes:
+            ax.axvline(when, color=FAILED_COLOR, linewidth=1.0, alpha=0.7)
+        axes[0].annotate(
+            f"t = {when:.4g} s",
+            (when, 0.0),
+            xycoords=axes[0].get_xaxis_transform(),
+            xytext=(3, 3),
+            textcoords="offset points",
+            color=FAILED_COLOR,
+            fontsize=8,
+        )
+    _mark_phases(axes, result, phase_colors(result))
+    fig.suptitle(
+        _verdict_title(result, signals.checks, failed, first), fontsize=10, x=0.02, ha="left"
+    )
+    fig.subplots_adjust(
+        top=1.0 - VERDICT_HEADER / (PANEL_HEIGHT * len(order) + VERDICT_HEADER) + 0.1 / len(order),
+        hspace=0.35,
+    )
+    names_as_typed(fig)
+
+
+def _verdict_title(
+    result: RunResult, checks: Sequence[Any], failed: Sequence[Any], first: Any
+) -> str:
+    """The run, its outcome and, for a failure, the first check it failed and when."""
+    head = f"{result.mission_name}: {result.outcome.value}"
+    if failed:
+        lead = first if first is not None else failed[0]
+        when = ""
+        if lead.first_over is not None:
+            when = f", first beyond it at t = {float(result.t[lead.first_over]):.4g} s"
+        more = f"\n(and {len(failed) - 1} more failed checks)" if len(failed) > 1 else ""
+        return f"{head}\nfailed {lead.words()}{when}{more}"
+    if checks:
+        return f"{head}\nevery expect check met ({len(checks)})"
+    if not result.succeeded:
+        return f"{head}\n{result.message}"
+    return f"{head}\nno expect checks"
+
+
+def _level_words(ax: Axes, checks: Sequence[Any]) -> None:
+    """Level checks (an RMS, a share, a time) at the panel's top: the failed
+    ones in words, the met ones counted."""
+    if not checks:
+        return
+    failed = [c for c in checks if not c.met]
+    words = [f"NOT MET {c.words()}" for c in failed[:MAX_WORDS]]
+    if len(failed) > MAX_WORDS:
+        words.append(f"and {len(failed) - MAX_WORDS} more not met")
+    met = len(checks) - len(failed)
+    if met:
+        names = sorted({c.metric for c in checks if c.met})
+        words.append(f"{met} met: " + ", ".join(names))
+    ax.text(
+        0.005,
+        0.96,
+        "\n".join(words),
+        transform=ax.transAxes,
+        fontsize=6.5,
+        va="top",
+        ha="left",
+        color=FAILED_COLOR if failed else "0.25",
+        bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.7, "pad": 1.0},
+        zorder=8,
+    )
+
+
+def _verdict_limits(ax: Axes, drawn: Mapping[str, FloatArray], checks: Sequence[Any]) -> None:
+    """The y range: the signals and the bounds (both signs for a signed signal)."""
+    bounds = [c.bound for c in checks if c.peak]
+    signed = [c.bound for c in checks if c.metric == "along_track_lag_max"]
+    values = [v[np.isfinite(v)] for v in drawn.values()]
+    values = [v for v in values if v.size]
+    if not values and not bounds:
+        return
+    high = max([float(v.max()) for v in values] + bounds + [0.0])
+    low = min([float(v.min()) for v in values] + [-b for b in signed] + [0.0])
+    margin = 0.08 * (high - low if high > low else 1.0)
+    ax.set_ylim(low - margin, high + margin)
+
+
+def plot_verdicts(result: RunResult) -> Figure:
+    """The error signals the `expect` checks bound, over time, with the bounds and
+    the failing samples (``verdicts.png``); returns the figure (from pyplot)."""
+    fig = _pyplot_figure((9.0, 6.0))
+    _verdicts_on(fig, result)
+    return fig
+
+
 # --- files ----------------------------------------------------------------
 
 
 def _figure(result: RunResult, name: str) -> Figure:
     """The figure of a run's file ``name`` (one of FIGURE_NAMES)."""
-    if name == "xy":
+    if name == "verdicts":
+        fig = new_figure((9.0, 6.0))
+        _verdicts_on(fig, result)
+    elif name == "xy":
         fig = new_figure((XY_WIDTH, 6.5))
         columns = _xy_on(fig.add_subplot(), result)
         # Room on the canvas for the legend at the right, a column's width each.
