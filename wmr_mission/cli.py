@@ -90,6 +90,12 @@ class FigureFormat(StrEnum):
     pdf = "pdf"
 
 
+class FigureStyle(StrEnum):
+    screen = "screen"
+    one_column = "one-column"
+    two_column = "two-column"
+
+
 FigureFormats = Annotated[
     list[FigureFormat] | None,
     typer.Option(
@@ -274,11 +280,19 @@ def plot(
         typer.Argument(exists=True, file_okay=False, metavar="RUN_DIR", help="A run directory."),
     ],
     format: FigureFormats = None,
+    style: Annotated[
+        FigureStyle,
+        typer.Option(
+            "--style",
+            metavar="STYLE",
+            help="Figure size: screen, one-column (3.5 in) or two-column (7.16 in).",
+        ),
+    ] = FigureStyle.screen,
 ) -> None:
     """Re-draw the figures of RUN_DIR from its saved data."""
     from wmr_mission.commands.plot import replot_command
 
-    raise typer.Exit(replot_command(run_dir, _formats(format)))
+    raise typer.Exit(replot_command(run_dir, _formats(format), style.value))
 
 
 OutputDirectory = Annotated[

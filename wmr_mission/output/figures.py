@@ -18,7 +18,10 @@ seconds.
 from __future__ import annotations
 
 import math
+import textwrap
+import warnings
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -43,6 +46,7 @@ if TYPE_CHECKING:
 __all__ = [
     "FIGURE_FORMATS",
     "FIGURE_NAMES",
+    "STYLES",
     "draw_all",
     "phase_colors",
     "plot_estimation_error",
@@ -67,6 +71,28 @@ ESTIMATION_BOTTOM = 0.14
 PNG_OPTIONS: dict[str, Any] = {"compress_level": 1}
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
 FIGURE_FORMATS = ("png", "svg", "pdf")
+# TrueType (Type 42) fonts in PDF and PostScript, which publishers accept (Type
+# 3, matplotlib's default, is refused by IEEE's checker); text as text in SVG.
+FONT_RC: dict[str, Any] = {"pdf.fonttype": 42, "ps.fonttype": 42, "svg.fonttype": "none"}
+
+
+@dataclass(frozen=True)
+class Style:
+    """How a figure is sized for where it goes: ``width`` [in] of the figure
+    (None: as drawn, for a screen), its texts' sizes and its lines' widths
+    scaled; colours are never changed (the paper's stay)."""
+
+    width: float | None
+    font_scale: float = 1.0
+    line_scale: float = 1.0
+
+
+# One and two columns of a two-column journal (IEEE: 3.5 in and 7.16 in).
+STYLES: dict[str, Style] = {
+    "screen": Style(None),
+    "one-column": Style(3.5, font_scale=0.75, line_scale=0.6),
+    "two-column": Style(7.16, font_scale=0.9, line_scale=0.8),
+}
 # The verdicts first: a failing run's figures open on its failure.
 FIGURE_NAMES = ("verdicts", "xy", "states", "estimation_error", "inputs")
 # The reference is drawn over the path, thin and dark, so a well-tracked path
@@ -172,8 +198,9 @@ def save_figure(fig: Figure, path: Path) -> Path:
 
     options: dict[str, Any] = {"pil_kwargs": PNG_OPTIONS} if path.suffix == ".png" else {}
     # Long lines in pieces: a line round many laps would otherwise take Agg
-    # tens of megabytes of scanline cells.
-    with atomic_path(path) as tmp, rc_context({"agg.path.chunksize": LINE_PIECE}):
+    # tens of megabytes of scanline cells. Fonts as publishers take them.
+    settings: dict[Any, Any] = {"agg.path.chunksize": LINE_PIECE, **FONT_RC}
+    with atomic_path(path) as tmp, rc_context(settings):
         fig.savefig(
             tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight", pad_inches=PAD, **options
         )
@@ -954,6 +981,21 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
         if panel == "saturation":
             ax.axhline(1.0, color="0.2", linewidth=0.8, linestyle=":")
         _verdict_limits(ax, drawn, checks)
+        if panel in ("zones", "constraint"):
+            # Metres far on the allowed side and millimetres beyond the edge, both
+            # readable: linear within the bound of 0, logarithmic beyond.
+            near = min([c.bound for c in checks if c.peak and c.bound > 0], default=1e-3)
+            ax.set_yscale("symlog", linthresh=near, linscale=1.0)
+            low, high = ax.get_ylim()
+            ticks = {0.0, near}
+            if low < -near:
+                ticks |= {-near, -(10.0 ** math.floor(math.log10(-low)))}
+            if high > 10.0 * near:
+                ticks.add(10.0 ** math.floor(math.log10(high)))
+            ax.set_yticks(
+                sorted(t for t in ticks if low <= t <= high),
+                [f"{t:g}" for t in sorted(t for t in ticks if low <= t <= high)],
+            )
         ax.set_ylabel(PANELS[panel], fontsize=8)
         ax.grid(True, linewidth=0.4, alpha=0.5)
         handles, labels = ax.get_legend_handles_labels()
@@ -1096,14 +1138,133 @@ def _figure(result: RunResult, name: str) -> Figure:
     return fig
 
 
-def draw_all(result: RunResult, out_dir: Path, formats: Sequence[str] = ("png",)) -> list[Path]:
-    """Write the four figures into ``out_dir`` in each format; return their paths."""
+def restyle(fig: Figure, style: Style) -> Figure:
+    """``fig`` at ``style``'s width, its height in proportion, texts and lines
+    scaled (sizes are in points: absolute, so a figure made narrower keeps
+    text it can hold only when the text is made smaller with it)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.text import Text
+
+    if style.width is None:
+        return fig
+    width, height = fig.get_size_inches()
+    rows, columns = _grid(fig)
+    # In proportion, yet each row of axes an inch high at least with room for the titles.
+    fig.set_size_inches(style.width, max(height * style.width / width, 1.0 * rows + 1.0))
+    for ax in fig.axes:
+        ax.tick_params(labelsize=10.0 * style.font_scale, width=0.8 * style.line_scale)
+    for text in fig.findobj(Text):
+        text.set_fontsize(float(text.get_fontsize()) * style.font_scale)
+    titles = [(getattr(fig, "_suptitle", None), 1), *((ax.title, columns) for ax in fig.axes)]
+    for title, share in ((t, n) for t, n in titles if t is not None and t.get_text()):
+        # About half an em a character: wrapped to the width it has.
+        characters = int(style.width / share * 72.0 / (0.55 * float(title.get_fontsize())))
+        lines = title.get_text().split("\n")
+        title.set_text("\n".join(textwrap.fill(line, characters) for line in lines))
+    _legends_below(fig)
+    for line in fig.findobj(Line2D):
+        line.set_linewidth(line.get_linewidth() * style.line_scale)
+        line.set_markersize(line.get_markersize() * style.line_scale)
+    # The layouts made for a screen's size are laid out again for this one.
+    fig.set_layout_engine("constrained", h_pad=0.02, w_pad=0.02)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        _crop_to(fig, style.width)
+    if any("constrained_layout not applied" in str(w.message) for w in said):
+        # Too narrow to lay out again: the screen's layout, at the width asked.
+        fig.set_layout_engine("none")
+        _crop_to(fig, style.width)
+    return fig
+
+
+def _grid(fig: Figure) -> tuple[int, int]:
+    """The rows and columns of the figure's grid of axes."""
+    rows, columns = 1, 1
+    for ax in fig.axes:
+        spec = ax.get_subplotspec()
+        if spec is not None:
+            grid = spec.get_gridspec()
+            rows, columns = max(rows, grid.nrows), max(columns, grid.ncols)
+    return rows, columns
+
+
+def _legends_below(fig: Figure) -> None:
+    """Legends beside the axes put below them, in two columns, and the
+    figure's own in one: a column's width has no room beside."""
+    for own in list(fig.legends):
+        texts = own.get_texts()
+        handles: Any = own.legend_handles
+        own.remove()
+        fig.legend(
+            handles,
+            [text.get_text() for text in texts],
+            loc="outside lower center",
+            ncols=1,
+            fontsize=texts[0].get_fontsize() if texts else 6,
+            frameon=False,
+        )
+    for ax in fig.axes:
+        beside = ax.get_legend()
+        if beside is None or beside.get_bbox_to_anchor().x0 < ax.get_window_extent().x1:
+            continue
+        legend: Any = beside
+        title = legend.get_title().get_text()
+        ax.legend(
+            legend.legend_handles,
+            [text.get_text() for text in legend.get_texts()],
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.15),
+            ncols=2,
+            fontsize=legend.get_texts()[0].get_fontsize() if legend.get_texts() else 6,
+            frameon=False,
+            title=title or None,
+            title_fontsize=legend.get_title().get_fontsize(),
+        )
+
+
+def _crop_to(fig: Figure, target: float) -> None:
+    """The canvas sized so that the figure cropped to what is drawn is ``target`` wide [in]."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    # What is written is cropped to what is drawn, a legend beside the axes
+    # included: the canvas is sized so that the crop has the target width.
+    previous: tuple[float, float] | None = None  # (canvas width, crop width) before
+    for _ in range(8):  # the texts keep their size: the crop's width is about a*w + b
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()  # type: ignore[no-untyped-call]  # laid out as it will be written
+        renderer = canvas.get_renderer()  # type: ignore[no-untyped-call]
+        drawn = fig.get_tightbbox(renderer).width + 2 * PAD
+        width, height = fig.get_size_inches()
+        if abs(drawn - target) < 0.01:
+            break
+        slope = 1.0
+        if previous is not None and abs(width - previous[0]) > 1e-6:
+            slope = max((drawn - previous[1]) / (width - previous[0]), 0.1)
+        previous = (width, drawn)
+        grown = max(width + (target - drawn) / slope, 0.3 * width) / width
+        # both ways: an axes of equal aspect widens only with its height
+        fig.set_size_inches(width * grown, height * grown)
+
+
+def draw_all(
+    result: RunResult,
+    out_dir: Path,
+    formats: Sequence[str] = ("png",),
+    style: str = "screen",
+) -> list[Path]:
+    """Write the figures (FIGURE_NAMES) into ``out_dir`` in each format, sized
+    by ``style`` (one of STYLES); return their paths."""
     directory = Path(out_dir)
     unknown = [f for f in formats if f not in FIGURE_FORMATS]
     if unknown:
         raise ValueError(f"unknown figure format {unknown[0]!r}; expected one of png, svg, pdf")
+    if style not in STYLES:
+        raise ValueError(f"unknown style {style!r}; expected one of {', '.join(STYLES)}")
+    # verdicts.png explains a run on a screen: its panels and their words need
+    # the room; the style sizes the others, the paper's figures.
+    styled = {name: STYLES["screen" if name == "verdicts" else style] for name in FIGURE_NAMES}
     return [
-        save_figure(_figure(result, name), directory / f"{name}.{fmt}")
+        save_figure(restyle(_figure(result, name), styled[name]), directory / f"{name}.{fmt}")
         for fmt in formats
         for name in FIGURE_NAMES
     ]

@@ -162,7 +162,8 @@ class Signals:
     def failed(self) -> list[Check]:
         """The failed checks, the one failing first in time first."""
         failed = [c for c in self.checks if not c.met]
-        return sorted(failed, key=lambda c: c.first_over if c.first_over is not None else c.span[0])
+        timed = sorted((c for c in failed if c.first_over is not None), key=lambda c: c.over[0])
+        return timed + [c for c in failed if c.first_over is None]
 
 
 def expectations(result: RunResult) -> list[dict[str, Any]]:
@@ -312,7 +313,8 @@ def _placed(
     start, end = span
     if metric == "final_position_error":  # the last sample alone
         start = max(end - 1, 0)
-    window = np.abs(values[start:end])
+    # a lag is signed (ahead or behind); a depth or constraint value < 0 is allowed
+    window = np.abs(values[start:end]) if metric == "along_track_lag_max" else values[start:end]
     mask = judged.get(name)
     looked = np.ones(end - start, dtype=bool) if mask is None else mask[start:end]
     if metric == "detour_offset_max":
