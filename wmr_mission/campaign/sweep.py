@@ -46,6 +46,7 @@ from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.rows import Row, header, replay_command, simulate
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
+from wmr_mission.output.metrics import EXPECTATION_PATHS
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     CLAIM_FILE,
@@ -455,6 +456,24 @@ def _record(
         }
         for run, seed, outcome, reason in aggregate.worst_runs()
     ]
+    failures = [
+        {
+            "failure": kind,
+            "runs": count,
+            "worst": [
+                {
+                    "run": f.run,
+                    "seed": f.seed,
+                    "phase": f.phase,
+                    "value": f.value,
+                    "max": f.bound,
+                    "replay": replay_command(loaded, plan.draw(f.run)),
+                }
+                for f in worst
+            ],
+        }
+        for kind, count, worst in aggregate.worst_by_failure()
+    ]
     expectations = []
     if campaign.expect.success_rate is not None:
         least = campaign.expect.success_rate.min
@@ -475,17 +494,34 @@ def _record(
         **statistics,
         "expectations": expectations,
         "worst": worst,
+        "failures": failures,
         "wall_seconds": runs_seconds,
         "missions_per_second": aggregate.runs / runs_seconds if runs_seconds > 0 else None,
     }
 
 
 def _regions(loaded: LoadedCampaign) -> dict[str, Any]:
+    regions: dict[str, Any] = _mission(loaded)["regions"]
+    return regions
+
+
+def _mission(loaded: LoadedCampaign) -> dict[str, Any]:
+    """The campaign's mission as written (no run's values), with its defaults."""
     from wmr_mission.spec.loader import load_mission_text
 
     mission = load_mission_text(loaded.mission_text, str(loaded.mission_path))
-    regions: dict[str, Any] = mission.model_dump(mode="json")["regions"]
-    return regions
+    dumped: dict[str, Any] = mission.model_dump(mode="json")
+    return dumped
+
+
+def _bounds(mission: dict[str, Any]) -> dict[str, float]:
+    """The mission-wide `expect` bounds of the metrics runs.csv records."""
+    expect = mission.get("expect") or {}
+    return {
+        name: float(expect[name]["max"])
+        for name in EXPECTATION_PATHS
+        if isinstance(expect.get(name), dict) and expect[name].get("max") is not None
+    }
 
 
 def _write_worst(
@@ -551,7 +587,8 @@ def _draw(loaded: LoadedCampaign, aggregate: Aggregate, out_dir: Path, plots: bo
     if plots and aggregate.runs:
         from wmr_mission.campaign.figures import draw_campaign
 
-        draw_campaign(aggregate, _regions(loaded), out_dir)
+        mission = _mission(loaded)
+        draw_campaign(aggregate, mission["regions"], out_dir, bounds=_bounds(mission))
 
 
 def _prepare(
@@ -741,6 +778,15 @@ def _sweep(
     return EXIT_FAILED if failed else 0
 
 
+def _beyond(worst: dict[str, Any]) -> str:
+    """`` (south: 2.38, max 2)``: where and how far a run failed its bound."""
+    if worst.get("max") is None:
+        return ""
+    value = "none" if worst["value"] is None else f"{worst['value']:.3g}"
+    where = f"{worst['phase']}: " if worst.get("phase") else ""
+    return f" ({where}{value}, max {worst['max']:.3g})"
+
+
 def _report(record: dict[str, Any], out_dir: Path) -> str:
     lo, hi = record["success_interval"]
     rate = record["success_rate"]
@@ -751,7 +797,15 @@ def _report(record: dict[str, Any], out_dir: Path) -> str:
         f"{record['missions_per_second'] or 0:.1f} missions/s over {record['wall_seconds']:.1f} s"
         f" (start-up {record['startup_seconds']:.1f} s)",
     ]
-    if record["worst"]:
+    if record.get("failures"):
+        lines.append("failures by kind (runs; the worst run, its replay):")
+        for failure in record["failures"]:
+            worst = failure["worst"][0]
+            lines.append(
+                f"  {failure['failure']}: {failure['runs']}; run {worst['run']}"
+                f"{_beyond(worst)}: {worst['replay']}"
+            )
+    elif record["worst"]:
         lines.append("worst runs (replay):")
         lines += [f"  {w['run']}: {w['outcome']}: {w['replay']}" for w in record["worst"]]
     lines.append(f"written to {out_dir}")
