@@ -57,6 +57,9 @@ command = app.command(cls=_Command)
 
 # Timed runs of `bench`: each keeps its per-sample times in memory.
 MAX_REPEAT = 100
+# `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
+# written here so that `--help` loads no model.
+MAX_SWEEP_RUNS = 10_000_000
 
 
 def _version(value: bool) -> None:
@@ -214,6 +217,16 @@ def sweep(
             help="Run on this Dask scheduler (tcp://host:8786); needs wmr-mission[dask].",
         ),
     ] = None,
+    runs: Annotated[
+        int | None,
+        typer.Option(
+            "--runs",
+            metavar="N",
+            min=1,
+            max=MAX_SWEEP_RUNS,
+            help="Runs per grid cell, instead of the campaign's `runs`.",
+        ),
+    ] = None,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
     allow_mixed_cluster: Annotated[
         bool,
@@ -236,6 +249,7 @@ def sweep(
             scheduler=scheduler,
             plots=not no_plots,
             allow_mixed_cluster=allow_mixed_cluster,
+            runs=runs,
         )
     )
 

@@ -687,14 +687,19 @@ def sweep_command(
     scheduler: str | None,
     plots: bool,
     allow_mixed_cluster: bool = False,
+    runs: int | None = None,
 ) -> int:
-    """Exit code: 0 the campaign ran and its expect holds; 1 invalid, expect not
+    """``runs``: runs per grid cell, instead of the campaign's.
+
+    Exit code: 0 the campaign ran and its expect holds; 1 invalid, expect not
     met or a worker lost; 2 unusable output directory or scheduler (or a mixed
     cluster), or a write that failed; 130 or 143 stopped by SIGINT or SIGTERM
     (what ran is kept)."""
     with StopSignals(STOP_SIGNALS) as stop:
         try:
-            return _sweep(campaign_path, out, workers, scheduler, plots, stop, allow_mixed_cluster)
+            return _sweep(
+                campaign_path, out, workers, scheduler, plots, stop, allow_mixed_cluster, runs
+            )
         except KeyboardInterrupt:
             print(
                 f"{campaign_path}: interrupted by {stop.name} before the first run; "
@@ -702,6 +707,15 @@ def sweep_command(
                 file=sys.stderr,
             )
             return stop.exit_code
+
+
+def _is_mission(path: Path) -> bool:
+    from wmr_mission.spec.loader import document_kind
+
+    try:
+        return document_kind(path.read_text(encoding="utf-8")) == "mission"
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def _sweep(
@@ -712,12 +726,21 @@ def _sweep(
     plots: bool,
     stop: StopSignals,
     allow_mixed_cluster: bool,
+    runs: int | None = None,
 ) -> int:
     loaded, diagnostics = check_campaign(campaign_path)
+    if loaded is None and _is_mission(campaign_path):
+        print(
+            f"{campaign_path}: this is a mission: run it with `wmr-mission run {campaign_path}`",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
     for diagnostic in diagnostics:
         print(diagnostic, file=sys.stderr)
     if loaded is None:
         return EXIT_FAILED
+    if runs is not None:  # the campaign's own `runs`, for this sweep
+        loaded.campaign = loaded.campaign.model_copy(update={"runs": runs})
     used = usable_workers(workers)
     if workers is not None and used < workers and scheduler is None:
         print(

@@ -91,6 +91,13 @@ def run_command(
             mission = None
             if source is not None:
                 mission, diagnostics = check_mission_bytes(source, str(mission_path), parsed)
+                if mission is None and _is_campaign(source):
+                    diagnostics = []
+                    print(
+                        f"{mission_path}: this is a campaign: run it with "
+                        f"`wmr-mission sweep {mission_path}`",
+                        file=sys.stderr,
+                    )
             for diagnostic in diagnostics:  # warnings too, as `validate` prints them
                 print(diagnostic, file=sys.stderr)
             if mission is None or source is None:
@@ -100,6 +107,15 @@ def run_command(
         except KeyboardInterrupt:
             print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
             return _signal_exit(received)
+
+
+def _is_campaign(source: bytes) -> bool:
+    from wmr_mission.spec.loader import document_kind
+
+    try:
+        return document_kind(source.decode("utf-8")) == "campaign"
+    except UnicodeDecodeError:
+        return False
 
 
 def _check_environment(expected: str) -> None:
