@@ -227,7 +227,8 @@ def test_same_rows_on_one_or_two_workers_and_dask(tmp_path: Path, processes: boo
     assert "final_position_error" in header
     for result in (serial, pool, dask):
         assert result.summary["runs"] == 6
-        assert list(result.rows["run"]) == list(range(6))
+        assert [row["run"] for row in result.rows] == list(range(6))
+        assert list(result.to_dataframe()["run"]) == list(range(6))
     assert dask.summary["scheduler"] == cluster.scheduler_address
 
 

@@ -22,7 +22,7 @@ import os
 import sys
 import time
 from contextlib import closing
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 from typing import IO, Any, Final
@@ -75,13 +75,31 @@ takes (about 0.4 s), and no core waits for it after them. Shorter campaigns
 load it after their runs, so that it never counts in their runs' time."""
 
 
-@dataclass
+@dataclass(repr=False)
 class CampaignResult:
     """What :func:`run_campaign` returns: the rows and the aggregate (campaign.json)."""
 
-    rows: Any  # a pandas DataFrame when pandas is installed, else a list of dicts
+    rows: list[dict[str, Any]]  # one per run, in run order, keyed as runs.csv's columns
     summary: dict[str, Any]
     out_dir: Path | None
+    columns: list[str] = field(default_factory=list)  # runs.csv's, in order
+
+    def to_dataframe(self) -> Any:
+        """The rows as a pandas DataFrame, columns as in ``runs.csv``. Needs pandas."""
+        try:
+            import pandas
+        except ImportError:
+            raise ImportError(
+                "CampaignResult.to_dataframe needs pandas: pip install 'wmr-mission[dataframe]'"
+            ) from None
+        return pandas.DataFrame(self.rows, columns=self.columns or None)
+
+    def __repr__(self) -> str:
+        summary = self.summary
+        return (
+            f"CampaignResult(campaign={summary.get('campaign')!r}, runs={summary.get('runs')}, "
+            f"succeeded={summary.get('succeeded')}, out_dir={self.out_dir!r})"
+        )
 
 
 def _runs_detail(aggregate: Aggregate, total: int, started: float) -> str:
@@ -669,14 +687,7 @@ def run_campaign(
         )
     if ended.fault is not None:
         raise ended.fault.error
-    table: Any = rows
-    try:
-        import pandas
-
-        table = pandas.DataFrame(rows, columns=header(Plan(loaded.campaign).paths))
-    except ImportError:
-        pass
-    return CampaignResult(table, ended.record, out_dir)
+    return CampaignResult(rows, ended.record, out_dir, header(Plan(loaded.campaign).paths))
 
 
 def sweep_command(
