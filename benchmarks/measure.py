@@ -582,6 +582,17 @@ def _drawing_code_at(commit: str) -> tuple[Any, Any]:
     return modules[0], modules[1]
 
 
+def _bounds_argument(figures: Any, loaded: Any) -> tuple[Any, ...]:
+    """The mission's bounds for ``_histograms``, where the code takes them."""
+    import inspect
+
+    if "bounds" not in inspect.signature(figures._histograms).parameters:
+        return ()
+    from wmr_mission.campaign.sweep import _bounds, _mission
+
+    return (_bounds(_mission(loaded)),)
+
+
 def _saved(plots: Any, figure: Any, path: Path) -> None:
     """``figure`` written as ``plots`` writes figure files (by the name it had then)."""
     save = getattr(plots, "save_figure", None) or plots._save
@@ -659,7 +670,7 @@ def drawing(repeat: int = 5) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for name, build in (
             ("trajectories", lambda f: f._trajectories(aggregate, regions)),
-            ("metrics", lambda f: f._histograms(aggregate)),
+            ("metrics", lambda f: f._histograms(aggregate, *_bounds_argument(f, loaded))),
             ("success", lambda f: f._success_over_axes(aggregate)),
         ):
             spent = cpu(
@@ -675,8 +686,10 @@ def drawing(repeat: int = 5) -> None:
                 {
                     key: lambda p=p, n=name: _run_figure(p, result, n, Path(tmp) / f"{n}.png")
                     for key, (p, _) in codes.items()
+                    if name in p.FIGURE_NAMES  # a figure the code drew then
                 }
             )
+            spent = {key: spent.get(key, 0.0) for key in codes}
             show(f"worst run {worst[0]}, {name}.png", spent)
             total = {key: total[key] + spent[key] for key in codes}
         show(f"worst run {worst[0]}, its four figures", total)

@@ -46,6 +46,11 @@ def test_svg_keeps_text_as_text(keep_out: RunResult, tmp_path: Path) -> None:
     assert "speed_jump_max" in svg  # the failure, searchable
 
 
+def _text_only(path: Path) -> bool:
+    """keep-out's estimation_error.png: one sentence (its estimate is exact)."""
+    return path.stem == "estimation_error"
+
+
 @pytest.mark.parametrize("style", ["one-column", "two-column"])
 def test_a_column_style_fits_its_column(keep_out: RunResult, tmp_path: Path, style: str) -> None:
     width = STYLES[style].width
@@ -55,4 +60,7 @@ def test_a_column_style_fits_its_column(keep_out: RunResult, tmp_path: Path, sty
             continue  # drawn for a screen whatever the style
         with Image.open(path) as image:
             drawn = image.size[0] / DPI
-        assert drawn == pytest.approx(width, abs=0.02), path.name
+        # within the column; one with axes fills it (a sentence alone is as wide as it is)
+        assert drawn <= width + 0.02, path.name
+        if not _text_only(path):
+            assert drawn == pytest.approx(width, abs=0.02), path.name

@@ -9,7 +9,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.output.figures import draw_regions, finite, names_as_typed, thin, view_box
+from wmr_mission.output.figures import (
+    draw_regions,
+    finite,
+    names_as_typed,
+    region_sides,
+    thin,
+    view_box,
+)
 from wmr_mission.output.files import atomic_path
 
 if TYPE_CHECKING:
@@ -67,7 +74,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     canvas: Any = FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     view = view_box(result)
-    draw_regions(ax, result.regions, view)
+    draw_regions(ax, result.regions, view, region_sides(result))
     path_points = thin(0, result.samples, TRAIL_POINTS)
     ax.plot(
         finite(result.x[path_points]), finite(result.y[path_points]), color="0.85", linewidth=1.0

@@ -254,23 +254,45 @@ def _clip_half_plane(
     return np.asarray(kept, dtype=np.float64).reshape(-1, 2)
 
 
-def draw_regions(
-    ax: Axes, regions: dict[str, Any], view: tuple[float, float, float, float]
-) -> None:
-    """Each region as a light grey patch with its outline; a half-plane is shaded inside ``view``.
+def region_sides(result: RunResult) -> dict[str, str]:
+    """Per constrained region, the side the robot keeps to: ``inside`` or
+    ``outside`` (``both`` when phases differ)."""
+    sides: dict[str, str] = {}
+    for info in result.phases:
+        for name, side in info.constraints:
+            sides[name] = side if sides.get(name, side) == side else "both"
+    return sides
 
-    Grey, so that region colours never compete with the phases' colours.
+
+def draw_regions(
+    ax: Axes,
+    regions: dict[str, Any],
+    view: tuple[float, float, float, float],
+    sides: Mapping[str, str] | None = None,
+) -> None:
+    """Each region as a patch with its outline; a half-plane is shaded inside ``view``.
+
+    ``sides`` (:func:`region_sides`): a zone kept out of is hatched and
+    reddish, a zone kept in light grey, a region no phase constrains only
+    outlined: a keep-out pond and a keep-in yard do not look alike. Greys and a
+    faint red, so that regions never compete with the phases' colours.
     """
     from matplotlib import patches
 
+    sides = sides or {}
     for name, region in regions.items():
         kind = region.get("type")
+        side = sides.get(name)
         style: dict[str, Any] = {
             "facecolor": (0.5, 0.5, 0.5, 0.07 if kind == "half-plane" else 0.1),
             "edgecolor": "0.35",
             "linewidth": 1.0,
             "zorder": 1,
         }
+        if side == "outside":
+            style |= {"facecolor": (0.84, 0.15, 0.16, 0.12), "hatch": "///", "edgecolor": "0.3"}
+        elif side is None and sides:
+            style |= {"facecolor": "none", "linestyle": ":"}
         patch: Any
         if kind == "ellipse":
             (a, b) = region["semi_axes"]
@@ -301,7 +323,8 @@ def draw_regions(
             patch = patches.Polygon(inside, **style)
         else:
             continue
-        patch.set_label(f"region {name}")
+        words = {"outside": " (kept out of)", "inside": " (kept in)"}.get(side or "", "")
+        patch.set_label(f"region {name}{words}")
         ax.add_patch(patch)
 
 
@@ -588,7 +611,7 @@ def _xy_on(ax: Axes, result: RunResult) -> int:
     colors = phase_colors(result)
     view = view_box(result)
     size = max(view[1] - view[0], view[3] - view[2])
-    draw_regions(ax, result.regions, view)
+    draw_regions(ax, result.regions, view, region_sides(result))
     if result.samples:
         _draw_path(ax, result, colors)
         _draw_changes(ax, result, size)
@@ -721,7 +744,8 @@ def _states_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         )
         ax.set_ylabel(STATE_LABELS[state])
         ax.grid(True, linewidth=0.4, alpha=0.5)
-    axes[0].legend(loc="upper right", fontsize=8)
+    # Beside the axes: a legend inside covers data.
+    axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     axes[-1].set_xlabel("t [s]")
     _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: states and estimates")
@@ -768,13 +792,19 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     for row, (state, bounds) in enumerate(zip(STATES, result.error_bounds, strict=True)):
         unit = "rad" if state == "theta" else "m"
         measured = bool(np.isfinite(getattr(result, f"{state}_meas")).any())
+        sensed = getattr(result, f"{state}_meas")
         for column, k in enumerate((early, every)):
             ax = axes[2 * row + column]
-            output_error, true_error = _errors_at(result, state, k)
+            _output_error, true_error = _errors_at(result, state, k)
             if measured:
+                # At the samples measured (a slower sensor leaves NaN between
+                # them): thinned among those, else the line would have no points.
+                stop = int(k[-1]) + 1 if k.size else 0
+                at = np.flatnonzero(np.isfinite(sensed[:stop]))
+                at = at[thin(0, at.size)]
                 ax.plot(
-                    result.t[k],
-                    output_error,
+                    result.t[at],
+                    _errors_at(result, state, at)[0],
                     color="tab:blue",
                     linewidth=1.8,
                     label="measurement - estimate",
@@ -822,7 +852,9 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     # axes' top (y=1): nothing else is drawn above them, so matplotlib need not
     # measure the axes' tick labels once more to find room.
     axes[0].set_title(f"start: first {window:.3g} s, full scale", fontsize=9, pad=14, y=1.0)
-    axes[1].set_title("whole run, at the scale of the bounds", fontsize=9, pad=14, y=1.0)
+    bounded = any(math.isfinite(b) for bounds in result.error_bounds for b in bounds)
+    scale = "of the bounds" if bounded else "of the error after the start"
+    axes[1].set_title(f"whole run, at the scale {scale}", fontsize=9, pad=14, y=1.0)
     handles, labels = axes[1].get_legend_handles_labels()
     for ax in axes:
         handles_here, labels_here = ax.get_legend_handles_labels()
@@ -842,7 +874,13 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     axes[-2].set_xlabel("t [s]")
     axes[-1].set_xlabel("t [s]")
     _mark_phases([axes[1], axes[3], axes[5]], result, phase_colors(result))
-    fig.suptitle(f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate")
+    # eq. (4) bounds only the constrained observer's output error; no other
+    # estimator has such bounds (an EKF's covariance is not recorded).
+    fig.suptitle(
+        f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate"
+        if bounded
+        else f"{result.mission_name}: estimation error (no bounds: the estimator has none)"
+    )
     names_as_typed(fig)
 
 
@@ -889,7 +927,7 @@ def _inputs_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
                 ax.set_ylim(low - margin, high + margin)
         ax.set_ylabel(label)
         ax.grid(True, linewidth=0.4, alpha=0.5)
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     axes[-1].set_xlabel("t [s]")
     _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: inputs")
@@ -1128,6 +1166,19 @@ def _figure(result: RunResult, name: str) -> Figure:
     elif name == "states":
         fig = new_figure((9, 7.5))
         _states_on(fig, list(fig.subplots(3, 1, sharex=True)), result)
+    elif name == "estimation_error" and _estimate_is_exact(result):
+        # Six flat lines at zero say less than one sentence.
+        fig = new_figure((9, 1.2))
+        fig.text(
+            0.5,
+            0.5,
+            f"{result.mission_name}: the estimate equals the true state at every sample "
+            "(no noise, no initial error): no estimation error to draw",
+            ha="center",
+            va="center",
+            fontsize=10,
+        )
+        names_as_typed(fig)
     elif name == "estimation_error":
         fig = new_figure((11, 7.5))
         fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
@@ -1155,13 +1206,17 @@ def restyle(fig: Figure, style: Style) -> Figure:
         ax.tick_params(labelsize=10.0 * style.font_scale, width=0.8 * style.line_scale)
     for text in fig.findobj(Text):
         text.set_fontsize(float(text.get_fontsize()) * style.font_scale)
-    titles = [(getattr(fig, "_suptitle", None), 1), *((ax.title, columns) for ax in fig.axes)]
+    titles = [
+        (getattr(fig, "_suptitle", None), 1),
+        *((text, 1) for text in fig.texts),
+        *((ax.title, columns) for ax in fig.axes),
+    ]
     for title, share in ((t, n) for t, n in titles if t is not None and t.get_text()):
         # About half an em a character: wrapped to the width it has.
         characters = int(style.width / share * 72.0 / (0.55 * float(title.get_fontsize())))
         lines = title.get_text().split("\n")
         title.set_text("\n".join(textwrap.fill(line, characters) for line in lines))
-    _legends_below(fig)
+    _legends_below(fig, style.width)
     for line in fig.findobj(Line2D):
         line.set_linewidth(line.get_linewidth() * style.line_scale)
         line.set_markersize(line.get_markersize() * style.line_scale)
@@ -1188,16 +1243,24 @@ def _grid(fig: Figure) -> tuple[int, int]:
     return rows, columns
 
 
-def _legends_below(fig: Figure) -> None:
-    """Legends beside the axes put below them, in two columns, and the
-    figure's own in one: a column's width has no room beside."""
+def _legends_below(fig: Figure, width: float) -> None:
+    """Legends beside the axes put below them, in two columns (their labels
+    wrapped to fit ``width`` [in]), and the figure's own in one: a column's
+    width has no room beside."""
+
+    def wrapped(texts: Sequence[Any], columns: int) -> list[str]:
+        size = float(texts[0].get_fontsize()) if texts else 6.0
+        # half an em a character, less the room of a legend's handle
+        characters = max(12, int(width / columns * 72.0 / (0.55 * size)) - 6)
+        return [textwrap.fill(text.get_text(), characters) for text in texts]
+
     for own in list(fig.legends):
         texts = own.get_texts()
         handles: Any = own.legend_handles
         own.remove()
         fig.legend(
             handles,
-            [text.get_text() for text in texts],
+            wrapped(texts, 1),
             loc="outside lower center",
             ncols=1,
             fontsize=texts[0].get_fontsize() if texts else 6,
@@ -1211,7 +1274,7 @@ def _legends_below(fig: Figure) -> None:
         title = legend.get_title().get_text()
         ax.legend(
             legend.legend_handles,
-            [text.get_text() for text in legend.get_texts()],
+            wrapped(legend.get_texts(), 2),
             loc="upper center",
             bbox_to_anchor=(0.5, -0.15),
             ncols=2,
@@ -1244,6 +1307,20 @@ def _crop_to(fig: Figure, target: float) -> None:
         grown = max(width + (target - drawn) / slope, 0.3 * width) / width
         # both ways: an axes of equal aspect widens only with its height
         fig.set_size_inches(width * grown, height * grown)
+
+
+def _estimate_is_exact(result: RunResult) -> bool:
+    """Whether the estimate equals the true state at every sample, and every
+    measurement too (a noise-free run that starts from the true state)."""
+    for state in STATES:
+        truth = getattr(result, state)
+        if not np.array_equal(getattr(result, f"{state}_est"), truth):
+            return False
+        sensed = getattr(result, f"{state}_meas")
+        measured = np.isfinite(sensed)
+        if not np.array_equal(sensed[measured], truth[measured]):
+            return False
+    return result.samples > 0
 
 
 def draw_all(
