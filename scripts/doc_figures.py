@@ -8,8 +8,8 @@ verdicts.png (the mission fails). docs/images/keep-out-xy-one-column.png:
 `wmr-mission plot RUN_DIR --style one-column`'s xy.png. docs/images/campaigns/
 case2-headings-{trajectories,metrics,success}.png: `wmr-mission sweep
 missions/campaigns/case2-headings.yaml`'s figures, and
-case2-headings-worst-verdicts.png: the verdicts.png of the worst run of its
-most frequent failure (worst/RUN/).
+case2-headings-worst-FAILURE.png: the verdicts.png of the worst run of each
+kind of failure (worst/RUN/).
 """
 
 from __future__ import annotations
@@ -46,13 +46,16 @@ def campaign_figures(tmp: Path) -> None:
     for name in ("trajectories", "metrics", "success"):
         shutil.copy(out / f"{name}.png", IMAGES / "campaigns" / f"case2-headings-{name}.png")
     record = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
-    first = record["failures"][0]
-    worst = first["worst"][0]["run"]
-    shutil.copy(
-        out / "worst" / str(worst) / "verdicts.png",
-        IMAGES / "campaigns" / "case2-headings-worst-verdicts.png",
-    )
-    print(f"most frequent failure: {first['failure']} ({first['runs']} runs); worst run {worst}")
+    for failure in record["failures"]:
+        worst = failure["worst"][0]
+        shutil.copy(
+            out / "worst" / str(worst["run"]) / "verdicts.png",
+            IMAGES / "campaigns" / f"case2-headings-worst-{failure['failure']}.png",
+        )
+        print(
+            f"{failure['failure']}: {failure['runs']} runs; worst run {worst['run']} "
+            f"({worst['phase']}: {worst['value']} against {worst['max']})"
+        )
 
 
 def main() -> None:

@@ -974,9 +974,20 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
     if not order:
         order = ["saturation"]
     fig.set_size_inches(9.0, PANEL_HEIGHT * len(order) + VERDICT_HEADER)
-    axes = list(fig.subplots(len(order), 1, sharex=True, squeeze=False)[:, 0])
-    k = thin(0, result.samples)
     t = result.t
+    first: Check | None = next((c for c in failed if c.first_over is not None), None)
+    # A failure in a short phase is drawn on its phase alone at the top: on
+    # the whole run it would be a spike at an edge.
+    zoom = _zoom(result, first) if len(order) > 1 else None
+    grid = fig.add_gridspec(len(order), 1)
+    axes = [fig.add_subplot(grid[0])]
+    for row in range(1, len(order)):
+        shared = axes[1] if row > 1 and zoom is not None else axes[0] if zoom is None else None
+        axes.append(fig.add_subplot(grid[row], sharex=shared))
+    for ax in axes[:-1]:
+        if ax is not axes[0] or zoom is None:
+            ax.tick_params(labelbottom=False)
+    k = thin(0, result.samples)
     for ax, panel in zip(axes, order, strict=True):
         drawn = signals.lines.get(panel, {})
         colors = {name: SIGNAL_COLORS[i % 3] for i, name in enumerate(drawn)}
@@ -1055,7 +1066,14 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
     axes[-1].set_xlabel("t [s]")
     if result.samples:
         axes[-1].set_xlim(float(t[0]), float(t[-1]))
-    first: Check | None = next((c for c in failed if c.first_over is not None), None)
+    if zoom is not None and first is not None:
+        axes[0].set_xlim(*zoom)
+        name = first.phase if first.phase is not None else "the run"
+        axes[0].set_title(
+            f"{name}, t = {zoom[0]:.4g} .. {zoom[1]:.4g} s (the panels below: the whole run)",
+            fontsize=8,
+            loc="right",
+        )
     if first is not None and first.first_over is not None:
         when = float(t[first.first_over])
         for ax in axes:
@@ -1069,7 +1087,7 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
             color=FAILED_COLOR,
             fontsize=8,
         )
-    _mark_phases(axes, result, phase_colors(result))
+    _mark_phases(axes if zoom is None else axes[1:], result, phase_colors(result))
     fig.suptitle(
         _verdict_title(result, signals.checks, failed, first), fontsize=10, x=0.02, ha="left"
     )
@@ -1078,6 +1096,20 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
         hspace=0.35,
     )
     names_as_typed(fig)
+
+
+def _zoom(result: RunResult, first: Any) -> tuple[float, float] | None:
+    """The time span [s] the top panel shows: the first failure's phase, padded,
+    when it is under a third of the run; else None (the whole run)."""
+    if first is None or not result.samples or first.phase is None:
+        return None
+    start, end = first.span
+    low, high = float(result.t[start]), float(result.t[max(end - 1, start)])
+    run = float(result.t[-1] - result.t[0])
+    if high - low >= run / 3.0 or high <= low:
+        return None
+    pad = 0.05 * (high - low)
+    return max(float(result.t[0]), low - pad), min(float(result.t[-1]), high + pad)
 
 
 def _verdict_title(
