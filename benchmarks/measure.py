@@ -659,8 +659,10 @@ def drawing(repeat: int = 5) -> None:
 
     def show(what: str, spent: dict[str, float]) -> None:
         line = f"  {what}: {spent['now']:.3f}"
-        if against is not None:
+        if against is not None and spent[against] > 0:
             line += f" ({against}: {spent[against]:.3f}, ratio {spent['now'] / spent[against]:.2f})"
+        elif against is not None:
+            line += f" ({against}: not drawn then)"
         print(line)
 
     print(f"case2-headings, {aggregate.runs} runs, CPU seconds, median of {repeat}:")
