@@ -343,11 +343,11 @@ def figures(repeat: int = 3) -> None:
             animation.append((time.perf_counter() - started[0], time.thread_time() - started[1]))
         gif_mb = (Path(tmp) / "animation.gif").stat().st_size / 1e6
         png_mb = sum(path.stat().st_size for path in Path(tmp).glob("*.png")) / 1e6
-    for what, times in (("four figures", four), ("animation", animation)):
+    for what, times in (("figures", four), ("animation", animation)):
         wall = statistics.median(t[0] for t in times)
         cpu = statistics.median(t[1] for t in times)
         print(f"case1, {what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
-    print(f"case1, files: four PNGs {png_mb:.2f} MB, animation.gif {gif_mb:.2f} MB")
+    print(f"case1, files: the PNGs {png_mb:.2f} MB, animation.gif {gif_mb:.2f} MB")
     # A mission of many short phases: `run` with and without its figures.
     with tempfile.TemporaryDirectory() as tmp:
         mission = Path(tmp) / "phases.yaml"
@@ -694,7 +694,7 @@ def drawing(repeat: int = 5) -> None:
             spent = {key: spent.get(key, 0.0) for key in codes}
             show(f"worst run {worst[0]}, {name}.png", spent)
             total = {key: total[key] + spent[key] for key in codes}
-        show(f"worst run {worst[0]}, its four figures", total)
+        show(f"worst run {worst[0]}, its figures", total)
         directory = cpu({"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True)})
         print(f"  one worst run's directory with its four figures: {directory['now']:.3f}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
