@@ -344,11 +344,11 @@ def figures(repeat: int = 3) -> None:
             animation.append((time.perf_counter() - started[0], time.thread_time() - started[1]))
         gif_mb = (Path(tmp) / "animation.gif").stat().st_size / 1e6
         png_mb = sum(path.stat().st_size for path in Path(tmp).glob("*.png")) / 1e6
-    for what, times in (("four figures", four), ("animation", animation)):
+    for what, times in (("figures", four), ("animation", animation)):
         wall = statistics.median(t[0] for t in times)
         cpu = statistics.median(t[1] for t in times)
         print(f"case1, {what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
-    print(f"case1, files: four PNGs {png_mb:.2f} MB, animation.gif {gif_mb:.2f} MB")
+    print(f"case1, files: the PNGs {png_mb:.2f} MB, animation.gif {gif_mb:.2f} MB")
     # A mission of many short phases: `run` with and without its figures.
     with tempfile.TemporaryDirectory() as tmp:
         mission = Path(tmp) / "phases.yaml"
@@ -583,6 +583,17 @@ def _drawing_code_at(commit: str) -> tuple[Any, Any]:
     return modules[0], modules[1]
 
 
+def _bounds_argument(figures: Any, loaded: Any) -> tuple[Any, ...]:
+    """The mission's bounds for ``_histograms``, where the code takes them."""
+    import inspect
+
+    if "bounds" not in inspect.signature(figures._histograms).parameters:
+        return ()
+    from wmr_mission.campaign.sweep import _bounds, _mission
+
+    return (_bounds(_mission(loaded)),)
+
+
 def _saved(plots: Any, figure: Any, path: Path) -> None:
     """``figure`` written as ``plots`` writes figure files (by the name it had then)."""
     save = getattr(plots, "save_figure", None) or plots._save
@@ -649,8 +660,10 @@ def drawing(repeat: int = 5) -> None:
 
     def show(what: str, spent: dict[str, float]) -> None:
         line = f"  {what}: {spent['now']:.3f}"
-        if against is not None:
+        if against is not None and spent[against] > 0:
             line += f" ({against}: {spent[against]:.3f}, ratio {spent['now'] / spent[against]:.2f})"
+        elif against is not None:
+            line += f" ({against}: not drawn then)"
         print(line)
 
     print(f"case2-headings, {aggregate.runs} runs, CPU seconds, median of {repeat}:")
@@ -660,7 +673,7 @@ def drawing(repeat: int = 5) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for name, build in (
             ("trajectories", lambda f: f._trajectories(aggregate, regions)),
-            ("metrics", lambda f: f._histograms(aggregate)),
+            ("metrics", lambda f: f._histograms(aggregate, *_bounds_argument(f, loaded))),
             ("success", lambda f: f._success_over_axes(aggregate)),
         ):
             spent = cpu(
@@ -676,11 +689,13 @@ def drawing(repeat: int = 5) -> None:
                 {
                     key: lambda p=p, n=name: _run_figure(p, result, n, Path(tmp) / f"{n}.png")
                     for key, (p, _) in codes.items()
+                    if name in p.FIGURE_NAMES  # a figure the code drew then
                 }
             )
+            spent = {key: spent.get(key, 0.0) for key in codes}
             show(f"worst run {worst[0]}, {name}.png", spent)
             total = {key: total[key] + spent[key] for key in codes}
-        show(f"worst run {worst[0]}, its four figures", total)
+        show(f"worst run {worst[0]}, its figures", total)
         directory = cpu({"now": lambda: _write_run_dir(loaded, worst[0], Path(tmp) / "w", True)})
         print(f"  one worst run's directory with its four figures: {directory['now']:.3f}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")

@@ -227,7 +227,8 @@ def test_same_rows_on_one_or_two_workers_and_dask(tmp_path: Path, processes: boo
     assert "final_position_error" in header
     for result in (serial, pool, dask):
         assert result.summary["runs"] == 6
-        assert list(result.rows["run"]) == list(range(6))
+        assert [row["run"] for row in result.rows] == list(range(6))
+        assert list(result.to_dataframe()["run"]) == list(range(6))
     assert dask.summary["scheduler"] == cluster.scheduler_address
 
 
@@ -806,15 +807,19 @@ def test_sweep_draws_its_figures_with_one_image_per_outcome(tmp_path: Path) -> N
             path = np.vstack([np.linspace(-1, 0, 50), np.full(50, 0.05 * run)]).astype(np.float32)
             aggregate.drawn.append((run % 3 != 0, path))
             aggregate.drawn_failures += run % 3 == 0
-        ax = figures._trajectories(aggregate, regions).axes[0]
-        images = [a for a in ax.get_children() if isinstance(a, AxesImage)]
-        assert len(images) == 2  # successes, then failures over them
-        # every run's path shows: one row of pixels per run, each its outcome's colour
-        for image, outcome in zip(images, (True, False), strict=True):
+        panels = figures._trajectories(aggregate, regions).axes
+        # small multiples: the successes, then the failures, one image each on
+        # an axes of its own (no outcome drawn over the other)
+        assert len(panels) == 2
+        images = [[a for a in ax.get_children() if isinstance(a, AxesImage)] for ax in panels]
+        assert [len(i) for i in images] == [1, 1]
+        # every run's path shows: one row of pixels per run, on its outcome's panel
+        for (image,), outcome in zip(images, (True, False), strict=True):
             pixels = np.asarray(image.get_array())
             rows = np.flatnonzero(pixels[:, :, 3].max(axis=1) > 0)
             assert rows.size == sum(ok is outcome for ok, _ in aggregate.drawn)
-        artists.append(len(ax.get_children()))
+        assert "failures: " in panels[1].get_title()
+        artists.append(sum(len(ax.get_children()) for ax in panels))
     assert artists[0] == artists[1]  # the same artists for 3 runs as for 30
 
 

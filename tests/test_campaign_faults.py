@@ -529,7 +529,7 @@ def test_a_character_beyond_the_bmp_in_a_varied_value_replays(tmp_path: Path) ->
         replay = tmp_path / f"replay-{worst['run']}"
         invoked = CliRunner().invoke(app, [*words[1:], "--out", str(replay), "--no-plots"])
         assert invoked.exit_code == 0, invoked.output
-        drawn = result.rows["description"][worst["run"]]
+        drawn = result.rows[worst["run"]]["description"]
         manifest = json.loads((replay / "manifest.json").read_text(encoding="utf-8"))
         assert manifest["resolved_mission"]["description"] == drawn
         kept = out / "worst" / str(worst["run"]) / "trajectory.csv"

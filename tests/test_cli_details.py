@@ -16,7 +16,7 @@ from wmr_mission import __version__
 from wmr_mission.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]
-FIGURES = ("xy", "states", "estimation_error", "inputs")
+FIGURES = ("verdicts", "xy", "states", "estimation_error", "inputs")
 VALID = ROOT / "tests" / "data" / "missions" / "valid"
 
 # Drives along +x at 0.1 m/s for 2 s towards a goal 10 m away: times out far from it.
@@ -170,7 +170,13 @@ def test_run_and_plot_write_the_chosen_formats(tmp_path: Path) -> None:
     )
     assert code == 0, err
     figures = sorted(p.name for p in out_dir.iterdir() if p.suffix in (".png", ".svg", ".pdf"))
-    assert figures == ["estimation_error.svg", "inputs.svg", "states.svg", "xy.svg"]
+    assert figures == [
+        "estimation_error.svg",
+        "inputs.svg",
+        "states.svg",
+        "verdicts.svg",
+        "xy.svg",
+    ]
     assert (out_dir / "xy.svg").read_text().lstrip().startswith("<?xml")
     code, out, _ = _invoke("plot", str(out_dir), "--format", "pdf")
     assert code == 0

@@ -160,7 +160,13 @@ def test_files_are_drawn_outside_pyplot(tmp_path: Path) -> None:
     plt.close("all")
     backend = matplotlib.get_backend()
     paths = draw_all(circle_run(300), tmp_path, ("svg",))
-    assert [p.name for p in paths] == ["xy.svg", "states.svg", "estimation_error.svg", "inputs.svg"]
+    assert [p.name for p in paths] == [
+        "verdicts.svg",
+        "xy.svg",
+        "states.svg",
+        "estimation_error.svg",
+        "inputs.svg",
+    ]
     assert plt.get_fignums() == []  # no figure left open in pyplot
     assert matplotlib.get_backend() == backend
     with pytest.raises(ValueError, match="unknown figure format 'gif'"):

@@ -23,10 +23,10 @@ from wmr_mission.output.figures import (
 )
 from wmr_mission.output.rundir import write_run
 
-FIGURES = ["xy.png", "states.png", "estimation_error.png", "inputs.png"]
+FIGURES = ["verdicts.png", "xy.png", "states.png", "estimation_error.png", "inputs.png"]
 
 
-def test_draw_all_writes_four_legible_pngs(tmp_path: Path) -> None:
+def test_draw_all_writes_five_legible_pngs(tmp_path: Path) -> None:
     paths = draw_all(circle_run(), tmp_path)
     assert [p.name for p in paths] == FIGURES
     for path in paths:
@@ -123,7 +123,7 @@ def test_write_run_writes_the_summary_before_the_figures(tmp_path: Path) -> None
     )
     names = [p.name for p in written]
     assert names[3] == "summary.json"
-    assert names[4:8] == FIGURES
+    assert names[4:9] == FIGURES
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(names)
 
 

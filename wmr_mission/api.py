@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numbers
 import os
+import sys
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -104,7 +105,24 @@ def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
             f"run_mission takes a Mission (from load_mission, mission_from_text or "
             f"mission_from_dict), got {type(mission).__name__}"
         )
-    return simulate(mission, seed=None if seed is None else _checked_seed(seed))
+    checked = None if seed is None else _checked_seed(seed)
+    _compile_notice()
+    return simulate(mission, seed=checked)
+
+
+_noticed: list[bool] = []  # the compile notice is printed once per process
+
+
+def _compile_notice() -> None:
+    """One line on stderr before the first run compiles the loop in the foreground."""
+    from wmr_mission.commands.background_compile import foreground_notice
+
+    if _noticed:
+        return
+    notice = foreground_notice()
+    if notice is not None:
+        _noticed.append(True)
+        print(notice, file=sys.stderr, flush=True)
 
 
 def _checked_seed(seed: object) -> int:

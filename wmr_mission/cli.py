@@ -57,6 +57,9 @@ command = app.command(cls=_Command)
 
 # Timed runs of `bench`: each keeps its per-sample times in memory.
 MAX_REPEAT = 100
+# `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
+# written here so that `--help` loads no model.
+MAX_SWEEP_RUNS = 10_000_000
 
 
 def _version(value: bool) -> None:
@@ -88,6 +91,12 @@ class FigureFormat(StrEnum):
     png = "png"
     svg = "svg"
     pdf = "pdf"
+
+
+class FigureStyle(StrEnum):
+    screen = "screen"
+    one_column = "one-column"
+    two_column = "two-column"
 
 
 FigureFormats = Annotated[
@@ -245,6 +254,16 @@ def sweep(
             help="Run on this Dask scheduler (tcp://host:8786); needs wmr-mission[dask].",
         ),
     ] = None,
+    runs: Annotated[
+        int | None,
+        typer.Option(
+            "--runs",
+            metavar="N",
+            min=1,
+            max=MAX_SWEEP_RUNS,
+            help="Runs per grid cell, instead of the campaign's `runs`.",
+        ),
+    ] = None,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
     allow_mixed_cluster: Annotated[
         bool,
@@ -267,6 +286,7 @@ def sweep(
             scheduler=scheduler,
             plots=not no_plots,
             allow_mixed_cluster=allow_mixed_cluster,
+            runs=runs,
         )
     )
 
@@ -318,11 +338,19 @@ def plot(
         typer.Argument(exists=True, file_okay=False, metavar="RUN_DIR", help="A run directory."),
     ],
     format: FigureFormats = None,
+    style: Annotated[
+        FigureStyle,
+        typer.Option(
+            "--style",
+            metavar="STYLE",
+            help="Figure size: screen, one-column (3.5 in) or two-column (7.16 in).",
+        ),
+    ] = FigureStyle.screen,
 ) -> None:
     """Re-draw the figures of RUN_DIR from its saved data."""
     from wmr_mission.commands.plot import replot_command
 
-    raise typer.Exit(replot_command(run_dir, _formats(format)))
+    raise typer.Exit(replot_command(run_dir, _formats(format), style.value))
 
 
 OutputDirectory = Annotated[

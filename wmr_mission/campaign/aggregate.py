@@ -19,11 +19,14 @@ import numpy as np
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.recovery import RecoveryCounts
 from wmr_mission.campaign.rows import METRICS, Row
+from wmr_mission.output.metrics import unmet_in
 
-__all__ = ["WORST_RUNS", "Aggregate", "clopper_pearson"]
+__all__ = ["WORST_PER_FAILURE", "WORST_RUNS", "Aggregate", "Failure", "clopper_pearson"]
 
 WORST_RUNS: Final = 5
-"""Runs kept as full run directories under worst/."""
+"""Runs kept as full run directories under worst/ (more when more kinds of failure)."""
+WORST_PER_FAILURE: Final = 3
+"""Runs listed for each kind of failure, the worst first."""
 
 # The figure of every trajectory draws at most this many runs (all failures among them first).
 DRAWN_PATHS: Final = 2000
@@ -55,6 +58,66 @@ def _badness(row: Row) -> tuple[int, float, int]:
         math.inf if error is None or not math.isfinite(error) else error,
         -row.run,
     )
+
+
+@dataclass(frozen=True, order=True)
+class Failure:
+    """One way a run failed: ``kind`` the metric it missed (``speed_jump_max``)
+    or, for a run that did not end, its outcome (``timeout``, ``diverged``...);
+    ``severity`` orders the runs of a kind (larger is worse): how many times its
+    bound the value is (its excess where the bound is 0), or for an outcome the
+    final position error."""
+
+    severity: tuple[float, float, int]
+    run: int
+    seed: int
+    kind: str
+    phase: str | None
+    value: float | None
+    bound: float | None
+    outcome: str = field(default="", compare=False)
+    reason: str = field(default="", compare=False)
+
+
+def failures_of(row: Row) -> list[Failure]:
+    """Each way ``row``'s run failed (one per kind, its worst); none for a success."""
+    if row.succeeded:
+        return []
+    error = row.metrics[METRICS.index(_RANKING_METRIC)]
+    error = math.inf if error is None or not math.isfinite(error) else error
+    if row.outcome != "expect-failed":
+        return [
+            Failure(
+                (error, 0.0, -row.run),
+                row.run,
+                row.seed,
+                row.outcome,
+                None,
+                error,
+                None,
+                row.outcome,
+                row.reason,
+            )
+        ]
+    worst: dict[str, Failure] = {}
+    for check in unmet_in(row.reason):
+        kind, value, bound = str(check["metric"]), check["value"], float(check["max"])
+        amount = math.inf if value is None else float(value)
+        times = amount / bound if bound > 0 else math.inf
+        failure = Failure(
+            (times, amount - bound, -row.run),
+            row.run,
+            row.seed,
+            kind,
+            check["phase"],
+            value,
+            bound,
+            row.outcome,
+            row.reason,
+        )
+        if kind not in worst or failure > worst[kind]:
+            worst[kind] = failure
+    return list(worst.values())
 
 
 def value_label(value: Any) -> str:
@@ -89,6 +152,9 @@ class Aggregate:
     # grid cell -> metric -> its values over the cell's runs (NaN: none)
     cell_metrics: dict[tuple[int, ...], dict[str, list[float]]] = field(default_factory=dict)
     recovery: RecoveryCounts = field(default_factory=RecoveryCounts)
+    # kind of failure -> the runs that failed so, and the worst of them (a heap)
+    failed_by: Counter[str] = field(default_factory=Counter)
+    worst_by: dict[str, list[Failure]] = field(default_factory=dict)
 
     @property
     def paths(self) -> list[str]:
@@ -127,6 +193,13 @@ class Aggregate:
         in_cell = self.cell_metrics.setdefault(tuple(cell), {})
         for name, value in zip(METRICS, row.metrics, strict=True):
             in_cell.setdefault(name, []).append(math.nan if value is None else value)
+        for failure in failures_of(row):
+            self.failed_by[failure.kind] += 1
+            kept = self.worst_by.setdefault(failure.kind, [])
+            if len(kept) < WORST_PER_FAILURE:
+                heapq.heappush(kept, failure)
+            else:
+                heapq.heappushpop(kept, failure)
         entry = (_badness(row), row.run, row.seed, row.outcome, row.reason)
         if len(self.worst) < WORST_RUNS:
             heapq.heappush(self.worst, entry)
@@ -152,9 +225,30 @@ class Aggregate:
         return self.outcomes["success"]
 
     def worst_runs(self) -> list[tuple[int, int, str, str]]:
-        """(run, seed, outcome, reason) of the worst runs, worst first."""
+        """(run, seed, outcome, reason) of the worst runs: the worst of each kind of
+        failure, the most frequent kind first, then the others by :func:`_badness`."""
         ranked = sorted(self.worst, reverse=True)
-        return [(run, seed, outcome, reason) for _, run, seed, outcome, reason in ranked]
+        chosen = {f.run: (f.run, f.seed, f.outcome, f.reason) for f in self._leaders()}
+        for _, run, seed, outcome, reason in ranked:
+            if len(chosen) >= WORST_RUNS:
+                break
+            chosen.setdefault(run, (run, seed, outcome, reason))
+        return list(chosen.values())
+
+    def _leaders(self) -> list[Failure]:
+        """The worst run of each kind of failure, the most frequent kind first."""
+        return [max(self.worst_by[kind]) for kind in self.failure_kinds()]
+
+    def failure_kinds(self) -> list[str]:
+        """The kinds of failure seen, the most frequent first (then by name)."""
+        return sorted(self.failed_by, key=lambda kind: (-self.failed_by[kind], kind))
+
+    def worst_by_failure(self) -> list[tuple[str, int, list[Failure]]]:
+        """Per kind of failure, the most frequent first: its runs and the worst of them."""
+        return [
+            (kind, self.failed_by[kind], sorted(self.worst_by[kind], reverse=True))
+            for kind in self.failure_kinds()
+        ]
 
     def statistics(self) -> dict[str, Any]:
         """``runs``, ``succeeded``, ``success_rate``, ``success_interval``, ``outcomes``,

@@ -4,13 +4,20 @@ side by side (a head-to-head of controllers or estimators)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Final
 
 import numpy as np
 
-from wmr_mission.campaign.aggregate import DRAWN_PATHS, Aggregate, clopper_pearson, value_label
+from wmr_mission.campaign.aggregate import (
+    DRAWN_FAILURES,
+    DRAWN_PATHS,
+    Aggregate,
+    clopper_pearson,
+    value_label,
+)
 from wmr_mission.campaign.comparison import COMPARISON_METRICS
 from wmr_mission.campaign.coverage import runs_per_pixel
 from wmr_mission.campaign.rows import METRICS
@@ -27,12 +34,39 @@ _LIGHTEST: Final = 0.35
 _DARKEST: Final = 0.9
 
 
+# The unit of each metric of runs.csv (max_constraint_violation: a constraint
+# row's value, in the region's own terms).
+UNITS: Final = {
+    "final_position_error": "m",
+    "final_heading_error": "rad",
+    "max_constraint_violation": "constraint value",
+    "estimation_convergence_time": "s",
+    "duration": "s",
+}
+# The unit of a varied field, by the last part of its path.
+_FIELD_UNITS: Final = {
+    "x": "m",
+    "y": "m",
+    "theta": "rad",
+    "dt": "s",
+    "v": "m/s",
+    "omega": "rad/s",
+    "noise_std": "m, m, rad",
+}
+
+
 def draw_campaign(
-    aggregate: Aggregate, regions: dict[str, Any], out_dir: Path, formats: Sequence[str] = ("png",)
+    aggregate: Aggregate,
+    regions: dict[str, Any],
+    out_dir: Path,
+    formats: Sequence[str] = ("png",),
+    bounds: dict[str, float] | None = None,
 ) -> list[Path]:
+    """The campaign's figures in ``out_dir``; ``bounds``: the mission-wide
+    `expect` bounds of the metrics, drawn on their histograms."""
     figures = {
         "trajectories": _trajectories(aggregate, regions),
-        "metrics": _histograms(aggregate),
+        "metrics": _histograms(aggregate, bounds or {}),
     }
     success = _success_over_axes(aggregate)
     if success is not None:
@@ -47,9 +81,16 @@ def draw_campaign(
     return written
 
 
+def _field_label(path: str) -> str:
+    """``robot.initial_state.theta [rad]``: a varied field with its unit, where known."""
+    unit = _FIELD_UNITS.get(path.rsplit(".", 1)[-1])
+    return f"{path} [{unit}]" if unit else path
+
+
 def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
-    fig = new_figure((7.0, 5.5))
-    ax = fig.add_subplot()
+    """Small multiples: the successes and the failures on panels of their own,
+    each darker where more of its runs pass; neither hides the other."""
+    fig = new_figure((11.0, 4.0))
     paths = aggregate.drawn
     points = [p for _, p in paths if p.size] or [np.zeros((2, 1), dtype=np.float32)]
     xs = np.concatenate([p[0] for p in points])
@@ -63,34 +104,41 @@ def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
     y1 = max([float(np.percentile(ys, 99.5)) if ys.size else 1.0] + [e[3] for e in extents])
     margin = 0.06 * max(x1 - x0, y1 - y0, 0.5)
     view = (x0 - margin, x1 + margin, y0 - margin, y1 + margin)
-    draw_regions(ax, regions, view)
-    ax.set_xlim(view[0], view[1])
-    ax.set_ylim(view[2], view[3])
-    ax.set_aspect("equal", adjustable="box")
-    # Every run as one image, a pixel of the image per pixel of the axes: the
-    # runs through each pixel, darker where more pass; failures over successes.
-    ax.apply_aspect()
-    box = ax.get_window_extent()
-    shape = (max(1, round(box.height)), max(1, round(box.width)))
-    for outcome, colormap, order in ((True, "Blues", 2), (False, "Reds", 3)):
-        counts = runs_per_pixel([p for ok, p in paths if ok is outcome], view, shape)
+    failed = aggregate.runs - aggregate.succeeded
+    axes = fig.subplots(1, 2, sharex=True, sharey=True)
+    for ax, outcome, colormap, count, name in (
+        (axes[0], True, "Blues", aggregate.succeeded, "successes"),
+        (axes[1], False, "Reds", failed, "failures"),
+    ):
+        draw_regions(ax, regions, view)
+        ax.set_xlim(view[0], view[1])
+        ax.set_ylim(view[2], view[3])
+        ax.set_aspect("equal", adjustable="box")
+        # Every run as one image, a pixel of the image per pixel of the axes:
+        # the runs through each pixel, darker where more pass.
+        ax.apply_aspect()
+        box = ax.get_window_extent()
+        shape = (max(1, round(box.height)), max(1, round(box.width)))
+        mine = [p for ok, p in paths if ok is outcome]
+        counts = runs_per_pixel(mine, view, shape)
         ax.imshow(
             _shaded(counts, colormap),
             extent=view,
             origin="lower",
             interpolation="nearest",
-            zorder=order,
+            zorder=2,
         )
-    ax.plot([], [], color=_SUCCESS_COLOR, label=f"success ({aggregate.succeeded})")
-    ax.plot([], [], color=_FAILURE_COLOR, label=f"failure ({aggregate.runs - aggregate.succeeded})")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    drawn = len(paths)
-    shown = "every run" if drawn >= aggregate.runs else f"{drawn} of {aggregate.runs} runs"
-    cap = f" (at most {DRAWN_PATHS} successes drawn)" if drawn < aggregate.runs else ""
-    ax.set_title(f"True paths, {shown}{cap}, darker where more pass; failures in red")
-    ax.legend(loc="upper right", fontsize="small")
-    ax.grid(True, alpha=0.3)
+        drawn = f", {len(mine)} drawn" if len(mine) < count else ""
+        ax.set_title(f"{name}: {count} of {aggregate.runs} runs{drawn}", fontsize=10)
+        ax.set_xlabel("x [m]")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("y [m]")
+    cap = (
+        f"; at most {DRAWN_PATHS} successes and {DRAWN_FAILURES} failures drawn"
+        if len(paths) < aggregate.runs
+        else ""
+    )
+    fig.suptitle(f"True paths, darker where more runs pass{cap}", fontsize=11)
     return fig
 
 
@@ -107,34 +155,59 @@ def _shaded(counts: np.ndarray, colormap: str) -> np.ndarray:
     return pixels
 
 
-def _histograms(aggregate: Aggregate) -> Any:
-    fig = new_figure((9.0, 2.6 * ((len(METRICS) + 1) // 2)))
-    for index, name in enumerate(METRICS):
-        ax = fig.add_subplot((len(METRICS) + 1) // 2, 2, index + 1)
+def _histograms(aggregate: Aggregate, bounds: dict[str, float]) -> Any:
+    """Per metric with values: its runs by value, failures stacked on
+    successes, the mission's bound drawn; the metrics no run has are named."""
+    ok_all = np.asarray(aggregate.success, dtype=bool)
+    shown: list[tuple[str, np.ndarray]] = []
+    empty: list[tuple[str, np.ndarray]] = []
+    for name in METRICS:
         values = np.asarray(aggregate.metric_values.get(name, []), dtype=float)
-        ok = np.asarray(aggregate.success, dtype=bool)[: values.size]
+        (shown if np.isfinite(values).any() else empty).append((name, values))
+    rows = max(1, (len(shown) + 1) // 2)
+    fig = new_figure((9.0, 2.6 * rows + 0.4))
+    # As many bins as the runs can fill: about the square root of their number.
+    bins = int(np.clip(round(math.sqrt(max(aggregate.runs, 1))), 4, 30))
+    for index, (name, values) in enumerate(shown):
+        ax = fig.add_subplot(rows, 2, index + 1)
+        ok = ok_all[: values.size]
         finite = np.isfinite(values)
-        if not finite.any():
-            ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
-        else:
-            # Stacked as two filled outlines, failures on top of successes:
-            # one artist each where bars would be sixty rectangles.
-            edges = np.histogram_bin_edges(values[finite], bins=30)
-            successes, _ = np.histogram(values[finite & ok], bins=edges)
-            failures, _ = np.histogram(values[finite & ~ok], bins=edges)
-            # An outline, so that a bin of one run among thousands still shows.
-            for counts, color, label in (
-                (successes + failures, _FAILURE_COLOR, "failure"),
-                (successes, _SUCCESS_COLOR, "success"),
-            ):
-                ax.stairs(counts, edges, fill=True, color=color, linewidth=1.0, label=label)
-            handles, labels = ax.get_legend_handles_labels()
-            ax.legend(handles[::-1], labels[::-1], fontsize="x-small")
+        edges = np.histogram_bin_edges(values[finite], bins=bins)
+        successes, _ = np.histogram(values[finite & ok], bins=edges)
+        failures, _ = np.histogram(values[finite & ~ok], bins=edges)
+        # Two filled outlines, failures stacked on successes: one artist each
+        # where bars would be many rectangles; a bin of one run still shows.
+        for counts, color, label in (
+            (successes + failures, _FAILURE_COLOR, f"failure ({int(failures.sum())})"),
+            (successes, _SUCCESS_COLOR, f"success ({int(successes.sum())})"),
+        ):
+            ax.stairs(counts, edges, fill=True, color=color, linewidth=1.0, label=label)
+        if name in bounds:
+            ax.axvline(
+                bounds[name],
+                color="black",
+                linestyle="--",
+                linewidth=1.0,
+                label=f"expect max {bounds[name]:g}",
+            )
+        handles, labels = ax.get_legend_handles_labels()
+        ax.legend(handles[::-1], labels[::-1], fontsize="x-small")
         missing = int((~finite).sum())
         ax.set_title(name + (f" ({missing} runs without a value)" if missing else ""), fontsize=9)
+        ax.set_xlabel(f"[{UNITS.get(name, '')}]" if UNITS.get(name) else "", fontsize=8)
         ax.set_ylabel("runs")
+    if empty:
+        fig.text(
+            0.01,
+            0.005,
+            "no run has a value of: " + ", ".join(n for n, _ in empty),
+            fontsize=8,
+            va="bottom",
+        )
     # Fixed margins: fitting them to the texts would cost a second drawing.
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.04, top=0.96, wspace=0.2, hspace=0.35)
+    fig.subplots_adjust(
+        left=0.08, right=0.98, bottom=0.1 / rows + 0.04, top=0.95, wspace=0.2, hspace=0.55
+    )
     return fig
 
 
@@ -176,8 +249,19 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
         count = np.bincount(index, minlength=ex.size - 1)
         hits = np.bincount(index, weights=ok, minlength=ex.size - 1)
         rate = np.divide(hits, count, out=np.full(count.shape, np.nan), where=count > 0)
-        ax.bar((ex[1:] + ex[:-1]) / 2, rate, width=np.diff(ex) * 0.9, color=_SUCCESS_COLOR)
-        ax.set_xlabel(axes[0])
+        centres = (ex[1:] + ex[:-1]) / 2
+        ax.bar(centres, rate, width=np.diff(ex) * 0.9, color=_SUCCESS_COLOR)
+        for x, runs, share in zip(centres, count, rate, strict=True):
+            words = f"{int(runs)} runs" if runs else "no runs"
+            ax.text(
+                x,
+                (0.0 if np.isnan(share) else share) + 0.01,
+                words,
+                ha="center",
+                va="bottom",
+                fontsize=7,
+            )
+        ax.set_xlabel(_field_label(axes[0]))
         _label_axis(aggregate, axes[0], ax.xaxis)
         ax.set_ylabel("success rate")
         ax.set_ylim(0, 1.05)
@@ -193,17 +277,17 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
         if rate.size <= 64:  # few cells: write each rate and its number of runs
             for i in range(rate.shape[0]):
                 for j in range(rate.shape[1]):
-                    if count[i, j]:
-                        ax.text(
-                            (ex[i] + ex[i + 1]) / 2,
-                            (ey[j] + ey[j + 1]) / 2,
-                            f"{rate[i, j]:.0%}\n{int(count[i, j])}",
-                            ha="center",
-                            va="center",
-                            fontsize=8,
-                        )
-        ax.set_xlabel(axes[0])
-        ax.set_ylabel(axes[1])
+                    words = f"{rate[i, j]:.0%}\nof {int(count[i, j])}" if count[i, j] else "no runs"
+                    ax.text(
+                        (ex[i] + ex[i + 1]) / 2,
+                        (ey[j] + ey[j + 1]) / 2,
+                        words,
+                        ha="center",
+                        va="center",
+                        fontsize=8,
+                    )
+        ax.set_xlabel(_field_label(axes[0]))
+        ax.set_ylabel(_field_label(axes[1]))
         _label_axis(aggregate, axes[0], ax.xaxis)
         _label_axis(aggregate, axes[1], ax.yaxis)
         ax.set_title("Success rate over two varied axes")

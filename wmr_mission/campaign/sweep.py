@@ -22,7 +22,7 @@ import os
 import sys
 import time
 from contextlib import closing
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 from typing import IO, Any, Final
@@ -47,6 +47,7 @@ from wmr_mission.campaign.recovery import recovery_report
 from wmr_mission.campaign.rows import Row, header, replay_command, simulate
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
+from wmr_mission.output.metrics import EXPECTATION_PATHS
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     CLAIM_FILE,
@@ -76,13 +77,31 @@ takes (about 0.4 s), and no core waits for it after them. Shorter campaigns
 load it after their runs, so that it never counts in their runs' time."""
 
 
-@dataclass
+@dataclass(repr=False)
 class CampaignResult:
     """What :func:`run_campaign` returns: the rows and the aggregate (campaign.json)."""
 
-    rows: Any  # a pandas DataFrame when pandas is installed, else a list of dicts
+    rows: list[dict[str, Any]]  # one per run, in run order, keyed as runs.csv's columns
     summary: dict[str, Any]
     out_dir: Path | None
+    columns: list[str] = field(default_factory=list)  # runs.csv's, in order
+
+    def to_dataframe(self) -> Any:
+        """The rows as a pandas DataFrame, columns as in ``runs.csv``. Needs pandas."""
+        try:
+            import pandas
+        except ImportError:
+            raise ImportError(
+                "CampaignResult.to_dataframe needs pandas: pip install 'wmr-mission[dataframe]'"
+            ) from None
+        return pandas.DataFrame(self.rows, columns=self.columns or None)
+
+    def __repr__(self) -> str:
+        summary = self.summary
+        return (
+            f"CampaignResult(campaign={summary.get('campaign')!r}, runs={summary.get('runs')}, "
+            f"succeeded={summary.get('succeeded')}, out_dir={self.out_dir!r})"
+        )
 
 
 def _runs_detail(aggregate: Aggregate, total: int, started: float) -> str:
@@ -457,6 +476,24 @@ def _record(
         }
         for run, seed, outcome, reason in aggregate.worst_runs()
     ]
+    failures = [
+        {
+            "failure": kind,
+            "runs": count,
+            "worst": [
+                {
+                    "run": f.run,
+                    "seed": f.seed,
+                    "phase": f.phase,
+                    "value": f.value,
+                    "max": f.bound,
+                    "replay": replay_command(loaded, plan.draw(f.run)),
+                }
+                for f in worst
+            ],
+        }
+        for kind, count, worst in aggregate.worst_by_failure()
+    ]
     expectations = []
     if campaign.expect.success_rate is not None:
         least = campaign.expect.success_rate.min
@@ -477,17 +514,34 @@ def _record(
         **statistics,
         "expectations": expectations,
         "worst": worst,
+        "failures": failures,
         "wall_seconds": runs_seconds,
         "missions_per_second": aggregate.runs / runs_seconds if runs_seconds > 0 else None,
     }
 
 
 def _regions(loaded: LoadedCampaign) -> dict[str, Any]:
+    regions: dict[str, Any] = _mission(loaded)["regions"]
+    return regions
+
+
+def _mission(loaded: LoadedCampaign) -> dict[str, Any]:
+    """The campaign's mission as written (no run's values), with its defaults."""
     from wmr_mission.spec.loader import load_mission_text
 
     mission = load_mission_text(loaded.mission_text, str(loaded.mission_path))
-    regions: dict[str, Any] = mission.model_dump(mode="json")["regions"]
-    return regions
+    dumped: dict[str, Any] = mission.model_dump(mode="json")
+    return dumped
+
+
+def _bounds(mission: dict[str, Any]) -> dict[str, float]:
+    """The mission-wide `expect` bounds of the metrics runs.csv records."""
+    expect = mission.get("expect") or {}
+    return {
+        name: float(expect[name]["max"])
+        for name in EXPECTATION_PATHS
+        if isinstance(expect.get(name), dict) and expect[name].get("max") is not None
+    }
 
 
 def _write_worst(
@@ -553,7 +607,8 @@ def _draw(loaded: LoadedCampaign, aggregate: Aggregate, out_dir: Path, plots: bo
     if plots and aggregate.runs:
         from wmr_mission.campaign.figures import draw_campaign
 
-        draw_campaign(aggregate, _regions(loaded), out_dir)
+        mission = _mission(loaded)
+        draw_campaign(aggregate, mission["regions"], out_dir, bounds=_bounds(mission))
 
 
 def _prepare(
@@ -635,14 +690,7 @@ def run_campaign(
         )
     if ended.fault is not None:
         raise ended.fault.error
-    table: Any = rows
-    try:
-        import pandas
-
-        table = pandas.DataFrame(rows, columns=header(Plan(loaded.campaign).paths))
-    except ImportError:
-        pass
-    return CampaignResult(table, ended.record, out_dir)
+    return CampaignResult(rows, ended.record, out_dir, header(Plan(loaded.campaign).paths))
 
 
 def sweep_command(
@@ -653,14 +701,19 @@ def sweep_command(
     scheduler: str | None,
     plots: bool,
     allow_mixed_cluster: bool = False,
+    runs: int | None = None,
 ) -> int:
-    """Exit code: 0 the campaign ran and its expect holds; 1 invalid, expect not
+    """``runs``: runs per grid cell, instead of the campaign's.
+
+    Exit code: 0 the campaign ran and its expect holds; 1 invalid, expect not
     met or a worker lost; 2 unusable output directory or scheduler (or a mixed
     cluster), or a write that failed; 130 or 143 stopped by SIGINT or SIGTERM
     (what ran is kept)."""
     with StopSignals(STOP_SIGNALS) as stop:
         try:
-            return _sweep(campaign_path, out, workers, scheduler, plots, stop, allow_mixed_cluster)
+            return _sweep(
+                campaign_path, out, workers, scheduler, plots, stop, allow_mixed_cluster, runs
+            )
         except KeyboardInterrupt:
             print(
                 f"{campaign_path}: interrupted by {stop.name} before the first run; "
@@ -668,6 +721,15 @@ def sweep_command(
                 file=sys.stderr,
             )
             return stop.exit_code
+
+
+def _is_mission(path: Path) -> bool:
+    from wmr_mission.spec.loader import document_kind
+
+    try:
+        return document_kind(path.read_text(encoding="utf-8")) == "mission"
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def _sweep(
@@ -678,12 +740,21 @@ def _sweep(
     plots: bool,
     stop: StopSignals,
     allow_mixed_cluster: bool,
+    runs: int | None = None,
 ) -> int:
     loaded, diagnostics = check_campaign(campaign_path)
+    if loaded is None and _is_mission(campaign_path):
+        print(
+            f"{campaign_path}: this is a mission: run it with `wmr-mission run {campaign_path}`",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
     for diagnostic in diagnostics:
         print(diagnostic, file=sys.stderr)
     if loaded is None:
         return EXIT_FAILED
+    if runs is not None:  # the campaign's own `runs`, for this sweep
+        loaded.campaign = loaded.campaign.model_copy(update={"runs": runs})
     used = usable_workers(workers)
     if workers is not None and used < workers and scheduler is None:
         print(
@@ -744,6 +815,15 @@ def _sweep(
     return EXIT_FAILED if failed else 0
 
 
+def _beyond(worst: dict[str, Any]) -> str:
+    """`` (south: 2.38, max 2)``: where and how far a run failed its bound."""
+    if worst.get("max") is None:
+        return ""
+    value = "none" if worst["value"] is None else f"{worst['value']:.3g}"
+    where = f"{worst['phase']}: " if worst.get("phase") else ""
+    return f" ({where}{value}, max {worst['max']:.3g})"
+
+
 def _report(record: dict[str, Any], out_dir: Path) -> str:
     lo, hi = record["success_interval"]
     rate = record["success_rate"]
@@ -757,7 +837,15 @@ def _report(record: dict[str, Any], out_dir: Path) -> str:
     recovered = record.get("recovery")
     if recovered and recovered["needed"]:
         lines.append(recovery_report(recovered))
-    if record["worst"]:
+    if record.get("failures"):
+        lines.append("failures by kind (runs; the worst run, its replay):")
+        for failure in record["failures"]:
+            worst = failure["worst"][0]
+            lines.append(
+                f"  {failure['failure']}: {failure['runs']}; run {worst['run']}"
+                f"{_beyond(worst)}: {worst['replay']}"
+            )
+    elif record["worst"]:
         lines.append("worst runs (replay):")
         lines += [f"  {w['run']}: {w['outcome']}: {w['replay']}" for w in record["worst"]]
     lines.append(f"written to {out_dir}")

@@ -121,6 +121,21 @@ def prepare(max_samples: int) -> str | None:
     )
 
 
+def foreground_notice() -> str | None:
+    """The line a library call prints before it loads the compiled loop when the
+    cache is not known to hold it (no ready marker): a compile of about 20 s
+    then. None when the loop is loaded already, or nothing is compiled."""
+    if jit.loaded() or not jit.compiling():
+        return None
+    directory = cache.cache_directory()
+    if directory is not None and _ready(directory):
+        return None
+    return (
+        "wmr-mission: loading the simulation loop, compiled first if it is not in the "
+        "cache (about 20 s, once: later runs load it)"
+    )
+
+
 def _start() -> None:
     """Start ``python -m wmr_mission.commands.background_compile``, detached: it
     outlives this run and its output goes nowhere."""

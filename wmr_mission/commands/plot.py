@@ -10,15 +10,16 @@ from wmr_mission.output.figures import draw_all
 from wmr_mission.output.reader import RunDirError, load_run
 
 
-def replot_command(run_dir: Path, formats: Sequence[str] = ("png",)) -> int:
-    """``wmr-mission plot RUN_DIR``: re-draw the figures from the saved data."""
+def replot_command(run_dir: Path, formats: Sequence[str] = ("png",), style: str = "screen") -> int:
+    """``wmr-mission plot RUN_DIR``: re-draw the figures from the saved data,
+    sized by ``style`` (wmr_mission.output.figures.STYLES)."""
     try:
         result = load_run(run_dir)
     except (RunDirError, OSError) as exc:
         print(f"{run_dir}: {exc}", file=sys.stderr)
         return 1
     try:
-        paths = draw_all(result, run_dir, formats)
+        paths = draw_all(result, run_dir, formats, style)
     except OSError as exc:
         print(f"{run_dir}: {exc}", file=sys.stderr)
         return 1

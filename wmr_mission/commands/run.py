@@ -96,6 +96,13 @@ def run_command(
             if source is not None:
                 with importing_entries():  # a run imports its plug-ins
                     mission, diagnostics = check_mission_bytes(source, str(mission_path), parsed)
+                if mission is None and _is_campaign(source):
+                    diagnostics = []
+                    print(
+                        f"{mission_path}: this is a campaign: run it with "
+                        f"`wmr-mission sweep {mission_path}`",
+                        file=sys.stderr,
+                    )
             for diagnostic in diagnostics:  # warnings too, as `validate` prints them
                 print(diagnostic, file=sys.stderr)
             if mission is None or source is None:
@@ -127,6 +134,15 @@ def _run_on_backend(
     except BackendError as error:
         print(f"{mission_path}: {error}", file=sys.stderr)
         return EXIT_FAILED
+
+
+def _is_campaign(source: bytes) -> bool:
+    from wmr_mission.spec.loader import document_kind
+
+    try:
+        return document_kind(source.decode("utf-8")) == "campaign"
+    except UnicodeDecodeError:
+        return False
 
 
 def _check_environment(expected: str) -> None:

@@ -9,7 +9,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.output.figures import draw_regions, finite, names_as_typed, thin, view_box
+from wmr_mission.output.figures import (
+    draw_regions,
+    finite,
+    names_as_typed,
+    region_sides,
+    thin,
+    view_box,
+)
 from wmr_mission.output.files import atomic_path
 
 if TYPE_CHECKING:
@@ -67,7 +74,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     canvas: Any = FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     view = view_box(result)
-    draw_regions(ax, result.regions, view)
+    draw_regions(ax, result.regions, view, region_sides(result))
     path_points = thin(0, result.samples, TRAIL_POINTS)
     ax.plot(
         finite(result.x[path_points]), finite(result.y[path_points]), color="0.85", linewidth=1.0
@@ -98,11 +105,23 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.legend(handles=[robot, estimate], loc="upper right", fontsize=8)
+    # Beside the axes, not over the path.
+    fig.subplots_adjust(right=0.8)
+    ax.legend(
+        handles=[robot, estimate],
+        loc="upper left",
+        bbox_to_anchor=(1.02, 1.0),
+        fontsize=8,
+        frameon=False,
+    )
     names_as_typed(fig)
     canvas.draw()
     background = canvas.copy_from_bbox(fig.bbox)
     title_font, title_at = _title_style(fig, ax)
+    # Simulated seconds per second of the GIF: how much faster than real time it plays.
+    shown_seconds = len(samples) / FPS
+    duration = float(result.t[-1] - result.t[0]) if result.samples > 1 else 0.0
+    pace = f"{duration / shown_seconds:.3g}x real time" if shown_seconds > 0 else ""
 
     def frame(k: int) -> Any:
         canvas.restore_region(background)
@@ -118,7 +137,7 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
         image = Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
         image = image.convert("RGB")
         phase = result.phases[int(result.phase[k])].name
-        title = f"{result.mission_name}   t = {result.t[k]:.2f} s   phase: {phase}"
+        title = f"{result.mission_name}   t = {result.t[k]:.2f} s   phase: {phase}   {pace}"
         ImageDraw.Draw(image).text(title_at, title, font=title_font, fill="black", anchor="md")
         return image
 

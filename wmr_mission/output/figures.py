@@ -18,7 +18,10 @@ seconds.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import textwrap
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -43,11 +46,13 @@ if TYPE_CHECKING:
 __all__ = [
     "FIGURE_FORMATS",
     "FIGURE_NAMES",
+    "STYLES",
     "draw_all",
     "phase_colors",
     "plot_estimation_error",
     "plot_inputs",
     "plot_states",
+    "plot_verdicts",
     "plot_xy",
     "save_figure",
 ]
@@ -66,7 +71,30 @@ ESTIMATION_BOTTOM = 0.14
 PNG_OPTIONS: dict[str, Any] = {"compress_level": 1}
 STATE_LABELS = {"x": "x [m]", "y": "y [m]", "theta": "theta [rad]"}
 FIGURE_FORMATS = ("png", "svg", "pdf")
-FIGURE_NAMES = ("xy", "states", "estimation_error", "inputs")
+# TrueType (Type 42) fonts in PDF and PostScript, which publishers accept (Type
+# 3, matplotlib's default, is refused by IEEE's checker); text as text in SVG.
+FONT_RC: dict[str, Any] = {"pdf.fonttype": 42, "ps.fonttype": 42, "svg.fonttype": "none"}
+
+
+@dataclass(frozen=True)
+class Style:
+    """How a figure is sized for where it goes: ``width`` [in] of the figure
+    (None: as drawn, for a screen), its texts' sizes and its lines' widths
+    scaled; colours are never changed (the paper's stay)."""
+
+    width: float | None
+    font_scale: float = 1.0
+    line_scale: float = 1.0
+
+
+# One and two columns of a two-column journal (IEEE: 3.5 in and 7.16 in).
+STYLES: dict[str, Style] = {
+    "screen": Style(None),
+    "one-column": Style(3.5, font_scale=0.75, line_scale=0.6),
+    "two-column": Style(7.16, font_scale=0.9, line_scale=0.8),
+}
+# The verdicts first: a failing run's figures open on its failure.
+FIGURE_NAMES = ("verdicts", "xy", "states", "estimation_error", "inputs")
 # The reference is drawn over the path, thin and dark, so a well-tracked path
 # does not hide it.
 REFERENCE_STYLE: dict[str, Any] = {
@@ -170,8 +198,9 @@ def save_figure(fig: Figure, path: Path) -> Path:
 
     options: dict[str, Any] = {"pil_kwargs": PNG_OPTIONS} if path.suffix == ".png" else {}
     # Long lines in pieces: a line round many laps would otherwise take Agg
-    # tens of megabytes of scanline cells.
-    with atomic_path(path) as tmp, rc_context({"agg.path.chunksize": LINE_PIECE}):
+    # tens of megabytes of scanline cells. Fonts as publishers take them.
+    settings: dict[Any, Any] = {"agg.path.chunksize": LINE_PIECE, **FONT_RC}
+    with atomic_path(path) as tmp, rc_context(settings):
         fig.savefig(
             tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight", pad_inches=PAD, **options
         )
@@ -225,23 +254,45 @@ def _clip_half_plane(
     return np.asarray(kept, dtype=np.float64).reshape(-1, 2)
 
 
-def draw_regions(
-    ax: Axes, regions: dict[str, Any], view: tuple[float, float, float, float]
-) -> None:
-    """Each region as a light grey patch with its outline; a half-plane is shaded inside ``view``.
+def region_sides(result: RunResult) -> dict[str, str]:
+    """Per constrained region, the side the robot keeps to: ``inside`` or
+    ``outside`` (``both`` when phases differ)."""
+    sides: dict[str, str] = {}
+    for info in result.phases:
+        for name, side in info.constraints:
+            sides[name] = side if sides.get(name, side) == side else "both"
+    return sides
 
-    Grey, so that region colours never compete with the phases' colours.
+
+def draw_regions(
+    ax: Axes,
+    regions: dict[str, Any],
+    view: tuple[float, float, float, float],
+    sides: Mapping[str, str] | None = None,
+) -> None:
+    """Each region as a patch with its outline; a half-plane is shaded inside ``view``.
+
+    ``sides`` (:func:`region_sides`): a zone kept out of is hatched and
+    reddish, a zone kept in light grey, a region no phase constrains only
+    outlined: a keep-out pond and a keep-in yard do not look alike. Greys and a
+    faint red, so that regions never compete with the phases' colours.
     """
     from matplotlib import patches
 
+    sides = sides or {}
     for name, region in regions.items():
         kind = region.get("type")
+        side = sides.get(name)
         style: dict[str, Any] = {
             "facecolor": (0.5, 0.5, 0.5, 0.07 if kind == "half-plane" else 0.1),
             "edgecolor": "0.35",
             "linewidth": 1.0,
             "zorder": 1,
         }
+        if side == "outside":
+            style |= {"facecolor": (0.84, 0.15, 0.16, 0.12), "hatch": "///", "edgecolor": "0.3"}
+        elif side is None and sides:
+            style |= {"facecolor": "none", "linestyle": ":"}
         patch: Any
         if kind == "ellipse":
             (a, b) = region["semi_axes"]
@@ -272,7 +323,8 @@ def draw_regions(
             patch = patches.Polygon(inside, **style)
         else:
             continue
-        patch.set_label(f"region {name}")
+        words = {"outside": " (kept out of)", "inside": " (kept in)"}.get(side or "", "")
+        patch.set_label(f"region {name}{words}")
         ax.add_patch(patch)
 
 
@@ -596,7 +648,7 @@ def _xy_on(ax: Axes, result: RunResult) -> int:
     colors = phase_colors(result)
     view = view_box(result)
     size = max(view[1] - view[0], view[3] - view[2])
-    draw_regions(ax, result.regions, view)
+    draw_regions(ax, result.regions, view, region_sides(result))
     if result.samples:
         _draw_path(ax, result, colors)
         _draw_changes(ax, result, size)
@@ -730,7 +782,8 @@ def _states_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         )
         ax.set_ylabel(STATE_LABELS[state])
         ax.grid(True, linewidth=0.4, alpha=0.5)
-    axes[0].legend(loc="upper right", fontsize=8)
+    # Beside the axes: a legend inside covers data.
+    axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     axes[-1].set_xlabel("t [s]")
     _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: states and estimates")
@@ -777,13 +830,19 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     for row, (state, bounds) in enumerate(zip(STATES, result.error_bounds, strict=True)):
         unit = "rad" if state == "theta" else "m"
         measured = bool(np.isfinite(getattr(result, f"{state}_meas")).any())
+        sensed = getattr(result, f"{state}_meas")
         for column, k in enumerate((early, every)):
             ax = axes[2 * row + column]
-            output_error, true_error = _errors_at(result, state, k)
+            _output_error, true_error = _errors_at(result, state, k)
             if measured:
+                # At the samples measured (a slower sensor leaves NaN between
+                # them): thinned among those, else the line would have no points.
+                stop = int(k[-1]) + 1 if k.size else 0
+                at = np.flatnonzero(np.isfinite(sensed[:stop]))
+                at = at[thin(0, at.size)]
                 ax.plot(
-                    result.t[k],
-                    output_error,
+                    result.t[at],
+                    _errors_at(result, state, at)[0],
                     color="tab:blue",
                     linewidth=1.8,
                     label="measurement - estimate",
@@ -831,7 +890,9 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     # axes' top (y=1): nothing else is drawn above them, so matplotlib need not
     # measure the axes' tick labels once more to find room.
     axes[0].set_title(f"start: first {window:.3g} s, full scale", fontsize=9, pad=14, y=1.0)
-    axes[1].set_title("whole run, at the scale of the bounds", fontsize=9, pad=14, y=1.0)
+    bounded = any(math.isfinite(b) for bounds in result.error_bounds for b in bounds)
+    scale = "of the bounds" if bounded else "of the error after the start"
+    axes[1].set_title(f"whole run, at the scale {scale}", fontsize=9, pad=14, y=1.0)
     handles, labels = axes[1].get_legend_handles_labels()
     for ax in axes:
         handles_here, labels_here = ax.get_legend_handles_labels()
@@ -851,7 +912,13 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     axes[-2].set_xlabel("t [s]")
     axes[-1].set_xlabel("t [s]")
     _mark_phases([axes[1], axes[3], axes[5]], result, phase_colors(result))
-    fig.suptitle(f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate")
+    # eq. (4) bounds only the constrained observer's output error; no other
+    # estimator has such bounds (an EKF's covariance is not recorded).
+    fig.suptitle(
+        f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate"
+        if bounded
+        else f"{result.mission_name}: estimation error (no bounds: the estimator has none)"
+    )
     names_as_typed(fig)
 
 
@@ -898,7 +965,7 @@ def _inputs_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
                 ax.set_ylim(low - margin, high + margin)
         ax.set_ylabel(label)
         ax.grid(True, linewidth=0.4, alpha=0.5)
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     axes[-1].set_xlabel("t [s]")
     _mark_phases(axes, result, phase_colors(result))
     fig.suptitle(f"{result.mission_name}: inputs")
@@ -912,12 +979,254 @@ def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure
     return fig
 
 
+# --- the verdicts ---------------------------------------------------------
+
+# Panels' height and the room above them for the title and the failure [in].
+PANEL_HEIGHT, VERDICT_HEADER = 1.45, 1.1
+# Failing samples marked per check at most (evenly chosen).
+MAX_MARKS = 2000
+# Level checks written in words on a panel at most; the others counted.
+MAX_WORDS = 3
+FAILED_COLOR = "tab:red"
+SIGNAL_COLORS = ("tab:blue", "tab:orange", "tab:green")
+
+
+def _verdicts_on(fig: Figure, result: RunResult) -> None:
+    """The error signals the `expect` checks bound, over time, one panel each:
+    the bounds drawn over their phases, the samples beyond them marked, the
+    first failure's time drawn across every panel; failing panels on top."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+
+    from wmr_mission.output.signals import PANELS, Check, panel_of, run_signals
+
+    signals = run_signals(result)
+    failed = signals.failed()
+    shown = [
+        p
+        for p in PANELS
+        if p in signals.lines or any(panel_of(c.metric) == p for c in signals.checks)
+    ]
+    first_failing = list(dict.fromkeys(panel_of(c.metric) for c in failed))
+    order = first_failing + [p for p in shown if p not in first_failing]
+    if not order:
+        order = ["saturation"]
+    fig.set_size_inches(9.0, PANEL_HEIGHT * len(order) + VERDICT_HEADER)
+    t = result.t
+    first: Check | None = next((c for c in failed if c.first_over is not None), None)
+    # A failure in a short phase is drawn on its phase alone at the top: on
+    # the whole run it would be a spike at an edge.
+    zoom = _zoom(result, first) if len(order) > 1 else None
+    grid = fig.add_gridspec(len(order), 1)
+    axes = [fig.add_subplot(grid[0])]
+    for row in range(1, len(order)):
+        shared = axes[1] if row > 1 and zoom is not None else axes[0] if zoom is None else None
+        axes.append(fig.add_subplot(grid[row], sharex=shared))
+    for ax in axes[:-1]:
+        if ax is not axes[0] or zoom is None:
+            ax.tick_params(labelbottom=False)
+    k = thin(0, result.samples)
+    for ax, panel in zip(axes, order, strict=True):
+        drawn = signals.lines.get(panel, {})
+        colors = {name: SIGNAL_COLORS[i % 3] for i, name in enumerate(drawn)}
+        for name, values in drawn.items():
+            ax.plot(t[k], finite(values[k]), color=colors[name], linewidth=1.0, label=name)
+        checks = [c for c in signals.checks if panel_of(c.metric) == panel]
+        bounds, bound_colors = [], []
+        for check in (c for c in checks if c.peak):
+            from wmr_mission.output.signals import PEAK
+
+            name = PEAK[check.metric][1]
+            start, end = check.span
+            ends = (float(t[start]), float(t[max(end - 1, start)]))
+            signs = (1.0, -1.0) if check.metric == "along_track_lag_max" else (1.0,)
+            for sign in signs:
+                bounds.append([(ends[0], sign * check.bound), (ends[1], sign * check.bound)])
+                bound_colors.append(FAILED_COLOR if not check.met else colors.get(name, "0.2"))
+            if check.over.size and name in drawn:
+                marks = check.over[thin(0, check.over.size, MAX_MARKS)]
+                ax.plot(
+                    t[marks],
+                    finite(drawn[name][marks]),
+                    linestyle="none",
+                    marker="x",
+                    markersize=4,
+                    color=FAILED_COLOR,
+                    zorder=6,
+                )
+        if bounds:
+            ax.add_collection(
+                LineCollection(bounds, colors=bound_colors, linewidths=1.2, linestyles="--"),
+                autolim=True,
+            )
+        _level_words(ax, [c for c in checks if not c.peak])
+        for check in (c for c in checks if not c.met and not c.peak):
+            start, end = check.span
+            ax.axvspan(
+                float(t[start]), float(t[max(end - 1, start)]), color=FAILED_COLOR, alpha=0.08
+            )
+        if panel == "saturation":
+            ax.axhline(1.0, color="0.2", linewidth=0.8, linestyle=":")
+        _verdict_limits(ax, drawn, checks)
+        if panel in ("zones", "constraint"):
+            # Metres far on the allowed side and millimetres beyond the edge, both
+            # readable: linear within the bound of 0, logarithmic beyond.
+            near = min([c.bound for c in checks if c.peak and c.bound > 0], default=1e-3)
+            ax.set_yscale("symlog", linthresh=near, linscale=1.0)
+            low, high = ax.get_ylim()
+            ticks = {0.0, near}
+            if low < -near:
+                ticks |= {-near, -(10.0 ** math.floor(math.log10(-low)))}
+            if high > 10.0 * near:
+                ticks.add(10.0 ** math.floor(math.log10(high)))
+            ax.set_yticks(
+                sorted(t for t in ticks if low <= t <= high),
+                [f"{t:g}" for t in sorted(t for t in ticks if low <= t <= high)],
+            )
+        ax.set_ylabel(PANELS[panel], fontsize=8)
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+        handles, labels = ax.get_legend_handles_labels()
+        if any(c.peak for c in checks):
+            handles.append(Line2D([], [], color="0.2", linestyle="--", linewidth=1.2))
+            labels.append("expect max")
+        if any(c.over.size for c in checks):
+            handles.append(Line2D([], [], color=FAILED_COLOR, linestyle="none", marker="x"))
+            labels.append("beyond it")
+        if handles:
+            ax.legend(
+                handles,
+                labels,
+                loc="upper left",
+                bbox_to_anchor=(1.01, 1.0),
+                fontsize=7,
+                frameon=False,
+            )
+    axes[-1].set_xlabel("t [s]")
+    if result.samples:
+        axes[-1].set_xlim(float(t[0]), float(t[-1]))
+    if zoom is not None and first is not None:
+        axes[0].set_xlim(*zoom)
+        name = first.phase if first.phase is not None else "the run"
+        axes[0].set_title(
+            f"{name}, t = {zoom[0]:.4g} .. {zoom[1]:.4g} s (the panels below: the whole run)",
+            fontsize=8,
+            loc="right",
+        )
+    if first is not None and first.first_over is not None:
+        when = float(t[first.first_over])
+        for ax in axes:
+            ax.axvline(when, color=FAILED_COLOR, linewidth=1.0, alpha=0.7)
+        axes[0].annotate(
+            f"t = {when:.4g} s",
+            (when, 0.0),
+            xycoords=axes[0].get_xaxis_transform(),
+            xytext=(3, 3),
+            textcoords="offset points",
+            color=FAILED_COLOR,
+            fontsize=8,
+        )
+    _mark_phases(axes if zoom is None else axes[1:], result, phase_colors(result))
+    fig.suptitle(
+        _verdict_title(result, signals.checks, failed, first), fontsize=10, x=0.02, ha="left"
+    )
+    fig.subplots_adjust(
+        top=1.0 - VERDICT_HEADER / (PANEL_HEIGHT * len(order) + VERDICT_HEADER) + 0.1 / len(order),
+        hspace=0.35,
+    )
+    names_as_typed(fig)
+
+
+def _zoom(result: RunResult, first: Any) -> tuple[float, float] | None:
+    """The time span [s] the top panel shows: the first failure's phase, padded,
+    when it is under a third of the run; else None (the whole run)."""
+    if first is None or not result.samples or first.phase is None:
+        return None
+    start, end = first.span
+    low, high = float(result.t[start]), float(result.t[max(end - 1, start)])
+    run = float(result.t[-1] - result.t[0])
+    if high - low >= run / 3.0 or high <= low:
+        return None
+    pad = 0.05 * (high - low)
+    return max(float(result.t[0]), low - pad), min(float(result.t[-1]), high + pad)
+
+
+def _verdict_title(
+    result: RunResult, checks: Sequence[Any], failed: Sequence[Any], first: Any
+) -> str:
+    """The run, its outcome and, for a failure, the first check it failed and when."""
+    head = f"{result.mission_name}: {result.outcome.value}"
+    if failed:
+        lead = first if first is not None else failed[0]
+        when = ""
+        if lead.first_over is not None:
+            when = f", first beyond it at t = {float(result.t[lead.first_over]):.4g} s"
+        more = f"\n(and {len(failed) - 1} more failed checks)" if len(failed) > 1 else ""
+        return f"{head}\nfailed {lead.words()}{when}{more}"
+    if checks:
+        return f"{head}\nevery expect check met ({len(checks)})"
+    if not result.succeeded:
+        return f"{head}\n{result.message}"
+    return f"{head}\nno expect checks"
+
+
+def _level_words(ax: Axes, checks: Sequence[Any]) -> None:
+    """Level checks (an RMS, a share, a time) at the panel's top: the failed
+    ones in words, the met ones counted."""
+    if not checks:
+        return
+    failed = [c for c in checks if not c.met]
+    words = [f"NOT MET {c.words()}" for c in failed[:MAX_WORDS]]
+    if len(failed) > MAX_WORDS:
+        words.append(f"and {len(failed) - MAX_WORDS} more not met")
+    met = len(checks) - len(failed)
+    if met:
+        names = sorted({c.metric for c in checks if c.met})
+        words.append(f"{met} met: " + ", ".join(names))
+    ax.text(
+        0.005,
+        0.96,
+        "\n".join(words),
+        transform=ax.transAxes,
+        fontsize=6.5,
+        va="top",
+        ha="left",
+        color=FAILED_COLOR if failed else "0.25",
+        bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.7, "pad": 1.0},
+        zorder=8,
+    )
+
+
+def _verdict_limits(ax: Axes, drawn: Mapping[str, FloatArray], checks: Sequence[Any]) -> None:
+    """The y range: the signals and the bounds (both signs for a signed signal)."""
+    bounds = [c.bound for c in checks if c.peak]
+    signed = [c.bound for c in checks if c.metric == "along_track_lag_max"]
+    values = [v[np.isfinite(v)] for v in drawn.values()]
+    values = [v for v in values if v.size]
+    if not values and not bounds:
+        return
+    high = max([float(v.max()) for v in values] + bounds + [0.0])
+    low = min([float(v.min()) for v in values] + [-b for b in signed] + [0.0])
+    margin = 0.08 * (high - low if high > low else 1.0)
+    ax.set_ylim(low - margin, high + margin)
+
+
+def plot_verdicts(result: RunResult) -> Figure:
+    """The error signals the `expect` checks bound, over time, with the bounds and
+    the failing samples (``verdicts.png``); returns the figure (from pyplot)."""
+    fig = _pyplot_figure((9.0, 6.0))
+    _verdicts_on(fig, result)
+    return fig
+
+
 # --- files ----------------------------------------------------------------
 
 
 def _figure(result: RunResult, name: str) -> Figure:
     """The figure of a run's file ``name`` (one of FIGURE_NAMES)."""
-    if name == "xy":
+    if name == "verdicts":
+        fig = new_figure((9.0, 6.0))
+        _verdicts_on(fig, result)
+    elif name == "xy":
         fig = new_figure((XY_WIDTH, 6.5))
         columns = _xy_on(fig.add_subplot(), result)
         # Room on the canvas for the legend at the right, a column's width each.
@@ -927,6 +1236,19 @@ def _figure(result: RunResult, name: str) -> Figure:
     elif name == "states":
         fig = new_figure((9, 7.5))
         _states_on(fig, list(fig.subplots(3, 1, sharex=True)), result)
+    elif name == "estimation_error" and _estimate_is_exact(result):
+        # Six flat lines at zero say less than one sentence.
+        fig = new_figure((9, 1.2))
+        fig.text(
+            0.5,
+            0.5,
+            f"{result.mission_name}: the estimate equals the true state at every sample "
+            "(no noise, no initial error): no estimation error to draw",
+            ha="center",
+            va="center",
+            fontsize=10,
+        )
+        names_as_typed(fig)
     elif name == "estimation_error":
         fig = new_figure((11, 7.5))
         fig.subplots_adjust(bottom=ESTIMATION_BOTTOM)
@@ -937,14 +1259,159 @@ def _figure(result: RunResult, name: str) -> Figure:
     return fig
 
 
-def draw_all(result: RunResult, out_dir: Path, formats: Sequence[str] = ("png",)) -> list[Path]:
-    """Write the four figures into ``out_dir`` in each format; return their paths."""
+def restyle(fig: Figure, style: Style) -> Figure:
+    """``fig`` at ``style``'s width, its height in proportion, texts and lines
+    scaled (sizes are in points: absolute, so a figure made narrower keeps
+    text it can hold only when the text is made smaller with it)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.text import Text
+
+    if style.width is None:
+        return fig
+    width, height = fig.get_size_inches()
+    rows, columns = _grid(fig)
+    # In proportion, yet each row of axes an inch high at least with room for the titles.
+    fig.set_size_inches(style.width, max(height * style.width / width, 1.0 * rows + 1.0))
+    for ax in fig.axes:
+        ax.tick_params(labelsize=10.0 * style.font_scale, width=0.8 * style.line_scale)
+    for text in fig.findobj(Text):
+        text.set_fontsize(float(text.get_fontsize()) * style.font_scale)
+    titles = [
+        (getattr(fig, "_suptitle", None), 1),
+        *((text, 1) for text in fig.texts),
+        *((ax.title, columns) for ax in fig.axes),
+    ]
+    for title, share in ((t, n) for t, n in titles if t is not None and t.get_text()):
+        # About half an em a character: wrapped to the width it has.
+        characters = int(style.width / share * 72.0 / (0.55 * float(title.get_fontsize())))
+        lines = title.get_text().split("\n")
+        title.set_text("\n".join(textwrap.fill(line, characters) for line in lines))
+    _legends_below(fig, style.width)
+    for line in fig.findobj(Line2D):
+        line.set_linewidth(line.get_linewidth() * style.line_scale)
+        line.set_markersize(line.get_markersize() * style.line_scale)
+    # The layouts made for a screen's size are laid out again for this one.
+    fig.set_layout_engine("constrained", h_pad=0.02, w_pad=0.02)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        _crop_to(fig, style.width)
+    if any("constrained_layout not applied" in str(w.message) for w in said):
+        # Too narrow to lay out again: the screen's layout, at the width asked.
+        fig.set_layout_engine("none")
+        _crop_to(fig, style.width)
+    return fig
+
+
+def _grid(fig: Figure) -> tuple[int, int]:
+    """The rows and columns of the figure's grid of axes."""
+    rows, columns = 1, 1
+    for ax in fig.axes:
+        spec = ax.get_subplotspec()
+        if spec is not None:
+            grid = spec.get_gridspec()
+            rows, columns = max(rows, grid.nrows), max(columns, grid.ncols)
+    return rows, columns
+
+
+def _legends_below(fig: Figure, width: float) -> None:
+    """Legends beside the axes put below them, in two columns (their labels
+    wrapped to fit ``width`` [in]), and the figure's own in one: a column's
+    width has no room beside."""
+
+    def wrapped(texts: Sequence[Any], columns: int) -> list[str]:
+        size = float(texts[0].get_fontsize()) if texts else 6.0
+        # half an em a character, less the room of a legend's handle
+        characters = max(12, int(width / columns * 72.0 / (0.55 * size)) - 6)
+        return [textwrap.fill(text.get_text(), characters) for text in texts]
+
+    for own in list(fig.legends):
+        texts = own.get_texts()
+        handles: Any = own.legend_handles
+        own.remove()
+        fig.legend(
+            handles,
+            wrapped(texts, 1),
+            loc="outside lower center",
+            ncols=1,
+            fontsize=texts[0].get_fontsize() if texts else 6,
+            frameon=False,
+        )
+    for ax in fig.axes:
+        beside = ax.get_legend()
+        if beside is None or beside.get_bbox_to_anchor().x0 < ax.get_window_extent().x1:
+            continue
+        legend: Any = beside
+        title = legend.get_title().get_text()
+        ax.legend(
+            legend.legend_handles,
+            wrapped(legend.get_texts(), 2),
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.15),
+            ncols=2,
+            fontsize=legend.get_texts()[0].get_fontsize() if legend.get_texts() else 6,
+            frameon=False,
+            title=title or None,
+            title_fontsize=legend.get_title().get_fontsize(),
+        )
+
+
+def _crop_to(fig: Figure, target: float) -> None:
+    """The canvas sized so that the figure cropped to what is drawn is ``target`` wide [in]."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    # What is written is cropped to what is drawn, a legend beside the axes
+    # included: the canvas is sized so that the crop has the target width.
+    previous: tuple[float, float] | None = None  # (canvas width, crop width) before
+    for _ in range(8):  # the texts keep their size: the crop's width is about a*w + b
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()  # type: ignore[no-untyped-call]  # laid out as it will be written
+        renderer = canvas.get_renderer()  # type: ignore[no-untyped-call]
+        drawn = fig.get_tightbbox(renderer).width + 2 * PAD
+        width, height = fig.get_size_inches()
+        if abs(drawn - target) < 0.01:
+            break
+        slope = 1.0
+        if previous is not None and abs(width - previous[0]) > 1e-6:
+            slope = max((drawn - previous[1]) / (width - previous[0]), 0.1)
+        previous = (width, drawn)
+        grown = max(width + (target - drawn) / slope, 0.3 * width) / width
+        # both ways: an axes of equal aspect widens only with its height
+        fig.set_size_inches(width * grown, height * grown)
+
+
+def _estimate_is_exact(result: RunResult) -> bool:
+    """Whether the estimate equals the true state at every sample, and every
+    measurement too (a noise-free run that starts from the true state)."""
+    for state in STATES:
+        truth = getattr(result, state)
+        if not np.array_equal(getattr(result, f"{state}_est"), truth):
+            return False
+        sensed = getattr(result, f"{state}_meas")
+        measured = np.isfinite(sensed)
+        if not np.array_equal(sensed[measured], truth[measured]):
+            return False
+    return result.samples > 0
+
+
+def draw_all(
+    result: RunResult,
+    out_dir: Path,
+    formats: Sequence[str] = ("png",),
+    style: str = "screen",
+) -> list[Path]:
+    """Write the figures (FIGURE_NAMES) into ``out_dir`` in each format, sized
+    by ``style`` (one of STYLES); return their paths."""
     directory = Path(out_dir)
     unknown = [f for f in formats if f not in FIGURE_FORMATS]
     if unknown:
         raise ValueError(f"unknown figure format {unknown[0]!r}; expected one of png, svg, pdf")
+    if style not in STYLES:
+        raise ValueError(f"unknown style {style!r}; expected one of {', '.join(STYLES)}")
+    # verdicts.png explains a run on a screen: its panels and their words need
+    # the room; the style sizes the others, the paper's figures.
+    styled = {name: STYLES["screen" if name == "verdicts" else style] for name in FIGURE_NAMES}
     return [
-        save_figure(_figure(result, name), directory / f"{name}.{fmt}")
+        save_figure(restyle(_figure(result, name), styled[name]), directory / f"{name}.{fmt}")
         for fmt in formats
         for name in FIGURE_NAMES
     ]

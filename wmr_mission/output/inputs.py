@@ -148,6 +148,24 @@ def jitter(omega: FloatArray, numbers: MissionNumbers) -> float | None:
     """[rad/s] robust spread of ``omega`` about its centred moving mean over two
     time constants, after the first REVERSAL_WINDOW time constants; None when
     fewer samples are left."""
+    found = _deviation(omega, numbers)
+    return None if found is None else _finite(ROBUST_STD * np.median(np.abs(found[1])))
+
+
+def jitter_deviation(omega: FloatArray, numbers: MissionNumbers) -> FloatArray:
+    """Per sample, what :func:`jitter` takes the spread of: ``omega`` less its
+    centred moving mean; NaN at the samples it does not count."""
+    deviation = np.full(omega.size, np.nan)
+    found = _deviation(omega, numbers)
+    if found is not None:
+        first, counted = found
+        deviation[first : first + counted.size] = counted
+    return deviation
+
+
+def _deviation(omega: FloatArray, numbers: MissionNumbers) -> tuple[int, FloatArray] | None:
+    """The first sample :func:`jitter` counts and, from it, ``omega`` less its
+    centred moving mean over two time constants; None when too few samples."""
     half = max(2, round(numbers.time_constant / numbers.dt))
     window = 2 * half + 1
     skip = round(REVERSAL_WINDOW * numbers.time_constant / numbers.dt)
@@ -160,8 +178,8 @@ def jitter(omega: FloatArray, numbers: MissionNumbers) -> float | None:
     for offset in range(window):
         total += omega[offset : offset + centres]
     deviation = omega[half : half + centres] - total / window
-    deviation = deviation[max(0, skip - half) :]
-    return _finite(ROBUST_STD * np.median(np.abs(deviation)))
+    dropped = max(0, skip - half)
+    return half + dropped, deviation[dropped:]
 
 
 def progress_along(x: FloatArray, y: FloatArray, rx: FloatArray, ry: FloatArray) -> Progress:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -921,6 +922,35 @@ def unmet(checks: list[dict[str, Any]]) -> list[str]:
         where = f"{item['phase']}: " if item["phase"] is not None else ""
         lines.append(f"{where}{item['metric']} = {value} (max {item['max']:.6g})")
     return lines
+
+
+_UNMET_PREFIX = "expectation not met: "
+_UNMET = re.compile(
+    r"^(?:(?P<phase>.+): )?(?P<metric>[a-z_.]+) = (?P<value>\S+) \(max (?P<max>\S+)\)$"
+)
+
+
+def unmet_in(message: str) -> list[dict[str, Any]]:
+    """The unmet checks an ``expect-failed`` run's message lists (as
+    :func:`unmet` and :meth:`RunResult.miss_expectations` write them): metric,
+    phase (None for a mission-wide one), value (None for ``none``) and max."""
+    if not message.startswith(_UNMET_PREFIX):
+        return []
+    found = []
+    for part in message[len(_UNMET_PREFIX) :].split("; "):
+        matched = _UNMET.match(part)
+        if matched is None:
+            continue
+        value = matched["value"]
+        found.append(
+            {
+                "metric": matched["metric"],
+                "phase": matched["phase"],
+                "value": None if value == "none" else float(value),
+                "max": float(matched["max"]),
+            }
+        )
+    return found
 
 
 def judge(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any]:

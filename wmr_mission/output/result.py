@@ -126,6 +126,15 @@ class RunResult:
     # Not copied by ``dataclasses.replace``.
     judged: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
 
+    def __repr__(self) -> str:
+        """A line, not the arrays: the mission, how it ended and its size."""
+        duration = float(self.t[-1] - self.t[0]) if self.samples else 0.0
+        return (
+            f"RunResult(mission={self.mission_name!r}, outcome={self.outcome.value!r}, "
+            f"samples={self.samples}, duration={duration:.6g} s, phases={len(self.phases)}, "
+            f"seed={self.seed})"
+        )
+
     def __post_init__(self) -> None:
         for name in ("x_meas", "y_meas", "theta_meas"):
             if getattr(self, name).shape[0] != self.t.shape[0]:  # not recorded: none known

@@ -304,6 +304,8 @@ def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) 
     summary = summarize(result, mission)
     if mission is not None and isinstance(mission.get("expect"), Mapping):
         summary["expectations"] = check_expectations(summary, mission)
+        if mission is result.mission:  # kept for the figures (verdicts.png), not computed twice
+            result.judged = copy.deepcopy(summary)
     summary["recovery"] = recovery_record(result.transitions, result.succeeded)
     return summary
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -251,6 +252,20 @@ def _speed(x: FloatArray, y: FloatArray, dt: float) -> FloatArray:
     return np.concatenate((step, step[-1:]))
 
 
+@dataclass(frozen=True)
+class TrackSamples:
+    """A track phase's samples as its verdict sees them, one value per sample of
+    the phase (NaN and False where the reference is unknown): the cross-track
+    error and along-track lag [m] (NaN where not measured), whether the sample
+    is judged (not in the entry nor in a detour or its rejoining), and whether
+    it is in a detour a zone forces."""
+
+    cross: FloatArray
+    lag: FloatArray
+    judged: NDArray[np.bool_]
+    detour: NDArray[np.bool_]
+
+
 def track_quality(
     t: FloatArray,
     px: FloatArray,
@@ -268,7 +283,23 @@ def track_quality(
     the reference's top speed [m/s] and how far the zones reach into the path [m].
     ``timed``: the phase ran for a set time (it ended on ``elapsed`` or
     ``mission_time``), so tracking was all it was for."""
+    return track_samples(t, px, py, rx, ry, numbers, zones, timed)[0]
+
+
+def track_samples(
+    t: FloatArray,
+    px: FloatArray,
+    py: FloatArray,
+    rx: FloatArray,
+    ry: FloatArray,
+    numbers: MissionNumbers,
+    zones: Sequence[Zone],
+    timed: bool = False,
+) -> tuple[dict[str, Any], TrackSamples | None]:
+    """:func:`track_quality`'s metrics and the samples they come from (None when
+    nothing was measured)."""
     known = np.isfinite(rx) & np.isfinite(ry)
+    size = known.size
     metrics: dict[str, Any] = {
         "cross_track_error_max": None,
         "along_track_lag_max": None,
@@ -280,9 +311,8 @@ def track_quality(
     }
     if not known.all():
         t, px, py, rx, ry = t[known], px[known], py[known], rx[known], ry[known]
-    del known
     if t.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
-        return metrics  # no reference, or the run diverged
+        return metrics, None  # no reference, or the run diverged
     dt = numbers.dt
     steps = path_steps(rx, ry)
     # [m/s] from each reference point to the next (the last repeats the one before)
@@ -296,7 +326,8 @@ def track_quality(
     after_entry = min(int(np.count_nonzero(excused)), t.size - 1)
     ended_in_entry = bool(excused[-1]) and timed
     if excused[-1] and not timed and not zones:  # nothing to measure
-        return metrics | {"entry_time": entry, "reference_speed_max": float(reference_speed.max())}
+        metrics |= {"entry_time": entry, "reference_speed_max": float(reference_speed.max())}
+        return metrics, None
     cross, lag = place_on_path(px, py, rx, ry, numbers.tracking_tolerance, after_entry, steps)
     detour = np.zeros(t.size, dtype=bool)
     if zones:
@@ -315,7 +346,25 @@ def track_quality(
         "detour_offset_max": float(offset.max()) if offset.size else None,
         "reference_speed_max": float(reference_speed.max()),
     }
-    return metrics
+    return metrics, _placed(known, size, cross, lag, judged, detour)
+
+
+def _placed(
+    known: NDArray[np.bool_],
+    size: int,
+    cross: FloatArray,
+    lag: FloatArray,
+    judged: NDArray[np.bool_],
+    detour: NDArray[np.bool_],
+) -> TrackSamples:
+    """The samples with a known reference put back among all the phase's."""
+    if known.all():
+        return TrackSamples(cross, lag, judged, detour)
+    full_cross, full_lag = np.full(size, np.nan), np.full(size, np.nan)
+    full_judged, full_detour = np.zeros(size, dtype=bool), np.zeros(size, dtype=bool)
+    full_cross[known], full_lag[known] = cross, lag
+    full_judged[known], full_detour[known] = judged, detour
+    return TrackSamples(full_cross, full_lag, full_judged, full_detour)
 
 
 def _detours(

@@ -1101,6 +1101,20 @@ def parse_path(dotted: str) -> DataPath:
     return tuple(path)
 
 
+def document_kind(text: str) -> str | None:
+    """``"mission"`` or ``"campaign"``: what a YAML text holds by its keys (a
+    campaign names its ``mission``; a mission has ``phases``); None if neither."""
+    document, _ = read_document(text)
+    data = document.data if document is not None else None
+    if not isinstance(data, dict):
+        return None
+    if "mission" in data and "phases" not in data:
+        return "campaign"
+    if "phases" in data and "mission" not in data:
+        return "mission"
+    return None
+
+
 def parse_override(text: str) -> Override:
     """``PATH=VALUE`` as given to ``--set``; VALUE is read as a YAML value.
 

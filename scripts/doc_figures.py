@@ -1,0 +1,72 @@
+"""The figures of docs/run-directory.md and docs/campaigns.md, made as a user makes them.
+
+    python scripts/doc_figures.py              # keep-out and case2-headings (a minute or two)
+    python scripts/doc_figures.py --run-only   # keep-out alone
+
+docs/images/keep-out-verdicts.png: `wmr-mission run missions/keep-out.yaml`'s
+verdicts.png (the mission fails). docs/images/keep-out-xy-one-column.png:
+`wmr-mission plot RUN_DIR --style one-column`'s xy.png. docs/images/campaigns/
+case2-headings-{trajectories,metrics,success}.png: `wmr-mission sweep
+missions/campaigns/case2-headings.yaml`'s figures, and
+case2-headings-worst-FAILURE.png: the verdicts.png of the worst run of each
+kind of failure (worst/RUN/).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+IMAGES = ROOT / "docs" / "images"
+WMR = [sys.executable, "-m", "wmr_mission"]
+
+
+def _wmr(*args: str) -> None:
+    print("+ wmr-mission " + " ".join(args), flush=True)
+    subprocess.run([*WMR, *args], cwd=ROOT, check=False)  # a failing mission exits 1
+
+
+def run_figures(tmp: Path) -> None:
+    run_dir = tmp / "keep-out"
+    _wmr("run", "missions/keep-out.yaml", "--out", str(run_dir))
+    shutil.copy(run_dir / "verdicts.png", IMAGES / "keep-out-verdicts.png")
+    _wmr("plot", str(run_dir), "--style", "one-column")
+    shutil.copy(run_dir / "xy.png", IMAGES / "keep-out-xy-one-column.png")
+
+
+def campaign_figures(tmp: Path) -> None:
+    out = tmp / "case2-headings"
+    _wmr("sweep", "missions/campaigns/case2-headings.yaml", "--out", str(out))
+    for name in ("trajectories", "metrics", "success"):
+        shutil.copy(out / f"{name}.png", IMAGES / "campaigns" / f"case2-headings-{name}.png")
+    record = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
+    for failure in record["failures"]:
+        worst = failure["worst"][0]
+        shutil.copy(
+            out / "worst" / str(worst["run"]) / "verdicts.png",
+            IMAGES / "campaigns" / f"case2-headings-worst-{failure['failure']}.png",
+        )
+        print(
+            f"{failure['failure']}: {failure['runs']} runs; worst run {worst['run']} "
+            f"({worst['phase']}: {worst['value']} against {worst['max']})"
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--run-only", action="store_true", help="keep-out's figures alone")
+    arguments = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        run_figures(Path(tmp))
+        if not arguments.run_only:
+            campaign_figures(Path(tmp))
+
+
+if __name__ == "__main__":
+    main()

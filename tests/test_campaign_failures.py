@@ -1,0 +1,73 @@
+"""The worst runs of a campaign per kind of failure: each metric a run missed
+(read from its reason, as the run wrote it) or each outcome that ended a run."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wmr_mission.campaign.aggregate import WORST_PER_FAILURE, WORST_RUNS, Aggregate, failures_of
+from wmr_mission.campaign.rows import METRICS, Row
+from wmr_mission.output.metrics import unmet, unmet_in
+
+PATH = np.zeros((2, 0), dtype=np.float32)
+
+
+def _row(run: int, outcome: str, reason: str = "", error: float = 0.0) -> Row:
+    metrics = tuple(error if name == "final_position_error" else 0.0 for name in METRICS)
+    return Row(run, 1000 + run, outcome, (), metrics, reason, PATH)
+
+
+def _missed(*checks: tuple[str | None, str, float, float]) -> str:
+    lines = unmet(
+        [
+            {"metric": metric, "phase": phase, "max": bound, "value": value, "met": False}
+            for phase, metric, value, bound in checks
+        ]
+    )
+    return "expectation not met: " + "; ".join(lines)
+
+
+def test_a_reason_is_read_back_as_the_checks_it_lists() -> None:
+    reason = _missed(("south#1", "speed_jump_max", 2.33457, 2.0), (None, "duration", 31.5, 30.0))
+    assert unmet_in(reason) == [
+        {"metric": "speed_jump_max", "phase": "south#1", "value": 2.33457, "max": 2.0},
+        {"metric": "duration", "phase": None, "value": 31.5, "max": 30.0},
+    ]
+    assert unmet_in("phase 'go' timed out") == []
+
+
+def test_each_kind_keeps_the_runs_that_failed_it_worst() -> None:
+    aggregate = Aggregate({})
+    # jumps: worse by the ratio to each run's own bound, not by the value
+    jumps = {1: (3.0, 2.0), 2: (5.0, 4.0), 3: (2.1, 1.0), 4: (2.6, 2.0), 5: (9.0, 8.0)}
+    for run, (value, bound) in jumps.items():
+        aggregate.add(_row(run, "expect-failed", _missed(("go", "speed_jump_max", value, bound))))
+    aggregate.add(_row(6, "timeout", "phase 'go' timed out", error=0.5))
+    aggregate.add(_row(7, "timeout", "phase 'go' timed out", error=2.0))
+    aggregate.add(_row(8, "expect-failed", _missed((None, "max_constraint_violation", 0.01, 1e-3))))
+    aggregate.add(_row(9, "success"))
+    # a run missing one metric in two phases counts once, by its worst phase
+    aggregate.add(
+        _row(
+            10,
+            "expect-failed",
+            _missed(("a", "stall_time", 1.0, 0.5), ("b", "stall_time", 3.0, 0.5)),
+        )
+    )
+    kinds = aggregate.worst_by_failure()
+    assert [(kind, count) for kind, count, _ in kinds] == [
+        ("speed_jump_max", 5),
+        ("timeout", 2),
+        ("max_constraint_violation", 1),
+        ("stall_time", 1),
+    ]
+    worst = {kind: [f.run for f in runs] for kind, _, runs in kinds}
+    assert worst["speed_jump_max"] == [3, 1, 4][:WORST_PER_FAILURE]  # 2.1x, 1.5x, 1.3x
+    assert worst["timeout"] == [7, 6]  # the larger final position error first
+    (stall,) = kinds[3][2]
+    assert (stall.phase, stall.value, stall.bound) == ("b", 3.0, 0.5)
+    # worst/ holds the worst run of every kind, then the others by final error
+    runs = [run for run, *_ in aggregate.worst_runs()]
+    assert runs[:4] == [3, 7, 8, 10]
+    assert len(runs) == max(WORST_RUNS, 4)
+    assert failures_of(_row(9, "success")) == []

@@ -1,0 +1,66 @@
+"""Figures for a paper: TrueType fonts in PDF (no Type 3, which publishers
+refuse), text as text in SVG, and sizes for one and two columns."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from wmr_mission.output.figures import DPI, FIGURE_NAMES, STYLES, draw_all
+from wmr_mission.output.result import RunResult
+from wmr_mission.sim.runner import run_mission
+from wmr_mission.spec.loader import load_mission
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+PDFFONTS = shutil.which("pdffonts")
+needs_pdffonts = pytest.mark.skipif(
+    PDFFONTS is None, reason="poppler-utils is not installed (apt-get install -y poppler-utils)"
+)
+
+
+@pytest.fixture(scope="module")
+def keep_out() -> RunResult:
+    return run_mission(load_mission(MISSIONS / "keep-out.yaml"))
+
+
+@needs_pdffonts
+def test_no_pdf_has_a_type_3_font(keep_out: RunResult, tmp_path: Path) -> None:
+    paths = draw_all(keep_out, tmp_path, ("pdf",), style="one-column")
+    assert [p.name for p in paths] == [f"{name}.pdf" for name in FIGURE_NAMES]
+    for path in paths:
+        fonts = subprocess.run(
+            [str(PDFFONTS), str(path)], capture_output=True, text=True, check=True
+        ).stdout
+        assert "TrueType" in fonts, path.name  # the premise: text is embedded
+        assert "Type 3" not in fonts, path.name
+
+
+def test_svg_keeps_text_as_text(keep_out: RunResult, tmp_path: Path) -> None:
+    (path, *_) = draw_all(keep_out, tmp_path, ("svg",))
+    svg = path.read_text()
+    assert "<text" in svg
+    assert "speed_jump_max" in svg  # the failure, searchable
+
+
+def _text_only(path: Path) -> bool:
+    """keep-out's estimation_error.png: one sentence (its estimate is exact)."""
+    return path.stem == "estimation_error"
+
+
+@pytest.mark.parametrize("style", ["one-column", "two-column"])
+def test_a_column_style_fits_its_column(keep_out: RunResult, tmp_path: Path, style: str) -> None:
+    width = STYLES[style].width
+    assert width is not None
+    for path in draw_all(keep_out, tmp_path, ("png",), style=style):
+        if path.stem == "verdicts":
+            continue  # drawn for a screen whatever the style
+        with Image.open(path) as image:
+            drawn = image.size[0] / DPI
+        # within the column; one with axes fills it (a sentence alone is as wide as it is)
+        assert drawn <= width + 0.02, path.name
+        if not _text_only(path):
+            assert drawn == pytest.approx(width, abs=0.02), path.name

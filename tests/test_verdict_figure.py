@@ -1,0 +1,85 @@
+"""The figure that explains a run (verdicts.png): its signals are the ones the
+verdicts judged, and a failure is drawn with its bound and its time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wmr_mission.output.figures import FIGURE_NAMES, _figure
+from wmr_mission.output.result import RunResult
+from wmr_mission.output.signals import PEAK, panel_of, run_signals
+from wmr_mission.sim.runner import run_mission
+from wmr_mission.spec.loader import load_mission
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+
+
+@pytest.fixture(scope="module")
+def keep_out() -> RunResult:
+    """keep-out fails: its detours kick the inputs past their jump bounds."""
+    result = run_mission(load_mission(MISSIONS / "keep-out.yaml"))
+    assert result.outcome.value == "expect-failed"  # the premise
+    return result
+
+
+def test_the_failed_checks_are_marked_on_the_signals_they_judge(keep_out: RunResult) -> None:
+    signals = run_signals(keep_out)
+    failed = signals.failed()
+    summary = keep_out.judged
+    assert summary is not None
+    unmet = {(c["phase"], c["metric"]) for c in summary["expectations"] if not c["met"]}
+    assert {(c.phase, c.metric) for c in failed} == unmet
+    assert unmet  # the premise
+    for check in failed:
+        panel, line = PEAK[check.metric]
+        values = signals.lines[panel][line]
+        start, end = check.span
+        judged = signals.judged[line][start:end]
+        # The largest judged sample of the drawn signal is the value the verdict found.
+        assert np.nanmax(np.abs(values[start:end][judged])) == check.value
+        assert check.over.size
+        assert np.all(np.abs(values[check.over]) > check.bound)
+        assert np.all((check.over >= start) & (check.over < end))
+        assert np.all(signals.judged[line][check.over])
+    times = [keep_out.t[c.over[0]] for c in failed]
+    assert times == sorted(times)  # the first failure in time comes first
+
+
+def test_a_failing_run_opens_on_its_failure(keep_out: RunResult) -> None:
+    assert FIGURE_NAMES[0] == "verdicts"
+    figure = _figure(keep_out, "verdicts")
+    first = run_signals(keep_out).failed()[0]
+    when = float(keep_out.t[first.over[0]])
+    assert figure._suptitle is not None
+    title = figure._suptitle.get_text()
+    assert f"failed {first.phase}: {first.metric}" in title
+    assert f"t = {when:.4g} s" in title
+    top = figure.axes[0]
+    assert panel_of(first.metric) == "jumps"
+    assert "change" in top.get_ylabel()
+    # the time of the failure drawn across every panel
+    for ax in figure.axes:
+        assert any(list(line.get_xdata()) == [when, when] for line in ax.get_lines()), (
+            ax.get_ylabel()
+        )
+    # its bound drawn (dashed, red where failed) and the samples beyond it marked
+    marked = [line for line in top.get_lines() if line.get_marker() == "x"]
+    assert marked
+    assert all(y > first.bound for line in marked for y in line.get_ydata())
+
+
+def test_a_run_that_meets_its_checks_says_so() -> None:
+    result = run_mission(load_mission(MISSIONS / "fence.yaml"))
+    assert result.succeeded
+    signals = run_signals(result)
+    assert signals.checks
+    assert not signals.failed()
+    assert all(c.over.size == 0 for c in signals.checks)
+    figure = _figure(result, "verdicts")
+    assert figure._suptitle is not None
+    assert "every expect check met" in figure._suptitle.get_text()
+    # the fence's constraint value is drawn with its bound
+    assert any("constraint" in ax.get_ylabel() for ax in figure.axes)

@@ -1,0 +1,326 @@
+"""The error signals the verdicts judge, sample by sample, for the figure that
+explains a run (``verdicts.png``).
+
+Each `expect` check of a run (``summary.json``'s ``expectations``) is a bound
+on one of these signals over a phase (or the whole run):
+
+- a **peak** check (``*_max``, jumps, the final error) bounds every judged
+  sample: the samples above the bound are the failure, the first of them its time;
+- a **level** check (an RMS, the jitter, a share of time at a limit, a count,
+  a time) bounds one number made of the phase's samples: it is drawn as that
+  number beside its bound.
+
+The signals are computed here by the functions the verdicts use
+(wmr_mission.output.tracking, inputs, zones), so that what is drawn is what was
+judged. Nothing here draws.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wmr_mission.basics import STATES, FloatArray
+from wmr_mission.output import inputs as input_metrics
+from wmr_mission.output.metrics import (
+    check_expectations,
+    distance_to_path,
+    estimation_errors,
+    phase_expectations,
+    phase_segments,
+    summarize,
+)
+from wmr_mission.output.numbers import MissionNumbers, mission_numbers
+from wmr_mission.output.tracking import track_samples
+from wmr_mission.output.zones import zones_of
+from wmr_mission.spec import models
+
+if TYPE_CHECKING:
+    from wmr_mission.output.result import RunResult
+
+Mask = NDArray[np.bool_]
+
+# metric -> (panel, the signal's line it bounds; None for a level check)
+PEAK: dict[str, tuple[str, str]] = {
+    "cross_track_error_max": ("cross_track", "cross-track error"),
+    "tracking_error_max": ("cross_track", "distance to the path"),
+    "detour_offset_max": ("cross_track", "cross-track error"),
+    "along_track_lag_max": ("along_track", "along-track lag"),
+    "zone_intrusion_max": ("zones", "depth into a zone"),
+    "max_constraint_violation": ("constraint", "constraint value"),
+    "speed_jump_max": ("jumps", "|Δv| [m/s]"),
+    "turn_rate_jump_max": ("jumps", "|Δω| [rad/s]"),
+    "final_position_error": ("goal", "distance to the target"),
+}
+LEVEL: dict[str, str] = {
+    "tracking_error_rms": "cross_track",
+    "detour_time": "cross_track",
+    "stall_time": "goal",
+    "final_heading_error": "goal",
+    "duration": "goal",
+    "estimation_convergence_time": "estimation",
+    "estimation_rms": "estimation",
+    "turn_rate_jitter": "jitter",
+    "speed_reversals": "saturation",
+    "turn_rate_reversals": "saturation",
+    "speed_fight_time": "saturation",
+    "turn_rate_fight_time": "saturation",
+    "speed_at_limit": "saturation",
+    "turn_rate_at_limit": "saturation",
+}
+UNITS: dict[str, str] = {
+    "cross_track_error_max": "m",
+    "tracking_error_max": "m",
+    "tracking_error_rms": "m",
+    "detour_offset_max": "m",
+    "along_track_lag_max": "m",
+    "zone_intrusion_max": "m",
+    "final_position_error": "m",
+    "final_heading_error": "rad",
+    "speed_jump_max": "m/s",
+    "turn_rate_jump_max": "rad/s",
+    "turn_rate_jitter": "rad/s",
+    "detour_time": "s",
+    "stall_time": "s",
+    "duration": "s",
+    "estimation_convergence_time": "s",
+    "speed_fight_time": "s",
+    "turn_rate_fight_time": "s",
+}
+# Panels top to bottom (a failing one is moved to the top), with their axis labels.
+PANELS: dict[str, str] = {
+    "cross_track": "cross-track [m]",
+    "along_track": "along-track lag [m]\n(> 0 behind)",
+    "zones": "depth into zone [m]\n(> 0 inside)",
+    "constraint": "constraint value\n(> 0 violated)",
+    "goal": "to target [m]",
+    "estimation": "|true - estimate|\n[m, rad]",
+    "jumps": "one-sample change\n[m/s, rad/s]",
+    "jitter": "ω - moving mean\n[rad/s]",
+    "saturation": "|input| / limit",
+}
+
+
+def unit_of(metric: str) -> str:
+    """The unit of a check's value: ``m``, ``rad/s`` ... or ``""`` (a count, a share)."""
+    if metric.startswith("estimation_rms."):
+        return "rad" if metric.endswith("theta") else "m"
+    return UNITS.get(metric, "")
+
+
+def panel_of(metric: str) -> str:
+    """The panel a check is drawn on."""
+    base = metric.split(".", 1)[0]
+    return PEAK[base][0] if base in PEAK else LEVEL[base]
+
+
+@dataclass
+class Check:
+    """One `expect` check placed on the run's samples: ``span`` the samples of
+    its phase (the whole run for a mission-wide one); for a failed peak check,
+    ``over`` the judged samples above its bound."""
+
+    metric: str
+    phase: str | None
+    bound: float
+    value: float | None
+    met: bool
+    span: tuple[int, int]
+    over: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+
+    @property
+    def peak(self) -> bool:
+        return self.metric in PEAK
+
+    @property
+    def first_over(self) -> int | None:
+        return int(self.over[0]) if self.over.size else None
+
+    def words(self) -> str:
+        """``south#1: speed_jump_max = 2.33 m/s (max 2 m/s)``."""
+        unit = unit_of(self.metric)
+        unit = f" {unit}" if unit else ""
+        value = "none" if self.value is None else f"{self.value:.3g}{unit}"
+        where = f"{self.phase}: " if self.phase is not None else ""
+        return f"{where}{self.metric} = {value} (max {self.bound:.3g}{unit})"
+
+
+@dataclass
+class Signals:
+    """A run's error signals, one value per sample (NaN where not measured), by
+    panel and line name; ``judged[line]``: the samples its peak checks look at."""
+
+    lines: dict[str, dict[str, FloatArray]]
+    judged: dict[str, Mask]
+    checks: list[Check]
+
+    def failed(self) -> list[Check]:
+        """The failed checks, the one failing first in time first."""
+        failed = [c for c in self.checks if not c.met]
+        timed = sorted((c for c in failed if c.first_over is not None), key=lambda c: c.over[0])
+        return timed + [c for c in failed if c.first_over is None]
+
+
+def expectations(result: RunResult) -> list[dict[str, Any]]:
+    """The run's `expect` checks (``summary.json``'s ``expectations``)."""
+    if result.judged is not None:
+        return list(result.judged.get("expectations") or [])
+    mission = result.mission
+    if mission is None or not isinstance(mission.get("expect"), Mapping):
+        return []
+    return check_expectations(summarize(result, mission), mission)
+
+
+def run_signals(result: RunResult) -> Signals:
+    """The error signals of ``result`` and its checks placed on them."""
+    n = result.samples
+    numbers = mission_numbers(result.mission, result.dt, result.limits)
+    checked = expectations(result)
+    metrics = {str(c["metric"]).split(".", 1)[0] for c in checked}
+    lines: dict[str, dict[str, FloatArray]] = {}
+    judged: dict[str, Mask] = {}
+
+    def line(panel: str, name: str) -> FloatArray:
+        values = lines.setdefault(panel, {}).setdefault(name, np.full(n, np.nan))
+        judged.setdefault(name, np.zeros(n, dtype=bool))
+        return values
+
+    segments = phase_segments(result.phase)
+    errors = estimation_errors(result)
+    inputs_from = input_metrics.first_judged(result.t, errors, numbers)
+    ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
+    settle = _settle_times(result.mission)
+    spans: dict[str, tuple[int, int]] = {}
+    for index, start, end in segments:
+        info = result.phases[index]
+        spans[info.name] = (start, end)
+        w = slice(start, end)
+        zones = zones_of(info.constraints, result.regions)
+        if info.kind == "track":
+            timed = ended_by.get(info.name) in ("elapsed", "mission_time")
+            _, placed = track_samples(
+                result.t[w],
+                result.x[w],
+                result.y[w],
+                result.x_ref[w],
+                result.y_ref[w],
+                numbers,
+                zones,
+                timed,
+            )
+            if placed is not None:
+                line("cross_track", "cross-track error")[w] = placed.cross
+                line("along_track", "along-track lag")[w] = placed.lag
+                judged["cross-track error"][w] = placed.judged
+                judged["along-track lag"][w] = placed.judged
+                judged.setdefault("detour", np.zeros(n, dtype=bool))[w] = placed.detour
+            if {"tracking_error_max", "tracking_error_rms"} & metrics:
+                line("cross_track", "distance to the path")[w] = distance_to_path(
+                    result.x[w], result.y[w], result.x_ref[w], result.y_ref[w]
+                )
+                time = result.t[w] - result.t[start]
+                wait = settle.get(info.name.split("#", 1)[0], settle[""])
+                judged["distance to the path"][w] = time >= wait - 1e-9 * result.dt
+        if zones:
+            depth = np.max([zone.depth(result.x[w], result.y[w]) for zone in zones], axis=0)
+            line("zones", "depth into a zone")[w] = depth
+            judged["depth into a zone"][w] = True
+        if info.target is not None and info.kind == "regulate":
+            tx, ty = info.target[0], info.target[1]
+            line("goal", "distance to the target")[w] = np.hypot(result.x[w] - tx, result.y[w] - ty)
+        first = end if inputs_from is None else max(start, _sample(result, inputs_from))
+        if first + 1 < end and {"speed_jump_max", "turn_rate_jump_max"} & metrics:
+            for name, values in (("|Δv| [m/s]", result.v), ("|Δω| [rad/s]", result.omega)):
+                jumps = line("jumps", name)
+                jumps[first + 1 : end] = np.abs(np.diff(values[first:end]))
+                judged[name][first + 1 : end] = True
+        if first < end and "turn_rate_jitter" in metrics:
+            jitter = line("jitter", "ω - moving mean")
+            jitter[first:end] = input_metrics.jitter_deviation(result.omega[first:end], numbers)
+    if np.isfinite(result.constraint).any():
+        line("constraint", "constraint value")[:] = result.constraint
+        judged["constraint value"][:] = True
+    if "estimation" in _wanted_estimation(errors, numbers, metrics):
+        for state in STATES:
+            line("estimation", f"|{state}|")[:] = np.abs(errors[state])
+    for label, values, limit in (
+        ("|v| / limit", result.v, result.limits[0]),
+        ("|ω| / limit", result.omega, result.limits[1]),
+    ):
+        if math.isfinite(limit) and limit > 0:
+            line("saturation", label)[:] = np.abs(values) / limit
+    checks = [_placed(c, spans, n, lines, judged) for c in checked]
+    return Signals(lines, judged, checks)
+
+
+def _wanted_estimation(
+    errors: dict[str, FloatArray], numbers: MissionNumbers, metrics: set[str]
+) -> set[str]:
+    """The estimation panel is drawn when it is checked or its error is not nil
+    (a noise-free run's estimate equals the truth: nothing to show)."""
+    if metrics & {"estimation_rms", "estimation_convergence_time"}:
+        return {"estimation"}
+    largest = max(
+        float(np.nanmax(np.abs(e))) if np.isfinite(e).any() else 0.0 for e in errors.values()
+    )
+    return {"estimation"} if largest > 1e-9 else set()
+
+
+def _sample(result: RunResult, time: float) -> int:
+    return int(np.searchsorted(result.t, time - 1e-9 * result.dt))
+
+
+def _settle_times(mission: Mapping[str, Any] | None) -> dict[str, float]:
+    """Each phase's settle time by its name as written; ``""``: the mission's."""
+    expect = (mission or {}).get("expect") or {}
+    shared = expect.get("settle_time")
+    times = {"": models.DEFAULT_SETTLE_TIME if shared is None else float(shared)}
+    for name, own in phase_expectations(mission).items():
+        value = own.get("settle_time")
+        times[name] = times[""] if value is None else float(value)
+    return times
+
+
+def _placed(
+    check: Mapping[str, Any],
+    spans: Mapping[str, tuple[int, int]],
+    n: int,
+    lines: Mapping[str, Mapping[str, FloatArray]],
+    judged: Mapping[str, Mask],
+) -> Check:
+    metric, phase = str(check["metric"]), check.get("phase")
+    span = spans.get(str(phase), (0, n)) if phase is not None else (0, n)
+    value = check.get("value")
+    placed = Check(
+        metric,
+        None if phase is None else str(phase),
+        float(check["max"]),
+        None if value is None else float(value),
+        bool(check["met"]),
+        span,
+    )
+    if placed.met or metric not in PEAK:
+        return placed
+    panel, name = PEAK[metric]
+    values = lines.get(panel, {}).get(name)
+    if values is None:
+        return placed
+    start, end = span
+    if metric == "final_position_error":  # the last sample alone
+        start = max(end - 1, 0)
+    # a lag is signed (ahead or behind); a depth or constraint value < 0 is allowed
+    window = np.abs(values[start:end]) if metric == "along_track_lag_max" else values[start:end]
+    mask = judged.get(name)
+    looked = np.ones(end - start, dtype=bool) if mask is None else mask[start:end]
+    if metric == "detour_offset_max":
+        looked = judged.get("detour", np.zeros(n, dtype=bool))[start:end]
+    if metric == "final_position_error":
+        looked = np.ones(end - start, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        placed.over = np.flatnonzero(looked & (window > placed.bound)).astype(np.intp) + start
+    return placed
