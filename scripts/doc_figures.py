@@ -3,7 +3,7 @@
     python scripts/doc_figures.py              # keep-out and case2-headings (a minute or two)
     python scripts/doc_figures.py --run-only   # keep-out alone
 
-docs/images/keep-out-verdicts.png: `wmr-mission run missions/keep-out.yaml`'s
+docs/images/disturbed-verdicts.png: `wmr-mission run missions/disturbed.yaml`'s
 verdicts.png (the mission fails). docs/images/keep-out-xy-one-column.png:
 `wmr-mission plot RUN_DIR --style one-column`'s xy.png. docs/images/campaigns/
 case2-headings-{trajectories,metrics,success}.png: `wmr-mission sweep
@@ -33,9 +33,11 @@ def _wmr(*args: str) -> None:
 
 
 def run_figures(tmp: Path) -> None:
+    failing = tmp / "disturbed"
+    _wmr("run", "missions/disturbed.yaml", "--out", str(failing))
+    shutil.copy(failing / "verdicts.png", IMAGES / "disturbed-verdicts.png")
     run_dir = tmp / "keep-out"
     _wmr("run", "missions/keep-out.yaml", "--out", str(run_dir))
-    shutil.copy(run_dir / "verdicts.png", IMAGES / "keep-out-verdicts.png")
     _wmr("plot", str(run_dir), "--style", "one-column")
     shutil.copy(run_dir / "xy.png", IMAGES / "keep-out-xy-one-column.png")
 
