@@ -262,7 +262,9 @@ def test_short_mission_over_ros2_against_serve_robot(
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["backend"]["type"] == "ros2"
     assert manifest["backend"]["settings"]["cmd_vel"] == "cmd_vel"
-    assert count >= realtime["commands"] - 5  # reliable: all but what preceded matching
+    # reliable once matched: the commands published before the listener was
+    # discovered (up to a second on a busy machine) are all it may miss
+    assert count >= realtime["commands"] - round(1.0 / 0.01)
     assert (v, omega) == (0.0, 0.0)
     assert "zero command published on 'cmd_vel'" in stderr
 

@@ -39,11 +39,13 @@ def test_no_pdf_has_a_type_3_font(keep_out: RunResult, tmp_path: Path) -> None:
         assert "Type 3" not in fonts, path.name
 
 
-def test_svg_keeps_text_as_text(keep_out: RunResult, tmp_path: Path) -> None:
-    (path, *_) = draw_all(keep_out, tmp_path, ("svg",))
+def test_svg_keeps_text_as_text(tmp_path: Path) -> None:
+    disturbed = run_mission(load_mission(MISSIONS / "disturbed.yaml"))
+    assert disturbed.outcome.value == "expect-failed"  # the premise
+    (path, *_) = draw_all(disturbed, tmp_path, ("svg",))
     svg = path.read_text()
     assert "<text" in svg
-    assert "speed_jump_max" in svg  # the failure, searchable
+    assert "turn_rate_jump_max" in svg  # the failure, searchable
 
 
 def _text_only(path: Path) -> bool:
