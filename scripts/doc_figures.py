@@ -1,11 +1,13 @@
 """The figures of docs/run-directory.md and docs/campaigns.md, made as a user makes them.
 
-    python scripts/doc_figures.py              # keep-out and case2-headings (a minute or two)
-    python scripts/doc_figures.py --run-only   # keep-out alone
+    python scripts/doc_figures.py              # the runs' and case2-headings' (a minute or two)
+    python scripts/doc_figures.py --run-only   # the runs' figures alone
 
 docs/images/disturbed-verdicts.png: `wmr-mission run missions/disturbed.yaml`'s
 verdicts.png (the mission fails). docs/images/keep-out-xy-one-column.png:
-`wmr-mission plot RUN_DIR --style one-column`'s xy.png. docs/images/campaigns/
+`wmr-mission plot RUN_DIR --style one-column`'s xy.png.
+docs/images/patrol-detour-xy.png: `wmr-mission run missions/patrol-detour.yaml`'s
+xy.png, its reactions marked. docs/images/campaigns/
 case2-headings-{trajectories,metrics,success}.png: `wmr-mission sweep
 missions/campaigns/case2-headings.yaml`'s figures, and
 case2-headings-worst-FAILURE.png: the verdicts.png of the worst run of each
@@ -40,6 +42,9 @@ def run_figures(tmp: Path) -> None:
     _wmr("run", "missions/keep-out.yaml", "--out", str(run_dir))
     _wmr("plot", str(run_dir), "--style", "one-column")
     shutil.copy(run_dir / "xy.png", IMAGES / "keep-out-xy-one-column.png")
+    detoured = tmp / "patrol-detour"
+    _wmr("run", "missions/patrol-detour.yaml", "--out", str(detoured))
+    shutil.copy(detoured / "xy.png", IMAGES / "patrol-detour-xy.png")
 
 
 def campaign_figures(tmp: Path) -> None:
@@ -62,7 +67,7 @@ def campaign_figures(tmp: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--run-only", action="store_true", help="keep-out's figures alone")
+    parser.add_argument("--run-only", action="store_true", help="the runs' figures alone")
     arguments = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         run_figures(Path(tmp))

@@ -94,3 +94,24 @@ def test_a_campaign_reports_its_recovery_rate(tmp_path: Path) -> None:
     assert recovery["fired"] == {"detour": {"times": 2, "runs": 2}}
     assert recovery["success_without_recovery"]["count"] == 1
     assert recovery["success_after_recovery"]["count"] == record["succeeded"] - 1
+
+
+def test_the_shipped_patrol_campaign_recovers_from_every_breach(tmp_path: Path) -> None:
+    """A small version of missions/campaigns/patrol-detour-ponds.yaml (its 40
+    runs in docs/campaigns.md): ponds on the route are breached and detoured,
+    and each of those runs still succeeds."""
+    import yaml
+
+    root = Path(__file__).resolve().parents[1]
+    shipped = root / "missions" / "campaigns" / "patrol-detour-ponds.yaml"
+    campaign = yaml.safe_load(shipped.read_text(encoding="utf-8"))
+    campaign["mission"] = str(root / "missions" / "patrol-detour.yaml")
+    campaign["runs"] = 8
+    campaign["vary"]["regions.pond.radius"] = {"uniform": [0.8, 1.2]}  # all on the route
+    path = tmp_path / "ponds.yaml"
+    path.write_text(yaml.safe_dump(campaign), encoding="utf-8")
+    recovery = run_campaign(path, workers=1).summary["recovery"]
+    assert recovery["needed"] == 8
+    assert recovery["fired"] == {"detour": {"times": 8, "runs": 8}}
+    assert recovery["recovery_rate"]["count"] == 8
+    assert recovery["success_after_recovery"]["count"] == 8

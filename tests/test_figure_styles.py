@@ -66,3 +66,27 @@ def test_a_column_style_fits_its_column(keep_out: RunResult, tmp_path: Path, sty
         assert drawn <= width + 0.02, path.name
         if not _text_only(path):
             assert drawn == pytest.approx(width, abs=0.02), path.name
+
+
+def _made(directory: Path) -> Path:
+    directory.mkdir()
+    return directory
+
+
+def test_dpi_sets_the_pixels_of_a_png_and_keeps_its_size(
+    keep_out: RunResult, tmp_path: Path
+) -> None:
+    from wmr_mission.cli import DPI_RANGE as CLI_DPI_RANGE
+    from wmr_mission.output.figures import DPI_RANGE
+
+    assert CLI_DPI_RANGE == DPI_RANGE
+    for style in STYLES:
+        (default,) = draw_all(keep_out, _made(tmp_path / style), ("png",), style)[1:2]
+        (sharp,) = draw_all(keep_out, _made(tmp_path / f"{style}-300"), ("png",), style, 300)[1:2]
+        assert sharp.stem == default.stem == "xy"
+        with Image.open(default) as low, Image.open(sharp) as high:
+            # the same inches, to the 1 % the layout moves by when text is measured finer
+            assert high.size[0] / 300 == pytest.approx(low.size[0] / DPI, rel=0.015), style
+            assert high.size[1] / 300 == pytest.approx(low.size[1] / DPI, rel=0.015), style
+    with pytest.raises(ValueError, match="dpi 10: expected 50 to 1200"):
+        draw_all(keep_out, _made(tmp_path / "refused"), ("png",), dpi=10)

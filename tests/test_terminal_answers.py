@@ -1,11 +1,15 @@
 """The terminal's short answers: a mission given to `sweep` and a campaign given
-to `run` in one line; `sweep --runs` instead of the campaign's `runs`."""
+to `run` in one line; `sweep --runs` instead of the campaign's `runs`; `sweep
+--set` for a field of the mission in every run."""
 
 from __future__ import annotations
 
+import csv
 import json
+import shlex
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from wmr_mission.campaign.models import MAX_RUNS
@@ -64,3 +68,79 @@ def test_sweep_runs_replaces_the_campaigns_runs(tmp_path: Path) -> None:
     assert manifest["resolved_campaign"]["runs"] == 3  # the directory reads back as run
     assert len((out / "runs.csv").read_text().splitlines()) == 1 + 3
     assert MAX_SWEEP_RUNS == MAX_RUNS
+
+
+def _campaign(tmp_path: Path) -> Path:
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text(
+        f"version: 1\nname: c\nmission: {DATA / 'short.yaml'}\nruns: 2\nseed: 3\n"
+        "vary:\n  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n",
+        encoding="utf-8",
+    )
+    return campaign
+
+
+def test_sweep_set_sets_the_mission_of_every_run_and_its_replay(tmp_path: Path) -> None:
+    campaign, out = _campaign(tmp_path), tmp_path / "out"
+    code, _, err = _invoke(
+        "sweep", str(campaign), "--set", "robot.dt=0.01", "--workers", "1", "--no-plots",
+        "--out", str(out),
+    )  # fmt: skip
+    assert code in (0, 1), err
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["settings"] == ["--set robot.dt=0.01"]
+    record = json.loads((out / "campaign.json").read_text())
+    worst = record["worst"][0]
+    words = shlex.split(worst["replay"])
+    assert words[3:5] == ["--set", "robot.dt=0.01"]  # before the run's own values
+    # The replay reproduces the run's row: its samples are 0.01 s apart.
+    replayed = tmp_path / "replayed"
+    code, _, err = _invoke(*words[1:], "--no-plots", "--out", str(replayed))
+    assert code in (0, 1), err
+    with (replayed / "trajectory.csv").open() as stream:
+        rows_read = csv.DictReader(stream)
+        times = [float(next(rows_read)["t"]) for _ in range(2)]
+    assert times[1] - times[0] == pytest.approx(0.01, abs=1e-12)
+    with (out / "runs.csv").open() as stream:
+        rows = {row["run"]: row for row in csv.DictReader(stream)}
+    summary = json.loads((replayed / "summary.json").read_text())
+    assert (
+        float(rows[str(worst["run"])]["final_position_error"])
+        == (summary["final"]["position_error"])
+    )
+
+
+def test_sweep_set_refuses_a_varied_field_and_a_bad_value(tmp_path: Path) -> None:
+    campaign, out = _campaign(tmp_path), tmp_path / "out"
+    code, _, err = _invoke("sweep", str(campaign), "--set", "robot.initial_state.theta=1")
+    assert code == 1
+    assert err == (
+        "--set robot.initial_state.theta=1: the campaign varies 'robot.initial_state.theta', "
+        "which this sets for every run: set a field the campaign does not vary, or change its "
+        "vary\n"
+    )
+    code, _, err = _invoke("sweep", str(campaign), "--set", "robot.dt=-1", "--out", str(out))
+    assert code == 1
+    assert err.startswith("--set robot.dt=-1: robot.dt: should be greater than 0, got -1\n")
+    assert not out.exists()
+
+
+def test_run_campaign_overrides_set_the_mission_as_sweep_set_does(tmp_path: Path) -> None:
+    from wmr_mission import run_campaign
+
+    campaign = _campaign(tmp_path)
+    code, _, err = _invoke(
+        "sweep", str(campaign), "--set", "robot.dt=0.01", "--workers", "1", "--no-plots",
+        "--out", str(tmp_path / "cli"),
+    )  # fmt: skip
+    assert code in (0, 1), err
+    result = run_campaign(campaign, workers=1, overrides={"robot.dt": 0.01})
+    with (tmp_path / "cli" / "runs.csv").open() as stream:
+        expected = list(csv.DictReader(stream))
+    assert [str(row["final_position_error"]) for row in result.rows] == [
+        row["final_position_error"] for row in expected
+    ]
+    unset = run_campaign(campaign, workers=1)
+    assert [row["final_position_error"] for row in unset.rows] != [
+        row["final_position_error"] for row in result.rows
+    ]

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from wmr_mission.spec import loader
-from wmr_mission.spec.loader import MissionError, Override
+from wmr_mission.spec.loader import MissionError
 
 if TYPE_CHECKING:
     from wmr_mission.output.result import RunResult
@@ -31,31 +31,6 @@ __all__ = [
 ]
 
 
-def _overrides(overrides: Mapping[str, Any] | None) -> list[Override]:
-    """``{"robot.dt": 0.02}`` as overrides; a malformed path raises MissionError,
-    anything but a mapping of texts TypeError."""
-    if overrides is None:
-        return []
-    if not isinstance(overrides, Mapping):
-        raise TypeError(
-            "overrides is a mapping of dotted paths to values, e.g. {'robot.dt': 0.02}, "
-            f"got {type(overrides).__name__}"
-        )
-    parsed = []
-    for dotted, value in overrides.items():
-        if not isinstance(dotted, str):
-            raise TypeError(
-                f"overrides: a path is a text such as 'robot.dt' or 'phases[1].timeout', "
-                f"got {dotted!r}"
-            )
-        source = f"overrides[{dotted!r}]"
-        try:
-            parsed.append(Override(loader.parse_path(dotted), value, source))
-        except ValueError as error:
-            raise MissionError([loader.Diagnostic(source, 0, 0, str(error))]) from None
-    return parsed
-
-
 def load_mission(
     path: str | os.PathLike[str], overrides: Mapping[str, Any] | None = None
 ) -> Mission:
@@ -63,7 +38,7 @@ def load_mission(
 
     Raises :class:`MissionError` with every problem, as ``validate`` reports them.
     """
-    return loader.load_mission(os.fspath(path), _overrides(overrides))
+    return loader.load_mission(os.fspath(path), loader.overrides_of(overrides))
 
 
 def mission_from_text(
@@ -75,7 +50,7 @@ def mission_from_text(
             f"mission_from_text takes the YAML text as a str, got {type(text).__name__}"
             + (" (decode it, or give the file to load_mission)" if isinstance(text, bytes) else "")
         )
-    return loader.load_mission_text(text, filename, _overrides(overrides))
+    return loader.load_mission_text(text, filename, loader.overrides_of(overrides))
 
 
 def mission_from_dict(
@@ -87,7 +62,7 @@ def mission_from_dict(
             f"mission_from_dict takes a mapping (version, name, ..., phases), "
             f"got {type(data).__name__}"
         )
-    return loader.load_mission_data(dict(data), "<dict>", _overrides(overrides))
+    return loader.load_mission_data(dict(data), "<dict>", loader.overrides_of(overrides))
 
 
 def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:

@@ -60,6 +60,8 @@ MAX_REPEAT = 100
 # `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
 # written here so that `--help` loads no model.
 MAX_SWEEP_RUNS = 10_000_000
+# `plot --dpi`: wmr_mission.output.figures.DPI_RANGE, written here for the same reason.
+DPI_RANGE = (50, 1200)
 
 
 def _version(value: bool) -> None:
@@ -264,6 +266,15 @@ def sweep(
             help="Runs per grid cell, instead of the campaign's `runs`.",
         ),
     ] = None,
+    set_: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--set",
+            metavar="PATH=VALUE",
+            help="Set a field of the campaign's mission for every run, as run --set does "
+            "(--set robot.dt=0.02); repeatable; carried into each replay command.",
+        ),
+    ] = None,
     no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
     allow_mixed_cluster: Annotated[
         bool,
@@ -287,6 +298,7 @@ def sweep(
             plots=not no_plots,
             allow_mixed_cluster=allow_mixed_cluster,
             runs=runs,
+            settings=set_ or (),
         )
     )
 
@@ -346,11 +358,21 @@ def plot(
             help="Figure size: screen, one-column (3.5 in) or two-column (7.16 in).",
         ),
     ] = FigureStyle.screen,
+    dpi: Annotated[
+        int | None,
+        typer.Option(
+            "--dpi",
+            metavar="N",
+            min=DPI_RANGE[0],
+            max=DPI_RANGE[1],
+            help="Pixels per inch of a PNG (default: 120); 300 for print.",
+        ),
+    ] = None,
 ) -> None:
     """Re-draw the figures of RUN_DIR from its saved data."""
     from wmr_mission.commands.plot import replot_command
 
-    raise typer.Exit(replot_command(run_dir, _formats(format), style.value))
+    raise typer.Exit(replot_command(run_dir, _formats(format), style.value, dpi))
 
 
 OutputDirectory = Annotated[

@@ -32,6 +32,7 @@ from wmr_mission.spec.loader import (
     check_mission_text,
     decode_source,
     diagnostic,
+    dotted_path,
     internal_error,
     parse_path,
     read_document,
@@ -69,6 +70,7 @@ class LoadedCampaign:
         *,
         campaign_sha256: str,
         mission_sha256: str,
+        settings: Sequence[Override] = (),
     ):
         self.campaign = campaign
         self.path = path
@@ -80,7 +82,20 @@ class LoadedCampaign:
         document, findings = read_document(mission_text)
         if document is None or findings:
             raise ValueError(f"{mission_path}: not a checked mission")
+        # `sweep --set`: set once in the mission every run starts from, and
+        # named in each run's messages and replay command as the user wrote it.
+        self.settings = tuple(settings)
+        for setting in self.settings:
+            if apply_override(document, setting) is not None:
+                raise ValueError(f"{setting.source}: not a checked setting")
         self.mission_document = document
+
+    def replay_settings(self) -> list[str]:
+        """The ``--set PATH=VALUE`` words that set :attr:`settings` in a replay."""
+        words = []
+        for setting in self.settings:
+            words += ["--set", f"{dotted_path(setting.path)}={value_text(setting.value)}"]
+        return words
 
     def mission_with(
         self, overrides: Sequence[Override]
@@ -183,8 +198,13 @@ def check_file(path: Path) -> list[Diagnostic]:
     return check_mission_text(text, str(path))[1]
 
 
-def check_campaign(path: str | Path) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
-    """Every problem of a campaign file, and the campaign if it has no error."""
+def check_campaign(
+    path: str | Path, settings: Sequence[Override] = ()
+) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
+    """Every problem of a campaign file, and the campaign if it has no error.
+
+    ``settings``: fields set in the campaign's mission for every run, as
+    ``sweep --set`` sets them; each is checked as ``run --set`` checks it."""
     path = Path(path)
     raw, diagnostics = read_source(path)
     if raw is None:
@@ -192,12 +212,12 @@ def check_campaign(path: str | Path) -> tuple[LoadedCampaign | None, list[Diagno
     text, diagnostics = decode_source(raw, str(path))
     if text is None:
         return None, diagnostics
-    return _check(path, raw, text)
+    return _check(path, raw, text, settings=settings)
 
 
-def load_campaign(path: str | Path) -> LoadedCampaign:
+def load_campaign(path: str | Path, settings: Sequence[Override] = ()) -> LoadedCampaign:
     """The campaign of a file; raises :class:`MissionError` with every error."""
-    loaded, diagnostics = check_campaign(path)
+    loaded, diagnostics = check_campaign(path, settings)
     if loaded is None:
         raise MissionError([d for d in diagnostics if d.severity == "error"])
     return loaded
@@ -208,6 +228,7 @@ def _check(
     raw: bytes,
     text: str,
     read: tuple[Document | None, list[Finding]] | None = None,
+    settings: Sequence[Override] = (),
 ) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
     filename = str(path)
     if len(raw) > MAX_CAMPAIGN_BYTES:
@@ -239,7 +260,9 @@ def _check(
         if campaign is None or diagnostics:
             return None, _sorted(diagnostics)
         campaign_sha256 = hashlib.sha256(raw).hexdigest()
-        loaded, more = _check_against_mission(path, campaign, document.keys, campaign_sha256)
+        loaded, more = _check_against_mission(
+            path, campaign, document.keys, campaign_sha256, settings
+        )
         return loaded, _sorted(more)
     except Exception as error:  # last resort: bad input must never show a traceback
         return None, [internal_error(filename, error)]
@@ -264,6 +287,7 @@ def _check_against_mission(
     campaign: Campaign,
     keys: dict[tuple[str | int, ...], tuple[int, int]],
     campaign_sha256: str,
+    settings: Sequence[Override],
 ) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
     filename = str(path)
 
@@ -287,7 +311,7 @@ def _check_against_mission(
     raw, mission_diagnostics = read_source(mission_path)
     mission = None
     if raw is not None:
-        mission, mission_diagnostics = check_mission_bytes(raw, str(mission_path))
+        mission, mission_diagnostics = check_mission_bytes(raw, str(mission_path), settings)
     if mission is None or raw is None:
         errors = sum(d.severity == "error" for d in mission_diagnostics)
         count = f"{errors} error{'s' if errors != 1 else ''}"
@@ -302,7 +326,11 @@ def _check_against_mission(
         raw.decode("utf-8"),
         campaign_sha256=campaign_sha256,
         mission_sha256=hashlib.sha256(raw).hexdigest(),
+        settings=settings,
     )
+    conflicts = _set_and_varied(settings, list(campaign.vary), loaded.mission_document.data)
+    if conflicts:
+        return None, conflicts
     problems = [
         at(("vary", name), problem)
         for name, axis in campaign.vary.items()
@@ -315,6 +343,29 @@ def _check_against_mission(
     if problems:
         return None, problems
     return loaded, []
+
+
+def _set_and_varied(
+    settings: Sequence[Override], varied: list[str], mission: Any
+) -> list[Diagnostic]:
+    """A ``--set`` field that the campaign also varies (or that holds or lies in
+    a varied one): every run would write its own value over the setting."""
+    found = []
+    for setting in settings:
+        for name in varied:
+            try:
+                path = resolved_path(mission, parse_path(name))
+                set_path = resolved_path(mission, setting.path)
+            except ValueError:  # said by the axis's own check
+                continue
+            shorter = min(len(path), len(set_path))
+            if path[:shorter] == set_path[:shorter]:
+                message = (
+                    f"the campaign varies {name!r}, which this sets for every run: "
+                    "set a field the campaign does not vary, or change its vary"
+                )
+                found.append(Diagnostic(setting.source, 0, 0, message))
+    return found
 
 
 def _overlaps(names: list[str], mission: Any) -> list[tuple[str, str]]:

@@ -197,7 +197,7 @@ def replay_command(loaded: LoadedCampaign, draw: Draw) -> str:
     (in an environment of the same fingerprint: ``run`` warns in another)."""
     from wmr_mission.output.environment import own_fingerprint
 
-    words = ["wmr-mission", "run", str(loaded.mission_path)]
+    words = ["wmr-mission", "run", str(loaded.mission_path), *loaded.replay_settings()]
     for path, value in draw.values.items():
         words += ["--set", f"{path}={value_text(value)}"]
     words += ["--seed", str(draw.seed), "--expect-environment", own_fingerprint()]

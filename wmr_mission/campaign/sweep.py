@@ -21,6 +21,7 @@ import math
 import os
 import sys
 import time
+from collections.abc import Mapping, Sequence
 from contextlib import closing
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -59,6 +60,7 @@ from wmr_mission.output.rundir import (
     write_run,
 )
 from wmr_mission.spec.checks import importing_entries
+from wmr_mission.spec.loader import overrides_of, overrides_of_texts
 from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
@@ -634,6 +636,7 @@ def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None
         "mission_file": str(loaded.mission_path),
         "mission_sha256": loaded.mission_sha256,
         "resolved_campaign": loaded.campaign.model_dump(mode="json"),
+        "settings": [setting.source for setting in loaded.settings],
         "versions": package_versions(),
         "environment": environment(),
         "loop": loop_build(),
@@ -650,6 +653,7 @@ def run_campaign(
     scheduler: str | None = None,
     plots: bool = False,
     allow_mixed_cluster: bool = False,
+    overrides: Mapping[str, Any] | None = None,
 ) -> CampaignResult:
     """Run a campaign file; return its rows and its aggregate (the content of campaign.json).
 
@@ -657,7 +661,9 @@ def run_campaign(
     manifest.json, worst/, figures when ``plots``). ``workers`` defaults to
     every core, and is at most that; ``scheduler`` is the address of a Dask
     scheduler, refused when its workers differ from this process in what
-    decides the bytes unless ``allow_mixed_cluster``. Raises ``MissionError``
+    decides the bytes unless ``allow_mixed_cluster``. ``overrides`` (dotted
+    path -> value) sets fields of the campaign's mission for every run, as
+    ``sweep --set`` does. Raises ``MissionError``
     (with every problem and its position) for an invalid file, TypeError or
     ValueError for a bad argument,
     ``SchedulerUnavailable`` (a RuntimeError) when no Dask scheduler answers at
@@ -667,8 +673,9 @@ def run_campaign(
     if scheduler is not None and not isinstance(scheduler, str):
         raise TypeError(f"scheduler is an address such as 'tcp://host:8786', got {scheduler!r}")
     used = usable_workers(workers)
+    settings = overrides_of(overrides)
     with importing_entries():  # a campaign's runs import the mission's plug-ins
-        loaded = load_campaign(campaign)
+        loaded = load_campaign(campaign, settings)
     if scheduler is not None:
         reach_scheduler(scheduler)
     out_dir, manifest = (
@@ -702,8 +709,10 @@ def sweep_command(
     plots: bool,
     allow_mixed_cluster: bool = False,
     runs: int | None = None,
+    settings: Sequence[str] = (),
 ) -> int:
-    """``runs``: runs per grid cell, instead of the campaign's.
+    """``runs``: runs per grid cell, instead of the campaign's; ``settings``:
+    ``PATH=VALUE`` texts of ``--set``, fields of the mission set for every run.
 
     Exit code: 0 the campaign ran and its expect holds; 1 invalid, expect not
     met or a worker lost; 2 unusable output directory or scheduler (or a mixed
@@ -712,7 +721,15 @@ def sweep_command(
     with StopSignals(STOP_SIGNALS) as stop:
         try:
             return _sweep(
-                campaign_path, out, workers, scheduler, plots, stop, allow_mixed_cluster, runs
+                campaign_path,
+                out,
+                workers,
+                scheduler,
+                plots,
+                stop,
+                allow_mixed_cluster,
+                runs,
+                settings,
             )
         except KeyboardInterrupt:
             print(
@@ -741,8 +758,14 @@ def _sweep(
     stop: StopSignals,
     allow_mixed_cluster: bool,
     runs: int | None = None,
+    setting_texts: Sequence[str] = (),
 ) -> int:
-    loaded, diagnostics = check_campaign(campaign_path)
+    settings, problems = overrides_of_texts(setting_texts)
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    if problems:
+        return EXIT_FAILED
+    loaded, diagnostics = check_campaign(campaign_path, settings)
     if loaded is None and _is_mission(campaign_path):
         print(
             f"{campaign_path}: this is a mission: run it with `wmr-mission run {campaign_path}`",

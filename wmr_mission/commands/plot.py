@@ -10,16 +10,22 @@ from wmr_mission.output.figures import draw_all
 from wmr_mission.output.reader import RunDirError, load_run
 
 
-def replot_command(run_dir: Path, formats: Sequence[str] = ("png",), style: str = "screen") -> int:
+def replot_command(
+    run_dir: Path,
+    formats: Sequence[str] = ("png",),
+    style: str = "screen",
+    dpi: int | None = None,
+) -> int:
     """``wmr-mission plot RUN_DIR``: re-draw the figures from the saved data,
-    sized by ``style`` (wmr_mission.output.figures.STYLES)."""
+    sized by ``style`` (wmr_mission.output.figures.STYLES), PNGs at ``dpi``
+    (default: wmr_mission.output.figures.DPI)."""
     try:
         result = load_run(run_dir)
     except (RunDirError, OSError) as exc:
         print(f"{run_dir}: {exc}", file=sys.stderr)
         return 1
     try:
-        paths = draw_all(result, run_dir, formats, style)
+        paths = draw_all(result, run_dir, formats, style, dpi)
     except OSError as exc:
         print(f"{run_dir}: {exc}", file=sys.stderr)
         return 1

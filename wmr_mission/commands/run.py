@@ -35,14 +35,9 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 def _overrides(texts: Sequence[str]) -> list[Override] | None:
     """Each ``--set PATH=VALUE``; None (the problems printed) when one is malformed."""
-    from wmr_mission.spec.loader import MissionError, parse_override
+    from wmr_mission.spec.loader import overrides_of_texts
 
-    parsed, problems = [], []
-    for text in texts:
-        try:
-            parsed.append(parse_override(text))
-        except MissionError as error:
-            problems += error.diagnostics
+    parsed, problems = overrides_of_texts(texts)
     for problem in problems:
         print(problem, file=sys.stderr)
     return None if problems else parsed

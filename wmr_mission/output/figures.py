@@ -87,12 +87,17 @@ class Style:
     line_scale: float = 1.0
 
 
-# One and two columns of a two-column journal (IEEE: 3.5 in and 7.16 in).
+# One and two columns of a two-column journal (IEEE: 3.5 in and 7.16 in). A
+# PNG at another dpi (`plot --dpi 300`) has its text measured, and the axes
+# laid out round it, at that resolution: the width moves by about 1 %.
 STYLES: dict[str, Style] = {
     "screen": Style(None),
     "one-column": Style(3.5, font_scale=0.75, line_scale=0.6),
     "two-column": Style(7.16, font_scale=0.9, line_scale=0.8),
 }
+# The range `plot --dpi` takes: below it text is unreadable, above it a
+# screen-sized figure is hundreds of megapixels.
+DPI_RANGE = (50, 1200)
 # The verdicts first: a failing run's figures open on its failure.
 FIGURE_NAMES = ("verdicts", "xy", "states", "estimation_error", "inputs")
 # The reference is drawn over the path, thin and dark, so a well-tracked path
@@ -191,9 +196,10 @@ def names_as_typed(drawn: Artist) -> None:
             names_as_typed(child)
 
 
-def save_figure(fig: Figure, path: Path) -> Path:
+def save_figure(fig: Figure, path: Path, dpi: int = DPI) -> Path:
     """Write ``fig`` in the format its suffix names, cropped to what is drawn
-    with a margin of PAD inches, through a temporary file."""
+    with a margin of PAD inches, through a temporary file; ``dpi`` sets a
+    PNG's pixels (and the resolution of what a PDF or SVG rasterizes)."""
     from matplotlib import rc_context
 
     options: dict[str, Any] = {"pil_kwargs": PNG_OPTIONS} if path.suffix == ".png" else {}
@@ -202,7 +208,7 @@ def save_figure(fig: Figure, path: Path) -> Path:
     settings: dict[Any, Any] = {"agg.path.chunksize": LINE_PIECE, **FONT_RC}
     with atomic_path(path) as tmp, rc_context(settings):
         fig.savefig(
-            tmp, format=path.suffix[1:], dpi=DPI, bbox_inches="tight", pad_inches=PAD, **options
+            tmp, format=path.suffix[1:], dpi=dpi, bbox_inches="tight", pad_inches=PAD, **options
         )
     return path
 
@@ -1398,20 +1404,27 @@ def draw_all(
     out_dir: Path,
     formats: Sequence[str] = ("png",),
     style: str = "screen",
+    dpi: int | None = None,
 ) -> list[Path]:
     """Write the figures (FIGURE_NAMES) into ``out_dir`` in each format, sized
-    by ``style`` (one of STYLES); return their paths."""
+    by ``style`` (one of STYLES), at ``dpi`` (default: DPI); return their paths."""
     directory = Path(out_dir)
     unknown = [f for f in formats if f not in FIGURE_FORMATS]
     if unknown:
         raise ValueError(f"unknown figure format {unknown[0]!r}; expected one of png, svg, pdf")
     if style not in STYLES:
         raise ValueError(f"unknown style {style!r}; expected one of {', '.join(STYLES)}")
+    if dpi is not None and not DPI_RANGE[0] <= dpi <= DPI_RANGE[1]:
+        raise ValueError(f"dpi {dpi}: expected {DPI_RANGE[0]} to {DPI_RANGE[1]}")
     # verdicts.png explains a run on a screen: its panels and their words need
     # the room; the style sizes the others, the paper's figures.
     styled = {name: STYLES["screen" if name == "verdicts" else style] for name in FIGURE_NAMES}
     return [
-        save_figure(restyle(_figure(result, name), styled[name]), directory / f"{name}.{fmt}")
+        save_figure(
+            restyle(_figure(result, name), styled[name]),
+            directory / f"{name}.{fmt}",
+            dpi or DPI,
+        )
         for fmt in formats
         for name in FIGURE_NAMES
     ]

@@ -17,7 +17,7 @@ import os
 import re
 import stat
 import typing
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any, Final, Literal
@@ -46,10 +46,13 @@ __all__ = [
     "check_mission_data",
     "check_mission_document",
     "check_mission_text",
+    "dotted_path",
     "internal_error",
     "load_mission",
     "load_mission_data",
     "load_mission_text",
+    "overrides_of",
+    "overrides_of_texts",
     "parse_override",
     "read_source",
     "resolved_path",
@@ -470,7 +473,8 @@ def read_document(text: str) -> tuple[Document | None, list[Finding]]:
 # --- pydantic errors to messages ---------------------------------------------
 
 
-def _dotted(path: DataPath) -> str:
+def dotted_path(path: DataPath) -> str:
+    """A data path as the text that names it: ``phases[1].timeout``."""
     text = ""
     for part in path:
         text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
@@ -629,7 +633,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     loc: tuple[str | int, ...] = error["loc"]
     data = document.data
     path = written_path(loc, data)
-    where = _dotted(path)
+    where = dotted_path(path)
     context = error.get("ctx") or {}
     value = error.get("input")
 
@@ -637,7 +641,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         key = str(loc[-1])
         owner = _model_at(path[:-1], data, root)
         allowed = list(owner.model_fields) if owner is not None else []
-        parent = _dotted(path[:-1])
+        parent = dotted_path(path[:-1])
         if key in ACTIONS and owner is not None and any(a in owner.model_fields for a in ACTIONS):
             return Finding(
                 path,
@@ -838,7 +842,7 @@ def diagnostic(filename: str, document: Document | None, finding: Finding) -> Di
     else:
         line, column = document.position(finding.path, at_key=finding.at_key)
     message = finding.message
-    where = _dotted(finding.path)
+    where = dotted_path(finding.path)
     if line == 0 and finding.path and not message.startswith(where):
         message = f"{where}: {message}"  # no position to point at: name the field
     return Diagnostic(filename, line, column, message, finding.severity)
@@ -1135,6 +1139,43 @@ def parse_override(text: str) -> Override:
     return Override(path, document, source)
 
 
+def overrides_of(overrides: Mapping[str, Any] | None) -> list[Override]:
+    """``{"robot.dt": 0.02}`` (the Python API's ``overrides``) as overrides; a
+    malformed path raises MissionError, anything but a mapping of texts TypeError."""
+    if overrides is None:
+        return []
+    if not isinstance(overrides, Mapping):
+        raise TypeError(
+            "overrides is a mapping of dotted paths to values, e.g. {'robot.dt': 0.02}, "
+            f"got {type(overrides).__name__}"
+        )
+    parsed = []
+    for dotted, value in overrides.items():
+        if not isinstance(dotted, str):
+            raise TypeError(
+                f"overrides: a path is a text such as 'robot.dt' or 'phases[1].timeout', "
+                f"got {dotted!r}"
+            )
+        source = f"overrides[{dotted!r}]"
+        try:
+            parsed.append(Override(parse_path(dotted), value, source))
+        except ValueError as error:
+            raise MissionError([Diagnostic(source, 0, 0, str(error))]) from None
+    return parsed
+
+
+def overrides_of_texts(texts: Sequence[str]) -> tuple[list[Override], list[Diagnostic]]:
+    """Each ``--set PATH=VALUE`` text as an override, and what is wrong with the
+    malformed ones."""
+    parsed, problems = [], []
+    for text in texts:
+        try:
+            parsed.append(parse_override(text))
+        except MissionError as error:
+            problems += error.diagnostics
+    return parsed, problems
+
+
 def read_value(text: str) -> tuple[Any, list[Finding]]:
     """One YAML value (``0.5``, ``[1, 1, 2]``, ``{x: 1}``, ``text``), read as in a file."""
     if not text.strip():
@@ -1210,7 +1251,7 @@ def resolved_path(data: Any, path: DataPath) -> DataPath:
 
 
 def _where(resolved: list[str | int]) -> str:
-    return _dotted(tuple(resolved)) if resolved else "the mission"
+    return dotted_path(tuple(resolved)) if resolved else "the mission"
 
 
 def _list_index(items: list[Any], part: str | int) -> int | None:
