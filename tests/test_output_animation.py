@@ -51,3 +51,21 @@ def test_write_run_animates_on_request(tmp_path: Path) -> None:
     with Image.open(tmp_path / "animation.gif") as gif:
         assert isinstance(gif, GifImagePlugin.GifImageFile)
         assert gif.n_frames == 120
+
+
+def test_the_gif_is_800_pixels_wide_and_as_high_as_its_scene() -> None:
+    from wmr_mission.output.animation import HEIGHTS, WIDTH, animation_size
+
+    wide = animation_size((-6.0, 6.0, -3.5, 3.5))
+    square = animation_size((-1.0, 1.0, -1.0, 1.0))
+    assert wide[0] == square[0] == WIDTH == 8.0  # 800 pixels at 100 dpi
+    assert HEIGHTS[0] <= wide[1] < square[1] <= HEIGHTS[1]
+    assert animation_size((0.0, 100.0, 0.0, 1.0))[1] == HEIGHTS[0]  # a strip: no thinner
+    assert animation_size((0.0, 1.0, 0.0, 100.0))[1] == HEIGHTS[1]  # a mast: no taller
+
+
+def test_a_written_gif_has_that_size(tmp_path: Path) -> None:
+    path = write_animation(circle_run(), tmp_path / "animation.gif", max_frames=3)
+    with Image.open(path) as gif:
+        assert gif.size[0] == 800
+        assert 350 <= gif.size[1] <= 800

@@ -154,3 +154,31 @@ def test_estimation_titles_need_no_room_from_the_exponents_beside_them() -> None
         title = ax.title.get_window_extent(renderer)
         assert not title.overlaps(exponent.get_window_extent(renderer))
         assert title.y0 >= ax.get_window_extent(renderer).y1
+
+
+@pytest.mark.parametrize("name", ["keep-out", "patrol-detour", "case1"])
+def test_phase_labels_on_time_plots_never_overlap(name: str) -> None:
+    """Each phase's number (and name where it fits) above the time plots: a
+    label is pushed past its neighbour's or left out, never drawn over it."""
+    import re
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from wmr_mission import load_mission, run_mission
+    from wmr_mission.output.figures import plot_inputs, plot_states
+
+    result = run_mission(
+        load_mission(Path(__file__).resolve().parents[1] / "missions" / f"{name}.yaml")
+    )
+    for figure in (plot_states(result), plot_inputs(result)):
+        renderer = FigureCanvasAgg(figure).get_renderer()
+        labels = [
+            text.get_window_extent(renderer)
+            for ax in figure.axes
+            for text in ax.texts
+            if re.fullmatch(r"\d+( \S+)?", text.get_text())
+        ]
+        assert len(labels) >= 2, name
+        for i, first in enumerate(labels):
+            for second in labels[i + 1 :]:
+                assert not first.overlaps(second), (name, first, second)

@@ -24,7 +24,12 @@ if TYPE_CHECKING:
 
 MAX_FRAMES = 200
 FPS = 20
-_DPI = 80
+_DPI = 100
+# 800 pixels wide; the height follows the scene [in].
+WIDTH = 8.0
+HEIGHTS = (3.5, 8.0)
+_AXES_SHARE = 0.7  # of the width: the axes, less the legend's room at the right
+_TITLE_AND_LABELS = 1.1  # [in] above and below the axes
 # Points of the drawn path: plenty at the animation's size, and cheap to redraw each frame.
 TRAIL_POINTS = 4000
 # Length of the robot's arrow, as a fraction of the scene's extent.
@@ -42,6 +47,14 @@ def frame_samples(samples: int, max_frames: int = MAX_FRAMES) -> np.ndarray:
 def glyph_size(view: tuple[float, float, float, float]) -> float:
     """Length of the robot's arrow [m]: a fixed share of the scene, whatever its scale."""
     return GLYPH_SIZE * max(view[1] - view[0], view[3] - view[2])
+
+
+def animation_size(view: tuple[float, float, float, float]) -> tuple[float, float]:
+    """The GIF's size [in], WIDTH wide and as high as the scene's shape needs
+    beside its legend and under its title (within HEIGHTS): no blank bands."""
+    aspect = (view[3] - view[2]) / max(view[1] - view[0], 1e-12)
+    height = WIDTH * _AXES_SHARE * aspect + _TITLE_AND_LABELS
+    return WIDTH, min(max(height, HEIGHTS[0]), HEIGHTS[1])
 
 
 def robot_outline(x: float, y: float, theta: float, size: float) -> FloatArray:
@@ -70,10 +83,10 @@ def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAM
     if samples.size == 0:
         raise ValueError("a run without samples cannot be animated")
     # Its own Agg canvas: no pyplot, so a notebook's backend is never touched.
-    fig = Figure(figsize=(6.4, 4.8), dpi=_DPI)
+    view = view_box(result)
+    fig = Figure(figsize=animation_size(view), dpi=_DPI)
     canvas: Any = FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    view = view_box(result)
     draw_regions(ax, result.regions, view, region_sides(result))
     path_points = thin(0, result.samples, TRAIL_POINTS)
     ax.plot(

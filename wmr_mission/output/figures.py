@@ -828,9 +828,13 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     """Left: the start, at full scale; right: the whole run, at the scale of the bounds.
 
     Eq. (4) bounds the output error, measurement - estimate, so the bounds are
-    drawn with that; true - estimate, the estimation error, is drawn beside it.
+    drawn with that; true - estimate, the estimation error, is drawn beside it,
+    inside the EKF's +-3 std where the estimator is the EKF.
     """
+    from wmr_mission.output.covariance import ekf_std
+
     window = _start_window(result)
+    spread = ekf_std(result)
     early = thin(0, int(np.searchsorted(result.t, result.t[0] + window, side="right")))
     every = thin(0, result.samples)
     for row, (state, bounds) in enumerate(zip(STATES, result.error_bounds, strict=True)):
@@ -861,7 +865,14 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
                 linewidth=1.0,
                 linestyle=(0, (3, 2)),
                 label="true - estimate",
+                zorder=3,
             )
+            if spread is not None:
+                band = 3.0 * spread[k, row]
+                ax.fill_between(
+                    result.t[k], -band, band, color="tab:orange", alpha=0.3, linewidth=0,
+                    label="EKF +-3 std (its covariance)", zorder=2.5,
+                )  # fmt: skip  # over the measurement's noise, under true - estimate
             for i, bound in enumerate(bounds):
                 if math.isfinite(bound):
                     ax.axhline(
@@ -876,6 +887,8 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
         # The whole run at the scale of the bounds and of the error after the start.
         late = every[result.t[every] > result.t[0] + window]
         reach = [abs(b) for b in bounds if math.isfinite(b)]
+        if spread is not None and np.isfinite(spread[late, row]).any():
+            reach.append(3.0 * float(np.nanmax(spread[late, row])))
         for tail in _errors_at(result, state, late):
             tail = tail[np.isfinite(tail)]
             if tail.size:
@@ -918,13 +931,15 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     axes[-2].set_xlabel("t [s]")
     axes[-1].set_xlabel("t [s]")
     _mark_phases([axes[1], axes[3], axes[5]], result, phase_colors(result))
-    # eq. (4) bounds only the constrained observer's output error; no other
-    # estimator has such bounds (an EKF's covariance is not recorded).
-    fig.suptitle(
-        f"{result.mission_name}: estimation error; eq. (4) bounds measurement - estimate"
-        if bounded
-        else f"{result.mission_name}: estimation error (no bounds: the estimator has none)"
-    )
+    # eq. (4) bounds only the constrained observer's output error; the EKF has
+    # its covariance instead; other estimators have neither.
+    if bounded:
+        title = "estimation error; eq. (4) bounds measurement - estimate"
+    elif spread is not None:
+        title = "estimation error; shaded: the EKF's +-3 std of true - estimate"
+    else:
+        title = "estimation error (no bounds: the estimator has none)"
+    fig.suptitle(f"{result.mission_name}: {title}")
     names_as_typed(fig)
 
 

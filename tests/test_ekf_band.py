@@ -1,0 +1,62 @@
+"""The EKF's +-3 std band of the estimation figure: its covariance replayed
+from the run's columns (wmr_mission/output/covariance.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from wmr_mission import load_mission, run_mission
+from wmr_mission.output.covariance import ekf_std
+from wmr_mission.output.figures import plot_estimation_error
+from wmr_mission.output.result import RunResult
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def noisy_ekf() -> RunResult:
+    return run_mission(load_mission(ROOT / "missions" / "noisy-ekf.yaml"))
+
+
+def test_the_replay_follows_the_whole_run_and_settles_at_the_riccati_solution(
+    noisy_ekf: RunResult,
+) -> None:
+    std = ekf_std(noisy_ekf)
+    assert std is not None
+    assert std.shape == (noisy_ekf.samples, 3)
+    assert np.isfinite(std).all()  # the replayed estimate is the recorded one throughout
+    np.testing.assert_allclose(std[0], [0.5, 0.5, 0.3])  # the mission's initial_std
+    # At rest (the `stop` phase: v ~ 0, so A ~ I) the filter's covariance is the
+    # steady state of the discrete Riccati equation: X the prediction's, P the update's.
+    q = np.diag([0.002, 0.002, 0.002]) ** 2
+    r = np.diag([0.02, 0.02, 0.02]) ** 2
+    x = scipy.linalg.solve_discrete_are(np.eye(3), np.eye(3), q, r)
+    p = x - x @ np.linalg.solve(x + r, x)
+    np.testing.assert_allclose(std[-1], np.sqrt(np.diag(p)), rtol=1e-6)
+    # and it is an honest band: the true error stays inside 3 std after the start
+    error = np.abs(np.column_stack([noisy_ekf.x - noisy_ekf.x_est, noisy_ekf.y - noisy_ekf.y_est]))
+    assert (error[1:] < 3.0 * std[1:, :2]).mean() > 0.99
+
+
+def test_the_band_stops_where_the_record_is_another_run(noisy_ekf: RunResult) -> None:
+    x_est = noisy_ekf.x_est.copy()
+    x_est[1000] += 0.01  # an estimate the filter did not make
+    std = ekf_std(dataclasses.replace(noisy_ekf, x_est=x_est))
+    assert std is not None
+    assert np.isfinite(std[:1000]).all()
+    assert np.isnan(std[1000:]).all()
+
+
+def test_only_the_ekf_has_a_band_and_the_figure_draws_it(noisy_ekf: RunResult) -> None:
+    observer = run_mission(load_mission(ROOT / "missions" / "noisy-observer.yaml"))
+    assert ekf_std(observer) is None
+    figure = plot_estimation_error(noisy_ekf)
+    labels = {h.get_label() for ax in figure.axes for h in ax.collections}
+    assert "EKF +-3 std (its covariance)" in labels
+    assert "+-3 std" in figure.get_suptitle()
+    assert "+-3 std" not in plot_estimation_error(observer).get_suptitle()
