@@ -377,8 +377,14 @@ def test_an_exception_in_the_run_sends_zero_first(tmp_path: Path, ros_env: dict[
             env=ros_env, capture_output=True, text=True, timeout=120,
         )  # fmt: skip
         count, v, omega = last_heard(heard)
-    assert done.returncode != 0, done.stderr
-    assert "the odometry driver broke" in done.stderr
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    assert "the plant side failed at sample 99" in done.stderr
+    assert "RuntimeError: the odometry driver broke" in done.stderr
     assert "zero command published on 'cmd_vel'" in done.stderr
     assert count >= 99  # the commands before the fault, then the zero
     assert (v, omega) == (0.0, 0.0)
+    # the samples before the fault are kept, judged like any run's
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "failed"
+    assert len((out / "trajectory.csv").read_text().splitlines()) == 1 + 99

@@ -708,3 +708,27 @@ def test_too_little_free_space_is_said_before_simulating(
     assert run_command(path, out=out, seed=None, plots=False, animate=False) == 0
     stderr = capsys.readouterr().err
     assert f"{out}: warning: 1 MB free; this run may write up to 4.01 MB" in stderr
+
+
+def test_a_fault_inside_the_loop_ends_the_run_failed_and_keeps_its_samples() -> None:
+    """An exception out of the loop's own code (a bug) is no traceback: the run
+    ends `failed`, naming the sample, and the samples before it are kept."""
+    from wmr_mission import load_mission
+    from wmr_mission.controllers import paper
+    from wmr_mission.sim.runner import run_mission
+
+    calls = [0]
+
+    def failing(*arguments: Any) -> Any:
+        calls[0] += 1
+        if calls[0] == 300:
+            raise ZeroDivisionError("a fault of our own")
+        return paper.track_input(*arguments)
+
+    mission = load_mission(Path(__file__).resolve().parents[1] / "missions" / "case2.yaml")
+    result = run_mission(mission, substitutes={paper.track_input: failing})
+    assert result.outcome.value == "failed"
+    assert result.message.startswith("internal error at sample 299 (t = 2.99 s): ZeroDivisionError")
+    assert result.message.endswith("please report it")
+    assert result.samples == 299
+    assert result.transitions[-1].condition == "failed"

@@ -106,11 +106,6 @@ def load_entry(entry: str) -> Callable[..., Any]:
     return found  # type: ignore[no-any-return]
 
 
-class PluginFailed(RuntimeError):
-    """A plug-in's code raised, or its step returned something it should not:
-    the run ends ``failed`` with this message."""
-
-
 def failure_message(error: BaseException) -> str:
     """A plug-in's exception as a run's message: its type, its own message
     and, for plain Python, where it was raised."""

@@ -28,7 +28,7 @@ from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Rec
 from wmr_mission.output import recovery
 from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
-from wmr_mission.plugins import PluginFailed, failure_message
+from wmr_mission.plugins import failure_message
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
 from wmr_mission.sim.plant_side import PlantSide, PlantStopped
@@ -269,6 +269,12 @@ def _run(
     return result
 
 
+class RunFault(RuntimeError):
+    """An exception inside the loop (a plug-in's code, the plant side, or a
+    fault of our own): the run ends ``failed`` with this message, and keeps
+    the samples done before it."""
+
+
 def _seconds(samples: int, dt: float) -> float:
     """``samples * dt`` without its rounding tail (53.48, not 53.480000000000004),
     for the times people read in transitions.json."""
@@ -291,7 +297,7 @@ class _Run:
         self.phases = [PhaseRun(p, m, i) for i, p in enumerate(m.phases)]
         self.actuation, self.sensing = m.disturbances.records(m.dt, m.measured)
         # A `type: python` plug-in: made here, for this run; an exception out
-        # of its code ends the run failed (PluginFailed), never the tool.
+        # of its code ends the run failed (RunFault), never the tool.
         self.plugin = m.estimator.plugin or m.controller.plugin
         self.failure: str | None = None
         try:
@@ -350,14 +356,14 @@ class _Run:
         try:
             status = self._segment(phase, path, draws, stop)
         except Exception as error:
-            if not self.plugin:
-                raise
             # The rows recorded are the samples done: the failed one is the next.
             k = self.recorder.count
-            raise PluginFailed(
-                f"a plug-in failed at sample {k} (t = {_seconds(k, m.dt):.6g} s): "
-                f"{failure_message(error)}"
-            ) from error
+            where = f"at sample {k} (t = {_seconds(k, m.dt):.6g} s): {failure_message(error)}"
+            if self.plugin:
+                raise RunFault(f"a plug-in failed {where}") from error
+            if self.plant is not None:
+                raise RunFault(f"the plant side failed {where}") from error
+            raise RunFault(f"internal error {where}; please report it") from error
         self._returned_ns = time.perf_counter_ns()
         return status
 
@@ -390,12 +396,13 @@ class _Run:
             return self._interrupted()
         except PlantStopped as stopped:  # the plant side's cause: measurements stopped
             return self._interrupted(Outcome.failed, str(stopped))
-        except PluginFailed as failed:
+        except RunFault as failed:
             return self._failed(str(failed))
 
     def _failed(self, message: str) -> RunResult:
-        """A plug-in's failure: the samples done before it, outcome failed; a
-        failure at the first sample keeps the start (a run has a row)."""
+        """A fault inside the loop (a plug-in's, the plant side's or our own):
+        the samples done before it, outcome failed; a failure at the first
+        sample keeps the start (a run has a row)."""
         m = self.m
         t = _seconds(self.recorder.count, m.dt)  # the sample that failed
         if self.recorder.count == 0:
