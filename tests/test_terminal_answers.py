@@ -49,13 +49,18 @@ def test_a_broken_campaign_still_gets_its_errors(tmp_path: Path) -> None:
     assert len(err.splitlines()) >= 1
 
 
-def test_sweep_runs_replaces_the_campaigns_runs(tmp_path: Path) -> None:
+def _campaign(tmp_path: Path, runs: int = 2) -> Path:
     campaign = tmp_path / "c.yaml"
     campaign.write_text(
-        f"version: 1\nname: c\nmission: {DATA / 'short.yaml'}\nruns: 50\nseed: 3\n"
+        f"version: 1\nname: c\nmission: {DATA / 'short.yaml'}\nruns: {runs}\nseed: 3\n"
         "vary:\n  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n",
         encoding="utf-8",
     )
+    return campaign
+
+
+def test_sweep_runs_replaces_the_campaigns_runs(tmp_path: Path) -> None:
+    campaign = _campaign(tmp_path, runs=50)
     out = tmp_path / "out"
     code, stdout, err = _invoke(
         "sweep", str(campaign), "--runs", "3", "--workers", "1", "--no-plots", "--out", str(out)
@@ -68,16 +73,6 @@ def test_sweep_runs_replaces_the_campaigns_runs(tmp_path: Path) -> None:
     assert manifest["resolved_campaign"]["runs"] == 3  # the directory reads back as run
     assert len((out / "runs.csv").read_text().splitlines()) == 1 + 3
     assert MAX_SWEEP_RUNS == MAX_RUNS
-
-
-def _campaign(tmp_path: Path) -> Path:
-    campaign = tmp_path / "c.yaml"
-    campaign.write_text(
-        f"version: 1\nname: c\nmission: {DATA / 'short.yaml'}\nruns: 2\nseed: 3\n"
-        "vary:\n  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n",
-        encoding="utf-8",
-    )
-    return campaign
 
 
 def test_sweep_set_sets_the_mission_of_every_run_and_its_replay(tmp_path: Path) -> None:
