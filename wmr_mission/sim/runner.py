@@ -355,6 +355,8 @@ class _Run:
         m = self.m
         try:
             status = self._segment(phase, path, draws, stop)
+        except PlantStopped:  # the plant side's own word on why it stopped
+            raise
         except Exception as error:
             # The rows recorded are the samples done: the failed one is the next.
             k = self.recorder.count
