@@ -426,12 +426,11 @@ def test_sweep_shows_each_step_as_it_starts(
     stream = _Terminal()
     seen = _watch(monkeypatch, stream, "warm_up", "_draw")
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    out, manifest = sweep._prepare(loaded, tmp_path / "c", 1, None, suffix=False)
+    out = sweep._prepare(loaded, tmp_path / "c", 1, None, suffix=False)
     with StopSignals() as stop:
         sweep._campaign(
             loaded,
             out_dir=out,
-            manifest=manifest,
             workers=1,
             scheduler=None,
             plots=True,
@@ -448,7 +447,6 @@ def test_sweep_shows_each_step_as_it_starts(
         sweep._campaign(
             loaded,
             out_dir=None,
-            manifest=b"",
             workers=1,
             scheduler=None,
             plots=False,
@@ -477,7 +475,6 @@ def test_sweep_says_at_once_that_it_was_interrupted(
         record = sweep._campaign(
             loaded,
             out_dir=None,
-            manifest=b"",
             workers=1,
             scheduler=None,
             plots=False,

@@ -90,12 +90,13 @@ class LoadedCampaign:
                 raise ValueError(f"{setting.source}: not a checked setting")
         self.mission_document = document
 
+    def setting_texts(self) -> list[str]:
+        """Each of :attr:`settings` as ``PATH=VALUE``, as ``--set`` takes it back."""
+        return [f"{dotted_path(s.path)}={value_text(s.value)}" for s in self.settings]
+
     def replay_settings(self) -> list[str]:
         """The ``--set PATH=VALUE`` words that set :attr:`settings` in a replay."""
-        words = []
-        for setting in self.settings:
-            words += ["--set", f"{dotted_path(setting.path)}={value_text(setting.value)}"]
-        return words
+        return [word for text in self.setting_texts() for word in ("--set", text)]
 
     def mission_with(
         self, overrides: Sequence[Override]
@@ -310,8 +311,20 @@ def _check_against_mission(
     # the one hashed into the manifests, whatever happens to the file since.
     raw, mission_diagnostics = read_source(mission_path)
     mission = None
+    if raw is not None and settings:
+        # A setting the campaign's vary would overwrite, said before what it breaks.
+        document, _ = read_document(raw.decode("utf-8", "replace"))
+        conflicts = _set_and_varied(
+            settings, list(campaign.vary), None if document is None else document.data
+        )
+        if conflicts:
+            return None, conflicts
     if raw is not None:
         mission, mission_diagnostics = check_mission_bytes(raw, str(mission_path), settings)
+        sources = {setting.source for setting in settings}
+        refused = [d for d in mission_diagnostics if d.severity == "error"]
+        if refused and all(d.file in sources for d in refused):
+            return None, refused  # a bad setting: said as `run --set` says it
     if mission is None or raw is None:
         errors = sum(d.severity == "error" for d in mission_diagnostics)
         count = f"{errors} error{'s' if errors != 1 else ''}"
@@ -328,9 +341,6 @@ def _check_against_mission(
         mission_sha256=hashlib.sha256(raw).hexdigest(),
         settings=settings,
     )
-    conflicts = _set_and_varied(settings, list(campaign.vary), loaded.mission_document.data)
-    if conflicts:
-        return None, conflicts
     problems = [
         at(("vary", name), problem)
         for name, axis in campaign.vary.items()

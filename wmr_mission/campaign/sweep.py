@@ -275,7 +275,6 @@ def _campaign(
     loaded: LoadedCampaign,
     *,
     out_dir: Path | None,
-    manifest: bytes,
     workers: int,
     scheduler: str | None,
     plots: bool,
@@ -290,7 +289,7 @@ def _campaign(
     stop.notify = lambda: progress.say(INTERRUPTED_NOTICE)
     try:
         return _campaign_steps(
-            loaded, out_dir, manifest, workers, scheduler, plots, progress, keep_rows, stop,
+            loaded, out_dir, workers, scheduler, plots, progress, keep_rows, stop,
             allow_mixed_cluster,
         )  # fmt: skip
     finally:
@@ -301,7 +300,6 @@ def _campaign(
 def _campaign_steps(
     loaded: LoadedCampaign,
     out_dir: Path | None,
-    manifest: bytes,
     workers: int,
     scheduler: str | None,
     plots: bool,
@@ -341,11 +339,14 @@ def _campaign_steps(
         notices: list[str] = []
         try:  # signals held (stop.mode): the record of what ran is written whole
             if runs_file.finish():
-                write_bytes_atomic(out_dir / MANIFEST_FILE, manifest)
                 notices.append(
                     f"{out_dir}: removed during the sweep; written again, with its "
                     f"{runs.aggregate.runs} runs"
                 )
+            # Again, now that the warm-up has compiled the loop (or not): the
+            # manifest says how the runs ran, not how the process started.
+            manifest = _manifest(loaded, None if scheduler else workers, scheduler)
+            write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(manifest).encode("utf-8"))
             _write_record(out_dir, record)
         except OSError as error:
             message = (
@@ -615,10 +616,10 @@ def _draw(loaded: LoadedCampaign, aggregate: Aggregate, out_dir: Path, plots: bo
 
 def _prepare(
     loaded: LoadedCampaign, out: Path, workers: int, scheduler: str | None, *, suffix: bool
-) -> tuple[Path, bytes]:
+) -> Path:
     """The campaign directory, made empty (refuses one holding files; with
     ``suffix``, takes the next free ``-2``, ``-3``, ... instead) and claimed, with
-    its manifest; return it and the manifest's bytes."""
+    its manifest (written again once the runs are done); return it."""
     out_dir = prepare_run_dir(out, suffix_on_collision=suffix)
     manifest = json_text(_manifest(loaded, None if scheduler else workers, scheduler))
     try:
@@ -626,7 +627,7 @@ def _prepare(
     except BaseException:
         _discard(out_dir)
         raise
-    return out_dir, manifest.encode("utf-8")
+    return out_dir
 
 
 def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None) -> dict[str, Any]:
@@ -636,7 +637,7 @@ def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None
         "mission_file": str(loaded.mission_path),
         "mission_sha256": loaded.mission_sha256,
         "resolved_campaign": loaded.campaign.model_dump(mode="json"),
-        "settings": [setting.source for setting in loaded.settings],
+        "settings": loaded.setting_texts(),
         "versions": package_versions(),
         "environment": environment(),
         "loop": loop_build(),
@@ -678,15 +679,12 @@ def run_campaign(
         loaded = load_campaign(campaign, settings)
     if scheduler is not None:
         reach_scheduler(scheduler)
-    out_dir, manifest = (
-        (None, b"") if out is None else _prepare(loaded, Path(out), used, scheduler, suffix=False)
-    )
+    out_dir = None if out is None else _prepare(loaded, Path(out), used, scheduler, suffix=False)
     rows: list[dict[str, Any]] = []
     with StopSignals() as stop:
         ended = _campaign(
             loaded,
             out_dir=out_dir,
-            manifest=manifest,
             workers=used,
             scheduler=scheduler,
             plots=plots,
@@ -794,7 +792,7 @@ def _sweep(
         silence(*DASK_LOGS)  # to the end: they log while the client closes
     out_dir = out if out is not None else default_run_dir(loaded.campaign.name, datetime.now())
     try:
-        out_dir, manifest = _prepare(loaded, out_dir, used, scheduler, suffix=out is None)
+        out_dir = _prepare(loaded, out_dir, used, scheduler, suffix=out is None)
     except (RunDirExistsError, OSError) as error:
         print(f"{out_dir}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
         return EXIT_OUTPUT
@@ -802,7 +800,6 @@ def _sweep(
         ended = _campaign(
             loaded,
             out_dir=out_dir,
-            manifest=manifest,
             workers=used,
             scheduler=scheduler,
             plots=plots,
