@@ -1,6 +1,6 @@
 """How far ahead the paper's tracking law looks against how much position noise
-reaches its turn rate (docs/controllers.md, "The tracking law under position
-noise").
+reaches its turn rate (docs/controllers.md, "The paper's tracking law under
+position noise").
 
     python scripts/look_ahead_noise.py
 

@@ -71,3 +71,31 @@ def test_each_kind_keeps_the_runs_that_failed_it_worst() -> None:
     assert runs[:4] == [3, 7, 8, 10]
     assert len(runs) == max(WORST_RUNS, 4)
     assert failures_of(_row(9, "success")) == []
+
+
+def test_the_histograms_show_few_failures_on_a_log_scale_with_units() -> None:
+    """17 failures beside 1983 successes: drawn in front on a log scale where
+    the fullest bin holds ten times more runs than the failures' fullest, so
+    that they are seen; linear where the failures gather in one bin; every
+    metric with a value names its unit."""
+    from wmr_mission.campaign import figures
+    from wmr_mission.campaign.rows import METRICS
+
+    rng = np.random.default_rng(0)
+    aggregate = Aggregate({})
+    aggregate.success = [True] * 1983 + [False] * 17
+    aggregate.metric_values = {
+        # the failures spread beyond the bound, one or two a bin
+        "max_constraint_violation": [*rng.uniform(0, 0.001, 1983), *rng.uniform(0.001, 0.003, 17)],
+        # the failures all at one value: a bin of 17 beside bins of about 70
+        "duration": [*rng.uniform(30, 32, 1983), *[32.0] * 17],
+    }
+    figure = figures._histograms(aggregate, {"max_constraint_violation": 0.001})
+    axes = {ax.get_title(): ax for ax in figure.axes}
+    assert axes["max_constraint_violation"].get_yscale() == "symlog"
+    assert axes["max_constraint_violation"].get_ylabel() == "runs (log scale)"
+    assert axes["duration"].get_yscale() == "linear"
+    assert axes["duration"].get_ylabel() == "runs"
+    assert set(figures.UNITS) >= set(METRICS)  # every metric has its unit
+    assert axes["max_constraint_violation"].get_xlabel() == "[constraint value]"
+    assert axes["duration"].get_xlabel() == "[s]"

@@ -60,3 +60,50 @@ def test_only_the_ekf_has_a_band_and_the_figure_draws_it(noisy_ekf: RunResult) -
     assert "EKF +-3 std (its covariance)" in labels
     assert "+-3 std" in figure.get_suptitle()
     assert "+-3 std" not in plot_estimation_error(observer).get_suptitle()
+
+
+DISTURBED_SENSORS = """
+version: 1
+name: ekf-sensors
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 0}
+  limits: {v: 2, omega: 3}
+sensors:
+  measure: [x, y]
+  noise_std: {x: 0.01, y: 0.01}
+  period: 0.05
+  dropout: {probability: 0.1, burst: 3}
+  outliers: {probability: 0.05, std: {x: 0.5, y: 0.5, theta: 0}}
+  seed: 7
+estimator:
+  type: ekf
+  innovation_gate: 16.27
+  measurement_std: {x: 0.02, y: 0.02}
+phases:
+  - name: line
+    track: {path: {type: line, heading: 0.3, speed: 1}}
+    until: {elapsed: 8}
+expect: {turn_rate_jitter: null}
+"""
+
+
+def test_the_replay_holds_with_slow_lost_and_wild_measurements_and_read_back(
+    tmp_path: Path,
+) -> None:
+    """Between measurements, through lost bursts, gated outliers and an
+    unmeasured heading the replay is the filter's, live and read back from
+    the run's files (12 significant digits)."""
+    from wmr_mission.api import load_run, mission_from_text
+
+    result = run_mission(mission_from_text(DISTURBED_SENSORS))
+    assert np.isnan(result.x_meas).sum() > 0.8 * result.samples  # one sample in five, less losses
+    std = ekf_std(result)
+    assert std is not None
+    assert np.isfinite(std).all()
+    assert std[:, 2].max() > std[-1, 0]  # the heading, unmeasured, is the least certain
+    result.write(tmp_path / "run", plots=False)
+    again = ekf_std(load_run(tmp_path / "run"))
+    assert again is not None
+    assert np.isfinite(again).all()
+    np.testing.assert_allclose(again, std, rtol=1e-8)

@@ -163,3 +163,34 @@ def test_a_sweeps_manifest_says_how_its_runs_ran(tmp_path: Path) -> None:
     manifest = json.loads((out / "manifest.json").read_text())
     plain = os.environ.get("WMR_MISSION_NO_JIT") == "1"
     assert manifest["loop"] == ("plain Python" if plain else "compiled")
+
+
+def test_sweep_set_reaches_the_figures_the_report_and_refuses_the_seed(tmp_path: Path) -> None:
+    """The settings are the mission every run starts from: the campaign's
+    figures draw its regions and bounds, `view`'s replays carry them; the
+    sensors' seed is the campaign's to draw."""
+    import numpy as np
+
+    from wmr_mission import run_campaign
+    from wmr_mission.campaign import sweep
+    from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.reader import load_campaign_dir
+    from wmr_mission.spec.loader import overrides_of
+
+    campaign, out = _campaign(tmp_path), tmp_path / "out"
+    code, _, err = _invoke("sweep", str(campaign), "--set", "sensors.seed=5")
+    assert (code, err) == (1, "--set sensors.seed=5: each run's sensor seed is drawn from the "
+                              "campaign's seed; set the campaign's seed instead\n")  # fmt: skip
+    settings = overrides_of(
+        {"regions.yard.max": [0.5, 1.5], "expect.final_position_error.max": np.float32(0.5)}
+    )
+    loaded = load_campaign(campaign, settings)
+    mission = sweep._mission(loaded)
+    assert mission["regions"]["yard"]["max"] == [0.5, 1.5]
+    assert mission["expect"]["final_position_error"]["max"] == 0.5
+    # numpy values are written as the numbers they are, in the replay and the manifest
+    result = run_campaign(campaign, out=out, workers=1, overrides={"robot.limits.v": np.int64(2)})
+    assert result.summary["worst"][0]["replay"].split()[3:5] == ["--set", "robot.limits.v=2"]
+    report = load_campaign_dir(out)
+    assert report.replay(0).split()[3:5] == ["--set", "robot.limits.v=2"]
+    assert report.replay(0) == next(w["replay"] for w in result.summary["worst"] if w["run"] == 0)

@@ -61,7 +61,7 @@ MAX_REPEAT = 100
 # written here so that `--help` loads no model.
 MAX_SWEEP_RUNS = 10_000_000
 # `plot --dpi`: wmr_mission.output.figures.DPI_RANGE, written here for the same reason.
-DPI_RANGE = (50, 1200)
+DPI_RANGE = (50, 600)
 
 
 def _version(value: bool) -> None:
@@ -365,7 +365,7 @@ def plot(
             metavar="N",
             min=DPI_RANGE[0],
             max=DPI_RANGE[1],
-            help="Pixels per inch of a PNG (default: 120); 300 for print.",
+            help="Pixels per inch of a PNG (default: 120); 300 for print; at most 600.",
         ),
     ] = None,
 ) -> None:

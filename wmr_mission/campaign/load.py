@@ -359,9 +359,16 @@ def _set_and_varied(
     settings: Sequence[Override], varied: list[str], mission: Any
 ) -> list[Diagnostic]:
     """A ``--set`` field that the campaign also varies (or that holds or lies in
-    a varied one): every run would write its own value over the setting."""
+    a varied one), or the sensors' seed: every run would write its own value
+    over the setting."""
     found = []
     for setting in settings:
+        if resolved_path(mission, setting.path) == _SEED_PATH:
+            message = (
+                "each run's sensor seed is drawn from the campaign's seed; set the "
+                "campaign's seed instead"
+            )
+            found.append(Diagnostic(setting.source, 0, 0, message))
         for name in varied:
             try:
                 path = resolved_path(mission, parse_path(name))

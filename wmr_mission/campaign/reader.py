@@ -57,6 +57,8 @@ class CampaignDir:
         """The ``wmr-mission run`` command that reproduces row ``index``, as
         ``campaign.json``'s ``worst`` gives it."""
         words = ["wmr-mission", "run", str(self.manifest["mission_file"])]
+        for setting in self.manifest.get("settings") or []:  # `sweep --set`, first
+            words += ["--set", str(setting)]
         for path, value in self.values[index].items():
             words += ["--set", f"{path}={value_text(value)}"]
         fingerprint = str(self.manifest["environment"]["fingerprint"])

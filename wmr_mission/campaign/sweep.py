@@ -529,10 +529,11 @@ def _regions(loaded: LoadedCampaign) -> dict[str, Any]:
 
 
 def _mission(loaded: LoadedCampaign) -> dict[str, Any]:
-    """The campaign's mission as written (no run's values), with its defaults."""
-    from wmr_mission.spec.loader import load_mission_text
-
-    mission = load_mission_text(loaded.mission_text, str(loaded.mission_path))
+    """The campaign's mission as every run starts from it (its settings, no
+    run's values), with its defaults."""
+    mission, _ = loaded.mission_with([])
+    if mission is None:  # checked when the campaign loaded
+        raise ValueError(f"{loaded.mission_path}: the campaign's mission no longer checks")
     dumped: dict[str, Any] = mission.model_dump(mode="json")
     return dumped
 

@@ -14,13 +14,24 @@ covariance of another run.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, measurement_mask
-from wmr_mission.estimators.ekf import Ekf, new_memory, next_estimate, tuning_of
+from wmr_mission.estimators.ekf import (
+    Ekf,
+    EkfMemory,
+    EkfTuning,
+    new_memory,
+    next_estimate,
+    tuning_of,
+)
 from wmr_mission.estimators.registry import Measurements
+from wmr_mission.kernels import jit
+from wmr_mission.kernels.jit import kernel
+from wmr_mission.kernels.model import wrap_angle
 
 if TYPE_CHECKING:
     from wmr_mission.output.result import RunResult
@@ -48,21 +59,55 @@ def ekf_std(result: RunResult) -> FloatArray | None:
     )
     tuning = tuning_of(Ekf.model_validate(estimator), Measurements(mask, noise_std, result.dt))
     estimate = np.array([result.x_est[0], result.y_est[0], result.theta_est[0]], dtype=np.float64)
-    memory = new_memory(tuning, estimate)
-    sensed = np.column_stack([result.x_meas, result.y_meas, result.theta_meas])
-    recorded = np.column_stack([result.x_est, result.y_est, result.theta_est])
     std = np.full((result.samples, 3), np.nan)
-    std[0] = np.sqrt(np.diag(memory.covariance))
-    for k in range(result.samples - 1):
-        measurement = np.where(mask > 0.0, sensed[k + 1], 0.0)
-        measured = bool(np.isfinite(measurement).all() and mask.any())
-        next_estimate(
-            tuning, memory, estimate, float(result.v[k]), float(result.omega[k]), result.dt,
-            np.where(np.isfinite(measurement), measurement, 0.0), measured,
-        )  # fmt: skip
-        apart = np.abs(estimate - recorded[k + 1])
-        apart[2] = abs((apart[2] + np.pi) % (2.0 * np.pi) - np.pi)
-        if not bool((apart <= REPLAY_TOLERANCE * np.maximum(1.0, np.abs(estimate))).all()):
-            break
-        std[k + 1] = np.sqrt(np.diag(memory.covariance))
+    # Compiled where the loop is (about 0.1 µs a sample against 65 µs as plain
+    # Python): a long run's figure does not wait for its band.
+    jit.compiled(_replay)(
+        tuning, new_memory(tuning, estimate), estimate, _floats(result.v),
+        _floats(result.omega), result.dt,
+        _floats(np.column_stack([result.x_meas, result.y_meas, result.theta_meas])),
+        _floats(np.column_stack([result.x_est, result.y_est, result.theta_est])), std,
+    )  # fmt: skip
     return std
+
+
+def _floats(values: FloatArray) -> FloatArray:
+    return np.ascontiguousarray(values, dtype=np.float64)
+
+
+@kernel
+def _replay(
+    tuning: EkfTuning,
+    memory: EkfMemory,
+    estimate: FloatArray,
+    v: FloatArray,
+    omega: FloatArray,
+    dt: float,
+    sensed: FloatArray,
+    recorded: FloatArray,
+    std: FloatArray,
+) -> None:
+    """Fill ``std`` row by row while the filter's step, fed the recorded
+    commands and measurements, gives the recorded estimate."""
+    covariance = memory.covariance
+    mask = tuning.mask
+    measurement = np.zeros(3)
+    for i in range(3):
+        std[0, i] = math.sqrt(covariance[i, i])
+    for k in range(v.shape[0] - 1):
+        measured = False
+        for i in range(3):
+            measurement[i] = 0.0
+            if mask[i] > 0.0:
+                value = sensed[k + 1, i]
+                measured = math.isfinite(value)  # a measurement comes whole, or not
+                measurement[i] = value if measured else 0.0
+        next_estimate(tuning, memory, estimate, v[k], omega[k], dt, measurement, measured)
+        for i in range(3):
+            apart = estimate[i] - recorded[k + 1, i]
+            if i == 2:
+                apart = wrap_angle(apart)
+            if not abs(apart) <= REPLAY_TOLERANCE * max(1.0, abs(estimate[i])):
+                return  # another run's record: the band stops here
+        for i in range(3):
+            std[k + 1, i] = math.sqrt(covariance[i, i])

@@ -89,15 +89,15 @@ class Style:
 
 # One and two columns of a two-column journal (IEEE: 3.5 in and 7.16 in). A
 # PNG at another dpi (`plot --dpi 300`) has its text measured, and the axes
-# laid out round it, at that resolution: the width moves by about 1 %.
+# laid out round it, at that resolution: the width moves by 1 to 2 %.
 STYLES: dict[str, Style] = {
     "screen": Style(None),
     "one-column": Style(3.5, font_scale=0.75, line_scale=0.6),
     "two-column": Style(7.16, font_scale=0.9, line_scale=0.8),
 }
 # The range `plot --dpi` takes: below it text is unreadable, above it a
-# screen-sized figure is hundreds of megapixels.
-DPI_RANGE = (50, 1200)
+# screen-sized figure (verdicts.png, 10 x 10 in) is over 30 megapixels.
+DPI_RANGE = (50, 600)
 # The verdicts first: a failing run's figures open on its failure.
 FIGURE_NAMES = ("verdicts", "xy", "states", "estimation_error", "inputs")
 # The reference is drawn over the path, thin and dark, so a well-tracked path
@@ -869,10 +869,14 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
             )
             if spread is not None:
                 band = 3.0 * spread[k, row]
+                # Over the measurement's noise, under true - estimate; edged, so
+                # that it reads as its legend's colour over the blue too.
                 ax.fill_between(
-                    result.t[k], -band, band, color="tab:orange", alpha=0.3, linewidth=0,
-                    label="EKF +-3 std (its covariance)", zorder=2.5,
-                )  # fmt: skip  # over the measurement's noise, under true - estimate
+                    result.t[k], -band, band, facecolor="tab:orange", alpha=0.25,
+                    edgecolor="none", label="EKF +-3 std (its covariance)", zorder=2.5,
+                )  # fmt: skip
+                for edge in (-band, band):
+                    ax.plot(result.t[k], edge, color="tab:orange", linewidth=0.8, zorder=2.6)
             for i, bound in enumerate(bounds):
                 if math.isfinite(bound):
                     ax.axhline(

@@ -24,10 +24,11 @@ class Outcome(StrEnum):
     diverged = "diverged"  # non-finite or runaway state or input
     expect_failed = "expect-failed"  # ran to the end, an `expect` threshold not met
     interrupted = "interrupted"  # stopped by SIGINT or SIGTERM: the samples up to the stop
-    # the plant side stopped the run (a robot's measurements stopped), or a
-    # plug-in's code raised, or its step returned the wrong shape
+    # the plant side stopped the run (a robot's measurements stopped, its
+    # driver raised), or a plug-in's code raised, or its step returned the wrong shape
     failed = "failed"
     breached = "breached"  # the geofence breached, and its reaction failed the mission
+    error = "error"  # a fault of our own inside the loop: a bug to report; samples kept
 
 
 @dataclass(frozen=True)

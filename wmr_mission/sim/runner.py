@@ -270,9 +270,13 @@ def _run(
 
 
 class RunFault(RuntimeError):
-    """An exception inside the loop (a plug-in's code, the plant side, or a
-    fault of our own): the run ends ``failed`` with this message, and keeps
-    the samples done before it."""
+    """An exception inside the loop: the run ends ``failed`` (a plug-in's code,
+    the plant side) or ``error`` (a fault of our own) with this message, and
+    keeps the samples done before it."""
+
+    def __init__(self, message: str, outcome: Outcome = Outcome.failed) -> None:
+        super().__init__(message)
+        self.outcome = outcome
 
 
 def _seconds(samples: int, dt: float) -> float:
@@ -355,17 +359,19 @@ class _Run:
         m = self.m
         try:
             status = self._segment(phase, path, draws, stop)
-        except PlantStopped:  # the plant side's own word on why it stopped
+        except (PlantStopped, MemoryError):  # the plant side's own word; the command's
             raise
         except Exception as error:
             # The rows recorded are the samples done: the failed one is the next.
             k = self.recorder.count
             where = f"at sample {k} (t = {_seconds(k, m.dt):.6g} s): {failure_message(error)}"
+            if self.plugin and self.plant is not None:
+                raise RunFault(f"a plug-in or the plant side failed {where}") from error
             if self.plugin:
                 raise RunFault(f"a plug-in failed {where}") from error
             if self.plant is not None:
                 raise RunFault(f"the plant side failed {where}") from error
-            raise RunFault(f"internal error {where}; please report it") from error
+            raise RunFault(f"internal error {where}; please report it", Outcome.error) from error
         self._returned_ns = time.perf_counter_ns()
         return status
 
@@ -399,9 +405,9 @@ class _Run:
         except PlantStopped as stopped:  # the plant side's cause: measurements stopped
             return self._interrupted(Outcome.failed, str(stopped))
         except RunFault as failed:
-            return self._failed(str(failed))
+            return self._failed(str(failed), failed.outcome)
 
-    def _failed(self, message: str) -> RunResult:
+    def _failed(self, message: str, outcome: Outcome = Outcome.failed) -> RunResult:
         """A fault inside the loop (a plug-in's, the plant side's or our own):
         the samples done before it, outcome failed; a failure at the first
         sample keeps the start (a run has a row)."""
@@ -417,8 +423,8 @@ class _Run:
         record = self.recorder.record
         last = self.recorder.count - 1
         active = self.phases[int(record.phase[last]) if last >= 0 else 0]
-        self.transitions.append(Transition(t, active.phase.name, None, "failed", math.nan))
-        return self._result(Outcome.failed, message)
+        self.transitions.append(Transition(t, active.phase.name, None, outcome.value, math.nan))
+        return self._result(outcome, message)
 
     def _interrupted(
         self, outcome: Outcome = Outcome.interrupted, cause: str = "interrupted"

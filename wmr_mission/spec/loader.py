@@ -1157,8 +1157,8 @@ def overrides_of(overrides: Mapping[str, Any] | None) -> list[Override]:
                 f"got {dotted!r}"
             )
         source = f"overrides[{dotted!r}]"
-        try:
-            parsed.append(Override(parse_path(dotted), value, source))
+        try:  # a numpy value as the YAML it stands for: a campaign writes it as JSON
+            parsed.append(Override(parse_path(dotted), _plain(value), source))
         except ValueError as error:
             raise MissionError([Diagnostic(source, 0, 0, str(error))]) from None
     return parsed
