@@ -17,6 +17,7 @@
     python benchmarks/measure.py png        # Pillow writing case study 2's PNGs, per zlib level
     python benchmarks/measure.py checks     # checking campaigns of 10 000 values, and of 1 MB
     python benchmarks/measure.py plugins    # Kanayama's law built in and as plug-ins, per sample
+    python benchmarks/measure.py band       # the EKF's covariance replayed for its figure band
 
 Medians over repeats, in one process where that is fair; each prints what it
 measured. Timings depend on the machine and on what else runs on it.
@@ -812,6 +813,34 @@ def plugins(repeat: int = 7) -> None:
         print(f"{name:<22} {median:8.3f} us per sample ({median / built_in:6.1f}x built in)")
 
 
+def band(repeat: int = 5) -> None:
+    """The EKF's +-3 std band of missions/noisy-ekf.yaml (wmr_mission/output/
+    covariance.py): the replay in a fresh process (its compiled form loaded
+    from the cache), and as plain Python; medians of ``repeat``."""
+    code = (
+        "import time; from wmr_mission import load_mission, run_mission; "
+        "from wmr_mission.output.covariance import ekf_std; "
+        f"r = run_mission(load_mission({str(MISSIONS / 'noisy-ekf.yaml')!r})); "
+        "t = time.perf_counter(); ekf_std(r); print(time.perf_counter() - t, r.samples)"
+    )
+    for label, extra in (("compiled", {}), ("plain Python", {"WMR_MISSION_NO_JIT": "1"})):
+        env = {**os.environ, **extra}
+        subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True)
+        seconds, samples = [], 0
+        for _ in range(repeat):
+            done = subprocess.run(
+                [sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True
+            )
+            took, count = done.stdout.split()
+            seconds.append(float(took))
+            samples = int(count)
+        median = statistics.median(seconds)
+        print(
+            f"{label:<13} {median * 1000:8.2f} ms for {samples} samples "
+            f"({median / samples * 1e6:.2f} us a sample)"
+        )
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
@@ -824,6 +853,7 @@ if __name__ == "__main__":
         "png": png,
         "checks": checks,
         "plugins": plugins,
+        "band": band,
     }
     if what not in jobs:
         print(__doc__, file=sys.stderr)

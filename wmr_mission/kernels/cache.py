@@ -31,7 +31,8 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent.parent
 # The modules holding kernels or what they call: every module of the packages
 # of kernels, estimators and controllers (a new one is counted as it is
-# added), and the campaign's pixel counts. A change to any recompiles all.
+# added), the campaign's pixel counts and the EKF band's replay. A change to
+# any recompiles all.
 KERNEL_PACKAGES = ("kernels", "estimators", "controllers")
 KERNEL_MODULES = (
     *sorted(
@@ -40,6 +41,7 @@ KERNEL_MODULES = (
         for path in (PACKAGE / package).glob("*.py")
     ),
     "campaign/coverage.py",
+    "output/covariance.py",
 )
 # What the kernels' directories are called: this prefix, then their sources' stamp.
 PREFIX = "kernels-"
