@@ -12,7 +12,8 @@ import hashlib
 import json
 import os
 import re
-from collections.abc import Sequence
+import shlex
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, Final
@@ -50,6 +51,7 @@ __all__ = [
     "check_file",
     "is_campaign_text",
     "load_campaign",
+    "replay_line",
     "value_text",
 ]
 
@@ -93,10 +95,6 @@ class LoadedCampaign:
     def setting_texts(self) -> list[str]:
         """Each of :attr:`settings` as ``PATH=VALUE``, as ``--set`` takes it back."""
         return [f"{dotted_path(s.path)}={value_text(s.value)}" for s in self.settings]
-
-    def replay_settings(self) -> list[str]:
-        """The ``--set PATH=VALUE`` words that set :attr:`settings` in a replay."""
-        return [word for text in self.setting_texts() for word in ("--set", text)]
 
     def mission_with(
         self, overrides: Sequence[Override]
@@ -145,6 +143,24 @@ def value_text(value: Any) -> str:
     reads back to the same float.
     """
     return json.dumps(value)
+
+
+def replay_line(
+    mission_file: str,
+    settings: Sequence[str],
+    values: Mapping[str, Any],
+    seed: int | str,
+    fingerprint: str,
+) -> str:
+    """The one-line ``wmr-mission run`` command of a campaign's run: the
+    campaign's settings (``PATH=VALUE``) first, then the run's drawn values."""
+    words = ["wmr-mission", "run", mission_file]
+    for setting in settings:
+        words += ["--set", setting]
+    for path, value in values.items():
+        words += ["--set", f"{path}={value_text(value)}"]
+    words += ["--seed", str(seed), "--expect-environment", fingerprint]
+    return shlex.join(words)
 
 
 def override(path: str, value: Any) -> Override:
@@ -363,7 +379,8 @@ def _set_and_varied(
     over the setting."""
     found = []
     for setting in settings:
-        if resolved_path(mission, setting.path) == _SEED_PATH:
+        set_path = resolved_path(mission, setting.path)
+        if set_path == _SEED_PATH:
             message = (
                 "each run's sensor seed is drawn from the campaign's seed; set the "
                 "campaign's seed instead"
@@ -372,7 +389,6 @@ def _set_and_varied(
         for name in varied:
             try:
                 path = resolved_path(mission, parse_path(name))
-                set_path = resolved_path(mission, setting.path)
             except ValueError:  # said by the axis's own check
                 continue
             shorter = min(len(path), len(set_path))

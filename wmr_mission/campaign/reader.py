@@ -13,12 +13,11 @@ import csv
 import io
 import json
 import re
-import shlex
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final
 
-from wmr_mission.campaign.load import value_text
+from wmr_mission.campaign.load import replay_line, value_text
 from wmr_mission.campaign.sweep import CAMPAIGN_FILE, MANIFEST_FILE, RUNS_FILE
 from wmr_mission.output.reader import RunDirError
 
@@ -56,14 +55,13 @@ class CampaignDir:
     def replay(self, index: int) -> str:
         """The ``wmr-mission run`` command that reproduces row ``index``, as
         ``campaign.json``'s ``worst`` gives it."""
-        words = ["wmr-mission", "run", str(self.manifest["mission_file"])]
-        for setting in self.manifest.get("settings") or []:  # `sweep --set`, first
-            words += ["--set", str(setting)]
-        for path, value in self.values[index].items():
-            words += ["--set", f"{path}={value_text(value)}"]
-        fingerprint = str(self.manifest["environment"]["fingerprint"])
-        words += ["--seed", self.rows[index][1], "--expect-environment", fingerprint]
-        return shlex.join(words)
+        return replay_line(
+            str(self.manifest["mission_file"]),
+            [str(setting) for setting in self.manifest.get("settings") or []],
+            self.values[index],
+            self.rows[index][1],
+            str(self.manifest["environment"]["fingerprint"]),
+        )
 
     def column_types(self) -> dict[str, str]:
         """Each column's type: ``int64``, ``float64``, ``bool`` or ``string``.

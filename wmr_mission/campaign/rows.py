@@ -8,7 +8,6 @@ it byte for byte.
 from __future__ import annotations
 
 import math
-import shlex
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Final
@@ -16,7 +15,7 @@ from typing import TYPE_CHECKING, Any, Final
 import numpy as np
 
 from wmr_mission.campaign.comparison import COMPARISON_METRICS, comparison_metrics
-from wmr_mission.campaign.load import LoadedCampaign, override, value_text
+from wmr_mission.campaign.load import LoadedCampaign, override, replay_line, value_text
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.output import recovery
@@ -197,8 +196,10 @@ def replay_command(loaded: LoadedCampaign, draw: Draw) -> str:
     (in an environment of the same fingerprint: ``run`` warns in another)."""
     from wmr_mission.output.environment import own_fingerprint
 
-    words = ["wmr-mission", "run", str(loaded.mission_path), *loaded.replay_settings()]
-    for path, value in draw.values.items():
-        words += ["--set", f"{path}={value_text(value)}"]
-    words += ["--seed", str(draw.seed), "--expect-environment", own_fingerprint()]
-    return shlex.join(words)
+    return replay_line(
+        str(loaded.mission_path),
+        loaded.setting_texts(),
+        draw.values,
+        draw.seed,
+        own_fingerprint(),
+    )

@@ -409,7 +409,7 @@ class _Run:
 
     def _failed(self, message: str, outcome: Outcome = Outcome.failed) -> RunResult:
         """A fault inside the loop (a plug-in's, the plant side's or our own):
-        the samples done before it, outcome failed; a failure at the first
+        the samples done before it, with ``outcome``; a failure at the first
         sample keeps the start (a run has a row)."""
         m = self.m
         t = _seconds(self.recorder.count, m.dt)  # the sample that failed
