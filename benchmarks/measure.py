@@ -819,9 +819,9 @@ def band(repeat: int = 5) -> None:
     from the cache), and as plain Python; medians of ``repeat``."""
     code = (
         "import time; from wmr_mission import load_mission, run_mission; "
-        "from wmr_mission.output.covariance import ekf_std; "
+        "from wmr_mission.output.covariance import estimate_std; "
         f"r = run_mission(load_mission({str(MISSIONS / 'noisy-ekf.yaml')!r})); "
-        "t = time.perf_counter(); ekf_std(r); print(time.perf_counter() - t, r.samples)"
+        "t = time.perf_counter(); estimate_std(r); print(time.perf_counter() - t, r.samples)"
     )
     for label, extra in (("compiled", {}), ("plain Python", {"WMR_MISSION_NO_JIT": "1"})):
         env = {**os.environ, **extra}

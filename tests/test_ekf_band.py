@@ -11,7 +11,7 @@ import pytest
 import scipy.linalg
 
 from wmr_mission import load_mission, run_mission
-from wmr_mission.output.covariance import ekf_std
+from wmr_mission.output.covariance import estimate_std
 from wmr_mission.output.figures import plot_estimation_error
 from wmr_mission.output.result import RunResult
 
@@ -26,7 +26,7 @@ def noisy_ekf() -> RunResult:
 def test_the_replay_follows_the_whole_run_and_settles_at_the_riccati_solution(
     noisy_ekf: RunResult,
 ) -> None:
-    std = ekf_std(noisy_ekf)
+    std = estimate_std(noisy_ekf)
     assert std is not None
     assert std.shape == (noisy_ekf.samples, 3)
     assert np.isfinite(std).all()  # the replayed estimate is the recorded one throughout
@@ -46,7 +46,7 @@ def test_the_replay_follows_the_whole_run_and_settles_at_the_riccati_solution(
 def test_the_band_stops_where_the_record_is_another_run(noisy_ekf: RunResult) -> None:
     x_est = noisy_ekf.x_est.copy()
     x_est[1000] += 0.01  # an estimate the filter did not make
-    std = ekf_std(dataclasses.replace(noisy_ekf, x_est=x_est))
+    std = estimate_std(dataclasses.replace(noisy_ekf, x_est=x_est))
     assert std is not None
     assert np.isfinite(std[:1000]).all()
     assert np.isnan(std[1000:]).all()
@@ -54,7 +54,7 @@ def test_the_band_stops_where_the_record_is_another_run(noisy_ekf: RunResult) ->
 
 def test_only_the_ekf_has_a_band_and_the_figure_draws_it(noisy_ekf: RunResult) -> None:
     observer = run_mission(load_mission(ROOT / "missions" / "noisy-observer.yaml"))
-    assert ekf_std(observer) is None
+    assert estimate_std(observer) is None
     figure = plot_estimation_error(noisy_ekf)
     labels = {h.get_label() for ax in figure.axes for h in ax.collections}
     assert "EKF +-3 std (its covariance)" in labels
@@ -98,12 +98,12 @@ def test_the_replay_holds_with_slow_lost_and_wild_measurements_and_read_back(
 
     result = run_mission(mission_from_text(DISTURBED_SENSORS))
     assert np.isnan(result.x_meas).sum() > 0.8 * result.samples  # one sample in five, less losses
-    std = ekf_std(result)
+    std = estimate_std(result)
     assert std is not None
     assert np.isfinite(std).all()
     assert std[:, 2].max() > std[-1, 0]  # the heading, unmeasured, is the least certain
     result.write(tmp_path / "run", plots=False)
-    again = ekf_std(load_run(tmp_path / "run"))
+    again = estimate_std(load_run(tmp_path / "run"))
     assert again is not None
     assert np.isfinite(again).all()
     np.testing.assert_allclose(again, std, rtol=1e-8)

@@ -201,3 +201,36 @@ def test_a_step_numba_cannot_compile_runs_in_a_plain_python_loop() -> None:
     assert np.all(result.v == 0.25)
     with pytest.raises(MissionError, match="unknown type 'test-logged'"):
         mission_from_text(text, filename="logged.yaml")
+
+
+BAND = """
+import json, sys
+import toy_variants
+from wmr_mission.api import mission_from_text, run_mission
+from wmr_mission.output.covariance import estimate_std
+from wmr_mission.output.figures import plot_estimation_error
+result = run_mission(mission_from_text(sys.argv[1], filename="toys.yaml"))
+std = estimate_std(result)
+print(json.dumps({
+    "std": std[:, 0].tolist(),
+    "measured": [x == x for x in result.x_meas.tolist()],
+    "title": plot_estimation_error(result).get_suptitle(),
+}))
+"""
+
+
+def test_an_estimator_that_registers_a_spread_gets_the_figure_s_band() -> None:
+    """The +-3 std band is a registration too (`spread`): the toy's own
+    spread, replayed through its own step, is what the figure shades."""
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(TESTS), os.environ.get("PYTHONPATH", "")]),
+    }
+    done = subprocess.run(
+        [sys.executable, "-c", BAND, MISSION], env=env, capture_output=True, text=True, timeout=600
+    )
+    assert done.returncode == 0, done.stderr
+    said = json.loads(done.stdout)
+    taken = np.cumsum(said["measured"]) - said["measured"][0]  # the first row is no update
+    np.testing.assert_array_equal(said["std"], 1.0 / (1.0 + taken))
+    assert "TOY-MEASURED-POSE's +-3 std" in said["title"]

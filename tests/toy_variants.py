@@ -75,6 +75,13 @@ def next_estimate(
     return 1
 
 
+@inlined
+def spread(memory: MeasuredPoseMemory, out: FloatArray) -> None:
+    """Toy: an error std that shrinks with each measurement taken."""
+    for i in range(3):
+        out[i] = 1.0 / (1.0 + memory.updates[0])
+
+
 def estimator_tuning(settings: MeasuredPose, measurements: Measurements) -> MeasuredPoseTuning:
     return MeasuredPoseTuning(measurements.mask, float(settings.blend))
 
@@ -91,6 +98,7 @@ ESTIMATOR = EstimatorType(
     tuning_of=estimator_tuning,
     new_memory=estimator_memory,
     step=next_estimate,
+    spread=spread,
 )
 
 # --- the control law ---------------------------------------------------------------

@@ -179,14 +179,14 @@ def warm_up_missions() -> list[Mission]:
 
 def compile_kernels() -> None:
     """Compile every kernel the loop runs into the cache, and the EKF band's replay."""
-    from wmr_mission.output.covariance import ekf_std
+    from wmr_mission.output.covariance import estimate_std
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
 
     for mission in warm_up_missions():
         result = run_mission(plan_mission(mission))  # compiled: not judged, no metrics loaded
         result.mission = mission.model_dump(mode="json")
-        ekf_std(result)  # the EKF band's replay, for the estimation figure
+        estimate_std(result)  # the EKF band's replay, for the estimation figure
 
 
 def main() -> int:

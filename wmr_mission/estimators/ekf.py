@@ -259,6 +259,13 @@ def next_estimate(
     return 0
 
 
+@inlined
+def spread(memory: EkfMemory, out: FloatArray) -> None:
+    """The square roots of P's diagonal: the filter's own error std [m, m, rad]."""
+    for i in range(3):
+        out[i] = math.sqrt(memory.covariance[i, i])
+
+
 def tuning_of(settings: Ekf, measurements: Measurements) -> EkfTuning:
     measurement_var = np.maximum(measurements.noise_std, MEASUREMENT_STD_FLOOR) ** 2
     if settings.measurement_std is not None:
@@ -311,4 +318,5 @@ ESTIMATOR = EstimatorType(
     new_memory=new_memory,
     step=next_estimate,
     constraint_margin=constraint_margin,
+    spread=spread,
 )

@@ -85,6 +85,11 @@ class EstimatorType:
     # [m] how far the estimated position may be from the true one: the margin
     # every zone is kept with (``Plant.constraint_margin``).
     constraint_margin: Callable[[Any], float] = no_margin
+    # A kernel (memory, out) writing the standard deviation of the estimate's
+    # error per state that the estimator holds (the EKF: its covariance), for
+    # the estimation figure's +-3 std band (wmr_mission.output.covariance);
+    # None where it holds none.
+    spread: Callable[[Any, FloatArray], None] | None = None
     # False for a step numba cannot compile (plain Python objects): a mission
     # naming it runs its loop as plain Python.
     compiles: bool = True

@@ -31,6 +31,12 @@ def estimator_step(
     raise NotImplementedError("the runner binds the mission's estimator here")
 
 
+def estimator_spread(memory: Any, out: FloatArray) -> None:
+    """The standard deviation of the estimate's error per state that the
+    estimator holds, into ``out`` (wmr_mission.output.covariance binds it)."""
+    raise NotImplementedError("the estimation figure binds the run's estimator here")
+
+
 def control_step(
     tuning: Any,
     phase: Any,

@@ -829,12 +829,15 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
 
     Eq. (4) bounds the output error, measurement - estimate, so the bounds are
     drawn with that; true - estimate, the estimation error, is drawn beside it,
-    inside the EKF's +-3 std where the estimator is the EKF.
+    inside the estimator's own +-3 std where it holds one (the EKF's covariance).
     """
-    from wmr_mission.output.covariance import ekf_std
+    from wmr_mission.fields import type_name
+    from wmr_mission.output.covariance import band_estimator, estimate_std
 
     window = _start_window(result)
-    spread = ekf_std(result)
+    spread = estimate_std(result)
+    holder = band_estimator(result)  # the estimator, by its kind's name: "EKF" for `type: ekf`
+    holder_name = type_name(holder.settings).upper() if holder is not None else ""
     early = thin(0, int(np.searchsorted(result.t, result.t[0] + window, side="right")))
     every = thin(0, result.samples)
     for row, (state, bounds) in enumerate(zip(STATES, result.error_bounds, strict=True)):
@@ -873,7 +876,7 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
                 # that it reads as its legend's colour over the blue too.
                 ax.fill_between(
                     result.t[k], -band, band, facecolor="tab:orange", alpha=0.25,
-                    edgecolor="none", label="EKF +-3 std (its covariance)", zorder=2.5,
+                    edgecolor="none", label=f"{holder_name} +-3 std (its covariance)", zorder=2.5,
                 )  # fmt: skip
                 for edge in (-band, band):
                     ax.plot(result.t[k], edge, color="tab:orange", linewidth=0.8, zorder=2.6)
@@ -936,11 +939,11 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     axes[-1].set_xlabel("t [s]")
     _mark_phases([axes[1], axes[3], axes[5]], result, phase_colors(result))
     # eq. (4) bounds only the constrained observer's output error; the EKF has
-    # its covariance instead; other estimators have neither.
+    # its covariance instead (a registered `spread`); others have neither.
     if bounded:
         title = "estimation error; eq. (4) bounds measurement - estimate"
     elif spread is not None:
-        title = "estimation error; shaded: the EKF's +-3 std of true - estimate"
+        title = f"estimation error; shaded: the {holder_name}'s +-3 std of true - estimate"
     else:
         title = "estimation error (no bounds: the estimator has none)"
     fig.suptitle(f"{result.mission_name}: {title}")
