@@ -234,3 +234,14 @@ def test_an_estimator_that_registers_a_spread_gets_the_figure_s_band() -> None:
     taken = np.cumsum(said["measured"]) - said["measured"][0]  # the first row is no update
     np.testing.assert_array_equal(said["std"], 1.0 / (1.0 + taken))
     assert "TOY-MEASURED-POSE's +-3 std" in said["title"]
+    # The toy's replay is kept out of the disk cache: a process that never
+    # imports the toy still loads the EKF's (the cache's index would name it).
+    mission = TESTS.parent / "missions" / "noisy-ekf.yaml"
+    ekf = (
+        "from wmr_mission import load_mission, run_mission; "
+        "from wmr_mission.output.covariance import estimate_std; "
+        f"print(estimate_std(run_mission(load_mission({str(mission)!r})))[-1, 0])"
+    )
+    done = subprocess.run([sys.executable, "-c", ekf], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert 0.0 < float(done.stdout) < 0.02

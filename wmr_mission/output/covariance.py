@@ -71,7 +71,12 @@ def estimate_std(result: RunResult) -> FloatArray | None:
     # Compiled where the loop is (about 1 µs a sample against 60 µs as plain
     # Python: `python benchmarks/measure.py band`): a long run's figure does
     # not wait for its band.
-    jit.compiled(_bound_replay(kind.step, kind.spread))(
+    # Cached on disk for the package's estimators only, as the loop is: the
+    # cache's stamp covers the package's sources, and its index would name
+    # another module's types to every process that loads it.
+    parts = (kind.tuning_record, kind.step, kind.spread)
+    cached = all(part.__module__.startswith("wmr_mission.") for part in parts)
+    jit.compiled(_bound_replay(kind.step, kind.spread), cached=cached)(
         tuning, kind.new_memory(tuning, estimate), estimate, _floats(result.v),
         _floats(result.omega), result.dt, mask,
         _floats(np.column_stack([result.x_meas, result.y_meas, result.theta_meas])),
