@@ -74,8 +74,8 @@ def _same_angle(a: float, b: float) -> bool:
 
 
 def test_mcap_messages_read_back_equal_to_the_csv(run_dir: Path) -> None:
-    assert export_command(run_dir, "mcap") == 0
-    topics = _messages(run_dir / "run.mcap")
+    assert export_command(run_dir, "mcap-json") == 0
+    topics = _messages(run_dir / "run.json.mcap")
     header, rows = _csv(run_dir / "trajectory.csv")
     schemas = {topic: {m[0] for m in messages} for topic, messages in topics.items()}
     assert schemas == {
@@ -146,8 +146,8 @@ def test_mcap_regions_are_foxglove_scene_entities(run_dir: Path) -> None:
     from wmr_mission.geometry.regions import region_outline
     from wmr_mission.spec.models import RegionSpec
 
-    export_command(run_dir, "mcap")
-    ((_, log_time, update),) = _messages(run_dir / "run.mcap")["/regions"]
+    export_command(run_dir, "mcap-json")
+    ((_, log_time, update),) = _messages(run_dir / "run.json.mcap")["/regions"]
     assert log_time == 0
     entities = {e["id"]: e for e in update["entities"]}
     assert set(entities) == {f"region/{name}" for name in REGIONS}
@@ -244,14 +244,18 @@ def test_parquet_of_runs_csv_has_its_columns_values_and_types(campaign_dir: Path
 def test_an_extra_that_is_missing_is_named_in_one_line(
     run_dir: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    for module, fmt in (("mcap", "mcap"), ("pyarrow", "parquet")):
+    for module, fmt, package in (
+        ("mcap_ros2", "mcap", "mcap-ros2-support"),
+        ("mcap", "mcap-json", "mcap"),
+        ("pyarrow", "parquet", "pyarrow"),
+    ):
         with monkeypatch.context() as patch:
             for name in [m for m in sys.modules if m == module or m.startswith(module + ".")]:
                 patch.setitem(sys.modules, name, None)
             patch.setitem(sys.modules, module, None)
             assert export_command(run_dir, fmt, run_dir / f"missing.{fmt}") == 2
         assert capsys.readouterr().err == (
-            f"--format {fmt} needs the {module} package: pip install 'wmr-mission[export]'\n"
+            f"--format {fmt} needs the {package} package: pip install 'wmr-mission[export]'\n"
         )
         assert not (run_dir / f"missing.{fmt}").exists()
 
@@ -274,7 +278,7 @@ def test_usage_errors_and_damaged_files(
     for name in ("manifest.json", "transitions.json", "trajectory.csv"):
         (damaged / name).write_bytes((run_dir / name).read_bytes())
     (damaged / "summary.json").write_text('{"outcome": "success",', encoding="utf-8")
-    for fmt in ("mcap", "parquet"):
+    for fmt in ("mcap", "mcap-json", "parquet"):
         assert export_command(damaged, fmt) == 1
         err = capsys.readouterr().err
         assert err.startswith(f"{damaged}: summary.json:1:")

@@ -402,6 +402,7 @@ def view(
 
 class ExportFormat(StrEnum):
     mcap = "mcap"
+    mcap_json = "mcap-json"
     parquet = "parquet"
 
 
@@ -413,7 +414,10 @@ def export(
         typer.Option(
             "--format",
             metavar="FORMAT",
-            help="mcap (a run, for Foxglove) or parquet (trajectory.csv or runs.csv).",
+            help=(
+                "mcap (a run as ROS 2 messages: ros2 bag, Foxglove), mcap-json (a run "
+                "under Foxglove's JSON schemas) or parquet (trajectory.csv or runs.csv)."
+            ),
         ),
     ],
     out: Annotated[
@@ -421,7 +425,10 @@ def export(
         typer.Option(
             "--out",
             metavar="PATH",
-            help="The file (default: DIR/run.mcap, DIR/trajectory.parquet or DIR/runs.parquet).",
+            help=(
+                "The file (default: DIR/run.mcap, DIR/run.json.mcap, DIR/trajectory.parquet "
+                "or DIR/runs.parquet)."
+            ),
         ),
     ] = None,
 ) -> None:

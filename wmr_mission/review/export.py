@@ -1,7 +1,9 @@
-"""``wmr-mission export DIR --format mcap|parquet``: the data in the formats robotics
-and data tools read (``pip install 'wmr-mission[export]'``).
+"""``wmr-mission export DIR --format mcap|mcap-json|parquet``: the data in the formats
+robotics and data tools read (``pip install 'wmr-mission[export]'``).
 
-MCAP (a run directory; Foxglove opens it): JSON messages whose schemas
+``mcap`` (a run directory): ROS 2 messages in CDR, ``review/ros2_messages.py``.
+
+``mcap-json`` (a run directory; Foxglove opens it): JSON messages whose schemas
 Foxglove knows by name, log time ``round(t * 1e9)`` ns from the samples' ``t``,
 frame ``world``:
 
@@ -48,6 +50,7 @@ from wmr_mission.output.rundir import (
     TRAJECTORY_FILE,
     TRANSITIONS_FILE,
 )
+from wmr_mission.review.ros2_messages import STAMP_LIMIT, write_ros2_mcap
 
 if TYPE_CHECKING:
     from wmr_mission.campaign.reader import CampaignDir
@@ -59,6 +62,7 @@ EXTRA: Final = "pip install 'wmr-mission[export]'"
 FRAME: Final = "world"
 DEFAULT_NAMES: Final = {
     ("run", "mcap"): "run.mcap",
+    ("run", "mcap-json"): "run.json.mcap",
     ("run", "parquet"): "trajectory.parquet",
     ("campaign", "parquet"): "runs.parquet",
 }
@@ -68,11 +72,19 @@ class MissingExtra(Exception):
     """The export's optional package is not installed; one line saying what to install."""
 
 
-def _require(module: str, fmt: str) -> ModuleType:
+# The module each format needs, and the package that installs it.
+_NEEDS: Final = {
+    "mcap": ("mcap_ros2.writer", "mcap-ros2-support"),
+    "mcap-json": ("mcap.writer", "mcap"),
+    "parquet": ("pyarrow.parquet", "pyarrow"),
+}
+
+
+def _require(fmt: str) -> ModuleType:
+    module, package = _NEEDS[fmt]
     try:
         return importlib.import_module(module)
     except ImportError:
-        package = module.split(".")[0]
         raise MissingExtra(f"--format {fmt} needs the {package} package: {EXTRA}") from None
 
 
@@ -477,7 +489,7 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
     if campaign:
         from wmr_mission.campaign.reader import load_campaign_dir
 
-        _require("pyarrow.parquet", fmt)
+        _require(fmt)
         table = campaign_table(load_campaign_dir(directory))
 
         def write_campaign(path: Path) -> None:
@@ -489,19 +501,23 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
 
     from wmr_mission.output.reader import load_run
 
-    if fmt == "mcap":
-        _require("mcap.writer", fmt)
-    else:
-        _require("pyarrow.parquet", fmt)
+    _require(fmt)
     result = load_run(directory)
     if result.samples and float(result.t[0]) < 0:
         raise RunDirError(f"{TRAJECTORY_FILE}:2: t is negative: not an MCAP log time")
-    if fmt == "mcap":
+    if fmt == "mcap" and result.samples and float(result.t[-1]) >= STAMP_LIMIT:
+        row = int(np.argmax(result.t >= STAMP_LIMIT)) + 2
+        raise RunDirError(
+            f"{TRAJECTORY_FILE}:{row}: t is {float(result.t[row - 2]):g} s, beyond a ROS 2 "
+            f"stamp's {STAMP_LIMIT} s (builtin_interfaces/Time); --format mcap-json takes it"
+        )
+    if fmt in ("mcap", "mcap-json"):
         summary = json.loads((directory / SUMMARY_FILE).read_text(encoding="utf-8"))
+        write = write_ros2_mcap if fmt == "mcap" else write_mcap
 
         def write_run_mcap(path: Path) -> None:
             with path.open("wb") as stream:
-                write_mcap(result, summary, stream)
+                write(result, summary, stream)
 
         return write_run_mcap
     columns = _csv_header(directory / TRAJECTORY_FILE)
