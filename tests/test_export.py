@@ -245,7 +245,7 @@ def test_an_extra_that_is_missing_is_named_in_one_line(
     run_dir: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     for module, fmt, package in (
-        ("mcap_ros2", "mcap", "mcap-ros2-support"),
+        ("mcap", "mcap", "mcap"),
         ("mcap", "mcap-json", "mcap"),
         ("pyarrow", "parquet", "pyarrow"),
     ):

@@ -74,7 +74,7 @@ class MissingExtra(Exception):
 
 # The module each format needs, and the package that installs it.
 _NEEDS: Final = {
-    "mcap": ("mcap_ros2.writer", "mcap-ros2-support"),
+    "mcap": ("mcap.writer", "mcap"),
     "mcap-json": ("mcap.writer", "mcap"),
     "parquet": ("pyarrow.parquet", "pyarrow"),
 }
