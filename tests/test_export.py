@@ -270,7 +270,8 @@ def test_usage_errors_and_damaged_files(
     before = (run_dir / "trajectory.csv").read_bytes()
     assert export_command(run_dir, "parquet", run_dir / "trajectory.csv") == 2
     assert capsys.readouterr().err == (
-        f"{run_dir / 'trajectory.csv'}: is a file being exported; choose another --out\n"
+        f"{run_dir / 'trajectory.csv'}: is trajectory.csv of the run in {run_dir}; "
+        "a record is never written over: choose another --out\n"
     )
     assert (run_dir / "trajectory.csv").read_bytes() == before
     damaged = tmp_path / "damaged"

@@ -18,6 +18,8 @@ from typing import Annotated, Any, TextIO
 import typer
 from typer.core import TyperCommand
 
+from wmr_mission.terminal import shown
+
 
 class _Command(TyperCommand):
     """Help that names each argument alone: ``MISSION``, not ``{MISSION}`` in
@@ -186,6 +188,9 @@ def run(
     """Simulate MISSION and write trajectory, metrics and plots to a run directory."""
     from wmr_mission.commands.run import run_command
 
+    if expect_environment is not None:
+        _check_fingerprint(expect_environment)
+
     raise typer.Exit(
         run_command(
             mission,
@@ -199,6 +204,20 @@ def run(
             backend=None if backend is None else backend.value,
         )
     )
+
+
+def _check_fingerprint(text: str) -> None:
+    """``--expect-environment`` takes a fingerprint as a campaign's replay line
+    writes it, and nothing else (a usage error, exit 2)."""
+    from wmr_mission.output.environment import FINGERPRINT_FORM
+
+    if FINGERPRINT_FORM.fullmatch(text) is None:
+        print(
+            f"--expect-environment {shown(text)}: not a fingerprint: 8 hexadecimal digits "
+            "(0-9, a-f), as a campaign's replay commands write it",
+            file=sys.stderr,
+        )
+        raise typer.Exit(2)
 
 
 @app.command(name="serve-robot", cls=_Command)
@@ -455,19 +474,23 @@ def bench(
 
 
 class _QuietPipe:
-    """A standard stream that a closed pipe (``| head -1``) silences instead of
-    failing: the rest of the output goes to the null device and the command
-    ends with its own exit code."""
+    """A standard stream that shows every character a terminal would act on
+    escaped (wmr_mission.terminal: whatever a message echoes of a mission, a file
+    name, a value, it cannot retitle or clear the terminal), and that a closed
+    pipe (``| head -1``) silences instead of failing: the rest of the output goes
+    to the null device and the command ends with its own exit code. ``raw``: the
+    stream itself, for the progress display's own control codes."""
 
     def __init__(self, stream: TextIO) -> None:
         self._stream = stream
+        self.raw = stream
 
     def write(self, text: str) -> int:
         try:
-            return self._stream.write(text)
+            self._stream.write(shown(text, None, keep="\n\t"))
         except BrokenPipeError:
             self._discard()
-            return len(text)
+        return len(text)
 
     def flush(self) -> None:
         try:

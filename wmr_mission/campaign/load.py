@@ -44,6 +44,7 @@ from wmr_mission.spec.loader import (
     written_path,
 )
 from wmr_mission.spec.models import Mission
+from wmr_mission.terminal import shown
 
 __all__ = [
     "LoadedCampaign",
@@ -438,7 +439,7 @@ def _axis_problems(name: str, axis: Axis, loaded: LoadedCampaign) -> list[str]:
     try:
         data_path = parse_path(name)
     except ValueError as error:
-        return [f"vary {name!r}: {error}"]
+        return [f"vary {shown(repr(name))}: {error}"]
     if data_path == _SEED_PATH:
         return [
             "vary 'sensors.seed': each run's sensor seed is drawn from the campaign's seed; "
@@ -456,7 +457,7 @@ def _axis_problems(name: str, axis: Axis, loaded: LoadedCampaign) -> list[str]:
         errors = [d for d in diagnostics if d.severity == "error"]
         if errors:
             reasons = "; ".join(_reason(d) for d in errors)
-            return [f"vary {name!r} ({axis.kind}) at {text}: {reasons}"]
+            return [f"vary {shown(repr(name))} ({axis.kind}) at {shown(text)}: {reasons}"]
     return []
 
 

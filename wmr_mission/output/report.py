@@ -84,13 +84,16 @@ def _convergence(phase: dict[str, Any]) -> str:
     return "never" if time is None else f"{time:.2f} s"
 
 
-def _verdict(phase: dict[str, Any], checks: list[dict[str, Any]]) -> str:
-    """'ok', 'NOT MET' (the failure's message says which threshold), or '-'
-    for a phase without thresholds."""
-    mine = [c for c in checks if c.get("phase") == phase["name"]]
-    if any(not c["met"] for c in mine):
-        return "NOT MET"
-    return "ok" if mine else "-"
+def _verdicts(checks: list[dict[str, Any]]) -> dict[Any, str]:
+    """Each phase's verdict by its name: 'ok', or 'NOT MET' (the failure's message
+    says which threshold); a phase without thresholds has none ('-'). One pass
+    over the checks, not one per phase: a run of 15,000 phases took minutes."""
+    verdicts: dict[Any, str] = {}
+    for check in checks:
+        name = check.get("phase")
+        if name is not None and verdicts.get(name) != "NOT MET":
+            verdicts[name] = "ok" if check["met"] else "NOT MET"
+    return verdicts
 
 
 def _aim(final: dict[str, Any], phases: list[dict[str, Any]]) -> str:
@@ -136,6 +139,7 @@ def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: i
     )
     for header, right in _COLUMNS:
         table.add_column(header, justify="right" if right else "left", overflow="fold")
+    verdicts = _verdicts(checks)
     for phase in summary.get("phases", []):
         table.add_row(
             str(phase["name"]),
@@ -144,7 +148,7 @@ def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: i
             key_metric(phase),
             _at_limit(phase),
             _convergence(phase),
-            _verdict(phase, checks),
+            verdicts.get(phase["name"], "-"),
         )
     # Plain text: no colours, no markup read in names.
     console = Console(

@@ -45,10 +45,8 @@ from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError
 from wmr_mission.output.rundir import (
     CSV_COLUMNS,
-    MANIFEST_FILE,
     SUMMARY_FILE,
     TRAJECTORY_FILE,
-    TRANSITIONS_FILE,
 )
 from wmr_mission.review.ros2_messages import STAMP_LIMIT, write_ros2_mcap
 
@@ -473,17 +471,6 @@ def write_run_parquet(result: RunResult, columns: list[str], path: Path) -> None
 # --- the command --------------------------------------------------------------
 
 
-def _sources(directory: Path, campaign: bool) -> list[Path]:
-    from wmr_mission.campaign.sweep import CAMPAIGN_FILE, RUNS_FILE
-
-    names = (
-        (RUNS_FILE, CAMPAIGN_FILE, MANIFEST_FILE)
-        if campaign
-        else (TRAJECTORY_FILE, SUMMARY_FILE, TRANSITIONS_FILE, MANIFEST_FILE)
-    )
-    return [directory / name for name in names]
-
-
 def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]:
     """Read and check DIR, and return what writes the export to a path."""
     if campaign:
@@ -529,8 +516,10 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
 
     Exit code: 0 written; 1 the directory's files are damaged (as ``plot``);
     2 a usage error: not a run or campaign directory, MCAP asked of a campaign,
-    the extra not installed, or the file cannot be written."""
+    the extra not installed, PATH a file of a run's or campaign's record, or the
+    file cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
+    from wmr_mission.review.record import record_file_refusal
 
     campaign = is_campaign_dir(directory)
     if not campaign and not (directory / TRAJECTORY_FILE).is_file():
@@ -549,8 +538,9 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
         )
         return 2
     target = out if out is not None else directory / DEFAULT_NAMES[kind, fmt]
-    if any(target.resolve() == source.resolve() for source in _sources(directory, campaign)):
-        print(f"{target}: is a file being exported; choose another --out", file=sys.stderr)
+    refusal = record_file_refusal(target)
+    if refusal is not None:
+        print(refusal, file=sys.stderr)
         return 2
     try:
         write = _writer(directory, fmt, campaign)

@@ -540,7 +540,6 @@ def _ends_on_time_only(phase: Phase) -> bool:
 
 def _timing(mission: Mission) -> Iterator[Finding]:
     dt = mission.robot.dt
-    mission_time = 0.0  # latest start of the phase
     earliest = 0.0  # earliest start of the phase
     for index, run in enumerate(run_order(mission)):
         phase, where = run.phase, run.where
@@ -576,22 +575,22 @@ def _timing(mission: Mission) -> Iterator[Finding]:
                     f"it takes effect at the next whole sample",
                     severity="warning",
                 )
-        bound = _bounds(phase, mission_time)
-        if math.isinf(bound):
+        if math.isinf(_bounds(phase, 0.0)):
             yield Finding(
                 where,
                 f"phase {phase.name!r} can never be guaranteed to end: give it a timeout, or "
                 "until.elapsed or until.mission_time",
             )
             return
-        mission_time += bound
-    samples = mission_time / dt
-    if samples > MAX_SAMPLES:
+    # The one sum of a run's worst case, its reactions' repetitions counted.
+    samples = graph.worst_case_samples(mission)
+    if math.isfinite(samples) and samples > MAX_SAMPLES:  # inf: the graph's proof says why
         yield Finding(
             ("robot", "dt"),
-            f"in the worst case the mission lasts {mission_time:g} s = {samples:.3g} samples at "
-            f"dt = {dt:g} s, more than the limit of {MAX_SAMPLES:,}; shorten the timeouts or "
-            "raise dt",
+            f"in the worst case the mission lasts {samples * dt:g} s = {samples:.3g} samples at "
+            f"dt = {dt:g} s, more than the limit of {MAX_SAMPLES:,} (every phase to its time "
+            "bound, every retry and contingency as often as its count allows); shorten the "
+            "timeouts, lower the counts or raise dt",
         )
 
 
