@@ -124,8 +124,11 @@ def check(mission: Mission) -> list[Finding]:
         findings.extend(_entries(mission))
     if run_count(mission) <= MAX_RUN_PHASES:
         findings.extend(_feasible_sets(mission))
+        findings.extend(_angles(mission))
+        findings.extend(_missing_limits(mission))
         if not any(f.severity == "error" for f in findings):
             # sampling paths needs a sound mission (regions of the right kind, bounded phases)
+            findings.extend(_zones(mission))
             findings.extend(_reaches(mission))
     # a phase of a repeat is checked once per lap: say each finding once
     return list(dict.fromkeys(findings))
@@ -156,9 +159,6 @@ def check_across_fields(mission: Mission) -> list[Finding]:
         *_estimator_bounds(mission),
         *_phase_colors(mission),
         *_disturbances(mission),
-        *_angles(mission),
-        *_missing_limits(mission),
-        *_zones(mission),
         *(Finding(e.path, e.message, at_key=e.at_key) for e in graph.prove(mission)),
     ]
 
