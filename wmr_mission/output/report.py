@@ -16,6 +16,8 @@ if TYPE_CHECKING:
     from wmr_mission.output.result import RunResult
 
 WIDTH = 100
+# Widest the verdict column grows, so that the key metrics keep their lines.
+VERDICT_WIDTH = 21
 # (header, right-aligned): numbers right-aligned.
 _COLUMNS = (
     ("phase", False),
@@ -85,12 +87,20 @@ def _convergence(phase: dict[str, Any]) -> str:
 
 
 def _verdict(phase: dict[str, Any], checks: list[dict[str, Any]]) -> str:
-    """'ok', 'NOT MET' (the failure's message says which threshold), or '-'
-    for a phase without thresholds."""
+    """'ok'; 'NOT MET' and, a line each, every threshold missed with the
+    phase's value (``speed_jump_max 2.33 (max 2)``); or '-' for a phase
+    without thresholds."""
     mine = [c for c in checks if c.get("phase") == phase["name"]]
-    if any(not c["met"] for c in mine):
-        return "NOT MET"
+    missed = [c for c in mine if not c["met"]]
+    if missed:
+        return "\n".join(["NOT MET", *(_missed(c) for c in missed)])
     return "ok" if mine else "-"
+
+
+def _missed(check: dict[str, Any]) -> str:
+    value = "none" if check.get("value") is None else f"{check['value']:.3g}"
+    bound = f"max {check['max']:g}" if check.get("max") is not None else f"min {check['min']:g}"
+    return f"{check['metric']}\n{value} ({bound})"
 
 
 def _aim(final: dict[str, Any], phases: list[dict[str, Any]]) -> str:
@@ -135,7 +145,13 @@ def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: i
         header_style=None,
     )
     for header, right in _COLUMNS:
-        table.add_column(header, justify="right" if right else "left", overflow="fold")
+        table.add_column(
+            header,
+            justify="right" if right else "left",
+            overflow="fold",
+            # a missed threshold's name on a line, its value and bound on the next
+            max_width=VERDICT_WIDTH if header == "verdict" else None,
+        )
     for phase in summary.get("phases", []):
         table.add_row(
             str(phase["name"]),
