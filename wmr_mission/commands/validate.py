@@ -46,7 +46,9 @@ def mission_files(paths: Sequence[Path]) -> tuple[list[Path], list[Diagnostic]]:
             continue
         found = sorted(p for p in path.rglob("*") if p.suffix in MISSION_SUFFIXES and p.is_file())
         if not found:
-            problems.append(Diagnostic(str(path), 0, 0, "no mission files (*.yaml, *.yml) below it"))
+            problems.append(
+                Diagnostic(str(path), 0, 0, "no mission files (*.yaml, *.yml) below it")
+            )
         files += found
     return files, problems
 
