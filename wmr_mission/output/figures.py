@@ -643,8 +643,14 @@ def _draw_headings(ax: Axes, result: RunResult, size: float) -> None:
     """The robot's heading as arrows, evenly along the path by distance and at
     its end: an arrow against the direction of travel is the robot reversing
     (a reverse-in dock), an arrow turning on the spot a turn in place."""
-    x, y, theta = result.x, result.y, result.theta
-    travelled = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
+    kept = np.flatnonzero(np.isfinite(result.x) & np.isfinite(result.y) & np.isfinite(result.theta))
+    if kept.size == 0:
+        return  # a run diverged from its first sample
+    x, y, theta = result.x[kept], result.y[kept], result.theta[kept]
+    with np.errstate(all="ignore"):  # a diverging tail: its steps count for nothing
+        steps = np.hypot(np.diff(x), np.diff(y))
+    steps[~np.isfinite(steps)] = 0.0
+    travelled = np.concatenate(([0.0], np.cumsum(steps)))
     stations = np.linspace(0.0, float(travelled[-1]), HEADING_ARROWS)
     at = np.unique(np.append(np.searchsorted(travelled, stations), x.size - 1).clip(0, x.size - 1))
     length = 0.035 * size
