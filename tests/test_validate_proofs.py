@@ -227,3 +227,22 @@ def test_strict_passes_the_shipped_and_generated_missions() -> None:
     code, out = _validate("--strict", *map(str, shipped + campaigns), str(generated))
     assert code == 0, "\n".join(line for line in out.splitlines() if "warning" in line)
     assert "warning" not in out
+
+
+def test_every_angle_is_checked_and_nothing_else_named_theta(tmp_path: Path) -> None:
+    text = (
+        "version: 1\nname: angles\n" + LIMITS + "controller: {type: kanayama, gains: {theta: 16}}\n"
+        "estimator: {initial_estimate: {x: 0, y: 0, theta: 400}}\n"
+        "regions:\n  e: {type: ellipse, center: [0, 0], semi_axes: [3, 2], rotation: 30}\n"
+        "phases:\n  - name: go\n"
+        "    track: {path: {type: ellipse, region: e, angular_rate: 0.2, start: 90}}\n"
+        "    until: {heading: {target: 180, tolerance: 0.1}}\n    timeout: 30\n"
+    )
+    _, out = _validate(str(_write(tmp_path, text)))
+    flagged = [line.split(": warning: ")[1].split(" =")[0] for line in out.splitlines()[:-1]]
+    assert flagged == [
+        "estimator.initial_estimate.theta",
+        "regions.e.rotation",
+        "phases[0].track.path.start",
+        "phases[0].until.heading.target",
+    ]  # not the Kanayama gain k_theta = 16 [1/m]

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel
 
+from wmr_mission import fields
 from wmr_mission.basics import FloatArray, whole_samples
 from wmr_mission.controllers import paper
 from wmr_mission.controllers.paper import PaperController
@@ -26,6 +27,7 @@ from wmr_mission.estimators.ekf import Ekf
 from wmr_mission.estimators.observer import BOUND_NOISE_RATIO, ConstrainedObserver
 from wmr_mission.estimators.plugin import PythonEstimator
 from wmr_mission.geometry import paths
+from wmr_mission.geometry.paths.circle import CirclePath
 from wmr_mission.geometry.paths.coverage import CoveragePath
 from wmr_mission.geometry.paths.ellipse import EllipsePath
 from wmr_mission.geometry.paths.elliptical_spiral import EllipticalSpiralPath
@@ -965,7 +967,18 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
 
 # [rad] an angle beyond a full turn either way was most likely written in degrees
 FULL_TURN: Final = 2.0 * math.pi
-_ANGLE_FIELDS: Final = frozenset({"theta", "heading", "rotation", "direction"})
+# The fields that hold an angle [rad], by the model that has them (a
+# `theta` elsewhere may be a gain, a pole or a standard deviation).
+_ANGLE_FIELDS: Final[dict[type[BaseModel], tuple[str, ...]]] = {
+    fields.Pose: ("theta",),
+    LinePath: ("heading",),
+    CirclePath: ("start",),
+    EllipsePath: ("rotation", "start"),
+    EllipticalSpiralPath: ("rotation", "start"),
+    EllipseRegion: ("rotation",),
+    CoveragePath: ("direction",),
+    HeadingCondition: ("target",),
+}
 # A path whose distance from a keep-out zone's centre is below this share of
 # the zone's smaller semi-axis runs "through its centre": the side the robot
 # takes round it is then the zone filter's rule's, not the mission's.
@@ -981,9 +994,7 @@ def _angles_below(value: object, path: DataPath) -> Iterator[Finding]:
     if isinstance(value, BaseModel):
         for name in type(value).model_fields:
             item = getattr(value, name)
-            angle = name in _ANGLE_FIELDS or (
-                isinstance(value, HeadingCondition) and name == "target"
-            )
+            angle = name in _ANGLE_FIELDS.get(type(value), ())
             if angle and isinstance(item, float | int) and not isinstance(item, bool):
                 if abs(item) > FULL_TURN:
                     yield Finding(
