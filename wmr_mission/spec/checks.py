@@ -459,32 +459,12 @@ def _candidates(mission: Mission, regions: list[RegionSpec]) -> tuple[FloatArray
             ys.append(phase.regulate.target.y)
     boundary_x: list[FloatArray] = []
     boundary_y: list[FloatArray] = []
-    angle = np.linspace(0.0, 2.0 * math.pi, _BOUNDARY, endpoint=False)
     lines = []
     for region in regions:
-        if isinstance(region, EllipseRegion | CircleRegion):
-            cx, cy, a, b, rotation = ellipse_geometry(region)
-            u, w = a * np.cos(angle), b * np.sin(angle)
-            c, s = math.cos(rotation), math.sin(rotation)
-            boundary_x.append(cx + c * u - s * w)
-            boundary_y.append(cy + s * u + c * w)
-        elif isinstance(region, BoxRegion | PolygonRegion):
-            corners = (
-                [
-                    region.min,
-                    (region.max[0], region.min[1]),
-                    region.max,
-                    (region.min[0], region.max[1]),
-                ]
-                if isinstance(region, BoxRegion)
-                else region.vertices
-            )
-            points = np.array(corners, dtype=np.float64)
-            ends = np.roll(points, -1, axis=0)
-            share = np.linspace(0.0, 1.0, _BOUNDARY // len(points))[:, None, None]
-            edge = points[None] + share * (ends - points)[None]
-            boundary_x.append(edge[..., 0].ravel())
-            boundary_y.append(edge[..., 1].ravel())
+        if isinstance(region, EllipseRegion | CircleRegion | BoxRegion | PolygonRegion):
+            x, y = _boundary(region)
+            boundary_x.append(x)
+            boundary_y.append(y)
         else:  # half-plane: its line, sampled below over the area
             lines.append(region)
         if boundary_x:
