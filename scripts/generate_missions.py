@@ -6,7 +6,7 @@ sensor noise, sampling periods, limits, paths, zones and regulate targets.
 
 Mission ``i`` is drawn from ``default_rng([seed, i, attempt])`` alone, so it does
 not depend on the others. A draw that ``wmr-mission validate`` finds any problem
-with (an error or a warning) is drawn again with the next attempt. The set is
+with (an error or a warning, not a note) is drawn again with the next attempt. The set is
 judged by scripts/soundness.py and scripts/judge_generated.py (docs/soundness.md).
 
 Every number is rounded to at most 3 decimals, so the files are the same text on
@@ -363,7 +363,8 @@ def draw_mission(seed: int, index: int, attempt: int) -> tuple[str, str]:
 
 
 def problems(paths: list[Path]) -> dict[str, list[str]]:
-    """What ``wmr-mission validate`` says of each file (errors and warnings)."""
+    """What ``wmr-mission validate`` finds wrong with each file (errors and
+    warnings; a note says what the run will do, and is no problem)."""
     found = subprocess.run(
         [sys.executable, "-m", "wmr_mission", "validate", "--format", "json", *map(str, paths)],
         capture_output=True,
@@ -371,7 +372,10 @@ def problems(paths: list[Path]) -> dict[str, list[str]]:
         check=False,
     )
     report = json.loads(found.stdout)
-    return {f["file"]: [d["message"] for d in f["diagnostics"]] for f in report["files"]}
+    return {
+        f["file"]: [d["message"] for d in f["diagnostics"] if d["severity"] != "note"]
+        for f in report["files"]
+    }
 
 
 def generate(seed: int, count: int) -> dict[str, str]:

@@ -98,11 +98,14 @@ def test_table_gives_each_phase_its_verdict() -> None:
     assert "0 % / 11.1 %" in rows["orbit"][0]
     assert rows["park"][0].endswith("  ok")
     assert lines[-2] == "outcome: expect-failed after 20.00 s of simulated time"
-    # The reason, once: in the message `run` prints on stderr.
     assert (
         summary["message"] == "expectation not met: orbit: turn_rate_at_limit = 0.111111 (max 0.01)"
     )
-    assert not [line for line in lines if "turn_rate_at_limit" in line]
+    # The row of the phase that missed says which threshold, its value and its bound.
+    assert [line.split("  ")[-1].strip() for line in rows["orbit"][1:3]] == [
+        "turn_rate_at_limit",
+        "0.111 (max 0.01)",
+    ]
 
 
 def test_a_narrower_table_wraps_its_cells_within_the_width() -> None:

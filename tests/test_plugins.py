@@ -205,13 +205,13 @@ def test_validate_checks_an_entry_s_syntax_and_imports_it_only_when_asked(
     assert missing.exit_code == 0
     missing = CliRunner().invoke(app, ["validate", "--check-entries", str(path)])
     assert missing.exit_code == 1
-    assert f"m.yaml:{ENTRY_LINE}:{ENTRY_COLUMN}: cannot load 'noisy:absent'" in missing.stderr
+    assert f"m.yaml:{ENTRY_LINE}:{ENTRY_COLUMN}: cannot load 'noisy:absent'" in missing.stdout
     # The syntax is checked always, without importing anything.
     path.write_text(mission("plain").replace("plugin_examples:plain", "../../etc/passwd"))
     bad = CliRunner().invoke(app, ["validate", str(path)])
     assert bad.exit_code == 1
     assert "controller.entry: '../../etc/passwd' is not an entry: expected 'module:callable'" in (
-        bad.stderr
+        bad.stdout
     )
 
 

@@ -48,6 +48,19 @@ def test_importing_the_package_loads_nothing_heavy() -> None:
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
 
 
+def test_dir_lists_the_lazy_names_for_tab_completion() -> None:
+    listed = dir(wmr_mission)
+    assert {"run_mission", "load_mission", "plot_verdicts", "plot_xy", "RunResult"} <= set(listed)
+    assert set(wmr_mission.__all__) <= set(listed)
+
+
+def test_plot_verdicts_is_exported() -> None:
+    from wmr_mission.output.figures import plot_verdicts
+
+    assert "plot_verdicts" in wmr_mission.__all__
+    assert wmr_mission.plot_verdicts is plot_verdicts
+
+
 def test_every_public_name_resolves() -> None:
     for name in wmr_mission.__all__:
         assert getattr(wmr_mission, name) is not None, name

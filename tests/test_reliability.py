@@ -619,7 +619,7 @@ def test_validate_of_a_fifo_without_writer_returns_at_once(tmp_path: Path) -> No
     os.mkfifo(fifo)
     done = cli("validate", str(fifo), cwd=tmp_path)
     assert done.returncode == 1
-    assert f"{fifo}:1:1: the file is empty" in done.stderr
+    assert f"{fifo}:1:1: the file is empty" in done.stdout
 
 
 def test_validate_into_a_closed_pipe_exits_with_its_own_code_quietly(tmp_path: Path) -> None:

@@ -329,7 +329,8 @@ def validate(
         typer.Argument(
             exists=True,
             metavar="FILE",
-            help="Mission or campaign YAML files; a directory stands for every *.yaml below it.",
+            help="Mission or campaign YAML files; a directory stands for every *.yaml and "
+            "*.yml below it.",
         ),
     ],
     format: Annotated[
@@ -343,11 +344,17 @@ def validate(
             help="Also import each `type: python` entry (runs its module's code, as a run does).",
         ),
     ] = False,
+    strict: Annotated[
+        bool,
+        typer.Option("--strict", help="Warnings are errors (exit 1); notes are not."),
+    ] = False,
 ) -> None:
     """Check mission and campaign files without running them (exit 0 all valid, 1 any invalid)."""
     from wmr_mission.commands.validate import validate_files
 
-    raise typer.Exit(validate_files(files, fmt=format.value, check_entries=check_entries))
+    raise typer.Exit(
+        validate_files(files, fmt=format.value, check_entries=check_entries, strict=strict)
+    )
 
 
 @command

@@ -239,11 +239,17 @@ class Document:
         return 0, 0
 
     def override_of(self, path: DataPath) -> str | None:
-        """How the user wrote the override that set ``path`` (or a parent of it)."""
+        """How the user wrote the override that set ``path`` (or a parent of it),
+        or that wrote the key ``path`` on its way (``--set robot.limitz.v=3``
+        writes ``robot.limitz``, which the file never had)."""
         for end in range(len(path), 0, -1):
             source = self.overrides.get(path[:end])
             if source is not None:
                 return source
+        if path not in self.values:
+            for written, source in self.overrides.items():
+                if written[: len(path)] == path:
+                    return source
         return None
 
     def text_column(self, path: DataPath) -> tuple[int, int] | None:
