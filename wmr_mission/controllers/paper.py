@@ -37,6 +37,7 @@ from wmr_mission.kernels.model import (
     jacobian_terms,
     saturate,
     step,
+    stopping_speed,
     wrap_angle,
 )
 from wmr_mission.kernels.records import Plant, Scratch, scratch
@@ -467,6 +468,13 @@ def regulate_input(
         # eq. (19) with dx the deviation from the target.
         v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
+        # The deceleration planned: eq. (19) knows no acceleration limit and
+        # asks for speed until the target is reached, too late to stop there.
+        # No faster than the limits can stop within the error left.
+        reach = stopping_speed(hypot(ex, ey), robot.limits[2], dt)
+        v1 = min(max(v1, -reach), reach)
+        turn = stopping_speed(abs(eth), robot.limits[3], dt)
+        omega1 = min(max(omega1, -turn), turn)
     v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, robot.limits, dt)
     u_out[0] = v1
     u_out[1] = omega1
