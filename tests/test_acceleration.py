@@ -158,3 +158,27 @@ def test_the_lag_allows_the_time_to_accelerate_to_the_reference(controller: str)
     check = next(c for c in summary["expectations"] if c["metric"] == "along_track_lag_max")
     # 0.1 m + 3 time constants at 2 m/s + 1 s to accelerate at 2 m/s
     assert check["max"] == pytest.approx(0.1 + 3 * 0.1 * 2 + 2 * 2 / 2)
+
+
+@pytest.mark.parametrize("acceleration", [{"v": 2.4, "omega": 7.7}, None])
+def test_a_park_goes_round_a_zone_and_keeps_out_of_it(acceleration: dict | None) -> None:
+    """To (6, 0) past a keep-out circle at (3, 0.2), radius 0.8. With the
+    acceleration limits the robot could not stop where eq. (28) asked and
+    ended 0.59 m inside the zone; without them it stopped at the zone's
+    edge, the target straight behind it, and timed out."""
+    limits: dict[str, Any] = {"v": 6, "omega": 7}
+    if acceleration is not None:
+        limits["acceleration"] = acceleration
+    park = {
+        "name": "park",
+        "regulate": {"target": {"x": 6, "y": 0, "theta": 0}},
+        "constraints": [{"stay_outside": "rock"}],
+        "until": {"settled": {"position": 0.02, "heading": 0.02}},
+        "timeout": 60,
+    }
+    rock = {"rock": {"type": "circle", "center": [3, 0.2], "radius": 0.8}}
+    result, summary = _judged(_one_phase(limits, park, regions=rock))
+    assert summary["outcome"] == "success", summary["message"]
+    assert np.hypot(result.x - 3.0, result.y - 0.2).min() >= 0.8
+    assert result.y.max() <= 0.0  # round the south: the way passed south of the centre
+    assert result.t[-1] < 15.0

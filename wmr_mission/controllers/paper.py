@@ -25,6 +25,7 @@ from wmr_mission.controllers.constrained_tracking import aim_round_zones, keep_c
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.fields import Flag, Model, NonNegative, Positive
 from wmr_mission.kernels.corrective import (
+    ELLIPSE_ROW,
     corrective_input,
     kept_row_slot,
     row_value_with_margin,
@@ -394,6 +395,79 @@ def scheduled_gain(
     out[1, 0], out[1, 1], out[1, 2] = gain[3] * c - gain[4] * s, gain[3] * s + gain[4] * c, gain[5]
 
 
+@kernel
+def _bearing_round_zones(
+    x: float,
+    y: float,
+    bearing: float,
+    distance: float,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+) -> float:
+    """The bearing the bearing form heads along from (x, y) to a target
+    ``distance`` away at ``bearing``: that one, or where the straight way
+    crosses a keep-out ellipse (grown by ``margin``), along the tangent to the
+    first one it crosses, on the side the way passes its centre (the left
+    when head-on). Heading into the zone, eq. (28) stopped the robot at its
+    edge for good (a target behind the zone: a saddle); along the tangent it
+    goes round, and on the edge the tangent is the edge's own direction.
+
+    In the ellipse's frame scaled to a unit circle straight lines stay
+    straight and tangents tangent: from a point q outside the unit circle
+    the tangents run along ``side q_perp - sqrt(|q|^2 - 1) q``, q_perp = q
+    turned by +90 degrees."""
+    first = 1.0
+    heading = bearing
+    for i in range(row_kinds.shape[0]):
+        p = row_params[i]
+        if row_kinds[i] != ELLIPSE_ROW or p[5] > 0.0:
+            continue
+        a = p[2] + margin
+        b = p[3] + margin
+        c = math.cos(p[4])
+        s = math.sin(p[4])
+        qx = (c * (x - p[0]) + s * (y - p[1])) / a
+        qy = (-s * (x - p[0]) + c * (y - p[1])) / b
+        wx = distance * math.cos(bearing)
+        wy = distance * math.sin(bearing)
+        dx = (c * wx + s * wy) / a
+        dy = (-s * wx + c * wy) / b
+        reach = dx * dx + dy * dy
+        inwards = -(qx * dx + qy * dy)
+        if inwards <= 0.0:
+            continue  # the way leads away from the centre
+        # the way's point nearest the centre, and whether it is inside
+        along = min(inwards / reach, 1.0)
+        if along >= first:
+            continue
+        nearest_x = qx + along * dx
+        nearest_y = qy + along * dy
+        if nearest_x * nearest_x + nearest_y * nearest_y >= 1.0:
+            continue
+        first = along
+        # the side the way passes the centre on (the left when head-on)
+        side = -1.0 if dx * qy - dy * qx >= 0.0 else 1.0
+        # on the edge (or within the margin, where eq. (28) holds the robot)
+        # the edge's own direction
+        root = math.sqrt(max(qx * qx + qy * qy - 1.0, 0.0))
+        ux = -side * qy - root * qx
+        uy = side * qx - root * qy
+        heading = math.atan2(s * a * ux + c * b * uy, c * a * ux - s * b * uy)
+    return heading
+
+
+@kernel
+def _braking_distance(v: float, acceleration: float, dt: float) -> float:
+    """[m] Signed distance covered after the next sample while braking from
+    ``v`` at ``acceleration`` (the speeds v - a dt, v - 2 a dt, ...); 0 without
+    an acceleration limit."""
+    if acceleration == math.inf:
+        return 0.0
+    distance = max(0.5 * v * v / acceleration - 0.5 * abs(v) * dt, 0.0)
+    return math.copysign(distance, v)
+
+
 @inlined
 def regulate_input(
     estimate: FloatArray,
@@ -430,7 +504,7 @@ def regulate_input(
         v1 = v_prev - (gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = omega_prev - (gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
     else:
-        scheduled_gain(estimate[2], v_prev, omega_prev, dt, q, r, memory, gain)
+        speed = v_prev  # where eq. (1) is linearised
         ex = estimate[0] - target[0]
         ey = estimate[1] - target[1]
         eth = wrap_angle(estimate[2] - target[2])
@@ -445,6 +519,16 @@ def regulate_input(
                 # reverse), so the lateral error the robot cannot reach at rest
                 # is turned into a heading error it can.
                 bearing = math.atan2(-ey, -ex)
+                if row_kinds.shape[0]:
+                    way = _bearing_round_zones(
+                        estimate[0], estimate[1], bearing, distance, row_kinds, row_params,
+                        robot.constraint_margin,
+                    )  # fmt: skip
+                    if way != bearing:
+                        # round the zone: the error as far, along the way round
+                        bearing = way
+                        ex = -distance * math.cos(way)
+                        ey = -distance * math.sin(way)
                 eth = wrap_angle(estimate[2] - bearing)
                 if controller.reverse:
                     # Backwards when the target is behind, with hysteresis: a
@@ -457,6 +541,11 @@ def regulate_input(
                         memory[REVERSING] = 0.0
                     if memory[REVERSING] != 0.0:
                         eth = wrap_angle(eth - math.pi)
+                # Linearised at a speed of the direction of travel chosen: at
+                # the other's, the lateral terms of T turn against the heading
+                # error, and a target abeam (91-101 degrees) was approached
+                # at a crawl the wrong way round, never turned to.
+                speed = min(v_prev, 0.0) if memory[REVERSING] != 0.0 else max(v_prev, 0.0)
             else:
                 # Aligning at the target: keep the reachable (longitudinal)
                 # part of the position error, turn to the target heading.
@@ -465,6 +554,7 @@ def regulate_input(
                 along = ex * c + ey * s
                 ex = along * c
                 ey = along * s
+        scheduled_gain(estimate[2], speed, omega_prev, dt, q, r, memory, gain)
         # eq. (19) with dx the deviation from the target.
         v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
@@ -485,7 +575,17 @@ def regulate_input(
     # each row shrunk by the estimate's margin, and held as a discrete-time
     # barrier, c(k+1) <= (1 - gamma) c(k): a row is approached, and left when
     # broken, by a fraction gamma of its value per sample, not in one jump.
-    px, py, _ = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
+    px, py, pth = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
+    # Under an acceleration limit the robot stops only beyond x_{k+1}: the rows
+    # are held at the point where braking from v1 ends, and now at the point
+    # where braking from v_{k-1} ends (the braking distance, v^2 / (2 a)).
+    rate = robot.limits[2]
+    ahead = _braking_distance(v1, rate, dt)
+    px += ahead * math.cos(pth)
+    py += ahead * math.sin(pth)
+    behind = _braking_distance(v_prev, rate, dt)
+    nx = estimate[0] + behind * math.cos(estimate[2])
+    ny = estimate[1] + behind * math.sin(estimate[2])
     d, eta, b = work.d, work.eta, work.b
     margin = robot.constraint_margin
     keep = 1.0 - controller.barrier_rate
@@ -494,9 +594,7 @@ def regulate_input(
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
         if keep > 0.0:
-            now, _, _ = row_value_with_margin(
-                row_kinds[i], row_params[i], margin, estimate[0], estimate[1]
-            )
+            now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, nx, ny)
             value -= keep * now
         if value <= 0.0:
             continue
@@ -510,6 +608,13 @@ def regulate_input(
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
+    if ahead != 0.0:
+        # the braking point moves with v1 along the heading, and turns with omega1
+        along = abs(v1) / rate - 0.5 * dt
+        b[0, 0] += along * math.cos(pth)
+        b[1, 0] += along * math.sin(pth)
+        b[0, 1] -= ahead * dt * math.sin(pth)
+        b[1, 1] += ahead * dt * math.cos(pth)
     dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)
