@@ -126,9 +126,10 @@ def test_a_park_plans_its_deceleration() -> None:
 def test_overshoot_is_how_far_past_the_target_along_the_way_in() -> None:
     x = np.array([0.0, 5.0, 10.0, 12.29, 11.0, 10.0])
     y = np.array([0.0, 0.0, 0.0, 0.3, 0.1, 0.0])
-    assert target_overshoot(x, y, (10.0, 0.0, 0.0)) == pytest.approx(2.29)
-    assert target_overshoot(x[:3], y[:3], (10.0, 0.0, 0.0)) == 0.0
-    assert target_overshoot(x, y, (0.0, 0.0, 0.0)) is None  # started on it
+    assert target_overshoot(x, y, (10.0, 0.0, 0.0), 0.02) == pytest.approx(2.29)
+    assert target_overshoot(x[:3], y[:3], (10.0, 0.0, 0.0), 0.02) == 0.0
+    # started within its goal: no way in
+    assert target_overshoot(x, y, (0.01, 0.0, 0.0), 0.02) is None
     regulation = {"stall_time": 0.0, "overshoot_max": 2.29, "goal_position": 0.02}
     phase = {"name": "park", "kind": "regulate", "settled_samples": 100, "regulation": regulation}
     resolved = mission_from_dict(_mission(None)).model_dump(mode="json")

@@ -467,7 +467,8 @@ class _PhaseSamples:
         if self.info.kind != "regulate" or self.info.target is None:
             return None
         w = self.window
-        return target_overshoot(self.result.x[w], self.result.y[w], self.info.target)
+        x, y = self.result.x[w], self.result.y[w]
+        return target_overshoot(x, y, self.info.target, self.goal[0])
 
     @cached_value
     def regulation(self) -> dict[str, Any] | None:

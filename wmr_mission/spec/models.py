@@ -327,7 +327,8 @@ _PHASE_METRICS: Final = {
     ),
     "overshoot_max": (
         "[m] how far a regulate phase's robot went past its target, along the way from "
-        "where the phase started to the target."
+        "where the phase started to the target (not judged for a phase that starts within "
+        "its goal)."
     ),
     "speed_jump_max": "[m/s] largest change of v from one sample to the next.",
     "turn_rate_jump_max": "[rad/s] largest change of omega from one sample to the next.",
@@ -671,7 +672,8 @@ class Expect(PhaseExpect):
     along_track_lag_max: Threshold | Auto | None = _mission_metric(
         "along_track_lag_max",
         "auto",
-        " auto: 0.1 m + the position noise std + 3 time constants at the reference's top speed.",
+        " auto: 0.1 m + the position noise std + 3 time constants and the time to accelerate "
+        "to it (limits.acceleration.v or v_rate) at the reference's top speed.",
     )
     detour_offset_max: Threshold | Auto | None = _mission_metric(
         "detour_offset_max",
