@@ -183,3 +183,16 @@ def test_a_park_goes_round_a_zone_and_keeps_out_of_it(acceleration: dict | None)
     assert np.hypot(result.x - 3.0, result.y - 0.2).min() >= 0.8
     assert result.y.max() <= 0.0  # round the south: the way passed south of the centre
     assert result.t[-1] < 15.0
+
+
+def test_the_tracking_law_does_not_weave_at_its_acceleration_limits() -> None:
+    """The line entered 0.5 rad off its heading: eq. (27) turned towards its
+    aim faster than 8 rad/s^2 could take back, and the heading swung past the
+    line and back for good, 1.06 m off it (pure pursuit: no weave). Planned,
+    the turn joins the line and stays."""
+    result, summary = _judged(_line(0.5, "paper"))
+    assert summary["outcome"] == "success", summary["message"]
+    assert np.abs(result.y).max() < 0.1
+    joined = result.t > 3.0
+    assert np.abs(result.y[joined]).max() < 1e-3
+    assert result.x[-1] == pytest.approx(20.0, abs=0.01)

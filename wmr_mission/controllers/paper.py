@@ -242,9 +242,29 @@ def track_input(
     input_jacobian_into(theta, v_prev, omega_prev, dt, b)
     both = int(np.int64(2))  # not the literal 2: one compiled corrective_input for all
     dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
-    u_out[0], u_out[1] = saturate(
-        v_prev + dv, omega_prev + dw, v_prev, omega_prev, robot.limits, dt
-    )
+    v = v_prev + dv
+    omega = omega_prev + dw
+    if robot.limits[3] != math.inf:
+        # The turn planned: eq. (27) turns the output towards its aim at a
+        # rate the turn-rate acceleration cannot take back in time, and the
+        # heading swings past it and back, for good (a line entered 0.5 rad
+        # off wove 1.06 m about it). Turning towards the heading the output's
+        # move asks for (reversed when driving backwards), no faster than
+        # the acceleration limit stops the turn there.
+        move_x = (
+            reference[0] + look_ahead * reference[2] - left_x - x - look_ahead * math.cos(theta)
+        )
+        move_y = (
+            reference[1] + look_ahead * reference[3] - left_y - y - look_ahead * math.sin(theta)
+        )
+        if v < 0.0:
+            move_x = -move_x
+            move_y = -move_y
+        turn = wrap_angle(math.atan2(move_y, move_x) - theta)
+        if omega * turn > 0.0:
+            reach = stopping_speed(abs(turn), robot.limits[3], dt)
+            omega = min(max(omega, -reach), reach)
+    u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, robot.limits, dt)
 
 
 Gain = tuple[float, float, float, float, float, float]  # T of eq. (20), 2x3 row by row
