@@ -42,7 +42,13 @@ from wmr_mission.kernels.corrective import (
     row_value_with_margin,
 )
 from wmr_mission.kernels.jit import inlined, kernel
-from wmr_mission.kernels.model import hypot, input_jacobian_into, saturate, step
+from wmr_mission.kernels.model import (
+    braking_distance,
+    hypot,
+    input_jacobian_into,
+    saturate,
+    step,
+)
 from wmr_mission.kernels.records import Plant, Scratch
 
 __all__ = [
@@ -126,6 +132,26 @@ def keep_constraints(
     t01 = b[0, 1] - look_ahead * s * b[2, 1]
     t10 = b[1, 0] + look_ahead * c * b[2, 0]
     t11 = b[1, 1] + look_ahead * c * b[2, 1]
+    # Under an acceleration limit the robot stops only beyond x_{k+1}: the
+    # rows are held at the output and also where braking from the input ends
+    # (v^2 / (2 a) on; now: where braking from u_{k-1} ends). That point moves
+    # with v along the heading and turns with omega. Without a limit it is the
+    # output itself.
+    rate = robot.limits[2]
+    bx, by, nx, ny = qx, qy, ox, oy
+    b00, b01, b10, b11 = t00, t01, t10, t11
+    if rate != math.inf:
+        ahead = braking_distance(u[0], rate, dt)
+        bx += ahead * c
+        by += ahead * s
+        behind = braking_distance(u_prev[0], rate, dt)
+        nx += behind * math.cos(estimate[2])
+        ny += behind * math.sin(estimate[2])
+        along = abs(u[0]) / rate - 0.5 * dt if ahead != 0.0 else 0.0
+        b00 += along * c
+        b10 += along * s
+        b01 -= ahead * dt * s
+        b11 += ahead * dt * c
     a, eta, h = work.d, work.eta, work.h
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
@@ -134,13 +160,22 @@ def keep_constraints(
         if keep > 0.0:
             now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
             value -= keep * now
+        s00, s01, s10, s11 = t00, t01, t10, t11
+        if rate != math.inf:
+            braked, hx, hy = row_value_with_margin(row_kinds[i], row_params[i], margin, bx, by)
+            if keep > 0.0:
+                now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, nx, ny)
+                braked -= keep * now
+            if braked > value:
+                value, gx, gy = braked, hx, hy
+                s00, s01, s10, s11 = b00, b01, b10, b11
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
         if slot < 0:
             continue
-        a[slot, 0] = gx * t00 + gy * t10
-        a[slot, 1] = gx * t01 + gy * t11
+        a[slot, 0] = gx * s00 + gy * s10
+        a[slot, 1] = gx * s01 + gy * s11
         eta[slot] = -value  # saturate to the violated bound
     if count == 0:
         return False

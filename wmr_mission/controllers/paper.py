@@ -33,6 +33,7 @@ from wmr_mission.kernels.corrective import (
 from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.loop import EnteredPhase
 from wmr_mission.kernels.model import (
+    braking_distance,
     hypot,
     input_jacobian_into,
     jacobian_terms,
@@ -477,17 +478,6 @@ def _bearing_round_zones(
     return heading
 
 
-@kernel
-def _braking_distance(v: float, acceleration: float, dt: float) -> float:
-    """[m] Signed distance covered after the next sample while braking from
-    ``v`` at ``acceleration`` (the speeds v - a dt, v - 2 a dt, ...); 0 without
-    an acceleration limit."""
-    if acceleration == math.inf:
-        return 0.0
-    distance = max(0.5 * v * v / acceleration - 0.5 * abs(v) * dt, 0.0)
-    return math.copysign(distance, v)
-
-
 @inlined
 def regulate_input(
     estimate: FloatArray,
@@ -597,25 +587,39 @@ def regulate_input(
     # broken, by a fraction gamma of its value per sample, not in one jump.
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the rows
-    # are held at the point where braking from v1 ends, and now at the point
-    # where braking from v_{k-1} ends (the braking distance, v^2 / (2 a)).
+    # are held at x_{k+1} and also where braking from v1 ends (and now: where
+    # braking from v_{k-1} ends), the braking distance v^2 / (2 a) on.
     rate = robot.limits[2]
-    ahead = _braking_distance(v1, rate, dt)
-    px += ahead * math.cos(pth)
-    py += ahead * math.sin(pth)
-    behind = _braking_distance(v_prev, rate, dt)
-    nx = estimate[0] + behind * math.cos(estimate[2])
-    ny = estimate[1] + behind * math.sin(estimate[2])
+    ahead = 0.0
+    bx, by, nx, ny = px, py, estimate[0], estimate[1]
+    if rate != math.inf:
+        ahead = braking_distance(v1, rate, dt)
+        bx += ahead * math.cos(pth)
+        by += ahead * math.sin(pth)
+        behind = braking_distance(v_prev, rate, dt)
+        nx += behind * math.cos(estimate[2])
+        ny += behind * math.sin(estimate[2])
     d, eta, b = work.d, work.eta, work.b
     margin = robot.constraint_margin
     keep = 1.0 - controller.barrier_rate
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
+    braking = False  # a row held at the braking point
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
         if keep > 0.0:
-            now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, nx, ny)
+            now, _, _ = row_value_with_margin(
+                row_kinds[i], row_params[i], margin, estimate[0], estimate[1]
+            )
             value -= keep * now
+        if ahead != 0.0:
+            braked, hx, hy = row_value_with_margin(row_kinds[i], row_params[i], margin, bx, by)
+            if keep > 0.0:
+                now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, nx, ny)
+                braked -= keep * now
+            if braked > value:
+                value, gx, gy = braked, hx, hy
+                braking = True
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
@@ -628,7 +632,7 @@ def regulate_input(
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
-    if ahead != 0.0:
+    if braking:
         # the braking point moves with v1 along the heading, and turns with omega1
         along = abs(v1) / rate - 0.5 * dt
         b[0, 0] += along * math.cos(pth)

@@ -110,6 +110,15 @@ def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
 
 
 @kernel
+def braking_distance(v: float, acceleration: float, dt: float) -> float:
+    """[m] Signed distance covered after the next sample while braking from
+    ``v`` at ``acceleration`` (the speeds v - a dt, v - 2 a dt, ..., the
+    sample's own v dt not counted: about v^2 / (2 a))."""
+    distance = max(0.5 * v * v / acceleration - 0.5 * abs(v) * dt, 0.0)
+    return math.copysign(distance, v)
+
+
+@kernel
 def input_jacobian_into(theta: float, v: float, omega: float, dt: float, b: FloatArray) -> None:
     _, _, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
     b[0, 0] = b11

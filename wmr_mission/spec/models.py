@@ -131,7 +131,9 @@ class Limits(Model):
         description=(
             "The robot's own acceleration limits: the plant applies the commands no faster, "
             "and the controller (its zone filter too) commands no faster (the tighter of "
-            "these and v_rate, omega_rate); null = unlimited."
+            "these and v_rate, omega_rate) and plans for them: the regulator its "
+            "deceleration, the tracking law its turn, a regulate phase's zones the braking "
+            "distance; null = unlimited."
         ),
     )
 
