@@ -21,7 +21,11 @@ import numpy as np
 from pydantic import Field
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.controllers.constrained_tracking import aim_round_zones, keep_constraints
+from wmr_mission.controllers.constrained_tracking import (
+    aim_round_zones,
+    held_where_braking_ends,
+    keep_constraints,
+)
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.fields import Flag, Model, NonNegative, Positive
 from wmr_mission.kernels.corrective import (
@@ -33,7 +37,6 @@ from wmr_mission.kernels.corrective import (
 from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.loop import EnteredPhase
 from wmr_mission.kernels.model import (
-    braking_distance,
     hypot,
     input_jacobian_into,
     jacobian_terms,
@@ -587,24 +590,17 @@ def regulate_input(
     # broken, by a fraction gamma of its value per sample, not in one jump.
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the rows
-    # are held at x_{k+1} and also where braking from v1 ends (and now: where
-    # braking from v_{k-1} ends), the braking distance v^2 / (2 a) on.
+    # are held at x_{k+1} and also where braking from v1 ends, the braking
+    # distance v^2 / (2 a) on (constrained_tracking.held_where_braking_ends).
     rate = robot.limits[2]
-    ahead = 0.0
-    bx, by, nx, ny = px, py, estimate[0], estimate[1]
-    if rate != math.inf:
-        ahead = braking_distance(v1, rate, dt)
-        bx += ahead * math.cos(pth)
-        by += ahead * math.sin(pth)
-        behind = braking_distance(v_prev, rate, dt)
-        nx += behind * math.cos(estimate[2])
-        ny += behind * math.sin(estimate[2])
     d, eta, b = work.d, work.eta, work.b
     margin = robot.constraint_margin
     keep = 1.0 - controller.barrier_rate
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
-    braking = False  # a row held at the braking point
+    # The braking point's sensitivity to the input beyond x_{k+1}'s, when a
+    # row is held there (one B for the rows: with two, that row's).
+    extra = (0.0, 0.0, 0.0, 0.0)
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
         if keep > 0.0:
@@ -612,14 +608,15 @@ def regulate_input(
                 row_kinds[i], row_params[i], margin, estimate[0], estimate[1]
             )
             value -= keep * now
-        if ahead != 0.0:
-            braked, hx, hy = row_value_with_margin(row_kinds[i], row_params[i], margin, bx, by)
-            if keep > 0.0:
-                now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, nx, ny)
-                braked -= keep * now
-            if braked > value:
-                value, gx, gy = braked, hx, hy
-                braking = True
+        if rate != math.inf:
+            held, gx, gy, e00, e01, e10, e11 = held_where_braking_ends(
+                row_kinds[i], row_params[i], margin, keep, value, gx, gy,
+                (estimate[0], estimate[1], estimate[2], v_prev), (px, py, pth, v1, omega1),
+                (0.0, 0.0, 0.0, 0.0), rate, dt,
+            )  # fmt: skip
+            if held != value:
+                value = held
+                extra = (e00, e01, e10, e11)
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
@@ -632,13 +629,11 @@ def regulate_input(
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
-    if braking:
-        # the braking point moves with v1 along the heading, and turns with omega1
-        along = abs(v1) / rate - 0.5 * dt
-        b[0, 0] += along * math.cos(pth)
-        b[1, 0] += along * math.sin(pth)
-        b[0, 1] -= ahead * dt * math.sin(pth)
-        b[1, 1] += ahead * dt * math.cos(pth)
+    if rate != math.inf:
+        b[0, 0] += extra[0]
+        b[0, 1] += extra[1]
+        b[1, 0] += extra[2]
+        b[1, 1] += extra[3]
     dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)
