@@ -598,9 +598,10 @@ def regulate_input(
     keep = 1.0 - controller.barrier_rate
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
-    # The braking point's sensitivity to the input beyond x_{k+1}'s, when a
-    # row is held there (one B for the rows: with two, that row's).
+    # The braking point's sensitivity to the input beyond x_{k+1}'s, where the
+    # most violated row is held there (one B for the rows: that row's).
     extra = (0.0, 0.0, 0.0, 0.0)
+    worst = 0.0
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
         if keep > 0.0:
@@ -614,9 +615,10 @@ def regulate_input(
                 (estimate[0], estimate[1], estimate[2], v_prev), (px, py, pth, v1, omega1),
                 (0.0, 0.0, 0.0, 0.0), rate, dt,
             )  # fmt: skip
-            if held != value:
-                value = held
+            if held > worst:
+                worst = held
                 extra = (e00, e01, e10, e11)
+            value = held
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
