@@ -189,6 +189,8 @@ class MissionSpec:
     look_ahead: float  # [m]
     phases: dict[str, PhaseSpec]  # by the name trajectory.csv gives them
     regions: dict[str, Region]
+    # [m/s^2, rad/s^2] the tighter of limits.acceleration and limits.*_rate (inf: none)
+    accelerations: tuple[float, float] = (math.inf, math.inf)
 
 
 def read_mission(source: str | Path | Mapping[str, Any]) -> MissionSpec:
@@ -232,7 +234,25 @@ def read_mission(source: str | Path | Mapping[str, Any]) -> MissionSpec:
         ),
         phases=phases,
         regions=regions,
+        accelerations=_accelerations(robot),
     )
+
+
+def _accelerations(robot: Mapping[str, Any]) -> tuple[float, float]:
+    """The robot's acceleration limits [m/s^2, rad/s^2]: the tighter of
+    limits.acceleration and limits.v_rate / omega_rate; inf where none is set."""
+    found = []
+    for state, rate in (("v", "v_rate"), ("omega", "omega_rate")):
+        values = [
+            _number(value, f"robot.limits.{where}")
+            for where, value in (
+                (f"acceleration.{state}", _get(robot, "limits", "acceleration", state)),
+                (rate, _get(robot, "limits", rate)),
+            )
+            if value is not None
+        ]
+        found.append(min(values, default=math.inf))
+    return found[0], found[1]
 
 
 def _phase(step: Mapping[str, Any], name: str, regions: Mapping[str, Region]) -> PhaseSpec:
@@ -406,8 +426,30 @@ class _PhaseJudge:
             self.regulation()
         self.goal()
         self.zones()
+        self.accelerations()
         self.inputs()
         return self.result
+
+    # --- the acceleration limits ---------------------------------------------------------
+
+    def accelerations(self) -> None:
+        """No input changes faster than the robot accelerates: the commands the
+        run recorded change by at most the acceleration limit times dt a sample."""
+        for name, u, rate in (
+            ("v", self.v, self.spec.accelerations[0]),
+            ("omega", self.omega, self.spec.accelerations[1]),
+        ):
+            if not math.isfinite(rate) or u.size < 2:
+                continue
+            change = np.abs(np.diff(u)) / self.dt
+            self.result.metrics[f"{name}_acceleration_max"] = float(change.max())
+            beyond = np.flatnonzero(change > rate * (1.0 + 1e-6))
+            if beyond.size:
+                k = int(beyond[0])
+                self.problem(
+                    f"{name} changes at {change[k]:.3g} per second at t = {self.t[k + 1]:.2f} s, "
+                    f"beyond the acceleration limit {rate:g}"
+                )
 
     # --- the phase's goal -------------------------------------------------------
 
@@ -590,6 +632,7 @@ class _PhaseJudge:
         turned = h_first - h_last >= PROGRESS * np.minimum(
             h_first, spec.omega_limit * window * self.dt
         )
+        self.overshoot(aim, position, position_tolerance)
         away = ~_any_in_windows(at_goal, window + 1)
         stuck = away & ~gained & ~turned
         self.result.metrics["stall_time"] = float(stuck.sum() * self.dt)
@@ -600,6 +643,24 @@ class _PhaseJudge:
                 f"stalled: from t = {self.t[k]:.2f} s, {window * self.dt:.2f} s without progress "
                 f"({position[k]:.3g} m and {heading[k]:.3g} rad from the target, moved "
                 f"{moved:.3g} m)"
+            )
+
+    def overshoot(
+        self, aim: tuple[float, float, float], position: FloatArray, tolerance: float
+    ) -> None:
+        """A park stops at its target: the true position goes no further past it,
+        along the way in (from where the phase started to the target), than the
+        goal's position tolerance. A phase started within its goal has no way in."""
+        if position[0] <= tolerance:
+            return
+        way_x, way_y = (aim[0] - self.x[0]) / position[0], (aim[1] - self.y[0]) / position[0]
+        beyond = float(((self.x - aim[0]) * way_x + (self.y - aim[1]) * way_y).max())
+        self.result.metrics["overshoot"] = max(beyond, 0.0)
+        if beyond > tolerance:
+            k = int(np.argmax((self.x - aim[0]) * way_x + (self.y - aim[1]) * way_y))
+            self.problem(
+                f"overshot: {beyond:.3g} m past the target at t = {self.t[k]:.2f} s "
+                f"(goal {tolerance:.3g} m)"
             )
 
     # --- zones --------------------------------------------------------------------------

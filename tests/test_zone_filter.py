@@ -138,3 +138,39 @@ def test_the_aim_moves_continuously_through_a_circle() -> None:
     np.testing.assert_allclose(distance[moved], 1.0 + 2 * 0.05 + 0.02, atol=1e-9)
     assert (distance[~moved] >= 1.12 - 1e-9).all()
     assert path[:, 1].min() < 0.3 - 1.0  # round the south: the edge faced south at the entry
+
+
+@pytest.mark.parametrize(
+    ("speed", "acceleration", "centre_y"),
+    [(3.0, {"v": 1.5, "omega": 4.0}, 0.3), (2.0, {"v": 1.0, "omega": 3.0}, 0.0)],
+)
+def test_the_filter_keeps_a_zone_under_acceleration_limits(
+    speed: float, acceleration: dict[str, float], centre_y: float
+) -> None:
+    """A line through a keep-out circle, driven under acceleration limits: the
+    filter held the look-ahead point one sample ahead, where the robot could
+    no longer stop or turn away, and it went 0.43 m (0.38 m) into the zone.
+    Held also where braking ends (v^2 / (2 a) ahead), it keeps out."""
+    from wmr_mission import mission_from_dict, run_mission
+
+    data = {
+        "version": 1,
+        "name": "line",
+        "robot": {
+            "dt": 0.01,
+            "initial_state": {"x": 0, "y": 0, "theta": 0},
+            "limits": {"v": 4, "omega": 4, "acceleration": acceleration},
+        },
+        "regions": {"rock": {"type": "circle", "center": [5, centre_y], "radius": 1}},
+        "phases": [
+            {
+                "name": "go",
+                "track": {"path": {"type": "line", "start": [0, 0], "heading": 0, "speed": speed}},
+                "constraints": [{"stay_outside": "rock"}],
+                "until": {"elapsed": 14},
+            }
+        ],
+    }
+    result = run_mission(mission_from_dict(data))
+    assert np.hypot(result.x - 5.0, result.y - centre_y).min() >= 1.0
+    assert result.x[-1] > 12.0  # round it and on

@@ -42,7 +42,13 @@ from wmr_mission.kernels.corrective import (
     row_value_with_margin,
 )
 from wmr_mission.kernels.jit import inlined, kernel
-from wmr_mission.kernels.model import hypot, input_jacobian_into, saturate, step
+from wmr_mission.kernels.model import (
+    braking_distance,
+    hypot,
+    input_jacobian_into,
+    saturate,
+    step,
+)
 from wmr_mission.kernels.records import Plant, Scratch
 
 __all__ = [
@@ -89,6 +95,51 @@ def constrained_change(
     return p00 * lam0 + p01 * lam1, p10 * lam0 + p11 * lam1
 
 
+@kernel
+def held_where_braking_ends(
+    kind: int,
+    p: FloatArray,
+    margin: float,
+    keep: float,
+    value: float,
+    gx: float,
+    gy: float,
+    now: tuple[float, float, float, float],
+    next_: tuple[float, float, float, float, float],
+    sensitivity: tuple[float, float, float, float],
+    rate: float,
+    dt: float,
+) -> tuple[float, float, float, float, float, float, float]:
+    """A row's barrier value at the point ``next_`` (x, y, heading at k+1, v,
+    omega) and, where it is further in, at the point where braking from v at
+    ``rate`` ends (v^2 / (2 a) on along the heading; now: from ``now``'s
+    point, heading and v_{k-1}): the value, its gradient, and the point's
+    sensitivity to (v, omega), ``sensitivity`` (2x2 row by row) for the first.
+    The braking point moves with v along the heading and turns with omega."""
+    s00, s01, s10, s11 = sensitivity
+    ahead = braking_distance(next_[3], rate, dt)
+    if ahead == 0.0:
+        return value, gx, gy, s00, s01, s10, s11
+    c = math.cos(next_[2])
+    s = math.sin(next_[2])
+    braked, hx, hy = row_value_with_margin(
+        kind, p, margin, next_[0] + ahead * c, next_[1] + ahead * s
+    )
+    if keep > 0.0:
+        behind = braking_distance(now[3], rate, dt)
+        now_value, _, _ = row_value_with_margin(
+            kind, p, margin, now[0] + behind * math.cos(now[2]), now[1] + behind * math.sin(now[2])
+        )
+        braked -= keep * now_value
+    if braked <= value:
+        return value, gx, gy, s00, s01, s10, s11
+    along = abs(next_[3]) / rate - 0.5 * dt
+    return (
+        braked, hx, hy,
+        s00 + along * c, s01 - ahead * dt * s, s10 + along * s, s11 + ahead * dt * c,
+    )  # fmt: skip
+
+
 @inlined
 def keep_constraints(
     estimate: FloatArray,
@@ -126,6 +177,9 @@ def keep_constraints(
     t01 = b[0, 1] - look_ahead * s * b[2, 1]
     t10 = b[1, 0] + look_ahead * c * b[2, 0]
     t11 = b[1, 1] + look_ahead * c * b[2, 1]
+    # Under an acceleration limit the robot stops only beyond x_{k+1}: the
+    # rows are held at the output and also where braking from the input ends.
+    rate = robot.limits[2]
     a, eta, h = work.d, work.eta, work.h
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
@@ -134,13 +188,20 @@ def keep_constraints(
         if keep > 0.0:
             now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
             value -= keep * now
+        s00, s01, s10, s11 = t00, t01, t10, t11
+        if rate != math.inf:
+            value, gx, gy, s00, s01, s10, s11 = held_where_braking_ends(
+                row_kinds[i], row_params[i], margin, keep, value, gx, gy,
+                (ox, oy, estimate[2], u_prev[0]), (qx, qy, pth, u[0], u[1]),
+                (t00, t01, t10, t11), rate, dt,
+            )  # fmt: skip
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
         if slot < 0:
             continue
-        a[slot, 0] = gx * t00 + gy * t10
-        a[slot, 1] = gx * t01 + gy * t11
+        a[slot, 0] = gx * s00 + gy * s10
+        a[slot, 1] = gx * s01 + gy * s11
         eta[slot] = -value  # saturate to the violated bound
     if count == 0:
         return False

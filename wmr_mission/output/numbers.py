@@ -36,6 +36,8 @@ class MissionNumbers:
     look_ahead: float  # [m] of the tracked point ahead of the axle; 0 for the axle law
     noise: Mapping[str, float]  # std of each measured state [m, m, rad]; 0 if not measured
     convergence_tolerance: Mapping[str, float]  # expect.convergence_tolerance
+    # [m/s^2] the tighter of limits.acceleration.v and limits.v_rate (inf: none)
+    v_acceleration: float = math.inf
 
     @property
     def position_noise(self) -> float:
@@ -86,6 +88,10 @@ def mission_numbers(
     noise_std = _get(mission, "sensors", "noise_std") or {}
     noise = {s: float(noise_std.get(s) or 0.0) if s in measured else 0.0 for s in STATES}
     tolerance = _get(mission, "expect", "convergence_tolerance") or {}
+    rates = [
+        _get(mission, "robot", "limits", "acceleration", "v"),
+        _get(mission, "robot", "limits", "v_rate"),
+    ]
     return MissionNumbers(
         dt=dt,
         v_limit=limits[0],
@@ -97,4 +103,5 @@ def mission_numbers(
         convergence_tolerance={
             s: float(tolerance.get(s) or models.DEFAULT_CONVERGENCE_TOLERANCE) for s in STATES
         },
+        v_acceleration=min([float(rate) for rate in rates if rate is not None], default=math.inf),
     )

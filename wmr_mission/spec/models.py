@@ -131,7 +131,9 @@ class Limits(Model):
         description=(
             "The robot's own acceleration limits: the plant applies the commands no faster, "
             "and the controller (its zone filter too) commands no faster (the tighter of "
-            "these and v_rate, omega_rate); null = unlimited."
+            "these and v_rate, omega_rate) and plans for them: the regulator its "
+            "deceleration, the tracking law its turn, a regulate phase's zones the braking "
+            "distance; null = unlimited."
         ),
     )
 
@@ -325,6 +327,11 @@ _PHASE_METRICS: Final = {
         "[s] time a regulate phase spends away from its goal without taking 10 % of its "
         "error out over the next 20 time constants (or half a turn and 10 time constants)."
     ),
+    "overshoot_max": (
+        "[m] how far a regulate phase's robot went past its target, along the way from "
+        "where the phase started to the target (not judged for a phase that starts within "
+        "its goal)."
+    ),
     "speed_jump_max": "[m/s] largest change of v from one sample to the next.",
     "turn_rate_jump_max": "[rad/s] largest change of omega from one sample to the next.",
     "speed_reversals": (
@@ -382,6 +389,7 @@ class PhaseExpect(Model):
     detour_time: Threshold | None = _phase_metric("detour_time")
     zone_intrusion_max: Threshold | None = _phase_metric("zone_intrusion_max")
     stall_time: Threshold | None = _phase_metric("stall_time")
+    overshoot_max: Threshold | Auto | None = _phase_metric("overshoot_max")
     speed_jump_max: Threshold | Auto | None = _phase_metric("speed_jump_max")
     turn_rate_jump_max: Threshold | Auto | None = _phase_metric("turn_rate_jump_max")
     speed_reversals: Threshold | None = _phase_metric("speed_reversals")
@@ -666,7 +674,8 @@ class Expect(PhaseExpect):
     along_track_lag_max: Threshold | Auto | None = _mission_metric(
         "along_track_lag_max",
         "auto",
-        " auto: 0.1 m + the position noise std + 3 time constants at the reference's top speed.",
+        " auto: 0.1 m + the position noise std + 3 time constants and the time to accelerate "
+        "to it (limits.acceleration.v or v_rate) at the reference's top speed.",
     )
     detour_offset_max: Threshold | Auto | None = _mission_metric(
         "detour_offset_max",
@@ -679,6 +688,12 @@ class Expect(PhaseExpect):
     )
     stall_time: Threshold | None = _mission_metric(
         "stall_time", Threshold(max=DEFAULT_STALL_TIME), " {max: 0} unless set."
+    )
+    overshoot_max: Threshold | Auto | None = _mission_metric(
+        "overshoot_max",
+        "auto",
+        " auto: the phase's settled position tolerance + the position noise std (without "
+        "`settled`, 0.1 m + the position noise std).",
     )
     speed_jump_max: Threshold | Auto | None = _mission_metric(
         "speed_jump_max", "auto", " auto: limits.v, half the range."
