@@ -99,11 +99,15 @@ class Ekf(EstimatorSettings):
                 }
             )
         if "process_std" not in self.model_fields_set:
+            written = self.process_std.model_dump()
+            # Positions: the tracking law's budget. Heading: a third of its own
+            # noise, as the observer's default pole leaves (0.23): a goal the
+            # estimate meets, the truth meets within one noise std.
+            budgets = {"x": position_budget, "y": position_budget}
+            budgets["theta"] = measured_noise.get("theta", 0.0) * INITIAL_SHARE
             process = {
-                state: quiet_process_std(
-                    measured_noise[state], position_budget, getattr(self.process_std, state)
-                )
-                for state in ("x", "y")
+                state: quiet_process_std(measured_noise[state], budget, written[state])
+                for state, budget in budgets.items()
                 if measured_noise.get(state, 0.0) > 0.0
             }
             if process:
@@ -112,7 +116,7 @@ class Ekf(EstimatorSettings):
 
 
 def quiet_process_std(noise_std: float, budget: float, process_std: float) -> float:
-    """The position process noise std whose filtered estimate's variance is at
+    """The process noise std whose filtered estimate's variance is at
     most ``budget^2``: in steady state a coordinate's variance is about
     ``sqrt(q r)`` for ``q << r``, so ``sqrt(q) = budget^2 / noise_std``; never
     more than ``process_std``. Rounded to 3 significant digits."""

@@ -912,7 +912,7 @@ def check_expectations(
         thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
         found = _phase_checks(phase, thresholds, numbers)
         for check in found if phase.get("kind") == "track" else ():
-            line = advice(check, numbers, controller)  # the tracking law's mechanisms
+            line = advice(check, phase, numbers, controller)  # the tracking law's
             if line is not None:
                 check["advice"] = line
         checks.extend(found)
