@@ -55,7 +55,12 @@ class Ekf(EstimatorSettings):
     )
     process_std: StateStd = Field(
         default_factory=lambda: StateStd(x=0.001, y=0.001, theta=0.001),
-        description="Process noise per sample [m, m, rad], >= 0.",
+        description=(
+            "Process noise per sample [m, m, rad], >= 0; default 0.001, and with noisy sensors "
+            "(no robot.disturbances) less: x and y so that the estimate's noise takes at most "
+            "1 % of the turn-rate limit through the tracking law, theta a third of its noise "
+            "(docs/paper-notes.md, eq. 6-7)."
+        ),
     )
     measurement_std: dict[StateName, Positive] | None = Field(
         default=None,
@@ -103,8 +108,10 @@ class Ekf(EstimatorSettings):
             # Positions: the tracking law's budget. Heading: a third of its own
             # noise, as the observer's default pole leaves (0.23): a goal the
             # estimate meets, the truth meets within one noise std.
+            # (No budget, as under stated disturbances: the defaults as written.)
             budgets = {"x": position_budget, "y": position_budget}
-            budgets["theta"] = measured_noise.get("theta", 0.0) * INITIAL_SHARE
+            if math.isfinite(position_budget):
+                budgets["theta"] = measured_noise.get("theta", 0.0) * INITIAL_SHARE
             process = {
                 state: quiet_process_std(measured_noise[state], budget, written[state])
                 for state, budget in budgets.items()

@@ -119,9 +119,11 @@ class ConstrainedObserver(EstimatorSettings):
     poles: StatePoles = Field(
         default_factory=StatePoles,
         description=(
-            "Observer poles, phase I (eq. 7). With the heading unmeasured, its pole relaxes "
-            "towards 1 while the robot moves less per sample than sensors.noise_std of the "
-            "measured positions (docs/paper-notes.md, eq. 6-7)."
+            "Observer poles, phase I (eq. 7); default 0.9, and with noisy positions (no "
+            "robot.disturbances) x and y slow enough that the estimate's noise takes at most "
+            "1 % of the turn-rate limit through the tracking law. With the heading unmeasured, "
+            "its pole relaxes towards 1 while the robot moves less per sample than "
+            "sensors.noise_std of the measured positions (docs/paper-notes.md, eq. 6-7)."
         ),
     )
     output_error_bounds: dict[StateName, OutputErrorBound] | None = Field(
