@@ -385,7 +385,7 @@ def next_estimate(
     if not measured:
         return observer_predict(estimate, v, omega, dt)
     counts = memory.counts
-    if tuning.innovation_gate < math.inf:
+    if tuning.innovation_gate < math.inf:  # noisy sensors only
         # A lone outlier is dropped before it reaches the estimate (and, through
         # phase II, drags it to within its bound of the outlier).
         px, py, pth = step(estimate[0], estimate[1], estimate[2], v, omega, dt)
@@ -400,13 +400,16 @@ def next_estimate(
         elif counts[1] < MAX_REJECTED:
             counts[1] += 1.0
             return observer_predict(estimate, v, omega, dt)
-    poles = memory.poles
-    for i in range(3):
-        poles[i] = tuning.poles[i]
-    for i in range(2):
-        if poles[i] > RAMP_POLE:
-            poles[i] = min(poles[i], 1.0 - 1.0 / (counts[0] + RAMP_START))
-    counts[0] += 1.0
+    poles = tuning.poles
+    if poles[0] > RAMP_POLE or poles[1] > RAMP_POLE:  # noisy positions only
+        ramped = memory.poles
+        for i in range(3):
+            ramped[i] = poles[i]
+        for i in range(2):
+            if ramped[i] > RAMP_POLE:
+                ramped[i] = min(ramped[i], 1.0 - 1.0 / (counts[0] + RAMP_START))
+        counts[0] += 1.0
+        poles = ramped
     return observer_step(estimate, v, omega, dt, measurement, tuning, memory.gain, poles)
 
 
