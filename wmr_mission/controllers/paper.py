@@ -64,6 +64,9 @@ MIN_LOOK_AHEAD = 0.05
 BARRIER_TIME = 0.1
 # Largest fraction of the bearing error the tracked output turns by per sample.
 HEADING_STEP = 0.3
+# The share of the turn-rate limit the position estimate's noise may take as
+# jitter through the tracking law (docs/paper-notes.md, eqs. (6)-(7) under noise).
+JITTER_SHARE = 0.01
 
 
 class Tracking(Model):
@@ -129,6 +132,17 @@ class PaperController(ControllerSettings):
     )
     tracking: Tracking = Field(default_factory=Tracking, description="Path tracking output.")
     regulation: Regulation = Field(default_factory=Regulation, description="Regulation form.")
+
+    def position_noise_budget(self, dt: float, speed_limit: float, turn_limit: float) -> float:
+        """A lateral error ``e`` of the look-ahead point closed within the time
+        constant ``tau`` turns the robot at about ``e / (l tau)``: the position
+        estimate's noise may be ``JITTER_SHARE turn_limit l tau``. inf for the
+        axle law (no look-ahead to scale by)."""
+        distance = look_ahead(self, dt, speed_limit)
+        if distance == 0.0:
+            return math.inf
+        tau = max(float(self.tracking.time_constant), float(dt))
+        return JITTER_SHARE * float(turn_limit) * distance * tau
 
 
 # --- the kernels ---------------------------------------------------------------

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
 from wmr_mission.output import inputs as input_metrics
+from wmr_mission.output.advice import advice
 from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.numbers import MissionNumbers, mission_numbers
 from wmr_mission.output.regulation import overshoot as target_overshoot
@@ -943,9 +944,15 @@ def check_expectations(
         and (metric not in REALTIME_EXPECTATIONS or "realtime" in summary)
     ]
     per_phase = phase_expectations(mission)
+    controller = str(((mission or {}).get("controller") or {}).get("type", "paper"))
     for phase in summary.get("phases") or []:
         thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
-        checks.extend(_phase_checks(phase, thresholds, numbers))
+        found = _phase_checks(phase, thresholds, numbers)
+        for check in found if phase.get("kind") == "track" else ():
+            line = advice(check, phase, numbers, controller)  # the tracking law's
+            if line is not None:
+                check["advice"] = line
+        checks.extend(found)
     return checks
 
 

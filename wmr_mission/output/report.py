@@ -212,6 +212,8 @@ def format_table(
         "estimation converged from: " + ("never" if converged is None else f"t = {converged:.2f} s")
     )
     outcome = summary.get("outcome")
+    # What to try, where a known mechanism explains a miss (output/advice.py).
+    lines += [f"try: {check['advice']}" for check in checks if check.get("advice")]
     for check in checks:
         if check["met"] and check.get("phase") is not None:
             continue  # the verdict column says it

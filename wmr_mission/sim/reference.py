@@ -147,10 +147,12 @@ def observer_step(
     measurement: FloatArray,
     params: ObserverTuning,
     gain: FloatArray,
+    poles: FloatArray,
 ) -> int:
-    """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L into
-    ``gain``; returns the number of phase-II iterations run."""
-    mask, poles, motion_floor = params.mask, params.poles, params.motion_floor
+    """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L for the
+    eigenvalues ``poles`` into ``gain``; returns the number of phase-II
+    iterations run."""
+    mask, motion_floor = params.mask, params.motion_floor
     lower, upper = params.lower, params.upper
     a = state_jacobian(float(estimate[2]), v, omega, dt)  # eq. (7)
     gain[:, :] = observer_gain_matrix(a, mask, poles, motion_floor)
@@ -191,8 +193,10 @@ def ekf_step(
     measurement: FloatArray,
     params: EkfTuning,
     work: FloatArray,
-) -> None:
-    """Extended Kalman filter step, in place, Joseph-form covariance update."""
+    gate: float = math.inf,
+) -> bool:
+    """Extended Kalman filter step, in place, Joseph-form covariance update;
+    True when the measurement is gated (r^T S^-1 r above ``gate``)."""
     mask, process_var, measurement_var = params.mask, params.process_var, params.measurement_var
     a = state_jacobian(float(estimate[2]), v, omega, dt)
     predicted = predict(estimate, v, omega, dt)
@@ -205,14 +209,15 @@ def ekf_step(
     residual = measurement - predicted
     residual[2] = wrap_angle(float(residual[2]))
     innovation = c @ residual
-    if float(innovation @ np.linalg.solve(s, innovation)) > params.innovation_gate:
+    if float(innovation @ np.linalg.solve(s, innovation)) > gate:
         estimate[:] = predicted  # gated: the prediction alone
         covariance[:, :] = p
-        return
+        return True
     estimate[:] = predicted + k @ innovation
     i_kc = np.eye(3) - k @ c
     p = i_kc @ p @ i_kc.T + k @ noise @ k.T
     covariance[:, :] = 0.5 * (p + p.T)
+    return False
 
 
 # --- the controller, section III.C ------------------------------------------

@@ -13,6 +13,7 @@ is loaded rebuilds the models that embed it, so the mission accepts it.
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Annotated, Any, Final, Literal
 
@@ -944,10 +945,22 @@ class Mission(Model):
     def _estimator_follows_the_sensors(
         cls, data: Any, handler: ValidatorFunctionWrapHandler
     ) -> Mission:
-        """Estimator settings whose defaults follow the sensors, completed by
-        them (wmr_mission.estimators.registry.EstimatorSettings.with_sensors)."""
+        """Estimator settings whose defaults follow the sensors and the
+        controller (its ``position_noise_budget``), completed by them
+        (wmr_mission.estimators.registry.EstimatorSettings.with_sensors)."""
         mission: Mission = handler(data)
-        estimator = mission.estimator.with_sensors(mission.sensors.measured_noise())
+        robot = mission.robot
+        # A slow estimate lags a robot the model does not hold for: under stated
+        # disturbances the estimator keeps its own defaults (docs/paper-notes.md,
+        # "Eqs. (6)-(7) under position noise").
+        budget = (
+            math.inf
+            if robot.disturbances.model_fields_set
+            else mission.controller.position_noise_budget(
+                float(robot.dt), float(robot.limits.v), float(robot.limits.omega)
+            )
+        )
+        estimator = mission.estimator.with_sensors(mission.sensors.measured_noise(), budget)
         if estimator is mission.estimator:
             return mission
         return mission.model_copy(update={"estimator": estimator})
