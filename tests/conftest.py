@@ -11,9 +11,6 @@ import pytest
 
 matplotlib.use("Agg")
 os.environ.setdefault("MPLBACKEND", "Agg")
-# `run` compiles in the foreground, as before the background compile: no
-# process outlives a test (wmr_mission.commands.background_compile).
-os.environ["WMR_MISSION_FOREGROUND_COMPILE"] = "1"
 
 
 @pytest.fixture(autouse=True)

@@ -68,7 +68,7 @@ def at_least(floor: float) -> AfterValidator:
 class Model(BaseModel):
     """A part of a mission file: unknown keys refused, frozen once read."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 # --- scalars ---------------------------------------------------------------

@@ -1,29 +1,20 @@
-"""The first runs after an install: plain Python while the kernels compile aside.
+"""Which loop `run` uses, and ``wmr-mission compile``.
 
-Compiling the loop's kernels takes about 20 s; a case study runs as plain
-Python (the same source, the same bytes: wmr_mission.kernels.jit) in about a second.
-So while the compiled kernels are not in the cache, ``wmr-mission run`` runs a
-mission whose sample budget plain Python gets through sooner than a compile
-(:data:`PLAIN_PYTHON_SAMPLES`) as plain Python, and starts this module as one
-detached process at low priority::
-
-    python -m wmr_mission.commands.background_compile
-
-It compiles the kernels into the cache (wmr_mission.kernels.cache) by running
-a tiny mission, then writes a ready marker holding the kernels' source stamp (and the
-Python and numba versions):
-the runs after it load the compiled loop. A lock file lets one such process
-run at a time. A longer mission compiles in the foreground, with a notice.
-The library's ``run_mission``, ``bench`` and ``sweep`` always compile in the
-foreground. ``WMR_MISSION_FOREGROUND_COMPILE=1`` makes ``run`` do so too (the
-test suite sets it: no process outlives a test).
+Loading the compiled loop from the cache costs a process numba's import and
+target set-up (about 0.3 s of CPU and 120 MiB); compiling it, 1-4 minutes
+for every estimator and controller. Plain Python runs the same source with
+the same bytes (wmr_mission.kernels.jit) at 20-130 us a sample. So ``run``
+runs a mission whose sample budget is at most :data:`PLAIN_PYTHON_SAMPLES`
+as plain Python, and a longer one compiled, loaded from the cache or
+compiled in the foreground with one line of notice. Nothing compiles in the
+background: ``wmr-mission compile`` fills the cache when the user asks, and
+the library's ``run_mission``, ``bench`` and ``sweep`` compile what they run
+(docs/performance.md, Start-up).
 """
 
 from __future__ import annotations
 
-import contextlib
 import os
-import subprocess
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -33,14 +24,11 @@ from wmr_mission.kernels import cache, jit
 if TYPE_CHECKING:
     from wmr_mission.spec.models import Mission
 
-# As plain Python the example missions take 0.1-0.9 ms per sample (`python
-# benchmarks/measure.py plain`), a compile of the loop 20-30 s: up to this
-# sample budget plain Python finishes about as soon even where every sample
-# is its slowest.
+# Up to this sample budget a run as plain Python costs less CPU than loading
+# the compiled loop from the cache, whatever its phases (`python
+# benchmarks/measure.py threshold`, docs/performance.md, Start-up).
 PLAIN_PYTHON_SAMPLES = 30_000
 READY = "kernels-ready"
-LOCK = "compiling.lock"
-FOREGROUND = "WMR_MISSION_FOREGROUND_COMPILE"
 NO_JIT = jit.NO_JIT
 
 # A short run per built-in estimator and controller compiles what any mission
@@ -89,36 +77,16 @@ def _ready(directory: Path) -> bool:
         return False
 
 
-def prepare(max_samples: int) -> str | None:
-    """Called by ``run`` before the loop is loaded: chooses plain Python for
-    this run and starts the background compile when the compiled loop is not in
-    the cache and ``max_samples`` is short enough. Returns the line of notice
-    to print, or None (the compiled loop, cached: nothing to say)."""
-    if (
-        jit.loaded()  # compiled already (a library caller)
-        or os.environ.get(FOREGROUND, "") not in ("", "0")
-        or not jit.compiling()  # WMR_MISSION_NO_JIT=1, or no numba
-        or os.name != "posix"  # a detached low-priority process with a lock
-    ):
+def choose_loop(max_samples: int) -> str | None:
+    """Called by ``run`` before the loop is loaded: plain Python for a budget
+    of at most :data:`PLAIN_PYTHON_SAMPLES` samples, else the compiled loop.
+    Returns the line of notice to print (a compile in the foreground), or None."""
+    if jit.loaded() or not jit.compiling():  # a library caller, or WMR_MISSION_NO_JIT=1
         return None
-    directory = cache.cache_directory()
-    if directory is not None and _ready(directory):
+    if max_samples <= PLAIN_PYTHON_SAMPLES:
+        jit.choose_plain_python()
         return None
-    if max_samples > PLAIN_PYTHON_SAMPLES:
-        if directory is None:  # compiled on every run: wmr_mission.kernels.cache said so
-            return None
-        return (
-            "wmr-mission: compiling the simulation loop for this long mission "
-            "(about 20 s, once: later runs load it from the cache)"
-        )
-    jit.choose_plain_python()
-    if directory is None:
-        return "wmr-mission: running as plain Python: no cache to keep a compiled loop in"
-    _start()
-    return (
-        "wmr-mission: running as plain Python while the simulation loop compiles "
-        "in the background for the next runs"
-    )
+    return foreground_notice()
 
 
 def foreground_notice() -> str | None:
@@ -132,23 +100,8 @@ def foreground_notice() -> str | None:
         return None
     return (
         "wmr-mission: loading the simulation loop, compiled first if it is not in the "
-        "cache (about 20 s, once: later runs load it)"
+        "cache (about a minute, once; `wmr-mission compile` compiles every variant)"
     )
-
-
-def _start() -> None:
-    """Start ``python -m wmr_mission.commands.background_compile``, detached: it
-    outlives this run and its output goes nowhere."""
-    # No process to spare: the next run tries again.
-    with contextlib.suppress(OSError):
-        subprocess.Popen(
-            # -P: the installed package, never a wmr_mission/ in the working directory
-            [sys.executable, "-P", "-m", "wmr_mission.commands.background_compile"],
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            start_new_session=True,
-        )
 
 
 def warm_up_missions() -> list[Mission]:
@@ -189,32 +142,28 @@ def compile_kernels() -> None:
         estimate_std(result)  # the EKF band's replay, for the estimation figure
 
 
-def main() -> int:
-    """Compile into the cache and mark it ready; 0 also when another process
-    holds the lock (it does the work), 1 when there is no cache to write."""
-    import fcntl
-
-    if hasattr(os, "nice"):
-        os.nice(19)
-    directory = cache.cache_directory()
-    if directory is None:
+def compile_command() -> int:
+    """``wmr-mission compile``: every variant of the loop into the cache, then
+    the ready marker. 0, or 1 when there is no cache to keep it in."""
+    if not jit.compiling():
+        print("wmr-mission: nothing to compile: numba is missing or WMR_MISSION_NO_JIT is set")
         return 1
-    with open(directory / LOCK, "a") as lock:
-        try:
-            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            return 0
-        if _ready(directory):
-            return 0
-        # The stamp of the sources compiled, read before: an edit meanwhile
-        # leaves a stale marker, never a wrong one.
-        stamp = ready_stamp()
-        compile_kernels()
-        partial = directory / f"{READY}.{os.getpid()}"
-        partial.write_text(stamp)
-        os.replace(partial, directory / READY)
+    directory = cache.cache_directory()
+    if directory is None:  # wmr_mission.kernels.cache said why
+        return 1
+    if _ready(directory):
+        print(f"wmr-mission: the compiled loop is in {directory} already")
+        return 0
+    print(f"wmr-mission: compiling the simulation loop into {directory} (1-4 minutes, once)")
+    # The stamp of the sources compiled, read before: an edit meanwhile
+    # leaves a stale marker, never a wrong one.
+    stamp = ready_stamp()
+    compile_kernels()
+    partial = directory / f"{READY}.{os.getpid()}"
+    partial.write_text(stamp)
+    os.replace(partial, directory / READY)
+    print(
+        "wmr-mission: compiled; runs of more than "
+        f"{PLAIN_PYTHON_SAMPLES} samples, sweeps and bench load it from the cache"
+    )
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
