@@ -218,7 +218,9 @@ def test_numba_is_loaded_without_scipys_linear_algebra() -> None:
     up; no kernel uses it (0.13-0.15 s of a cached run). Refused to that
     thread alone while it sets up: scipy.linalg imports afterwards."""
     probe = (
-        "import sys; from wmr_mission.kernels import jit; assert jit.load(); "
+        "import sys; from wmr_mission.kernels import jit\n"
+        "def twice(x):\n    return 2.0 * x\n"
+        "assert jit.compiled(twice, cached=False)(1.5) == 3.0\n"
         "print('scipy.linalg' in sys.modules); import scipy.linalg; print('imported')"
     )
     done = subprocess.run(
