@@ -251,11 +251,16 @@ def test_the_warm_up_compiles_the_loop_every_mission_runs() -> None:
         assert after == warmed_up, path.name
 
 
-def test_every_example_mission_runs_as_plain_python() -> None:
-    """Plain Python costs less CPU than loading the compiled loop for each of
-    them (`python benchmarks/measure.py threshold`)."""
-    for path in sorted(MISSIONS.glob("*.yaml")):
-        assert sample_budget(load_mission(path)) <= compile_loop.PLAIN_PYTHON_SAMPLES, path.name
+def test_the_bound_parts_the_example_missions_where_it_was_measured() -> None:
+    """Plain Python costs less CPU than loading the compiled loop for the
+    missions below the bound, more for those above (`python
+    benchmarks/measure.py threshold`, docs/performance.md)."""
+    compiled = {
+        path.name
+        for path in MISSIONS.glob("*.yaml")
+        if sample_budget(load_mission(path)) > compile_loop.PLAIN_PYTHON_SAMPLES
+    }
+    assert compiled == {"coverage.yaml", "keep-out.yaml", "patrol.yaml"}
 
 
 def test_the_kernels_are_cached_in_the_directory_chosen() -> None:

@@ -3,7 +3,7 @@
 Loading the compiled loop from the cache costs a process numba's import and
 target set-up (about 0.3 s of CPU and 120 MiB); compiling it, 1-4 minutes
 for every estimator and controller. Plain Python runs the same source with
-the same bytes (wmr_mission.kernels.jit) at 20-130 us a sample. So ``run``
+the same bytes (wmr_mission.kernels.jit) at 40-70 us a sample, judging included. So ``run``
 runs a mission whose sample budget is at most :data:`PLAIN_PYTHON_SAMPLES`
 as plain Python, and a longer one compiled, loaded from the cache or
 compiled in the foreground with one line of notice. Nothing compiles in the
@@ -25,9 +25,10 @@ if TYPE_CHECKING:
     from wmr_mission.spec.models import Mission
 
 # Up to this sample budget a run as plain Python costs less CPU than loading
-# the compiled loop from the cache, whatever its phases (`python
-# benchmarks/measure.py threshold`, docs/performance.md, Start-up).
-PLAIN_PYTHON_SAMPLES = 30_000
+# the compiled loop from the cache, or about the same: case study 2 (budget
+# 15 004) 0.79x; a circle tracked for 150 s (15 002) 0.99x; patrol.yaml (18 003)
+# 1.43x (`python benchmarks/measure.py threshold`, docs/performance.md, Start-up).
+PLAIN_PYTHON_SAMPLES = 16_000
 READY = "kernels-ready"
 NO_JIT = jit.NO_JIT
 
