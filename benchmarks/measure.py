@@ -2,7 +2,9 @@
 
     python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
+    python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
+    python benchmarks/measure.py stages     # `run case1 --no-plots`'s CPU time, stage by stage
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
@@ -156,22 +158,47 @@ def _ratio(a: list[float], b: list[float]) -> float:
     return statistics.median(y / x for x, y in zip(a, b, strict=True))
 
 
+def _checkout(commit: str, directory: str) -> str:
+    """The package as it was at ``commit``, unpacked into ``directory``: run
+    with ``PYTHONPATH`` set to it, beside the installed one."""
+    archive = subprocess.run(
+        ["git", "-C", str(ROOT), "archive", commit, "wmr_mission"], check=True, capture_output=True
+    ).stdout
+    subprocess.run(["tar", "-x", "-C", directory], input=archive, check=True)
+    return directory
+
+
 def startup(pairs: int = 8) -> None:
     """CPU time of the commands users start with, the kernel cache warm:
     `run missions/case1.yaml --no-plots` as it runs (plain Python: a short
     mission), with the compiled loop loaded from the cache instead, and
-    `validate missions/case2.yaml`; each a process, in turn."""
+    `validate missions/case2.yaml`; each a process, in turn. With a commit's
+    name (`startup COMMIT`), `run` and `validate` as at that commit too, in
+    turn with these (`run` compiled there in the foreground, loaded from that
+    checkout's own cache once compiled)."""
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     env = _user_env()
+    against = sys.argv[2] if len(sys.argv) > 2 else None
     subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], check=True, env=env)
     with tempfile.TemporaryDirectory() as tmp:
+        os.chdir(tmp)  # `python -m` puts the working directory before PYTHONPATH
         case1 = ["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out"]
         commands = [
             [sys.executable, "-m", "wmr_mission", *case1, f"{tmp}/plain"],
             [sys.executable, "-c", _RUN_COMPILED, *case1, f"{tmp}/compiled"],
             [sys.executable, "-m", "wmr_mission", "validate", str(MISSIONS / "case2.yaml")],
         ]
-        times = _pairs(commands, [env] * 3, pairs)
+        envs = [env] * 3
+        names = ["run case1 --no-plots (as run: plain Python)",
+                 "the same, the compiled loop loaded", "validate case2"]  # fmt: skip
+        if against is not None:
+            os.mkdir(f"{tmp}/then")
+            then = {**env, "PYTHONPATH": _checkout(against, f"{tmp}/then"),
+                    "WMR_MISSION_FOREGROUND_COMPILE": "1"}  # fmt: skip
+            commands += [[*commands[0][:-1], f"{tmp}/then-run"], commands[2]]
+            envs += [then, then]
+            names += [f"run case1 --no-plots at {against}", f"validate case2 at {against}"]
+        times = _pairs(commands, envs, pairs)
         loading = subprocess.run(
             [sys.executable, "-c", _LOADING, str(MISSIONS / "case2.yaml")],
             env=env,
@@ -179,13 +206,66 @@ def startup(pairs: int = 8) -> None:
             capture_output=True,
             text=True,
         ).stdout
-    names = ["run case1 --no-plots (as run: plain Python)", "the same, the compiled loop loaded",
-             "validate case2"]  # fmt: skip
     for name, cpu in zip(names, times, strict=True):
         print(f"{name}: CPU median {statistics.median(cpu):.3f} s, min {min(cpu):.3f} s "
               f"({pairs} runs)")  # fmt: skip
     print(f"compiled / plain, pair by pair: median {_ratio(times[0], times[1]):.2f}")
+    if against is not None:
+        print(f"run, now / {against}, pair by pair: median {_ratio(times[3], times[0]):.2f}")
+        print(f"validate, now / {against}, pair by pair: median {_ratio(times[4], times[2]):.2f}")
     print(f"loading the compiled loop, step by step: {loading.strip()}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+_STAGES = """
+import sys, time
+from pathlib import Path
+marks = []
+def mark(stage, started=[time.process_time()]):
+    now = time.process_time()
+    marks.append((stage, now - started[0]))
+    started[0] = now
+import wmr_mission.cli, wmr_mission.commands.run
+from wmr_mission.spec.loader import load_mission
+mark("imports (the command line, run, the loader)")
+mission = load_mission(Path(sys.argv[1]))
+mark("reading and checking the mission")
+from wmr_mission.commands.compile import choose_loop
+from wmr_mission.sim.plan import sample_budget
+from wmr_mission.sim import runner
+from wmr_mission.output import metrics
+choose_loop(sample_budget(mission))
+mark("importing the runner")
+result = runner._run(runner.plan_mission(mission), None, None, None)
+mark("planning and simulating")
+result.mission = mission.model_dump(mode="json")
+metrics.judge(result, result.mission)
+mark("judging")
+from wmr_mission.output.rundir import write_run
+write_run(result, Path(sys.argv[2]), mission_sha256="-", mission_file=sys.argv[1], plots=False,
+          animate=False)
+mark("writing the run directory")
+print("; ".join(f"{stage} {seconds:.3f} s" for stage, seconds in marks))
+"""
+
+
+def stages() -> None:
+    """Where `run missions/case1.yaml --no-plots` spends its CPU time, stage by
+    stage in one process, as `run` chooses its loop (plain Python)."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(2):  # the first writes the bytecode
+            done = subprocess.run(
+                [sys.executable, "-c", _STAGES, str(MISSIONS / "case1.yaml"), f"{tmp}/run"],
+                env=_user_env(),
+                check=True,
+                capture_output=True,
+                text=True,
+            )
+            import shutil
+
+            shutil.rmtree(f"{tmp}/run", ignore_errors=True)
+    print(done.stdout.strip())
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -889,7 +969,7 @@ def band(repeat: int = 5) -> None:
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
-    jobs |= {"plain": plain, "scale": scale, "threshold": threshold}
+    jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,

@@ -44,6 +44,18 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 
 @pytest.fixture(autouse=True)
+def _loop_undecided() -> Iterator[None]:
+    """`run` chooses plain Python for its process when its mission is short
+    (wmr_mission.commands.compile.choose_loop: a command's process runs one
+    mission); a test that calls it here leaves the next tests undecided."""
+    from wmr_mission.kernels import jit
+
+    chosen = jit._state.plain_chosen
+    yield
+    jit._state.plain_chosen = chosen
+
+
+@pytest.fixture(autouse=True)
 def _close_figures() -> Iterator[None]:
     yield
     import matplotlib.pyplot as plt
