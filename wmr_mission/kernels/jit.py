@@ -17,8 +17,8 @@ loop is the same machine code as if every kernel had been an ``njit``
 function all along.
 
 When numba is missing, ``WMR_MISSION_NO_JIT=1`` is set, or the run chose plain
-Python (:func:`choose_plain_python`: the first runs after an install,
-wmr_mission.commands.background_compile), :func:`compiled` returns the plain
+Python (:func:`choose_plain_python`: a short mission's run,
+wmr_mission.commands.compile), :func:`compiled` returns the plain
 form instead: slower, the same equations, the same bytes. Compiled entry
 points are cached on disk where a directory can be written
 (wmr_mission.kernels.cache).
