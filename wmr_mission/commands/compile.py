@@ -1,10 +1,10 @@
 """Which loop `run` uses, and ``wmr-mission compile``.
 
 Loading the compiled loop from the cache costs a process numba's import and
-target set-up (about 0.3 s of CPU and 120 MiB); compiling it, 1-4 minutes
+target set-up (about 0.35 s of CPU and 120 MiB); compiling it, 1-4 minutes
 for every estimator and controller. Plain Python runs the same source with
-the same bytes (wmr_mission.kernels.jit) at 40-70 us a sample, judging included. So ``run``
-runs a mission whose sample budget is at most :data:`PLAIN_PYTHON_SAMPLES`
+the same bytes (wmr_mission.kernels.jit) at 40-70 us a sample, judging
+included. So ``run`` runs a mission whose sample budget is at most :data:`PLAIN_PYTHON_SAMPLES`
 as plain Python, and a longer one compiled, loaded from the cache or
 compiled in the foreground with one line of notice. Nothing compiles in the
 background: ``wmr-mission compile`` fills the cache when the user asks, and
@@ -92,8 +92,8 @@ def choose_loop(max_samples: int) -> str | None:
 
 def foreground_notice() -> str | None:
     """The line a library call prints before it loads the compiled loop when the
-    cache is not known to hold it (no ready marker): a compile of about 20 s
-    then. None when the loop is loaded already, or nothing is compiled."""
+    cache is not known to hold it (no ready marker): a compile of about a
+    minute then. None when the loop is loaded already, or nothing is compiled."""
     if jit.loaded() or not jit.compiling():
         return None
     directory = cache.cache_directory()
