@@ -161,6 +161,7 @@ def test_the_last_tasks_end_together() -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute")])
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_matplotlib_is_loaded_while_the_runs_run_only_when_they_last(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, after_seconds: float, loaded_in: str
 ) -> None:
@@ -416,6 +417,7 @@ def _watch(monkeypatch: pytest.MonkeyPatch, stream: io.StringIO, *names: str) ->
     return seen
 
 
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_sweep_shows_each_step_as_it_starts(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -781,6 +783,7 @@ def test_a_run_leaves_the_mission_it_varies_as_read(tmp_path: Path) -> None:
     assert loaded.mission_document.data == read
 
 
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_sweep_draws_its_figures_with_one_image_per_outcome(tmp_path: Path) -> None:
     """The figures are written, and the trajectories are one image per outcome
     whatever the number of runs (2000 lines as one artist each took seconds,
@@ -820,6 +823,7 @@ def test_sweep_draws_its_figures_with_one_image_per_outcome(tmp_path: Path) -> N
     assert artists[0] == artists[1]  # the same artists for 3 runs as for 30
 
 
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_a_dollar_in_a_varied_value_is_drawn_as_typed(tmp_path: Path) -> None:
     """Values are data: a choice of texts with '$' in them labels the success
     figure's axis as typed (parsed as math, the first stopped the drawing)."""

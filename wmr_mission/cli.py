@@ -1,4 +1,5 @@
-"""Command line: ``wmr-mission run|sweep|validate|schema|plot|view|export|bench``, ``--version``.
+"""Command line: ``wmr-mission run|sweep|validate|schema|plot|view|export|bench|compile``,
+``--version``.
 
 Thin by design: each command parses its flags and calls one function of the
 package. Imports are lazy so that ``validate`` and ``--help`` start fast and
@@ -478,6 +479,14 @@ def bench(
     from wmr_mission.commands.bench import bench_command
 
     raise typer.Exit(bench_command(mission, repeat=repeat))
+
+
+@app.command(name="compile", cls=_Command)
+def compile_loop() -> None:
+    """Compile the simulation loop into the cache (1-4 minutes, once per install)."""
+    from wmr_mission.commands.compile import compile_command
+
+    raise typer.Exit(compile_command())
 
 
 class _QuietPipe:

@@ -168,7 +168,7 @@ def _run(
     *,
     plant: PlantSide | None = None,
 ) -> int:
-    from wmr_mission.commands.background_compile import prepare
+    from wmr_mission.commands.compile import choose_loop
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
         RunDirExistsError,
@@ -181,9 +181,9 @@ def _run(
     )
     from wmr_mission.sim.plan import plan_mission, sample_budget
 
-    # Before any kernel is declared: plain Python while the loop is not compiled.
+    # Before the loop is loaded: plain Python where loading it would cost more.
     # Another plant runs the loop as plain Python: nothing to compile.
-    notice = prepare(sample_budget(mission)) if plant is None else None
+    notice = choose_loop(sample_budget(mission)) if plant is None else None
     if notice is not None:
         print(notice, file=sys.stderr)
     compiled = plan_mission(mission, seed)
