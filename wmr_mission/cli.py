@@ -488,4 +488,15 @@ def main() -> None:
             # A path that is not UTF-8 is shown escaped rather than failing.
             stream.reconfigure(errors="backslashreplace")
             setattr(sys, name, _QuietPipe(stream))
-    app()
+    from wmr_mission.stopping import HOLD, STOP_SIGNALS, StopSignals
+
+    # Until a command takes the signals (wmr_mission.stopping): a stop is held,
+    # never raised inside an import, and the command exits by it.
+    with StopSignals(STOP_SIGNALS) as early:
+        early.mode = HOLD
+        code: Any = 0
+        try:
+            app()
+        except SystemExit as done:
+            code = done.code
+    raise SystemExit(early.exit_code if early.owed else code)
