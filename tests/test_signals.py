@@ -27,11 +27,12 @@ DATA = Path(__file__).resolve().parent / "data"
 LONG = DATA / "long-circle.yaml"
 LONG_SAMPLES = 1_000_001
 CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
+RUN = [sys.executable, "-m", "wmr_mission", "run", str(LONG), "--no-plots"]
 
 
 def start(run_dir: Path) -> subprocess.Popen[bytes]:
     return subprocess.Popen(
-        [sys.executable, "-m", "wmr_mission", "run", str(LONG), "--no-plots", "--out", str(run_dir)],
+        [*RUN, "--out", str(run_dir)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )
