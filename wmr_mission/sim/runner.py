@@ -377,9 +377,11 @@ class _Run:
         m = self.m
         try:
             status = self._segment(phase, path, draws, stop)
-        except (PlantStopped, MemoryError):  # the plant side's own word; the command's
+        except PlantStopped:  # the plant side's own word
             raise
-        except Exception as error:
+        except Exception as error:  # MemoryError too: a plug-in's is its failure
+            if isinstance(error, MemoryError) and not self.plugin:
+                raise  # the command's: not enough memory for the run
             # The rows recorded are the samples done: the failed one is the next.
             k = self.recorder.count
             where = f"at sample {k} (t = {_seconds(k, m.dt):.6g} s): {failure_message(error)}"
