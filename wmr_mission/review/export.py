@@ -39,6 +39,7 @@ from typing import IO, TYPE_CHECKING, Any, Final
 
 import numpy as np
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError
 from wmr_mission.output.rundir import (
@@ -494,9 +495,8 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
     else:
         _require("pyarrow.parquet", fmt)
     result = load_run(directory)
-    if result.samples and float(result.t[0]) < 0:
-        raise RunDirError(f"{TRAJECTORY_FILE}:2: t is negative: not an MCAP log time")
     if fmt == "mcap":
+        _check_log_times(result.t)
         summary = json.loads((directory / SUMMARY_FILE).read_text(encoding="utf-8"))
 
         def write_run_mcap(path: Path) -> None:
@@ -506,6 +506,22 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
         return write_run_mcap
     columns = _csv_header(directory / TRAJECTORY_FILE)
     return lambda path: write_run_parquet(result, columns, path)
+
+
+# [s] MCAP log times are unsigned 64-bit nanoseconds (nanoseconds()).
+LAST_LOG_TIME = (2**64 - 1) / 1e9
+
+
+def _check_log_times(t: FloatArray) -> None:
+    """Every t an MCAP log time, else the first that is not, at its line."""
+    with np.errstate(invalid="ignore"):
+        wrong = np.flatnonzero(~((t >= 0.0) & (t < LAST_LOG_TIME)))  # NaN too
+    if wrong.size:
+        row = int(wrong[0])
+        raise RunDirError(
+            f"{TRAJECTORY_FILE}:{row + 2}: t = {float(t[row]):g} s is not an MCAP log time "
+            f"(0 to {LAST_LOG_TIME:.4g} s)"
+        )
 
 
 def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
