@@ -23,8 +23,6 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, Field
 
-from wmr_mission.kernels.jit import inlined
-
 # A dotted module name, a colon, a dotted attribute name: ASCII identifiers.
 _NAME = r"[A-Za-z_][A-Za-z0-9_]*"
 ENTRY_PATTERN = rf"^{_NAME}(\.{_NAME})*:{_NAME}(\.{_NAME})*$"
@@ -112,10 +110,3 @@ def failure_message(error: BaseException) -> str:
     """A plug-in's exception as a run's message: its type, its own message
     and, for plain Python, where it was raised."""
     return f"{type(error).__name__}: {error}{_raised_at(error)}"
-
-
-@inlined
-def is_number(value: Any) -> bool:
-    """Whether a value a plug-in's step returned is a number: text is not,
-    though ``float("1")`` would read it."""
-    return not isinstance(value, (str, bytes))

@@ -35,9 +35,9 @@ from wmr_mission.controllers.reference_motion import reference_motion
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.kernels.jit import inlined
 from wmr_mission.kernels.loop import EnteredPhase
-from wmr_mission.kernels.model import saturate
+from wmr_mission.kernels.model import is_number, saturate
 from wmr_mission.kernels.records import Plant
-from wmr_mission.plugins import Entry, Params, is_number, load_entry
+from wmr_mission.plugins import Entry, Params, load_entry
 
 
 class PythonController(ControllerSettings):

@@ -35,7 +35,8 @@ from pydantic import Field
 from wmr_mission.basics import FloatArray
 from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
 from wmr_mission.kernels.jit import inlined
-from wmr_mission.plugins import Entry, Params, is_number, load_entry
+from wmr_mission.kernels.model import is_number
+from wmr_mission.plugins import Entry, Params, load_entry
 
 
 class PythonEstimator(EstimatorSettings):
