@@ -351,8 +351,8 @@ def _simulate(
     mission: Mission,
     seed: int | None,
     max_samples: int,
-    plant: PlantSide | None,
-    ready: Callable[[], None],
+    plant: PlantSide | None = None,
+    ready: Callable[[], None] | None = None,
 ) -> RunResult:
     """Run with a progress bar on stderr (a terminal) when the run is longer than a moment;
     ``ready()`` just before the first sample."""
