@@ -67,39 +67,23 @@ def stopped_as_promised(process: subprocess.Popen[bytes], number: int, run_dir: 
 
 
 def test_a_stop_at_any_moment_of_a_long_run_default(tmp_path: Path) -> None:
-    """A few moments at once: during start-up, while the loop loads, and once
-    the first sample is simulated (the run directory is claimed then)."""
-    runs = []
-    for number, after in ((signal.SIGTERM, 0.4), (signal.SIGINT, 1.2)):
-        run_dir = tmp_path / f"{number}-{after}"
-        process = start(run_dir)
-        runs.append((process, number, run_dir, after))
-    claimed = []
-    for number in CODES:
-        run_dir = tmp_path / f"{number}-claimed"
-        claimed.append((start(run_dir), number, run_dir))
-    began = time.monotonic()
-    waiting = list(runs)
-    while waiting:
-        for item in list(waiting):
-            if time.monotonic() - began >= item[3]:
-                item[0].send_signal(item[1])
-                waiting.remove(item)
-        time.sleep(0.01)
-    for process, number, run_dir in claimed:
-        deadline = time.monotonic() + 120
-        while not run_dir.exists() and process.poll() is None:
-            assert time.monotonic() < deadline
-            time.sleep(0.005)
-        process.send_signal(number)
-    for process, number, run_dir, _ in runs:
-        stopped_as_promised(process, number, run_dir)
-    for process, number, run_dir in claimed:
-        stopped_as_promised(process, number, run_dir)
-        summary = json.loads((run_dir / "summary.json").read_text())
-        # A stop as soon as the directory exists: the samples simulated by then.
-        assert summary["outcome"] == "interrupted"
-        assert 0 < summary["samples"] < LONG_SAMPLES
+    """Two moments at once: SIGTERM during start-up, and SIGINT the instant the
+    run directory appears (claimed just before the first sample)."""
+    early = start(tmp_path / "early")
+    claimed = start(tmp_path / "claimed")
+    time.sleep(0.4)
+    early.send_signal(signal.SIGTERM)
+    deadline = time.monotonic() + 120
+    while not (tmp_path / "claimed").exists() and claimed.poll() is None:
+        assert time.monotonic() < deadline
+        time.sleep(0.005)
+    claimed.send_signal(signal.SIGINT)
+    stopped_as_promised(early, signal.SIGTERM, tmp_path / "early")
+    stopped_as_promised(claimed, signal.SIGINT, tmp_path / "claimed")
+    summary = json.loads((tmp_path / "claimed" / "summary.json").read_text())
+    # A stop as soon as the directory exists: the samples simulated by then.
+    assert summary["outcome"] == "interrupted"
+    assert 0 < summary["samples"] < LONG_SAMPLES
 
 
 @pytest.mark.sweep
