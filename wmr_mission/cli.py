@@ -13,10 +13,13 @@ import sys
 import warnings
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any, TextIO
+from typing import TYPE_CHECKING, Annotated, Any, TextIO
 
 import typer
 from typer.core import TyperCommand
+
+if TYPE_CHECKING:
+    from wmr_mission.stopping import StopSignals
 
 
 class _Command(TyperCommand):
@@ -55,6 +58,8 @@ app = typer.Typer(
 command = app.command(cls=_Command)
 
 
+# The signals main() holds until the command starts (_main).
+_STARTING: list[StopSignals] = []
 # Timed runs of `bench`: each keeps its per-sample times in memory.
 MAX_REPEAT = 100
 # `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
@@ -82,6 +87,14 @@ def _main(
     ] = False,
 ) -> None:
     """Run declarative YAML missions for wheeled non-holonomic mobile robots."""
+    from wmr_mission.stopping import RAISE
+
+    # The command starts: a stop held since main() is raised now, and from now
+    # on acts at once unless the command takes the signals itself (run, sweep).
+    for early in _STARTING:
+        early.mode = RAISE
+        if early.owed:
+            raise KeyboardInterrupt
 
 
 class OutputFormat(StrEnum):
@@ -490,10 +503,11 @@ def main() -> None:
             setattr(sys, name, _QuietPipe(stream))
     from wmr_mission.stopping import HOLD, STOP_SIGNALS, StopSignals
 
-    # Until a command takes the signals (wmr_mission.stopping): a stop is held,
-    # never raised inside an import, and the command exits by it.
+    # Until the command starts (_main): a stop is held, never raised inside an
+    # import, and the command exits by it.
     with StopSignals(STOP_SIGNALS) as early:
         early.mode = HOLD
+        _STARTING.append(early)
         code: Any = 0
         try:
             app()
