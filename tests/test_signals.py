@@ -63,7 +63,10 @@ def stopped_as_promised(process: subprocess.Popen[bytes], number: int, run_dir: 
         assert f"the samples up to the stop are in {run_dir}" in stderr
     else:  # the stop came once every sample was simulated: written whole
         assert summary["samples"] == LONG_SAMPLES
-        assert f"{name} after the simulation ended; the run is written whole" in stderr
+        assert (
+            f"{name} after the simulation ended; the run is written whole" in stderr
+            or f"{name} as the run ended; its record is complete" in stderr
+        )
 
 
 def test_a_stop_at_any_moment_of_a_long_run_default(tmp_path: Path) -> None:
@@ -90,10 +93,16 @@ def test_a_stop_at_any_moment_of_a_long_run_default(tmp_path: Path) -> None:
 @pytest.mark.parametrize("number", list(CODES))
 @pytest.mark.parametrize("tenth", range(101))
 def test_a_stop_at_any_moment_of_a_long_run(tmp_path: Path, number: int, tenth: int) -> None:
-    """SIGINT or SIGTERM sent at 0.1 s steps from 0 to 10 s into the run."""
+    """SIGINT or SIGTERM sent at 0.1 s steps from 0 to 10 s into the run (it
+    takes 7-50 s, the machine and its load deciding)."""
     run_dir = tmp_path / "run"
     process = start(run_dir)
     time.sleep(tenth / 10)
+    if process.poll() is not None:  # a fast machine: the run ended before the moment
+        assert process.wait() in (0, 1)
+        summary = json.loads((run_dir / "summary.json").read_text())
+        assert summary["samples"] == LONG_SAMPLES
+        return
     process.send_signal(number)
     stopped_as_promised(process, number, run_dir)
 

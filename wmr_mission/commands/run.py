@@ -71,6 +71,10 @@ def _signal_exit(received: list[int]) -> int:
     return 128 + (received[0] if received else signal.SIGINT)
 
 
+def _signal_name(received: list[int]) -> str:
+    return signal.Signals(received[0]).name if received else "SIGINT"
+
+
 def run_command(
     mission_path: Path,
     *,
@@ -121,9 +125,15 @@ def run_command(
             sha256 = hashlib.sha256(source).hexdigest()
             args = (mission, sha256, mission_path, out, seed, plots, animate, formats, received)
             name = backend or mission.backend.type
-            if name == "sim":
-                return _run(*args)
-            return _run_on_backend(name, *args)
+            code = _run(*args) if name == "sim" else _run_on_backend(name, *args)
+            if received and code != _signal_exit(received):  # it came as the run ended
+                print(
+                    f"{mission_path}: {_signal_name(received)} as the run ended; "
+                    "its record is complete",
+                    file=sys.stderr,
+                )
+                return _signal_exit(received)
+            return code
         except KeyboardInterrupt:
             print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
             return _signal_exit(received)
@@ -259,9 +269,8 @@ def _run(
     except _Unclaimed:
         return EXIT_RUN_DIR
     run_dir = claimed[0]
-    name = signal.Signals(received[0]).name if received else "SIGINT"
     if stopped:
-        result.message = f"{result.message} by {name}"
+        result.message = f"{result.message} by {_signal_name(received)}"
     try:  # the data and summary.json first: a figure that fails never loses them
         write_run(
             result,
@@ -284,8 +293,8 @@ def _run(
     )
     if received and not stopped:  # the stop came once every sample was simulated
         print(
-            f"{mission_path}: {name} after the simulation ended; the run is written whole "
-            f"in {run_dir}",
+            f"{mission_path}: {_signal_name(received)} after the simulation ended; "
+            f"the run is written whole in {run_dir}",
             file=sys.stderr,
         )
         return _signal_exit(received)
