@@ -874,3 +874,36 @@ phases:
         outcomes.append(inside)
     assert any(outcomes)  # values inside the gap were drawn
     assert not all(outcomes)  # and values outside it
+
+
+def test_a_replay_line_runs_from_the_campaign_directory_and_from_anywhere(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A campaign swept as ``sweep sub/c.yaml`` names its mission relative to
+    itself (``mission: quick.yaml``): the replay names it by its absolute path."""
+    from typer.testing import CliRunner
+
+    from wmr_mission.cli import app
+
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "quick.yaml").write_text((DATA / "short.yaml").read_text())
+    (tmp_path / "sub" / "c.yaml").write_text(
+        "version: 1\nname: sub\nmission: quick.yaml\nruns: 2\nseed: 3\n"
+        "vary:\n  robot.initial_state.theta: {uniform: [-1.0, 1.0]}\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    code = sweep_command(
+        Path("sub/c.yaml"), out=Path("out"), workers=1, scheduler=None, plots=False
+    )
+    assert code == 0
+    worst = json.loads((tmp_path / "out" / "campaign.json").read_text())["worst"][0]
+    words = shlex.split(worst["replay"])
+    assert words[2] == str(tmp_path / "sub" / "quick.yaml")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    kept = (tmp_path / "out" / "worst" / str(worst["run"]) / "trajectory.csv").read_bytes()
+    for where in (tmp_path / "out", elsewhere):
+        monkeypatch.chdir(where)
+        done = CliRunner().invoke(app, [*words[1:], "--out", "replayed", "--no-plots"])
+        assert done.exit_code in (0, 1), done.stderr
+        assert (where / "replayed" / "trajectory.csv").read_bytes() == kept

@@ -287,6 +287,29 @@ def test_usage_errors_and_damaged_files(
     assert list(damaged.glob("*.mcap")) == list(damaged.glob("*.parquet")) == []
 
 
+@pytest.mark.parametrize(("t", "said"), [("1e12", "1e+12"), ("-1", "-1")])
+def test_an_mcap_of_a_time_no_log_can_hold_is_a_positioned_error(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], t: str, said: str
+) -> None:
+    """MCAP log times are unsigned 64-bit nanoseconds: a t beyond is the
+    file's error at its line (it was "please report it"), as docs/reliability.md says."""
+    damaged = tmp_path / "damaged"
+    damaged.mkdir()
+    for name in ("manifest.json", "transitions.json", "summary.json"):
+        (damaged / name).write_bytes((run_dir / name).read_bytes())
+    lines = (run_dir / "trajectory.csv").read_text(encoding="utf-8").splitlines(keepends=True)
+    row = 1 if t.startswith("-") else len(lines) - 1  # t stays increasing
+    lines[row] = t + lines[row][lines[row].index(",") :]
+    (damaged / "trajectory.csv").write_text("".join(lines), encoding="utf-8")
+    assert export_command(damaged, "mcap-json") == 1
+    err = capsys.readouterr().err
+    assert err == (
+        f"{damaged}: trajectory.csv:{row + 1}: t = {said} s is not an MCAP log time "
+        "(0 to 1.845e+10 s)\n"
+    )
+    assert list(damaged.glob("*.mcap")) == []
+
+
 def test_export_command_line(run_dir: Path) -> None:
     result = CliRunner().invoke(app, ["export", str(run_dir), "--format", "parquet"])
     assert result.exit_code == 0, result.output

@@ -486,7 +486,8 @@ def test_an_unusable_out_is_reported_before_simulating(
     def no_simulation(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("simulated although the run directory is unusable")
 
-    monkeypatch.setattr(runner_module, "run_mission", no_simulation)
+    # The directory is claimed once the loop is loaded, before its first sample.
+    monkeypatch.setattr(runner_module._Run, "_chunks", no_simulation)
     assert run_command(path, out=out, seed=None, plots=False, animate=False) == 2
     assert expected in capsys.readouterr().err
 

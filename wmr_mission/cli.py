@@ -14,12 +14,15 @@ import sys
 import warnings
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any, TextIO
+from typing import TYPE_CHECKING, Annotated, Any, TextIO
 
 import typer
 from typer.core import TyperCommand
 
 from wmr_mission.terminal import shown
+
+if TYPE_CHECKING:
+    from wmr_mission.stopping import StopSignals
 
 
 class _Command(TyperCommand):
@@ -58,6 +61,8 @@ app = typer.Typer(
 command = app.command(cls=_Command)
 
 
+# The signals main() holds until the command starts (_main).
+_STARTING: list[StopSignals] = []
 # Timed runs of `bench`: each keeps its per-sample times in memory.
 MAX_REPEAT = 100
 # `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
@@ -85,6 +90,14 @@ def _main(
     ] = False,
 ) -> None:
     """Run declarative YAML missions for wheeled non-holonomic mobile robots."""
+    from wmr_mission.stopping import RAISE
+
+    # The command starts: a stop held since main() is raised now, and from now
+    # on acts at once unless the command takes the signals itself (run, sweep).
+    for early in _STARTING:
+        early.mode = RAISE
+        if early.owed:
+            raise KeyboardInterrupt
 
 
 class OutputFormat(StrEnum):
@@ -534,4 +547,16 @@ def main() -> None:
             # A path that is not UTF-8 is shown escaped rather than failing.
             stream.reconfigure(errors="backslashreplace")
             setattr(sys, name, _QuietPipe(stream))
-    app()
+    from wmr_mission.stopping import HOLD, STOP_SIGNALS, StopSignals
+
+    # Until the command starts (_main): a stop is held, never raised inside an
+    # import, and the command exits by it.
+    with StopSignals(STOP_SIGNALS) as early:
+        early.mode = HOLD
+        _STARTING.append(early)
+        code: Any = 0
+        try:
+            app()
+        except SystemExit as done:
+            code = done.code
+    raise SystemExit(early.exit_code if early.owed else code)

@@ -321,7 +321,9 @@ def _check_against_mission(
                 f"runs times grid cells is {campaign.total_runs()}: at most {MAX_RUNS} runs",
             )
         ]
-    mission_path = Path(os.path.normpath(path.parent / campaign.mission))
+    # Absolute: the replay lines (replay_line) and the manifests name it so,
+    # and a replay runs from the campaign directory or from anywhere.
+    mission_path = Path(os.path.abspath(path.parent / campaign.mission))
     if not mission_path.is_file():
         return None, [at(("mission",), f"mission file {str(mission_path)!r} does not exist")]
     # Read once: the text checked is the text every run and worst run runs, and

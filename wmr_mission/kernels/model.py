@@ -8,11 +8,12 @@ wrapped only where they are compared (:func:`wrap_angle`).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.kernels.jit import kernel
+from wmr_mission.kernels.jit import inlined, kernel
 
 
 @kernel
@@ -149,3 +150,10 @@ def input_jacobian(state: FloatArray, u: FloatArray, dt: float) -> FloatArray:
     """B = df/du at (state, u), eq. (16)."""
     _, _, b11, b12, b21, b22 = jacobian_terms(state[2], u[0], u[1], dt)
     return np.array([[b11, b12], [b21, b22], [0.0, dt]])
+
+
+@inlined
+def is_number(value: Any) -> bool:
+    """Whether a value a plug-in's step returned is a number: text is not,
+    though ``float("1")`` would read it."""
+    return not isinstance(value, (str, bytes))

@@ -41,6 +41,7 @@ from typing import IO, TYPE_CHECKING, Any, Final
 
 import numpy as np
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError
 from wmr_mission.output.rundir import (
@@ -490,15 +491,8 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
 
     _require(fmt)
     result = load_run(directory)
-    if result.samples and float(result.t[0]) < 0:
-        raise RunDirError(f"{TRAJECTORY_FILE}:2: t is negative: not an MCAP log time")
-    if fmt == "mcap" and result.samples and float(result.t[-1]) >= STAMP_LIMIT:
-        row = int(np.argmax(result.t >= STAMP_LIMIT)) + 2
-        raise RunDirError(
-            f"{TRAJECTORY_FILE}:{row}: t is {float(result.t[row - 2]):g} s, beyond a ROS 2 "
-            f"stamp's {STAMP_LIMIT} s (builtin_interfaces/Time); --format mcap-json takes it"
-        )
     if fmt in ("mcap", "mcap-json"):
+        _check_log_times(result.t, fmt)
         summary = json.loads((directory / SUMMARY_FILE).read_text(encoding="utf-8"))
         write = write_ros2_mcap if fmt == "mcap" else write_mcap
 
@@ -509,6 +503,27 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
         return write_run_mcap
     columns = _csv_header(directory / TRAJECTORY_FILE)
     return lambda path: write_run_parquet(result, columns, path)
+
+
+# [s] MCAP log times are unsigned 64-bit nanoseconds (nanoseconds()); a ROS 2
+# stamp holds its seconds in an int32 (builtin_interfaces/Time).
+LAST_LOG_TIME = (2**64 - 1) / 1e9
+
+
+def _check_log_times(t: FloatArray, fmt: str) -> None:
+    """Every t a log time of the format, else the first that is not, at its line."""
+    last = STAMP_LIMIT if fmt == "mcap" else LAST_LOG_TIME
+    with np.errstate(invalid="ignore"):
+        wrong = np.flatnonzero(~((t >= 0.0) & (t < last)))  # NaN too
+    if wrong.size:
+        row = int(wrong[0])
+        what = (
+            f"a ROS 2 stamp (0 to {STAMP_LIMIT} s); --format mcap-json takes up to "
+            f"{LAST_LOG_TIME:.4g} s"
+            if fmt == "mcap"
+            else f"an MCAP log time (0 to {LAST_LOG_TIME:.4g} s)"
+        )
+        raise RunDirError(f"{TRAJECTORY_FILE}:{row + 2}: t = {float(t[row]):g} s is not {what}")
 
 
 def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Annotated, Any, Final, Literal
+from typing import Annotated, Any, Final, Literal, NoReturn
 
 from pydantic import (
     AfterValidator,
@@ -845,6 +845,24 @@ class Plot(Model):
 # --- mission ---------------------------------------------------------------
 
 
+class Parameters(dict[str, float]):
+    """A mission's parameters, read-only as the rest of the mission: the
+    numbers written with them were computed from them when the mission was
+    read, so a change made afterwards would be silently ignored."""
+
+    def _refuse(self, *_: Any, **__: Any) -> NoReturn:
+        raise TypeError(
+            "a mission's parameters cannot be changed: load the mission again with "
+            "them, e.g. load_mission(path, {'parameters.NAME': VALUE})"
+        )
+
+    __setitem__ = __delitem__ = __ior__ = _refuse
+    clear = pop = popitem = setdefault = update = _refuse
+
+    def __reduce__(self) -> tuple[type[Parameters], tuple[dict[str, float]]]:
+        return Parameters, (dict(self),)  # pickled and copied without setting items
+
+
 def _check_parameter_names(parameters: dict[str, float]) -> dict[str, float]:
     from wmr_mission.expressions import FUNCTIONS
 
@@ -855,7 +873,7 @@ def _check_parameter_names(parameters: dict[str, float]) -> dict[str, float]:
                 "parameter name '{name}' is reserved (t, pi, e and function names)",
                 {"name": name},
             )
-    return parameters
+    return Parameters(parameters)
 
 
 ParameterName = Annotated[str, Field(pattern=IDENTIFIER, max_length=64)]
@@ -888,7 +906,7 @@ class Mission(Model):
     )
     parameters: Annotated[dict[ParameterName, Number], AfterValidator(_check_parameter_names)] = (
         Field(
-            default_factory=dict,
+            default_factory=Parameters,
             max_length=1000,
             description="Named constants [any unit] usable in expressions.",
             json_schema_extra={"additionalProperties": False},
