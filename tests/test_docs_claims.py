@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 import pytest
+from failing import UNGATED_SET
 from typer.testing import CliRunner
 
 from wmr_mission.api import load_mission, run_mission
@@ -48,7 +49,7 @@ def test_every_shipped_mission_succeeds_unless_the_docs_say_it_fails(path: Path)
 def test_the_table_names_each_threshold_missed(tmp_path: Path) -> None:
     # disturbed.yaml with its outliers let through to the inputs
     command = ["run", str(MISSIONS / "disturbed.yaml"), "--no-plots", "--out", str(tmp_path / "r")]
-    command += ["--set", "estimator.innovation_gate=null"]
+    command += UNGATED_SET
     result = CliRunner(env={"COLUMNS": "100"}).invoke(app, command)
     assert result.exit_code == 1
     lines = result.stdout.splitlines()
