@@ -365,10 +365,22 @@ def _segments(names: list[str]) -> list[tuple[str, int, int]]:
 
 def recovery_time(spec: MissionSpec, error: float, reference_speed: float) -> float:
     """[s] the least time to take out a position error: turn round (at most half a
-    turn at the turn-rate limit), close the gap at the speed left over the
-    reference's (at least a tenth of the limit), and settle in five time constants."""
+    turn at the turn-rate limit, reached at the turn-rate acceleration limit),
+    reach the reference's speed at the acceleration limit, close the gap and the
+    distance the reference gains in the time the acceleration limits add at the
+    speed left over the reference's (at least a tenth of the limit), and settle
+    in five time constants. Without acceleration limits the turn is
+    pi / omega_max and nothing more is lost."""
+    a_v, a_omega = spec.accelerations
     closing = max(spec.v_limit - reference_speed, 0.1 * spec.v_limit)
-    return error / closing + math.pi / spec.omega_limit + 5 * spec.time_constant
+    if math.pi * a_omega < spec.omega_limit**2:  # half a turn before the rate limit is reached
+        turn = 2 * math.sqrt(math.pi / a_omega)
+    else:
+        turn = math.pi / spec.omega_limit + spec.omega_limit / a_omega
+    # the reference's gain in the time the limits add: the slower turn, and half of
+    # the time from rest to v_ref (the robot covers the other half)
+    lost = reference_speed * ((turn - math.pi / spec.omega_limit) + reference_speed / (2 * a_v))
+    return (error + lost) / closing + turn + reference_speed / a_v + 5 * spec.time_constant
 
 
 def _windows_where(flags: FloatArray, samples: int) -> FloatArray:
@@ -530,6 +542,10 @@ class _PhaseJudge:
         entry = recovery_time(spec, gap, float(speed_ref[0]))
         entering = t - t[0] < entry
         excused |= entering
+        # A phase that runs for a set time and ends in its entry was too short for the
+        # limits to join its path, yet tracking it was all it was for: its end is judged.
+        timed = bool(self.phase.until) and set(self.phase.until) <= {"elapsed", "mission_time"}
+        ended_in_entry = bool(entering[-1]) and timed
         # A detour a zone forces: the way from the robot to its reference is blocked,
         # or the path runs into a zone within the time a turn and settling take (a
         # smooth detour starts that early), and the robot keeps moving; then the time
@@ -557,6 +573,7 @@ class _PhaseJudge:
             error = math.hypot(px[k] - rx[k], py[k] - ry[k])
             excused |= (t >= t[k]) & (t - t[k] < recovery_time(spec, error, float(speed_ref[k])))
         judged = ~excused
+        judged[-1] |= ended_in_entry
         m = self.result.metrics
         m["entry_time"] = entry
         m["cross_track_max"] = float(cross[judged].max()) if judged.any() else None

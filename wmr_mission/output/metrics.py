@@ -871,10 +871,9 @@ def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumber
         speed = tracking.get("reference_speed_max")
         if speed is None:
             return None
-        # at the entry the reference leaves at its speed while the robot
-        # accelerates to it: that time's distance too
-        entry = LAG_TIME_CONSTANTS * numbers.time_constant + float(speed) / numbers.v_acceleration
-        return tolerance + entry * float(speed)
+        # the time to accelerate to the reference's speed is the entry's
+        # (MissionNumbers.recovery_time), not a lag kept for the whole phase
+        return tolerance + LAG_TIME_CONSTANTS * numbers.time_constant * float(speed)
     if metric == "detour_offset_max":
         return (tracking.get("zone_reach") or 0.0) + numbers.look_ahead + tolerance
     if metric == "overshoot_max":

@@ -675,8 +675,7 @@ class Expect(PhaseExpect):
     along_track_lag_max: Threshold | Auto | None = _mission_metric(
         "along_track_lag_max",
         "auto",
-        " auto: 0.1 m + the position noise std + 3 time constants and the time to accelerate "
-        "to it (limits.acceleration.v or v_rate) at the reference's top speed.",
+        " auto: 0.1 m + the position noise std + 3 time constants at the reference's top speed.",
     )
     detour_offset_max: Threshold | Auto | None = _mission_metric(
         "detour_offset_max",
