@@ -494,8 +494,8 @@ def regulate_input(
                 speed = min(v_prev, 0.0) if memory[REVERSING] else max(v_prev, 0.0)
             else:
                 # At the target: keep the position error along the heading only.
-                heading = np.array([math.cos(estimate[2]), math.sin(estimate[2])])
-                deviation[:2] = (deviation[:2] @ heading) * heading
+                facing = np.array([math.cos(estimate[2]), math.sin(estimate[2])])
+                deviation[:2] = (deviation[:2] @ facing) * facing
         gain = scheduled_gain(float(estimate[2]), speed, omega_prev, dt, q, r)
         u = -gain @ deviation
         # the deceleration planned: stopped within the error left
