@@ -380,17 +380,7 @@ def write_mcap(result: RunResult, summary: Any, stream: IO[bytes]) -> None:
         (
             (
                 nanoseconds(change.time),
-                json.dumps(
-                    {
-                        "time": change.time,
-                        "from": change.from_phase,
-                        "to": change.to_phase,
-                        "condition": change.condition,
-                        "value": change.value if math.isfinite(change.value) else None,
-                        "lap": change.lap,
-                    },
-                    allow_nan=False,
-                ).encode(),
+                json.dumps(change.fields(), allow_nan=False).encode(),
             )
             for change in r.transitions
         ),

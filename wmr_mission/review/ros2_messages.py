@@ -21,7 +21,6 @@ sample whose pose is not finite is left out of its topic, as in the JSON form.
 from __future__ import annotations
 
 import json
-import math
 import re
 import struct
 from collections.abc import Iterator
@@ -304,20 +303,6 @@ def _references(result: RunResult) -> Iterator[tuple[float, bytes]]:
         yield float(r.t[start]), _path(float(r.t[start]), points)
 
 
-def _transition(change: Any) -> str:
-    return json.dumps(
-        {
-            "time": change.time,
-            "from": change.from_phase,
-            "to": change.to_phase,
-            "condition": change.condition,
-            "value": change.value if math.isfinite(change.value) else None,
-            "lap": change.lap,
-        },
-        allow_nan=False,
-    )
-
-
 def write_ros2_mcap(result: RunResult, summary: Any, stream: IO[bytes]) -> None:
     """The run as ROS 2 messages (CDR) into ``stream``. The caller has checked that
     every ``t`` lies in [0, STAMP_LIMIT)."""
@@ -362,7 +347,10 @@ def write_ros2_mcap(result: RunResult, summary: Any, stream: IO[bytes]) -> None:
     put(
         "/transitions",
         "std_msgs/String",
-        ((change.time, _string(_transition(change))) for change in r.transitions),
+        (
+            (change.time, _string(json.dumps(change.fields(), allow_nan=False)))
+            for change in r.transitions
+        ),
     )
     summary_text = json.dumps(summary, allow_nan=False)
     put("/summary", "std_msgs/String", iter([(t_end, _string(summary_text))]))
