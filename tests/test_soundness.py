@@ -251,9 +251,11 @@ def test_a_few_generated_missions_are_run_and_judged(tmp_path: Path) -> None:
     # 1.5 cm of position noise: its turn rate jittered by 0.20 rad/s (max 0.07) with
     # the estimator's poles at 0.9
     assert (eight.outcome, eight.sound) == ("success", True)
-    # a park's first turn after a waypoint route (gen-033's no longer kicks)
+    # a route that cuts a corner; its park kicked the turn rate from 0.01 to
+    # -2.05 rad/s (max 2.05) as it began aligning, no more
     assert (kicked.outcome, kicked.sound) == ("expect-failed", False)
-    assert "park: turn_rate_jump_max" in kicked.message
+    assert "route: cross_track_error_max" in kicked.message
+    assert "park: turn_rate_jump_max" not in kicked.message
 
 
 def published_table() -> str:

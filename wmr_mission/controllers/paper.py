@@ -64,6 +64,9 @@ MIN_LOOK_AHEAD = 0.05
 BARRIER_TIME = 0.1
 # Largest fraction of the bearing error the tracked output turns by per sample.
 HEADING_STEP = 0.3
+# The largest change of the regulator's turn rate in one sample, as a share of
+# its limit: half the verdict's bound on a jump (turn_rate_jump_max).
+TURN_SLEW = 0.5
 # The share of the turn-rate limit the position estimate's noise may take as
 # jitter through the tracking law (docs/paper-notes.md, eqs. (6)-(7) under noise).
 JITTER_SHARE = 0.01
@@ -592,6 +595,14 @@ def regulate_input(
         v1 = min(max(v1, -reach), reach)
         turn = stopping_speed(abs(eth), robot.limits[3], dt)
         omega1 = min(max(omega1, -turn), turn)
+    # The turn rate moves from the input before by at most half its limit a
+    # sample: eq. (19)'s heading reference jumps where the phase takes over
+    # from a track phase and where aligning begins (the bearing to the
+    # target's own heading), and the law answered with its whole range in
+    # one sample (docs/paper-notes.md, eq. (19), "The regulator's turn from
+    # the input before").
+    slew = TURN_SLEW * robot.limits[1]
+    omega1 = min(max(omega1, omega_prev - slew), omega_prev + slew)
     v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, robot.limits, dt)
     u_out[0] = v1
     u_out[1] = omega1

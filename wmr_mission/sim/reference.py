@@ -31,6 +31,7 @@ from wmr_mission.controllers.paper import (
     INCREMENT,
     REVERSE_HYSTERESIS,
     REVERSING,
+    TURN_SLEW,
     PaperTuning,
 )
 from wmr_mission.estimators import ekf, observer
@@ -502,6 +503,9 @@ def regulate_input(
         reach = stopping_speed(float(np.hypot(deviation[0], deviation[1])), float(limits[2]), dt)
         turn = stopping_speed(abs(float(deviation[2])), float(limits[3]), dt)
         u = np.array([np.clip(u[0], -reach, reach), np.clip(u[1], -turn, turn)])
+    # the turn rate moves by at most TURN_SLEW of its limit a sample
+    slew = TURN_SLEW * float(limits[1])
+    u[1] = min(max(float(u[1]), omega_prev - slew), omega_prev + slew)
     v, omega = saturate(float(u[0]), float(u[1]), v_prev, omega_prev, limits, dt)
     u_out[0], u_out[1] = v, omega
     memory[CORRECTED] = 0.0
