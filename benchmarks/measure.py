@@ -1,7 +1,10 @@
 """The figures of docs/performance.md that ``wmr-mission bench`` does not give.
 
     python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
-    python benchmarks/measure.py startup    # wall time of `run --no-plots`: first, second, cached
+    python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
+    python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
+    python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
+    python benchmarks/measure.py stages     # `run case1 --no-plots`'s CPU time, stage by stage
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
@@ -104,56 +107,98 @@ from wmr_mission.sim.plan import plan_mission
 from wmr_mission.spec.loader import load_mission
 mission = load_mission(sys.argv[1])
 from wmr_mission.kernels import jit, model
-t0 = time.perf_counter()
-jit.load()  # numba, its array-math module loaded without scipy; taught the kernels
-t1 = time.perf_counter()
-from numba.core.registry import cpu_target
-cpu_target.target_context.refresh()
-t2 = time.perf_counter()
+t0 = time.process_time()
+jit.load()  # numba, its target set up without scipy's linear algebra; taught the kernels
+t1 = time.process_time()
 from wmr_mission.sim import runner
-t3 = time.perf_counter()
 runner.run_mission(plan_mission(mission))
-t4 = time.perf_counter()
+t2 = time.process_time()
 runner.run_mission(plan_mission(mission))
-t5 = time.perf_counter()
-jit.compiled(model.wrap_angle)(0.0)  # a run does not call it: one more compiled entry
-t6 = time.perf_counter()
-print(f"numba import {t1 - t0:.3f} s, numba's target set-up {t2 - t1:.3f} s, "
-      f"importing the runner {t3 - t2:.3f} s, first run_mission (loads run_segment) "
-      f"{t4 - t3:.3f} s, second {t5 - t4:.3f} s; one more entry (wrap_angle) {t6 - t5:.3f} s")
+t3 = time.process_time()
+print(f"loading numba and setting up its target {t1 - t0:.3f} s, first run_mission "
+      f"(loads run_segment) {t2 - t1:.3f} s, second {t3 - t2:.3f} s (CPU)")
 """
 
+# `wmr-mission run` with the compiled loop loaded first, whatever the mission's
+# budget (`run` chooses plain Python for a short one).
+_RUN_COMPILED = (
+    "import sys; from wmr_mission.kernels import jit; jit.load(); "
+    "sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import main; main()"
+)
 
-def startup(repeat: int = 5) -> None:
-    """What a user sees after an install: the first run (plain Python, the loop
-    compiling in the background), a second run while it compiles, the runs after
-    it finished; and a run that compiles in the foreground (a long mission)."""
-    from wmr_mission.commands.background_compile import FOREGROUND, NO_JIT, READY
 
-    run = [sys.executable, "-m", "wmr_mission", "run", str(MISSIONS / "case2.yaml"), "--no-plots"]
-    user = {k: v for k, v in os.environ.items() if k not in (FOREGROUND, NO_JIT)}
+def _user_env(**more: str) -> dict[str, str]:
+    """A user's environment: bytecode written (as after `pip install`), no
+    setting of the test suite."""
+    drop = ("PYTHONDONTWRITEBYTECODE", "WMR_MISSION_NO_JIT")
+    return {**{k: v for k, v in os.environ.items() if k not in drop}, **more}
+
+
+def _pairs(commands: list[list[str]], envs: list[dict[str, str]], pairs: int) -> list[list[float]]:
+    """CPU seconds of each command, run in turn (A, B, A, B, ...) ``pairs`` times,
+    after one untimed run of each (bytecode, cache). A command's ``--out DIR``
+    is removed before each run."""
+    import shutil
+
+    def timed(command: list[str], env: dict[str, str]) -> float:
+        if "--out" in command:
+            shutil.rmtree(command[command.index("--out") + 1], ignore_errors=True)
+        return _wall(command, env, check=False)[1]  # a mission that fails its expect exits 1
+
+    for command, env in zip(commands, envs, strict=True):
+        timed(command, env)
+    times: list[list[float]] = [[] for _ in commands]
+    for _ in range(pairs):
+        for i, (command, env) in enumerate(zip(commands, envs, strict=True)):
+            times[i].append(timed(command, env))
+    return times
+
+
+def _ratio(a: list[float], b: list[float]) -> float:
+    return statistics.median(y / x for x, y in zip(a, b, strict=True))
+
+
+def _checkout(commit: str, directory: str) -> str:
+    """The package as it was at ``commit``, unpacked into ``directory``: run
+    with ``PYTHONPATH`` set to it, beside the installed one."""
+    archive = subprocess.run(
+        ["git", "-C", str(ROOT), "archive", commit, "wmr_mission"], check=True, capture_output=True
+    ).stdout
+    subprocess.run(["tar", "-x", "-C", directory], input=archive, check=True)
+    return directory
+
+
+def startup(pairs: int = 8) -> None:
+    """CPU time of the commands users start with, the kernel cache warm:
+    `run missions/case1.yaml --no-plots` as it runs (plain Python: a short
+    mission), with the compiled loop loaded from the cache instead, and
+    `validate missions/case2.yaml`; each a process, in turn. With a commit's
+    name (`startup COMMIT`), `run` and `validate` as at that commit too, in
+    turn with these (`run` compiled there in the foreground, loaded from that
+    checkout's own cache once compiled)."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    env = _user_env()
+    against = sys.argv[2] if len(sys.argv) > 2 else None
+    subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], check=True, env=env)
     with tempfile.TemporaryDirectory() as tmp:
-        # A cache directory of its own: nothing compiled yet, as after an install.
-        env = {**user, "NUMBA_CACHE_DIR": f"{tmp}/cache"}
-        started = time.perf_counter()
-        first = _wall([*run, "--out", f"{tmp}/first"], env)
-        second = _wall([*run, "--out", f"{tmp}/second"], env)
-        kernels = Path(tmp, "cache", "wmr_mission")
-        while not list(kernels.glob(f"*/{READY}")):
-            if time.perf_counter() - started > 600:
-                raise SystemExit("the background compile did not finish within 10 minutes")
-            time.sleep(0.2)
-        compiled_after = time.perf_counter() - started
-        cached = [_wall([*run, "--out", f"{tmp}/cached{i}"], env) for i in range(repeat)]
-        foreground = {**env, "NUMBA_CACHE_DIR": f"{tmp}/fresh", FOREGROUND: "1"}
-        compiling = _wall([*run, "--out", f"{tmp}/foreground"], foreground)
-        imports = [
-            _wall(
-                [sys.executable, "-c", "import wmr_mission.commands.run, wmr_mission.sim.runner"],
-                env,
-            )
-            for _ in range(repeat)
+        os.chdir(tmp)  # `python -m` puts the working directory before PYTHONPATH
+        case1 = ["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out"]
+        commands = [
+            [sys.executable, "-m", "wmr_mission", *case1, f"{tmp}/plain"],
+            [sys.executable, "-c", _RUN_COMPILED, *case1, f"{tmp}/compiled"],
+            [sys.executable, "-m", "wmr_mission", "validate", str(MISSIONS / "case2.yaml")],
         ]
+        envs = [env] * 3
+        names = ["run case1 --no-plots (as run: plain Python)",
+                 "the same, the compiled loop loaded", "validate case2"]  # fmt: skip
+        if against is not None:
+            os.mkdir(f"{tmp}/then")
+            then = {**env, "PYTHONPATH": _checkout(against, f"{tmp}/then"),
+                    "WMR_MISSION_FOREGROUND_COMPILE": "1"}  # fmt: skip
+            commands += [[*commands[0][:-1], f"{tmp}/then-run"], commands[2]]
+            envs += [then, then]
+            names += [f"run case1 --no-plots at {against}", f"validate case2 at {against}"]
+        times = _pairs(commands, envs, pairs)
         loading = subprocess.run(
             [sys.executable, "-c", _LOADING, str(MISSIONS / "case2.yaml")],
             env=env,
@@ -161,22 +206,102 @@ def startup(repeat: int = 5) -> None:
             capture_output=True,
             text=True,
         ).stdout
-
-    def show(what: str, times: list[tuple[float, float]]) -> None:
-        wall = statistics.median(t[0] for t in times)
-        cpu = statistics.median(t[1] for t in times)
-        print(f"{what}: median wall {wall:.2f} s, CPU {cpu:.2f} s")
-
-    show("run --no-plots case2, first run after install (plain Python)", [first])
-    show("run --no-plots case2, second run (the loop still compiling)", [second])
-    print(f"background compile done {compiled_after:.1f} s after the first run started")
-    show("run --no-plots case2, after the background compile (compiled, cached)", cached)
-    show(
-        "run --no-plots case2, compiling in the foreground (a long mission's first run)",
-        [compiling],
-    )
-    show("python -c 'import wmr_mission.commands.run, wmr_mission.sim.runner'", imports)
+    for name, cpu in zip(names, times, strict=True):
+        print(f"{name}: CPU median {statistics.median(cpu):.3f} s, min {min(cpu):.3f} s "
+              f"({pairs} runs)")  # fmt: skip
+    print(f"compiled / plain, pair by pair: median {_ratio(times[0], times[1]):.2f}")
+    if against is not None:
+        print(f"run, now / {against}, pair by pair: median {_ratio(times[3], times[0]):.2f}")
+        print(f"validate, now / {against}, pair by pair: median {_ratio(times[4], times[2]):.2f}")
     print(f"loading the compiled loop, step by step: {loading.strip()}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+_STAGES = """
+import sys, time
+from pathlib import Path
+marks = []
+def mark(stage, started=[time.process_time()]):
+    now = time.process_time()
+    marks.append((stage, now - started[0]))
+    started[0] = now
+import wmr_mission.cli, wmr_mission.commands.run
+from wmr_mission.spec.loader import load_mission
+mark("imports (the command line, run, the loader)")
+mission = load_mission(Path(sys.argv[1]))
+mark("reading and checking the mission")
+from wmr_mission.commands.compile import choose_loop
+from wmr_mission.sim.plan import sample_budget
+from wmr_mission.sim import runner
+from wmr_mission.output import metrics
+choose_loop(sample_budget(mission))
+mark("importing the runner")
+result = runner._run(runner.plan_mission(mission), None, None, None)
+mark("planning and simulating")
+result.mission = mission.model_dump(mode="json")
+metrics.judge(result, result.mission)
+mark("judging")
+from wmr_mission.output.rundir import write_run
+write_run(result, Path(sys.argv[2]), mission_sha256="-", mission_file=sys.argv[1], plots=False,
+          animate=False)
+mark("writing the run directory")
+print("; ".join(f"{stage} {seconds:.3f} s" for stage, seconds in marks))
+"""
+
+
+def stages() -> None:
+    """Where `run missions/case1.yaml --no-plots` spends its CPU time, stage by
+    stage in one process, as `run` chooses its loop (plain Python)."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(2):  # the first writes the bytecode
+            done = subprocess.run(
+                [sys.executable, "-c", _STAGES, str(MISSIONS / "case1.yaml"), f"{tmp}/run"],
+                env=_user_env(),
+                check=True,
+                capture_output=True,
+                text=True,
+            )
+            import shutil
+
+            shutil.rmtree(f"{tmp}/run", ignore_errors=True)
+    print(done.stdout.strip())
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def threshold(pairs: int = 3) -> None:
+    """Where the compiled loop pays for its load: each example mission and
+    benchmarks/hour.yaml cut to 50-400 s, `run --no-plots` as plain Python and
+    with the compiled loop loaded from the cache, in turn; CPU seconds and the
+    ratio compiled / plain beside each mission's sample budget."""
+    from wmr_mission.commands.compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.sim.plan import sample_budget
+    from wmr_mission.spec.loader import check_mission_bytes, overrides_of_texts
+
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], check=True, env=_user_env())
+    cases = [(path, []) for path in sorted(MISSIONS.glob("*.yaml"))]
+    cases += [(HOUR, [f"phases.0.until.elapsed={s}"]) for s in (50, 100, 150, 200, 250, 300, 400)]
+    plain_env = _user_env(WMR_MISSION_NO_JIT="1")
+    print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
+    with tempfile.TemporaryDirectory() as tmp:
+        for path, settings in cases:
+            sets = [f"--set={s}" for s in settings]
+            overrides, _ = overrides_of_texts(settings)
+            mission, _ = check_mission_bytes(path.read_bytes(), str(path), overrides)
+            assert mission is not None
+            budget = sample_budget(mission)
+            run = ["run", str(path), "--no-plots", *sets, "--out"]
+            plain_cpu, compiled_cpu = _pairs(
+                [[sys.executable, "-m", "wmr_mission", *run, f"{tmp}/p"],
+                 [sys.executable, "-c", _RUN_COMPILED, *run, f"{tmp}/c"]],
+                [plain_env, _user_env()],
+                pairs,
+            )  # fmt: skip
+            name = path.name + (f" {settings[0]}" if settings else "")
+            print(f"  {name:45s} budget {budget:6d}: plain {statistics.median(plain_cpu):.2f} s, "
+                  f"compiled {statistics.median(compiled_cpu):.2f} s, compiled / plain "
+                  f"{_ratio(plain_cpu, compiled_cpu):.2f}")  # fmt: skip
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -184,7 +309,7 @@ def plain() -> None:
     """Every example mission as plain Python: its sample budget (what `run`
     compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample."""
     os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the loop is loaded
-    from wmr_mission.commands.background_compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.commands.compile import PLAIN_PYTHON_SAMPLES
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
@@ -844,7 +969,7 @@ def band(repeat: int = 5) -> None:
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
-    jobs |= {"plain": plain, "scale": scale}
+    jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,

@@ -2,16 +2,21 @@
 
     python scripts/doc_figures.py              # the runs' and case2-headings' (a minute or two)
     python scripts/doc_figures.py --run-only   # the runs' figures alone
+    python scripts/doc_figures.py --cases-only # docs/case-studies.md's alone
 
-docs/images/disturbed-verdicts.png: `wmr-mission run missions/disturbed.yaml`'s
-verdicts.png (the mission fails). docs/images/keep-out-xy-one-column.png:
+docs/images/disturbed-verdicts.png: `wmr-mission run missions/disturbed.yaml
+--set estimator.innovation_gate=null`'s verdicts.png (its outliers ungated, the
+mission fails). docs/images/keep-out-xy-one-column.png:
 `wmr-mission plot RUN_DIR --style one-column`'s xy.png.
 docs/images/patrol-detour-xy.png: `wmr-mission run missions/patrol-detour.yaml`'s
 xy.png, its reactions marked. docs/images/campaigns/
 case2-headings-{trajectories,metrics,success}.png: `wmr-mission sweep
 missions/campaigns/case2-headings.yaml`'s figures, and
 case2-headings-worst-FAILURE.png: the verdicts.png of the worst run of each
-kind of failure (worst/RUN/).
+kind of failure (worst/RUN/). docs/images/case1-xy.png, case2-xy.png,
+case1-estimation-error.png: `wmr-mission run missions/case1.yaml` (case2)'s
+xy.png and estimation_error.png; case2-deviation-free-xy.png: case 2 with
+`--set controller.regulation.form=deviation --set 'phases.return.constraints=[]'`.
 """
 
 from __future__ import annotations
@@ -36,7 +41,8 @@ def _wmr(*args: str) -> None:
 
 def run_figures(tmp: Path) -> None:
     failing = tmp / "disturbed"
-    _wmr("run", "missions/disturbed.yaml", "--out", str(failing))
+    _wmr("run", "missions/disturbed.yaml", "--set", "estimator.innovation_gate=null", "--out",
+         str(failing))  # fmt: skip
     shutil.copy(failing / "verdicts.png", IMAGES / "disturbed-verdicts.png")
     run_dir = tmp / "keep-out"
     _wmr("run", "missions/keep-out.yaml", "--out", str(run_dir))
@@ -45,6 +51,22 @@ def run_figures(tmp: Path) -> None:
     detoured = tmp / "patrol-detour"
     _wmr("run", "missions/patrol-detour.yaml", "--out", str(detoured))
     shutil.copy(detoured / "xy.png", IMAGES / "patrol-detour-xy.png")
+
+
+def case_figures(tmp: Path) -> None:
+    """The figures of docs/case-studies.md."""
+    for case in ("case1", "case2"):
+        run_dir = tmp / case
+        _wmr("run", f"missions/{case}.yaml", "--out", str(run_dir))
+        shutil.copy(run_dir / "xy.png", IMAGES / f"{case}-xy.png")
+    shutil.copy(tmp / "case1" / "estimation_error.png", IMAGES / "case1-estimation-error.png")
+    free = tmp / "case2-deviation-free"
+    _wmr(
+        "run", "missions/case2.yaml", "--out", str(free),
+        "--set", "controller.regulation.form=deviation",
+        "--set", "phases.return.constraints=[]",
+    )  # fmt: skip
+    shutil.copy(free / "xy.png", IMAGES / "case2-deviation-free-xy.png")
 
 
 def campaign_figures(tmp: Path) -> None:
@@ -68,8 +90,12 @@ def campaign_figures(tmp: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--run-only", action="store_true", help="the runs' figures alone")
+    parser.add_argument("--cases-only", action="store_true", help="the case studies' alone")
     arguments = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
+        case_figures(Path(tmp))
+        if arguments.cases_only:
+            return
         run_figures(Path(tmp))
         if not arguments.run_only:
             campaign_figures(Path(tmp))

@@ -6,7 +6,7 @@ sensor noise, sampling periods, limits, paths, zones and regulate targets.
 
 Mission ``i`` is drawn from ``default_rng([seed, i, attempt])`` alone, so it does
 not depend on the others. A draw that ``wmr-mission validate`` finds any problem
-with (an error or a warning) is drawn again with the next attempt. The set is
+with (an error or a warning, not a note) is drawn again with the next attempt. The set is
 judged by scripts/soundness.py and scripts/judge_generated.py (docs/soundness.md).
 
 Every number is rounded to at most 3 decimals, so the files are the same text on
@@ -39,7 +39,22 @@ HEADER = (
 )
 # Sampling periods [s] that divide 1 s, so whole-second durations are whole samples.
 PERIODS = (0.005, 0.008, 0.01, 0.0125, 0.02, 0.025, 0.04, 0.05)
-KINDS = ("line", "circle", "ellipse", "waypoints", "polyline", "park", "dash")
+KINDS = (
+    "line",
+    "circle",
+    "ellipse",
+    "waypoints",
+    "polyline",
+    "park",
+    "dash",
+    "spiral",
+    "elliptical-spiral",
+    "expression",
+    "coverage",
+)
+# The sensors' noise the default controller is to meet its verdicts under [m, rad].
+MAX_POSITION_NOISE = 0.02
+MAX_HEADING_NOISE = 0.01
 MAX_ATTEMPTS = 50
 
 Mission = dict[str, Any]
@@ -114,9 +129,19 @@ class Draw:
         self.start = (r3(rng.uniform(-3, 3)), r3(rng.uniform(-3, 3)))
         self.heading = r3(rng.uniform(-math.pi, math.pi))
         quiet = rng.uniform() < 0.2
-        self.position_noise = 0.0 if quiet else r3(rng.uniform(0.0, 0.03))
-        self.heading_noise = 0.0 if quiet else r3(rng.uniform(0.0, 0.03))
-        self.ekf = bool(rng.uniform() < 0.2)
+        self.position_noise = 0.0 if quiet else r3(rng.uniform(0.0, MAX_POSITION_NOISE))
+        self.heading_noise = 0.0 if quiet else r3(rng.uniform(0.0, MAX_HEADING_NOISE))
+        self.ekf = bool(rng.uniform() < 0.5)
+        # The robot's own acceleration limits (one in three): full speed in
+        # 0.5 to 2 s, full turn rate in 0.25 to 1 s.
+        self.acceleration = (
+            {
+                "v": r3(self.v_limit / rng.uniform(0.5, 2.0)),
+                "omega": r3(self.omega_limit / rng.uniform(0.25, 1.0)),
+            }
+            if rng.uniform() < 1 / 3
+            else None
+        )
         offset = rng.uniform() < 0.4
         self.estimate_offset = (
             (r3(rng.uniform(-0.3, 0.3)), r3(rng.uniform(-0.3, 0.3)), r3(rng.uniform(-0.2, 0.2)))
@@ -147,7 +172,8 @@ class Draw:
             "robot": {
                 "dt": self.dt,
                 "initial_state": {"x": x, "y": y, "theta": self.heading},
-                "limits": {"v": self.v_limit, "omega": self.omega_limit},
+                "limits": {"v": self.v_limit, "omega": self.omega_limit}
+                | ({} if self.acceleration is None else {"acceleration": self.acceleration}),
             },
             "sensors": {
                 "measure": ["x", "y", "theta"],
@@ -329,6 +355,103 @@ def dash_mission(rng: np.random.Generator, draw: Draw) -> tuple[dict[str, Any], 
     return {}, [dash, park]
 
 
+def spiral_mission(
+    rng: np.random.Generator, draw: Draw, elliptical: bool
+) -> tuple[dict[str, Any], list[Any]]:
+    """Spiral in from the robot, eq. (30) (a circular spiral with a negative
+    growth rate) or eq. (32) (an elliptical one); then park near its centre."""
+    a = rng.uniform(2.0, 4.0)
+    b = rng.uniform(1.5, a) if elliptical else a
+    decay = rng.uniform(0.05, 0.15)
+    fastest = min(0.7 * draw.v_limit / (a * math.hypot(1.0, decay)), 0.7 * draw.omega_limit * b / a)
+    rate = rng.uniform(0.25 * fastest, fastest) * (1 if rng.uniform() < 0.5 else -1)
+    angle = rng.uniform(-math.pi, math.pi)
+    rotation = rng.uniform(-math.pi, math.pi) if elliptical else 0.0
+    u, w = a * math.cos(angle), b * math.sin(angle)
+    c, sn = math.cos(rotation), math.sin(rotation)
+    centre = (draw.start[0] - (u * c - w * sn), draw.start[1] - (u * sn + w * c))
+    if elliptical:
+        path: dict[str, Any] = {
+            "type": "elliptical-spiral",
+            "center": point(*centre),
+            "semi_axes": [r3(a), r3(b)],
+            "rotation": r3(rotation),
+            "decay_rate": r3(decay),
+        }
+    else:
+        path = {
+            "type": "spiral",
+            "center": point(*centre),
+            "initial_radius": r3(a),
+            "growth_rate": r3(-decay),
+        }
+    path |= {"angular_rate": r3(rate), "start": "current"}
+    track = {
+        "name": "spiral",
+        "track": {"path": path},
+        "until": {"elapsed": int(rng.integers(6, 13))},
+    }
+    park, _ = park_phase(rng, centre, (0.0, 0.5 * b))
+    return {}, [track, park]
+
+
+def expression_mission(rng: np.random.Generator, draw: Draw) -> tuple[dict[str, Any], list[Any]]:
+    """A figure eight written as expressions, from the robot; then park."""
+    size = rng.uniform(1.5, 4.0)
+    # speed at most size * rate * sqrt(2), turn rate at most about 3 rate at the lobes' ends
+    fastest = min(0.7 * draw.v_limit / (math.sqrt(2.0) * size), 0.7 * draw.omega_limit / 3.0)
+    rate = r3(rng.uniform(0.25 * fastest, fastest))
+    turn = rng.uniform(-math.pi, math.pi)
+    c, sn = r3(math.cos(turn)), r3(math.sin(turn))
+    lobe_x = f"{r3(size)}*sin({rate}*t)"
+    lobe_y = f"{r3(size)}*sin({rate}*t)*cos({rate}*t)"
+    track = {
+        "name": "eight",
+        "track": {
+            "path": {
+                "type": "expression",
+                "x": f"{c}*{lobe_x} - {sn}*{lobe_y}",
+                "y": f"{sn}*{lobe_x} + {c}*{lobe_y}",
+                "start": "current",
+            }
+        },
+        "until": {"elapsed": int(rng.integers(6, 15))},
+    }
+    park, _ = park_phase(rng, draw.start, (1.0, 4.0))
+    return {}, [track, park]
+
+
+def coverage_mission(rng: np.random.Generator, draw: Draw) -> tuple[dict[str, Any], list[Any]]:
+    """Mow a box field beside the robot in lanes, then park at its gate."""
+    width, height = rng.uniform(3.0, 6.0), rng.uniform(2.0, 4.0)
+    low = (draw.start[0] + rng.uniform(0.5, 1.5), draw.start[1] - height / 2)
+    field = {
+        "type": "box",
+        "min": point(*low),
+        "max": point(low[0] + width, low[1] + height),
+    }
+    spacing = rng.uniform(0.8, 1.5)
+    # turns of radius spacing / 2 at no more than 70 % of the turn-rate limit
+    speed = r3(min(draw.speed(rng, 0.3, 0.6), 0.7 * draw.omega_limit * spacing / 2))
+    lanes = math.ceil(height / spacing) + 1
+    length = lanes * (width + spacing * math.pi / 2) + 3.0
+    track = {
+        "name": "mow",
+        "track": {
+            "path": {
+                "type": "coverage",
+                "region": "field",
+                "spacing": r3(spacing),
+                "direction": 0.0,
+                "speed": speed,
+            }
+        },
+        "until": {"elapsed": math.ceil(length / speed)},
+    }
+    park, _ = park_phase(rng, draw.start, (0.5, 2.0))
+    return {"field": field}, [track, park]
+
+
 BUILDERS: dict[str, Callable[[np.random.Generator, Draw], tuple[dict[str, Any], list[Any]]]] = {
     "line": line_mission,
     "circle": lambda rng, draw: orbit_mission(rng, draw, ellipse=False),
@@ -337,6 +460,10 @@ BUILDERS: dict[str, Callable[[np.random.Generator, Draw], tuple[dict[str, Any], 
     "polyline": lambda rng, draw: route_mission(rng, draw, polyline=True),
     "park": park_mission,
     "dash": dash_mission,
+    "spiral": lambda rng, draw: spiral_mission(rng, draw, elliptical=False),
+    "elliptical-spiral": lambda rng, draw: spiral_mission(rng, draw, elliptical=True),
+    "expression": expression_mission,
+    "coverage": coverage_mission,
 }
 
 
@@ -351,6 +478,7 @@ def draw_mission(seed: int, index: int, attempt: int) -> tuple[str, str]:
         f"{kind}: dt {draw.dt} s, limits {draw.v_limit} m/s and {draw.omega_limit} rad/s, "
         f"noise {draw.position_noise} m and {draw.heading_noise} rad"
         f"{', EKF' if draw.ekf else ''}"
+        f"{', acceleration limits' if draw.acceleration else ''}"
     )
     mission = draw.mission(name, description, seed=index)
     if regions:
@@ -363,7 +491,8 @@ def draw_mission(seed: int, index: int, attempt: int) -> tuple[str, str]:
 
 
 def problems(paths: list[Path]) -> dict[str, list[str]]:
-    """What ``wmr-mission validate`` says of each file (errors and warnings)."""
+    """What ``wmr-mission validate`` finds wrong with each file (errors and
+    warnings; a note says what the run will do, and is no problem)."""
     found = subprocess.run(
         [sys.executable, "-m", "wmr_mission", "validate", "--format", "json", *map(str, paths)],
         capture_output=True,
@@ -371,7 +500,10 @@ def problems(paths: list[Path]) -> dict[str, list[str]]:
         check=False,
     )
     report = json.loads(found.stdout)
-    return {f["file"]: [d["message"] for d in f["diagnostics"]] for f in report["files"]}
+    return {
+        f["file"]: [d["message"] for d in f["diagnostics"] if d["severity"] != "note"]
+        for f in report["files"]
+    }
 
 
 def generate(seed: int, count: int) -> dict[str, str]:

@@ -107,6 +107,27 @@ def table(judged: list[Judged]) -> str:
     return "\n".join(rows)
 
 
+def by_acceleration(judged: list[Judged], missions: Iterable[Path]) -> str:
+    """Successes with and without the robot's acceleration limits, and the
+    failures with them named (the acceleration-limit work re-judges these)."""
+    import yaml
+
+    limited = {
+        path.stem
+        for path in missions
+        if "acceleration"
+        in ((yaml.safe_load(path.read_text()).get("robot") or {}).get("limits") or {})
+    }
+    lines = []
+    for label, group in (("without", False), ("with", True)):
+        runs = [j for j in judged if (j.mission in limited) == group]
+        wins = sum(j.success for j in runs)
+        lines.append(f"{label} acceleration limits: {wins} of {len(runs)} succeed")
+    failed = [j.mission for j in judged if j.mission in limited and not j.success]
+    lines.append("failed with acceleration limits: " + (", ".join(failed) or "none"))
+    return "\n".join(lines)
+
+
 def disagreements(judged: list[Judged]) -> str:
     lines = []
     for j in judged:
@@ -139,6 +160,8 @@ def main(argv: list[str] | None = None) -> int:
         with tempfile.TemporaryDirectory() as scratch:
             judged = judge_all(missions, Path(scratch), workers=args.workers)
     print(table(judged))
+    print()
+    print(by_acceleration(judged, missions))
     print()
     print(disagreements(judged))
     if args.agreements:

@@ -189,6 +189,8 @@ class MissionSpec:
     look_ahead: float  # [m]
     phases: dict[str, PhaseSpec]  # by the name trajectory.csv gives them
     regions: dict[str, Region]
+    # [m/s^2, rad/s^2] the tighter of limits.acceleration and limits.*_rate (inf: none)
+    accelerations: tuple[float, float] = (math.inf, math.inf)
 
 
 def read_mission(source: str | Path | Mapping[str, Any]) -> MissionSpec:
@@ -232,7 +234,25 @@ def read_mission(source: str | Path | Mapping[str, Any]) -> MissionSpec:
         ),
         phases=phases,
         regions=regions,
+        accelerations=_accelerations(robot),
     )
+
+
+def _accelerations(robot: Mapping[str, Any]) -> tuple[float, float]:
+    """The robot's acceleration limits [m/s^2, rad/s^2]: the tighter of
+    limits.acceleration and limits.v_rate / omega_rate; inf where none is set."""
+    found = []
+    for state, rate in (("v", "v_rate"), ("omega", "omega_rate")):
+        values = [
+            _number(value, f"robot.limits.{where}")
+            for where, value in (
+                (f"acceleration.{state}", _get(robot, "limits", "acceleration", state)),
+                (rate, _get(robot, "limits", rate)),
+            )
+            if value is not None
+        ]
+        found.append(min(values, default=math.inf))
+    return found[0], found[1]
 
 
 def _phase(step: Mapping[str, Any], name: str, regions: Mapping[str, Region]) -> PhaseSpec:
@@ -345,10 +365,22 @@ def _segments(names: list[str]) -> list[tuple[str, int, int]]:
 
 def recovery_time(spec: MissionSpec, error: float, reference_speed: float) -> float:
     """[s] the least time to take out a position error: turn round (at most half a
-    turn at the turn-rate limit), close the gap at the speed left over the
-    reference's (at least a tenth of the limit), and settle in five time constants."""
+    turn at the turn-rate limit, reached at the turn-rate acceleration limit),
+    reach the reference's speed at the acceleration limit, close the gap and the
+    distance the reference gains in the time the acceleration limits add at the
+    speed left over the reference's (at least a tenth of the limit), and settle
+    in five time constants. Without acceleration limits the turn is
+    pi / omega_max and nothing more is lost."""
+    a_v, a_omega = spec.accelerations
     closing = max(spec.v_limit - reference_speed, 0.1 * spec.v_limit)
-    return error / closing + math.pi / spec.omega_limit + 5 * spec.time_constant
+    if math.pi * a_omega < spec.omega_limit**2:  # half a turn before the rate limit is reached
+        turn = 2 * math.sqrt(math.pi / a_omega)
+    else:
+        turn = math.pi / spec.omega_limit + spec.omega_limit / a_omega
+    # the reference's gain in the time the limits add: the slower turn, and half of
+    # the time from rest to v_ref (the robot covers the other half)
+    lost = reference_speed * ((turn - math.pi / spec.omega_limit) + reference_speed / (2 * a_v))
+    return (error + lost) / closing + turn + reference_speed / a_v + 5 * spec.time_constant
 
 
 def _windows_where(flags: FloatArray, samples: int) -> FloatArray:
@@ -406,8 +438,30 @@ class _PhaseJudge:
             self.regulation()
         self.goal()
         self.zones()
+        self.accelerations()
         self.inputs()
         return self.result
+
+    # --- the acceleration limits ---------------------------------------------------------
+
+    def accelerations(self) -> None:
+        """No input changes faster than the robot accelerates: the commands the
+        run recorded change by at most the acceleration limit times dt a sample."""
+        for name, u, rate in (
+            ("v", self.v, self.spec.accelerations[0]),
+            ("omega", self.omega, self.spec.accelerations[1]),
+        ):
+            if not math.isfinite(rate) or u.size < 2:
+                continue
+            change = np.abs(np.diff(u)) / self.dt
+            self.result.metrics[f"{name}_acceleration_max"] = float(change.max())
+            beyond = np.flatnonzero(change > rate * (1.0 + 1e-6))
+            if beyond.size:
+                k = int(beyond[0])
+                self.problem(
+                    f"{name} changes at {change[k]:.3g} per second at t = {self.t[k + 1]:.2f} s, "
+                    f"beyond the acceleration limit {rate:g}"
+                )
 
     # --- the phase's goal -------------------------------------------------------
 
@@ -488,6 +542,10 @@ class _PhaseJudge:
         entry = recovery_time(spec, gap, float(speed_ref[0]))
         entering = t - t[0] < entry
         excused |= entering
+        # A phase that runs for a set time and ends in its entry was too short for the
+        # limits to join its path, yet tracking it was all it was for: its end is judged.
+        timed = bool(self.phase.until) and set(self.phase.until) <= {"elapsed", "mission_time"}
+        ended_in_entry = bool(entering[-1]) and timed
         # A detour a zone forces: the way from the robot to its reference is blocked,
         # or the path runs into a zone within the time a turn and settling take (a
         # smooth detour starts that early), and the robot keeps moving; then the time
@@ -515,6 +573,7 @@ class _PhaseJudge:
             error = math.hypot(px[k] - rx[k], py[k] - ry[k])
             excused |= (t >= t[k]) & (t - t[k] < recovery_time(spec, error, float(speed_ref[k])))
         judged = ~excused
+        judged[-1] |= ended_in_entry
         m = self.result.metrics
         m["entry_time"] = entry
         m["cross_track_max"] = float(cross[judged].max()) if judged.any() else None
@@ -590,6 +649,7 @@ class _PhaseJudge:
         turned = h_first - h_last >= PROGRESS * np.minimum(
             h_first, spec.omega_limit * window * self.dt
         )
+        self.overshoot(aim, position, position_tolerance)
         away = ~_any_in_windows(at_goal, window + 1)
         stuck = away & ~gained & ~turned
         self.result.metrics["stall_time"] = float(stuck.sum() * self.dt)
@@ -600,6 +660,24 @@ class _PhaseJudge:
                 f"stalled: from t = {self.t[k]:.2f} s, {window * self.dt:.2f} s without progress "
                 f"({position[k]:.3g} m and {heading[k]:.3g} rad from the target, moved "
                 f"{moved:.3g} m)"
+            )
+
+    def overshoot(
+        self, aim: tuple[float, float, float], position: FloatArray, tolerance: float
+    ) -> None:
+        """A park stops at its target: the true position goes no further past it,
+        along the way in (from where the phase started to the target), than the
+        goal's position tolerance. A phase started within its goal has no way in."""
+        if position[0] <= tolerance:
+            return
+        way_x, way_y = (aim[0] - self.x[0]) / position[0], (aim[1] - self.y[0]) / position[0]
+        beyond = float(((self.x - aim[0]) * way_x + (self.y - aim[1]) * way_y).max())
+        self.result.metrics["overshoot"] = max(beyond, 0.0)
+        if beyond > tolerance:
+            k = int(np.argmax((self.x - aim[0]) * way_x + (self.y - aim[1]) * way_y))
+            self.problem(
+                f"overshot: {beyond:.3g} m past the target at t = {self.t[k]:.2f} s "
+                f"(goal {tolerance:.3g} m)"
             )
 
     # --- zones --------------------------------------------------------------------------

@@ -2,9 +2,10 @@
 
     python scripts/view_screenshots.py                       # runs keep-out and case2-headings
     python scripts/view_screenshots.py --campaign runs/DIR   # an existing case2-headings directory
+    python scripts/view_screenshots.py --only run            # view-run.png alone
 
-docs/images/view-run.png: the report of missions/keep-out.yaml (a failing run),
-the cursor on the sample where the robot passes the pond. docs/images/view-campaign.png:
+docs/images/view-run.png: the report of missions/keep-out.yaml (a run that
+succeeds), the cursor on the sample where the robot passes the pond. docs/images/view-campaign.png:
 the runs of missions/campaigns/case2-headings.yaml that failed, the largest
 constraint violation first.
 """
@@ -38,7 +39,7 @@ def run_screenshot(scratch: Path) -> None:
         cwd=ROOT,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
-    )  # exit 1: the mission fails its expect, which the report shows
+    )
     _wmr("view", str(run))
     with Page.open(run / "report.html", width=WIDTH, height=HEIGHT) as page:
         assert page.problems() == []
@@ -71,9 +72,14 @@ def campaign_screenshot(directory: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--campaign", type=Path, help="an existing case2-headings directory")
+    parser.add_argument("--only", choices=("run", "campaign"), help="one screenshot alone")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
-        run_screenshot(Path(scratch))
+        if args.only != "campaign":
+            run_screenshot(Path(scratch))
+        if args.only == "run":
+            print(IMAGES / "view-run.png")
+            return
         campaign = args.campaign
         if campaign is None:
             campaign = Path(scratch) / "case2-headings"

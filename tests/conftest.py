@@ -11,9 +11,48 @@ import pytest
 
 matplotlib.use("Agg")
 os.environ.setdefault("MPLBACKEND", "Agg")
-# `run` compiles in the foreground, as before the background compile: no
-# process outlives a test (wmr_mission.commands.background_compile).
-os.environ["WMR_MISSION_FOREGROUND_COMPILE"] = "1"
+
+# `pytest -m smoke`: a subset for contributors, under a minute on 2 cores. The
+# mission format, the paper's equations (model, observer, corrective law),
+# paths, regions, routes, expressions, metrics, reactions and the command
+# line's help: every test of these files, as plain Python (the same bytes as
+# compiled, tests/test_loop.py), so that no kernel compiles.
+SMOKE = {
+    "test_spec_loader.py",
+    "test_model.py",
+    "test_corrective.py",
+    "test_observer.py",
+    "test_paths.py",
+    "test_regions.py",
+    "test_routes.py",
+    "test_expressions.py",
+    "test_output_metrics.py",
+    "test_reactions.py",
+    "test_cli_help.py",
+}
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if config.option.markexpr.strip() == "smoke":
+        os.environ.setdefault("WMR_MISSION_NO_JIT", "1")
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if item.path.name in SMOKE:
+            item.add_marker(pytest.mark.smoke)
+
+
+@pytest.fixture(autouse=True)
+def _loop_undecided() -> Iterator[None]:
+    """`run` chooses plain Python for its process when its mission is short
+    (wmr_mission.commands.compile.choose_loop: a command's process runs one
+    mission); a test that calls it here leaves the next tests undecided."""
+    from wmr_mission.kernels import jit
+
+    chosen = jit._state.plain_chosen
+    yield
+    jit._state.plain_chosen = chosen
 
 
 @pytest.fixture(autouse=True)
@@ -30,7 +69,8 @@ def rng() -> np.random.Generator:
 
 
 # A small campaign directory as `sweep` writes it, with figures and worst runs
-# (one of which fails its expect): the data of the report and export tests.
+# (some of which fail their expect: the runs drawn a final error of at most
+# 1 mm): the data of the report and export tests.
 LOOKING_CAMPAIGN = """version: 1
 name: looking
 mission: {mission}
@@ -41,6 +81,7 @@ vary:
   sensors.noise_std.x: {{choice: [0.0, 0.01]}}
   estimator.type: {{choice: [constrained-observer, ekf]}}
   controller.Q: {{grid: [[1, 1, 1], [1, 1, 10]]}}
+  expect.final_position_error.max: {{choice: [0.05, 0.001]}}
 """
 
 
@@ -54,13 +95,29 @@ def campaign_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = root / "looking.yaml"
     path.write_text(LOOKING_CAMPAIGN.format(mission=mission), encoding="utf-8")
     out = root / "campaign"
+    # The campaign's figures, not the worst runs' (most of the time, and unused).
+    with pytest.MonkeyPatch.context() as patch:
+        _worst_runs_without_figures(patch, sweep)
+        run_campaign(path, out=out, workers=1, plots=True)
+    return out
+
+
+def _worst_runs_without_figures(patch: pytest.MonkeyPatch, sweep: Any) -> None:
     write_run = sweep.write_run
 
     def without_figures(*args: Any, **kwargs: Any) -> Any:
         return write_run(*args, **{**kwargs, "plots": False})
 
-    # The campaign's figures, not the worst runs' (most of the time, and unused).
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(sweep, "write_run", without_figures)
-        run_campaign(path, out=out, workers=1, plots=True)
-    return out
+    patch.setattr(sweep, "write_run", without_figures)
+
+
+@pytest.fixture
+def campaign_figures_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A sweep with figures writes its worst runs' directories without theirs:
+    five run directories of five figures each, seconds of matplotlib per test,
+    where the test is about the campaign's own figures, a fault or the steps
+    shown. A worst run's figures are a run directory's, drawn by the same
+    `write_run` as `run`'s (tests/test_output_figures.py, tests/test_output_plots.py)."""
+    from wmr_mission.campaign import sweep
+
+    _worst_runs_without_figures(monkeypatch, sweep)

@@ -107,6 +107,31 @@ def compiled_gives_up(params: dict[str, Any], setup: Any) -> Any:
     return CompiledGivesUp(0.25)
 
 
+class Steps:
+    """(0.2, 0) until t = 0.25 s, then what ``then(t)`` gives (or raises)."""
+
+    def __init__(self, then: Any) -> None:
+        self.then = then
+
+    def step(self, t: float, estimate: Any, reference: Any) -> Any:
+        return (0.2, 0.0) if t < 0.25 else self.then(t)
+
+
+def infinite(params: dict[str, Any], setup: Any) -> Steps:
+    return Steps(lambda t: (0.5, math.inf))
+
+
+def text(params: dict[str, Any], setup: Any) -> Steps:
+    return Steps(lambda t: ("1", "0"))
+
+
+def out_of_memory(params: dict[str, Any], setup: Any) -> Steps:
+    def no_memory(t: float) -> Any:
+        raise MemoryError("the plug-in's map did not fit")
+
+    return Steps(no_memory)
+
+
 def refuses(params: dict[str, Any], setup: Any) -> Any:
     raise ValueError(f"params need a 'gain', got {sorted(params)}")
 
@@ -185,3 +210,13 @@ def drawn(params: dict[str, float], setup: Any) -> Drawn:
 
 def compiled_drawn(params: dict[str, float], setup: Any) -> Any:
     return CompiledDrawn(params["blend"], setup.dt, np.array(setup.initial_estimate))
+
+
+class TextEstimate(Drawn):
+    def step(self, measurement: Any, applied: Any) -> Any:
+        x, y, theta = super().step(measurement, applied)
+        return (str(x), str(y), str(theta))
+
+
+def text_estimate(params: dict[str, float], setup: Any) -> TextEstimate:
+    return TextEstimate(params["blend"], setup.dt, np.array(setup.initial_estimate))

@@ -133,6 +133,8 @@ version: 1
 name: park
 robot: {{dt: 0.01, initial_state: {{x: 1, y: 0.5, theta: 2.0}}, limits: {{v: 2, omega: 4}}}}
 sensors: {{noise_std: {{x: 0.01, y: 0.01, theta: 0.01}}, seed: 5}}
+# written: the estimator's default poles follow the controller's noise budget
+estimator: {{poles: {{x: 0.9, y: 0.9, theta: 0.9}}}}
 controller: {controller}
 regions: {{pen: {{type: circle, center: [0.5, 0.2], radius: 1.2}}}}
 phases:

@@ -55,7 +55,7 @@ def test_observer_step(benchmark: BenchmarkFixture, kind: str) -> None:
         observer = OBSERVERS[kind]
         return observer(
             estimate, 1.2, 0.4, DT, MEASUREMENT,
-            observer_tuning(MASK, POLES, 0.0, -bounds, bounds, True, 10), gain,
+            observer_tuning(MASK, POLES, 0.0, -bounds, bounds, True, 10), gain, POLES,
         )  # fmt: skip
 
     assert benchmark(step) == 1

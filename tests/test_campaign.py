@@ -161,6 +161,7 @@ def test_the_last_tasks_end_together() -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("after_seconds", "loaded_in"), [(2.0, "_write_worst"), (0.0, "_execute")])
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_matplotlib_is_loaded_while_the_runs_run_only_when_they_last(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, after_seconds: float, loaded_in: str
 ) -> None:
@@ -416,6 +417,7 @@ def _watch(monkeypatch: pytest.MonkeyPatch, stream: io.StringIO, *names: str) ->
     return seen
 
 
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_sweep_shows_each_step_as_it_starts(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -781,6 +783,7 @@ def test_a_run_leaves_the_mission_it_varies_as_read(tmp_path: Path) -> None:
     assert loaded.mission_document.data == read
 
 
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_sweep_draws_its_figures_with_one_image_per_outcome(tmp_path: Path) -> None:
     """The figures are written, and the trajectories are one image per outcome
     whatever the number of runs (2000 lines as one artist each took seconds,
@@ -820,6 +823,7 @@ def test_sweep_draws_its_figures_with_one_image_per_outcome(tmp_path: Path) -> N
     assert artists[0] == artists[1]  # the same artists for 3 runs as for 30
 
 
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_a_dollar_in_a_varied_value_is_drawn_as_typed(tmp_path: Path) -> None:
     """Values are data: a choice of texts with '$' in them labels the success
     figure's axis as typed (parsed as math, the first stopped the drawing)."""
@@ -870,3 +874,36 @@ phases:
         outcomes.append(inside)
     assert any(outcomes)  # values inside the gap were drawn
     assert not all(outcomes)  # and values outside it
+
+
+def test_a_replay_line_runs_from_the_campaign_directory_and_from_anywhere(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A campaign swept as ``sweep sub/c.yaml`` names its mission relative to
+    itself (``mission: quick.yaml``): the replay names it by its absolute path."""
+    from typer.testing import CliRunner
+
+    from wmr_mission.cli import app
+
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "quick.yaml").write_text((DATA / "short.yaml").read_text())
+    (tmp_path / "sub" / "c.yaml").write_text(
+        "version: 1\nname: sub\nmission: quick.yaml\nruns: 2\nseed: 3\n"
+        "vary:\n  robot.initial_state.theta: {uniform: [-1.0, 1.0]}\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    code = sweep_command(
+        Path("sub/c.yaml"), out=Path("out"), workers=1, scheduler=None, plots=False
+    )
+    assert code == 0
+    worst = json.loads((tmp_path / "out" / "campaign.json").read_text())["worst"][0]
+    words = shlex.split(worst["replay"])
+    assert words[2] == str(tmp_path / "sub" / "quick.yaml")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    kept = (tmp_path / "out" / "worst" / str(worst["run"]) / "trajectory.csv").read_bytes()
+    for where in (tmp_path / "out", elsewhere):
+        monkeypatch.chdir(where)
+        done = CliRunner().invoke(app, [*words[1:], "--out", "replayed", "--no-plots"])
+        assert done.exit_code in (0, 1), done.stderr
+        assert (where / "replayed" / "trajectory.csv").read_bytes() == kept

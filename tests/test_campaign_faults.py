@@ -283,6 +283,7 @@ def test_a_full_disk_while_writing_rows_keeps_every_complete_row(
 
 
 @pytest.mark.parametrize("stage", ["figures", "worst", "campaign.json"])
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_a_full_disk_after_the_runs_is_one_line_and_keeps_the_runs(
     tmp_path: Path,
     monkeypatch: pytest.MonkeyPatch,
@@ -320,6 +321,7 @@ def test_a_full_disk_after_the_runs_is_one_line_and_keeps_the_runs(
     assert leftovers(out) == []
 
 
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_a_fault_in_drawing_is_one_line_and_keeps_the_runs(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

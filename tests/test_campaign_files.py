@@ -169,8 +169,8 @@ def test_validate_command_takes_campaigns_and_missions() -> None:
         check=False,
     )
     assert completed.returncode == 1
-    assert f"{bad}:8:3: vary 'robot.dt' (uniform) at 2.0: " in completed.stderr
-    assert "Traceback" not in completed.stderr
+    assert f"{bad}:8:3: vary 'robot.dt' (uniform) at 2.0: " in completed.stdout
+    assert "Traceback" not in completed.stdout + completed.stderr
 
 
 def test_schema_command_prints_the_campaign_schema() -> None:

@@ -347,14 +347,14 @@ def test_ekf_innovation_gate_rejects_a_wild_measurement() -> None:
     predicted, predicted_cov = estimate.copy(), covariance.copy()
     ekf_predict(predicted, predicted_cov, 1.0, 0.5, 0.01, gated, work)
     after, after_cov = estimate.copy(), covariance.copy()
-    ekf_step(after, after_cov, 1.0, 0.5, 0.01, wild, gated, work)
+    assert ekf_step(after, after_cov, 1.0, 0.5, 0.01, wild, gated, work, gated.innovation_gate)
     np.testing.assert_array_equal(after, predicted)
     np.testing.assert_array_equal(after_cov, predicted_cov)
     # The reference step (numpy) gates alike.
     from wmr_mission.sim.reference import ekf_step as reference_ekf_step
 
     oracle, oracle_cov = estimate.copy(), covariance.copy()
-    reference_ekf_step(oracle, oracle_cov, 1.0, 0.5, 0.01, wild, gated, work)
+    reference_ekf_step(oracle, oracle_cov, 1.0, 0.5, 0.01, wild, gated, work, gated.innovation_gate)
     np.testing.assert_allclose(oracle, predicted, atol=1e-15)
     np.testing.assert_allclose(oracle_cov, predicted_cov, atol=1e-15)
     # Without the gate (or inside it) the measurement is used.
@@ -374,7 +374,9 @@ def test_observer_phase_two_clamps_the_estimate_to_the_outliers_bound() -> None:
         use_bounds=True, max_iterations=10,
     )  # fmt: skip
     estimate = np.array([1.0, 2.0, 0.3])
-    iterations = observer_step(estimate, 1.0, 0.5, 0.01, outlier, params, np.zeros((3, 3)))
+    iterations = observer_step(
+        estimate, 1.0, 0.5, 0.01, outlier, params, np.zeros((3, 3)), params.poles
+    )
     assert iterations == 1
     assert estimate[0] - truth[0] == pytest.approx(0.95, abs=1e-12)
     np.testing.assert_allclose(estimate[1:], truth[1:], atol=1e-12)

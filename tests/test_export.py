@@ -74,8 +74,8 @@ def _same_angle(a: float, b: float) -> bool:
 
 
 def test_mcap_messages_read_back_equal_to_the_csv(run_dir: Path) -> None:
-    assert export_command(run_dir, "mcap") == 0
-    topics = _messages(run_dir / "run.mcap")
+    assert export_command(run_dir, "mcap-json") == 0
+    topics = _messages(run_dir / "run.json.mcap")
     header, rows = _csv(run_dir / "trajectory.csv")
     schemas = {topic: {m[0] for m in messages} for topic, messages in topics.items()}
     assert schemas == {
@@ -146,8 +146,8 @@ def test_mcap_regions_are_foxglove_scene_entities(run_dir: Path) -> None:
     from wmr_mission.geometry.regions import region_outline
     from wmr_mission.spec.models import RegionSpec
 
-    export_command(run_dir, "mcap")
-    ((_, log_time, update),) = _messages(run_dir / "run.mcap")["/regions"]
+    export_command(run_dir, "mcap-json")
+    ((_, log_time, update),) = _messages(run_dir / "run.json.mcap")["/regions"]
     assert log_time == 0
     entities = {e["id"]: e for e in update["entities"]}
     assert set(entities) == {f"region/{name}" for name in REGIONS}
@@ -244,14 +244,18 @@ def test_parquet_of_runs_csv_has_its_columns_values_and_types(campaign_dir: Path
 def test_an_extra_that_is_missing_is_named_in_one_line(
     run_dir: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    for module, fmt in (("mcap", "mcap"), ("pyarrow", "parquet")):
+    for module, fmt, package in (
+        ("mcap", "mcap", "mcap"),
+        ("mcap", "mcap-json", "mcap"),
+        ("pyarrow", "parquet", "pyarrow"),
+    ):
         with monkeypatch.context() as patch:
             for name in [m for m in sys.modules if m == module or m.startswith(module + ".")]:
                 patch.setitem(sys.modules, name, None)
             patch.setitem(sys.modules, module, None)
             assert export_command(run_dir, fmt, run_dir / f"missing.{fmt}") == 2
         assert capsys.readouterr().err == (
-            f"--format {fmt} needs the {module} package: pip install 'wmr-mission[export]'\n"
+            f"--format {fmt} needs the {package} package: pip install 'wmr-mission[export]'\n"
         )
         assert not (run_dir / f"missing.{fmt}").exists()
 
@@ -266,7 +270,8 @@ def test_usage_errors_and_damaged_files(
     before = (run_dir / "trajectory.csv").read_bytes()
     assert export_command(run_dir, "parquet", run_dir / "trajectory.csv") == 2
     assert capsys.readouterr().err == (
-        f"{run_dir / 'trajectory.csv'}: is a file being exported; choose another --out\n"
+        f"{run_dir / 'trajectory.csv'}: is trajectory.csv of the run in {run_dir}; "
+        "a record is never written over: choose another --out\n"
     )
     assert (run_dir / "trajectory.csv").read_bytes() == before
     damaged = tmp_path / "damaged"
@@ -274,12 +279,35 @@ def test_usage_errors_and_damaged_files(
     for name in ("manifest.json", "transitions.json", "trajectory.csv"):
         (damaged / name).write_bytes((run_dir / name).read_bytes())
     (damaged / "summary.json").write_text('{"outcome": "success",', encoding="utf-8")
-    for fmt in ("mcap", "parquet"):
+    for fmt in ("mcap", "mcap-json", "parquet"):
         assert export_command(damaged, fmt) == 1
         err = capsys.readouterr().err
         assert err.startswith(f"{damaged}: summary.json:1:")
         assert err.count("\n") == 1
     assert list(damaged.glob("*.mcap")) == list(damaged.glob("*.parquet")) == []
+
+
+@pytest.mark.parametrize(("t", "said"), [("1e12", "1e+12"), ("-1", "-1")])
+def test_an_mcap_of_a_time_no_log_can_hold_is_a_positioned_error(
+    run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], t: str, said: str
+) -> None:
+    """MCAP log times are unsigned 64-bit nanoseconds: a t beyond is the
+    file's error at its line (it was "please report it"), as docs/reliability.md says."""
+    damaged = tmp_path / "damaged"
+    damaged.mkdir()
+    for name in ("manifest.json", "transitions.json", "summary.json"):
+        (damaged / name).write_bytes((run_dir / name).read_bytes())
+    lines = (run_dir / "trajectory.csv").read_text(encoding="utf-8").splitlines(keepends=True)
+    row = 1 if t.startswith("-") else len(lines) - 1  # t stays increasing
+    lines[row] = t + lines[row][lines[row].index(",") :]
+    (damaged / "trajectory.csv").write_text("".join(lines), encoding="utf-8")
+    assert export_command(damaged, "mcap-json") == 1
+    err = capsys.readouterr().err
+    assert err == (
+        f"{damaged}: trajectory.csv:{row + 1}: t = {said} s is not an MCAP log time "
+        "(0 to 1.845e+10 s)\n"
+    )
+    assert list(damaged.glob("*.mcap")) == []
 
 
 def test_export_command_line(run_dir: Path) -> None:

@@ -8,6 +8,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from failing import ungated_disturbed
 from PIL import Image
 
 from wmr_mission.output.figures import DPI, FIGURE_NAMES, STYLES, draw_all
@@ -40,7 +41,7 @@ def test_no_pdf_has_a_type_3_font(keep_out: RunResult, tmp_path: Path) -> None:
 
 
 def test_svg_keeps_text_as_text(tmp_path: Path) -> None:
-    disturbed = run_mission(load_mission(MISSIONS / "disturbed.yaml"))
+    disturbed = run_mission(ungated_disturbed())
     assert disturbed.outcome.value == "expect-failed"  # the premise
     (path, *_) = draw_all(disturbed, tmp_path, ("svg",))
     svg = path.read_text()

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from wmr_mission import api
-from wmr_mission.commands import background_compile
+from wmr_mission.commands import compile as compile_loop
 from wmr_mission.kernels import cache, jit
 from wmr_mission.output.result import RunResult
 from wmr_mission.sim.runner import run_mission
@@ -30,7 +30,7 @@ def test_one_notice_before_a_foreground_compile(
     assert err.count("\n") == 1
     assert err.startswith("wmr-mission: loading the simulation loop, compiled first")
     # a cache marked ready, or a loop loaded already: nothing to say
-    (tmp_path / background_compile.READY).write_text(background_compile.ready_stamp())
+    (tmp_path / compile_loop.READY).write_text(compile_loop.ready_stamp())
     monkeypatch.setattr(api, "_noticed", [])
     api._compile_notice()
     monkeypatch.setattr(jit, "loaded", lambda: True)

@@ -84,6 +84,7 @@ def test_position_noise_at_creeping_speed_does_not_throw_the_heading() -> None:
             measurement = state + rng.normal(0.0, sigma, 3)
             observer_step(
                 estimate, 0.001, 0.0, dt, measurement, observer_tuning(mask, poles, floor), gain,
+                poles,
             )  # fmt: skip
             largest = max(largest, abs(estimate[2] - state[2]))
         worst[floor] = largest
@@ -122,6 +123,7 @@ def run_observer(
                 state.copy(),
                 observer_tuning(mask, poles, 0.0, lower, upper, bounds is not None, 10),
                 gain,
+                poles,
             )
         )
         states.append(state)
@@ -183,6 +185,7 @@ def test_phase_two_saturates_to_the_violated_bound(rng: np.random.Generator) -> 
             measurement,
             observer_tuning(mask, np.full(3, 0.9), 0.0, lower, upper, True, 10),
             np.zeros((3, 3)),
+            np.full(3, 0.9),
         )
         phase_one = before + 0.1 * (measurement - before)  # poles 0.9, at rest
         error = measurement - estimate

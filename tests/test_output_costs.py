@@ -35,7 +35,7 @@ from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write
 
 MISSION = """version: 1
 name: short
-robot: {dt: 0.01}
+robot: {dt: 0.01, limits: {v: 10, omega: 20}}
 estimator: {type: constrained-observer}
 phases:
   - name: lap

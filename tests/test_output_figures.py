@@ -71,11 +71,82 @@ def test_xy_legend_stays_short_with_many_phases() -> None:
     phase_entries = [label for label in labels if label.split(" ")[0].isdigit()]
     assert phase_entries == [f"{i + 1} leg-{i + 1}" for i in range(21)]
     assert sum("reference" in label for label in labels) == 1  # one entry, not one per phase
-    generic = ["estimate", "reference", "phase change (number of the next phase)", "start", "end"]
+    generic = [
+        "estimate",
+        "reference",
+        "heading",
+        "phase change (number of the next phase)",
+        "start",
+        "end",
+    ]
     assert labels == phase_entries + [f"region {name}" for name in run.regions] + generic
     legend = ax.get_legend()
     assert legend is not None
     assert legend._ncols == 2  # two columns (matplotlib has no public getter)
+
+
+def test_heading_arrows_show_a_robot_that_reverses() -> None:
+    run = circle_run()
+    # Reversing round the same circle: the heading is against the direction of travel.
+    backwards = replace(run, theta=run.theta + math.pi)
+    for result, along in ((run, 1.0), (backwards, -1.0)):
+        ax = plot_xy(result)
+        assert "heading" in _legend_labels(ax)
+        (arrows,) = [c for c in ax.collections if isinstance(c, matplotlib.quiver.Quiver)]
+        u, v = np.asarray(arrows.U), np.asarray(arrows.V)
+        assert len(u) >= 16
+        # the circle's direction of travel at each arrow's foot (counter-clockwise)
+        foot = arrows.get_offsets()
+        tangent = np.column_stack((-foot[:, 1], foot[:, 0]))
+        assert np.all(along * (u * tangent[:, 0] + v * tangent[:, 1]) > 0)
+        plt.close("all")
+
+
+def test_phases_that_did_not_run_keep_the_numbers_running_on() -> None:
+    run = _many_phases(4)
+    run.phases.insert(2, PhaseRecord("contingency", "regulate"))
+    run = replace(run, phase=np.where(run.phase >= 2, run.phase + 1, run.phase))
+    labels = _legend_labels(plot_xy(run))
+    phase_entries = [label for label in labels if label.split(" ")[0].isdigit()]
+    assert phase_entries == [
+        "1 leg-1",
+        "2 leg-2",
+        "3 contingency (did not run)",
+        "4 leg-3",
+        "5 leg-4",
+    ]
+    plt.close("all")
+
+
+def test_a_geofence_zone_is_drawn_as_kept_out() -> None:
+    run = circle_run()
+    run = replace(
+        run, regions={**run.regions, "pond": {"type": "circle", "center": [0, 0], "radius": 0.3}}
+    )
+    assert "region pond" in _legend_labels(plot_xy(run))
+    fenced = replace(run, mission={"geofence": {"keep_in": [], "keep_out": ["pond"]}})
+    assert "region pond (kept out of)" in _legend_labels(plot_xy(fenced))
+    plt.close("all")
+
+
+def test_overlaid_runs_say_each_thing_once_with_their_own_label_and_colour() -> None:
+    first, second = circle_run(), circle_run()
+    second = replace(second, x=second.x * 1.5, y=second.y * 1.5)
+    ax = plot_xy(first, label="nominal", color="tab:blue")
+    plot_xy(second, ax=ax, label="wider", color="tab:red")
+    labels = _legend_labels(ax)
+    assert len(labels) == len(set(labels)), labels
+    assert {"nominal", "wider", "start", "end", "estimate"} <= set(labels)
+    legend = ax.get_legend()
+    assert legend is not None
+    lines = {
+        t.get_text(): h for t, h in zip(legend.get_texts(), legend.legend_handles, strict=True)
+    }
+    assert to_rgba(lines["nominal"].get_color()) == to_rgba("tab:blue")
+    assert to_rgba(lines["wider"].get_color()) == to_rgba("tab:red")
+    # the view holds both runs
+    assert ax.get_xlim()[1] >= float(second.x.max())
+    plt.close("all")
 
 
 def test_phase_changes_are_numbered_once_per_place() -> None:

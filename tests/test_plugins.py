@@ -205,13 +205,13 @@ def test_validate_checks_an_entry_s_syntax_and_imports_it_only_when_asked(
     assert missing.exit_code == 0
     missing = CliRunner().invoke(app, ["validate", "--check-entries", str(path)])
     assert missing.exit_code == 1
-    assert f"m.yaml:{ENTRY_LINE}:{ENTRY_COLUMN}: cannot load 'noisy:absent'" in missing.stderr
+    assert f"m.yaml:{ENTRY_LINE}:{ENTRY_COLUMN}: cannot load 'noisy:absent'" in missing.stdout
     # The syntax is checked always, without importing anything.
     path.write_text(mission("plain").replace("plugin_examples:plain", "../../etc/passwd"))
     bad = CliRunner().invoke(app, ["validate", str(path)])
     assert bad.exit_code == 1
     assert "controller.entry: '../../etc/passwd' is not an entry: expected 'module:callable'" in (
-        bad.stderr
+        bad.stdout
     )
 
 
@@ -222,6 +222,13 @@ def test_validate_checks_an_entry_s_syntax_and_imports_it_only_when_asked(
         ("compiled_gives_up", 25, "RuntimeError: no idea where to go"),
         ("three_numbers", 0, "ValueError: a controller plug-in's step returns two numbers"),
         ("refuses", 0, "making the plug-in raised ValueError: params need a 'gain', got ['theta'"),
+        (
+            "text",
+            25,
+            "TypeError: a controller plug-in's step returns two numbers (v, omega), not text",
+        ),
+        # the plug-in's own: the run's samples, its message and summary.json kept
+        ("out_of_memory", 25, "MemoryError: the plug-in's map did not fit"),
     ],
 )
 def test_a_plug_in_that_fails_ends_the_run_failed_with_its_message_and_sample(
@@ -237,6 +244,27 @@ def test_a_plug_in_that_fails_ends_the_run_failed_with_its_message_and_sample(
         assert message.startswith(f"a plug-in failed at sample {sample} (t = {sample * 0.01:g} s)")
     # The samples done before it are kept; failed at the first, the start is.
     assert summary["samples"] == max(sample, 1)
+    assert said in err
+
+
+def test_a_step_returning_a_non_finite_number_is_a_divergence(tmp_path: Path) -> None:
+    """docs/controllers.md: not limited into a finite input (and a timeout)."""
+    code, err, summary = _run(tmp_path, mission("infinite"))
+    assert code == 1
+    assert summary is not None
+    assert summary["outcome"] == "diverged"
+    assert "diverged in phase 'eight' at t = 0.25 s: the input is not finite" in err
+    assert summary["samples"] == 26  # the samples before it, and the one that diverged
+
+
+def test_an_estimator_step_returning_text_fails_the_run(tmp_path: Path) -> None:
+    estimator = '{type: python, entry: "plugin_examples:text_estimate", params: {blend: 0.5}}'
+    code, err, summary = _run(tmp_path, mission("plain", estimator))
+    assert code == 1
+    assert summary is not None
+    assert summary["outcome"] == "failed"
+    said = "TypeError: an estimator plug-in's step returns three numbers (x, y, theta), not text"
+    assert said in str(summary["message"])
     assert said in err
 
 

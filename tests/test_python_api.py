@@ -4,6 +4,7 @@ and the examples of docs/python-api.md run as written."""
 from __future__ import annotations
 
 import json
+import math
 import re
 import subprocess
 import sys
@@ -46,6 +47,19 @@ expect:
 def test_importing_the_package_loads_nothing_heavy() -> None:
     code = "import sys, wmr_mission; sys.exit('numpy' in sys.modules or 'pydantic' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_dir_lists_the_lazy_names_for_tab_completion() -> None:
+    listed = dir(wmr_mission)
+    assert {"run_mission", "load_mission", "plot_verdicts", "plot_xy", "RunResult"} <= set(listed)
+    assert set(wmr_mission.__all__) <= set(listed)
+
+
+def test_plot_verdicts_is_exported() -> None:
+    from wmr_mission.output.figures import plot_verdicts
+
+    assert "plot_verdicts" in wmr_mission.__all__
+    assert wmr_mission.plot_verdicts is plot_verdicts
 
 
 def test_every_public_name_resolves() -> None:
@@ -243,3 +257,37 @@ def test_phase_colours_apply_to_every_lap_of_a_repeat() -> None:
         "overrides['plot.phase_colors']: plot.phase_colors.laps: no phase is named 'laps' "
         "(phases: out, back, rest)"
     )
+
+
+def test_a_mission_s_parameters_cannot_be_changed_in_place() -> None:
+    """A number written with a parameter (``radius: r``) is computed when the
+    mission is read: a change made afterwards would be silently ignored by
+    ``run_mission`` (it was), so the mission is frozen down to its parameters."""
+    import copy
+    import pickle
+
+    text = """version: 1
+name: p
+parameters: {r: 1.0}
+phases:
+  - name: go
+    track: {path: {type: circle, center: [0, 0], radius: r, angular_rate: 1}}
+    until: {elapsed: 0.2}
+"""
+    mission = mission_from_text(text)
+    with pytest.raises(TypeError, match="a mission's parameters cannot be changed"):
+        mission.parameters["r"] = 3.0
+    for change in ("clear", "popitem"):
+        with pytest.raises(TypeError):
+            getattr(mission.parameters, change)()
+    with pytest.raises(TypeError):
+        mission.parameters.update(r=3.0)
+    assert mission.parameters == {"r": 1.0}
+    # copied, pickled (to a campaign's workers) and written as before
+    assert pickle.loads(pickle.dumps(mission)) == mission
+    assert copy.deepcopy(mission).parameters == {"r": 1.0}
+    assert json.loads(mission.model_dump_json())["parameters"] == {"r": 1.0}
+    # the way to another value: the mission read again with it
+    again = mission_from_text(text, {"parameters.r": 3.0})
+    assert again.phases[0].track.path.radius == 3.0  # type: ignore[union-attr]
+    assert run_mission(again).x_ref[10] == pytest.approx(3.0 * math.cos(0.1))

@@ -232,7 +232,7 @@ def test_observer_step_matches(
             gain = np.zeros((3, 3))
             iterations = step_function(
                 state, v, omega, DT, measurement,
-                observer_tuning(mask, poles, floor, lower, upper, bounded, 10), gain,
+                observer_tuning(mask, poles, floor, lower, upper, bounded, 10), gain, poles,
             )  # fmt: skip
             results.append((state, gain, iterations))
         (fast, fast_gain, fast_iterations), (slow, slow_gain, slow_iterations) = results
@@ -251,7 +251,7 @@ def test_phase_two_puts_violated_outputs_on_their_bounds() -> None:
         state, 0.0, 0.0, DT, measurement,
         observer_tuning(np.ones(3), np.full(3, 0.99), 0.0, np.full(3, -0.05), np.full(3, 0.05),
                         True, 10),
-        np.zeros((3, 3)),
+        np.zeros((3, 3)), np.full(3, 0.99),
     )  # fmt: skip
     assert iterations == 1
     assert measurement[0] - state[0] == pytest.approx(0.05)

@@ -486,7 +486,8 @@ def test_an_unusable_out_is_reported_before_simulating(
     def no_simulation(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("simulated although the run directory is unusable")
 
-    monkeypatch.setattr(runner_module, "run_mission", no_simulation)
+    # The directory is claimed once the loop is loaded, before its first sample.
+    monkeypatch.setattr(runner_module._Run, "_chunks", no_simulation)
     assert run_command(path, out=out, seed=None, plots=False, animate=False) == 2
     assert expected in capsys.readouterr().err
 
@@ -619,7 +620,7 @@ def test_validate_of_a_fifo_without_writer_returns_at_once(tmp_path: Path) -> No
     os.mkfifo(fifo)
     done = cli("validate", str(fifo), cwd=tmp_path)
     assert done.returncode == 1
-    assert f"{fifo}:1:1: the file is empty" in done.stderr
+    assert f"{fifo}:1:1: the file is empty" in done.stdout
 
 
 def test_validate_into_a_closed_pipe_exits_with_its_own_code_quietly(tmp_path: Path) -> None:

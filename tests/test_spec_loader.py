@@ -328,3 +328,34 @@ def test_unreadable_path_is_a_diagnostic(tmp_path: Path) -> None:
     assert "cannot read the file" in diagnostics[0].message
     with pytest.raises(MissionError, match="cannot read the file"):
         load_mission(tmp_path / "missing.yaml")
+
+
+def test_the_mission_models_are_built_when_first_used() -> None:
+    """`validate` and `run` build the validators of the models a mission uses
+    when it is checked, not the 68 models' each at import (defer_build:
+    `python benchmarks/measure.py startup`). Here in a fresh process: after
+    the import only the threshold the defaults instantiate is built; after
+    one mission is checked, the mission and what it uses validate."""
+    import subprocess
+    import sys
+
+    probe = """
+from pathlib import Path
+from wmr_mission.fields import Model
+import wmr_mission.spec.models as models
+def below(c):
+    for s in c.__subclasses__():
+        yield s
+        yield from below(s)
+every = set(below(Model))
+print(len(every) > 60, sorted(c.__name__ for c in every if c.__pydantic_complete__))
+from wmr_mission.spec.loader import load_mission
+mission = load_mission(Path("missions/case2.yaml"))
+print(models.Mission.__pydantic_complete__, mission.phases[0].name)
+"""
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run(
+        [sys.executable, "-c", probe], cwd=root, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["True ['Threshold']", "True spiral-out"]

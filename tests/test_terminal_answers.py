@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import shlex
 from pathlib import Path
 
@@ -73,6 +74,29 @@ def test_sweep_runs_replaces_the_campaigns_runs(tmp_path: Path) -> None:
     assert manifest["resolved_campaign"]["runs"] == 3  # the directory reads back as run
     assert len((out / "runs.csv").read_text().splitlines()) == 1 + 3
     assert MAX_SWEEP_RUNS == MAX_RUNS
+
+
+def test_sweeps_rate_says_what_it_counts_and_where_the_time_went(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    code, stdout, err = _invoke(
+        "sweep", str(_campaign(tmp_path)), "--workers", "1", "--no-plots", "--out", str(out)
+    )
+    assert code in (0, 1), err
+    record = json.loads((out / "campaign.json").read_text())
+    match = re.search(
+        r"^2 runs simulated in ([\d.]+) s \(([\d.]+) runs per second of simulating\); the "
+        r"sweep took ([\d.]+) s: start-up ([\d.]+) s, runs ([\d.]+) s, the rest \(checks, "
+        r"worst runs, figures\) ([\d.]+) s$",
+        stdout,
+        re.MULTILINE,
+    )
+    assert match is not None, stdout
+    simulating, rate, total, startup, runs, rest = map(float, match.groups())
+    assert simulating == runs == round(record["wall_seconds"], 1)
+    assert rate == round(record["missions_per_second"], 1)
+    # the parts add up to the whole, to the rounding of each
+    assert abs(startup + runs + rest - total) <= 0.2
+    assert "missions/s" not in stdout
 
 
 def test_sweep_set_sets_the_mission_of_every_run_and_its_replay(tmp_path: Path) -> None:

@@ -18,8 +18,10 @@ import pytest
 from typer.testing import CliRunner
 
 from wmr_mission.cli import app
-from wmr_mission.controllers.constrained_tracking import aim_round_zones
+from wmr_mission.controllers.constrained_tracking import RAMP_SLOPE, aim_round_zones
 from wmr_mission.geometry.regions import CircleRegion, constraint_rows
+
+DATA = Path(__file__).parent / "data" / "zones"
 
 LINE = """\
 version: 1
@@ -118,23 +120,94 @@ def test_the_aim_moves_across_the_path_to_the_nearer_side_left_at_the_centre(
     np.testing.assert_allclose(aim, [5.0, offset + side * 1.0, 1.0, 0.0], atol=1e-12)
 
 
-def test_the_aim_moves_continuously_through_a_circle() -> None:
-    """The aim's path round a circle the line crosses off its centre:
-    continuous (its steps no longer than the edge's sqrt-shaped entry
-    allows), on the grown edge inside the zone, unmoved outside."""
-    rock = CircleRegion(type="circle", center=(5.0, 0.3), radius=1.0)
+@pytest.mark.parametrize("centre_y", [0.3, 0.1, 0.0])
+def test_the_aim_goes_round_a_circle_on_a_ramp(centre_y: float) -> None:
+    """The aim's path round a circle the line crosses: never steeper than
+    RAMP_SLOPE across the path (it went up the edge of a circle met head-on
+    at once: the turn rate jumped to its limit in one sample), outside the
+    grown edge everywhere and on it where the edge is no steeper, unmoved
+    where the line clears the zone's wedge."""
+    rock = CircleRegion(type="circle", center=(5.0, centre_y), radius=1.0)
     kinds, params = constraint_rows(rock, "outside")
     points = []
-    for x in np.arange(2.0, 8.0, 0.001):
+    for x in np.arange(1.0, 9.0, 0.001):
         aim = np.array([x, 0.0, 1.0, 0.0])
         aim_round_zones(aim, kinds, params, 0.05, 0.02)
         points.append(aim[:2].copy())
     path = np.array(points)
-    assert np.hypot(*np.diff(path, axis=0).T).max() < 0.06
+    slope = np.abs(np.diff(path[:, 1]) / np.diff(path[:, 0]))
+    assert slope.max() <= RAMP_SLOPE + 1e-9
     output = path + np.array([0.05, 0.0])  # the look-ahead point the aim is for
-    distance = np.hypot(output[:, 0] - 5.0, output[:, 1] - 0.3)
-    moved = np.abs(path[:, 1]) > 0.0
-    # a look-ahead beyond the grown edge the filter lets the output reach
-    np.testing.assert_allclose(distance[moved], 1.0 + 2 * 0.05 + 0.02, atol=1e-9)
-    assert (distance[~moved] >= 1.12 - 1e-9).all()
-    assert path[:, 1].min() < 0.3 - 1.0  # round the south: the edge faced south at the entry
+    distance = np.hypot(output[:, 0] - 5.0, output[:, 1] - centre_y)
+    grown = 1.0 + 2 * 0.05 + 0.02  # beyond the grown edge the filter lets the output reach
+    assert distance.min() == pytest.approx(grown, abs=1e-9)
+    assert (distance >= grown - 1e-9).all()
+    assert path[0, 1] == 0.0  # on the line before the wedge meets the zone
+    assert path[-1, 1] == 0.0  # and back on it past the wedge
+    # round the side the edge faces where the line enters: south, left (north) head-on
+    if centre_y > 0.0:
+        assert path[:, 1].min() == pytest.approx(centre_y - grown)
+        assert path[:, 1].max() == 0.0
+    else:
+        assert path[:, 1].max() == pytest.approx(centre_y + grown)
+        assert path[:, 1].min() == 0.0
+
+
+@pytest.mark.parametrize("name", ["pillar", "pillar-noisy"])
+def test_a_patrol_past_a_pillar_it_meets_almost_head_on_turns_smoothly(
+    tmp_path: Path, name: str
+) -> None:
+    """Issue 32's first patrol: the path meets a keep-out pillar's grown edge
+    almost head-on (0.1 m off its centre). The turn rate jumped from 0 to
+    its limit, 2 rad/s, in one sample at each pass; with the aim on a ramp
+    the mission succeeds with its default verdicts, and the pillar is kept."""
+    mission = DATA / f"{name}.yaml"
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["run", str(mission), "--out", str(out), "--no-plots"])
+    summary = json.loads((out / "summary.json").read_text())
+    assert result.exit_code == 0, result.output
+    assert summary["outcome"] == "success"
+    laps = summary["phases"][0]
+    assert laps["inputs"]["turn_rate_jump_max"] < 1.1  # half the range; 2 (2.01 noisy) before
+    assert laps["constraint"]["max_violation"] == 0.0
+    with (out / "trajectory.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    x = np.array([float(r["x"]) for r in rows])
+    y = np.array([float(r["y"]) for r in rows])
+    assert np.hypot(x - 3.0, y - 0.1).min() > 0.5 + 0.05  # outside, by more than the noise
+
+
+@pytest.mark.parametrize(
+    ("speed", "acceleration", "centre_y"),
+    [(3.0, {"v": 1.5, "omega": 4.0}, 0.3), (2.0, {"v": 1.0, "omega": 3.0}, 0.0)],
+)
+def test_the_filter_keeps_a_zone_under_acceleration_limits(
+    speed: float, acceleration: dict[str, float], centre_y: float
+) -> None:
+    """A line through a keep-out circle, driven under acceleration limits: the
+    filter held the look-ahead point one sample ahead, where the robot could
+    no longer stop or turn away, and it went 0.43 m (0.38 m) into the zone.
+    Held also where braking ends (v^2 / (2 a) ahead), it keeps out."""
+    from wmr_mission import mission_from_dict, run_mission
+
+    data = {
+        "version": 1,
+        "name": "line",
+        "robot": {
+            "dt": 0.01,
+            "initial_state": {"x": 0, "y": 0, "theta": 0},
+            "limits": {"v": 4, "omega": 4, "acceleration": acceleration},
+        },
+        "regions": {"rock": {"type": "circle", "center": [5, centre_y], "radius": 1}},
+        "phases": [
+            {
+                "name": "go",
+                "track": {"path": {"type": "line", "start": [0, 0], "heading": 0, "speed": speed}},
+                "constraints": [{"stay_outside": "rock"}],
+                "until": {"elapsed": 14},
+            }
+        ],
+    }
+    result = run_mission(mission_from_dict(data))
+    assert np.hypot(result.x - 5.0, result.y - centre_y).min() >= 1.0
+    assert result.x[-1] > 12.0  # round it and on

@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from wmr_mission.cli import app
 from wmr_mission.controllers.constrained_tracking import (
+    RAMP_SLOPE,
     constrained_change,
     keep_constraints,
     keep_reference,
@@ -260,10 +261,14 @@ def test_keep_out_mission_goes_round_the_pond_every_lap(tmp_path: Path) -> None:
         assert run["x"][south].max() > 7.9
         assert abs(run["y"][south][-1]) < 0.05
         # the robot is off the drawn line (y = 0) only where the pond is in the
-        # way, and no farther than the pond's south edge plus the look-ahead
-        # (0.05 m) and the margin: a detour
+        # way (where the aim's ramp, no steeper than RAMP_SLOPE, meets the pond
+        # grown by twice the look-ahead and the margin; the axle a look-ahead
+        # behind), and no farther than the pond's south edge plus the
+        # look-ahead (0.05 m) and the margin: a detour
         off = np.abs(run["y"][south])
-        by_the_pond = np.abs(run["x"][south] - 5.0) <= 1.2 + 0.8
+        grown = 1.2 + 2 * 0.05 + margin
+        reach = (grown * math.hypot(1.0, RAMP_SLOPE) - 0.4) / RAMP_SLOPE + 0.05
+        by_the_pond = np.abs(run["x"][south] - 5.0) <= reach
         assert off[~by_the_pond].max() < 0.05
         assert off.max() <= (1.2 - 0.4) + 0.05 + margin + 1e-3
         # never backwards, never a kick (the one-sample filter reversed at

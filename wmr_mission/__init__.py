@@ -6,7 +6,8 @@ its equations to the code. The Python API (``docs/python-api.md``):
 
 * ``load_mission``, ``mission_from_text``, ``mission_from_dict``: a checked mission;
 * ``run_mission``: check, simulate and judge it; a ``RunResult``;
-* ``plot_xy``, ``plot_states``, ``plot_estimation_error``, ``plot_inputs``: figures;
+* ``plot_verdicts`` (what judged the run), ``plot_xy``, ``plot_states``,
+  ``plot_estimation_error``, ``plot_inputs``: figures;
 * ``run_campaign``: a campaign (``docs/campaigns.md``): its rows and statistics;
 * ``load_run``: a run directory read back; ``MissionError``: what every check raises.
 """
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
         plot_estimation_error,
         plot_inputs,
         plot_states,
+        plot_verdicts,
         plot_xy,
     )
     from wmr_mission.output.result import RunResult
@@ -49,6 +51,7 @@ _WHERE = {
     "plot_states": "wmr_mission.output.figures",
     "plot_estimation_error": "wmr_mission.output.figures",
     "plot_inputs": "wmr_mission.output.figures",
+    "plot_verdicts": "wmr_mission.output.figures",
     "run_campaign": "wmr_mission.campaign.sweep",
     "RunResult": "wmr_mission.output.result",
     "Mission": "wmr_mission.spec.models",
@@ -66,6 +69,7 @@ __all__ = [
     "plot_estimation_error",
     "plot_inputs",
     "plot_states",
+    "plot_verdicts",
     "plot_xy",
     "run_campaign",
     "run_mission",
@@ -77,3 +81,8 @@ def __getattr__(name: str) -> Any:
     if module is None:
         raise AttributeError(f"module 'wmr_mission' has no attribute {name!r}")
     return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    # The lazy names too, so that dir() and tab completion show them.
+    return sorted(set(globals()) | set(__all__))

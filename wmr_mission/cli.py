@@ -1,4 +1,5 @@
-"""Command line: ``wmr-mission run|sweep|validate|schema|plot|view|export|bench``, ``--version``.
+"""Command line: ``wmr-mission run|sweep|validate|schema|plot|view|export|bench|compile``,
+``--version``.
 
 Thin by design: each command parses its flags and calls one function of the
 package. Imports are lazy so that ``validate`` and ``--help`` start fast and
@@ -13,10 +14,15 @@ import sys
 import warnings
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any, TextIO
+from typing import TYPE_CHECKING, Annotated, Any, TextIO
 
 import typer
 from typer.core import TyperCommand
+
+from wmr_mission.terminal import shown
+
+if TYPE_CHECKING:
+    from wmr_mission.stopping import StopSignals
 
 
 class _Command(TyperCommand):
@@ -55,6 +61,8 @@ app = typer.Typer(
 command = app.command(cls=_Command)
 
 
+# The signals main() holds until the command starts (_main).
+_STARTING: list[StopSignals] = []
 # Timed runs of `bench`: each keeps its per-sample times in memory.
 MAX_REPEAT = 100
 # `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
@@ -82,6 +90,14 @@ def _main(
     ] = False,
 ) -> None:
     """Run declarative YAML missions for wheeled non-holonomic mobile robots."""
+    from wmr_mission.stopping import RAISE
+
+    # The command starts: a stop held since main() is raised now, and from now
+    # on acts at once unless the command takes the signals itself (run, sweep).
+    for early in _STARTING:
+        early.mode = RAISE
+        if early.owed:
+            raise KeyboardInterrupt
 
 
 class OutputFormat(StrEnum):
@@ -186,6 +202,9 @@ def run(
     """Simulate MISSION and write trajectory, metrics and plots to a run directory."""
     from wmr_mission.commands.run import run_command
 
+    if expect_environment is not None:
+        _check_fingerprint(expect_environment)
+
     raise typer.Exit(
         run_command(
             mission,
@@ -199,6 +218,20 @@ def run(
             backend=None if backend is None else backend.value,
         )
     )
+
+
+def _check_fingerprint(text: str) -> None:
+    """``--expect-environment`` takes a fingerprint as a campaign's replay line
+    writes it, and nothing else (a usage error, exit 2)."""
+    from wmr_mission.output.environment import FINGERPRINT_FORM
+
+    if FINGERPRINT_FORM.fullmatch(text) is None:
+        print(
+            f"--expect-environment {shown(text)}: not a fingerprint: 8 hexadecimal digits "
+            "(0-9, a-f), as a campaign's replay commands write it",
+            file=sys.stderr,
+        )
+        raise typer.Exit(2)
 
 
 @app.command(name="serve-robot", cls=_Command)
@@ -310,7 +343,8 @@ def validate(
         typer.Argument(
             exists=True,
             metavar="FILE",
-            help="Mission or campaign YAML files; a directory stands for every *.yaml below it.",
+            help="Mission or campaign YAML files; a directory stands for every *.yaml and "
+            "*.yml below it.",
         ),
     ],
     format: Annotated[
@@ -324,11 +358,17 @@ def validate(
             help="Also import each `type: python` entry (runs its module's code, as a run does).",
         ),
     ] = False,
+    strict: Annotated[
+        bool,
+        typer.Option("--strict", help="Warnings are errors (exit 1); notes are not."),
+    ] = False,
 ) -> None:
     """Check mission and campaign files without running them (exit 0 all valid, 1 any invalid)."""
     from wmr_mission.commands.validate import validate_files
 
-    raise typer.Exit(validate_files(files, fmt=format.value, check_entries=check_entries))
+    raise typer.Exit(
+        validate_files(files, fmt=format.value, check_entries=check_entries, strict=strict)
+    )
 
 
 @command
@@ -402,6 +442,7 @@ def view(
 
 class ExportFormat(StrEnum):
     mcap = "mcap"
+    mcap_json = "mcap-json"
     parquet = "parquet"
 
 
@@ -413,7 +454,10 @@ def export(
         typer.Option(
             "--format",
             metavar="FORMAT",
-            help="mcap (a run, for Foxglove) or parquet (trajectory.csv or runs.csv).",
+            help=(
+                "mcap (a run as ROS 2 messages: ros2 bag, Foxglove), mcap-json (a run "
+                "under Foxglove's JSON schemas) or parquet (trajectory.csv or runs.csv)."
+            ),
         ),
     ],
     out: Annotated[
@@ -421,7 +465,10 @@ def export(
         typer.Option(
             "--out",
             metavar="PATH",
-            help="The file (default: DIR/run.mcap, DIR/trajectory.parquet or DIR/runs.parquet).",
+            help=(
+                "The file (default: DIR/run.mcap, DIR/run.json.mcap, DIR/trajectory.parquet "
+                "or DIR/runs.parquet)."
+            ),
         ),
     ] = None,
 ) -> None:
@@ -447,20 +494,32 @@ def bench(
     raise typer.Exit(bench_command(mission, repeat=repeat))
 
 
+@app.command(name="compile", cls=_Command)
+def compile_loop() -> None:
+    """Compile the simulation loop into the cache (1-4 minutes, once per install)."""
+    from wmr_mission.commands.compile import compile_command
+
+    raise typer.Exit(compile_command())
+
+
 class _QuietPipe:
-    """A standard stream that a closed pipe (``| head -1``) silences instead of
-    failing: the rest of the output goes to the null device and the command
-    ends with its own exit code."""
+    """A standard stream that shows every character a terminal would act on
+    escaped (wmr_mission.terminal: whatever a message echoes of a mission, a file
+    name, a value, it cannot retitle or clear the terminal), and that a closed
+    pipe (``| head -1``) silences instead of failing: the rest of the output goes
+    to the null device and the command ends with its own exit code. ``raw``: the
+    stream itself, for the progress display's own control codes."""
 
     def __init__(self, stream: TextIO) -> None:
         self._stream = stream
+        self.raw = stream
 
     def write(self, text: str) -> int:
         try:
-            return self._stream.write(text)
+            self._stream.write(shown(text, None, keep="\n\t"))
         except BrokenPipeError:
             self._discard()
-            return len(text)
+        return len(text)
 
     def flush(self) -> None:
         try:
@@ -488,4 +547,16 @@ def main() -> None:
             # A path that is not UTF-8 is shown escaped rather than failing.
             stream.reconfigure(errors="backslashreplace")
             setattr(sys, name, _QuietPipe(stream))
-    app()
+    from wmr_mission.stopping import HOLD, STOP_SIGNALS, StopSignals
+
+    # Until the command starts (_main): a stop is held, never raised inside an
+    # import, and the command exits by it.
+    with StopSignals(STOP_SIGNALS) as early:
+        early.mode = HOLD
+        _STARTING.append(early)
+        code: Any = 0
+        try:
+            app()
+        except SystemExit as done:
+            code = done.code
+    raise SystemExit(early.exit_code if early.owed else code)

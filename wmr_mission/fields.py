@@ -68,7 +68,9 @@ def at_least(floor: float) -> AfterValidator:
 class Model(BaseModel):
     """A part of a mission file: unknown keys refused, frozen once read."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # Validators built at first use, not each of the ~70 models' at import:
+    # checking a mission builds the mission's (docs/performance.md, Start-up).
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 # --- scalars ---------------------------------------------------------------

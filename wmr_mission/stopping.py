@@ -8,9 +8,18 @@ comes, acted on by the mode the command is in:
 * ``GENTLE``, a campaign's runs: the first signal only sets
   :attr:`StopSignals.stopped`, and the campaign stops between two tasks,
   keeping every finished run; a second raises;
-* ``HOLD``, while the record of what ran is written: noted only, so that no
-  signal cuts the record; the command looks at :attr:`StopSignals.stopped`
-  after.
+* ``HOLD``, while the record of what ran is written, or while code runs that
+  a ``KeyboardInterrupt`` must not strike (numba's dispatcher loses or delays
+  one raised inside it; an import turns one into an ``ImportError`` that
+  libraries swallow): noted only; the command looks at
+  :attr:`StopSignals.stopped` or :func:`stop_owed` after.
+
+A stop that a mode other than GENTLE's first signal would raise is *owed*
+(:attr:`StopSignals.owed`) from the moment it comes, whether it was held or
+raised and swallowed on its way: a run checks :func:`stop_owed` between
+chunks of samples (wmr_mission.sim.runner), so no stop is ever lost.
+:func:`mode` sets the mode of every active :class:`StopSignals` but a
+campaign's for a stretch of code.
 
 The command then exits 128 + the first signal's number (130, 143), as a
 shell reports it. Outside the main thread (a library call from a thread)
@@ -21,10 +30,11 @@ from __future__ import annotations
 
 import signal
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any, Final, Literal
 
-__all__ = ["GENTLE", "HOLD", "RAISE", "STOP_SIGNALS", "StopSignals"]
+__all__ = ["GENTLE", "HOLD", "RAISE", "STOP_SIGNALS", "StopSignals", "mode", "stop_owed"]
 
 STOP_SIGNALS: Final = (signal.SIGINT, signal.SIGTERM)
 
@@ -43,16 +53,21 @@ class StopSignals:
         self.mode: Mode = RAISE
         # Told of the first signal as it comes (a campaign says at once that it stops).
         self.notify: Callable[[], None] | None = None
+        # A signal came that stops the command, raised or held (see the module).
+        self.owed = False
         self._previous: dict[int, Any] = {}
 
     def __enter__(self) -> StopSignals:
         if threading.current_thread() is threading.main_thread():
             self._previous = {n: signal.signal(n, self._on_signal) for n in self.signals}
+            _active.append(self)
         return self
 
     def __exit__(self, *_: object) -> None:
         for number, handler in self._previous.items():
             signal.signal(number, handler)
+        if self._previous:
+            _active.remove(self)
         self._previous = {}
 
     @property
@@ -73,8 +88,42 @@ class StopSignals:
 
     def _on_signal(self, number: int, frame: object) -> None:
         self.received.append(number)
-        if len(self.received) == 1 and self.notify is not None:
+        first = len(self.received) == 1
+        if first and self.notify is not None:
             self.notify()
-        if self.mode == HOLD or (self.mode == GENTLE and len(self.received) == 1):
+        if self.mode == GENTLE and first:
+            return
+        self.owed = True
+        if self.mode == HOLD:
             return
         raise KeyboardInterrupt
+
+
+# The StopSignals active in the main thread, the innermost last.
+_active: list[StopSignals] = []
+
+
+def stop_owed() -> bool:
+    """Whether an active :class:`StopSignals` received a stop it has to honour."""
+    if _active:
+        # Run the handlers of signals caught but not yet handled: Python runs
+        # them in the main thread only when it notices, and a signal that
+        # another thread took (the process has threads Python did not start,
+        # e.g. numpy's BLAS) went unnoticed for seconds, or to the end of a
+        # run. pthread_kill checks for them after sending; signal 0 sends nothing.
+        signal.pthread_kill(threading.main_thread().ident or 0, 0)
+    return any(stop.owed for stop in _active)
+
+
+@contextmanager
+def mode(chosen: Mode) -> Iterator[None]:
+    """Every active :class:`StopSignals` in ``chosen`` mode (RAISE or HOLD) for
+    the block, a campaign's (GENTLE) left as it is; the modes restored after."""
+    changed = [(stop, stop.mode) for stop in _active if stop.mode != GENTLE]
+    for stop, _ in changed:
+        stop.mode = chosen
+    try:
+        yield
+    finally:
+        for stop, before in changed:
+            stop.mode = before

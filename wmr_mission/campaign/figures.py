@@ -314,8 +314,8 @@ def _success_over_axes(aggregate: Aggregate) -> Any | None:
 
 def _side_by_side(aggregate: Aggregate) -> Any | None:
     """Each grid cell side by side: its success rate with its 95 % interval
-    (Clopper-Pearson), and the median and 5-95 % range of the comparison
-    metrics over its runs (wmr_mission.campaign.comparison)."""
+    (Clopper-Pearson), and the median (dot) and 5-95 % range (bar) of the
+    comparison metrics over its runs (wmr_mission.campaign.comparison)."""
     grid = [(path, axis.grid) for path, axis in aggregate.axes.items() if axis.grid is not None]
     cells = sorted(aggregate.cells)
     if not grid or len(cells) < 2:
@@ -352,10 +352,44 @@ def _side_by_side(aggregate: Aggregate) -> Any | None:
                 ax.plot([lo, hi], [y, y], color=_SUCCESS_COLOR, linewidth=2)
                 ax.plot([median], [y], "o", color="black", markersize=4)
             if 0.0 < smallest < np.inf:  # cells apart by orders of magnitude
-                ax.set_xscale("log")
+                _log_axis(ax)
         ax.set_title(panel, fontsize=9)
+        ax.set_xlabel(_COMPARISON_AXES[panel], fontsize=8)
         ax.set_yticks(positions, names if index == 0 else [""] * len(cells), fontsize=8)
+        if index == 0:
+            ax.set_ylabel(" / ".join(path for path, _ in grid), fontsize=8)
         ax.invert_yaxis()
         ax.grid(axis="x", alpha=0.3)
-    fig.subplots_adjust(left=0.18, right=0.99, bottom=0.12, top=0.85, wspace=0.15)
+    fig.suptitle(
+        "each grid cell: its success rate, and the median (dot) and 5-95 % range (bar) of "
+        "each metric over its runs",
+        fontsize=9,
+    )
+    fig.subplots_adjust(left=0.18, right=0.99, bottom=0.2, top=0.8, wspace=0.15)
     return fig
+
+
+# The x axis of each panel of comparison.png: what is drawn, in what unit.
+_COMPARISON_AXES: Final = {
+    "success rate": "runs that succeeded (bar), 95 % interval",
+    "reference_error_rms": "distance to the reference [m]",
+    "turn_rate_jitter": "turn-rate jitter [rad/s]",
+    "input_saturation": "share of samples at a limit",
+    "settle_time": "time to settle [s]",
+}
+
+
+def _log_axis(ax: Any) -> None:
+    """A log x axis whose labels never collide: over more than two decades, a
+    label at no more than four powers of ten (10^k); within two, at 1, 2 and
+    5 times them as plain numbers; minor ticks unlabelled."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    ax.set_xscale("log")
+    low, high = ax.get_xlim()
+    if math.log10(high / low) > 2.0:
+        ax.xaxis.set_major_locator(LogLocator(base=10.0, numticks=4))
+    else:
+        ax.xaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0), numticks=6))
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())

@@ -44,6 +44,7 @@ from wmr_mission.spec.loader import (
     written_path,
 )
 from wmr_mission.spec.models import Mission
+from wmr_mission.terminal import shown
 
 __all__ = [
     "LoadedCampaign",
@@ -320,7 +321,9 @@ def _check_against_mission(
                 f"runs times grid cells is {campaign.total_runs()}: at most {MAX_RUNS} runs",
             )
         ]
-    mission_path = Path(os.path.normpath(path.parent / campaign.mission))
+    # Absolute: the replay lines (replay_line) and the manifests name it so,
+    # and a replay runs from the campaign directory or from anywhere.
+    mission_path = Path(os.path.abspath(path.parent / campaign.mission))
     if not mission_path.is_file():
         return None, [at(("mission",), f"mission file {str(mission_path)!r} does not exist")]
     # Read once: the text checked is the text every run and worst run runs, and
@@ -438,7 +441,7 @@ def _axis_problems(name: str, axis: Axis, loaded: LoadedCampaign) -> list[str]:
     try:
         data_path = parse_path(name)
     except ValueError as error:
-        return [f"vary {name!r}: {error}"]
+        return [f"vary {shown(repr(name))}: {error}"]
     if data_path == _SEED_PATH:
         return [
             "vary 'sensors.seed': each run's sensor seed is drawn from the campaign's seed; "
@@ -456,7 +459,7 @@ def _axis_problems(name: str, axis: Axis, loaded: LoadedCampaign) -> list[str]:
         errors = [d for d in diagnostics if d.severity == "error"]
         if errors:
             reasons = "; ".join(_reason(d) for d in errors)
-            return [f"vary {name!r} ({axis.kind}) at {text}: {reasons}"]
+            return [f"vary {shown(repr(name))} ({axis.kind}) at {shown(text)}: {reasons}"]
     return []
 
 

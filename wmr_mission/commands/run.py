@@ -5,6 +5,12 @@ directory: created, claimed and writable, the free space), and what was
 simulated is written even when the run stops early: on SIGINT or SIGTERM the
 samples up to the stop are written with the outcome ``interrupted`` and the
 command exits 128 + the signal's number (130, 143).
+
+A signal is held from the start (wmr_mission.stopping) and honoured at the
+next point where nothing is lost: before the run directory is claimed (the
+loop loaded or compiled: a compile stops at once), between chunks of
+samples, after the record is written. The directory is claimed just before
+the first sample, so a stop before it leaves no directory.
 """
 
 from __future__ import annotations
@@ -14,8 +20,8 @@ import shutil
 import signal
 import sys
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -45,15 +51,28 @@ def _overrides(texts: Sequence[str]) -> list[Override] | None:
 
 @contextmanager
 def _stop_signals() -> Iterator[list[int]]:
-    """SIGTERM stops the run the way Ctrl-C does; yields the signals received."""
-    from wmr_mission.stopping import StopSignals
+    """SIGTERM stops the run the way Ctrl-C does, held until a point where
+    nothing is lost (see the module); yields the signals received."""
+    from wmr_mission.stopping import HOLD, StopSignals
 
     with StopSignals(STOP_SIGNALS) as stop:
+        stop.mode = HOLD
         yield stop.received
+
+
+def _honour_stop() -> None:
+    from wmr_mission.stopping import stop_owed
+
+    if stop_owed():
+        raise KeyboardInterrupt
 
 
 def _signal_exit(received: list[int]) -> int:
     return 128 + (received[0] if received else signal.SIGINT)
+
+
+def _signal_name(received: list[int]) -> str:
+    return signal.Signals(received[0]).name if received else "SIGINT"
 
 
 def run_command(
@@ -75,12 +94,12 @@ def run_command(
     ``expected_environment``: the fingerprint of ``--expect-environment``;
     ``backend``: the plant (``--backend``), else the mission's ``backend.type``.
     """
-    if expected_environment is not None:
-        _check_environment(expected_environment)
-    from wmr_mission.spec.checks import importing_entries
-    from wmr_mission.spec.loader import check_mission_bytes, read_source
-
     with _stop_signals() as received:
+        if expected_environment is not None:
+            _check_environment(expected_environment)
+        from wmr_mission.spec.checks import importing_entries
+        from wmr_mission.spec.loader import check_mission_bytes, read_source
+
         try:
             parsed = _overrides(overrides)
             if parsed is None:
@@ -100,14 +119,21 @@ def run_command(
                     )
             for diagnostic in diagnostics:  # warnings too, as `validate` prints them
                 print(diagnostic, file=sys.stderr)
+            _honour_stop()
             if mission is None or source is None:
                 return EXIT_FAILED
             sha256 = hashlib.sha256(source).hexdigest()
             args = (mission, sha256, mission_path, out, seed, plots, animate, formats, received)
             name = backend or mission.backend.type
-            if name == "sim":
-                return _run(*args)
-            return _run_on_backend(name, *args)
+            code = _run(*args) if name == "sim" else _run_on_backend(name, *args)
+            if received and code != _signal_exit(received):  # it came as the run ended
+                print(
+                    f"{mission_path}: {_signal_name(received)} as the run ended; "
+                    "its record is complete",
+                    file=sys.stderr,
+                )
+                return _signal_exit(received)
+            return code
         except KeyboardInterrupt:
             print(f"{mission_path}: interrupted before the simulation", file=sys.stderr)
             return _signal_exit(received)
@@ -121,10 +147,14 @@ def _run_on_backend(
     one line and exit 1 when it cannot be used (its extra missing, no robot)."""
     from wmr_mission.backends import BackendError, open_backend
     from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.stopping import RAISE, mode
 
     settings = mission.backend.model_copy(update={"type": name})
+    plan = plan_mission(mission, seed)
     try:
-        with open_backend(name, plan_mission(mission, seed), settings) as plant:
+        with ExitStack() as stack:
+            with mode(RAISE):  # waiting for a robot: a stop ends the wait at once
+                plant = stack.enter_context(open_backend(name, plan, settings))
             return _run(mission, sha256, mission_path, out, seed, *args, plant=plant)
     except BackendError as error:
         print(f"{mission_path}: {error}", file=sys.stderr)
@@ -168,7 +198,7 @@ def _run(
     *,
     plant: PlantSide | None = None,
 ) -> int:
-    from wmr_mission.commands.background_compile import prepare
+    from wmr_mission.commands.compile import choose_loop
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
         RunDirExistsError,
@@ -181,19 +211,24 @@ def _run(
     )
     from wmr_mission.sim.plan import plan_mission, sample_budget
 
-    # Before any kernel is declared: plain Python while the loop is not compiled.
+    # Before the loop is loaded: plain Python where loading it would cost more.
     # Another plant runs the loop as plain Python: nothing to compile.
-    notice = prepare(sample_budget(mission)) if plant is None else None
+    notice = choose_loop(sample_budget(mission)) if plant is None else None
     if notice is not None:
         print(notice, file=sys.stderr)
     compiled = plan_mission(mission, seed)
-    run_dir = out if out is not None else default_run_dir(mission.name, datetime.now())
-    try:
-        run_dir = prepare_run_dir(run_dir, suffix_on_collision=out is None)
-    except (RunDirExistsError, OSError) as error:
-        print(f"{run_dir}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
-        return EXIT_RUN_DIR
-    try:
+    wanted = out if out is not None else default_run_dir(mission.name, datetime.now())
+    claimed: list[Path] = []
+
+    def claim() -> None:
+        """The run directory, claimed once the loop is loaded (a compile can
+        take a minute), just before the first sample."""
+        try:
+            run_dir = prepare_run_dir(wanted, suffix_on_collision=out is None)
+        except (RunDirExistsError, OSError) as error:
+            print(f"{wanted}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
+            raise _Unclaimed from error
+        claimed.append(run_dir)
         needed = space_needed(compiled.max_samples)
         free = shutil.disk_usage(run_dir).free
         if free < needed:
@@ -202,25 +237,40 @@ def _run(
                 f"{needed / 1e6:.3g} MB",
                 file=sys.stderr,
             )
+
+    try:
         started = time.perf_counter()
-        result = _simulate(mission, seed, compiled.max_samples, plant)
+        result = _simulate(mission, seed, compiled.max_samples, plant, claim)
         wall_seconds = time.perf_counter() - started
+    except _Unclaimed:
+        return EXIT_RUN_DIR
     except MemoryError:
-        release_run_dir(run_dir)
+        for run_dir in claimed:
+            release_run_dir(run_dir)
         print(
             f"{mission_path}: not enough memory to simulate {compiled.max_samples} samples; "
             "shorten the phases' time bounds or raise dt",
             file=sys.stderr,
         )
         return EXIT_FAILED
-    except BaseException:  # a signal before the loop started: nothing was simulated
-        release_run_dir(run_dir)
+    except BaseException:
+        for run_dir in claimed:
+            release_run_dir(run_dir)
         raise
     # run_mission judged the run by the mission's `expect` (output.metrics.judge).
-    if result.outcome is Outcome.interrupted:
-        name = signal.Signals(received[0]).name if received else "SIGINT"
-        result.message = f"{result.message} by {name}"
     stopped = result.outcome is Outcome.interrupted
+    if stopped and result.samples == 0:  # stopped before the first sample: nothing to keep
+        for run_dir in claimed:
+            release_run_dir(run_dir)
+        raise KeyboardInterrupt
+    try:
+        if not claimed:  # a plug-in that failed before the first sample
+            claim()
+    except _Unclaimed:
+        return EXIT_RUN_DIR
+    run_dir = claimed[0]
+    if stopped:
+        result.message = f"{result.message} by {_signal_name(received)}"
     try:  # the data and summary.json first: a figure that fails never loses them
         write_run(
             result,
@@ -237,13 +287,17 @@ def _run(
             file=sys.stderr,
         )
         return EXIT_RUN_DIR
-    except KeyboardInterrupt:
-        print(f"{run_dir}: interrupted while writing; no summary.json", file=sys.stderr)
-        return _signal_exit(received)
     print(
         format_table(summary_record(result), run_dir, wall_seconds=wall_seconds, result=result),
         end="",
     )
+    if received and not stopped:  # the stop came once every sample was simulated
+        print(
+            f"{mission_path}: {_signal_name(received)} after the simulation ended; "
+            f"the run is written whole in {run_dir}",
+            file=sys.stderr,
+        )
+        return _signal_exit(received)
     # A stopped run writes its data at once; `wmr-mission plot` draws it.
     drawn = _draw(
         result, run_dir, plots and not stopped, animate and not stopped, formats, received
@@ -262,6 +316,10 @@ def _run(
     return drawn
 
 
+class _Unclaimed(Exception):
+    """The run directory could not be claimed (said in one line)."""
+
+
 def _draw(
     result: RunResult,
     run_dir: Path,
@@ -273,10 +331,12 @@ def _draw(
     """Draw the figures of a written run: 0, or the exit code of a failure,
     said in one line (the data and summary.json stay)."""
     from wmr_mission.output.rundir import write_figures
+    from wmr_mission.stopping import RAISE, mode
 
     kept = f"the data and summary.json are in {run_dir}; `wmr-mission plot {run_dir}` draws again"
     try:
-        write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
+        with mode(RAISE):  # the record is written: a stop ends the drawing at once
+            write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
     except OSError as error:
         print(
             f"{error.filename or run_dir}: cannot write: {error.strerror or error}; {kept}",
@@ -297,14 +357,19 @@ def _draw(
 
 
 def _simulate(
-    mission: Mission, seed: int | None, max_samples: int, plant: PlantSide | None = None
+    mission: Mission,
+    seed: int | None,
+    max_samples: int,
+    plant: PlantSide | None = None,
+    ready: Callable[[], None] | None = None,
 ) -> RunResult:
-    """Run with a progress bar on stderr (a terminal) when the run is longer than a moment."""
+    """Run with a progress bar on stderr (a terminal) when the run is longer than a moment;
+    ``ready()`` just before the first sample."""
     from wmr_mission.output.progress import Steps
     from wmr_mission.sim.runner import run_mission
 
     if max_samples < 20_000 or not sys.stderr.isatty():
-        return run_mission(mission, seed=seed, plant=plant)
+        return run_mission(mission, seed=seed, plant=plant, ready=ready)
     name = mission.name
     steps = Steps(sys.stderr)
     steps.step(name, total=1000)
@@ -313,7 +378,7 @@ def _simulate(
         steps.update(1000 * min(t / budget, 1.0), description=f"{name} [{phase}] t = {t:8.2f} s")
 
     try:
-        result = run_mission(mission, seed=seed, progress=progress, plant=plant)
+        result = run_mission(mission, seed=seed, progress=progress, plant=plant, ready=ready)
         steps.update(1000)
     finally:
         steps.close()

@@ -15,17 +15,20 @@ from wmr_mission.spec.loader import Diagnostic
 
 __all__ = ["validate_files"]
 
+MISSION_SUFFIXES = (".yaml", ".yml")
 
-def _summary(diagnostics: Sequence[Diagnostic]) -> str:
-    errors = sum(d.severity == "error" for d in diagnostics)
-    warnings = len(diagnostics) - errors
-    if errors == 0:
-        return "ok" if warnings == 0 else f"ok ({_count(warnings, 'warning')})"
-    parts = [_count(errors, "error")] + ([_count(warnings, "warning")] if warnings else [])
+
+def _summary(diagnostics: Sequence[Diagnostic], strict: bool) -> str:
+    counts = {s: sum(d.severity == s for d in diagnostics) for s in ("error", "warning", "note")}
+    counted = [_count(n, severity) for severity, n in counts.items() if n]
+    if counts["error"] == 0 and not (strict and counts["warning"]):
+        return "ok" if not counted else f"ok ({', '.join(counted)})"
+    if counts["error"] == 0:
+        return f"{', '.join(counted)}: warnings are errors under --strict"
     if not any(d.stage == "semantics" for d in diagnostics):
         # The checks across fields need a mission whose every field is sound.
-        parts.append("checks across fields (observability, timing, paths) run once fixed")
-    return ", ".join(parts)
+        counted.append("checks across fields (observability, timing, paths) run once fixed")
+    return ", ".join(counted)
 
 
 def _count(number: int, word: str) -> str:
@@ -33,54 +36,64 @@ def _count(number: int, word: str) -> str:
 
 
 def mission_files(paths: Sequence[Path]) -> tuple[list[Path], list[Diagnostic]]:
-    """Files as given; a directory stands for every ``*.yaml`` below it, in sorted order."""
+    """Files as given; a directory stands for every ``*.yaml`` and ``*.yml`` below
+    it, in sorted order."""
     files: list[Path] = []
     problems = []
     for path in paths:
         if not path.is_dir():
             files.append(path)
             continue
-        found = sorted(p for p in path.rglob("*.yaml") if p.is_file())
+        found = sorted(p for p in path.rglob("*") if p.suffix in MISSION_SUFFIXES and p.is_file())
         if not found:
-            problems.append(Diagnostic(str(path), 0, 0, "no mission files (*.yaml) below it"))
+            problems.append(
+                Diagnostic(str(path), 0, 0, "no mission files (*.yaml, *.yml) below it")
+            )
         files += found
     return files, problems
 
 
 def validate_files(
-    paths: Sequence[Path], fmt: Literal["text", "json"] | str = "text", check_entries: bool = False
+    paths: Sequence[Path],
+    fmt: Literal["text", "json"] | str = "text",
+    check_entries: bool = False,
+    strict: bool = False,
 ) -> int:
-    """Check every file; 0 when all are valid (warnings allowed), 1 otherwise.
+    """Check every file; 0 when all are valid (warnings allowed unless
+    ``strict``; notes always), 1 otherwise.
 
-    A directory stands for every ``*.yaml`` below it. A ``type: python``
-    entry is checked for its syntax only, unless ``check_entries``: then it
-    is imported, as a run imports it (its module's code runs).
+    A directory stands for every ``*.yaml`` and ``*.yml`` below it. A ``type:
+    python`` entry is checked for its syntax only, unless ``check_entries``:
+    then it is imported, as a run imports it (its module's code runs).
 
-    text: each diagnostic as ``FILE:LINE:COL: message`` on stderr and one
-    ``FILE: ok`` (or a count) line per file on stdout. json: one document on
-    stdout with every file, its validity and its diagnostics.
+    text: each diagnostic as ``FILE:LINE:COL: message``, then one ``FILE: ok``
+    (or a count) line per file, all on stdout, the report of the command (so
+    that ``> report.txt`` keeps all of it, as with a linter). json: one
+    document on stdout with every file, its validity and its diagnostics.
     """
     files, problems = mission_files(paths)
     reports = []
     all_valid = not problems
     if fmt == "text":
         for problem in problems:
-            sys.stderr.write(f"{problem}\n")
+            sys.stdout.write(f"{problem}\n")
     for path in files:
         from wmr_mission.campaign.load import check_file  # a mission or a campaign
 
         with importing_entries() if check_entries else nullcontext():
             diagnostics = check_file(path)
-        valid = not any(d.severity == "error" for d in diagnostics)
+        failing = ("error", "warning") if strict else ("error",)
+        valid = not any(d.severity in failing for d in diagnostics)
         all_valid = all_valid and valid
         reports.append((str(path), valid, diagnostics))
         if fmt == "text":
             for diagnostic in diagnostics:
-                sys.stderr.write(f"{diagnostic}\n")
-            sys.stdout.write(f"{path}: {_summary(diagnostics)}\n")
+                sys.stdout.write(f"{diagnostic}\n")
+            sys.stdout.write(f"{path}: {_summary(diagnostics, strict)}\n")
     if fmt == "json":
         document = {
             "valid": all_valid,
+            "strict": strict,
             "problems": [asdict(d) for d in problems],
             "files": [
                 {

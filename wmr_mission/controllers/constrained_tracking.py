@@ -42,7 +42,13 @@ from wmr_mission.kernels.corrective import (
     row_value_with_margin,
 )
 from wmr_mission.kernels.jit import inlined, kernel
-from wmr_mission.kernels.model import hypot, input_jacobian_into, saturate, step
+from wmr_mission.kernels.model import (
+    braking_distance,
+    hypot,
+    input_jacobian_into,
+    saturate,
+    step,
+)
 from wmr_mission.kernels.records import Plant, Scratch
 
 __all__ = [
@@ -89,6 +95,51 @@ def constrained_change(
     return p00 * lam0 + p01 * lam1, p10 * lam0 + p11 * lam1
 
 
+@kernel
+def held_where_braking_ends(
+    kind: int,
+    p: FloatArray,
+    margin: float,
+    keep: float,
+    value: float,
+    gx: float,
+    gy: float,
+    now: tuple[float, float, float, float],
+    next_: tuple[float, float, float, float, float],
+    sensitivity: tuple[float, float, float, float],
+    rate: float,
+    dt: float,
+) -> tuple[float, float, float, float, float, float, float]:
+    """A row's barrier value at the point ``next_`` (x, y, heading at k+1, v,
+    omega) and, where it is further in, at the point where braking from v at
+    ``rate`` ends (v^2 / (2 a) on along the heading; now: from ``now``'s
+    point, heading and v_{k-1}): the value, its gradient, and the point's
+    sensitivity to (v, omega), ``sensitivity`` (2x2 row by row) for the first.
+    The braking point moves with v along the heading and turns with omega."""
+    s00, s01, s10, s11 = sensitivity
+    ahead = braking_distance(next_[3], rate, dt)
+    if ahead == 0.0:
+        return value, gx, gy, s00, s01, s10, s11
+    c = math.cos(next_[2])
+    s = math.sin(next_[2])
+    braked, hx, hy = row_value_with_margin(
+        kind, p, margin, next_[0] + ahead * c, next_[1] + ahead * s
+    )
+    if keep > 0.0:
+        behind = braking_distance(now[3], rate, dt)
+        now_value, _, _ = row_value_with_margin(
+            kind, p, margin, now[0] + behind * math.cos(now[2]), now[1] + behind * math.sin(now[2])
+        )
+        braked -= keep * now_value
+    if braked <= value:
+        return value, gx, gy, s00, s01, s10, s11
+    along = abs(next_[3]) / rate - 0.5 * dt
+    return (
+        braked, hx, hy,
+        s00 + along * c, s01 - ahead * dt * s, s10 + along * s, s11 + ahead * dt * c,
+    )  # fmt: skip
+
+
 @inlined
 def keep_constraints(
     estimate: FloatArray,
@@ -126,6 +177,9 @@ def keep_constraints(
     t01 = b[0, 1] - look_ahead * s * b[2, 1]
     t10 = b[1, 0] + look_ahead * c * b[2, 0]
     t11 = b[1, 1] + look_ahead * c * b[2, 1]
+    # Under an acceleration limit the robot stops only beyond x_{k+1}: the
+    # rows are held at the output and also where braking from the input ends.
+    rate = robot.limits[2]
     a, eta, h = work.d, work.eta, work.h
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
@@ -134,13 +188,20 @@ def keep_constraints(
         if keep > 0.0:
             now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
             value -= keep * now
+        s00, s01, s10, s11 = t00, t01, t10, t11
+        if rate != math.inf:
+            value, gx, gy, s00, s01, s10, s11 = held_where_braking_ends(
+                row_kinds[i], row_params[i], margin, keep, value, gx, gy,
+                (ox, oy, estimate[2], u_prev[0]), (qx, qy, pth, u[0], u[1]),
+                (t00, t01, t10, t11), rate, dt,
+            )  # fmt: skip
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
         if slot < 0:
             continue
-        a[slot, 0] = gx * t00 + gy * t10
-        a[slot, 1] = gx * t01 + gy * t11
+        a[slot, 0] = gx * s00 + gy * s10
+        a[slot, 1] = gx * s01 + gy * s11
         eta[slot] = -value  # saturate to the violated bound
     if count == 0:
         return False
@@ -224,29 +285,80 @@ def keep_reference(
     return moved
 
 
+# The steepest the aim's way round a keep-out ellipse leaves or rejoins the
+# path: 1 across in 2 along. The aim's sideways speed is this times the path's,
+# and the tracking law closes its move as an error: the way up the edge of a
+# zone the path meets head-on (infinitely steep) turned the turn rate from 0
+# to its limit in one sample (docs/paper-notes.md, eq. (28), "The way round
+# on a ramp").
+RAMP_SLOPE = 0.5
+
+
 @kernel
-def _sideways_to_edge(
-    p: FloatArray, margin: float, x: float, y: float, nx: float, ny: float
-) -> float:
-    """How far along the unit direction (nx, ny) the point (x, y), inside the
-    keep-out ellipse row ``p`` grown by ``margin``, reaches its edge (> 0)."""
+def _way_round(
+    p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float
+) -> tuple[float, float, float]:
+    """How far, and to which side, the aim (x, y) on a path heading along the
+    unit (tx, ty) moves across the path to clear the keep-out ellipse row
+    ``p`` grown by ``margin``, on a ramp: the moved aim keeps every point of
+    the zone outside the wedge of slope RAMP_SLOPE about the path's line ahead
+    of it and behind it. (distance >= 0, unit side x, y); distance 0 where the
+    path's line misses the zone.
+
+    The side is the one the zone's edge faces where the path's line enters it
+    (the same all along a straight path, so the aim keeps its side through
+    the zone), to the left of travel where the line meets the edge head-on."""
     a = p[2] + margin
     b = p[3] + margin
     cos_phi = math.cos(p[4])
     sin_phi = math.sin(p[4])
-    dx = x - p[0]
-    dy = y - p[1]
-    u = cos_phi * dx + sin_phi * dy
-    w = -sin_phi * dx + cos_phi * dy
-    du = cos_phi * nx + sin_phi * ny
-    dw = -sin_phi * nx + cos_phi * ny
+    dx = p[0] - x  # the zone's centre from the aim
+    dy = p[1] - y
+    # the path's line in the ellipse's own axes
+    u = -(cos_phi * dx + sin_phi * dy)
+    w = -(-sin_phi * dx + cos_phi * dy)
+    du = cos_phi * tx + sin_phi * ty
+    dw = -sin_phi * tx + cos_phi * ty
     ia2 = 1.0 / (a * a)
     ib2 = 1.0 / (b * b)
     qa = du * du * ia2 + dw * dw * ib2
     qb = 2.0 * (u * du * ia2 + w * dw * ib2)
-    qc = u * u * ia2 + w * w * ib2 - 1.0  # < 0 inside
-    reach: float = (-qb + math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))) / (2.0 * qa)
-    return reach
+    qc = u * u * ia2 + w * w * ib2 - 1.0
+    disc = qb * qb - 4.0 * qa * qc
+    if disc < 0.0:
+        return 0.0, 0.0, 0.0
+    entry = (-qb - math.sqrt(disc)) / (2.0 * qa)
+    # the outward normal where the line enters, back in the world's axes
+    eu = (u + entry * du) * ia2
+    ew = (w + entry * dw) * ib2
+    ox = cos_phi * eu - sin_phi * ew
+    oy = sin_phi * eu + cos_phi * ew
+    mx = -ty
+    my = tx
+    if mx * ox + my * oy < 0.0:
+        mx = -mx
+        my = -my
+    # Support function of the grown ellipse, h(n) = n . centre + sqrt(n' S n),
+    # S = R diag(a^2, b^2) R'. The reach is the least h(m + mu t) over
+    # |mu| <= RAMP_SLOPE: the largest of m . q - RAMP_SLOPE |t . q| over the
+    # zone's points q (its minimax), a convex function of mu.
+    mu_ = cos_phi * mx + sin_phi * my
+    mw = -sin_phi * mx + cos_phi * my
+    sa = mu_ * mu_ * a * a + mw * mw * b * b  # m' S m
+    sb = mu_ * du * a * a + mw * dw * b * b  # m' S t
+    sc = du * du * a * a + dw * dw * b * b  # t' S t
+    along = tx * dx + ty * dy
+    across = mx * dx + my * dy
+    slack = max(sa - sb * sb / sc, 0.0)
+    if along * along < sc:
+        mu = -sb / sc - math.copysign(1.0, along) * abs(along) * math.sqrt(
+            slack / (sc * (sc - along * along))
+        )
+    else:  # monotone in mu: the least at an end
+        mu = -math.copysign(RAMP_SLOPE, along)
+    mu = min(max(mu, -RAMP_SLOPE), RAMP_SLOPE)
+    reach = across + mu * along + math.sqrt(max(sa + 2.0 * sb * mu + sc * mu * mu, 0.0))
+    return max(reach, 0.0), mx, my
 
 
 @kernel
@@ -260,11 +372,12 @@ def aim_round_zones(
 
     The output's aim moves continuously as the path goes through a zone, so
     the tracking law is handed no jump at a zone's edge. A keep-out ellipse
-    moves the aim sideways, across the path, to the side the zone's edge
-    faces where the path entered it, and to the left of the direction of
-    travel where the path meets the edge head-on (the saddle, a path through
-    a circle's centre): the robot goes round, never stopping where the two
-    sides balance. Other rows project the aim onto
+    moves the aim sideways, across the path, on a ramp no steeper than
+    RAMP_SLOPE (``_way_round``), to the side the zone's edge faces where the
+    path's line enters it, and to the left of the direction of travel where
+    the path meets the edge head-on (the saddle, a path through a circle's
+    centre): the robot goes round, never stopping where the two sides
+    balance. Other rows project the aim onto
     their edge (half-planes exactly, keep-in ellipses along the ray from the
     centre). Two passes settle an aim beyond two rows.
     """
@@ -275,6 +388,15 @@ def aim_round_zones(
     for _ in range(2):
         for i in range(row_kinds.shape[0]):
             p = row_params[i]
+            if row_kinds[i] == ELLIPSE_ROW and p[5] < 0.0:
+                # Across the path, on a ramp: moving on from before the zone
+                # without a kink steeper than RAMP_SLOPE, keeping its side.
+                reach, nx, ny = _way_round(p, grown, x, y, aim[2], aim[3])
+                if reach > 0.0:
+                    moved = True
+                    x += reach * nx
+                    y += reach * ny
+                continue
             value, gx, gy = row_value_with_margin(row_kinds[i], p, grown, x, y)
             if value <= 0.0:
                 continue
@@ -282,24 +404,6 @@ def aim_round_zones(
             if row_kinds[i] != ELLIPSE_ROW:
                 x -= value * gx
                 y -= value * gy
-            elif p[5] < 0.0:
-                # The side the zone's edge faces where the path entered it
-                # (back along the path from the aim): the aim leaves across
-                # the path by the way that is empty there, so it moves on
-                # from the entry without a jump and keeps its side through
-                # the zone; head-on (the saddle), to the left of travel.
-                back = _sideways_to_edge(p, grown, x, y, -aim[2], -aim[3])
-                _, gx, gy = row_value_with_margin(
-                    row_kinds[i], p, grown, x - back * aim[2], y - back * aim[3]
-                )
-                nx = -aim[3]
-                ny = aim[2]
-                if nx * gx + ny * gy > 0.0:  # the gradient points into a keep-out zone
-                    nx = -nx
-                    ny = -ny
-                reach = _sideways_to_edge(p, grown, x, y, nx, ny)
-                x += reach * nx
-                y += reach * ny
             else:
                 scale = 1.0 / math.sqrt(max(value + 1.0, 1e-300))
                 x = p[0] + scale * (x - p[0])

@@ -21,10 +21,15 @@ import numpy as np
 from pydantic import Field
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.controllers.constrained_tracking import aim_round_zones, keep_constraints
+from wmr_mission.controllers.constrained_tracking import (
+    aim_round_zones,
+    held_where_braking_ends,
+    keep_constraints,
+)
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.fields import Flag, Model, NonNegative, Positive
 from wmr_mission.kernels.corrective import (
+    ELLIPSE_ROW,
     corrective_input,
     kept_row_slot,
     row_value_with_margin,
@@ -37,6 +42,7 @@ from wmr_mission.kernels.model import (
     jacobian_terms,
     saturate,
     step,
+    stopping_speed,
     wrap_angle,
 )
 from wmr_mission.kernels.records import Plant, Scratch, scratch
@@ -58,6 +64,12 @@ MIN_LOOK_AHEAD = 0.05
 BARRIER_TIME = 0.1
 # Largest fraction of the bearing error the tracked output turns by per sample.
 HEADING_STEP = 0.3
+# The largest change of the regulator's turn rate in one sample, as a share of
+# its limit: half the verdict's bound on a jump (turn_rate_jump_max).
+TURN_SLEW = 0.5
+# The share of the turn-rate limit the position estimate's noise may take as
+# jitter through the tracking law (docs/paper-notes.md, eqs. (6)-(7) under noise).
+JITTER_SHARE = 0.01
 
 
 class Tracking(Model):
@@ -123,6 +135,17 @@ class PaperController(ControllerSettings):
     )
     tracking: Tracking = Field(default_factory=Tracking, description="Path tracking output.")
     regulation: Regulation = Field(default_factory=Regulation, description="Regulation form.")
+
+    def position_noise_budget(self, dt: float, speed_limit: float, turn_limit: float) -> float:
+        """A lateral error ``e`` of the look-ahead point closed within the time
+        constant ``tau`` turns the robot at about ``e / (l tau)``: the position
+        estimate's noise may be ``JITTER_SHARE turn_limit l tau``. inf for the
+        axle law (no look-ahead to scale by)."""
+        distance = look_ahead(self, dt, speed_limit)
+        if distance == 0.0:
+            return math.inf
+        tau = max(float(self.tracking.time_constant), float(dt))
+        return JITTER_SHARE * float(turn_limit) * distance * tau
 
 
 # --- the kernels ---------------------------------------------------------------
@@ -240,9 +263,29 @@ def track_input(
     input_jacobian_into(theta, v_prev, omega_prev, dt, b)
     both = int(np.int64(2))  # not the literal 2: one compiled corrective_input for all
     dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
-    u_out[0], u_out[1] = saturate(
-        v_prev + dv, omega_prev + dw, v_prev, omega_prev, robot.limits, dt
-    )
+    v = v_prev + dv
+    omega = omega_prev + dw
+    if robot.limits[3] != math.inf:
+        # The turn planned: eq. (27) turns the output towards its aim at a
+        # rate the turn-rate acceleration cannot take back in time, and the
+        # heading swings past it and back, for good (a line entered 0.5 rad
+        # off wove 1.06 m about it). Turning towards the heading the output's
+        # move asks for (reversed when driving backwards), no faster than
+        # the acceleration limit stops the turn there.
+        move_x = (
+            reference[0] + look_ahead * reference[2] - left_x - x - look_ahead * math.cos(theta)
+        )
+        move_y = (
+            reference[1] + look_ahead * reference[3] - left_y - y - look_ahead * math.sin(theta)
+        )
+        if v < 0.0:
+            move_x = -move_x
+            move_y = -move_y
+        turn = wrap_angle(math.atan2(move_y, move_x) - theta)
+        if omega * turn > 0.0:
+            reach = stopping_speed(abs(turn), robot.limits[3], dt)
+            omega = min(max(omega, -reach), reach)
+    u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, robot.limits, dt)
 
 
 Gain = tuple[float, float, float, float, float, float]  # T of eq. (20), 2x3 row by row
@@ -393,6 +436,68 @@ def scheduled_gain(
     out[1, 0], out[1, 1], out[1, 2] = gain[3] * c - gain[4] * s, gain[3] * s + gain[4] * c, gain[5]
 
 
+@kernel
+def _bearing_round_zones(
+    x: float,
+    y: float,
+    bearing: float,
+    distance: float,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+) -> float:
+    """The bearing the bearing form heads along from (x, y) to a target
+    ``distance`` away at ``bearing``: that one, or where the straight way
+    crosses a keep-out ellipse (grown by ``margin``), along the tangent to the
+    first one it crosses, on the side the way passes its centre (the left
+    when head-on). Heading into the zone, eq. (28) stopped the robot at its
+    edge for good (a target behind the zone: a saddle); along the tangent it
+    goes round, and on the edge the tangent is the edge's own direction.
+
+    In the ellipse's frame scaled to a unit circle straight lines stay
+    straight and tangents tangent: from a point q outside the unit circle
+    the tangents run along ``side q_perp - sqrt(|q|^2 - 1) q``, q_perp = q
+    turned by +90 degrees."""
+    first = 1.0
+    heading = bearing
+    for i in range(row_kinds.shape[0]):
+        p = row_params[i]
+        if row_kinds[i] != ELLIPSE_ROW or p[5] > 0.0:
+            continue
+        a = p[2] + margin
+        b = p[3] + margin
+        c = math.cos(p[4])
+        s = math.sin(p[4])
+        qx = (c * (x - p[0]) + s * (y - p[1])) / a
+        qy = (-s * (x - p[0]) + c * (y - p[1])) / b
+        wx = distance * math.cos(bearing)
+        wy = distance * math.sin(bearing)
+        dx = (c * wx + s * wy) / a
+        dy = (-s * wx + c * wy) / b
+        reach = dx * dx + dy * dy
+        inwards = -(qx * dx + qy * dy)
+        if inwards <= 0.0:
+            continue  # the way leads away from the centre
+        # the way's point nearest the centre, and whether it is inside
+        along = min(inwards / reach, 1.0)
+        if along >= first:
+            continue
+        nearest_x = qx + along * dx
+        nearest_y = qy + along * dy
+        if nearest_x * nearest_x + nearest_y * nearest_y >= 1.0:
+            continue
+        first = along
+        # the side the way passes the centre on (the left when head-on)
+        side = -1.0 if dx * qy - dy * qx >= 0.0 else 1.0
+        # on the edge (or within the margin, where eq. (28) holds the robot)
+        # the edge's own direction
+        root = math.sqrt(max(qx * qx + qy * qy - 1.0, 0.0))
+        ux = -side * qy - root * qx
+        uy = side * qx - root * qy
+        heading = math.atan2(s * a * ux + c * b * uy, c * a * ux - s * b * uy)
+    return heading
+
+
 @inlined
 def regulate_input(
     estimate: FloatArray,
@@ -429,7 +534,7 @@ def regulate_input(
         v1 = v_prev - (gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = omega_prev - (gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
     else:
-        scheduled_gain(estimate[2], v_prev, omega_prev, dt, q, r, memory, gain)
+        speed = v_prev  # where eq. (1) is linearised
         ex = estimate[0] - target[0]
         ey = estimate[1] - target[1]
         eth = wrap_angle(estimate[2] - target[2])
@@ -444,6 +549,16 @@ def regulate_input(
                 # reverse), so the lateral error the robot cannot reach at rest
                 # is turned into a heading error it can.
                 bearing = math.atan2(-ey, -ex)
+                if row_kinds.shape[0]:
+                    way = _bearing_round_zones(
+                        estimate[0], estimate[1], bearing, distance, row_kinds, row_params,
+                        robot.constraint_margin,
+                    )  # fmt: skip
+                    if way != bearing:
+                        # round the zone: the error as far, along the way round
+                        bearing = way
+                        ex = -distance * math.cos(way)
+                        ey = -distance * math.sin(way)
                 eth = wrap_angle(estimate[2] - bearing)
                 if controller.reverse:
                     # Backwards when the target is behind, with hysteresis: a
@@ -456,6 +571,11 @@ def regulate_input(
                         memory[REVERSING] = 0.0
                     if memory[REVERSING] != 0.0:
                         eth = wrap_angle(eth - math.pi)
+                # Linearised at a speed of the direction of travel chosen: at
+                # the other's, the lateral terms of T turn against the heading
+                # error, and a target abeam (91-101 degrees) was approached
+                # at a crawl the wrong way round, never turned to.
+                speed = min(v_prev, 0.0) if memory[REVERSING] != 0.0 else max(v_prev, 0.0)
             else:
                 # Aligning at the target: keep the reachable (longitudinal)
                 # part of the position error, turn to the target heading.
@@ -464,9 +584,25 @@ def regulate_input(
                 along = ex * c + ey * s
                 ex = along * c
                 ey = along * s
+        scheduled_gain(estimate[2], speed, omega_prev, dt, q, r, memory, gain)
         # eq. (19) with dx the deviation from the target.
         v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
+        # The deceleration planned: eq. (19) knows no acceleration limit and
+        # asks for speed until the target is reached, too late to stop there.
+        # No faster than the limits can stop within the error left.
+        reach = stopping_speed(hypot(ex, ey), robot.limits[2], dt)
+        v1 = min(max(v1, -reach), reach)
+        turn = stopping_speed(abs(eth), robot.limits[3], dt)
+        omega1 = min(max(omega1, -turn), turn)
+    # The turn rate moves from the input before by at most half its limit a
+    # sample: eq. (19)'s heading reference jumps where the phase takes over
+    # from a track phase and where aligning begins (the bearing to the
+    # target's own heading), and the law answered with its whole range in
+    # one sample (docs/paper-notes.md, eq. (19), "The regulator's turn from
+    # the input before").
+    slew = TURN_SLEW * robot.limits[1]
+    omega1 = min(max(omega1, omega_prev - slew), omega_prev + slew)
     v1, omega1 = saturate(v1, omega1, v_prev, omega_prev, robot.limits, dt)
     u_out[0] = v1
     u_out[1] = omega1
@@ -477,12 +613,20 @@ def regulate_input(
     # each row shrunk by the estimate's margin, and held as a discrete-time
     # barrier, c(k+1) <= (1 - gamma) c(k): a row is approached, and left when
     # broken, by a fraction gamma of its value per sample, not in one jump.
-    px, py, _ = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
+    px, py, pth = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
+    # Under an acceleration limit the robot stops only beyond x_{k+1}: the rows
+    # are held at x_{k+1} and also where braking from v1 ends, the braking
+    # distance v^2 / (2 a) on (constrained_tracking.held_where_braking_ends).
+    rate = robot.limits[2]
     d, eta, b = work.d, work.eta, work.b
     margin = robot.constraint_margin
     keep = 1.0 - controller.barrier_rate
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
+    # The braking point's sensitivity to the input beyond x_{k+1}'s, where the
+    # most violated row is held there (one B for the rows: that row's).
+    extra = (0.0, 0.0, 0.0, 0.0)
+    worst = 0.0
     for i in range(row_kinds.shape[0]):
         value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
         if keep > 0.0:
@@ -490,6 +634,16 @@ def regulate_input(
                 row_kinds[i], row_params[i], margin, estimate[0], estimate[1]
             )
             value -= keep * now
+        if rate != math.inf:
+            held, gx, gy, e00, e01, e10, e11 = held_where_braking_ends(
+                row_kinds[i], row_params[i], margin, keep, value, gx, gy,
+                (estimate[0], estimate[1], estimate[2], v_prev), (px, py, pth, v1, omega1),
+                (0.0, 0.0, 0.0, 0.0), rate, dt,
+            )  # fmt: skip
+            if held > worst:
+                worst = held
+                extra = (e00, e01, e10, e11)
+            value = held
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
@@ -502,6 +656,11 @@ def regulate_input(
     if count == 0:
         return
     input_jacobian_into(estimate[2], v1, omega1, dt, b)
+    if rate != math.inf:
+        b[0, 0] += extra[0]
+        b[0, 1] += extra[1]
+        b[1, 0] += extra[2]
+        b[1, 1] += extra[3]
     dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)

@@ -23,6 +23,7 @@ docs/controllers.md has worked examples.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple
 
@@ -34,7 +35,7 @@ from wmr_mission.controllers.reference_motion import reference_motion
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.kernels.jit import inlined
 from wmr_mission.kernels.loop import EnteredPhase
-from wmr_mission.kernels.model import saturate
+from wmr_mission.kernels.model import is_number, saturate
 from wmr_mission.kernels.records import Plant
 from wmr_mission.plugins import Entry, Params, load_entry
 
@@ -114,10 +115,16 @@ def next_input(
     chosen = scratch.plugin.step(k * plant.dt, seen, reference)
     if len(chosen) != 2:
         raise ValueError("a controller plug-in's step returns two numbers (v, omega)")
-    # A non-finite input is the loop's to report: the run diverged.
-    u[0], u[1] = saturate(
-        float(chosen[0]), float(chosen[1]), u_prev[0], u_prev[1], plant.limits, plant.dt
-    )
+    if not (is_number(chosen[0]) and is_number(chosen[1])):
+        raise TypeError("a controller plug-in's step returns two numbers (v, omega), not text")
+    v_chosen = float(chosen[0])
+    omega_chosen = float(chosen[1])
+    if not (math.isfinite(v_chosen) and math.isfinite(omega_chosen)):
+        # Not limited (that would make it finite): the loop reports the divergence.
+        u[0] = v_chosen
+        u[1] = omega_chosen
+        return
+    u[0], u[1] = saturate(v_chosen, omega_chosen, u_prev[0], u_prev[1], plant.limits, plant.dt)
 
 
 def tuning_of(settings: PythonController, plant: Plant) -> PluginTuning:

@@ -26,6 +26,7 @@ binds the step into the loop (wmr_mission.kernels.variants).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final, NamedTuple
@@ -40,6 +41,12 @@ class ControllerSettings(Model):
     """What every controller's settings hold."""
 
     type: str
+
+    def position_noise_budget(self, dt: float, speed_limit: float, turn_limit: float) -> float:
+        """[m] The standard deviation of the position estimate's noise this law
+        turns into at most 1 % of the turn-rate limit of jitter: the estimator's
+        defaults filter the sensors' noise down to it. inf: none stated."""
+        return math.inf
 
 
 @dataclass(frozen=True)

@@ -13,12 +13,13 @@ measurement; a sample without a measurement is the prediction alone.
 from __future__ import annotations
 
 import math
-from typing import Literal, NamedTuple
+from typing import Literal, NamedTuple, Self
 
 import numpy as np
 from pydantic import Field
 
 from wmr_mission.basics import STATES, FloatArray, StateName
+from wmr_mission.estimators.observer import CHI_SQUARE_GATE, MAX_REJECTED
 from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
 from wmr_mission.fields import Model, Positive, StateStd
 from wmr_mission.kernels.jit import inlined, kernel
@@ -28,6 +29,10 @@ from wmr_mission.kernels.model import jacobian_terms, step, wrap_angle
 # noise-free sensor would make the gain singular.
 MEASUREMENT_STD_FLOOR = 1e-3
 
+
+# The initial std, as a share of the noise std, of an estimate that starts at the
+# true pose: sqrt((1 - 0.9) / 0.9), the first gain the observer's default pole gives.
+INITIAL_SHARE = 1.0 / 3.0
 
 # --- settings: the mission's `estimator: {type: ekf, ...}` ---------------------
 
@@ -50,7 +55,12 @@ class Ekf(EstimatorSettings):
     )
     process_std: StateStd = Field(
         default_factory=lambda: StateStd(x=0.001, y=0.001, theta=0.001),
-        description="Process noise per sample [m, m, rad], >= 0.",
+        description=(
+            "Process noise per sample [m, m, rad], >= 0; default 0.001, and with noisy sensors "
+            "(no robot.disturbances) less: x and y so that the estimate's noise takes at most "
+            "1 % of the turn-rate limit through the tracking law, theta a third of its noise "
+            "(docs/paper-notes.md, eq. 6-7)."
+        ),
     )
     measurement_std: dict[StateName, Positive] | None = Field(
         default=None,
@@ -64,10 +74,62 @@ class Ekf(EstimatorSettings):
         description=(
             "Reject a measurement whose squared Mahalanobis distance r^T S^-1 r exceeds this "
             "(chi-square with as many degrees of freedom as measured states: 16.27 is its "
-            "0.999 quantile for 3); a rejected measurement is a prediction-only step. "
-            "null = no gating."
+            "0.999 quantile for 3); a rejected measurement is a prediction-only step, at most "
+            "3 in a row (then every measurement is taken until one is within it). "
+            "null = no gating. Default with noisy sensors: the 1 - 1e-6 quantile (30.66 for 3)."
         ),
     )
+
+    def with_sensors(
+        self, measured_noise: dict[str, float], position_budget: float = math.inf
+    ) -> Self:
+        """With noisy sensors: an innovation gate, a position process noise
+        that filters the position noise down to ``position_budget`` [m]
+        (docs/paper-notes.md, "Eqs. (6)-(7) under position noise"), and, for
+        an estimate that starts at the true pose (``initial_estimate`` unset),
+        an initial std of a third of the noise std."""
+        update: dict[str, object] = {}
+        noisy = sum(std > 0.0 for std in measured_noise.values())
+        if noisy and "innovation_gate" not in self.model_fields_set:
+            update["innovation_gate"] = CHI_SQUARE_GATE[noisy - 1]
+        if noisy and self.initial_estimate is None and "initial_std" not in self.model_fields_set:
+            # The estimate starts at the true pose, so the first measurement is
+            # weighed as the observer's default pole weighs it (a gain of 1 - 0.9:
+            # P0 = R (1 - p) / p, a third of the noise std). P0 = 1 m took it
+            # whole, and its noise kicked the turn rate from limit to limit at t = 0.
+            update["initial_std"] = StatePositiveStd(
+                **{
+                    s: max(measured_noise.get(s, 0.0), MEASUREMENT_STD_FLOOR) * INITIAL_SHARE
+                    for s in STATES
+                }
+            )
+        if "process_std" not in self.model_fields_set:
+            written = self.process_std.model_dump()
+            # Positions: the tracking law's budget. Heading: a third of its own
+            # noise, as the observer's default pole leaves (0.23): a goal the
+            # estimate meets, the truth meets within one noise std.
+            # (No budget, as under stated disturbances: the defaults as written.)
+            budgets = {"x": position_budget, "y": position_budget}
+            if math.isfinite(position_budget):
+                budgets["theta"] = measured_noise.get("theta", 0.0) * INITIAL_SHARE
+            process = {
+                state: quiet_process_std(measured_noise[state], budget, written[state])
+                for state, budget in budgets.items()
+                if measured_noise.get(state, 0.0) > 0.0
+            }
+            if process:
+                update["process_std"] = self.process_std.model_copy(update=process)
+        return self.model_copy(update=update) if update else self
+
+
+def quiet_process_std(noise_std: float, budget: float, process_std: float) -> float:
+    """The process noise std whose filtered estimate's variance is at
+    most ``budget^2``: in steady state a coordinate's variance is about
+    ``sqrt(q r)`` for ``q << r``, so ``sqrt(q) = budget^2 / noise_std``; never
+    more than ``process_std``. Rounded to 3 significant digits."""
+    if not math.isfinite(budget) or noise_std <= 0.0:
+        return process_std
+    return min(process_std, float(f"{budget * budget / noise_std:.3g}"))
 
 
 # --- the kernels ---------------------------------------------------------------
@@ -86,6 +148,7 @@ class EkfTuning(NamedTuple):
 class EkfMemory(NamedTuple):
     covariance: FloatArray  # (3, 3) P
     work: FloatArray  # (4, 3, 3) scratch
+    gated: FloatArray  # (1,) measurements gated in a row
 
 
 @kernel
@@ -152,12 +215,14 @@ def ekf_step(
     measurement: FloatArray,
     params: EkfTuning,
     work: FloatArray,
-) -> None:
+    gate: float = math.inf,
+) -> bool:
     """Advance ``estimate`` and ``covariance`` (3x3) in place: x_{k|k} -> x_{k+1|k+1}.
 
     ``params.process_var``/``params.measurement_var`` are the diagonals of the
     process and measurement noise covariances; ``work`` is scratch of shape
-    (4, 3, 3).
+    (4, 3, 3). A measurement whose r^T S^-1 r exceeds ``gate`` is not used:
+    returns True then (the prediction alone), else False.
     """
     mask = params.mask
     measurement_var = params.measurement_var
@@ -203,14 +268,14 @@ def ekf_step(
         + r1 * (inv[1, 0] * r0 + inv[1, 1] * r1 + inv[1, 2] * r2)
         + r2 * (inv[2, 0] * r0 + inv[2, 1] * r1 + inv[2, 2] * r2)
     )
-    if distance2 > params.innovation_gate:
+    if distance2 > gate:
         estimate[0] = px
         estimate[1] = py
         estimate[2] = pth
         for i in range(3):
             for j in range(3):
                 p[i, j] = pp[i, j]
-        return
+        return True
     estimate[0] = px + k[0, 0] * r0 + k[0, 1] * r1 + k[0, 2] * r2
     estimate[1] = py + k[1, 0] * r0 + k[1, 1] * r1 + k[1, 2] * r2
     estimate[2] = pth + k[2, 0] * r0 + k[2, 1] * r1 + k[2, 2] * r2
@@ -234,6 +299,7 @@ def ekf_step(
             mean = 0.5 * (p[i, j] + p[j, i])
             p[i, j] = mean
             p[j, i] = mean
+    return False
 
 
 # --- the estimator as the loop runs it -----------------------------------------
@@ -253,7 +319,16 @@ def next_estimate(
     """x_{k|k} -> x_{k+1|k+1}; a sample without a measurement is the prediction
     alone. No iterations to count: 0."""
     if measured:
-        ekf_step(estimate, memory.covariance, v, omega, dt, measurement, tuning, memory.work)
+        # A lone outlier is gated; after MAX_REJECTED in a row the estimate,
+        # not the sensor, is off: every measurement is taken until one passes.
+        gated = memory.gated
+        gate = tuning.innovation_gate if gated[0] < MAX_REJECTED else math.inf
+        if ekf_step(
+            estimate, memory.covariance, v, omega, dt, measurement, tuning, memory.work, gate
+        ):
+            gated[0] += 1.0
+        elif gate < math.inf:
+            gated[0] = 0.0
     else:
         ekf_predict(estimate, memory.covariance, v, omega, dt, tuning, memory.work)
     return 0
@@ -285,7 +360,9 @@ def tuning_of(settings: Ekf, measurements: Measurements) -> EkfTuning:
 
 def new_memory(tuning: EkfTuning, initial_estimate: FloatArray) -> EkfMemory:
     return EkfMemory(
-        covariance=np.diag(tuning.initial_var).astype(np.float64), work=np.zeros((4, 3, 3))
+        covariance=np.diag(tuning.initial_var).astype(np.float64),
+        work=np.zeros((4, 3, 3)),
+        gated=np.zeros(1),
     )
 
 

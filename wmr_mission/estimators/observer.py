@@ -40,7 +40,7 @@ from pydantic_core import PydanticCustomError
 
 from wmr_mission.basics import STATES, FloatArray, StateName
 from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
-from wmr_mission.fields import Model, Number
+from wmr_mission.fields import Model, Number, Positive
 from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.model import jacobian_terms, step, wrap_angle
 
@@ -79,6 +79,29 @@ def default_bound(noise_std: float) -> float:
     return max(DEFAULT_BOUND, BOUND_NOISE_RATIO * noise_std)
 
 
+# The chi-square distribution's 1 - 1e-6 quantile for 1, 2 and 3 degrees of
+# freedom: the sensors' noise alone exceeds it once in a million samples, and a
+# robot's disturbances (delay, lag, slip: missions/controllers.yaml) rarely
+# add enough to it; the 0.999 quantile (16.27 for 3) gated them too
+# (docs/paper-notes.md, "Outliers gated").
+CHI_SQUARE_GATE = (23.93, 27.63, 30.66)
+# A gated measurement is a lone outlier; after this many in a row the estimate,
+# not the sensor, is taken to be off and every measurement is used again.
+MAX_REJECTED = 3
+
+
+def quiet_pole(noise_std: float, budget: float, pole: float) -> float:
+    """The position pole whose estimate's noise std is at most ``budget`` [m]
+    for white measurement noise ``noise_std``: a pole ``p`` passes
+    ``sqrt((1 - p) / (1 + p))`` of it, so ``p = (1 - rho) / (1 + rho)`` with
+    ``rho = (budget / noise_std)^2``; never faster than ``pole``. Rounded to 6
+    decimals, as the mission would write it."""
+    if not math.isfinite(budget) or noise_std <= 0.0:
+        return pole
+    rho = (budget / noise_std) ** 2
+    return max(pole, round((1.0 - rho) / (1.0 + rho), 6))
+
+
 class StatePoles(Model):
     """Eigenvalues of the observer error dynamics (I - L C) A, per state."""
 
@@ -96,9 +119,11 @@ class ConstrainedObserver(EstimatorSettings):
     poles: StatePoles = Field(
         default_factory=StatePoles,
         description=(
-            "Observer poles, phase I (eq. 7). With the heading unmeasured, its pole relaxes "
-            "towards 1 while the robot moves less per sample than sensors.noise_std of the "
-            "measured positions (docs/paper-notes.md, eq. 6-7)."
+            "Observer poles, phase I (eq. 7); default 0.9, and with noisy positions (no "
+            "robot.disturbances) x and y slow enough that the estimate's noise takes at most "
+            "1 % of the turn-rate limit through the tracking law. With the heading unmeasured, "
+            "its pole relaxes towards 1 while the robot moves less per sample than "
+            "sensors.noise_std of the measured positions (docs/paper-notes.md, eq. 6-7)."
         ),
     )
     output_error_bounds: dict[StateName, OutputErrorBound] | None = Field(
@@ -112,17 +137,44 @@ class ConstrainedObserver(EstimatorSettings):
     max_iterations: Annotated[int, Strict(), Field(ge=1, le=1000)] = Field(
         default=10, description="Phase II iterations per sample, 1..1000."
     )
+    innovation_gate: Positive | None = Field(
+        default=None,
+        description=(
+            "Reject a measurement whose squared innovation in noise std, sum (r_i / "
+            "sensors.noise_std_i)^2 over the noisy measured states, exceeds this (a lone "
+            "outlier: at most 3 in a row; then every measurement is taken until one is "
+            "within it). null = no gate. Default with noisy sensors: the chi-square 1 - 1e-6 "
+            "quantile for as many states (30.66 for 3)."
+        ),
+    )
 
-    def with_sensors(self, measured_noise: dict[str, float]) -> Self:
-        """Default output-error bounds cover the measured states only, each
-        wide enough that the state's noise alone rarely leaves it."""
-        if "output_error_bounds" in self.model_fields_set:
-            return self
-        bounds = {
-            state: (-default_bound(std), default_bound(std))
-            for state, std in measured_noise.items()
-        }
-        return self.model_copy(update={"output_error_bounds": bounds})
+    def with_sensors(
+        self, measured_noise: dict[str, float], position_budget: float = math.inf
+    ) -> Self:
+        """Defaults that follow the sensors: output-error bounds on the measured
+        states only, each wide enough that the state's noise alone rarely
+        leaves it; with noisy sensors, an innovation gate and position poles
+        that filter the position noise down to ``position_budget`` [m]
+        (docs/paper-notes.md, "Eqs. (6)-(7) under position noise")."""
+        update: dict[str, object] = {}
+        if "output_error_bounds" not in self.model_fields_set:
+            update["output_error_bounds"] = {
+                state: (-default_bound(std), default_bound(std))
+                for state, std in measured_noise.items()
+            }
+        noisy = sum(std > 0.0 for std in measured_noise.values())
+        if noisy and "innovation_gate" not in self.model_fields_set:
+            update["innovation_gate"] = CHI_SQUARE_GATE[noisy - 1]
+        if "poles" not in self.model_fields_set:
+            written = self.poles.model_dump()
+            poles = {
+                state: quiet_pole(measured_noise[state], position_budget, written[state])
+                for state in ("x", "y")
+                if measured_noise.get(state, 0.0) > 0.0
+            }
+            if poles:
+                update["poles"] = self.poles.model_copy(update=poles)
+        return self.model_copy(update=update) if update else self
 
 
 # --- the kernels ---------------------------------------------------------------
@@ -138,10 +190,22 @@ class ObserverTuning(NamedTuple):
     upper: FloatArray
     use_bounds: bool
     max_iterations: int
+    noise_std: FloatArray = np.zeros(3)  # [m, m, rad] of the sensors: the gate's scale
+    innovation_gate: float = math.inf  # largest accepted sum (r_i / noise_std_i)^2
 
 
 class ObserverMemory(NamedTuple):
     gain: FloatArray  # (3, 3) L of eq. (6), scratch
+    poles: FloatArray  # (3,) this sample's poles: the configured ones, ramped in
+    # [measurements taken, gated in a row] (floats: one array type for the loop)
+    counts: FloatArray
+
+
+# A position pole slower than this (the default) starts at it and slows as a
+# running mean does, 1 - 1 / (k + RAMP_START) at the k-th measurement, until it
+# reaches its own: the initial estimate's error goes as fast as by default.
+RAMP_POLE = 0.9
+RAMP_START = 1.0 / (1.0 - RAMP_POLE)
 
 
 # Below this |c| (metres moved per sample along the measured positions) the
@@ -227,17 +291,18 @@ def observer_step(
     measurement: FloatArray,
     params: ObserverTuning,
     gain: FloatArray,
+    poles: FloatArray,
 ) -> int:
     """Advance ``estimate`` (x_{k|k} -> x_{k+1|k+1}) in place with input u_k and
-    measurement xi_{k+1}; ``gain`` receives L. Returns the number of phase-II
-    iterations run."""
+    measurement xi_{k+1}; ``gain`` receives L for the eigenvalues ``poles``.
+    Returns the number of phase-II iterations run."""
     mask = params.mask
     # Read once: the writes to ``gain`` below could alias ``estimate`` for the
     # compiler, which would then read the heading again and recompute its sine.
     x, y, theta = estimate[0], estimate[1], estimate[2]
     # Phase I. eq. (7): A at the filtered estimate x_{k|k}.
     a13, a23, _, _, _, _ = jacobian_terms(theta, v, omega, dt)
-    observer_gain(a13, a23, mask, params.poles, params.motion_floor, gain)
+    observer_gain(a13, a23, mask, poles, params.motion_floor, gain)
     # eq. (5): prediction.
     px, py, pth = step(x, y, theta, v, omega, dt)
     # eq. (6): innovation of the measured outputs (heading residual wrapped).
@@ -316,10 +381,36 @@ def next_estimate(
     measured: bool,
 ) -> int:
     """x_{k|k} -> x_{k+1|k+1}: phases I and II with a measurement, the
-    prediction of eq. (5) alone without one."""
-    if measured:
-        return observer_step(estimate, v, omega, dt, measurement, tuning, memory.gain)
-    return observer_predict(estimate, v, omega, dt)
+    prediction of eq. (5) alone without one or with a gated one."""
+    if not measured:
+        return observer_predict(estimate, v, omega, dt)
+    counts = memory.counts
+    if tuning.innovation_gate < math.inf:  # noisy sensors only
+        # A lone outlier is dropped before it reaches the estimate (and, through
+        # phase II, drags it to within its bound of the outlier).
+        px, py, pth = step(estimate[0], estimate[1], estimate[2], v, omega, dt)
+        residual = (measurement[0] - px, measurement[1] - py, wrap_angle(measurement[2] - pth))
+        distance2 = 0.0
+        for i in range(3):
+            std = tuning.noise_std[i]
+            if tuning.mask[i] > 0.0 and std > 0.0:
+                distance2 += (residual[i] / std) ** 2
+        if distance2 <= tuning.innovation_gate:
+            counts[1] = 0.0
+        elif counts[1] < MAX_REJECTED:
+            counts[1] += 1.0
+            return observer_predict(estimate, v, omega, dt)
+    poles = tuning.poles
+    if poles[0] > RAMP_POLE or poles[1] > RAMP_POLE:  # noisy positions only
+        ramped = memory.poles
+        for i in range(3):
+            ramped[i] = poles[i]
+        for i in range(2):
+            if ramped[i] > RAMP_POLE:
+                ramped[i] = min(ramped[i], 1.0 - 1.0 / (counts[0] + RAMP_START))
+        counts[0] += 1.0
+        poles = ramped
+    return observer_step(estimate, v, omega, dt, measurement, tuning, memory.gain, poles)
 
 
 def tuning_of(settings: ConstrainedObserver, measurements: Measurements) -> ObserverTuning:
@@ -340,11 +431,19 @@ def tuning_of(settings: ConstrainedObserver, measurements: Measurements) -> Obse
         upper=upper,
         use_bounds=bool(settings.output_error_bounds),
         max_iterations=settings.max_iterations,
+        noise_std=measurements.noise_std * measurements.mask,
+        innovation_gate=(
+            math.inf if settings.innovation_gate is None else float(settings.innovation_gate)
+        ),
     )
 
 
 def new_memory(tuning: ObserverTuning, initial_estimate: FloatArray) -> ObserverMemory:
-    return ObserverMemory(gain=np.zeros((3, 3)))
+    # Gated in a row starts at the most: the initial estimate may be off, so
+    # every measurement is taken until one falls within the gate.
+    return ObserverMemory(
+        gain=np.zeros((3, 3)), poles=np.zeros(3), counts=np.array([0.0, MAX_REJECTED])
+    )
 
 
 def error_bounds(tuning: ObserverTuning) -> tuple[tuple[float, float], ...]:

@@ -35,6 +35,7 @@ from pydantic import Field
 from wmr_mission.basics import FloatArray
 from wmr_mission.estimators.registry import EstimatorSettings, EstimatorType, Measurements
 from wmr_mission.kernels.jit import inlined
+from wmr_mission.kernels.model import is_number
 from wmr_mission.plugins import Entry, Params, load_entry
 
 
@@ -94,6 +95,8 @@ def next_estimate(
         updated = memory.plugin.step(None, applied)
     if len(updated) != 3:
         raise ValueError("an estimator plug-in's step returns three numbers (x, y, theta)")
+    if not (is_number(updated[0]) and is_number(updated[1]) and is_number(updated[2])):
+        raise TypeError("an estimator plug-in's step returns three numbers (x, y, theta), not text")
     estimate[0] = float(updated[0])
     estimate[1] = float(updated[1])
     estimate[2] = float(updated[2])

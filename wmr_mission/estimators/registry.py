@@ -23,6 +23,7 @@ compiled into it; as plain Python, it runs as Python.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final, NamedTuple, Self
@@ -44,10 +45,13 @@ class EstimatorSettings(Model):
         description="Estimate at mission start [m, m, rad]; null = robot.initial_state.",
     )
 
-    def with_sensors(self, measured_noise: dict[str, float]) -> Self:
+    def with_sensors(
+        self, measured_noise: dict[str, float], position_budget: float = math.inf
+    ) -> Self:
         """These settings completed by what the sensors measure (the standard
-        deviation of each measured state's noise): defaults that follow the
-        sensors. As written by default."""
+        deviation of each measured state's noise) and by the controller's
+        ``position_budget`` [m] (ControllerSettings.position_noise_budget):
+        defaults that follow the sensors. As written by default."""
         return self
 
 

@@ -74,8 +74,8 @@ def _candidates() -> list[tuple[Path, bool]]:
     candidates = []
     configured = os.environ.get("NUMBA_CACHE_DIR")
     if configured:
-        # The choice of the process that started this one (a worker, the
-        # background compile) is taken as it is.
+        # The choice of the process that started this one (a sweep's
+        # worker) is taken as it is.
         chosen = Path(configured)
         candidates.append((chosen if chosen.name == name else chosen / "wmr_mission" / name, False))
     candidates.append((PACKAGE / "__pycache__" / name, False))

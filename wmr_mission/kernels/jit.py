@@ -17,8 +17,8 @@ loop is the same machine code as if every kernel had been an ``njit``
 function all along.
 
 When numba is missing, ``WMR_MISSION_NO_JIT=1`` is set, or the run chose plain
-Python (:func:`choose_plain_python`: the first runs after an install,
-wmr_mission.commands.background_compile), :func:`compiled` returns the plain
+Python (:func:`choose_plain_python`: a short mission's run,
+wmr_mission.commands.compile), :func:`compiled` returns the plain
 form instead: slower, the same equations, the same bytes. Compiled entry
 points are cached on disk where a directory can be written
 (wmr_mission.kernels.cache).
@@ -178,8 +178,38 @@ def _load() -> bool:
 
     _state.numba = numba
     _teach_ticks()
+    _set_up_target()
     _state.ready = True
     return True
+
+
+class _WithoutScipyLinalg:
+    """An import finder refusing ``scipy.linalg`` to the thread that sets up
+    numba's target: numba's array-math module imports scipy's BLAS as it
+    loads (to offer ``np.dot`` on BLAS), 0.13-0.15 s of a cached run, and no
+    kernel calls BLAS. A kernel that did would import it when compiled."""
+
+    def __init__(self) -> None:
+        self.thread = threading.get_ident()
+
+    def find_spec(self, name: str, path: Any = None, target: Any = None) -> None:
+        if name == "scipy.linalg" and threading.get_ident() == self.thread:
+            raise ImportError("scipy.linalg: not needed by the kernels")
+
+
+def _set_up_target() -> None:
+    """numba's target set-up (its registries of numpy functions), made once
+    here without scipy's linear algebra (:class:`_WithoutScipyLinalg`)."""
+    import sys
+
+    from numba.core.registry import cpu_target
+
+    finder = _WithoutScipyLinalg()
+    sys.meta_path.insert(0, finder)
+    try:
+        cpu_target.target_context.refresh()
+    finally:
+        sys.meta_path.remove(finder)
 
 
 def compiled(fn: F, *, counted: bool = True, cached: bool = True) -> F:

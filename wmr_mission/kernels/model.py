@@ -8,11 +8,12 @@ wrapped only where they are compared (:func:`wrap_angle`).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.kernels.jit import kernel
+from wmr_mission.kernels.jit import inlined, kernel
 
 
 @kernel
@@ -99,6 +100,26 @@ def saturate(
 
 
 @kernel
+def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
+    """[m/s or rad/s] The largest speed from which a rate limit ``acceleration``
+    still stops the robot within ``distance``, one sample at a time: the speeds
+    v, v - a dt, ..., a dt cover ``v^2 / (2 a) + v dt / 2`` (inf without a limit)."""
+    if acceleration == math.inf:
+        return math.inf
+    half_step = 0.5 * acceleration * dt
+    return math.sqrt(half_step * half_step + 2.0 * acceleration * distance) - half_step
+
+
+@kernel
+def braking_distance(v: float, acceleration: float, dt: float) -> float:
+    """[m] Signed distance covered after the next sample while braking from
+    ``v`` at ``acceleration`` (the speeds v - a dt, v - 2 a dt, ..., the
+    sample's own v dt not counted: about v^2 / (2 a))."""
+    distance = max(0.5 * v * v / acceleration - 0.5 * abs(v) * dt, 0.0)
+    return math.copysign(distance, v)
+
+
+@kernel
 def input_jacobian_into(theta: float, v: float, omega: float, dt: float, b: FloatArray) -> None:
     _, _, b11, b12, b21, b22 = jacobian_terms(theta, v, omega, dt)
     b[0, 0] = b11
@@ -129,3 +150,10 @@ def input_jacobian(state: FloatArray, u: FloatArray, dt: float) -> FloatArray:
     """B = df/du at (state, u), eq. (16)."""
     _, _, b11, b12, b21, b22 = jacobian_terms(state[2], u[0], u[1], dt)
     return np.array([[b11, b12], [b21, b22], [0.0, dt]])
+
+
+@inlined
+def is_number(value: Any) -> bool:
+    """Whether a value a plug-in's step returned is a number: text is not,
+    though ``float("1")`` would read it."""
+    return not isinstance(value, (str, bytes))

@@ -26,13 +26,15 @@ import hashlib
 import json
 import math
 import platform
+import re
 import struct
 import sys
 from collections.abc import Mapping
 from importlib import metadata
-from typing import Any
+from typing import Any, Final
 
 __all__ = [
+    "FINGERPRINT_FORM",
     "differences",
     "environment",
     "fingerprint",
@@ -100,6 +102,10 @@ def numba_cpu() -> str | None:
     from numba.core import config
 
     return str(getattr(config, "CPU_NAME", None) or binding.get_host_cpu_name())
+
+
+# What :func:`fingerprint` gives: 8 lowercase hex digits.
+FINGERPRINT_FORM: Final = re.compile(r"[0-9a-f]{8}")
 
 
 def fingerprint(versions: Mapping[str, str | None], libc: str, libm: str) -> str:

@@ -119,6 +119,8 @@ XY_WIDTH, XY_LEFT, XY_AXES_WIDTH = 11.5, 0.8, 7.7
 LEGEND_COLUMN_WIDTH = 2.8
 # Phases the xy legend names; the others are counted in its last entry.
 MAX_LEGEND_PHASES = 2 * LEGEND_ROWS
+# Heading arrows along the path of the xy figure (evenly by distance), and one at its end.
+HEADING_ARROWS = 16
 # Phase boundaries drawn over time: about one per pixel of a figure's width.
 MAX_PHASE_LINES = 1000
 # Places of phase changes numbered on the xy figure, evenly chosen when there are more.
@@ -261,12 +263,16 @@ def _clip_half_plane(
 
 
 def region_sides(result: RunResult) -> dict[str, str]:
-    """Per constrained region, the side the robot keeps to: ``inside`` or
-    ``outside`` (``both`` when phases differ)."""
+    """Per constrained region (by a phase or by the geofence), the side the
+    robot keeps to: ``inside`` or ``outside`` (``both`` when they differ)."""
     sides: dict[str, str] = {}
+    fence = (result.mission or {}).get("geofence") or {}
+    kept = [(name, "inside") for name in fence.get("keep_in", ())]
+    kept += [(name, "outside") for name in fence.get("keep_out", ())]
     for info in result.phases:
-        for name, side in info.constraints:
-            sides[name] = side if sides.get(name, side) == side else "both"
+        kept += list(info.constraints)
+    for name, side in kept:
+        sides[name] = side if sides.get(name, side) == side else "both"
     return sides
 
 
@@ -428,17 +434,25 @@ def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
 
 
 def _phase_handles(result: RunResult, colors: list[Any]) -> list[Any]:
-    """One legend entry per phase that ran, numbered as on the figure."""
+    """One legend entry per phase, numbered as on the figure (those that did
+    not run say so)."""
     from matplotlib.lines import Line2D
 
-    ran = [int(i) for i in np.unique(result.phase)] if result.samples else []
-    shown = ran if len(ran) <= MAX_LEGEND_PHASES else ran[: MAX_LEGEND_PHASES - 1]
+    ran = set(np.unique(result.phase).tolist()) if result.samples else set()
+    every = range(len(result.phases))
+    shown = every if len(every) <= MAX_LEGEND_PHASES else every[: MAX_LEGEND_PHASES - 1]
     handles = [
         Line2D([], [], color=colors[i], linewidth=2.2, label=f"{i + 1} {result.phases[i].name}")
+        if i in ran
+        # listed all the same, so that the numbers run on: 1, 2, 3, 4 (did not run), 5
+        else Line2D(
+            [], [], linestyle="none", label=f"{i + 1} {result.phases[i].name} (did not run)"
+        )
         for i in shown
     ]
-    if len(shown) < len(ran):
-        more = f"... {len(ran) - len(shown)} more, to {ran[-1] + 1} {result.phases[ran[-1]].name}"
+    if len(shown) < len(every):
+        last = len(every)
+        more = f"... {last - len(shown)} more, to {last} {result.phases[-1].name}"
         handles.append(Line2D([], [], linestyle="none", label=more))
     return handles
 
@@ -625,6 +639,45 @@ def _draw_reactions(ax: Axes, result: RunResult) -> None:
         )
 
 
+def _draw_headings(ax: Axes, result: RunResult, size: float) -> None:
+    """The robot's heading as arrows, evenly along the path by distance and at
+    its end: an arrow against the direction of travel is the robot reversing
+    (a reverse-in dock), an arrow turning on the spot a turn in place."""
+    kept = np.flatnonzero(np.isfinite(result.x) & np.isfinite(result.y) & np.isfinite(result.theta))
+    if kept.size == 0:
+        return  # a run diverged from its first sample
+    x, y, theta = result.x[kept], result.y[kept], result.theta[kept]
+    with np.errstate(all="ignore"):  # a diverging tail: its steps count for nothing
+        steps = np.hypot(np.diff(x), np.diff(y))
+    steps[~np.isfinite(steps)] = 0.0
+    travelled = np.concatenate(([0.0], np.cumsum(steps)))
+    stations = np.linspace(0.0, float(travelled[-1]), HEADING_ARROWS)
+    at = np.unique(np.append(np.searchsorted(travelled, stations), x.size - 1).clip(0, x.size - 1))
+    length = 0.035 * size
+    ax.quiver(
+        x[at],
+        y[at],
+        np.cos(theta[at]) * length,
+        np.sin(theta[at]) * length,
+        angles="xy",
+        scale_units="xy",
+        scale=1.0,
+        width=0.004,
+        color="0.15",
+        zorder=5,
+    )
+    # A quiver has no legend entry of its own: a stand-in with the arrow's look.
+    ax.plot(
+        [],
+        [],
+        marker=r"$\rightarrow$",
+        markersize=10,
+        color="0.15",
+        linestyle="none",
+        label="heading",
+    )
+
+
 def _draw_ends(ax: Axes, result: RunResult) -> None:
     ax.plot(
         result.x[0],
@@ -649,18 +702,26 @@ def _draw_ends(ax: Axes, result: RunResult) -> None:
     )
 
 
-def _xy_on(ax: Axes, result: RunResult) -> int:
-    """Draw the path in the plane on ``ax``; return the legend's columns."""
-    colors = phase_colors(result)
+def _xy_on(ax: Axes, result: RunResult, label: str | None = None, color: Any = None) -> int:
+    """Draw the path in the plane on ``ax`` (over a run drawn there before, if
+    any); return the legend's columns."""
+    overlay = ax.has_data()
+    colors = phase_colors(result) if color is None else [color] * len(result.phases)
     view = view_box(result)
+    if overlay:  # the view holds the runs drawn before
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        view = (min(view[0], x0), max(view[1], x1), min(view[2], y0), max(view[3], y1))
     size = max(view[1] - view[0], view[3] - view[2])
     draw_regions(ax, result.regions, view, region_sides(result))
     if result.samples:
         _draw_path(ax, result, colors)
+        _draw_headings(ax, result, size)
         _draw_changes(ax, result, size)
         _draw_reactions(ax, result)
         _draw_ends(ax, result)
     _draw_goals(ax, result, size)
+    if label is not None:  # an artist, so that a later overlay's legend keeps it
+        ax.plot([], [], color=colors[0] if colors else "black", linewidth=2.2, label=label)
     ax.set_xlim(view[0], view[1])
     ax.set_ylim(view[2], view[3])
     ax.set_aspect("equal", adjustable="box")
@@ -668,13 +729,16 @@ def _xy_on(ax: Axes, result: RunResult) -> int:
     ax.set_ylabel("y [m]")
     ax.set_title(f"{result.mission_name}: path in the plane ({result.outcome.value})")
     ax.grid(True, linewidth=0.4, alpha=0.5)
-    phases = _phase_handles(result, colors)
+    # One colour per run (color=...) tells runs apart, not phases.
+    phases = _phase_handles(result, colors) if color is None else []
     others, labels = ax.get_legend_handles_labels()
-    handles = [*phases, *others]
+    # Each thing once: overlaid runs each draw a start, an end, regions...
+    unique = dict(zip(labels, others, strict=True))
+    handles = [*phases, *unique.values()]
     columns = math.ceil(len(handles) / LEGEND_ROWS)
     ax.legend(
         handles=handles,
-        labels=[h.get_label() for h in phases] + labels,
+        labels=[h.get_label() for h in phases] + list(unique),
         loc="upper left",
         bbox_to_anchor=(1.01, 1.0),
         fontsize=8,
@@ -688,14 +752,19 @@ def _xy_on(ax: Axes, result: RunResult) -> int:
     return columns
 
 
-def plot_xy(result: RunResult, ax: Axes | None = None) -> Axes:
+def plot_xy(
+    result: RunResult, ax: Axes | None = None, *, label: str | None = None, color: Any = None
+) -> Axes:
     """The path in the plane, coloured by phase, over the regions (the paper's Fig. 2, 3).
 
-    Draws on ``ax``, or on a new pyplot figure; returns the axes.
+    Draws on ``ax``, or on a new pyplot figure; returns the axes. To overlay
+    runs on one axes, call it once per run: ``color`` draws this run's path in
+    one colour (default: a colour per phase), ``label`` names it in the legend;
+    the legend says each thing once and the view holds every run.
     """
     if ax is None:
         ax = _pyplot_figure((9, 6.5)).add_subplot()
-    _xy_on(ax, result)
+    _xy_on(ax, result, label=label, color=color)
     return ax
 
 

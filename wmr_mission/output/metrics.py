@@ -28,8 +28,10 @@ from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
 from wmr_mission.output import inputs as input_metrics
+from wmr_mission.output.advice import advice
 from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.numbers import MissionNumbers, mission_numbers
+from wmr_mission.output.regulation import overshoot as target_overshoot
 from wmr_mission.output.regulation import stall_time
 from wmr_mission.output.tracking import track_quality
 from wmr_mission.output.zones import intrusion_max, zones_of
@@ -75,6 +77,7 @@ PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "detour_time": ("tracking", "detour_time"),
     "zone_intrusion_max": ("constraint", "intrusion_max"),
     "stall_time": ("regulation", "stall_time"),
+    "overshoot_max": ("regulation", "overshoot_max"),
     "speed_jump_max": ("inputs", "speed_jump_max"),
     "turn_rate_jump_max": ("inputs", "turn_rate_jump_max"),
     "speed_reversals": ("inputs", "speed_reversals"),
@@ -97,6 +100,7 @@ _WHERE_MEASURED = frozenset(
         "detour_time",
         "zone_intrusion_max",
         "stall_time",
+        "overshoot_max",
         "speed_jump_max",
         "turn_rate_jump_max",
         "speed_reversals",
@@ -438,19 +442,45 @@ class _PhaseSamples:
         )
 
     @cached_value
-    def stall(self) -> float | None:
-        """Time away from its goal without progress (regulate phases)."""
-        if self.info.kind != "regulate" or self.info.target is None:
-            return None
-        r, w, numbers = self.result, self.window, self.numbers
-        goal = self.goals.get(
+    def goal(self) -> tuple[float, float]:
+        """Position and heading tolerance of the phase's goal (see :func:`_goals`)."""
+        numbers = self.numbers
+        return self.goals.get(
             _written_name(self.info.name),
             (
                 numbers.tracking_tolerance,
                 numbers.convergence_tolerance["theta"] + numbers.heading_noise,
             ),
         )
-        return stall_time(r.x[w], r.y[w], r.theta[w], self.info.target, goal, numbers, self.zones)
+
+    @cached_value
+    def stall(self) -> float | None:
+        """Time away from its goal without progress (regulate phases)."""
+        if self.info.kind != "regulate" or self.info.target is None:
+            return None
+        r, w, numbers = self.result, self.window, self.numbers
+        target = self.info.target
+        return stall_time(r.x[w], r.y[w], r.theta[w], target, self.goal, numbers, self.zones)
+
+    @cached_value
+    def overshoot(self) -> float | None:
+        """How far past its target the robot went (regulate phases)."""
+        if self.info.kind != "regulate" or self.info.target is None:
+            return None
+        w = self.window
+        x, y = self.result.x[w], self.result.y[w]
+        return target_overshoot(x, y, self.info.target, self.goal[0])
+
+    @cached_value
+    def regulation(self) -> dict[str, Any] | None:
+        """A regulate phase's progress to its target, with what the `auto` bound reads."""
+        if self.info.kind != "regulate":
+            return None
+        return {
+            "stall_time": self.stall,
+            "overshoot_max": self.overshoot,
+            "goal_position": self.goal[0] if self.info.target is not None else None,
+        }
 
     @cached_value
     def intrusion(self) -> float | None:
@@ -492,6 +522,7 @@ _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
     },
     "zone_intrusion_max": lambda p: p.intrusion,
     "stall_time": lambda p: p.stall,
+    "overshoot_max": lambda p: p.overshoot,
     **{key: _input_value(key) for key in _INPUT_METRICS},
     "speed_at_limit": lambda p: at_limit_fraction(p.v[p.settled], p.result.limits[0]),
     "turn_rate_at_limit": lambda p: at_limit_fraction(p.omega[p.settled], p.result.limits[1]),
@@ -526,6 +557,8 @@ def _checked_phase_summary(
     values: dict[str, Any] = _measured(phase, checked)
     if "tracking" in values:  # with what the `auto` thresholds read
         values["tracking"] = phase.tracking
+    if "regulation" in values:
+        values["regulation"] = phase.regulation
     return summary | values
 
 
@@ -576,7 +609,7 @@ def _phase_summary(
         "tracking_error": tracking,
         "tracking": phase.tracking,
         "target_error": target_error,
-        "regulation": quality["regulation"] if info.kind == "regulate" else None,
+        "regulation": phase.regulation,
         "constraint": {
             "max_violation": _violation(constraint),
             # the largest row value itself: negative = the closest approach
@@ -838,9 +871,13 @@ def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumber
         speed = tracking.get("reference_speed_max")
         if speed is None:
             return None
+        # the time to accelerate to the reference's speed is the entry's
+        # (MissionNumbers.recovery_time), not a lag kept for the whole phase
         return tolerance + LAG_TIME_CONSTANTS * numbers.time_constant * float(speed)
     if metric == "detour_offset_max":
         return (tracking.get("zone_reach") or 0.0) + numbers.look_ahead + tolerance
+    if metric == "overshoot_max":
+        return (phase.get("regulation") or {}).get("goal_position")
     if metric == "speed_jump_max":
         return numbers.v_limit
     if metric == "turn_rate_jump_max":
@@ -906,9 +943,15 @@ def check_expectations(
         and (metric not in REALTIME_EXPECTATIONS or "realtime" in summary)
     ]
     per_phase = phase_expectations(mission)
+    controller = str(((mission or {}).get("controller") or {}).get("type", "paper"))
     for phase in summary.get("phases") or []:
         thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
-        checks.extend(_phase_checks(phase, thresholds, numbers))
+        found = _phase_checks(phase, thresholds, numbers)
+        for check in found if phase.get("kind") == "track" else ():
+            line = advice(check, phase, numbers, controller)  # the tracking law's
+            if line is not None:
+                check["advice"] = line
+        checks.extend(found)
     return checks
 
 

@@ -36,6 +36,10 @@ class MissionNumbers:
     look_ahead: float  # [m] of the tracked point ahead of the axle; 0 for the axle law
     noise: Mapping[str, float]  # std of each measured state [m, m, rad]; 0 if not measured
     convergence_tolerance: Mapping[str, float]  # expect.convergence_tolerance
+    # [m/s^2] the tighter of limits.acceleration.v and limits.v_rate (inf: none)
+    v_acceleration: float = math.inf
+    # [rad/s^2] the tighter of limits.acceleration.omega and limits.omega_rate (inf: none)
+    omega_acceleration: float = math.inf
 
     @property
     def position_noise(self) -> float:
@@ -53,11 +57,35 @@ class MissionNumbers:
 
     def recovery_time(self, error: float, reference_speed: float) -> float:
         """[s] the least time the limits need to take out a position error while the
-        reference moves on: turn round (at most half a turn at the turn-rate limit),
-        close the gap at the speed the limit leaves over the reference's (a tenth of
-        the limit at least), and settle (five time constants)."""
+        reference moves on: turn round (at most half a turn, under the turn-rate
+        limit and its acceleration limit), accelerate to the reference's speed,
+        close the gap and what the reference gained in the time the acceleration
+        limits add at the speed the limit leaves over the reference's (a tenth of
+        the limit at least), and settle (five time constants). Without acceleration
+        limits the turn is pi / omega_limit and nothing more is lost."""
         closing = max(self.v_limit - reference_speed, LEAST_CLOSING * self.v_limit)
-        return error / closing + math.pi / self.omega_limit + SETTLING * self.time_constant
+        turn = half_turn_time(self.omega_limit, self.omega_acceleration)
+        # What the reference gains meanwhile: while the turn takes longer than at the
+        # rate limit, and while the robot accelerates from rest to its speed (half
+        # that time's distance).
+        lost = reference_speed * (
+            (turn - math.pi / self.omega_limit) + reference_speed / (2.0 * self.v_acceleration)
+        )
+        return (
+            (error + lost) / closing
+            + turn
+            + reference_speed / self.v_acceleration
+            + SETTLING * self.time_constant
+        )
+
+
+def half_turn_time(rate: float, acceleration: float) -> float:
+    """[s] the least time to turn half a turn from rest at turn rates up to ``rate``
+    and a turn-rate acceleration ``acceleration`` (inf: none): up to the rate,
+    across at it, and down again, or up and down if the rate is not reached."""
+    if math.pi * acceleration < rate * rate:  # the rate is not reached
+        return 2.0 * math.sqrt(math.pi / acceleration)
+    return math.pi / rate + rate / acceleration
 
 
 def _get(mapping: Any, *keys: str) -> Any:
@@ -66,6 +94,15 @@ def _get(mapping: Any, *keys: str) -> Any:
             return None
         mapping = mapping.get(key)
     return mapping
+
+
+def _acceleration(mission: Mapping[str, Any] | None, state: str) -> float:
+    """[m/s^2 or rad/s^2] the tighter of limits.acceleration.STATE and limits.STATE_rate."""
+    rates = [
+        _get(mission, "robot", "limits", "acceleration", state),
+        _get(mission, "robot", "limits", f"{state}_rate"),
+    ]
+    return min([float(rate) for rate in rates if rate is not None], default=math.inf)
 
 
 def mission_numbers(
@@ -97,4 +134,6 @@ def mission_numbers(
         convergence_tolerance={
             s: float(tolerance.get(s) or models.DEFAULT_CONVERGENCE_TOLERANCE) for s in STATES
         },
+        v_acceleration=_acceleration(mission, "v"),
+        omega_acceleration=_acceleration(mission, "omega"),
     )

@@ -35,7 +35,8 @@ class Steps:
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-        console = Console(file=stream, highlight=False)
+        # The stream itself: the command line's shows control codes escaped (wmr_mission.cli).
+        console = Console(file=getattr(stream, "raw", stream), highlight=False)
         console.width = min(console.width, WIDTH)
         self._progress = Progress(
             TextColumn("{task.description}", markup=False),

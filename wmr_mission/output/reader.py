@@ -31,6 +31,7 @@ from wmr_mission.output.rundir import (
     TRANSITIONS_FILE,
 )
 from wmr_mission.spec.models import MISSION_NAME, is_color
+from wmr_mission.terminal import shown
 
 # Run directories written before the measurement was recorded: still readable.
 MEASUREMENT_COLUMNS = ("x_meas", "y_meas", "theta_meas")
@@ -105,7 +106,7 @@ def _choice(record: Any, key: str, choices: Sequence[str], where: str) -> str:
 
 
 def _shown(value: str) -> str:
-    return repr(value if len(value) <= 40 else value[:37] + "...")
+    return shown(repr(value), 40)
 
 
 def _regions_from(run: Any) -> dict[str, Any]:

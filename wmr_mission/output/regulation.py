@@ -64,3 +64,22 @@ def stall_time(
         turn_start, numbers.omega_limit * window * dt
     )
     return float(np.count_nonzero(away & ~closer & ~turned)) * dt
+
+
+def overshoot(
+    x: FloatArray, y: FloatArray, target: tuple[float, float, float], goal: float
+) -> float | None:
+    """[m] How far the robot went past its target: the largest distance beyond
+    the target along the way from where the phase started to it (0 if never);
+    None for a phase that starts within ``goal`` [m] of its target (it has no
+    way in) or after a divergence. A regulator that plans its deceleration
+    stops within its goal."""
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        return None
+    tx, ty = target[0], target[1]
+    way_x, way_y = tx - float(x[0]), ty - float(y[0])
+    length = math.hypot(way_x, way_y)
+    if length <= goal:
+        return None
+    beyond = ((x - tx) * way_x + (y - ty) * way_y) / length
+    return max(float(beyond.max()), 0.0)

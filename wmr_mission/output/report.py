@@ -16,6 +16,8 @@ if TYPE_CHECKING:
     from wmr_mission.output.result import RunResult
 
 WIDTH = 100
+# Widest the verdict column grows, so that the key metrics keep their lines.
+VERDICT_WIDTH = 21
 # (header, right-aligned): numbers right-aligned.
 _COLUMNS = (
     ("phase", False),
@@ -84,13 +86,27 @@ def _convergence(phase: dict[str, Any]) -> str:
     return "never" if time is None else f"{time:.2f} s"
 
 
-def _verdict(phase: dict[str, Any], checks: list[dict[str, Any]]) -> str:
-    """'ok', 'NOT MET' (the failure's message says which threshold), or '-'
-    for a phase without thresholds."""
-    mine = [c for c in checks if c.get("phase") == phase["name"]]
-    if any(not c["met"] for c in mine):
-        return "NOT MET"
-    return "ok" if mine else "-"
+def _verdicts(checks: list[dict[str, Any]]) -> dict[Any, str]:
+    """Each phase's verdict by its name: 'ok'; 'NOT MET' and, a line each, every
+    threshold missed with the phase's value (``speed_jump_max 2.33 (max 2)``); a
+    phase without thresholds has none ('-'). One pass over the checks, not one
+    per phase: a run of 15,000 phases took minutes."""
+    mine: dict[Any, list[dict[str, Any]]] = {}
+    for check in checks:
+        name = check.get("phase")
+        if name is not None:
+            mine.setdefault(name, []).append(check)
+    verdicts: dict[Any, str] = {}
+    for name, own in mine.items():
+        missed = [c for c in own if not c["met"]]
+        verdicts[name] = "\n".join(["NOT MET", *(_missed(c) for c in missed)]) if missed else "ok"
+    return verdicts
+
+
+def _missed(check: dict[str, Any]) -> str:
+    value = "none" if check.get("value") is None else f"{check['value']:.3g}"
+    bound = f"max {check['max']:g}" if check.get("max") is not None else f"min {check['min']:g}"
+    return f"{check['metric']}\n{value} ({bound})"
 
 
 def _aim(final: dict[str, Any], phases: list[dict[str, Any]]) -> str:
@@ -135,7 +151,14 @@ def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: i
         header_style=None,
     )
     for header, right in _COLUMNS:
-        table.add_column(header, justify="right" if right else "left", overflow="fold")
+        table.add_column(
+            header,
+            justify="right" if right else "left",
+            overflow="fold",
+            # a missed threshold's name on a line, its value and bound on the next
+            max_width=VERDICT_WIDTH if header == "verdict" else None,
+        )
+    verdicts = _verdicts(checks)
     for phase in summary.get("phases", []):
         table.add_row(
             str(phase["name"]),
@@ -144,7 +167,7 @@ def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: i
             key_metric(phase),
             _at_limit(phase),
             _convergence(phase),
-            _verdict(phase, checks),
+            verdicts.get(phase["name"], "-"),
         )
     # Plain text: no colours, no markup read in names.
     console = Console(
@@ -189,6 +212,8 @@ def format_table(
         "estimation converged from: " + ("never" if converged is None else f"t = {converged:.2f} s")
     )
     outcome = summary.get("outcome")
+    # What to try, where a known mechanism explains a miss (output/advice.py).
+    lines += [f"try: {check['advice']}" for check in checks if check.get("advice")]
     for check in checks:
         if check["met"] and check.get("phase") is not None:
             continue  # the verdict column says it

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -45,6 +46,17 @@ class Transition:
     # "then: resume"), and why, in words; None where the phases just ran in order.
     reaction: str | None = None
     why: str | None = None
+
+    def fields(self) -> dict[str, Any]:
+        """Its fields as the exports write them (a value that is not finite: None)."""
+        return {
+            "time": self.time,
+            "from": self.from_phase,
+            "to": self.to_phase,
+            "condition": self.condition,
+            "value": self.value if math.isfinite(self.value) else None,
+            "lap": self.lap,
+        }
 
 
 @dataclass(frozen=True)

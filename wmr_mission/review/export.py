@@ -1,7 +1,9 @@
-"""``wmr-mission export DIR --format mcap|parquet``: the data in the formats robotics
-and data tools read (``pip install 'wmr-mission[export]'``).
+"""``wmr-mission export DIR --format mcap|mcap-json|parquet``: the data in the formats
+robotics and data tools read (``pip install 'wmr-mission[export]'``).
 
-MCAP (a run directory; Foxglove opens it): JSON messages whose schemas
+``mcap`` (a run directory): ROS 2 messages in CDR, ``review/ros2_messages.py``.
+
+``mcap-json`` (a run directory; Foxglove opens it): JSON messages whose schemas
 Foxglove knows by name, log time ``round(t * 1e9)`` ns from the samples' ``t``,
 frame ``world``:
 
@@ -39,15 +41,15 @@ from typing import IO, TYPE_CHECKING, Any, Final
 
 import numpy as np
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError
 from wmr_mission.output.rundir import (
     CSV_COLUMNS,
-    MANIFEST_FILE,
     SUMMARY_FILE,
     TRAJECTORY_FILE,
-    TRANSITIONS_FILE,
 )
+from wmr_mission.review.ros2_messages import STAMP_LIMIT, write_ros2_mcap
 
 if TYPE_CHECKING:
     from wmr_mission.campaign.reader import CampaignDir
@@ -59,6 +61,7 @@ EXTRA: Final = "pip install 'wmr-mission[export]'"
 FRAME: Final = "world"
 DEFAULT_NAMES: Final = {
     ("run", "mcap"): "run.mcap",
+    ("run", "mcap-json"): "run.json.mcap",
     ("run", "parquet"): "trajectory.parquet",
     ("campaign", "parquet"): "runs.parquet",
 }
@@ -68,11 +71,19 @@ class MissingExtra(Exception):
     """The export's optional package is not installed; one line saying what to install."""
 
 
-def _require(module: str, fmt: str) -> ModuleType:
+# The module each format needs, and the package that installs it.
+_NEEDS: Final = {
+    "mcap": ("mcap.writer", "mcap"),
+    "mcap-json": ("mcap.writer", "mcap"),
+    "parquet": ("pyarrow.parquet", "pyarrow"),
+}
+
+
+def _require(fmt: str) -> ModuleType:
+    module, package = _NEEDS[fmt]
     try:
         return importlib.import_module(module)
     except ImportError:
-        package = module.split(".")[0]
         raise MissingExtra(f"--format {fmt} needs the {package} package: {EXTRA}") from None
 
 
@@ -369,17 +380,7 @@ def write_mcap(result: RunResult, summary: Any, stream: IO[bytes]) -> None:
         (
             (
                 nanoseconds(change.time),
-                json.dumps(
-                    {
-                        "time": change.time,
-                        "from": change.from_phase,
-                        "to": change.to_phase,
-                        "condition": change.condition,
-                        "value": change.value if math.isfinite(change.value) else None,
-                        "lap": change.lap,
-                    },
-                    allow_nan=False,
-                ).encode(),
+                json.dumps(change.fields(), allow_nan=False).encode(),
             )
             for change in r.transitions
         ),
@@ -461,23 +462,12 @@ def write_run_parquet(result: RunResult, columns: list[str], path: Path) -> None
 # --- the command --------------------------------------------------------------
 
 
-def _sources(directory: Path, campaign: bool) -> list[Path]:
-    from wmr_mission.campaign.sweep import CAMPAIGN_FILE, RUNS_FILE
-
-    names = (
-        (RUNS_FILE, CAMPAIGN_FILE, MANIFEST_FILE)
-        if campaign
-        else (TRAJECTORY_FILE, SUMMARY_FILE, TRANSITIONS_FILE, MANIFEST_FILE)
-    )
-    return [directory / name for name in names]
-
-
 def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]:
     """Read and check DIR, and return what writes the export to a path."""
     if campaign:
         from wmr_mission.campaign.reader import load_campaign_dir
 
-        _require("pyarrow.parquet", fmt)
+        _require(fmt)
         table = campaign_table(load_campaign_dir(directory))
 
         def write_campaign(path: Path) -> None:
@@ -489,23 +479,41 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
 
     from wmr_mission.output.reader import load_run
 
-    if fmt == "mcap":
-        _require("mcap.writer", fmt)
-    else:
-        _require("pyarrow.parquet", fmt)
+    _require(fmt)
     result = load_run(directory)
-    if result.samples and float(result.t[0]) < 0:
-        raise RunDirError(f"{TRAJECTORY_FILE}:2: t is negative: not an MCAP log time")
-    if fmt == "mcap":
+    if fmt in ("mcap", "mcap-json"):
+        _check_log_times(result.t, fmt)
         summary = json.loads((directory / SUMMARY_FILE).read_text(encoding="utf-8"))
+        write = write_ros2_mcap if fmt == "mcap" else write_mcap
 
         def write_run_mcap(path: Path) -> None:
             with path.open("wb") as stream:
-                write_mcap(result, summary, stream)
+                write(result, summary, stream)
 
         return write_run_mcap
     columns = _csv_header(directory / TRAJECTORY_FILE)
     return lambda path: write_run_parquet(result, columns, path)
+
+
+# [s] MCAP log times are unsigned 64-bit nanoseconds (nanoseconds()); a ROS 2
+# stamp holds its seconds in an int32 (builtin_interfaces/Time).
+LAST_LOG_TIME = (2**64 - 1) / 1e9
+
+
+def _check_log_times(t: FloatArray, fmt: str) -> None:
+    """Every t a log time of the format, else the first that is not, at its line."""
+    last = STAMP_LIMIT if fmt == "mcap" else LAST_LOG_TIME
+    with np.errstate(invalid="ignore"):
+        wrong = np.flatnonzero(~((t >= 0.0) & (t < last)))  # NaN too
+    if wrong.size:
+        row = int(wrong[0])
+        what = (
+            f"a ROS 2 stamp (0 to {STAMP_LIMIT} s); --format mcap-json takes up to "
+            f"{LAST_LOG_TIME:.4g} s"
+            if fmt == "mcap"
+            else f"an MCAP log time (0 to {LAST_LOG_TIME:.4g} s)"
+        )
+        raise RunDirError(f"{TRAJECTORY_FILE}:{row + 2}: t = {float(t[row]):g} s is not {what}")
 
 
 def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
@@ -513,8 +521,10 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
 
     Exit code: 0 written; 1 the directory's files are damaged (as ``plot``);
     2 a usage error: not a run or campaign directory, MCAP asked of a campaign,
-    the extra not installed, or the file cannot be written."""
+    the extra not installed, PATH a file of a run's or campaign's record, or the
+    file cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
+    from wmr_mission.review.record import record_file_refusal
 
     campaign = is_campaign_dir(directory)
     if not campaign and not (directory / TRAJECTORY_FILE).is_file():
@@ -533,8 +543,9 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
         )
         return 2
     target = out if out is not None else directory / DEFAULT_NAMES[kind, fmt]
-    if any(target.resolve() == source.resolve() for source in _sources(directory, campaign)):
-        print(f"{target}: is a file being exported; choose another --out", file=sys.stderr)
+    refusal = record_file_refusal(target)
+    if refusal is not None:
+        print(refusal, file=sys.stderr)
         return 2
     try:
         write = _writer(directory, fmt, campaign)

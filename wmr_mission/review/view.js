@@ -623,7 +623,7 @@
         meta.planned_runs !== null && meta.planned_runs !== undefined && meta.planned_runs !== meta.runs
           ? ` · ${meta.planned_runs} planned` : ""),
       el("p", { class: "sub", text: "outcomes: " + Object.entries(meta.outcomes).map(([k, v]) => `${k} ${v}`).join(" · ") +
-        (finite(meta.missions_per_second) ? ` · ${fmt(meta.missions_per_second)} missions/s over ${fmt(meta.wall_seconds)} s` : "") }),
+        (finite(meta.missions_per_second) ? ` · ${fmt(meta.wall_seconds)} s of runs, ${fmt(meta.missions_per_second)} runs per second of simulating` : "") }),
     );
     if (meta.expectations.length) {
       root.append(table(["expectation", "min", "value", "verdict"], meta.expectations.map((e) =>

@@ -530,8 +530,10 @@ def view_command(directory: Path, out: Path | None = None) -> int:
     """``wmr-mission view DIR [--out FILE.html]``: write the report, print its path.
 
     Exit code: 0 written; 1 the directory's files are damaged (as ``plot``);
-    2 not a run or campaign directory, or the page cannot be written."""
+    2 not a run or campaign directory, FILE a file of a run's or campaign's
+    record, or the page cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
+    from wmr_mission.review.record import record_file_refusal
 
     target = out if out is not None else directory / REPORT_FILE
     campaign = is_campaign_dir(directory)
@@ -541,6 +543,10 @@ def view_command(directory: Path, out: Path | None = None) -> int:
             "nor a campaign directory (no runs.csv, campaign.json)",
             file=sys.stderr,
         )
+        return 2
+    refusal = record_file_refusal(target)
+    if refusal is not None:
+        print(refusal, file=sys.stderr)
         return 2
     try:
         page, _ = campaign_page(directory, target) if campaign else run_page(directory)

@@ -23,6 +23,8 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
 from wmr_mission.sim.draws import DisturbancePlan
 from wmr_mission.sim.reactions import ReactionPlan, contingency_phases, reaction_plan
+from wmr_mission.spec.checks import MAX_SAMPLES
+from wmr_mission.spec.graph import worst_case_samples
 from wmr_mission.spec.models import (
     Limits,
     Mission,
@@ -187,18 +189,9 @@ def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, Flo
 
 
 def sample_budget(mission: Mission) -> int:
-    """The samples a run may take: each phase's bound (its timeout or elapsed
-    time, 60 s without either) summed over the phases as run."""
-    dt = float(mission.robot.dt)
-    budget = 0
-    for run in run_order(mission):
-        phase = run.phase
-        until = phase.until
-        bounds = [
-            b for b in (phase.timeout, None if until is None else until.elapsed) if b is not None
-        ]
-        budget += _bound(min(bounds), dt) + 1 if bounds else _bound(60.0, dt)
-    return budget + 1
+    """The samples a run may take: the proved worst case of its phase graph
+    (wmr_mission.spec.graph.worst_case_samples), at most validate's limit."""
+    return int(min(worst_case_samples(mission), MAX_SAMPLES))
 
 
 def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:

@@ -38,7 +38,13 @@ from wmr_mission.spec.models import (
     Settled,
     Until,
 )
-from wmr_mission.spec.reactions import BUILT_IN_CONTINGENCIES, Goto, Retry, reaction_text
+from wmr_mission.spec.reactions import (
+    BUILT_IN_CONTINGENCIES,
+    BUILT_IN_TIMEOUT,
+    Goto,
+    Retry,
+    reaction_text,
+)
 
 __all__ = [
     "Breach",
@@ -56,7 +62,6 @@ __all__ = [
 # The built-in contingencies' phases end settled within these tolerances, or
 # at their timeout.
 _SETTLED: Final = Settled(position=0.05, heading=0.05)
-_BUILT_IN_TIMEOUT: Final = 120.0
 
 Event = Literal["timeout", "breach", "verdict"]
 _EVENT_INDEX: Final = {"timeout": 0, "breach": 1, "verdict": 2}
@@ -68,14 +73,14 @@ def built_in_contingency(name: str, mission: Mission) -> Contingency:
     until = Until(settled=_SETTLED)
     phase: Phase
     if name == "hold":
-        phase = HoldPhase(name="hold", hold=Hold(), until=until, timeout=_BUILT_IN_TIMEOUT)
+        phase = HoldPhase(name="hold", hold=Hold(), until=until, timeout=BUILT_IN_TIMEOUT)
     else:
         home = mission.robot.initial_state
         phase = RegulatePhase(
             name="return-home",
             regulate=Regulate(target=home),
             until=until,
-            timeout=_BUILT_IN_TIMEOUT,
+            timeout=BUILT_IN_TIMEOUT,
         )
     return Contingency(phases=[phase], then="fail")
 

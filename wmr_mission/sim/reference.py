@@ -31,6 +31,7 @@ from wmr_mission.controllers.paper import (
     INCREMENT,
     REVERSE_HYSTERESIS,
     REVERSING,
+    TURN_SLEW,
     PaperTuning,
 )
 from wmr_mission.estimators import ekf, observer
@@ -147,10 +148,12 @@ def observer_step(
     measurement: FloatArray,
     params: ObserverTuning,
     gain: FloatArray,
+    poles: FloatArray,
 ) -> int:
-    """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L into
-    ``gain``; returns the number of phase-II iterations run."""
-    mask, poles, motion_floor = params.mask, params.poles, params.motion_floor
+    """Advance ``estimate`` in place (x_{k|k} -> x_{k+1|k+1}); writes L for the
+    eigenvalues ``poles`` into ``gain``; returns the number of phase-II
+    iterations run."""
+    mask, motion_floor = params.mask, params.motion_floor
     lower, upper = params.lower, params.upper
     a = state_jacobian(float(estimate[2]), v, omega, dt)  # eq. (7)
     gain[:, :] = observer_gain_matrix(a, mask, poles, motion_floor)
@@ -191,8 +194,10 @@ def ekf_step(
     measurement: FloatArray,
     params: EkfTuning,
     work: FloatArray,
-) -> None:
-    """Extended Kalman filter step, in place, Joseph-form covariance update."""
+    gate: float = math.inf,
+) -> bool:
+    """Extended Kalman filter step, in place, Joseph-form covariance update;
+    True when the measurement is gated (r^T S^-1 r above ``gate``)."""
     mask, process_var, measurement_var = params.mask, params.process_var, params.measurement_var
     a = state_jacobian(float(estimate[2]), v, omega, dt)
     predicted = predict(estimate, v, omega, dt)
@@ -205,14 +210,15 @@ def ekf_step(
     residual = measurement - predicted
     residual[2] = wrap_angle(float(residual[2]))
     innovation = c @ residual
-    if float(innovation @ np.linalg.solve(s, innovation)) > params.innovation_gate:
+    if float(innovation @ np.linalg.solve(s, innovation)) > gate:
         estimate[:] = predicted  # gated: the prediction alone
         covariance[:, :] = p
-        return
+        return True
     estimate[:] = predicted + k @ innovation
     i_kc = np.eye(3) - k @ c
     p = i_kc @ p @ i_kc.T + k @ noise @ k.T
     covariance[:, :] = 0.5 * (p + p.T)
+    return False
 
 
 # --- the controller, section III.C ------------------------------------------
@@ -291,9 +297,71 @@ def track_input(
     target = reference[:2] + look_ahead * reference[2:4] - left
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
     du = corrective_input(d, target - output(predicted), b, w, m, limits)
-    u_out[0], u_out[1] = saturate(
-        v_prev + du[0], omega_prev + du[1], v_prev, omega_prev, limits, dt
+    v, omega = v_prev + du[0], omega_prev + du[1]
+    if math.isfinite(limits[3]):
+        # The turn planned: towards the heading of the output's move this
+        # sample (reversed backwards), no faster than the limit stops it there.
+        move = target - output(estimate)
+        if v < 0.0:
+            move = -move
+        turn = wrap_angle(math.atan2(move[1], move[0]) - float(estimate[2]))
+        if omega * turn > 0.0:
+            reach = stopping_speed(abs(turn), float(limits[3]), dt)
+            omega = float(np.clip(omega, -reach, reach))
+    u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, limits, dt)
+
+
+def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
+    """The largest speed the speeds v, v - a dt, ... bring to rest within
+    ``distance``: v^2 / (2 a) + v dt / 2 = distance, solved for v."""
+    if not math.isfinite(acceleration):
+        return math.inf
+    return float(
+        -acceleration * dt / 2
+        + math.sqrt((acceleration * dt / 2) ** 2 + 2 * acceleration * distance)
     )
+
+
+def braking_point(
+    position: FloatArray, heading: float, v: float, acceleration: float, dt: float
+) -> tuple[FloatArray, float]:
+    """Where braking from ``v`` at ``acceleration`` ends, beyond ``position``
+    (the next sample's), and that distance (signed by v)."""
+    distance = math.copysign(max(v * v / (2 * acceleration) - abs(v) * dt / 2, 0.0), v)
+    return position + distance * np.array([math.cos(heading), math.sin(heading)]), distance
+
+
+def way_round_zones(
+    position: FloatArray,
+    bearing: float,
+    distance: float,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+) -> float:
+    """The bearing form's heading round the first keep-out ellipse (grown by
+    ``margin``) that the straight way to the target crosses: along its
+    tangent, on the side the way passes its centre (left when head-on)."""
+    way = distance * np.array([math.cos(bearing), math.sin(bearing)])
+    best, heading = 1.0, bearing
+    for kind, p in zip(row_kinds, row_params, strict=True):
+        if kind != ELLIPSE_ROW or p[5] > 0.0:
+            continue
+        rotation = np.array([[math.cos(p[4]), -math.sin(p[4])], [math.sin(p[4]), math.cos(p[4])]])
+        scale = np.array([p[2] + margin, p[3] + margin])
+        q = (rotation.T @ (position - p[:2])) / scale  # the unit circle's frame
+        d = (rotation.T @ way) / scale
+        if -(q @ d) <= 0.0:
+            continue
+        along = min(-(q @ d) / (d @ d), 1.0)
+        if along >= best or np.hypot(*(q + along * d)) ** 2 >= 1.0:
+            continue
+        best = along
+        side = -1.0 if d[0] * q[1] - d[1] * q[0] >= 0.0 else 1.0
+        tangent = side * np.array([-q[1], q[0]]) - math.sqrt(max(q @ q - 1.0, 0.0)) * q
+        world = rotation @ (scale * tangent)
+        heading = math.atan2(world[1], world[0])
+    return heading
 
 
 def riccati_gain(
@@ -395,7 +463,7 @@ def regulate_input(
         gain = scheduled_gain(float(estimate_prev[2]), v_prev, omega_prev, dt, q, r)
         u = u_prev - gain @ (estimate - estimate_prev)
     else:
-        gain = scheduled_gain(float(estimate[2]), v_prev, omega_prev, dt, q, r)
+        speed = v_prev
         deviation = estimate - target
         deviation[2] = wrap_angle(float(deviation[2]))
         if form == BEARING:
@@ -407,6 +475,14 @@ def regulate_input(
             if memory[ALIGNING] == 0.0:
                 # Far from the target: head for it (or back onto it).
                 bearing = math.atan2(-deviation[1], -deviation[0])
+                if row_kinds.shape[0]:  # round a keep-out zone on the way
+                    way = way_round_zones(
+                        estimate[:2], bearing, distance, row_kinds, row_params,
+                        robot.constraint_margin,
+                    )  # fmt: skip
+                    if way != bearing:
+                        bearing = way
+                        deviation[:2] = -distance * np.array([math.cos(way), math.sin(way)])
                 deviation[2] = wrap_angle(float(estimate[2]) - bearing)
                 if reverse:  # backwards past abeam, with hysteresis
                     if abs(deviation[2]) > 0.5 * math.pi + REVERSE_HYSTERESIS:
@@ -415,11 +491,21 @@ def regulate_input(
                         memory[REVERSING] = 0.0
                     if memory[REVERSING]:
                         deviation[2] = wrap_angle(float(deviation[2]) - math.pi)
+                # eq. (20) linearised at a speed of the direction chosen
+                speed = min(v_prev, 0.0) if memory[REVERSING] else max(v_prev, 0.0)
             else:
                 # At the target: keep the position error along the heading only.
-                heading = np.array([math.cos(estimate[2]), math.sin(estimate[2])])
-                deviation[:2] = (deviation[:2] @ heading) * heading
+                facing = np.array([math.cos(estimate[2]), math.sin(estimate[2])])
+                deviation[:2] = (deviation[:2] @ facing) * facing
+        gain = scheduled_gain(float(estimate[2]), speed, omega_prev, dt, q, r)
         u = -gain @ deviation
+        # the deceleration planned: stopped within the error left
+        reach = stopping_speed(float(np.hypot(deviation[0], deviation[1])), float(limits[2]), dt)
+        turn = stopping_speed(abs(float(deviation[2])), float(limits[3]), dt)
+        u = np.array([np.clip(u[0], -reach, reach), np.clip(u[1], -turn, turn)])
+    # the turn rate moves by at most TURN_SLEW of its limit a sample
+    slew = TURN_SLEW * float(limits[1])
+    u[1] = min(max(float(u[1]), omega_prev - slew), omega_prev + slew)
     v, omega = saturate(float(u[0]), float(u[1]), v_prev, omega_prev, limits, dt)
     u_out[0], u_out[1] = v, omega
     memory[CORRECTED] = 0.0
@@ -435,12 +521,32 @@ def regulate_input(
             row_kinds, shrunk(row_params, row_kinds, robot.constraint_margin), estimate[:2]
         )
         values = values - (1.0 - controller.barrier_rate) * now
+    rate = float(limits[2])
+    braked = np.zeros(values.size, dtype=bool)
+    heading = float(predicted[2])
+    if math.isfinite(rate):
+        # also where braking from v ends (from v_{k-1} now), whichever is further in
+        point, ahead = braking_point(predicted[:2], heading, v, rate, dt)
+        if ahead != 0.0:
+            rows = shrunk(row_params, row_kinds, robot.constraint_margin)
+            at_stop, stop_gradients = constraint_values(row_kinds, rows, point)
+            if controller.barrier_rate < 1.0:
+                then, _ = braking_point(estimate[:2], float(estimate[2]), v_prev, rate, dt)
+                at_then, _ = constraint_values(row_kinds, rows, then)
+                at_stop = at_stop - (1.0 - controller.barrier_rate) * at_then
+            braked = at_stop > values
+            values = np.where(braked, at_stop, values)
+            gradients = np.where(braked[:, None], stop_gradients, gradients)
     violated = np.flatnonzero(~(values <= 0.0))
     if violated.size == 0:
         return
     worst = violated[np.argsort(-values[violated], kind="stable")][:2]
     d = np.column_stack([gradients[worst], np.zeros(worst.size)])
     b = input_jacobian(float(estimate[2]), v, omega, dt)
+    if braked[worst[0]]:  # the braking point's own sensitivity, the worst row's
+        along = abs(v) / rate - dt / 2
+        b[:2, 0] += along * np.array([math.cos(heading), math.sin(heading)])
+        b[:2, 1] += ahead * dt * np.array([-math.sin(heading), math.cos(heading)])
     du = corrective_input(d, -values[worst], b, w, m, limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt)

@@ -43,6 +43,8 @@ from wmr_mission.sim.reactions import (
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
+from wmr_mission.stopping import HOLD, RAISE, stop_owed
+from wmr_mission.stopping import mode as stop_mode
 
 # Samples per call of the compiled loop: between calls the runner reports
 # progress and Ctrl-C gets in (a few milliseconds apart when compiled). A
@@ -220,6 +222,7 @@ def run_mission(
     progress: ProgressCallback | None = None,
     substitutes: Mapping[Any, Callable[..., Any]] | None = None,
     plant: PlantSide | None = None,
+    ready: Callable[[], None] | None = None,
 ) -> RunResult:
     """Simulate ``mission`` and return every sample as arrays.
 
@@ -238,13 +241,18 @@ def run_mission(
 
     ``plant``: a plant other than the loop's own (wmr_mission.sim.plant_side,
     wmr_mission.backends); told to stop on every way out of the run.
+
+    ``ready()`` is called once the loop is loaded (or compiled), just before
+    the first sample is simulated: ``wmr-mission run`` claims its run directory
+    then. A stop (wmr_mission.stopping) before it returns an ``interrupted``
+    result without samples and without calling it.
     """
     if isinstance(mission, MissionPlan):
         plan = mission if seed is None else replace(mission, seed=seed)
-        return _run(plan, progress, substitutes, plant)
+        return _run(plan, progress, substitutes, plant, ready)
     with importing_entries():  # a run imports its plug-ins
         checked = validate_mission(mission)
-    result = _run(plan_mission(checked, seed), progress, substitutes, plant)
+    result = _run(plan_mission(checked, seed), progress, substitutes, plant, ready)
     resolved = checked.model_dump(mode="json")
     resolved["sensors"]["seed"] = result.seed  # the mission as run
     result.mission = resolved
@@ -257,11 +265,13 @@ def _run(
     progress: ProgressCallback | None,
     substitutes: Mapping[Any, Callable[..., Any]] | None,
     plant: PlantSide | None,
+    ready: Callable[[], None] | None = None,
 ) -> RunResult:
     if plant is None:
-        return _Run(plan, progress, substitutes).run()
+        return _Run(plan, progress, substitutes, ready=ready).run()
+    substitutes = {**(substitutes or {}), **plant.substitutes()}
     try:
-        result = _Run(plan, progress, {**(substitutes or {}), **plant.substitutes()}, plant).run()
+        result = _Run(plan, progress, substitutes, plant, ready).run()
     finally:
         plant.stop()  # a zero command on every way out, before the record is made
     result.realtime = plant.report()
@@ -279,6 +289,12 @@ class RunFault(RuntimeError):
         self.outcome = outcome
 
 
+def _honour_stop() -> None:
+    """A stop held, or raised and swallowed on its way (wmr_mission.stopping), ends the run here."""
+    if stop_owed():
+        raise KeyboardInterrupt
+
+
 def _seconds(samples: int, dt: float) -> float:
     """``samples * dt`` without its rounding tail (53.48, not 53.480000000000004),
     for the times people read in transitions.json."""
@@ -292,9 +308,11 @@ class _Run:
         progress: ProgressCallback | None,
         substitutes: Mapping[Any, Callable[..., Any]] | None,
         plant: PlantSide | None = None,
+        ready: Callable[[], None] | None = None,
     ) -> None:
         m = self.m = mission
         self.plant = plant
+        self.ready = ready
         self.progress = progress
         self.recorder = Recorder(min(m.max_samples, MAX_PRESIZED))
         self.transitions: list[Transition] = []
@@ -359,9 +377,11 @@ class _Run:
         m = self.m
         try:
             status = self._segment(phase, path, draws, stop)
-        except (PlantStopped, MemoryError):  # the plant side's own word; the command's
+        except PlantStopped:  # the plant side's own word
             raise
-        except Exception as error:
+        except Exception as error:  # MemoryError too: a plug-in's is its failure
+            if isinstance(error, MemoryError) and not self.plugin:
+                raise  # the command's: not enough memory for the run
             # The rows recorded are the samples done: the failed one is the next.
             k = self.recorder.count
             where = f"at sample {k} (t = {_seconds(k, m.dt):.6g} s): {failure_message(error)}"
@@ -405,6 +425,8 @@ class _Run:
         except PlantStopped as stopped:  # the plant side's cause: measurements stopped
             return self._interrupted(Outcome.failed, str(stopped))
         except RunFault as failed:
+            if stop_owed():  # a plug-in turned the stop into an error of its own
+                return self._interrupted()
             return self._failed(str(failed), failed.outcome)
 
     def _failed(self, message: str, outcome: Outcome = Outcome.failed) -> RunResult:
@@ -441,17 +463,34 @@ class _Run:
 
     def _loop(self) -> RunResult:
         m = self.m
+        draws = Draws(m.noise_std, m.disturbances, m.seed)
+        active = self.phases[0]
+        phase = active.enter(0, self.signals.estimate)
+        # Load (or compile) the loop and the paths' math before the clock: a
+        # zero-sample call. The paths' math first, held: loading it is numba's
+        # first load, which imports compiled modules, and a KeyboardInterrupt
+        # inside such an import made Python exit by SIGINT (-2) whatever the
+        # command returned. A compile takes tens of seconds: a stop ends it at once.
+        if any(p.tracks_a_path for p in self.phases):
+            with stop_mode(HOLD):
+                scalar_math.load()
+        with stop_mode(RAISE):
+            self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
+        _honour_stop()
+        if self.ready is not None:
+            self.ready()
+        # A stop is held while compiled code runs and taken between chunks: a
+        # KeyboardInterrupt raised inside numba's dispatcher is lost or comes
+        # out seconds later (a SIGINT 2-5 s into a 1,000 s run stopped it 10 s
+        # later, or never). Plain Python takes it at once: rows count whole.
+        with stop_mode(RAISE if self.ticks_are_ns else HOLD):
+            return self._chunks(active, phase, draws)
+
+    def _chunks(self, active: PhaseRun, phase: EnteredPhase, draws: Draws) -> RunResult:
+        m = self.m
         dt = m.dt
         signals = self.signals
         counters = signals.counters
-        draws = Draws(m.noise_std, m.disturbances, m.seed)
-        active = self.phases[0]
-        phase = active.enter(0, signals.estimate)
-        # Load (or compile) the loop and the paths' math before the clock: a
-        # zero-sample call.
-        if any(p.tracks_a_path for p in self.phases):
-            scalar_math.load()
-        self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
         if self.plant is not None:
             self.plant.start(signals.state)
         outcome = Outcome.success
@@ -462,6 +501,7 @@ class _Run:
         chunk = active.first_chunk
         reactor = None if m.reactions is None else Reactor(m.reactions)
         while True:
+            _honour_stop()
             k = int(counters[loop.K])
             local = k - active.entry_sample
             watched = reactor is not None and reactor.plan.watches(active.index)

@@ -15,8 +15,10 @@ from dataclasses import dataclass
 from typing import Final, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+from pydantic import BaseModel
 
+from wmr_mission import fields
 from wmr_mission.basics import FloatArray, whole_samples
 from wmr_mission.controllers import paper
 from wmr_mission.controllers.paper import PaperController
@@ -25,6 +27,7 @@ from wmr_mission.estimators.ekf import Ekf
 from wmr_mission.estimators.observer import BOUND_NOISE_RATIO, ConstrainedObserver
 from wmr_mission.estimators.plugin import PythonEstimator
 from wmr_mission.geometry import paths
+from wmr_mission.geometry.paths.circle import CirclePath
 from wmr_mission.geometry.paths.coverage import CoveragePath
 from wmr_mission.geometry.paths.ellipse import EllipsePath
 from wmr_mission.geometry.paths.elliptical_spiral import EllipticalSpiralPath
@@ -42,6 +45,7 @@ from wmr_mission.geometry.regions import (
 from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import graph
 from wmr_mission.spec.models import (
+    HeadingCondition,
     HoldPhase,
     Mission,
     Phase,
@@ -72,7 +76,9 @@ LARGEST_TURN_PER_SAMPLE: Final = 0.5
 # Output-error bounds below this many noise standard deviations act on noise.
 BOUND_NOISE_FLOOR: Final = 3.0
 
-Severity = Literal["error", "warning"]
+# A note says what the run will do where the mission leaves it to a rule; it
+# never fails validation, not even under --strict.
+Severity = Literal["error", "warning", "note"]
 Pose = tuple[float, float, float]
 
 
@@ -120,8 +126,11 @@ def check(mission: Mission) -> list[Finding]:
         findings.extend(_entries(mission))
     if run_count(mission) <= MAX_RUN_PHASES:
         findings.extend(_feasible_sets(mission))
+        findings.extend(_angles(mission))
+        findings.extend(_missing_limits(mission))
         if not any(f.severity == "error" for f in findings):
             # sampling paths needs a sound mission (regions of the right kind, bounded phases)
+            findings.extend(_zones(mission))
             findings.extend(_reaches(mission))
     # a phase of a repeat is checked once per lap: say each finding once
     return list(dict.fromkeys(findings))
@@ -167,13 +176,17 @@ def _unique_phase_names(mission: Mission) -> Iterator[Finding]:
     seen: dict[str, DataPath] = {}
     for where, name in named:
         if name in seen:
-            first = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in seen[name])
             yield Finding(
                 (*where, "name"),
-                f"phase name {name!r} is already used by {first.lstrip('.')}; "
+                f"phase name {name!r} is already used by {_dotted(seen[name])}; "
                 "phase names must be unique",
             )
         seen.setdefault(name, where)
+
+
+def _dotted(path: DataPath) -> str:
+    """A data path as the user writes it: ``phases[0].until.near``."""
+    return "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in path).lstrip(".")
 
 
 def _moves(mission: Mission) -> bool:
@@ -446,32 +459,12 @@ def _candidates(mission: Mission, regions: list[RegionSpec]) -> tuple[FloatArray
             ys.append(phase.regulate.target.y)
     boundary_x: list[FloatArray] = []
     boundary_y: list[FloatArray] = []
-    angle = np.linspace(0.0, 2.0 * math.pi, _BOUNDARY, endpoint=False)
     lines = []
     for region in regions:
-        if isinstance(region, EllipseRegion | CircleRegion):
-            cx, cy, a, b, rotation = ellipse_geometry(region)
-            u, w = a * np.cos(angle), b * np.sin(angle)
-            c, s = math.cos(rotation), math.sin(rotation)
-            boundary_x.append(cx + c * u - s * w)
-            boundary_y.append(cy + s * u + c * w)
-        elif isinstance(region, BoxRegion | PolygonRegion):
-            corners = (
-                [
-                    region.min,
-                    (region.max[0], region.min[1]),
-                    region.max,
-                    (region.min[0], region.max[1]),
-                ]
-                if isinstance(region, BoxRegion)
-                else region.vertices
-            )
-            points = np.array(corners, dtype=np.float64)
-            ends = np.roll(points, -1, axis=0)
-            share = np.linspace(0.0, 1.0, _BOUNDARY // len(points))[:, None, None]
-            edge = points[None] + share * (ends - points)[None]
-            boundary_x.append(edge[..., 0].ravel())
-            boundary_y.append(edge[..., 1].ravel())
+        if isinstance(region, EllipseRegion | CircleRegion | BoxRegion | PolygonRegion):
+            x, y = _boundary(region)
+            boundary_x.append(x)
+            boundary_y.append(y)
         else:  # half-plane: its line, sampled below over the area
             lines.append(region)
         if boundary_x:
@@ -540,7 +533,6 @@ def _ends_on_time_only(phase: Phase) -> bool:
 
 def _timing(mission: Mission) -> Iterator[Finding]:
     dt = mission.robot.dt
-    mission_time = 0.0  # latest start of the phase
     earliest = 0.0  # earliest start of the phase
     for index, run in enumerate(run_order(mission)):
         phase, where = run.phase, run.where
@@ -576,22 +568,22 @@ def _timing(mission: Mission) -> Iterator[Finding]:
                     f"it takes effect at the next whole sample",
                     severity="warning",
                 )
-        bound = _bounds(phase, mission_time)
-        if math.isinf(bound):
+        if math.isinf(_bounds(phase, 0.0)):
             yield Finding(
                 where,
                 f"phase {phase.name!r} can never be guaranteed to end: give it a timeout, or "
                 "until.elapsed or until.mission_time",
             )
             return
-        mission_time += bound
-    samples = mission_time / dt
-    if samples > MAX_SAMPLES:
+    # The one sum of a run's worst case, its reactions' repetitions counted.
+    samples = graph.worst_case_samples(mission)
+    if math.isfinite(samples) and samples > MAX_SAMPLES:  # inf: the graph's proof says why
         yield Finding(
             ("robot", "dt"),
-            f"in the worst case the mission lasts {mission_time:g} s = {samples:.3g} samples at "
-            f"dt = {dt:g} s, more than the limit of {MAX_SAMPLES:,}; shorten the timeouts or "
-            "raise dt",
+            f"in the worst case the mission lasts {samples * dt:g} s = {samples:.3g} samples at "
+            f"dt = {dt:g} s, more than the limit of {MAX_SAMPLES:,} (every phase to its time "
+            "bound, every retry and contingency as often as its count allows); shorten the "
+            "timeouts, lower the counts or raise dt",
         )
 
 
@@ -616,13 +608,15 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         if math.isinf(bound):
             return
         mission_time += bound
+        assumed = f"assuming the robot starts the phase at ({pose[0]:g}, {pose[1]:g})"
+        if run.lap is None or run.lap == 1:
+            yield from _in_time(mission, phase, where, pose, bound, mission_time - bound, assumed)
         if isinstance(phase, RegulatePhase):
             target = phase.regulate.target
             pose = (target.x, target.y, target.theta)
             continue
         if isinstance(phase, HoldPhase):
             continue
-        assumed = f"assuming the robot starts the phase at ({pose[0]:g}, {pose[1]:g})"
         try:
             trajectory = paths.trajectory(phase.track.path, mission.path_context(), pose)
             times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
@@ -664,7 +658,24 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                     f"{_limit(phase, mission_time - bound)}",
                     severity="warning",
                 )
+        near = phase.until.near
+        close = (
+            np.hypot(x - near.point[0], y - near.point[1]) <= near.tolerance
+            if near is not None
+            else np.zeros(0, dtype=bool)
+        )
+        if np.any(close):
+            followed = min(followed, int(np.argmax(close)) + 1)
+        elif near is not None:
+            yield Finding(
+                (*where, "until", "near"),
+                f"the path never comes within {near.tolerance:g} m of ({near.point[0]:g}, "
+                f"{near.point[1]:g}) within the phase's bound of {bound:g} s ({assumed}); the "
+                f"phase will end by {_limit(phase, mission_time - bound)}",
+                severity="warning",
+            )
         yield from _path_within_limits(mission, where, phase, times[:followed], dx, dy, assumed)
+        yield from _through_centres(mission, phase, where, x[:followed], y[:followed])
         last = followed - 1  # the next phase starts where this one is predicted to end
         if np.isfinite(x[last]) and np.isfinite(y[last]):
             heading = (
@@ -929,3 +940,302 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
                 f"({offset:g} {unit}): the robot ends where the biased measurement says",
                 severity="warning",
             )
+
+
+# --- what validate proves before a run ------------------------------------------------
+
+# [rad] an angle beyond a full turn either way was most likely written in degrees
+FULL_TURN: Final = 2.0 * math.pi
+# The fields that hold an angle [rad], by the model that has them (a
+# `theta` elsewhere may be a gain, a pole or a standard deviation).
+_ANGLE_FIELDS: Final[dict[type[BaseModel], tuple[str, ...]]] = {
+    fields.Pose: ("theta",),
+    LinePath: ("heading",),
+    CirclePath: ("start",),
+    EllipsePath: ("rotation", "start"),
+    EllipticalSpiralPath: ("rotation", "start"),
+    EllipseRegion: ("rotation",),
+    CoveragePath: ("direction",),
+    HeadingCondition: ("target",),
+}
+# A path whose distance from a keep-out zone's centre is below this share of
+# the zone's smaller semi-axis runs "through its centre": the side the robot
+# takes round it is then the zone filter's rule's, not the mission's.
+CENTRE_SHARE: Final = 0.02
+
+
+def _angles(mission: Mission) -> Iterator[Finding]:
+    """Angles are radians: one beyond +-2 pi was most likely written in degrees."""
+    return _angles_below(mission, ())
+
+
+def _angles_below(value: object, path: DataPath) -> Iterator[Finding]:
+    if isinstance(value, BaseModel):
+        for name in type(value).model_fields:
+            item = getattr(value, name)
+            angle = name in _ANGLE_FIELDS.get(type(value), ())
+            if angle and isinstance(item, float | int) and not isinstance(item, bool):
+                if abs(item) > FULL_TURN:
+                    yield Finding(
+                        (*path, name),
+                        f"{_dotted((*path, name))} = {item:g} rad is more than a full turn "
+                        f"(2 pi = {FULL_TURN:.4g}): degrees? {item:g} degrees is "
+                        f"{math.radians(item):.4g} rad; angles are in radians",
+                        severity="warning",
+                    )
+            else:
+                yield from _angles_below(item, (*path, name))
+    elif isinstance(value, list | tuple):
+        for number, item in enumerate(value):
+            yield from _angles_below(item, (*path, number))
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            yield from _angles_below(item, (*path, str(key)))
+
+
+def _missing_limits(mission: Mission) -> Iterator[Finding]:
+    """Every law that moves the robot needs its real limits: the defaults are the
+    paper's (10 m/s, 20 rad/s), which no small robot has."""
+    if "limits" in mission.robot.model_fields_set or not _moves(mission):
+        return
+    limits = mission.robot.limits
+    yield Finding(
+        ("robot",) if "robot" in mission.model_fields_set else (),
+        f"robot.limits is not given, so the robot may drive at the paper's limits.v = "
+        f"{limits.v:g} m/s and limits.omega = {limits.omega:g} rad/s: give the robot's real "
+        "limits (every tracking law, and every check of what the mission can reach in time, "
+        "reads them)",
+        severity="warning",
+    )
+
+
+def _fenced_out(mission: Mission) -> dict[str, RegionSpec]:
+    """The geofence's keep-out zones, kept whatever the phase."""
+    names = mission.geofence.keep_out if mission.geofence is not None else ()
+    return {n: mission.regions[n] for n in names if n in mission.regions}
+
+
+def _keep_outs(mission: Mission, phase: Phase) -> dict[str, RegionSpec]:
+    """The zones the robot keeps out of during ``phase``: its own and the geofence's."""
+    names = [c.stay_outside for c in phase.constraints if not isinstance(c, StayInside)]
+    return {n: mission.regions[n] for n in names if n in mission.regions} | _fenced_out(mission)
+
+
+def _inside(region: RegionSpec, x: ArrayLike, y: ArrayLike) -> bool:
+    """Whether every point (x, y) is inside ``region`` (its boundary counts as outside)."""
+    return bool(np.all(region_value(region, x, y) < 0.0))
+
+
+def _zones(mission: Mission) -> Iterator[Finding]:
+    """A start inside a geofence's keep-out zone (inside a first phase's zone is
+    an error of its own), a regulate target inside the geofence's keep-out, and
+    an `until` region or point that lies wholly inside a zone kept out."""
+    start = mission.robot.initial_state
+    fence = _fenced_out(mission)
+    for name, zone in fence.items():
+        if _inside(zone, start.x, start.y):
+            yield Finding(
+                ("robot", "initial_state"),
+                f"robot.initial_state ({start.x:g}, {start.y:g}) is inside keep-out zone "
+                f"{name!r} of the geofence: the run is breached at its first sample",
+                severity="warning",
+            )
+    for run in run_order(mission):
+        phase, where = run.phase, run.where
+        if run.lap is not None and run.lap > 1:
+            continue
+        zones = _keep_outs(mission, phase)
+        if isinstance(phase, RegulatePhase):
+            target = phase.regulate.target
+            for name, zone in fence.items():
+                if _inside(zone, target.x, target.y):
+                    yield Finding(
+                        (*where, "regulate", "target"),
+                        f"the target ({target.x:g}, {target.y:g}) is inside keep-out zone "
+                        f"{name!r} of the geofence: the robot cannot get there",
+                        severity="warning",
+                    )
+        reaches = phase.until.reaches
+        region = mission.regions.get(reaches) if reaches is not None else None
+        if region is not None:
+            x, y = _boundary(region)
+            for name, zone in zones.items():
+                if name != reaches and _inside(zone, x, y):
+                    yield Finding(
+                        (*where, "until", "reaches"),
+                        f"region {reaches!r} lies inside keep-out zone {name!r}, which the "
+                        f"robot keeps out of during phase {phase.name!r}: until.reaches can "
+                        "never fire",
+                        severity="warning",
+                    )
+        near = phase.until.near
+        if near is not None:
+            turn = np.linspace(0.0, 2.0 * math.pi, 64, endpoint=False)
+            x = near.point[0] + near.tolerance * np.cos(turn)
+            y = near.point[1] + near.tolerance * np.sin(turn)
+            for name, zone in zones.items():
+                if _inside(zone, x, y):
+                    yield Finding(
+                        (*where, "until", "near"),
+                        f"every point within {near.tolerance:g} m of ({near.point[0]:g}, "
+                        f"{near.point[1]:g}) is inside keep-out zone {name!r}, which the robot "
+                        f"keeps out of during phase {phase.name!r}: until.near can never fire",
+                        severity="warning",
+                    )
+
+
+def _boundary(region: RegionSpec) -> tuple[FloatArray, FloatArray]:
+    """Points on the boundary of a bounded region (a half-plane: its foot point)."""
+    if isinstance(region, EllipseRegion | CircleRegion):
+        cx, cy, a, b, rotation = ellipse_geometry(region)
+        angle = np.linspace(0.0, 2.0 * math.pi, _BOUNDARY, endpoint=False)
+        u, w = a * np.cos(angle), b * np.sin(angle)
+        c, s = math.cos(rotation), math.sin(rotation)
+        return cx + c * u - s * w, cy + s * u + c * w
+    if isinstance(region, BoxRegion | PolygonRegion):
+        corners = (
+            [region.min, (region.max[0], region.min[1]), region.max, (region.min[0], region.max[1])]
+            if isinstance(region, BoxRegion)
+            else region.vertices
+        )
+        points = np.array(corners, dtype=np.float64)
+        ends = np.roll(points, -1, axis=0)
+        share = np.linspace(0.0, 1.0, _BOUNDARY // len(points))[:, None, None]
+        edge = points[None] + share * (ends - points)[None]
+        return edge[..., 0].ravel(), edge[..., 1].ravel()
+    nx, ny = region.normal
+    norm = math.hypot(nx, ny)
+    return np.array([nx * region.offset / norm**2]), np.array([ny * region.offset / norm**2])
+
+
+def _distance_to(region: RegionSpec, x: float, y: float) -> float:
+    """How far (x, y) is from the boundary of ``region`` [m] (sampled; exact for a half-plane)."""
+    if isinstance(region, BoxRegion | PolygonRegion | EllipseRegion | CircleRegion):
+        bx, by = _boundary(region)
+        return float(np.min(np.hypot(bx - x, by - y)))
+    nx, ny = region.normal
+    return abs(nx * x + ny * y - region.offset) / math.hypot(nx, ny)
+
+
+def _wrapped(angle: float) -> float:
+    return abs(math.remainder(angle, 2.0 * math.pi))
+
+
+def _in_time(
+    mission: Mission,
+    phase: Phase,
+    where: DataPath,
+    pose: Pose,
+    bound: float,
+    start_time: float,
+    assumed: str,
+) -> Iterator[Finding]:
+    """A phase whose timeout comes before any of its `until` conditions can
+    hold, at the speed and turn-rate limits from where it starts.
+
+    Each condition's least time is the larger of its distance over limits.v
+    and its turn over limits.omega: a robot turns while it drives (an arc), so
+    their sum would not be a bound, and this check only says what it proves.
+    """
+    if isinstance(phase, HoldPhase) or "timeout" not in _limit(phase, start_time):
+        return  # a phase that ends on time ends
+    until, limits = phase.until, mission.robot.limits
+    least: list[tuple[float, str]] = []
+    if until.near is not None:
+        distance = math.dist(pose[:2], until.near.point) - until.near.tolerance
+        least.append(
+            (
+                distance / limits.v,
+                f"within {until.near.tolerance:g} m of the point "
+                f"({until.near.point[0]:g}, {until.near.point[1]:g}), "
+                f"{max(distance, 0.0):.3g} m away",
+            )
+        )
+    if until.reaches is not None and until.reaches in mission.regions:
+        region = mission.regions[until.reaches]
+        distance = _distance_to(region, pose[0], pose[1])
+        least.append((distance / limits.v, f"region {until.reaches!r}, {distance:.3g} m away"))
+    if until.heading is not None:
+        turn = _wrapped(until.heading.target - pose[2]) - until.heading.tolerance
+        least.append(
+            (
+                turn / limits.omega,
+                f"heading {until.heading.target:g} rad, {max(turn, 0.0):.3g} rad of turn away",
+            )
+        )
+    if until.settled is not None and isinstance(phase, RegulatePhase):
+        target = phase.regulate.target
+        distance = math.dist(pose[:2], (target.x, target.y)) - until.settled.position
+        turn = _wrapped(target.theta - pose[2]) - until.settled.heading
+        least.append(
+            (
+                max(distance / limits.v, turn / limits.omega),
+                f"the target ({target.x:g}, {target.y:g}, {target.theta:g}), "
+                f"{max(distance, 0.0):.3g} m and {max(turn, 0.0):.3g} rad away",
+            )
+        )
+    if not least:
+        return
+    seconds, goal = min(least)
+    if seconds > bound:
+        yield Finding(
+            (*where, "timeout"),
+            f"phase {phase.name!r} cannot end before its timeout of {bound:g} s: it needs "
+            f"at least {seconds:.3g} s to reach {goal} at limits.v = {limits.v:g} m/s and "
+            f"limits.omega = {limits.omega:g} rad/s ({assumed}); raise the timeout or the "
+            "limits",
+            severity="warning",
+        )
+
+
+def _through_centres(
+    mission: Mission, phase: TrackPhase, where: DataPath, x: FloatArray, y: FloatArray
+) -> Iterator[Finding]:
+    """A note where the path runs through a keep-out ellipse's centre, naming
+    the side the robot goes round: the zone filter sends it to the side of the
+    path the zone's edge faces where the path enters, and head-on, through
+    the centre itself, to the left of the direction of travel by rule
+    (controllers/constrained_tracking.aim_round_zones), a side the mission
+    does not choose. A path that merely crosses a zone is a detour the mission
+    chose: no note."""
+    if x.size < 2:
+        return
+    for number, constraint in enumerate(phase.constraints):
+        if isinstance(constraint, StayInside):
+            continue
+        zone = mission.regions.get(constraint.stay_outside)
+        if not isinstance(zone, EllipseRegion | CircleRegion):
+            continue
+        cx, cy, a, b, _ = ellipse_geometry(zone)
+        gap, centre_on_left = _passing(x, y, cx, cy)
+        if gap > CENTRE_SHARE * min(a, b):
+            continue
+        if gap <= 1e-9 * max(a, 1.0):
+            side = "on the left of its direction of travel, by the zone filter's rule"
+        else:
+            side = (
+                f"on the {'right' if centre_on_left else 'left'}, the side the path passes the "
+                f"centre on, only {gap:.2g} m off it: a slight change of the path or the zone "
+                "changes the side"
+            )
+        yield Finding(
+            (*where, "constraints", number, "stay_outside"),
+            f"the path runs through the centre of keep-out zone {constraint.stay_outside!r}: "
+            f"the robot goes round it {side}; move the path off the centre, towards the side "
+            "it should take, to choose",
+            severity="note",
+        )
+
+
+def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float, bool]:
+    """Distance from (px, py) to the polyline through the samples (x, y), and
+    whether the point lies on the left of the polyline's direction there."""
+    ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
+    length2 = ex * ex + ey * ey
+    with np.errstate(all="ignore"):
+        share = np.clip(((px - ax) * ex + (py - ay) * ey) / length2, 0.0, 1.0)
+    share = np.where(length2 > 0.0, share, 0.0)
+    gaps = np.hypot(ax + share * ex - px, ay + share * ey - py)
+    nearest = int(np.argmin(gaps))
+    cross = ex[nearest] * (py - ay[nearest]) - ey[nearest] * (px - ax[nearest])
+    return float(gaps[nearest]), bool(cross > 0.0)

@@ -12,23 +12,32 @@ cycle; then every path through the graph ends, after at most
 re-entering a phase (a loop inside a loop does not restart the inner loop's
 count, the mistake that makes MAVLink ``DO_JUMP`` missions loop for ever).
 
+The same graph bounds a run's length (:func:`worst_case_samples`): the longest
+path of uncounted edges from the first phase, plus, for each count, that many
+times the longest path of uncounted edges from where its edge leads.
+
 The other proofs: every ``goto`` names a phase written at the top of
 ``phases``; every text reaction is fail, next or a contingency's name; every
 contingency is named by some reaction; ``on_breach`` has a geofence to watch;
-a contingency's phases each end by a time bound.
+a contingency's phases each end by a time bound; a contingency that ends
+``then: next`` never comes back to its own end to find what is next. Every
+algorithm here is iterative: a graph of thousands of phases never recurses
+on the Python stack.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import math
+from collections.abc import Hashable, Iterator
 from dataclasses import dataclass
 from typing import Any, Final
 
+from wmr_mission.basics import samples
 from wmr_mission.spec.models import Contingency, Mission, Phase
-from wmr_mission.spec.reactions import BUILT_IN_CONTINGENCIES, Goto, Retry
+from wmr_mission.spec.reactions import BUILT_IN_CONTINGENCIES, BUILT_IN_TIMEOUT, Goto, Retry
 from wmr_mission.spec.repeats import DataPath, run_order
 
-__all__ = ["GraphError", "prove"]
+__all__ = ["GraphError", "prove", "worst_case_samples"]
 
 _END: Final = -1
 _FAIL: Final = -2
@@ -52,8 +61,14 @@ class _Node:
 @dataclass(frozen=True)
 class _Edge:
     to: int
-    counted: bool
     where: DataPath | None  # the reaction that makes it (None: the phase's own order)
+    # A counted edge: what counts it (a retry, a contingency) and how many times it may be taken.
+    counter: Hashable = None
+    times: int = 0
+
+    @property
+    def counted(self) -> bool:
+        return self.counter is not None
 
 
 def _dotted(path: DataPath) -> str:
@@ -79,6 +94,7 @@ class _Graph:
         self.named: set[str] = set()  # contingencies some reaction names
         self.callers: dict[str, list[int]] = {}
         self.edges: list[list[_Edge]] = [[] for _ in self.nodes]
+        self.after_next: dict[str, list[int]] = {}  # see `_after_next`
 
     # --- targets ---------------------------------------------------------
 
@@ -114,10 +130,55 @@ class _Graph:
             return [(_END, where)]
         if then == "fail":
             return [(_FAIL, where)]
-        callers = self.callers.get(node.contingency, [])
         if then == "resume":
-            return [(c, where) for c in callers]
-        return [(to, where) for c in callers for to, _ in self.completed(c)]  # next
+            return [(c, where) for c in self.callers.get(node.contingency, [])]
+        return [(to, where) for to in self._after_next(node.contingency)]
+
+    def _ends_next(self, index: int) -> str | None:
+        """The contingency whose last phase ``index`` is, when it ends `then: next`."""
+        name = self.nodes[index].contingency
+        if name is None or index != self.spans[name][1] or self.spans[name][2].then != "next":
+            return None
+        return name
+
+    def _after_next(self, name: str) -> list[int]:
+        """The phases that may follow contingency ``name`` ending `then: next`: what
+        follows each phase that calls it, through the contingencies (themselves
+        ending `then: next`) whose last phase does. A contingency met again on
+        the way could follow its own end for ever (the run keeps its latest
+        caller only): an error at its `then`. Depth first on a stack of our own."""
+        if name in self.after_next:
+            return self.after_next[name]
+        found: dict[str, dict[int, None]] = {name: {}}
+        stack = [(name, iter(self.callers.get(name, [])))]
+        while stack:
+            current, callers = stack[-1]
+            for caller in callers:
+                inner = self._ends_next(caller)
+                if inner is None:
+                    found[current].update((to, None) for to, _ in self.completed(caller))
+                elif inner in self.after_next:
+                    found[current].update((to, None) for to in self.after_next[inner])
+                elif inner in found:  # on the stack: a loop of `then: next`
+                    self.errors.append(
+                        GraphError(
+                            ("contingencies", inner, "then"),
+                            f"then: next of contingency {inner!r} can lead back to its own end "
+                            f"(its last phase {self.nodes[caller].label!r} is among what calls "
+                            f"{current!r}), so no phase is next; end it otherwise: resume, end, "
+                            "fail or {goto: PHASE}",
+                        )
+                    )
+                else:
+                    found[inner] = {}
+                    stack.append((inner, iter(self.callers.get(inner, []))))
+                    break
+            else:
+                stack.pop()
+                self.after_next[current] = list(found.pop(current))
+                if stack:
+                    found[stack[-1][0]].update(dict.fromkeys(self.after_next[current]))
+        return self.after_next[name]
 
     # --- edges -----------------------------------------------------------
 
@@ -172,21 +233,23 @@ class _Graph:
     def _edges_of(self, index: int, reaction: Any, where: DataPath) -> None:
         edges = self.edges[index]
         if isinstance(reaction, Retry):
-            edges.append(_Edge(index, True, where))
+            edges.append(_Edge(index, where, counter=where, times=reaction.retry.times))
             reaction, where = reaction.retry.then, (*where, "retry", "then")
         if isinstance(reaction, Goto):
             target = self.goto(reaction, where)
             if target is not None:
-                edges.append(_Edge(target, False, where))
+                edges.append(_Edge(target, where))
         elif reaction == "fail":
-            edges.append(_Edge(_FAIL, False, where))
+            edges.append(_Edge(_FAIL, where))
         elif reaction == "next":
-            edges.extend(_Edge(to, False, where) for to, _ in self.completed(index))
+            edges.extend(_Edge(to, where) for to, _ in self.completed(index))
         elif reaction in self.spans:
             self.named.add(reaction)
-            edges.append(_Edge(self.spans[reaction][0], True, where))
+            first, _, contingency = self.spans[reaction]
+            edges.append(_Edge(first, where, counter=reaction, times=contingency.times))
         elif reaction in BUILT_IN_CONTINGENCIES:
-            edges.append(_Edge(_FAIL, True, where))  # a failsafe: it ends failed
+            # a failsafe: its one phase, then the run ends failed
+            edges.append(_Edge(_FAIL, where, counter=reaction, times=1))
         elif reaction in ("goto", "retry"):
             form = "{goto: PHASE}" if reaction == "goto" else "{retry: {times: N}}"
             self.errors.append(GraphError(where, f"{reaction!r} needs its argument: {form}"))
@@ -204,39 +267,94 @@ class _Graph:
     def order(self) -> None:
         for index in range(len(self.nodes)):
             for to, where in self.completed(index):
-                self.edges[index].append(_Edge(to, False, where))
+                self.edges[index].append(_Edge(to, where))
 
     # --- proofs ----------------------------------------------------------
 
-    def unbounded_cycle(self) -> list[tuple[int, _Edge]] | None:
-        """A cycle of uncounted edges, or None (Kahn's order, then a walk)."""
-        n = len(self.nodes)
-        free = [[e for e in edges if not e.counted and e.to >= 0] for edges in self.edges]
-        indegree = [0] * n
+    def free_edges(self) -> list[list[_Edge]]:
+        """The uncounted edges between phases."""
+        return [[e for e in edges if not e.counted and e.to >= 0] for edges in self.edges]
+
+    def free_order(self) -> tuple[list[int], set[int]]:
+        """The phases in an order of the uncounted edges (Kahn's), and those left
+        out: the phases on or after a cycle of uncounted edges."""
+        free = self.free_edges()
+        indegree = [0] * len(self.nodes)
         for edges in free:
             for e in edges:
                 indegree[e.to] += 1
-        ready = [i for i in range(n) if indegree[i] == 0]
-        left = set(range(n))
+        ready = [i for i, d in enumerate(indegree) if d == 0]
+        order: list[int] = []
         while ready:
             i = ready.pop()
-            left.discard(i)
+            order.append(i)
             for e in free[i]:
                 indegree[e.to] -= 1
                 if indegree[e.to] == 0:
                     ready.append(e.to)
+        left = set(range(len(self.nodes))).difference(order)
+        return order, left
+
+    def unbounded_cycle(self) -> list[tuple[int, _Edge]] | None:
+        """A cycle of uncounted edges, or None."""
+        _, left = self.free_order()
         if not left:
             return None
-        # every node left has an uncounted edge into the nodes left: walk until one repeats
+        # Every phase left has an uncounted edge from a phase left (those Kahn's order
+        # took out no longer count): walk such edges backwards until a phase repeats.
+        free = self.free_edges()
+        into: dict[int, tuple[int, _Edge]] = {}
+        for i in left:
+            for e in free[i]:
+                if e.to in left:
+                    into.setdefault(e.to, (i, e))
         i = min(left)
         seen: dict[int, int] = {}
         walk: list[tuple[int, _Edge]] = []
         while i not in seen:
             seen[i] = len(walk)
-            edge = next(e for e in free[i] if e.to in left)
-            walk.append((i, edge))
-            i = edge.to
-        return walk[seen[i] :]
+            before, edge = into[i]
+            walk.append((before, edge))
+            i = before
+        cycle = walk[seen[i] :]
+        cycle.reverse()
+        return cycle
+
+    def longest_run(self, dt: float) -> float:
+        """The most samples a run takes (inf: no bound proved), see the module's text."""
+        order, left = self.free_order()
+        if left:
+            return math.inf
+        free = self.free_edges()
+        bounds = [_entry_samples(node.phase, dt) for node in self.nodes]
+        # From the first phase, at t = 0: a phase ending at a mission time ends no later
+        # than that time, whenever it starts (at least one sample after).
+        start: dict[int, float] = {0: 0.0} if self.nodes else {}
+        first = 0.0
+        for i in order:
+            if i not in start:
+                continue
+            duration, by_time = bounds[i]
+            end = start[i] + duration
+            if by_time is not None:
+                end = min(end, max(start[i] + 1, by_time))
+            first = max(first, end)
+            for e in free[i]:
+                start[e.to] = max(start.get(e.to, 0.0), end)
+        # From anywhere, at any time: the longest path of uncounted edges from each phase.
+        longest = [0.0] * len(self.nodes)
+        for i in reversed(order):
+            duration, by_time = bounds[i]
+            own = duration if by_time is None else min(duration, by_time)
+            longest[i] = own + max((longest[e.to] for e in free[i]), default=0.0)
+        failsafe = float(max(1, samples(BUILT_IN_TIMEOUT, dt)) + 1)
+        counts: dict[Hashable, float] = {}
+        for edges in self.edges:
+            for e in edges:
+                if e.counted:
+                    after = longest[e.to] if e.to >= 0 else failsafe
+                    counts[e.counter] = max(counts.get(e.counter, 0.0), e.times * after)
+        return first + sum(counts.values()) + 1
 
     def reaches_end(self) -> bool:
         todo, seen = [0], {0}
@@ -248,6 +366,32 @@ class _Graph:
                     seen.add(e.to)
                     todo.append(e.to)
         return False
+
+
+def _entry_samples(phase: Phase, dt: float) -> tuple[float, float | None]:
+    """The most samples one entry of ``phase`` takes by its timeout or elapsed time
+    (inf: neither), and the sample its mission time ends it by (None: none)."""
+    until = phase.until
+    bounds = [b for b in (phase.timeout, until.elapsed) if b is not None]
+    duration = float(max(1, samples(min(bounds), dt)) + 1) if bounds else math.inf
+    if until.mission_time is None:
+        return duration, None
+    return duration, float(max(1, samples(until.mission_time, dt)) + 1)
+
+
+def _built(mission: Mission) -> _Graph:
+    graph = _Graph(mission)
+    graph.reactions()
+    graph.order()
+    return graph
+
+
+def worst_case_samples(mission: Mission) -> float:
+    """The most samples a run of ``mission`` can take: every phase to its time bound,
+    every retry and contingency run as often as its count allows, along the longest
+    path of the phase graph (inf when the graph proves no bound). The one sum of a
+    run's worst case: ``validate``'s limit, the runner's budget, the free space."""
+    return _built(mission).longest_run(float(mission.robot.dt))
 
 
 def prove(mission: Mission) -> Iterator[GraphError]:

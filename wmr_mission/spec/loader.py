@@ -35,6 +35,7 @@ from wmr_mission.spec.models import (
     PHASE_NAME,
     Mission,
 )
+from wmr_mission.terminal import shown
 
 __all__ = [
     "MAX_FILE_BYTES",
@@ -86,9 +87,9 @@ class Diagnostic:
     def __str__(self) -> str:
         # line 0: not from a file's text (a `--set`, a dict), so no position to give
         where = f"{self.file}:{self.line}:{self.column}" if self.line else self.file
-        if self.severity == "error":
-            return f"{where}: {self.message}"
-        return f"{where}: {self.severity}: {self.message}"
+        severity = "" if self.severity == "error" else f"{self.severity}: "
+        # One line, whatever a file name or the message echoes of the mission.
+        return shown(f"{where}: {severity}{self.message}", None)
 
 
 class MissionError(ValueError):
@@ -207,9 +208,9 @@ def yaml11_hint(text: str) -> str:
 
 
 def _tag_message(tag: str) -> str:
-    shown = "!!" + tag[len(_TAG) :] if tag.startswith(_TAG) else tag
+    written = "!!" + tag[len(_TAG) :] if tag.startswith(_TAG) else tag
     return (
-        f"YAML tag {shown!r} is not allowed in a mission: only plain mappings, lists, text, "
+        f"YAML tag {written!r} is not allowed in a mission: only plain mappings, lists, text, "
         "numbers, booleans and null"
     )
 
@@ -238,11 +239,17 @@ class Document:
         return 0, 0
 
     def override_of(self, path: DataPath) -> str | None:
-        """How the user wrote the override that set ``path`` (or a parent of it)."""
+        """How the user wrote the override that set ``path`` (or a parent of it),
+        or that wrote the key ``path`` on its way (``--set robot.limitz.v=3``
+        writes ``robot.limitz``, which the file never had)."""
         for end in range(len(path), 0, -1):
             source = self.overrides.get(path[:end])
             if source is not None:
                 return source
+        if path not in self.values:
+            for written, source in self.overrides.items():
+                if written[: len(path)] == path:
+                    return source
         return None
 
     def text_column(self, path: DataPath) -> tuple[int, int] | None:
@@ -477,7 +484,8 @@ def dotted_path(path: DataPath) -> str:
     """A data path as the text that names it: ``phases[1].timeout``."""
     text = ""
     for part in path:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+        name = shown(str(part))
+        text += f"[{part}]" if isinstance(part, int) else (f".{name}" if text else name)
     return text or "the mission"
 
 
@@ -611,8 +619,7 @@ _PATTERNS: Final = {
 
 
 def _shown(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
+    return shown(repr(value), 40)
 
 
 def _suggest(word: str, choices: Sequence[str]) -> str:
@@ -651,10 +658,12 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
             )
         if not allowed:
             return Finding(
-                path, f"unknown field {key!r} in {parent}: it takes no fields", at_key=True
+                path,
+                f"unknown field {shown(repr(key))} in {parent}: it takes no fields",
+                at_key=True,
             )
         hint = _suggest(key, allowed) or f"; expected one of: {', '.join(allowed)}"
-        return Finding(path, f"unknown field {key!r}{hint}", at_key=True)
+        return Finding(path, f"unknown field {shown(repr(key))}{hint}", at_key=True)
     if kind == "missing":
         if isinstance(loc[-1], int):
             return Finding(path, f"{where}: too few items (item {loc[-1]} is missing)")
@@ -757,8 +766,8 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         "too_long",
         "finite_number",
     ):
-        shown = _shown(value) if not isinstance(value, dict | list) else type(value).__name__
-        message = f"{message}, got {shown}"
+        got = _shown(value) if not isinstance(value, dict | list) else type(value).__name__
+        message = f"{message}, got {got}"
     return Finding(path, f"{where}: {message}")
 
 
@@ -1082,7 +1091,7 @@ class Override:
     def at(cls, dotted: str, value: Any, source: str | None = None) -> Override:
         """An override at a dotted path (``robot.initial_state.theta``, ``phases[1].timeout``)."""
         path = parse_path(dotted)
-        return cls(path, value, source if source is not None else f"{dotted}={value!r}")
+        return cls(path, value, source if source is not None else shown(f"{dotted}={value!r}"))
 
 
 _PATH_PART = re.compile(r"^([A-Za-z0-9_-]+)((?:\[\d+\])*)$")
@@ -1096,7 +1105,7 @@ def parse_path(dotted: str) -> DataPath:
         match = _PATH_PART.match(part)
         if match is None:
             raise ValueError(
-                f"{dotted!r} is not a field path: expected names joined by '.', "
+                f"{_shown(dotted)} is not a field path: expected names joined by '.', "
                 "e.g. robot.initial_state.theta or phases[1].timeout"
             )
         name, indices = match.groups()
@@ -1124,7 +1133,7 @@ def parse_override(text: str) -> Override:
 
     Raises :class:`MissionError` naming ``--set TEXT`` when it is malformed.
     """
-    source = f"--set {text}"
+    source = f"--set {shown(text)}"
     dotted, equals, value_text = text.partition("=")
     if not equals:
         raise MissionError([Diagnostic(source, 0, 0, "expected PATH=VALUE, e.g. robot.dt=0.02")])

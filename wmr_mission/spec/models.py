@@ -13,8 +13,9 @@ is loaded rebuilds the models that embed it, so the mission accepts it.
 
 from __future__ import annotations
 
+import math
 import re
-from typing import Annotated, Any, Final, Literal
+from typing import Annotated, Any, Final, Literal, NoReturn
 
 from pydantic import (
     AfterValidator,
@@ -131,7 +132,9 @@ class Limits(Model):
         description=(
             "The robot's own acceleration limits: the plant applies the commands no faster, "
             "and the controller (its zone filter too) commands no faster (the tighter of "
-            "these and v_rate, omega_rate); null = unlimited."
+            "these and v_rate, omega_rate) and plans for them: the regulator its "
+            "deceleration, the tracking law its turn, a regulate phase's zones the braking "
+            "distance; null = unlimited."
         ),
     )
 
@@ -325,6 +328,11 @@ _PHASE_METRICS: Final = {
         "[s] time a regulate phase spends away from its goal without taking 10 % of its "
         "error out over the next 20 time constants (or half a turn and 10 time constants)."
     ),
+    "overshoot_max": (
+        "[m] how far a regulate phase's robot went past its target, along the way from "
+        "where the phase started to the target (not judged for a phase that starts within "
+        "its goal)."
+    ),
     "speed_jump_max": "[m/s] largest change of v from one sample to the next.",
     "turn_rate_jump_max": "[rad/s] largest change of omega from one sample to the next.",
     "speed_reversals": (
@@ -382,6 +390,7 @@ class PhaseExpect(Model):
     detour_time: Threshold | None = _phase_metric("detour_time")
     zone_intrusion_max: Threshold | None = _phase_metric("zone_intrusion_max")
     stall_time: Threshold | None = _phase_metric("stall_time")
+    overshoot_max: Threshold | Auto | None = _phase_metric("overshoot_max")
     speed_jump_max: Threshold | Auto | None = _phase_metric("speed_jump_max")
     turn_rate_jump_max: Threshold | Auto | None = _phase_metric("turn_rate_jump_max")
     speed_reversals: Threshold | None = _phase_metric("speed_reversals")
@@ -680,6 +689,12 @@ class Expect(PhaseExpect):
     stall_time: Threshold | None = _mission_metric(
         "stall_time", Threshold(max=DEFAULT_STALL_TIME), " {max: 0} unless set."
     )
+    overshoot_max: Threshold | Auto | None = _mission_metric(
+        "overshoot_max",
+        "auto",
+        " auto: the phase's settled position tolerance + the position noise std (without "
+        "`settled`, 0.1 m + the position noise std).",
+    )
     speed_jump_max: Threshold | Auto | None = _mission_metric(
         "speed_jump_max", "auto", " auto: limits.v, half the range."
     )
@@ -829,6 +844,24 @@ class Plot(Model):
 # --- mission ---------------------------------------------------------------
 
 
+class Parameters(dict[str, float]):
+    """A mission's parameters, read-only as the rest of the mission: the
+    numbers written with them were computed from them when the mission was
+    read, so a change made afterwards would be silently ignored."""
+
+    def _refuse(self, *_: Any, **__: Any) -> NoReturn:
+        raise TypeError(
+            "a mission's parameters cannot be changed: load the mission again with "
+            "them, e.g. load_mission(path, {'parameters.NAME': VALUE})"
+        )
+
+    __setitem__ = __delitem__ = __ior__ = _refuse
+    clear = pop = popitem = setdefault = update = _refuse
+
+    def __reduce__(self) -> tuple[type[Parameters], tuple[dict[str, float]]]:
+        return Parameters, (dict(self),)  # pickled and copied without setting items
+
+
 def _check_parameter_names(parameters: dict[str, float]) -> dict[str, float]:
     from wmr_mission.expressions import FUNCTIONS
 
@@ -839,7 +872,7 @@ def _check_parameter_names(parameters: dict[str, float]) -> dict[str, float]:
                 "parameter name '{name}' is reserved (t, pi, e and function names)",
                 {"name": name},
             )
-    return parameters
+    return Parameters(parameters)
 
 
 ParameterName = Annotated[str, Field(pattern=IDENTIFIER, max_length=64)]
@@ -872,7 +905,7 @@ class Mission(Model):
     )
     parameters: Annotated[dict[ParameterName, Number], AfterValidator(_check_parameter_names)] = (
         Field(
-            default_factory=dict,
+            default_factory=Parameters,
             max_length=1000,
             description="Named constants [any unit] usable in expressions.",
             json_schema_extra={"additionalProperties": False},
@@ -929,10 +962,22 @@ class Mission(Model):
     def _estimator_follows_the_sensors(
         cls, data: Any, handler: ValidatorFunctionWrapHandler
     ) -> Mission:
-        """Estimator settings whose defaults follow the sensors, completed by
-        them (wmr_mission.estimators.registry.EstimatorSettings.with_sensors)."""
+        """Estimator settings whose defaults follow the sensors and the
+        controller (its ``position_noise_budget``), completed by them
+        (wmr_mission.estimators.registry.EstimatorSettings.with_sensors)."""
         mission: Mission = handler(data)
-        estimator = mission.estimator.with_sensors(mission.sensors.measured_noise())
+        robot = mission.robot
+        # A slow estimate lags a robot the model does not hold for: under stated
+        # disturbances the estimator keeps its own defaults (docs/paper-notes.md,
+        # "Eqs. (6)-(7) under position noise").
+        budget = (
+            math.inf
+            if robot.disturbances.model_fields_set
+            else mission.controller.position_noise_budget(
+                float(robot.dt), float(robot.limits.v), float(robot.limits.omega)
+            )
+        )
+        estimator = mission.estimator.with_sensors(mission.sensors.measured_noise(), budget)
         if estimator is mission.estimator:
             return mission
         return mission.model_copy(update={"estimator": estimator})

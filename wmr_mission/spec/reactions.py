@@ -17,6 +17,7 @@ from wmr_mission.fields import Model, NonNegative, RegionName
 
 __all__ = [
     "BUILT_IN_CONTINGENCIES",
+    "BUILT_IN_TIMEOUT",
     "EVENTS",
     "FALLBACK_FORMS",
     "Fallback",
@@ -34,6 +35,8 @@ EVENTS: Final = ("on_timeout", "on_breach", "on_failure")
 
 # Contingencies every mission has without writing them (wmr_mission.sim.plan builds them).
 BUILT_IN_CONTINGENCIES: Final = ("hold", "return-home")
+# [s] their one phase's timeout: it ends settled, or then.
+BUILT_IN_TIMEOUT: Final = 120.0
 
 FALLBACK_FORMS: Final = "fail, next, a contingency's name (hold, return-home, ...) or {goto: PHASE}"
 REACTION_FORMS: Final = (

@@ -1,0 +1,283 @@
+"""Defaults that hold under sensor noise (docs/paper-notes.md, "Eqs. (6)-(7)
+under position noise", "Outliers gated"): the estimators filter the position
+noise down to what the tracking law turns into 1 % of the turn-rate limit,
+gate lone outliers, and leave a noise-free mission as it was; a failed
+verdict a known mechanism explains says what to try."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from wmr_mission.estimators import ekf, observer
+from wmr_mission.kernels.model import step
+from wmr_mission.output.advice import advice
+from wmr_mission.output.numbers import mission_numbers
+from wmr_mission.output.result import Outcome
+from wmr_mission.sim.runner import run_mission
+from wmr_mission.spec.loader import load_mission, load_mission_text
+from wmr_mission.spec.models import Mission
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+
+
+def mission(
+    estimator: dict[str, Any] | None = None,
+    noise: tuple[float, float] = (0.02, 0.01),
+    path: dict[str, Any] | None = None,
+    **robot: Any,
+) -> dict[str, Any]:
+    """A circle of radius 2 at 1 m/s (limits 3 m/s, 6 rad/s), then a park."""
+    position, heading = noise
+    return {
+        "version": 1,
+        "name": "noisy",
+        "robot": {
+            "dt": 0.01,
+            "initial_state": {"x": 2, "y": 0, "theta": 1.5708},
+            "limits": {"v": 3, "omega": 6},
+            **robot,
+        },
+        "sensors": {
+            "measure": ["x", "y", "theta"],
+            "noise_std": {"x": position, "y": position, "theta": heading},
+            "seed": 3,
+        },
+        "estimator": estimator or {},
+        "phases": [
+            {
+                "name": "go",
+                "track": {
+                    "path": path
+                    or {
+                        "type": "circle",
+                        "center": [0, 0],
+                        "radius": 2,
+                        "angular_rate": 0.5,
+                        "start": "current",
+                    }
+                },
+                "until": {"elapsed": 12},
+            },
+            {
+                "name": "park",
+                "regulate": {"target": {"x": 0, "y": 1, "theta": 0}},
+                "until": {"settled": {"position": 0.03, "heading": 0.03}},
+                "timeout": 20,
+            },
+        ],
+    }
+
+
+def load(data: dict[str, Any]) -> Mission:
+    return load_mission_text(yaml.safe_dump(data), "noisy.yaml")
+
+
+# --- the defaults ----------------------------------------------------------------
+
+
+def test_the_observer_s_position_poles_follow_the_noise_and_the_look_ahead() -> None:
+    # budget 0.01 * 6 rad/s * 0.05 m * 0.1 s = 3e-4 m; rho = (3e-4 / 0.02)^2
+    rho = (0.01 * 6 * 0.05 * 0.1 / 0.02) ** 2
+    settings = load(mission()).estimator
+    assert isinstance(settings, observer.ConstrainedObserver)
+    assert settings.poles.x == settings.poles.y == round((1 - rho) / (1 + rho), 6)
+    assert settings.poles.x > 0.999
+    assert settings.poles.theta == 0.9  # the heading noise is the jitter bound's own term
+    assert settings.innovation_gate == 30.66  # chi-square 1 - 1e-6, 3 states
+    # a longer look-ahead allows more noise: a faster pole
+    longer = load({**mission(), "controller": {"tracking": {"look_ahead": 0.5}}}).estimator
+    assert isinstance(longer, observer.ConstrainedObserver)
+    assert 0.9 < longer.poles.x < settings.poles.x
+
+
+def test_the_ekf_s_position_process_noise_follows_the_noise() -> None:
+    settings = load(mission({"type": "ekf"})).estimator
+    assert isinstance(settings, ekf.Ekf)
+    budget = 0.01 * 6 * 0.05 * 0.1
+    assert settings.process_std.x == settings.process_std.y == float(f"{budget**2 / 0.02:.3g}")
+    assert settings.process_std.theta == 0.001
+    assert settings.innovation_gate == 30.66
+
+
+@pytest.mark.parametrize("kind", ["constrained-observer", "ekf"])
+def test_without_noise_or_with_settings_written_the_defaults_are_as_they_were(kind: str) -> None:
+    quiet = load(mission({"type": kind}, noise=(0.0, 0.0))).estimator
+    assert quiet == type(quiet)(type=kind).with_sensors({"x": 0.0, "y": 0.0, "theta": 0.0})
+    assert isinstance(quiet, observer.ConstrainedObserver | ekf.Ekf)
+    assert quiet.innovation_gate is None
+    written = {"poles": {"x": 0.8, "y": 0.8, "theta": 0.8}, "innovation_gate": None}
+    if kind == "ekf":
+        written = {"process_std": {"x": 0.01, "y": 0.01, "theta": 0.01}, "innovation_gate": None}
+    kept = load(mission({"type": kind, **written})).estimator.model_dump()
+    assert {key: kept[key] for key in written} == written
+
+
+def test_stated_disturbances_keep_the_estimator_s_own_poles() -> None:
+    """A slow estimate lags a robot the model does not hold for:
+    missions/disturbed.yaml with the derived poles kicked its turn rate (12
+    rad/s against 6) at level 1 and lagged 11 m at level 2."""
+    settings = load(mission(disturbances={"slip": {"longitudinal": 0.05}})).estimator
+    assert isinstance(settings, observer.ConstrainedObserver)
+    assert settings.poles.x == 0.9
+    assert settings.innovation_gate == 30.66  # outliers are gated all the same
+
+
+# --- the gate --------------------------------------------------------------------
+
+
+def _observer_record() -> tuple[Any, Any]:
+    settings = load(mission()).estimator
+    assert isinstance(settings, observer.ConstrainedObserver)
+    tuning = observer.tuning_of(
+        settings,
+        observer.Measurements(np.ones(3), np.array([0.02, 0.02, 0.01]), 0.01),
+    )
+    return tuning, observer.new_memory(tuning, np.zeros(3))
+
+
+def _ekf_record() -> tuple[Any, Any]:
+    settings = load(mission({"type": "ekf"})).estimator
+    assert isinstance(settings, ekf.Ekf)
+    tuning = ekf.tuning_of(
+        settings, ekf.Measurements(np.ones(3), np.array([0.02, 0.02, 0.01]), 0.01)
+    )
+    return tuning, ekf.new_memory(tuning, np.zeros(3))
+
+
+@pytest.mark.parametrize("kind", ["observer", "ekf"])
+def test_a_lone_outlier_never_reaches_the_estimate(kind: str) -> None:
+    """The outliers of missions/disturbed.yaml (0.5 m) kicked its turn rate
+    to 12 rad/s: gated, the estimate is the prediction; four in a row say the
+    estimate is off, and the fourth is taken."""
+    module = observer if kind == "observer" else ekf
+    tuning, memory = _observer_record() if kind == "observer" else _ekf_record()
+    pose = np.array([1.0, 2.0, 0.3])
+    estimate = pose.copy()
+    rng = np.random.default_rng(0)
+    for _ in range(200):  # converge on good measurements
+        pose = np.array(step(*pose, 1.0, 0.5, 0.01))
+        module.next_estimate(
+            tuning, memory, estimate, 1.0, 0.5, 0.01, pose + rng.normal(0, 0.01, 3), True
+        )
+    for n in range(4):
+        before = estimate.copy()
+        predicted = np.array(step(*before, 1.0, 0.5, 0.01))
+        pose = np.array(step(*pose, 1.0, 0.5, 0.01))
+        outlier = pose + np.array([0.5, -0.5, 0.5])
+        module.next_estimate(tuning, memory, estimate, 1.0, 0.5, 0.01, outlier, True)
+        if n < observer.MAX_REJECTED:
+            np.testing.assert_allclose(estimate, predicted, rtol=0, atol=1e-12)
+        else:
+            assert abs(estimate[0] - predicted[0]) > 1e-3  # taken
+    assert np.all(np.isfinite(estimate))
+
+
+def test_the_estimate_starts_at_the_default_pace_and_slows_to_its_own() -> None:
+    """The derived pole starts at the default (0.9) and slows as a running mean:
+    a 0.3 m error of the initial estimate is gone as fast as by default."""
+    tuning, memory = _observer_record()
+    assert tuning.poles[0] > 0.999
+    estimate = np.array([0.3, 0.0, 0.0])
+    pose = np.zeros(3)
+    for _ in range(100):
+        pose = np.array(step(*pose, 0.0, 0.0, 0.01))
+        observer.next_estimate(tuning, memory, estimate, 0.0, 0.0, 0.01, pose.copy(), True)
+    # phase II puts it on its bound (5 noise std: 0.1 m) at once; then a running
+    # mean from 1/10: a second leaves 10/109 of that (the pole 0.9: 0.9^99)
+    assert abs(estimate[0]) == pytest.approx(0.1 * 10 / 109, rel=1e-9)
+    assert memory.poles[0] == pytest.approx(1 - 1 / 109)
+
+
+# --- the missions ----------------------------------------------------------------
+
+PATHS = {
+    "line": {"type": "line", "heading": 1.5708, "speed": 1.0},
+    "circle": None,
+    "waypoints": {"type": "waypoints", "points": [[2, 3], [0, 5], [-2, 4]], "speed": 0.8},
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["constrained-observer", "ekf"])
+@pytest.mark.parametrize("path", PATHS, ids=list(PATHS))
+def test_two_centimetres_and_ten_milliradians_meet_the_default_verdicts(
+    path: str, kind: str
+) -> None:
+    """With no tuning. With the defaults before (pole 0.9, process noise 1 mm,
+    P0 1 m, no gate) each of the six failed: jitter, reversals, or the EKF's
+    first measurement kicking the turn rate from limit to limit."""
+    result = run_mission(load(mission({"type": kind}, path=PATHS[path])))
+    assert result.outcome is Outcome.success, result.message
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", sorted(MISSIONS.glob("*.yaml")), ids=lambda p: p.stem)
+def test_every_shipped_mission_succeeds_as_shipped(path: Path) -> None:
+    """None demonstrates a failure any more: noisy-ekf.yaml failed on jitter
+    (0.457 rad/s against 0.26), disturbed.yaml on its outliers' kicks and a
+    parking stall."""
+    result = run_mission(load_mission(path))
+    assert result.outcome is Outcome.success, f"{path.name}: {result.message}"
+
+
+# --- what to try -----------------------------------------------------------------
+
+
+# A track phase whose position estimate is off by 5 mm RMS: 0.33 * 0.005 / (0.05 * 0.1)
+# = 0.33 rad/s of jitter explained.
+NOISY_PHASE = {"estimation": {"rms": {"x": 0.005, "y": 0.004, "theta": 0.003}}}
+
+
+def _jitter_check(value: float, bound: float) -> dict[str, Any]:
+    return {"metric": "turn_rate_jitter", "phase": "go", "max": bound, "value": value,
+            "met": value <= bound}  # fmt: skip
+
+
+def test_a_jitter_miss_under_position_noise_names_the_look_ahead() -> None:
+    numbers = mission_numbers(load(mission()).model_dump(mode="json"), 0.01, (3.0, 6.0))
+    line = advice(_jitter_check(0.16, 0.07), NOISY_PHASE, numbers, "paper")
+    assert line == (
+        "turn-rate jitter 0.16 rad/s: position noise 0.02 m over a look-ahead of 0.05 m; "
+        "`controller.tracking.look_ahead` >= 0.15 would meet 0.07"
+    )
+    assert advice(_jitter_check(0.06, 0.07), NOISY_PHASE, numbers, "paper") is None  # met
+    assert (
+        advice(_jitter_check(0.16, 0.07), NOISY_PHASE, numbers, "pure-pursuit") is None
+    )  # no such field
+    quiet = mission_numbers(load(mission(noise=(0.0, 0.01))).model_dump(mode="json"), 0.01,
+                            (3.0, 6.0))  # fmt: skip
+    assert (
+        advice(_jitter_check(0.16, 0.07), NOISY_PHASE, quiet, "paper") is None
+    )  # no mechanism known
+    kick = {**_jitter_check(12.0, 6.0), "metric": "turn_rate_jump_max"}
+    assert advice(kick, NOISY_PHASE, numbers, "paper") is None
+    # an estimate too quiet to explain it (a zone or a corner turns the robot): none
+    quiet_estimate = {"estimation": {"rms": {"x": 1e-5, "y": 1e-5, "theta": 0.001}}}
+    assert advice(_jitter_check(0.16, 0.07), quiet_estimate, numbers, "paper") is None
+
+
+@pytest.mark.slow
+def test_a_run_that_jitters_says_what_to_try_and_the_advice_holds() -> None:
+    """The observer made fast (position poles 0.5) on the noisy circle jitters;
+    the run's summary names the look-ahead, and that look-ahead meets the bound."""
+    fast = mission({"poles": {"x": 0.5, "y": 0.5, "theta": 0.9}})
+    result = run_mission(load(fast))
+    assert result.outcome is Outcome.expect_failed
+    checks = result.summary()["expectations"]
+    advised = [c for c in checks if "advice" in c]
+    assert [c["metric"] for c in advised] == ["turn_rate_jitter"]
+    assert "position noise 0.02 m over a look-ahead of 0.05 m" in advised[0]["advice"]
+    needed = float(advised[0]["advice"].split(">= ")[1].split()[0])
+    longer = {**fast, "controller": {"tracking": {"look_ahead": needed}}}
+    jitter = [
+        c for c in run_mission(load(longer)).summary()["expectations"]
+        if c["metric"] == "turn_rate_jitter" and c["phase"] == "go"
+    ]  # fmt: skip
+    assert jitter[0]["met"], jitter
+    assert math.isfinite(needed)

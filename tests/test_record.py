@@ -1,0 +1,116 @@
+"""No command writes over a run's or a campaign's record (wmr_mission/review/record.py):
+every path the user names for an output is checked, symbolic links followed."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import pytest
+from test_output_synthetic import circle_run
+from typer.testing import CliRunner
+
+from wmr_mission.cli import app
+
+MISSION = Path(__file__).parent / "data" / "campaigns" / "short.yaml"
+CAMPAIGN = Path(__file__).parents[1] / "missions" / "campaigns" / "case1-dt.yaml"
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return circle_run().write(tmp_path_factory.mktemp("record") / "circle", plots=False)
+
+
+def _fingerprint(directory: Path) -> dict[str, str]:
+    return {
+        str(path.relative_to(directory)): hashlib.sha256(path.read_bytes()).hexdigest()
+        for path in sorted(directory.rglob("*"))
+        if path.is_file()
+    }
+
+
+def _refused(arguments: list[str], directory: Path, written: str) -> None:
+    before = _fingerprint(directory)
+    result = CliRunner().invoke(app, arguments)
+    assert result.exit_code == 2, result.output
+    assert result.stdout == ""
+    assert result.stderr.count("\n") == 1, result.stderr
+    assert f"is {written} of the " in result.stderr
+    assert "choose another --out" in result.stderr
+    assert _fingerprint(directory) == before
+
+
+def _links(tmp_path: Path, directory: Path, name: str) -> tuple[Path, Path]:
+    """A link to the file ``name`` of ``directory``, and a path through a link to it."""
+    to_file = tmp_path / f"link-to-{name}.html"
+    to_file.symlink_to(directory / name)
+    to_directory = tmp_path / f"link-to-{directory.name}-for-{name}"
+    to_directory.symlink_to(directory)
+    return to_file, to_directory / name
+
+
+@pytest.mark.parametrize("command", ["view", "export"])
+def test_no_output_is_written_over_a_run_s_record(
+    command: str, run_dir: Path, tmp_path: Path
+) -> None:
+    extra = ["--format", "parquet"] if command == "export" else []
+    for name in ("trajectory.csv", "summary.json", "transitions.json", "manifest.json", "xy.png"):
+        _refused([command, str(run_dir), "--out", str(run_dir / name), *extra], run_dir, name)
+        linked_file, through_directory = _links(tmp_path, run_dir, name)
+        for out in (linked_file, through_directory):
+            _refused([command, str(run_dir), "--out", str(out), *extra], run_dir, name)
+    # another run's record as well as this one's
+    other = circle_run().write(tmp_path / "other", plots=False)
+    _refused(
+        [command, str(run_dir), "--out", str(other / "summary.json"), *extra], other, "summary.json"
+    )
+
+
+@pytest.mark.parametrize("command", ["view", "export"])
+def test_no_output_is_written_over_a_campaign_s_record(
+    command: str, campaign_dir: Path, tmp_path: Path
+) -> None:
+    extra = ["--format", "parquet"] if command == "export" else []
+    worst = next((campaign_dir / "worst").iterdir())
+    for directory, name in (
+        (campaign_dir, "runs.csv"),
+        (campaign_dir, "campaign.json"),
+        (campaign_dir, "manifest.json"),
+        (worst, "trajectory.csv"),
+    ):
+        arguments = [command, str(campaign_dir), *extra, "--out"]
+        _refused([*arguments, str(directory / name)], campaign_dir, name)
+        linked_file, through_directory = _links(tmp_path, directory, name)
+        _refused([*arguments, str(linked_file)], campaign_dir, name)
+        _refused([*arguments, str(through_directory)], campaign_dir, name)
+
+
+def test_other_files_in_a_run_directory_are_written(run_dir: Path, tmp_path: Path) -> None:
+    for arguments in (
+        ["view", str(run_dir)],
+        ["view", str(run_dir), "--out", str(run_dir / "notes.html")],
+        ["export", str(run_dir), "--format", "parquet"],
+        ["export", str(run_dir), "--format", "parquet", "--out", str(run_dir / "t.parquet")],
+    ):
+        result = CliRunner().invoke(app, arguments)
+        assert result.exit_code == 0, result.output
+    link = tmp_path / "report-link.html"
+    link.symlink_to(tmp_path / "elsewhere.html")
+    result = CliRunner().invoke(app, ["view", str(run_dir), "--out", str(link)])
+    assert result.exit_code == 0, result.output
+
+
+def test_run_and_sweep_never_take_a_record_s_directory(
+    run_dir: Path, campaign_dir: Path, tmp_path: Path
+) -> None:
+    """Their --out names a directory, taken only new or empty."""
+    for arguments, directory in (
+        (["run", str(MISSION), "--out", str(run_dir)], run_dir),
+        (["run", str(MISSION), "--out", str(run_dir / "summary.json")], run_dir),
+        (["sweep", str(CAMPAIGN), "--out", str(campaign_dir)], campaign_dir),
+        (["sweep", str(CAMPAIGN), "--out", str(campaign_dir / "runs.csv")], campaign_dir),
+    ):
+        before = _fingerprint(directory)
+        result = CliRunner().invoke(app, arguments)
+        assert result.exit_code == 2, result.output
+        assert _fingerprint(directory) == before

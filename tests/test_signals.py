@@ -1,0 +1,162 @@
+"""A stop at any moment of `run` (docs/reliability.md): SIGINT or SIGTERM sent
+at any time into a 1,000 s mission at dt 0.001 exits 130 or 143, and once the
+first sample is simulated its samples are kept with the outcome
+``interrupted``. No stop is lost: not inside an import, not inside numba's
+dispatcher, not swallowed by code that catches a KeyboardInterrupt."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wmr_mission.output.result import Outcome
+from wmr_mission.output.rundir import CLAIM_FILE
+from wmr_mission.sim.runner import run_mission
+from wmr_mission.spec.loader import load_mission, load_mission_text
+from wmr_mission.stopping import STOP_SIGNALS, StopSignals
+
+DATA = Path(__file__).resolve().parent / "data"
+LONG = DATA / "long-circle.yaml"
+LONG_SAMPLES = 1_000_001
+CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
+RUN = [sys.executable, "-m", "wmr_mission", "run", str(LONG), "--no-plots"]
+
+
+def start(run_dir: Path) -> subprocess.Popen[bytes]:
+    return subprocess.Popen(
+        [*RUN, "--out", str(run_dir)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+
+
+def stopped_as_promised(process: subprocess.Popen[bytes], number: int, run_dir: Path) -> None:
+    """Exit 128 + the signal; a run directory only with the samples simulated."""
+    _, err = process.communicate(timeout=300)
+    stderr = err.decode()
+    code = process.returncode
+    if code == -number:
+        # Killed before the interpreter had run a line of the command (the
+        # shell says 128 + the signal too): nothing was claimed.
+        assert not run_dir.exists(), stderr
+        return
+    assert code == CODES[number], stderr
+    assert "Traceback" not in stderr
+    if not run_dir.exists():  # stopped before the first sample: nothing claimed
+        # said once the mission is being read; before, the command had not begun
+        assert stderr == "" or "interrupted before the simulation" in stderr, stderr
+        return
+    assert not (run_dir / CLAIM_FILE).exists()
+    summary = json.loads((run_dir / "summary.json").read_text())
+    rows = (run_dir / "trajectory.csv").read_text().count("\n") - 1
+    assert rows == summary["samples"] > 0
+    name = signal.Signals(number).name
+    if summary["outcome"] == "interrupted":
+        assert summary["message"].endswith(f"by {name}")
+        assert f"the samples up to the stop are in {run_dir}" in stderr
+    else:  # the stop came once every sample was simulated: written whole
+        assert summary["samples"] == LONG_SAMPLES
+        assert (
+            f"{name} after the simulation ended; the run is written whole" in stderr
+            or f"{name} as the run ended; its record is complete" in stderr
+        )
+
+
+def test_a_stop_at_any_moment_of_a_long_run_default(tmp_path: Path) -> None:
+    """Two moments at once: SIGTERM during start-up, and SIGINT the instant the
+    run directory appears (claimed just before the first sample)."""
+    early = start(tmp_path / "early")
+    claimed = start(tmp_path / "claimed")
+    try:
+        time.sleep(0.4)
+        early.send_signal(signal.SIGTERM)
+        deadline = time.monotonic() + 120
+        while not (tmp_path / "claimed").exists() and claimed.poll() is None:
+            assert time.monotonic() < deadline
+            time.sleep(0.005)
+        claimed.send_signal(signal.SIGINT)
+        stopped_as_promised(early, signal.SIGTERM, tmp_path / "early")
+        stopped_as_promised(claimed, signal.SIGINT, tmp_path / "claimed")
+    finally:
+        for process in (early, claimed):
+            process.kill()
+            process.wait()
+    summary = json.loads((tmp_path / "claimed" / "summary.json").read_text())
+    # A stop as soon as the directory exists: the samples simulated by then.
+    assert summary["outcome"] == "interrupted"
+    assert 0 < summary["samples"] < LONG_SAMPLES
+
+
+@pytest.mark.sweep
+@pytest.mark.parametrize("number", list(CODES))
+@pytest.mark.parametrize("tenth", range(101))
+def test_a_stop_at_any_moment_of_a_long_run(tmp_path: Path, number: int, tenth: int) -> None:
+    """SIGINT or SIGTERM sent at 0.1 s steps from 0 to 10 s into the run (it
+    takes 7-50 s, the machine and its load deciding)."""
+    run_dir = tmp_path / "run"
+    process = start(run_dir)
+    time.sleep(tenth / 10)
+    if process.poll() is not None:  # a fast machine: the run ended before the moment
+        assert process.wait() in (0, 1)
+        summary = json.loads((run_dir / "summary.json").read_text())
+        assert summary["samples"] == LONG_SAMPLES
+        return
+    process.send_signal(number)
+    stopped_as_promised(process, number, run_dir)
+
+
+def test_a_stop_swallowed_on_its_way_still_stops_the_run() -> None:
+    """Code that catches the KeyboardInterrupt (here the progress callback, as
+    a library's ``except`` turned one into an ImportError) does not lose the
+    stop: the run ends ``interrupted`` at the next chunk of samples."""
+    mission = load_mission(LONG)
+    calls = []
+
+    def progress(t: float, budget: float, phase: str) -> None:
+        calls.append(t)
+        if len(calls) == 2:
+            try:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.05)  # the handler runs here
+            except KeyboardInterrupt:
+                pass
+
+    with StopSignals(STOP_SIGNALS) as stop:
+        result = run_mission(mission, progress=progress)
+    assert stop.received == [signal.SIGTERM]
+    assert result.outcome is Outcome.interrupted
+    assert result.transitions[-1].condition == "interrupted"
+    assert 0 < result.samples < 100_000
+    assert np.all(np.isfinite(result.x))
+
+
+def test_a_stop_before_the_first_sample_claims_nothing() -> None:
+    """``ready`` (where `run` claims its directory) comes after the loop is
+    loaded: a stop held by then ends the run with no sample and no claim."""
+    text = """version: 1
+name: short
+robot: {dt: 0.01}
+phases:
+  - name: park
+    regulate: {target: {x: 1, y: 0, theta: 0}}
+    until: {elapsed: 1}
+"""
+    mission = load_mission_text(text, "m.yaml")
+    ready = []
+    with StopSignals(STOP_SIGNALS) as stop:
+        stop.mode = "hold"
+        os.kill(os.getpid(), signal.SIGINT)
+        result = run_mission(mission, ready=lambda: ready.append(1))
+    assert result.outcome is Outcome.interrupted
+    assert result.samples == 0
+    assert ready == []
+    assert run_mission(mission, ready=lambda: ready.append(1)).outcome is Outcome.success
+    assert ready == [1]

@@ -1,0 +1,248 @@
+"""What `wmr-mission validate` proves before a run: missions that cannot succeed
+or are plainly mistyped get a warning at FILE:LINE:COL, `--strict` makes
+warnings errors, and a note names the side a path through a zone's centre
+takes. The infeasible set (scripts/infeasible_missions.py) is rejected whole,
+the shipped and generated missions pass."""
+
+from __future__ import annotations
+
+import csv
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from wmr_mission.cli import app
+
+ROOT = Path(__file__).resolve().parents[1]
+INFEASIBLE = ROOT / "tests" / "data" / "infeasible"
+sys.path.insert(0, str(ROOT / "scripts"))
+
+from infeasible_missions import generate  # noqa: E402
+
+LIMITS = "robot:\n  limits: {v: 1, omega: 2}\n"
+
+FAR = """\
+version: 1
+name: far
+robot:
+  limits: {v: 1, omega: 2}
+phases:
+  - name: go
+    regulate: {target: {x: 100, y: 0, theta: 0}}
+    until: {settled: {position: 0.05, heading: 0.05}}
+    timeout: 5
+"""
+
+DEGREES = """\
+version: 1
+name: degrees
+robot:
+  initial_state: {x: 0, y: 0, theta: 90}
+  limits: {v: 1, omega: 2}
+phases:
+  - name: go
+    regulate: {target: {x: 1, y: 0, theta: 0}}
+    until: {settled: {position: 0.05, heading: 0.05}}
+    timeout: 30
+"""
+
+NO_LIMITS = """\
+version: 1
+name: nolimits
+phases:
+  - name: go
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    until: {elapsed: 5}
+"""
+
+THROUGH_THE_CENTRE = """\
+version: 1
+name: centre
+robot:
+  limits: {v: 1, omega: 2}
+regions:
+  rock: {type: circle, center: [2, CENTRE_Y], radius: 0.5}
+phases:
+  - name: go
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    constraints: [{stay_outside: rock}]
+    until: {elapsed: 10}
+"""
+
+
+def _validate(*arguments: str) -> tuple[int, str]:
+    result = CliRunner().invoke(app, ["validate", *arguments])
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+    assert result.stderr == ""
+    return result.exit_code, result.stdout
+
+
+def _write(tmp_path: Path, text: str, name: str = "m.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("text", "position", "said"),
+    [
+        (FAR, "9:14", "phase 'go' cannot end before its timeout of 5 s: it needs at least 100 s"),
+        (DEGREES, "4:38", "robot.initial_state.theta = 90 rad is more than a full turn"),
+        (NO_LIMITS, "1:1", "robot.limits is not given"),
+    ],
+    ids=["unreachable-in-time", "degrees", "no-limits"],
+)
+def test_a_mission_that_cannot_succeed_is_a_warning_and_an_error_under_strict(
+    tmp_path: Path, text: str, position: str, said: str
+) -> None:
+    path = _write(tmp_path, text)
+    code, out = _validate(str(path))
+    assert code == 0
+    assert f"{path}:{position}: warning: {said}" in out
+    assert out.endswith(f"{path}: ok (1 warning)\n")
+    code, out = _validate("--strict", str(path))
+    assert code == 1
+    assert out.endswith(f"{path}: 1 warning: warnings are errors under --strict\n")
+
+
+def test_degrees_say_what_they_are_in_radians(tmp_path: Path) -> None:
+    _, out = _validate(str(_write(tmp_path, DEGREES)))
+    assert "degrees? 90 degrees is 1.571 rad" in out
+
+
+def test_a_path_through_a_zones_centre_gets_a_note_naming_the_side(tmp_path: Path) -> None:
+    path = _write(tmp_path, THROUGH_THE_CENTRE.replace("CENTRE_Y", "0"))
+    code, out = _validate("--strict", str(path))
+    assert code == 0  # a note is never an error
+    assert f"{path}:10:34: note: the path runs through the centre of keep-out zone 'rock'" in out
+    assert "goes round it on the left of its direction of travel, by the zone filter's rule" in out
+    assert out.endswith(f"{path}: ok (1 note)\n")
+    # 5 mm off the centre, to the path's right: the path's side decides, and the note says so
+    _, out = _validate(str(_write(tmp_path, THROUGH_THE_CENTRE.replace("CENTRE_Y", "0.005"))))
+    assert "goes round it on the right, the side the path passes the centre on" in out
+    # a path that merely crosses the zone is a detour the mission chose: no note
+    _, out = _validate(str(_write(tmp_path, THROUGH_THE_CENTRE.replace("CENTRE_Y", "0.2"))))
+    assert out == f"{tmp_path / 'm.yaml'}: ok\n"
+
+
+@pytest.mark.parametrize(("centre_y", "side"), [("0", 1.0), ("0.005", -1.0)])
+def test_the_note_names_the_side_the_run_takes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, centre_y: str, side: float
+) -> None:
+    monkeypatch.setenv("WMR_MISSION_NO_JIT", "1")
+    path = _write(tmp_path, THROUGH_THE_CENTRE.replace("CENTRE_Y", centre_y))
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["run", str(path), "--out", str(out), "--no-plots"])
+    assert result.exit_code == 0, result.output
+    with (out / "trajectory.csv").open() as rows:
+        beside = [float(r["y"]) for r in csv.DictReader(rows) if abs(float(r["x"]) - 2.0) < 0.1]
+    # heading 0: the left of travel is +y; the robot passes the rock's side, 0.5 m out
+    assert all(side * y > 0.3 for y in beside), beside
+
+
+def test_until_that_the_path_never_meets_is_a_warning(tmp_path: Path) -> None:
+    text = (
+        "version: 1\nname: away\n" + LIMITS + "phases:\n"
+        "  - name: go\n    track: {path: {type: line, heading: 0, speed: 0.5}}\n"
+        "    until: {near: {point: [-3, 0], tolerance: 0.2}}\n    timeout: 20\n"
+    )
+    path = _write(tmp_path, text)
+    code, out = _validate("--strict", str(path))
+    assert code == 1
+    assert f"{path}:8:19: warning: the path never comes within 0.2 m of (-3, 0)" in out
+
+
+def test_a_near_condition_met_ends_the_predicted_phase_there(tmp_path: Path) -> None:
+    # Drive to (2, 0) and stop there; then a phase near (2, 1) from there is reachable,
+    # which it is not from the end of the first line (5 m further on).
+    text = (
+        "version: 1\nname: legs\n" + LIMITS + "phases:\n"
+        "  - name: a\n    track: {path: {type: line, heading: 0, speed: 0.5}}\n"
+        "    until: {near: {point: [2, 0], tolerance: 0.1}}\n    timeout: 14\n"
+        "  - name: b\n    track: {path: {type: line, towards: [2, 1], speed: 0.5}}\n"
+        "    until: {near: {point: [2, 1], tolerance: 0.1}}\n    timeout: 4\n"
+    )
+    code, out = _validate("--strict", str(_write(tmp_path, text)))
+    assert (code, out) == (0, f"{tmp_path / 'm.yaml'}: ok\n")
+
+
+def test_zones_that_make_an_until_or_a_start_impossible(tmp_path: Path) -> None:
+    text = (
+        "version: 1\nname: zones\n" + LIMITS + "regions:\n"
+        "  pit: {type: circle, center: [0, 0], radius: 1}\n"
+        "  pond: {type: circle, center: [5, 0], radius: 1}\n"
+        "  jetty: {type: box, min: [4.8, -0.2], max: [5.2, 0.2]}\n"
+        "geofence: {keep_out: [pit]}\n"
+        "phases:\n"
+        "  - name: a\n    track: {path: {type: line, heading: 0, speed: 0.5}}\n"
+        "    constraints: [{stay_outside: pond}]\n"
+        "    until: {reaches: jetty}\n    timeout: 30\n"
+        "  - name: b\n    regulate: {target: {x: 0.2, y: 0, theta: 0}}\n"
+        "    until: {near: {point: [0.1, 0], tolerance: 0.1}}\n    timeout: 30\n"
+    )
+    path = _write(tmp_path, text)
+    code, out = _validate("--strict", str(path))
+    assert code == 1
+    assert f"{path}:4:3: warning: robot.initial_state (0, 0) is inside keep-out zone 'pit'" in out
+    assert "region 'jetty' lies inside keep-out zone 'pond'" in out
+    assert "the target (0.2, 0) is inside keep-out zone 'pit' of the geofence" in out
+    assert "every point within 0.1 m of (0.1, 0) is inside keep-out zone 'pit'" in out
+
+
+def test_a_typo_inside_set_names_the_override(tmp_path: Path) -> None:
+    path = _write(tmp_path, FAR)
+    result = CliRunner().invoke(app, ["run", str(path), "--set", "robot.limitz.v=3"])
+    assert result.exit_code == 1
+    assert result.stderr.startswith(
+        "--set robot.limitz.v=3: robot.limitz: unknown field 'limitz'; did you mean 'limits'?"
+    )
+    assert f"{path}:" not in result.stderr
+
+
+def test_the_infeasible_set_is_what_its_generator_writes() -> None:
+    written = {p.name: p.read_text(encoding="utf-8") for p in INFEASIBLE.glob("*.yaml")}
+    assert written == generate(seed=0, per_kind=5)
+
+
+def test_strict_rejects_every_infeasible_mission_with_its_own_warning() -> None:
+    files = sorted(INFEASIBLE.glob("*.yaml"))
+    assert len(files) == 40
+    code, out = _validate("--strict", *map(str, files))
+    assert code == 1
+    for path in files:
+        expected = (
+            path.read_text(encoding="utf-8").splitlines()[0].removeprefix("# expect-strict: ")
+        )
+        said = [line for line in out.splitlines() if line.startswith(f"{path}:")]
+        assert any(": warning: " in line and expected in line for line in said), (path, said)
+        assert not any(": error" in line for line in said)
+
+
+def test_strict_passes_the_shipped_and_generated_missions() -> None:
+    shipped = sorted((ROOT / "missions").glob("*.yaml"))
+    campaigns = sorted((ROOT / "missions" / "campaigns").glob("*.yaml"))
+    generated = ROOT / "tests" / "data" / "generated"
+    code, out = _validate("--strict", *map(str, shipped + campaigns), str(generated))
+    assert code == 0, "\n".join(line for line in out.splitlines() if "warning" in line)
+    assert "warning" not in out
+
+
+def test_every_angle_is_checked_and_nothing_else_named_theta(tmp_path: Path) -> None:
+    text = (
+        "version: 1\nname: angles\n" + LIMITS + "controller: {type: kanayama, gains: {theta: 16}}\n"
+        "estimator: {initial_estimate: {x: 0, y: 0, theta: 400}}\n"
+        "regions:\n  e: {type: ellipse, center: [0, 0], semi_axes: [3, 2], rotation: 30}\n"
+        "phases:\n  - name: go\n"
+        "    track: {path: {type: ellipse, region: e, angular_rate: 0.2, start: 90}}\n"
+        "    until: {heading: {target: 180, tolerance: 0.1}}\n    timeout: 30\n"
+    )
+    _, out = _validate(str(_write(tmp_path, text)))
+    flagged = [line.split(": warning: ")[1].split(" =")[0] for line in out.splitlines()[:-1]]
+    assert flagged == [
+        "estimator.initial_estimate.theta",
+        "regions.e.rotation",
+        "phases[0].track.path.start",
+        "phases[0].until.heading.target",
+    ]  # not the Kanayama gain k_theta = 16 [1/m]

@@ -1,0 +1,170 @@
+"""Which loop `run` uses, and ``wmr-mission compile``.
+
+Loading the compiled loop from the cache costs a process numba's import and
+target set-up (about 0.35 s of CPU and 120 MiB); compiling it, 1-4 minutes
+for every estimator and controller. Plain Python runs the same source with
+the same bytes (wmr_mission.kernels.jit) at 40-70 us a sample, judging
+included. So ``run`` runs a mission whose sample budget is at most :data:`PLAIN_PYTHON_SAMPLES`
+as plain Python, and a longer one compiled, loaded from the cache or
+compiled in the foreground with one line of notice. Nothing compiles in the
+background: ``wmr-mission compile`` fills the cache when the user asks, and
+the library's ``run_mission``, ``bench`` and ``sweep`` compile what they run
+(docs/performance.md, Start-up).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from wmr_mission.kernels import cache, jit
+
+if TYPE_CHECKING:
+    from wmr_mission.spec.models import Mission
+
+# Up to this sample budget a run as plain Python costs less CPU than loading
+# the compiled loop from the cache, or about the same: case study 2 (budget
+# 15 004) 0.79x; a circle tracked for 150 s (15 002) 0.99x; patrol.yaml (18 003)
+# 1.43x (`python benchmarks/measure.py threshold`, docs/performance.md, Start-up).
+PLAIN_PYTHON_SAMPLES = 16_000
+READY = "kernels-ready"
+NO_JIT = jit.NO_JIT
+
+# A short run per built-in estimator and controller compiles what any mission
+# runs: the loop's argument types depend on the mission only through those
+# (tests/test_start_up.py), and the only other compiled function Python
+# calls, the math of paths (wmr_mission.kernels.scalar_math), has one argument
+# type, whatever the function: the sine here compiles it.
+WARM_UP_MISSION = b"""
+version: 1
+name: warm-up
+robot: {dt: 0.01, limits: {v: 1, omega: 2}}
+estimator: {type: constrained-observer}
+regions:
+  field: {type: ellipse, center: [0, 0], semi_axes: [5, 3]}
+  far: {type: ellipse, center: [50, 0], semi_axes: [1, 1]}
+phases:
+  - name: track
+    track: {path: {type: expression, x: "0.1*t", y: "0.01*sin(t)"}}
+    constraints: [{stay_inside: field}]
+    until: {reaches: far}
+    timeout: 0.05
+  - name: park
+    regulate: {target: {x: 0, y: 0, theta: 0}}
+    constraints: [{stay_inside: field}]
+    until: {elapsed: 0.05}
+"""
+
+
+def ready_stamp() -> str:
+    """What the ready marker holds: what numba's cache entries depend on, the
+    kernels' sources, the interpreter and numba's version."""
+    from importlib import metadata  # loaded already by pydantic
+
+    try:
+        numba = metadata.version("numba")
+    except metadata.PackageNotFoundError:  # installed without its metadata
+        numba = "unknown"
+    stamp = cache.kernel_sources_stamp()
+    return f"{stamp} {sys.implementation.cache_tag} numba-{numba}"
+
+
+def _ready(directory: Path) -> bool:
+    try:
+        return (directory / READY).read_text() == ready_stamp()
+    except (OSError, ValueError):  # unreadable or not text: not ready
+        return False
+
+
+def choose_loop(max_samples: int) -> str | None:
+    """Called by ``run`` before the loop is loaded: plain Python for a budget
+    of at most :data:`PLAIN_PYTHON_SAMPLES` samples, else the compiled loop.
+    Returns the line of notice to print (a compile in the foreground), or None."""
+    if jit.loaded() or not jit.compiling():  # a library caller, or WMR_MISSION_NO_JIT=1
+        return None
+    if max_samples <= PLAIN_PYTHON_SAMPLES:
+        jit.choose_plain_python()
+        return None
+    return foreground_notice()
+
+
+def foreground_notice() -> str | None:
+    """The line a library call prints before it loads the compiled loop when the
+    cache is not known to hold it (no ready marker): a compile of about a
+    minute then. None when the loop is loaded already, or nothing is compiled."""
+    if jit.loaded() or not jit.compiling():
+        return None
+    directory = cache.cache_directory()
+    if directory is not None and _ready(directory):
+        return None
+    return (
+        "wmr-mission: loading the simulation loop, compiled first if it is not in the "
+        "cache (about a minute, once; `wmr-mission compile` compiles every variant)"
+    )
+
+
+def warm_up_missions() -> list[Mission]:
+    """The warm-up mission with each built-in estimator and controller: the
+    compiled loop is specialised to the types of their tuning records
+    (wmr_mission.kernels.variants), every other argument type is the same for
+    every mission."""
+    from wmr_mission.controllers import CONTROLLERS
+    from wmr_mission.estimators import ESTIMATORS
+    from wmr_mission.fields import type_name
+    from wmr_mission.spec.loader import Override, check_mission_bytes
+
+    # A plug-in's loop is compiled for the user's code, never cached: none here.
+    estimators = [type_name(e.settings) for e in ESTIMATORS if not e.plugin]
+    controllers = [type_name(c.settings) for c in CONTROLLERS if not c.plugin]
+    missions = []
+    for estimator in estimators:
+        for controller in controllers:
+            overrides = [
+                Override(("estimator", "type"), estimator, f"estimator.type={estimator}"),
+                Override(("controller", "type"), controller, f"controller.type={controller}"),
+            ]
+            mission, diagnostics = check_mission_bytes(WARM_UP_MISSION, "warm-up.yaml", overrides)
+            assert mission is not None, diagnostics
+            missions.append(mission)
+    return missions
+
+
+def compile_kernels() -> None:
+    """Compile every kernel the loop runs into the cache, and the EKF band's replay."""
+    from wmr_mission.output.covariance import estimate_std
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
+
+    for mission in warm_up_missions():
+        result = run_mission(plan_mission(mission))  # compiled: not judged, no metrics loaded
+        result.mission = mission.model_dump(mode="json")
+        estimate_std(result)  # the EKF band's replay, for the estimation figure
+
+
+def compile_command() -> int:
+    """``wmr-mission compile``: every variant of the loop into the cache, then
+    the ready marker. 0, or 1 when there is no cache to keep it in."""
+    if not jit.compiling():
+        print("wmr-mission: nothing to compile: numba is missing or WMR_MISSION_NO_JIT is set")
+        return 1
+    directory = cache.cache_directory()
+    if directory is None:  # wmr_mission.kernels.cache said why
+        return 1
+    if _ready(directory):
+        print(f"wmr-mission: the compiled loop is in {directory} already")
+        return 0
+    print(f"wmr-mission: compiling the simulation loop into {directory} (1-4 minutes, once)")
+    # The stamp of the sources compiled, read before: an edit meanwhile
+    # leaves a stale marker, never a wrong one.
+    stamp = ready_stamp()
+    compile_kernels()
+    partial = directory / f"{READY}.{os.getpid()}"
+    partial.write_text(stamp)
+    os.replace(partial, directory / READY)
+    print(
+        "wmr-mission: compiled; runs of more than "
+        f"{PLAIN_PYTHON_SAMPLES} samples, sweeps and bench load it from the cache"
+    )
+    return 0
