@@ -2,8 +2,8 @@
 
 The tutorial's blocks are read by their fence:
 
-* ```` ```yaml ```` writes the file named (in backticks, ending ``.yaml``) by the
-  last line of text before it;
+* ```` ```yaml ```` writes the file named (in backticks, ending ``.yaml``) last
+  in the paragraph before it;
 * ```` ```console ```` holds commands (``$ ...``), each followed by what it
   prints; a command must exit 0 unless its printout ends with ``(exit N)``;
 * ```` ```python ```` runs as a script; a ```` ```text ```` block right after it
@@ -34,7 +34,7 @@ EXIT = re.compile(r"^\(exit (\d+)\)$")
 class Block:
     kind: str  # yaml, console, python, text
     text: str
-    before: str  # the last line of text before the block
+    before: str  # the paragraph of text right before the block
     line: int  # where the block starts in the tutorial
 
 
@@ -47,7 +47,9 @@ def blocks(markdown: str) -> list[Block]:
         fence = re.match(r"^```(\w*)\s*$", lines[k])
         if fence is None:
             if lines[k].strip():
-                before = lines[k]
+                before = f"{before} {lines[k]}".strip()
+            elif k + 1 < len(lines) and not lines[k + 1].startswith("```"):
+                before = ""  # a blank line ends a paragraph, unless a block follows
             k += 1
             continue
         end = lines.index("```", k + 1)
@@ -124,7 +126,9 @@ def test_the_tutorial_runs_as_written(tmp_path: Path) -> None:
                     timeout=300,
                 )
                 printed = done.stdout + done.stderr
-                assert done.returncode == code, f"{where}: $ {command}: exit {done.returncode}\n{printed}"
+                assert done.returncode == code, (
+                    f"{where}: $ {command}: exit {done.returncode}\n{printed}"
+                )
                 check_printout(f"{where}: $ {command}", expected, printed)
         elif block.kind == "python":
             pending_python = block.text
@@ -147,11 +151,14 @@ def test_the_tutorial_runs_as_written(tmp_path: Path) -> None:
 
 
 def test_the_harness_reads_blocks_and_matches_printouts() -> None:
-    markdown = "Write `a.yaml`:\n\n```yaml\nversion: 1\n```\n\n```console\n$ run a\nok …\n(exit 1)\n```\n"
+    markdown = (
+        "Write `b.yaml`:\n\nthen `a.yaml`, a file\nof two lines:\n\n```yaml\nversion: 1\n```\n\n"
+        "```console\n$ run a\nok …\n(exit 1)\n```\n"
+    )
     yaml_block, console = blocks(markdown)
     assert (yaml_block.kind, yaml_block.before, yaml_block.text) == (
         "yaml",
-        "Write `a.yaml`:",
+        "then `a.yaml`, a file of two lines:",
         "version: 1\n",
     )
     assert commands(console) == [("run a", ["ok …", "(exit 1)"])]
