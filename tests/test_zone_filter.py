@@ -188,26 +188,11 @@ def test_the_filter_keeps_a_zone_under_acceleration_limits(
     filter held the look-ahead point one sample ahead, where the robot could
     no longer stop or turn away, and it went 0.43 m (0.38 m) into the zone.
     Held also where braking ends (v^2 / (2 a) ahead), it keeps out."""
+    from zone_acceleration import line
+
     from wmr_mission import mission_from_dict, run_mission
 
-    data = {
-        "version": 1,
-        "name": "line",
-        "robot": {
-            "dt": 0.01,
-            "initial_state": {"x": 0, "y": 0, "theta": 0},
-            "limits": {"v": 4, "omega": 4, "acceleration": acceleration},
-        },
-        "regions": {"rock": {"type": "circle", "center": [5, centre_y], "radius": 1}},
-        "phases": [
-            {
-                "name": "go",
-                "track": {"path": {"type": "line", "start": [0, 0], "heading": 0, "speed": speed}},
-                "constraints": [{"stay_outside": "rock"}],
-                "until": {"elapsed": 14},
-            }
-        ],
-    }
+    data = line(speed, acceleration, centre_y)  # the case scripts/zone_acceleration.py tables
     result = run_mission(mission_from_dict(data))
     assert np.hypot(result.x - 5.0, result.y - centre_y).min() >= 1.0
     assert result.x[-1] > 12.0  # round it and on
