@@ -547,8 +547,15 @@ def main() -> None:
             # A path that is not UTF-8 is shown escaped rather than failing.
             stream.reconfigure(errors="backslashreplace")
             setattr(sys, name, _QuietPipe(stream))
+    import signal
+
     from wmr_mission.stopping import HOLD, STOP_SIGNALS, StopSignals
 
+    # Outside the block below, a stop kills the process as the signal does by
+    # default (a shell shows 130 or 143): before it, nothing was begun; after
+    # it, everything is written and flushed. Python's own SIGINT handler would
+    # raise a KeyboardInterrupt in the interpreter's teardown instead.
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
     # Until the command starts (_main): a stop is held, never raised inside an
     # import, and the command exits by it.
     with StopSignals(STOP_SIGNALS) as early:
@@ -559,4 +566,8 @@ def main() -> None:
             app()
         except SystemExit as done:
             code = done.code
+        finally:
+            for stream in (sys.stdout, sys.stderr):
+                if stream is not None and not stream.closed:
+                    stream.flush()
     raise SystemExit(early.exit_code if early.owed else code)
