@@ -4,6 +4,9 @@ proves is the sample budget every part of the tool uses."""
 
 from __future__ import annotations
 
+import inspect
+import itertools
+import sys
 import time
 from typing import Any
 
@@ -13,6 +16,7 @@ from hypothesis import strategies as st
 
 from wmr_mission.api import mission_from_dict
 from wmr_mission.sim.plan import plan_mission, sample_budget
+from wmr_mission.sim.reactions import Reactor
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.checks import MAX_SAMPLES
 from wmr_mission.spec.graph import worst_case_samples
@@ -248,3 +252,64 @@ def test_a_proved_graph_s_run_stays_within_its_worst_case(written: dict[str, Any
     result = run_mission(mission)
     assert result.transitions[-1].to_phase is None  # it ended
     assert result.samples <= worst_case_samples(mission)
+
+
+def test_a_deep_chain_of_contingencies_runs_without_recursion() -> None:
+    """A run through 100 contingencies (the most a mission holds), each called
+    from the timed-out phase of the one before and each ending `then: next`:
+    the last one's end goes back up the 100 callers in a loop, within 30
+    frames of Python stack, where the recursion it used to take went one
+    frame deeper per caller."""
+    depth = 100
+
+    def timing_out(name: str, reaction: str) -> dict[str, Any]:
+        return {
+            "name": name,
+            "hold": {},
+            "until": {"elapsed": 10},
+            "timeout": 0.04,
+            "on_timeout": reaction,
+        }
+
+    last = {"name": f"c{depth - 1}-a", "hold": {}, "until": {"elapsed": 0.04}}
+    contingencies = {
+        f"c{i}": {
+            "phases": [timing_out(f"c{i}-a", f"c{i + 1}") if i < depth - 1 else last],
+            "then": "next",
+        }
+        for i in range(depth)
+    }
+    phases = [timing_out("a", "c0"), {"name": "b", "hold": {}, "until": {"elapsed": 0.04}}]
+    mission = mission_from_dict(_mission(phases, contingencies))
+    plans = plan_mission(mission)
+    assert plans.reactions is not None
+    reactor = Reactor(plans.reactions)
+    index: int | None = 0
+    for _ in range(depth):
+        assert index is not None
+        index = reactor.react(index, "timeout").enter
+    assert index is not None
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(len(inspect.stack()) + 30)
+    try:
+        decision = reactor.completed(index)
+    finally:
+        sys.setrecursionlimit(limit)
+    assert decision.reaction == "then: next"
+    # The run: what follows the first caller, a, comes after the last contingency.
+    result = run_mission(mission)
+    moves = [(t.from_phase, t.to_phase) for t in result.transitions]
+    names = ["a", *(f"c{i}-a" for i in range(depth))]
+    assert moves[:depth] == list(itertools.pairwise(names))
+    assert moves[depth] == (f"c{depth - 1}-a", "b")
+    assert result.transitions[depth].reaction == "then: next"
+    assert result.outcome.value == "success"
+
+
+def test_too_many_contingencies_says_how_many() -> None:
+    contingencies = {f"c{i}": {"phases": [_hold(f"c{i}-a")], "then": "next"} for i in range(101)}
+    written = _mission([_hold("a", "c0")], contingencies)
+    first = _line_of(written, "contingencies:") + 1  # where the mapping begins
+    assert _errors(written) == [
+        f"m.yaml:{first}:3: contingencies: expected at most 100 items, got 101"
+    ]

@@ -299,25 +299,36 @@ class Reactor:
     callers: dict[str, tuple[int, str]] = field(default_factory=dict)
 
     def completed(self, index: int) -> Decision:
-        """Phase ``index`` met its exit condition (or reacted `next`)."""
+        """Phase ``index`` met its exit condition (or reacted `next`).
+
+        A loop, not a recursion: a chain of contingencies ending `then: next`
+        goes on from each caller in turn, as deep as the mission nests them."""
         plan = self.plan
-        name = plan.contingency_of[index]
-        if name is None:
-            return Decision(index + 1 if index + 1 < plan.main_count else None)
-        span = plan.contingencies[name]
-        if index < span.last:
-            return Decision(index + 1)
-        caller, cause = self.callers[name]
-        then = span.then
-        if isinstance(then, Goto):
-            return Decision(plan.goto[then.goto], reaction=f"then: goto: {then.goto}")
-        if then == "resume":
-            return Decision(caller, "resume", reaction="then: resume")
-        if then == "next":
-            return replace_reaction(self.completed(caller), "then: next")
-        if then == "end":
-            return Decision(None, reaction="then: end")
-        return Decision(None, failure=cause, reaction="then: fail")
+        chained = False  # a contingency ended `then: next`: the caller goes on
+        while True:
+            name = plan.contingency_of[index]
+            if name is None:
+                decision = Decision(index + 1 if index + 1 < plan.main_count else None)
+                break
+            span = plan.contingencies[name]
+            if index < span.last:
+                decision = Decision(index + 1)
+                break
+            caller, cause = self.callers[name]
+            then = span.then
+            if then == "next":
+                index, chained = caller, True
+                continue
+            if isinstance(then, Goto):
+                decision = Decision(plan.goto[then.goto], reaction=f"then: goto: {then.goto}")
+            elif then == "resume":
+                decision = Decision(caller, "resume", reaction="then: resume")
+            elif then == "end":
+                decision = Decision(None, reaction="then: end")
+            else:
+                decision = Decision(None, failure=cause, reaction="then: fail")
+            break
+        return replace_reaction(decision, "then: next") if chained else decision
 
     def react(self, index: int, event: Event) -> Decision:
         """Phase ``index`` timed out, breached or missed a verdict: its reaction decides."""

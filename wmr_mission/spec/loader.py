@@ -673,7 +673,10 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         least = "at least" if kind == "too_short" else "at most"
         items = "item" if bound == 1 else "items"
         got = context.get("actual_length")
-        return Finding(path, f"{where}: expected {least} {bound} {items}, got {got}")
+        if got is None and isinstance(value, (dict, list, str)):  # pydantic stops counting
+            got = len(value)
+        count = "" if got is None else f", got {got}"
+        return Finding(path, f"{where}: expected {least} {bound} {items}{count}")
     if kind == "phase_action":
         keys = list(value) if isinstance(value, dict) else []
         in_repeat = "repeat" in path
