@@ -78,24 +78,33 @@ def stopped_as_promised(process: subprocess.Popen[bytes], number: int, run_dir: 
 
 def test_a_stop_at_any_moment_of_a_long_run_default(tmp_path: Path) -> None:
     """Two moments at once: SIGTERM during start-up, and SIGINT the instant the
-    run directory appears (claimed just before the first sample)."""
+    run directory appears (claimed just before the first sample). On a loaded
+    machine that signal can land before the first sample, and the directory
+    is released as promised: then the claimed moment is tried again."""
     early = start(tmp_path / "early")
-    claimed = start(tmp_path / "claimed")
     try:
         time.sleep(0.4)
         early.send_signal(signal.SIGTERM)
-        deadline = time.monotonic() + 120
-        while not (tmp_path / "claimed").exists() and claimed.poll() is None:
-            assert time.monotonic() < deadline
-            time.sleep(0.005)
-        claimed.send_signal(signal.SIGINT)
         stopped_as_promised(early, signal.SIGTERM, tmp_path / "early")
-        stopped_as_promised(claimed, signal.SIGINT, tmp_path / "claimed")
     finally:
-        for process in (early, claimed):
-            process.kill()
-            process.wait()
-    summary = json.loads((tmp_path / "claimed" / "summary.json").read_text())
+        early.kill()
+        early.wait()
+    for attempt in range(5):
+        run_dir = tmp_path / f"claimed-{attempt}"
+        claimed = start(run_dir)
+        try:
+            deadline = time.monotonic() + 120
+            while not run_dir.exists() and claimed.poll() is None:
+                assert time.monotonic() < deadline
+                time.sleep(0.005)
+            claimed.send_signal(signal.SIGINT)
+            stopped_as_promised(claimed, signal.SIGINT, run_dir)
+        finally:
+            claimed.kill()
+            claimed.wait()
+        if run_dir.exists():
+            break
+    summary = json.loads((run_dir / "summary.json").read_text())
     # A stop as soon as the directory exists: the samples simulated by then.
     assert summary["outcome"] == "interrupted"
     assert 0 < summary["samples"] < LONG_SAMPLES
@@ -118,6 +127,21 @@ def test_a_stop_at_any_moment_of_a_long_run(tmp_path: Path, number: int, tenth: 
         return
     process.send_signal(number)
     stopped_as_promised(process, number, run_dir)
+
+
+@pytest.mark.sweep
+@pytest.mark.parametrize("hundredth", range(30, 100))
+def test_a_stop_in_the_first_second(tmp_path: Path, hundredth: int) -> None:
+    """SIGTERM at 0.01 s steps through the first second, while the command
+    starts: a stop the instant a handler was installed, or inside an import
+    on the way to the run's own, ended 1 in 25 of these by SIGINT with
+    nothing said (a KeyboardInterrupt raised there marks the interpreter to
+    exit by SIGINT); held instead, it exits 143."""
+    run_dir = tmp_path / "run"
+    process = start(run_dir)
+    time.sleep(hundredth / 100)
+    process.send_signal(signal.SIGTERM)
+    stopped_as_promised(process, signal.SIGTERM, run_dir)
 
 
 def test_a_stop_swallowed_on_its_way_still_stops_the_run() -> None:
@@ -158,8 +182,7 @@ phases:
 """
     mission = load_mission_text(text, "m.yaml")
     ready = []
-    with StopSignals(STOP_SIGNALS) as stop:
-        stop.mode = "hold"
+    with StopSignals(STOP_SIGNALS, "hold"):
         os.kill(os.getpid(), signal.SIGINT)
         result = run_mission(mission, ready=lambda: ready.append(1))
     assert result.outcome is Outcome.interrupted

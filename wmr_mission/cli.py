@@ -63,6 +63,8 @@ command = app.command(cls=_Command)
 
 # The signals main() holds until the command starts (_main).
 _STARTING: list[StopSignals] = []
+# The commands that catch the signals themselves and honour one held before.
+_TAKE_SIGNALS = frozenset({"run", "sweep", "bench"})
 # Timed runs of `bench`: each keeps its per-sample times in memory.
 MAX_REPEAT = 100
 # `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
@@ -82,6 +84,7 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _main(
+    ctx: typer.Context,
     version: Annotated[
         bool,
         typer.Option(
@@ -92,12 +95,16 @@ def _main(
     """Run declarative YAML missions for wheeled non-holonomic mobile robots."""
     from wmr_mission.stopping import RAISE
 
-    # The command starts: a stop held since main() is raised now, and from now
-    # on acts at once unless the command takes the signals itself (run, sweep).
+    # The command starts: a stop held since main() is raised now. From now on
+    # a stop acts at once, but for the commands that take the signals
+    # themselves: they are held until then, never raised inside the imports
+    # on the way (a KeyboardInterrupt in a compiled module's import marks the
+    # interpreter to exit by SIGINT whatever the command returns).
     for early in _STARTING:
-        early.mode = RAISE
         if early.owed:
             raise KeyboardInterrupt
+        if ctx.invoked_subcommand not in _TAKE_SIGNALS:
+            early.mode = RAISE
 
 
 class OutputFormat(StrEnum):
@@ -558,8 +565,7 @@ def main() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
     # Until the command starts (_main): a stop is held, never raised inside an
     # import, and the command exits by it.
-    with StopSignals(STOP_SIGNALS) as early:
-        early.mode = HOLD
+    with StopSignals(STOP_SIGNALS, HOLD) as early:
         _STARTING.append(early)
         code: Any = 0
         try:

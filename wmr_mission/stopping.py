@@ -47,10 +47,12 @@ HOLD: Final = "hold"
 class StopSignals:
     """``signals`` caught while active (by default Ctrl-C only, as for a library call)."""
 
-    def __init__(self, signals: Sequence[int] = (signal.SIGINT,)) -> None:
+    def __init__(self, signals: Sequence[int] = (signal.SIGINT,), mode: Mode = RAISE) -> None:
         self.signals = tuple(signals)
         self.received: list[int] = []
-        self.mode: Mode = RAISE
+        # Set before the handlers are: a signal the instant they are installed
+        # acts by this mode (set after, a stop there raised where none may).
+        self.mode: Mode = mode
         # Told of the first signal as it comes (a campaign says at once that it stops).
         self.notify: Callable[[], None] | None = None
         # A signal came that stops the command, raised or held (see the module).

@@ -61,7 +61,7 @@ from wmr_mission.output.rundir import (
 )
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import overrides_of, overrides_of_texts
-from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals
+from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals, stop_owed
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
 
@@ -717,8 +717,11 @@ def sweep_command(
     met or a worker lost; 2 unusable output directory or scheduler (or a mixed
     cluster), or a write that failed; 130 or 143 stopped by SIGINT or SIGTERM
     (what ran is kept)."""
-    with StopSignals(STOP_SIGNALS) as stop:
-        try:
+    stop = StopSignals(STOP_SIGNALS)
+    try:  # outside the block: a signal the instant the handlers are set is caught too
+        with stop:
+            if stop_owed():  # held since the command started
+                raise KeyboardInterrupt
             return _sweep(
                 campaign_path,
                 out,
@@ -730,13 +733,13 @@ def sweep_command(
                 runs,
                 settings,
             )
-        except KeyboardInterrupt:
-            print(
-                f"{campaign_path}: interrupted by {stop.name} before the first run; "
-                "nothing was written",
-                file=sys.stderr,
-            )
-            return stop.exit_code
+    except KeyboardInterrupt:
+        print(
+            f"{campaign_path}: interrupted by {stop.name} before the first run; "
+            "nothing was written",
+            file=sys.stderr,
+        )
+        return stop.exit_code
 
 
 def _is_mission(path: Path) -> bool:

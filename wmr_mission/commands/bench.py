@@ -311,20 +311,19 @@ def bench_command(mission_path: str | Path, repeat: int) -> int:
     """``wmr-mission bench``: exit 0 after printing the table, 1 for an invalid
     mission, 130 or 143 stopped by SIGINT or SIGTERM (nothing is printed)."""
     from wmr_mission.kernels import jit
-    from wmr_mission.stopping import HOLD, RAISE, STOP_SIGNALS, StopSignals
+    from wmr_mission.stopping import HOLD, RAISE, STOP_SIGNALS, StopSignals, stop_owed
 
-    with StopSignals(STOP_SIGNALS) as stop:
-        # A KeyboardInterrupt inside the import of a compiled module (scipy's
-        # for the reference step, numba's) is turned into that module's
-        # ImportError, and marks the interpreter to exit by SIGINT whatever
-        # the command returns: the imports come first, the stop held meanwhile.
-        stop.mode = HOLD
+    # A KeyboardInterrupt inside the import of a compiled module (scipy's
+    # for the reference step, numba's) is turned into that module's
+    # ImportError, and marks the interpreter to exit by SIGINT whatever
+    # the command returns: the imports come first, the stop held meanwhile.
+    with StopSignals(STOP_SIGNALS, HOLD) as stop:
         import wmr_mission.sim.reference  # noqa: F401
 
         jit.load()
         stop.mode = RAISE
         try:
-            if stop.stopped:
+            if stop_owed():  # held since the command started, or while loading
                 raise KeyboardInterrupt
             return _bench(mission_path, repeat)
         except KeyboardInterrupt:

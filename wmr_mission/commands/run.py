@@ -55,8 +55,7 @@ def _stop_signals() -> Iterator[list[int]]:
     nothing is lost (see the module); yields the signals received."""
     from wmr_mission.stopping import HOLD, StopSignals
 
-    with StopSignals(STOP_SIGNALS) as stop:
-        stop.mode = HOLD
+    with StopSignals(STOP_SIGNALS, HOLD) as stop:
         yield stop.received
 
 
