@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.basics import FloatArray
+from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
@@ -30,7 +30,7 @@ from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.plugins import failure_message
 from wmr_mission.sim.draws import Draws
-from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
+from wmr_mission.sim.plan import MissionPlan, PhasePlan, UpdatePlan, plan_mission
 from wmr_mission.sim.plant_side import PlantSide, PlantStopped
 from wmr_mission.sim.reactions import (
     Breach,
@@ -119,6 +119,7 @@ class PhaseRun:
         # rejoined its path (wmr_mission.sim.reactions.nearest_ahead).
         self.path_shift = 0
         self.left_at = 0  # the path's sample the phase was last left at
+        self.updated = 0  # its updates that took over (docs/mission-format.md)
         # Samples after which the phase ends for sure (elapsed or timeout).
         bounds = [phase.until.elapsed_samples, phase.timeout_samples]
         self.bound = min((b for b in bounds if b is not None), default=2**62)
@@ -139,6 +140,8 @@ class PhaseRun:
         pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
         phase = self.phase
         self.path_shift = 0
+        if resume_from is None:
+            self.updated = 0  # a phase entered afresh takes its own reference again
         if phase.kind == "track" and resume_from is not None and self._trajectory is not None:
             horizon = min(self.bound, round(RESUME_HORIZON / self.mission.dt))
             self.path_shift = nearest_ahead(
@@ -147,7 +150,7 @@ class PhaseRun:
         elif phase.kind == "track":
             assert phase.make_trajectory is not None
             self._trajectory = phase.make_trajectory(pose)
-        self.target[:] = phase.target if phase.target is not None else pose
+        self.target[:] = self._target_in_force() or pose
         until = phase.until
         reaches_kinds, reaches_params = until.reaches_rows
         reaches_sign = 0.0
@@ -173,6 +176,32 @@ class PhaseRun:
             heading=np.array(until.heading if until.heading is not None else (math.nan,) * 2),
             timeout_samples=-1 if phase.timeout_samples is None else phase.timeout_samples,
         )
+
+    def _target_in_force(self) -> tuple[float, float, float] | None:
+        """The target of the last update that took over, else the phase's own."""
+        targets = [u.target for u in self.phase.updates[: self.updated] if u.target is not None]
+        return targets[-1] if targets else self.phase.target
+
+    @property
+    def pending(self) -> UpdatePlan | None:
+        """The update the phase watches for: the first that has not taken over."""
+        updates = self.phase.updates
+        return updates[self.updated] if self.updated < len(updates) else None
+
+    def take_over(self, k: int, estimate: FloatArray) -> UpdatePlan:
+        """The pending update takes over at sample k: its path, made from the
+        estimated pose x_{k|k}, restarts at its own t = 0 at sample k; its target
+        is the phase's from sample k (docs/paper-notes.md, section III.C)."""
+        update = self.pending
+        assert update is not None
+        if update.make_trajectory is not None:
+            pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
+            self._trajectory = update.make_trajectory(pose)
+            self.path_shift = self.entry_sample - k
+        if update.target is not None:
+            self.target[:] = update.target  # the array the loop reads (EnteredPhase.target)
+        self.updated += 1
+        return update
 
     @property
     def tracks_a_path(self) -> bool:
@@ -317,6 +346,11 @@ class _Run:
         self.recorder = Recorder(min(m.max_samples, MAX_PRESIZED))
         self.transitions: list[Transition] = []
         self.phases = [PhaseRun(p, m, i) for i, p in enumerate(m.phases)]
+        # (sample, number) where each reference took over: the `reference`
+        # column of a mission with updates (0: the phase's own, n: its update n).
+        self.references: list[tuple[int, int]] | None = (
+            [] if any(p.updates for p in m.phases) else None
+        )
         self.actuation, self.sensing = m.disturbances.records(m.dt, m.measured)
         # A `type: python` plug-in: made here, for this run; an exception out
         # of its code ends the run failed (RunFault), never the tool.
@@ -465,7 +499,7 @@ class _Run:
         m = self.m
         draws = Draws(m.noise_std, m.disturbances, m.seed)
         active = self.phases[0]
-        phase = active.enter(0, self.signals.estimate)
+        phase = self._enter(active, 0)
         # Load (or compile) the loop and the paths' math before the clock: a
         # zero-sample call. The paths' math first, held: loading it is numba's
         # first load, which imports compiled modules, and a KeyboardInterrupt
@@ -513,15 +547,25 @@ class _Run:
             path = active.path_ahead(local, min(chunk, active.bound - local) + 1)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
             block = draws.ahead()
-            saved = self._saved() if watched else None
+            pending = active.pending
+            saved = self._saved() if watched or pending is not None else None
             status = self._call(phase, path, block, stop)
             decision: Decision | None = None
+            due = False
             if saved is not None and status in (loop.CHUNK_END, loop.EXITED):
-                assert reactor is not None
-                decision = self._breach(reactor, active, saved, phase, path, block)
+                if pending is not None:
+                    due = self._update_due(active, pending, saved, phase, path, block)
+                    status = loop.CHUNK_END if due else status
+                if watched:
+                    assert reactor is not None
+                    decision = self._breach(reactor, active, saved, phase, path, block)
+                    due = due and decision is None
             draws.used(int(counters[loop.DRAWS]))
             counters[loop.DRAWS] = 0
             k = int(counters[loop.K])
+            if due:
+                self._take_over(active, k)
+                continue
             if decision is not None:
                 assert reactor is not None
                 ended = self._follow(reactor, decision, active, k, phase)
@@ -598,7 +642,7 @@ class _Run:
                 break
             active = to
             signals.memory[:] = 0.0
-            phase = active.enter(k, signals.estimate)
+            phase = self._enter(active, k)
             chunk = active.first_chunk
         return self._result(outcome, message)
 
@@ -638,6 +682,48 @@ class _Run:
             regions=dict(self.m.regions),
         )
         return missed_verdicts(entry, written)
+
+    def _update_due(
+        self,
+        active: PhaseRun,
+        update: UpdatePlan,
+        saved: tuple[int, list[tuple[FloatArray, FloatArray]]],
+        phase: EnteredPhase,
+        path: PathBlock,
+        block: FloatArray,
+    ) -> bool:
+        """Whether ``update`` takes over at a sample the last call recorded; if
+        so, the call is run again from the state before it up to that sample,
+        as the breach's is (the loop is a function of the state it is called with)."""
+        recorded, arrays = saved
+        count = self.recorder.count
+        start = max(active.entry_sample, 0 if update.travelled is not None else recorded)
+        estimates = self.recorder.record.floats[start:count, 4:6]  # x_est, y_est: x_{k|k}
+        k = update.first(estimates, start, recorded, active.entry_sample, self.m.dt)
+        if k < 0:
+            return False
+        for array, copy in arrays:
+            array[...] = copy
+        self.recorder.record.rows[0] = recorded
+        self._call(phase, path, block, k)
+        return True
+
+    def _take_over(self, active: PhaseRun, k: int) -> None:
+        """The phase's pending update takes over at sample k; transitions.json says so."""
+        estimate = self.signals.estimate
+        update = active.take_over(k, estimate)
+        name = active.phase.name
+        new = "path" if update.make_trajectory is not None else "target"
+        why = (
+            f"update {update.number} ({update.when}): a new {new} from the estimate "
+            f"({estimate[0]:.4g}, {estimate[1]:.4g})"
+        )
+        self.transitions.append(
+            Transition(_seconds(k, self.m.dt), name, name, "update", float(update.number), None,
+                       None, why)
+        )  # fmt: skip
+        if self.references is not None:
+            self.references.append((k, update.number))
 
     def _saved(self) -> tuple[int, list[tuple[FloatArray, FloatArray]]]:
         """What a call of the loop changes, copied: the recorded rows, and every
@@ -751,7 +837,14 @@ class _Run:
         to = self.phases[decision.enter]
         self.signals.memory[:] = 0.0
         resume = to.left_at if decision.how == "resume" else None
-        return to, to.enter(k, self.signals.estimate, resume)
+        return to, self._enter(to, k, resume)
+
+    def _enter(self, active: PhaseRun, k: int, resume: int | None = None) -> EnteredPhase:
+        """Enter ``active`` at sample k; the reference column notes its reference."""
+        entered = active.enter(k, self.signals.estimate, resume)
+        if self.references is not None:
+            self.references.append((k, active.updated))
+        return entered
 
     def _close(self, k: int, phase: EnteredPhase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""
@@ -844,7 +937,15 @@ class _Run:
             x_meas=columns["x_meas"],
             y_meas=columns["y_meas"],
             theta_meas=columns["theta_meas"],
+            reference=None if self.references is None else self._reference_column(n),
         )
+
+    def _reference_column(self, n: int) -> IntArray:
+        """The number of the reference in force at each of the n samples."""
+        column = np.zeros(n, dtype=np.int64)
+        for k, number in self.references or ():
+            column[k:] = number  # in sample order: a later change overwrites
+        return column
 
     @staticmethod
     def _target(active: PhaseRun) -> tuple[float, float, float] | None:
