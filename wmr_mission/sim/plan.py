@@ -9,11 +9,12 @@ wmr_mission.geometry.paths.)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
+import pydantic
 
 from wmr_mission.basics import STATES, FloatArray, IntArray, measurement_mask, samples
 from wmr_mission.controllers import CONTROLLERS, ControllerType
@@ -62,7 +63,6 @@ class UpdatePlan:
     """One update of a phase's reference (docs/mission-format.md, "References
     that change on-line"): when it takes over, and the new path or target."""
 
-    number: int  # 1, 2, ... in the phase: the `reference` column's value once it took over
     when: str  # its condition as written, for transitions.json ("elapsed 20 s")
     elapsed_samples: int | None = None
     mission_time: float | None = None
@@ -141,6 +141,8 @@ class MissionPlan:
     # What the run does at a timeout or a breach; None: fail at a timeout with
     # on_timeout fail, else go on (wmr_mission.sim.reactions).
     reactions: ReactionPlan | None = None
+    # What a path given while the mission runs may refer to (planned).
+    context: paths.Context = field(default_factory=lambda: paths.Context(regions={}))
 
     @property
     def dt(self) -> float:
@@ -294,9 +296,7 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
         goal = phase.regulate.target
         target = (float(goal.x), float(goal.y), float(goal.theta))
     return PhasePlan(
-        updates=tuple(
-            _update(number, update, mission, dt) for number, update in enumerate(phase.updates, 1)
-        ),
+        updates=tuple(_update(update, mission, dt) for update in phase.updates),
         name=label,
         lap=lap,
         points=points,
@@ -312,7 +312,7 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
     )
 
 
-def _update(number: int, update: Update, mission: Mission, dt: float) -> UpdatePlan:
+def _update(update: Update, mission: Mission, dt: float) -> UpdatePlan:
     context = mission.path_context()
     when = update.when
     make_trajectory = None
@@ -326,7 +326,6 @@ def _update(number: int, update: Update, mission: Mission, dt: float) -> UpdateP
     name, value = next((name, value) for name, value in when if value is not None)
     unit = " m" if name == "travelled" else " s"
     return UpdatePlan(
-        number=number,
         when=f"reaches '{value}'" if name == "reaches" else f"{name} {value:g}{unit}",
         elapsed_samples=None if when.elapsed is None else _bound(when.elapsed, dt),
         mission_time=when.mission_time,
@@ -335,6 +334,29 @@ def _update(number: int, update: Update, mission: Mission, dt: float) -> UpdateP
         make_trajectory=make_trajectory,
         target=None if target is None else (float(target.x), float(target.y), float(target.theta)),
     )
+
+
+def planned(path: Mapping[str, Any], context: paths.Context, when: str) -> UpdatePlan:
+    """A path given while the mission runs (a session's ``set_path``, a
+    planner's plan) as an update: checked as a mission's path is (ValueError
+    says what is wrong), made from the estimated pose where it takes over."""
+    try:
+        update = Update.model_validate(
+            {"when": {"elapsed": 1.0}, "path": dict(path)},
+            context={"regions": list(context.regions)},
+        )
+    except pydantic.ValidationError as error:
+        problems = "; ".join(
+            f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in error.errors()
+        )
+        raise ValueError(f"not a valid path: {problems}") from None
+    new = update.path
+    assert new is not None
+
+    def make_trajectory(pose: tuple[float, float, float]) -> Trajectory:
+        return paths.trajectory(new, context, pose)
+
+    return UpdatePlan(when=when, make_trajectory=make_trajectory)
 
 
 def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
@@ -388,4 +410,5 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         regions=dumped_regions,
         max_samples=sample_budget(mission),
         disturbances=disturbance_plan(mission),
+        context=mission.path_context(),
     )
