@@ -188,3 +188,31 @@ def test_acceleration_limits_bound_the_step_at_any_switch() -> None:
     # the turn rate to its limit
     assert _jumps(0.0, 1.5)[1] == pytest.approx(0.5)
     assert _jumps(0.5)[0] == pytest.approx(3.0)
+
+
+# rclpy's type support imports lark, which imports the deprecated sre_parse and sre_constants.
+@pytest.mark.filterwarnings(
+    "ignore:module 'sre_(parse|constants)' is deprecated:DeprecationWarning"
+)
+def test_the_mcap_export_sends_a_path_for_each_reference(replanned: Path, tmp_path: Path) -> None:
+    """ROS 2 tools see the reference in force: a nav_msgs/Path at each update,
+    holding the new reference's points from then on."""
+    pytest.importorskip("rclpy.serialization", reason="the ros2 extra")
+    from test_export_ros2 import _read
+
+    from wmr_mission.review.export import export_command
+
+    out = tmp_path / "run.mcap"
+    assert export_command(replanned, "mcap", out) == 0
+    topics, _ = _read(out)
+    run = load_run(replanned)
+    assert run.reference is not None
+    patrol = run.phase == run.phase_names.index("patrol")
+    starts = [0, *(np.flatnonzero(np.diff(run.reference) != 0) + 1)]
+    starts = [k for k in starts if patrol[k]]  # the dock has no path
+    paths = topics["/reference"]
+    assert [t for t, _ in paths] == [round(run.t[k] * 1e9) for k in starts]
+    assert len(starts) == 3
+    for (_, path), start in zip(paths, starts, strict=True):
+        first = path.poses[0].pose.position
+        assert (first.x, first.y) == (run.x_ref[start], run.y_ref[start])
