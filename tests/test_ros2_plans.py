@@ -63,3 +63,33 @@ def test_the_run_follows_each_plan_in_turn_and_keeps_the_last(
     assert len(whys) == 3
     assert all("plan on 'plan'" in why for why in whys)
     assert "ros2: plans from 'plan'" in done.stderr
+
+
+@needs_ros2
+def test_serve_robot_plan_from_publishes_a_mission_s_updates_as_plans(
+    tmp_path: Path,
+    ros_env: dict[str, str],  # noqa: F811
+) -> None:
+    out = tmp_path / "run"
+    robot = [*WMR, "serve-robot", str(PLANNED), "--plan-from", str(DATA / "plans-ros2.yaml")]
+    with background(robot, ros_env, "serve-robot: 3 plans scripted on 'plan', at 1, 2.5, 4 s"):
+        done = subprocess.run(
+            [*WMR, "run", str(PLANNED), "--backend", "ros2", "--out", str(out), "--no-plots"],
+            env=ros_env, capture_output=True, text=True, timeout=90, check=False,
+        )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["realtime"]["plans_taken"] == 3
+    run = load_run(out)
+    assert run.reference is not None
+    changes = np.flatnonzero(np.diff(run.reference)) + 1
+    assert run.reference[changes].tolist() == [1, 2, 3]
+    ends = [*changes[1:], run.samples]
+    for heading, start, end in zip((0.4, -0.3, 0.0), changes, ends, strict=True):
+        # each plan is a line from the robot's pose when it was sent: the new
+        # reference runs along it
+        late = start + (end - start) // 2
+        direction = np.arctan2(
+            run.y_ref[late] - run.y_ref[start], run.x_ref[late] - run.x_ref[start]
+        )
+        assert abs(direction - heading) < 0.2, (heading, direction)

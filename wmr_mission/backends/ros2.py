@@ -166,6 +166,12 @@ class Ros2Plant:
             self.plans_refused += 1
             print(f"ros2: a plan on '{self.settings.plan}' refused: {problem}", file=sys.stderr)
             return
+        latest = self.latest
+        if latest is not None:
+            # Joined past its pose nearest the robot: the poses before it are
+            # what the robot has passed since the planner planned.
+            nearest = min(range(len(points)), key=lambda i: math.dist(points[i], latest[:2]))
+            points = points[min(nearest + 1, len(points) - 2) :]
         route = {"type": "waypoints", "points": points, "speed": self.settings.plan_speed}
         try:
             update = planned(route, self._context, f"plan on '{self.settings.plan}'")
