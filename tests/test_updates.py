@@ -216,3 +216,18 @@ def test_the_mcap_export_sends_a_path_for_each_reference(replanned: Path, tmp_pa
     for (_, path), start in zip(paths, starts, strict=True):
         first = path.poses[0].pose.position
         assert (first.x, first.y) == (run.x_ref[start], run.y_ref[start])
+
+
+@pytest.mark.parametrize("offset", [0.002, 0.01])
+def test_the_turn_rate_step_for_a_path_beside_the_robot(offset: float) -> None:
+    """A new line parallel to the robot's, ``offset`` to its side: the step is
+    offset (1 - exp(-dt / tau)) / ((l + v dt / 2) dt), 173 rad/s per metre
+    (docs/paper-notes.md, "References that change on-line")."""
+    dt, look_ahead, tau, v = 0.01, 0.05, 0.1, 1.0
+    text = SWITCH.replace("heading: {heading}", "start: [3.0, {heading}], heading: 0")
+    # the robot is at (3, 0) at t = 3 s, on its first line (noise-free)
+    result = run_mission(mission_from_text(text.format(heading=offset, speed=1, acceleration="")))
+    assert (result.x_est[300], result.y_est[300]) == (3.0, 0.0)
+    jump = float(np.abs(np.diff(result.omega[299:])).max())
+    gain = (1.0 - np.exp(-dt / tau)) / ((look_ahead + v * dt / 2) * dt)
+    assert jump == pytest.approx(gain * offset, rel=1e-6)
