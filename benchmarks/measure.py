@@ -1,6 +1,7 @@
 """The figures of docs/performance.md that ``wmr-mission bench`` does not give.
 
     python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
+    python benchmarks/measure.py session    # a session stepped 100 samples at a time / run_mission
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
@@ -54,9 +55,11 @@ def loop(repeat: int = 7) -> None:
     path_ns = [0]
     path_ahead = runner.PhaseRun.path_ahead
 
-    def timed_path_ahead(self: runner.PhaseRun, local_sample: int, rows: int) -> PathBlock:
+    def timed_path_ahead(
+        self: runner.PhaseRun, local_sample: int, rows: int, wanted: int = 0
+    ) -> PathBlock:
         started = time.perf_counter_ns()
-        block = path_ahead(self, local_sample, rows)
+        block = path_ahead(self, local_sample, rows, wanted)
         path_ns[0] += time.perf_counter_ns() - started
         return block
 
@@ -82,6 +85,37 @@ def loop(repeat: int = 7) -> None:
             f"{statistics.median(path_us):.3f} us per sample"
         )
     runner.PhaseRun.path_ahead = path_ahead  # type: ignore[method-assign]
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def session(pairs: int = 31, chunk: int = 100) -> None:
+    """The loop's time of a session stepped in chunks of ``chunk`` samples
+    against run_mission's, in alternating pairs, case studies 1 and 2 (and a
+    10-minute patrol, 60 001 samples): the median of the pairs' ratios, and the
+    ratio of the fastest of each (the least disturbed on a loaded machine)."""
+    from wmr_mission import load_mission, run_mission, start_mission
+
+    for name, overrides in (
+        ("case1", {}),
+        ("case2", {}),
+        ("patrol", {"phases.patrol.until.elapsed": 600}),
+    ):
+        mission = load_mission(MISSIONS / f"{name}.yaml", overrides)
+        run_mission(mission)  # loads the compiled loop
+        ratios, whole, stepped = [], [], []
+        for _ in range(pairs):
+            whole.append(run_mission(mission).loop_ns)
+            stepping = start_mission(mission)
+            while stepping.step(chunk):
+                pass
+            stepped.append(stepping.result().loop_ns)
+            ratios.append(stepped[-1] / whole[-1])
+        print(
+            f"{name}: session in chunks of {chunk} / run_mission, loop time: median ratio "
+            f"{statistics.median(ratios):.2f} (from {min(ratios):.2f} to {max(ratios):.2f}) "
+            f"over {pairs} pairs; fastest of each: run_mission {min(whole) / 1e6:.2f} ms, "
+            f"session {min(stepped) / 1e6:.2f} ms, ratio {min(stepped) / min(whole):.2f}"
+        )
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -979,6 +1013,7 @@ if __name__ == "__main__":
         "checks": checks,
         "plugins": plugins,
         "band": band,
+        "session": session,
     }
     if what not in jobs:
         print(__doc__, file=sys.stderr)

@@ -9,7 +9,8 @@ docs/images/disturbed-verdicts.png: `wmr-mission run missions/disturbed.yaml
 mission fails). docs/images/keep-out-xy-one-column.png:
 `wmr-mission plot RUN_DIR --style one-column`'s xy.png.
 docs/images/patrol-detour-xy.png: `wmr-mission run missions/patrol-detour.yaml`'s
-xy.png, its reactions marked. docs/images/campaigns/
+xy.png, its reactions marked; replanned-patrol-xy.png: `wmr-mission run
+missions/replanned-patrol.yaml`'s xy.png, its updates marked. docs/images/campaigns/
 case2-headings-{trajectories,metrics,success}.png: `wmr-mission sweep
 missions/campaigns/case2-headings.yaml`'s figures, and
 case2-headings-worst-FAILURE.png: the verdicts.png of the worst run of each
@@ -51,6 +52,9 @@ def run_figures(tmp: Path) -> None:
     detoured = tmp / "patrol-detour"
     _wmr("run", "missions/patrol-detour.yaml", "--out", str(detoured))
     shutil.copy(detoured / "xy.png", IMAGES / "patrol-detour-xy.png")
+    replanned = tmp / "replanned-patrol"
+    _wmr("run", "missions/replanned-patrol.yaml", "--out", str(replanned))
+    shutil.copy(replanned / "xy.png", IMAGES / "replanned-patrol-xy.png")
 
 
 def case_figures(tmp: Path) -> None:

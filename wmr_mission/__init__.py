@@ -6,6 +6,7 @@ its equations to the code. The Python API (``docs/python-api.md``):
 
 * ``load_mission``, ``mission_from_text``, ``mission_from_dict``: a checked mission;
 * ``run_mission``: check, simulate and judge it; a ``RunResult``;
+* ``start_mission``: the same run step by step, its path or target changed between steps;
 * ``plot_verdicts`` (what judged the run), ``plot_xy``, ``plot_states``,
   ``plot_estimation_error``, ``plot_inputs``: figures;
 * ``run_campaign``: a campaign (``docs/campaigns.md``): its rows and statistics;
@@ -27,6 +28,7 @@ if TYPE_CHECKING:
         mission_from_dict,
         mission_from_text,
         run_mission,
+        start_mission,
     )
     from wmr_mission.campaign.sweep import run_campaign
     from wmr_mission.output.figures import (
@@ -47,6 +49,7 @@ _WHERE = {
     "mission_from_dict": "wmr_mission.api",
     "mission_from_text": "wmr_mission.api",
     "run_mission": "wmr_mission.api",
+    "start_mission": "wmr_mission.api",
     "plot_xy": "wmr_mission.output.figures",
     "plot_states": "wmr_mission.output.figures",
     "plot_estimation_error": "wmr_mission.output.figures",
@@ -73,6 +76,7 @@ __all__ = [
     "plot_xy",
     "run_campaign",
     "run_mission",
+    "start_mission",
 ]
 
 

@@ -19,6 +19,7 @@ from wmr_mission.spec.loader import MissionError
 
 if TYPE_CHECKING:
     from wmr_mission.output.result import RunResult
+    from wmr_mission.sim.session import Session
     from wmr_mission.spec.models import Mission
 
 __all__ = [
@@ -28,6 +29,7 @@ __all__ = [
     "mission_from_dict",
     "mission_from_text",
     "run_mission",
+    "start_mission",
 ]
 
 
@@ -83,6 +85,25 @@ def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
     checked = None if seed is None else _checked_seed(seed)
     _compile_notice()
     return simulate(mission, seed=checked)
+
+
+def start_mission(mission: Mission, *, seed: int | None = None) -> Session:
+    """A run of ``mission`` to drive step by step: ``session.step(n)``,
+    ``session.set_path(...)``, ``session.result()`` (docs/python-api.md, "A
+    mission step by step"). Checked as :func:`run_mission` checks it; the loop is
+    loaded (or compiled) before it returns, at sample 0.
+    """
+    from wmr_mission.sim.session import Session
+    from wmr_mission.spec.models import Mission
+
+    if not isinstance(mission, Mission):
+        raise TypeError(
+            f"start_mission takes a Mission (from load_mission, mission_from_text or "
+            f"mission_from_dict), got {type(mission).__name__}"
+        )
+    checked = None if seed is None else _checked_seed(seed)
+    _compile_notice()
+    return Session(mission, checked)
 
 
 _noticed: list[bool] = []  # the compile notice is printed once per process

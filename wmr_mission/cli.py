@@ -254,12 +254,24 @@ def serve_robot(
             help="Sensor-noise seed; overrides the mission's.",
         ),
     ] = None,
+    plan_from: Annotated[
+        Path | None,
+        typer.Option(
+            "--plan-from",
+            metavar="PLANS.yaml",
+            exists=True,
+            dir_okay=False,
+            help="A stand-in planner too: publish the paths of this mission's updates "
+            "written on time (mission_time, or elapsed in its first phase) as nav_msgs/Path "
+            "on the plan topic, timed from the first command.",
+        ),
+    ] = None,
 ) -> None:
     """A stand-in robot over ROS 2: MISSION's plant, disturbances and sensors in real
     time, on cmd_vel and odom, until Ctrl-C (for `run --backend ros2`)."""
     from wmr_mission.commands.serve_robot import serve_robot_command
 
-    raise typer.Exit(serve_robot_command(mission, seed=seed))
+    raise typer.Exit(serve_robot_command(mission, seed=seed, plan_from=plan_from))
 
 
 @command

@@ -29,7 +29,7 @@ from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.kernels import disturbances
 from wmr_mission.kernels.disturbances import Actuation, Sensing
 from wmr_mission.kernels.model import wrap_angle
-from wmr_mission.sim.plan import MissionPlan
+from wmr_mission.sim.plan import MissionPlan, UpdatePlan, planned
 from wmr_mission.sim.plant_side import PlantStopped
 from wmr_mission.spec.backend import Backend
 
@@ -125,12 +125,68 @@ class Ros2Plant:
         node.create_subscription(
             Odometry, settings.odom, self._on_odom, self.ros.qos(settings.odom_reliability, 5)
         )
+        # A planner's plans (docs/backends.md, "A planner over ROS 2"): the newest
+        # not yet taken, and how many were taken or refused.
+        self.plans: Callable[[], UpdatePlan | None] | None = None
+        self._plan: UpdatePlan | None = None
+        self._plan_lock = threading.Lock()
+        self.plans_taken = 0
+        self.plans_refused = 0
+        if settings.plan is not None:
+            from nav_msgs.msg import Path
+
+            self._context = plan.context
+            node.create_subscription(
+                Path, settings.plan, self._on_plan, self.ros.qos(settings.plan_reliability, 1)
+            )
+            self.plans = self._next_plan
+            print(
+                f"ros2: plans from '{settings.plan}' (nav_msgs/Path in frame "
+                f"'{settings.frame_id}'); until the first, each track phase follows its own path",
+                file=sys.stderr,
+            )
 
     def _on_odom(self, message: Any) -> None:
         pose = message.pose.pose
         q = pose.orientation
         theta = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
         self.latest = Pose(pose.position.x, pose.position.y, theta, time.perf_counter())
+
+    def _on_plan(self, message: Any) -> None:
+        """A plan in the odometry's frame, of two poses or more, at plan_speed;
+        another is refused, and said so."""
+        frame = message.header.frame_id.lstrip("/")
+        points = [[p.pose.position.x, p.pose.position.y] for p in message.poses]
+        problem = None
+        if frame != self.settings.frame_id.lstrip("/"):
+            problem = f"its frame is '{frame}', not '{self.settings.frame_id}'"
+        elif len(points) < 2:
+            problem = f"it has {len(points)} pose{'s' * (len(points) != 1)}, not 2 or more"
+        if problem is not None:
+            self.plans_refused += 1
+            print(f"ros2: a plan on '{self.settings.plan}' refused: {problem}", file=sys.stderr)
+            return
+        latest = self.latest
+        if latest is not None:
+            # Joined past its pose nearest the robot: the poses before it are
+            # what the robot has passed since the planner planned.
+            nearest = min(range(len(points)), key=lambda i: math.dist(points[i], latest[:2]))
+            points = points[min(nearest + 1, len(points) - 2) :]
+        route = {"type": "waypoints", "points": points, "speed": self.settings.plan_speed}
+        try:
+            update = planned(route, self._context, f"plan on '{self.settings.plan}'")
+        except ValueError as error:
+            self.plans_refused += 1
+            print(f"ros2: a plan on '{self.settings.plan}' refused: {error}", file=sys.stderr)
+            return
+        with self._plan_lock:
+            self._plan = update
+
+    def _next_plan(self) -> UpdatePlan | None:
+        with self._plan_lock:
+            update, self._plan = self._plan, None
+        self.plans_taken += update is not None
+        return update
 
     def wait_for_robot(self) -> None:
         """Until the first measurement, at most ``wait_for_robot`` seconds."""
@@ -170,6 +226,11 @@ class Ros2Plant:
             **self.pace.record(),
             "dropouts": self.dropouts,
             "zero_command_sent": self.zero_sent,
+            **(
+                {"plans_taken": self.plans_taken, "plans_refused": self.plans_refused}
+                if self.settings.plan is not None
+                else {}
+            ),
         }
 
     def describe(self) -> dict[str, Any]:

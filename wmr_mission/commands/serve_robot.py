@@ -9,9 +9,12 @@ from pathlib import Path
 from wmr_mission.commands.run import EXIT_FAILED, STOP_SIGNALS
 
 
-def serve_robot_command(mission_path: Path, *, seed: int | None) -> int:
+def serve_robot_command(
+    mission_path: Path, *, seed: int | None, plan_from: Path | None = None
+) -> int:
     """Exit code: 1 invalid mission or ROS 2 missing; 130 or 143 when stopped
-    by SIGINT or SIGTERM, its way of ending."""
+    by SIGINT or SIGTERM, its way of ending. ``plan_from``: a mission whose
+    updates on time are published as plans (wmr_mission.backends.robot.ScriptedPlans)."""
     from wmr_mission.backends import BackendError
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.spec.loader import check_mission_bytes, read_source
@@ -19,17 +22,24 @@ def serve_robot_command(mission_path: Path, *, seed: int | None) -> int:
 
     with StopSignals(STOP_SIGNALS) as stop:
         try:
-            source, diagnostics = read_source(mission_path)
-            mission = None
-            if source is not None:
-                mission, diagnostics = check_mission_bytes(source, str(mission_path), [])
-            for diagnostic in diagnostics:
-                print(diagnostic, file=sys.stderr)
-            if mission is None:
-                return EXIT_FAILED
+            missions = []
+            for path in (mission_path, plan_from):
+                if path is None:
+                    continue
+                source, diagnostics = read_source(path)
+                checked = None
+                if source is not None:
+                    checked, diagnostics = check_mission_bytes(source, str(path), [])
+                for diagnostic in diagnostics:
+                    print(diagnostic, file=sys.stderr)
+                if checked is None:
+                    return EXIT_FAILED
+                missions.append(checked)
             from wmr_mission.backends.robot import serve
 
-            serve(plan_mission(mission, seed), mission.backend)
+            mission = missions[0]
+            planner = missions[1] if plan_from is not None else None
+            serve(plan_mission(mission, seed), mission.backend, planner)
         except BackendError as error:
             print(f"{mission_path}: {error}", file=sys.stderr)
             return EXIT_FAILED

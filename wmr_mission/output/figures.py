@@ -545,7 +545,7 @@ def _change_places(
     # Places by grid cell of side ``radius``: those near a point are in the 3 x 3 cells round it.
     cells: dict[tuple[int, int], list[int]] = {}
     for tr in result.transitions:
-        if tr.to_phase is None:
+        if tr.to_phase is None or tr.condition == "update":  # updates: _draw_updates
             continue
         k = _sample_at(result, tr.time)
         point = (float(result.x[k]), float(result.y[k]))
@@ -599,6 +599,35 @@ def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
                 "edgecolor": "none",
                 "alpha": 0.8,
             },
+        )
+
+
+def _draw_updates(ax: Axes, result: RunResult) -> None:
+    """Where each update's reference took over (docs/mission-format.md,
+    "References that change on-line"), labelled with its number."""
+    updates = [tr for tr in result.transitions if tr.condition == "update"]
+    if not updates:
+        return
+    points = [_sample_at(result, tr.time) for tr in updates]
+    ax.plot(
+        [result.x[k] for k in points],
+        [result.y[k] for k in points],
+        marker="D",
+        color="darkorange",
+        markeredgecolor="black",
+        markersize=6,
+        linestyle="none",
+        label="update (number of the reference taking over)",
+        zorder=8,
+    )
+    for k, tr in zip(points[:MAX_CHANGE_LABELS], updates, strict=False):
+        ax.annotate(
+            f"ref {tr.value:g}",
+            (float(result.x[k]), float(result.y[k])),
+            xytext=(5, -11),
+            textcoords="offset points",
+            fontsize=7,
+            zorder=9,
         )
 
 
@@ -717,6 +746,7 @@ def _xy_on(ax: Axes, result: RunResult, label: str | None = None, color: Any = N
         _draw_path(ax, result, colors)
         _draw_headings(ax, result, size)
         _draw_changes(ax, result, size)
+        _draw_updates(ax, result)
         _draw_reactions(ax, result)
         _draw_ends(ax, result)
     _draw_goals(ax, result, size)

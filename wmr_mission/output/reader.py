@@ -26,6 +26,7 @@ from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transitio
 from wmr_mission.output.rundir import (
     CSV_COLUMNS,
     MANIFEST_FILE,
+    REFERENCE_COLUMN,
     SUMMARY_FILE,
     TRAJECTORY_FILE,
     TRANSITIONS_FILE,
@@ -247,7 +248,7 @@ def _read_trajectory(path: Path, phase_names: Sequence[str]) -> dict[str, np.nda
     text = _read_text(path)
     header = next(csv.reader(io.StringIO(text[: text.find("\n") + 1], newline="")), None)
     columns = tuple(header or ())
-    if columns not in (CSV_COLUMNS, _OLDER_CSV_COLUMNS):
+    if columns not in (CSV_COLUMNS, _OLDER_CSV_COLUMNS, (*CSV_COLUMNS, REFERENCE_COLUMN)):
         raise RunDirError(f"{path.name}:1: header must be exactly {','.join(CSV_COLUMNS)}")
     try:
         data = _parse_rows_fast(text, phase_names, columns)
@@ -291,6 +292,11 @@ def _parse_rows_fast(
     ):
         raise ValueError("phase2_iterations not a count")
     data["phase2_iterations"] = iterations.astype(np.int64)
+    if REFERENCE_COLUMN in data:
+        references = data[REFERENCE_COLUMN]
+        if not np.all((references == np.round(references)) & (references >= 0)):
+            raise ValueError("reference not a number of an update")
+        data[REFERENCE_COLUMN] = references.astype(np.int64)
     return data
 
 
@@ -318,7 +324,7 @@ def _parse_rows_checked(
                     f"({MANIFEST_FILE} lists {', '.join(phase_names)})"
                 ) from None
             continue
-        dtype = np.int64 if name == "phase2_iterations" else np.float64
+        dtype = np.int64 if name in ("phase2_iterations", REFERENCE_COLUMN) else np.float64
         try:
             data[name] = np.array(column, dtype=dtype)
             if dtype is np.int64 and not np.all(
@@ -431,6 +437,7 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
         y_meas=data["y_meas"],
         theta_meas=data["theta_meas"],
         mission=_optional(manifest, "resolved_mission", dict, MANIFEST_FILE),
+        reference=data.get(REFERENCE_COLUMN),
     )
 
 

@@ -129,6 +129,9 @@ class RunResult:
     # its `expect` judges the run; None for a run of a compiled mission.
     mission: dict[str, Any] | None = None
     loop_ns: int = 0
+    # The number of the reference in force at each sample (0: the phase's own,
+    # n: its update n took over), for a mission with updates; else None.
+    reference: IntArray | None = None
     # A run on another plant (wmr_mission.backends): summary.json's `realtime`
     # (deadline misses, command latency, the zero command at the end) and
     # manifest.json's `backend` (its type, versions, settings). None in our simulator.
@@ -186,7 +189,7 @@ class RunResult:
             raise ImportError(
                 "RunResult.to_dataframe needs pandas: pip install 'wmr-mission[dataframe]'"
             ) from None
-        columns: dict[str, Any] = {name: getattr(self, name) for name in rundir.CSV_COLUMNS}
+        columns: dict[str, Any] = {name: getattr(self, name) for name in rundir.csv_columns(self)}
         columns["phase"] = pandas.Categorical.from_codes(self.phase, categories=self.phase_names)
         return pandas.DataFrame(columns)
 

@@ -69,6 +69,10 @@ EXTRA_COLUMNS = (
     "phase2_iterations",
 )
 CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
+# The last column of a run whose mission has updates: the number of the
+# reference in force (docs/run-directory.md); other runs keep their bytes.
+REFERENCE_COLUMN = "reference"
+INTEGER_COLUMNS = ("phase2_iterations", REFERENCE_COLUMN)
 _FLOAT_FORMAT = "%.12g"
 # Rows formatted per `%` operation: one C-level formatting call per block keeps
 # a 360 000-sample run to about a second and a half, and a block's Python
@@ -169,26 +173,32 @@ def trajectory_csv_blocks(result: RunResult) -> Iterator[str]:
     """``trajectory.csv`` in pieces: the header line, then blocks of lines, so a
     long run is never held in memory as one text."""
     names = np.array([_csv_field(p.name) for p in result.phases] or [""], dtype=object)
+    written = csv_columns(result)
     formats = [
-        "%s" if name == "phase" else "%d" if name == "phase2_iterations" else _FLOAT_FORMAT
-        for name in CSV_COLUMNS
+        "%s" if name == "phase" else "%d" if name in INTEGER_COLUMNS else _FLOAT_FORMAT
+        for name in written
     ]
     row_format = ",".join(formats) + "\n"
-    yield ",".join(CSV_COLUMNS) + "\n"
+    yield ",".join(written) + "\n"
     for start in range(0, result.samples, _ROWS_PER_BLOCK):
         block = slice(start, start + _ROWS_PER_BLOCK)
         columns: list[list[Any]] = []
-        for name in CSV_COLUMNS:
+        for name in written:
             if name == "phase":
                 columns.append(names[np.asarray(result.phase[block], dtype=np.int64)].tolist())
-            elif name == "phase2_iterations":
-                column = np.asarray(result.phase2_iterations[block], dtype=np.int64)
+            elif name in INTEGER_COLUMNS:
+                column = np.asarray(getattr(result, name)[block], dtype=np.int64)
                 columns.append(column.tolist())
             else:
                 column = np.asarray(getattr(result, name)[block], dtype=np.float64)
                 columns.append(column.tolist())
         values = tuple(value for row in zip(*columns, strict=True) for value in row)
         yield row_format * (len(values) // len(columns)) % values
+
+
+def csv_columns(result: RunResult) -> tuple[str, ...]:
+    """The columns of the run's ``trajectory.csv``: ``reference`` last where it has one."""
+    return CSV_COLUMNS + ((REFERENCE_COLUMN,) if result.reference is not None else ())
 
 
 def trajectory_csv_text(result: RunResult) -> str:

@@ -9,7 +9,8 @@
 - ``/measurement``, ``geometry_msgs/msg/PoseStamped``: ``x_meas, y_meas``
   (``theta_meas``) where measured;
 - ``/reference``, ``nav_msgs/msg/Path``: the reference in force, at the first sample
-  of each phase that has one: its points, each stamped with its sample's time;
+  of each phase that has one and at each of its updates: its points, each stamped
+  with its sample's time;
 - ``/transitions``, ``std_msgs/msg/String``: each entry of ``transitions.json`` as
   JSON, at its time;
 - ``/summary``, ``std_msgs/msg/String``: ``summary.json``, at the last sample.
@@ -285,11 +286,15 @@ def _path(t: float, points: list[tuple[float, float, float]]) -> bytes:
 
 
 def _references(result: RunResult) -> Iterator[tuple[float, bytes]]:
-    """A Path at the first sample of each run of samples of one phase that has a
+    """A Path at the first sample of each run of samples of one phase and one
+    reference (a phase's updates: the ``reference`` column) that has a
     reference: the reference in force from then on (thinned to PATH_POSES)."""
     r = result
     phase = np.asarray(r.phase)
-    starts = np.flatnonzero(np.r_[True, phase[1:] != phase[:-1]]).tolist() if r.samples else []
+    changes = phase[1:] != phase[:-1]
+    if r.reference is not None:
+        changes |= r.reference[1:] != r.reference[:-1]
+    starts = np.flatnonzero(np.r_[True, changes]).tolist() if r.samples else []
     for start, end in zip(starts, [*starts[1:], r.samples], strict=True):
         span = np.arange(start, end)
         span = span[np.isfinite(r.x_ref[span]) & np.isfinite(r.y_ref[span])]

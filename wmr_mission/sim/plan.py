@@ -9,17 +9,19 @@ wmr_mission.geometry.paths.)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
+import pydantic
 
 from wmr_mission.basics import STATES, FloatArray, IntArray, measurement_mask, samples
 from wmr_mission.controllers import CONTROLLERS, ControllerType
 from wmr_mission.estimators import ESTIMATORS, EstimatorType, Measurements
 from wmr_mission.geometry import paths, regions
 from wmr_mission.geometry.paths import Trajectory
+from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
 from wmr_mission.sim.draws import DisturbancePlan
 from wmr_mission.sim.reactions import ReactionPlan, contingency_phases, reaction_plan
@@ -33,6 +35,7 @@ from wmr_mission.spec.models import (
     StayInside,
     TrackPhase,
     Until,
+    Update,
 )
 from wmr_mission.spec.repeats import run_count, run_order
 
@@ -56,6 +59,44 @@ class Conditions:
 
 
 @dataclass(frozen=True)
+class UpdatePlan:
+    """One update of a phase's reference (docs/mission-format.md, "References
+    that change on-line"): when it takes over, and the new path or target."""
+
+    when: str  # its condition as written, for transitions.json ("elapsed 20 s")
+    elapsed_samples: int | None = None
+    mission_time: float | None = None
+    reaches: RegionSpec | None = None
+    travelled: float | None = None  # [m]
+    # track: builds the new path from the estimated pose at the update.
+    make_trajectory: Callable[[tuple[float, float, float]], Trajectory] | None = None
+    target: tuple[float, float, float] | None = None  # regulate: the new target
+
+    def first(
+        self, estimates: FloatArray, first_sample: int, since: int, entry_sample: int, dt: float
+    ) -> int:
+        """The first sample from ``since`` on at which the update takes over, or
+        -1: its condition on the estimate x_{k|k} at sample k, as a phase's
+        `until` is checked. ``estimates`` ((n, 2): x, y) are those of samples
+        ``first_sample`` on; ``travelled`` counts from the first of them."""
+        n = estimates.shape[0]
+        k = first_sample + np.arange(n)
+        if self.elapsed_samples is not None:
+            hits = k - entry_sample >= self.elapsed_samples
+        elif self.mission_time is not None:
+            hits = k * dt >= self.mission_time - 0.5 * dt
+        elif self.reaches is not None:
+            hits = regions.region_value(self.reaches, estimates[:, 0], estimates[:, 1]) <= 0.0
+        else:
+            assert self.travelled is not None
+            steps = np.hypot(np.diff(estimates[:, 0]), np.diff(estimates[:, 1]))
+            covered = np.concatenate(([0.0], np.cumsum(steps)))
+            hits = covered >= self.travelled
+        found = np.flatnonzero(hits & (k >= since))
+        return int(k[found[0]]) if found.size else -1
+
+
+@dataclass(frozen=True)
 class PhasePlan:
     """One phase of the run, repeats written out."""
 
@@ -75,6 +116,7 @@ class PhasePlan:
     # track: the points its path is drawn through ((m, 2), for figures), or None.
     points: FloatArray | None = None
     color: str | None = None  # for the figures: from the mission's plot.phase_colors
+    updates: tuple[UpdatePlan, ...] = ()  # in the order they are written
 
 
 @dataclass(frozen=True)
@@ -99,6 +141,8 @@ class MissionPlan:
     # What the run does at a timeout or a breach; None: fail at a timeout with
     # on_timeout fail, else go on (wmr_mission.sim.reactions).
     reactions: ReactionPlan | None = None
+    # What a path given while the mission runs may refer to (planned).
+    context: paths.Context = field(default_factory=lambda: paths.Context(regions={}))
 
     @property
     def dt(self) -> float:
@@ -252,6 +296,7 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
         goal = phase.regulate.target
         target = (float(goal.x), float(goal.y), float(goal.theta))
     return PhasePlan(
+        updates=tuple(_update(update, mission, dt) for update in phase.updates),
         name=label,
         lap=lap,
         points=points,
@@ -265,6 +310,53 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
         constraints=tuple(constraints),
         color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
     )
+
+
+def _update(update: Update, mission: Mission, dt: float) -> UpdatePlan:
+    context = mission.path_context()
+    when = update.when
+    make_trajectory = None
+    if update.path is not None:
+        path = update.path
+
+        def make_trajectory(pose: tuple[float, float, float]) -> Trajectory:
+            return paths.trajectory(path, context, pose)
+
+    target = update.target
+    name, value = next((name, value) for name, value in when if value is not None)
+    unit = " m" if name == "travelled" else " s"
+    return UpdatePlan(
+        when=f"reaches '{value}'" if name == "reaches" else f"{name} {value:g}{unit}",
+        elapsed_samples=None if when.elapsed is None else _bound(when.elapsed, dt),
+        mission_time=when.mission_time,
+        reaches=None if when.reaches is None else mission.regions[when.reaches],
+        travelled=when.travelled,
+        make_trajectory=make_trajectory,
+        target=None if target is None else (float(target.x), float(target.y), float(target.theta)),
+    )
+
+
+def planned(path: Mapping[str, Any], context: paths.Context, when: str) -> UpdatePlan:
+    """A path given while the mission runs (a session's ``set_path``, a
+    planner's plan) as an update: checked as a mission's path is (ValueError
+    says what is wrong), made from the estimated pose where it takes over."""
+    try:
+        update = Update.model_validate(
+            {"when": {"elapsed": 1.0}, "path": dict(path)},
+            context={"regions": list(context.regions)},
+        )
+    except pydantic.ValidationError as error:
+        problems = "; ".join(
+            f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in error.errors()
+        )
+        raise ValueError(f"not a valid path: {problems}") from None
+    new = update.path
+    assert new is not None
+
+    def make_trajectory(pose: tuple[float, float, float]) -> Trajectory:
+        return paths.trajectory(new, context, pose)
+
+    return UpdatePlan(when=when, make_trajectory=make_trajectory)
 
 
 def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
@@ -318,4 +410,5 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         regions=dumped_regions,
         max_samples=sample_budget(mission),
         disturbances=disturbance_plan(mission),
+        context=mission.path_context(),
     )

@@ -13,14 +13,14 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Generator, Mapping
 from dataclasses import replace
 from enum import StrEnum
 from typing import Any
 
 import numpy as np
 
-from wmr_mission.basics import FloatArray
+from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
@@ -30,7 +30,7 @@ from wmr_mission.output.metrics import judge
 from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.plugins import failure_message
 from wmr_mission.sim.draws import Draws
-from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
+from wmr_mission.sim.plan import MissionPlan, PhasePlan, UpdatePlan, plan_mission
 from wmr_mission.sim.plant_side import PlantSide, PlantStopped
 from wmr_mission.sim.reactions import (
     Breach,
@@ -56,6 +56,7 @@ FIRST_CHUNK = 256
 RESUME_HORIZON = 120.0
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
 MAX_PRESIZED = 2_000_000
+NEVER = 2**62  # the sample a run that is not a session pauses at
 
 
 class Status(StrEnum):
@@ -115,10 +116,18 @@ class PhaseRun:
         self.entry_sample = 0
         self.target = np.zeros(3)
         self._trajectory: Trajectory | None = None
+        # The rows of its path sampled last: the path's sample of the first, the rows.
+        self._sampled: tuple[int, FloatArray] = (0, np.zeros((0, 4)))
         # Samples the path is ahead of the phase's clock: where a resumed phase
         # rejoined its path (wmr_mission.sim.reactions.nearest_ahead).
         self.path_shift = 0
         self.left_at = 0  # the path's sample the phase was last left at
+        # Its reference (docs/mission-format.md, "References that change on-line"):
+        # the updates written that took over, the number of the reference in
+        # force (0: its own), and the target in force.
+        self.fired = 0
+        self.reference = 0
+        self.target_in_force = phase.target
         # Samples after which the phase ends for sure (elapsed or timeout).
         bounds = [phase.until.elapsed_samples, phase.timeout_samples]
         self.bound = min((b for b in bounds if b is not None), default=2**62)
@@ -139,6 +148,9 @@ class PhaseRun:
         pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
         phase = self.phase
         self.path_shift = 0
+        if resume_from is None:  # a phase entered afresh takes its own reference again
+            self.fired = self.reference = 0
+            self.target_in_force = phase.target
         if phase.kind == "track" and resume_from is not None and self._trajectory is not None:
             horizon = min(self.bound, round(RESUME_HORIZON / self.mission.dt))
             self.path_shift = nearest_ahead(
@@ -147,7 +159,8 @@ class PhaseRun:
         elif phase.kind == "track":
             assert phase.make_trajectory is not None
             self._trajectory = phase.make_trajectory(pose)
-        self.target[:] = phase.target if phase.target is not None else pose
+            self._sampled = (0, np.zeros((0, 4)))
+        self.target[:] = self.target_in_force or pose
         until = phase.until
         reaches_kinds, reaches_params = until.reaches_rows
         reaches_sign = 0.0
@@ -175,15 +188,44 @@ class PhaseRun:
         )
 
     @property
+    def pending(self) -> UpdatePlan | None:
+        """The update the phase watches for: the first that has not taken over."""
+        updates = self.phase.updates
+        return updates[self.fired] if self.fired < len(updates) else None
+
+    def take_over(self, k: int, estimate: FloatArray, update: UpdatePlan) -> None:
+        """``update`` takes over at sample k: its path, made from the estimated
+        pose x_{k|k}, restarts at its own t = 0 at sample k; its target is the
+        phase's from sample k (docs/paper-notes.md, "References that change on-line")."""
+        if update.make_trajectory is not None:
+            pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
+            self._trajectory = update.make_trajectory(pose)
+            self._sampled = (0, np.zeros((0, 4)))
+            self.path_shift = self.entry_sample - k
+        if update.target is not None:
+            self.target_in_force = update.target
+            self.target[:] = update.target  # the array the loop reads (EnteredPhase.target)
+        self.reference += 1
+
+    @property
     def tracks_a_path(self) -> bool:
         return self._trajectory is not None
 
-    def path_ahead(self, local_sample: int, rows: int) -> PathBlock:
+    def path_ahead(self, local_sample: int, rows: int, wanted: int = 0) -> PathBlock:
         """The path at phase-local samples ``local_sample`` onwards: point and
-        unit tangent (NaN where the path rests)."""
+        unit tangent (NaN where the path rests). ``wanted`` rows (more than
+        ``rows``) are sampled where a session pauses the loop sooner than a run
+        would, and the calls that follow take them from there."""
         if self._trajectory is None or rows == 0:
             return PathBlock(local_sample, np.zeros((0, 4)))
-        start = local_sample + self.path_shift
+        start = local_sample + self.path_shift  # the path's own sample
+        first, block = self._sampled
+        if not first <= start <= start + rows <= first + block.shape[0]:
+            first, block = self._sampled = start, self._sample(start, max(rows, wanted))
+        return PathBlock(local_sample, block[start - first : start - first + rows])
+
+    def _sample(self, start: int, rows: int) -> FloatArray:
+        assert self._trajectory is not None
         t = (start + np.arange(rows, dtype=np.float64)) * self.mission.dt
         x, y, dx, dy = self._trajectory.sample(t)
         block = np.empty((rows, 4))
@@ -194,7 +236,7 @@ class PhaseRun:
         np.divide(dx, speed, out=block[:, 2], where=moving)
         np.divide(dy, speed, out=block[:, 3], where=moving)
         block[~moving, 2:] = np.nan  # only where it rests: numpy fills two columns slowly
-        return PathBlock(local_sample, block)
+        return block
 
 
 # Called once per phase or run: plain Python (wmr_mission.kernels.jit.plain).
@@ -253,6 +295,11 @@ def run_mission(
     with importing_entries():  # a run imports its plug-ins
         checked = validate_mission(mission)
     result = _run(plan_mission(checked, seed), progress, substitutes, plant, ready)
+    return judged(result, checked)
+
+
+def judged(result: RunResult, checked: Mission) -> RunResult:
+    """``result`` with the mission as run, judged by its ``expect``."""
     resolved = checked.model_dump(mode="json")
     resolved["sensors"]["seed"] = result.seed  # the mission as run
     result.mission = resolved
@@ -317,6 +364,21 @@ class _Run:
         self.recorder = Recorder(min(m.max_samples, MAX_PRESIZED))
         self.transitions: list[Transition] = []
         self.phases = [PhaseRun(p, m, i) for i, p in enumerate(m.phases)]
+        # (sample, number) where each reference took over: the `reference`
+        # column, written for a mission with updates or a session that made one
+        # (0: the phase's own, n: its n-th update).
+        self.references: list[tuple[int, int]] = []
+        self.updated = any(p.updates for p in m.phases)
+        # A session (start_mission) pauses the run before this sample; a run never.
+        self.pause_at = NEVER
+        # A session's call of the compiled loop without numba's dispatcher: the
+        # phase it was typed with and the compiled entry point (_segment).
+        self._fast: tuple[EnteredPhase, Callable[..., int]] | None = None
+        # A plant side that takes a planner's plans (wmr_mission.backends.ros2): each
+        # new one, once, as an update of the track phase in force; else None.
+        self.plans: Callable[[], UpdatePlan | None] | None = getattr(plant, "plans", None)
+        self.active: PhaseRun = self.phases[0]
+        self._steps: Generator[None, UpdatePlan | None, RunResult] | None = None
         self.actuation, self.sensing = m.disturbances.records(m.dt, m.measured)
         # A `type: python` plug-in: made here, for this run; an exception out
         # of its code ends the run failed (RunFault), never the tool.
@@ -397,29 +459,51 @@ class _Run:
 
     def _segment(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
         m = self.m
-        return int(
-            self.segment(
-                m.plant,
-                self.actuation,
-                self.sensing,
-                m.estimator_tuning,
-                self.estimator_memory,
-                m.controller_tuning,
-                self.scratch,
-                phase,
-                path,
-                draws,
-                self.signals,
-                self.recorder.record,
-                stop,
-            )
-        )
+        arguments = (
+            m.plant, self.actuation, self.sensing, m.estimator_tuning, self.estimator_memory,
+            m.controller_tuning, self.scratch, phase, path, draws, self.signals,
+            self.recorder.record, stop,
+        )  # fmt: skip
+        fast = self._fast
+        contiguous = path.rows.flags.c_contiguous and draws.flags.c_contiguous
+        if fast is not None and fast[0] is phase and contiguous:
+            # A session's short steps: numba's dispatcher takes some 30 us to
+            # type these arguments, a third of 100 samples. Every argument but
+            # the phase is of the types of every call (float64 arrays, C order,
+            # checked above), and the phase is the one the dispatcher typed.
+            return int(fast[1](*arguments))
+        status = int(self.segment(*arguments))
+        if self.pause_at != NEVER and not self.ticks_are_ns and not self.plugin:
+            dispatcher: Any = self.segment
+            signatures = dispatcher.signatures
+            if len(signatures) == 1 and contiguous:
+                self._fast = (phase, dispatcher.overloads[signatures[0]].entry_point)
+        return status
 
     def run(self) -> RunResult:
+        result = self.advance()
+        assert result is not None  # never paused
+        return result
+
+    def advance(self, update: UpdatePlan | None = None) -> RunResult | None:
+        """Run up to ``pause_at`` (None) or to the end (the result). ``update``
+        takes over in the active phase at the sample the run was paused at."""
         try:
             if self.failure is not None:
                 return self._failed(self.failure)
-            return self._loop()
+            if self._steps is None:
+                self._steps = self._loop()
+                update = None  # nothing to update before the first sample
+            # A stop is held while compiled code runs and taken between chunks: a
+            # KeyboardInterrupt raised inside numba's dispatcher is lost or comes
+            # out seconds later (a SIGINT 2-5 s into a 1,000 s run stopped it 10 s
+            # later, or never). Plain Python takes it at once: rows count whole.
+            with stop_mode(RAISE if self.ticks_are_ns else HOLD):
+                self._steps.send(update)
+            return None
+        except StopIteration as end:
+            result: RunResult = end.value
+            return result
         except KeyboardInterrupt:  # SIGINT, or SIGTERM mapped to it by the command
             return self._interrupted()
         except PlantStopped as stopped:  # the plant side's cause: measurements stopped
@@ -461,11 +545,13 @@ class _Run:
         self.transitions.append(Transition(t, active.phase.name, None, condition, math.nan))
         return self._result(outcome, f"{cause} in phase '{active.phase.name}' at t = {t:.6g} s")
 
-    def _loop(self) -> RunResult:
+    def _loop(self) -> Generator[None, UpdatePlan | None, RunResult]:
+        """The run as steps: made (not started) at once, it loads the loop at
+        its first ``send(None)``, then runs chunk by chunk (``_chunks``)."""
         m = self.m
         draws = Draws(m.noise_std, m.disturbances, m.seed)
         active = self.phases[0]
-        phase = active.enter(0, self.signals.estimate)
+        phase = self._enter(active, 0)
         # Load (or compile) the loop and the paths' math before the clock: a
         # zero-sample call. The paths' math first, held: loading it is numba's
         # first load, which imports compiled modules, and a KeyboardInterrupt
@@ -479,14 +565,14 @@ class _Run:
         _honour_stop()
         if self.ready is not None:
             self.ready()
-        # A stop is held while compiled code runs and taken between chunks: a
-        # KeyboardInterrupt raised inside numba's dispatcher is lost or comes
-        # out seconds later (a SIGINT 2-5 s into a 1,000 s run stopped it 10 s
-        # later, or never). Plain Python takes it at once: rows count whole.
-        with stop_mode(RAISE if self.ticks_are_ns else HOLD):
-            return self._chunks(active, phase, draws)
+        return (yield from self._chunks(active, phase, draws))
 
-    def _chunks(self, active: PhaseRun, phase: EnteredPhase, draws: Draws) -> RunResult:
+    def _chunks(
+        self, active: PhaseRun, phase: EnteredPhase, draws: Draws
+    ) -> Generator[None, UpdatePlan | None, RunResult]:
+        """The chunks of the run, each a call of the compiled loop; paused (a
+        yield) where a session asked (``pause_at``), where an update it sends
+        takes over."""
         m = self.m
         dt = m.dt
         signals = self.signals
@@ -499,29 +585,54 @@ class _Run:
         self._started = (self._returned_ns, int(counters[loop.CLOCK]))
         index = 0
         chunk = active.first_chunk
+        ran = 0  # samples run since the chunk last grew
         reactor = None if m.reactions is None else Reactor(m.reactions)
         while True:
             _honour_stop()
             k = int(counters[loop.K])
+            if k >= self.pause_at:
+                self.active = active
+                update = yield
+                if update is not None:
+                    self._take_over(active, k, update)
+                continue
             local = k - active.entry_sample
             watched = reactor is not None and reactor.plan.watches(active.index)
             # At its bound (elapsed or timeout) the phase exits before it steps,
             # so a call that reaches the bound goes on to see it exit; the path
             # is sampled up to the bound, never past it. The loop also stops
-            # where the draws drawn so far run out (Draws.ahead).
-            stop = k + min(chunk, active.bound - local + 1)
-            path = active.path_ahead(local, min(chunk, active.bound - local) + 1)
+            # where the draws drawn so far run out (Draws.ahead), and where a
+            # session pauses it.
+            stop = k + min(chunk, active.bound - local + 1, self.pause_at - k)
+            if self.plans is not None:  # a planner's new path, looked for at every sample
+                stop = k + 1
+                update = self.plans()
+                if update is not None and active.phase.kind == "track":
+                    self._take_over(active, k, update)
+            rows = min(chunk, active.bound - local) + 1
+            path = active.path_ahead(local, min(rows, self.pause_at - k + 1), rows)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
             block = draws.ahead()
-            saved = self._saved() if watched else None
+            started = k
+            pending = active.pending
+            saved = self._saved() if watched or pending is not None else None
             status = self._call(phase, path, block, stop)
             decision: Decision | None = None
+            due = False
             if saved is not None and status in (loop.CHUNK_END, loop.EXITED):
-                assert reactor is not None
-                decision = self._breach(reactor, active, saved, phase, path, block)
+                if pending is not None:
+                    due = self._update_due(active, pending, saved, phase, path, block)
+                    status = loop.CHUNK_END if due else status
+                if watched:
+                    assert reactor is not None
+                    decision = self._breach(reactor, active, saved, phase, path, block)
+                    due = due and decision is None
             draws.used(int(counters[loop.DRAWS]))
             counters[loop.DRAWS] = 0
             k = int(counters[loop.K])
+            if due:
+                self._take_over(active, k)
+                continue
             if decision is not None:
                 assert reactor is not None
                 ended = self._follow(reactor, decision, active, k, phase)
@@ -529,12 +640,16 @@ class _Run:
                     outcome, message = ended
                     break
                 active, phase = self._entered(decision, active, k)
-                chunk = active.first_chunk
+                chunk, ran = active.first_chunk, 0
                 continue
             if status == loop.CHUNK_END:
                 if self.progress is not None:
                     self.progress(k * dt, budget, active.phase.name)
-                chunk = min(4 * chunk, CHUNK)
+                # A session's pauses cut chunks short: the chunk (and the path
+                # sampled ahead) grows once as many samples ran as a run's would.
+                ran += k - started
+                if stop < self.pause_at or ran >= chunk:
+                    chunk, ran = min(4 * chunk, CHUNK), 0
                 continue
             if status != loop.EXITED:
                 cause = self._divergence_cause(status)
@@ -561,7 +676,7 @@ class _Run:
                     outcome, message = ended
                     break
                 active, phase = self._entered(decision, active, k)
-                chunk = active.first_chunk
+                chunk, ran = active.first_chunk, 0
                 continue
             if condition == "timeout" and active.phase.fail_on_timeout:
                 active.status = Status.timed_out
@@ -598,8 +713,8 @@ class _Run:
                 break
             active = to
             signals.memory[:] = 0.0
-            phase = active.enter(k, signals.estimate)
-            chunk = active.first_chunk
+            phase = self._enter(active, k)
+            chunk, ran = active.first_chunk, 0
         return self._result(outcome, message)
 
     def _missed(self, reactor: Reactor, active: PhaseRun, k: int) -> list[str]:
@@ -638,6 +753,53 @@ class _Run:
             regions=dict(self.m.regions),
         )
         return missed_verdicts(entry, written)
+
+    def _update_due(
+        self,
+        active: PhaseRun,
+        update: UpdatePlan,
+        saved: tuple[int, list[tuple[FloatArray, FloatArray]]],
+        phase: EnteredPhase,
+        path: PathBlock,
+        block: FloatArray,
+    ) -> bool:
+        """Whether ``update`` takes over at a sample the last call recorded; if
+        so, the call is run again from the state before it up to that sample,
+        as the breach's is (the loop is a function of the state it is called with)."""
+        recorded, arrays = saved
+        count = self.recorder.count
+        start = max(active.entry_sample, 0 if update.travelled is not None else recorded)
+        estimates = self.recorder.record.floats[start:count, 4:6]  # x_est, y_est: x_{k|k}
+        k = update.first(estimates, start, recorded, active.entry_sample, self.m.dt)
+        if k < 0:
+            return False
+        for array, copy in arrays:
+            array[...] = copy
+        self.recorder.record.rows[0] = recorded
+        self._call(phase, path, block, k)
+        return True
+
+    def _take_over(self, active: PhaseRun, k: int, update: UpdatePlan | None = None) -> None:
+        """``update`` (else the phase's pending one) takes over at sample k;
+        transitions.json says so."""
+        if update is None:
+            update = active.pending
+            assert update is not None
+            active.fired += 1
+        estimate = self.signals.estimate
+        active.take_over(k, estimate, update)
+        self.updated = True
+        name = active.phase.name
+        new = "path" if update.make_trajectory is not None else "target"
+        why = (
+            f"update {active.reference} ({update.when}): a new {new} from the estimate "
+            f"({estimate[0]:.4g}, {estimate[1]:.4g})"
+        )
+        self.transitions.append(
+            Transition(_seconds(k, self.m.dt), name, name, "update", float(active.reference),
+                       None, None, why)
+        )  # fmt: skip
+        self.references.append((k, active.reference))
 
     def _saved(self) -> tuple[int, list[tuple[FloatArray, FloatArray]]]:
         """What a call of the loop changes, copied: the recorded rows, and every
@@ -751,7 +913,13 @@ class _Run:
         to = self.phases[decision.enter]
         self.signals.memory[:] = 0.0
         resume = to.left_at if decision.how == "resume" else None
-        return to, to.enter(k, self.signals.estimate, resume)
+        return to, self._enter(to, k, resume)
+
+    def _enter(self, active: PhaseRun, k: int, resume: int | None = None) -> EnteredPhase:
+        """Enter ``active`` at sample k; the reference column notes its reference."""
+        entered = active.enter(k, self.signals.estimate, resume)
+        self.references.append((k, active.reference))
+        return entered
 
     def _close(self, k: int, phase: EnteredPhase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""
@@ -844,7 +1012,15 @@ class _Run:
             x_meas=columns["x_meas"],
             y_meas=columns["y_meas"],
             theta_meas=columns["theta_meas"],
+            reference=self._reference_column(n) if self.updated else None,
         )
+
+    def _reference_column(self, n: int) -> IntArray:
+        """The number of the reference in force at each of the n samples."""
+        column = np.zeros(n, dtype=np.int64)
+        for k, number in self.references:
+            column[k:] = number  # in sample order: a later change overwrites
+        return column
 
     @staticmethod
     def _target(active: PhaseRun) -> tuple[float, float, float] | None:

@@ -53,6 +53,19 @@ class Backend(Model):
         default=0.5,
         description="[s] ros2: this long without a measurement, the run stops, failed.",
     )
+    plan: RosName | None = Field(
+        default=None,
+        description=(
+            "ros2: topic of a planner's plans (nav_msgs/Path): each new plan replaces the path "
+            "of the track phase in force (docs/backends.md, 'A planner over ROS 2')."
+        ),
+    )
+    plan_reliability: Reliability = Field(
+        default="reliable", description="ros2: QoS reliability of the plans (depth 1)."
+    )
+    plan_speed: Duration = Field(
+        default=0.5, description="[m/s] ros2: the speed a plan's route is followed at, > 0."
+    )
     wait_for_robot: Duration = Field(
         default=10.0,
         description="[s] ros2: the longest wait for the first measurement before the run.",

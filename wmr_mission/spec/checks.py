@@ -11,8 +11,8 @@ import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass
-from typing import Final, Literal
+from dataclasses import dataclass, replace
+from typing import Any, Final, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -295,6 +295,7 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                         f"{name!r} is a {region.type}",
                     )
         yield from _target_against_constraints(mission, phase, where)
+        yield from _update_rules(mission, phase, where)
         for number, constraint in enumerate(phase.constraints):
             if isinstance(constraint, StayInside):
                 continue
@@ -304,6 +305,53 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                     (*where, "constraints", number, "stay_outside"),
                     f"stay_outside needs a region whose outside is convex (ellipse, circle or "
                     f"half-plane); the outside of {region.type} {constraint.stay_outside!r} is not",
+                )
+
+
+def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[Finding]:
+    """Each update names one condition and one new reference its phase can take:
+    a path on a track phase, a target on a regulate phase."""
+    for number, update in enumerate(phase.updates):
+        at: DataPath = (*where, "updates", number)
+        given = [name for name, value in update.when if value is not None]
+        if len(given) != 1:
+            yield Finding(
+                (*at, "when"),
+                "an update takes over on exactly one condition (elapsed, mission_time, "
+                f"reaches or travelled), but {len(given)} are given"
+                + (f" ({', '.join(given)})" if given else ""),
+                at_key=True,
+            )
+        wanted = "path" if isinstance(phase, TrackPhase) else "target"
+        if isinstance(phase, HoldPhase):
+            yield Finding(
+                at,
+                "a hold phase holds the pose it was entered at: it has no reference to "
+                "update; make it a regulate phase with a target",
+                at_key=True,
+            )
+            continue
+        unwanted = "target" if wanted == "path" else "path"
+        if getattr(update, unwanted) is not None:
+            yield Finding(
+                (*at, unwanted),
+                f"a {'track' if wanted == 'path' else 'regulate'} phase's update gives a new "
+                f"{wanted}, not a {unwanted}",
+                at_key=True,
+            )
+        elif getattr(update, wanted) is None:
+            yield Finding(at, f"the update gives no new {wanted}", at_key=True)
+        path = update.path
+        name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
+        region = mission.regions.get(name) if name is not None else None
+        if path is not None and region is not None:
+            kinds, wanted_region = _PATH_REGIONS[path.type]
+            if not isinstance(region, kinds):
+                article = "an" if path.type[0] in "aeiou" else "a"
+                yield Finding(
+                    (*at, "path", "region"),
+                    f"{article} {path.type} path needs {wanted_region} region, but "
+                    f"{name!r} is a {region.type}",
                 )
 
 
@@ -617,6 +665,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             continue
         if isinstance(phase, HoldPhase):
             continue
+        if run.lap is None or run.lap == 1:
+            yield from _update_paths(mission, phase, where, pose, bound, assumed)
         try:
             trajectory = paths.trajectory(phase.track.path, mission.path_context(), pose)
             times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
@@ -684,6 +734,42 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             pose = (float(x[last]), float(y[last]), heading)
 
 
+def _update_paths(
+    mission: Mission, phase: TrackPhase, where: DataPath, pose: Pose, bound: float, assumed: str
+) -> Iterator[Finding]:
+    """Each update's path as the phase's own is checked: finite, and within the
+    limits, over the phase's bound, from the pose the phase is assumed to start at
+    (where the update will take over is not known in advance)."""
+    dt = mission.robot.dt
+    times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
+    for number, update in enumerate(phase.updates):
+        if update.path is None:
+            continue
+        at: DataPath = (*where, "updates", number, "path")
+        try:
+            trajectory = paths.trajectory(update.path, mission.path_context(), pose)
+            with np.errstate(all="ignore"):
+                x, y, dx, dy = trajectory.sample(times)
+        except (ValueError, ArithmeticError) as error:
+            yield Finding(at, f"the path cannot be sampled ({assumed}): {error}", "warning")
+            continue
+        finite = np.isfinite(x) & np.isfinite(y) & np.isfinite(dx) & np.isfinite(dy)
+        if not finite.all():
+            first = float(times[int(np.argmin(finite))])
+            yield Finding(
+                at,
+                f"the path (or its direction) is not finite at t = {first:g} s after the "
+                f"update ({assumed}); the run would stop there as diverged",
+                severity="error" if first == 0.0 else "warning",
+            )
+            continue
+        # An update may take over late in the phase: what the path needs is a warning.
+        for finding in _path_within_limits(
+            mission, where, phase, times, dx, dy, assumed, update.path, at
+        ):
+            yield replace(finding, severity="warning")
+
+
 def _path_within_limits(
     mission: Mission,
     where: DataPath,
@@ -692,6 +778,8 @@ def _path_within_limits(
     dx: FloatArray,
     dy: FloatArray,
     assumed: str,
+    path: Any = None,
+    at_path: DataPath | None = None,
 ) -> Iterator[Finding]:
     """The path's own speed, and how fast it turns, against the actuator
     limits, up to the phase's predicted end: a robot on a path it cannot keep
@@ -710,11 +798,11 @@ def _path_within_limits(
     dx, dy = dx[: times.size], dy[: times.size]
     speed = np.hypot(dx, dy)
     limits = mission.robot.limits
-    path = phase.track.path
+    path = phase.track.path if path is None else path
     field = next(
         (f for f in ("angular_rate", "speed") if f in getattr(type(path), "model_fields", {})), None
     )
-    at: DataPath = (*where, "track", "path", *((field,) if field else ()))
+    at: DataPath = (*(at_path or (*where, "track", "path")), *((field,) if field else ()))
     predictable = phase.until.near is None and phase.until.heading is None
     for need, limit, what, unit, name in (
         (speed, limits.v, "a speed", "m/s", "limits.v"),

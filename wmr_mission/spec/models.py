@@ -97,6 +97,8 @@ __all__ = [
     "Track",
     "TrackPhase",
     "Until",
+    "Update",
+    "UpdateWhen",
 ]
 
 # Names an expression already gives a meaning to; a parameter may not hide them.
@@ -445,6 +447,35 @@ class Until(Model):
     heading: HeadingCondition | None = Field(default=None, description="Heading reached.")
 
 
+class UpdateWhen(Model):
+    """When an update takes over: exactly one of these, checked on the estimate
+    at each sample, from the phase's entry (or the update before it)."""
+
+    elapsed: Duration | None = Field(default=None, description="Phase time [s], > 0.")
+    mission_time: Duration | None = Field(default=None, description="Mission time [s], > 0.")
+    reaches: RegionName | None = Field(
+        default=None,
+        description="A region the estimated position is inside (or on the boundary of).",
+    )
+    travelled: Positive | None = Field(
+        default=None,
+        description="Distance [m] the estimated position has covered since the phase was entered.",
+    )
+
+
+class Update(Model):
+    """A change of the phase's reference while it runs (docs/mission-format.md,
+    "References that change on-line"): a new path for a track phase, a new
+    target for a regulate phase."""
+
+    when: UpdateWhen = Field(description="When it takes over (exactly one condition).")
+    path: Annotated[PathSettings, PATHS] | None = Field(
+        default=None,
+        description="track: the new path, instantiated from the estimated pose at the update.",
+    )
+    target: Pose | None = Field(default=None, description="regulate: the new target pose.")
+
+
 class StayInside(Model):
     """Keep the robot inside a region (the corrective control of eqs. (22)-(28))."""
 
@@ -530,6 +561,11 @@ class _PhaseCommon(Model):
     expect: PhaseExpect = Field(
         default_factory=PhaseExpect,
         description="Thresholds on this phase's metrics, overriding the mission's expect.",
+    )
+    updates: tuple[Update, ...] = Field(
+        default=(),
+        max_length=64,
+        description="Changes of the reference while the phase runs, in order; each fires once.",
     )
 
 

@@ -1,0 +1,95 @@
+"""A planner over ROS 2 (docs/backends.md, "A planner over ROS 2"): each
+nav_msgs/Path on the mission's plan topic replaces the track phase's path."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from test_backends import WMR, background, needs_ros2, ros_env  # noqa: F401
+
+from wmr_mission.api import load_run
+
+DATA = Path(__file__).parent / "data"
+PLANNED = DATA / "planned-ros2.yaml"
+# Three plans, each from where the robot will roughly be, in frame odom.
+PLANS = ("0.6,0.3;1.0,0.6", "0.9,0.2;1.2,-0.2", "1.0,-0.5;0.6,-0.8")
+
+
+@needs_ros2
+def test_the_run_follows_each_plan_in_turn_and_keeps_the_last(
+    tmp_path: Path,
+    ros_env: dict[str, str],  # noqa: F811
+) -> None:
+    out = tmp_path / "run"
+    planner = [sys.executable, str(Path(__file__).parent / "ros2_planner.py"), *PLANS]
+    robot = [*WMR, "serve-robot", str(PLANNED)]
+    with (
+        background(robot, ros_env, "serve-robot:"),
+        background(planner, ros_env, "ready") as published,
+    ):
+        done = subprocess.run(
+            [*WMR, "run", str(PLANNED), "--backend", "ros2", "--out", str(out), "--no-plots"],
+            env=ros_env, capture_output=True, text=True, timeout=90, check=False,
+        )  # fmt: skip
+        assert published.stdout is not None
+        planner_said = published.stdout.read()
+    assert done.returncode == 0, done.stderr
+    assert planner_said.count("published") == 3  # and then it stopped
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["realtime"]["plans_taken"] == 3
+    assert summary["realtime"]["plans_refused"] == 0
+    run = load_run(out)
+    assert run.reference is not None
+    changes = np.flatnonzero(np.diff(run.reference)) + 1
+    assert run.reference[changes].tolist() == [1, 2, 3]
+    assert run.reference[-1] == 3  # the planner stopped: its last plan stays in force
+    ends = [*changes[1:], run.samples]
+    for number, (start, end) in enumerate(zip(changes, ends, strict=True), 1):
+        goal = np.array([float(v) for v in PLANS[number - 1].split(";")[-1].split(",")])
+        # the new reference starts at the estimate and runs towards the plan's last point
+        assert (
+            np.hypot(run.x_ref[start] - run.x_est[start], run.y_ref[start] - run.y_est[start])
+            < 1e-9
+        )
+        before = np.hypot(*(np.array([run.x_ref[start], run.y_ref[start]]) - goal))
+        after = np.hypot(*(np.array([run.x_ref[end - 2], run.y_ref[end - 2]]) - goal))
+        assert after < before, (number, before, after)
+    transitions = json.loads((out / "transitions.json").read_text())
+    whys = [t["why"] for t in transitions if t["condition"] == "update"]
+    assert len(whys) == 3
+    assert all("plan on 'plan'" in why for why in whys)
+    assert "ros2: plans from 'plan'" in done.stderr
+
+
+@needs_ros2
+def test_serve_robot_plan_from_publishes_a_mission_s_updates_as_plans(
+    tmp_path: Path,
+    ros_env: dict[str, str],  # noqa: F811
+) -> None:
+    out = tmp_path / "run"
+    robot = [*WMR, "serve-robot", str(PLANNED), "--plan-from", str(DATA / "plans-ros2.yaml")]
+    with background(robot, ros_env, "serve-robot: 3 plans scripted on 'plan', at 1, 2.5, 4 s"):
+        done = subprocess.run(
+            [*WMR, "run", str(PLANNED), "--backend", "ros2", "--out", str(out), "--no-plots"],
+            env=ros_env, capture_output=True, text=True, timeout=90, check=False,
+        )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["realtime"]["plans_taken"] == 3
+    run = load_run(out)
+    assert run.reference is not None
+    changes = np.flatnonzero(np.diff(run.reference)) + 1
+    assert run.reference[changes].tolist() == [1, 2, 3]
+    ends = [*changes[1:], run.samples]
+    for heading, start, end in zip((0.4, -0.3, 0.0), changes, ends, strict=True):
+        # each plan is a line from the robot's pose when it was sent: the new
+        # reference runs along it
+        late = start + (end - start) // 2
+        direction = np.arctan2(
+            run.y_ref[late] - run.y_ref[start], run.x_ref[late] - run.x_ref[start]
+        )
+        assert abs(direction - heading) < 0.2, (heading, direction)
