@@ -235,3 +235,28 @@ def test_the_tracking_law_follows_a_circle_at_its_acceleration_limits() -> None:
     assert np.abs(radius[joined] - 3.392).max() < 0.02
     # no input swinging from limit to limit: the speed settles at the path's
     assert np.abs(result.v[joined] - 0.195 * 3.392).max() < 0.05
+
+
+def test_a_route_slows_into_its_stops_at_the_acceleration_limit() -> None:
+    """A polyline turns in place at its corners and ends at its last point:
+    its reference stopped there from 0.95 m/s in one sample, which 1.5 m/s^2
+    cannot follow (0.3 m to brake), and the robot overran each corner and
+    the end (the generated mission gen-006-polyline: 0.30 m off its route,
+    1.1 m behind). The route now slows into its stops and speeds up out of
+    them at half the robot's acceleration."""
+    limits = {"v": 2.066, "omega": 7.83, "acceleration": {"v": 1.516, "omega": 12.363}}
+    route = {
+        "name": "route",
+        "track": {"path": {"type": "polyline", "points": [[3, 0], [3, 3], [0, 3]], "speed": 0.953}},
+        "until": {"elapsed": 16},
+    }
+    result, summary = _judged(_one_phase(limits, route))
+    assert summary["outcome"] == "success", summary["message"]
+    tracking = summary["phases"][0]["tracking"]
+    assert tracking["cross_track_error_max"] < 0.1
+    drawn = np.isfinite(result.x_ref)
+    speed = np.hypot(np.diff(result.x_ref[drawn]), np.diff(result.y_ref[drawn])) / 0.01
+    assert np.abs(np.diff(speed)).max() <= 0.5 * 1.516 * 0.01 + 1e-9
+    assert speed.max() == pytest.approx(0.953)
+    # it ends at its last point, not beyond it
+    assert result.x.min() > -0.02
