@@ -96,7 +96,9 @@ class Tracking(Model):
             "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
             "time_constant) of the output's error, the path's own motion fed forward; "
             "0 = close the whole error in one sample (the literal eq. 27; always so for "
-            "output: axle)."
+            "output: axle). Under acceleration limits the law uses at least a fifth of the "
+            "time to full speed and to full turn rate, what the limits follow; the verdicts "
+            "keep this value."
         ),
     )
 
