@@ -287,6 +287,10 @@ def track_input(
             move_x = -move_x
             move_y = -move_y
         turn = wrap_angle(math.atan2(move_y, move_x) - theta)
+        # And the speed along the way the output must move: a robot facing
+        # away from it turns before it drives, not while (it drove off
+        # sideways at full turn rate and swung back round at the limits).
+        v *= max(math.cos(turn), 0.0)
         if omega * turn > 0.0:
             reach = stopping_speed(abs(turn), robot.limits[3], dt)
             omega = min(max(omega, -reach), reach)
