@@ -15,7 +15,7 @@ from scipy.interpolate import CubicSpline
 from wmr_mission.geometry import paths
 from wmr_mission.geometry.paths import PathSpec
 from wmr_mission.geometry.paths.waypoints import WaypointsTrajectory
-from wmr_mission.geometry.routes import TURN_CREEP, RouteTrajectory
+from wmr_mission.geometry.routes import TURN_CREEP, RouteTrajectory, polyline_route
 from wmr_mission.spec.models import Mission
 
 PATH = TypeAdapter(PathSpec)
@@ -266,3 +266,36 @@ def test_compiled_track_phases_expose_the_points_their_paths_are_drawn_through()
     route = coverage.phases[0].make_trajectory((-1.0, 0.5, 0.0))  # type: ignore[misc]
     assert isinstance(route, RouteTrajectory)
     np.testing.assert_array_equal(route.points[1:], coverage.phases[0].points)  # after the robot
+
+
+@pytest.mark.parametrize(
+    ("points", "braking"),
+    [
+        ([[0, 0], [4, 0], [4, 3], [0, 3]], 0.5),  # long legs: up to speed and down again
+        ([[0, 0], [4, 0], [4, 0.5], [0, 0.5]], 0.5),  # a leg too short for full speed
+        ([[0, 0], [0.1, 0], [0.1, 3]], 5.0),  # too short to brake on from 1 m/s: harder
+    ],
+)
+def test_a_route_under_an_acceleration_limit_slows_into_its_stops(
+    points: list, braking: float
+) -> None:
+    """Into each turn in place and into the end the reference slows at the
+    acceleration, and out of a turn it speeds up at it; it still passes
+    through every point. Without the limit it stops there in one sample."""
+    free = polyline_route(points, 1.0, False, 0.0, 1.0)
+    route = polyline_route(points, 1.0, False, 0.0, 1.0, acceleration=0.5)
+    dt = 0.001
+    t = np.arange(0.0, route.period + 1.0, dt)
+    x, y, vx, vy = route.sample(t)
+    speed = np.hypot(vx, vy)
+    assert speed.max() <= 1.0 + 1e-12
+    for vertex in np.asarray(points, dtype=float)[1:]:
+        assert np.hypot(x - vertex[0], y - vertex[1]).min() < 1e-9
+    # the velocity is the position's rate of change
+    np.testing.assert_allclose(np.diff(x) / dt, 0.5 * (vx[1:] + vx[:-1]), atol=2e-3)
+    np.testing.assert_allclose(np.diff(y) / dt, 0.5 * (vy[1:] + vy[:-1]), atol=2e-3)
+    assert speed[-1] == 0.0
+    assert np.abs(np.diff(speed)).max() <= braking * dt + 1e-9
+    assert route.period > free.period
+    _, _, fvx, fvy = free.sample(t)
+    assert np.abs(np.diff(np.hypot(fvx, fvy))).max() == pytest.approx(1.0)

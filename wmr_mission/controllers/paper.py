@@ -70,6 +70,9 @@ TURN_SLEW = 0.5
 # The share of the turn-rate limit the position estimate's noise may take as
 # jitter through the tracking law (docs/paper-notes.md, eqs. (6)-(7) under noise).
 JITTER_SHARE = 0.01
+# The share of each input's range the tracking law's error dynamics follow as
+# designed under the robot's acceleration limits (attainable_time_constant).
+ATTAINABLE_SHARE = 0.2
 
 
 class Tracking(Model):
@@ -93,7 +96,9 @@ class Tracking(Model):
             "Time constant of the tracking error [s]: each sample leaves exp(-dt / "
             "time_constant) of the output's error, the path's own motion fed forward; "
             "0 = close the whole error in one sample (the literal eq. 27; always so for "
-            "output: axle)."
+            "output: axle). Under acceleration limits the law uses at least a fifth of the "
+            "time to full speed and to full turn rate, what the limits follow; the verdicts "
+            "keep this value."
         ),
     )
 
@@ -282,6 +287,10 @@ def track_input(
             move_x = -move_x
             move_y = -move_y
         turn = wrap_angle(math.atan2(move_y, move_x) - theta)
+        # And the speed along the way the output must move: a robot facing
+        # away from it turns before it drives, not while (it drove off
+        # sideways at full turn rate and swung back round at the limits).
+        v *= max(math.cos(turn), 0.0)
         if omega * turn > 0.0:
             reach = stopping_speed(abs(turn), robot.limits[3], dt)
             omega = min(max(omega, -reach), reach)
@@ -732,16 +741,36 @@ def look_ahead(settings: PaperController, dt: float, speed_limit: float) -> floa
     return max(MIN_LOOK_AHEAD, float(speed_limit) * float(dt))
 
 
-def error_decay(settings: PaperController, dt: float) -> float:
+def error_decay(settings: PaperController, dt: float, limits: FloatArray | None = None) -> float:
     """Fraction of the tracked output's error left after one sample: 0 for the
     one-sample laws (``time_constant: 0``, and the literal axle law)."""
     tracking = settings.tracking
     if tracking.output == "axle" or tracking.time_constant == 0:
         return 0.0
-    return math.exp(-float(dt) / float(tracking.time_constant))
+    tau = float(tracking.time_constant)
+    if limits is not None:
+        tau = attainable_time_constant(tau, limits)
+    return math.exp(-float(dt) / tau)
 
 
-def error_reach(settings: PaperController, dt: float, speed_limit: float) -> float:
+def attainable_time_constant(tau: float, limits: FloatArray) -> float:
+    """[s] The tracking error's time constant the acceleration limits can follow.
+
+    Taking an input ``u`` out as ``exp(-t / tau)`` asks ``u / tau`` of its
+    acceleration: under a limit ``a`` the design holds for inputs up to
+    ``a tau`` and beyond that the input lags its law, overshoots and the robot
+    weaves about its path at the limits for good. ``tau`` is lengthened until
+    ATTAINABLE_SHARE of each input's range is followed as designed
+    (docs/paper-notes.md, eq. (27) under acceleration limits); without
+    acceleration limits it is the setting's."""
+    speed_time = float(limits[0]) / float(limits[2])
+    turn_time = float(limits[1]) / float(limits[3])
+    return max(tau, ATTAINABLE_SHARE * speed_time, ATTAINABLE_SHARE * turn_time)
+
+
+def error_reach(
+    settings: PaperController, dt: float, speed_limit: float, limits: FloatArray | None = None
+) -> float:
     """[m] The largest output error closed at ``error_decay``'s pace.
 
     The look-ahead point moves sideways by ``l omega dt`` per sample, so
@@ -751,7 +780,7 @@ def error_reach(settings: PaperController, dt: float, speed_limit: float) -> flo
     larger than ``HEADING_STEP l / (1 - decay)`` are closed as that one is,
     turning at most HEADING_STEP of the bearing error per sample; inf for the
     one-sample laws (decay 0) and the axle law (docs/paper-notes.md, eq. (27))."""
-    decay = error_decay(settings, dt)
+    decay = error_decay(settings, dt, limits)
     distance = look_ahead(settings, dt, speed_limit)
     if decay == 0.0 or distance == 0.0:
         return math.inf
@@ -762,7 +791,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
     regulation = settings.regulation
     return PaperTuning(
         look_ahead=look_ahead(settings, plant.dt, plant.limits[0]),
-        error_decay=error_decay(settings, plant.dt),
+        error_decay=error_decay(settings, plant.dt, plant.limits),
         q=np.array(settings.Q, dtype=np.float64),
         r=np.array(settings.R, dtype=np.float64),
         w=np.array(settings.W, dtype=np.float64),
@@ -771,7 +800,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         align_radius=regulation.align_radius,
         reverse=regulation.reverse,
         barrier_rate=min(1.0, float(plant.dt) / BARRIER_TIME),
-        error_reach=error_reach(settings, plant.dt, plant.limits[0]),
+        error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
     )
 
 

@@ -23,6 +23,7 @@ from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import scalar_math
 
 __all__ = [
+    "ROUTE_ACCELERATION_SHARE",
     "TURN_CREEP",
     "RouteTrajectory",
     "coverage_points",
@@ -40,6 +41,10 @@ TURN = 2  # point x, y; start heading; signed turn angle
 # [m/s] along the heading being turned to, so that the reference keeps a
 # direction for the tracking output to aim along (a zero velocity has none).
 TURN_CREEP = 1e-9
+
+# The share of the robot's speed acceleration a route slows down and speeds up
+# at about its stops; the rest is the controller's to correct errors with.
+ROUTE_ACCELERATION_SHARE = 0.5
 
 # Corners turning less than this [rad] are straight through.
 _STRAIGHT = 1e-9
@@ -61,6 +66,9 @@ class RouteTrajectory:
     closed: bool
     points: FloatArray  # (m, 2)
     start_time: float = 0.0
+    # Per piece, for a leg that speeds up or slows down (_ramped): its speed at
+    # entry, at most, at exit, and its acceleration; None: every leg at `speed`.
+    profiles: FloatArray | None = None
     period: float = field(init=False)
     _ends: FloatArray = field(init=False, repr=False)
 
@@ -84,11 +92,17 @@ class RouteTrajectory:
         vx = np.empty(time.shape)
         vy = np.empty(time.shape)
         leg = kind == LEG
-        distance = self.speed * local[leg]
+        if self.profiles is None:
+            distance = self.speed * local[leg]
+            speed = np.full(distance.shape, self.speed)
+        else:
+            distance, speed = _along_leg(
+                self.profiles[piece[leg]], local[leg], self.durations[piece[leg]]
+            )
         x[leg] = p[leg, 0] + p[leg, 2] * distance
         y[leg] = p[leg, 1] + p[leg, 3] * distance
-        vx[leg] = self.speed * p[leg, 2]
-        vy[leg] = self.speed * p[leg, 3]
+        vx[leg] = speed * p[leg, 2]
+        vy[leg] = speed * p[leg, 3]
         arc = kind == ARC
         radius = p[arc, 2]
         direction = np.sign(p[arc, 4])
@@ -115,6 +129,64 @@ class RouteTrajectory:
         times = np.linspace(0.0, self.period, count)
         px, py, _, _ = self.sample(times - self.start_time)
         return float(times[int(np.argmin(np.hypot(px - x, py - y)))])
+
+
+def _along_leg(
+    profile: FloatArray, local: FloatArray, duration: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Distance and speed along legs of trapezoidal speed (``profile`` rows:
+    entry speed, top speed, exit speed, acceleration) at their local times."""
+    entry, top, leave, rate = profile[:, 0], profile[:, 1], profile[:, 2], profile[:, 3]
+    rising = (top - entry) / rate
+    falling = (top - leave) / rate
+    left = duration - local  # time to the leg's end
+    length = top * (duration - rising - falling) + 0.5 * (top + entry) * rising
+    length += 0.5 * (top + leave) * falling
+    distance = np.where(
+        local < rising,
+        entry * local + 0.5 * rate * local * local,
+        np.where(
+            left < falling,
+            length - leave * left - 0.5 * rate * left * left,
+            0.5 * (top + entry) * rising + top * (local - rising),
+        ),
+    )
+    speed = np.where(
+        local < rising, entry + rate * local, np.where(left < falling, leave + rate * left, top)
+    )
+    return distance, speed
+
+
+def _ramped(
+    kinds: list[int], lengths: list[float], speed: float, closed: bool, acceleration: float
+) -> tuple[FloatArray, FloatArray]:
+    """Each leg's speed profile (entry, top, exit speed, acceleration) and
+    duration when the route stops where it turns in place and at its end
+    (an open route's), at ``acceleration``: from rest up to ``speed`` and down
+    again, no sudden stop a robot with that acceleration limit cannot make.
+    A leg too short to brake on from ``speed`` brakes harder."""
+    count = len(kinds)
+    profiles = np.zeros((count, 4))
+    durations = np.zeros(count)
+    for i, kind in enumerate(kinds):
+        if kind != LEG:
+            continue
+        before = kinds[i - 1] if i > 0 or closed else None
+        after = kinds[(i + 1) % count] if i + 1 < count or closed else None
+        entry = 0.0 if before == TURN else speed
+        leave = 0.0 if after in (TURN, None) else speed
+        length = lengths[i]
+        rate = acceleration
+        top = min(speed, math.sqrt(rate * length + 0.5 * (entry * entry + leave * leave)))
+        if top < max(entry, leave):  # one speed change at speed, too short for it
+            rate = 0.5 * speed * speed / length
+            top = speed
+        rising = (top - entry) / rate
+        falling = (top - leave) / rate
+        ramps = 0.5 * (top + entry) * rising + 0.5 * (top + leave) * falling
+        profiles[i] = (entry, top, leave, rate)
+        durations[i] = rising + falling + max(length - ramps, 0.0) / top
+    return profiles, durations
 
 
 def distinct_points(points: ArrayLike, closed: bool) -> FloatArray:
@@ -173,10 +245,13 @@ def polyline_route(
     corner_radius: float,
     turn_rate: float,
     longest_cut: float = math.inf,
+    acceleration: float = math.inf,
 ) -> RouteTrajectory:
     """Straight legs through ``points`` at ``speed``, corners rounded by arcs of
     ``corner_radius`` (or turned in place at ``turn_rate`` when it is 0); an arc
-    cuts at most ``longest_cut`` off each leg.
+    cuts at most ``longest_cut`` off each leg. With a finite ``acceleration``
+    [m/s^2] the legs slow down at it into each turn in place and into the end
+    of an open route, and speed up out of a turn (_ramped).
 
     A closed route starts where it leaves the first point's corner and ends
     where it enters it again.
@@ -202,6 +277,7 @@ def polyline_route(
     kinds: list[int] = []
     parameters: list[list[float]] = []
     durations: list[float] = []
+    lengths: list[float] = []
     legs = range(n) if closed else range(n - 1)
     for i in legs:
         j = (i + 1) % n
@@ -214,22 +290,31 @@ def polyline_route(
                 [float(start[0]), float(start[1]), float(direction[0]), float(direction[1]), 0.0]
             )
             durations.append(length / speed)
+            lengths.append(length)
         if j in pieces:
             kind, values = pieces[j]
             kinds.append(kind)
             parameters.append(values)
+            lengths.append(0.0)
             if kind == ARC:
                 durations.append(values[2] * abs(values[4]) / speed)
             else:
                 durations.append(abs(values[3]) / turn_rate)
+    profiles = None
+    times = np.array(durations, dtype=np.float64)
+    if math.isfinite(acceleration):
+        profiles, ramped = _ramped(kinds, lengths, float(speed), closed, acceleration)
+        legs_at = np.array(kinds) == LEG
+        times[legs_at] = ramped[legs_at]
     return RouteTrajectory(
         np.array(kinds, dtype=np.int64),
         np.array(parameters, dtype=np.float64),
-        np.array(durations, dtype=np.float64),
+        times,
         float(speed),
         float(turn_rate),
         closed,
         vertices,
+        profiles=profiles,
     )
 
 

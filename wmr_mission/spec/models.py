@@ -60,6 +60,7 @@ from wmr_mission.fields import (
 from wmr_mission.geometry import paths
 from wmr_mission.geometry.paths import PATHS, PathSettings
 from wmr_mission.geometry.regions import RegionSpec
+from wmr_mission.geometry.routes import ROUTE_ACCELERATION_SHARE
 from wmr_mission.spec.backend import Backend
 from wmr_mission.spec.reactions import Geofence, Reaction, Then
 
@@ -135,8 +136,9 @@ class Limits(Model):
             "The robot's own acceleration limits: the plant applies the commands no faster, "
             "and the controller (its zone filter too) commands no faster (the tighter of "
             "these and v_rate, omega_rate) and plans for them: the regulator its "
-            "deceleration, the tracking law its turn, a regulate phase's zones the braking "
-            "distance; null = unlimited."
+            "deceleration, the tracking law its turn and an error's time constant, a "
+            "regulate phase's zones the braking distance, a polyline or coverage route "
+            "its stops (slowing into them at half the acceleration); null = unlimited."
         ),
     )
 
@@ -990,8 +992,19 @@ class Mission(Model):
     )
 
     def path_context(self) -> paths.Context:
-        """What the mission's paths may refer to: its regions and parameters."""
-        return paths.Context(regions=self.regions, parameters=self.parameters)
+        """What the mission's paths may refer to: its regions and parameters,
+        and the speed acceleration a route's stops are planned with: a share
+        of the robot's (the tighter of its acceleration and v_rate), the rest
+        left to the controller's corrections (docs/paper-notes.md, "A route's
+        stops under acceleration limits")."""
+        limits = self.robot.limits
+        rates = [limits.v_rate, limits.acceleration.v if limits.acceleration else None]
+        acceleration = min((float(rate) for rate in rates if rate is not None), default=math.inf)
+        return paths.Context(
+            regions=self.regions,
+            parameters=self.parameters,
+            acceleration=ROUTE_ACCELERATION_SHARE * acceleration,
+        )
 
     @model_validator(mode="wrap")
     @classmethod

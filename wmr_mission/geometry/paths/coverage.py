@@ -57,7 +57,7 @@ def trajectory(path: CoveragePath, context: Context, pose: Pose) -> RouteTraject
     # a turn sharper than a right angle cuts no more than its radius off a lane
     return joined(
         points(path, context), pose[:2], path.start, False, path.speed, radius, path.turn_rate,
-        longest_cut=radius,
+        longest_cut=radius, acceleration=context.acceleration,
     )  # fmt: skip
 
 

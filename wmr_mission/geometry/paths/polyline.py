@@ -57,12 +57,16 @@ def joined(
     corner_radius: float,
     turn_rate: float,
     longest_cut: float = math.inf,
+    acceleration: float = math.inf,
 ) -> RouteTrajectory:
     """The route through ``points``; with ``start: current`` an open route begins
-    at the robot and a closed one at its point nearest the robot."""
+    at the robot and a closed one at its point nearest the robot. Its stops are
+    planned at ``acceleration`` (routes.polyline_route)."""
     if start == "current" and not closed:
         points = np.vstack([robot, points])
-    route = polyline_route(points, speed, closed, corner_radius, turn_rate, longest_cut)
+    route = polyline_route(
+        points, speed, closed, corner_radius, turn_rate, longest_cut, acceleration
+    )
     if start == "current" and route.closed:
         return replace(route, start_time=route.nearest_time(*robot))
     return route
@@ -71,8 +75,9 @@ def joined(
 def trajectory(path: PolylinePath, context: Context, pose: Pose) -> RouteTrajectory:
     points = np.asarray(path.points, dtype=np.float64)
     return joined(
-        points, pose[:2], path.start, path.closed, path.speed, path.corner_radius, path.turn_rate
-    )
+        points, pose[:2], path.start, path.closed, path.speed, path.corner_radius, path.turn_rate,
+        acceleration=context.acceleration,
+    )  # fmt: skip
 
 
 def points(path: PolylinePath, context: Context) -> FloatArray:

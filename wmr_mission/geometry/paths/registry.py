@@ -14,6 +14,7 @@ bits on every CPU.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -44,6 +45,9 @@ class Context:
 
     regions: Mapping[str, RegionSpec] = field(default_factory=dict)
     parameters: Mapping[str, float] = field(default_factory=dict)
+    # [m/s^2] the share of the robot's speed acceleration a route's stops are
+    # planned with (inf: the robot has no such limit)
+    acceleration: float = math.inf
 
 
 class PathSettings(Protocol):
