@@ -1,10 +1,12 @@
 """A ROS 2 listener for tests/test_backends.py: prints "ready" once subscribed,
 "first" when the first Twist on cmd_vel arrives, and at SIGTERM the count of
-Twists heard and the last one."""
+Twists heard and the last one, once those on their way have arrived (a loaded
+machine delivers the run's last commands after the run has exited)."""
 
 import signal
 import sys
 import threading
+import time
 
 import rclpy
 from geometry_msgs.msg import Twist
@@ -33,6 +35,13 @@ spinner = threading.Thread(target=executor.spin, daemon=True)
 spinner.start()
 print("ready", flush=True)
 done.wait()
+# Heard on: until nothing more has arrived for half a second (5 s at most).
+give_up = time.monotonic() + 5.0
+while time.monotonic() < give_up:
+    count = len(heard)
+    time.sleep(0.5)
+    if len(heard) == count:
+        break
 executor.shutdown()
 spinner.join()
 v, omega = heard[-1] if heard else (float("nan"), float("nan"))

@@ -227,7 +227,7 @@ def first_heard(process: subprocess.Popen[str], timeout: float = 60.0) -> None:
 def last_heard(process: subprocess.Popen[str]) -> tuple[int, float, float]:
     """The listener stopped: how many commands it heard, and the last one."""
     process.send_signal(signal.SIGTERM)
-    out, _ = process.communicate(timeout=10)
+    out, _ = process.communicate(timeout=30)
     [last] = [line for line in out.splitlines() if line.startswith("heard ")]
     words = last.split()
     return int(words[1]), float(words[3]), float(words[4])

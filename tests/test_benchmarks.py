@@ -6,6 +6,7 @@ them with ``pytest tests/test_benchmarks.py --benchmark-enable``.
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import tracemalloc
 from pathlib import Path
@@ -160,3 +161,20 @@ def test_memory_grows_with_the_recorder_only() -> None:
     assert (short_samples, long_samples) == (1001, 4001)
     per_sample = (long_peak - short_peak) / (long_samples - short_samples)
     assert per_sample < 400
+
+
+def test_the_floor_reproduces_case_study_2s_tracking(monkeypatch: pytest.MonkeyPatch) -> None:
+    """benchmarks/floor.py, the loop's floor fused by hand, runs case study 2's
+    tracking samples (spiral-out, then 20 s of orbit) to 1e-9 of the run's
+    trajectory: the ratio it prints compares the same work. As plain Python
+    here, the same bytes as compiled (tests/test_loop.py)."""
+    monkeypatch.setenv(jit.NO_JIT, "1")
+    floor_py = Path(__file__).resolve().parent.parent / "benchmarks" / "floor.py"
+    spec = importlib.util.spec_from_file_location("floor", floor_py)
+    assert spec is not None
+    assert spec.loader is not None
+    floor = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(floor)
+    calls, result, _ = floor.tracking_calls()
+    assert sum(call.samples for call in calls) > 2000
+    assert floor.largest_difference(calls, result, floor.floor_function()) <= 1e-9

@@ -121,7 +121,11 @@ def test_without_a_writable_cache_a_short_run_is_plain_python_and_says_nothing(
 
 def _cache_of_this_session(tmp_path: Path) -> Path:
     """A copy of the kernels this test session compiled (their index does not
-    name its directory)."""
+    name its directory), every built-in loop among them: the warm-up's runs
+    compile here those no test compiled yet, once for the session (a fresh
+    clone's), not in the copy and again in this process."""
+    for warm_up in compile_loop.warm_up_missions():
+        run_mission(plan_mission(warm_up))
     run_mission(plan_mission(load_mission(MISSIONS / "fence.yaml")))
     source = kernel_cache.cache_directory()
     assert source is not None
