@@ -305,6 +305,9 @@ def track_input(
         if v < 0.0:
             move = -move
         turn = wrap_angle(math.atan2(move[1], move[0]) - float(estimate[2]))
+        # And the speed along the way the output must move: the robot turns
+        # before it drives (wmr_mission.controllers.paper.track_input).
+        v *= max(math.cos(turn), 0.0)
         if omega * turn > 0.0:
             reach = stopping_speed(abs(turn), float(limits[3]), dt)
             omega = float(np.clip(omega, -reach, reach))
