@@ -233,7 +233,7 @@ mark("reading and checking the mission")
 from wmr_mission.commands.compile import choose_loop
 from wmr_mission.sim.plan import sample_budget
 from wmr_mission.sim import runner
-from wmr_mission.output import metrics
+from wmr_mission.verdicts import metrics
 choose_loop(sample_budget(mission))
 mark("importing the runner")
 result = runner._run(runner.plan_mission(mission), None, None, None)
@@ -512,7 +512,7 @@ def distance() -> None:
     sampled every 1 cm, the robot off it by noise of each size."""
     import numpy as np
 
-    from wmr_mission.output.metrics import distance_to_path
+    from wmr_mission.verdicts.metrics import distance_to_path
 
     t = np.arange(360_001) * 0.01
     x_ref, y_ref = np.cos(t), 1 + np.sin(t)
@@ -579,9 +579,9 @@ def campaign(repeat: int = 40) -> None:
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import METRICS, Row, mission_of, run_row
-    from wmr_mission.output.metrics import judge_run_metrics
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
+    from wmr_mission.verdicts.metrics import judge_run_metrics
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)

@@ -11,9 +11,9 @@ import pytest
 
 from wmr_mission import mission_from_dict, run_mission
 from wmr_mission.kernels.disturbances import Actuation, applied_input
-from wmr_mission.output.metrics import check_expectations, judge
-from wmr_mission.output.regulation import overshoot as target_overshoot
 from wmr_mission.sim.plan import plan_mission
+from wmr_mission.verdicts.metrics import check_expectations, judge
+from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 
 
 def test_the_plant_applies_a_jump_of_the_command_as_a_ramp() -> None:

@@ -7,7 +7,7 @@ import numpy as np
 
 from wmr_mission.campaign.aggregate import WORST_PER_FAILURE, WORST_RUNS, Aggregate, failures_of
 from wmr_mission.campaign.rows import METRICS, Row
-from wmr_mission.output.metrics import unmet, unmet_in
+from wmr_mission.verdicts.metrics import unmet, unmet_in
 
 PATH = np.zeros((2, 0), dtype=np.float32)
 

@@ -21,17 +21,17 @@ from test_output_synthetic import circle_run
 
 import wmr_mission.commands.plot as plot_command
 import wmr_mission.output.figures as plots_module
-import wmr_mission.output.metrics as metrics_module
 import wmr_mission.output.rundir as rundir_module
+import wmr_mission.verdicts.metrics as metrics_module
 from wmr_mission.api import load_mission, run_mission
 from wmr_mission.commands.run import run_command
 from wmr_mission.output.figures import MAX_LEGEND_PHASES
 from wmr_mission.output.files import json_text, write_json
-from wmr_mission.output.metrics import LOCAL_WINDOW, distance_to_path, summarize
-from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.reader import load_run
-from wmr_mission.output.result import PhaseRecord, RunResult
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
+from wmr_mission.record import PhaseRecord, RunResult
+from wmr_mission.verdicts.metrics import LOCAL_WINDOW, distance_to_path, summarize
+from wmr_mission.verdicts.nearest import PointGrid
 
 MISSION = """version: 1
 name: short

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from test_output_synthetic import RADIUS, REF_OFFSET, TURN_RATE, circle_run
 
-from wmr_mission.output.metrics import (
+from wmr_mission.record import Outcome, PhaseRecord, RunResult
+from wmr_mission.verdicts.metrics import (
     LOCAL_WINDOW,
     at_limit_fraction,
     check_expectations,
@@ -20,7 +21,6 @@ from wmr_mission.output.metrics import (
     summarize,
     wrap_angle,
 )
-from wmr_mission.output.result import Outcome, PhaseRecord, RunResult
 
 NO_EXPECT = {
     "final_position_error": None,
@@ -385,7 +385,7 @@ def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -
     distance to the path: that bound must never be below it, at any scale.
     The tight case: a robot off a straight path square to it at its reference
     point, where the two distances are the same number but for rounding."""
-    from wmr_mission.output.metrics import _off_path_bound
+    from wmr_mission.verdicts.metrics import _off_path_bound
 
     rng = np.random.default_rng(3)
     s = np.arange(0.0, 40.0, 0.02)
@@ -408,7 +408,7 @@ def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -
 def test_phase_segments_are_the_stretches_of_one_phase() -> None:
     """(phase, first sample, one past the last) of each stretch, as a loop over
     the samples finds them, on random phase columns and the edge cases."""
-    from wmr_mission.output.metrics import phase_segments
+    from wmr_mission.verdicts.metrics import phase_segments
 
     def by_loop(phase: np.ndarray) -> list[tuple[int, int, int]]:
         stretches: list[tuple[int, int, int]] = []

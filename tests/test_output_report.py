@@ -4,8 +4,8 @@ from pathlib import Path
 
 from test_output_synthetic import circle_run
 
-from wmr_mission.output.metrics import check_expectations, judge, summarize
 from wmr_mission.output.report import format_table
+from wmr_mission.verdicts.metrics import check_expectations, judge, summarize
 
 UNDER_THE_TABLE = ("final error:", "estimation converged", "not reached", "expect ", "outcome:")
 

@@ -15,11 +15,6 @@ from test_output_synthetic import circle_run
 
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError, load_run
-from wmr_mission.output.result import (
-    Outcome,
-    PhaseRecord,
-    RunResult,
-)
 from wmr_mission.output.rundir import (
     EXTRA_COLUMNS,
     TRAJECTORY_COLUMNS,
@@ -27,6 +22,11 @@ from wmr_mission.output.rundir import (
     default_run_dir,
     prepare_run_dir,
     write_run,
+)
+from wmr_mission.record import (
+    Outcome,
+    PhaseRecord,
+    RunResult,
 )
 
 RESOLVED: dict[str, Any] = {

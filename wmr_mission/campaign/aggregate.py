@@ -19,7 +19,7 @@ import numpy as np
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.recovery import RecoveryCounts
 from wmr_mission.campaign.rows import METRICS, Row
-from wmr_mission.output.metrics import unmet_in
+from wmr_mission.verdicts.metrics import unmet_in
 
 __all__ = ["WORST_PER_FAILURE", "WORST_RUNS", "Aggregate", "Failure", "clopper_pearson"]
 

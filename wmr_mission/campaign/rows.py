@@ -18,14 +18,14 @@ from wmr_mission.campaign.comparison import COMPARISON_METRICS, comparison_metri
 from wmr_mission.campaign.load import LoadedCampaign, override, replay_line, value_text
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
-from wmr_mission.output import recovery
-from wmr_mission.output.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
-from wmr_mission.output.result import Outcome
+from wmr_mission.record import Outcome
 from wmr_mission.spec.checks import read_by_sampling_checks
 from wmr_mission.spec.models import Mission
+from wmr_mission.verdicts import recovery
+from wmr_mission.verdicts.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunResult
 
 __all__ = [
     "ERROR",
@@ -66,7 +66,7 @@ class Row:
     metrics: tuple[float | None, ...]
     reason: str
     path_xy: np.ndarray  # (2, <= PATH_POINTS) float32, thinned true path
-    # the reactions that fired, one kind per firing (wmr_mission.output.recovery.fired)
+    # the reactions that fired, one kind per firing (wmr_mission.verdicts.recovery.fired)
     fired: tuple[str, ...] = ()
 
     @property

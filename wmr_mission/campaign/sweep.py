@@ -48,7 +48,6 @@ from wmr_mission.campaign.recovery import recovery_report
 from wmr_mission.campaign.rows import Row, header, replay_command, simulate
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
-from wmr_mission.output.metrics import EXPECTATION_PATHS
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     CLAIM_FILE,
@@ -62,6 +61,7 @@ from wmr_mission.output.rundir import (
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import overrides_of, overrides_of_texts
 from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals
+from wmr_mission.verdicts.metrics import EXPECTATION_PATHS
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
 

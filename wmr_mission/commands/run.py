@@ -26,7 +26,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.record import Outcome, RunResult
 
 if TYPE_CHECKING:
     from wmr_mission.sim.plant_side import PlantSide
@@ -257,7 +257,7 @@ def _run(
         for run_dir in claimed:
             release_run_dir(run_dir)
         raise
-    # run_mission judged the run by the mission's `expect` (output.metrics.judge).
+    # run_mission judged the run by the mission's `expect` (verdicts.metrics.judge).
     stopped = result.outcome is Outcome.interrupted
     if stopped and result.samples == 0:  # stopped before the first sample: nothing to keep
         for run_dir in claimed:

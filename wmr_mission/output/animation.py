@@ -20,7 +20,7 @@ from wmr_mission.output.figures import (
 from wmr_mission.output.files import atomic_path
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunResult
 
 MAX_FRAMES = 200
 FPS = 20

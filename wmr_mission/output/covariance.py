@@ -32,7 +32,7 @@ from wmr_mission.kernels.model import wrap_angle
 from wmr_mission.kernels.variants import estimator_spread, estimator_step
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunResult
 
 # The replayed estimate may differ from the recorded one by this much [m, rad]:
 # trajectory.csv keeps 12 significant digits, so a run read back from its

@@ -29,7 +29,7 @@ import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, IntArray
 from wmr_mission.output.files import atomic_path
-from wmr_mission.output.metrics import (
+from wmr_mission.verdicts.metrics import (
     convergence_index,
     estimation_errors,
     phase_segments,
@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunResult
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -885,7 +885,7 @@ def _start_window(result: RunResult) -> float:
 
 def _errors_at(result: RunResult, state: str, k: IntArray) -> tuple[FloatArray, FloatArray]:
     """Measurement - estimate and true - estimate of ``state`` at samples ``k``
-    (the heading's wrapped, as output.metrics.estimation_errors has it)."""
+    (the heading's wrapped, as verdicts.metrics.estimation_errors has it)."""
     estimate = getattr(result, f"{state}_est")[k]
     true_error = getattr(result, state)[k] - estimate
     if state == "theta":
@@ -1095,7 +1095,7 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
     from matplotlib.collections import LineCollection
     from matplotlib.lines import Line2D
 
-    from wmr_mission.output.signals import PANELS, Check, panel_of, run_signals
+    from wmr_mission.verdicts.signals import PANELS, Check, panel_of, run_signals
 
     signals = run_signals(result)
     failed = signals.failed()
@@ -1131,7 +1131,7 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
         checks = [c for c in signals.checks if panel_of(c.metric) == panel]
         bounds, bound_colors = [], []
         for check in (c for c in checks if c.peak):
-            from wmr_mission.output.signals import PEAK
+            from wmr_mission.verdicts.signals import PEAK
 
             name = PEAK[check.metric][1]
             start, end = check.span

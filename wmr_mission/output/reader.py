@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.output.rundir import (
     CSV_COLUMNS,
     MANIFEST_FILE,
@@ -30,6 +29,7 @@ from wmr_mission.output.rundir import (
     TRAJECTORY_FILE,
     TRANSITIONS_FILE,
 )
+from wmr_mission.record import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.spec.models import MISSION_NAME, is_color
 from wmr_mission.terminal import shown
 

@@ -13,7 +13,7 @@ import shutil
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunResult
 
 WIDTH = 100
 # Widest the verdict column grows, so that the key metrics keep their lines.
@@ -212,7 +212,7 @@ def format_table(
         "estimation converged from: " + ("never" if converged is None else f"t = {converged:.2f} s")
     )
     outcome = summary.get("outcome")
-    # What to try, where a known mechanism explains a miss (output/advice.py).
+    # What to try, where a known mechanism explains a miss (verdicts/advice.py).
     lines += [f"try: {check['advice']}" for check in checks if check.get("advice")]
     for check in checks:
         if check["met"] and check.get("phase") is not None:

@@ -33,11 +33,11 @@ import numpy as np
 
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_json
-from wmr_mission.output.metrics import check_expectations, summarize
-from wmr_mission.output.recovery import recovery_record
+from wmr_mission.verdicts.metrics import check_expectations, summarize
+from wmr_mission.verdicts.recovery import recovery_record
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult, Transition
+    from wmr_mission.record import RunResult, Transition
 
 TRAJECTORY_FILE = "trajectory.csv"
 MANIFEST_FILE = "manifest.json"

@@ -53,7 +53,7 @@ from wmr_mission.review.ros2_messages import STAMP_LIMIT, write_ros2_mcap
 
 if TYPE_CHECKING:
     from wmr_mission.campaign.reader import CampaignDir
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunResult
 
 __all__ = ["MissingExtra", "export_command", "write_mcap", "write_run_parquet"]
 

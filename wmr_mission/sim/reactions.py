@@ -25,8 +25,7 @@ from wmr_mission.geometry.regions import (
     ellipse_geometry,
     region_value,
 )
-from wmr_mission.output.metrics import check_expectations, summarize, unmet
-from wmr_mission.output.result import RunResult
+from wmr_mission.record import RunResult
 from wmr_mission.spec.models import (
     Contingency,
     Hold,
@@ -45,6 +44,7 @@ from wmr_mission.spec.reactions import (
     Retry,
     reaction_text,
 )
+from wmr_mission.verdicts.metrics import check_expectations, summarize, unmet
 
 __all__ = [
     "Breach",

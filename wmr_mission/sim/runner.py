@@ -25,10 +25,8 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
-from wmr_mission.output import recovery
-from wmr_mission.output.metrics import judge
-from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.plugins import failure_message
+from wmr_mission.record import Outcome, PhaseRecord, RunResult, Transition
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
 from wmr_mission.sim.plant_side import PlantSide, PlantStopped
@@ -45,6 +43,8 @@ from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
 from wmr_mission.stopping import HOLD, RAISE, stop_owed
 from wmr_mission.stopping import mode as stop_mode
+from wmr_mission.verdicts import recovery
+from wmr_mission.verdicts.metrics import judge
 
 # Samples per call of the compiled loop: between calls the runner reports
 # progress and Ctrl-C gets in (a few milliseconds apart when compiled). A

@@ -8,9 +8,9 @@ non-finite, e.g. after a divergence.
 
 Everything here is computed from the recorded arrays of a :class:`RunResult`
 after the run. A track phase is judged against its timed reference
-(wmr_mission.output.tracking), the inputs by their quality
-(wmr_mission.output.inputs), the zones by the true position
-(wmr_mission.output.zones); `tracking_error_*`, `*_at_limit` and the
+(wmr_mission.verdicts.tracking), the inputs by their quality
+(wmr_mission.verdicts.inputs), the zones by the true position
+(wmr_mission.verdicts.zones); `tracking_error_*`, `*_at_limit` and the
 estimation RMS leave out a phase's first ``settle_time`` seconds.
 """
 
@@ -27,18 +27,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
-from wmr_mission.output import inputs as input_metrics
-from wmr_mission.output.advice import advice
-from wmr_mission.output.nearest import PointGrid
-from wmr_mission.output.numbers import MissionNumbers, mission_numbers
-from wmr_mission.output.regulation import overshoot as target_overshoot
-from wmr_mission.output.regulation import stall_time
-from wmr_mission.output.tracking import track_quality
-from wmr_mission.output.zones import intrusion_max, zones_of
 from wmr_mission.spec import models
+from wmr_mission.verdicts import inputs as input_metrics
+from wmr_mission.verdicts.advice import advice
+from wmr_mission.verdicts.nearest import PointGrid
+from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
+from wmr_mission.verdicts.regulation import overshoot as target_overshoot
+from wmr_mission.verdicts.regulation import stall_time
+from wmr_mission.verdicts.tracking import track_quality
+from wmr_mission.verdicts.zones import intrusion_max, zones_of
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import PhaseRecord, RunResult
+    from wmr_mission.record import PhaseRecord, RunResult
 
 # The mission's `expect` settings when a summary is made without a mission.
 DEFAULT_CONVERGENCE_TOLERANCE = dict.fromkeys(STATES, models.DEFAULT_CONVERGENCE_TOLERANCE)

@@ -134,7 +134,7 @@ class RunResult:
     # manifest.json's `backend` (its type, versions, settings). None in our simulator.
     realtime: dict[str, Any] | None = None
     backend: dict[str, Any] | None = None
-    # summary.json's metrics and verdicts as ``output.metrics.judge`` found them
+    # summary.json's metrics and verdicts as ``verdicts.metrics.judge`` found them
     # by ``mission``: computed once per run, for the file, the table and the API.
     # Not copied by ``dataclasses.replace``.
     judged: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)

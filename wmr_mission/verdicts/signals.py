@@ -11,7 +11,7 @@ on one of these signals over a phase (or the whole run):
   number beside its bound.
 
 The signals are computed here by the functions the verdicts use
-(wmr_mission.output.tracking, inputs, zones), so that what is drawn is what was
+(wmr_mission.verdicts.tracking, inputs, zones), so that what is drawn is what was
 judged. Nothing here draws.
 """
 
@@ -26,8 +26,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray
-from wmr_mission.output import inputs as input_metrics
-from wmr_mission.output.metrics import (
+from wmr_mission.spec import models
+from wmr_mission.verdicts import inputs as input_metrics
+from wmr_mission.verdicts.metrics import (
     check_expectations,
     distance_to_path,
     estimation_errors,
@@ -35,13 +36,12 @@ from wmr_mission.output.metrics import (
     phase_segments,
     summarize,
 )
-from wmr_mission.output.numbers import MissionNumbers, mission_numbers
-from wmr_mission.output.tracking import track_samples
-from wmr_mission.output.zones import zones_of
-from wmr_mission.spec import models
+from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
+from wmr_mission.verdicts.tracking import track_samples
+from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunResult
 
 Mask = NDArray[np.bool_]
 
