@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.record import RunResult
+from wmr_mission.output.result import RunResult
 
 PINNED = Path(__file__).resolve().parent / "data" / "pinned"
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"

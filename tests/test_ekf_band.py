@@ -13,7 +13,7 @@ import scipy.linalg
 from wmr_mission import load_mission, run_mission
 from wmr_mission.output.covariance import estimate_std
 from wmr_mission.output.figures import plot_estimation_error
-from wmr_mission.record import RunResult
+from wmr_mission.output.result import RunResult
 
 ROOT = Path(__file__).resolve().parents[1]
 

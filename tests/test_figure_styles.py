@@ -12,7 +12,7 @@ from failing import ungated_disturbed
 from PIL import Image
 
 from wmr_mission.output.figures import DPI, FIGURE_NAMES, STYLES, draw_all
-from wmr_mission.record import RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 

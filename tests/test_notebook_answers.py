@@ -10,7 +10,7 @@ import pytest
 from wmr_mission import api
 from wmr_mission.commands import compile as compile_loop
 from wmr_mission.kernels import cache, jit
-from wmr_mission.record import RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 

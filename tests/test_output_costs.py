@@ -28,8 +28,9 @@ from wmr_mission.commands.run import run_command
 from wmr_mission.output.figures import MAX_LEGEND_PHASES
 from wmr_mission.output.files import json_text, write_json
 from wmr_mission.output.reader import load_run
+from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
-from wmr_mission.record import PhaseRecord, RunResult
+from wmr_mission.record import PhaseRecord
 from wmr_mission.verdicts.metrics import LOCAL_WINDOW, distance_to_path, summarize
 from wmr_mission.verdicts.nearest import PointGrid
 

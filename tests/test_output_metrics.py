@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from test_output_synthetic import RADIUS, REF_OFFSET, TURN_RATE, circle_run
 
-from wmr_mission.record import Outcome, PhaseRecord, RunResult
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome, PhaseRecord
 from wmr_mission.verdicts.metrics import (
     LOCAL_WINDOW,
     at_limit_fraction,

@@ -15,19 +15,14 @@ from test_output_synthetic import circle_run
 
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError, load_run
+from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import (
-    EXTRA_COLUMNS,
-    TRAJECTORY_COLUMNS,
     RunDirExistsError,
     default_run_dir,
     prepare_run_dir,
     write_run,
 )
-from wmr_mission.record import (
-    Outcome,
-    PhaseRecord,
-    RunResult,
-)
+from wmr_mission.record import EXTRA_COLUMNS, TRAJECTORY_COLUMNS, Outcome, PhaseRecord
 
 RESOLVED: dict[str, Any] = {
     "version": 1,

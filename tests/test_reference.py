@@ -26,7 +26,7 @@ from wmr_mission.kernels.corrective import corrective_input_array
 from wmr_mission.kernels.model import saturate
 from wmr_mission.kernels.records import Plant, scratch
 from wmr_mission.kernels.riccati import MIN_SPEED
-from wmr_mission.record import RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.sim import reference
 from wmr_mission.sim.plan import MissionPlan, plan_mission
 from wmr_mission.sim.reference import REFERENCE

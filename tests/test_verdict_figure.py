@@ -10,7 +10,7 @@ import pytest
 from failing import ungated_disturbed
 
 from wmr_mission.output.figures import FIGURE_NAMES, _figure
-from wmr_mission.record import RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
 from wmr_mission.verdicts.signals import PEAK, panel_of, run_signals

@@ -23,7 +23,8 @@ import yaml
 from geometry import distance_to_ellipse
 from test_case_studies import read_trajectory, run
 
-from wmr_mission.record import Outcome, RunResult
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome
 from wmr_mission.sim.plan import plan_mission
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.models import Mission

@@ -24,7 +24,8 @@ from typer.testing import CliRunner
 
 from wmr_mission.campaign.reader import load_campaign_dir
 from wmr_mission.cli import app
-from wmr_mission.record import RunResult, Transition
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Transition
 from wmr_mission.review.view import (
     MAX_DISPLAY_SAMPLES,
     build_page,

@@ -36,7 +36,7 @@ if TYPE_CHECKING:
         plot_verdicts,
         plot_xy,
     )
-    from wmr_mission.record import RunResult
+    from wmr_mission.output.result import RunResult
     from wmr_mission.spec.models import Mission
 
 # Lazy: `wmr-mission validate` and `--help` must not pay for numpy/scipy/matplotlib.
@@ -53,7 +53,7 @@ _WHERE = {
     "plot_inputs": "wmr_mission.output.figures",
     "plot_verdicts": "wmr_mission.output.figures",
     "run_campaign": "wmr_mission.campaign.sweep",
-    "RunResult": "wmr_mission.record",
+    "RunResult": "wmr_mission.output.result",
     "Mission": "wmr_mission.spec.models",
 }
 

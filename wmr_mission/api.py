@@ -18,7 +18,7 @@ from wmr_mission.spec import loader
 from wmr_mission.spec.loader import MissionError
 
 if TYPE_CHECKING:
-    from wmr_mission.record import RunResult
+    from wmr_mission.output.result import RunResult
     from wmr_mission.spec.models import Mission
 
 __all__ = [

@@ -1,22 +1,48 @@
-"""What a run produces, as plain arrays: the recorder's output and the input of
-``wmr_mission.output`` (run directory, metrics, plots)."""
+"""What a run records, as plain arrays: the simulation's output, and what the
+verdicts judge and ``wmr_mission.output`` writes and draws.
+
+Below both: the record imports neither. ``wmr_mission.output.result.RunResult``
+is this record with the ways to write it (``summary()``, ``write()``)."""
 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
 from enum import StrEnum
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.output import rundir
 
 if TYPE_CHECKING:
     import pandas
+
+
+# The first columns of trajectory.csv, in this order (DESIGN.md).
+TRAJECTORY_COLUMNS = (
+    "t",
+    "x",
+    "y",
+    "theta",
+    "x_est",
+    "y_est",
+    "theta_est",
+    "v",
+    "omega",
+    "phase",
+)
+# Columns that follow them.
+EXTRA_COLUMNS = (
+    "x_ref",
+    "y_ref",
+    "constraint",
+    "x_meas",
+    "y_meas",
+    "theta_meas",
+    "phase2_iterations",
+)
+CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
 
 
 class Outcome(StrEnum):
@@ -77,7 +103,7 @@ class PhaseRecord:
 
 
 @dataclass
-class RunResult:
+class RunRecord:
     """Arrays are one row per sample k = 0..n-1; sample 0 is the initial state.
 
     ``x, y, theta`` are the plant's true state, ``*_est`` the estimator's
@@ -173,10 +199,6 @@ class RunResult:
         """The phases' names in mission order; ``phase`` indexes this list."""
         return [info.name for info in self.phases]
 
-    def summary(self) -> dict[str, Any]:
-        """Every metric of the run: exactly what ``summary.json`` holds."""
-        return rundir.summary_record(self)
-
     def to_dataframe(self) -> pandas.DataFrame:
         """The samples as a pandas DataFrame, columns as in ``trajectory.csv``
         (``phase`` holds the phase names). Needs pandas."""
@@ -186,24 +208,6 @@ class RunResult:
             raise ImportError(
                 "RunResult.to_dataframe needs pandas: pip install 'wmr-mission[dataframe]'"
             ) from None
-        columns: dict[str, Any] = {name: getattr(self, name) for name in rundir.CSV_COLUMNS}
+        columns: dict[str, Any] = {name: getattr(self, name) for name in CSV_COLUMNS}
         columns["phase"] = pandas.Categorical.from_codes(self.phase, categories=self.phase_names)
         return pandas.DataFrame(columns)
-
-    def write(
-        self,
-        out_dir: str | os.PathLike[str],
-        *,
-        plots: bool = True,
-        animate: bool = False,
-        formats: tuple[str, ...] = ("png",),
-    ) -> Path:
-        """Write a run directory, as ``wmr-mission run --out`` does; return its path.
-
-        The directory must be new or empty (a run never overwrites another).
-        """
-        directory = rundir.prepare_run_dir(out_dir)
-        rundir.write_run(
-            self, directory, mission_file=None, plots=plots, animate=animate, formats=formats
-        )
-        return directory

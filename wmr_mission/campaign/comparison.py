@@ -27,7 +27,7 @@ from typing import Any, Final
 
 import numpy as np
 
-from wmr_mission.record import RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import DEFAULT_SETTLE_TIME
 from wmr_mission.verdicts.inputs import jitter
 from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE

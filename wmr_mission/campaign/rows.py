@@ -25,7 +25,7 @@ from wmr_mission.verdicts import recovery
 from wmr_mission.verdicts.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
 
 if TYPE_CHECKING:
-    from wmr_mission.record import RunResult
+    from wmr_mission.output.result import RunResult
 
 __all__ = [
     "ERROR",

@@ -45,15 +45,15 @@ from wmr_mission.basics import FloatArray
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError
 from wmr_mission.output.rundir import (
-    CSV_COLUMNS,
     SUMMARY_FILE,
     TRAJECTORY_FILE,
 )
+from wmr_mission.record import CSV_COLUMNS
 from wmr_mission.review.ros2_messages import STAMP_LIMIT, write_ros2_mcap
 
 if TYPE_CHECKING:
     from wmr_mission.campaign.reader import CampaignDir
-    from wmr_mission.record import RunResult
+    from wmr_mission.output.result import RunResult
 
 __all__ = ["MissingExtra", "export_command", "write_mcap", "write_run_parquet"]
 

@@ -29,7 +29,7 @@ from typing import IO, TYPE_CHECKING, Any, Final
 import numpy as np
 
 if TYPE_CHECKING:
-    from wmr_mission.record import RunResult
+    from wmr_mission.output.result import RunResult
 
 __all__ = ["DEFINITIONS", "STAMP_LIMIT", "message_definition", "write_ros2_mcap"]
 

@@ -33,8 +33,8 @@ import numpy as np
 from wmr_mission.basics import FloatArray
 from wmr_mission.output.files import write_bytes_atomic
 from wmr_mission.output.reader import RunDirError
+from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import SUMMARY_FILE, TRAJECTORY_FILE
-from wmr_mission.record import RunResult
 
 __all__ = ["MAX_DISPLAY_SAMPLES", "REPORT_FILE", "build_page", "view_command"]
 

@@ -25,7 +25,7 @@ from wmr_mission.geometry.regions import (
     ellipse_geometry,
     region_value,
 )
-from wmr_mission.record import RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import (
     Contingency,
     Hold,

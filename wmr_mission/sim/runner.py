@@ -25,8 +25,9 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
+from wmr_mission.output.result import RunResult
 from wmr_mission.plugins import failure_message
-from wmr_mission.record import Outcome, PhaseRecord, RunResult, Transition
+from wmr_mission.record import Outcome, PhaseRecord, Transition
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, plan_mission
 from wmr_mission.sim.plant_side import PlantSide, PlantStopped

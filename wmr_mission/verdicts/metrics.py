@@ -6,7 +6,7 @@ wrapped to [-pi, pi). Values that do not exist (no track phase, no constraint,
 never converged) are ``None`` and become ``null`` in JSON; so does anything
 non-finite, e.g. after a divergence.
 
-Everything here is computed from the recorded arrays of a :class:`RunResult`
+Everything here is computed from the recorded arrays of a :class:`RunRecord`
 after the run. A track phase is judged against its timed reference
 (wmr_mission.verdicts.tracking), the inputs by their quality
 (wmr_mission.verdicts.inputs), the zones by the true position
@@ -38,7 +38,7 @@ from wmr_mission.verdicts.tracking import track_quality
 from wmr_mission.verdicts.zones import intrusion_max, zones_of
 
 if TYPE_CHECKING:
-    from wmr_mission.record import PhaseRecord, RunResult
+    from wmr_mission.record import PhaseRecord, RunRecord
 
 # The mission's `expect` settings when a summary is made without a mission.
 DEFAULT_CONVERGENCE_TOLERANCE = dict.fromkeys(STATES, models.DEFAULT_CONVERGENCE_TOLERANCE)
@@ -158,7 +158,7 @@ def _rms_or_none(values: FloatArray) -> float | None:
     return float(np.sqrt(np.mean(finite**2))) if finite.size else None
 
 
-def estimation_errors(result: RunResult, window: slice = slice(None)) -> dict[str, FloatArray]:
+def estimation_errors(result: RunRecord, window: slice = slice(None)) -> dict[str, FloatArray]:
     """True minus estimated state per sample (of ``window``), heading wrapped."""
     r, w = result, window
     return {
@@ -288,7 +288,7 @@ def phase_segments(phase: np.ndarray) -> list[tuple[int, int, int]]:
 
 
 def _phase_target(
-    result: RunResult, info: PhaseRecord, start: int, end: int
+    result: RunRecord, info: PhaseRecord, start: int, end: int
 ) -> tuple[float, float, float | None] | None:
     """The pose a phase aims at: its target, or for a track phase its last reference point."""
     if info.kind == "track":
@@ -305,7 +305,7 @@ def _phase_target(
 
 
 def _pose_error(
-    result: RunResult, k: int, target: tuple[float, float, float | None]
+    result: RunRecord, k: int, target: tuple[float, float, float | None]
 ) -> tuple[float | None, float | None]:
     position = math.hypot(float(result.x[k]) - target[0], float(result.y[k]) - target[1])
     heading = None
@@ -315,7 +315,7 @@ def _pose_error(
     return _finite_or_none(position), heading
 
 
-def _final(result: RunResult, segments: list[tuple[int, int, int]]) -> dict[str, Any]:
+def _final(result: RunRecord, segments: list[tuple[int, int, int]]) -> dict[str, Any]:
     """Final error of the true pose from the aim of the last phase that has one.
 
     The aim is a regulate target, or a track phase's last reference point (no
@@ -372,7 +372,7 @@ class _PhaseSamples:
 
     def __init__(
         self,
-        result: RunResult,
+        result: RunRecord,
         info: PhaseRecord,
         span: tuple[int, int],
         settle_time: float,
@@ -563,7 +563,7 @@ def _checked_phase_summary(
 
 
 def _phase_summary(
-    result: RunResult, info: PhaseRecord, phase: _PhaseSamples, tolerance: Mapping[str, float]
+    result: RunRecord, info: PhaseRecord, phase: _PhaseSamples, tolerance: Mapping[str, float]
 ) -> dict[str, Any]:
     """A phase's summary in ``summary.json``."""
     t = result.t
@@ -725,7 +725,7 @@ def _settle_time(phase_expect: Mapping[str, Any] | None) -> float:
     return models.DEFAULT_SETTLE_TIME if value is None else float(value)
 
 
-def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def summarize(result: RunRecord, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """All metrics of a run, in a fixed key order (the content of ``summary.json``).
 
     ``mission`` (the resolved mission) sets how metrics are measured: each
@@ -739,7 +739,7 @@ def summarize(result: RunResult, mission: Mapping[str, Any] | None = None) -> di
 
 
 def _phase_summaries(
-    result: RunResult,
+    result: RunRecord,
     mission: Mapping[str, Any] | None,
     off_path: OffPath,
     checked_only: bool = False,
@@ -769,7 +769,7 @@ def _phase_summaries(
     return summaries
 
 
-def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def run_metrics(result: RunRecord, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The mission-wide metrics of :func:`summarize` (its keys before ``phases``),
     without the per-phase ones."""
     tolerance = _tolerance(mission)
@@ -796,7 +796,7 @@ def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> 
 
 
 def _bounded_metrics(
-    result: RunResult, tolerance: Mapping[str, float], errors: dict[str, FloatArray]
+    result: RunRecord, tolerance: Mapping[str, float], errors: dict[str, FloatArray]
 ) -> dict[str, Any]:
     """The run's outcome and the mission-wide metrics an `expect` can bound
     (EXPECTATION_PATHS), as :func:`run_metrics` has them."""
@@ -818,7 +818,7 @@ def _bounded_metrics(
     }
 
 
-def loop_time_us(result: RunResult) -> float | None:
+def loop_time_us(result: RunRecord) -> float | None:
     """Wall time of the whole simulation loop per sample [us] (None when not timed)."""
     if result.loop_ns <= 0 or result.samples == 0:
         return None
@@ -975,7 +975,7 @@ _UNMET = re.compile(
 
 def unmet_in(message: str) -> list[dict[str, Any]]:
     """The unmet checks an ``expect-failed`` run's message lists (as
-    :func:`unmet` and :meth:`RunResult.miss_expectations` write them): metric,
+    :func:`unmet` and :meth:`RunRecord.miss_expectations` write them): metric,
     phase (None for a mission-wide one), value (None for ``none``) and max."""
     if not message.startswith(_UNMET_PREFIX):
         return []
@@ -996,7 +996,7 @@ def unmet_in(message: str) -> list[dict[str, Any]]:
     return found
 
 
-def judge(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any]:
+def judge(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any]:
     """The run's summary with every `expect` threshold checked.
 
     A run that ended as a success but misses a threshold is not one: its
@@ -1012,7 +1012,7 @@ def judge(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any
     return summary
 
 
-def judge_run_metrics(result: RunResult, mission: Mapping[str, Any] | None) -> dict[str, Any]:
+def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any]:
     """The keys of :func:`run_metrics` a campaign's row records (the outcome and
     the metrics an `expect` bounds mission-wide), with the run judged as
     :func:`judge` judges it (the same outcome and message, in ``result`` too),
@@ -1049,7 +1049,7 @@ def _off_path_bound(
     return own if np.isfinite(own).all() else distance_to_path(x, y, x_ref, y_ref)
 
 
-def _judged(result: RunResult, summary: dict[str, Any], checks: list[dict[str, Any]]) -> None:
+def _judged(result: RunRecord, summary: dict[str, Any], checks: list[dict[str, Any]]) -> None:
     """A success that misses a threshold becomes ``expect-failed``, in
     ``result`` and ``summary``, with the misses as its message."""
     failures = unmet(checks)

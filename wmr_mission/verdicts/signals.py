@@ -41,7 +41,7 @@ from wmr_mission.verdicts.tracking import track_samples
 from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
-    from wmr_mission.record import RunResult
+    from wmr_mission.record import RunRecord
 
 Mask = NDArray[np.bool_]
 
@@ -168,7 +168,7 @@ class Signals:
         return timed + [c for c in failed if c.first_over is None]
 
 
-def expectations(result: RunResult) -> list[dict[str, Any]]:
+def expectations(result: RunRecord) -> list[dict[str, Any]]:
     """The run's `expect` checks (``summary.json``'s ``expectations``)."""
     if result.judged is not None:
         return list(result.judged.get("expectations") or [])
@@ -178,7 +178,7 @@ def expectations(result: RunResult) -> list[dict[str, Any]]:
     return check_expectations(summarize(result, mission), mission)
 
 
-def run_signals(result: RunResult) -> Signals:
+def run_signals(result: RunRecord) -> Signals:
     """The error signals of ``result`` and its checks placed on them."""
     n = result.samples
     numbers = mission_numbers(result.mission, result.dt, result.limits)
@@ -273,7 +273,7 @@ def _wanted_estimation(
     return {"estimation"} if largest > 1e-9 else set()
 
 
-def _sample(result: RunResult, time: float) -> int:
+def _sample(result: RunRecord, time: float) -> int:
     return int(np.searchsorted(result.t, time - 1e-9 * result.dt))
 
 
