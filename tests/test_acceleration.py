@@ -134,8 +134,8 @@ def test_overshoot_is_how_far_past_the_target_along_the_way_in() -> None:
     phase = {"name": "park", "kind": "regulate", "settled_samples": 100, "regulation": regulation}
     resolved = mission_from_dict(_mission(None)).model_dump(mode="json")
     checks = check_expectations({"phases": [phase]}, resolved)
-    failed = [c for c in checks if not c["met"]]
-    assert [(c["metric"], c["max"], c["value"]) for c in failed] == [("overshoot_max", 0.02, 2.29)]
+    failed = [c for c in checks if not c.met]
+    assert [(c.metric, c.bound, c.value) for c in failed] == [("overshoot_max", 0.02, 2.29)]
 
 
 def _line(theta: float, controller: str) -> dict:

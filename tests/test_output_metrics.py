@@ -282,28 +282,31 @@ def test_expectations_met_unmet_and_null() -> None:
         "duration": {"max": 12.0},
     }
     checks = check_expectations(summary, {"expect": expect})
-    assert [(c["metric"], c["met"]) for c in checks] == [
+    assert [(c.metric, c.met) for c in checks] == [
         ("final_position_error", True),
         ("final_heading_error", False),  # null never meets a threshold
         ("estimation_convergence_time", False),
         ("duration", True),
     ]
-    assert checks[1]["value"] is None
-    assert checks[2] == {
+    assert checks[1].value is None
+    assert checks[2].record() == {
         "metric": "estimation_convergence_time",
         "phase": None,
         "max": 0.2,
         "value": pytest.approx(0.29),
         "met": False,
+        "rho": pytest.approx(-0.09),  # 0.09 s late
+        "margin": pytest.approx(-0.45),  # by 45 % of its bound
     }
+    assert checks[1].record()["margin"] is None  # a null value: missed by -inf
     assert check_expectations(summary, {"expect": NO_EXPECT}) == []
 
 
 def test_expectation_on_the_constraint() -> None:
     summary = summarize(circle_run())
     [check] = check_expectations(summary, {"expect": {"max_constraint_violation": {"max": 0.001}}})
-    assert check["value"] == pytest.approx(0.02)
-    assert check["met"] is False
+    assert check.value == pytest.approx(0.02)
+    assert check.met is False
 
 
 def test_unknown_expectation_is_an_error() -> None:
@@ -526,7 +529,7 @@ def test_a_phase_threshold_overrides_the_missions() -> None:
     run = _chattering_orbit()
     mission = _mission({"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}})
     checks = check_expectations(summarize(run, mission), mission)
-    assert [(c["phase"], c["metric"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.metric, c.met) for c in checks] == [
         ("approach", "turn_rate_at_limit", True),
         ("orbit", "turn_rate_at_limit", False),
         ("park", "turn_rate_at_limit", True),
@@ -536,8 +539,8 @@ def test_a_phase_threshold_overrides_the_missions() -> None:
         orbit={"turn_rate_at_limit": {"max": 0.2}, "settle_time": None},
     )
     checks = check_expectations(summarize(run, relaxed), relaxed)
-    assert [c["met"] for c in checks] == [True, True, True]
-    assert checks[1]["max"] == 0.2
+    assert [c.met for c in checks] == [True, True, True]
+    assert checks[1].bound == 0.2
 
 
 def test_phase_checks_apply_where_they_mean_something() -> None:
@@ -552,7 +555,7 @@ def test_phase_checks_apply_where_they_mean_something() -> None:
         approach={"settle_time": 6.0},  # longer than the 5 s phase
     )
     checks = check_expectations(summarize(circle_run(), mission), mission)
-    assert [(c["phase"], c["metric"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.metric, c.met) for c in checks] == [
         ("orbit", "tracking_error_max", True),
         ("orbit", "estimation_rms.x", True),
         ("orbit", "estimation_rms.theta", True),
@@ -595,7 +598,7 @@ def test_a_phase_in_a_repeat_keeps_its_thresholds_on_every_lap() -> None:
         ],
     }
     checks = check_expectations(summarize(run, mission), mission)
-    assert [(c["phase"], c["max"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.bound, c.met) for c in checks] == [
         ("approach", 0.01, True),
         ("orbit#1", 0.2, True),
         ("park", 0.01, True),

@@ -342,7 +342,7 @@ def test_auto_thresholds_come_from_the_missions_numbers() -> None:
     assert mission["expect"]["turn_rate_jitter"] == "auto"
     run = circle_run()
     checks = check_expectations(summarize(run, mission), mission)
-    bound = {(c["phase"], c["metric"]): c["max"] for c in checks}
+    bound = {(c.phase, c.metric): c.bound for c in checks}
     tolerance = 0.1 + 0.02  # the larger position noise std
     assert bound["approach", "cross_track_error_max"] == pytest.approx(tolerance)
     # null mission-wide, auto in the orbit: the reference's 1 m/s for 3 time constants

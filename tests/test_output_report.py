@@ -65,9 +65,12 @@ def test_table_lists_expectations_and_leaves_a_failure_to_its_message() -> None:
     """Met ones with their values; unmet ones are the failure's message, which
     `run` prints once, on stderr."""
     summary = summarize(circle_run())
-    summary["expectations"] = check_expectations(
-        summary, {"expect": {"final_position_error": {"max": 0.05}, "duration": {"max": 30.0}}}
-    )
+    summary["expectations"] = [
+        check.record()
+        for check in check_expectations(
+            summary, {"expect": {"final_position_error": {"max": 0.05}, "duration": {"max": 30.0}}}
+        )
+    ]
     text = format_table(summary, "out")
     assert "expect duration <= 30: 20 (met)" in text
     assert "expect final_position_error <= 0.05: 2 (NOT MET)" in text  # not in the message

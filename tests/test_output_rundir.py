@@ -253,6 +253,8 @@ def test_summary_lists_the_expectations(tmp_path: Path) -> None:
             "max": 0.05,
             "value": pytest.approx(2.0),
             "met": False,
+            "rho": pytest.approx(-1.95),
+            "margin": pytest.approx(-39.0),
         },
         {
             "metric": "estimation_convergence_time",
@@ -260,8 +262,14 @@ def test_summary_lists_the_expectations(tmp_path: Path) -> None:
             "max": 1.0,
             "value": pytest.approx(0.29),
             "met": True,
+            "rho": pytest.approx(0.71),
+            "margin": pytest.approx(0.71),
         },
     ]
+    assert (summary["margin"], summary["margin_check"]) == (
+        pytest.approx(-39.0),
+        "final_position_error",
+    )
 
 
 def test_load_run_without_summary_says_incomplete(tmp_path: Path) -> None:

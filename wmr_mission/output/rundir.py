@@ -34,6 +34,7 @@ import numpy as np
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_json
 from wmr_mission.record import CSV_COLUMNS
+from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.metrics import check_expectations, summarize
 from wmr_mission.verdicts.recovery import recovery_record
 
@@ -276,13 +277,18 @@ def summary_record(result: RunRecord, mission: Mapping[str, Any] | None = None) 
         # Judged at the end of the run; a stop since names its signal in the message.
         summary = copy.deepcopy(result.judged)  # a caller's edit never reaches the result
         summary["outcome"], summary["message"] = result.outcome.value, result.message
+        checks = [Check.read(record) for record in summary.get("expectations") or []]
+        summary.update(margin_fields(checks, result.outcome.value))
         summary["recovery"] = recovery_record(result.transitions, result.succeeded)
         return summary
     summary = summarize(result, mission)
+    checks = []
     if mission is not None and isinstance(mission.get("expect"), Mapping):
-        summary["expectations"] = check_expectations(summary, mission)
+        checks = check_expectations(summary, mission)
+        summary["expectations"] = [check.record() for check in checks]
         if mission is result.mission:  # kept for the figures (verdicts.png), not computed twice
             result.judged = copy.deepcopy(summary)
+    summary.update(margin_fields(checks, result.outcome.value))
     summary["recovery"] = recovery_record(result.transitions, result.succeeded)
     return summary
 

@@ -354,7 +354,7 @@ def missed_verdicts(result: RunResult, written: dict[str, Any]) -> list[str]:
     alone), that it missed, as summary.json words them."""
     summary = summarize(result, written)
     checks = check_expectations(summary, written)
-    return unmet([c for c in checks if c["phase"] is not None])
+    return unmet([c for c in checks if c.phase is not None])
 
 
 def replace_reaction(decision: Decision, reaction: str) -> Decision:

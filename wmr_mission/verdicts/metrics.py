@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import copy
 import math
-import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -30,6 +29,7 @@ from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
 from wmr_mission.spec import models
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts.advice import advice
+from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.nearest import PointGrid
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
@@ -836,16 +836,6 @@ def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | 
     return float(value) if math.isfinite(value) else None
 
 
-def _check(metric: str, phase: str | None, limit: float, value: float | None) -> dict[str, Any]:
-    return {
-        "metric": metric,
-        "phase": phase,
-        "max": limit,
-        "value": value,
-        "met": value is not None and value <= limit,
-    }
-
-
 def _applies(phase: Mapping[str, Any], metric: str) -> bool:
     """A phase-quality threshold needs samples after the settle time; the
     tracking ones need a track phase. (Those of _WHERE_MEASURED are checked
@@ -889,7 +879,7 @@ def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumber
 
 def _phase_checks(
     phase: Mapping[str, Any], thresholds: Mapping[str, Any], numbers: MissionNumbers
-) -> list[dict[str, Any]]:
+) -> list[Check]:
     checks = []
     name = str(phase.get("name"))
     for metric, path in PHASE_EXPECTATION_PATHS.items():
@@ -900,20 +890,20 @@ def _phase_checks(
             for state in STATES:
                 if threshold.get(state) is not None:
                     value = summary_value(phase, (*path, state))
-                    checks.append(_check(f"{metric}.{state}", name, threshold[state], value))
+                    checks.append(Check(f"{metric}.{state}", name, float(threshold[state]), value))
             continue
         value = summary_value(phase, path)
         if metric in _WHERE_MEASURED and value is None:
             continue
         bound = auto_threshold(metric, phase, numbers) if threshold == "auto" else threshold["max"]
         if bound is not None:
-            checks.append(_check(metric, name, float(bound), value))
+            checks.append(Check(metric, name, float(bound), value))
     return checks
 
 
 def check_expectations(
     summary: Mapping[str, Any], mission: Mapping[str, Any] | None
-) -> list[dict[str, Any]]:
+) -> list[Check]:
     """Each `expect` threshold in force with the run's value: the mission-wide
     ones (``phase`` null), then each phase's (``phase`` its name), in run order;
     an `auto` one with the bound it stands for in the phase (:func:`auto_threshold`).
@@ -937,7 +927,7 @@ def check_expectations(
         if metric not in known:
             raise ValueError(f"unknown expectation {metric!r}; expected one of {', '.join(known)}")
     checks = [
-        _check(metric, None, float(expect[metric]["max"]), summary_value(summary, path))
+        Check(metric, None, float(expect[metric]["max"]), summary_value(summary, path))
         for metric, path in EXPECTATION_PATHS.items()
         if expect.get(metric) is not None
         and (metric not in REALTIME_EXPECTATIONS or "realtime" in summary)
@@ -948,52 +938,14 @@ def check_expectations(
         thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
         found = _phase_checks(phase, thresholds, numbers)
         for check in found if phase.get("kind") == "track" else ():
-            line = advice(check, phase, numbers, controller)  # the tracking law's
-            if line is not None:
-                check["advice"] = line
+            check.advice = advice(check, phase, numbers, controller)  # the tracking law's
         checks.extend(found)
     return checks
 
 
-def unmet(checks: list[dict[str, Any]]) -> list[str]:
+def unmet(checks: list[Check]) -> list[str]:
     """Each unmet check in words: ``orbit: turn_rate_at_limit = 0.974 (max 0.01)``."""
-    lines = []
-    for item in checks:
-        if item["met"]:
-            continue
-        value = "none" if item["value"] is None else f"{item['value']:.6g}"
-        where = f"{item['phase']}: " if item["phase"] is not None else ""
-        lines.append(f"{where}{item['metric']} = {value} (max {item['max']:.6g})")
-    return lines
-
-
-_UNMET_PREFIX = "expectation not met: "
-_UNMET = re.compile(
-    r"^(?:(?P<phase>.+): )?(?P<metric>[a-z_.]+) = (?P<value>\S+) \(max (?P<max>\S+)\)$"
-)
-
-
-def unmet_in(message: str) -> list[dict[str, Any]]:
-    """The unmet checks an ``expect-failed`` run's message lists (as
-    :func:`unmet` and :meth:`RunRecord.miss_expectations` write them): metric,
-    phase (None for a mission-wide one), value (None for ``none``) and max."""
-    if not message.startswith(_UNMET_PREFIX):
-        return []
-    found = []
-    for part in message[len(_UNMET_PREFIX) :].split("; "):
-        matched = _UNMET.match(part)
-        if matched is None:
-            continue
-        value = matched["value"]
-        found.append(
-            {
-                "metric": matched["metric"],
-                "phase": matched["phase"],
-                "value": None if value == "none" else float(value),
-                "max": float(matched["max"]),
-            }
-        )
-    return found
+    return [check.words() for check in checks if not check.met]
 
 
 def judge(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any]:
@@ -1006,7 +958,8 @@ def judge(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any
     summary = summarize(result, mission)
     checks = check_expectations(summary, mission)
     _judged(result, summary, checks)
-    summary["expectations"] = checks
+    summary["expectations"] = [check.record() for check in checks]
+    summary.update(margin_fields(checks, result.outcome.value))
     if mission is not None and mission is result.mission:  # summary.json reuses it
         result.judged = summary
     return summary
@@ -1026,14 +979,22 @@ def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> d
     """
     errors = estimation_errors(result)
     summary = _bounded_metrics(result, _tolerance(mission), errors)
-    if not result.succeeded:  # judging changes only a success
+    if not result.succeeded:  # judging changes only a success; no check decides a failure
+        summary.update(margin_fields([], result.outcome.value))
         return summary
     phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True, errors=errors)
     del errors
     checks = check_expectations({**summary, "phases": phases}, mission)
-    if any(not c["met"] and c["metric"].startswith("tracking_error") for c in checks):
+    # A bound above the distance to the path sets a tracking check's margin
+    # below its own: exact where it misses, or where it sets the run's margin.
+    least = min(checks, key=lambda c: c.margin, default=None)
+    if any(not c.met and c.metric.startswith("tracking_error") for c in checks) or (
+        least is not None and least.metric.startswith("tracking_error")
+    ):
         checks = check_expectations(summarize(result, mission), mission)
     _judged(result, summary, checks)
+    summary["expectations"] = [check.record() for check in checks]
+    summary.update(margin_fields(checks, result.outcome.value))
     return summary
 
 
@@ -1049,7 +1010,7 @@ def _off_path_bound(
     return own if np.isfinite(own).all() else distance_to_path(x, y, x_ref, y_ref)
 
 
-def _judged(result: RunRecord, summary: dict[str, Any], checks: list[dict[str, Any]]) -> None:
+def _judged(result: RunRecord, summary: dict[str, Any], checks: list[Check]) -> None:
     """A success that misses a threshold becomes ``expect-failed``, in
     ``result`` and ``summary``, with the misses as its message."""
     failures = unmet(checks)

@@ -175,7 +175,7 @@ def expectations(result: RunRecord) -> list[dict[str, Any]]:
     mission = result.mission
     if mission is None or not isinstance(mission.get("expect"), Mapping):
         return []
-    return check_expectations(summarize(result, mission), mission)
+    return [check.record() for check in check_expectations(summarize(result, mission), mission)]
 
 
 def run_signals(result: RunRecord) -> Signals:
