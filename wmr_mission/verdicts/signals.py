@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from wmr_mission.basics import STATES, FloatArray
 from wmr_mission.spec import models
 from wmr_mission.verdicts import inputs as input_metrics
+from wmr_mission.verdicts.check import Check as Judged
 from wmr_mission.verdicts.metrics import (
     check_expectations,
     distance_to_path,
@@ -295,17 +296,10 @@ def _placed(
     lines: Mapping[str, Mapping[str, FloatArray]],
     judged: Mapping[str, Mask],
 ) -> Check:
-    metric, phase = str(check["metric"]), check.get("phase")
-    span = spans.get(str(phase), (0, n)) if phase is not None else (0, n)
-    value = check.get("value")
-    placed = Check(
-        metric,
-        None if phase is None else str(phase),
-        float(check["max"]),
-        None if value is None else float(value),
-        bool(check["met"]),
-        span,
-    )
+    read = Judged.read(check)  # summary.json's record, read as data
+    metric, phase = read.metric, read.phase
+    span = spans.get(phase, (0, n)) if phase is not None else (0, n)
+    placed = Check(metric, phase, read.bound, read.value, read.met, span)
     if placed.met or metric not in PEAK:
         return placed
     panel, name = PEAK[metric]
