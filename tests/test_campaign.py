@@ -586,7 +586,10 @@ def test_a_row_is_judged_as_judge_judges_it_on_either_side_of_the_bound() -> Non
         summary = judge(judged, mission(limit))
         metrics = judge_run_metrics(fast, mission(limit))
         assert (fast.outcome, fast.message) == (judged.outcome, judged.message)
+        missed = metrics.pop("missed")
         assert metrics == {key: summary[key] for key in metrics}
+        # the checks it missed, as data: summary.json's, exactly
+        assert missed == [c for c in summary["expectations"] if not c["met"]]
         outcomes.append(fast.outcome)
     assert outcomes == [Outcome.success, Outcome.success, Outcome.expect_failed]
 
@@ -618,6 +621,11 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
         assert row.outcome == result.outcome.value
         assert row.reason == ("" if row.succeeded else result.message)
         assert row.metrics == metrics
+        # the run's margin: runs.csv's is summary.json's, and so are the checks it missed
+        written = result.summary()
+        assert (row.margin, row.margin_check) == (written["margin"], written["margin_check"])
+        missed = [c for c in written.get("expectations", []) if not c["met"]]
+        assert [c.record() for c in row.missed] == missed
         step = -(-result.samples // PATH_POINTS)
         assert (
             row.path_xy.tobytes()

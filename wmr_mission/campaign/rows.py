@@ -187,7 +187,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     reason = "" if result.outcome is Outcome.success else result.message
     values = tuple(draw.values.values())
     fired = tuple(kind for tr in result.transitions for kind in recovery.fired(tr))
-    checks = [Check.read(record) for record in summary.get("expectations") or []]
+    missed = tuple(Check.read(record) for record in summary.get("missed") or [])
     return Row(
         draw.run,
         draw.seed,
@@ -199,7 +199,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
         fired,
         summary["margin"],
         summary["margin_check"],
-        tuple(check for check in checks if not check.met),
+        missed,
     )
 
 

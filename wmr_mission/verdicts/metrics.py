@@ -967,7 +967,8 @@ def judge(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any
 
 def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any]:
     """The keys of :func:`run_metrics` a campaign's row records (the outcome and
-    the metrics an `expect` bounds mission-wide), with the run judged as
+    the metrics an `expect` bounds mission-wide, the run's ``margin`` and
+    ``margin_check``, and the checks it ``missed``), with the run judged as
     :func:`judge` judges it (the same outcome and message, in ``result`` too),
     at a fraction of the cost.
 
@@ -993,7 +994,9 @@ def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> d
     ):
         checks = check_expectations(summarize(result, mission), mission)
     _judged(result, summary, checks)
-    summary["expectations"] = [check.record() for check in checks]
+    # the checks it missed (exact: a tracking check missed by its bound is
+    # measured again), not every check: a met one may hold its bound's value
+    summary["missed"] = [check.record() for check in checks if not check.met]
     summary.update(margin_fields(checks, result.outcome.value))
     return summary
 
