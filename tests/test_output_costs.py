@@ -99,6 +99,39 @@ def test_run_computes_the_summary_once(
     assert "lap" in capsys.readouterr().out
 
 
+def test_run_checks_and_plans_the_mission_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`run` checks the mission once, as it loads it, and plans it once: the
+    runner takes the plan, and the judge the mission as loaded, never checked
+    (dumped and loaded again) nor planned again."""
+    from wmr_mission.sim import plan as plan_module
+    from wmr_mission.sim import runner as runner_module
+
+    calls: dict[str, int] = {"checked again": 0, "planned": 0}
+    real_check, real_plan = runner_module.validate_mission, plan_module.plan_mission
+
+    def checked(*args: Any, **kwargs: Any) -> Any:
+        calls["checked again"] += 1
+        return real_check(*args, **kwargs)
+
+    def planned(*args: Any, **kwargs: Any) -> Any:
+        calls["planned"] += 1
+        return real_plan(*args, **kwargs)
+
+    monkeypatch.setattr(runner_module, "validate_mission", checked)
+    monkeypatch.setattr(plan_module, "plan_mission", planned)
+    monkeypatch.setattr(runner_module, "plan_mission", planned)
+    mission = tmp_path / "short.yaml"
+    mission.write_text(MISSION)
+    out = tmp_path / "run"
+    assert run_command(mission, out=out, seed=None, plots=False, animate=False) == 0
+    assert calls == {"checked again": 0, "planned": 1}
+    summary = json.loads((out / SUMMARY_FILE).read_text())
+    assert summary["outcome"] == "success"  # judged
+    assert summary["margin"] >= 0.0
+
+
 # --- a figure that fails -----------------------------------------------------------
 
 

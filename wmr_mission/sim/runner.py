@@ -45,7 +45,7 @@ from wmr_mission.spec.models import Mission
 from wmr_mission.stopping import HOLD, RAISE, stop_owed
 from wmr_mission.stopping import mode as stop_mode
 from wmr_mission.verdicts import recovery
-from wmr_mission.verdicts.metrics import judge
+from wmr_mission.verdicts.metrics import judge_mission
 
 # Samples per call of the compiled loop: between calls the runner reports
 # progress and Ctrl-C gets in (a few milliseconds apart when compiled). A
@@ -254,10 +254,7 @@ def run_mission(
     with importing_entries():  # a run imports its plug-ins
         checked = validate_mission(mission)
     result = _run(plan_mission(checked, seed), progress, substitutes, plant, ready)
-    resolved = checked.model_dump(mode="json")
-    resolved["sensors"]["seed"] = result.seed  # the mission as run
-    result.mission = resolved
-    judge(result, resolved)  # a success that misses an `expect` is not one
+    judge_mission(result, checked)  # a success that misses an `expect` is not one
     return result
 
 

@@ -965,6 +965,16 @@ def judge(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any
     return summary
 
 
+def judge_mission(result: RunRecord, mission: models.Mission) -> dict[str, Any]:
+    """The run of the checked ``mission`` judged as :func:`judge` judges it, the
+    mission as run (its defaults, the run's sensor seed) kept on the result
+    for summary.json and the figures."""
+    resolved = mission.model_dump(mode="json")
+    resolved["sensors"]["seed"] = result.seed  # the mission as run
+    result.mission = resolved
+    return judge(result, resolved)
+
+
 def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any]:
     """The keys of :func:`run_metrics` a campaign's row records (the outcome and
     the metrics an `expect` bounds mission-wide, the run's ``margin`` and
