@@ -157,7 +157,7 @@ def _run_on_backend(
         with ExitStack() as stack:
             with mode(RAISE):  # waiting for a robot: a stop ends the wait at once
                 plant = stack.enter_context(open_backend(name, plan, settings))
-            return _run(mission, sha256, mission_path, out, seed, *args, plant=plant)
+            return _run(mission, sha256, mission_path, out, seed, *args, plant=plant, plan=plan)
     except BackendError as error:
         print(f"{mission_path}: {error}", file=sys.stderr)
         return EXIT_FAILED
@@ -199,7 +199,10 @@ def _run(
     received: list[int],
     *,
     plant: PlantSide | None = None,
+    plan: MissionPlan | None = None,
 ) -> int:
+    """Simulate ``mission`` (``plan``: as planned already, for another plant),
+    judge it, write its run directory and print its table; the exit code."""
     from wmr_mission.commands.compile import choose_loop
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
@@ -219,7 +222,7 @@ def _run(
     notice = choose_loop(sample_budget(mission)) if plant is None else None
     if notice is not None:
         print(notice, file=sys.stderr)
-    compiled = plan_mission(mission, seed)
+    compiled = plan if plan is not None else plan_mission(mission, seed)
     wanted = out if out is not None else default_run_dir(mission.name, datetime.now())
     claimed: list[Path] = []
 
