@@ -27,10 +27,13 @@ def test_a_checks_margin_is_signed_and_in_units_of_its_bound() -> None:
     assert (met.met, met.rho, met.margin) == (True, pytest.approx(0.075), pytest.approx(0.75))
     missed = Check("speed_jump_max", None, 2.0, 3.0)
     assert (missed.met, missed.rho, missed.margin) == (False, -1.0, -0.5)
-    # a bound of 0: the margin is rho in the metric's unit
+    # a bound of 0: missed, the margin is rho in the metric's unit; met (at 0),
+    # 1 as a value of 0 is under any bound, while rho is 0
     zero = Check("zone_intrusion_max", "go", 0.0, 0.02)
     assert (zero.met, zero.margin) == (False, -0.02)
-    assert Check("stall_time", "park", 0.0, 0.0).margin == 0.0  # met, nothing to spare
+    never = Check("stall_time", "park", 0.0, 0.0)
+    assert (never.met, never.rho, never.margin) == (True, 0.0, 1.0)
+    assert Check("stall_time", "park", 4.0, 0.0).margin == 1.0
     # no value (a divergence): missed by -inf, written null
     blank = Check("duration", None, 30.0, None)
     assert (blank.met, blank.margin) == (False, -math.inf)

@@ -6,12 +6,15 @@ is the quantitative answer the robustness of signal temporal logic gives to
 ``value <= bound``:
 
     rho    = bound - value              in the metric's unit, > 0 met, < 0 missed
-    margin = rho / scale                scale = |bound|, or 1 of the unit for a bound of 0
+    margin = rho / |bound| = 1 - value / bound
 
 so that checks of different metrics compare: a margin of 0.5 is a value at
-half its bound, -1 a value at twice a positive bound. A check without a value
-(a metric that is not finite after a divergence) is missed by an unknown
-amount: its margin is -inf, written ``null``.
+half its bound, 1 a value of 0 (every metric bounded is at least 0), -1 a
+value at twice its bound. A bound of 0 admits only a value of 0: its margin
+is 1 then, as under any bound (a value at the metric's floor), and -value
+(over 1 of the unit) for a miss, its rho. A check without a value (a metric
+that is not finite after a divergence) is missed by an unknown amount: its
+margin is -inf, written ``null``.
 
 A run's margin is the least of its checks' margins (``run_margin``), and names
 the check that sets it; a run that ended otherwise than by completing its
@@ -59,8 +62,10 @@ class Check:
     @property
     def margin(self) -> float:
         """``rho`` over the bound's size: checks of different metrics compare."""
-        scale = abs(self.bound) if self.bound != 0.0 else 1.0
-        return self.rho / scale
+        if self.bound != 0.0:
+            return self.rho / abs(self.bound)
+        # 0 <= 0 is as far within its bound as 0 is within any (1 - 0 / bound)
+        return 1.0 if self.value == 0.0 else self.rho
 
     @property
     def name(self) -> str:
