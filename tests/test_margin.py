@@ -110,3 +110,28 @@ def test_runs_csv_and_campaign_json_carry_the_margins() -> None:
     # the worst runs by margin: the timeout (-inf), then the smaller margin
     assert [run for run, *_ in aggregate.worst_runs()][:2] == [2, 1]
     assert aggregate.worst_runs()[1][4:] == (-0.25, "go: duration")
+
+
+def test_a_failed_check_says_when_it_first_failed(tmp_path: Path) -> None:
+    """A failed peak check's first sample beyond its bound, as verdicts.png
+    marks it; a level check (the duration) has none."""
+    result = circle_run()
+    mission = {
+        "version": 1,
+        "name": "circle",
+        "robot": {"dt": 0.01, "limits": {"v": 10.0, "omega": 20.0, "v_rate": None}},
+        "expect": {"final_position_error": {"max": 0.05}, "duration": {"max": 10.0}},
+    }
+    result.mission = mission
+    judge(result, mission)
+    write_run(result, tmp_path, plots=False, animate=False)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    failed = {c["metric"]: c for c in summary["expectations"] if not c["met"]}
+    last = result.samples - 1  # the final error is the last sample's
+    assert failed["final_position_error"]["first_violation"] == {
+        "time": float(result.t[last]),
+        "sample": last,
+    }
+    assert failed["duration"]["first_violation"] is None
+    met = [c for c in summary["expectations"] if c["met"]]
+    assert all("first_violation" not in c for c in met)

@@ -37,6 +37,7 @@ from wmr_mission.record import CSV_COLUMNS
 from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.metrics import check_expectations, summarize
 from wmr_mission.verdicts.recovery import recovery_record
+from wmr_mission.verdicts.signals import mark_first_violations
 
 if TYPE_CHECKING:
     from wmr_mission.record import RunRecord, Transition
@@ -274,6 +275,7 @@ def summary_record(result: RunRecord, mission: Mapping[str, Any] | None = None) 
     if mission is None:
         mission = result.mission
     if result.judged is not None and mission is result.mission:
+        mark_first_violations(result.judged, result)  # once: kept with the judged summary
         # Judged at the end of the run; a stop since names its signal in the message.
         summary = copy.deepcopy(result.judged)  # a caller's edit never reaches the result
         summary["outcome"], summary["message"] = result.outcome.value, result.message

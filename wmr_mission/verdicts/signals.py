@@ -261,6 +261,23 @@ def run_signals(result: RunRecord) -> Signals:
     return Signals(lines, judged, checks)
 
 
+def mark_first_violations(summary: dict[str, Any], result: RunRecord) -> None:
+    """Each failed check of ``summary`` (``result``'s, as judged) gains its
+    ``first_violation``: the first judged sample beyond its bound, ``time`` and
+    ``sample``, as verdicts.png marks it; null for a level check (an RMS, a
+    count, a time: no sample is beyond it). The signals are computed once,
+    where a check failed."""
+    failed = [r for r in summary.get("expectations") or [] if not r.get("met")]
+    if not failed or all("first_violation" in record for record in failed):
+        return
+    first = {(c.metric, c.phase): c.first_over for c in run_signals(result).checks}
+    for record in failed:
+        sample = first.get((record["metric"], record["phase"]))
+        record["first_violation"] = (
+            None if sample is None else {"time": float(result.t[sample]), "sample": sample}
+        )
+
+
 def _wanted_estimation(
     errors: dict[str, FloatArray], numbers: MissionNumbers, metrics: set[str]
 ) -> set[str]:
