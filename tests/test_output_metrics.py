@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 from test_output_synthetic import RADIUS, REF_OFFSET, TURN_RATE, circle_run
 
-from wmr_mission.output.metrics import (
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome, PhaseRecord
+from wmr_mission.verdicts.metrics import (
     LOCAL_WINDOW,
     at_limit_fraction,
     check_expectations,
@@ -20,7 +22,6 @@ from wmr_mission.output.metrics import (
     summarize,
     wrap_angle,
 )
-from wmr_mission.output.result import Outcome, PhaseRecord, RunResult
 
 NO_EXPECT = {
     "final_position_error": None,
@@ -281,28 +282,31 @@ def test_expectations_met_unmet_and_null() -> None:
         "duration": {"max": 12.0},
     }
     checks = check_expectations(summary, {"expect": expect})
-    assert [(c["metric"], c["met"]) for c in checks] == [
+    assert [(c.metric, c.met) for c in checks] == [
         ("final_position_error", True),
         ("final_heading_error", False),  # null never meets a threshold
         ("estimation_convergence_time", False),
         ("duration", True),
     ]
-    assert checks[1]["value"] is None
-    assert checks[2] == {
+    assert checks[1].value is None
+    assert checks[2].record() == {
         "metric": "estimation_convergence_time",
         "phase": None,
         "max": 0.2,
         "value": pytest.approx(0.29),
         "met": False,
+        "rho": pytest.approx(-0.09),  # 0.09 s late
+        "margin": pytest.approx(-0.45),  # by 45 % of its bound
     }
+    assert checks[1].record()["margin"] is None  # a null value: missed by -inf
     assert check_expectations(summary, {"expect": NO_EXPECT}) == []
 
 
 def test_expectation_on_the_constraint() -> None:
     summary = summarize(circle_run())
     [check] = check_expectations(summary, {"expect": {"max_constraint_violation": {"max": 0.001}}})
-    assert check["value"] == pytest.approx(0.02)
-    assert check["met"] is False
+    assert check.value == pytest.approx(0.02)
+    assert check.met is False
 
 
 def test_unknown_expectation_is_an_error() -> None:
@@ -385,7 +389,7 @@ def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -
     distance to the path: that bound must never be below it, at any scale.
     The tight case: a robot off a straight path square to it at its reference
     point, where the two distances are the same number but for rounding."""
-    from wmr_mission.output.metrics import _off_path_bound
+    from wmr_mission.verdicts.metrics import _off_path_bound
 
     rng = np.random.default_rng(3)
     s = np.arange(0.0, 40.0, 0.02)
@@ -408,7 +412,7 @@ def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -
 def test_phase_segments_are_the_stretches_of_one_phase() -> None:
     """(phase, first sample, one past the last) of each stretch, as a loop over
     the samples finds them, on random phase columns and the edge cases."""
-    from wmr_mission.output.metrics import phase_segments
+    from wmr_mission.verdicts.metrics import phase_segments
 
     def by_loop(phase: np.ndarray) -> list[tuple[int, int, int]]:
         stretches: list[tuple[int, int, int]] = []
@@ -525,7 +529,7 @@ def test_a_phase_threshold_overrides_the_missions() -> None:
     run = _chattering_orbit()
     mission = _mission({"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}})
     checks = check_expectations(summarize(run, mission), mission)
-    assert [(c["phase"], c["metric"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.metric, c.met) for c in checks] == [
         ("approach", "turn_rate_at_limit", True),
         ("orbit", "turn_rate_at_limit", False),
         ("park", "turn_rate_at_limit", True),
@@ -535,8 +539,8 @@ def test_a_phase_threshold_overrides_the_missions() -> None:
         orbit={"turn_rate_at_limit": {"max": 0.2}, "settle_time": None},
     )
     checks = check_expectations(summarize(run, relaxed), relaxed)
-    assert [c["met"] for c in checks] == [True, True, True]
-    assert checks[1]["max"] == 0.2
+    assert [c.met for c in checks] == [True, True, True]
+    assert checks[1].bound == 0.2
 
 
 def test_phase_checks_apply_where_they_mean_something() -> None:
@@ -551,7 +555,7 @@ def test_phase_checks_apply_where_they_mean_something() -> None:
         approach={"settle_time": 6.0},  # longer than the 5 s phase
     )
     checks = check_expectations(summarize(circle_run(), mission), mission)
-    assert [(c["phase"], c["metric"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.metric, c.met) for c in checks] == [
         ("orbit", "tracking_error_max", True),
         ("orbit", "estimation_rms.x", True),
         ("orbit", "estimation_rms.theta", True),
@@ -594,7 +598,7 @@ def test_a_phase_in_a_repeat_keeps_its_thresholds_on_every_lap() -> None:
         ],
     }
     checks = check_expectations(summarize(run, mission), mission)
-    assert [(c["phase"], c["max"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.bound, c.met) for c in checks] == [
         ("approach", 0.01, True),
         ("orbit#1", 0.2, True),
         ("park", 0.01, True),

@@ -4,8 +4,8 @@ from pathlib import Path
 
 from test_output_synthetic import circle_run
 
-from wmr_mission.output.metrics import check_expectations, judge, summarize
 from wmr_mission.output.report import format_table
+from wmr_mission.verdicts.metrics import check_expectations, judge, summarize
 
 UNDER_THE_TABLE = ("final error:", "estimation converged", "not reached", "expect ", "outcome:")
 
@@ -65,9 +65,12 @@ def test_table_lists_expectations_and_leaves_a_failure_to_its_message() -> None:
     """Met ones with their values; unmet ones are the failure's message, which
     `run` prints once, on stderr."""
     summary = summarize(circle_run())
-    summary["expectations"] = check_expectations(
-        summary, {"expect": {"final_position_error": {"max": 0.05}, "duration": {"max": 30.0}}}
-    )
+    summary["expectations"] = [
+        check.record()
+        for check in check_expectations(
+            summary, {"expect": {"final_position_error": {"max": 0.05}, "duration": {"max": 30.0}}}
+        )
+    ]
     text = format_table(summary, "out")
     assert "expect duration <= 30: 20 (met)" in text
     assert "expect final_position_error <= 0.05: 2 (NOT MET)" in text  # not in the message

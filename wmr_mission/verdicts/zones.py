@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.output.numbers import MissionNumbers
+from wmr_mission.verdicts.numbers import MissionNumbers
 
 # [m] depths are known to this: far below any tolerance, and what a robot held on
 # a zone's edge by the corrective action rounds to.
@@ -85,7 +85,7 @@ class Zone:
 
 def zones_of(constraints: tuple[tuple[str, str], ...], regions: Mapping[str, Any]) -> list[Zone]:
     """A phase's zones from its constraints ((region, "inside" | "outside"), as
-    :class:`wmr_mission.output.result.PhaseRecord` has them)."""
+    :class:`wmr_mission.record.PhaseRecord` has them)."""
     return [Zone(name, regions[name], side == "inside") for name, side in constraints]
 
 

@@ -42,9 +42,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.output.nearest import PointGrid
-from wmr_mission.output.numbers import SETTLING, MissionNumbers
-from wmr_mission.output.zones import Zone
+from wmr_mission.verdicts.nearest import PointGrid
+from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
+from wmr_mission.verdicts.zones import Zone
 
 # [m] places on the path this much farther than the nearest are not "about as near".
 NEAR_EQUAL = 0.01
