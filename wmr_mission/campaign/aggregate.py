@@ -101,9 +101,14 @@ def failures_of(row: Row) -> list[Failure]:
         ]
     worst: dict[str, Failure] = {}
     for check in unmet_in(row.reason):
-        kind, value, bound = str(check["metric"]), check["value"], float(check["max"])
-        amount = math.inf if value is None else float(value)
-        times = amount / bound if bound > 0 else math.inf
+        if "min" in check:  # a lower bound (clearance_min): ranked by the shortfall
+            kind, value, bound = str(check["metric"]), check["value"], float(check["min"])
+            amount = math.inf if value is None else float(value)
+            times = math.inf if value is None else bound - amount
+        else:
+            kind, value, bound = str(check["metric"]), check["value"], float(check["max"])
+            amount = math.inf if value is None else float(value)
+            times = amount / bound if bound > 0 else math.inf
         failure = Failure(
             (times, amount - bound, -row.run),
             row.run,

@@ -37,6 +37,7 @@ import numpy as np
 from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.kernels.corrective import (
     ELLIPSE_ROW,
+    POLYGON_ROW,
     REGULARISATION,
     kept_row_slot,
     row_value_with_margin,
@@ -361,6 +362,86 @@ def _way_round(
     return max(reach, 0.0), mx, my
 
 
+# Halvings of the slope interval in the way round a polygon: 2^-50 of it.
+_SLOPE_HALVINGS = 50
+
+
+@kernel
+def _way_round_polygon(
+    p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float
+) -> tuple[float, float, float]:
+    """:func:`_way_round` for the keep-out polygon row ``p`` grown by ``margin``
+    (its Minkowski sum with a disc of that radius).
+
+    The path's line enters the polygon's edges moved out by ``margin`` (the
+    grown polygon with its corners squared) at the edge whose bound is met
+    last; the side is the one that edge faces, the left of travel where it
+    faces straight back. The reach is the least of the grown polygon's support
+    function, h(n) = max_i n . v_i + margin |n|, over n = m + mu t,
+    |mu| <= RAMP_SLOPE, about the aim: convex in mu, found by halving the
+    interval on the sign of its slope."""
+    n = int(p[0])
+    entry = -math.inf
+    leave = math.inf
+    ox = 0.0
+    oy = 0.0
+    for i in range(n):
+        j = i + 1 if i + 1 < n else 0
+        ax = p[1 + 2 * i]
+        ay = p[2 + 2 * i]
+        ex = p[1 + 2 * j] - ax
+        ey = p[2 + 2 * j] - ay
+        length = math.sqrt(ex * ex + ey * ey)
+        nx = ey / length
+        ny = -ex / length
+        beyond = (x - ax) * nx + (y - ay) * ny - margin  # > 0: the aim beyond the moved edge
+        toward = tx * nx + ty * ny
+        if toward < 0.0:
+            at = -beyond / toward
+            if at > entry:
+                entry = at
+                ox = nx
+                oy = ny
+        elif toward > 0.0:
+            leave = min(leave, -beyond / toward)
+        elif beyond > 0.0:
+            return 0.0, 0.0, 0.0  # alongside the edge, beyond it: the line misses
+    if not entry <= leave:
+        return 0.0, 0.0, 0.0
+    mx = -ty
+    my = tx
+    if mx * ox + my * oy < 0.0:
+        mx = -mx
+        my = -my
+    low = -RAMP_SLOPE
+    high = RAMP_SLOPE
+    for _ in range(_SLOPE_HALVINGS):
+        mu = 0.5 * (low + high)
+        best = -math.inf
+        slope = 0.0
+        for i in range(n):
+            rx = p[1 + 2 * i] - x
+            ry = p[2 + 2 * i] - y
+            along = tx * rx + ty * ry
+            value = mx * rx + my * ry + mu * along
+            if value > best:
+                best = value
+                slope = along
+        slope += margin * mu / math.sqrt(1.0 + mu * mu)
+        if slope > 0.0:
+            high = mu
+        else:
+            low = mu
+    mu = 0.5 * (low + high)
+    reach = -math.inf
+    for i in range(n):
+        rx = p[1 + 2 * i] - x
+        ry = p[2 + 2 * i] - y
+        reach = max(reach, mx * rx + my * ry + mu * (tx * rx + ty * ry))
+    reach += margin * math.sqrt(1.0 + mu * mu)
+    return max(reach, 0.0), mx, my
+
+
 @kernel
 def aim_round_zones(
     aim: FloatArray, row_kinds: IntArray, row_params: FloatArray, look_ahead: float, margin: float
@@ -372,8 +453,8 @@ def aim_round_zones(
 
     The output's aim moves continuously as the path goes through a zone, so
     the tracking law is handed no jump at a zone's edge. A keep-out ellipse
-    moves the aim sideways, across the path, on a ramp no steeper than
-    RAMP_SLOPE (``_way_round``), to the side the zone's edge faces where the
+    or polygon moves the aim sideways, across the path, on a ramp no steeper
+    than RAMP_SLOPE (``_way_round``, ``_way_round_polygon``), to the side the zone's edge faces where the
     path's line enters it, and to the left of the direction of travel where
     the path meets the edge head-on (the saddle, a path through a circle's
     centre): the robot goes round, never stopping where the two sides
@@ -388,10 +469,14 @@ def aim_round_zones(
     for _ in range(2):
         for i in range(row_kinds.shape[0]):
             p = row_params[i]
-            if row_kinds[i] == ELLIPSE_ROW and p[5] < 0.0:
+            keep_out = row_kinds[i] == POLYGON_ROW or (row_kinds[i] == ELLIPSE_ROW and p[5] < 0.0)
+            if keep_out:
                 # Across the path, on a ramp: moving on from before the zone
                 # without a kink steeper than RAMP_SLOPE, keeping its side.
-                reach, nx, ny = _way_round(p, grown, x, y, aim[2], aim[3])
+                if row_kinds[i] == POLYGON_ROW:
+                    reach, nx, ny = _way_round_polygon(p, grown, x, y, aim[2], aim[3])
+                else:
+                    reach, nx, ny = _way_round(p, grown, x, y, aim[2], aim[3])
                 if reach > 0.0:
                     moved = True
                     x += reach * nx

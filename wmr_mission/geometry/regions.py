@@ -11,9 +11,12 @@ docs/architecture.md "Constraint rows"); a row is satisfied when its value
   with ``sign = +1`` this is eq. (33) written as ``G - 1 <= 0``.
 - kind ``HALF_PLANE_ROW``, half-plane ``nx, ny, offset, 0, 0, 0``:
   ``nx*x + ny*y - offset``, with a unit normal so the value is a signed distance.
+- kind ``POLYGON_ROW``, keep out of a convex polygon ``n, x0, y0, ..., x_{n-1},
+  y_{n-1}`` (counter-clockwise): minus the signed distance to it
+  (wmr_mission.kernels.convex); a row as wide as its vertices need.
 
-A circle is an ellipse with equal semi-axes; a box and a convex polygon are one
-half-plane row per edge. The functions here are the readable numpy reference;
+A circle is an ellipse with equal semi-axes; kept inside, a box and a convex
+polygon are one half-plane row per edge, kept outside one polygon row. The functions here are the readable numpy reference;
 the runner's compiled kernel implements the same formulas.
 """
 
@@ -29,7 +32,8 @@ from pydantic_core import PydanticCustomError
 
 from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.fields import SMALLEST_POSITIVE, Model, Point, PositiveScalar, Scalar
-from wmr_mission.kernels.corrective import ELLIPSE_ROW, HALF_PLANE_ROW
+from wmr_mission.kernels.convex import polygon_distance
+from wmr_mission.kernels.corrective import ELLIPSE_ROW, HALF_PLANE_ROW, POLYGON_ROW
 
 __all__ = [
     "BoxRegion",
@@ -41,6 +45,7 @@ __all__ = [
     "constraint_rows",
     "ellipse_geometry",
     "is_convex",
+    "polygon_row",
     "region_outline",
     "region_value",
     "region_vertices",
@@ -182,10 +187,11 @@ def _half_plane_rows(region: RegionSpec) -> FloatArray:
 
 
 def constraint_rows(region: RegionSpec, side: Side) -> tuple[IntArray, FloatArray]:
-    """Constraint rows keeping the robot on ``side`` of ``region``: ``(kind (q,), params (q, 6))``.
+    """Constraint rows keeping the robot on ``side`` of ``region``: ``(kind (q,), params (q, w))``,
+    ``w`` 6, or more for a polygon row.
 
-    ``stay_outside`` is possible for an ellipse, a circle or a half-plane only: the
-    outside of a box or polygon is not convex, and no set of rows describes it.
+    The outside of a box or polygon is not convex: no set of half-plane rows
+    describes it, one polygon row (its signed distance) does.
     """
     if side not in ("inside", "outside"):
         raise ValueError(f"side must be 'inside' or 'outside', got {side!r}")
@@ -195,10 +201,7 @@ def constraint_rows(region: RegionSpec, side: Side) -> tuple[IntArray, FloatArra
         kinds = np.array([ELLIPSE_ROW], dtype=np.int64)
         return kinds, np.array([[cx, cy, a, b, rotation, sign]])
     if side == "outside" and not isinstance(region, HalfPlaneRegion):
-        raise ValueError(
-            f"stay_outside is not possible for a {region.type} region (its outside is not "
-            "convex); use an ellipse, circle or half-plane"
-        )
+        return np.array([POLYGON_ROW], dtype=np.int64), polygon_row(region_vertices(region))
     rows = _half_plane_rows(region)
     if side == "outside":
         rows = -rows
@@ -207,11 +210,25 @@ def constraint_rows(region: RegionSpec, side: Side) -> tuple[IntArray, FloatArra
     return np.full(len(rows), HALF_PLANE_ROW, dtype=np.int64), params
 
 
+def polygon_row(vertices: ArrayLike) -> FloatArray:
+    """The ``(1, w)`` parameters of a POLYGON_ROW: the vertex count, then the
+    vertices counter-clockwise, padded with zeros to at least 6 columns."""
+    points = np.asarray(vertices, dtype=np.float64)
+    if _signed_area(points) < 0:
+        points = points[::-1]
+    row = np.zeros((1, max(6, 1 + 2 * len(points))))
+    row[0, 0] = len(points)
+    row[0, 1 : 1 + 2 * len(points)] = points.ravel()
+    return row
+
+
 def row_values(kind: IntArray, params: FloatArray, x: float, y: float) -> FloatArray:
     """Value ``c`` of each row at the point ``(x, y)``; ``c <= 0`` is satisfied."""
     values = np.empty(len(kind))
     for i, (row_kind, p) in enumerate(zip(kind, params, strict=True)):
-        if row_kind == ELLIPSE_ROW:
+        if row_kind == POLYGON_ROW:
+            values[i] = -polygon_distance(p, x, y)[0]
+        elif row_kind == ELLIPSE_ROW:
             u, w = _ellipse_frame(p, x, y)
             values[i] = p[5] * ((u / p[2]) ** 2 + (w / p[3]) ** 2 - 1.0)
         else:
@@ -223,7 +240,10 @@ def row_gradients(kind: IntArray, params: FloatArray, x: float, y: float) -> Flo
     """Gradient ``[dc/dx, dc/dy]`` of each row at ``(x, y)``, shape ``(q, 2)``."""
     gradients = np.empty((len(kind), 2))
     for i, (row_kind, p) in enumerate(zip(kind, params, strict=True)):
-        if row_kind == ELLIPSE_ROW:
+        if row_kind == POLYGON_ROW:
+            _, gx, gy = polygon_distance(p, x, y)
+            gradients[i] = -gx, -gy
+        elif row_kind == ELLIPSE_ROW:
             u, w = _ellipse_frame(p, x, y)
             c, s = math.cos(p[4]), math.sin(p[4])
             du, dw = 2.0 * u / p[2] ** 2, 2.0 * w / p[3] ** 2

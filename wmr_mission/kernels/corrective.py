@@ -27,6 +27,7 @@ import math
 import numpy as np
 
 from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.kernels.convex import polygon_distance
 from wmr_mission.kernels.jit import kernel
 from wmr_mission.kernels.model import hypot
 
@@ -35,6 +36,7 @@ REGULARISATION = 1e-12
 # Kinds of constraint rows (wmr_mission.geometry.regions builds them).
 ELLIPSE_ROW = 0
 HALF_PLANE_ROW = 1
+POLYGON_ROW = 2  # keep out of a convex polygon (wmr_mission.kernels.convex)
 
 
 @kernel
@@ -147,8 +149,12 @@ def row_value_with_margin(
     within ``margin`` of it: exactly for half-planes and circles (offset, or
     radius -+ margin); for an ellipse the semi-axes move by ``margin``, which
     is exact on its axes and off by ``O(margin^2 / radius of curvature)``
-    elsewhere.
+    elsewhere. A polygon row's value is ``margin`` minus the signed distance:
+    exact.
     """
+    if kind == POLYGON_ROW:
+        distance, gx, gy = polygon_distance(p, x, y)
+        return margin - distance, -gx, -gy
     if kind != ELLIPSE_ROW:
         return p[0] * x + p[1] * y - (p[2] - margin), p[0], p[1]
     sign = p[5]

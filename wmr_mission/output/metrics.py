@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
 from wmr_mission.output import inputs as input_metrics
 from wmr_mission.output.advice import advice
+from wmr_mission.output.clearance import clearance_min
 from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.numbers import MissionNumbers, mission_numbers
 from wmr_mission.output.regulation import overshoot as target_overshoot
@@ -76,6 +77,7 @@ PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "detour_offset_max": ("tracking", "detour_offset_max"),
     "detour_time": ("tracking", "detour_time"),
     "zone_intrusion_max": ("constraint", "intrusion_max"),
+    "clearance_min": ("constraint", "clearance_min"),  # a lower bound: at least
     "stall_time": ("regulation", "stall_time"),
     "overshoot_max": ("regulation", "overshoot_max"),
     "speed_jump_max": ("inputs", "speed_jump_max"),
@@ -99,6 +101,7 @@ _WHERE_MEASURED = frozenset(
         "detour_offset_max",
         "detour_time",
         "zone_intrusion_max",
+        "clearance_min",
         "stall_time",
         "overshoot_max",
         "speed_jump_max",
@@ -483,6 +486,11 @@ class _PhaseSamples:
         }
 
     @cached_value
+    def clearance(self) -> float | None:
+        r, w = self.result, self.window
+        return clearance_min(r.x[w], r.y[w], r.theta[w], self.zones, _footprint(r.mission))
+
+    @cached_value
     def intrusion(self) -> float | None:
         r, w = self.result, self.window
         return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers)
@@ -521,6 +529,7 @@ _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
         )
     },
     "zone_intrusion_max": lambda p: p.intrusion,
+    "clearance_min": lambda p: p.clearance,
     "stall_time": lambda p: p.stall,
     "overshoot_max": lambda p: p.overshoot,
     **{key: _input_value(key) for key in _INPUT_METRICS},
@@ -618,6 +627,8 @@ def _phase_summary(
                 float(np.count_nonzero(constraint > VIOLATION_TOLERANCE)) * result.dt
             ),
             "intrusion_max": quality["constraint"]["intrusion_max"],
+            # [m] the body's least distance from the zones' forbidden side
+            "clearance_min": phase.clearance,
         },
         "estimation": {
             "rms": quality["estimation"]["rms"],
@@ -812,10 +823,33 @@ def _bounded_metrics(
         "final": _final(result, phase_segments(result.phase)),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
         "max_constraint_violation": _violation(result.constraint, result.phase),
+        "clearance_min": run_clearance(result),
         # A real-time run's pace and command latency (wmr_mission.backends); absent in
         # our simulator, whose summary keeps its bytes.
         **({} if result.realtime is None else {"realtime": copy.deepcopy(result.realtime)}),
     }
+
+
+def _footprint(mission: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
+    """The robot's footprint as written (None: a point)."""
+    robot = (mission or {}).get("robot") or {}
+    footprint = robot.get("footprint")
+    return footprint if isinstance(footprint, Mapping) else None
+
+
+def run_clearance(result: RunResult) -> float | None:
+    """[m] the least clearance of the body over the run's phases (None where no
+    phase has a zone)."""
+    found = []
+    for index, start, end in phase_segments(result.phase):
+        zones = zones_of(result.phases[index].constraints, result.regions)
+        w = slice(start, end)
+        value = clearance_min(
+            result.x[w], result.y[w], result.theta[w], zones, _footprint(result.mission)
+        )
+        if value is not None:
+            found.append(value)
+    return min(found) if found else None
 
 
 def loop_time_us(result: RunResult) -> float | None:
@@ -834,6 +868,17 @@ def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | 
     if isinstance(value, bool) or not isinstance(value, int | float):
         return None
     return float(value) if math.isfinite(value) else None
+
+
+def _at_least(metric: str, phase: str | None, bound: float, value: float | None) -> dict[str, Any]:
+    """A check of a lower bound (clearance_min): met when the value is at least ``bound``."""
+    return {
+        "metric": metric,
+        "phase": phase,
+        "min": bound,
+        "value": value,
+        "met": value is not None and value >= bound,
+    }
 
 
 def _check(metric: str, phase: str | None, limit: float, value: float | None) -> dict[str, Any]:
@@ -905,6 +950,9 @@ def _phase_checks(
         value = summary_value(phase, path)
         if metric in _WHERE_MEASURED and value is None:
             continue
+        if metric == "clearance_min":
+            checks.append(_at_least(metric, name, float(threshold), value))
+            continue
         bound = auto_threshold(metric, phase, numbers) if threshold == "auto" else threshold["max"]
         if bound is not None:
             checks.append(_check(metric, name, float(bound), value))
@@ -963,20 +1011,22 @@ def unmet(checks: list[dict[str, Any]]) -> list[str]:
             continue
         value = "none" if item["value"] is None else f"{item['value']:.6g}"
         where = f"{item['phase']}: " if item["phase"] is not None else ""
-        lines.append(f"{where}{item['metric']} = {value} (max {item['max']:.6g})")
+        bound = f"max {item['max']:.6g}" if "max" in item else f"min {item['min']:.6g}"
+        lines.append(f"{where}{item['metric']} = {value} ({bound})")
     return lines
 
 
 _UNMET_PREFIX = "expectation not met: "
 _UNMET = re.compile(
-    r"^(?:(?P<phase>.+): )?(?P<metric>[a-z_.]+) = (?P<value>\S+) \(max (?P<max>\S+)\)$"
+    r"^(?:(?P<phase>.+): )?(?P<metric>[a-z_.]+) = (?P<value>\S+) \((?P<kind>max|min) (?P<max>\S+)\)$"
 )
 
 
 def unmet_in(message: str) -> list[dict[str, Any]]:
     """The unmet checks an ``expect-failed`` run's message lists (as
     :func:`unmet` and :meth:`RunResult.miss_expectations` write them): metric,
-    phase (None for a mission-wide one), value (None for ``none``) and max."""
+    phase (None for a mission-wide one), value (None for ``none``) and max (min
+    for a lower bound, clearance_min)."""
     if not message.startswith(_UNMET_PREFIX):
         return []
     found = []
@@ -990,7 +1040,7 @@ def unmet_in(message: str) -> list[dict[str, Any]]:
                 "metric": matched["metric"],
                 "phase": matched["phase"],
                 "value": None if value == "none" else float(value),
-                "max": float(matched["max"]),
+                matched["kind"]: float(matched["max"]),  # max, or min for a lower bound
             }
         )
     return found

@@ -184,8 +184,19 @@ def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, Flo
     if not parts:
         return no_rows()
     kinds = np.concatenate([p[0] for p in parts]).astype(np.int64)
-    params = np.ascontiguousarray(np.vstack([p[1] for p in parts]), dtype=np.float64)
+    # a polygon row is wider than 6 (its vertices): every row padded to the widest
+    width = max(p[1].shape[1] for p in parts)
+    padded = [np.pad(p[1], ((0, 0), (0, width - p[1].shape[1]))) for p in parts]
+    params = np.ascontiguousarray(np.vstack(padded), dtype=np.float64)
     return kinds, params
+
+
+def _body(mission: Mission) -> float:
+    """[m] how far the robot's body reaches from the axle's centre: a round
+    footprint's radius, a polygon's farthest corner (the disc that holds it;
+    docs/paper-notes.md, "The robot's body"); 0 for a point robot."""
+    footprint = mission.robot.footprint
+    return 0.0 if footprint is None else footprint.reach()
 
 
 def sample_budget(mission: Mission) -> int:
@@ -295,7 +306,8 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         ),
         runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),
         runaway_input=RUNAWAY_INPUT,
-        constraint_margin=float(estimator.constraint_margin(estimator_tuning)),
+        # the estimate's uncertainty, and the body: zones are kept by the footprint
+        constraint_margin=float(estimator.constraint_margin(estimator_tuning)) + _body(mission),
     )
     phases = _phases(mission, dt)
     initial = mission.robot.initial_state

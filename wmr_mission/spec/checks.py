@@ -295,16 +295,6 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                         f"{name!r} is a {region.type}",
                     )
         yield from _target_against_constraints(mission, phase, where)
-        for number, constraint in enumerate(phase.constraints):
-            if isinstance(constraint, StayInside):
-                continue
-            region = mission.regions.get(constraint.stay_outside)
-            if isinstance(region, BoxRegion | PolygonRegion):
-                yield Finding(
-                    (*where, "constraints", number, "stay_outside"),
-                    f"stay_outside needs a region whose outside is convex (ellipse, circle or "
-                    f"half-plane); the outside of {region.type} {constraint.stay_outside!r} is not",
-                )
 
 
 def _breaches(
