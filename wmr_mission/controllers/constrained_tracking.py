@@ -373,44 +373,23 @@ def _way_round_polygon(
     """:func:`_way_round` for the keep-out polygon row ``p`` grown by ``margin``
     (its Minkowski sum with a disc of that radius).
 
-    The path's line enters the polygon's edges moved out by ``margin`` (the
-    grown polygon with its corners squared) at the edge whose bound is met
-    last; the side is the one that edge faces, the left of travel where it
-    faces straight back. The reach is the least of the grown polygon's support
-    function, h(n) = max_i n . v_i + margin |n|, over n = m + mu t,
-    |mu| <= RAMP_SLOPE, about the aim: convex in mu, found by halving the
-    interval on the sign of its slope."""
+    The side is the shorter way across: the one the polygon reaches less far
+    into from the path's line, the left of travel where both are as far (to
+    rounding: a path through a box's middle). Along a straight path it is the
+    same all the way, as the ellipse's. The reach is the least of the grown
+    polygon's support function, h(n) = max_i n . v_i + margin |n|, over
+    n = m + mu t, |mu| <= RAMP_SLOPE, about the aim: convex in mu, found by
+    halving the interval on the sign of its slope."""
     n = int(p[0])
-    entry = -math.inf
-    leave = math.inf
-    ox = 0.0
-    oy = 0.0
-    for i in range(n):
-        j = i + 1 if i + 1 < n else 0
-        ax = p[1 + 2 * i]
-        ay = p[2 + 2 * i]
-        ex = p[1 + 2 * j] - ax
-        ey = p[2 + 2 * j] - ay
-        length = math.sqrt(ex * ex + ey * ey)
-        nx = ey / length
-        ny = -ex / length
-        beyond = (x - ax) * nx + (y - ay) * ny - margin  # > 0: the aim beyond the moved edge
-        toward = tx * nx + ty * ny
-        if toward < 0.0:
-            at = -beyond / toward
-            if at > entry:
-                entry = at
-                ox = nx
-                oy = ny
-        elif toward > 0.0:
-            leave = min(leave, -beyond / toward)
-        elif beyond > 0.0:
-            return 0.0, 0.0, 0.0  # alongside the edge, beyond it: the line misses
-    if not entry <= leave:
-        return 0.0, 0.0, 0.0
-    mx = -ty
+    mx = -ty  # the left of travel
     my = tx
-    if mx * ox + my * oy < 0.0:
+    left = -math.inf
+    right = -math.inf
+    for i in range(n):
+        across = mx * (p[1 + 2 * i] - x) + my * (p[2 + 2 * i] - y)
+        left = max(left, across)
+        right = max(right, -across)
+    if left > right + 1e-9 * (abs(left) + abs(right)):
         mx = -mx
         my = -my
     low = -RAMP_SLOPE

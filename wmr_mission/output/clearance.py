@@ -26,6 +26,8 @@ import numpy as np
 from wmr_mission.basics import FloatArray
 from wmr_mission.output.zones import RESOLUTION, Zone
 
+# Decimals of a metre a clearance is given to: RESOLUTION's.
+_DIGITS = round(-math.log10(RESOLUTION))
 # Corners of the polygon an ellipse or circle zone is measured as, for a polygon body.
 ELLIPSE_CORNERS = 720
 # [m] how far round a half-plane zone is drawn as a polygon: beyond any mission.
@@ -51,7 +53,7 @@ def clearance_min(
     else:
         corners = np.asarray(footprint["polygon"], dtype=np.float64)
         least = min(_polygon_clearance(x, y, theta, corners, zone) for zone in zones)
-    return float(np.round(least / RESOLUTION) * RESOLUTION) + 0.0  # no -0.0
+    return round(least, _DIGITS) + 0.0  # + 0.0: no -0.0
 
 
 def _polygon_clearance(

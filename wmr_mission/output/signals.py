@@ -58,6 +58,7 @@ PEAK: dict[str, tuple[str, str]] = {
     "final_position_error": ("goal", "distance to the target"),
 }
 LEVEL: dict[str, str] = {
+    "clearance_min": "zones",  # the body's; the panel draws the axle's depth
     "tracking_error_rms": "cross_track",
     "detour_time": "cross_track",
     "stall_time": "goal",
@@ -81,6 +82,7 @@ UNITS: dict[str, str] = {
     "detour_offset_max": "m",
     "along_track_lag_max": "m",
     "zone_intrusion_max": "m",
+    "clearance_min": "m",
     "final_position_error": "m",
     "final_heading_error": "rad",
     "speed_jump_max": "m/s",
@@ -301,7 +303,7 @@ def _placed(
     placed = Check(
         metric,
         None if phase is None else str(phase),
-        float(check["max"]),
+        float(check["max"] if "max" in check else check["min"]),  # min: a lower bound
         None if value is None else float(value),
         bool(check["met"]),
         span,
