@@ -97,8 +97,8 @@ def _allowed_complement(zone: Zone) -> Any:
     return far.difference(region)
 
 
-def region_geometry(region: Mapping[str, Any]) -> Any:
-    """A region as a shapely polygon (an ellipse inscribed with ELLIPSE_CORNERS; a
+def region_geometry(region: Mapping[str, Any], corners: int = ELLIPSE_CORNERS) -> Any:
+    """A region as a shapely polygon (an ellipse inscribed with ``corners``; a
     half-plane as a square reaching far beyond any mission): for the judge, the
     IR-SIM world and figures."""
     import shapely
@@ -112,7 +112,7 @@ def region_geometry(region: Mapping[str, Any]) -> Any:
         else:
             a, b = (float(v) for v in region["semi_axes"])
             rotation = float(region.get("rotation", 0.0))
-        angle = np.linspace(0.0, 2.0 * math.pi, ELLIPSE_CORNERS, endpoint=False)
+        angle = np.linspace(0.0, 2.0 * math.pi, corners, endpoint=False)
         u, w = a * np.cos(angle), b * np.sin(angle)
         c, s = math.cos(rotation), math.sin(rotation)
         return shapely.Polygon(np.column_stack([cx + c * u - s * w, cy + s * u + c * w]))

@@ -99,6 +99,8 @@ class MissionPlan:
     # What the run does at a timeout or a breach; None: fail at a timeout with
     # on_timeout fail, else go on (wmr_mission.sim.reactions).
     reactions: ReactionPlan | None = None
+    # The robot's body as written (robot.footprint); None: a point.
+    footprint: dict[str, Any] | None = None
 
     @property
     def dt(self) -> float:
@@ -330,4 +332,7 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         regions=dumped_regions,
         max_samples=sample_budget(mission),
         disturbances=disturbance_plan(mission),
+        footprint=None
+        if mission.robot.footprint is None
+        else mission.robot.footprint.model_dump(mode="json"),
     )
