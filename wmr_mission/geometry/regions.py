@@ -23,11 +23,18 @@ the runner's compiled kernel implements the same formulas.
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal
+from collections.abc import Mapping
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from pydantic import Field, field_validator, model_validator
+from pydantic import (
+    Field,
+    SerializerFunctionWrapHandler,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
 from wmr_mission.basics import FloatArray, IntArray
@@ -42,6 +49,7 @@ __all__ = [
     "HalfPlaneRegion",
     "PolygonRegion",
     "RegionSpec",
+    "box_corners",
     "constraint_rows",
     "ellipse_geometry",
     "is_convex",
@@ -76,19 +84,49 @@ class CircleRegion(Model):
 
 
 class BoxRegion(Model):
-    """Axis-aligned box: min <= p <= max componentwise."""
+    """A rectangle: {min, max} (axis-aligned, min <= p <= max componentwise), or
+    {center, size, heading} (a shelf or pallet turned by heading)."""
 
     type: Literal["box"] = Field(description="Region kind.")
-    min: Point = Field(description="Lower-left corner [x, y] [m].")
-    max: Point = Field(description="Upper-right corner [x, y] [m], greater than min.")
+    min: Point | None = Field(default=None, description="Lower-left corner [x, y] [m].")
+    max: Point | None = Field(
+        default=None, description="Upper-right corner [x, y] [m], greater than min."
+    )
+    center: Point | None = Field(default=None, description="Centre [x, y] [m] (with size).")
+    size: tuple[PositiveScalar, PositiveScalar] | None = Field(
+        default=None,
+        description="Length along its heading and width across it [m], > 0 (with center).",
+    )
+    heading: Scalar = Field(
+        default=0.0, description="Rotation of its length from +x [rad] (with center and size)."
+    )
 
     @model_validator(mode="after")
-    def _ordered(self) -> BoxRegion:
-        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+    def _one_form(self) -> BoxRegion:
+        corners = self.min is not None or self.max is not None
+        centred = self.center is not None or self.size is not None
+        if corners == centred or (corners and "heading" in self.model_fields_set):
             raise PydanticCustomError(
-                "box_order", "a box needs min < max in both x and y (min is the lower-left corner)"
+                "box_form", "a box is {min, max} or {center, size, heading}, one of the two"
             )
+        if centred and (self.center is None or self.size is None):
+            raise PydanticCustomError("box_form", "a box with a center needs its size [length, width]")
+        if corners:
+            if self.min is None or self.max is None:
+                raise PydanticCustomError("box_form", "a box with min needs max, and max min")
+            if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+                raise PydanticCustomError(
+                    "box_order",
+                    "a box needs min < max in both x and y (min is the lower-left corner)",
+                )
         return self
+
+    @model_serializer(mode="wrap")
+    def _as_written(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The keys of the form written only: a {min, max} box dumps as before."""
+        dumped: dict[str, Any] = handler(self)
+        unused = ("center", "size", "heading") if self.min is not None else ("min", "max")
+        return {key: value for key, value in dumped.items() if key not in unused}
 
 
 class PolygonRegion(Model):
@@ -165,8 +203,35 @@ def _edge_rows(vertices: ArrayLike) -> FloatArray:
     return np.column_stack([normals, offsets])
 
 
+def box_corners(region: Mapping[str, Any]) -> FloatArray:
+    """``(4, 2)`` corners of a box (as written, or dumped), counter-clockwise
+    from the lower-left one before turning by its heading."""
+    if region.get("min") is not None:
+        (x_min, y_min), (x_max, y_max) = region["min"], region["max"]
+        return np.array(
+            [[x_min, y_min], [x_max, y_min], [x_max, y_max], [x_min, y_max]], dtype=np.float64
+        )
+    cx, cy = (float(v) for v in region["center"])
+    half_length, half_width = (0.5 * float(v) for v in region["size"])
+    heading = float(region.get("heading") or 0.0)
+    c, s = math.cos(heading), math.sin(heading)
+    local = np.array(
+        [
+            [-half_length, -half_width],
+            [half_length, -half_width],
+            [half_length, half_width],
+            [-half_length, half_width],
+        ]
+    )
+    return np.column_stack(
+        [cx + c * local[:, 0] - s * local[:, 1], cy + s * local[:, 0] + c * local[:, 1]]
+    )
+
+
 def _half_plane_rows(region: RegionSpec) -> FloatArray:
     """Outward half-plane rows ``nx, ny, offset`` of a box, polygon or half-plane."""
+    if isinstance(region, BoxRegion) and (region.min is None or region.max is None):
+        return _edge_rows(box_corners(region.model_dump()))
     if isinstance(region, BoxRegion):
         (x_min, y_min), (x_max, y_max) = region.min, region.max
         return np.array(
@@ -325,8 +390,7 @@ def is_convex(vertices: ArrayLike) -> bool:
 def region_vertices(region: RegionSpec) -> FloatArray:
     """``(n, 2)`` corners of a box or convex polygon region."""
     if isinstance(region, BoxRegion):
-        (x_min, y_min), (x_max, y_max) = region.min, region.max
-        return np.array([[x_min, y_min], [x_max, y_min], [x_max, y_max], [x_min, y_max]])
+        return box_corners(region.model_dump())
     if isinstance(region, PolygonRegion):
         return np.asarray(region.vertices, dtype=np.float64)
     raise ValueError(f"a {region.type} region has no corners (expected box or polygon)")
@@ -350,10 +414,9 @@ def region_outline(
         c, s = math.cos(rotation), math.sin(rotation)
         return cx + c * u - s * w, cy + s * u + c * w
     if isinstance(region, BoxRegion):
-        (x_min, y_min), (x_max, y_max) = region.min, region.max
-        xs = np.array([x_min, x_max, x_max, x_min, x_min], dtype=np.float64)
-        ys = np.array([y_min, y_min, y_max, y_max, y_min], dtype=np.float64)
-        return xs, ys
+        corners = box_corners(region.model_dump())
+        closed = np.vstack([corners, corners[:1]])
+        return closed[:, 0].copy(), closed[:, 1].copy()
     if isinstance(region, PolygonRegion):
         points = np.asarray(region.vertices, dtype=np.float64)
         closed = np.vstack([points, points[:1]])

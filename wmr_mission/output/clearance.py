@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.geometry.regions import box_corners
 from wmr_mission.output.zones import RESOLUTION, Zone
 
 # Decimals of a metre a clearance is given to: RESOLUTION's.
@@ -117,8 +118,7 @@ def region_geometry(region: Mapping[str, Any], corners: int = ELLIPSE_CORNERS) -
         c, s = math.cos(rotation), math.sin(rotation)
         return shapely.Polygon(np.column_stack([cx + c * u - s * w, cy + s * u + c * w]))
     if kind == "box":
-        (x0, y0), (x1, y1) = region["min"], region["max"]
-        return shapely.box(x0, y0, x1, y1)
+        return shapely.Polygon(box_corners(region))
     if kind == "polygon":
         return shapely.Polygon(region["vertices"])
     if kind == "half-plane":

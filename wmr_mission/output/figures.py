@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, IntArray
+from wmr_mission.geometry.regions import box_corners
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.metrics import (
     convergence_index,
@@ -230,11 +231,12 @@ def region_extent(region: dict[str, Any]) -> tuple[float, float, float, float] |
     if kind == "circle":
         (cx, cy), r = region["center"], region["radius"]
         return cx - r, cx + r, cy - r, cy + r
-    if kind == "box":
-        (x0, y0), (x1, y1) = region["min"], region["max"]
-        return x0, x1, y0, y1
-    if kind == "polygon":
-        vertices = np.asarray(region["vertices"], dtype=np.float64)
+    if kind in ("box", "polygon"):
+        vertices = (
+            box_corners(region)
+            if kind == "box"
+            else np.asarray(region["vertices"], dtype=np.float64)
+        )
         return (
             float(vertices[:, 0].min()),
             float(vertices[:, 0].max()),
@@ -317,9 +319,11 @@ def draw_regions(
             )
         elif kind == "circle":
             patch = patches.Circle(tuple(region["center"]), region["radius"], **style)
-        elif kind == "box":
+        elif kind == "box" and region.get("min") is not None:
             (x0, y0), (x1, y1) = region["min"], region["max"]
             patch = patches.Rectangle((x0, y0), x1 - x0, y1 - y0, **style)
+        elif kind == "box":  # turned by its heading
+            patch = patches.Polygon(box_corners(region), **style)
         elif kind == "polygon":
             patch = patches.Polygon(np.asarray(region["vertices"], dtype=np.float64), **style)
         elif kind == "half-plane":

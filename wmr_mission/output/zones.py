@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.geometry.regions import box_corners
 from wmr_mission.output.numbers import MissionNumbers
 
 # [m] depths are known to this: far below any tolerance, and what a robot held on
@@ -140,8 +141,7 @@ def reach_across(zone: Zone, x: FloatArray, y: FloatArray) -> FloatArray:
 
 def _corners(region: Mapping[str, Any]) -> FloatArray:
     if region["type"] == "box":
-        (x0, y0), (x1, y1) = region["min"], region["max"]
-        return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+        return box_corners(region)
     return np.asarray(region["vertices"], dtype=float)
 
 
@@ -155,6 +155,8 @@ def _outside_by(region: Mapping[str, Any], x: FloatArray, y: FloatArray) -> Any:
         nx, ny = region["normal"]
         norm = math.hypot(nx, ny)
         return (nx * x + ny * y - float(region["offset"])) / norm
+    if kind == "box" and region.get("min") is None:  # turned by its heading
+        return _polygon_outside_by(box_corners(region), x, y)
     if kind == "box":
         (x0, y0), (x1, y1) = region["min"], region["max"]
         qx = np.abs(x - (x0 + x1) / 2) - (x1 - x0) / 2

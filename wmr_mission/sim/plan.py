@@ -148,13 +148,15 @@ def _acceleration(limits: Limits) -> tuple[float, float]:
 
 def _extent(mission: Mission, dumped_regions: dict[str, dict[str, object]]) -> float:
     """The largest coordinate magnitude the mission names [m]: start, estimate,
-    regions (``dumped_regions``, less their rotation), targets, points, and
+    regions (``dumped_regions``, less their rotation and heading), targets, points, and
     each path's first point from the start pose."""
     start = mission.robot.initial_state
     guess = mission.estimator.initial_estimate or start
     numbers = [start.x, start.y, guess.x, guess.y]
     for region in dumped_regions.values():
-        numbers += _numbers({key: value for key, value in region.items() if key != "rotation"})
+        numbers += _numbers(
+            {key: value for key, value in region.items() if key not in ("rotation", "heading")}
+        )
     pose = (float(start.x), float(start.y), float(start.theta))
     context = mission.path_context()
     for phase in {run.where: run.phase for run in run_order(mission)}.values():

@@ -40,6 +40,7 @@ from wmr_mission.geometry.regions import (
     RegionSpec,
     ellipse_geometry,
     is_convex,
+    region_vertices,
     region_value,
 )
 from wmr_mission.plugins import EntryError, load_entry
@@ -1083,12 +1084,7 @@ def _boundary(region: RegionSpec) -> tuple[FloatArray, FloatArray]:
         c, s = math.cos(rotation), math.sin(rotation)
         return cx + c * u - s * w, cy + s * u + c * w
     if isinstance(region, BoxRegion | PolygonRegion):
-        corners = (
-            [region.min, (region.max[0], region.min[1]), region.max, (region.min[0], region.max[1])]
-            if isinstance(region, BoxRegion)
-            else region.vertices
-        )
-        points = np.array(corners, dtype=np.float64)
+        points = region_vertices(region)
         ends = np.roll(points, -1, axis=0)
         share = np.linspace(0.0, 1.0, _BOUNDARY // len(points))[:, None, None]
         edge = points[None] + share * (ends - points)[None]
