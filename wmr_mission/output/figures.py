@@ -682,6 +682,38 @@ def _draw_headings(ax: Axes, result: RunResult, size: float) -> None:
     )
 
 
+def _draw_footprint(ax: Axes, result: RunResult) -> None:
+    """The robot's body (robot.footprint) where its heading arrows are: what
+    keeps the zones, where the path is only its axle's centre."""
+    from matplotlib import patches
+
+    footprint = ((result.mission or {}).get("robot") or {}).get("footprint")
+    kept = np.flatnonzero(np.isfinite(result.x) & np.isfinite(result.y) & np.isfinite(result.theta))
+    if not footprint or kept.size == 0:
+        return
+    x, y, theta = result.x[kept], result.y[kept], result.theta[kept]
+    travelled = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
+    stations = np.linspace(0.0, float(travelled[-1]), HEADING_ARROWS)
+    at = np.unique(np.searchsorted(travelled, stations).clip(0, x.size - 1))
+    style = {"facecolor": "none", "edgecolor": "0.45", "linewidth": 0.7, "zorder": 4}
+    for k in at:
+        patch: Any
+        if "radius" in footprint:
+            patch = patches.Circle((x[k], y[k]), float(footprint["radius"]), **style)
+        else:
+            corners = np.asarray(footprint["polygon"], dtype=np.float64)
+            c, s = math.cos(theta[k]), math.sin(theta[k])
+            placed = np.column_stack(
+                [
+                    x[k] + c * corners[:, 0] - s * corners[:, 1],
+                    y[k] + s * corners[:, 0] + c * corners[:, 1],
+                ]
+            )
+            patch = patches.Polygon(placed, **style)
+        ax.add_patch(patch)
+    patch.set_label("body (robot.footprint)")
+
+
 def _draw_ends(ax: Axes, result: RunResult) -> None:
     ax.plot(
         result.x[0],
@@ -720,6 +752,7 @@ def _xy_on(ax: Axes, result: RunResult, label: str | None = None, color: Any = N
     if result.samples:
         _draw_path(ax, result, colors)
         _draw_headings(ax, result, size)
+        _draw_footprint(ax, result)
         _draw_changes(ax, result, size)
         _draw_reactions(ax, result)
         _draw_ends(ax, result)

@@ -803,6 +803,7 @@ def run_metrics(result: RunResult, mission: Mapping[str, Any] | None = None) -> 
         summary["constraint_margin"] = result.constraint_margin
     # last in summary.json, whose key order is fixed
     summary["max_constraint_violation"] = summary.pop("max_constraint_violation")
+    summary["clearance_min"] = summary.pop("clearance_min")
     return summary
 
 

@@ -763,8 +763,9 @@ class Expect(PhaseExpect):
     detour_offset_max: Threshold | Auto | None = _mission_metric(
         "detour_offset_max",
         "auto",
-        " auto: how far the phase's zones reach into the path + the look-ahead + 0.1 m + "
-        "the position noise std.",
+        " auto: how far the phase's zones reach into the path (a box's or polygon's: the "
+        "shorter way out across it) + the body's reach (robot.footprint) + the look-ahead + "
+        "0.1 m + the position noise std.",
     )
     zone_intrusion_max: Threshold | None = _mission_metric(
         "zone_intrusion_max", Threshold(max=DEFAULT_ZONE_INTRUSION_MAX), " {max: 0.005} unless set."
