@@ -193,3 +193,23 @@ def test_irsim_world_holds_the_shelf_and_the_robot_keeps_it() -> None:
     assert run.backend is not None and run.backend["settings"]["obstacles"] == ["shelf"]
     assert not plant.collided
     assert run.summary()["clearance_min"] >= 0.0
+
+
+def test_validate_warns_of_a_start_the_body_overlaps_a_zone_from() -> None:
+    """The axle at (0, 0) is outside the shelf moved to 0.1 m ahead of it, but
+    a body of 0.25 m overlaps it: `validate` warns at the start, and not
+    for a point robot."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    near = ONE_LAP.replace("min: [1.25, -0.85], max: [1.75, 0.15]", "min: [0.1, -0.85], max: [0.6, 0.15]")
+    _, found = check_mission_text(near, "shelf.yaml")
+    warnings = [d for d in found if d.severity == "warning"]
+    assert [(d.line, d.message) for d in warnings] == [
+        (
+            12,
+            "robot.initial_state (0, 0) is 0.1 m from keep-out zone 'shelf', nearer than the "
+            "robot's body reaches (0.25 m, robot.footprint): the body overlaps the zone there",
+        )
+    ]
+    _, found = check_mission_text(near.replace(BODY, ""), "shelf.yaml")
+    assert [d for d in found if d.severity == "warning"] == []

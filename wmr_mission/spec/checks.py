@@ -39,7 +39,9 @@ from wmr_mission.geometry.regions import (
     PolygonRegion,
     RegionSpec,
     ellipse_geometry,
+    HalfPlaneRegion,
     is_convex,
+    region_outline,
     region_vertices,
     region_value,
 )
@@ -132,6 +134,7 @@ def check(mission: Mission) -> list[Finding]:
         if not any(f.severity == "error" for f in findings):
             # sampling paths needs a sound mission (regions of the right kind, bounded phases)
             findings.extend(_zones(mission))
+            findings.extend(_body_room(mission))
             findings.extend(_reaches(mission))
     # a phase of a repeat is checked once per lap: say each finding once
     return list(dict.fromkeys(findings))
@@ -1073,6 +1076,54 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                         f"keeps out of during phase {phase.name!r}: until.near can never fire",
                         severity="warning",
                     )
+
+
+def _body_room(mission: Mission) -> Iterator[Finding]:
+    """With a footprint: a start, or a settled regulate target, that is outside
+    a keep-out zone of its phase but nearer to it than the body reaches. The
+    zones are kept by the body (docs/mission-format.md, "The robot's body"):
+    the robot starts beyond one, or cannot reach the target."""
+    footprint = mission.robot.footprint
+    if footprint is None:
+        return
+    reach = footprint.reach()
+    start = mission.robot.initial_state
+    for number, run in enumerate(run_order(mission)):
+        phase, where = run.phase, run.where
+        if run.lap is not None and run.lap > 1:
+            continue
+        points = []
+        if number == 0:
+            points.append((("robot", "initial_state"), "robot.initial_state", start.x, start.y))
+        if isinstance(phase, RegulatePhase) and phase.until.settled is not None:
+            target = phase.regulate.target
+            points.append(((*where, "regulate", "target"), "the target", target.x, target.y))
+        for name, zone in _keep_outs(mission, phase).items():
+            for path, what, x, y in points:
+                gap = _gap(zone, float(x), float(y))
+                if 0.0 <= gap < reach:
+                    yield Finding(
+                        path,
+                        f"{what} ({x:g}, {y:g}) is {gap:.3g} m from keep-out zone {name!r}, "
+                        f"nearer than the robot's body reaches ({reach:.3g} m, "
+                        "robot.footprint): the body overlaps the zone there",
+                        severity="warning",
+                    )
+
+
+def _gap(region: RegionSpec, x: float, y: float) -> float:
+    """[m] how far the point (x, y) is outside ``region`` (-1 inside), by shapely."""
+    import shapely
+
+    if isinstance(region, HalfPlaneRegion):
+        nx, ny = region.normal
+        return (nx * x + ny * y - region.offset) / math.hypot(nx, ny)
+    if isinstance(region, BoxRegion | PolygonRegion):
+        outline = shapely.Polygon(region_vertices(region))
+    else:
+        outline = shapely.Polygon(np.column_stack(region_outline(region, n=720)[:2])[:-1])
+    point = shapely.Point(x, y)
+    return -1.0 if outline.contains(point) else float(outline.distance(point))
 
 
 def _boundary(region: RegionSpec) -> tuple[FloatArray, FloatArray]:
