@@ -38,7 +38,9 @@ def test_a_footprint_is_a_radius_or_a_convex_polygon_in_the_robots_frame() -> No
     robot = _shelf().robot
     assert robot.footprint == RoundFootprint(radius=0.25)
     assert robot.footprint.reach() == 0.25
-    tray = _shelf(body="  footprint: {polygon: [[0.3, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.3, -0.2]]}\n")
+    tray = _shelf(
+        body="  footprint: {polygon: [[0.3, 0.2], [-0.2, 0.2], [-0.2, -0.2], [0.3, -0.2]]}\n"
+    )
     assert isinstance(tray.robot.footprint, PolygonFootprint)
     assert tray.robot.footprint.reach() == pytest.approx(math.hypot(0.3, 0.2))
     assert _shelf(body="").robot.footprint is None
@@ -48,7 +50,8 @@ def test_a_footprint_is_a_radius_or_a_convex_polygon_in_the_robots_frame() -> No
     ("body", "where", "message"),
     [
         (
-            "  footprint: {polygon: [[0.3, 0.2], [-0.2, 0.2], [0, 0], [-0.2, -0.2], [0.3, -0.2]]}\n",
+            "  footprint: {polygon: [[0.3, 0.2], [-0.2, 0.2], [0, 0], [-0.2, -0.2], "
+            "[0.3, -0.2]]}\n",
             "14:24",
             "a footprint polygon must be convex",
         ),
@@ -65,7 +68,8 @@ def test_a_bad_footprint_is_reported_at_its_place(body: str, where: str, message
     with pytest.raises(MissionError) as raised:
         _shelf(body=body)
     text = str(raised.value)
-    assert f"shelf.yaml:{where}: " in text and message in text, text
+    assert f"shelf.yaml:{where}: " in text, text
+    assert message in text, text
 
 
 def test_with_a_footprint_clearance_min_is_0_unless_set() -> None:
@@ -163,10 +167,13 @@ def test_clearance_min_is_a_lower_bound_in_metres() -> None:
     text = ONE_LAP.replace("phases:", "expect:\n  clearance_min: 0.2\nphases:", 1)
     run = run_mission(_shelf(text))
     assert run.outcome.value == "expect-failed"
-    checks = [c for c in check_expectations(run.summary(), run.mission) if c["metric"] == "clearance_min"]
+    checks = [
+        c for c in check_expectations(run.summary(), run.mission) if c["metric"] == "clearance_min"
+    ]
     assert [c["min"] for c in checks] == [0.2]
     value = checks[0]["value"]
-    assert 0.1 < value < 0.2 and not checks[0]["met"]
+    assert 0.1 < value < 0.2
+    assert not checks[0]["met"]
     line = f"lap#1: clearance_min = {value:.6g} (min 0.2)"
     assert unmet(checks) == [line]
     assert line in run.message
@@ -190,7 +197,8 @@ def test_irsim_world_holds_the_shelf_and_the_robot_keeps_it() -> None:
     assert shelf.equals(shapely.box(1.25, -0.85, 1.75, 0.15))
     assert plant.describe()["settings"]["robot_shape"] == {"name": "circle", "radius": 0.25}
     run = run_mission(mission, plant=plant)
-    assert run.backend is not None and run.backend["settings"]["obstacles"] == ["shelf"]
+    assert run.backend is not None
+    assert run.backend["settings"]["obstacles"] == ["shelf"]
     assert not plant.collided
     assert run.summary()["clearance_min"] >= 0.0
 
@@ -201,7 +209,9 @@ def test_validate_warns_of_a_start_the_body_overlaps_a_zone_from() -> None:
     for a point robot."""
     from wmr_mission.spec.loader import check_mission_text
 
-    near = ONE_LAP.replace("min: [1.25, -0.85], max: [1.75, 0.15]", "min: [0.1, -0.85], max: [0.6, 0.15]")
+    near = ONE_LAP.replace(
+        "min: [1.25, -0.85], max: [1.75, 0.15]", "min: [0.1, -0.85], max: [0.6, 0.15]"
+    )
     _, found = check_mission_text(near, "shelf.yaml")
     warnings = [d for d in found if d.severity == "warning"]
     assert [(d.line, d.message) for d in warnings] == [

@@ -149,7 +149,9 @@ def obstacles(plan: MissionPlan) -> list[tuple[str, dict[str, Any], list[float]]
     a circle as a circle, an ellipse as a polygon of ELLIPSE_CORNERS corners,
     a box or polygon as its corners. A half-plane has no bound an obstacle can
     have, and is left out."""
-    names = sorted({name for phase in plan.phases for name, side in phase.constraints if side == "outside"})
+    names = sorted(
+        {name for phase in plan.phases for name, side in phase.constraints if side == "outside"}
+    )
     found = []
     for name in names:
         region = plan.regions[name]

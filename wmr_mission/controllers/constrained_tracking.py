@@ -432,12 +432,13 @@ def aim_round_zones(
 
     The output's aim moves continuously as the path goes through a zone, so
     the tracking law is handed no jump at a zone's edge. A keep-out ellipse
-    or polygon moves the aim sideways, across the path, on a ramp no steeper
-    than RAMP_SLOPE (``_way_round``, ``_way_round_polygon``), to the side the zone's edge faces where the
+    moves the aim sideways, across the path, on a ramp no steeper than
+    RAMP_SLOPE (``_way_round``), to the side the zone's edge faces where the
     path's line enters it, and to the left of the direction of travel where
     the path meets the edge head-on (the saddle, a path through a circle's
     centre): the robot goes round, never stopping where the two sides
-    balance. Other rows project the aim onto
+    balance. A keep-out box or polygon does the same on the shorter way
+    across (``_way_round_polygon``). Other rows project the aim onto
     their edge (half-planes exactly, keep-in ellipses along the ray from the
     centre). Two passes settle an aim beyond two rows.
     """

@@ -16,8 +16,9 @@ docs/architecture.md "Constraint rows"); a row is satisfied when its value
   (wmr_mission.kernels.convex); a row as wide as its vertices need.
 
 A circle is an ellipse with equal semi-axes; kept inside, a box and a convex
-polygon are one half-plane row per edge, kept outside one polygon row. The functions here are the readable numpy reference;
-the runner's compiled kernel implements the same formulas.
+polygon are one half-plane row per edge, kept outside one polygon row. The
+functions here are the readable numpy reference; the runner's compiled kernel
+implements the same formulas.
 """
 
 from __future__ import annotations
@@ -110,7 +111,9 @@ class BoxRegion(Model):
                 "box_form", "a box is {min, max} or {center, size, heading}, one of the two"
             )
         if centred and (self.center is None or self.size is None):
-            raise PydanticCustomError("box_form", "a box with a center needs its size [length, width]")
+            raise PydanticCustomError(
+                "box_form", "a box with a center needs its size [length, width]"
+            )
         if corners:
             if self.min is None or self.max is None:
                 raise PydanticCustomError("box_form", "a box with min needs max, and max min")
@@ -230,9 +233,7 @@ def box_corners(region: Mapping[str, Any]) -> FloatArray:
 
 def _half_plane_rows(region: RegionSpec) -> FloatArray:
     """Outward half-plane rows ``nx, ny, offset`` of a box, polygon or half-plane."""
-    if isinstance(region, BoxRegion) and (region.min is None or region.max is None):
-        return _edge_rows(box_corners(region.model_dump()))
-    if isinstance(region, BoxRegion):
+    if isinstance(region, BoxRegion) and region.min is not None and region.max is not None:
         (x_min, y_min), (x_max, y_max) = region.min, region.max
         return np.array(
             [
@@ -242,6 +243,8 @@ def _half_plane_rows(region: RegionSpec) -> FloatArray:
                 [0.0, -1.0, -y_min],
             ]
         )
+    if isinstance(region, BoxRegion):  # turned by its heading
+        return _edge_rows(box_corners(region.model_dump()))
     if isinstance(region, PolygonRegion):
         return _edge_rows(region.vertices)
     if isinstance(region, HalfPlaneRegion):

@@ -138,4 +138,3 @@ def region_geometry(region: Mapping[str, Any], corners: int = ELLIPSE_CORNERS) -
             ]
         )
     raise ValueError(f"unknown region type {kind!r}")
-

@@ -1019,7 +1019,8 @@ def unmet(checks: list[dict[str, Any]]) -> list[str]:
 
 _UNMET_PREFIX = "expectation not met: "
 _UNMET = re.compile(
-    r"^(?:(?P<phase>.+): )?(?P<metric>[a-z_.]+) = (?P<value>\S+) \((?P<kind>max|min) (?P<max>\S+)\)$"
+    r"^(?:(?P<phase>.+): )?(?P<metric>[a-z_.]+) = (?P<value>\S+) "
+    r"\((?P<kind>max|min) (?P<max>\S+)\)$"
 )
 
 

@@ -36,14 +36,14 @@ from wmr_mission.geometry.regions import (
     BoxRegion,
     CircleRegion,
     EllipseRegion,
+    HalfPlaneRegion,
     PolygonRegion,
     RegionSpec,
     ellipse_geometry,
-    HalfPlaneRegion,
     is_convex,
     region_outline,
-    region_vertices,
     region_value,
+    region_vertices,
 )
 from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import graph
@@ -1092,7 +1092,7 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
         phase, where = run.phase, run.where
         if run.lap is not None and run.lap > 1:
             continue
-        points = []
+        points: list[tuple[DataPath, str, float, float]] = []
         if number == 0:
             points.append((("robot", "initial_state"), "robot.initial_state", start.x, start.y))
         if isinstance(phase, RegulatePhase) and phase.until.settled is not None:

@@ -70,18 +70,18 @@ __all__ = [
     "Disturbances",
     "Dropout",
     "Expect",
+    "Footprint",
     "HeadingCondition",
     "Hold",
     "HoldPhase",
     "Limits",
     "Mission",
     "Near",
-    "Footprint",
     "Outliers",
     "Phase",
-    "PolygonFootprint",
     "PhaseExpect",
     "Plot",
+    "PolygonFootprint",
     "Regulate",
     "RegulatePhase",
     "Repeat",
@@ -1071,7 +1071,6 @@ class Mission(Model):
         if estimator is mission.estimator:
             return mission
         return mission.model_copy(update={"estimator": estimator})
-
 
     @model_validator(mode="after")
     def _body_kept_clear(self) -> Mission:
