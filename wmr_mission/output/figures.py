@@ -695,7 +695,12 @@ def _draw_footprint(ax: Axes, result: RunResult) -> None:
     travelled = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
     stations = np.linspace(0.0, float(travelled[-1]), HEADING_ARROWS)
     at = np.unique(np.searchsorted(travelled, stations).clip(0, x.size - 1))
-    style: dict[str, Any] = {"facecolor": "none", "edgecolor": "0.45", "linewidth": 0.7, "zorder": 4}
+    style: dict[str, Any] = {
+        "facecolor": "none",
+        "edgecolor": "0.45",
+        "linewidth": 0.7,
+        "zorder": 4,
+    }
     for k in at:
         patch: Any
         if "radius" in footprint:
