@@ -223,3 +223,29 @@ def test_validate_warns_of_a_start_the_body_overlaps_a_zone_from() -> None:
     ]
     _, found = check_mission_text(near.replace(BODY, ""), "shelf.yaml")
     assert [d for d in found if d.severity == "warning"] == []
+
+
+def test_a_run_whose_body_touches_a_zone_fails_by_default() -> None:
+    """A robot held 0.1 m from the shelf with a body of 0.25 m: its axle
+    never enters the shelf (zone_intrusion_max met), its body overlaps it by
+    0.15 m, and the default clearance_min (0 m with a footprint) fails it."""
+    text = """
+version: 1
+name: touch
+robot:
+  limits: {v: 1, omega: 2}
+  footprint: {radius: 0.25}
+regions:
+  shelf: {type: box, center: [0.35, 0], size: [0.5, 1]}
+phases:
+  - name: wait
+    hold: {}
+    constraints: [{stay_outside: shelf}]
+    until: {elapsed: 0.5}
+"""
+    run = run_mission(load_mission_text(text, "touch.yaml"))
+    summary = run.summary()
+    assert summary["phases"][0]["constraint"]["intrusion_max"] == 0.0
+    assert summary["clearance_min"] == pytest.approx(-0.15, abs=1e-6)
+    assert run.outcome.value == "expect-failed"
+    assert "wait: clearance_min = -0.15 (min 0)" in run.message
