@@ -132,7 +132,7 @@ def test_stay_outside_of_a_box_or_polygon_is_one_signed_distance_row(region: Reg
     assert kind.tolist() == [POLYGON_ROW]
     corners = int(params[0, 0])
     assert corners == (4 if region is BOX else 3)
-    assert params.shape == (1, 1 + 2 * corners)  # the count, then the corners
+    assert params.shape == (1, 4 + 5 * corners)  # kernels.convex: a header, 5 a corner
     assert row_values(kind, params, 100.0, 100.0)[0] < -100.0
 
 

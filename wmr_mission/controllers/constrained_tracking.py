@@ -42,6 +42,7 @@ from wmr_mission.kernels.corrective import (
     kept_row_slot,
     row_value_with_margin,
 )
+from wmr_mission.kernels.convex import HEADER, PER_VERTEX
 from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.model import (
     braking_distance,
@@ -362,8 +363,28 @@ def _way_round(
     return max(reach, 0.0), mx, my
 
 
-# Halvings of the slope interval in the way round a polygon: 2^-50 of it.
-_SLOPE_HALVINGS = 50
+# Halvings of the slope interval in the way round a polygon: 2^-30 of it, a
+# reach to 1e-9 m of the zone's width.
+_SLOPE_HALVINGS = 30
+
+
+@kernel
+def _support(
+    p: FloatArray, x: float, y: float, mx: float, my: float, tx: float, ty: float, mu: float
+) -> tuple[float, float]:
+    """The polygon row ``p``'s support function about (x, y) in the direction
+    m + mu t, max_i (m + mu t) . (v_i - (x, y)), and its slope in mu."""
+    best = -math.inf
+    slope = 0.0
+    for i in range(int(p[0])):
+        rx = p[HEADER + PER_VERTEX * i] - x
+        ry = p[HEADER + PER_VERTEX * i + 1] - y
+        along = tx * rx + ty * ry
+        value = mx * rx + my * ry + mu * along
+        if value > best:
+            best = value
+            slope = along
+    return best, slope
 
 
 @kernel
@@ -378,45 +399,40 @@ def _way_round_polygon(
     rounding: a path through a box's middle). Along a straight path it is the
     same all the way, as the ellipse's. The reach is the least of the grown
     polygon's support function, h(n) = max_i n . v_i + margin |n|, over
-    n = m + mu t, |mu| <= RAMP_SLOPE, about the aim: convex in mu, found by
-    halving the interval on the sign of its slope."""
-    n = int(p[0])
+    n = m + mu t, |mu| <= RAMP_SLOPE, about the aim: convex in mu, 0 at once
+    where it is not above 0 at both ends of the interval (the zone outside the
+    wedge, the aim far from it), else found by halving the interval on the
+    sign of its slope."""
     mx = -ty  # the left of travel
     my = tx
-    left = -math.inf
-    right = -math.inf
-    for i in range(n):
-        across = mx * (p[1 + 2 * i] - x) + my * (p[2 + 2 * i] - y)
-        left = max(left, across)
-        right = max(right, -across)
+    # Far from the zone along the path, the wedge misses the disc that holds
+    # it on both sides: nothing to move, and no vertex read.
+    dx = p[1] - x
+    dy = p[2] - y
+    grown = margin * math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
+    held = (p[3] + margin) * math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
+    if abs(mx * dx + my * dy) - RAMP_SLOPE * abs(tx * dx + ty * dy) + held <= 0.0:
+        return 0.0, mx, my
+    left, _ = _support(p, x, y, mx, my, tx, ty, 0.0)
+    right, _ = _support(p, x, y, -mx, -my, tx, ty, 0.0)
     if left > right + 1e-9 * (abs(left) + abs(right)):
         mx = -mx
         my = -my
+    ahead, _ = _support(p, x, y, mx, my, tx, ty, RAMP_SLOPE)
+    behind, _ = _support(p, x, y, mx, my, tx, ty, -RAMP_SLOPE)
+    if ahead + grown <= 0.0 or behind + grown <= 0.0:
+        return 0.0, mx, my
     low = -RAMP_SLOPE
     high = RAMP_SLOPE
     for _ in range(_SLOPE_HALVINGS):
         mu = 0.5 * (low + high)
-        best = -math.inf
-        slope = 0.0
-        for i in range(n):
-            rx = p[1 + 2 * i] - x
-            ry = p[2 + 2 * i] - y
-            along = tx * rx + ty * ry
-            value = mx * rx + my * ry + mu * along
-            if value > best:
-                best = value
-                slope = along
-        slope += margin * mu / math.sqrt(1.0 + mu * mu)
-        if slope > 0.0:
+        _, slope = _support(p, x, y, mx, my, tx, ty, mu)
+        if slope + margin * mu / math.sqrt(1.0 + mu * mu) > 0.0:
             high = mu
         else:
             low = mu
     mu = 0.5 * (low + high)
-    reach = -math.inf
-    for i in range(n):
-        rx = p[1 + 2 * i] - x
-        ry = p[2 + 2 * i] - y
-        reach = max(reach, mx * rx + my * ry + mu * (tx * rx + ty * ry))
+    reach, _ = _support(p, x, y, mx, my, tx, ty, mu)
     reach += margin * math.sqrt(1.0 + mu * mu)
     return max(reach, 0.0), mx, my
 

@@ -11,9 +11,9 @@ docs/architecture.md "Constraint rows"); a row is satisfied when its value
   with ``sign = +1`` this is eq. (33) written as ``G - 1 <= 0``.
 - kind ``HALF_PLANE_ROW``, half-plane ``nx, ny, offset, 0, 0, 0``:
   ``nx*x + ny*y - offset``, with a unit normal so the value is a signed distance.
-- kind ``POLYGON_ROW``, keep out of a convex polygon ``n, x0, y0, ..., x_{n-1},
-  y_{n-1}`` (counter-clockwise): minus the signed distance to it
-  (wmr_mission.kernels.convex); a row as wide as its vertices need.
+- kind ``POLYGON_ROW``, keep out of a convex polygon: minus the signed
+  distance to it; a row as wide as its vertices need (its columns:
+  wmr_mission.kernels.convex).
 
 A circle is an ellipse with equal semi-axes; kept inside, a box and a convex
 polygon are one half-plane row per edge, kept outside one polygon row. The
@@ -40,7 +40,7 @@ from pydantic_core import PydanticCustomError
 
 from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.fields import SMALLEST_POSITIVE, Model, Point, PositiveScalar, Scalar
-from wmr_mission.kernels.convex import polygon_distance
+from wmr_mission.kernels.convex import HEADER, PER_VERTEX, polygon_distance
 from wmr_mission.kernels.corrective import ELLIPSE_ROW, HALF_PLANE_ROW, POLYGON_ROW
 
 __all__ = [
@@ -279,14 +279,21 @@ def constraint_rows(region: RegionSpec, side: Side) -> tuple[IntArray, FloatArra
 
 
 def polygon_row(vertices: ArrayLike) -> FloatArray:
-    """The ``(1, w)`` parameters of a POLYGON_ROW: the vertex count, then the
-    vertices counter-clockwise, padded with zeros to at least 6 columns."""
+    """The ``(1, w)`` parameters of a POLYGON_ROW (wmr_mission.kernels.convex):
+    the vertex count, the disc about the vertices' mean that holds them, then
+    per vertex, counter-clockwise, the vertex, its edge's unit outward normal
+    and length."""
     points = np.asarray(vertices, dtype=np.float64)
     if _signed_area(points) < 0:
         points = points[::-1]
-    row = np.zeros((1, max(6, 1 + 2 * len(points))))
-    row[0, 0] = len(points)
-    row[0, 1 : 1 + 2 * len(points)] = points.ravel()
+    edges = np.roll(points, -1, axis=0) - points
+    lengths = np.hypot(edges[:, 0], edges[:, 1])
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / lengths[:, None]
+    center = points.mean(axis=0)
+    radius = float(np.max(np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])))
+    row = np.zeros((1, HEADER + PER_VERTEX * len(points)))
+    row[0, :HEADER] = len(points), center[0], center[1], radius
+    row[0, HEADER:] = np.column_stack([points, normals, lengths]).ravel()
     return row
 
 

@@ -9,8 +9,12 @@ on ``margin - d <= 0`` works as it does on a half-plane's row. Inside, ``d``
 is minus the distance to the nearest edge's line (a robot held outside never
 needs more than its sign and a way out).
 
-A polygon row's parameters are ``n, x0, y0, x1, y1, ...``: the vertex count
-and the vertices counter-clockwise (wmr_mission.geometry.regions builds them).
+A polygon row's parameters (wmr_mission.geometry.regions.polygon_row builds
+them) are ``n, cx, cy, radius``, the vertex count and the disc about the
+vertices' mean that holds them, then per vertex, counter-clockwise, ``x, y,
+nx, ny, length``: the vertex, the unit outward normal of the edge that starts
+there and its length. Read, not recomputed, per sample: no square root per
+edge.
 """
 
 from __future__ import annotations
@@ -20,38 +24,36 @@ import math
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels.jit import kernel
 
+# Columns of a polygon row before its vertices, and per vertex.
+HEADER = 4
+PER_VERTEX = 5
+
 
 @kernel
 def polygon_distance(p: FloatArray, x: float, y: float) -> tuple[float, float, float]:
     """Signed distance of (x, y) from the convex polygon of row ``p`` (> 0
     outside) and its gradient."""
-    n = int(p[0])
     line = -math.inf  # the largest distance beyond an edge's line, and that edge's normal
     line_x = 0.0
     line_y = 0.0
     nearest = math.inf  # the least squared distance to an edge, and the offset from it
     off_x = 0.0
     off_y = 0.0
-    for i in range(n):
-        j = i + 1 if i + 1 < n else 0
-        ax = p[1 + 2 * i]
-        ay = p[2 + 2 * i]
-        ex = p[1 + 2 * j] - ax
-        ey = p[2 + 2 * j] - ay
-        length = math.sqrt(ex * ex + ey * ey)
-        nx = ey / length  # outward: the polygon is counter-clockwise
-        ny = -ex / length
-        rx = x - ax
-        ry = y - ay
+    for i in range(int(p[0])):
+        k = HEADER + PER_VERTEX * i
+        nx = p[k + 2]
+        ny = p[k + 3]
+        rx = x - p[k]
+        ry = y - p[k + 1]
         beyond = rx * nx + ry * ny
         if beyond > line:
             line = beyond
             line_x = nx
             line_y = ny
-        along = (rx * ex + ry * ey) / (length * length)
-        along = min(max(along, 0.0), 1.0)
-        dx = rx - along * ex
-        dy = ry - along * ey
+        # along the edge: its unit direction is the normal turned by +90 degrees
+        along = min(max(ry * nx - rx * ny, 0.0), p[k + 4])
+        dx = rx + along * ny
+        dy = ry - along * nx
         squared = dx * dx + dy * dy
         if squared < nearest:
             nearest = squared
