@@ -125,6 +125,48 @@ def test_compiled_signed_distance_has_plain_pythons_bytes() -> None:
         assert ours.tobytes() == theirs.tobytes(), (x, y)
 
 
+def test_the_way_round_a_polygon_is_the_least_support_over_the_ramp() -> None:
+    """The aim's reach round a keep-out polygon grown by r, found without
+    iterating, is the least over the ramp's slopes mu of the grown polygon's
+    support function in the direction m + mu t (scipy's bounded minimum of
+    that convex function), m the shorter way across, on random polygons,
+    aims and headings."""
+    from scipy.optimize import minimize_scalar
+
+    from wmr_mission.controllers.constrained_tracking import RAMP_SLOPE, _way_round_polygon
+
+    rng = np.random.default_rng(32)
+    moved = 0
+    for trial in range(300):
+        if trial % 2:
+            turn = np.sort(rng.uniform(0.0, 2.0 * np.pi, 5))
+            corners = np.column_stack([np.cos(turn) * rng.uniform(0.5, 1.5), np.sin(turn)])
+        else:
+            box = {"type": "box", "center": rng.uniform(-1, 1, 2).tolist(), "heading": 0.3}
+            corners = box_corners({**box, "size": rng.uniform(0.2, 2.0, 2).tolist()})
+        r = float(rng.uniform(0.0, 0.6))
+        x, y = rng.uniform(-3.0, 3.0, 2).tolist()
+        heading = float(rng.uniform(-3.0, 3.0))
+        tx, ty = math.cos(heading), math.sin(heading)
+        reach, _, _ = _way_round_polygon(polygon_row(corners)[0], r, x, y, tx, ty)
+        offsets = corners - [x, y]
+        m = np.array([-ty, tx])
+        if (offsets @ m).max() > (-(offsets @ m)).max():
+            m = -m
+
+        def support(mu: float, m: np.ndarray = m, offsets: np.ndarray = offsets) -> float:
+            direction = m + mu * np.array([tx, ty])
+            return float((offsets @ direction).max() + r * np.hypot(*direction))
+
+        least = minimize_scalar(
+            support, bounds=(-RAMP_SLOPE, RAMP_SLOPE), method="bounded", options={"xatol": 1e-12}
+        )
+        expected = max(min(least.fun, support(-RAMP_SLOPE), support(RAMP_SLOPE)), 0.0)
+        assert reach == pytest.approx(expected, abs=1e-9), trial
+        moved += reach > 0.0
+    assert moved > 30
+
+
 # --- the shelf patrol --------------------------------------------------------------
 
 

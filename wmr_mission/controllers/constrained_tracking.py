@@ -363,28 +363,8 @@ def _way_round(
     return max(reach, 0.0), mx, my
 
 
-# Halvings of the slope interval in the way round a polygon: 2^-30 of it, a
-# reach to 1e-9 m of the zone's width.
-_SLOPE_HALVINGS = 30
-
-
-@kernel
-def _support(
-    p: FloatArray, x: float, y: float, mx: float, my: float, tx: float, ty: float, mu: float
-) -> tuple[float, float]:
-    """The polygon row ``p``'s support function about (x, y) in the direction
-    m + mu t, max_i (m + mu t) . (v_i - (x, y)), and its slope in mu."""
-    best = -math.inf
-    slope = 0.0
-    for i in range(int(p[0])):
-        rx = p[HEADER + PER_VERTEX * i] - x
-        ry = p[HEADER + PER_VERTEX * i + 1] - y
-        along = tx * rx + ty * ry
-        value = mx * rx + my * ry + mu * along
-        if value > best:
-            best = value
-            slope = along
-    return best, slope
+# |m + mu t| at the ramp's ends: the factor a disc's support grows by there.
+_RAMP_NORM = math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
 
 
 @kernel
@@ -392,48 +372,86 @@ def _way_round_polygon(
     p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float
 ) -> tuple[float, float, float]:
     """:func:`_way_round` for the keep-out polygon row ``p`` grown by ``margin``
-    (its Minkowski sum with a disc of that radius).
+    (K, its Minkowski sum with a disc of that radius), about the aim a.
 
-    The side is the shorter way across: the one the polygon reaches less far
-    into from the path's line, the left of travel where both are as far (to
-    rounding: a path through a box's middle). Along a straight path it is the
-    same all the way, as the ellipse's. The reach is the least of the grown
-    polygon's support function, h(n) = max_i n . v_i + margin |n|, over
-    n = m + mu t, |mu| <= RAMP_SLOPE, about the aim: convex in mu, 0 at once
-    where it is not above 0 at both ends of the interval (the zone outside the
-    wedge, the aim far from it), else found by halving the interval on the
-    sign of its slope."""
+    The side m is the shorter way across: the one the polygon reaches less
+    far into from the path's line, the left of travel where both are as far
+    (to rounding: a path through a box's middle). Along a straight path it is
+    the same all the way, as the ellipse's. The reach is the least of K's
+    support function over n = m + mu t, |mu| <= RAMP_SLOPE, as for the
+    ellipse; by the minimax theorem it is the most of m.(q - a) - RAMP_SLOPE
+    |t.(q - a)| over the points q of K, a concave function: its most over the
+    half ahead of a (or behind) is K's support point in the direction m - s t
+    (m + s t) where that lies there, else on the line through a across the
+    path, where K's farthest point along m is on an edge moved out by the
+    margin or on a corner's disc. Exact, without iterating."""
     mx = -ty  # the left of travel
     my = tx
-    # Far from the zone along the path, the wedge misses the disc that holds
-    # it on both sides: nothing to move, and no vertex read.
+    r = margin
+    # The disc about the vertices' mean that holds the polygon, grown: a line
+    # that misses it leaves the zone on one side, and the wedge that misses it
+    # on both sides leaves the aim far from the zone: nothing to move.
     dx = p[1] - x
     dy = p[2] - y
-    grown = margin * math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
-    held = (p[3] + margin) * math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
-    if abs(mx * dx + my * dy) - RAMP_SLOPE * abs(tx * dx + ty * dy) + held <= 0.0:
+    held = p[3] + r
+    across = abs(mx * dx + my * dy)
+    if across >= held or across - RAMP_SLOPE * abs(tx * dx + ty * dy) + held * _RAMP_NORM <= 0.0:
         return 0.0, mx, my
-    left, _ = _support(p, x, y, mx, my, tx, ty, 0.0)
-    right, _ = _support(p, x, y, -mx, -my, tx, ty, 0.0)
+    n = int(p[0])
+    left = -math.inf
+    right = -math.inf
+    for i in range(n):
+        k = HEADER + PER_VERTEX * i
+        side = mx * (p[k] - x) + my * (p[k + 1] - y)
+        left = max(left, side)
+        right = max(right, -side)
     if left > right + 1e-9 * (abs(left) + abs(right)):
         mx = -mx
         my = -my
-    ahead, _ = _support(p, x, y, mx, my, tx, ty, RAMP_SLOPE)
-    behind, _ = _support(p, x, y, mx, my, tx, ty, -RAMP_SLOPE)
-    if ahead + grown <= 0.0 or behind + grown <= 0.0:
-        return 0.0, mx, my
-    low = -RAMP_SLOPE
-    high = RAMP_SLOPE
-    for _ in range(_SLOPE_HALVINGS):
-        mu = 0.5 * (low + high)
-        _, slope = _support(p, x, y, mx, my, tx, ty, mu)
-        if slope + margin * mu / math.sqrt(1.0 + mu * mu) > 0.0:
-            high = mu
-        else:
-            low = mu
-    mu = 0.5 * (low + high)
-    reach, _ = _support(p, x, y, mx, my, tx, ty, mu)
-    reach += margin * math.sqrt(1.0 + mu * mu)
+    reach = -math.inf
+    for sense in (1.0, -1.0):  # ahead of the aim, then behind it
+        ux = mx - sense * RAMP_SLOPE * tx
+        uy = my - sense * RAMP_SLOPE * ty
+        best = -math.inf
+        bx = 0.0
+        by = 0.0
+        for i in range(n):
+            k = HEADER + PER_VERTEX * i
+            value = ux * (p[k] - x) + uy * (p[k + 1] - y)
+            if value > best:
+                best = value
+                bx = p[k]
+                by = p[k + 1]
+        # the support point, the vertex moved out by r along u / |u|
+        along = tx * (bx - x) + ty * (by - y) + r * (tx * ux + ty * uy) / _RAMP_NORM
+        if sense * along >= 0.0:
+            reach = max(reach, best + r * _RAMP_NORM)
+    for i in range(n):  # K's farthest point along m on the line a + s m
+        k = HEADER + PER_VERTEX * i
+        vx = p[k] - x
+        vy = p[k + 1] - y
+        w = tx * vx + ty * vy
+        if abs(w) <= r:  # the corner's disc
+            reach = max(reach, mx * vx + my * vy + math.sqrt(r * r - w * w))
+        # the edge moved out by 0..r: 0 <= n.(q - v) <= r, 0 <= e.(q - v) <= length
+        nx = p[k + 2]
+        ny = p[k + 3]
+        low = -math.inf
+        high = math.inf
+        for start, rate, top in (
+            (-(nx * vx + ny * vy), nx * mx + ny * my, r),
+            (ny * vx - nx * vy, -ny * mx + nx * my, p[k + 4]),
+        ):
+            if rate == 0.0:
+                if start < 0.0 or start > top:
+                    high = -math.inf
+            else:
+                one = -start / rate
+                two = (top - start) / rate
+                low = max(low, min(one, two))
+                high = min(high, max(one, two))
+        if low <= high:
+            reach = max(reach, high)
     return max(reach, 0.0), mx, my
 
 
