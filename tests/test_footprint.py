@@ -150,12 +150,19 @@ def test_the_way_round_a_polygon_is_the_least_support_over_the_ramp() -> None:
         tx, ty = math.cos(heading), math.sin(heading)
         reach, _, _ = _way_round_polygon(polygon_row(corners)[0], r, x, y, tx, ty)
         offsets = corners - [x, y]
+        t = np.array([tx, ty])
         m = np.array([-ty, tx])
         if (offsets @ m).max() > (-(offsets @ m)).max():
             m = -m
 
-        def support(mu: float, m: np.ndarray = m, offsets: np.ndarray = offsets) -> float:
-            direction = m + mu * np.array([tx, ty])
+        def support(
+            mu: float,
+            m: np.ndarray = m,
+            t: np.ndarray = t,
+            offsets: np.ndarray = offsets,
+            r: float = r,
+        ) -> float:
+            direction = m + mu * t
             return float((offsets @ direction).max() + r * np.hypot(*direction))
 
         least = minimize_scalar(

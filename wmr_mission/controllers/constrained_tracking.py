@@ -35,6 +35,7 @@ import math
 import numpy as np
 
 from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.kernels.convex import HEADER, PER_VERTEX
 from wmr_mission.kernels.corrective import (
     ELLIPSE_ROW,
     POLYGON_ROW,
@@ -42,7 +43,6 @@ from wmr_mission.kernels.corrective import (
     kept_row_slot,
     row_value_with_margin,
 )
-from wmr_mission.kernels.convex import HEADER, PER_VERTEX
 from wmr_mission.kernels.jit import inlined, kernel
 from wmr_mission.kernels.model import (
     braking_distance,
