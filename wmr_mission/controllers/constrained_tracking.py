@@ -41,6 +41,7 @@ from wmr_mission.kernels.corrective import (
     POLYGON_ROW,
     REGULARISATION,
     kept_row_slot,
+    polygon_value,
     row_value_with_margin,
 )
 from wmr_mission.kernels.jit import inlined, kernel
@@ -124,14 +125,20 @@ def held_where_braking_ends(
         return value, gx, gy, s00, s01, s10, s11
     c = math.cos(next_[2])
     s = math.sin(next_[2])
-    braked, hx, hy = row_value_with_margin(
-        kind, p, margin, next_[0] + ahead * c, next_[1] + ahead * s
-    )
+    bx = next_[0] + ahead * c
+    by = next_[1] + ahead * s
+    if kind == POLYGON_ROW:
+        braked, hx, hy = polygon_value(p, margin, bx, by)
+    else:
+        braked, hx, hy = row_value_with_margin(kind, p, margin, bx, by)
     if keep > 0.0:
         behind = braking_distance(now[3], rate, dt)
-        now_value, _, _ = row_value_with_margin(
-            kind, p, margin, now[0] + behind * math.cos(now[2]), now[1] + behind * math.sin(now[2])
-        )
+        wx = now[0] + behind * math.cos(now[2])
+        wy = now[1] + behind * math.sin(now[2])
+        if kind == POLYGON_ROW:
+            now_value, _, _ = polygon_value(p, margin, wx, wy)
+        else:
+            now_value, _, _ = row_value_with_margin(kind, p, margin, wx, wy)
         braked -= keep * now_value
     if braked <= value:
         return value, gx, gy, s00, s01, s10, s11
@@ -186,10 +193,15 @@ def keep_constraints(
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
     for i in range(row_kinds.shape[0]):
-        value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, qx, qy)
-        if keep > 0.0:
-            now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
-            value -= keep * now
+        if row_kinds[i] == POLYGON_ROW:
+            value, gx, gy = polygon_value(row_params[i], margin, qx, qy)
+            if keep > 0.0:
+                value -= keep * polygon_value(row_params[i], margin, ox, oy)[0]
+        else:
+            value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, qx, qy)
+            if keep > 0.0:
+                now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
+                value -= keep * now
         s00, s01, s10, s11 = t00, t01, t10, t11
         if rate != math.inf:
             value, gx, gy, s00, s01, s10, s11 = held_where_braking_ends(
@@ -258,7 +270,10 @@ def keep_reference(
         for i in range(row_kinds.shape[0]):
             p = row_params[i]
             x, y = reference[0], reference[1]
-            value, gx, gy = row_value_with_margin(row_kinds[i], p, margin, x, y)
+            if row_kinds[i] == POLYGON_ROW:
+                value, gx, gy = polygon_value(p, margin, x, y)
+            else:
+                value, gx, gy = row_value_with_margin(row_kinds[i], p, margin, x, y)
             if value <= 0.0:
                 continue
             moved = True
