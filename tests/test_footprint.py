@@ -298,3 +298,25 @@ phases:
     assert summary["clearance_min"] == pytest.approx(-0.15, abs=1e-6)
     assert run.outcome.value == "expect-failed"
     assert "wait: clearance_min = -0.15 (min 0)" in run.message
+
+
+def test_validate_names_the_side_of_a_path_through_a_box_centre() -> None:
+    """The shelf moved onto the leg's line, its centre on it: both ways across
+    are as long, and the robot goes round on the left by rule, which
+    `validate` says in a note; off the centre, no note (the shorter way is
+    the mission's choice)."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    through = ONE_LAP.replace(
+        "{type: box, min: [1.25, -0.85], max: [1.75, 0.15]}",
+        "{type: box, center: [1.5, 0], size: [0.5, 1]}",
+    )
+    _, found = check_mission_text(through, "shelf.yaml")
+    notes = [d.message for d in found if d.severity == "note"]
+    assert notes == [
+        "the path runs through the centre of keep-out zone 'shelf': the robot goes round it on "
+        "the left of its direction of travel, by the zone filter's rule; move the path off the "
+        "centre, towards the side it should take, to choose"
+    ]
+    _, found = check_mission_text(ONE_LAP, "shelf.yaml")
+    assert [d for d in found if d.severity == "note"] == []

@@ -1234,18 +1234,28 @@ def _through_centres(
     the centre itself, to the left of the direction of travel by rule
     (controllers/constrained_tracking.aim_round_zones), a side the mission
     does not choose. A path that merely crosses a zone is a detour the mission
-    chose: no note."""
+    chose: no note. A box or polygon is gone round the shorter way across, on
+    the left where both are as far: its centre, for a box and any polygon as
+    long one way across as the other, is its corners' mean."""
     if x.size < 2:
         return
     for number, constraint in enumerate(phase.constraints):
         if isinstance(constraint, StayInside):
             continue
         zone = mission.regions.get(constraint.stay_outside)
-        if not isinstance(zone, EllipseRegion | CircleRegion):
+        if isinstance(zone, EllipseRegion | CircleRegion):
+            cx, cy, a, b, _ = ellipse_geometry(zone)
+            size = min(a, b)
+        elif isinstance(zone, BoxRegion | PolygonRegion):
+            corners = region_vertices(zone)
+            cx, cy = (float(v) for v in corners.mean(axis=0))
+            edges = np.roll(corners, -1, axis=0) - corners
+            size = 0.5 * float(np.min(np.hypot(edges[:, 0], edges[:, 1])))
+            a = float(np.max(np.hypot(corners[:, 0] - cx, corners[:, 1] - cy)))
+        else:
             continue
-        cx, cy, a, b, _ = ellipse_geometry(zone)
         gap, centre_on_left = _passing(x, y, cx, cy)
-        if gap > CENTRE_SHARE * min(a, b):
+        if gap > CENTRE_SHARE * size:
             continue
         if gap <= 1e-9 * max(a, 1.0):
             side = "on the left of its direction of travel, by the zone filter's rule"
