@@ -2,6 +2,7 @@
 
     python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
     python benchmarks/measure.py session    # a session stepped 100 samples at a time / run_mission
+    python benchmarks/measure.py loop MISSION.yaml ...   # the same, of these missions
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
@@ -44,7 +45,7 @@ MISSIONS = ROOT / "missions"
 HOUR = ROOT / "benchmarks" / "hour.yaml"
 
 
-def loop(repeat: int = 7) -> None:
+def loop(*paths: str, repeat: int = 7) -> None:
     import numpy as np
 
     from wmr_mission.kernels.loop import PathBlock
@@ -65,8 +66,10 @@ def loop(repeat: int = 7) -> None:
         return block
 
     runner.PhaseRun.path_ahead = timed_path_ahead  # type: ignore[method-assign]
-    for name in ("case1", "case2"):
-        mission = plan_mission(load_mission(MISSIONS / f"{name}.yaml"))
+    files = [Path(p) for p in paths] or [MISSIONS / f"{n}.yaml" for n in ("case1", "case2")]
+    for file in files:
+        name = file.stem
+        mission = plan_mission(load_mission(file))
         runner.run_mission(mission)  # loads the compiled loop
         runs, cpu_us, path_us = [], [], []
         for _ in range(repeat):
@@ -1070,4 +1073,7 @@ if __name__ == "__main__":
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)
-    jobs[what]()
+    if what == "loop":
+        loop(*sys.argv[2:])
+    else:
+        jobs[what]()

@@ -615,6 +615,7 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
         summary = summarize(result, result.mission)
         metrics = (
             *(summary_value(summary, path) for path in EXPECTATION_PATHS.values()),
+            summary_value(summary, ("clearance_min",)),
             *comparison_metrics(result, result.mission),
         )
         assert len(metrics) == len(METRICS)

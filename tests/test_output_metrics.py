@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_output_synthetic import RADIUS, REF_OFFSET, TURN_RATE, circle_run
+from test_output_synthetic import PHASE_STARTS, RADIUS, REF_OFFSET, REGIONS, TURN_RATE, circle_run
 
 from wmr_mission.output.result import RunResult
 from wmr_mission.record import Outcome, PhaseRecord
@@ -44,6 +44,29 @@ def off_arc(run: RunResult, start: int, end: int) -> np.ndarray:
     return np.hypot(x - RADIUS * np.cos(angle), y - RADIUS * np.sin(angle))
 
 
+def _park_clearance() -> Any:
+    """The park phase's least distance from its keep-in ellipse's edge [m], by
+    shapely on the ellipse drawn with 20,000 corners (to 1e-6 m)."""
+    import shapely
+
+    run = circle_run()
+    region = REGIONS["ellipse"]
+    (a, b), rotation = region["semi_axes"], region["rotation"]
+    angle = np.linspace(0.0, 2.0 * np.pi, 20_000, endpoint=False)
+    u, w = a * np.cos(angle), b * np.sin(angle)
+    edge = shapely.LinearRing(
+        np.column_stack(
+            [
+                np.cos(rotation) * u - np.sin(rotation) * w,
+                np.sin(rotation) * u + np.cos(rotation) * w,
+            ]
+        )
+    )
+    park = slice(PHASE_STARTS[2], None)
+    least = shapely.distance(shapely.points(run.x[park], run.y[park]), edge).min()
+    return pytest.approx(float(least), abs=2e-6)
+
+
 def test_summary_key_order_is_fixed() -> None:
     summary = summarize(circle_run())
     assert list(summary) == [
@@ -60,6 +83,7 @@ def test_summary_key_order_is_fixed() -> None:
         "estimation_rms",
         "constraint_margin",  # a run with constraints
         "max_constraint_violation",
+        "clearance_min",  # [m] the body's, in a run with zones
         "phases",
         "compute_us_per_sample",
         "loop_us_per_sample",
@@ -143,10 +167,17 @@ def test_per_phase_values() -> None:
         "max_value": None,
         "time_in_violation": 0.0,
         "intrusion_max": None,
+        "clearance_min": None,
     }
     # 50 samples at 0.02 > 0; the true position itself stays inside the ellipse
     assert park["constraint"] == pytest.approx(
-        {"max_violation": 0.02, "max_value": 0.02, "time_in_violation": 0.5, "intrusion_max": 0.0}
+        {
+            "max_violation": 0.02,
+            "max_value": 0.02,
+            "time_in_violation": 0.5,
+            "intrusion_max": 0.0,
+            "clearance_min": _park_clearance(),
+        }
     )
     assert approach["estimation"]["max_abs_error"] == pytest.approx(
         {"x": 1.0, "y": 1.0, "theta": 0.0}
@@ -320,7 +351,13 @@ def test_a_held_constraint_is_no_violation() -> None:
     run.constraint[1600:1650] = 5e-8  # on the boundary, held by the corrective action
     park = summarize(run)["phases"][2]
     assert park["constraint"] == pytest.approx(
-        {"max_violation": 5e-8, "max_value": 5e-8, "time_in_violation": 0.0, "intrusion_max": 0.0}
+        {
+            "max_violation": 5e-8,
+            "max_value": 5e-8,
+            "time_in_violation": 0.0,
+            "intrusion_max": 0.0,
+            "clearance_min": _park_clearance(),
+        }
     )
     run.constraint[1600:1650] = -0.5
     summary = summarize(run)

@@ -48,7 +48,7 @@ def test_table_has_a_row_per_phase_in_fixed_columns() -> None:
     assert [line[metric:].split("  ")[0] for line in rows["park"]][:3] == [
         "end error 2 m",
         "end heading error 0.996 rad",
-        "max constraint 0.02",
+        "clearance 1 m",  # the least distance from the ellipse's edge
     ]
     assert rows["approach"][0].endswith("0 % / 0 %  0.29 s     -")
     # right-aligned under its header

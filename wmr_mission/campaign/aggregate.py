@@ -121,7 +121,10 @@ def failures_of(row: Row) -> list[Failure]:
     for check in row.missed:
         kind, value, bound = check.metric, check.value, check.bound
         amount = math.inf if value is None else value
-        times = amount / bound if bound > 0 else math.inf
+        if check.lower:  # a lower bound (clearance_min): ranked by the shortfall
+            times = math.inf if value is None else bound - amount
+        else:
+            times = amount / bound if bound > 0 else math.inf
         failure = Failure(
             (times, amount - bound, -row.run),
             row.run,

@@ -51,7 +51,9 @@ ERROR: Final = "error"
 # The run's metrics: every metric an `expect` can bound, computed by the code
 # that writes summary.json, then how the robot was driven (a head-to-head's
 # figures, wmr_mission.campaign.comparison).
-METRICS: Final = (*EXPECTATION_PATHS, *COMPARISON_METRICS)
+# clearance_min [m]: the body's least distance from its zones (a lower bound, so
+# no mission-wide EXPECTATION_PATHS key: each phase's `expect` judges it)
+METRICS: Final = (*EXPECTATION_PATHS, "clearance_min", *COMPARISON_METRICS)
 
 # After the metrics: the run's margin and the check that sets it (summary.json's).
 MARGIN_COLUMNS: Final = ("margin", "margin_check")
@@ -180,6 +182,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     summary = judge_run_metrics(result, summary_mission)
     metrics = (
         *(summary_value(summary, path) for path in EXPECTATION_PATHS.values()),
+        summary_value(summary, ("clearance_min",)),
         *comparison_metrics(result, summary_mission),
     )
     step = max(1, math.ceil(result.samples / PATH_POINTS))

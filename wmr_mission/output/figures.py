@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, IntArray
+from wmr_mission.geometry.regions import box_corners
 from wmr_mission.output.files import atomic_path
 from wmr_mission.verdicts.metrics import (
     convergence_index,
@@ -230,11 +231,12 @@ def region_extent(region: dict[str, Any]) -> tuple[float, float, float, float] |
     if kind == "circle":
         (cx, cy), r = region["center"], region["radius"]
         return cx - r, cx + r, cy - r, cy + r
-    if kind == "box":
-        (x0, y0), (x1, y1) = region["min"], region["max"]
-        return x0, x1, y0, y1
-    if kind == "polygon":
-        vertices = np.asarray(region["vertices"], dtype=np.float64)
+    if kind in ("box", "polygon"):
+        vertices = (
+            box_corners(region)
+            if kind == "box"
+            else np.asarray(region["vertices"], dtype=np.float64)
+        )
         return (
             float(vertices[:, 0].min()),
             float(vertices[:, 0].max()),
@@ -317,9 +319,11 @@ def draw_regions(
             )
         elif kind == "circle":
             patch = patches.Circle(tuple(region["center"]), region["radius"], **style)
-        elif kind == "box":
+        elif kind == "box" and region.get("min") is not None:
             (x0, y0), (x1, y1) = region["min"], region["max"]
             patch = patches.Rectangle((x0, y0), x1 - x0, y1 - y0, **style)
+        elif kind == "box":  # turned by its heading
+            patch = patches.Polygon(box_corners(region), **style)
         elif kind == "polygon":
             patch = patches.Polygon(np.asarray(region["vertices"], dtype=np.float64), **style)
         elif kind == "half-plane":
@@ -707,6 +711,43 @@ def _draw_headings(ax: Axes, result: RunRecord, size: float) -> None:
     )
 
 
+def _draw_footprint(ax: Axes, result: RunRecord) -> None:
+    """The robot's body (robot.footprint) where its heading arrows are: what
+    keeps the zones, where the path is only its axle's centre."""
+    from matplotlib import patches
+
+    footprint = ((result.mission or {}).get("robot") or {}).get("footprint")
+    kept = np.flatnonzero(np.isfinite(result.x) & np.isfinite(result.y) & np.isfinite(result.theta))
+    if not footprint or kept.size == 0:
+        return
+    x, y, theta = result.x[kept], result.y[kept], result.theta[kept]
+    travelled = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
+    stations = np.linspace(0.0, float(travelled[-1]), HEADING_ARROWS)
+    at = np.unique(np.searchsorted(travelled, stations).clip(0, x.size - 1))
+    style: dict[str, Any] = {
+        "facecolor": "none",
+        "edgecolor": "0.45",
+        "linewidth": 0.7,
+        "zorder": 4,
+    }
+    for k in at:
+        patch: Any
+        if "radius" in footprint:
+            patch = patches.Circle((x[k], y[k]), float(footprint["radius"]), **style)
+        else:
+            corners = np.asarray(footprint["polygon"], dtype=np.float64)
+            c, s = math.cos(theta[k]), math.sin(theta[k])
+            placed = np.column_stack(
+                [
+                    x[k] + c * corners[:, 0] - s * corners[:, 1],
+                    y[k] + s * corners[:, 0] + c * corners[:, 1],
+                ]
+            )
+            patch = patches.Polygon(placed, **style)
+        ax.add_patch(patch)
+    patch.set_label("body (robot.footprint)")
+
+
 def _draw_ends(ax: Axes, result: RunRecord) -> None:
     ax.plot(
         result.x[0],
@@ -745,6 +786,7 @@ def _xy_on(ax: Axes, result: RunRecord, label: str | None = None, color: Any = N
     if result.samples:
         _draw_path(ax, result, colors)
         _draw_headings(ax, result, size)
+        _draw_footprint(ax, result)
         _draw_changes(ax, result, size)
         _draw_updates(ax, result)
         _draw_reactions(ax, result)

@@ -60,7 +60,9 @@ def key_metric(phase: dict[str, Any]) -> str:
         if target.get("heading") is not None:
             parts.append(f"end heading error {_number(target.get('heading'), ' rad')}")
     constraint = phase.get("constraint") or {}
-    if constraint.get("max_violation") is not None:
+    if constraint.get("clearance_min") is not None:  # in metres, of the body if it has one
+        parts.append(f"clearance {_number(constraint['clearance_min'], ' m')}")
+    elif constraint.get("max_violation") is not None:
         parts.append(f"max constraint {_number(constraint['max_violation'], '')}")
     jitter = (phase.get("inputs") or {}).get("turn_rate_jitter")
     if jitter is not None:

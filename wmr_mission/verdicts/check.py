@@ -1,7 +1,8 @@
 """One `expect` check as data, and its margin.
 
 A check bounds one metric of a phase (or of the whole run, ``phase`` None)
-from above: it is met when the run's value is at most the bound. Its margin
+from above: it is met when the run's value is at most the bound (from below
+for ``clearance_min``: at least the bound, its rho ``value - bound``). Its margin
 is the quantitative answer the robustness of signal temporal logic gives to
 ``value <= bound``:
 
@@ -49,21 +50,31 @@ class Check:
     bound: float
     value: float | None
     advice: str | None = None
+    # A bound from below (``clearance_min``: at least so many metres): met when
+    # the value is at least the bound, its rho ``value - bound``.
+    lower: bool = False
 
     @property
     def met(self) -> bool:
-        return self.value is not None and self.value <= self.bound
+        if self.value is None:
+            return False
+        return self.value >= self.bound if self.lower else self.value <= self.bound
 
     @property
     def rho(self) -> float:
-        """``bound - value`` in the metric's unit; -inf without a value."""
-        return -math.inf if self.value is None else self.bound - self.value
+        """``bound - value`` (``value - bound`` for a lower bound) in the
+        metric's unit; -inf without a value."""
+        if self.value is None:
+            return -math.inf
+        return self.value - self.bound if self.lower else self.bound - self.value
 
     @property
     def margin(self) -> float:
         """``rho`` over the bound's size: checks of different metrics compare."""
         if self.bound != 0.0:
             return self.rho / abs(self.bound)
+        if self.lower:  # at least 0: how far above it, over 1 of the unit
+            return self.rho
         # 0 <= 0 is as far within its bound as 0 is within any (1 - 0 / bound)
         return 1.0 if self.value == 0.0 else self.rho
 
@@ -75,14 +86,19 @@ class Check:
     def words(self) -> str:
         """``orbit: turn_rate_at_limit = 0.974 (max 0.01)``: a miss in a message."""
         value = "none" if self.value is None else f"{self.value:.6g}"
-        return f"{self.name} = {value} (max {self.bound:.6g})"
+        return f"{self.name} = {value} ({self.side} {self.bound:.6g})"
+
+    @property
+    def side(self) -> str:
+        """``max``, or ``min`` for a lower bound: the key of its bound in summary.json."""
+        return "min" if self.lower else "max"
 
     def record(self) -> dict[str, Any]:
         """The check as ``summary.json``'s ``expectations`` lists it."""
         record: dict[str, Any] = {
             "metric": self.metric,
             "phase": self.phase,
-            "max": self.bound,
+            self.side: self.bound,
             "value": self.value,
             "met": self.met,
             "rho": _finite(self.rho),
@@ -96,12 +112,14 @@ class Check:
     def read(cls, record: Mapping[str, Any]) -> Check:
         """A check of ``summary.json`` (as ``record()`` writes it) read back."""
         value, advice, phase = record.get("value"), record.get("advice"), record.get("phase")
+        lower = "max" not in record
         return cls(
             str(record["metric"]),
             None if phase is None else str(phase),
-            float(record["max"]),
+            float(record["min" if lower else "max"]),
             None if value is None else float(value),
             None if advice is None else str(advice),
+            lower,
         )
 
 

@@ -30,6 +30,7 @@ from wmr_mission.spec import models
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts.advice import advice
 from wmr_mission.verdicts.check import Check, margin_fields
+from wmr_mission.verdicts.clearance import clearance_min
 from wmr_mission.verdicts.nearest import PointGrid
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
@@ -76,6 +77,7 @@ PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
     "detour_offset_max": ("tracking", "detour_offset_max"),
     "detour_time": ("tracking", "detour_time"),
     "zone_intrusion_max": ("constraint", "intrusion_max"),
+    "clearance_min": ("constraint", "clearance_min"),  # a lower bound: at least
     "stall_time": ("regulation", "stall_time"),
     "overshoot_max": ("regulation", "overshoot_max"),
     "speed_jump_max": ("inputs", "speed_jump_max"),
@@ -99,6 +101,7 @@ _WHERE_MEASURED = frozenset(
         "detour_offset_max",
         "detour_time",
         "zone_intrusion_max",
+        "clearance_min",
         "stall_time",
         "overshoot_max",
         "speed_jump_max",
@@ -483,6 +486,11 @@ class _PhaseSamples:
         }
 
     @cached_value
+    def clearance(self) -> float | None:
+        r, w = self.result, self.window
+        return clearance_min(r.x[w], r.y[w], r.theta[w], self.zones, _footprint(r.mission))
+
+    @cached_value
     def intrusion(self) -> float | None:
         r, w = self.result, self.window
         return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers)
@@ -521,6 +529,7 @@ _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
         )
     },
     "zone_intrusion_max": lambda p: p.intrusion,
+    "clearance_min": lambda p: p.clearance,
     "stall_time": lambda p: p.stall,
     "overshoot_max": lambda p: p.overshoot,
     **{key: _input_value(key) for key in _INPUT_METRICS},
@@ -618,6 +627,8 @@ def _phase_summary(
                 float(np.count_nonzero(constraint > VIOLATION_TOLERANCE)) * result.dt
             ),
             "intrusion_max": quality["constraint"]["intrusion_max"],
+            # [m] the body's least distance from the zones' forbidden side
+            "clearance_min": phase.clearance,
         },
         "estimation": {
             "rms": quality["estimation"]["rms"],
@@ -792,6 +803,7 @@ def run_metrics(result: RunRecord, mission: Mapping[str, Any] | None = None) -> 
         summary["constraint_margin"] = result.constraint_margin
     # last in summary.json, whose key order is fixed
     summary["max_constraint_violation"] = summary.pop("max_constraint_violation")
+    summary["clearance_min"] = summary.pop("clearance_min")
     return summary
 
 
@@ -812,10 +824,33 @@ def _bounded_metrics(
         "final": _final(result, phase_segments(result.phase)),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
         "max_constraint_violation": _violation(result.constraint, result.phase),
+        "clearance_min": run_clearance(result),
         # A real-time run's pace and command latency (wmr_mission.backends); absent in
         # our simulator, whose summary keeps its bytes.
         **({} if result.realtime is None else {"realtime": copy.deepcopy(result.realtime)}),
     }
+
+
+def _footprint(mission: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
+    """The robot's footprint as written (None: a point)."""
+    robot = (mission or {}).get("robot") or {}
+    footprint = robot.get("footprint")
+    return footprint if isinstance(footprint, Mapping) else None
+
+
+def run_clearance(result: RunRecord) -> float | None:
+    """[m] the least clearance of the body over the run's phases (None where no
+    phase has a zone)."""
+    found = []
+    for index, start, end in phase_segments(result.phase):
+        zones = zones_of(result.phases[index].constraints, result.regions)
+        w = slice(start, end)
+        value = clearance_min(
+            result.x[w], result.y[w], result.theta[w], zones, _footprint(result.mission)
+        )
+        if value is not None:
+            found.append(value)
+    return min(found) if found else None
 
 
 def loop_time_us(result: RunRecord) -> float | None:
@@ -894,6 +929,9 @@ def _phase_checks(
             continue
         value = summary_value(phase, path)
         if metric in _WHERE_MEASURED and value is None:
+            continue
+        if metric == "clearance_min":  # at least so many metres
+            checks.append(Check(metric, name, float(threshold), value, lower=True))
             continue
         bound = auto_threshold(metric, phase, numbers) if threshold == "auto" else threshold["max"]
         if bound is not None:

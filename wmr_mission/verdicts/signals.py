@@ -59,6 +59,7 @@ PEAK: dict[str, tuple[str, str]] = {
     "final_position_error": ("goal", "distance to the target"),
 }
 LEVEL: dict[str, str] = {
+    "clearance_min": "zones",  # the body's; the panel draws the axle's depth
     "tracking_error_rms": "cross_track",
     "detour_time": "cross_track",
     "stall_time": "goal",
@@ -82,6 +83,7 @@ UNITS: dict[str, str] = {
     "detour_offset_max": "m",
     "along_track_lag_max": "m",
     "zone_intrusion_max": "m",
+    "clearance_min": "m",
     "final_position_error": "m",
     "final_heading_error": "rad",
     "speed_jump_max": "m/s",
