@@ -2,6 +2,7 @@
 
     python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
     python benchmarks/measure.py session    # a session stepped 100 samples at a time / run_mission
+    python benchmarks/measure.py loop MISSION.yaml ...   # the same, of these missions
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
@@ -15,6 +16,7 @@
     python benchmarks/measure.py dare       # scipy's solve_discrete_are, one 3x3 call
     python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
     python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep throughput
+    python benchmarks/measure.py judge      # judging a case-2 run, and a 1-hour run per sample
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
@@ -43,7 +45,7 @@ MISSIONS = ROOT / "missions"
 HOUR = ROOT / "benchmarks" / "hour.yaml"
 
 
-def loop(repeat: int = 7) -> None:
+def loop(*paths: str, repeat: int = 7) -> None:
     import numpy as np
 
     from wmr_mission.kernels.loop import PathBlock
@@ -64,8 +66,10 @@ def loop(repeat: int = 7) -> None:
         return block
 
     runner.PhaseRun.path_ahead = timed_path_ahead  # type: ignore[method-assign]
-    for name in ("case1", "case2"):
-        mission = plan_mission(load_mission(MISSIONS / f"{name}.yaml"))
+    files = [Path(p) for p in paths] or [MISSIONS / f"{n}.yaml" for n in ("case1", "case2")]
+    for file in files:
+        name = file.stem
+        mission = plan_mission(load_mission(file))
         runner.run_mission(mission)  # loads the compiled loop
         runs, cpu_us, path_us = [], [], []
         for _ in range(repeat):
@@ -267,7 +271,7 @@ mark("reading and checking the mission")
 from wmr_mission.commands.compile import choose_loop
 from wmr_mission.sim.plan import sample_budget
 from wmr_mission.sim import runner
-from wmr_mission.output import metrics
+from wmr_mission.verdicts import metrics
 choose_loop(sample_budget(mission))
 mark("importing the runner")
 result = runner._run(runner.plan_mission(mission), None, None, None)
@@ -546,7 +550,7 @@ def distance() -> None:
     sampled every 1 cm, the robot off it by noise of each size."""
     import numpy as np
 
-    from wmr_mission.output.metrics import distance_to_path
+    from wmr_mission.verdicts.metrics import distance_to_path
 
     t = np.arange(360_001) * 0.01
     x_ref, y_ref = np.cos(t), 1 + np.sin(t)
@@ -613,9 +617,9 @@ def campaign(repeat: int = 40) -> None:
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import METRICS, Row, mission_of, run_row
-    from wmr_mission.output.metrics import judge_run_metrics
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
+    from wmr_mission.verdicts.metrics import judge_run_metrics
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
@@ -658,6 +662,56 @@ def campaign(repeat: int = 40) -> None:
         wall, _ = _wall([*command, "--out", f"{tmp}/plots"], check=False)
         runs = record["runs"]
         print(f"sweep --workers 2 with figures: end to end {wall:.2f} s = {runs / wall:.1f} runs/s")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def judge_cost(repeat: int = 40) -> None:
+    """What judging costs: runs 1..``repeat`` of case2-headings, each judged as a
+    campaign's row judges it (``judge_run_metrics``) and as ``run`` judges it
+    (``judge``, every metric of summary.json), medians; then the 1-hour mission
+    judged as ``run`` judges it, per sample."""
+    from dataclasses import replace
+
+    from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.plan import Plan
+    from wmr_mission.campaign.rows import mission_of
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
+    from wmr_mission.spec.loader import load_mission
+    from wmr_mission.verdicts.metrics import judge, judge_run_metrics
+
+    loaded = load_campaign(CAMPAIGN)
+    plan = Plan(loaded.campaign)
+    runs = []
+    for run in range(1, repeat + 1):
+        draw = plan.draw(run)
+        mission, _ = mission_of(loaded, draw)
+        assert mission is not None
+        result = run_mission(plan_mission(mission, draw.seed))
+        runs.append((result, mission.model_dump(mode="json")))
+    row_ms, run_ms = [], []
+    for result, resolved in runs:
+        for judged, took in ((judge_run_metrics, row_ms), (judge, run_ms)):
+            fresh = replace(result)  # the arrays shared: judging never writes them
+            started = time.perf_counter()
+            judged(fresh, resolved)
+            took.append((time.perf_counter() - started) * 1000)
+    samples = statistics.median(r.samples for r, _ in runs)
+    print(
+        f"case2-headings, median over {repeat} runs of {samples:.0f} samples: "
+        f"judge_run_metrics {statistics.median(row_ms):.3f} ms, "
+        f"judge {statistics.median(run_ms):.3f} ms"
+    )
+    mission = load_mission(HOUR)
+    hour = run_mission(plan_mission(mission))
+    resolved = mission.model_dump(mode="json")
+    started = time.perf_counter()
+    judge(replace(hour), resolved)
+    took = time.perf_counter() - started
+    print(
+        f"1 h: {hour.samples} samples judged in {took:.3f} s = "
+        f"{took / hour.samples * 1e6:.2f} us a sample"
+    )
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -1007,6 +1061,7 @@ if __name__ == "__main__":
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,
+        "judge": judge_cost,
         "runner": runner_cost,
         "drawing": drawing,
         "png": png,
@@ -1018,4 +1073,7 @@ if __name__ == "__main__":
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)
-    jobs[what]()
+    if what == "loop":
+        loop(*sys.argv[2:])
+    else:
+        jobs[what]()

@@ -19,7 +19,7 @@ import numpy as np
 
 from wmr_mission import load_mission, run_mission
 from wmr_mission.controllers.paper import HEADING_STEP
-from wmr_mission.output.metrics import distance_to_path
+from wmr_mission.verdicts.metrics import distance_to_path
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -41,10 +41,21 @@ class Judged:
     outcome: str  # the product's: success, timeout, expect-failed, ...
     message: str
     problems: tuple[str, ...]  # the judge's; empty when sound
+    # summary.json's margin (null: -inf, or +inf without a check) and what sets it
+    margin: float | None = None
+    margin_check: str | None = None
 
     @property
     def success(self) -> bool:
         return self.outcome == "success"
+
+    @property
+    def margin_agrees(self) -> bool:
+        """Whether the margin's sign is the verdict: >= 0 (or +inf, no check
+        and no failure naming it) exactly for a success."""
+        if self.margin is None:
+            return self.success == (self.margin_check is None)
+        return self.success == (self.margin >= 0.0)
 
     @property
     def sound(self) -> bool:
@@ -58,20 +69,28 @@ def run(mission: Path, run_dir: Path) -> None:
     run_mission(load_mission(mission)).write(run_dir, plots=False)
 
 
-def outcome_of(run_dir: Path) -> tuple[str, str]:
+def summary_of(run_dir: Path) -> dict[str, object]:
     import json
 
-    summary = json.loads((run_dir / "summary.json").read_text())
-    return str(summary["outcome"]), str(summary["message"])
+    summary: dict[str, object] = json.loads((run_dir / "summary.json").read_text())
+    return summary
 
 
 def run_and_judge(mission: Path, runs: Path, simulate: bool) -> Judged:
     run_dir = runs / mission.stem
     if simulate:
         run(mission, run_dir)
-    outcome, message = outcome_of(run_dir)
+    summary = summary_of(run_dir)
     verdict = soundness.judge(mission, run_dir)
-    return Judged(mission.stem, outcome, message, tuple(verdict.problems))
+    margin, check = summary.get("margin"), summary.get("margin_check")
+    return Judged(
+        mission.stem,
+        str(summary["outcome"]),
+        str(summary["message"]),
+        tuple(verdict.problems),
+        None if margin is None else float(str(margin)),
+        None if check is None else str(check),
+    )
 
 
 def judge_all(

@@ -38,7 +38,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from geometry import distance_to_ellipse  # noqa: E402
 
-from wmr_mission.output.result import Outcome, RunResult  # noqa: E402
+from wmr_mission.output.result import RunResult  # noqa: E402
+from wmr_mission.record import Outcome  # noqa: E402
 from wmr_mission.sim.plan import plan_mission  # noqa: E402
 from wmr_mission.sim.runner import run_mission  # noqa: E402
 from wmr_mission.spec.loader import load_mission_text  # noqa: E402

@@ -30,11 +30,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from wmr_mission.output.metrics import summarize
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission_text
 from wmr_mission.spec.models import Mission
+from wmr_mission.verdicts.metrics import summarize
 
 
 def set_path(data: dict[str, Any], path: str, value: Any) -> None:

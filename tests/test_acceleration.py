@@ -13,9 +13,9 @@ import yaml
 
 from wmr_mission import mission_from_dict, run_mission
 from wmr_mission.kernels.disturbances import Actuation, applied_input
-from wmr_mission.output.metrics import check_expectations, judge
-from wmr_mission.output.regulation import overshoot as target_overshoot
 from wmr_mission.sim.plan import plan_mission
+from wmr_mission.verdicts.metrics import check_expectations, judge
+from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -138,8 +138,8 @@ def test_overshoot_is_how_far_past_the_target_along_the_way_in() -> None:
     phase = {"name": "park", "kind": "regulate", "settled_samples": 100, "regulation": regulation}
     resolved = mission_from_dict(_mission(None)).model_dump(mode="json")
     checks = check_expectations({"phases": [phase]}, resolved)
-    failed = [c for c in checks if not c["met"]]
-    assert [(c["metric"], c["max"], c["value"]) for c in failed] == [("overshoot_max", 0.02, 2.29)]
+    failed = [c for c in checks if not c.met]
+    assert [(c.metric, c.bound, c.value) for c in failed] == [("overshoot_max", 0.02, 2.29)]
 
 
 def _line(theta: float, controller: str) -> dict:

@@ -1,5 +1,5 @@
 """The entry of a track phase under acceleration limits, in the product's
-verdict (wmr_mission/output/tracking.py) and the independent judge's
+verdict (wmr_mission/verdicts/tracking.py) and the independent judge's
 (scripts/soundness.py) alike: the time to turn onto the path at the turn-rate
 acceleration limit, to reach the reference's speed (v_ref / a_v), and to
 close what the reference gained meanwhile (over v_max - v_ref); after it the
@@ -17,9 +17,9 @@ from judge_generated import GENERATED, judge_all
 from soundness import judge
 
 from wmr_mission import mission_from_dict, run_mission
-from wmr_mission.output.metrics import auto_threshold
-from wmr_mission.output.numbers import MissionNumbers, half_turn_time, mission_numbers
-from wmr_mission.output.tracking import track_quality
+from wmr_mission.verdicts.metrics import auto_threshold
+from wmr_mission.verdicts.numbers import MissionNumbers, half_turn_time, mission_numbers
+from wmr_mission.verdicts.tracking import track_quality
 
 SPEED = 2.0  # [m/s] of the reference along the x axis
 LIMITS = {"v": 6.0, "omega": 7.0}

@@ -71,12 +71,12 @@ def test_a_private_reach_is_seen() -> None:
     """The check itself: both ways of reaching a private name are found, a
     package's own private names are its own."""
     source = (
-        "from wmr_mission.output.metrics import _PointGrid\n"
+        "from wmr_mission.verdicts.metrics import _PointGrid\n"
         "from wmr_mission.kernels import jit\n"
         "from wmr_mission.campaign.rows import _private_of_my_own\n"
         "jit._state\n"
     )
     assert private_reaches(source, "wmr_mission.campaign.figures") == [
-        "1: wmr_mission.output.metrics._PointGrid",
+        "1: wmr_mission.verdicts.metrics._PointGrid",
         "4: wmr_mission.kernels.jit._state",
     ]

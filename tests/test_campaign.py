@@ -285,7 +285,7 @@ def test_a_ctrl_c_inside_a_run_stops_the_campaign_never_the_run(
     campaign that is the campaign's Ctrl-C: no row and no worst-run directory
     says ``interrupted`` (neither would be what its replay gives), the sweep
     exits 130 and keeps what finished."""
-    from wmr_mission.output.result import Outcome
+    from wmr_mission.record import Outcome
     from wmr_mission.sim import runner
 
     real = runner.run_mission
@@ -568,8 +568,8 @@ def test_a_row_is_judged_as_judge_judges_it_on_either_side_of_the_bound() -> Non
     path it must fall back to the latter, and it always agrees with judge."""
     import copy
 
-    from wmr_mission.output.metrics import judge, judge_run_metrics, summarize
-    from wmr_mission.output.result import Outcome
+    from wmr_mission.record import Outcome
+    from wmr_mission.verdicts.metrics import judge, judge_run_metrics, summarize
 
     def mission(limit: float) -> dict[str, Any]:
         expect = {"settle_time": 1.0, "tracking_error_max": {"max": limit}}
@@ -586,7 +586,10 @@ def test_a_row_is_judged_as_judge_judges_it_on_either_side_of_the_bound() -> Non
         summary = judge(judged, mission(limit))
         metrics = judge_run_metrics(fast, mission(limit))
         assert (fast.outcome, fast.message) == (judged.outcome, judged.message)
+        missed = metrics.pop("missed")
         assert metrics == {key: summary[key] for key in metrics}
+        # the checks it missed, as data: summary.json's, exactly
+        assert missed == [c for c in summary["expectations"] if not c["met"]]
         outcomes.append(fast.outcome)
     assert outcomes == [Outcome.success, Outcome.success, Outcome.expect_failed]
 
@@ -598,7 +601,7 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
     metrics and path, over case2-headings runs that succeed and that fail."""
     from wmr_mission.campaign.comparison import comparison_metrics
     from wmr_mission.campaign.rows import METRICS, PATH_POINTS, run_row, simulate
-    from wmr_mission.output.metrics import EXPECTATION_PATHS, summarize, summary_value
+    from wmr_mission.verdicts.metrics import EXPECTATION_PATHS, summarize, summary_value
 
     loaded = load_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml")
     plan = Plan(loaded.campaign)
@@ -612,12 +615,21 @@ def test_a_row_is_the_run_its_replay_runs() -> None:
         summary = summarize(result, result.mission)
         metrics = (
             *(summary_value(summary, path) for path in EXPECTATION_PATHS.values()),
+            summary_value(summary, ("clearance_min",)),
             *comparison_metrics(result, result.mission),
         )
         assert len(metrics) == len(METRICS)
         assert row.outcome == result.outcome.value
         assert row.reason == ("" if row.succeeded else result.message)
         assert row.metrics == metrics
+        # the run's margin: runs.csv's is summary.json's, and so are the checks it missed
+        written = result.summary()
+        assert (row.margin, row.margin_check) == (written["margin"], written["margin_check"])
+        missed = [c for c in written.get("expectations", []) if not c["met"]]
+        # (a run's directory also says when each first failed: first_violation)
+        assert [c.record() for c in row.missed] == [
+            {k: v for k, v in c.items() if k != "first_violation"} for c in missed
+        ]
         step = -(-result.samples // PATH_POINTS)
         assert (
             row.path_xy.tobytes()
@@ -683,8 +695,8 @@ def test_a_row_is_judged_as_judge_judges_it_on_every_phase_threshold() -> None:
     message."""
     import copy
 
-    from wmr_mission.output.metrics import judge, judge_run_metrics
-    from wmr_mission.output.result import Outcome
+    from wmr_mission.record import Outcome
+    from wmr_mission.verdicts.metrics import judge, judge_run_metrics
 
     run = _lagging_circle_run()
     run.omega = run.omega.copy()
@@ -721,8 +733,8 @@ def test_a_row_measures_of_each_phase_only_what_its_thresholds_read(
     and still gives judge's outcome and message."""
     import copy
 
-    from wmr_mission.output import metrics
-    from wmr_mission.output.result import Outcome
+    from wmr_mission.record import Outcome
+    from wmr_mission.verdicts import metrics
 
     run = _lagging_circle_run()
     run.omega = run.omega.copy()

@@ -1,5 +1,5 @@
-"""The worst runs of a campaign per kind of failure: each metric a run missed
-(read from its reason, as the run wrote it) or each outcome that ended a run."""
+"""The worst runs of a campaign per kind of failure: each check a run missed
+(its row's checks, as data) or each outcome that ended a run."""
 
 from __future__ import annotations
 
@@ -7,33 +7,43 @@ import numpy as np
 
 from wmr_mission.campaign.aggregate import WORST_PER_FAILURE, WORST_RUNS, Aggregate, failures_of
 from wmr_mission.campaign.rows import METRICS, Row
-from wmr_mission.output.metrics import unmet, unmet_in
+from wmr_mission.verdicts.check import Check
+from wmr_mission.verdicts.metrics import unmet
 
 PATH = np.zeros((2, 0), dtype=np.float32)
 
 
-def _row(run: int, outcome: str, reason: str = "", error: float = 0.0) -> Row:
+def _row(run: int, outcome: str, missed: tuple[Check, ...] | str = (), error: float = 0.0) -> Row:
+    """A row that missed the checks ``missed``, or ended with the reason ``missed``."""
     metrics = tuple(error if name == "final_position_error" else 0.0 for name in METRICS)
-    return Row(run, 1000 + run, outcome, (), metrics, reason, PATH)
+    if isinstance(missed, str):
+        return Row(run, 1000 + run, outcome, (), metrics, missed, PATH, margin_check=outcome)
+    reason = "expectation not met: " + "; ".join(unmet(list(missed))) if missed else ""
+    least = min(missed, key=lambda c: c.margin, default=None)
+    margin = None if least is None else least.margin
+    check = None if least is None else least.name
+    return Row(run, 1000 + run, outcome, (), metrics, reason, PATH, (), margin, check, missed)
 
 
-def _missed(*checks: tuple[str | None, str, float, float]) -> str:
-    lines = unmet(
-        [
-            {"metric": metric, "phase": phase, "max": bound, "value": value, "met": False}
-            for phase, metric, value, bound in checks
-        ]
+def _missed(*checks: tuple[str | None, str, float, float]) -> tuple[Check, ...]:
+    return tuple(Check(metric, phase, bound, value) for phase, metric, value, bound in checks)
+
+
+def test_a_runs_missed_checks_are_read_as_data_never_from_its_words() -> None:
+    """The row carries the checks it missed: the value as judged, not as its
+    message rounds it to 6 digits, and the phase whatever its name holds."""
+    missed = _missed(("leg; 2", "speed_jump_max", 2.3345678912, 2.0))
+    row = _row(1, "expect-failed", missed)
+    assert row.reason == "expectation not met: leg; 2: speed_jump_max = 2.33457 (max 2)"
+    [failure] = failures_of(row)
+    assert (failure.kind, failure.phase, failure.value, failure.bound) == (
+        "speed_jump_max",
+        "leg; 2",
+        2.3345678912,
+        2.0,
     )
-    return "expectation not met: " + "; ".join(lines)
-
-
-def test_a_reason_is_read_back_as_the_checks_it_lists() -> None:
-    reason = _missed(("south#1", "speed_jump_max", 2.33457, 2.0), (None, "duration", 31.5, 30.0))
-    assert unmet_in(reason) == [
-        {"metric": "speed_jump_max", "phase": "south#1", "value": 2.33457, "max": 2.0},
-        {"metric": "duration", "phase": None, "value": 31.5, "max": 30.0},
-    ]
-    assert unmet_in("phase 'go' timed out") == []
+    assert failure.margin == (2.0 - 2.3345678912) / 2.0
+    assert failure.margin_check == "leg; 2: speed_jump_max"
 
 
 def test_each_kind_keeps_the_runs_that_failed_it_worst() -> None:

@@ -13,7 +13,8 @@ from hand_built import ELLIPSE_ROWS, case1, case2, mission, regulate_only, spira
 from wmr_mission.controllers.paper import BEARING, DEVIATION, INCREMENT, PaperTuning, track_input
 from wmr_mission.kernels.model import saturate, step
 from wmr_mission.kernels.records import Plant, scratch
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome
 from wmr_mission.sim.plan import Conditions, PhasePlan
 from wmr_mission.sim.runner import run_mission
 

@@ -24,8 +24,9 @@ from scipy import stats
 from wmr_mission.estimators.ekf import ekf_predict, ekf_step, ekf_tuning
 from wmr_mission.estimators.observer import observer_step, observer_tuning
 from wmr_mission.kernels.model import step
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import trajectory_csv_text, write_trajectory
+from wmr_mission.record import Outcome
 from wmr_mission.sim import runner
 from wmr_mission.sim.draws import DisturbancePlan, Draws
 from wmr_mission.sim.runner import run_mission

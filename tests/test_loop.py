@@ -13,8 +13,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import write_trajectory
+from wmr_mission.record import Outcome
 from wmr_mission.sim import runner
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.runner import run_mission

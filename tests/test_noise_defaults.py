@@ -16,12 +16,13 @@ import yaml
 
 from wmr_mission.estimators import ekf, observer
 from wmr_mission.kernels.model import step
-from wmr_mission.output.advice import advice
-from wmr_mission.output.numbers import mission_numbers
-from wmr_mission.output.result import Outcome
+from wmr_mission.record import Outcome
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 from wmr_mission.spec.models import Mission
+from wmr_mission.verdicts.advice import advice
+from wmr_mission.verdicts.check import Check
+from wmr_mission.verdicts.numbers import mission_numbers
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 
@@ -234,9 +235,8 @@ def test_every_shipped_mission_succeeds_as_shipped(path: Path) -> None:
 NOISY_PHASE = {"estimation": {"rms": {"x": 0.005, "y": 0.004, "theta": 0.003}}}
 
 
-def _jitter_check(value: float, bound: float) -> dict[str, Any]:
-    return {"metric": "turn_rate_jitter", "phase": "go", "max": bound, "value": value,
-            "met": value <= bound}  # fmt: skip
+def _jitter_check(value: float, bound: float) -> Check:
+    return Check("turn_rate_jitter", "go", bound, value)
 
 
 def test_a_jitter_miss_under_position_noise_names_the_look_ahead() -> None:
@@ -255,7 +255,7 @@ def test_a_jitter_miss_under_position_noise_names_the_look_ahead() -> None:
     assert (
         advice(_jitter_check(0.16, 0.07), NOISY_PHASE, quiet, "paper") is None
     )  # no mechanism known
-    kick = {**_jitter_check(12.0, 6.0), "metric": "turn_rate_jump_max"}
+    kick = Check("turn_rate_jump_max", "go", 6.0, 12.0)
     assert advice(kick, NOISY_PHASE, numbers, "paper") is None
     # an estimate too quiet to explain it (a zone or a corner turns the robot): none
     quiet_estimate = {"estimation": {"rms": {"x": 1e-5, "y": 1e-5, "theta": 0.001}}}

@@ -20,8 +20,8 @@ from wmr_mission import load_mission, run_campaign
 from wmr_mission.campaign.aggregate import clopper_pearson
 from wmr_mission.cli import app
 from wmr_mission.estimators import ekf, observer
-from wmr_mission.output.metrics import summarize
 from wmr_mission.sim.plan import plan_mission
+from wmr_mission.verdicts.metrics import summarize
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE2 = ROOT / "missions" / "case2.yaml"

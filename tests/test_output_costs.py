@@ -21,17 +21,18 @@ from test_output_synthetic import circle_run
 
 import wmr_mission.commands.plot as plot_command
 import wmr_mission.output.figures as plots_module
-import wmr_mission.output.metrics as metrics_module
 import wmr_mission.output.rundir as rundir_module
+import wmr_mission.verdicts.metrics as metrics_module
 from wmr_mission.api import load_mission, run_mission
 from wmr_mission.commands.run import run_command
 from wmr_mission.output.figures import MAX_LEGEND_PHASES
 from wmr_mission.output.files import json_text, write_json
-from wmr_mission.output.metrics import LOCAL_WINDOW, distance_to_path, summarize
-from wmr_mission.output.nearest import PointGrid
 from wmr_mission.output.reader import load_run
-from wmr_mission.output.result import PhaseRecord, RunResult
+from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
+from wmr_mission.record import PhaseRecord
+from wmr_mission.verdicts.metrics import LOCAL_WINDOW, distance_to_path, summarize
+from wmr_mission.verdicts.nearest import PointGrid
 
 MISSION = """version: 1
 name: short
@@ -96,6 +97,39 @@ def test_run_computes_the_summary_once(
     written = load_run(out)
     assert written.samples == 151
     assert "lap" in capsys.readouterr().out
+
+
+def test_run_checks_and_plans_the_mission_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`run` checks the mission once, as it loads it, and plans it once: the
+    runner takes the plan, and the judge the mission as loaded, never checked
+    (dumped and loaded again) nor planned again."""
+    from wmr_mission.sim import plan as plan_module
+    from wmr_mission.sim import runner as runner_module
+
+    calls: dict[str, int] = {"checked again": 0, "planned": 0}
+    real_check, real_plan = runner_module.validate_mission, plan_module.plan_mission
+
+    def checked(*args: Any, **kwargs: Any) -> Any:
+        calls["checked again"] += 1
+        return real_check(*args, **kwargs)
+
+    def planned(*args: Any, **kwargs: Any) -> Any:
+        calls["planned"] += 1
+        return real_plan(*args, **kwargs)
+
+    monkeypatch.setattr(runner_module, "validate_mission", checked)
+    monkeypatch.setattr(plan_module, "plan_mission", planned)
+    monkeypatch.setattr(runner_module, "plan_mission", planned)
+    mission = tmp_path / "short.yaml"
+    mission.write_text(MISSION)
+    out = tmp_path / "run"
+    assert run_command(mission, out=out, seed=None, plots=False, animate=False) == 0
+    assert calls == {"checked again": 0, "planned": 1}
+    summary = json.loads((out / SUMMARY_FILE).read_text())
+    assert summary["outcome"] == "success"  # judged
+    assert summary["margin"] >= 0.0
 
 
 # --- a figure that fails -----------------------------------------------------------

@@ -25,7 +25,8 @@ from wmr_mission.output.figures import (
     plot_xy,
     view_box,
 )
-from wmr_mission.output.result import PhaseRecord, RunResult, Transition
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import PhaseRecord, Transition
 from wmr_mission.spec.models import NAMED_COLORS
 
 

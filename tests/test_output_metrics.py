@@ -7,9 +7,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_output_synthetic import RADIUS, REF_OFFSET, TURN_RATE, circle_run
+from test_output_synthetic import PHASE_STARTS, RADIUS, REF_OFFSET, REGIONS, TURN_RATE, circle_run
 
-from wmr_mission.output.metrics import (
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome, PhaseRecord
+from wmr_mission.verdicts.metrics import (
     LOCAL_WINDOW,
     at_limit_fraction,
     check_expectations,
@@ -20,7 +22,6 @@ from wmr_mission.output.metrics import (
     summarize,
     wrap_angle,
 )
-from wmr_mission.output.result import Outcome, PhaseRecord, RunResult
 
 NO_EXPECT = {
     "final_position_error": None,
@@ -43,6 +44,29 @@ def off_arc(run: RunResult, start: int, end: int) -> np.ndarray:
     return np.hypot(x - RADIUS * np.cos(angle), y - RADIUS * np.sin(angle))
 
 
+def _park_clearance() -> Any:
+    """The park phase's least distance from its keep-in ellipse's edge [m], by
+    shapely on the ellipse drawn with 20,000 corners (to 1e-6 m)."""
+    import shapely
+
+    run = circle_run()
+    region = REGIONS["ellipse"]
+    (a, b), rotation = region["semi_axes"], region["rotation"]
+    angle = np.linspace(0.0, 2.0 * np.pi, 20_000, endpoint=False)
+    u, w = a * np.cos(angle), b * np.sin(angle)
+    edge = shapely.LinearRing(
+        np.column_stack(
+            [
+                np.cos(rotation) * u - np.sin(rotation) * w,
+                np.sin(rotation) * u + np.cos(rotation) * w,
+            ]
+        )
+    )
+    park = slice(PHASE_STARTS[2], None)
+    least = shapely.distance(shapely.points(run.x[park], run.y[park]), edge).min()
+    return pytest.approx(float(least), abs=2e-6)
+
+
 def test_summary_key_order_is_fixed() -> None:
     summary = summarize(circle_run())
     assert list(summary) == [
@@ -59,6 +83,7 @@ def test_summary_key_order_is_fixed() -> None:
         "estimation_rms",
         "constraint_margin",  # a run with constraints
         "max_constraint_violation",
+        "clearance_min",  # [m] the body's, in a run with zones
         "phases",
         "compute_us_per_sample",
         "loop_us_per_sample",
@@ -142,10 +167,17 @@ def test_per_phase_values() -> None:
         "max_value": None,
         "time_in_violation": 0.0,
         "intrusion_max": None,
+        "clearance_min": None,
     }
     # 50 samples at 0.02 > 0; the true position itself stays inside the ellipse
     assert park["constraint"] == pytest.approx(
-        {"max_violation": 0.02, "max_value": 0.02, "time_in_violation": 0.5, "intrusion_max": 0.0}
+        {
+            "max_violation": 0.02,
+            "max_value": 0.02,
+            "time_in_violation": 0.5,
+            "intrusion_max": 0.0,
+            "clearance_min": _park_clearance(),
+        }
     )
     assert approach["estimation"]["max_abs_error"] == pytest.approx(
         {"x": 1.0, "y": 1.0, "theta": 0.0}
@@ -281,28 +313,31 @@ def test_expectations_met_unmet_and_null() -> None:
         "duration": {"max": 12.0},
     }
     checks = check_expectations(summary, {"expect": expect})
-    assert [(c["metric"], c["met"]) for c in checks] == [
+    assert [(c.metric, c.met) for c in checks] == [
         ("final_position_error", True),
         ("final_heading_error", False),  # null never meets a threshold
         ("estimation_convergence_time", False),
         ("duration", True),
     ]
-    assert checks[1]["value"] is None
-    assert checks[2] == {
+    assert checks[1].value is None
+    assert checks[2].record() == {
         "metric": "estimation_convergence_time",
         "phase": None,
         "max": 0.2,
         "value": pytest.approx(0.29),
         "met": False,
+        "rho": pytest.approx(-0.09),  # 0.09 s late
+        "margin": pytest.approx(-0.45),  # by 45 % of its bound
     }
+    assert checks[1].record()["margin"] is None  # a null value: missed by -inf
     assert check_expectations(summary, {"expect": NO_EXPECT}) == []
 
 
 def test_expectation_on_the_constraint() -> None:
     summary = summarize(circle_run())
     [check] = check_expectations(summary, {"expect": {"max_constraint_violation": {"max": 0.001}}})
-    assert check["value"] == pytest.approx(0.02)
-    assert check["met"] is False
+    assert check.value == pytest.approx(0.02)
+    assert check.met is False
 
 
 def test_unknown_expectation_is_an_error() -> None:
@@ -316,7 +351,13 @@ def test_a_held_constraint_is_no_violation() -> None:
     run.constraint[1600:1650] = 5e-8  # on the boundary, held by the corrective action
     park = summarize(run)["phases"][2]
     assert park["constraint"] == pytest.approx(
-        {"max_violation": 5e-8, "max_value": 5e-8, "time_in_violation": 0.0, "intrusion_max": 0.0}
+        {
+            "max_violation": 5e-8,
+            "max_value": 5e-8,
+            "time_in_violation": 0.0,
+            "intrusion_max": 0.0,
+            "clearance_min": _park_clearance(),
+        }
     )
     run.constraint[1600:1650] = -0.5
     summary = summarize(run)
@@ -385,7 +426,7 @@ def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -
     distance to the path: that bound must never be below it, at any scale.
     The tight case: a robot off a straight path square to it at its reference
     point, where the two distances are the same number but for rounding."""
-    from wmr_mission.output.metrics import _off_path_bound
+    from wmr_mission.verdicts.metrics import _off_path_bound
 
     rng = np.random.default_rng(3)
     s = np.arange(0.0, 40.0, 0.02)
@@ -408,7 +449,7 @@ def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -
 def test_phase_segments_are_the_stretches_of_one_phase() -> None:
     """(phase, first sample, one past the last) of each stretch, as a loop over
     the samples finds them, on random phase columns and the edge cases."""
-    from wmr_mission.output.metrics import phase_segments
+    from wmr_mission.verdicts.metrics import phase_segments
 
     def by_loop(phase: np.ndarray) -> list[tuple[int, int, int]]:
         stretches: list[tuple[int, int, int]] = []
@@ -525,7 +566,7 @@ def test_a_phase_threshold_overrides_the_missions() -> None:
     run = _chattering_orbit()
     mission = _mission({"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}})
     checks = check_expectations(summarize(run, mission), mission)
-    assert [(c["phase"], c["metric"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.metric, c.met) for c in checks] == [
         ("approach", "turn_rate_at_limit", True),
         ("orbit", "turn_rate_at_limit", False),
         ("park", "turn_rate_at_limit", True),
@@ -535,8 +576,8 @@ def test_a_phase_threshold_overrides_the_missions() -> None:
         orbit={"turn_rate_at_limit": {"max": 0.2}, "settle_time": None},
     )
     checks = check_expectations(summarize(run, relaxed), relaxed)
-    assert [c["met"] for c in checks] == [True, True, True]
-    assert checks[1]["max"] == 0.2
+    assert [c.met for c in checks] == [True, True, True]
+    assert checks[1].bound == 0.2
 
 
 def test_phase_checks_apply_where_they_mean_something() -> None:
@@ -551,7 +592,7 @@ def test_phase_checks_apply_where_they_mean_something() -> None:
         approach={"settle_time": 6.0},  # longer than the 5 s phase
     )
     checks = check_expectations(summarize(circle_run(), mission), mission)
-    assert [(c["phase"], c["metric"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.metric, c.met) for c in checks] == [
         ("orbit", "tracking_error_max", True),
         ("orbit", "estimation_rms.x", True),
         ("orbit", "estimation_rms.theta", True),
@@ -594,7 +635,7 @@ def test_a_phase_in_a_repeat_keeps_its_thresholds_on_every_lap() -> None:
         ],
     }
     checks = check_expectations(summarize(run, mission), mission)
-    assert [(c["phase"], c["max"], c["met"]) for c in checks] == [
+    assert [(c.phase, c.bound, c.met) for c in checks] == [
         ("approach", 0.01, True),
         ("orbit#1", 0.2, True),
         ("park", 0.01, True),

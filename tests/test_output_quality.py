@@ -1,6 +1,6 @@
-"""The metrics the verdicts judge by: zones in metres (output/zones.py), tracking
-against the timed reference (output/tracking.py), the inputs' quality
-(output/inputs.py) and the `auto` thresholds (output/metrics.py).
+"""The metrics the verdicts judge by: zones in metres (verdicts/zones.py), tracking
+against the timed reference (verdicts/tracking.py), the inputs' quality
+(verdicts/inputs.py) and the `auto` thresholds (verdicts/metrics.py).
 
 Each is checked against a reference worked out another way: a fine polygon
 and scipy's k-d tree for distances, a brute-force search over every segment
@@ -17,14 +17,14 @@ import pytest
 from scipy.spatial import cKDTree
 from test_output_synthetic import circle_run
 
-from wmr_mission.output import inputs
-from wmr_mission.output.metrics import check_expectations, judge, summarize
-from wmr_mission.output.numbers import mission_numbers
-from wmr_mission.output.regulation import stall_time
-from wmr_mission.output.result import Outcome
-from wmr_mission.output.tracking import place_on_path, track_quality
-from wmr_mission.output.zones import Zone, intrusion_max
+from wmr_mission.record import Outcome
 from wmr_mission.spec.loader import load_mission_text
+from wmr_mission.verdicts import inputs
+from wmr_mission.verdicts.metrics import check_expectations, judge, summarize
+from wmr_mission.verdicts.numbers import mission_numbers
+from wmr_mission.verdicts.regulation import stall_time
+from wmr_mission.verdicts.tracking import place_on_path, track_quality
+from wmr_mission.verdicts.zones import Zone, intrusion_max
 
 NUMBERS = mission_numbers(None, 0.01, (2.0, 3.0))  # tau 0.1 s, look-ahead 0.05 m, no noise
 
@@ -342,7 +342,7 @@ def test_auto_thresholds_come_from_the_missions_numbers() -> None:
     assert mission["expect"]["turn_rate_jitter"] == "auto"
     run = circle_run()
     checks = check_expectations(summarize(run, mission), mission)
-    bound = {(c["phase"], c["metric"]): c["max"] for c in checks}
+    bound = {(c.phase, c.metric): c.bound for c in checks}
     tolerance = 0.1 + 0.02  # the larger position noise std
     assert bound["approach", "cross_track_error_max"] == pytest.approx(tolerance)
     # null mission-wide, auto in the orbit: the reference's 1 m/s for 3 time constants

@@ -4,8 +4,8 @@ from pathlib import Path
 
 from test_output_synthetic import circle_run
 
-from wmr_mission.output.metrics import check_expectations, judge, summarize
 from wmr_mission.output.report import format_table
+from wmr_mission.verdicts.metrics import check_expectations, judge, summarize
 
 UNDER_THE_TABLE = ("final error:", "estimation converged", "not reached", "expect ", "outcome:")
 
@@ -48,7 +48,7 @@ def test_table_has_a_row_per_phase_in_fixed_columns() -> None:
     assert [line[metric:].split("  ")[0] for line in rows["park"]][:3] == [
         "end error 2 m",
         "end heading error 0.996 rad",
-        "max constraint 0.02",
+        "clearance 1 m",  # the least distance from the ellipse's edge
     ]
     assert rows["approach"][0].endswith("0 % / 0 %  0.29 s     -")
     # right-aligned under its header
@@ -65,9 +65,12 @@ def test_table_lists_expectations_and_leaves_a_failure_to_its_message() -> None:
     """Met ones with their values; unmet ones are the failure's message, which
     `run` prints once, on stderr."""
     summary = summarize(circle_run())
-    summary["expectations"] = check_expectations(
-        summary, {"expect": {"final_position_error": {"max": 0.05}, "duration": {"max": 30.0}}}
-    )
+    summary["expectations"] = [
+        check.record()
+        for check in check_expectations(
+            summary, {"expect": {"final_position_error": {"max": 0.05}, "duration": {"max": 30.0}}}
+        )
+    ]
     text = format_table(summary, "out")
     assert "expect duration <= 30: 20 (met)" in text
     assert "expect final_position_error <= 0.05: 2 (NOT MET)" in text  # not in the message

@@ -15,19 +15,14 @@ from test_output_synthetic import circle_run
 
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError, load_run
-from wmr_mission.output.result import (
-    Outcome,
-    PhaseRecord,
-    RunResult,
-)
+from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import (
-    EXTRA_COLUMNS,
-    TRAJECTORY_COLUMNS,
     RunDirExistsError,
     default_run_dir,
     prepare_run_dir,
     write_run,
 )
+from wmr_mission.record import EXTRA_COLUMNS, TRAJECTORY_COLUMNS, Outcome, PhaseRecord
 
 RESOLVED: dict[str, Any] = {
     "version": 1,
@@ -258,6 +253,8 @@ def test_summary_lists_the_expectations(tmp_path: Path) -> None:
             "max": 0.05,
             "value": pytest.approx(2.0),
             "met": False,
+            "rho": pytest.approx(-1.95),
+            "margin": pytest.approx(-39.0),
         },
         {
             "metric": "estimation_convergence_time",
@@ -265,8 +262,14 @@ def test_summary_lists_the_expectations(tmp_path: Path) -> None:
             "max": 1.0,
             "value": pytest.approx(0.29),
             "met": True,
+            "rho": pytest.approx(0.71),
+            "margin": pytest.approx(0.71),
         },
     ]
+    assert (summary["margin"], summary["margin_check"]) == (
+        pytest.approx(-39.0),
+        "final_position_error",
+    )
 
 
 def test_load_run_without_summary_says_incomplete(tmp_path: Path) -> None:

@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome, PhaseRecord, Transition
 
 DT = 0.01
 RADIUS = 2.0

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from wmr_mission.api import load_run, mission_from_dict, mission_from_text
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import MissionError
 

@@ -10,6 +10,7 @@ from pydantic import TypeAdapter
 from wmr_mission.geometry.regions import (
     ELLIPSE_ROW,
     HALF_PLANE_ROW,
+    POLYGON_ROW,
     RegionSpec,
     constraint_rows,
     is_convex,
@@ -123,9 +124,16 @@ def test_row_layout_matches_the_architecture_table() -> None:
 
 
 @pytest.mark.parametrize("region", [BOX, TRIANGLE_CLOCKWISE])
-def test_stay_outside_of_a_non_convex_outside_is_refused(region: RegionSpec) -> None:
-    with pytest.raises(ValueError, match="stay_outside is not possible for a"):
-        constraint_rows(region, "outside")
+def test_stay_outside_of_a_box_or_polygon_is_one_signed_distance_row(region: RegionSpec) -> None:
+    """Its outside is not convex, so no half-plane rows describe it: one
+    polygon row, minus the signed distance (tests/test_footprint.py checks
+    the distance against shapely)."""
+    kind, params = constraint_rows(region, "outside")
+    assert kind.tolist() == [POLYGON_ROW]
+    corners = int(params[0, 0])
+    assert corners == (4 if region is BOX else 3)
+    assert params.shape == (1, 4 + 5 * corners)  # kernels.convex: a header, 5 a corner
+    assert row_values(kind, params, 100.0, 100.0)[0] < -100.0
 
 
 @pytest.mark.parametrize(

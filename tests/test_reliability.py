@@ -35,8 +35,8 @@ from wmr_mission.cli import app
 from wmr_mission.commands.plot import replot_command
 from wmr_mission.commands.run import run_command
 from wmr_mission.output.reader import load_run
-from wmr_mission.output.result import Outcome
 from wmr_mission.output.rundir import CLAIM_FILE, prepare_run_dir, write_run
+from wmr_mission.record import Outcome
 from wmr_mission.sim.plan import plan_mission
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import check_mission_text, load_mission_text

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wmr_mission.output.result import Outcome
 from wmr_mission.output.rundir import CLAIM_FILE
+from wmr_mission.record import Outcome
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 from wmr_mission.stopping import STOP_SIGNALS, StopSignals

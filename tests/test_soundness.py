@@ -256,6 +256,13 @@ def test_a_few_generated_missions_are_run_and_judged(tmp_path: Path) -> None:
     assert (kicked.outcome, kicked.sound) == ("expect-failed", False)
     assert "route: cross_track_error_max" in kicked.message
     assert "park: turn_rate_jump_max" not in kicked.message
+    # the margin's sign is the verdict, and names the check that sets it
+    assert [j.mission for j in judged.values() if not j.margin_agrees] == []
+    assert park.margin is not None
+    assert 0.0 < park.margin < 1.0
+    assert kicked.margin is not None
+    assert kicked.margin < 0.0
+    assert kicked.margin_check == "route: cross_track_error_max"
 
 
 def published_table() -> str:
@@ -272,3 +279,5 @@ def test_the_whole_generated_set_gives_the_published_table(tmp_path: Path) -> No
     print(disagreements(judged))
     assert len(judged) == 200
     assert table(judged) == published_table()
+    # the sign of every run's margin agrees with its verdict
+    assert [j.mission for j in judged if not j.margin_agrees] == []

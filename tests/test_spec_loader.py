@@ -310,7 +310,7 @@ def test_unknown_key_without_close_match_lists_the_fields() -> None:
     text = MINIMAL.replace("name: t", "name: t\nrobot: {zzz: 1}")
     _, diagnostics = check_mission_text(text, "m.yaml")
     assert diagnostics[0].message == (
-        "unknown field 'zzz'; expected one of: dt, initial_state, limits, disturbances"
+        "unknown field 'zzz'; expected one of: dt, initial_state, limits, disturbances, footprint"
     )
 
 

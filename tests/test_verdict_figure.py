@@ -11,9 +11,9 @@ from failing import ungated_disturbed
 
 from wmr_mission.output.figures import FIGURE_NAMES, _figure
 from wmr_mission.output.result import RunResult
-from wmr_mission.output.signals import PEAK, panel_of, run_signals
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
+from wmr_mission.verdicts.signals import PEAK, panel_of, run_signals
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 

@@ -23,11 +23,12 @@ import yaml
 from geometry import distance_to_ellipse
 from test_case_studies import read_trajectory, run
 
-from wmr_mission.output.metrics import judge
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome
 from wmr_mission.sim.plan import plan_mission
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.models import Mission
+from wmr_mission.verdicts.metrics import judge
 
 DATA = Path(__file__).resolve().parent / "data"
 VERDICTS = DATA / "verdicts"

@@ -24,7 +24,8 @@ from typer.testing import CliRunner
 
 from wmr_mission.campaign.reader import load_campaign_dir
 from wmr_mission.cli import app
-from wmr_mission.output.result import RunResult, Transition
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Transition
 from wmr_mission.review.view import (
     MAX_DISPLAY_SAMPLES,
     build_page,
@@ -354,13 +355,38 @@ def test_a_failing_run_shows_its_verdicts_and_opens_at_its_end(
         assert verdicts == len(summary["expectations"])
         failing = page.evaluate(
             "[...document.querySelectorAll('tr.bad')]"
-            ".map(r => r.cells[0].textContent + ' ' + r.cells[4].textContent)"
+            ".map(r => r.cells[0].textContent + ' ' + r.cells[5].textContent)"
         )
         unmet = [f"{e['metric']} NOT MET" for e in summary["expectations"] if not e["met"]]
         assert unmet
         assert failing == unmet
+        # each check's margin beside it: below 0 where it failed
+        margins = page.evaluate(
+            "[...document.querySelectorAll('tr.bad')].map(r => r.cells[4].textContent)"
+        )
+        assert all(m.startswith("-") for m in margins), margins
+        assert page.evaluate(
+            "[...document.querySelectorAll('p.sub')].some(p => p.textContent.startsWith('margin '))"
+        )
         assert float(_readout(page)["t [s]"][0]) == pytest.approx(summary["duration"])
         assert page.evaluate("document.querySelector('.badge').textContent") == summary["outcome"]
+        # the phases' table: the verdict's numbers under summary.json's names
+        phases = page.evaluate(
+            "(() => { const t = [...document.querySelectorAll('table')][2];"
+            " const names = [...t.tHead.rows[0].cells].map(c => c.textContent);"
+            " return [...t.tBodies[0].rows].map(r => Object.fromEntries("
+            "[...r.cells].map((c, i) => [names[i], c.textContent]))); })()"
+        )
+        for shown, phase in zip(phases, summary["phases"], strict=True):
+            for name in ("cross_track_error_max", "along_track_lag_max"):
+                value = (phase.get("tracking") or {}).get(name)
+                cell = shown[f"{name} [m]"]
+                no_value = "\N{EN DASH}"  # what the page shows for null
+                assert (
+                    (cell == no_value)
+                    if value is None
+                    else float(cell) == pytest.approx(value, 1e-3)
+                )
 
 
 def _hostile_run(tmp_path: Path) -> Path:

@@ -2,7 +2,7 @@
 
     python docs/figures/paths.py
 
-writes docs/images/path-*.png and keep-out-xy.png and prints the overshoot
+writes docs/images/path-*.png, keep-out-xy.png and shelf-xy.png and prints the overshoot
 numbers quoted beside them (tests/test_routes.py asserts the same numbers).
 """
 
@@ -190,9 +190,19 @@ def keep_out_figure() -> None:
     plt.close(fig)
 
 
+def shelf_figure() -> None:
+    result = run_mission(load_mission(ROOT / "missions" / "shelf.yaml"))
+    print(f"shelf: the body's clearance_min {result.summary()['clearance_min']:.3f} m")
+    fig, ax = plt.subplots(figsize=(9, 6.5))
+    plot_xy(result, ax=ax)
+    fig.savefig(IMAGES / "shelf-xy.png", dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
 if __name__ == "__main__":
     path_types_figure()
     waypoints_figure()
     polyline_figure()
     coverage_figure()
     keep_out_figure()
+    shelf_figure()

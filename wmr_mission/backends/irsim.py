@@ -26,9 +26,17 @@ from wmr_mission.kernels.disturbances import PROCESS_NOISE, SKID, Actuation
 from wmr_mission.kernels.model import wrap_angle
 from wmr_mission.sim.plan import MissionPlan
 from wmr_mission.spec.backend import Backend
+from wmr_mission.verdicts.clearance import region_geometry
 
-# A robot needs a world; ours has no obstacles and no border that stops it.
+# A robot needs a world; ours has no border that stops it, and the mission's
+# keep-out zones as obstacles (:func:`obstacles`).
 WORLD = "world: {{height: 1000, width: 1000, step_time: {dt!r}}}\n"
+# Corners of the polygon an ellipse zone becomes in IR-SIM (inscribed: 1.2e-4
+# of its semi-major axis inside it at most; IR-SIM checks collisions per corner).
+ELLIPSE_CORNERS = 144
+# The disc IR-SIM draws a robot without robot.footprint as [m]: a point, as
+# far as a disc can be.
+POINT_RADIUS = 0.01
 
 
 def _import_irsim() -> Any:
@@ -59,15 +67,20 @@ class IrSimPlant:
         v_max, omega_max = float(plan.plant.limits[0]), float(plan.plant.limits[1])
         # IR-SIM's own limits default to +-1: the robot's limits instead (the
         # controller saturates to them already), and no acceleration limit.
+        self.shape = robot_shape(plan.footprint)
         self.robot = self.env.create_robot(
             kinematics={"name": "diff"},
-            shape={"name": "circle", "radius": 0.2},
+            shape=self.shape,
             state=[float(v) for v in plan.initial_state],
             vel_max=[v_max, omega_max],
             vel_min=[-v_max, -omega_max],
         )
-        self.env.add_object(self.robot)
+        self.env.add_object(self.robot)  # first: IR-SIM steps its first object with the input
+        self.obstacles = obstacles(plan)
+        for _, shape, state in self.obstacles:
+            self.env.add_object(self.env.create_obstacle(shape=shape, state=state))
         self.limits = (v_max, omega_max)
+        self.collided = False
 
     def substitutes(self) -> Mapping[Any, Callable[..., Any]]:
         return {disturbances.plant_step: self.plant_step}
@@ -81,6 +94,10 @@ class IrSimPlant:
     def report(self) -> dict[str, Any] | None:
         return None
 
+    def obstacle_geometries(self) -> list[Any]:
+        """The shapely geometry of each obstacle of IR-SIM's world, in its order."""
+        return [obstacle.geometry for obstacle in self.env.obstacle_list]
+
     def describe(self) -> dict[str, Any]:
         return {
             "type": "irsim",
@@ -90,6 +107,8 @@ class IrSimPlant:
                 "integration": "forward Euler",
                 "vel_max": list(self.limits),
                 "acce": "none",
+                "robot_shape": self.shape,
+                "obstacles": [name for name, _, _ in self.obstacles],
             },
         }
 
@@ -111,6 +130,7 @@ class IrSimPlant:
             v *= 1.0 - actuation.slip
         self.robot.set_state([x, y, theta])  # ours, with what our disturbances added
         self.env.step([v, applied[1]])
+        self.collided |= bool(self.robot.collision_flag)  # IR-SIM's own word on the zones
         moved = self.robot.state
         state[0] = moved[0, 0]
         state[1] = moved[1, 0]
@@ -122,6 +142,39 @@ class IrSimPlant:
         for i in range(3):
             if draws[PROCESS_NOISE + i] != 0.0:
                 state[i] += draws[PROCESS_NOISE + i]
+
+
+def obstacles(plan: MissionPlan) -> list[tuple[str, dict[str, Any], list[float]]]:
+    """(region name, IR-SIM shape, state) of each region a phase keeps out of:
+    a circle as a circle, an ellipse as a polygon of ELLIPSE_CORNERS corners,
+    a box or polygon as its corners. A half-plane has no bound an obstacle can
+    have, and is left out."""
+    names = sorted(
+        {name for phase in plan.phases for name, side in phase.constraints if side == "outside"}
+    )
+    found = []
+    for name in names:
+        region = plan.regions[name]
+        if region["type"] == "half-plane":
+            continue
+        if region["type"] == "circle":
+            cx, cy = (float(v) for v in region["center"])  # type: ignore[attr-defined]
+            radius = float(region["radius"])  # type: ignore[arg-type]
+            found.append((name, {"name": "circle", "radius": radius}, [cx, cy, 0.0]))
+            continue
+        outline = region_geometry(region, ELLIPSE_CORNERS).exterior.coords[:-1]
+        corners = [[float(x), float(y)] for x, y in outline]
+        found.append((name, {"name": "polygon", "vertices": corners}, [0.0, 0.0, 0.0]))
+    return found
+
+
+def robot_shape(footprint: Mapping[str, Any] | None) -> dict[str, Any]:
+    """IR-SIM's shape of the robot: its footprint, or a disc of POINT_RADIUS."""
+    if footprint is None:
+        return {"name": "circle", "radius": POINT_RADIUS}
+    if "radius" in footprint:
+        return {"name": "circle", "radius": float(footprint["radius"])}
+    return {"name": "polygon", "vertices": [[float(x), float(y)] for x, y in footprint["polygon"]]}
 
 
 @contextlib.contextmanager

@@ -19,7 +19,6 @@ import numpy as np
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.recovery import RecoveryCounts
 from wmr_mission.campaign.rows import METRICS, Row
-from wmr_mission.output.metrics import unmet_in
 
 __all__ = ["WORST_PER_FAILURE", "WORST_RUNS", "Aggregate", "Failure", "clopper_pearson"]
 
@@ -49,15 +48,30 @@ def clopper_pearson(successes: int, trials: int, confidence: float = 0.95) -> tu
     return lo, hi
 
 
-def _badness(row: Row) -> tuple[int, float, int]:
-    """Larger is worse: a failure before any success, then the larger final position
-    error (a missing one counts as infinite), then the earlier run."""
+def _badness(row: Row) -> tuple[int, float, float, int]:
+    """Larger is worse: a failure before any success, then the smaller margin
+    (wmr_mission.verdicts.check), then the larger final position error (a
+    missing one counts as infinite), then the earlier run."""
     error = row.metrics[METRICS.index(_RANKING_METRIC)]
     return (
         0 if row.succeeded else 1,
+        -_margin(row),
         math.inf if error is None or not math.isfinite(error) else error,
         -row.run,
     )
+
+
+def _check_kind(name: str) -> str:
+    """``orbit: turn_rate_jitter`` -> ``turn_rate_jitter``: a check by its metric."""
+    return name.rsplit(": ", 1)[-1]
+
+
+def _margin(row: Row) -> float:
+    """The run's margin; an empty cell is -inf where an outcome or a check
+    without a value sets it, +inf for a run without a check."""
+    if row.margin is not None:
+        return row.margin
+    return -math.inf if row.margin_check else math.inf
 
 
 @dataclass(frozen=True, order=True)
@@ -77,6 +91,8 @@ class Failure:
     bound: float | None
     outcome: str = field(default="", compare=False)
     reason: str = field(default="", compare=False)
+    margin: float | None = field(default=None, compare=False)  # the run's (Row.margin)
+    margin_check: str | None = field(default=None, compare=False)
 
 
 def failures_of(row: Row) -> list[Failure]:
@@ -97,23 +113,30 @@ def failures_of(row: Row) -> list[Failure]:
                 None,
                 row.outcome,
                 row.reason,
+                row.margin,
+                row.margin_check,
             )
         ]
     worst: dict[str, Failure] = {}
-    for check in unmet_in(row.reason):
-        kind, value, bound = str(check["metric"]), check["value"], float(check["max"])
-        amount = math.inf if value is None else float(value)
-        times = amount / bound if bound > 0 else math.inf
+    for check in row.missed:
+        kind, value, bound = check.metric, check.value, check.bound
+        amount = math.inf if value is None else value
+        if check.lower:  # a lower bound (clearance_min): ranked by the shortfall
+            times = math.inf if value is None else bound - amount
+        else:
+            times = amount / bound if bound > 0 else math.inf
         failure = Failure(
             (times, amount - bound, -row.run),
             row.run,
             row.seed,
             kind,
-            check["phase"],
+            check.phase,
             value,
             bound,
             row.outcome,
             row.reason,
+            row.margin,
+            row.margin_check,
         )
         if kind not in worst or failure > worst[kind]:
             worst[kind] = failure
@@ -144,7 +167,12 @@ class Aggregate:
     metric_values: dict[str, list[float]] = field(default_factory=dict)
     axis_values: dict[str, list[float]] = field(default_factory=dict)
     success: list[bool] = field(default_factory=list)
-    worst: list[tuple[tuple[int, float, int], int, int, str, str]] = field(default_factory=list)
+    worst: list[
+        tuple[tuple[int, float, float, int], int, int, str, str, float | None, str | None]
+    ] = field(default_factory=list)
+    # each run's margin (-inf, +inf where runs.csv's cell is empty) and the checks setting them
+    margins: list[float] = field(default_factory=list)
+    margin_checks: Counter[str] = field(default_factory=Counter)
     drawn: list[tuple[bool, np.ndarray]] = field(default_factory=list)
     drawn_failures: int = 0
     # grid cell (index of each grid axis' value) -> [runs, successes]
@@ -200,7 +228,18 @@ class Aggregate:
                 heapq.heappush(kept, failure)
             else:
                 heapq.heappushpop(kept, failure)
-        entry = (_badness(row), row.run, row.seed, row.outcome, row.reason)
+        self.margins.append(_margin(row))
+        if row.margin_check:
+            self.margin_checks[_check_kind(row.margin_check)] += 1
+        entry = (
+            _badness(row),
+            row.run,
+            row.seed,
+            row.outcome,
+            row.reason,
+            row.margin,
+            row.margin_check,
+        )
         if len(self.worst) < WORST_RUNS:
             heapq.heappush(self.worst, entry)
         else:
@@ -224,15 +263,19 @@ class Aggregate:
     def succeeded(self) -> int:
         return self.outcomes["success"]
 
-    def worst_runs(self) -> list[tuple[int, int, str, str]]:
-        """(run, seed, outcome, reason) of the worst runs: the worst of each kind of
-        failure, the most frequent kind first, then the others by :func:`_badness`."""
+    def worst_runs(self) -> list[tuple[int, int, str, str, float | None, str | None]]:
+        """(run, seed, outcome, reason, margin, margin_check) of the worst runs: the
+        worst of each kind of failure, the most frequent kind first, then the
+        others by :func:`_badness` (the least margin first)."""
         ranked = sorted(self.worst, reverse=True)
-        chosen = {f.run: (f.run, f.seed, f.outcome, f.reason) for f in self._leaders()}
-        for _, run, seed, outcome, reason in ranked:
+        chosen = {
+            f.run: (f.run, f.seed, f.outcome, f.reason, f.margin, f.margin_check)
+            for f in self._leaders()
+        }
+        for _, run, seed, outcome, reason, margin, check in ranked:
             if len(chosen) >= WORST_RUNS:
                 break
-            chosen.setdefault(run, (run, seed, outcome, reason))
+            chosen.setdefault(run, (run, seed, outcome, reason, margin, check))
         return list(chosen.values())
 
     def _leaders(self) -> list[Failure]:
@@ -265,6 +308,29 @@ class Aggregate:
             "metrics": metrics,
             "cells": self._cell_statistics(),
             "recovery": self.recovery.statistics(clopper_pearson),
+            "margin": self.margin_statistics(),
+        }
+
+    def margin_statistics(self) -> dict[str, Any]:
+        """The runs' margins: least, p1, p5, p50, most (over the finite ones),
+        how many runs missed (a margin below 0, -inf included), and how many
+        runs each check (by metric, or outcome) sets the margin of."""
+        margins = np.asarray(self.margins, dtype=float)
+        finite = margins[np.isfinite(margins)]
+        quantiles: dict[str, float | None] = {"min": None, "p1": None, "p5": None, "p50": None}
+        if finite.size:
+            low = np.percentile(finite, [1, 5, 50])
+            quantiles = {
+                "min": float(finite.min()),
+                "p1": float(low[0]),
+                "p5": float(low[1]),
+                "p50": float(low[2]),
+            }
+        return {
+            **quantiles,
+            "max": float(finite.max()) if finite.size else None,
+            "below_zero": int(np.count_nonzero(margins < 0.0)),
+            "set_by": dict(sorted(self.margin_checks.items(), key=lambda kv: (-kv[1], kv[0]))),
         }
 
     def _cell_statistics(self) -> list[dict[str, Any]]:

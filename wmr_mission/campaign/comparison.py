@@ -1,6 +1,6 @@
 """What a head-to-head campaign compares controllers (and estimators) by, per run.
 
-Beside the metrics an ``expect`` bounds (wmr_mission.output.metrics), each
+Beside the metrics an ``expect`` bounds (wmr_mission.verdicts.metrics), each
 row of ``runs.csv`` carries four figures of how the robot was driven, from
 the run's samples:
 
@@ -9,7 +9,7 @@ the run's samples:
   settle time (``expect.settle_time``, 1 s unless written);
 * ``turn_rate_jitter`` [rad/s]: the robust spread of the turn rate about its
   centred moving mean, the whole run, measured as summary.json's per phase
-  (wmr_mission.output.inputs.jitter);
+  (wmr_mission.verdicts.inputs.jitter);
 * ``input_saturation``: the fraction of samples with the speed or the turn
   rate at its limit;
 * ``settle_time`` [s]: from the start of the first track phase, the time
@@ -27,11 +27,11 @@ from typing import Any, Final
 
 import numpy as np
 
-from wmr_mission.output.inputs import jitter
-from wmr_mission.output.metrics import AT_LIMIT_TOLERANCE
-from wmr_mission.output.numbers import mission_numbers
 from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import DEFAULT_SETTLE_TIME
+from wmr_mission.verdicts.inputs import jitter
+from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE
+from wmr_mission.verdicts.numbers import mission_numbers
 
 COMPARISON_METRICS: Final = (
     "reference_error_rms",

@@ -40,6 +40,7 @@ UNITS: Final = {
     "final_position_error": "m",
     "final_heading_error": "rad",
     "max_constraint_violation": "constraint value",
+    "clearance_min": "m",
     "estimation_convergence_time": "s",
     "duration": "s",
     "deadline_misses": "samples",

@@ -27,6 +27,8 @@ __all__ = ["CampaignDir", "is_campaign_dir", "load_campaign_dir"]
 # the metrics precede the last (their set grows with the product's metrics).
 FIRST_COLUMNS: Final = ("run", "seed", "outcome")
 LAST_COLUMN: Final = "reason"
+# Between the metrics and the reason: the check that sets the run's margin, a name.
+TEXT_METRICS: Final = ("margin_check",)
 _INTEGER = re.compile(r"[-+]?\d+")
 
 
@@ -84,6 +86,7 @@ class CampaignDir:
             else:
                 types[path] = "string"
         types.update(dict.fromkeys(self.metrics, "float64"))
+        types.update(dict.fromkeys(set(TEXT_METRICS) & set(self.metrics), "string"))
         return {name: types[name] for name in self.columns}
 
 
@@ -192,7 +195,7 @@ def _read_rows(path: Path, plan: Any) -> tuple[list[str], list[list[str]]]:
         if not row[2]:
             raise RunDirError(f"{path.name}:{line}: outcome is empty")
         for name, cell in zip(metrics, row[len(first) : -1], strict=True):
-            if cell and not _is_number(cell):
+            if cell and name not in TEXT_METRICS and not _is_number(cell):
                 raise RunDirError(f"{path.name}:{line}: {name} is not a number: {cell!r}")
     return metrics, rows
 

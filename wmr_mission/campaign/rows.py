@@ -18,11 +18,12 @@ from wmr_mission.campaign.comparison import COMPARISON_METRICS, comparison_metri
 from wmr_mission.campaign.load import LoadedCampaign, override, replay_line, value_text
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
-from wmr_mission.output import recovery
-from wmr_mission.output.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
-from wmr_mission.output.result import Outcome
+from wmr_mission.record import Outcome
 from wmr_mission.spec.checks import read_by_sampling_checks
 from wmr_mission.spec.models import Mission
+from wmr_mission.verdicts import recovery
+from wmr_mission.verdicts.check import Check
+from wmr_mission.verdicts.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
 
 if TYPE_CHECKING:
     from wmr_mission.output.result import RunResult
@@ -30,6 +31,7 @@ if TYPE_CHECKING:
 __all__ = [
     "ERROR",
     "INVALID",
+    "MARGIN_COLUMNS",
     "METRICS",
     "Row",
     "header",
@@ -49,7 +51,12 @@ ERROR: Final = "error"
 # The run's metrics: every metric an `expect` can bound, computed by the code
 # that writes summary.json, then how the robot was driven (a head-to-head's
 # figures, wmr_mission.campaign.comparison).
-METRICS: Final = (*EXPECTATION_PATHS, *COMPARISON_METRICS)
+# clearance_min [m]: the body's least distance from its zones (a lower bound, so
+# no mission-wide EXPECTATION_PATHS key: each phase's `expect` judges it)
+METRICS: Final = (*EXPECTATION_PATHS, "clearance_min", *COMPARISON_METRICS)
+
+# After the metrics: the run's margin and the check that sets it (summary.json's).
+MARGIN_COLUMNS: Final = ("margin", "margin_check")
 
 # Points kept of each run's path for the campaign's trajectory figure.
 PATH_POINTS: Final = 600
@@ -66,8 +73,13 @@ class Row:
     metrics: tuple[float | None, ...]
     reason: str
     path_xy: np.ndarray  # (2, <= PATH_POINTS) float32, thinned true path
-    # the reactions that fired, one kind per firing (wmr_mission.output.recovery.fired)
+    # the reactions that fired, one kind per firing (wmr_mission.verdicts.recovery.fired)
     fired: tuple[str, ...] = ()
+    # the run's margin (wmr_mission.verdicts.check: None for -inf, or +inf without
+    # a check), the check or outcome that sets it, and the checks it missed
+    margin: float | None = None
+    margin_check: str | None = None
+    missed: tuple[Check, ...] = ()
 
     @property
     def succeeded(self) -> bool:
@@ -80,12 +92,14 @@ class Row:
             self.outcome,
             *(v if isinstance(v, str) else value_text(v) for v in self.values),
             *("" if m is None else repr(m) for m in self.metrics),
+            "" if self.margin is None else repr(self.margin),
+            self.margin_check or "",
             self.reason,
         ]
 
 
 def header(paths: Sequence[str]) -> list[str]:
-    return ["run", "seed", "outcome", *paths, *METRICS, "reason"]
+    return ["run", "seed", "outcome", *paths, *METRICS, *MARGIN_COLUMNS, "reason"]
 
 
 def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
@@ -150,7 +164,8 @@ def _uninterrupted(result: RunResult) -> RunResult:
 def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
     empty = np.zeros((2, 0), dtype=np.float32)
     values = tuple(draw.values.values())
-    return Row(draw.run, draw.seed, outcome, values, (None,) * len(METRICS), reason, empty)
+    metrics = (None,) * len(METRICS)
+    return Row(draw.run, draw.seed, outcome, values, metrics, reason, empty, margin_check=outcome)
 
 
 def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
@@ -167,6 +182,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     summary = judge_run_metrics(result, summary_mission)
     metrics = (
         *(summary_value(summary, path) for path in EXPECTATION_PATHS.values()),
+        summary_value(summary, ("clearance_min",)),
         *comparison_metrics(result, summary_mission),
     )
     step = max(1, math.ceil(result.samples / PATH_POINTS))
@@ -174,7 +190,20 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     reason = "" if result.outcome is Outcome.success else result.message
     values = tuple(draw.values.values())
     fired = tuple(kind for tr in result.transitions for kind in recovery.fired(tr))
-    return Row(draw.run, draw.seed, result.outcome.value, values, metrics, reason, path_xy, fired)
+    missed = tuple(Check.read(record) for record in summary.get("missed") or [])
+    return Row(
+        draw.run,
+        draw.seed,
+        result.outcome.value,
+        values,
+        metrics,
+        reason,
+        path_xy,
+        fired,
+        summary["margin"],
+        summary["margin_check"],
+        missed,
+    )
 
 
 def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:

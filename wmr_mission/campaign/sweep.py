@@ -45,10 +45,9 @@ from wmr_mission.campaign.engine import (
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
 from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.recovery import recovery_report
-from wmr_mission.campaign.rows import Row, header, replay_command, simulate
+from wmr_mission.campaign.rows import METRICS, Row, header, replay_command, simulate
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
-from wmr_mission.output.metrics import EXPECTATION_PATHS
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     CLAIM_FILE,
@@ -62,6 +61,7 @@ from wmr_mission.output.rundir import (
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import overrides_of, overrides_of_texts
 from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals, stop_owed
+from wmr_mission.verdicts.metrics import EXPECTATION_PATHS
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
 
@@ -453,7 +453,9 @@ def _take(
                         path: value if isinstance(value, int | float | str) else value_text(value)
                         for path, value in zip(paths, row.values, strict=True)
                     },
-                    **dict(zip(columns[3 + len(row.values) : -1], row.metrics, strict=True)),
+                    **dict(zip(METRICS, row.metrics, strict=True)),
+                    "margin": row.margin,
+                    "margin_check": row.margin_check,
                     "reason": row.reason,
                 }
             )
@@ -475,9 +477,11 @@ def _record(
             "seed": seed,
             "outcome": outcome,
             "reason": reason,
+            "margin": margin,
+            "margin_check": margin_check,
             "replay": replay_command(loaded, plan.draw(run)),
         }
-        for run, seed, outcome, reason in aggregate.worst_runs()
+        for run, seed, outcome, reason, margin, margin_check in aggregate.worst_runs()
     ]
     failures = [
         {

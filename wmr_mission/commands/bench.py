@@ -37,7 +37,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.kernels import jit
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome
 from wmr_mission.sim.draws import DisturbancePlan
 from wmr_mission.sim.plan import MissionPlan, plan_mission
 from wmr_mission.sim.runner import run_mission

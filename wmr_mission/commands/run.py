@@ -26,9 +26,11 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from wmr_mission.output.result import Outcome, RunResult
+from wmr_mission.output.result import RunResult
+from wmr_mission.record import Outcome
 
 if TYPE_CHECKING:
+    from wmr_mission.sim.plan import MissionPlan
     from wmr_mission.sim.plant_side import PlantSide
     from wmr_mission.spec.loader import Override
     from wmr_mission.spec.models import Mission
@@ -154,7 +156,7 @@ def _run_on_backend(
         with ExitStack() as stack:
             with mode(RAISE):  # waiting for a robot: a stop ends the wait at once
                 plant = stack.enter_context(open_backend(name, plan, settings))
-            return _run(mission, sha256, mission_path, out, seed, *args, plant=plant)
+            return _run(mission, sha256, mission_path, out, seed, *args, plant=plant, plan=plan)
     except BackendError as error:
         print(f"{mission_path}: {error}", file=sys.stderr)
         return EXIT_FAILED
@@ -196,7 +198,10 @@ def _run(
     received: list[int],
     *,
     plant: PlantSide | None = None,
+    plan: MissionPlan | None = None,
 ) -> int:
+    """Simulate ``mission`` (``plan``: as planned already, for another plant),
+    judge it, write its run directory and print its table; the exit code."""
     from wmr_mission.commands.compile import choose_loop
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
@@ -209,13 +214,14 @@ def _run(
         write_run,
     )
     from wmr_mission.sim.plan import plan_mission, sample_budget
+    from wmr_mission.verdicts.metrics import judge_mission
 
     # Before the loop is loaded: plain Python where loading it would cost more.
     # Another plant runs the loop as plain Python: nothing to compile.
     notice = choose_loop(sample_budget(mission)) if plant is None else None
     if notice is not None:
         print(notice, file=sys.stderr)
-    compiled = plan_mission(mission, seed)
+    compiled = plan if plan is not None else plan_mission(mission, seed)
     wanted = out if out is not None else default_run_dir(mission.name, datetime.now())
     claimed: list[Path] = []
 
@@ -239,7 +245,8 @@ def _run(
 
     try:
         started = time.perf_counter()
-        result = _simulate(mission, seed, compiled.max_samples, plant, claim)
+        result = _simulate(compiled, plant, claim)
+        judge_mission(result, mission)  # a success that misses an `expect` is not one
         wall_seconds = time.perf_counter() - started
     except _Unclaimed:
         return EXIT_RUN_DIR
@@ -256,7 +263,7 @@ def _run(
         for run_dir in claimed:
             release_run_dir(run_dir)
         raise
-    # run_mission judged the run by the mission's `expect` (output.metrics.judge).
+    # judged by the mission's `expect` above (verdicts.metrics.judge_mission).
     stopped = result.outcome is Outcome.interrupted
     if stopped and result.samples == 0:  # stopped before the first sample: nothing to keep
         for run_dir in claimed:
@@ -356,20 +363,19 @@ def _draw(
 
 
 def _simulate(
-    mission: Mission,
-    seed: int | None,
-    max_samples: int,
+    plan: MissionPlan,
     plant: PlantSide | None = None,
     ready: Callable[[], None] | None = None,
 ) -> RunResult:
-    """Run with a progress bar on stderr (a terminal) when the run is longer than a moment;
+    """Run the mission planned (checked when it was loaded, planned once) with a
+    progress bar on stderr (a terminal) when the run is longer than a moment;
     ``ready()`` just before the first sample."""
     from wmr_mission.output.progress import Steps
     from wmr_mission.sim.runner import run_mission
 
-    if max_samples < 20_000 or not sys.stderr.isatty():
-        return run_mission(mission, seed=seed, plant=plant, ready=ready)
-    name = mission.name
+    if plan.max_samples < 20_000 or not sys.stderr.isatty():
+        return run_mission(plan, plant=plant, ready=ready)
+    name = plan.name
     steps = Steps(sys.stderr)
     steps.step(name, total=1000)
 
@@ -377,7 +383,7 @@ def _simulate(
         steps.update(1000 * min(t / budget, 1.0), description=f"{name} [{phase}] t = {t:8.2f} s")
 
     try:
-        result = run_mission(mission, seed=seed, progress=progress, plant=plant, ready=ready)
+        result = run_mission(plan, progress=progress, plant=plant, ready=ready)
         steps.update(1000)
     finally:
         steps.close()

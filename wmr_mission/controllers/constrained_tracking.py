@@ -35,10 +35,13 @@ import math
 import numpy as np
 
 from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.kernels.convex import HEADER, PER_VERTEX
 from wmr_mission.kernels.corrective import (
     ELLIPSE_ROW,
+    POLYGON_ROW,
     REGULARISATION,
     kept_row_slot,
+    polygon_value,
     row_value_with_margin,
 )
 from wmr_mission.kernels.jit import inlined, kernel
@@ -122,14 +125,20 @@ def held_where_braking_ends(
         return value, gx, gy, s00, s01, s10, s11
     c = math.cos(next_[2])
     s = math.sin(next_[2])
-    braked, hx, hy = row_value_with_margin(
-        kind, p, margin, next_[0] + ahead * c, next_[1] + ahead * s
-    )
+    bx = next_[0] + ahead * c
+    by = next_[1] + ahead * s
+    if kind == POLYGON_ROW:
+        braked, hx, hy = polygon_value(p, margin, bx, by)
+    else:
+        braked, hx, hy = row_value_with_margin(kind, p, margin, bx, by)
     if keep > 0.0:
         behind = braking_distance(now[3], rate, dt)
-        now_value, _, _ = row_value_with_margin(
-            kind, p, margin, now[0] + behind * math.cos(now[2]), now[1] + behind * math.sin(now[2])
-        )
+        wx = now[0] + behind * math.cos(now[2])
+        wy = now[1] + behind * math.sin(now[2])
+        if kind == POLYGON_ROW:
+            now_value, _, _ = polygon_value(p, margin, wx, wy)
+        else:
+            now_value, _, _ = row_value_with_margin(kind, p, margin, wx, wy)
         braked -= keep * now_value
     if braked <= value:
         return value, gx, gy, s00, s01, s10, s11
@@ -184,10 +193,15 @@ def keep_constraints(
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
     for i in range(row_kinds.shape[0]):
-        value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, qx, qy)
-        if keep > 0.0:
-            now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
-            value -= keep * now
+        if row_kinds[i] == POLYGON_ROW:
+            value, gx, gy = polygon_value(row_params[i], margin, qx, qy)
+            if keep > 0.0:
+                value -= keep * polygon_value(row_params[i], margin, ox, oy)[0]
+        else:
+            value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, qx, qy)
+            if keep > 0.0:
+                now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
+                value -= keep * now
         s00, s01, s10, s11 = t00, t01, t10, t11
         if rate != math.inf:
             value, gx, gy, s00, s01, s10, s11 = held_where_braking_ends(
@@ -256,7 +270,10 @@ def keep_reference(
         for i in range(row_kinds.shape[0]):
             p = row_params[i]
             x, y = reference[0], reference[1]
-            value, gx, gy = row_value_with_margin(row_kinds[i], p, margin, x, y)
+            if row_kinds[i] == POLYGON_ROW:
+                value, gx, gy = polygon_value(p, margin, x, y)
+            else:
+                value, gx, gy = row_value_with_margin(row_kinds[i], p, margin, x, y)
             if value <= 0.0:
                 continue
             moved = True
@@ -361,6 +378,98 @@ def _way_round(
     return max(reach, 0.0), mx, my
 
 
+# |m + mu t| at the ramp's ends: the factor a disc's support grows by there.
+_RAMP_NORM = math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
+
+
+@kernel
+def _way_round_polygon(
+    p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float
+) -> tuple[float, float, float]:
+    """:func:`_way_round` for the keep-out polygon row ``p`` grown by ``margin``
+    (K, its Minkowski sum with a disc of that radius), about the aim a.
+
+    The side m is the shorter way across: the one the polygon reaches less
+    far into from the path's line, the left of travel where both are as far
+    (to rounding: a path through a box's middle). Along a straight path it is
+    the same all the way, as the ellipse's. The reach is the least of K's
+    support function over n = m + mu t, |mu| <= RAMP_SLOPE, as for the
+    ellipse; by the minimax theorem it is the most of m.(q - a) - RAMP_SLOPE
+    |t.(q - a)| over the points q of K, a concave function: its most over the
+    half ahead of a (or behind) is K's support point in the direction m - s t
+    (m + s t) where that lies there, else on the line through a across the
+    path, where K's farthest point along m is on an edge moved out by the
+    margin or on a corner's disc. Exact, without iterating."""
+    mx = -ty  # the left of travel
+    my = tx
+    r = margin
+    # The disc about the vertices' mean that holds the polygon, grown: a line
+    # that misses it leaves the zone on one side, and the wedge that misses it
+    # on both sides leaves the aim far from the zone: nothing to move.
+    dx = p[1] - x
+    dy = p[2] - y
+    held = p[3] + r
+    across = abs(mx * dx + my * dy)
+    if across >= held or across - RAMP_SLOPE * abs(tx * dx + ty * dy) + held * _RAMP_NORM <= 0.0:
+        return 0.0, mx, my
+    n = int(p[0])
+    left = -math.inf
+    right = -math.inf
+    for i in range(n):
+        k = HEADER + PER_VERTEX * i
+        side = mx * (p[k] - x) + my * (p[k + 1] - y)
+        left = max(left, side)
+        right = max(right, -side)
+    if left > right + 1e-9 * (abs(left) + abs(right)):
+        mx = -mx
+        my = -my
+    reach = -math.inf
+    for sense in (1.0, -1.0):  # ahead of the aim, then behind it
+        ux = mx - sense * RAMP_SLOPE * tx
+        uy = my - sense * RAMP_SLOPE * ty
+        best = -math.inf
+        bx = 0.0
+        by = 0.0
+        for i in range(n):
+            k = HEADER + PER_VERTEX * i
+            value = ux * (p[k] - x) + uy * (p[k + 1] - y)
+            if value > best:
+                best = value
+                bx = p[k]
+                by = p[k + 1]
+        # the support point, the vertex moved out by r along u / |u|
+        along = tx * (bx - x) + ty * (by - y) + r * (tx * ux + ty * uy) / _RAMP_NORM
+        if sense * along >= 0.0:
+            reach = max(reach, best + r * _RAMP_NORM)
+    for i in range(n):  # K's farthest point along m on the line a + s m
+        k = HEADER + PER_VERTEX * i
+        vx = p[k] - x
+        vy = p[k + 1] - y
+        w = tx * vx + ty * vy
+        if abs(w) <= r:  # the corner's disc
+            reach = max(reach, mx * vx + my * vy + math.sqrt(r * r - w * w))
+        # the edge moved out by 0..r: 0 <= n.(q - v) <= r, 0 <= e.(q - v) <= length
+        nx = p[k + 2]
+        ny = p[k + 3]
+        low = -math.inf
+        high = math.inf
+        for start, rate, top in (
+            (-(nx * vx + ny * vy), nx * mx + ny * my, r),
+            (ny * vx - nx * vy, -ny * mx + nx * my, p[k + 4]),
+        ):
+            if rate == 0.0:
+                if start < 0.0 or start > top:
+                    high = -math.inf
+            else:
+                one = -start / rate
+                two = (top - start) / rate
+                low = max(low, min(one, two))
+                high = min(high, max(one, two))
+        if low <= high:
+            reach = max(reach, high)
+    return max(reach, 0.0), mx, my
+
+
 @kernel
 def aim_round_zones(
     aim: FloatArray, row_kinds: IntArray, row_params: FloatArray, look_ahead: float, margin: float
@@ -377,7 +486,8 @@ def aim_round_zones(
     path's line enters it, and to the left of the direction of travel where
     the path meets the edge head-on (the saddle, a path through a circle's
     centre): the robot goes round, never stopping where the two sides
-    balance. Other rows project the aim onto
+    balance. A keep-out box or polygon does the same on the shorter way
+    across (``_way_round_polygon``). Other rows project the aim onto
     their edge (half-planes exactly, keep-in ellipses along the ray from the
     centre). Two passes settle an aim beyond two rows.
     """
@@ -388,10 +498,14 @@ def aim_round_zones(
     for _ in range(2):
         for i in range(row_kinds.shape[0]):
             p = row_params[i]
-            if row_kinds[i] == ELLIPSE_ROW and p[5] < 0.0:
+            keep_out = row_kinds[i] == POLYGON_ROW or (row_kinds[i] == ELLIPSE_ROW and p[5] < 0.0)
+            if keep_out:
                 # Across the path, on a ramp: moving on from before the zone
                 # without a kink steeper than RAMP_SLOPE, keeping its side.
-                reach, nx, ny = _way_round(p, grown, x, y, aim[2], aim[3])
+                if row_kinds[i] == POLYGON_ROW:
+                    reach, nx, ny = _way_round_polygon(p, grown, x, y, aim[2], aim[3])
+                else:
+                    reach, nx, ny = _way_round(p, grown, x, y, aim[2], aim[3])
                 if reach > 0.0:
                     moved = True
                     x += reach * nx

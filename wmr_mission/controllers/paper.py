@@ -30,8 +30,10 @@ from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.fields import Flag, Model, NonNegative, Positive
 from wmr_mission.kernels.corrective import (
     ELLIPSE_ROW,
+    POLYGON_ROW,
     corrective_input,
     kept_row_slot,
+    polygon_value,
     row_value_with_margin,
 )
 from wmr_mission.kernels.jit import inlined, kernel
@@ -637,12 +639,17 @@ def regulate_input(
     extra = (0.0, 0.0, 0.0, 0.0)
     worst = 0.0
     for i in range(row_kinds.shape[0]):
-        value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
-        if keep > 0.0:
-            now, _, _ = row_value_with_margin(
-                row_kinds[i], row_params[i], margin, estimate[0], estimate[1]
-            )
-            value -= keep * now
+        if row_kinds[i] == POLYGON_ROW:  # a keep-out box or polygon: its signed distance
+            value, gx, gy = polygon_value(row_params[i], margin, px, py)
+            if keep > 0.0:
+                value -= keep * polygon_value(row_params[i], margin, estimate[0], estimate[1])[0]
+        else:
+            value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
+            if keep > 0.0:
+                now, _, _ = row_value_with_margin(
+                    row_kinds[i], row_params[i], margin, estimate[0], estimate[1]
+                )
+                value -= keep * now
         if rate != math.inf:
             held, gx, gy, e00, e01, e10, e11 = held_where_braking_ends(
                 row_kinds[i], row_params[i], margin, keep, value, gx, gy,

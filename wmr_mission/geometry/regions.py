@@ -11,25 +11,37 @@ docs/architecture.md "Constraint rows"); a row is satisfied when its value
   with ``sign = +1`` this is eq. (33) written as ``G - 1 <= 0``.
 - kind ``HALF_PLANE_ROW``, half-plane ``nx, ny, offset, 0, 0, 0``:
   ``nx*x + ny*y - offset``, with a unit normal so the value is a signed distance.
+- kind ``POLYGON_ROW``, keep out of a convex polygon: minus the signed
+  distance to it; a row as wide as its vertices need (its columns:
+  wmr_mission.kernels.convex).
 
-A circle is an ellipse with equal semi-axes; a box and a convex polygon are one
-half-plane row per edge. The functions here are the readable numpy reference;
-the runner's compiled kernel implements the same formulas.
+A circle is an ellipse with equal semi-axes; kept inside, a box and a convex
+polygon are one half-plane row per edge, kept outside one polygon row. The
+functions here are the readable numpy reference; the runner's compiled kernel
+implements the same formulas.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal
+from collections.abc import Mapping
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from pydantic import Field, field_validator, model_validator
+from pydantic import (
+    Field,
+    SerializerFunctionWrapHandler,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
 from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.fields import SMALLEST_POSITIVE, Model, Point, PositiveScalar, Scalar
-from wmr_mission.kernels.corrective import ELLIPSE_ROW, HALF_PLANE_ROW
+from wmr_mission.kernels.convex import HEADER, PER_VERTEX, polygon_distance
+from wmr_mission.kernels.corrective import ELLIPSE_ROW, HALF_PLANE_ROW, POLYGON_ROW
 
 __all__ = [
     "BoxRegion",
@@ -38,9 +50,11 @@ __all__ = [
     "HalfPlaneRegion",
     "PolygonRegion",
     "RegionSpec",
+    "box_corners",
     "constraint_rows",
     "ellipse_geometry",
     "is_convex",
+    "polygon_row",
     "region_outline",
     "region_value",
     "region_vertices",
@@ -71,19 +85,51 @@ class CircleRegion(Model):
 
 
 class BoxRegion(Model):
-    """Axis-aligned box: min <= p <= max componentwise."""
+    """A rectangle: {min, max} (axis-aligned, min <= p <= max componentwise), or
+    {center, size, heading} (a shelf or pallet turned by heading)."""
 
     type: Literal["box"] = Field(description="Region kind.")
-    min: Point = Field(description="Lower-left corner [x, y] [m].")
-    max: Point = Field(description="Upper-right corner [x, y] [m], greater than min.")
+    min: Point | None = Field(default=None, description="Lower-left corner [x, y] [m].")
+    max: Point | None = Field(
+        default=None, description="Upper-right corner [x, y] [m], greater than min."
+    )
+    center: Point | None = Field(default=None, description="Centre [x, y] [m] (with size).")
+    size: tuple[PositiveScalar, PositiveScalar] | None = Field(
+        default=None,
+        description="Length along its heading and width across it [m], > 0 (with center).",
+    )
+    heading: Scalar = Field(
+        default=0.0, description="Rotation of its length from +x [rad] (with center and size)."
+    )
 
     @model_validator(mode="after")
-    def _ordered(self) -> BoxRegion:
-        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+    def _one_form(self) -> BoxRegion:
+        corners = self.min is not None or self.max is not None
+        centred = self.center is not None or self.size is not None
+        if corners == centred or (corners and "heading" in self.model_fields_set):
             raise PydanticCustomError(
-                "box_order", "a box needs min < max in both x and y (min is the lower-left corner)"
+                "box_form", "a box is {min, max} or {center, size, heading}, one of the two"
             )
+        if centred and (self.center is None or self.size is None):
+            raise PydanticCustomError(
+                "box_form", "a box with a center needs its size [length, width]"
+            )
+        if corners:
+            if self.min is None or self.max is None:
+                raise PydanticCustomError("box_form", "a box with min needs max, and max min")
+            if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+                raise PydanticCustomError(
+                    "box_order",
+                    "a box needs min < max in both x and y (min is the lower-left corner)",
+                )
         return self
+
+    @model_serializer(mode="wrap")
+    def _as_written(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The keys of the form written only: a {min, max} box dumps as before."""
+        dumped: dict[str, Any] = handler(self)
+        unused = ("center", "size", "heading") if self.min is not None else ("min", "max")
+        return {key: value for key, value in dumped.items() if key not in unused}
 
 
 class PolygonRegion(Model):
@@ -160,9 +206,34 @@ def _edge_rows(vertices: ArrayLike) -> FloatArray:
     return np.column_stack([normals, offsets])
 
 
+def box_corners(region: Mapping[str, Any]) -> FloatArray:
+    """``(4, 2)`` corners of a box (as written, or dumped), counter-clockwise
+    from the lower-left one before turning by its heading."""
+    if region.get("min") is not None:
+        (x_min, y_min), (x_max, y_max) = region["min"], region["max"]
+        return np.array(
+            [[x_min, y_min], [x_max, y_min], [x_max, y_max], [x_min, y_max]], dtype=np.float64
+        )
+    cx, cy = (float(v) for v in region["center"])
+    half_length, half_width = (0.5 * float(v) for v in region["size"])
+    heading = float(region.get("heading") or 0.0)
+    c, s = math.cos(heading), math.sin(heading)
+    local = np.array(
+        [
+            [-half_length, -half_width],
+            [half_length, -half_width],
+            [half_length, half_width],
+            [-half_length, half_width],
+        ]
+    )
+    return np.column_stack(
+        [cx + c * local[:, 0] - s * local[:, 1], cy + s * local[:, 0] + c * local[:, 1]]
+    )
+
+
 def _half_plane_rows(region: RegionSpec) -> FloatArray:
     """Outward half-plane rows ``nx, ny, offset`` of a box, polygon or half-plane."""
-    if isinstance(region, BoxRegion):
+    if isinstance(region, BoxRegion) and region.min is not None and region.max is not None:
         (x_min, y_min), (x_max, y_max) = region.min, region.max
         return np.array(
             [
@@ -172,6 +243,8 @@ def _half_plane_rows(region: RegionSpec) -> FloatArray:
                 [0.0, -1.0, -y_min],
             ]
         )
+    if isinstance(region, BoxRegion):  # turned by its heading
+        return _edge_rows(box_corners(region.model_dump()))
     if isinstance(region, PolygonRegion):
         return _edge_rows(region.vertices)
     if isinstance(region, HalfPlaneRegion):
@@ -182,10 +255,11 @@ def _half_plane_rows(region: RegionSpec) -> FloatArray:
 
 
 def constraint_rows(region: RegionSpec, side: Side) -> tuple[IntArray, FloatArray]:
-    """Constraint rows keeping the robot on ``side`` of ``region``: ``(kind (q,), params (q, 6))``.
+    """Constraint rows keeping the robot on ``side`` of ``region``: ``(kind (q,), params (q, w))``,
+    ``w`` 6, or more for a polygon row.
 
-    ``stay_outside`` is possible for an ellipse, a circle or a half-plane only: the
-    outside of a box or polygon is not convex, and no set of rows describes it.
+    The outside of a box or polygon is not convex: no set of half-plane rows
+    describes it, one polygon row (its signed distance) does.
     """
     if side not in ("inside", "outside"):
         raise ValueError(f"side must be 'inside' or 'outside', got {side!r}")
@@ -195,10 +269,7 @@ def constraint_rows(region: RegionSpec, side: Side) -> tuple[IntArray, FloatArra
         kinds = np.array([ELLIPSE_ROW], dtype=np.int64)
         return kinds, np.array([[cx, cy, a, b, rotation, sign]])
     if side == "outside" and not isinstance(region, HalfPlaneRegion):
-        raise ValueError(
-            f"stay_outside is not possible for a {region.type} region (its outside is not "
-            "convex); use an ellipse, circle or half-plane"
-        )
+        return np.array([POLYGON_ROW], dtype=np.int64), polygon_row(region_vertices(region))
     rows = _half_plane_rows(region)
     if side == "outside":
         rows = -rows
@@ -207,11 +278,32 @@ def constraint_rows(region: RegionSpec, side: Side) -> tuple[IntArray, FloatArra
     return np.full(len(rows), HALF_PLANE_ROW, dtype=np.int64), params
 
 
+def polygon_row(vertices: ArrayLike) -> FloatArray:
+    """The ``(1, w)`` parameters of a POLYGON_ROW (wmr_mission.kernels.convex):
+    the vertex count, the disc about the vertices' mean that holds them, then
+    per vertex, counter-clockwise, the vertex, its edge's unit outward normal
+    and length."""
+    points = np.asarray(vertices, dtype=np.float64)
+    if _signed_area(points) < 0:
+        points = points[::-1]
+    edges = np.roll(points, -1, axis=0) - points
+    lengths = np.hypot(edges[:, 0], edges[:, 1])
+    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / lengths[:, None]
+    center = points.mean(axis=0)
+    radius = float(np.max(np.hypot(points[:, 0] - center[0], points[:, 1] - center[1])))
+    row = np.zeros((1, HEADER + PER_VERTEX * len(points)))
+    row[0, :HEADER] = len(points), center[0], center[1], radius
+    row[0, HEADER:] = np.column_stack([points, normals, lengths]).ravel()
+    return row
+
+
 def row_values(kind: IntArray, params: FloatArray, x: float, y: float) -> FloatArray:
     """Value ``c`` of each row at the point ``(x, y)``; ``c <= 0`` is satisfied."""
     values = np.empty(len(kind))
     for i, (row_kind, p) in enumerate(zip(kind, params, strict=True)):
-        if row_kind == ELLIPSE_ROW:
+        if row_kind == POLYGON_ROW:
+            values[i] = -polygon_distance(p, x, y)[0]
+        elif row_kind == ELLIPSE_ROW:
             u, w = _ellipse_frame(p, x, y)
             values[i] = p[5] * ((u / p[2]) ** 2 + (w / p[3]) ** 2 - 1.0)
         else:
@@ -223,7 +315,10 @@ def row_gradients(kind: IntArray, params: FloatArray, x: float, y: float) -> Flo
     """Gradient ``[dc/dx, dc/dy]`` of each row at ``(x, y)``, shape ``(q, 2)``."""
     gradients = np.empty((len(kind), 2))
     for i, (row_kind, p) in enumerate(zip(kind, params, strict=True)):
-        if row_kind == ELLIPSE_ROW:
+        if row_kind == POLYGON_ROW:
+            _, gx, gy = polygon_distance(p, x, y)
+            gradients[i] = -gx, -gy
+        elif row_kind == ELLIPSE_ROW:
             u, w = _ellipse_frame(p, x, y)
             c, s = math.cos(p[4]), math.sin(p[4])
             du, dw = 2.0 * u / p[2] ** 2, 2.0 * w / p[3] ** 2
@@ -305,8 +400,7 @@ def is_convex(vertices: ArrayLike) -> bool:
 def region_vertices(region: RegionSpec) -> FloatArray:
     """``(n, 2)`` corners of a box or convex polygon region."""
     if isinstance(region, BoxRegion):
-        (x_min, y_min), (x_max, y_max) = region.min, region.max
-        return np.array([[x_min, y_min], [x_max, y_min], [x_max, y_max], [x_min, y_max]])
+        return box_corners(region.model_dump())
     if isinstance(region, PolygonRegion):
         return np.asarray(region.vertices, dtype=np.float64)
     raise ValueError(f"a {region.type} region has no corners (expected box or polygon)")
@@ -330,10 +424,9 @@ def region_outline(
         c, s = math.cos(rotation), math.sin(rotation)
         return cx + c * u - s * w, cy + s * u + c * w
     if isinstance(region, BoxRegion):
-        (x_min, y_min), (x_max, y_max) = region.min, region.max
-        xs = np.array([x_min, x_max, x_max, x_min, x_min], dtype=np.float64)
-        ys = np.array([y_min, y_min, y_max, y_max, y_min], dtype=np.float64)
-        return xs, ys
+        corners = box_corners(region.model_dump())
+        closed = np.vstack([corners, corners[:1]])
+        return closed[:, 0].copy(), closed[:, 1].copy()
     if isinstance(region, PolygonRegion):
         points = np.asarray(region.vertices, dtype=np.float64)
         closed = np.vstack([points, points[:1]])

@@ -27,6 +27,7 @@ import math
 import numpy as np
 
 from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.kernels.convex import polygon_distance
 from wmr_mission.kernels.jit import kernel
 from wmr_mission.kernels.model import hypot
 
@@ -35,6 +36,7 @@ REGULARISATION = 1e-12
 # Kinds of constraint rows (wmr_mission.geometry.regions builds them).
 ELLIPSE_ROW = 0
 HALF_PLANE_ROW = 1
+POLYGON_ROW = 2  # keep out of a convex polygon (wmr_mission.kernels.convex)
 
 
 @kernel
@@ -147,7 +149,7 @@ def row_value_with_margin(
     within ``margin`` of it: exactly for half-planes and circles (offset, or
     radius -+ margin); for an ellipse the semi-axes move by ``margin``, which
     is exact on its axes and off by ``O(margin^2 / radius of curvature)``
-    elsewhere.
+    elsewhere. (A polygon row: :func:`polygon_value`.)
     """
     if kind != ELLIPSE_ROW:
         return p[0] * x + p[1] * y - (p[2] - margin), p[0], p[1]
@@ -169,6 +171,16 @@ def row_value_with_margin(
 
 
 @kernel
+def polygon_value(p: FloatArray, margin: float, x: float, y: float) -> tuple[float, float, float]:
+    """:func:`row_value_with_margin` of a polygon row: ``margin`` minus the
+    signed distance to the polygon, exact. Its callers branch to it on the
+    row's kind themselves: a polygon branch inside row_value_with_margin cost
+    missions without polygons 15 % of the step (docs/performance.md)."""
+    distance, gx, gy = polygon_distance(p, x, y)
+    return margin - distance, -gx, -gy
+
+
+@kernel
 def row_value(kind: int, p: FloatArray, x: float, y: float) -> tuple[float, float, float]:
     """Value ``c`` of one constraint row (satisfied when ``c <= 0``) and its gradient.
 
@@ -183,7 +195,10 @@ def max_row_value(kinds: IntArray, params: FloatArray, x: float, y: float) -> fl
     """Largest row value at (x, y): > 0 means some constraint is violated."""
     worst = -math.inf
     for i in range(kinds.shape[0]):
-        value, _, _ = row_value(kinds[i], params[i], x, y)
+        if kinds[i] == POLYGON_ROW:
+            value, _, _ = polygon_value(params[i], 0.0, x, y)
+        else:
+            value, _, _ = row_value(kinds[i], params[i], x, y)
         worst = max(worst, value)
     return worst
 

@@ -112,7 +112,7 @@ class Recording(NamedTuple):
 
 
 # The recording's float columns, as record_sample writes them (named as the
-# run's arrays, wmr_mission.output.result): time, state, estimate and input,
+# run's arrays, wmr_mission.record): time, state, estimate and input,
 # then the path point, the constraint value and the measurement.
 FLOAT_COLUMNS = (
     "t",

@@ -20,7 +20,7 @@ from wmr_mission.output.figures import (
 from wmr_mission.output.files import atomic_path
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunRecord
 
 MAX_FRAMES = 200
 FPS = 20
@@ -65,7 +65,7 @@ def robot_outline(x: float, y: float, theta: float, size: float) -> FloatArray:
     return rotated
 
 
-def write_animation(result: RunResult, path: Path, *, max_frames: int = MAX_FRAMES) -> Path:
+def write_animation(result: RunRecord, path: Path, *, max_frames: int = MAX_FRAMES) -> Path:
     """Write a GIF of at most ``max_frames`` frames at ``FPS``, whatever the run length.
 
     The still parts (regions, the whole path in grey, axes) are drawn once; each

@@ -32,7 +32,7 @@ from wmr_mission.kernels.model import wrap_angle
 from wmr_mission.kernels.variants import estimator_spread, estimator_step
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunRecord
 
 # The replayed estimate may differ from the recorded one by this much [m, rad]:
 # trajectory.csv keeps 12 significant digits, so a run read back from its
@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 REPLAY_TOLERANCE: Final = 1e-6
 
 
-def band_estimator(result: RunResult) -> EstimatorType | None:
+def band_estimator(result: RunRecord) -> EstimatorType | None:
     """The registered estimator of the run when it reports a spread (and runs
     no code of the mission's: a plug-in is not run again to draw a figure)."""
     written = (result.mission or {}).get("estimator") or {}
@@ -49,7 +49,7 @@ def band_estimator(result: RunResult) -> EstimatorType | None:
     return kind if kind is not None and kind.spread is not None and not kind.plugin else None
 
 
-def estimate_std(result: RunResult) -> FloatArray | None:
+def estimate_std(result: RunRecord) -> FloatArray | None:
     """Per sample, the standard deviation of the estimate's error per state
     that the estimator itself holds [m, m, rad] (shape ``(samples, 3)``, NaN
     from where the replay parts from the record); None when the run's

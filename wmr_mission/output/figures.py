@@ -28,8 +28,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, IntArray
+from wmr_mission.geometry.regions import box_corners
 from wmr_mission.output.files import atomic_path
-from wmr_mission.output.metrics import (
+from wmr_mission.verdicts.metrics import (
     convergence_index,
     estimation_errors,
     phase_segments,
@@ -41,7 +42,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunRecord
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -143,7 +144,7 @@ def finite(values: FloatArray) -> FloatArray:
     return np.where(np.isfinite(values), values, np.nan)
 
 
-def phase_colors(result: RunResult) -> list[Any]:
+def phase_colors(result: RunRecord) -> list[Any]:
     """One colour per phase: the mission's `plot.phase_colors`, else a palette.
 
     Up to 10 phases take matplotlib's tab10; more take evenly spaced colours of
@@ -230,11 +231,12 @@ def region_extent(region: dict[str, Any]) -> tuple[float, float, float, float] |
     if kind == "circle":
         (cx, cy), r = region["center"], region["radius"]
         return cx - r, cx + r, cy - r, cy + r
-    if kind == "box":
-        (x0, y0), (x1, y1) = region["min"], region["max"]
-        return x0, x1, y0, y1
-    if kind == "polygon":
-        vertices = np.asarray(region["vertices"], dtype=np.float64)
+    if kind in ("box", "polygon"):
+        vertices = (
+            box_corners(region)
+            if kind == "box"
+            else np.asarray(region["vertices"], dtype=np.float64)
+        )
         return (
             float(vertices[:, 0].min()),
             float(vertices[:, 0].max()),
@@ -262,7 +264,7 @@ def _clip_half_plane(
     return np.asarray(kept, dtype=np.float64).reshape(-1, 2)
 
 
-def region_sides(result: RunResult) -> dict[str, str]:
+def region_sides(result: RunRecord) -> dict[str, str]:
     """Per constrained region (by a phase or by the geofence), the side the
     robot keeps to: ``inside`` or ``outside`` (``both`` when they differ)."""
     sides: dict[str, str] = {}
@@ -317,9 +319,11 @@ def draw_regions(
             )
         elif kind == "circle":
             patch = patches.Circle(tuple(region["center"]), region["radius"], **style)
-        elif kind == "box":
+        elif kind == "box" and region.get("min") is not None:
             (x0, y0), (x1, y1) = region["min"], region["max"]
             patch = patches.Rectangle((x0, y0), x1 - x0, y1 - y0, **style)
+        elif kind == "box":  # turned by its heading
+            patch = patches.Polygon(box_corners(region), **style)
         elif kind == "polygon":
             patch = patches.Polygon(np.asarray(region["vertices"], dtype=np.float64), **style)
         elif kind == "half-plane":
@@ -343,7 +347,7 @@ def draw_regions(
 # --- the path in the plane ------------------------------------------------
 
 
-def view_box(result: RunResult) -> tuple[float, float, float, float]:
+def view_box(result: RunRecord) -> tuple[float, float, float, float]:
     """Data limits of the path, the reference, goals and bounded regions, with a margin."""
     xs = [result.x, result.x_est, result.x_ref]
     ys = [result.y, result.y_est, result.y_ref]
@@ -377,13 +381,13 @@ def _finite_range(arrays: list[FloatArray]) -> tuple[float, float] | None:
     return (low, high) if low <= high else None
 
 
-def _sample_at(result: RunResult, time: float) -> int:
+def _sample_at(result: RunRecord, time: float) -> int:
     """First sample at or after ``time``."""
     k = int(np.searchsorted(result.t, time - 1e-9 * result.dt, side="left"))
     return min(k, result.samples - 1)
 
 
-def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
+def _draw_path(ax: Axes, result: RunRecord, colors: list[Any]) -> None:
     """The estimate, the true path coloured by phase (one collection, whatever
     the number of phases) and the reference (one line, broken between phases)."""
     from matplotlib.collections import LineCollection
@@ -433,7 +437,7 @@ def _draw_path(ax: Axes, result: RunResult, colors: list[Any]) -> None:
         ax.plot(x_ref, y_ref, label="reference", **REFERENCE_STYLE)
 
 
-def _phase_handles(result: RunResult, colors: list[Any]) -> list[Any]:
+def _phase_handles(result: RunRecord, colors: list[Any]) -> list[Any]:
     """One legend entry per phase, numbered as on the figure (those that did
     not run say so)."""
     from matplotlib.lines import Line2D
@@ -457,7 +461,7 @@ def _phase_handles(result: RunResult, colors: list[Any]) -> list[Any]:
     return handles
 
 
-def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
+def _draw_goals(ax: Axes, result: RunRecord, size: float) -> None:
     """Regulate targets, `near` goals (a circle of their tolerance) and path
     points: one artist per kind, however many phases."""
     from matplotlib import patches
@@ -525,7 +529,7 @@ def _draw_goals(ax: Axes, result: RunResult, size: float) -> None:
         )
 
 
-def _missed_goal(result: RunResult) -> tuple[float, float, float] | None:
+def _missed_goal(result: RunRecord) -> tuple[float, float, float] | None:
     """The `near` goal of a phase that timed out waiting for it."""
     for tr in result.transitions:
         if tr.to_phase is None and tr.condition == "timeout":
@@ -536,7 +540,7 @@ def _missed_goal(result: RunResult) -> tuple[float, float, float] | None:
 
 
 def _change_places(
-    result: RunResult, radius: float
+    result: RunRecord, radius: float
 ) -> list[tuple[tuple[float, float], dict[int, None]]]:
     """Each place of phase changes and the numbers of the phases entered there,
     in order: a change within ``radius`` of an earlier place joins the first such place."""
@@ -566,7 +570,7 @@ def _change_places(
     return places
 
 
-def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
+def _draw_changes(ax: Axes, result: RunRecord, size: float) -> None:
     """Each phase change as a dot labelled with the number of the phase it enters;
     changes at (nearly) one place share one label ("2,3"). At most
     MAX_CHANGE_LABELS places are labelled, evenly chosen, so that the drawing
@@ -602,7 +606,7 @@ def _draw_changes(ax: Axes, result: RunResult, size: float) -> None:
         )
 
 
-def _draw_updates(ax: Axes, result: RunResult) -> None:
+def _draw_updates(ax: Axes, result: RunRecord) -> None:
     """Where each update's reference took over (docs/mission-format.md,
     "References that change on-line"), labelled with its number."""
     updates = [tr for tr in result.transitions if tr.condition == "update"]
@@ -631,7 +635,7 @@ def _draw_updates(ax: Axes, result: RunResult) -> None:
         )
 
 
-def _draw_reactions(ax: Axes, result: RunResult) -> None:
+def _draw_reactions(ax: Axes, result: RunRecord) -> None:
     """Each reaction that fired (a retry, a goto, a contingency, ...) where the
     robot was, labelled with the reaction as written; at most
     MAX_CHANGE_LABELS labels."""
@@ -668,7 +672,7 @@ def _draw_reactions(ax: Axes, result: RunResult) -> None:
         )
 
 
-def _draw_headings(ax: Axes, result: RunResult, size: float) -> None:
+def _draw_headings(ax: Axes, result: RunRecord, size: float) -> None:
     """The robot's heading as arrows, evenly along the path by distance and at
     its end: an arrow against the direction of travel is the robot reversing
     (a reverse-in dock), an arrow turning on the spot a turn in place."""
@@ -707,7 +711,44 @@ def _draw_headings(ax: Axes, result: RunResult, size: float) -> None:
     )
 
 
-def _draw_ends(ax: Axes, result: RunResult) -> None:
+def _draw_footprint(ax: Axes, result: RunRecord) -> None:
+    """The robot's body (robot.footprint) where its heading arrows are: what
+    keeps the zones, where the path is only its axle's centre."""
+    from matplotlib import patches
+
+    footprint = ((result.mission or {}).get("robot") or {}).get("footprint")
+    kept = np.flatnonzero(np.isfinite(result.x) & np.isfinite(result.y) & np.isfinite(result.theta))
+    if not footprint or kept.size == 0:
+        return
+    x, y, theta = result.x[kept], result.y[kept], result.theta[kept]
+    travelled = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
+    stations = np.linspace(0.0, float(travelled[-1]), HEADING_ARROWS)
+    at = np.unique(np.searchsorted(travelled, stations).clip(0, x.size - 1))
+    style: dict[str, Any] = {
+        "facecolor": "none",
+        "edgecolor": "0.45",
+        "linewidth": 0.7,
+        "zorder": 4,
+    }
+    for k in at:
+        patch: Any
+        if "radius" in footprint:
+            patch = patches.Circle((x[k], y[k]), float(footprint["radius"]), **style)
+        else:
+            corners = np.asarray(footprint["polygon"], dtype=np.float64)
+            c, s = math.cos(theta[k]), math.sin(theta[k])
+            placed = np.column_stack(
+                [
+                    x[k] + c * corners[:, 0] - s * corners[:, 1],
+                    y[k] + s * corners[:, 0] + c * corners[:, 1],
+                ]
+            )
+            patch = patches.Polygon(placed, **style)
+        ax.add_patch(patch)
+    patch.set_label("body (robot.footprint)")
+
+
+def _draw_ends(ax: Axes, result: RunRecord) -> None:
     ax.plot(
         result.x[0],
         result.y[0],
@@ -731,7 +772,7 @@ def _draw_ends(ax: Axes, result: RunResult) -> None:
     )
 
 
-def _xy_on(ax: Axes, result: RunResult, label: str | None = None, color: Any = None) -> int:
+def _xy_on(ax: Axes, result: RunRecord, label: str | None = None, color: Any = None) -> int:
     """Draw the path in the plane on ``ax`` (over a run drawn there before, if
     any); return the legend's columns."""
     overlay = ax.has_data()
@@ -745,6 +786,7 @@ def _xy_on(ax: Axes, result: RunResult, label: str | None = None, color: Any = N
     if result.samples:
         _draw_path(ax, result, colors)
         _draw_headings(ax, result, size)
+        _draw_footprint(ax, result)
         _draw_changes(ax, result, size)
         _draw_updates(ax, result)
         _draw_reactions(ax, result)
@@ -783,7 +825,7 @@ def _xy_on(ax: Axes, result: RunResult, label: str | None = None, color: Any = N
 
 
 def plot_xy(
-    result: RunResult, ax: Axes | None = None, *, label: str | None = None, color: Any = None
+    result: RunRecord, ax: Axes | None = None, *, label: str | None = None, color: Any = None
 ) -> Axes:
     """The path in the plane, coloured by phase, over the regions (the paper's Fig. 2, 3).
 
@@ -801,7 +843,7 @@ def plot_xy(
 # --- over time ------------------------------------------------------------
 
 
-def _mark_phases(axes: Sequence[Axes], result: RunResult, colors: list[Any]) -> None:
+def _mark_phases(axes: Sequence[Axes], result: RunRecord, colors: list[Any]) -> None:
     """Phase boundaries as dotted lines (one collection per axes); above the top
     plot, each phase's number, and its name where its stretch is wide enough to
     hold it (the labels need room, so there are never more than about 50)."""
@@ -872,7 +914,7 @@ def _figure_axes(
     return figure, list(made.ravel())
 
 
-def _states_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
+def _states_on(fig: Figure, axes: list[Axes], result: RunRecord) -> None:
     k = thin(0, result.samples)
     t = result.t[k]
     for ax, state in zip(axes, STATES, strict=True):
@@ -895,14 +937,14 @@ def _states_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     names_as_typed(fig)
 
 
-def plot_states(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+def plot_states(result: RunRecord, axes: Sequence[Axes] | None = None) -> Figure:
     """True state against its estimate over time: three axes (x, y, theta); returns the figure."""
     fig, chosen = _figure_axes(axes, (3, 1), (9, 7.5))
     _states_on(fig, chosen, result)
     return fig
 
 
-def _start_window(result: RunResult) -> float:
+def _start_window(result: RunRecord) -> float:
     """Seconds shown in the start column: five times the time the estimate
     takes to converge, at least 20 samples, at most the run."""
     if result.samples < 2:
@@ -913,9 +955,9 @@ def _start_window(result: RunResult) -> float:
     return min(duration, max(5.0 * settle, 20.0 * result.dt, 0.1))
 
 
-def _errors_at(result: RunResult, state: str, k: IntArray) -> tuple[FloatArray, FloatArray]:
+def _errors_at(result: RunRecord, state: str, k: IntArray) -> tuple[FloatArray, FloatArray]:
     """Measurement - estimate and true - estimate of ``state`` at samples ``k``
-    (the heading's wrapped, as output.metrics.estimation_errors has it)."""
+    (the heading's wrapped, as verdicts.metrics.estimation_errors has it)."""
     estimate = getattr(result, f"{state}_est")[k]
     true_error = getattr(result, state)[k] - estimate
     if state == "theta":
@@ -923,7 +965,7 @@ def _errors_at(result: RunResult, state: str, k: IntArray) -> tuple[FloatArray, 
     return finite(getattr(result, f"{state}_meas")[k] - estimate), finite(true_error)
 
 
-def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
+def _estimation_on(fig: Figure, axes: list[Axes], result: RunRecord) -> None:
     """Left: the start, at full scale; right: the whole run, at the scale of the bounds.
 
     Eq. (4) bounds the output error, measurement - estimate, so the bounds are
@@ -1049,7 +1091,7 @@ def _estimation_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     names_as_typed(fig)
 
 
-def plot_estimation_error(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+def plot_estimation_error(result: RunRecord, axes: Sequence[Axes] | None = None) -> Figure:
     """Measurement - estimate against the eq. (4) bounds, and true - estimate, per state:
     six axes (3 rows x: start, whole run); returns the figure."""
     fig, chosen = _figure_axes(axes, (3, 2), (11, 7.5))
@@ -1059,7 +1101,7 @@ def plot_estimation_error(result: RunResult, axes: Sequence[Axes] | None = None)
     return fig
 
 
-def _inputs_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
+def _inputs_on(fig: Figure, axes: list[Axes], result: RunRecord) -> None:
     k = thin(0, result.samples)
     t = result.t[k]
     for ax, name, label, limit in zip(
@@ -1099,7 +1141,7 @@ def _inputs_on(fig: Figure, axes: list[Axes], result: RunResult) -> None:
     names_as_typed(fig)
 
 
-def plot_inputs(result: RunResult, axes: Sequence[Axes] | None = None) -> Figure:
+def plot_inputs(result: RunRecord, axes: Sequence[Axes] | None = None) -> Figure:
     """Linear speed and turn rate with their limits: two axes; returns the figure."""
     fig, chosen = _figure_axes(axes, (2, 1), (9, 5.5))
     _inputs_on(fig, chosen, result)
@@ -1118,14 +1160,14 @@ FAILED_COLOR = "tab:red"
 SIGNAL_COLORS = ("tab:blue", "tab:orange", "tab:green")
 
 
-def _verdicts_on(fig: Figure, result: RunResult) -> None:
+def _verdicts_on(fig: Figure, result: RunRecord) -> None:
     """The error signals the `expect` checks bound, over time, one panel each:
     the bounds drawn over their phases, the samples beyond them marked, the
     first failure's time drawn across every panel; failing panels on top."""
     from matplotlib.collections import LineCollection
     from matplotlib.lines import Line2D
 
-    from wmr_mission.output.signals import PANELS, Check, panel_of, run_signals
+    from wmr_mission.verdicts.signals import PANELS, Check, panel_of, run_signals
 
     signals = run_signals(result)
     failed = signals.failed()
@@ -1161,7 +1203,7 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
         checks = [c for c in signals.checks if panel_of(c.metric) == panel]
         bounds, bound_colors = [], []
         for check in (c for c in checks if c.peak):
-            from wmr_mission.output.signals import PEAK
+            from wmr_mission.verdicts.signals import PEAK
 
             name = PEAK[check.metric][1]
             start, end = check.span
@@ -1263,7 +1305,7 @@ def _verdicts_on(fig: Figure, result: RunResult) -> None:
     names_as_typed(fig)
 
 
-def _zoom(result: RunResult, first: Any) -> tuple[float, float] | None:
+def _zoom(result: RunRecord, first: Any) -> tuple[float, float] | None:
     """The time span [s] the top panel shows: the first failure's phase, padded,
     when it is under a third of the run; else None (the whole run)."""
     if first is None or not result.samples or first.phase is None:
@@ -1278,7 +1320,7 @@ def _zoom(result: RunResult, first: Any) -> tuple[float, float] | None:
 
 
 def _verdict_title(
-    result: RunResult, checks: Sequence[Any], failed: Sequence[Any], first: Any
+    result: RunRecord, checks: Sequence[Any], failed: Sequence[Any], first: Any
 ) -> str:
     """The run, its outcome and, for a failure, the first check it failed and when."""
     head = f"{result.mission_name}: {result.outcome.value}"
@@ -1337,7 +1379,7 @@ def _verdict_limits(ax: Axes, drawn: Mapping[str, FloatArray], checks: Sequence[
     ax.set_ylim(low - margin, high + margin)
 
 
-def plot_verdicts(result: RunResult) -> Figure:
+def plot_verdicts(result: RunRecord) -> Figure:
     """The error signals the `expect` checks bound, over time, with the bounds and
     the failing samples (``verdicts.png``); returns the figure (from pyplot)."""
     fig = _pyplot_figure((9.0, 6.0))
@@ -1348,7 +1390,7 @@ def plot_verdicts(result: RunResult) -> Figure:
 # --- files ----------------------------------------------------------------
 
 
-def _figure(result: RunResult, name: str) -> Figure:
+def _figure(result: RunRecord, name: str) -> Figure:
     """The figure of a run's file ``name`` (one of FIGURE_NAMES)."""
     if name == "verdicts":
         fig = new_figure((9.0, 6.0))
@@ -1506,7 +1548,7 @@ def _crop_to(fig: Figure, target: float) -> None:
         fig.set_size_inches(width * grown, height * grown)
 
 
-def _estimate_is_exact(result: RunResult) -> bool:
+def _estimate_is_exact(result: RunRecord) -> bool:
     """Whether the estimate equals the true state at every sample, and every
     measurement too (a noise-free run that starts from the true state)."""
     for state in STATES:
@@ -1521,7 +1563,7 @@ def _estimate_is_exact(result: RunResult) -> bool:
 
 
 def draw_all(
-    result: RunResult,
+    result: RunRecord,
     out_dir: Path,
     formats: Sequence[str] = ("png",),
     style: str = "screen",

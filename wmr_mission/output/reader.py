@@ -22,15 +22,14 @@ from typing import Any
 
 import numpy as np
 
-from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
+from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import (
-    CSV_COLUMNS,
     MANIFEST_FILE,
-    REFERENCE_COLUMN,
     SUMMARY_FILE,
     TRAJECTORY_FILE,
     TRANSITIONS_FILE,
 )
+from wmr_mission.record import CSV_COLUMNS, REFERENCE_COLUMN, Outcome, PhaseRecord, Transition
 from wmr_mission.spec.models import MISSION_NAME, is_color
 from wmr_mission.terminal import shown
 

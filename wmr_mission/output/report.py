@@ -13,7 +13,7 @@ import shutil
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunRecord
 
 WIDTH = 100
 # Widest the verdict column grows, so that the key metrics keep their lines.
@@ -60,7 +60,9 @@ def key_metric(phase: dict[str, Any]) -> str:
         if target.get("heading") is not None:
             parts.append(f"end heading error {_number(target.get('heading'), ' rad')}")
     constraint = phase.get("constraint") or {}
-    if constraint.get("max_violation") is not None:
+    if constraint.get("clearance_min") is not None:  # in metres, of the body if it has one
+        parts.append(f"clearance {_number(constraint['clearance_min'], ' m')}")
+    elif constraint.get("max_violation") is not None:
         parts.append(f"max constraint {_number(constraint['max_violation'], '')}")
     jitter = (phase.get("inputs") or {}).get("turn_rate_jitter")
     if jitter is not None:
@@ -121,7 +123,7 @@ def _aim(final: dict[str, Any], phases: list[dict[str, Any]]) -> str:
     return f" (from the target of phase '{name}')"
 
 
-def unreached(result: RunResult) -> list[str]:
+def unreached(result: RunRecord) -> list[str]:
     """For a run that timed out: what its phase was waiting for, and how far it was."""
     ended = [tr for tr in result.transitions if tr.to_phase is None and tr.condition == "timeout"]
     if not ended or result.samples == 0:
@@ -183,7 +185,7 @@ def format_table(
     run_dir: str | os.PathLike[str],
     *,
     wall_seconds: float | None = None,
-    result: RunResult | None = None,
+    result: RunRecord | None = None,
     width: int | None = None,
 ) -> str:
     """Phases with their key metrics and verdicts, the mission-wide expectations,
@@ -212,7 +214,7 @@ def format_table(
         "estimation converged from: " + ("never" if converged is None else f"t = {converged:.2f} s")
     )
     outcome = summary.get("outcome")
-    # What to try, where a known mechanism explains a miss (output/advice.py).
+    # What to try, where a known mechanism explains a miss (verdicts/advice.py).
     lines += [f"try: {check['advice']}" for check in checks if check.get("advice")]
     for check in checks:
         if check["met"] and check.get("phase") is not None:

@@ -2,7 +2,7 @@
 
 | file | content |
 |---|---|
-| ``trajectory.csv`` | one row per sample (``TRAJECTORY_COLUMNS`` then ``EXTRA_COLUMNS``) |
+| ``trajectory.csv`` | one row per sample (``wmr_mission.record.CSV_COLUMNS``) |
 | ``manifest.json`` | mission file and hash, resolved mission, seed, versions, environment, run |
 | ``transitions.json`` | each phase change |
 | ``summary.json`` | metrics; written after the data: its presence means the data is complete |
@@ -33,11 +33,14 @@ import numpy as np
 
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_json
-from wmr_mission.output.metrics import check_expectations, summarize
-from wmr_mission.output.recovery import recovery_record
+from wmr_mission.record import INTEGER_COLUMNS, csv_columns
+from wmr_mission.verdicts.check import Check, margin_fields
+from wmr_mission.verdicts.metrics import check_expectations, summarize
+from wmr_mission.verdicts.recovery import recovery_record
+from wmr_mission.verdicts.signals import mark_first_violations
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult, Transition
+    from wmr_mission.record import RunRecord, Transition
 
 TRAJECTORY_FILE = "trajectory.csv"
 MANIFEST_FILE = "manifest.json"
@@ -45,34 +48,6 @@ TRANSITIONS_FILE = "transitions.json"
 SUMMARY_FILE = "summary.json"
 ANIMATION_FILE = "animation.gif"
 
-# The first columns of trajectory.csv, in this order (DESIGN.md).
-TRAJECTORY_COLUMNS = (
-    "t",
-    "x",
-    "y",
-    "theta",
-    "x_est",
-    "y_est",
-    "theta_est",
-    "v",
-    "omega",
-    "phase",
-)
-# Columns that follow them.
-EXTRA_COLUMNS = (
-    "x_ref",
-    "y_ref",
-    "constraint",
-    "x_meas",
-    "y_meas",
-    "theta_meas",
-    "phase2_iterations",
-)
-CSV_COLUMNS = TRAJECTORY_COLUMNS + EXTRA_COLUMNS
-# The last column of a run whose mission has updates: the number of the
-# reference in force (docs/run-directory.md); other runs keep their bytes.
-REFERENCE_COLUMN = "reference"
-INTEGER_COLUMNS = ("phase2_iterations", REFERENCE_COLUMN)
 _FLOAT_FORMAT = "%.12g"
 # Rows formatted per `%` operation: one C-level formatting call per block keeps
 # a 360 000-sample run to about a second and a half, and a block's Python
@@ -169,7 +144,7 @@ def _csv_field(text: str) -> str:
     return text
 
 
-def trajectory_csv_blocks(result: RunResult) -> Iterator[str]:
+def trajectory_csv_blocks(result: RunRecord) -> Iterator[str]:
     """``trajectory.csv`` in pieces: the header line, then blocks of lines, so a
     long run is never held in memory as one text."""
     names = np.array([_csv_field(p.name) for p in result.phases] or [""], dtype=object)
@@ -196,17 +171,12 @@ def trajectory_csv_blocks(result: RunResult) -> Iterator[str]:
         yield row_format * (len(values) // len(columns)) % values
 
 
-def csv_columns(result: RunResult) -> tuple[str, ...]:
-    """The columns of the run's ``trajectory.csv``: ``reference`` last where it has one."""
-    return CSV_COLUMNS + ((REFERENCE_COLUMN,) if result.reference is not None else ())
-
-
-def trajectory_csv_text(result: RunResult) -> str:
+def trajectory_csv_text(result: RunRecord) -> str:
     """The whole ``trajectory.csv``: header line then one line per sample."""
     return "".join(trajectory_csv_blocks(result))
 
 
-def write_trajectory(result: RunResult, path: Path) -> Path:
+def write_trajectory(result: RunRecord, path: Path) -> Path:
     """Write ``trajectory.csv`` block by block (atomically, like every run file)."""
     with atomic_path(path) as tmp, tmp.open("w", encoding="utf-8", newline="") as out:
         for block in trajectory_csv_blocks(result):
@@ -234,7 +204,7 @@ def transitions_record(transitions: Sequence[Transition]) -> list[dict[str, Any]
     ]
 
 
-def run_record(result: RunResult) -> dict[str, Any]:
+def run_record(result: RunRecord) -> dict[str, Any]:
     """What ``load_run`` needs besides the CSV, transitions and summary."""
     return {
         "mission_name": result.mission_name,
@@ -267,7 +237,7 @@ def run_record(result: RunResult) -> dict[str, Any]:
 
 
 def manifest_record(
-    result: RunResult,
+    result: RunRecord,
     *,
     mission_sha256: str,
     resolved_mission: Mapping[str, Any],
@@ -300,28 +270,34 @@ def loop_build() -> str:
     return "compiled" if jit.loaded() else "plain Python"
 
 
-def summary_record(result: RunResult, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def summary_record(result: RunRecord, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The content of ``summary.json``: every metric and, with a mission (default:
     ``result.mission``), each of its `expect` thresholds with its verdict."""
     if mission is None:
         mission = result.mission
     if result.judged is not None and mission is result.mission:
+        mark_first_violations(result.judged, result)  # once: kept with the judged summary
         # Judged at the end of the run; a stop since names its signal in the message.
         summary = copy.deepcopy(result.judged)  # a caller's edit never reaches the result
         summary["outcome"], summary["message"] = result.outcome.value, result.message
+        checks = [Check.read(record) for record in summary.get("expectations") or []]
+        summary.update(margin_fields(checks, result.outcome.value))
         summary["recovery"] = recovery_record(result.transitions, result.succeeded)
         return summary
     summary = summarize(result, mission)
+    checks = []
     if mission is not None and isinstance(mission.get("expect"), Mapping):
-        summary["expectations"] = check_expectations(summary, mission)
+        checks = check_expectations(summary, mission)
+        summary["expectations"] = [check.record() for check in checks]
         if mission is result.mission:  # kept for the figures (verdicts.png), not computed twice
             result.judged = copy.deepcopy(summary)
+    summary.update(margin_fields(checks, result.outcome.value))
     summary["recovery"] = recovery_record(result.transitions, result.succeeded)
     return summary
 
 
 def write_run(
-    result: RunResult,
+    result: RunRecord,
     out_dir: str | os.PathLike[str],
     *,
     mission_sha256: str | None = None,
@@ -364,7 +340,7 @@ def write_run(
 
 
 def write_figures(
-    result: RunResult, run_dir: Path, *, plots: bool, animate: bool, formats: Sequence[str]
+    result: RunRecord, run_dir: Path, *, plots: bool, animate: bool, formats: Sequence[str]
 ) -> list[Path]:
     """The four figures in each of ``formats`` and, with ``animate``, the
     animation; return the files written."""

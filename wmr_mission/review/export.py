@@ -45,10 +45,10 @@ from wmr_mission.basics import FloatArray
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError
 from wmr_mission.output.rundir import (
-    CSV_COLUMNS,
     SUMMARY_FILE,
     TRAJECTORY_FILE,
 )
+from wmr_mission.record import CSV_COLUMNS
 from wmr_mission.review.ros2_messages import STAMP_LIMIT, write_ros2_mcap
 
 if TYPE_CHECKING:

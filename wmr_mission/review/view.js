@@ -145,6 +145,10 @@
         `${n ? fmt(S.t[n - 1] - S.t[0], 6) : 0} s · final position error ` +
         `${fmt(meta.final.position_error)} m, heading error ${fmt(meta.final.heading_error)} rad` }),
     );
+    if (meta.margin_check !== null) {
+      root.append(el("p", { class: "sub", text:
+        `margin ${meta.margin === null ? "-inf" : fmt(meta.margin)}, set by ${meta.margin_check}` }));
+    }
     if (meta.bucket_seconds !== null) {
       root.append(el("p", { class: "note", text:
         `The plots show ${meta.shown} of ${meta.samples} samples: per bucket of ` +
@@ -393,17 +397,18 @@
     const spanOf = (name) => meta.phase_table.find((p) => p.name === name);
     root.append(el("h2", { text: "Verdicts" }));
     if (!meta.expectations.length) root.append(el("p", { class: "note", text: "summary.json holds no expectation." }));
-    else root.append(table(["metric", "phase", "threshold", "value", "verdict"],
+    else root.append(table(["metric", "phase", "threshold", "value", "margin", "verdict"],
       meta.expectations.map((e) => {
         const threshold = e.max !== null ? `max ${fmt(e.max)}` : e.min !== null ? `min ${fmt(e.min)}` : "–";
         const span = e.phase === null ? undefined : spanOf(e.phase);
         const tr = el("tr", { class: (e.met === false ? "bad " : "") + (span ? "clickable" : "") },
           el("td", { text: e.metric }), el("td", { text: e.phase === null ? "whole mission" : e.phase }),
           el("td", { class: "num", text: threshold }), el("td", { class: "num", text: fmt(e.value) }),
+          el("td", { class: "num", text: e.margin === null ? (e.met === false ? "-inf" : "–") : fmt(e.margin) }),
           el("td", { text: e.met === null ? "–" : e.met ? "met" : "NOT MET" }));
         if (span) tr.addEventListener("click", () => setRange(span.start, span.end));
         return tr;
-      }), [false, false, true, true, false]));
+      }), [false, false, true, true, true, false]));
 
     root.append(el("h2", { text: "Phases" }));
     const colorOf = new Map(phases.map((p) => [p.name, p.color]));
@@ -412,18 +417,21 @@
       root.append(el("p", { class: "note", text: `The first ${shownPhases.length} of ${meta.phase_table.length} phases (summary.json has them all).` }));
     }
     root.append(table(
-      ["phase", "kind", "start [s]", "end [s]", "duration [s]", "tracking rms [m]", "tracking max [m]",
+      // summary.json's names: the verdict's numbers under the verdict's names
+      ["phase", "kind", "start [s]", "end [s]", "duration [s]", "cross_track_error_max [m]",
+        "along_track_lag_max [m]", "tracking_error.rms [m]", "tracking_error.max [m]",
         "target error [m]", "heading error [rad]", "max violation", "v at limit", "ω at limit"],
       shownPhases.map((p) => {
         const color = colorOf.get(p.name) || "#999";
         const tr = el("tr", { class: "clickable" },
           el("td", { class: "name" }, swatch(color), " ", p.name), el("td", { text: p.kind }),
-          ...[p.start, p.end, p.duration, p.tracking_rms, p.tracking_max, p.target_position,
+          ...[p.start, p.end, p.duration, p.cross_track_error_max, p.along_track_lag_max,
+            p.tracking_rms, p.tracking_max, p.target_position,
             p.target_heading, p.max_violation, p.speed_at_limit, p.turn_rate_at_limit]
             .map((v) => el("td", { class: "num", text: fmt(v) })));
         tr.addEventListener("click", () => { if (finite(p.start) && finite(p.end)) setRange(p.start, p.end); });
         return tr;
-      }), [false, false, true, true, true, true, true, true, true, true, true, true]));
+      }), [false, false, true, true, true, true, true, true, true, true, true, true, true, true]));
 
     root.append(el("h2", { text: "Transitions" }));
     const shownTransitions = meta.transitions.slice(0, 2000);
@@ -625,6 +633,11 @@
       el("p", { class: "sub", text: "outcomes: " + Object.entries(meta.outcomes).map(([k, v]) => `${k} ${v}`).join(" · ") +
         (finite(meta.missions_per_second) ? ` · ${fmt(meta.wall_seconds)} s of runs, ${fmt(meta.missions_per_second)} runs per second of simulating` : "") }),
     );
+    if (meta.margin) {
+      root.append(el("p", { class: "sub", text:
+        `margins: least ${fmt(meta.margin.min)}, p1 ${fmt(meta.margin.p1)}, p5 ${fmt(meta.margin.p5)}, ` +
+        `median ${fmt(meta.margin.p50)}; ${meta.margin.below_zero} runs below 0` }));
+    }
     if (meta.expectations.length) {
       root.append(table(["expectation", "min", "value", "verdict"], meta.expectations.map((e) =>
         el("tr", { class: e.met === false ? "bad" : "" }, el("td", { text: e.metric }),

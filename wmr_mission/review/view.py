@@ -134,7 +134,7 @@ def thin_signal(values: FloatArray, bounds: np.ndarray | None) -> FloatArray:
 
 def _signals(result: RunResult) -> dict[str, FloatArray]:
     """The run's signals over time, computed in float64 before any thinning."""
-    from wmr_mission.output.metrics import estimation_errors
+    from wmr_mission.verdicts.metrics import estimation_errors
 
     errors = estimation_errors(result)
     with np.errstate(invalid="ignore"):
@@ -280,10 +280,22 @@ def _expectations(summary: dict[str, Any]) -> list[dict[str, Any]]:
             "min": _finite_number(e.get("min")),
             "value": _finite_number(e.get("value")),
             "met": e.get("met") if isinstance(e.get("met"), bool) else None,
+            "margin": _finite_number(e.get("margin")),
         }
         for e in records
         if isinstance(e, dict)
     ]
+
+
+def _margins(record: Any) -> dict[str, Any] | None:
+    """campaign.json's distribution of the runs' margins (None before it had one)."""
+    if not isinstance(record, dict):
+        return None
+    below = record.get("below_zero")
+    return {
+        **{q: _finite_number(record.get(q)) for q in ("min", "p1", "p5", "p50", "max")},
+        "below_zero": below if isinstance(below, int) and not isinstance(below, bool) else 0,
+    }
 
 
 def _dig(record: Any, *keys: str) -> float | None:
@@ -310,6 +322,8 @@ def _phase_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
                 "start": _dig(p, "start"),
                 "end": _dig(p, "end"),
                 "duration": _dig(p, "duration"),
+                "cross_track_error_max": _dig(p, "tracking", "cross_track_error_max"),
+                "along_track_lag_max": _dig(p, "tracking", "along_track_lag_max"),
                 "tracking_rms": _dig(p, "tracking_error", "rms"),
                 "tracking_max": _dig(p, "tracking_error", "max"),
                 "target_position": _dig(p, "target_error", "position"),
@@ -406,6 +420,8 @@ def run_meta(result: RunResult, summary: dict[str, Any]) -> tuple[dict[str, Any]
         "regions": _regions(result, box),
         "transitions": transitions,
         "expectations": _expectations(summary),
+        "margin": _finite_number(summary.get("margin")),
+        "margin_check": _text(summary.get("margin_check")),
         "phase_table": _phase_rows(summary),
         "final": {
             "position_error": _dig(summary, "final", "position_error"),
@@ -505,6 +521,7 @@ def campaign_meta(campaign_dir: Path, out: Path) -> dict[str, Any]:
         }
         if isinstance(metrics, dict)
         else {},
+        "margin": _margins(summary.get("margin")),
         "wall_seconds": _finite_number(summary.get("wall_seconds")),
         "missions_per_second": _finite_number(summary.get("missions_per_second")),
         "columns": campaign.columns,

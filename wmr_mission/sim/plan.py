@@ -143,6 +143,8 @@ class MissionPlan:
     reactions: ReactionPlan | None = None
     # What a path given while the mission runs may refer to (planned).
     context: paths.Context = field(default_factory=lambda: paths.Context(regions={}))
+    # The robot's body as written (robot.footprint); None: a point.
+    footprint: dict[str, Any] | None = None
 
     @property
     def dt(self) -> float:
@@ -190,13 +192,15 @@ def _acceleration(limits: Limits) -> tuple[float, float]:
 
 def _extent(mission: Mission, dumped_regions: dict[str, dict[str, object]]) -> float:
     """The largest coordinate magnitude the mission names [m]: start, estimate,
-    regions (``dumped_regions``, less their rotation), targets, points, and
+    regions (``dumped_regions``, less their rotation and heading), targets, points, and
     each path's first point from the start pose."""
     start = mission.robot.initial_state
     guess = mission.estimator.initial_estimate or start
     numbers = [start.x, start.y, guess.x, guess.y]
     for region in dumped_regions.values():
-        numbers += _numbers({key: value for key, value in region.items() if key != "rotation"})
+        numbers += _numbers(
+            {key: value for key, value in region.items() if key not in ("rotation", "heading")}
+        )
     pose = (float(start.x), float(start.y), float(start.theta))
     context = mission.path_context()
     for phase in {run.where: run.phase for run in run_order(mission)}.values():
@@ -228,8 +232,19 @@ def _stack_rows(parts: list[tuple[IntArray, FloatArray]]) -> tuple[IntArray, Flo
     if not parts:
         return no_rows()
     kinds = np.concatenate([p[0] for p in parts]).astype(np.int64)
-    params = np.ascontiguousarray(np.vstack([p[1] for p in parts]), dtype=np.float64)
+    # a polygon row is wider than 6 (its vertices): every row padded to the widest
+    width = max(p[1].shape[1] for p in parts)
+    padded = [np.pad(p[1], ((0, 0), (0, width - p[1].shape[1]))) for p in parts]
+    params = np.ascontiguousarray(np.vstack(padded), dtype=np.float64)
     return kinds, params
+
+
+def _body(mission: Mission) -> float:
+    """[m] how far the robot's body reaches from the axle's centre: a round
+    footprint's radius, a polygon's farthest corner (the disc that holds it;
+    docs/paper-notes.md, "The robot's body"); 0 for a point robot."""
+    footprint = mission.robot.footprint
+    return 0.0 if footprint is None else footprint.reach()
 
 
 def sample_budget(mission: Mission) -> int:
@@ -387,7 +402,8 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         ),
         runaway_position=RUNAWAY_DISTANCE + _extent(mission, dumped_regions),
         runaway_input=RUNAWAY_INPUT,
-        constraint_margin=float(estimator.constraint_margin(estimator_tuning)),
+        # the estimate's uncertainty, and the body: zones are kept by the footprint
+        constraint_margin=float(estimator.constraint_margin(estimator_tuning)) + _body(mission),
     )
     phases = _phases(mission, dt)
     initial = mission.robot.initial_state
@@ -411,4 +427,7 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         max_samples=sample_budget(mission),
         disturbances=disturbance_plan(mission),
         context=mission.path_context(),
+        footprint=None
+        if mission.robot.footprint is None
+        else mission.robot.footprint.model_dump(mode="json"),
     )

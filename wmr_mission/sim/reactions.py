@@ -25,7 +25,6 @@ from wmr_mission.geometry.regions import (
     ellipse_geometry,
     region_value,
 )
-from wmr_mission.output.metrics import check_expectations, summarize, unmet
 from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import (
     Contingency,
@@ -45,6 +44,7 @@ from wmr_mission.spec.reactions import (
     Retry,
     reaction_text,
 )
+from wmr_mission.verdicts.metrics import check_expectations, summarize, unmet
 
 __all__ = [
     "Breach",
@@ -365,7 +365,7 @@ def missed_verdicts(result: RunResult, written: dict[str, Any]) -> list[str]:
     alone), that it missed, as summary.json words them."""
     summary = summarize(result, written)
     checks = check_expectations(summary, written)
-    return unmet([c for c in checks if c["phase"] is not None])
+    return unmet([c for c in checks if c.phase is not None])
 
 
 def replace_reaction(decision: Decision, reaction: str) -> Decision:

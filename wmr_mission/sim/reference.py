@@ -37,7 +37,8 @@ from wmr_mission.controllers.paper import (
 from wmr_mission.estimators import ekf, observer
 from wmr_mission.estimators.ekf import EkfTuning
 from wmr_mission.estimators.observer import BOUND_SLACK, MIN_HEADING_OBSERVABILITY, ObserverTuning
-from wmr_mission.kernels.corrective import ELLIPSE_ROW, REGULARISATION
+from wmr_mission.kernels.convex import polygon_distance
+from wmr_mission.kernels.corrective import ELLIPSE_ROW, POLYGON_ROW, REGULARISATION
 from wmr_mission.kernels.records import Plant, Scratch
 from wmr_mission.kernels.riccati import MIN_SPEED
 
@@ -409,13 +410,19 @@ def scheduled_gain(
 
 
 def constraint_values(
-    row_kinds: IntArray, row_params: FloatArray, position: FloatArray
+    row_kinds: IntArray, row_params: FloatArray, position: FloatArray, margin: float = 0.0
 ) -> tuple[FloatArray, FloatArray]:
-    """Each constraint row's value (violated when > 0) and gradient in (x, y)."""
+    """Each constraint row's value (violated when > 0) and gradient in (x, y);
+    a polygon row's allowed side shrunk by ``margin`` (:func:`shrunk` moves the
+    others)."""
     values = np.zeros(row_kinds.shape[0])
     gradients = np.zeros((row_kinds.shape[0], 2))
     for i, (kind, p) in enumerate(zip(row_kinds, row_params, strict=True)):
-        if kind == ELLIPSE_ROW:
+        if kind == POLYGON_ROW:  # minus the signed distance, kernels.convex
+            distance, gx, gy = polygon_distance(p, float(position[0]), float(position[1]))
+            values[i] = margin - distance
+            gradients[i] = -gx, -gy
+        elif kind == ELLIPSE_ROW:
             cos_phi, sin_phi = math.cos(p[4]), math.sin(p[4])
             rotation = np.array([[cos_phi, -sin_phi], [sin_phi, cos_phi]])
             local = rotation.T @ (position - p[:2])
@@ -430,12 +437,13 @@ def constraint_values(
 
 def shrunk(row_params: FloatArray, row_kinds: IntArray, margin: float) -> FloatArray:
     """The rows with their allowed side shrunk by ``margin`` [m]: a half-plane's
-    offset, an ellipse's semi-axes (grown for a keep-out one)."""
+    offset, an ellipse's semi-axes (grown for a keep-out one); a polygon row
+    as it is (:func:`constraint_values` takes its margin)."""
     params = row_params.copy()
     for i, kind in enumerate(row_kinds):
         if kind == ELLIPSE_ROW:
             params[i, 2:4] = np.maximum(params[i, 2:4] - params[i, 5] * margin, 1e-9)
-        else:
+        elif kind != POLYGON_ROW:
             params[i, 2] -= margin
     return params
 
@@ -516,12 +524,13 @@ def regulate_input(
         return
     # eq. (28): the rows the prediction violates, at most the two worst.
     predicted = predict(estimate, v, omega, dt)
+    margin = robot.constraint_margin
     values, gradients = constraint_values(
-        row_kinds, shrunk(row_params, row_kinds, robot.constraint_margin), predicted[:2]
+        row_kinds, shrunk(row_params, row_kinds, margin), predicted[:2], margin
     )
     if controller.barrier_rate < 1.0:  # the barrier c(k+1) <= (1 - gamma) c(k)
         now, _ = constraint_values(
-            row_kinds, shrunk(row_params, row_kinds, robot.constraint_margin), estimate[:2]
+            row_kinds, shrunk(row_params, row_kinds, margin), estimate[:2], margin
         )
         values = values - (1.0 - controller.barrier_rate) * now
     rate = float(limits[2])
@@ -531,11 +540,11 @@ def regulate_input(
         # also where braking from v ends (from v_{k-1} now), whichever is further in
         point, ahead = braking_point(predicted[:2], heading, v, rate, dt)
         if ahead != 0.0:
-            rows = shrunk(row_params, row_kinds, robot.constraint_margin)
-            at_stop, stop_gradients = constraint_values(row_kinds, rows, point)
+            rows = shrunk(row_params, row_kinds, margin)
+            at_stop, stop_gradients = constraint_values(row_kinds, rows, point, margin)
             if controller.barrier_rate < 1.0:
                 then, _ = braking_point(estimate[:2], float(estimate[2]), v_prev, rate, dt)
-                at_then, _ = constraint_values(row_kinds, rows, then)
+                at_then, _ = constraint_values(row_kinds, rows, then, margin)
                 at_stop = at_stop - (1.0 - controller.barrier_rate) * at_then
             braked = at_stop > values
             values = np.where(braked, at_stop, values)

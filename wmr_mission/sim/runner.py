@@ -25,10 +25,9 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
-from wmr_mission.output import recovery
-from wmr_mission.output.metrics import judge
-from wmr_mission.output.result import Outcome, PhaseRecord, RunResult, Transition
+from wmr_mission.output.result import RunResult
 from wmr_mission.plugins import failure_message
+from wmr_mission.record import Outcome, PhaseRecord, Transition
 from wmr_mission.sim.draws import Draws
 from wmr_mission.sim.plan import MissionPlan, PhasePlan, UpdatePlan, plan_mission
 from wmr_mission.sim.plant_side import PlantSide, PlantStopped
@@ -45,6 +44,8 @@ from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
 from wmr_mission.stopping import HOLD, RAISE, stop_owed
 from wmr_mission.stopping import mode as stop_mode
+from wmr_mission.verdicts import recovery
+from wmr_mission.verdicts.metrics import judge_mission
 
 # Samples per call of the compiled loop: between calls the runner reports
 # progress and Ctrl-C gets in (a few milliseconds apart when compiled). A
@@ -299,11 +300,8 @@ def run_mission(
 
 
 def judged(result: RunResult, checked: Mission) -> RunResult:
-    """``result`` with the mission as run, judged by its ``expect``."""
-    resolved = checked.model_dump(mode="json")
-    resolved["sensors"]["seed"] = result.seed  # the mission as run
-    result.mission = resolved
-    judge(result, resolved)  # a success that misses an `expect` is not one
+    """``result`` judged by the checked mission's ``expect``, the mission as run kept on it."""
+    judge_mission(result, checked)  # a success that misses an `expect` is not one
     return result
 
 

@@ -36,11 +36,14 @@ from wmr_mission.geometry.regions import (
     BoxRegion,
     CircleRegion,
     EllipseRegion,
+    HalfPlaneRegion,
     PolygonRegion,
     RegionSpec,
     ellipse_geometry,
     is_convex,
+    region_outline,
     region_value,
+    region_vertices,
 )
 from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import graph
@@ -131,6 +134,7 @@ def check(mission: Mission) -> list[Finding]:
         if not any(f.severity == "error" for f in findings):
             # sampling paths needs a sound mission (regions of the right kind, bounded phases)
             findings.extend(_zones(mission))
+            findings.extend(_body_room(mission))
             findings.extend(_reaches(mission))
     # a phase of a repeat is checked once per lap: say each finding once
     return list(dict.fromkeys(findings))
@@ -296,16 +300,6 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                     )
         yield from _target_against_constraints(mission, phase, where)
         yield from _update_rules(mission, phase, where)
-        for number, constraint in enumerate(phase.constraints):
-            if isinstance(constraint, StayInside):
-                continue
-            region = mission.regions.get(constraint.stay_outside)
-            if isinstance(region, BoxRegion | PolygonRegion):
-                yield Finding(
-                    (*where, "constraints", number, "stay_outside"),
-                    f"stay_outside needs a region whose outside is convex (ellipse, circle or "
-                    f"half-plane); the outside of {region.type} {constraint.stay_outside!r} is not",
-                )
 
 
 def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[Finding]:
@@ -1172,6 +1166,54 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                     )
 
 
+def _body_room(mission: Mission) -> Iterator[Finding]:
+    """With a footprint: a start, or a settled regulate target, that is outside
+    a keep-out zone of its phase but nearer to it than the body reaches. The
+    zones are kept by the body (docs/mission-format.md, "The robot's body"):
+    the robot starts beyond one, or cannot reach the target."""
+    footprint = mission.robot.footprint
+    if footprint is None:
+        return
+    reach = footprint.reach()
+    start = mission.robot.initial_state
+    for number, run in enumerate(run_order(mission)):
+        phase, where = run.phase, run.where
+        if run.lap is not None and run.lap > 1:
+            continue
+        points: list[tuple[DataPath, str, float, float]] = []
+        if number == 0:
+            points.append((("robot", "initial_state"), "robot.initial_state", start.x, start.y))
+        if isinstance(phase, RegulatePhase) and phase.until.settled is not None:
+            target = phase.regulate.target
+            points.append(((*where, "regulate", "target"), "the target", target.x, target.y))
+        for name, zone in _keep_outs(mission, phase).items():
+            for path, what, x, y in points:
+                gap = _gap(zone, float(x), float(y))
+                if 0.0 <= gap < reach:
+                    yield Finding(
+                        path,
+                        f"{what} ({x:g}, {y:g}) is {gap:.3g} m from keep-out zone {name!r}, "
+                        f"nearer than the robot's body reaches ({reach:.3g} m, "
+                        "robot.footprint): the body overlaps the zone there",
+                        severity="warning",
+                    )
+
+
+def _gap(region: RegionSpec, x: float, y: float) -> float:
+    """[m] how far the point (x, y) is outside ``region`` (-1 inside), by shapely."""
+    import shapely
+
+    if isinstance(region, HalfPlaneRegion):
+        nx, ny = region.normal
+        return (nx * x + ny * y - region.offset) / math.hypot(nx, ny)
+    if isinstance(region, BoxRegion | PolygonRegion):
+        outline = shapely.Polygon(region_vertices(region))
+    else:
+        outline = shapely.Polygon(np.column_stack(region_outline(region, n=720)[:2])[:-1])
+    point = shapely.Point(x, y)
+    return -1.0 if outline.contains(point) else float(outline.distance(point))
+
+
 def _boundary(region: RegionSpec) -> tuple[FloatArray, FloatArray]:
     """Points on the boundary of a bounded region (a half-plane: its foot point)."""
     if isinstance(region, EllipseRegion | CircleRegion):
@@ -1181,12 +1223,7 @@ def _boundary(region: RegionSpec) -> tuple[FloatArray, FloatArray]:
         c, s = math.cos(rotation), math.sin(rotation)
         return cx + c * u - s * w, cy + s * u + c * w
     if isinstance(region, BoxRegion | PolygonRegion):
-        corners = (
-            [region.min, (region.max[0], region.min[1]), region.max, (region.min[0], region.max[1])]
-            if isinstance(region, BoxRegion)
-            else region.vertices
-        )
-        points = np.array(corners, dtype=np.float64)
+        points = region_vertices(region)
         ends = np.roll(points, -1, axis=0)
         share = np.linspace(0.0, 1.0, _BOUNDARY // len(points))[:, None, None]
         edge = points[None] + share * (ends - points)[None]
@@ -1285,18 +1322,28 @@ def _through_centres(
     the centre itself, to the left of the direction of travel by rule
     (controllers/constrained_tracking.aim_round_zones), a side the mission
     does not choose. A path that merely crosses a zone is a detour the mission
-    chose: no note."""
+    chose: no note. A box or polygon is gone round the shorter way across, on
+    the left where both are as far: its centre, for a box and any polygon as
+    long one way across as the other, is its corners' mean."""
     if x.size < 2:
         return
     for number, constraint in enumerate(phase.constraints):
         if isinstance(constraint, StayInside):
             continue
         zone = mission.regions.get(constraint.stay_outside)
-        if not isinstance(zone, EllipseRegion | CircleRegion):
+        if isinstance(zone, EllipseRegion | CircleRegion):
+            cx, cy, a, b, _ = ellipse_geometry(zone)
+            size = min(a, b)
+        elif isinstance(zone, BoxRegion | PolygonRegion):
+            corners = region_vertices(zone)
+            cx, cy = (float(v) for v in corners.mean(axis=0))
+            edges = np.roll(corners, -1, axis=0) - corners
+            size = 0.5 * float(np.min(np.hypot(edges[:, 0], edges[:, 1])))
+            a = float(np.max(np.hypot(corners[:, 0] - cx, corners[:, 1] - cy)))
+        else:
             continue
-        cx, cy, a, b, _ = ellipse_geometry(zone)
         gap, centre_on_left = _passing(x, y, cx, cy)
-        if gap > CENTRE_SHARE * min(a, b):
+        if gap > CENTRE_SHARE * size:
             continue
         if gap <= 1e-9 * max(a, 1.0):
             side = "on the left of its direction of travel, by the zone filter's rule"

@@ -71,6 +71,7 @@ __all__ = [
     "Disturbances",
     "Dropout",
     "Expect",
+    "Footprint",
     "HeadingCondition",
     "Hold",
     "HoldPhase",
@@ -81,11 +82,13 @@ __all__ = [
     "Phase",
     "PhaseExpect",
     "Plot",
+    "PolygonFootprint",
     "Regulate",
     "RegulatePhase",
     "Repeat",
     "RepeatPhase",
     "Robot",
+    "RoundFootprint",
     "Sensors",
     "Settled",
     "Slip",
@@ -173,6 +176,72 @@ class Disturbances(Model):
     slip: Slip = Field(default_factory=lambda: Slip(), description="Wheel slip.")
 
 
+class RoundFootprint(Model):
+    """A round robot: a disc about the axle's centre."""
+
+    radius: Positive = Field(description="Radius [m], > 0.")
+
+    def reach(self) -> float:
+        """[m] the farthest point of the body from the axle's centre."""
+        return float(self.radius)
+
+
+class PolygonFootprint(Model):
+    """A robot whose outline is a convex polygon in its own frame (x ahead, y left,
+    the origin at the axle's centre)."""
+
+    polygon: list[Point] = Field(
+        min_length=3,
+        max_length=100,
+        description="At least 3 corners [[x, y], ...] [m] in the robot's frame, convex.",
+    )
+
+    @field_validator("polygon")
+    @classmethod
+    def _convex(cls, polygon: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        import shapely  # the geometry library; only a polygon footprint needs it
+
+        outline = shapely.Polygon(polygon)
+        scale = max(max(abs(float(x)), abs(float(y))) for x, y in polygon)
+        if len(set(polygon)) != len(polygon) or outline.area <= 1e-9 * scale * scale:
+            raise PydanticCustomError(
+                "degenerate_footprint",
+                "a footprint polygon needs distinct corners that enclose an area",
+            )
+        if not outline.is_valid or outline.convex_hull.area - outline.area > 1e-9 * outline.area:
+            raise PydanticCustomError(
+                "convex_footprint",
+                "a footprint polygon must be convex, its corners in order round it "
+                "(the zones are kept by the disc about the axle that holds it)",
+            )
+        return polygon
+
+    def reach(self) -> float:
+        """[m] the farthest corner from the axle's centre: the radius of the disc
+        the zones are kept by (docs/paper-notes.md, "The robot's body")."""
+        return max(math.hypot(float(x), float(y)) for x, y in self.polygon)
+
+
+def _footprint_kind(value: Any) -> str | None:
+    if isinstance(value, RoundFootprint | PolygonFootprint):
+        return "radius" if isinstance(value, RoundFootprint) else "polygon"
+    if isinstance(value, dict):
+        for key in ("radius", "polygon"):
+            if key in value:
+                return key
+    return None
+
+
+Footprint = Annotated[
+    Annotated[RoundFootprint, Tag("radius")] | Annotated[PolygonFootprint, Tag("polygon")],
+    Discriminator(
+        _footprint_kind,
+        custom_error_type="footprint_kind",
+        custom_error_message="a footprint is {radius: R} or {polygon: [[x, y], ...]}",
+    ),
+]
+
+
 class Robot(Model):
     """The plant of eq. (1), sampled."""
 
@@ -188,6 +257,14 @@ class Robot(Model):
         description=(
             "How the true plant departs from eq. (1); the estimator and controller never see "
             "these settings (docs/disturbances.md). Default: none."
+        ),
+    )
+    footprint: Footprint | None = Field(
+        default=None,
+        description=(
+            "The robot's body: {radius: R} or {polygon: [[x, y], ...]} in its own frame [m]. "
+            "Zones are kept by the body (a polygon by the disc about the axle that holds it), "
+            "and clearance_min is judged on it; null = a point at the axle's centre."
         ),
     )
 
@@ -328,6 +405,11 @@ _PHASE_METRICS: Final = {
         "[m] deepest the true position went beyond a zone's edge (into a stay_outside "
         "region, out of a stay_inside one)."
     ),
+    "clearance_min": (
+        "[m] at least: the least distance of the robot's body (robot.footprint; a point "
+        "without one) from a zone's forbidden side, negative where it went beyond; written "
+        "as a number, clearance_min: 0.1 (at least 0.1 m)."
+    ),
     "stall_time": (
         "[s] time a regulate phase spends away from its goal without taking 10 % of its "
         "error out over the next 20 time constants (or half a turn and 10 time constants)."
@@ -393,6 +475,7 @@ class PhaseExpect(Model):
     detour_offset_max: Threshold | Auto | None = _phase_metric("detour_offset_max")
     detour_time: Threshold | None = _phase_metric("detour_time")
     zone_intrusion_max: Threshold | None = _phase_metric("zone_intrusion_max")
+    clearance_min: Scalar | None = _phase_metric("clearance_min")
     stall_time: Threshold | None = _phase_metric("stall_time")
     overshoot_max: Threshold | Auto | None = _phase_metric("overshoot_max")
     speed_jump_max: Threshold | Auto | None = _phase_metric("speed_jump_max")
@@ -718,11 +801,17 @@ class Expect(PhaseExpect):
     detour_offset_max: Threshold | Auto | None = _mission_metric(
         "detour_offset_max",
         "auto",
-        " auto: how far the phase's zones reach into the path + the look-ahead + 0.1 m + "
-        "the position noise std.",
+        " auto: how far the phase's zones reach into the path (a box's or polygon's: the "
+        "shorter way out across it) + the body's reach (robot.footprint) + the look-ahead + "
+        "0.1 m + the position noise std.",
     )
     zone_intrusion_max: Threshold | None = _mission_metric(
         "zone_intrusion_max", Threshold(max=DEFAULT_ZONE_INTRUSION_MAX), " {max: 0.005} unless set."
+    )
+    clearance_min: Scalar | None = _mission_metric(
+        "clearance_min",
+        None,
+        " Unless set: 0 with a robot.footprint (its body may not touch a zone), else null.",
     )
     stall_time: Threshold | None = _mission_metric(
         "stall_time", Threshold(max=DEFAULT_STALL_TIME), " {max: 0} unless set."
@@ -1016,6 +1105,7 @@ class Mission(Model):
         (wmr_mission.estimators.registry.EstimatorSettings.with_sensors)."""
         mission: Mission = handler(data)
         robot = mission.robot
+
         # A slow estimate lags a robot the model does not hold for: under stated
         # disturbances the estimator keeps its own defaults (docs/paper-notes.md,
         # "Eqs. (6)-(7) under position noise").
@@ -1030,6 +1120,15 @@ class Mission(Model):
         if estimator is mission.estimator:
             return mission
         return mission.model_copy(update={"estimator": estimator})
+
+    @model_validator(mode="after")
+    def _body_kept_clear(self) -> Mission:
+        """With a footprint, clearance_min is 0 unless the mission sets it: the
+        body may not touch a zone (docs/mission-format.md, "Verdicts")."""
+        if self.robot.footprint is None or "clearance_min" in self.expect.model_fields_set:
+            return self
+        expect = self.expect.model_copy(update={"clearance_min": 0.0})
+        return self.model_copy(update={"expect": expect})
 
 
 def _rebuild() -> None:

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.output.numbers import MissionNumbers
+from wmr_mission.verdicts.numbers import MissionNumbers
 
 # Inputs this close to their limit (relative) are at it: the runner clips exactly.
 AT_LIMIT = 1e-9

@@ -23,7 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.output.numbers import MissionNumbers
+from wmr_mission.geometry.regions import box_corners
+from wmr_mission.verdicts.numbers import MissionNumbers
 
 # [m] depths are known to this: far below any tolerance, and what a robot held on
 # a zone's edge by the corrective action rounds to.
@@ -85,7 +86,7 @@ class Zone:
 
 def zones_of(constraints: tuple[tuple[str, str], ...], regions: Mapping[str, Any]) -> list[Zone]:
     """A phase's zones from its constraints ((region, "inside" | "outside"), as
-    :class:`wmr_mission.output.result.PhaseRecord` has them)."""
+    :class:`wmr_mission.record.PhaseRecord` has them)."""
     return [Zone(name, regions[name], side == "inside") for name, side in constraints]
 
 
@@ -117,6 +118,33 @@ def intrusion_max(
     return deepest if math.isfinite(deepest) else None
 
 
+def reach_across(zone: Zone, x: FloatArray, y: FloatArray) -> FloatArray:
+    """[m] how far a keep-out box or polygon reaches into a path at its points
+    (x, y): at a point inside it, the shorter way out across the path (square
+    to the path's direction there); elsewhere, and for other zones, the
+    point's :meth:`Zone.depth`. Through a circle's centre the two agree (its
+    radius); through a box's middle the way out across is half its width, not
+    the distance to its nearest edge."""
+    depth = zone.depth(x, y)
+    if zone.keep_inside or zone.region["type"] not in ("box", "polygon") or x.size < 2:
+        return depth
+    dx, dy = np.gradient(x), np.gradient(y)
+    length = np.hypot(dx, dy)
+    moving = length > 0.0
+    nx = np.divide(-dy, length, out=np.zeros_like(dx), where=moving)
+    ny = np.divide(dx, length, out=np.zeros_like(dx), where=moving)
+    corners = _corners(zone.region)
+    across = (corners[:, 0] - x[:, None]) * nx[:, None] + (corners[:, 1] - y[:, None]) * ny[:, None]
+    way_out = np.minimum(across.max(axis=1), (-across).max(axis=1))
+    return np.where((depth > 0.0) & moving, way_out, depth)
+
+
+def _corners(region: Mapping[str, Any]) -> FloatArray:
+    if region["type"] == "box":
+        return box_corners(region)
+    return np.asarray(region["vertices"], dtype=float)
+
+
 def _outside_by(region: Mapping[str, Any], x: FloatArray, y: FloatArray) -> Any:
     """Signed distance from the region: > 0 outside, < 0 inside."""
     kind = region["type"]
@@ -127,6 +155,8 @@ def _outside_by(region: Mapping[str, Any], x: FloatArray, y: FloatArray) -> Any:
         nx, ny = region["normal"]
         norm = math.hypot(nx, ny)
         return (nx * x + ny * y - float(region["offset"])) / norm
+    if kind == "box" and region.get("min") is None:  # turned by its heading
+        return _polygon_outside_by(box_corners(region), x, y)
     if kind == "box":
         (x0, y0), (x1, y1) = region["min"], region["max"]
         qx = np.abs(x - (x0 + x1) / 2) - (x1 - x0) / 2

@@ -11,7 +11,7 @@ on one of these signals over a phase (or the whole run):
   number beside its bound.
 
 The signals are computed here by the functions the verdicts use
-(wmr_mission.output.tracking, inputs, zones), so that what is drawn is what was
+(wmr_mission.verdicts.tracking, inputs, zones), so that what is drawn is what was
 judged. Nothing here draws.
 """
 
@@ -26,8 +26,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray
-from wmr_mission.output import inputs as input_metrics
-from wmr_mission.output.metrics import (
+from wmr_mission.spec import models
+from wmr_mission.verdicts import inputs as input_metrics
+from wmr_mission.verdicts.check import Check as Judged
+from wmr_mission.verdicts.metrics import (
     check_expectations,
     distance_to_path,
     estimation_errors,
@@ -35,13 +37,12 @@ from wmr_mission.output.metrics import (
     phase_segments,
     summarize,
 )
-from wmr_mission.output.numbers import MissionNumbers, mission_numbers
-from wmr_mission.output.tracking import track_samples
-from wmr_mission.output.zones import zones_of
-from wmr_mission.spec import models
+from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
+from wmr_mission.verdicts.tracking import track_samples
+from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
-    from wmr_mission.output.result import RunResult
+    from wmr_mission.record import RunRecord
 
 Mask = NDArray[np.bool_]
 
@@ -58,6 +59,7 @@ PEAK: dict[str, tuple[str, str]] = {
     "final_position_error": ("goal", "distance to the target"),
 }
 LEVEL: dict[str, str] = {
+    "clearance_min": "zones",  # the body's; the panel draws the axle's depth
     "tracking_error_rms": "cross_track",
     "detour_time": "cross_track",
     "stall_time": "goal",
@@ -81,6 +83,7 @@ UNITS: dict[str, str] = {
     "detour_offset_max": "m",
     "along_track_lag_max": "m",
     "zone_intrusion_max": "m",
+    "clearance_min": "m",
     "final_position_error": "m",
     "final_heading_error": "rad",
     "speed_jump_max": "m/s",
@@ -168,17 +171,17 @@ class Signals:
         return timed + [c for c in failed if c.first_over is None]
 
 
-def expectations(result: RunResult) -> list[dict[str, Any]]:
+def expectations(result: RunRecord) -> list[dict[str, Any]]:
     """The run's `expect` checks (``summary.json``'s ``expectations``)."""
     if result.judged is not None:
         return list(result.judged.get("expectations") or [])
     mission = result.mission
     if mission is None or not isinstance(mission.get("expect"), Mapping):
         return []
-    return check_expectations(summarize(result, mission), mission)
+    return [check.record() for check in check_expectations(summarize(result, mission), mission)]
 
 
-def run_signals(result: RunResult) -> Signals:
+def run_signals(result: RunRecord) -> Signals:
     """The error signals of ``result`` and its checks placed on them."""
     n = result.samples
     numbers = mission_numbers(result.mission, result.dt, result.limits)
@@ -260,6 +263,23 @@ def run_signals(result: RunResult) -> Signals:
     return Signals(lines, judged, checks)
 
 
+def mark_first_violations(summary: dict[str, Any], result: RunRecord) -> None:
+    """Each failed check of ``summary`` (``result``'s, as judged) gains its
+    ``first_violation``: the first judged sample beyond its bound, ``time`` and
+    ``sample``, as verdicts.png marks it; null for a level check (an RMS, a
+    count, a time: no sample is beyond it). The signals are computed once,
+    where a check failed."""
+    failed = [r for r in summary.get("expectations") or [] if not r.get("met")]
+    if not failed or all("first_violation" in record for record in failed):
+        return
+    first = {(c.metric, c.phase): c.first_over for c in run_signals(result).checks}
+    for record in failed:
+        sample = first.get((record["metric"], record["phase"]))
+        record["first_violation"] = (
+            None if sample is None else {"time": float(result.t[sample]), "sample": sample}
+        )
+
+
 def _wanted_estimation(
     errors: dict[str, FloatArray], numbers: MissionNumbers, metrics: set[str]
 ) -> set[str]:
@@ -273,7 +293,7 @@ def _wanted_estimation(
     return {"estimation"} if largest > 1e-9 else set()
 
 
-def _sample(result: RunResult, time: float) -> int:
+def _sample(result: RunRecord, time: float) -> int:
     return int(np.searchsorted(result.t, time - 1e-9 * result.dt))
 
 
@@ -295,17 +315,10 @@ def _placed(
     lines: Mapping[str, Mapping[str, FloatArray]],
     judged: Mapping[str, Mask],
 ) -> Check:
-    metric, phase = str(check["metric"]), check.get("phase")
-    span = spans.get(str(phase), (0, n)) if phase is not None else (0, n)
-    value = check.get("value")
-    placed = Check(
-        metric,
-        None if phase is None else str(phase),
-        float(check["max"]),
-        None if value is None else float(value),
-        bool(check["met"]),
-        span,
-    )
+    read = Judged.read(check)  # summary.json's record, read as data
+    metric, phase = read.metric, read.phase
+    span = spans.get(phase, (0, n)) if phase is not None else (0, n)
+    placed = Check(metric, phase, read.bound, read.value, read.met, span)
     if placed.met or metric not in PEAK:
         return placed
     panel, name = PEAK[metric]

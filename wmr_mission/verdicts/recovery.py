@@ -18,7 +18,7 @@ __all__ = ["EXIT_CODES", "fired", "recovery_record"]
 EXIT_CODES: Final = {"success": 0, "success-after-recovery": 0, "failure": 1}
 
 
-class _Transition(Protocol):  # wmr_mission.output.result.Transition
+class _Transition(Protocol):  # wmr_mission.record.Transition
     @property
     def reaction(self) -> str | None: ...
 

@@ -21,7 +21,8 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from wmr_mission.output.numbers import MissionNumbers
+from wmr_mission.verdicts.check import Check
+from wmr_mission.verdicts.numbers import MissionNumbers
 
 # The share of a jitter bound the position noise is given; the rest is the
 # heading noise's, which a longer look-ahead does not take out.
@@ -52,19 +53,19 @@ def explained_jitter(phase: Mapping[str, Any], numbers: MissionNumbers) -> float
 
 
 def advice(
-    check: Mapping[str, Any], phase: Mapping[str, Any], numbers: MissionNumbers, controller: str
+    check: Check, phase: Mapping[str, Any], numbers: MissionNumbers, controller: str
 ) -> str | None:
     """The line for an unmet ``check`` of the track phase ``phase`` (its
     summary; as metrics.check_expectations makes them) whose failure a known
     mechanism explains, else None. ``controller`` is the mission's
     ``controller.type``."""
-    if check["met"] or check["value"] is None:
+    if check.met or check.value is None:
         return None
-    if check["metric"] == "turn_rate_jitter":
+    if check.metric == "turn_rate_jitter":
         noise, look_ahead = numbers.position_noise, numbers.look_ahead
-        if controller != "paper" or noise <= 0.0 or look_ahead <= 0.0 or check["max"] <= 0.0:
+        if controller != "paper" or noise <= 0.0 or look_ahead <= 0.0 or check.bound <= 0.0:
             return None
-        value, bound = float(check["value"]), float(check["max"])
+        value, bound = check.value, check.bound
         if explained_jitter(phase, numbers) < EXPLAINED * value:
             return None  # something else turns it: a zone, a corner
         needed = _up(look_ahead * value / (HEADING_SHARE * bound))

@@ -42,9 +42,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.output.nearest import PointGrid
-from wmr_mission.output.numbers import SETTLING, MissionNumbers
-from wmr_mission.output.zones import Zone
+from wmr_mission.verdicts.nearest import PointGrid
+from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
+from wmr_mission.verdicts.zones import Zone, reach_across
 
 # [m] places on the path this much farther than the nearest are not "about as near".
 NEAR_EQUAL = 0.01
@@ -333,8 +333,8 @@ def track_samples(
     if zones:
         detour, rejoining = _detours(px, py, rx, ry, reference_speed, numbers, zones)
         excused |= detour | rejoining
-        reach = max(float(np.max(zone.depth(rx, ry))) for zone in zones)
-        metrics["zone_reach"] = max(0.0, reach)
+        reach = max(float(np.max(reach_across(zone, rx, ry))) for zone in zones)
+        metrics["zone_reach"] = max(0.0, reach + numbers.body)
     judged = ~excused
     judged[-1] |= ended_in_entry
     offset = cross[detour & ~np.isnan(cross)]

@@ -17,8 +17,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.output.numbers import MissionNumbers
-from wmr_mission.output.zones import Zone
+from wmr_mission.verdicts.numbers import MissionNumbers
+from wmr_mission.verdicts.zones import Zone
 
 # The share of its error a regulator takes out in every window, away from its goal.
 PROGRESS = 0.1

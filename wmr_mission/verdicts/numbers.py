@@ -40,6 +40,8 @@ class MissionNumbers:
     v_acceleration: float = math.inf
     # [rad/s^2] the tighter of limits.acceleration.omega and limits.omega_rate (inf: none)
     omega_acceleration: float = math.inf
+    # [m] how far the robot's body reaches from the axle's centre (robot.footprint); 0: a point
+    body: float = 0.0
 
     @property
     def position_noise(self) -> float:
@@ -136,4 +138,14 @@ def mission_numbers(
         },
         v_acceleration=_acceleration(mission, "v"),
         omega_acceleration=_acceleration(mission, "omega"),
+        body=_body(_get(mission, "robot", "footprint")),
     )
+
+
+def _body(footprint: Mapping[str, Any] | None) -> float:
+    """[m] a footprint's radius, or its farthest corner from the axle's centre."""
+    if not footprint:
+        return 0.0
+    if "radius" in footprint:
+        return float(footprint["radius"])
+    return max(math.hypot(float(x), float(y)) for x, y in footprint["polygon"])
