@@ -241,7 +241,7 @@ def test_a_long_run_shows_its_progress_on_a_terminal(monkeypatch: pytest.MonkeyP
     """A mission of more than 20 000 samples shows its phase and time as it
     runs, on a terminal only; the run is the same either way."""
     from wmr_mission.commands import run
-    from wmr_mission.sim.plan import sample_budget
+    from wmr_mission.sim.plan import plan_mission, sample_budget
     from wmr_mission.spec.loader import load_mission
 
     mission = load_mission(ROOT / "missions" / "coverage.yaml")
@@ -250,7 +250,7 @@ def test_a_long_run_shows_its_progress_on_a_terminal(monkeypatch: pytest.MonkeyP
     shown = []
     for stream in (_Terminal(), io.StringIO()):
         monkeypatch.setattr(sys, "stderr", stream)
-        result = run._simulate(mission, None, budget)
+        result = run._simulate(plan_mission(mission))
         shown.append(stream.getvalue())
     assert "coverage [" in shown[0]
     assert " t = " in shown[0]

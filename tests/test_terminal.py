@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from wmr_mission.cli import app
 from wmr_mission.output.environment import own_fingerprint
 from wmr_mission.spec.loader import check_mission_text
-from wmr_mission.terminal import shown
+from wmr_mission.terminal import ECHO_LIMIT, shown
 
 ROOT = Path(__file__).resolve().parents[1]
 MINIMAL = ROOT / "tests" / "data" / "missions" / "valid" / "minimal.yaml"
@@ -24,8 +24,11 @@ ACTED_ON = re.compile(
 )
 # The title sequence, a screen clear, a C1 CSI, a right-to-left override.
 HOSTILE = "k\x1b]0;TITLE\x07\x1b[2J\x9b\u202e"
-# The longest message line a long value may make (two echoes of 80 characters and words).
-LONGEST_LINE = 400
+# The longest message line a long value may make: three echoes of it cut to
+# ECHO_LIMIT characters, each with its "... (130,009 characters)" (`--set
+# PATH=VALUE: PATH: unknown field 'KEY'`), and the words, with the fields
+# the hint lists, around them.
+LONGEST_LINE = 3 * (ECHO_LIMIT + len("... (130,009 characters)")) + 150
 
 
 def test_shown_escapes_what_a_terminal_acts_on_and_cuts_long_text() -> None:
