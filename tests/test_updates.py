@@ -231,3 +231,48 @@ def test_the_turn_rate_step_for_a_path_beside_the_robot(offset: float) -> None:
     jump = float(np.abs(np.diff(result.omega[299:])).max())
     gain = (1.0 - np.exp(-dt / tau)) / ((look_ahead + v * dt / 2) * dt)
     assert jump == pytest.approx(gain * offset, rel=1e-6)
+
+
+LAPS = """
+version: 1
+name: laps
+robot:
+  dt: 0.01
+  limits: {v: 2, omega: 3}
+phases:
+  - name: rounds
+    repeat:
+      times: 3
+      phases:
+        - name: out
+          track:
+            path: {type: line, heading: 0, speed: 1}
+          updates:
+            - when: {lap: 2}
+              path: {type: line, heading: 0.5, speed: 1}
+          until: {elapsed: 1}
+        - name: back
+          regulate: {target: {x: 0, y: 0, theta: 0}}
+          until: {elapsed: 3}
+"""
+
+
+def test_a_lap_update_takes_over_at_the_entry_of_that_lap_and_each_later_one() -> None:
+    result = run_mission(mission_from_text(LAPS))
+    updates = [t for t in result.transitions if t.condition == "update"]
+    entries = {t.to_phase: t.time for t in result.transitions if t.condition != "update"}
+    # lap 1 keeps the phase's own line; laps 2 and 3 take the update at their first sample
+    assert [(u.from_phase, u.time) for u in updates] == [
+        ("out#2", entries["out#2"]),
+        ("out#3", entries["out#3"]),
+    ]
+    assert "lap 2" in str(updates[0].why)
+    assert result.reference is not None
+    for lap in (1, 2, 3):
+        rows = result.phase == result.phase_names.index(f"out#{lap}")
+        assert set(result.reference[rows].tolist()) == ({0} if lap == 1 else {1})
+        k = int(np.flatnonzero(rows)[0])
+        heading = np.arctan2(
+            result.y_ref[k + 50] - result.y_ref[k], result.x_ref[k + 50] - result.x_ref[k]
+        )
+        assert heading == pytest.approx(0.0 if lap == 1 else 0.5, abs=1e-9)

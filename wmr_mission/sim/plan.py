@@ -68,6 +68,8 @@ class UpdatePlan:
     mission_time: float | None = None
     reaches: RegionSpec | None = None
     travelled: float | None = None  # [m]
+    # lap: whether the phase runs its lap N or a later one (it takes over at entry)
+    in_lap: bool | None = None
     # track: builds the new path from the estimated pose at the update.
     make_trajectory: Callable[[tuple[float, float, float]], Trajectory] | None = None
     target: tuple[float, float, float] | None = None  # regulate: the new target
@@ -85,6 +87,8 @@ class UpdatePlan:
             hits = k - entry_sample >= self.elapsed_samples
         elif self.mission_time is not None:
             hits = k * dt >= self.mission_time - 0.5 * dt
+        elif self.in_lap is not None:
+            hits = np.full(n, self.in_lap)
         elif self.reaches is not None:
             hits = regions.region_value(self.reaches, estimates[:, 0], estimates[:, 1]) <= 0.0
         else:
@@ -296,7 +300,7 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
         goal = phase.regulate.target
         target = (float(goal.x), float(goal.y), float(goal.theta))
     return PhasePlan(
-        updates=tuple(_update(update, mission, dt) for update in phase.updates),
+        updates=tuple(_update(update, lap, mission, dt) for update in phase.updates),
         name=label,
         lap=lap,
         points=points,
@@ -312,7 +316,7 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
     )
 
 
-def _update(update: Update, mission: Mission, dt: float) -> UpdatePlan:
+def _update(update: Update, lap: int | None, mission: Mission, dt: float) -> UpdatePlan:
     context = mission.path_context()
     when = update.when
     make_trajectory = None
@@ -324,9 +328,10 @@ def _update(update: Update, mission: Mission, dt: float) -> UpdatePlan:
 
     target = update.target
     name, value = next((name, value) for name, value in when if value is not None)
-    unit = " m" if name == "travelled" else " s"
+    unit = {"travelled": " m", "lap": ""}.get(name, " s")
     return UpdatePlan(
         when=f"reaches '{value}'" if name == "reaches" else f"{name} {value:g}{unit}",
+        in_lap=None if when.lap is None else lap is not None and lap >= when.lap,
         elapsed_samples=None if when.elapsed is None else _bound(when.elapsed, dt),
         mission_time=when.mission_time,
         reaches=None if when.reaches is None else mission.regions[when.reaches],

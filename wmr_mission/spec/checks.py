@@ -295,7 +295,9 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                         f"{name!r} is a {region.type}",
                     )
         yield from _target_against_constraints(mission, phase, where)
-        yield from _update_rules(mission, phase, where)
+        step = mission.phases[int(where[1])]
+        laps = step.repeat.times if isinstance(step, RepeatPhase) else None
+        yield from _update_rules(mission, phase, where, laps)
         for number, constraint in enumerate(phase.constraints):
             if isinstance(constraint, StayInside):
                 continue
@@ -308,9 +310,12 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                 )
 
 
-def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[Finding]:
+def _update_rules(
+    mission: Mission, phase: Phase, where: DataPath, laps: int | None
+) -> Iterator[Finding]:
     """Each update names one condition and one new reference its phase can take:
-    a path on a track phase, a target on a regulate phase."""
+    a path on a track phase, a target on a regulate phase. ``laps``: the times
+    of the repeat the phase is in, None outside repeats."""
     for number, update in enumerate(phase.updates):
         at: DataPath = (*where, "updates", number)
         given = [name for name, value in update.when if value is not None]
@@ -318,9 +323,22 @@ def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[F
             yield Finding(
                 (*at, "when"),
                 "an update takes over on exactly one condition (elapsed, mission_time, "
-                f"reaches or travelled), but {len(given)} are given"
+                f"reaches, travelled or lap), but {len(given)} are given"
                 + (f" ({', '.join(given)})" if given else ""),
                 at_key=True,
+            )
+        lap = update.when.lap
+        if lap is not None and laps is None:
+            yield Finding(
+                (*at, "when", "lap"),
+                "'lap' counts the laps of a repeat, but this phase is not in a repeat; "
+                "use elapsed, mission_time, reaches or travelled",
+            )
+        elif lap is not None and laps is not None and lap > laps:
+            yield Finding(
+                (*at, "when", "lap"),
+                f"the repeat runs {laps} lap{'s' if laps > 1 else ''}, so lap {lap} never "
+                f"comes; expected 1..{laps}",
             )
         wanted = "path" if isinstance(phase, TrackPhase) else "target"
         if isinstance(phase, HoldPhase):

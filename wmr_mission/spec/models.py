@@ -463,6 +463,10 @@ class UpdateWhen(Model):
         default=None,
         description="Distance [m] the estimated position has covered since the phase was entered.",
     )
+    lap: Annotated[int, Strict(), Field(ge=1, le=10000)] | None = Field(
+        default=None,
+        description="A phase of a repeat: from its lap N on, at the lap's first sample.",
+    )
 
 
 class Update(Model):
