@@ -25,6 +25,7 @@ from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
 from wmr_mission.sim.draws import DisturbancePlan
 from wmr_mission.sim.reactions import ReactionPlan, contingency_phases, reaction_plan
+from wmr_mission.spec.changes import path_pace, with_look_ahead
 from wmr_mission.spec.checks import MAX_SAMPLES
 from wmr_mission.spec.graph import worst_case_samples
 from wmr_mission.spec.models import (
@@ -73,6 +74,21 @@ class UpdatePlan:
     # track: builds the new path from the estimated pose at the update.
     make_trajectory: Callable[[tuple[float, float, float]], Trajectory] | None = None
     target: tuple[float, float, float] | None = None  # regulate: the new target
+    pace: float | None = None  # a new path's written speed (or |angular_rate|); None: none
+    # track: the same path at this pace from the reference point in force
+    speed: float | None = None
+    # the controller's tuning with the update's look-ahead; None: unchanged
+    controller_tuning: Any = None
+
+    @property
+    def changes(self) -> str:
+        """What it changes, in words, for transitions.json."""
+        if self.make_trajectory is not None:
+            return "a new path"
+        new = [f"speed {self.speed:g}"] if self.speed is not None else []
+        if self.controller_tuning is not None:
+            new.append("a new look-ahead")
+        return " and ".join(new) if new else "a new target"
 
     def first(
         self, estimates: FloatArray, first_sample: int, since: int, entry_sample: int, dt: float
@@ -121,6 +137,7 @@ class PhasePlan:
     points: FloatArray | None = None
     color: str | None = None  # for the figures: from the mission's plot.phase_colors
     updates: tuple[UpdatePlan, ...] = ()  # in the order they are written
+    pace: float | None = None  # track: its path's written speed (or |angular_rate|)
 
 
 @dataclass(frozen=True)
@@ -264,14 +281,15 @@ def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:
     )
 
 
-def _phases(mission: Mission, dt: float) -> tuple[PhasePlan, ...]:
+def _phases(mission: Mission, plant: Plant) -> tuple[PhasePlan, ...]:
     written = [(run.phase, run.label, run.lap) for run in run_order(mission)]
     # then the phases of the contingencies a reaction names (none without reactions)
     written += [(phase, label, None) for label, phase in contingency_phases(mission)]
-    return tuple(_phase(phase, label, lap, mission, dt) for phase, label, lap in written)
+    return tuple(_phase(phase, label, lap, mission, plant) for phase, label, lap in written)
 
 
-def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: float) -> PhasePlan:
+def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, plant: Plant) -> PhasePlan:
+    dt = plant.dt
     context = mission.path_context()
     constraints = []
     row_parts = []
@@ -287,10 +305,12 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
     make_trajectory = None
     target = None
     points = None
+    pace = None
     if isinstance(phase, TrackPhase):
         kind = "track"
         path = phase.track.path
         points = paths.drawn_points(path, context)
+        pace = path_pace(path)
 
         def make_trajectory(pose: tuple[float, float, float], _path: Any = path) -> Trajectory:
             return paths.trajectory(_path, context, pose)
@@ -300,10 +320,11 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
         goal = phase.regulate.target
         target = (float(goal.x), float(goal.y), float(goal.theta))
     return PhasePlan(
-        updates=tuple(_update(update, lap, mission, dt) for update in phase.updates),
+        updates=tuple(_update(update, lap, mission, plant) for update in phase.updates),
         name=label,
         lap=lap,
         points=points,
+        pace=pace,
         kind=kind,
         until=_conditions(phase.until, mission, dt),
         timeout_samples=None if phase.timeout is None else _bound(phase.timeout, dt),
@@ -316,7 +337,8 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
     )
 
 
-def _update(update: Update, lap: int | None, mission: Mission, dt: float) -> UpdatePlan:
+def _update(update: Update, lap: int | None, mission: Mission, plant: Plant) -> UpdatePlan:
+    dt = plant.dt
     context = mission.path_context()
     when = update.when
     make_trajectory = None
@@ -327,6 +349,11 @@ def _update(update: Update, lap: int | None, mission: Mission, dt: float) -> Upd
             return paths.trajectory(path, context, pose)
 
     target = update.target
+    tuning = None
+    if update.look_ahead is not None:
+        settings = with_look_ahead(mission.controller, float(update.look_ahead))
+        assert settings is not None  # validate checked the controller has one
+        tuning = CONTROLLERS.of(settings).tuning_of(settings, plant)
     name, value = next((name, value) for name, value in when if value is not None)
     unit = {"travelled": " m", "lap": ""}.get(name, " s")
     return UpdatePlan(
@@ -338,6 +365,9 @@ def _update(update: Update, lap: int | None, mission: Mission, dt: float) -> Upd
         travelled=when.travelled,
         make_trajectory=make_trajectory,
         target=None if target is None else (float(target.x), float(target.y), float(target.theta)),
+        pace=None if update.path is None else path_pace(update.path),
+        speed=update.speed,
+        controller_tuning=tuning,
     )
 
 
@@ -361,7 +391,7 @@ def planned(path: Mapping[str, Any], context: paths.Context, when: str) -> Updat
     def make_trajectory(pose: tuple[float, float, float]) -> Trajectory:
         return paths.trajectory(new, context, pose)
 
-    return UpdatePlan(when=when, make_trajectory=make_trajectory)
+    return UpdatePlan(when=when, make_trajectory=make_trajectory, pace=path_pace(new))
 
 
 def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
@@ -394,7 +424,7 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         runaway_input=RUNAWAY_INPUT,
         constraint_margin=float(estimator.constraint_margin(estimator_tuning)),
     )
-    phases = _phases(mission, dt)
+    phases = _phases(mission, plant)
     initial = mission.robot.initial_state
     written = mission.estimator.initial_estimate
     guess = initial if written is None else written

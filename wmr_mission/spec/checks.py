@@ -44,6 +44,7 @@ from wmr_mission.geometry.regions import (
 )
 from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import graph
+from wmr_mission.spec.changes import path_pace, with_look_ahead
 from wmr_mission.spec.models import (
     HeadingCondition,
     HoldPhase,
@@ -53,6 +54,7 @@ from wmr_mission.spec.models import (
     RepeatPhase,
     StayInside,
     TrackPhase,
+    Update,
 )
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 
@@ -350,6 +352,7 @@ def _update_rules(
             )
             continue
         unwanted = "target" if wanted == "path" else "path"
+        changes_path = update.speed is not None or update.look_ahead is not None
         if getattr(update, unwanted) is not None:
             yield Finding(
                 (*at, unwanted),
@@ -357,8 +360,19 @@ def _update_rules(
                 f"{wanted}, not a {unwanted}",
                 at_key=True,
             )
-        elif getattr(update, wanted) is None:
-            yield Finding(at, f"the update gives no new {wanted}", at_key=True)
+        elif wanted == "target" and changes_path:
+            change = "speed" if update.speed is not None else "look_ahead"
+            yield Finding(
+                (*at, change),
+                f"'{change}' changes how a track phase follows its path; a regulate phase's "
+                "update gives a new target",
+                at_key=True,
+            )
+        elif getattr(update, wanted) is None and not changes_path:
+            more = " (or speed, look_ahead)" if wanted == "path" else ""
+            yield Finding(at, f"the update gives no new {wanted}{more}", at_key=True)
+        if isinstance(phase, TrackPhase):
+            yield from _speed_and_look_ahead(mission, phase, number, update, at)
         path = update.path
         name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
         region = mission.regions.get(name) if name is not None else None
@@ -371,6 +385,38 @@ def _update_rules(
                     f"{article} {path.type} path needs {wanted_region} region, but "
                     f"{name!r} is a {region.type}",
                 )
+
+
+def _speed_and_look_ahead(
+    mission: Mission, phase: TrackPhase, number: int, update: Update, at: DataPath
+) -> Iterator[Finding]:
+    """A speed update needs a path in force that has a pace (the phase's own,
+    or the last new path before it); a look-ahead update a controller with one."""
+    if update.speed is not None and update.path is not None:
+        yield Finding(
+            (*at, "speed"),
+            "an update with a new path takes that path's own speed; 'speed' changes the "
+            "path in force: give one or the other",
+            at_key=True,
+        )
+    elif update.speed is not None:
+        earlier = [u.path for u in phase.updates[:number] if u.path is not None]
+        path = earlier[-1] if earlier else phase.track.path
+        if path_pace(path) is None:
+            yield Finding(
+                (*at, "speed"),
+                f"the {path.type} path in force has no speed or angular_rate to change; "
+                "give a new path instead",
+                at_key=True,
+            )
+    if update.look_ahead is not None and with_look_ahead(mission.controller, 1.0) is None:
+        yield Finding(
+            (*at, "look_ahead"),
+            f"the {mission.controller.type} controller"
+            + (" (tracking.output: axle)" if mission.controller.type == "paper" else "")
+            + " tracks no look-ahead point; drop look_ahead or use a controller with one",
+            at_key=True,
+        )
 
 
 def _breaches(

@@ -480,6 +480,18 @@ class Update(Model):
         description="track: the new path, instantiated from the estimated pose at the update.",
     )
     target: Pose | None = Field(default=None, description="regulate: the new target pose.")
+    speed: Positive | None = Field(
+        default=None,
+        description=(
+            "track: the same path from the reference point in force, at this speed: "
+            "[m/s] for a path with a speed, [rad/s] (|angular_rate|) for one with an "
+            "angular_rate."
+        ),
+    )
+    look_ahead: Positive | None = Field(
+        default=None,
+        description="track: the controller's look-ahead distance [m] for the rest of the phase.",
+    )
 
 
 class StayInside(Model):
