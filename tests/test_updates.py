@@ -307,7 +307,8 @@ def test_a_speed_update_runs_the_same_line_on_at_the_new_speed() -> None:
     result, k = _paced("{type: line, heading: 0.4, speed: 1}", "speed: 0.5")
     assert k == 200
     assert result.reference is not None
-    assert result.reference[k - 1] == 0 and result.reference[k] == 1
+    assert result.reference[k - 1] == 0
+    assert result.reference[k] == 1
     step = np.hypot(np.diff(result.x_ref), np.diff(result.y_ref)) / result.dt
     # 1 m/s up to the update, 0.5 m/s after it, from the reference point in force
     assert step[: k - 1] == pytest.approx(1.0, abs=1e-9)
