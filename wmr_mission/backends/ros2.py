@@ -29,7 +29,7 @@ from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.kernels import disturbances
 from wmr_mission.kernels.disturbances import Actuation, Sensing
 from wmr_mission.kernels.model import wrap_angle
-from wmr_mission.sim.plan import MissionPlan, UpdatePlan, planned
+from wmr_mission.sim.plan import MissionPlan, UpdatePlan, goal, planned
 from wmr_mission.sim.plant_side import PlantStopped
 from wmr_mission.spec.backend import Backend
 
@@ -132,14 +132,29 @@ class Ros2Plant:
         self._plan_lock = threading.Lock()
         self.plans_taken = 0
         self.plans_refused = 0
+        self._context = plan.context
+        if settings.plan is not None or settings.goal is not None:
+            self.plans = self._next_plan
+        if settings.goal is not None:
+            from geometry_msgs.msg import PoseStamped
+
+            node.create_subscription(
+                PoseStamped,
+                settings.goal,
+                self._on_goal,
+                self.ros.qos(settings.goal_reliability, 1),
+            )
+            print(
+                f"ros2: goals from '{settings.goal}' (geometry_msgs/PoseStamped in frame "
+                f"'{settings.frame_id}'); until the first, each phase follows its own reference",
+                file=sys.stderr,
+            )
         if settings.plan is not None:
             from nav_msgs.msg import Path
 
-            self._context = plan.context
             node.create_subscription(
                 Path, settings.plan, self._on_plan, self.ros.qos(settings.plan_reliability, 1)
             )
-            self.plans = self._next_plan
             print(
                 f"ros2: plans from '{settings.plan}' (nav_msgs/Path in frame "
                 f"'{settings.frame_id}'); until the first, each track phase follows its own path",
@@ -178,6 +193,34 @@ class Ros2Plant:
         except ValueError as error:
             self.plans_refused += 1
             print(f"ros2: a plan on '{self.settings.plan}' refused: {error}", file=sys.stderr)
+            return
+        with self._plan_lock:
+            self._plan = update
+
+    def _on_goal(self, message: Any) -> None:
+        """A goal pose in the odometry's frame: a regulate phase's target, a
+        track phase's straight route to it; another frame is refused."""
+        topic = self.settings.goal
+        frame = message.header.frame_id.lstrip("/")
+        if frame != self.settings.frame_id.lstrip("/"):
+            self.plans_refused += 1
+            print(
+                f"ros2: a goal on '{topic}' refused: its frame is '{frame}', not "
+                f"'{self.settings.frame_id}'",
+                file=sys.stderr,
+            )
+            return
+        pose = message.pose
+        q = pose.orientation
+        theta = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        to = (float(pose.position.x), float(pose.position.y), theta)
+        latest = self.latest
+        via = to[:2] if latest is None else (0.5 * (latest.x + to[0]), 0.5 * (latest.y + to[1]))
+        try:
+            update = goal(to, via, self.settings.plan_speed, self._context, f"goal on '{topic}'")
+        except ValueError as error:
+            self.plans_refused += 1
+            print(f"ros2: a goal on '{topic}' refused: {error}", file=sys.stderr)
             return
         with self._plan_lock:
             self._plan = update
@@ -228,7 +271,7 @@ class Ros2Plant:
             "zero_command_sent": self.zero_sent,
             **(
                 {"plans_taken": self.plans_taken, "plans_refused": self.plans_refused}
-                if self.settings.plan is not None
+                if self.plans is not None
                 else {}
             ),
         }

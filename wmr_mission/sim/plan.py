@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -89,6 +89,15 @@ class UpdatePlan:
         if self.controller_tuning is not None:
             new.append("a new look-ahead")
         return " and ".join(new) if new else "a new target"
+
+    def for_phase(self, kind: str) -> UpdatePlan | None:
+        """What of it a phase of ``kind`` takes: a track phase its path, a
+        regulate phase its target (a planner's goal has both); None: nothing."""
+        if kind == "track" and self.make_trajectory is not None:
+            return replace(self, target=None)
+        if kind == "regulate" and self.target is not None:
+            return replace(self, make_trajectory=None, pace=None)
+        return None
 
     def first(
         self, estimates: FloatArray, first_sample: int, since: int, entry_sample: int, dt: float
@@ -392,6 +401,22 @@ def planned(path: Mapping[str, Any], context: paths.Context, when: str) -> Updat
         return paths.trajectory(new, context, pose)
 
     return UpdatePlan(when=when, make_trajectory=make_trajectory, pace=path_pace(new))
+
+
+def goal(
+    pose: tuple[float, float, float],
+    via: tuple[float, float],
+    speed: float,
+    context: paths.Context,
+    when: str,
+) -> UpdatePlan:
+    """A planner's goal pose as an update: a regulate phase's new target, and
+    for a track phase a straight route from the estimate where it takes over,
+    through ``via`` (halfway from the robot's pose when the goal came), to the
+    goal's position at ``speed``. ValueError says what is wrong."""
+    route = {"type": "waypoints", "points": [list(via), list(pose[:2])], "speed": speed}
+    update = planned(route, context, when)
+    return replace(update, target=pose)
 
 
 def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:

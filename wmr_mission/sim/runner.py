@@ -641,8 +641,9 @@ class _Run:
             if self.plans is not None:  # a planner's new path, looked for at every sample
                 stop = k + 1
                 update = self.plans()
-                if update is not None and active.phase.kind == "track":
-                    self._take_over(active, k, update)
+                taken = None if update is None else update.for_phase(active.phase.kind)
+                if taken is not None:
+                    self._take_over(active, k, taken)
             rows = min(chunk, active.bound - local) + 1
             path = active.path_ahead(local, min(rows, self.pause_at - k + 1), rows)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full

@@ -63,8 +63,20 @@ class Backend(Model):
     plan_reliability: Reliability = Field(
         default="reliable", description="ros2: QoS reliability of the plans (depth 1)."
     )
+    goal: RosName | None = Field(
+        default=None,
+        description=(
+            "ros2: topic of a planner's goals (geometry_msgs/PoseStamped, in frame_id): a "
+            "regulate phase takes each as its new target, a track phase a straight route "
+            "from the estimate to it, at plan_speed (docs/backends.md, 'A planner over ROS 2')."
+        ),
+    )
+    goal_reliability: Reliability = Field(
+        default="reliable", description="ros2: QoS reliability of the goals (depth 1)."
+    )
     plan_speed: Duration = Field(
-        default=0.5, description="[m/s] ros2: the speed a plan's route is followed at, > 0."
+        default=0.5,
+        description="[m/s] ros2: the speed a plan's (or goal's) route is followed at, > 0.",
     )
     wait_for_robot: Duration = Field(
         default=10.0,
