@@ -79,10 +79,14 @@ class UpdatePlan:
     speed: float | None = None
     # the controller's tuning with the update's look-ahead; None: unchanged
     controller_tuning: Any = None
+    # hold the estimated pose where it takes over (a quiet planner's on_plan_stale: hold)
+    hold: bool = False
 
     @property
     def changes(self) -> str:
         """What it changes, in words, for transitions.json."""
+        if self.hold:
+            return "hold the estimated pose"
         if self.make_trajectory is not None:
             return "a new path"
         new = [f"speed {self.speed:g}"] if self.speed is not None else []
@@ -93,6 +97,8 @@ class UpdatePlan:
     def for_phase(self, kind: str) -> UpdatePlan | None:
         """What of it a phase of ``kind`` takes: a track phase its path, a
         regulate phase its target (a planner's goal has both); None: nothing."""
+        if self.hold and kind == "regulate":
+            return replace(self, make_trajectory=None)
         if kind == "track" and self.make_trajectory is not None:
             return replace(self, target=None)
         if kind == "regulate" and self.target is not None:
@@ -417,6 +423,29 @@ def goal(
     route = {"type": "waypoints", "points": [list(via), list(pose[:2])], "speed": speed}
     update = planned(route, context, when)
     return replace(update, target=pose)
+
+
+@dataclass(frozen=True)
+class Resting:
+    """A path that rests at one point: where a track phase holds."""
+
+    x: float
+    y: float
+
+    def sample(self, t: Any) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        shape = np.shape(t)
+        zeros = np.zeros(shape)
+        return np.full(shape, self.x), np.full(shape, self.y), zeros, zeros.copy()
+
+
+def hold_still(when: str) -> UpdatePlan:
+    """An update that holds the estimated pose where it takes over: a track
+    phase's path rests there, a regulate phase's target is that pose."""
+
+    def make_trajectory(pose: tuple[float, float, float]) -> Trajectory:
+        return Resting(pose[0], pose[1])
+
+    return UpdatePlan(when=when, make_trajectory=make_trajectory, hold=True)
 
 
 def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:

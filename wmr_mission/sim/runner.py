@@ -234,6 +234,9 @@ class PhaseRun:
             self.path_shift = self.entry_sample - k
         if update.controller_tuning is not None:
             self.tuning = update.controller_tuning
+        if update.hold and self.phase.kind == "regulate":
+            self.target_in_force = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
+            self.target[:] = self.target_in_force
         if update.target is not None:
             self.target_in_force = update.target
             self.target[:] = update.target  # the array the loop reads (EnteredPhase.target)

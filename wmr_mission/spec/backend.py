@@ -78,6 +78,21 @@ class Backend(Model):
         default=0.5,
         description="[m/s] ros2: the speed a plan's (or goal's) route is followed at, > 0.",
     )
+    plan_stale_after: Duration | None = Field(
+        default=None,
+        description=(
+            "[s] ros2: this long without a new plan or goal (from the run's start, then from "
+            "the last taken), the planner counts as quiet and on_plan_stale follows; "
+            "null: never."
+        ),
+    )
+    on_plan_stale: Literal["keep", "hold", "fail"] = Field(
+        default="keep",
+        description=(
+            "ros2: when the planner goes quiet: keep the reference in force (and say so), "
+            "hold the estimated pose until the next plan or goal, or fail the run."
+        ),
+    )
     wait_for_robot: Duration = Field(
         default=10.0,
         description="[s] ros2: the longest wait for the first measurement before the run.",
@@ -89,5 +104,10 @@ class Backend(Model):
             raise ValueError(
                 f"stop_after ({self.stop_after:g} s) must be longer than "
                 f"stale_after ({self.stale_after:g} s)"
+            )
+        if self.on_plan_stale != "keep" and self.plan_stale_after is None:
+            raise ValueError(
+                f"on_plan_stale: {self.on_plan_stale} needs plan_stale_after, the seconds "
+                "without a plan or goal after which the planner counts as quiet"
             )
         return self
