@@ -348,3 +348,19 @@ def test_a_look_ahead_update_changes_the_law_from_the_update_on() -> None:
     assert "a new look-ahead" in str(
         next(t.why for t in after.transitions if t.condition == "update")
     )
+
+
+@pytest.mark.parametrize(
+    ("change", "speed_step"),
+    [("speed: 0.5", 0.5), ("speed: 1.5", 0.5), ("look_ahead: 0.3", 0.0), ("look_ahead: 0.02", 0.0)],
+)
+def test_a_speed_or_look_ahead_update_on_the_path_steps_only_the_speed(
+    change: str, speed_step: float
+) -> None:
+    """The reference point does not move at the switch: on the path, the turn
+    rate does not step, and the speed steps by the change of the path's speed."""
+    result, k = _paced("{type: line, heading: 0, speed: 1}", change, at=3.0)
+    assert k == 300
+    window = slice(k - 1, k + 50)
+    assert np.abs(np.diff(result.omega[window])).max() < 1e-9
+    assert np.abs(np.diff(result.v[window])).max() == pytest.approx(speed_step, abs=1e-9)
