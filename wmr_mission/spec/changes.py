@@ -17,6 +17,21 @@ def path_pace(path: Any) -> float | None:
     return None
 
 
+def with_pace(path: Any, pace: float) -> Any:
+    """The path's settings at ``pace`` (its speed, else |angular_rate|): each
+    of its rates scaled alike, the curve kept, as a speed update runs it (for
+    checking it)."""
+    ratio = pace / (path_pace(path) or 1.0)
+    rates = ("speed", "angular_rate", "growth_rate", "decay_rate", "turn_rate")
+    return path.model_copy(
+        update={
+            name: float(getattr(path, name)) * ratio
+            for name in rates
+            if getattr(path, name, None) is not None
+        }
+    )
+
+
 def with_look_ahead(settings: Any, distance: float) -> Any:
     """The controller's settings with its look-ahead distance replaced
     (``tracking.look_ahead``, or a ``look_ahead`` of its own), or None where

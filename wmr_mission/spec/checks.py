@@ -44,7 +44,7 @@ from wmr_mission.geometry.regions import (
 )
 from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import graph
-from wmr_mission.spec.changes import path_pace, with_look_ahead
+from wmr_mission.spec.changes import path_pace, with_look_ahead, with_pace
 from wmr_mission.spec.models import (
     HeadingCondition,
     HoldPhase,
@@ -806,12 +806,17 @@ def _update_paths(
     (where the update will take over is not known in advance)."""
     dt = mission.robot.dt
     times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
+    in_force = phase.track.path
     for number, update in enumerate(phase.updates):
-        if update.path is None:
+        in_force = in_force if update.path is None else update.path
+        path = update.path
+        if path is None and update.speed is not None and path_pace(in_force) is not None:
+            path = with_pace(in_force, float(update.speed))  # the same curve, re-timed
+        if path is None:
             continue
-        at: DataPath = (*where, "updates", number, "path")
+        at: DataPath = (*where, "updates", number, "path" if update.path else "speed")
         try:
-            trajectory = paths.trajectory(update.path, mission.path_context(), pose)
+            trajectory = paths.trajectory(path, mission.path_context(), pose)
             with np.errstate(all="ignore"):
                 x, y, dx, dy = trajectory.sample(times)
         except (ValueError, ArithmeticError) as error:
@@ -828,10 +833,10 @@ def _update_paths(
             )
             continue
         # An update may take over late in the phase: what the path needs is a warning.
-        for finding in _path_within_limits(
-            mission, where, phase, times, dx, dy, assumed, update.path, at
-        ):
-            yield replace(finding, severity="warning")
+        for finding in _path_within_limits(mission, where, phase, times, dx, dy, assumed, path, at):
+            # a speed update's finding is at its speed, not at a field of the path
+            kept = finding.path if update.path is not None else at
+            yield replace(finding, severity="warning", path=kept)
 
 
 def _path_within_limits(
