@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from test_backends import WMR, background, needs_ros2, ros_env  # noqa: F401
 
 from wmr_mission.api import load_run
@@ -93,3 +94,114 @@ def test_serve_robot_plan_from_publishes_a_mission_s_updates_as_plans(
             run.y_ref[late] - run.y_ref[start], run.x_ref[late] - run.x_ref[start]
         )
         assert abs(direction - heading) < 0.2, (heading, direction)
+
+
+@needs_ros2
+def test_a_goal_pose_becomes_a_track_phase_s_route_and_a_regulate_phase_s_target(
+    tmp_path: Path,
+    ros_env: dict[str, str],  # noqa: F811
+) -> None:
+    out = tmp_path / "run"
+    mission = DATA / "goals-ros2.yaml"
+    # one goal while 'go' tracks (t ~ 1 s), one while 'park' regulates (t ~ 4 s)
+    planner = [
+        sys.executable, str(Path(__file__).parent / "ros2_goals.py"),
+        "0.8,0.6,0.5@1.0", "0.6,-0.4,-1.0@4.0",
+    ]  # fmt: skip
+    robot = [*WMR, "serve-robot", str(mission)]
+    with background(robot, ros_env, "serve-robot:"), background(planner, ros_env, "ready"):
+        done = subprocess.run(
+            [*WMR, "run", str(mission), "--backend", "ros2", "--out", str(out), "--no-plots"],
+            env=ros_env, capture_output=True, text=True, timeout=90, check=False,
+        )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "ros2: goals from 'goal'" in done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["realtime"]["plans_taken"] == 2
+    transitions = json.loads((out / "transitions.json").read_text())
+    updates = [t for t in transitions if t["condition"] == "update"]
+    assert [u["from"] for u in updates] == ["go", "park"]
+    assert "a new path" in updates[0]["why"]
+    assert "a new target" in updates[1]["why"]
+    run = load_run(out)
+    go = run.phase == run.phase_names.index("go")
+    start = int(np.flatnonzero(np.diff(run.reference) != 0)[0]) + 1
+    assert go[start]
+    # the track phase's route starts at the estimate and runs towards the goal
+    assert abs(run.x_ref[start] - run.x_est[start]) < 1e-9
+    end = int(np.flatnonzero(go)[-1])
+    assert np.hypot(run.x_ref[end] - 0.8, run.y_ref[end] - 0.6) < np.hypot(
+        run.x_ref[start] - 0.8, run.y_ref[start] - 0.6
+    )
+    # the regulate phase drives to the second goal, not its own target
+    park = run.phases[run.phase_names.index("park")]
+    assert park.target == (0.6, -0.4, -1.0)
+    assert np.hypot(run.x[-1] - 0.6, run.y[-1] + 0.4) < 0.15
+
+
+def _quiet_mission(tmp_path: Path, on_plan_stale: str) -> Path:
+    """The planner test's mission, its planner counted quiet after 1.5 s."""
+    text = PLANNED.read_text().replace(
+        "plan_speed: 0.4}",
+        f"plan_speed: 0.4, plan_stale_after: 1.5, on_plan_stale: {on_plan_stale}}}",
+    )
+    assert "on_plan_stale" in text
+    mission = tmp_path / f"quiet-{on_plan_stale}.yaml"
+    mission.write_text(text)
+    return mission
+
+
+@needs_ros2
+def test_a_quiet_planner_with_on_plan_stale_hold_leaves_the_robot_holding(
+    tmp_path: Path,
+    ros_env: dict[str, str],  # noqa: F811
+) -> None:
+    out = tmp_path / "run"
+    mission = _quiet_mission(tmp_path, "hold")
+    planner = [sys.executable, str(Path(__file__).parent / "ros2_planner.py"), PLANS[0]]
+    robot = [*WMR, "serve-robot", str(mission)]
+    with background(robot, ros_env, "serve-robot:"), background(planner, ros_env, "ready"):
+        done = subprocess.run(
+            [*WMR, "run", str(mission), "--backend", "ros2", "--out", str(out), "--no-plots"],
+            env=ros_env, capture_output=True, text=True, timeout=90, check=False,
+        )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "for 1.5 s: holding the estimated pose" in done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["realtime"]["plans_taken"] == 1
+    assert summary["realtime"]["plans_stale"] == 1
+    transitions = json.loads((out / "transitions.json").read_text())
+    whys = [t["why"] for t in transitions if t["condition"] == "update"]
+    assert len(whys) == 2
+    assert "planner quiet for 1.5 s" in whys[1]
+    assert "hold the estimated pose" in whys[1]
+    run = load_run(out)
+    assert run.reference is not None
+    held = int(np.flatnonzero(run.reference == 2)[0])
+    # 1.5 s after the plan (taken ~1 s in) the reference rests at the estimate there
+    plan_taken = int(np.flatnonzero(run.reference == 1)[0])
+    assert (held - plan_taken) * run.dt == pytest.approx(1.5, abs=0.1)
+    assert run.x_ref[held:-1] == pytest.approx(run.x_est[held], abs=1e-12)
+    assert run.y_ref[held:-1] == pytest.approx(run.y_est[held], abs=1e-12)
+    assert np.abs(run.v[-50:]).max() < 0.05  # and the robot has stopped
+
+
+@needs_ros2
+def test_a_quiet_planner_with_on_plan_stale_fail_fails_the_run(
+    tmp_path: Path,
+    ros_env: dict[str, str],  # noqa: F811
+) -> None:
+    out = tmp_path / "run"
+    mission = _quiet_mission(tmp_path, "fail")
+    robot = [*WMR, "serve-robot", str(mission)]
+    with background(robot, ros_env, "serve-robot:"):  # and no planner at all
+        done = subprocess.run(
+            [*WMR, "run", str(mission), "--backend", "ros2", "--out", str(out), "--no-plots"],
+            env=ros_env, capture_output=True, text=True, timeout=90, check=False,
+        )  # fmt: skip
+    assert done.returncode != 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "failed"
+    assert "the planner went quiet: no plan or goal on 'plan' for 1.5 s" in summary["message"]
+    run = load_run(out)
+    assert run.t[-1] == pytest.approx(1.5, abs=0.1)  # not the phase's 6 s

@@ -231,3 +231,136 @@ def test_the_turn_rate_step_for_a_path_beside_the_robot(offset: float) -> None:
     jump = float(np.abs(np.diff(result.omega[299:])).max())
     gain = (1.0 - np.exp(-dt / tau)) / ((look_ahead + v * dt / 2) * dt)
     assert jump == pytest.approx(gain * offset, rel=1e-6)
+
+
+LAPS = """
+version: 1
+name: laps
+robot:
+  dt: 0.01
+  limits: {v: 2, omega: 3}
+phases:
+  - name: rounds
+    repeat:
+      times: 3
+      phases:
+        - name: out
+          track:
+            path: {type: line, heading: 0, speed: 1}
+          updates:
+            - when: {lap: 2}
+              path: {type: line, heading: 0.5, speed: 1}
+          until: {elapsed: 1}
+        - name: back
+          regulate: {target: {x: 0, y: 0, theta: 0}}
+          until: {elapsed: 3}
+"""
+
+
+def test_a_lap_update_takes_over_at_the_entry_of_that_lap_and_each_later_one() -> None:
+    result = run_mission(mission_from_text(LAPS))
+    updates = [t for t in result.transitions if t.condition == "update"]
+    entries = {t.to_phase: t.time for t in result.transitions if t.condition != "update"}
+    # lap 1 keeps the phase's own line; laps 2 and 3 take the update at their first sample
+    assert [(u.from_phase, u.time) for u in updates] == [
+        ("out#2", entries["out#2"]),
+        ("out#3", entries["out#3"]),
+    ]
+    assert "lap 2" in str(updates[0].why)
+    assert result.reference is not None
+    for lap in (1, 2, 3):
+        rows = result.phase == result.phase_names.index(f"out#{lap}")
+        assert set(result.reference[rows].tolist()) == ({0} if lap == 1 else {1})
+        k = int(np.flatnonzero(rows)[0])
+        heading = np.arctan2(
+            result.y_ref[k + 50] - result.y_ref[k], result.x_ref[k + 50] - result.x_ref[k]
+        )
+        assert heading == pytest.approx(0.0 if lap == 1 else 0.5, abs=1e-9)
+
+
+PACED = """
+version: 1
+name: paced
+robot:
+  dt: 0.01
+  limits: {{v: 2, omega: 3}}
+{controller}
+phases:
+  - name: go
+    track:
+      path: {path}
+    updates:
+      - when: {{elapsed: {at}}}
+        {change}
+    until: {{elapsed: 4}}
+"""
+
+
+def _paced(path: str, change: str, controller: str = "", at: float = 2.0) -> tuple[RunResult, int]:
+    text = PACED.format(path=path, change=change, controller=controller, at=at)
+    result = run_mission(mission_from_text(text))
+    update = next(t for t in result.transitions if t.condition == "update")
+    return result, round(update.time / result.dt)
+
+
+def test_a_speed_update_runs_the_same_line_on_at_the_new_speed() -> None:
+    result, k = _paced("{type: line, heading: 0.4, speed: 1}", "speed: 0.5")
+    assert k == 200
+    assert result.reference is not None
+    assert result.reference[k - 1] == 0
+    assert result.reference[k] == 1
+    step = np.hypot(np.diff(result.x_ref), np.diff(result.y_ref)) / result.dt
+    # 1 m/s up to the update, 0.5 m/s after it, from the reference point in force
+    assert step[: k - 1] == pytest.approx(1.0, abs=1e-9)
+    assert step[k:-1] == pytest.approx(0.5, abs=1e-9)  # the last sample has no reference
+    assert (
+        np.hypot(result.x_ref[k] - result.x_ref[k - 1], result.y_ref[k] - result.y_ref[k - 1])
+        < 0.011
+    )
+    # on the same line: every reference point at heading 0.4 from the first
+    heading = np.arctan2(result.y_ref[1:-1] - result.y_ref[0], result.x_ref[1:-1] - result.x_ref[0])
+    assert heading == pytest.approx(0.4, abs=1e-9)
+    assert "speed 0.5" in str(next(t.why for t in result.transitions if t.condition == "update"))
+
+
+def test_a_speed_update_of_a_circle_sets_its_angular_rate_on_the_same_circle() -> None:
+    path = "{type: circle, center: [0, 1], radius: 1, angular_rate: 0.5}"
+    result, k = _paced(path, "speed: 1.0")
+    radius = np.hypot(result.x_ref[:-1], result.y_ref[:-1] - 1.0)
+    assert radius == pytest.approx(1.0, abs=1e-9)
+    angle = np.unwrap(np.arctan2(result.y_ref - 1.0, result.x_ref))
+    rate = np.diff(angle) / result.dt
+    assert rate[: k - 1] == pytest.approx(0.5, abs=1e-6)
+    assert rate[k:-1] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_a_look_ahead_update_changes_the_law_from_the_update_on() -> None:
+    line = "{type: line, heading: 0, speed: 1, start: [0, 1]}"
+    controller = "controller: {tracking: {look_ahead: 0.1, time_constant: 0.5}}"
+    before, k = _paced(line, "look_ahead: 0.1", controller, at=0.1)  # the same look-ahead
+    after, _ = _paced(line, "look_ahead: 0.6", controller, at=0.1)
+    # the same run up to the update, then the longer look-ahead turns towards
+    # the line 1 m to the left more gently
+    assert k == 10
+    assert np.array_equal(before.omega[:k], after.omega[:k])
+    assert before.omega[k] > 0.0
+    assert 0.0 < after.omega[k] < 0.8 * before.omega[k]
+    assert "a new look-ahead" in str(
+        next(t.why for t in after.transitions if t.condition == "update")
+    )
+
+
+@pytest.mark.parametrize(
+    ("change", "speed_step"),
+    [("speed: 0.5", 0.5), ("speed: 1.5", 0.5), ("look_ahead: 0.3", 0.0), ("look_ahead: 0.02", 0.0)],
+)
+def test_a_speed_or_look_ahead_update_on_the_path_steps_only_the_speed(
+    change: str, speed_step: float
+) -> None:
+    """The reference point does not move at the switch: on the path, the turn
+    rate does not step, and the speed steps by the change of the path's speed."""
+    result, k = _paced("{type: line, heading: 0, speed: 1}", change, at=3.0)
+    assert k == 300
+    window = slice(k - 1, k + 50)
+    assert np.abs(np.diff(result.omega[window])).max() < 1e-9
+    assert np.abs(np.diff(result.v[window])).max() == pytest.approx(speed_step, abs=1e-9)

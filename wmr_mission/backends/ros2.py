@@ -29,7 +29,7 @@ from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.kernels import disturbances
 from wmr_mission.kernels.disturbances import Actuation, Sensing
 from wmr_mission.kernels.model import wrap_angle
-from wmr_mission.sim.plan import MissionPlan, UpdatePlan, planned
+from wmr_mission.sim.plan import MissionPlan, UpdatePlan, goal, hold_still, planned
 from wmr_mission.sim.plant_side import PlantStopped
 from wmr_mission.spec.backend import Backend
 
@@ -132,14 +132,34 @@ class Ros2Plant:
         self._plan_lock = threading.Lock()
         self.plans_taken = 0
         self.plans_refused = 0
+        # When the last plan or goal was taken (the run's first sample before
+        # one), and whether the planner is quiet (backend.plan_stale_after).
+        self._heard: float | None = None
+        self._quiet = False
+        self.plans_stale = 0
+        self._context = plan.context
+        if settings.plan is not None or settings.goal is not None:
+            self.plans = self._next_plan
+        if settings.goal is not None:
+            from geometry_msgs.msg import PoseStamped
+
+            node.create_subscription(
+                PoseStamped,
+                settings.goal,
+                self._on_goal,
+                self.ros.qos(settings.goal_reliability, 1),
+            )
+            print(
+                f"ros2: goals from '{settings.goal}' (geometry_msgs/PoseStamped in frame "
+                f"'{settings.frame_id}'); until the first, each phase follows its own reference",
+                file=sys.stderr,
+            )
         if settings.plan is not None:
             from nav_msgs.msg import Path
 
-            self._context = plan.context
             node.create_subscription(
                 Path, settings.plan, self._on_plan, self.ros.qos(settings.plan_reliability, 1)
             )
-            self.plans = self._next_plan
             print(
                 f"ros2: plans from '{settings.plan}' (nav_msgs/Path in frame "
                 f"'{settings.frame_id}'); until the first, each track phase follows its own path",
@@ -182,11 +202,61 @@ class Ros2Plant:
         with self._plan_lock:
             self._plan = update
 
+    def _on_goal(self, message: Any) -> None:
+        """A goal pose in the odometry's frame: a regulate phase's target, a
+        track phase's straight route to it; another frame is refused."""
+        topic = self.settings.goal
+        frame = message.header.frame_id.lstrip("/")
+        if frame != self.settings.frame_id.lstrip("/"):
+            self.plans_refused += 1
+            print(
+                f"ros2: a goal on '{topic}' refused: its frame is '{frame}', not "
+                f"'{self.settings.frame_id}'",
+                file=sys.stderr,
+            )
+            return
+        pose = message.pose
+        q = pose.orientation
+        theta = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        to = (float(pose.position.x), float(pose.position.y), theta)
+        latest = self.latest
+        via = to[:2] if latest is None else (0.5 * (latest.x + to[0]), 0.5 * (latest.y + to[1]))
+        try:
+            update = goal(to, via, self.settings.plan_speed, self._context, f"goal on '{topic}'")
+        except ValueError as error:
+            self.plans_refused += 1
+            print(f"ros2: a goal on '{topic}' refused: {error}", file=sys.stderr)
+            return
+        with self._plan_lock:
+            self._plan = update
+
     def _next_plan(self) -> UpdatePlan | None:
+        """The newest plan or goal not yet taken; else, once the planner has
+        been quiet plan_stale_after seconds, what on_plan_stale says."""
+        now = time.perf_counter()
         with self._plan_lock:
             update, self._plan = self._plan, None
-        self.plans_taken += update is not None
-        return update
+        if self._heard is None:
+            self._heard = now
+        if update is not None:
+            self.plans_taken += 1
+            self._heard, self._quiet = now, False
+            return update
+        after = self.settings.plan_stale_after
+        if after is None or self._quiet or now - self._heard < after:
+            return None
+        self._quiet = True
+        self.plans_stale += 1
+        topics = " or ".join(f"'{t}'" for t in (self.settings.plan, self.settings.goal) if t)
+        quiet = f"no plan or goal on {topics} for {after:g} s"
+        action = self.settings.on_plan_stale
+        if action == "fail":
+            raise PlantStopped(f"the planner went quiet: {quiet} (on_plan_stale: fail)")
+        what = (
+            "keeping the reference in force" if action == "keep" else "holding the estimated pose"
+        )
+        print(f"ros2: {quiet}: {what}", file=sys.stderr)
+        return hold_still(f"planner quiet for {after:g} s") if action == "hold" else None
 
     def wait_for_robot(self) -> None:
         """Until the first measurement, at most ``wait_for_robot`` seconds."""
@@ -227,8 +297,12 @@ class Ros2Plant:
             "dropouts": self.dropouts,
             "zero_command_sent": self.zero_sent,
             **(
-                {"plans_taken": self.plans_taken, "plans_refused": self.plans_refused}
-                if self.settings.plan is not None
+                {
+                    "plans_taken": self.plans_taken,
+                    "plans_refused": self.plans_refused,
+                    "plans_stale": self.plans_stale,
+                }
+                if self.plans is not None
                 else {}
             ),
         }

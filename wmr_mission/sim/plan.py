@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -25,6 +25,7 @@ from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
 from wmr_mission.sim.draws import DisturbancePlan
 from wmr_mission.sim.reactions import ReactionPlan, contingency_phases, reaction_plan
+from wmr_mission.spec.changes import path_pace, with_look_ahead
 from wmr_mission.spec.checks import MAX_SAMPLES
 from wmr_mission.spec.graph import worst_case_samples
 from wmr_mission.spec.models import (
@@ -68,9 +69,41 @@ class UpdatePlan:
     mission_time: float | None = None
     reaches: RegionSpec | None = None
     travelled: float | None = None  # [m]
+    # lap: whether the phase runs its lap N or a later one (it takes over at entry)
+    in_lap: bool | None = None
     # track: builds the new path from the estimated pose at the update.
     make_trajectory: Callable[[tuple[float, float, float]], Trajectory] | None = None
     target: tuple[float, float, float] | None = None  # regulate: the new target
+    pace: float | None = None  # a new path's written speed (or |angular_rate|); None: none
+    # track: the same path at this pace from the reference point in force
+    speed: float | None = None
+    # the controller's tuning with the update's look-ahead; None: unchanged
+    controller_tuning: Any = None
+    # hold the estimated pose where it takes over (a quiet planner's on_plan_stale: hold)
+    hold: bool = False
+
+    @property
+    def changes(self) -> str:
+        """What it changes, in words, for transitions.json."""
+        if self.hold:
+            return "hold the estimated pose"
+        if self.make_trajectory is not None:
+            return "a new path"
+        new = [f"speed {self.speed:g}"] if self.speed is not None else []
+        if self.controller_tuning is not None:
+            new.append("a new look-ahead")
+        return " and ".join(new) if new else "a new target"
+
+    def for_phase(self, kind: str) -> UpdatePlan | None:
+        """What of it a phase of ``kind`` takes: a track phase its path, a
+        regulate phase its target (a planner's goal has both); None: nothing."""
+        if self.hold and kind == "regulate":
+            return replace(self, make_trajectory=None)
+        if kind == "track" and self.make_trajectory is not None:
+            return replace(self, target=None)
+        if kind == "regulate" and self.target is not None:
+            return replace(self, make_trajectory=None, pace=None)
+        return None
 
     def first(
         self, estimates: FloatArray, first_sample: int, since: int, entry_sample: int, dt: float
@@ -85,6 +118,8 @@ class UpdatePlan:
             hits = k - entry_sample >= self.elapsed_samples
         elif self.mission_time is not None:
             hits = k * dt >= self.mission_time - 0.5 * dt
+        elif self.in_lap is not None:
+            hits = np.full(n, self.in_lap)
         elif self.reaches is not None:
             hits = regions.region_value(self.reaches, estimates[:, 0], estimates[:, 1]) <= 0.0
         else:
@@ -117,6 +152,7 @@ class PhasePlan:
     points: FloatArray | None = None
     color: str | None = None  # for the figures: from the mission's plot.phase_colors
     updates: tuple[UpdatePlan, ...] = ()  # in the order they are written
+    pace: float | None = None  # track: its path's written speed (or |angular_rate|)
 
 
 @dataclass(frozen=True)
@@ -275,14 +311,15 @@ def _conditions(until: Until, mission: Mission, dt: float) -> Conditions:
     )
 
 
-def _phases(mission: Mission, dt: float) -> tuple[PhasePlan, ...]:
+def _phases(mission: Mission, plant: Plant) -> tuple[PhasePlan, ...]:
     written = [(run.phase, run.label, run.lap) for run in run_order(mission)]
     # then the phases of the contingencies a reaction names (none without reactions)
     written += [(phase, label, None) for label, phase in contingency_phases(mission)]
-    return tuple(_phase(phase, label, lap, mission, dt) for phase, label, lap in written)
+    return tuple(_phase(phase, label, lap, mission, plant) for phase, label, lap in written)
 
 
-def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: float) -> PhasePlan:
+def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, plant: Plant) -> PhasePlan:
+    dt = plant.dt
     context = mission.path_context()
     constraints = []
     row_parts = []
@@ -298,10 +335,12 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
     make_trajectory = None
     target = None
     points = None
+    pace = None
     if isinstance(phase, TrackPhase):
         kind = "track"
         path = phase.track.path
         points = paths.drawn_points(path, context)
+        pace = path_pace(path)
 
         def make_trajectory(pose: tuple[float, float, float], _path: Any = path) -> Trajectory:
             return paths.trajectory(_path, context, pose)
@@ -311,10 +350,11 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
         goal = phase.regulate.target
         target = (float(goal.x), float(goal.y), float(goal.theta))
     return PhasePlan(
-        updates=tuple(_update(update, mission, dt) for update in phase.updates),
+        updates=tuple(_update(update, lap, mission, plant) for update in phase.updates),
         name=label,
         lap=lap,
         points=points,
+        pace=pace,
         kind=kind,
         until=_conditions(phase.until, mission, dt),
         timeout_samples=None if phase.timeout is None else _bound(phase.timeout, dt),
@@ -327,7 +367,8 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, dt: floa
     )
 
 
-def _update(update: Update, mission: Mission, dt: float) -> UpdatePlan:
+def _update(update: Update, lap: int | None, mission: Mission, plant: Plant) -> UpdatePlan:
+    dt = plant.dt
     context = mission.path_context()
     when = update.when
     make_trajectory = None
@@ -338,16 +379,25 @@ def _update(update: Update, mission: Mission, dt: float) -> UpdatePlan:
             return paths.trajectory(path, context, pose)
 
     target = update.target
+    tuning = None
+    if update.look_ahead is not None:
+        settings = with_look_ahead(mission.controller, float(update.look_ahead))
+        assert settings is not None  # validate checked the controller has one
+        tuning = CONTROLLERS.of(settings).tuning_of(settings, plant)
     name, value = next((name, value) for name, value in when if value is not None)
-    unit = " m" if name == "travelled" else " s"
+    unit = {"travelled": " m", "lap": ""}.get(name, " s")
     return UpdatePlan(
         when=f"reaches '{value}'" if name == "reaches" else f"{name} {value:g}{unit}",
+        in_lap=None if when.lap is None else lap is not None and lap >= when.lap,
         elapsed_samples=None if when.elapsed is None else _bound(when.elapsed, dt),
         mission_time=when.mission_time,
         reaches=None if when.reaches is None else mission.regions[when.reaches],
         travelled=when.travelled,
         make_trajectory=make_trajectory,
         target=None if target is None else (float(target.x), float(target.y), float(target.theta)),
+        pace=None if update.path is None else path_pace(update.path),
+        speed=update.speed,
+        controller_tuning=tuning,
     )
 
 
@@ -371,7 +421,46 @@ def planned(path: Mapping[str, Any], context: paths.Context, when: str) -> Updat
     def make_trajectory(pose: tuple[float, float, float]) -> Trajectory:
         return paths.trajectory(new, context, pose)
 
-    return UpdatePlan(when=when, make_trajectory=make_trajectory)
+    return UpdatePlan(when=when, make_trajectory=make_trajectory, pace=path_pace(new))
+
+
+def goal(
+    pose: tuple[float, float, float],
+    via: tuple[float, float],
+    speed: float,
+    context: paths.Context,
+    when: str,
+) -> UpdatePlan:
+    """A planner's goal pose as an update: a regulate phase's new target, and
+    for a track phase a straight route from the estimate where it takes over,
+    through ``via`` (halfway from the robot's pose when the goal came), to the
+    goal's position at ``speed``. ValueError says what is wrong."""
+    route = {"type": "waypoints", "points": [list(via), list(pose[:2])], "speed": speed}
+    update = planned(route, context, when)
+    return replace(update, target=pose)
+
+
+@dataclass(frozen=True)
+class Resting:
+    """A path that rests at one point: where a track phase holds."""
+
+    x: float
+    y: float
+
+    def sample(self, t: Any) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        shape = np.shape(t)
+        zeros = np.zeros(shape)
+        return np.full(shape, self.x), np.full(shape, self.y), zeros, zeros.copy()
+
+
+def hold_still(when: str) -> UpdatePlan:
+    """An update that holds the estimated pose where it takes over: a track
+    phase's path rests there, a regulate phase's target is that pose."""
+
+    def make_trajectory(pose: tuple[float, float, float]) -> Trajectory:
+        return Resting(pose[0], pose[1])
+
+    return UpdatePlan(when=when, make_trajectory=make_trajectory, hold=True)
 
 
 def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
@@ -405,7 +494,7 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         # the estimate's uncertainty, and the body: zones are kept by the footprint
         constraint_margin=float(estimator.constraint_margin(estimator_tuning)) + _body(mission),
     )
-    phases = _phases(mission, dt)
+    phases = _phases(mission, plant)
     initial = mission.robot.initial_state
     written = mission.estimator.initial_estimate
     guess = initial if written is None else written

@@ -105,6 +105,18 @@ class Recorder:
         self.record = grown
 
 
+class Retimed:
+    """A path run from its own time ``start`` [s] at ``rate`` times its pace:
+    the same curve, the reference moving ``rate`` times as fast."""
+
+    def __init__(self, path: Trajectory, start: float, rate: float) -> None:
+        self.path, self.start, self.rate = path, start, rate
+
+    def sample(self, t: Any) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        x, y, dx, dy = self.path.sample(self.start + self.rate * np.asarray(t, dtype=np.float64))
+        return x, y, self.rate * dx, self.rate * dy
+
+
 class PhaseRun:
     """One phase's lifecycle in a run: ``enter`` at its first sample gives the
     record the compiled loop runs it with; ``path_ahead`` samples its path."""
@@ -129,6 +141,13 @@ class PhaseRun:
         self.fired = 0
         self.reference = 0
         self.target_in_force = phase.target
+        # the path in force as made, its written pace, and where (its own time
+        # [s]) and how fast (a factor) a speed update runs it; the controller's
+        # tuning in force (None: the mission's)
+        self._made: Trajectory | None = None
+        self.pace = phase.pace
+        self.warp = (0.0, 1.0)
+        self.tuning: Any = None
         # Samples after which the phase ends for sure (elapsed or timeout).
         bounds = [phase.until.elapsed_samples, phase.timeout_samples]
         self.bound = min((b for b in bounds if b is not None), default=2**62)
@@ -152,6 +171,7 @@ class PhaseRun:
         if resume_from is None:  # a phase entered afresh takes its own reference again
             self.fired = self.reference = 0
             self.target_in_force = phase.target
+            self.pace, self.warp, self.tuning = phase.pace, (0.0, 1.0), None
         if phase.kind == "track" and resume_from is not None and self._trajectory is not None:
             horizon = min(self.bound, round(RESUME_HORIZON / self.mission.dt))
             self.path_shift = nearest_ahead(
@@ -159,7 +179,7 @@ class PhaseRun:
             )
         elif phase.kind == "track":
             assert phase.make_trajectory is not None
-            self._trajectory = phase.make_trajectory(pose)
+            self._trajectory = self._made = phase.make_trajectory(pose)
             self._sampled = (0, np.zeros((0, 4)))
         self.target[:] = self.target_in_force or pose
         until = phase.until
@@ -200,9 +220,24 @@ class PhaseRun:
         phase's from sample k (docs/paper-notes.md, "References that change on-line")."""
         if update.make_trajectory is not None:
             pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
-            self._trajectory = update.make_trajectory(pose)
+            self._trajectory = self._made = update.make_trajectory(pose)
             self._sampled = (0, np.zeros((0, 4)))
             self.path_shift = self.entry_sample - k
+            self.pace, self.warp = update.pace, (0.0, 1.0)
+        if update.speed is not None and self._made is not None and self.pace:
+            # the same path on from the reference point in force, its own time
+            # running speed / pace as fast (docs/mission-format.md)
+            start, rate = self.warp
+            now = start + rate * (k - self.entry_sample + self.path_shift) * self.mission.dt
+            self.warp = (now, update.speed / self.pace)
+            self._trajectory = Retimed(self._made, *self.warp)
+            self._sampled = (0, np.zeros((0, 4)))
+            self.path_shift = self.entry_sample - k
+        if update.controller_tuning is not None:
+            self.tuning = update.controller_tuning
+        if update.hold and self.phase.kind == "regulate":
+            self.target_in_force = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
+            self.target[:] = self.target_in_force
         if update.target is not None:
             self.target_in_force = update.target
             self.target[:] = update.target  # the array the loop reads (EnteredPhase.target)
@@ -457,9 +492,11 @@ class _Run:
 
     def _segment(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
         m = self.m
+        tuning = self.phases[phase.number].tuning  # a look-ahead update's, else the mission's
         arguments = (
             m.plant, self.actuation, self.sensing, m.estimator_tuning, self.estimator_memory,
-            m.controller_tuning, self.scratch, phase, path, draws, self.signals,
+            m.controller_tuning if tuning is None else tuning, self.scratch, phase, path,
+            draws, self.signals,
             self.recorder.record, stop,
         )  # fmt: skip
         fast = self._fast
@@ -605,8 +642,9 @@ class _Run:
             if self.plans is not None:  # a planner's new path, looked for at every sample
                 stop = k + 1
                 update = self.plans()
-                if update is not None and active.phase.kind == "track":
-                    self._take_over(active, k, update)
+                taken = None if update is None else update.for_phase(active.phase.kind)
+                if taken is not None:
+                    self._take_over(active, k, taken)
             rows = min(chunk, active.bound - local) + 1
             path = active.path_ahead(local, min(rows, self.pause_at - k + 1), rows)
             self.recorder.reserve(2)  # the loop stops early when the recorder is full
@@ -788,9 +826,8 @@ class _Run:
         active.take_over(k, estimate, update)
         self.updated = True
         name = active.phase.name
-        new = "path" if update.make_trajectory is not None else "target"
         why = (
-            f"update {active.reference} ({update.when}): a new {new} from the estimate "
+            f"update {active.reference} ({update.when}): {update.changes} from the estimate "
             f"({estimate[0]:.4g}, {estimate[1]:.4g})"
         )
         self.transitions.append(

@@ -63,8 +63,35 @@ class Backend(Model):
     plan_reliability: Reliability = Field(
         default="reliable", description="ros2: QoS reliability of the plans (depth 1)."
     )
+    goal: RosName | None = Field(
+        default=None,
+        description=(
+            "ros2: topic of a planner's goals (geometry_msgs/PoseStamped, in frame_id): a "
+            "regulate phase takes each as its new target, a track phase a straight route "
+            "from the estimate to it, at plan_speed (docs/backends.md, 'A planner over ROS 2')."
+        ),
+    )
+    goal_reliability: Reliability = Field(
+        default="reliable", description="ros2: QoS reliability of the goals (depth 1)."
+    )
     plan_speed: Duration = Field(
-        default=0.5, description="[m/s] ros2: the speed a plan's route is followed at, > 0."
+        default=0.5,
+        description="[m/s] ros2: the speed a plan's (or goal's) route is followed at, > 0.",
+    )
+    plan_stale_after: Duration | None = Field(
+        default=None,
+        description=(
+            "[s] ros2: this long without a new plan or goal (from the run's start, then from "
+            "the last taken), the planner counts as quiet and on_plan_stale follows; "
+            "null: never."
+        ),
+    )
+    on_plan_stale: Literal["keep", "hold", "fail"] = Field(
+        default="keep",
+        description=(
+            "ros2: when the planner goes quiet: keep the reference in force (and say so), "
+            "hold the estimated pose until the next plan or goal, or fail the run."
+        ),
     )
     wait_for_robot: Duration = Field(
         default=10.0,
@@ -77,5 +104,10 @@ class Backend(Model):
             raise ValueError(
                 f"stop_after ({self.stop_after:g} s) must be longer than "
                 f"stale_after ({self.stale_after:g} s)"
+            )
+        if self.on_plan_stale != "keep" and self.plan_stale_after is None:
+            raise ValueError(
+                f"on_plan_stale: {self.on_plan_stale} needs plan_stale_after, the seconds "
+                "without a plan or goal after which the planner counts as quiet"
             )
         return self

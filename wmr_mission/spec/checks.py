@@ -47,6 +47,7 @@ from wmr_mission.geometry.regions import (
 )
 from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import graph
+from wmr_mission.spec.changes import path_pace, with_look_ahead, with_pace
 from wmr_mission.spec.models import (
     HeadingCondition,
     HoldPhase,
@@ -56,6 +57,7 @@ from wmr_mission.spec.models import (
     RepeatPhase,
     StayInside,
     TrackPhase,
+    Update,
 )
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 
@@ -299,12 +301,17 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                         f"{name!r} is a {region.type}",
                     )
         yield from _target_against_constraints(mission, phase, where)
-        yield from _update_rules(mission, phase, where)
+        step = mission.phases[int(where[1])]
+        laps = step.repeat.times if isinstance(step, RepeatPhase) else None
+        yield from _update_rules(mission, phase, where, laps)
 
 
-def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[Finding]:
+def _update_rules(
+    mission: Mission, phase: Phase, where: DataPath, laps: int | None
+) -> Iterator[Finding]:
     """Each update names one condition and one new reference its phase can take:
-    a path on a track phase, a target on a regulate phase."""
+    a path on a track phase, a target on a regulate phase. ``laps``: the times
+    of the repeat the phase is in, None outside repeats."""
     for number, update in enumerate(phase.updates):
         at: DataPath = (*where, "updates", number)
         given = [name for name, value in update.when if value is not None]
@@ -312,9 +319,22 @@ def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[F
             yield Finding(
                 (*at, "when"),
                 "an update takes over on exactly one condition (elapsed, mission_time, "
-                f"reaches or travelled), but {len(given)} are given"
+                f"reaches, travelled or lap), but {len(given)} are given"
                 + (f" ({', '.join(given)})" if given else ""),
                 at_key=True,
+            )
+        lap = update.when.lap
+        if lap is not None and laps is None:
+            yield Finding(
+                (*at, "when", "lap"),
+                "'lap' counts the laps of a repeat, but this phase is not in a repeat; "
+                "use elapsed, mission_time, reaches or travelled",
+            )
+        elif lap is not None and laps is not None and lap > laps:
+            yield Finding(
+                (*at, "when", "lap"),
+                f"the repeat runs {laps} lap{'s' if laps > 1 else ''}, so lap {lap} never "
+                f"comes; expected 1..{laps}",
             )
         wanted = "path" if isinstance(phase, TrackPhase) else "target"
         if isinstance(phase, HoldPhase):
@@ -326,6 +346,7 @@ def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[F
             )
             continue
         unwanted = "target" if wanted == "path" else "path"
+        changes_path = update.speed is not None or update.look_ahead is not None
         if getattr(update, unwanted) is not None:
             yield Finding(
                 (*at, unwanted),
@@ -333,8 +354,19 @@ def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[F
                 f"{wanted}, not a {unwanted}",
                 at_key=True,
             )
-        elif getattr(update, wanted) is None:
-            yield Finding(at, f"the update gives no new {wanted}", at_key=True)
+        elif wanted == "target" and changes_path:
+            change = "speed" if update.speed is not None else "look_ahead"
+            yield Finding(
+                (*at, change),
+                f"'{change}' changes how a track phase follows its path; a regulate phase's "
+                "update gives a new target",
+                at_key=True,
+            )
+        elif getattr(update, wanted) is None and not changes_path:
+            more = " (or speed, look_ahead)" if wanted == "path" else ""
+            yield Finding(at, f"the update gives no new {wanted}{more}", at_key=True)
+        if isinstance(phase, TrackPhase):
+            yield from _speed_and_look_ahead(mission, phase, number, update, at)
         path = update.path
         name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
         region = mission.regions.get(name) if name is not None else None
@@ -347,6 +379,38 @@ def _update_rules(mission: Mission, phase: Phase, where: DataPath) -> Iterator[F
                     f"{article} {path.type} path needs {wanted_region} region, but "
                     f"{name!r} is a {region.type}",
                 )
+
+
+def _speed_and_look_ahead(
+    mission: Mission, phase: TrackPhase, number: int, update: Update, at: DataPath
+) -> Iterator[Finding]:
+    """A speed update needs a path in force that has a pace (the phase's own,
+    or the last new path before it); a look-ahead update a controller with one."""
+    if update.speed is not None and update.path is not None:
+        yield Finding(
+            (*at, "speed"),
+            "an update with a new path takes that path's own speed; 'speed' changes the "
+            "path in force: give one or the other",
+            at_key=True,
+        )
+    elif update.speed is not None:
+        earlier = [u.path for u in phase.updates[:number] if u.path is not None]
+        path = earlier[-1] if earlier else phase.track.path
+        if path_pace(path) is None:
+            yield Finding(
+                (*at, "speed"),
+                f"the {path.type} path in force has no speed or angular_rate to change; "
+                "give a new path instead",
+                at_key=True,
+            )
+    if update.look_ahead is not None and with_look_ahead(mission.controller, 1.0) is None:
+        yield Finding(
+            (*at, "look_ahead"),
+            f"the {mission.controller.type} controller"
+            + (" (tracking.output: axle)" if mission.controller.type == "paper" else "")
+            + " tracks no look-ahead point; drop look_ahead or use a controller with one",
+            at_key=True,
+        )
 
 
 def _breaches(
@@ -736,12 +800,17 @@ def _update_paths(
     (where the update will take over is not known in advance)."""
     dt = mission.robot.dt
     times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
+    in_force = phase.track.path
     for number, update in enumerate(phase.updates):
-        if update.path is None:
+        in_force = in_force if update.path is None else update.path
+        path = update.path
+        if path is None and update.speed is not None and path_pace(in_force) is not None:
+            path = with_pace(in_force, float(update.speed))  # the same curve, re-timed
+        if path is None:
             continue
-        at: DataPath = (*where, "updates", number, "path")
+        at: DataPath = (*where, "updates", number, "path" if update.path else "speed")
         try:
-            trajectory = paths.trajectory(update.path, mission.path_context(), pose)
+            trajectory = paths.trajectory(path, mission.path_context(), pose)
             with np.errstate(all="ignore"):
                 x, y, dx, dy = trajectory.sample(times)
         except (ValueError, ArithmeticError) as error:
@@ -758,10 +827,10 @@ def _update_paths(
             )
             continue
         # An update may take over late in the phase: what the path needs is a warning.
-        for finding in _path_within_limits(
-            mission, where, phase, times, dx, dy, assumed, update.path, at
-        ):
-            yield replace(finding, severity="warning")
+        for finding in _path_within_limits(mission, where, phase, times, dx, dy, assumed, path, at):
+            # a speed update's finding is at its speed, not at a field of the path
+            kept = finding.path if update.path is not None else at
+            yield replace(finding, severity="warning", path=kept)
 
 
 def _path_within_limits(

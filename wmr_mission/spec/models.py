@@ -546,6 +546,10 @@ class UpdateWhen(Model):
         default=None,
         description="Distance [m] the estimated position has covered since the phase was entered.",
     )
+    lap: Annotated[int, Strict(), Field(ge=1, le=10000)] | None = Field(
+        default=None,
+        description="A phase of a repeat: from its lap N on, at the lap's first sample.",
+    )
 
 
 class Update(Model):
@@ -559,6 +563,18 @@ class Update(Model):
         description="track: the new path, instantiated from the estimated pose at the update.",
     )
     target: Pose | None = Field(default=None, description="regulate: the new target pose.")
+    speed: Positive | None = Field(
+        default=None,
+        description=(
+            "track: the same path from the reference point in force, at this speed: "
+            "[m/s] for a path with a speed, [rad/s] (|angular_rate|) for one with an "
+            "angular_rate."
+        ),
+    )
+    look_ahead: Positive | None = Field(
+        default=None,
+        description="track: the controller's look-ahead distance [m] for the rest of the phase.",
+    )
 
 
 class StayInside(Model):
