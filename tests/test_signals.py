@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +30,14 @@ LONG = DATA / "long-circle.yaml"
 LONG_SAMPLES = 1_000_001
 CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 RUN = [sys.executable, "-m", "wmr_mission", "run", str(LONG), "--no-plots"]
+
+
+@pytest.fixture(autouse=True)
+def _runs_removed(tmp_path: Path) -> Iterator[None]:
+    """Each run of the 1,000 s mission writes up to 200 MB: removed once checked,
+    so that the 272 runs of the sweep never fill the disk."""
+    yield
+    shutil.rmtree(tmp_path, ignore_errors=True)
 
 
 def start(run_dir: Path) -> subprocess.Popen[bytes]:
