@@ -331,11 +331,6 @@ def run_mission(
     with importing_entries():  # a run imports its plug-ins
         checked = validate_mission(mission)
     result = _run(plan_mission(checked, seed), progress, substitutes, plant, ready)
-    return judged(result, checked)
-
-
-def judged(result: RunResult, checked: Mission) -> RunResult:
-    """``result`` judged by the checked mission's ``expect``, the mission as run kept on it."""
     judge_mission(result, checked)  # a success that misses an `expect` is not one
     return result
 

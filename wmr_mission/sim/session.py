@@ -18,10 +18,11 @@ import pydantic
 
 from wmr_mission.output.result import RunResult
 from wmr_mission.sim.plan import UpdatePlan, plan_mission, planned
-from wmr_mission.sim.runner import NEVER, _Run, judged
+from wmr_mission.sim.runner import NEVER, _Run
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission, Update
+from wmr_mission.verdicts.metrics import judge_mission
 
 __all__ = ["Session"]
 
@@ -150,7 +151,8 @@ class Session:
         result = self._run.advance()
         if result is None:
             return True
-        self._result = judged(result, self._mission)  # as run_mission judges it
+        judge_mission(result, self._mission)  # as run_mission judges it
+        self._result = result
         return False
 
 
