@@ -127,16 +127,20 @@ class Ros2Plant:
         )
         # A planner's plans (docs/backends.md, "A planner over ROS 2"): the newest
         # not yet taken, and how many were taken or refused.
-        self.plans: Callable[[], UpdatePlan | None] | None = None
+        self.plans: Callable[[int, int, str], UpdatePlan | None] | None = None
         self._plan: UpdatePlan | None = None
         self._plan_lock = threading.Lock()
         self.plans_taken = 0
         self.plans_refused = 0
-        # When the last plan or goal was taken (the run's first sample before
-        # one), and whether the planner is quiet (backend.plan_stale_after).
-        self._heard: float | None = None
+        # The sample the last plan or goal was taken at (the run's first before
+        # one), and whether the planner is quiet (backend.plan_stale_after):
+        # counted in the run's time, as `elapsed` is, so that the record shows it.
+        self._heard: int | None = None
+        self._dt = plan.dt
         self._quiet = False
         self.plans_stale = 0
+        # The last phase held for want of a first plan (docs/backends.md, "No plan yet").
+        self._held_phase = -1
         self._context = plan.context
         if settings.plan is not None or settings.goal is not None:
             self.plans = self._next_plan
@@ -151,7 +155,7 @@ class Ros2Plant:
             )
             print(
                 f"ros2: goals from '{settings.goal}' (geometry_msgs/PoseStamped in frame "
-                f"'{settings.frame_id}'); until the first, each phase follows its own reference",
+                f"'{settings.frame_id}'); until the first, each phase holds the estimated pose",
                 file=sys.stderr,
             )
         if settings.plan is not None:
@@ -162,7 +166,8 @@ class Ros2Plant:
             )
             print(
                 f"ros2: plans from '{settings.plan}' (nav_msgs/Path in frame "
-                f"'{settings.frame_id}'); until the first, each track phase follows its own path",
+                f"'{settings.frame_id}'); until the first, each track phase holds the "
+                "estimated pose",
                 file=sys.stderr,
             )
 
@@ -230,10 +235,12 @@ class Ros2Plant:
         with self._plan_lock:
             self._plan = update
 
-    def _next_plan(self) -> UpdatePlan | None:
-        """The newest plan or goal not yet taken; else, once the planner has
-        been quiet plan_stale_after seconds, what on_plan_stale says."""
-        now = time.perf_counter()
+    def _next_plan(self, k: int, phase: int, kind: str) -> UpdatePlan | None:
+        """At sample ``k``, the newest plan or goal not yet taken; before the
+        first, a hold of each phase (by its index) of a ``kind`` that takes
+        them; else, once the planner has been quiet plan_stale_after seconds,
+        what on_plan_stale says."""
+        now = k
         with self._plan_lock:
             update, self._plan = self._plan, None
         if self._heard is None:
@@ -242,13 +249,21 @@ class Ros2Plant:
             self.plans_taken += 1
             self._heard, self._quiet = now, False
             return update
+        if self.plans_taken == 0 and phase != self._held_phase and self._takes(kind):
+            # No plan yet: the robot holds where it is rather than drive a path
+            # the planner has not confirmed; each phase that takes plans says so.
+            self._held_phase = phase
+            print(
+                f"ros2: no plan yet on {self._topics()}: holding the estimated pose",
+                file=sys.stderr,
+            )
+            return hold_still("no plan yet")
         after = self.settings.plan_stale_after
-        if after is None or self._quiet or now - self._heard < after:
+        if after is None or self._quiet or (now - self._heard) * self._dt < after - 0.5 * self._dt:
             return None
         self._quiet = True
         self.plans_stale += 1
-        topics = " or ".join(f"'{t}'" for t in (self.settings.plan, self.settings.goal) if t)
-        quiet = f"no plan or goal on {topics} for {after:g} s"
+        quiet = f"no plan or goal on {self._topics()} for {after:g} s"
         action = self.settings.on_plan_stale
         if action == "fail":
             raise PlantStopped(f"the planner went quiet: {quiet} (on_plan_stale: fail)")
@@ -257,6 +272,14 @@ class Ros2Plant:
         )
         print(f"ros2: {quiet}: {what}", file=sys.stderr)
         return hold_still(f"planner quiet for {after:g} s") if action == "hold" else None
+
+    def _topics(self) -> str:
+        return " or ".join(f"'{t}'" for t in (self.settings.plan, self.settings.goal) if t)
+
+    def _takes(self, kind: str) -> bool:
+        """Whether a phase of ``kind`` takes the planner's messages: a track
+        phase plans and goals, a regulate phase goals."""
+        return kind == "track" or (kind == "regulate" and self.settings.goal is not None)
 
     def wait_for_robot(self) -> None:
         """Until the first measurement, at most ``wait_for_robot`` seconds."""

@@ -403,8 +403,11 @@ class _Run:
         # phase it was typed with and the compiled entry point (_segment).
         self._fast: tuple[EnteredPhase, Callable[..., int]] | None = None
         # A plant side that takes a planner's plans (wmr_mission.backends.ros2): each
-        # new one, once, as an update of the track phase in force; else None.
-        self.plans: Callable[[], UpdatePlan | None] | None = getattr(plant, "plans", None)
+        # new one, once, as an update of the phase in force (called with the
+        # sample, the phase's index and kind); else None.
+        self.plans: Callable[[int, int, str], UpdatePlan | None] | None = getattr(
+            plant, "plans", None
+        )
         self.active: PhaseRun = self.phases[0]
         self._steps: Generator[None, UpdatePlan | None, RunResult] | None = None
         self.actuation, self.sensing = m.disturbances.records(m.dt, m.measured)
@@ -636,7 +639,7 @@ class _Run:
             stop = k + min(chunk, active.bound - local + 1, self.pause_at - k)
             if self.plans is not None:  # a planner's new path, looked for at every sample
                 stop = k + 1
-                update = self.plans()
+                update = self.plans(k, active.index, active.phase.kind)
                 taken = None if update is None else update.for_phase(active.phase.kind)
                 if taken is not None:
                     self._take_over(active, k, taken)
