@@ -154,7 +154,8 @@ class _Token:
 
 
 def _tokens(text: str) -> list[_Token]:
-    found, index = [], 0
+    found: list[_Token] = []
+    index = 0
     while True:
         match = _TOKEN.match(text, index)
         if match is None:  # only spaces are left

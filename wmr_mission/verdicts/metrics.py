@@ -778,9 +778,9 @@ def _phase_summaries(
             summaries.append(_checked_phase_summary(info, phase, expect))
         else:
             summaries.append(_phase_summary(result, info, phase, tolerance))
-        # its temporal formulas' robustness (wmr_mission.verdicts.temporal)
-        window, settle = phase.window, phase.settle_time
-        summaries[-1] |= temporal.phase_values(result, info, window, settle, judged.numbers, mission)
+        summaries[-1] |= temporal.phase_values(  # its formulas' robustness, if any
+            result, info, phase.window, phase.settle_time, judged.numbers, mission
+        )
     return summaries
 
 

@@ -41,7 +41,6 @@ from wmr_mission.spec.temporal import (
     Either,
     Eventually,
     Node,
-    Until,
     Window,
     parse_formula,
     signals_of,
@@ -54,7 +53,19 @@ from wmr_mission.verdicts.zones import zones_of
 if TYPE_CHECKING:
     from wmr_mission.record import PhaseRecord, RunRecord
 
-__all__ = ["formula_checks", "phase_values", "robustness"]
+__all__ = ["PhaseSignals", "formula_checks", "panel_of", "phase_values", "robustness"]
+
+# The panel of the verdicts figure (wmr_mission.verdicts.signals) each signal is drawn on.
+_PANELS = {
+    "cross_track": "cross_track",
+    "lag": "along_track",
+    "zone_depth": "zones",
+    "clearance": "zones",
+    "target_distance": "goal",
+    "heading_error": "goal",
+    "speed": "saturation",
+    "turn_rate": "saturation",
+}
 
 _INF = math.inf
 
@@ -141,12 +152,15 @@ def _until(left: FloatArray, right: FloatArray, first: int, last: int) -> FloatA
     n = left.size
     if last < first or first >= n:
         return np.full(n, -_INF)
-    from_here = np.minimum(_unbounded_until(left, right), _window(right, 0, last - first, np.maximum, -_INF))
+    from_here = np.minimum(
+        _unbounded_until(left, right), _window(right, 0, last - first, np.maximum, -_INF)
+    )
     shifted = np.full(n, -_INF)
     shifted[: n - first] = from_here[first:]
     if first == 0:
         return shifted
-    return np.minimum(_window(left, 0, first - 1, np.minimum, _INF), shifted)
+    found: FloatArray = np.minimum(_window(left, 0, first - 1, np.minimum, _INF), shifted)
+    return found
 
 
 def _unbounded_until(left: FloatArray, right: FloatArray) -> FloatArray:
@@ -194,7 +208,7 @@ def phase_values(
     formulas = phase_formulas(mission, info.name)
     if not formulas:
         return {}
-    signals = _PhaseSignals(result, info, window, numbers)
+    signals = PhaseSignals(result, info, window, numbers)
     values: dict[str, float | None] = {}
     for text in formulas:
         node = parse_formula(text)
@@ -215,6 +229,14 @@ def phase_values(
     return {"temporal": values} if values else {}
 
 
+def panel_of(formula: str) -> str:
+    """The panel a formula's check is drawn on: its first signal's."""
+    node = parse_formula(formula)
+    while not isinstance(node, Atom):
+        node = node.body if isinstance(node, Always | Eventually) else node.left
+    return _PANELS[node.signal]
+
+
 def formula_checks(phase: Mapping[str, Any]) -> list[Check]:
     """A phase summary's formulas as checks: ``rho >= 0``, their value the
     formula's rho, which is then their margin."""
@@ -223,7 +245,7 @@ def formula_checks(phase: Mapping[str, Any]) -> list[Check]:
     return [Check(text, name, 0.0, value, lower=True) for text, value in values.items()]
 
 
-class _PhaseSignals:
+class PhaseSignals:
     """The signals of one phase, computed when a formula names them (None: the
     phase does not measure it)."""
 
