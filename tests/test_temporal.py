@@ -129,6 +129,27 @@ def test_a_mistake_in_a_mission_is_at_its_file_line_and_column(tmp_path: Path) -
     assert "Traceback" not in done.stderr
 
 
+def test_a_formula_on_a_signal_its_phase_does_not_measure_is_a_warning() -> None:
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = CASE2.read_text().replace("target_distance <= 0.05", "cross_track <= 0.05")
+    mission, found = check_mission_text(text, "case2.yaml")
+    assert mission is not None  # a warning: the mission runs
+    (warning,) = found
+    assert warning.severity == "warning"
+    assert warning.message == (
+        "cross_track is measured on track phases, but phase 'return' is not one: "
+        "the formula is never checked"
+    )
+    assert (warning.line, warning.column) == (
+        text.splitlines().index(
+            '      temporal: ["eventually[0, 10](always(cross_track <= 0.05))"]'
+        )
+        + 1,
+        18,
+    )
+
+
 # --- the robustness, against rtamt's ------------------------------------------
 
 NAMES = ("speed", "turn_rate", "lag")

@@ -33,6 +33,7 @@ from pydantic_core import PydanticCustomError
 
 __all__ = [
     "INSTANTS",
+    "MEASURED_ON",
     "MAX_FORMULA_LENGTH",
     "SIGNALS",
     "Always",
@@ -63,6 +64,18 @@ SIGNALS: Final[dict[str, tuple[str, str]]] = {
     "heading_error": ("rad", "|heading - the target's heading|, wrapped (regulate)"),
     "speed": ("m/s", "|v|"),
     "turn_rate": ("rad/s", "|omega|"),
+}
+# Where each signal is measured: on track phases, on phases with zones, on
+# phases with a target (regulate and hold), or on every phase.
+MEASURED_ON: Final[dict[str, Literal["track", "zones", "target", "every"]]] = {
+    "cross_track": "track",
+    "lag": "track",
+    "zone_depth": "zones",
+    "clearance": "zones",
+    "target_distance": "target",
+    "heading_error": "target",
+    "speed": "every",
+    "turn_rate": "every",
 }
 # Named instants of a window: the track entry's end, the phase's settle_time,
 # and the end of the phase (the trace ends there).

@@ -128,7 +128,10 @@ def _window(
     out = np.full(n, empty)
     if last < first or first >= n:
         return out
-    width = min(last - first + 1, n)
+    if last >= n - 1:  # to the phase's end: the running pick from the end
+        out[: n - first] = pick.accumulate(values[first:][::-1])[::-1]  # type: ignore[attr-defined]
+        return out
+    width = last - first + 1
     # van Herk: in blocks of `width`, the running pick from each block's start
     # and from its end; a window spans at most two blocks.
     blocks = -(-(n + width) // width)
@@ -137,8 +140,7 @@ def _window(
     shaped = padded.reshape(blocks, width)
     ahead = pick.accumulate(shaped, axis=1).ravel()  # type: ignore[attr-defined]
     behind = pick.accumulate(shaped[:, ::-1], axis=1)[:, ::-1].ravel()  # type: ignore[attr-defined]
-    k = np.arange(first, n)
-    out[: n - first] = pick(behind[k], ahead[k + width - 1])
+    out[: n - first] = pick(behind[first:n], ahead[first + width - 1 : n + width - 1])
     return out
 
 
