@@ -4,6 +4,7 @@ example of missions/case2.yaml, and the built-in metrics they restate."""
 
 from __future__ import annotations
 
+import copy
 import subprocess
 import sys
 import warnings
@@ -415,3 +416,25 @@ def test_a_formula_check_is_drawn_on_its_first_signals_panel() -> None:
 
     assert panel_of("eventually[0, 10](always(cross_track <= 0.02))") == "cross_track"
     assert panel_of("(speed <= 1 or lag <= 2) until target_distance <= 0.1") == "saturation"
+
+
+def test_a_mission_wide_formula_applies_where_its_signals_are_measured(case2_run: Any) -> None:
+    # judged again with the mission-wide formulas, the phases' own left out but
+    # the return's, which turns them off there
+    from wmr_mission.verdicts.metrics import judge
+
+    mission = copy.deepcopy(case2_run.mission)
+    mission["expect"]["temporal"] = ["always(speed <= 10)", "eventually(cross_track <= 0.1)"]
+    for phase in mission["phases"]:
+        phase["expect"]["temporal"] = [] if phase["name"] == "return" else None
+    checks = [
+        (e["phase"], e["metric"], e["met"])
+        for e in judge(case2_run, mission)["expectations"]
+        if "(" in e["metric"]
+    ]
+    assert checks == [
+        ("spiral-out", "always(speed <= 10)", True),
+        ("spiral-out", "eventually(cross_track <= 0.1)", True),
+        ("orbit", "always(speed <= 10)", True),
+        ("orbit", "eventually(cross_track <= 0.1)", True),
+    ]

@@ -33,8 +33,8 @@ from pydantic_core import PydanticCustomError
 
 __all__ = [
     "INSTANTS",
-    "MEASURED_ON",
     "MAX_FORMULA_LENGTH",
+    "MEASURED_ON",
     "SIGNALS",
     "Always",
     "Atom",
