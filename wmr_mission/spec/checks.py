@@ -60,6 +60,7 @@ from wmr_mission.spec.models import (
     Update,
 )
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
+from wmr_mission.spec.temporal import MEASURED_ON, parse_formula, signals_of
 
 __all__ = ["MAX_SAMPLES", "DataPath", "Finding", "Severity", "check", "check_across_fields"]
 
@@ -163,6 +164,7 @@ def check_across_fields(mission: Mission) -> list[Finding]:
         *_initial_state(mission),
         *_timing(mission),
         *_expectations(mission),
+        *_formulas(mission),
         *_control(mission),
         *_estimator_bounds(mission),
         *_phase_colors(mission),
@@ -933,6 +935,27 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
             severity="warning",
             at_key=True,
         )
+
+
+def _formulas(mission: Mission) -> Iterator[Finding]:
+    """A phase's own temporal formula names only signals the phase measures."""
+    for run in run_order(mission):
+        phase = run.phase
+        if run.lap is not None and run.lap > 1:
+            continue
+        kind = "track" if isinstance(phase, TrackPhase) else "target"
+        measured = {"every", kind, *(("zones",) if phase.constraints else ())}
+        for index, text in enumerate(phase.expect.temporal or ()):
+            for signal in sorted(signals_of(parse_formula(text))):
+                if MEASURED_ON[signal] not in measured:
+                    where = {"track": "track phases", "zones": "phases with constraints"}
+                    yield Finding(
+                        (*run.where, "expect", "temporal", index),
+                        f"{signal} is measured on "
+                        f"{where.get(MEASURED_ON[signal], 'regulate and hold phases')}, but "
+                        f"phase {phase.name!r} is not one: the formula is never checked",
+                        severity="warning",
+                    )
 
 
 def _phase_colors(mission: Mission) -> Iterator[Finding]:

@@ -63,6 +63,7 @@ from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.geometry.routes import ROUTE_ACCELERATION_SHARE
 from wmr_mission.spec.backend import Backend
 from wmr_mission.spec.reactions import Geofence, Reaction, Then
+from wmr_mission.spec.temporal import Formula
 
 __all__ = [
     "ACTIONS",
@@ -490,6 +491,15 @@ class PhaseExpect(Model):
     estimation_rms: StateThresholds | None = Field(
         default=None,
         description="RMS estimation error (true - estimate) per state after settle_time.",
+    )
+    temporal: tuple[Formula, ...] | None = Field(
+        default=None,
+        max_length=64,
+        description=(
+            "Temporal formulas over the phase's signals, each a check with its robustness as "
+            "margin (see Temporal expectations); a mission-wide one applies to each phase that "
+            "measures its signals."
+        ),
     )
 
 

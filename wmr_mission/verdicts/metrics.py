@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
 from wmr_mission.spec import models
 from wmr_mission.verdicts import inputs as input_metrics
+from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.advice import advice
 from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.clearance import clearance_min
@@ -777,6 +778,9 @@ def _phase_summaries(
             summaries.append(_checked_phase_summary(info, phase, expect))
         else:
             summaries.append(_phase_summary(result, info, phase, tolerance))
+        summaries[-1] |= temporal.phase_values(  # its formulas' robustness, if any
+            result, info, phase.window, phase.settle_time, judged.numbers, mission
+        )
     return summaries
 
 
@@ -960,7 +964,7 @@ def check_expectations(
         (float(limits.get("v", defaults.v)), float(limits.get("omega", defaults.omega))),
     )
     expect = _expect_of(mission)
-    known = (*EXPECTATION_PATHS, *PHASE_EXPECTATION_PATHS, *_SETTINGS)
+    known = (*EXPECTATION_PATHS, *PHASE_EXPECTATION_PATHS, *_SETTINGS, "temporal")
     for metric in expect:
         if metric not in known:
             raise ValueError(f"unknown expectation {metric!r}; expected one of {', '.join(known)}")
@@ -978,6 +982,7 @@ def check_expectations(
         for check in found if phase.get("kind") == "track" else ():
             check.advice = advice(check, phase, numbers, controller)  # the tracking law's
         checks.extend(found)
+        checks.extend(temporal.formula_checks(phase))
     return checks
 
 

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from wmr_mission.basics import STATES, FloatArray
 from wmr_mission.spec import models
 from wmr_mission.verdicts import inputs as input_metrics
+from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.check import Check as Judged
 from wmr_mission.verdicts.metrics import (
     check_expectations,
@@ -121,7 +122,9 @@ def unit_of(metric: str) -> str:
 def panel_of(metric: str) -> str:
     """The panel a check is drawn on."""
     base = metric.split(".", 1)[0]
-    return PEAK[base][0] if base in PEAK else LEVEL[base]
+    if base in PEAK:
+        return PEAK[base][0]
+    return LEVEL[base] if base in LEVEL else temporal.panel_of(metric)  # a formula's
 
 
 @dataclass

@@ -1,0 +1,440 @@
+"""Temporal `expect` formulas: their grammar and errors, their robustness
+against rtamt's (an independent monitor of signal temporal logic), the shipped
+example of missions/case2.yaml, and the built-in metrics they restate."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from wmr_mission.spec.loader import MissionError, load_mission
+from wmr_mission.spec.temporal import (
+    SIGNALS,
+    Always,
+    Atom,
+    Both,
+    Either,
+    Eventually,
+    FormulaError,
+    Node,
+    Until,
+    Window,
+    parse_formula,
+)
+from wmr_mission.verdicts.temporal import robustness
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE2 = ROOT / "missions" / "case2.yaml"
+
+# rtamt (the [test] extra's, where it installs) runs on Python 3.8 to 3.12: its
+# ANTLR 4.7 runtime imports typing.io, which Python 3.13 no longer has. The
+# reference written from the definitions below runs everywhere.
+needs_rtamt = pytest.mark.skipif(
+    sys.version_info >= (3, 13), reason="rtamt's ANTLR 4.7 runtime needs typing.io (< 3.13)"
+)
+
+
+def _rtamt() -> Any:
+    with warnings.catch_warnings():  # its ANTLR runtime's import of typing.io
+        warnings.simplefilter("ignore", DeprecationWarning)
+        import rtamt
+
+    return rtamt
+
+
+# --- the grammar --------------------------------------------------------------
+
+
+def test_a_formula_is_read_as_written() -> None:
+    node = parse_formula("eventually[0, 10](always(cross_track <= 0.02)) or lag >= -1e-1")
+    assert node == Either(
+        Eventually(Window(0.0, 10.0), Always(Window(0.0, "end"), Atom("cross_track", 0.02))),
+        Atom("lag", -0.1, above=True),
+    )
+    # and before or, until before and; windows of named instants
+    node = parse_formula("speed <= 1 and turn_rate <= 2 until[settle, end] lag <= 3 or speed >= 0")
+    assert node == Either(
+        Both(
+            Atom("speed", 1.0),
+            Until(Window("settle", "end"), Atom("turn_rate", 2.0), Atom("lag", 3.0)),
+        ),
+        Atom("speed", 0.0, above=True),
+    )
+
+
+@pytest.mark.parametrize(
+    ("text", "column", "words"),
+    [
+        ("always(cross_tack <= 0.1)", 8, "did you mean 'cross_track'"),
+        ("always(speed < 1)", 14, "write '<='"),
+        ("always[2, 1](speed <= 1)", 11, "ends (1 s) before it starts (2 s)"),
+        ("always[0, 10(speed <= 1)", 13, "expected ']'"),
+        ("always(speed <= 1", 7, "unclosed '('"),
+        ("always(speed <= one)", 17, "expected a number"),
+        ("always[-1, 2](speed <= 1)", 8, "0 or more seconds"),
+        ("always[0, later](speed <= 1)", 11, "entry, settle, end"),
+        ("speed <= 1 until lag <= 1 until lag <= 2", 27, "does not chain"),
+        ("always(speed <= 1) lag <= 2", 20, "expected 'and', 'or'"),
+        ("not speed <= 1", 1, "unknown signal 'not'"),
+        ("", 1, "empty formula"),
+    ],
+)
+def test_a_mistake_is_reported_at_its_column(text: str, column: int, words: str) -> None:
+    with pytest.raises(FormulaError) as error:
+        parse_formula(text)
+    assert error.value.column == column
+    assert words in error.value.message
+
+
+def test_an_unknown_signal_lists_the_signals() -> None:
+    with pytest.raises(FormulaError) as error:
+        parse_formula("always(depth <= 0)")
+    assert error.value.message.endswith("signals: " + ", ".join(SIGNALS))
+
+
+def _with_formula(formula: str) -> str:
+    text = CASE2.read_text()
+    orbit = "    until: {elapsed: 20}\n"
+    assert orbit in text
+    return text.replace(orbit, f'{orbit}    expect: {{temporal: ["{formula}"]}}\n')
+
+
+def test_a_mistake_in_a_mission_is_at_its_file_line_and_column(tmp_path: Path) -> None:
+    mission = tmp_path / "case2.yaml"
+    mission.write_text(_with_formula("eventually[0, 10](always(cross_tack <= 0.02))"))
+    line = (
+        mission.read_text()
+        .splitlines()
+        .index('    expect: {temporal: ["eventually[0, 10](always(cross_tack <= 0.02))"]}')
+    )
+    column = len('    expect: {temporal: ["eventually[0, 10](always(') + 1
+    with pytest.raises(MissionError) as error:
+        load_mission(mission)
+    assert str(error.value).startswith(f"{mission}:{line + 1}:{column}: ")
+    assert "unknown signal 'cross_tack'; did you mean 'cross_track'?" in str(error.value)
+    done = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "validate", str(mission)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 1
+    assert f"{mission}:{line + 1}:{column}: " in done.stdout + done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_a_formula_on_a_signal_its_phase_does_not_measure_is_a_warning() -> None:
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = CASE2.read_text().replace("target_distance <= 0.05", "cross_track <= 0.05")
+    mission, found = check_mission_text(text, "case2.yaml")
+    assert mission is not None  # a warning: the mission runs
+    (warning,) = found
+    assert warning.severity == "warning"
+    assert warning.message == (
+        "cross_track is measured on track phases, but phase 'return' is not one: "
+        "the formula is never checked"
+    )
+    assert (warning.line, warning.column) == (
+        text.splitlines().index(
+            '      temporal: ["eventually[0, 10](always(cross_track <= 0.05))"]'
+        )
+        + 1,
+        18,
+    )
+
+
+# --- the robustness, against rtamt's ------------------------------------------
+
+NAMES = ("speed", "turn_rate", "lag")
+
+
+def _random_window(rng: np.random.Generator, n: int) -> Window:
+    kind = rng.integers(4)
+    if kind == 0:
+        return Window()  # [0, end]
+    start = float(rng.integers(0, 8))
+    if kind == 1:
+        return Window(start, "end")
+    return Window(start, start + float(rng.integers(0, 8)))
+
+
+def _random_formula(rng: np.random.Generator, n: int, depth: int) -> Node:
+    kind = rng.integers(6) if depth > 0 else 0
+    if kind == 0:
+        bound = float(np.round(rng.normal(), 2)) if rng.random() > 0.1 else 0.0
+        return Atom(str(rng.choice(NAMES)), bound, bool(rng.integers(2)))
+    if kind in (1, 2):
+        parts = _random_formula(rng, n, depth - 1), _random_formula(rng, n, depth - 1)
+        return Both(*parts) if kind == 1 else Either(*parts)
+    window = _random_window(rng, n)
+    if kind == 5:
+        return Until(window, _random_formula(rng, n, depth - 1), _random_formula(rng, n, depth - 1))
+    body = _random_formula(rng, n, depth - 1)
+    return Always(window, body) if kind == 3 else Eventually(window, body)
+
+
+def _rtamt_text(node: Node, n: int, atoms: list[Atom], normalised: bool, dt: float = 1.0) -> str:
+    """The formula in rtamt's syntax, its windows in samples of ``dt`` s;
+    normalised: each atom over a signal of its own, scaled by its bound's size."""
+
+    def window(w: Window) -> str:
+        assert isinstance(w.start, float)
+        stop = n if w.stop == "end" else round(float(w.stop) / dt)  # beyond the trace: its end
+        return f"[{round(w.start / dt)}:{stop}]"
+
+    if isinstance(node, Atom):
+        atoms.append(node)
+        name = f"a{len(atoms) - 1}" if normalised else node.signal
+        bound = node.bound / (abs(node.bound) or 1.0) if normalised else node.bound
+        return f"({name} {'>=' if node.above else '<='} {bound!r})"
+    if isinstance(node, Both | Either):
+        left = _rtamt_text(node.left, n, atoms, normalised, dt)
+        right = _rtamt_text(node.right, n, atoms, normalised, dt)
+        return f"({left} {'and' if isinstance(node, Both) else 'or'} {right})"
+    if isinstance(node, Always | Eventually):
+        word = "always" if isinstance(node, Always) else "eventually"
+        body = _rtamt_text(node.body, n, atoms, normalised, dt)
+        return f"({word}{window(node.window)}{body})"
+    left = _rtamt_text(node.left, n, atoms, normalised, dt)
+    right = _rtamt_text(node.right, n, atoms, normalised, dt)
+    return f"({left} until{window(node.window)} {right})"
+
+
+def _rtamt_robustness(
+    node: Node, signals: dict[str, np.ndarray], normalised: bool = False, dt: float = 1.0
+) -> np.ndarray:
+    n = len(next(iter(signals.values())))
+    atoms: list[Atom] = []
+    spec = _rtamt().StlDiscreteTimeSpecification()
+    spec.spec = _rtamt_text(node, n, atoms, normalised, dt)
+    data: dict[str, list[float]] = {"time": list(range(n))}
+    if normalised:
+        for i, atom in enumerate(atoms):
+            spec.declare_var(f"a{i}", "float")
+            data[f"a{i}"] = list(signals[atom.signal] / (abs(atom.bound) or 1.0))
+    else:
+        for name in signals:
+            spec.declare_var(name, "float")
+            data[name] = list(signals[name])
+    spec.parse()
+    return np.array([value for _, value in spec.evaluate(data)])
+
+
+def _traces(count: int, seed: int) -> list[tuple[Node, dict[str, np.ndarray]]]:
+    rng = np.random.default_rng(seed)
+    found = []
+    for _ in range(count):
+        n = int(rng.integers(2, 40))  # rtamt fails on a trace of one sample
+        signals = {name: np.round(rng.normal(size=n), 3) for name in NAMES}
+        found.append((_random_formula(rng, n, int(rng.integers(1, 4))), signals))
+    return found
+
+
+def _reference(node: Node, signals: dict[str, np.ndarray], normalised: bool) -> np.ndarray:
+    """The robustness at every sample, straight from the definitions
+    (verdicts/temporal.py's docstring), one sample and one window at a time."""
+    n = len(signals[NAMES[0]])
+    inf = float("inf")
+
+    def span(w: Window, k: int) -> range:
+        stop = n - 1 if w.stop == "end" else min(k + int(w.stop), n - 1)
+        return range(k + int(w.start), stop + 1)
+
+    if isinstance(node, Atom):
+        x = signals[node.signal]
+        rho = x - node.bound if node.above else node.bound - x
+        return rho / (abs(node.bound) or 1.0) if normalised else rho
+    if isinstance(node, Both | Either):
+        left, right = (
+            _reference(node.left, signals, normalised),
+            _reference(node.right, signals, normalised),
+        )
+        return np.minimum(left, right) if isinstance(node, Both) else np.maximum(left, right)
+    if isinstance(node, Always | Eventually):
+        body = _reference(node.body, signals, normalised)
+        pick, empty = (min, inf) if isinstance(node, Always) else (max, -inf)
+        return np.array(
+            [pick((body[m] for m in span(node.window, k)), default=empty) for k in range(n)]
+        )
+    left, right = (
+        _reference(node.left, signals, normalised),
+        _reference(node.right, signals, normalised),
+    )
+    return np.array(
+        [
+            max(
+                (min(right[m], min(left[k:m], default=inf)) for m in span(node.window, k)),
+                default=-inf,
+            )
+            for k in range(n)
+        ]
+    )
+
+
+@pytest.mark.parametrize("normalised", [False, True])
+def test_the_robustness_is_the_definitions_on_generated_traces(normalised: bool) -> None:
+    # 300 random formulas (up to three operators deep, windows cut by the
+    # trace's end or not) on as many random traces: every sample's rho
+    for node, signals in _traces(300, seed=34):
+        ours = robustness(node, signals, 1.0, {}, normalised=normalised)
+        assert np.allclose(ours, _reference(node, signals, normalised), rtol=0.0, atol=1e-9), node
+
+
+@needs_rtamt
+@pytest.mark.parametrize("normalised", [False, True])
+def test_the_robustness_is_rtamts_on_generated_traces(normalised: bool) -> None:
+    for node, signals in _traces(300, seed=34):
+        ours = robustness(node, signals, 1.0, {}, normalised=normalised)
+        theirs = _rtamt_robustness(node, signals, normalised)
+        assert np.allclose(ours, theirs, rtol=0.0, atol=1e-9), node
+
+
+@needs_rtamt
+def test_each_operator_is_rtamts_on_long_windows() -> None:
+    # the window minimum and maximum in blocks and the doubling scan of until,
+    # on windows wider than a block and as wide as the trace
+    rng = np.random.default_rng(5)
+    signals = {name: rng.normal(size=120) for name in NAMES}
+    a, b = Atom("speed", 0.5), Atom("lag", -0.2, above=True)
+    for window in (Window(), Window(0.0, 119.0), Window(17.0, 60.0), Window(3.0, "end")):
+        for node in (Always(window, a), Eventually(window, a), Until(window, a, b)):
+            ours = robustness(node, signals, 1.0, {}, normalised=False)
+            assert np.allclose(ours, _rtamt_robustness(node, signals), rtol=0.0, atol=1e-9)
+
+
+def test_windows_are_in_seconds_and_named_instants_are_the_phases() -> None:
+    dt = 0.01
+    speed = np.linspace(0.0, 1.0, 101)  # 1 m/s at 1 s
+    signals = {"speed": speed}
+    node = parse_formula("eventually[settle, end](speed >= 0.5)")
+    assert robustness(node, signals, dt, {"settle": 0.2})[0] == pytest.approx(1.0)
+    node = parse_formula("always[0.1, 0.3](speed <= 0.5)")  # samples 10 to 30
+    assert robustness(node, signals, dt, {}, normalised=False)[0] == pytest.approx(0.2)
+    node = parse_formula("always[entry, 0.5](speed >= 0.25)")
+    assert robustness(node, signals, dt, {"entry": 0.25}, normalised=False)[0] == pytest.approx(0)
+
+
+# --- on runs: the shipped example and the built-in metrics it restates --------
+
+
+@pytest.fixture(scope="module")
+def case2_run() -> Any:
+    from wmr_mission.api import run_mission
+
+    return run_mission(load_mission(CASE2))
+
+
+def _phase(result: Any, name: str) -> tuple[Any, slice, Any]:
+    from wmr_mission.verdicts.metrics import phase_segments
+    from wmr_mission.verdicts.numbers import mission_numbers
+
+    for index, start, end in phase_segments(result.phase):
+        if result.phases[index].name == name:
+            numbers = mission_numbers(result.mission, result.dt, result.limits)
+            return result.phases[index], slice(start, end), numbers
+    raise AssertionError(name)
+
+
+def _checks(summary: dict[str, Any], phase: str) -> dict[str, dict[str, Any]]:
+    return {e["metric"]: e for e in summary["expectations"] if e["phase"] == phase}
+
+
+@needs_rtamt
+def test_case2s_formulas_hold_with_rtamts_robustness(case2_run: Any) -> None:
+    # The shipped example: on the ellipse within 10 s of the orbit's start and
+    # on it to the end; inside the ellipse on the way home, and home within
+    # 10 s and there to the end. Both are checks of the run, met, with their
+    # rho as margin, and rtamt reads the same rho from the recorded signals.
+    from wmr_mission.verdicts.temporal import PhaseSignals, phase_formulas
+
+    summary = case2_run.judged
+    assert case2_run.outcome.value == "success"
+    for name in ("orbit", "return"):
+        (formula,) = phase_formulas(case2_run.mission, name)
+        check = _checks(summary, name)[formula]
+        assert check["met"]
+        assert check["min"] == 0.0
+        assert check["rho"] == check["margin"] == check["value"] > 0.5
+        info, window, numbers = _phase(case2_run, name)
+        phase = PhaseSignals(case2_run, info, window, numbers)
+        node = parse_formula(formula)
+        signals = {s: phase.get(s) for s in sorted({a for a in SIGNALS if a in formula})}
+        theirs = _rtamt_robustness(node, signals, normalised=True, dt=case2_run.dt)[0]
+        assert abs(check["rho"] - theirs) <= 1e-9
+
+
+def _with_expect(extra: dict[str, dict[str, Any]]) -> Any:
+    from wmr_mission.api import mission_from_dict
+
+    data = load_mission(CASE2).model_dump(mode="json", exclude_defaults=True)
+    for phase in data["phases"]:
+        phase["expect"] = extra.get(phase["name"], {})
+    return mission_from_dict(data)
+
+
+def test_built_in_metrics_read_as_formulas() -> None:
+    # docs/mission-format.md's table: the margin of a built-in check is the
+    # rho of the formula that restates it (the case 2 orbit: no detour)
+    from wmr_mission.api import run_mission
+
+    orbit = {
+        "cross_track_error_max": {"max": 0.0001},
+        "along_track_lag_max": {"max": 0.002},
+        "temporal": [
+            "always[entry, end](cross_track <= 0.0001)",
+            "always[entry, end](lag <= 0.002 and lag >= -0.002)",
+        ],
+    }
+    home = {"clearance_min": 0.5, "temporal": ["always(clearance >= 0.5)"]}
+    summary = run_mission(_with_expect({"orbit": orbit, "return": home})).judged
+    checks = _checks(summary, "orbit")
+    for metric, formula in (
+        ("cross_track_error_max", "always[entry, end](cross_track <= 0.0001)"),
+        ("along_track_lag_max", "always[entry, end](lag <= 0.002 and lag >= -0.002)"),
+    ):
+        assert checks[metric]["margin"] == pytest.approx(checks[formula]["margin"], abs=1e-12)
+        assert checks[metric]["met"] == checks[formula]["met"]
+    assert not checks["cross_track_error_max"]["met"]  # 0.12 mm: a miss and a hit
+    assert checks["along_track_lag_max"]["met"]
+    # the clearance is given to a micrometre (verdicts/clearance.py): so is its margin
+    checks = _checks(summary, "return")
+    built_in, formula = checks["clearance_min"], checks["always(clearance >= 0.5)"]
+    assert built_in["met"] == formula["met"] is False  # it starts on the ellipse
+    assert built_in["margin"] == pytest.approx(formula["margin"], abs=1e-6 / 0.5)
+
+
+def test_a_formula_check_is_drawn_on_its_first_signals_panel() -> None:
+    from wmr_mission.verdicts.signals import panel_of
+
+    assert panel_of("eventually[0, 10](always(cross_track <= 0.02))") == "cross_track"
+    assert panel_of("(speed <= 1 or lag <= 2) until target_distance <= 0.1") == "saturation"
+
+
+def test_a_mission_wide_formula_applies_where_its_signals_are_measured(case2_run: Any) -> None:
+    # judged again with the mission-wide formulas, the phases' own left out but
+    # the return's, which turns them off there
+    from wmr_mission.verdicts.metrics import judge
+
+    mission = copy.deepcopy(case2_run.mission)
+    mission["expect"]["temporal"] = ["always(speed <= 10)", "eventually(cross_track <= 0.1)"]
+    for phase in mission["phases"]:
+        phase["expect"]["temporal"] = [] if phase["name"] == "return" else None
+    checks = [
+        (e["phase"], e["metric"], e["met"])
+        for e in judge(case2_run, mission)["expectations"]
+        if "(" in e["metric"]
+    ]
+    assert checks == [
+        ("spiral-out", "always(speed <= 10)", True),
+        ("spiral-out", "eventually(cross_track <= 0.1)", True),
+        ("orbit", "always(speed <= 10)", True),
+        ("orbit", "eventually(cross_track <= 0.1)", True),
+    ]

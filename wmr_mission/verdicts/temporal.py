@@ -1,0 +1,307 @@
+"""The robustness of a phase's temporal `expect` formulas (wmr_mission.spec.temporal).
+
+The quantitative semantics is signal temporal logic's, in discrete time as
+rtamt evaluates it offline (tests/test_temporal.py holds the two equal to
+1e-9), over the samples k = 0 .. n-1 of a phase:
+
+    rho(s <= c, k)            = c - s[k]     (s >= c: s[k] - c)
+    rho(a and b, k)           = min(rho(a, k), rho(b, k));   or: max
+    rho(always[i, j] a, k)    = min of rho(a, m) over m in [k + i, k + j]
+    rho(eventually[i, j] a, k)= max of the same
+    rho(a until[i, j] b, k)   = max over m in [k + i, k + j] of
+                                min(rho(b, m), min of rho(a, l) over l in [k, m - 1])
+
+with the window in samples, cut at the phase's end (a minimum over nothing is
++inf, a maximum -inf). A formula's value is its rho at the phase's first sample.
+
+Each atom is measured in its bound's size, ``(c - s) / |c|`` (over 1 of the
+unit when c = 0), as a check's margin is (wmr_mission.verdicts.check): the
+formula's rho is then the margin of the check it makes, and
+``always[entry, end](cross_track <= 0.1)`` has the margin of
+``cross_track_error_max: {max: 0.1}``.
+
+Each window minimum and maximum costs O(n) whatever its width (van Herk's
+blocks), and ``until`` O(n log n) (a doubling scan): a one-hour mission's
+formulas cost a few array passes, not a loop over samples.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.spec.temporal import (
+    Always,
+    Atom,
+    Both,
+    Either,
+    Eventually,
+    Node,
+    Window,
+    parse_formula,
+    signals_of,
+)
+from wmr_mission.verdicts.check import Check
+from wmr_mission.verdicts.numbers import MissionNumbers
+from wmr_mission.verdicts.tracking import path_steps, place_on_path
+from wmr_mission.verdicts.zones import zones_of
+
+if TYPE_CHECKING:
+    from wmr_mission.record import PhaseRecord, RunRecord
+
+__all__ = ["PhaseSignals", "formula_checks", "panel_of", "phase_values", "robustness"]
+
+# The panel of the verdicts figure (wmr_mission.verdicts.signals) each signal is drawn on.
+_PANELS = {
+    "cross_track": "cross_track",
+    "lag": "along_track",
+    "zone_depth": "zones",
+    "clearance": "zones",
+    "target_distance": "goal",
+    "heading_error": "goal",
+    "speed": "saturation",
+    "turn_rate": "saturation",
+}
+
+_INF = math.inf
+
+
+def robustness(
+    node: Node,
+    signals: Mapping[str, FloatArray],
+    dt: float,
+    instants: Mapping[str, float],
+    normalised: bool = True,
+) -> FloatArray:
+    """The robustness of ``node`` at every sample (``signals`` of one length;
+    ``instants``: the seconds ``entry`` and ``settle`` stand for)."""
+    if isinstance(node, Atom):
+        values = signals[node.signal]
+        rho: FloatArray = values - node.bound if node.above else node.bound - values
+        if normalised:
+            rho = rho / (abs(node.bound) or 1.0)
+        return rho
+    if isinstance(node, Both | Either):
+        left = robustness(node.left, signals, dt, instants, normalised)
+        right = robustness(node.right, signals, dt, instants, normalised)
+        found: FloatArray = (np.minimum if isinstance(node, Both) else np.maximum)(left, right)
+        return found
+    n = len(next(iter(signals.values())))
+    first, last = _samples(node.window, dt, instants, n)
+    if isinstance(node, Always | Eventually):
+        body = robustness(node.body, signals, dt, instants, normalised)
+        if isinstance(node, Always):
+            return _window(body, first, last, np.minimum, _INF)
+        return _window(body, first, last, np.maximum, -_INF)
+    left = robustness(node.left, signals, dt, instants, normalised)
+    right = robustness(node.right, signals, dt, instants, normalised)
+    return _until(left, right, first, last)
+
+
+def _samples(window: Window, dt: float, instants: Mapping[str, float], n: int) -> tuple[int, int]:
+    """The window's first and last sample from the one it is read at (last = n:
+    to the phase's end)."""
+
+    def seconds(instant: float | str) -> float:
+        return instant if isinstance(instant, float) else instants.get(instant, _INF)
+
+    start, stop = seconds(window.start), seconds(window.stop)
+    first = math.ceil(start / dt - 1e-9)
+    last = n if stop >= n * dt else math.floor(stop / dt + 1e-9)
+    return min(first, n), min(last, n)
+
+
+def _window(
+    values: FloatArray,
+    first: int,
+    last: int,
+    pick: Callable[..., FloatArray],
+    empty: float,
+) -> FloatArray:
+    """``pick`` (np.minimum or np.maximum) of ``values[k + first .. k + last]``
+    at each k, the samples past the end counted as ``empty``."""
+    n = values.size
+    out = np.full(n, empty)
+    if last < first or first >= n:
+        return out
+    if last >= n - 1:  # to the phase's end: the running pick from the end
+        out[: n - first] = pick.accumulate(values[first:][::-1])[::-1]  # type: ignore[attr-defined]
+        return out
+    width = last - first + 1
+    # van Herk: in blocks of `width`, the running pick from each block's start
+    # and from its end; a window spans at most two blocks.
+    blocks = -(-(n + width) // width)
+    padded = np.full(blocks * width, empty)
+    padded[:n] = values
+    shaped = padded.reshape(blocks, width)
+    ahead = pick.accumulate(shaped, axis=1).ravel()  # type: ignore[attr-defined]
+    behind = pick.accumulate(shaped[:, ::-1], axis=1)[:, ::-1].ravel()  # type: ignore[attr-defined]
+    out[: n - first] = pick(behind[first:n], ahead[first + width - 1 : n + width - 1])
+    return out
+
+
+def _until(left: FloatArray, right: FloatArray, first: int, last: int) -> FloatArray:
+    """``left until[first, last] right`` at every sample, as the docstring's
+    definition: for the window [i, j], min(always[0, i - 1] left, (left until
+    right) and eventually[0, j - i] right, read i samples on). The second is
+    the bounded until from each sample (a bound on the untimed one, met by a
+    right side within the window: the larger of the two picks is the
+    window's)."""
+    n = left.size
+    if last < first or first >= n:
+        return np.full(n, -_INF)
+    from_here = np.minimum(
+        _unbounded_until(left, right), _window(right, 0, last - first, np.maximum, -_INF)
+    )
+    shifted = np.full(n, -_INF)
+    shifted[: n - first] = from_here[first:]
+    if first == 0:
+        return shifted
+    found: FloatArray = np.minimum(_window(left, 0, first - 1, np.minimum, _INF), shifted)
+    return found
+
+
+def _unbounded_until(left: FloatArray, right: FloatArray) -> FloatArray:
+    """rho(k) = max(right[k], min(left[k], rho(k + 1))), rho(n) = -inf, as a
+    doubling scan: each step is the clamp x -> max(p, min(q, x)), and two
+    clamps make one, (p1, q1) after (p2, q2) = (max(p1, min(q1, p2)), min(q1, q2))."""
+    p, q = right.copy(), left.copy()
+    step = 1
+    while step < p.size:
+        later_p, later_q = p[step:], q[step:]
+        p[:-step] = np.maximum(p[:-step], np.minimum(q[:-step], later_p))
+        q[:-step] = np.minimum(q[:-step], later_q)
+        step *= 2
+    return p  # each clamp applied to rho(n) = -inf
+
+
+def phase_formulas(mission: Mapping[str, Any] | None, phase_name: str) -> tuple[str, ...]:
+    """The formulas in force in a phase (its name as run, ``name#lap`` in a
+    repeat): its own `expect`'s ``temporal``, else the mission's."""
+    written = phase_name.split("#", 1)[0]
+    shared = ((mission or {}).get("expect") or {}).get("temporal")
+    for step in (mission or {}).get("phases") or []:
+        repeat = step.get("repeat")
+        for phase in (repeat.get("phases") or []) if isinstance(repeat, Mapping) else [step]:
+            if str(phase.get("name")) == written:
+                own = (phase.get("expect") or {}).get("temporal")
+                return tuple(own if own is not None else shared or ())
+    return tuple(shared or ())
+
+
+def phase_values(
+    result: RunRecord,
+    info: PhaseRecord,
+    window: slice,
+    settle_time: float,
+    numbers: MissionNumbers,
+    mission: Mapping[str, Any] | None,
+) -> dict[str, Any]:
+    """``{"temporal": {formula: rho}}`` for a phase's summary (nothing when it
+    has no formula): rho None where a signal it names is not finite at some
+    sample (a divergence) or the formula fails over an empty window; a
+    formula is left out where the phase does not measure a signal it names
+    (a mission-wide formula on a phase of another kind), or where it holds
+    over an empty window (nothing to judge)."""
+    formulas = phase_formulas(mission, info.name)
+    if not formulas:
+        return {}
+    signals = PhaseSignals(result, info, window, numbers)
+    values: dict[str, float | None] = {}
+    for text in formulas:
+        node = parse_formula(text)
+        if "entry" in text:  # the instant: measured with the track's signals
+            signals.get("cross_track")
+        named = {name: signals.get(name) for name in sorted(signals_of(node))}
+        if any(values_ is None for values_ in named.values()):
+            continue
+        arrays = {name: a for name, a in named.items() if a is not None}
+        if not all(np.isfinite(a).all() for a in arrays.values()):
+            values[text] = None
+            continue
+        instants = {"entry": signals.entry, "settle": settle_time}
+        rho = float(robustness(node, arrays, numbers.dt, instants)[0])
+        if rho == _INF:
+            continue
+        values[text] = rho if math.isfinite(rho) else None
+    return {"temporal": values} if values else {}
+
+
+def panel_of(formula: str) -> str:
+    """The panel a formula's check is drawn on: its first signal's."""
+    node = parse_formula(formula)
+    while not isinstance(node, Atom):
+        node = node.body if isinstance(node, Always | Eventually) else node.left
+    return _PANELS[node.signal]
+
+
+def formula_checks(phase: Mapping[str, Any]) -> list[Check]:
+    """A phase summary's formulas as checks: ``rho >= 0``, their value the
+    formula's rho, which is then their margin."""
+    name = str(phase.get("name"))
+    values = phase.get("temporal") or {}
+    return [Check(text, name, 0.0, value, lower=True) for text, value in values.items()]
+
+
+class PhaseSignals:
+    """The signals of one phase, computed when a formula names them (None: the
+    phase does not measure it)."""
+
+    def __init__(
+        self, result: RunRecord, info: PhaseRecord, window: slice, numbers: MissionNumbers
+    ) -> None:
+        self.result, self.info, self.window, self.numbers = result, info, window, numbers
+        self.entry = 0.0
+        self._found: dict[str, FloatArray | None] = {}
+
+    def get(self, name: str) -> FloatArray | None:
+        if name not in self._found:
+            self._found |= self._measured(name)
+        return self._found.get(name)
+
+    def _measured(self, name: str) -> dict[str, FloatArray | None]:
+        r, w, info = self.result, self.window, self.info
+        zones = zones_of(info.constraints, r.regions)
+        if name in ("cross_track", "lag"):
+            return self._on_path()
+        if name in ("zone_depth", "clearance"):
+            if not zones:
+                return {"zone_depth": None, "clearance": None}
+            depth = np.max([zone.depth(r.x[w], r.y[w]) for zone in zones], axis=0)
+            return {"zone_depth": depth, "clearance": -depth - self.numbers.body}
+        if name in ("target_distance", "heading_error"):
+            if info.target is None or info.kind == "track":
+                return {"target_distance": None, "heading_error": None}
+            tx, ty, heading = info.target
+            turned = r.theta[w] - heading
+            return {
+                "target_distance": np.hypot(r.x[w] - tx, r.y[w] - ty),
+                "heading_error": np.abs((turned + np.pi) % (2.0 * np.pi) - np.pi),
+            }
+        if name == "speed":
+            return {name: np.abs(r.v[w])}
+        return {name: np.abs(r.omega[w])}  # turn_rate
+
+    def _on_path(self) -> dict[str, FloatArray | None]:
+        """The cross-track error and the lag at every sample of a track phase,
+        the entry's included (NaN where the reference is unknown), and the
+        entry's end (wmr_mission.verdicts.tracking.track_samples judges
+        from it)."""
+        r, w, numbers = self.result, self.window, self.numbers
+        rx, ry = r.x_ref[w], r.y_ref[w]
+        known = np.isfinite(rx) & np.isfinite(ry)
+        if self.info.kind != "track" or not known.any():
+            return {"cross_track": None, "lag": None}
+        px, py, rx, ry = r.x[w][known], r.y[w][known], rx[known], ry[known]
+        steps = path_steps(rx, ry)
+        cross, lag = np.full(known.size, np.nan), np.full(known.size, np.nan)
+        if np.isfinite(px).all() and np.isfinite(py).all():
+            near = numbers.tracking_tolerance
+            cross[known], lag[known] = place_on_path(px, py, rx, ry, near, 0, steps)
+            speed = float(steps[2][0]) / numbers.dt if rx.size > 1 else 0.0
+            self.entry = numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), speed)
+        return {"cross_track": cross, "lag": lag}
