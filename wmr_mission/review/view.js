@@ -688,7 +688,7 @@
     root.append(table(["evaluation", "outcome", r.objective, "margin check", "command"], r.best.map((b) =>
       el("tr", { class: b.outcome === "success" ? "" : "bad" }, el("td", { text: String(b.evaluation) }),
         el("td", { text: b.outcome }), el("td", { class: "num", text: fmt(Number(b.objective)) }),
-        el("td", { text: b.margin_check || "" }), el("td", null, el("code", { text: b.run || b.replay }))))),
+        el("td", { text: b.margin_check || "" }), el("td", null, el("code", { text: b.run || b.replay })))),
     [false, false, true, false, false]));
     if (meta.figures.length) {
       root.append(el("h2", { text: "Figures" }));
