@@ -48,12 +48,13 @@ def main() -> int:
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--budget", type=int, default=300)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     args = parser.parse_args()
     print("| benchmark | method | FR | mean | median | median (all) |")
     print("|---|---|---|---|---|---|")
     with ProcessPoolExecutor(args.workers) as pool:
         for campaign in args.campaigns:
-            for method in METHODS:
+            for method in args.methods:
                 tasks = [(campaign, method, seed, args.budget) for seed in range(args.seeds)]
                 found = list(pool.map(runs_to_failure, tasks))
                 hits = [f for f in found if f is not None]

@@ -24,6 +24,14 @@ SIGMA0: Final = 0.3
 """CMA-ES's first step, in the box's units (a third of a continuous axis; a
 third of a discrete axis's values, scaled by CMA_stds)."""
 
+TOLX: Final = 1e-3
+"""CMA-ES restarts once its steps are below a thousandth of the box: a failing
+region that small is not worth the rest of the budget (cma's default, 1e-11,
+spends it converging on a margin's local minimum)."""
+
+TOLFUN: Final = 1e-4
+"""... or once a generation's margins differ by less than this (cma's: 1e-11)."""
+
 RANDOM_BATCH: Final = 16
 """Points of random search evaluated together: a fixed number, so that where
 `--first` stops does not depend on the workers."""
@@ -106,6 +114,8 @@ class CmaEs:
             "verb_log": 0,
             "verb_disp": 0,
             "tolflatfitness": 3,
+            "tolx": TOLX,
+            "tolfun": TOLFUN,
         }
         with self._own_random():
             return cma.CMAEvolutionStrategy(mean, SIGMA0, options)
