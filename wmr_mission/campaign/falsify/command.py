@@ -500,8 +500,12 @@ def _report(record: dict[str, Any], out_dir: Path, seconds: float) -> str:
         ]
     else:
         lines.append(
-            f"no failing run found within the budget of {record['settings']['budget']} runs"
-            + (f" ({evaluations} run)" if evaluations < record["settings"]["budget"] else "")
+            (
+                f"no failing run found within the budget of {record['settings']['budget']} runs"
+                if evaluations == record["settings"]["budget"]
+                else f"no failing run found in the {evaluations} runs done "
+                f"(of a budget of {record['settings']['budget']})"
+            )
             + f"; lowest {objective} {_text(record['lowest'])}"
             + (f" (run {best[0]['evaluation']}: {best[0]['replay']})" if best else "")
         )
