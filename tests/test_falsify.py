@@ -119,6 +119,20 @@ def test_cmaes_asks_the_same_points_whatever_else_draws_from_numpy() -> None:
     assert all(p[1] == round(p[1]) for p in points(False))  # a choice's index is an integer
 
 
+def test_a_run_the_mission_refuses_or_that_broke_is_never_a_failure() -> None:
+    def run(outcome: str, margin: float) -> Evaluation:
+        return Evaluation(0, 1, {}, outcome, margin, outcome, margin, "")
+
+    assert not run("invalid", math.inf).falsified
+    assert not run("error", math.inf).falsified
+    assert run("invalid", math.inf).told() == 1e3  # told as far from failing
+    assert run("timeout", -math.inf).falsified
+    assert run("timeout", -math.inf).told() == -1e3
+    assert run("expect-failed", -0.25).falsified
+    assert run("expect-failed", -0.25).told() == -0.25
+    assert not run("success", 0.0).falsified  # a value at its bound meets it
+
+
 # --- determinism ----------------------------------------------------------------
 
 
@@ -355,3 +369,21 @@ def test_loaded_campaign_axes_are_searched_in_campaign_order() -> None:
     assert space.paths == [
         "robot.initial_state.x", "robot.initial_state.y", "robot.initial_state.theta"
     ]  # fmt: skip
+
+
+@pytest.mark.sweep
+def test_cmaes_falsifies_park_corner_on_every_seed_and_sooner_than_random() -> None:
+    """benchmarks/falsification/park-corner (0.15 % of its box fails): docs/falsification.md's
+    table, on 5 of its 20 seeds."""
+    campaign = Path(__file__).parent.parent / "benchmarks" / "falsification"
+    campaign = campaign / "park-corner-campaign.yaml"
+
+    def runs(method: str, seed: int) -> int:
+        found = falsify_campaign(campaign, budget=300, method=method, seed=seed, first=True)
+        first = found.record["runs_to_first_failure"]
+        return 301 if first is None else int(first)
+
+    cmaes = [runs("cmaes", seed) for seed in range(5)]
+    random = [runs("random", seed) for seed in range(5)]
+    assert max(cmaes) <= 300
+    assert np.median(cmaes) * 5 <= np.median(random)

@@ -203,7 +203,9 @@ class Evaluator:
                     raise Stopped(done)
                 done += evaluate_draws(self.loaded, [draw], self.objective)
             return done
-        workers = self.workers if self.client is None else max(1, len(self.client.nthreads()))
+        workers = (
+            self.workers if self.client is None else max(1, sum(self.client.nthreads().values()))
+        )
         size = max(1, math.ceil(len(draws) / workers))
         chunks = [list(draws[i : i + size]) for i in range(0, len(draws), size)]
         submit: Callable[..., Any]
