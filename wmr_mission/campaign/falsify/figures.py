@@ -88,6 +88,9 @@ def _region(evaluations: Sequence[Evaluation], space: Space, path: Path) -> None
         y = points[:, j] if i != j else np.zeros(len(ran))
         ax.scatter(x[~failing], y[~failing], s=6, color="0.6", label="run")
         ax.scatter(x[failing], y[failing], s=12, color="tab:red", label="failing")
+        ax.set_xlim(*_extent(space, paths[i]))
+        if i != j:
+            ax.set_ylim(*_extent(space, paths[j]))
         ax.set_xlabel(_label(space, paths[i]), fontsize=7)
         ax.set_ylabel(_label(space, paths[j]) if i != j else "", fontsize=7)
         ax.tick_params(labelsize=6)
@@ -96,6 +99,18 @@ def _region(evaluations: Sequence[Evaluation], space: Space, path: Path) -> None
     fig.suptitle(f"runs on each pair of axes: {int(failing.sum())} failing of {len(ran)}")
     fig.tight_layout()
     save_figure(fig, path)
+
+
+def _extent(space: Space, path: str) -> tuple[float, float]:
+    """The whole axis, so that the failing region shows where it lies in the box."""
+    axis = space.campaign.vary[path]
+    values = axis.choice if axis.choice is not None else axis.grid
+    if values is not None:
+        return -0.5, len(values) - 0.5
+    extremes = [float(v) for v in axis.extremes()]
+    lo, hi = min(extremes), max(extremes)
+    pad = 0.02 * (hi - lo) if hi > lo else 0.5
+    return lo - pad, hi + pad
 
 
 def _label(space: Space, path: str) -> str:
