@@ -11,6 +11,7 @@ SIGTERM) stops the search after the runs under way: every finished run is in
 from __future__ import annotations
 
 import math
+import shlex
 import sys
 import time
 from dataclasses import dataclass
@@ -150,6 +151,7 @@ def _record(
     seconds: float,
     workers: int | None,
     scheduler: str | None,
+    out_dir: Path | None,
 ) -> dict[str, Any]:
     evaluations = found.evaluations
     ran = [e for e in evaluations if e.ran]
@@ -175,7 +177,7 @@ def _record(
         "failing_runs": len(failing),
         "not_run": len(evaluations) - len(ran),
         "lowest": None if lowest is None else _finite(lowest.objective),
-        "best": [_entry(loaded, e) for e in best],
+        "best": [_entry(loaded, e, out_dir) for e in best],
         "failing": [
             {"evaluation": e.index, "mission": f"{FAILING_DIR}/{e.index}.yaml"} for e in failing
         ],
@@ -191,7 +193,7 @@ def _finite(value: float) -> float | str:
     return value if math.isfinite(value) else ("inf" if value > 0 else "-inf")
 
 
-def _entry(loaded: LoadedCampaign, evaluation: Evaluation) -> dict[str, Any]:
+def _entry(loaded: LoadedCampaign, evaluation: Evaluation, out_dir: Path | None) -> dict[str, Any]:
     entry: dict[str, Any] = {
         "evaluation": evaluation.index,
         "seed": evaluation.seed,
@@ -204,7 +206,9 @@ def _entry(loaded: LoadedCampaign, evaluation: Evaluation) -> dict[str, Any]:
     }
     if evaluation.falsified:
         entry["mission"] = f"{FAILING_DIR}/{evaluation.index}.yaml"
-        entry["run"] = f"wmr-mission run {FAILING_DIR}/{evaluation.index}.yaml"
+        mission = Path(FAILING_DIR) / f"{evaluation.index}.yaml"
+        where = mission if out_dir is None else (out_dir / mission).resolve()
+        entry["run"] = shlex.join(["wmr-mission", "run", str(where)])
     return entry
 
 
@@ -285,6 +289,7 @@ def _falsify(
             time.perf_counter() - started,
             None if scheduler else workers,
             scheduler,
+            out_dir,
         )
         if out_dir is not None:
             for evaluation in found.evaluations:
