@@ -282,7 +282,12 @@ def test_usage_errors_exit_2(tmp_path: Path) -> None:
 # --- a stop -------------------------------------------------------------------------
 
 
-def test_ctrl_c_keeps_what_was_evaluated(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("number", "code", "name"), [(signal.SIGINT, 130, "Ctrl-C"), (signal.SIGTERM, 143, "SIGTERM")]
+)
+def test_ctrl_c_keeps_what_was_evaluated(
+    tmp_path: Path, number: signal.Signals, code: int, name: str
+) -> None:
     out = tmp_path / "out"
     process = subprocess.Popen(
         [sys.executable, "-m", "wmr_mission", "falsify", str(PARK), "--budget", "5000",
@@ -297,14 +302,14 @@ def test_ctrl_c_keeps_what_was_evaluated(tmp_path: Path) -> None:
         if rows.is_file() and rows.read_bytes().count(b"\n") > 20:
             break
         time.sleep(0.1)
-    os.killpg(process.pid, signal.SIGINT)
+    os.killpg(process.pid, number)  # the whole group, as a shell's Ctrl-C or a kill of the job
     _, stderr = process.communicate(timeout=120)
-    assert process.returncode == 130, stderr
+    assert process.returncode == code, stderr
     assert b"Traceback" not in stderr
     record = json.loads((out / "falsify.json").read_text(encoding="utf-8"))
     written = list(csv.DictReader(_lines(rows)))
     assert record["interrupted"] is True
-    assert record["stopped_by"] == "Ctrl-C"
+    assert record["stopped_by"] == name
     assert 20 <= record["evaluations"] == len(written) < 5000
     assert [int(r["evaluation"]) for r in written] == sorted(int(r["evaluation"]) for r in written)
     for failing in record["failing"]:  # each failing run kept is written as a mission
