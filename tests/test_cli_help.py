@@ -9,12 +9,12 @@ from wmr_mission.cli import app
 def test_help_lists_every_command() -> None:
     result = CliRunner().invoke(app, ["--help"])
     assert result.exit_code == 0
-    for command in ("run", "validate", "schema", "plot", "view", "export", "bench"):
+    for command in ("run", "falsify", "validate", "schema", "plot", "view", "export", "bench"):
         assert command in result.output
 
 
 @pytest.mark.parametrize(
-    "command", ["run", "sweep", "validate", "schema", "plot", "view", "export", "bench"]
+    "command", ["run", "sweep", "falsify", "validate", "schema", "plot", "view", "export", "bench"]
 )
 def test_help_names_each_value_by_a_plain_word(command: str) -> None:
     """`--format FORMAT`, `MISSION`: no `<list[png|svg|pdf]>`, `<file>` or `{MISSION}`."""

@@ -152,7 +152,8 @@ def test_bad_directories_get_one_line(tmp_path: Path, run_dir: Path, capsys: Any
     assert view_command(tmp_path) == 2
     assert capsys.readouterr().err == (
         f"{tmp_path}: neither a run directory (no trajectory.csv) "
-        "nor a campaign directory (no runs.csv, campaign.json)\n"
+        "nor a campaign directory (no runs.csv, campaign.json) "
+        "nor a falsification directory (no evaluations.csv, falsify.json)\n"
     )
     damaged = tmp_path / "damaged"
     damaged.mkdir()

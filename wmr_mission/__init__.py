@@ -10,6 +10,7 @@ its equations to the code. The Python API (``docs/python-api.md``):
 * ``plot_verdicts`` (what judged the run), ``plot_xy``, ``plot_states``,
   ``plot_estimation_error``, ``plot_inputs``: figures;
 * ``run_campaign``: a campaign (``docs/campaigns.md``): its rows and statistics;
+* ``falsify_campaign``: a search of a campaign's axes for failing runs (``docs/falsification.md``);
 * ``load_run``: a run directory read back; ``MissionError``: what every check raises.
 """
 
@@ -23,6 +24,7 @@ from wmr_mission.version import __version__
 if TYPE_CHECKING:
     from wmr_mission.api import (
         MissionError,
+        falsify_campaign,
         load_mission,
         load_run,
         mission_from_dict,
@@ -44,6 +46,7 @@ if TYPE_CHECKING:
 # Lazy: `wmr-mission validate` and `--help` must not pay for numpy/scipy/matplotlib.
 _WHERE = {
     "MissionError": "wmr_mission.api",
+    "falsify_campaign": "wmr_mission.api",
     "load_mission": "wmr_mission.api",
     "load_run": "wmr_mission.api",
     "mission_from_dict": "wmr_mission.api",
@@ -65,6 +68,7 @@ __all__ = [
     "MissionError",
     "RunResult",
     "__version__",
+    "falsify_campaign",
     "load_mission",
     "load_run",
     "mission_from_dict",

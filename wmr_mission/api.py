@@ -18,12 +18,14 @@ from wmr_mission.spec import loader
 from wmr_mission.spec.loader import MissionError
 
 if TYPE_CHECKING:
+    from wmr_mission.campaign.falsify.command import FalsifyResult
     from wmr_mission.output.result import RunResult
     from wmr_mission.sim.session import Session
     from wmr_mission.spec.models import Mission
 
 __all__ = [
     "MissionError",
+    "falsify_campaign",
     "load_mission",
     "load_run",
     "mission_from_dict",
@@ -139,3 +141,42 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
     from wmr_mission.output.reader import load_run as read
 
     return read(run_dir)
+
+
+def falsify_campaign(
+    campaign: str | os.PathLike[str],
+    *,
+    budget: int = 300,
+    method: str = "cmaes",
+    seed: int | None = None,
+    objective: str | None = None,
+    first: bool = False,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    out: str | os.PathLike[str] | None = None,
+    plots: bool = False,
+) -> FalsifyResult:
+    """Search a campaign's axes for failing runs, as ``wmr-mission falsify`` does
+    (docs/falsification.md); the evaluations in order and falsify.json's record.
+
+    ``method``: ``cmaes`` or ``random``; ``seed`` (default: the campaign's)
+    seeds the search and each run's sensors; ``objective``: a check
+    (``phase: metric``, or a metric) whose margin is minimised instead of the
+    run's; ``first``: stop after the batch holding the first failing run;
+    ``out``: also write the directory (figures when ``plots``). Raises
+    :class:`MissionError` for an invalid file, ValueError for a bad setting.
+    """
+    from wmr_mission.campaign.falsify.command import falsify_campaign as falsify
+
+    return falsify(
+        os.fspath(campaign),
+        budget=budget,
+        method=method,
+        seed=seed,
+        objective=objective,
+        first=first,
+        workers=workers,
+        scheduler=scheduler,
+        out=None if out is None else os.fspath(out),
+        plots=plots,
+    )

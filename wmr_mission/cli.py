@@ -1,4 +1,4 @@
-"""Command line: ``wmr-mission run|sweep|validate|schema|plot|view|export|bench|compile``,
+"""Command line: ``wmr-mission run|sweep|falsify|validate|schema|plot|view|export|bench|compile``,
 ``--version``.
 
 Thin by design: each command parses its flags and calls one function of the
@@ -64,7 +64,7 @@ command = app.command(cls=_Command)
 # The signals main() holds until the command starts (_main).
 _STARTING: list[StopSignals] = []
 # The commands that catch the signals themselves and honour one held before.
-_TAKE_SIGNALS = frozenset({"run", "sweep", "bench"})
+_TAKE_SIGNALS = frozenset({"run", "sweep", "falsify", "bench"})
 # Timed runs of `bench`: each keeps its per-sample times in memory.
 MAX_REPEAT = 100
 # `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
@@ -110,6 +110,11 @@ def _main(
 class OutputFormat(StrEnum):
     text = "text"
     json = "json"
+
+
+class FalsifyMethod(StrEnum):
+    cmaes = "cmaes"
+    random = "random"
 
 
 class FigureFormat(StrEnum):
@@ -351,6 +356,93 @@ def sweep(
             allow_mixed_cluster=allow_mixed_cluster,
             runs=runs,
             settings=set_ or (),
+        )
+    )
+
+
+@command
+def falsify(
+    campaign: Annotated[
+        Path,
+        typer.Argument(
+            exists=True,
+            dir_okay=False,
+            readable=True,
+            metavar="CAMPAIGN",
+            help="Campaign YAML file: its `vary` axes are searched.",
+        ),
+    ],
+    budget: Annotated[
+        int,
+        typer.Option(
+            "--budget", metavar="N", min=1, max=1_000_000, help="Most runs (default 300)."
+        ),
+    ] = 300,
+    method: Annotated[
+        FalsifyMethod,
+        typer.Option("--method", metavar="METHOD", help="cmaes (default) or random."),
+    ] = FalsifyMethod.cmaes,
+    seed: Annotated[
+        int | None,
+        typer.Option(
+            "--seed",
+            metavar="N",
+            min=0,
+            max=2**32 - 1,
+            help="Seed of the search and of each run's sensors (default: the campaign's).",
+        ),
+    ] = None,
+    objective: Annotated[
+        str | None,
+        typer.Option(
+            "--objective",
+            metavar="CHECK",
+            help="Minimise this check's margin ('phase: metric', or a metric for each of "
+            "its checks) instead of the run's.",
+        ),
+    ] = None,
+    first: Annotated[
+        bool, typer.Option("--first", help="Stop after the batch holding the first failing run.")
+    ] = False,
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            "--workers", metavar="N", min=1, help="Local worker processes (default: every core)."
+        ),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            metavar="ADDRESS",
+            help="Run on this Dask scheduler (tcp://host:8786); needs wmr-mission[dask].",
+        ),
+    ] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            metavar="DIR",
+            help="Output directory (default: runs/<campaign-name>-falsify-<timestamp>).",
+        ),
+    ] = None,
+    no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
+) -> None:
+    """Search CAMPAIGN's axes for failing runs; exit 1 when one is found, 0 when none."""
+    from wmr_mission.campaign.falsify.command import falsify_command
+
+    raise typer.Exit(
+        falsify_command(
+            campaign,
+            budget=budget,
+            method=method.value,
+            seed=seed,
+            objective=objective,
+            first=first,
+            workers=workers,
+            scheduler=scheduler,
+            out=out,
+            plots=not no_plots,
         )
     )
 

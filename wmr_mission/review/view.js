@@ -1,6 +1,6 @@
 // The report of `wmr-mission view`: a run (x-y plot linked to the time plots,
-// verdicts, phases, transitions) or a campaign (success, the table of runs,
-// figures). Hand-written on <canvas>: no library, nothing fetched.
+// verdicts, phases, transitions), a campaign (success, the table of runs,
+// figures) or a falsification (its verdict, lowest runs, figures, evaluations). Hand-written on <canvas>: no library, nothing fetched.
 // Every text from the data goes in as text (textContent, Text nodes,
 // attribute values), never as markup.
 "use strict";
@@ -669,6 +669,41 @@
     runsTable(meta);
   }
 
+  // --- a falsification ----------------------------------------------------
+
+  function falsificationPage(meta) {
+    const r = meta.record;
+    const found = r.falsified;
+    root.append(
+      el("h1", { text: `${meta.campaign}: falsification (${r.method})` }),
+      el("p", { class: "sub" },
+        el("span", { class: "badge " + (found ? "failed" : "success"),
+          text: found ? "falsified" : r.interrupted ? "interrupted" : "no failure found" }),
+        found
+          ? `${r.failing_runs} failing runs of ${r.evaluations}; the first at run ${r.runs_to_first_failure}`
+          : `no failing run within ${r.evaluations} runs (budget ${r.settings.budget}); lowest ${r.objective} ${fmt(Number(r.lowest))}`),
+      el("p", { class: "sub", text: "settings: " + Object.entries(r.settings).map(([k, v]) => `${k} ${JSON.stringify(v)}`).join(" · ") }),
+    );
+    root.append(el("h2", { text: `Lowest ${r.objective}` }));
+    root.append(table(["evaluation", "outcome", r.objective, "margin check", "command"], r.best.map((b) =>
+      el("tr", { class: b.outcome === "success" ? "" : "bad" }, el("td", { text: String(b.evaluation) }),
+        el("td", { text: b.outcome }), el("td", { class: "num", text: fmt(Number(b.objective)) }),
+        el("td", { text: b.margin_check || "" }), el("td", null, el("code", { text: b.run || b.replay })))),
+    [false, false, true, false, false]));
+    if (meta.figures.length) {
+      root.append(el("h2", { text: "Figures" }));
+      const box = el("div", { class: "figures" });
+      for (const f of meta.figures) {
+        const img = el("img", { alt: f.name });
+        img.src = "data:image/png;base64," + f.png;
+        box.append(el("figure", null, img, el("figcaption", { text: f.name })));
+      }
+      root.append(box);
+    }
+    root.append(el("h2", { text: "Evaluations" }));
+    runsTable(meta);
+  }
+
   function runsTable(meta) {
     const columns = meta.columns;
     const numeric = meta.types.map((t) => t === "int64" || t === "float64");
@@ -794,6 +829,7 @@
   }
 
   if (meta.kind === "run") runPage(meta, JSON.parse(document.getElementById("series").textContent));
+  else if (meta.kind === "falsification") falsificationPage(meta);
   else campaignPage(meta);
   document.body.dataset.rendered = "1";
 })();

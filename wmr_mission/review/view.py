@@ -1,4 +1,4 @@
-"""``wmr-mission view RUN_DIR|CAMPAIGN_DIR``: one self-contained HTML report.
+"""``wmr-mission view RUN_DIR|CAMPAIGN_DIR|FALSIFY_DIR``: one self-contained HTML report.
 
 The page needs no network: its script (``view.js``), its style (``view.css``)
 and its data are inline, and a campaign's figures are PNG data URIs. Every
@@ -550,14 +550,17 @@ def view_command(directory: Path, out: Path | None = None) -> int:
     2 not a run or campaign directory, FILE a file of a run's or campaign's
     record, or the page cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
+    from wmr_mission.review.falsification import falsification_meta, is_falsification_dir
     from wmr_mission.review.record import record_file_refusal
 
     target = out if out is not None else directory / REPORT_FILE
+    falsification = is_falsification_dir(directory)
     campaign = is_campaign_dir(directory)
-    if not campaign and not (directory / TRAJECTORY_FILE).is_file():
+    if not (falsification or campaign) and not (directory / TRAJECTORY_FILE).is_file():
         print(
             f"{directory}: neither a run directory (no {TRAJECTORY_FILE}) "
-            "nor a campaign directory (no runs.csv, campaign.json)",
+            "nor a campaign directory (no runs.csv, campaign.json) "
+            "nor a falsification directory (no evaluations.csv, falsify.json)",
             file=sys.stderr,
         )
         return 2
@@ -566,7 +569,11 @@ def view_command(directory: Path, out: Path | None = None) -> int:
         print(refusal, file=sys.stderr)
         return 2
     try:
-        page, _ = campaign_page(directory, target) if campaign else run_page(directory)
+        if falsification:
+            meta = falsification_meta(directory)
+            page = build_page(f"{meta['campaign']}: falsification report", meta)
+        else:
+            page, _ = campaign_page(directory, target) if campaign else run_page(directory)
     except (RunDirError, OSError) as error:
         print(f"{directory}: {error}", file=sys.stderr)
         return 1

@@ -1,0 +1,105 @@
+"""``wmr-mission view`` of a falsification directory (``wmr-mission falsify``'s):
+its verdict, the lowest runs with their commands, its figures and every evaluation."""
+
+from __future__ import annotations
+
+import base64
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Any, Final
+
+from wmr_mission.campaign.falsify.figures import MARGINS_FIGURE, REGION_FIGURE
+from wmr_mission.campaign.falsify.files import EVALUATIONS_FILE, FAILING_DIR, FALSIFY_FILE
+from wmr_mission.campaign.load import replay_line
+
+__all__ = ["falsification_meta", "is_falsification_dir"]
+
+# Rows of the table: evaluations.csv has them all.
+MAX_TABLE_ROWS: Final = 10_000
+_NUMBERS: Final = ("margin", "objective")
+
+
+def is_falsification_dir(path: Path) -> bool:
+    return (path / FALSIFY_FILE).is_file() and (path / EVALUATIONS_FILE).is_file()
+
+
+def _json(path: Path) -> dict[str, Any]:
+    data = json.loads(path.read_text(encoding="utf-8"))
+    if not isinstance(data, dict):
+        raise OSError(f"{path.name}: not a JSON object")
+    return data
+
+
+def _value(cell: str) -> Any:
+    try:
+        return json.loads(cell)
+    except ValueError:
+        return cell  # a text value is written as it is
+
+
+def _shown(cell: str) -> str:
+    """A margin cell as the page's numbers read it (JavaScript's Infinity)."""
+    return {"inf": "Infinity", "-inf": "-Infinity"}.get(cell, cell)
+
+
+def _type(column: str, cells: list[str]) -> str:
+    if column in ("evaluation", "seed"):
+        return "int64"
+    if column in _NUMBERS:
+        return "float64"
+    if cells and all(_is_number(c) for c in cells):
+        return "float64"
+    return "string"
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        return math.isfinite(float(cell))
+    except ValueError:
+        return False
+
+
+def falsification_meta(directory: Path) -> dict[str, Any]:
+    record = _json(directory / FALSIFY_FILE)
+    manifest = _json(directory / "manifest.json")
+    with (directory / EVALUATIONS_FILE).open(encoding="utf-8", newline="") as file:
+        table = list(csv.reader(file))
+    if not table:
+        raise OSError(f"{EVALUATIONS_FILE}: empty")
+    columns, rows = table[0], table[1 : MAX_TABLE_ROWS + 1]
+    paths = columns[3:-4]
+    fingerprint = str(manifest["environment"]["fingerprint"])
+    replays = []
+    for row in rows:
+        mission = directory / FAILING_DIR / f"{row[0]}.yaml"
+        if mission.is_file():
+            replays.append(f"wmr-mission run {mission.resolve()}")
+            continue
+        values = {path: _value(cell) for path, cell in zip(paths, row[3:-4], strict=True)}
+        replays.append(replay_line(str(manifest["mission_file"]), [], values, row[1], fingerprint))
+    figures = [
+        {"name": name, "png": base64.b64encode((directory / name).read_bytes()).decode("ascii")}
+        for name in (MARGINS_FIGURE, REGION_FIGURE)
+        if (directory / name).is_file()
+    ]
+    outcomes: dict[str, int] = {}
+    for row in table[1:]:
+        outcomes[row[2]] = outcomes.get(row[2], 0) + 1
+    return {
+        "kind": "falsification",
+        "campaign": str(record.get("campaign") or directory.name),
+        "record": record,
+        "outcomes": outcomes,
+        "columns": columns,
+        "types": [_type(c, [r[j] for r in rows]) for j, c in enumerate(columns)],
+        "rows": [
+            [_shown(c) if columns[j] in _NUMBERS else c for j, c in enumerate(r)] for r in rows
+        ],
+        "replays": replays,
+        "total_rows": len(table) - 1,
+        "worst": [],
+        "worst_links": {},
+        "figures": figures,
+    }
