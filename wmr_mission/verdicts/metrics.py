@@ -457,22 +457,37 @@ class _PhaseSamples:
         )
 
     @cached_value
+    def targets(self) -> list[tuple[slice, tuple[float, float, float]]]:
+        """Each stretch of a regulate phase's samples and the target in force
+        over it: the phase's own, then each an update gave (issue: a phase is
+        judged against the target in force at each sample, not its last)."""
+        w = self.window
+        return [(slice(a, b), aim) for a, b, aim in self.info.targets_in_force(w.start, w.stop)]
+
+    @cached_value
     def stall(self) -> float | None:
-        """Time away from its goal without progress (regulate phases)."""
-        if self.info.kind != "regulate" or self.info.target is None:
+        """Time away from its goal without progress (regulate phases): the sum
+        over the stretches of each target (None where none has a value)."""
+        if self.info.kind != "regulate":
             return None
-        r, w, numbers = self.result, self.window, self.numbers
-        target = self.info.target
-        return stall_time(r.x[w], r.y[w], r.theta[w], target, self.goal, numbers, self.zones)
+        r, numbers = self.result, self.numbers
+        found = [
+            stall_time(r.x[w], r.y[w], r.theta[w], aim, self.goal, numbers, self.zones)
+            for w, aim in self.targets
+        ]
+        known = [value for value in found if value is not None]
+        return sum(known) if known else None
 
     @cached_value
     def overshoot(self) -> float | None:
-        """How far past its target the robot went (regulate phases)."""
-        if self.info.kind != "regulate" or self.info.target is None:
+        """How far past its target the robot went (regulate phases): the most
+        over the stretches of each target, each from where it took over."""
+        if self.info.kind != "regulate":
             return None
-        w = self.window
-        x, y = self.result.x[w], self.result.y[w]
-        return target_overshoot(x, y, self.info.target, self.goal[0])
+        r = self.result
+        found = [target_overshoot(r.x[w], r.y[w], aim, self.goal[0]) for w, aim in self.targets]
+        known = [value for value in found if value is not None]
+        return max(known) if known else None
 
     @cached_value
     def regulation(self) -> dict[str, Any] | None:

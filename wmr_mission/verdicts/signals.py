@@ -235,9 +235,10 @@ def run_signals(result: RunRecord) -> Signals:
             depth = np.max([zone.depth(result.x[w], result.y[w]) for zone in zones], axis=0)
             line("zones", "depth into a zone")[w] = depth
             judged["depth into a zone"][w] = True
-        if info.target is not None and info.kind == "regulate":
-            tx, ty = info.target[0], info.target[1]
-            line("goal", "distance to the target")[w] = np.hypot(result.x[w] - tx, result.y[w] - ty)
+        if info.kind == "regulate":  # to the target in force at each sample
+            for a, b, (tx, ty, _) in info.targets_in_force(start, end):
+                to_target = line("goal", "distance to the target")
+                to_target[a:b] = np.hypot(result.x[a:b] - tx, result.y[a:b] - ty)
         first = end if inputs_from is None else max(start, _sample(result, inputs_from))
         if first + 1 < end and {"speed_jump_max", "turn_rate_jump_max"} & metrics:
             for name, values in (("|Δv| [m/s]", result.v), ("|Δω| [rad/s]", result.omega)):
