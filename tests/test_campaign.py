@@ -578,7 +578,7 @@ def test_a_row_is_judged_as_judge_judges_it_on_either_side_of_the_bound() -> Non
 
     run = _lagging_circle_run()
     orbit = summarize(run, mission(1.0))["phases"][1]["tracking_error"]
-    exact, bound = orbit["max"], orbit["reference_rms"]  # the lag is the same at every sample
+    exact, bound = orbit["max"], orbit["reference_error_rms"]  # the lag is the same at every sample
     assert exact < bound / 100
     outcomes = []
     for limit in (2 * bound, bound / 2, exact / 2):

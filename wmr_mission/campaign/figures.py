@@ -46,9 +46,9 @@ UNITS: Final = {
     "deadline_misses": "samples",
     "command_latency_p99": "ms",
     "reference_error_rms": "m",
-    "turn_rate_jitter": "rad/s",
+    "run_turn_rate_jitter": "rad/s",
     "input_saturation": "share of samples",
-    "settle_time": "s",
+    "reference_capture_time": "s",
 }
 # Failures this many times fewer than the fullest bin's runs are drawn on a
 # log scale: on a linear one, 17 failures beside 1963 successes are a line.
@@ -374,9 +374,9 @@ def _side_by_side(aggregate: Aggregate) -> Any | None:
 _COMPARISON_AXES: Final = {
     "success rate": "runs that succeeded (bar), 95 % interval",
     "reference_error_rms": "distance to the reference [m]",
-    "turn_rate_jitter": "turn-rate jitter [rad/s]",
+    "run_turn_rate_jitter": "turn-rate jitter, whole run [rad/s]",
     "input_saturation": "share of samples at a limit",
-    "settle_time": "time to settle [s]",
+    "reference_capture_time": "time to stay within 5 cm of the reference [s]",
 }
 
 

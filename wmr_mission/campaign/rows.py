@@ -80,6 +80,9 @@ class Row:
     margin: float | None = None
     margin_check: str | None = None
     missed: tuple[Check, ...] = ()
+    # the metric of the check that sets the margin, or the outcome (summary.json's
+    # margin_metric): how campaign.json counts the margins, as data
+    margin_metric: str | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -165,7 +168,17 @@ def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
     empty = np.zeros((2, 0), dtype=np.float32)
     values = tuple(draw.values.values())
     metrics = (None,) * len(METRICS)
-    return Row(draw.run, draw.seed, outcome, values, metrics, reason, empty, margin_check=outcome)
+    return Row(
+        draw.run,
+        draw.seed,
+        outcome,
+        values,
+        metrics,
+        reason,
+        empty,
+        margin_check=outcome,
+        margin_metric=outcome,
+    )
 
 
 def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
@@ -203,6 +216,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
         summary["margin"],
         summary["margin_check"],
         missed,
+        summary["margin_metric"],
     )
 
 

@@ -161,6 +161,27 @@ def _rms_or_none(values: FloatArray) -> float | None:
     return float(np.sqrt(np.mean(finite**2))) if finite.size else None
 
 
+def reference_distance(
+    x: FloatArray, y: FloatArray, x_ref: FloatArray, y_ref: FloatArray
+) -> FloatArray:
+    """[m] Distance of each position from the reference point of the same
+    sample (the time-indexed one: lag included), not from the path. IEEE
+    operations alone (no library hypot): the same bits on every CPU
+    (docs/reliability.md)."""
+    dx, dy = x - x_ref, y - y_ref
+    distance: FloatArray = np.sqrt(dx * dx + dy * dy)
+    return distance
+
+
+def reference_error(distance: FloatArray) -> float | None:
+    """``reference_error_rms`` [m] of the distances to the reference point
+    counted, the finite ones (an exact sum: no pairwise one); None without any."""
+    distance = distance[np.isfinite(distance)]
+    if distance.size == 0:
+        return None
+    return math.sqrt(math.fsum(distance * distance) / distance.size)
+
+
 def estimation_errors(result: RunRecord, window: slice = slice(None)) -> dict[str, FloatArray]:
     """True minus estimated state per sample (of ``window``), heading wrapped."""
     r, w = result, window
@@ -610,8 +631,11 @@ def _phase_summary(
         tracking = quality["tracking_error"] | {
             "rms_from_start": _rms_or_none(phase.off_path),
             "max_from_start": _max_or_none(phase.off_path),
-            # distance from the reference point of the same sample: lag included
-            "reference_rms": _rms_or_none(np.hypot(x - x_ref, y - y_ref)[settled]),
+            # distance from the reference point of the same sample, lag
+            # included (runs.csv's reference_error_rms over the track phases)
+            "reference_error_rms": reference_error(
+                reference_distance(x, y, x_ref, y_ref)[settled]
+            ),
         }
 
     target_error = None
