@@ -188,6 +188,9 @@ class RunRecord:
     # manifest.json's `backend` (its type, versions, settings). None in our simulator.
     realtime: dict[str, Any] | None = None
     backend: dict[str, Any] | None = None
+    # A run read back from its directory: summary.json's `expectations`, the
+    # checks as they were judged, read as data by the figures (None: judge it)
+    expectations: list[dict[str, Any]] | None = None
     # summary.json's metrics and verdicts as ``verdicts.metrics.judge`` found them
     # by ``mission``: computed once per run, for the file, the table and the API.
     # Not copied by ``dataclasses.replace``.

@@ -37,12 +37,14 @@ from wmr_mission.verdicts.inputs import jitter
 from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE, reference_distance, reference_error
 from wmr_mission.verdicts.numbers import mission_numbers
 
-COMPARISON_METRICS: Final = (
-    "reference_error_rms",
-    "run_turn_rate_jitter",
-    "input_saturation",
-    "reference_capture_time",
-)
+# Each with its unit (runs.csv's, the figures' axes).
+COMPARISON_UNITS: Final = {
+    "reference_error_rms": "m",
+    "run_turn_rate_jitter": "rad/s",
+    "input_saturation": "share of samples",
+    "reference_capture_time": "s",
+}
+COMPARISON_METRICS: Final = tuple(COMPARISON_UNITS)
 SETTLED_WITHIN: Final = 0.05  # [m] distance to the reference point counted as settled
 
 

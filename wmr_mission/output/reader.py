@@ -450,7 +450,21 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
         theta_meas=data["theta_meas"],
         mission=_optional(manifest, "resolved_mission", dict, MANIFEST_FILE),
         reference=data.get(REFERENCE_COLUMN),
+        expectations=_checks_from(summary),
     )
+
+
+def _checks_from(summary: Any) -> list[dict[str, Any]] | None:
+    """summary.json's checks, each as Check.read reads it; None where it has none."""
+    from wmr_mission.verdicts.check import Check
+
+    records = summary.get("expectations")
+    if not isinstance(records, list):
+        return None
+    try:
+        return [Check.read(record).record() | dict(record) for record in records]
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise RunDirError(f"{SUMMARY_FILE}: expectations: a check is not one") from None
 
 
 def _positive(value: float, where: str) -> float:

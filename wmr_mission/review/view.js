@@ -397,7 +397,7 @@
     const spanOf = (name) => meta.phase_table.find((p) => p.name === name);
     root.append(el("h2", { text: "Verdicts" }));
     if (!meta.expectations.length) root.append(el("p", { class: "note", text: "summary.json holds no expectation." }));
-    else root.append(table(["metric", "phase", "threshold", "value", "margin", "verdict"],
+    else root.append(table(["metric", "phase", "threshold", "value", "margin", "verdict", "unit"],
       meta.expectations.map((e) => {
         const threshold = e.max !== null ? `max ${fmt(e.max)}` : e.min !== null ? `min ${fmt(e.min)}` : "–";
         const span = e.phase === null ? undefined : spanOf(e.phase);
@@ -405,10 +405,11 @@
           el("td", { text: e.metric }), el("td", { text: e.phase === null ? "whole mission" : e.phase }),
           el("td", { class: "num", text: threshold }), el("td", { class: "num", text: fmt(e.value) }),
           el("td", { class: "num", text: e.margin === null ? (e.met === false ? "-inf" : "–") : fmt(e.margin) }),
-          el("td", { text: e.met === null ? "–" : e.met ? "met" : "NOT MET" }));
+          el("td", { text: e.met === null ? "–" : e.met ? "met" : "NOT MET" }),
+          el("td", { text: e.unit }));
         if (span) tr.addEventListener("click", () => setRange(span.start, span.end));
         return tr;
-      }), [false, false, true, true, true, false]));
+      }), [false, false, true, true, true, false, false]));
 
     root.append(el("h2", { text: "Phases" }));
     const colorOf = new Map(phases.map((p) => [p.name, p.color]));

@@ -281,10 +281,21 @@ def _expectations(summary: dict[str, Any]) -> list[dict[str, Any]]:
             "value": _finite_number(e.get("value")),
             "met": e.get("met") if isinstance(e.get("met"), bool) else None,
             "margin": _finite_number(e.get("margin")),
+            "unit": _unit(e.get("metric")),
         }
         for e in records
         if isinstance(e, dict)
     ]
+
+
+def _unit(metric: Any) -> str:
+    """A check's unit, from the catalog of metrics ("" for one it does not know)."""
+    from wmr_mission.spec import catalog
+
+    base = metric.split(".", 1)[0] if isinstance(metric, str) else None
+    if base not in catalog.CATALOG:
+        return ""
+    return catalog.CATALOG[base].unit_of(metric.partition(".")[2] or None)
 
 
 def _margins(record: Any) -> dict[str, Any] | None:

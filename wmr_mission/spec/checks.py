@@ -925,7 +925,7 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
                 )
     # A track phase's last reference point has a position but no heading.
     has_target = any(isinstance(p.phase, RegulatePhase) for p in run_order(mission))
-    if mission.expect.final_heading_error is not None and not has_target:
+    if mission.expect.threshold("final_heading_error") is not None and not has_target:
         yield Finding(
             ("expect", "final_heading_error"),
             "expect.final_heading_error is measured from the last regulate target, but the "
@@ -1068,7 +1068,7 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
                 )
     expect = mission.expect
     convergence = expect.convergence_tolerance
-    if expect.estimation_convergence_time is not None:
+    if expect.threshold("estimation_convergence_time") is not None:
         for name in ("x", "y", "theta"):
             offset = abs(getattr(bias, name))
             band = getattr(convergence, name)
@@ -1081,8 +1081,8 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
                     severity="warning",
                 )
     for field, threshold, offset, unit in (
-        ("final_position_error", expect.final_position_error, position_bias, "m"),
-        ("final_heading_error", expect.final_heading_error, heading_bias, "rad"),
+        ("final_position_error", expect.threshold("final_position_error"), position_bias, "m"),
+        ("final_heading_error", expect.threshold("final_heading_error"), heading_bias, "rad"),
     ):
         if threshold is not None and offset > threshold.max:
             yield Finding(

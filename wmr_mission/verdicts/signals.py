@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray
-from wmr_mission.spec import models
+from wmr_mission.spec import catalog, models
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts.check import Check as Judged
 from wmr_mission.verdicts.metrics import (
@@ -46,57 +46,6 @@ if TYPE_CHECKING:
 
 Mask = NDArray[np.bool_]
 
-# metric -> (panel, the signal's line it bounds; None for a level check)
-PEAK: dict[str, tuple[str, str]] = {
-    "cross_track_error_max": ("cross_track", "cross-track error"),
-    "tracking_error_max": ("cross_track", "distance to the path"),
-    "detour_offset_max": ("cross_track", "cross-track error"),
-    "along_track_lag_max": ("along_track", "along-track lag"),
-    "zone_intrusion_max": ("zones", "depth into a zone"),
-    "max_constraint_violation": ("constraint", "constraint value"),
-    "speed_jump_max": ("jumps", "|Δv| [m/s]"),
-    "turn_rate_jump_max": ("jumps", "|Δω| [rad/s]"),
-    "final_position_error": ("goal", "distance to the target"),
-}
-LEVEL: dict[str, str] = {
-    "clearance_min": "zones",  # the body's; the panel draws the axle's depth
-    "tracking_error_rms": "cross_track",
-    "detour_time": "cross_track",
-    "stall_time": "goal",
-    "overshoot_max": "goal",
-    "final_heading_error": "goal",
-    "duration": "goal",
-    "estimation_convergence_time": "estimation",
-    "estimation_rms": "estimation",
-    "turn_rate_jitter": "jitter",
-    "speed_reversals": "saturation",
-    "turn_rate_reversals": "saturation",
-    "speed_fight_time": "saturation",
-    "turn_rate_fight_time": "saturation",
-    "speed_at_limit": "saturation",
-    "turn_rate_at_limit": "saturation",
-}
-UNITS: dict[str, str] = {
-    "cross_track_error_max": "m",
-    "tracking_error_max": "m",
-    "tracking_error_rms": "m",
-    "detour_offset_max": "m",
-    "along_track_lag_max": "m",
-    "zone_intrusion_max": "m",
-    "clearance_min": "m",
-    "final_position_error": "m",
-    "final_heading_error": "rad",
-    "speed_jump_max": "m/s",
-    "turn_rate_jump_max": "rad/s",
-    "turn_rate_jitter": "rad/s",
-    "detour_time": "s",
-    "stall_time": "s",
-    "overshoot_max": "m",
-    "duration": "s",
-    "estimation_convergence_time": "s",
-    "speed_fight_time": "s",
-    "turn_rate_fight_time": "s",
-}
 # Panels top to bottom (a failing one is moved to the top), with their axis labels.
 PANELS: dict[str, str] = {
     "cross_track": "cross-track [m]",
@@ -113,15 +62,18 @@ PANELS: dict[str, str] = {
 
 def unit_of(metric: str) -> str:
     """The unit of a check's value: ``m``, ``rad/s`` ... or ``""`` (a count, a share)."""
-    if metric.startswith("estimation_rms."):
-        return "rad" if metric.endswith("theta") else "m"
-    return UNITS.get(metric, "")
+    base, _, state = metric.partition(".")
+    return catalog.metric(base).unit_of(state or None)
 
 
-def panel_of(metric: str) -> str:
-    """The panel a check is drawn on."""
-    base = metric.split(".", 1)[0]
-    return PEAK[base][0] if base in PEAK else LEVEL[base]
+def panel_of(metric: str) -> str | None:
+    """The panel a check is drawn on (catalog.Metric.panel; None: none)."""
+    return catalog.metric(metric).panel
+
+
+def line_of(metric: str) -> str | None:
+    """The signal's line a peak check bounds; None for a level check."""
+    return catalog.metric(metric).line
 
 
 @dataclass
@@ -140,7 +92,7 @@ class Check:
 
     @property
     def peak(self) -> bool:
-        return self.metric in PEAK
+        return line_of(self.metric) is not None
 
     @property
     def first_over(self) -> int | None:
@@ -175,6 +127,8 @@ def expectations(result: RunRecord) -> list[dict[str, Any]]:
     """The run's `expect` checks (``summary.json``'s ``expectations``)."""
     if result.judged is not None:
         return list(result.judged.get("expectations") or [])
+    if result.expectations is not None:  # read back with its run directory
+        return list(result.expectations)
     mission = result.mission
     if mission is None or not isinstance(mission.get("expect"), Mapping):
         return []
@@ -320,9 +274,10 @@ def _placed(
     metric, phase = read.metric, read.phase
     span = spans.get(phase, (0, n)) if phase is not None else (0, n)
     placed = Check(metric, phase, read.bound, read.value, read.met, span)
-    if placed.met or metric not in PEAK:
+    name = line_of(metric)
+    panel = panel_of(metric)
+    if placed.met or name is None or panel is None:
         return placed
-    panel, name = PEAK[metric]
     values = lines.get(panel, {}).get(name)
     if values is None:
         return placed
