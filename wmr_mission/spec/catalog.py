@@ -401,7 +401,7 @@ for _entry in (
     ),
     Metric(
         "max_constraint_violation",
-        "",
+        "constraint value",  # a constraint row's, in the region's own terms
         "Largest constraint-row value (> 0 = violated) over the states each phase's "
         "inputs produced: from a phase's second sample.",
         "run",

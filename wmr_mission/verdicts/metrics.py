@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -734,32 +734,16 @@ def summarize(result: RunRecord, mission: Mapping[str, Any] | None = None) -> di
     ``mission`` (the resolved mission) sets how metrics are measured: each
     phase's settle time and the convergence tolerance per state.
     """
-    summary = run_metrics(result, mission)
-    summary["phases"] = _phase_summaries(result, mission, distance_to_path)
+    phases = _phase_samples(result, mission, distance_to_path)
+    summary = run_metrics(result, mission, phases)
+    tolerance = _tolerance(mission)
+    summary["phases"] = [_phase_summary(result, info, p, tolerance) for info, p, _ in phases]
     summary["compute_us_per_sample"] = compute_time_us(result.compute_ns)
     summary["loop_us_per_sample"] = loop_time_us(result)
     return summary
 
 
-def _phase_summaries(
-    result: RunRecord,
-    mission: Mapping[str, Any] | None,
-    off_path: OffPath,
-    checked_only: bool = False,
-    errors: dict[str, FloatArray] | None = None,
-) -> list[dict[str, Any]]:
-    """Each phase's summary (see :func:`_phase_summary`), its tracking error
-    measured by ``off_path``; ``checked_only``: only what its `expect`
-    thresholds read (:func:`_checked_phase_summary`), for a verdict at a
-    fraction of the cost. ``errors``: the run's estimation errors, if at hand."""
-    tolerance = _tolerance(mission)
-    summaries = []
-    for info, phase, expect in _phase_samples(result, mission, off_path, errors):
-        if checked_only:
-            summaries.append(_checked_phase_summary(info, phase, expect))
-        else:
-            summaries.append(_phase_summary(result, info, phase, tolerance))
-    return summaries
+Phases = list[tuple["PhaseRecord", "PhaseSamples", Mapping[str, Any]]]
 
 
 def _phase_samples(
@@ -767,9 +751,10 @@ def _phase_samples(
     mission: Mapping[str, Any] | None,
     off_path: OffPath,
     errors: dict[str, FloatArray] | None = None,
-) -> Iterator[tuple[PhaseRecord, PhaseSamples, Mapping[str, Any]]]:
-    """Each stretch of a phase in run order: its record, its samples, and the
-    `expect` thresholds in force for it."""
+) -> Phases:
+    """Each stretch of a phase in run order: its record, its samples (their
+    tracking error measured by ``off_path``), and the `expect` thresholds in
+    force for it. ``errors``: the run's estimation errors, if at hand."""
     per_phase = phase_expectations(mission)
     numbers = mission_numbers(mission, result.dt, result.limits)
     errors = estimation_errors(result) if errors is None else errors
@@ -777,24 +762,27 @@ def _phase_samples(
     del errors  # not kept while the phases are measured: bounded memory
     ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
     judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers))
+    phases: Phases = []
     for index, start, end in phase_segments(result.phase):
         info = result.phases[index]
         expect = per_phase.get(_written_name(info.name), _expect_of(mission))
         phase = PhaseSamples(result, info, (start, end), _settle_time(expect), off_path, judged)
-        yield info, phase, expect
+        phases.append((info, phase, expect))
+    return phases
 
 
 def run_columns(
-    result: RunRecord,
-    mission: Mapping[str, Any] | None,
-    errors: dict[str, FloatArray] | None = None,
+    result: RunRecord, mission: Mapping[str, Any] | None, phases: Phases | None = None
 ) -> dict[str, float | None]:
     """Each metric of a phase that runs.csv has a column of (catalog.Metric.column),
     over the run: its worst over the phases of its kinds that have it
-    (``clearance_min``: the body's least clearance; None where no phase has one)."""
+    (``clearance_min``: the body's least clearance; None where no phase has one).
+    ``phases``: the run's (:func:`_phase_samples`), if at hand."""
     wanted = [m for m in catalog.phase_metrics() if m.column]
     found: dict[str, list[float]] = {m.name: [] for m in wanted}
-    for info, phase, _ in _phase_samples(result, mission, distance_to_path, errors):
+    if phases is None:
+        phases = _phase_samples(result, mission, distance_to_path)
+    for info, phase, _ in phases:
         for metric in wanted:
             value = MEASURES[metric.name](phase) if info.kind in metric.kinds else None
             if value is not None:
@@ -802,12 +790,16 @@ def run_columns(
     return {m.name: m.worst(found[m.name]) for m in wanted}
 
 
-def run_metrics(result: RunRecord, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def run_metrics(
+    result: RunRecord, mission: Mapping[str, Any] | None = None, phases: Phases | None = None
+) -> dict[str, Any]:
     """The mission-wide metrics of :func:`summarize` (its keys before ``phases``),
-    without the per-phase ones."""
+    without the per-phase ones; ``phases``: the run's, if at hand."""
     tolerance = _tolerance(mission)
     errors = estimation_errors(result)
-    summary = _bounded_metrics(result, mission, tolerance, errors)
+    if phases is None:
+        phases = _phase_samples(result, mission, distance_to_path, errors)
+    summary = _bounded_metrics(result, tolerance, errors, run_columns(result, mission, phases))
     settled = (
         result.t - (result.t[0] if result.samples else 0.0)
         >= _settle_time(_expect_of(mission)) - 1e-9 * result.dt
@@ -831,9 +823,9 @@ def run_metrics(result: RunRecord, mission: Mapping[str, Any] | None = None) -> 
 
 def _bounded_metrics(
     result: RunRecord,
-    mission: Mapping[str, Any] | None,
     tolerance: Mapping[str, float],
     errors: dict[str, FloatArray],
+    columns: Mapping[str, float | None],
 ) -> dict[str, Any]:
     """The run's outcome, the mission-wide metrics an `expect` can bound (the
     catalog's run metrics) and the worst of the phases' that runs.csv has
@@ -850,7 +842,7 @@ def _bounded_metrics(
         "final": _final(result, phase_segments(result.phase)),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
         "max_constraint_violation": _violation(result.constraint, result.phase),
-        **run_columns(result, mission, errors),
+        **columns,
         # A real-time run's pace and command latency (wmr_mission.backends); absent in
         # our simulator, whose summary keeps its bytes.
         **({} if result.realtime is None else {"realtime": copy.deepcopy(result.realtime)}),
@@ -1036,13 +1028,16 @@ def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> d
     bound misses a threshold is the distance to the path computed.
     """
     errors = estimation_errors(result)
-    summary = _bounded_metrics(result, mission, _tolerance(mission), errors)
+    phases = _phase_samples(result, mission, _off_path_bound, errors)
+    columns = run_columns(result, mission, phases)
+    summary = _bounded_metrics(result, _tolerance(mission), errors, columns)
     if not result.succeeded:  # judging changes only a success; no check decides a failure
         summary.update(margin_fields([], result.outcome.value))
         return summary
-    phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True, errors=errors)
     del errors
-    checks = check_expectations({**summary, "phases": phases}, mission)
+    checked = [_checked_phase_summary(info, phase, expect) for info, phase, expect in phases]
+    del phases
+    checks = check_expectations({**summary, "phases": checked}, mission)
     # A bound above the distance to the path sets a tracking check's margin
     # below its own: exact where it misses, or where it sets the run's margin.
     least = min(checks, key=lambda c: c.margin, default=None)
