@@ -46,7 +46,7 @@ from wmr_mission.geometry.regions import (
     region_vertices,
 )
 from wmr_mission.plugins import EntryError, load_entry
-from wmr_mission.spec import graph
+from wmr_mission.spec import catalog, graph
 from wmr_mission.spec.changes import path_pace, with_look_ahead, with_pace
 from wmr_mission.spec.models import (
     HeadingCondition,
@@ -907,15 +907,8 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
         if isinstance(phase, TrackPhase) or (run.lap is not None and run.lap > 1):
             continue
         kind = "regulate" if isinstance(phase, RegulatePhase) else "hold"
-        for key in (
-            "tracking_error_rms",
-            "tracking_error_max",
-            "cross_track_error_max",
-            "along_track_lag_max",
-            "detour_offset_max",
-            "detour_time",
-        ):
-            if getattr(phase.expect, key) is not None:
+        for key in (m.name for m in catalog.phase_metrics() if m.kinds == catalog.TRACK):
+            if phase.expect.threshold(key) is not None:
                 yield Finding(
                     (*run.where, "expect", key),
                     f"expect.{key} measures the tracking of a path, but phase "
