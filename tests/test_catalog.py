@@ -138,7 +138,8 @@ def test_a_metric_added_with_one_entry_is_everywhere(tmp_path: Path) -> None:
     assert [row["outcome"] for row in rows] == ["expect-failed"] * 2
     statistics = json.loads((tmp_path / "campaign" / "campaign.json").read_text())
     assert statistics["metrics"]["toy_speed_max"]["max"] == max(speeds)
-    # view: the check in the page's verdicts, with its unit
+    # view: the check in the page's verdicts, with its unit, and the phases' column
     page = (run / "report.html").read_text()
+    assert '{"name": "toy_speed_max", "unit": "m/s"}' in page
     assert '"metric": "toy_speed_max"' in page or '"metric":"toy_speed_max"' in page
     assert '"unit": "m/s"' in page or '"unit":"m/s"' in page
