@@ -34,6 +34,11 @@ def test_every_list_of_metrics_is_the_catalogs() -> None:
     assert all(m.panel in PANELS for m in catalog.CATALOG.values())
     assert METRICS[: len(run) + 1] == (*run, "clearance_min")
     assert models.Expect().threshold("zone_intrusion_max") == models.Threshold(max=0.005)
+    # a metric the models were built without would be judged but refused by `expect`
+    late = catalog.Metric("late", "m", "A metric added too late.", "phase", ("inputs", "late"))
+    with pytest.raises(ValueError, match=r"before wmr_mission\.spec\.models is imported"):
+        catalog.add(late)
+    assert "late" not in catalog.CATALOG
 
 
 # A metric of a phase, added as a user of the catalog adds one: its entry,

@@ -86,14 +86,27 @@ class Metric:
 
 
 CATALOG: dict[str, Metric] = {}
+# Set once the mission models are built from the catalog: a metric added later
+# would be judged but never accepted by `expect`.
+_BUILT: list[bool] = []
 
 
 def add(entry: Metric) -> Metric:
     """Register ``entry``: before the mission models are built (at import)."""
+    if _BUILT:
+        raise ValueError(
+            f"metric {entry.name!r} comes after the mission models were built from the "
+            "catalog: add it before wmr_mission.spec.models is imported"
+        )
     if entry.name in CATALOG:
         raise ValueError(f"a metric named {entry.name!r} is registered already")
     CATALOG[entry.name] = entry
     return entry
+
+
+def built() -> None:
+    """The mission models are built from the catalog: no metric may follow."""
+    _BUILT.append(True)
 
 
 def metric(name: str) -> Metric:

@@ -776,6 +776,7 @@ else:
         [*catalog.phase_metrics(), *catalog.run_metrics()],
         defaults=True,
     )
+catalog.built()
 
 
 # --- figures ---------------------------------------------------------------
