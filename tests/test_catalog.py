@@ -148,3 +148,18 @@ def test_a_metric_added_with_one_entry_is_everywhere(tmp_path: Path) -> None:
     assert '{"name": "toy_speed_max", "unit": "m/s"}' in page
     assert '"metric": "toy_speed_max"' in page or '"metric":"toy_speed_max"' in page
     assert '"unit": "m/s"' in page or '"unit":"m/s"' in page
+
+
+def test_a_check_of_a_metric_the_catalog_lacks_is_shown_not_drawn() -> None:
+    """A summary.json written by a build with another metric: view shows its
+    check without a unit, verdicts.png draws it on no panel."""
+    from wmr_mission.verdicts.signals import line_of, panel_of
+
+    assert catalog.unit_of("toy_speed_max") == ""
+    assert (panel_of("toy_speed_max"), line_of("toy_speed_max")) == (None, None)
+    assert catalog.unit_of("estimation_rms.theta") == "rad"
+    assert catalog.unit_of("turn_rate_jitter") == "rad/s"
+    assert (panel_of("final_position_error"), line_of("final_position_error")) == (
+        "goal",
+        "distance to the target",
+    )

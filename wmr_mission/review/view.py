@@ -291,10 +291,7 @@ def _expectations(summary: dict[str, Any]) -> list[dict[str, Any]]:
 
 def _unit(metric: Any) -> str:
     """A check's unit, from the catalog of metrics ("" for one it does not know)."""
-    base = metric.split(".", 1)[0] if isinstance(metric, str) else None
-    if base not in catalog.CATALOG:
-        return ""
-    return catalog.CATALOG[base].unit_of(metric.partition(".")[2] or None)
+    return catalog.unit_of(metric) if isinstance(metric, str) else ""
 
 
 def _margins(record: Any) -> dict[str, Any] | None:

@@ -23,7 +23,16 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any, Final, Literal
 
-__all__ = ["CATALOG", "Metric", "add", "columns", "metric", "phase_metrics", "run_metrics"]
+__all__ = [
+    "CATALOG",
+    "Metric",
+    "add",
+    "columns",
+    "metric",
+    "phase_metrics",
+    "run_metrics",
+    "unit_of",
+]
 
 Scope = Literal["phase", "run"]
 Bound = Literal["max", "min"]
@@ -112,6 +121,15 @@ def built() -> None:
 def metric(name: str) -> Metric:
     """The entry of ``name``; of ``estimation_rms.x``, ``estimation_rms``'s."""
     return CATALOG[name.split(".", 1)[0]]
+
+
+def unit_of(check: str) -> str:
+    """The unit of a check's value (``estimation_rms.x``: of its state), or ``""``:
+    a count, a share, or a metric the catalog does not hold (a summary.json
+    written by a build with another metric)."""
+    base, _, state = check.partition(".")
+    entry = CATALOG.get(base)
+    return "" if entry is None else entry.unit_of(state or None)
 
 
 def phase_metrics() -> Iterator[Metric]:

@@ -60,20 +60,16 @@ PANELS: dict[str, str] = {
 }
 
 
-def unit_of(metric: str) -> str:
-    """The unit of a check's value: ``m``, ``rad/s`` ... or ``""`` (a count, a share)."""
-    base, _, state = metric.partition(".")
-    return catalog.metric(base).unit_of(state or None)
-
-
 def panel_of(metric: str) -> str | None:
     """The panel a check is drawn on (catalog.Metric.panel; None: none)."""
-    return catalog.metric(metric).panel
+    entry = catalog.CATALOG.get(metric.split(".", 1)[0])
+    return None if entry is None else entry.panel
 
 
 def line_of(metric: str) -> str | None:
     """The signal's line a peak check bounds; None for a level check."""
-    return catalog.metric(metric).line
+    entry = catalog.CATALOG.get(metric.split(".", 1)[0])
+    return None if entry is None else entry.line
 
 
 @dataclass
@@ -100,7 +96,7 @@ class Check:
 
     def words(self) -> str:
         """``south#1: speed_jump_max = 2.33 m/s (max 2 m/s)``."""
-        unit = unit_of(self.metric)
+        unit = catalog.unit_of(self.metric)
         unit = f" {unit}" if unit else ""
         value = "none" if self.value is None else f"{self.value:.3g}{unit}"
         where = f"{self.phase}: " if self.phase is not None else ""
