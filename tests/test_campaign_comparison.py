@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from wmr_mission.api import load_mission, run_mission
-from wmr_mission.campaign.comparison import SETTLED_WITHIN, comparison_metrics
+from wmr_mission.campaign.comparison import COMPARISON_METRICS, SETTLED_WITHIN, comparison_metrics
 from wmr_mission.verdicts.inputs import REVERSAL_WINDOW, ROBUST_STD
 from wmr_mission.verdicts.numbers import mission_numbers
 
@@ -61,3 +61,36 @@ def test_the_comparison_metrics_are_what_the_samples_say(changes: dict[str, obje
         assert saturation > 0.0
         assert settled_at is not None
         assert settled_at > 0.05
+
+
+def _keys(record: object) -> dict[str, list[object]]:
+    """Every key of a JSON record, with the values it has wherever it is."""
+    found: dict[str, list[object]] = {}
+    stack = [record]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            for key, value in item.items():
+                found.setdefault(key, []).append(value)
+                stack.append(value)
+        elif isinstance(item, list):
+            stack.extend(item)
+    return found
+
+
+def test_one_error_has_one_name() -> None:
+    """A runs.csv column named as a number of summary.json is that number: the
+    reference error of the one track phase to the bit; the whole run's jitter
+    and the time to the reference, other numbers, have names of their own."""
+    result = run_mission(load_mission("missions/controllers.yaml"))
+    summary = result.judged
+    assert summary is not None
+    tracks = [p for p in summary["phases"] if p["kind"] == "track"]
+    assert len(tracks) == 1
+    values = dict(zip(COMPARISON_METRICS, comparison_metrics(result, result.mission), strict=True))
+    assert values["reference_error_rms"] == tracks[0]["tracking_error"]["reference_error_rms"]
+    assert values["reference_error_rms"] == pytest.approx(0.0289, abs=1e-4)
+    named = _keys(summary)
+    assert [m for m in COMPARISON_METRICS if m in named] == ["reference_error_rms"]
+    # the per-phase jitter is another number than the whole run's
+    assert named["turn_rate_jitter"] != [values["run_turn_rate_jitter"]]

@@ -191,11 +191,12 @@ def test_the_shelf_is_kept_by_the_body_where_the_axles_rule_would_touch_it() -> 
     axle = point.summary()["clearance_min"]  # a point: the axle's own distance
     assert 0.0 < axle < 0.25
     # judged with the body, the point robot's run touches the shelf
-    from wmr_mission.verdicts.metrics import run_clearance
+    from wmr_mission.verdicts.metrics import run_columns
 
     point.mission = {**(point.mission or {}), "robot": {"footprint": {"radius": 0.25}}}
-    assert run_clearance(point) == pytest.approx(axle - 0.25, abs=1e-6)
-    assert run_clearance(point) < -0.1
+    clearance = run_columns(point, point.mission)["clearance_min"]
+    assert clearance == pytest.approx(axle - 0.25, abs=1e-6)
+    assert clearance < -0.1
 
 
 def test_a_polygon_body_is_kept_by_its_disc_and_judged_by_its_outline() -> None:

@@ -20,6 +20,7 @@ from wmr_mission.verdicts.check import Check, margin_fields, run_margin
 from wmr_mission.verdicts.metrics import judge
 
 PATH = np.zeros((2, 0), dtype=np.float32)
+JUMP = "speed_jump_max"
 
 
 def test_a_checks_margin_is_signed_and_in_units_of_its_bound() -> None:
@@ -56,9 +57,19 @@ def test_a_runs_margin_is_its_least_and_names_its_check() -> None:
     assert (margin, name) == (pytest.approx(0.1), "go: cross_track_error_max")
     # a run its checks do not decide: -inf, named by its outcome
     assert run_margin(checks, "timeout") == (-math.inf, "timeout")
-    assert margin_fields([], "diverged") == {"margin": None, "margin_check": "diverged"}
+    assert margin_fields([], "diverged") == {
+        "margin": None,
+        "margin_check": "diverged",
+        "margin_metric": "diverged",
+    }
     # nothing checked: +inf, no check named
-    assert margin_fields([], "success") == {"margin": None, "margin_check": None}
+    assert margin_fields([], "success") == {
+        "margin": None,
+        "margin_check": None,
+        "margin_metric": None,
+    }
+    # the check's metric as data, for a campaign to count the runs' margins by
+    assert margin_fields(checks, "success")["margin_metric"] == "cross_track_error_max"
 
 
 @pytest.mark.parametrize("bound", [0.05, 5.0])
@@ -88,10 +99,36 @@ def test_summary_json_holds_the_runs_margin(tmp_path: Path, bound: float) -> Non
 def test_runs_csv_and_campaign_json_carry_the_margins() -> None:
     metrics = (0.0,) * len(METRICS)
     rows = [
-        Row(0, 1, "success", (), metrics, "", PATH, (), 0.5, "go: speed_jump_max"),
-        Row(1, 2, "expect-failed", (), metrics, "...", PATH, (), -0.25, "go: duration"),
-        Row(2, 3, "timeout", (), metrics, "phase 'go' timed out", PATH, (), None, "timeout"),
-        Row(3, 4, "success", (), metrics, "", PATH, (), 0.1, "park: speed_jump_max"),
+        Row(0, 1, "success", (), metrics, "", PATH, (), 0.5, "go: speed_jump_max", (), JUMP),
+        Row(
+            1,
+            2,
+            "expect-failed",
+            (),
+            metrics,
+            "...",
+            PATH,
+            (),
+            -0.25,
+            "go: duration",
+            (),
+            "duration",
+        ),
+        Row(
+            2,
+            3,
+            "timeout",
+            (),
+            metrics,
+            "phase 'go' timed out",
+            PATH,
+            (),
+            None,
+            "timeout",
+            (),
+            "timeout",
+        ),
+        Row(3, 4, "success", (), metrics, "", PATH, (), 0.1, "park: speed_jump_max", (), JUMP),
     ]
     columns = header([])
     assert columns[-3:] == ["margin", "margin_check", "reason"]

@@ -154,7 +154,7 @@ def test_per_phase_values() -> None:
             "max": off_path[settled].max(),
             "rms_from_start": np.sqrt(np.mean(off_path[:500] ** 2)),
             "max_from_start": off_path[:500].max(),
-            "reference_rms": REF_OFFSET,
+            "reference_error_rms": REF_OFFSET,
         },
         abs=1e-5,  # the reference polyline cuts the circle's chords by 6e-6 m at most
     )
@@ -292,7 +292,7 @@ def test_diverged_run_gives_nulls_not_warnings() -> None:
     assert summary["estimation_convergence_time"] is None
     orbit = summary["phases"][1]
     # finite part only
-    assert orbit["tracking_error"]["reference_rms"] == pytest.approx(REF_OFFSET)
+    assert orbit["tracking_error"]["reference_error_rms"] == pytest.approx(REF_OFFSET)
     assert 0.0 < orbit["tracking_error"]["max"] <= REF_OFFSET + 1e-5
     json.dumps(summary, allow_nan=False)
 

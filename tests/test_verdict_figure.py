@@ -13,7 +13,7 @@ from wmr_mission.output.figures import FIGURE_NAMES, _figure
 from wmr_mission.output.result import RunResult
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
-from wmr_mission.verdicts.signals import PEAK, panel_of, run_signals
+from wmr_mission.verdicts.signals import line_of, panel_of, run_signals
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 
@@ -35,10 +35,12 @@ def test_the_failed_checks_are_marked_on_the_signals_they_judge(disturbed: RunRe
     unmet = {(c["phase"], c["metric"]) for c in summary["expectations"] if not c["met"]}
     assert {(c.phase, c.metric) for c in failed} == unmet
     assert unmet  # the premise
-    peaks = [check for check in failed if check.metric in PEAK]
+    peaks = [check for check in failed if check.peak]
     assert peaks  # the premise: a failure drawn sample by sample
     for check in peaks:
-        panel, line = PEAK[check.metric]
+        panel, line = panel_of(check.metric), line_of(check.metric)
+        assert panel is not None
+        assert line is not None
         values = signals.lines[panel][line]
         start, end = check.span
         judged = signals.judged[line][start:end]

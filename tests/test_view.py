@@ -33,6 +33,7 @@ from wmr_mission.review.view import (
     thin_signal,
     view_command,
 )
+from wmr_mission.spec import catalog
 
 CHROMIUM = find_chromium()
 needs_chromium = pytest.mark.skipif(
@@ -379,9 +380,15 @@ def test_a_failing_run_shows_its_verdicts_and_opens_at_its_end(
             "[...r.cells].map((c, i) => [names[i], c.textContent]))); })()"
         )
         for shown, phase in zip(phases, summary["phases"], strict=True):
-            for name in ("cross_track_error_max", "along_track_lag_max"):
-                value = (phase.get("tracking") or {}).get(name)
-                cell = shown[f"{name} [m]"]
+            for name in (
+                "cross_track_error_max",
+                "along_track_lag_max",
+                "tracking_error_rms",
+                "speed_at_limit",
+            ):
+                metric = catalog.CATALOG[name]
+                value = (phase.get(metric.where[0]) or {}).get(metric.where[1])
+                cell = shown[f"{name} [{metric.unit}]" if metric.unit else name]
                 no_value = "\N{EN DASH}"  # what the page shows for null
                 assert (
                     (cell == no_value)

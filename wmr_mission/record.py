@@ -89,6 +89,9 @@ class Transition:
         }
 
 
+Pose = tuple[float, float, float]
+
+
 @dataclass(frozen=True)
 class PhaseRecord:
     """What a run records of one of its phases (manifest.json keeps it)."""
@@ -104,6 +107,24 @@ class PhaseRecord:
     # Points a track phase's path is written through (waypoints), for the figures.
     points: tuple[tuple[float, float], ...] = ()
     color: str | None = None  # from the mission's `plot.phase_colors`
+    # A regulate phase whose `updates` changed its target: (sample, x, y, theta)
+    # from which each target was in force, in sample order, its entries
+    # included; empty: ``target`` throughout.
+    targets: tuple[tuple[int, float, float, float], ...] = ()
+
+    def targets_in_force(self, start: int, end: int) -> list[tuple[int, int, Pose]]:
+        """(first sample, one past the last, target) of each stretch of samples
+        ``start .. end - 1`` (a stretch of the run this phase ran) over which one
+        target was in force; ``target`` over all of them without ``targets``."""
+        if not self.targets:
+            return [] if self.target is None else [(start, end, self.target)]
+        stretches: list[tuple[int, int, Pose]] = []
+        for i, (first, x, y, theta) in enumerate(self.targets):
+            stop = self.targets[i + 1][0] if i + 1 < len(self.targets) else end
+            first, stop = max(first, start), min(stop, end)
+            if first < stop:
+                stretches.append((first, stop, (x, y, theta)))
+        return stretches
 
 
 @dataclass
@@ -167,6 +188,9 @@ class RunRecord:
     # manifest.json's `backend` (its type, versions, settings). None in our simulator.
     realtime: dict[str, Any] | None = None
     backend: dict[str, Any] | None = None
+    # A run read back from its directory: summary.json's `expectations`, the
+    # checks as they were judged, read as data by the figures (None: judge it)
+    expectations: list[dict[str, Any]] | None = None
     # summary.json's metrics and verdicts as ``verdicts.metrics.judge`` found them
     # by ``mission``: computed once per run, for the file, the table and the API.
     # Not copied by ``dataclasses.replace``.

@@ -61,11 +61,6 @@ def _badness(row: Row) -> tuple[int, float, float, int]:
     )
 
 
-def _check_kind(name: str) -> str:
-    """``orbit: turn_rate_jitter`` -> ``turn_rate_jitter``: a check by its metric."""
-    return name.rsplit(": ", 1)[-1]
-
-
 def _margin(row: Row) -> float:
     """The run's margin; an empty cell is -inf where an outcome or a check
     without a value sets it, +inf for a run without a check."""
@@ -229,8 +224,8 @@ class Aggregate:
             else:
                 heapq.heappushpop(kept, failure)
         self.margins.append(_margin(row))
-        if row.margin_check:
-            self.margin_checks[_check_kind(row.margin_check)] += 1
+        if row.margin_metric:
+            self.margin_checks[row.margin_metric] += 1
         entry = (
             _badness(row),
             row.run,

@@ -6,22 +6,26 @@ the run's samples:
 
 * ``reference_error_rms`` [m]: RMS distance from the robot to the path's point
   of the same instant, over the samples of track phases after each one's
-  settle time (``expect.settle_time``, 1 s unless written);
-* ``turn_rate_jitter`` [rad/s]: the robust spread of the turn rate about its
-  centred moving mean, the whole run, measured as summary.json's per phase
-  (wmr_mission.verdicts.inputs.jitter);
+  settle time (``expect.settle_time``, 1 s unless written): summary.json's
+  ``reference_error_rms`` of each track phase, over them all
+  (:func:`reference_error`);
+* ``run_turn_rate_jitter`` [rad/s]: the robust spread of the turn rate about
+  its centred moving mean over the whole run from its first step, measured
+  as summary.json's ``turn_rate_jitter`` is per phase from the sample its
+  inputs are judged (wmr_mission.verdicts.inputs.jitter): not the same
+  samples, so not the same name;
 * ``input_saturation``: the fraction of samples with the speed or the turn
   rate at its limit;
-* ``settle_time`` [s]: from the start of the first track phase, the time
-  after which the robot stays within ``SETTLED_WITHIN`` of the reference
-  point for every later sample of a track phase (None: not by the end).
+* ``reference_capture_time`` [s]: from the start of the first track phase,
+  the time after which the robot stays within ``SETTLED_WITHIN`` of the
+  reference point for every later sample of a track phase (None: not by the
+  end); not ``expect.settle_time``, the time a phase's metrics leave out.
 
 They are cheap (no distance to the whole path), so every campaign row has them.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any, Final
 
@@ -30,15 +34,17 @@ import numpy as np
 from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import DEFAULT_SETTLE_TIME
 from wmr_mission.verdicts.inputs import jitter
-from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE
+from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE, reference_distance, reference_error
 from wmr_mission.verdicts.numbers import mission_numbers
 
-COMPARISON_METRICS: Final = (
-    "reference_error_rms",
-    "turn_rate_jitter",
-    "input_saturation",
-    "settle_time",
-)
+# Each with its unit (runs.csv's, the figures' axes).
+COMPARISON_UNITS: Final = {
+    "reference_error_rms": "m",
+    "run_turn_rate_jitter": "rad/s",
+    "input_saturation": "share of samples",
+    "reference_capture_time": "s",
+}
+COMPARISON_METRICS: Final = tuple(COMPARISON_UNITS)
 SETTLED_WITHIN: Final = 0.05  # [m] distance to the reference point counted as settled
 
 
@@ -71,17 +77,13 @@ def _reference_error(result: RunResult, settle_time: float) -> tuple[float | Non
     tracked = np.isin(result.phase, track) & np.isfinite(result.x_ref)
     if not tracked.any():
         return None, None
-    # IEEE operations alone (no library hypot, no pairwise sums): the same
-    # bits on every CPU (docs/reliability.md).
-    dx, dy = result.x - result.x_ref, result.y - result.y_ref
-    error = np.sqrt(dx * dx + dy * dy)
+    error = reference_distance(result.x, result.y, result.x_ref, result.y_ref)
     settled = np.zeros(result.samples, dtype=bool)
     for number in track:
         rows = np.flatnonzero(result.phase == number)
         if rows.size:
             settled[rows] = result.t[rows] - result.t[rows[0]] >= settle_time - 1e-9 * result.dt
-    counted = error[tracked & settled]
-    rms = math.sqrt(math.fsum(counted * counted) / counted.size) if counted.size else None
+    rms = reference_error(error[tracked & settled])
     samples = np.flatnonzero(tracked)
     outside = samples[error[samples] > SETTLED_WITHIN]
     if outside.size == 0:

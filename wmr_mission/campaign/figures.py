@@ -18,9 +18,9 @@ from wmr_mission.campaign.aggregate import (
     clopper_pearson,
     value_label,
 )
-from wmr_mission.campaign.comparison import COMPARISON_METRICS
+from wmr_mission.campaign.comparison import COMPARISON_METRICS, COMPARISON_UNITS
 from wmr_mission.campaign.coverage import runs_per_pixel
-from wmr_mission.campaign.rows import METRICS
+from wmr_mission.campaign.rows import COLUMNS, METRICS
 from wmr_mission.output.figures import draw_regions, new_figure, region_extent, save_figure
 
 __all__ = ["draw_campaign"]
@@ -34,22 +34,9 @@ _LIGHTEST: Final = 0.35
 _DARKEST: Final = 0.9
 
 
-# The unit of each metric of runs.csv (max_constraint_violation: a constraint
-# row's value, in the region's own terms).
-UNITS: Final = {
-    "final_position_error": "m",
-    "final_heading_error": "rad",
-    "max_constraint_violation": "constraint value",
-    "clearance_min": "m",
-    "estimation_convergence_time": "s",
-    "duration": "s",
-    "deadline_misses": "samples",
-    "command_latency_p99": "ms",
-    "reference_error_rms": "m",
-    "turn_rate_jitter": "rad/s",
-    "input_saturation": "share of samples",
-    "settle_time": "s",
-}
+# The unit of each metric of runs.csv: the catalog's (wmr_mission.spec.catalog),
+# then a head-to-head's.
+UNITS: Final = {m.name: m.unit for m in COLUMNS if m.unit} | COMPARISON_UNITS
 # Failures this many times fewer than the fullest bin's runs are drawn on a
 # log scale: on a linear one, 17 failures beside 1963 successes are a line.
 _LOG_SCALE_RATIO: Final = 10
@@ -374,9 +361,9 @@ def _side_by_side(aggregate: Aggregate) -> Any | None:
 _COMPARISON_AXES: Final = {
     "success rate": "runs that succeeded (bar), 95 % interval",
     "reference_error_rms": "distance to the reference [m]",
-    "turn_rate_jitter": "turn-rate jitter [rad/s]",
+    "run_turn_rate_jitter": "turn-rate jitter, whole run [rad/s]",
     "input_saturation": "share of samples at a limit",
-    "settle_time": "time to settle [s]",
+    "reference_capture_time": "time to stay within 5 cm of the reference [s]",
 }
 
 

@@ -19,11 +19,12 @@ from wmr_mission.campaign.load import LoadedCampaign, override, replay_line, val
 from wmr_mission.campaign.models import Axis
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.record import Outcome
+from wmr_mission.spec import catalog
 from wmr_mission.spec.checks import read_by_sampling_checks
 from wmr_mission.spec.models import Mission
 from wmr_mission.verdicts import recovery
 from wmr_mission.verdicts.check import Check
-from wmr_mission.verdicts.metrics import EXPECTATION_PATHS, judge_run_metrics, summary_value
+from wmr_mission.verdicts.metrics import judge_run_metrics, summary_value
 
 if TYPE_CHECKING:
     from wmr_mission.output.result import RunResult
@@ -48,12 +49,12 @@ the 4 std that `validate` checked)."""
 ERROR: Final = "error"
 """Outcome of a run that raised an exception: a bug, reported with the run's replay."""
 
-# The run's metrics: every metric an `expect` can bound, computed by the code
-# that writes summary.json, then how the robot was driven (a head-to-head's
-# figures, wmr_mission.campaign.comparison).
-# clearance_min [m]: the body's least distance from its zones (a lower bound, so
-# no mission-wide EXPECTATION_PATHS key: each phase's `expect` judges it)
-METRICS: Final = (*EXPECTATION_PATHS, "clearance_min", *COMPARISON_METRICS)
+# The run's metrics: those of the catalog with a column (wmr_mission.spec.catalog:
+# the run's, then a phase's worst over the run), computed by the code that
+# writes summary.json, then how the robot was driven (a head-to-head's figures,
+# wmr_mission.campaign.comparison).
+COLUMNS: Final = catalog.columns()
+METRICS: Final = (*(m.name for m in COLUMNS), *COMPARISON_METRICS)
 
 # After the metrics: the run's margin and the check that sets it (summary.json's).
 MARGIN_COLUMNS: Final = ("margin", "margin_check")
@@ -80,6 +81,9 @@ class Row:
     margin: float | None = None
     margin_check: str | None = None
     missed: tuple[Check, ...] = ()
+    # the metric of the check that sets the margin, or the outcome (summary.json's
+    # margin_metric): how campaign.json counts the margins, as data
+    margin_metric: str | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -165,7 +169,17 @@ def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
     empty = np.zeros((2, 0), dtype=np.float32)
     values = tuple(draw.values.values())
     metrics = (None,) * len(METRICS)
-    return Row(draw.run, draw.seed, outcome, values, metrics, reason, empty, margin_check=outcome)
+    return Row(
+        draw.run,
+        draw.seed,
+        outcome,
+        values,
+        metrics,
+        reason,
+        empty,
+        margin_check=outcome,
+        margin_metric=outcome,
+    )
 
 
 def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
@@ -181,8 +195,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     summary_mission = mission.model_dump(mode="json")
     summary = judge_run_metrics(result, summary_mission)
     metrics = (
-        *(summary_value(summary, path) for path in EXPECTATION_PATHS.values()),
-        summary_value(summary, ("clearance_min",)),
+        *(summary_value(summary, metric.run_path) for metric in COLUMNS),
         *comparison_metrics(result, summary_mission),
     )
     step = max(1, math.ceil(result.samples / PATH_POINTS))
@@ -203,6 +216,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
         summary["margin"],
         summary["margin_check"],
         missed,
+        summary["margin_metric"],
     )
 
 

@@ -58,10 +58,10 @@ from wmr_mission.output.rundir import (
     release_run_dir,
     write_run,
 )
+from wmr_mission.spec import catalog
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import overrides_of, overrides_of_texts
 from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals, stop_owed
-from wmr_mission.verdicts.metrics import EXPECTATION_PATHS
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
 
@@ -547,7 +547,7 @@ def _bounds(mission: dict[str, Any]) -> dict[str, float]:
     expect = mission.get("expect") or {}
     return {
         name: float(expect[name]["max"])
-        for name in EXPECTATION_PATHS
+        for name in (m.name for m in catalog.run_metrics())
         if isinstance(expect.get(name), dict) and expect[name].get("max") is not None
     }
 

@@ -1167,7 +1167,7 @@ def _verdicts_on(fig: Figure, result: RunRecord) -> None:
     from matplotlib.collections import LineCollection
     from matplotlib.lines import Line2D
 
-    from wmr_mission.verdicts.signals import PANELS, Check, panel_of, run_signals
+    from wmr_mission.verdicts.signals import PANELS, Check, line_of, panel_of, run_signals
 
     signals = run_signals(result)
     failed = signals.failed()
@@ -1176,7 +1176,8 @@ def _verdicts_on(fig: Figure, result: RunRecord) -> None:
         for p in PANELS
         if p in signals.lines or any(panel_of(c.metric) == p for c in signals.checks)
     ]
-    first_failing = list(dict.fromkeys(panel_of(c.metric) for c in failed))
+    failing = (panel_of(c.metric) for c in failed)
+    first_failing = list(dict.fromkeys(p for p in failing if p is not None))
     order = first_failing + [p for p in shown if p not in first_failing]
     if not order:
         order = ["saturation"]
@@ -1203,9 +1204,7 @@ def _verdicts_on(fig: Figure, result: RunRecord) -> None:
         checks = [c for c in signals.checks if panel_of(c.metric) == panel]
         bounds, bound_colors = [], []
         for check in (c for c in checks if c.peak):
-            from wmr_mission.verdicts.signals import PEAK
-
-            name = PEAK[check.metric][1]
+            name = str(line_of(check.metric))
             start, end = check.span
             ends = (float(t[start]), float(t[max(end - 1, start)]))
             signs = (1.0, -1.0) if check.metric == "along_track_lag_max" else (1.0,)

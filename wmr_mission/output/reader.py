@@ -163,9 +163,22 @@ def _phases_from(run: Any) -> list[PhaseRecord]:
                 near=_near_from(record, at),
                 points=_points_from(record, at),
                 color=_color_from(record, at),
+                targets=_targets_from(record, at),
             )
         )
     return phases
+
+
+def _targets_from(record: Any, at: str) -> tuple[tuple[int, float, float, float], ...]:
+    """A phase's ``targets`` ([sample, x, y, theta] each), absent where none changed."""
+    changes = record.get("targets") or []
+    if not isinstance(changes, list) or not all(
+        isinstance(c, list) and len(c) == 4 and isinstance(c[0], int) for c in changes
+    ):
+        raise RunDirError(f"{at}: 'targets' must be [[sample, x, y, theta], ...]")
+    return tuple(
+        (int(c[0]), _number(c[1], at), _number(c[2], at), _number(c[3], at)) for c in changes
+    )
 
 
 def _optional(record: Any, key: str, kind: type, where: str) -> Any:
@@ -437,7 +450,21 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
         theta_meas=data["theta_meas"],
         mission=_optional(manifest, "resolved_mission", dict, MANIFEST_FILE),
         reference=data.get(REFERENCE_COLUMN),
+        expectations=_checks_from(summary),
     )
+
+
+def _checks_from(summary: Any) -> list[dict[str, Any]] | None:
+    """summary.json's checks, each as Check.read reads it; None where it has none."""
+    from wmr_mission.verdicts.check import Check
+
+    records = summary.get("expectations")
+    if not isinstance(records, list):
+        return None
+    try:
+        return [Check.read(record).record() | dict(record) for record in records]
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise RunDirError(f"{SUMMARY_FILE}: expectations: a check is not one") from None
 
 
 def _positive(value: float, where: str) -> float:

@@ -220,6 +220,8 @@ def run_record(result: RunRecord) -> dict[str, Any]:
                 "near": list(phase.near) if phase.near is not None else None,
                 "points": [list(point) for point in phase.points],
                 "color": phase.color,
+                # only where an update changed a target: other runs keep their bytes
+                **({"targets": [list(t) for t in phase.targets]} if phase.targets else {}),
             }
             for phase in result.phases
         ],

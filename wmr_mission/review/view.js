@@ -397,7 +397,7 @@
     const spanOf = (name) => meta.phase_table.find((p) => p.name === name);
     root.append(el("h2", { text: "Verdicts" }));
     if (!meta.expectations.length) root.append(el("p", { class: "note", text: "summary.json holds no expectation." }));
-    else root.append(table(["metric", "phase", "threshold", "value", "margin", "verdict"],
+    else root.append(table(["metric", "phase", "threshold", "value", "margin", "verdict", "unit"],
       meta.expectations.map((e) => {
         const threshold = e.max !== null ? `max ${fmt(e.max)}` : e.min !== null ? `min ${fmt(e.min)}` : "–";
         const span = e.phase === null ? undefined : spanOf(e.phase);
@@ -405,10 +405,11 @@
           el("td", { text: e.metric }), el("td", { text: e.phase === null ? "whole mission" : e.phase }),
           el("td", { class: "num", text: threshold }), el("td", { class: "num", text: fmt(e.value) }),
           el("td", { class: "num", text: e.margin === null ? (e.met === false ? "-inf" : "–") : fmt(e.margin) }),
-          el("td", { text: e.met === null ? "–" : e.met ? "met" : "NOT MET" }));
+          el("td", { text: e.met === null ? "–" : e.met ? "met" : "NOT MET" }),
+          el("td", { text: e.unit }));
         if (span) tr.addEventListener("click", () => setRange(span.start, span.end));
         return tr;
-      }), [false, false, true, true, true, false]));
+      }), [false, false, true, true, true, false, false]));
 
     root.append(el("h2", { text: "Phases" }));
     const colorOf = new Map(phases.map((p) => [p.name, p.color]));
@@ -416,22 +417,21 @@
     if (meta.phase_table.length > shownPhases.length) {
       root.append(el("p", { class: "note", text: `The first ${shownPhases.length} of ${meta.phase_table.length} phases (summary.json has them all).` }));
     }
+    // the catalog's metrics under the verdict's names (summary.json's, runs.csv's)
+    const metricNames = meta.phase_metrics.map((m) => m.unit ? `${m.name} [${m.unit}]` : m.name);
     root.append(table(
-      // summary.json's names: the verdict's numbers under the verdict's names
-      ["phase", "kind", "start [s]", "end [s]", "duration [s]", "cross_track_error_max [m]",
-        "along_track_lag_max [m]", "tracking_error.rms [m]", "tracking_error.max [m]",
-        "target error [m]", "heading error [rad]", "max violation", "v at limit", "ω at limit"],
+      ["phase", "kind", "start [s]", "end [s]", "duration [s]", "target error [m]",
+        "heading error [rad]", "max violation", ...metricNames],
       shownPhases.map((p) => {
         const color = colorOf.get(p.name) || "#999";
         const tr = el("tr", { class: "clickable" },
           el("td", { class: "name" }, swatch(color), " ", p.name), el("td", { text: p.kind }),
-          ...[p.start, p.end, p.duration, p.cross_track_error_max, p.along_track_lag_max,
-            p.tracking_rms, p.tracking_max, p.target_position,
-            p.target_heading, p.max_violation, p.speed_at_limit, p.turn_rate_at_limit]
+          ...[p.start, p.end, p.duration, p.target_position, p.target_heading, p.max_violation,
+            ...p.metrics]
             .map((v) => el("td", { class: "num", text: fmt(v) })));
         tr.addEventListener("click", () => { if (finite(p.start) && finite(p.end)) setRange(p.start, p.end); });
         return tr;
-      }), [false, false, true, true, true, true, true, true, true, true, true, true, true, true]));
+      }), [false, false, true, true, true, true, true, true, ...metricNames.map(() => true)]));
 
     root.append(el("h2", { text: "Transitions" }));
     const shownTransitions = meta.transitions.slice(0, 2000);

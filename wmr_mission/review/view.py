@@ -35,6 +35,7 @@ from wmr_mission.output.files import write_bytes_atomic
 from wmr_mission.output.reader import RunDirError
 from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import SUMMARY_FILE, TRAJECTORY_FILE
+from wmr_mission.spec import catalog
 
 __all__ = ["MAX_DISPLAY_SAMPLES", "REPORT_FILE", "build_page", "view_command"]
 
@@ -281,10 +282,16 @@ def _expectations(summary: dict[str, Any]) -> list[dict[str, Any]]:
             "value": _finite_number(e.get("value")),
             "met": e.get("met") if isinstance(e.get("met"), bool) else None,
             "margin": _finite_number(e.get("margin")),
+            "unit": _unit(e.get("metric")),
         }
         for e in records
         if isinstance(e, dict)
     ]
+
+
+def _unit(metric: Any) -> str:
+    """A check's unit, from the catalog of metrics ("" for one it does not know)."""
+    return catalog.unit_of(metric) if isinstance(metric, str) else ""
 
 
 def _margins(record: Any) -> dict[str, Any] | None:
@@ -306,11 +313,30 @@ def _dig(record: Any, *keys: str) -> float | None:
     return _finite_number(record)
 
 
+# The catalog's metrics the phases' table shows, under the verdict's names: how
+# far off the path and behind, the shares of samples at a limit; then each a
+# runs.csv has a column of (wmr_mission.spec.catalog).
+_PHASE_TABLE: Final = (
+    "cross_track_error_max",
+    "along_track_lag_max",
+    "tracking_error_rms",
+    "tracking_error_max",
+    "speed_at_limit",
+    "turn_rate_at_limit",
+)
+
+
+def _phase_metrics() -> list[catalog.Metric]:
+    shown = [catalog.CATALOG[name] for name in _PHASE_TABLE]
+    return shown + [m for m in catalog.phase_metrics() if m.column and m not in shown]
+
+
 def _phase_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
     """summary.json's per-phase metrics that explain a phase at a glance."""
     records = summary.get("phases")
     if not isinstance(records, list):
         return []
+    metrics = _phase_metrics()
     rows = []
     for p in records:
         if not isinstance(p, dict):
@@ -322,15 +348,10 @@ def _phase_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
                 "start": _dig(p, "start"),
                 "end": _dig(p, "end"),
                 "duration": _dig(p, "duration"),
-                "cross_track_error_max": _dig(p, "tracking", "cross_track_error_max"),
-                "along_track_lag_max": _dig(p, "tracking", "along_track_lag_max"),
-                "tracking_rms": _dig(p, "tracking_error", "rms"),
-                "tracking_max": _dig(p, "tracking_error", "max"),
                 "target_position": _dig(p, "target_error", "position"),
                 "target_heading": _dig(p, "target_error", "heading"),
                 "max_violation": _dig(p, "constraint", "max_violation"),
-                "speed_at_limit": _dig(p, "inputs", "speed_at_limit"),
-                "turn_rate_at_limit": _dig(p, "inputs", "turn_rate_at_limit"),
+                "metrics": [_dig(p, *metric.where) for metric in metrics],
             }
         )
     return rows
@@ -423,6 +444,8 @@ def run_meta(result: RunResult, summary: dict[str, Any]) -> tuple[dict[str, Any]
         "margin": _finite_number(summary.get("margin")),
         "margin_check": _text(summary.get("margin_check")),
         "phase_table": _phase_rows(summary),
+        # the columns of its metrics: the catalog's names and units
+        "phase_metrics": [{"name": m.name, "unit": m.unit} for m in _phase_metrics()],
         "final": {
             "position_error": _dig(summary, "final", "position_error"),
             "heading_error": _dig(summary, "final", "heading_error"),

@@ -396,6 +396,9 @@ class _Run:
         # column, written for a mission with updates or a session that made one
         # (0: the phase's own, n: its n-th update).
         self.references: list[tuple[int, int]] = []
+        # Per regulate phase, (sample, x, y, theta) where each target took over:
+        # its entries and its updates (PhaseRecord.targets).
+        self.targets: dict[int, list[tuple[int, float, float, float]]] = {}
         self.updated = any(p.updates for p in m.phases)
         # A session (start_mission) pauses the run before this sample; a run never.
         self.pause_at = NEVER
@@ -773,6 +776,7 @@ class _Run:
                     p.constraints,
                     near=p.until.near,
                     points=() if p.points is None else tuple(map(tuple, p.points.tolist())),
+                    targets=self._targets(active.index, active.entry_sample),
                 )
             ],
             **columns,
@@ -823,6 +827,7 @@ class _Run:
         estimate = self.signals.estimate
         active.take_over(k, estimate, update)
         self.updated = True
+        self._note_target(active, k)
         name = active.phase.name
         why = (
             f"update {active.reference} ({update.when}): {update.changes} from the estimate "
@@ -952,7 +957,23 @@ class _Run:
         """Enter ``active`` at sample k; the reference column notes its reference."""
         entered = active.enter(k, self.signals.estimate, resume)
         self.references.append((k, active.reference))
+        self._note_target(active, k)
         return entered
+
+    def _note_target(self, active: PhaseRun, k: int) -> None:
+        """A regulate phase's target in force from sample k on."""
+        if active.phase.kind == "regulate":
+            x, y, theta = (float(v) for v in active.target)
+            self.targets.setdefault(active.index, []).append((k, x, y, theta))
+
+    def _targets(self, index: int, since: int = 0) -> tuple[tuple[int, float, float, float], ...]:
+        """PhaseRecord.targets of phase ``index`` from sample ``since`` on (as
+        samples from there, an entry's first): empty unless an update changed
+        its target."""
+        changes = self.targets.get(index, [])
+        if len({change[1:] for change in changes}) < 2:
+            return ()
+        return tuple((k - since, x, y, t) for k, x, y, t in changes if k >= since)
 
     def _close(self, k: int, phase: EnteredPhase) -> None:
         """The row of the sample the run ends at: no step is taken from it."""
@@ -1016,6 +1037,7 @@ class _Run:
                     near=p.until.near,
                     points=() if p.points is None else tuple(map(tuple, p.points.tolist())),
                     color=p.color,
+                    targets=self._targets(a.index),
                 )
                 for p, a in zip(m.phases, self.phases, strict=True)
             ],

@@ -46,7 +46,7 @@ from wmr_mission.geometry.regions import (
     region_vertices,
 )
 from wmr_mission.plugins import EntryError, load_entry
-from wmr_mission.spec import graph
+from wmr_mission.spec import catalog, graph
 from wmr_mission.spec.changes import path_pace, with_look_ahead, with_pace
 from wmr_mission.spec.models import (
     HeadingCondition,
@@ -909,15 +909,8 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
         if isinstance(phase, TrackPhase) or (run.lap is not None and run.lap > 1):
             continue
         kind = "regulate" if isinstance(phase, RegulatePhase) else "hold"
-        for key in (
-            "tracking_error_rms",
-            "tracking_error_max",
-            "cross_track_error_max",
-            "along_track_lag_max",
-            "detour_offset_max",
-            "detour_time",
-        ):
-            if getattr(phase.expect, key) is not None:
+        for key in (m.name for m in catalog.phase_metrics() if m.kinds == catalog.TRACK):
+            if phase.expect.threshold(key) is not None:
                 yield Finding(
                     (*run.where, "expect", key),
                     f"expect.{key} measures the tracking of a path, but phase "
@@ -927,7 +920,7 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
                 )
     # A track phase's last reference point has a position but no heading.
     has_target = any(isinstance(p.phase, RegulatePhase) for p in run_order(mission))
-    if mission.expect.final_heading_error is not None and not has_target:
+    if mission.expect.threshold("final_heading_error") is not None and not has_target:
         yield Finding(
             ("expect", "final_heading_error"),
             "expect.final_heading_error is measured from the last regulate target, but the "
@@ -1091,7 +1084,7 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
                 )
     expect = mission.expect
     convergence = expect.convergence_tolerance
-    if expect.estimation_convergence_time is not None:
+    if expect.threshold("estimation_convergence_time") is not None:
         for name in ("x", "y", "theta"):
             offset = abs(getattr(bias, name))
             band = getattr(convergence, name)
@@ -1104,8 +1097,8 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
                     severity="warning",
                 )
     for field, threshold, offset, unit in (
-        ("final_position_error", expect.final_position_error, position_bias, "m"),
-        ("final_heading_error", expect.final_heading_error, heading_bias, "rad"),
+        ("final_position_error", expect.threshold("final_position_error"), position_bias, "m"),
+        ("final_heading_error", expect.threshold("final_heading_error"), heading_bias, "rad"),
     ):
         if threshold is not None and offset > threshold.max:
             yield Finding(

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Annotated, Any, Final, Literal, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, Final, Literal, NoReturn
 
 from pydantic import (
     AfterValidator,
@@ -25,6 +25,7 @@ from pydantic import (
     Strict,
     Tag,
     ValidatorFunctionWrapHandler,
+    create_model,
     field_validator,
     model_validator,
 )
@@ -61,6 +62,7 @@ from wmr_mission.geometry import paths
 from wmr_mission.geometry.paths import PATHS, PathSettings
 from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.geometry.routes import ROUTE_ACCELERATION_SHARE
+from wmr_mission.spec import catalog
 from wmr_mission.spec.backend import Backend
 from wmr_mission.spec.reactions import Geofence, Reaction, Then
 from wmr_mission.spec.temporal import Formula
@@ -386,80 +388,8 @@ class StateTolerance(Model):
 # "Verdicts"); the value used is in summary.json's `expectations`.
 Auto = Literal["auto"]
 
-# What each per-phase metric measures (docs/run-directory.md has the whole story).
-_PHASE_METRICS: Final = {
-    "tracking_error_rms": "[m] RMS distance of the true position from the path after settle_time.",
-    "tracking_error_max": (
-        "[m] largest distance of the true position from the path after settle_time."
-    ),
-    "cross_track_error_max": (
-        "[m] largest distance of the true position from its place on the path (track "
-        "phases; the entry and detours a zone forces left out)."
-    ),
-    "along_track_lag_max": (
-        "[m] largest arc length between the robot's place on the path and its reference "
-        "point, behind or ahead (track phases; the entry and detours left out)."
-    ),
-    "detour_offset_max": "[m] largest distance from the path during a detour a zone forces.",
-    "detour_time": "[s] time spent on detours a zone forces.",
-    "zone_intrusion_max": (
-        "[m] deepest the true position went beyond a zone's edge (into a stay_outside "
-        "region, out of a stay_inside one)."
-    ),
-    "clearance_min": (
-        "[m] at least: the least distance of the robot's body (robot.footprint; a point "
-        "without one) from a zone's forbidden side, negative where it went beyond; written "
-        "as a number, clearance_min: 0.1 (at least 0.1 m)."
-    ),
-    "stall_time": (
-        "[s] time a regulate phase spends away from its goal without taking 10 % of its "
-        "error out over the next 20 time constants (or half a turn and 10 time constants)."
-    ),
-    "overshoot_max": (
-        "[m] how far a regulate phase's robot went past its target, along the way from "
-        "where the phase started to the target (not judged for a phase that starts within "
-        "its goal)."
-    ),
-    "speed_jump_max": "[m/s] largest change of v from one sample to the next.",
-    "turn_rate_jump_max": "[rad/s] largest change of omega from one sample to the next.",
-    "speed_reversals": (
-        "Most sign reversals of v within any 10 time constants (a count; values within "
-        "5 % of limits.v of zero not counted)."
-    ),
-    "turn_rate_reversals": (
-        "Most sign reversals of omega within any 10 time constants (a count; values within "
-        "5 % of limits.omega plus 3 heading-noise std per time constant of zero not counted)."
-    ),
-    "speed_fight_time": (
-        "[s] time v spends at its limit in stretches of a time constant or more that "
-        "reverse or turn less than half their distance into progress."
-    ),
-    "turn_rate_fight_time": (
-        "[s] time omega spends at its limit in stretches of a time constant or more that "
-        "reverse or turn more than half a turn."
-    ),
-    "turn_rate_jitter": (
-        "[rad/s] 1.4826 times the median absolute deviation of omega from its centred "
-        "moving mean over two time constants."
-    ),
-    "speed_at_limit": "Fraction of the samples after settle_time with |v| at limits.v.",
-    "turn_rate_at_limit": (
-        "Fraction of the samples after settle_time with |omega| at limits.omega."
-    ),
-}
 
-
-def _phase_metric(name: str) -> Any:
-    """A per-phase threshold of a phase's own `expect`: null takes the mission's."""
-    return Field(default=None, description=_PHASE_METRICS[name])
-
-
-def _mission_metric(name: str, default: Threshold | str | None, rule: str = "") -> Any:
-    """A per-phase threshold of the mission's `expect`, with its default."""
-    return Field(default=default, description=f"{_PHASE_METRICS[name]}{rule}")
-
-
-class PhaseExpect(Model):
+class _PhaseThresholds(Model):
     """Thresholds on one phase's metrics; a key left out (or null) takes the mission's value."""
 
     settle_time: NonNegative | None = Field(
@@ -469,29 +399,6 @@ class PhaseExpect(Model):
             "leave out (the entry transient)."
         ),
     )
-    tracking_error_rms: Threshold | None = _phase_metric("tracking_error_rms")
-    tracking_error_max: Threshold | None = _phase_metric("tracking_error_max")
-    cross_track_error_max: Threshold | Auto | None = _phase_metric("cross_track_error_max")
-    along_track_lag_max: Threshold | Auto | None = _phase_metric("along_track_lag_max")
-    detour_offset_max: Threshold | Auto | None = _phase_metric("detour_offset_max")
-    detour_time: Threshold | None = _phase_metric("detour_time")
-    zone_intrusion_max: Threshold | None = _phase_metric("zone_intrusion_max")
-    clearance_min: Scalar | None = _phase_metric("clearance_min")
-    stall_time: Threshold | None = _phase_metric("stall_time")
-    overshoot_max: Threshold | Auto | None = _phase_metric("overshoot_max")
-    speed_jump_max: Threshold | Auto | None = _phase_metric("speed_jump_max")
-    turn_rate_jump_max: Threshold | Auto | None = _phase_metric("turn_rate_jump_max")
-    speed_reversals: Threshold | None = _phase_metric("speed_reversals")
-    turn_rate_reversals: Threshold | None = _phase_metric("turn_rate_reversals")
-    speed_fight_time: Threshold | None = _phase_metric("speed_fight_time")
-    turn_rate_fight_time: Threshold | None = _phase_metric("turn_rate_fight_time")
-    turn_rate_jitter: Threshold | Auto | None = _phase_metric("turn_rate_jitter")
-    speed_at_limit: Threshold | None = _phase_metric("speed_at_limit")
-    turn_rate_at_limit: Threshold | None = _phase_metric("turn_rate_at_limit")
-    estimation_rms: StateThresholds | None = Field(
-        default=None,
-        description="RMS estimation error (true - estimate) per state after settle_time.",
-    )
     temporal: tuple[Formula, ...] | None = Field(
         default=None,
         max_length=64,
@@ -500,6 +407,53 @@ class PhaseExpect(Model):
             "margin (see Temporal expectations); a mission-wide one applies to each phase that "
             "measures its signals."
         ),
+    )
+
+    def threshold(self, name: str) -> Any:
+        """The value of metric ``name``'s key (wmr_mission.spec.catalog): a
+        Threshold, `auto`, a number, StateThresholds, or None (not set)."""
+        return getattr(self, name)
+
+
+# The type of a metric's `expect` key, by what it takes (catalog.Metric.expect).
+_KEY_TYPES: Final[dict[str, Any]] = {
+    "threshold": Threshold | None,
+    "auto": Threshold | Auto | None,
+    "number": Scalar | None,
+    "per-state": StateThresholds | None,
+}
+
+
+def _default(value: Any) -> Any:
+    return Threshold(**value) if isinstance(value, dict) else value
+
+
+def _thresholds(
+    name: str, base: type[Model], doc: str, metrics: list[catalog.Metric], defaults: bool
+) -> Any:
+    """The `expect` model ``name``: ``base`` with a key per metric of the catalog,
+    with its default and its words (``defaults``), else null."""
+    fields: dict[str, Any] = {}
+    for metric in metrics:
+        words = f" {metric.default_words}" if defaults and metric.default_words else ""
+        default = _default(metric.default) if defaults else None
+        fields[metric.name] = (
+            _KEY_TYPES[metric.expect],
+            Field(default=default, description=f"{metric.description}{words}"),
+        )
+    return create_model(name, __base__=base, __doc__=doc, __module__=__name__, **fields)
+
+
+# A phase's own `expect`: a key per metric of a phase in the catalog, null unless written.
+if TYPE_CHECKING:
+    PhaseExpect = _PhaseThresholds
+else:
+    PhaseExpect = _thresholds(
+        "PhaseExpect",
+        _PhaseThresholds,
+        _PhaseThresholds.__doc__,
+        list(catalog.phase_metrics()),
+        defaults=False,
     )
 
 
@@ -795,13 +749,9 @@ class Contingency(Model):
 # "Verdicts", says why each is what it is): tracking judged against the timed
 # reference, zones held by the true robot, inputs judged by their quality.
 DEFAULT_SETTLE_TIME: Final = 1.0
-DEFAULT_ZONE_INTRUSION_MAX: Final = 0.005
-DEFAULT_REVERSALS: Final = 3
-DEFAULT_FIGHT_TIME: Final = 0.0
-DEFAULT_STALL_TIME: Final = 0.0
 
 
-class Expect(PhaseExpect):
+class _MissionThresholds(PhaseExpect):
     """Acceptance thresholds; `run` exits 1 when one is not met.
 
     The keys settle_time to estimation_rms apply to each phase (a phase's own
@@ -816,61 +766,6 @@ class Expect(PhaseExpect):
             "leave out (the entry transient)."
         ),
     )
-    cross_track_error_max: Threshold | Auto | None = _mission_metric(
-        "cross_track_error_max", "auto", " auto: 0.1 m + the position noise std."
-    )
-    along_track_lag_max: Threshold | Auto | None = _mission_metric(
-        "along_track_lag_max",
-        "auto",
-        " auto: 0.1 m + the position noise std + 3 time constants at the reference's top speed.",
-    )
-    detour_offset_max: Threshold | Auto | None = _mission_metric(
-        "detour_offset_max",
-        "auto",
-        " auto: how far the phase's zones reach into the path (a box's or polygon's: the "
-        "shorter way out across it) + the body's reach (robot.footprint) + the look-ahead + "
-        "0.1 m + the position noise std.",
-    )
-    zone_intrusion_max: Threshold | None = _mission_metric(
-        "zone_intrusion_max", Threshold(max=DEFAULT_ZONE_INTRUSION_MAX), " {max: 0.005} unless set."
-    )
-    clearance_min: Scalar | None = _mission_metric(
-        "clearance_min",
-        None,
-        " Unless set: 0 with a robot.footprint (its body may not touch a zone), else null.",
-    )
-    stall_time: Threshold | None = _mission_metric(
-        "stall_time", Threshold(max=DEFAULT_STALL_TIME), " {max: 0} unless set."
-    )
-    overshoot_max: Threshold | Auto | None = _mission_metric(
-        "overshoot_max",
-        "auto",
-        " auto: the phase's settled position tolerance + the position noise std (without "
-        "`settled`, 0.1 m + the position noise std).",
-    )
-    speed_jump_max: Threshold | Auto | None = _mission_metric(
-        "speed_jump_max", "auto", " auto: limits.v, half the range."
-    )
-    turn_rate_jump_max: Threshold | Auto | None = _mission_metric(
-        "turn_rate_jump_max", "auto", " auto: limits.omega, half the range."
-    )
-    speed_reversals: Threshold | None = _mission_metric(
-        "speed_reversals", Threshold(max=DEFAULT_REVERSALS), " {max: 3} unless set."
-    )
-    turn_rate_reversals: Threshold | None = _mission_metric(
-        "turn_rate_reversals", Threshold(max=DEFAULT_REVERSALS), " {max: 3} unless set."
-    )
-    speed_fight_time: Threshold | None = _mission_metric(
-        "speed_fight_time", Threshold(max=DEFAULT_FIGHT_TIME), " {max: 0} unless set."
-    )
-    turn_rate_fight_time: Threshold | None = _mission_metric(
-        "turn_rate_fight_time", Threshold(max=DEFAULT_FIGHT_TIME), " {max: 0} unless set."
-    )
-    turn_rate_jitter: Threshold | Auto | None = _mission_metric(
-        "turn_rate_jitter",
-        "auto",
-        " auto: 1 % of limits.omega + the heading noise std per time constant.",
-    )
     convergence_tolerance: StateTolerance = Field(
         default_factory=StateTolerance,
         description=(
@@ -879,47 +774,19 @@ class Expect(PhaseExpect):
         ),
     )
 
-    final_position_error: Threshold | None = Field(
-        default=None,
-        description=(
-            "[m] distance of the final true position from the target of the last regulate "
-            "phase run, or from the last reference point if a track phase came after it "
-            "(hold phases keep their entry pose and are skipped)."
-        ),
+
+# The mission's `expect`: each phase's metric with its default, then the run's.
+if TYPE_CHECKING:
+    Expect = _MissionThresholds
+else:
+    Expect = _thresholds(
+        "Expect",
+        _MissionThresholds,
+        _MissionThresholds.__doc__,
+        [*catalog.phase_metrics(), *catalog.run_metrics()],
+        defaults=True,
     )
-    final_heading_error: Threshold | None = Field(
-        default=None,
-        description="[rad] wrapped final heading error to that regulate target.",
-    )
-    max_constraint_violation: Threshold | None = Field(
-        default=None,
-        description=(
-            "Largest constraint-row value (> 0 = violated) over the states each phase's "
-            "inputs produced: from a phase's second sample."
-        ),
-    )
-    estimation_convergence_time: Threshold | None = Field(
-        default=None,
-        description=(
-            "[s] first time after which every state's |estimation error| stays below its "
-            "convergence_tolerance."
-        ),
-    )
-    duration: Threshold | None = Field(default=None, description="[s] mission time.")
-    deadline_misses: Threshold | None = Field(
-        default=None,
-        description=(
-            "Samples whose step ended after their deadline, in a real-time run (backend ros2); "
-            "not checked in a simulation."
-        ),
-    )
-    command_latency_p99: Threshold | None = Field(
-        default=None,
-        description=(
-            "[ms] 99th percentile of the time from reading a measurement to publishing the "
-            "command computed from it, in a real-time run; not checked in a simulation."
-        ),
-    )
+catalog.built()
 
 
 # --- figures ---------------------------------------------------------------

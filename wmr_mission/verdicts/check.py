@@ -131,17 +131,31 @@ def run_margin(checks: Iterable[Check], outcome: str) -> tuple[float, str | None
     """The run's margin and what sets it: the least margin of its checks and
     that check's name; -inf and the outcome for a run its checks do not decide
     (a timeout, a divergence, ...); +inf and None for a run without a check."""
+    margin, setting = _least(checks, outcome)
+    return margin, setting if setting is None or isinstance(setting, str) else setting.name
+
+
+def _least(checks: Iterable[Check], outcome: str) -> tuple[float, Check | str | None]:
+    """The run's margin and the check (or outcome) that sets it (:func:`run_margin`)."""
     if outcome not in _JUDGED_OUTCOMES:
         return -math.inf, outcome
-    least: tuple[float, str | None] = (math.inf, None)
+    least: tuple[float, Check | None] = (math.inf, None)
     for check in checks:
         if least[1] is None or check.margin < least[0]:
-            least = (check.margin, check.name)
+            least = (check.margin, check)
     return least
 
 
 def margin_fields(checks: Iterable[Check], outcome: str) -> dict[str, Any]:
-    """``summary.json``'s ``margin`` (null for -inf and +inf: see ``margin_check``)
-    and ``margin_check``, the check that sets it (or the outcome; null: no check)."""
-    margin, name = run_margin(checks, outcome)
-    return {"margin": _finite(margin), "margin_check": name}
+    """``summary.json``'s ``margin`` (null for -inf and +inf: see ``margin_check``),
+    ``margin_check``, the check that sets it (or the outcome; null: no check), and
+    ``margin_metric``, its metric (or the outcome): what a campaign counts the
+    runs' margins by, read as data, not from the check's name."""
+    margin, setting = _least(checks, outcome)
+    if setting is None or isinstance(setting, str):
+        return {"margin": _finite(margin), "margin_check": setting, "margin_metric": setting}
+    return {
+        "margin": _finite(margin),
+        "margin_check": setting.name,
+        "margin_metric": setting.metric,
+    }

@@ -26,7 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
-from wmr_mission.spec import models
+from wmr_mission.spec import catalog, models
+from wmr_mission.spec.catalog import Metric
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.advice import advice
@@ -56,64 +57,6 @@ LOCAL_WINDOW = 8
 _NEAREST_POINTS = 4
 _DISTANCE_CHUNK = 4096  # positions per block: bounded memory on long runs
 
-# Mission-wide `expect` key -> where its value lives in the summary.
-EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
-    "final_position_error": ("final", "position_error"),
-    "final_heading_error": ("final", "heading_error"),
-    "max_constraint_violation": ("max_constraint_violation",),
-    "estimation_convergence_time": ("estimation_convergence_time",),
-    "duration": ("duration",),
-    "deadline_misses": ("realtime", "deadline_misses"),
-    "command_latency_p99": ("realtime", "latency_ms", "p99"),
-}
-# Thresholds on a real-time run's pace: not checked where the run was not one.
-REALTIME_EXPECTATIONS = ("deadline_misses", "command_latency_p99")
-# Per-phase `expect` key -> where its value lives in a phase's summary. A
-# mission-wide value applies to every phase; a phase's own value overrides it.
-PHASE_EXPECTATION_PATHS: dict[str, tuple[str, ...]] = {
-    "tracking_error_rms": ("tracking_error", "rms"),
-    "tracking_error_max": ("tracking_error", "max"),
-    "cross_track_error_max": ("tracking", "cross_track_error_max"),
-    "along_track_lag_max": ("tracking", "along_track_lag_max"),
-    "detour_offset_max": ("tracking", "detour_offset_max"),
-    "detour_time": ("tracking", "detour_time"),
-    "zone_intrusion_max": ("constraint", "intrusion_max"),
-    "clearance_min": ("constraint", "clearance_min"),  # a lower bound: at least
-    "stall_time": ("regulation", "stall_time"),
-    "overshoot_max": ("regulation", "overshoot_max"),
-    "speed_jump_max": ("inputs", "speed_jump_max"),
-    "turn_rate_jump_max": ("inputs", "turn_rate_jump_max"),
-    "speed_reversals": ("inputs", "speed_reversals"),
-    "turn_rate_reversals": ("inputs", "turn_rate_reversals"),
-    "speed_fight_time": ("inputs", "speed_fight_time"),
-    "turn_rate_fight_time": ("inputs", "turn_rate_fight_time"),
-    "turn_rate_jitter": ("inputs", "turn_rate_jitter"),
-    "speed_at_limit": ("inputs", "speed_at_limit"),
-    "turn_rate_at_limit": ("inputs", "turn_rate_at_limit"),
-    "estimation_rms": ("estimation", "rms"),  # per state
-}
-# The per-phase metrics checked where they were measured: null where they do not
-# apply (no track phase, no zone, no detour, inputs never judged); a run whose
-# values are not finite has diverged, which fails it already.
-_WHERE_MEASURED = frozenset(
-    {
-        "cross_track_error_max",
-        "along_track_lag_max",
-        "detour_offset_max",
-        "detour_time",
-        "zone_intrusion_max",
-        "clearance_min",
-        "stall_time",
-        "overshoot_max",
-        "speed_jump_max",
-        "turn_rate_jump_max",
-        "speed_reversals",
-        "turn_rate_reversals",
-        "speed_fight_time",
-        "turn_rate_fight_time",
-        "turn_rate_jitter",
-    }
-)
 # An `auto` turn-rate jitter allows this share of the turn-rate limit besides
 # what the heading noise explains.
 JITTER_FLOOR = 0.01
@@ -122,6 +65,8 @@ JITTER_FLOOR = 0.01
 LAG_TIME_CONSTANTS = 3.0
 # `expect` keys that set how metrics are measured, not thresholds.
 _SETTINGS = ("settle_time", "convergence_tolerance")
+# The run's metrics that only a real-time run has: not checked in a simulation.
+_REALTIME = "realtime"
 
 
 def wrap_angle(angle: FloatArray) -> FloatArray:
@@ -160,6 +105,27 @@ def _violation(values: FloatArray, phase: IntArray | None = None) -> float | Non
 def _rms_or_none(values: FloatArray) -> float | None:
     finite = values[np.isfinite(values)]
     return float(np.sqrt(np.mean(finite**2))) if finite.size else None
+
+
+def reference_distance(
+    x: FloatArray, y: FloatArray, x_ref: FloatArray, y_ref: FloatArray
+) -> FloatArray:
+    """[m] Distance of each position from the reference point of the same
+    sample (the time-indexed one: lag included), not from the path. IEEE
+    operations alone (no library hypot): the same bits on every CPU
+    (docs/reliability.md)."""
+    dx, dy = x - x_ref, y - y_ref
+    distance: FloatArray = np.sqrt(dx * dx + dy * dy)
+    return distance
+
+
+def reference_error(distance: FloatArray) -> float | None:
+    """``reference_error_rms`` [m] of the distances to the reference point
+    counted, the finite ones (an exact sum: no pairwise one); None without any."""
+    distance = distance[np.isfinite(distance)]
+    if distance.size == 0:
+        return None
+    return math.sqrt(math.fsum(distance * distance) / distance.size)
 
 
 def estimation_errors(result: RunRecord, window: slice = slice(None)) -> dict[str, FloatArray]:
@@ -369,7 +335,7 @@ class _Judged:
     goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
 
 
-class _PhaseSamples:
+class PhaseSamples:
     """A phase's stretch of the run, and the samples its quality metrics count
     (those after its settle time). What only some metrics read is computed on
     first use."""
@@ -458,22 +424,37 @@ class _PhaseSamples:
         )
 
     @cached_value
+    def targets(self) -> list[tuple[slice, tuple[float, float, float]]]:
+        """Each stretch of a regulate phase's samples and the target in force
+        over it: the phase's own, then each an update gave (issue: a phase is
+        judged against the target in force at each sample, not its last)."""
+        w = self.window
+        return [(slice(a, b), aim) for a, b, aim in self.info.targets_in_force(w.start, w.stop)]
+
+    @cached_value
     def stall(self) -> float | None:
-        """Time away from its goal without progress (regulate phases)."""
-        if self.info.kind != "regulate" or self.info.target is None:
+        """Time away from its goal without progress (regulate phases): the sum
+        over the stretches of each target (None where none has a value)."""
+        if self.info.kind != "regulate":
             return None
-        r, w, numbers = self.result, self.window, self.numbers
-        target = self.info.target
-        return stall_time(r.x[w], r.y[w], r.theta[w], target, self.goal, numbers, self.zones)
+        r, numbers = self.result, self.numbers
+        found = [
+            stall_time(r.x[w], r.y[w], r.theta[w], aim, self.goal, numbers, self.zones)
+            for w, aim in self.targets
+        ]
+        known = [value for value in found if value is not None]
+        return sum(known) if known else None
 
     @cached_value
     def overshoot(self) -> float | None:
-        """How far past its target the robot went (regulate phases)."""
-        if self.info.kind != "regulate" or self.info.target is None:
+        """How far past its target the robot went (regulate phases): the most
+        over the stretches of each target, each from where it took over."""
+        if self.info.kind != "regulate":
             return None
-        w = self.window
-        x, y = self.result.x[w], self.result.y[w]
-        return target_overshoot(x, y, self.info.target, self.goal[0])
+        r = self.result
+        found = [target_overshoot(r.x[w], r.y[w], aim, self.goal[0]) for w, aim in self.targets]
+        known = [value for value in found if value is not None]
+        return max(known) if known else None
 
     @cached_value
     def regulation(self) -> dict[str, Any] | None:
@@ -508,16 +489,18 @@ _INPUT_METRICS = (
 )
 
 
-def _tracking_value(key: str) -> Callable[[_PhaseSamples], Any]:
+def _tracking_value(key: str) -> Callable[[PhaseSamples], Any]:
     return lambda p: None if p.tracking is None else p.tracking[key]
 
 
-def _input_value(key: str) -> Callable[[_PhaseSamples], Any]:
+def _input_value(key: str) -> Callable[[PhaseSamples], Any]:
     return lambda p: p.inputs[key]
 
 
-# How each per-phase `expect` metric (PHASE_EXPECTATION_PATHS) is measured.
-_PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
+Measure = Callable[["PhaseSamples"], Any]
+# How each metric of a phase in the catalog (wmr_mission.spec.catalog) is
+# measured, by its name: a metric added to the catalog adds its computation here.
+MEASURES: dict[str, Measure] = {
     "tracking_error_rms": lambda p: _rms_or_none(p.off_path[p.settled]),
     "tracking_error_max": lambda p: _max_or_none(p.off_path[p.settled]),
     **{
@@ -540,17 +523,17 @@ _PHASE_METRICS: dict[str, Callable[[_PhaseSamples], Any]] = {
 }
 
 
-def _measured(phase: _PhaseSamples, metrics: list[str]) -> dict[str, dict[str, Any]]:
-    """The values of per-phase ``metrics``, placed as in a phase's summary."""
+def _measured(phase: PhaseSamples, metrics: list[Metric]) -> dict[str, dict[str, Any]]:
+    """The values of a phase's ``metrics``, placed as in a phase's summary."""
     values: dict[str, dict[str, Any]] = {}
     for metric in metrics:
-        section, key = PHASE_EXPECTATION_PATHS[metric]
-        values.setdefault(section, {})[key] = _PHASE_METRICS[metric](phase)
+        section, key = metric.where
+        values.setdefault(section, {})[key] = MEASURES[metric.name](phase)
     return values
 
 
 def _checked_phase_summary(
-    info: PhaseRecord, phase: _PhaseSamples, thresholds: Mapping[str, Any]
+    info: PhaseRecord, phase: PhaseSamples, thresholds: Mapping[str, Any]
 ) -> dict[str, Any]:
     """What :func:`check_expectations` reads of a phase's summary: the value of
     each threshold set that applies to the phase, as :func:`_phase_summary` has it."""
@@ -561,8 +544,8 @@ def _checked_phase_summary(
     }
     checked = [
         metric
-        for metric in PHASE_EXPECTATION_PATHS
-        if thresholds.get(metric) is not None and _applies(summary, metric)
+        for metric in catalog.phase_metrics()
+        if thresholds.get(metric.name) is not None and _applies(summary, metric)
     ]
     values: dict[str, Any] = _measured(phase, checked)
     if "tracking" in values:  # with what the `auto` thresholds read
@@ -573,7 +556,7 @@ def _checked_phase_summary(
 
 
 def _phase_summary(
-    result: RunRecord, info: PhaseRecord, phase: _PhaseSamples, tolerance: Mapping[str, float]
+    result: RunRecord, info: PhaseRecord, phase: PhaseSamples, tolerance: Mapping[str, float]
 ) -> dict[str, Any]:
     """A phase's summary in ``summary.json``."""
     t = result.t
@@ -585,8 +568,8 @@ def _phase_summary(
         phase,
         [
             m
-            for m, (section, _) in PHASE_EXPECTATION_PATHS.items()
-            if section != "tracking" and (track or section != "tracking_error")
+            for m in catalog.phase_metrics()
+            if m.where[0] != "tracking" and (track or m.where[0] != "tracking_error")
         ],
     )
     tracking = None
@@ -596,8 +579,9 @@ def _phase_summary(
         tracking = quality["tracking_error"] | {
             "rms_from_start": _rms_or_none(phase.off_path),
             "max_from_start": _max_or_none(phase.off_path),
-            # distance from the reference point of the same sample: lag included
-            "reference_rms": _rms_or_none(np.hypot(x - x_ref, y - y_ref)[settled]),
+            # distance from the reference point of the same sample, lag
+            # included (runs.csv's reference_error_rms over the track phases)
+            "reference_error_rms": reference_error(reference_distance(x, y, x_ref, y_ref)[settled]),
         }
 
     target_error = None
@@ -608,7 +592,7 @@ def _phase_summary(
     constraint = result.constraint[window]
     converged = convergence_index(phase.errors, tolerance)
     iterations = result.phase2_iterations[window]
-    return {
+    summary: dict[str, Any] = {
         "name": info.name,
         "kind": info.kind,
         "start": start_time,
@@ -656,6 +640,12 @@ def _phase_summary(
             "max": int(iterations.max()) if iterations.size else 0,
         },
     }
+    for section, values in quality.items():  # a metric the catalog has beside these
+        placed = summary.setdefault(section, {})
+        if isinstance(placed, dict):
+            for key, value in values.items():
+                placed.setdefault(key, value)
+    return summary
 
 
 def compute_time_us(compute_ns: np.ndarray) -> dict[str, float | None]:
@@ -682,7 +672,9 @@ def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str,
     ``mission`` is the resolved mission (``Mission.model_dump(mode="json")``).
     """
     expect = _expect_of(mission)
-    shared = {key: expect.get(key) for key in ("settle_time", *PHASE_EXPECTATION_PATHS)}
+    shared = {
+        key: expect.get(key) for key in ("settle_time", *(m.name for m in catalog.phase_metrics()))
+    }
     merged = {}
     for phase in _written_phases(mission):
         own = phase.get("expect") or {}
@@ -743,25 +735,39 @@ def summarize(result: RunRecord, mission: Mapping[str, Any] | None = None) -> di
     ``mission`` (the resolved mission) sets how metrics are measured: each
     phase's settle time and the convergence tolerance per state.
     """
-    summary = run_metrics(result, mission)
-    summary["phases"] = _phase_summaries(result, mission, distance_to_path)
+    phases = _phase_samples(result, mission, distance_to_path)
+    summary = run_metrics(result, mission, phases)
+    tolerance = _tolerance(mission)
+    summary["phases"] = [
+        _phase_summary(result, info, p, tolerance) | _formulas(result, info, p, mission)
+        for info, p, _ in phases
+    ]
     summary["compute_us_per_sample"] = compute_time_us(result.compute_ns)
     summary["loop_us_per_sample"] = loop_time_us(result)
     return summary
 
 
-def _phase_summaries(
+Phases = list[tuple["PhaseRecord", "PhaseSamples", Mapping[str, Any]]]
+
+
+def _formulas(
+    result: RunRecord, info: PhaseRecord, phase: PhaseSamples, mission: Mapping[str, Any] | None
+) -> dict[str, Any]:
+    """A phase's temporal formulas' robustness, ``{"temporal": {formula: rho}}``, if any."""
+    return temporal.phase_values(
+        result, info, phase.window, phase.settle_time, phase.numbers, mission
+    )
+
+
+def _phase_samples(
     result: RunRecord,
     mission: Mapping[str, Any] | None,
     off_path: OffPath,
-    checked_only: bool = False,
     errors: dict[str, FloatArray] | None = None,
-) -> list[dict[str, Any]]:
-    """Each phase's summary (see :func:`_phase_summary`), its tracking error
-    measured by ``off_path``; ``checked_only``: only what its `expect`
-    thresholds read (:func:`_checked_phase_summary`), for a verdict at a
-    fraction of the cost. ``errors``: the run's estimation errors, if at hand."""
-    tolerance = _tolerance(mission)
+) -> Phases:
+    """Each stretch of a phase in run order: its record, its samples (their
+    tracking error measured by ``off_path``), and the `expect` thresholds in
+    force for it. ``errors``: the run's estimation errors, if at hand."""
     per_phase = phase_expectations(mission)
     numbers = mission_numbers(mission, result.dt, result.limits)
     errors = estimation_errors(result) if errors is None else errors
@@ -769,27 +775,44 @@ def _phase_summaries(
     del errors  # not kept while the phases are measured: bounded memory
     ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
     judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers))
-    summaries = []
+    phases: Phases = []
     for index, start, end in phase_segments(result.phase):
         info = result.phases[index]
         expect = per_phase.get(_written_name(info.name), _expect_of(mission))
-        phase = _PhaseSamples(result, info, (start, end), _settle_time(expect), off_path, judged)
-        if checked_only:
-            summaries.append(_checked_phase_summary(info, phase, expect))
-        else:
-            summaries.append(_phase_summary(result, info, phase, tolerance))
-        summaries[-1] |= temporal.phase_values(  # its formulas' robustness, if any
-            result, info, phase.window, phase.settle_time, judged.numbers, mission
-        )
-    return summaries
+        phase = PhaseSamples(result, info, (start, end), _settle_time(expect), off_path, judged)
+        phases.append((info, phase, expect))
+    return phases
 
 
-def run_metrics(result: RunRecord, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def run_columns(
+    result: RunRecord, mission: Mapping[str, Any] | None, phases: Phases | None = None
+) -> dict[str, float | None]:
+    """Each metric of a phase that runs.csv has a column of (catalog.Metric.column),
+    over the run: its worst over the phases of its kinds that have it
+    (``clearance_min``: the body's least clearance; None where no phase has one).
+    ``phases``: the run's (:func:`_phase_samples`), if at hand."""
+    wanted = [m for m in catalog.phase_metrics() if m.column]
+    found: dict[str, list[float]] = {m.name: [] for m in wanted}
+    if phases is None:
+        phases = _phase_samples(result, mission, distance_to_path)
+    for info, phase, _ in phases:
+        for metric in wanted:
+            value = MEASURES[metric.name](phase) if info.kind in metric.kinds else None
+            if value is not None:
+                found[metric.name].append(value)
+    return {m.name: m.worst(found[m.name]) for m in wanted}
+
+
+def run_metrics(
+    result: RunRecord, mission: Mapping[str, Any] | None = None, phases: Phases | None = None
+) -> dict[str, Any]:
     """The mission-wide metrics of :func:`summarize` (its keys before ``phases``),
-    without the per-phase ones."""
+    without the per-phase ones; ``phases``: the run's, if at hand."""
     tolerance = _tolerance(mission)
     errors = estimation_errors(result)
-    summary = _bounded_metrics(result, tolerance, errors)
+    if phases is None:
+        phases = _phase_samples(result, mission, distance_to_path, errors)
+    summary = _bounded_metrics(result, tolerance, errors, run_columns(result, mission, phases))
     settled = (
         result.t - (result.t[0] if result.samples else 0.0)
         >= _settle_time(_expect_of(mission)) - 1e-9 * result.dt
@@ -806,16 +829,20 @@ def run_metrics(result: RunRecord, mission: Mapping[str, Any] | None = None) -> 
         # [m] the zones' allowed side shrunk by the estimate's uncertainty
         summary["constraint_margin"] = result.constraint_margin
     # last in summary.json, whose key order is fixed
-    summary["max_constraint_violation"] = summary.pop("max_constraint_violation")
-    summary["clearance_min"] = summary.pop("clearance_min")
+    for key in ("max_constraint_violation", *(m.name for m in catalog.phase_metrics() if m.column)):
+        summary[key] = summary.pop(key)
     return summary
 
 
 def _bounded_metrics(
-    result: RunRecord, tolerance: Mapping[str, float], errors: dict[str, FloatArray]
+    result: RunRecord,
+    tolerance: Mapping[str, float],
+    errors: dict[str, FloatArray],
+    columns: Mapping[str, float | None],
 ) -> dict[str, Any]:
-    """The run's outcome and the mission-wide metrics an `expect` can bound
-    (EXPECTATION_PATHS), as :func:`run_metrics` has them."""
+    """The run's outcome, the mission-wide metrics an `expect` can bound (the
+    catalog's run metrics) and the worst of the phases' that runs.csv has
+    (:func:`run_columns`), as :func:`run_metrics` has them."""
     converged = convergence_index(errors, tolerance)
     duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
     return {
@@ -828,7 +855,7 @@ def _bounded_metrics(
         "final": _final(result, phase_segments(result.phase)),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
         "max_constraint_violation": _violation(result.constraint, result.phase),
-        "clearance_min": run_clearance(result),
+        **columns,
         # A real-time run's pace and command latency (wmr_mission.backends); absent in
         # our simulator, whose summary keeps its bytes.
         **({} if result.realtime is None else {"realtime": copy.deepcopy(result.realtime)}),
@@ -840,21 +867,6 @@ def _footprint(mission: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
     robot = (mission or {}).get("robot") or {}
     footprint = robot.get("footprint")
     return footprint if isinstance(footprint, Mapping) else None
-
-
-def run_clearance(result: RunRecord) -> float | None:
-    """[m] the least clearance of the body over the run's phases (None where no
-    phase has a zone)."""
-    found = []
-    for index, start, end in phase_segments(result.phase):
-        zones = zones_of(result.phases[index].constraints, result.regions)
-        w = slice(start, end)
-        value = clearance_min(
-            result.x[w], result.y[w], result.theta[w], zones, _footprint(result.mission)
-        )
-        if value is not None:
-            found.append(value)
-    return min(found) if found else None
 
 
 def loop_time_us(result: RunRecord) -> float | None:
@@ -875,18 +887,13 @@ def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | 
     return float(value) if math.isfinite(value) else None
 
 
-def _applies(phase: Mapping[str, Any], metric: str) -> bool:
-    """A phase-quality threshold needs samples after the settle time; the
-    tracking ones need a track phase. (Those of _WHERE_MEASURED are checked
-    where they have a value.)"""
-    if metric in _WHERE_MEASURED:
-        return metric not in _TRACKING or phase.get("kind") == "track"
-    if not phase.get("settled_samples"):
+def _applies(phase: Mapping[str, Any], metric: Metric) -> bool:
+    """A metric applies to the phases of its kinds (catalog.Metric.kinds); one
+    measured after the settle time needs samples after it (one checked where
+    measured is checked where it has a value)."""
+    if phase.get("kind") not in metric.kinds:
         return False
-    return not metric.startswith("tracking_error") or phase.get("kind") == "track"
-
-
-_TRACKING = frozenset(m for m, path in PHASE_EXPECTATION_PATHS.items() if path[0] == "tracking")
+    return metric.where_measured or bool(phase.get("settled_samples"))
 
 
 def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumbers) -> float | None:
@@ -921,25 +928,29 @@ def _phase_checks(
 ) -> list[Check]:
     checks = []
     name = str(phase.get("name"))
-    for metric, path in PHASE_EXPECTATION_PATHS.items():
-        threshold = thresholds.get(metric)
+    for metric in catalog.phase_metrics():
+        threshold = thresholds.get(metric.name)
         if threshold is None or not _applies(phase, metric):
             continue
-        if metric == "estimation_rms":  # a bound per state
+        if metric.expect == "per-state":  # a bound per state
             for state in STATES:
                 if threshold.get(state) is not None:
-                    value = summary_value(phase, (*path, state))
-                    checks.append(Check(f"{metric}.{state}", name, float(threshold[state]), value))
+                    value = summary_value(phase, (*metric.where, state))
+                    checks.append(
+                        Check(f"{metric.name}.{state}", name, float(threshold[state]), value)
+                    )
             continue
-        value = summary_value(phase, path)
-        if metric in _WHERE_MEASURED and value is None:
+        value = summary_value(phase, metric.where)
+        if metric.where_measured and value is None:
             continue
-        if metric == "clearance_min":  # at least so many metres
-            checks.append(Check(metric, name, float(threshold), value, lower=True))
+        if metric.bound == "min":  # at least so much
+            checks.append(Check(metric.name, name, float(threshold), value, lower=True))
             continue
-        bound = auto_threshold(metric, phase, numbers) if threshold == "auto" else threshold["max"]
+        bound = (
+            auto_threshold(metric.name, phase, numbers) if threshold == "auto" else threshold["max"]
+        )
         if bound is not None:
-            checks.append(Check(metric, name, float(bound), value))
+            checks.append(Check(metric.name, name, float(bound), value))
     return checks
 
 
@@ -953,7 +964,7 @@ def check_expectations(
     A missing (null) value never meets a threshold: a non-finite metric after
     a divergence fails. A phase-quality threshold is not checked where it does
     not apply (a phase no longer than its settle time; tracking off a track phase;
-    the metrics of _WHERE_MEASURED where they have no value).
+    a metric checked where measured, catalog.Metric.where_measured, where it has no value).
     """
     robot = (mission or {}).get("robot") or {}
     limits = robot.get("limits") or {}
@@ -964,15 +975,14 @@ def check_expectations(
         (float(limits.get("v", defaults.v)), float(limits.get("omega", defaults.omega))),
     )
     expect = _expect_of(mission)
-    known = (*EXPECTATION_PATHS, *PHASE_EXPECTATION_PATHS, *_SETTINGS, "temporal")
-    for metric in expect:
-        if metric not in known:
-            raise ValueError(f"unknown expectation {metric!r}; expected one of {', '.join(known)}")
+    known = (*catalog.CATALOG, *_SETTINGS, "temporal")
+    for key in expect:
+        if key not in known:
+            raise ValueError(f"unknown expectation {key!r}; expected one of {', '.join(known)}")
     checks = [
-        Check(metric, None, float(expect[metric]["max"]), summary_value(summary, path))
-        for metric, path in EXPECTATION_PATHS.items()
-        if expect.get(metric) is not None
-        and (metric not in REALTIME_EXPECTATIONS or "realtime" in summary)
+        Check(m.name, None, float(expect[m.name]["max"]), summary_value(summary, m.where))
+        for m in catalog.run_metrics()
+        if expect.get(m.name) is not None and (m.where[0] != _REALTIME or _REALTIME in summary)
     ]
     per_phase = phase_expectations(mission)
     controller = str(((mission or {}).get("controller") or {}).get("type", "paper"))
@@ -1032,13 +1042,19 @@ def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> d
     bound misses a threshold is the distance to the path computed.
     """
     errors = estimation_errors(result)
-    summary = _bounded_metrics(result, _tolerance(mission), errors)
+    phases = _phase_samples(result, mission, _off_path_bound, errors)
+    columns = run_columns(result, mission, phases)
+    summary = _bounded_metrics(result, _tolerance(mission), errors, columns)
     if not result.succeeded:  # judging changes only a success; no check decides a failure
         summary.update(margin_fields([], result.outcome.value))
         return summary
-    phases = _phase_summaries(result, mission, _off_path_bound, checked_only=True, errors=errors)
     del errors
-    checks = check_expectations({**summary, "phases": phases}, mission)
+    checked = [
+        _checked_phase_summary(info, phase, expect) | _formulas(result, info, phase, mission)
+        for info, phase, expect in phases
+    ]
+    del phases
+    checks = check_expectations({**summary, "phases": checked}, mission)
     # A bound above the distance to the path sets a tracking check's margin
     # below its own: exact where it misses, or where it sets the run's margin.
     least = min(checks, key=lambda c: c.margin, default=None)

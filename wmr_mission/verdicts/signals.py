@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray
-from wmr_mission.spec import models
+from wmr_mission.spec import catalog, models
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.check import Check as Judged
@@ -47,57 +47,6 @@ if TYPE_CHECKING:
 
 Mask = NDArray[np.bool_]
 
-# metric -> (panel, the signal's line it bounds; None for a level check)
-PEAK: dict[str, tuple[str, str]] = {
-    "cross_track_error_max": ("cross_track", "cross-track error"),
-    "tracking_error_max": ("cross_track", "distance to the path"),
-    "detour_offset_max": ("cross_track", "cross-track error"),
-    "along_track_lag_max": ("along_track", "along-track lag"),
-    "zone_intrusion_max": ("zones", "depth into a zone"),
-    "max_constraint_violation": ("constraint", "constraint value"),
-    "speed_jump_max": ("jumps", "|Δv| [m/s]"),
-    "turn_rate_jump_max": ("jumps", "|Δω| [rad/s]"),
-    "final_position_error": ("goal", "distance to the target"),
-}
-LEVEL: dict[str, str] = {
-    "clearance_min": "zones",  # the body's; the panel draws the axle's depth
-    "tracking_error_rms": "cross_track",
-    "detour_time": "cross_track",
-    "stall_time": "goal",
-    "overshoot_max": "goal",
-    "final_heading_error": "goal",
-    "duration": "goal",
-    "estimation_convergence_time": "estimation",
-    "estimation_rms": "estimation",
-    "turn_rate_jitter": "jitter",
-    "speed_reversals": "saturation",
-    "turn_rate_reversals": "saturation",
-    "speed_fight_time": "saturation",
-    "turn_rate_fight_time": "saturation",
-    "speed_at_limit": "saturation",
-    "turn_rate_at_limit": "saturation",
-}
-UNITS: dict[str, str] = {
-    "cross_track_error_max": "m",
-    "tracking_error_max": "m",
-    "tracking_error_rms": "m",
-    "detour_offset_max": "m",
-    "along_track_lag_max": "m",
-    "zone_intrusion_max": "m",
-    "clearance_min": "m",
-    "final_position_error": "m",
-    "final_heading_error": "rad",
-    "speed_jump_max": "m/s",
-    "turn_rate_jump_max": "rad/s",
-    "turn_rate_jitter": "rad/s",
-    "detour_time": "s",
-    "stall_time": "s",
-    "overshoot_max": "m",
-    "duration": "s",
-    "estimation_convergence_time": "s",
-    "speed_fight_time": "s",
-    "turn_rate_fight_time": "s",
-}
 # Panels top to bottom (a failing one is moved to the top), with their axis labels.
 PANELS: dict[str, str] = {
     "cross_track": "cross-track [m]",
@@ -112,19 +61,21 @@ PANELS: dict[str, str] = {
 }
 
 
-def unit_of(metric: str) -> str:
-    """The unit of a check's value: ``m``, ``rad/s`` ... or ``""`` (a count, a share)."""
-    if metric.startswith("estimation_rms."):
-        return "rad" if metric.endswith("theta") else "m"
-    return UNITS.get(metric, "")
+def panel_of(metric: str) -> str | None:
+    """The panel a check is drawn on (catalog.Metric.panel; None: none)."""
+    entry = catalog.CATALOG.get(metric.split(".", 1)[0])
+    if entry is not None:
+        return entry.panel
+    try:  # a temporal formula's: its first signal's panel
+        return temporal.panel_of(metric)
+    except ValueError:  # not a formula either
+        return None
 
 
-def panel_of(metric: str) -> str:
-    """The panel a check is drawn on."""
-    base = metric.split(".", 1)[0]
-    if base in PEAK:
-        return PEAK[base][0]
-    return LEVEL[base] if base in LEVEL else temporal.panel_of(metric)  # a formula's
+def line_of(metric: str) -> str | None:
+    """The signal's line a peak check bounds; None for a level check."""
+    entry = catalog.CATALOG.get(metric.split(".", 1)[0])
+    return None if entry is None else entry.line
 
 
 @dataclass
@@ -143,7 +94,7 @@ class Check:
 
     @property
     def peak(self) -> bool:
-        return self.metric in PEAK
+        return line_of(self.metric) is not None
 
     @property
     def first_over(self) -> int | None:
@@ -151,7 +102,7 @@ class Check:
 
     def words(self) -> str:
         """``south#1: speed_jump_max = 2.33 m/s (max 2 m/s)``."""
-        unit = unit_of(self.metric)
+        unit = catalog.unit_of(self.metric)
         unit = f" {unit}" if unit else ""
         value = "none" if self.value is None else f"{self.value:.3g}{unit}"
         where = f"{self.phase}: " if self.phase is not None else ""
@@ -178,6 +129,8 @@ def expectations(result: RunRecord) -> list[dict[str, Any]]:
     """The run's `expect` checks (``summary.json``'s ``expectations``)."""
     if result.judged is not None:
         return list(result.judged.get("expectations") or [])
+    if result.expectations is not None:  # read back with its run directory
+        return list(result.expectations)
     mission = result.mission
     if mission is None or not isinstance(mission.get("expect"), Mapping):
         return []
@@ -238,9 +191,10 @@ def run_signals(result: RunRecord) -> Signals:
             depth = np.max([zone.depth(result.x[w], result.y[w]) for zone in zones], axis=0)
             line("zones", "depth into a zone")[w] = depth
             judged["depth into a zone"][w] = True
-        if info.target is not None and info.kind == "regulate":
-            tx, ty = info.target[0], info.target[1]
-            line("goal", "distance to the target")[w] = np.hypot(result.x[w] - tx, result.y[w] - ty)
+        if info.kind == "regulate":  # to the target in force at each sample
+            for a, b, (tx, ty, _) in info.targets_in_force(start, end):
+                to_target = line("goal", "distance to the target")
+                to_target[a:b] = np.hypot(result.x[a:b] - tx, result.y[a:b] - ty)
         first = end if inputs_from is None else max(start, _sample(result, inputs_from))
         if first + 1 < end and {"speed_jump_max", "turn_rate_jump_max"} & metrics:
             for name, values in (("|Δv| [m/s]", result.v), ("|Δω| [rad/s]", result.omega)):
@@ -322,9 +276,10 @@ def _placed(
     metric, phase = read.metric, read.phase
     span = spans.get(phase, (0, n)) if phase is not None else (0, n)
     placed = Check(metric, phase, read.bound, read.value, read.met, span)
-    if placed.met or metric not in PEAK:
+    name = line_of(metric)
+    panel = panel_of(metric)
+    if placed.met or name is None or panel is None:
         return placed
-    panel, name = PEAK[metric]
     values = lines.get(panel, {}).get(name)
     if values is None:
         return placed

@@ -1,0 +1,88 @@
+"""A regulate phase whose `updates` move its target is judged against the
+target in force at each sample (docs/mission-format.md, "References that
+change on-line"), not against its last target."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from wmr_mission.api import load_run, mission_from_text, run_mission
+from wmr_mission.cli import app
+from wmr_mission.verdicts.signals import run_signals
+
+# A park to (A, 0) that an update moves to (B, 0); 1.2 m/s^2, so the robot
+# cannot stop at once where the new target comes up ahead of it.
+PARK = """
+version: 1
+name: park-update
+robot:
+  dt: 0.01
+  initial_state: {{x: 0, y: 0, theta: 0}}
+  limits: {{v: 6, omega: 7, acceleration: {{v: 1.2, omega: 10}}}}
+phases:
+  - name: park
+    regulate: {{target: {{x: {a}, y: 0, theta: 0}}}}
+    updates:
+      - when: {{{when}}}
+        target: {{x: {b}, y: 0, theta: 0}}
+    until: {{settled: {{position: 0.02, heading: 0.02}}}}
+    timeout: 60
+"""
+
+
+def _overshoot(summary: dict[str, object]) -> dict[str, object]:
+    checks = summary["expectations"]
+    assert isinstance(checks, list)
+    return next(c for c in checks if c["metric"] == "overshoot_max")
+
+
+def test_a_park_moved_back_overshooting_neither_target_passes(tmp_path: Path) -> None:
+    """Parked near (4, 0), then sent back to (2, 0) at 6 s: against its last
+    target from where it started, the way to (4, 0) read as 1.98 m past (2, 0)."""
+    mission = mission_from_text(PARK.format(a=4, when="elapsed: 6", b=2))
+    result = run_mission(mission)
+    park = result.phases[0]
+    update = int(np.flatnonzero(result.reference == 1)[0])
+    assert park.targets == ((0, 4.0, 0.0, 0.0), (update, 2.0, 0.0, 0.0))
+    assert result.x[:update].max() == pytest.approx(3.98, abs=0.01)  # short of 4
+    assert result.x[update:].min() >= 2.0 - 1e-9  # never behind 2
+    summary = result.judged
+    assert summary is not None
+    assert summary["outcome"] == "success", summary["message"]
+    check = _overshoot(summary)
+    assert check["value"] == pytest.approx(0.0, abs=1e-9)
+    assert check["max"] == pytest.approx(0.02)
+    # the figure's distance to the target is to the target in force
+    goal = run_signals(result).lines["goal"]["distance to the target"]
+    assert goal[update - 1] == pytest.approx(4.0 - result.x[update - 1], abs=1e-9)
+    assert goal[update] == pytest.approx(result.x[update] - 2.0, abs=1e-9)
+    # written to manifest.json and read back: the run directory judges the same
+    written, out = tmp_path / "park.yaml", tmp_path / "run"
+    written.write_text(PARK.format(a=4, when="elapsed: 6", b=2))
+    ran = CliRunner().invoke(app, ["run", str(written), "--out", str(out), "--no-plots"])
+    assert ran.exit_code == 0, ran.stdout + ran.stderr
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["run"]["phases"][0]["targets"] == [[0, 4, 0, 0], [update, 2, 0, 0]]
+    assert load_run(out).phases[0].targets == park.targets
+
+
+def test_a_park_that_passes_its_new_target_fails() -> None:
+    """Sent to (5, 0) from (4.01, 0) at 3.08 m/s, it stops 4 m on, at 7.99:
+    2.99 m past the target in force."""
+    mission = mission_from_text(PARK.format(a=10, when="travelled: 4", b=5))
+    result = run_mission(mission)
+    update = int(np.flatnonzero(result.reference == 1)[0])
+    assert result.x[update] == pytest.approx(4.01, abs=0.01)
+    assert result.x.max() == pytest.approx(7.99, abs=0.01)
+    summary = result.judged
+    assert summary is not None
+    assert summary["outcome"] == "expect-failed"
+    check = _overshoot(summary)
+    assert check["met"] is False
+    assert check["value"] == pytest.approx(result.x.max() - 5.0, abs=1e-9)
+    assert "park: overshoot_max = 2.98768 (max 0.02)" in summary["message"]
