@@ -6,7 +6,7 @@
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
-    python benchmarks/measure.py stages     # `run case1 --no-plots`'s CPU time, stage by stage
+    python benchmarks/measure.py stages     # `run case1 --no-plots`, `validate case2`, by stage
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
@@ -255,55 +255,89 @@ def startup(pairs: int = 8) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+# The command itself (wmr_mission.cli.main), its stages marked by wrapping the
+# functions it calls: CPU seconds of this process from its start to each mark.
 _STAGES = """
-import sys, time
-from pathlib import Path
+import atexit, sys, time
 marks = []
-def mark(stage, started=[time.process_time()]):
-    now = time.process_time()
-    marks.append((stage, now - started[0]))
-    started[0] = now
-import wmr_mission.cli, wmr_mission.commands.run
-from wmr_mission.spec.loader import load_mission
-mark("imports (the command line, run, the loader)")
-mission = load_mission(Path(sys.argv[1]))
-mark("reading and checking the mission")
-from wmr_mission.commands.compile import choose_loop
-from wmr_mission.sim.plan import sample_budget
-from wmr_mission.sim import runner
-from wmr_mission.verdicts import metrics
-choose_loop(sample_budget(mission))
-mark("importing the runner")
-result = runner._run(runner.plan_mission(mission), None, None, None)
-mark("planning and simulating")
-result.mission = mission.model_dump(mode="json")
-metrics.judge(result, result.mission)
-mark("judging")
-from wmr_mission.output.rundir import write_run
-write_run(result, Path(sys.argv[2]), mission_sha256="-", mission_file=sys.argv[1], plots=False,
-          animate=False)
-mark("writing the run directory")
-print("; ".join(f"{stage} {seconds:.3f} s" for stage, seconds in marks))
+def mark(stage):
+    marks.append((stage, time.process_time()))
+def timed(module, name, stage):
+    function = getattr(module, name)
+    def wrapper(*args, **kwargs):
+        mark("before " + stage)
+        try:
+            return function(*args, **kwargs)
+        finally:
+            mark(stage)
+    setattr(module, name, wrapper)
+def report():
+    mark("the rest")
+    print(";".join(f"{stage}={seconds}" for stage, seconds in marks), file=sys.__stderr__)
+atexit.register(report)
+mark("the interpreter")
+sys.argv[0] = "wmr-mission"
+from wmr_mission import cli
+if sys.argv[1] == "run":
+    from wmr_mission.commands import run
+    from wmr_mission.output import report, rundir
+    from wmr_mission.sim import runner
+    from wmr_mission.spec import loader
+    from wmr_mission.verdicts import metrics
+    timed(loader, "check_mission_bytes", "reading and checking the mission")
+    timed(runner, "run_mission", "simulating")
+    timed(metrics, "judge_mission", "judging")
+    timed(rundir, "write_run", "writing the run directory")
+    timed(report, "format_table", "the phase table")
+else:
+    from wmr_mission.campaign import load
+    from wmr_mission.commands import validate
+    timed(load, "check_file", "reading and checking the mission")
+mark("importing the command line and the command")
+cli.main()
 """
 
 
-def stages() -> None:
-    """Where `run missions/case1.yaml --no-plots` spends its CPU time, stage by
-    stage in one process, as `run` chooses its loop (plain Python)."""
+def stages(repeat: int = 5) -> None:
+    """Where `run missions/case1.yaml --no-plots` (as `run` chooses its loop:
+    plain Python) and `validate missions/case2.yaml` spend their CPU time,
+    stage by stage in the command's process; medians of ``repeat`` runs after
+    one untimed run (bytecode)."""
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
-    with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(2):  # the first writes the bytecode
-            done = subprocess.run(
-                [sys.executable, "-c", _STAGES, str(MISSIONS / "case1.yaml"), f"{tmp}/run"],
-                env=_user_env(),
-                check=True,
-                capture_output=True,
-                text=True,
-            )
-            import shutil
+    commands = {
+        "run case1 --no-plots": ["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out"],
+        "validate case2": ["validate", str(MISSIONS / "case2.yaml")],
+    }
+    import shutil
 
-            shutil.rmtree(f"{tmp}/run", ignore_errors=True)
-    print(done.stdout.strip())
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, command in commands.items():
+            if command[-1] == "--out":
+                command = [*command, f"{tmp}/run"]
+            spent: dict[str, list[float]] = {}
+            for attempt in range(repeat + 1):
+                shutil.rmtree(f"{tmp}/run", ignore_errors=True)
+                done = subprocess.run(
+                    [sys.executable, "-c", _STAGES, *command],
+                    env=_user_env(),
+                    capture_output=True,
+                    text=True,
+                )
+                marks = [m.split("=") for m in done.stderr.strip().splitlines()[-1].split(";")]
+                before = 0.0
+                between = 0.0  # before a stage's mark: the command's own work between them
+                for stage, seconds in marks:
+                    if stage.startswith("before "):
+                        between += float(seconds) - before
+                    elif attempt:
+                        spent.setdefault(stage, []).append(float(seconds) - before)
+                    before = float(seconds)
+                if attempt:
+                    spent.setdefault("the command between them", []).append(between)
+            shown = [f"{stage} {statistics.median(s):.3f} s" for stage, s in spent.items()]
+            total = statistics.median(sum(s[i] for s in spent.values()) for i in range(repeat))
+            shown.append(f"all {total:.3f} s (CPU, medians of {repeat})")
+            print(f"{name}: " + "; ".join(shown))
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
