@@ -80,10 +80,12 @@ def test_validate_imports_nothing_it_does_not_use() -> None:
 
 
 def test_a_run_without_plots_imports_nothing_it_does_not_use(tmp_path: Path) -> None:
-    """case 1 runs as plain Python (its budget is under the bound,
-    wmr_mission.commands.compile): no numba, no scipy, no figures."""
+    """figure-eight.yaml runs as plain Python (its budget, 4 515 samples, is
+    under the bound, wmr_mission.commands.compile): no numba, no scipy, no
+    figures."""
     out = tmp_path / "run"
-    report = _start(["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out", str(out)])
+    mission = MISSIONS / "figure-eight.yaml"
+    report = _start(["run", str(mission), "--no-plots", "--out", str(out)])
     modules = report["modules"]
     assert isinstance(modules, list)
     assert [m for m in NEVER if m in modules] == []
