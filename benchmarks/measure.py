@@ -6,6 +6,8 @@
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
+    python benchmarks/measure.py cuts       # what each start-up setting of the command line saves
+    python benchmarks/measure.py imports    # CPU of `validate`'s imports, one by one
     python benchmarks/measure.py stages     # `run case1 --no-plots`, `validate case2`, by stage
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
@@ -341,6 +343,70 @@ def stages(repeat: int = 5) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+# `wmr-mission` as a process of its own, and the same with Python's collections
+# at shutdown left as they were (gc.freeze a no-op, wmr_mission.cli.main).
+_COMMAND = "import sys; sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import main; main()"
+_UNFROZEN = "import gc; gc.freeze = lambda: None; " + _COMMAND
+
+
+def cuts(pairs: int = 9) -> None:
+    """What each setting the command line makes for its own process saves
+    (wmr_mission/cli.py): a command with it and without, in turn, CPU
+    seconds, medians and the ratio pair by pair; the kernel cache warm."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    py = sys.executable
+    threads = str(os.cpu_count())
+    with tempfile.TemporaryDirectory() as tmp:
+        validate = [py, "-c", _COMMAND, "validate", str(MISSIONS / "case2.yaml")]
+        case1 = ["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out", f"{tmp}/run"]
+        plain = _user_env(WMR_MISSION_NO_JIT="1")
+        cases = [
+            (f"import numpy, BLAS threads 1 / {threads}", [py, "-c", "import numpy"],
+             [py, "-c", "import numpy"], _user_env(OPENBLAS_NUM_THREADS="1"),
+             _user_env(OPENBLAS_NUM_THREADS=threads)),
+            ("validate case2, pydantic plug-ins not looked for / looked for", validate,
+             validate, _user_env(), _user_env(PYDANTIC_DISABLE_PLUGINS="")),
+            ("validate case2, frozen at exit / not", validate,
+             [py, "-c", _UNFROZEN, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots as plain Python, frozen at exit / not",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], plain, plain),
+            ("run case1 --no-plots compiled, frozen at exit / not",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], _user_env(),
+             _user_env()),
+        ]  # fmt: skip
+        for name, with_it, without, env_with, env_without in cases:
+            done, undone = _pairs([with_it, without], [env_with, env_without], pairs)
+            print(f"{name}: {statistics.median(done):.3f} / {statistics.median(undone):.3f} s, "
+                  f"pair by pair {_ratio(undone, done):.2f} ({pairs} pairs)")  # fmt: skip
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def imports(repeat: int = 9) -> None:
+    """CPU seconds of `validate`'s imports, each imported in turn in a fresh
+    process, as the command line sets it up (one BLAS thread, no pydantic
+    plug-ins); medians of ``repeat`` processes."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    names = ["yaml", "pydantic", "pydantic.main", "pydantic.types", "typer", "numpy"]
+    names += ["wmr_mission.cli", "wmr_mission.commands.validate", "wmr_mission.campaign.load"]
+    code = (
+        "import importlib, sys, time\n"
+        "spent = [time.process_time()]\n"
+        "for name in sys.argv[1:]:\n"
+        "    started = time.process_time(); importlib.import_module(name)\n"
+        "    spent.append(time.process_time() - started)\n"
+        "print(*spent)"
+    )
+    env = _user_env(OPENBLAS_NUM_THREADS="1", PYDANTIC_DISABLE_PLUGINS="__all__")
+    runs = [
+        [float(x) for x in subprocess.run([sys.executable, "-c", code, *names], env=env,
+         check=True, capture_output=True, text=True).stdout.split()]
+        for _ in range(repeat + 1)
+    ][1:]  # fmt: skip
+    for i, name in enumerate(["(the interpreter, before the first)", *names]):
+        print(f"{statistics.median(r[i] for r in runs) * 1000:6.1f} ms  {name}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 def threshold(pairs: int = 3) -> None:
     """Where the compiled loop pays for its load: each example mission and
     benchmarks/hour.yaml cut to 50-400 s, `run --no-plots` as plain Python and
@@ -418,8 +484,10 @@ def compile_times(mission: str = "case2") -> None:
     from wmr_mission.sim.runner import run_mission
 
     started = time.perf_counter()
+    cpu_started = time.process_time()
     run_mission(plan_mission(load_mission(MISSIONS / f"{mission}.yaml")))
     wall = time.perf_counter() - started
+    cpu = time.process_time() - cpu_started
     shutil.rmtree(cache)
     own: dict[str, float] = collections.defaultdict(float)
     count: collections.Counter[str] = collections.Counter()
@@ -434,7 +502,8 @@ def compile_times(mission: str = "case2") -> None:
         count[name] += 1
         if open_events:
             open_events[-1][1] += stamp - start
-    print(f"{mission}: first run_mission, every kernel compiled: {wall:.1f} s wall")
+    print(f"{mission}: first run_mission, every kernel compiled: {wall:.1f} s wall, "
+          f"{cpu:.1f} s CPU")  # fmt: skip
     for name, seconds in sorted(own.items(), key=lambda item: -item[1])[:12]:
         print(f"  {name:40s} {seconds:5.2f} s in {count[name]} compile(s)")
     print(
@@ -1092,6 +1161,7 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
+    jobs |= {"cuts": cuts, "imports": imports}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,
