@@ -120,3 +120,43 @@ def test_validate_reads_a_mission_file_once(monkeypatch: pytest.MonkeyPatch) -> 
     monkeypatch.setattr(loader, "_compose", counted)
     assert check_file(MISSIONS / "case2.yaml") == []
     assert len(composed) == 1
+
+
+def test_a_checkout_run_from_its_root_runs_as_the_installed_package(tmp_path: Path) -> None:
+    """`python -m wmr_mission` from the root of a checkout imports the
+    checkout's package, keeps its compiled kernels in the checkout's own
+    `__pycache__`, and runs a short mission as the installed package does:
+    plain Python, nothing said, the same bytes."""
+    import shutil
+
+    import wmr_mission
+
+    package = Path(wmr_mission.__file__).parent
+    shutil.copytree(package, tmp_path / "wmr_mission", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {
+        k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "WMR_MISSION_NO_JIT")
+    }
+    probe = (
+        "import wmr_mission; from wmr_mission.kernels import cache; "
+        "print(wmr_mission.__file__); print(cache.cache_directory())"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], cwd=tmp_path, env=env, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    imported, kernels = done.stdout.splitlines()
+    assert Path(imported).parent == tmp_path / "wmr_mission"
+    assert Path(kernels).parent == tmp_path / "wmr_mission" / "__pycache__"
+    mission = str(MISSIONS / "fence.yaml")
+    runs = {}
+    for where, cwd in (("checkout", tmp_path), ("installed", tmp_path.parent)):
+        out = tmp_path.parent / f"{tmp_path.name}-{where}"
+        command = [sys.executable, "-m", "wmr_mission", "run", mission, "--no-plots"]
+        done = subprocess.run(
+            [*command, "--out", str(out)], cwd=cwd, env=env, capture_output=True, text=True
+        )
+        assert done.returncode == 0, done.stderr
+        assert "wmr-mission:" not in done.stderr
+        runs[where] = (out / "trajectory.csv").read_bytes()
+        shutil.rmtree(out)
+    assert runs["checkout"] == runs["installed"]
