@@ -6,7 +6,9 @@
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
-    python benchmarks/measure.py stages     # `run case1 --no-plots`'s CPU time, stage by stage
+    python benchmarks/measure.py cuts       # what each start-up setting of the command line saves
+    python benchmarks/measure.py imports    # CPU of `validate`'s imports, one by one
+    python benchmarks/measure.py stages     # `run case1 --no-plots`, `validate case2`, by stage
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
@@ -207,13 +209,13 @@ def _checkout(commit: str, directory: str) -> str:
 
 
 def startup(pairs: int = 8) -> None:
-    """CPU time of the commands users start with, the kernel cache warm:
-    `run missions/case1.yaml --no-plots` as it runs (plain Python: a short
-    mission), with the compiled loop loaded from the cache instead, and
-    `validate missions/case2.yaml`; each a process, in turn. With a commit's
-    name (`startup COMMIT`), `run` and `validate` as at that commit too, in
-    turn with these (`run` compiled there in the foreground, loaded from that
-    checkout's own cache once compiled)."""
+    """CPU time of the commands users start with, the kernel cache warm (made
+    ready by `wmr-mission compile`): `run missions/case1.yaml --no-plots` as it
+    runs (the compiled loop: its budget is over the bound of a ready cache),
+    the same as plain Python (WMR_MISSION_NO_JIT=1), and `validate
+    missions/case2.yaml`; each a process, in turn. With a commit's name
+    (`startup COMMIT`), `run` and `validate` as at that commit too, in turn
+    with these."""
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     env = _user_env()
     against = sys.argv[2] if len(sys.argv) > 2 else None
@@ -222,13 +224,13 @@ def startup(pairs: int = 8) -> None:
         os.chdir(tmp)  # `python -m` puts the working directory before PYTHONPATH
         case1 = ["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out"]
         commands = [
+            [sys.executable, "-m", "wmr_mission", *case1, f"{tmp}/compiled"],
             [sys.executable, "-m", "wmr_mission", *case1, f"{tmp}/plain"],
-            [sys.executable, "-c", _RUN_COMPILED, *case1, f"{tmp}/compiled"],
             [sys.executable, "-m", "wmr_mission", "validate", str(MISSIONS / "case2.yaml")],
         ]
-        envs = [env] * 3
-        names = ["run case1 --no-plots (as run: plain Python)",
-                 "the same, the compiled loop loaded", "validate case2"]  # fmt: skip
+        envs = [env, _user_env(WMR_MISSION_NO_JIT="1"), env]
+        names = ["run case1 --no-plots (as run chooses: compiled)",
+                 "the same as plain Python", "validate case2"]  # fmt: skip
         if against is not None:
             os.mkdir(f"{tmp}/then")
             then = {**env, "PYTHONPATH": _checkout(against, f"{tmp}/then"),
@@ -247,7 +249,7 @@ def startup(pairs: int = 8) -> None:
     for name, cpu in zip(names, times, strict=True):
         print(f"{name}: CPU median {statistics.median(cpu):.3f} s, min {min(cpu):.3f} s "
               f"({pairs} runs)")  # fmt: skip
-    print(f"compiled / plain, pair by pair: median {_ratio(times[0], times[1]):.2f}")
+    print(f"compiled / plain, pair by pair: median {_ratio(times[1], times[0]):.2f}")
     if against is not None:
         print(f"run, now / {against}, pair by pair: median {_ratio(times[3], times[0]):.2f}")
         print(f"validate, now / {against}, pair by pair: median {_ratio(times[4], times[2]):.2f}")
@@ -255,55 +257,153 @@ def startup(pairs: int = 8) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+# The command itself (wmr_mission.cli.main), its stages marked by wrapping the
+# functions it calls: CPU seconds of this process from its start to each mark.
 _STAGES = """
-import sys, time
-from pathlib import Path
+import atexit, sys, time
 marks = []
-def mark(stage, started=[time.process_time()]):
-    now = time.process_time()
-    marks.append((stage, now - started[0]))
-    started[0] = now
-import wmr_mission.cli, wmr_mission.commands.run
-from wmr_mission.spec.loader import load_mission
-mark("imports (the command line, run, the loader)")
-mission = load_mission(Path(sys.argv[1]))
-mark("reading and checking the mission")
-from wmr_mission.commands.compile import choose_loop
-from wmr_mission.sim.plan import sample_budget
-from wmr_mission.sim import runner
-from wmr_mission.verdicts import metrics
-choose_loop(sample_budget(mission))
-mark("importing the runner")
-result = runner._run(runner.plan_mission(mission), None, None, None)
-mark("planning and simulating")
-result.mission = mission.model_dump(mode="json")
-metrics.judge(result, result.mission)
-mark("judging")
-from wmr_mission.output.rundir import write_run
-write_run(result, Path(sys.argv[2]), mission_sha256="-", mission_file=sys.argv[1], plots=False,
-          animate=False)
-mark("writing the run directory")
-print("; ".join(f"{stage} {seconds:.3f} s" for stage, seconds in marks))
+def mark(stage):
+    marks.append((stage, time.process_time()))
+def timed(module, name, stage):
+    function = getattr(module, name)
+    def wrapper(*args, **kwargs):
+        mark("before " + stage)
+        try:
+            return function(*args, **kwargs)
+        finally:
+            mark(stage)
+    setattr(module, name, wrapper)
+def report():
+    mark("the rest")
+    print(";".join(f"{stage}={seconds}" for stage, seconds in marks), file=sys.__stderr__)
+atexit.register(report)
+mark("the interpreter")
+sys.argv[0] = "wmr-mission"
+from wmr_mission import cli
+if sys.argv[1] == "run":
+    from wmr_mission.commands import run
+    from wmr_mission.output import report, rundir
+    from wmr_mission.sim import runner
+    from wmr_mission.spec import loader
+    from wmr_mission.verdicts import metrics
+    timed(loader, "check_mission_bytes", "reading and checking the mission")
+    timed(runner, "run_mission", "simulating")
+    timed(metrics, "judge_mission", "judging")
+    timed(rundir, "write_run", "writing the run directory")
+    timed(report, "format_table", "the phase table")
+else:
+    from wmr_mission.campaign import load
+    from wmr_mission.commands import validate
+    timed(load, "check_file", "reading and checking the mission")
+mark("importing the command line and the command")
+cli.main()
 """
 
 
-def stages() -> None:
-    """Where `run missions/case1.yaml --no-plots` spends its CPU time, stage by
-    stage in one process, as `run` chooses its loop (plain Python)."""
+def stages(repeat: int = 5) -> None:
+    """Where `run missions/case1.yaml --no-plots` (as `run` chooses its loop:
+    plain Python) and `validate missions/case2.yaml` spend their CPU time,
+    stage by stage in the command's process; medians of ``repeat`` runs after
+    one untimed run (bytecode)."""
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
-    with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(2):  # the first writes the bytecode
-            done = subprocess.run(
-                [sys.executable, "-c", _STAGES, str(MISSIONS / "case1.yaml"), f"{tmp}/run"],
-                env=_user_env(),
-                check=True,
-                capture_output=True,
-                text=True,
-            )
-            import shutil
+    commands = {
+        "run case1 --no-plots": ["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out"],
+        "validate case2": ["validate", str(MISSIONS / "case2.yaml")],
+    }
+    import shutil
 
-            shutil.rmtree(f"{tmp}/run", ignore_errors=True)
-    print(done.stdout.strip())
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, command in commands.items():
+            if command[-1] == "--out":
+                command = [*command, f"{tmp}/run"]
+            spent: dict[str, list[float]] = {}
+            for attempt in range(repeat + 1):
+                shutil.rmtree(f"{tmp}/run", ignore_errors=True)
+                done = subprocess.run(
+                    [sys.executable, "-c", _STAGES, *command],
+                    env=_user_env(),
+                    capture_output=True,
+                    text=True,
+                )
+                marks = [m.split("=") for m in done.stderr.strip().splitlines()[-1].split(";")]
+                before = 0.0
+                between = 0.0  # before a stage's mark: the command's own work between them
+                for stage, seconds in marks:
+                    if stage.startswith("before "):
+                        between += float(seconds) - before
+                    elif attempt:
+                        spent.setdefault(stage, []).append(float(seconds) - before)
+                    before = float(seconds)
+                if attempt:
+                    spent.setdefault("the command between them", []).append(between)
+            shown = [f"{stage} {statistics.median(s):.3f} s" for stage, s in spent.items()]
+            total = statistics.median(sum(s[i] for s in spent.values()) for i in range(repeat))
+            shown.append(f"all {total:.3f} s (CPU, medians of {repeat})")
+            print(f"{name}: " + "; ".join(shown))
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+# `wmr-mission` as a process of its own, and the same with Python's collections
+# at shutdown left as they were (gc.freeze a no-op, wmr_mission.cli.main).
+_COMMAND = "import sys; sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import main; main()"
+_UNFROZEN = "import gc; gc.freeze = lambda: None; " + _COMMAND
+
+
+def cuts(pairs: int = 9) -> None:
+    """What each setting the command line makes for its own process saves
+    (wmr_mission/cli.py): a command with it and without, in turn, CPU
+    seconds, medians and the ratio pair by pair; the kernel cache warm."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    py = sys.executable
+    threads = str(os.cpu_count())
+    with tempfile.TemporaryDirectory() as tmp:
+        validate = [py, "-c", _COMMAND, "validate", str(MISSIONS / "case2.yaml")]
+        case1 = ["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out", f"{tmp}/run"]
+        plain = _user_env(WMR_MISSION_NO_JIT="1")
+        cases = [
+            (f"import numpy, BLAS threads 1 / {threads}", [py, "-c", "import numpy"],
+             [py, "-c", "import numpy"], _user_env(OPENBLAS_NUM_THREADS="1"),
+             _user_env(OPENBLAS_NUM_THREADS=threads)),
+            ("validate case2, pydantic plug-ins not looked for / looked for", validate,
+             validate, _user_env(), _user_env(PYDANTIC_DISABLE_PLUGINS="")),
+            ("validate case2, frozen at exit / not", validate,
+             [py, "-c", _UNFROZEN, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots as plain Python, frozen at exit / not",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], plain, plain),
+            ("run case1 --no-plots compiled, frozen at exit / not",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], _user_env(),
+             _user_env()),
+        ]  # fmt: skip
+        for name, with_it, without, env_with, env_without in cases:
+            done, undone = _pairs([with_it, without], [env_with, env_without], pairs)
+            print(f"{name}: {statistics.median(done):.3f} / {statistics.median(undone):.3f} s, "
+                  f"pair by pair {_ratio(undone, done):.2f} ({pairs} pairs)")  # fmt: skip
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def imports(repeat: int = 9) -> None:
+    """CPU seconds of `validate`'s imports, each imported in turn in a fresh
+    process, as the command line sets it up (one BLAS thread, no pydantic
+    plug-ins); medians of ``repeat`` processes."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    names = ["yaml", "pydantic", "pydantic.main", "pydantic.types", "typer", "numpy"]
+    names += ["wmr_mission.cli", "wmr_mission.commands.validate", "wmr_mission.campaign.load"]
+    code = (
+        "import importlib, sys, time\n"
+        "spent = [time.process_time()]\n"
+        "for name in sys.argv[1:]:\n"
+        "    started = time.process_time(); importlib.import_module(name)\n"
+        "    spent.append(time.process_time() - started)\n"
+        "print(*spent)"
+    )
+    env = _user_env(OPENBLAS_NUM_THREADS="1", PYDANTIC_DISABLE_PLUGINS="__all__")
+    runs = [
+        [float(x) for x in subprocess.run([sys.executable, "-c", code, *names], env=env,
+         check=True, capture_output=True, text=True).stdout.split()]
+        for _ in range(repeat + 1)
+    ][1:]  # fmt: skip
+    for i, name in enumerate(["(the interpreter, before the first)", *names]):
+        print(f"{statistics.median(r[i] for r in runs) * 1000:6.1f} ms  {name}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -384,8 +484,10 @@ def compile_times(mission: str = "case2") -> None:
     from wmr_mission.sim.runner import run_mission
 
     started = time.perf_counter()
+    cpu_started = time.process_time()
     run_mission(plan_mission(load_mission(MISSIONS / f"{mission}.yaml")))
     wall = time.perf_counter() - started
+    cpu = time.process_time() - cpu_started
     shutil.rmtree(cache)
     own: dict[str, float] = collections.defaultdict(float)
     count: collections.Counter[str] = collections.Counter()
@@ -400,7 +502,8 @@ def compile_times(mission: str = "case2") -> None:
         count[name] += 1
         if open_events:
             open_events[-1][1] += stamp - start
-    print(f"{mission}: first run_mission, every kernel compiled: {wall:.1f} s wall")
+    print(f"{mission}: first run_mission, every kernel compiled: {wall:.1f} s wall, "
+          f"{cpu:.1f} s CPU")  # fmt: skip
     for name, seconds in sorted(own.items(), key=lambda item: -item[1])[:12]:
         print(f"  {name:40s} {seconds:5.2f} s in {count[name]} compile(s)")
     print(
@@ -1058,6 +1161,7 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
+    jobs |= {"cuts": cuts, "imports": imports}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,

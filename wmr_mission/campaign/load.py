@@ -213,7 +213,7 @@ def check_file(path: Path) -> list[Diagnostic]:
     read = read_document(text)  # once: a file of many values takes a while to read
     if _campaign_document(read) is not None:
         return _check(path, raw, text, read)[1]
-    return check_mission_text(text, str(path))[1]
+    return check_mission_text(text, str(path), read=read)[1]
 
 
 def check_campaign(

@@ -1,14 +1,18 @@
 """Which loop `run` uses, and ``wmr-mission compile``.
 
 Loading the compiled loop from the cache costs a process numba's import and
-target set-up (about 0.35 s of CPU and 120 MiB); compiling it, 1-4 minutes
-for every estimator and controller. Plain Python runs the same source with
-the same bytes (wmr_mission.kernels.jit) at 40-70 us a sample, judging
-included. So ``run`` runs a mission whose sample budget is at most :data:`PLAIN_PYTHON_SAMPLES`
-as plain Python, and a longer one compiled, loaded from the cache or
-compiled in the foreground with one line of notice. Nothing compiles in the
-background: ``wmr-mission compile`` fills the cache when the user asks, and
-the library's ``run_mission``, ``bench`` and ``sweep`` compile what they run
+target set-up (about 0.35 s of CPU and 120 MiB); compiling it, 10-15 s of CPU
+(1-4 minutes of wall time on a loaded machine) for each estimator and
+controller. Plain Python runs the same source with the same bytes
+(wmr_mission.kernels.jit) at 40-130 us a sample, judging included. So ``run``
+runs a mission as plain Python when its sample budget is at most
+:data:`PLAIN_PYTHON_SAMPLES`, or at most :data:`PLAIN_PYTHON_SAMPLES_UNCOMPILED`
+while the cache is not known to hold the compiled loop (no ready marker, see
+:func:`compile_command`): there loading it would mean compiling it. A longer
+mission runs compiled, loaded from the cache or compiled in the foreground
+with one line of notice. Nothing compiles in the background: ``wmr-mission
+compile`` fills the cache when the user asks, and the library's
+``run_mission``, ``bench`` and ``sweep`` compile what they run
 (docs/performance.md, Start-up).
 """
 
@@ -25,10 +29,18 @@ if TYPE_CHECKING:
     from wmr_mission.spec.models import Mission
 
 # Up to this sample budget a run as plain Python costs less CPU than loading
-# the compiled loop from the cache, or about the same: case study 2 (budget
-# 15 004) 0.79x; a circle tracked for 150 s (15 002) 0.99x; patrol.yaml (18 003)
-# 1.43x (`python benchmarks/measure.py threshold`, docs/performance.md, Start-up).
-PLAIN_PYTHON_SAMPLES = 16_000
+# the compiled loop from the cache, or about the same: where the two cross on
+# benchmarks/hour.yaml cut short (10 002 samples: compiled / plain 0.99; 5 002:
+# 1.23; 15 002: 0.79), `python benchmarks/measure.py threshold`, docs/performance.md,
+# Start-up. A sample's cost in plain Python varies with the mission (40-130 us),
+# so missions near the bound may cost a little more either way.
+PLAIN_PYTHON_SAMPLES = 10_000
+# While the compiled loop is not in the cache, up to this budget plain Python
+# costs less CPU than compiling it: a first run of case study 2 compiling its
+# loop took 17.5 s of CPU (`python benchmarks/measure.py compile`), and the
+# costliest example's samples as plain Python 0.12 ms each (replanned-patrol.yaml,
+# `threshold`): 17.5 s / 0.12 ms = 146 000 samples.
+PLAIN_PYTHON_SAMPLES_UNCOMPILED = 150_000
 READY = "kernels-ready"
 NO_JIT = jit.NO_JIT
 
@@ -80,14 +92,20 @@ def _ready(directory: Path) -> bool:
 
 def choose_loop(max_samples: int) -> str | None:
     """Called by ``run`` before the loop is loaded: plain Python for a budget
-    of at most :data:`PLAIN_PYTHON_SAMPLES` samples, else the compiled loop.
-    Returns the line of notice to print (a compile in the foreground), or None."""
+    of at most :data:`PLAIN_PYTHON_SAMPLES` samples, or of at most
+    :data:`PLAIN_PYTHON_SAMPLES_UNCOMPILED` while the cache is not ready, else
+    the compiled loop. Returns the line of notice to print (a compile in the
+    foreground), or None."""
     if jit.loaded() or not jit.compiling():  # a library caller, or WMR_MISSION_NO_JIT=1
         return None
     if max_samples <= PLAIN_PYTHON_SAMPLES:
         jit.choose_plain_python()
         return None
-    return foreground_notice()
+    notice = foreground_notice()
+    if notice is not None and max_samples <= PLAIN_PYTHON_SAMPLES_UNCOMPILED:
+        jit.choose_plain_python()  # not compiled yet: plain Python costs less
+        return None
+    return notice
 
 
 def foreground_notice() -> str | None:

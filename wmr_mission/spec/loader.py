@@ -861,11 +861,17 @@ def diagnostic(filename: str, document: Document | None, finding: Finding) -> Di
 
 
 def check_mission_text(
-    text: str, filename: str = "<text>", overrides: Sequence[Override] = ()
+    text: str,
+    filename: str = "<text>",
+    overrides: Sequence[Override] = (),
+    read: tuple[Document | None, list[Finding]] | None = None,
 ) -> tuple[Mission | None, list[Diagnostic]]:
-    """Every problem of a mission text (errors and warnings), and the mission if it has none."""
+    """Every problem of a mission text (errors and warnings), and the mission if it has none.
+
+    ``read``: what :func:`read_document` made of ``text`` already (`validate`
+    reads a file once to tell a mission from a campaign), not read again."""
     try:
-        return _check(text, filename, overrides)
+        return _check(text, filename, overrides, read)
     except Exception as error:  # last resort: bad input must never show a traceback
         return None, [internal_error(filename, error)]
 
@@ -877,13 +883,16 @@ def internal_error(filename: str, error: Exception, line: int = 1, column: int =
 
 
 def _check(
-    text: str, filename: str, overrides: Sequence[Override] = ()
+    text: str,
+    filename: str,
+    overrides: Sequence[Override] = (),
+    read: tuple[Document | None, list[Finding]] | None = None,
 ) -> tuple[Mission | None, list[Diagnostic]]:
     if len(text) > MAX_FILE_BYTES:
         return None, [
             Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
         ]
-    document, findings = read_document(text)
+    document, findings = read if read is not None else read_document(text)
     if document is None:
         return None, [diagnostic(filename, None, f) for f in findings]
     return _check_document(document, findings, filename, overrides)

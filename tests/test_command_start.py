@@ -1,0 +1,162 @@
+"""What `validate` and `run --no-plots` load as they start: never the plotting,
+scipy, numba, pandas or shapely they do not use; numpy's BLAS on one thread;
+a mission file read once; nothing left for the collector as the process ends
+(docs/performance.md, Start-up)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from wmr_mission.campaign.load import check_file
+from wmr_mission.spec import loader
+
+MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+
+# Runs the command line, then prints as it exits the top-level packages it
+# imported and the threads of numpy's BLAS.
+COMMAND = """
+import atexit, gc, json, os, sys
+names = sys.argv.pop(1).split(",")
+def loaded():
+    modules = sorted({m.split(".")[0] for m in sys.modules})  # before threadpoolctl's
+    blas = None
+    if "numpy" in sys.modules:
+        from threadpoolctl import threadpool_info
+        blas = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    print(json.dumps({
+        "modules": modules,
+        "blas_threads": blas,
+        "frozen": gc.get_freeze_count(),
+        "environment": {name: os.environ.get(name) for name in names},
+    }), file=sys.__stderr__)
+atexit.register(loaded)
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import main
+main()
+"""
+
+# What the command line sets for itself unless the user did (wmr_mission.cli).
+START_UP_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "PYDANTIC_DISABLE_PLUGINS": "__all__"}
+NEVER = ("matplotlib", "scipy", "numba", "llvmlite", "pandas", "shapely", "PIL")
+
+
+def _start(args: list[str], **environment: str) -> dict[str, object]:
+    """The command's report (see COMMAND), in a user's environment: none of
+    the suite's settings of BLAS threads, the plain-Python switch, pydantic."""
+    threads = ("OMP_NUM_THREADS", "GOTO_NUM_THREADS", "MKL_NUM_THREADS")  # OpenBLAS reads them
+    env = {k: v for k, v in os.environ.items() if k not in (*START_UP_ENVIRONMENT, *threads)}
+    env.pop("WMR_MISSION_NO_JIT", None)
+    env.update(environment)
+    names = ",".join(START_UP_ENVIRONMENT)
+    done = subprocess.run(
+        [sys.executable, "-c", COMMAND, names, *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    report: dict[str, object] = json.loads(done.stderr.strip().splitlines()[-1])
+    return report
+
+
+def test_validate_imports_nothing_it_does_not_use() -> None:
+    report = _start(["validate", str(MISSIONS / "case2.yaml"), str(MISSIONS / "patrol.yaml")])
+    modules = report["modules"]
+    assert isinstance(modules, list)
+    assert [m for m in (*NEVER, "rich") if m in modules] == []
+    assert "pydantic" in modules  # the probe sees what was imported
+    # Every object alive is frozen as the command ends: Python's collections
+    # as it shuts down would trace them all (docs/performance.md, Start-up).
+    frozen = report["frozen"]
+    assert isinstance(frozen, int)
+    assert frozen > 10_000  # some 50 000 of them
+
+
+def test_a_run_without_plots_imports_nothing_it_does_not_use(tmp_path: Path) -> None:
+    """figure-eight.yaml runs as plain Python (its budget, 4 515 samples, is
+    under the bound, wmr_mission.commands.compile): no numba, no scipy, no
+    figures."""
+    out = tmp_path / "run"
+    mission = MISSIONS / "figure-eight.yaml"
+    report = _start(["run", str(mission), "--no-plots", "--out", str(out)])
+    modules = report["modules"]
+    assert isinstance(modules, list)
+    assert [m for m in NEVER if m in modules] == []
+    assert (out / "trajectory.csv").exists()
+
+
+def test_the_command_line_runs_numpys_blas_on_one_thread_unless_told(tmp_path: Path) -> None:
+    """Its threads spin as numpy loads (about 0.05 s of CPU a process) and
+    nothing here multiplies matrices large enough to share; a user's own
+    setting is kept."""
+    run = ["run", str(MISSIONS / "fence.yaml"), "--no-plots", "--out"]
+    report = _start([*run, str(tmp_path / "a")])
+    assert report["blas_threads"] == [1]
+    assert report["environment"] == START_UP_ENVIRONMENT
+    told = _start([*run, str(tmp_path / "b")], OPENBLAS_NUM_THREADS="2")
+    assert told["blas_threads"] == [2]
+    environment = told["environment"]
+    assert isinstance(environment, dict)
+    assert environment["OPENBLAS_NUM_THREADS"] == "2"
+
+
+def test_validate_reads_a_mission_file_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Telling a mission from a campaign reads the YAML; the mission's check
+    takes that reading rather than reading it again."""
+    composed = []
+    compose = loader._compose
+
+    def counted(text: str) -> object:
+        composed.append(text)
+        return compose(text)
+
+    monkeypatch.setattr(loader, "_compose", counted)
+    assert check_file(MISSIONS / "case2.yaml") == []
+    assert len(composed) == 1
+
+
+def test_a_checkout_run_from_its_root_runs_as_the_installed_package(tmp_path: Path) -> None:
+    """`python -m wmr_mission` from the root of a checkout imports the
+    checkout's package, keeps its compiled kernels in the checkout's own
+    `__pycache__`, and runs a short mission as the installed package does:
+    plain Python, nothing said, the same bytes."""
+    import shutil
+
+    import wmr_mission
+
+    package = Path(wmr_mission.__file__).parent
+    shutil.copytree(package, tmp_path / "wmr_mission", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {
+        k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "WMR_MISSION_NO_JIT")
+    }
+    probe = (
+        "import wmr_mission; from wmr_mission.kernels import cache; "
+        "print(wmr_mission.__file__); print(cache.cache_directory())"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], cwd=tmp_path, env=env, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    imported, kernels = done.stdout.splitlines()
+    assert Path(imported).parent == tmp_path / "wmr_mission"
+    assert Path(kernels).parent == tmp_path / "wmr_mission" / "__pycache__"
+    mission = str(MISSIONS / "fence.yaml")
+    runs = {}
+    for where, cwd in (("checkout", tmp_path), ("installed", tmp_path.parent)):
+        out = tmp_path.parent / f"{tmp_path.name}-{where}"
+        command = [sys.executable, "-m", "wmr_mission", "run", mission, "--no-plots"]
+        done = subprocess.run(
+            [*command, "--out", str(out)], cwd=cwd, env=env, capture_output=True, text=True
+        )
+        assert done.returncode == 0, done.stderr
+        assert "wmr-mission:" not in done.stderr
+        runs[where] = (out / "trajectory.csv").read_bytes()
+        shutil.rmtree(out)
+    assert runs["checkout"] == runs["installed"]
