@@ -140,6 +140,24 @@ FigureFormats = Annotated[
 ]
 
 
+# The options the campaign commands (sweep, falsify) and run share.
+Workers = Annotated[
+    int | None,
+    typer.Option(
+        "--workers", metavar="N", min=1, help="Local worker processes (default: every core)."
+    ),
+]
+Scheduler = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Run on this Dask scheduler (tcp://host:8786); needs wmr-mission[dask].",
+    ),
+]
+NoPlots = Annotated[bool, typer.Option("--no-plots", help="Write data only.")]
+
+
 def _formats(chosen: list[FigureFormat] | None) -> tuple[str, ...]:
     return tuple(dict.fromkeys(f.value for f in chosen)) if chosen else ("png",)
 
@@ -188,7 +206,7 @@ def run(
             "(--set robot.dt=0.02, --set controller.Q=[1,1,2]); repeatable.",
         ),
     ] = None,
-    no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
+    no_plots: NoPlots = False,
     animate: Annotated[
         bool, typer.Option("--animate", help="Also write animation.gif of the robot.")
     ] = False,
@@ -300,20 +318,8 @@ def sweep(
             help="Campaign directory (default: runs/<campaign-name>-<timestamp>).",
         ),
     ] = None,
-    workers: Annotated[
-        int | None,
-        typer.Option(
-            "--workers", metavar="N", min=1, help="Local worker processes (default: every core)."
-        ),
-    ] = None,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(
-            "--scheduler",
-            metavar="ADDRESS",
-            help="Run on this Dask scheduler (tcp://host:8786); needs wmr-mission[dask].",
-        ),
-    ] = None,
+    workers: Workers = None,
+    scheduler: Scheduler = None,
     runs: Annotated[
         int | None,
         typer.Option(
@@ -333,7 +339,7 @@ def sweep(
             "(--set robot.dt=0.02); repeatable; carried into each replay command.",
         ),
     ] = None,
-    no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
+    no_plots: NoPlots = False,
     allow_mixed_cluster: Annotated[
         bool,
         typer.Option(
@@ -405,20 +411,8 @@ def falsify(
     first: Annotated[
         bool, typer.Option("--first", help="Stop after the batch holding the first failing run.")
     ] = False,
-    workers: Annotated[
-        int | None,
-        typer.Option(
-            "--workers", metavar="N", min=1, help="Local worker processes (default: every core)."
-        ),
-    ] = None,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(
-            "--scheduler",
-            metavar="ADDRESS",
-            help="Run on this Dask scheduler (tcp://host:8786); needs wmr-mission[dask].",
-        ),
-    ] = None,
+    workers: Workers = None,
+    scheduler: Scheduler = None,
     out: Annotated[
         Path | None,
         typer.Option(
@@ -427,7 +421,7 @@ def falsify(
             help="Output directory (default: runs/<campaign-name>-falsify-<timestamp>).",
         ),
     ] = None,
-    no_plots: Annotated[bool, typer.Option("--no-plots", help="Write data only.")] = False,
+    no_plots: NoPlots = False,
 ) -> None:
     """Search CAMPAIGN's axes for failing runs; exit 1 when one is found, 0 when none."""
     from wmr_mission.campaign.falsify.command import falsify_command
