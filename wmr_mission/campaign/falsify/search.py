@@ -8,6 +8,7 @@ points whatever ran in between, on however many workers.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, Final, Protocol
@@ -16,13 +17,18 @@ import numpy as np
 
 from wmr_mission.campaign.falsify.space import Space
 
-__all__ = ["METHODS", "RANDOM_BATCH", "SIGMA0", "Method", "make_method"]
+__all__ = ["METHODS", "RANDOM_BATCH", "SIGMA_LOCAL", "Method", "design", "make_method"]
 
 METHODS: Final = ("cmaes", "random")
 
-SIGMA0: Final = 0.3
-"""CMA-ES's first step, in the box's units (a third of a continuous axis; a
-third of a discrete axis's values, scaled by CMA_stds)."""
+DESIGN: Final = 8
+"""The fewest points of a space-filling design (more with more axes:
+:func:`design_size`)."""
+
+SIGMA_LOCAL: Final = 0.2
+"""CMA-ES's first step from a design's best point, in the box's units (a
+fifth of a continuous axis; of a discrete axis's values, scaled by CMA_stds):
+a search about that point rather than over the box, which the design covered."""
 
 TOLX: Final = 1e-3
 """CMA-ES restarts once its steps are below a thousandth of the box: a failing
@@ -31,6 +37,11 @@ spends it converging on a margin's local minimum)."""
 
 TOLFUN: Final = 1e-4
 """... or once a generation's margins differ by less than this (cma's: 1e-11)."""
+
+STALL: Final = 10
+"""... or once its best margin has not fallen for this many generations: a
+search stuck in a basin that does not fail (whose margins a run's sensor noise
+keeps from agreeing to TOLFUN) starts again rather than spend the budget there."""
 
 RANDOM_BATCH: Final = 16
 """Points of random search evaluated together: a fixed number, so that where
@@ -79,9 +90,18 @@ class RandomSearch:
 
 
 class CmaEs:
-    """CMA-ES (the ``cma`` package) in the box, restarted from a new random mean
-    when it stops (its step too small to move, or the objective flat).
+    """A space-filling design, then CMA-ES (the ``cma`` package) from its best
+    point; when CMA-ES stops, it starts again, alternately close to the best
+    run so far (half the first step) and from the best point of a new design.
 
+    The design (a scrambled Sobol batch: :func:`design_size` points) spreads
+    its runs over the whole box, where a random mean would spend CMA-ES's
+    first generations walking to a basin; CMA-ES then searches about the best
+    of them with a step of :data:`SIGMA_LOCAL`. CMA-ES is not bounded: a point
+    beyond the box runs at the nearest point of it (each coordinate clamped,
+    :meth:`Space.values`) and is told its margin plus its squared distance
+    beyond, so that a face or a corner of the box, where failures often sit
+    (the extremes of the ranges), is reached in a step rather than approached.
     Continuous coordinates live in [0, 1]; a discrete one (choice, grid) is an
     index, which ``cma``'s ``integer_variables`` (a least step and integer
     centering: Hansen, "A CMA-ES for Mixed-Integer Nonlinear Optimization",
@@ -94,19 +114,20 @@ class CmaEs:
         self.space = space
         self.rng = rng
         self.restarts = 0
+        self.best: tuple[float, list[float]] | None = None
+        self.design_size = design_size(space.dimension)
         # cma draws from numpy's global generator: it gets one of its own,
         # swapped in around each call, so that nothing else moves it.
         self._state = np.random.RandomState(int(rng.integers(2**32))).get_state()
-        self.es = self._start()
+        self.es: Any = None  # None while a design is to be asked
+        self.popsize: int | None = None
+        self.run_best, self.stalled = math.inf, 0  # this CMA-ES run's lowest, generations since
 
-    def _start(self) -> Any:
+    def _start(self, mean: list[float], sigma: float) -> Any:
         import cma
 
-        lower, upper = self.space.lower(), self.space.upper()
-        mean = [float(x) for x in self.rng.uniform(lower, upper)]
         counts = self.space.counts()
         options = {
-            "bounds": [lower, upper],
             "CMA_stds": [float(count) if count else 1.0 for count in counts],
             "integer_variables": self.space.discrete(),
             "seed": np.nan,  # "do nothing": the generator is ours (_own_random)
@@ -118,7 +139,10 @@ class CmaEs:
             "tolfun": TOLFUN,
         }
         with self._own_random():
-            return cma.CMAEvolutionStrategy(mean, SIGMA0, options)
+            es = cma.CMAEvolutionStrategy(mean, sigma, options)
+        self.popsize = int(es.popsize)
+        self.run_best, self.stalled = math.inf, 0
+        return es
 
     @contextmanager
     def _own_random(self) -> Iterator[None]:
@@ -131,23 +155,68 @@ class CmaEs:
             np.random.set_state(kept)
 
     def ask(self) -> list[list[float]]:
-        with self._own_random():
-            if self.es.stop():
+        if self.es is not None:
+            with self._own_random():
+                stopped = bool(self.es.stop()) or self.stalled >= STALL
+            if stopped:
                 self.restarts += 1
-                self.es = self._start()
+                if self.restarts % 2 and self.best is not None:
+                    # Close to the best run so far: a finer look at its basin.
+                    self.es = self._start(self.best[1], SIGMA_LOCAL / 2)
+                else:
+                    self.es = None
+        if self.es is None:
+            return design(self.space, self.design_size, self.rng)
+        with self._own_random():
             points = self.es.ask()
         return [[float(x) for x in point] for point in points]
 
     def tell(self, points: list[list[float]], objectives: list[float]) -> None:
+        for point, objective in zip(points, objectives, strict=True):
+            if self.best is None or objective < self.best[0]:
+                self.best = (objective, list(point))
+        if self.es is None:  # a design told: CMA-ES starts at its best point
+            best = min(zip(objectives, points, strict=True), key=lambda pair: pair[0])[1]
+            self.es = self._start(best, SIGMA_LOCAL)
+            return
         if len(points) != self.es.popsize:  # a last generation cut by the budget
             return
+        lowest = min(objectives)
+        self.run_best, self.stalled = (
+            (lowest, 0) if lowest < self.run_best else (self.run_best, self.stalled + 1)
+        )
+        lower, upper = np.array(self.space.lower()), np.array(self.space.upper())
+        told = [
+            objective + float(np.sum((np.clip(point, lower, upper) - np.array(point)) ** 2))
+            for point, objective in zip(points, objectives, strict=True)
+        ]
         with self._own_random():
-            self.es.tell([np.array(p) for p in points], objectives)
+            self.es.tell([np.array(p) for p in points], told)
 
     def settings(self) -> dict[str, Any]:
         return {
-            "popsize": int(self.es.popsize),
-            "sigma0": SIGMA0,
+            "design": self.design_size,
+            "popsize": self.popsize,
+            "sigma0": SIGMA_LOCAL,
             "restarts": self.restarts,
             "integer_variables": self.space.discrete(),
         }
+
+
+def design_size(dimension: int) -> int:
+    """Points of a design: :data:`DESIGN`, or 4 a coordinate, as a power of 2
+    (a Sobol batch is balanced at powers of 2)."""
+    return 1 << (max(DESIGN, 4 * dimension) - 1).bit_length()
+
+
+def design(space: Space, size: int, rng: np.random.Generator) -> list[list[float]]:
+    """``size`` points spread over the box: a scrambled Sobol batch (Owen
+    scrambling, seeded by ``rng``), a discrete coordinate rounded to its values."""
+    from scipy.stats import qmc
+
+    sobol = qmc.Sobol(space.dimension, scramble=True, seed=rng)
+    lower, upper = space.lower(), space.upper()
+    points = qmc.scale(sobol.random(size), lower, upper)
+    discrete = space.discrete()
+    points[:, discrete] = np.clip(np.round(points[:, discrete]), 0, np.array(upper)[discrete] - 0.5)
+    return [[float(x) for x in row] for row in points]
