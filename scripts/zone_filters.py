@@ -80,7 +80,7 @@ def drive(region: object, start_x: float, barrier: bool) -> dict[str, float]:
         aim = np.array([start_x + SPEED * (k + 1) * DT, 0.0, 1.0, 0.0])
         if barrier:
             path_x, path_y = aim_now[0], aim_now[1]
-            if aim_round_zones(aim_now, kinds, params, tuning.look_ahead, 0.0):
+            if aim_round_zones(aim_now, kinds, params, tuning.look_ahead, 0.0, tuning.look_ahead):
                 aim[0] += aim_now[0] - path_x
                 aim[1] += aim_now[1] - path_y
         else:

@@ -253,6 +253,9 @@ def test_irsim_world_holds_the_shelf_and_the_robot_keeps_it() -> None:
     assert shelf.equals(shapely.box(1.25, -0.85, 1.75, 0.15))
     assert plant.describe()["settings"]["robot_shape"] == {"name": "circle", "radius": 0.25}
     run = run_mission(mission, plant=plant)
+    # its detour, 18 micrometres wider than the estimate's (the true robot is
+    # IR-SIM's), is within the verdict's bound (tests/test_detour_bound.py)
+    assert run.succeeded, run.message
     assert run.backend is not None
     assert run.backend["settings"]["obstacles"] == ["shelf"]
     assert not plant.collided

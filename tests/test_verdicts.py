@@ -375,10 +375,12 @@ def test_a_detour_a_zone_forces_is_not_a_tracking_error(tmp_path: Path) -> None:
     assert go["tracking"]["cross_track_error_max"] < 1e-3
     assert go["tracking"]["along_track_lag_max"] < 1e-3
     assert go["inputs"]["turn_rate_jump_max"] == pytest.approx(jumps.max())
-    # the zones reach 0.3 m into the path; the default allows the look-ahead and
-    # the tracking tolerance on top: 0.45 m
+    # the zones reach 0.3 m into the path; the default allows the margin the
+    # controller keeps round them (the estimate's, 0.05 m), the look-ahead and
+    # the tracking tolerance on top: 0.5 m
+    assert summary["constraint_margin"] == pytest.approx(0.05)
     [check] = [c for c in summary["expectations"] if c["metric"] == "detour_offset_max"]
-    assert check["max"] == pytest.approx(0.3 + 0.05 + 0.1)
+    assert check["max"] == pytest.approx(0.3 + 0.05 + 0.05 + 0.1)
 
 
 @pytest.mark.slow

@@ -113,7 +113,7 @@ def test_the_aim_moves_across_the_path_to_the_nearer_side_left_at_the_centre(
     rock = CircleRegion(type="circle", center=(5.0, offset), radius=1.0)
     kinds, params = constraint_rows(rock, "outside")
     aim = np.array([5.0, 0.0, 1.0, 0.0])
-    assert aim_round_zones(aim, kinds, params, 0.0, 0.0)
+    assert aim_round_zones(aim, kinds, params, 0.0, 0.0, 0.0)
     # the side the edge faces where the line entered: left (north) unless the
     # centre is north of the line; head-on, left
     side = -1.0 if offset > 0.0 else 1.0
@@ -132,7 +132,7 @@ def test_the_aim_goes_round_a_circle_on_a_ramp(centre_y: float) -> None:
     points = []
     for x in np.arange(1.0, 9.0, 0.001):
         aim = np.array([x, 0.0, 1.0, 0.0])
-        aim_round_zones(aim, kinds, params, 0.05, 0.02)
+        aim_round_zones(aim, kinds, params, 0.05, 0.02, 0.05)
         points.append(aim[:2].copy())
     path = np.array(points)
     slope = np.abs(np.diff(path[:, 1]) / np.diff(path[:, 0]))

@@ -55,6 +55,8 @@ from wmr_mission.kernels.model import (
 from wmr_mission.kernels.records import Plant, Scratch
 
 __all__ = [
+    "AIM_GAP",
+    "aim_gap",
     "aim_round_zones",
     "constrained_change",
     "keep_constraints",
@@ -470,14 +472,40 @@ def _way_round_polygon(
     return max(reach, 0.0), mx, my
 
 
+# [m] How far the aim stands beyond the bound the filter keeps the output to
+# (the zone grown by the look-ahead and the margin), so that the law's target
+# is not where the filter acts: the look-ahead, up to the default look-ahead's
+# 0.05 m (aim_gap). A gap of a whole look-ahead widened every detour by it,
+# 0.1 to 0.23 m more on the generated missions of fast robots at coarse rates
+# (docs/paper-notes.md, eq. (28), "How wide a detour is").
+AIM_GAP = 0.05
+
+
+@inlined
+def aim_gap(look_ahead: float, speed_rate: float) -> float:
+    """[m] The aim's gap beyond the filter's bound (AIM_GAP). Under an
+    acceleration limit (``speed_rate`` finite) the filter holds the rows where
+    braking ends too, ahead of the output: the whole look-ahead, as a gap of
+    AIM_GAP stalled a fast robot at a zone (docs/paper-notes.md)."""
+    if speed_rate != math.inf:
+        return look_ahead
+    return min(look_ahead, AIM_GAP)
+
+
 @kernel
 def aim_round_zones(
-    aim: FloatArray, row_kinds: IntArray, row_params: FloatArray, look_ahead: float, margin: float
+    aim: FloatArray,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    look_ahead: float,
+    margin: float,
+    gap: float,
 ) -> bool:
     """Move the point the tracked output aims at, ``aim[:2] + look_ahead *
     aim[2:]`` (x, y, unit tangent of the path), out of every row shrunk by
     ``look_ahead + margin`` (where ``keep_constraints`` lets the output go),
-    its tangent kept; True when it moved.
+    its tangent kept; True when it moved. The aim stands ``gap`` beyond that
+    bound (:func:`aim_gap`).
 
     The output's aim moves continuously as the path goes through a zone, so
     the tracking law is handed no jump at a zone's edge. A keep-out ellipse
@@ -491,7 +519,7 @@ def aim_round_zones(
     their edge (half-planes exactly, keep-in ellipses along the ray from the
     centre). Two passes settle an aim beyond two rows.
     """
-    grown = 2.0 * look_ahead + margin
+    grown = look_ahead + gap + margin
     x = aim[0] + look_ahead * aim[2]
     y = aim[1] + look_ahead * aim[3]
     moved = False

@@ -22,6 +22,7 @@ from pydantic import Field
 
 from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.controllers.constrained_tracking import (
+    aim_gap,
     aim_round_zones,
     held_where_braking_ends,
     keep_constraints,
@@ -709,8 +710,9 @@ def next_input(
     if phase.tracking:
         path_x = aim_now[0]
         path_y = aim_now[1]
+        gap = aim_gap(tuning.look_ahead, plant.limits[2])
         if kinds.shape[0] and aim_round_zones(
-            aim_now, kinds, params, tuning.look_ahead, plant.constraint_margin
+            aim_now, kinds, params, tuning.look_ahead, plant.constraint_margin, gap
         ):
             # Aimed round a zone the path crosses: the path's own motion fed
             # forward, the aim's move closed as an error, at the law's pace

@@ -216,8 +216,9 @@ for _entry in (
         default="auto",
         default_words=(
             "auto: how far the phase's zones reach into the path (a box's or polygon's: the "
-            "shorter way out across it) + the body's reach (robot.footprint) + the look-ahead "
-            "+ 0.1 m + the position noise std."
+            "shorter way out across it) + the body's reach (robot.footprint) + the estimate's "
+            "margin (constraint_margin less the body's) + the look-ahead + 0.1 m + the "
+            "position noise std."
         ),
         panel="cross_track",
         line="cross-track error",

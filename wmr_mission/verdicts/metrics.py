@@ -389,8 +389,9 @@ class PhaseSamples:
         r, w = self.result, self.window
         timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
         return track_quality(
-            r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed
-        )
+            r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed,
+            r.constraint_margin,
+        )  # fmt: skip
 
     @cached_value
     def inputs(self) -> dict[str, Any]:
@@ -911,6 +912,12 @@ def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumber
         # (MissionNumbers.recovery_time), not a lag kept for the whole phase
         return tolerance + LAG_TIME_CONSTANTS * numbers.time_constant * float(speed)
     if metric == "detour_offset_max":
+        # The filter keeps the tracked output off the zones grown by the margin
+        # the controller keeps (the body's and the estimate's, in zone_reach) and
+        # the look-ahead (constrained_tracking.keep_constraints); a robot that
+        # tracks is within the tolerance of that. The aim's gap beyond it
+        # (AIM_GAP, at most half the tolerance) is the controller's own and
+        # comes out of the tolerance.
         return (tracking.get("zone_reach") or 0.0) + numbers.look_ahead + tolerance
     if metric == "overshoot_max":
         return (phase.get("regulation") or {}).get("goal_position")

@@ -173,6 +173,7 @@ def run_signals(result: RunRecord) -> Signals:
                 numbers,
                 zones,
                 timed,
+                result.constraint_margin,
             )
             if placed is not None:
                 line("cross_track", "cross-track error")[w] = placed.cross

@@ -275,15 +275,19 @@ def track_quality(
     numbers: MissionNumbers,
     zones: Sequence[Zone],
     timed: bool = False,
+    margin: float | None = None,
 ) -> dict[str, Any]:
     """The tracking metrics of a track phase's samples (``tracking`` in a phase's
     summary): ``cross_track_error_max`` and ``along_track_lag_max`` (the largest
     |lag|) over the samples judged, ``entry_time`` [s], ``detour_time`` [s] and
     ``detour_offset_max`` [m], with what the defaults of their thresholds read:
-    the reference's top speed [m/s] and how far the zones reach into the path [m].
-    ``timed``: the phase ran for a set time (it ended on ``elapsed`` or
-    ``mission_time``), so tracking was all it was for."""
-    return track_samples(t, px, py, rx, ry, numbers, zones, timed)[0]
+    the reference's top speed [m/s] and how far the zones, grown by ``margin``,
+    reach into the path [m]. ``timed``: the phase ran for a set time (it ended
+    on ``elapsed`` or ``mission_time``), so tracking was all it was for.
+    ``margin``: [m] how far the controller keeps off a zone, the body's reach
+    and the estimate's uncertainty (the run's ``constraint_margin``); None:
+    the body's reach alone."""
+    return track_samples(t, px, py, rx, ry, numbers, zones, timed, margin)[0]
 
 
 def track_samples(
@@ -295,6 +299,7 @@ def track_samples(
     numbers: MissionNumbers,
     zones: Sequence[Zone],
     timed: bool = False,
+    margin: float | None = None,
 ) -> tuple[dict[str, Any], TrackSamples | None]:
     """:func:`track_quality`'s metrics and the samples they come from (None when
     nothing was measured)."""
@@ -334,7 +339,8 @@ def track_samples(
         detour, rejoining = _detours(px, py, rx, ry, reference_speed, numbers, zones)
         excused |= detour | rejoining
         reach = max(float(np.max(reach_across(zone, rx, ry))) for zone in zones)
-        metrics["zone_reach"] = max(0.0, reach + numbers.body)
+        kept = numbers.body if margin is None else margin
+        metrics["zone_reach"] = max(0.0, reach + kept)
     judged = ~excused
     judged[-1] |= ended_in_entry
     offset = cross[detour & ~np.isnan(cross)]

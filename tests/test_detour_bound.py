@@ -1,0 +1,94 @@
+"""How wide a detour round a zone may be: the `auto` bound of
+``detour_offset_max`` is the bound the zone filter keeps the tracked output to
+(the zone grown by the margin the controller keeps, body and estimate, and the
+look-ahead) and the tracking tolerance; the aim stands at most AIM_GAP beyond
+the filter's bound, inside that tolerance."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wmr_mission.controllers.constrained_tracking import AIM_GAP, aim_gap, aim_round_zones
+from wmr_mission.geometry.regions import CircleRegion, constraint_rows
+from wmr_mission.sim.runner import run_mission
+from wmr_mission.spec.loader import load_mission_text
+from wmr_mission.verdicts.metrics import auto_threshold
+from wmr_mission.verdicts.numbers import mission_numbers
+from wmr_mission.verdicts.tracking import track_quality
+from wmr_mission.verdicts.zones import zones_of
+
+ROOT = Path(__file__).resolve().parents[1]
+# One lap of missions/shelf.yaml: the shelf is met once, 0.15 m into the leg.
+ONE_LAP = (ROOT / "missions" / "shelf.yaml").read_text().replace("times: 2", "times: 1")
+
+
+def _detour_check(run, shift: float = 0.0) -> tuple[float, float]:  # type: ignore[no-untyped-def]
+    """The lap's detour_offset_max and its auto bound, the true position moved
+    ``shift`` north (away from the shelf, which lies south of the leg)."""
+    [phase] = run.phases
+    numbers = mission_numbers(run.mission, run.dt, run.limits)
+    metrics = track_quality(
+        run.t, run.x, run.y + shift, run.x_ref, run.y_ref, numbers,
+        zones_of(phase.constraints, run.regions), True, run.constraint_margin,
+    )  # fmt: skip
+    bound = auto_threshold("detour_offset_max", {"tracking": metrics}, numbers)
+    assert bound is not None
+    return metrics["detour_offset_max"], bound
+
+
+@pytest.fixture(scope="module")
+def shelf_lap():  # type: ignore[no-untyped-def]
+    run = run_mission(load_mission_text(ONE_LAP, "shelf.yaml"))
+    assert run.succeeded, run.message
+    return run
+
+
+def test_the_shelfs_detour_is_within_its_bound_with_room_to_spare(shelf_lap) -> None:  # type: ignore[no-untyped-def]
+    """The bound read zone_reach + look-ahead + tolerance, 0.55 m, and the
+    detour was 0.549997 m: met by 3e-6 m, the aim's own width to the
+    micrometre. The controller keeps the estimate's margin (0.05 m here) and
+    its aim's gap beyond the filter's bound too."""
+    offset, bound = _detour_check(shelf_lap)
+    estimate_margin = shelf_lap.constraint_margin - 0.25  # less the body's radius
+    assert estimate_margin == pytest.approx(0.05)
+    # the aim: 0.15 m into the leg, grown by the body, the estimate's margin,
+    # the look-ahead and the gap (0.05 m each)
+    assert offset == pytest.approx(0.15 + 0.25 + 0.05 + 0.05 + 0.05, abs=1e-4)
+    # the filter's bound (the aim less its gap) and the tracking tolerance
+    assert bound == pytest.approx(offset - 0.05 + 0.1, abs=1e-4)
+    assert bound - offset > 1e-4 * bound
+
+
+def test_a_true_position_off_the_estimate_by_the_estimates_margin_still_passes(
+    shelf_lap,  # type: ignore[no-untyped-def]
+) -> None:
+    """What IR-SIM's shelf run met (expect-failed by 18 micrometres): the true
+    robot beside its estimate, as far as the estimator's margin allows, away
+    from the zone. The controller keeps that margin; its detour is that wide."""
+    estimate_margin = shelf_lap.constraint_margin - 0.25
+    offset, bound = _detour_check(shelf_lap, estimate_margin)
+    assert offset == pytest.approx(0.55 + estimate_margin, abs=1e-4)
+    assert offset <= bound
+
+
+@pytest.mark.parametrize("look_ahead", [0.02, 0.05, 0.1, 0.3])
+def test_the_aim_stands_at_most_the_gap_beyond_the_filters_bound(look_ahead: float) -> None:
+    """The aim round a keep-out circle the path runs through clears it grown by
+    the margin, the look-ahead (the filter's bound for the output) and the
+    smaller of the look-ahead and AIM_GAP: a fast robot at a coarse rate
+    (look-ahead 0.3 m) went 0.25 m wider than that, a whole look-ahead."""
+    margin = 0.03
+    rock = CircleRegion(type="circle", center=(5.0, -0.2), radius=1.0)
+    kinds, params = constraint_rows(rock, "outside")
+    aim = np.array([5.0 - look_ahead, 0.0, 1.0, 0.0])  # its output at the centre's x
+    gap = aim_gap(look_ahead, math.inf)  # no acceleration limit
+    assert aim_round_zones(aim, kinds, params, look_ahead, margin, gap)
+    grown = 1.0 + look_ahead + min(look_ahead, AIM_GAP) + margin
+    assert aim[1] == pytest.approx(-0.2 + grown, abs=1e-12)
+    # under an acceleration limit the filter also holds the rows where braking
+    # ends: the aim keeps a whole look-ahead's room
+    assert aim_gap(look_ahead, 2.0) == look_ahead
