@@ -438,3 +438,19 @@ def test_a_mission_wide_formula_applies_where_its_signals_are_measured(case2_run
         ("orbit", "always(speed <= 10)", True),
         ("orbit", "eventually(cross_track <= 0.1)", True),
     ]
+
+
+def test_a_mistake_after_an_escape_is_never_placed_past_it(tmp_path: Path) -> None:
+    # "\t" is two characters of the file and one of the formula: a column counted
+    # in the formula would point 1 character short of the mistake, so the
+    # message points at the text's opening quote instead.
+    mission = tmp_path / "case2.yaml"
+    written = r"always(speed\t<= 1 and turn_rate <= fast)"
+    mission.write_text(_with_formula(written))
+    lines = mission.read_text().splitlines()
+    line = next(i for i, text in enumerate(lines) if written in text)
+    with pytest.raises(MissionError) as error:
+        load_mission(mission)
+    quote = lines[line].index('"') + 1
+    assert str(error.value).startswith(f"{mission}:{line + 1}:{quote}: ")
+    assert "unexpected 'fast': expected a number to compare with" in str(error.value)
