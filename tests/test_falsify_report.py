@@ -1,0 +1,43 @@
+"""What `falsify` prints: each run is named by its evaluation number, the one
+evaluations.csv, failing/N.yaml and the run lines give it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from wmr_mission.campaign.falsify.command import _report
+
+
+def _record(failing: list[int]) -> dict[str, Any]:
+    best = [
+        {"evaluation": n, "outcome": "expect-failed", "objective": -0.5, "run": f"run {n}.yaml"}
+        for n in failing
+    ]
+    return {
+        "campaign": "park",
+        "method": "cmaes",
+        "evaluations": 40,
+        "objective": "margin",
+        "falsified": True,
+        "failing_runs": len(failing),
+        "runs_to_first_failure": failing[0] + 1,
+        "lowest": -0.5,
+        "best": best,
+        "settings": {"budget": 40},
+    }
+
+
+def test_the_first_failing_run_is_named_as_its_line_and_file_are() -> None:
+    printed = _report(_record([21]), Path("out"), 1.0).splitlines()
+    assert printed[1] == (
+        "falsified: 1 failing run, the first run 21 (22 runs in); lowest margin -0.5"
+    )
+    assert printed[2] == "  21: expect-failed, margin -0.5: run 21.yaml"
+
+
+def test_several_failing_runs_are_counted_in_the_plural() -> None:
+    printed = _report(_record([3, 9]), Path("out"), 1.0).splitlines()
+    assert printed[1] == (
+        "falsified: 2 failing runs, the first run 3 (4 runs in); lowest margin -0.5"
+    )
