@@ -5,6 +5,7 @@ example of missions/case2.yaml, and the built-in metrics they restate."""
 from __future__ import annotations
 
 import copy
+import json
 import subprocess
 import sys
 import warnings
@@ -149,6 +150,36 @@ def test_a_formula_on_a_signal_its_phase_does_not_measure_is_a_warning() -> None
         + 1,
         18,
     )
+
+
+def test_a_mission_wide_formula_that_no_phase_measures_is_a_warning() -> None:
+    # case study 2's orbit and return keep lists of their own: the mission's
+    # formulas apply to the spiral out alone, a track phase without constraints
+    from wmr_mission.spec.loader import check_mission_text
+
+    formulas = ["always(lag <= 1)", "always(clearance >= 0.5)", "always(lag <= 1 or speed <= 1)"]
+    shared = f"  temporal: {json.dumps(formulas)}"
+    text = CASE2.read_text().replace("\nexpect:\n", f"\nexpect:\n{shared}\n", 1)
+    mission, found = check_mission_text(text, "case2.yaml")
+    assert mission is not None  # a warning: the mission runs
+    (warning,) = found
+    assert warning.severity == "warning"
+    assert warning.message == (
+        "no phase that takes the mission's formulas measures clearance (phases with "
+        "constraints): the formula is never checked"
+    )
+    line = text.splitlines().index(shared) + 1
+    assert (warning.line, warning.column) == (line, shared.index('"always(clearance') + 1)
+    # without its own list, the return takes them: clearance is measured there,
+    # but no phase measures it and the lag together
+    together = "always(clearance >= 0.5 and lag <= 1)"
+    mine = '      temporal: ["eventually[0, 10](always(target_distance <= 0.05))"]'
+    text = text.replace(mine, "      settle_time: 0").replace(shared, f'  temporal: ["{together}"]')
+    _, found = check_mission_text(text, "case2.yaml")
+    assert [w.message for w in found] == [
+        "no phase that takes the mission's formulas measures clearance and lag together "
+        "(clearance: phases with constraints; lag: track phases): the formula is never checked"
+    ]
 
 
 # --- the robustness, against rtamt's ------------------------------------------
