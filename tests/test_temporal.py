@@ -485,3 +485,30 @@ def test_a_mistake_after_an_escape_is_never_placed_past_it(tmp_path: Path) -> No
     quote = lines[line].index('"') + 1
     assert str(error.value).startswith(f"{mission}:{line + 1}:{quote}: ")
     assert "unexpected 'fast': expected a number to compare with" in str(error.value)
+
+
+def test_the_figure_words_a_formula_as_a_lower_bound() -> None:
+    """verdicts.png says a missed formula's rho fell below its min 0, as
+    summary.json's check and the run's message do, not above a max."""
+    from wmr_mission.api import mission_from_text, run_mission
+    from wmr_mission.verdicts.signals import run_signals
+
+    park = """
+version: 1
+name: park
+robot: {dt: 0.01, initial_state: {x: 0, y: 0, theta: 0}, limits: {v: 1, omega: 2}}
+phases:
+  - name: park
+    regulate: {target: {x: 1, y: 0, theta: 0}}
+    until: {settled: {position: 0.02, heading: 0.02}}
+    timeout: 20
+    expect: {temporal: ["always(target_distance >= 0.5)"]}
+"""
+    result = run_mission(mission_from_text(park))
+    assert result.judged is not None
+    (missed,) = [c for c in result.judged["expectations"] if not c["met"]]
+    assert missed["min"] == 0.0
+    assert "max" not in missed
+    (failed,) = run_signals(result).failed()
+    rho = missed["value"]
+    assert failed.words() == f"park: always(target_distance >= 0.5) = {rho:.3g} (min 0)"
