@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import json
+import os
 import subprocess
 import sys
 import warnings
@@ -512,3 +513,43 @@ phases:
     (failed,) = run_signals(result).failed()
     rho = missed["value"]
     assert failed.words() == f"park: always(target_distance >= 0.5) = {rho:.3g} (min 0)"
+
+
+def test_a_missed_formula_of_a_run_that_timed_out_is_listed_not_a_traceback(
+    tmp_path: Path,
+) -> None:
+    """A run that ended otherwise than by its checks lists each missed one
+    under the phases' table: a formula's bound is a min, rho >= 0."""
+    mission = tmp_path / "park.yaml"
+    mission.write_text(
+        """
+version: 1
+name: park
+robot: {dt: 0.01, initial_state: {x: 0, y: 0, theta: 0}, limits: {v: 1, omega: 2}}
+phases:
+  - name: park
+    regulate: {target: {x: 1, y: 0, theta: 0}}
+    until: {settled: {position: 0.02, heading: 0.02}}
+    timeout: 0.5
+    on_timeout: fail
+    expect: {temporal: ["always(target_distance <= 0.5)"]}
+"""
+    )
+    out = str(tmp_path / "run")
+    done = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "run", str(mission), "--no-plots", "--out", out],
+        capture_output=True,
+        text=True,
+        check=False,
+        env={**os.environ, "WMR_MISSION_NO_JIT": "1"},
+    )
+    assert "Traceback" not in done.stderr
+    assert done.returncode == 1
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["outcome"] == "timeout"
+    (check,) = [c for c in summary["expectations"] if c["metric"].startswith("always")]
+    assert check["met"] is False
+    assert (
+        f"expect park: always(target_distance <= 0.5) >= 0: {check['value']:.4g} (NOT MET)"
+        in done.stdout.splitlines()
+    )
