@@ -80,3 +80,17 @@ def test_a_private_reach_is_seen() -> None:
         "1: wmr_mission.verdicts.metrics._PointGrid",
         "4: wmr_mission.kernels.jit._state",
     ]
+
+
+def test_the_architecture_names_every_module() -> None:
+    """docs/architecture.md's table has a row for each module (a package's
+    __init__ aside), by its path or, in a row of several, its file name."""
+    table = (PACKAGE.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    missing = [
+        str(path.relative_to(PACKAGE.parent))
+        for path in sorted(PACKAGE.rglob("*.py"))
+        if path.name != "__init__.py"
+        and f"`{path.relative_to(PACKAGE.parent)}`" not in table
+        and f"`{path.name}`" not in table
+    ]
+    assert missing == []

@@ -5,6 +5,8 @@ example of missions/case2.yaml, and the built-in metrics they restate."""
 from __future__ import annotations
 
 import copy
+import json
+import os
 import subprocess
 import sys
 import warnings
@@ -149,6 +151,36 @@ def test_a_formula_on_a_signal_its_phase_does_not_measure_is_a_warning() -> None
         + 1,
         18,
     )
+
+
+def test_a_mission_wide_formula_that_no_phase_measures_is_a_warning() -> None:
+    # case study 2's orbit and return keep lists of their own: the mission's
+    # formulas apply to the spiral out alone, a track phase without constraints
+    from wmr_mission.spec.loader import check_mission_text
+
+    formulas = ["always(lag <= 1)", "always(clearance >= 0.5)", "always(lag <= 1 or speed <= 1)"]
+    shared = f"  temporal: {json.dumps(formulas)}"
+    text = CASE2.read_text().replace("\nexpect:\n", f"\nexpect:\n{shared}\n", 1)
+    mission, found = check_mission_text(text, "case2.yaml")
+    assert mission is not None  # a warning: the mission runs
+    (warning,) = found
+    assert warning.severity == "warning"
+    assert warning.message == (
+        "no phase that takes the mission's formulas measures clearance (phases with "
+        "constraints): the formula is never checked"
+    )
+    line = text.splitlines().index(shared) + 1
+    assert (warning.line, warning.column) == (line, shared.index('"always(clearance') + 1)
+    # without its own list, the return takes them: clearance is measured there,
+    # but no phase measures it and the lag together
+    together = "always(clearance >= 0.5 and lag <= 1)"
+    mine = '      temporal: ["eventually[0, 10](always(target_distance <= 0.05))"]'
+    text = text.replace(mine, "      settle_time: 0").replace(shared, f'  temporal: ["{together}"]')
+    _, found = check_mission_text(text, "case2.yaml")
+    assert [w.message for w in found] == [
+        "no phase that takes the mission's formulas measures clearance and lag together "
+        "(clearance: phases with constraints; lag: track phases): the formula is never checked"
+    ]
 
 
 # --- the robustness, against rtamt's ------------------------------------------
@@ -438,3 +470,86 @@ def test_a_mission_wide_formula_applies_where_its_signals_are_measured(case2_run
         ("orbit", "always(speed <= 10)", True),
         ("orbit", "eventually(cross_track <= 0.1)", True),
     ]
+
+
+def test_a_mistake_after_an_escape_is_never_placed_past_it(tmp_path: Path) -> None:
+    # "\t" is two characters of the file and one of the formula: a column counted
+    # in the formula would point 1 character short of the mistake, so the
+    # message points at the text's opening quote instead.
+    mission = tmp_path / "case2.yaml"
+    written = r"always(speed\t<= 1 and turn_rate <= fast)"
+    mission.write_text(_with_formula(written))
+    lines = mission.read_text().splitlines()
+    line = next(i for i, text in enumerate(lines) if written in text)
+    with pytest.raises(MissionError) as error:
+        load_mission(mission)
+    quote = lines[line].index('"') + 1
+    assert str(error.value).startswith(f"{mission}:{line + 1}:{quote}: ")
+    assert "unexpected 'fast': expected a number to compare with" in str(error.value)
+
+
+def test_the_figure_words_a_formula_as_a_lower_bound() -> None:
+    """verdicts.png says a missed formula's rho fell below its min 0, as
+    summary.json's check and the run's message do, not above a max."""
+    from wmr_mission.api import mission_from_text, run_mission
+    from wmr_mission.verdicts.signals import run_signals
+
+    park = """
+version: 1
+name: park
+robot: {dt: 0.01, initial_state: {x: 0, y: 0, theta: 0}, limits: {v: 1, omega: 2}}
+phases:
+  - name: park
+    regulate: {target: {x: 1, y: 0, theta: 0}}
+    until: {settled: {position: 0.02, heading: 0.02}}
+    timeout: 20
+    expect: {temporal: ["always(target_distance >= 0.5)"]}
+"""
+    result = run_mission(mission_from_text(park))
+    assert result.judged is not None
+    (missed,) = [c for c in result.judged["expectations"] if not c["met"]]
+    assert missed["min"] == 0.0
+    assert "max" not in missed
+    (failed,) = run_signals(result).failed()
+    rho = missed["value"]
+    assert failed.words() == f"park: always(target_distance >= 0.5) = {rho:.3g} (min 0)"
+
+
+def test_a_missed_formula_of_a_run_that_timed_out_is_listed_not_a_traceback(
+    tmp_path: Path,
+) -> None:
+    """A run that ended otherwise than by its checks lists each missed one
+    under the phases' table: a formula's bound is a min, rho >= 0."""
+    mission = tmp_path / "park.yaml"
+    mission.write_text(
+        """
+version: 1
+name: park
+robot: {dt: 0.01, initial_state: {x: 0, y: 0, theta: 0}, limits: {v: 1, omega: 2}}
+phases:
+  - name: park
+    regulate: {target: {x: 1, y: 0, theta: 0}}
+    until: {settled: {position: 0.02, heading: 0.02}}
+    timeout: 0.5
+    on_timeout: fail
+    expect: {temporal: ["always(target_distance <= 0.5)"]}
+"""
+    )
+    out = str(tmp_path / "run")
+    done = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "run", str(mission), "--no-plots", "--out", out],
+        capture_output=True,
+        text=True,
+        check=False,
+        env={**os.environ, "WMR_MISSION_NO_JIT": "1"},
+    )
+    assert "Traceback" not in done.stderr
+    assert done.returncode == 1
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["outcome"] == "timeout"
+    (check,) = [c for c in summary["expectations"] if c["metric"].startswith("always")]
+    assert check["met"] is False
+    assert (
+        f"expect park: always(target_distance <= 0.5) >= 0: {check['value']:.4g} (NOT MET)"
+        in done.stdout.splitlines()
+    )

@@ -86,3 +86,15 @@ def test_a_park_that_passes_its_new_target_fails() -> None:
     assert check["met"] is False
     assert check["value"] == pytest.approx(result.x.max() - 5.0, abs=1e-9)
     assert "park: overshoot_max = 2.98768 (max 0.02)" in summary["message"]
+
+
+def test_a_formula_on_the_target_distance_reads_the_target_in_force() -> None:
+    """From (0, 0) to (4, 0), sent back to (2, 0) at 6 s: the distance starts
+    at 4 m from the target in force (2 m from the last), so always(distance
+    <= 5) holds by (5 - 4) / 5, not (5 - 2) / 5."""
+    text = PARK.format(a=4, when="elapsed: 6", b=2)
+    text += '    expect: {temporal: ["always(target_distance <= 5)"]}\n'
+    summary = run_mission(mission_from_text(text)).judged
+    assert summary is not None
+    rho = summary["phases"][0]["temporal"]["always(target_distance <= 5)"]
+    assert rho == pytest.approx(0.2, abs=1e-9)

@@ -534,7 +534,15 @@ OutputDirectory = Annotated[
 
 @command
 def view(
-    directory: OutputDirectory,
+    directory: Annotated[
+        Path,
+        typer.Argument(
+            exists=True,
+            file_okay=False,
+            metavar="DIR",
+            help="A run, campaign or falsification directory.",
+        ),
+    ],
     out: Annotated[
         Path | None,
         typer.Option("--out", metavar="FILE", help="The HTML report (default: DIR/report.html)."),

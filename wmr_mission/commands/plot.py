@@ -22,7 +22,14 @@ def replot_command(
     try:
         result = load_run(run_dir)
     except (RunDirError, OSError) as exc:
-        print(f"{run_dir}: {exc}", file=sys.stderr)
+        many = _many_runs(run_dir)
+        said = (
+            f"{many}, not a run directory: plot draws one run's figures; "
+            f"wmr-mission view {run_dir} reports it"
+            if many is not None
+            else exc
+        )
+        print(f"{run_dir}: {said}", file=sys.stderr)
         return 1
     try:
         paths = draw_all(result, run_dir, formats, style, dpi)
@@ -39,3 +46,13 @@ def replot_command(
     for path in paths:
         print(path)
     return 0
+
+
+def _many_runs(directory: Path) -> str | None:
+    """What a directory of many runs is (its manifest has no run to draw), or None."""
+    from wmr_mission.campaign.falsify.files import EVALUATIONS_FILE, FALSIFY_FILE
+    from wmr_mission.campaign.reader import is_campaign_dir
+
+    if (directory / FALSIFY_FILE).is_file() and (directory / EVALUATIONS_FILE).is_file():
+        return "a falsification directory"
+    return "a campaign directory" if is_campaign_dir(directory) else None

@@ -224,7 +224,9 @@ def format_table(
         verdict = "met" if check["met"] else "NOT MET"
         value = "null" if check["value"] is None else f"{check['value']:.4g}"
         where = "" if check.get("phase") is None else f"{check['phase']}: "
-        lines.append(f"expect {where}{check['metric']} <= {check['max']:g}: {value} ({verdict})")
+        # a bound from below (clearance_min, a temporal formula) is a min
+        side, bound = ("<=", check["max"]) if "max" in check else (">=", check["min"])
+        lines.append(f"expect {where}{check['metric']} {side} {bound:g}: {value} ({verdict})")
     line = f"outcome: {outcome} after {_seconds(summary.get('duration'))} of simulated time"
     if wall_seconds is not None:
         line += f" ({wall_seconds:.2f} s of wall time)"

@@ -930,25 +930,55 @@ def _expectations(mission: Mission) -> Iterator[Finding]:
         )
 
 
+_MEASURED_WHERE: Final = {
+    "track": "track phases",
+    "zones": "phases with constraints",
+    "target": "regulate and hold phases",
+}
+
+
+def _measured(phase: TrackPhase | RegulatePhase | HoldPhase) -> set[str]:
+    """Where a phase stands in MEASURED_ON: the signals it measures."""
+    kind = "track" if isinstance(phase, TrackPhase) else "target"
+    return {"every", kind, *(("zones",) if phase.constraints else ())}
+
+
 def _formulas(mission: Mission) -> Iterator[Finding]:
-    """A phase's own temporal formula names only signals the phase measures."""
+    """A phase's own temporal formula names only signals the phase measures,
+    and a mission-wide one signals that some phase taking it measures together
+    (each is checked only where all its signals are measured)."""
+    takers: list[set[str]] = []
     for run in run_order(mission):
         phase = run.phase
         if run.lap is not None and run.lap > 1:
             continue
-        kind = "track" if isinstance(phase, TrackPhase) else "target"
-        measured = {"every", kind, *(("zones",) if phase.constraints else ())}
+        measured = _measured(phase)
+        if phase.expect.temporal is None:
+            takers.append(measured)
         for index, text in enumerate(phase.expect.temporal or ()):
             for signal in sorted(signals_of(parse_formula(text))):
                 if MEASURED_ON[signal] not in measured:
-                    where = {"track": "track phases", "zones": "phases with constraints"}
                     yield Finding(
                         (*run.where, "expect", "temporal", index),
-                        f"{signal} is measured on "
-                        f"{where.get(MEASURED_ON[signal], 'regulate and hold phases')}, but "
+                        f"{signal} is measured on {_MEASURED_WHERE[MEASURED_ON[signal]]}, but "
                         f"phase {phase.name!r} is not one: the formula is never checked",
                         severity="warning",
                     )
+    for index, text in enumerate(mission.expect.temporal or ()):
+        # every phase measures speed and turn rate: the others decide
+        signals = sorted(s for s in signals_of(parse_formula(text)) if MEASURED_ON[s] != "every")
+        if any({MEASURED_ON[s] for s in signals} <= measured for measured in takers):
+            continue
+        names = " and ".join(signals) + (" together" if len(signals) > 1 else "")
+        places = "; ".join(f"{s}: {_MEASURED_WHERE[MEASURED_ON[s]]}" for s in signals)
+        if len(signals) == 1:
+            places = _MEASURED_WHERE[MEASURED_ON[signals[0]]]
+        yield Finding(
+            ("expect", "temporal", index),
+            f"no phase that takes the mission's formulas measures {names} ({places}): "
+            "the formula is never checked",
+            severity="warning",
+        )
 
 
 def _phase_colors(mission: Mission) -> Iterator[Finding]:

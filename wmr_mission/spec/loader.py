@@ -282,6 +282,10 @@ class _Builder:
         offset = -1
         if isinstance(node, yaml.ScalarNode) and one_line:
             offset = 1 if node.style in ("'", '"') else 0
+            # an escape ("\t", "''") makes the text shorter than the file's
+            # characters: a column within the text would land short of its place
+            if offset and node.end_mark.column - node.start_mark.column != len(node.value) + 2:
+                offset = -1
         self.document.values[path] = (line, column, offset)
         if isinstance(node, yaml.MappingNode):
             return self._mapping(node, path)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Self
 
 __all__ = ["Check", "margin_fields", "run_margin"]
 
@@ -109,7 +109,7 @@ class Check:
         return record
 
     @classmethod
-    def read(cls, record: Mapping[str, Any]) -> Check:
+    def read(cls, record: Mapping[str, Any]) -> Self:
         """A check of ``summary.json`` (as ``record()`` writes it) read back."""
         value, advice, phase = record.get("value"), record.get("advice"), record.get("phase")
         lower = "max" not in record

@@ -427,8 +427,8 @@ class PhaseSamples:
     @cached_value
     def targets(self) -> list[tuple[slice, tuple[float, float, float]]]:
         """Each stretch of a regulate phase's samples and the target in force
-        over it: the phase's own, then each an update gave (issue: a phase is
-        judged against the target in force at each sample, not its last)."""
+        over it: the phase's own, then each an update gave (a phase is judged
+        against the target in force at each sample, not its last)."""
         w = self.window
         return [(slice(a, b), aim) for a, b, aim in self.info.targets_in_force(w.start, w.stop)]
 

@@ -79,17 +79,13 @@ def line_of(metric: str) -> str | None:
 
 
 @dataclass
-class Check:
-    """One `expect` check placed on the run's samples: ``span`` the samples of
-    its phase (the whole run for a mission-wide one); for a failed peak check,
-    ``over`` the judged samples above its bound."""
+class Check(Judged):
+    """One `expect` check (wmr_mission.verdicts.check) placed on the run's
+    samples: ``span`` the samples of its phase (the whole run for a
+    mission-wide one); for a failed peak check, ``over`` the judged samples
+    above its bound."""
 
-    metric: str
-    phase: str | None
-    bound: float
-    value: float | None
-    met: bool
-    span: tuple[int, int]
+    span: tuple[int, int] = (0, 0)
     over: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
 
     @property
@@ -106,7 +102,7 @@ class Check:
         unit = f" {unit}" if unit else ""
         value = "none" if self.value is None else f"{self.value:.3g}{unit}"
         where = f"{self.phase}: " if self.phase is not None else ""
-        return f"{where}{self.metric} = {value} (max {self.bound:.3g}{unit})"
+        return f"{where}{self.metric} = {value} ({self.side} {self.bound:.3g}{unit})"
 
 
 @dataclass
@@ -273,10 +269,9 @@ def _placed(
     lines: Mapping[str, Mapping[str, FloatArray]],
     judged: Mapping[str, Mask],
 ) -> Check:
-    read = Judged.read(check)  # summary.json's record, read as data
-    metric, phase = read.metric, read.phase
-    span = spans.get(phase, (0, n)) if phase is not None else (0, n)
-    placed = Check(metric, phase, read.bound, read.value, read.met, span)
+    placed = Check.read(check)  # summary.json's record, read as data
+    metric, phase = placed.metric, placed.phase
+    placed.span = span = spans.get(phase, (0, n)) if phase is not None else (0, n)
     name = line_of(metric)
     panel = panel_of(metric)
     if placed.met or name is None or panel is None:

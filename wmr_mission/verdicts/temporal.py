@@ -276,7 +276,11 @@ class PhaseSignals:
         if name in ("target_distance", "heading_error"):
             if info.target is None or info.kind == "track":
                 return {"target_distance": None, "heading_error": None}
-            tx, ty, heading = info.target
+            # the target in force at each sample: an update may move it
+            aims = np.repeat(np.array([info.target]), w.stop - w.start, axis=0)
+            for first, stop, aim in info.targets_in_force(w.start, w.stop):
+                aims[first - w.start : stop - w.start] = aim
+            tx, ty, heading = aims.T
             turned = r.theta[w] - heading
             return {
                 "target_distance": np.hypot(r.x[w] - tx, r.y[w] - ty),

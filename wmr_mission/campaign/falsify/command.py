@@ -494,9 +494,12 @@ def _report(record: dict[str, Any], out_dir: Path, seconds: float) -> str:
     lines = [f"falsify {record['campaign']} ({method}): {evaluations} runs in {seconds:.1f} s"]
     best = record["best"]
     if record["falsified"]:
+        failing, runs_in = record["failing_runs"], record["runs_to_first_failure"]
+        # a run is named by its evaluation number, as its row, failing/N.yaml and
+        # the lines below name it: the first is run runs_in - 1
         lines.append(
-            f"falsified: {record['failing_runs']} failing runs, the first at run "
-            f"{record['runs_to_first_failure']}; lowest {objective} {_text(record['lowest'])}"
+            f"falsified: {failing} failing run{'s' if failing != 1 else ''}, the first run "
+            f"{runs_in - 1} ({runs_in} runs in); lowest {objective} {_text(record['lowest'])}"
         )
         lines += [
             f"  {b['evaluation']}: {b['outcome']}, {objective} {_text(b['objective'])}: {b['run']}"

@@ -38,7 +38,8 @@ def _shown(value: float) -> float:
 
 def _margins(evaluations: Sequence[Evaluation], objective: str | None, path: Path) -> None:
     ran = [e for e in evaluations if e.ran]
-    index = np.array([e.index + 1 for e in ran], dtype=float)
+    # by evaluation number, as evaluations.csv's rows and failing/N.yaml name runs
+    index = np.array([e.index for e in ran], dtype=float)
     value = np.array([_shown(e.objective) for e in ran], dtype=float)
     finite = value[np.isfinite(value)]
     # -inf runs are drawn just below the lowest finite margin, marked as such.
@@ -54,7 +55,7 @@ def _margins(evaluations: Sequence[Evaluation], objective: str | None, path: Pat
     ax.axhline(0.0, color="black", linewidth=0.8, linestyle="--")
     if (value == floor).any():
         ax.axhline(floor, color="tab:red", linewidth=0.5, linestyle=":")
-        ax.annotate("-inf (timeout, divergence...)", (1, floor), fontsize=7, va="bottom")
+        ax.annotate("-inf (timeout, divergence...)", (0, floor), fontsize=7, va="bottom")
     ax.set_xlabel("evaluation")
     ax.set_ylabel(f"margin of {objective}" if objective else "run margin")
     ax.set_title("margin against evaluation: below 0 fails")

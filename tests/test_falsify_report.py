@@ -1,0 +1,67 @@
+"""What `falsify` prints: each run is named by its evaluation number, the one
+evaluations.csv, failing/N.yaml and the run lines give it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from wmr_mission.campaign.falsify.command import _report
+
+
+def _record(failing: list[int]) -> dict[str, Any]:
+    best = [
+        {"evaluation": n, "outcome": "expect-failed", "objective": -0.5, "run": f"run {n}.yaml"}
+        for n in failing
+    ]
+    return {
+        "campaign": "park",
+        "method": "cmaes",
+        "evaluations": 40,
+        "objective": "margin",
+        "falsified": True,
+        "failing_runs": len(failing),
+        "runs_to_first_failure": failing[0] + 1,
+        "lowest": -0.5,
+        "best": best,
+        "settings": {"budget": 40},
+    }
+
+
+def test_the_first_failing_run_is_named_as_its_line_and_file_are() -> None:
+    printed = _report(_record([21]), Path("out"), 1.0).splitlines()
+    assert printed[1] == (
+        "falsified: 1 failing run, the first run 21 (22 runs in); lowest margin -0.5"
+    )
+    assert printed[2] == "  21: expect-failed, margin -0.5: run 21.yaml"
+
+
+def test_several_failing_runs_are_counted_in_the_plural() -> None:
+    printed = _report(_record([3, 9]), Path("out"), 1.0).splitlines()
+    assert printed[1] == (
+        "falsified: 2 failing runs, the first run 3 (4 runs in); lowest margin -0.5"
+    )
+
+
+def test_margins_png_places_each_run_at_its_evaluation_number(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The failing dot of evaluation 2 is at 2 on the axis named evaluation,
+    the number of its row and of failing/2.yaml, not at 3."""
+    from wmr_mission.campaign.falsify import figures
+    from wmr_mission.campaign.falsify.evaluate import Evaluation
+
+    drawn: list[Any] = []
+    monkeypatch.setattr(figures, "save_figure", lambda fig, path: drawn.append(fig))
+    runs = [
+        Evaluation(n, n, {}, "success" if m > 0 else "expect-failed", m, None, m, "")
+        for n, m in enumerate([0.4, 0.3, -0.2, 0.5])
+    ]
+    figures._margins(runs, None, tmp_path / "margins.png")
+    (ax,) = drawn[0].axes
+    assert ax.get_xlabel() == "evaluation"
+    passing, failing = (c.get_offsets() for c in ax.collections[:2])
+    assert failing.tolist() == [[2.0, -0.2]]
+    assert [x for x, _ in passing.tolist()] == [0.0, 1.0, 3.0]
