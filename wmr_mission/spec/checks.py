@@ -60,7 +60,7 @@ from wmr_mission.spec.models import (
     Update,
 )
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
-from wmr_mission.spec.temporal import MEASURED_ON, parse_formula, signals_of
+from wmr_mission.spec.temporal import SIGNALS, parse_formula, signals_of
 
 __all__ = ["MAX_SAMPLES", "DataPath", "Finding", "Severity", "check", "check_across_fields"]
 
@@ -938,7 +938,7 @@ _MEASURED_WHERE: Final = {
 
 
 def _measured(phase: TrackPhase | RegulatePhase | HoldPhase) -> set[str]:
-    """Where a phase stands in MEASURED_ON: the signals it measures."""
+    """Where a phase stands among the signals' `measured_on`: the signals it measures."""
     kind = "track" if isinstance(phase, TrackPhase) else "target"
     return {"every", kind, *(("zones",) if phase.constraints else ())}
 
@@ -957,22 +957,25 @@ def _formulas(mission: Mission) -> Iterator[Finding]:
             takers.append(measured)
         for index, text in enumerate(phase.expect.temporal or ()):
             for signal in sorted(signals_of(parse_formula(text))):
-                if MEASURED_ON[signal] not in measured:
+                where = SIGNALS[signal].measured_on
+                if where not in measured:
                     yield Finding(
                         (*run.where, "expect", "temporal", index),
-                        f"{signal} is measured on {_MEASURED_WHERE[MEASURED_ON[signal]]}, but "
+                        f"{signal} is measured on {_MEASURED_WHERE[where]}, but "
                         f"phase {phase.name!r} is not one: the formula is never checked",
                         severity="warning",
                     )
     for index, text in enumerate(mission.expect.temporal or ()):
         # every phase measures speed and turn rate: the others decide
-        signals = sorted(s for s in signals_of(parse_formula(text)) if MEASURED_ON[s] != "every")
-        if any({MEASURED_ON[s] for s in signals} <= measured for measured in takers):
+        signals = sorted(
+            s for s in signals_of(parse_formula(text)) if SIGNALS[s].measured_on != "every"
+        )
+        if any({SIGNALS[s].measured_on for s in signals} <= measured for measured in takers):
             continue
         names = " and ".join(signals) + (" together" if len(signals) > 1 else "")
-        places = "; ".join(f"{s}: {_MEASURED_WHERE[MEASURED_ON[s]]}" for s in signals)
+        places = "; ".join(f"{s}: {_MEASURED_WHERE[SIGNALS[s].measured_on]}" for s in signals)
         if len(signals) == 1:
-            places = _MEASURED_WHERE[MEASURED_ON[signals[0]]]
+            places = _MEASURED_WHERE[SIGNALS[signals[0]].measured_on]
         yield Finding(
             ("expect", "temporal", index),
             f"no phase that takes the mission's formulas measures {names} ({places}): "

@@ -34,7 +34,6 @@ from pydantic_core import PydanticCustomError
 __all__ = [
     "INSTANTS",
     "MAX_FORMULA_LENGTH",
-    "MEASURED_ON",
     "SIGNALS",
     "Always",
     "Atom",
@@ -44,6 +43,7 @@ __all__ = [
     "Formula",
     "FormulaError",
     "Node",
+    "Signal",
     "Until",
     "Window",
     "parse_formula",
@@ -53,29 +53,48 @@ __all__ = [
 MAX_FORMULA_LENGTH: Final = 1000
 MAX_NESTING_DEPTH: Final = 50
 
-# The signals a formula may name: their unit and what they are, per sample of a
-# phase (NaN where a phase does not measure it; wmr_mission.verdicts.temporal).
-SIGNALS: Final[dict[str, tuple[str, str]]] = {
-    "cross_track": ("m", "distance of the true position from its place on the path (track)"),
-    "lag": ("m", "arc length from its place on the path to its reference point, > 0 behind"),
-    "zone_depth": ("m", "depth beyond the edge of the phase's zones, > 0 beyond (zones)"),
-    "clearance": ("m", "distance of the body from the zones' forbidden side (zones)"),
-    "target_distance": ("m", "distance of the true position from the target (regulate)"),
-    "heading_error": ("rad", "|heading - the target's heading|, wrapped (regulate)"),
-    "speed": ("m/s", "|v|"),
-    "turn_rate": ("rad/s", "|omega|"),
-}
-# Where each signal is measured: on track phases, on phases with zones, on
-# phases with a target (regulate and hold), or on every phase.
-MEASURED_ON: Final[dict[str, Literal["track", "zones", "target", "every"]]] = {
-    "cross_track": "track",
-    "lag": "track",
-    "zone_depth": "zones",
-    "clearance": "zones",
-    "target_distance": "target",
-    "heading_error": "target",
-    "speed": "every",
-    "turn_rate": "every",
+
+@dataclass(frozen=True)
+class Signal:
+    """A signal a formula may name, per sample of a phase (NaN where a phase
+    does not measure it; wmr_mission.verdicts.temporal): its unit, what it is,
+    where it is measured (on track phases, on phases with zones, on phases with
+    a target, regulate and hold, or on every phase) and the panel of the
+    verdicts figure it is drawn on (wmr_mission.verdicts.signals)."""
+
+    unit: str
+    meaning: str
+    measured_on: Literal["track", "zones", "target", "every"]
+    panel: str
+
+
+SIGNALS: Final[dict[str, Signal]] = {
+    "cross_track": Signal(
+        "m",
+        "distance of the true position from its place on the path (track)",
+        "track",
+        "cross_track",
+    ),
+    "lag": Signal(
+        "m",
+        "arc length from its place on the path to its reference point, > 0 behind",
+        "track",
+        "along_track",
+    ),
+    "zone_depth": Signal(
+        "m", "depth beyond the edge of the phase's zones, > 0 beyond (zones)", "zones", "zones"
+    ),
+    "clearance": Signal(
+        "m", "distance of the body from the zones' forbidden side (zones)", "zones", "zones"
+    ),
+    "target_distance": Signal(
+        "m", "distance of the true position from the target (regulate)", "target", "goal"
+    ),
+    "heading_error": Signal(
+        "rad", "|heading - the target's heading|, wrapped (regulate)", "target", "goal"
+    ),
+    "speed": Signal("m/s", "|v|", "every", "saturation"),
+    "turn_rate": Signal("rad/s", "|omega|", "every", "saturation"),
 }
 # Named instants of a window: the track entry's end, the phase's settle_time,
 # and the end of the phase (the trace ends there).

@@ -35,6 +35,7 @@ import numpy as np
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.spec.temporal import (
+    SIGNALS,
     Always,
     Atom,
     Both,
@@ -54,18 +55,6 @@ if TYPE_CHECKING:
     from wmr_mission.record import PhaseRecord, RunRecord
 
 __all__ = ["PhaseSignals", "formula_checks", "panel_of", "phase_values", "robustness"]
-
-# The panel of the verdicts figure (wmr_mission.verdicts.signals) each signal is drawn on.
-_PANELS = {
-    "cross_track": "cross_track",
-    "lag": "along_track",
-    "zone_depth": "zones",
-    "clearance": "zones",
-    "target_distance": "goal",
-    "heading_error": "goal",
-    "speed": "saturation",
-    "turn_rate": "saturation",
-}
 
 _INF = math.inf
 
@@ -236,7 +225,7 @@ def panel_of(formula: str) -> str:
     node = parse_formula(formula)
     while not isinstance(node, Atom):
         node = node.body if isinstance(node, Always | Eventually) else node.left
-    return _PANELS[node.signal]
+    return SIGNALS[node.signal].panel
 
 
 def formula_checks(phase: Mapping[str, Any]) -> list[Check]:
