@@ -98,3 +98,36 @@ def test_a_formula_on_the_target_distance_reads_the_target_in_force() -> None:
     assert summary is not None
     rho = summary["phases"][0]["temporal"]["always(target_distance <= 5)"]
     assert rho == pytest.approx(0.2, abs=1e-9)
+
+
+# A park to (3, 0) from facing north, sent to (-3, 0) at 4 s.
+TURNED = """
+version: 1
+name: park-turned
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 1.5708}
+  limits: {v: 1, omega: 1}
+phases:
+  - name: park
+    regulate: {target: {x: 3, y: 0, theta: 0}}
+    updates:
+      - when: {elapsed: 4}
+        target: {x: -3, y: 0, theta: 3.14159}
+    until: {settled: {position: 0.02, heading: 0.02}}
+    timeout: 60
+"""
+
+
+def test_a_fight_is_progress_towards_the_target_in_force() -> None:
+    """At its speed limit towards (3, 0), the robot went away from (-3, 0):
+    judged by its last target, 2.34 s of that read as a fight with the limit."""
+    result = run_mission(mission_from_text(TURNED))
+    update = int(np.flatnonzero(result.reference == 1)[0])
+    assert result.x[update] > 1.0  # well on its way to the first target
+    summary = result.judged
+    assert summary is not None
+    inputs = summary["phases"][0]["inputs"]
+    assert inputs["speed_at_limit"] > 0.2  # it drove at its limit, ...
+    assert inputs["speed_fight_time"] == pytest.approx(0.0, abs=1e-12)  # ... never in vain
+    assert inputs["turn_rate_fight_time"] == pytest.approx(0.0, abs=1e-12)

@@ -204,12 +204,19 @@ def progress_along(x: FloatArray, y: FloatArray, rx: FloatArray, ry: FloatArray)
     return progress
 
 
-def progress_to(x: FloatArray, y: FloatArray, aim: tuple[float, float]) -> Progress:
-    """Progress from sample a to b: how much nearer the aim the robot came."""
+def progress_to(
+    x: FloatArray, y: FloatArray, aim: tuple[float, float] | tuple[FloatArray, FloatArray]
+) -> Progress:
+    """Progress from sample a to b: how much nearer the aim the robot came; an
+    aim per sample (a target an update moved) is the one in force at b, the
+    robot's way judged by where it is being sent."""
+    aim_x = np.broadcast_to(np.asarray(aim[0], dtype=float), x.shape)
+    aim_y = np.broadcast_to(np.asarray(aim[1], dtype=float), x.shape)
 
     def progress(a: int, b: int) -> float:
         end = min(b, x.size - 1)
-        before = math.hypot(float(x[a]) - aim[0], float(y[a]) - aim[1])
-        return before - math.hypot(float(x[end]) - aim[0], float(y[end]) - aim[1])
+        to = (float(aim_x[end]), float(aim_y[end]))
+        before = math.hypot(float(x[a]) - to[0], float(y[a]) - to[1])
+        return before - math.hypot(float(x[end]) - to[0], float(y[end]) - to[1])
 
     return progress

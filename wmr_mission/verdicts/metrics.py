@@ -404,8 +404,11 @@ class PhaseSamples:
         progress: input_metrics.Progress
         if self.info.kind == "track":
             progress = input_metrics.progress_along(x, y, r.x_ref[judged], r.y_ref[judged])
-        elif self.info.target is not None:
-            progress = input_metrics.progress_to(x, y, self.info.target[:2])
+        elif self.info.target is not None:  # towards the target in force at each sample
+            aim_x, aim_y = np.empty(x.size), np.empty(x.size)
+            for a, b, aim in self.info.targets_in_force(first, stop):
+                aim_x[a - first : b - first], aim_y[a - first : b - first] = aim[0], aim[1]
+            progress = input_metrics.progress_to(x, y, (aim_x, aim_y))
         else:
             progress = lambda a, b: 0.0  # noqa: E731 - no aim known: nothing is progress
         return input_metrics.input_quality(
