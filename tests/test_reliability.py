@@ -157,8 +157,10 @@ def test_one_directory_is_claimed_by_exactly_one_of_racing_runs(tmp_path: Path) 
 
 
 def _drain(terminals: dict[int, int], seen: dict[int, bytes], until: Any) -> None:
-    """Read the runs' terminals (so that they never block writing) until ``until()``."""
-    deadline = time.monotonic() + 60
+    """Read the runs' terminals (so that they never block writing) until ``until()``:
+    a guard against a hang, long enough for a loop compiled cold on a loaded
+    machine (a minute and more) before the first sample."""
+    deadline = time.monotonic() + 300
     while not until():
         assert time.monotonic() < deadline, seen
         for terminal in select.select(list(terminals.values()), [], [], 0.1)[0]:
@@ -204,9 +206,10 @@ def test_a_signal_stops_the_run_and_its_samples_are_written(tmp_path: Path) -> N
                 if not chunk:
                     break
                 seen[number] += chunk
-    finally:
+    finally:  # reaped, not left running into the next test (a ResourceWarning there)
         for number, process in processes.items():
             process.kill()
+            process.wait()
             os.close(terminals[number])
     for number, code in codes.items():
         name = signal.Signals(number).name
