@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from browser import Browser
+from test_view import needs_chromium
 
 from wmr_mission.campaign.falsify.command import falsify_campaign, falsify_command
 from wmr_mission.campaign.falsify.evaluate import Evaluation
@@ -406,18 +408,14 @@ def test_view_shows_a_falsification_directory(tmp_path: Path) -> None:
         assert replay == f"wmr-mission run {(out / entry['mission']).resolve()}"
 
 
+@needs_chromium
 def test_view_of_a_falsification_renders_without_a_console_error(tmp_path: Path) -> None:
-    browser_module = pytest.importorskip("tests.browser")
     out = tmp_path / "out"
     falsify_campaign(PARK, budget=8, seed=1, out=out, plots=False)
     from wmr_mission.review.view import view_command
 
     assert view_command(out) == 0
-    try:
-        browser = browser_module.Browser()
-    except Exception as error:  # no Chromium on this machine
-        pytest.skip(f"no headless browser: {error}")
-    with browser, browser.open(out / "report.html") as page:
+    with Browser() as browser, browser.open(out / "report.html") as page:
         assert page.problems() == []
         assert page.evaluate("document.body.dataset.rendered") == "1"
         assert "falsification (cmaes)" in page.evaluate("document.querySelector('h1').textContent")

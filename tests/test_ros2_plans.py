@@ -180,19 +180,24 @@ def test_a_quiet_planner_with_on_plan_stale_hold_leaves_the_robot_holding(
     assert "for 1.5 s: holding the estimated pose" in done.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["realtime"]["plans_taken"] == 1
-    assert summary["realtime"]["plans_stale"] == 1
     transitions = json.loads((out / "transitions.json").read_text())
-    whys = [t["why"] for t in transitions if t["condition"] == "update"]
-    assert len(whys) == 3  # no plan yet, the plan, the quiet planner
-    assert "no plan yet" in whys[0]
-    assert "planner quiet for 1.5 s" in whys[2]
-    assert "hold the estimated pose" in whys[2]
+    updates = [t for t in transitions if t["condition"] == "update"]
+    assert "no plan yet" in updates[0]["why"]
+    # The planner sends its plan a second after it hears the first command;
+    # on a loaded machine it may hear it late, and be quiet once before it
+    # (1.5 s of the run's time from its start): then it is counted twice.
+    quiet = [u for u in updates if "planner quiet for 1.5 s" in u["why"]]
+    assert summary["realtime"]["plans_stale"] == len(quiet) in (1, 2)
+    plan = next(u for u in updates if "plan on 'plan'" in u["why"])
+    assert updates[-1] is quiet[-1]  # after the plan, quiet: held
+    assert updates.index(quiet[-1]) == updates.index(plan) + 1
+    assert "hold the estimated pose" in quiet[-1]["why"]
     run = load_run(out)
     assert run.reference is not None
-    held = int(np.flatnonzero(run.reference == 3)[0])
+    held = int(np.flatnonzero(run.reference == quiet[-1]["value"])[0])
     # 1.5 s after the plan (taken ~1 s in) the reference rests at the estimate
     # there: 1.5 s of the run's time, whatever the machine's load
-    plan_taken = int(np.flatnonzero(run.reference == 2)[0])
+    plan_taken = int(np.flatnonzero(run.reference == plan["value"])[0])
     assert (held - plan_taken) * run.dt == pytest.approx(1.5, abs=1e-9)
     assert run.x_ref[held:-1] == pytest.approx(run.x_est[held], abs=1e-12)
     assert run.y_ref[held:-1] == pytest.approx(run.y_est[held], abs=1e-12)
