@@ -256,6 +256,35 @@ def test_the_runner_returns_the_samples_up_to_an_interrupt(
     assert result.transitions[-1].condition == "interrupted"
 
 
+def test_a_stop_inside_the_first_call_keeps_whole_rows(tmp_path: Path) -> None:
+    """A stop in the middle of the run's first call of the loop (plain Python
+    takes it at once, here at its 100th sample of 256): the rows before it are
+    kept, each whole and as an unstopped run has them, and trajectory.csv holds
+    exactly those lines."""
+    from wmr_mission import load_mission
+    from wmr_mission.controllers import paper
+
+    calls = [0]
+
+    def stopped(*arguments: Any) -> Any:
+        calls[0] += 1
+        if calls[0] == 100:
+            raise KeyboardInterrupt
+        return paper.track_input(*arguments)
+
+    mission = load_mission(Path(__file__).resolve().parents[1] / "missions" / "case2.yaml")
+    result = run_mission(mission, substitutes={paper.track_input: stopped})
+    assert result.outcome is Outcome.interrupted
+    assert 0 < result.samples == 99 < runner_module.FIRST_CHUNK
+    whole = run_mission(mission)
+    for name in ("t", "x", "y", "theta", "x_est", "v", "omega", "x_ref", "phase"):
+        np.testing.assert_array_equal(getattr(result, name), getattr(whole, name)[:99])
+    write_run(result, tmp_path / "stopped", plots=False, animate=False)
+    write_run(whole, tmp_path / "whole", plots=False, animate=False)
+    lines = (tmp_path / "stopped" / "trajectory.csv").read_text().splitlines()
+    assert lines == (tmp_path / "whole" / "trajectory.csv").read_text().splitlines()[:100]
+
+
 def test_deleting_or_editing_the_mission_during_the_run_changes_nothing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
