@@ -11,7 +11,8 @@
     python benchmarks/measure.py stages     # `run case1 --no-plots`, `validate case2`, by stage
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
-    python benchmarks/measure.py memory     # peak memory of a 1-hour mission, with figures
+    python benchmarks/measure.py memory     # peak memory of a 1-hour mission, and by stage
+    python benchmarks/measure.py csv        # trajectory.csv's writer, per sample, the 1-hour run
     python benchmarks/measure.py scale      # run time against samples (100 s and 1 h)
     python benchmarks/measure.py figures    # case study 1's figures and animation; 10 000 phases
     python benchmarks/measure.py distance   # summary.json's distance to the path, 360 001 samples
@@ -536,37 +537,87 @@ def memory() -> None:
         small, _ = _peak_rss([*short, "--out", f"{tmp}/small", "--no-plots"])
     print(f"1-hour mission (360 001 samples): peak RSS {plotted:.0f} MB with figures, ")
     print(f"  {bare:.0f} MB without; case study 2 without figures: {small:.0f} MB")
-    # Where it goes: resident memory after each step of a run, in one process.
-    done = subprocess.run(
-        [sys.executable, "-c", _MEMORY_STEPS, str(HOUR), str(MISSIONS / "case2.yaml")],
-        check=True,
-        capture_output=True,
-        text=True,
-    )
+    # Where it goes: `run` of the 1-hour mission in one process, the resident
+    # memory at the end of each stage and its peak within the stage.
+    with tempfile.TemporaryDirectory() as tmp:
+        done = subprocess.run(
+            [sys.executable, "-c", _MEMORY_STAGES, str(HOUR), f"{tmp}/run"],
+            check=True,
+            capture_output=True,
+            text=True,
+        )
     print(done.stdout, end="")
 
 
-_MEMORY_STEPS = """
-import sys, tempfile
+# MB as MiB, as getrusage's peak above: the resident pages, read every millisecond.
+_MEMORY_STAGES = """
+import contextlib, io, sys, threading, time
 from pathlib import Path
 
 def resident():
     return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
 
-import wmr_mission.sim.runner, wmr_mission.spec.loader, wmr_mission.output.rundir
-print(f"  imports: {resident():.0f} MB")
-from wmr_mission.sim.runner import run_mission
-from wmr_mission.spec.loader import load_mission
-run_mission(load_mission(Path(sys.argv[2])))
-print(f"  + the compiled loop loaded (case study 2 run): {resident():.0f} MB")
-result = run_mission(load_mission(Path(sys.argv[1])))
-print(f"  + the 1-hour run, judged: {resident():.0f} MB")
-import matplotlib.figure, matplotlib.backends.backend_agg
-print(f"  + matplotlib imported: {resident():.0f} MB")
-with tempfile.TemporaryDirectory() as tmp:
-    result.write(Path(tmp) / "run")
-print(f"  + its run directory written, figures included: {resident():.0f} MB")
+peak, lock = [resident()], threading.Lock()
+def watch():
+    while True:
+        with lock:
+            peak[0] = max(peak[0], resident())
+        time.sleep(0.001)
+threading.Thread(target=watch, daemon=True).start()
+out = sys.stdout
+
+def stage(name):
+    time.sleep(0.005)
+    with lock:
+        now = resident()
+        print(f"  {name:<44} {now:4.0f} MB, peak within {max(peak[0], now):4.0f} MB", file=out)
+        peak[0] = now
+
+import wmr_mission.commands.run as command
+import wmr_mission.output.figures as figures
+import wmr_mission.output.rundir as rundir
+import wmr_mission.sim.runner as runner
+import wmr_mission.verdicts.metrics as metrics
+stage("imports")
+
+def after(module, name, label):
+    function = getattr(module, name)
+    def wrapped(*args, **kwargs):
+        value = function(*args, **kwargs)
+        stage(label)
+        return value
+    setattr(module, name, wrapped)
+
+after(rundir, "prepare_run_dir", "the loop loaded, the directory claimed")
+after(runner._Run, "_result", "simulated: the record (144 bytes a sample)")
+after(metrics, "judge_mission", "judged")
+after(rundir, "write_trajectory", "trajectory.csv written")
+after(rundir, "write_run", "the JSON files written")
+after(figures, "draw_all", "the figures drawn (matplotlib imported)")
+with contextlib.redirect_stdout(io.StringIO()):  # the table
+    mission, run_dir = Path(sys.argv[1]), Path(sys.argv[2])
+    command.run_command(mission, out=run_dir, seed=None, plots=True, animate=False)
 """
+
+
+def csv_cost(repeat: int = 5) -> None:
+    """trajectory.csv of the 1-hour run: CPU per sample, median of ``repeat`` writes."""
+    from wmr_mission.output import rundir
+    from wmr_mission.sim.runner import run_mission
+    from wmr_mission.spec.loader import load_mission
+
+    result = run_mission(load_mission(HOUR))
+    samples = result.samples
+    with tempfile.TemporaryDirectory() as tmp:
+        writes = []
+        for _ in range(repeat):
+            started = time.process_time()
+            rundir.write_trajectory(result, Path(tmp) / "trajectory.csv")
+            writes.append(time.process_time() - started)
+    print(
+        f"trajectory.csv, {samples} samples: {statistics.median(writes) / samples * 1e6:.2f} us "
+        f"a sample (CPU, median of {repeat}); load average {os.getloadavg()[0]:.1f}"
+    )
 
 
 def scale(repeat: int = 5) -> None:
@@ -1173,6 +1224,7 @@ if __name__ == "__main__":
         "plugins": plugins,
         "band": band,
         "session": session,
+        "csv": csv_cost,
     }
     if what not in jobs:
         print(__doc__, file=sys.stderr)

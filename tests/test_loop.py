@@ -65,9 +65,11 @@ def test_a_phase_ends_at_its_bound_in_one_call_and_noise_is_drawn_as_used(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """noisy-observer: a 30 s circle (until elapsed), then a stop. One call
-    loads the loop, then one per phase: the circle exits at its bound in the
-    call that reaches it. The run is shorter than a block of draws, so it
-    draws one block: the next is drawn only once the last is used up."""
+    loads the loop; the run's first call is short (its first samples come at
+    once) and the next four times longer, then one call per phase: the circle
+    exits at its bound in the call that reaches it. The run is shorter than a
+    block of draws, so it draws one block: the next is drawn only once the
+    last is used up."""
     call = runner._Run._call
     calls = []
 
@@ -91,7 +93,9 @@ def test_a_phase_ends_at_its_bound_in_one_call_and_noise_is_drawn_as_used(
     assert result.outcome is Outcome.success
     assert [t.condition for t in result.transitions] == ["elapsed", "settled"]
     assert 3000 < result.samples < Draws.BLOCK
-    assert len(calls) == 3
+    first = runner.FIRST_CHUNK
+    assert calls[:4] == [0, first, 5 * first, 3001]  # stop: up to the bound, then its exit
+    assert len(calls) == 5
     assert len(blocks) == 1
 
 

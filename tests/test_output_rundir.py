@@ -5,6 +5,7 @@ import json
 import math
 import os
 import re
+import sys
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 from test_output_synthetic import circle_run
 
+import wmr_mission.output.rundir as rundir_module
 from wmr_mission.output.files import atomic_path
 from wmr_mission.output.reader import RunDirError, load_run
 from wmr_mission.output.result import RunResult
@@ -20,9 +22,16 @@ from wmr_mission.output.rundir import (
     RunDirExistsError,
     default_run_dir,
     prepare_run_dir,
+    trajectory_csv_text,
     write_run,
 )
-from wmr_mission.record import EXTRA_COLUMNS, TRAJECTORY_COLUMNS, Outcome, PhaseRecord
+from wmr_mission.record import (
+    EXTRA_COLUMNS,
+    TRAJECTORY_COLUMNS,
+    Outcome,
+    PhaseRecord,
+    csv_columns,
+)
 
 RESOLVED: dict[str, Any] = {
     "version": 1,
@@ -160,6 +169,69 @@ def test_same_result_twice_gives_byte_identical_csv(tmp_path: Path) -> None:
     one = (tmp_path / "one" / "trajectory.csv").read_bytes()
     assert one == (tmp_path / "two" / "trajectory.csv").read_bytes()
     assert len(one) > 100_000
+
+
+def _awkward_run(samples: int) -> RunResult:
+    """circle_run with values that format awkwardly in every float column: NaN,
+    infinities, -0.0, the smallest and largest doubles, ties at the 12th digit;
+    a reference column, and big integers."""
+    run = circle_run(samples)
+    awkward = np.array(
+        [math.nan, math.inf, -math.inf, -0.0, 5e-324, 1.7976931348623157e308,
+         0.1 + 0.2, 1e-5, 123456789012.5, 1e12, -2.5e-7, 1 / 3]
+    )  # fmt: skip
+    rng = np.random.default_rng(5)
+    for name in ("x", "y", "theta", "x_est", "y_est", "theta_est", "v", "omega", "x_ref",
+                 "y_ref", "constraint", "x_meas", "y_meas", "theta_meas"):  # fmt: skip
+        column = rng.normal(0, 10.0 ** rng.integers(-8, 9), samples)
+        column[rng.integers(0, samples, 40)] = rng.choice(awkward, 40)
+        setattr(run, name, column)
+    run.phase2_iterations = rng.integers(-(2**62), 2**62, samples)
+    run.reference = rng.integers(0, 3, samples)
+    return run
+
+
+def test_the_csv_is_each_value_formatted_in_its_column_across_blocks() -> None:
+    """trajectory.csv is, byte for byte, each row's values formatted one by one
+    (floats ``%.12g``, integers ``%d``, the phase's name) on runs that end
+    inside a block of lines, on its boundary, and past it."""
+    for samples in (1, rundir_module._ROWS_PER_BLOCK, 2 * rundir_module._ROWS_PER_BLOCK + 7):
+        run = _awkward_run(samples)
+        names = [p.name for p in run.phases]
+        columns = csv_columns(run)
+        lines = [",".join(columns)]
+        for k in range(samples):
+            fields = []
+            for name in columns:
+                value = getattr(run, name)[k]
+                if name == "phase":
+                    fields.append(names[value])
+                elif name in ("phase2_iterations", "reference"):
+                    fields.append(str(int(value)))
+                else:
+                    fields.append("%.12g" % float(value))  # noqa: UP031 (the writer's format)
+            lines.append(",".join(fields))
+        assert trajectory_csv_text(run) == "\n".join(lines) + "\n"
+
+
+def test_the_csv_writer_works_per_column_not_per_value() -> None:
+    """The Python the writer runs grows with its blocks, not with its values:
+    a few calls per block (numpy's), none per sample (a tuple built value by
+    value resumed a generator 17 times per sample)."""
+    run = circle_run(20_000)
+    calls = [0]
+
+    def count(frame: Any, event: str, arg: Any) -> None:
+        if event == "call":
+            calls[0] += 1
+
+    sys.setprofile(count)
+    try:
+        text = trajectory_csv_text(run)
+    finally:
+        sys.setprofile(None)
+    assert text.count("\n") == 20_001
+    assert calls[0] < 200
 
 
 def test_phase_names_needing_quotes_round_trip(tmp_path: Path) -> None:

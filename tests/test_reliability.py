@@ -221,7 +221,8 @@ def test_a_signal_stops_the_run_and_its_samples_are_written(tmp_path: Path) -> N
         summary = json.loads((run_dir / "summary.json").read_text())
         assert summary["outcome"] == "interrupted"
         assert summary["message"].endswith(f"by {name}")
-        assert summary["samples"] > 2000
+        # sent once the progress line showed: after the run's first call of the loop
+        assert summary["samples"] >= runner_module.FIRST_CHUNK
         rows = (run_dir / "trajectory.csv").read_text().count("\n") - 1
         assert rows == summary["samples"]
         transitions = json.loads((run_dir / "transitions.json").read_text())
@@ -253,6 +254,35 @@ def test_the_runner_returns_the_samples_up_to_an_interrupt(
     assert np.all(np.isfinite(result.x))
     assert np.all(np.diff(result.t) > 0)
     assert result.transitions[-1].condition == "interrupted"
+
+
+def test_a_stop_inside_the_first_call_keeps_whole_rows(tmp_path: Path) -> None:
+    """A stop in the middle of the run's first call of the loop (plain Python
+    takes it at once, here at its 100th sample of 256): the rows before it are
+    kept, each whole and as an unstopped run has them, and trajectory.csv holds
+    exactly those lines."""
+    from wmr_mission import load_mission
+    from wmr_mission.controllers import paper
+
+    calls = [0]
+
+    def stopped(*arguments: Any) -> Any:
+        calls[0] += 1
+        if calls[0] == 100:
+            raise KeyboardInterrupt
+        return paper.track_input(*arguments)
+
+    mission = load_mission(Path(__file__).resolve().parents[1] / "missions" / "case2.yaml")
+    result = run_mission(mission, substitutes={paper.track_input: stopped})
+    assert result.outcome is Outcome.interrupted
+    assert 0 < result.samples == 99 < runner_module.FIRST_CHUNK
+    whole = run_mission(mission)
+    for name in ("t", "x", "y", "theta", "x_est", "v", "omega", "x_ref", "phase"):
+        np.testing.assert_array_equal(getattr(result, name), getattr(whole, name)[:99])
+    write_run(result, tmp_path / "stopped", plots=False, animate=False)
+    write_run(whole, tmp_path / "whole", plots=False, animate=False)
+    lines = (tmp_path / "stopped" / "trajectory.csv").read_text().splitlines()
+    assert lines == (tmp_path / "whole" / "trajectory.csv").read_text().splitlines()[:100]
 
 
 def test_deleting_or_editing_the_mission_during_the_run_changes_nothing(

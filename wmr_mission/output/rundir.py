@@ -153,22 +153,24 @@ def trajectory_csv_blocks(result: RunRecord) -> Iterator[str]:
         "%s" if name == "phase" else "%d" if name in INTEGER_COLUMNS else _FLOAT_FORMAT
         for name in written
     ]
-    row_format = ",".join(formats) + "\n"
     yield ",".join(written) + "\n"
+    row_format = ",".join(formats) + "\n"
+    width = len(written)
     for start in range(0, result.samples, _ROWS_PER_BLOCK):
         block = slice(start, start + _ROWS_PER_BLOCK)
-        columns: list[list[Any]] = []
-        for name in written:
+        rows = len(result.t[block])
+        # The block's values in row order: each column's values slotted into
+        # one list by a slice (in C), not a tuple built value by value in Python.
+        values: list[Any] = [None] * (rows * width)
+        for j, name in enumerate(written):
             if name == "phase":
-                columns.append(names[np.asarray(result.phase[block], dtype=np.int64)].tolist())
+                column = names[np.asarray(result.phase[block], dtype=np.int64)]
             elif name in INTEGER_COLUMNS:
                 column = np.asarray(getattr(result, name)[block], dtype=np.int64)
-                columns.append(column.tolist())
             else:
                 column = np.asarray(getattr(result, name)[block], dtype=np.float64)
-                columns.append(column.tolist())
-        values = tuple(value for row in zip(*columns, strict=True) for value in row)
-        yield row_format * (len(values) // len(columns)) % values
+            values[j::width] = column.tolist()
+        yield row_format * rows % tuple(values)
 
 
 def trajectory_csv_text(result: RunRecord) -> str:

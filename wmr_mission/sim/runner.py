@@ -48,9 +48,10 @@ from wmr_mission.verdicts import recovery
 from wmr_mission.verdicts.metrics import judge_mission
 
 # Samples per call of the compiled loop: between calls the runner reports
-# progress and Ctrl-C gets in (a few milliseconds apart when compiled). A
-# track phase whose end cannot be foreseen starts with short chunks, so a
-# short phase samples little path ahead (PhaseRun.first_chunk).
+# progress and Ctrl-C gets in (a few milliseconds apart when compiled). The
+# run's first call, and a track phase whose end cannot be foreseen, start
+# with short chunks: the first samples come at once (as plain Python too),
+# and a short phase samples little path ahead (PhaseRun.first_chunk).
 CHUNK = 4096
 FIRST_CHUNK = 256
 # [s] how far ahead of where it was left a resumed phase looks for its path.
@@ -620,7 +621,10 @@ class _Run:
         budget = m.max_samples * dt
         self._started = (self._returned_ns, int(counters[loop.CLOCK]))
         index = 0
-        chunk = active.first_chunk
+        # The run's first call is short whatever its phase: its first samples
+        # are simulated (and reported) a moment after the run directory is
+        # claimed, however long the mission; the chunk then grows to CHUNK.
+        chunk = min(active.first_chunk, FIRST_CHUNK)
         ran = 0  # samples run since the chunk last grew
         reactor = None if m.reactions is None else Reactor(m.reactions)
         while True:
