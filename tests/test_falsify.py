@@ -141,17 +141,37 @@ def test_the_design_is_seeded_and_fills_the_box() -> None:
     assert [p[2] for p in first].count(0.0) == size // 4
 
 
+def test_cmaes_first_asks_the_corners_of_the_box_then_the_design() -> None:
+    """Each axis at its ends (a choice at its first and last value), the first
+    axis slowest, before the Sobol design; none beyond 5 axes (64 corners)."""
+    space = Space(_campaign({"a": {"uniform": [2.0, 3.0]}, "c": {"choice": [1, 2, 3]}}))
+    method = make_method("cmaes", space, 0)
+    first = method.ask()
+    assert len(first) == 4 + design_size(2)
+    ends = [(v["a"], v["c"]) for v in map(space.values, first[:4])]
+    top = math.nextafter(3.0, 2.0)  # a uniform axis stays below its hi, as a draw does
+    assert ends == [(2.0, 1), (2.0, 3), (top, 1), (top, 3)]
+    assert sorted(math.floor(p[0] * 8) for p in first[4:]) == list(range(8))  # the design
+    assert method.settings()["corners"] == 4
+    six = Space(_campaign({k: {"uniform": [0.0, 1.0]} for k in "abcdef"}))
+    assert len(make_method("cmaes", six, 0).ask()) == design_size(6) == 32
+
+
 def test_cmaes_starts_with_the_design_and_then_searches_about_its_best_point() -> None:
+    """About the design's best point, never a corner, even one that margins lower:
+    from a corner most of a generation would lie beyond the box."""
     space = Space(_campaign({"a": {"uniform": [0.0, 1.0]}, "b": {"uniform": [0.0, 1.0]}}))
     method = make_method("cmaes", space, 0)
     first = method.ask()
-    assert len(first) == design_size(2) == 8
-    target = [0.8, 0.3]
-    method.tell(first, [math.dist(p, target) for p in first])
-    best = min(first, key=lambda p: math.dist(p, target))
+    assert len(first) == 4 + design_size(2) == 12
+    target = [0.5, 0.5]
+    method.tell(first, [-1.0] * 4 + [math.dist(p, target) for p in first[4:]])
+    best = min(first[4:], key=lambda p: math.dist(p, target))
     second = method.ask()
     assert len(second) == method.settings()["popsize"] == 6
-    assert math.dist(np.mean(second, axis=0).tolist(), best) < 0.3
+    mean = np.mean(second, axis=0).tolist()
+    assert math.dist(mean, best) < 0.3
+    assert min(math.dist(mean, corner) for corner in first[:4]) > 0.4
 
 
 def test_cmaes_reaches_a_corner_of_the_box_exactly() -> None:
@@ -171,19 +191,24 @@ def test_cmaes_reaches_a_corner_of_the_box_exactly() -> None:
 def test_cmaes_starts_again_when_its_best_margin_stops_falling() -> None:
     """Margins that never fall below the first generation's (a basin that does
     not fail, its runs' noise keeping them apart) restart the search after STALL
-    generations."""
+    generations: from a new design (no corners again), with twice the population."""
     space = Space(_campaign({"a": {"uniform": [0.0, 1.0]}, "b": {"uniform": [0.0, 1.0]}}))
     method = make_method("cmaes", space, 2)
     design_points = method.ask()
     method.tell(design_points, [1.0] * len(design_points))
+    first_popsize = method.settings()["popsize"]
     generations = 0
-    while method.settings()["restarts"] == 0:
+    while True:
         batch = method.ask()
         if method.settings()["restarts"]:
             break
         generations += 1
         method.tell(batch, [1.0 + generations + 0.01 * i for i in range(len(batch))])
     assert generations == STALL + 1
+    assert len(batch) == design_size(2)
+    assert all(0 < x < 1 for p in batch for x in p)  # Sobol points, not the corners
+    method.tell(batch, [math.dist(p, [0.3, 0.6]) for p in batch])
+    assert len(method.ask()) == method.settings()["popsize"] == 2 * first_popsize
 
 
 def test_a_run_the_mission_refuses_or_that_broke_is_never_a_failure() -> None:

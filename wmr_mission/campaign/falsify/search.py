@@ -8,6 +8,7 @@ points whatever ran in between, on however many workers.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -17,7 +18,7 @@ import numpy as np
 
 from wmr_mission.campaign.falsify.space import Space
 
-__all__ = ["METHODS", "RANDOM_BATCH", "SIGMA_LOCAL", "Method", "design", "make_method"]
+__all__ = ["METHODS", "RANDOM_BATCH", "SIGMA_LOCAL", "Method", "corners", "design", "make_method"]
 
 METHODS: Final = ("cmaes", "random")
 
@@ -90,18 +91,22 @@ class RandomSearch:
 
 
 class CmaEs:
-    """A space-filling design, then CMA-ES (the ``cma`` package) from its best
-    point; when CMA-ES stops, it starts again, alternately close to the best
-    run so far (half the first step) and from the best point of a new design.
+    """The corners of the box and a space-filling design, then CMA-ES (the
+    ``cma`` package) from the design's best point; when CMA-ES stops, it starts
+    again from the best point of a new design with twice the population (IPOP).
 
-    The design (a scrambled Sobol batch: :func:`design_size` points) spreads
-    its runs over the whole box, where a random mean would spend CMA-ES's
-    first generations walking to a basin; CMA-ES then searches about the best
-    of them with a step of :data:`SIGMA_LOCAL`. CMA-ES is not bounded: a point
-    beyond the box runs at the nearest point of it (each coordinate clamped,
-    :meth:`Space.values`) and is told its margin plus its squared distance
-    beyond, so that a face or a corner of the box, where failures often sit
-    (the extremes of the ranges), is reached in a step rather than approached.
+    The corners (:func:`corners`) come first: a failure that grows with each
+    axis (the most noise, the longest lag, the furthest start) sits at one of
+    them, and a corner is the one point of such a region a search can name in
+    advance. The design (a scrambled Sobol batch: :func:`design_size` points)
+    spreads its runs over the whole box, where a random mean would spend
+    CMA-ES's first generations walking to a basin; CMA-ES then searches about
+    the best of the design's points (never a corner: from a corner, most of a
+    generation lies beyond the box and is run on its faces) with a step of
+    :data:`SIGMA_LOCAL`. CMA-ES is not bounded: a point beyond the box runs at
+    the nearest point of it (each coordinate clamped, :meth:`Space.values`)
+    and is told its margin plus its squared distance beyond, so that a face or
+    a corner of the box is reached in a step rather than approached.
     Continuous coordinates live in [0, 1]; a discrete one (choice, grid) is an
     index, which ``cma``'s ``integer_variables`` (a least step and integer
     centering: Hansen, "A CMA-ES for Mixed-Integer Nonlinear Optimization",
@@ -114,20 +119,21 @@ class CmaEs:
         self.space = space
         self.rng = rng
         self.restarts = 0
-        self.best: tuple[float, list[float]] | None = None
         self.design_size = design_size(space.dimension)
+        self.corners = corners(space) if 2**space.dimension <= self.design_size else []
         # cma draws from numpy's global generator: it gets one of its own,
         # swapped in around each call, so that nothing else moves it.
         self._state = np.random.RandomState(int(rng.integers(2**32))).get_state()
         self.es: Any = None  # None while a design is to be asked
         self.popsize: int | None = None
+        self.first_popsize: int | None = None  # cma's own, for the first CMA-ES run
         self.run_best, self.stalled = math.inf, 0  # this CMA-ES run's lowest, generations since
 
     def _start(self, mean: list[float], sigma: float) -> Any:
         import cma
 
         counts = self.space.counts()
-        options = {
+        options: dict[str, Any] = {
             "CMA_stds": [float(count) if count else 1.0 for count in counts],
             "integer_variables": self.space.discrete(),
             "seed": np.nan,  # "do nothing": the generator is ours (_own_random)
@@ -138,9 +144,13 @@ class CmaEs:
             "tolx": TOLX,
             "tolfun": TOLFUN,
         }
+        if self.first_popsize is not None:  # IPOP: each restart doubles the population
+            options["popsize"] = self.first_popsize * 2**self.restarts
         with self._own_random():
             es = cma.CMAEvolutionStrategy(mean, sigma, options)
         self.popsize = int(es.popsize)
+        if self.first_popsize is None:
+            self.first_popsize = self.popsize
         self.run_best, self.stalled = math.inf, 0
         return es
 
@@ -160,23 +170,18 @@ class CmaEs:
                 stopped = bool(self.es.stop()) or self.stalled >= STALL
             if stopped:
                 self.restarts += 1
-                if self.restarts % 2 and self.best is not None:
-                    # Close to the best run so far: a finer look at its basin.
-                    self.es = self._start(self.best[1], SIGMA_LOCAL / 2)
-                else:
-                    self.es = None
+                self.es = None
         if self.es is None:
-            return design(self.space, self.design_size, self.rng)
+            points = design(self.space, self.design_size, self.rng)
+            return (self.corners if self.restarts == 0 else []) + points
         with self._own_random():
             points = self.es.ask()
         return [[float(x) for x in point] for point in points]
 
     def tell(self, points: list[list[float]], objectives: list[float]) -> None:
-        for point, objective in zip(points, objectives, strict=True):
-            if self.best is None or objective < self.best[0]:
-                self.best = (objective, list(point))
         if self.es is None:  # a design told: CMA-ES starts at its best point
-            best = min(zip(objectives, points, strict=True), key=lambda pair: pair[0])[1]
+            designed = list(zip(objectives, points, strict=True))[-self.design_size :]
+            best = min(designed, key=lambda pair: pair[0])[1]
             self.es = self._start(best, SIGMA_LOCAL)
             return
         if len(points) != self.es.popsize:  # a last generation cut by the budget
@@ -195,6 +200,7 @@ class CmaEs:
 
     def settings(self) -> dict[str, Any]:
         return {
+            "corners": len(self.corners),
             "design": self.design_size,
             "popsize": self.popsize,
             "sigma0": SIGMA_LOCAL,
@@ -220,3 +226,13 @@ def design(space: Space, size: int, rng: np.random.Generator) -> list[list[float
     discrete = space.discrete()
     points[:, discrete] = np.clip(np.round(points[:, discrete]), 0, np.array(upper)[discrete] - 0.5)
     return [[float(x) for x in row] for row in points]
+
+
+def corners(space: Space) -> list[list[float]]:
+    """The box's 2^d corners: each axis at its least or greatest value (a
+    choice's first or last), the first axis slowest."""
+    ends = [
+        (0.0, count - 1.0) if count else (lo, hi)
+        for count, lo, hi in zip(space.counts(), space.lower(), space.upper(), strict=True)
+    ]
+    return [list(point) for point in itertools.product(*ends)]
