@@ -35,6 +35,18 @@ def test_a_robot_turning_at_its_limit_slows_to_the_way_it_must_go() -> None:
     assert inputs["turn_rate_fight_time"] == 0.0
 
 
+def test_a_robot_turning_away_from_its_way_at_its_limit_keeps_its_speed() -> None:
+    """An elliptical spiral started from an estimate 0.3 m off
+    (gen-091-elliptical-spiral): the law turns the long way round at its
+    5.14 rad/s limit, away from the way its tracked point must move for the
+    first samples. Cut by the cosine there too, the robot stood and turned
+    4.6 rad at the limit in one stretch, a fight; the cut applies only to a
+    turn towards the way."""
+    _, summary = _first_phase("gen-091-elliptical-spiral")
+    assert summary["outcome"] == "success", summary["message"]
+    assert summary["phases"][0]["inputs"]["turn_rate_fight_time"] == 0.0
+
+
 def test_the_aim_round_a_zone_at_a_corner_does_not_leap_from_side_to_side() -> None:
     """A polyline whose first corner faces a keep-out circle (gen-039-polyline,
     dt 0.025 s): as the corner's tangent swept across the circle the aim

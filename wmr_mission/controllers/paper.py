@@ -297,14 +297,15 @@ def track_input(
         # And the speed along the way the output must move: a robot facing
         # away from it turns before it drives, not while (it drove off
         # sideways at full turn rate and swung back round at the limits).
-        # Without acceleration limits only while the turn is at its limit,
-        # where the robot cannot turn faster to follow: it drove on at full
-        # speed and turned more than half a turn at the limit to come back
-        # (gen-198-line: 3.3 rad in 1.3 s for a line 2.5 rad off). Below the
-        # limit the law coordinates the two inputs itself, and case 1's
-        # spiral in keeps its end (docs/paper-notes.md, eq. (27), "The speed
-        # while the turn is at its limit").
-        v *= max(math.cos(turn), 0.0)
+        # Without acceleration limits only while it turns towards that way
+        # at its turn-rate limit, where it cannot turn faster to follow: it
+        # drove on at full speed and turned more than half a turn at the
+        # limit to come back (gen-198-line: 3.3 rad in 1.3 s for a line
+        # 2.5 rad off). Below the limit the law coordinates the two inputs
+        # itself, and case 1's spiral in keeps its end (docs/paper-notes.md,
+        # eq. (27), "The speed while the turn is at its limit").
+        if planned or omega * turn > 0.0:
+            v *= max(math.cos(turn), 0.0)
         if planned and omega * turn > 0.0:
             reach = stopping_speed(abs(turn), robot.limits[3], dt)
             omega = min(max(omega, -reach), reach)

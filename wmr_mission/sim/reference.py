@@ -308,9 +308,10 @@ def track_input(
             move = -move
         turn = wrap_angle(math.atan2(move[1], move[0]) - float(estimate[2]))
         # And the speed along the way the output must move: the robot turns
-        # before it drives, under acceleration limits or while the turn is
-        # at its limit (wmr_mission.controllers.paper.track_input).
-        v *= max(math.cos(turn), 0.0)
+        # before it drives, under acceleration limits or while it turns
+        # towards that way at its limit (wmr_mission.controllers.paper.track_input).
+        if planned or omega * turn > 0.0:
+            v *= max(math.cos(turn), 0.0)
         if planned and omega * turn > 0.0:
             reach = stopping_speed(abs(turn), float(limits[3]), dt)
             omega = float(np.clip(omega, -reach, reach))
