@@ -60,6 +60,7 @@ __all__ = [
     "aim_round_zones",
     "constrained_change",
     "keep_constraints",
+    "ramped_offset",
     "row_value_with_margin",
 ]
 
@@ -470,6 +471,37 @@ def _way_round_polygon(
         if low <= high:
             reach = max(reach, high)
     return max(reach, 0.0), mx, my
+
+
+# The fastest the aim's offset round the zones moves, per metre of the path's
+# own step: the ramp's slope for the path's line, and as much again for the
+# line's swing on a curve, where a zone ahead moves across the line as the
+# tangent turns (a circle of radius 2.5 m through a zone asked for 0.8 m per
+# metre; docs/paper-notes.md, eq. (28), "The aim's offset on a curve").
+OFFSET_SLOPE = 2.0 * RAMP_SLOPE
+
+
+@kernel
+def ramped_offset(
+    wanted_x: float, wanted_y: float, before_x: float, before_y: float, path_step: float
+) -> tuple[float, float]:
+    """The aim's offset from the path round the zones, ``wanted`` (from
+    :func:`aim_round_zones`), moved from the offset of the sample before by
+    at most OFFSET_SLOPE times the path's step. Along a straight path the
+    ramp moves the offset no faster than RAMP_SLOPE, and it is kept as it is;
+    at a corner, or on a curve whose zone lies across the path's line, the
+    wedge swings with the path's tangent and the offset it asked for leapt
+    to one side of the zone and to the other within two samples
+    (``gen-039-polyline``: 0.11 m left, then 0.12 m right, the turn rate from
+    6.4 to -7.3 rad/s in one sample)."""
+    change_x = wanted_x - before_x
+    change_y = wanted_y - before_y
+    change = hypot(change_x, change_y)
+    most = OFFSET_SLOPE * path_step
+    if change <= most:
+        return wanted_x, wanted_y
+    share = most / change
+    return before_x + share * change_x, before_y + share * change_y
 
 
 # [m] How far the aim stands beyond the bound the filter keeps the output to

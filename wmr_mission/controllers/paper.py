@@ -26,6 +26,7 @@ from wmr_mission.controllers.constrained_tracking import (
     aim_round_zones,
     held_where_braking_ends,
     keep_constraints,
+    ramped_offset,
 )
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.fields import Flag, Model, NonNegative, Positive
@@ -199,7 +200,9 @@ WARM_MOVING = 4
 WARM_EDGE = 17
 SYSTEM = 30  # scratch: the linear system of a Newton step, 6 rows of 7
 REVERSING = 72  # 1.0 while the bearing form drives backwards to its target
-MEMORY_SIZE = 73
+# The aim's offset round the zones at the sample before, x then y (track phases).
+AIM_OFFSET = 73
+MEMORY_SIZE = 75
 # [rad] how far past abeam (pi/2) the target must be to change the direction
 # of travel of the bearing form.
 REVERSE_HYSTERESIS = 0.2
@@ -273,7 +276,8 @@ def track_input(
     dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
     v = v_prev + dv
     omega = omega_prev + dw
-    if robot.limits[3] != math.inf:
+    planned = robot.limits[3] != math.inf
+    if planned or abs(omega) >= robot.limits[1]:
         # The turn planned: eq. (27) turns the output towards its aim at a
         # rate the turn-rate acceleration cannot take back in time, and the
         # heading swings past it and back, for good (a line entered 0.5 rad
@@ -293,8 +297,16 @@ def track_input(
         # And the speed along the way the output must move: a robot facing
         # away from it turns before it drives, not while (it drove off
         # sideways at full turn rate and swung back round at the limits).
-        v *= max(math.cos(turn), 0.0)
-        if omega * turn > 0.0:
+        # Without acceleration limits only while it turns towards that way
+        # at its turn-rate limit, where it cannot turn faster to follow: it
+        # drove on at full speed and turned more than half a turn at the
+        # limit to come back (gen-198-line: 3.3 rad in 1.3 s for a line
+        # 2.5 rad off). Below the limit the law coordinates the two inputs
+        # itself, and case 1's spiral in keeps its end (docs/paper-notes.md,
+        # eq. (27), "The speed while the turn is at its limit").
+        if planned or omega * turn > 0.0:
+            v *= max(math.cos(turn), 0.0)
+        if planned and omega * turn > 0.0:
             reach = stopping_speed(abs(turn), robot.limits[3], dt)
             omega = min(max(omega, -reach), reach)
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, robot.limits, dt)
@@ -711,14 +723,26 @@ def next_input(
         path_x = aim_now[0]
         path_y = aim_now[1]
         gap = aim_gap(tuning.look_ahead, plant.limits[2])
-        if kinds.shape[0] and aim_round_zones(
-            aim_now, kinds, params, tuning.look_ahead, plant.constraint_margin, gap
-        ):
+        if kinds.shape[0]:
+            aim_round_zones(aim_now, kinds, params, tuning.look_ahead, plant.constraint_margin, gap)
             # Aimed round a zone the path crosses: the path's own motion fed
             # forward, the aim's move closed as an error, at the law's pace
-            # (its kinks at the zone's edge are no jumps of the input).
-            aim[0] += aim_now[0] - path_x
-            aim[1] += aim_now[1] - path_y
+            # (its kinks at the zone's edge are no jumps of the input). The
+            # offset moves by at most OFFSET_SLOPE of the path's step: on a
+            # curve or at a corner the path's tangent swings the ramp's wedge
+            # across a zone, and the offset leapt to a side and back within
+            # two samples (constrained_tracking.ramped_offset).
+            offset_x, offset_y = ramped_offset(
+                aim_now[0] - path_x, aim_now[1] - path_y,
+                memory[AIM_OFFSET], memory[AIM_OFFSET + 1],
+                hypot(aim[0] - path_x, aim[1] - path_y),
+            )  # fmt: skip
+            memory[AIM_OFFSET] = offset_x
+            memory[AIM_OFFSET + 1] = offset_y
+            aim_now[0] = path_x + offset_x
+            aim_now[1] = path_y + offset_y
+            aim[0] += offset_x
+            aim[1] += offset_y
         track_input(estimate, u_prev, aim_now, aim, tuning, plant, scratch, u)
         # The filter after the tracking law: zones win over tracking
         # (wmr_mission.controllers.constrained_tracking).

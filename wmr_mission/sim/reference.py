@@ -299,7 +299,8 @@ def track_input(
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
     du = corrective_input(d, target - output(predicted), b, w, m, limits)
     v, omega = v_prev + du[0], omega_prev + du[1]
-    if math.isfinite(limits[3]):
+    planned = math.isfinite(limits[3])
+    if planned or abs(omega) >= limits[1]:
         # The turn planned: towards the heading of the output's move this
         # sample (reversed backwards), no faster than the limit stops it there.
         move = target - output(estimate)
@@ -307,9 +308,11 @@ def track_input(
             move = -move
         turn = wrap_angle(math.atan2(move[1], move[0]) - float(estimate[2]))
         # And the speed along the way the output must move: the robot turns
-        # before it drives (wmr_mission.controllers.paper.track_input).
-        v *= max(math.cos(turn), 0.0)
-        if omega * turn > 0.0:
+        # before it drives, under acceleration limits or while it turns
+        # towards that way at its limit (wmr_mission.controllers.paper.track_input).
+        if planned or omega * turn > 0.0:
+            v *= max(math.cos(turn), 0.0)
+        if planned and omega * turn > 0.0:
             reach = stopping_speed(abs(turn), float(limits[3]), dt)
             omega = float(np.clip(omega, -reach, reach))
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, limits, dt)
