@@ -235,9 +235,11 @@ def startup(pairs: int = 8) -> None:
             os.mkdir(f"{tmp}/then")
             then = {**env, "PYTHONPATH": _checkout(against, f"{tmp}/then"),
                     "WMR_MISSION_FOREGROUND_COMPILE": "1"}  # fmt: skip
-            commands += [[*commands[0][:-1], f"{tmp}/then-run"], commands[2]]
-            envs += [then, then]
-            names += [f"run case1 --no-plots at {against}", f"validate case2 at {against}"]
+            commands += [[*commands[0][:-1], f"{tmp}/then-run"], commands[2],
+                         [*commands[1][:-1], f"{tmp}/then-plain"]]
+            envs += [then, then, {**then, "WMR_MISSION_NO_JIT": "1"}]
+            names += [f"run case1 --no-plots at {against}", f"validate case2 at {against}",
+                      f"the same as plain Python at {against}"]
         times = _pairs(commands, envs, pairs)
         loading = subprocess.run(
             [sys.executable, "-c", _LOADING, str(MISSIONS / "case2.yaml")],
@@ -253,6 +255,8 @@ def startup(pairs: int = 8) -> None:
     if against is not None:
         print(f"run, now / {against}, pair by pair: median {_ratio(times[3], times[0]):.2f}")
         print(f"validate, now / {against}, pair by pair: median {_ratio(times[4], times[2]):.2f}")
+        print(f"run as plain Python, now / {against}, pair by pair: median "
+              f"{_ratio(times[5], times[1]):.2f}")  # fmt: skip
     print(f"loading the compiled loop, step by step: {loading.strip()}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
@@ -347,6 +351,9 @@ def stages(repeat: int = 5) -> None:
 # at shutdown left as they were (gc.freeze a no-op, wmr_mission.cli.main).
 _COMMAND = "import sys; sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import main; main()"
 _UNFROZEN = "import gc; gc.freeze = lambda: None; " + _COMMAND
+# The same with the cyclic collector left on as the command starts (gc.disable a
+# no-op, wmr_mission.cli.main; wmr_mission.commands.start_up_done).
+_COLLECTING = "import gc; gc.disable = lambda: None; " + _COMMAND
 
 
 def cuts(pairs: int = 9) -> None:
@@ -366,6 +373,13 @@ def cuts(pairs: int = 9) -> None:
              _user_env(OPENBLAS_NUM_THREADS=threads)),
             ("validate case2, pydantic plug-ins not looked for / looked for", validate,
              validate, _user_env(), _user_env(PYDANTIC_DISABLE_PLUGINS="")),
+            ("validate case2, no collection as it starts / collecting", validate,
+             [py, "-c", _COLLECTING, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots as plain Python, no collection as it starts / collecting",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _COLLECTING, *case1], plain, plain),
+            ("run case1 --no-plots compiled, no collection as it starts / collecting",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _COLLECTING, *case1], _user_env(),
+             _user_env()),
             ("validate case2, frozen at exit / not", validate,
              [py, "-c", _UNFROZEN, *validate[3:]], _user_env(), _user_env()),
             ("run case1 --no-plots as plain Python, frozen at exit / not",
