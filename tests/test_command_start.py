@@ -153,6 +153,24 @@ def test_nothing_is_collected_while_a_command_starts(tmp_path: Path) -> None:
     assert report == {"before": 0, "on": True}
 
 
+def test_validate_of_a_mission_builds_no_campaign_model() -> None:
+    """Telling a mission from a campaign reads its keys; the campaign's models
+    are imported (about 5 ms of CPU) only to check a campaign."""
+    probe = (
+        "import sys; from pathlib import Path; from wmr_mission.campaign.load import check_file; "
+        "assert check_file(Path(sys.argv[1])) == []; "
+        "print('wmr_mission.campaign.models' in sys.modules)"
+    )
+    imported = {}
+    for name in ("case2.yaml", "campaigns/case2-headings.yaml"):
+        done = subprocess.run(
+            [sys.executable, "-c", probe, str(MISSIONS / name)], capture_output=True, text=True
+        )
+        assert done.returncode == 0, done.stderr
+        imported[name] = done.stdout.strip()
+    assert imported == {"case2.yaml": "False", "campaigns/case2-headings.yaml": "True"}
+
+
 def test_validate_reads_a_mission_file_once(monkeypatch: pytest.MonkeyPatch) -> None:
     """Telling a mission from a campaign reads the YAML; the mission's check
     takes that reading rather than reading it again."""
