@@ -235,11 +235,17 @@ def startup(pairs: int = 8) -> None:
             os.mkdir(f"{tmp}/then")
             then = {**env, "PYTHONPATH": _checkout(against, f"{tmp}/then"),
                     "WMR_MISSION_FOREGROUND_COMPILE": "1"}  # fmt: skip
-            commands += [[*commands[0][:-1], f"{tmp}/then-run"], commands[2],
-                         [*commands[1][:-1], f"{tmp}/then-plain"]]
+            commands += [
+                [*commands[0][:-1], f"{tmp}/then-run"],
+                commands[2],
+                [*commands[1][:-1], f"{tmp}/then-plain"],
+            ]
             envs += [then, then, {**then, "WMR_MISSION_NO_JIT": "1"}]
-            names += [f"run case1 --no-plots at {against}", f"validate case2 at {against}",
-                      f"the same as plain Python at {against}"]
+            names += [
+                f"run case1 --no-plots at {against}",
+                f"validate case2 at {against}",
+                f"the same as plain Python at {against}",
+            ]
         times = _pairs(commands, envs, pairs)
         loading = subprocess.run(
             [sys.executable, "-c", _LOADING, str(MISSIONS / "case2.yaml")],
