@@ -465,23 +465,46 @@ def threshold(pairs: int = 3) -> None:
 
 def plain() -> None:
     """Every example mission as plain Python: its sample budget (what `run`
-    compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample."""
+    compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample,
+    in all and in the phases that track a path and those that regulate to a pose (CPU time
+    of the loop's calls)."""
     os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the loop is loaded
     from wmr_mission.commands.compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.sim import runner
     from wmr_mission.sim.plan import plan_mission
-    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
+    spent: dict[bool, list[float]] = {}  # tracking: [CPU seconds, samples]
+    segment = runner._Run._segment
+
+    def timed(self: Any, phase: Any, *args: Any) -> int:
+        first = int(self.signals.counters[0])
+        started = time.process_time()
+        status: int = segment(self, phase, *args)
+        kind = spent.setdefault(bool(phase.tracking), [0.0, 0])
+        kind[0] += time.process_time() - started
+        kind[1] += int(self.signals.counters[0]) - first
+        return status
+
+    runner._Run._segment = timed  # type: ignore[method-assign]
     print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
     for path in sorted(MISSIONS.glob("*.yaml")):
         mission = plan_mission(load_mission(path))
+        spent.clear()
         started = time.perf_counter()
-        result = run_mission(mission)
+        result = runner.run_mission(mission)
         seconds = time.perf_counter() - started
+        kinds = [
+            f"{name} {spent[key][1]:5d} at {spent[key][0] / spent[key][1] * 1e6:4.0f} us"
+            for key, name in ((True, "tracking"), (False, "regulating"))
+            if spent.get(key, [0, 0])[1]
+        ]
         print(
             f"  {path.name:20s} budget {mission.max_samples:6d}, ran {result.samples:6d} samples "
-            f"in {seconds:5.2f} s: {seconds / result.samples * 1e6:4.0f} us per sample"
+            f"in {seconds:5.2f} s: {seconds / result.samples * 1e6:4.0f} us per sample "
+            f"({', '.join(kinds)})"
         )
+    runner._Run._segment = segment  # type: ignore[method-assign]
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
