@@ -404,10 +404,12 @@ def cuts(pairs: int = 9) -> None:
 def imports(repeat: int = 9) -> None:
     """CPU seconds of `validate`'s imports, each imported in turn in a fresh
     process, as the command line sets it up (one BLAS thread, no pydantic
-    plug-ins); medians of ``repeat`` processes."""
+    plug-ins), then the campaign's models, which only a campaign's check
+    imports; medians of ``repeat`` processes."""
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     names = ["yaml", "pydantic", "pydantic.main", "pydantic.types", "typer", "numpy"]
     names += ["wmr_mission.cli", "wmr_mission.commands.validate", "wmr_mission.campaign.load"]
+    names += ["wmr_mission.campaign.models"]  # a campaign's check only
     code = (
         "import importlib, sys, time\n"
         "spent = [time.process_time()]\n"
