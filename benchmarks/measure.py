@@ -7,6 +7,7 @@
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
     python benchmarks/measure.py cuts       # what each start-up setting of the command line saves
+    python benchmarks/measure.py cuts WORD ...   # the same, of the cases named with a word
     python benchmarks/measure.py imports    # CPU of `validate`'s imports, one by one
     python benchmarks/measure.py stages     # `run case1 --no-plots`, `validate case2`, by stage
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
@@ -360,6 +361,15 @@ _UNFROZEN = "import gc; gc.freeze = lambda: None; " + _COMMAND
 # The same with the cyclic collector left on as the command starts (gc.disable a
 # no-op, wmr_mission.cli.main; wmr_mission.commands.start_up_done).
 _COLLECTING = "import gc; gc.disable = lambda: None; " + _COMMAND
+# The same with scipy's linear algebra alone refused as numba loads, as it was,
+# not all of scipy (wmr_mission.kernels.jit._WithoutScipy).
+_WITH_SCIPY = (
+    "from wmr_mission.kernels import jit\n"
+    "def refuse(finder, name, *rest):\n"
+    "    if name == 'scipy.linalg':\n"
+    "        raise ImportError(name)\n"
+    "jit._WithoutScipy.find_spec = refuse\n" + _COMMAND
+)
 
 
 def cuts(pairs: int = 9) -> None:
@@ -386,6 +396,9 @@ def cuts(pairs: int = 9) -> None:
             ("run case1 --no-plots compiled, no collection as it starts / collecting",
              [py, "-c", _COMMAND, *case1], [py, "-c", _COLLECTING, *case1], _user_env(),
              _user_env()),
+            ("run case1 --no-plots compiled, scipy refused as numba loads / its linear algebra",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _WITH_SCIPY, *case1], _user_env(),
+             _user_env()),
             ("validate case2, frozen at exit / not", validate,
              [py, "-c", _UNFROZEN, *validate[3:]], _user_env(), _user_env()),
             ("run case1 --no-plots as plain Python, frozen at exit / not",
@@ -394,7 +407,10 @@ def cuts(pairs: int = 9) -> None:
              [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], _user_env(),
              _user_env()),
         ]  # fmt: skip
+        wanted = sys.argv[2:]  # `cuts WORD ...`: the cases named with one of the words
         for name, with_it, without, env_with, env_without in cases:
+            if wanted and not any(word in name for word in wanted):
+                continue
             done, undone = _pairs([with_it, without], [env_with, env_without], pairs)
             print(f"{name}: {statistics.median(done):.3f} / {statistics.median(undone):.3f} s, "
                   f"pair by pair {_ratio(undone, done):.2f} ({pairs} pairs)")  # fmt: skip
