@@ -7,6 +7,7 @@
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
     python benchmarks/measure.py cuts       # what each start-up setting of the command line saves
+    python benchmarks/measure.py cuts WORD ...   # the same, of the cases named with a word
     python benchmarks/measure.py imports    # CPU of `validate`'s imports, one by one
     python benchmarks/measure.py stages     # `run case1 --no-plots`, `validate case2`, by stage
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
@@ -236,9 +237,17 @@ def startup(pairs: int = 8) -> None:
             os.mkdir(f"{tmp}/then")
             then = {**env, "PYTHONPATH": _checkout(against, f"{tmp}/then"),
                     "WMR_MISSION_FOREGROUND_COMPILE": "1"}  # fmt: skip
-            commands += [[*commands[0][:-1], f"{tmp}/then-run"], commands[2]]
-            envs += [then, then]
-            names += [f"run case1 --no-plots at {against}", f"validate case2 at {against}"]
+            commands += [
+                [*commands[0][:-1], f"{tmp}/then-run"],
+                commands[2],
+                [*commands[1][:-1], f"{tmp}/then-plain"],
+            ]
+            envs += [then, then, {**then, "WMR_MISSION_NO_JIT": "1"}]
+            names += [
+                f"run case1 --no-plots at {against}",
+                f"validate case2 at {against}",
+                f"the same as plain Python at {against}",
+            ]
         times = _pairs(commands, envs, pairs)
         loading = subprocess.run(
             [sys.executable, "-c", _LOADING, str(MISSIONS / "case2.yaml")],
@@ -254,6 +263,8 @@ def startup(pairs: int = 8) -> None:
     if against is not None:
         print(f"run, now / {against}, pair by pair: median {_ratio(times[3], times[0]):.2f}")
         print(f"validate, now / {against}, pair by pair: median {_ratio(times[4], times[2]):.2f}")
+        print(f"run as plain Python, now / {against}, pair by pair: median "
+              f"{_ratio(times[5], times[1]):.2f}")  # fmt: skip
     print(f"loading the compiled loop, step by step: {loading.strip()}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
@@ -348,6 +359,18 @@ def stages(repeat: int = 5) -> None:
 # at shutdown left as they were (gc.freeze a no-op, wmr_mission.cli.main).
 _COMMAND = "import sys; sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import main; main()"
 _UNFROZEN = "import gc; gc.freeze = lambda: None; " + _COMMAND
+# The same with the cyclic collector left on as the command starts (gc.disable a
+# no-op, wmr_mission.cli.main; wmr_mission.commands.start_up_done).
+_COLLECTING = "import gc; gc.disable = lambda: None; " + _COMMAND
+# The same with scipy's linear algebra alone refused as numba loads, as it was,
+# not all of scipy (wmr_mission.kernels.jit._WithoutScipy).
+_WITH_SCIPY = (
+    "from wmr_mission.kernels import jit\n"
+    "def refuse(finder, name, *rest):\n"
+    "    if name == 'scipy.linalg':\n"
+    "        raise ImportError(name)\n"
+    "jit._WithoutScipy.find_spec = refuse\n" + _COMMAND
+)
 
 
 def cuts(pairs: int = 9) -> None:
@@ -367,6 +390,16 @@ def cuts(pairs: int = 9) -> None:
              _user_env(OPENBLAS_NUM_THREADS=threads)),
             ("validate case2, pydantic plug-ins not looked for / looked for", validate,
              validate, _user_env(), _user_env(PYDANTIC_DISABLE_PLUGINS="")),
+            ("validate case2, no collection as it starts / collecting", validate,
+             [py, "-c", _COLLECTING, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots as plain Python, no collection as it starts / collecting",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _COLLECTING, *case1], plain, plain),
+            ("run case1 --no-plots compiled, no collection as it starts / collecting",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _COLLECTING, *case1], _user_env(),
+             _user_env()),
+            ("run case1 --no-plots compiled, scipy refused as numba loads / its linear algebra",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _WITH_SCIPY, *case1], _user_env(),
+             _user_env()),
             ("validate case2, frozen at exit / not", validate,
              [py, "-c", _UNFROZEN, *validate[3:]], _user_env(), _user_env()),
             ("run case1 --no-plots as plain Python, frozen at exit / not",
@@ -375,7 +408,10 @@ def cuts(pairs: int = 9) -> None:
              [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], _user_env(),
              _user_env()),
         ]  # fmt: skip
+        wanted = sys.argv[2:]  # `cuts WORD ...`: the cases named with one of the words
         for name, with_it, without, env_with, env_without in cases:
+            if wanted and not any(word in name for word in wanted):
+                continue
             done, undone = _pairs([with_it, without], [env_with, env_without], pairs)
             print(f"{name}: {statistics.median(done):.3f} / {statistics.median(undone):.3f} s, "
                   f"pair by pair {_ratio(undone, done):.2f} ({pairs} pairs)")  # fmt: skip
@@ -385,10 +421,12 @@ def cuts(pairs: int = 9) -> None:
 def imports(repeat: int = 9) -> None:
     """CPU seconds of `validate`'s imports, each imported in turn in a fresh
     process, as the command line sets it up (one BLAS thread, no pydantic
-    plug-ins); medians of ``repeat`` processes."""
+    plug-ins), then the campaign's models, which only a campaign's check
+    imports; medians of ``repeat`` processes."""
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     names = ["yaml", "pydantic", "pydantic.main", "pydantic.types", "typer", "numpy"]
     names += ["wmr_mission.cli", "wmr_mission.commands.validate", "wmr_mission.campaign.load"]
+    names += ["wmr_mission.campaign.models"]  # a campaign's check only
     code = (
         "import importlib, sys, time\n"
         "spent = [time.process_time()]\n"
@@ -446,23 +484,46 @@ def threshold(pairs: int = 3) -> None:
 
 def plain() -> None:
     """Every example mission as plain Python: its sample budget (what `run`
-    compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample."""
+    compares with PLAIN_PYTHON_SAMPLES) and the simulation's time per sample,
+    in all and in the phases that track a path and those that regulate to a pose (CPU time
+    of the loop's calls)."""
     os.environ["WMR_MISSION_NO_JIT"] = "1"  # before the loop is loaded
     from wmr_mission.commands.compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.sim import runner
     from wmr_mission.sim.plan import plan_mission
-    from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
 
+    spent: dict[bool, list[float]] = {}  # tracking: [CPU seconds, samples]
+    segment = runner._Run._segment
+
+    def timed(self: Any, phase: Any, *args: Any) -> int:
+        first = int(self.signals.counters[0])
+        started = time.process_time()
+        status: int = segment(self, phase, *args)
+        kind = spent.setdefault(bool(phase.tracking), [0.0, 0])
+        kind[0] += time.process_time() - started
+        kind[1] += int(self.signals.counters[0]) - first
+        return status
+
+    runner._Run._segment = timed  # type: ignore[method-assign]
     print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
     for path in sorted(MISSIONS.glob("*.yaml")):
         mission = plan_mission(load_mission(path))
+        spent.clear()
         started = time.perf_counter()
-        result = run_mission(mission)
+        result = runner.run_mission(mission)
         seconds = time.perf_counter() - started
+        kinds = [
+            f"{name} {spent[key][1]:5d} at {spent[key][0] / spent[key][1] * 1e6:4.0f} us"
+            for key, name in ((True, "tracking"), (False, "regulating"))
+            if spent.get(key, [0, 0])[1]
+        ]
         print(
             f"  {path.name:20s} budget {mission.max_samples:6d}, ran {result.samples:6d} samples "
-            f"in {seconds:5.2f} s: {seconds / result.samples * 1e6:4.0f} us per sample"
+            f"in {seconds:5.2f} s: {seconds / result.samples * 1e6:4.0f} us per sample "
+            f"({', '.join(kinds)})"
         )
+    runner._Run._segment = segment  # type: ignore[method-assign]
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 

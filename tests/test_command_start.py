@@ -107,6 +107,70 @@ def test_the_command_line_runs_numpys_blas_on_one_thread_unless_told(tmp_path: P
     assert environment["OPENBLAS_NUM_THREADS"] == "2"
 
 
+# Runs the command line, then prints as it exits the collections of Python's
+# cyclic collector made before the simulation started (or as the command
+# ended, if it simulates nothing), and whether the collector is on.
+COLLECTIONS = """
+import atexit, gc, json, sys
+made = []
+before_simulating = []
+if sys.argv[1] == "run":
+    from wmr_mission.sim import runner
+    run_mission = runner.run_mission
+    def simulated(*args, **kwargs):
+        before_simulating.append(len(made))
+        return run_mission(*args, **kwargs)
+    runner.run_mission = simulated
+atexit.register(lambda: print(json.dumps({
+    "before": before_simulating[0] if before_simulating else len(made),
+    "on": gc.isenabled(),
+}), file=sys.__stderr__))
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import main
+gc.callbacks.append(lambda phase, info: phase == "start" and made.append(info["generation"]))
+main()
+"""
+
+
+def _collections(args: list[str]) -> dict[str, object]:
+    env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
+    done = subprocess.run(
+        [sys.executable, "-c", COLLECTIONS, *args], env=env, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    report: dict[str, object] = json.loads(done.stderr.strip().splitlines()[-1])
+    return report
+
+
+def test_nothing_is_collected_while_a_command_starts(tmp_path: Path) -> None:
+    """Python's cyclic collector is off while `validate` and `run` import and
+    check (its collections traced the objects imported again and again: some
+    90 of them as `validate` started), and on once the run starts: a long
+    run and its figures are collected."""
+    assert _collections(["validate", str(MISSIONS / "case2.yaml")])["before"] == 0
+    out = str(tmp_path / "run")
+    report = _collections(["run", str(MISSIONS / "figure-eight.yaml"), "--no-plots", "--out", out])
+    assert report == {"before": 0, "on": True}
+
+
+def test_validate_of_a_mission_builds_no_campaign_model() -> None:
+    """Telling a mission from a campaign reads its keys; the campaign's models
+    are imported (about 5 ms of CPU) only to check a campaign."""
+    probe = (
+        "import sys; from pathlib import Path; from wmr_mission.campaign.load import check_file; "
+        "assert check_file(Path(sys.argv[1])) == []; "
+        "print('wmr_mission.campaign.models' in sys.modules)"
+    )
+    imported = {}
+    for name in ("case2.yaml", "campaigns/case2-headings.yaml"):
+        done = subprocess.run(
+            [sys.executable, "-c", probe, str(MISSIONS / name)], capture_output=True, text=True
+        )
+        assert done.returncode == 0, done.stderr
+        imported[name] = done.stdout.strip()
+    assert imported == {"case2.yaml": "False", "campaigns/case2-headings.yaml": "True"}
+
+
 def test_validate_reads_a_mission_file_once(monkeypatch: pytest.MonkeyPatch) -> None:
     """Telling a mission from a campaign reads the YAML; the mission's check
     takes that reading rather than reading it again."""

@@ -66,6 +66,10 @@ command = app.command(cls=_Command)
 _STARTING: list[StopSignals] = []
 # The commands that catch the signals themselves and honour one held before.
 _TAKE_SIGNALS = frozenset({"run", "sweep", "falsify", "bench"})
+# The commands that turn Python's cyclic collector on themselves once they have
+# started up (wmr_mission.commands.start_up_done); for the others it is on as
+# they begin.
+_SHORT = frozenset({"run", "validate"})
 # Timed runs of `bench`: each keeps its per-sample times in memory.
 MAX_REPEAT = 100
 # `sweep --runs`: at most a campaign's own `runs` (wmr_mission.campaign.models.MAX_RUNS),
@@ -106,6 +110,10 @@ def _main(
             raise KeyboardInterrupt
         if ctx.invoked_subcommand not in _TAKE_SIGNALS:
             early.mode = RAISE
+    if ctx.invoked_subcommand not in _SHORT:
+        from wmr_mission.commands import start_up_done
+
+        start_up_done()
 
 
 class OutputFormat(StrEnum):
@@ -661,6 +669,9 @@ START_UP_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "PYDANTIC_DISABLE_PLUGINS":
 
 
 def main() -> None:
+    # No cyclic collection while the command starts: see
+    # wmr_mission.commands.start_up_done, which turns it on.
+    gc.disable()
     for name, value in START_UP_ENVIRONMENT.items():
         os.environ.setdefault(name, value)
     if not sys.warnoptions:

@@ -16,11 +16,10 @@ import shlex
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 from pydantic import ValidationError
 
-from wmr_mission.campaign.models import MAX_RUNS, Axis, Campaign
 from wmr_mission.spec.checks import DataPath, Finding, check_across_fields, read_by_sampling_checks
 from wmr_mission.spec.loader import (
     Diagnostic,
@@ -45,6 +44,9 @@ from wmr_mission.spec.loader import (
 )
 from wmr_mission.spec.models import Mission
 from wmr_mission.terminal import shown
+
+if TYPE_CHECKING:  # imported where a campaign is checked: `validate` of a mission loads none
+    from wmr_mission.campaign.models import Axis, Campaign
 
 __all__ = [
     "LoadedCampaign",
@@ -256,6 +258,8 @@ def _check(
             "normal, or split the campaign)"
         )
         return None, [Diagnostic(filename, 1, 1, message)]
+    from wmr_mission.campaign.models import Campaign
+
     try:
         document, findings = read if read is not None else read_document(text)
         if document is None:
@@ -307,6 +311,8 @@ def _check_against_mission(
     campaign_sha256: str,
     settings: Sequence[Override],
 ) -> tuple[LoadedCampaign | None, list[Diagnostic]]:
+    from wmr_mission.campaign.models import MAX_RUNS
+
     filename = str(path)
 
     def at(data_path: tuple[str | int, ...], message: str) -> Diagnostic:

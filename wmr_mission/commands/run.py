@@ -202,6 +202,7 @@ def _run(
 ) -> int:
     """Simulate ``mission`` (``plan``: as planned already, for another plant),
     judge it, write its run directory and print its table; the exit code."""
+    from wmr_mission.commands import start_up_done
     from wmr_mission.commands.compile import choose_loop
     from wmr_mission.output.report import format_table
     from wmr_mission.output.rundir import (
@@ -228,6 +229,7 @@ def _run(
     def claim() -> None:
         """The run directory, claimed once the loop is loaded (a compile can
         take a minute), just before the first sample."""
+        start_up_done()
         try:
             run_dir = prepare_run_dir(wanted, suffix_on_collision=out is None)
         except (RunDirExistsError, OSError) as error:

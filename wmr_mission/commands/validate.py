@@ -10,6 +10,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Literal
 
+from wmr_mission.commands import start_up_done
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import Diagnostic
 
@@ -82,6 +83,7 @@ def validate_files(
 
         with importing_entries() if check_entries else nullcontext():
             diagnostics = check_file(path)
+        start_up_done()  # the first file has imported and built what the others use
         failing = ("error", "warning") if strict else ("error",)
         valid = not any(d.severity in failing for d in diagnostics)
         all_valid = all_valid and valid

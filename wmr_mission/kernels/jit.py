@@ -26,13 +26,15 @@ points are cached on disk where a directory can be written
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import os
 import platform
+import sys
 import threading
 import time
 import types
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any, TypeVar, cast
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -163,11 +165,15 @@ def _load() -> bool:
     directory = cache.cache_directory()
     if directory is not None:  # before numba loads: it reads its cache directory then
         cache.point_numba_at(directory)
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - a numba that cannot load (another numpy)
-        _state.plain_chosen = True
-        return False
+    with _without_scipy():
+        try:
+            import numba
+        except ImportError:  # pragma: no cover - a numba that cannot load (another numpy)
+            _state.plain_chosen = True
+            return False
+        from numba.core.registry import cpu_target
+
+        cpu_target.target_context.refresh()  # numba's target set-up, made once here
     from numba.extending import typeof_impl
 
     _state.cached = directory is not None
@@ -178,36 +184,33 @@ def _load() -> bool:
 
     _state.numba = numba
     _teach_ticks()
-    _set_up_target()
     _state.ready = True
     return True
 
 
-class _WithoutScipyLinalg:
-    """An import finder refusing ``scipy.linalg`` to the thread that sets up
-    numba's target: numba's array-math module imports scipy's BLAS as it
-    loads (to offer ``np.dot`` on BLAS), 0.13-0.15 s of a cached run, and no
-    kernel calls BLAS. A kernel that did would import it when compiled."""
+class _WithoutScipy:
+    """An import finder refusing scipy to the thread that loads numba and sets
+    up its target: numba imports scipy as it loads, only to check its version,
+    and its array-math module imports scipy's BLAS as the target is set up,
+    to offer ``np.dot`` on BLAS (0.13-0.15 s of a cached run,
+    docs/performance.md). No kernel calls scipy; a kernel that did would
+    import it when compiled."""
 
     def __init__(self) -> None:
         self.thread = threading.get_ident()
 
     def find_spec(self, name: str, path: Any = None, target: Any = None) -> None:
-        if name == "scipy.linalg" and threading.get_ident() == self.thread:
-            raise ImportError("scipy.linalg: not needed by the kernels")
+        if name.split(".")[0] == "scipy" and threading.get_ident() == self.thread:
+            raise ImportError(f"{name}: not needed by the kernels")
 
 
-def _set_up_target() -> None:
-    """numba's target set-up (its registries of numpy functions), made once
-    here without scipy's linear algebra (:class:`_WithoutScipyLinalg`)."""
-    import sys
-
-    from numba.core.registry import cpu_target
-
-    finder = _WithoutScipyLinalg()
+@contextlib.contextmanager
+def _without_scipy() -> Iterator[None]:
+    """scipy refused to this thread for the moment (:class:`_WithoutScipy`)."""
+    finder = _WithoutScipy()
     sys.meta_path.insert(0, finder)
     try:
-        cpu_target.target_context.refresh()
+        yield
     finally:
         sys.meta_path.remove(finder)
 
