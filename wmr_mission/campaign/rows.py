@@ -184,15 +184,17 @@ def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
 
 def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     """One run reduced to its row: simulated and judged as ``run_mission`` does
-    (the same samples, the same outcome), its metrics from the code of summary.json."""
-    from wmr_mission.sim.plan import plan_mission
+    (the same samples, the same outcome), its metrics from the code of summary.json.
+
+    The mission is checked and planned once per campaign, each run's drawn
+    pose written into its plan (wmr_mission.campaign.written)."""
+    from wmr_mission.campaign.written import written_runs
     from wmr_mission.sim.runner import run_mission
 
-    mission, reason = mission_of(loaded, draw)
-    if mission is None:
+    plan, summary_mission, reason = written_runs(loaded).run(draw)
+    if plan is None:
         return _not_run(draw, INVALID, reason)
-    result = _uninterrupted(run_mission(plan_mission(mission, draw.seed)))
-    summary_mission = mission.model_dump(mode="json")
+    result = _uninterrupted(run_mission(plan))
     summary = judge_run_metrics(result, summary_mission)
     metrics = (
         *(summary_value(summary, metric.run_path) for metric in COLUMNS),
