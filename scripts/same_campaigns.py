@@ -9,7 +9,8 @@ into DIR/NAME-WORKERS. ``compare``: byte for byte, ``runs.csv``,
 ``campaign.json`` less the times it records (``wall_seconds``,
 ``missions_per_second``, ``startup_seconds``), and every file of each worst
 run's directory less those that record when and how fast it ran
-(manifest.json, and the ``timing`` of summary.json); prints each difference,
+(manifest.json, and summary.json's ``compute_us_per_sample`` and
+``loop_us_per_sample``); prints each difference,
 exit 1 if any. For a change to how a campaign runs that must not change what
 it gives: sweep with the code before it (``git stash``, same checkout, so
 that the compiled kernels are the cache's), then after, then compare.
@@ -24,7 +25,14 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
-TIMES = ("wall_seconds", "missions_per_second", "startup_seconds")
+# What campaign.json and a run's summary.json record of how fast it ran.
+TIMES = (
+    "wall_seconds",
+    "missions_per_second",
+    "startup_seconds",
+    "compute_us_per_sample",
+    "loop_us_per_sample",
+)
 # Files of a run directory that record when, where and how fast it ran.
 RUN_RECORDS = {"manifest.json"}
 
@@ -39,7 +47,7 @@ def _sweep(campaign: Path, out: Path, workers: int) -> None:
 
 def _without_times(data: Any) -> Any:
     if isinstance(data, dict):
-        return {k: _without_times(v) for k, v in data.items() if k not in (*TIMES, "timing")}
+        return {k: _without_times(v) for k, v in data.items() if k not in TIMES}
     if isinstance(data, list):
         return [_without_times(v) for v in data]
     return data

@@ -1,0 +1,167 @@
+"""A campaign checks and plans its mission once, and writes each run's drawn
+heading and initial estimate into the plan (wmr_mission.campaign.written):
+each run's row must be the one the run gives checked and planned whole, and
+a value the field's rule refuses must be refused with the same reason."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from wmr_mission.campaign import rows, written
+from wmr_mission.campaign.load import LoadedCampaign, load_campaign
+from wmr_mission.campaign.plan import Draw, Plan
+from wmr_mission.campaign.rows import INVALID, Row, mission_of, run_row
+from wmr_mission.campaign.written import Written
+from wmr_mission.sim.plan import MissionPlan
+
+ROOT = Path(__file__).resolve().parents[1]
+CAMPAIGNS = ROOT / "missions" / "campaigns"
+SHORT = ROOT / "tests" / "data" / "campaigns" / "short.yaml"
+
+
+def _whole(loaded: LoadedCampaign) -> Written:
+    """Every run checked and planned whole, as before the runs were written."""
+    runs = Written(loaded)
+    runs.writes = False
+    return runs
+
+
+def _same(a: Row, b: Row) -> None:
+    assert a.cells() == b.cells()
+    assert a.path_xy.tobytes() == b.path_xy.tobytes()
+    assert (a.fired, a.missed, a.margin_metric) == (b.fired, b.missed, b.margin_metric)
+
+
+def _same_plan(a: MissionPlan, b: MissionPlan) -> None:
+    """What a written run changes in the plan, and what it must not."""
+    assert a.initial_state.tobytes() == b.initial_state.tobytes()
+    assert a.initial_estimate.tobytes() == b.initial_estimate.tobytes()
+    assert (a.seed, a.max_samples, a.name, len(a.phases)) == (
+        b.seed,
+        b.max_samples,
+        b.name,
+        len(b.phases),
+    )
+    assert a.plant.runaway_position == b.plant.runaway_position
+    assert a.plant.constraint_margin == b.plant.constraint_margin
+    assert a.plant.limits.tobytes() == b.plant.limits.tobytes()
+    assert a.noise_std.tobytes() == b.noise_std.tobytes()
+    assert [p.target for p in a.phases] == [p.target for p in b.phases]
+
+
+def _rows(
+    loaded: LoadedCampaign, runs: list[int], how: Written, monkeypatch: pytest.MonkeyPatch
+) -> list[Row]:
+    monkeypatch.setattr(written, "written_runs", lambda _: how)
+    plan = Plan(loaded.campaign)
+    return [run_row(loaded, plan.draw(run)) for run in runs]
+
+
+# Runs of each shipped campaign: a few, and for the campaigns of many runs
+# ones that meet every value of the discrete axes (a base each).
+SAMPLED = {
+    "case1-dt.yaml": [2, 7],
+    "case2-headings.yaml": list(range(12)),
+    "controllers.yaml": [0, 31, 62, 95, 140, 170],
+    "estimators-disturbances.yaml": [0, 21, 45, 70],
+    "estimators-noise.yaml": [0, 1, 25, 130, 190],
+    "patrol-detour-ponds.yaml": [0, 1, 2],
+}
+
+
+@pytest.mark.parametrize("name", sorted(SAMPLED))
+def test_a_written_run_gives_the_row_of_the_run_checked_and_planned_whole(
+    name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    loaded = load_campaign(CAMPAIGNS / name)
+    runs = SAMPLED[name]
+    plan, mine, whole = Plan(loaded.campaign), Written(loaded), _whole(loaded)
+    for run in runs:
+        (a, record_a, _), (b, record_b, _) = mine.run(plan.draw(run)), whole.run(plan.draw(run))
+        assert a is not None
+        assert b is not None
+        _same_plan(a, b)
+        assert record_a == record_b
+    before = _rows(loaded, runs, _whole(loaded), monkeypatch)
+    after = _rows(loaded, runs, Written(loaded), monkeypatch)
+    for old, new in zip(before, after, strict=True):
+        _same(old, new)
+
+
+def test_case2_checks_and_plans_once_per_noise_level(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Twelve runs of case2-headings meet its three noise levels: three
+    missions checked and planned, the other runs written."""
+    checked = []
+    real = rows.mission_of
+
+    def counted(loaded: LoadedCampaign, draw: Draw) -> tuple[object, str]:
+        checked.append(draw.run)
+        return real(loaded, draw)
+
+    monkeypatch.setattr(rows, "mission_of", counted)
+    loaded = load_campaign(CAMPAIGNS / "case2-headings.yaml")
+    runs = Written(loaded)
+    assert runs.writes
+    plan = Plan(loaded.campaign)
+    noise = {str(plan.draw(run).values["sensors.noise_std"]) for run in range(12)}
+    for run in range(12):
+        assert runs.run(plan.draw(run))[0] is not None
+    assert len(runs.bases) == len(noise) == 3
+    assert len(checked) == 3
+
+
+@pytest.mark.parametrize("value", [2e9, -2e9, math.inf, math.nan])
+def test_a_value_the_field_refuses_is_refused_with_the_reason_of_the_whole_check(
+    tmp_path: Path, value: float
+) -> None:
+    path = tmp_path / "c.yaml"
+    path.write_text(
+        f"version: 1\nname: h\nmission: {SHORT}\nruns: 4\nseed: 3\nvary:\n"
+        "  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n"
+        "  estimator.initial_estimate.x: {uniform: [-1.0, 1.0]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(path)
+    runs = Written(loaded)
+    draw = Plan(loaded.campaign).draw(1)
+    assert runs.run(draw)[0] is not None  # the base, made
+    drawn = Draw(2, draw.seed, {**draw.values, "estimator.initial_estimate.x": value})
+    plan, record, reason = runs.run(drawn)
+    _, expected = mission_of(loaded, drawn)
+    assert plan is None
+    assert record == {}
+    assert reason == expected != ""
+    assert run_row(loaded, drawn).outcome == INVALID
+
+
+def test_an_estimate_left_to_the_start_pose_follows_the_written_heading(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A mission without an initial estimate starts its estimate at the start
+    pose: a written heading is the estimate's too, as planning whole gives."""
+    text = SHORT.read_text(encoding="utf-8")
+    mission = tmp_path / "m.yaml"
+    mission.write_text(text.replace("  initial_estimate: {x: -1, y: 0.5, theta: 0.5}\n", ""))
+    path = tmp_path / "c.yaml"
+    path.write_text(
+        f"version: 1\nname: h\nmission: {mission}\nruns: 3\nseed: 5\nvary:\n"
+        "  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(path)
+    runs = Written(loaded)
+    plan = Plan(loaded.campaign)
+    for run in range(3):
+        draw = plan.draw(run)
+        planned = runs.run(draw)[0]
+        assert planned is not None
+        theta = draw.values["robot.initial_state.theta"]
+        assert planned.initial_state[2] == planned.initial_estimate[2] == theta
+    assert len(runs.bases) == 1
+    before = _rows(loaded, [0, 1, 2], _whole(loaded), monkeypatch)
+    after = _rows(loaded, [0, 1, 2], Written(loaded), monkeypatch)
+    for old, new in zip(before, after, strict=True):
+        _same(old, new)
