@@ -165,3 +165,48 @@ def test_an_estimate_left_to_the_start_pose_follows_the_written_heading(
     after = _rows(loaded, [0, 1, 2], Written(loaded), monkeypatch)
     for old, new in zip(before, after, strict=True):
         _same(old, new)
+
+
+def test_the_runaway_bound_follows_the_written_estimate(tmp_path: Path) -> None:
+    """Where the initial estimate is the farthest coordinate the mission names,
+    the run's runaway bound is set by it (sim.plan's extent), run by run."""
+    path = tmp_path / "c.yaml"
+    path.write_text(
+        f"version: 1\nname: h\nmission: {SHORT}\nruns: 4\nseed: 3\nvary:\n"
+        "  estimator.initial_estimate.x: {uniform: [4.0, 9.0]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(path)
+    mine, whole, plan = Written(loaded), _whole(loaded), Plan(loaded.campaign)
+    bounds = set()
+    for run in range(4):
+        a, b = mine.run(plan.draw(run))[0], whole.run(plan.draw(run))[0]
+        assert a is not None
+        assert b is not None
+        _same_plan(a, b)
+        bounds.add(a.plant.runaway_position)
+    assert len(bounds) == 4
+
+
+def test_a_heading_that_a_return_home_reads_is_planned_whole(tmp_path: Path) -> None:
+    """`return-home` regulates to the initial pose: a drawn heading is its
+    target's, so the runs of such a mission are planned whole."""
+    mission = tmp_path / "m.yaml"
+    mission.write_text(SHORT.read_text(encoding="utf-8") + "on_failure: return-home\n")
+    path = tmp_path / "c.yaml"
+    path.write_text(
+        f"version: 1\nname: h\nmission: {mission}\nruns: 3\nseed: 3\nvary:\n"
+        "  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(path)
+    mine, whole, plan = Written(loaded), _whole(loaded), Plan(loaded.campaign)
+    for run in range(3):
+        draw = plan.draw(run)
+        a, b = mine.run(draw)[0], whole.run(draw)[0]
+        assert a is not None
+        assert b is not None
+        _same_plan(a, b)
+        theta = draw.values["robot.initial_state.theta"]
+        assert a.phases[-1].target == (-1.0, 0.5, theta)  # home
+    assert list(mine.bases.values()) == [None]
