@@ -210,3 +210,28 @@ def test_a_heading_that_a_return_home_reads_is_planned_whole(tmp_path: Path) -> 
         theta = draw.values["robot.initial_state.theta"]
         assert a.phases[-1].target == (-1.0, 0.5, theta)  # home
     assert list(mine.bases.values()) == [None]
+
+
+def test_a_process_keeps_the_last_used_bases_only(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A grid of many cells: the bases kept are bounded (MAX_BASES), the last
+    used; a cell that comes back is planned again, and its runs stay right."""
+    monkeypatch.setattr(written, "MAX_BASES", 2)
+    path = tmp_path / "c.yaml"
+    path.write_text(
+        f"version: 1\nname: h\nmission: {SHORT}\nruns: 2\nseed: 3\nvary:\n"
+        "  robot.limits.v: {grid: [1.0, 1.5, 2.0]}\n"
+        "  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n",
+        encoding="utf-8",
+    )
+    loaded = load_campaign(path)
+    mine, whole, plan = Written(loaded), _whole(loaded), Plan(loaded.campaign)
+    for run in (0, 1, 2, 4, 5, 0, 3):  # cells 0, 0, 1, 2, 2, 0 (made again), 1
+        a, b = mine.run(plan.draw(run))[0], whole.run(plan.draw(run))[0]
+        assert a is not None
+        assert b is not None
+        _same_plan(a, b)
+        assert a.plant.limits[0] == b.plant.limits[0] == [1.0, 1.5, 2.0][run // 2]
+        assert len(mine.bases) <= 2
+    assert list(mine.bases) == [("1.0",), ("1.5",)]

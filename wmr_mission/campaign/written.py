@@ -33,7 +33,7 @@ from wmr_mission.sim.reactions import used_contingencies
 from wmr_mission.spec.checks import read_by_sampling_checks
 from wmr_mission.spec.models import Mission
 
-__all__ = ["WRITTEN", "Base", "Written", "written_runs"]
+__all__ = ["MAX_BASES", "WRITTEN", "Base", "Written", "written_runs"]
 
 # The fields a run writes into its base's plan: the plan's array and index. Each
 # is a Scalar (wmr_mission.fields: finite, at most ABSURD) that no check across
@@ -47,6 +47,12 @@ WRITTEN: Final[dict[str, tuple[str, int]]] = {
 }
 
 _CONTINUOUS: Final = ("uniform", "normal")
+
+MAX_BASES: Final = 64
+"""Bases kept per process, the last used: a grid's cells come run after run
+(wmr_mission.campaign.plan), a choice's values at random; a base dropped is
+made again if its values come back. Bounds the memory of a campaign over a
+grid of many values."""
 
 
 @dataclass(frozen=True)
@@ -95,12 +101,15 @@ class Written:
 
         key = tuple(value_text(draw.values[path]) for path in self.discrete)
         if key in self.bases:
-            return self.bases[key]
+            base = self.bases[key] = self.bases.pop(key)  # the last used, last
+            return base
         mission, _ = mission_of(self.loaded, draw)
         if mission is None:
             return None
-        self.bases[key] = self._made(mission, draw)
-        return self.bases[key]
+        if len(self.bases) >= MAX_BASES:
+            del self.bases[next(iter(self.bases))]  # the longest unused
+        base = self.bases[key] = self._made(mission, draw)
+        return base
 
     def _made(self, mission: Mission, draw: Draw) -> Base | None:
         if any(read_by_sampling_checks(path, mission) for path in self.written):
