@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from wmr_mission.campaign import rows, written
+from wmr_mission.campaign import checked, written
 from wmr_mission.campaign.load import LoadedCampaign, load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.campaign.rows import INVALID, Row, mission_of, run_row
@@ -94,14 +94,14 @@ def test_a_written_run_gives_the_row_of_the_run_checked_and_planned_whole(
 def test_case2_checks_and_plans_once_per_noise_level(monkeypatch: pytest.MonkeyPatch) -> None:
     """Twelve runs of case2-headings meet its three noise levels: three
     missions checked and planned, the other runs written."""
-    checked = []
-    real = rows.mission_of
+    made = []
+    real = checked.mission_of
 
     def counted(loaded: LoadedCampaign, draw: Draw) -> tuple[object, str]:
-        checked.append(draw.run)
+        made.append(draw.run)
         return real(loaded, draw)
 
-    monkeypatch.setattr(rows, "mission_of", counted)
+    monkeypatch.setattr(checked, "mission_of", counted)
     loaded = load_campaign(CAMPAIGNS / "case2-headings.yaml")
     runs = Written(loaded)
     assert runs.writes
@@ -110,7 +110,7 @@ def test_case2_checks_and_plans_once_per_noise_level(monkeypatch: pytest.MonkeyP
     for run in range(12):
         assert runs.run(plan.draw(run))[0] is not None
     assert len(runs.bases) == len(noise) == 3
-    assert len(checked) == 3
+    assert len(made) == 3
 
 
 @pytest.mark.parametrize("value", [2e9, -2e9, math.inf, math.nan])

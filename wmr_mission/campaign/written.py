@@ -10,7 +10,7 @@ the discrete axes' values, made by the first run that has it), its drawn
 numbers checked against their field's rule and written into the base's plan
 and into the mission's record for the judge.
 
-A run gets exactly what :func:`wmr_mission.campaign.rows.mission_of` and
+A run gets exactly what :func:`wmr_mission.campaign.checked.mission_of` and
 ``plan_mission`` would give it (tests/test_campaign_written.py compares them
 on every shipped campaign); a drawn value the field's rule refuses, a
 campaign that varies another continuous field, or a field that a sampling
@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any, Final
 
+from wmr_mission.campaign import checked
 from wmr_mission.campaign.load import LoadedCampaign, value_text
 from wmr_mission.campaign.plan import Draw
 from wmr_mission.fields import ABSURD
@@ -82,11 +83,9 @@ class Written:
     def run(self, draw: Draw) -> tuple[MissionPlan | None, dict[str, Any], str]:
         """The run's plan and its mission's record for the judge, or (None, {},
         reason) when the mission refuses its values."""
-        from wmr_mission.campaign.rows import mission_of
-
         base = self._base(draw) if self.writes and _all_sound(draw, self.written) else None
         if base is None:  # checked and planned whole, as a replay does
-            mission, reason = mission_of(self.loaded, draw)
+            mission, reason = checked.mission_of(self.loaded, draw)
             if mission is None:
                 return None, {}, reason
             return plan_mission(mission, draw.seed), mission.model_dump(mode="json"), ""
@@ -97,13 +96,11 @@ class Written:
         mission if it is the first; None when a check or the plan reads a
         written field elsewhere (the runs of these values are then checked
         whole), or when the mission refuses this run (the next run tries again)."""
-        from wmr_mission.campaign.rows import mission_of
-
         key = tuple(value_text(draw.values[path]) for path in self.discrete)
         if key in self.bases:
             base = self.bases[key] = self.bases.pop(key)  # the last used, last
             return base
-        mission, _ = mission_of(self.loaded, draw)
+        mission, _ = checked.mission_of(self.loaded, draw)
         if mission is None:
             return None
         if len(self.bases) >= MAX_BASES:
