@@ -771,6 +771,7 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
             stages[stage].append((end - start) * 1000)
     print(f"case2-headings, one process, mean CPU over {repeat} runs [ms]:")
     print("  " + ", ".join(f"{k} {statistics.mean(v):.2f}" for k, v in stages.items()))
+    _rows_in_the_sweeps_process(loaded)
     against = sys.argv[2] if len(sys.argv) > 2 else None
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     with tempfile.TemporaryDirectory() as tmp:
@@ -812,6 +813,42 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         whole = [(a[0] + a[1]) / (b[0] + b[1]) for a, b in zip(now, then, strict=True)]
         print(f"CPU in all, now / {against}, pair by pair: {_medians(whole)}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def _rows_in_the_sweeps_process(loaded: Any, count: int = 200) -> None:
+    """What the sweep's own process does per row, the CPU of each step over
+    ``count`` rows: a task's rows pickled (by the worker) and unpickled, each
+    added to the aggregate, its runs.csv line made and written as CSV."""
+    import csv
+    import io
+    import pickle
+
+    from wmr_mission.campaign.aggregate import Aggregate
+    from wmr_mission.campaign.rows import run_rows
+
+    rows = run_rows(loaded, 0, count)
+    times = [time.process_time()]
+    sent = pickle.dumps(rows)
+    times.append(time.process_time())
+    received = pickle.loads(sent)
+    times.append(time.process_time())
+    aggregate = Aggregate(dict(loaded.campaign.vary))
+    for row in received:
+        aggregate.add(row)
+    times.append(time.process_time())
+    lines = [row.cells() for row in received]
+    times.append(time.process_time())
+    csv.writer(io.StringIO(), lineterminator="\n").writerows(lines)
+    times.append(time.process_time())
+    steps = ("pickled", "unpickled", "Aggregate.add", "cells", "CSV")
+    print(
+        f"a row in the sweep's process, CPU over {count} rows [us]: "
+        + ", ".join(
+            f"{step} {(end - start) / count * 1e6:.0f}"
+            for step, start, end in zip(steps, times, times[1:], strict=False)
+        )
+        + f"; {len(sent) / count:.0f} bytes a row"
+    )
 
 
 def _medians(values: list[float]) -> str:

@@ -6,6 +6,7 @@ a value the field's rule refuses must be refused with the same reason."""
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -235,3 +236,17 @@ def test_a_process_keeps_the_last_used_bases_only(
         assert a.plant.limits[0] == b.plant.limits[0] == [1.0, 1.5, 2.0][run // 2]
         assert len(mine.bases) <= 2
     assert list(mine.bases) == [("1.0",), ("1.5",)]
+
+
+def test_each_thread_keeps_its_own_runs(tmp_path: Path) -> None:
+    """A Dask worker runs tasks on several threads: each has its own bases,
+    and a process keeps one campaign's runs at a time, per thread."""
+    loaded = load_campaign(CAMPAIGNS / "case2-headings.yaml")
+    mine = written.written_runs(loaded)
+    assert written.written_runs(loaded) is mine
+    with ThreadPoolExecutor(1) as thread:
+        theirs = thread.submit(written.written_runs, loaded).result()
+    assert theirs is not mine
+    other = load_campaign(CAMPAIGNS / "case1-dt.yaml")
+    assert written.written_runs(other) is not mine
+    assert written.written_runs(loaded) is not mine  # one campaign kept at a time

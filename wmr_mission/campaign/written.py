@@ -21,6 +21,7 @@ same reason.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, replace
 from typing import Any, Final
 
@@ -176,16 +177,22 @@ def _all_sound(draw: Draw, paths: list[str]) -> bool:
     return True
 
 
-_current: Written | None = None
+class _Current(threading.local):
+    written: Written | None = None
+
+
+# One per thread: a Dask worker runs tasks on several threads of one process,
+# and a base is made and kept by the thread that runs it.
+_current = _Current()
 
 
 def written_runs(loaded: LoadedCampaign) -> Written:
-    """This process's :class:`Written` of ``loaded``: made once per campaign, kept
+    """This thread's :class:`Written` of ``loaded``: made once per campaign, kept
     while the tasks of one campaign come (each brings its own copy of ``loaded``)."""
-    global _current
-    if _current is None or _identity(_current.loaded) != _identity(loaded):
-        _current = Written(loaded)
-    return _current
+    kept = _current.written
+    if kept is None or _identity(kept.loaded) != _identity(loaded):
+        kept = _current.written = Written(loaded)
+    return kept
 
 
 def _identity(loaded: LoadedCampaign) -> tuple[Any, ...]:
