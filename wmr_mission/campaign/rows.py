@@ -148,8 +148,9 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     """One run reduced to its row: simulated and judged as ``run_mission`` does
     (the same samples, the same outcome), its metrics from the code of summary.json.
 
-    The mission is checked and planned once per campaign, each run's drawn
-    pose written into its plan (wmr_mission.campaign.written)."""
+    The mission is checked and planned once per combination of the campaign's
+    choice and grid values, each run's drawn pose written into a copy of its
+    plan (wmr_mission.campaign.written)."""
     from wmr_mission.sim.runner import run_mission
 
     plan, summary_mission, reason = written_runs(loaded).run(draw)
