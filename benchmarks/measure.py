@@ -19,7 +19,8 @@
     python benchmarks/measure.py distance   # summary.json's distance to the path, 360 001 samples
     python benchmarks/measure.py dare       # scipy's solve_discrete_are, one 3x3 call
     python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
-    python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep throughput
+    python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep CPU per run
+    python benchmarks/measure.py campaign COMMIT   # the same, the sweep also as at COMMIT, in turn
     python benchmarks/measure.py judge      # judging a case-2 run, and a 1-hour run per sample
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
@@ -821,63 +822,150 @@ def dlqr(repeat: int = 200) -> None:
 CAMPAIGN = MISSIONS / "campaigns" / "case2-headings.yaml"
 
 
-def campaign(repeat: int = 40) -> None:
-    """Where a campaign run's time goes (one process, medians over ``repeat`` runs
-    of case2-headings), then `sweep` end to end on 2 workers: campaign.json's
-    missions_per_second, and the command's wall time from start to exit."""
-    import csv
-    import io
+# `wmr-mission sweep` with its own CPU time and its workers' written, as it
+# exits, to the file WMR_CPU_REPORT names: "SELF CHILDREN" [s]. The pool's
+# workers are its children (joined before it exits); forked, they leave by
+# os._exit, without this report.
+_SWEEP_CPU = """
+import atexit, os, resource, sys
+def report():
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    theirs = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with open(os.environ["WMR_CPU_REPORT"], "w") as out:
+        out.write(f"{own.ru_utime + own.ru_stime} {theirs.ru_utime + theirs.ru_stime}")
+atexit.register(report)
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import main
+main()
+"""
+
+
+def campaign(repeat: int = 40, pairs: int = 3) -> None:
+    """Where a campaign run's time goes (one process, means of CPU time over
+    ``repeat`` runs of case2-headings), then `sweep --workers 2 --no-plots`
+    of its 2000 runs end to end, the kernel cache warm: the CPU of the
+    sweep's own process and of its workers, per run, and campaign.json's
+    missions_per_second. With a commit's name (`campaign COMMIT`), the same
+    sweep as at that commit too, in turn with this one, ``pairs`` times
+    (after one untimed run of each: a checkout compiles its kernels once)."""
     import json
 
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
-    from wmr_mission.campaign.rows import METRICS, Row, mission_of, run_row
-    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.campaign.rows import run_row
+    from wmr_mission.campaign.written import written_runs
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.verdicts.metrics import judge_run_metrics
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
-    run_row(loaded, plan.draw(0))  # loads the kernels
-    stages: dict[str, list[float]] = {"mission": [], "compile": [], "loop": [], "judge": []}
+    for run in range(3):  # loads the kernels, plans each noise level once
+        run_row(loaded, plan.draw(run))
+    runs = written_runs(loaded)
+    stages: dict[str, list[float]] = {"draw": [], "plan (written)": [], "loop": [], "judge": []}
     stages |= {"whole row": [], "csv line": []}
-    writer = csv.writer(io.StringIO(), lineterminator="\n")
-    for run in range(1, repeat + 1):
+    for run in range(3, repeat + 3):
+        times = [time.process_time()]
         draw = plan.draw(run)
-        times = [time.perf_counter()]
-        mission, _ = mission_of(loaded, draw)
-        times.append(time.perf_counter())
-        assert mission is not None
-        compiled = plan_mission(mission, draw.seed)
-        times.append(time.perf_counter())
-        result = run_mission(compiled)
-        times.append(time.perf_counter())
-        judge_run_metrics(result, mission.model_dump(mode="json"))
-        times.append(time.perf_counter())
-        row: Row = run_row(loaded, draw)
-        times.append(time.perf_counter())
-        writer.writerow(row.cells())  # what the campaign process does with a row
-        times.append(time.perf_counter())
-        assert len(row.metrics) == len(METRICS)
+        times.append(time.process_time())
+        planned, record, _ = runs.run(draw)
+        times.append(time.process_time())
+        assert planned is not None
+        result = run_mission(planned)
+        times.append(time.process_time())
+        judge_run_metrics(result, record)
+        times.append(time.process_time())
+        row = run_row(loaded, draw)
+        times.append(time.process_time())
+        row.cells()  # what the campaign process does with a row, but the file
+        times.append(time.process_time())
         for stage, start, end in zip(stages, times, times[1:], strict=False):
             stages[stage].append((end - start) * 1000)
-    print(f"case2-headings, one process, median over {repeat} runs [ms]:")
-    print("  " + ", ".join(f"{k} {statistics.median(v):.2f}" for k, v in stages.items()))
+    print(f"case2-headings, one process, mean CPU over {repeat} runs [ms]:")
+    print("  " + ", ".join(f"{k} {statistics.mean(v):.2f}" for k, v in stages.items()))
+    _rows_in_the_sweeps_process(loaded)
+    against = sys.argv[2] if len(sys.argv) > 2 else None
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     with tempfile.TemporaryDirectory() as tmp:
-        command = [sys.executable, "-m", "wmr_mission", "sweep", str(CAMPAIGN), "--workers", "2"]
-        # exit 1 when the campaign's expect is not met: still a measurement
-        wall, cpu = _wall([*command, "--no-plots", "--out", f"{tmp}/bare"], check=False)
-        record = json.loads(Path(f"{tmp}/bare/campaign.json").read_text(encoding="utf-8"))
+        os.chdir(tmp)  # `python -c` puts the working directory before PYTHONPATH
+        envs = {"now": _user_env()}
+        if against is not None:
+            os.mkdir(f"{tmp}/then")
+            envs[against] = _user_env(
+                PYTHONPATH=_checkout(against, f"{tmp}/then"), WMR_MISSION_FOREGROUND_COMPILE="1"
+            )
+        measured: dict[str, list[tuple[float, float, float, float]]] = {k: [] for k in envs}
+        for round_ in range(pairs + 1):  # the first untimed: bytecode, a checkout's compile
+            for label, env in envs.items():
+                out = f"{tmp}/{label}-{round_}"
+                report = f"{tmp}/cpu"
+                command = [sys.executable, "-c", _SWEEP_CPU, "sweep", str(CAMPAIGN)]
+                command += ["--workers", "2", "--no-plots", "--out", out]
+                wall, _ = _wall(command, {**env, "WMR_CPU_REPORT": report}, check=False)
+                own, theirs = (float(x) for x in Path(report).read_text().split())
+                record = json.loads(Path(f"{out}/campaign.json").read_text(encoding="utf-8"))
+                if round_ > 0:
+                    measured[label].append((own, theirs, wall, record["missions_per_second"]))
+                runs_done = record["runs"]
+    for label, rows in measured.items():
+        own = [1000 * r[0] / runs_done for r in rows]
+        theirs = [1000 * r[1] / runs_done for r in rows]
         print(
-            f"sweep --workers 2 --no-plots: {record['runs']} runs, missions_per_second "
-            f"{record['missions_per_second']:.1f}; end to end {wall:.2f} s = "
-            f"{record['runs'] / wall:.1f} runs/s (start-up {record['startup_seconds']:.2f} s); "
-            f"CPU {cpu:.1f} s = {1000 * cpu / record['runs']:.2f} ms per run"
+            f"sweep --workers 2 --no-plots, {runs_done} runs ({label}, {pairs} runs): CPU per run "
+            f"[ms] the sweep's process {_medians(own)}, its workers {_medians(theirs)}, "
+            f"in all {_medians([a + b for a, b in zip(own, theirs, strict=True)])}; end to end "
+            f"{_medians([runs_done / r[2] for r in rows])} runs/s; missions_per_second "
+            f"{_medians([r[3] for r in rows])}"
         )
-        wall, _ = _wall([*command, "--out", f"{tmp}/plots"], check=False)
-        runs = record["runs"]
-        print(f"sweep --workers 2 with figures: end to end {wall:.2f} s = {runs / wall:.1f} runs/s")
+    if against is not None:
+        now, then = measured["now"], measured[against]
+        for name, index in (("the sweep's process", 0), ("its workers", 1)):
+            ratios = [a[index] / b[index] for a, b in zip(now, then, strict=True)]
+            print(f"CPU of {name}, now / {against}, pair by pair: {_medians(ratios)}")
+        whole = [(a[0] + a[1]) / (b[0] + b[1]) for a, b in zip(now, then, strict=True)]
+        print(f"CPU in all, now / {against}, pair by pair: {_medians(whole)}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def _rows_in_the_sweeps_process(loaded: Any, count: int = 200) -> None:
+    """What the sweep's own process does per row, the CPU of each step over
+    ``count`` rows: a task's rows pickled (by the worker) and unpickled, each
+    added to the aggregate, its runs.csv line made and written as CSV."""
+    import csv
+    import io
+    import pickle
+
+    from wmr_mission.campaign.aggregate import Aggregate
+    from wmr_mission.campaign.rows import run_rows
+
+    rows = run_rows(loaded, 0, count)
+    times = [time.process_time()]
+    sent = pickle.dumps(rows)
+    times.append(time.process_time())
+    received = pickle.loads(sent)
+    times.append(time.process_time())
+    aggregate = Aggregate(dict(loaded.campaign.vary))
+    for row in received:
+        aggregate.add(row)
+    times.append(time.process_time())
+    lines = [row.cells() for row in received]
+    times.append(time.process_time())
+    csv.writer(io.StringIO(), lineterminator="\n").writerows(lines)
+    times.append(time.process_time())
+    steps = ("pickled", "unpickled", "Aggregate.add", "cells", "CSV")
+    print(
+        f"a row in the sweep's process, CPU over {count} rows [us]: "
+        + ", ".join(
+            f"{step} {(end - start) / count * 1e6:.0f}"
+            for step, start, end in zip(steps, times, times[1:], strict=False)
+        )
+        + f"; {len(sent) / count:.0f} bytes a row"
+    )
+
+
+def _medians(values: list[float]) -> str:
+    """The median of ``values``, then all of them in order."""
+    return f"{statistics.median(values):.3g} ({', '.join(f'{v:.3g}' for v in values)})"
 
 
 def judge_cost(repeat: int = 40) -> None:

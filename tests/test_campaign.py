@@ -378,17 +378,18 @@ expect:
 
 
 def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch) -> None:
+    from wmr_mission.campaign import checked
     from wmr_mission.campaign import rows as runs
 
     loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
-    real = runs.mission_of
+    real = checked.mission_of
 
     def faulty(loaded: Any, draw: Draw) -> Any:
         if draw.run == 1:
             raise ZeroDivisionError("float division by zero")
         return real(loaded, draw)
 
-    monkeypatch.setattr(runs, "mission_of", faulty)
+    monkeypatch.setattr(checked, "mission_of", faulty)
     rows = runs.run_rows(loaded, 0, 3)
     assert [row.outcome for row in rows] == ["success", runs.ERROR, "success"]
     assert rows[1].reason.startswith("internal error (ZeroDivisionError: float division by zero)")
@@ -665,7 +666,7 @@ def test_a_normal_draw_beyond_the_checked_extremes_gets_every_check(
 ) -> None:
     """validate ran the sampling checks at mean +- 4 std: a draw within needs
     only the run's own checks, a draw beyond gets the mission's every check."""
-    from wmr_mission.campaign import rows as runs
+    from wmr_mission.campaign import checked as runs
 
     loaded = load_campaign(EVERY)  # estimator.initial_estimate.x: normal [-1.0, 0.1]
     axis = loaded.campaign.vary["estimator.initial_estimate.x"]

@@ -8,20 +8,19 @@ it byte for byte.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
+from wmr_mission.campaign.checked import checked_mission, mission_of
 from wmr_mission.campaign.comparison import COMPARISON_METRICS, comparison_metrics
-from wmr_mission.campaign.load import LoadedCampaign, override, replay_line, value_text
-from wmr_mission.campaign.models import Axis
+from wmr_mission.campaign.load import LoadedCampaign, replay_line, value_text
 from wmr_mission.campaign.plan import Draw, Plan
+from wmr_mission.campaign.written import written_runs
 from wmr_mission.record import Outcome
 from wmr_mission.spec import catalog
-from wmr_mission.spec.checks import read_by_sampling_checks
-from wmr_mission.spec.models import Mission
 from wmr_mission.verdicts import recovery
 from wmr_mission.verdicts.check import Check
 from wmr_mission.verdicts.metrics import judge_run_metrics, summary_value
@@ -35,7 +34,9 @@ __all__ = [
     "MARGIN_COLUMNS",
     "METRICS",
     "Row",
+    "checked_mission",
     "header",
+    "mission_of",
     "replay_command",
     "run_row",
     "run_rows",
@@ -106,45 +107,6 @@ def header(paths: Sequence[str]) -> list[str]:
     return ["run", "seed", "outcome", *paths, *METRICS, *MARGIN_COLUMNS, "reason"]
 
 
-def mission_of(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
-    """The mission with the run's values, or None and why the mission refuses them.
-
-    Checked as ``run --set`` checks it (:func:`checked_mission`), except that
-    the checks that sample paths and regions (they cost more than the run) are
-    left out where `validate`'s checks at the axes' values cover the run: no
-    varied field is one they read, or one discrete axis is.
-    """
-    overrides = [override(path, value) for path, value in draw.values.items()]
-    vary = loaded.campaign.vary
-    if all(
-        path in vary and vary[path].within_extremes(value) for path, value in draw.values.items()
-    ):
-        mission = loaded.mission_across_fields(overrides)
-        if mission is not None and _sampled_by_validate(vary, mission):
-            return mission, ""
-    return checked_mission(loaded, draw)
-
-
-def _sampled_by_validate(vary: Mapping[str, Axis], mission: Mission) -> bool:
-    """Whether the checks `validate` ran at the axes' values cover this run:
-    none of the varied fields is read by the sampling checks, or only one is and
-    `validate` checked each value it takes (choice, grid). A value between the
-    extremes of a continuous axis can break a path the extremes do not."""
-    read = [path for path in vary if read_by_sampling_checks(path, mission)]
-    return not read or (len(read) == 1 and vary[read[0]].kind in ("choice", "grid"))
-
-
-def checked_mission(loaded: LoadedCampaign, draw: Draw) -> tuple[Mission | None, str]:
-    """The mission with the run's values checked exactly as ``run --set`` checks
-    it, or None and every error."""
-    overrides = [override(path, value) for path, value in draw.values.items()]
-    mission, diagnostics = loaded.mission_with(overrides)
-    if mission is None:
-        errors = [str(d) for d in diagnostics if d.severity == "error"]
-        return None, "; ".join(errors)
-    return mission, ""
-
-
 def simulate(loaded: LoadedCampaign, draw: Draw) -> tuple[RunResult | None, str]:
     """The run as its ``replay`` command runs it, for its run directory (None
     when the mission refuses its values, with the reason)."""
@@ -184,15 +146,17 @@ def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
 
 def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
     """One run reduced to its row: simulated and judged as ``run_mission`` does
-    (the same samples, the same outcome), its metrics from the code of summary.json."""
-    from wmr_mission.sim.plan import plan_mission
+    (the same samples, the same outcome), its metrics from the code of summary.json.
+
+    The mission is checked and planned once per combination of the campaign's
+    choice and grid values, each run's drawn pose written into a copy of its
+    plan (wmr_mission.campaign.written)."""
     from wmr_mission.sim.runner import run_mission
 
-    mission, reason = mission_of(loaded, draw)
-    if mission is None:
+    plan, summary_mission, reason = written_runs(loaded).run(draw)
+    if plan is None:
         return _not_run(draw, INVALID, reason)
-    result = _uninterrupted(run_mission(plan_mission(mission, draw.seed)))
-    summary_mission = mission.model_dump(mode="json")
+    result = _uninterrupted(run_mission(plan))
     summary = judge_run_metrics(result, summary_mission)
     metrics = (
         *(summary_value(summary, metric.run_path) for metric in COLUMNS),

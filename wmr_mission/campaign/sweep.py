@@ -46,6 +46,7 @@ from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campa
 from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.recovery import recovery_report
 from wmr_mission.campaign.rows import METRICS, Row, header, replay_command, simulate
+from wmr_mission.campaign.stops import stoppable
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
@@ -61,7 +62,7 @@ from wmr_mission.output.rundir import (
 from wmr_mission.spec import catalog
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import overrides_of, overrides_of_texts
-from wmr_mission.stopping import GENTLE, HOLD, RAISE, STOP_SIGNALS, StopSignals, stop_owed
+from wmr_mission.stopping import GENTLE, HOLD, RAISE, StopSignals
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
 
@@ -721,29 +722,20 @@ def sweep_command(
     met or a worker lost; 2 unusable output directory or scheduler (or a mixed
     cluster), or a write that failed; 130 or 143 stopped by SIGINT or SIGTERM
     (what ran is kept)."""
-    stop = StopSignals(STOP_SIGNALS)
-    try:  # outside the block: a signal the instant the handlers are set is caught too
-        with stop:
-            if stop_owed():  # held since the command started
-                raise KeyboardInterrupt
-            return _sweep(
-                campaign_path,
-                out,
-                workers,
-                scheduler,
-                plots,
-                stop,
-                allow_mixed_cluster,
-                runs,
-                settings,
-            )
-    except KeyboardInterrupt:
-        print(
-            f"{campaign_path}: interrupted by {stop.name} before the first run; "
-            "nothing was written",
-            file=sys.stderr,
-        )
-        return stop.exit_code
+    return stoppable(
+        campaign_path,
+        lambda stop: _sweep(
+            campaign_path,
+            out,
+            workers,
+            scheduler,
+            plots,
+            stop,
+            allow_mixed_cluster,
+            runs,
+            settings,
+        ),
+    )
 
 
 def _is_mission(path: Path) -> bool:

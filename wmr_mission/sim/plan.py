@@ -232,22 +232,51 @@ def _extent(mission: Mission, dumped_regions: dict[str, dict[str, object]]) -> f
     each path's first point from the start pose."""
     start = mission.robot.initial_state
     guess = mission.estimator.initial_estimate or start
-    numbers = [start.x, start.y, guess.x, guess.y]
+    return max(
+        extent_but_start(mission, dumped_regions),
+        start_extent(
+            mission, (float(start.x), float(start.y), float(start.theta)), (guess.x, guess.y)
+        ),
+    )
+
+
+def extent_but_start(mission: Mission, dumped_regions: dict[str, dict[str, object]]) -> float:
+    """The part of :func:`_extent` that neither the start pose nor the initial
+    estimate moves: regions, targets and points."""
+    numbers: list[float] = []
     for region in dumped_regions.values():
         numbers += _numbers(
             {key: value for key, value in region.items() if key not in ("rotation", "heading")}
         )
-    pose = (float(start.x), float(start.y), float(start.theta))
-    context = mission.path_context()
-    for phase in {run.where: run.phase for run in run_order(mission)}.values():
+    for phase in _written_phases(mission):
         if isinstance(phase, RegulatePhase):
             numbers += _numbers(phase.regulate.model_dump(mode="json"))
         if phase.until is not None and phase.until.near is not None:
             numbers += list(phase.until.near.point)
+    return _largest(numbers)
+
+
+def start_extent(
+    mission: Mission, start: tuple[float, float, float], guess: tuple[float, float]
+) -> float:
+    """The part of :func:`_extent` that the start pose and the initial estimate
+    (x, y) set: themselves, and each path's first point from the start pose."""
+    numbers = [start[0], start[1], guess[0], guess[1]]
+    context = mission.path_context()
+    for phase in _written_phases(mission):
         if isinstance(phase, TrackPhase):
-            trajectory = paths.trajectory(phase.track.path, context, pose)
+            trajectory = paths.trajectory(phase.track.path, context, start)
             x, y, _, _ = trajectory.sample(np.zeros(1))
             numbers += [float(x[0]), float(y[0])]
+    return _largest(numbers)
+
+
+def _written_phases(mission: Mission) -> list[Phase]:
+    """Each phase as written, once however many laps it runs."""
+    return list({run.where: run.phase for run in run_order(mission)}.values())
+
+
+def _largest(numbers: list[float]) -> float:
     finite = [abs(float(n)) for n in numbers if math.isfinite(float(n))]
     return max(finite, default=0.0)
 

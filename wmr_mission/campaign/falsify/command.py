@@ -42,6 +42,7 @@ from wmr_mission.campaign.falsify.loop import Search, draws_of, run_search
 from wmr_mission.campaign.falsify.search import METHODS, make_method
 from wmr_mission.campaign.falsify.space import Space
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign
+from wmr_mission.campaign.stops import stoppable
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
@@ -53,7 +54,7 @@ from wmr_mission.output.rundir import (
     prepare_run_dir,
 )
 from wmr_mission.spec.checks import importing_entries
-from wmr_mission.stopping import GENTLE, HOLD, STOP_SIGNALS, StopSignals, stop_owed
+from wmr_mission.stopping import GENTLE, HOLD, StopSignals
 
 __all__ = ["DEFAULT_BUDGET", "FalsifyResult", "UsageError", "falsify_campaign", "falsify_command"]
 
@@ -400,22 +401,22 @@ def falsify_command(
     """Exit code: 1 a failing run found (or an invalid file), 0 none within the
     budget, 2 a usage error (a bad flag, an unusable --out or scheduler),
     130 or 143 stopped by SIGINT or SIGTERM (what ran is kept)."""
-    stop = StopSignals(STOP_SIGNALS)
-    try:
-        with stop:
-            if stop_owed():
-                raise KeyboardInterrupt
-            return _command(
-                campaign_path, budget, method, seed, objective, first, workers, scheduler,
-                out, plots, stop,
-            )  # fmt: skip
-    except KeyboardInterrupt:
-        print(
-            f"{campaign_path}: interrupted by {stop.name} before the first run; "
-            "nothing was written",
-            file=sys.stderr,
-        )
-        return stop.exit_code
+    return stoppable(
+        campaign_path,
+        lambda stop: _command(
+            campaign_path,
+            budget,
+            method,
+            seed,
+            objective,
+            first,
+            workers,
+            scheduler,
+            out,
+            plots,
+            stop,
+        ),
+    )
 
 
 def _command(

@@ -1,0 +1,206 @@
+"""A campaign's mission checked and planned once, each run's drawn pose written into the plan.
+
+Checking a run's mission whole (pydantic, then the checks across fields) and
+planning it cost about as much as simulating it. Most of a campaign's draws
+are numbers that the plan holds as they are and that no check reads beyond
+its field's own rule: the initial heading, the initial estimate
+(:data:`WRITTEN`). Such a run starts from the mission checked and planned
+with the same values of the other axes (its *base*, one per combination of
+the discrete axes' values, made by the first run that has it), its drawn
+numbers checked against their field's rule and written into the base's plan
+and into the mission's record for the judge.
+
+A run gets exactly what :func:`wmr_mission.campaign.checked.mission_of` and
+``plan_mission`` would give it (tests/test_campaign_written.py compares them
+on every shipped campaign); a drawn value the field's rule refuses, a
+campaign that varies another continuous field, or a field that a sampling
+check or a reaction reads takes that way instead, and is refused with the
+same reason.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass, replace
+from typing import Any, Final
+
+from wmr_mission.campaign import checked
+from wmr_mission.campaign.load import LoadedCampaign, value_text
+from wmr_mission.campaign.plan import Draw
+from wmr_mission.fields import ABSURD
+from wmr_mission.kernels.records import RUNAWAY_DISTANCE
+from wmr_mission.sim.plan import MissionPlan, extent_but_start, plan_mission, start_extent
+from wmr_mission.sim.reactions import used_contingencies
+from wmr_mission.spec.checks import read_by_sampling_checks
+from wmr_mission.spec.models import Mission
+
+__all__ = ["MAX_BASES", "WRITTEN", "Base", "Written", "written_runs"]
+
+# The fields a run writes into its base's plan: the plan's array and index. Each
+# is a Scalar (wmr_mission.fields: finite, at most ABSURD) that no check across
+# fields reads (wmr_mission.spec.checks.check_across_fields), and the plan reads
+# it only there and in the runaway bound (sim.plan.start_extent). Keep in step.
+WRITTEN: Final[dict[str, tuple[str, int]]] = {
+    "robot.initial_state.theta": ("initial_state", 2),
+    "estimator.initial_estimate.x": ("initial_estimate", 0),
+    "estimator.initial_estimate.y": ("initial_estimate", 1),
+    "estimator.initial_estimate.theta": ("initial_estimate", 2),
+}
+
+_CONTINUOUS: Final = ("uniform", "normal")
+
+MAX_BASES: Final = 64
+"""Bases kept per process, the last used: a grid's cells come run after run
+(wmr_mission.campaign.plan), a choice's values at random; a base dropped is
+made again if its values come back. Bounds the memory of a campaign over a
+grid of many values."""
+
+
+@dataclass(frozen=True)
+class Base:
+    """The mission checked and planned with one combination of the discrete
+    axes' values, and its record as the judge reads it."""
+
+    mission: Mission
+    plan: MissionPlan
+    record: dict[str, Any]
+    fixed_extent: float  # sim.plan.extent_but_start
+    estimate_is_start: bool  # no initial estimate written: it is the start pose
+
+
+class Written:
+    """The runs of one campaign in this process: their bases, made as runs need them."""
+
+    def __init__(self, loaded: LoadedCampaign) -> None:
+        self.loaded = loaded
+        vary = loaded.campaign.vary
+        self.written = [p for p, axis in vary.items() if axis.kind in _CONTINUOUS]
+        self.discrete = [p for p, axis in vary.items() if axis.kind not in _CONTINUOUS]
+        self.writes = all(path in WRITTEN for path in self.written)
+        self.keys = {path: _keys(path) for path in self.written}
+        self.bases: dict[tuple[str, ...], Base | None] = {}
+
+    def run(self, draw: Draw) -> tuple[MissionPlan | None, dict[str, Any], str]:
+        """The run's plan and its mission's record for the judge, or (None, {},
+        reason) when the mission refuses its values."""
+        base = self._base(draw) if self.writes and _all_sound(draw, self.written) else None
+        if base is None:  # checked and planned whole, as a replay does
+            mission, reason = checked.mission_of(self.loaded, draw)
+            if mission is None:
+                return None, {}, reason
+            return plan_mission(mission, draw.seed), mission.model_dump(mode="json"), ""
+        return self._plan(base, draw), self._record(base, draw), ""
+
+    def _base(self, draw: Draw) -> Base | None:
+        """The base of the run's discrete values, made from the run's own
+        mission if it is the first; None when a check or the plan reads a
+        written field elsewhere (the runs of these values are then checked
+        whole), or when the mission refuses this run (the next run tries again)."""
+        key = tuple(value_text(draw.values[path]) for path in self.discrete)
+        if key in self.bases:
+            base = self.bases[key] = self.bases.pop(key)  # the last used, last
+            return base
+        mission, _ = checked.mission_of(self.loaded, draw)
+        if mission is None:
+            return None
+        if len(self.bases) >= MAX_BASES:
+            del self.bases[next(iter(self.bases))]  # the longest unused
+        base = self.bases[key] = self._made(mission, draw)
+        return base
+
+    def _made(self, mission: Mission, draw: Draw) -> Base | None:
+        if any(read_by_sampling_checks(path, mission) for path in self.written):
+            return None
+        if "robot.initial_state.theta" in self.written and (
+            "return-home" in used_contingencies(mission)  # its target is the start pose
+        ):
+            return None
+        plan = plan_mission(mission, draw.seed)
+        return Base(
+            mission,
+            plan,
+            mission.model_dump(mode="json"),
+            extent_but_start(mission, plan.regions),
+            mission.estimator.initial_estimate is None,
+        )
+
+    def _plan(self, base: Base, draw: Draw) -> MissionPlan:
+        arrays = {
+            "initial_state": base.plan.initial_state.copy(),
+            "initial_estimate": base.plan.initial_estimate.copy(),
+        }
+        for path in self.written:
+            name, index = WRITTEN[path]
+            arrays[name][index] = draw.values[path]
+        if base.estimate_is_start:
+            arrays["initial_estimate"] = arrays["initial_state"].copy()
+        start, estimate = arrays["initial_state"], arrays["initial_estimate"]
+        extent = max(
+            base.fixed_extent,
+            start_extent(
+                base.mission,
+                (float(start[0]), float(start[1]), float(start[2])),
+                (float(estimate[0]), float(estimate[1])),
+            ),
+        )
+        plant = base.plan.plant._replace(runaway_position=RUNAWAY_DISTANCE + extent)
+        return replace(
+            base.plan, plant=plant, seed=draw.seed, initial_state=start, initial_estimate=estimate
+        )
+
+    def _record(self, base: Base, draw: Draw) -> dict[str, Any]:
+        """The base's record with the run's values: each mapping on a written
+        path copied, the rest shared (the judge only reads it)."""
+        record = dict(base.record)
+        for path in self.written:
+            *sections, name = self.keys[path]
+            inner = record
+            for key in sections:
+                inner[key] = dict(inner[key])
+                inner = inner[key]
+            inner[name] = draw.values[path]
+        return record
+
+
+def _keys(path: str) -> tuple[str, ...]:
+    return tuple(path.split("."))
+
+
+def _all_sound(draw: Draw, paths: list[str]) -> bool:
+    """Whether each drawn value passes its field's own rule (a Scalar: a finite
+    float, at most ABSURD in size); else the run is checked whole, and says why."""
+    for path in paths:
+        value = draw.values[path]
+        if not (isinstance(value, float) and math.isfinite(value) and abs(value) <= ABSURD):
+            return False
+    return True
+
+
+class _Current(threading.local):
+    written: Written | None = None
+
+
+# One per thread: a Dask worker runs tasks on several threads of one process,
+# and a base is made and kept by the thread that runs it.
+_current = _Current()
+
+
+def written_runs(loaded: LoadedCampaign) -> Written:
+    """This thread's :class:`Written` of ``loaded``: made once per campaign, kept
+    while the tasks of one campaign come (each brings its own copy of ``loaded``)."""
+    kept = _current.written
+    if kept is None or _identity(kept.loaded) != _identity(loaded):
+        kept = _current.written = Written(loaded)
+    return kept
+
+
+def _identity(loaded: LoadedCampaign) -> tuple[Any, ...]:
+    return (
+        str(loaded.path),
+        str(loaded.mission_path),
+        loaded.campaign_sha256,
+        loaded.mission_sha256,
+        tuple(loaded.setting_texts()),
+        loaded.campaign.seed,
+    )
