@@ -37,7 +37,7 @@ from wmr_mission.verdicts.nearest import PointGrid
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
-from wmr_mission.verdicts.tracking import track_quality
+from wmr_mission.verdicts.tracking import Placement, track_samples
 from wmr_mission.verdicts.zones import intrusion_max, zones_of
 
 if TYPE_CHECKING:
@@ -382,16 +382,22 @@ class PhaseSamples:
         return zones_of(self.info.constraints, self.result.regions)
 
     @cached_value
+    def placement(self) -> Placement | None:
+        """The places on the path of the samples whose reference is known, for the
+        tracking metrics and the formulas alike (track phases)."""
+        return temporal.placed(self.result, self.window) if self.info.kind == "track" else None
+
+    @cached_value
     def tracking(self) -> dict[str, Any] | None:
         """Tracking against the timed reference (track phases)."""
         if self.info.kind != "track":
             return None
         r, w = self.result, self.window
         timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
-        return track_quality(
+        return track_samples(
             r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed,
-            r.constraint_margin,
-        )  # fmt: skip
+            r.constraint_margin, self.placement,
+        )[0]  # fmt: skip
 
     @cached_value
     def inputs(self) -> dict[str, Any]:
@@ -759,8 +765,9 @@ def _formulas(
 ) -> dict[str, Any]:
     """A phase's temporal formulas' robustness, ``{"temporal": {formula: rho}}``, if any."""
     return temporal.phase_values(
-        result, info, phase.window, phase.settle_time, phase.numbers, mission
-    )
+        result, info, phase.window, phase.settle_time, phase.numbers, mission,
+        lambda: phase.placement,
+    )  # fmt: skip
 
 
 def _phase_samples(

@@ -66,6 +66,13 @@ class Zone:
         distance bounds (see :func:`_ellipse`) leave in the running, and not at
         all where the largest upper bound is within RESOLUTION of 0 (a robot
         held on the edge)."""
+        return self.max_depth(x, y, RESOLUTION)
+
+    def max_depth(self, x: FloatArray, y: FloatArray, resolution: float | None = None) -> float:
+        """The largest :meth:`depth` of the points (-inf for none), found
+        exactly for an ellipse only for the points that its distance bounds
+        (see :func:`_ellipse`) leave in the running; where the largest upper
+        bound is within ``resolution`` of 0 (if given), that bound."""
         if x.size == 0:
             return -math.inf
         if self.region["type"] != "ellipse":
@@ -74,7 +81,7 @@ class Zone:
         beyond = radius - 1.0 if self.keep_inside else 1.0 - radius
         most = beyond * np.where(beyond > 0, max(a, b), min(a, b))  # the depth is at most
         highest = float(np.max(most))
-        if abs(highest) <= RESOLUTION:
+        if resolution is not None and abs(highest) <= resolution:
             return highest
         least = beyond * np.where(beyond > 0, min(a, b), max(a, b))  # and at least this
         contenders = np.flatnonzero(most >= np.max(least))
