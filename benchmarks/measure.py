@@ -862,7 +862,8 @@ def judge_cost(repeat: int = 40, pairs: int = 5) -> None:
         if against is not None:
             then = [v[i] for v in found[1]]
             ratio = _ratio(then, [v[i] for v in found[0]])
-            line += f"; at {against} {statistics.median(then):.3f}; now / then, pair by pair {ratio:.2f}"
+            line += f"; at {against} {statistics.median(then):.3f}; now / then, pair by pair "
+            line += f"{ratio:.2f}"
         print(line)
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 

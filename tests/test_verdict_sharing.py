@@ -13,13 +13,15 @@ import numpy as np
 import pytest
 from test_temporal import _traces
 
+from wmr_mission.output.result import RunResult
 from wmr_mission.sim.plan import plan_mission
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
+from wmr_mission.spec.models import Mission
+from wmr_mission.verdicts import tracking, zones
 from wmr_mission.verdicts.clearance import clearance_min
 from wmr_mission.verdicts.metrics import judge, judge_run_metrics
 from wmr_mission.verdicts.temporal import robustness, robustness_at_start
-from wmr_mission.verdicts import tracking, zones
 from wmr_mission.verdicts.tracking import Placement
 from wmr_mission.verdicts.zones import Zone
 
@@ -56,7 +58,8 @@ def test_places_found_once_are_those_found_for_each_reader(seed: int) -> None:
             np.testing.assert_array_equal(ours, theirs)
         for ours, theirs in zip(early, Placement(px, py, rx, ry).on_path(0.1, 0), strict=True):
             np.testing.assert_array_equal(ours, theirs)
-        assert np.isnan(late[0][:first]).all() and np.isfinite(early[0]).all()
+        assert np.isnan(late[0][:first]).all()
+        assert np.isfinite(early[0]).all()
 
 
 def test_a_formulas_value_is_its_robustness_at_the_first_sample() -> None:
@@ -96,27 +99,27 @@ def test_the_clearance_to_an_ellipse_is_its_least_over_every_point(
 
 
 @pytest.fixture(scope="module")
-def case2() -> tuple[object, object]:
+def case2() -> tuple[Mission, RunResult]:
     mission = load_mission(MISSIONS / "case2.yaml")
     return mission, run_mission(plan_mission(mission))
 
 
 def test_the_judge_takes_the_checked_mission_as_its_resolved_form(
-    case2: tuple[object, object],
+    case2: tuple[Mission, RunResult],
 ) -> None:
     """A campaign hands the judge the checked mission; a run directory's
     mission is its resolved form: the same verdict, to the bit."""
     mission, result = case2
-    dumped = mission.model_dump(mode="json")  # type: ignore[attr-defined]
+    dumped = mission.model_dump(mode="json")
     for judged in (judge, judge_run_metrics):
         typed, plain = copy.deepcopy(result), copy.deepcopy(result)
-        assert judged(typed, mission) == judged(plain, dumped)  # type: ignore[arg-type]
-        assert (typed.outcome, typed.message) == (plain.outcome, plain.message)  # type: ignore[attr-defined]
-    assert judge(copy.deepcopy(result), mission)["phases"][1]["temporal"]  # type: ignore[arg-type]
+        assert judged(typed, mission) == judged(plain, dumped)
+        assert (typed.outcome, typed.message) == (plain.outcome, plain.message)
+    assert judge(copy.deepcopy(result), mission)["phases"][1]["temporal"]
 
 
 def test_a_track_phase_is_placed_on_its_path_once(
-    case2: tuple[object, object], monkeypatch: pytest.MonkeyPatch
+    case2: tuple[Mission, RunResult], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """case2's orbit has a formula on its cross-track error: its metrics and its
     formula share the places of its samples, each sample placed once."""
@@ -129,8 +132,9 @@ def test_a_track_phase_is_placed_on_its_path_once(
         place_samples(self, begin, end)
 
     monkeypatch.setattr(tracking.Placement, "_place_samples", counted)
-    summary = judge(copy.deepcopy(result), mission)  # type: ignore[arg-type]
+    summary = judge(copy.deepcopy(result), mission)
     orbit = summary["phases"][1]
-    assert orbit["name"] == "orbit" and orbit["temporal"]
-    samples = round(orbit["duration"] / result.dt)  # type: ignore[attr-defined]
+    assert orbit["name"] == "orbit"
+    assert orbit["temporal"]
+    samples = round(orbit["duration"] / result.dt)
     assert samples <= sum(placed) <= samples + 2  # not twice over
