@@ -101,7 +101,7 @@ def robustness_at_start(
     if isinstance(node, Both | Either):
         left = robustness_at_start(node.left, signals, dt, instants)
         right = robustness_at_start(node.right, signals, dt, instants)
-        return min(left, right) if isinstance(node, Both) else max(left, right)
+        return float((np.minimum if isinstance(node, Both) else np.maximum)(left, right))
     if not isinstance(node, Always | Eventually):
         return float(robustness(node, signals, dt, instants)[0])
     n = len(next(iter(signals.values())))
