@@ -37,7 +37,7 @@ from wmr_mission.verdicts.nearest import PointGrid
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
-from wmr_mission.verdicts.tracking import Placement, track_samples
+from wmr_mission.verdicts.tracking import Placement, track_quality
 from wmr_mission.verdicts.zones import intrusion_max, zones_of
 
 if TYPE_CHECKING:
@@ -412,10 +412,10 @@ class PhaseSamples:
             return None
         r, w = self.result, self.window
         timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
-        return track_samples(
+        return track_quality(
             r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed,
             r.constraint_margin, self.placement,
-        )[0]  # fmt: skip
+        )  # fmt: skip
 
     @cached_value
     def inputs(self) -> dict[str, Any]:
@@ -763,16 +763,7 @@ def summarize(result: RunRecord, mission: Mapping[str, Any] | None = None) -> di
     ``mission`` (the resolved mission) sets how metrics are measured: each
     phase's settle time and the convergence tolerance per state.
     """
-    return _summarize(result, mission, phase_expectations(mission))
-
-
-def _summarize(
-    result: RunRecord,
-    mission: Mapping[str, Any] | None,
-    per_phase: Mapping[str, Mapping[str, Any]],
-) -> dict[str, Any]:
-    """:func:`summarize` with the mission's :func:`phase_expectations` at hand."""
-    phases = _phase_samples(result, mission, distance_to_path, per_phase=per_phase)
+    phases = _phase_samples(result, mission, distance_to_path)
     summary = run_metrics(result, mission, phases)
     tolerance = _tolerance(mission)
     summary["phases"] = [
@@ -1064,9 +1055,8 @@ def judge(result: RunRecord, mission: MissionTerms) -> dict[str, Any]:
     (:func:`resolved`).
     """
     mission = resolved(mission)
-    per_phase = phase_expectations(mission)
-    summary = _summarize(result, mission, per_phase)
-    checks = _checks(summary, mission, per_phase)
+    summary = summarize(result, mission)
+    checks = check_expectations(summary, mission)
     _judged(result, summary, checks)
     summary["expectations"] = [check.record() for check in checks]
     summary.update(margin_fields(checks, result.outcome.value))
@@ -1120,7 +1110,7 @@ def judge_run_metrics(result: RunRecord, mission: MissionTerms) -> dict[str, Any
     if any(not c.met and c.metric.startswith("tracking_error") for c in checks) or (
         least is not None and least.metric.startswith("tracking_error")
     ):
-        checks = _checks(_summarize(result, mission, per_phase), mission, per_phase)
+        checks = _checks(summarize(result, mission), mission, per_phase)
     _judged(result, summary, checks)
     # the checks it missed (exact: a tracking check missed by its bound is
     # measured again), not every check: a met one may hold its bound's value

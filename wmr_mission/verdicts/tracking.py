@@ -323,6 +323,7 @@ def track_quality(
     zones: Sequence[Zone],
     timed: bool = False,
     margin: float | None = None,
+    placement: Placement | None = None,
 ) -> dict[str, Any]:
     """The tracking metrics of a track phase's samples (``tracking`` in a phase's
     summary): ``cross_track_error_max`` and ``along_track_lag_max`` (the largest
@@ -333,8 +334,8 @@ def track_quality(
     on ``elapsed`` or ``mission_time``), so tracking was all it was for.
     ``margin``: [m] how far the controller keeps off a zone, the body's reach
     and the estimate's uncertainty (the run's ``constraint_margin``); None:
-    the body's reach alone."""
-    return track_samples(t, px, py, rx, ry, numbers, zones, timed, margin)[0]
+    the body's reach alone. ``placement``: as :func:`track_samples` takes it."""
+    return track_samples(t, px, py, rx, ry, numbers, zones, timed, margin, placement)[0]
 
 
 def track_samples(
