@@ -20,6 +20,7 @@
     python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep throughput
     python benchmarks/measure.py judge      # judging a case-2 run, and a 1-hour run per sample
     python benchmarks/measure.py judge COMMIT   # the same, each also as at COMMIT, in turn
+    python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
@@ -868,6 +869,47 @@ def judge_cost(repeat: int = 40, pairs: int = 5) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def sweep_against(pairs: int = 3) -> None:
+    """`sweep missions/campaigns/case2-headings.yaml --no-plots --workers 2` as
+    now and as at COMMIT (`sweep COMMIT`: its package unpacked on PYTHONPATH,
+    its kernels compiled first), in turn, ``pairs`` times after one untimed
+    round: CPU seconds (the command and its workers), campaign.json's
+    missions_per_second, and the CPU ratios pair by pair."""
+    import json
+    import shutil
+
+    if len(sys.argv) < 3:
+        sys.exit("usage: python benchmarks/measure.py sweep COMMIT")
+    against = sys.argv[2]
+    cpu: list[list[float]] = [[], []]
+    rates: list[list[float]] = [[], []]
+    with tempfile.TemporaryDirectory() as tmp:
+        os.chdir(tmp)  # `python -m` puts the working directory before PYTHONPATH
+        os.mkdir(f"{tmp}/then")
+        then = {**_user_env(), "PYTHONPATH": _checkout(against, f"{tmp}/then")}
+        subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], env=then, check=True)
+        sweep = [sys.executable, "-m", "wmr_mission", "sweep", str(CAMPAIGN), "--no-plots"]
+        for round_ in range(pairs + 1):  # the first round untimed: bytecode, caches
+            for i, env in enumerate((_user_env(), then)):
+                out = f"{tmp}/out"
+                shutil.rmtree(out, ignore_errors=True)
+                # exit 1 when the campaign's expect is not met: still a measurement
+                _, seconds = _wall([*sweep, "--workers", "2", "--out", out], env, check=False)
+                record = json.loads(Path(f"{out}/campaign.json").read_text(encoding="utf-8"))
+                if round_:
+                    cpu[i].append(seconds)
+                    rates[i].append(record["missions_per_second"])
+    for name, used, rate in zip(("now", f"at {against}"), cpu, rates, strict=True):
+        print(
+            f"sweep --workers 2 --no-plots {name}: CPU "
+            f"{', '.join(f'{s:.1f}' for s in used)} s; missions_per_second "
+            f"{', '.join(f'{r:.1f}' for r in rate)}"
+        )
+    ratios = ", ".join(f"{now / then:.3f}" for now, then in zip(*cpu, strict=True))
+    print(f"CPU now / {against}, pair by pair: {ratios} (median {_ratio(cpu[1], cpu[0]):.3f})")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 def runner_cost(repeat: int = 3) -> None:
     """The runner's own time around the compiled loop, per run of case2-headings
     (its runs 1-200, compiled beforehand, each run ``repeat`` times): medians
@@ -1216,6 +1258,7 @@ if __name__ == "__main__":
     jobs |= {
         "campaign": campaign,
         "judge": judge_cost,
+        "sweep": sweep_against,
         "runner": runner_cost,
         "drawing": drawing,
         "png": png,
