@@ -910,7 +910,8 @@ def loop_time_us(result: RunRecord) -> float | None:
 def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | None:
     value: Any = summary
     for key in path:
-        if not isinstance(value, Mapping):
+        # a summary's dicts told apart without the abstract class's slower check
+        if type(value) is not dict and not isinstance(value, Mapping):
             return None
         value = value.get(key)
     if isinstance(value, bool) or not isinstance(value, int | float):
