@@ -22,6 +22,8 @@
     python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep CPU per run
     python benchmarks/measure.py campaign COMMIT   # the same, the sweep also as at COMMIT, in turn
     python benchmarks/measure.py judge      # judging a case-2 run, and a 1-hour run per sample
+    python benchmarks/measure.py judge COMMIT   # the same, each also as at COMMIT, in turn
+    python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
@@ -968,12 +970,48 @@ def _medians(values: list[float]) -> str:
     return f"{statistics.median(values):.3g} ({', '.join(f'{v:.3g}' for v in values)})"
 
 
-def judge_cost(repeat: int = 40) -> None:
-    """What judging costs: runs 1..``repeat`` of case2-headings, each judged as a
-    campaign's row judges it (``judge_run_metrics``) and as ``run`` judges it
-    (``judge``, every metric of summary.json), medians; then the 1-hour mission
-    judged as ``run`` judges it, per sample."""
-    from dataclasses import replace
+# Judging the pickled runs of judge_cost in a process of its own (the package
+# found first on its path: this checkout's, or another commit's): CPU medians
+# [us] of judge_run_metrics with the mission's formulas, without them, and of
+# judge, over the case-2 runs; then judge on the hour, per sample.
+_JUDGE = """
+import pickle, statistics, sys, time
+from dataclasses import replace
+from wmr_mission.verdicts.metrics import judge, judge_run_metrics
+runs, hour = pickle.load(open(sys.argv[1], "rb"))
+
+def cpu(judged, result, mission):
+    fresh = replace(result)  # the arrays shared: judging never writes them
+    started = time.thread_time_ns()
+    judged(fresh, mission)
+    return (time.thread_time_ns() - started) / 1000
+
+found = []
+for judged, which in ((judge_run_metrics, 1), (judge_run_metrics, 2), (judge, 1)):
+    for result, *missions in runs[:3]:
+        judged(replace(result), missions[which - 1])  # first calls: imports, caches
+    # the least of 3 of each run (the machine's other work left out), the median of the runs
+    found.append(statistics.median(
+        min(cpu(judged, result, missions[which - 1]) for _ in range(3))
+        for result, *missions in runs
+    ))
+result, mission = hour
+found.append(min(cpu(judge, result, mission) for _ in range(2)) / result.samples)
+print(*(f"{value:.3f}" for value in found))
+"""
+
+
+def judge_cost(repeat: int = 40, pairs: int = 5) -> None:
+    """What judging costs: runs 1..``repeat`` of case2-headings (simulated
+    once), each judged as a campaign's row judges it (``judge_run_metrics``),
+    with its mission's temporal formulas and without them, and as ``run``
+    judges it (``judge``, every metric of summary.json); then the 1-hour
+    mission as ``run`` judges it, per sample. CPU medians, each judged in a
+    process of its own, ``pairs`` times; with a commit's name (`judge COMMIT`)
+    also as at that commit, in turn (the mission handed over in its resolved
+    form, which both take), and the ratios pair by pair."""
+    import copy
+    import pickle
 
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
@@ -981,8 +1019,8 @@ def judge_cost(repeat: int = 40) -> None:
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.spec.loader import load_mission
-    from wmr_mission.verdicts.metrics import judge, judge_run_metrics
 
+    against = sys.argv[2] if len(sys.argv) > 2 else None
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
     runs = []
@@ -991,30 +1029,84 @@ def judge_cost(repeat: int = 40) -> None:
         mission, _ = mission_of(loaded, draw)
         assert mission is not None
         result = run_mission(plan_mission(mission, draw.seed))
-        runs.append((result, mission.model_dump(mode="json")))
-    row_ms, run_ms = [], []
-    for result, resolved in runs:
-        for judged, took in ((judge_run_metrics, row_ms), (judge, run_ms)):
-            fresh = replace(result)  # the arrays shared: judging never writes them
-            started = time.perf_counter()
-            judged(fresh, resolved)
-            took.append((time.perf_counter() - started) * 1000)
-    samples = statistics.median(r.samples for r, _ in runs)
-    print(
-        f"case2-headings, median over {repeat} runs of {samples:.0f} samples: "
-        f"judge_run_metrics {statistics.median(row_ms):.3f} ms, "
-        f"judge {statistics.median(run_ms):.3f} ms"
-    )
-    mission = load_mission(HOUR)
-    hour = run_mission(plan_mission(mission))
-    resolved = mission.model_dump(mode="json")
-    started = time.perf_counter()
-    judge(replace(hour), resolved)
-    took = time.perf_counter() - started
-    print(
-        f"1 h: {hour.samples} samples judged in {took:.3f} s = "
-        f"{took / hour.samples * 1e6:.2f} us a sample"
-    )
+        resolved = mission.model_dump(mode="json")
+        plain = copy.deepcopy(resolved)  # the same without temporal formulas
+        for phase in plain["phases"]:
+            phase["expect"]["temporal"] = None
+        plain["expect"]["temporal"] = None
+        runs.append((result, resolved, plain))
+    hour_mission = load_mission(HOUR)
+    hour = (run_mission(plan_mission(hour_mission)), hour_mission.model_dump(mode="json"))
+    names = ["judge_run_metrics [us]", "the same without formulas [us]", "judge [us]",
+             "judge, 1 h [us a sample]"]  # fmt: skip
+    with tempfile.TemporaryDirectory() as tmp:
+        with open(f"{tmp}/runs.pickle", "wb") as file:
+            pickle.dump((runs, hour), file)
+        envs = [_user_env()]
+        if against is not None:
+            os.mkdir(f"{tmp}/then")
+            envs.append({**_user_env(), "PYTHONPATH": _checkout(against, f"{tmp}/then")})
+        found: list[list[list[float]]] = [[] for _ in envs]
+        for _ in range(pairs):
+            for env, values in zip(envs, found, strict=True):
+                command = [sys.executable, "-c", _JUDGE, f"{tmp}/runs.pickle"]
+                # run from tmp: `python -c` puts the working directory before PYTHONPATH
+                done = subprocess.run(
+                    command, env=env, check=True, capture_output=True, text=True, cwd=tmp
+                )
+                values.append([float(v) for v in done.stdout.split()])
+    samples = statistics.median(r.samples for r, _, _ in runs)
+    print(f"case2-headings runs 1-{repeat} ({samples:.0f} samples), the hour ({hour[0].samples} "
+          f"samples); medians of {pairs} processes:")  # fmt: skip
+    for i, name in enumerate(names):
+        line = f"  {name}: {statistics.median(v[i] for v in found[0]):.3f}"
+        if against is not None:
+            then = [v[i] for v in found[1]]
+            ratio = _ratio(then, [v[i] for v in found[0]])
+            line += f"; at {against} {statistics.median(then):.3f}; now / then, pair by pair "
+            line += f"{ratio:.2f}"
+        print(line)
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def sweep_against(pairs: int = 3) -> None:
+    """`sweep missions/campaigns/case2-headings.yaml --no-plots --workers 2` as
+    now and as at COMMIT (`sweep COMMIT`: its package unpacked on PYTHONPATH,
+    its kernels compiled first), in turn, ``pairs`` times after one untimed
+    round: CPU seconds (the command and its workers), campaign.json's
+    missions_per_second, and the CPU ratios pair by pair."""
+    import json
+    import shutil
+
+    if len(sys.argv) < 3:
+        sys.exit("usage: python benchmarks/measure.py sweep COMMIT")
+    against = sys.argv[2]
+    cpu: list[list[float]] = [[], []]
+    rates: list[list[float]] = [[], []]
+    with tempfile.TemporaryDirectory() as tmp:
+        os.chdir(tmp)  # `python -m` puts the working directory before PYTHONPATH
+        os.mkdir(f"{tmp}/then")
+        then = {**_user_env(), "PYTHONPATH": _checkout(against, f"{tmp}/then")}
+        subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], env=then, check=True)
+        sweep = [sys.executable, "-m", "wmr_mission", "sweep", str(CAMPAIGN), "--no-plots"]
+        for round_ in range(pairs + 1):  # the first round untimed: bytecode, caches
+            for i, env in enumerate((_user_env(), then)):
+                out = f"{tmp}/out"
+                shutil.rmtree(out, ignore_errors=True)
+                # exit 1 when the campaign's expect is not met: still a measurement
+                _, seconds = _wall([*sweep, "--workers", "2", "--out", out], env, check=False)
+                record = json.loads(Path(f"{out}/campaign.json").read_text(encoding="utf-8"))
+                if round_:
+                    cpu[i].append(seconds)
+                    rates[i].append(record["missions_per_second"])
+    for name, used, rate in zip(("now", f"at {against}"), cpu, rates, strict=True):
+        print(
+            f"sweep --workers 2 --no-plots {name}: CPU "
+            f"{', '.join(f'{s:.1f}' for s in used)} s; missions_per_second "
+            f"{', '.join(f'{r:.1f}' for r in rate)}"
+        )
+    ratios = ", ".join(f"{now / then:.3f}" for now, then in zip(*cpu, strict=True))
+    print(f"CPU now / {against}, pair by pair: {ratios} (median {_ratio(cpu[1], cpu[0]):.3f})")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -1366,6 +1458,7 @@ if __name__ == "__main__":
     jobs |= {
         "campaign": campaign,
         "judge": judge_cost,
+        "sweep": sweep_against,
         "runner": runner_cost,
         "drawing": drawing,
         "png": png,

@@ -50,7 +50,8 @@ def clearance_min(
         return None
     if footprint is None or "radius" in footprint:
         radius = 0.0 if footprint is None else float(footprint["radius"])
-        least = min(float(np.min(-zone.depth(x, y))) for zone in zones) - radius
+        # the deepest point measured alone: an ellipse's exact distance costs an iteration
+        least = min(-zone.max_depth(x, y) for zone in zones) - radius
     else:
         corners = np.asarray(footprint["polygon"], dtype=np.float64)
         least = min(_polygon_clearance(x, y, theta, corners, zone) for zone in zones)

@@ -37,7 +37,7 @@ from wmr_mission.verdicts.nearest import PointGrid
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
-from wmr_mission.verdicts.tracking import track_quality
+from wmr_mission.verdicts.tracking import Placement, track_quality
 from wmr_mission.verdicts.zones import intrusion_max, zones_of
 
 if TYPE_CHECKING:
@@ -67,6 +67,10 @@ LAG_TIME_CONSTANTS = 3.0
 _SETTINGS = ("settle_time", "convergence_tolerance")
 # The run's metrics that only a real-time run has: not checked in a simulation.
 _REALTIME = "realtime"
+# The robot's sampling period and limits where a mission leaves them out.
+_DEFAULT_DT = models.Robot.model_fields["dt"].default
+_DEFAULT_V = models.Limits.model_fields["v"].default
+_DEFAULT_OMEGA = models.Limits.model_fields["omega"].default
 
 
 def wrap_angle(angle: FloatArray) -> FloatArray:
@@ -321,6 +325,20 @@ def _final(result: RunRecord, segments: list[tuple[int, int, int]]) -> dict[str,
     return final
 
 
+# The mission a run is judged by: checked (a Mission), or as a run directory
+# holds it (its resolved form, ``Mission.model_dump(mode="json")``); None: the
+# defaults.
+MissionTerms = models.Mission | Mapping[str, Any] | None
+
+
+def resolved(mission: MissionTerms) -> Mapping[str, Any] | None:
+    """The mission's resolved form, what the judge reads (a checked mission's
+    every default written out)."""
+    if isinstance(mission, models.Mission):
+        return mission.model_dump(mode="json")
+    return mission
+
+
 OffPath = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], FloatArray]
 
 
@@ -382,6 +400,12 @@ class PhaseSamples:
         return zones_of(self.info.constraints, self.result.regions)
 
     @cached_value
+    def placement(self) -> Placement | None:
+        """The places on the path of the samples whose reference is known, for the
+        tracking metrics and the formulas alike (track phases)."""
+        return temporal.placed(self.result, self.window) if self.info.kind == "track" else None
+
+    @cached_value
     def tracking(self) -> dict[str, Any] | None:
         """Tracking against the timed reference (track phases)."""
         if self.info.kind != "track":
@@ -390,7 +414,7 @@ class PhaseSamples:
         timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
         return track_quality(
             r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed,
-            r.constraint_margin,
+            r.constraint_margin, self.placement,
         )  # fmt: skip
 
     @cached_value
@@ -759,8 +783,9 @@ def _formulas(
 ) -> dict[str, Any]:
     """A phase's temporal formulas' robustness, ``{"temporal": {formula: rho}}``, if any."""
     return temporal.phase_values(
-        result, info, phase.window, phase.settle_time, phase.numbers, mission
-    )
+        result, info, phase.window, phase.settle_time, phase.numbers, mission,
+        lambda: phase.placement,
+    )  # fmt: skip
 
 
 def _phase_samples(
@@ -768,11 +793,13 @@ def _phase_samples(
     mission: Mapping[str, Any] | None,
     off_path: OffPath,
     errors: dict[str, FloatArray] | None = None,
+    per_phase: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> Phases:
     """Each stretch of a phase in run order: its record, its samples (their
     tracking error measured by ``off_path``), and the `expect` thresholds in
-    force for it. ``errors``: the run's estimation errors, if at hand."""
-    per_phase = phase_expectations(mission)
+    force for it. ``errors``: the run's estimation errors, ``per_phase``: the
+    mission's :func:`phase_expectations`, if at hand."""
+    per_phase = phase_expectations(mission) if per_phase is None else per_phase
     numbers = mission_numbers(mission, result.dt, result.limits)
     errors = estimation_errors(result) if errors is None else errors
     inputs_from = input_metrics.first_judged(result.t, errors, numbers)
@@ -883,7 +910,8 @@ def loop_time_us(result: RunRecord) -> float | None:
 def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | None:
     value: Any = summary
     for key in path:
-        if not isinstance(value, Mapping):
+        # a summary's dicts told apart without the abstract class's slower check
+        if type(value) is not dict and not isinstance(value, Mapping):
             return None
         value = value.get(key)
     if isinstance(value, bool) or not isinstance(value, int | float):
@@ -976,13 +1004,21 @@ def check_expectations(
     not apply (a phase no longer than its settle time; tracking off a track phase;
     a metric checked where measured, catalog.Metric.where_measured, where it has no value).
     """
+    return _checks(summary, mission, phase_expectations(mission))
+
+
+def _checks(
+    summary: Mapping[str, Any],
+    mission: Mapping[str, Any] | None,
+    per_phase: Mapping[str, Mapping[str, Any]],
+) -> list[Check]:
+    """:func:`check_expectations` with the mission's :func:`phase_expectations` at hand."""
     robot = (mission or {}).get("robot") or {}
     limits = robot.get("limits") or {}
-    defaults = models.Limits()
     numbers = mission_numbers(
         mission,
-        float(robot.get("dt", models.Robot.model_fields["dt"].default)),
-        (float(limits.get("v", defaults.v)), float(limits.get("omega", defaults.omega))),
+        float(robot.get("dt", _DEFAULT_DT)),
+        (float(limits.get("v", _DEFAULT_V)), float(limits.get("omega", _DEFAULT_OMEGA))),
     )
     expect = _expect_of(mission)
     known = (*catalog.CATALOG, *_SETTINGS, "temporal")
@@ -994,7 +1030,6 @@ def check_expectations(
         for m in catalog.run_metrics()
         if expect.get(m.name) is not None and (m.where[0] != _REALTIME or _REALTIME in summary)
     ]
-    per_phase = phase_expectations(mission)
     controller = str(((mission or {}).get("controller") or {}).get("type", "paper"))
     for phase in summary.get("phases") or []:
         thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
@@ -1011,13 +1046,16 @@ def unmet(checks: list[Check]) -> list[str]:
     return [check.words() for check in checks if not check.met]
 
 
-def judge(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any]:
+def judge(result: RunRecord, mission: MissionTerms) -> dict[str, Any]:
     """The run's summary with every `expect` threshold checked.
 
     A run that ended as a success but misses a threshold is not one: its
     outcome becomes ``expect-failed`` (in ``result`` too), with the misses as
     its message. Thresholds are what a mission relaxes, not the outcome.
+    ``mission``: the checked mission, or one as a run directory holds it
+    (:func:`resolved`).
     """
+    mission = resolved(mission)
     summary = summarize(result, mission)
     checks = check_expectations(summary, mission)
     _judged(result, summary, checks)
@@ -1038,7 +1076,7 @@ def judge_mission(result: RunRecord, mission: models.Mission) -> dict[str, Any]:
     return judge(result, resolved)
 
 
-def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> dict[str, Any]:
+def judge_run_metrics(result: RunRecord, mission: MissionTerms) -> dict[str, Any]:
     """The keys of :func:`run_metrics` a campaign's row records (the outcome and
     the metrics an `expect` bounds mission-wide, the run's ``margin`` and
     ``margin_check``, and the checks it ``missed``), with the run judged as
@@ -1051,8 +1089,10 @@ def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> d
     it, and a phase within its threshold by it is within it. Only when that
     bound misses a threshold is the distance to the path computed.
     """
+    mission = resolved(mission)
     errors = estimation_errors(result)
-    phases = _phase_samples(result, mission, _off_path_bound, errors)
+    per_phase = phase_expectations(mission)
+    phases = _phase_samples(result, mission, _off_path_bound, errors, per_phase)
     columns = run_columns(result, mission, phases)
     summary = _bounded_metrics(result, _tolerance(mission), errors, columns)
     if not result.succeeded:  # judging changes only a success; no check decides a failure
@@ -1064,14 +1104,14 @@ def judge_run_metrics(result: RunRecord, mission: Mapping[str, Any] | None) -> d
         for info, phase, expect in phases
     ]
     del phases
-    checks = check_expectations({**summary, "phases": checked}, mission)
+    checks = _checks({**summary, "phases": checked}, mission, per_phase)
     # A bound above the distance to the path sets a tracking check's margin
     # below its own: exact where it misses, or where it sets the run's margin.
     least = min(checks, key=lambda c: c.margin, default=None)
     if any(not c.met and c.metric.startswith("tracking_error") for c in checks) or (
         least is not None and least.metric.startswith("tracking_error")
     ):
-        checks = check_expectations(summarize(result, mission), mission)
+        checks = _checks(summarize(result, mission), mission, per_phase)
     _judged(result, summary, checks)
     # the checks it missed (exact: a tracking check missed by its bound is
     # measured again), not every check: a met one may hold its bound's value

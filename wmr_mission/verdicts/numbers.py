@@ -92,7 +92,8 @@ def half_turn_time(rate: float, acceleration: float) -> float:
 
 def _get(mapping: Any, *keys: str) -> Any:
     for key in keys:
-        if not isinstance(mapping, Mapping):
+        # a resolved mission's dicts told apart without the abstract class's slower check
+        if type(mapping) is not dict and not isinstance(mapping, Mapping):
             return None
         mapping = mapping.get(key)
     return mapping
@@ -107,15 +108,19 @@ def _acceleration(mission: Mapping[str, Any] | None, state: str) -> float:
     return min([float(rate) for rate in rates if rate is not None], default=math.inf)
 
 
+# The tracking law's defaults (read once: a model is not made per run judged).
+_DEFAULT_OUTPUT = Tracking.model_fields["output"].default
+_DEFAULT_TIME_CONSTANT = Tracking.model_fields["time_constant"].default
+
+
 def mission_numbers(
     mission: Mapping[str, Any] | None, dt: float, limits: tuple[float, float]
 ) -> MissionNumbers:
     """The numbers of the resolved ``mission`` (``Mission.model_dump(mode="json")``),
     or the defaults where it says nothing; ``dt`` and ``limits`` are the run's."""
-    defaults = Tracking()
     tracking = _get(mission, "controller", "tracking") or {}
-    axle = tracking.get("output", defaults.output) == "axle"
-    time_constant = 0.0 if axle else float(tracking.get("time_constant", defaults.time_constant))
+    axle = tracking.get("output", _DEFAULT_OUTPUT) == "axle"
+    time_constant = 0.0 if axle else float(tracking.get("time_constant", _DEFAULT_TIME_CONSTANT))
     look_ahead = tracking.get("look_ahead")
     if axle:
         look_ahead = 0.0

@@ -48,7 +48,7 @@ from wmr_mission.spec.temporal import (
 )
 from wmr_mission.verdicts.check import Check
 from wmr_mission.verdicts.numbers import MissionNumbers
-from wmr_mission.verdicts.tracking import path_steps, place_on_path
+from wmr_mission.verdicts.tracking import Placement
 from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
@@ -89,6 +89,27 @@ def robustness(
     left = robustness(node.left, signals, dt, instants, normalised)
     right = robustness(node.right, signals, dt, instants, normalised)
     return _until(left, right, first, last)
+
+
+def robustness_at_start(
+    node: Node, signals: Mapping[str, FloatArray], dt: float, instants: Mapping[str, float]
+) -> float:
+    """:func:`robustness` at the first sample alone, a formula's value: an
+    outermost ``always`` or ``eventually`` is one pick over its window, not a
+    pick at every sample (the same values picked: min and max round nothing,
+    so the same bits)."""
+    if isinstance(node, Both | Either):
+        left = robustness_at_start(node.left, signals, dt, instants)
+        right = robustness_at_start(node.right, signals, dt, instants)
+        return float((np.minimum if isinstance(node, Both) else np.maximum)(left, right))
+    if not isinstance(node, Always | Eventually):
+        return float(robustness(node, signals, dt, instants)[0])
+    n = len(next(iter(signals.values())))
+    first, last = _samples(node.window, dt, instants, n)
+    if last < first or first >= n:
+        return _INF if isinstance(node, Always) else -_INF
+    body = robustness(node.body, signals, dt, instants)[first : last + 1]
+    return float(body.min() if isinstance(node, Always) else body.max())
 
 
 def _samples(window: Window, dt: float, instants: Mapping[str, float], n: int) -> tuple[int, int]:
@@ -189,6 +210,7 @@ def phase_values(
     settle_time: float,
     numbers: MissionNumbers,
     mission: Mapping[str, Any] | None,
+    placement: Callable[[], Placement | None] | None = None,
 ) -> dict[str, Any]:
     """``{"temporal": {formula: rho}}`` for a phase's summary (nothing when it
     has no formula): rho None where a signal it names is not finite at some
@@ -199,7 +221,7 @@ def phase_values(
     formulas = phase_formulas(mission, info.name)
     if not formulas:
         return {}
-    signals = PhaseSignals(result, info, window, numbers)
+    signals = PhaseSignals(result, info, window, numbers, placement)
     values: dict[str, float | None] = {}
     for text in formulas:
         node = parse_formula(text)
@@ -213,7 +235,7 @@ def phase_values(
             values[text] = None
             continue
         instants = {"entry": signals.entry, "settle": settle_time}
-        rho = float(robustness(node, arrays, numbers.dt, instants)[0])
+        rho = robustness_at_start(node, arrays, numbers.dt, instants)
         if rho == _INF:
             continue
         values[text] = rho if math.isfinite(rho) else None
@@ -241,11 +263,19 @@ class PhaseSignals:
     phase does not measure it)."""
 
     def __init__(
-        self, result: RunRecord, info: PhaseRecord, window: slice, numbers: MissionNumbers
+        self,
+        result: RunRecord,
+        info: PhaseRecord,
+        window: slice,
+        numbers: MissionNumbers,
+        placement: Callable[[], Placement | None] | None = None,
     ) -> None:
         self.result, self.info, self.window, self.numbers = result, info, window, numbers
         self.entry = 0.0
         self._found: dict[str, FloatArray | None] = {}
+        # the places on the path of the samples whose reference is known (None:
+        # none, or a position not finite), shared with the phase's metrics
+        self._placement = placement
 
     def get(self, name: str) -> FloatArray | None:
         if name not in self._found:
@@ -265,19 +295,26 @@ class PhaseSignals:
         if name in ("target_distance", "heading_error"):
             if info.target is None or info.kind == "track":
                 return {"target_distance": None, "heading_error": None}
-            # the target in force at each sample: an update may move it
-            aims = np.repeat(np.array([info.target]), w.stop - w.start, axis=0)
-            for first, stop, aim in info.targets_in_force(w.start, w.stop):
-                aims[first - w.start : stop - w.start] = aim
-            tx, ty, heading = aims.T
+            tx, ty, heading = self._aims()
+            if name == "target_distance":
+                return {name: np.hypot(r.x[w] - tx, r.y[w] - ty)}
             turned = r.theta[w] - heading
-            return {
-                "target_distance": np.hypot(r.x[w] - tx, r.y[w] - ty),
-                "heading_error": np.abs((turned + np.pi) % (2.0 * np.pi) - np.pi),
-            }
+            return {name: np.abs((turned + np.pi) % (2.0 * np.pi) - np.pi)}
         if name == "speed":
             return {name: np.abs(r.v[w])}
         return {name: np.abs(r.omega[w])}  # turn_rate
+
+    def _aims(self) -> tuple[Any, Any, Any]:
+        """The target in force at each sample (x, y, heading): an update may
+        move it; numbers when one is in force throughout."""
+        w, info = self.window, self.info
+        stretches = info.targets_in_force(w.start, w.stop)
+        if len(stretches) == 1 and stretches[0][:2] == (w.start, w.stop):
+            return stretches[0][2]
+        aims = np.repeat(np.array([info.target]), w.stop - w.start, axis=0)
+        for first, stop, aim in stretches:
+            aims[first - w.start : stop - w.start] = aim
+        return tuple(aims.T)
 
     def _on_path(self) -> dict[str, FloatArray | None]:
         """The cross-track error and the lag at every sample of a track phase,
@@ -289,12 +326,25 @@ class PhaseSignals:
         known = np.isfinite(rx) & np.isfinite(ry)
         if self.info.kind != "track" or not known.any():
             return {"cross_track": None, "lag": None}
-        px, py, rx, ry = r.x[w][known], r.y[w][known], rx[known], ry[known]
-        steps = path_steps(rx, ry)
         cross, lag = np.full(known.size, np.nan), np.full(known.size, np.nan)
-        if np.isfinite(px).all() and np.isfinite(py).all():
-            near = numbers.tracking_tolerance
-            cross[known], lag[known] = place_on_path(px, py, rx, ry, near, 0, steps)
-            speed = float(steps[2][0]) / numbers.dt if rx.size > 1 else 0.0
+        placement = self._placement() if self._placement is not None else placed(r, w)
+        if placement is not None:
+            px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
+            cross[known], lag[known] = placement.on_path(numbers.tracking_tolerance)
+            length = placement.steps[2]
+            speed = float(length[0]) / numbers.dt if rx.size > 1 else 0.0
             self.entry = numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), speed)
         return {"cross_track": cross, "lag": lag}
+
+
+def placed(result: RunRecord, window: slice) -> Placement | None:
+    """The places on the path of a phase's samples whose reference is known
+    (None where none is, or where a position is not finite)."""
+    rx, ry = result.x_ref[window], result.y_ref[window]
+    known = np.isfinite(rx) & np.isfinite(ry)
+    px, py = result.x[window], result.y[window]
+    if not known.all():
+        px, py, rx, ry = px[known], py[known], rx[known], ry[known]
+    if rx.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
+        return None
+    return Placement(px, py, rx, ry)

@@ -83,77 +83,124 @@ def place_on_path(
 ) -> tuple[FloatArray, FloatArray]:
     """Cross-track error and along-track lag [m] of each position (px, py) against
     the reference points (rx, ry) of the same samples (all finite); NaN before
-    sample ``first``, where they are not wanted.
+    sample ``first``, where they are not wanted (:meth:`Placement.on_path`).
+    ``steps``: :func:`path_steps` of the reference points, if at hand."""
+    return Placement(px, py, rx, ry, steps).on_path(near, first)
+
+
+class Placement:
+    """Each position's place on the path through the reference points of the
+    same samples (all finite), found once and shared by whatever reads it: a
+    track phase's metrics and its temporal formulas.
 
     The place is looked for where the robot's error, seen from its own reference
     point along the path's direction there, puts it: on that segment if the
     foot of the perpendicular is on it (the nearest within a few micrometres on
     a path sampled finely), else among the segments round it, and then along
-    the path, a Newton step at a time, while it lies beyond them.
-    Where the robot is farther than ``near`` from the place found, the path's
-    nearest points anywhere are tried too, and win when nearer by NEAR_EQUAL.
-    ``steps``: :func:`path_steps` of the reference points, if at hand."""
-    n = rx.size
-    sx, sy, length = path_steps(rx, ry) if steps is None else steps
-    moving = length > 0
-    if not moving.any():  # a reference that stands still: a point
-        cross = np.hypot(px - rx[0], py - ry[0])
-        cross[:first] = np.nan
-        return cross, np.where(np.isnan(cross), np.nan, 0.0)
-    arc = np.concatenate(([0.0], np.cumsum(length)))
-    # Where the path stands still, the direction it last had (or first has).
-    held = None
-    if not moving.all():
-        held = np.maximum.accumulate(np.where(moving, np.arange(n - 1), -1))
-        held[held < 0] = int(np.argmax(moving))
-    del moving
+    the path, a Newton step at a time, while it lies beyond them. That search
+    is each position's own, so the samples are placed once, as first asked for
+    (:meth:`on_path`). Where the robot is farther than ``near`` from the place
+    found, the path's nearest points anywhere are tried too, and win when
+    nearer by NEAR_EQUAL."""
 
-    def direction(segment: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
-        along = segment if held is None else held[segment]
+    def __init__(
+        self,
+        px: FloatArray,
+        py: FloatArray,
+        rx: FloatArray,
+        ry: FloatArray,
+        steps: tuple[FloatArray, FloatArray, FloatArray] | None = None,
+    ) -> None:
+        self.px, self.py = px, py
+        self.steps = path_steps(rx, ry) if steps is None else steps
+        sx, sy, length = self.steps
+        n = rx.size
+        moving = length > 0
+        self.standing = not moving.any()  # a reference that stands still: a point
+        self.path: _Path = (np.zeros(1), rx, ry, sx, sy, length)
+        self._held: NDArray[np.intp] | None = None
+        # the places found (NaN where not yet), from sample self._from on
+        self._cross, self._place = np.full(n, np.nan), np.full(n, np.nan)
+        self._from = n
+        if self.standing:
+            return
+        self.path = (np.concatenate(([0.0], np.cumsum(length))), rx, ry, sx, sy, length)
+        # Where the path stands still, the direction it last had (or first has).
+        if not moving.all():
+            held = np.maximum.accumulate(np.where(moving, np.arange(n - 1), -1))
+            held[held < 0] = int(np.argmax(moving))
+            self._held = held
+
+    def on_path(self, near: float, first: int = 0) -> tuple[FloatArray, FloatArray]:
+        """Cross-track error and along-track lag [m] of each position; NaN
+        before sample ``first``."""
+        px, py = self.px, self.py
+        arc, rx, ry = self.path[:3]
+        if self.standing:
+            cross = np.hypot(px - rx[0], py - ry[0])
+            cross[:first] = np.nan
+            return cross, np.where(np.isnan(cross), np.nan, 0.0)
+        if first < self._from:
+            self._place_samples(first, self._from)
+            self._from = first
+        cross, place = self._cross.copy(), self._place.copy()
+        cross[:first] = np.nan
+        place[:first] = np.nan
+        far = np.flatnonzero(cross > near)
+        if far.size:
+            distance, at = _nearest_anywhere(far, cross[far], self.path, px, py)
+            better = distance < cross[far] - NEAR_EQUAL
+            cross[far[better]] = distance[better]
+            place[far[better]] = at[better]
+        lag = np.subtract(arc, place, out=place)
+        return cross, lag
+
+    def _direction(self, segment: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
+        _, _, _, sx, sy, length = self.path
+        along = segment if self._held is None else self._held[segment]
         return sx[along] / length[along], sy[along] / length[along]
 
-    cross, place = np.full(n, np.nan), np.full(n, np.nan)
-    path = (arc, rx, ry, sx, sy, length)
-    for start in range(first, n, _CHUNK):  # bounded memory on long runs
-        stop = min(start + _CHUNK, n)
-        own = np.minimum(np.arange(start, stop), n - 2)  # the last point: the last segment
-        qx, qy, part = px[start:stop], py[start:stop], slice(start, stop)
-        ux, uy = direction(own)
-        guess = arc[part] - ((rx[part] - qx) * ux + (ry[part] - qy) * uy)
-        # Most often the guess's own segment holds the foot of the perpendicular.
-        # (np.minimum and np.maximum: np.clip costs several times more on small arrays)
-        segment = np.maximum(np.minimum(np.searchsorted(arc, guess, side="right") - 1, n - 2), 0)
-        ax, ay, ex, ey, step = rx[segment], ry[segment], sx[segment], sy[segment], length[segment]
-        along = ((qx - ax) * ex + (qy - ay) * ey) / np.where(step > 0, step * step, 1.0)
-        inside = (along > 0.0) & (along < 1.0)
-        dx, dy = qx - ax - along * ex, qy - ay - along * ey
-        cross[part] = np.where(inside, np.sqrt(dx * dx + dy * dy), np.nan)
-        place[part] = arc[segment] + along * step
-        pending = np.flatnonzero(~inside) + start
-        guess = guess[pending - start]
-        for attempt in range(_STEPS):
-            if pending.size == 0:
-                break
-            distance, at, segment, beyond = _search(pending, guess, path, px, py)
-            if attempt == _STEPS - 1:
-                beyond[:] = False
-            cross[pending[~beyond]] = distance[~beyond]
-            place[pending[~beyond]] = at[~beyond]
-            # Beyond the segments searched: a Newton step along the path from there.
-            rows, seg, at = pending[beyond], segment[beyond], at[beyond]
-            ux, uy = direction(seg)
-            footx = rx[seg] + (at - arc[seg]) * ux
-            footy = ry[seg] + (at - arc[seg]) * uy
-            guess = at + (px[rows] - footx) * ux + (py[rows] - footy) * uy
-            pending = rows
-    far = np.flatnonzero(cross > near)
-    if far.size:
-        distance, at = _nearest_anywhere(far, cross[far], path, px, py)
-        better = distance < cross[far] - NEAR_EQUAL
-        cross[far[better]] = distance[better]
-        place[far[better]] = at[better]
-    lag = np.subtract(arc, place, out=place)
-    return cross, lag
+    def _place_samples(self, begin: int, end: int) -> None:
+        """The places of samples ``begin .. end - 1`` by the local search."""
+        px, py = self.px, self.py
+        arc, rx, ry, sx, sy, length = self.path
+        n = rx.size
+        cross, place = self._cross, self._place
+        for start in range(begin, end, _CHUNK):  # bounded memory on long runs
+            stop = min(start + _CHUNK, end)
+            own = np.minimum(np.arange(start, stop), n - 2)  # the last point: the last segment
+            qx, qy, part = px[start:stop], py[start:stop], slice(start, stop)
+            ux, uy = self._direction(own)
+            guess = arc[part] - ((rx[part] - qx) * ux + (ry[part] - qy) * uy)
+            # Most often the guess's own segment holds the foot of the perpendicular.
+            # (np.minimum and np.maximum: np.clip costs several times more on small arrays)
+            segment = np.maximum(
+                np.minimum(np.searchsorted(arc, guess, side="right") - 1, n - 2), 0
+            )
+            ax, ay, ex, ey = rx[segment], ry[segment], sx[segment], sy[segment]
+            step = length[segment]
+            along = ((qx - ax) * ex + (qy - ay) * ey) / np.where(step > 0, step * step, 1.0)
+            inside = (along > 0.0) & (along < 1.0)
+            dx, dy = qx - ax - along * ex, qy - ay - along * ey
+            cross[part] = np.where(inside, np.sqrt(dx * dx + dy * dy), np.nan)
+            place[part] = arc[segment] + along * step
+            pending = np.flatnonzero(~inside) + start
+            guess = guess[pending - start]
+            for attempt in range(_STEPS):
+                if pending.size == 0:
+                    break
+                distance, at, segment, beyond = _search(pending, guess, self.path, px, py)
+                if attempt == _STEPS - 1:
+                    beyond[:] = False
+                cross[pending[~beyond]] = distance[~beyond]
+                place[pending[~beyond]] = at[~beyond]
+                # Beyond the segments searched: a Newton step along the path from there.
+                rows, seg, at = pending[beyond], segment[beyond], at[beyond]
+                ux, uy = self._direction(seg)
+                footx = rx[seg] + (at - arc[seg]) * ux
+                footy = ry[seg] + (at - arc[seg]) * uy
+                guess = at + (px[rows] - footx) * ux + (py[rows] - footy) * uy
+                pending = rows
 
 
 def _search(
@@ -276,6 +323,7 @@ def track_quality(
     zones: Sequence[Zone],
     timed: bool = False,
     margin: float | None = None,
+    placement: Placement | None = None,
 ) -> dict[str, Any]:
     """The tracking metrics of a track phase's samples (``tracking`` in a phase's
     summary): ``cross_track_error_max`` and ``along_track_lag_max`` (the largest
@@ -286,8 +334,8 @@ def track_quality(
     on ``elapsed`` or ``mission_time``), so tracking was all it was for.
     ``margin``: [m] how far the controller keeps off a zone, the body's reach
     and the estimate's uncertainty (the run's ``constraint_margin``); None:
-    the body's reach alone."""
-    return track_samples(t, px, py, rx, ry, numbers, zones, timed, margin)[0]
+    the body's reach alone. ``placement``: as :func:`track_samples` takes it."""
+    return track_samples(t, px, py, rx, ry, numbers, zones, timed, margin, placement)[0]
 
 
 def track_samples(
@@ -300,9 +348,11 @@ def track_samples(
     zones: Sequence[Zone],
     timed: bool = False,
     margin: float | None = None,
+    placement: Placement | None = None,
 ) -> tuple[dict[str, Any], TrackSamples | None]:
     """:func:`track_quality`'s metrics and the samples they come from (None when
-    nothing was measured)."""
+    nothing was measured). ``placement``: the places on the path of the samples
+    whose reference is known, if at hand (shared with the phase's formulas)."""
     known = np.isfinite(rx) & np.isfinite(ry)
     size = known.size
     metrics: dict[str, Any] = {
@@ -319,7 +369,9 @@ def track_samples(
     if t.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
         return metrics, None  # no reference, or the run diverged
     dt = numbers.dt
-    steps = path_steps(rx, ry)
+    if placement is None:
+        placement = Placement(px, py, rx, ry)
+    steps = placement.steps
     # [m/s] from each reference point to the next (the last repeats the one before)
     reference_speed = np.concatenate((steps[2], steps[2][-1:])) / dt if t.size > 1 else np.zeros(1)
     entry = numbers.recovery_time(
@@ -333,7 +385,7 @@ def track_samples(
     if excused[-1] and not timed and not zones:  # nothing to measure
         metrics |= {"entry_time": entry, "reference_speed_max": float(reference_speed.max())}
         return metrics, None
-    cross, lag = place_on_path(px, py, rx, ry, numbers.tracking_tolerance, after_entry, steps)
+    cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
     detour = np.zeros(t.size, dtype=bool)
     if zones:
         detour, rejoining = _detours(px, py, rx, ry, reference_speed, numbers, zones)

@@ -32,6 +32,8 @@ RESOLUTION = 1e-6
 # Newton steps at most for the distance to an ellipse (a handful are needed:
 # each at least halves the distance to the pole the start is near).
 _NEWTON_STEPS = 100
+# Points at most whose distance to an ellipse is iterated as Python numbers.
+_FEW = 8
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,13 @@ class Zone:
         distance bounds (see :func:`_ellipse`) leave in the running, and not at
         all where the largest upper bound is within RESOLUTION of 0 (a robot
         held on the edge)."""
+        return self.max_depth(x, y, RESOLUTION)
+
+    def max_depth(self, x: FloatArray, y: FloatArray, resolution: float | None = None) -> float:
+        """The largest :meth:`depth` of the points (-inf for none), found
+        exactly for an ellipse only for the points that its distance bounds
+        (see :func:`_ellipse`) leave in the running; where the largest upper
+        bound is within ``resolution`` of 0 (if given), that bound."""
         if x.size == 0:
             return -math.inf
         if self.region["type"] != "ellipse":
@@ -74,7 +83,7 @@ class Zone:
         beyond = radius - 1.0 if self.keep_inside else 1.0 - radius
         most = beyond * np.where(beyond > 0, max(a, b), min(a, b))  # the depth is at most
         highest = float(np.max(most))
-        if abs(highest) <= RESOLUTION:
+        if resolution is not None and abs(highest) <= resolution:
             return highest
         least = beyond * np.where(beyond > 0, min(a, b), max(a, b))  # and at least this
         contenders = np.flatnonzero(most >= np.max(least))
@@ -245,18 +254,7 @@ def _to_ellipse(u: FloatArray, w: FloatArray, a: float, b: float) -> FloatArray:
     off_axes = (u > 0.0) & (w > 0.0)
     if off_axes.any():
         pu, pw = u[off_axes], w[off_axes]
-        au, bw = a * pu, b * pw
-        # Newton's method from the left of the root: the function is convex and
-        # decreasing, so each step lands nearer the root and never beyond it.
-        # Outside the ellipse t = 0 is left of it (the function is r^2 > 1 there).
-        t = np.where((pu / a) ** 2 + (pw / b) ** 2 > 1.0, 0.0, bw - b**2)
-        for _ in range(_NEWTON_STEPS):
-            first, second = au / (t + a**2), bw / (t + b**2)
-            slope = -2.0 * (first**2 / (t + a**2) + second**2 / (t + b**2))
-            step = (first**2 + second**2 - 1.0) / slope
-            t = t - step
-            if not np.any(np.abs(step) > 1e-15 * (np.abs(t) + a**2)):
-                break
+        t = _roots(pu, pw, a, b)
         # t + a^2 >= a^2 - b^2 > 0; t + b^2 may vanish near the major axis, so
         # the foot's second coordinate comes from the ellipse's equation.
         foot = a**2 * pu / (t + a**2)
@@ -272,3 +270,50 @@ def _to_ellipse(u: FloatArray, w: FloatArray, a: float, b: float) -> FloatArray:
         height = b * np.sqrt(np.clip(1.0 - (foot / a) ** 2, 0.0, 1.0))
         distance[major] = np.where(inner, np.hypot(foot - pu, height), np.abs(pu - a))
     return distance
+
+
+def _roots(pu: FloatArray, pw: FloatArray, a: float, b: float) -> FloatArray:
+    """The root ``t`` of :func:`_to_ellipse` of each point off the axes."""
+    au, bw = a * pu, b * pw
+    if pu.size <= _FEW:
+        try:
+            return np.array(_few_roots(au.tolist(), bw.tolist(), pu.tolist(), pw.tolist(), a, b))
+        except ZeroDivisionError:  # where numpy gives inf and nan
+            pass
+    # Newton's method from the left of the root: the function is convex and
+    # decreasing, so each step lands nearer the root and never beyond it.
+    # Outside the ellipse t = 0 is left of it (the function is r^2 > 1 there).
+    t = np.where((pu / a) ** 2 + (pw / b) ** 2 > 1.0, 0.0, bw - b**2)
+    for _ in range(_NEWTON_STEPS):
+        first, second = au / (t + a**2), bw / (t + b**2)
+        slope = -2.0 * (first**2 / (t + a**2) + second**2 / (t + b**2))
+        step = (first**2 + second**2 - 1.0) / slope
+        t = t - step
+        if not np.any(np.abs(step) > 1e-15 * (np.abs(t) + a**2)):
+            break
+    return t
+
+
+def _few_roots(
+    au: list[float], bw: list[float], pu: list[float], pw: list[float], a: float, b: float
+) -> list[float]:
+    """:func:`_roots` of a few points as Python numbers (numpy's calls cost more
+    than its sums on so few): the same operations in the same order, the points
+    stepped together until the last has converged, as the arrays are, so the
+    same bits. Raises ZeroDivisionError where numpy would give inf or nan."""
+    a2, b2 = a**2, b**2
+    t = []
+    for u, w, bwk in zip(pu, pw, bw, strict=True):
+        su, sw = u / a, w / b
+        t.append(0.0 if su * su + sw * sw > 1.0 else bwk - b2)
+    for _ in range(_NEWTON_STEPS):
+        moving = False
+        for k, tk in enumerate(t):
+            first, second = au[k] / (tk + a2), bw[k] / (tk + b2)
+            slope = -2.0 * (first * first / (tk + a2) + second * second / (tk + b2))
+            step = (first * first + second * second - 1.0) / slope
+            t[k] = tk - step
+            moving = moving or abs(step) > 1e-15 * (abs(t[k]) + a2)
+        if not moving:
+            break
+    return t
