@@ -11,8 +11,7 @@ DISTURBED = Path(__file__).resolve().parent.parent / "missions" / "disturbed.yam
 
 # missions/disturbed.yaml as it was before its outliers were gated and its park
 # aligned within 4 cm: the outliers kick the circle's turn rate (jump 12, max 6;
-# reversals; a fight at the limit) and the stop stalls (docs/paper-notes.md,
-# "Outliers gated").
+# reversals) and the stop stalls (docs/paper-notes.md, "Outliers gated").
 UNGATED = {"estimator.innovation_gate": None, "controller.regulation.align_radius": 0.01}
 UNGATED_SET = [
     "--set",

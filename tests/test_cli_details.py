@@ -219,7 +219,7 @@ def test_a_failure_is_said_once(tmp_path: Path) -> None:
     assert result.exit_code == 1
     said = result.stdout + result.stderr
     missed = {
-        "circle": ("turn_rate_jump_max", "turn_rate_reversals", "turn_rate_fight_time"),
+        "circle": ("turn_rate_jump_max", "turn_rate_reversals"),
         "stop": ("stall_time",),
     }
     for phase, metrics in missed.items():

@@ -310,7 +310,15 @@ class Ros2Plant:
     def stop(self) -> None:
         if self.zero_sent:
             return
+        from rclpy.duration import Duration
+
         self.publisher.publish(self._twist())  # v = 0, omega = 0
+        # A reliable writer resends until each reader acknowledges: wait for
+        # that, at most a second, or a process that exits at once can take the
+        # zero command with it (a loaded machine lost it in 1 of 3 runs of
+        # tests/test_backends.py's robot killed mid-mission). A best-effort
+        # writer, or one with no reader, returns at once.
+        self.publisher.wait_for_all_acked(Duration(seconds=1.0))
         self.zero_sent = True
         print(f"ros2: zero command published on '{self.settings.cmd_vel}'", file=sys.stderr)
 
