@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
-from scipy.spatial import cKDTree
 from test_output_figures import _many_phases
 from test_output_synthetic import circle_run
 
@@ -32,7 +31,7 @@ from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import CLAIM_FILE, SUMMARY_FILE, write_run, write_trajectory
 from wmr_mission.record import PhaseRecord
 from wmr_mission.verdicts.metrics import LOCAL_WINDOW, distance_to_path, summarize
-from wmr_mission.verdicts.nearest import PointGrid
+from wmr_mission.verdicts.nearest import TREE_POSITIONS, NearestPoints
 
 MISSION = """version: 1
 name: short
@@ -206,6 +205,8 @@ def test_the_summary_of_a_long_run_allocates_little_beyond_its_samples() -> None
     """A 100 000-sample track phase round 80 laps: the metrics allocate at most
     150 bytes per sample at once (its columns hold 144), not whole blocks of
     candidate segments."""
+    import scipy.spatial  # noqa: F401  (loaded once per process: not the samples' memory)
+
     run = _laps(100_000)
     peak = _peak_bytes(lambda: summarize(run))
     assert peak < 150 * run.samples
@@ -227,29 +228,47 @@ def test_the_csv_is_written_in_blocks_of_constant_size(tmp_path: Path) -> None:
 # --- the distance to the path ---------------------------------------------------------
 
 
-def test_nearest_points_agree_with_a_kd_tree() -> None:
-    """The grid search finds the same nearest points as scipy's k-d tree, on
-    clouds, random walks, and positions near and very far."""
-    rng = np.random.default_rng(3)
-    for trial in range(20):
-        count = int(rng.integers(1, 2000))
-        if trial % 2:
-            px, py = np.cumsum(rng.normal(size=(2, count)), axis=1)
-        else:
-            px, py = rng.uniform(-5, 5, (2, count))
-        qx, qy = rng.normal(0, 10 ** rng.uniform(-1, 3), (2, 500))
-        cell = 10 ** rng.uniform(-3, 0)
-        found = PointGrid(px, py, cell).nearest(qx, qy, 4, np.zeros(qx.size))
-        _, expected = cKDTree(np.column_stack((px, py))).query(
-            np.column_stack((qx, qy)), k=min(4, count)
-        )
-        expected = expected.reshape(qx.size, -1)
+def _nearest_by_brute_force(
+    qx: np.ndarray, qy: np.ndarray, px: np.ndarray, py: np.ndarray, k: int
+) -> np.ndarray:
+    """Every point measured: the k smallest squared distances, ties to the earlier point."""
+    squared = (px - qx[:, None]) ** 2 + (py - qy[:, None]) ** 2
+    return np.argsort(squared, axis=1, kind="stable")[:, :k]
 
-        found_distance, expected_distance = (
-            np.sort(np.hypot(px[chosen] - qx[:, None], py[chosen] - qy[:, None]), axis=1)
-            for chosen in (found, expected)
+
+def test_nearest_points_equal_brute_force_with_ties_to_the_earlier_point() -> None:
+    """The same points, in the same order, as measuring every point, by the
+    grid and by the k-d tree: on clouds, random walks, grids (many points
+    equally near a position), repeated points, and positions near and very far."""
+    rng = np.random.default_rng(3)
+    for trial in range(12):
+        count = int(rng.integers(1, 1000))
+        shape = trial % 4
+        if shape == 0:
+            px, py = rng.uniform(-5, 5, (2, count))
+        elif shape == 1:
+            px, py = np.cumsum(rng.normal(size=(2, count)), axis=1)
+        elif shape == 2:  # a grid, shuffled: ties everywhere at the grid's points
+            side = int(math.sqrt(count)) + 1
+            px, py = (rng.permutation(np.indices((side, side)).reshape(2, -1), axis=1) * 0.5)[
+                :, :count
+            ]
+        else:  # each point several times over
+            px, py = np.repeat(rng.uniform(-5, 5, (2, count // 4 + 1)), 4, axis=1)[:, :count]
+        px, py = (
+            np.ascontiguousarray(px, dtype=np.float64),
+            np.ascontiguousarray(py, dtype=np.float64),
         )
-        np.testing.assert_allclose(found_distance, expected_distance, rtol=0, atol=1e-12)
+        qx, qy = rng.normal(0, 10 ** rng.uniform(-1, 3), (2, 600))
+        qx[:200], qy[:200] = px[rng.integers(0, count, 200)], py[rng.integers(0, count, 200)]
+        qx[200:300] = np.round(qx[200:300] * 4) / 4  # between grid points: ties
+        qy[200:300] = np.round(qy[200:300] * 4) / 4
+        cell = 10 ** rng.uniform(-2, 0)
+        for positions in (0, TREE_POSITIONS):  # by the grid, by the tree
+            points = NearestPoints(px, py, cell, positions)
+            for k in (1, 4):
+                found = points.nearest(qx, qy, k, np.zeros(qx.size))
+                np.testing.assert_array_equal(found, _nearest_by_brute_force(qx, qy, px, py, k))
 
 
 def _brute_force(

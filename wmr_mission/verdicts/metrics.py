@@ -33,7 +33,7 @@ from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.advice import advice
 from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.clearance import clearance_min
-from wmr_mission.verdicts.nearest import PointGrid
+from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
@@ -212,7 +212,7 @@ def distance_to_path(
     order = np.lexsort((row, column))
     column, row = column[order], row[order]
     first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
-    grid = PointGrid(px[first], py[first], cell)
+    grid = NearestPoints(px[first], py[first], cell, qx.size)
     found = np.empty(qx.size)
     last = px.size - 2  # segment i runs from point i to point i + 1
     for start in range(0, qx.size, _DISTANCE_CHUNK):  # bounded memory on long runs

@@ -1,4 +1,5 @@
-"""The points of a path nearest given positions, exactly, by numpy alone."""
+"""The points of a path nearest given positions, exactly: the nearer first and,
+of equally near points, the earlier."""
 
 from __future__ import annotations
 
@@ -9,35 +10,89 @@ from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
 
-__all__ = ["PointGrid"]
+__all__ = ["NearestPoints"]
 
 _CANDIDATES = 1 << 16  # candidate distances per block of the nearest-points search
+# Positions from which scipy's k-d tree pays for importing scipy.spatial (0.06-0.27 s
+# of CPU, docs/performance.md) against the grid (about 1.6 us a position more).
+TREE_POSITIONS = 100_000
+_SPARE = 2  # points asked of the tree beyond k: room to see that the k-th is not tied
+# The tree's distances and numpy's squared ones differ by a few roundings (about
+# 1e-16 each): a point the tree puts this much farther is farther by numpy's too.
+_MARGIN = 1e-9
+_TINY = 1e-290  # squared distances below this may be subnormal: their roundings are not small
 
 
-class PointGrid:
-    """The k points nearest a position, exactly, by numpy alone.
+class NearestPoints:
+    """The k points nearest a position, exactly: the k smallest squared
+    distances ``(px - x)**2 + (py - y)**2`` as numpy computes them, nearest
+    first, ties to the earlier point.
 
-    The points are bucketed in square cells of side ``cell``, then 2, 4, ...
-    times that. At each size, the points of the 3 x 3 cells round a position's
-    cell are its candidates: the k nearest of them are the k nearest of all
-    when the k-th is no farther than the edge of those 9 cells (or when they
-    hold every point). A position not settled at one size is tried at the
-    next, up to the size where 2 x 2 cells hold the whole path; those left
-    (far off the path) are measured against every point.
+    For ``positions`` (how many will be asked, all told) of TREE_POSITIONS or
+    more, scipy's k-d tree names k + 2 candidates; else a grid does (below).
+    The candidates are ranked by numpy's arithmetic, so neither search's
+    rounding or order of ties chooses anything; a position whose k-th nearest
+    may be tied with a point not named (as on a grid) is measured against
+    every point. Both give the same points, so the choice is one of cost.
+
+    The grid buckets the points in square cells of side ``cell``, then 2, 4,
+    ... times that. At each size, the points of the 3 x 3 cells round a
+    position's cell are its candidates: the k nearest of them are the k
+    nearest of all when the k-th is nearer than the edge of those 9 cells
+    (or when they hold every point) and no other candidate is as near. A
+    position not settled at one size is tried at the next, up to the size
+    where 2 x 2 cells hold the whole path; those left are measured against
+    every point.
     """
 
-    def __init__(self, px: FloatArray, py: FloatArray, cell: float) -> None:
+    def __init__(self, px: FloatArray, py: FloatArray, cell: float, positions: int) -> None:
         self.px, self.py = px, py
         self.origin = (float(px.min()), float(py.min()))
         self.cell = cell
         self._levels: dict[float, Any] = {}  # cell size -> buckets, made once
+        self._tree: Any = None
+        if positions >= TREE_POSITIONS:
+            from scipy.spatial import cKDTree
+
+            self._tree = cKDTree(np.column_stack((px, py)))
 
     def nearest(
         self, qx: FloatArray, qy: FloatArray, k: int, reach: FloatArray
     ) -> NDArray[np.intp]:
-        """Indices (len(qx), min(k, points)) of the points nearest each position;
-        ``reach`` guesses how far they are (it only sets where the search starts)."""
+        """Indices (len(qx), min(k, points)) of the points nearest each position,
+        nearest first; ``reach`` guesses how far they are (where the grid starts)."""
         k = min(k, self.px.size)
+        if self._tree is not None:
+            named, unsure = self._by_tree(qx, qy, k)
+        else:
+            named, unsure = self._by_grid(qx, qy, k, reach)
+        named = np.sort(named, axis=1)  # ties: the earlier first
+        squared = (self.px[named] - qx[:, None]) ** 2 + (self.py[named] - qy[:, None]) ** 2
+        rank = np.argsort(squared, axis=1, kind="stable")[:, :k]
+        found: NDArray[np.intp] = np.take_along_axis(named, rank, axis=1)
+        if unsure.size:
+            found[unsure] = self._every_point(qx[unsure], qy[unsure], k)
+        return found
+
+    def _by_tree(
+        self, qx: FloatArray, qy: FloatArray, k: int
+    ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """k + 2 points named by the tree, and the positions where the k nearest
+        of those may not be the k nearest of all."""
+        asked = min(k + _SPARE, self.px.size)
+        bound, named = self._tree.query(np.column_stack((qx, qy)), k=asked)
+        named = named.reshape(qx.size, asked).astype(np.intp)
+        if asked == self.px.size:  # the tree named every point
+            return named, np.zeros(0, dtype=np.intp)
+        squared = (self.px[named] - qx[:, None]) ** 2 + (self.py[named] - qy[:, None]) ** 2
+        kth = np.partition(squared, k - 1, axis=1)[:, k - 1]
+        beyond = bound.reshape(qx.size, asked)[:, -1]
+        return named, np.flatnonzero(~(beyond**2 > kth * (1 + _MARGIN) + _TINY))
+
+    def _by_grid(
+        self, qx: FloatArray, qy: FloatArray, k: int, reach: FloatArray
+    ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """The k nearest points by the grid, and the positions it left."""
         found = np.zeros((qx.size, k), dtype=np.intp)
         # The first size whose cells' reach (at least one side) covers the guess.
         doublings = np.log2(np.maximum(reach + 2 * self.cell, self.cell) / self.cell)
@@ -49,8 +104,6 @@ class PointGrid:
                 self._levels[size] = self._buckets(size)
             buckets = self._levels[size]
             if buckets is None:  # 2 x 2 cells hold the whole path
-                pending = np.flatnonzero(unsettled)
-                found[pending] = self._every_point(qx[pending], qy[pending], k)
                 break
             pending = np.flatnonzero(unsettled & (level <= 0))
             level -= 1
@@ -63,7 +116,7 @@ class PointGrid:
                 settled[start : start + rows] = ok
             unsettled[pending[settled]] = False
             size *= 2
-        return found
+        return found, np.flatnonzero(unsettled)
 
     def _buckets(
         self, size: float
@@ -121,7 +174,9 @@ class PointGrid:
             np.minimum.reduce((u - (column - 1), column + 2 - u, v - (row - 1), row + 2 - v)) * size
         )
         whole = (column <= 1) & (column >= columns - 2) & (row <= 1) & (row >= rows - 2)
-        ok = np.isfinite(kth) & ((kth <= np.maximum(edge, 0.0) ** 2) | whole)
+        # Settled: the k-th nearer than every point outside, and than every other candidate.
+        alone = np.count_nonzero(squared <= kth[:, None], axis=1) == k
+        ok = np.isfinite(kth) & alone & ((kth < np.maximum(edge, 0.0) ** 2) | whole)
         return chosen, ok
 
     def _every_point(self, qx: FloatArray, qy: FloatArray, k: int) -> NDArray[np.intp]:
@@ -130,5 +185,5 @@ class PointGrid:
         for start in range(0, qx.size, rows):
             part = slice(start, start + rows)
             squared = (self.px - qx[part, None]) ** 2 + (self.py - qy[part, None]) ** 2
-            found[part] = np.argpartition(squared, k - 1, axis=1)[:, :k]
+            found[part] = np.argsort(squared, axis=1, kind="stable")[:, :k]
         return found

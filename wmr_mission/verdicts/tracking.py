@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.verdicts.nearest import PointGrid
+from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
 from wmr_mission.verdicts.zones import Zone, reach_across
 
@@ -260,7 +260,7 @@ def _nearest_anywhere(
     order = np.lexsort((row, column))
     column, row = column[order], row[order]
     first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
-    grid = PointGrid(rx[first], ry[first], cell)
+    grid = NearestPoints(rx[first], ry[first], cell, rows.size)
     distance, at = np.empty(rows.size), np.empty(rows.size)
     for start in range(0, rows.size, _CHUNK):
         part = slice(start, start + _CHUNK)
