@@ -20,7 +20,8 @@ import numpy as np
 from wmr_mission.campaign.engine import Interrupted, local_pool
 from wmr_mission.campaign.load import LoadedCampaign
 from wmr_mission.campaign.plan import Draw
-from wmr_mission.campaign.rows import ERROR, INVALID, mission_of
+from wmr_mission.campaign.rows import ERROR, INVALID
+from wmr_mission.campaign.written import written_runs
 from wmr_mission.record import Outcome
 from wmr_mission.stopping import StopSignals
 
@@ -79,26 +80,26 @@ class Evaluation:
 
 def evaluate(loaded: LoadedCampaign, draw: Draw, objective: str | None) -> Evaluation:
     """The run of ``draw``, simulated and judged as a campaign's row is
-    (``wmr_mission.campaign.rows.run_row``), reduced to its margins."""
-    from wmr_mission.sim.plan import plan_mission
+    (``wmr_mission.campaign.rows.run_row``): checked and planned once per
+    combination of the choice values, its drawn pose written into the plan
+    (``wmr_mission.campaign.written``), reduced to its margins."""
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.verdicts.metrics import judge_run_metrics
 
-    mission, reason = mission_of(loaded, draw)
-    if mission is None:
+    plan, record, reason = written_runs(loaded).run(draw)
+    if plan is None:
         return Evaluation(
             draw.run, draw.seed, draw.values, INVALID, math.inf, INVALID, math.inf, reason
         )
-    result = run_mission(plan_mission(mission, draw.seed))
+    result = run_mission(plan)
     if result.outcome is Outcome.interrupted:  # a stop ends the search, never a run
         raise KeyboardInterrupt
-    dumped = mission.model_dump(mode="json")
-    summary = judge_run_metrics(result, dumped)
+    summary = judge_run_metrics(result, record)
     check = summary["margin_check"]
     margin = summary["margin"]
     if margin is None:
         margin = -math.inf if check is not None else math.inf
-    value = margin if objective is None else _check_margin(result, dumped, objective)
+    value = margin if objective is None else _check_margin(result, record, objective)
     reason = "" if result.outcome is Outcome.success else result.message
     return Evaluation(
         draw.run, draw.seed, draw.values, result.outcome.value, margin, check, value, reason
@@ -121,16 +122,14 @@ def _check_margin(result: Any, mission: dict[str, Any], objective: str) -> float
 def check_names(loaded: LoadedCampaign, draw: Draw) -> list[str]:
     """The checks of the run of ``draw`` (``phase: metric`` or the metric), for
     ``--objective`` to name one; empty when the mission refuses the draw."""
-    from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.verdicts.metrics import check_expectations, summarize
 
-    mission, _ = mission_of(loaded, draw)
-    if mission is None:
+    plan, record, _ = written_runs(loaded).run(draw)
+    if plan is None:
         return []
-    dumped = mission.model_dump(mode="json")
-    result = run_mission(plan_mission(mission, draw.seed))
-    return [check.name for check in check_expectations(summarize(result, dumped), dumped)]
+    result = run_mission(plan)
+    return [check.name for check in check_expectations(summarize(result, record), record)]
 
 
 def evaluate_draws(
