@@ -6,6 +6,7 @@
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
+    python benchmarks/measure.py threshold SECONDS ...   # the same, hour.yaml cut to these alone
     python benchmarks/measure.py cuts       # what each start-up setting of the command line saves
     python benchmarks/measure.py cuts WORD ...   # the same, of the cases named with a word
     python benchmarks/measure.py imports    # CPU of `validate`'s imports, one by one
@@ -153,15 +154,18 @@ from wmr_mission.spec.loader import load_mission
 mission = load_mission(sys.argv[1])
 from wmr_mission.kernels import jit, model
 t0 = time.process_time()
-jit.load()  # numba, its target set up without scipy's linear algebra; taught the kernels
+jit.load()  # numba, scipy refused; taught the kernels (its target is set up to compile only)
 t1 = time.process_time()
 from wmr_mission.sim import runner
 runner.run_mission(plan_mission(mission))
 t2 = time.process_time()
 runner.run_mission(plan_mission(mission))
 t3 = time.process_time()
-print(f"loading numba and setting up its target {t1 - t0:.3f} s, first run_mission "
-      f"(loads run_segment) {t2 - t1:.3f} s, second {t3 - t2:.3f} s (CPU)")
+jit._set_up_for_compiling()  # what a compile sets up first (scipy refused)
+t4 = time.process_time()
+print(f"loading numba {t1 - t0:.3f} s, first run_mission (loads run_segment and the "
+      f"paths' math) {t2 - t1:.3f} s, second {t3 - t2:.3f} s; setting numba's target up, "
+      f"which only compiling needs, {t4 - t3:.3f} s (CPU)")
 """
 
 # `wmr-mission run` with the compiled loop loaded first, whatever the mission's
@@ -375,6 +379,24 @@ _WITH_SCIPY = (
     "jit._WithoutScipy.find_spec = refuse\n" + _COMMAND
 )
 
+# The same with numba's target set up as numba loads (scipy refused), as before
+# a cached loop loaded without it (wmr_mission.kernels.jit._set_up_for_compiling).
+_SET_UP = (
+    "from wmr_mission.kernels import jit\n"
+    "load = jit._load\n"
+    "def load_and_set_up():\n"
+    "    loaded = load()\n"
+    "    if loaded:\n"
+    "        jit._set_up_for_compiling()\n"
+    "    return loaded\n"
+    "jit._load = load_and_set_up\n" + _COMMAND
+)
+# The same with typer building every command, not the one named alone
+# (wmr_mission.cli._command_line).
+_WHOLE_COMMAND_LINE = (
+    "import wmr_mission.cli as cli; cli._command_line = lambda arguments: cli.app; " + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -403,6 +425,14 @@ def cuts(pairs: int = 9) -> None:
             ("run case1 --no-plots compiled, scipy refused as numba loads / its linear algebra",
              [py, "-c", _COMMAND, *case1], [py, "-c", _WITH_SCIPY, *case1], _user_env(),
              _user_env()),
+            ("run case1 --no-plots compiled, numba's target not set up / set up as it loads",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _SET_UP, *case1], _user_env(),
+             _user_env()),
+            ("validate case2, the command built alone / every command", validate,
+             [py, "-c", _WHOLE_COMMAND_LINE, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots compiled, the command built alone / every command",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _WHOLE_COMMAND_LINE, *case1], _user_env(),
+             _user_env()),
             ("validate case2, frozen at exit / not", validate,
              [py, "-c", _UNFROZEN, *validate[3:]], _user_env(), _user_env()),
             ("run case1 --no-plots as plain Python, frozen at exit / not",
@@ -425,7 +455,9 @@ def imports(repeat: int = 9) -> None:
     """CPU seconds of `validate`'s imports, each imported in turn in a fresh
     process, as the command line sets it up (one BLAS thread, no pydantic
     plug-ins), then the campaign's models, which only a campaign's check
-    imports; medians of ``repeat`` processes."""
+    imports; then checking case2.yaml twice (the first builds the models'
+    validators) and, of the imports, the time pydantic took to make the model
+    classes; medians of ``repeat`` processes."""
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     names = ["yaml", "pydantic", "pydantic.main", "pydantic.types", "typer", "numpy"]
     names += ["wmr_mission.cli", "wmr_mission.commands.validate", "wmr_mission.campaign.load"]
@@ -433,18 +465,41 @@ def imports(repeat: int = 9) -> None:
     code = (
         "import importlib, sys, time\n"
         "spent = [time.process_time()]\n"
-        "for name in sys.argv[1:]:\n"
+        "classes, depth, hooked = [0.0], [0], []\n"
+        "def timed(new):\n"  # the outermost class statement's time
+        "    def timed_new(*args, **kwargs):\n"
+        "        depth[0] += 1; started = time.process_time()\n"
+        "        try:\n"
+        "            return new(*args, **kwargs)\n"
+        "        finally:\n"
+        "            depth[0] -= 1\n"
+        "            if not depth[0]: classes[0] += time.process_time() - started\n"
+        "    return timed_new\n"
+        "for name in sys.argv[2:]:\n"
+        "    if name.startswith('wmr_mission') and not hooked:\n"  # pydantic loaded by now
+        "        from pydantic._internal import _model_construction as made\n"
+        "        made.ModelMetaclass.__new__ = timed(made.ModelMetaclass.__new__)\n"
+        "        hooked.append(True)\n"
         "    started = time.process_time(); importlib.import_module(name)\n"
         "    spent.append(time.process_time() - started)\n"
-        "print(*spent)"
+        "from pathlib import Path\n"
+        "from wmr_mission.campaign.load import check_file\n"
+        "for _ in range(2):\n"
+        "    started = time.process_time(); check_file(Path(sys.argv[1]))\n"
+        "    spent.append(time.process_time() - started)\n"
+        "print(*spent, classes[0])"
     )
     env = _user_env(OPENBLAS_NUM_THREADS="1", PYDANTIC_DISABLE_PLUGINS="__all__")
+    case2 = str(MISSIONS / "case2.yaml")
     runs = [
-        [float(x) for x in subprocess.run([sys.executable, "-c", code, *names], env=env,
+        [float(x) for x in subprocess.run([sys.executable, "-c", code, case2, *names], env=env,
          check=True, capture_output=True, text=True).stdout.split()]
         for _ in range(repeat + 1)
     ][1:]  # fmt: skip
-    for i, name in enumerate(["(the interpreter, before the first)", *names]):
+    shown = ["(the interpreter, before the first)", *names]
+    shown += ["checking case2.yaml, first (its models' validators built)", "checking it again"]
+    shown += ["(of the imports above: pydantic making the model classes)"]
+    for i, name in enumerate(shown):
         print(f"{statistics.median(r[i] for r in runs) * 1000:6.1f} ms  {name}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
@@ -460,8 +515,10 @@ def threshold(pairs: int = 3) -> None:
 
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], check=True, env=_user_env())
-    cases = [(path, []) for path in sorted(MISSIONS.glob("*.yaml"))]
-    cases += [(HOUR, [f"phases.0.until.elapsed={s}"]) for s in (50, 100, 150, 200, 250, 300, 400)]
+    chosen = sys.argv[2:]  # `threshold SECONDS ...`: hour.yaml cut to these alone
+    cases = [] if chosen else [(path, []) for path in sorted(MISSIONS.glob("*.yaml"))]
+    cuts = chosen or ["50", "100", "150", "200", "250", "300", "400"]
+    cases += [(HOUR, [f"phases.0.until.elapsed={s}"]) for s in cuts]
     plain_env = _user_env(WMR_MISSION_NO_JIT="1")
     print(f"run: plain Python up to a budget of {PLAIN_PYTHON_SAMPLES} samples")
     with tempfile.TemporaryDirectory() as tmp:

@@ -13,6 +13,7 @@ import io
 import os
 import sys
 import warnings
+from collections.abc import Sequence
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, TextIO
@@ -49,17 +50,37 @@ class _Command(TyperCommand):
                     formatter.write_dl([record for record in records if record is not None])
 
 
-app = typer.Typer(
-    name="wmr-mission",
-    help="Run declarative YAML missions for wheeled non-holonomic mobile robots.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
+_SETTINGS: dict[str, Any] = {
+    "name": "wmr-mission",
+    "help": "Run declarative YAML missions for wheeled non-holonomic mobile robots.",
+    "no_args_is_help": True,
+    "add_completion": False,
+    "pretty_exceptions_enable": False,
     # Plain help: flags show as flags (`--animate`), not as `--animate <bool>`.
-    rich_markup_mode=None,
-    context_settings={"help_option_names": ["-h", "--help"]},
-)
+    "rich_markup_mode": None,
+    "context_settings": {"help_option_names": ["-h", "--help"]},
+}
+app = typer.Typer(**_SETTINGS)
 command = app.command(cls=_Command)
+
+
+def _command_line(arguments: Sequence[str]) -> typer.Typer:
+    """The command line with the command named first alone, else the whole
+    (help, ``--version``, a name mistyped): typer builds the options of every
+    command it holds as it starts, a hundredth of a second of CPU for all
+    (docs/performance.md, Start-up); the one named says the same either way."""
+    from typer.main import get_command_name
+
+    name = arguments[0] if arguments else ""
+    for info in app.registered_commands:
+        if info.callback is not None and name == (
+            info.name or get_command_name(info.callback.__name__)
+        ):
+            alone = typer.Typer(**_SETTINGS)
+            alone.registered_callback = app.registered_callback
+            alone.registered_commands = [info]
+            return alone
+    return app
 
 
 # The signals main() holds until the command starts (_main).
@@ -699,7 +720,7 @@ def main() -> None:
         _STARTING.append(early)
         code: Any = 0
         try:
-            app()
+            _command_line(sys.argv[1:])()
         except SystemExit as done:
             code = done.code
         finally:

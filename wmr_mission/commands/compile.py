@@ -1,7 +1,7 @@
 """Which loop `run` uses, and ``wmr-mission compile``.
 
 Loading the compiled loop from the cache costs a process numba's import and
-target set-up (about 0.35 s of CPU and 120 MiB); compiling it, 10-15 s of CPU
+its entries (about 0.25 s of CPU and 120 MiB); compiling it, 10-15 s of CPU
 (1-4 minutes of wall time on a loaded machine) for each estimator and
 controller. Plain Python runs the same source with the same bytes
 (wmr_mission.kernels.jit) at 40-130 us a sample, judging included. So ``run``
@@ -30,11 +30,11 @@ if TYPE_CHECKING:
 
 # Up to this sample budget a run as plain Python costs less CPU than loading
 # the compiled loop from the cache, or about the same: where the two cross on
-# benchmarks/hour.yaml cut short (10 002 samples: compiled / plain 0.99; 5 002:
-# 1.23; 15 002: 0.79), `python benchmarks/measure.py threshold`, docs/performance.md,
-# Start-up. A sample's cost in plain Python varies with the mission (40-130 us),
-# so missions near the bound may cost a little more either way.
-PLAIN_PYTHON_SAMPLES = 10_000
+# benchmarks/hour.yaml cut short (5 502 samples: compiled / plain 0.99; 5 002:
+# 1.03; 6 002: 0.98; 10 002: 0.77), `python benchmarks/measure.py threshold`,
+# docs/performance.md, Start-up. A sample's cost in plain Python varies with the
+# mission (40-130 us), so missions near the bound may cost a little more either way.
+PLAIN_PYTHON_SAMPLES = 5_500
 # While the compiled loop is not in the cache, up to this budget plain Python
 # costs less CPU than compiling it: a first run of case study 2 compiling its
 # loop took 17.5 s of CPU (`python benchmarks/measure.py compile`), and the

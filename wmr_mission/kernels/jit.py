@@ -85,7 +85,9 @@ class _State:
     plain_chosen = False  # choose_plain_python() was called
     numba: Any = None  # the numba module, once loaded
     ready = False  # numba loaded and taught the kernels
+    set_up = False  # numba's target set up for compiling (_set_up_for_compiling)
     cached = False  # compiled code is kept on disk
+    cache_class: Any = None  # numba's cache of a function, loaded as is (_cache_class)
     kernels: list[Kernel] = []  # noqa: RUF012 - every declared kernel
     entries: dict[tuple[int, bool, bool], Any] = {}  # noqa: RUF012 - compiled entry points
 
@@ -93,6 +95,7 @@ class _State:
 _state = _State()
 # Loading numba and compiling entry points happen once, whichever thread asks first.
 _lock = threading.RLock()
+_set_up_lock = threading.Lock()
 
 
 def _declare(function: Callable[..., Any], inline: bool) -> Kernel:
@@ -171,12 +174,10 @@ def _load() -> bool:
         except ImportError:  # pragma: no cover - a numba that cannot load (another numpy)
             _state.plain_chosen = True
             return False
-        from numba.core.registry import cpu_target
-
-        cpu_target.target_context.refresh()  # numba's target set-up, made once here
     from numba.extending import typeof_impl
 
     _state.cached = directory is not None
+    _state.cache_class = _cache_class()
 
     @typeof_impl.register(Kernel)
     def _typeof_kernel(value: Kernel, context: Any) -> Any:
@@ -186,6 +187,64 @@ def _load() -> bool:
     _teach_ticks()
     _state.ready = True
     return True
+
+
+def _set_up_for_compiling() -> None:
+    """numba's target set up (once, scipy refused): its typing and lowering
+    registries, some 40 modules of numba imported and their thousands of
+    implementations registered. Compiling needs them; loading a function from
+    the cache does not (:func:`_cache_class`), so a run whose loop is cached
+    never pays for them (0.12 s of CPU, docs/performance.md, Start-up)."""
+    if _state.set_up:
+        return
+    with _set_up_lock:  # not _lock: a cache miss holds numba's compile lock
+        if not _state.set_up:
+            from numba.core.registry import cpu_target
+
+            with _without_scipy():
+                cpu_target.target_context.refresh()
+            _state.set_up = True
+
+
+def _cache_class() -> Any:
+    """numba's on-disk cache of one function, but loading an entry without
+    setting numba's target up first (numba's own sets it up "to ensure it is
+    initialized"): a cached function is machine code and what numba needs to
+    call it, the runtime's symbols it links to (reference counting) made
+    here. A miss sets the target up for the compile that follows
+    (:func:`_set_up_for_compiling`), which then finds it set up; None (numba's
+    own cache, setting up as it loads) for a numba without these methods."""
+    from numba.core.caching import FunctionCache
+    from numba.core.runtime import nrt
+
+    if not all(
+        hasattr(FunctionCache, name)
+        for name in ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
+    ):  # pragma: no cover - another numba
+        return None
+
+    class LoadedAsIs(FunctionCache):
+        def load_overload(self, sig: Any, target_context: Any) -> Any:
+            nrt.rtsys.initialize(target_context)
+            loaded = None
+            with self._guard_against_spurious_io_errors():
+                loaded = self._load_overload(sig, target_context)  # type: ignore[no-untyped-call]
+            if loaded is None:
+                _set_up_for_compiling()
+            return loaded
+
+    return LoadedAsIs
+
+
+def _dispatcher(source: Callable[..., Any], cached: bool, options: Mapping[str, Any]) -> Any:
+    """numba's dispatcher of ``source``; cached on disk by :func:`_cache_class`
+    when ``cached``, else set up to compile."""
+    dispatcher = _njit()(cache=cached and _state.cache_class is None, **options)(source)
+    if cached and _state.cache_class is not None:
+        dispatcher._cache = _state.cache_class(source)
+    elif not cached:
+        _set_up_for_compiling()
+    return dispatcher
 
 
 class _WithoutScipy:
@@ -237,7 +296,7 @@ def compiled(fn: F, *, counted: bool = True, cached: bool = True) -> F:
             options = dict(_OPTIONS)
             if not counted and _accepts_nrt_option():  # else counted: still correct
                 options["_nrt"] = False
-            _state.entries[key] = _njit()(cache=cached and _state.cached, **options)(source)
+            _state.entries[key] = _dispatcher(source, cached and _state.cached, options)
         return cast(F, _state.entries[key])
 
 
