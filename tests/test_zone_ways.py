@@ -110,3 +110,47 @@ def test_generated_missions_that_flipped_sides_round_their_zones_succeed(
     assert [(j.mission, j.outcome, j.problems) for j in judged] == [
         (n, "success", ()) for n in sorted(names)
     ]
+
+
+def test_a_new_path_from_an_update_gets_its_own_way_round() -> None:
+    """An update replaces a line passing south of a zone's centre (the
+    centre 0.25 m to its left: round by the right) with one passing 0.35 m
+    north of it: the way round is decided again for the new path, and the
+    robot goes round the north side, away from the centre where the new path
+    passes it. Decided for the first path alone, it went round the south,
+    across its new path and the zone's whole width off it."""
+    from wmr_mission import mission_from_dict, run_mission
+
+    data = {
+        "version": 1,
+        "name": "new-path",
+        "robot": {
+            "dt": 0.01,
+            "initial_state": {"x": 0, "y": 0, "theta": 0},
+            "limits": {"v": 2, "omega": 3},
+        },
+        "regions": {"rock": {"type": "circle", "center": [5, 0.25], "radius": 0.8}},
+        "phases": [
+            {
+                "name": "drive",
+                "track": {"path": {"type": "polyline", "points": [[10, 0]], "speed": 1.0}},
+                "constraints": [{"stay_outside": "rock"}],
+                "updates": [
+                    {
+                        "when": {"elapsed": 0.5},
+                        "path": {
+                            "type": "polyline",
+                            "points": [[1.5, 0.6], [10, 0.6]],
+                            "speed": 1.0,
+                        },
+                    }
+                ],
+                "until": {"elapsed": 10},
+            }
+        ],
+    }
+    result = run_mission(mission_from_dict(data))
+    beside = np.abs(result.x - 5.0) < 0.3
+    assert beside.any()
+    assert (result.y[beside] > 0.25 + 0.8).all()  # round the north side
+    assert np.hypot(result.x - 5.0, result.y - 0.25).min() >= 0.8
