@@ -516,6 +516,22 @@ WAY_COLUMNS = 5
 THROUGH_CENTRE = 1e-12
 
 
+def nearest_chord(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[int, float]:
+    """The chord (from sample k to k + 1) of the polyline through the samples
+    (x, y) nearest the point (px, py), and its share along it where it is
+    nearest; (-1, 0) where the samples never move."""
+    ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
+    length2 = ex * ex + ey * ey
+    moving = length2 > 0.0
+    if not np.any(moving):
+        return -1, 0.0
+    with np.errstate(all="ignore"):
+        share = np.clip(((px - ax) * ex + (py - ay) * ey) / length2, 0.0, 1.0)
+        gaps = np.hypot(ax + share * ex - px, ay + share * ey - py)
+    k = int(np.argmin(np.where(moving, gaps, np.inf)))
+    return k, float(share[k])
+
+
 def ways_round(
     x: FloatArray, y: FloatArray, row_kinds: IntArray, row_params: FloatArray
 ) -> FloatArray:
@@ -532,26 +548,22 @@ def ways_round(
     went over to the other side within a detour: turn-rate kicks and
     reversals (docs/paper-notes.md, eq. (28), "The way round, decided once")."""
     ways = np.zeros((row_kinds.shape[0], WAY_COLUMNS))
-    ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
-    length2 = ex * ex + ey * ey
-    if not np.any(length2 > 0.0):
-        return ways
     for i in range(row_kinds.shape[0]):
         p = row_params[i]
         if row_kinds[i] != ELLIPSE_ROW or p[5] >= 0.0:
             continue
-        with np.errstate(all="ignore"):
-            share = np.clip(((p[0] - ax) * ex + (p[1] - ay) * ey) / length2, 0.0, 1.0)
-        share = np.where(length2 > 0.0, share, 0.0)
-        nx = ax + share * ex
-        ny = ay + share * ey
-        gaps = np.where(length2 > 0.0, np.hypot(nx - p[0], ny - p[1]), np.inf)
-        k = int(np.argmin(gaps))
-        length = math.sqrt(length2[k])
-        cross = ex[k] * (p[1] - ay[k]) - ey[k] * (p[0] - ax[k])
-        through = gaps[k] <= THROUGH_CENTRE * max(p[2], 1.0)
+        k, share = nearest_chord(x, y, p[0], p[1])
+        if k < 0:
+            continue
+        ex = x[k + 1] - x[k]
+        ey = y[k + 1] - y[k]
+        length = math.hypot(ex, ey)
+        nx = x[k] + share * ex
+        ny = y[k] + share * ey
+        cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
+        through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
         side = 1.0 if through or cross < 0.0 else -1.0
-        ways[i] = nx[k], ny[k], ex[k] / length, ey[k] / length, side
+        ways[i] = nx, ny, ex / length, ey / length, side
     return ways
 
 
