@@ -23,6 +23,7 @@ from wmr_mission.controllers.constrained_tracking import (
     aim_round_zones,
     keep_constraints,
     keep_reference,
+    ways_round,
 )
 from wmr_mission.controllers.paper import BARRIER_TIME, PaperController, track_input, tuning_of
 from wmr_mission.geometry.regions import CircleRegion, EllipseRegion, constraint_rows
@@ -75,12 +76,16 @@ def drive(region: object, start_x: float, barrier: bool) -> dict[str, float]:
     u = np.zeros(2)
     work = scratch()
     rows = []
+    # the straight path's way round the zone (the loop's, decided at the phase's entry)
+    ways = ways_round(np.array([start_x, start_x + SPEED * SECONDS]), np.zeros(2), kinds, params)
     for k in range(round(SECONDS / DT)):
         aim_now = np.array([start_x + SPEED * k * DT, 0.0, 1.0, 0.0])
         aim = np.array([start_x + SPEED * (k + 1) * DT, 0.0, 1.0, 0.0])
         if barrier:
             path_x, path_y = aim_now[0], aim_now[1]
-            if aim_round_zones(aim_now, kinds, params, tuning.look_ahead, 0.0, tuning.look_ahead):
+            if aim_round_zones(
+                aim_now, kinds, params, ways, tuning.look_ahead, 0.0, tuning.look_ahead
+            ):
                 aim[0] += aim_now[0] - path_x
                 aim[1] += aim_now[1] - path_y
         else:

@@ -12,7 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wmr_mission.controllers.constrained_tracking import AIM_GAP, aim_gap, aim_round_zones
+from wmr_mission.controllers.constrained_tracking import (
+    AIM_GAP,
+    aim_gap,
+    aim_round_zones,
+    ways_round,
+)
 from wmr_mission.geometry.regions import CircleRegion, constraint_rows
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission_text
@@ -85,10 +90,22 @@ def test_the_aim_stands_at_most_the_gap_beyond_the_filters_bound(look_ahead: flo
     rock = CircleRegion(type="circle", center=(5.0, -0.2), radius=1.0)
     kinds, params = constraint_rows(rock, "outside")
     aim = np.array([5.0 - look_ahead, 0.0, 1.0, 0.0])  # its output at the centre's x
-    gap = aim_gap(look_ahead, math.inf)  # no acceleration limit
-    assert aim_round_zones(aim, kinds, params, look_ahead, margin, gap)
+    gap = aim_gap(look_ahead, math.inf, margin)  # no acceleration limit
+    ways = ways_round(np.array([0.0, 10.0]), np.zeros(2), kinds, params)  # y = 0, east
+    assert aim_round_zones(aim, kinds, params, ways, look_ahead, margin, gap)
     grown = 1.0 + look_ahead + min(look_ahead, AIM_GAP) + margin
     assert aim[1] == pytest.approx(-0.2 + grown, abs=1e-12)
     # under an acceleration limit the filter also holds the rows where braking
     # ends: the aim keeps a whole look-ahead's room
-    assert aim_gap(look_ahead, 2.0) == look_ahead
+    assert aim_gap(look_ahead, 2.0, margin) == look_ahead
+
+
+@pytest.mark.parametrize(("margin", "gap"), [(0.0, 0.05), (0.05, 0.05), (0.07, 0.03), (0.12, 0.0)])
+def test_the_aims_gap_and_the_margin_keep_within_a_tenth_of_a_metre(
+    margin: float, gap: float
+) -> None:
+    """Both widen a detour beyond the zone's reach and the look-ahead: with
+    the paper's estimator at 1.9 cm of noise (margin 0.095 m) and the whole
+    AIM_GAP, gen-027-polyline went 0.726 m off its path where 0.72 is the
+    zone's reach, the look-ahead and the tolerance (scripts/soundness.py)."""
+    assert aim_gap(0.3, math.inf, margin) == pytest.approx(gap, abs=1e-15)

@@ -18,7 +18,7 @@ import pytest
 from typer.testing import CliRunner
 
 from wmr_mission.cli import app
-from wmr_mission.controllers.constrained_tracking import RAMP_SLOPE, aim_round_zones
+from wmr_mission.controllers.constrained_tracking import RAMP_SLOPE, aim_round_zones, ways_round
 from wmr_mission.geometry.regions import CircleRegion, constraint_rows
 
 DATA = Path(__file__).parent / "data" / "zones"
@@ -106,6 +106,11 @@ def test_a_robot_started_inside_a_zone_leaves_it_and_carries_on(tmp_path: Path) 
     assert phase["constraint"]["max_violation"] > 0.0  # it did start inside
 
 
+def east_along_y0(kinds: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """The ways round the zones of the path y = 0 from x = 0 east to x = 10."""
+    return ways_round(np.linspace(0.0, 10.0, 101), np.zeros(101), kinds, params)
+
+
 @pytest.mark.parametrize("offset", [-0.5, -1e-9, 0.0, 1e-9, 0.5])
 def test_the_aim_moves_across_the_path_to_the_nearer_side_left_at_the_centre(
     offset: float,
@@ -113,9 +118,9 @@ def test_the_aim_moves_across_the_path_to_the_nearer_side_left_at_the_centre(
     rock = CircleRegion(type="circle", center=(5.0, offset), radius=1.0)
     kinds, params = constraint_rows(rock, "outside")
     aim = np.array([5.0, 0.0, 1.0, 0.0])
-    assert aim_round_zones(aim, kinds, params, 0.0, 0.0, 0.0)
-    # the side the edge faces where the line entered: left (north) unless the
-    # centre is north of the line; head-on, left
+    assert aim_round_zones(aim, kinds, params, east_along_y0(kinds, params), 0.0, 0.0, 0.0)
+    # the side away from the centre: left (north) unless the centre is north
+    # of the line; through it (THROUGH_CENTRE of its radius), left
     side = -1.0 if offset > 0.0 else 1.0
     np.testing.assert_allclose(aim, [5.0, offset + side * 1.0, 1.0, 0.0], atol=1e-12)
 
@@ -129,10 +134,11 @@ def test_the_aim_goes_round_a_circle_on_a_ramp(centre_y: float) -> None:
     where the line clears the zone's wedge."""
     rock = CircleRegion(type="circle", center=(5.0, centre_y), radius=1.0)
     kinds, params = constraint_rows(rock, "outside")
+    ways = east_along_y0(kinds, params)
     points = []
     for x in np.arange(1.0, 9.0, 0.001):
         aim = np.array([x, 0.0, 1.0, 0.0])
-        aim_round_zones(aim, kinds, params, 0.05, 0.02, 0.05)
+        aim_round_zones(aim, kinds, params, ways, 0.05, 0.02, 0.05)
         points.append(aim[:2].copy())
     path = np.array(points)
     slope = np.abs(np.diff(path[:, 1]) / np.diff(path[:, 0]))
@@ -144,7 +150,7 @@ def test_the_aim_goes_round_a_circle_on_a_ramp(centre_y: float) -> None:
     assert (distance >= grown - 1e-9).all()
     assert path[0, 1] == 0.0  # on the line before the wedge meets the zone
     assert path[-1, 1] == 0.0  # and back on it past the wedge
-    # round the side the edge faces where the line enters: south, left (north) head-on
+    # round the side away from the centre: south, left (north) through it
     if centre_y > 0.0:
         assert path[:, 1].min() == pytest.approx(centre_y - grown)
         assert path[:, 1].max() == 0.0

@@ -62,6 +62,7 @@ __all__ = [
     "keep_constraints",
     "ramped_offset",
     "row_value_with_margin",
+    "ways_round",
 ]
 
 
@@ -316,48 +317,25 @@ RAMP_SLOPE = 0.5
 
 @kernel
 def _way_round(
-    p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float
+    p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float, side: float
 ) -> tuple[float, float, float]:
-    """How far, and to which side, the aim (x, y) on a path heading along the
-    unit (tx, ty) moves across the path to clear the keep-out ellipse row
-    ``p`` grown by ``margin``, on a ramp: the moved aim keeps every point of
-    the zone outside the wedge of slope RAMP_SLOPE about the path's line ahead
-    of it and behind it. (distance >= 0, unit side x, y); distance 0 where the
-    path's line misses the zone.
-
-    The side is the one the zone's edge faces where the path's line enters it
-    (the same all along a straight path, so the aim keeps its side through
-    the zone), to the left of travel where the line meets the edge head-on."""
+    """How far the aim (x, y) on a path heading along the unit (tx, ty) moves
+    across the path, to ``side`` of it (1 the left of travel, -1 the right),
+    to clear the keep-out ellipse row ``p`` grown by ``margin``, on a ramp:
+    the moved aim keeps every point of the zone outside the wedge of slope
+    RAMP_SLOPE about the path's line ahead of it and behind it. (distance >= 0,
+    unit side x, y); 0 where the zone lies on the other side of the wedge."""
     a = p[2] + margin
     b = p[3] + margin
     cos_phi = math.cos(p[4])
     sin_phi = math.sin(p[4])
     dx = p[0] - x  # the zone's centre from the aim
     dy = p[1] - y
-    # the path's line in the ellipse's own axes
-    u = -(cos_phi * dx + sin_phi * dy)
-    w = -(-sin_phi * dx + cos_phi * dy)
+    # the path's direction in the ellipse's own axes
     du = cos_phi * tx + sin_phi * ty
     dw = -sin_phi * tx + cos_phi * ty
-    ia2 = 1.0 / (a * a)
-    ib2 = 1.0 / (b * b)
-    qa = du * du * ia2 + dw * dw * ib2
-    qb = 2.0 * (u * du * ia2 + w * dw * ib2)
-    qc = u * u * ia2 + w * w * ib2 - 1.0
-    disc = qb * qb - 4.0 * qa * qc
-    if disc < 0.0:
-        return 0.0, 0.0, 0.0
-    entry = (-qb - math.sqrt(disc)) / (2.0 * qa)
-    # the outward normal where the line enters, back in the world's axes
-    eu = (u + entry * du) * ia2
-    ew = (w + entry * dw) * ib2
-    ox = cos_phi * eu - sin_phi * ew
-    oy = sin_phi * eu + cos_phi * ew
-    mx = -ty
-    my = tx
-    if mx * ox + my * oy < 0.0:
-        mx = -mx
-        my = -my
+    mx = -ty * side
+    my = tx * side
     # Support function of the grown ellipse, h(n) = n . centre + sqrt(n' S n),
     # S = R diag(a^2, b^2) R'. The reach is the least h(m + mu t) over
     # |mu| <= RAMP_SLOPE: the largest of m . q - RAMP_SLOPE |t . q| over the
@@ -514,14 +492,79 @@ AIM_GAP = 0.05
 
 
 @inlined
-def aim_gap(look_ahead: float, speed_rate: float) -> float:
-    """[m] The aim's gap beyond the filter's bound (AIM_GAP). Under an
-    acceleration limit (``speed_rate`` finite) the filter holds the rows where
-    braking ends too, ahead of the output: the whole look-ahead, as a gap of
-    AIM_GAP stalled a fast robot at a zone (docs/paper-notes.md)."""
+def aim_gap(look_ahead: float, speed_rate: float, margin: float) -> float:
+    """[m] The aim's gap beyond the filter's bound (AIM_GAP), and with the
+    margin the controller keeps round a zone for the estimate's error
+    (``margin``, the body's reach apart) at most twice AIM_GAP: both widen a
+    detour beyond the zone's reach and the look-ahead, out of the 0.1 m the
+    cross-track tolerance allows beyond the noise (a full gap with the
+    paper's estimator at 1.9 cm of noise, a margin of 0.095 m, went 6 mm
+    wider than that; docs/paper-notes.md, eq. (28), "How wide a detour
+    is"). Under an acceleration limit (``speed_rate`` finite) the filter
+    holds the rows where braking ends too, ahead of the output: the whole
+    look-ahead, as a gap of AIM_GAP stalled a fast robot at a zone."""
     if speed_rate != math.inf:
         return look_ahead
-    return min(look_ahead, AIM_GAP)
+    return min(look_ahead, AIM_GAP, max(2.0 * AIM_GAP - margin, 0.0))
+
+
+# The columns of a row of the ways round (ways_round): the path's point
+# nearest the zone's centre, its unit tangent there, the side.
+WAY_COLUMNS = 5
+# A path within this share of a zone's size (at least 1 m) of its centre runs
+# through it, to rounding: round by the left (the validator's note names it).
+THROUGH_CENTRE = 1e-12
+
+
+def nearest_chord(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[int, float]:
+    """The chord (from sample k to k + 1) of the polyline through the samples
+    (x, y) nearest the point (px, py), and its share along it where it is
+    nearest; (-1, 0) where the samples never move."""
+    ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
+    length2 = ex * ex + ey * ey
+    moving = length2 > 0.0
+    if not np.any(moving):
+        return -1, 0.0
+    with np.errstate(all="ignore"):
+        share = np.clip(((px - ax) * ex + (py - ay) * ey) / length2, 0.0, 1.0)
+        gaps = np.hypot(ax + share * ex - px, ay + share * ey - py)
+    k = int(np.argmin(np.where(moving, gaps, np.inf)))
+    return k, float(share[k])
+
+
+def ways_round(
+    x: FloatArray, y: FloatArray, row_kinds: IntArray, row_params: FloatArray
+) -> FloatArray:
+    """The way round each keep-out ellipse row of a path sampled at (x, y),
+    decided once for the phase (:func:`aim_round_zones`): per row, the point
+    of the path (the polyline through the samples) nearest the zone's centre,
+    the path's unit tangent there, and the side the aim goes round by, 1 the
+    left of travel and -1 the right: the side away from the centre, the left
+    where the path runs through the centre itself (THROUGH_CENTRE).
+    Rows of other kinds, and a path that never moves, have no way (side 0).
+
+    The side the zone's edge faced where the path's tangent line entered it
+    swung with the tangent on a curve or at a corner, and the aim's offset
+    went over to the other side within a detour: turn-rate kicks and
+    reversals (docs/paper-notes.md, eq. (28), "The way round, decided once")."""
+    ways = np.zeros((row_kinds.shape[0], WAY_COLUMNS))
+    for i in range(row_kinds.shape[0]):
+        p = row_params[i]
+        if row_kinds[i] != ELLIPSE_ROW or p[5] >= 0.0:
+            continue
+        k, share = nearest_chord(x, y, p[0], p[1])
+        if k < 0:
+            continue
+        ex = x[k + 1] - x[k]
+        ey = y[k + 1] - y[k]
+        length = math.hypot(ex, ey)
+        nx = x[k] + share * ex
+        ny = y[k] + share * ey
+        cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
+        through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
+        side = 1.0 if through or cross < 0.0 else -1.0
+        ways[i] = nx, ny, ex / length, ey / length, side
+    return ways
 
 
 @kernel
@@ -529,6 +572,7 @@ def aim_round_zones(
     aim: FloatArray,
     row_kinds: IntArray,
     row_params: FloatArray,
+    ways: FloatArray,
     look_ahead: float,
     margin: float,
     gap: float,
@@ -542,11 +586,15 @@ def aim_round_zones(
     The output's aim moves continuously as the path goes through a zone, so
     the tracking law is handed no jump at a zone's edge. A keep-out ellipse
     moves the aim sideways, across the path, on a ramp no steeper than
-    RAMP_SLOPE (``_way_round``), to the side the zone's edge faces where the
-    path's line enters it, and to the left of the direction of travel where
-    the path meets the edge head-on (the saddle, a path through a circle's
-    centre): the robot goes round, never stopping where the two sides
-    balance. A keep-out box or polygon does the same on the shorter way
+    RAMP_SLOPE (``_way_round``), by its way round (``ways``, of
+    :func:`ways_round`): to the side decided once for the phase, measured
+    in the frame of the path where it passes nearest the zone's centre (the
+    aim's distance along that tangent, the move across applied across the
+    path at the aim), and not at all where the path heads away from that
+    tangent (a lap's far side): on a curve the path's own tangent line
+    swings across the zone, and neither its side nor its distance from the
+    zone holds for the stretch of path that passes it. The robot goes round,
+    never stopping where two sides balance. A keep-out box or polygon goes round on the shorter way
     across (``_way_round_polygon``). Other rows project the aim onto
     their edge (half-planes exactly, keep-in ellipses along the ray from the
     centre). Two passes settle an aim beyond two rows.
@@ -554,6 +602,8 @@ def aim_round_zones(
     grown = look_ahead + gap + margin
     x = aim[0] + look_ahead * aim[2]
     y = aim[1] + look_ahead * aim[3]
+    start_x = x
+    start_y = y
     moved = False
     for _ in range(2):
         for i in range(row_kinds.shape[0]):
@@ -565,7 +615,21 @@ def aim_round_zones(
                 if row_kinds[i] == POLYGON_ROW:
                     reach, nx, ny = _way_round_polygon(p, grown, x, y, aim[2], aim[3])
                 else:
-                    reach, nx, ny = _way_round(p, grown, x, y, aim[2], aim[3])
+                    way = ways[i]
+                    reach = 0.0
+                    nx = -aim[3] * way[4]
+                    ny = aim[2] * way[4]
+                    if way[4] != 0.0 and aim[2] * way[2] + aim[3] * way[3] > 0.0:
+                        # the aim in the frame of the path where it passes the
+                        # zone: its distance along, and the rows' moves across
+                        along = way[2] * (x - way[0]) + way[3] * (y - way[1])
+                        across = -aim[3] * (x - start_x) + aim[2] * (y - start_y)
+                        reach, _, _ = _way_round(
+                            p, grown,
+                            way[0] + along * way[2] - across * way[3],
+                            way[1] + along * way[3] + across * way[2],
+                            way[2], way[3], way[4],
+                        )  # fmt: skip
                 if reach > 0.0:
                     moved = True
                     x += reach * nx

@@ -722,9 +722,12 @@ def next_input(
     if phase.tracking:
         path_x = aim_now[0]
         path_y = aim_now[1]
-        gap = aim_gap(tuning.look_ahead, plant.limits[2])
         if kinds.shape[0]:
-            aim_round_zones(aim_now, kinds, params, tuning.look_ahead, plant.constraint_margin, gap)
+            margin = plant.constraint_margin
+            gap = aim_gap(tuning.look_ahead, plant.limits[2], margin - plant.body)
+            aim_round_zones(
+                aim_now, kinds, params, phase.ways_round, tuning.look_ahead, margin, gap
+            )
             # Aimed round a zone the path crosses: the path's own motion fed
             # forward, the aim's move closed as an error, at the law's pace
             # (its kinks at the zone's edge are no jumps of the input). The

@@ -61,6 +61,9 @@ class EnteredPhase(NamedTuple):
     target: FloatArray  # (3,) the pose a regulate or hold phase parks at
     constraint_kinds: IntArray  # constraint rows (docs/architecture.md)
     constraint_params: FloatArray
+    # per constraint row, a track phase's way round a keep-out ellipse, decided
+    # at its entry (wmr_mission.controllers.constrained_tracking.ways_round)
+    ways_round: FloatArray
     elapsed_samples: int
     mission_time: float  # [s]
     reaches_kinds: IntArray  # rows of the region of `reaches`

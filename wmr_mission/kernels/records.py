@@ -36,6 +36,8 @@ class Plant(NamedTuple):
     # by, so that the true robot keeps a zone the estimate keeps (the estimator's
     # ``constraint_margin``; docs/paper-notes.md, eq. (28)).
     constraint_margin: float = 0.0
+    # [m] the body's reach from the axle's centre, of the margin above
+    body: float = 0.0
 
 
 class Scratch(NamedTuple):

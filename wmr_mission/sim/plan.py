@@ -522,6 +522,7 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         runaway_input=RUNAWAY_INPUT,
         # the estimate's uncertainty, and the body: zones are kept by the footprint
         constraint_margin=float(estimator.constraint_margin(estimator_tuning)) + _body(mission),
+        body=_body(mission),
     )
     phases = _phases(mission, plant)
     initial = mission.robot.initial_state

@@ -21,9 +21,10 @@ from typing import Any
 import numpy as np
 
 from wmr_mission.basics import FloatArray, IntArray
+from wmr_mission.controllers.constrained_tracking import WAY_COLUMNS, nearest_chord, ways_round
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
-from wmr_mission.kernels.corrective import max_row_value
+from wmr_mission.kernels.corrective import ELLIPSE_ROW, max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
 from wmr_mission.output.result import RunResult
 from wmr_mission.plugins import failure_message
@@ -56,6 +57,12 @@ CHUNK = 4096
 FIRST_CHUNK = 256
 # [s] how far ahead of where it was left a resumed phase looks for its path.
 RESUME_HORIZON = 120.0
+# The path a track phase's ways round its zones are decided on: over its bound
+# (timeout or elapsed), at most WAY_HORIZON samples of it, at WAY_SAMPLES
+# points, then as many about the nearest (a 30 s phase at 1 m/s: chords of
+# 23 cm, then 5 mm).
+WAY_HORIZON = 2**20
+WAY_SAMPLES = 128
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
 MAX_PRESIZED = 2_000_000
 NEVER = 2**62  # the sample a run that is not a session pauses at
@@ -129,6 +136,8 @@ class PhaseRun:
         self.status = Status.pending
         self.entry_sample = 0
         self.target = np.zeros(3)
+        # the way round each of its zones, for the path in force (EnteredPhase.ways_round)
+        self.ways = np.zeros((phase.constraint_rows[0].shape[0], WAY_COLUMNS))
         self._trajectory: Trajectory | None = None
         # The rows of its path sampled last: the path's sample of the first, the rows.
         self._sampled: tuple[int, FloatArray] = (0, np.zeros((0, 4)))
@@ -182,6 +191,7 @@ class PhaseRun:
             assert phase.make_trajectory is not None
             self._trajectory = self._made = phase.make_trajectory(pose)
             self._sampled = (0, np.zeros((0, 4)))
+            self._find_ways()
         self.target[:] = self.target_in_force or pose
         until = phase.until
         reaches_kinds, reaches_params = until.reaches_rows
@@ -198,6 +208,7 @@ class PhaseRun:
             target=self.target,
             constraint_kinds=kinds,
             constraint_params=params,
+            ways_round=self.ways,
             elapsed_samples=-1 if until.elapsed_samples is None else until.elapsed_samples,
             mission_time=math.nan if until.mission_time is None else until.mission_time,
             reaches_kinds=reaches_kinds,
@@ -225,6 +236,7 @@ class PhaseRun:
             self._sampled = (0, np.zeros((0, 4)))
             self.path_shift = self.entry_sample - k
             self.pace, self.warp = update.pace, (0.0, 1.0)
+            self._find_ways()
         if update.speed is not None and self._made is not None and self.pace:
             # the same path on from the reference point in force, its own time
             # running speed / pace as fast (docs/mission-format.md)
@@ -243,6 +255,32 @@ class PhaseRun:
             self.target_in_force = update.target
             self.target[:] = update.target  # the array the loop reads (EnteredPhase.target)
         self.reference += 1
+
+    def _find_ways(self) -> None:
+        """The way round each keep-out zone of the path just made, decided
+        once (constrained_tracking.ways_round): from the path over the
+        phase's bound, at WAY_SAMPLES points, and again at WAY_SAMPLES
+        points over the two chords about the one nearest the zone."""
+        assert self._trajectory is not None
+        kinds, params = self.phase.constraint_rows
+        keep_out = np.flatnonzero((kinds == ELLIPSE_ROW) & (params[:, 5] < 0.0))
+        if not keep_out.size:
+            return
+        samples = min(self.bound, WAY_HORIZON)
+        t = np.linspace(0.0, samples * self.mission.dt, min(samples, WAY_SAMPLES) + 1)
+        x, y = self._path_points(t)
+        for i in keep_out:
+            k, _ = nearest_chord(x, y, params[i, 0], params[i, 1])
+            if k < 0:
+                continue
+            near = np.linspace(t[max(k - 1, 0)], t[min(k + 2, t.size - 1)], WAY_SAMPLES + 1)
+            self.ways[i] = ways_round(*self._path_points(near), kinds[i : i + 1], params[i : i + 1])
+
+    def _path_points(self, t: FloatArray) -> tuple[FloatArray, FloatArray]:
+        assert self._trajectory is not None
+        with np.errstate(all="ignore"):  # a diverging path is followed as far as it is finite
+            x, y, _, _ = self._trajectory.sample(t)
+        return x, y
 
     @property
     def tracks_a_path(self) -> bool:

@@ -21,6 +21,7 @@ from pydantic import BaseModel
 from wmr_mission import fields
 from wmr_mission.basics import FloatArray, whole_samples
 from wmr_mission.controllers import paper
+from wmr_mission.controllers.constrained_tracking import THROUGH_CENTRE
 from wmr_mission.controllers.paper import PaperController
 from wmr_mission.controllers.plugin import PythonController
 from wmr_mission.estimators.ekf import Ekf
@@ -1436,9 +1437,9 @@ def _through_centres(
 ) -> Iterator[Finding]:
     """A note where the path runs through a keep-out ellipse's centre, naming
     the side the robot goes round: the zone filter sends it to the side of the
-    path the zone's edge faces where the path enters, and head-on, through
-    the centre itself, to the left of the direction of travel by rule
-    (controllers/constrained_tracking.aim_round_zones), a side the mission
+    path away from the centre where the path passes nearest it, and through
+    the centre itself to the left of the direction of travel by rule
+    (controllers/constrained_tracking.ways_round), a side the mission
     does not choose. A path that merely crosses a zone is a detour the mission
     chose: no note. A box or polygon is gone round the shorter way across, on
     the left where both are as far: its centre, for a box and any polygon as
@@ -1463,7 +1464,7 @@ def _through_centres(
         gap, centre_on_left = _passing(x, y, cx, cy)
         if gap > CENTRE_SHARE * size:
             continue
-        if gap <= 1e-9 * max(a, 1.0):
+        if gap <= THROUGH_CENTRE * max(a, 1.0):
             side = "on the left of its direction of travel, by the zone filter's rule"
         else:
             side = (
