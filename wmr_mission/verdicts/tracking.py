@@ -365,7 +365,12 @@ def track_samples(
         "zone_reach": None,
     }
     if not known.all():
-        t, px, py, rx, ry = t[known], px[known], py[known], rx[known], ry[known]
+        these = known_samples(known)
+        t = t[these]
+        if placement is None:
+            px, py, rx, ry = px[these], py[these], rx[these], ry[these]
+        else:  # the same samples, kept once: a long run's columns are large
+            px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
     if t.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
         return metrics, None  # no reference, or the run diverged
     dt = numbers.dt
@@ -405,6 +410,16 @@ def track_samples(
         "reference_speed_max": float(reference_speed.max()),
     }
     return metrics, _placed(known, size, cross, lag, judged, detour)
+
+
+def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
+    """The samples whose reference is ``known``: a slice where they run
+    unbroken (as a phase's do but its last sample), whose columns are views,
+    not copies of a long run's."""
+    found = np.flatnonzero(known)
+    if found.size and int(found[-1]) - int(found[0]) + 1 == found.size:
+        return slice(int(found[0]), int(found[-1]) + 1)
+    return known
 
 
 def _placed(
