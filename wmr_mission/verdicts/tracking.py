@@ -42,8 +42,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.kernels import jit
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
+from wmr_mission.verdicts.placing import place_samples
 from wmr_mission.verdicts.zones import Zone, reach_across
 
 # [m] places on the path this much farther than the nearest are not "about as near".
@@ -163,6 +165,12 @@ class Placement:
     def _place_samples(self, begin: int, end: int) -> None:
         """The places of samples ``begin .. end - 1`` by the local search."""
         px, py = self.px, self.py
+        if jit.loaded():  # the same numbers in one compiled pass (verdicts/placing.py)
+            held = np.zeros(0, dtype=np.intp) if self._held is None else self._held
+            jit.compiled(place_samples)(
+                px, py, self.path, held, begin, end, _SEARCH, _STEPS, self._cross, self._place
+            )
+            return
         arc, rx, ry, sx, sy, length = self.path
         n = rx.size
         cross, place = self._cross, self._place
