@@ -977,7 +977,9 @@ def _medians(values: list[float]) -> str:
 _JUDGE = """
 import pickle, statistics, sys, time
 from dataclasses import replace
+from wmr_mission.kernels import jit
 from wmr_mission.verdicts.metrics import judge, judge_run_metrics
+jit.load()  # as a campaign's workers and a compiled run have: the kernels loaded
 runs, hour = pickle.load(open(sys.argv[1], "rb"))
 
 def cpu(judged, result, mission):
@@ -995,8 +997,6 @@ for judged, which in ((judge_run_metrics, 1), (judge_run_metrics, 2), (judge, 1)
         min(cpu(judged, result, missions[which - 1]) for _ in range(3))
         for result, *missions in runs
     ))
-from wmr_mission.kernels import jit
-jit.load()  # as a long mission's run has: its loop compiled, the judge's kernel too
 result, mission = hour
 found.append(min(cpu(judge, result, mission) for _ in range(2)) / result.samples)
 print(*(f"{value:.3f}" for value in found))
