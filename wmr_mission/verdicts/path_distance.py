@@ -9,9 +9,10 @@ Two shortcuts change no bit:
 
 * the path's nearest points are found on a grid of cells searched ring by
   ring round the position's cell, until every point outside the rings is
-  farther than the k-th nearest found; the k nearest are ranked as the numpy
-  form ranks them, by their squared distances as numpy computes them, ties to
-  the earlier point;
+  farther than the k-th nearest found (a position far from the path, not
+  settled within a few rings, among every point); the k nearest are ranked as
+  the numpy form ranks them, by their squared distances as numpy computes
+  them, ties to the earlier point;
 * ``hypot`` (the C library's, as numpy's) is taken only of the segments whose
   squared distance is within a relative 1e-6 of the least: the others'
   distances are farther by far more than their roundings.
@@ -40,8 +41,11 @@ _SQUARED_MARGIN = 1e-6
 _TINY = 1e-280
 # The grid's cells per point of the path at most (its side grows to keep to it).
 _CELLS_PER_POINT = 4
-# A position this many cells from the grid's origin is measured against every point.
+# A position this many cells from the grid's origin is measured against every
+# point, and so is one whose nearest points are not settled within _RINGS rings
+# (a position far from the path: a sweep of the whole grid would cost more).
 _FAR = 1e12
+_RINGS = 8
 
 
 def compiled_distances(
@@ -126,11 +130,12 @@ def _distances(
         x, y = qx[q], qy[q]
         # The k nearest points: (squared distance, index) ascending.
         found = 0
+        searched = False  # the k nearest are known
         u, v = (x - x0) / size, (y - y0) / size
         if abs(u) < _FAR and abs(v) < _FAR:
             c0, r0 = math.floor(u), math.floor(v)
-            ring = max(0, -c0, c0 - (columns - 1), -r0, r0 - (rows - 1))
-            while True:
+            ring = first = max(0, -c0, c0 - (columns - 1), -r0, r0 - (rows - 1))
+            while ring - first <= _RINGS:
                 for c in range(max(c0 - ring, 0), min(c0 + ring, columns - 1) + 1):
                     if c == c0 - ring or c == c0 + ring:  # a side of the ring: every row
                         for r in range(max(r0 - ring, 0), min(r0 + ring, rows - 1) + 1):
@@ -144,15 +149,17 @@ def _distances(
                             key = c * rows + r0 + ring
                             found = _visit(tx, ty, order, starts, key, x, y, nearest, found)
                 whole = c0 - ring <= 0 and c0 + ring >= columns - 1
-                if whole and r0 - ring <= 0 and r0 + ring >= rows - 1:
-                    break
+                searched = whole and r0 - ring <= 0 and r0 + ring >= rows - 1
                 reach = min(u - (c0 - ring), c0 + ring + 1 - u, v - (r0 - ring), r0 + ring + 1 - v)
                 reach *= size
                 kth = nearest[0, k - 1]
                 if found == k and kth * (1.0 + _SQUARED_MARGIN) + _TINY < reach * reach:
+                    searched = True
+                if searched:
                     break
                 ring += 1
-        else:
+        if not searched:  # far from the path, or the rings ran out: every point
+            found = 0
             for j in range(tx.size):
                 ex, ey = tx[j] - x, ty[j] - y
                 found = _keep(nearest, found, ex * ex + ey * ey, j)
