@@ -22,7 +22,7 @@
     python benchmarks/measure.py dlqr       # python-control's dlqr (pip install control)
     python benchmarks/measure.py campaign   # a case-2 run's cost by stage; sweep CPU per run
     python benchmarks/measure.py campaign COMMIT   # the same, the sweep also as at COMMIT, in turn
-    python benchmarks/measure.py judge      # judging a case-2 run, and a 1-hour run per sample
+    python benchmarks/measure.py judge      # judging a case-2 run; the 1-hour run per sample, peak
     python benchmarks/measure.py judge COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
@@ -1034,7 +1034,9 @@ def _medians(values: list[float]) -> str:
 _JUDGE = """
 import pickle, statistics, sys, time
 from dataclasses import replace
+from wmr_mission.kernels import jit
 from wmr_mission.verdicts.metrics import judge, judge_run_metrics
+jit.load()  # as a campaign's workers and a compiled run have: the kernels loaded
 runs, hour = pickle.load(open(sys.argv[1], "rb"))
 
 def cpu(judged, result, mission):
@@ -1054,6 +1056,10 @@ for judged, which in ((judge_run_metrics, 1), (judge_run_metrics, 2), (judge, 1)
     ))
 result, mission = hour
 found.append(min(cpu(judge, result, mission) for _ in range(2)) / result.samples)
+import tracemalloc
+tracemalloc.start()  # the judge's own arrays at their peak, the record apart
+judge(replace(result), mission)
+found.append(tracemalloc.get_traced_memory()[1] / 1e6)
 print(*(f"{value:.3f}" for value in found))
 """
 
@@ -1063,7 +1069,8 @@ def judge_cost(repeat: int = 40, pairs: int = 5) -> None:
     once), each judged as a campaign's row judges it (``judge_run_metrics``),
     with its mission's temporal formulas and without them, and as ``run``
     judges it (``judge``, every metric of summary.json); then the 1-hour
-    mission as ``run`` judges it, per sample. CPU medians, each judged in a
+    mission as ``run`` judges it, per sample, and the peak of the judge's own
+    arrays then (``tracemalloc``). CPU medians, each judged in a
     process of its own, ``pairs`` times; with a commit's name (`judge COMMIT`)
     also as at that commit, in turn (the mission handed over in its resolved
     form, which both take), and the ratios pair by pair."""
@@ -1095,7 +1102,7 @@ def judge_cost(repeat: int = 40, pairs: int = 5) -> None:
     hour_mission = load_mission(HOUR)
     hour = (run_mission(plan_mission(hour_mission)), hour_mission.model_dump(mode="json"))
     names = ["judge_run_metrics [us]", "the same without formulas [us]", "judge [us]",
-             "judge, 1 h [us a sample]"]  # fmt: skip
+             "judge, 1 h [us a sample]", "judge, 1 h, traced peak [MB]"]  # fmt: skip
     with tempfile.TemporaryDirectory() as tmp:
         with open(f"{tmp}/runs.pickle", "wb") as file:
             pickle.dump((runs, hour), file)

@@ -141,14 +141,31 @@ def _cache_of_this_session(tmp_path: Path) -> Path:
     return cache
 
 
+def test_compile_compiles_the_judges_kernels_too(tmp_path: Path) -> None:
+    """`wmr-mission compile` leaves nothing for a long run's judge to compile:
+    its distance to the path and places on it are in the cache after it."""
+    cache = _cache_of_this_session(tmp_path)
+    (kernels,) = (cache / "wmr_mission").iterdir()
+    judges = ("path_distance._distances-*", "placing.place_samples-*")
+    for pattern in judges:
+        for compiled in kernels.rglob(pattern):
+            compiled.unlink()
+    command = [sys.executable, "-m", "wmr_mission", "compile"]
+    done = subprocess.run(command, env=_env(cache), capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    for pattern in judges:
+        assert list(kernels.rglob(pattern)), pattern
+
+
 def test_compile_marks_the_cache_ready_and_a_long_run_loads_it(tmp_path: Path) -> None:
     """`wmr-mission compile`, here on kernels already compiled so that it takes
     seconds, not a compile. Before it, a mission over the bound of a ready
     cache runs as plain Python and says nothing, one over the bound of an
     empty cache loads (or compiles) the loop in the foreground and says so;
     after it, the first loads the compiled loop (run_segment and the paths'
-    math alone, numba set up without scipy's linear algebra) and says
-    nothing; its trajectory is plain Python's, byte for byte."""
+    math, numba set up without scipy's linear algebra) and the judge's
+    distance to the path and places on it, and says nothing; its trajectory
+    is plain Python's, byte for byte."""
     cache = _cache_of_this_session(tmp_path)
     (kernels,) = (cache / "wmr_mission").iterdir()
     ready = kernels / compile_loop.READY
@@ -177,7 +194,7 @@ def test_compile_marks_the_cache_ready_and_a_long_run_loads_it(tmp_path: Path) -
     assert record.read_text().splitlines() == [
         "numba loaded: True",
         "scipy.linalg loaded: False",
-        "compiled entries: _each run_segment",
+        "compiled entries: _distances _each place_samples run_segment",
     ]
     manifest = json.loads((tmp_path / "next" / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["loop"] == "compiled"

@@ -150,15 +150,18 @@ def warm_up_missions() -> list[Mission]:
 
 
 def compile_kernels() -> None:
-    """Compile every kernel the loop runs into the cache, and the EKF band's replay."""
+    """Compile every kernel the loop runs into the cache, the EKF band's replay
+    and the judge's (the distance to the path and the places on it)."""
     from wmr_mission.output.covariance import estimate_std
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
+    from wmr_mission.verdicts.metrics import judge
 
     for mission in warm_up_missions():
-        result = run_mission(plan_mission(mission))  # compiled: not judged, no metrics loaded
+        result = run_mission(plan_mission(mission))  # compiled
         result.mission = mission.model_dump(mode="json")
         estimate_std(result)  # the EKF band's replay, for the estimation figure
+    judge(result, result.mission)  # one run judged: its kernels take no variant
 
 
 def compile_command() -> int:

@@ -31,8 +31,8 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent.parent
 # The modules holding kernels or what they call: every module of the packages
 # of kernels, estimators and controllers (a new one is counted as it is
-# added), the campaign's pixel counts and the EKF band's replay. A change to
-# any recompiles all.
+# added), the campaign's pixel counts, the EKF band's replay and the judge's
+# distance to the path and places on it. A change to any recompiles all.
 KERNEL_PACKAGES = ("kernels", "estimators", "controllers")
 KERNEL_MODULES = (
     *sorted(
@@ -42,6 +42,8 @@ KERNEL_MODULES = (
     ),
     "campaign/coverage.py",
     "output/covariance.py",
+    "verdicts/path_distance.py",
+    "verdicts/placing.py",
 )
 # What the kernels' directories are called: this prefix, then their sources' stamp.
 PREFIX = "kernels-"

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
+from wmr_mission.kernels import jit
 from wmr_mission.spec import catalog, models
 from wmr_mission.spec.catalog import Metric
 from wmr_mission.verdicts import inputs as input_metrics
@@ -35,6 +36,7 @@ from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.clearance import clearance_min
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
+from wmr_mission.verdicts.path_distance import compiled_distances
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
 from wmr_mission.verdicts.tracking import Placement, track_quality
@@ -212,6 +214,11 @@ def distance_to_path(
     order = np.lexsort((row, column))
     column, row = column[order], row[order]
     first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
+    if jit.loaded():  # the same bits in one compiled pass (verdicts/path_distance.py)
+        distance[finite] = compiled_distances(
+            px, py, qx, qy, own, first, cell, LOCAL_WINDOW, _NEAREST_POINTS
+        )
+        return distance
     grid = NearestPoints(px[first], py[first], cell, qx.size)
     found = np.empty(qx.size)
     last = px.size - 2  # segment i runs from point i to point i + 1

@@ -48,7 +48,7 @@ from wmr_mission.spec.temporal import (
 )
 from wmr_mission.verdicts.check import Check
 from wmr_mission.verdicts.numbers import MissionNumbers
-from wmr_mission.verdicts.tracking import Placement
+from wmr_mission.verdicts.tracking import Placement, known_samples
 from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
@@ -344,7 +344,8 @@ def placed(result: RunRecord, window: slice) -> Placement | None:
     known = np.isfinite(rx) & np.isfinite(ry)
     px, py = result.x[window], result.y[window]
     if not known.all():
-        px, py, rx, ry = px[known], py[known], rx[known], ry[known]
+        kept = known_samples(known)
+        px, py, rx, ry = px[kept], py[kept], rx[kept], ry[kept]
     if rx.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
         return None
     return Placement(px, py, rx, ry)

@@ -42,8 +42,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.kernels import jit
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
+from wmr_mission.verdicts.placing import place_samples
 from wmr_mission.verdicts.zones import Zone, reach_across
 
 # [m] places on the path this much farther than the nearest are not "about as near".
@@ -163,6 +165,12 @@ class Placement:
     def _place_samples(self, begin: int, end: int) -> None:
         """The places of samples ``begin .. end - 1`` by the local search."""
         px, py = self.px, self.py
+        if jit.loaded():  # the same numbers in one compiled pass (verdicts/placing.py)
+            held = np.zeros(0, dtype=np.intp) if self._held is None else self._held
+            jit.compiled(place_samples)(
+                px, py, self.path, held, begin, end, _SEARCH, _STEPS, self._cross, self._place
+            )
+            return
         arc, rx, ry, sx, sy, length = self.path
         n = rx.size
         cross, place = self._cross, self._place
@@ -365,7 +373,12 @@ def track_samples(
         "zone_reach": None,
     }
     if not known.all():
-        t, px, py, rx, ry = t[known], px[known], py[known], rx[known], ry[known]
+        these = known_samples(known)
+        t = t[these]
+        if placement is None:
+            px, py, rx, ry = px[these], py[these], rx[these], ry[these]
+        else:  # the same samples, kept once: a long run's columns are large
+            px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
     if t.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
         return metrics, None  # no reference, or the run diverged
     dt = numbers.dt
@@ -405,6 +418,16 @@ def track_samples(
         "reference_speed_max": float(reference_speed.max()),
     }
     return metrics, _placed(known, size, cross, lag, judged, detour)
+
+
+def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
+    """The samples whose reference is ``known``: a slice where they run
+    unbroken (as a phase's do but its last sample), whose columns are views,
+    not copies of a long run's."""
+    found = np.flatnonzero(known)
+    if found.size and int(found[-1]) - int(found[0]) + 1 == found.size:
+        return slice(int(found[0]), int(found[-1]) + 1)
+    return known
 
 
 def _placed(

@@ -1,0 +1,98 @@
+"""The distance to the path in one compiled pass (wmr_mission/verdicts/path_distance.py)
+gives the numpy form's bits (metrics.distance_to_path), compiled and as plain Python."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from wmr_mission.kernels import jit
+from wmr_mission.verdicts import metrics
+
+Case = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def _laps(rng: np.random.Generator, samples: int = 3000) -> Case:
+    """A random smooth path flown twice (the second lap between the first's
+    points), the robot up to ten steps off, the last samples far behind."""
+    t = np.linspace(0.0, 4 * math.pi, samples)
+    px = sum(rng.normal() * np.sin(m * t / 2 + rng.uniform(0, 6)) for m in range(1, 5))
+    py = sum(rng.normal() * np.cos(m * t / 2 + rng.uniform(0, 6)) for m in range(1, 5))
+    px, py = np.asarray(px, dtype=np.float64), np.asarray(py, dtype=np.float64)
+    off = 10 * np.median(np.hypot(np.diff(px), np.diff(py)))
+    x, y = px + rng.uniform(-off, off, samples), py + rng.uniform(-off, off, samples)
+    behind = np.arange(samples - 200, samples) - samples // 10
+    x[-200:], y[-200:] = px[behind], py[behind] + off
+    return x, y, px, py
+
+
+def _grid_path(rng: np.random.Generator) -> Case:
+    """A path on a lattice, each point held a few samples (segments of length
+    0), the robot on and between the lattice's points: ties everywhere."""
+    steps = rng.integers(-1, 2, size=(2, 400)) * 0.25
+    px, py = np.repeat(np.cumsum(steps, axis=1), 3, axis=1)
+    x = np.round((px + rng.normal(0, 0.3, px.size)) * 8) / 8
+    y = np.round((py + rng.normal(0, 0.3, py.size)) * 8) / 8
+    return x, y, px, py
+
+
+def _gaps(rng: np.random.Generator) -> Case:
+    """References and positions missing here and there, some positions far
+    outside the path's extent, some beyond the grid's reach, one huge."""
+    x, y, px, py = _laps(rng, 1200)
+    px[rng.integers(0, px.size, 40)] = np.nan
+    x[rng.integers(0, x.size, 40)] = np.nan
+    x[100:110] += 500.0
+    y[200:205] = -3e13
+    x[300], y[300] = 1e200, -1e200  # squares overflow: every segment's hypot
+    return x, y, px, py
+
+
+def _two_points(rng: np.random.Generator) -> Case:
+    x, y = rng.normal(0, 2, (2, 50))
+    return x, y, np.r_[0.0, np.full(49, 1.0)], np.r_[0.0, np.full(49, 2.0)]
+
+
+CASES: dict[str, Callable[[np.random.Generator], Case]] = {
+    "laps": _laps,
+    "grid": _grid_path,
+    "gaps": _gaps,
+    "two points": _two_points,
+}
+
+
+def _bits(values: np.ndarray) -> list[object]:
+    return ["nan" if math.isnan(v) else np.float64(v).tobytes() for v in values.tolist()]
+
+
+def _numpy_form(case: Case, monkeypatch: pytest.MonkeyPatch) -> np.ndarray:
+    with monkeypatch.context() as patch, np.errstate(over="ignore", invalid="ignore"):
+        patch.setattr(jit, "loaded", lambda: False)
+        return metrics.distance_to_path(*case)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_compiled_distance_to_path_has_the_numpy_forms_bits(
+    name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    case = CASES[name](np.random.default_rng(len(name)))
+    expected = _numpy_form(case, monkeypatch)
+    jit.load()  # as a compiled run does: the distance compiled from here on
+    monkeypatch.setattr(jit, "loaded", lambda: True)  # also where numba is turned off
+    found = metrics.distance_to_path(*case)
+    assert _bits(found) == _bits(expected)
+    assert np.isfinite(expected).sum() > 0.9 * expected.size
+
+
+def test_the_kernel_as_plain_python_has_the_numpy_forms_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    case = tuple(a[:400] for a in _gaps(np.random.default_rng(3)))
+    expected = _numpy_form(case, monkeypatch)
+    monkeypatch.setattr(jit, "loaded", lambda: True)
+    monkeypatch.setattr(jit, "compiled", jit.plain)
+    with np.errstate(over="ignore", invalid="ignore"):  # the huge position, as numpy
+        assert _bits(metrics.distance_to_path(*case)) == _bits(expected)

@@ -1,0 +1,73 @@
+"""Each position's place on the path in one compiled pass (wmr_mission/verdicts/placing.py)
+gives the numpy form's bits (tracking.Placement), compiled and as plain Python."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wmr_mission.kernels import jit
+from wmr_mission.verdicts.tracking import Placement
+
+Case = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def _path(rng: np.random.Generator, samples: int) -> Case:
+    """A random smooth reference that stands still now and then (segments of
+    length 0), the robot near it, then far behind it and cutting across (the
+    guess lands off the segments searched: Newton steps along the path)."""
+    t = np.linspace(0.0, 4 * math.pi, samples)
+    rx = sum(rng.normal() * np.sin(m * t / 2 + rng.uniform(0, 6)) for m in range(1, 5))
+    ry = sum(rng.normal() * np.cos(m * t / 2 + rng.uniform(0, 6)) for m in range(1, 5))
+    rx, ry = np.asarray(rx, dtype=np.float64), np.asarray(ry, dtype=np.float64)
+    for start in rng.integers(1, samples - 20, 6):  # the reference waits
+        rx[start : start + 15], ry[start : start + 15] = rx[start], ry[start]
+    step = np.median(np.hypot(np.diff(rx), np.diff(ry)))
+    px = rx + rng.normal(0.0, 3 * step, samples)
+    py = ry + rng.normal(0.0, 3 * step, samples)
+    behind = rng.integers(0, samples, samples // 5)
+    px[behind] = rx[np.maximum(behind - rng.integers(5, 200, behind.size), 0)]
+    py[behind] = ry[np.maximum(behind - rng.integers(5, 200, behind.size), 0)] + step
+    return px, py, rx, ry
+
+
+def _places(case: Case, near: float, first: int) -> tuple[np.ndarray, np.ndarray]:
+    return Placement(*case).on_path(near, first)
+
+
+def _bits(values: np.ndarray) -> list[object]:
+    return ["nan" if math.isnan(v) else np.float64(v).tobytes() for v in values.tolist()]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compiled_places_have_the_numpy_forms_bits(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rng = np.random.default_rng(seed)
+    case = _path(rng, 3000)
+    for near, first in ((math.inf, 0), (0.05, 0), (0.05, 700)):
+        with monkeypatch.context() as patch:
+            patch.setattr(jit, "loaded", lambda: False)
+            expected = _places(case, near, first)
+        jit.load()  # as a compiled run does: the places compiled from here on
+        with monkeypatch.context() as patch:
+            patch.setattr(jit, "loaded", lambda: True)  # also where numba is turned off
+            found = _places(case, near, first)
+        for ours, theirs in zip(found, expected, strict=True):
+            assert _bits(ours) == _bits(theirs)
+
+
+def test_the_kernel_as_plain_python_has_the_numpy_forms_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    case = _path(np.random.default_rng(5), 400)
+    with monkeypatch.context() as patch:
+        patch.setattr(jit, "loaded", lambda: False)
+        expected = _places(case, math.inf, 0)
+    monkeypatch.setattr(jit, "loaded", lambda: True)
+    monkeypatch.setattr(jit, "compiled", jit.plain)
+    found = _places(case, math.inf, 0)
+    for ours, theirs in zip(found, expected, strict=True):
+        assert _bits(ours) == _bits(theirs)

@@ -1,0 +1,112 @@
+"""Each position's place on the path in one compiled pass, where the run's
+kernels are compiled: :meth:`wmr_mission.verdicts.tracking.Placement.on_path`'s
+local search (its numpy form, in blocks of positions, serves plain Python).
+
+The search is each position's own, so a position at a time gives the same
+numbers: the same operations in the same order, and numpy's ``searchsorted``
+(the first point beyond) and ``argmin`` (the first least, a NaN first) as
+loops (``tests/test_verdict_placing.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.kernels.jit import inlined, kernel
+
+__all__ = ["place_samples"]
+
+
+@kernel
+def place_samples(
+    px: FloatArray,
+    py: FloatArray,
+    path: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray],
+    held: NDArray[np.intp],
+    begin: int,
+    end: int,
+    search: int,
+    steps: int,
+    cross: FloatArray,
+    place: FloatArray,
+) -> None:
+    """Cross-track error and arc length of the place of positions ``begin ..
+    end - 1`` (into ``cross`` and ``place``): on the segment the guess from the
+    sample's own reference point falls on if the foot of the perpendicular is
+    on it; else the nearest of the ``search`` segments either side of the
+    guess, and from there a Newton step along the path while it lies at their
+    outer end, ``steps`` times at most. ``held``: the direction each segment
+    takes (one that stands still, the one before); empty: its own."""
+    arc, rx, ry, sx, sy, length = path
+    n = rx.size
+    last = n - 2  # segment i runs from point i to point i + 1
+    for k in range(begin, end):
+        qx, qy = px[k], py[k]
+        ux, uy = _direction(sx, sy, length, held, min(k, last))
+        guess = arc[k] - ((rx[k] - qx) * ux + (ry[k] - qy) * uy)
+        segment = max(min(_first_beyond(arc, guess) - 1, last), 0)
+        ax, ay, ex, ey = rx[segment], ry[segment], sx[segment], sy[segment]
+        step = length[segment]
+        along = ((qx - ax) * ex + (qy - ay) * ey) / (step * step if step > 0.0 else 1.0)
+        if along > 0.0 and along < 1.0:
+            dx, dy = qx - ax - along * ex, qy - ay - along * ey
+            cross[k] = math.sqrt(dx * dx + dy * dy)
+            place[k] = arc[segment] + along * step
+            continue
+        for attempt in range(steps):
+            centre = _first_beyond(arc, guess) - 1
+            lowest = max(min(centre - search, last), 0)
+            highest = max(min(centre + search, last), 0)
+            best, chosen, fraction = math.inf, -1, 0.0
+            for j in range(-search, search + 1):
+                s = max(min(centre + j, last), 0)
+                ax, ay, ex, ey = rx[s], ry[s], sx[s], sy[s]
+                squared = length[s] * length[s]
+                along = ((qx - ax) * ex + (qy - ay) * ey) / (squared if squared > 0.0 else 1.0)
+                if along > 1.0:
+                    along = 1.0
+                if along < 0.0:
+                    along = 0.0
+                dx, dy = qx - ax - along * ex, qy - ay - along * ey
+                distance = math.sqrt(dx * dx + dy * dy)
+                # numpy's argmin: the first least, or the first NaN
+                if chosen < 0 or (best == best and (distance < best or distance != distance)):
+                    best, chosen, fraction = distance, s, along
+            at = arc[chosen] + fraction * length[chosen]
+            beyond = (chosen == lowest and fraction <= 0.0 and chosen > 0) or (
+                chosen == highest and fraction >= 1.0 and chosen < last
+            )
+            if not beyond or attempt == steps - 1:
+                cross[k], place[k] = best, at
+                break
+            # Beyond the segments searched: a Newton step along the path from there.
+            ux, uy = _direction(sx, sy, length, held, chosen)
+            foot_x = rx[chosen] + (at - arc[chosen]) * ux
+            foot_y = ry[chosen] + (at - arc[chosen]) * uy
+            guess = at + (qx - foot_x) * ux + (qy - foot_y) * uy
+
+
+@inlined
+def _direction(
+    sx: FloatArray, sy: FloatArray, length: FloatArray, held: NDArray[np.intp], segment: int
+) -> tuple[float, float]:
+    along = segment if held.size == 0 else held[segment]
+    return sx[along] / length[along], sy[along] / length[along]
+
+
+@inlined
+def _first_beyond(arc: FloatArray, value: float) -> int:
+    """``np.searchsorted(arc, value, side="right")``: the first point whose arc
+    length is above ``value`` (past the end for a NaN, as numpy)."""
+    low, high = 0, arc.size
+    while low < high:
+        middle = (low + high) // 2
+        if value < arc[middle]:
+            high = middle
+        else:
+            low = middle + 1
+    return low
