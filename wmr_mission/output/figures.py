@@ -29,6 +29,7 @@ import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, IntArray
 from wmr_mission.geometry.regions import box_corners
+from wmr_mission.kernels.resident import give_back_freed_heap
 from wmr_mission.output.files import atomic_path
 from wmr_mission.verdicts.metrics import (
     convergence_index,
@@ -43,6 +44,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from wmr_mission.record import RunRecord
+    from wmr_mission.verdicts.signals import Signals
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -122,6 +124,9 @@ LEGEND_COLUMN_WIDTH = 2.8
 MAX_LEGEND_PHASES = 2 * LEGEND_ROWS
 # Heading arrows along the path of the xy figure (evenly by distance), and one at its end.
 HEADING_ARROWS = 16
+# Samples from which drawing a run's figures first gives the heap's free
+# pages back (its record 14 MB or more; a collection costs some 35 ms of CPU).
+LONG_RUN = 100_000
 # Phase boundaries drawn over time: about one per pixel of a figure's width.
 MAX_PHASE_LINES = 1000
 # Places of phase changes numbered on the xy figure, evenly chosen when there are more.
@@ -1160,16 +1165,18 @@ FAILED_COLOR = "tab:red"
 SIGNAL_COLORS = ("tab:blue", "tab:orange", "tab:green")
 
 
-def _verdicts_on(fig: Figure, result: RunRecord) -> None:
+def _verdicts_on(fig: Figure, result: RunRecord, signals: Signals | None = None) -> None:
     """The error signals the `expect` checks bound, over time, one panel each:
     the bounds drawn over their phases, the samples beyond them marked, the
-    first failure's time drawn across every panel; failing panels on top."""
+    first failure's time drawn across every panel; failing panels on top.
+    ``signals``: the run's, computed already (else here)."""
     from matplotlib.collections import LineCollection
     from matplotlib.lines import Line2D
 
     from wmr_mission.verdicts.signals import PANELS, Check, line_of, panel_of, run_signals
 
-    signals = run_signals(result)
+    if signals is None:
+        signals = run_signals(result)
     failed = signals.failed()
     shown = [
         p
@@ -1389,11 +1396,12 @@ def plot_verdicts(result: RunRecord) -> Figure:
 # --- files ----------------------------------------------------------------
 
 
-def _figure(result: RunRecord, name: str) -> Figure:
-    """The figure of a run's file ``name`` (one of FIGURE_NAMES)."""
+def _figure(result: RunRecord, name: str, signals: Signals | None = None) -> Figure:
+    """The figure of a run's file ``name`` (one of FIGURE_NAMES); ``signals``:
+    the run's verdict signals, computed already (else when needed)."""
     if name == "verdicts":
         fig = new_figure((9.0, 6.0))
-        _verdicts_on(fig, result)
+        _verdicts_on(fig, result, signals)
     elif name == "xy":
         fig = new_figure((XY_WIDTH, 6.5))
         columns = _xy_on(fig.add_subplot(), result)
@@ -1581,12 +1589,21 @@ def draw_all(
     # verdicts.png explains a run on a screen: its panels and their words need
     # the room; the style sizes the others, the paper's figures.
     styled = {name: STYLES["screen" if name == "verdicts" else style] for name in FIGURE_NAMES}
-    return [
-        save_figure(
-            restyle(_figure(result, name), styled[name]),
-            directory / f"{name}.{fmt}",
-            dpi or DPI,
-        )
-        for fmt in formats
-        for name in FIGURE_NAMES
-    ]
+    # The verdicts' signals first, once, before matplotlib is loaded: their
+    # temporaries over every sample and matplotlib's modules are never
+    # resident together (a long run's peak memory, docs/performance.md).
+    from wmr_mission.verdicts.signals import run_signals
+
+    long_run = result.samples >= LONG_RUN
+    if long_run:  # the judge's temporaries, freed
+        give_back_freed_heap()
+    signals = run_signals(result)
+    written = []
+    for fmt in formats:
+        for name in FIGURE_NAMES:
+            if long_run:  # the temporaries before, and the figure drawn before
+                give_back_freed_heap()
+            fig = restyle(_figure(result, name, signals), styled[name])
+            written.append(save_figure(fig, directory / f"{name}.{fmt}", dpi or DPI))
+            del fig  # a figure is cyclic garbage: collected by the next give-back
+    return written
