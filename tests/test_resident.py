@@ -9,6 +9,7 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from test_output_costs import _laps
 
@@ -159,3 +160,21 @@ def test_a_long_runs_figures_compute_the_signals_first_and_give_the_heap_back(
     monkeypatch.undo()
     steps = _drawing_steps(monkeypatch, tmp_path, 1001, ("png",))
     assert steps == ["signals", *(["figure"] * figures)]
+
+
+def test_verdicts_png_keeps_the_signals_thinned_not_at_every_sample() -> None:
+    """Its lines at the thinned samples, each with the range of all its
+    samples: a long run's signals at every sample are freed before the
+    figure is drawn (and before matplotlib is loaded)."""
+    run = _laps(60_000)
+    lines = plots_module.verdict_lines(run)
+    every = signals_module.run_signals(run)
+    kept = plots_module.thin(0, run.samples).size
+    assert kept < 21_000
+    assert lines.thinned.keys() == every.lines.keys()
+    assert lines.thinned
+    for panel, drawn in every.lines.items():
+        for name, values in drawn.items():
+            assert lines.thinned[panel][name].shape == (kept,)
+            finite = values[np.isfinite(values)]
+            assert lines.ranges[panel][name] == (float(finite.min()), float(finite.max()))
