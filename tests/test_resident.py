@@ -19,6 +19,7 @@ import wmr_mission.verdicts.signals as signals_module
 from wmr_mission.api import load_mission
 from wmr_mission.kernels import jit
 from wmr_mission.kernels.resident import read_only_spans
+from wmr_mission.sim.plan import sample_budget
 from wmr_mission.sim.runner import run_mission
 
 SMAPS = """\
@@ -106,22 +107,25 @@ phases:
 """
 
 
-@pytest.mark.parametrize("compiled", [False, True])
-def test_a_compiled_run_gives_the_compilers_pages_back_before_its_first_sample(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, compiled: bool
+@pytest.mark.parametrize(("compiled", "beyond"), [(False, 0), (True, 0), (True, 1)])
+def test_a_long_compiled_run_gives_the_compilers_pages_back_before_its_first_sample(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, compiled: bool, beyond: int
 ) -> None:
     """Once the compiled loop is loaded (numba loaded), before the directory is
     claimed: the claim's first sample does not wait for it. A plain Python run
-    has no compiler to give back."""
+    has no compiler to give back; a short run keeps it (its sample budget
+    under LONG_RUN: reading the mappings would not pay)."""
     monkeypatch.setenv(jit.NO_JIT, "1")  # the loop as plain Python: numba as if loaded
     monkeypatch.setattr(runner_module.jit, "loaded", lambda: compiled)
+    path = tmp_path / "short.yaml"
+    path.write_text(RUN)
+    mission = load_mission(path)
+    monkeypatch.setattr(runner_module, "LONG_RUN", sample_budget(mission) + beyond)
     calls: list[str] = []
     monkeypatch.setattr(runner_module, "give_back_compiler_pages", lambda: calls.append("given"))
-    mission = tmp_path / "short.yaml"
-    mission.write_text(RUN)
-    result = run_mission(load_mission(mission), ready=lambda: calls.append("ready"))
+    result = run_mission(mission, ready=lambda: calls.append("ready"))
     assert result.samples == 51
-    assert calls == (["given", "ready"] if compiled else ["ready"])
+    assert calls == (["given", "ready"] if compiled and not beyond else ["ready"])
 
 
 def _drawing_steps(

@@ -29,7 +29,7 @@ import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, IntArray
 from wmr_mission.geometry.regions import box_corners
-from wmr_mission.kernels.resident import give_back_freed_heap
+from wmr_mission.kernels.resident import LONG_RUN, give_back_freed_heap
 from wmr_mission.output.files import atomic_path
 from wmr_mission.verdicts.metrics import (
     convergence_index,
@@ -124,9 +124,6 @@ LEGEND_COLUMN_WIDTH = 2.8
 MAX_LEGEND_PHASES = 2 * LEGEND_ROWS
 # Heading arrows along the path of the xy figure (evenly by distance), and one at its end.
 HEADING_ARROWS = 16
-# Samples from which drawing a run's figures first gives the heap's free
-# pages back (its record 14 MB or more; a collection costs some 35 ms of CPU).
-LONG_RUN = 100_000
 # Phase boundaries drawn over time: about one per pixel of a figure's width.
 MAX_PHASE_LINES = 1000
 # Places of phase changes numbered on the xy figure, evenly chosen when there are more.
