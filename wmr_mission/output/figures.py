@@ -29,7 +29,11 @@ import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, IntArray
 from wmr_mission.geometry.regions import box_corners
-from wmr_mission.kernels.resident import LONG_RUN, give_back_freed_heap
+from wmr_mission.kernels.resident import (
+    LONG_RUN,
+    collecting_new_objects_only,
+    give_back_freed_heap,
+)
 from wmr_mission.output.files import atomic_path
 from wmr_mission.verdicts.metrics import (
     convergence_index,
@@ -1641,17 +1645,31 @@ def draw_all(
     # temporaries over every sample and matplotlib's modules are never
     # resident together (a long run's peak memory, docs/performance.md).
     long_run = result.samples >= LONG_RUN
-    if long_run:  # the judge's temporaries, freed
-        give_back_freed_heap()
+    if not long_run:
+        return _draw_each(result, directory, formats, styled, dpi or DPI, long_run)
+    give_back_freed_heap()  # the judge's temporaries, freed
+    with collecting_new_objects_only():
+        return _draw_each(result, directory, formats, styled, dpi or DPI, long_run)
+
+
+def _draw_each(
+    result: RunRecord,
+    directory: Path,
+    formats: Sequence[str],
+    styled: Mapping[str, Style],
+    dpi: int,
+    long_run: bool,
+) -> list[Path]:
+    """draw_all's figures, ``long_run``: giving the heap back before each."""
     signals: VerdictLines | None = verdict_lines(result)
     written = []
     for fmt in formats:
         for name in FIGURE_NAMES:
-            if long_run:  # the temporaries before, and the figure drawn before
+            if long_run:  # the figure drawn before (cyclic garbage), the signals' temporaries
                 give_back_freed_heap()
             fig = restyle(_figure(result, name, signals), styled[name])
-            written.append(save_figure(fig, directory / f"{name}.{fmt}", dpi or DPI))
-            del fig  # a figure is cyclic garbage: collected by the next give-back
+            written.append(save_figure(fig, directory / f"{name}.{fmt}", dpi))
+            del fig
             if name == "verdicts" and fmt == formats[-1]:
                 signals = None  # drawn for the last time: the other figures need none
     return written
