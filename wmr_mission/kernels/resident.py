@@ -27,7 +27,7 @@ from typing import Any
 
 # Samples (a mission's budget, a run's record) from which a run gives memory
 # back: a record of 14 MB or more. Below, the 12 ms of CPU that reading the
-# process's mappings costs, or the 35 ms of a garbage collection, would not pay.
+# process's mappings costs, or the 60-90 ms of a full garbage collection, would not pay.
 LONG_RUN = 100_000
 _COMPILER = "/libllvmlite"
 _MADV_DONTNEED = 4  # Linux's value
