@@ -29,6 +29,11 @@ import numpy as np
 
 from wmr_mission.basics import STATES, FloatArray, IntArray
 from wmr_mission.geometry.regions import box_corners
+from wmr_mission.kernels.resident import (
+    LONG_RUN,
+    collecting_new_objects_only,
+    give_back_freed_heap,
+)
 from wmr_mission.output.files import atomic_path
 from wmr_mission.verdicts.metrics import (
     convergence_index,
@@ -43,6 +48,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from wmr_mission.record import RunRecord
+    from wmr_mission.verdicts.signals import Check
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -676,14 +682,25 @@ def _draw_headings(ax: Axes, result: RunRecord, size: float) -> None:
     """The robot's heading as arrows, evenly along the path by distance and at
     its end: an arrow against the direction of travel is the robot reversing
     (a reverse-in dock), an arrow turning on the spot a turn in place."""
-    kept = np.flatnonzero(np.isfinite(result.x) & np.isfinite(result.y) & np.isfinite(result.theta))
-    if kept.size == 0:
-        return  # a run diverged from its first sample
-    x, y, theta = result.x[kept], result.y[kept], result.theta[kept]
+    finite = np.isfinite(result.x) & np.isfinite(result.y) & np.isfinite(result.theta)
+    if finite.all():  # the columns themselves: a long run's are not copied
+        x, y, theta = result.x, result.y, result.theta
+    else:
+        kept = np.flatnonzero(finite)
+        if kept.size == 0:
+            return  # a run diverged from its first sample
+        x, y, theta = result.x[kept], result.y[kept], result.theta[kept]
+    del finite
+    # The distance travelled, in place: a long run's arrays a few at a time.
+    steps, across = np.diff(x), np.diff(y)
     with np.errstate(all="ignore"):  # a diverging tail: its steps count for nothing
-        steps = np.hypot(np.diff(x), np.diff(y))
+        np.hypot(steps, across, out=steps)
+    del across
     steps[~np.isfinite(steps)] = 0.0
-    travelled = np.concatenate(([0.0], np.cumsum(steps)))
+    travelled = np.empty(x.size)
+    travelled[0] = 0.0
+    np.cumsum(steps, out=travelled[1:])
+    del steps
     stations = np.linspace(0.0, float(travelled[-1]), HEADING_ARROWS)
     at = np.unique(np.append(np.searchsorted(travelled, stations), x.size - 1).clip(0, x.size - 1))
     length = 0.035 * size
@@ -1160,21 +1177,61 @@ FAILED_COLOR = "tab:red"
 SIGNAL_COLORS = ("tab:blue", "tab:orange", "tab:green")
 
 
-def _verdicts_on(fig: Figure, result: RunRecord) -> None:
+@dataclass(frozen=True)
+class VerdictLines:
+    """What verdicts.png draws of a run's error signals (verdicts.signals.Signals):
+    each line at the thinned samples and at its check's marked samples, and
+    its range; a long run's signals at every sample are not kept for it."""
+
+    checks: list[Check]
+    failed: list[Check]
+    # panel -> line -> its finite values at thin(0, samples)
+    thinned: dict[str, dict[str, FloatArray]]
+    # panel -> line -> (least, largest) of its finite values; None: none finite
+    ranges: dict[str, dict[str, tuple[float, float] | None]]
+    # id of a peak check -> its line's finite values at the samples marked beyond it
+    marked: dict[int, FloatArray]
+
+
+def verdict_lines(result: RunRecord) -> VerdictLines:
+    """The run's error signals (verdicts.signals.run_signals) as verdicts.png draws them."""
+    from wmr_mission.verdicts.signals import line_of, panel_of, run_signals
+
+    signals = run_signals(result)
+    k = thin(0, result.samples)
+    thinned = {p: {n: finite(v[k]) for n, v in lines.items()} for p, lines in signals.lines.items()}
+    ranges = {p: {n: _range(v) for n, v in lines.items()} for p, lines in signals.lines.items()}
+    marked = {}
+    for check in signals.checks:
+        panel, name = panel_of(check.metric), str(line_of(check.metric))
+        values = signals.lines.get(panel or "", {}).get(name)
+        if check.peak and check.over.size and values is not None:
+            marked[id(check)] = finite(values[check.over[thin(0, check.over.size, MAX_MARKS)]])
+    return VerdictLines(signals.checks, signals.failed(), thinned, ranges, marked)
+
+
+def _range(values: FloatArray) -> tuple[float, float] | None:
+    kept = values[np.isfinite(values)]
+    return (float(kept.min()), float(kept.max())) if kept.size else None
+
+
+def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = None) -> None:
     """The error signals the `expect` checks bound, over time, one panel each:
     the bounds drawn over their phases, the samples beyond them marked, the
-    first failure's time drawn across every panel; failing panels on top."""
+    first failure's time drawn across every panel; failing panels on top.
+    ``signals``: the run's, computed already (else here)."""
     from matplotlib.collections import LineCollection
     from matplotlib.lines import Line2D
 
-    from wmr_mission.verdicts.signals import PANELS, Check, line_of, panel_of, run_signals
+    from wmr_mission.verdicts.signals import PANELS, line_of, panel_of
 
-    signals = run_signals(result)
-    failed = signals.failed()
+    if signals is None:
+        signals = verdict_lines(result)
+    failed = signals.failed
     shown = [
         p
         for p in PANELS
-        if p in signals.lines or any(panel_of(c.metric) == p for c in signals.checks)
+        if p in signals.thinned or any(panel_of(c.metric) == p for c in signals.checks)
     ]
     failing = (panel_of(c.metric) for c in failed)
     first_failing = list(dict.fromkeys(p for p in failing if p is not None))
@@ -1197,10 +1254,10 @@ def _verdicts_on(fig: Figure, result: RunRecord) -> None:
             ax.tick_params(labelbottom=False)
     k = thin(0, result.samples)
     for ax, panel in zip(axes, order, strict=True):
-        drawn = signals.lines.get(panel, {})
+        drawn = signals.thinned.get(panel, {})
         colors = {name: SIGNAL_COLORS[i % 3] for i, name in enumerate(drawn)}
         for name, values in drawn.items():
-            ax.plot(t[k], finite(values[k]), color=colors[name], linewidth=1.0, label=name)
+            ax.plot(t[k], values, color=colors[name], linewidth=1.0, label=name)
         checks = [c for c in signals.checks if panel_of(c.metric) == panel]
         bounds, bound_colors = [], []
         for check in (c for c in checks if c.peak):
@@ -1215,7 +1272,7 @@ def _verdicts_on(fig: Figure, result: RunRecord) -> None:
                 marks = check.over[thin(0, check.over.size, MAX_MARKS)]
                 ax.plot(
                     t[marks],
-                    finite(drawn[name][marks]),
+                    signals.marked[id(check)],
                     linestyle="none",
                     marker="x",
                     markersize=4,
@@ -1235,7 +1292,7 @@ def _verdicts_on(fig: Figure, result: RunRecord) -> None:
             )
         if panel == "saturation":
             ax.axhline(1.0, color="0.2", linewidth=0.8, linestyle=":")
-        _verdict_limits(ax, drawn, checks)
+        _verdict_limits(ax, signals.ranges.get(panel, {}), checks)
         if panel in ("zones", "constraint"):
             # Metres far on the allowed side and millimetres beyond the edge, both
             # readable: linear within the bound of 0, logarithmic beyond.
@@ -1364,16 +1421,18 @@ def _level_words(ax: Axes, checks: Sequence[Any]) -> None:
     )
 
 
-def _verdict_limits(ax: Axes, drawn: Mapping[str, FloatArray], checks: Sequence[Any]) -> None:
-    """The y range: the signals and the bounds (both signs for a signed signal)."""
+def _verdict_limits(
+    ax: Axes, ranges: Mapping[str, tuple[float, float] | None], checks: Sequence[Any]
+) -> None:
+    """The y range: the signals' (``ranges``: each line's finite least and
+    largest value) and the bounds (both signs for a signed signal)."""
     bounds = [c.bound for c in checks if c.peak]
     signed = [c.bound for c in checks if c.metric == "along_track_lag_max"]
-    values = [v[np.isfinite(v)] for v in drawn.values()]
-    values = [v for v in values if v.size]
-    if not values and not bounds:
+    spans = [span for span in ranges.values() if span is not None]
+    if not spans and not bounds:
         return
-    high = max([float(v.max()) for v in values] + bounds + [0.0])
-    low = min([float(v.min()) for v in values] + [-b for b in signed] + [0.0])
+    high = max([span[1] for span in spans] + bounds + [0.0])
+    low = min([span[0] for span in spans] + [-b for b in signed] + [0.0])
     margin = 0.08 * (high - low if high > low else 1.0)
     ax.set_ylim(low - margin, high + margin)
 
@@ -1389,11 +1448,12 @@ def plot_verdicts(result: RunRecord) -> Figure:
 # --- files ----------------------------------------------------------------
 
 
-def _figure(result: RunRecord, name: str) -> Figure:
-    """The figure of a run's file ``name`` (one of FIGURE_NAMES)."""
+def _figure(result: RunRecord, name: str, signals: VerdictLines | None = None) -> Figure:
+    """The figure of a run's file ``name`` (one of FIGURE_NAMES); ``signals``:
+    the run's verdict signals, computed already (else when needed)."""
     if name == "verdicts":
         fig = new_figure((9.0, 6.0))
-        _verdicts_on(fig, result)
+        _verdicts_on(fig, result, signals)
     elif name == "xy":
         fig = new_figure((XY_WIDTH, 6.5))
         columns = _xy_on(fig.add_subplot(), result)
@@ -1581,12 +1641,35 @@ def draw_all(
     # verdicts.png explains a run on a screen: its panels and their words need
     # the room; the style sizes the others, the paper's figures.
     styled = {name: STYLES["screen" if name == "verdicts" else style] for name in FIGURE_NAMES}
-    return [
-        save_figure(
-            restyle(_figure(result, name), styled[name]),
-            directory / f"{name}.{fmt}",
-            dpi or DPI,
-        )
-        for fmt in formats
-        for name in FIGURE_NAMES
-    ]
+    # The verdicts' signals first, once, before matplotlib is loaded: their
+    # temporaries over every sample and matplotlib's modules are never
+    # resident together (a long run's peak memory, docs/performance.md).
+    long_run = result.samples >= LONG_RUN
+    if not long_run:
+        return _draw_each(result, directory, formats, styled, dpi or DPI, long_run)
+    give_back_freed_heap()  # the judge's temporaries, freed
+    with collecting_new_objects_only():
+        return _draw_each(result, directory, formats, styled, dpi or DPI, long_run)
+
+
+def _draw_each(
+    result: RunRecord,
+    directory: Path,
+    formats: Sequence[str],
+    styled: Mapping[str, Style],
+    dpi: int,
+    long_run: bool,
+) -> list[Path]:
+    """draw_all's figures, ``long_run``: giving the heap back before each."""
+    signals: VerdictLines | None = verdict_lines(result)
+    written = []
+    for fmt in formats:
+        for name in FIGURE_NAMES:
+            if long_run:  # the figure drawn before (cyclic garbage), the signals' temporaries
+                give_back_freed_heap()
+            fig = restyle(_figure(result, name, signals), styled[name])
+            written.append(save_figure(fig, directory / f"{name}.{fmt}", dpi))
+            del fig
+            if name == "verdicts" and fmt == formats[-1]:
+                signals = None  # drawn for the last time: the other figures need none
+    return written

@@ -26,6 +26,7 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import ELLIPSE_ROW, max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
+from wmr_mission.kernels.resident import LONG_RUN, give_back_compiler_pages
 from wmr_mission.output.result import RunResult
 from wmr_mission.plugins import failure_message
 from wmr_mission.record import Outcome, PhaseRecord, Transition
@@ -638,6 +639,8 @@ class _Run:
         with stop_mode(RAISE):
             self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
         _honour_stop()
+        if jit.loaded() and self.m.max_samples >= LONG_RUN:
+            give_back_compiler_pages()  # not run again (memory, docs/performance.md)
         if self.ready is not None:
             self.ready()
         return (yield from self._chunks(active, phase, draws))
