@@ -480,3 +480,46 @@ def test_cmaes_falsifies_park_corner_on_every_seed_and_sooner_than_random() -> N
     random = [runs("random", seed) for seed in range(5)]
     assert max(cmaes) <= 300
     assert np.median(cmaes) * 5 <= np.median(random)
+
+
+BENCHMARKS = Path(__file__).parent.parent / "benchmarks" / "falsification"
+
+
+@pytest.mark.parametrize(
+    ("name", "inside", "outside"),
+    [
+        # the longest lag with the most negative bias; a short lag, no bias
+        ("lag-bias", [1.0, 0.0], [0.0, 0.5]),
+        # heading estimate -0.58 rad and lateral +0.44 m, and its mirror; -0.3 rad, +0.44 m
+        ("estimate-band", [0.21, 0.94], [0.35, 0.94]),
+        ("estimate-band", [0.79, 0.06], [0.5, 0.5]),
+    ],
+)
+def test_a_benchmark_fails_inside_its_stated_region_and_holds_beside_it(
+    name: str, inside: list[float], outside: list[float]
+) -> None:
+    """docs/falsification.md's benchmark table: each region is where its bound is
+    passed, on every sensor seed (the bounds follow the control: lag-bias's 0.4 m
+    failed nowhere once the turn-limit speed and the ramped aim were merged)."""
+    from wmr_mission.campaign.falsify.evaluate import evaluate_draws
+    from wmr_mission.campaign.falsify.loop import draws_of
+
+    loaded = load_campaign(BENCHMARKS / f"{name}-campaign.yaml")
+    space = Space(loaded.campaign)
+    for seed in range(3):
+        failing, holding = evaluate_draws(loaded, draws_of(space, seed, 0, [inside, outside]), None)
+        assert failing.falsified, (seed, failing.objective)
+        assert holding.ran
+        assert holding.objective > 0.5, (seed, holding.objective)
+
+
+@pytest.mark.sweep
+@pytest.mark.parametrize("name", ["estimate-band", "lag-bias"])
+def test_a_benchmark_region_is_at_most_2_percent_of_its_box(name: str) -> None:
+    """The share docs/falsification.md states, on its 60 x 60 grid (region.py): at most
+    the 2 % the acceptance speaks of (estimate-band's 1.2 m failed 2.39 %)."""
+    sys.path.insert(0, str(BENCHMARKS))
+    from region import failing_share
+
+    failing, total = failing_share(str(BENCHMARKS / f"{name}-campaign.yaml"), [60], 2)
+    assert 0 < failing <= 0.02 * total
