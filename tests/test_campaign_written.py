@@ -13,14 +13,16 @@ from typing import Any, Literal
 import pytest
 from pydantic import Field
 
-from wmr_mission.campaign import checked, written
+from wmr_mission.campaign import checked, rows, written
 from wmr_mission.campaign.load import LoadedCampaign, load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.campaign.rows import INVALID, Row, mission_of, run_row
 from wmr_mission.campaign.written import Written
 from wmr_mission.geometry.paths import PATHS, line
+from wmr_mission.geometry.paths.expression import ExpressionTrajectory
 from wmr_mission.geometry.paths.registry import PathType
 from wmr_mission.sim.plan import MissionPlan
+from wmr_mission.sim.runner import run_mission
 
 ROOT = Path(__file__).resolve().parents[1]
 CAMPAIGNS = ROOT / "missions" / "campaigns"
@@ -85,7 +87,7 @@ def _same_plan(a: MissionPlan, b: MissionPlan) -> None:
 def _rows(
     loaded: LoadedCampaign, runs: list[int], how: Written, monkeypatch: pytest.MonkeyPatch
 ) -> list[Row]:
-    monkeypatch.setattr(written, "written_runs", lambda _: how)
+    monkeypatch.setattr(rows, "written_runs", lambda _: how)  # the name run_row calls
     plan = Plan(loaded.campaign)
     return [run_row(loaded, plan.draw(run)) for run in runs]
 
@@ -322,3 +324,55 @@ def test_a_path_whose_start_turns_with_the_heading_is_placed_run_by_run(
         assert len({p.plant.runaway_position for p in plans}) == 4
     finally:
         PATHS.unregister("turned")
+
+
+def test_an_expression_path_as_written_is_sampled_once_per_base(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """case2-headings' spiral is an expression path as written: the same curve
+    for every run, sampled for the first run of each base and kept; its runs'
+    rows are those of runs planned whole (the first test)."""
+    sampled = []
+    real = ExpressionTrajectory.sample
+
+    def counted(self: ExpressionTrajectory, t: Any) -> Any:
+        sampled.append(len(t))
+        return real(self, t)
+
+    monkeypatch.setattr(ExpressionTrajectory, "sample", counted)
+    loaded = load_campaign(CAMPAIGNS / "case2-headings.yaml")
+    mine, plan = Written(loaded), Plan(loaded.campaign)
+    runs = [mine.run(plan.draw(run))[0] for run in range(12)]
+    sampled.clear()  # the paths' first points, once per base (start_extent)
+    for planned in runs:
+        assert planned is not None
+        run_mission(planned)
+    per_run = len(sampled)
+    assert 0 < per_run <= 3 * 3  # a base's chunks: once for its first run
+    for planned in runs[:3]:
+        assert planned is not None
+        run_mission(planned)
+    assert len(sampled) == per_run  # kept
+
+
+def test_an_expression_path_from_the_robot_is_sampled_by_each_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An expression path with `start: current` moves with the pose its phase
+    starts from (here where each run's park ended): not kept, each run's own."""
+    text = SHORT.read_text(encoding="utf-8").replace(
+        "    timeout: 20\n",
+        "    timeout: 20\n  - name: out\n"
+        "    track: {path: {type: expression, x: 0.1*t, y: 0, start: current}}\n"
+        "    until: {elapsed: 0.5}\n",
+    )
+    mission = tmp_path / "m.yaml"
+    mission.write_text(text, encoding="utf-8")
+    loaded = _campaign(
+        tmp_path, "  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n", mission=mission
+    )
+    before = _rows(loaded, [0, 1, 2], _whole(loaded), monkeypatch)
+    after = _rows(loaded, [0, 1, 2], Written(loaded), monkeypatch)
+    for old, new in zip(before, after, strict=True):
+        _same(old, new)
+    assert len({row.metrics for row in after}) == 3

@@ -24,6 +24,8 @@ import threading
 from dataclasses import dataclass, replace
 from typing import Any, Final
 
+import numpy as np
+from numpy.typing import ArrayLike
 from pydantic import TypeAdapter, ValidationError
 
 from wmr_mission.campaign import checked
@@ -31,8 +33,16 @@ from wmr_mission.campaign.load import LoadedCampaign, value_text
 from wmr_mission.campaign.plan import Draw
 from wmr_mission.fields import Scalar
 from wmr_mission.geometry.paths import PATHS
+from wmr_mission.geometry.paths.expression import ExpressionPath
+from wmr_mission.geometry.paths.registry import Sample, Trajectory
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE
-from wmr_mission.sim.plan import MissionPlan, extent_but_start, plan_mission, start_extent
+from wmr_mission.sim.plan import (
+    MissionPlan,
+    PhasePlan,
+    extent_but_start,
+    plan_mission,
+    start_extent,
+)
 from wmr_mission.sim.reactions import used_contingencies
 from wmr_mission.spec.checks import read_by_sampling_checks
 from wmr_mission.spec.models import Mission, TrackPhase
@@ -125,6 +135,7 @@ class Written:
         ):
             return None
         plan = plan_mission(mission, draw.seed)
+        plan = replace(plan, phases=_kept_paths(mission, plan.phases))
         x, y, theta = (float(value) for value in plan.initial_state)
         heading_free = "robot.initial_state.theta" not in self.written or _heading_free(mission)
         return Base(
@@ -205,6 +216,57 @@ def _heading_free(mission: Mission) -> bool:
         for run in run_order(mission)
         if isinstance(run.phase, TrackPhase)
     )
+
+
+KEPT_SAMPLES: Final = 8
+"""Samplings kept of each path: a run samples its path in the same chunks as
+the run before it (wmr_mission.sim.runner), a long run in more than these."""
+
+
+class _KeptSamples:
+    """An expression path as written, the same curve from whatever pose its
+    phase starts: sampled once for the runs of a base at the times each asks
+    for (the last KEPT_SAMPLES), its arrays read-only. Numpy evaluating the
+    expressions costs more than the rest of a run's Python around the loop."""
+
+    def __init__(self, trajectory: Trajectory) -> None:
+        self.trajectory = trajectory
+        self.kept: dict[tuple[tuple[int, ...], bytes], Sample] = {}
+
+    def same_from(self, pose: tuple[float, float, float]) -> Trajectory:
+        """The path made for a phase entered at ``pose``: this one, whatever the pose."""
+        return self
+
+    def sample(self, t: ArrayLike) -> Sample:
+        time = np.asarray(t, dtype=np.float64)
+        key = (time.shape, time.tobytes())
+        found = self.kept.get(key)
+        if found is None:
+            found = self.trajectory.sample(time)
+            for array in found:
+                array.flags.writeable = False
+            if len(self.kept) >= KEPT_SAMPLES:
+                del self.kept[next(iter(self.kept))]
+            self.kept[key] = found
+        return found
+
+
+def _kept_paths(mission: Mission, phases: tuple[PhasePlan, ...]) -> tuple[PhasePlan, ...]:
+    """The plan's phases, each expression path as written made once and its
+    samplings kept (_KeptSamples); the others as planned. A path that starts
+    from the robot's pose is made and sampled by each run."""
+    order = run_order(mission)
+    assert len(order) == len(phases)  # sim.plan plans a phase per run of one
+    kept = []
+    for run, phase in zip(order, phases, strict=True):
+        path = run.phase.track.path if isinstance(run.phase, TrackPhase) else None
+        if phase.make_trajectory is not None and (
+            isinstance(path, ExpressionPath) and path.start == "as-written"
+        ):
+            made = _KeptSamples(phase.make_trajectory((0.0, 0.0, 0.0)))  # any pose
+            phase = replace(phase, make_trajectory=made.same_from)
+        kept.append(phase)
+    return tuple(kept)
 
 
 class _Current(threading.local):
