@@ -43,7 +43,7 @@ from wmr_mission.sim.plan import (
     plan_mission,
     start_extent,
 )
-from wmr_mission.sim.reactions import used_contingencies
+from wmr_mission.sim.reactions import contingency_phases, used_contingencies
 from wmr_mission.spec.checks import read_by_sampling_checks
 from wmr_mission.spec.models import Mission, TrackPhase
 from wmr_mission.spec.repeats import run_order
@@ -255,11 +255,12 @@ def _kept_paths(mission: Mission, phases: tuple[PhasePlan, ...]) -> tuple[PhaseP
     """The plan's phases, each expression path as written made once and its
     samplings kept (_KeptSamples); the others as planned. A path that starts
     from the robot's pose is made and sampled by each run."""
-    order = run_order(mission)
-    assert len(order) == len(phases)  # sim.plan plans a phase per run of one
+    # sim.plan's phases: one per run of a written phase, then the contingencies'
+    written = [run.phase for run in run_order(mission)]
+    written += [phase for _, phase in contingency_phases(mission)]
     kept = []
-    for run, phase in zip(order, phases, strict=True):
-        path = run.phase.track.path if isinstance(run.phase, TrackPhase) else None
+    for source, phase in zip(written, phases, strict=True):
+        path = source.track.path if isinstance(source, TrackPhase) else None
         if phase.make_trajectory is not None and (
             isinstance(path, ExpressionPath) and path.start == "as-written"
         ):
