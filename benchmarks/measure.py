@@ -901,10 +901,11 @@ main()
 
 def campaign(repeat: int = 40, pairs: int = 3) -> None:
     """Where a campaign run's time goes (one process, means of CPU time over
-    ``repeat`` runs of case2-headings), then `sweep --workers 2 --no-plots`
-    of its 2000 runs end to end, the kernel cache warm: the CPU of the
-    sweep's own process and of its workers, per run, and campaign.json's
-    missions_per_second. With a commit's name (`campaign COMMIT`), the same
+    ``repeat`` runs of case2-headings; of the loop, the paths sampled ahead
+    and what a call of the compiled loop costs that runs no sample), then
+    `sweep --workers 2 --no-plots` of its 2000 runs end to end, the kernel
+    cache warm: the CPU of the sweep's own process and of its workers, per
+    run, and campaign.json's missions_per_second. With a commit's name (`campaign COMMIT`), the same
     sweep as at that commit too, in turn with this one, ``pairs`` times
     (after one untimed run of each: a checkout compiles its kernels once)."""
     import json
@@ -913,6 +914,8 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import run_row
     from wmr_mission.campaign.written import written_runs
+    from wmr_mission.kernels import loop as loop_module
+    from wmr_mission.sim import runner
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.verdicts.metrics import judge_run_metrics
 
@@ -921,8 +924,32 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
     for run in range(3):  # loads the kernels, plans each noise level once
         run_row(loaded, plan.draw(run))
     runs = written_runs(loaded)
+    # The CPU of sampling the paths ahead, inside the loop's stage.
+    path_s = [0.0]
+    path_ahead = runner.PhaseRun.path_ahead
+
+    def timed_path_ahead(self: runner.PhaseRun, *args: Any) -> Any:
+        started = time.process_time()
+        block = path_ahead(self, *args)
+        path_s[0] += time.process_time() - started
+        return block
+
+    # The CPU of each call of the compiled loop that runs no sample (a run's
+    # first, which loads the loop): what numba's dispatcher costs a call.
+    empty_us: list[float] = []
+    segment = runner._Run._segment
+
+    def timed_segment(self: runner._Run, *args: Any) -> int:
+        before = int(self.signals.counters[loop_module.K])
+        started = time.thread_time_ns()
+        status = segment(self, *args)
+        if int(self.signals.counters[loop_module.K]) == before:
+            empty_us.append((time.thread_time_ns() - started) / 1000)
+        return status
+
     stages: dict[str, list[float]] = {"draw": [], "plan (written)": [], "loop": [], "judge": []}
     stages |= {"whole row": [], "csv line": []}
+    paths_ms = []
     for run in range(3, repeat + 3):
         times = [time.process_time()]
         draw = plan.draw(run)
@@ -930,7 +957,13 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         planned, record, _ = runs.run(draw)
         times.append(time.process_time())
         assert planned is not None
+        path_s[0] = 0.0
+        runner.PhaseRun.path_ahead = timed_path_ahead  # type: ignore[method-assign]
+        runner._Run._segment = timed_segment  # type: ignore[method-assign]
         result = run_mission(planned)
+        runner.PhaseRun.path_ahead = path_ahead  # type: ignore[method-assign]
+        runner._Run._segment = segment  # type: ignore[method-assign]
+        paths_ms.append(path_s[0] * 1000)
         times.append(time.process_time())
         judge_run_metrics(result, record)
         times.append(time.process_time())
@@ -942,6 +975,10 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
             stages[stage].append((end - start) * 1000)
     print(f"case2-headings, one process, mean CPU over {repeat} runs [ms]:")
     print("  " + ", ".join(f"{k} {statistics.mean(v):.2f}" for k, v in stages.items()))
+    print(
+        f"  of the loop, the paths sampled ahead {statistics.mean(paths_ms):.2f}; a call of "
+        f"the compiled loop that runs no sample {statistics.median(empty_us):.0f} us (median)"
+    )
     _rows_in_the_sweeps_process(loaded)
     against = sys.argv[2] if len(sys.argv) > 2 else None
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)

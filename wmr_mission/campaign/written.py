@@ -20,20 +20,33 @@ same reason.
 
 from __future__ import annotations
 
-import math
 import threading
 from dataclasses import dataclass, replace
 from typing import Any, Final
 
+import numpy as np
+from numpy.typing import ArrayLike
+from pydantic import TypeAdapter, ValidationError
+
 from wmr_mission.campaign import checked
 from wmr_mission.campaign.load import LoadedCampaign, value_text
 from wmr_mission.campaign.plan import Draw
-from wmr_mission.fields import ABSURD
+from wmr_mission.fields import Scalar
+from wmr_mission.geometry.paths import PATHS
+from wmr_mission.geometry.paths.expression import ExpressionPath
+from wmr_mission.geometry.paths.registry import Sample, Trajectory
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE
-from wmr_mission.sim.plan import MissionPlan, extent_but_start, plan_mission, start_extent
-from wmr_mission.sim.reactions import used_contingencies
+from wmr_mission.sim.plan import (
+    MissionPlan,
+    PhasePlan,
+    extent_but_start,
+    plan_mission,
+    start_extent,
+)
+from wmr_mission.sim.reactions import contingency_phases, used_contingencies
 from wmr_mission.spec.checks import read_by_sampling_checks
-from wmr_mission.spec.models import Mission
+from wmr_mission.spec.models import Mission, TrackPhase
+from wmr_mission.spec.repeats import run_order
 
 __all__ = ["MAX_BASES", "WRITTEN", "Base", "Written", "written_runs"]
 
@@ -67,6 +80,11 @@ class Base:
     record: dict[str, Any]
     fixed_extent: float  # sim.plan.extent_but_start
     estimate_is_start: bool  # no initial estimate written: it is the start pose
+    # The extent the paths' first points and the start's position set
+    # (sim.plan.start_extent without the estimate), the same for every run of
+    # the base where no path's first point moves with the start heading; else
+    # None (found run by run).
+    start_extent: float | None
 
 
 class Written:
@@ -117,12 +135,16 @@ class Written:
         ):
             return None
         plan = plan_mission(mission, draw.seed)
+        plan = replace(plan, phases=_kept_paths(mission, plan.phases))
+        x, y, theta = (float(value) for value in plan.initial_state)
+        heading_free = "robot.initial_state.theta" not in self.written or _heading_free(mission)
         return Base(
             mission,
             plan,
             mission.model_dump(mode="json"),
             extent_but_start(mission, plan.regions),
             mission.estimator.initial_estimate is None,
+            start_extent(mission, (x, y, theta), (x, y)) if heading_free else None,
         )
 
     def _plan(self, base: Base, draw: Draw) -> MissionPlan:
@@ -136,14 +158,15 @@ class Written:
         if base.estimate_is_start:
             arrays["initial_estimate"] = arrays["initial_state"].copy()
         start, estimate = arrays["initial_state"], arrays["initial_estimate"]
-        extent = max(
-            base.fixed_extent,
-            start_extent(
+        if base.start_extent is None:
+            moved = start_extent(
                 base.mission,
                 (float(start[0]), float(start[1]), float(start[2])),
                 (float(estimate[0]), float(estimate[1])),
-            ),
-        )
+            )
+        else:  # the estimate's x and y: finite, as every written value is (_all_sound)
+            moved = max(base.start_extent, abs(float(estimate[0])), abs(float(estimate[1])))
+        extent = max(base.fixed_extent, moved)
         plant = base.plan.plant._replace(runaway_position=RUNAWAY_DISTANCE + extent)
         return replace(
             base.plan, plant=plant, seed=draw.seed, initial_state=start, initial_estimate=estimate
@@ -167,14 +190,84 @@ def _keys(path: str) -> tuple[str, ...]:
     return tuple(path.split("."))
 
 
+_SCALAR: Final[TypeAdapter[float]] = TypeAdapter(Scalar)
+
+
 def _all_sound(draw: Draw, paths: list[str]) -> bool:
-    """Whether each drawn value passes its field's own rule (a Scalar: a finite
-    float, at most ABSURD in size); else the run is checked whole, and says why."""
+    """Whether each drawn value is a float that passes its field's own rule
+    (every WRITTEN field is a Scalar); else the run is checked whole, and says why."""
     for path in paths:
         value = draw.values[path]
-        if not (isinstance(value, float) and math.isfinite(value) and abs(value) <= ABSURD):
+        if not isinstance(value, float):
+            return False
+        try:
+            _SCALAR.validate_python(value)
+        except ValidationError:
             return False
     return True
+
+
+def _heading_free(mission: Mission) -> bool:
+    """Whether no path's first point moves with the start heading: so of every
+    built-in path type (a line's heading turns it about its first point; the
+    others read the position only), not of a plug-in's."""
+    return all(
+        PATHS[run.phase.track.path.type].trajectory.__module__.startswith("wmr_mission.geometry.")
+        for run in run_order(mission)
+        if isinstance(run.phase, TrackPhase)
+    )
+
+
+KEPT_SAMPLES: Final = 8
+"""Samplings kept of each path: a run samples its path in the same chunks as
+the run before it (wmr_mission.sim.runner), a long run in more than these."""
+
+
+class _KeptSamples:
+    """An expression path as written, the same curve from whatever pose its
+    phase starts: sampled once for the runs of a base at the times each asks
+    for (the last KEPT_SAMPLES), its arrays read-only. Numpy evaluating the
+    expressions costs more than the rest of a run's Python around the loop."""
+
+    def __init__(self, trajectory: Trajectory) -> None:
+        self.trajectory = trajectory
+        self.kept: dict[tuple[tuple[int, ...], bytes], Sample] = {}
+
+    def same_from(self, pose: tuple[float, float, float]) -> Trajectory:
+        """The path made for a phase entered at ``pose``: this one, whatever the pose."""
+        return self
+
+    def sample(self, t: ArrayLike) -> Sample:
+        time = np.asarray(t, dtype=np.float64)
+        key = (time.shape, time.tobytes())
+        found = self.kept.get(key)
+        if found is None:
+            found = self.trajectory.sample(time)
+            for array in found:
+                array.flags.writeable = False
+            if len(self.kept) >= KEPT_SAMPLES:
+                del self.kept[next(iter(self.kept))]
+            self.kept[key] = found
+        return found
+
+
+def _kept_paths(mission: Mission, phases: tuple[PhasePlan, ...]) -> tuple[PhasePlan, ...]:
+    """The plan's phases, each expression path as written made once and its
+    samplings kept (_KeptSamples); the others as planned. A path that starts
+    from the robot's pose is made and sampled by each run."""
+    # sim.plan's phases: one per run of a written phase, then the contingencies'
+    written = [run.phase for run in run_order(mission)]
+    written += [phase for _, phase in contingency_phases(mission)]
+    kept = []
+    for source, phase in zip(written, phases, strict=True):
+        path = source.track.path if isinstance(source, TrackPhase) else None
+        if phase.make_trajectory is not None and (
+            isinstance(path, ExpressionPath) and path.start == "as-written"
+        ):
+            made = _KeptSamples(phase.make_trajectory((0.0, 0.0, 0.0)))  # any pose
+            phase = replace(phase, make_trajectory=made.same_from)
+        kept.append(phase)
+    return tuple(kept)
 
 
 class _Current(threading.local):
