@@ -241,6 +241,28 @@ def test_the_tracking_law_follows_a_circle_at_its_acceleration_limits() -> None:
     assert np.abs(result.v[joined] - 0.195 * 3.392).max() < 0.05
 
 
+def test_the_tracking_law_joins_a_line_beside_it_at_its_turn_acceleration_limit() -> None:
+    """A line 0.1 m beside the robot at 0.88 m/s, under 3.6 rad/s^2 (the
+    limits of the generated mission gen-087-coverage): closing the error at
+    the design's pace asked for a heading the turn acceleration could not
+    reach in time, and the turn rate swung from one acceleration limit to
+    the other for good, 0.16-0.18 m about the line. With the error closed
+    per sample bounded by what the turn reaches (error_reach), it joins."""
+    limits = {"v": 2.303, "omega": 2.796, "acceleration": {"v": 2.942, "omega": 3.611}}
+    go = {
+        "name": "go",
+        "track": {"path": {"type": "line", "start": [0, 0.1], "heading": 0, "speed": 0.884}},
+        "until": {"elapsed": 10},
+    }
+    data = _one_phase(limits, go)
+    data["robot"]["dt"] = 0.02
+    result, summary = _judged(data)
+    assert summary["outcome"] == "success", summary["message"]
+    joined = result.t > 2.0
+    assert np.abs(result.y[joined] - 0.1).max() < 1e-3
+    assert np.abs(result.omega[joined]).max() < 0.01
+
+
 def test_a_route_slows_into_its_stops_at_the_acceleration_limit() -> None:
     """A polyline turns in place at its corners and ends at its last point:
     its reference stopped there from 0.95 m/s in one sample, which 1.5 m/s^2

@@ -77,6 +77,9 @@ JITTER_SHARE = 0.01
 # The share of each input's range the tracking law's error dynamics follow as
 # designed under the robot's acceleration limits (attainable_time_constant).
 ATTAINABLE_SHARE = 0.2
+# Under a turn-rate acceleration limit a_omega the output's error closed at the
+# design's pace is at most this times a_omega limits.v tau^3 (error_reach).
+TURNABLE_REACH = 2.0
 
 
 class Tracking(Model):
@@ -817,7 +820,18 @@ def error_reach(
     distance = look_ahead(settings, dt, speed_limit)
     if decay == 0.0 or distance == 0.0:
         return math.inf
-    return HEADING_STEP * distance / (1.0 - decay)
+    reach = HEADING_STEP * distance / (1.0 - decay)
+    if limits is not None and math.isfinite(float(limits[3])):
+        # Under a turn-rate acceleration limit the heading the law asks,
+        # about e / (v tau) for a sideways error e at speed v, must be one
+        # the turn reaches within tau: beyond, the turn rate swings from its
+        # acceleration limit to the other and the robot weaves about its
+        # path for good (docs/paper-notes.md, eq. (27) under acceleration
+        # limits, "The error closed per sample under a turn-rate limit").
+        tau = attainable_time_constant(float(settings.tracking.time_constant), limits)
+        turnable = TURNABLE_REACH * float(limits[3]) * float(limits[0]) * tau * tau * tau
+        reach = min(reach, turnable)
+    return reach
 
 
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
