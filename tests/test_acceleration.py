@@ -246,8 +246,8 @@ def test_the_tracking_law_joins_a_line_beside_it_at_its_turn_acceleration_limit(
     limits of the generated mission gen-087-coverage): closing the error at
     the design's pace asked for a heading the turn acceleration could not
     reach in time, and the turn rate swung from one acceleration limit to
-    the other for good, 0.16-0.18 m about the line. With the error closed
-    per sample bounded by what the turn reaches (error_reach), it joins."""
+    the other for good, 0.16-0.18 m about the line. Closed no faster than
+    at the time constant whose heading the turn reaches in it, it joins."""
     limits = {"v": 2.303, "omega": 2.796, "acceleration": {"v": 2.942, "omega": 3.611}}
     go = {
         "name": "go",
@@ -323,3 +323,18 @@ def test_a_robot_facing_away_from_its_way_turns_before_it_drives() -> None:
     _, summary = _judged(data)
     assert summary["outcome"] == "success", summary["message"]
     assert summary["phases"][0]["tracking"]["cross_track_error_max"] < 0.1
+
+
+@pytest.mark.parametrize(
+    ("name", "before"),
+    [("gen-169-coverage", "cross_track_error_max = 0.138"), ("gen-031-line", "reversals = 4")],
+)
+def test_generated_paths_no_longer_weave_at_the_turn_acceleration(name: str, before: str) -> None:
+    """Two generated missions the weave failed: a coverage route (5.2 m/s,
+    7.4 rad/s^2; 0.14 m off its lanes after each lane's end, 0.6 m behind)
+    and a line beside a keep-out circle (turn rate reversed 4 times within a
+    second). Closed at the pace the turn follows, both succeed."""
+    data = yaml.safe_load((ROOT / "tests" / "data" / "generated" / f"{name}.yaml").read_text())
+    data["phases"] = data["phases"][:1]
+    _, summary = _judged(data)
+    assert summary["outcome"] == "success", (before, summary["message"])

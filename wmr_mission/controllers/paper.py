@@ -77,9 +77,13 @@ JITTER_SHARE = 0.01
 # The share of each input's range the tracking law's error dynamics follow as
 # designed under the robot's acceleration limits (attainable_time_constant).
 ATTAINABLE_SHARE = 0.2
-# Under a turn-rate acceleration limit a_omega the output's error closed at the
-# design's pace is at most this times a_omega limits.v tau^3 (error_reach).
-TURNABLE_REACH = 2.0
+# Under a turn-rate acceleration limit a_omega an output error e is taken out
+# no faster than at the time constant cbrt(e / (TURNABLE_SHARE a_omega v)),
+# v the path's speed (turn_acceleration): the heading it asks is one the turn
+# reaches in that time (docs/paper-notes.md, eq. (27) under acceleration limits).
+TURNABLE_SHARE = 0.7
+# The least path speed, as a share of limits.v, that pace is figured at.
+TURNABLE_SPEED = 0.1
 
 
 class Tracking(Model):
@@ -182,6 +186,9 @@ class PaperTuning(NamedTuple):
     # [m] the largest error of the tracked output closed at error_decay's pace;
     # a larger one is closed as this one is (inf: no such bound).
     error_reach: float = math.inf
+    # [rad/s^2] TURNABLE_SHARE of the turn-rate acceleration limit the error
+    # closed per sample follows (inf: no such limit, or a one-sample law).
+    turn_acceleration: float = math.inf
 
 
 # Regulation forms (controller.regulation.form).
@@ -267,10 +274,25 @@ def track_input(
     left_x = error_decay * error_x
     left_y = error_decay * error_y
     distance = hypot(error_x, error_y)
+    kept = error_decay
     if distance > controller.error_reach:
         kept = 1.0 - (1.0 - error_decay) * controller.error_reach / distance
         left_x = kept * error_x
         left_y = kept * error_y
+    if controller.turn_acceleration != math.inf and distance > 0.0:
+        # Under a turn-rate acceleration limit: closing an error e at the
+        # time constant tau asks the heading about e / (v tau) off the path,
+        # and beyond what the turn reaches and stops at within tau the turn
+        # rate swings from one acceleration limit to the other and the robot
+        # weaves about its path for good (a line 0.1 m beside it, 0.17 m
+        # about it). tau at least cbrt(e / (a v)), the time that turn takes.
+        speed = hypot(reference[0] - reference_now[0], reference[1] - reference_now[1]) / dt
+        speed = max(speed, TURNABLE_SPEED * robot.limits[0])
+        pace = math.pow(distance / (controller.turn_acceleration * speed), 1.0 / 3.0)
+        if 1.0 - dt / pace > kept:
+            kept = 1.0 - dt / pace
+            left_x = kept * error_x
+            left_y = kept * error_y
     eta[0] = reference[0] + look_ahead * reference[2] - left_x - (px + look_ahead * c)
     eta[1] = reference[1] + look_ahead * reference[3] - left_y - (py + look_ahead * s)
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
@@ -820,18 +842,16 @@ def error_reach(
     distance = look_ahead(settings, dt, speed_limit)
     if decay == 0.0 or distance == 0.0:
         return math.inf
-    reach = HEADING_STEP * distance / (1.0 - decay)
-    if limits is not None and math.isfinite(float(limits[3])):
-        # Under a turn-rate acceleration limit the heading the law asks,
-        # about e / (v tau) for a sideways error e at speed v, must be one
-        # the turn reaches within tau: beyond, the turn rate swings from its
-        # acceleration limit to the other and the robot weaves about its
-        # path for good (docs/paper-notes.md, eq. (27) under acceleration
-        # limits, "The error closed per sample under a turn-rate limit").
-        tau = attainable_time_constant(float(settings.tracking.time_constant), limits)
-        turnable = TURNABLE_REACH * float(limits[3]) * float(limits[0]) * tau * tau * tau
-        reach = min(reach, turnable)
-    return reach
+    return HEADING_STEP * distance / (1.0 - decay)
+
+
+def turn_acceleration(settings: PaperController, dt: float, limits: FloatArray) -> float:
+    """[rad/s^2] The turn-rate acceleration the error closed per sample
+    follows: TURNABLE_SHARE of the limit; inf without one, and for the
+    one-sample laws and the axle law (track_input)."""
+    if error_decay(settings, dt, limits) == 0.0 or not math.isfinite(float(limits[3])):
+        return math.inf
+    return TURNABLE_SHARE * float(limits[3])
 
 
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
@@ -848,6 +868,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         reverse=regulation.reverse,
         barrier_rate=min(1.0, float(plant.dt) / BARRIER_TIME),
         error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
+        turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
     )
 
 

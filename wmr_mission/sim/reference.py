@@ -32,6 +32,7 @@ from wmr_mission.controllers.paper import (
     REVERSE_HYSTERESIS,
     REVERSING,
     TURN_SLEW,
+    TURNABLE_SPEED,
     PaperTuning,
 )
 from wmr_mission.estimators import ekf, observer
@@ -293,8 +294,18 @@ def track_input(
     d = np.column_stack([np.eye(2), look_ahead * normal])  # D = dG/dx
     left = error_decay * error_now
     distance = float(np.hypot(error_now[0], error_now[1]))
+    kept = error_decay
     if distance > controller.error_reach:  # at most error_reach's share closed
-        left = (1.0 - (1.0 - error_decay) * controller.error_reach / distance) * error_now
+        kept = 1.0 - (1.0 - error_decay) * controller.error_reach / distance
+        left = kept * error_now
+    if math.isfinite(controller.turn_acceleration) and distance > 0.0:
+        # under a turn-rate acceleration limit, a time constant of at least
+        # cbrt(e / (a v)): the heading e / (v tau) it asks, turned within tau
+        speed = float(np.hypot(*(reference[:2] - reference_now[:2]))) / dt
+        speed = max(speed, TURNABLE_SPEED * float(limits[0]))
+        pace = math.pow(distance / (controller.turn_acceleration * speed), 1.0 / 3.0)
+        if 1.0 - dt / pace > kept:
+            left = (1.0 - dt / pace) * error_now
     target = reference[:2] + look_ahead * reference[2:4] - left
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
     du = corrective_input(d, target - output(predicted), b, w, m, limits)
