@@ -108,8 +108,9 @@ class Tracking(Model):
             "time_constant) of the output's error, the path's own motion fed forward; "
             "0 = close the whole error in one sample (the literal eq. 27; always so for "
             "output: axle). Under acceleration limits the law uses at least a fifth of the "
-            "time to full speed and to full turn rate, what the limits follow; the verdicts "
-            "keep this value."
+            "time to full speed and to full turn rate, what the limits follow, and closes a "
+            "larger error no faster than its heading can be turned at the turn-rate "
+            "acceleration; the verdicts keep this value."
         ),
     )
 
