@@ -338,3 +338,19 @@ def test_generated_paths_no_longer_weave_at_the_turn_acceleration(name: str, bef
     data["phases"] = data["phases"][:1]
     _, summary = _judged(data)
     assert summary["outcome"] == "success", (before, summary["message"])
+
+
+def test_a_park_at_speed_turns_round_to_a_target_behind_it() -> None:
+    """A park taking over from a line at 1.12 m/s, its target 3.1 m behind
+    the robot (the generated mission gen-085-line, 1.05 m/s^2 and
+    10.2 rad/s^2): the regulator chose to drive backwards, braked for a
+    second 0.6 m further away and made no progress for 2 s. Turning round
+    takes less time than braking and regaining the speed, so it keeps
+    driving forwards and turns to the target."""
+    data = yaml.safe_load((ROOT / "tests" / "data" / "generated" / "gen-085-line.yaml").read_text())
+    result, summary = _judged(data)
+    assert summary["outcome"] == "success", summary["message"]
+    park = result.phase == result.phase_names.index("park")
+    assert result.v[park].min() > -0.05  # forwards all the way
+    check = next(c for c in summary["expectations"] if c["metric"] == "stall_time")
+    assert check["value"] == 0.0

@@ -548,6 +548,21 @@ def _bearing_round_zones(
     return heading
 
 
+@kernel
+def _turns_sooner(speed: float, turn: float, limits: FloatArray) -> bool:
+    """Whether a robot at ``speed`` (> 0: along its direction of travel)
+    turns by ``turn`` sooner, at the turn-rate limits, than it stops and
+    regains that speed the other way at its speed acceleration limit."""
+    if speed <= 0.0 or limits[2] == math.inf:
+        return False
+    rate, acceleration = limits[1], limits[3]
+    if turn >= rate * rate / acceleration:
+        turning = turn / rate + rate / acceleration
+    else:
+        turning = 2.0 * math.sqrt(turn / acceleration)
+    return bool(turning < 2.0 * speed / limits[2])
+
+
 @inlined
 def regulate_input(
     estimate: FloatArray,
@@ -614,10 +629,19 @@ def regulate_input(
                     # Backwards when the target is behind, with hysteresis: a
                     # target abeam (|eth| = pi/2) chose forwards and backwards
                     # by turns, every sample, for good (a limit cycle).
+                    # Under acceleration limits a robot driving on keeps its
+                    # direction where turning round is quicker than braking and
+                    # regaining its speed the other way: it braked from 1.12
+                    # m/s, 0.6 m further away, and made no progress for 2 s
+                    # (gen-085-line).
                     if memory[REVERSING] == 0.0:
-                        if abs(eth) > 0.5 * math.pi + REVERSE_HYSTERESIS:
+                        if abs(eth) > 0.5 * math.pi + REVERSE_HYSTERESIS and not _turns_sooner(
+                            v_prev, abs(eth), robot.limits
+                        ):
                             memory[REVERSING] = 1.0
-                    elif abs(eth) < 0.5 * math.pi - REVERSE_HYSTERESIS:
+                    elif abs(eth) < 0.5 * math.pi - REVERSE_HYSTERESIS and not _turns_sooner(
+                        -v_prev, math.pi - abs(eth), robot.limits
+                    ):
                         memory[REVERSING] = 0.0
                     if memory[REVERSING] != 0.0:
                         eth = wrap_angle(eth - math.pi)

@@ -329,6 +329,20 @@ def track_input(
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, limits, dt)
 
 
+def turns_sooner(speed: float, turn: float, limits: FloatArray) -> bool:
+    """Whether turning by ``turn`` at the turn-rate limits (up to the rate
+    limit and down again) takes less time than stopping from ``speed`` (> 0
+    along the direction of travel) and regaining it the other way."""
+    v_acceleration, rate, acceleration = (float(limits[i]) for i in (2, 1, 3))
+    if speed <= 0.0 or not math.isfinite(v_acceleration):
+        return False
+    if turn >= rate * rate / acceleration:
+        turning = turn / rate + rate / acceleration
+    else:
+        turning = 2.0 * math.sqrt(turn / acceleration)
+    return turning < 2.0 * speed / v_acceleration
+
+
 def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
     """The largest speed the speeds v, v - a dt, ... bring to rest within
     ``distance``: v^2 / (2 a) + v dt / 2 = distance, solved for v."""
@@ -509,10 +523,14 @@ def regulate_input(
                         bearing = way
                         deviation[:2] = -distance * np.array([math.cos(way), math.sin(way)])
                 deviation[2] = wrap_angle(float(estimate[2]) - bearing)
-                if reverse:  # backwards past abeam, with hysteresis
-                    if abs(deviation[2]) > 0.5 * math.pi + REVERSE_HYSTERESIS:
+                if reverse:  # backwards past abeam, with hysteresis; at speed under
+                    # acceleration limits, on where turning round is sooner
+                    off = abs(float(deviation[2]))
+                    behind = off > 0.5 * math.pi + REVERSE_HYSTERESIS
+                    in_front = off < 0.5 * math.pi - REVERSE_HYSTERESIS
+                    if behind and not turns_sooner(v_prev, off, limits):
                         memory[REVERSING] = 1.0
-                    elif abs(deviation[2]) < 0.5 * math.pi - REVERSE_HYSTERESIS:
+                    elif in_front and not turns_sooner(-v_prev, math.pi - off, limits):
                         memory[REVERSING] = 0.0
                     if memory[REVERSING]:
                         deviation[2] = wrap_angle(float(deviation[2]) - math.pi)
