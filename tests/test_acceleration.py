@@ -241,6 +241,28 @@ def test_the_tracking_law_follows_a_circle_at_its_acceleration_limits() -> None:
     assert np.abs(result.v[joined] - 0.195 * 3.392).max() < 0.05
 
 
+def test_the_tracking_law_joins_a_line_beside_it_at_its_turn_acceleration_limit() -> None:
+    """A line 0.1 m beside the robot at 0.88 m/s, under 3.6 rad/s^2 (the
+    limits of the generated mission gen-087-coverage): closing the error at
+    the design's pace asked for a heading the turn acceleration could not
+    reach in time, and the turn rate swung from one acceleration limit to
+    the other for good, 0.16-0.18 m about the line. Closed no faster than
+    at the time constant whose heading the turn reaches in it, it joins."""
+    limits = {"v": 2.303, "omega": 2.796, "acceleration": {"v": 2.942, "omega": 3.611}}
+    go = {
+        "name": "go",
+        "track": {"path": {"type": "line", "start": [0, 0.1], "heading": 0, "speed": 0.884}},
+        "until": {"elapsed": 10},
+    }
+    data = _one_phase(limits, go)
+    data["robot"]["dt"] = 0.02
+    result, summary = _judged(data)
+    assert summary["outcome"] == "success", summary["message"]
+    joined = result.t > 2.0
+    assert np.abs(result.y[joined] - 0.1).max() < 1e-3
+    assert np.abs(result.omega[joined]).max() < 0.01
+
+
 def test_a_route_slows_into_its_stops_at_the_acceleration_limit() -> None:
     """A polyline turns in place at its corners and ends at its last point:
     its reference stopped there from 0.95 m/s in one sample, which 1.5 m/s^2
@@ -301,3 +323,34 @@ def test_a_robot_facing_away_from_its_way_turns_before_it_drives() -> None:
     _, summary = _judged(data)
     assert summary["outcome"] == "success", summary["message"]
     assert summary["phases"][0]["tracking"]["cross_track_error_max"] < 0.1
+
+
+@pytest.mark.parametrize(
+    ("name", "before"),
+    [("gen-169-coverage", "cross_track_error_max = 0.138"), ("gen-031-line", "reversals = 4")],
+)
+def test_generated_paths_no_longer_weave_at_the_turn_acceleration(name: str, before: str) -> None:
+    """Two generated missions the weave failed: a coverage route (5.2 m/s,
+    7.4 rad/s^2; 0.14 m off its lanes after each lane's end, 0.6 m behind)
+    and a line beside a keep-out circle (turn rate reversed 4 times within a
+    second). Closed at the pace the turn follows, both succeed."""
+    data = yaml.safe_load((ROOT / "tests" / "data" / "generated" / f"{name}.yaml").read_text())
+    data["phases"] = data["phases"][:1]
+    _, summary = _judged(data)
+    assert summary["outcome"] == "success", (before, summary["message"])
+
+
+def test_a_park_at_speed_turns_round_to_a_target_behind_it() -> None:
+    """A park taking over from a line at 1.12 m/s, its target 3.1 m behind
+    the robot (the generated mission gen-085-line, 1.05 m/s^2 and
+    10.2 rad/s^2): the regulator chose to drive backwards, braked for a
+    second 0.6 m further away and made no progress for 2 s. Turning round
+    takes less time than braking and regaining the speed, so it keeps
+    driving forwards and turns to the target."""
+    data = yaml.safe_load((ROOT / "tests" / "data" / "generated" / "gen-085-line.yaml").read_text())
+    result, summary = _judged(data)
+    assert summary["outcome"] == "success", summary["message"]
+    park = result.phase == result.phase_names.index("park")
+    assert result.v[park].min() > -0.05  # forwards all the way
+    check = next(c for c in summary["expectations"] if c["metric"] == "stall_time")
+    assert check["value"] == 0.0

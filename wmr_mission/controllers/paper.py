@@ -77,6 +77,13 @@ JITTER_SHARE = 0.01
 # The share of each input's range the tracking law's error dynamics follow as
 # designed under the robot's acceleration limits (attainable_time_constant).
 ATTAINABLE_SHARE = 0.2
+# Under a turn-rate acceleration limit a_omega an output error e is taken out
+# no faster than at the time constant cbrt(e / (TURNABLE_SHARE a_omega v)),
+# v the path's speed (turn_acceleration): the heading it asks is one the turn
+# reaches in that time (docs/paper-notes.md, eq. (27) under acceleration limits).
+TURNABLE_SHARE = 0.7
+# The least path speed, as a share of limits.v, that pace is figured at.
+TURNABLE_SPEED = 0.1
 
 
 class Tracking(Model):
@@ -101,8 +108,9 @@ class Tracking(Model):
             "time_constant) of the output's error, the path's own motion fed forward; "
             "0 = close the whole error in one sample (the literal eq. 27; always so for "
             "output: axle). Under acceleration limits the law uses at least a fifth of the "
-            "time to full speed and to full turn rate, what the limits follow; the verdicts "
-            "keep this value."
+            "time to full speed and to full turn rate, what the limits follow, and closes a "
+            "larger error no faster than its heading can be turned at the turn-rate "
+            "acceleration; the verdicts keep this value."
         ),
     )
 
@@ -179,6 +187,9 @@ class PaperTuning(NamedTuple):
     # [m] the largest error of the tracked output closed at error_decay's pace;
     # a larger one is closed as this one is (inf: no such bound).
     error_reach: float = math.inf
+    # [rad/s^2] TURNABLE_SHARE of the turn-rate acceleration limit the error
+    # closed per sample follows (inf: no such limit, or a one-sample law).
+    turn_acceleration: float = math.inf
 
 
 # Regulation forms (controller.regulation.form).
@@ -264,10 +275,25 @@ def track_input(
     left_x = error_decay * error_x
     left_y = error_decay * error_y
     distance = hypot(error_x, error_y)
+    kept = error_decay
     if distance > controller.error_reach:
         kept = 1.0 - (1.0 - error_decay) * controller.error_reach / distance
         left_x = kept * error_x
         left_y = kept * error_y
+    if controller.turn_acceleration != math.inf and distance > 0.0:
+        # Under a turn-rate acceleration limit: closing an error e at the
+        # time constant tau asks the heading about e / (v tau) off the path,
+        # and beyond what the turn reaches and stops at within tau the turn
+        # rate swings from one acceleration limit to the other and the robot
+        # weaves about its path for good (a line 0.1 m beside it, 0.17 m
+        # about it). tau at least cbrt(e / (a v)), the time that turn takes.
+        speed = hypot(reference[0] - reference_now[0], reference[1] - reference_now[1]) / dt
+        speed = max(speed, TURNABLE_SPEED * robot.limits[0])
+        pace = math.pow(distance / (controller.turn_acceleration * speed), 1.0 / 3.0)
+        if 1.0 - dt / pace > kept:
+            kept = 1.0 - dt / pace
+            left_x = kept * error_x
+            left_y = kept * error_y
     eta[0] = reference[0] + look_ahead * reference[2] - left_x - (px + look_ahead * c)
     eta[1] = reference[1] + look_ahead * reference[3] - left_y - (py + look_ahead * s)
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
@@ -522,6 +548,21 @@ def _bearing_round_zones(
     return heading
 
 
+@kernel
+def _turns_sooner(speed: float, turn: float, limits: FloatArray) -> bool:
+    """Whether a robot at ``speed`` (> 0: along its direction of travel)
+    turns by ``turn`` sooner, at the turn-rate limits, than it stops and
+    regains that speed the other way at its speed acceleration limit."""
+    if speed <= 0.0 or limits[2] == math.inf:
+        return False
+    rate, acceleration = limits[1], limits[3]
+    if turn >= rate * rate / acceleration:
+        turning = turn / rate + rate / acceleration
+    else:
+        turning = 2.0 * math.sqrt(turn / acceleration)
+    return bool(turning < 2.0 * speed / limits[2])
+
+
 @inlined
 def regulate_input(
     estimate: FloatArray,
@@ -588,10 +629,19 @@ def regulate_input(
                     # Backwards when the target is behind, with hysteresis: a
                     # target abeam (|eth| = pi/2) chose forwards and backwards
                     # by turns, every sample, for good (a limit cycle).
+                    # Under acceleration limits a robot driving on keeps its
+                    # direction where turning round is quicker than braking and
+                    # regaining its speed the other way: it braked from 1.12
+                    # m/s, 0.6 m further away, and made no progress for 2 s
+                    # (gen-085-line).
                     if memory[REVERSING] == 0.0:
-                        if abs(eth) > 0.5 * math.pi + REVERSE_HYSTERESIS:
+                        if abs(eth) > 0.5 * math.pi + REVERSE_HYSTERESIS and not _turns_sooner(
+                            v_prev, abs(eth), robot.limits
+                        ):
                             memory[REVERSING] = 1.0
-                    elif abs(eth) < 0.5 * math.pi - REVERSE_HYSTERESIS:
+                    elif abs(eth) < 0.5 * math.pi - REVERSE_HYSTERESIS and not _turns_sooner(
+                        -v_prev, math.pi - abs(eth), robot.limits
+                    ):
                         memory[REVERSING] = 0.0
                     if memory[REVERSING] != 0.0:
                         eth = wrap_angle(eth - math.pi)
@@ -823,6 +873,15 @@ def error_reach(
     return HEADING_STEP * distance / (1.0 - decay)
 
 
+def turn_acceleration(settings: PaperController, dt: float, limits: FloatArray) -> float:
+    """[rad/s^2] The turn-rate acceleration the error closed per sample
+    follows: TURNABLE_SHARE of the limit; inf without one, and for the
+    one-sample laws and the axle law (track_input)."""
+    if error_decay(settings, dt, limits) == 0.0 or not math.isfinite(float(limits[3])):
+        return math.inf
+    return TURNABLE_SHARE * float(limits[3])
+
+
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
     regulation = settings.regulation
     return PaperTuning(
@@ -837,6 +896,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         reverse=regulation.reverse,
         barrier_rate=min(1.0, float(plant.dt) / BARRIER_TIME),
         error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
+        turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
     )
 
 

@@ -32,6 +32,7 @@ from wmr_mission.controllers.paper import (
     REVERSE_HYSTERESIS,
     REVERSING,
     TURN_SLEW,
+    TURNABLE_SPEED,
     PaperTuning,
 )
 from wmr_mission.estimators import ekf, observer
@@ -293,8 +294,18 @@ def track_input(
     d = np.column_stack([np.eye(2), look_ahead * normal])  # D = dG/dx
     left = error_decay * error_now
     distance = float(np.hypot(error_now[0], error_now[1]))
+    kept = error_decay
     if distance > controller.error_reach:  # at most error_reach's share closed
-        left = (1.0 - (1.0 - error_decay) * controller.error_reach / distance) * error_now
+        kept = 1.0 - (1.0 - error_decay) * controller.error_reach / distance
+        left = kept * error_now
+    if math.isfinite(controller.turn_acceleration) and distance > 0.0:
+        # under a turn-rate acceleration limit, a time constant of at least
+        # cbrt(e / (a v)): the heading e / (v tau) it asks, turned within tau
+        speed = float(np.hypot(*(reference[:2] - reference_now[:2]))) / dt
+        speed = max(speed, TURNABLE_SPEED * float(limits[0]))
+        pace = math.pow(distance / (controller.turn_acceleration * speed), 1.0 / 3.0)
+        if 1.0 - dt / pace > kept:
+            left = (1.0 - dt / pace) * error_now
     target = reference[:2] + look_ahead * reference[2:4] - left
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
     du = corrective_input(d, target - output(predicted), b, w, m, limits)
@@ -316,6 +327,20 @@ def track_input(
             reach = stopping_speed(abs(turn), float(limits[3]), dt)
             omega = float(np.clip(omega, -reach, reach))
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, limits, dt)
+
+
+def turns_sooner(speed: float, turn: float, limits: FloatArray) -> bool:
+    """Whether turning by ``turn`` at the turn-rate limits (up to the rate
+    limit and down again) takes less time than stopping from ``speed`` (> 0
+    along the direction of travel) and regaining it the other way."""
+    v_acceleration, rate, acceleration = (float(limits[i]) for i in (2, 1, 3))
+    if speed <= 0.0 or not math.isfinite(v_acceleration):
+        return False
+    if turn >= rate * rate / acceleration:
+        turning = turn / rate + rate / acceleration
+    else:
+        turning = 2.0 * math.sqrt(turn / acceleration)
+    return turning < 2.0 * speed / v_acceleration
 
 
 def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
@@ -498,10 +523,14 @@ def regulate_input(
                         bearing = way
                         deviation[:2] = -distance * np.array([math.cos(way), math.sin(way)])
                 deviation[2] = wrap_angle(float(estimate[2]) - bearing)
-                if reverse:  # backwards past abeam, with hysteresis
-                    if abs(deviation[2]) > 0.5 * math.pi + REVERSE_HYSTERESIS:
+                if reverse:  # backwards past abeam, with hysteresis; at speed under
+                    # acceleration limits, on where turning round is sooner
+                    off = abs(float(deviation[2]))
+                    behind = off > 0.5 * math.pi + REVERSE_HYSTERESIS
+                    in_front = off < 0.5 * math.pi - REVERSE_HYSTERESIS
+                    if behind and not turns_sooner(v_prev, off, limits):
                         memory[REVERSING] = 1.0
-                    elif abs(deviation[2]) < 0.5 * math.pi - REVERSE_HYSTERESIS:
+                    elif in_front and not turns_sooner(-v_prev, math.pi - off, limits):
                         memory[REVERSING] = 0.0
                     if memory[REVERSING]:
                         deviation[2] = wrap_angle(float(deviation[2]) - math.pi)
