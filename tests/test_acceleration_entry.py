@@ -165,25 +165,18 @@ def test_the_lags_that_passed_unsound_are_judged_alike(tmp_path: Path) -> None:
     """Three generated missions with acceleration limits passed with a lag of
     v_ref^2 / a_v allowed for the whole phase, and the judge found them unsound
     (0.74, 0.93 and 0.41 m behind after their entries). With the time to accelerate
-    in the entry and the usual bound after it, product and judge agree on each."""
+    in the entry and the usual bound after it, product and judge agree on each:
+    each now succeeds, and soundly. gen-016-circle, held up at its zone 0.75 m
+    behind (the bound was 1.06 m), then a detour 0.86 m off where 0.85 m is
+    allowed, tracks within 0.001 m of its reference with the aim's gap held
+    with the estimate's margin within 0.1 m; gen-031-line, whose turn rate
+    reversed 4 times in a second on its zone's ramp, no longer does with the
+    pace the turn follows."""
     names = ("gen-016-circle", "gen-031-line", "gen-064-polyline")
-    judged = {
-        j.mission: j
-        for j in judge_all([GENERATED / f"{n}.yaml" for n in names], tmp_path, workers=1)
-    }
-    orbit, line, polyline = (judged[n] for n in names)
-    # held up at its zone 0.75 m behind after its entry (the bound was 1.06 m, now 0.53 m)
-    assert (orbit.outcome, orbit.sound) == ("expect-failed", False)
-    assert "orbit: along_track_lag_max" in orbit.message
-    # the polyline caught up within its entry and tracks after it
-    assert (polyline.outcome, polyline.sound) == ("success", True), polyline.problems
-    # the line's 7 s are its entry (5.0 s: the reference gains 1.7 m while the robot
-    # turns and reaches 1.9 m/s, closed at the 0.71 m/s its limit leaves) and a
-    # detour round its zone, on whose ramp its turn rate reverses 4 times in a
-    # second: a failure of the inputs, not of the lag, and the judge's as well
-    assert (line.outcome, line.sound) == ("expect-failed", False), line.problems
-    assert "drive: turn_rate_reversals" in line.message
-    assert "lag" not in line.message
+    judged = judge_all([GENERATED / f"{n}.yaml" for n in names], tmp_path, workers=1)
+    assert [(j.mission, j.outcome, j.sound, j.problems) for j in judged] == [
+        (n, "success", True, ()) for n in names
+    ]
 
 
 def test_a_timed_phase_that_ends_in_its_entry_is_judged_at_its_end(tmp_path: Path) -> None:

@@ -485,27 +485,31 @@ def ramped_offset(
 # [m] How far the aim stands beyond the bound the filter keeps the output to
 # (the zone grown by the look-ahead and the margin), so that the law's target
 # is not where the filter acts: the look-ahead, up to the default look-ahead's
-# 0.05 m (aim_gap). A gap of a whole look-ahead widened every detour by it,
-# 0.1 to 0.23 m more on the generated missions of fast robots at coarse rates
-# (docs/paper-notes.md, eq. (28), "How wide a detour is").
+# 0.05 m without acceleration limits (aim_gap). A gap of a whole look-ahead
+# widened every detour by it, 0.1 to 0.23 m more on the generated missions of
+# fast robots at coarse rates (docs/paper-notes.md, eq. (28), "How wide a
+# detour is").
 AIM_GAP = 0.05
 
 
 @inlined
 def aim_gap(look_ahead: float, speed_rate: float, margin: float) -> float:
-    """[m] The aim's gap beyond the filter's bound (AIM_GAP), and with the
-    margin the controller keeps round a zone for the estimate's error
-    (``margin``, the body's reach apart) at most twice AIM_GAP: both widen a
-    detour beyond the zone's reach and the look-ahead, out of the 0.1 m the
+    """[m] The aim's gap beyond the filter's bound: the look-ahead, and with
+    the margin the controller keeps round a zone for the estimate's error
+    (``margin``, the body's reach apart) at most twice AIM_GAP, as both widen
+    a detour beyond the zone's reach and the look-ahead, out of the 0.1 m the
     cross-track tolerance allows beyond the noise (a full gap with the
     paper's estimator at 1.9 cm of noise, a margin of 0.095 m, went 6 mm
-    wider than that; docs/paper-notes.md, eq. (28), "How wide a detour
-    is"). Under an acceleration limit (``speed_rate`` finite) the filter
-    holds the rows where braking ends too, ahead of the output: the whole
-    look-ahead, as a gap of AIM_GAP stalled a fast robot at a zone."""
+    wider than that; with acceleration limits, a gap of 0.154 m beside a
+    margin of 0.05 m went 0.86 m off where 0.85 is allowed;
+    docs/paper-notes.md, eq. (28), "How wide a detour is"). Without an
+    acceleration limit (``speed_rate`` infinite) also at most AIM_GAP; under
+    one the filter holds the rows where braking ends too, ahead of the
+    output, and a gap of AIM_GAP stalled a fast robot at a zone."""
+    gap = min(look_ahead, max(2.0 * AIM_GAP - margin, 0.0))
     if speed_rate != math.inf:
-        return look_ahead
-    return min(look_ahead, AIM_GAP, max(2.0 * AIM_GAP - margin, 0.0))
+        return gap
+    return min(gap, AIM_GAP)
 
 
 # The columns of a row of the ways round (ways_round): the path's point
