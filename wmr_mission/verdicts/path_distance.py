@@ -78,10 +78,14 @@ def compiled_distances(
     order = np.argsort(keys, kind="stable")
     starts = np.searchsorted(keys[order], np.arange(columns * rows + 1)).astype(np.int64)
     out = np.empty(qx.size)
-    jit.compiled(_distances)(
-        px, py, qx, qy, own.astype(np.int64), tx, ty, points.astype(np.int64),
-        order.astype(np.int64), starts, x0, y0, size, columns, rows, window, min(k, tx.size), out,
-    )  # fmt: skip
+    # A square beyond the largest float is inf, as in machine code; as plain
+    # Python the kernel computes with numpy's scalars, which would warn of it.
+    with np.errstate(over="ignore", invalid="ignore"):
+        jit.compiled(_distances)(
+            px, py, qx, qy, own.astype(np.int64), tx, ty, points.astype(np.int64),
+            order.astype(np.int64), starts, x0, y0, size, columns, rows, window, min(k, tx.size),
+            out,
+        )  # fmt: skip
     return out
 
 
