@@ -41,6 +41,15 @@ def _campaign(
     return load_campaign(path)
 
 
+def _short_with(tmp_path: Path, phase: str, *, after: str = "phases:\n") -> Path:
+    """short.yaml with ``phase`` (its YAML lines) written in after ``after``."""
+    mission = tmp_path / "m.yaml"
+    mission.write_text(
+        SHORT.read_text(encoding="utf-8").replace(after, after + phase), encoding="utf-8"
+    )
+    return mission
+
+
 def _written_plans(loaded: LoadedCampaign, runs: list[int], mine: Written) -> list[MissionPlan]:
     """Each run's plan as ``mine`` writes it, checked against the plan made whole."""
     whole, plan = _whole(loaded), Plan(loaded.campaign)
@@ -255,13 +264,11 @@ def test_a_heading_that_a_sampling_check_reads_is_checked_whole(
     the robot's heading, and the sampling checks read it
     (wmr_mission.spec.checks.read_by_sampling_checks): such runs are checked
     and planned whole, and give the rows of runs checked whole."""
-    text = SHORT.read_text(encoding="utf-8").replace(
-        "phases:\n",
-        "phases:\n  - name: out\n    track: {path: {type: line, towards: [1, 0.5], speed: 0.2}}\n"
+    mission = _short_with(
+        tmp_path,
+        "  - name: out\n    track: {path: {type: line, towards: [1, 0.5], speed: 0.2}}\n"
         "    until: {elapsed: 1}\n",
     )
-    mission = tmp_path / "m.yaml"
-    mission.write_text(text, encoding="utf-8")
     theta = "  robot.initial_state.theta: {uniform: [-0.5, 0.5]}\n"
     loaded = _campaign(tmp_path, theta, mission=mission, runs=3)
     mine = Written(loaded)
@@ -309,13 +316,11 @@ def test_a_path_whose_start_turns_with_the_heading_is_placed_run_by_run(
 
     PATHS.register(PathType(TurnedPath, _turned_start))
     try:
-        text = SHORT.read_text(encoding="utf-8").replace(
-            "phases:\n",
-            "phases:\n  - name: out\n    track: {path: {type: turned, heading: 0, speed: 0.1}}\n"
+        mission = _short_with(
+            tmp_path,
+            "  - name: out\n    track: {path: {type: turned, heading: 0, speed: 0.1}}\n"
             "    until: {elapsed: 0.1}\n",
         )
-        mission = tmp_path / "m.yaml"
-        mission.write_text(text, encoding="utf-8")
         theta = "  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n"
         loaded = _campaign(tmp_path, theta, mission=mission, runs=4)
         mine = Written(loaded)
@@ -360,14 +365,12 @@ def test_an_expression_path_from_the_robot_is_sampled_by_each_run(
 ) -> None:
     """An expression path with `start: current` moves with the pose its phase
     starts from (here where each run's park ended): not kept, each run's own."""
-    text = SHORT.read_text(encoding="utf-8").replace(
-        "    timeout: 20\n",
-        "    timeout: 20\n  - name: out\n"
-        "    track: {path: {type: expression, x: 0.1*t, y: 0, start: current}}\n"
+    mission = _short_with(
+        tmp_path,
+        "  - name: out\n    track: {path: {type: expression, x: 0.1*t, y: 0, start: current}}\n"
         "    until: {elapsed: 0.5}\n",
+        after="    timeout: 20\n",
     )
-    mission = tmp_path / "m.yaml"
-    mission.write_text(text, encoding="utf-8")
     loaded = _campaign(
         tmp_path, "  robot.initial_state.theta: {uniform: [-3.0, 3.0]}\n", mission=mission
     )
