@@ -165,3 +165,34 @@ def test_a_new_path_from_an_update_gets_its_own_way_round() -> None:
     assert beside.any()
     assert (result.y[beside] > 0.25 + 0.8).all()  # round the north side
     assert np.hypot(result.x - 5.0, result.y - 0.25).min() >= 0.8
+
+
+def test_a_path_that_never_moves_keeps_no_way_round_of_the_path_before() -> None:
+    """The ways round are the path in force's alone: a phase whose path is
+    replaced by one that never moves (nothing to go round along) keeps none
+    of the side and tangent decided for the path before."""
+    from wmr_mission import mission_from_dict
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import PhaseRun
+
+    data = {
+        "version": 1,
+        "name": "rest",
+        "robot": {"dt": 0.01, "initial_state": {"x": 0, "y": 0, "theta": 0}},
+        "regions": {"rock": {"type": "circle", "center": [5, 0.25], "radius": 0.8}},
+        "phases": [
+            {
+                "name": "drive",
+                "track": {"path": {"type": "polyline", "points": [[10, 0]], "speed": 1.0}},
+                "constraints": [{"stay_outside": "rock"}],
+                "until": {"elapsed": 10},
+            }
+        ],
+    }
+    plan = plan_mission(mission_from_dict(data))
+    phase = PhaseRun(plan.phases[0], plan, 0)
+    phase.enter(0, np.zeros(3))
+    assert phase.ways[0, 4] != 0.0  # a side decided for the line
+    phase._path_points = lambda t: (np.full(t.shape, 2.0), np.full(t.shape, 1.0))  # type: ignore[method-assign]
+    phase._find_ways()  # as a new path that rests takes over
+    assert (phase.ways == 0.0).all()

@@ -263,6 +263,7 @@ class PhaseRun:
         phase's bound, at WAY_SAMPLES points, and again at WAY_SAMPLES
         points over the two chords about the one nearest the zone."""
         assert self._trajectory is not None
+        self.ways[:] = 0.0  # none of an earlier path's: where this one never moves, none
         kinds, params = self.phase.constraint_rows
         keep_out = np.flatnonzero((kinds == ELLIPSE_ROW) & (params[:, 5] < 0.0))
         if not keep_out.size:
@@ -665,7 +666,7 @@ class _Run:
         # The run's first call is short whatever its phase: its first samples
         # are simulated (and reported) a moment after the run directory is
         # claimed, however long the mission; the chunk then grows to CHUNK.
-        chunk = min(active.first_chunk, FIRST_CHUNK)
+        chunk = FIRST_CHUNK
         ran = 0  # samples run since the chunk last grew
         reactor = None if m.reactions is None else Reactor(m.reactions)
         while True:
