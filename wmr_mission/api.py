@@ -147,7 +147,7 @@ def falsify_campaign(
     campaign: str | os.PathLike[str],
     *,
     budget: int = 300,
-    method: str = "cmaes",
+    method: str = "gp",
     seed: int | None = None,
     objective: str | None = None,
     first: bool = False,
@@ -159,7 +159,7 @@ def falsify_campaign(
     """Search a campaign's axes for failing runs, as ``wmr-mission falsify`` does
     (docs/falsification.md); the evaluations in order and falsify.json's record.
 
-    ``method``: ``cmaes`` or ``random``; ``seed`` (default: the campaign's)
+    ``method``: ``gp``, ``cmaes`` or ``random``; ``seed`` (default: the campaign's)
     seeds the search and each run's sensors; ``objective``: a check
     (``phase: metric``, or a metric) whose margin is minimised instead of the
     run's; ``first``: stop after the batch holding the first failing run;

@@ -143,6 +143,7 @@ class OutputFormat(StrEnum):
 
 
 class FalsifyMethod(StrEnum):
+    gp = "gp"
     cmaes = "cmaes"
     random = "random"
 
@@ -416,8 +417,8 @@ def falsify(
     ] = 300,
     method: Annotated[
         FalsifyMethod,
-        typer.Option("--method", metavar="METHOD", help="cmaes (default) or random."),
-    ] = FalsifyMethod.cmaes,
+        typer.Option("--method", metavar="METHOD", help="gp (default), cmaes or random."),
+    ] = FalsifyMethod.gp,
     seed: Annotated[
         int | None,
         typer.Option(

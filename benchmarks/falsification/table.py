@@ -1,8 +1,9 @@
 """Falsification rate and runs to the first failure, per benchmark and method.
 
-    nice -n 5 python benchmarks/falsification/table.py [--seeds 20] [--budget 300] [CAMPAIGN ...]
+    nice -n 5 python benchmarks/falsification/table.py [--seeds 20] [--seeds-from 0] [--budget 300]
+        [--methods gp cmaes random] [CAMPAIGN ...]
 
-Each benchmark campaign is searched by each method with seeds 0 .. N-1
+Each benchmark campaign is searched by each method with seeds S .. S+N-1 (0 .. 19 by default)
 (`falsify --first --budget B --seed S`); a row gives, as the ARCH-COMP
 falsification tables do, the falsification rate (FR: seeds that found a
 failing run within the budget), and the mean and median of the runs to the
@@ -23,7 +24,7 @@ from wmr_mission.campaign.falsify.command import falsify_campaign
 
 HERE = Path(__file__).parent
 BENCHMARKS = sorted(str(p) for p in HERE.glob("*-campaign.yaml"))
-METHODS = ("cmaes", "random")
+METHODS = ("gp", "cmaes", "random")
 
 
 def runs_to_failure(args: tuple[str, str, int, int]) -> int | None:
@@ -46,6 +47,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("campaigns", nargs="*", default=BENCHMARKS)
     parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--seeds-from", type=int, default=0)
     parser.add_argument("--budget", type=int, default=300)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
@@ -55,7 +57,10 @@ def main() -> int:
     with ProcessPoolExecutor(args.workers) as pool:
         for campaign in args.campaigns:
             for method in args.methods:
-                tasks = [(campaign, method, seed, args.budget) for seed in range(args.seeds)]
+                tasks = [
+                    (campaign, method, seed, args.budget)
+                    for seed in range(args.seeds_from, args.seeds_from + args.seeds)
+                ]
                 found = list(pool.map(runs_to_failure, tasks))
                 hits = [f for f in found if f is not None]
                 mean = f"{statistics.mean(hits):.1f}" if hits else "-"

@@ -351,7 +351,7 @@ def falsify_campaign(
     campaign: str | Path,
     *,
     budget: int = DEFAULT_BUDGET,
-    method: str = "cmaes",
+    method: str = "gp",
     seed: int | None = None,
     objective: str | None = None,
     first: bool = False,
@@ -362,7 +362,7 @@ def falsify_campaign(
 ) -> FalsifyResult:
     """Search a campaign's axes for failing runs (docs/falsification.md).
 
-    ``method``: ``cmaes`` or ``random``; ``seed`` (default: the campaign's)
+    ``method``: ``gp``, ``cmaes`` or ``random``; ``seed`` (default: the campaign's)
     seeds the search and each run's sensors; ``objective``: a check
     (``phase: metric``, or a metric for each of its checks) whose margin is
     minimised instead of the run's; ``first``: stop after the batch holding

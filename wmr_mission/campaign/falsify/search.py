@@ -1,4 +1,5 @@
-"""The methods that choose the next points: ``cmaes`` and ``random``.
+"""The methods that choose the next points: ``gp`` (a model of the margin, then
+CMA-ES: the default), ``cmaes`` and ``random``.
 
 A method asks for a batch of points and is told their objectives (the run's
 margin, or one check's: lower is nearer a failure) in the order it asked.
@@ -20,7 +21,7 @@ from wmr_mission.campaign.falsify.space import Space
 
 __all__ = ["METHODS", "RANDOM_BATCH", "SIGMA_LOCAL", "Method", "corners", "design", "make_method"]
 
-METHODS: Final = ("cmaes", "random")
+METHODS: Final = ("gp", "cmaes", "random")
 
 DESIGN: Final = 8
 """The fewest points of a space-filling design (more with more axes:
@@ -66,6 +67,8 @@ def make_method(name: str, space: Space, seed: int) -> Method:
         return RandomSearch(space, rng)
     if name == "cmaes":
         return CmaEs(space, rng)
+    if name == "gp":
+        return GpSearch(space, rng)
     raise ValueError(f"method is one of {', '.join(METHODS)}, got {name!r}")
 
 
@@ -115,12 +118,17 @@ class CmaEs:
 
     name = "cmaes"
 
-    def __init__(self, space: Space, rng: np.random.Generator) -> None:
+    def __init__(
+        self, space: Space, rng: np.random.Generator, start: list[float] | None = None
+    ) -> None:
+        """``start``: a point to search about first, instead of the corners and a design."""
         self.space = space
         self.rng = rng
         self.restarts = 0
+        self.start = start
         self.design_size = design_size(space.dimension)
-        self.corners = corners(space) if 2**space.dimension <= self.design_size else []
+        with_corners = start is None and 2**space.dimension <= self.design_size
+        self.corners = corners(space) if with_corners else []
         # cma draws from numpy's global generator: it gets one of its own,
         # swapped in around each call, so that nothing else moves it.
         self._state = np.random.RandomState(int(rng.integers(2**32))).get_state()
@@ -171,6 +179,8 @@ class CmaEs:
             if stopped:
                 self.restarts += 1
                 self.es = None
+        if self.es is None and self.start is not None:
+            self.es, self.start = self._start(self.start, SIGMA_LOCAL), None
         if self.es is None:
             points = design(self.space, self.design_size, self.rng)
             return (self.corners if self.restarts == 0 else []) + points
@@ -236,3 +246,94 @@ def corners(space: Space) -> list[list[float]]:
         for count, lo, hi in zip(space.counts(), space.lower(), space.upper(), strict=True)
     ]
     return [list(point) for point in itertools.product(*ends)]
+
+
+MODEL_RUNS: Final = 32
+"""Runs the model proposes before CMA-ES takes over (its cost grows with the
+runs it is fitted on: bounded, so that a long search stays fast)."""
+
+MODEL_BATCH: Final = 2
+"""Points the model proposes at once (the kriging believer between them)."""
+
+CANDIDATES: Final = 1024
+"""Sobol points of the box the model scores for each proposal, besides
+Gaussian steps about the lowest runs."""
+
+
+class GpSearch:
+    """The corners of the box and a small design, then the points where a
+    Gaussian-process model of the margin (:mod:`surrogate`) gives the greatest
+    chance of a margin below 0, for :data:`MODEL_RUNS` runs; then CMA-ES
+    (:class:`CmaEs`) about the lowest run, with its restarts."""
+
+    name = "gp"
+
+    def __init__(self, space: Space, rng: np.random.Generator) -> None:
+        self.space = space
+        self.rng = rng
+        d = space.dimension
+        self.design_size = max(4, 1 << (2 * d - 1).bit_length())
+        self.corners = corners(space) if 2**d <= design_size(d) else []
+        self.x: list[list[float]] = []
+        self.y: list[float] = []
+        self.params: Any = None
+        self.cmaes: CmaEs | None = None
+        lower, upper = np.array(space.lower()), np.array(space.upper())
+        self._lower, self._width = lower, upper - lower
+
+    def ask(self) -> list[list[float]]:
+        if self.cmaes is None and len(self.x) >= self._initial() + MODEL_RUNS:
+            best = self.x[int(np.argmin(self.y))]
+            self.cmaes = CmaEs(self.space, self.rng, start=best)
+        if self.cmaes is not None:
+            return self.cmaes.ask()
+        if not self.x:
+            return self.corners + design(self.space, self.design_size, self.rng)
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(1):  # small matrices: threads only wait on each other
+            return self._proposals()
+
+    def _initial(self) -> int:
+        return len(self.corners) + self.design_size
+
+    def _proposals(self) -> list[list[float]]:
+        from scipy.stats import qmc
+
+        from wmr_mission.campaign.falsify.surrogate import Gp
+
+        x = (np.array(self.x) - self._lower) / self._width
+        y = np.clip(np.array(self.y), -1.0, 2.0)
+        gp = Gp(x, y, self.params)
+        self.params = gp.params
+        d = self.space.dimension
+        sobol = qmc.Sobol(d, scramble=True, seed=self.rng).random(CANDIDATES)
+        lowest = np.argsort(y, kind="stable")[:5]
+        local = [
+            np.clip(x[i] + self.rng.normal(0, scale, size=(64, d)), 0, 1)
+            for i in lowest
+            for scale in (0.003, 0.01, 0.03, 0.1)
+        ]
+        candidates = np.vstack([sobol, *local])
+        chosen = candidates[gp.most_likely_failures(candidates, MODEL_BATCH)]
+        points = self._lower + chosen * self._width
+        discrete = self.space.discrete()
+        upper = self._lower + self._width
+        points[:, discrete] = np.clip(np.round(points[:, discrete]), 0, upper[discrete] - 0.5)
+        return [[float(v) for v in row] for row in points]
+
+    def tell(self, points: list[list[float]], objectives: list[float]) -> None:
+        if self.cmaes is not None:
+            self.cmaes.tell(points, objectives)
+            return
+        self.x += points
+        self.y += objectives
+
+    def settings(self) -> dict[str, Any]:
+        return {
+            "corners": len(self.corners),
+            "design": self.design_size,
+            "model_runs": MODEL_RUNS,
+            "model_batch": MODEL_BATCH,
+            **({"cmaes": self.cmaes.settings()} if self.cmaes is not None else {}),
+        }
