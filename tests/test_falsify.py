@@ -537,7 +537,7 @@ def test_view_of_a_falsification_renders_without_a_console_error(tmp_path: Path)
     with Browser() as browser, browser.open(out / "report.html") as page:
         assert page.problems() == []
         assert page.evaluate("document.body.dataset.rendered") == "1"
-        assert "falsification (cmaes)" in page.evaluate("document.querySelector('h1').textContent")
+        assert "falsification (gp)" in page.evaluate("document.querySelector('h1').textContent")
 
 
 @pytest.mark.sweep
@@ -574,6 +574,28 @@ def test_cmaes_falsifies_park_corner_on_every_seed_and_sooner_than_random() -> N
     random = [runs("random", seed) for seed in range(5)]
     assert max(cmaes) <= 300
     assert np.median(cmaes) * 5 <= np.median(random)
+
+
+@pytest.mark.sweep
+@pytest.mark.parametrize("name", ["heading-band", "estimate-band"])
+def test_gp_falsifies_a_band_in_a_fifth_of_randoms_runs(name: str) -> None:
+    """The acceptance on the two benchmarks CMA-ES alone missed it on
+    (docs/falsification.md's table): every seed of 20 falsified within 300
+    runs, the median runs to the first failure at most a fifth of random's."""
+    campaign = Path(__file__).parent.parent / "benchmarks" / "falsification"
+    campaign = campaign / f"{name}-campaign.yaml"
+
+    def runs(method: str, seed: int) -> int:
+        found = falsify_campaign(
+            campaign, budget=300, method=method, seed=seed, first=True, workers=1
+        )
+        first = found.record["runs_to_first_failure"]
+        return 301 if first is None else int(first)
+
+    gp = [runs("gp", seed) for seed in range(20)]
+    random = [runs("random", seed) for seed in range(20)]
+    assert max(gp) <= 300
+    assert np.median(gp) * 5 <= np.median(random)
 
 
 BENCHMARKS = Path(__file__).parent.parent / "benchmarks" / "falsification"
