@@ -330,6 +330,33 @@ def test_the_same_search_gives_the_same_evaluations_on_one_or_two_workers(tmp_pa
     assert one.count(b"\n") == 21
 
 
+def test_gp_gives_the_same_evaluations_on_one_or_two_workers_past_its_hand_over(
+    tmp_path: Path,
+) -> None:
+    """The default's three parts (corners and design, the model, CMA-ES) on a
+    campaign of two axes: the same evaluations.csv on 1 and 2 workers."""
+    campaign = tmp_path / "campaign.yaml"
+    campaign.write_text(
+        PARK.read_text(encoding="utf-8")
+        .replace("mission: park.yaml", f"mission: {DATA / 'park.yaml'}")
+        .replace(
+            "  robot.initial_state.theta: {uniform: [-1.5707963267948966, 1.5707963267948966]}\n",
+            "",
+        ),
+        encoding="utf-8",
+    )
+    budget = 8 + MODEL_RUNS + 6  # and one CMA-ES generation
+    for workers in (1, 2):
+        found = falsify_campaign(
+            campaign, budget=budget, seed=2, workers=workers, out=tmp_path / str(workers)
+        )
+        assert found.record["method"] == "gp"
+        assert found.record["settings"]["cmaes"]["popsize"] == 6
+    one = (tmp_path / "1" / "evaluations.csv").read_bytes()
+    assert one == (tmp_path / "2" / "evaluations.csv").read_bytes()
+    assert one.count(b"\n") == budget + 1
+
+
 # --- outputs and their replay --------------------------------------------------------
 
 
