@@ -276,8 +276,10 @@ class PhaseRun:
         keep_out, chords = keep_out[chords >= 0], chords[chords >= 0]
         if not keep_out.size:
             return
-        first, last = t[np.maximum(chords - 1, 0)], t[np.minimum(chords + 2, t.size - 1)]
-        near = np.linspace(first, last, WAY_SAMPLES + 1, axis=1)  # a row a zone
+        last = t.size - 1
+        near = np.array(  # a row a zone
+            [np.linspace(t[max(k - 1, 0)], t[min(k + 2, last)], WAY_SAMPLES + 1) for k in chords]
+        )
         x, y = (z.reshape(near.shape) for z in self._path_points(near.ravel()))
         zones = params[keep_out]
         chords, shares = nearest_chords(x, y, zones[:, 0], zones[:, 1])
