@@ -4,6 +4,7 @@
     python benchmarks/measure.py session    # a session stepped 100 samples at a time / run_mission
     python benchmarks/measure.py loop MISSION.yaml ...   # the same, of these missions
     python benchmarks/measure.py loop COMMIT [MISSION.yaml ...]   # now / as at COMMIT, paired
+    python benchmarks/measure.py parts [MISSION.yaml ...]   # short first chunks; the gate
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
@@ -40,6 +41,7 @@ measured. Timings depend on the machine and on what else runs on it.
 
 from __future__ import annotations
 
+import math
 import os
 import statistics
 import subprocess
@@ -220,6 +222,64 @@ def loop_against(commit: str, paths: list[str], pairs: int = 21, runs: int = 5) 
             f"each: loop {min(n[0] for n in now) / min(t[0] for t in then):.3f}, run CPU "
             f"{min(n[1] for n in now) / min(t[1] for t in then):.3f}"
         )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def parts(*paths: str, pairs: int = 21, runs: int = 5) -> None:
+    """What two parts of a run cost, each mission (all of missions/ unless
+    named) in one process, in alternating pairs, each the least of ``runs``
+    runs: the short first chunks (the runner's FIRST_CHUNK against CHUNK: the
+    calls of the compiled loop a run makes, and run_mission's CPU time per
+    sample, ratio), and, with noisy sensors, the estimator's innovation gate
+    (the mission as written against ``estimator.innovation_gate: null``)."""
+    from wmr_mission.sim import runner
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.spec.loader import load_mission, parse_override
+
+    calls = [0]
+    call = runner._Run._call
+
+    def counted(self: Any, *args: Any) -> int:
+        calls[0] += 1
+        return call(self, *args)
+
+    runner._Run._call = counted  # type: ignore[method-assign]
+    first = runner.FIRST_CHUNK
+
+    def cpu(mission: Any, first_chunk: int) -> float:
+        runner.FIRST_CHUNK = first_chunk
+        least = math.inf
+        for _ in range(runs):
+            started = time.thread_time_ns()
+            run = runner.run_mission(mission)
+            least = min(least, (time.thread_time_ns() - started) / run.samples)
+        return least
+
+    def paired(a: tuple[Any, int], b: tuple[Any, int]) -> float:
+        ratios = []
+        for i in range(pairs + 1):  # the first pair untimed
+            x, y = (cpu(*a), cpu(*b)) if i % 2 else tuple(reversed((cpu(*b), cpu(*a))))
+            if i:
+                ratios.append(x / y)
+        return statistics.median(ratios)
+
+    for file in [Path(p) for p in paths] or sorted(MISSIONS.glob("*.yaml")):
+        mission = plan_mission(load_mission(file))
+        counts = []
+        for chunk in (first, runner.CHUNK):
+            calls[0] = 0
+            cpu(mission, chunk)
+            counts.append(calls[0] // runs)
+        line = (
+            f"{file.stem}: {counts[0]} calls a run ({counts[1]} without short first chunks), "
+            f"run CPU {paired((mission, first), (mission, runner.CHUNK)):.3f} of it"
+        )
+        if getattr(mission.estimator_tuning, "innovation_gate", math.inf) != math.inf:
+            ungated = load_mission(file, [parse_override("estimator.innovation_gate=null")])
+            line += f"; the gate {paired((mission, first), (plan_mission(ungated), first)):.3f}"
+        print(line)
+    runner.FIRST_CHUNK = first
+    runner._Run._call = call  # type: ignore[method-assign]
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -1677,7 +1737,7 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
-    jobs |= {"cuts": cuts, "imports": imports}
+    jobs |= {"cuts": cuts, "imports": imports, "parts": parts}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,
@@ -1699,5 +1759,7 @@ if __name__ == "__main__":
         loop_against(sys.argv[2], sys.argv[3:])
     elif what == "loop":
         loop(*sys.argv[2:])
+    elif what == "parts":
+        parts(*sys.argv[2:])
     else:
         jobs[what]()
