@@ -3,6 +3,8 @@
     python benchmarks/measure.py loop       # loop_us_per_sample, case studies 1 and 2
     python benchmarks/measure.py session    # a session stepped 100 samples at a time / run_mission
     python benchmarks/measure.py loop MISSION.yaml ...   # the same, of these missions
+    python benchmarks/measure.py loop COMMIT [MISSION.yaml ...]   # now / as at COMMIT, paired
+    python benchmarks/measure.py parts [MISSION.yaml ...]   # short first chunks; the gate
     python benchmarks/measure.py startup    # CPU of `run case1 --no-plots` and `validate case2`
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
@@ -39,6 +41,7 @@ measured. Timings depend on the machine and on what else runs on it.
 
 from __future__ import annotations
 
+import math
 import os
 import statistics
 import subprocess
@@ -97,6 +100,186 @@ def loop(*paths: str, repeat: int = 7) -> None:
             f"{statistics.median(path_us):.3f} us per sample"
         )
     runner.PhaseRun.path_ahead = path_ahead  # type: ignore[method-assign]
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+# One side of `loop COMMIT`: its missions planned and each run once (the
+# compiled loop loaded), then for each line of stdin, "MISSION RUNS", that
+# mission run RUNS times: the least of its loop's time and of run_mission's
+# CPU time, each per sample [us] (the runs least disturbed by the machine).
+_LOOP_SIDE = """
+import sys, time
+from wmr_mission.sim import runner
+from wmr_mission.sim.plan import plan_mission
+from wmr_mission.spec.loader import load_mission
+missions = [plan_mission(load_mission(path)) for path in sys.argv[1:]]
+for mission in missions:
+    runner.run_mission(mission)
+print("ready", flush=True)
+for line in sys.stdin:
+    index, runs = map(int, line.split())
+    loop, cpu = [], []
+    for _ in range(runs):
+        started = time.thread_time_ns()
+        run = runner.run_mission(missions[index])
+        cpu.append((time.thread_time_ns() - started) / run.samples / 1000)
+        loop.append(run.loop_ns / run.samples / 1000)
+    print(min(loop), min(cpu), flush=True)
+"""
+
+
+def _loads_at(commit: str, file: Path, package: str, directory: str) -> Path | None:
+    """``file`` as the package at ``commit`` (on ``package``) loads it: as it
+    is, else as it was at ``commit`` (a setting added since), else None."""
+    check = (
+        "import sys; from wmr_mission.spec.loader import load_mission; load_mission(sys.argv[1])"
+    )
+    env = {**_user_env(), "PYTHONPATH": package, "NUMBA_DISABLE_JIT": "1"}
+    for candidate in (file, Path(directory) / file.name):
+        if candidate != file:
+            written = f"{commit}:missions/{file.name}"
+            shown = subprocess.run(["git", "-C", str(ROOT), "show", written], capture_output=True)
+            if shown.returncode:
+                return None
+            candidate.write_bytes(shown.stdout)
+        done = subprocess.run([sys.executable, "-c", check, str(candidate)], env=env,
+                              capture_output=True, cwd=directory)  # fmt: skip
+        if not done.returncode:
+            return candidate
+    return None
+
+
+def loop_against(commit: str, paths: list[str], pairs: int = 21, runs: int = 5) -> None:
+    """`loop COMMIT [MISSION.yaml ...]`: each mission (all of missions/ unless
+    named) run as now and as at COMMIT (its package unpacked on PYTHONPATH
+    beside this one, compiled into a cache of its own), in two processes
+    kept loaded, in turn (now, then; then, now; ...) ``pairs`` times, each
+    time ``runs`` runs of which the least disturbed counts; per mission the
+    medians of the pairs' ratios, now / then, of the loop's time and of
+    run_mission's CPU time, each per sample. A mission COMMIT's package cannot load as
+    it is now runs there as it was at COMMIT (a setting added since), and one
+    it never had is left out, each said."""
+    files = [Path(p).resolve() for p in paths] or sorted(MISSIONS.glob("*.yaml"))
+    directory = Path(tempfile.gettempdir()) / f"wmr-mission-at-{commit}"
+    if not (directory / "wmr_mission").is_dir():
+        directory.mkdir(exist_ok=True)
+        _checkout(commit, str(directory))
+    package = str(directory)
+    (directory / "missions").mkdir(exist_ok=True)
+    now_files, then_files = [], []
+    for file in files:
+        then = _loads_at(commit, file, package, str(directory / "missions"))
+        if then is None:
+            print(f"{file.stem}: left out (not a mission at {commit})")
+            continue
+        if then != file:
+            print(f"{file.stem}: at {commit} as it was written then")
+        now_files.append(file)
+        then_files.append(then)
+    # its own cache beside its package, so that neither side's removes the other's
+    then_env = {k: v for k, v in _user_env().items() if k != "NUMBA_CACHE_DIR"}
+    then_env["PYTHONPATH"] = package
+    sides = []
+    for env, side_files in ((_user_env(), now_files), (then_env, then_files)):
+        side = subprocess.Popen(
+            [sys.executable, "-c", _LOOP_SIDE, *map(str, side_files)],
+            env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+            cwd=directory / "missions",  # not beside a package: `python -c` imports from there
+        )  # fmt: skip
+        sides.append(side)
+    for side in sides:
+        assert side.stdout is not None
+        assert side.stdout.readline().strip() == "ready"
+
+    def measured(side: subprocess.Popen[str], i: int) -> tuple[float, float]:
+        assert side.stdin is not None
+        assert side.stdout is not None
+        side.stdin.write(f"{i} {runs}\n")
+        side.stdin.flush()
+        loop_us, cpu_us = map(float, side.stdout.readline().split())
+        return loop_us, cpu_us
+
+    found: list[list[list[tuple[float, float]]]] = [[[], []] for _ in now_files]
+    for round_ in range(pairs):
+        for i in range(len(now_files)):
+            order = (0, 1) if round_ % 2 == 0 else (1, 0)
+            for s in order:
+                found[i][s].append(measured(sides[s], i))
+    for side in sides:
+        assert side.stdin is not None
+        side.stdin.close()
+        side.wait()
+    print(f"now / {commit}, medians of {pairs} pairs, each the least of {runs} runs (the loop's "
+          f"time and run_mission's CPU time, us per sample):")  # fmt: skip
+    for file, (now, then) in zip(now_files, found, strict=True):
+        loop_ratio = _ratio([t[0] for t in then], [n[0] for n in now])
+        cpu_ratio = _ratio([t[1] for t in then], [n[1] for n in now])
+        print(
+            f"  {file.stem}: loop {statistics.median(n[0] for n in now):.3f} / "
+            f"{statistics.median(t[0] for t in then):.3f} = {loop_ratio:.3f}; run CPU "
+            f"{statistics.median(n[1] for n in now):.3f} / "
+            f"{statistics.median(t[1] for t in then):.3f} = {cpu_ratio:.3f}; the fastest of "
+            f"each: loop {min(n[0] for n in now) / min(t[0] for t in then):.3f}, run CPU "
+            f"{min(n[1] for n in now) / min(t[1] for t in then):.3f}"
+        )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def parts(*paths: str, pairs: int = 21, runs: int = 5) -> None:
+    """What two parts of a run cost, each mission (all of missions/ unless
+    named) in one process, in alternating pairs, each the least of ``runs``
+    runs: the short first chunks (the runner's FIRST_CHUNK against CHUNK: the
+    calls of the compiled loop a run makes, and run_mission's CPU time per
+    sample, ratio), and, with noisy sensors, the estimator's innovation gate
+    (the mission as written against ``estimator.innovation_gate: null``)."""
+    from wmr_mission.sim import runner
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.spec.loader import load_mission, parse_override
+
+    calls = [0]
+    call = runner._Run._call
+
+    def counted(self: Any, *args: Any) -> int:
+        calls[0] += 1
+        return call(self, *args)
+
+    runner._Run._call = counted  # type: ignore[method-assign]
+    first = runner.FIRST_CHUNK
+
+    def cpu(mission: Any, first_chunk: int) -> float:
+        runner.FIRST_CHUNK = first_chunk
+        least = math.inf
+        for _ in range(runs):
+            started = time.thread_time_ns()
+            run = runner.run_mission(mission)
+            least = min(least, (time.thread_time_ns() - started) / run.samples)
+        return least
+
+    def paired(a: tuple[Any, int], b: tuple[Any, int]) -> float:
+        ratios = []
+        for i in range(pairs + 1):  # the first pair untimed
+            x, y = (cpu(*a), cpu(*b)) if i % 2 else tuple(reversed((cpu(*b), cpu(*a))))
+            if i:
+                ratios.append(x / y)
+        return statistics.median(ratios)
+
+    for file in [Path(p) for p in paths] or sorted(MISSIONS.glob("*.yaml")):
+        mission = plan_mission(load_mission(file))
+        counts = []
+        for chunk in (first, runner.CHUNK):
+            calls[0] = 0
+            cpu(mission, chunk)
+            counts.append(calls[0] // runs)
+        line = (
+            f"{file.stem}: {counts[0]} calls a run ({counts[1]} without short first chunks), "
+            f"run CPU {paired((mission, first), (mission, runner.CHUNK)):.3f} of it"
+        )
+        if getattr(mission.estimator_tuning, "innovation_gate", math.inf) != math.inf:
+            ungated = load_mission(file, [parse_override("estimator.innovation_gate=null")])
+            line += f"; the gate {paired((mission, first), (plan_mission(ungated), first)):.3f}"
+        print(line)
+    runner.FIRST_CHUNK = first
+    runner._Run._call = call  # type: ignore[method-assign]
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -1554,7 +1737,7 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
-    jobs |= {"cuts": cuts, "imports": imports}
+    jobs |= {"cuts": cuts, "imports": imports, "parts": parts}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,
@@ -1572,7 +1755,11 @@ if __name__ == "__main__":
     if what not in jobs:
         print(__doc__, file=sys.stderr)
         sys.exit(2)
-    if what == "loop":
+    if what == "loop" and sys.argv[2:] and not sys.argv[2].endswith(".yaml"):
+        loop_against(sys.argv[2], sys.argv[3:])
+    elif what == "loop":
         loop(*sys.argv[2:])
+    elif what == "parts":
+        parts(*sys.argv[2:])
     else:
         jobs[what]()

@@ -299,3 +299,35 @@ def test_a_route_under_an_acceleration_limit_slows_into_its_stops(
     assert route.period > free.period
     _, _, fvx, fvy = free.sample(t)
     assert np.abs(np.diff(np.hypot(fvx, fvy))).max() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("acceleration", [math.inf, 0.5])
+def test_a_route_sampled_at_once_or_time_by_time_gives_the_same_bits(acceleration: float) -> None:
+    """sample() computes each kind of piece only where the times fall on one,
+    without a mask where all do: a call over legs, arcs and turns in place
+    together, one within a single piece, and one time at a time agree to
+    the bit."""
+    points = [[0, 0], [2, 0], [2, 2], [0, 3]]
+    rounded = polyline_route(points, 1.0, False, 0.5, 1.0, acceleration=acceleration)
+    turned = polyline_route(points, 1.0, False, 0.0, 0.5, acceleration=acceleration)
+    for route in (rounded, turned):
+        t = np.linspace(-1.0, route.period + 1.0, 501)
+        together = np.array(route.sample(t))
+        alone = np.array([np.array(route.sample(t[i : i + 1]))[:, 0] for i in range(t.size)]).T
+        assert together.tobytes() == alone.tobytes()
+        for kind in (0, 1, 2):  # a piece of each kind alone
+            piece = np.flatnonzero(route.kinds == kind)
+            if piece.size:
+                end = route._ends[piece[0]]
+                inside = np.linspace(end - route.durations[piece[0]], end, 9)[1:-1]
+                alone_piece = np.array(route.sample(inside)).tobytes()
+                assert alone_piece == together_at(route, inside), kind
+    assert 1 in rounded.kinds
+    assert 2 in turned.kinds
+
+
+def together_at(route: RouteTrajectory, t: np.ndarray) -> bytes:
+    """The samples at ``t`` taken from a call that also samples a time on
+    every piece (so each kind of piece is computed under its mask)."""
+    every = np.concatenate([route._ends - 0.5 * route.durations, [-1.0]])
+    return np.array(route.sample(np.concatenate([t, every])))[:, : t.size].tobytes()

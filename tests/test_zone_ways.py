@@ -196,3 +196,64 @@ def test_a_path_that_never_moves_keeps_no_way_round_of_the_path_before() -> None
     phase._path_points = lambda t: (np.full(t.shape, 2.0), np.full(t.shape, 1.0))  # type: ignore[method-assign]
     phase._find_ways()  # as a new path that rests takes over
     assert (phase.ways == 0.0).all()
+
+
+def test_the_ways_round_several_zones_are_each_zones_own() -> None:
+    """A phase's path is sampled once for all its keep-out ellipses
+    (PhaseRun._find_ways, one sampling about each zone's nearest chord in
+    one call): each zone's way round is the one found for it alone, from the
+    path sampled about its own nearest chord (ways_round), to the bit; a
+    zone beside a circle's far side and one off its end included."""
+    from wmr_mission import mission_from_dict
+    from wmr_mission.controllers.constrained_tracking import nearest_chords
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import WAY_HORIZON, WAY_SAMPLES, PhaseRun
+
+    rocks = {
+        "near": {"type": "circle", "center": [3, 0.3], "radius": 0.5},
+        "far": {"type": "ellipse", "center": [-1, 4.2], "semi_axes": [0.6, 0.3], "rotation": 0.4},
+        "through": {"type": "circle", "center": [0, 8], "radius": 0.4},
+        "beyond": {"type": "circle", "center": [9, -9], "radius": 1.0},
+    }
+    data = {
+        "version": 1,
+        "name": "rocks",
+        "robot": {"dt": 0.01, "initial_state": {"x": 0, "y": 0, "theta": 0}},
+        "regions": {"yard": {"type": "box", "min": [-20, -20], "max": [20, 20]}, **rocks},
+        "phases": [
+            {
+                "name": "round",
+                "track": {
+                    "path": {
+                        "type": "polyline",
+                        "points": [[4, 0], [4, 4], [0, 8], [-3, 3]],
+                        "corner_radius": 0.5,
+                        "speed": 1.0,
+                    }
+                },
+                "constraints": [
+                    {"stay_inside": "yard"},
+                    *({"stay_outside": name} for name in rocks),
+                ],
+                "until": {"elapsed": 20},
+            }
+        ],
+    }
+    plan = plan_mission(mission_from_dict(data))
+    phase = PhaseRun(plan.phases[0], plan, 0)
+    phase.enter(0, np.zeros(3))
+    kinds, params = plan.phases[0].constraint_rows
+    keep_out = np.flatnonzero((kinds == 0) & (params[:, 5] < 0.0))
+    assert keep_out.size == len(rocks)
+    # zone by zone, as each was found before the path was sampled once for all
+    samples = min(phase.bound, WAY_HORIZON)
+    t = np.linspace(0.0, samples * plan.dt, min(samples, WAY_SAMPLES) + 1)
+    x, y = phase._path_points(t)
+    for i in keep_out:
+        k = int(nearest_chords(x, y, params[i : i + 1, 0], params[i : i + 1, 1])[0][0])
+        near = np.linspace(t[max(k - 1, 0)], t[min(k + 2, t.size - 1)], WAY_SAMPLES + 1)
+        alone = ways_round(*phase._path_points(near), kinds[i : i + 1], params[i : i + 1])
+        assert alone[0, 4] != 0.0
+        assert phase.ways[i].tobytes() == alone[0].tobytes()
+    others = np.setdiff1d(np.arange(kinds.size), keep_out)
+    assert (phase.ways[others] == 0.0).all()

@@ -60,8 +60,10 @@ __all__ = [
     "aim_round_zones",
     "constrained_change",
     "keep_constraints",
+    "nearest_chords",
     "ramped_offset",
     "row_value_with_margin",
+    "way_at",
     "ways_round",
 ]
 
@@ -520,20 +522,29 @@ WAY_COLUMNS = 5
 THROUGH_CENTRE = 1e-12
 
 
-def nearest_chord(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[int, float]:
-    """The chord (from sample k to k + 1) of the polyline through the samples
-    (x, y) nearest the point (px, py), and its share along it where it is
-    nearest; (-1, 0) where the samples never move."""
-    ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
+def nearest_chords(
+    x: FloatArray, y: FloatArray, px: FloatArray, py: FloatArray
+) -> tuple[IntArray, FloatArray]:
+    """For each point (px, py) (n of them), the chord (from sample k to k + 1)
+    of its polyline through the samples (x, y) nearest it, and its share along
+    it where it is nearest; (-1, 0) where the samples never move. One
+    polyline for all (x, y of shape (m,)) or one each (shape (n, m))."""
+    px = np.asarray(px, dtype=np.float64)[:, None]
+    py = np.asarray(py, dtype=np.float64)[:, None]
+    ax, ay, ex, ey = x[..., :-1], y[..., :-1], np.diff(x), np.diff(y)
     length2 = ex * ex + ey * ey
     moving = length2 > 0.0
-    if not np.any(moving):
-        return -1, 0.0
     with np.errstate(all="ignore"):
-        share = np.clip(((px - ax) * ex + (py - ay) * ey) / length2, 0.0, 1.0)
+        share = ((px - ax) * ex + (py - ay) * ey) / length2
+        np.clip(share, 0.0, 1.0, out=share)
         gaps = np.hypot(ax + share * ex - px, ay + share * ey - py)
-    k = int(np.argmin(np.where(moving, gaps, np.inf)))
-    return k, float(share[k])
+    k = np.argmin(np.where(moving, gaps, np.inf), axis=1)
+    share = share[np.arange(k.size), k]
+    still = ~moving.any(axis=-1)
+    if np.any(still):
+        k = np.where(still, -1, k)
+        share = np.where(still, 0.0, share)
+    return k, share
 
 
 def ways_round(
@@ -552,23 +563,28 @@ def ways_round(
     went over to the other side within a detour: turn-rate kicks and
     reversals (docs/paper-notes.md, eq. (28), "The way round, decided once")."""
     ways = np.zeros((row_kinds.shape[0], WAY_COLUMNS))
-    for i in range(row_kinds.shape[0]):
-        p = row_params[i]
-        if row_kinds[i] != ELLIPSE_ROW or p[5] >= 0.0:
-            continue
-        k, share = nearest_chord(x, y, p[0], p[1])
-        if k < 0:
-            continue
-        ex = x[k + 1] - x[k]
-        ey = y[k + 1] - y[k]
-        length = math.hypot(ex, ey)
-        nx = x[k] + share * ex
-        ny = y[k] + share * ey
-        cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
-        through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
-        side = 1.0 if through or cross < 0.0 else -1.0
-        ways[i] = nx, ny, ex / length, ey / length, side
+    rows = np.flatnonzero((row_kinds == ELLIPSE_ROW) & (row_params[:, 5] < 0.0))
+    chords, shares = nearest_chords(x, y, row_params[rows, 0], row_params[rows, 1])
+    for i, k, share in zip(rows.tolist(), chords.tolist(), shares.tolist(), strict=True):
+        ways[i] = way_at(x, y, k, share, row_params[i])
     return ways
+
+
+def way_at(x: FloatArray, y: FloatArray, k: int, share: float, p: FloatArray) -> FloatArray:
+    """The way round the keep-out ellipse row ``p`` (:func:`ways_round`) where
+    the polyline through (x, y) passes its centre nearest: ``share`` along
+    the chord from sample ``k`` (:func:`nearest_chords`); none for k < 0."""
+    if k < 0:
+        return np.zeros(WAY_COLUMNS)
+    ex = x[k + 1] - x[k]
+    ey = y[k + 1] - y[k]
+    length = math.hypot(ex, ey)
+    nx = x[k] + share * ex
+    ny = y[k] + share * ey
+    cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
+    through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
+    side = 1.0 if through or cross < 0.0 else -1.0
+    return np.array([nx, ny, ex / length, ey / length, side])
 
 
 @kernel

@@ -91,33 +91,42 @@ class RouteTrajectory:
         y = np.empty(time.shape)
         vx = np.empty(time.shape)
         vy = np.empty(time.shape)
-        leg = kind == LEG
-        if self.profiles is None:
-            distance = self.speed * local[leg]
-            speed = np.full(distance.shape, self.speed)
-        else:
-            distance, speed = _along_leg(
-                self.profiles[piece[leg]], local[leg], self.durations[piece[leg]]
-            )
-        x[leg] = p[leg, 0] + p[leg, 2] * distance
-        y[leg] = p[leg, 1] + p[leg, 3] * distance
-        vx[leg] = speed * p[leg, 2]
-        vy[leg] = speed * p[leg, 3]
-        arc = kind == ARC
-        radius = p[arc, 2]
-        direction = np.sign(p[arc, 4])
-        angle = p[arc, 3] + direction * self.speed * local[arc] / radius
-        cos, sin = scalar_math.cos(angle), scalar_math.sin(angle)
-        x[arc] = p[arc, 0] + radius * cos
-        y[arc] = p[arc, 1] + radius * sin
-        vx[arc] = -direction * self.speed * sin
-        vy[arc] = direction * self.speed * cos
-        turn = kind == TURN
-        heading = p[turn, 2] + np.sign(p[turn, 3]) * self.turn_rate * local[turn]
-        x[turn] = p[turn, 0]
-        y[turn] = p[turn, 1]
-        vx[turn] = TURN_CREEP * scalar_math.cos(heading)
-        vy[turn] = TURN_CREEP * scalar_math.sin(heading)
+        # Each kind of piece computed only where the times fall on one, and
+        # without a mask where all do: a call's fixed cost is most of what a
+        # run's paths ahead cost (the empty arcs and turns alone 25 us of
+        # keep-out's 70 us per call).
+        present = np.bincount(kind, minlength=3)
+        every = slice(None)
+        if present[LEG]:
+            leg = every if present[LEG] == kind.size else kind == LEG
+            if self.profiles is None:
+                distance = self.speed * local[leg]
+                speed = np.full(distance.shape, self.speed)
+            else:
+                distance, speed = _along_leg(
+                    self.profiles[piece[leg]], local[leg], self.durations[piece[leg]]
+                )
+            x[leg] = p[leg, 0] + p[leg, 2] * distance
+            y[leg] = p[leg, 1] + p[leg, 3] * distance
+            vx[leg] = speed * p[leg, 2]
+            vy[leg] = speed * p[leg, 3]
+        if present[ARC]:
+            arc = every if present[ARC] == kind.size else kind == ARC
+            radius = p[arc, 2]
+            direction = np.sign(p[arc, 4])
+            angle = p[arc, 3] + direction * self.speed * local[arc] / radius
+            cos, sin = scalar_math.cos(angle), scalar_math.sin(angle)
+            x[arc] = p[arc, 0] + radius * cos
+            y[arc] = p[arc, 1] + radius * sin
+            vx[arc] = -direction * self.speed * sin
+            vy[arc] = direction * self.speed * cos
+        if present[TURN]:
+            turn = every if present[TURN] == kind.size else kind == TURN
+            heading = p[turn, 2] + np.sign(p[turn, 3]) * self.turn_rate * local[turn]
+            x[turn] = p[turn, 0]
+            y[turn] = p[turn, 1]
+            vx[turn] = TURN_CREEP * scalar_math.cos(heading)
+            vy[turn] = TURN_CREEP * scalar_math.sin(heading)
         vx = np.where(moving, vx, 0.0)
         vy = np.where(moving, vy, 0.0)
         return x, y, vx, vy

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.controllers.constrained_tracking import WAY_COLUMNS, nearest_chord, ways_round
+from wmr_mission.controllers.constrained_tracking import WAY_COLUMNS, nearest_chords, way_at
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import ELLIPSE_ROW, max_row_value
@@ -261,7 +261,8 @@ class PhaseRun:
         """The way round each keep-out zone of the path just made, decided
         once (constrained_tracking.ways_round): from the path over the
         phase's bound, at WAY_SAMPLES points, and again at WAY_SAMPLES
-        points over the two chords about the one nearest the zone."""
+        points over the two chords about the one nearest each zone, the
+        path sampled once for all zones each time."""
         assert self._trajectory is not None
         self.ways[:] = 0.0  # none of an earlier path's: where this one never moves, none
         kinds, params = self.phase.constraint_rows
@@ -271,12 +272,19 @@ class PhaseRun:
         samples = min(self.bound, WAY_HORIZON)
         t = np.linspace(0.0, samples * self.mission.dt, min(samples, WAY_SAMPLES) + 1)
         x, y = self._path_points(t)
-        for i in keep_out:
-            k, _ = nearest_chord(x, y, params[i, 0], params[i, 1])
-            if k < 0:
-                continue
-            near = np.linspace(t[max(k - 1, 0)], t[min(k + 2, t.size - 1)], WAY_SAMPLES + 1)
-            self.ways[i] = ways_round(*self._path_points(near), kinds[i : i + 1], params[i : i + 1])
+        chords, _ = nearest_chords(x, y, params[keep_out, 0], params[keep_out, 1])
+        keep_out, chords = keep_out[chords >= 0], chords[chords >= 0]
+        if not keep_out.size:
+            return
+        last = t.size - 1
+        near = np.array(  # a row a zone
+            [np.linspace(t[max(k - 1, 0)], t[min(k + 2, last)], WAY_SAMPLES + 1) for k in chords]
+        )
+        x, y = (z.reshape(near.shape) for z in self._path_points(near.ravel()))
+        zones = params[keep_out]
+        chords, shares = nearest_chords(x, y, zones[:, 0], zones[:, 1])
+        for j, i in enumerate(keep_out.tolist()):
+            self.ways[i] = way_at(x[j], y[j], int(chords[j]), float(shares[j]), params[i])
 
     def _path_points(self, t: FloatArray) -> tuple[FloatArray, FloatArray]:
         assert self._trajectory is not None
