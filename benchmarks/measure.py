@@ -422,6 +422,12 @@ _WHOLE_COMMAND_LINE = (
     "import wmr_mission.cli as cli; cli._command_line = lambda arguments: cli.app; " + _COMMAND
 )
 
+# The same ending as Python ends, its modules unloaded object by object, not at
+# once after its exit functions (wmr_mission.cli._ends_at_once).
+_UNLOADING = (
+    "import wmr_mission.cli as cli; cli._ends_at_once = lambda *arguments: False; " + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -464,6 +470,11 @@ def cuts(pairs: int = 9) -> None:
              [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], plain, plain),
             ("run case1 --no-plots compiled, frozen at exit / not",
              [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], _user_env(),
+             _user_env()),
+            ("validate case2, ended at once / modules unloaded", validate,
+             [py, "-c", _UNLOADING, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots compiled, ended at once / modules unloaded",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _UNLOADING, *case1], _user_env(),
              _user_env()),
         ]  # fmt: skip
         wanted = sys.argv[2:]  # `cuts WORD ...`: the cases named with one of the words

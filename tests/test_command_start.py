@@ -153,6 +153,49 @@ def test_nothing_is_collected_while_a_command_starts(tmp_path: Path) -> None:
     assert report == {"before": 0, "on": True}
 
 
+# Runs the command line with a module that says when Python unloads it, and
+# an exit function that says when it runs.
+ENDING = """
+import atexit, os, sys
+class Unloaded:
+    def __del__(self, write=os.write):  # os itself may be unloaded first
+        write(2, b"unloaded\\n")
+sys.modules["witness"] = Unloaded()
+atexit.register(lambda: print("exit function", file=sys.__stderr__, flush=True))
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import main
+main()
+"""
+
+
+def _ending(args: list[str]) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
+    return subprocess.run(
+        [sys.executable, "-c", ENDING, *args], env=env, capture_output=True, text=True
+    )
+
+
+def test_run_and_validate_end_without_unloading_their_modules(tmp_path: Path) -> None:
+    """Once the command has written and flushed everything, its process ends
+    after Python's exit functions, without unloading every module object by
+    object (docs/performance.md, Start-up), with the command's exit code;
+    other commands end as Python ends."""
+    out = tmp_path / "run"
+    run = _ending(["run", str(MISSIONS / "figure-eight.yaml"), "--no-plots", "--out", str(out)])
+    assert run.returncode == 0, run.stderr
+    assert run.stderr.splitlines()[-1:] == ["exit function"]
+    assert "outcome: success" in run.stdout
+    assert (out / "summary.json").exists()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("version: 1\nname: bad\n")
+    invalid = _ending(["validate", str(bad)])
+    assert invalid.returncode == 1
+    assert "exit function" in invalid.stderr and "unloaded" not in invalid.stderr
+    schema = _ending(["schema"])
+    assert schema.returncode == 0
+    assert schema.stderr.splitlines() == ["exit function", "unloaded"]
+
+
 # The command line run with typer's building of each command counted (its
 # options read from the function's signature), printed as the process ends.
 COMMANDS_BUILT = """

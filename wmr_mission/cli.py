@@ -8,6 +8,7 @@ never load matplotlib or scipy.
 
 from __future__ import annotations
 
+import atexit
 import gc
 import io
 import os
@@ -732,4 +733,27 @@ def main() -> None:
     # 0.45 s of CPU); frozen, they are left to reference counting alone
     # (docs/performance.md, Start-up).
     gc.freeze()
-    raise SystemExit(early.exit_code if early.owed else code)
+    if early.owed:
+        raise SystemExit(early.exit_code)
+    if _ends_at_once(sys.argv[1:2], code):
+        # What Python would still do as it exits, its exit functions, is done;
+        # then the process ends without unloading every module, object by
+        # object (docs/performance.md, Start-up): run and validate wrote and
+        # closed what they made, and the streams are flushed.
+        atexit._run_exitfuncs()
+        for stream in (sys.stdout, sys.stderr):
+            if stream is not None and not stream.closed:
+                stream.flush()
+        os._exit(code or 0)
+    raise SystemExit(code)
+
+
+def _ends_at_once(arguments: list[str], code: Any) -> bool:
+    """Whether the command's process may end without Python's teardown: run
+    or validate (the short commands), a numeric exit code, and no other
+    thread left running (Python's exit would wait for it)."""
+    import threading
+
+    numeric = code is None or isinstance(code, int)
+    short = bool(arguments) and arguments[0] in _SHORT
+    return short and numeric and threading.active_count() == 1
