@@ -190,7 +190,8 @@ def test_run_and_validate_end_without_unloading_their_modules(tmp_path: Path) ->
     bad.write_text("version: 1\nname: bad\n")
     invalid = _ending(["validate", str(bad)])
     assert invalid.returncode == 1
-    assert "exit function" in invalid.stderr and "unloaded" not in invalid.stderr
+    assert "exit function" in invalid.stderr
+    assert "unloaded" not in invalid.stderr
     schema = _ending(["schema"])
     assert schema.returncode == 0
     assert schema.stderr.splitlines() == ["exit function", "unloaded"]

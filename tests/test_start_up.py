@@ -327,9 +327,11 @@ def test_another_numba_loads_its_cache_its_own_way(monkeypatch: pytest.MonkeyPat
     written_for = jit.LOADED_AS_IS_FOR
     monkeypatch.setattr(numba, "__version__", f"{written_for}.7")
     loaded_as_is = jit._cache_class()
-    assert loaded_as_is is not None and issubclass(loaded_as_is, FunctionCache)
+    assert loaded_as_is is not None
+    assert issubclass(loaded_as_is, FunctionCache)
     major, minor = written_for.split(".")
-    for other in (f"{major}.{int(minor) + 1}.0", f"{int(major) + 1}.{minor}.0", f"{major}.{minor}0"):
+    others = (f"{major}.{int(minor) + 1}.0", f"{int(major) + 1}.{minor}.0", f"{major}.{minor}0")
+    for other in others:
         monkeypatch.setattr(numba, "__version__", other)
         assert jit._cache_class() is None, other
 
