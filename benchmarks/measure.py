@@ -428,6 +428,12 @@ _UNLOADING = (
     "import wmr_mission.cli as cli; cli._ends_at_once = lambda *arguments: False; " + _COMMAND
 )
 
+# The same with pydantic's plug-in loader imported as pydantic imports it
+# (wmr_mission.cli._no_pydantic_plugin_loader).
+_PLUGIN_LOADER = (
+    "import wmr_mission.cli as cli; cli._no_pydantic_plugin_loader = lambda: None; " + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -471,6 +477,11 @@ def cuts(pairs: int = 9) -> None:
             ("run case1 --no-plots compiled, frozen at exit / not",
              [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], _user_env(),
              _user_env()),
+            ("validate case2, pydantic's plug-in loader stood in for / imported", validate,
+             [py, "-c", _PLUGIN_LOADER, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots as plain Python, pydantic's plug-in loader stood in for / "
+             "imported", [py, "-c", _COMMAND, *case1], [py, "-c", _PLUGIN_LOADER, *case1], plain,
+             plain),
             ("validate case2, ended at once / modules unloaded", validate,
              [py, "-c", _UNLOADING, *validate[3:]], _user_env(), _user_env()),
             ("run case1 --no-plots compiled, ended at once / modules unloaded",

@@ -70,13 +70,29 @@ def test_validate_imports_nothing_it_does_not_use() -> None:
     report = _start(["validate", str(MISSIONS / "case2.yaml"), str(MISSIONS / "patrol.yaml")])
     modules = report["modules"]
     assert isinstance(modules, list)
-    assert [m for m in (*NEVER, "rich") if m in modules] == []
+    assert [m for m in (*NEVER, "rich", "email", "zipfile") if m in modules] == []
     assert "pydantic" in modules  # the probe sees what was imported
     # Every object alive is frozen as the command ends: Python's collections
     # as it shuts down would trace them all (docs/performance.md, Start-up).
     frozen = report["frozen"]
     assert isinstance(frozen, int)
     assert frozen > 10_000  # some 50 000 of them
+
+
+def test_pydantic_looks_for_plug_ins_only_where_some_are_enabled() -> None:
+    """With every pydantic plug-in disabled, as the command line sets unless
+    the user did, pydantic's plug-in loader is not imported, nor
+    importlib.metadata (the email parser, zipfile) with it; a user's own
+    setting keeps pydantic's loader."""
+    case2 = str(MISSIONS / "case2.yaml")
+    assert "email" not in _modules(_start(["validate", case2])["modules"])
+    one_disabled = _start(["validate", case2], PYDANTIC_DISABLE_PLUGINS="some-plug-in")
+    assert "email" in _modules(one_disabled["modules"])
+
+
+def _modules(report: object) -> list[str]:
+    assert isinstance(report, list)
+    return report
 
 
 def test_a_run_without_plots_imports_nothing_it_does_not_use(tmp_path: Path) -> None:

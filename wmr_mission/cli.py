@@ -690,12 +690,29 @@ class _QuietPipe:
 START_UP_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "PYDANTIC_DISABLE_PLUGINS": "__all__"}
 
 
+def _no_pydantic_plugin_loader() -> None:
+    """With every pydantic plug-in disabled, pydantic's plug-in loader, which
+    its first validator imports, finds none; but its import loads
+    importlib.metadata (the email parser, zipfile, csv: 0.015 s of
+    `validate`'s CPU, docs/performance.md, Start-up) only to look them up.
+    A module that finds none stands in for it."""
+    name = "pydantic.plugin._loader"
+    if os.environ.get("PYDANTIC_DISABLE_PLUGINS") != "__all__" or name in sys.modules:
+        return
+    import types
+
+    loader = types.ModuleType(name, "No pydantic plug-in: all are disabled (wmr_mission.cli).")
+    loader.get_plugins = lambda: ()  # type: ignore[attr-defined]
+    sys.modules[name] = loader
+
+
 def main() -> None:
     # No cyclic collection while the command starts: see
     # wmr_mission.commands.start_up_done, which turns it on.
     gc.disable()
     for name, value in START_UP_ENVIRONMENT.items():
         os.environ.setdefault(name, value)
+    _no_pydantic_plugin_loader()
     if not sys.warnoptions:
         # Numerical warnings (overflow in a diverging run, ...) are reported by
         # the run itself as its outcome; library warnings are not for users.
