@@ -434,6 +434,13 @@ _PLUGIN_LOADER = (
     "import wmr_mission.cli as cli; cli._no_pydantic_plugin_loader = lambda: None; " + _COMMAND
 )
 
+# The same with the phase table laid out by rich, as every table was
+# (wmr_mission.output.report._fitting_table).
+_RICH_TABLE = (
+    "import wmr_mission.output.report as report; report._fitting_table = lambda *a: None; "
+    + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -482,6 +489,9 @@ def cuts(pairs: int = 9) -> None:
             ("run case1 --no-plots as plain Python, pydantic's plug-in loader stood in for / "
              "imported", [py, "-c", _COMMAND, *case1], [py, "-c", _PLUGIN_LOADER, *case1], plain,
              plain),
+            ("run case1 --no-plots compiled, its table laid out here / by rich",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _RICH_TABLE, *case1], _user_env(),
+             _user_env()),
             ("validate case2, ended at once / modules unloaded", validate,
              [py, "-c", _UNLOADING, *validate[3:]], _user_env(), _user_env()),
             ("run case1 --no-plots compiled, ended at once / modules unloaded",
