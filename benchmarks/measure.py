@@ -400,6 +400,31 @@ def _checkout(commit: str, directory: str) -> str:
     return directory
 
 
+def _compiled_at(commit: str) -> dict[str, str]:
+    """A user's environment running the package as it was at ``commit``, its
+    kernel cache warm: the package unpacked once into a directory of its own
+    (kept between measurements: numba's cache is keyed by each source file's
+    path and time), compiled there by its own `wmr-mission compile`. Its
+    cache is its package's ``__pycache__``, as an installed package's, not
+    ``NUMBA_CACHE_DIR``: without its own ready marker, `run` at the commit
+    would choose plain Python (compiled and plain then cost the same)."""
+    sha = subprocess.run(["git", "-C", str(ROOT), "rev-parse", f"{commit}^{{commit}}"],
+                         check=True, capture_output=True, text=True).stdout.strip()  # fmt: skip
+    directory = Path(tempfile.gettempdir()) / f"wmr-mission-at-{sha[:12]}"
+    if not (directory / "wmr_mission").is_dir():
+        partial = Path(tempfile.mkdtemp(prefix=directory.name + "."))
+        _checkout(sha, str(partial))
+        os.replace(partial, directory)
+    env = {k: v for k, v in _user_env().items() if k != "NUMBA_CACHE_DIR"}
+    # Read by commits that compiled in a background process (3bfbb58 to c7fae42).
+    env |= {"PYTHONPATH": str(directory), "WMR_MISSION_FOREGROUND_COMPILE": "1"}
+    done = subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], cwd=directory.parent,
+                          env=env, capture_output=True, text=True)  # fmt: skip
+    said = (done.stdout + done.stderr).strip().splitlines()
+    print(f"at {commit}: {said[-1] if said else ''} (exit {done.returncode})")
+    return env
+
+
 def startup(pairs: int = 8) -> None:
     """CPU time of the commands users start with, the kernel cache warm (made
     ready by `wmr-mission compile`): `run missions/case1.yaml --no-plots` as it
@@ -424,9 +449,7 @@ def startup(pairs: int = 8) -> None:
         names = ["run case1 --no-plots (as run chooses: compiled)",
                  "the same as plain Python", "validate case2"]  # fmt: skip
         if against is not None:
-            os.mkdir(f"{tmp}/then")
-            then = {**env, "PYTHONPATH": _checkout(against, f"{tmp}/then"),
-                    "WMR_MISSION_FOREGROUND_COMPILE": "1"}  # fmt: skip
+            then = _compiled_at(against)
             commands += [
                 [*commands[0][:-1], f"{tmp}/then-run"],
                 commands[2],
@@ -455,6 +478,8 @@ def startup(pairs: int = 8) -> None:
         print(f"validate, now / {against}, pair by pair: median {_ratio(times[4], times[2]):.2f}")
         print(f"run as plain Python, now / {against}, pair by pair: median "
               f"{_ratio(times[5], times[1]):.2f}")  # fmt: skip
+        print(f"compiled / plain at {against}, pair by pair: median "
+              f"{_ratio(times[5], times[3]):.2f}")  # fmt: skip
     print(f"loading the compiled loop, step by step: {loading.strip()}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
@@ -580,6 +605,25 @@ _WHOLE_COMMAND_LINE = (
     "import wmr_mission.cli as cli; cli._command_line = lambda arguments: cli.app; " + _COMMAND
 )
 
+# The same ending as Python ends, its modules unloaded object by object, not at
+# once after its exit functions (wmr_mission.cli._ends_at_once).
+_UNLOADING = (
+    "import wmr_mission.cli as cli; cli._ends_at_once = lambda *arguments: False; " + _COMMAND
+)
+
+# The same with pydantic's plug-in loader imported as pydantic imports it
+# (wmr_mission.cli._no_pydantic_plugin_loader).
+_PLUGIN_LOADER = (
+    "import wmr_mission.cli as cli; cli._no_pydantic_plugin_loader = lambda: None; " + _COMMAND
+)
+
+# The same with the phase table laid out by rich, as every table was
+# (wmr_mission.output.report._fitting_table).
+_RICH_TABLE = (
+    "import wmr_mission.output.report as report; report._fitting_table = lambda *a: None; "
+    + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -622,6 +666,19 @@ def cuts(pairs: int = 9) -> None:
              [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], plain, plain),
             ("run case1 --no-plots compiled, frozen at exit / not",
              [py, "-c", _COMMAND, *case1], [py, "-c", _UNFROZEN, *case1], _user_env(),
+             _user_env()),
+            ("validate case2, pydantic's plug-in loader stood in for / imported", validate,
+             [py, "-c", _PLUGIN_LOADER, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots as plain Python, pydantic's plug-in loader stood in for / "
+             "imported", [py, "-c", _COMMAND, *case1], [py, "-c", _PLUGIN_LOADER, *case1], plain,
+             plain),
+            ("run case1 --no-plots compiled, its table laid out here / by rich",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _RICH_TABLE, *case1], _user_env(),
+             _user_env()),
+            ("validate case2, ended at once / modules unloaded", validate,
+             [py, "-c", _UNLOADING, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots compiled, ended at once / modules unloaded",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _UNLOADING, *case1], _user_env(),
              _user_env()),
         ]  # fmt: skip
         wanted = sys.argv[2:]  # `cuts WORD ...`: the cases named with one of the words

@@ -70,7 +70,7 @@ def test_validate_imports_nothing_it_does_not_use() -> None:
     report = _start(["validate", str(MISSIONS / "case2.yaml"), str(MISSIONS / "patrol.yaml")])
     modules = report["modules"]
     assert isinstance(modules, list)
-    assert [m for m in (*NEVER, "rich") if m in modules] == []
+    assert [m for m in (*NEVER, "rich", "email", "zipfile") if m in modules] == []
     assert "pydantic" in modules  # the probe sees what was imported
     # Every object alive is frozen as the command ends: Python's collections
     # as it shuts down would trace them all (docs/performance.md, Start-up).
@@ -79,16 +79,32 @@ def test_validate_imports_nothing_it_does_not_use() -> None:
     assert frozen > 10_000  # some 50 000 of them
 
 
+def test_pydantic_looks_for_plug_ins_only_where_some_are_enabled() -> None:
+    """With every pydantic plug-in disabled, as the command line sets unless
+    the user did, pydantic's plug-in loader is not imported, nor
+    importlib.metadata (the email parser, zipfile) with it; a user's own
+    setting keeps pydantic's loader."""
+    case2 = str(MISSIONS / "case2.yaml")
+    assert "email" not in _modules(_start(["validate", case2])["modules"])
+    one_disabled = _start(["validate", case2], PYDANTIC_DISABLE_PLUGINS="some-plug-in")
+    assert "email" in _modules(one_disabled["modules"])
+
+
+def _modules(report: object) -> list[str]:
+    assert isinstance(report, list)
+    return report
+
+
 def test_a_run_without_plots_imports_nothing_it_does_not_use(tmp_path: Path) -> None:
     """figure-eight.yaml runs as plain Python (its budget, 4 515 samples, is
     under the bound, wmr_mission.commands.compile): no numba, no scipy, no
-    figures."""
+    figures; its table fits, laid out without rich (wmr_mission.output.report)."""
     out = tmp_path / "run"
     mission = MISSIONS / "figure-eight.yaml"
-    report = _start(["run", str(mission), "--no-plots", "--out", str(out)])
+    report = _start(["run", str(mission), "--no-plots", "--out", str(out)], COLUMNS="100")
     modules = report["modules"]
     assert isinstance(modules, list)
-    assert [m for m in NEVER if m in modules] == []
+    assert [m for m in (*NEVER, "rich") if m in modules] == []
     assert (out / "trajectory.csv").exists()
 
 
@@ -151,6 +167,50 @@ def test_nothing_is_collected_while_a_command_starts(tmp_path: Path) -> None:
     out = str(tmp_path / "run")
     report = _collections(["run", str(MISSIONS / "figure-eight.yaml"), "--no-plots", "--out", out])
     assert report == {"before": 0, "on": True}
+
+
+# Runs the command line with a module that says when Python unloads it, and
+# an exit function that says when it runs.
+ENDING = """
+import atexit, os, sys
+class Unloaded:
+    def __del__(self, write=os.write):  # os itself may be unloaded first
+        write(2, b"unloaded\\n")
+sys.modules["witness"] = Unloaded()
+atexit.register(lambda: print("exit function", file=sys.__stderr__, flush=True))
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import main
+main()
+"""
+
+
+def _ending(args: list[str]) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
+    return subprocess.run(
+        [sys.executable, "-c", ENDING, *args], env=env, capture_output=True, text=True
+    )
+
+
+def test_run_and_validate_end_without_unloading_their_modules(tmp_path: Path) -> None:
+    """Once the command has written and flushed everything, its process ends
+    after Python's exit functions, without unloading every module object by
+    object (docs/performance.md, Start-up), with the command's exit code;
+    other commands end as Python ends."""
+    out = tmp_path / "run"
+    run = _ending(["run", str(MISSIONS / "figure-eight.yaml"), "--no-plots", "--out", str(out)])
+    assert run.returncode == 0, run.stderr
+    assert run.stderr.splitlines()[-1:] == ["exit function"]
+    assert "outcome: success" in run.stdout
+    assert (out / "summary.json").exists()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("version: 1\nname: bad\n")
+    invalid = _ending(["validate", str(bad)])
+    assert invalid.returncode == 1
+    assert "exit function" in invalid.stderr
+    assert "unloaded" not in invalid.stderr
+    schema = _ending(["schema"])
+    assert schema.returncode == 0
+    assert schema.stderr.splitlines() == ["exit function", "unloaded"]
 
 
 # The command line run with typer's building of each command counted (its

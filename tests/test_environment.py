@@ -19,6 +19,7 @@ from wmr_mission.campaign.sweep import sweep_command
 from wmr_mission.output.environment import (
     environment,
     fingerprint,
+    installed_version,
     libm_digest,
     machine_record,
     own_fingerprint,
@@ -187,3 +188,13 @@ def test_sweep_refuses_a_cluster_whose_worker_has_another_c_library(
         assert code in (0, 1)
         assert "warning: 1 of 1 Dask workers differ" in capsys.readouterr().err
         assert json.loads((tmp_path / "allowed" / "campaign.json").read_text())["runs"] == 3
+
+
+def test_a_version_read_from_the_metadatas_headers_is_importlibs() -> None:
+    """Read from the headers alone, the version is the one importlib.metadata
+    parses from the whole file; None for a package not installed."""
+    from importlib import metadata
+
+    for package in ("numpy", "scipy", "pydantic", "numba", "matplotlib", "PyYAML", "typer"):
+        assert installed_version(package) == metadata.version(package), package
+    assert installed_version("wmr-mission-no-such-package") is None

@@ -4,6 +4,7 @@ from pathlib import Path
 
 from test_output_synthetic import circle_run
 
+from wmr_mission.output import report
 from wmr_mission.output.report import format_table
 from wmr_mission.verdicts.metrics import check_expectations, judge, summarize
 
@@ -154,3 +155,50 @@ def test_the_table_reads_each_check_a_bounded_number_of_times() -> None:
     rows = _rows(lines)
     assert rows["p7"][0].endswith("  NOT MET")
     assert rows["p8"][0].endswith("  ok")
+
+
+def test_a_table_that_fits_is_laid_out_as_rich_lays_it_out() -> None:
+    """Laid out without rich where every cell fits (rich's import and layout
+    cost a run 0.02-0.03 s), character for character as rich would; rich
+    wraps the rest."""
+    run = circle_run()
+    run.omega = run.omega.copy()
+    run.omega[700:800] = 20.0
+    mission = {
+        "expect": {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
+        "phases": [{"name": name, "expect": {}} for name in ("approach", "orbit", "park")],
+    }
+    judged = judge(run, mission)
+    checks = list(judged.get("expectations", []))
+    verdicts = report._verdicts(checks)
+    rows = [
+        [
+            str(phase["name"]),
+            str(phase["kind"]),
+            report._seconds(phase.get("duration")),
+            report.key_metric(phase),
+            report._at_limit(phase),
+            report._convergence(phase),
+            verdicts.get(phase["name"], "-"),
+        ]
+        for phase in judged["phases"]
+    ]
+    tables = [
+        rows,
+        rows[:1],
+        [],
+        [["a-much-longer-phase-name-than-usual", "track", "-", "-", "-", "never", "-"]],
+        [[*rows[1][:6], "NOT MET\nturn_rate_at_limit\n0.111 (max 0.01)"]],
+    ]
+    fitted = 0
+    for table in tables:
+        for width in range(40, 130):
+            fitting = report._fitting_table(table, width)
+            if fitting is not None:
+                fitted += 1
+                assert fitting == report._wrapped_table(table, width), (table, width)
+    assert fitted > 200
+    assert report._fitting_table(rows, 60) is None  # wrapped by rich: too narrow
+    wide = [[*rows[0][:6], "a verdict wider than its column"]]
+    assert report._fitting_table(wide, 200) is None
+    assert report._fitting_table([["\u00e9t\u00e9", *rows[0][1:]]], 200) is None

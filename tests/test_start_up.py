@@ -317,6 +317,25 @@ def test_a_cached_function_loads_without_setting_numba_up_and_a_miss_compiles(
     assert printed == [["3.0", "0", "True", "False"], ["3.0", "1", "False", "False"]]
 
 
+def test_another_numba_loads_its_cache_its_own_way(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The cache that loads without setting numba's target up restates numba's
+    own loading as of one numba (jit.LOADED_AS_IS_FOR); another numba's, which
+    may do more, is used as numba made it."""
+    import numba
+    from numba.core.caching import FunctionCache
+
+    written_for = jit.LOADED_AS_IS_FOR
+    monkeypatch.setattr(numba, "__version__", f"{written_for}.7")
+    loaded_as_is = jit._cache_class()
+    assert loaded_as_is is not None
+    assert issubclass(loaded_as_is, FunctionCache)
+    major, minor = written_for.split(".")
+    others = (f"{major}.{int(minor) + 1}.0", f"{int(major) + 1}.{minor}.0", f"{major}.{minor}0")
+    for other in others:
+        monkeypatch.setattr(numba, "__version__", other)
+        assert jit._cache_class() is None, other
+
+
 def test_the_warm_up_compiles_the_loop_every_mission_runs() -> None:
     """One loop per built-in estimator and controller, one signature each:
     every shipped mission runs one of them as the warm-up compiled it. (A

@@ -8,6 +8,7 @@ never load matplotlib or scipy.
 
 from __future__ import annotations
 
+import atexit
 import gc
 import io
 import os
@@ -690,12 +691,29 @@ class _QuietPipe:
 START_UP_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "PYDANTIC_DISABLE_PLUGINS": "__all__"}
 
 
+def _no_pydantic_plugin_loader() -> None:
+    """With every pydantic plug-in disabled, pydantic's plug-in loader, which
+    its first validator imports, finds none; but its import loads
+    importlib.metadata (the email parser, zipfile, csv: 0.015 s of
+    `validate`'s CPU, docs/performance.md, Start-up) only to look them up.
+    A module that finds none stands in for it."""
+    name = "pydantic.plugin._loader"
+    if os.environ.get("PYDANTIC_DISABLE_PLUGINS") != "__all__" or name in sys.modules:
+        return
+    import types
+
+    loader = types.ModuleType(name, "No pydantic plug-in: all are disabled (wmr_mission.cli).")
+    loader.get_plugins = lambda: ()  # type: ignore[attr-defined]
+    sys.modules[name] = loader
+
+
 def main() -> None:
     # No cyclic collection while the command starts: see
     # wmr_mission.commands.start_up_done, which turns it on.
     gc.disable()
     for name, value in START_UP_ENVIRONMENT.items():
         os.environ.setdefault(name, value)
+    _no_pydantic_plugin_loader()
     if not sys.warnoptions:
         # Numerical warnings (overflow in a diverging run, ...) are reported by
         # the run itself as its outcome; library warnings are not for users.
@@ -733,4 +751,27 @@ def main() -> None:
     # 0.45 s of CPU); frozen, they are left to reference counting alone
     # (docs/performance.md, Start-up).
     gc.freeze()
-    raise SystemExit(early.exit_code if early.owed else code)
+    if early.owed:
+        raise SystemExit(early.exit_code)
+    if _ends_at_once(sys.argv[1:2], code):
+        # What Python would still do as it exits, its exit functions, is done;
+        # then the process ends without unloading every module, object by
+        # object (docs/performance.md, Start-up): run and validate wrote and
+        # closed what they made, and the streams are flushed.
+        atexit._run_exitfuncs()
+        for stream in (sys.stdout, sys.stderr):
+            if stream is not None and not stream.closed:
+                stream.flush()
+        os._exit(code or 0)
+    raise SystemExit(code)
+
+
+def _ends_at_once(arguments: list[str], code: Any) -> bool:
+    """Whether the command's process may end without Python's teardown: run
+    or validate (the short commands), a numeric exit code, and no other
+    thread left running (Python's exit would wait for it)."""
+    import threading
+
+    numeric = code is None or isinstance(code, int)
+    short = bool(arguments) and arguments[0] in _SHORT
+    return short and numeric and threading.active_count() == 1

@@ -73,12 +73,9 @@ phases:
 def ready_stamp() -> str:
     """What the ready marker holds: what numba's cache entries depend on, the
     kernels' sources, the interpreter and numba's version."""
-    from importlib import metadata  # loaded already by pydantic
+    from wmr_mission.output.environment import installed_version
 
-    try:
-        numba = metadata.version("numba")
-    except metadata.PackageNotFoundError:  # installed without its metadata
-        numba = "unknown"
+    numba = installed_version("numba") or "unknown"  # "unknown": installed without its metadata
     stamp = cache.kernel_sources_stamp()
     return f"{stamp} {sys.implementation.cache_tag} numba-{numba}"
 

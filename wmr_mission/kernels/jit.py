@@ -206,21 +206,25 @@ def _set_up_for_compiling() -> None:
             _state.set_up = True
 
 
+# The numba (major.minor) whose FunctionCache.load_overload _cache_class restates.
+LOADED_AS_IS_FOR = "0.68"
+
+
 def _cache_class() -> Any:
     """numba's on-disk cache of one function, but loading an entry without
     setting numba's target up first (numba's own sets it up "to ensure it is
     initialized"): a cached function is machine code and what numba needs to
     call it, the runtime's symbols it links to (reference counting) made
     here. A miss sets the target up for the compile that follows
-    (:func:`_set_up_for_compiling`), which then finds it set up; None (numba's
-    own cache, setting up as it loads) for a numba without these methods."""
+    (:func:`_set_up_for_compiling`), which then finds it set up. None
+    (numba's own cache, setting up as it loads) for another numba than
+    :data:`LOADED_AS_IS_FOR`: its load_overload may do more than this one
+    restates."""
+    import numba
     from numba.core.caching import FunctionCache
     from numba.core.runtime import nrt
 
-    if not all(
-        hasattr(FunctionCache, name)
-        for name in ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
-    ):  # pragma: no cover - another numba
+    if numba.__version__.split(".")[:2] != LOADED_AS_IS_FOR.split("."):
         return None
 
     class LoadedAsIs(FunctionCache):

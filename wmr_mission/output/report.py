@@ -1,7 +1,10 @@
 """The short plain-text table printed at the end of ``wmr-mission run``.
 
-Laid out by rich within :data:`WIDTH` columns (fewer on a narrower terminal):
-a long cell wraps inside its column.
+Laid out within :data:`WIDTH` columns (fewer on a narrower terminal). A
+table whose cells fit at their full width is laid out here; one that must
+wrap a long cell inside its column is laid out by rich, whose import and
+layout cost a run 0.02-0.03 s of CPU (docs/performance.md, Start-up). Both
+lay a fitting table out alike, character for character.
 """
 
 from __future__ import annotations
@@ -141,6 +144,62 @@ def unreached(result: RunRecord) -> list[str]:
 
 
 def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: int) -> list[str]:
+    verdicts = _verdicts(checks)
+    rows = [
+        [
+            str(phase["name"]),
+            str(phase["kind"]),
+            _seconds(phase.get("duration")),
+            key_metric(phase),
+            _at_limit(phase),
+            _convergence(phase),
+            verdicts.get(phase["name"], "-"),
+        ]
+        for phase in summary.get("phases", [])
+    ]
+    return _fitting_table(rows, width) or _wrapped_table(rows, width)
+
+
+def _fitting_table(rows: list[list[str]], width: int) -> list[str] | None:
+    """The table with every cell at its full width, laid out as rich lays it
+    out (:func:`_wrapped_table`): a rule under the headers, two spaces
+    between columns, a header on its column's last header line, a cell on
+    its row's first lines; None when it needs more than ``width`` columns, a
+    verdict more than VERDICT_WIDTH, or a cell holds other than printable
+    ASCII (whose width on a terminal rich measures)."""
+    headers = [header.split("\n") for header, _ in _COLUMNS]
+    cells = [[cell.split("\n") for cell in row] for row in rows]
+    widths = [max(map(len, lines)) for lines in headers]
+    for row in cells:
+        for column, lines in enumerate(row):
+            if not all(line.isascii() and line.isprintable() for line in lines):
+                return None
+            widths[column] = max(widths[column], *map(len, lines))
+    if widths[-1] > VERDICT_WIDTH or sum(widths) + 2 * (len(widths) - 1) > width:
+        return None
+    height = max(map(len, headers))
+    header_lines = [[""] * (height - len(lines)) + lines for lines in headers]
+    rule = "\u2500" * (sum(widths) + 2 * (len(widths) - 1))  # rich's box.SIMPLE_HEAD
+    table = [*_lines(header_lines, widths), rule]
+    for row in cells:
+        table += _lines(row, widths)
+    return [line.rstrip() for line in table if line.strip()]
+
+
+def _lines(row: list[list[str]], widths: list[int]) -> list[str]:
+    """The text lines of one row of the table, its cells' lines side by side."""
+    lines = []
+    for at in range(max(map(len, row))):
+        parts = []
+        for (_, right), width, cell in zip(_COLUMNS, widths, row, strict=True):
+            text = cell[at] if at < len(cell) else ""
+            parts.append(text.rjust(width) if right else text.ljust(width))
+        lines.append("  ".join(parts))
+    return lines
+
+
+def _wrapped_table(rows: list[list[str]], width: int) -> list[str]:
+    """The table laid out by rich, a long cell wrapped inside its column."""
     from rich import box
     from rich.console import Console
     from rich.table import Table
@@ -160,17 +219,8 @@ def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: i
             # a missed threshold's name on a line, its value and bound on the next
             max_width=VERDICT_WIDTH if header == "verdict" else None,
         )
-    verdicts = _verdicts(checks)
-    for phase in summary.get("phases", []):
-        table.add_row(
-            str(phase["name"]),
-            str(phase["kind"]),
-            _seconds(phase.get("duration")),
-            key_metric(phase),
-            _at_limit(phase),
-            _convergence(phase),
-            verdicts.get(phase["name"], "-"),
-        )
+    for row in rows:
+        table.add_row(*row)
     # Plain text: no colours, no markup read in names.
     console = Console(
         file=io.StringIO(), width=width, color_system=None, highlight=False, markup=False
