@@ -783,7 +783,8 @@ def next_input(
             # error, that late, and where a path met its zone at a corner the
             # filter took the output off its late aim, by turns (turn-rate
             # jitter 0.040 rad/s where 0.033 is allowed, gen-130-polyline).
-            lead = tuning.aim_lead * hypot(aim[0] - path_x, aim[1] - path_y) / plant.dt
+            path_step = hypot(aim[0] - path_x, aim[1] - path_y)
+            lead = tuning.aim_lead * path_step / plant.dt
             aim_round_zones(
                 aim_now, kinds, params, phase.ways_round, tuning.look_ahead, margin, gap, lead
             )
@@ -796,8 +797,7 @@ def next_input(
             # two samples (constrained_tracking.ramped_offset).
             offset_x, offset_y = ramped_offset(
                 aim_now[0] - path_x, aim_now[1] - path_y,
-                memory[AIM_OFFSET], memory[AIM_OFFSET + 1],
-                hypot(aim[0] - path_x, aim[1] - path_y),
+                memory[AIM_OFFSET], memory[AIM_OFFSET + 1], path_step,
             )  # fmt: skip
             memory[AIM_OFFSET] = offset_x
             memory[AIM_OFFSET + 1] = offset_y
