@@ -596,6 +596,7 @@ def aim_round_zones(
     look_ahead: float,
     margin: float,
     gap: float,
+    lead: float = 0.0,
 ) -> bool:
     """Move the point the tracked output aims at, ``aim[:2] + look_ahead *
     aim[2:]`` (x, y, unit tangent of the path), out of every row shrunk by
@@ -618,6 +619,11 @@ def aim_round_zones(
     across (``_way_round_polygon``). Other rows project the aim onto
     their edge (half-planes exactly, keep-in ellipses along the ray from the
     centre). Two passes settle an aim beyond two rows.
+
+    A keep-out zone's move across the path is the one ``lead`` further
+    along the path's tangent: the law follows the aim's move that late
+    (paper.aim_lead). The projections onto other rows' edges are the aim's
+    own: one taken ahead would hold the aim back along the path.
     """
     grown = look_ahead + gap + margin
     x = aim[0] + look_ahead * aim[2]
@@ -633,7 +639,9 @@ def aim_round_zones(
                 # Across the path, on a ramp: moving on from before the zone
                 # without a kink steeper than RAMP_SLOPE, keeping its side.
                 if row_kinds[i] == POLYGON_ROW:
-                    reach, nx, ny = _way_round_polygon(p, grown, x, y, aim[2], aim[3])
+                    reach, nx, ny = _way_round_polygon(
+                        p, grown, x + lead * aim[2], y + lead * aim[3], aim[2], aim[3]
+                    )
                 else:
                     way = ways[i]
                     reach = 0.0
@@ -642,7 +650,7 @@ def aim_round_zones(
                     if way[4] != 0.0 and aim[2] * way[2] + aim[3] * way[3] > 0.0:
                         # the aim in the frame of the path where it passes the
                         # zone: its distance along, and the rows' moves across
-                        along = way[2] * (x - way[0]) + way[3] * (y - way[1])
+                        along = way[2] * (x - way[0]) + way[3] * (y - way[1]) + lead
                         across = -aim[3] * (x - start_x) + aim[2] * (y - start_y)
                         reach, _, _ = _way_round(
                             p, grown,

@@ -190,6 +190,9 @@ class PaperTuning(NamedTuple):
     # [rad/s^2] TURNABLE_SHARE of the turn-rate acceleration limit the error
     # closed per sample follows (inf: no such limit, or a one-sample law).
     turn_acceleration: float = math.inf
+    # [s] how far ahead, in the path's time, the aim's offset round the zones
+    # is taken: the lag of an aim moving at the law's time constant.
+    aim_lead: float = 0.0
 
 
 # Regulation forms (controller.regulation.form).
@@ -775,8 +778,15 @@ def next_input(
         if kinds.shape[0]:
             margin = plant.constraint_margin
             gap = aim_gap(tuning.look_ahead, plant.limits[2], margin - plant.body)
+            # The way round a keep-out zone where the path will be a time
+            # constant on (aim_lead): the law closes the aim's move as an
+            # error, that late, and where a path met its zone at a corner the
+            # filter took the output off its late aim, by turns (turn-rate
+            # jitter 0.040 rad/s where 0.033 is allowed, gen-130-polyline).
+            path_step = hypot(aim[0] - path_x, aim[1] - path_y)
+            lead = tuning.aim_lead * path_step / plant.dt
             aim_round_zones(
-                aim_now, kinds, params, phase.ways_round, tuning.look_ahead, margin, gap
+                aim_now, kinds, params, phase.ways_round, tuning.look_ahead, margin, gap, lead
             )
             # Aimed round a zone the path crosses: the path's own motion fed
             # forward, the aim's move closed as an error, at the law's pace
@@ -787,8 +797,7 @@ def next_input(
             # two samples (constrained_tracking.ramped_offset).
             offset_x, offset_y = ramped_offset(
                 aim_now[0] - path_x, aim_now[1] - path_y,
-                memory[AIM_OFFSET], memory[AIM_OFFSET + 1],
-                hypot(aim[0] - path_x, aim[1] - path_y),
+                memory[AIM_OFFSET], memory[AIM_OFFSET + 1], path_step,
             )  # fmt: skip
             memory[AIM_OFFSET] = offset_x
             memory[AIM_OFFSET + 1] = offset_y
@@ -882,6 +891,20 @@ def turn_acceleration(settings: PaperController, dt: float, limits: FloatArray) 
     return TURNABLE_SHARE * float(limits[3])
 
 
+def aim_lead(settings: PaperController, dt: float, limits: FloatArray) -> float:
+    """[s] How far ahead along the path the aim's offset round the zones is
+    taken: the time constant the law closes the aim's move at, so that the
+    robot, that much behind it, meets the offset where the zone needs it;
+    0 for the one-sample laws, and under rate limits, where the robot far
+    behind its reference at its entry was led past the zone's end by the
+    aim and cut into it (docs/paper-notes.md, eq. (28), "The aim's offset a
+    time constant ahead")."""
+    decay = error_decay(settings, dt)
+    if decay == 0.0 or math.isfinite(float(limits[2])) or math.isfinite(float(limits[3])):
+        return 0.0
+    return -float(dt) / math.log(decay)
+
+
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
     regulation = settings.regulation
     return PaperTuning(
@@ -897,6 +920,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         barrier_rate=min(1.0, float(plant.dt) / BARRIER_TIME),
         error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
         turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
+        aim_lead=aim_lead(settings, plant.dt, plant.limits),
     )
 
 
