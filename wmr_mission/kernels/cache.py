@@ -42,6 +42,7 @@ KERNEL_MODULES = (
     ),
     "campaign/coverage.py",
     "output/covariance.py",
+    "verdicts/passes.py",
     "verdicts/path_distance.py",
     "verdicts/placing.py",
 )
