@@ -89,12 +89,14 @@ def jitter_median(omega: FloatArray, half: int, dropped: int) -> float:
     any is."""
     window = 2 * half + 1
     centres = omega.size - window + 1
+    total = np.zeros(centres - dropped)
+    for offset in range(window):  # each sum in order, the centres side by side
+        samples = omega[dropped + offset : centres + offset]
+        for c in range(total.size):
+            total[c] += samples[c]
     spread = np.empty(centres - dropped)
     for c in range(dropped, centres):
-        total = 0.0
-        for offset in range(window):
-            total += omega[c + offset]
-        deviation = abs(omega[half + c] - total / window)
+        deviation = abs(omega[half + c] - total[c - dropped] / window)
         if deviation != deviation:
             return math.nan
         spread[c - dropped] = deviation
