@@ -153,3 +153,23 @@ def test_the_ellipse_bounds_pass_has_the_numpy_forms_bits(
 
     _both(monkeypatch, judged, "ellipse_bounds")
     _both(monkeypatch, depths, "ellipse_depth")
+
+
+def test_judging_the_compile_commands_warm_up_calls_every_pass(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`wmr-mission compile` judges one warm-up run (phases of 5 samples): each
+    pass is called there, so each is compiled into the cache with the loop."""
+    from wmr_mission.commands.compile import warm_up_missions
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
+    from wmr_mission.verdicts.metrics import judge
+
+    mission = warm_up_missions()[0]
+    with monkeypatch.context() as patch:
+        patch.setattr(jit, "loaded", lambda: False)
+        patch.setattr(jit, "compiled", lambda fn, **options: jit.plain(fn))
+        result = run_mission(plan_mission(mission))  # as plain Python: 11 samples
+    with _counted(monkeypatch, compiled=False) as called:
+        judge(result, mission)
+    assert set(passes.__all__) <= set(called)

@@ -197,11 +197,8 @@ def jitter(omega: FloatArray, numbers: MissionNumbers) -> float | None:
     time constants, after the first REVERSAL_WINDOW time constants; None when
     fewer samples are left."""
     if jit.loaded():  # the same numbers in one compiled pass (verdicts/passes.py)
-        half, skip = _jitter_window(numbers)
-        if omega.size < skip + 2 * half + 1:
-            return None
-        spread = jit.compiled(jitter_median)(omega, half, max(0, skip - half))
-        return _finite(ROBUST_STD * spread)
+        spread = jit.compiled(jitter_median)(omega, *_jitter_window(numbers))
+        return _finite(ROBUST_STD * spread)  # None for too few samples too: NaN
     found = _deviation(omega, numbers)
     return None if found is None else _finite(ROBUST_STD * median(np.abs(found[1])))
 

@@ -83,12 +83,16 @@ def input_pass(
 
 
 @kernel
-def jitter_median(omega: FloatArray, half: int, dropped: int) -> float:
+def jitter_median(omega: FloatArray, half: int, skip: int) -> float:
     """The median of ``|omega - its centred moving mean|`` over ``2 half + 1``
-    samples (summed in order from 0), from the centre ``dropped`` on; NaN if
-    any is."""
+    samples (summed in order from 0), of the samples from ``skip`` on; NaN if
+    any is, or when fewer than ``skip + 2 half + 1`` samples are left (so a
+    short phase compiles it too, in ``wmr-mission compile``'s warm-up)."""
     window = 2 * half + 1
+    if omega.size < skip + window:
+        return math.nan
     centres = omega.size - window + 1
+    dropped = max(0, skip - half)
     total = np.zeros(centres - dropped)
     for offset in range(window):  # each sum in order, the centres side by side
         samples = omega[dropped + offset : centres + offset]

@@ -52,14 +52,15 @@ def stall_time(
     tau, dt = numbers.time_constant, numbers.dt
     span = max(WINDOW * tau, math.pi / numbers.omega_limit + 10.0 * tau)
     window = max(2, round(span / dt))
-    if x.size <= window:
-        return 0.0
     reach = (numbers.v_limit * window * dt, numbers.omega_limit * window * dt)
+    # (none of fewer samples than a window: the pass counts none, compiled even so)
     if jit.loaded():  # the same count in one compiled pass (verdicts/passes.py)
         aim = (float(tx), float(ty), float(heading_target))
         goal = (float(goal[0]), float(goal[1]))
         found = jit.compiled(stalled_samples)(x, y, theta, aim, goal, window, reach, PROGRESS)
         return float(found) * dt
+    if x.size <= window:
+        return 0.0
     position = np.hypot(x - tx, y - ty)
     heading = np.abs((theta - heading_target + np.pi) % (2 * np.pi) - np.pi)
     at_goal = (position <= goal[0]) & (heading <= goal[1])
