@@ -53,7 +53,7 @@ class Zone:
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
         if self.region["type"] == "ellipse" and jit.loaded() and x.ndim == 1:
             # the same numbers in one compiled pass (verdicts/passes.py)
-            return jit.compiled(ellipse_depth)(  # type: ignore[no-any-return]
+            return jit.compiled(ellipse_depth)(
                 x, y, self._frame(), self._squares(), self.keep_inside, within, _NEWTON_STEPS
             )
         if self.region["type"] == "ellipse":  # the allowed side's far points skipped
