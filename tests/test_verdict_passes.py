@@ -83,6 +83,8 @@ def test_the_input_metrics_pass_has_the_numpy_forms_bits(
 ) -> None:
     rng = np.random.default_rng(seed)
     t, v, omega = _inputs(rng, 600 + seed)  # odd and even counts: the median's two forms
+    if seed == 3:
+        omega = np.round(omega, 1)  # many equal deviations: the median's selection among ties
     if seed == 4:
         omega[300] = math.nan  # the jitter and the jump are then unknown
     if seed == 5:

@@ -11,7 +11,9 @@ operations at a time (each caller keeps that form beside its call).
 The same numbers: the same operations in the same order, numpy's ``max``
 (NaN if any is) and ``searchsorted`` as loops, a square as a product (as
 numpy's ``** 2``), the median as the same middle values
-(``tests/test_verdict_passes.py``).
+(``tests/test_verdict_passes.py``). No numpy function numba implements in
+its array-math module is called: loading such a pass from the cache would
+import scipy's BLAS (``tests/test_start_up.py``).
 """
 
 from __future__ import annotations
@@ -105,10 +107,42 @@ def jitter_median(omega: FloatArray, half: int, skip: int) -> float:
             return math.nan
         spread[c - dropped] = deviation
     middle = spread.size // 2
-    part = np.partition(spread, middle)
+    found = _select(spread, middle)
     if spread.size % 2:
-        return float(part[middle])
-    return float((part[:middle].max() + part[middle]) / 2)
+        return found
+    below = spread[0]  # the largest before the middle: the one below it in order
+    for k in range(1, middle):
+        below = max(below, spread[k])
+    return (below + found) / 2
+
+
+@inlined
+def _select(values: FloatArray, k: int) -> float:
+    """The k-th smallest of ``values`` (no NaN), the values moved so that none
+    before it is larger (Hoare's selection). Not ``np.partition``: numba
+    implements it in the module that loads scipy's BLAS with it, for every run
+    that loads this pass from the cache."""
+    low, high = 0, values.size - 1
+    while low < high:
+        a, b, c = values[low], values[(low + high) // 2], values[high]
+        pivot = max(min(a, b), min(max(a, b), c))  # the median of three
+        i, j = low, high
+        while i <= j:
+            while values[i] < pivot:
+                i += 1
+            while values[j] > pivot:
+                j -= 1
+            if i <= j:
+                values[i], values[j] = values[j], values[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            high = j
+        elif k >= i:
+            low = i
+        else:  # between the two sides: the pivot's value
+            break
+    return float(values[k])
 
 
 @kernel
@@ -177,8 +211,13 @@ def ellipse_bounds(
         least = out * (minor if out > 0 else major)  # and at least
         highest = _nan_max(highest, most[k])
         lowest = _nan_max(lowest, least)
-    contenders = np.flatnonzero(most >= lowest)
-    return beyond, highest, contenders
+    contenders = np.empty(n, dtype=np.intp)
+    count = 0
+    for k in range(n):  # (not np.flatnonzero: see _select)
+        if most[k] >= lowest:
+            contenders[count] = k
+            count += 1
+    return beyond, highest, contenders[:count]
 
 
 @inlined
