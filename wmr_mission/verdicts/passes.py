@@ -113,7 +113,7 @@ def jitter_median(omega: FloatArray, half: int, skip: int) -> float:
     below = spread[0]  # the largest before the middle: the one below it in order
     for k in range(1, middle):
         below = max(below, spread[k])
-    return (below + found) / 2
+    return float((below + found) / 2)
 
 
 @inlined
