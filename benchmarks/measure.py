@@ -26,6 +26,7 @@
     python benchmarks/measure.py campaign COMMIT   # the same, the sweep also as at COMMIT, in turn
     python benchmarks/measure.py judge      # judging a case-2 run; the 1-hour run per sample, peak
     python benchmarks/measure.py judge COMMIT   # the same, each also as at COMMIT, in turn
+    python benchmarks/measure.py judgeparts # a case-2 row's judge by part: phases, passes, formulas
     python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
@@ -1410,6 +1411,66 @@ def judge_cost(repeat: int = 40, pairs: int = 5) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def judge_parts(repeat: int = 7) -> None:
+    """A case-2 row's judge by part: runs 1-40 of case2-headings (simulated
+    once), each part of each run's phases timed apart (thread CPU time, the
+    least of ``repeat``), summed over the phases, the mean over the runs; the
+    kernels loaded, as a campaign's workers have them. A part a measure of a
+    phase computes on first use (its places, tracking, ...) is timed alone."""
+    from dataclasses import replace
+
+    from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.plan import Plan
+    from wmr_mission.campaign.rows import mission_of
+    from wmr_mission.kernels import jit
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
+    from wmr_mission.verdicts import metrics
+
+    jit.load()
+    loaded = load_campaign(CAMPAIGN)
+    plan = Plan(loaded.campaign)
+    runs = []
+    for run in range(1, 41):
+        draw = plan.draw(run)
+        mission, _ = mission_of(loaded, draw)
+        assert mission is not None
+        runs.append(
+            (run_mission(plan_mission(mission, draw.seed)), mission.model_dump(mode="json"))
+        )
+    parts = ("placement", "tracking", "inputs", "intrusion", "clearance", "stall", "overshoot")
+
+    def timed(result: Any, mission: Any) -> dict[str, int]:
+        found = dict.fromkeys(("setting the phases up", *parts, "formulas", "the row"), 0)
+        started = time.thread_time_ns()
+        phases = metrics._phase_samples(result, mission, metrics._off_path_bound)
+        found["setting the phases up"] = time.thread_time_ns() - started
+        for info, phase, _ in phases:
+            for part in parts:
+                started = time.thread_time_ns()
+                getattr(phase, part)
+                found[part] += time.thread_time_ns() - started
+            started = time.thread_time_ns()
+            metrics._formulas(result, info, phase, mission)
+            found["formulas"] += time.thread_time_ns() - started
+        started = time.thread_time_ns()
+        metrics.judge_run_metrics(replace(result), mission)
+        found["the row"] = time.thread_time_ns() - started
+        return found
+
+    for result, mission in runs[:3]:
+        timed(result, mission)  # first calls: imports, caches
+    total: dict[str, float] = {}
+    for result, mission in runs:
+        least = [timed(result, mission) for _ in range(repeat)]
+        for key in least[0]:
+            total[key] = total.get(key, 0.0) + min(found[key] for found in least) / len(runs)
+    print(f"case2-headings runs 1-40, CPU per row, the least of {repeat} each, mean over runs:")
+    for key, ns in total.items():
+        print(f"  {key}: {ns / 1000:.0f} us")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 def sweep_against(pairs: int = 3) -> None:
     """`sweep missions/campaigns/case2-headings.yaml --no-plots --workers 2` as
     now and as at COMMIT (`sweep COMMIT`: its package unpacked on PYTHONPATH,
@@ -1799,6 +1860,7 @@ if __name__ == "__main__":
     jobs |= {
         "campaign": campaign,
         "judge": judge_cost,
+        "judgeparts": judge_parts,
         "sweep": sweep_against,
         "runner": runner_cost,
         "drawing": drawing,

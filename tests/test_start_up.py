@@ -25,6 +25,7 @@ from wmr_mission.sim import runner
 from wmr_mission.sim.plan import plan_mission, sample_budget
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission
+from wmr_mission.verdicts import passes
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 HOUR = Path(__file__).resolve().parent.parent / "benchmarks" / "hour.yaml"
@@ -143,10 +144,15 @@ def _cache_of_this_session(tmp_path: Path) -> Path:
 
 def test_compile_compiles_the_judges_kernels_too(tmp_path: Path) -> None:
     """`wmr-mission compile` leaves nothing for a long run's judge to compile:
-    its distance to the path and places on it are in the cache after it."""
+    its distance to the path, places on it and passes over a phase's samples
+    are in the cache after it."""
     cache = _cache_of_this_session(tmp_path)
     (kernels,) = (cache / "wmr_mission").iterdir()
-    judges = ("path_distance._distances-*", "placing.place_samples-*")
+    judges = (
+        "path_distance._distances-*",
+        "placing.place_samples-*",
+        *(f"passes.{name}-*" for name in passes.__all__),
+    )
     for pattern in judges:
         for compiled in kernels.rglob(pattern):
             compiled.unlink()
@@ -194,7 +200,7 @@ def test_compile_marks_the_cache_ready_and_a_long_run_loads_it(tmp_path: Path) -
     assert record.read_text().splitlines() == [
         "numba loaded: True",
         "scipy.linalg loaded: False",
-        "compiled entries: _distances _each place_samples run_segment",
+        "compiled entries: _distances _each input_pass jitter_median place_samples run_segment",
     ]
     manifest = json.loads((tmp_path / "next" / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["loop"] == "compiled"

@@ -32,7 +32,8 @@ PACKAGE = Path(__file__).resolve().parent.parent
 # The modules holding kernels or what they call: every module of the packages
 # of kernels, estimators and controllers (a new one is counted as it is
 # added), the campaign's pixel counts, the EKF band's replay and the judge's
-# distance to the path and places on it. A change to any recompiles all.
+# distance to the path, places on it and passes over a phase's samples. A
+# change to any recompiles all.
 KERNEL_PACKAGES = ("kernels", "estimators", "controllers")
 KERNEL_MODULES = (
     *sorted(
@@ -42,6 +43,7 @@ KERNEL_MODULES = (
     ),
     "campaign/coverage.py",
     "output/covariance.py",
+    "verdicts/passes.py",
     "verdicts/path_distance.py",
     "verdicts/placing.py",
 )

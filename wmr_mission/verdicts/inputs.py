@@ -35,7 +35,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.kernels import jit
 from wmr_mission.verdicts.numbers import MissionNumbers
+from wmr_mission.verdicts.passes import input_pass, jitter_median
 
 # Inputs this close to their limit (relative) are at it: the runner clips exactly.
 AT_LIMIT = 1e-9
@@ -107,12 +109,43 @@ def input_quality(
         floor = REVERSAL_FLOOR * limit
         if name == "turn_rate":  # three times what raw heading noise makes of the turn rate
             floor += 3.0 * numbers.heading_noise / tau
+        if jit.loaded():  # the same numbers in one compiled pass (verdicts/passes.py)
+            metrics |= _compiled_quality(name, t, values, floor, limit, numbers, deliberate)
+            continue
         jumps = np.abs(np.diff(values))
         metrics[f"{name}_jump_max"] = _finite(jumps.max()) if jumps.size else 0.0
         metrics[f"{name}_reversals"] = most_reversals(t, values, floor, REVERSAL_WINDOW * tau)
         metrics[f"{name}_fight_time"] = fight_time(values, limit, numbers, deliberate)
     metrics["turn_rate_jitter"] = jitter(omega, numbers)
     return metrics
+
+
+def _compiled_quality(
+    name: str,
+    t: FloatArray,
+    values: FloatArray,
+    floor: float,
+    limit: float,
+    numbers: MissionNumbers,
+    deliberate: Callable[[int, int], bool],
+) -> dict[str, Any]:
+    """:func:`input_quality`'s jump, reversals and fight time of one input, by
+    :func:`wmr_mission.verdicts.passes.input_pass`."""
+    shortest = max(2, round(numbers.time_constant / numbers.dt))
+    window = REVERSAL_WINDOW * numbers.time_constant
+    jump, reversals, starts, ends, one_sign = jit.compiled(input_pass)(
+        t, values, floor, window, limit * (1.0 - AT_LIMIT), shortest
+    )
+    fought = 0
+    if math.isfinite(limit):
+        for a, b, kept in zip(starts.tolist(), ends.tolist(), one_sign.tolist(), strict=True):
+            if not (kept and deliberate(a, b)):
+                fought += b - a
+    return {
+        f"{name}_jump_max": _finite(jump),
+        f"{name}_reversals": int(reversals),
+        f"{name}_fight_time": fought * numbers.dt,
+    }
 
 
 def _finite(value: Any) -> float | None:
@@ -163,8 +196,17 @@ def jitter(omega: FloatArray, numbers: MissionNumbers) -> float | None:
     """[rad/s] robust spread of ``omega`` about its centred moving mean over two
     time constants, after the first REVERSAL_WINDOW time constants; None when
     fewer samples are left."""
+    if jit.loaded():  # the same numbers in one compiled pass (verdicts/passes.py)
+        spread = jit.compiled(jitter_median)(omega, *_jitter_window(numbers))
+        return _finite(ROBUST_STD * spread)  # None for too few samples too: NaN
     found = _deviation(omega, numbers)
     return None if found is None else _finite(ROBUST_STD * median(np.abs(found[1])))
+
+
+def _jitter_window(numbers: MissionNumbers) -> tuple[int, int]:
+    """Half the moving mean's window and the samples skipped at the start [samples]."""
+    half = max(2, round(numbers.time_constant / numbers.dt))
+    return half, round(REVERSAL_WINDOW * numbers.time_constant / numbers.dt)
 
 
 def median(values: FloatArray) -> float:
@@ -193,9 +235,8 @@ def jitter_deviation(omega: FloatArray, numbers: MissionNumbers) -> FloatArray:
 def _deviation(omega: FloatArray, numbers: MissionNumbers) -> tuple[int, FloatArray] | None:
     """The first sample :func:`jitter` counts and, from it, ``omega`` less its
     centred moving mean over two time constants; None when too few samples."""
-    half = max(2, round(numbers.time_constant / numbers.dt))
+    half, skip = _jitter_window(numbers)
     window = 2 * half + 1
-    skip = round(REVERSAL_WINDOW * numbers.time_constant / numbers.dt)
     if omega.size < skip + window:
         return None
     # Summed in order, not by np.convolve: its products are BLAS's, whose

@@ -17,7 +17,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.kernels import jit
 from wmr_mission.verdicts.numbers import MissionNumbers
+from wmr_mission.verdicts.passes import stalled_samples
 from wmr_mission.verdicts.zones import Zone
 
 # The share of its error a regulator takes out in every window, away from its goal.
@@ -50,6 +52,13 @@ def stall_time(
     tau, dt = numbers.time_constant, numbers.dt
     span = max(WINDOW * tau, math.pi / numbers.omega_limit + 10.0 * tau)
     window = max(2, round(span / dt))
+    reach = (numbers.v_limit * window * dt, numbers.omega_limit * window * dt)
+    # (none of fewer samples than a window: the pass counts none, compiled even so)
+    if jit.loaded():  # the same count in one compiled pass (verdicts/passes.py)
+        aim = (float(tx), float(ty), float(heading_target))
+        goal = (float(goal[0]), float(goal[1]))
+        found = jit.compiled(stalled_samples)(x, y, theta, aim, goal, window, reach, PROGRESS)
+        return float(found) * dt
     if x.size <= window:
         return 0.0
     position = np.hypot(x - tx, y - ty)
@@ -58,11 +67,9 @@ def stall_time(
     reached = np.concatenate(([0], np.cumsum(at_goal, dtype=np.int64)))
     away = reached[window + 1 :] - reached[: -window - 1] == 0  # no sample of k..k+window at it
     start, end = position[:-window], position[window:]
-    closer = start - end >= PROGRESS * np.minimum(start, numbers.v_limit * window * dt)
+    closer = start - end >= PROGRESS * np.minimum(start, reach[0])
     turn_start, turn_end = heading[:-window], heading[window:]
-    turned = turn_start - turn_end >= PROGRESS * np.minimum(
-        turn_start, numbers.omega_limit * window * dt
-    )
+    turned = turn_start - turn_end >= PROGRESS * np.minimum(turn_start, reach[1])
     return float(np.count_nonzero(away & ~closer & ~turned)) * dt
 
 

@@ -24,7 +24,9 @@ from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.geometry.regions import box_corners
+from wmr_mission.kernels import jit
 from wmr_mission.verdicts.numbers import MissionNumbers
+from wmr_mission.verdicts.passes import ellipse_bounds, ellipse_depth
 
 # [m] depths are known to this: far below any tolerance, and what a robot held on
 # a zone's edge by the corrective action rounds to.
@@ -49,6 +51,11 @@ class Zone:
         forbidden side; ``-inf`` on the allowed side farther than ``within``
         where the exact distance is not computed."""
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        if self.region["type"] == "ellipse" and jit.loaded() and x.ndim == 1:
+            # the same numbers in one compiled pass (verdicts/passes.py)
+            return jit.compiled(ellipse_depth)(
+                x, y, self._frame(), self._squares(), self.keep_inside, within, _NEWTON_STEPS
+            )
         if self.region["type"] == "ellipse":  # the allowed side's far points skipped
             outside = _ellipse(self.region, x, y, self.keep_inside, within)
         else:
@@ -59,6 +66,8 @@ class Zone:
         """Whether each point is on the forbidden side (its depth > 0)."""
         if self.region["type"] != "ellipse":
             return np.asarray(self.depth(x, y) > 0.0)
+        if jit.loaded():  # the same in one compiled pass (verdicts/passes.py)
+            return self._bounds(x, y)[0]
         radius = _scaled_radius(self.region, x, y)[0]
         return np.asarray(radius > 1.0 if self.keep_inside else radius < 1.0)
 
@@ -79,6 +88,11 @@ class Zone:
             return -math.inf
         if self.region["type"] != "ellipse":
             return float(np.max(self.depth(x, y)))
+        if jit.loaded():  # the same numbers in one compiled pass (verdicts/passes.py)
+            _, highest, contenders = self._bounds(x, y)
+            if resolution is not None and abs(highest) <= resolution:
+                return highest
+            return float(np.max(self.depth(x[contenders], y[contenders])))
         radius, a, b = _scaled_radius(self.region, x, y)
         beyond = radius - 1.0 if self.keep_inside else 1.0 - radius
         most = beyond * np.where(beyond > 0, max(a, b), min(a, b))  # the depth is at most
@@ -88,6 +102,28 @@ class Zone:
         least = beyond * np.where(beyond > 0, min(a, b), max(a, b))  # and at least this
         contenders = np.flatnonzero(most >= np.max(least))
         return float(np.max(self.depth(x[contenders], y[contenders])))
+
+    def _bounds(
+        self, x: FloatArray, y: FloatArray
+    ) -> tuple[NDArray[np.bool_], float, NDArray[np.intp]]:
+        """An ellipse zone's :func:`wmr_mission.verdicts.passes.ellipse_bounds`."""
+        beyond, highest, contenders = jit.compiled(ellipse_bounds)(
+            x, y, self._frame(), self.keep_inside
+        )
+        return beyond, float(highest), contenders
+
+    def _frame(self) -> tuple[float, float, float, float, float, float]:
+        """An ellipse zone's centre, the cosine and sine of its rotation, and its
+        semi-axes as written (as :func:`_ellipse_frame` reads them)."""
+        cx, cy = self.region["center"]
+        a, b = (float(v) for v in self.region["semi_axes"])
+        rotation = float(self.region.get("rotation", 0.0))
+        return (float(cx), float(cy), math.cos(rotation), math.sin(rotation), a, b)
+
+    def _squares(self) -> tuple[float, float]:
+        """The major and minor semi-axes squared, as :func:`_to_ellipse` squares them."""
+        a, b = sorted((float(v) for v in self.region["semi_axes"]), reverse=True)
+        return a**2, b**2
 
     def __str__(self) -> str:
         return f"{'stay_inside' if self.keep_inside else 'stay_outside'} {self.name}"

@@ -1,0 +1,177 @@
+"""The judge's compiled passes over a phase's samples (wmr_mission/verdicts/passes.py)
+give the numpy forms' bits: the input metrics, the stalled time of a regulate
+phase and the depth beyond an ellipse zone and its bounds, compiled and as
+plain Python."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+import pytest
+
+from wmr_mission.kernels import jit
+from wmr_mission.verdicts import passes
+from wmr_mission.verdicts.inputs import input_quality, progress_to
+from wmr_mission.verdicts.numbers import mission_numbers
+from wmr_mission.verdicts.regulation import stall_time
+from wmr_mission.verdicts.zones import Zone
+
+NUMBERS = mission_numbers(None, 0.01, (1.0, 2.0))
+
+
+def _bits(value: Any) -> Any:
+    """A result with each float as its bytes (NaN as one word): equal means the same bits."""
+    if isinstance(value, dict):
+        return {key: _bits(v) for key, v in value.items()}
+    if isinstance(value, tuple | list):
+        return [_bits(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _bits(value.tolist())
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else np.float64(value).tobytes()
+    return value
+
+
+@contextmanager
+def _counted(monkeypatch: pytest.MonkeyPatch, compiled: bool) -> Iterator[list[str]]:
+    """The judge as a compiled run has it (numba loaded; ``compiled`` False: the
+    kernels as plain Python), with the names of the passes it called."""
+    called: list[str] = []
+    if compiled:
+        jit.load()
+    make = jit.compiled if compiled else jit.plain
+
+    def counting(fn: Callable[..., Any], **options: Any) -> Callable[..., Any]:
+        called.append(getattr(fn, "__name__", ""))
+        return make(fn) if compiled else jit.plain(fn)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(jit, "loaded", lambda: True)  # also where numba is turned off
+        patch.setattr(jit, "compiled", counting)
+        yield called
+
+
+def _both(monkeypatch: pytest.MonkeyPatch, judged: Callable[[], Any], name: str) -> None:
+    """``judged()`` by numpy, then by the pass ``name`` compiled and as plain
+    Python: the same bits each time."""
+    with monkeypatch.context() as patch:
+        patch.setattr(jit, "loaded", lambda: False)
+        expected = _bits(judged())
+    for compiled in (False, True):
+        with _counted(monkeypatch, compiled) as called:
+            assert _bits(judged()) == expected
+        assert name in called  # the pass judged it, not numpy
+
+
+def _inputs(rng: np.random.Generator, samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Inputs that reverse, jump, and sit at their limits (one sign and both
+    signs in turn), with a NaN now and then in some."""
+    t = np.arange(samples) * 0.01
+    v = np.clip(np.cumsum(rng.normal(0.0, 0.15, samples)), -1.0, 1.0)
+    omega = np.clip(2.5 * np.sin(t * rng.uniform(0.5, 8.0)) + rng.normal(0, 0.3, samples), -2, 2)
+    omega[samples // 3 : samples // 3 + 40 : 2] *= -1.0  # both signs at the limit
+    return t, v, omega
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_input_metrics_pass_has_the_numpy_forms_bits(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rng = np.random.default_rng(seed)
+    t, v, omega = _inputs(rng, 600 + seed)  # odd and even counts: the median's two forms
+    if seed == 3:
+        omega = np.round(omega, 1)  # many equal deviations: the median's selection among ties
+    if seed == 4:
+        omega[300] = math.nan  # the jitter and the jump are then unknown
+    if seed == 5:
+        v[10:] = 0.0  # a robot that stops: no reversal, no jump
+    x, y = np.cumsum(v) * 0.01, np.zeros(v.size)
+    progress = progress_to(x, y, (0.5, 0.0))
+    found = {}
+
+    def judged() -> dict[str, Any]:
+        found["last"] = input_quality(t, v, omega, NUMBERS, progress)
+        return found["last"]
+
+    _both(monkeypatch, judged, "input_pass")
+    assert "jitter_median" in passes.__all__
+    if seed < 4:  # the samples reverse and fight: the metrics are not all trivial
+        assert found["last"]["turn_rate_reversals"] > 0
+        assert found["last"]["turn_rate_fight_time"] > 0.0
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_stall_pass_has_the_numpy_forms_bits(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A robot that closes on its target, stalls short of it, and shakes in place."""
+    rng = np.random.default_rng(seed)
+    samples = 3000
+    k = np.arange(samples)
+    distance = np.where(k < 1000, 2.0 - k * 0.0015, 0.5) + rng.normal(0, 1e-3, samples)
+    x, y = 1.0 - distance, np.zeros(samples) + 0.1 * seed
+    theta = np.sin(k * 0.05) * (k > 2000) + 7.0 * seed
+    target = (1.0, 0.0, float(seed))
+
+    def judged() -> float | None:
+        return stall_time(x, y, theta, target, (0.05, 0.05), NUMBERS)
+
+    _both(monkeypatch, judged, "stalled_samples")
+    with monkeypatch.context() as patch:
+        patch.setattr(jit, "loaded", lambda: False)
+        assert (judged() or 0.0) > 0.0  # it stalled: the count is not trivially 0
+
+
+@pytest.mark.parametrize(
+    ("semi_axes", "rotation", "inside"),
+    [((5.5, 3.0), 0.0, True), ((2.0, 4.0), 0.7, True), ((3.0, 1.0), -2.0, False)],
+)
+def test_the_ellipse_bounds_pass_has_the_numpy_forms_bits(
+    semi_axes: tuple[float, float], rotation: float, inside: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Points about the edge of an ellipse zone, on both sides (and on its axes)."""
+    region = {"type": "ellipse", "center": [0.5, -1.0], "semi_axes": list(semi_axes)}
+    region["rotation"] = rotation
+    zone = Zone("ellipse", region, inside)
+    rng = np.random.default_rng(7)
+    angle = rng.uniform(0, 2 * math.pi, 500)
+    scale = rng.uniform(0.6, 1.4, 500)
+    a, b = semi_axes
+    u, w = a * scale * np.cos(angle), b * scale * np.sin(angle)
+    if rotation == 0.0:  # on the axes (turned, they would be a rounding off them)
+        u[:5], w[5:10] = 0.0, 0.0
+    c, s = math.cos(rotation), math.sin(rotation)
+    x, y = 0.5 + c * u - s * w, -1.0 + s * u + c * w
+
+    def judged() -> list[Any]:
+        return [zone.beyond(x, y), zone.max_depth(x, y), zone.deepest(x[:50], y[:50])]
+
+    def depths() -> list[Any]:  # a few points (stepped as Python numbers), and many
+        return [zone.depth(x[:6], y[:6]), zone.depth(x, y), zone.depth(x, y, within=0.3)]
+
+    _both(monkeypatch, judged, "ellipse_bounds")
+    _both(monkeypatch, depths, "ellipse_depth")
+
+
+def test_judging_the_compile_commands_warm_up_calls_every_pass(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`wmr-mission compile` judges one warm-up run (phases of 5 samples): each
+    pass is called there, so each is compiled into the cache with the loop."""
+    from wmr_mission.commands.compile import warm_up_missions
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
+    from wmr_mission.verdicts.metrics import judge
+
+    mission = warm_up_missions()[0]
+    with monkeypatch.context() as patch:
+        patch.setattr(jit, "loaded", lambda: False)
+        patch.setattr(jit, "compiled", lambda fn, **options: jit.plain(fn))
+        result = run_mission(plan_mission(mission))  # as plain Python: 11 samples
+    with _counted(monkeypatch, compiled=False) as called:
+        judge(result, mission)
+    assert set(passes.__all__) <= set(called)

@@ -1,0 +1,320 @@
+"""The judge's passes over a phase's samples, each one compiled loop where the
+run's kernels are compiled: what numpy computes for plain Python, a few array
+operations at a time (each caller keeps that form beside its call).
+
+- an input's jumps, reversals and stretches at its limit, and the turn
+  rate's jitter (wmr_mission.verdicts.inputs);
+- a regulate phase's samples stalled away from its goal
+  (wmr_mission.verdicts.regulation);
+- the depth beyond an ellipse zone, and its bounds (wmr_mission.verdicts.zones).
+
+The same numbers: the same operations in the same order, numpy's ``max``
+(NaN if any is) and ``searchsorted`` as loops, a square as a product (as
+numpy's ``** 2``), the median as the same middle values
+(``tests/test_verdict_passes.py``). No numpy function numba implements in
+its array-math module is called: loading such a pass from the cache would
+import scipy's BLAS (``tests/test_start_up.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from wmr_mission.basics import FloatArray
+from wmr_mission.kernels.jit import inlined, kernel
+
+__all__ = ["ellipse_bounds", "ellipse_depth", "input_pass", "jitter_median", "stalled_samples"]
+
+
+@kernel
+def input_pass(
+    t: FloatArray, values: FloatArray, floor: float, window: float, at_limit: float, shortest: int
+) -> tuple[float, int, NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
+    """The largest one-sample jump of ``values`` (NaN if any is; 0 with fewer
+    than two), the most sign reversals within any ``window`` [s] of the values
+    beyond ``floor``, and the stretches at the limit (``|value| >= at_limit``)
+    of ``shortest`` samples or more: their first sample, one past their last,
+    and whether they keep one sign."""
+    n = values.size
+    jump = 0.0 if n < 2 else -math.inf
+    for k in range(1, n):
+        step = abs(values[k] - values[k - 1])
+        if step != step:  # numpy's max: NaN if any is
+            jump = step
+            break
+        jump = max(jump, step)
+    # Reversals: at the sample that brings the new sign, values within floor skipped.
+    times = np.empty(n)
+    count, sign = 0, 0
+    for k in range(n):
+        if abs(values[k]) > floor:
+            now = 1 if values[k] > 0 else -1
+            if sign != 0 and now != sign:
+                times[count] = t[k]
+                count += 1
+            sign = now
+    dt = t[1] - t[0] if t.size > 1 else 0.0
+    most, end = 0, 0
+    for first in range(count):  # np.searchsorted(times, times + window - dt / 2, "right")
+        reach = times[first] + window - 0.5 * dt
+        while end < count and times[end] <= reach:
+            end += 1
+        most = max(most, end - first)
+    # Stretches at the limit.
+    starts = np.empty(n, dtype=np.intp)
+    ends = np.empty(n, dtype=np.intp)
+    one_sign = np.empty(n, dtype=np.bool_)
+    found, k = 0, 0
+    while k < n:
+        if not abs(values[k]) >= at_limit:
+            k += 1
+            continue
+        start, positive, negative = k, 0, 0
+        while k < n and abs(values[k]) >= at_limit:
+            positive += 1 if values[k] > 0 else 0
+            negative += 1 if values[k] < 0 else 0
+            k += 1
+        if k - start >= shortest:
+            starts[found], ends[found] = start, k
+            one_sign[found] = positive == k - start or negative == k - start
+            found += 1
+    return jump, most, starts[:found], ends[:found], one_sign[:found]
+
+
+@kernel
+def jitter_median(omega: FloatArray, half: int, skip: int) -> float:
+    """The median of ``|omega - its centred moving mean|`` over ``2 half + 1``
+    samples (summed in order from 0), of the samples from ``skip`` on; NaN if
+    any is, or when fewer than ``skip + 2 half + 1`` samples are left (so a
+    short phase compiles it too, in ``wmr-mission compile``'s warm-up)."""
+    window = 2 * half + 1
+    if omega.size < skip + window:
+        return math.nan
+    centres = omega.size - window + 1
+    dropped = max(0, skip - half)
+    total = np.zeros(centres - dropped)
+    for offset in range(window):  # each sum in order, the centres side by side
+        samples = omega[dropped + offset : centres + offset]
+        for c in range(total.size):
+            total[c] += samples[c]
+    spread = np.empty(centres - dropped)
+    for c in range(dropped, centres):
+        deviation = abs(omega[half + c] - total[c - dropped] / window)
+        if deviation != deviation:
+            return math.nan
+        spread[c - dropped] = deviation
+    middle = spread.size // 2
+    found = _select(spread, middle)
+    if spread.size % 2:
+        return found
+    below = spread[0]  # the largest before the middle: the one below it in order
+    for k in range(1, middle):
+        below = max(below, spread[k])
+    return float((below + found) / 2)
+
+
+@inlined
+def _select(values: FloatArray, k: int) -> float:
+    """The k-th smallest of ``values`` (no NaN), the values moved so that none
+    before it is larger (Hoare's selection). Not ``np.partition``: numba
+    implements it in the module that loads scipy's BLAS with it, for every run
+    that loads this pass from the cache."""
+    low, high = 0, values.size - 1
+    while low < high:
+        a, b, c = values[low], values[(low + high) // 2], values[high]
+        pivot = max(min(a, b), min(max(a, b), c))  # the median of three
+        i, j = low, high
+        while i <= j:
+            while values[i] < pivot:
+                i += 1
+            while values[j] > pivot:
+                j -= 1
+            if i <= j:
+                values[i], values[j] = values[j], values[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            high = j
+        elif k >= i:
+            low = i
+        else:  # between the two sides: the pivot's value
+            break
+    return float(values[k])
+
+
+@kernel
+def stalled_samples(
+    x: FloatArray,
+    y: FloatArray,
+    theta: FloatArray,
+    target: tuple[float, float, float],
+    goal: tuple[float, float],
+    window: int,
+    reach: tuple[float, float],
+    progress: float,
+) -> int:
+    """The samples k from which the window k .. k + ``window`` holds no sample
+    within ``goal`` (position, heading) of ``target`` and takes out neither
+    ``progress`` of the position error (or of ``reach[0]``) nor of the heading
+    error (or of ``reach[1]``): :func:`wmr_mission.verdicts.regulation.stall_time`."""
+    n = x.size
+    tx, ty, aim = target
+    position, heading = np.empty(n), np.empty(n)
+    reached = np.zeros(n + 1, dtype=np.int64)  # samples at the goal before each
+    for k in range(n):
+        position[k] = math.hypot(x[k] - tx, y[k] - ty)
+        heading[k] = abs((theta[k] - aim + math.pi) % (2 * math.pi) - math.pi)
+        at_goal = position[k] <= goal[0] and heading[k] <= goal[1]
+        reached[k + 1] = reached[k] + (1 if at_goal else 0)
+    stalled = 0
+    for k in range(n - window):
+        if reached[k + window + 1] - reached[k] != 0:
+            continue
+        start, end = position[k], position[k + window]
+        closer = start - end >= progress * min(start, reach[0])
+        turn_start, turn_end = heading[k], heading[k + window]
+        turned = turn_start - turn_end >= progress * min(turn_start, reach[1])
+        if not closer and not turned:
+            stalled += 1
+    return stalled
+
+
+@kernel
+def ellipse_bounds(
+    x: FloatArray,
+    y: FloatArray,
+    frame: tuple[float, float, float, float, float, float],
+    keep_inside: bool,
+) -> tuple[NDArray[np.bool_], float, NDArray[np.intp]]:
+    """Of the points and an ellipse zone (``frame``: its centre, the cosine and
+    sine of its rotation, its semi-axes as written): whether each is beyond it
+    (``Zone.beyond``), the largest upper bound on their depths, and the points
+    whose upper bound is at least every lower bound, those whose depth may be
+    the largest (``Zone.max_depth``). NaN bounds as numpy's ``max`` gives them."""
+    cx, cy, c, s, a, b = frame
+    major, minor = max(a, b), min(a, b)
+    n = x.size
+    beyond = np.empty(n, dtype=np.bool_)
+    most = np.empty(n)
+    highest, lowest = -math.inf, -math.inf
+    for k in range(n):
+        u = c * (x[k] - cx) + s * (y[k] - cy)
+        w = -s * (x[k] - cx) + c * (y[k] - cy)
+        # the scaled radius; its sum's order does not matter: IEEE sums commute
+        radius = math.sqrt((u / a) * (u / a) + (w / b) * (w / b))
+        beyond[k] = radius > 1.0 if keep_inside else radius < 1.0
+        out = radius - 1.0 if keep_inside else 1.0 - radius
+        most[k] = out * (major if out > 0 else minor)  # the depth is at most
+        least = out * (minor if out > 0 else major)  # and at least
+        highest = _nan_max(highest, most[k])
+        lowest = _nan_max(lowest, least)
+    contenders = np.empty(n, dtype=np.intp)
+    count = 0
+    for k in range(n):  # (not np.flatnonzero: see _select)
+        if most[k] >= lowest:
+            contenders[count] = k
+            count += 1
+    return beyond, highest, contenders[:count]
+
+
+@inlined
+def _nan_max(found: float, value: float) -> float:
+    """numpy's ``max`` a value at a time: NaN once any is."""
+    if found != found or value != value:
+        return math.nan
+    return max(found, value)
+
+
+@kernel
+def ellipse_depth(
+    x: FloatArray,
+    y: FloatArray,
+    frame: tuple[float, float, float, float, float, float],
+    squares: tuple[float, float],
+    keep_inside: bool,
+    within: float,
+    steps: int,
+) -> FloatArray:
+    """``Zone.depth`` of an ellipse zone (``frame`` as :func:`ellipse_bounds`
+    takes it; ``squares``: the major and the minor semi-axis squared, as Python
+    squares them): the distance to the foot of the ellipse's normal through
+    each point, the roots of the points off the axes stepped together until
+    the last has settled (``steps`` at most), as ``zones._roots`` steps them."""
+    cx, cy, c, s, a, b = frame
+    a2, b2 = squares
+    swapped = a < b
+    major, minor = (b, a) if swapped else (a, b)
+    n = x.size
+    found = np.empty(n)
+    pu, pw = np.empty(n), np.empty(n)  # the measured points' |coordinates|, major first
+    measured = np.empty(n, dtype=np.int64)
+    count = 0
+    for k in range(n):
+        u = c * (x[k] - cx) + s * (y[k] - cy)
+        w = -s * (x[k] - cx) + c * (y[k] - cy)
+        if swapped:
+            u, w = w, u
+        radius = math.sqrt((u / major) * (u / major) + (w / minor) * (w / minor))
+        if major == minor:
+            found[k] = (radius - 1.0) * major
+            continue
+        inside = radius < 1.0
+        found[k] = -math.inf if inside else math.inf
+        if abs(1.0 - radius) * minor <= within or inside != keep_inside:
+            pu[count], pw[count], measured[count] = abs(u), abs(w), k
+            count += 1
+    # Newton's method from the left of each root, the points off the axes together.
+    t = np.empty(count)
+    for j in range(count):
+        su, sw = pu[j] / major, pw[j] / minor
+        t[j] = 0.0 if su * su + sw * sw > 1.0 else minor * pw[j] - b2
+    for _ in range(steps):
+        moving = False
+        for j in range(count):
+            if not (pu[j] > 0.0 and pw[j] > 0.0):
+                continue
+            au, bw = major * pu[j], minor * pw[j]
+            first, second = au / (t[j] + a2), bw / (t[j] + b2)
+            slope = -2.0 * (first * first / (t[j] + a2) + second * second / (t[j] + b2))
+            step = (first * first + second * second - 1.0) / slope
+            t[j] = t[j] - step
+            moving = moving or abs(step) > 1e-15 * (abs(t[j]) + a2)
+        if not moving:
+            break
+    for j in range(count):
+        u, w = pu[j], pw[j]
+        if u > 0.0 and w > 0.0:
+            foot = a2 * u / (t[j] + a2)
+            height = minor * math.sqrt(_unit((foot / major) * (foot / major)))
+            distance = np.hypot(foot - u, height - w)  # the C library's, as numpy's
+        elif w > 0.0:  # on the minor axis: its end
+            distance = abs(w - minor)
+        elif w == 0.0:  # on the major axis: its end, or the foot of a normal
+            if u * major < a2 - b2:
+                foot = a2 * u / (a2 - b2)
+                height = minor * math.sqrt(_unit((foot / major) * (foot / major)))
+                distance = np.hypot(foot - u, height)
+            else:
+                distance = abs(u - major)
+        else:
+            distance = math.nan
+        k = measured[j]
+        found[k] = -distance if found[k] < 0.0 else distance
+    if not keep_inside:
+        for k in range(n):
+            found[k] = -found[k]
+    return found
+
+
+@inlined
+def _unit(squared: float) -> float:
+    """``np.clip(1.0 - squared, 0.0, 1.0)``, NaN kept."""
+    value = 1.0 - squared
+    if value < 0.0:
+        return 0.0
+    if value > 1.0:
+        return 1.0
+    return value
