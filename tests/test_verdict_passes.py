@@ -175,3 +175,28 @@ def test_judging_the_compile_commands_warm_up_calls_every_pass(
     with _counted(monkeypatch, compiled=False) as called:
         judge(result, mission)
     assert set(passes.__all__) <= set(called)
+
+
+@pytest.mark.parametrize("offset", [1e-300, 1e-17, -1e-17])
+def test_a_point_a_rounding_off_the_major_axis_is_as_deep_as_one_on_it(
+    offset: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Newton's start for a point inside, t = b w - b^2, rounds t + b^2 to zero
+    when w is below b^2's rounding: the depth was NaN, compiled and in numpy."""
+    region = {"type": "ellipse", "center": [0.0, 0.0], "semi_axes": [2.0, 1.0], "rotation": 0.0}
+    zone = Zone("ellipse", region, False)
+    x = np.array([0.5, 0.5, -1.2, 0.5])
+    y = np.array([offset, 0.0, offset, 1e-9])
+
+    def depths() -> list[Any]:
+        return [zone.depth(x, y), zone.depth(np.repeat(x, 10), np.repeat(y, 10))]
+
+    with monkeypatch.context() as patch:
+        patch.setattr(jit, "loaded", lambda: False)
+        few, many = depths()
+    assert np.all(np.isfinite(few))
+    assert np.array_equal(few, many[::10])
+    assert few[0] == few[1]
+    assert few[2] == zone.depth(np.array([-1.2]), np.array([0.0]))[0]
+    assert few[3] == pytest.approx(few[1], abs=1e-8)  # beside it, a step away in w
+    _both(monkeypatch, depths, "ellipse_depth")

@@ -265,6 +265,8 @@ def ellipse_depth(
         found[k] = -math.inf if inside else math.inf
         if abs(1.0 - radius) * minor <= within or inside != keep_inside:
             pu[count], pw[count], measured[count] = abs(u), abs(w), k
+            if (minor * pw[count] - b2) + b2 == 0.0:  # on the major axis, as zones._to_ellipse
+                pw[count] = 0.0
             count += 1
     # Newton's method from the left of each root, the points off the axes together.
     t = np.empty(count)

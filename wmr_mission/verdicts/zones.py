@@ -286,6 +286,9 @@ def _to_ellipse(u: FloatArray, w: FloatArray, a: float, b: float) -> FloatArray:
     minor axis it is the axis' end; on the major axis, the end, or nearer the
     centre than ``(a^2 - b^2) / a``, the point where the ellipse's normal passes
     through it."""
+    # A point nearer the major axis than b^2's rounding (b w + b^2 == b^2) is on
+    # it: Newton's start t = b w - b^2 would make t + b^2 zero, and its root NaN.
+    w = np.where((b * w - b**2) + b**2 == 0.0, 0.0, w)
     distance = np.empty(u.shape)
     off_axes = (u > 0.0) & (w > 0.0)
     if off_axes.any():
