@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import conftest
@@ -18,9 +17,10 @@ from wmr_mission.kernels import jit
 TESTS = Path(__file__).resolve().parent
 
 # Saves one entry of a function's cache in ``directory`` (argv[1]) under the
-# key argv[2], at the wall-clock time argv[3], the index's write slowed as a
-# long compile's save could be while the other process reads it; one at a
-# time (compile_first's lock) when argv[4] is "locked".
+# key argv[2] once told to go (a line on stdin, given to both processes when
+# both are ready), the index's write slowed as a long compile's save could be
+# while the other process reads it; one at a time (compile_first's lock)
+# when argv[3] is "locked".
 SAVE = """
 import sys, time
 from pathlib import Path
@@ -32,19 +32,20 @@ from numba.core.caching import IndexDataCacheFile
 
 import compile_first
 
-directory, key, at, locked = Path(sys.argv[1]), sys.argv[2], float(sys.argv[3]), sys.argv[4]
+directory, key, locked = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
 write_index = IndexDataCacheFile._save_index
 
 
 def slowly(self, overloads):
-    time.sleep(1.5)
+    time.sleep(1.0)
     write_index(self, overloads)
 
 
 IndexDataCacheFile._save_index = slowly
 if locked == "locked":
     compile_first._save_one_at_a_time(directory)
-time.sleep(max(0.0, at - time.time()))
+print("ready", flush=True)
+sys.stdin.readline()
 IndexDataCacheFile(str(directory), "run_segment", "sources").save(key, key.encode())
 """
 
@@ -72,16 +73,24 @@ def test_two_processes_saving_at_once_keep_both_entries(tmp_path: Path) -> None:
         **os.environ,
         "PYTHONPATH": os.pathsep.join([str(TESTS), os.environ.get("PYTHONPATH", "")]),
     }
-    at = str(time.time() + 8)  # both processes loaded by then, on a loaded machine too
     saving = [
         subprocess.Popen(
-            [sys.executable, "-c", SAVE, str(tmp_path), key, at, "locked"],
+            [sys.executable, "-c", SAVE, str(tmp_path), key, "locked"],
             env=env,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
         )
         for key in ("observer-paper", "ekf-paper")
     ]
+    for process in saving:
+        assert process.stdout is not None
+        assert process.stdout.readline() == "ready\n"
+    for process in saving:  # both told before either is waited for
+        assert process.stdin is not None
+        process.stdin.write("go\n")
+        process.stdin.flush()
     for process in saving:
         _, stderr = process.communicate(timeout=120)
         assert process.returncode == 0, stderr
