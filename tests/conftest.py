@@ -40,15 +40,89 @@ SMOKE = {
 }
 
 
+@pytest.hookimpl(trylast=True)  # after the terminal's reporter is made
 def pytest_configure(config: pytest.Config) -> None:
     if config.option.markexpr.strip() == "smoke":
         os.environ.setdefault("WMR_MISSION_NO_JIT", "1")
+    elif _the_whole_suite_on_workers(config):
+        _compile_first(config, len(config.option.tx))
+
+
+def _the_whole_suite_on_workers(config: pytest.Config) -> bool:
+    """`pytest -n N` on the whole suite (no file named), here in the process
+    that starts the workers, with numba compiling."""
+    from wmr_mission.kernels import jit
+
+    return (
+        not hasattr(config, "workerinput")
+        and bool(getattr(config.option, "tx", None))
+        and config.args_source == pytest.Config.ArgsSource.TESTPATHS
+        and not config.option.collectonly
+        and jit.compiling()
+    )
+
+
+def _compile_first(config: pytest.Config, workers: int) -> None:
+    """The built-in loops compiled into the kernel cache before the workers
+    start, shared out over as many processes (tests/compile_first.py): each
+    compiled once, on every core, instead of by whichever worker's test runs
+    it first, at times by both at once. A failure here is left to the tests
+    that run the loop to report."""
+    import subprocess
+    import sys
+
+    import wmr_mission
+
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None:
+        reporter.write_line(f"compiling the built-in loops first, in {workers} processes")
+    script = str(Path(__file__).parent / "compile_first.py")
+    # The package the workers import (the source tree under `python -m pytest`,
+    # else the installed one), whose cache is theirs.
+    found = [str(Path(wmr_mission.__file__).parent.parent), os.environ.get("PYTHONPATH", "")]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in found if p)}
+    shares = [
+        subprocess.Popen(
+            [sys.executable, script, str(share), str(workers)],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for share in range(workers)
+    ]
+    for share in shares:
+        _, stderr = share.communicate()
+        if share.returncode != 0 and reporter is not None:
+            reporter.write_line(f"compiling first failed, the tests compile instead:\n{stderr}")
+
+
+# The files whose tests take longest (CPU, their subprocesses' included, in a
+# run of the suite from a fresh clone with `--durations`), run first, so that
+# with `-n auto` no worker is left running one of them at the end while the
+# other waits (`--no-loadscope-reorder` in pyproject.toml: xdist hands the
+# files out in this order, not by their number of tests).
+LONGEST_FIRST = (
+    "test_same_bytes.py",
+    "test_start_up.py",
+    "test_tutorial.py",
+    "test_controllers_doc.py",
+    "test_campaign.py",
+    "test_reference.py",
+    "test_python_api.py",
+    "test_figure_styles.py",
+    "test_ros2_plans.py",
+    "test_backends.py",
+)
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.path.name in SMOKE:
             item.add_marker(pytest.mark.smoke)
+    first = {name: rank for rank, name in enumerate(LONGEST_FIRST)}
+    # sorted() keeps the order of the tests within a file and of the other files
+    items.sort(key=lambda item: first.get(item.path.name, len(first)))
 
 
 @pytest.fixture(autouse=True)

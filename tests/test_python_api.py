@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import subprocess
 import sys
@@ -219,13 +220,16 @@ def test_every_python_block_of_the_docs_runs_and_keeps_the_backend(tmp_path: Pat
             "print('DOC-OK')",
         ]
     )
+    # The session's kernel cache, if one is set: without it the blocks' runs
+    # would compile their loops afresh into another (a minute of CPU).
+    cache = {k: v for k, v in os.environ.items() if k == "NUMBA_CACHE_DIR"}
     completed = subprocess.run(
         [sys.executable, "-c", script],
         cwd=tmp_path,
         capture_output=True,
         text=True,
         check=False,
-        env={"PATH": "", "MPLBACKEND": "svg", "HOME": str(tmp_path)},
+        env={"PATH": "", "MPLBACKEND": "svg", "HOME": str(tmp_path), **cache},
     )
     assert completed.returncode == 0, completed.stderr[-3000:]
     assert completed.stdout.splitlines()[-1] == "DOC-OK"
