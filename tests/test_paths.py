@@ -121,7 +121,17 @@ def test_velocities_match_finite_differences(spec: dict[str, Any]) -> None:
     np.testing.assert_allclose(vy, (y_plus - y_minus) / (2 * h), rtol=1e-5, atol=1e-5)
 
 
-@pytest.mark.parametrize("spec", PRIMITIVES, ids=[str(spec["type"]) for spec in PRIMITIVES])
+# Routes of legs, arcs and turns in place (sharp corners turn on the spot),
+# beside the primitives.
+ROUTES: list[dict[str, Any]] = [
+    {"type": "polyline", "points": [[1, 0], [1, 1], [0, 1]], "speed": 1.0},
+    {"type": "polyline", "points": [[2, 0], [2, 2]], "speed": 1.0, "corner_radius": 0.5},
+]
+
+
+@pytest.mark.parametrize(
+    "spec", PRIMITIVES + ROUTES, ids=[str(spec["type"]) for spec in PRIMITIVES + ROUTES]
+)
 def test_sampling_keeps_the_shape_of_t(spec: dict[str, Any]) -> None:
     path = trajectory(spec)
     times = np.linspace(0.0, 3.0, 12).reshape(3, 4)
@@ -129,6 +139,10 @@ def test_sampling_keeps_the_shape_of_t(spec: dict[str, Any]) -> None:
     for block, values in zip(path.sample(times), flat, strict=True):
         assert block.shape == (3, 4)
         np.testing.assert_array_equal(block.ravel(), values)
+    for k, at in enumerate(times.ravel()):  # one time alone: its values, as numbers
+        for alone, values in zip(path.sample(at), flat, strict=True):
+            assert np.shape(alone) == ()
+            assert alone == values[k]
 
 
 ROBOT = (2.0, 1.5, 0.3)

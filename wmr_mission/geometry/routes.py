@@ -79,6 +79,8 @@ class RouteTrajectory:
 
     def sample(self, t: ArrayLike) -> Sample:
         time = np.asarray(t, dtype=np.float64) + self.start_time
+        shape = time.shape  # sampled flat (a mask per kind of piece), returned as t is
+        time = time.ravel()
         if self.closed and self.period > 0.0:
             time = np.mod(time, self.period)
         moving = (time >= 0.0) & (time < self.period)
@@ -129,7 +131,7 @@ class RouteTrajectory:
             vy[turn] = TURN_CREEP * scalar_math.sin(heading)
         vx = np.where(moving, vx, 0.0)
         vy = np.where(moving, vy, 0.0)
-        return x, y, vx, vy
+        return x.reshape(shape), y.reshape(shape), vx.reshape(shape), vy.reshape(shape)
 
     def nearest_time(self, x: float, y: float) -> float:
         """Route time of the point nearest to (x, y), to 1 mm of route or better."""
