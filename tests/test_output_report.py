@@ -169,26 +169,14 @@ def test_a_table_that_fits_is_laid_out_as_rich_lays_it_out() -> None:
         "phases": [{"name": name, "expect": {}} for name in ("approach", "orbit", "park")],
     }
     judged = judge(run, mission)
-    checks = list(judged.get("expectations", []))
-    verdicts = report._verdicts(checks)
-    rows = [
-        [
-            str(phase["name"]),
-            str(phase["kind"]),
-            report._seconds(phase.get("duration")),
-            report.key_metric(phase),
-            report._at_limit(phase),
-            report._convergence(phase),
-            verdicts.get(phase["name"], "-"),
-        ]
-        for phase in judged["phases"]
-    ]
+    rows = report._phase_rows(judged, list(judged.get("expectations", [])))
     tables = [
         rows,
         rows[:1],
         [],
         [["a-much-longer-phase-name-than-usual", "track", "-", "-", "-", "never", "-"]],
         [[*rows[1][:6], "NOT MET\nturn_rate_at_limit\n0.111 (max 0.01)"]],
+        [["a:x:b", "track", ":smile:", "-", "-", "never", "-"]],  # text, not emoji codes
     ]
     fitted = 0
     for table in tables:

@@ -144,8 +144,14 @@ def unreached(result: RunRecord) -> list[str]:
 
 
 def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: int) -> list[str]:
+    rows = _phase_rows(summary, checks)
+    return _fitting_table(rows, width) or _wrapped_table(rows, width)
+
+
+def _phase_rows(summary: dict[str, Any], checks: list[dict[str, Any]]) -> list[list[str]]:
+    """The phase table's cells, a row a phase, in :data:`_COLUMNS`' order."""
     verdicts = _verdicts(checks)
-    rows = [
+    return [
         [
             str(phase["name"]),
             str(phase["kind"]),
@@ -157,7 +163,6 @@ def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: i
         ]
         for phase in summary.get("phases", [])
     ]
-    return _fitting_table(rows, width) or _wrapped_table(rows, width)
 
 
 def _fitting_table(rows: list[list[str]], width: int) -> list[str] | None:
@@ -221,9 +226,14 @@ def _wrapped_table(rows: list[list[str]], width: int) -> list[str]:
         )
     for row in rows:
         table.add_row(*row)
-    # Plain text: no colours, no markup read in names.
+    # Plain text: no colours, no markup or emoji codes (":x:") read in names.
     console = Console(
-        file=io.StringIO(), width=width, color_system=None, highlight=False, markup=False
+        file=io.StringIO(),
+        width=width,
+        color_system=None,
+        highlight=False,
+        markup=False,
+        emoji=False,
     )
     console.print(table)
     text = console.file.getvalue()  # type: ignore[attr-defined]  # the StringIO above
