@@ -5,6 +5,7 @@ passes the zone, kept for the whole detour on a curve."""
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -198,6 +199,24 @@ def test_a_path_that_never_moves_keeps_no_way_round_of_the_path_before() -> None
     assert (phase.ways == 0.0).all()
 
 
+def _nearest_chord(x: np.ndarray, y: np.ndarray, px: float, py: float) -> tuple[int, float]:
+    """The chord (k to k + 1) of the polyline through (x, y) nearest (px, py)
+    and its share along it there, chord by chord as Python numbers: the
+    reference nearest_chords is held to."""
+    best, found = math.inf, (-1, 0.0)
+    for k in range(len(x) - 1):
+        ex, ey = float(x[k + 1] - x[k]), float(y[k + 1] - y[k])
+        length2 = ex * ex + ey * ey
+        if length2 == 0.0:
+            continue
+        share = ((px - float(x[k])) * ex + (py - float(y[k])) * ey) / length2
+        share = min(max(share, 0.0), 1.0)
+        gap = math.hypot(float(x[k]) + share * ex - px, float(y[k]) + share * ey - py)
+        if gap < best:
+            best, found = gap, (k, share)
+    return found
+
+
 def test_the_ways_round_several_zones_are_each_zones_own() -> None:
     """A phase's path is sampled once for all its keep-out ellipses
     (PhaseRun._find_ways, one sampling about each zone's nearest chord in
@@ -205,7 +224,7 @@ def test_the_ways_round_several_zones_are_each_zones_own() -> None:
     path sampled about its own nearest chord (ways_round), to the bit; a
     zone beside a circle's far side and one off its end included."""
     from wmr_mission import mission_from_dict
-    from wmr_mission.controllers.constrained_tracking import nearest_chords
+    from wmr_mission.controllers.constrained_tracking import way_at
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import WAY_HORIZON, WAY_SAMPLES, PhaseRun
 
@@ -250,10 +269,11 @@ def test_the_ways_round_several_zones_are_each_zones_own() -> None:
     t = np.linspace(0.0, samples * plan.dt, min(samples, WAY_SAMPLES) + 1)
     x, y = phase._path_points(t)
     for i in keep_out:
-        k = int(nearest_chords(x, y, params[i : i + 1, 0], params[i : i + 1, 1])[0][0])
+        k, _ = _nearest_chord(x, y, params[i, 0], params[i, 1])
         near = np.linspace(t[max(k - 1, 0)], t[min(k + 2, t.size - 1)], WAY_SAMPLES + 1)
-        alone = ways_round(*phase._path_points(near), kinds[i : i + 1], params[i : i + 1])
-        assert alone[0, 4] != 0.0
-        assert phase.ways[i].tobytes() == alone[0].tobytes()
+        fine_x, fine_y = phase._path_points(near)
+        alone = way_at(fine_x, fine_y, *_nearest_chord(fine_x, fine_y, *params[i, :2]), params[i])
+        assert alone[4] != 0.0
+        assert phase.ways[i].tobytes() == alone.tobytes()
     others = np.setdiff1d(np.arange(kinds.size), keep_out)
     assert (phase.ways[others] == 0.0).all()
