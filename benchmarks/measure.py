@@ -625,6 +625,30 @@ _RICH_TABLE = (
     + _COMMAND
 )
 
+# The same with numba's extensions looked for before each cached function's
+# first call, as numba does (wmr_mission.kernels.jit._extensions_when_compiling).
+_EXTENSIONS_LOOKED_FOR = (
+    "from wmr_mission.kernels import jit\n"
+    "def looked_for():\n"
+    "    from numba.core import entrypoints\n"
+    "    entrypoints.init_all()\n"
+    "jit._extensions_when_compiling = looked_for\n" + _COMMAND
+)
+
+# The same with numba's array module imported as numba loads, as loading the
+# judge's distances did when the kernel made its scratch arrays itself
+# (wmr_mission.verdicts.path_distance.compiled_distances).
+_ARRAYS_IMPORTED = (
+    "from wmr_mission.kernels import jit\n"
+    "load = jit._load\n"
+    "def load_and_import():\n"
+    "    loaded = load()\n"
+    "    if loaded:\n"
+    "        import numba.np.arrayobj\n"
+    "    return loaded\n"
+    "jit._load = load_and_import\n" + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -681,6 +705,12 @@ def cuts(pairs: int = 9) -> None:
             ("run case1 --no-plots compiled, ended at once / modules unloaded",
              [py, "-c", _COMMAND, *case1], [py, "-c", _UNLOADING, *case1], _user_env(),
              _user_env()),
+            ("run case1 --no-plots compiled, numba's extensions not looked for / looked for",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _EXTENSIONS_LOOKED_FOR, *case1],
+             _user_env(), _user_env()),
+            ("run case1 --no-plots compiled, the judge's scratch made in Python / numba's "
+             "arrays imported", [py, "-c", _COMMAND, *case1], [py, "-c", _ARRAYS_IMPORTED, *case1],
+             _user_env(), _user_env()),
         ]  # fmt: skip
         wanted = sys.argv[2:]  # `cuts WORD ...`: the cases named with one of the words
         for name, with_it, without, env_with, env_without in cases:

@@ -64,6 +64,7 @@ def loaded():
         f.write(f"scipy.linalg loaded: {'scipy.linalg' in sys.modules}\\n")
         if called:
             f.write(f"compiled entries: {' '.join(called)}\\n")
+            f.write(f"numba's arrays loaded: {'numba.np.arrayobj' in sys.modules}\\n")
 atexit.register(loaded)
 sys.argv[0] = "wmr-mission"
 from wmr_mission.cli import main
@@ -201,6 +202,7 @@ def test_compile_marks_the_cache_ready_and_a_long_run_loads_it(tmp_path: Path) -
         "numba loaded: True",
         "scipy.linalg loaded: False",
         "compiled entries: _distances _each input_pass jitter_median place_samples run_segment",
+        "numba's arrays loaded: False",
     ]
     manifest = json.loads((tmp_path / "next" / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["loop"] == "compiled"
@@ -288,8 +290,9 @@ def test_numba_is_loaded_without_scipy() -> None:
 
 
 # Calls a cached compiled function (the module `doubled` in argv[1]), then
-# prints its result, whether it was loaded from the cache, and whether numba's
-# target was set up (its array-math module imported) and scipy imported.
+# prints its result, whether it was loaded from the cache, whether numba's
+# target was set up (its array-math module imported) and scipy imported, and
+# whether numba's extensions were looked for (the installed entry points).
 CACHED_CALL = """
 import sys
 sys.path.insert(0, sys.argv[1])
@@ -298,6 +301,8 @@ from wmr_mission.kernels import jit
 twice = jit.compiled(doubled.twice)
 print(twice(1.5), sum(twice.stats.cache_hits.values()))
 print("numba.np.arraymath" in sys.modules, "scipy" in sys.modules)
+from numba.core import entrypoints
+print(entrypoints._already_initialized)
 """
 
 
@@ -306,8 +311,9 @@ def test_a_cached_function_loads_without_setting_numba_up_and_a_miss_compiles(
 ) -> None:
     """Loading from the cache needs none of numba's typing and lowering
     registries (0.12 s of a cached run, docs/performance.md, Start-up): the
-    second process loads the function with its target not set up; the first,
-    finding nothing cached, sets it up (scipy refused) and compiles."""
+    second process loads the function with its target not set up and without
+    looking for numba's extensions (0.008 s); the first, finding nothing
+    cached, sets it up (scipy refused, the extensions loaded) and compiles."""
     (tmp_path / "doubled.py").write_text("def twice(x):\n    return 2.0 * x\n")
     printed = []
     for _ in range(2):
@@ -320,7 +326,10 @@ def test_a_cached_function_loads_without_setting_numba_up_and_a_miss_compiles(
         )
         assert done.returncode == 0, done.stderr
         printed.append(done.stdout.split())
-    assert printed == [["3.0", "0", "True", "False"], ["3.0", "1", "False", "False"]]
+    assert printed == [
+        ["3.0", "0", "True", "False", "True"],
+        ["3.0", "1", "False", "False", "False"],
+    ]
 
 
 def test_another_numba_loads_its_cache_its_own_way(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -246,9 +246,17 @@ def _dispatcher(source: Callable[..., Any], cached: bool, options: Mapping[str, 
     dispatcher = _njit()(cache=cached and _state.cache_class is None, **options)(source)
     if cached and _state.cache_class is not None:
         dispatcher._cache = _state.cache_class(source)
+        # numba loads its extensions (every installed package's entry points
+        # scanned, 0.008 s) before each first call; only compiling needs them,
+        # and a miss sets the target up, loading them (_set_up_for_compiling).
+        dispatcher._compilation_chain_init_hook = _extensions_when_compiling
     elif not cached:
         _set_up_for_compiling()
     return dispatcher
+
+
+def _extensions_when_compiling() -> None:
+    """A cached dispatcher's hook before its first call: nothing (see :func:`_dispatcher`)."""
 
 
 class _WithoutScipy:

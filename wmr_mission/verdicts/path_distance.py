@@ -78,13 +78,20 @@ def compiled_distances(
     order = np.argsort(keys, kind="stable")
     starts = np.searchsorted(keys[order], np.arange(columns * rows + 1)).astype(np.int64)
     out = np.empty(qx.size)
+    # The kernel's scratch, made here: an array made in compiled code makes
+    # loading the kernel from the cache import numba's array module (0.02 s
+    # of `run`'s start, docs/performance.md, Start-up).
+    k = min(k, tx.size)
+    nearest = np.empty((2, k))  # the nearest points found: squared distances, indices
+    tried = 2 * window + 2 * k  # the segments tried, at most
+    segments, dxs, dys = np.empty(tried, dtype=np.int64), np.empty(tried), np.empty(tried)
     # A square beyond the largest float is inf, as in machine code; as plain
     # Python the kernel computes with numpy's scalars, which would warn of it.
     with np.errstate(over="ignore", invalid="ignore"):
         jit.compiled(_distances)(
             px, py, qx, qy, own.astype(np.int64), tx, ty, points.astype(np.int64),
-            order.astype(np.int64), starts, x0, y0, size, columns, rows, window, min(k, tx.size),
-            out,
+            order.astype(np.int64), starts, x0, y0, size, columns, rows, window, nearest,
+            segments, dxs, dys, out,
         )  # fmt: skip
     return out
 
@@ -122,14 +129,14 @@ def _distances(
     columns: int,
     rows: int,
     window: int,
-    k: int,
+    nearest: FloatArray,
+    segments: NDArray[np.int64],
+    dxs: FloatArray,
+    dys: FloatArray,
     out: FloatArray,
 ) -> None:
     last = px.size - 2  # segment i runs from point i to point i + 1
-    nearest = np.empty((2, k))  # the nearest points found: squared distances, indices
-    segments = np.empty(2 * window + 2 * k, dtype=np.int64)
-    dxs = np.empty(2 * window + 2 * k)
-    dys = np.empty(2 * window + 2 * k)
+    k = nearest.shape[1]
     for q in range(qx.size):
         x, y = qx[q], qy[q]
         # The k nearest points: (squared distance, index) ascending.
