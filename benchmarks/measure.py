@@ -356,7 +356,7 @@ print(f"loading numba {t1 - t0:.3f} s, first run_mission (loads run_segment and 
 # budget (`run` chooses plain Python for a short one).
 _RUN_COMPILED = (
     "import sys; from wmr_mission.kernels import jit; jit.load(); "
-    "sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import main; main()"
+    "sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import program; program()"
 )
 
 
@@ -573,7 +573,7 @@ def stages(repeat: int = 5) -> None:
 
 # `wmr-mission` as a process of its own, and the same with Python's collections
 # at shutdown left as they were (gc.freeze a no-op, wmr_mission.cli.main).
-_COMMAND = "import sys; sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import main; main()"
+_COMMAND = "import sys; sys.argv[0] = 'wmr-mission'; from wmr_mission.cli import program; program()"
 _UNFROZEN = "import gc; gc.freeze = lambda: None; " + _COMMAND
 # The same with the cyclic collector left on as the command starts (gc.disable a
 # no-op, wmr_mission.cli.main; wmr_mission.commands.start_up_done).
@@ -1165,8 +1165,8 @@ def report():
         out.write(f"{own.ru_utime + own.ru_stime} {theirs.ru_utime + theirs.ru_stime}")
 atexit.register(report)
 sys.argv[0] = "wmr-mission"
-from wmr_mission.cli import main
-main()
+from wmr_mission.cli import program
+program()
 """
 
 

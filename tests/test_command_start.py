@@ -37,8 +37,8 @@ def loaded():
     }), file=sys.__stderr__)
 atexit.register(loaded)
 sys.argv[0] = "wmr-mission"
-from wmr_mission.cli import main
-main()
+from wmr_mission.cli import program
+program()
 """
 
 # What the command line sets for itself unless the user did (wmr_mission.cli).
@@ -88,6 +88,22 @@ def test_pydantic_looks_for_plug_ins_only_where_some_are_enabled() -> None:
     assert "email" not in _modules(_start(["validate", case2])["modules"])
     one_disabled = _start(["validate", case2], PYDANTIC_DISABLE_PLUGINS="some-plug-in")
     assert "email" in _modules(one_disabled["modules"])
+
+
+def test_pydantics_loader_stood_in_for_hands_over_what_it_lacks() -> None:
+    """The stand-in answers get_plugins alone; any other name (a pydantic
+    that imports more from its loader) comes from pydantic's own loader."""
+    stood_in = """
+import os, sys
+os.environ["PYDANTIC_DISABLE_PLUGINS"] = "__all__"
+from wmr_mission.cli import _no_pydantic_plugin_loader
+_no_pydantic_plugin_loader()
+from pydantic.plugin._loader import get_plugins, PYDANTIC_ENTRY_POINT_GROUP
+print(list(get_plugins()), PYDANTIC_ENTRY_POINT_GROUP, "email" in sys.modules)
+"""
+    done = subprocess.run([sys.executable, "-c", stood_in], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["[]", "pydantic", "True"]
 
 
 def _modules(report: object) -> list[str]:
@@ -179,8 +195,8 @@ class Unloaded:
 sys.modules["witness"] = Unloaded()
 atexit.register(lambda: print("exit function", file=sys.__stderr__, flush=True))
 sys.argv[0] = "wmr-mission"
-from wmr_mission.cli import main
-main()
+from wmr_mission.cli import program
+program()
 """
 
 
@@ -226,8 +242,8 @@ def counted(command_info, **kwargs):
 typer.main.get_command_from_info = counted
 atexit.register(lambda: print(" ".join(built), file=sys.__stderr__))
 sys.argv[0] = "wmr-mission"
-from wmr_mission.cli import main
-main()
+from wmr_mission.cli import program
+program()
 """
 
 
@@ -328,3 +344,47 @@ def test_a_checkout_run_from_its_root_runs_as_the_installed_package(tmp_path: Pa
         runs[where] = (out / "trajectory.csv").read_bytes()
         shutil.rmtree(out)
     assert runs["checkout"] == runs["installed"]
+
+
+# The command line called as a function, twice, as a script of a user's may.
+TWICE = """
+import sys
+from wmr_mission.cli import main
+codes = []
+for name in sys.argv[1:]:
+    sys.argv = ["wmr-mission", "validate", name]
+    try:
+        main()
+    except SystemExit as done:
+        codes.append(done.code)
+print("codes", codes)
+"""
+
+
+def test_main_comes_back_with_its_code_and_a_profiled_program_writes_its_profile(
+    tmp_path: Path,
+) -> None:
+    """Only the program ends at once (wmr_mission.cli.program): main() raises
+    SystemExit with the code, so a caller goes on; and a profiler sees the
+    program end as Python ends, so it writes what it found."""
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("version: 1\nname: bad\n")
+    env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
+    twice = subprocess.run(
+        [sys.executable, "-c", TWICE, str(MISSIONS / "case2.yaml"), str(bad)],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert twice.returncode == 0, twice.stderr
+    assert twice.stdout.splitlines()[-1] == "codes [0, 1]"
+    profile = tmp_path / "validate.prof"
+    command = ["-m", "cProfile", "-o", str(profile), "-m", "wmr_mission", "validate"]
+    profiled = subprocess.run(
+        [sys.executable, *command, str(MISSIONS / "case2.yaml")],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert profiled.returncode == 0, profiled.stderr
+    assert profile.stat().st_size > 0

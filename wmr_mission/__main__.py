@@ -1,3 +1,3 @@
-from wmr_mission.cli import main
+from wmr_mission.cli import program
 
-main()
+program()

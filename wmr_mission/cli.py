@@ -696,18 +696,53 @@ def _no_pydantic_plugin_loader() -> None:
     its first validator imports, finds none; but its import loads
     importlib.metadata (the email parser, zipfile, csv: 0.015 s of
     `validate`'s CPU, docs/performance.md, Start-up) only to look them up.
-    A module that finds none stands in for it."""
+    A module that finds none stands in for it; asked for anything else (a
+    pydantic of other internals), it hands over to pydantic's own."""
     name = "pydantic.plugin._loader"
     if os.environ.get("PYDANTIC_DISABLE_PLUGINS") != "__all__" or name in sys.modules:
         return
     import types
 
+    def pydantics(attribute: str) -> Any:
+        if attribute.startswith("__"):  # a module's own (__file__, __path__): none here
+            raise AttributeError(attribute)
+        if sys.modules.get(name) is loader:
+            del sys.modules[name]
+        import importlib
+
+        return getattr(importlib.import_module(name), attribute)
+
     loader = types.ModuleType(name, "No pydantic plug-in: all are disabled (wmr_mission.cli).")
     loader.get_plugins = lambda: ()  # type: ignore[attr-defined]
+    loader.__getattr__ = pydantics  # type: ignore[method-assign]
     sys.modules[name] = loader
 
 
 def main() -> None:
+    """The command line as a function: runs the command ``sys.argv`` names and
+    raises SystemExit with its exit code, whoever called it."""
+    raise SystemExit(_command_line_run())
+
+
+def program() -> None:
+    """The ``wmr-mission`` program (and ``python -m wmr_mission``): :func:`main`,
+    ending run and validate at once (:func:`_ends_at_once`)."""
+    code = _command_line_run()
+    if _ends_at_once(sys.argv[1:2], code):
+        # What Python would still do as it exits, its exit functions, is done;
+        # then the process ends without unloading every module, object by
+        # object (docs/performance.md, Start-up): run and validate wrote and
+        # closed what they made, and the streams are flushed.
+        atexit._run_exitfuncs()
+        for stream in (sys.stdout, sys.stderr):
+            if stream is not None and not stream.closed:
+                stream.flush()
+        os._exit(code or 0)
+    raise SystemExit(code)
+
+
+def _command_line_run() -> Any:
+    """The command ``sys.argv`` names, run: its exit code."""
     # No cyclic collection while the command starts: see
     # wmr_mission.commands.start_up_done, which turns it on.
     gc.disable()
@@ -751,27 +786,19 @@ def main() -> None:
     # 0.45 s of CPU); frozen, they are left to reference counting alone
     # (docs/performance.md, Start-up).
     gc.freeze()
-    if early.owed:
+    if early.owed:  # a stop held while the command started: it ends as Python ends
         raise SystemExit(early.exit_code)
-    if _ends_at_once(sys.argv[1:2], code):
-        # What Python would still do as it exits, its exit functions, is done;
-        # then the process ends without unloading every module, object by
-        # object (docs/performance.md, Start-up): run and validate wrote and
-        # closed what they made, and the streams are flushed.
-        atexit._run_exitfuncs()
-        for stream in (sys.stdout, sys.stderr):
-            if stream is not None and not stream.closed:
-                stream.flush()
-        os._exit(code or 0)
-    raise SystemExit(code)
+    return code
 
 
 def _ends_at_once(arguments: list[str], code: Any) -> bool:
     """Whether the command's process may end without Python's teardown: run
-    or validate (the short commands), a numeric exit code, and no other
-    thread left running (Python's exit would wait for it)."""
+    or validate (the short commands), a numeric exit code, no other thread
+    left running (Python's exit would wait for it), and no profiler or
+    tracer (cProfile and trace write what they found as Python exits)."""
     import threading
 
     numeric = code is None or isinstance(code, int)
     short = bool(arguments) and arguments[0] in _SHORT
-    return short and numeric and threading.active_count() == 1
+    watched = sys.getprofile() is not None or sys.gettrace() is not None
+    return short and numeric and not watched and threading.active_count() == 1
