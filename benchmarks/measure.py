@@ -1215,11 +1215,13 @@ def runner_cost(repeat: int = 3) -> None:
     """The runner's own time around the compiled loop, per run of case2-headings
     (its runs 1-200, compiled beforehand, each run ``repeat`` times): medians
     of ``run_mission``, of its calls of the compiled loop (passing the records
-    in included) and of the rest, the runner's Python."""
+    in included, through numba's dispatcher or straight to the compiled entry
+    point) and of the rest, the runner's Python; and how many of the calls
+    numba's dispatcher typed."""
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import mission_of
-    from wmr_mission.kernels import loop
+    from wmr_mission.kernels import jit
     from wmr_mission.sim import runner
     from wmr_mission.sim.plan import MissionPlan, plan_mission
 
@@ -1232,34 +1234,54 @@ def runner_cost(repeat: int = 3) -> None:
         assert mission is not None
         missions.append(plan_mission(mission, draw.seed))
     runner.run_mission(missions[0])  # loads the compiled loop
-    run_segment = loop.run_segment
+    segment = runner._Run._segment
     inside = [0, 0]  # ns in the compiled loop, calls
+    typed = [0]  # calls numba's dispatcher typed
 
-    def timed_segment(*args: Any) -> int:
+    def timed_segment(self: runner._Run, *args: Any) -> int:
         started = time.perf_counter_ns()
-        status = run_segment(*args)
+        status = segment(self, *args)
         inside[0] += time.perf_counter_ns() - started
         inside[1] += 1
         return status
 
-    loop.run_segment = timed_segment  # type: ignore[assignment]  # read as a run starts
-    whole, compiled, calls = [], [], []
+    class Counted:  # the run's dispatcher, its calls counted
+        def __init__(self, dispatcher: Any) -> None:
+            self.dispatcher, self.overloads = dispatcher, dispatcher.overloads
+
+        def __call__(self, *args: Any) -> int:
+            typed[0] += 1
+            return int(self.dispatcher(*args))
+
+    compiled = jit.compiled
+
+    def counted(fn: Any, **options: Any) -> Any:
+        made = compiled(fn, **options)
+        return Counted(made) if hasattr(made, "overloads") else made
+
+    runner._Run._segment = timed_segment  # type: ignore[method-assign]
+    jit.compiled = counted  # type: ignore[assignment]  # read as a run starts
+    whole, inner, calls, dispatched = [], [], [], []
     try:
         for _ in range(repeat):
             for compiled_mission in missions[1:]:
                 inside[:] = [0, 0]
+                typed[0] = 0
                 started = time.perf_counter_ns()
                 runner.run_mission(compiled_mission)
                 whole.append((time.perf_counter_ns() - started) / 1000)
-                compiled.append(inside[0] / 1000)
+                inner.append(inside[0] / 1000)
                 calls.append(inside[1])
+                dispatched.append(typed[0])
     finally:
-        loop.run_segment = run_segment
-    rest = [w - c for w, c in zip(whole, compiled, strict=True)]
+        runner._Run._segment = segment  # type: ignore[method-assign]
+        jit.compiled = compiled  # type: ignore[assignment]
+    rest = [w - c for w, c in zip(whole, inner, strict=True)]
     print(
         f"case2-headings runs 1-200, {repeat} times each, medians per run: run_mission "
         f"{statistics.median(whole):.0f} us; the compiled loop "
-        f"{statistics.median(compiled):.0f} us in {statistics.mean(calls):.2f} calls; "
+        f"{statistics.median(inner):.0f} us in {statistics.mean(calls):.2f} calls, "
+        f"{statistics.mean(dispatched):.2f} of them typed by numba's dispatcher; "
         f"the rest {statistics.median(rest):.0f} us"
     )
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")

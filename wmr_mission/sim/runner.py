@@ -316,6 +316,20 @@ class PhaseRun:
         return block
 
 
+def _phase_types(phase: EnteredPhase) -> tuple[Any, ...]:
+    """What numba types a phase by (numba.typeof): each field's class and, of
+    an array, its dtype, dimensions, order, and whether it is writeable and
+    aligned. Phases with the same are one type to the compiled loop."""
+    return tuple(
+        (v.dtype, v.ndim, v.flags.num & _TYPED_FLAGS) if type(v) is np.ndarray else type(v)
+        for v in phase
+    )
+
+
+# Numpy's flags numba types an array by: C and Fortran order, aligned, writeable.
+_TYPED_FLAGS = 0x1 | 0x2 | 0x100 | 0x400
+
+
 # Called once per phase or run: plain Python (wmr_mission.kernels.jit.plain).
 _max_row_value = jit.plain(max_row_value)
 _record_sample = jit.plain(loop.record_sample)
@@ -443,9 +457,10 @@ class _Run:
         self.updated = any(p.updates for p in m.phases)
         # A session (start_mission) pauses the run before this sample; a run never.
         self.pause_at = NEVER
-        # A session's call of the compiled loop without numba's dispatcher: the
-        # phase it was typed with and the compiled entry point (_segment).
-        self._fast: tuple[EnteredPhase, Callable[..., int]] | None = None
+        # A call of the compiled loop without numba's dispatcher: the phase it
+        # was last made with, the types of the phase the dispatcher typed
+        # (_phase_types) and the compiled entry point (_segment).
+        self._fast: tuple[EnteredPhase, tuple[Any, ...], Callable[..., int]] | None = None
         # A plant side that takes a planner's plans (wmr_mission.backends.ros2): each
         # new one, once, as an update of the phase in force (called with the
         # sample, the phase's index and kind); else None.
@@ -543,18 +558,24 @@ class _Run:
         )  # fmt: skip
         fast = self._fast
         contiguous = path.rows.flags.c_contiguous and draws.flags.c_contiguous
-        if fast is not None and fast[0] is phase and contiguous:
-            # A session's short steps: numba's dispatcher takes some 30 us to
-            # type these arguments, a third of 100 samples. Every argument but
-            # the phase is of the types of every call (float64 arrays, C order,
-            # checked above), and the phase is the one the dispatcher typed.
-            return int(fast[1](*arguments))
+        if fast is not None and contiguous:
+            # Numba's dispatcher takes some 30 us to type these arguments: a
+            # third of a session's step of 100 samples, and of a campaign's run
+            # as much as its Python around the loop. Every argument but the
+            # phase is of the types of every call of the run (float64 arrays,
+            # C order, checked above), and the phase is the one the dispatcher
+            # typed or one of the same types.
+            if fast[0] is not phase and fast[1] == _phase_types(phase):
+                fast = self._fast = (phase, fast[1], fast[2])
+            if fast[0] is phase:
+                return int(fast[2](*arguments))
         status = int(self.segment(*arguments))
-        if self.pause_at != NEVER and not self.ticks_are_ns and not self.plugin:
-            dispatcher: Any = self.segment
-            signatures = dispatcher.signatures
-            if len(signatures) == 1 and contiguous:
-                self._fast = (phase, dispatcher.overloads[signatures[0]].entry_point)
+        if self._fast is None and not self.ticks_are_ns and not self.plugin:
+            compiled: Any = self.segment
+            overloads = compiled.overloads  # one: the one the dispatcher just typed
+            if len(overloads) == 1 and contiguous:
+                entry = next(iter(overloads.values())).entry_point
+                self._fast = (phase, _phase_types(phase), entry)
         return status
 
     def run(self) -> RunResult:
