@@ -316,6 +316,24 @@ class PhaseRun:
         return block
 
 
+# Per compiled loop, its entry point once it has one: found from the
+# dispatcher's overloads by their signature, which hashes numba's types of
+# every argument in Python (some 40 us, as much as the call it saves).
+_entry_points: dict[int, tuple[Any, Callable[..., int]]] = {}
+
+
+def _entry_point(dispatcher: Any) -> Callable[..., int] | None:
+    """The compiled entry point of ``dispatcher`` if it has compiled one
+    signature alone (the one it just typed); else None."""
+    if len(dispatcher.overloads) != 1:
+        return None
+    kept = _entry_points.get(id(dispatcher))
+    if kept is None or kept[0] is not dispatcher:
+        overload = next(iter(dispatcher.overloads.values()))
+        kept = _entry_points[id(dispatcher)] = (dispatcher, overload.entry_point)
+    return kept[1]
+
+
 def _phase_types(phase: EnteredPhase) -> tuple[Any, ...]:
     """What numba types a phase by (numba.typeof): each field's class and, of
     an array, its dtype, dimensions, order, and whether it is writeable and
@@ -571,10 +589,8 @@ class _Run:
                 return int(fast[2](*arguments))
         status = int(self.segment(*arguments))
         if self._fast is None and not self.ticks_are_ns and not self.plugin:
-            compiled: Any = self.segment
-            overloads = compiled.overloads  # one: the one the dispatcher just typed
-            if len(overloads) == 1 and contiguous:
-                entry = next(iter(overloads.values())).entry_point
+            entry = _entry_point(self.segment)
+            if entry is not None and contiguous:
                 self._fast = (phase, _phase_types(phase), entry)
         return status
 
