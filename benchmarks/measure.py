@@ -26,6 +26,7 @@
     python benchmarks/measure.py judge COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
+    python benchmarks/measure.py parent     # the sweep's own process, by step
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
     python benchmarks/measure.py png        # Pillow writing case study 2's PNGs, per zlib level
@@ -1221,7 +1222,7 @@ def runner_cost(repeat: int = 3) -> None:
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import mission_of
-    from wmr_mission.kernels import jit
+    from wmr_mission.kernels import jit, loop
     from wmr_mission.sim import runner
     from wmr_mission.sim.plan import MissionPlan, plan_mission
 
@@ -1238,11 +1239,18 @@ def runner_cost(repeat: int = 3) -> None:
     inside = [0, 0]  # ns in the compiled loop, calls
     typed = [0]  # calls numba's dispatcher typed
 
-    def timed_segment(self: runner._Run, *args: Any) -> int:
+    by_phase: dict[int, list[tuple[float, int]]] = {}  # per phase: (us, samples) of each call
+
+    def timed_segment(self: runner._Run, phase: Any, *args: Any) -> int:
+        before = int(self.signals.counters[loop.K])
         started = time.perf_counter_ns()
-        status = segment(self, *args)
-        inside[0] += time.perf_counter_ns() - started
+        status = segment(self, phase, *args)
+        spent = time.perf_counter_ns() - started
+        inside[0] += spent
         inside[1] += 1
+        samples = int(self.signals.counters[loop.K]) - before
+        if samples:
+            by_phase.setdefault(phase.number, []).append((spent / 1000, samples))
         return status
 
     class Counted:  # the run's dispatcher, its calls counted
@@ -1284,6 +1292,59 @@ def runner_cost(repeat: int = 3) -> None:
         f"{statistics.mean(dispatched):.2f} of them typed by numba's dispatcher; "
         f"the rest {statistics.median(rest):.0f} us"
     )
+    for number, calls_of in sorted(by_phase.items()):
+        spent_us = sum(us for us, _ in calls_of)
+        samples_of = sum(n for _, n in calls_of)
+        print(
+            f"  phase {number}: {samples_of / len(missions[1:]) / repeat:.0f} samples a run, "
+            f"{spent_us / samples_of:.3f} us a sample in the compiled loop (calls that ran samples)"
+        )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+# `sweep CAMPAIGN --no-plots --workers 2 --out DIR` in this process, the CPU
+# clock (of the process, all its threads) read around each of its steps.
+_SWEEP_STEPS = """
+import sys, time
+started = time.process_time()
+from wmr_mission.campaign import sweep
+from wmr_mission.cli import main
+imported = time.process_time()
+spent = {}
+def timed(name):
+    step = getattr(sweep, name)
+    def run(*args, **kwargs):
+        began = time.process_time()
+        try:
+            return step(*args, **kwargs)
+        finally:
+            spent[name] = spent.get(name, 0.0) + time.process_time() - began
+    setattr(sweep, name, run)
+for name in ("warm_up", "_execute", "_record", "_worst_and_figures"):
+    timed(name)
+sys.argv = ["wmr-mission", "sweep", *sys.argv[1:]]
+try:
+    main()
+except SystemExit:
+    pass
+spent["_execute"] -= spent["warm_up"]
+print(f"imports {imported - started:.3f}", *(f"{k} {v:.3f}" for k, v in spent.items()),
+      f"in all {time.process_time() - started:.3f}")
+"""
+
+
+def sweep_steps(repeat: int = 3) -> None:
+    """The CPU of the sweep's own process by step, `sweep
+    missions/campaigns/case2-headings.yaml --no-plots --workers 2`, ``repeat``
+    times: its imports, the warm-up (numba and the kernels loaded, two runs),
+    the runs (the rows taken, written and counted), the record, the worst
+    runs' directories [s]."""
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(repeat):
+            command = [sys.executable, "-c", _SWEEP_STEPS, str(CAMPAIGN), "--no-plots"]
+            command += ["--workers", "2", "--out", f"{tmp}/out-{i}"]
+            done = subprocess.run(command, capture_output=True, text=True, cwd=tmp)
+            print(done.stdout.strip().splitlines()[-1])
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -1583,6 +1644,7 @@ if __name__ == "__main__":
         "judge": judge_cost,
         "sweep": sweep_against,
         "runner": runner_cost,
+        "parent": sweep_steps,
         "drawing": drawing,
         "png": png,
         "checks": checks,
