@@ -12,7 +12,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from test_updates import PACED
 
+from wmr_mission.api import mission_from_text
 from wmr_mission.kernels import jit, loop
 from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import write_trajectory
@@ -207,6 +209,40 @@ def test_a_compiled_run_types_its_arguments_once(monkeypatch: pytest.MonkeyPatch
     assert runs[0] == [0]  # the load: the phases, and the spiral's second call, skip it
     assert len(runs[1]) == 4  # every call through the dispatcher
     same_arrays(fast, dispatched)
+
+
+@pytest.mark.skipif(not jit.compiling(), reason="numba's dispatcher: the compiled loop only")
+@pytest.mark.parametrize(
+    ("change", "typed_after"), [("look_ahead: 0.6", True), ("speed: 0.5", False)]
+)
+def test_a_new_controller_tuning_is_typed_by_the_dispatcher(
+    change: str, typed_after: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A look-ahead update hands the loop a tuning of its own from the sample
+    it takes over: the calls after it go through numba's dispatcher, which
+    types it, not straight to the loop typed with the mission's tuning; a
+    speed update keeps the tuning, and the dispatcher typed the first call only."""
+    text = PACED.format(
+        path="{type: line, heading: 0, speed: 1, start: [0, 1]}",
+        change=change,
+        controller="controller: {tracking: {look_ahead: 0.1, time_constant: 0.5}}",
+        at=0.1,
+    )
+    compiled = jit.compiled
+    calls: list[int] = []
+
+    def made(fn: Any, **options: Any) -> Any:
+        if fn.__name__ != loop.run_segment.__name__:
+            return compiled(fn, **options)
+        return _Dispatcher(compiled(fn, **options), calls, 1)
+
+    monkeypatch.setattr(jit, "compiled", made)
+    result = run_mission(mission_from_text(text))
+    update = next(t for t in result.transitions if t.condition == "update")
+    k = round(update.time / result.dt)
+    assert k == 10
+    assert calls[0] == 0
+    assert any(stop > k for stop in calls) is typed_after
 
 
 def test_phases_of_the_same_types_are_one_type_to_the_loop() -> None:

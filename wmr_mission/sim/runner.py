@@ -477,8 +477,9 @@ class _Run:
         self.pause_at = NEVER
         # A call of the compiled loop without numba's dispatcher: the phase it
         # was last made with, the types of the phase the dispatcher typed
-        # (_phase_types) and the compiled entry point (_segment).
-        self._fast: tuple[EnteredPhase, tuple[Any, ...], Callable[..., int]] | None = None
+        # (_phase_types), the compiled entry point, and the controller's
+        # tuning it was typed with (_segment).
+        self._fast: tuple[EnteredPhase, tuple[Any, ...], Callable[..., int], Any] | None = None
         # A plant side that takes a planner's plans (wmr_mission.backends.ros2): each
         # new one, once, as an update of the phase in force (called with the
         # sample, the phase's index and kind); else None.
@@ -568,30 +569,30 @@ class _Run:
     def _segment(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
         m = self.m
         tuning = self.phases[phase.number].tuning  # a look-ahead update's, else the mission's
+        if tuning is None:
+            tuning = m.controller_tuning
         arguments = (
             m.plant, self.actuation, self.sensing, m.estimator_tuning, self.estimator_memory,
-            m.controller_tuning if tuning is None else tuning, self.scratch, phase, path,
-            draws, self.signals,
-            self.recorder.record, stop,
+            tuning, self.scratch, phase, path, draws, self.signals, self.recorder.record, stop,
         )  # fmt: skip
         fast = self._fast
         contiguous = path.rows.flags.c_contiguous and draws.flags.c_contiguous
-        if fast is not None and contiguous:
+        if fast is not None and contiguous and fast[3] is tuning:
             # Numba's dispatcher takes some 30 us to type these arguments: a
             # third of a session's step of 100 samples, and of a campaign's run
             # as much as its Python around the loop. Every argument but the
-            # phase is of the types of every call of the run (float64 arrays,
-            # C order, checked above), and the phase is the one the dispatcher
-            # typed or one of the same types.
+            # phase and the tuning is of the types of every call of the run
+            # (float64 arrays, C order, checked above), the tuning is the one
+            # the dispatcher typed, and the phase too or one of the same types.
             if fast[0] is not phase and fast[1] == _phase_types(phase):
-                fast = self._fast = (phase, fast[1], fast[2])
+                fast = self._fast = (phase, *fast[1:])
             if fast[0] is phase:
                 return int(fast[2](*arguments))
         status = int(self.segment(*arguments))
         if self._fast is None and not self.ticks_are_ns and not self.plugin:
             entry = _entry_point(self.segment)
             if entry is not None and contiguous:
-                self._fast = (phase, _phase_types(phase), entry)
+                self._fast = (phase, _phase_types(phase), entry, tuning)
         return status
 
     def run(self) -> RunResult:
