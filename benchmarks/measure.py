@@ -29,6 +29,7 @@
     python benchmarks/measure.py judgeparts # a case-2 row's judge by part: phases, passes, formulas
     python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
+    python benchmarks/measure.py parent     # the sweep's own process, by step
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
     python benchmarks/measure.py png        # Pillow writing case study 2's PNGs, per zlib level
@@ -1546,11 +1547,13 @@ def runner_cost(repeat: int = 3) -> None:
     """The runner's own time around the compiled loop, per run of case2-headings
     (its runs 1-200, compiled beforehand, each run ``repeat`` times): medians
     of ``run_mission``, of its calls of the compiled loop (passing the records
-    in included) and of the rest, the runner's Python."""
+    in included, through numba's dispatcher or straight to the compiled entry
+    point) and of the rest, the runner's Python; and how many of the calls
+    numba's dispatcher typed."""
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import mission_of
-    from wmr_mission.kernels import loop
+    from wmr_mission.kernels import jit, loop
     from wmr_mission.sim import runner
     from wmr_mission.sim.plan import MissionPlan, plan_mission
 
@@ -1563,36 +1566,116 @@ def runner_cost(repeat: int = 3) -> None:
         assert mission is not None
         missions.append(plan_mission(mission, draw.seed))
     runner.run_mission(missions[0])  # loads the compiled loop
-    run_segment = loop.run_segment
+    segment = runner._Run._segment
     inside = [0, 0]  # ns in the compiled loop, calls
+    typed = [0]  # calls numba's dispatcher typed
 
-    def timed_segment(*args: Any) -> int:
+    by_phase: dict[int, list[tuple[float, int]]] = {}  # per phase: (us, samples) of each call
+
+    def timed_segment(self: runner._Run, phase: Any, *args: Any) -> int:
+        before = int(self.signals.counters[loop.K])
         started = time.perf_counter_ns()
-        status = run_segment(*args)
-        inside[0] += time.perf_counter_ns() - started
+        status = segment(self, phase, *args)
+        spent = time.perf_counter_ns() - started
+        inside[0] += spent
         inside[1] += 1
+        samples = int(self.signals.counters[loop.K]) - before
+        if samples:
+            by_phase.setdefault(phase.number, []).append((spent / 1000, samples))
         return status
 
-    loop.run_segment = timed_segment  # type: ignore[assignment]  # read as a run starts
-    whole, compiled, calls = [], [], []
+    class Counted:  # the run's dispatcher, its calls counted
+        def __init__(self, dispatcher: Any) -> None:
+            self.dispatcher, self.overloads = dispatcher, dispatcher.overloads
+
+        def __call__(self, *args: Any) -> int:
+            typed[0] += 1
+            return int(self.dispatcher(*args))
+
+    compiled = jit.compiled
+
+    def counted(fn: Any, **options: Any) -> Any:
+        made = compiled(fn, **options)
+        return Counted(made) if hasattr(made, "overloads") else made
+
+    runner._Run._segment = timed_segment  # type: ignore[method-assign]
+    jit.compiled = counted  # type: ignore[assignment]  # read as a run starts
+    whole, inner, calls, dispatched = [], [], [], []
     try:
         for _ in range(repeat):
             for compiled_mission in missions[1:]:
                 inside[:] = [0, 0]
+                typed[0] = 0
                 started = time.perf_counter_ns()
                 runner.run_mission(compiled_mission)
                 whole.append((time.perf_counter_ns() - started) / 1000)
-                compiled.append(inside[0] / 1000)
+                inner.append(inside[0] / 1000)
                 calls.append(inside[1])
+                dispatched.append(typed[0])
     finally:
-        loop.run_segment = run_segment
-    rest = [w - c for w, c in zip(whole, compiled, strict=True)]
+        runner._Run._segment = segment  # type: ignore[method-assign]
+        jit.compiled = compiled  # type: ignore[assignment]
+    rest = [w - c for w, c in zip(whole, inner, strict=True)]
     print(
         f"case2-headings runs 1-200, {repeat} times each, medians per run: run_mission "
         f"{statistics.median(whole):.0f} us; the compiled loop "
-        f"{statistics.median(compiled):.0f} us in {statistics.mean(calls):.2f} calls; "
+        f"{statistics.median(inner):.0f} us in {statistics.mean(calls):.2f} calls, "
+        f"{statistics.mean(dispatched):.2f} of them typed by numba's dispatcher; "
         f"the rest {statistics.median(rest):.0f} us"
     )
+    for number, calls_of in sorted(by_phase.items()):
+        spent_us = sum(us for us, _ in calls_of)
+        samples_of = sum(n for _, n in calls_of)
+        print(
+            f"  phase {number}: {samples_of / len(missions[1:]) / repeat:.0f} samples a run, "
+            f"{spent_us / samples_of:.3f} us a sample in the compiled loop (calls that ran samples)"
+        )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+# `sweep CAMPAIGN --no-plots --workers 2 --out DIR` in this process, the CPU
+# clock (of the process, all its threads) read around each of its steps.
+_SWEEP_STEPS = """
+import sys, time
+started = time.process_time()
+from wmr_mission.campaign import sweep
+from wmr_mission.cli import main
+imported = time.process_time()
+spent = {}
+def timed(name):
+    step = getattr(sweep, name)
+    def run(*args, **kwargs):
+        began = time.process_time()
+        try:
+            return step(*args, **kwargs)
+        finally:
+            spent[name] = spent.get(name, 0.0) + time.process_time() - began
+    setattr(sweep, name, run)
+for name in ("warm_up", "_execute", "_record", "_worst_and_figures"):
+    timed(name)
+sys.argv = ["wmr-mission", "sweep", *sys.argv[1:]]
+try:
+    main()
+except SystemExit:
+    pass
+spent["_execute"] -= spent["warm_up"]
+print(f"imports {imported - started:.3f}", *(f"{k} {v:.3f}" for k, v in spent.items()),
+      f"in all {time.process_time() - started:.3f}")
+"""
+
+
+def sweep_steps(repeat: int = 3) -> None:
+    """The CPU of the sweep's own process by step, `sweep
+    missions/campaigns/case2-headings.yaml --no-plots --workers 2`, ``repeat``
+    times: its imports, the warm-up (numba and the kernels loaded, two runs),
+    the runs (the rows taken, written and counted), the record, the worst
+    runs' directories [s]."""
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(repeat):
+            command = [sys.executable, "-c", _SWEEP_STEPS, str(CAMPAIGN), "--no-plots"]
+            command += ["--workers", "2", "--out", f"{tmp}/out-{i}"]
+            done = subprocess.run(command, capture_output=True, text=True, cwd=tmp)
+            print(done.stdout.strip().splitlines()[-1])
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -1893,6 +1976,7 @@ if __name__ == "__main__":
         "judgeparts": judge_parts,
         "sweep": sweep_against,
         "runner": runner_cost,
+        "parent": sweep_steps,
         "drawing": drawing,
         "png": png,
         "checks": checks,

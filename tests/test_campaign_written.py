@@ -17,10 +17,11 @@ from wmr_mission.campaign import checked, rows, written
 from wmr_mission.campaign.load import LoadedCampaign, load_campaign
 from wmr_mission.campaign.plan import Draw, Plan
 from wmr_mission.campaign.rows import INVALID, Row, mission_of, run_row
-from wmr_mission.campaign.written import Written
+from wmr_mission.campaign.written import KEPT_SAMPLES, Written
 from wmr_mission.geometry.paths import PATHS, line
 from wmr_mission.geometry.paths.expression import ExpressionTrajectory
 from wmr_mission.geometry.paths.registry import PathType
+from wmr_mission.sim import runner
 from wmr_mission.sim.plan import MissionPlan
 from wmr_mission.sim.runner import run_mission
 
@@ -358,6 +359,37 @@ def test_an_expression_path_as_written_is_sampled_once_per_base(
         assert planned is not None
         run_mission(planned)
     assert len(sampled) == per_run  # kept
+
+
+def test_a_run_sampling_its_path_in_more_chunks_than_are_kept_finds_the_first_kept(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The spiral of case2-headings cut into chunks of 4 samples: more than
+    KEPT_SAMPLES samplings a run, asked for in the same order by every run of
+    the base. The first KEPT_SAMPLES are kept, so each run after the first
+    samples that many fewer (kept last in, first out, it sampled them all
+    again: each pushed out the one the run asked for next)."""
+    sampled = []
+    real = ExpressionTrajectory.sample
+
+    def counted(self: ExpressionTrajectory, t: Any) -> Any:
+        sampled.append(len(t))
+        return real(self, t)
+
+    monkeypatch.setattr(ExpressionTrajectory, "sample", counted)
+    monkeypatch.setattr(runner, "FIRST_CHUNK", 4)
+    monkeypatch.setattr(runner, "CHUNK", 4)
+    loaded = load_campaign(CAMPAIGNS / "case2-headings.yaml")
+    mine, plan = Written(loaded), Plan(loaded.campaign)
+    planned = mine.run(plan.draw(0))[0]
+    assert planned is not None
+    counts = []
+    for _ in range(3):
+        sampled.clear()
+        run_mission(planned)
+        counts.append(len(sampled))
+    assert counts[0] > 2 * KEPT_SAMPLES
+    assert counts[1:] == [counts[0] - KEPT_SAMPLES] * 2
 
 
 def test_an_expression_path_from_the_robot_is_sampled_by_each_run(

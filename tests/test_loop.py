@@ -12,7 +12,10 @@ from typing import Any
 
 import numpy as np
 import pytest
+from test_updates import PACED
 
+from wmr_mission.api import mission_from_text
+from wmr_mission.kernels import jit, loop
 from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import write_trajectory
 from wmr_mission.record import Outcome
@@ -161,3 +164,107 @@ def test_an_unwritable_cache_never_crashes(writable: str, tmp_path: Path) -> Non
     else:
         assert "compiled on every run" in notice[0]
         assert not cached
+
+
+class _Dispatcher:
+    """A compiled loop's dispatcher, its calls counted; ``typed`` overloads
+    shown (2: as if it had compiled two, so that no call can skip it)."""
+
+    def __init__(self, dispatcher: Any, calls: list[int], typed: int) -> None:
+        self.dispatcher, self.calls, self.typed = dispatcher, calls, typed
+
+    @property
+    def overloads(self) -> dict[Any, Any]:
+        real = self.dispatcher.overloads
+        return real if self.typed == 1 else {**real, object(): None}
+
+    def __call__(self, *args: Any) -> int:
+        self.calls.append(args[-1])  # stop
+        return int(self.dispatcher(*args))
+
+
+@pytest.mark.skipif(not jit.compiling(), reason="numba's dispatcher: the compiled loop only")
+def test_a_compiled_run_types_its_arguments_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """case2: one call loads the loop, then one per phase. Numba's dispatcher
+    types the arguments of the first (some 30 us); the others, their phases
+    of the same types, go straight to the compiled loop, with the same samples."""
+    mission = load_mission(MISSIONS / "case2.yaml")
+    compiled = jit.compiled
+    runs: list[list[int]] = []
+
+    def counting(typed: int) -> Any:
+        def made(fn: Any, **options: Any) -> Any:
+            if fn.__name__ != loop.run_segment.__name__:
+                return compiled(fn, **options)
+            runs.append([])
+            return _Dispatcher(compiled(fn, **options), runs[-1], typed)
+
+        return made
+
+    monkeypatch.setattr(jit, "compiled", counting(1))
+    fast = run_mission(mission)
+    monkeypatch.setattr(jit, "compiled", counting(2))
+    dispatched = run_mission(mission)
+    assert [t.condition for t in fast.transitions] == ["reaches", "elapsed", "settled"]
+    assert runs[0] == [0]  # the load: the phases, and the spiral's second call, skip it
+    assert len(runs[1]) == 4  # every call through the dispatcher
+    same_arrays(fast, dispatched)
+
+
+@pytest.mark.skipif(not jit.compiling(), reason="numba's dispatcher: the compiled loop only")
+@pytest.mark.parametrize(
+    ("change", "typed_after"), [("look_ahead: 0.6", True), ("speed: 0.5", False)]
+)
+def test_a_new_controller_tuning_is_typed_by_the_dispatcher(
+    change: str, typed_after: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A look-ahead update hands the loop a tuning of its own from the sample
+    it takes over: the calls after it go through numba's dispatcher, which
+    types it, not straight to the loop typed with the mission's tuning; a
+    speed update keeps the tuning, and the dispatcher typed the first call only."""
+    text = PACED.format(
+        path="{type: line, heading: 0, speed: 1, start: [0, 1]}",
+        change=change,
+        controller="controller: {tracking: {look_ahead: 0.1, time_constant: 0.5}}",
+        at=0.1,
+    )
+    compiled = jit.compiled
+    calls: list[int] = []
+
+    def made(fn: Any, **options: Any) -> Any:
+        if fn.__name__ != loop.run_segment.__name__:
+            return compiled(fn, **options)
+        return _Dispatcher(compiled(fn, **options), calls, 1)
+
+    monkeypatch.setattr(jit, "compiled", made)
+    result = run_mission(mission_from_text(text))
+    update = next(t for t in result.transitions if t.condition == "update")
+    k = round(update.time / result.dt)
+    assert k == 10
+    assert calls[0] == 0
+    assert any(stop > k for stop in calls) is typed_after
+
+
+def test_phases_of_the_same_types_are_one_type_to_the_loop() -> None:
+    """What a phase is typed by: not its values; each array's dtype, dimensions,
+    order, writeability; each other field's class."""
+    mission = load_mission(MISSIONS / "case2.yaml")
+    plan = runner.plan_mission(mission)
+    phases = [runner.PhaseRun(p, plan, i) for i, p in enumerate(plan.phases)]
+    entered = [phase.enter(0, np.array([0.5, 0.2, 0.1])) for phase in phases]
+    types = {runner._phase_types(phase) for phase in entered}
+    assert len(types) == 1
+    spiral = entered[0]
+    frozen = spiral.target.copy()
+    frozen.flags.writeable = False
+    for other in (
+        spiral._replace(target=frozen),
+        spiral._replace(target=spiral.target.astype(np.float32)),
+        spiral._replace(near=spiral.near.reshape(1, 3)),
+        spiral._replace(constraint_params=np.asfortranarray(np.zeros((2, 7)))),
+        spiral._replace(settled=np.zeros(6)[::2]),
+        spiral._replace(mission_time=1),
+        spiral._replace(tracking=1),
+    ):
+        assert runner._phase_types(other) not in types
+    assert runner._phase_types(spiral._replace(entry_sample=7, target=np.ones(3))) in types

@@ -73,14 +73,19 @@ def comparison_metrics(
 def _reference_error(result: RunResult, settle_time: float) -> tuple[float | None, float | None]:
     """(RMS distance to the reference after each track phase's settle time,
     time to settle within SETTLED_WITHIN) over the track phases' samples."""
-    track = [i for i, phase in enumerate(result.phases) if phase.kind == "track"]
-    tracked = np.isin(result.phase, track) & np.isfinite(result.x_ref)
+    # Each track phase's rows, by one comparison per phase: np.isin sorts the
+    # column, several times the cost of the few phases a mission has.
+    track = [result.phase == i for i, phase in enumerate(result.phases) if phase.kind == "track"]
+    tracked = np.zeros(result.samples, dtype=bool)
+    for rows_of_phase in track:
+        tracked |= rows_of_phase
+    tracked &= np.isfinite(result.x_ref)
     if not tracked.any():
         return None, None
     error = reference_distance(result.x, result.y, result.x_ref, result.y_ref)
     settled = np.zeros(result.samples, dtype=bool)
-    for number in track:
-        rows = np.flatnonzero(result.phase == number)
+    for rows_of_phase in track:
+        rows = np.flatnonzero(rows_of_phase)
         if rows.size:
             settled[rows] = result.t[rows] - result.t[rows[0]] >= settle_time - 1e-9 * result.dt
     rms = reference_error(error[tracked & settled])

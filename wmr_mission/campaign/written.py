@@ -219,14 +219,17 @@ def _heading_free(mission: Mission) -> bool:
 
 
 KEPT_SAMPLES: Final = 8
-"""Samplings kept of each path: a run samples its path in the same chunks as
-the run before it (wmr_mission.sim.runner), a long run in more than these."""
+"""Samplings kept of each path, the first asked for: a run samples its path
+in the same chunks as the run before it, in the same order (wmr_mission.sim.runner),
+a long run in more than these. Those past them are made each time: kept
+last in, first out instead, a run that asks for more would find none of
+them, each pushing out the one asked for next."""
 
 
 class _KeptSamples:
     """An expression path as written, the same curve from whatever pose its
     phase starts: sampled once for the runs of a base at the times each asks
-    for (the last KEPT_SAMPLES), its arrays read-only. Numpy evaluating the
+    for (the first KEPT_SAMPLES), its arrays read-only. Numpy evaluating the
     expressions costs more than the rest of a run's Python around the loop."""
 
     def __init__(self, trajectory: Trajectory) -> None:
@@ -245,9 +248,8 @@ class _KeptSamples:
             found = self.trajectory.sample(time)
             for array in found:
                 array.flags.writeable = False
-            if len(self.kept) >= KEPT_SAMPLES:
-                del self.kept[next(iter(self.kept))]
-            self.kept[key] = found
+            if len(self.kept) < KEPT_SAMPLES:
+                self.kept[key] = found
         return found
 
 

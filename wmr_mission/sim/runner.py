@@ -324,6 +324,38 @@ class PhaseRun:
         return block
 
 
+# Per compiled loop, its entry point once it has one: found from the
+# dispatcher's overloads by their signature, which hashes numba's types of
+# every argument in Python (some 40 us, as much as the call it saves).
+_entry_points: dict[int, tuple[Any, Callable[..., int]]] = {}
+
+
+def _entry_point(dispatcher: Any) -> Callable[..., int] | None:
+    """The compiled entry point of ``dispatcher`` if it has compiled one
+    signature alone (the one it just typed); else None."""
+    if len(dispatcher.overloads) != 1:
+        return None
+    kept = _entry_points.get(id(dispatcher))
+    if kept is None or kept[0] is not dispatcher:
+        overload = next(iter(dispatcher.overloads.values()))
+        kept = _entry_points[id(dispatcher)] = (dispatcher, overload.entry_point)
+    return kept[1]
+
+
+def _phase_types(phase: EnteredPhase) -> tuple[Any, ...]:
+    """What numba types a phase by (numba.typeof): each field's class and, of
+    an array, its dtype, dimensions, order, and whether it is writeable and
+    aligned. Phases with the same are one type to the compiled loop."""
+    return tuple(
+        (v.dtype, v.ndim, v.flags.num & _TYPED_FLAGS) if type(v) is np.ndarray else type(v)
+        for v in phase
+    )
+
+
+# Numpy's flags numba types an array by: C and Fortran order, aligned, writeable.
+_TYPED_FLAGS = 0x1 | 0x2 | 0x100 | 0x400
+
+
 # Called once per phase or run: plain Python (wmr_mission.kernels.jit.plain).
 _max_row_value = jit.plain(max_row_value)
 _record_sample = jit.plain(loop.record_sample)
@@ -451,9 +483,11 @@ class _Run:
         self.updated = any(p.updates for p in m.phases)
         # A session (start_mission) pauses the run before this sample; a run never.
         self.pause_at = NEVER
-        # A session's call of the compiled loop without numba's dispatcher: the
-        # phase it was typed with and the compiled entry point (_segment).
-        self._fast: tuple[EnteredPhase, Callable[..., int]] | None = None
+        # A call of the compiled loop without numba's dispatcher: the phase it
+        # was last made with, the types of the phase the dispatcher typed
+        # (_phase_types), the compiled entry point, and the controller's
+        # tuning it was typed with (_segment).
+        self._fast: tuple[EnteredPhase, tuple[Any, ...], Callable[..., int], Any] | None = None
         # A plant side that takes a planner's plans (wmr_mission.backends.ros2): each
         # new one, once, as an update of the phase in force (called with the
         # sample, the phase's index and kind); else None.
@@ -543,26 +577,30 @@ class _Run:
     def _segment(self, phase: EnteredPhase, path: PathBlock, draws: FloatArray, stop: int) -> int:
         m = self.m
         tuning = self.phases[phase.number].tuning  # a look-ahead update's, else the mission's
+        if tuning is None:
+            tuning = m.controller_tuning
         arguments = (
             m.plant, self.actuation, self.sensing, m.estimator_tuning, self.estimator_memory,
-            m.controller_tuning if tuning is None else tuning, self.scratch, phase, path,
-            draws, self.signals,
-            self.recorder.record, stop,
+            tuning, self.scratch, phase, path, draws, self.signals, self.recorder.record, stop,
         )  # fmt: skip
         fast = self._fast
         contiguous = path.rows.flags.c_contiguous and draws.flags.c_contiguous
-        if fast is not None and fast[0] is phase and contiguous:
-            # A session's short steps: numba's dispatcher takes some 30 us to
-            # type these arguments, a third of 100 samples. Every argument but
-            # the phase is of the types of every call (float64 arrays, C order,
-            # checked above), and the phase is the one the dispatcher typed.
-            return int(fast[1](*arguments))
+        if fast is not None and contiguous and fast[3] is tuning:
+            # Numba's dispatcher takes some 30 us to type these arguments: a
+            # third of a session's step of 100 samples, and of a campaign's run
+            # as much as its Python around the loop. Every argument but the
+            # phase and the tuning is of the types of every call of the run
+            # (float64 arrays, C order, checked above), the tuning is the one
+            # the dispatcher typed, and the phase too or one of the same types.
+            if fast[0] is not phase and fast[1] == _phase_types(phase):
+                fast = self._fast = (phase, *fast[1:])
+            if fast[0] is phase:
+                return int(fast[2](*arguments))
         status = int(self.segment(*arguments))
-        if self.pause_at != NEVER and not self.ticks_are_ns and not self.plugin:
-            dispatcher: Any = self.segment
-            signatures = dispatcher.signatures
-            if len(signatures) == 1 and contiguous:
-                self._fast = (phase, dispatcher.overloads[signatures[0]].entry_point)
+        if self._fast is None and not self.ticks_are_ns and not self.plugin:
+            entry = _entry_point(self.segment)
+            if entry is not None and contiguous:
+                self._fast = (phase, _phase_types(phase), entry, tuning)
         return status
 
     def run(self) -> RunResult:
