@@ -7,8 +7,10 @@ Runs missions/case1.yaml through the API and prints, every 0.1 s of the
 `spiral-out` phase, the true robot's distance from the spiral (the polyline of
 the phase's reference points), its distance from the sample's reference point,
 its speed and turn rate; then the largest speed and turn rate against the
-limits, and the most the law closes of a large error per sample (eq. (27)'s
-error closed at most HEADING_STEP look-aheads a sample: docs/paper-notes.md).
+limits, and the most the law closes of a large error per sample across the
+robot's heading (eq. (27)'s error closed at most HEADING_STEP look-aheads a
+sample across it, along it up to what the speed limit leaves:
+docs/paper-notes.md).
 """
 
 from __future__ import annotations
@@ -53,7 +55,8 @@ def main() -> None:
     print(f"largest |omega| {np.abs(result.omega[:end]).max():.2f} rad/s (limit {limits.omega:g})")
     print(
         f"reference speed {reference_speed.min():.2f} to {reference_speed.max():.2f} m/s; "
-        f"a large error closed at most {HEADING_STEP * look_ahead / dt:.2f} m/s faster"
+        f"a large error closed at most {HEADING_STEP * look_ahead / dt:.2f} m/s faster "
+        "across the heading, along it up to the speed limit"
     )
 
 

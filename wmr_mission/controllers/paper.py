@@ -280,7 +280,26 @@ def track_input(
     distance = hypot(error_x, error_y)
     kept = error_decay
     if distance > controller.error_reach:
-        kept = 1.0 - (1.0 - error_decay) * controller.error_reach / distance
+        # What the bound closes per sample, HEADING_STEP l; along the
+        # heading, where closing turns nothing, up to what the speed limit
+        # leaves over the path's own speed, the part across the heading
+        # kept to HEADING_STEP l: behind a reference resting at a corner the
+        # robot crawled at 0.3 of its speed limit, and the path moved on
+        # while it was 0.6 m short, so it cut the corner (gen-188-polyline).
+        # No faster than the speed acceleration limit stops it within the
+        # error: the reference may rest where it is (gen-069-polyline ran
+        # past a route's planned stop).
+        closed = (1.0 - error_decay) * controller.error_reach
+        along = (error_x * math.cos(theta) + error_y * math.sin(theta)) / distance
+        if along > 0.0:
+            top = min(robot.limits[0], stopping_speed(distance, robot.limits[2], dt))
+            path_step = hypot(reference[0] - reference_now[0], reference[1] - reference_now[1])
+            spare = along * (top * dt - path_step)
+            across = math.sqrt(max(1.0 - along * along, 0.0))
+            if across * spare > closed:
+                spare = closed / across
+            closed = min(max(closed, spare), (1.0 - error_decay) * distance)
+        kept = 1.0 - closed / distance
         left_x = kept * error_x
         left_y = kept * error_y
     if controller.turn_acceleration != math.inf and distance > 0.0:

@@ -296,7 +296,20 @@ def track_input(
     distance = float(np.hypot(error_now[0], error_now[1]))
     kept = error_decay
     if distance > controller.error_reach:  # at most error_reach's share closed
-        kept = 1.0 - (1.0 - error_decay) * controller.error_reach / distance
+        closed = (1.0 - error_decay) * controller.error_reach
+        # along the heading, up to what the speed limit leaves over the path's
+        # step (no faster than the robot stops within the error), the part
+        # across it no more than the bound's
+        along = float(error_now @ [math.cos(estimate[2]), math.sin(estimate[2])]) / distance
+        if along > 0.0:
+            top = min(float(limits[0]), stopping_speed(distance, float(limits[2]), dt))
+            step = float(np.hypot(*(reference[:2] - reference_now[:2])))
+            spare = along * (top * dt - step)
+            across = math.sqrt(max(1.0 - along * along, 0.0))
+            if across * spare > closed:
+                spare = closed / across
+            closed = min(max(closed, spare), (1.0 - error_decay) * distance)
+        kept = 1.0 - closed / distance
         left = kept * error_now
     if math.isfinite(controller.turn_acceleration) and distance > 0.0:
         # under a turn-rate acceleration limit, a time constant of at least
