@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wmr_mission.controllers.paper import PaperController, aim_lead
+from wmr_mission.controllers.paper import PaperController, aim_lead, error_reach
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
@@ -34,6 +34,16 @@ def test_the_lead_is_the_time_constant_of_the_setting_without_rate_limits() -> N
         assert aim_lead(PaperController(), 0.01, limited) == 0.0
     one_sample = PaperController.model_validate({"tracking": {"time_constant": 0}})
     assert aim_lead(one_sample, 0.01, free) == 0.0
+
+
+def test_a_time_constant_that_rounds_dt_away_is_taken_as_written() -> None:
+    """exp(-dt / tau) rounds to 1 for dt = 1e-8 s and tau = 1e9 s: the lead and
+    the error the law closes at its pace were divided by its logarithm and by
+    1 - it, and `run` ended in a ZeroDivisionError."""
+    slow = PaperController.model_validate({"tracking": {"time_constant": 1e9}})
+    free = np.array([2.0, 3.0, np.inf, np.inf])
+    assert aim_lead(slow, 1e-8, free) == 1e9
+    assert error_reach(slow, 1e-8, 2.0, free) == math.inf
 
 
 @pytest.mark.slow

@@ -896,7 +896,7 @@ def error_reach(
     one-sample laws (decay 0) and the axle law (docs/paper-notes.md, eq. (27))."""
     decay = error_decay(settings, dt, limits)
     distance = look_ahead(settings, dt, speed_limit)
-    if decay == 0.0 or distance == 0.0:
+    if decay == 0.0 or decay == 1.0 or distance == 0.0:  # 1.0: dt / tau lost in rounding
         return math.inf
     return HEADING_STEP * distance / (1.0 - decay)
 
@@ -918,10 +918,11 @@ def aim_lead(settings: PaperController, dt: float, limits: FloatArray) -> float:
     behind its reference at its entry was led past the zone's end by the
     aim and cut into it (docs/paper-notes.md, eq. (28), "The aim's offset a
     time constant ahead")."""
-    decay = error_decay(settings, dt)
-    if decay == 0.0 or math.isfinite(float(limits[2])) or math.isfinite(float(limits[3])):
+    if error_decay(settings, dt) == 0.0:
         return 0.0
-    return -float(dt) / math.log(decay)
+    if math.isfinite(float(limits[2])) or math.isfinite(float(limits[3])):
+        return 0.0
+    return float(settings.tracking.time_constant)
 
 
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
