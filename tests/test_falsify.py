@@ -394,12 +394,11 @@ def test_gp_gives_the_same_evaluations_on_one_or_two_workers_past_its_hand_over(
     tmp_path: Path,
 ) -> None:
     """The default's three parts (corners and design, the model, CMA-ES) on a
-    campaign of two axes: the same evaluations.csv on 1 and 2 workers."""
-    campaign = tmp_path / "campaign.yaml"
+    campaign of two axes whose parking time nothing passes (a failure would
+    end the model's part): the same evaluations.csv on 1 and 2 workers."""
+    campaign = _with_bound(tmp_path, 60)
     campaign.write_text(
-        PARK.read_text(encoding="utf-8")
-        .replace("mission: park.yaml", f"mission: {DATA / 'park.yaml'}")
-        .replace(
+        campaign.read_text(encoding="utf-8").replace(
             "  robot.initial_state.theta: {uniform: [-1.5707963267948966, 1.5707963267948966]}\n",
             "",
         ),
@@ -411,6 +410,7 @@ def test_gp_gives_the_same_evaluations_on_one_or_two_workers_past_its_hand_over(
             campaign, budget=budget, seed=2, workers=workers, out=tmp_path / str(workers)
         )
         assert found.record["method"] == "gp"
+        assert not found.record["falsified"]
         assert found.record["settings"]["cmaes"]["popsize"] == 6
     one = (tmp_path / "1" / "evaluations.csv").read_bytes()
     assert one == (tmp_path / "2" / "evaluations.csv").read_bytes()
