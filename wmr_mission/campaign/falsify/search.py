@@ -127,8 +127,7 @@ class CmaEs:
         self.restarts = 0
         self.start = start
         self.design_size = design_size(space.dimension)
-        with_corners = start is None and 2**space.dimension <= self.design_size
-        self.corners = corners(space) if with_corners else []
+        self.corners = first_corners(space) if start is None else []
         # cma draws from numpy's global generator: it gets one of its own,
         # swapped in around each call, so that nothing else moves it.
         self._state = np.random.RandomState(int(rng.integers(2**32))).get_state()
@@ -188,6 +187,15 @@ class CmaEs:
             points = self.es.ask()
         return [[float(x) for x in point] for point in points]
 
+    def another(self) -> list[float] | None:
+        """One more point of this generation's distribution (None while a
+        design is asked), to stand for an asked point that should not run."""
+        if self.es is None:
+            return None
+        with self._own_random():
+            point = self.es.ask(1)[0]
+        return [float(x) for x in point]
+
     def tell(self, points: list[list[float]], objectives: list[float]) -> None:
         if self.es is None:  # a design told: CMA-ES starts at its best point
             designed = list(zip(objectives, points, strict=True))[-self.design_size :]
@@ -231,11 +239,17 @@ def design(space: Space, size: int, rng: np.random.Generator) -> list[list[float
     from scipy.stats import qmc
 
     sobol = qmc.Sobol(space.dimension, scramble=True, seed=rng)
-    lower, upper = space.lower(), space.upper()
-    points = qmc.scale(sobol.random(size), lower, upper)
-    discrete = space.discrete()
-    points[:, discrete] = np.clip(np.round(points[:, discrete]), 0, np.array(upper)[discrete] - 0.5)
+    points = on_values(space, qmc.scale(sobol.random(size), space.lower(), space.upper()))
     return [[float(x) for x in row] for row in points]
+
+
+def on_values(space: Space, points: np.ndarray) -> np.ndarray:
+    """``points`` (rows of the box), each discrete coordinate rounded to the
+    index of its nearest value, in place."""
+    discrete = space.discrete()
+    upper = np.array(space.upper())[discrete]
+    points[:, discrete] = np.clip(np.round(points[:, discrete]), 0, upper - 0.5)
+    return points
 
 
 def corners(space: Space) -> list[list[float]]:
@@ -246,6 +260,12 @@ def corners(space: Space) -> list[list[float]]:
         for count, lo, hi in zip(space.counts(), space.lower(), space.upper(), strict=True)
     ]
     return [list(point) for point in itertools.product(*ends)]
+
+
+def first_corners(space: Space) -> list[list[float]]:
+    """The corners a search asks first: all of them, unless they would
+    outnumber the design (beyond 5 axes: 64 corners against 32 points)."""
+    return corners(space) if 2**space.dimension <= design_size(space.dimension) else []
 
 
 MODEL_RUNS: Final = 32
@@ -263,8 +283,12 @@ Gaussian steps about the lowest runs."""
 class GpSearch:
     """The corners of the box and a small design, then the points where a
     Gaussian-process model of the margin (:mod:`surrogate`) gives the greatest
-    chance of a margin below 0, for :data:`MODEL_RUNS` runs; then CMA-ES
-    (:class:`CmaEs`) about the lowest run, with its restarts."""
+    chance of a margin below 0, for :data:`MODEL_RUNS` runs or until a run
+    fails; then CMA-ES (:class:`CmaEs`) about the lowest run, with its restarts.
+
+    The model's job is a first failure: once a run fails, its chance of failing
+    is the greatest of all, and the model would propose it (or a Gaussian step
+    about it clipped to the same face) again and again."""
 
     name = "gp"
 
@@ -273,8 +297,8 @@ class GpSearch:
         self.rng = rng
         d = space.dimension
         self.design_size = max(4, 1 << (2 * d - 1).bit_length())
-        self.corners = corners(space) if 2**d <= design_size(d) else []
-        self.x: list[list[float]] = []
+        self.corners = first_corners(space)
+        self.x: list[list[float]] = []  # every point told, and its objective
         self.y: list[float] = []
         self.params: Any = None
         self.cmaes: CmaEs | None = None
@@ -282,17 +306,53 @@ class GpSearch:
         self._lower, self._width = lower, upper - lower
 
     def ask(self) -> list[list[float]]:
-        if self.cmaes is None and len(self.x) >= self._initial() + MODEL_RUNS:
-            best = self.x[int(np.argmin(self.y))]
-            self.cmaes = CmaEs(self.space, self.rng, start=best)
-        if self.cmaes is not None:
-            return self.cmaes.ask()
-        if not self.x:
+        if self.cmaes is None and (
+            len(self.x) >= self._initial() + MODEL_RUNS or min(self.y, default=0.0) < 0
+        ):
+            self._hand_over()
+        if self.cmaes is None and not self.x:
             return self.corners + design(self.space, self.design_size, self.rng)
-        from threadpoolctl import threadpool_limits
+        if self.cmaes is None:
+            from threadpoolctl import threadpool_limits
 
-        with threadpool_limits(1):  # small matrices: threads only wait on each other
-            return self._proposals()
+            with threadpool_limits(1):  # small matrices: threads only wait on each other
+                proposals = self._proposals()
+            if proposals:
+                return proposals
+            self._hand_over()  # every point of a discrete box has run
+        assert self.cmaes is not None
+        return self._unrepeated(self.cmaes.ask())
+
+    def _unrepeated(self, points: list[list[float]]) -> list[list[float]]:
+        """CMA-ES's ``points``, each that would run where a run already has
+        (clamped to the same corner of the box: about a failing corner, an
+        eighth of a generation in 3 axes) drawn again, up to :data:`REDRAWS`
+        times."""
+        assert self.cmaes is not None
+        seen = {self._key(point) for point in self.x}
+        kept = []
+        for point in points:
+            for _ in range(REDRAWS):
+                if self._key(point) not in seen:
+                    break
+                point = self.cmaes.another() or point
+            seen.add(self._key(point))
+            kept.append(point)
+        return kept
+
+    def _key(self, point: list[float]) -> tuple[float, ...]:
+        """Where ``point`` runs: clamped to the box, rounded to its values."""
+        at = np.clip(np.array([point]), self._lower, self._lower + self._width)
+        return _keys(on_values(self.space, at), self._width)[0]
+
+    def _hand_over(self) -> None:
+        """CMA-ES about the lowest run, each continuous coordinate a step
+        (:data:`SIGMA_LOCAL`) inside the box: from a corner or a face, most of a
+        generation would lie beyond it and run on the same points of the face."""
+        start = np.array(self.x[int(np.argmin(self.y))])
+        continuous = [i for i, count in enumerate(self.space.counts()) if not count]
+        start[continuous] = np.clip(start[continuous], SIGMA_LOCAL, 1 - SIGMA_LOCAL)
+        self.cmaes = CmaEs(self.space, self.rng, start=[float(v) for v in start])
 
     def _initial(self) -> int:
         return len(self.corners) + self.design_size
@@ -314,20 +374,22 @@ class GpSearch:
             for i in lowest
             for scale in (0.003, 0.01, 0.03, 0.1)
         ]
-        candidates = np.vstack([sobol, *local])
-        chosen = candidates[gp.most_likely_failures(candidates, MODEL_BATCH)]
-        points = self._lower + chosen * self._width
-        discrete = self.space.discrete()
-        upper = self._lower + self._width
-        points[:, discrete] = np.clip(np.round(points[:, discrete]), 0, upper[discrete] - 0.5)
-        return [[float(v) for v in row] for row in points]
+        unit = np.vstack([sobol, *local])
+        points = on_values(self.space, self._lower + unit * self._width)
+        discrete = self.space.discrete()  # the model scores the value a run would have
+        unit[:, discrete] = (points[:, discrete] - self._lower[discrete]) / self._width[discrete]
+        kept = _unrun(points, np.array(self.x), self._width)
+        if not kept:
+            return []
+        unit, points = unit[kept], points[kept]
+        chosen = gp.most_likely_failures(unit, min(MODEL_BATCH, len(points)))
+        return [[float(v) for v in points[k]] for k in chosen]
 
     def tell(self, points: list[list[float]], objectives: list[float]) -> None:
-        if self.cmaes is not None:
-            self.cmaes.tell(points, objectives)
-            return
         self.x += points
         self.y += objectives
+        if self.cmaes is not None:
+            self.cmaes.tell(points, objectives)
 
     def settings(self) -> dict[str, Any]:
         return {
@@ -337,3 +399,31 @@ class GpSearch:
             "model_batch": MODEL_BATCH,
             **({"cmaes": self.cmaes.settings()} if self.cmaes is not None else {}),
         }
+
+
+REDRAWS: Final = 10
+"""Draws of CMA-ES for a point that would repeat a run, before it runs anyway
+(in a box of few discrete values, every point may have run)."""
+
+SAME: Final = 1e-9
+"""Points nearer than this, in each coordinate and in the box's units, are one
+point (a Gaussian step clipped to a face and that face's corner run)."""
+
+
+def _unrun(points: np.ndarray, runs: np.ndarray, width: np.ndarray) -> list[int]:
+    """Indices of the first of each distinct row of ``points`` that is no row of
+    ``runs``, in order: rounded to its values, a candidate may be a point already
+    run or another candidate."""
+    seen = set(_keys(runs, width))
+    kept = []
+    for i, key in enumerate(_keys(points, width)):
+        if key not in seen:
+            seen.add(key)
+            kept.append(i)
+    return kept
+
+
+def _keys(points: np.ndarray, width: np.ndarray) -> list[tuple[float, ...]]:
+    """Each row of ``points`` (in the box, on its values) as the same key for
+    points nearer than :data:`SAME`."""
+    return [tuple(row) for row in np.round(points / width / SAME).tolist()]

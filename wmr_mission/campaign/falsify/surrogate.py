@@ -96,12 +96,8 @@ class Gp:
         self.alpha = cho_solve((self.lower, True), self.y)
 
     def _kernel(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """The kernel between rows of ``a`` and ``b`` (by a product of matrices,
-        not a difference per axis: thousands of candidates)."""
-        a, b = a / self.scales, b / self.scales
-        r2 = np.sum(a**2, axis=1)[:, None] + np.sum(b**2, axis=1)[None, :] - 2 * a @ b.T
-        r = np.sqrt(np.maximum(r2, 0.0))
-        kernel: np.ndarray = self.signal * (1 + _ROOT5 * r + 5 * r**2 / 3) * np.exp(-_ROOT5 * r)
+        """The kernel between rows of ``a`` and ``b``."""
+        kernel: np.ndarray = self.signal * _matern(a, b, self.scales)[0]
         return kernel
 
     def predict(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
