@@ -151,6 +151,7 @@ def test_compile_compiles_the_judges_kernels_too(tmp_path: Path) -> None:
     (kernels,) = (cache / "wmr_mission").iterdir()
     judges = (
         "path_distance._distances-*",
+        "path_distance._first_in_cells-*",
         "placing.place_samples-*",
         *(f"passes.{name}-*" for name in passes.__all__),
     )
@@ -201,7 +202,8 @@ def test_compile_marks_the_cache_ready_and_a_long_run_loads_it(tmp_path: Path) -
     assert record.read_text().splitlines() == [
         "numba loaded: True",
         "scipy.linalg loaded: False",
-        "compiled entries: _distances _each input_pass jitter_median place_samples run_segment",
+        "compiled entries: _distances _each _first_in_cells input_pass jitter_median"
+        " largest_finite place_samples run_segment",
         "numba's arrays loaded: False",
     ]
     manifest = json.loads((tmp_path / "next" / "manifest.json").read_text(encoding="utf-8"))

@@ -1,7 +1,7 @@
 """The judge's compiled passes over a phase's samples (wmr_mission/verdicts/passes.py)
 give the numpy forms' bits: the input metrics, the stalled time of a regulate
-phase and the depth beyond an ellipse zone and its bounds, compiled and as
-plain Python."""
+phase, the depth beyond an ellipse zone and its bounds, and the largest finite
+value of a column, compiled and as plain Python."""
 
 from __future__ import annotations
 
@@ -155,6 +155,39 @@ def test_the_ellipse_bounds_pass_has_the_numpy_forms_bits(
 
     _both(monkeypatch, judged, "ellipse_bounds")
     _both(monkeypatch, depths, "ellipse_depth")
+
+
+def test_the_largest_finite_pass_has_the_numpy_forms_bits(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The largest of a column's finite values, of some of them, scaled, and of
+    their magnitudes; NaN and infinities left out, and none when none is finite."""
+    from wmr_mission.verdicts import metrics
+
+    rng = np.random.default_rng(5)
+    values = rng.normal(0.0, 2.0, 1001)
+    values[[3, 500]], values[[7, 800]], values[900] = math.nan, math.inf, -math.inf
+    values[-1] = -50.0  # the largest magnitude, at the last sample
+    chosen = rng.uniform(size=values.size) < 0.7
+    chosen[-1] = False  # not chosen: the largest chosen magnitude is another
+    nothing = np.full(20, math.nan)
+    nothing[4] = math.inf
+
+    def judged() -> list[float | None]:
+        return [
+            metrics._largest(values),
+            metrics._largest(values, chosen),
+            metrics._largest(values, magnitude=True),
+            metrics._largest(values, chosen, magnitude=True),
+            metrics._largest(values, factor=-1.0, divisor=0.3),
+            metrics._largest(nothing),
+            metrics.overshoot(values[10:], 0.5),
+        ]
+
+    _both(monkeypatch, judged, "largest_finite")
+    found = judged()
+    assert found[2] == 50.0  # not trivial: the magnitude, finite values only
+    assert found[3] is not None
+    assert 0.0 < found[3] < 50.0
+    assert found[5] is None
 
 
 def test_judging_the_compile_commands_warm_up_calls_every_pass(

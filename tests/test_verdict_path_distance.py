@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from wmr_mission.kernels import jit
-from wmr_mission.verdicts import metrics
+from wmr_mission.verdicts import metrics, path_distance
 
 Case = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
@@ -96,3 +96,35 @@ def test_the_kernel_as_plain_python_has_the_numpy_forms_bits(
     monkeypatch.setattr(jit, "compiled", jit.plain)
     with np.errstate(over="ignore", invalid="ignore"):  # the huge position, as numpy
         assert _bits(metrics.distance_to_path(*case)) == _bits(expected)
+
+
+def _first_by_sorting(px: np.ndarray, py: np.ndarray, cell: float) -> np.ndarray:
+    """The first point in each cell as numpy's stable sort by cell finds it."""
+    column, row = np.floor(px / cell), np.floor(py / cell)
+    order = np.lexsort((row, column))
+    column, row = column[order], row[order]
+    return order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_the_compiled_thinning_keeps_the_first_point_in_each_cell_in_the_sorts_order(
+    compiled: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A circle run round ten times, below the origin too (cells of negative
+    numbers, -0 among them): the same points, in the same order, as the sort;
+    a long diagonal has more cells than points, and is left to the sort."""
+    if compiled:
+        jit.load()
+    else:
+        monkeypatch.setattr(jit, "compiled", jit.plain)
+    t = np.linspace(0.0, 20 * math.pi, 20000)
+    px, py = np.cos(t) - 0.5, np.sin(t)
+    px[::97] = -0.0
+    cell = 0.015  # 134 cells a side: fewer than two per point
+    found = path_distance.first_in_cells(px, py, cell)
+    assert found is not None
+    expected = _first_by_sorting(px, py, cell)
+    assert found.tolist() == expected.tolist()
+    assert expected.size < px.size / 3  # the later laps' points thinned out
+    diagonal = np.linspace(0.0, 100.0, 2000)
+    assert path_distance.first_in_cells(diagonal, diagonal, 0.01) is None

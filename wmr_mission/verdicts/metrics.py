@@ -36,10 +36,11 @@ from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.clearance import clearance_min
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
-from wmr_mission.verdicts.path_distance import compiled_distances
+from wmr_mission.verdicts.passes import largest_finite
+from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
-from wmr_mission.verdicts.tracking import Placement, track_quality
+from wmr_mission.verdicts.tracking import Placement, known_samples, track_quality
 from wmr_mission.verdicts.zones import intrusion_max, zones_of
 
 if TYPE_CHECKING:
@@ -92,6 +93,30 @@ def _max_or_none(values: FloatArray) -> float | None:
     return float(finite.max()) if finite.size else None
 
 
+_EVERY = np.zeros(0, dtype=bool)
+
+
+def _largest(
+    values: FloatArray,
+    chosen: NDArray[np.bool_] = _EVERY,
+    factor: float = 1.0,
+    divisor: float = 1.0,
+    magnitude: bool = False,
+) -> float | None:
+    """:func:`_max_or_none` of ``factor * values[chosen] / divisor`` (of
+    ``|values|`` with ``magnitude``; every value where ``chosen`` is empty),
+    for values that are never -0 or whose zero is read as +0: compiled, one
+    pass with no copy (verdicts/passes.py), where the kernels are loaded."""
+    if jit.loaded():
+        found = jit.compiled(largest_finite)(values, chosen, factor, divisor, magnitude)
+        return None if math.isnan(found) else float(found)
+    values = values if chosen.size == 0 else values[chosen]
+    values = np.abs(values) if magnitude else values
+    if factor != 1.0 or divisor != 1.0:
+        values = factor * values / divisor
+    return _max_or_none(values)
+
+
 def _violation(values: FloatArray, phase: IntArray | None = None) -> float | None:
     """How far the largest constraint-row value is above 0 (0 when never) over
     the states a phase's own inputs produced; None when no constraint applied.
@@ -109,8 +134,9 @@ def _violation(values: FloatArray, phase: IntArray | None = None) -> float | Non
 
 
 def _rms_or_none(values: FloatArray) -> float | None:
-    finite = values[np.isfinite(values)]
-    return float(np.sqrt(np.mean(finite**2))) if finite.size else None
+    finite = np.isfinite(values)
+    values = values if finite.all() else values[finite]  # a copy only where one is missing
+    return float(np.sqrt(np.mean(values**2))) if values.size else None
 
 
 def reference_distance(
@@ -175,7 +201,7 @@ def overshoot(error: FloatArray, floor: float = 0.0) -> float:
     if error.size == 0 or not math.isfinite(float(error[0])) or error[0] == 0.0:
         return 0.0
     scale = max(abs(float(error[0])), floor)
-    crossed = _max_or_none(-np.sign(error[0]) * error / scale)
+    crossed = _largest(error, factor=float(-np.sign(error[0])), divisor=scale)
     return max(0.0, crossed) if crossed is not None else 0.0
 
 
@@ -199,25 +225,35 @@ def distance_to_path(
     known = np.isfinite(x_ref) & np.isfinite(y_ref)
     finite = np.isfinite(x) & np.isfinite(y)
     # Copies only where something is missing: a long run's columns are large.
-    px, py = (x_ref, y_ref) if known.all() else (x_ref[known], y_ref[known])
+    every_finite = bool(finite.all())
+    these = known_samples(known)  # a slice (views) where they run unbroken
+    px, py = x_ref[these], y_ref[these]
     if px.size == 0 or not finite.any():
         return distance
-    qx, qy = (x, y) if finite.all() else (x[finite], y[finite])
+    qx, qy = (x, y) if every_finite else (x[finite], y[finite])
     if px.size == 1:
         distance[finite] = np.hypot(qx - px[0], qy - py[0])
         return distance
-    own = np.maximum(np.cumsum(known) - 1, 0)[finite]  # each sample's reference point
+    # each sample's reference point: the last known at or before it (else the first)
+    if isinstance(these, slice):
+        own = np.minimum(np.maximum(np.arange(x.size) - these.start, 0), px.size - 1)
+    else:
+        own = np.maximum(np.cumsum(known) - 1, 0)
+    own = own if every_finite else own[finite]
     steps = np.hypot(np.diff(px), np.diff(py))
     cell = float(np.median(steps[steps > 0])) / 2 if np.any(steps > 0) else 1.0
     # One point per cell: the first the path passes in it (a stable sort by cell).
-    column, row = np.floor(px / cell), np.floor(py / cell)
-    order = np.lexsort((row, column))
-    column, row = column[order], row[order]
-    first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
+    first = first_in_cells(px, py, cell) if jit.loaded() else None  # the same, compiled
+    if first is None:
+        column, row = np.floor(px / cell), np.floor(py / cell)
+        order = np.lexsort((row, column))
+        column, row = column[order], row[order]
+        first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
     if jit.loaded():  # the same bits in one compiled pass (verdicts/path_distance.py)
-        distance[finite] = compiled_distances(
-            px, py, qx, qy, own, first, cell, LOCAL_WINDOW, _NEAREST_POINTS
-        )
+        found = compiled_distances(px, py, qx, qy, own, first, cell, LOCAL_WINDOW, _NEAREST_POINTS)
+        if every_finite:
+            return found
+        distance[finite] = found
         return distance
     grid = NearestPoints(px[first], py[first], cell, qx.size)
     found = np.empty(qx.size)
@@ -358,6 +394,7 @@ class _Judged:
     inputs_from: float | None
     ended_by: Mapping[str, str]  # phase name -> the `until` condition that ended it
     goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
+    errors: dict[str, FloatArray] | None  # the run's estimation errors, where its judge keeps them
 
 
 class PhaseSamples:
@@ -385,6 +422,7 @@ class PhaseSamples:
         self.numbers = judged.numbers
         self.ended_by = judged.ended_by
         self.goals = judged.goals
+        self._run_errors = judged.errors
         # the first sample of the phase whose inputs are judged (past the end: none)
         self.first_judged = (
             end
@@ -400,6 +438,8 @@ class PhaseSamples:
 
     @cached_value
     def errors(self) -> dict[str, FloatArray]:
+        if self._run_errors is not None:  # the same numbers: a phase's are the run's, sliced
+            return {state: error[self.window] for state, error in self._run_errors.items()}
         return estimation_errors(self.result, self.window)
 
     @cached_value
@@ -537,7 +577,7 @@ Measure = Callable[["PhaseSamples"], Any]
 # measured, by its name: a metric added to the catalog adds its computation here.
 MEASURES: dict[str, Measure] = {
     "tracking_error_rms": lambda p: _rms_or_none(p.off_path[p.settled]),
-    "tracking_error_max": lambda p: _max_or_none(p.off_path[p.settled]),
+    "tracking_error_max": lambda p: _largest(p.off_path, p.settled),
     **{
         key: _tracking_value(key)
         for key in (
@@ -613,7 +653,7 @@ def _phase_summary(
         x_ref, y_ref = result.x_ref[window], result.y_ref[window]
         tracking = quality["tracking_error"] | {
             "rms_from_start": _rms_or_none(phase.off_path),
-            "max_from_start": _max_or_none(phase.off_path),
+            "max_from_start": _largest(phase.off_path),
             # distance from the reference point of the same sample, lag
             # included (runs.csv's reference_error_rms over the track phases)
             "reference_error_rms": reference_error(reference_distance(x, y, x_ref, y_ref)[settled]),
@@ -652,7 +692,7 @@ def _phase_summary(
         },
         "estimation": {
             "rms": quality["estimation"]["rms"],
-            "max_abs_error": {s: _max_or_none(np.abs(e)) for s, e in phase.errors.items()},
+            "max_abs_error": {s: _largest(e, magnitude=True) for s, e in phase.errors.items()},
             "overshoot": {s: overshoot(e, tolerance[s]) for s, e in phase.errors.items()},
             # seconds after the phase start
             "convergence_time": (
@@ -668,8 +708,8 @@ def _phase_summary(
             ),
             **quality["inputs"],
         },
-        "max_abs_v": _max_or_none(np.abs(phase.v)),
-        "max_abs_omega": _max_or_none(np.abs(phase.omega)),
+        "max_abs_v": _largest(phase.v, magnitude=True),
+        "max_abs_omega": _largest(phase.omega, magnitude=True),
         "phase2_iterations": {
             "total": int(iterations.sum()),
             "max": int(iterations.max()) if iterations.size else 0,
@@ -770,8 +810,9 @@ def summarize(result: RunRecord, mission: Mapping[str, Any] | None = None) -> di
     ``mission`` (the resolved mission) sets how metrics are measured: each
     phase's settle time and the convergence tolerance per state.
     """
-    phases = _phase_samples(result, mission, distance_to_path)
-    summary = run_metrics(result, mission, phases)
+    errors = estimation_errors(result)  # once: the run's and, sliced, its phases'
+    phases = _phase_samples(result, mission, distance_to_path, errors)
+    summary = run_metrics(result, mission, phases, errors)
     tolerance = _tolerance(mission)
     summary["phases"] = [
         _phase_summary(result, info, p, tolerance) | _formulas(result, info, p, mission)
@@ -804,15 +845,17 @@ def _phase_samples(
 ) -> Phases:
     """Each stretch of a phase in run order: its record, its samples (their
     tracking error measured by ``off_path``), and the `expect` thresholds in
-    force for it. ``errors``: the run's estimation errors, ``per_phase``: the
-    mission's :func:`phase_expectations`, if at hand."""
+    force for it. ``errors``: the run's estimation errors, if at hand (the
+    phases' are then views of them); ``per_phase``: the mission's
+    :func:`phase_expectations`, if at hand."""
     per_phase = phase_expectations(mission) if per_phase is None else per_phase
     numbers = mission_numbers(mission, result.dt, result.limits)
+    kept = errors
     errors = estimation_errors(result) if errors is None else errors
     inputs_from = input_metrics.first_judged(result.t, errors, numbers)
-    del errors  # not kept while the phases are measured: bounded memory
+    del errors  # not kept while the phases are measured unless the caller keeps them
     ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
-    judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers))
+    judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers), kept)
     phases: Phases = []
     for index, start, end in phase_segments(result.phase):
         info = result.phases[index]
@@ -842,12 +885,16 @@ def run_columns(
 
 
 def run_metrics(
-    result: RunRecord, mission: Mapping[str, Any] | None = None, phases: Phases | None = None
+    result: RunRecord,
+    mission: Mapping[str, Any] | None = None,
+    phases: Phases | None = None,
+    errors: dict[str, FloatArray] | None = None,
 ) -> dict[str, Any]:
     """The mission-wide metrics of :func:`summarize` (its keys before ``phases``),
-    without the per-phase ones; ``phases``: the run's, if at hand."""
+    without the per-phase ones; ``phases`` and ``errors`` (the run's estimation
+    errors): the run's, if at hand."""
     tolerance = _tolerance(mission)
-    errors = estimation_errors(result)
+    errors = estimation_errors(result) if errors is None else errors
     if phases is None:
         phases = _phase_samples(result, mission, distance_to_path, errors)
     summary = _bounded_metrics(result, tolerance, errors, run_columns(result, mission, phases))

@@ -6,7 +6,9 @@ operations at a time (each caller keeps that form beside its call).
   rate's jitter (wmr_mission.verdicts.inputs);
 - a regulate phase's samples stalled away from its goal
   (wmr_mission.verdicts.regulation);
-- the depth beyond an ellipse zone, and its bounds (wmr_mission.verdicts.zones).
+- the depth beyond an ellipse zone, and its bounds (wmr_mission.verdicts.zones);
+- the largest finite value of a phase's column, scaled or its magnitude
+  (wmr_mission.verdicts.metrics), with no copy of it.
 
 The same numbers: the same operations in the same order, numpy's ``max``
 (NaN if any is) and ``searchsorted`` as loops, a square as a product (as
@@ -26,7 +28,34 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels.jit import inlined, kernel
 
-__all__ = ["ellipse_bounds", "ellipse_depth", "input_pass", "jitter_median", "stalled_samples"]
+__all__ = [
+    "ellipse_bounds",
+    "ellipse_depth",
+    "input_pass",
+    "jitter_median",
+    "largest_finite",
+    "stalled_samples",
+]
+
+
+@kernel
+def largest_finite(
+    values: FloatArray, chosen: NDArray[np.bool_], factor: float, divisor: float, magnitude: bool
+) -> float:
+    """The largest finite ``factor * value / divisor`` (of ``|value|`` with
+    ``magnitude``) of the ``chosen`` values (every one where ``chosen`` is
+    empty), each computed as numpy computes it; NaN where none is finite. Its
+    callers ask for values that are never -0 or whose zero is read as +0: which
+    of two equal zeros numpy's ``max`` keeps is its own."""
+    found = math.nan
+    every = chosen.size == 0
+    for k in range(values.size):
+        if every or chosen[k]:
+            value = abs(values[k]) if magnitude else values[k]
+            value = factor * value / divisor
+            if abs(value) < math.inf and not value <= found:  # found NaN: none yet
+                found = value
+    return found
 
 
 @kernel

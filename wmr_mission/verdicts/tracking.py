@@ -343,7 +343,9 @@ def track_quality(
     ``margin``: [m] how far the controller keeps off a zone, the body's reach
     and the estimate's uncertainty (the run's ``constraint_margin``); None:
     the body's reach alone. ``placement``: as :func:`track_samples` takes it."""
-    return track_samples(t, px, py, rx, ry, numbers, zones, timed, margin, placement)[0]
+    return track_samples(
+        t, px, py, rx, ry, numbers, zones, timed, margin, placement, with_samples=False
+    )[0]  # fmt: skip
 
 
 def track_samples(
@@ -357,10 +359,14 @@ def track_samples(
     timed: bool = False,
     margin: float | None = None,
     placement: Placement | None = None,
+    *,
+    with_samples: bool = True,
 ) -> tuple[dict[str, Any], TrackSamples | None]:
     """:func:`track_quality`'s metrics and the samples they come from (None when
-    nothing was measured). ``placement``: the places on the path of the samples
-    whose reference is known, if at hand (shared with the phase's formulas)."""
+    nothing was measured, or not ``with_samples``: a long run's four columns
+    not put together for nothing). ``placement``: the places on the path of
+    the samples whose reference is known, if at hand (shared with the phase's
+    formulas)."""
     known = np.isfinite(rx) & np.isfinite(ry)
     size = known.size
     metrics: dict[str, Any] = {
@@ -408,7 +414,7 @@ def track_samples(
         metrics["zone_reach"] = max(0.0, reach + kept)
     judged = ~excused
     judged[-1] |= ended_in_entry
-    offset = cross[detour & ~np.isnan(cross)]
+    offset = cross[detour & ~np.isnan(cross)] if zones else cross[:0]  # no zone: no detour
     metrics |= {
         "cross_track_error_max": float(cross[judged].max()) if judged.any() else None,
         "along_track_lag_max": float(np.abs(lag[judged]).max()) if judged.any() else None,
@@ -417,7 +423,7 @@ def track_samples(
         "detour_offset_max": float(offset.max()) if offset.size else None,
         "reference_speed_max": float(reference_speed.max()),
     }
-    return metrics, _placed(known, size, cross, lag, judged, detour)
+    return metrics, _placed(known, size, cross, lag, judged, detour) if with_samples else None
 
 
 def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
