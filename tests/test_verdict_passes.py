@@ -50,7 +50,7 @@ def _counted(monkeypatch: pytest.MonkeyPatch, compiled: bool) -> Iterator[list[s
         return make(fn) if compiled else jit.plain(fn)
 
     with monkeypatch.context() as patch:
-        patch.setattr(jit, "loaded", lambda: True)  # also where numba is turned off
+        patch.setattr(jit, "judging_compiled", lambda: True)  # also where numba is turned off
         patch.setattr(jit, "compiled", counting)
         yield called
 
@@ -59,7 +59,7 @@ def _both(monkeypatch: pytest.MonkeyPatch, judged: Callable[[], Any], name: str)
     """``judged()`` by numpy, then by the pass ``name`` compiled and as plain
     Python: the same bits each time."""
     with monkeypatch.context() as patch:
-        patch.setattr(jit, "loaded", lambda: False)
+        patch.setattr(jit, "judging_compiled", lambda: False)
         expected = _bits(judged())
     for compiled in (False, True):
         with _counted(monkeypatch, compiled) as called:
@@ -122,7 +122,7 @@ def test_the_stall_pass_has_the_numpy_forms_bits(
 
     _both(monkeypatch, judged, "stalled_samples")
     with monkeypatch.context() as patch:
-        patch.setattr(jit, "loaded", lambda: False)
+        patch.setattr(jit, "judging_compiled", lambda: False)
         assert (judged() or 0.0) > 0.0  # it stalled: the count is not trivially 0
 
 
@@ -225,7 +225,7 @@ def test_a_point_a_rounding_off_the_major_axis_is_as_deep_as_one_on_it(
         return [zone.depth(x, y), zone.depth(np.repeat(x, 10), np.repeat(y, 10))]
 
     with monkeypatch.context() as patch:
-        patch.setattr(jit, "loaded", lambda: False)
+        patch.setattr(jit, "judging_compiled", lambda: False)
         few, many = depths()
     assert np.all(np.isfinite(few))
     assert np.array_equal(few, many[::10])
@@ -233,3 +233,19 @@ def test_a_point_a_rounding_off_the_major_axis_is_as_deep_as_one_on_it(
     assert few[2] == zone.depth(np.array([-1.2]), np.array([0.0]))[0]
     assert few[3] == pytest.approx(few[1], abs=1e-8)  # beside it, a step away in w
     _both(monkeypatch, depths, "ellipse_depth")
+
+
+def test_the_passes_run_compiled_once_the_process_has_judged_enough_samples(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Loading them costs a process 0.03-0.05 s: a short run's judge keeps the
+    numpy forms (the same bits), a long run or a campaign's worker past its
+    first rows the passes (kernels/jit.py, JUDGED_COMPILED_FROM)."""
+    monkeypatch.setattr(jit._state, "ready", True)
+    monkeypatch.setattr(jit._state, "judged", 0)
+    jit.judged(jit.JUDGED_COMPILED_FROM - 1)
+    assert not jit.judging_compiled()
+    jit.judged(1)
+    assert jit.judging_compiled()
+    monkeypatch.setattr(jit._state, "ready", False)  # numba not loaded: numpy however many
+    assert not jit.judging_compiled()

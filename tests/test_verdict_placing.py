@@ -49,11 +49,11 @@ def test_compiled_places_have_the_numpy_forms_bits(
     case = _path(rng, 3000)
     for near, first in ((math.inf, 0), (0.05, 0), (0.05, 700)):
         with monkeypatch.context() as patch:
-            patch.setattr(jit, "loaded", lambda: False)
+            patch.setattr(jit, "judging_compiled", lambda: False)
             expected = _places(case, near, first)
         jit.load()  # as a compiled run does: the places compiled from here on
         with monkeypatch.context() as patch:
-            patch.setattr(jit, "loaded", lambda: True)  # also where numba is turned off
+            patch.setattr(jit, "judging_compiled", lambda: True)  # also where numba is turned off
             found = _places(case, near, first)
         for ours, theirs in zip(found, expected, strict=True):
             assert _bits(ours) == _bits(theirs)
@@ -64,9 +64,9 @@ def test_the_kernel_as_plain_python_has_the_numpy_forms_bits(
 ) -> None:
     case = _path(np.random.default_rng(5), 400)
     with monkeypatch.context() as patch:
-        patch.setattr(jit, "loaded", lambda: False)
+        patch.setattr(jit, "judging_compiled", lambda: False)
         expected = _places(case, math.inf, 0)
-    monkeypatch.setattr(jit, "loaded", lambda: True)
+    monkeypatch.setattr(jit, "judging_compiled", lambda: True)
     monkeypatch.setattr(jit, "compiled", jit.plain)
     found = _places(case, math.inf, 0)
     for ours, theirs in zip(found, expected, strict=True):

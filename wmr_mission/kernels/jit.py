@@ -90,6 +90,7 @@ class _State:
     cache_class: Any = None  # numba's cache of a function, loaded as is (_cache_class)
     kernels: list[Kernel] = []  # noqa: RUF012 - every declared kernel
     entries: dict[tuple[int, bool, bool], Any] = {}  # noqa: RUF012 - compiled entry points
+    judged = 0  # samples judged in this process (judged())
 
 
 _state = _State()
@@ -136,6 +137,26 @@ def compiling() -> bool:
 def loaded() -> bool:
     """Whether this process loaded numba for its kernels."""
     return _state.ready
+
+
+# The judge's compiled passes (wmr_mission.verdicts) cost a process about
+# 0.03-0.05 s of CPU to load from the cache, a run's judging by numpy of a
+# few thousand samples a few ms: they pay once the process has judged this
+# many samples, a long run or a campaign's worker after its first rows
+# (docs/performance.md, Start-up).
+JUDGED_COMPILED_FROM = 100_000
+
+
+def judged(samples: int) -> None:
+    """Count ``samples`` as judged in this process (:func:`judging_compiled`)."""
+    _state.judged += samples
+
+
+def judging_compiled() -> bool:
+    """Whether the judge's passes run compiled: numba loaded for the kernels,
+    and JUDGED_COMPILED_FROM samples judged in this process, the record being
+    judged included. Their numpy forms give the same bits."""
+    return _state.ready and _state.judged >= JUDGED_COMPILED_FROM
 
 
 def entries() -> list[str]:

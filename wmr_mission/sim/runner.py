@@ -332,8 +332,10 @@ _entry_points: dict[int, tuple[Any, Callable[..., int]]] = {}
 
 def _entry_point(dispatcher: Any) -> Callable[..., int] | None:
     """The compiled entry point of ``dispatcher`` if it has compiled one
-    signature alone (the one it just typed); else None."""
-    if len(dispatcher.overloads) != 1:
+    signature alone (the one it just typed); else None, and for a loop run as
+    plain Python (no overloads)."""
+    overloads = getattr(dispatcher, "overloads", None)
+    if overloads is None or len(overloads) != 1:
         return None
     kept = _entry_points.get(id(dispatcher))
     if kept is None or kept[0] is not dispatcher:

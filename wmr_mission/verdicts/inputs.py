@@ -109,7 +109,7 @@ def input_quality(
         floor = REVERSAL_FLOOR * limit
         if name == "turn_rate":  # three times what raw heading noise makes of the turn rate
             floor += 3.0 * numbers.heading_noise / tau
-        if jit.loaded():  # the same numbers in one compiled pass (verdicts/passes.py)
+        if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
             metrics |= _compiled_quality(name, t, values, floor, limit, numbers, deliberate)
             continue
         jumps = np.abs(np.diff(values))
@@ -196,7 +196,7 @@ def jitter(omega: FloatArray, numbers: MissionNumbers) -> float | None:
     """[rad/s] robust spread of ``omega`` about its centred moving mean over two
     time constants, after the first REVERSAL_WINDOW time constants; None when
     fewer samples are left."""
-    if jit.loaded():  # the same numbers in one compiled pass (verdicts/passes.py)
+    if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
         spread = jit.compiled(jitter_median)(omega, *_jitter_window(numbers))
         return _finite(ROBUST_STD * spread)  # None for too few samples too: NaN
     found = _deviation(omega, numbers)

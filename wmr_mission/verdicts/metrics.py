@@ -107,7 +107,7 @@ def _largest(
     ``|values|`` with ``magnitude``; every value where ``chosen`` is empty),
     for values that are never -0 or whose zero is read as +0: compiled, one
     pass with no copy (verdicts/passes.py), where the kernels are loaded."""
-    if jit.loaded():
+    if jit.judging_compiled():
         found = jit.compiled(largest_finite)(values, chosen, factor, divisor, magnitude)
         return None if math.isnan(found) else float(found)
     values = values if chosen.size == 0 else values[chosen]
@@ -243,13 +243,13 @@ def distance_to_path(
     steps = np.hypot(np.diff(px), np.diff(py))
     cell = float(np.median(steps[steps > 0])) / 2 if np.any(steps > 0) else 1.0
     # One point per cell: the first the path passes in it (a stable sort by cell).
-    first = first_in_cells(px, py, cell) if jit.loaded() else None  # the same, compiled
+    first = first_in_cells(px, py, cell) if jit.judging_compiled() else None  # the same, compiled
     if first is None:
         column, row = np.floor(px / cell), np.floor(py / cell)
         order = np.lexsort((row, column))
         column, row = column[order], row[order]
         first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
-    if jit.loaded():  # the same bits in one compiled pass (verdicts/path_distance.py)
+    if jit.judging_compiled():  # the same bits in one compiled pass (verdicts/path_distance.py)
         found = compiled_distances(px, py, qx, qy, own, first, cell, LOCAL_WINDOW, _NEAREST_POINTS)
         if every_finite:
             return found
@@ -1109,6 +1109,7 @@ def judge(result: RunRecord, mission: MissionTerms) -> dict[str, Any]:
     ``mission``: the checked mission, or one as a run directory holds it
     (:func:`resolved`).
     """
+    jit.judged(result.samples)
     mission = resolved(mission)
     summary = summarize(result, mission)
     checks = check_expectations(summary, mission)
@@ -1143,6 +1144,7 @@ def judge_run_metrics(result: RunRecord, mission: MissionTerms) -> dict[str, Any
     it, and a phase within its threshold by it is within it. Only when that
     bound misses a threshold is the distance to the path computed.
     """
+    jit.judged(result.samples)
     mission = resolved(mission)
     errors = estimation_errors(result)
     per_phase = phase_expectations(mission)

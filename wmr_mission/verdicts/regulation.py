@@ -54,7 +54,7 @@ def stall_time(
     window = max(2, round(span / dt))
     reach = (numbers.v_limit * window * dt, numbers.omega_limit * window * dt)
     # (none of fewer samples than a window: the pass counts none, compiled even so)
-    if jit.loaded():  # the same count in one compiled pass (verdicts/passes.py)
+    if jit.judging_compiled():  # the same count in one compiled pass (verdicts/passes.py)
         aim = (float(tx), float(ty), float(heading_target))
         goal = (float(goal[0]), float(goal[1]))
         found = jit.compiled(stalled_samples)(x, y, theta, aim, goal, window, reach, PROGRESS)

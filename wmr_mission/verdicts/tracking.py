@@ -165,7 +165,7 @@ class Placement:
     def _place_samples(self, begin: int, end: int) -> None:
         """The places of samples ``begin .. end - 1`` by the local search."""
         px, py = self.px, self.py
-        if jit.loaded():  # the same numbers in one compiled pass (verdicts/placing.py)
+        if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/placing.py)
             held = np.zeros(0, dtype=np.intp) if self._held is None else self._held
             jit.compiled(place_samples)(
                 px, py, self.path, held, begin, end, _SEARCH, _STEPS, self._cross, self._place

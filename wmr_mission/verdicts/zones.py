@@ -51,7 +51,7 @@ class Zone:
         forbidden side; ``-inf`` on the allowed side farther than ``within``
         where the exact distance is not computed."""
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-        if self.region["type"] == "ellipse" and jit.loaded() and x.ndim == 1:
+        if self.region["type"] == "ellipse" and jit.judging_compiled() and x.ndim == 1:
             # the same numbers in one compiled pass (verdicts/passes.py)
             return jit.compiled(ellipse_depth)(
                 x, y, self._frame(), self._squares(), self.keep_inside, within, _NEWTON_STEPS
@@ -66,7 +66,7 @@ class Zone:
         """Whether each point is on the forbidden side (its depth > 0)."""
         if self.region["type"] != "ellipse":
             return np.asarray(self.depth(x, y) > 0.0)
-        if jit.loaded():  # the same in one compiled pass (verdicts/passes.py)
+        if jit.judging_compiled():  # the same in one compiled pass (verdicts/passes.py)
             return self._bounds(x, y)[0]
         radius = _scaled_radius(self.region, x, y)[0]
         return np.asarray(radius > 1.0 if self.keep_inside else radius < 1.0)
@@ -88,7 +88,7 @@ class Zone:
             return -math.inf
         if self.region["type"] != "ellipse":
             return float(np.max(self.depth(x, y)))
-        if jit.loaded():  # the same numbers in one compiled pass (verdicts/passes.py)
+        if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
             _, highest, contenders = self._bounds(x, y)
             if resolution is not None and abs(highest) <= resolution:
                 return highest
