@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from test_output_synthetic import circle_run
 
@@ -84,9 +85,8 @@ def test_table_lists_expectations_and_leaves_a_failure_to_its_message() -> None:
     assert "outcome: expect-failed after 20.00 s of simulated time\n" in text
 
 
-def test_table_gives_each_phase_its_verdict() -> None:
-    """The orbit's turn rate sits at its limit on 11 % of it: its row says so;
-    the phases that passed say ok."""
+def _orbit_at_its_limit() -> dict[str, Any]:
+    """The circle run judged, its orbit's turn rate at its limit on 11 % of it."""
     run = circle_run()
     run.omega = run.omega.copy()
     run.omega[700:800] = 20.0
@@ -94,7 +94,13 @@ def test_table_gives_each_phase_its_verdict() -> None:
         "expect": {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
         "phases": [{"name": name, "expect": {}} for name in ("approach", "orbit", "park")],
     }
-    summary = judge(run, mission)
+    return judge(run, mission)
+
+
+def test_table_gives_each_phase_its_verdict() -> None:
+    """The orbit's turn rate sits at its limit on 11 % of it: its row says so;
+    the phases that passed say ok."""
+    summary = _orbit_at_its_limit()
     lines = format_table(summary, "out", width=100).splitlines()
     rows = _rows(lines)
     assert rows["approach"][0].endswith("  ok")
@@ -161,14 +167,7 @@ def test_a_table_that_fits_is_laid_out_as_rich_lays_it_out() -> None:
     """Laid out without rich where every cell fits (rich's import and layout
     cost a run 0.02-0.03 s), character for character as rich would; rich
     wraps the rest."""
-    run = circle_run()
-    run.omega = run.omega.copy()
-    run.omega[700:800] = 20.0
-    mission = {
-        "expect": {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
-        "phases": [{"name": name, "expect": {}} for name in ("approach", "orbit", "park")],
-    }
-    judged = judge(run, mission)
+    judged = _orbit_at_its_limit()
     rows = report._phase_rows(judged, list(judged.get("expectations", [])))
     tables = [
         rows,
