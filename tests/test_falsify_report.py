@@ -65,3 +65,8 @@ def test_margins_png_places_each_run_at_its_evaluation_number(
     passing, failing = (c.get_offsets() for c in ax.collections[:2])
     assert failing.tolist() == [[2.0, -0.2]]
     assert [x for x, _ in passing.tolist()] == [0.0, 1.0, 3.0]
+
+
+def test_a_failure_at_the_first_run_is_one_run_in() -> None:
+    printed = _report(_record([0]), Path("out"), 1.0).splitlines()
+    assert printed[1] == "falsified: 1 failing run, the first run 0 (1 run in); lowest margin -0.5"

@@ -500,7 +500,8 @@ def _report(record: dict[str, Any], out_dir: Path, seconds: float) -> str:
         # the lines below name it: the first is run runs_in - 1
         lines.append(
             f"falsified: {failing} failing run{'s' if failing != 1 else ''}, the first run "
-            f"{runs_in - 1} ({runs_in} runs in); lowest {objective} {_text(record['lowest'])}"
+            f"{runs_in - 1} ({runs_in} run{'s' if runs_in != 1 else ''} in); "
+            f"lowest {objective} {_text(record['lowest'])}"
         )
         lines += [
             f"  {b['evaluation']}: {b['outcome']}, {objective} {_text(b['objective'])}: {b['run']}"
