@@ -255,6 +255,7 @@ def test_short_mission_over_ros2_against_serve_robot(
     assert summary["final"]["position_error"] < 0.02
     realtime = summary["realtime"]
     assert realtime["zero_command_sent"] is True
+    assert realtime["zero_command_acknowledged"] is True
     assert realtime["commands"] == summary["samples"] - 1  # every sample but the closing row
     assert realtime["latency_ms"]["p50"] <= realtime["latency_ms"]["p99"]
     metrics = [check["metric"] for check in summary["expectations"]]
@@ -308,6 +309,8 @@ def test_a_signal_sends_zero_and_keeps_the_samples(
     summary = json.loads((out / "summary.json").read_text())
     assert summary["outcome"] == "interrupted"
     assert summary["realtime"]["zero_command_sent"] is True
+    # the listener's acknowledgement waited for: what makes it heard below
+    assert summary["realtime"]["zero_command_acknowledged"] is True
     rows = (out / "trajectory.csv").read_text().splitlines()
     assert len(rows) - 1 == summary["samples"] > 0
     assert count > 0

@@ -33,6 +33,10 @@ from wmr_mission.sim.plan import MissionPlan, UpdatePlan, goal, hold_still, plan
 from wmr_mission.sim.plant_side import PlantStopped
 from wmr_mission.spec.backend import Backend
 
+# Seconds to wait for every reader to acknowledge the zero command: over Fast
+# DDS's 3 s heartbeat period, so that a sample a reader missed is resent once.
+ZERO_ACK_WAIT = 5.0
+
 
 class Pose(NamedTuple):
     x: float
@@ -116,6 +120,7 @@ class Ros2Plant:
         self.fresh = False
         self.dropouts = 0
         self.zero_sent = False
+        self.zero_acknowledged = False
         self._twist = Twist
         self.ros = Node("wmr_mission")
         node = self.ros.node
@@ -314,19 +319,29 @@ class Ros2Plant:
 
         self.publisher.publish(self._twist())  # v = 0, omega = 0
         # A reliable writer resends until each reader acknowledges: wait for
-        # that, at most a second, or a process that exits at once can take the
-        # zero command with it (a loaded machine lost it in 1 of 3 runs of
-        # tests/test_backends.py's robot killed mid-mission). A best-effort
-        # writer, or one with no reader, returns at once.
-        self.publisher.wait_for_all_acked(Duration(seconds=1.0))
+        # that, or a process that exits at once can take the zero command with
+        # it. Fast DDS resends a sample a reader missed at its next heartbeat,
+        # every 3 s by default: a loaded machine took 0.6-2.6 s for 5 of 20
+        # zero commands (1 s lost one of tests/test_backends.py's signal runs).
+        # A best-effort writer, or one with no reader, returns at once.
+        self.zero_acknowledged = bool(
+            self.publisher.wait_for_all_acked(Duration(seconds=ZERO_ACK_WAIT))
+        )
         self.zero_sent = True
         print(f"ros2: zero command published on '{self.settings.cmd_vel}'", file=sys.stderr)
+        if not self.zero_acknowledged:
+            print(
+                f"ros2: the zero command on '{self.settings.cmd_vel}' was not acknowledged "
+                f"within {ZERO_ACK_WAIT:g} s: check that the robot stopped",
+                file=sys.stderr,
+            )
 
     def report(self) -> dict[str, Any]:
         return {
             **self.pace.record(),
             "dropouts": self.dropouts,
             "zero_command_sent": self.zero_sent,
+            "zero_command_acknowledged": self.zero_acknowledged,
             **(
                 {
                     "plans_taken": self.plans_taken,
