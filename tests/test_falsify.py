@@ -614,6 +614,34 @@ def test_view_shows_a_falsification_directory(tmp_path: Path) -> None:
         assert replay == f"wmr-mission run {(out / entry['mission']).resolve()}"
 
 
+def test_view_of_a_damaged_falsification_says_which_file_and_line(tmp_path: Path) -> None:
+    """FILE:LINE: what is wrong, as for a damaged run or campaign; never an
+    internal error."""
+    import shutil
+
+    from typer.testing import CliRunner
+
+    out = tmp_path / "out"
+    falsify_campaign(PARK, budget=4, seed=1, out=out, plots=False)
+    damages = {
+        "falsify.json": (lambda text: "{\n,\n}", "falsify.json:2:1: not valid JSON"),
+        "manifest.json": (lambda text: "[]", "manifest.json:1:1: not a JSON object"),
+        "evaluations.csv": (
+            lambda text: text + "7,8\n",
+            "evaluations.csv:6: expected ",
+        ),
+    }
+    for name, (damage, said) in damages.items():
+        damaged = tmp_path / f"damaged-{name}"
+        shutil.copytree(out, damaged)
+        path = damaged / name
+        path.write_text(damage(path.read_text(encoding="utf-8")), encoding="utf-8")
+        result = CliRunner().invoke(app, ["view", str(damaged)])
+        assert result.exit_code == 1, result.output
+        assert result.stderr.startswith(f"{damaged}: {said}"), result.stderr
+        assert "please report it" not in result.stderr
+
+
 @needs_chromium
 def test_view_of_a_falsification_renders_without_a_console_error(tmp_path: Path) -> None:
     out = tmp_path / "out"

@@ -1,4 +1,5 @@
-"""No command writes over a run's or a campaign's record (wmr_mission/review/record.py):
+"""No command writes over a run's, a campaign's or a falsification's record
+(wmr_mission/review/record.py):
 every path the user names for an output is checked, symbolic links followed."""
 
 from __future__ import annotations
@@ -114,3 +115,46 @@ def test_run_and_sweep_never_take_a_record_s_directory(
         result = CliRunner().invoke(app, arguments)
         assert result.exit_code == 2, result.output
         assert _fingerprint(directory) == before
+
+
+@pytest.fixture(scope="module")
+def falsify_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from wmr_mission.api import falsify_campaign
+
+    out = tmp_path_factory.mktemp("record") / "falsify"
+    park = Path(__file__).parent / "data" / "falsify" / "park-campaign.yaml"
+    falsify_campaign(park, budget=8, seed=1, out=out, plots=False)
+    return out
+
+
+@pytest.mark.parametrize("command", ["view", "export"])
+def test_no_output_is_written_over_a_falsification_s_record(
+    command: str, falsify_dir: Path, run_dir: Path
+) -> None:
+    """Its evaluations, its record, its manifest and the failing missions it
+    wrote (written over with a run's report or table, they were lost)."""
+    extra = ["--format", "parquet"] if command == "export" else []
+    failing = sorted((falsify_dir / "failing").glob("*.yaml"))
+    assert failing  # the park campaign fails within its 8 runs
+    names = ["evaluations.csv", "falsify.json", "manifest.json"]
+    for out in [*(falsify_dir / name for name in names), failing[0]]:
+        _refused([command, str(run_dir), *extra, "--out", str(out)], falsify_dir, out.name)
+
+
+def test_a_report_never_lands_in_another_record_s_directory(
+    run_dir: Path, campaign_dir: Path, tmp_path: Path
+) -> None:
+    """A run's report.html written into another run's (or a campaign's)
+    directory passes for that record's own."""
+    other = circle_run().write(tmp_path / "other", plots=False)
+    for directory, source in ((other, run_dir), (campaign_dir, run_dir), (run_dir, campaign_dir)):
+        before = _fingerprint(directory)
+        target = directory / "report.html"
+        result = CliRunner().invoke(app, ["view", str(source), "--out", str(target)])
+        assert result.exit_code == 2, result.output
+        assert f"keeps its own report.html, not {source}'s" in result.stderr
+        assert _fingerprint(directory) == before
+    # its own directory's report, and another name there, are written
+    for target in (other / "report.html", other / "of-the-circle.html"):
+        result = CliRunner().invoke(app, ["view", str(other), "--out", str(target)])
+        assert result.exit_code == 0, result.output

@@ -543,7 +543,7 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
         )
         return 2
     target = out if out is not None else directory / DEFAULT_NAMES[kind, fmt]
-    refusal = record_file_refusal(target)
+    refusal = record_file_refusal(target, directory, DEFAULT_NAMES[kind, fmt])
     if refusal is not None:
         print(refusal, file=sys.stderr)
         return 2

@@ -13,6 +13,7 @@ from typing import Any, Final
 from wmr_mission.campaign.falsify.figures import MARGINS_FIGURE, REGION_FIGURE
 from wmr_mission.campaign.falsify.files import EVALUATIONS_FILE, FAILING_DIR, FALSIFY_FILE
 from wmr_mission.campaign.load import replay_line
+from wmr_mission.output.reader import RunDirError
 
 __all__ = ["falsification_meta", "is_falsification_dir"]
 
@@ -26,10 +27,33 @@ def is_falsification_dir(path: Path) -> bool:
 
 
 def _json(path: Path) -> dict[str, Any]:
-    data = json.loads(path.read_text(encoding="utf-8"))
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as error:
+        raise RunDirError(
+            f"{path.name}:{error.lineno}:{error.colno}: not valid JSON: {error.msg}"
+        ) from None
+    except UnicodeDecodeError as error:
+        raise RunDirError(f"{path.name}: not UTF-8 text ({error.reason})") from None
     if not isinstance(data, dict):
-        raise OSError(f"{path.name}: not a JSON object")
+        raise RunDirError(f"{path.name}:1:1: not a JSON object")
     return data
+
+
+def _rows(path: Path) -> list[list[str]]:
+    """``evaluations.csv``'s header and rows, each row as wide as the header."""
+    try:
+        with path.open(encoding="utf-8", newline="") as file:
+            table = list(csv.reader(file))
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise RunDirError(f"{path.name}: not a CSV table of evaluations ({error})") from None
+    if not table:
+        raise RunDirError(f"{path.name}:1: empty: expected a header of columns")
+    width = len(table[0])
+    for line, row in enumerate(table[1:], start=2):
+        if len(row) != width:
+            raise RunDirError(f"{path.name}:{line}: expected {width} fields, found {len(row)}")
+    return table
 
 
 def _value(cell: str) -> Any:
@@ -64,13 +88,15 @@ def _is_number(cell: str) -> bool:
 def falsification_meta(directory: Path) -> dict[str, Any]:
     record = _json(directory / FALSIFY_FILE)
     manifest = _json(directory / "manifest.json")
-    with (directory / EVALUATIONS_FILE).open(encoding="utf-8", newline="") as file:
-        table = list(csv.reader(file))
-    if not table:
-        raise OSError(f"{EVALUATIONS_FILE}: empty")
+    table = _rows(directory / EVALUATIONS_FILE)
     columns, rows = table[0], table[1 : MAX_TABLE_ROWS + 1]
     paths = columns[3:-4]
-    fingerprint = str(manifest["environment"]["fingerprint"])
+    environment = manifest.get("environment")
+    if not isinstance(environment, dict) or "fingerprint" not in environment:
+        raise RunDirError("manifest.json: no environment.fingerprint: expected a falsify manifest")
+    if "mission_file" not in manifest:
+        raise RunDirError("manifest.json: no mission_file: expected a falsify manifest")
+    fingerprint = str(environment["fingerprint"])
     replays = []
     for row in rows:
         mission = directory / FAILING_DIR / f"{row[0]}.yaml"

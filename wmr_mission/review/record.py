@@ -1,9 +1,13 @@
-"""A run's or a campaign's record is never written over by a file the user names.
+"""A record (a run's, a campaign's, a falsification's) is never written over by
+a file the user names.
 
 ``view --out`` and ``export --out`` write a file wherever they are told; this is
-their one check, symbolic links followed. (``run --out`` and ``sweep --out``
-name a directory, which they only ever take new or empty:
-wmr_mission.output.rundir.prepare_run_dir.)
+their one check, symbolic links followed: inside a record, they write neither
+over its files, its figures nor any file it holds (a falsification's failing
+missions, a campaign's worst runs), nor their own output (``report.html``, ...)
+into another record's directory, where it would pass for that record's.
+(``run --out`` and ``sweep --out`` name a directory, which they only ever take
+new or empty: wmr_mission.output.rundir.prepare_run_dir.)
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ import os
 from pathlib import Path
 from typing import Final
 
+from wmr_mission.campaign.falsify.files import EVALUATIONS_FILE, FALSIFY_FILE
 from wmr_mission.campaign.sweep import CAMPAIGN_FILE, RUNS_FILE
 from wmr_mission.output.rundir import (
     ANIMATION_FILE,
@@ -24,34 +29,58 @@ from wmr_mission.output.rundir import (
 
 __all__ = ["record_file_refusal"]
 
+# Each kind of record: the files that tell it (any one), and the files it holds.
 _RUN: Final = (TRAJECTORY_FILE, SUMMARY_FILE, TRANSITIONS_FILE, MANIFEST_FILE, ANIMATION_FILE)
-_CAMPAIGN: Final = (RUNS_FILE, CAMPAIGN_FILE, MANIFEST_FILE)
-# The figures a run or a campaign draws into its directory (png, svg, pdf).
+_KINDS: Final = (
+    ("campaign", (RUNS_FILE, CAMPAIGN_FILE), (RUNS_FILE, CAMPAIGN_FILE, MANIFEST_FILE)),
+    (
+        "falsification",
+        (EVALUATIONS_FILE, FALSIFY_FILE),
+        (EVALUATIONS_FILE, FALSIFY_FILE, MANIFEST_FILE),
+    ),
+    ("run", (*_RUN, CLAIM_FILE), _RUN),
+)
+# The figures a record draws into its directory (png, svg, pdf).
 _FIGURES: Final = (".png", ".svg", ".pdf")
+# What view and export write: such a file already in a record is an earlier
+# output, written over again; any other file there is the record's.
+_OUTPUTS: Final = (".html", ".mcap", ".parquet")
+# How far above a file its record may be: a falsification's failing/N.yaml.
+_DEPTH: Final = 2
 
 
 def _record_of(directory: Path) -> tuple[str, tuple[str, ...]] | None:
     """What ``directory`` is the record of, and the names of its files."""
-    if any((directory / name).is_file() for name in _CAMPAIGN[:2]):
-        return "campaign", (*_CAMPAIGN, CLAIM_FILE)
-    if any((directory / name).is_file() for name in (*_RUN, CLAIM_FILE)):
-        return "run", (*_RUN, CLAIM_FILE)
+    for kind, tells, names in _KINDS:
+        if any((directory / name).is_file() for name in tells):
+            return kind, (*names, CLAIM_FILE)
     return None
 
 
-def record_file_refusal(target: Path) -> str | None:
-    """One line refusing ``target`` when writing it would replace a file of a run's
-    or a campaign's record (its data, its figures, its claim), else None."""
+def record_file_refusal(target: Path, source: Path, default_name: str) -> str | None:
+    """One line refusing ``target`` when writing it would replace a file of a
+    record, or put the output of ``source`` (named ``default_name`` by default)
+    into another record's directory; else None."""
     final = target.resolve()
-    record = _record_of(final.parent)
-    if record is None:
-        return None
-    kind, names = record
-    if final.name not in names and final.suffix.lower() not in _FIGURES:
-        return None
     linked = final != Path(os.path.abspath(target))
     through = f" (through a symbolic link: {final})" if linked else ""
-    return (
-        f"{target}: is {final.name} of the {kind} in {final.parent}{through}; "
-        "a record is never written over: choose another --out"
-    )
+    for directory in list(final.parents)[:_DEPTH]:
+        record = _record_of(directory)
+        if record is None:
+            continue
+        kind, names = record
+        own = directory == final.parent
+        held = final.is_file() and final.suffix.lower() not in _OUTPUTS
+        if held or (own and (final.name in names or final.suffix.lower() in _FIGURES)):
+            where = "" if own else f" (in {final.parent.name}/)"
+            return (
+                f"{target}: is {final.name} of the {kind} in {directory}{where}{through}; "
+                "a record is never written over: choose another --out"
+            )
+        if own and final.name == default_name and directory != source.resolve():
+            return (
+                f"{target}: is where the {kind} in {directory} keeps its own "
+                f"{default_name}{through}, not {source}'s; choose another --out"
+            )
+        return None
+    return None

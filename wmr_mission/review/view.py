@@ -587,7 +587,7 @@ def view_command(directory: Path, out: Path | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    refusal = record_file_refusal(target)
+    refusal = record_file_refusal(target, directory, REPORT_FILE)
     if refusal is not None:
         print(refusal, file=sys.stderr)
         return 2
