@@ -118,6 +118,21 @@ def test_table_gives_each_phase_its_verdict() -> None:
     ]
 
 
+def test_a_stopped_run_s_table_judges_only_up_to_the_stop() -> None:
+    """Stopped by a signal in its last phase so far: that phase was cut short,
+    so its row says 'stopped', not a verdict; the mission's expectations were
+    judged on the samples up to the stop, and their lines say so."""
+    summary = {**_orbit_at_its_limit(), "outcome": "interrupted"}
+    lines = format_table(summary, "out", width=100).splitlines()
+    rows = _rows(lines)
+    assert rows["approach"][0].endswith("  ok")
+    assert rows["orbit"][0].endswith("  NOT MET")
+    assert rows["park"][0].endswith("  stopped")
+    expects = [line for line in lines if line.startswith("expect ")]
+    assert expects
+    assert all(line.endswith(" up to the stop)") for line in expects), expects
+
+
 def test_a_narrower_table_wraps_its_cells_within_the_width() -> None:
     summary = summarize(circle_run())
     for width in (100, 80, 72):

@@ -149,8 +149,12 @@ def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: i
 
 
 def _phase_rows(summary: dict[str, Any], checks: list[dict[str, Any]]) -> list[list[str]]:
-    """The phase table's cells, a row a phase, in :data:`_COLUMNS`' order."""
+    """The phase table's cells, a row a phase, in :data:`_COLUMNS`' order. A
+    run stopped by a signal: its last phase, cut short, is 'stopped', not judged."""
     verdicts = _verdicts(checks)
+    phases = summary.get("phases") or []
+    if summary.get("outcome") == "interrupted" and phases:
+        verdicts[phases[-1]["name"]] = "stopped"
     return [
         [
             str(phase["name"]),
@@ -282,6 +286,8 @@ def format_table(
         if not check["met"] and outcome == "expect-failed":
             continue  # in the failure's message
         verdict = "met" if check["met"] else "NOT MET"
+        if outcome == "interrupted":  # judged on the samples up to the stop
+            verdict = f"{verdict.lower()} up to the stop"
         value = "null" if check["value"] is None else f"{check['value']:.4g}"
         where = "" if check.get("phase") is None else f"{check['phase']}: "
         # a bound from below (clearance_min, a temporal formula) is a min
