@@ -20,11 +20,11 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from wmr_mission.campaign.falsify import METHODS
 from wmr_mission.campaign.falsify.command import falsify_campaign
 
 HERE = Path(__file__).parent
 BENCHMARKS = sorted(str(p) for p in HERE.glob("*-campaign.yaml"))
-METHODS = ("gp", "cmaes", "random")
 
 
 def runs_to_failure(args: tuple[str, str, int, int]) -> int | None:

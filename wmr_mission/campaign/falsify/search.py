@@ -17,11 +17,10 @@ from typing import Any, Final, Protocol
 
 import numpy as np
 
+from wmr_mission.campaign.falsify import METHODS
 from wmr_mission.campaign.falsify.space import Space
 
-__all__ = ["METHODS", "RANDOM_BATCH", "SIGMA_LOCAL", "Method", "corners", "design", "make_method"]
-
-METHODS: Final = ("gp", "cmaes", "random")
+__all__ = ["RANDOM_BATCH", "SIGMA_LOCAL", "Method", "corners", "design", "make_method"]
 
 DESIGN: Final = 8
 """The fewest points of a space-filling design (more with more axes:
