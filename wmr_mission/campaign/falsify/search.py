@@ -237,6 +237,8 @@ def design(space: Space, size: int, rng: np.random.Generator) -> list[list[float
     scrambling, seeded by ``rng``), a discrete coordinate rounded to its values."""
     from scipy.stats import qmc
 
+    if size == 0:
+        return []
     sobol = qmc.Sobol(space.dimension, scramble=True, seed=rng)
     points = on_values(space, qmc.scale(sobol.random(size), space.lower(), space.upper()))
     return [[float(x) for x in row] for row in points]
@@ -276,7 +278,14 @@ MODEL_BATCH: Final = 2
 
 CANDIDATES: Final = 1024
 """Sobol points of the box the model scores for each proposal, besides
-Gaussian steps about the lowest runs."""
+Gaussian steps about the lowest runs and points on its faces."""
+
+FACE_CANDIDATES: Final = 256
+"""Sobol points of each face of the box (a continuous axis at its least or
+greatest value) the model scores besides: a failure that grows with an axis
+reaches its end, as the corners' does (estimate-band's bands reach the faces
+of the largest lateral error, heading-band's the fastest speed), and the
+Sobol points of the box fall on no face."""
 
 
 class GpSearch:
@@ -295,8 +304,9 @@ class GpSearch:
         self.space = space
         self.rng = rng
         d = space.dimension
-        self.design_size = max(4, 1 << (2 * d - 1).bit_length())
         self.corners = first_corners(space)
+        # Where the corners are asked, they are the design: the model starts on them.
+        self.design_size = 0 if self.corners else max(4, 1 << (2 * d - 1).bit_length())
         self.x: list[list[float]] = []  # every point told, and its objective
         self.y: list[float] = []
         self.params: Any = None
@@ -373,7 +383,7 @@ class GpSearch:
             for i in lowest
             for scale in (0.003, 0.01, 0.03, 0.1)
         ]
-        unit = np.vstack([sobol, *local])
+        unit = np.vstack([sobol, *local, *self._on_faces()])
         points = on_values(self.space, self._lower + unit * self._width)
         discrete = self.space.discrete()  # the model scores the value a run would have
         unit[:, discrete] = (points[:, discrete] - self._lower[discrete]) / self._width[discrete]
@@ -383,6 +393,21 @@ class GpSearch:
         unit, points = unit[kept], points[kept]
         chosen = gp.most_likely_failures(unit, min(MODEL_BATCH, len(points)))
         return [[float(v) for v in points[k]] for k in chosen]
+
+    def _on_faces(self) -> list[np.ndarray]:
+        """:data:`FACE_CANDIDATES` Sobol points on each face of the unit box: one
+        continuous coordinate at 0 or at 1, the others anywhere."""
+        from scipy.stats import qmc
+
+        spread = qmc.Sobol(self.space.dimension, scramble=True, seed=self.rng)
+        points = spread.random(FACE_CANDIDATES)
+        faces = []
+        for axis, count in enumerate(self.space.counts()):
+            for end in () if count else (0.0, 1.0):
+                face = points.copy()
+                face[:, axis] = end
+                faces.append(face)
+        return faces
 
     def tell(self, points: list[list[float]], objectives: list[float]) -> None:
         self.x += points
