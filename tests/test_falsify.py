@@ -352,6 +352,23 @@ def test_gp_falsifies_estimate_band_within_its_first_runs() -> None:
         assert found.record["runs_to_first_failure"] <= 10, seed
 
 
+@pytest.mark.parametrize("name", ["gp", "cmaes"])
+def test_a_lone_choice_is_searched_past_its_values(name: str) -> None:
+    """A campaign of one choice axis of 3 values: all 3 run in the first batches,
+    and CMA-ES goes on searching (its integer handling, in one axis, raised an
+    IndexError at its first generation)."""
+    space = Space(_campaign({"a": {"choice": [1, 2, 3]}}))
+    method = make_method(name, space, 0)
+    asked: list[list[float]] = []
+    while len(asked) < 40:
+        batch = method.ask()
+        method.tell(batch, [1.0 + abs(p[0] - 0.4) for p in batch])
+        asked += batch
+    assert {space.values(p)["a"] for p in asked} == {1, 2, 3}
+    settings = method.settings()
+    assert settings.get("cmaes", settings)["integer_variables"] == []  # CMA-ES ran
+
+
 def test_the_models_batch_is_as_if_its_first_point_had_run() -> None:
     """The second point of a batch is chosen on the variance of the model refitted
     with the first point at its own mean (the kriging believer), computed without

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, Final, Protocol
@@ -141,7 +142,7 @@ class CmaEs:
         counts = self.space.counts()
         options: dict[str, Any] = {
             "CMA_stds": [float(count) if count else 1.0 for count in counts],
-            "integer_variables": self.space.discrete(),
+            "integer_variables": self._integers(),
             "seed": np.nan,  # "do nothing": the generator is ours (_own_random)
             "verbose": -9,
             "verb_log": 0,
@@ -212,7 +213,11 @@ class CmaEs:
             objective + float(np.sum((np.clip(point, lower, upper) - np.array(point)) ** 2))
             for point, objective in zip(points, objectives, strict=True)
         ]
-        with self._own_random():
+        import cma
+
+        with self._own_random(), warnings.catch_warnings():
+            # the points another() drew in place of repeats were asked, never told
+            warnings.simplefilter("ignore", cma.evolution_strategy.InjectionWarning)
             self.es.tell([np.array(p) for p in points], told)
 
     def settings(self) -> dict[str, Any]:
@@ -222,8 +227,15 @@ class CmaEs:
             "popsize": self.popsize,
             "sigma0": SIGMA_LOCAL,
             "restarts": self.restarts,
-            "integer_variables": self.space.discrete(),
+            "integer_variables": self._integers(),
         }
+
+    def _integers(self) -> list[int]:
+        """The coordinates cma searches as integers: the discrete ones, but none
+        in a box of one axis, where cma's integer handling fails on its first
+        ``tell`` (an IndexError): a lone choice is searched as a number, rounded
+        to its values as any point is."""
+        return self.space.discrete() if self.space.dimension > 1 else []
 
 
 def design_size(dimension: int) -> int:
