@@ -14,6 +14,7 @@ import sys
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from wmr_mission.campaign.falsify import DEFAULT_METHOD
 from wmr_mission.spec import loader
 from wmr_mission.spec.loader import MissionError
 
@@ -147,7 +148,7 @@ def falsify_campaign(
     campaign: str | os.PathLike[str],
     *,
     budget: int = 300,
-    method: str = "gp",
+    method: str = DEFAULT_METHOD,
     seed: int | None = None,
     objective: str | None = None,
     first: bool = False,

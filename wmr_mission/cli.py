@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Annotated, Any, TextIO
 import typer
 from typer.core import TyperCommand
 
+from wmr_mission.campaign.falsify import DEFAULT_METHOD, METHODS
 from wmr_mission.terminal import shown
 
 if TYPE_CHECKING:
@@ -141,12 +142,6 @@ def _main(
 class OutputFormat(StrEnum):
     text = "text"
     json = "json"
-
-
-class FalsifyMethod(StrEnum):
-    gp = "gp"
-    cmaes = "cmaes"
-    random = "random"
 
 
 class FigureFormat(StrEnum):
@@ -417,9 +412,13 @@ def falsify(
         ),
     ] = 300,
     method: Annotated[
-        FalsifyMethod,
-        typer.Option("--method", metavar="METHOD", help="gp (default), cmaes or random."),
-    ] = FalsifyMethod.gp,
+        str,
+        typer.Option(
+            "--method",
+            metavar="METHOD",
+            help=f"One of {', '.join(METHODS)}.",
+        ),
+    ] = DEFAULT_METHOD,
     seed: Annotated[
         int | None,
         typer.Option(
@@ -461,7 +460,7 @@ def falsify(
         falsify_command(
             campaign,
             budget=budget,
-            method=method.value,
+            method=method,
             seed=seed,
             objective=objective,
             first=first,

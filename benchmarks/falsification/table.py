@@ -1,8 +1,9 @@
 """Falsification rate and runs to the first failure, per benchmark and method.
 
-    nice -n 5 python benchmarks/falsification/table.py [--seeds 20] [--seeds-from 0] [--budget 300]
-        [--methods gp cmaes random] [CAMPAIGN ...]
+    nice -n 5 python benchmarks/falsification/table.py [CAMPAIGN ...] [--seeds 20] [--seeds-from 0]
+        [--budget 300] [--methods gp cmaes random]
 
+(The campaigns before ``--methods``, which takes every word after it.)
 Each benchmark campaign is searched by each method with seeds S .. S+N-1 (0 .. 19 by default)
 (`falsify --first --budget B --seed S`); a row gives, as the ARCH-COMP
 falsification tables do, the falsification rate (FR: seeds that found a
@@ -20,11 +21,11 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from wmr_mission.campaign.falsify import METHODS
 from wmr_mission.campaign.falsify.command import falsify_campaign
 
 HERE = Path(__file__).parent
 BENCHMARKS = sorted(str(p) for p in HERE.glob("*-campaign.yaml"))
-METHODS = ("gp", "cmaes", "random")
 
 
 def runs_to_failure(args: tuple[str, str, int, int]) -> int | None:

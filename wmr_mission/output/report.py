@@ -259,7 +259,8 @@ def format_table(
     ``wall_seconds``: the computer's time for the run, shown beside the
     simulated time; ``result``: the run, to say which goal a timed-out phase
     missed. A failed run's message (what failed, and by how much) is not
-    repeated here: ``run`` prints it once, on stderr.
+    repeated here: ``run`` prints it once, on stderr; a mission-wide check it
+    missed is listed NOT MET, since no phase's verdict says it.
     """
     if width is None:
         width = min(WIDTH, shutil.get_terminal_size((WIDTH, 24)).columns)
@@ -283,8 +284,8 @@ def format_table(
     for check in checks:
         if check["met"] and check.get("phase") is not None:
             continue  # the verdict column says it
-        if not check["met"] and outcome == "expect-failed":
-            continue  # in the failure's message
+        if not check["met"] and outcome == "expect-failed" and check.get("phase") is not None:
+            continue  # its phase's verdict says it; a mission-wide one has no phase row
         verdict = "met" if check["met"] else "NOT MET"
         if outcome == "interrupted":  # judged on the samples up to the stop
             verdict = f"{verdict.lower()} up to the stop"

@@ -28,6 +28,7 @@ from wmr_mission.campaign.engine import (
     silence,
     usable_workers,
 )
+from wmr_mission.campaign.falsify import DEFAULT_METHOD, METHODS
 from wmr_mission.campaign.falsify.evaluate import Evaluation, Evaluator, check_names, evaluate
 from wmr_mission.campaign.falsify.files import (
     BEST,
@@ -39,7 +40,7 @@ from wmr_mission.campaign.falsify.files import (
     replay,
 )
 from wmr_mission.campaign.falsify.loop import Search, draws_of, run_search
-from wmr_mission.campaign.falsify.search import METHODS, make_method
+from wmr_mission.campaign.falsify.search import make_method
 from wmr_mission.campaign.falsify.space import Space
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign
 from wmr_mission.campaign.stops import stoppable
@@ -351,7 +352,7 @@ def falsify_campaign(
     campaign: str | Path,
     *,
     budget: int = DEFAULT_BUDGET,
-    method: str = "gp",
+    method: str = DEFAULT_METHOD,
     seed: int | None = None,
     objective: str | None = None,
     first: bool = False,

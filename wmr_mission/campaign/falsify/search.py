@@ -11,17 +11,17 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, Final, Protocol
 
 import numpy as np
 
+from wmr_mission.campaign.falsify import METHODS
 from wmr_mission.campaign.falsify.space import Space
 
-__all__ = ["METHODS", "RANDOM_BATCH", "SIGMA_LOCAL", "Method", "corners", "design", "make_method"]
-
-METHODS: Final = ("gp", "cmaes", "random")
+__all__ = ["RANDOM_BATCH", "SIGMA_LOCAL", "Method", "corners", "design", "make_method"]
 
 DESIGN: Final = 8
 """The fewest points of a space-filling design (more with more axes:
@@ -142,7 +142,7 @@ class CmaEs:
         counts = self.space.counts()
         options: dict[str, Any] = {
             "CMA_stds": [float(count) if count else 1.0 for count in counts],
-            "integer_variables": self.space.discrete(),
+            "integer_variables": self._integers(),
             "seed": np.nan,  # "do nothing": the generator is ours (_own_random)
             "verbose": -9,
             "verb_log": 0,
@@ -213,7 +213,11 @@ class CmaEs:
             objective + float(np.sum((np.clip(point, lower, upper) - np.array(point)) ** 2))
             for point, objective in zip(points, objectives, strict=True)
         ]
-        with self._own_random():
+        import cma
+
+        with self._own_random(), warnings.catch_warnings():
+            # the points another() drew in place of repeats were asked, never told
+            warnings.simplefilter("ignore", cma.evolution_strategy.InjectionWarning)
             self.es.tell([np.array(p) for p in points], told)
 
     def settings(self) -> dict[str, Any]:
@@ -223,8 +227,15 @@ class CmaEs:
             "popsize": self.popsize,
             "sigma0": SIGMA_LOCAL,
             "restarts": self.restarts,
-            "integer_variables": self.space.discrete(),
+            "integer_variables": self._integers(),
         }
+
+    def _integers(self) -> list[int]:
+        """The coordinates cma searches as integers: the discrete ones, but none
+        in a box of one axis, where cma's integer handling fails on its first
+        ``tell`` (an IndexError): a lone choice is searched as a number, rounded
+        to its values as any point is."""
+        return self.space.discrete() if self.space.dimension > 1 else []
 
 
 def design_size(dimension: int) -> int:
@@ -238,6 +249,8 @@ def design(space: Space, size: int, rng: np.random.Generator) -> list[list[float
     scrambling, seeded by ``rng``), a discrete coordinate rounded to its values."""
     from scipy.stats import qmc
 
+    if size == 0:
+        return []
     sobol = qmc.Sobol(space.dimension, scramble=True, seed=rng)
     points = on_values(space, qmc.scale(sobol.random(size), space.lower(), space.upper()))
     return [[float(x) for x in row] for row in points]
@@ -277,7 +290,14 @@ MODEL_BATCH: Final = 2
 
 CANDIDATES: Final = 1024
 """Sobol points of the box the model scores for each proposal, besides
-Gaussian steps about the lowest runs."""
+Gaussian steps about the lowest runs and points on its faces."""
+
+FACE_CANDIDATES: Final = 256
+"""Sobol points of each face of the box (a continuous axis at its least or
+greatest value) the model scores besides: a failure that grows with an axis
+reaches its end, as the corners' does (estimate-band's bands reach the faces
+of the largest lateral error, heading-band's the fastest speed), and the
+Sobol points of the box fall on no face."""
 
 
 class GpSearch:
@@ -296,8 +316,9 @@ class GpSearch:
         self.space = space
         self.rng = rng
         d = space.dimension
-        self.design_size = max(4, 1 << (2 * d - 1).bit_length())
         self.corners = first_corners(space)
+        # Where the corners are asked, they are the design: the model starts on them.
+        self.design_size = 0 if self.corners else max(4, 1 << (2 * d - 1).bit_length())
         self.x: list[list[float]] = []  # every point told, and its objective
         self.y: list[float] = []
         self.params: Any = None
@@ -374,7 +395,7 @@ class GpSearch:
             for i in lowest
             for scale in (0.003, 0.01, 0.03, 0.1)
         ]
-        unit = np.vstack([sobol, *local])
+        unit = np.vstack([sobol, *local, *self._on_faces()])
         points = on_values(self.space, self._lower + unit * self._width)
         discrete = self.space.discrete()  # the model scores the value a run would have
         unit[:, discrete] = (points[:, discrete] - self._lower[discrete]) / self._width[discrete]
@@ -384,6 +405,21 @@ class GpSearch:
         unit, points = unit[kept], points[kept]
         chosen = gp.most_likely_failures(unit, min(MODEL_BATCH, len(points)))
         return [[float(v) for v in points[k]] for k in chosen]
+
+    def _on_faces(self) -> list[np.ndarray]:
+        """:data:`FACE_CANDIDATES` Sobol points on each face of the unit box: one
+        continuous coordinate at 0 or at 1, the others anywhere."""
+        from scipy.stats import qmc
+
+        spread = qmc.Sobol(self.space.dimension, scramble=True, seed=self.rng)
+        points = spread.random(FACE_CANDIDATES)
+        faces = []
+        for axis, count in enumerate(self.space.counts()):
+            for end in () if count else (0.0, 1.0):
+                face = points.copy()
+                face[:, axis] = end
+                faces.append(face)
+        return faces
 
     def tell(self, points: list[list[float]], objectives: list[float]) -> None:
         self.x += points
