@@ -8,12 +8,18 @@ from __future__ import annotations
 
 import csv
 import sys
+import typing
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from pydantic import BaseModel
 from typer.testing import CliRunner
 
 from wmr_mission.cli import app
+from wmr_mission.fields import Registry
+from wmr_mission.spec.checks import ANGLE_FIELDS
+from wmr_mission.spec.models import Mission
 
 ROOT = Path(__file__).resolve().parents[1]
 INFEASIBLE = ROOT / "tests" / "data" / "infeasible"
@@ -246,3 +252,67 @@ def test_every_angle_is_checked_and_nothing_else_named_theta(tmp_path: Path) -> 
         "phases[0].track.path.start",
         "phases[0].until.heading.target",
     ]  # not the Kanayama gain k_theta = 16 [1/m]
+
+
+# Fields described in [rad] that are a spread or a size of an angle, not a
+# direction: a value beyond a full turn there is no sign of degrees.
+_SPREADS = {
+    ("StateStd", "theta"),
+    ("StatePositiveStd", "theta"),
+    ("StateThresholds", "theta"),
+    ("StateTolerance", "theta"),
+    ("HeadingCondition", "tolerance"),
+    ("Settled", "heading"),
+    ("Expect", "final_heading_error"),
+}
+
+
+def _models_below(model: type[BaseModel], seen: set[type[BaseModel]]) -> None:
+    """Every model a mission may hold below ``model``, each registry's variants too."""
+    if model in seen:
+        return
+    seen.add(model)
+
+    def found(annotation: object) -> Iterator[type[BaseModel]]:
+        if isinstance(annotation, Registry):
+            yield from (variant.settings for variant in annotation)
+        elif isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            yield annotation
+        else:
+            for argument in typing.get_args(annotation):
+                yield from found(argument)
+
+    for field in model.model_fields.values():
+        for annotation in (field.annotation, *field.metadata):
+            for below in found(annotation):
+                _models_below(below, seen)
+
+
+def test_every_field_in_radians_is_checked_for_degrees() -> None:
+    seen: set[type[BaseModel]] = set()
+    _models_below(Mission, seen)
+    in_radians = {
+        (model.__name__, name)
+        for model in seen
+        for name, field in model.model_fields.items()
+        if "[rad]" in (field.description or "") or "phi0" in (field.description or "")
+    }
+    checked = {(model.__name__, name) for model, names in ANGLE_FIELDS.items() for name in names}
+    assert in_radians - _SPREADS == checked
+    assert ("BoxRegion", "heading") in checked  # a shelf turned by its heading
+
+
+def test_a_box_heading_and_a_spiral_start_in_degrees_are_warned(tmp_path: Path) -> None:
+    text = (
+        "version: 1\nname: shelf\n" + LIMITS + "sensors: {bias: {theta: 45}}\n"
+        "regions:\n  shelf: {type: box, center: [4, 3], size: [2, 0.5], heading: 90}\n"
+        "phases:\n  - name: go\n"
+        "    track: {path: {type: spiral, center: [0, 0], initial_radius: 1, growth_rate: 0.01,"
+        " angular_rate: 0.2, start: 180}}\n"
+        "    constraints: [{stay_outside: shelf}]\n    until: {elapsed: 5}\n"
+    )
+    path = _write(tmp_path, text)
+    _, out = _validate(str(path))
+    assert f"{path}:5:25: warning: sensors.bias.theta = 45 rad" in out
+    assert f"{path}:7:63: warning: regions.shelf.heading = 90 rad is more than a full turn" in out
+    assert "phases[0].track.path.start = 180 rad is more than a full turn" in out

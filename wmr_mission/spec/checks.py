@@ -33,6 +33,7 @@ from wmr_mission.geometry.paths.coverage import CoveragePath
 from wmr_mission.geometry.paths.ellipse import EllipsePath
 from wmr_mission.geometry.paths.elliptical_spiral import EllipticalSpiralPath
 from wmr_mission.geometry.paths.line import LinePath
+from wmr_mission.geometry.paths.spiral import SpiralPath
 from wmr_mission.geometry.regions import (
     BoxRegion,
     CircleRegion,
@@ -1148,14 +1149,19 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
 # [rad] an angle beyond a full turn either way was most likely written in degrees
 FULL_TURN: Final = 2.0 * math.pi
 # The fields that hold an angle [rad], by the model that has them (a
-# `theta` elsewhere may be a gain, a pole or a standard deviation).
-_ANGLE_FIELDS: Final[dict[type[BaseModel], tuple[str, ...]]] = {
+# `theta` elsewhere may be a gain, a pole or a standard deviation); every
+# field a mission's models describe in [rad] is here or is a spread
+# (tests/test_validate_proofs.py).
+ANGLE_FIELDS: Final[dict[type[BaseModel], tuple[str, ...]]] = {
     fields.Pose: ("theta",),
+    fields.StateOffset: ("theta",),
     LinePath: ("heading",),
     CirclePath: ("start",),
     EllipsePath: ("rotation", "start"),
     EllipticalSpiralPath: ("rotation", "start"),
+    SpiralPath: ("start",),
     EllipseRegion: ("rotation",),
+    BoxRegion: ("heading",),
     CoveragePath: ("direction",),
     HeadingCondition: ("target",),
 }
@@ -1174,7 +1180,7 @@ def _angles_below(value: object, path: DataPath) -> Iterator[Finding]:
     if isinstance(value, BaseModel):
         for name in type(value).model_fields:
             item = getattr(value, name)
-            angle = name in _ANGLE_FIELDS.get(type(value), ())
+            angle = name in ANGLE_FIELDS.get(type(value), ())
             if angle and isinstance(item, float | int) and not isinstance(item, bool):
                 if abs(item) > FULL_TURN:
                     yield Finding(
