@@ -316,3 +316,27 @@ def test_a_box_heading_and_a_spiral_start_in_degrees_are_warned(tmp_path: Path) 
     assert f"{path}:5:25: warning: sensors.bias.theta = 45 rad" in out
     assert f"{path}:7:63: warning: regions.shelf.heading = 90 rad is more than a full turn" in out
     assert "phases[0].track.path.start = 180 rad is more than a full turn" in out
+
+
+@pytest.mark.parametrize(
+    ("written", "said"),
+    [
+        ("", "fail"),
+        ("    on_timeout: next\n", "next"),
+        ("    on_failure: {goto: back}\n", "goto back"),
+        ("    on_timeout: {retry: {times: 2}}\n", "retry 2, then fail"),
+    ],
+    ids=["default", "own", "on-failure", "retry"],
+)
+def test_the_phase_ending_by_its_timeout_names_the_reaction_the_run_takes(
+    tmp_path: Path, written: str, said: str
+) -> None:
+    text = (
+        "version: 1\nname: away\n" + LIMITS + "phases:\n"
+        "  - name: go\n    track: {path: {type: line, heading: 0, speed: 0.5}}\n"
+        "    until: {near: {point: [-3, 0], tolerance: 0.2}}\n    timeout: 20\n" + written + ""
+        "  - name: back\n    regulate: {target: {x: 0, y: 0, theta: 0}}\n    until: {elapsed: 5}\n"
+    )
+    _, out = _validate(str(_write(tmp_path, text)))
+    assert f"the phase will end by its timeout (on_timeout: {said})\n" in out
+    assert "None" not in out

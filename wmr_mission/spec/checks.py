@@ -61,6 +61,7 @@ from wmr_mission.spec.models import (
     TrackPhase,
     Update,
 )
+from wmr_mission.spec.reactions import Goto, Retry
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 from wmr_mission.spec.temporal import SIGNALS, parse_formula, signals_of
 
@@ -621,8 +622,24 @@ def _limits(phase: Phase, start_time: float) -> list[tuple[float, str]]:
     if until.mission_time is not None:
         limits.append((max(0.0, until.mission_time - start_time), "until.mission_time"))
     if phase.timeout is not None:
-        limits.append((phase.timeout, f"its timeout (on_timeout: {phase.on_timeout})"))
+        limits.append((phase.timeout, "its timeout"))
     return limits
+
+
+def _reaction_text(reaction: Any) -> str:
+    """A reaction as the mission writes it: ``fail``, ``goto park``, ``retry 2, then fail``."""
+    if isinstance(reaction, Goto):
+        return f"goto {reaction.goto}"
+    if isinstance(reaction, Retry):
+        return f"retry {reaction.retry.times}, then {_reaction_text(reaction.retry.then)}"
+    return str(reaction)
+
+
+def _on_timeout(mission: Mission, phase: Phase) -> str:
+    """The reaction to the phase's timeout that the run takes: its own, else
+    its on_failure, else the mission's, else fail (wmr_mission.sim.reactions)."""
+    written = (phase.on_timeout, phase.on_failure, mission.on_timeout, mission.on_failure)
+    return _reaction_text(next((r for r in written if r is not None), "fail"))
 
 
 def _bounds(phase: Phase, start_time: float) -> float:
@@ -630,9 +647,12 @@ def _bounds(phase: Phase, start_time: float) -> float:
     return min((seconds for seconds, _ in _limits(phase, start_time)), default=math.inf)
 
 
-def _limit(phase: Phase, start_time: float) -> str:
+def _limit(mission: Mission, phase: Phase, start_time: float) -> str:
     """What ends the phase first by time, in words."""
-    return min(_limits(phase, start_time), default=(math.inf, "nothing"))[1]
+    what = min(_limits(phase, start_time), default=(math.inf, "nothing"))[1]
+    if what == "its timeout":
+        what += f" (on_timeout: {_on_timeout(mission, phase)})"
+    return what
 
 
 def _ends_on_time_only(phase: Phase) -> bool:
@@ -767,7 +787,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                     (*where, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
                     f"{bound:g} s ({assumed}); the phase will end by "
-                    f"{_limit(phase, mission_time - bound)}",
+                    f"{_limit(mission, phase, mission_time - bound)}",
                     severity="warning",
                 )
         near = phase.until.near
@@ -783,7 +803,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                 (*where, "until", "near"),
                 f"the path never comes within {near.tolerance:g} m of ({near.point[0]:g}, "
                 f"{near.point[1]:g}) within the phase's bound of {bound:g} s ({assumed}); the "
-                f"phase will end by {_limit(phase, mission_time - bound)}",
+                f"phase will end by {_limit(mission, phase, mission_time - bound)}",
                 severity="warning",
             )
         yield from _path_within_limits(mission, where, phase, times[:followed], dx, dy, assumed)
@@ -1387,7 +1407,7 @@ def _in_time(
     and its turn over limits.omega: a robot turns while it drives (an arc), so
     their sum would not be a bound, and this check only says what it proves.
     """
-    if isinstance(phase, HoldPhase) or "timeout" not in _limit(phase, start_time):
+    if isinstance(phase, HoldPhase) or "timeout" not in _limit(mission, phase, start_time):
         return  # a phase that ends on time ends
     until, limits = phase.until, mission.robot.limits
     least: list[tuple[float, str]] = []
