@@ -1007,13 +1007,10 @@ def _formulas(mission: Mission) -> Iterator[Finding]:
 
 
 def _phase_colors(mission: Mission) -> Iterator[Finding]:
-    import difflib
-
     names = list(dict.fromkeys(run.phase.name for run in run_order(mission)))  # repeats once
     for name in mission.plot.phase_colors:
         if name not in names:
-            close = difflib.get_close_matches(name, names, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            hint = fields.did_you_mean(name, names)
             yield Finding(
                 ("plot", "phase_colors", name),
                 f"plot.phase_colors.{name}: no phase is named {name!r}{hint} "

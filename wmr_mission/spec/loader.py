@@ -10,7 +10,6 @@ Every problem of a file is reported at once as ``FILE:LINE:COL: message``.
 from __future__ import annotations
 
 import copy
-import difflib
 import functools
 import math
 import os
@@ -26,7 +25,14 @@ import yaml
 from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
 
-from wmr_mission.fields import ABSURD, IDENTIFIER, LARGEST_SEED, Registry, type_name
+from wmr_mission.fields import (
+    ABSURD,
+    IDENTIFIER,
+    LARGEST_SEED,
+    Registry,
+    did_you_mean,
+    type_name,
+)
 from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.spec.checks import DataPath, Finding, Severity, check
 from wmr_mission.spec.models import (
@@ -626,11 +632,6 @@ def _shown(value: Any) -> str:
     return shown(repr(value), 40)
 
 
-def _suggest(word: str, choices: Sequence[str]) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else ""
-
-
 def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -> Finding:
     """A pydantic error of a ``root`` model (a mission, a campaign) as a positioned finding."""
     finding = _translate_error(error, document, root)
@@ -666,7 +667,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
                 f"unknown field {shown(repr(key))} in {parent}: it takes no fields",
                 at_key=True,
             )
-        hint = _suggest(key, allowed) or f"; expected one of: {', '.join(allowed)}"
+        hint = did_you_mean(key, allowed) or f"; expected one of: {', '.join(allowed)}"
         return Finding(path, f"unknown field {shown(repr(key))}{hint}", at_key=True)
     if kind == "missing":
         if isinstance(loc[-1], int):
@@ -692,7 +693,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
                 at_key=True,
             )
         actions = ACTIONS if in_repeat else (*ACTIONS, "repeat")
-        hints = [_suggest(str(k), actions) for k in keys]
+        hints = [did_you_mean(str(k), actions) for k in keys]
         hint = next((h for h in hints if h), "")
         return Finding(
             path,
@@ -701,7 +702,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         )
     if kind == "constraint_kind":
         keys = [str(k) for k in value] if isinstance(value, dict) else []
-        close = [(k, _suggest(k, _CONSTRAINT_KEYS)) for k in keys]
+        close = [(k, did_you_mean(k, _CONSTRAINT_KEYS)) for k in keys]
         misspelt = next(((k, hint) for k, hint in close if hint), None)
         if misspelt is not None:
             return Finding(
@@ -717,7 +718,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         tags = _type_tags(path, data, root)
         if kind == "union_tag_not_found":
             near_type = [
-                k for k in (value if isinstance(value, dict) else {}) if _suggest(k, ["type"])
+                k for k in (value if isinstance(value, dict) else {}) if did_you_mean(k, ["type"])
             ]
             if near_type:  # `typ: ellipse`
                 return Finding(
@@ -729,7 +730,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
             return Finding(path, f"{where}: missing field 'type' (one of: {', '.join(tags)})")
         tag = str(context.get("tag", ""))
         type_path = (*path, "type") if (*path, "type") in document.values else path
-        hint = _suggest(tag, tags)
+        hint = did_you_mean(tag, tags)
         return Finding(
             type_path, f"unknown type {tag!r}{hint} (expected one of: {', '.join(tags)})"
         )
@@ -748,14 +749,14 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     if kind == "literal_error" and registry is not None:
         # The one type registered (the controller's): refused as a union refuses.
         names = list(registry.names())
-        hint = _suggest(str(value), names) if isinstance(value, str) else ""
+        hint = did_you_mean(str(value), names) if isinstance(value, str) else ""
         return Finding(
             path, f"unknown type {_shown(value)}{hint} (expected one of: {', '.join(names)})"
         )
     if kind == "literal_error":
         expected = str(context.get("expected", ""))
         choices = re.findall(r"'([^']*)'", expected)
-        hint = _suggest(str(value), choices) if isinstance(value, str) else ""
+        hint = did_you_mean(str(value), choices) if isinstance(value, str) else ""
         # A mapping's key (`output_error_bounds: {thta: ...}`): point at the key.
         at_key = loc[-1] == "[key]"
         return Finding(
@@ -1227,9 +1228,11 @@ def apply_override(document: Document, override: Override) -> str | None:
         if isinstance(current, list):
             index = _list_index(current, part)
             if index is None:
+                names = [i["name"] for i in current if isinstance(i, dict) and "name" in i]
+                hint = did_you_mean(part, map(str, names)) if isinstance(part, str) else ""
                 return (
                     f"{_where(resolved)} has {len(current)} items (0 to {len(current) - 1}), "
-                    f"no item {part!r}"
+                    f"no item {part!r}{hint}"
                 )
             resolved.append(index)
             if last:
