@@ -340,3 +340,55 @@ def test_the_phase_ending_by_its_timeout_names_the_reaction_the_run_takes(
     _, out = _validate(str(_write(tmp_path, text)))
     assert f"the phase will end by its timeout (on_timeout: {said})\n" in out
     assert "None" not in out
+
+
+KEPT_IN = """\
+version: 1
+name: yard
+robot:
+  limits: {v: 1, omega: 2}
+regions:
+  yard: {type: box, min: [-1, -2], max: [10, 2]}
+  shed: {type: circle, center: [15, 0], radius: 1}
+  lot: {type: circle, center: [0, 0], radius: 20}
+geofence: {keep_in: [lot]}
+phases:
+  - name: out
+    track: {path: {type: line, heading: 0, speed: 1}}
+    constraints: [{stay_inside: yard}]
+    until: {near: {point: [NEAR_X, 0], tolerance: 0.2}}
+    timeout: 20
+  - name: in
+    track: {path: {type: line, heading: 0, speed: 1}}
+    constraints: [{stay_inside: yard}]
+    until: {reaches: shed}
+    timeout: 20
+  - name: park
+    regulate: {target: {x: 25, y: 0, theta: 0}}
+    until: {elapsed: 5}
+"""
+
+
+def test_goals_outside_a_keep_in_region_are_unreachable(tmp_path: Path) -> None:
+    path = _write(tmp_path, KEPT_IN.replace("NEAR_X", "12"))
+    code, out = _validate(str(path))
+    assert code == 0
+    assert (
+        f"{path}:14:19: warning: (12, 0) is 2 m outside keep-in region 'yard', which the robot "
+        "keeps inside during phase 'out': no point within 0.2 m of it is inside, so until.near "
+        "can never fire\n"
+    ) in out
+    assert (
+        f"{path}:19:22: warning: region 'shed' lies wholly outside keep-in region 'yard', which "
+        "the robot keeps inside during phase 'in': until.reaches can never fire\n"
+    ) in out
+    assert (
+        f"{path}:22:24: warning: the target (25, 0) is outside keep-in region 'lot' of the "
+        "geofence: the robot cannot get there\n"
+    ) in out
+    assert out.endswith(f"{path}: ok (3 warnings)\n")
+    code, out = _validate("--strict", str(path))
+    assert code == 1
+    # a goal whose tolerance reaches into the yard is one the robot may meet
+    _, out = _validate(str(_write(tmp_path, KEPT_IN.replace("NEAR_X", "10.1"))))
+    assert "until.near can never fire" not in out

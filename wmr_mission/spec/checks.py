@@ -1245,6 +1245,38 @@ def _keep_outs(mission: Mission, phase: Phase) -> dict[str, RegionSpec]:
     return {n: mission.regions[n] for n in names if n in mission.regions} | _fenced_out(mission)
 
 
+def _fenced_in(mission: Mission) -> dict[str, RegionSpec]:
+    """The geofence's keep-in regions, kept whatever the phase."""
+    names = mission.geofence.keep_in if mission.geofence is not None else ()
+    return {n: mission.regions[n] for n in names if n in mission.regions}
+
+
+def _keep_ins(mission: Mission, phase: Phase) -> dict[str, RegionSpec]:
+    """The regions the robot keeps inside during ``phase``, every one of them
+    at once: its own and the geofence's."""
+    names = [c.stay_inside for c in phase.constraints if isinstance(c, StayInside)]
+    return {n: mission.regions[n] for n in names if n in mission.regions} | _fenced_in(mission)
+
+
+def _outside_by(region: RegionSpec, x: float, y: float) -> float:
+    """[m] how far the point (x, y) is outside ``region`` (0 inside), sampled as
+    :func:`_distance_to` is."""
+    inside = region_value(region, np.array([x]), np.array([y]))[0] <= 0.0
+    return 0.0 if inside else _distance_to(region, x, y)
+
+
+def _apart(region: RegionSpec, other: RegionSpec) -> bool:
+    """Whether two regions share no point: the boundary of each bounded one lies
+    wholly outside the other (both convex, so neither then holds the other).
+    Two half-planes are not judged."""
+    bounded = [
+        (r, o) for r, o in ((region, other), (other, region)) if not isinstance(r, HalfPlaneRegion)
+    ]
+    return bool(bounded) and all(
+        bool(np.all(region_value(o, *_boundary(r)) > 0.0)) for r, o in bounded
+    )
+
+
 def _inside(region: RegionSpec, x: ArrayLike, y: ArrayLike) -> bool:
     """Whether every point (x, y) is inside ``region`` (its boundary counts as outside)."""
     return bool(np.all(region_value(region, x, y) < 0.0))
@@ -1252,8 +1284,9 @@ def _inside(region: RegionSpec, x: ArrayLike, y: ArrayLike) -> bool:
 
 def _zones(mission: Mission) -> Iterator[Finding]:
     """A start inside a geofence's keep-out zone (inside a first phase's zone is
-    an error of its own), a regulate target inside the geofence's keep-out, and
-    an `until` region or point that lies wholly inside a zone kept out."""
+    an error of its own), a regulate target inside the geofence's keep-out or
+    outside its keep-in, and an `until` region or point that lies wholly
+    inside a zone kept out or wholly outside a region kept in."""
     start = mission.robot.initial_state
     fence = _fenced_out(mission)
     for name, zone in fence.items():
@@ -1268,7 +1301,7 @@ def _zones(mission: Mission) -> Iterator[Finding]:
         phase, where = run.phase, run.where
         if run.lap is not None and run.lap > 1:
             continue
-        zones = _keep_outs(mission, phase)
+        zones, yards = _keep_outs(mission, phase), _keep_ins(mission, phase)
         if isinstance(phase, RegulatePhase):
             target = phase.regulate.target
             for name, zone in fence.items():
@@ -1276,6 +1309,14 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                     yield Finding(
                         (*where, "regulate", "target"),
                         f"the target ({target.x:g}, {target.y:g}) is inside keep-out zone "
+                        f"{name!r} of the geofence: the robot cannot get there",
+                        severity="warning",
+                    )
+            for name, yard in _fenced_in(mission).items():
+                if _outside_by(yard, target.x, target.y) > 0.0:
+                    yield Finding(
+                        (*where, "regulate", "target"),
+                        f"the target ({target.x:g}, {target.y:g}) is outside keep-in region "
                         f"{name!r} of the geofence: the robot cannot get there",
                         severity="warning",
                     )
@@ -1292,6 +1333,15 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                         "never fire",
                         severity="warning",
                     )
+            for name, yard in yards.items():
+                if name != reaches and _apart(region, yard):
+                    yield Finding(
+                        (*where, "until", "reaches"),
+                        f"region {reaches!r} lies wholly outside keep-in region {name!r}, "
+                        f"which the robot keeps inside during phase {phase.name!r}: "
+                        "until.reaches can never fire",
+                        severity="warning",
+                    )
         near = phase.until.near
         if near is not None:
             turn = np.linspace(0.0, 2.0 * math.pi, 64, endpoint=False)
@@ -1304,6 +1354,17 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                         f"every point within {near.tolerance:g} m of ({near.point[0]:g}, "
                         f"{near.point[1]:g}) is inside keep-out zone {name!r}, which the robot "
                         f"keeps out of during phase {phase.name!r}: until.near can never fire",
+                        severity="warning",
+                    )
+            for name, yard in yards.items():
+                off = _outside_by(yard, near.point[0], near.point[1])
+                if off > near.tolerance:
+                    yield Finding(
+                        (*where, "until", "near"),
+                        f"({near.point[0]:g}, {near.point[1]:g}) is {off:.3g} m outside keep-in "
+                        f"region {name!r}, which the robot keeps inside during phase "
+                        f"{phase.name!r}: no point within {near.tolerance:g} m of it is "
+                        "inside, so until.near can never fire",
                         severity="warning",
                     )
 
