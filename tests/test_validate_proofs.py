@@ -392,3 +392,77 @@ def test_goals_outside_a_keep_in_region_are_unreachable(tmp_path: Path) -> None:
     # a goal whose tolerance reaches into the yard is one the robot may meet
     _, out = _validate(str(_write(tmp_path, KEPT_IN.replace("NEAR_X", "10.1"))))
     assert "until.near can never fire" not in out
+
+
+WALL = """\
+version: 1
+name: wall
+robot:
+  limits: {v: 1, omega: 2}
+regions:
+  yard: {type: box, min: [-1, -2], max: [10, 2]}
+  wall: {type: box, min: [4, LOW], max: [5, HIGH]}
+phases:
+  - name: go
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    constraints: [{stay_inside: yard}, {stay_outside: wall}]
+    until: {elapsed: 20}
+"""
+
+
+@pytest.mark.parametrize(("low", "high"), [("-3", "3"), ("-2", "3"), ("-3", "2.5")])
+def test_a_wall_across_the_yard_blocks_the_path_and_promises_no_way_round(
+    tmp_path: Path, low: str, high: str
+) -> None:
+    path = _write(tmp_path, WALL.replace("LOW", low).replace("HIGH", high))
+    code, out = _validate(str(path))
+    assert code == 0
+    assert (
+        f"{path}:11:55: warning: the path is blocked: it runs into keep-out zone 'wall', which "
+        "reaches out of keep-in region 'yard' on both sides of the path, so there is no way "
+        "round it during phase 'go'; the robot stops at its edge"
+    ) in out
+    assert "goes round" not in out
+    assert _validate("--strict", str(path))[0] == 1
+
+
+@pytest.mark.parametrize(
+    ("low", "high", "path_y", "said"),
+    [
+        # through the centre, room on the left, the side the rule takes: the note
+        ("-3", "1.5", "-0.75", "note: the path runs through the centre of keep-out zone 'wall'"),
+        # off the centre, room on the side away from it: a detour the mission chose
+        ("-1.5", "3", "0", None),
+        # through the centre, no room on the left: the rule's side is closed
+        (
+            "-1",
+            "3",
+            "1",
+            "warning: the robot goes round keep-out zone 'wall' on the left of the "
+            "path (by the zone filter's rule), where the zone reaches out of keep-in region 'yard'",
+        ),
+        # off the centre, no room on the side away from it
+        (
+            "-1.9",
+            "2.5",
+            "0.5",
+            "warning: the robot goes round keep-out zone 'wall' on the left of "
+            "the path (away from its centre)",
+        ),
+    ],
+    ids=["note", "detour", "rule-side-closed", "away-side-closed"],
+)
+def test_a_wall_with_room_on_one_side_is_gone_round_only_on_that_side(
+    tmp_path: Path, low: str, high: str, path_y: str, said: str | None
+) -> None:
+    text = WALL.replace("LOW", low).replace("HIGH", high)
+    text = text.replace("heading: 0,", f"heading: 0, start: [0, {path_y}],")
+    text = text.replace("  limits:", f"  initial_state: {{x: 0, y: {path_y}, theta: 0}}\n  limits:")
+    path = _write(tmp_path, text)
+    code, out = _validate(str(path))
+    assert code == 0
+    if said is None:
+        assert out == f"{path}: ok\n"
+    else:
+        assert f"{path}:12:55: {said}" in out, out
+        assert ("goes round it on the left" in out) == said.startswith("note")

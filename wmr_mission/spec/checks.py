@@ -1527,9 +1527,14 @@ def _through_centres(
     does not choose. A path that merely crosses a zone is a detour the mission
     chose: no note. A box or polygon is gone round the shorter way across, on
     the left where both are as far: its centre, for a box and any polygon as
-    long one way across as the other, is its corners' mean."""
+    long one way across as the other, is its corners' mean.
+
+    No way round where the path runs into the zone and the zone reaches out
+    of a region kept in on both sides of the path: a warning that the path is
+    blocked, in place of the note."""
     if x.size < 2:
         return
+    yards = _keep_ins(mission, phase)
     for number, constraint in enumerate(phase.constraints):
         if isinstance(constraint, StayInside):
             continue
@@ -1545,10 +1550,44 @@ def _through_centres(
             a = float(np.max(np.hypot(corners[:, 0] - cx, corners[:, 1] - cy)))
         else:
             continue
-        gap, centre_on_left = _passing(x, y, cx, cy)
+        gap, nearest = _passing(x, y, cx, cy)
+        centre_on_left = bool(_left_of(x, y, nearest, np.array([cx]), np.array([cy]))[0])
+        through = gap <= THROUGH_CENTRE * max(a, 1.0)
+        goes_left = through or not centre_on_left  # away from the centre
+        left, right = _closed_sides(zone, yards, x, y, nearest) or (None, None)
+        taken, other = (left, right) if goes_left else (right, left)
+        name = constraint.stay_outside
+        if taken is not None and other is not None:
+            sides = (
+                f"{left!r} on both sides of the path"
+                if left == right
+                else f"{left!r} on the left of the path and out of {right!r} on its right"
+            )
+            yield Finding(
+                (*where, "constraints", number, "stay_outside"),
+                f"the path is blocked: it runs into keep-out zone {name!r}, which reaches out "
+                f"of keep-in region {sides}, so there is no way round it during phase "
+                f"{phase.name!r}; the robot stops at its edge: leave room on one side, or move "
+                "the path or the zone",
+                severity="warning",
+            )
+            continue
+        if taken is not None:
+            way, away = ("left", "right") if goes_left else ("right", "left")
+            rule = "by the zone filter's rule" if through else "away from its centre"
+            yield Finding(
+                (*where, "constraints", number, "stay_outside"),
+                f"the robot goes round keep-out zone {name!r} on the {way} of the path "
+                f"({rule}), where the zone reaches out of keep-in region {taken!r}: there is "
+                f"no way round on that side during phase {phase.name!r}, and the robot stops "
+                f"at the zone's edge; move the path to the {away} of the zone's centre, "
+                "where there is room",
+                severity="warning",
+            )
+            continue
         if gap > CENTRE_SHARE * size:
             continue
-        if gap <= THROUGH_CENTRE * max(a, 1.0):
+        if through:
             side = "on the left of its direction of travel, by the zone filter's rule"
         else:
             side = (
@@ -1565,9 +1604,9 @@ def _through_centres(
         )
 
 
-def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float, bool]:
+def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float, int]:
     """Distance from (px, py) to the polyline through the samples (x, y), and
-    whether the point lies on the left of the polyline's direction there."""
+    the polyline's segment nearest the point."""
     ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
     length2 = ex * ex + ey * ey
     with np.errstate(all="ignore"):
@@ -1575,5 +1614,37 @@ def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float,
     share = np.where(length2 > 0.0, share, 0.0)
     gaps = np.hypot(ax + share * ex - px, ay + share * ey - py)
     nearest = int(np.argmin(gaps))
-    cross = ex[nearest] * (py - ay[nearest]) - ey[nearest] * (px - ax[nearest])
-    return float(gaps[nearest]), bool(cross > 0.0)
+    return float(gaps[nearest]), nearest
+
+
+def _left_of(
+    x: FloatArray, y: FloatArray, segment: int, px: FloatArray, py: FloatArray
+) -> NDArray[np.bool_]:
+    """Whether each point (px, py) lies on the left of the line through the
+    polyline's ``segment``, in its direction."""
+    ex, ey = x[segment + 1] - x[segment], y[segment + 1] - y[segment]
+    return np.asarray(ex * (py - y[segment]) - ey * (px - x[segment]) > 0.0)
+
+
+def _closed_sides(
+    zone: RegionSpec,
+    yards: dict[str, RegionSpec],
+    x: FloatArray,
+    y: FloatArray,
+    nearest: int,
+) -> tuple[str | None, str | None] | None:
+    """The keep-in region that closes the way round ``zone`` on the left of the
+    path, and the one on its right (split at its segment ``nearest`` the
+    zone's centre), None for a side with room; None when the path does not
+    run into the zone. A side is closed where a point of the zone's outline on
+    it is not inside a region kept in: the robot, going round along the
+    outline, would leave it."""
+    if not yards or not np.any(region_value(zone, x, y) < 0.0):
+        return None
+    bx, by = _boundary(zone)
+    left = _left_of(x, y, nearest, bx, by)
+    left_name, right_name = (
+        next((n for n, r in yards.items() if np.any(region_value(r, bx[s], by[s]) >= 0.0)), None)
+        for s in (left, ~left)
+    )
+    return left_name, right_name
