@@ -48,6 +48,7 @@ __all__ = [
     "Diagnostic",
     "MissionError",
     "Override",
+    "OverrideFormError",
     "check_mission",
     "check_mission_bytes",
     "check_mission_data",
@@ -1145,19 +1146,28 @@ def document_kind(text: str) -> str | None:
     return None
 
 
+class OverrideFormError(MissionError):
+    """A ``--set`` that is not PATH=VALUE with PATH a field path: a mistake of
+    the command line (a usage error, exit 2), where one whose VALUE makes the
+    mission invalid is the mission's (exit 1)."""
+
+
 def parse_override(text: str) -> Override:
     """``PATH=VALUE`` as given to ``--set``; VALUE is read as a YAML value.
 
-    Raises :class:`MissionError` naming ``--set TEXT`` when it is malformed.
+    Raises :class:`MissionError` naming ``--set TEXT`` when it is malformed,
+    :class:`OverrideFormError` when it is not PATH=VALUE at all.
     """
     source = f"--set {shown(text)}"
     dotted, equals, value_text = text.partition("=")
     if not equals:
-        raise MissionError([Diagnostic(source, 0, 0, "expected PATH=VALUE, e.g. robot.dt=0.02")])
+        raise OverrideFormError(
+            [Diagnostic(source, 0, 0, "expected PATH=VALUE, e.g. robot.dt=0.02")]
+        )
     try:
         path = parse_path(dotted.strip())
     except ValueError as error:
-        raise MissionError([Diagnostic(source, 0, 0, str(error))]) from None
+        raise OverrideFormError([Diagnostic(source, 0, 0, str(error))]) from None
     document, findings = read_value(value_text)
     if findings:
         message = "; ".join(f.message for f in findings)
@@ -1190,16 +1200,18 @@ def overrides_of(overrides: Mapping[str, Any] | None) -> list[Override]:
     return parsed
 
 
-def overrides_of_texts(texts: Sequence[str]) -> tuple[list[Override], list[Diagnostic]]:
-    """Each ``--set PATH=VALUE`` text as an override, and what is wrong with the
-    malformed ones."""
-    parsed, problems = [], []
+def overrides_of_texts(texts: Sequence[str]) -> tuple[list[Override], list[Diagnostic], int]:
+    """Each ``--set PATH=VALUE`` text as an override, what is wrong with the
+    malformed ones, and the exit code they give: 2 when one is not PATH=VALUE
+    (a usage error), else 1 (0: none is malformed)."""
+    parsed, problems, code = [], [], 0
     for text in texts:
         try:
             parsed.append(parse_override(text))
         except MissionError as error:
             problems += error.diagnostics
-    return parsed, problems
+            code = max(code, 2 if isinstance(error, OverrideFormError) else 1)
+    return parsed, problems, code
 
 
 def read_value(text: str) -> tuple[Any, list[Finding]]:
