@@ -257,12 +257,14 @@ class _Graph:
             self.errors.append(GraphError(where, f"{reaction!r} needs its argument: {form}"))
         else:
             written = ", ".join(sorted(self.spans)) or "none written"
+            names = ["fail", "next", *BUILT_IN_CONTINGENCIES, *sorted(self.spans)]
+            hint = did_you_mean(str(reaction), names)
             self.errors.append(
                 GraphError(
                     where,
                     f"{reaction!r} is not a reaction: fail, next, a contingency's name "
                     f"(hold, return-home; this mission's: {written}), {{goto: PHASE}} or "
-                    "{retry: {times: N}}",
+                    f"{{retry: {{times: N}}}}{hint}",
                 )
             )
 
