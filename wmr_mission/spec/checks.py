@@ -1530,8 +1530,8 @@ def _through_centres(
     long one way across as the other, is its corners' mean.
 
     No way round where the path runs into the zone and the zone reaches out
-    of a region kept in on both sides of the path: a warning that the path is
-    blocked, in place of the note."""
+    of a region kept in on the side the robot takes: a warning in place of
+    the note, that the path is blocked when it does so on both sides."""
     if x.size < 2:
         return
     yards = _keep_ins(mission, phase)
