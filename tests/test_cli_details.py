@@ -146,26 +146,50 @@ def test_set_overrides_a_field_and_the_manifest_records_it(tmp_path: Path) -> No
 
 
 @pytest.mark.parametrize(
-    ("setting", "message"),
+    ("setting", "message", "exit_code"),
     [
-        ("robot.dt=-1", "--set robot.dt=-1: robot.dt: should be greater than 0, got -1"),
-        ("robot.dtt=1", "--set robot.dtt=1: robot.dtt: unknown field 'dtt'; did you mean 'dt'?"),
-        ("robot.dt", "--set robot.dt: expected PATH=VALUE, e.g. robot.dt=0.02"),
-        ("robot.dt=[1,", "--set robot.dt=[1,: VALUE is not a YAML value: YAML syntax error"),
-        ("phases[3].timeout=1", "--set phases[3].timeout=1: phases has 1 items (0 to 0)"),
-        ("name.x=1", "--set name.x=1: name is a str, not a mapping: it has no field 'x'"),
-        ("robot..dt=1", "--set robot..dt=1: 'robot..dt' is not a field path"),
-        ("robot.dt=!!python/none 1", "--set robot.dt=!!python/none 1: VALUE is not a YAML value"),
+        ("robot.dt=-1", "--set robot.dt=-1: robot.dt: should be greater than 0, got -1", 1),
+        (
+            "robot.dtt=1",
+            "--set robot.dtt=1: robot.dtt: unknown field 'dtt'; did you mean 'dt'?",
+            1,
+        ),
+        ("robot.dt=[1,", "--set robot.dt=[1,: VALUE is not a YAML value: YAML syntax error", 1),
+        ("phases[3].timeout=1", "--set phases[3].timeout=1: phases has 1 items (0 to 0)", 1),
+        ("name.x=1", "--set name.x=1: name is a str, not a mapping: it has no field 'x'", 1),
+        (
+            "robot.dt=!!python/none 1",
+            "--set robot.dt=!!python/none 1: VALUE is not a YAML value",
+            1,
+        ),
+        # not PATH=VALUE at all: the command line's mistake, a usage error
+        ("robot.dt", "--set robot.dt: expected PATH=VALUE, e.g. robot.dt=0.02", 2),
+        ("robot..dt=1", "--set robot..dt=1: 'robot..dt' is not a field path", 2),
     ],
 )
-def test_a_bad_set_names_itself_and_the_field(setting: str, message: str, tmp_path: Path) -> None:
+def test_a_bad_set_names_itself_and_the_field(
+    setting: str, message: str, exit_code: int, tmp_path: Path
+) -> None:
     code, _, err = _invoke(
         "run", str(VALID / "minimal.yaml"), "--out", str(tmp_path / "r"), "--set", setting
     )
-    assert code == 1
+    assert code == exit_code
     assert err.startswith(message), err
     assert "Traceback" not in err
     assert not (tmp_path / "r").exists()  # nothing ran
+
+
+@pytest.mark.parametrize(("setting", "exit_code"), [("robot.dt", 2), ("robot.dt=-1", 1)])
+def test_a_sweep_set_gives_the_exit_code_a_run_set_does(
+    setting: str, exit_code: int, tmp_path: Path
+) -> None:
+    campaign = ROOT / "tests" / "data" / "campaigns" / "valid" / "grid_only.yaml"
+    code, _, err = _invoke(
+        "sweep", str(campaign), "--out", str(tmp_path / "c"), "--set", setting, "--no-plots"
+    )
+    assert code == exit_code, err
+    assert err.startswith(f"--set {setting}: "), err
+    assert not (tmp_path / "c").exists()
 
 
 @pytest.mark.slow

@@ -8,12 +8,18 @@ from __future__ import annotations
 
 import csv
 import sys
+import typing
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from pydantic import BaseModel
 from typer.testing import CliRunner
 
 from wmr_mission.cli import app
+from wmr_mission.fields import Registry
+from wmr_mission.spec.checks import ANGLE_FIELDS
+from wmr_mission.spec.models import Mission
 
 ROOT = Path(__file__).resolve().parents[1]
 INFEASIBLE = ROOT / "tests" / "data" / "infeasible"
@@ -246,3 +252,217 @@ def test_every_angle_is_checked_and_nothing_else_named_theta(tmp_path: Path) -> 
         "phases[0].track.path.start",
         "phases[0].until.heading.target",
     ]  # not the Kanayama gain k_theta = 16 [1/m]
+
+
+# Fields described in [rad] that are a spread or a size of an angle, not a
+# direction: a value beyond a full turn there is no sign of degrees.
+_SPREADS = {
+    ("StateStd", "theta"),
+    ("StatePositiveStd", "theta"),
+    ("StateThresholds", "theta"),
+    ("StateTolerance", "theta"),
+    ("HeadingCondition", "tolerance"),
+    ("Settled", "heading"),
+    ("Expect", "final_heading_error"),
+}
+
+
+def _models_below(model: type[BaseModel], seen: set[type[BaseModel]]) -> None:
+    """Every model a mission may hold below ``model``, each registry's variants too."""
+    if model in seen:
+        return
+    seen.add(model)
+
+    def found(annotation: object) -> Iterator[type[BaseModel]]:
+        if isinstance(annotation, Registry):
+            yield from (variant.settings for variant in annotation)
+        elif isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            yield annotation
+        else:
+            for argument in typing.get_args(annotation):
+                yield from found(argument)
+
+    for field in model.model_fields.values():
+        for annotation in (field.annotation, *field.metadata):
+            for below in found(annotation):
+                _models_below(below, seen)
+
+
+def test_every_field_in_radians_is_checked_for_degrees() -> None:
+    seen: set[type[BaseModel]] = set()
+    _models_below(Mission, seen)
+    in_radians = {
+        (model.__name__, name)
+        for model in seen
+        for name, field in model.model_fields.items()
+        if "[rad]" in (field.description or "") or "phi0" in (field.description or "")
+    }
+    checked = {(model.__name__, name) for model, names in ANGLE_FIELDS.items() for name in names}
+    assert in_radians - _SPREADS == checked
+    assert ("BoxRegion", "heading") in checked  # a shelf turned by its heading
+
+
+def test_a_box_heading_and_a_spiral_start_in_degrees_are_warned(tmp_path: Path) -> None:
+    text = (
+        "version: 1\nname: shelf\n" + LIMITS + "sensors: {bias: {theta: 45}}\n"
+        "regions:\n  shelf: {type: box, center: [4, 3], size: [2, 0.5], heading: 90}\n"
+        "phases:\n  - name: go\n"
+        "    track: {path: {type: spiral, center: [0, 0], initial_radius: 1, growth_rate: 0.01,"
+        " angular_rate: 0.2, start: 180}}\n"
+        "    constraints: [{stay_outside: shelf}]\n    until: {elapsed: 5}\n"
+    )
+    path = _write(tmp_path, text)
+    _, out = _validate(str(path))
+    assert f"{path}:5:25: warning: sensors.bias.theta = 45 rad" in out
+    assert f"{path}:7:63: warning: regions.shelf.heading = 90 rad is more than a full turn" in out
+    assert "phases[0].track.path.start = 180 rad is more than a full turn" in out
+
+
+@pytest.mark.parametrize(
+    ("written", "said"),
+    [
+        ("", "fail"),
+        ("    on_timeout: next\n", "next"),
+        ("    on_failure: {goto: back}\n", "goto back"),
+        ("    on_timeout: {retry: {times: 2}}\n", "retry 2, then fail"),
+    ],
+    ids=["default", "own", "on-failure", "retry"],
+)
+def test_the_phase_ending_by_its_timeout_names_the_reaction_the_run_takes(
+    tmp_path: Path, written: str, said: str
+) -> None:
+    text = (
+        "version: 1\nname: away\n" + LIMITS + "phases:\n"
+        "  - name: go\n    track: {path: {type: line, heading: 0, speed: 0.5}}\n"
+        "    until: {near: {point: [-3, 0], tolerance: 0.2}}\n    timeout: 20\n" + written + ""
+        "  - name: back\n    regulate: {target: {x: 0, y: 0, theta: 0}}\n    until: {elapsed: 5}\n"
+    )
+    _, out = _validate(str(_write(tmp_path, text)))
+    assert f"the phase will end by its timeout (on_timeout: {said})\n" in out
+    assert "None" not in out
+
+
+KEPT_IN = """\
+version: 1
+name: yard
+robot:
+  limits: {v: 1, omega: 2}
+regions:
+  yard: {type: box, min: [-1, -2], max: [10, 2]}
+  shed: {type: circle, center: [15, 0], radius: 1}
+  lot: {type: circle, center: [0, 0], radius: 20}
+geofence: {keep_in: [lot]}
+phases:
+  - name: out
+    track: {path: {type: line, heading: 0, speed: 1}}
+    constraints: [{stay_inside: yard}]
+    until: {near: {point: [NEAR_X, 0], tolerance: 0.2}}
+    timeout: 20
+  - name: in
+    track: {path: {type: line, heading: 0, speed: 1}}
+    constraints: [{stay_inside: yard}]
+    until: {reaches: shed}
+    timeout: 20
+  - name: park
+    regulate: {target: {x: 25, y: 0, theta: 0}}
+    until: {elapsed: 5}
+"""
+
+
+def test_goals_outside_a_keep_in_region_are_unreachable(tmp_path: Path) -> None:
+    path = _write(tmp_path, KEPT_IN.replace("NEAR_X", "12"))
+    code, out = _validate(str(path))
+    assert code == 0
+    assert (
+        f"{path}:14:19: warning: (12, 0) is 2 m outside keep-in region 'yard', which the robot "
+        "keeps inside during phase 'out': no point within 0.2 m of it is inside, so until.near "
+        "can never fire\n"
+    ) in out
+    assert (
+        f"{path}:19:22: warning: region 'shed' lies wholly outside keep-in region 'yard', which "
+        "the robot keeps inside during phase 'in': until.reaches can never fire\n"
+    ) in out
+    assert (
+        f"{path}:22:24: warning: the target (25, 0) is outside keep-in region 'lot' of the "
+        "geofence: the robot cannot get there\n"
+    ) in out
+    assert out.endswith(f"{path}: ok (3 warnings)\n")
+    code, out = _validate("--strict", str(path))
+    assert code == 1
+    # a goal whose tolerance reaches into the yard is one the robot may meet
+    _, out = _validate(str(_write(tmp_path, KEPT_IN.replace("NEAR_X", "10.1"))))
+    assert "until.near can never fire" not in out
+
+
+WALL = """\
+version: 1
+name: wall
+robot:
+  limits: {v: 1, omega: 2}
+regions:
+  yard: {type: box, min: [-1, -2], max: [10, 2]}
+  wall: {type: box, min: [4, LOW], max: [5, HIGH]}
+phases:
+  - name: go
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    constraints: [{stay_inside: yard}, {stay_outside: wall}]
+    until: {elapsed: 20}
+"""
+
+
+@pytest.mark.parametrize(("low", "high"), [("-3", "3"), ("-2", "3"), ("-3", "2.5")])
+def test_a_wall_across_the_yard_blocks_the_path_and_promises_no_way_round(
+    tmp_path: Path, low: str, high: str
+) -> None:
+    path = _write(tmp_path, WALL.replace("LOW", low).replace("HIGH", high))
+    code, out = _validate(str(path))
+    assert code == 0
+    assert (
+        f"{path}:11:55: warning: the path is blocked: it runs into keep-out zone 'wall', which "
+        "reaches out of keep-in region 'yard' on both sides of the path, so there is no way "
+        "round it during phase 'go'; the robot stops at its edge"
+    ) in out
+    assert "goes round" not in out
+    assert _validate("--strict", str(path))[0] == 1
+
+
+@pytest.mark.parametrize(
+    ("low", "high", "path_y", "said"),
+    [
+        # through the centre, room on the left, the side the rule takes: the note
+        ("-3", "1.5", "-0.75", "note: the path runs through the centre of keep-out zone 'wall'"),
+        # off the centre, room on the side away from it: a detour the mission chose
+        ("-1.5", "3", "0", None),
+        # through the centre, no room on the left: the rule's side is closed
+        (
+            "-1",
+            "3",
+            "1",
+            "warning: the robot goes round keep-out zone 'wall' on the left of the "
+            "path (by the zone filter's rule), where the zone reaches out of keep-in region 'yard'",
+        ),
+        # off the centre, no room on the side away from it
+        (
+            "-1.9",
+            "2.5",
+            "0.5",
+            "warning: the robot goes round keep-out zone 'wall' on the left of "
+            "the path (away from its centre)",
+        ),
+    ],
+    ids=["note", "detour", "rule-side-closed", "away-side-closed"],
+)
+def test_a_wall_with_room_on_one_side_is_gone_round_only_on_that_side(
+    tmp_path: Path, low: str, high: str, path_y: str, said: str | None
+) -> None:
+    text = WALL.replace("LOW", low).replace("HIGH", high)
+    text = text.replace("heading: 0,", f"heading: 0, start: [0, {path_y}],")
+    text = text.replace("  limits:", f"  initial_state: {{x: 0, y: {path_y}, theta: 0}}\n  limits:")
+    path = _write(tmp_path, text)
+    code, out = _validate(str(path))
+    assert code == 0
+    if said is None:
+        assert out == f"{path}: ok\n"
+    else:
+        assert f"{path}:12:55: {said}" in out, out
+        assert ("goes round it on the left" in out) == said.startswith("note")

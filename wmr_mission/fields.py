@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import typing
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from typing import Annotated, Any, Final, Generic, Literal, Protocol, TypeVar
 
 from pydantic import (
@@ -211,16 +211,21 @@ StartAngle = Annotated[
 Point = tuple[Scalar, Scalar]
 
 
+def did_you_mean(word: str, names: Iterable[str]) -> str:
+    """``; did you mean 'NAME'?`` for the name nearest a misspelt ``word``, else ''."""
+    import difflib
+
+    close = difflib.get_close_matches(word, list(names), n=1)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
 def _known_region(name: str, info: ValidationInfo) -> str:
     """With a loader context, a region reference must name a declared region."""
     context = info.context
     if isinstance(context, dict) and isinstance(context.get("regions"), list | tuple):
         declared: list[str] = list(context["regions"])
         if name not in declared:
-            import difflib
-
-            close = difflib.get_close_matches(name, declared, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            hint = did_you_mean(name, declared)
             known = ", ".join(repr(n) for n in declared) or "none"
             raise PydanticCustomError(
                 "undefined_region",

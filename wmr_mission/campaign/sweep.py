@@ -759,11 +759,11 @@ def _sweep(
     setting_texts: Sequence[str] = (),
 ) -> int:
     started = time.perf_counter()
-    settings, problems = overrides_of_texts(setting_texts)
+    settings, problems, code = overrides_of_texts(setting_texts)
     for problem in problems:
         print(problem, file=sys.stderr)
     if problems:
-        return EXIT_FAILED
+        return code
     loaded, diagnostics = check_campaign(campaign_path, settings)
     if loaded is None and _is_mission(campaign_path):
         print(

@@ -41,14 +41,15 @@ EXIT_RUN_DIR = 2  # the run directory cannot be made or written
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
-def _overrides(texts: Sequence[str]) -> list[Override] | None:
-    """Each ``--set PATH=VALUE``; None (the problems printed) when one is malformed."""
+def _overrides(texts: Sequence[str]) -> list[Override] | int:
+    """Each ``--set PATH=VALUE``; the exit code (the problems printed) when one
+    is malformed: 2 when it is not PATH=VALUE, 1 when its VALUE is not one."""
     from wmr_mission.spec.loader import overrides_of_texts
 
-    parsed, problems = overrides_of_texts(texts)
+    parsed, problems, code = overrides_of_texts(texts)
     for problem in problems:
         print(problem, file=sys.stderr)
-    return None if problems else parsed
+    return code if problems else parsed
 
 
 @contextmanager
@@ -103,8 +104,8 @@ def run_command(
 
         try:
             parsed = _overrides(overrides)
-            if parsed is None:
-                return EXIT_FAILED
+            if isinstance(parsed, int):
+                return parsed
             # The file is read once: the bytes hashed are the bytes run.
             source, diagnostics = read_source(mission_path)
             mission = None

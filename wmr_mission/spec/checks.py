@@ -33,6 +33,7 @@ from wmr_mission.geometry.paths.coverage import CoveragePath
 from wmr_mission.geometry.paths.ellipse import EllipsePath
 from wmr_mission.geometry.paths.elliptical_spiral import EllipticalSpiralPath
 from wmr_mission.geometry.paths.line import LinePath
+from wmr_mission.geometry.paths.spiral import SpiralPath
 from wmr_mission.geometry.regions import (
     BoxRegion,
     CircleRegion,
@@ -60,6 +61,7 @@ from wmr_mission.spec.models import (
     TrackPhase,
     Update,
 )
+from wmr_mission.spec.reactions import Goto, Retry
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 from wmr_mission.spec.temporal import SIGNALS, parse_formula, signals_of
 
@@ -620,8 +622,24 @@ def _limits(phase: Phase, start_time: float) -> list[tuple[float, str]]:
     if until.mission_time is not None:
         limits.append((max(0.0, until.mission_time - start_time), "until.mission_time"))
     if phase.timeout is not None:
-        limits.append((phase.timeout, f"its timeout (on_timeout: {phase.on_timeout})"))
+        limits.append((phase.timeout, "its timeout"))
     return limits
+
+
+def _reaction_text(reaction: Any) -> str:
+    """A reaction as the mission writes it: ``fail``, ``goto park``, ``retry 2, then fail``."""
+    if isinstance(reaction, Goto):
+        return f"goto {reaction.goto}"
+    if isinstance(reaction, Retry):
+        return f"retry {reaction.retry.times}, then {_reaction_text(reaction.retry.then)}"
+    return str(reaction)
+
+
+def _on_timeout(mission: Mission, phase: Phase) -> str:
+    """The reaction to the phase's timeout that the run takes: its own, else
+    its on_failure, else the mission's, else fail (wmr_mission.sim.reactions)."""
+    written = (phase.on_timeout, phase.on_failure, mission.on_timeout, mission.on_failure)
+    return _reaction_text(next((r for r in written if r is not None), "fail"))
 
 
 def _bounds(phase: Phase, start_time: float) -> float:
@@ -629,9 +647,12 @@ def _bounds(phase: Phase, start_time: float) -> float:
     return min((seconds for seconds, _ in _limits(phase, start_time)), default=math.inf)
 
 
-def _limit(phase: Phase, start_time: float) -> str:
+def _limit(mission: Mission, phase: Phase, start_time: float) -> str:
     """What ends the phase first by time, in words."""
-    return min(_limits(phase, start_time), default=(math.inf, "nothing"))[1]
+    what = min(_limits(phase, start_time), default=(math.inf, "nothing"))[1]
+    if what == "its timeout":
+        what += f" (on_timeout: {_on_timeout(mission, phase)})"
+    return what
 
 
 def _ends_on_time_only(phase: Phase) -> bool:
@@ -766,7 +787,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                     (*where, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
                     f"{bound:g} s ({assumed}); the phase will end by "
-                    f"{_limit(phase, mission_time - bound)}",
+                    f"{_limit(mission, phase, mission_time - bound)}",
                     severity="warning",
                 )
         near = phase.until.near
@@ -782,7 +803,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                 (*where, "until", "near"),
                 f"the path never comes within {near.tolerance:g} m of ({near.point[0]:g}, "
                 f"{near.point[1]:g}) within the phase's bound of {bound:g} s ({assumed}); the "
-                f"phase will end by {_limit(phase, mission_time - bound)}",
+                f"phase will end by {_limit(mission, phase, mission_time - bound)}",
                 severity="warning",
             )
         yield from _path_within_limits(mission, where, phase, times[:followed], dx, dy, assumed)
@@ -986,13 +1007,10 @@ def _formulas(mission: Mission) -> Iterator[Finding]:
 
 
 def _phase_colors(mission: Mission) -> Iterator[Finding]:
-    import difflib
-
     names = list(dict.fromkeys(run.phase.name for run in run_order(mission)))  # repeats once
     for name in mission.plot.phase_colors:
         if name not in names:
-            close = difflib.get_close_matches(name, names, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            hint = fields.did_you_mean(name, names)
             yield Finding(
                 ("plot", "phase_colors", name),
                 f"plot.phase_colors.{name}: no phase is named {name!r}{hint} "
@@ -1148,14 +1166,19 @@ def _disturbances(mission: Mission) -> Iterator[Finding]:
 # [rad] an angle beyond a full turn either way was most likely written in degrees
 FULL_TURN: Final = 2.0 * math.pi
 # The fields that hold an angle [rad], by the model that has them (a
-# `theta` elsewhere may be a gain, a pole or a standard deviation).
-_ANGLE_FIELDS: Final[dict[type[BaseModel], tuple[str, ...]]] = {
+# `theta` elsewhere may be a gain, a pole or a standard deviation); every
+# field a mission's models describe in [rad] is here or is a spread
+# (tests/test_validate_proofs.py).
+ANGLE_FIELDS: Final[dict[type[BaseModel], tuple[str, ...]]] = {
     fields.Pose: ("theta",),
+    fields.StateOffset: ("theta",),
     LinePath: ("heading",),
     CirclePath: ("start",),
     EllipsePath: ("rotation", "start"),
     EllipticalSpiralPath: ("rotation", "start"),
+    SpiralPath: ("start",),
     EllipseRegion: ("rotation",),
+    BoxRegion: ("heading",),
     CoveragePath: ("direction",),
     HeadingCondition: ("target",),
 }
@@ -1174,7 +1197,7 @@ def _angles_below(value: object, path: DataPath) -> Iterator[Finding]:
     if isinstance(value, BaseModel):
         for name in type(value).model_fields:
             item = getattr(value, name)
-            angle = name in _ANGLE_FIELDS.get(type(value), ())
+            angle = name in ANGLE_FIELDS.get(type(value), ())
             if angle and isinstance(item, float | int) and not isinstance(item, bool):
                 if abs(item) > FULL_TURN:
                     yield Finding(
@@ -1222,6 +1245,38 @@ def _keep_outs(mission: Mission, phase: Phase) -> dict[str, RegionSpec]:
     return {n: mission.regions[n] for n in names if n in mission.regions} | _fenced_out(mission)
 
 
+def _fenced_in(mission: Mission) -> dict[str, RegionSpec]:
+    """The geofence's keep-in regions, kept whatever the phase."""
+    names = mission.geofence.keep_in if mission.geofence is not None else ()
+    return {n: mission.regions[n] for n in names if n in mission.regions}
+
+
+def _keep_ins(mission: Mission, phase: Phase) -> dict[str, RegionSpec]:
+    """The regions the robot keeps inside during ``phase``, every one of them
+    at once: its own and the geofence's."""
+    names = [c.stay_inside for c in phase.constraints if isinstance(c, StayInside)]
+    return {n: mission.regions[n] for n in names if n in mission.regions} | _fenced_in(mission)
+
+
+def _outside_by(region: RegionSpec, x: float, y: float) -> float:
+    """[m] how far the point (x, y) is outside ``region`` (0 inside), sampled as
+    :func:`_distance_to` is."""
+    inside = region_value(region, np.array([x]), np.array([y]))[0] <= 0.0
+    return 0.0 if inside else _distance_to(region, x, y)
+
+
+def _apart(region: RegionSpec, other: RegionSpec) -> bool:
+    """Whether two regions share no point: the boundary of each bounded one lies
+    wholly outside the other (both convex, so neither then holds the other).
+    Two half-planes are not judged."""
+    bounded = [
+        (r, o) for r, o in ((region, other), (other, region)) if not isinstance(r, HalfPlaneRegion)
+    ]
+    return bool(bounded) and all(
+        bool(np.all(region_value(o, *_boundary(r)) > 0.0)) for r, o in bounded
+    )
+
+
 def _inside(region: RegionSpec, x: ArrayLike, y: ArrayLike) -> bool:
     """Whether every point (x, y) is inside ``region`` (its boundary counts as outside)."""
     return bool(np.all(region_value(region, x, y) < 0.0))
@@ -1229,8 +1284,9 @@ def _inside(region: RegionSpec, x: ArrayLike, y: ArrayLike) -> bool:
 
 def _zones(mission: Mission) -> Iterator[Finding]:
     """A start inside a geofence's keep-out zone (inside a first phase's zone is
-    an error of its own), a regulate target inside the geofence's keep-out, and
-    an `until` region or point that lies wholly inside a zone kept out."""
+    an error of its own), a regulate target inside the geofence's keep-out or
+    outside its keep-in, and an `until` region or point that lies wholly
+    inside a zone kept out or wholly outside a region kept in."""
     start = mission.robot.initial_state
     fence = _fenced_out(mission)
     for name, zone in fence.items():
@@ -1245,7 +1301,7 @@ def _zones(mission: Mission) -> Iterator[Finding]:
         phase, where = run.phase, run.where
         if run.lap is not None and run.lap > 1:
             continue
-        zones = _keep_outs(mission, phase)
+        zones, yards = _keep_outs(mission, phase), _keep_ins(mission, phase)
         if isinstance(phase, RegulatePhase):
             target = phase.regulate.target
             for name, zone in fence.items():
@@ -1253,6 +1309,14 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                     yield Finding(
                         (*where, "regulate", "target"),
                         f"the target ({target.x:g}, {target.y:g}) is inside keep-out zone "
+                        f"{name!r} of the geofence: the robot cannot get there",
+                        severity="warning",
+                    )
+            for name, yard in _fenced_in(mission).items():
+                if _outside_by(yard, target.x, target.y) > 0.0:
+                    yield Finding(
+                        (*where, "regulate", "target"),
+                        f"the target ({target.x:g}, {target.y:g}) is outside keep-in region "
                         f"{name!r} of the geofence: the robot cannot get there",
                         severity="warning",
                     )
@@ -1269,6 +1333,15 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                         "never fire",
                         severity="warning",
                     )
+            for name, yard in yards.items():
+                if name != reaches and _apart(region, yard):
+                    yield Finding(
+                        (*where, "until", "reaches"),
+                        f"region {reaches!r} lies wholly outside keep-in region {name!r}, "
+                        f"which the robot keeps inside during phase {phase.name!r}: "
+                        "until.reaches can never fire",
+                        severity="warning",
+                    )
         near = phase.until.near
         if near is not None:
             turn = np.linspace(0.0, 2.0 * math.pi, 64, endpoint=False)
@@ -1281,6 +1354,17 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                         f"every point within {near.tolerance:g} m of ({near.point[0]:g}, "
                         f"{near.point[1]:g}) is inside keep-out zone {name!r}, which the robot "
                         f"keeps out of during phase {phase.name!r}: until.near can never fire",
+                        severity="warning",
+                    )
+            for name, yard in yards.items():
+                off = _outside_by(yard, near.point[0], near.point[1])
+                if off > near.tolerance:
+                    yield Finding(
+                        (*where, "until", "near"),
+                        f"({near.point[0]:g}, {near.point[1]:g}) is {off:.3g} m outside keep-in "
+                        f"region {name!r}, which the robot keeps inside during phase "
+                        f"{phase.name!r}: no point within {near.tolerance:g} m of it is "
+                        "inside, so until.near can never fire",
                         severity="warning",
                     )
 
@@ -1381,7 +1465,7 @@ def _in_time(
     and its turn over limits.omega: a robot turns while it drives (an arc), so
     their sum would not be a bound, and this check only says what it proves.
     """
-    if isinstance(phase, HoldPhase) or "timeout" not in _limit(phase, start_time):
+    if isinstance(phase, HoldPhase) or "timeout" not in _limit(mission, phase, start_time):
         return  # a phase that ends on time ends
     until, limits = phase.until, mission.robot.limits
     least: list[tuple[float, str]] = []
@@ -1443,9 +1527,14 @@ def _through_centres(
     does not choose. A path that merely crosses a zone is a detour the mission
     chose: no note. A box or polygon is gone round the shorter way across, on
     the left where both are as far: its centre, for a box and any polygon as
-    long one way across as the other, is its corners' mean."""
+    long one way across as the other, is its corners' mean.
+
+    No way round where the path runs into the zone and the zone reaches out
+    of a region kept in on the side the robot takes: a warning in place of
+    the note, that the path is blocked when it does so on both sides."""
     if x.size < 2:
         return
+    yards = _keep_ins(mission, phase)
     for number, constraint in enumerate(phase.constraints):
         if isinstance(constraint, StayInside):
             continue
@@ -1461,10 +1550,44 @@ def _through_centres(
             a = float(np.max(np.hypot(corners[:, 0] - cx, corners[:, 1] - cy)))
         else:
             continue
-        gap, centre_on_left = _passing(x, y, cx, cy)
+        gap, nearest = _passing(x, y, cx, cy)
+        centre_on_left = bool(_left_of(x, y, nearest, np.array([cx]), np.array([cy]))[0])
+        through = gap <= THROUGH_CENTRE * max(a, 1.0)
+        goes_left = through or not centre_on_left  # away from the centre
+        left, right = _closed_sides(zone, yards, x, y, nearest) or (None, None)
+        taken, other = (left, right) if goes_left else (right, left)
+        name = constraint.stay_outside
+        if taken is not None and other is not None:
+            sides = (
+                f"{left!r} on both sides of the path"
+                if left == right
+                else f"{left!r} on the left of the path and out of {right!r} on its right"
+            )
+            yield Finding(
+                (*where, "constraints", number, "stay_outside"),
+                f"the path is blocked: it runs into keep-out zone {name!r}, which reaches out "
+                f"of keep-in region {sides}, so there is no way round it during phase "
+                f"{phase.name!r}; the robot stops at its edge: leave room on one side, or move "
+                "the path or the zone",
+                severity="warning",
+            )
+            continue
+        if taken is not None:
+            way, away = ("left", "right") if goes_left else ("right", "left")
+            rule = "by the zone filter's rule" if through else "away from its centre"
+            yield Finding(
+                (*where, "constraints", number, "stay_outside"),
+                f"the robot goes round keep-out zone {name!r} on the {way} of the path "
+                f"({rule}), where the zone reaches out of keep-in region {taken!r}: there is "
+                f"no way round on that side during phase {phase.name!r}, and the robot stops "
+                f"at the zone's edge; move the path to the {away} of the zone's centre, "
+                "where there is room",
+                severity="warning",
+            )
+            continue
         if gap > CENTRE_SHARE * size:
             continue
-        if gap <= THROUGH_CENTRE * max(a, 1.0):
+        if through:
             side = "on the left of its direction of travel, by the zone filter's rule"
         else:
             side = (
@@ -1481,9 +1604,9 @@ def _through_centres(
         )
 
 
-def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float, bool]:
+def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float, int]:
     """Distance from (px, py) to the polyline through the samples (x, y), and
-    whether the point lies on the left of the polyline's direction there."""
+    the polyline's segment nearest the point."""
     ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
     length2 = ex * ex + ey * ey
     with np.errstate(all="ignore"):
@@ -1491,5 +1614,37 @@ def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float,
     share = np.where(length2 > 0.0, share, 0.0)
     gaps = np.hypot(ax + share * ex - px, ay + share * ey - py)
     nearest = int(np.argmin(gaps))
-    cross = ex[nearest] * (py - ay[nearest]) - ey[nearest] * (px - ax[nearest])
-    return float(gaps[nearest]), bool(cross > 0.0)
+    return float(gaps[nearest]), nearest
+
+
+def _left_of(
+    x: FloatArray, y: FloatArray, segment: int, px: FloatArray, py: FloatArray
+) -> NDArray[np.bool_]:
+    """Whether each point (px, py) lies on the left of the line through the
+    polyline's ``segment``, in its direction."""
+    ex, ey = x[segment + 1] - x[segment], y[segment + 1] - y[segment]
+    return np.asarray(ex * (py - y[segment]) - ey * (px - x[segment]) > 0.0)
+
+
+def _closed_sides(
+    zone: RegionSpec,
+    yards: dict[str, RegionSpec],
+    x: FloatArray,
+    y: FloatArray,
+    nearest: int,
+) -> tuple[str | None, str | None] | None:
+    """The keep-in region that closes the way round ``zone`` on the left of the
+    path, and the one on its right (split at its segment ``nearest`` the
+    zone's centre), None for a side with room; None when the path does not
+    run into the zone. A side is closed where a point of the zone's outline on
+    it is not inside a region kept in: the robot, going round along the
+    outline, would leave it."""
+    if not yards or not np.any(region_value(zone, x, y) < 0.0):
+        return None
+    bx, by = _boundary(zone)
+    left = _left_of(x, y, nearest, bx, by)
+    left_name, right_name = (
+        next((n for n, r in yards.items() if np.any(region_value(r, bx[s], by[s]) >= 0.0)), None)
+        for s in (left, ~left)
+    )
+    return left_name, right_name

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any, Final
 
 from wmr_mission.basics import samples
+from wmr_mission.fields import did_you_mean
 from wmr_mission.spec.models import Contingency, Mission, Phase
 from wmr_mission.spec.reactions import BUILT_IN_CONTINGENCIES, BUILT_IN_TIMEOUT, Goto, Retry
 from wmr_mission.spec.repeats import DataPath, run_order
@@ -109,7 +110,8 @@ class _Graph:
             why = f"phase {name!r} belongs to a contingency; a goto enters a mission phase"
         else:
             names = ", ".join(sorted(self.top)) or "none"
-            why = f"no phase is named {name!r} (phases a goto may enter: {names})"
+            hint = did_you_mean(name, sorted(self.top))
+            why = f"no phase is named {name!r}{hint} (phases a goto may enter: {names})"
         self.errors.append(GraphError((*where, "goto"), why))
         return None
 
@@ -255,12 +257,14 @@ class _Graph:
             self.errors.append(GraphError(where, f"{reaction!r} needs its argument: {form}"))
         else:
             written = ", ".join(sorted(self.spans)) or "none written"
+            names = ["fail", "next", *BUILT_IN_CONTINGENCIES, *sorted(self.spans)]
+            hint = did_you_mean(str(reaction), names)
             self.errors.append(
                 GraphError(
                     where,
                     f"{reaction!r} is not a reaction: fail, next, a contingency's name "
                     f"(hold, return-home; this mission's: {written}), {{goto: PHASE}} or "
-                    "{retry: {times: N}}",
+                    f"{{retry: {{times: N}}}}{hint}",
                 )
             )
 

@@ -10,7 +10,6 @@ Every problem of a file is reported at once as ``FILE:LINE:COL: message``.
 from __future__ import annotations
 
 import copy
-import difflib
 import functools
 import math
 import os
@@ -26,7 +25,14 @@ import yaml
 from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
 
-from wmr_mission.fields import ABSURD, IDENTIFIER, LARGEST_SEED, Registry, type_name
+from wmr_mission.fields import (
+    ABSURD,
+    IDENTIFIER,
+    LARGEST_SEED,
+    Registry,
+    did_you_mean,
+    type_name,
+)
 from wmr_mission.geometry.regions import RegionSpec
 from wmr_mission.spec.checks import DataPath, Finding, Severity, check
 from wmr_mission.spec.models import (
@@ -42,6 +48,7 @@ __all__ = [
     "Diagnostic",
     "MissionError",
     "Override",
+    "OverrideFormError",
     "check_mission",
     "check_mission_bytes",
     "check_mission_data",
@@ -626,11 +633,6 @@ def _shown(value: Any) -> str:
     return shown(repr(value), 40)
 
 
-def _suggest(word: str, choices: Sequence[str]) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else ""
-
-
 def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -> Finding:
     """A pydantic error of a ``root`` model (a mission, a campaign) as a positioned finding."""
     finding = _translate_error(error, document, root)
@@ -666,7 +668,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
                 f"unknown field {shown(repr(key))} in {parent}: it takes no fields",
                 at_key=True,
             )
-        hint = _suggest(key, allowed) or f"; expected one of: {', '.join(allowed)}"
+        hint = did_you_mean(key, allowed) or f"; expected one of: {', '.join(allowed)}"
         return Finding(path, f"unknown field {shown(repr(key))}{hint}", at_key=True)
     if kind == "missing":
         if isinstance(loc[-1], int):
@@ -692,7 +694,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
                 at_key=True,
             )
         actions = ACTIONS if in_repeat else (*ACTIONS, "repeat")
-        hints = [_suggest(str(k), actions) for k in keys]
+        hints = [did_you_mean(str(k), actions) for k in keys]
         hint = next((h for h in hints if h), "")
         return Finding(
             path,
@@ -701,7 +703,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         )
     if kind == "constraint_kind":
         keys = [str(k) for k in value] if isinstance(value, dict) else []
-        close = [(k, _suggest(k, _CONSTRAINT_KEYS)) for k in keys]
+        close = [(k, did_you_mean(k, _CONSTRAINT_KEYS)) for k in keys]
         misspelt = next(((k, hint) for k, hint in close if hint), None)
         if misspelt is not None:
             return Finding(
@@ -717,7 +719,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         tags = _type_tags(path, data, root)
         if kind == "union_tag_not_found":
             near_type = [
-                k for k in (value if isinstance(value, dict) else {}) if _suggest(k, ["type"])
+                k for k in (value if isinstance(value, dict) else {}) if did_you_mean(k, ["type"])
             ]
             if near_type:  # `typ: ellipse`
                 return Finding(
@@ -729,7 +731,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
             return Finding(path, f"{where}: missing field 'type' (one of: {', '.join(tags)})")
         tag = str(context.get("tag", ""))
         type_path = (*path, "type") if (*path, "type") in document.values else path
-        hint = _suggest(tag, tags)
+        hint = did_you_mean(tag, tags)
         return Finding(
             type_path, f"unknown type {tag!r}{hint} (expected one of: {', '.join(tags)})"
         )
@@ -748,14 +750,14 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     if kind == "literal_error" and registry is not None:
         # The one type registered (the controller's): refused as a union refuses.
         names = list(registry.names())
-        hint = _suggest(str(value), names) if isinstance(value, str) else ""
+        hint = did_you_mean(str(value), names) if isinstance(value, str) else ""
         return Finding(
             path, f"unknown type {_shown(value)}{hint} (expected one of: {', '.join(names)})"
         )
     if kind == "literal_error":
         expected = str(context.get("expected", ""))
         choices = re.findall(r"'([^']*)'", expected)
-        hint = _suggest(str(value), choices) if isinstance(value, str) else ""
+        hint = did_you_mean(str(value), choices) if isinstance(value, str) else ""
         # A mapping's key (`output_error_bounds: {thta: ...}`): point at the key.
         at_key = loc[-1] == "[key]"
         return Finding(
@@ -1144,19 +1146,28 @@ def document_kind(text: str) -> str | None:
     return None
 
 
+class OverrideFormError(MissionError):
+    """A ``--set`` that is not PATH=VALUE with PATH a field path: a mistake of
+    the command line (a usage error, exit 2), where one whose VALUE makes the
+    mission invalid is the mission's (exit 1)."""
+
+
 def parse_override(text: str) -> Override:
     """``PATH=VALUE`` as given to ``--set``; VALUE is read as a YAML value.
 
-    Raises :class:`MissionError` naming ``--set TEXT`` when it is malformed.
+    Raises :class:`MissionError` naming ``--set TEXT`` when it is malformed,
+    :class:`OverrideFormError` when it is not PATH=VALUE at all.
     """
     source = f"--set {shown(text)}"
     dotted, equals, value_text = text.partition("=")
     if not equals:
-        raise MissionError([Diagnostic(source, 0, 0, "expected PATH=VALUE, e.g. robot.dt=0.02")])
+        raise OverrideFormError(
+            [Diagnostic(source, 0, 0, "expected PATH=VALUE, e.g. robot.dt=0.02")]
+        )
     try:
         path = parse_path(dotted.strip())
     except ValueError as error:
-        raise MissionError([Diagnostic(source, 0, 0, str(error))]) from None
+        raise OverrideFormError([Diagnostic(source, 0, 0, str(error))]) from None
     document, findings = read_value(value_text)
     if findings:
         message = "; ".join(f.message for f in findings)
@@ -1189,16 +1200,18 @@ def overrides_of(overrides: Mapping[str, Any] | None) -> list[Override]:
     return parsed
 
 
-def overrides_of_texts(texts: Sequence[str]) -> tuple[list[Override], list[Diagnostic]]:
-    """Each ``--set PATH=VALUE`` text as an override, and what is wrong with the
-    malformed ones."""
-    parsed, problems = [], []
+def overrides_of_texts(texts: Sequence[str]) -> tuple[list[Override], list[Diagnostic], int]:
+    """Each ``--set PATH=VALUE`` text as an override, what is wrong with the
+    malformed ones, and the exit code they give: 2 when one is not PATH=VALUE
+    (a usage error), else 1 (0: none is malformed)."""
+    parsed, problems, code = [], [], 0
     for text in texts:
         try:
             parsed.append(parse_override(text))
         except MissionError as error:
             problems += error.diagnostics
-    return parsed, problems
+            code = max(code, 2 if isinstance(error, OverrideFormError) else 1)
+    return parsed, problems, code
 
 
 def read_value(text: str) -> tuple[Any, list[Finding]]:
@@ -1227,9 +1240,11 @@ def apply_override(document: Document, override: Override) -> str | None:
         if isinstance(current, list):
             index = _list_index(current, part)
             if index is None:
+                names = [i["name"] for i in current if isinstance(i, dict) and "name" in i]
+                hint = did_you_mean(part, map(str, names)) if isinstance(part, str) else ""
                 return (
                     f"{_where(resolved)} has {len(current)} items (0 to {len(current) - 1}), "
-                    f"no item {part!r}"
+                    f"no item {part!r}{hint}"
                 )
             resolved.append(index)
             if last:
