@@ -116,8 +116,8 @@ def warm_up(loaded: LoadedCampaign, workers: int | None = None) -> float:
     Dask cluster). Where each of them would judge enough samples for the
     judge's compiled passes to pay (jit.JUDGED_COMPILED_FROM), they are loaded
     here too, before the workers fork: each finds them loaded instead of
-    loading them itself after judging its first rows with numpy's forms (the
-    same bits), some 0.08 s of a worker's CPU."""
+    loading them itself (0.03-0.05 s) after judging its first rows with
+    numpy's forms, the same bits at a higher cost (docs/performance.md)."""
     plan = Plan(loaded.campaign)
     first = run_row(loaded, plan.draw(0))  # compiles (or loads the cache of) every kernel it uses
     if workers is not None and len(plan) * first.samples >= workers * jit.JUDGED_COMPILED_FROM:
