@@ -922,3 +922,23 @@ def test_a_replay_line_runs_from_the_campaign_directory_and_from_anywhere(
         done = CliRunner().invoke(app, [*words[1:], "--out", "replayed", "--no-plots"])
         assert done.exit_code in (0, 1), done.stderr
         assert (where / "replayed" / "trajectory.csv").read_bytes() == kept
+
+
+@pytest.mark.parametrize(
+    ("runs", "workers", "loaded_here"),
+    [(2000, 2, True), (2000, None, False), (20, 2, False)],
+)
+def test_the_judges_passes_are_loaded_before_the_workers_where_they_pay(
+    monkeypatch: pytest.MonkeyPatch, runs: int, workers: int | None, loaded_here: bool
+) -> None:
+    # case 2's runs have about 3 200 samples: 2000 of them on 2 workers judge
+    # far beyond JUDGED_COMPILED_FROM each, so the passes load before the
+    # fork; 20 do not, and a Dask cluster's workers (None) fork from nothing
+    from wmr_mission.campaign.engine import warm_up
+
+    monkeypatch.setattr(jit._state, "judged", 0)
+    loaded = load_campaign(ROOT / "missions" / "campaigns" / "case2-headings.yaml")
+    loaded.campaign = loaded.campaign.model_copy(update={"runs": runs})
+    warm_up(loaded, workers)
+    counted = jit._state.judged  # the warm-up's own runs, at most 3 of them
+    assert (counted >= jit.JUDGED_COMPILED_FROM) is loaded_here

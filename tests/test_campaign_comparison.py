@@ -94,3 +94,25 @@ def test_one_error_has_one_name() -> None:
     assert [m for m in COMPARISON_METRICS if m in named] == ["reference_error_rms"]
     # the per-phase jitter is another number than the whole run's
     assert named["turn_rate_jitter"] != [values["run_turn_rate_jitter"]]
+
+
+@pytest.mark.parametrize(
+    "distance",
+    [
+        [0.3, 1e-9, 2.5e-4, 0.7071067811865476, 3e-160, 12.0],
+        [math.nan, 0.1, math.inf, 0.2, -math.inf, 1e-300],
+        [math.nan, math.inf],
+        [],
+    ],
+)
+def test_a_runs_rms_error_is_the_judges_to_the_bit(distance: list[float]) -> None:
+    # the row's reference_error_rms sums a list of floats, the judge's an
+    # array: the same exact sum (math.fsum), the same bits or both None
+    from wmr_mission.campaign.comparison import _rms
+    from wmr_mission.verdicts.metrics import reference_error
+
+    values = np.array(distance, dtype=np.float64)
+    assert _rms(values) == reference_error(values)
+    rng = np.random.default_rng(7)
+    many = np.abs(rng.normal(0.0, 0.05, 5000)) ** rng.uniform(0.5, 3.0, 5000)
+    assert _rms(many) == reference_error(many)

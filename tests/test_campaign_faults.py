@@ -189,7 +189,7 @@ def test_a_signal_before_the_first_run_leaves_nothing(
     """Stopped while compiling (the warm-up), a sweep has run nothing: it
     removes its directory, so that the same --out can be used again."""
 
-    def stopped(loaded: Any) -> float:
+    def stopped(loaded: Any, *_: Any) -> float:
         os.kill(os.getpid(), signal.SIGTERM)
         raise AssertionError("SIGTERM did not stop the warm-up")
 

@@ -26,15 +26,17 @@ They are cheap (no distance to the whole path), so every campaign row has them.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any, Final
 
 import numpy as np
 
+from wmr_mission.basics import FloatArray
 from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import DEFAULT_SETTLE_TIME
 from wmr_mission.verdicts.inputs import jitter
-from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE, reference_distance, reference_error
+from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE, reference_distance
 from wmr_mission.verdicts.numbers import mission_numbers
 
 # Each with its unit (runs.csv's, the figures' axes).
@@ -75,20 +77,20 @@ def _reference_error(result: RunResult, settle_time: float) -> tuple[float | Non
     time to settle within SETTLED_WITHIN) over the track phases' samples."""
     # Each track phase's rows, by one comparison per phase: np.isin sorts the
     # column, several times the cost of the few phases a mission has.
-    track = [result.phase == i for i, phase in enumerate(result.phases) if phase.kind == "track"]
     tracked = np.zeros(result.samples, dtype=bool)
-    for rows_of_phase in track:
-        tracked |= rows_of_phase
+    settled = np.zeros(result.samples, dtype=bool)
+    for i, phase in enumerate(result.phases):
+        if phase.kind != "track":
+            continue
+        rows = np.flatnonzero(result.phase == i)
+        if rows.size:
+            tracked[rows] = True
+            settled[rows] = result.t[rows] - result.t[rows[0]] >= settle_time - 1e-9 * result.dt
     tracked &= np.isfinite(result.x_ref)
     if not tracked.any():
         return None, None
     error = reference_distance(result.x, result.y, result.x_ref, result.y_ref)
-    settled = np.zeros(result.samples, dtype=bool)
-    for rows_of_phase in track:
-        rows = np.flatnonzero(rows_of_phase)
-        if rows.size:
-            settled[rows] = result.t[rows] - result.t[rows[0]] >= settle_time - 1e-9 * result.dt
-    rms = reference_error(error[tracked & settled])
+    rms = _rms(error[tracked & settled])
     samples = np.flatnonzero(tracked)
     outside = samples[error[samples] > SETTLED_WITHIN]
     if outside.size == 0:
@@ -97,3 +99,13 @@ def _reference_error(result: RunResult, settle_time: float) -> tuple[float | Non
         return rms, None  # not settled by the end
     after = samples[np.searchsorted(samples, outside[-1]) + 1]
     return rms, round(float(result.t[after] - result.t[samples[0]]), 9)
+
+
+def _rms(distance: FloatArray) -> float | None:
+    """``reference_error`` of the judge (an exact sum of the finite ones'
+    squares), summing Python's floats: ``math.fsum`` reads them faster from
+    a list than from an array, the same correctly rounded sum."""
+    distance = distance[np.isfinite(distance)]
+    if distance.size == 0:
+        return None
+    return math.sqrt(math.fsum((distance * distance).tolist()) / distance.size)

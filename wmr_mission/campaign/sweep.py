@@ -213,7 +213,7 @@ def _execute(
     fault: _Fault | None = None
     started = time.perf_counter()
     progress.step("starting")  # the kernels loaded, a run timed, the workers started
-    seconds_per_run = warm_up(loaded)
+    seconds_per_run = warm_up(loaded, None if scheduler is not None else workers)
     load_early = (
         plots
         and runs_file is not None
