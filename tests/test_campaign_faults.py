@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import ctypes
 import errno
 import hashlib
 import json
@@ -754,6 +755,61 @@ def test_bench_stops_on_a_signal(tmp_path: Path, number: int, code: int) -> None
     name = "Ctrl-C" if number == signal.SIGINT else "SIGTERM"
     assert f"interrupted by {name}; nothing timed" in one_line(stderr.decode())
     assert stdout == b""
+
+
+def _stop_inside_a_callback_from_c() -> None:
+    """SIGINT raised inside a ctypes callback, as numba's compiler calls
+    llvmlite's: Python cannot propagate it and reports it as unraisable."""
+    ctypes.CFUNCTYPE(None)(lambda: os.kill(os.getpid(), signal.SIGINT))()
+
+
+def test_a_stop_raised_inside_a_callback_from_c_is_owed_and_not_reported(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Seen with a cold kernel cache under load: a stop during a compile
+    printed "Exception ignored on calling ctypes callback function ...
+    KeyboardInterrupt" and its traceback above the command's one line."""
+    from wmr_mission.stopping import STOP_SIGNALS, StopSignals, stop_owed
+
+    with StopSignals(STOP_SIGNALS) as stop:
+        _stop_inside_a_callback_from_c()
+        assert stop_owed()
+    assert stop.name == "Ctrl-C"
+    assert "Exception ignored" not in capsys.readouterr().err
+
+
+def test_sweep_and_falsify_take_a_stop_their_warm_up_could_not_raise(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A stop that came inside numba's compiler during the warm-up was owed
+    but not raised: each stops before its first run, as a stop raised there does."""
+    from wmr_mission.campaign import sweep
+    from wmr_mission.campaign.falsify import command
+
+    def stopped_while_compiling(real: Any) -> Any:
+        def warm_up(*args: Any, **kwargs: Any) -> Any:
+            _stop_inside_a_callback_from_c()
+            return real(*args, **kwargs)
+
+        return warm_up
+
+    monkeypatch.setattr(sweep, "warm_up", stopped_while_compiling(sweep.warm_up))
+    monkeypatch.setattr(command, "_warm_up", stopped_while_compiling(command._warm_up))
+    campaign = campaign_file(tmp_path, 4)
+    code = sweep.sweep_command(
+        campaign, out=tmp_path / "sweep", workers=1, scheduler=None, plots=False
+    )
+    assert code == 130
+    code = command.falsify_command(
+        campaign, budget=4, method="random", seed=0, objective=None, first=False,
+        workers=1, scheduler=None, out=tmp_path / "falsify", plots=False,
+    )  # fmt: skip
+    assert code == 130
+    err = capsys.readouterr().err
+    assert "Exception ignored" not in err
+    assert err.count("interrupted by Ctrl-C before the first run; nothing was written") == 2
+    assert not (tmp_path / "sweep").exists()
+    assert not (tmp_path / "falsify").exists()
 
 
 # --- 11. positions of characters that are no characters --------------------------------

@@ -21,6 +21,11 @@ chunks of samples (wmr_mission.sim.runner), so no stop is ever lost.
 :func:`mode` sets the mode of every active :class:`StopSignals` but a
 campaign's for a stretch of code.
 
+A stop raised where Python cannot propagate it, inside a callback from C
+(numba compiling a kernel calls llvmlite's ctypes callbacks), is dropped
+there without the "Exception ignored" report Python would print; it is owed
+all the same.
+
 The command then exits 128 + the first signal's number (130, 143), as a
 shell reports it. Outside the main thread (a library call from a thread)
 signals cannot be handled and stay as they are.
@@ -29,6 +34,7 @@ signals cannot be handled and stay as they are.
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -62,6 +68,9 @@ class StopSignals:
     def __enter__(self) -> StopSignals:
         if threading.current_thread() is threading.main_thread():
             self._previous = {n: signal.signal(n, self._on_signal) for n in self.signals}
+            if not _active:
+                _hooks.append(sys.unraisablehook)
+                sys.unraisablehook = _owed_stop_is_not_reported
             _active.append(self)
         return self
 
@@ -70,6 +79,8 @@ class StopSignals:
             signal.signal(number, handler)
         if self._previous:
             _active.remove(self)
+            if not _active:
+                sys.unraisablehook = _hooks.pop()
         self._previous = {}
 
     @property
@@ -103,6 +114,19 @@ class StopSignals:
 
 # The StopSignals active in the main thread, the innermost last.
 _active: list[StopSignals] = []
+# sys.unraisablehook as it was before the first of them.
+_hooks: list[Callable[[Any], object]] = []
+
+
+def _owed_stop_is_not_reported(unraisable: Any) -> None:
+    """A stop raised where it cannot propagate, inside a callback from C (numba
+    compiling or loading a kernel calls llvmlite's ctypes callbacks), is
+    dropped there: Python would print it as "Exception ignored ...
+    KeyboardInterrupt" with a traceback. It is owed all the same, and taken
+    at the command's next :func:`stop_owed`. Anything else is reported as before."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) and any(s.owed for s in _active):
+        return
+    (_hooks[-1] if _hooks else sys.__unraisablehook__)(unraisable)
 
 
 def stop_owed() -> bool:

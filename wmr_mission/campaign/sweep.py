@@ -62,7 +62,7 @@ from wmr_mission.output.rundir import (
 from wmr_mission.spec import catalog
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import overrides_of, overrides_of_texts
-from wmr_mission.stopping import GENTLE, HOLD, RAISE, StopSignals
+from wmr_mission.stopping import GENTLE, HOLD, RAISE, StopSignals, stop_owed
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
 
@@ -214,6 +214,8 @@ def _execute(
     started = time.perf_counter()
     progress.step("starting")  # the kernels loaded, a run timed, the workers started
     seconds_per_run = warm_up(loaded, None if scheduler is not None else workers)
+    if stop_owed():  # raised inside numba's compiler, where it could not propagate
+        raise KeyboardInterrupt  # before the first run: nothing to keep
     load_early = (
         plots
         and runs_file is not None

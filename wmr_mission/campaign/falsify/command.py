@@ -55,7 +55,7 @@ from wmr_mission.output.rundir import (
     prepare_run_dir,
 )
 from wmr_mission.spec.checks import importing_entries
-from wmr_mission.stopping import GENTLE, HOLD, StopSignals
+from wmr_mission.stopping import GENTLE, HOLD, StopSignals, stop_owed
 
 __all__ = ["DEFAULT_BUDGET", "FalsifyResult", "UsageError", "falsify_campaign", "falsify_command"]
 
@@ -248,6 +248,8 @@ def _falsify(
     try:
         progress.step("starting")  # the kernels loaded, the objective's check found
         _warm_up(loaded, space, settings)
+        if stop_owed():  # raised inside numba's compiler, where it could not propagate
+            raise KeyboardInterrupt  # before the first run: nothing to keep
         if out_dir is not None:
             write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(_manifest(loaded)).encode())
         rows = None if out_dir is None else EvaluationsFile(out_dir / EVALUATIONS_FILE, space.paths)
@@ -470,6 +472,9 @@ def _command(
         _discard(out_dir)
         print(error, file=sys.stderr)
         return EXIT_USAGE
+    except KeyboardInterrupt:  # stopped before its first run: "nothing was written"
+        _discard(out_dir)
+        raise
     print(_report(record, out_dir, time.perf_counter() - started))
     if record["interrupted"]:
         print(
