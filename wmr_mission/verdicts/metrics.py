@@ -34,6 +34,7 @@ from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.advice import advice
 from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.clearance import clearance_min
+from wmr_mission.verdicts.exact_sum import PARTIALS, finite_squares_sum
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.passes import largest_finite
@@ -153,7 +154,14 @@ def reference_distance(
 
 def reference_error(distance: FloatArray) -> float | None:
     """``reference_error_rms`` [m] of the distances to the reference point
-    counted, the finite ones (an exact sum: no pairwise one); None without any."""
+    counted, the finite ones (an exact sum: no pairwise one); None without any.
+    Compiled, one pass: the same float (verdicts/exact_sum.py)."""
+    if jit.judging_compiled():
+        total, count = jit.compiled(finite_squares_sum)(distance, np.empty(PARTIALS))
+        if count == 0:
+            return None
+        if not math.isnan(total):  # else math.fsum decides, as below
+            return math.sqrt(total / count)
     distance = distance[np.isfinite(distance)]
     if distance.size == 0:
         return None
