@@ -8,7 +8,10 @@ operations at a time (each caller keeps that form beside its call).
   (wmr_mission.verdicts.regulation);
 - the depth beyond an ellipse zone, and its bounds (wmr_mission.verdicts.zones);
 - the largest finite value of a phase's column, scaled or its magnitude
-  (wmr_mission.verdicts.metrics), with no copy of it.
+  (wmr_mission.verdicts.metrics), with no copy of it;
+- the run's estimation errors, the heading's wrapped
+  (wmr_mission.verdicts.metrics), and the first sample whose estimate is
+  within its tolerance (wmr_mission.verdicts.inputs).
 
 The same numbers: the same operations in the same order, numpy's ``max``
 (NaN if any is) and ``searchsorted`` as loops, a square as a product (as
@@ -31,6 +34,8 @@ from wmr_mission.kernels.jit import inlined, kernel
 __all__ = [
     "ellipse_bounds",
     "ellipse_depth",
+    "estimation_error_pass",
+    "first_within",
     "input_pass",
     "jitter_median",
     "largest_finite",
@@ -56,6 +61,47 @@ def largest_finite(
             if abs(value) < math.inf and not value <= found:  # found NaN: none yet
                 found = value
     return found
+
+
+@kernel
+def estimation_error_pass(
+    true: tuple[FloatArray, FloatArray, FloatArray],
+    estimate: tuple[FloatArray, FloatArray, FloatArray],
+    errors: tuple[FloatArray, FloatArray, FloatArray],
+) -> None:
+    """True minus estimated x, y and heading of each sample into ``errors``,
+    the heading's wrapped to [-pi, pi) as ``metrics.wrap_angle`` wraps it (a
+    float's ``%`` is numpy's: the C library's fmod, the sign of the divisor)."""
+    x, y, theta = true
+    x_est, y_est, theta_est = estimate
+    ex, ey, etheta = errors
+    for k in range(x.size):
+        ex[k] = x[k] - x_est[k]
+        ey[k] = y[k] - y_est[k]
+        etheta[k] = (theta[k] - theta_est[k] + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@kernel
+def first_within(
+    errors: tuple[FloatArray, FloatArray, FloatArray],
+    tolerance: tuple[float, float, float],
+    near: float,
+) -> int:
+    """The first sample whose position errors are within the ellipse of their
+    tolerances and whose heading error within its own (-1: none), as
+    ``inputs.first_judged`` finds it: ``hypot`` (the C library's, as numpy's)
+    only where the squares' sum is within ``near`` of 1."""
+    ex, ey, etheta = errors
+    for k in range(ex.size):
+        a, b = ex[k] / tolerance[0], ey[k] / tolerance[1]
+        squared = a * a + b * b
+        if abs(squared - 1.0) < near:
+            within = np.hypot(a, b) <= 1.0
+        else:
+            within = squared <= 1.0 - near
+        if within and abs(etheta[k]) <= tolerance[2]:
+            return k
+    return -1
 
 
 @kernel
