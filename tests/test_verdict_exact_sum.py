@@ -50,7 +50,8 @@ def test_the_half_way_point_across_partials_rounds_as_fsum_rounds_it() -> None:
     values = np.array([3.0, 2.0**-25, 2.0**-52])
     squares = [float(v) * float(v) for v in values]
     assert math.fsum(squares) == 9.0 + 2.0**-49
-    assert sum(squares) == 9.0 and _neumaier(squares) == 9.0
+    assert sum(squares) == 9.0
+    assert _neumaier(squares) == 9.0
     for order in ([0, 1, 2], [2, 1, 0], [1, 0, 2], [2, 0, 1]):
         _same(values[order])
 
@@ -98,7 +99,8 @@ def test_what_overflows_is_left_to_fsum(values: list[float]) -> None:
     for form in _forms():
         with np.errstate(over="ignore"):  # as plain Python: numpy's scalars warn of it
             total, count = form(np.array(values), np.empty(PARTIALS))  # type: ignore[operator]
-        assert math.isnan(total) and count > 0
+        assert math.isnan(total)
+        assert count > 0
 
 
 def test_too_few_partials_are_left_to_fsum() -> None:

@@ -241,7 +241,9 @@ def test_the_estimation_passes_have_the_numpy_forms_bits(monkeypatch: pytest.Mon
         found = judged()
     assert np.all(found[0]["theta"][np.isfinite(theta)] >= -math.pi)
     assert np.all(found[0]["theta"][np.isfinite(theta)] < math.pi)
-    assert found[3] == t[1] and found[4] == t[1] and found[5] is None
+    assert found[3] == t[1]
+    assert found[4] == t[1]
+    assert found[5] is None
     assert found[2] is not None
 
 

@@ -95,10 +95,8 @@ def first_within(
     for k in range(ex.size):
         a, b = ex[k] / tolerance[0], ey[k] / tolerance[1]
         squared = a * a + b * b
-        if abs(squared - 1.0) < near:
-            within = np.hypot(a, b) <= 1.0
-        else:
-            within = squared <= 1.0 - near
+        # the C library's hypot (as numpy's) only near the edge
+        within = np.hypot(a, b) <= 1.0 if abs(squared - 1.0) < near else squared <= 1.0 - near
         if within and abs(etheta[k]) <= tolerance[2]:
             return k
     return -1
