@@ -1,4 +1,4 @@
-"""The compiled exact sum of squares (wmr_mission/verdicts/exact_sum.py) gives
+"""The compiled exact sum of squares (wmr_mission/verdicts/passes.py) gives
 the float ``math.fsum`` gives, compiled and as plain Python, on sums that a sum
 in order, a compensated (Neumaier) sum or a pairwise one rounds differently;
 ``reference_error`` gives the same bits through it as through ``math.fsum``."""
@@ -12,7 +12,7 @@ import pytest
 
 from wmr_mission.kernels import jit
 from wmr_mission.verdicts import metrics
-from wmr_mission.verdicts.exact_sum import PARTIALS, finite_squares_sum
+from wmr_mission.verdicts.passes import PARTIALS, finite_squares_sum
 
 
 def _forms() -> list[object]:

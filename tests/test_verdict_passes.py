@@ -265,7 +265,6 @@ def test_judging_the_compile_commands_warm_up_calls_every_pass(
     with _counted(monkeypatch, compiled=False) as called:
         judge(result, mission)
     assert set(passes.__all__) <= set(called)
-    assert "finite_squares_sum" in called  # verdicts/exact_sum.py's, too
 
 
 @pytest.mark.parametrize("offset", [1e-300, 1e-17, -1e-17])

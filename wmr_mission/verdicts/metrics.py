@@ -34,10 +34,14 @@ from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.advice import advice
 from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.clearance import clearance_min
-from wmr_mission.verdicts.exact_sum import PARTIALS, finite_squares_sum
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
-from wmr_mission.verdicts.passes import estimation_error_pass, largest_finite
+from wmr_mission.verdicts.passes import (
+    PARTIALS,
+    estimation_error_pass,
+    finite_squares_sum,
+    largest_finite,
+)
 from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
@@ -155,7 +159,7 @@ def reference_distance(
 def reference_error(distance: FloatArray) -> float | None:
     """``reference_error_rms`` [m] of the distances to the reference point
     counted, the finite ones (an exact sum: no pairwise one); None without any.
-    Compiled, one pass: the same float (verdicts/exact_sum.py)."""
+    Compiled, one pass: the same float (verdicts/passes.py)."""
     if jit.judging_compiled():
         total, count = jit.compiled(finite_squares_sum)(distance, np.empty(PARTIALS))
         if count == 0:
