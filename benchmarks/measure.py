@@ -1416,9 +1416,8 @@ def judge_cost(repeat: int = 40, pairs: int = 5) -> None:
         with open(f"{tmp}/runs.pickle", "wb") as file:
             pickle.dump((runs, hour), file)
         envs = [_user_env()]
-        if against is not None:
-            os.mkdir(f"{tmp}/then")
-            envs.append({**_user_env(), "PYTHONPATH": _checkout(against, f"{tmp}/then")})
+        if against is not None:  # its kernels compiled once, its passes loaded as now's are
+            envs.append(_compiled_at(against))
         found: list[list[list[float]]] = [[] for _ in envs]
         for _ in range(pairs):
             for env, values in zip(envs, found, strict=True):

@@ -190,6 +190,63 @@ def test_the_largest_finite_pass_has_the_numpy_forms_bits(monkeypatch: pytest.Mo
     assert found[5] is None
 
 
+def test_the_estimation_passes_have_the_numpy_forms_bits(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The run's estimation errors (headings wrapped from many turns away, at
+    pi exactly, NaN and infinite) and the first sample within the tolerances,
+    found by samples on the edge of the position's ellipse (where hypot
+    decides) and by one within it whose heading is not."""
+    from types import SimpleNamespace
+
+    from wmr_mission.verdicts import metrics
+    from wmr_mission.verdicts.inputs import first_judged
+
+    rng = np.random.default_rng(11)
+    samples = 400
+    t = np.arange(samples) * 0.01
+    x, y = rng.normal(0.0, 1.0, samples), rng.normal(0.0, 1.0, samples)
+    theta = rng.uniform(-40.0, 40.0, samples)
+    theta_est = theta - rng.choice([math.pi, -math.pi, 0.3, 7.0, 1e6], samples)
+    theta_est[250:] = theta[250:] - 1e-4  # converged in the end
+    theta[[5, 6]] = math.nan, math.inf
+    x_est = x - rng.normal(0.0, 0.5, samples) * np.exp(-t)
+    y_est = y - rng.normal(0.0, 0.5, samples) * np.exp(-t)
+    result = SimpleNamespace(x=x, y=y, theta=theta, x_est=x_est, y_est=y_est, theta_est=theta_est)
+    numbers = mission_numbers(None, 0.01, (1.0, 2.0))
+    tolerance = numbers.convergence_tolerance
+    on_edge = {"x": np.zeros(3), "y": np.zeros(3), "theta": np.zeros(3)}
+    on_edge["x"][:2] = tolerance["x"] * (1.0 + np.array([4e-10, -4e-10]))  # beyond, within
+    on_edge["theta"][0] = 0.0
+    heading_off = {
+        "x": np.zeros(2),
+        "y": np.zeros(2),
+        "theta": np.array([2.0, 0.0]) * tolerance["theta"],
+    }
+
+    def judged() -> list[Any]:
+        errors = metrics.estimation_errors(result)  # type: ignore[arg-type]
+        part = metrics.estimation_errors(result, slice(100, 300))  # type: ignore[arg-type]
+        return [
+            errors,
+            part,
+            first_judged(t, errors, numbers),
+            first_judged(t[:3], on_edge, numbers),
+            first_judged(t[:2], heading_off, numbers),
+            first_judged(t[:2], {s: e[:2] for s, e in heading_off.items()} | {"x": np.ones(2)},
+                         numbers),
+        ]  # fmt: skip
+
+    with np.errstate(invalid="ignore"):  # numpy's remainder of inf warns
+        _both(monkeypatch, judged, "estimation_error_pass")
+        _both(monkeypatch, judged, "first_within")
+        found = judged()
+    assert np.all(found[0]["theta"][np.isfinite(theta)] >= -math.pi)
+    assert np.all(found[0]["theta"][np.isfinite(theta)] < math.pi)
+    assert found[3] == t[1]
+    assert found[4] == t[1]
+    assert found[5] is None
+    assert found[2] is not None
+
+
 def test_judging_the_compile_commands_warm_up_calls_every_pass(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
 from wmr_mission.verdicts.numbers import MissionNumbers
-from wmr_mission.verdicts.passes import input_pass, jitter_median
+from wmr_mission.verdicts.passes import first_within, input_pass, jitter_median
 
 # Inputs this close to their limit (relative) are at it: the runner clips exactly.
 AT_LIMIT = 1e-9
@@ -67,6 +67,11 @@ def first_judged(
     tolerance = {
         state: numbers.convergence_tolerance[state] + 3.0 * numbers.noise[state] for state in errors
     }
+    if jit.judging_compiled():  # the same sample in one compiled pass (verdicts/passes.py)
+        columns = (errors["x"], errors["y"], errors["theta"])
+        bounds = (tolerance["x"], tolerance["y"], tolerance["theta"])
+        first = jit.compiled(first_within)(columns, bounds, _NEAR_ONE)
+        return float(t[first]) if first >= 0 else None
     within = _within_one(errors["x"] / tolerance["x"], errors["y"] / tolerance["y"])
     within &= np.abs(errors["theta"]) <= tolerance["theta"]
     found = np.flatnonzero(within)

@@ -36,7 +36,12 @@ from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.clearance import clearance_min
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
-from wmr_mission.verdicts.passes import largest_finite
+from wmr_mission.verdicts.passes import (
+    PARTIALS,
+    estimation_error_pass,
+    finite_squares_sum,
+    largest_finite,
+)
 from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
@@ -153,7 +158,14 @@ def reference_distance(
 
 def reference_error(distance: FloatArray) -> float | None:
     """``reference_error_rms`` [m] of the distances to the reference point
-    counted, the finite ones (an exact sum: no pairwise one); None without any."""
+    counted, the finite ones (an exact sum: no pairwise one); None without any.
+    Compiled, one pass: the same float (verdicts/passes.py)."""
+    if jit.judging_compiled():
+        total, count = jit.compiled(finite_squares_sum)(distance, np.empty(PARTIALS))
+        if count == 0:
+            return None
+        if not math.isnan(total):  # else math.fsum decides, as below
+            return math.sqrt(total / count)
     distance = distance[np.isfinite(distance)]
     if distance.size == 0:
         return None
@@ -161,8 +173,14 @@ def reference_error(distance: FloatArray) -> float | None:
 
 
 def estimation_errors(result: RunRecord, window: slice = slice(None)) -> dict[str, FloatArray]:
-    """True minus estimated state per sample (of ``window``), heading wrapped."""
+    """True minus estimated state per sample (of ``window``), heading wrapped;
+    one compiled pass where the judge's passes run compiled (the same bits)."""
     r, w = result, window
+    if jit.judging_compiled():
+        true, estimate = (r.x[w], r.y[w], r.theta[w]), (r.x_est[w], r.y_est[w], r.theta_est[w])
+        errors = (np.empty(true[0].size), np.empty(true[0].size), np.empty(true[0].size))
+        jit.compiled(estimation_error_pass)(true, estimate, errors)
+        return dict(zip(STATES, errors, strict=True))
     return {
         "x": r.x[w] - r.x_est[w],
         "y": r.y[w] - r.y_est[w],

@@ -8,7 +8,12 @@ operations at a time (each caller keeps that form beside its call).
   (wmr_mission.verdicts.regulation);
 - the depth beyond an ellipse zone, and its bounds (wmr_mission.verdicts.zones);
 - the largest finite value of a phase's column, scaled or its magnitude
-  (wmr_mission.verdicts.metrics), with no copy of it.
+  (wmr_mission.verdicts.metrics), with no copy of it;
+- the run's estimation errors, the heading's wrapped
+  (wmr_mission.verdicts.metrics), and the first sample whose estimate is
+  within its tolerance (wmr_mission.verdicts.inputs);
+- the exact sum of squares of ``reference_error_rms``
+  (wmr_mission.verdicts.metrics), the float ``math.fsum`` gives.
 
 The same numbers: the same operations in the same order, numpy's ``max``
 (NaN if any is) and ``searchsorted`` as loops, a square as a product (as
@@ -28,14 +33,21 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels.jit import inlined, kernel
 
-__all__ = [
+__all__ = [  # the passes, each compiled by `wmr-mission compile` (tests/test_start_up.py)
     "ellipse_bounds",
     "ellipse_depth",
+    "estimation_error_pass",
+    "finite_squares_sum",
+    "first_within",
     "input_pass",
     "jitter_median",
     "largest_finite",
     "stalled_samples",
 ]
+
+# Partials kept at most: non-overlapping doubles, each with a bit of its own
+# among the 2 098 places from 2^-1074 to 2^1023 (math.fsum grows its list).
+PARTIALS = 2100
 
 
 @kernel
@@ -56,6 +68,45 @@ def largest_finite(
             if abs(value) < math.inf and not value <= found:  # found NaN: none yet
                 found = value
     return found
+
+
+@kernel
+def estimation_error_pass(
+    true: tuple[FloatArray, FloatArray, FloatArray],
+    estimate: tuple[FloatArray, FloatArray, FloatArray],
+    errors: tuple[FloatArray, FloatArray, FloatArray],
+) -> None:
+    """True minus estimated x, y and heading of each sample into ``errors``,
+    the heading's wrapped to [-pi, pi) as ``metrics.wrap_angle`` wraps it (a
+    float's ``%`` is numpy's: the C library's fmod, the sign of the divisor)."""
+    x, y, theta = true
+    x_est, y_est, theta_est = estimate
+    ex, ey, etheta = errors
+    for k in range(x.size):
+        ex[k] = x[k] - x_est[k]
+        ey[k] = y[k] - y_est[k]
+        etheta[k] = (theta[k] - theta_est[k] + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@kernel
+def first_within(
+    errors: tuple[FloatArray, FloatArray, FloatArray],
+    tolerance: tuple[float, float, float],
+    near: float,
+) -> int:
+    """The first sample whose position errors are within the ellipse of their
+    tolerances and whose heading error within its own (-1: none), as
+    ``inputs.first_judged`` finds it: ``hypot`` (the C library's, as numpy's)
+    only where the squares' sum is within ``near`` of 1."""
+    ex, ey, etheta = errors
+    for k in range(ex.size):
+        a, b = ex[k] / tolerance[0], ey[k] / tolerance[1]
+        squared = a * a + b * b
+        # the C library's hypot (as numpy's) only near the edge
+        within = np.hypot(a, b) <= 1.0 if abs(squared - 1.0) < near else squared <= 1.0 - near
+        if within and abs(etheta[k]) <= tolerance[2]:
+            return k
+    return -1
 
 
 @kernel
@@ -349,3 +400,65 @@ def _unit(squared: float) -> float:
     if value > 1.0:
         return 1.0
     return value
+
+
+@kernel
+def finite_squares_sum(values: FloatArray, partials: FloatArray) -> tuple[float, int]:
+    """``math.fsum`` of ``value * value`` over the finite ``values``, and how
+    many they are; NaN for the sum where ``math.fsum`` must decide (a square or
+    the sum beyond the largest float, or more than ``partials.size`` partials).
+    ``partials``: scratch, made by the caller (an array made in compiled code
+    makes loading the kernel import numba's array module).
+
+    ``math.fsum`` keeps the running sum as non-overlapping partials
+    (Shewchuk's algorithm) and rounds their total once, half to even: this is
+    CPython's own loop (``Modules/mathmodule.c``, ``math_fsum``) step by step,
+    so the float is the same on every CPU (``tests/test_verdict_exact_sum.py``
+    compares it with ``math.fsum`` on sums built to round otherwise when added
+    in order or with a compensation)."""
+    n = 0  # partials in use, smallest first
+    count = 0
+    for k in range(values.size):
+        value = values[k]
+        if not abs(value) < math.inf:  # NaN or infinite: left out, as np.isfinite leaves it
+            continue
+        count += 1
+        x = value * value
+        i = 0
+        for j in range(n):  # x added to each partial, the round-off kept
+            y = partials[j]
+            if abs(x) < abs(y):
+                x, y = y, x
+            hi = x + y
+            lo = y - (hi - x)
+            if lo != 0.0:
+                partials[i] = lo
+                i += 1
+            x = hi
+        n = i
+        if x != 0.0:
+            if not abs(x) < math.inf or n == partials.size:
+                return math.nan, count
+            partials[n] = x
+            n += 1
+    total = 0.0
+    if n > 0:  # the partials added from the largest until the sum is inexact
+        n -= 1
+        total = partials[n]
+        lo = 0.0
+        while n > 0:
+            x = total
+            n -= 1
+            y = partials[n]
+            total = x + y
+            lo = y - (total - x)
+            if lo != 0.0:
+                break
+        # half to even across the partials: the round-off and the partial below it
+        # agree in sign, so the exact sum lies beyond the half-way point
+        if n > 0 and ((lo < 0.0 and partials[n - 1] < 0.0) or (lo > 0.0 and partials[n - 1] > 0.0)):
+            y = lo * 2.0
+            x = total + y
+            if y == x - total:
+                total = x
+    return total, count
