@@ -146,6 +146,43 @@ def test_run_and_validate_import_numpy_at_the_command_lines_depth(tmp_path: Path
     assert _start(["--help"])["numpy_depth"] is None
 
 
+# Checks a mission in a fresh process, then names the models of the sections
+# it leaves out whose validators were built.
+SECTIONS_LEFT_OUT = """
+import sys
+from pydantic._internal._mock_val_ser import MockValSer
+from wmr_mission import fields
+from wmr_mission.spec import models
+from wmr_mission.spec.loader import load_mission
+load_mission(sys.argv[1])
+left_out = (models.Disturbances, models.Slip, fields.StateStd, fields.StateOffset,
+            models.PhaseExpect, models.StateTolerance)
+print(" ".join(m.__name__ for m in left_out
+               if not isinstance(m.__pydantic_validator__, MockValSer)))
+"""
+
+
+def test_a_section_left_out_is_its_defaults_without_its_validator_built() -> None:
+    """Case study 1 writes no disturbances, sensor noise or bias, phase
+    expect nor convergence tolerance: each is its model's defaults, as the
+    model itself gives them, its validator not built for that (about 1 ms
+    each, fields.Model.defaults)."""
+    done = subprocess.run(
+        [sys.executable, "-c", SECTIONS_LEFT_OUT, str(MISSIONS / "case1.yaml")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == []
+    mission = loader.load_mission(MISSIONS / "case1.yaml")
+    written = (mission.robot.disturbances, mission.sensors.bias, mission.phases[0].expect)
+    for section in (*written, mission.expect.convergence_tolerance):
+        assert section == type(section)()
+        assert section.model_dump() == type(section)().model_dump()
+        assert section.model_fields_set == set()
+
+
 def test_the_command_line_runs_numpys_blas_on_one_thread_unless_told(tmp_path: Path) -> None:
     """Its threads spin as numpy loads (about 0.05 s of CPU a process) and
     nothing here multiplies matrices large enough to share; a user's own
