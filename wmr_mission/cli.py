@@ -749,14 +749,6 @@ def _command_line_run() -> Any:
     for name, value in START_UP_ENVIRONMENT.items():
         os.environ.setdefault(name, value)
     _no_pydantic_plugin_loader()
-    if sys.argv[1:2] and sys.argv[1] in _SHORT:
-        # numpy, which run and validate import anyway, imported here, at the
-        # command line's own depth, not some twenty imports down: the
-        # interpreter (CPython 3.11) keeps its frames in 16 KiB chunks, mapped
-        # as a call crosses into the next and unmapped as it returns, and the
-        # recursion of numpy's typing aliases, at that depth, crossed a chunk's
-        # end some 1 600 times, 0.02 s of a run (docs/performance.md, Start-up).
-        import numpy  # noqa: F401
     if not sys.warnoptions:
         # Numerical warnings (overflow in a diverging run, ...) are reported by
         # the run itself as its outcome; library warnings are not for users.
@@ -782,6 +774,14 @@ def _command_line_run() -> Any:
         _STARTING.append(early)
         code: Any = 0
         try:
+            if sys.argv[1:2] and sys.argv[1] in _SHORT:
+                # numpy, which run and validate import anyway, imported here, at the
+                # command line's own depth, not some twenty imports down: the
+                # interpreter (CPython 3.11) keeps its frames in 16 KiB chunks, mapped
+                # as a call crosses into the next and unmapped as it returns, and the
+                # recursion of numpy's typing aliases, at that depth, crossed a chunk's
+                # end some 1 600 times, 0.02 s of a run (docs/performance.md, Start-up).
+                import numpy  # noqa: F401
             _command_line(sys.argv[1:])()
         except SystemExit as done:
             code = done.code
