@@ -21,8 +21,14 @@ MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 # Runs the command line, then prints as it exits the top-level packages it
 # imported and the threads of numpy's BLAS.
 COMMAND = """
-import atexit, gc, json, os, sys
+import atexit, gc, json, os, sys, traceback
 names = sys.argv.pop(1).split(",")
+class NumpysDepth:  # the depth of the stack where numpy is first imported
+    depth = None
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy" and NumpysDepth.depth is None:
+            NumpysDepth.depth = len(traceback.extract_stack())
+sys.meta_path.insert(0, NumpysDepth())
 def loaded():
     modules = sorted({m.split(".")[0] for m in sys.modules})  # before threadpoolctl's
     blas = None
@@ -34,6 +40,7 @@ def loaded():
         "blas_threads": blas,
         "frozen": gc.get_freeze_count(),
         "environment": {name: os.environ.get(name) for name in names},
+        "numpy_depth": NumpysDepth.depth,
     }), file=sys.__stderr__)
 atexit.register(loaded)
 sys.argv[0] = "wmr-mission"
@@ -122,6 +129,58 @@ def test_a_run_without_plots_imports_nothing_it_does_not_use(tmp_path: Path) -> 
     assert isinstance(modules, list)
     assert [m for m in (*NEVER, "rich") if m in modules] == []
     assert (out / "trajectory.csv").exists()
+
+
+def test_run_and_validate_import_numpy_at_the_command_lines_depth(tmp_path: Path) -> None:
+    """Not some twenty imports down, where the recursion of numpy's typing
+    aliases crossed the end of one of the interpreter's 16 KiB frame chunks
+    some 1 600 times as a run started, each crossing a chunk mapped and
+    unmapped (wmr_mission.cli, docs/performance.md, Start-up); help imports
+    no numpy."""
+    out = tmp_path / "run"
+    run = ["run", str(MISSIONS / "figure-eight.yaml"), "--no-plots", "--out", str(out)]
+    for args in (run, ["validate", str(MISSIONS / "case2.yaml")]):
+        depth = _start(args)["numpy_depth"]
+        assert isinstance(depth, int)
+        assert depth < 12, args[0]  # the program, the command line, the import's own frames
+    assert _start(["--help"])["numpy_depth"] is None
+
+
+# Checks a mission in a fresh process, then names the models of the sections
+# it leaves out whose validators were built.
+SECTIONS_LEFT_OUT = """
+import sys
+from pydantic._internal._mock_val_ser import MockValSer
+from wmr_mission import fields
+from wmr_mission.spec import models
+from wmr_mission.spec.loader import load_mission
+load_mission(sys.argv[1])
+left_out = (models.Disturbances, models.Slip, fields.StateStd, fields.StateOffset,
+            models.PhaseExpect, models.StateTolerance)
+print(" ".join(m.__name__ for m in left_out
+               if not isinstance(m.__pydantic_validator__, MockValSer)))
+"""
+
+
+def test_a_section_left_out_is_its_defaults_without_its_validator_built() -> None:
+    """Case study 1 writes no disturbances, sensor noise or bias, phase
+    expect nor convergence tolerance: each is its model's defaults, as the
+    model itself gives them, its validator not built for that (about 1 ms
+    each, fields.Model.defaults)."""
+    done = subprocess.run(
+        [sys.executable, "-c", SECTIONS_LEFT_OUT, str(MISSIONS / "case1.yaml")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == []
+    mission = loader.load_mission(MISSIONS / "case1.yaml")
+    written = (mission.robot.disturbances, mission.sensors.bias, mission.phases[0].expect)
+    for section in (*written, mission.expect.convergence_tolerance):
+        assert section == type(section)()
+        assert section.model_dump() == type(section)().model_dump()
+        assert section.model_fields_set == set()
 
 
 def test_the_command_line_runs_numpys_blas_on_one_thread_unless_told(tmp_path: Path) -> None:

@@ -65,6 +65,8 @@ def loaded():
         if called:
             f.write(f"compiled entries: {' '.join(called)}\\n")
             f.write(f"numba's arrays loaded: {'numba.np.arrayobj' in sys.modules}\\n")
+            from numba.core.runtime import nrt
+            f.write(f"numba's reference counting made: {nrt.rtsys._init}\\n")
 atexit.register(loaded)
 sys.argv[0] = "wmr-mission"
 from wmr_mission.cli import main
@@ -171,10 +173,11 @@ def test_compile_marks_the_cache_ready_and_a_long_run_loads_it(tmp_path: Path) -
     cache runs as plain Python and says nothing, one over the bound of an
     empty cache loads (or compiles) the loop in the foreground and says so;
     after it, the first loads the compiled loop (run_segment and the paths'
-    math, numba set up without scipy's linear algebra), not the judge's
-    passes (they pay from kernels/jit.JUDGED_COMPILED_FROM samples on), nor
-    numba's arrays, and says nothing; its trajectory is plain Python's,
-    byte for byte."""
+    math, numba set up without scipy's linear algebra) and the judge's
+    distance to the path, not the judge's other passes (they pay from
+    kernels/jit.JUDGED_COMPILED_FROM samples on), nor numba's arrays, nor
+    its reference-counting runtime (none of these counts references), and
+    says nothing; its trajectory is plain Python's, byte for byte."""
     cache = _cache_of_this_session(tmp_path)
     (kernels,) = (cache / "wmr_mission").iterdir()
     ready = kernels / compile_loop.READY
@@ -203,8 +206,10 @@ def test_compile_marks_the_cache_ready_and_a_long_run_loads_it(tmp_path: Path) -
     assert record.read_text().splitlines() == [
         "numba loaded: True",
         "scipy.linalg loaded: False",
-        "compiled entries: _each run_segment",  # its 5 502 samples judged by numpy
+        # its 5 502 samples judged by numpy but for the distance to the path
+        "compiled entries: _distances _each run_segment",
         "numba's arrays loaded: False",
+        "numba's reference counting made: False",
     ]
     manifest = json.loads((tmp_path / "next" / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["loop"] == "compiled"

@@ -70,7 +70,7 @@ def _bits(values: np.ndarray) -> list[object]:
 
 def _numpy_form(case: Case, monkeypatch: pytest.MonkeyPatch) -> np.ndarray:
     with monkeypatch.context() as patch, np.errstate(over="ignore", invalid="ignore"):
-        patch.setattr(jit, "judging_compiled", lambda: False)
+        patch.setattr(jit, "distances_compiled", lambda: False)
         return metrics.distance_to_path(*case)
 
 
@@ -81,7 +81,7 @@ def test_compiled_distance_to_path_has_the_numpy_forms_bits(
     case = CASES[name](np.random.default_rng(len(name)))
     expected = _numpy_form(case, monkeypatch)
     jit.load()  # as a compiled run does: the distance compiled from here on
-    monkeypatch.setattr(jit, "judging_compiled", lambda: True)  # also where numba is turned off
+    monkeypatch.setattr(jit, "distances_compiled", lambda: True)  # also where numba is turned off
     found = metrics.distance_to_path(*case)
     assert _bits(found) == _bits(expected)
     assert np.isfinite(expected).sum() > 0.9 * expected.size
@@ -92,8 +92,8 @@ def test_the_kernel_as_plain_python_has_the_numpy_forms_bits(
 ) -> None:
     case = tuple(a[:400] for a in _gaps(np.random.default_rng(3)))
     expected = _numpy_form(case, monkeypatch)
-    monkeypatch.setattr(jit, "judging_compiled", lambda: True)
-    monkeypatch.setattr(jit, "compiled", jit.plain)
+    monkeypatch.setattr(jit, "distances_compiled", lambda: True)
+    monkeypatch.setattr(jit, "compiled", lambda fn, **options: jit.plain(fn))
     with np.errstate(over="ignore", invalid="ignore"):  # the huge position, as numpy
         assert _bits(metrics.distance_to_path(*case)) == _bits(expected)
 
@@ -116,7 +116,7 @@ def test_the_compiled_thinning_keeps_the_first_point_in_each_cell_in_the_sorts_o
     if compiled:
         jit.load()
     else:
-        monkeypatch.setattr(jit, "compiled", jit.plain)
+        monkeypatch.setattr(jit, "compiled", lambda fn, **options: jit.plain(fn))
     t = np.linspace(0.0, 20 * math.pi, 20000)
     px, py = np.cos(t) - 0.5, np.sin(t)
     px[::97] = -0.0

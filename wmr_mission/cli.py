@@ -773,6 +773,14 @@ def _command_line_run() -> Any:
         _STARTING.append(early)
         code: Any = 0
         try:
+            if sys.argv[1:2] and sys.argv[1] in _SHORT:
+                # numpy, which run and validate import anyway, imported here, at the
+                # command line's own depth, not some twenty imports down: the
+                # interpreter (CPython 3.11) keeps its frames in 16 KiB chunks, mapped
+                # as a call crosses into the next and unmapped as it returns, and the
+                # recursion of numpy's typing aliases, at that depth, crossed a chunk's
+                # end some 1 600 times, 0.02 s of a run (docs/performance.md, Start-up).
+                import numpy  # noqa: F401
             _command_line(sys.argv[1:])()
         except SystemExit as done:
             code = done.code

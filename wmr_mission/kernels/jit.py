@@ -159,6 +159,15 @@ def judging_compiled() -> bool:
     return _state.ready and _state.judged >= JUDGED_COMPILED_FROM
 
 
+def distances_compiled() -> bool:
+    """Whether the judge's distance to the path (wmr_mission.verdicts.path_distance)
+    runs compiled: wherever numba is loaded for the kernels, however few the
+    samples judged. Its numpy form costs about 10 us a sample (0.05 s of case
+    study 1's judging), its pass a few ms to load: it makes no array and needs
+    no reference counting (docs/performance.md, Start-up). The same bits."""
+    return _state.ready
+
+
 def entries() -> list[str]:
     """The names of the compiled functions this process called or compiled,
     each loaded from the cache or compiled once."""
@@ -235,8 +244,10 @@ def _cache_class() -> Any:
     """numba's on-disk cache of one function, but loading an entry without
     setting numba's target up first (numba's own sets it up "to ensure it is
     initialized"): a cached function is machine code and what numba needs to
-    call it, the runtime's symbols it links to (reference counting) made
-    here. A miss sets the target up for the compile that follows
+    call it, and the reference-counting runtime it links to, made here where
+    its machine code names the runtime (:func:`_names_the_runtime`: 0.02 s of
+    a process, never for a function compiled without reference counting, the
+    loop's). A miss sets the target up for the compile that follows
     (:func:`_set_up_for_compiling`), which then finds it set up. None
     (numba's own cache, setting up as it loads) for another numba than
     :data:`LOADED_AS_IS_FOR`: its load_overload may do more than this one
@@ -250,15 +261,39 @@ def _cache_class() -> Any:
 
     class LoadedAsIs(FunctionCache):
         def load_overload(self, sig: Any, target_context: Any) -> Any:
-            nrt.rtsys.initialize(target_context)
             loaded = None
             with self._guard_against_spurious_io_errors():
-                loaded = self._load_overload(sig, target_context)  # type: ignore[no-untyped-call]
+                loaded = self._load_overload(sig, target_context)
             if loaded is None:
                 _set_up_for_compiling()
             return loaded
 
+        def _load_overload(self, sig: Any, target_context: Any) -> Any:
+            if not self._enabled:
+                return None
+            key = self._index_key(sig, target_context.codegen())  # type: ignore[no-untyped-call]
+            data = self._cache_file.load(key)  # type: ignore[no-untyped-call]
+            if data is None:
+                return None
+            if _names_the_runtime(data[0]):
+                nrt.rtsys.initialize(target_context)
+            return self._impl.rebuild(target_context, data)
+
     return LoadedAsIs
+
+
+def _names_the_runtime(library: Any) -> bool:
+    """Whether a cached function's library (numba's serialized form: a name,
+    its kind, its machine code and bitcode) names a symbol of numba's
+    reference-counting runtime (``NRT_incref``, ``nrt_atomic_add``, ...),
+    which must then be made before the code is linked. Every such symbol's
+    name holds "NRT_" or "nrt_"; a form not known here is taken to name it."""
+    try:
+        _, kind, data = library
+        code = data[0] if kind == "object" else data
+    except (TypeError, ValueError, IndexError):
+        return True
+    return not isinstance(code, bytes) or b"NRT_" in code or b"nrt_" in code
 
 
 def _dispatcher(source: Callable[..., Any], cached: bool, options: Mapping[str, Any]) -> Any:

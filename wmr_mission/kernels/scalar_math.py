@@ -160,7 +160,9 @@ def _compiled_each() -> Callable[[int, FloatArray, FloatArray, FloatArray], None
     if not jit.loaded():
         return None
     if _compiled is None:
-        _compiled = jit.compiled(_each)
+        # Without reference counting: it writes into arrays its caller holds
+        # and makes none, so loading it needs no reference-counting runtime.
+        _compiled = jit.compiled(_each, counted=False)
     return _compiled
 
 
@@ -190,9 +192,20 @@ def apply(code: int, x: ArrayLike, y: ArrayLike = 0.0) -> FloatArray | float:
     if compiled is not None:
         compiled(code, flat_x, flat_y, out)
     else:
-        pairs = zip(flat_x.tolist(), flat_y.tolist(), strict=True)
-        out[:] = [_scalar(code, a, b) for a, b in pairs]
+        out[:] = _each_in_python(code, flat_x.tolist(), flat_y.tolist())
     return out.reshape(first.shape)
+
+
+def _each_in_python(code: int, x: list[float], y: list[float]) -> list[float]:
+    """:func:`_each` in Python: Python's ``math`` mapped over the values (a
+    tenth of :func:`_scalar`'s cost each: a mission's check samples its paths
+    so, thousands of values), or :func:`_scalar` value by value where it
+    refuses one."""
+    function = _MATH[code]
+    try:
+        return list(map(function, x, y) if ARITY[code] == 2 else map(function, x))
+    except (ValueError, OverflowError):
+        return [_scalar(code, a, b) for a, b in zip(x, y, strict=True)]
 
 
 def function_of(code: int) -> Callable[..., FloatArray | float]:

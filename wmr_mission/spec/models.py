@@ -165,7 +165,7 @@ class Disturbances(Model):
     """The true plant departs from eq. (1): noise, delay, lag and slip."""
 
     process_noise_std: StateStd = Field(
-        default_factory=lambda: StateStd(),
+        default_factory=lambda: StateStd.defaults(),
         description="Gaussian noise added to the true pose every sample [m, m, rad].",
     )
     input_delay: NonNegativeScalar = Field(
@@ -176,7 +176,7 @@ class Disturbances(Model):
         default=0.0,
         description="[s] first-order lag of the applied v and omega behind the command; 0 = none.",
     )
-    slip: Slip = Field(default_factory=lambda: Slip(), description="Wheel slip.")
+    slip: Slip = Field(default_factory=lambda: Slip.defaults(), description="Wheel slip.")
 
 
 class RoundFootprint(Model):
@@ -256,7 +256,7 @@ class Robot(Model):
     )
     limits: Limits = Field(default_factory=Limits, description="Input limits.")
     disturbances: Disturbances = Field(
-        default_factory=lambda: Disturbances(),
+        default_factory=lambda: Disturbances.defaults(),
         description=(
             "How the true plant departs from eq. (1); the estimator and controller never see "
             "these settings (docs/disturbances.md). Default: none."
@@ -306,7 +306,7 @@ class Sensors(Model):
         json_schema_extra={"uniqueItems": True},
     )
     noise_std: StateStd = Field(
-        default_factory=StateStd,
+        default_factory=lambda: StateStd.defaults(),
         description="Additive white Gaussian noise on each measured state [m, m, rad].",
     )
     seed: Annotated[int, Strict(), Field(ge=0, le=LARGEST_SEED)] = Field(
@@ -324,7 +324,7 @@ class Sensors(Model):
         ),
     )
     bias: StateOffset = Field(
-        default_factory=lambda: StateOffset(),
+        default_factory=lambda: StateOffset.defaults(),
         description="Constant offset added to each measured state [m, m, rad].",
     )
     dropout: Dropout | None = Field(
@@ -624,7 +624,7 @@ class _PhaseCommon(Model):
         ),
     )
     expect: PhaseExpect = Field(
-        default_factory=PhaseExpect,
+        default_factory=lambda: PhaseExpect.defaults(),
         description="Thresholds on this phase's metrics, overriding the mission's expect.",
     )
     updates: tuple[Update, ...] = Field(
@@ -767,7 +767,7 @@ class _MissionThresholds(PhaseExpect):
         ),
     )
     convergence_tolerance: StateTolerance = Field(
-        default_factory=StateTolerance,
+        default_factory=lambda: StateTolerance.defaults(),
         description=(
             "|estimation error| per state below which the estimate counts as converged "
             "(estimation_convergence_time) and the floor of the overshoot metric."

@@ -267,7 +267,7 @@ def distance_to_path(
         order = np.lexsort((row, column))
         column, row = column[order], row[order]
         first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
-    if jit.judging_compiled():  # the same bits in one compiled pass (verdicts/path_distance.py)
+    if jit.distances_compiled():  # the same bits in one compiled pass (verdicts/path_distance.py)
         found = compiled_distances(px, py, qx, qy, own, first, cell, LOCAL_WINDOW, _NEAREST_POINTS)
         if every_finite:
             return found

@@ -90,7 +90,8 @@ def compiled_distances(
     # A square beyond the largest float is inf, as in machine code; as plain
     # Python the kernel computes with numpy's scalars, which would warn of it.
     with np.errstate(over="ignore", invalid="ignore"):
-        jit.compiled(_distances)(
+        # Without reference counting: loading it needs none of numba's runtime.
+        jit.compiled(_distances, counted=False)(
             px, py, qx, qy, own.astype(np.int64), tx, ty, points.astype(np.int64),
             order.astype(np.int64), starts, x0, y0, size, columns, rows, window, nearest,
             segments, dxs, dys, out,
