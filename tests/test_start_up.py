@@ -529,3 +529,26 @@ def test_an_unreadable_ready_marker_is_no_ready_cache(tmp_path: Path) -> None:
     never a traceback out of `run`."""
     (tmp_path / compile_loop.READY).write_bytes(b"\xff\xfe")
     assert compile_loop._ready(tmp_path) is False
+
+
+def test_compile_takes_a_stop_between_two_variants(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A stop that came inside numba's compiler is dropped there, owed
+    (wmr_mission.stopping): `compile` takes it before the next variant, rather
+    than compile every one (SIGTERM went unheeded for minutes)."""
+    import ctypes
+    import signal
+
+    from wmr_mission.stopping import STOP_SIGNALS, StopSignals
+
+    ran: list[int] = []
+
+    def compiled_with_a_stop_inside(plan: object) -> object:
+        ran.append(1)
+        ctypes.CFUNCTYPE(None)(lambda: os.kill(os.getpid(), signal.SIGTERM))()
+        return run_mission(plan)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(runner, "run_mission", compiled_with_a_stop_inside)
+    with StopSignals(STOP_SIGNALS) as stop, pytest.raises(KeyboardInterrupt):
+        compile_loop.compile_kernels()
+    assert ran == [1]
+    assert stop.name == "SIGTERM"

@@ -153,9 +153,14 @@ def compile_kernels() -> None:
     from wmr_mission.output.covariance import estimate_std
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
+    from wmr_mission.stopping import stop_owed
     from wmr_mission.verdicts.metrics import judge
 
     for mission in warm_up_missions():
+        # A stop that came inside numba's compiler was dropped there, owed
+        # (wmr_mission.stopping): taken between two variants, each kept cached.
+        if stop_owed():
+            raise KeyboardInterrupt
         result = run_mission(plan_mission(mission))  # compiled
         result.mission = mission.model_dump(mode="json")
         estimate_std(result)  # the EKF band's replay, for the estimation figure
