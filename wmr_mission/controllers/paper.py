@@ -84,6 +84,11 @@ ATTAINABLE_SHARE = 0.2
 TURNABLE_SHARE = 0.7
 # The least path speed, as a share of limits.v, that pace is figured at.
 TURNABLE_SPEED = 0.1
+# The share of the turn-rate limit the linearisation of eq. (24) may cost the
+# tracking law's turn rate before eq. (27) is solved again at the input it
+# asks for: the look-ahead point off its aim by e turns it by about e / (l dt)
+# (linear_miss).
+LINEAR_SHARE = 0.01
 
 
 class Tracking(Model):
@@ -193,6 +198,10 @@ class PaperTuning(NamedTuple):
     # [s] how far ahead, in the path's time, the aim's offset round the zones
     # is taken: the lag of an aim moving at the law's time constant.
     aim_lead: float = 0.0
+    # [m] the largest miss of the tracked output's aim the linearisation of
+    # eq. (24) at u_{k-1} is left with; beyond it eq. (27) is solved again at
+    # the input asked for (inf: never, the one-sample laws of the paper).
+    linear_miss: float = math.inf
 
 
 # Regulation forms (controller.regulation.form).
@@ -316,14 +325,36 @@ def track_input(
             kept = 1.0 - dt / pace
             left_x = kept * error_x
             left_y = kept * error_y
-    eta[0] = reference[0] + look_ahead * reference[2] - left_x - (px + look_ahead * c)
-    eta[1] = reference[1] + look_ahead * reference[3] - left_y - (py + look_ahead * s)
+    aim_x = reference[0] + look_ahead * reference[2] - left_x
+    aim_y = reference[1] + look_ahead * reference[3] - left_y
+    eta[0] = aim_x - (px + look_ahead * c)
+    eta[1] = aim_y - (py + look_ahead * s)
     # eq. (24): the sensitivity of x_{k+1} to u_k, at (x_{k|k}, u_{k-1}).
     input_jacobian_into(theta, v_prev, omega_prev, dt, b)
     both = int(np.int64(2))  # not the literal 2: one compiled corrective_input for all
     dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
     v = v_prev + dv
     omega = omega_prev + dw
+    # Eq. (24) is linear about u_{k-1}; the output at k+1 is not: it misses
+    # its aim by about dt^2 (|dv dw| + l dw^2) / 2. After a large change (the
+    # input before came from an estimate not yet converged: -3 m/s, -20 rad/s
+    # against a law that then asks +8 m/s) the miss turned the rate to +19.5
+    # rad/s where +3.3 met the aim, and back to -6 at the next sample, a kick
+    # (case2-headings run 287). Beyond linear_miss, eq. (27) is solved once
+    # more, linearised at the input the first solve asks for.
+    miss = 0.5 * dt * dt * (abs(dv * dw) + look_ahead * dw * dw)
+    if miss > controller.linear_miss:
+        px, py, pth = step(x, y, theta, v, omega, dt)
+        c = math.cos(pth)
+        s = math.sin(pth)
+        d[0, 2] = -look_ahead * s
+        d[1, 2] = look_ahead * c
+        eta[0] = aim_x - (px + look_ahead * c)
+        eta[1] = aim_y - (py + look_ahead * s)
+        input_jacobian_into(theta, v, omega, dt, b)
+        dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
+        v += dv
+        omega += dw
     planned = robot.limits[3] != math.inf
     if planned or abs(omega) >= robot.limits[1]:
         # The turn planned: eq. (27) turns the output towards its aim at a
@@ -332,12 +363,8 @@ def track_input(
         # off wove 1.06 m about it). Turning towards the heading the output's
         # move asks for (reversed when driving backwards), no faster than
         # the acceleration limit stops the turn there.
-        move_x = (
-            reference[0] + look_ahead * reference[2] - left_x - x - look_ahead * math.cos(theta)
-        )
-        move_y = (
-            reference[1] + look_ahead * reference[3] - left_y - y - look_ahead * math.sin(theta)
-        )
+        move_x = aim_x - x - look_ahead * math.cos(theta)
+        move_y = aim_y - y - look_ahead * math.sin(theta)
         if v < 0.0:
             move_x = -move_x
             move_y = -move_y
@@ -925,6 +952,17 @@ def aim_lead(settings: PaperController, dt: float, limits: FloatArray) -> float:
     return float(settings.tracking.time_constant)
 
 
+def linear_miss(settings: PaperController, dt: float, limits: FloatArray) -> float:
+    """[m] How far the linearisation of eq. (24) may leave the tracked output
+    off its aim: what costs the turn rate LINEAR_SHARE of its limit; inf for
+    the one-sample laws and the axle law, eq. (27) as the paper solves it
+    (track_input)."""
+    if error_decay(settings, dt, limits) == 0.0:
+        return math.inf
+    distance = look_ahead(settings, dt, float(limits[0]))
+    return LINEAR_SHARE * float(limits[1]) * distance * float(dt)
+
+
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
     regulation = settings.regulation
     return PaperTuning(
@@ -941,6 +979,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
         turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
         aim_lead=aim_lead(settings, plant.dt, plant.limits),
+        linear_miss=linear_miss(settings, plant.dt, plant.limits),
     )
 
 

@@ -323,6 +323,15 @@ def track_input(
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
     du = corrective_input(d, target - output(predicted), b, w, m, limits)
     v, omega = v_prev + du[0], omega_prev + du[1]
+    # the output misses its aim by the linearisation's second-order terms:
+    # beyond linear_miss, eq. (27) solved again at the input asked for
+    if 0.5 * dt * dt * (abs(du[0] * du[1]) + look_ahead * du[1] ** 2) > controller.linear_miss:
+        predicted = predict(estimate, v, omega, dt)
+        normal = np.array([-math.sin(predicted[2]), math.cos(predicted[2])])
+        d = np.column_stack([np.eye(2), look_ahead * normal])
+        b = input_jacobian(float(estimate[2]), v, omega, dt)
+        du = corrective_input(d, target - output(predicted), b, w, m, limits)
+        v, omega = v + du[0], omega + du[1]
     planned = math.isfinite(limits[3])
     if planned or abs(omega) >= limits[1]:
         # The turn planned: towards the heading of the output's move this
