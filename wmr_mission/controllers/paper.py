@@ -339,11 +339,13 @@ def track_input(
     # its aim by about dt^2 (|dv dw| + l dw^2) / 2. After a large change (the
     # input before came from an estimate not yet converged: -3 m/s, -20 rad/s
     # against a law that then asks +8 m/s) the miss turned the rate to +19.5
-    # rad/s where +3.3 met the aim, and back to -6 at the next sample, a kick
+    # rad/s where about +3 met the aim, and back to -6 at the next sample, a kick
     # (case2-headings run 287). Beyond linear_miss, eq. (27) is solved once
-    # more, linearised at the input the first solve asks for.
+    # more, linearised at the input the first solve asks for, within the
+    # limits (the input the robot can take).
     miss = 0.5 * dt * dt * (abs(dv * dw) + look_ahead * dw * dw)
     if miss > controller.linear_miss:
+        v, omega = saturate(v, omega, v_prev, omega_prev, robot.limits, dt)
         px, py, pth = step(x, y, theta, v, omega, dt)
         c = math.cos(pth)
         s = math.sin(pth)

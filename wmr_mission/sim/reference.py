@@ -326,6 +326,7 @@ def track_input(
     # the output misses its aim by the linearisation's second-order terms:
     # beyond linear_miss, eq. (27) solved again at the input asked for
     if 0.5 * dt * dt * (abs(du[0] * du[1]) + look_ahead * du[1] ** 2) > controller.linear_miss:
+        v, omega = saturate(v, omega, v_prev, omega_prev, limits, dt)
         predicted = predict(estimate, v, omega, dt)
         normal = np.array([-math.sin(predicted[2]), math.cos(predicted[2])])
         d = np.column_stack([np.eye(2), look_ahead * normal])
