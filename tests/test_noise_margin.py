@@ -109,7 +109,7 @@ def test_after_a_large_change_of_input_the_tracking_law_meets_its_aim_without_a_
     sample came from an estimate not yet converged (-3 m/s, -20 rad/s), and
     at the second the law asked +8 m/s. Linearised at the input before
     (eq. (24)) alone, the look-ahead point's aim was missed by the terms the
-    linearisation drops: the turn rate went to +19.5 rad/s where +3.3 met
+    linearisation drops: the turn rate went to +19.5 rad/s where about +3 met
     the aim, and back to -6.1 at the next sample (turn_rate_jump_max 25.6 >
     its auto bound, limits.omega). Solved again at the input it asks for, it
     turns without a kick."""
