@@ -87,7 +87,7 @@ TURNABLE_SPEED = 0.1
 # The share of the turn-rate limit the linearisation of eq. (24) may cost the
 # tracking law's turn rate before eq. (27) is solved again at the input it
 # asks for: the look-ahead point off its aim by e turns it by about e / (l dt)
-# (linear_miss).
+# (track_input).
 LINEAR_SHARE = 0.01
 
 
@@ -198,10 +198,6 @@ class PaperTuning(NamedTuple):
     # [s] how far ahead, in the path's time, the aim's offset round the zones
     # is taken: the lag of an aim moving at the law's time constant.
     aim_lead: float = 0.0
-    # [m] the largest miss of the tracked output's aim the linearisation of
-    # eq. (24) at u_{k-1} is left with; beyond it eq. (27) is solved again at
-    # the input asked for (inf: never, the one-sample laws of the paper).
-    linear_miss: float = math.inf
 
 
 # Regulation forms (controller.regulation.form).
@@ -229,6 +225,40 @@ MEMORY_SIZE = 75
 # [rad] how far past abeam (pi/2) the target must be to change the direction
 # of travel of the bearing form.
 REVERSE_HYSTERESIS = 0.2
+
+
+@kernel
+def _solved_again(
+    estimate: FloatArray,
+    u_prev: FloatArray,
+    v: float,
+    omega: float,
+    aim_x: float,
+    aim_y: float,
+    controller: PaperTuning,
+    robot: Plant,
+    work: Scratch,
+) -> tuple[float, float]:
+    """Eq. (27) for the look-ahead point aimed at (aim_x, aim_y), linearised
+    at the input (v, omega) within the limits instead of at u_{k-1}
+    (track_input): that input plus the change the linearisation there asks
+    for. Its own kernel: the tracking law rarely calls it."""
+    look_ahead = controller.look_ahead
+    dt = robot.dt
+    x, y, theta = estimate[0], estimate[1], estimate[2]
+    v, omega = saturate(v, omega, u_prev[0], u_prev[1], robot.limits, dt)
+    d, eta, b = work.d, work.eta, work.b
+    px, py, pth = step(x, y, theta, v, omega, dt)
+    c = math.cos(pth)
+    s = math.sin(pth)
+    d[0, 2] = -look_ahead * s
+    d[1, 2] = look_ahead * c
+    eta[0] = aim_x - (px + look_ahead * c)
+    eta[1] = aim_y - (py + look_ahead * s)
+    input_jacobian_into(theta, v, omega, dt, b)
+    both = int(np.int64(2))  # not the literal 2: one compiled corrective_input for all
+    dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
+    return v + dv, omega + dw
 
 
 @kernel
@@ -340,23 +370,14 @@ def track_input(
     # input before came from an estimate not yet converged: -3 m/s, -20 rad/s
     # against a law that then asks +8 m/s) the miss turned the rate to +19.5
     # rad/s where about +3 met the aim, and back to -6 at the next sample, a kick
-    # (case2-headings run 287). Beyond linear_miss, eq. (27) is solved once
-    # more, linearised at the input the first solve asks for, within the
-    # limits (the input the robot can take).
-    miss = 0.5 * dt * dt * (abs(dv * dw) + look_ahead * dw * dw)
-    if miss > controller.linear_miss:
-        v, omega = saturate(v, omega, v_prev, omega_prev, robot.limits, dt)
-        px, py, pth = step(x, y, theta, v, omega, dt)
-        c = math.cos(pth)
-        s = math.sin(pth)
-        d[0, 2] = -look_ahead * s
-        d[1, 2] = look_ahead * c
-        eta[0] = aim_x - (px + look_ahead * c)
-        eta[1] = aim_y - (py + look_ahead * s)
-        input_jacobian_into(theta, v, omega, dt, b)
-        dv, dw = corrective_input(d, eta, both, b, controller.w, controller.m, robot.limits)
-        v += dv
-        omega += dw
+    # (case2-headings run 287). Where the miss costs the turn rate more than
+    # LINEAR_SHARE of its limit, eq. (27) is solved once more, linearised at
+    # the input the first solve asks for, within the limits (the input the
+    # robot can take); not in the one-sample laws (error_decay 0), the
+    # paper's eq. (27) as it is solved there.
+    miss = 0.5 * dt * (abs(dv * dw) + look_ahead * dw * dw)
+    if error_decay > 0.0 and miss > LINEAR_SHARE * robot.limits[1] * look_ahead:
+        v, omega = _solved_again(estimate, u_prev, v, omega, aim_x, aim_y, controller, robot, work)
     planned = robot.limits[3] != math.inf
     if planned or abs(omega) >= robot.limits[1]:
         # The turn planned: eq. (27) turns the output towards its aim at a
@@ -954,17 +975,6 @@ def aim_lead(settings: PaperController, dt: float, limits: FloatArray) -> float:
     return float(settings.tracking.time_constant)
 
 
-def linear_miss(settings: PaperController, dt: float, limits: FloatArray) -> float:
-    """[m] How far the linearisation of eq. (24) may leave the tracked output
-    off its aim: what costs the turn rate LINEAR_SHARE of its limit; inf for
-    the one-sample laws and the axle law, eq. (27) as the paper solves it
-    (track_input)."""
-    if error_decay(settings, dt, limits) == 0.0:
-        return math.inf
-    distance = look_ahead(settings, dt, float(limits[0]))
-    return LINEAR_SHARE * float(limits[1]) * distance * float(dt)
-
-
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
     regulation = settings.regulation
     return PaperTuning(
@@ -981,7 +991,6 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
         turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
         aim_lead=aim_lead(settings, plant.dt, plant.limits),
-        linear_miss=linear_miss(settings, plant.dt, plant.limits),
     )
 
 

@@ -324,8 +324,10 @@ def track_input(
     du = corrective_input(d, target - output(predicted), b, w, m, limits)
     v, omega = v_prev + du[0], omega_prev + du[1]
     # the output misses its aim by the linearisation's second-order terms:
-    # beyond linear_miss, eq. (27) solved again at the input asked for
-    if 0.5 * dt * dt * (abs(du[0] * du[1]) + look_ahead * du[1] ** 2) > controller.linear_miss:
+    # where that costs the turn rate more than LINEAR_SHARE of its limit,
+    # eq. (27) solved again at the input asked for (not the one-sample laws)
+    miss = 0.5 * dt * (abs(du[0] * du[1]) + look_ahead * du[1] ** 2)
+    if error_decay > 0.0 and miss > paper.LINEAR_SHARE * limits[1] * look_ahead:
         v, omega = saturate(v, omega, v_prev, omega_prev, limits, dt)
         predicted = predict(estimate, v, omega, dt)
         normal = np.array([-math.sin(predicted[2]), math.cos(predicted[2])])
