@@ -323,6 +323,18 @@ def track_input(
     b = input_jacobian(float(estimate[2]), v_prev, omega_prev, dt)  # eq. (24)
     du = corrective_input(d, target - output(predicted), b, w, m, limits)
     v, omega = v_prev + du[0], omega_prev + du[1]
+    # the output misses its aim by the linearisation's second-order terms:
+    # where that costs the turn rate more than LINEAR_SHARE of its limit,
+    # eq. (27) solved again at the input asked for (not the one-sample laws)
+    miss = 0.5 * dt * (abs(du[0] * du[1]) + look_ahead * du[1] ** 2)
+    if error_decay > 0.0 and miss > paper.LINEAR_SHARE * limits[1] * look_ahead:
+        v, omega = saturate(v, omega, v_prev, omega_prev, limits, dt)
+        predicted = predict(estimate, v, omega, dt)
+        normal = np.array([-math.sin(predicted[2]), math.cos(predicted[2])])
+        d = np.column_stack([np.eye(2), look_ahead * normal])
+        b = input_jacobian(float(estimate[2]), v, omega, dt)
+        du = corrective_input(d, target - output(predicted), b, w, m, limits)
+        v, omega = v + du[0], omega + du[1]
     planned = math.isfinite(limits[3])
     if planned or abs(omega) >= limits[1]:
         # The turn planned: towards the heading of the output's move this
