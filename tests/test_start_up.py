@@ -528,7 +528,7 @@ def test_an_unreadable_ready_marker_is_no_ready_cache(tmp_path: Path) -> None:
     """A marker that is not text (a torn write, a disk fault) means not ready,
     never a traceback out of `run`."""
     (tmp_path / compile_loop.READY).write_bytes(b"\xff\xfe")
-    assert compile_loop._ready(tmp_path) is False
+    assert kernel_cache.is_ready(tmp_path) is False
 
 
 def test_compile_takes_a_stop_between_two_variants(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -552,3 +552,29 @@ def test_compile_takes_a_stop_between_two_variants(monkeypatch: pytest.MonkeyPat
         compile_loop.compile_kernels()
     assert ran == [1]
     assert stop.name == "SIGTERM"
+
+
+def test_sweep_and_falsify_say_a_compile_before_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """As run and the library do (README, Quick start): one line on stderr,
+    a log's too, before a warm-up that compiles; none once the cache is ready
+    (test_compile_marks_the_cache_ready_and_a_long_run_loads_it)."""
+    from wmr_mission.campaign.falsify.command import falsify_command
+    from wmr_mission.campaign.sweep import sweep_command
+
+    mission = Path(__file__).parent / "data" / "campaigns" / "short.yaml"
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text(
+        f"version: 1\nname: c\nmission: {mission}\nruns: 2\nseed: 1\n"
+        "vary:\n  robot.initial_state.theta: {uniform: [-1.0, 1.0]}\n",
+        encoding="utf-8",
+    )
+    line = "wmr-mission: loading the simulation loop, compiled first (stand-in)"
+    monkeypatch.setattr(jit, "foreground_notice", lambda: line)
+    assert sweep_command(campaign, out=tmp_path / "s", workers=1, scheduler=None, plots=False) == 0
+    falsify_command(
+        campaign, budget=2, method="random", seed=0, objective=None, first=False,
+        workers=1, scheduler=None, out=tmp_path / "f", plots=False,
+    )  # fmt: skip
+    assert capsys.readouterr().err.splitlines().count(line) == 2

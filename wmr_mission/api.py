@@ -114,7 +114,7 @@ _noticed: list[bool] = []  # the compile notice is printed once per process
 
 def _compile_notice() -> None:
     """One line on stderr before the first run compiles the loop in the foreground."""
-    from wmr_mission.commands.compile import foreground_notice
+    from wmr_mission.kernels.jit import foreground_notice
 
     if _noticed:
         return

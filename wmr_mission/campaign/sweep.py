@@ -47,6 +47,7 @@ from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.recovery import recovery_report
 from wmr_mission.campaign.rows import METRICS, Row, header, replay_command, simulate
 from wmr_mission.campaign.stops import stoppable
+from wmr_mission.kernels import jit
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
@@ -213,6 +214,9 @@ def _execute(
     fault: _Fault | None = None
     started = time.perf_counter()
     progress.step("starting")  # the kernels loaded, a run timed, the workers started
+    notice = jit.foreground_notice()  # a compile of a minute or more: said before it
+    if notice is not None:
+        progress.note(notice)
     seconds_per_run = warm_up(loaded, None if scheduler is not None else workers)
     if stop_owed():  # raised inside numba's compiler, where it could not propagate
         raise KeyboardInterrupt  # before the first run: nothing to keep

@@ -19,11 +19,11 @@ compile`` fills the cache when the user asks, and the library's
 from __future__ import annotations
 
 import os
-import sys
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wmr_mission.kernels import cache, jit
+from wmr_mission.kernels.cache import READY, is_ready, ready_stamp
+from wmr_mission.kernels.jit import foreground_notice
 
 if TYPE_CHECKING:
     from wmr_mission.spec.models import Mission
@@ -41,7 +41,6 @@ PLAIN_PYTHON_SAMPLES = 5_500
 # costliest example's samples as plain Python 0.12 ms each (replanned-patrol.yaml,
 # `threshold`): 17.5 s / 0.12 ms = 146 000 samples.
 PLAIN_PYTHON_SAMPLES_UNCOMPILED = 150_000
-READY = "kernels-ready"
 NO_JIT = jit.NO_JIT
 
 # A short run per built-in estimator and controller compiles what any mission
@@ -71,23 +70,6 @@ phases:
 """
 
 
-def ready_stamp() -> str:
-    """What the ready marker holds: what numba's cache entries depend on, the
-    kernels' sources, the interpreter and numba's version."""
-    from wmr_mission.output.environment import installed_version
-
-    numba = installed_version("numba") or "unknown"  # "unknown": installed without its metadata
-    stamp = cache.kernel_sources_stamp()
-    return f"{stamp} {sys.implementation.cache_tag} numba-{numba}"
-
-
-def _ready(directory: Path) -> bool:
-    try:
-        return (directory / READY).read_text() == ready_stamp()
-    except (OSError, ValueError):  # unreadable or not text: not ready
-        return False
-
-
 def choose_loop(max_samples: int) -> str | None:
     """Called by ``run`` before the loop is loaded: plain Python for a budget
     of at most :data:`PLAIN_PYTHON_SAMPLES` samples, or of at most
@@ -104,21 +86,6 @@ def choose_loop(max_samples: int) -> str | None:
         jit.choose_plain_python()  # not compiled yet: plain Python costs less
         return None
     return notice
-
-
-def foreground_notice() -> str | None:
-    """The line a library call prints before it loads the compiled loop when the
-    cache is not known to hold it (no ready marker): a compile of about a
-    minute then. None when the loop is loaded already, or nothing is compiled."""
-    if jit.loaded() or not jit.compiling():
-        return None
-    directory = cache.cache_directory()
-    if directory is not None and _ready(directory):
-        return None
-    return (
-        "wmr-mission: loading the simulation loop, compiled first if it is not in the "
-        "cache (about a minute, once; `wmr-mission compile` compiles every variant)"
-    )
 
 
 def warm_up_missions() -> list[Mission]:
@@ -177,7 +144,7 @@ def compile_command() -> int:
     directory = cache.cache_directory()
     if directory is None:  # wmr_mission.kernels.cache said why
         return 1
-    if _ready(directory):
+    if is_ready(directory):
         print(f"wmr-mission: the compiled loop is in {directory} already")
         return 0
     print(f"wmr-mission: compiling the simulation loop into {directory} (1-4 minutes, once)")

@@ -62,6 +62,31 @@ def _name() -> str:
     return PREFIX + kernel_sources_stamp()[:16]
 
 
+# The marker ``wmr-mission compile`` leaves in the kernels' directory once
+# every variant of the loop is in it (wmr_mission.commands.compile).
+READY = "kernels-ready"
+
+
+def ready_stamp() -> str:
+    """What the ready marker holds: what numba's cache entries depend on, the
+    kernels' sources, the interpreter and numba's version."""
+    from importlib import metadata
+
+    try:
+        numba = metadata.version("numba")
+    except metadata.PackageNotFoundError:  # installed without its metadata
+        numba = "unknown"
+    return f"{kernel_sources_stamp()} {sys.implementation.cache_tag} numba-{numba}"
+
+
+def is_ready(directory: Path) -> bool:
+    """Whether ``directory`` holds a ready marker of these kernels."""
+    try:
+        return (directory / READY).read_text() == ready_stamp()
+    except (OSError, ValueError):  # unreadable or not text: not ready
+        return False
+
+
 def _writable(directory: Path) -> bool:
     try:
         directory.mkdir(parents=True, exist_ok=True)

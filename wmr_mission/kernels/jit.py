@@ -485,3 +485,20 @@ def _teach_ticks() -> None:
         return read_counter()  # type: ignore[call-arg]
 
     ticks._dispatcher = _njit()(nogil=True, cache=_state.cached)(counter)
+
+
+def foreground_notice() -> str | None:
+    """The line printed before the compiled loop is loaded when the cache is
+    not known to hold it (no ready marker): a compile of about a minute then.
+    None when the loop is loaded already, or nothing is compiled."""
+    from wmr_mission.kernels import cache
+
+    if loaded() or not compiling():
+        return None
+    directory = cache.cache_directory()
+    if directory is not None and cache.is_ready(directory):
+        return None
+    return (
+        "wmr-mission: loading the simulation loop, compiled first if it is not in the "
+        "cache (about a minute, once; `wmr-mission compile` compiles every variant)"
+    )

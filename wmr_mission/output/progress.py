@@ -27,6 +27,7 @@ class Steps:
     time it took. Finished steps stay on the screen above the current one."""
 
     def __init__(self, stream: IO[str] | None) -> None:
+        self._stream = stream
         self._progress: Progress | None = None
         self._task: TaskID | None = None
         self._drawn = 0.0
@@ -77,6 +78,14 @@ class Steps:
             return
         self._progress.console.print(line, markup=False)
         self._draw()
+
+    def note(self, line: str) -> None:
+        """Print ``line`` above the steps, or on the stream where it is no
+        terminal (a log keeps it)."""
+        if self._progress is not None:
+            self.say(line)
+        elif self._stream is not None:
+            print(line, file=self._stream, flush=True)
 
     def close(self) -> None:
         """End the current step; the lines stay, the cursor below them."""

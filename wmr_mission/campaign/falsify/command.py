@@ -44,6 +44,7 @@ from wmr_mission.campaign.falsify.search import make_method
 from wmr_mission.campaign.falsify.space import Space
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign
 from wmr_mission.campaign.stops import stoppable
+from wmr_mission.kernels import jit
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
@@ -247,6 +248,9 @@ def _falsify(
     method = make_method(settings.method, space, settings.seed)
     try:
         progress.step("starting")  # the kernels loaded, the objective's check found
+        notice = jit.foreground_notice()  # a compile of a minute or more: said before it
+        if notice is not None:
+            progress.note(notice)
         _warm_up(loaded, space, settings)
         if stop_owed():  # raised inside numba's compiler, where it could not propagate
             raise KeyboardInterrupt  # before the first run: nothing to keep
