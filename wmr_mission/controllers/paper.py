@@ -222,7 +222,7 @@ MEMORY_SIZE = 75
 REVERSE_HYSTERESIS = 0.2
 
 
-@kernel
+@inlined
 def track_input(
     estimate: FloatArray,
     u_prev: FloatArray,
