@@ -54,14 +54,14 @@ from wmr_mission.verdicts.metrics import judge_mission
 # run's first call where its first samples are awaited, and a track phase
 # whose end cannot be foreseen, start with shorter chunks: the first samples
 # come at once (as plain Python too), and a short phase samples little path
-# ahead (PhaseRun.first_chunk). Each call costs some 50 us compiled (its
-# arguments, a path block): a phase's first chunk of 1024, not 256, took 3 of
-# keep-out's 17 calls and 5 % of its CPU, 8 % of patrol-detour's (alternating
-# pairs; a first chunk of CHUNK sampled patrol-detour's detours far ahead:
-# 9 % more).
+# ahead (PhaseRun.first_chunk). A call costs some 50 us compiled (its
+# arguments, a path block), as much as sampling 500 rows more of an
+# expression path (case 2's spiral: 257 rows 65 us, 513 rows 91 us, 1 025
+# rows 145 us), so such a phase starts at UNFORESEEN_CHUNK: keep-out makes
+# 14 calls, not 17.
 CHUNK = 4096
 FIRST_CHUNK = 256
-UNFORESEEN_CHUNK = 1024
+UNFORESEEN_CHUNK = 512
 # [s] how far ahead of where it was left a resumed phase looks for its path.
 RESUME_HORIZON = 120.0
 # The path a track phase's ways round its zones are decided on: over its bound
