@@ -68,11 +68,12 @@ def test_a_phase_ends_at_its_bound_in_one_call_and_noise_is_drawn_as_used(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """noisy-observer: a 30 s circle (until elapsed), then a stop. One call
-    loads the loop; the run's first call is short (its first samples come at
-    once) and the next four times longer, then one call per phase: the circle
-    exits at its bound in the call that reaches it. The run is shorter than a
-    block of draws, so it draws one block: the next is drawn only once the
-    last is used up."""
+    loads the loop, then one call per phase: the circle exits at its bound in
+    the call that reaches it. Where someone waits for the first samples (a
+    progress callback, as the command line's run has) the run's first call
+    is short and the next four times longer. The run is shorter than a block
+    of draws, so it draws one block: the next is drawn only once the last is
+    used up."""
     call = runner._Run._call
     calls = []
 
@@ -92,14 +93,20 @@ def test_a_phase_ends_at_its_bound_in_one_call_and_noise_is_drawn_as_used(
 
     monkeypatch.setattr(runner._Run, "_call", counted)
     monkeypatch.setattr(Draws, "ahead", recorded)
-    result = run_mission(load_mission(MISSIONS / "noisy-observer.yaml"))
+    mission = load_mission(MISSIONS / "noisy-observer.yaml")
+    result = run_mission(mission)
     assert result.outcome is Outcome.success
     assert [t.condition for t in result.transitions] == ["elapsed", "settled"]
     assert 3000 < result.samples < Draws.BLOCK
-    first = runner.FIRST_CHUNK
-    assert calls[:4] == [0, first, 5 * first, 3001]  # stop: up to the bound, then its exit
-    assert len(calls) == 5
+    assert calls[:2] == [0, 3001]  # stop: up to the bound, then its exit
+    assert len(calls) == 3
     assert len(blocks) == 1
+    calls.clear()
+    awaited = run_mission(mission, progress=lambda t, budget, phase: None)
+    first = runner.FIRST_CHUNK
+    assert calls[:4] == [0, first, 5 * first, 3001]
+    assert len(calls) == 5
+    same_arrays(awaited, result)
 
 
 def test_ctrl_c_between_chunks_returns_what_was_simulated(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -268,3 +275,49 @@ def test_phases_of_the_same_types_are_one_type_to_the_loop() -> None:
     ):
         assert runner._phase_types(other) not in types
     assert runner._phase_types(spiral._replace(entry_sample=7, target=np.ones(3))) in types
+
+
+def test_a_phase_whose_end_cannot_be_foreseen_starts_with_a_shorter_chunk(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """keep-out: its first leg tracks until near a point, within a timeout of
+    30 s (3 000 samples). Its first call runs UNFORESEEN_CHUNK samples, not
+    up to the timeout (it would sample that much path ahead), nor FIRST_CHUNK
+    (each call costs its arguments and a path block); the next four times
+    more, in which the leg's 796 samples end."""
+    call = runner._Run._call
+    calls = []
+
+    def counted(self: runner._Run, *args: Any) -> int:
+        calls.append(args[-1])  # stop
+        return call(self, *args)
+
+    monkeypatch.setattr(runner._Run, "_call", counted)
+    result = run_mission(load_mission(MISSIONS / "keep-out.yaml"))
+    assert result.transitions[0].condition == "near"
+    first = runner.UNFORESEEN_CHUNK
+    assert runner.FIRST_CHUNK < first < result.transitions[0].time / 0.01 < 5 * first < 3000
+    assert calls[:3] == [0, first, 5 * first]
+
+
+def test_the_kernels_given_whole_records_every_sample_are_compiled_into_the_loop() -> None:
+    """docs/performance.md, "How the loop passes its records": numba passes a
+    record of arrays to a function it does not inline as all their
+    descriptors, copied onto the stack at every call. track_input called so
+    cost noisy-ekf's tracking step 0.12 us of its 0.36 (the call's copies).
+    The kernels of the step given whole records (a phase, a tuning, the
+    plant, the scratch) are inlined. (record_sample, given the phase and
+    the recording outside the step, inlined measured the same.)"""
+    from wmr_mission.controllers import constrained_tracking, kanayama, paper, pure_pursuit
+    from wmr_mission.estimators import ekf, observer
+
+    per_sample = (
+        loop.exit_condition,
+        paper.next_input, paper.track_input, paper.regulate_input,
+        constrained_tracking.aim_round_zones, constrained_tracking.keep_constraints,
+        kanayama.next_input, pure_pursuit.next_input,
+        observer.next_estimate, observer.observer_step, ekf.next_estimate, ekf.ekf_step,
+    )  # fmt: skip
+    assert [
+        k.__qualname__ for k in per_sample if not isinstance(k, jit.Kernel) or not k.inline
+    ] == []

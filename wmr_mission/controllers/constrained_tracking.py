@@ -587,7 +587,7 @@ def way_at(x: FloatArray, y: FloatArray, k: int, share: float, p: FloatArray) ->
     return np.array([nx, ny, ex / length, ey / length, side])
 
 
-@kernel
+@inlined
 def aim_round_zones(
     aim: FloatArray,
     row_kinds: IntArray,

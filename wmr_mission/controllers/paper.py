@@ -261,7 +261,7 @@ def _solved_again(
     return v + dv, omega + dw
 
 
-@kernel
+@inlined
 def track_input(
     estimate: FloatArray,
     u_prev: FloatArray,

@@ -385,9 +385,23 @@ def next_estimate(
     if not measured:
         return observer_predict(estimate, v, omega, dt)
     counts = memory.counts
-    if tuning.innovation_gate < math.inf:  # noisy sensors only
+    poles = tuning.poles
+    ramping = poles[0] > RAMP_POLE or poles[1] > RAMP_POLE  # noisy positions only
+    if ramping:
+        ramped = memory.poles
+        for i in range(3):
+            ramped[i] = poles[i]
+        for i in range(2):
+            if ramped[i] > RAMP_POLE:
+                ramped[i] = min(ramped[i], 1.0 - 1.0 / (counts[0] + RAMP_START))
+        poles = ramped
+    gated = tuning.innovation_gate < math.inf  # noisy sensors only
+    within = True
+    if gated:
         # A lone outlier is dropped before it reaches the estimate (and, through
-        # phase II, drags it to within its bound of the outlier).
+        # phase II, drags it to within its bound of the outlier). Nothing is
+        # written between this prediction and observer_step's, so the compiled
+        # loop computes it once (the counts are written after).
         px, py, pth = step(estimate[0], estimate[1], estimate[2], v, omega, dt)
         residual = (measurement[0] - px, measurement[1] - py, wrap_angle(measurement[2] - pth))
         distance2 = 0.0
@@ -395,22 +409,16 @@ def next_estimate(
             std = tuning.noise_std[i]
             if tuning.mask[i] > 0.0 and std > 0.0:
                 distance2 += (residual[i] / std) ** 2
-        if distance2 <= tuning.innovation_gate:
-            counts[1] = 0.0
-        elif counts[1] < MAX_REJECTED:
+        within = distance2 <= tuning.innovation_gate
+        if not within and counts[1] < MAX_REJECTED:
             counts[1] += 1.0
             return observer_predict(estimate, v, omega, dt)
-    poles = tuning.poles
-    if poles[0] > RAMP_POLE or poles[1] > RAMP_POLE:  # noisy positions only
-        ramped = memory.poles
-        for i in range(3):
-            ramped[i] = poles[i]
-        for i in range(2):
-            if ramped[i] > RAMP_POLE:
-                ramped[i] = min(ramped[i], 1.0 - 1.0 / (counts[0] + RAMP_START))
-        counts[0] += 1.0
-        poles = ramped
-    return observer_step(estimate, v, omega, dt, measurement, tuning, memory.gain, poles)
+    iterations = observer_step(estimate, v, omega, dt, measurement, tuning, memory.gain, poles)
+    if gated and within:
+        counts[1] = 0.0
+    if ramping:
+        counts[0] += 1.0  # measurements taken: the ramp's clock
+    return iterations
 
 
 def tuning_of(settings: ConstrainedObserver, measurements: Measurements) -> ObserverTuning:

@@ -51,11 +51,17 @@ from wmr_mission.verdicts.metrics import judge_mission
 
 # Samples per call of the compiled loop: between calls the runner reports
 # progress and Ctrl-C gets in (a few milliseconds apart when compiled). The
-# run's first call, and a track phase whose end cannot be foreseen, start
-# with short chunks: the first samples come at once (as plain Python too),
-# and a short phase samples little path ahead (PhaseRun.first_chunk).
+# run's first call where its first samples are awaited, and a track phase
+# whose end cannot be foreseen, start with shorter chunks: the first samples
+# come at once (as plain Python too), and a short phase samples little path
+# ahead (PhaseRun.first_chunk). A call costs some 50 us compiled (its
+# arguments, a path block), as much as sampling 500 rows more of an
+# expression path (case 2's spiral: 257 rows 65 us, 513 rows 91 us, 1 025
+# rows 145 us), so such a phase starts at UNFORESEEN_CHUNK: keep-out makes
+# 14 calls, not 17.
 CHUNK = 4096
 FIRST_CHUNK = 256
+UNFORESEEN_CHUNK = 512
 # [s] how far ahead of where it was left a resumed phase looks for its path.
 RESUME_HORIZON = 120.0
 # The path a track phase's ways round its zones are decided on: over its bound
@@ -169,7 +175,7 @@ class PhaseRun:
         until = phase.until
         conditions = (until.mission_time, until.reaches, until.near, until.settled, until.heading)
         unforeseen = phase.kind == "track" and any(c is not None for c in conditions)
-        self.first_chunk = min(FIRST_CHUNK, CHUNK) if unforeseen else CHUNK
+        self.first_chunk = min(UNFORESEEN_CHUNK, CHUNK) if unforeseen else CHUNK
 
     def enter(self, k: int, estimate: FloatArray, resume_from: int | None = None) -> EnteredPhase:
         """The phase entered at sample k; ``resume_from`` (the path's sample the
@@ -711,10 +717,14 @@ class _Run:
         budget = m.max_samples * dt
         self._started = (self._returned_ns, int(counters[loop.CLOCK]))
         index = 0
-        # The run's first call is short whatever its phase: its first samples
-        # are simulated (and reported) a moment after the run directory is
-        # claimed, however long the mission; the chunk then grows to CHUNK.
-        chunk = FIRST_CHUNK
+        # The run's first call is short whatever its phase where someone waits
+        # for its first samples (the command line's run: ready, progress):
+        # they are simulated (and reported) a moment after the run directory
+        # is claimed, however long the mission; the chunk then grows to CHUNK.
+        # Elsewhere (run_mission alone, a campaign's run) the phase's own
+        # first chunk: each call costs the loop's arguments and a path block.
+        awaited = self.ready is not None or self.progress is not None
+        chunk = FIRST_CHUNK if awaited else active.first_chunk
         ran = 0  # samples run since the chunk last grew
         reactor = None if m.reactions is None else Reactor(m.reactions)
         while True:
