@@ -698,6 +698,17 @@ def test_view_of_a_damaged_falsification_says_which_file_and_line(tmp_path: Path
             "evaluations.csv:6: expected ",
         ),
     }
+    headers = {  # a header that is not falsify's, and a file of blank lines
+        "run,seed\n0,1\n": "evaluations.csv:1: not the header of falsify's evaluations",
+        "\n\n": "evaluations.csv:1: not the header of falsify's evaluations",
+    }
+    for number, (text, said) in enumerate(headers.items()):
+        damaged = tmp_path / f"header-{number}"
+        shutil.copytree(out, damaged)
+        (damaged / "evaluations.csv").write_text(text, encoding="utf-8")
+        result = CliRunner().invoke(app, ["view", str(damaged)])
+        assert result.exit_code == 1, result.output
+        assert result.stderr.startswith(f"{damaged}: {said}"), result.stderr
     for name, (damage, said) in damages.items():
         damaged = tmp_path / f"damaged-{name}"
         shutil.copytree(out, damaged)

@@ -123,15 +123,25 @@ def test_a_stopped_run_s_table_judges_only_up_to_the_stop() -> None:
     """Stopped by a signal in its last phase so far: that phase was cut short,
     so its row says 'stopped', not a verdict; the mission's expectations were
     judged on the samples up to the stop, and their lines say so."""
-    summary = {**_orbit_at_its_limit(), "outcome": "interrupted"}
+    judged = _orbit_at_its_limit()
+    wide = {"metric": "final_position_error", "max": 0.05, "value": 0.01, "met": True}
+    summary = {**judged, "outcome": "interrupted", "expectations": [*judged["expectations"], wide]}
     lines = format_table(summary, "out", width=100).splitlines()
     rows = _rows(lines)
     assert rows["approach"][0].endswith("  ok")
     assert rows["orbit"][0].endswith("  NOT MET")
     assert rows["park"][0].endswith("  stopped")
     expects = [line for line in lines if line.startswith("expect ")]
-    assert expects
-    assert all(line.endswith(" up to the stop)") for line in expects), expects
+    # the mission-wide check, judged up to the stop; the orbit's, judged whole
+    assert expects == [
+        "expect orbit: turn_rate_at_limit <= 0.01: 0.1111 (NOT MET)",
+        "expect final_position_error <= 0.05: 0.01 (met up to the stop)",
+    ]
+    # Stopped in a phase entered again (a retry, a goto): only its last row.
+    again = {**summary, "phases": [*summary["phases"], summary["phases"][0]]}
+    lines = format_table(again, "out", width=100).splitlines()
+    verdicts = [line.split()[-1] for line in lines if line.startswith("approach ")]
+    assert verdicts == ["ok", "stopped"]
 
 
 def test_a_narrower_table_wraps_its_cells_within_the_width() -> None:

@@ -578,3 +578,25 @@ def test_sweep_and_falsify_say_a_compile_before_it(
         workers=1, scheduler=None, out=tmp_path / "f", plots=False,
     )  # fmt: skip
     assert capsys.readouterr().err.splitlines().count(line) == 2
+
+
+def test_compile_leaves_no_ready_marker_when_stopped_in_its_last_compile(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A stop owed from inside the last variant's compile (or the judge's) is
+    taken before the marker: no marker of a cache the stop left unfilled."""
+    import ctypes
+    import signal
+
+    from wmr_mission.stopping import STOP_SIGNALS, StopSignals
+
+    def stopped_at_the_end() -> None:
+        ctypes.CFUNCTYPE(None)(lambda: os.kill(os.getpid(), signal.SIGTERM))()
+
+    monkeypatch.setattr(kernel_cache, "cache_directory", lambda: tmp_path)
+    monkeypatch.setattr(compile_loop, "compile_kernels", stopped_at_the_end)
+    if not jit.compiling():
+        pytest.fail("numba is needed here: it compiles")
+    with StopSignals(STOP_SIGNALS), pytest.raises(KeyboardInterrupt):
+        compile_loop.compile_command()
+    assert not (tmp_path / compile_loop.READY).exists()

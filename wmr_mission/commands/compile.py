@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 from wmr_mission.kernels import cache, jit
 from wmr_mission.kernels.cache import READY, is_ready, ready_stamp
 from wmr_mission.kernels.jit import foreground_notice
+from wmr_mission.stopping import stop_owed
 
 if TYPE_CHECKING:
     from wmr_mission.spec.models import Mission
@@ -120,7 +121,6 @@ def compile_kernels() -> None:
     from wmr_mission.output.covariance import estimate_std
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
-    from wmr_mission.stopping import stop_owed
     from wmr_mission.verdicts.metrics import judge
 
     for mission in warm_up_missions():
@@ -152,6 +152,8 @@ def compile_command() -> int:
     # leaves a stale marker, never a wrong one.
     stamp = ready_stamp()
     compile_kernels()
+    if stop_owed():  # came inside the last compile: no marker of a cache not filled
+        raise KeyboardInterrupt
     partial = directory / f"{READY}.{os.getpid()}"
     partial.write_text(stamp)
     os.replace(partial, directory / READY)

@@ -153,8 +153,8 @@ def _phase_rows(summary: dict[str, Any], checks: list[dict[str, Any]]) -> list[l
     run stopped by a signal: its last phase, cut short, is 'stopped', not judged."""
     verdicts = _verdicts(checks)
     phases = summary.get("phases") or []
-    if summary.get("outcome") == "interrupted" and phases:
-        verdicts[phases[-1]["name"]] = "stopped"
+    # The last row: a phase entered again (a retry, a goto) has rows before it.
+    stopped = len(phases) - 1 if summary.get("outcome") == "interrupted" else None
     return [
         [
             str(phase["name"]),
@@ -163,9 +163,9 @@ def _phase_rows(summary: dict[str, Any], checks: list[dict[str, Any]]) -> list[l
             key_metric(phase),
             _at_limit(phase),
             _convergence(phase),
-            verdicts.get(phase["name"], "-"),
+            "stopped" if row == stopped else verdicts.get(phase["name"], "-"),
         ]
-        for phase in summary.get("phases", [])
+        for row, phase in enumerate(phases)
     ]
 
 
@@ -279,6 +279,8 @@ def format_table(
         "estimation converged from: " + ("never" if converged is None else f"t = {converged:.2f} s")
     )
     outcome = summary.get("outcome")
+    phases = summary.get("phases") or []
+    stopped_phase = phases[-1]["name"] if outcome == "interrupted" and phases else None
     # What to try, where a known mechanism explains a miss (verdicts/advice.py).
     lines += [f"try: {check['advice']}" for check in checks if check.get("advice")]
     for check in checks:
@@ -287,8 +289,8 @@ def format_table(
         if not check["met"] and outcome == "expect-failed" and check.get("phase") is not None:
             continue  # its phase's verdict says it; a mission-wide one has no phase row
         verdict = "met" if check["met"] else "NOT MET"
-        if outcome == "interrupted":  # judged on the samples up to the stop
-            verdict = f"{verdict.lower()} up to the stop"
+        if outcome == "interrupted" and check.get("phase") in (None, stopped_phase):
+            verdict = f"{verdict.lower()} up to the stop"  # judged on the samples so far
         value = "null" if check["value"] is None else f"{check['value']:.4g}"
         where = "" if check.get("phase") is None else f"{check['phase']}: "
         # a bound from below (clearance_min, a temporal formula) is a min

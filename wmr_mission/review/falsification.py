@@ -11,7 +11,12 @@ from pathlib import Path
 from typing import Any, Final
 
 from wmr_mission.campaign.falsify.figures import MARGINS_FIGURE, REGION_FIGURE
-from wmr_mission.campaign.falsify.files import EVALUATIONS_FILE, FAILING_DIR, FALSIFY_FILE
+from wmr_mission.campaign.falsify.files import (
+    EVALUATIONS_FILE,
+    FAILING_DIR,
+    FALSIFY_FILE,
+    columns,
+)
 from wmr_mission.campaign.load import replay_line
 from wmr_mission.output.reader import RunDirError
 
@@ -49,7 +54,14 @@ def _rows(path: Path) -> list[list[str]]:
         raise RunDirError(f"{path.name}: not a CSV table of evaluations ({error})") from None
     if not table:
         raise RunDirError(f"{path.name}:1: empty: expected a header of columns")
-    width = len(table[0])
+    header = table[0]
+    paths = header[3:-4]
+    if header != columns(paths):
+        raise RunDirError(
+            f"{path.name}:1: not the header of falsify's evaluations: expected "
+            f"{', '.join(columns(['PATH...']))}"
+        )
+    width = len(header)
     for line, row in enumerate(table[1:], start=2):
         if len(row) != width:
             raise RunDirError(f"{path.name}:{line}: expected {width} fields, found {len(row)}")

@@ -570,8 +570,8 @@ def view_command(directory: Path, out: Path | None = None) -> int:
     """``wmr-mission view DIR [--out FILE.html]``: write the report, print its path.
 
     Exit code: 0 written; 1 the directory's files are damaged (as ``plot``);
-    2 not a run or campaign directory, FILE a file of a run's or campaign's
-    record, or the page cannot be written."""
+    2 not a run, campaign or falsification directory, FILE a file of a
+    record or another record's report.html, or the page cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
     from wmr_mission.review.falsification import falsification_meta, is_falsification_dir
     from wmr_mission.review.record import record_file_refusal
