@@ -1,7 +1,8 @@
 """A ROS 2 listener for tests/test_backends.py: prints "ready" once subscribed,
-"first" when the first Twist on cmd_vel arrives, and at SIGTERM the count of
-Twists heard and the last one, once those on their way have arrived (a loaded
-machine delivers the run's last commands after the run has exited)."""
+"first" when the first Twist on cmd_vel arrives, "many" at the twentieth, and
+at SIGTERM the count of Twists heard and the last one, once those on their way
+have arrived (a loaded machine delivers the run's last commands after the run
+has exited)."""
 
 import signal
 import sys
@@ -14,6 +15,9 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
+# Said once this many have arrived: the run is well under way (its first rows
+# recorded), however long its first samples took on a busy machine.
+MANY = 20
 heard: list[tuple[float, float]] = []
 done = threading.Event()
 signal.signal(signal.SIGTERM, lambda *_: done.set())
@@ -26,6 +30,8 @@ def hear(message: Twist) -> None:
     heard.append((message.linear.x, message.angular.z))
     if len(heard) == 1:
         print("first", flush=True)
+    if len(heard) == MANY:
+        print("many", flush=True)
 
 
 node.create_subscription(Twist, "cmd_vel", hear, qos)
