@@ -659,6 +659,21 @@ def test_ctrl_c_keeps_what_was_evaluated(
 # --- view ---------------------------------------------------------------------------
 
 
+def test_a_search_stopped_before_its_first_run_leaves_no_directory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """As the command does: a retry may use the same ``out``."""
+    from wmr_mission.campaign.falsify import command
+
+    def stopped(*_: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(command, "_warm_up", stopped)
+    with pytest.raises(KeyboardInterrupt):
+        falsify_campaign(PARK, budget=4, seed=1, out=tmp_path / "out", plots=False)
+    assert not (tmp_path / "out").exists()
+
+
 def test_view_shows_a_falsification_directory(tmp_path: Path) -> None:
     out = tmp_path / "out"
     falsify_campaign(PARK, budget=12, seed=1, out=out, plots=True)

@@ -384,11 +384,16 @@ def falsify_campaign(
     if scheduler is not None:
         reach_scheduler(scheduler)
     out_dir = None if out is None else prepare_run_dir(Path(out))
-    with StopSignals() as stop:
-        found, record = _falsify(
-            loaded, settings, out_dir=out_dir, workers=used, scheduler=scheduler, plots=plots,
-            stop=stop, progress_stream=None, campaign_text=str(campaign),
-        )  # fmt: skip
+    try:
+        with StopSignals() as stop:
+            found, record = _falsify(
+                loaded, settings, out_dir=out_dir, workers=used, scheduler=scheduler,
+                plots=plots, stop=stop, progress_stream=None, campaign_text=str(campaign),
+            )  # fmt: skip
+    except (UsageError, KeyboardInterrupt):  # before the first run: nothing to keep
+        if out_dir is not None:
+            _discard(out_dir)
+        raise
     return FalsifyResult(found.evaluations, record, out_dir)
 
 
