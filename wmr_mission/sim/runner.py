@@ -695,6 +695,7 @@ class _Run:
             self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
         _honour_stop()
         if jit.loaded() and self.m.max_samples >= LONG_RUN:
+            jit.make_runtime()  # the judge's passes need it: made while the pages are in
             give_back_compiler_pages()  # not run again (memory, docs/performance.md)
         if self.ready is not None:
             self.ready()
