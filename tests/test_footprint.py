@@ -330,3 +330,51 @@ def test_validate_names_the_side_of_a_path_through_a_box_centre() -> None:
     ]
     _, found = check_mission_text(ONE_LAP, "shelf.yaml")
     assert [d for d in found if d.severity == "note"] == []
+
+
+def test_validate_warns_of_a_target_the_body_reaches_out_of_its_keep_in_from() -> None:
+    """A park 0.1 m inside the yard's east edge with a body of 0.25 m: the axle
+    can stop there, the body cannot stay in the yard. `validate` warns at the
+    target, for the phase's own keep-in and the geofence's alike, and not
+    for a target with room or for a point robot."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = """version: 1
+name: yard
+robot:
+  limits: {v: 1, omega: 2}
+  footprint: {radius: 0.25}
+regions:
+  yard: {type: box, min: [-1, -1], max: [2, 1]}
+  east: {type: half-plane, normal: [1, 0], offset: 2}
+phases:
+  - name: park
+    regulate: {target: {x: 1.9, y: 0, theta: 0}}
+    constraints: [{stay_inside: yard}]
+    until: {settled: {position: 0.02, heading: 0.02}}
+    timeout: 20
+"""
+    _, found = check_mission_text(text, "yard.yaml")
+    assert [(d.line, d.message) for d in found if d.severity == "warning"] == [
+        (
+            11,
+            "the target (1.9, 0) is 0.1 m inside the edge of keep-in region 'yard', nearer "
+            "than the robot's body reaches (0.25 m, robot.footprint): the body reaches out "
+            "of it there",
+        )
+    ]
+    fenced = text.replace("    constraints: [{stay_inside: yard}]\n", "").replace(
+        "phases:", "geofence: {keep_in: [east]}\nphases:"
+    )
+    _, found = check_mission_text(fenced, "yard.yaml")
+    assert [d.message for d in found if d.severity == "warning"] == [
+        "the target (1.9, 0) is 0.1 m inside the edge of keep-in region 'east', nearer "
+        "than the robot's body reaches (0.25 m, robot.footprint): the body reaches out "
+        "of it there"
+    ]
+    roomy = text.replace("x: 1.9", "x: 1.5")
+    _, found = check_mission_text(roomy, "yard.yaml")
+    assert [d for d in found if d.severity == "warning"] == []
+    point = text.replace("  footprint: {radius: 0.25}\n", "")
+    _, found = check_mission_text(point, "yard.yaml")
+    assert [d for d in found if d.severity == "warning"] == []

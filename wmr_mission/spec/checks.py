@@ -1371,9 +1371,10 @@ def _zones(mission: Mission) -> Iterator[Finding]:
 
 def _body_room(mission: Mission) -> Iterator[Finding]:
     """With a footprint: a start, or a settled regulate target, that is outside
-    a keep-out zone of its phase but nearer to it than the body reaches. The
-    zones are kept by the body (docs/mission-format.md, "The robot's body"):
-    the robot starts beyond one, or cannot reach the target."""
+    a keep-out zone of its phase but nearer to it than the body reaches, or
+    inside a keep-in region but nearer its edge than that. The zones are kept
+    by the body (docs/mission-format.md, "The robot's body"): the robot
+    starts beyond one, or cannot reach the target."""
     footprint = mission.robot.footprint
     if footprint is None:
         return
@@ -1400,6 +1401,17 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
                         "robot.footprint): the body overlaps the zone there",
                         severity="warning",
                     )
+        for name, yard in _keep_ins(mission, phase).items():
+            for path, what, x, y in points:
+                room = _room(yard, float(x), float(y))
+                if 0.0 <= room < reach:
+                    yield Finding(
+                        path,
+                        f"{what} ({x:g}, {y:g}) is {room:.3g} m inside the edge of keep-in "
+                        f"region {name!r}, nearer than the robot's body reaches "
+                        f"({reach:.3g} m, robot.footprint): the body reaches out of it there",
+                        severity="warning",
+                    )
 
 
 def _gap(region: RegionSpec, x: float, y: float) -> float:
@@ -1415,6 +1427,23 @@ def _gap(region: RegionSpec, x: float, y: float) -> float:
         outline = shapely.Polygon(np.column_stack(region_outline(region, n=720)[:2])[:-1])
     point = shapely.Point(x, y)
     return -1.0 if outline.contains(point) else float(outline.distance(point))
+
+
+def _room(region: RegionSpec, x: float, y: float) -> float:
+    """[m] how far the point (x, y) inside ``region`` is from its edge (-1
+    outside, a point on the edge outside as in :func:`_inside`), by shapely."""
+    import shapely
+
+    if isinstance(region, HalfPlaneRegion):
+        nx, ny = region.normal
+        inside = (region.offset - nx * x - ny * y) / math.hypot(nx, ny)
+        return inside if inside > 0.0 else -1.0
+    if isinstance(region, BoxRegion | PolygonRegion):
+        outline = shapely.Polygon(region_vertices(region))
+    else:
+        outline = shapely.Polygon(np.column_stack(region_outline(region, n=720)[:2])[:-1])
+    point = shapely.Point(x, y)
+    return float(outline.exterior.distance(point)) if outline.contains(point) else -1.0
 
 
 def _boundary(region: RegionSpec) -> tuple[FloatArray, FloatArray]:
