@@ -221,10 +221,11 @@ def test_the_regulator_pays_for_no_way_round_and_no_braking_it_cannot_use(
     monkeypatch: pytest.MonkeyPatch, kinds: list[int], params: list[list[float]], looked_for: bool
 ) -> None:
     # docs/performance.md, "The regulator's cost against cbfd8d8": the compiled
-    # loop takes the cosine and sine of the bearing ahead of the way-round
-    # lookup's loop, library calls, whatever the rows, and the error's length
-    # for a braking plan: 5 % of fence's step. The way round is looked for
-    # only past a keep-out ellipse, the braking planned only under a limit.
+    # way-round lookup takes the cosine and sine of the bearing ahead of its
+    # loop, library calls, whatever the rows (with its call, 3 % of fence's
+    # compiled and library time), and a braking plan the error's length. The
+    # way round is looked for only past a keep-out ellipse, the braking
+    # planned only under a limit.
     from wmr_mission.controllers import paper
 
     calls: list[str] = []
