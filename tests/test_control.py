@@ -207,3 +207,39 @@ def test_scheduled_gain_is_nearly_constant_but_for_the_heading_gain() -> None:
     assert heading_gains[0] == pytest.approx(0.995, abs=1e-3)
     assert heading_gains[-2] == pytest.approx(4.53, abs=0.01)
     assert heading_gains[-1] == pytest.approx(heading_gains[-2])
+
+
+@pytest.mark.parametrize(
+    ("kinds", "params", "looked_for"),
+    [
+        ([1], [[1.0, 0.0, 3.0, 0.0, 0.0, 0.0]], False),  # a fence (half-plane)
+        ([0], [[0.0, 0.0, 5.5, 3.0, 0.0, 1.0]], False),  # keep inside an ellipse
+        ([1, 0], [[1.0, 0.0, 3.0, 0.0, 0.0, 0.0], [3.0, 0.2, 0.8, 0.8, 0.0, -1.0]], True),
+    ],
+)
+def test_the_regulator_pays_for_no_way_round_and_no_braking_it_cannot_use(
+    monkeypatch: pytest.MonkeyPatch, kinds: list[int], params: list[list[float]], looked_for: bool
+) -> None:
+    # docs/performance.md, "The regulator's cost against cbfd8d8": the compiled
+    # way-round lookup takes the cosine and sine of the bearing ahead of its
+    # loop, library calls, whatever the rows (with its call, 3 % of fence's
+    # compiled and library time), and a braking plan the error's length. The
+    # way round is looked for only past a keep-out ellipse, the braking
+    # planned only under a limit.
+    from wmr_mission.controllers import paper
+
+    calls: list[str] = []
+    for name in ("_bearing_round_zones", "stopping_speed"):
+        function = getattr(paper, name)
+        monkeypatch.setattr(paper, name, lambda *a, f=function, n=name: calls.append(n) or f(*a))
+    estimate = np.array([0.0, 0.0, 0.3])
+    for limits, planned in (([2.0, 3.0, math.inf, math.inf], False), ([2.0, 3.0, 1.0, 5.0], True)):
+        calls.clear()
+        paper.regulate_input(
+            estimate, estimate, np.zeros(2), np.array([6.0, 1.0, 0.0]), np.array(kinds),
+            np.array(params), PaperTuning(0.0, 0.0, np.ones(3), np.ones(2), np.full(3, 100.0),
+            np.full(2, 100.0), BEARING, 0.01, True), Plant(0.01, np.array(limits)),
+            np.zeros(paper.MEMORY_SIZE), scratch(), np.zeros(2),
+        )  # fmt: skip
+        assert calls.count("_bearing_round_zones") == int(looked_for)
+        assert calls.count("stopping_speed") == 2 * int(planned)

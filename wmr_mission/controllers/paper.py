@@ -511,7 +511,25 @@ def scheduled_gain(
     memory: FloatArray,
     out: FloatArray,
 ) -> None:
-    """Eqs. (20)-(21) for the linearisation at (theta, v, omega): writes T
+    """:func:`scheduled_gain_facing` at the heading ``theta``."""
+    scheduled_gain_facing(math.cos(theta), math.sin(theta), v, omega, dt, q, r, memory, out)
+
+
+@kernel
+def scheduled_gain_facing(
+    c: float,
+    s: float,
+    v: float,
+    omega: float,
+    dt: float,
+    q: FloatArray,
+    r: FloatArray,
+    memory: FloatArray,
+    out: FloatArray,
+) -> None:
+    """Eqs. (20)-(21) for the linearisation at (theta, v, omega), the heading
+    theta given by its cosine ``c`` and sine ``s`` (the regulator has them
+    already, for its prediction: each is a library call): writes T
     (2x3) into ``out``, and the Riccati steps taken into ``memory[NEWTON]`` and
     ``memory[DOUBLINGS]``.
 
@@ -530,8 +548,6 @@ def scheduled_gain(
     memory[DOUBLINGS] = 0.0
     v = float(v)
     omega = float(omega)
-    c = math.cos(theta)
-    s = math.sin(theta)
     q0 = float(q[0])
     q1 = float(q[1])
     cross = (q1 - q0) * c * s
@@ -556,6 +572,18 @@ def scheduled_gain(
             )
     out[0, 0], out[0, 1], out[0, 2] = gain[0] * c - gain[1] * s, gain[0] * s + gain[1] * c, gain[2]
     out[1, 0], out[1, 1], out[1, 2] = gain[3] * c - gain[4] * s, gain[3] * s + gain[4] * c, gain[5]
+
+
+@inlined
+def _keeps_out_of_an_ellipse(row_kinds: IntArray, row_params: FloatArray) -> bool:
+    """Whether a row keeps the robot out of an ellipse: one the bearing form
+    may go round (:func:`_bearing_round_zones`), which is not called without
+    one: the compiler computes the cosine and sine of the bearing it takes
+    ahead of its loop, library calls each, whatever the rows."""
+    for i in range(row_kinds.shape[0]):
+        if row_kinds[i] == ELLIPSE_ROW and not row_params[i, 5] > 0.0:
+            return True
+    return False
 
 
 @kernel
@@ -661,20 +689,26 @@ def regulate_input(
     v_prev = u_prev[0]
     omega_prev = u_prev[1]
     gain = work.gain
+    # Read once: after the writes to the memory and the gain below the compiler
+    # would read the heading again and recompute its sine and cosine (a library
+    # call each) for the gain, the prediction and its input Jacobian.
+    x, y, theta = estimate[0], estimate[1], estimate[2]
+    c = math.cos(theta)
+    s = math.sin(theta)
     if form == INCREMENT:
         # Literal eqs. (14), (19), (29-a): T_{k-1} at (x_{k-1|k-1}, u_{k-1}),
         # applied to the state increment x_{k|k} - x_{k-1|k-1}.
         scheduled_gain(estimate_prev[2], v_prev, omega_prev, dt, q, r, memory, gain)
-        ex = estimate[0] - estimate_prev[0]
-        ey = estimate[1] - estimate_prev[1]
-        eth = estimate[2] - estimate_prev[2]
+        ex = x - estimate_prev[0]
+        ey = y - estimate_prev[1]
+        eth = theta - estimate_prev[2]
         v1 = v_prev - (gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = omega_prev - (gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
     else:
         speed = v_prev  # where eq. (1) is linearised
-        ex = estimate[0] - target[0]
-        ey = estimate[1] - target[1]
-        eth = wrap_angle(estimate[2] - target[2])
+        ex = x - target[0]
+        ey = y - target[1]
+        eth = wrap_angle(theta - target[2])
         if form == BEARING:
             distance = hypot(ex, ey)
             if distance < controller.align_radius:
@@ -686,17 +720,16 @@ def regulate_input(
                 # reverse), so the lateral error the robot cannot reach at rest
                 # is turned into a heading error it can.
                 bearing = math.atan2(-ey, -ex)
-                if row_kinds.shape[0]:
+                if _keeps_out_of_an_ellipse(row_kinds, row_params):
                     way = _bearing_round_zones(
-                        estimate[0], estimate[1], bearing, distance, row_kinds, row_params,
-                        robot.constraint_margin,
-                    )  # fmt: skip
+                        x, y, bearing, distance, row_kinds, row_params, robot.constraint_margin
+                    )
                     if way != bearing:
                         # round the zone: the error as far, along the way round
                         bearing = way
                         ex = -distance * math.cos(way)
                         ey = -distance * math.sin(way)
-                eth = wrap_angle(estimate[2] - bearing)
+                eth = wrap_angle(theta - bearing)
                 if controller.reverse:
                     # Backwards when the target is behind, with hysteresis: a
                     # target abeam (|eth| = pi/2) chose forwards and backwards
@@ -725,22 +758,23 @@ def regulate_input(
             else:
                 # Aligning at the target: keep the reachable (longitudinal)
                 # part of the position error, turn to the target heading.
-                c = math.cos(estimate[2])
-                s = math.sin(estimate[2])
                 along = ex * c + ey * s
                 ex = along * c
                 ey = along * s
-        scheduled_gain(estimate[2], speed, omega_prev, dt, q, r, memory, gain)
+        scheduled_gain_facing(c, s, speed, omega_prev, dt, q, r, memory, gain)
         # eq. (19) with dx the deviation from the target.
         v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
         # The deceleration planned: eq. (19) knows no acceleration limit and
         # asks for speed until the target is reached, too late to stop there.
-        # No faster than the limits can stop within the error left.
-        reach = stopping_speed(hypot(ex, ey), robot.limits[2], dt)
-        v1 = min(max(v1, -reach), reach)
-        turn = stopping_speed(abs(eth), robot.limits[3], dt)
-        omega1 = min(max(omega1, -turn), turn)
+        # No faster than the limits can stop within the error left (without
+        # a limit any speed stops: the error's length is not even taken).
+        if robot.limits[2] != math.inf:
+            reach = stopping_speed(hypot(ex, ey), robot.limits[2], dt)
+            v1 = min(max(v1, -reach), reach)
+        if robot.limits[3] != math.inf:
+            turn = stopping_speed(abs(eth), robot.limits[3], dt)
+            omega1 = min(max(omega1, -turn), turn)
     # The turn rate moves from the input before by at most half its limit a
     # sample: eq. (19)'s heading reference jumps where the phase takes over
     # from a track phase and where aligning begins (the bearing to the
@@ -759,7 +793,7 @@ def regulate_input(
     # each row shrunk by the estimate's margin, and held as a discrete-time
     # barrier, c(k+1) <= (1 - gamma) c(k): a row is approached, and left when
     # broken, by a fraction gamma of its value per sample, not in one jump.
-    px, py, pth = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
+    px, py, pth = step(x, y, theta, v1, omega1, dt)
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the rows
     # are held at x_{k+1} and also where braking from v1 ends, the braking
     # distance v^2 / (2 a) on (constrained_tracking.held_where_braking_ends).
@@ -777,18 +811,16 @@ def regulate_input(
         if row_kinds[i] == POLYGON_ROW:  # a keep-out box or polygon: its signed distance
             value, gx, gy = polygon_value(row_params[i], margin, px, py)
             if keep > 0.0:
-                value -= keep * polygon_value(row_params[i], margin, estimate[0], estimate[1])[0]
+                value -= keep * polygon_value(row_params[i], margin, x, y)[0]
         else:
             value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
             if keep > 0.0:
-                now, _, _ = row_value_with_margin(
-                    row_kinds[i], row_params[i], margin, estimate[0], estimate[1]
-                )
+                now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, x, y)
                 value -= keep * now
         if rate != math.inf:
             held, gx, gy, e00, e01, e10, e11 = held_where_braking_ends(
                 row_kinds[i], row_params[i], margin, keep, value, gx, gy,
-                (estimate[0], estimate[1], estimate[2], v_prev), (px, py, pth, v1, omega1),
+                (x, y, theta, v_prev), (px, py, pth, v1, omega1),
                 (0.0, 0.0, 0.0, 0.0), rate, dt,
             )  # fmt: skip
             if held > worst:
@@ -806,7 +838,7 @@ def regulate_input(
         eta[slot] = -value  # E - m(x): saturate to the barrier's bound
     if count == 0:
         return
-    input_jacobian_into(estimate[2], v1, omega1, dt, b)
+    input_jacobian_into(theta, v1, omega1, dt, b)
     if rate != math.inf:
         b[0, 0] += extra[0]
         b[0, 1] += extra[1]
