@@ -73,5 +73,7 @@ def test_a_row_is_held_where_the_braking_line_crosses_a_zone_its_end_is_beyond()
     assert held > 0.96
     # the gradient is the circle's at that point, the sensitivity the line's
     assert abs(hx) + abs(hy) > 0.0
-    assert s00 > 0.0 and s11 > 0.0
-    assert s01 == 0.0 and s10 == 0.0
+    assert s00 > 0.0
+    assert s11 > 0.0
+    assert s01 == 0.0
+    assert s10 == 0.0

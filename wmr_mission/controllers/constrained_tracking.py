@@ -185,9 +185,8 @@ def held_where_braking_ends(
         kind, p, margin, next_[0], next_[1], next_[2], next_[3], rate, dt
     )
     if keep > 0.0:
-        braked -= keep * held_on_braking_line(
-            kind, p, margin, now[0], now[1], now[2], now[3], rate, dt
-        )[0]
+        behind = held_on_braking_line(kind, p, margin, now[0], now[1], now[2], now[3], rate, dt)
+        braked -= keep * behind[0]
     if braked <= value:
         return value, gx, gy, s00, s01, s10, s11
     return braked, hx, hy, s00 + e00, s01 + e01, s10 + e10, s11 + e11
