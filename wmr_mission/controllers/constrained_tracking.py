@@ -230,7 +230,7 @@ def keep_constraints(
     t10 = b[1, 0] + look_ahead * c * b[2, 0]
     t11 = b[1, 1] + look_ahead * c * b[2, 1]
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the
-    # rows are held at the output and also where braking from the input ends.
+    # rows are held at the output and also on the line braking from the input takes.
     rate = robot.limits[2]
     a, eta, h = work.d, work.eta, work.h
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
@@ -543,8 +543,8 @@ def aim_gap(look_ahead: float, speed_rate: float, margin: float) -> float:
     margin of 0.05 m went 0.86 m off where 0.85 is allowed;
     docs/paper-notes.md, eq. (28), "How wide a detour is"). Without an
     acceleration limit (``speed_rate`` infinite) also at most AIM_GAP; under
-    one the filter holds the rows where braking ends too, ahead of the
-    output, and a gap of AIM_GAP stalled a fast robot at a zone."""
+    one the filter holds the rows on the line braking takes too, ahead of
+    the output, and a gap of AIM_GAP stalled a fast robot at a zone."""
     gap = min(look_ahead, max(2.0 * AIM_GAP - margin, 0.0))
     if speed_rate != math.inf:
         return gap

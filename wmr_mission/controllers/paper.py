@@ -761,16 +761,16 @@ def regulate_input(
     # broken, by a fraction gamma of its value per sample, not in one jump.
     px, py, pth = step(estimate[0], estimate[1], estimate[2], v1, omega1, dt)
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the rows
-    # are held at x_{k+1} and also where braking from v1 ends, the braking
-    # distance v^2 / (2 a) on (constrained_tracking.held_where_braking_ends).
+    # are held at x_{k+1} and also on the line braking from v1 takes, the
+    # braking distance v^2 / (2 a) on (constrained_tracking.held_where_braking_ends).
     rate = robot.limits[2]
     d, eta, b = work.d, work.eta, work.b
     margin = robot.constraint_margin
     keep = 1.0 - controller.barrier_rate
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
-    # The braking point's sensitivity to the input beyond x_{k+1}'s, where the
-    # most violated row is held there (one B for the rows: that row's).
+    # The braking line's point's sensitivity to the input beyond x_{k+1}'s,
+    # where the most violated row is held there (one B for the rows: that row's).
     extra = (0.0, 0.0, 0.0, 0.0)
     worst = 0.0
     for i in range(row_kinds.shape[0]):
