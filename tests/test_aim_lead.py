@@ -14,7 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from wmr_mission import mission_from_text, run_mission
 from wmr_mission.controllers.paper import PaperController, aim_lead, error_reach
+from wmr_mission.verdicts.metrics import judge
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
@@ -22,18 +24,12 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from judge_generated import GENERATED, judge_all  # noqa: E402
 
 
-def test_the_lead_is_the_time_constant_of_the_setting_without_rate_limits() -> None:
-    """0.1 s by default at any rate; none under an acceleration limit (the
-    robot far behind its reference as it meets a zone cut into it) and for
-    a one-sample law."""
-    free = np.array([2.0, 3.0, np.inf, np.inf])
+def test_the_lead_is_the_time_constant_of_the_setting() -> None:
+    """0.1 s by default at any rate, and none for a one-sample law."""
     for dt in (0.005, 0.01, 0.05):
-        assert math.isclose(aim_lead(PaperController(), dt, free), 0.1, rel_tol=1e-9)
-    for rates in ((1.0, np.inf), (np.inf, 4.0)):
-        limited = np.array([2.0, 3.0, *rates])
-        assert aim_lead(PaperController(), 0.01, limited) == 0.0
+        assert math.isclose(aim_lead(PaperController(), dt), 0.1, rel_tol=1e-9)
     one_sample = PaperController.model_validate({"tracking": {"time_constant": 0}})
-    assert aim_lead(one_sample, 0.01, free) == 0.0
+    assert aim_lead(one_sample, 0.01) == 0.0
 
 
 def test_a_time_constant_that_rounds_dt_away_is_taken_as_written() -> None:
@@ -42,7 +38,7 @@ def test_a_time_constant_that_rounds_dt_away_is_taken_as_written() -> None:
     1 - it, and `run` ended in a ZeroDivisionError."""
     slow = PaperController.model_validate({"tracking": {"time_constant": 1e9}})
     free = np.array([2.0, 3.0, np.inf, np.inf])
-    assert aim_lead(slow, 1e-8, free) == 1e9
+    assert aim_lead(slow, 1e-8) == 1e9
     assert error_reach(slow, 1e-8, 2.0, free) == math.inf
 
 
@@ -57,3 +53,53 @@ def test_polylines_round_a_zone_at_a_corner_turn_without_jitter(tmp_path: Path) 
     assert [(j.mission, j.outcome, j.problems) for j in judged] == [
         (n, "success", ()) for n in names
     ]
+
+
+# gen-040-ellipse's orbit: an ellipse at 1.1 m/s past a rock the path runs
+# 0.25 m into, under acceleration limits, with the EKF and sensor noise.
+ORBIT = """\
+version: 1
+name: orbit-past-a-rock
+robot:
+  dt: 0.025
+  initial_state: {x: -0.919, y: 1.25, theta: 2.634}
+  limits:
+    v: 3.953
+    omega: 2.401
+    acceleration: {v: 2.355, omega: 4.219}
+sensors:
+  measure: [x, y, theta]
+  noise_std: {x: 0.006, y: 0.006, theta: 0.007}
+  seed: 40
+estimator:
+  type: ekf
+  initial_estimate: {x: -1.178, y: 1.435, theta: 2.726}
+regions:
+  rock: {type: circle, center: [-0.101, -0.994], radius: 0.637}
+phases:
+- name: orbit
+  track:
+    path:
+      type: ellipse
+      center: [-1.909, -0.708]
+      semi_axes: [2.245, 2.194]
+      rotation: -0.564
+      angular_rate: -0.493
+      start: current
+  until: {elapsed: 7}
+  constraints:
+  - {stay_outside: rock}
+"""
+
+
+def test_under_acceleration_limits_the_lead_keeps_a_detour_as_narrow_as_the_zone_needs() -> None:
+    """Without the lead under acceleration limits the robot met the aim's
+    offset late and its detour ran 0.491 m off the path, where
+    `detour_offset_max` allows 0.454; with it, 0.398 m, and clear of the rock."""
+    mission = mission_from_text(ORBIT)
+    result = run_mission(mission)
+    summary = judge(result, mission.model_dump(mode="json"))
+    assert summary["outcome"] == "success", summary["message"]
+    orbit = summary["phases"][0]
+    assert orbit["tracking"]["detour_offset_max"] < 0.42
+    assert orbit["constraint"]["intrusion_max"] == 0.0

@@ -104,6 +104,58 @@ def constrained_change(
     return p00 * lam0 + p01 * lam1, p10 * lam0 + p11 * lam1
 
 
+# Points of the braking line a row is held at, evenly spaced to its end: at
+# 3 m/s and 1.5 m/s^2 0.19 m apart, a circle of radius 0.5 m missed by at
+# most 0.009 m between two of them.
+BRAKING_STEPS = 16
+
+
+@kernel
+def held_on_braking_line(
+    kind: int,
+    p: FloatArray,
+    margin: float,
+    x: float,
+    y: float,
+    theta: float,
+    v: float,
+    rate: float,
+    dt: float,
+) -> tuple[float, float, float, float, float, float, float]:
+    """A row's value at the point furthest in of the line the robot brakes
+    along from (x, y, theta) at v, at ``rate`` (``braking_distance`` on along
+    the heading): the value, its gradient, and that point's sensitivity to
+    (v, omega) beyond the start's (2x2 row by row): its distance's change
+    with v along the heading, and the line turned with omega over ``dt``.
+    Where the robot stops within the next sample the line is its start."""
+    ahead = braking_distance(v, rate, dt)
+    c = math.cos(theta)
+    s = math.sin(theta)
+    along = abs(v) / rate - 0.5 * dt
+    worst = -math.inf
+    hx = hy = e00 = e01 = e10 = e11 = 0.0
+    for i in range(1, BRAKING_STEPS + 1):
+        share = i / BRAKING_STEPS
+        distance = ahead * share
+        px = x + distance * c
+        py = y + distance * s
+        if kind == POLYGON_ROW:
+            value, gx, gy = polygon_value(p, margin, px, py)
+        else:
+            value, gx, gy = row_value_with_margin(kind, p, margin, px, py)
+        if value > worst:
+            worst = value
+            hx = gx
+            hy = gy
+            e00 = along * share * c
+            e10 = along * share * s
+            e01 = -distance * dt * s
+            e11 = distance * dt * c
+        if ahead == 0.0:
+            break
+    return worst, hx, hy, e00, e01, e10, e11
+
+
 @kernel
 def held_where_braking_ends(
     kind: int,
@@ -120,39 +172,24 @@ def held_where_braking_ends(
     dt: float,
 ) -> tuple[float, float, float, float, float, float, float]:
     """A row's barrier value at the point ``next_`` (x, y, heading at k+1, v,
-    omega) and, where it is further in, at the point where braking from v at
-    ``rate`` ends (v^2 / (2 a) on along the heading; now: from ``now``'s
-    point, heading and v_{k-1}): the value, its gradient, and the point's
-    sensitivity to (v, omega), ``sensitivity`` (2x2 row by row) for the first.
-    The braking point moves with v along the heading and turns with omega."""
+    omega) and, where it is further in, on the line braking from v at
+    ``rate`` takes, at its point furthest in (v^2 / (2 a) on along the
+    heading; now: from ``now``'s point, heading and v_{k-1}): the value, its
+    gradient, and the point's sensitivity to (v, omega), ``sensitivity``
+    (2x2 row by row) for the first. The whole line, not its end alone: a
+    robot whose braking line reached past a zone was let on towards it,
+    and braking on a curve carried it in (docs/paper-notes.md,
+    "Acceleration limits")."""
     s00, s01, s10, s11 = sensitivity
-    ahead = braking_distance(next_[3], rate, dt)
-    if ahead == 0.0:
-        return value, gx, gy, s00, s01, s10, s11
-    c = math.cos(next_[2])
-    s = math.sin(next_[2])
-    bx = next_[0] + ahead * c
-    by = next_[1] + ahead * s
-    if kind == POLYGON_ROW:
-        braked, hx, hy = polygon_value(p, margin, bx, by)
-    else:
-        braked, hx, hy = row_value_with_margin(kind, p, margin, bx, by)
+    braked, hx, hy, e00, e01, e10, e11 = held_on_braking_line(
+        kind, p, margin, next_[0], next_[1], next_[2], next_[3], rate, dt
+    )
     if keep > 0.0:
-        behind = braking_distance(now[3], rate, dt)
-        wx = now[0] + behind * math.cos(now[2])
-        wy = now[1] + behind * math.sin(now[2])
-        if kind == POLYGON_ROW:
-            now_value, _, _ = polygon_value(p, margin, wx, wy)
-        else:
-            now_value, _, _ = row_value_with_margin(kind, p, margin, wx, wy)
-        braked -= keep * now_value
+        behind = held_on_braking_line(kind, p, margin, now[0], now[1], now[2], now[3], rate, dt)
+        braked -= keep * behind[0]
     if braked <= value:
         return value, gx, gy, s00, s01, s10, s11
-    along = abs(next_[3]) / rate - 0.5 * dt
-    return (
-        braked, hx, hy,
-        s00 + along * c, s01 - ahead * dt * s, s10 + along * s, s11 + ahead * dt * c,
-    )  # fmt: skip
+    return braked, hx, hy, s00 + e00, s01 + e01, s10 + e10, s11 + e11
 
 
 @inlined
@@ -193,7 +230,7 @@ def keep_constraints(
     t10 = b[1, 0] + look_ahead * c * b[2, 0]
     t11 = b[1, 1] + look_ahead * c * b[2, 1]
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the
-    # rows are held at the output and also where braking from the input ends.
+    # rows are held at the output and also on the line braking from the input takes.
     rate = robot.limits[2]
     a, eta, h = work.d, work.eta, work.h
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
@@ -506,8 +543,8 @@ def aim_gap(look_ahead: float, speed_rate: float, margin: float) -> float:
     margin of 0.05 m went 0.86 m off where 0.85 is allowed;
     docs/paper-notes.md, eq. (28), "How wide a detour is"). Without an
     acceleration limit (``speed_rate`` infinite) also at most AIM_GAP; under
-    one the filter holds the rows where braking ends too, ahead of the
-    output, and a gap of AIM_GAP stalled a fast robot at a zone."""
+    one the filter holds the rows on the line braking takes too, ahead of
+    the output, and a gap of AIM_GAP stalled a fast robot at a zone."""
     gap = min(look_ahead, max(2.0 * AIM_GAP - margin, 0.0))
     if speed_rate != math.inf:
         return gap

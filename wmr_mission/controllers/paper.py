@@ -795,16 +795,16 @@ def regulate_input(
     # broken, by a fraction gamma of its value per sample, not in one jump.
     px, py, pth = step(x, y, theta, v1, omega1, dt)
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the rows
-    # are held at x_{k+1} and also where braking from v1 ends, the braking
-    # distance v^2 / (2 a) on (constrained_tracking.held_where_braking_ends).
+    # are held at x_{k+1} and also on the line braking from v1 takes, the
+    # braking distance v^2 / (2 a) on (constrained_tracking.held_where_braking_ends).
     rate = robot.limits[2]
     d, eta, b = work.d, work.eta, work.b
     margin = robot.constraint_margin
     keep = 1.0 - controller.barrier_rate
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
-    # The braking point's sensitivity to the input beyond x_{k+1}'s, where the
-    # most violated row is held there (one B for the rows: that row's).
+    # The braking line's point's sensitivity to the input beyond x_{k+1}'s,
+    # where the most violated row is held there (one B for the rows: that row's).
     extra = (0.0, 0.0, 0.0, 0.0)
     worst = 0.0
     for i in range(row_kinds.shape[0]):
@@ -992,17 +992,17 @@ def turn_acceleration(settings: PaperController, dt: float, limits: FloatArray) 
     return TURNABLE_SHARE * float(limits[3])
 
 
-def aim_lead(settings: PaperController, dt: float, limits: FloatArray) -> float:
+def aim_lead(settings: PaperController, dt: float) -> float:
     """[s] How far ahead along the path the aim's offset round the zones is
-    taken: the time constant the law closes the aim's move at, so that the
-    robot, that much behind it, meets the offset where the zone needs it;
-    0 for the one-sample laws, and under rate limits, where the robot far
-    behind its reference at its entry was led past the zone's end by the
-    aim and cut into it (docs/paper-notes.md, eq. (28), "The aim's offset a
-    time constant ahead")."""
+    taken: the setting's time constant, the pace the law closes the aim's
+    move at, so that the robot, that much behind it, meets the offset where
+    the zone needs it; 0 for the one-sample laws. Under acceleration limits
+    too, now that the filter holds a zone's rows on the whole line the robot
+    brakes along: led past the zone's end, a robot far behind its reference
+    cut into it while the rows were held at the braking line's end alone
+    (docs/paper-notes.md, eq. (28), "The aim's offset a time constant
+    ahead")."""
     if error_decay(settings, dt) == 0.0:
-        return 0.0
-    if math.isfinite(float(limits[2])) or math.isfinite(float(limits[3])):
         return 0.0
     return float(settings.tracking.time_constant)
 
@@ -1022,7 +1022,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         barrier_rate=min(1.0, float(plant.dt) / BARRIER_TIME),
         error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
         turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
-        aim_lead=aim_lead(settings, plant.dt, plant.limits),
+        aim_lead=aim_lead(settings, plant.dt),
     )
 
 
