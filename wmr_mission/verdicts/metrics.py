@@ -990,6 +990,8 @@ def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | 
         if type(value) is not dict and not isinstance(value, Mapping):
             return None
         value = value.get(key)
+    if type(value) is float:  # most values: no further type checks
+        return value if math.isfinite(value) else None
     if isinstance(value, bool) or not isinstance(value, int | float):
         return None
     return float(value) if math.isfinite(value) else None
