@@ -1109,11 +1109,11 @@ def _checks(
     summary: Mapping[str, Any],
     mission: Mapping[str, Any] | None,
     per_phase: Mapping[str, Mapping[str, Any]],
-    known: MissionNumbers | None = None,
+    at_hand: MissionNumbers | None = None,
 ) -> list[Check]:
     """:func:`check_expectations` with the mission's :func:`phase_expectations`
-    at hand; ``known``: the mission's numbers for some sampling period and
-    limits, if at hand (used where they are the mission's)."""
+    at hand; ``at_hand``: the mission's numbers for some sampling period and
+    limits, if any (used where they are the mission's)."""
     robot = (mission or {}).get("robot") or {}
     limits = robot.get("limits") or {}
     dt = float(robot.get("dt", _DEFAULT_DT))
@@ -1122,9 +1122,9 @@ def _checks(
         float(limits.get("omega", _DEFAULT_OMEGA)),
     )
     numbers = (
-        known
-        if known is not None
-        and (known.dt, known.v_limit, known.omega_limit) == (dt, v_limit, omega_limit)
+        at_hand
+        if at_hand is not None
+        and (at_hand.dt, at_hand.v_limit, at_hand.omega_limit) == (dt, v_limit, omega_limit)
         else mission_numbers(mission, dt, (v_limit, omega_limit))
     )
     expect = _expect_of(mission)
