@@ -494,10 +494,7 @@ class PhaseSamples:
         if self.info.kind == "track":
             progress = input_metrics.progress_along(x, y, r.x_ref[judged], r.y_ref[judged])
         elif self.info.target is not None:  # towards the target in force at each sample
-            aim_x, aim_y = np.empty(x.size), np.empty(x.size)
-            for a, b, aim in self.info.targets_in_force(first, stop):
-                aim_x[a - first : b - first], aim_y[a - first : b - first] = aim[0], aim[1]
-            progress = input_metrics.progress_to(x, y, (aim_x, aim_y))
+            progress = _towards_targets(self.info, first, stop, x, y)
         else:
             progress = lambda a, b: 0.0  # noqa: E731 - no aim known: nothing is progress
         return input_metrics.input_quality(
@@ -569,6 +566,27 @@ class PhaseSamples:
     def intrusion(self) -> float | None:
         r, w = self.result, self.window
         return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers)
+
+
+def _towards_targets(
+    info: PhaseRecord, first: int, stop: int, x: FloatArray, y: FloatArray
+) -> input_metrics.Progress:
+    """:func:`input_metrics.progress_to` the target in force at each sample of
+    ``first .. stop - 1`` (``x``, ``y``: their positions), its aims put together
+    when first asked: only a stretch at the speed limit asks, and most phases
+    have none."""
+    made: list[input_metrics.Progress] = []
+
+    def progress(a: int, b: int) -> float:
+        if not made:
+            aim_x, aim_y = np.empty(x.size), np.empty(x.size)
+            for start, end, aim in info.targets_in_force(first, stop):
+                aim_x[start - first : end - first] = aim[0]
+                aim_y[start - first : end - first] = aim[1]
+            made.append(input_metrics.progress_to(x, y, (aim_x, aim_y)))
+        return made[0](a, b)
+
+    return progress
 
 
 _INPUT_METRICS = (
