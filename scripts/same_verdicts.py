@@ -4,9 +4,9 @@
     python scripts/same_verdicts.py judge RUNS.pickle OUT.json
     python scripts/same_verdicts.py compare BEFORE.json AFTER.json
 
-``runs``: every mission in missions/, tests/data/generated and
-tests/data/missions, and the first ten draws of each campaign in
-missions/campaigns/, each simulated once and pickled. ``judge``: each run
+``runs``: every mission in missions/ and tests/data/generated, and the
+first ten draws of each campaign in missions/campaigns/, each simulated
+once and pickled. ``judge``: each run
 judged as ``run`` judges it (``judge``: summary.json less its two timings)
 and as a campaign's row does (``judge_run_metrics``), under its mission and
 under the same with tight thresholds (so that checks miss, and the row
@@ -56,7 +56,7 @@ def simulate(out: Path) -> None:
     from wmr_mission.spec.loader import load_mission
 
     runs = []
-    for folder in ("missions", "tests/data/generated", "tests/data/missions"):
+    for folder in ("missions", "tests/data/generated"):
         for path in sorted((ROOT / folder).glob("*.yaml")):
             mission = load_mission(path)
             result = run_mission(plan_mission(mission))
