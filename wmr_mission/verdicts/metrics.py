@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.basics import STATES, FloatArray, IntArray, cached_value
+from wmr_mission.basics import STATES, FloatArray, cached_value
 from wmr_mission.kernels import jit
 from wmr_mission.spec import catalog, models
 from wmr_mission.spec.catalog import Metric
@@ -122,18 +122,19 @@ def _largest(
     return _max_or_none(values)
 
 
-def _violation(values: FloatArray, phase: IntArray | None = None) -> float | None:
+def _violation(values: FloatArray, starts: list[int] | None = None) -> float | None:
     """How far the largest constraint-row value is above 0 (0 when never) over
     the states a phase's own inputs produced; None when no constraint applied.
+    ``starts``: the first sample of each phase's stretch (None: one phase's samples).
 
     A phase's first sample is the state it was entered in, which the phase
     before it (or the mission's initial state) produced: no input of the phase
     has acted on it yet (docs/paper-notes.md, eq. (33))."""
     values = values.copy()
-    if phase is None:  # one phase's samples
+    if starts is None:  # one phase's samples
         values[:1] = np.nan
     else:
-        values[[start for _, start, _ in phase_segments(phase)]] = np.nan
+        values[starts] = np.nan
     largest = _max_or_none(values)
     return None if largest is None else max(0.0, largest)
 
@@ -350,7 +351,7 @@ def _pose_error(
     return _finite_or_none(position), heading
 
 
-def _final(result: RunRecord, segments: list[tuple[int, int, int]]) -> dict[str, Any]:
+def _final(result: RunRecord, stretches: list[tuple[PhaseRecord, int, int]]) -> dict[str, Any]:
     """Final error of the true pose from the aim of the last phase that has one.
 
     The aim is a regulate target, or a track phase's last reference point (no
@@ -368,8 +369,7 @@ def _final(result: RunRecord, segments: list[tuple[int, int, int]]) -> dict[str,
     if result.samples == 0:
         return final
     last = result.samples - 1
-    for index, start, end in reversed(segments):
-        info = result.phases[index]
+    for info, start, end in reversed(stretches):  # each phase's record, first and end sample
         if info.kind == "hold":
             continue
         target = _phase_target(result, info, start, end)
@@ -494,10 +494,7 @@ class PhaseSamples:
         if self.info.kind == "track":
             progress = input_metrics.progress_along(x, y, r.x_ref[judged], r.y_ref[judged])
         elif self.info.target is not None:  # towards the target in force at each sample
-            aim_x, aim_y = np.empty(x.size), np.empty(x.size)
-            for a, b, aim in self.info.targets_in_force(first, stop):
-                aim_x[a - first : b - first], aim_y[a - first : b - first] = aim[0], aim[1]
-            progress = input_metrics.progress_to(x, y, (aim_x, aim_y))
+            progress = _towards_targets(self.info, first, stop, x, y)
         else:
             progress = lambda a, b: 0.0  # noqa: E731 - no aim known: nothing is progress
         return input_metrics.input_quality(
@@ -571,6 +568,27 @@ class PhaseSamples:
         return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers)
 
 
+def _towards_targets(
+    info: PhaseRecord, first: int, stop: int, x: FloatArray, y: FloatArray
+) -> input_metrics.Progress:
+    """:func:`input_metrics.progress_to` the target in force at each sample of
+    ``first .. stop - 1`` (``x``, ``y``: their positions), its aims put together
+    when first asked: only a stretch at the speed limit asks, and most phases
+    have none."""
+    made: list[input_metrics.Progress] = []
+
+    def progress(a: int, b: int) -> float:
+        if not made:
+            aim_x, aim_y = np.empty(x.size), np.empty(x.size)
+            for start, end, aim in info.targets_in_force(first, stop):
+                aim_x[start - first : end - first] = aim[0]
+                aim_y[start - first : end - first] = aim[1]
+            made.append(input_metrics.progress_to(x, y, (aim_x, aim_y)))
+        return made[0](a, b)
+
+    return progress
+
+
 _INPUT_METRICS = (
     "speed_jump_max",
     "turn_rate_jump_max",
@@ -635,11 +653,7 @@ def _checked_phase_summary(
         "kind": info.kind,
         "settled_samples": int(np.count_nonzero(phase.settled)),
     }
-    checked = [
-        metric
-        for metric in catalog.phase_metrics()
-        if thresholds.get(metric.name) is not None and _applies(summary, metric)
-    ]
+    checked = [metric for metric in _applying(summary) if thresholds.get(metric.name) is not None]
     values: dict[str, Any] = _measured(phase, checked)
     if "tracking" in values:  # with what the `auto` thresholds read
         values["tracking"] = phase.tracking
@@ -755,7 +769,8 @@ def compute_time_us(compute_ns: np.ndarray) -> dict[str, float | None]:
 
 def _expect_of(mission: Mapping[str, Any] | None) -> Mapping[str, Any]:
     expect = (mission or {}).get("expect")
-    return expect if isinstance(expect, Mapping) else {}
+    # a resolved mission's dicts told apart without the abstract class's slower check
+    return expect if type(expect) is dict or isinstance(expect, Mapping) else {}
 
 
 def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
@@ -890,7 +905,7 @@ def run_columns(
     over the run: its worst over the phases of its kinds that have it
     (``clearance_min``: the body's least clearance; None where no phase has one).
     ``phases``: the run's (:func:`_phase_samples`), if at hand."""
-    wanted = [m for m in catalog.phase_metrics() if m.column]
+    wanted = _of_kind("", False, column=True)
     found: dict[str, list[float]] = {m.name: [] for m in wanted}
     if phases is None:
         phases = _phase_samples(result, mission, distance_to_path)
@@ -915,7 +930,9 @@ def run_metrics(
     errors = estimation_errors(result) if errors is None else errors
     if phases is None:
         phases = _phase_samples(result, mission, distance_to_path, errors)
-    summary = _bounded_metrics(result, tolerance, errors, run_columns(result, mission, phases))
+    summary = _bounded_metrics(
+        result, tolerance, errors, run_columns(result, mission, phases), phases
+    )
     settled = (
         result.t - (result.t[0] if result.samples else 0.0)
         >= _settle_time(_expect_of(mission)) - 1e-9 * result.dt
@@ -942,11 +959,14 @@ def _bounded_metrics(
     tolerance: Mapping[str, float],
     errors: dict[str, FloatArray],
     columns: Mapping[str, float | None],
+    phases: Phases,
 ) -> dict[str, Any]:
     """The run's outcome, the mission-wide metrics an `expect` can bound (the
     catalog's run metrics) and the worst of the phases' that runs.csv has
-    (:func:`run_columns`), as :func:`run_metrics` has them."""
+    (:func:`run_columns`), as :func:`run_metrics` has them; ``phases``: the
+    run's (:func:`_phase_samples`)."""
     converged = convergence_index(errors, tolerance)
+    stretches = [(info, phase.window.start, phase.window.stop) for info, phase, _ in phases]
     duration = round(float(result.t[-1] - result.t[0]), 9) if result.samples else 0.0
     return {
         "outcome": result.outcome.value,
@@ -955,9 +975,11 @@ def _bounded_metrics(
         "seed": result.seed,
         "samples": result.samples,
         "duration": duration,
-        "final": _final(result, phase_segments(result.phase)),
+        "final": _final(result, stretches),
         "estimation_convergence_time": None if converged is None else float(result.t[converged]),
-        "max_constraint_violation": _violation(result.constraint, result.phase),
+        "max_constraint_violation": _violation(
+            result.constraint, [start for _, start, _ in stretches]
+        ),
         **columns,
         # A real-time run's pace and command latency (wmr_mission.backends); absent in
         # our simulator, whose summary keeps its bytes.
@@ -986,18 +1008,40 @@ def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | 
         if type(value) is not dict and not isinstance(value, Mapping):
             return None
         value = value.get(key)
+    if type(value) is float:  # most values: no further type checks
+        return value if math.isfinite(value) else None
     if isinstance(value, bool) or not isinstance(value, int | float):
         return None
     return float(value) if math.isfinite(value) else None
 
 
-def _applies(phase: Mapping[str, Any], metric: Metric) -> bool:
-    """A metric applies to the phases of its kinds (catalog.Metric.kinds); one
-    measured after the settle time needs samples after it (one checked where
-    measured is checked where it has a value)."""
-    if phase.get("kind") not in metric.kinds:
-        return False
-    return metric.where_measured or bool(phase.get("settled_samples"))
+def _applying(phase: Mapping[str, Any]) -> tuple[Metric, ...]:
+    """The catalog's phase metrics that apply to ``phase`` (its summary), in
+    the catalog's order: those of its kind (catalog.Metric.kinds); of those
+    measured after the settle time, only where it has samples after it (one
+    checked where measured is checked where it has a value)."""
+    return _of_kind(str(phase.get("kind")), bool(phase.get("settled_samples")))
+
+
+# (kind, settled samples or none, columns, catalog size) -> the metrics: a
+# row's phases ask the same few questions of the catalog, which is complete
+# once the models are built.
+_APPLYING: dict[tuple[str, bool, bool, int], tuple[Metric, ...]] = {}
+
+
+def _of_kind(kind: str, settled: bool, column: bool = False) -> tuple[Metric, ...]:
+    """The catalog's phase metrics of phases of ``kind``, those measured after
+    the settle time only if ``settled``, in its order; with ``column``, those
+    runs.csv has a column of (catalog.Metric.column), of every kind."""
+    key = (kind, settled, column, len(catalog.CATALOG))
+    found = _APPLYING.get(key)
+    if found is None:
+        found = _APPLYING[key] = tuple(
+            m
+            for m in catalog.phase_metrics()
+            if (m.column if column else kind in m.kinds and (m.where_measured or settled))
+        )
+    return found
 
 
 def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumbers) -> float | None:
@@ -1038,9 +1082,9 @@ def _phase_checks(
 ) -> list[Check]:
     checks = []
     name = str(phase.get("name"))
-    for metric in catalog.phase_metrics():
+    for metric in _applying(phase):
         threshold = thresholds.get(metric.name)
-        if threshold is None or not _applies(phase, metric):
+        if threshold is None:
             continue
         if metric.expect == "per-state":  # a bound per state
             for state in STATES:
@@ -1083,19 +1127,28 @@ def _checks(
     summary: Mapping[str, Any],
     mission: Mapping[str, Any] | None,
     per_phase: Mapping[str, Mapping[str, Any]],
+    at_hand: MissionNumbers | None = None,
 ) -> list[Check]:
-    """:func:`check_expectations` with the mission's :func:`phase_expectations` at hand."""
+    """:func:`check_expectations` with the mission's :func:`phase_expectations`
+    at hand; ``at_hand``: the mission's numbers for some sampling period and
+    limits, if any (used where they are the mission's)."""
     robot = (mission or {}).get("robot") or {}
     limits = robot.get("limits") or {}
-    numbers = mission_numbers(
-        mission,
-        float(robot.get("dt", _DEFAULT_DT)),
-        (float(limits.get("v", _DEFAULT_V)), float(limits.get("omega", _DEFAULT_OMEGA))),
+    dt = float(robot.get("dt", _DEFAULT_DT))
+    v_limit, omega_limit = (
+        float(limits.get("v", _DEFAULT_V)),
+        float(limits.get("omega", _DEFAULT_OMEGA)),
+    )
+    numbers = (
+        at_hand
+        if at_hand is not None
+        and (at_hand.dt, at_hand.v_limit, at_hand.omega_limit) == (dt, v_limit, omega_limit)
+        else mission_numbers(mission, dt, (v_limit, omega_limit))
     )
     expect = _expect_of(mission)
-    known = (*catalog.CATALOG, *_SETTINGS, "temporal")
     for key in expect:
-        if key not in known:
+        if key not in catalog.CATALOG and key not in _SETTINGS and key != "temporal":
+            known = (*catalog.CATALOG, *_SETTINGS, "temporal")
             raise ValueError(f"unknown expectation {key!r}; expected one of {', '.join(known)}")
     checks = [
         Check(m.name, None, float(expect[m.name]["max"]), summary_value(summary, m.where))
@@ -1107,7 +1160,8 @@ def _checks(
         thresholds = per_phase.get(_written_name(str(phase.get("name"))), expect)
         found = _phase_checks(phase, thresholds, numbers)
         for check in found if phase.get("kind") == "track" else ():
-            check.advice = advice(check, phase, numbers, controller)  # the tracking law's
+            if not check.met:  # the tracking law's, for a miss
+                check.advice = advice(check, phase, numbers, controller)
         checks.extend(found)
         checks.extend(temporal.formula_checks(phase))
     return checks
@@ -1168,7 +1222,7 @@ def judge_run_metrics(result: RunRecord, mission: MissionTerms) -> dict[str, Any
     per_phase = phase_expectations(mission)
     phases = _phase_samples(result, mission, _off_path_bound, errors, per_phase)
     columns = run_columns(result, mission, phases)
-    summary = _bounded_metrics(result, _tolerance(mission), errors, columns)
+    summary = _bounded_metrics(result, _tolerance(mission), errors, columns, phases)
     if not result.succeeded:  # judging changes only a success; no check decides a failure
         summary.update(margin_fields([], result.outcome.value))
         return summary
@@ -1177,20 +1231,24 @@ def judge_run_metrics(result: RunRecord, mission: MissionTerms) -> dict[str, Any
         _checked_phase_summary(info, phase, expect) | _formulas(result, info, phase, mission)
         for info, phase, expect in phases
     ]
+    numbers = phases[0][1].numbers if phases else None  # the run's dt and limits
     del phases
-    checks = _checks({**summary, "phases": checked}, mission, per_phase)
+    checks = _checks({**summary, "phases": checked}, mission, per_phase, numbers)
+    missed = [check for check in checks if not check.met]
+    margin = margin_fields(checks, result.outcome.value)
     # A bound above the distance to the path sets a tracking check's margin
     # below its own: exact where it misses, or where it sets the run's margin.
-    least = min(checks, key=lambda c: c.margin, default=None)
-    if any(not c.met and c.metric.startswith("tracking_error") for c in checks) or (
-        least is not None and least.metric.startswith("tracking_error")
-    ):
-        checks = _checks(summarize(result, mission), mission, per_phase)
-    _judged(result, summary, checks)
+    if any(c.metric.startswith("tracking_error") for c in missed) or str(
+        margin["margin_metric"]
+    ).startswith("tracking_error"):
+        checks = _checks(summarize(result, mission), mission, per_phase, numbers)
+        missed = [check for check in checks if not check.met]
+        margin = margin_fields(checks, result.outcome.value)
+    _judged(result, summary, missed)  # (its outcome, judged still: the same margin)
     # the checks it missed (exact: a tracking check missed by its bound is
     # measured again), not every check: a met one may hold its bound's value
-    summary["missed"] = [check.record() for check in checks if not check.met]
-    summary.update(margin_fields(checks, result.outcome.value))
+    summary["missed"] = [check.record() for check in missed]
+    summary.update(margin)
     return summary
 
 

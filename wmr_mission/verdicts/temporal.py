@@ -326,14 +326,18 @@ class PhaseSignals:
         known = np.isfinite(rx) & np.isfinite(ry)
         if self.info.kind != "track" or not known.any():
             return {"cross_track": None, "lag": None}
-        cross, lag = np.full(known.size, np.nan), np.full(known.size, np.nan)
         placement = self._placement() if self._placement is not None else placed(r, w)
-        if placement is not None:
-            px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
+        if placement is None:
+            return {"cross_track": np.full(known.size, np.nan), "lag": np.full(known.size, np.nan)}
+        px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
+        if known.all():  # on_path's own new arrays: no copy into the phase's
+            cross, lag = placement.on_path(numbers.tracking_tolerance)
+        else:
+            cross, lag = np.full(known.size, np.nan), np.full(known.size, np.nan)
             cross[known], lag[known] = placement.on_path(numbers.tracking_tolerance)
-            length = placement.steps[2]
-            speed = float(length[0]) / numbers.dt if rx.size > 1 else 0.0
-            self.entry = numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), speed)
+        length = placement.steps[2]
+        speed = float(length[0]) / numbers.dt if rx.size > 1 else 0.0
+        self.entry = numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), speed)
         return {"cross_track": cross, "lag": lag}
 
 

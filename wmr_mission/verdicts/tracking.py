@@ -414,10 +414,15 @@ def track_samples(
         metrics["zone_reach"] = max(0.0, reach + kept)
     judged = ~excused
     judged[-1] |= ended_in_entry
+    if zones or with_samples:
+        judged_cross, judged_lag = cross[judged], lag[judged]
+    else:  # the entry alone is excused, a prefix: the samples after it, as views
+        first = after_entry if ended_in_entry or not excused[-1] else t.size
+        judged_cross, judged_lag = cross[first:], lag[first:]
     offset = cross[detour & ~np.isnan(cross)] if zones else cross[:0]  # no zone: no detour
     metrics |= {
-        "cross_track_error_max": float(cross[judged].max()) if judged.any() else None,
-        "along_track_lag_max": float(np.abs(lag[judged]).max()) if judged.any() else None,
+        "cross_track_error_max": float(judged_cross.max()) if judged_cross.size else None,
+        "along_track_lag_max": float(np.abs(judged_lag).max()) if judged_lag.size else None,
         "entry_time": entry,
         "detour_time": float(np.count_nonzero(detour)) * dt,
         "detour_offset_max": float(offset.max()) if offset.size else None,
