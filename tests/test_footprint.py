@@ -372,6 +372,13 @@ phases:
         "than the robot's body reaches (0.25 m, robot.footprint): the body reaches out "
         "of it there"
     ]
+    for edge, region in ((text, "yard"), (fenced, "east")):  # on the edge: no room at all
+        _, found = check_mission_text(edge.replace("x: 1.9", "x: 2"), "yard.yaml")
+        assert [d.message for d in found if d.severity == "warning"] == [
+            f"the target (2, 0) is 0 m inside the edge of keep-in region {region!r}, nearer "
+            "than the robot's body reaches (0.25 m, robot.footprint): the body reaches out "
+            "of it there"
+        ]
     roomy = text.replace("x: 1.9", "x: 1.5")
     _, found = check_mission_text(roomy, "yard.yaml")
     assert [d for d in found if d.severity == "warning"] == []

@@ -1430,20 +1430,20 @@ def _gap(region: RegionSpec, x: float, y: float) -> float:
 
 
 def _room(region: RegionSpec, x: float, y: float) -> float:
-    """[m] how far the point (x, y) inside ``region`` is from its edge (-1
-    outside, a point on the edge outside as in :func:`_inside`), by shapely."""
+    """[m] how far the point (x, y) inside ``region`` is from its edge (0 on
+    it, -1 outside), by shapely."""
     import shapely
 
     if isinstance(region, HalfPlaneRegion):
         nx, ny = region.normal
         inside = (region.offset - nx * x - ny * y) / math.hypot(nx, ny)
-        return inside if inside > 0.0 else -1.0
+        return inside if inside >= 0.0 else -1.0
     if isinstance(region, BoxRegion | PolygonRegion):
         outline = shapely.Polygon(region_vertices(region))
     else:
         outline = shapely.Polygon(np.column_stack(region_outline(region, n=720)[:2])[:-1])
     point = shapely.Point(x, y)
-    return float(outline.exterior.distance(point)) if outline.contains(point) else -1.0
+    return float(outline.exterior.distance(point)) if outline.covers(point) else -1.0
 
 
 def _boundary(region: RegionSpec) -> tuple[FloatArray, FloatArray]:
