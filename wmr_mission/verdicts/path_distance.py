@@ -252,16 +252,19 @@ def _distances(
         # The segments tried: about the sample's own point, from it outwards (the
         # nearest first, most often), and next to the nearest points.
         n = 0
+        mine = own[q] if own.size else min(max(q - start, 0), last + 1)  # its reference point
         for d in range(window):
-            mine = own[q] if own.size else min(max(q - start, 0), last + 1)  # its reference point
             segments[n] = min(max(mine + d, 0), last)
             segments[n + 1] = min(max(mine - 1 - d, 0), last)
             n += 2
+        # (each segment once: the window's run from its first to its last)
+        lowest, highest = min(max(mine - window, 0), last), min(max(mine + window - 1, 0), last)
         for j in range(found):
             point = points[named[j]]
-            segments[n] = min(max(point - 1, 0), last)
-            segments[n + 1] = min(max(point, 0), last)
-            n += 2
+            for i0 in range(max(point - 1, 0), min(point, last) + 1):  # the one before, after
+                if not lowest <= i0 <= highest and not _listed(segments, 2 * window, n, i0):
+                    segments[n] = i0
+                    n += 1
         least = math.inf
         farther = math.inf  # a segment whose first point is farther (squared) is farther than least
         every = False  # a NaN or an overflow: every segment's hypot, as numpy takes them
@@ -296,6 +299,14 @@ def _distances(
                     break
                 distance = min(distance, found_distance)
         out[q] = distance
+
+
+@inlined
+def _listed(segments: NDArray[np.int64], first: int, end: int, i0: int) -> bool:
+    """Whether segment i0 is among ``segments[first:end]``."""
+    while first < end and segments[first] != i0:
+        first += 1
+    return first < end
 
 
 @inlined
