@@ -18,7 +18,26 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels.jit import inlined, kernel
 
-__all__ = ["place_samples"]
+__all__ = ["path_lengths", "place_samples"]
+
+
+@kernel
+def path_lengths(
+    rx: FloatArray,
+    ry: FloatArray,
+    steps: tuple[FloatArray, FloatArray, FloatArray],
+    arc: FloatArray,
+) -> None:
+    """Each segment's step (x, y) and length into ``steps``, and the arc length
+    at each point into ``arc``, as ``tracking.path_steps`` and numpy's
+    ``cumsum`` (a sum in order) compute them, without their temporaries."""
+    sx, sy, length = steps
+    if arc.size:
+        arc[0] = 0.0
+    for i in range(rx.size - 1):
+        sx[i], sy[i] = rx[i + 1] - rx[i], ry[i + 1] - ry[i]
+        length[i] = math.sqrt(sx[i] * sx[i] + sy[i] * sy[i])
+        arc[i + 1] = arc[i] + length[i]
 
 
 @kernel
