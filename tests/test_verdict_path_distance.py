@@ -155,14 +155,14 @@ def _doubling_back(rng: np.random.Generator) -> Case:
     return x, y, px, py
 
 
-def test_the_search_from_the_previous_position_finds_the_full_searchs_nearest(
+def test_the_compiled_distance_on_paths_that_double_back_and_cross_has_the_full_searchs_bits(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """The compiled pass starts each position's search from what the previous
-    position's nearest points bound, and leaves out cells and segments too far
-    to hold the nearest: on 40 random paths that double back and cross
-    themselves, with ties everywhere, it gives the full search's bits (the
-    numpy form: every cell the grid's rule names, every segment's hypot)."""
+    """The compiled pass's ring search for the nearest points, and its hypot
+    taken only near the least: on 40 random paths that double back and cross
+    themselves, with ties everywhere, the full search's bits (the numpy form:
+    the nearest points of the grid's cells or the k-d tree, every segment's
+    hypot)."""
     rng = np.random.default_rng(34)
     jit.load()
     for _ in range(40):

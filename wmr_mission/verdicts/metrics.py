@@ -252,10 +252,12 @@ def distance_to_path(
     if px.size == 1:
         distance[finite] = np.hypot(qx - px[0], qy - py[0])
         return distance
-    # each sample's reference point: the last known at or before it (else the
-    # first); where they run unbroken, the compiled pass reckons it itself
-    unbroken = isinstance(these, slice) and every_finite
-    own = None if unbroken and jit.distances_compiled() else _own_points(known, these, finite)
+    # each sample's reference point: the last known at or before it (else the first)
+    if isinstance(these, slice):
+        own = np.minimum(np.maximum(np.arange(x.size) - these.start, 0), px.size - 1)
+    else:
+        own = np.maximum(np.cumsum(known) - 1, 0)
+    own = own if every_finite else own[finite]
     steps = np.hypot(np.diff(px), np.diff(py))
     cell = float(np.median(steps[steps > 0])) / 2 if np.any(steps > 0) else 1.0
     # One point per cell: the first the path passes in it (a stable sort by cell).
@@ -266,16 +268,11 @@ def distance_to_path(
         column, row = column[order], row[order]
         first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
     if jit.distances_compiled():  # the same bits in one compiled pass (verdicts/path_distance.py)
-        longest = float(steps.max())
-        start = these.start if isinstance(these, slice) else 0
-        found = compiled_distances(
-            px, py, qx, qy, own, start, first, cell, LOCAL_WINDOW, _NEAREST_POINTS, longest
-        )
+        found = compiled_distances(px, py, qx, qy, own, first, cell, LOCAL_WINDOW, _NEAREST_POINTS)
         if every_finite:
             return found
         distance[finite] = found
         return distance
-    assert own is not None
     grid = NearestPoints(px[first], py[first], cell, qx.size)
     found = np.empty(qx.size)
     last = px.size - 2  # segment i runs from point i to point i + 1
@@ -289,20 +286,6 @@ def distance_to_path(
         found[part] = np.minimum(near, _distance_to_segments(px, py, segments, qx[part], qy[part]))
     distance[finite] = found
     return distance
-
-
-def _own_points(
-    known: NDArray[np.bool_], these: slice | NDArray[np.bool_], finite: NDArray[np.bool_]
-) -> NDArray[np.intp]:
-    """The reference point of each finite position: the last known at or
-    before its sample (else the first), counted among the known."""
-    own: NDArray[np.intp]
-    if isinstance(these, slice):
-        size = these.stop - these.start
-        own = np.minimum(np.maximum(np.arange(known.size) - these.start, 0), size - 1)
-    else:
-        own = np.maximum(np.cumsum(known) - 1, 0)
-    return own if finite.all() else own[finite]
 
 
 def _distance_to_segments(

@@ -5,30 +5,17 @@ says which segments are tried; its numpy form serves plain Python).
 Each position's distance is the least of its segments' distances, computed
 with numpy's arithmetic operation by operation, and min rounds nothing, so
 the bits are those of the numpy form (``tests/test_verdict_path_distance.py``).
-Four shortcuts change no bit:
+Two shortcuts change no bit:
 
 * the path's nearest points are found on a grid of cells searched ring by
   ring round the position's cell, until every point outside the rings is
   farther than the k-th nearest found (a position far from the path, not
-  settled within a few rings, among every point); a cell of a ring farther
-  than the k-th nearest found is passed over; the k nearest are ranked as
+  settled within a few rings, among every point); the k nearest are ranked as
   the numpy form ranks them, by their squared distances as numpy computes
   them, ties to the earlier point;
-* the segments about the position's own reference point are tried from it
-  outwards, and a segment whose first point is farther than the least
-  distance found by more than the path's longest step is left out: each of
-  its points is within that step of its first point;
 * ``hypot`` (the C library's, as numpy's) is taken only of the segments whose
   squared distance is within a relative 1e-6 of the least: the others'
-  distances are farther by far more than their roundings; and once of
-  segments that leave the same offsets (the same corner of two, a segment
-  tried twice);
-* where the references run unbroken, each position's own reference point
-  is reckoned in the pass, not put in a column of the run's length.
-
-Every margin is far above the roundings it covers: a squared distance a
-relative 1e-6 (a cell a hundredth of its side) beyond what the roundings
-could make it.
+  distances are farther by far more than their roundings.
 
 One pass, no temporaries per position: the 1-hour mission's 360 001 positions
 were 24 segments and 6 candidate points each, as blocks of arrays.
@@ -61,18 +48,6 @@ _FAR = 1e12
 _RINGS = 8
 # The thinning's cells per point of the path at most: beyond, numpy's sort thins it.
 _THINNING_CELLS_PER_POINT = 2
-# A cell is left out of the search for the nearest points only when this much
-# (in cells) nearer still it would be too far: a point's cell and a position's
-# place in cells are each a few roundings from exact.
-_SLACK = 0.01
-# Segments no longer than this, from positions whose squared distance from
-# their first point is below _MODERATE_SQUARE, overflow no square: such a
-# segment is left out when its first point is too far to make it the nearest.
-_MODERATE = 1e150
-_MODERATE_SQUARE = 1e300
-# The least squared distance from which segments are left out: below it a
-# squared distance's rounding may not be relative.
-_SMALL = 1e-270
 
 
 def compiled_distances(
@@ -80,20 +55,16 @@ def compiled_distances(
     py: FloatArray,
     qx: FloatArray,
     qy: FloatArray,
-    own: NDArray[np.intp] | None,
-    start: int,
+    own: NDArray[np.intp],
     points: NDArray[np.intp],
     cell: float,
     window: int,
     k: int,
-    longest: float,
 ) -> FloatArray:
     """The distance of each position (qx, qy) from the polyline (px, py): the
     least over the segments within ``window`` points of its own reference
-    point ``own`` (None: position k's is point k - ``start``, within the
-    path) and those next to the ``k`` nearest of the path's thinned
-    ``points``; ``longest``: the path's longest step (numpy's hypot of it).
-    Compiled (numba loaded)."""
+    point ``own`` and those next to the ``k`` nearest of the path's thinned
+    ``points``; compiled (numba loaded)."""
     tx, ty = px[points], py[points]
     x0, y0 = float(tx.min()), float(ty.min())
     width, height = float(tx.max()) - x0, float(ty.max()) - y0
@@ -113,19 +84,17 @@ def compiled_distances(
     # loading the kernel from the cache import numba's array module (0.02 s
     # of `run`'s start, docs/performance.md, Start-up).
     k = min(k, tx.size)
-    nearest = np.empty(k)  # the nearest points found: their squared distances,
-    named = np.empty(k, dtype=np.int64)  # and their indices
+    nearest = np.empty((2, k))  # the nearest points found: squared distances, indices
     tried = 2 * window + 2 * k  # the segments tried, at most
-    own = np.zeros(0, dtype=np.int64) if own is None else np.asarray(own, dtype=np.int64)
     segments, dxs, dys = np.empty(tried, dtype=np.int64), np.empty(tried), np.empty(tried)
     # A square beyond the largest float is inf, as in machine code; as plain
     # Python the kernel computes with numpy's scalars, which would warn of it.
     with np.errstate(over="ignore", invalid="ignore"):
         # Without reference counting: loading it needs none of numba's runtime.
         jit.compiled(_distances, counted=False)(
-            px, py, qx, qy, own, start, tx, ty, np.asarray(points, dtype=np.int64),
-            np.asarray(order, dtype=np.int64), starts, x0, y0, size, columns, rows, window,
-            longest, nearest, named, segments, dxs, dys, out,
+            px, py, qx, qy, own.astype(np.int64), tx, ty, points.astype(np.int64),
+            order.astype(np.int64), starts, x0, y0, size, columns, rows, window, nearest,
+            segments, dxs, dys, out,
         )  # fmt: skip
     return out
 
@@ -186,7 +155,6 @@ def _distances(
     qx: FloatArray,
     qy: FloatArray,
     own: NDArray[np.int64],
-    start: int,
     tx: FloatArray,
     ty: FloatArray,
     points: NDArray[np.int64],
@@ -198,27 +166,20 @@ def _distances(
     columns: int,
     rows: int,
     window: int,
-    longest: float,
     nearest: FloatArray,
-    named: NDArray[np.int64],
     segments: NDArray[np.int64],
     dxs: FloatArray,
     dys: FloatArray,
     out: FloatArray,
 ) -> None:
     last = px.size - 2  # segment i runs from point i to point i + 1
-    k = nearest.size
-    # the thinned points, their order by cell, and where each cell's start in it
-    cells = (tx, ty, order, starts)
-    # A segment whose first point is far is left out (below) only where no square overflows.
-    moderate = longest < _MODERATE
+    k = nearest.shape[1]
     for q in range(qx.size):
         x, y = qx[q], qy[q]
         # The k nearest points: (squared distance, index) ascending.
         found = 0
         searched = False  # the k nearest are known
         u, v = (x - x0) / size, (y - y0) / size
-        at = (u, v, x, y)  # the position in cells, and as it is
         if abs(u) < _FAR and abs(v) < _FAR:
             c0, r0 = math.floor(u), math.floor(v)
             ring = first = max(0, -c0, c0 - (columns - 1), -r0, r0 - (rows - 1))
@@ -226,19 +187,20 @@ def _distances(
                 for c in range(max(c0 - ring, 0), min(c0 + ring, columns - 1) + 1):
                     if c == c0 - ring or c == c0 + ring:  # a side of the ring: every row
                         for r in range(max(r0 - ring, 0), min(r0 + ring, rows - 1) + 1):
-                            found = _visit(cells, c, r, rows, size, at, nearest, named, found)
+                            key = c * rows + r
+                            found = _visit(tx, ty, order, starts, key, x, y, nearest, found)
                     else:  # inside it: its top and bottom rows
                         if r0 - ring >= 0:
-                            r = r0 - ring
-                            found = _visit(cells, c, r, rows, size, at, nearest, named, found)
+                            key = c * rows + r0 - ring
+                            found = _visit(tx, ty, order, starts, key, x, y, nearest, found)
                         if ring > 0 and r0 + ring <= rows - 1:
-                            r = r0 + ring
-                            found = _visit(cells, c, r, rows, size, at, nearest, named, found)
+                            key = c * rows + r0 + ring
+                            found = _visit(tx, ty, order, starts, key, x, y, nearest, found)
                 whole = c0 - ring <= 0 and c0 + ring >= columns - 1
                 searched = whole and r0 - ring <= 0 and r0 + ring >= rows - 1
                 reach = min(u - (c0 - ring), c0 + ring + 1 - u, v - (r0 - ring), r0 + ring + 1 - v)
                 reach *= size
-                kth = nearest[k - 1]
+                kth = nearest[0, k - 1]
                 if found == k and kth * (1.0 + _SQUARED_MARGIN) + _TINY < reach * reach:
                     searched = True
                 if searched:
@@ -248,50 +210,31 @@ def _distances(
             found = 0
             for j in range(tx.size):
                 ex, ey = tx[j] - x, ty[j] - y
-                found = _keep(nearest, named, found, ex * ex + ey * ey, j)
-        # The segments tried: about the sample's own point, from it outwards (the
-        # nearest first, most often), and next to the nearest points.
+                found = _keep(nearest, found, ex * ex + ey * ey, j)
+        # The segments tried: about the sample's own point, and next to the nearest points.
         n = 0
-        mine = own[q] if own.size else min(max(q - start, 0), last + 1)  # its reference point
-        for d in range(window):
-            segments[n] = min(max(mine + d, 0), last)
-            segments[n + 1] = min(max(mine - 1 - d, 0), last)
-            n += 2
-        # (each segment once: the window's run from its first to its last)
-        lowest, highest = min(max(mine - window, 0), last), min(max(mine + window - 1, 0), last)
+        for d in range(-window, window):
+            segments[n] = min(max(own[q] + d, 0), last)
+            n += 1
         for j in range(found):
-            point = points[named[j]]
-            for i0 in range(max(point - 1, 0), min(point, last) + 1):  # the one before, after
-                if not lowest <= i0 <= highest and not _listed(segments, 2 * window, n, i0):
-                    segments[n] = i0
-                    n += 1
+            point = points[int(nearest[1, j])]
+            segments[n] = min(max(point - 1, 0), last)
+            segments[n + 1] = min(max(point, 0), last)
+            n += 2
         least = math.inf
-        farther = math.inf  # a segment whose first point is farther (squared) is farther than least
         every = False  # a NaN or an overflow: every segment's hypot, as numpy takes them
         for i in range(n):
-            i0 = segments[i]
-            if moderate:
-                ex, ey = x - px[i0], y - py[i0]
-                squared = ex * ex + ey * ey
-                if squared > farther and squared < _MODERATE_SQUARE:
-                    dxs[i], dys[i] = math.inf, 0.0  # no hypot taken, as of any far segment
-                    continue
-            dx, dy = _segment(px, py, i0, x, y)
+            dx, dy = _segment(px, py, segments[i], x, y)
             dxs[i], dys[i] = dx, dy
             squared = dx * dx + dy * dy
             if not squared < math.inf:
                 every = True
             elif squared < least:
                 least = squared
-                if moderate and least >= _SMALL:
-                    # every point of a segment is within its length of its first point
-                    farther = ((longest + math.sqrt(least)) * (1.0 + _SQUARED_MARGIN)) ** 2
         distance = math.inf
         for i in range(n):
             squared = dxs[i] * dxs[i] + dys[i] * dys[i]
             if every or squared <= least * (1.0 + _SQUARED_MARGIN) + _TINY:
-                if _taken_before(dxs, dys, i):  # the same offsets: the same hypot
-                    continue
                 # the C library's, as numpy's (math.hypot is CPython's own as plain Python)
                 found_distance = np.hypot(dxs[i], dys[i])
                 if found_distance != found_distance:  # numpy's min keeps a NaN
@@ -302,72 +245,40 @@ def _distances(
 
 
 @inlined
-def _listed(segments: NDArray[np.int64], first: int, end: int, i0: int) -> bool:
-    """Whether segment i0 is among ``segments[first:end]``."""
-    while first < end and segments[first] != i0:
-        first += 1
-    return first < end
-
-
-@inlined
-def _taken_before(dxs: FloatArray, dys: FloatArray, i: int) -> bool:
-    """Whether a segment before the i-th left the same offsets (its hypot taken)."""
-    j = 0
-    while j < i and not (dxs[j] == dxs[i] and dys[j] == dys[i]):
-        j += 1
-    return j < i
-
-
-@inlined
 def _visit(
-    cells: tuple[FloatArray, FloatArray, NDArray[np.int64], NDArray[np.int64]],
-    c: int,
-    r: int,
-    rows: int,
-    size: float,
-    at: tuple[float, float, float, float],
+    tx: FloatArray,
+    ty: FloatArray,
+    order: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    key: int,
+    x: float,
+    y: float,
     nearest: FloatArray,
-    named: NDArray[np.int64],
     found: int,
 ) -> int:
-    """The points of cell (c, r) offered to the nearest found (:func:`_keep`),
-    unless the cell is farther than the k-th nearest found (``at``: the
-    position in cells, then as it is)."""
-    tx, ty, order, starts = cells
-    u, v, x, y = at
-    key = c * rows + r
-    if starts[key] == starts[key + 1]:
-        return found
-    k = nearest.size
-    limit = nearest[k - 1] if found == k else math.inf
-    # the cell's distance from (u, v), in cells, less what the cells' roundings may move a point
-    du = max(c - u, u - (c + 1), 0.0)
-    dv = max(r - v, v - (r + 1), 0.0)
-    du, dv = max(du - _SLACK, 0.0) * size, max(dv - _SLACK, 0.0) * size
-    if du * du + dv * dv > limit * (1.0 + _SQUARED_MARGIN) + _TINY:
-        return found
+    """The points of cell ``key`` offered to the nearest found (:func:`_keep`)."""
     for slot in range(starts[key], starts[key + 1]):
         j = order[slot]
         ex, ey = tx[j] - x, ty[j] - y
-        found = _keep(nearest, named, found, ex * ex + ey * ey, j)
+        found = _keep(nearest, found, ex * ex + ey * ey, j)
     return found
 
 
 @inlined
-def _keep(nearest: FloatArray, named: NDArray[np.int64], found: int, squared: float, j: int) -> int:
+def _keep(nearest: FloatArray, found: int, squared: float, j: int) -> int:
     """Point j kept among the nearest found so far (``nearest``: their squared
-    distances, ``named``: their indices, nearest first) if it is nearer (ties:
-    the earlier); how many are kept now."""
-    k = nearest.size
+    distances and indices, nearest first) if it is nearer (ties: the earlier);
+    how many are kept now."""
+    k = nearest.shape[1]
     if found == k and (
-        squared > nearest[k - 1] or (squared == nearest[k - 1] and j > named[k - 1])
+        squared > nearest[0, k - 1] or (squared == nearest[0, k - 1] and j > nearest[1, k - 1])
     ):
         return found
     at = found if found < k else k - 1
     while at > 0 and (
-        squared < nearest[at - 1] or (squared == nearest[at - 1] and j < named[at - 1])
+        squared < nearest[0, at - 1] or (squared == nearest[0, at - 1] and j < nearest[1, at - 1])
     ):
-        nearest[at], named[at] = nearest[at - 1], named[at - 1]
+        nearest[0, at], nearest[1, at] = nearest[0, at - 1], nearest[1, at - 1]
         at -= 1
-    nearest[at], named[at] = squared, j
+    nearest[0, at], nearest[1, at] = squared, j
     return found + 1 if found < k else k
