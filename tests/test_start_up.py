@@ -155,6 +155,7 @@ def test_compile_compiles_the_judges_kernels_too(tmp_path: Path) -> None:
         "path_distance._distances-*",
         "path_distance._first_in_cells-*",
         "placing.place_samples-*",
+        "placing.path_lengths-*",
         *(f"passes.{name}-*" for name in passes.__all__),
     )
     for pattern in judges:

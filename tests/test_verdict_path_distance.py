@@ -128,3 +128,47 @@ def test_the_compiled_thinning_keeps_the_first_point_in_each_cell_in_the_sorts_o
     assert expected.size < px.size / 3  # the later laps' points thinned out
     diagonal = np.linspace(0.0, 100.0, 2000)
     assert path_distance.first_in_cells(diagonal, diagonal, 0.01) is None
+
+
+def _doubling_back(rng: np.random.Generator) -> Case:
+    """A path out and back over itself, then across itself (a figure of
+    eight), on a lattice of quarter steps, held now and then: the robot on its
+    points, midway between passes (equally near two or more segments), far
+    off, and jumping about, so that one position's nearest points say little
+    of the next's."""
+    samples = int(rng.integers(150, 500))
+    t = np.linspace(0.0, 1.0, samples)
+    out_and_back = np.where(t < 0.5, t, 1.0 - t) * rng.integers(4, 40)
+    turns = rng.integers(1, 4)
+    px = np.round(np.where(t < 0.7, out_and_back, np.sin(2 * np.pi * turns * t)) * 4) / 4
+    py = np.round(np.where(t < 0.7, 0.0, np.sin(4 * np.pi * turns * t) / 2) * 4) / 4
+    held = rng.integers(0, samples, samples // 10)
+    px[held], py[held] = px[np.maximum(held - 1, 0)], py[np.maximum(held - 1, 0)]
+    pick = rng.integers(0, samples, samples)
+    x, y = px[pick].copy(), py[pick].copy()  # on the path's points, in any order
+    midway = rng.random(samples) < 0.3
+    y[midway] += rng.choice([-0.125, 0.125, 0.25], midway.sum())
+    jittered = rng.random(samples) < 0.3
+    x[jittered] += rng.normal(0.0, rng.choice([1e-3, 0.1, 3.0]), jittered.sum())
+    far = rng.random(samples) < 0.05
+    x[far] += rng.choice([-1.0, 1.0], far.sum()) * 10.0 ** rng.uniform(1, 6, far.sum())
+    return x, y, px, py
+
+
+def test_the_compiled_distance_on_paths_that_double_back_and_cross_has_the_full_searchs_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The compiled pass's ring search for the nearest points, and its hypot
+    taken only near the least: on 40 random paths that double back and cross
+    themselves, with ties everywhere, the full search's bits (the numpy form:
+    the nearest points of the grid's cells or the k-d tree, every segment's
+    hypot)."""
+    rng = np.random.default_rng(34)
+    jit.load()
+    for _ in range(40):
+        case = _doubling_back(rng)
+        expected = _numpy_form(case, monkeypatch)
+        with monkeypatch.context() as patch:
+            patch.setattr(jit, "distances_compiled", lambda: True)
+            found = metrics.distance_to_path(*case)
+        assert _bits(found) == _bits(expected)

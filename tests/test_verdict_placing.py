@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from wmr_mission.kernels import jit
+from wmr_mission.verdicts import placing
 from wmr_mission.verdicts.tracking import Placement
 
 Case = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
@@ -71,3 +72,19 @@ def test_the_kernel_as_plain_python_has_the_numpy_forms_bits(
     found = _places(case, math.inf, 0)
     for ours, theirs in zip(found, expected, strict=True):
         assert _bits(ours) == _bits(theirs)
+
+
+def test_the_search_from_a_point_finds_what_numpys_searchsorted_finds() -> None:
+    """Arc lengths that stand still (equal values), values on them, before the
+    first, past the last and NaN, searched from every kind of starting point:
+    the first point beyond, as ``np.searchsorted(..., side="right")``."""
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        size = int(rng.integers(1, 60))
+        steps = rng.choice([0.0, 0.5, 1.0, rng.uniform(0, 3)], size=size - 1)
+        arc = np.concatenate(([0.0], np.cumsum(steps)))
+        values = np.concatenate((arc, rng.uniform(-1, arc[-1] + 1, 8), [np.nan, np.inf, -np.inf]))
+        for value in values.tolist():
+            expected = int(np.searchsorted(arc, value, side="right"))
+            for near in (0, size - 1, int(rng.integers(-3, size + 3)), expected, expected - 1):
+                assert placing._first_beyond(arc, value, near) == expected

@@ -18,7 +18,26 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels.jit import inlined, kernel
 
-__all__ = ["place_samples"]
+__all__ = ["path_lengths", "place_samples"]
+
+
+@kernel
+def path_lengths(
+    rx: FloatArray,
+    ry: FloatArray,
+    steps: tuple[FloatArray, FloatArray, FloatArray],
+    arc: FloatArray,
+) -> None:
+    """Each segment's step (x, y) and length into ``steps``, and the arc length
+    at each point into ``arc``, as ``tracking.path_steps`` and numpy's
+    ``cumsum`` (a sum in order) compute them, without their temporaries."""
+    sx, sy, length = steps
+    if arc.size:
+        arc[0] = 0.0
+    for i in range(rx.size - 1):
+        sx[i], sy[i] = rx[i + 1] - rx[i], ry[i + 1] - ry[i]
+        length[i] = math.sqrt(sx[i] * sx[i] + sy[i] * sy[i])
+        arc[i + 1] = arc[i] + length[i]
 
 
 @kernel
@@ -48,7 +67,7 @@ def place_samples(
         qx, qy = px[k], py[k]
         ux, uy = _direction(sx, sy, length, held, min(k, last))
         guess = arc[k] - ((rx[k] - qx) * ux + (ry[k] - qy) * uy)
-        segment = max(min(_first_beyond(arc, guess) - 1, last), 0)
+        segment = max(min(_first_beyond(arc, guess, k) - 1, last), 0)
         ax, ay, ex, ey = rx[segment], ry[segment], sx[segment], sy[segment]
         step = length[segment]
         along = ((qx - ax) * ex + (qy - ay) * ey) / (step * step if step > 0.0 else 1.0)
@@ -58,7 +77,7 @@ def place_samples(
             place[k] = arc[segment] + along * step
             continue
         for attempt in range(steps):
-            centre = _first_beyond(arc, guess) - 1
+            centre = _first_beyond(arc, guess, k) - 1
             lowest = max(min(centre - search, last), 0)
             highest = max(min(centre + search, last), 0)
             best, chosen, fraction = math.inf, -1, 0.0
@@ -99,10 +118,30 @@ def _direction(
 
 
 @inlined
-def _first_beyond(arc: FloatArray, value: float) -> int:
+def _first_beyond(arc: FloatArray, value: float, near: int) -> int:
     """``np.searchsorted(arc, value, side="right")``: the first point whose arc
-    length is above ``value`` (past the end for a NaN, as numpy)."""
-    low, high = 0, arc.size
+    length is above ``value`` (past the end for a NaN, as numpy). Looked for
+    in steps doubling from point ``near`` (where the sample's own reference
+    point is, and its place most often), then halved: the arc lengths never
+    decrease, so the point is the one a search of the whole finds."""
+    size = arc.size
+    near = max(min(near, size - 1), 0)
+    if value < arc[near]:  # at or before near: between a point at or below value and near
+        high, step = near, 1
+        low = near - step
+        while low >= 0 and value < arc[low]:
+            high = low
+            step *= 2
+            low = near - step
+        low = max(low + 1, 0)
+    else:  # beyond near: between near and a point above value
+        low, step = near + 1, 1
+        high = near + step
+        while high < size and not value < arc[high]:
+            low = high + 1
+            step *= 2
+            high = near + step
+        high = min(high, size)
     while low < high:
         middle = (low + high) // 2
         if value < arc[middle]:

@@ -45,7 +45,7 @@ from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
-from wmr_mission.verdicts.placing import place_samples
+from wmr_mission.verdicts.placing import path_lengths, place_samples
 from wmr_mission.verdicts.zones import Zone, reach_across
 
 # [m] places on the path this much farther than the nearest are not "about as near".
@@ -114,6 +114,13 @@ class Placement:
         steps: tuple[FloatArray, FloatArray, FloatArray] | None = None,
     ) -> None:
         self.px, self.py = px, py
+        arc = None
+        if steps is None and jit.judging_compiled():  # the same bits in one compiled pass
+            arc, steps = (
+                np.empty(rx.size),
+                (np.empty(rx.size - 1), np.empty(rx.size - 1), np.empty(rx.size - 1)),
+            )
+            jit.compiled(path_lengths)(rx, ry, steps, arc)
         self.steps = path_steps(rx, ry) if steps is None else steps
         sx, sy, length = self.steps
         n = rx.size
@@ -126,7 +133,9 @@ class Placement:
         self._from = n
         if self.standing:
             return
-        self.path = (np.concatenate(([0.0], np.cumsum(length))), rx, ry, sx, sy, length)
+        if arc is None:
+            arc = np.concatenate(([0.0], np.cumsum(length)))
+        self.path = (arc, rx, ry, sx, sy, length)
         # Where the path stands still, the direction it last had (or first has).
         if not moving.all():
             held = np.maximum.accumulate(np.where(moving, np.arange(n - 1), -1))
