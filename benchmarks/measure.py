@@ -29,6 +29,7 @@
     python benchmarks/measure.py judgeparts # a case-2 row's judge by part: phases, passes, formulas
     python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
+    python benchmarks/measure.py task       # a worker's task set up first, or run by run
     python benchmarks/measure.py parent     # the sweep's own process, by step
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
@@ -1518,6 +1519,45 @@ def judge_parts(repeat: int = 7) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def task(pairs: int = 14, runs: int = 130) -> None:
+    """A worker's task of ``runs`` runs of case2-headings as ``run_rows`` runs
+    it (every run drawn and written into its plan, then each simulated),
+    against each run drawn and written right before it is simulated (as
+    before), in turn in one process, ``pairs`` times over further runs: CPU
+    per row (medians; each in brackets) and the ratio pair by pair. The rows
+    must be the same."""
+    from wmr_mission.campaign.engine import warm_up
+    from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.plan import Plan
+    from wmr_mission.campaign.rows import run_row, run_rows
+
+    loaded = load_campaign(CAMPAIGN)
+    plan = Plan(loaded.campaign)
+    warm_up(loaded, 2)  # the kernels and the judge's passes, as a sweep's workers have them
+
+    def run_by_run(start: int, stop: int) -> list[Any]:
+        return [run_row(loaded, plan.draw(run)) for run in range(start, stop)]
+
+    ways = {"set up first": lambda a, b: run_rows(loaded, a, b), "run by run": run_by_run}
+    for way in ways.values():
+        way(0, 20)  # each noise level's base made, the paths' samplings kept
+    spent: dict[str, list[float]] = {name: [] for name in ways}
+    for i in range(pairs):
+        start = 20 + i * runs
+        rows = {}
+        for name in list(ways) if i % 2 else list(ways)[::-1]:
+            started = time.thread_time_ns()
+            rows[name] = ways[name](start, start + runs)
+            spent[name].append((time.thread_time_ns() - started) / runs / 1000)
+        first, second = ([row.cells() for row in found] for found in rows.values())
+        assert first == second, "the rows differ"
+    for name, values in spent.items():
+        print(f"{name}: CPU per row {_medians(values)} us")
+    ratios = [a / b for a, b in zip(*spent.values(), strict=True)]
+    print(f"set up first / run by run, pair by pair: {_medians(ratios)}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 def sweep_against(pairs: int = 3) -> None:
     """`sweep missions/campaigns/case2-headings.yaml --no-plots --workers 2` as
     now and as at COMMIT (`sweep COMMIT`: its package unpacked on PYTHONPATH,
@@ -1992,6 +2032,7 @@ if __name__ == "__main__":
         "judgeparts": judge_parts,
         "sweep": sweep_against,
         "runner": runner_cost,
+        "task": task,
         "parent": sweep_steps,
         "drawing": drawing,
         "png": png,
