@@ -1552,7 +1552,8 @@ def task(pairs: int = 14, runs: int = 130) -> None:
         first, second = ([row.cells() for row in found] for found in rows.values())
         assert first == second, "the rows differ"
     for name, values in spent.items():
-        print(f"{name}: CPU per row {_medians(values)} us")
+        each = ", ".join(f"{value:.0f}" for value in values)
+        print(f"{name}: CPU per row {statistics.median(values):.0f} us ({each})")
     ratios = [a / b for a, b in zip(*spent.values(), strict=True)]
     print(f"set up first / run by run, pair by pair: {_medians(ratios)}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
