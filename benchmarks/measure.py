@@ -29,6 +29,7 @@
     python benchmarks/measure.py judgeparts # a case-2 row's judge by part: phases, passes, formulas
     python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
+    python benchmarks/measure.py task       # a worker's task set up first, or run by run
     python benchmarks/measure.py parent     # the sweep's own process, by step
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
@@ -1174,20 +1175,23 @@ program()
 
 
 def campaign(repeat: int = 40, pairs: int = 3) -> None:
-    """Where a campaign run's time goes (one process, means of CPU time over
-    ``repeat`` runs of case2-headings; of the loop, the paths sampled ahead
-    and what a call of the compiled loop costs that runs no sample), then
-    `sweep --workers 2 --no-plots` of its 2000 runs end to end, the kernel
+    """Where a campaign run's time goes (one process, as a sweep's worker runs
+    it: the judge's passes compiled; means of CPU time over ``repeat`` runs of
+    case2-headings; of run_mission, its calls of the compiled loop, and of
+    those the paths sampled ahead and what a call that runs no sample costs),
+    then `sweep --workers 2 --no-plots` of its 2000 runs end to end, the kernel
     cache warm: the CPU of the sweep's own process and of its workers, per
     run, and campaign.json's missions_per_second. With a commit's name (`campaign COMMIT`), the same
     sweep as at that commit too, in turn with this one, ``pairs`` times
     (after one untimed run of each: a checkout compiles its kernels once)."""
     import json
 
+    from wmr_mission.campaign.comparison import comparison_metrics
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
     from wmr_mission.campaign.rows import run_row
     from wmr_mission.campaign.written import written_runs
+    from wmr_mission.kernels import jit
     from wmr_mission.kernels import loop as loop_module
     from wmr_mission.sim import runner
     from wmr_mission.sim.runner import run_mission
@@ -1195,6 +1199,7 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
+    jit.judged(jit.JUDGED_COMPILED_FROM)  # as a sweep's workers judge (engine.warm_up)
     for run in range(3):  # loads the kernels, plans each noise level once
         run_row(loaded, plan.draw(run))
     runs = written_runs(loaded)
@@ -1208,8 +1213,10 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         path_s[0] += time.process_time() - started
         return block
 
-    # The CPU of each call of the compiled loop that runs no sample (a run's
-    # first, which loads the loop): what numba's dispatcher costs a call.
+    # The CPU of the calls of the compiled loop (the dispatcher and the records
+    # passed in included), and of each that runs no sample (a run's first,
+    # which loads the loop): what a call costs beside its samples.
+    calls_ns = [0]
     empty_us: list[float] = []
     segment = runner._Run._segment
 
@@ -1217,13 +1224,15 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         before = int(self.signals.counters[loop_module.K])
         started = time.thread_time_ns()
         status = segment(self, *args)
+        spent = time.thread_time_ns() - started
+        calls_ns[0] += spent
         if int(self.signals.counters[loop_module.K]) == before:
-            empty_us.append((time.thread_time_ns() - started) / 1000)
+            empty_us.append(spent / 1000)
         return status
 
-    stages: dict[str, list[float]] = {"draw": [], "plan (written)": [], "loop": [], "judge": []}
-    stages |= {"whole row": [], "csv line": []}
-    paths_ms = []
+    stages: dict[str, list[float]] = {"draw": [], "plan (written)": [], "run_mission": []}
+    stages |= {"judge": [], "comparison": [], "whole row": [], "csv line": []}
+    paths_ms, calls_ms = [], []
     for run in range(3, repeat + 3):
         times = [time.process_time()]
         draw = plan.draw(run)
@@ -1232,14 +1241,18 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         times.append(time.process_time())
         assert planned is not None
         path_s[0] = 0.0
+        calls_ns[0] = 0
         runner.PhaseRun.path_ahead = timed_path_ahead  # type: ignore[method-assign]
         runner._Run._segment = timed_segment  # type: ignore[method-assign]
         result = run_mission(planned)
         runner.PhaseRun.path_ahead = path_ahead  # type: ignore[method-assign]
         runner._Run._segment = segment  # type: ignore[method-assign]
         paths_ms.append(path_s[0] * 1000)
+        calls_ms.append(calls_ns[0] / 1e6)
         times.append(time.process_time())
         judge_run_metrics(result, record)
+        times.append(time.process_time())
+        comparison_metrics(result, record)
         times.append(time.process_time())
         row = run_row(loaded, draw)
         times.append(time.process_time())
@@ -1249,9 +1262,12 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
             stages[stage].append((end - start) * 1000)
     print(f"case2-headings, one process, mean CPU over {repeat} runs [ms]:")
     print("  " + ", ".join(f"{k} {statistics.mean(v):.2f}" for k, v in stages.items()))
+    python_ms = statistics.mean(stages["run_mission"]) - statistics.mean(calls_ms)
     print(
-        f"  of the loop, the paths sampled ahead {statistics.mean(paths_ms):.2f}; a call of "
-        f"the compiled loop that runs no sample {statistics.median(empty_us):.0f} us (median)"
+        f"  of run_mission, the calls of the compiled loop {statistics.mean(calls_ms):.2f}, "
+        f"the runner's Python {python_ms:.2f}"
+        f" (of it, the paths sampled ahead {statistics.mean(paths_ms):.2f}); a call of the "
+        f"compiled loop that runs no sample {statistics.median(empty_us):.0f} us (median)"
     )
     _rows_in_the_sweeps_process(loaded)
     against = sys.argv[2] if len(sys.argv) > 2 else None
@@ -1500,6 +1516,46 @@ def judge_parts(repeat: int = 7) -> None:
     print(f"case2-headings runs 1-40, CPU per row, the least of {repeat} each, mean over runs:")
     for key, ns in total.items():
         print(f"  {key}: {ns / 1000:.0f} us")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def task(pairs: int = 14, runs: int = 130) -> None:
+    """A worker's task of ``runs`` runs of case2-headings as ``run_rows`` runs
+    it (every run drawn and written into its plan, then each simulated),
+    against each run drawn and written right before it is simulated (as
+    before), in turn in one process, ``pairs`` times over further runs: CPU
+    per row (medians; each in brackets) and the ratio pair by pair. The rows
+    must be the same."""
+    from wmr_mission.campaign.engine import warm_up
+    from wmr_mission.campaign.load import load_campaign
+    from wmr_mission.campaign.plan import Plan
+    from wmr_mission.campaign.rows import run_row, run_rows
+
+    loaded = load_campaign(CAMPAIGN)
+    plan = Plan(loaded.campaign)
+    warm_up(loaded, 2)  # the kernels and the judge's passes, as a sweep's workers have them
+
+    def run_by_run(start: int, stop: int) -> list[Any]:
+        return [run_row(loaded, plan.draw(run)) for run in range(start, stop)]
+
+    ways = {"set up first": lambda a, b: run_rows(loaded, a, b), "run by run": run_by_run}
+    for way in ways.values():
+        way(0, 20)  # each noise level's base made, the paths' samplings kept
+    spent: dict[str, list[float]] = {name: [] for name in ways}
+    for i in range(pairs):
+        start = 20 + i * runs
+        rows = {}
+        for name in list(ways) if i % 2 else list(ways)[::-1]:
+            started = time.thread_time_ns()
+            rows[name] = ways[name](start, start + runs)
+            spent[name].append((time.thread_time_ns() - started) / runs / 1000)
+        first, second = ([row.cells() for row in found] for found in rows.values())
+        assert first == second, "the rows differ"
+    for name, values in spent.items():
+        each = ", ".join(f"{value:.0f}" for value in values)
+        print(f"{name}: CPU per row {statistics.median(values):.0f} us ({each})")
+    ratios = [a / b for a, b in zip(*spent.values(), strict=True)]
+    print(f"set up first / run by run, pair by pair: {_medians(ratios)}")
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -1977,6 +2033,7 @@ if __name__ == "__main__":
         "judgeparts": judge_parts,
         "sweep": sweep_against,
         "runner": runner_cost,
+        "task": task,
         "parent": sweep_steps,
         "drawing": drawing,
         "png": png,

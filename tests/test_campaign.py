@@ -396,6 +396,39 @@ def test_a_run_that_raises_becomes_an_error_row(monkeypatch: pytest.MonkeyPatch)
     assert rows[1].values == (0.01, 20)
 
 
+def test_a_task_sets_up_its_runs_before_it_simulates_the_first(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # drawn and written into their plans one after another, then simulated:
+    # each set-up right after a simulation costs several times as much
+    # (docs/performance.md); a fault in one run's set-up is that run's row
+    from wmr_mission.campaign import rows as runs
+    from wmr_mission.campaign.written import Written
+    from wmr_mission.sim import runner
+
+    loaded = load_campaign(DATA / "valid" / "grid_only.yaml")
+    events: list[str] = []
+    written, simulated = Written.run, runner.run_mission
+
+    def set_up(self: Written, draw: Draw) -> Any:
+        events.append(f"set up {draw.run}")
+        if draw.run == 1:
+            raise ZeroDivisionError("float division by zero")
+        return written(self, draw)
+
+    def simulate(mission: Any, **options: Any) -> Any:
+        events.append("simulated")
+        return simulated(mission, **options)
+
+    monkeypatch.setattr(Written, "run", set_up)
+    monkeypatch.setattr(runner, "run_mission", simulate)
+    rows = runs.run_rows(loaded, 0, 3)
+    assert events == ["set up 0", "set up 1", "set up 2", "simulated", "simulated"]
+    assert [row.outcome for row in rows] == ["success", runs.ERROR, "success"]
+    assert rows[1].reason.startswith("internal error (ZeroDivisionError: float division by zero)")
+    assert [row.run for row in rows] == [0, 1, 2]
+
+
 class _Terminal(io.StringIO):
     def isatty(self) -> bool:
         return True

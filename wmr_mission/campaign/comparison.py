@@ -26,17 +26,15 @@ They are cheap (no distance to the whole path), so every campaign row has them.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any, Final
 
 import numpy as np
 
-from wmr_mission.basics import FloatArray
 from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import DEFAULT_SETTLE_TIME
 from wmr_mission.verdicts.inputs import jitter
-from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE, reference_distance
+from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE, reference_distance, reference_error
 from wmr_mission.verdicts.numbers import mission_numbers
 
 # Each with its unit (runs.csv's, the figures' axes).
@@ -90,7 +88,7 @@ def _reference_error(result: RunResult, settle_time: float) -> tuple[float | Non
     if not tracked.any():
         return None, None
     error = reference_distance(result.x, result.y, result.x_ref, result.y_ref)
-    rms = _rms(error[tracked & settled])
+    rms = reference_error(error[tracked & settled])  # the judge's: its exact sum compiled
     samples = np.flatnonzero(tracked)
     outside = samples[error[samples] > SETTLED_WITHIN]
     if outside.size == 0:
@@ -99,13 +97,3 @@ def _reference_error(result: RunResult, settle_time: float) -> tuple[float | Non
         return rms, None  # not settled by the end
     after = samples[np.searchsorted(samples, outside[-1]) + 1]
     return rms, round(float(result.t[after] - result.t[samples[0]]), 9)
-
-
-def _rms(distance: FloatArray) -> float | None:
-    """``reference_error`` of the judge (an exact sum of the finite ones'
-    squares), summing Python's floats: ``math.fsum`` reads them faster from
-    a list than from an array, the same correctly rounded sum."""
-    distance = distance[np.isfinite(distance)]
-    if distance.size == 0:
-        return None
-    return math.sqrt(math.fsum((distance * distance).tolist()) / distance.size)

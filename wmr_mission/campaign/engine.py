@@ -10,7 +10,6 @@ memory stays flat however many runs a campaign has.
 
 from __future__ import annotations
 
-import asyncio
 import ctypes
 import logging
 import math
@@ -229,6 +228,8 @@ def reach_scheduler(address: str) -> None:
     server that accepts and never answers (its handshake has no time limit),
     and reads an HTTP server's reply as the length of a message.
     """
+    import asyncio  # here: a local sweep never pays for importing it
+
     try:
         from distributed.comm.core import connect
         from distributed.security import Security

@@ -18,7 +18,7 @@ from wmr_mission.campaign.checked import checked_mission, mission_of
 from wmr_mission.campaign.comparison import COMPARISON_METRICS, comparison_metrics
 from wmr_mission.campaign.load import LoadedCampaign, replay_line, value_text
 from wmr_mission.campaign.plan import Draw, Plan
-from wmr_mission.campaign.written import written_runs
+from wmr_mission.campaign.written import Written, WrittenRun, written_runs
 from wmr_mission.record import Outcome
 from wmr_mission.spec import catalog
 from wmr_mission.verdicts import recovery
@@ -157,16 +157,16 @@ def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
     )
 
 
-def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
+def run_row(loaded: LoadedCampaign, draw: Draw, written: WrittenRun | None = None) -> Row:
     """One run reduced to its row: simulated and judged as ``run_mission`` does
     (the same samples, the same outcome), its metrics from the code of summary.json.
 
     The mission is checked and planned once per combination of the campaign's
     choice and grid values, each run's drawn pose written into a copy of its
-    plan (wmr_mission.campaign.written)."""
+    plan (wmr_mission.campaign.written); ``written``: that, made beforehand."""
     from wmr_mission.sim.runner import run_mission
 
-    plan, summary_mission, reason = written_runs(loaded).run(draw)
+    plan, summary_mission, reason = written_runs(loaded).run(draw) if written is None else written
     if plan is None:
         return _not_run(draw, INVALID, reason)
     result = _uninterrupted(run_mission(plan))
@@ -199,17 +199,35 @@ def run_row(loaded: LoadedCampaign, draw: Draw) -> Row:
 
 
 def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
-    """Rows of runs ``start .. stop - 1``: one task of a worker."""
+    """Rows of runs ``start .. stop - 1``: one task of a worker.
+
+    Its runs are drawn and written into their plans first, then simulated one
+    after another: drawn and written right after a run's simulation and
+    judging, whose code and arrays have pushed theirs out of the caches, each
+    cost several times as much (4-5 % of a case-2 row, docs/performance.md)."""
     plan = Plan(loaded.campaign)
+    runs = written_runs(loaded)
+    draws = [plan.draw(run) for run in range(start, stop)]
+    made = [_written(runs, draw) for draw in draws]
     rows = []
-    for run in range(start, stop):
-        draw = plan.draw(run)
+    for draw, written in zip(draws, made, strict=True):
         try:
-            rows.append(run_row(loaded, draw))
+            if isinstance(written, Exception):
+                raise written
+            rows.append(run_row(loaded, draw, written))
         except Exception as error:  # one run's fault must not lose the campaign
             reason = f"internal error ({type(error).__name__}: {error}); please report it"
             rows.append(_not_run(draw, ERROR, reason))
     return rows
+
+
+def _written(runs: Written, draw: Draw) -> WrittenRun | Exception:
+    """The run's plan and record (Written.run), or the exception that made
+    them fail: said in the run's row, as a fault in its simulation is."""
+    try:
+        return runs.run(draw)
+    except Exception as error:
+        return error
 
 
 def replay_command(loaded: LoadedCampaign, draw: Draw) -> str:

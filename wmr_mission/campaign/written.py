@@ -48,7 +48,7 @@ from wmr_mission.spec.checks import read_by_sampling_checks
 from wmr_mission.spec.models import Mission, TrackPhase
 from wmr_mission.spec.repeats import run_order
 
-__all__ = ["MAX_BASES", "WRITTEN", "Base", "Written", "written_runs"]
+__all__ = ["MAX_BASES", "WRITTEN", "Base", "Written", "WrittenRun", "written_runs"]
 
 # The fields a run writes into its base's plan: the plan's array and index. Each
 # is a Scalar (wmr_mission.fields: finite, at most ABSURD) that no check across
@@ -87,6 +87,10 @@ class Base:
     start_extent: float | None
 
 
+WrittenRun = tuple[MissionPlan | None, dict[str, Any], str]
+"""A run's plan and its mission's record for the judge, or (None, {}, reason)."""
+
+
 class Written:
     """The runs of one campaign in this process: their bases, made as runs need them."""
 
@@ -99,7 +103,7 @@ class Written:
         self.keys = {path: _keys(path) for path in self.written}
         self.bases: dict[tuple[str, ...], Base | None] = {}
 
-    def run(self, draw: Draw) -> tuple[MissionPlan | None, dict[str, Any], str]:
+    def run(self, draw: Draw) -> WrittenRun:
         """The run's plan and its mission's record for the judge, or (None, {},
         reason) when the mission refuses its values."""
         base = self._base(draw) if self.writes and _all_sound(draw, self.written) else None
