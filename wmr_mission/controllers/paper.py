@@ -818,7 +818,7 @@ def regulate_input(
                 now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, x, y)
                 value -= keep * now
         if rate != math.inf:
-            held, gx, gy, e00, e01, e10, e11 = held_where_braking_ends(
+            held, gx, gy, e00, e01, e10, e11, _ = held_where_braking_ends(
                 row_kinds[i], row_params[i], margin, keep, value, gx, gy,
                 (x, y, theta, v_prev), (px, py, pth, v1, omega1),
                 (0.0, 0.0, 0.0, 0.0), rate, dt,
