@@ -12,14 +12,19 @@ its sensor noise).
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import yaml
+from scipy.optimize import minimize_scalar
 
 from wmr_mission import mission_from_dict, run_mission
 from wmr_mission.controllers.constrained_tracking import (
+    held_on_braking_line,
     held_where_braking_ends,
     keep_constraints,
 )
 from wmr_mission.geometry.regions import CircleRegion, constraint_rows
+from wmr_mission.kernels.corrective import row_value_with_margin
+from wmr_mission.kernels.model import braking_distance
 from wmr_mission.kernels.records import Plant, scratch
 
 # gen-041-polyline's route phase, without its noise: a robot joining a
@@ -74,6 +79,64 @@ def test_a_row_is_held_where_the_braking_line_crosses_a_zone_its_end_is_beyond()
     )  # fmt: skip
     assert held > 0.96
     assert inner
+
+
+def _largest_on_line(
+    kind: int, p: np.ndarray, theta: float, v: float, rate: float, dt: float
+) -> float:
+    """The row's largest value over the braking line from the origin, found
+    by a bounded search along it (the circle row is concave along a line)."""
+    ahead = braking_distance(v, rate, dt)
+    c, s = np.cos(theta), np.sin(theta)
+
+    def minus(share: float) -> float:
+        return -row_value_with_margin(kind, p, 0.0, ahead * share * c, ahead * share * s)[0]
+
+    found = minimize_scalar(minus, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-12})
+    return -min(float(found.fun), minus(1.0), minus(0.0))
+
+
+@pytest.mark.parametrize(
+    ("theta", "v", "omega", "where"),
+    [
+        (0.3, 3.0, 0.5, "inside"),  # the circle astride the line, its end beyond
+        (0.3 + np.pi, -3.0, 0.5, "inside"),  # the same, reversing
+        (0.1, 2.0, -1.0, "end"),  # the line ends inside the circle
+        (0.1 + np.pi, -2.0, -1.0, "end"),  # the same, reversing
+        (0.25, 0.005, 0.0, "stopped"),  # stopped within the next sample
+    ],
+)
+def test_the_braking_lines_sensitivities_are_those_of_its_largest_value(
+    theta: float, v: float, omega: float, where: str
+) -> None:
+    """Finite differences of the row's largest value over the line (found
+    along it, not at the 16 points) against the sensitivities returned:
+    d/dv is the end's where the end is furthest in, 0 inside the line (the
+    row's gradient is across it there) and when stopped; d/domega turns the
+    line about its start."""
+    rock = CircleRegion(type="circle", center=(1.5, 0.4), radius=0.5)
+    kinds, params = constraint_rows(rock, "outside")
+    kind, p = int(kinds[0]), params[0]
+    rate, dt, h = 1.5, 0.05, 1e-5
+
+    def largest(v: float, omega: float) -> float:
+        return _largest_on_line(kind, p, theta + omega * dt, v, rate, dt)
+
+    by_v = (largest(v + h, omega) - largest(v - h, omega)) / (2 * h)
+    by_omega = (largest(v, omega + h) - largest(v, omega - h)) / (2 * h)
+    _, hx, hy, e00, e01, e10, e11, inner = held_on_braking_line(
+        kind, p, 0.0, 0.0, 0.0, theta + omega * dt, v, rate, dt
+    )
+    assert inner == (where == "inside")
+    if where == "end":
+        assert abs(by_v) > 0.5
+    else:
+        assert by_v == pytest.approx(0.0, abs=1e-6)
+    assert hx * e00 + hy * e10 == pytest.approx(by_v, rel=1e-6, abs=1e-9)
+    # the sampled point lies within half a spacing of the largest's, 1/32 of the line
+    assert hx * e01 + hy * e11 == pytest.approx(by_omega, rel=0.1, abs=1e-9)
+    if where == "stopped":
+        assert (e00, e01, e10, e11) == (0.0, 0.0, 0.0, 0.0)
 
 
 def _speed_steps(v_prev: float) -> float:
