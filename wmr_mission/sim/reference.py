@@ -379,13 +379,59 @@ def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
     )
 
 
-def braking_point(
-    position: FloatArray, heading: float, v: float, acceleration: float, dt: float
-) -> tuple[FloatArray, float]:
-    """Where braking from ``v`` at ``acceleration`` ends, beyond ``position``
-    (the next sample's), and that distance (signed by v)."""
-    distance = math.copysign(max(v * v / (2 * acceleration) - abs(v) * dt / 2, 0.0), v)
-    return position + distance * np.array([math.cos(heading), math.sin(heading)]), distance
+# As many points of the braking line as the compiled law holds a row at
+# (constrained_tracking.BRAKING_STEPS), evenly spaced to its end.
+BRAKING_STEPS = 16
+
+
+def largest_on_braking_line(
+    row_kinds: IntArray,
+    rows: FloatArray,
+    margin: float,
+    position: FloatArray,
+    heading: float,
+    v: float,
+    acceleration: float,
+    dt: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Each row's largest value over the line braking from ``v`` at
+    ``acceleration`` takes beyond ``position`` along ``heading`` (at the
+    BRAKING_STEPS points to its end, v^2 / (2 a) on): the values, their
+    gradients, the sensitivity of that point to (v, omega) (rows x 4: x by
+    v, x by omega, y by v, y by omega) and whether it is inside the line.
+    The sensitivity to v is the end's motion where the end is furthest in
+    and the row rises towards it; inside the line it is 0 and the gradient
+    the component across the line (the largest value over the line does not
+    move as its points slide along it). Omega turns the line about its
+    start. Stopped within the next sample, the line is its start."""
+    ahead = math.copysign(max(v * v / (2 * acceleration) - abs(v) * dt / 2, 0.0), v)
+    c, s = math.cos(heading), math.sin(heading)
+    steps = 1 if ahead == 0.0 else BRAKING_STEPS
+    on_line = [
+        constraint_values(
+            row_kinds, rows, position + ahead * i / BRAKING_STEPS * np.array([c, s]), margin
+        )
+        for i in range(1, steps + 1)
+    ]
+    values = np.array([value for value, _ in on_line])  # points x rows
+    at = np.argmax(values, axis=0)  # the first of equals, as the compiled loop
+    rows_at = np.arange(row_kinds.shape[0])
+    largest = values[at, rows_at]
+    gradients = np.array([on_line[i][1][row] for row, i in enumerate(at)]).reshape(-1, 2)
+    sensitivity = np.zeros((row_kinds.shape[0], 4))
+    inner = np.zeros(row_kinds.shape[0], dtype=bool)
+    if ahead == 0.0:
+        return largest, gradients, sensitivity, inner
+    distance = ahead * (at + 1) / BRAKING_STEPS
+    sensitivity[:, 1] = -distance * dt * s
+    sensitivity[:, 3] = distance * dt * c
+    inner = (at + 1 < BRAKING_STEPS) | ((gradients @ np.array([c, s])) * ahead <= 0.0)
+    across = gradients[:, 1] * c - gradients[:, 0] * s
+    gradients[inner] = np.column_stack([-across * s, across * c])[inner]
+    along = abs(v) / acceleration - dt / 2  # d(v^2 / (2 a) - |v| dt / 2) / dv
+    sensitivity[~inner, 0] = along * c
+    sensitivity[~inner, 2] = along * s
+    return largest, gradients, sensitivity, inner
 
 
 def way_round_zones(
@@ -592,30 +638,29 @@ def regulate_input(
         values = values - (1.0 - controller.barrier_rate) * now
     rate = float(limits[2])
     braked = np.zeros(values.size, dtype=bool)
-    heading = float(predicted[2])
     if math.isfinite(rate):
-        # also where braking from v ends (from v_{k-1} now), whichever is further in
-        point, ahead = braking_point(predicted[:2], heading, v, rate, dt)
-        if ahead != 0.0:
-            rows = shrunk(row_params, row_kinds, margin)
-            at_stop, stop_gradients = constraint_values(row_kinds, rows, point, margin)
-            if controller.barrier_rate < 1.0:
-                then, _ = braking_point(estimate[:2], float(estimate[2]), v_prev, rate, dt)
-                at_then, _ = constraint_values(row_kinds, rows, then, margin)
-                at_stop = at_stop - (1.0 - controller.barrier_rate) * at_then
-            braked = at_stop > values
-            values = np.where(braked, at_stop, values)
-            gradients = np.where(braked[:, None], stop_gradients, gradients)
+        # also on the whole line braking from v takes (from v_{k-1} now), at
+        # its point furthest in, whichever is further in
+        rows = shrunk(row_params, row_kinds, margin)
+        on_line, line_gradients, moves, _ = largest_on_braking_line(
+            row_kinds, rows, margin, predicted[:2], float(predicted[2]), v, rate, dt
+        )
+        if controller.barrier_rate < 1.0:
+            then, _, _, _ = largest_on_braking_line(
+                row_kinds, rows, margin, estimate[:2], float(estimate[2]), v_prev, rate, dt
+            )
+            on_line = on_line - (1.0 - controller.barrier_rate) * then
+        braked = ~(on_line <= values)
+        values = np.where(braked, on_line, values)
+        gradients = np.where(braked[:, None], line_gradients, gradients)
     violated = np.flatnonzero(~(values <= 0.0))
     if violated.size == 0:
         return
     worst = violated[np.argsort(-values[violated], kind="stable")][:2]
     d = np.column_stack([gradients[worst], np.zeros(worst.size)])
     b = input_jacobian(float(estimate[2]), v, omega, dt)
-    if braked[worst[0]]:  # the braking point's own sensitivity, the worst row's
-        along = abs(v) / rate - dt / 2
-        b[:2, 0] += along * np.array([math.cos(heading), math.sin(heading)])
-        b[:2, 1] += ahead * dt * np.array([-math.sin(heading), math.cos(heading)])
+    if braked[worst[0]]:  # the braking line's point's own sensitivity, the worst row's
+        b[:2, :] += moves[worst[0]].reshape(2, 2)
     du = corrective_input(d, -values[worst], b, w, m, limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt)
