@@ -68,8 +68,8 @@ def test_a_row_is_held_where_the_braking_line_crosses_a_zone_its_end_is_beyond()
     """At 3 m/s and 1.5 m/s^2 the line runs 3 m on: through a circle of radius
     0.5 m 1.5 m ahead, to 1 m past it. Its end is outside the circle (the
     row's value there is -7.9); held at the line's point furthest in, the
-    row's value is nearly its value at the centre, 1 (the ellipse row's
-    ``1 - (d / r)^2``, the line's points 0.19 m apart), inside the line."""
+    row's value is its value at the centre, 1 (the ellipse row's
+    ``1 - (d / r)^2``), inside the line."""
     rock = CircleRegion(type="circle", center=(1.5, 0.0), radius=0.5)
     kinds, params = constraint_rows(rock, "outside")
     # next_: (x, y, heading, v, omega) at k+1; the row's value there, -1 m
@@ -78,6 +78,22 @@ def test_a_row_is_held_where_the_braking_line_crosses_a_zone_its_end_is_beyond()
         (0.0, 0.0, 0.0, 3.0), (0.0, 0.0, 0.0, 3.0, 0.0), (0.0, 0.0, 0.0, 0.0), 1.5, 0.01,
     )  # fmt: skip
     assert held > 0.96
+    assert inner
+
+
+def test_a_circle_the_line_crosses_between_sixteen_points_is_held_where_it_is_deepest() -> None:
+    """At 5.1 m/s and 1 m/s^2 the line runs 12.98 m on: 16 points on it were
+    0.81 m apart, and a circle of radius 0.5 m 0.4 m off the line, midway
+    between two of them, lay outside both (the row's value -0.30 there),
+    though the line crosses it 0.3 m either side of its middle. The row is
+    quadratic along the line: held at its vertex, ``1 - (0.4 / 0.5)^2``."""
+    spacing = braking_distance(5.1, 1.0, 0.01) / 16
+    rock = CircleRegion(type="circle", center=(4.5 * spacing, 0.4), radius=0.5)
+    kinds, params = constraint_rows(rock, "outside")
+    held, *_, inner = held_on_braking_line(
+        int(kinds[0]), params[0], 0.0, 0.0, 0.0, 0.0, 5.1, 1.0, 0.01
+    )
+    assert held == pytest.approx(1.0 - (0.4 / 0.5) ** 2, abs=1e-12)
     assert inner
 
 

@@ -379,8 +379,8 @@ def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
     )
 
 
-# As many points of the braking line as the compiled law holds a row at
-# (constrained_tracking.BRAKING_STEPS), evenly spaced to its end.
+# As many points of the braking line as the compiled law holds a polygon
+# row at (constrained_tracking.BRAKING_STEPS), evenly spaced to its end.
 BRAKING_STEPS = 16
 
 
@@ -395,42 +395,69 @@ def largest_on_braking_line(
     dt: float,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Each row's largest value over the line braking from ``v`` at
-    ``acceleration`` takes beyond ``position`` along ``heading`` (at the
-    BRAKING_STEPS points to its end, v^2 / (2 a) on): the values, their
-    gradients, the sensitivity of that point to (v, omega) (rows x 4: x by
-    v, x by omega, y by v, y by omega) and whether it is inside the line.
-    The sensitivity to v is the end's motion where the end is furthest in
-    and the row rises towards it; inside the line it is 0 and the gradient
-    the component across the line (the largest value over the line does not
-    move as its points slide along it). Omega turns the line about its
-    start. Stopped within the next sample, the line is its start."""
+    ``acceleration`` takes beyond ``position`` along ``heading`` (v^2 / (2 a)
+    on): the values, their gradients, the sensitivity of the point where it
+    is to (v, omega) (rows x 4: x by v, x by omega, y by v, y by omega) and
+    whether that point is inside the line. A half-plane or ellipse row is
+    quadratic along the line: its largest is at the vertex of a keep-out
+    ellipse's value where that is inside the line, else at an end; a polygon
+    row is taken at the BRAKING_STEPS points to the end. The sensitivity to
+    v is the end's motion where the largest is at the end and the row rises
+    towards it; inside the line it is 0 and the gradient the component
+    across the line (the largest value over the line does not move as its
+    points slide along it). Omega turns the line about its start. At the
+    start (stopped within the next sample: the line is its start), none."""
     ahead = math.copysign(max(v * v / (2 * acceleration) - abs(v) * dt / 2, 0.0), v)
-    c, s = math.cos(heading), math.sin(heading)
-    steps = 1 if ahead == 0.0 else BRAKING_STEPS
-    on_line = [
-        constraint_values(
-            row_kinds, rows, position + ahead * i / BRAKING_STEPS * np.array([c, s]), margin
-        )
-        for i in range(1, steps + 1)
-    ]
-    values = np.array([value for value, _ in on_line])  # points x rows
-    at = np.argmax(values, axis=0)  # the first of equals, as the compiled loop
-    rows_at = np.arange(row_kinds.shape[0])
-    largest = values[at, rows_at]
-    gradients = np.array([on_line[i][1][row] for row, i in enumerate(at)]).reshape(-1, 2)
-    sensitivity = np.zeros((row_kinds.shape[0], 4))
-    inner = np.zeros(row_kinds.shape[0], dtype=bool)
-    if ahead == 0.0:
-        return largest, gradients, sensitivity, inner
-    distance = ahead * (at + 1) / BRAKING_STEPS
-    sensitivity[:, 1] = -distance * dt * s
-    sensitivity[:, 3] = distance * dt * c
-    inner = (at + 1 < BRAKING_STEPS) | ((gradients @ np.array([c, s])) * ahead <= 0.0)
-    across = gradients[:, 1] * c - gradients[:, 0] * s
-    gradients[inner] = np.column_stack([-across * s, across * c])[inner]
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    count = row_kinds.shape[0]
+    largest = np.zeros(count)
+    gradients = np.zeros((count, 2))
+    distance = np.zeros(count)
+    for row in range(count):
+        one_kind, one_row = row_kinds[row : row + 1], rows[row : row + 1]
+
+        def at(
+            on: float, kind: IntArray = one_kind, row: FloatArray = one_row
+        ) -> tuple[float, FloatArray]:
+            value, gradient = constraint_values(kind, row, position + on * direction, margin)
+            return float(value[0]), gradient[0]
+
+        if row_kinds[row] == POLYGON_ROW:
+            points = [ahead * i / BRAKING_STEPS for i in range(1, BRAKING_STEPS + 1)]
+            taken = [at(on) for on in (points if ahead != 0.0 else [0.0])]
+            best = int(np.argmax([value for value, _ in taken]))  # the first of equals
+            largest[row], gradients[row] = taken[best]
+            distance[row] = points[best] if ahead != 0.0 else 0.0
+            continue
+        start, end = at(0.0), at(ahead)
+        largest[row], gradients[row] = start
+        if ahead == 0.0:
+            continue
+        curvature = 0.0
+        if row_kinds[row] == ELLIPSE_ROW:
+            p = one_row[0]
+            cos_phi, sin_phi = math.cos(p[4]), math.sin(p[4])
+            local = np.array([[cos_phi, sin_phi], [-sin_phi, cos_phi]]) @ direction
+            curvature = 2.0 * p[5] * float(local @ (local / p[2:4] ** 2))
+        if curvature < 0.0:
+            peak = -float(start[1] @ direction) / curvature
+            if min(0.0, ahead) < peak < max(0.0, ahead):
+                largest[row], gradients[row] = at(peak)
+                distance[row] = peak
+                continue
+        if end[0] > start[0]:
+            largest[row], gradients[row] = end
+            distance[row] = ahead
+    sensitivity = np.zeros((count, 4))
+    sensitivity[:, 1] = -distance * dt * direction[1]
+    sensitivity[:, 3] = distance * dt * direction[0]
+    inner = (distance != 0.0) & ((distance != ahead) | ((gradients @ direction) * ahead <= 0.0))
+    across = gradients[:, 1] * direction[0] - gradients[:, 0] * direction[1]
+    gradients[inner] = np.column_stack([-across * direction[1], across * direction[0]])[inner]
+    at_end = (distance != 0.0) & ~inner
     along = abs(v) / acceleration - dt / 2  # d(v^2 / (2 a) - |v| dt / 2) / dv
-    sensitivity[~inner, 0] = along * c
-    sensitivity[~inner, 2] = along * s
+    sensitivity[at_end, 0] = along * direction[0]
+    sensitivity[at_end, 2] = along * direction[1]
     return largest, gradients, sensitivity, inner
 
 
