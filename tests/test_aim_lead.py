@@ -23,13 +23,27 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from judge_generated import GENERATED, judge_all  # noqa: E402
 
+FREE = np.array([2.0, 3.0, np.inf, np.inf])
+
 
 def test_the_lead_is_the_time_constant_of_the_setting() -> None:
     """0.1 s by default at any rate, and none for a one-sample law."""
     for dt in (0.005, 0.01, 0.05):
-        assert math.isclose(aim_lead(PaperController(), dt), 0.1, rel_tol=1e-9)
+        assert math.isclose(aim_lead(PaperController(), dt, FREE), 0.1, rel_tol=1e-9)
     one_sample = PaperController.model_validate({"tracking": {"time_constant": 0}})
-    assert aim_lead(one_sample, 0.01) == 0.0
+    assert aim_lead(one_sample, 0.01, FREE) == 0.0
+
+
+def test_the_lead_is_taken_under_a_speed_acceleration_limit_not_a_turn_rate_one_alone() -> None:
+    """The braking line, held under a speed acceleration limit, keeps a robot
+    led past the zone's end out of it; under a turn-rate acceleration limit
+    alone no braking line is held, and the lead is 0 as it was."""
+    both = np.array([2.0, 3.0, 1.5, 10.0])
+    speed_only = np.array([2.0, 3.0, 1.5, np.inf])
+    turn_only = np.array([2.0, 3.0, np.inf, 10.0])
+    assert aim_lead(PaperController(), 0.01, both) == 0.1
+    assert aim_lead(PaperController(), 0.01, speed_only) == 0.1
+    assert aim_lead(PaperController(), 0.01, turn_only) == 0.0
 
 
 def test_a_time_constant_that_rounds_dt_away_is_taken_as_written() -> None:
@@ -37,9 +51,8 @@ def test_a_time_constant_that_rounds_dt_away_is_taken_as_written() -> None:
     the error the law closes at its pace were divided by its logarithm and by
     1 - it, and `run` ended in a ZeroDivisionError."""
     slow = PaperController.model_validate({"tracking": {"time_constant": 1e9}})
-    free = np.array([2.0, 3.0, np.inf, np.inf])
-    assert aim_lead(slow, 1e-8) == 1e9
-    assert error_reach(slow, 1e-8, 2.0, free) == math.inf
+    assert aim_lead(slow, 1e-8, FREE) == 1e9
+    assert error_reach(slow, 1e-8, 2.0, FREE) == math.inf
 
 
 @pytest.mark.slow

@@ -425,6 +425,39 @@ def test_regulate_input_matches(violated: int, form: str, rng: np.random.Generat
     assert corrected == (12 if violated else 0)
 
 
+@pytest.mark.parametrize("barrier_rate", [1.0, 0.2])
+def test_regulate_input_matches_with_a_zone_astride_the_braking_line(
+    barrier_rate: float,
+) -> None:
+    """At 3 m/s and 1.5 m/s^2 the braking line runs 3 m on, through a circle
+    1.5 m ahead to 1 m past it: the row is held on the whole line (its end
+    is outside the circle), in the reference as in the compiled law. Held at
+    the end alone, the reference corrected nothing."""
+    from wmr_mission.geometry.regions import CircleRegion, constraint_rows
+
+    kinds, params = constraint_rows(
+        CircleRegion(type="circle", center=(1.5, 0.0), radius=0.5), "outside"
+    )
+    estimate = np.zeros(3)
+    outputs = []
+    for regulate in (regulate_input, reference.regulate_input):
+        memory = np.zeros(paper.MEMORY_SIZE)
+        u = np.zeros(2)
+        controller = PaperTuning(
+            0.0, 0.0, np.ones(3), np.ones(2), np.full(3, 100.0), np.full(2, 100.0),
+            paper.DEVIATION, barrier_rate, False,
+        )  # fmt: skip
+        regulate(
+            estimate, estimate, np.array([3.0, 0.0]), np.array([6.0, 0.0, 0.0]), kinds,
+            params, controller, Plant(DT, np.array([4.0, 3.0, 1.5, 10.0])), memory,
+            scratch(), u,
+        )  # fmt: skip
+        outputs.append((u, memory[paper.CORRECTED]))
+    (fast, fast_corrected), (slow, slow_corrected) = outputs
+    assert fast_corrected == slow_corrected == 1.0
+    np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
+
+
 @pytest.mark.parametrize(
     ("low", "high", "tolerance"),
     [

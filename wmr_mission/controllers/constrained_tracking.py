@@ -104,10 +104,71 @@ def constrained_change(
     return p00 * lam0 + p01 * lam1, p10 * lam0 + p11 * lam1
 
 
-# Points of the braking line a row is held at, evenly spaced to its end: at
-# 3 m/s and 1.5 m/s^2 0.19 m apart, a circle of radius 0.5 m missed by at
-# most 0.009 m between two of them.
+# Points of the braking line a polygon row is held at, evenly spaced to its
+# end. The signed distance changes by at most the spacing between two, so a
+# polygon is missed by at most half of it: at 3 m/s and 1.5 m/s^2 0.19 m
+# apart, at 5.1 m/s and 1 m/s^2 0.81 m apart. The other rows are quadratic
+# along the line and are held at its largest exactly.
 BRAKING_STEPS = 16
+
+
+@kernel
+def _curvature_along(kind: int, p: FloatArray, margin: float, c: float, s: float) -> float:
+    """The second derivative of a row's value along the unit (c, s): 0 for a
+    half-plane, negative for a keep-out ellipse, positive for a keep-in one."""
+    if kind != ELLIPSE_ROW:
+        return 0.0
+    sign = p[5]
+    a = max(p[2] - sign * margin, 1e-9)
+    b = max(p[3] - sign * margin, 1e-9)
+    du = math.cos(p[4]) * c + math.sin(p[4]) * s
+    dw = -math.sin(p[4]) * c + math.cos(p[4]) * s
+    return float(2.0 * sign * (du * du / (a * a) + dw * dw / (b * b)))
+
+
+@kernel
+def _largest_of_quadratic_row(
+    kind: int, p: FloatArray, margin: float, x: float, y: float, c: float, s: float, ahead: float
+) -> tuple[float, float, float, float]:
+    """A half-plane or ellipse row's largest value on the line from (x, y)
+    ``ahead`` on along (c, s), its gradient and the distance on where it is:
+    the row is quadratic along the line, so at the vertex of a keep-out
+    ellipse's value where that lies inside the line, else at an end."""
+    start, gx, gy = row_value_with_margin(kind, p, margin, x, y)
+    if ahead == 0.0:
+        return start, gx, gy, 0.0
+    end, ex, ey = row_value_with_margin(kind, p, margin, x + ahead * c, y + ahead * s)
+    curvature = _curvature_along(kind, p, margin, c, s)
+    if curvature < 0.0:
+        peak = -(gx * c + gy * s) / curvature
+        if min(0.0, ahead) < peak < max(0.0, ahead):
+            value, px, py = row_value_with_margin(kind, p, margin, x + peak * c, y + peak * s)
+            return value, px, py, peak
+    if end > start:
+        return end, ex, ey, ahead
+    return start, gx, gy, 0.0
+
+
+@kernel
+def _largest_of_polygon_row(
+    p: FloatArray, margin: float, x: float, y: float, c: float, s: float, ahead: float
+) -> tuple[float, float, float, float]:
+    """A polygon row's largest value at the BRAKING_STEPS points of the line
+    from (x, y) ``ahead`` on along (c, s) to its end, its gradient and the
+    distance on where it is."""
+    worst = -math.inf
+    hx = hy = distance = 0.0
+    for i in range(1, BRAKING_STEPS + 1):
+        on = ahead * i / BRAKING_STEPS
+        value, gx, gy = polygon_value(p, margin, x + on * c, y + on * s)
+        if value > worst:
+            worst = value
+            hx = gx
+            hy = gy
+            distance = on
+        if ahead == 0.0:
+            break
+    return worst, hx, hy, distance
 
 
 @kernel
@@ -121,39 +182,46 @@ def held_on_braking_line(
     v: float,
     rate: float,
     dt: float,
-) -> tuple[float, float, float, float, float, float, float]:
-    """A row's value at the point furthest in of the line the robot brakes
-    along from (x, y, theta) at v, at ``rate`` (``braking_distance`` on along
-    the heading): the value, its gradient, and that point's sensitivity to
-    (v, omega) beyond the start's (2x2 row by row): its distance's change
-    with v along the heading, and the line turned with omega over ``dt``.
-    Where the robot stops within the next sample the line is its start."""
+) -> tuple[float, float, float, float, float, float, float, bool]:
+    """A row's largest value over the line the robot brakes along from
+    (x, y, theta) at v, at ``rate`` (``braking_distance`` on along the
+    heading): the value, its gradient, the sensitivity of the point where
+    it is to (v, omega) beyond the start's (2x2 row by row), and whether
+    that point is inside the line (not an end).
+
+    The sensitivity is that of the largest value over the line. With v, only
+    the line's end moves out of it: where the largest is at the end, it
+    moves along the heading as the braking distance does; inside the line
+    the row is at its largest along the line, its gradient across the line
+    (returned so: a polygon's sampled point's component along the line is
+    the sampling's, of either sign), and the points moving along the line
+    change that largest value by nothing, so the sensitivity to v is 0.
+    Taking the sampled point's gradient and motion along the line instead
+    gave the speed's sensitivity an arbitrary sign, and the speed chattered
+    between full acceleration and full braking. With omega the line turns
+    about its start: the point at a distance on moves across it by that
+    distance times dt. Where the largest is at the start (or the robot
+    stops within the next sample: the line is its start), it moves with
+    neither."""
     ahead = braking_distance(v, rate, dt)
     c = math.cos(theta)
     s = math.sin(theta)
-    along = abs(v) / rate - 0.5 * dt
-    worst = -math.inf
-    hx = hy = e00 = e01 = e10 = e11 = 0.0
-    for i in range(1, BRAKING_STEPS + 1):
-        share = i / BRAKING_STEPS
-        distance = ahead * share
-        px = x + distance * c
-        py = y + distance * s
-        if kind == POLYGON_ROW:
-            value, gx, gy = polygon_value(p, margin, px, py)
-        else:
-            value, gx, gy = row_value_with_margin(kind, p, margin, px, py)
-        if value > worst:
-            worst = value
-            hx = gx
-            hy = gy
-            e00 = along * share * c
-            e10 = along * share * s
-            e01 = -distance * dt * s
-            e11 = distance * dt * c
-        if ahead == 0.0:
-            break
-    return worst, hx, hy, e00, e01, e10, e11
+    if kind == POLYGON_ROW:
+        worst, hx, hy, distance = _largest_of_polygon_row(p, margin, x, y, c, s, ahead)
+    else:
+        worst, hx, hy, distance = _largest_of_quadratic_row(kind, p, margin, x, y, c, s, ahead)
+    if distance == 0.0:
+        return worst, hx, hy, 0.0, 0.0, 0.0, 0.0, False
+    e01 = -distance * dt * s
+    e11 = distance * dt * c
+    if distance != ahead or (hx * c + hy * s) * ahead <= 0.0:
+        # inside the line (also where a polygon's end is its furthest point
+        # in sampled but the row falls towards it: its largest is just
+        # before it); the gradient of the largest value: across the line
+        across = hy * c - hx * s
+        return worst, -across * s, across * c, 0.0, e01, 0.0, e11, True
+    along = abs(v) / rate - 0.5 * dt  # d ahead / dv
+    return worst, hx, hy, along * c, e01, along * s, e11, False
 
 
 @kernel
@@ -170,26 +238,27 @@ def held_where_braking_ends(
     sensitivity: tuple[float, float, float, float],
     rate: float,
     dt: float,
-) -> tuple[float, float, float, float, float, float, float]:
+) -> tuple[float, float, float, float, float, float, float, bool]:
     """A row's barrier value at the point ``next_`` (x, y, heading at k+1, v,
     omega) and, where it is further in, on the line braking from v at
     ``rate`` takes, at its point furthest in (v^2 / (2 a) on along the
     heading; now: from ``now``'s point, heading and v_{k-1}): the value, its
-    gradient, and the point's sensitivity to (v, omega), ``sensitivity``
-    (2x2 row by row) for the first. The whole line, not its end alone: a
-    robot whose braking line reached past a zone was let on towards it,
-    and braking on a curve carried it in (docs/paper-notes.md,
-    "Acceleration limits")."""
+    gradient, the point's sensitivity to (v, omega), ``sensitivity``
+    (2x2 row by row) for the first, and whether the row is held inside the
+    braking line, where its value does not move with v beyond the start's.
+    The whole line, not its end alone: a robot whose braking line reached
+    past a zone was let on towards it, and braking on a curve carried it in
+    (docs/paper-notes.md, "Acceleration limits")."""
     s00, s01, s10, s11 = sensitivity
-    braked, hx, hy, e00, e01, e10, e11 = held_on_braking_line(
+    braked, hx, hy, e00, e01, e10, e11, inner = held_on_braking_line(
         kind, p, margin, next_[0], next_[1], next_[2], next_[3], rate, dt
     )
     if keep > 0.0:
         behind = held_on_braking_line(kind, p, margin, now[0], now[1], now[2], now[3], rate, dt)
         braked -= keep * behind[0]
     if braked <= value:
-        return value, gx, gy, s00, s01, s10, s11
-    return braked, hx, hy, s00 + e00, s01 + e01, s10 + e10, s11 + e11
+        return value, gx, gy, s00, s01, s10, s11, False
+    return braked, hx, hy, s00 + e00, s01 + e01, s10 + e10, s11 + e11, inner
 
 
 @inlined
@@ -235,6 +304,8 @@ def keep_constraints(
     a, eta, h = work.d, work.eta, work.h
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
+    # whether each kept row is held inside its braking line
+    inner0 = inner1 = False
     for i in range(row_kinds.shape[0]):
         if row_kinds[i] == POLYGON_ROW:
             value, gx, gy = polygon_value(row_params[i], margin, qx, qy)
@@ -246,8 +317,9 @@ def keep_constraints(
                 now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, ox, oy)
                 value -= keep * now
         s00, s01, s10, s11 = t00, t01, t10, t11
+        inner = False
         if rate != math.inf:
-            value, gx, gy, s00, s01, s10, s11 = held_where_braking_ends(
+            value, gx, gy, s00, s01, s10, s11, inner = held_where_braking_ends(
                 row_kinds[i], row_params[i], margin, keep, value, gx, gy,
                 (ox, oy, estimate[2], u_prev[0]), (qx, qy, pth, u[0], u[1]),
                 (t00, t01, t10, t11), rate, dt,
@@ -257,6 +329,10 @@ def keep_constraints(
         slot, count = kept_row_slot(value, count, eta)
         if slot < 0:
             continue
+        if slot == 0:
+            inner0 = inner
+        else:
+            inner1 = inner
         a[slot, 0] = gx * s00 + gy * s10
         a[slot, 1] = gx * s01 + gy * s11
         eta[slot] = -value  # saturate to the violated bound
@@ -278,8 +354,13 @@ def keep_constraints(
         # The limits clipped the change (a turn tighter than the robot can
         # make): what the rows still lack, to first order, taken from the
         # speed alone, whose sensitivity does not vanish at the turn limit.
+        # Not for a row held inside its braking line: its value moves with
+        # the speed only as the line's start does, by dt a sample, and the
+        # step that asked for swung the speed between its limits.
         extra = 0.0
         for slot in range(count):
+            if inner0 if slot == 0 else inner1:
+                continue
             lacking = a[slot, 0] * (u[0] - v_track) + a[slot, 1] * (u[1] - omega_track)
             lacking -= eta[slot]
             if lacking > 0.0 and abs(a[slot, 0]) > 1e-12:

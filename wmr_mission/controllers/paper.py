@@ -818,7 +818,7 @@ def regulate_input(
                 now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, x, y)
                 value -= keep * now
         if rate != math.inf:
-            held, gx, gy, e00, e01, e10, e11 = held_where_braking_ends(
+            held, gx, gy, e00, e01, e10, e11, _ = held_where_braking_ends(
                 row_kinds[i], row_params[i], margin, keep, value, gx, gy,
                 (x, y, theta, v_prev), (px, py, pth, v1, omega1),
                 (0.0, 0.0, 0.0, 0.0), rate, dt,
@@ -992,17 +992,20 @@ def turn_acceleration(settings: PaperController, dt: float, limits: FloatArray) 
     return TURNABLE_SHARE * float(limits[3])
 
 
-def aim_lead(settings: PaperController, dt: float) -> float:
+def aim_lead(settings: PaperController, dt: float, limits: FloatArray) -> float:
     """[s] How far ahead along the path the aim's offset round the zones is
     taken: the setting's time constant, the pace the law closes the aim's
     move at, so that the robot, that much behind it, meets the offset where
-    the zone needs it; 0 for the one-sample laws. Under acceleration limits
-    too, now that the filter holds a zone's rows on the whole line the robot
+    the zone needs it; 0 for the one-sample laws. Under a speed acceleration
+    limit too, as the filter holds a zone's rows on the whole line the robot
     brakes along: led past the zone's end, a robot far behind its reference
-    cut into it while the rows were held at the braking line's end alone
-    (docs/paper-notes.md, eq. (28), "The aim's offset a time constant
-    ahead")."""
+    cut into it while the rows were held at the braking line's end alone.
+    Not under a turn-rate acceleration limit alone: no braking line is held
+    there, and the lead gained nothing measured (docs/paper-notes.md,
+    eq. (28), "The aim's offset a time constant ahead")."""
     if error_decay(settings, dt) == 0.0:
+        return 0.0
+    if not math.isfinite(float(limits[2])) and math.isfinite(float(limits[3])):
         return 0.0
     return float(settings.tracking.time_constant)
 
@@ -1022,7 +1025,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         barrier_rate=min(1.0, float(plant.dt) / BARRIER_TIME),
         error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
         turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
-        aim_lead=aim_lead(settings, plant.dt),
+        aim_lead=aim_lead(settings, plant.dt, plant.limits),
     )
 
 

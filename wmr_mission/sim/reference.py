@@ -379,13 +379,86 @@ def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
     )
 
 
-def braking_point(
-    position: FloatArray, heading: float, v: float, acceleration: float, dt: float
-) -> tuple[FloatArray, float]:
-    """Where braking from ``v`` at ``acceleration`` ends, beyond ``position``
-    (the next sample's), and that distance (signed by v)."""
-    distance = math.copysign(max(v * v / (2 * acceleration) - abs(v) * dt / 2, 0.0), v)
-    return position + distance * np.array([math.cos(heading), math.sin(heading)]), distance
+# As many points of the braking line as the compiled law holds a polygon
+# row at (constrained_tracking.BRAKING_STEPS), evenly spaced to its end.
+BRAKING_STEPS = 16
+
+
+def largest_on_braking_line(
+    row_kinds: IntArray,
+    rows: FloatArray,
+    margin: float,
+    position: FloatArray,
+    heading: float,
+    v: float,
+    acceleration: float,
+    dt: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Each row's largest value over the line braking from ``v`` at
+    ``acceleration`` takes beyond ``position`` along ``heading`` (v^2 / (2 a)
+    on): the values, their gradients, the sensitivity of the point where it
+    is to (v, omega) (rows x 4: x by v, x by omega, y by v, y by omega) and
+    whether that point is inside the line. A half-plane or ellipse row is
+    quadratic along the line: its largest is at the vertex of a keep-out
+    ellipse's value where that is inside the line, else at an end; a polygon
+    row is taken at the BRAKING_STEPS points to the end. The sensitivity to
+    v is the end's motion where the largest is at the end and the row rises
+    towards it; inside the line it is 0 and the gradient the component
+    across the line (the largest value over the line does not move as its
+    points slide along it). Omega turns the line about its start. At the
+    start (stopped within the next sample: the line is its start), none."""
+    ahead = math.copysign(max(v * v / (2 * acceleration) - abs(v) * dt / 2, 0.0), v)
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    count = row_kinds.shape[0]
+    largest = np.zeros(count)
+    gradients = np.zeros((count, 2))
+    distance = np.zeros(count)
+    for row in range(count):
+        one_kind, one_row = row_kinds[row : row + 1], rows[row : row + 1]
+
+        def at(
+            on: float, kind: IntArray = one_kind, row: FloatArray = one_row
+        ) -> tuple[float, FloatArray]:
+            value, gradient = constraint_values(kind, row, position + on * direction, margin)
+            return float(value[0]), gradient[0]
+
+        if row_kinds[row] == POLYGON_ROW:
+            points = [ahead * i / BRAKING_STEPS for i in range(1, BRAKING_STEPS + 1)]
+            taken = [at(on) for on in (points if ahead != 0.0 else [0.0])]
+            best = int(np.argmax([value for value, _ in taken]))  # the first of equals
+            largest[row], gradients[row] = taken[best]
+            distance[row] = points[best] if ahead != 0.0 else 0.0
+            continue
+        start, end = at(0.0), at(ahead)
+        largest[row], gradients[row] = start
+        if ahead == 0.0:
+            continue
+        curvature = 0.0
+        if row_kinds[row] == ELLIPSE_ROW:
+            p = one_row[0]
+            cos_phi, sin_phi = math.cos(p[4]), math.sin(p[4])
+            local = np.array([[cos_phi, sin_phi], [-sin_phi, cos_phi]]) @ direction
+            curvature = 2.0 * p[5] * float(local @ (local / p[2:4] ** 2))
+        if curvature < 0.0:
+            peak = -float(start[1] @ direction) / curvature
+            if min(0.0, ahead) < peak < max(0.0, ahead):
+                largest[row], gradients[row] = at(peak)
+                distance[row] = peak
+                continue
+        if end[0] > start[0]:
+            largest[row], gradients[row] = end
+            distance[row] = ahead
+    sensitivity = np.zeros((count, 4))
+    sensitivity[:, 1] = -distance * dt * direction[1]
+    sensitivity[:, 3] = distance * dt * direction[0]
+    inner = (distance != 0.0) & ((distance != ahead) | ((gradients @ direction) * ahead <= 0.0))
+    across = gradients[:, 1] * direction[0] - gradients[:, 0] * direction[1]
+    gradients[inner] = np.column_stack([-across * direction[1], across * direction[0]])[inner]
+    at_end = (distance != 0.0) & ~inner
+    along = abs(v) / acceleration - dt / 2  # d(v^2 / (2 a) - |v| dt / 2) / dv
+    sensitivity[at_end, 0] = along * direction[0]
+    sensitivity[at_end, 2] = along * direction[1]
+    return largest, gradients, sensitivity, inner
 
 
 def way_round_zones(
@@ -592,30 +665,29 @@ def regulate_input(
         values = values - (1.0 - controller.barrier_rate) * now
     rate = float(limits[2])
     braked = np.zeros(values.size, dtype=bool)
-    heading = float(predicted[2])
     if math.isfinite(rate):
-        # also where braking from v ends (from v_{k-1} now), whichever is further in
-        point, ahead = braking_point(predicted[:2], heading, v, rate, dt)
-        if ahead != 0.0:
-            rows = shrunk(row_params, row_kinds, margin)
-            at_stop, stop_gradients = constraint_values(row_kinds, rows, point, margin)
-            if controller.barrier_rate < 1.0:
-                then, _ = braking_point(estimate[:2], float(estimate[2]), v_prev, rate, dt)
-                at_then, _ = constraint_values(row_kinds, rows, then, margin)
-                at_stop = at_stop - (1.0 - controller.barrier_rate) * at_then
-            braked = at_stop > values
-            values = np.where(braked, at_stop, values)
-            gradients = np.where(braked[:, None], stop_gradients, gradients)
+        # also on the whole line braking from v takes (from v_{k-1} now), at
+        # its point furthest in, whichever is further in
+        rows = shrunk(row_params, row_kinds, margin)
+        on_line, line_gradients, moves, _ = largest_on_braking_line(
+            row_kinds, rows, margin, predicted[:2], float(predicted[2]), v, rate, dt
+        )
+        if controller.barrier_rate < 1.0:
+            then, _, _, _ = largest_on_braking_line(
+                row_kinds, rows, margin, estimate[:2], float(estimate[2]), v_prev, rate, dt
+            )
+            on_line = on_line - (1.0 - controller.barrier_rate) * then
+        braked = ~(on_line <= values)
+        values = np.where(braked, on_line, values)
+        gradients = np.where(braked[:, None], line_gradients, gradients)
     violated = np.flatnonzero(~(values <= 0.0))
     if violated.size == 0:
         return
     worst = violated[np.argsort(-values[violated], kind="stable")][:2]
     d = np.column_stack([gradients[worst], np.zeros(worst.size)])
     b = input_jacobian(float(estimate[2]), v, omega, dt)
-    if braked[worst[0]]:  # the braking point's own sensitivity, the worst row's
-        along = abs(v) / rate - dt / 2
-        b[:2, 0] += along * np.array([math.cos(heading), math.sin(heading)])
-        b[:2, 1] += ahead * dt * np.array([-math.sin(heading), math.cos(heading)])
+    if braked[worst[0]]:  # the braking line's point's own sensitivity, the worst row's
+        b[:2, :] += moves[worst[0]].reshape(2, 2)
     du = corrective_input(d, -values[worst], b, w, m, limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt)
