@@ -68,33 +68,20 @@ def _compile_first(config: pytest.Config, workers: int) -> None:
     compiled once, on every core, instead of by whichever worker's test runs
     it first, at times by both at once. A failure here is left to the tests
     that run the loop to report."""
-    import subprocess
-    import sys
+    import compile_first
 
     import wmr_mission
 
     reporter = config.pluginmanager.get_plugin("terminalreporter")
     if reporter is not None:
         reporter.write_line(f"compiling the built-in loops first, in {workers} processes")
-    script = str(Path(__file__).parent / "compile_first.py")
     # The package the workers import (the source tree under `python -m pytest`,
     # else the installed one), whose cache is theirs.
     found = [str(Path(wmr_mission.__file__).parent.parent), os.environ.get("PYTHONPATH", "")]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in found if p)}
-    shares = [
-        subprocess.Popen(
-            [sys.executable, script, str(share), str(workers)],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        for share in range(workers)
-    ]
-    for share in shares:
-        _, stderr = share.communicate()
-        if share.returncode != 0 and reporter is not None:
-            reporter.write_line(f"compiling first failed, the tests compile instead:\n{stderr}")
+    failed = compile_first.compile_all(workers, env)
+    if failed and reporter is not None:
+        reporter.write_line(f"compiling first failed, the tests compile instead:\n{failed}")
 
 
 # The files whose tests take longest (CPU, their subprocesses' included, in a
