@@ -85,21 +85,21 @@ def _compile_first(config: pytest.Config, workers: int) -> None:
 
 
 # The files whose tests take longest (CPU, their subprocesses' included, in a
-# run of the suite from a fresh clone with `--durations`), run first, so that
-# with `-n auto` no worker is left running one of them at the end while the
-# other waits (`--no-loadscope-reorder` in pyproject.toml: xdist hands the
-# files out in this order, not by their number of tests).
+# run of the suite from an empty kernel cache: tests/suite_costs.py), run
+# first, so that with `-n auto` no worker is left running one of them at the
+# end while the other waits (`--no-loadscope-reorder` in pyproject.toml: xdist
+# hands the files out in this order, not by their number of tests).
 LONGEST_FIRST = (
     "test_same_bytes.py",
-    "test_start_up.py",
-    "test_tutorial.py",
     "test_controllers_doc.py",
-    "test_campaign.py",
-    "test_reference.py",
-    "test_python_api.py",
+    "test_start_up.py",
     "test_figure_styles.py",
     "test_ros2_plans.py",
     "test_backends.py",
+    "test_tutorial.py",
+    "test_plugins.py",
+    "test_campaign.py",
+    "test_reference.py",
 )
 
 
