@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import the_tests_package
 
 from wmr_mission.commands import compile as compile_loop
 from wmr_mission.controllers import CONTROLLERS
@@ -33,20 +34,11 @@ HOUR = Path(__file__).resolve().parent.parent / "benchmarks" / "hour.yaml"
 pytestmark = pytest.mark.skipif(not jit.compiling(), reason="the compiled build only")
 
 
-# Where the package this process imports is, for the processes these tests
-# start in a directory of their own (``cwd``). Started in the checkout's root,
-# `python -m` and `python -c` would import the checkout's package before an
-# installed one (the README's `pip install .`), whose kernels numba caches
-# apart, by their source's path: a copy of this session's cache would hold none
-# of that package's loops, and `compile` would compile every one again.
-PACKAGE_ROOT = str(Path(kernel_cache.PACKAGE).parent)
-
-
 def _env(cache: Path, **more: str) -> dict[str, str]:
-    """A user's environment, the kernel cache in ``cache``, this process's package."""
+    """A user's environment, the kernel cache in ``cache``, the tests' package
+    (conftest.the_tests_package: the processes run in ``tmp_path``)."""
     env = {key: value for key, value in os.environ.items() if key != compile_loop.NO_JIT}
-    path = os.pathsep.join(p for p in (PACKAGE_ROOT, env.get("PYTHONPATH", "")) if p)
-    return {**env, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": path, **more}
+    return the_tests_package({**env, "NUMBA_CACHE_DIR": str(cache), **more})
 
 
 # Runs `wmr-mission run`, recording every process it starts and, as it exits,
