@@ -22,7 +22,7 @@ compile`` puts in it, and gets its ready marker as after that command: the
 tests' commands then load the compiled loop where a user's would after it
 (`run` of a mission over 5 500 samples compiled, not as plain Python: the
 commands of docs/tutorial.md, tests/test_tutorial.py, 35 s of CPU as plain
-Python, 13 s so).
+Python, 12 s so).
 
 :func:`compile_all` starts the processes (tests/conftest.py), each
 ``python tests/compile_first.py SHARE SHARES``.

@@ -70,16 +70,12 @@ def _compile_first(config: pytest.Config, workers: int) -> None:
     that run the loop to report."""
     import compile_first
 
-    import wmr_mission
-
     reporter = config.pluginmanager.get_plugin("terminalreporter")
     if reporter is not None:
         reporter.write_line(f"compiling the built-in loops first, in {workers} processes")
     # The package the workers import (the source tree under `python -m pytest`,
     # else the installed one), whose cache is theirs.
-    found = [str(Path(wmr_mission.__file__).parent.parent), os.environ.get("PYTHONPATH", "")]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in found if p)}
-    failed = compile_first.compile_all(workers, env)
+    failed = compile_first.compile_all(workers, the_tests_package(dict(os.environ)))
     if failed and reporter is not None:
         reporter.write_line(f"compiling first failed, the tests compile instead:\n{failed}")
 
@@ -118,7 +114,8 @@ def the_tests_package(env: dict[str, str]) -> dict[str, str]:
     checkout's root, `python -m` and `python -c` import the checkout's package
     before an installed one (the README's `pip install .`), whose kernels numba
     caches apart, by their source's path: such a process compiles again the
-    loops the session's cache holds (a sweep's 22 s of CPU, `compile`'s 75 s)."""
+    loops the session's cache holds (a sweep's 22 s of CPU; tests/test_start_up.py's
+    `compile` 70 s)."""
     import wmr_mission
 
     root = str(Path(wmr_mission.__file__).resolve().parent.parent)
