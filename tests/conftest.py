@@ -68,51 +68,34 @@ def _compile_first(config: pytest.Config, workers: int) -> None:
     compiled once, on every core, instead of by whichever worker's test runs
     it first, at times by both at once. A failure here is left to the tests
     that run the loop to report."""
-    import subprocess
-    import sys
-
-    import wmr_mission
+    import compile_first
 
     reporter = config.pluginmanager.get_plugin("terminalreporter")
     if reporter is not None:
         reporter.write_line(f"compiling the built-in loops first, in {workers} processes")
-    script = str(Path(__file__).parent / "compile_first.py")
     # The package the workers import (the source tree under `python -m pytest`,
     # else the installed one), whose cache is theirs.
-    found = [str(Path(wmr_mission.__file__).parent.parent), os.environ.get("PYTHONPATH", "")]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in found if p)}
-    shares = [
-        subprocess.Popen(
-            [sys.executable, script, str(share), str(workers)],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        for share in range(workers)
-    ]
-    for share in shares:
-        _, stderr = share.communicate()
-        if share.returncode != 0 and reporter is not None:
-            reporter.write_line(f"compiling first failed, the tests compile instead:\n{stderr}")
+    failed = compile_first.compile_all(workers, the_tests_package(dict(os.environ)))
+    if failed and reporter is not None:
+        reporter.write_line(f"compiling first failed, the tests compile instead:\n{failed}")
 
 
 # The files whose tests take longest (CPU, their subprocesses' included, in a
-# run of the suite from a fresh clone with `--durations`), run first, so that
-# with `-n auto` no worker is left running one of them at the end while the
-# other waits (`--no-loadscope-reorder` in pyproject.toml: xdist hands the
-# files out in this order, not by their number of tests).
+# run of the suite from an empty kernel cache: tests/suite_costs.py), run
+# first, so that with `-n auto` no worker is left running one of them at the
+# end while the other waits (`--no-loadscope-reorder` in pyproject.toml: xdist
+# hands the files out in this order, not by their number of tests).
 LONGEST_FIRST = (
     "test_same_bytes.py",
-    "test_start_up.py",
-    "test_tutorial.py",
     "test_controllers_doc.py",
-    "test_campaign.py",
-    "test_reference.py",
-    "test_python_api.py",
+    "test_start_up.py",
     "test_figure_styles.py",
     "test_ros2_plans.py",
     "test_backends.py",
+    "test_tutorial.py",
+    "test_plugins.py",
+    "test_campaign.py",
+    "test_reference.py",
 )
 
 
@@ -123,6 +106,20 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     first = {name: rank for rank, name in enumerate(LONGEST_FIRST)}
     # sorted() keeps the order of the tests within a file and of the other files
     items.sort(key=lambda item: first.get(item.path.name, len(first)))
+
+
+def the_tests_package(env: dict[str, str]) -> dict[str, str]:
+    """``env`` for a Python process that a test starts in a directory of its own
+    (``cwd``), to import the package the tests import. Started in the
+    checkout's root, `python -m` and `python -c` import the checkout's package
+    before an installed one (the README's `pip install .`), whose kernels numba
+    caches apart, by their source's path: such a process compiles again the
+    loops the session's cache holds (a sweep's 22 s of CPU; tests/test_start_up.py's
+    `compile` 70 s)."""
+    import wmr_mission
+
+    root = str(Path(wmr_mission.__file__).resolve().parent.parent)
+    return {**env, "PYTHONPATH": os.pathsep.join(p for p in (root, env.get("PYTHONPATH", "")) if p)}
 
 
 @pytest.fixture(autouse=True)

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import the_tests_package
 
 from wmr_mission import run_campaign
 from wmr_mission.campaign.aggregate import clopper_pearson
@@ -322,6 +323,8 @@ def test_ctrl_c_keeps_finished_runs(tmp_path: Path) -> None:
     process = subprocess.Popen(
         [sys.executable, "-m", "wmr_mission", "sweep", str(_campaign(tmp_path, 5000)),
          "--out", str(out), "--workers", "2", "--no-plots"],
+        cwd=tmp_path,
+        env=the_tests_package(dict(os.environ)),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         start_new_session=True,  # its own process group, as a shell's foreground job

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import the_tests_package
 from typer.testing import CliRunner
 
 from wmr_mission import (
@@ -128,6 +129,8 @@ def _sweep_with_workers(tmp_path: Path, out: Path) -> tuple[subprocess.Popen[byt
     process = subprocess.Popen(
         [sys.executable, "-m", "wmr_mission", "sweep", str(campaign_file(tmp_path, 100_000)),
          "--out", str(out), "--workers", "2", "--no-plots"],
+        cwd=tmp_path,
+        env=the_tests_package(dict(os.environ)),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )  # fmt: skip
@@ -750,6 +753,8 @@ def test_bench_stops_on_a_signal(tmp_path: Path, number: int, code: int) -> None
     mission.write_text(MISSION.replace("elapsed: 2", "elapsed: 600"), encoding="utf-8")
     process = subprocess.Popen(
         [sys.executable, "-m", "wmr_mission", "bench", str(mission), "--repeat", "100"],
+        cwd=tmp_path,
+        env=the_tests_package(dict(os.environ)),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )

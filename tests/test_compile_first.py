@@ -9,9 +9,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import compile_first
 import conftest
 import pytest
+from test_start_up import _cache_of_this_session
 
+from wmr_mission.kernels import cache as kernel_cache
 from wmr_mission.kernels import jit
 
 TESTS = Path(__file__).resolve().parent
@@ -99,6 +102,28 @@ def test_two_processes_saving_at_once_keep_both_entries(tmp_path: Path) -> None:
     )
     assert read.returncode == 0, read.stderr
     assert read.stdout.split() == ["b'ekf-paper'", "b'observer-paper'"]
+
+
+@pytest.mark.skipif(not jit.compiling(), reason="the compiled build only")
+def test_the_loops_compiled_first_mark_the_cache_ready(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every share compiled (here into a copy of this session's kernels, so
+    that each takes seconds, not a compile): the cache holds the marker
+    `wmr-mission compile` leaves. A share that fails leaves none."""
+    cache = _cache_of_this_session(tmp_path)
+    (kernels,) = (cache / "wmr_mission").iterdir()
+    monkeypatch.setattr(kernel_cache, "cache_directory", lambda: kernels)
+    env = {
+        **{k: v for k, v in os.environ.items() if k != jit.NO_JIT},
+        "NUMBA_CACHE_DIR": str(cache),
+    }
+    with monkeypatch.context() as patch:
+        patch.setattr(compile_first, "__file__", str(tmp_path / "missing.py"))
+        assert compile_first.compile_all(2, env)
+    assert not kernel_cache.is_ready(kernels)
+    assert compile_first.compile_all(2, env) == ""
+    assert kernel_cache.is_ready(kernels)
 
 
 def test_the_files_the_set_up_names_are_the_suites() -> None:

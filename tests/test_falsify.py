@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from browser import Browser
+from conftest import the_tests_package
 from test_view import needs_chromium
 
 from wmr_mission.campaign.falsify import DEFAULT_METHOD, METHODS
@@ -632,6 +633,8 @@ def test_ctrl_c_keeps_what_was_evaluated(
     process = subprocess.Popen(
         [sys.executable, "-m", "wmr_mission", "falsify", str(PARK), "--budget", "5000",
          "--method", "random", "--out", str(out), "--workers", "2", "--no-plots"],
+        cwd=tmp_path,
+        env=the_tests_package(dict(os.environ)),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         start_new_session=True,

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import the_tests_package
 from test_output_synthetic import circle_run
 from typer.testing import CliRunner
 
@@ -431,9 +432,10 @@ def test_kernels_never_raise_and_both_builds_agree(tmp_path: Path) -> None:
     text = text.replace("x: 1.0, y: 0.5", "x: 2.0, y: 0.5")
     outputs = []
     for no_jit in ("0", "1"):
-        env = {**os.environ, "WMR_MISSION_NO_JIT": no_jit}
+        env = the_tests_package({**os.environ, "WMR_MISSION_NO_JIT": no_jit})
         done = subprocess.run(
             [sys.executable, "-c", _TINY_REGION_RUN],
+            cwd=tmp_path,
             input=text,
             capture_output=True,
             text=True,

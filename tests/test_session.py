@@ -3,6 +3,7 @@ step by step"): the samples of `run`, byte for byte."""
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -10,6 +11,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from conftest import the_tests_package
 
 from wmr_mission import load_mission, mission_from_dict, run_mission, start_mission
 from wmr_mission.output.rundir import trajectory_csv_text
@@ -92,12 +94,17 @@ def test_changes_the_phase_cannot_take_are_refused_plainly() -> None:
         tracked.set_path({"type": "line", "heading": 0, "speed": 1})
 
 
-def test_the_docs_example_replans_round_the_rock() -> None:
+def test_the_docs_example_replans_round_the_rock(tmp_path: Path) -> None:
     text = (ROOT / "docs" / "python-api.md").read_text(encoding="utf-8")
     section = text.split("## A mission step by step", 1)[1].split("\n## ", 1)[0]
     (block,) = re.findall(r"```python\n(.*?)```", section, re.S)
     completed = subprocess.run(
-        [sys.executable, "-c", block], capture_output=True, text=True, check=False, cwd=ROOT
+        [sys.executable, "-c", block],
+        cwd=tmp_path,
+        env=the_tests_package(dict(os.environ)),
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert completed.returncode == 0, completed.stderr[-3000:]
     seen, clearance = completed.stdout.splitlines()

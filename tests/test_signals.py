@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import the_tests_package
 
 from wmr_mission.output.rundir import CLAIM_FILE
 from wmr_mission.record import Outcome
@@ -43,6 +44,8 @@ def _runs_removed(tmp_path: Path) -> Iterator[None]:
 def start(run_dir: Path) -> subprocess.Popen[bytes]:
     return subprocess.Popen(
         [*RUN, "--out", str(run_dir)],
+        cwd=run_dir.parent,
+        env=the_tests_package(dict(os.environ)),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import the_tests_package
 
 from wmr_mission.commands import compile as compile_loop
 from wmr_mission.controllers import CONTROLLERS
@@ -34,9 +35,10 @@ pytestmark = pytest.mark.skipif(not jit.compiling(), reason="the compiled build 
 
 
 def _env(cache: Path, **more: str) -> dict[str, str]:
-    """A user's environment, the kernel cache in ``cache``."""
+    """A user's environment, the kernel cache in ``cache``, the tests' package
+    (conftest.the_tests_package: the processes run in ``tmp_path``)."""
     env = {key: value for key, value in os.environ.items() if key != compile_loop.NO_JIT}
-    return {**env, "NUMBA_CACHE_DIR": str(cache), **more}
+    return the_tests_package({**env, "NUMBA_CACHE_DIR": str(cache), **more})
 
 
 # Runs `wmr-mission run`, recording every process it starts and, as it exits,
@@ -79,6 +81,7 @@ def _run(env: dict[str, str], out: Path, record: Path, mission: Path, *flags: st
     done = subprocess.run(
         [sys.executable, "-c", RUN_RECORDING, str(record), *flags, *run],
         env=env,
+        cwd=record.parent,
         capture_output=True,
         text=True,
         timeout=300,
@@ -162,7 +165,9 @@ def test_compile_compiles_the_judges_kernels_too(tmp_path: Path) -> None:
         for compiled in kernels.rglob(pattern):
             compiled.unlink()
     command = [sys.executable, "-m", "wmr_mission", "compile"]
-    done = subprocess.run(command, env=_env(cache), capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        command, env=_env(cache), cwd=tmp_path, capture_output=True, text=True, timeout=600
+    )
     assert done.returncode == 0, done.stderr
     for pattern in judges:
         assert list(kernels.rglob(pattern)), pattern
@@ -194,12 +199,16 @@ def test_compile_marks_the_cache_ready_and_a_long_run_loads_it(tmp_path: Path) -
     assert stderr.count("wmr-mission: loading the simulation loop, compiled first") == 1
     assert record.read_text().splitlines()[0] == "numba loaded: True"
     command = [sys.executable, "-m", "wmr_mission", "compile"]
-    done = subprocess.run(command, env=_env(cache), capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        command, env=_env(cache), cwd=tmp_path, capture_output=True, text=True, timeout=600
+    )
     assert done.returncode == 0, done.stderr
     assert str(kernels) in done.stdout
     assert ready.read_text().split()[0] == kernel_cache.kernel_sources_stamp()
     assert ready.read_text() == compile_loop.ready_stamp()
-    again = subprocess.run(command, env=_env(cache), capture_output=True, text=True, timeout=600)
+    again = subprocess.run(
+        command, env=_env(cache), cwd=tmp_path, capture_output=True, text=True, timeout=600
+    )
     assert "already" in again.stdout
     record.unlink()
     stderr = _run(_env(cache), tmp_path / "next", record, long)

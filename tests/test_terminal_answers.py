@@ -11,6 +11,7 @@ import shlex
 from pathlib import Path
 
 import pytest
+from conftest import the_tests_package
 from typer.testing import CliRunner
 
 from wmr_mission.campaign.models import MAX_RUNS
@@ -181,6 +182,7 @@ def test_a_sweeps_manifest_says_how_its_runs_ran(tmp_path: Path) -> None:
     done = subprocess.run(
         [sys.executable, "-m", "wmr_mission", "sweep", str(_campaign(tmp_path)), "--workers",
          "1", "--no-plots", "--out", str(out)],
+        cwd=tmp_path, env=the_tests_package(dict(os.environ)),
         capture_output=True, text=True, timeout=600, check=False,
     )  # fmt: skip
     assert done.returncode in (0, 1), done.stderr

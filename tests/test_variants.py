@@ -13,6 +13,7 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import pytest
+from conftest import the_tests_package
 from pydantic import Field
 
 from wmr_mission.api import MissionError, mission_from_text, run_mission
@@ -242,6 +243,13 @@ def test_an_estimator_that_registers_a_spread_gets_the_figure_s_band() -> None:
         "from wmr_mission.output.covariance import estimate_std; "
         f"print(estimate_std(run_mission(load_mission({str(mission)!r})))[-1, 0])"
     )
-    done = subprocess.run([sys.executable, "-c", ekf], capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [sys.executable, "-c", ekf],
+        cwd=TESTS,
+        env=the_tests_package(dict(os.environ)),
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr
     assert 0.0 < float(done.stdout) < 0.02
