@@ -1390,26 +1390,23 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
         if isinstance(phase, RegulatePhase) and phase.until.settled is not None:
             target = phase.regulate.target
             points.append(((*where, "regulate", "target"), "the target", target.x, target.y))
-        for name, zone in _keep_outs(mission, phase).items():
+        # (the region, how much room a point has, where it is, what the body does there)
+        sides = [
+            (name, zone, _gap, "from keep-out zone", "overlaps the zone")
+            for name, zone in _keep_outs(mission, phase).items()
+        ] + [
+            (name, yard, _room, "inside the edge of keep-in region", "reaches out of it")
+            for name, yard in _keep_ins(mission, phase).items()
+        ]
+        for name, region, room_at, edge, body in sides:
             for path, what, x, y in points:
-                gap = _gap(zone, float(x), float(y))
-                if 0.0 <= gap < reach:
-                    yield Finding(
-                        path,
-                        f"{what} ({x:g}, {y:g}) is {gap:.3g} m from keep-out zone {name!r}, "
-                        f"nearer than the robot's body reaches ({reach:.3g} m, "
-                        "robot.footprint): the body overlaps the zone there",
-                        severity="warning",
-                    )
-        for name, yard in _keep_ins(mission, phase).items():
-            for path, what, x, y in points:
-                room = _room(yard, float(x), float(y))
+                room = room_at(region, float(x), float(y))
                 if 0.0 <= room < reach:
                     yield Finding(
                         path,
-                        f"{what} ({x:g}, {y:g}) is {room:.3g} m inside the edge of keep-in "
-                        f"region {name!r}, nearer than the robot's body reaches "
-                        f"({reach:.3g} m, robot.footprint): the body reaches out of it there",
+                        f"{what} ({x:g}, {y:g}) is {room:.3g} m {edge} {name!r}, nearer than "
+                        f"the robot's body reaches ({reach:.3g} m, robot.footprint): the body "
+                        f"{body} there",
                         severity="warning",
                     )
 
