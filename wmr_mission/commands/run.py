@@ -301,9 +301,14 @@ def _run(
         end="",
     )
     if received and not stopped:  # the stop came once every sample was simulated
+        undrawn = (
+            f"; no figure was drawn: `wmr-mission plot {run_dir}` draws them"
+            if plots or animate
+            else ""
+        )
         print(
             f"{mission_path}: {_signal_name(received)} after the simulation ended; "
-            f"the run is written whole in {run_dir}",
+            f"the run is written whole in {run_dir}{undrawn}",
             file=sys.stderr,
         )
         return _signal_exit(received)

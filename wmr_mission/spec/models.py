@@ -548,7 +548,7 @@ class StayInside(Model):
 
 
 class StayOutside(Model):
-    """Keep the robot outside a region (ellipse, circle or half-plane)."""
+    """Keep the robot outside a region (any type: ellipse, circle, half-plane, box or polygon)."""
 
     stay_outside: RegionName = Field(description="Region name.")
 
