@@ -356,11 +356,11 @@ def test_an_out_removed_during_the_sweep_is_written_again_with_every_run(
     real = engine.run_rows
     removed = []
 
-    def removing(loaded: Any, start: int, stop: int) -> Any:
+    def removing(loaded: Any, start: int, stop: int, *rest: Any) -> Any:
         if start > 0 and not removed:  # after the first task's rows were written
             shutil.rmtree(out)
             removed.append(start)
-        return real(loaded, start, stop)
+        return real(loaded, start, stop, *rest)
 
     monkeypatch.setattr(engine, "run_rows", removing)
     monkeypatch.setattr(engine, "TASK_SECONDS", 0.0)  # one run per task
@@ -403,12 +403,12 @@ def test_the_worst_runs_run_and_record_the_mission_as_read(
     mission.write_text(MISSION, encoding="utf-8")
     real = engine.run_rows
 
-    def changing(loaded: Any, start: int, stop: int) -> Any:
+    def changing(loaded: Any, start: int, stop: int, *rest: Any) -> Any:
         if change == "delete":
             mission.unlink(missing_ok=True)
         else:
             mission.write_text(MISSION.replace("x: 0, y: 0", "x: 5, y: 5"), encoding="utf-8")
-        return real(loaded, start, stop)
+        return real(loaded, start, stop, *rest)
 
     monkeypatch.setattr(engine, "run_rows", changing)
     out = tmp_path / "out"

@@ -175,8 +175,10 @@ def execute(
     seconds_per_run: float,
     stop: StopSignals,
     allow_mixed_cluster: bool = False,
+    paths: bool = True,
 ) -> Generator[list[Row], None, None]:
-    """The rows of every run, task by task, in run order.
+    """The rows of every run, task by task, in run order; ``paths``: whether
+    they keep their paths (for the campaign's trajectory figure).
 
     Once ``stop`` is set, the tasks already running finish, their rows are
     handed on (in run order, after the contiguous ones), and
@@ -184,17 +186,19 @@ def execute(
     """
     runs = len(Plan(loaded.campaign))
     if scheduler is not None:
-        yield from _on_dask(loaded, scheduler, seconds_per_run, runs, stop, allow_mixed_cluster)
+        yield from _on_dask(
+            loaded, scheduler, seconds_per_run, runs, stop, allow_mixed_cluster, paths
+        )
         return
     if workers == 1:
         for task in tasks(seconds_per_run, runs, 1):
             if stop.stopped:
                 raise Interrupted
-            yield run_rows(loaded, task.start, task.stop)
+            yield run_rows(loaded, task.start, task.stop, paths)
         return
     with local_pool(workers) as pool:
         batches = tasks(seconds_per_run, runs, workers)
-        yield from _in_order(pool, _wait_local, loaded, batches, workers, stop)
+        yield from _in_order(pool, _wait_local, loaded, batches, workers, stop, paths)
 
 
 @contextmanager
@@ -288,6 +292,7 @@ def _on_dask(
     runs: int,
     stop: StopSignals,
     allow_mixed_cluster: bool,
+    paths: bool,
 ) -> Iterator[list[Row]]:
     try:
         from distributed import Client
@@ -308,7 +313,9 @@ def _on_dask(
             workers = max(1, sum(client.nthreads().values()))
             batches = tasks(seconds_per_run, runs, workers)
             try:
-                yield from _in_order(_DaskPool(client), _wait_dask, loaded, batches, workers, stop)
+                yield from _in_order(
+                    _DaskPool(client), _wait_dask, loaded, batches, workers, stop, paths
+                )
             except Interrupted:
                 raise
             except Exception as error:
@@ -417,6 +424,7 @@ def _in_order(
     batches: list[range],
     workers: int,
     stop: StopSignals,
+    paths: bool,
 ) -> Iterator[list[Row]]:
     waiting = iter(range(len(batches)))
     pending: dict[Any, int] = {}  # future -> its task's index in ``batches``
@@ -427,7 +435,7 @@ def _in_order(
         task = next(waiting, None)
         if task is not None:
             runs = batches[task]
-            pending[pool.submit(run_rows, loaded, runs.start, runs.stop)] = task
+            pending[pool.submit(run_rows, loaded, runs.start, runs.stop, paths)] = task
 
     for _ in range(_IN_FLIGHT_PER_WORKER * workers):
         submit()

@@ -62,6 +62,10 @@ MARGIN_COLUMNS: Final = ("margin", "margin_check")
 
 # Points kept of each run's path for the campaign's trajectory figure.
 PATH_POINTS: Final = 600
+# A row's path where no figure is drawn: one array for every row, so a task's
+# rows are sent without a path each (pickle writes a shared object once).
+NO_PATH: Final = np.zeros((2, 0), dtype=np.float32)
+NO_PATH.flags.writeable = False
 
 
 @dataclass(frozen=True)
@@ -74,7 +78,7 @@ class Row:
     values: tuple[Any, ...]
     metrics: tuple[float | None, ...]
     reason: str
-    path_xy: np.ndarray  # (2, <= PATH_POINTS) float32, thinned true path
+    path_xy: np.ndarray  # (2, <= PATH_POINTS) float32, thinned true path; NO_PATH: none kept
     # the reactions that fired, one kind per firing (wmr_mission.verdicts.recovery.fired)
     fired: tuple[str, ...] = ()
     # the run's margin (wmr_mission.verdicts.check: None for -inf, or +inf without
@@ -141,7 +145,6 @@ def _uninterrupted(result: RunResult) -> RunResult:
 
 
 def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
-    empty = np.zeros((2, 0), dtype=np.float32)
     values = tuple(draw.values.values())
     metrics = (None,) * len(METRICS)
     return Row(
@@ -151,19 +154,23 @@ def _not_run(draw: Draw, outcome: str, reason: str) -> Row:
         values,
         metrics,
         reason,
-        empty,
+        NO_PATH,
         margin_check=outcome,
         margin_metric=outcome,
     )
 
 
-def run_row(loaded: LoadedCampaign, draw: Draw, written: WrittenRun | None = None) -> Row:
+def run_row(
+    loaded: LoadedCampaign, draw: Draw, written: WrittenRun | None = None, path: bool = True
+) -> Row:
     """One run reduced to its row: simulated and judged as ``run_mission`` does
     (the same samples, the same outcome), its metrics from the code of summary.json.
 
     The mission is checked and planned once per combination of the campaign's
     choice and grid values, each run's drawn pose written into a copy of its
-    plan (wmr_mission.campaign.written); ``written``: that, made beforehand."""
+    plan (wmr_mission.campaign.written); ``written``: that, made beforehand.
+    ``path``: whether the row keeps the run's thinned path, which only the
+    campaign's trajectory figure draws (else NO_PATH)."""
     from wmr_mission.sim.runner import run_mission
 
     plan, summary_mission, reason = written_runs(loaded).run(draw) if written is None else written
@@ -175,8 +182,7 @@ def run_row(loaded: LoadedCampaign, draw: Draw, written: WrittenRun | None = Non
         *(summary_value(summary, metric.run_path) for metric in COLUMNS),
         *comparison_metrics(result, summary_mission),
     )
-    step = max(1, math.ceil(result.samples / PATH_POINTS))
-    path_xy = np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
+    path_xy = _thinned_path(result) if path else NO_PATH
     reason = "" if result.outcome is Outcome.success else result.message
     values = tuple(draw.values.values())
     fired = tuple(kind for tr in result.transitions for kind in recovery.fired(tr))
@@ -198,8 +204,15 @@ def run_row(loaded: LoadedCampaign, draw: Draw, written: WrittenRun | None = Non
     )
 
 
-def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
-    """Rows of runs ``start .. stop - 1``: one task of a worker.
+def _thinned_path(result: RunResult) -> np.ndarray:
+    step = max(1, math.ceil(result.samples / PATH_POINTS))
+    return np.vstack([result.x[::step], result.y[::step]]).astype(np.float32)
+
+
+def run_rows(loaded: LoadedCampaign, start: int, stop: int, paths: bool = True) -> list[Row]:
+    """Rows of runs ``start .. stop - 1``: one task of a worker; ``paths``:
+    whether they keep their paths (run_row: a campaign that draws no figure
+    sends none, some 4 KB a row).
 
     Its runs are drawn and written into their plans first, then simulated one
     after another: drawn and written right after a run's simulation and
@@ -214,7 +227,7 @@ def run_rows(loaded: LoadedCampaign, start: int, stop: int) -> list[Row]:
         try:
             if isinstance(written, Exception):
                 raise written
-            rows.append(run_row(loaded, draw, written))
+            rows.append(run_row(loaded, draw, written, paths))
         except Exception as error:  # one run's fault must not lose the campaign
             reason = f"internal error ({type(error).__name__}: {error}); please report it"
             rows.append(_not_run(draw, ERROR, reason))

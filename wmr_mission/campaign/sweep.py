@@ -239,6 +239,7 @@ def _execute(
                 seconds_per_run=seconds_per_run,
                 stop=stop,
                 allow_mixed_cluster=allow_mixed_cluster,
+                paths=plots,
             )
         ) as batches:
             for rows in batches:
