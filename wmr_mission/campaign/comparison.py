@@ -34,7 +34,12 @@ import numpy as np
 from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import DEFAULT_SETTLE_TIME
 from wmr_mission.verdicts.inputs import jitter
-from wmr_mission.verdicts.metrics import AT_LIMIT_TOLERANCE, reference_distance, reference_error
+from wmr_mission.verdicts.metrics import (
+    AT_LIMIT_TOLERANCE,
+    phase_segments,
+    reference_distance,
+    reference_error,
+)
 from wmr_mission.verdicts.numbers import mission_numbers
 
 # Each with its unit (runs.csv's, the figures' axes).
@@ -73,27 +78,28 @@ def comparison_metrics(
 def _reference_error(result: RunResult, settle_time: float) -> tuple[float | None, float | None]:
     """(RMS distance to the reference after each track phase's settle time,
     time to settle within SETTLED_WITHIN) over the track phases' samples."""
-    # Each track phase's rows, by one comparison per phase: np.isin sorts the
-    # column, several times the cost of the few phases a mission has.
+    # Each track phase's stretches by slices (a phase left and entered again
+    # has several, its settle time from its first sample): masks or indices
+    # per phase over the whole column cost several times as much.
+    t = result.t
     tracked = np.zeros(result.samples, dtype=bool)
     settled = np.zeros(result.samples, dtype=bool)
-    for i, phase in enumerate(result.phases):
-        if phase.kind != "track":
-            continue
-        rows = np.flatnonzero(result.phase == i)
-        if rows.size:
-            tracked[rows] = True
-            settled[rows] = result.t[rows] - result.t[rows[0]] >= settle_time - 1e-9 * result.dt
+    floor = settle_time - 1e-9 * result.dt
+    first: dict[int, np.float64] = {}  # each track phase's first sample's time
+    for i, start, end in phase_segments(result.phase):
+        if result.phases[i].kind == "track":
+            tracked[start:end] = True
+            settled[start:end] = t[start:end] - first.setdefault(i, t[start]) >= floor
     tracked &= np.isfinite(result.x_ref)
     if not tracked.any():
         return None, None
     error = reference_distance(result.x, result.y, result.x_ref, result.y_ref)
     rms = reference_error(error[tracked & settled])  # the judge's: its exact sum compiled
-    samples = np.flatnonzero(tracked)
-    outside = samples[error[samples] > SETTLED_WITHIN]
+    outside = np.flatnonzero(tracked & (error > SETTLED_WITHIN))
     if outside.size == 0:
         return rms, 0.0
-    if outside[-1] == samples[-1]:
+    later = tracked[outside[-1] + 1 :]
+    if not later.any():
         return rms, None  # not settled by the end
-    after = samples[np.searchsorted(samples, outside[-1]) + 1]
-    return rms, round(float(result.t[after] - result.t[samples[0]]), 9)
+    after = outside[-1] + 1 + int(later.argmax())  # the next tracked sample
+    return rms, round(float(t[after] - t[int(tracked.argmax())]), 9)
