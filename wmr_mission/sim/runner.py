@@ -272,6 +272,8 @@ class PhaseRun:
         assert self._trajectory is not None
         self.ways[:] = 0.0  # none of an earlier path's: where this one never moves, none
         kinds, params = self.phase.constraint_rows
+        if not kinds.shape[0]:  # no zone: a campaign's run enters such phases by the thousand
+            return
         keep_out = np.flatnonzero((kinds == ELLIPSE_ROW) & (params[:, 5] < 0.0))
         if not keep_out.size:
             return
@@ -326,7 +328,8 @@ class PhaseRun:
         moving = speed > 1e-12
         np.divide(dx, speed, out=block[:, 2], where=moving)
         np.divide(dy, speed, out=block[:, 3], where=moving)
-        block[~moving, 2:] = np.nan  # only where it rests: numpy fills two columns slowly
+        if not moving.all():  # only where it rests: numpy fills two columns slowly
+            block[~moving, 2:] = np.nan
         return block
 
 
