@@ -1254,7 +1254,7 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         times.append(time.process_time())
         comparison_metrics(result, record)
         times.append(time.process_time())
-        row = run_row(loaded, draw)
+        row = run_row(loaded, draw, path=False)  # as a sweep without figures makes it
         times.append(time.process_time())
         row.cells()  # what the campaign process does with a row, but the file
         times.append(time.process_time())
@@ -1269,6 +1269,7 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         f" (of it, the paths sampled ahead {statistics.mean(paths_ms):.2f}); a call of the "
         f"compiled loop that runs no sample {statistics.median(empty_us):.0f} us (median)"
     )
+    _set_up_as_a_task(loaded, plan, runs, repeat)
     _rows_in_the_sweeps_process(loaded)
     against = sys.argv[2] if len(sys.argv) > 2 else None
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
@@ -1313,10 +1314,30 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def _set_up_as_a_task(loaded: Any, plan: Any, runs: Any, count: int) -> None:
+    """The draw and the written plan of ``count`` runs one after another, as a
+    worker's task sets its runs up before it simulates the first (``run_rows``):
+    the stages above time each right after a run's simulation and judging,
+    their code and data out of the caches."""
+    first = 1000  # runs no line above drew
+    started = time.process_time()
+    draws = [plan.draw(run) for run in range(first, first + count)]
+    drawn = time.process_time()
+    for draw in draws:
+        runs.run(draw)
+    written = time.process_time()
+    print(
+        f"  a task's set-up, its {count} runs one after another [ms a run]: the draw "
+        f"{(drawn - started) * 1000 / count:.3f}, the plan (written) "
+        f"{(written - drawn) * 1000 / count:.3f}"
+    )
+
+
 def _rows_in_the_sweeps_process(loaded: Any, count: int = 200) -> None:
     """What the sweep's own process does per row, the CPU of each step over
     ``count`` rows: a task's rows pickled (by the worker) and unpickled, each
-    added to the aggregate, its runs.csv line made and written as CSV."""
+    added to the aggregate, its runs.csv line made and written as CSV. The
+    rows without their paths, as a sweep without figures sends them."""
     import csv
     import io
     import pickle
@@ -1324,7 +1345,7 @@ def _rows_in_the_sweeps_process(loaded: Any, count: int = 200) -> None:
     from wmr_mission.campaign.aggregate import Aggregate
     from wmr_mission.campaign.rows import run_rows
 
-    rows = run_rows(loaded, 0, count)
+    rows = run_rows(loaded, 0, count, paths=False)
     times = [time.process_time()]
     sent = pickle.dumps(rows)
     times.append(time.process_time())
