@@ -1623,26 +1623,29 @@ def sweep_against(pairs: int = 3) -> None:
 
 def runner_cost(repeat: int = 3) -> None:
     """The runner's own time around the compiled loop, per run of case2-headings
-    (its runs 1-200, compiled beforehand, each run ``repeat`` times): medians
+    (its runs 1-200, planned beforehand as a campaign's worker plans them,
+    written into their base's plan, each run ``repeat`` times): medians
     of ``run_mission``, of its calls of the compiled loop (passing the records
     in included, through numba's dispatcher or straight to the compiled entry
     point) and of the rest, the runner's Python; and how many of the calls
-    numba's dispatcher typed."""
+    numba's dispatcher typed. Then the runner's parts, medians per run: the
+    run set up (``_Run``), the noise drawn (``Draws``), the paths sampled
+    ahead, the phases entered, the result made."""
     from wmr_mission.campaign.load import load_campaign
     from wmr_mission.campaign.plan import Plan
-    from wmr_mission.campaign.rows import mission_of
+    from wmr_mission.campaign.written import written_runs
     from wmr_mission.kernels import jit, loop
     from wmr_mission.sim import runner
-    from wmr_mission.sim.plan import MissionPlan, plan_mission
+    from wmr_mission.sim.plan import MissionPlan
 
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
+    runs = written_runs(loaded)
     missions: list[MissionPlan] = []
     for run in range(201):
-        draw = plan.draw(run)
-        mission, _ = mission_of(loaded, draw)
-        assert mission is not None
-        missions.append(plan_mission(mission, draw.seed))
+        written, _, _ = runs.run(plan.draw(run))
+        assert written is not None
+        missions.append(written)
     runner.run_mission(missions[0])  # loads the compiled loop
     segment = runner._Run._segment
     inside = [0, 0]  # ns in the compiled loop, calls
@@ -1676,23 +1679,54 @@ def runner_cost(repeat: int = 3) -> None:
         made = compiled(fn, **options)
         return Counted(made) if hasattr(made, "overloads") else made
 
+    # The runner's parts: each method's CPU per run (ns), by its wrapper.
+    parts = {
+        "set up": (runner._Run, "__init__"),
+        "noise drawn": (runner.Draws, "__init__"),
+        "noise drawn ": (runner.Draws, "ahead"),
+        "paths sampled ahead": (runner.PhaseRun, "path_ahead"),
+        "phases entered": (runner.PhaseRun, "enter"),
+        "result made": (runner._Run, "_result"),
+    }
+    part_ns = dict.fromkeys(parts, 0)
+    originals = {name: getattr(owner, method) for name, (owner, method) in parts.items()}
+
+    def timed_part(name: str) -> Any:
+        original = originals[name]
+
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            started = time.thread_time_ns()
+            done = original(*args, **kwargs)
+            part_ns[name] += time.thread_time_ns() - started
+            return done
+
+        return timed
+
     runner._Run._segment = timed_segment  # type: ignore[method-assign]
     jit.compiled = counted  # type: ignore[assignment]  # read as a run starts
+    for name, (owner, method) in parts.items():
+        setattr(owner, method, timed_part(name))
     whole, inner, calls, dispatched = [], [], [], []
+    per_run: dict[str, list[float]] = {name.strip(): [] for name in parts}
     try:
         for _ in range(repeat):
             for compiled_mission in missions[1:]:
                 inside[:] = [0, 0]
                 typed[0] = 0
+                part_ns.update(dict.fromkeys(parts, 0))
                 started = time.perf_counter_ns()
                 runner.run_mission(compiled_mission)
                 whole.append((time.perf_counter_ns() - started) / 1000)
+                for name in per_run:
+                    per_run[name].append(sum(v for k, v in part_ns.items() if k.strip() == name))
                 inner.append(inside[0] / 1000)
                 calls.append(inside[1])
                 dispatched.append(typed[0])
     finally:
         runner._Run._segment = segment  # type: ignore[method-assign]
         jit.compiled = compiled  # type: ignore[assignment]
+        for name, (owner, method) in parts.items():
+            setattr(owner, method, originals[name])
     rest = [w - c for w, c in zip(whole, inner, strict=True)]
     print(
         f"case2-headings runs 1-200, {repeat} times each, medians per run: run_mission "
@@ -1708,6 +1742,10 @@ def runner_cost(repeat: int = 3) -> None:
             f"  phase {number}: {samples_of / len(missions[1:]) / repeat:.0f} samples a run, "
             f"{spent_us / samples_of:.3f} us a sample in the compiled loop (calls that ran samples)"
         )
+    print(
+        "  of the runner's Python, medians per run [us]: "
+        + ", ".join(f"{name} {statistics.median(ns) / 1000:.0f}" for name, ns in per_run.items())
+    )
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
