@@ -30,6 +30,7 @@
     python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py task       # a worker's task set up first, or run by run
+    python benchmarks/measure.py task COMMIT   # a worker's task, now and as at COMMIT, in turn
     python benchmarks/measure.py parent     # the sweep's own process, by step
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
@@ -1580,6 +1581,61 @@ def task(pairs: int = 14, runs: int = 130) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+# A worker's task in a process of its own (the package found first on its
+# path: this checkout's, or another commit's): case2-headings' runs after the
+# warm-up a sweep's workers have, then one task timed on the thread's CPU
+# clock; prints the CPU per row [us].
+_TASK_ROWS = """
+import inspect, sys, time
+from wmr_mission.campaign.engine import warm_up
+from wmr_mission.campaign.load import load_campaign
+from wmr_mission.campaign.rows import run_rows
+loaded = load_campaign(sys.argv[1])
+warm_up(loaded, 2)
+first, count = int(sys.argv[2]), int(sys.argv[3])
+# the rows a sweep without figures makes, where the package tells them apart
+options = {"paths": False} if "paths" in inspect.signature(run_rows).parameters else {}
+run_rows(loaded, 0, 20, **options)  # each noise level's base made
+started = time.thread_time_ns()
+run_rows(loaded, first, first + count, **options)
+print((time.thread_time_ns() - started) / count / 1000)
+"""
+
+
+def task_against(commit: str, pairs: int = 10, runs: int = 200) -> None:
+    """A worker's task of ``runs`` runs of case2-headings (``run_rows``, its rows
+    as a sweep without figures makes them), each in a process of its own after
+    the warm-up a sweep's workers have, now and as at ``commit`` in turn,
+    ``pairs`` times over further runs (after one untimed process of each: a
+    checkout compiles its kernels once): CPU per row (medians; each in
+    brackets) and the ratio pair by pair."""
+    with tempfile.TemporaryDirectory() as tmp:
+        os.mkdir(f"{tmp}/then")
+        then = _user_env(
+            PYTHONPATH=_checkout(commit, f"{tmp}/then"), WMR_MISSION_FOREGROUND_COMPILE="1"
+        )
+        envs = {"now": _user_env(), commit: then}
+
+        def cpu_per_row(env: dict[str, str], first: int) -> float:
+            command = [sys.executable, "-c", _TASK_ROWS, str(CAMPAIGN), str(first), str(runs)]
+            done = subprocess.run(command, env=env, cwd=tmp, capture_output=True, text=True)
+            return float(done.stdout.strip().splitlines()[-1])
+
+        for env in envs.values():
+            cpu_per_row(env, 20)
+        spent: dict[str, list[float]] = {label: [] for label in envs}
+        for i in range(pairs):
+            first = 20 + (i * runs) % (2000 - 20 - runs)
+            for label in list(envs) if i % 2 else list(envs)[::-1]:
+                spent[label].append(cpu_per_row(envs[label], first))
+    for label, values in spent.items():
+        each = ", ".join(f"{value:.0f}" for value in values)
+        print(f"{label}: CPU per row {statistics.median(values):.0f} us ({each})")
+    ratios = [a / b for a, b in zip(spent["now"], spent[commit], strict=True)]
+    print(f"now / {commit}, pair by pair: {_medians(ratios)}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 def sweep_against(pairs: int = 3) -> None:
     """`sweep missions/campaigns/case2-headings.yaml --no-plots --workers 2` as
     now and as at COMMIT (`sweep COMMIT`: its package unpacked on PYTHONPATH,
@@ -2111,5 +2167,7 @@ if __name__ == "__main__":
         loop(*sys.argv[2:])
     elif what == "parts":
         parts(*sys.argv[2:])
+    elif what == "task" and sys.argv[2:]:
+        task_against(sys.argv[2])
     else:
         jobs[what]()
