@@ -31,6 +31,7 @@
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py task       # a worker's task set up first, or run by run
     python benchmarks/measure.py task COMMIT   # a worker's task, now and as at COMMIT, in turn
+    python benchmarks/measure.py workers    # a task alone, two at once; the workers' CPU a run
     python benchmarks/measure.py parent     # the sweep's own process, by step
     python benchmarks/measure.py drawing    # a 2000-run campaign's figures and worst-run directory
     python benchmarks/measure.py drawing COMMIT   # the same, each figure also drawn as at COMMIT
@@ -1636,6 +1637,46 @@ def task_against(commit: str, pairs: int = 10, runs: int = 200) -> None:
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
+def workers(rounds: int = 3, runs: int = 400) -> None:
+    """What two workers cost each other: a worker's task of ``runs`` runs of
+    case2-headings (``_TASK_ROWS``) alone, then two at once, ``rounds`` times
+    (CPU per row); then the workers' CPU of `sweep --workers 2 --no-plots`
+    over 200 runs and over 2000, twice each: the CPU a run adds, and what is
+    fixed."""
+    with tempfile.TemporaryDirectory() as tmp:
+
+        def started(first: int) -> subprocess.Popen[str]:
+            command = [sys.executable, "-c", _TASK_ROWS, str(CAMPAIGN), str(first), str(runs)]
+            return subprocess.Popen(command, stdout=subprocess.PIPE, text=True, cwd=tmp)
+
+        def cpu_per_row(task: subprocess.Popen[str]) -> float:
+            return float(task.communicate()[0].split()[-1])
+
+        for _ in range(rounds):
+            alone = cpu_per_row(started(20))
+            together = [cpu_per_row(task) for task in (started(20 + runs), started(20 + 2 * runs))]
+            both = statistics.mean(together) / alone
+            print(
+                f"a task of {runs} runs, CPU per row [us]: alone {alone:.0f}, two at once "
+                f"{together[0]:.0f} and {together[1]:.0f} (x{both:.2f})"
+            )
+        spent: dict[int, list[float]] = {200: [], 2000: []}
+        for round_ in range(2):
+            for count in spent:
+                out, report = f"{tmp}/out-{count}-{round_}", f"{tmp}/cpu"
+                command = [sys.executable, "-c", _SWEEP_CPU, "sweep", str(CAMPAIGN), "--runs"]
+                command += [str(count), "--workers", "2", "--no-plots", "--out", out]
+                _wall(command, _user_env(WMR_CPU_REPORT=report), check=False)
+                spent[count].append(float(Path(report).read_text().split()[1]))
+    few, many = statistics.mean(spent[200]), statistics.mean(spent[2000])
+    per_run = (many - few) / 1800
+    print(
+        f"the sweep's workers, CPU [s]: 200 runs {spent[200]}, 2000 runs {spent[2000]}: "
+        f"{per_run * 1000:.2f} ms a run, {few - 200 * per_run:.2f} s fixed"
+    )
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 def sweep_against(pairs: int = 3) -> None:
     """`sweep missions/campaigns/case2-headings.yaml --no-plots --workers 2` as
     now and as at COMMIT (`sweep COMMIT`: its package unpacked on PYTHONPATH,
@@ -2149,6 +2190,7 @@ if __name__ == "__main__":
         "sweep": sweep_against,
         "runner": runner_cost,
         "task": task,
+        "workers": workers,
         "parent": sweep_steps,
         "drawing": drawing,
         "png": png,
