@@ -89,10 +89,18 @@ class Region:
             norm = math.hypot(nx, ny)
             return (nx * x + ny * y - _number(s["offset"], where)) / norm
         if kind == "box":
-            lo = [_number(v, where) for v in s["min"]]
-            hi = [_number(v, where) for v in s["max"]]
-            qx = np.abs(x - (lo[0] + hi[0]) / 2) - (hi[0] - lo[0]) / 2
-            qy = np.abs(y - (lo[1] + hi[1]) / 2) - (hi[1] - lo[1]) / 2
+            if "center" in s:  # {center, size, heading}: a box turned by heading
+                cx, cy = (_number(v, where) for v in s["center"])
+                length, width = (_number(v, where) for v in s["size"])
+                turn = _number(s.get("heading", 0.0), where)
+            else:  # {min, max}
+                lo = [_number(v, where) for v in s["min"]]
+                hi = [_number(v, where) for v in s["max"]]
+                cx, cy = (lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2
+                length, width, turn = hi[0] - lo[0], hi[1] - lo[1], 0.0
+            c, sn = math.cos(turn), math.sin(turn)
+            qx = np.abs((x - cx) * c + (y - cy) * sn) - length / 2
+            qy = np.abs(-(x - cx) * sn + (y - cy) * c) - width / 2
             outside = np.hypot(np.maximum(qx, 0), np.maximum(qy, 0))
             return outside + np.minimum(np.maximum(qx, qy), 0)
         if kind == "polygon":

@@ -624,11 +624,14 @@ def aim_gap(look_ahead: float, speed_rate: float, margin: float) -> float:
     margin of 0.05 m went 0.86 m off where 0.85 is allowed;
     docs/paper-notes.md, eq. (28), "How wide a detour is"). Without an
     acceleration limit (``speed_rate`` infinite) also at most AIM_GAP; under
-    one the filter holds the rows on the line braking takes too, ahead of
-    the output, and a gap of AIM_GAP stalled a fast robot at a zone."""
+    one at most half of it: there the aim's move is fed forward
+    (paper.next_input) and the robot follows the aim itself, so the gap is
+    all of its detour beyond the margin, and at AIM_GAP three detours went
+    2-7 mm wider than the tolerance (docs/paper-notes.md, eq. (28), "The
+    aim's move fed forward under acceleration limits")."""
     gap = min(look_ahead, max(2.0 * AIM_GAP - margin, 0.0))
     if speed_rate != math.inf:
-        return gap
+        return min(gap, 0.5 * AIM_GAP)
     return min(gap, AIM_GAP)
 
 

@@ -896,16 +896,27 @@ def next_input(
             # curve or at a corner the path's tangent swings the ramp's wedge
             # across a zone, and the offset leapt to a side and back within
             # two samples (constrained_tracking.ramped_offset).
+            before_x = memory[AIM_OFFSET]
+            before_y = memory[AIM_OFFSET + 1]
             offset_x, offset_y = ramped_offset(
-                aim_now[0] - path_x, aim_now[1] - path_y,
-                memory[AIM_OFFSET], memory[AIM_OFFSET + 1], path_step,
-            )  # fmt: skip
+                aim_now[0] - path_x, aim_now[1] - path_y, before_x, before_y, path_step
+            )
             memory[AIM_OFFSET] = offset_x
             memory[AIM_OFFSET + 1] = offset_y
             aim_now[0] = path_x + offset_x
             aim_now[1] = path_y + offset_y
             aim[0] += offset_x
             aim[1] += offset_y
+            if plant.limits[2] != math.inf:
+                # Under a speed acceleration limit the law's pace is slower
+                # than the setting's time constant (attainable_time_constant,
+                # the turn's pace), and closed as an error the aim's move
+                # lagged: 0.15 m inside a ramp at 0.8 m/s, where the robot
+                # met the corner of its box and stopped (1.29 m behind).
+                # The move is fed forward with the path's, its step of this
+                # sample taken again for the next.
+                aim[0] += offset_x - before_x
+                aim[1] += offset_y - before_y
         track_input(estimate, u_prev, aim_now, aim, tuning, plant, scratch, u)
         # The filter after the tracking law: zones win over tracking
         # (wmr_mission.controllers.constrained_tracking).
