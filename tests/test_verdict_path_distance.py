@@ -74,12 +74,16 @@ def _numpy_form(case: Case, monkeypatch: pytest.MonkeyPatch) -> np.ndarray:
         return metrics.distance_to_path(*case)
 
 
+@pytest.mark.parametrize("lists", [False, True])
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_compiled_distance_to_path_has_the_numpy_forms_bits(
-    name: str, monkeypatch: pytest.MonkeyPatch
+    name: str, lists: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """By the rings, and by the cells' lists (made however few the positions)."""
     case = CASES[name](np.random.default_rng(len(name)))
     expected = _numpy_form(case, monkeypatch)
+    if lists:
+        monkeypatch.setattr(path_distance, "_LIST_POSITIONS_PER_POINT", 0)
     jit.load()  # as a compiled run does: the distance compiled from here on
     monkeypatch.setattr(jit, "distances_compiled", lambda: True)  # also where numba is turned off
     found = metrics.distance_to_path(*case)
@@ -87,11 +91,14 @@ def test_compiled_distance_to_path_has_the_numpy_forms_bits(
     assert np.isfinite(expected).sum() > 0.9 * expected.size
 
 
+@pytest.mark.parametrize("lists", [False, True])
 def test_the_kernel_as_plain_python_has_the_numpy_forms_bits(
-    monkeypatch: pytest.MonkeyPatch,
+    lists: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     case = tuple(a[:400] for a in _gaps(np.random.default_rng(3)))
     expected = _numpy_form(case, monkeypatch)
+    if lists:
+        monkeypatch.setattr(path_distance, "_LIST_POSITIONS_PER_POINT", 0)
     monkeypatch.setattr(jit, "distances_compiled", lambda: True)
     monkeypatch.setattr(jit, "compiled", lambda fn, **options: jit.plain(fn))
     with np.errstate(over="ignore", invalid="ignore"):  # the huge position, as numpy
@@ -155,18 +162,74 @@ def _doubling_back(rng: np.random.Generator) -> Case:
     return x, y, px, py
 
 
+@pytest.mark.parametrize("lists", [False, True])
 def test_the_compiled_distance_on_paths_that_double_back_and_cross_has_the_full_searchs_bits(
-    monkeypatch: pytest.MonkeyPatch,
+    lists: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The compiled pass's ring search for the nearest points, and its hypot
-    taken only near the least: on 40 random paths that double back and cross
+    """The compiled pass's search for the nearest points, by the rings and by
+    the cells' lists (made however few the positions), and its hypot taken
+    only near the least: on 40 random paths that double back and cross
     themselves, with ties everywhere, the full search's bits (the numpy form:
     the nearest points of the grid's cells or the k-d tree, every segment's
     hypot)."""
     rng = np.random.default_rng(34)
     jit.load()
+    if lists:
+        monkeypatch.setattr(path_distance, "_LIST_POSITIONS_PER_POINT", 0)
     for _ in range(40):
         case = _doubling_back(rng)
+        expected = _numpy_form(case, monkeypatch)
+        with monkeypatch.context() as patch:
+            patch.setattr(jit, "distances_compiled", lambda: True)
+            found = metrics.distance_to_path(*case)
+        assert _bits(found) == _bits(expected)
+
+
+def test_a_segment_beyond_its_ends_takes_no_division_and_gives_the_numpy_forms_bits() -> None:
+    """The division skipped where the quotient would be clamped to 0 or 1:
+    the same distance as numpy's form for positions before, along and beyond
+    random segments, on their ends, on zero-length segments, and on segments
+    whose step's square overflows (0 times an infinite step is NaN there)."""
+    rng = np.random.default_rng(7)
+    px, py = rng.normal(0.0, 1.0, (2, 400))
+    px[50:60], py[50:60] = 2.0, 3.0  # held: zero-length segments
+    px[100:110:2], py[100:110:2] = 1.6e155, -1.5e155  # steps whose squares overflow
+    px[200:210:3] = -1.7e155
+    segments = np.arange(px.size - 1)
+    qx, qy = rng.normal(0.0, 2.0, (2, segments.size))
+    near_ends = segments[segments % 4 != 0]  # just past the start or short of the end, aside
+    along = 10.0 ** rng.uniform(-16, -3, near_ends.size)
+    along[near_ends % 2 == 1] = 1.0 - along[near_ends % 2 == 1]
+    sx, sy = np.diff(px)[near_ends], np.diff(py)[near_ends]
+    qx[near_ends] = px[near_ends] + along * sx - sy / 10
+    qy[near_ends] = py[near_ends] + along * sy + sx / 10
+    qx[:10], qy[:10] = px[:10], py[:10]  # on the ends
+    qx[-10:], qy[-10:] = 1e154 * rng.normal(size=(2, 10))
+    with np.errstate(over="ignore", invalid="ignore"):
+        expected = metrics._distance_to_segments(px, py, segments[:, None], qx, qy)
+        found = np.array(
+            [
+                np.hypot(*path_distance._segment(px, py, int(i), float(x), float(y)))
+                for i, x, y in zip(segments, qx, qy, strict=True)
+            ]
+        )
+    assert _bits(found) == _bits(expected)
+    assert np.isnan(expected).sum() >= 5  # the overflows reached
+
+
+def test_positions_whose_cell_has_no_list_search_the_rings_for_the_same_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Lists only where the centre's fourth nearest point is within two
+    cells, and a pool of 2 000 entries that the laps fill up: many positions
+    search the rings instead (on the doubling paths, all), those with a list
+    read it, and every distance has the full search's bits."""
+    rng = np.random.default_rng(35)
+    jit.load()
+    monkeypatch.setattr(path_distance, "_LIST_POSITIONS_PER_POINT", 0)
+    monkeypatch.setattr(path_distance, "_LIST_REACH", 2.0)
+    monkeypatch.setattr(path_distance, "_LIST_CELLS_MOST", 2000)
+    for case in (_laps(rng, 1500), *(_doubling_back(rng) for _ in range(8))):
         expected = _numpy_form(case, monkeypatch)
         with monkeypatch.context() as patch:
             patch.setattr(jit, "distances_compiled", lambda: True)
