@@ -1,7 +1,7 @@
 """A route's reference stopping at a corner, turning in place and moving off
 again, with the robot behind a detour's offset across the path
 (controllers/paper.py, ``hold_across_at_a_stop``; docs/paper-notes.md,
-eq. (27), "At a corner's stop, the offset across held")."""
+"Eq. (27) at a corner's stop: the offset across held")."""
 
 from __future__ import annotations
 

@@ -888,7 +888,7 @@ def hold_across_at_a_stop(
     still joining its path closes its error as before) and where turning
     the offset closed at the law's pace asks more than LINEAR_SHARE of the
     turn-rate limit (a robot on its path runs as before, to the bit)
-    (docs/paper-notes.md, eq. (27), "At a corner's stop, the offset across
+    (docs/paper-notes.md, "Eq. (27) at a corner's stop: the offset across
     held")."""
     step = hypot(aim[0] - aim_now[0], aim[1] - aim_now[1])
     turning = step == 0.0 and (aim_now[2] != aim[2] or aim_now[3] != aim[3])
