@@ -860,7 +860,6 @@ FORMS = {"bearing": BEARING, "deviation": DEVIATION, "increment": INCREMENT}
 
 
 @inlined
-@kernel
 def hold_across_at_a_stop(
     aim_now: FloatArray,
     aim: FloatArray,
@@ -916,6 +915,7 @@ def hold_across_at_a_stop(
     aim[1] += across * aim[2]
 
 
+@inlined
 def next_input(
     tuning: PaperTuning,
     phase: EnteredPhase,
