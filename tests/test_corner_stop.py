@@ -7,10 +7,13 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from wmr_mission import mission_from_text, run_mission
+from wmr_mission.controllers.paper import MEMORY_SIZE, PATH_STEP, hold_across_at_a_stop
 from wmr_mission.verdicts.metrics import judge
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -70,3 +73,33 @@ def test_gen_072_succeeds_and_is_sound(tmp_path: Path) -> None:
     assert [(j.mission, j.outcome, j.problems) for j in judged] == [
         ("gen-072-polyline", "success", ())
     ]
+
+
+def _stopped_at_the_bend(look_ahead: float) -> tuple[np.ndarray, np.ndarray]:
+    """gen-072's stop: the reference at the bend, turning in place, the robot
+    (heading 1.774 rad, the path's 1.527) with its output 0.063 m to the left
+    of its aim; the aims after the hold."""
+    tuning = SimpleNamespace(look_ahead=look_ahead, error_reach=0.195, error_decay=0.9231)
+    robot = SimpleNamespace(dt=0.008, limits=np.array([5.918, 6.969, np.inf, np.inf]))
+    aim_now = np.array([3.444, 4.989, np.cos(1.527), np.sin(1.527)])
+    aim = np.array([3.444, 4.989, np.cos(1.535), np.sin(1.535)])
+    memory = np.zeros(MEMORY_SIZE)
+    memory[PATH_STEP] = 0.0121
+    estimate = np.array([3.421, 4.991, 1.774])
+    hold_across_at_a_stop(aim_now, aim, estimate, tuning, robot, memory)
+    return aim_now, aim
+
+
+def test_at_a_stop_the_aim_is_held_where_the_output_stands_across_the_path() -> None:
+    """The aim moved across the path to the output's own offset, so that the
+    law turns with the path's tangent and no further; the axle law (no
+    look-ahead) has no output to turn round the axle and is left as it was."""
+    aim_now, _ = _stopped_at_the_bend(0.05)
+    output = np.array([3.421 + 0.05 * np.cos(1.774), 4.991 + 0.05 * np.sin(1.774)])
+    normal = np.array([-np.sin(1.527), np.cos(1.527)])
+    aimed = aim_now[:2] + 0.05 * aim_now[2:]
+    assert abs(float(normal @ (aimed - output))) < 1e-12
+    assert abs(float(normal @ (np.array([3.444, 4.989]) - output))) > 0.03
+    aim_now, aim = _stopped_at_the_bend(0.0)
+    assert list(aim_now[:2]) == [3.444, 4.989]
+    assert list(aim[:2]) == [3.444, 4.989]

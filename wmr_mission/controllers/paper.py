@@ -895,9 +895,9 @@ def hold_across_at_a_stop(
     leaving = step > 0.0 and memory[TURNED_IN_PLACE] == 1.0
     memory[PATH_STEP] = step
     memory[TURNED_IN_PLACE] = 1.0 if turning else 0.0
-    if not (turning or arriving or leaving):
-        return
     look_ahead = tuning.look_ahead
+    if not (turning or arriving or leaving) or look_ahead == 0.0:
+        return  # the axle law has no output to turn round the axle
     c = math.cos(estimate[2])
     s = math.sin(estimate[2])
     out_x = estimate[0] + look_ahead * c - aim_now[0]
