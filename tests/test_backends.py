@@ -357,6 +357,58 @@ def test_robot_killed_mid_mission_stops_the_run_failed(
     assert (v, omega) == (0.0, 0.0)
 
 
+# A run killed (SIGKILL) as it starts to wait for its zero command's
+# acknowledgement: the wait that a robot killed mid-run makes last 5 s (its
+# reader is kept until its lease runs out), and that nothing may survive.
+KILLED_IN_THE_WAIT = """
+import os
+import signal
+import sys
+
+from rclpy.publisher import Publisher
+
+from wmr_mission.cli import main
+
+
+def killed(self, *arguments):
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+Publisher.wait_for_all_acked = killed
+sys.argv[0] = "wmr-mission"
+main()
+"""
+
+
+@needs_ros2
+def test_a_run_killed_in_the_zero_command_s_wait_keeps_its_record(
+    tmp_path: Path, ros_env: dict[str, str]
+) -> None:
+    out = tmp_path / "run"
+    with robot(ros_env) as stand_in, listener(ros_env) as heard:
+        done = subprocess.Popen(
+            [sys.executable, "-c", KILLED_IN_THE_WAIT, "run", str(SHORT), "--backend", "ros2",
+             "--out", str(out), "--no-plots"],
+            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        first_heard(heard)
+        first_heard(heard, said="many")  # rows recorded
+        stand_in.kill()
+        _, stderr = done.communicate(timeout=30)
+        count, v, omega = last_heard(heard)
+    assert done.returncode == -signal.SIGKILL, stderr
+    assert "zero command published on 'cmd_vel'" in stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "failed"
+    assert summary["message"].startswith("measurements stopped: none on 'odom' for ")
+    assert summary["realtime"]["zero_command_sent"] is True
+    assert summary["realtime"]["zero_command_acknowledged"] is None  # never waited for
+    rows = (out / "trajectory.csv").read_text().splitlines()
+    assert len(rows) - 1 == summary["samples"] > 0
+    assert count > 0
+    assert (v, omega) == (0.0, 0.0)  # published before the record, heard all the same
+
+
 @needs_ros2
 @pytest.mark.parametrize(("stop", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_a_signal_sends_zero_and_keeps_the_samples(
