@@ -113,10 +113,12 @@ def test_a_goal_pose_becomes_a_track_phase_s_route_and_a_regulate_phase_s_target
 ) -> None:
     out = tmp_path / "run"
     mission = DATA / "goals-ros2.yaml"
-    # one goal while 'go' tracks (t ~ 1 s), one while 'park' regulates (t ~ 4 s)
+    # one goal while 'go' tracks (its 100th command heard, t ~ 1 s), one while
+    # 'park' regulates (its 400th, t ~ 4 s): counted in the run's commands, so
+    # that a run late on the wall clock is in 'park' by the second
     planner = [
         sys.executable, str(Path(__file__).parent / "ros2_goals.py"),
-        "0.8,0.6,0.5@1.0", "0.6,-0.4,-1.0@4.0",
+        "0.8,0.6,0.5@100", "0.6,-0.4,-1.0@400",
     ]  # fmt: skip
     robot = [*WMR, "serve-robot", str(mission)]
     with background(robot, ros_env, "serve-robot:"), background(planner, ros_env, "ready"):
