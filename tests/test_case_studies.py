@@ -109,8 +109,8 @@ def test_case_2_s_return_starts_on_the_ellipse_and_its_row_says_so(
     c = read_trajectory(out)
     first = int(np.flatnonzero(c["phase"] == "return")[0])
     assert abs(distance_to_ellipse(c["x"][first : first + 1], c["y"][first : first + 1])[0]) < 1e-6
-    [line] = [line for line in table.splitlines() if "clearance" in line]
-    assert line.split("  ")[-1].strip() == "clearance 0 m at its start"
+    # a narrow terminal wraps the cell within its column: its words in order
+    assert "clearance 0 m at its start omega jitter" in " ".join(table.split())
 
 
 @pytest.mark.parametrize("mission", ["case1", "case2"])
