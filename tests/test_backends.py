@@ -395,7 +395,8 @@ def test_a_run_killed_in_the_zero_command_s_wait_keeps_its_record(
         first_heard(heard, said="many")  # rows recorded
         stand_in.kill()
         _, stderr = done.communicate(timeout=30)
-        count, v, omega = last_heard(heard)
+        last_heard(heard)  # the listener stopped; whether the zero reached it before
+        # the kill is the wait's to make sure of, and the kill ended the wait
     assert done.returncode == -signal.SIGKILL, stderr
     assert "zero command published on 'cmd_vel'" in stderr
     summary = json.loads((out / "summary.json").read_text())
@@ -405,8 +406,6 @@ def test_a_run_killed_in_the_zero_command_s_wait_keeps_its_record(
     assert summary["realtime"]["zero_command_acknowledged"] is None  # never waited for
     rows = (out / "trajectory.csv").read_text().splitlines()
     assert len(rows) - 1 == summary["samples"] > 0
-    assert count > 0
-    assert (v, omega) == (0.0, 0.0)  # published before the record, heard all the same
 
 
 @needs_ros2
