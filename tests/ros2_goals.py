@@ -1,7 +1,13 @@
 """A planner of goals for tests/test_ros2_plans.py: prints "ready" once it
-publishes on 'goal'; after the first Twist on cmd_vel, publishes the goals
-given as arguments (x,y,theta@seconds, in frame odom, each that long after
-the first Twist), then stops (exits)."""
+publishes on 'goal', then publishes the goals given as arguments
+(x,y,theta@N, in frame odom), each once it has heard N Twists on cmd_vel,
+then stops (exits).
+
+Counted in the run's commands, one a sample, not in seconds: the run is at
+its N-th sample or later then, whatever its lateness. A loaded machine's run
+falls behind the wall clock (a late sample delays the schedule after it), and
+a goal sent 4 s after the first Twist came while the run was still in its
+first 3 s."""
 
 import math
 import sys
@@ -18,19 +24,27 @@ rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
 node = rclpy.create_node("wmr_mission_test_goals")
 reliable = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 publisher = node.create_publisher(PoseStamped, "goal", reliable)
-started = threading.Event()
-node.create_subscription(Twist, "cmd_vel", lambda _: started.set(), QoSProfile(depth=10))
+heard = [0]
+counted = threading.Condition()
+
+
+def hear(_: Twist) -> None:
+    with counted:
+        heard[0] += 1
+        counted.notify_all()
+
+
+node.create_subscription(Twist, "cmd_vel", hear, QoSProfile(depth=10))
 executor = SingleThreadedExecutor()
 executor.add_node(node)
 spinner = threading.Thread(target=executor.spin, daemon=True)
 spinner.start()
 print("ready", flush=True)
-started.wait(60)
-first = time.monotonic()
 for text in sys.argv[1:]:
     pose_text, at = text.split("@")
     x, y, theta = (float(v) for v in pose_text.split(","))
-    time.sleep(max(0.0, first + float(at) - time.monotonic()))
+    with counted:
+        counted.wait_for(lambda n=int(at): heard[0] >= n, timeout=60)
     message = PoseStamped()
     message.header.frame_id = "odom"
     message.pose.position.x, message.pose.position.y = x, y

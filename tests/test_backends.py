@@ -4,6 +4,7 @@ against `wmr-mission serve-robot` in another process, on loopback only."""
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import functools
 import json
 import math
@@ -13,6 +14,7 @@ import select
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -168,17 +170,51 @@ def ros2_skip_reason() -> str | None:
 needs_ros2 = pytest.mark.skipif(ros2_skip_reason() is not None, reason=ros2_skip_reason() or "")
 
 
+# ROS 2 domains the tests take (a domain's ports: 7400 + 250 per domain, within
+# the 65 535 of a port number up to 232), each held by a lock on a file of its own.
+DOMAINS = range(1, 101)
+DOMAIN_LOCKS = Path(tempfile.gettempdir()) / "wmr-mission-ros-domains"
+
+
+@contextlib.contextmanager
+def own_domain() -> Iterator[int]:
+    """A ROS 2 domain that no other test on this machine is using meanwhile,
+    locked until the end of the block. Two tests in one domain drive each
+    other's robot: each stand-in robot takes both runs' commands, and each
+    run both robots' poses. Drawn at random, 1 in 100 for each pair of tests
+    running at once (the two workers run this file's and
+    tests/test_ros2_plans.py's side by side); with one domain forced on both,
+    test_a_quiet_planner_with_on_plan_stale_hold's robot still moved at
+    0.15 m/s in its last half second of holding, the short park reversed its
+    speed 14 times (3 allowed) and the listener's last command was not zero."""
+    DOMAIN_LOCKS.mkdir(exist_ok=True)
+    domains = list(DOMAINS)
+    random.SystemRandom().shuffle(domains)  # a domain just released is seldom taken again
+    while True:
+        for domain in domains:
+            with (DOMAIN_LOCKS / f"{domain}.lock").open("a") as lock:
+                try:
+                    fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    continue
+                yield domain  # the lock goes with the file, closed after the block
+                return
+        time.sleep(0.1)  # every domain taken: one is released as its test ends
+
+
 @pytest.fixture
-def ros_env() -> dict[str, str]:
-    """Loopback only, and a domain of its own, so parallel test runs never meet."""
-    env = dict(os.environ)
-    env.update(
-        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-        ROS_DOMAIN_ID=str(random.SystemRandom().randint(1, 100)),
-        FASTDDS_DEFAULT_PROFILES_FILE=str(DATA / "fast_discovery.xml"),
-        WMR_MISSION_NO_JIT="1",
-    )
-    return env
+def ros_env() -> Iterator[dict[str, str]]:
+    """Loopback only, and a domain of its own (own_domain), so that tests run
+    at the same time never meet."""
+    with own_domain() as domain:
+        env = dict(os.environ)
+        env.update(
+            ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+            ROS_DOMAIN_ID=str(domain),
+            FASTDDS_DEFAULT_PROFILES_FILE=str(DATA / "fast_discovery.xml"),
+            WMR_MISSION_NO_JIT="1",
+        )
+        yield env
 
 
 @contextlib.contextmanager
@@ -202,6 +238,34 @@ def background(args: list[str], env: dict[str, str], ready: str) -> Iterator[sub
                 process.wait()
         if process.stdout is not None:
             process.stdout.close()
+
+
+def test_tests_running_at_once_never_share_a_ros_domain(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With domain 1 of two held by another process (another test's), every
+    domain taken here is the other one."""
+    monkeypatch.setattr(sys.modules[__name__], "DOMAIN_LOCKS", tmp_path)
+    monkeypatch.setattr(sys.modules[__name__], "DOMAINS", range(1, 3))
+    holder = subprocess.Popen(
+        [sys.executable, "-c",
+         "import fcntl, sys; lock = open(sys.argv[1], 'a'); fcntl.flock(lock, fcntl.LOCK_EX); "
+         "print('held', flush=True); sys.stdin.read()",
+         str(tmp_path / "1.lock")],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert holder.stdout is not None
+        assert holder.stdout.readline() == "held\n"
+        taken = []
+        for _ in range(20):
+            with own_domain() as domain:
+                taken.append(domain)
+        assert taken == [2] * 20
+    finally:
+        holder.communicate("")  # its stdin closed: it exits, its lock with it
+    with own_domain() as domain, own_domain() as other:  # both free again
+        assert {domain, other} == {1, 2}
 
 
 def robot(env: dict[str, str]) -> contextlib.AbstractContextManager[subprocess.Popen[str]]:
@@ -291,6 +355,57 @@ def test_robot_killed_mid_mission_stops_the_run_failed(
     assert 0 < summary["samples"] < 300
     assert count > 0
     assert (v, omega) == (0.0, 0.0)
+
+
+# A run killed (SIGKILL) as it starts to wait for its zero command's
+# acknowledgement: the wait that a robot killed mid-run makes last 5 s (its
+# reader is kept until its lease runs out), and that nothing may survive.
+KILLED_IN_THE_WAIT = """
+import os
+import signal
+import sys
+
+from rclpy.publisher import Publisher
+
+from wmr_mission.cli import main
+
+
+def killed(self, *arguments):
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+Publisher.wait_for_all_acked = killed
+sys.argv[0] = "wmr-mission"
+main()
+"""
+
+
+@needs_ros2
+def test_a_run_killed_in_the_zero_command_s_wait_keeps_its_record(
+    tmp_path: Path, ros_env: dict[str, str]
+) -> None:
+    out = tmp_path / "run"
+    with robot(ros_env) as stand_in, listener(ros_env) as heard:
+        done = subprocess.Popen(
+            [sys.executable, "-c", KILLED_IN_THE_WAIT, "run", str(SHORT), "--backend", "ros2",
+             "--out", str(out), "--no-plots"],
+            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        first_heard(heard)
+        first_heard(heard, said="many")  # rows recorded
+        stand_in.kill()
+        _, stderr = done.communicate(timeout=30)
+        last_heard(heard)  # the listener stopped; whether the zero reached it before
+        # the kill is the wait's to make sure of, and the kill ended the wait
+    assert done.returncode == -signal.SIGKILL, stderr
+    assert "zero command published on 'cmd_vel'" in stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "failed"
+    assert summary["message"].startswith("measurements stopped: none on 'odom' for ")
+    assert summary["realtime"]["zero_command_sent"] is True
+    assert summary["realtime"]["zero_command_acknowledged"] is None  # never waited for
+    rows = (out / "trajectory.csv").read_text().splitlines()
+    assert len(rows) - 1 == summary["samples"] > 0
 
 
 @needs_ros2

@@ -52,11 +52,17 @@ def case1(tmp_path_factory: pytest.TempPathFactory) -> dict[str, np.ndarray]:
 
 
 @pytest.fixture(scope="module")
-def case2_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def case2_printed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """Case 2's run directory and the table `run` printed."""
     out = tmp_path_factory.mktemp("case2") / "run"
     code, stdout, stderr = run(MISSIONS / "case2.yaml", out)
     assert code == 0, stdout + stderr
-    return out
+    return out, stdout
+
+
+@pytest.fixture(scope="module")
+def case2_dir(case2_printed: tuple[Path, str]) -> Path:
+    return case2_printed[0]
 
 
 def test_case_1_phases_in_the_paper_order(case1: dict[str, np.ndarray]) -> None:
@@ -91,6 +97,20 @@ def test_case_2_returns_inside_the_ellipse(case2_dir: Path) -> None:
     imposed = transitions[1]["time"]  # the constraint holds from the return phase on
     after = c["t"] >= imposed
     assert np.all((c["x"][after] / 5.5) ** 2 + (c["y"][after] / 3) ** 2 <= 1.001)
+
+
+def test_case_2_s_return_starts_on_the_ellipse_and_its_row_says_so(
+    case2_printed: tuple[Path, str],
+) -> None:
+    """The return begins where the orbit left the robot, on the ellipse: its
+    least clearance, 0 m, is at its first sample, and the row says so rather
+    than let it read as the return touching the edge."""
+    out, table = case2_printed
+    c = read_trajectory(out)
+    first = int(np.flatnonzero(c["phase"] == "return")[0])
+    assert abs(distance_to_ellipse(c["x"][first : first + 1], c["y"][first : first + 1])[0]) < 1e-6
+    # a narrow terminal wraps the cell within its column: its words in order
+    assert "clearance 0 m at its start omega jitter" in " ".join(table.split())
 
 
 @pytest.mark.parametrize("mission", ["case1", "case2"])

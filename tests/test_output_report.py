@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +62,28 @@ def test_table_has_a_row_per_phase_in_fixed_columns() -> None:
     assert lines[-1] == "outputs: runs/circle-20240611-090503"
     assert text.endswith("\n")
     assert max(map(len, lines)) <= 100
+
+
+def test_a_phase_whose_least_clearance_is_at_its_start_says_so() -> None:
+    """The park phase of the circle run comes no nearer than 1 m to its
+    ellipse, mid-phase. Its first sample moved onto the ellipse's edge (as
+    case 2's return starts where its orbit left the robot): its least
+    clearance, 0 m, is where it began, and the row says so where the table
+    has the run; a summary alone cannot tell."""
+
+    def park_lines(run: Any, with_run: bool) -> list[str]:
+        text = format_table(summarize(run), "out", result=run if with_run else None, width=100)
+        metric = next(line for line in text.splitlines() if line.startswith("phase ")).index(
+            "key metric"
+        )
+        return [line[metric:].split("  ")[0] for line in _rows(text.splitlines())["park"]]
+
+    run = circle_run()
+    assert "clearance 1 m" in park_lines(run, with_run=True)  # mid-phase: no more said
+    a, rotation = 5.5, 0.3  # the end of the ellipse's major axis
+    run.x[1500], run.y[1500] = a * math.cos(rotation), a * math.sin(rotation)
+    assert "clearance 0 m at its start" in park_lines(run, with_run=True)
+    assert "clearance 0 m" in park_lines(run, with_run=False)
 
 
 def test_table_lists_expectations_and_leaves_a_failure_to_its_message() -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -146,6 +147,29 @@ def _cache_of_this_session(tmp_path: Path) -> Path:
         ignore=shutil.ignore_patterns("*.lock", compile_loop.READY),
     )
     return cache
+
+
+def test_the_compile_notices_say_the_times_measured() -> None:
+    """The notice before a compile in the foreground and `wmr-mission
+    compile`'s line say the times docs/performance.md measured ("How long a
+    compile takes"): each its own, one variant's or every variant's."""
+    text = (MISSIONS.parent / "docs" / "performance.md").read_text(encoding="utf-8")
+    doc = " ".join(text.split())
+    said = re.search(
+        r'The notice before a compile in the foreground says "([^"]+)", and '
+        r'`wmr-mission compile` "([^"]+)"',
+        doc,
+    )
+    assert said is not None, "docs/performance.md no longer says what the notices say"
+    one, every = said.groups()
+    assert one == jit.ONE_VARIANT
+    assert every == compile_loop.EVERY_VARIANT
+    assert f"({one}, once;" in jit.NOTICE
+    out = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "compile", "--help"],
+        capture_output=True, text=True, timeout=60, check=True,
+    ).stdout  # fmt: skip
+    assert every.removeprefix("every variant: ") in " ".join(out.split())
 
 
 def test_compile_compiles_the_judges_kernels_too(tmp_path: Path) -> None:

@@ -91,6 +91,9 @@ class IrSimPlant:
     def stop(self) -> None:
         self.env.end()
 
+    def confirm_stop(self) -> None:
+        pass
+
     def report(self) -> dict[str, Any] | None:
         return None
 

@@ -5,7 +5,8 @@ newest ``nav_msgs/Odometry`` from ``odom`` as the robot's pose and as the
 measurement (a dropout when older than ``stale_after``; the run stops,
 failed, when older than ``stop_after``), run the estimator and the controller,
 publish ``geometry_msgs/Twist`` on ``cmd_vel``. Whatever ends the run, a zero
-command is published first, and summary.json's ``realtime`` says so.
+command is published first, and summary.json's ``realtime`` says so; its
+acknowledgement is waited for once the record is written (``confirm_stop``).
 
 rclpy's own signal handlers are left out (SignalHandlerOptions.NO): they
 would shut the context down on Ctrl-C before the zero command could go;
@@ -120,7 +121,9 @@ class Ros2Plant:
         self.fresh = False
         self.dropouts = 0
         self.zero_sent = False
-        self.zero_acknowledged = False
+        # Whether every reader acknowledged the zero command; None until waited
+        # for (confirm_stop, after the record is written).
+        self.zero_acknowledged: bool | None = None
         self._twist = Twist
         self.ros = Node("wmr_mission")
         node = self.ros.node
@@ -315,9 +318,19 @@ class Ros2Plant:
     def stop(self) -> None:
         if self.zero_sent:
             return
+        self.publisher.publish(self._twist())  # v = 0, omega = 0
+        self.zero_sent = True
+        print(f"ros2: zero command published on '{self.settings.cmd_vel}'", file=sys.stderr)
+
+    def confirm_stop(self) -> None:
+        """Wait, up to ZERO_ACK_WAIT, for every reader to acknowledge the zero
+        command: after the record is written, since a robot killed mid-run is
+        a reader its writer keeps until its lease runs out (20 s by default),
+        and the whole wait goes by."""
+        if not self.zero_sent or self.zero_acknowledged is not None:
+            return
         from rclpy.duration import Duration
 
-        self.publisher.publish(self._twist())  # v = 0, omega = 0
         # A reliable writer resends until each reader acknowledges: wait for
         # that, or a process that exits at once can take the zero command with
         # it. Fast DDS resends a sample a reader missed at its next heartbeat,
@@ -327,8 +340,6 @@ class Ros2Plant:
         self.zero_acknowledged = bool(
             self.publisher.wait_for_all_acked(Duration(seconds=ZERO_ACK_WAIT))
         )
-        self.zero_sent = True
-        print(f"ros2: zero command published on '{self.settings.cmd_vel}'", file=sys.stderr)
         if not self.zero_acknowledged:
             print(
                 f"ros2: the zero command on '{self.settings.cmd_vel}' was not acknowledged "
@@ -426,4 +437,5 @@ def open_plant(plan: MissionPlan, settings: Backend) -> Iterator[Ros2Plant]:
         yield plant
     finally:
         plant.stop()
+        plant.confirm_stop()
         plant.ros.close()

@@ -1,14 +1,15 @@
 """Which loop `run` uses, and ``wmr-mission compile``.
 
 Loading the compiled loop from the cache costs a process numba's import and
-its entries (about 0.25 s of CPU and 120 MiB); compiling it, 10-15 s of CPU
-(1-4 minutes of wall time on a loaded machine) for each estimator and
-controller. Plain Python runs the same source with the same bytes
-(wmr_mission.kernels.jit) at 40-130 us a sample, judging included. So ``run``
-runs a mission as plain Python when its sample budget is at most
-:data:`PLAIN_PYTHON_SAMPLES`, or at most :data:`PLAIN_PYTHON_SAMPLES_UNCOMPILED`
-while the cache is not known to hold the compiled loop (no ready marker, see
-:func:`compile_command`): there loading it would mean compiling it. A longer
+its entries (about 0.25 s of CPU and 120 MiB); compiling what case study
+2's first run needs, 27 s of CPU (:data:`jit.ONE_VARIANT` of wall time), and
+every variant, 91 s (:data:`EVERY_VARIANT`). Plain Python runs the same
+source with the same bytes (wmr_mission.kernels.jit) at 40-130 us a sample,
+judging included. So ``run`` runs a mission as plain Python when its sample
+budget is at most :data:`PLAIN_PYTHON_SAMPLES`, or at most
+:data:`PLAIN_PYTHON_SAMPLES_UNCOMPILED` while the cache is not known to hold
+the compiled loop (no ready marker, see :func:`compile_command`): there
+loading it would mean compiling it. A longer
 mission runs compiled, loaded from the cache or compiled in the foreground
 with one line of notice. Nothing compiles in the background: ``wmr-mission
 compile`` fills the cache when the user asks, and the library's
@@ -135,6 +136,12 @@ def compile_kernels() -> None:
     judge(result, result.mission)  # one run judged: its kernels take no variant
 
 
+# How long `wmr-mission compile` takes, the machine's load deciding: 91 s of
+# CPU, and 13 min of wall time with both cores busy five times over
+# (docs/performance.md, Start-up).
+EVERY_VARIANT = "every variant: 1.5 to 13 minutes by the machine's load"
+
+
 def compile_command() -> int:
     """``wmr-mission compile``: every variant of the loop into the cache, then
     the ready marker. 0, or 1 when there is no cache to keep it in."""
@@ -147,7 +154,7 @@ def compile_command() -> int:
     if is_ready(directory):
         print(f"wmr-mission: the compiled loop is in {directory} already")
         return 0
-    print(f"wmr-mission: compiling the simulation loop into {directory} (1-4 minutes, once)")
+    print(f"wmr-mission: compiling the simulation loop into {directory} ({EVERY_VARIANT}, once)")
     # The stamp of the sources compiled, read before: an edit meanwhile
     # leaves a stale marker, never a wrong one.
     stamp = ready_stamp()

@@ -16,6 +16,7 @@ the first sample, so a stop before it leaves no directory.
 from __future__ import annotations
 
 import hashlib
+import json
 import shutil
 import signal
 import sys
@@ -296,6 +297,8 @@ def _run(
             file=sys.stderr,
         )
         return EXIT_RUN_DIR
+    if plant is not None:
+        _confirm_stop(plant, result, run_dir)
     print(
         format_table(summary_record(result), run_dir, wall_seconds=wall_seconds, result=result),
         end="",
@@ -328,6 +331,33 @@ def _run(
         print(f"{mission_path}: {result.message}", file=sys.stderr)
         return EXIT_FAILED
     return drawn
+
+
+def _confirm_stop(plant: PlantSide, result: RunResult, run_dir: Path) -> None:
+    """The plant's confirmation that it stopped (a robot's acknowledgement of
+    the zero command, up to 5 s), waited for once the record is written: a
+    robot killed mid-run makes the whole wait go by, and nothing may come
+    between what was simulated and its record. summary.json's ``realtime``
+    then says it (until then, and where it cannot be written, null)."""
+    from wmr_mission.output.files import write_json
+    from wmr_mission.output.rundir import SUMMARY_FILE
+
+    plant.confirm_stop()
+    realtime = plant.report()
+    if realtime == result.realtime:
+        return
+    result.realtime = realtime
+    path = run_dir / SUMMARY_FILE
+    summary = json.loads(path.read_text(encoding="utf-8"))
+    summary["realtime"] = realtime
+    try:
+        write_json(path, summary)
+    except OSError as error:
+        print(
+            f"{path}: cannot write: {error.strerror or error}; its realtime is as the run "
+            "ended, before the plant confirmed its stop",
+            file=sys.stderr,
+        )
 
 
 class _Unclaimed(Exception):

@@ -504,9 +504,20 @@ def _teach_ticks() -> None:
     ticks._dispatcher = _njit()(nogil=True, cache=_state.cached)(counter)
 
 
+# How long a compile in the foreground takes, the machine's load deciding:
+# what case study 2's first run needs, 27 s of CPU, and 157 s of wall time
+# with both cores busy five times over (docs/performance.md, Start-up).
+ONE_VARIANT = "half a minute to 3 minutes by the machine's load"
+NOTICE = (
+    "wmr-mission: loading the simulation loop, compiled first if it is not in the "
+    f"cache ({ONE_VARIANT}, once; `wmr-mission compile` compiles every variant)"
+)
+
+
 def foreground_notice() -> str | None:
     """The line printed before the compiled loop is loaded when the cache is
-    not known to hold it (no ready marker): a compile of about a minute then.
+    not known to hold it (no ready marker): a compile of one variant then
+    (:data:`ONE_VARIANT`).
     None when the loop is loaded already, or nothing is compiled."""
     from wmr_mission.kernels import cache
 
@@ -515,7 +526,4 @@ def foreground_notice() -> str | None:
     directory = cache.cache_directory()
     if directory is not None and cache.is_ready(directory):
         return None
-    return (
-        "wmr-mission: loading the simulation loop, compiled first if it is not in the "
-        "cache (about a minute, once; `wmr-mission compile` compiles every variant)"
-    )
+    return NOTICE

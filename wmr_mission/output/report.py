@@ -16,7 +16,7 @@ import shutil
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from wmr_mission.record import RunRecord
+    from wmr_mission.record import PhaseRecord, RunRecord
 
 WIDTH = 100
 # Widest the verdict column grows, so that the key metrics keep their lines.
@@ -45,10 +45,11 @@ def _percent(value: float | None) -> str:
     return "-" if value is None else f"{100 * value:.3g} %"
 
 
-def key_metric(phase: dict[str, Any]) -> str:
+def key_metric(phase: dict[str, Any], start_clearance: float | None = None) -> str:
     """What tells how a phase went, a line each: how far off its path and how far
     behind its reference (entry and detours left out), the detours, error from
-    its target, constraint margin, turn-rate jitter."""
+    its target, constraint margin, turn-rate jitter. ``start_clearance``: the
+    body's clearance at the phase's first sample, where known."""
     parts = []
     tracking = phase.get("tracking")
     if tracking is not None:
@@ -63,8 +64,12 @@ def key_metric(phase: dict[str, Any]) -> str:
         if target.get("heading") is not None:
             parts.append(f"end heading error {_number(target.get('heading'), ' rad')}")
     constraint = phase.get("constraint") or {}
-    if constraint.get("clearance_min") is not None:  # in metres, of the body if it has one
-        parts.append(f"clearance {_number(constraint['clearance_min'], ' m')}")
+    least = constraint.get("clearance_min")  # in metres, of the body if it has one
+    if least is not None:
+        # Least where the phase began, as the last phase left the robot (case 2's
+        # return, on the ellipse its orbit rode): said so, not read as its own doing.
+        where = " at its start" if least == start_clearance else ""
+        parts.append(f"clearance {_number(least, ' m')}{where}")
     elif constraint.get("max_violation") is not None:
         parts.append(f"max constraint {_number(constraint['max_violation'], '')}")
     jitter = (phase.get("inputs") or {}).get("turn_rate_jitter")
@@ -143,16 +148,46 @@ def unreached(result: RunRecord) -> list[str]:
     ]
 
 
-def _phase_table(summary: dict[str, Any], checks: list[dict[str, Any]], width: int) -> list[str]:
-    rows = _phase_rows(summary, checks)
+def _phase_table(
+    summary: dict[str, Any],
+    checks: list[dict[str, Any]],
+    width: int,
+    result: RunRecord | None = None,
+) -> list[str]:
+    rows = _phase_rows(summary, checks, result)
     return _fitting_table(rows, width) or _wrapped_table(rows, width)
 
 
-def _phase_rows(summary: dict[str, Any], checks: list[dict[str, Any]]) -> list[list[str]]:
+def _start_clearance(
+    phase: dict[str, Any], result: RunRecord | None, infos: dict[str, PhaseRecord]
+) -> float | None:
+    """[m] the body's clearance from the phase's zones at its first sample
+    (None without the run, or where the phase has no clearance)."""
+    info = infos.get(phase["name"])
+    if result is None or info is None or phase.get("start") is None:
+        return None
+    if (phase.get("constraint") or {}).get("clearance_min") is None:
+        return None
+    import numpy as np
+
+    from wmr_mission.verdicts.clearance import clearance_min
+    from wmr_mission.verdicts.zones import zones_of
+
+    first = int(np.searchsorted(result.t, phase["start"] - 0.5 * result.dt))
+    at = slice(first, first + 1)
+    footprint = ((result.mission or {}).get("robot") or {}).get("footprint")
+    zones = zones_of(info.constraints, result.regions)
+    return clearance_min(result.x[at], result.y[at], result.theta[at], zones, footprint)
+
+
+def _phase_rows(
+    summary: dict[str, Any], checks: list[dict[str, Any]], result: RunRecord | None = None
+) -> list[list[str]]:
     """The phase table's cells, a row a phase, in :data:`_COLUMNS`' order. A
     run stopped by a signal: its last phase, cut short, is 'stopped', not judged."""
     verdicts = _verdicts(checks)
     phases = summary.get("phases") or []
+    infos = {} if result is None else {info.name: info for info in result.phases}
     # The last row: a phase entered again (a retry, a goto) has rows before it.
     stopped = len(phases) - 1 if summary.get("outcome") == "interrupted" else None
     return [
@@ -160,7 +195,7 @@ def _phase_rows(summary: dict[str, Any], checks: list[dict[str, Any]]) -> list[l
             str(phase["name"]),
             str(phase["kind"]),
             _seconds(phase.get("duration")),
-            key_metric(phase),
+            key_metric(phase, _start_clearance(phase, result, infos)),
             _at_limit(phase),
             _convergence(phase),
             "stopped" if row == stopped else verdicts.get(phase["name"], "-"),
@@ -265,7 +300,7 @@ def format_table(
     if width is None:
         width = min(WIDTH, shutil.get_terminal_size((WIDTH, 24)).columns)
     checks = list(summary.get("expectations", []))
-    lines = _phase_table(summary, checks, width)
+    lines = _phase_table(summary, checks, width, result)
     final = summary.get("final") or {}
     if final.get("position_error") is not None:
         text = f"final error: {_number(final['position_error'], ' m')}"

@@ -41,6 +41,12 @@ class PlantSide(Protocol):
         exception): the plant told to stop moving. Safe to call twice."""
         ...
 
+    def confirm_stop(self) -> None:
+        """Once the run's record is written: wait, a bounded time, for the plant
+        to confirm the stop (a robot's acknowledgement of the zero command),
+        which :meth:`report` then says. Safe to call twice."""
+        ...
+
     def report(self) -> dict[str, Any] | None:
         """What a real-time run measured (summary.json's ``realtime``), else None."""
         ...
