@@ -173,7 +173,8 @@ needs_ros2 = pytest.mark.skipif(ros2_skip_reason() is not None, reason=ros2_skip
 # ROS 2 domains the tests take (a domain's ports: 7400 + 250 per domain, within
 # the 65 535 of a port number up to 232), each held by a lock on a file of its own.
 DOMAINS = range(1, 101)
-DOMAIN_LOCKS = Path(tempfile.gettempdir()) / "wmr-mission-ros-domains"
+# A user's own (another's lock files would not open for writing).
+DOMAIN_LOCKS = Path(tempfile.gettempdir()) / f"wmr-mission-ros-domains-{os.getuid()}"
 
 
 @contextlib.contextmanager
@@ -190,7 +191,8 @@ def own_domain() -> Iterator[int]:
     DOMAIN_LOCKS.mkdir(exist_ok=True)
     domains = list(DOMAINS)
     random.SystemRandom().shuffle(domains)  # a domain just released is seldom taken again
-    while True:
+    deadline = time.monotonic() + 600
+    while time.monotonic() < deadline:
         for domain in domains:
             with (DOMAIN_LOCKS / f"{domain}.lock").open("a") as lock:
                 try:
@@ -200,6 +202,7 @@ def own_domain() -> Iterator[int]:
                 yield domain  # the lock goes with the file, closed after the block
                 return
         time.sleep(0.1)  # every domain taken: one is released as its test ends
+    pytest.fail(f"every ROS 2 domain in {DOMAIN_LOCKS} held for 10 minutes")
 
 
 @pytest.fixture

@@ -333,6 +333,10 @@ def _run(
     return drawn
 
 
+# summary.json's realtime field that the wait for the plant's stop settles
+ACKNOWLEDGED = "zero_command_acknowledged"
+
+
 def _confirm_stop(plant: PlantSide, result: RunResult, run_dir: Path) -> None:
     """The plant's confirmation that it stopped (a robot's acknowledgement of
     the zero command, up to 5 s), waited for once the record is written: a
@@ -343,19 +347,25 @@ def _confirm_stop(plant: PlantSide, result: RunResult, run_dir: Path) -> None:
     from wmr_mission.output.rundir import SUMMARY_FILE
 
     plant.confirm_stop()
-    realtime = plant.report()
-    if realtime == result.realtime:
+    # Only the acknowledgement is new: the rest of the report stays as the run
+    # ended and was judged (a plan refused during the wait is not the run's).
+    report = plant.report()
+    if report is None or result.realtime is None or ACKNOWLEDGED not in result.realtime:
+        return  # a plant without a stop to confirm
+    acknowledged = report.get(ACKNOWLEDGED)
+    if result.realtime[ACKNOWLEDGED] == acknowledged:
         return
-    result.realtime = realtime
+    result.realtime = {**result.realtime, ACKNOWLEDGED: acknowledged}
     path = run_dir / SUMMARY_FILE
-    summary = json.loads(path.read_text(encoding="utf-8"))
-    summary["realtime"] = realtime
     try:
+        summary = json.loads(path.read_text(encoding="utf-8"))
+        summary["realtime"] = result.realtime
         write_json(path, summary)
-    except OSError as error:
+    except (OSError, ValueError) as error:
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
         print(
-            f"{path}: cannot write: {error.strerror or error}; its realtime is as the run "
-            "ended, before the plant confirmed its stop",
+            f"{path}: cannot update: {reason}; its realtime is as the run ended, "
+            "before the plant confirmed its stop",
             file=sys.stderr,
         )
 
