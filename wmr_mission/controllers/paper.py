@@ -221,7 +221,11 @@ SYSTEM = 30  # scratch: the linear system of a Newton step, 6 rows of 7
 REVERSING = 72  # 1.0 while the bearing form drives backwards to its target
 # The aim's offset round the zones at the sample before, x then y (track phases).
 AIM_OFFSET = 73
-MEMORY_SIZE = 75
+# The path's step at the sample before, and 1.0 if it turned in place there
+# (track phases, hold_across_at_a_stop).
+PATH_STEP = 75
+TURNED_IN_PLACE = 76
+MEMORY_SIZE = 77
 # [rad] how far past abeam (pi/2) the target must be to change the direction
 # of travel of the bearing form.
 REVERSE_HYSTERESIS = 0.2
@@ -856,6 +860,69 @@ FORMS = {"bearing": BEARING, "deviation": DEVIATION, "increment": INCREMENT}
 
 
 @inlined
+def hold_across_at_a_stop(
+    aim_now: FloatArray,
+    aim: FloatArray,
+    path_step: float,
+    estimate: FloatArray,
+    tuning: PaperTuning,
+    robot: Plant,
+    memory: FloatArray,
+) -> None:
+    """Where a route's reference stops at a corner, turns in place and moves
+    off again behind a detour's offset, aim the output where it stands across
+    the path, in the path's frame (``aim_now``, ``aim``: the aims at t_k and
+    t_{k+1}, moved in place; ``path_step``: the path's own step between them,
+    before any zone offset).
+
+    The law closes an error across the path by steering while the path moves;
+    at a stop only by turning the output round the axle, at most ``l omega
+    dt`` a sample. Behind a detour's offset, 0.087 m across the path of a
+    corner that turns 0.04 rad, the robot turned at its limit towards the
+    offset while the reference stood, 0.28 rad off the path, and swung to
+    the other limit as it moved off (a kick of 13.9 rad/s, then 0.15 m off the
+    path, gen-072-polyline). Held, the offset is closed by steering once the
+    path moves at its speed again: on the sample the path slows to under half
+    its step before, while it turns in place (its point standing, its own
+    tangent turning with the output held on it) and on the sample it moves
+    off. The robot's own step along its heading is kept across at t_{k+1}.
+    Only in a phase with zones (called from there: a stop with no detour's
+    offset closes its error as before, as at a route's first point, where the
+    route joins from the robot's estimate), within ``error_reach`` (a robot
+    still joining its path closes its error as before) and where turning the
+    offset closed at the law's pace asks more than LINEAR_SHARE of the
+    turn-rate limit (a robot on its path runs as before, to the bit)
+    (docs/paper-notes.md, "Eq. (27) at a corner's stop: the offset across
+    held")."""
+    c = math.cos(estimate[2])
+    s = math.sin(estimate[2])
+    # A resting path has no tangent: the robot's heading stands in
+    # (kernels.loop.path_point); a tangent changing to or from it is no turn.
+    resting = (aim_now[2] == c and aim_now[3] == s) or (aim[2] == c and aim[3] == s)
+    turning = path_step == 0.0 and (aim_now[2] != aim[2] or aim_now[3] != aim[3]) and not resting
+    arriving = path_step < 0.5 * memory[PATH_STEP]
+    leaving = path_step > 0.0 and memory[TURNED_IN_PLACE] == 1.0
+    memory[PATH_STEP] = path_step
+    memory[TURNED_IN_PLACE] = 1.0 if turning else 0.0
+    look_ahead = tuning.look_ahead
+    if not (turning or arriving or leaving) or look_ahead == 0.0:
+        return  # the axle law has no output to turn round the axle
+    out_x = estimate[0] + look_ahead * c - aim_now[0]
+    out_y = estimate[1] + look_ahead * s - aim_now[1]
+    if hypot(out_x - look_ahead * aim_now[2], out_y - look_ahead * aim_now[3]) > tuning.error_reach:
+        return
+    across = aim_now[2] * out_y - aim_now[3] * out_x
+    turn_rate = (1.0 - tuning.error_decay) * abs(across) / (look_ahead * robot.dt)
+    if turn_rate <= LINEAR_SHARE * robot.limits[1]:
+        return
+    aim_now[0] -= across * aim_now[3]
+    aim_now[1] += across * aim_now[2]
+    across += path_step * (aim_now[2] * s - aim_now[3] * c)
+    aim[0] -= across * aim[3]
+    aim[1] += across * aim[2]
+
+
+@inlined
 def next_input(
     tuning: PaperTuning,
     phase: EnteredPhase,
@@ -917,6 +984,7 @@ def next_input(
                 # sample taken again for the next.
                 aim[0] += offset_x - before_x
                 aim[1] += offset_y - before_y
+            hold_across_at_a_stop(aim_now, aim, path_step, estimate, tuning, plant, memory)
         track_input(estimate, u_prev, aim_now, aim, tuning, plant, scratch, u)
         # The filter after the tracking law: zones win over tracking
         # (wmr_mission.controllers.constrained_tracking).
