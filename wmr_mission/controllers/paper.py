@@ -894,19 +894,23 @@ def hold_across_at_a_stop(
     turn-rate limit (a robot on its path runs as before, to the bit)
     (docs/paper-notes.md, "Eq. (27) at a corner's stop: the offset across
     held")."""
-    c = math.cos(estimate[2])
-    s = math.sin(estimate[2])
-    # A resting path has no tangent: the robot's heading stands in
-    # (kernels.loop.path_point); a tangent changing to or from it is no turn.
-    resting = (aim_now[2] == c and aim_now[3] == s) or (aim[2] == c and aim[3] == s)
-    turning = path_step == 0.0 and (aim_now[2] != aim[2] or aim_now[3] != aim[3]) and not resting
+    turning = path_step == 0.0 and (aim_now[2] != aim[2] or aim_now[3] != aim[3])
     arriving = path_step < 0.5 * memory[PATH_STEP]
     leaving = path_step > 0.0 and memory[TURNED_IN_PLACE] == 1.0
     memory[PATH_STEP] = path_step
-    memory[TURNED_IN_PLACE] = 1.0 if turning else 0.0
+    memory[TURNED_IN_PLACE] = 0.0
     look_ahead = tuning.look_ahead
     if not (turning or arriving or leaving) or look_ahead == 0.0:
-        return  # the axle law has no output to turn round the axle
+        return  # most samples; and the axle law has no output to turn round the axle
+    c = math.cos(estimate[2])  # only past the test above: it runs every sample
+    s = math.sin(estimate[2])
+    # A resting path has no tangent: the robot's heading stands in
+    # (kernels.loop.path_point); a tangent changing to or from it is no turn.
+    if turning and ((aim_now[2] == c and aim_now[3] == s) or (aim[2] == c and aim[3] == s)):
+        turning = False
+        if not (arriving or leaving):
+            return
+    memory[TURNED_IN_PLACE] = 1.0 if turning else 0.0
     out_x = estimate[0] + look_ahead * c - aim_now[0]
     out_y = estimate[1] + look_ahead * s - aim_now[1]
     if hypot(out_x - look_ahead * aim_now[2], out_y - look_ahead * aim_now[3]) > tuning.error_reach:
