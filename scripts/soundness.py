@@ -110,6 +110,26 @@ class Region:
             return self._ellipse_outside_by(x, y)
         raise ValueError(f"{where}: unknown region type {kind!r}")
 
+    def vertices(self) -> FloatArray | None:
+        """The corners of a box or polygon, in order (None for other regions)."""
+        kind, s, where = self.spec["type"], self.spec, f"regions.{self.name}"
+        if kind == "polygon":
+            return np.array([[_number(v, where) for v in p] for p in s["vertices"]])
+        if kind != "box":
+            return None
+        if "center" in s:
+            cx, cy = (_number(v, where) for v in s["center"])
+            length, width = (_number(v, where) for v in s["size"])
+            turn = _number(s.get("heading", 0.0), where)
+        else:
+            lo = [_number(v, where) for v in s["min"]]
+            hi = [_number(v, where) for v in s["max"]]
+            cx, cy = (lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2
+            length, width, turn = hi[0] - lo[0], hi[1] - lo[1], 0.0
+        u = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * [length / 2, width / 2]
+        c, sn = math.cos(turn), math.sin(turn)
+        return np.column_stack((cx + u[:, 0] * c - u[:, 1] * sn, cy + u[:, 0] * sn + u[:, 1] * c))
+
     def _ellipse_outside_by(self, x: FloatArray, y: FloatArray) -> FloatArray:
         s, where = self.spec, f"regions.{self.name}"
         cx, cy = (_number(v, where) for v in s.get("center", (0, 0)))
@@ -167,6 +187,27 @@ class Zone:
         """How far [m] each point is on the forbidden side (< 0: allowed, that far from it)."""
         outside = self.region.outside_by(x, y)
         return outside if self.keep_inside else -outside
+
+    def reach(self, rx: FloatArray, ry: FloatArray) -> float:
+        """How far [m] the zone reaches into the path through (rx, ry): the
+        deepest point's depth, or for a keep-out box or polygon the way out a
+        robot on the path has, square to the path (the shorter side): round a
+        turned box that is farther than its nearest edge."""
+        depth = self.depth(rx, ry)
+        corners = None if self.keep_inside else self.region.vertices()
+        if corners is None or rx.size < 2:
+            return float(depth.max())
+        inside = np.flatnonzero(depth > 0)
+        tx, ty = np.gradient(rx)[inside], np.gradient(ry)[inside]
+        norm = np.hypot(tx, ty)
+        moving = norm > 0
+        inside, nx, ny = inside[moving], -ty[moving] / norm[moving], tx[moving] / norm[moving]
+        if inside.size == 0:
+            return float(depth.max())
+        side = (corners[:, 0] - rx[inside, None]) * nx[:, None] + (
+            corners[:, 1] - ry[inside, None]
+        ) * ny[:, None]
+        return float(max(depth.max(), np.minimum(side.max(axis=1), -side.min(axis=1)).max()))
 
     def __str__(self) -> str:
         return f"{'inside' if self.keep_inside else 'outside'} {self.region.name}"
@@ -566,10 +607,15 @@ class _PhaseJudge:
         detour = blocked & moving
         excused |= detour
         # No farther from the path than the zones reach into it, plus the look-ahead
-        # the law keeps and the tolerance: a detour no longer than needed.
-        reach = max([float(z.depth(rx, ry).max()) for z in self.phase.zones] + [0.0])
-        detour_allowance = reach + spec.look_ahead + tolerance
-        wide = detour & ~entering & (cross > detour_allowance)
+        # the law keeps and the tolerance: a detour no longer than needed, the whole
+        # of it once the robot has joined its reference (within the entry too);
+        # before, the gap the phase starts with is the entry's.
+        # The controller keeps off a zone by what its estimate may be out (section 3
+        # allows the true robot no noise): three noise std.
+        reach = max([z.reach(rx, ry) for z in self.phase.zones] + [0.0])
+        detour_allowance = reach + 3 * spec.position_noise + spec.look_ahead + tolerance
+        joined = self.joined(px, py, rx, ry, tolerance)
+        wide = detour & (~entering | joined) & (cross > detour_allowance)
         if wide.any():
             k = int(np.flatnonzero(wide)[0])
             self.problem(
@@ -600,6 +646,17 @@ class _PhaseJudge:
                 f"{'stalled at a zone: ' if stalled else ''}{what} at t = {t[k]:.2f} s; "
                 f"worst {cross[bad].max():.3g} m off, {lag[bad].max():.3g} m behind"
             )
+
+    def joined(
+        self, px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray, tolerance: float
+    ) -> FloatArray:
+        """Whether the robot has joined its reference by each sample: been within
+        the tolerance of its reference point while moving with it, their velocities
+        apart by no more than the tolerance over the settling time (5 tau)."""
+        ex, ey = px - rx, py - ry
+        apart = np.hypot(np.gradient(ex), np.gradient(ey)) / self.dt
+        keeping_up = (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (5 * self.tau))
+        return np.logical_or.accumulate(keeping_up)
 
     def path_in_a_zone(self, rx: FloatArray, ry: FloatArray) -> FloatArray:
         """Whether each reference point is in a zone, or within the look-ahead and the

@@ -27,8 +27,9 @@ Two stretches of a phase are not judged as tracking:
 A zone "lies across the way" when it is within the look-ahead and the tracking
 tolerance of it: the tracked point runs that far ahead of the axle, and a
 robot that tracks is that far off its path. How far off the path a detour
-takes the robot is its own metric (``detour_offset_max``), as is how long it
-lasts (``detour_time``).
+takes the robot is its own metric (``detour_offset_max``), over the whole
+detour, its samples in the entry included once the robot has joined its
+reference (:func:`_from_joining`), as is how long it lasts (``detour_time``).
 """
 
 from __future__ import annotations
@@ -413,7 +414,6 @@ def track_samples(
     if excused[-1] and not timed and not zones:  # nothing to measure
         metrics |= {"entry_time": entry, "reference_speed_max": float(reference_speed.max())}
         return metrics, None
-    cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
     detour = np.zeros(t.size, dtype=bool)
     if zones:
         detour, rejoining = _detours(px, py, rx, ry, reference_speed, numbers, zones)
@@ -421,6 +421,10 @@ def track_samples(
         reach = max(float(np.max(reach_across(zone, rx, ry))) for zone in zones)
         kept = numbers.body if margin is None else margin
         metrics["zone_reach"] = max(0.0, reach + kept)
+    if detour[:after_entry].any():  # a detour in the entry: measured from the joining on
+        cross, lag = _from_joining(placement, numbers, after_entry)
+    else:
+        cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
     judged = ~excused
     judged[-1] |= ended_in_entry
     if zones or with_samples:
@@ -438,6 +442,30 @@ def track_samples(
         "reference_speed_max": float(reference_speed.max()),
     }
     return metrics, _placed(known, size, cross, lag, judged, detour) if with_samples else None
+
+
+def _from_joining(
+    placement: Placement, numbers: MissionNumbers, after_entry: int
+) -> tuple[FloatArray, FloatArray]:
+    """Cross-track error and lag [m] from the sample the robot has joined its
+    reference, or the entry's end if sooner (NaN before): a detour's whole width
+    counts from there, while the gap the phase starts with is the entry's to take
+    out. Joined: within the tracking tolerance of its own reference point, and
+    moving with it (their velocities apart by at most the tolerance over the
+    settling time, SETTLING time constants): a robot that starts on its path at
+    rest joins once it has caught up to speed; one that starts turned away, or
+    is still swinging round, has not."""
+    cross, lag = placement.on_path(numbers.tracking_tolerance)
+    px, py = placement.px[:after_entry], placement.py[:after_entry]
+    ex, ey = px - placement.path[1][:after_entry], py - placement.path[2][:after_entry]
+    apart = np.hypot(np.diff(ex, append=ex[-1:]), np.diff(ey, append=ey[-1:])) / numbers.dt
+    tolerance = numbers.tracking_tolerance
+    joined = np.flatnonzero(
+        (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (SETTLING * numbers.time_constant))
+    )
+    first = int(joined[0]) if joined.size else after_entry
+    cross[:first], lag[:first] = np.nan, np.nan
+    return cross, lag
 
 
 def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:

@@ -1,0 +1,134 @@
+"""A detour a zone forces that overlaps a track phase's entry is judged whole
+(docs/mission-format.md, "Verdicts"; docs/soundness.md, section 2).
+
+A user's mission: a polyline at 1 m/s, a keep-out box turned 0.5 rad across
+its first leg, acceleration limits, 1 cm of noise, then a park; the robot
+starts on its path at rest. The entry under acceleration limits lasts 3.55 s
+and the box's detour runs from about 1.5 to 4.4 s: the detour's widest part,
+0.53 m off the path, is in the entry. Measured after the entry alone it read
+0.187 m (0.0471 m in the first report of it)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from soundness import judge
+
+from wmr_mission import mission_from_text, run_mission
+from wmr_mission.output.result import RunResult
+from wmr_mission.verdicts.signals import run_signals
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CRATE = """
+version: 1
+name: crate-detour
+robot:
+  dt: 0.01
+  initial_state: {{x: 0, y: 0, theta: 0}}
+  limits: {{v: 2, omega: 3, acceleration: {{v: 1.5, omega: 6}}}}
+sensors: {{measure: [x, y, theta], noise_std: {{x: 0.01, y: 0.01, theta: 0}}, seed: 0}}
+estimator:
+  type: constrained-observer
+  initial_estimate: {{x: 0, y: 0, theta: 0}}
+regions:
+  crate: {{type: box, center: [{x}, 0.1], size: [{size}], heading: 0.5}}
+phases:
+  - name: route
+    track:
+      path: {{type: polyline, points: [[0, 0], [8, 0], [8, 4]], corner_radius: 0.6, speed: 1.0}}
+    constraints: [{{stay_outside: crate}}]
+    until: {{near: {{point: [8, 4], tolerance: 0.05}}}}
+    timeout: 40
+  - name: park
+    regulate: {{target: {{x: 8, y: 5, theta: 1.5708}}}}
+    until: {{settled: {{position: 0.02, heading: 0.05}}}}
+    timeout: 30
+"""
+
+
+def crate(x: float = 3.0, size: str = "0.8, 0.6") -> str:
+    return CRATE.format(x=x, size=size)
+
+
+@pytest.fixture(scope="module")
+def crate_run() -> RunResult:
+    return run_mission(mission_from_text(crate()))
+
+
+def _route(run: RunResult) -> dict:  # type: ignore[type-arg]
+    tracking: dict = run.summary()["phases"][0]["tracking"]  # type: ignore[type-arg]
+    return tracking
+
+
+def _detour_check(run: RunResult) -> dict:  # type: ignore[type-arg]
+    return next(c for c in run.summary()["expectations"] if c["metric"] == "detour_offset_max")
+
+
+def test_a_detour_over_the_entry_is_measured_whole(crate_run: RunResult) -> None:
+    tracking = _route(crate_run)
+    # Premise: the detour starts in the entry and its widest part is there.
+    first_leg = crate_run.x < 6.0  # the path is the x axis there: |y| is the cross-track error
+    widest = int(np.argmax(np.where(first_leg, np.abs(crate_run.y), 0.0)))
+    assert crate_run.t[widest] < tracking["entry_time"] == pytest.approx(3.547, abs=1e-3)
+    assert abs(crate_run.y[widest]) == pytest.approx(0.53, abs=0.01)
+    # The verdict's number is the detour's whole width, not what is left after the entry.
+    assert tracking["detour_offset_max"] == pytest.approx(abs(crate_run.y[widest]), abs=1e-3)
+    # ... and its check follows its bound: the zone's reach across the path (0.355 m)
+    # and the controller's margin, the look-ahead and the tolerance, 0.565 m.
+    check = _detour_check(crate_run)
+    assert check["max"] == pytest.approx(0.565, abs=1e-3)
+    assert check["value"] == tracking["detour_offset_max"]
+    assert check["met"] == (check["value"] <= check["max"])
+
+
+def test_the_same_detour_after_the_entry_reads_the_same(crate_run: RunResult) -> None:
+    later = run_mission(mission_from_text(crate(x=6.0)))
+    assert _route(later)["detour_offset_max"] == pytest.approx(
+        _route(crate_run)["detour_offset_max"], abs=0.01
+    )
+
+
+def test_the_signals_figure_shows_the_verdicts_number(crate_run: RunResult) -> None:
+    signals = run_signals(crate_run)
+    cross = signals.lines["cross_track"]["cross-track error"]
+    detour = signals.judged["detour"]
+    assert np.nanmax(cross[detour]) == _route(crate_run)["detour_offset_max"]
+
+
+def test_the_independent_judge_measures_the_whole_detour(
+    crate_run: RunResult, tmp_path: Path
+) -> None:
+    crate_run.write(tmp_path / "run", plots=False)
+    mission = tmp_path / "crate.yaml"
+    mission.write_text(crate())
+    verdict = judge(mission, tmp_path / "run")
+    assert verdict.sound, verdict.problems
+    route = verdict.phases[0]
+    assert route.metrics["detour_cross_max"] == pytest.approx(
+        _route(crate_run)["detour_offset_max"], abs=5e-3
+    )
+    # The same run judged against a crate half as large: its detour, in the
+    # entry, is wider than that crate needs.
+    mission.write_text(crate(size="0.4, 0.3"))
+    [problem] = judge(mission, tmp_path / "run").phases[0].problems
+    assert problem.startswith("a detour wider than the zone needs: 0.53")
+    first = float(problem.rsplit("t = ", 1)[1].split()[0])
+    assert first < _route(crate_run)["entry_time"]
+
+
+def test_a_robot_swinging_round_in_its_entry_has_not_joined_its_path() -> None:
+    """gen-048-line starts on its line turned 2.07 rad from it, at rest, under
+    acceleration limits: it swings 0.69 m out past a rock before it has caught
+    its reference up. That is the entry's gap, not the detour's width: the
+    detour is measured from where the robot has joined its reference (within
+    the tolerance of it, and moving with it), which this one never does before
+    its detour ends."""
+    mission = ROOT / "tests" / "data" / "generated" / "gen-048-line.yaml"
+    run = run_mission(mission_from_text(mission.read_text()))
+    tracking = _route(run)
+    assert tracking["detour_time"] > 2.0
+    assert tracking["detour_offset_max"] is None
+    assert run.summary()["outcome"] == "success"
