@@ -140,6 +140,20 @@ def test_final_error_of_a_track_phase_is_from_its_last_reference_point() -> None
     assert final["target"]["x"] == pytest.approx(run.x[-1] + REF_OFFSET)
 
 
+def test_final_error_of_a_run_ending_on_a_track_phase_is_at_its_last_reference_point() -> None:
+    """A run's last sample follows its last command and has no reference point: the
+    robot is measured at the last reference point's own sample, not 0.02 m (the
+    arc of one sample) past it."""
+    run = circle_run(1200)
+    x_ref, y_ref = run.x_ref.copy(), run.y_ref.copy()
+    x_ref[-1] = y_ref[-1] = np.nan  # as a run records it
+    final = summarize(dataclasses.replace(run, x_ref=x_ref, y_ref=y_ref))["final"]
+    assert final["position_error"] == pytest.approx(REF_OFFSET, abs=1e-12)
+    assert final["target"]["x"] == pytest.approx(run.x[-2] + REF_OFFSET)
+    assert final["time"] == pytest.approx(run.t[-2])
+    assert final["pose"]["x"] == pytest.approx(run.x[-1])  # the pose is the last sample's
+
+
 def test_per_phase_values() -> None:
     run = circle_run()
     approach, orbit, park = summarize(run)["phases"]

@@ -127,7 +127,9 @@ def _aim(final: dict[str, Any], phases: list[dict[str, Any]]) -> str:
         return ""
     kinds = {phase.get("name"): phase.get("kind") for phase in phases}
     if kinds.get(name) == "track":
-        return f" (from the last reference point of phase '{name}')"
+        time = final.get("time")
+        at = "" if time is None else f", at t = {time:.2f} s"
+        return f" (from the last reference point of phase '{name}'{at})"
     return f" (from the target of phase '{name}')"
 
 

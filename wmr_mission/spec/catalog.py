@@ -415,7 +415,9 @@ for _entry in (
         "m",
         "[m] distance of the final true position from the target of the last regulate "
         "phase run, or from the last reference point if a track phase came after it "
-        "(hold phases keep their entry pose and are skipped).",
+        "(measured at that point's own sample where the track phase ends the run, whose "
+        "last sample has no reference point; hold phases keep their entry pose and are "
+        "skipped).",
         "run",
         ("final", "position_error"),
         panel="goal",

@@ -325,8 +325,9 @@ def phase_segments(phase: np.ndarray) -> list[tuple[int, int, int]]:
 
 def _phase_target(
     result: RunRecord, info: PhaseRecord, start: int, end: int
-) -> tuple[float, float, float | None] | None:
-    """The pose a phase aims at: its target, or for a track phase its last reference point."""
+) -> tuple[tuple[float, float, float | None], int | None] | None:
+    """The pose a phase aims at: its target, or for a track phase its last reference
+    point and that point's sample (None: a target, for all time)."""
     if info.kind == "track":
         known = np.flatnonzero(
             np.isfinite(result.x_ref[start:end]) & np.isfinite(result.y_ref[start:end])
@@ -334,10 +335,10 @@ def _phase_target(
         if known.size == 0:
             return None
         k = start + int(known[-1])
-        return float(result.x_ref[k]), float(result.y_ref[k]), None
+        return (float(result.x_ref[k]), float(result.y_ref[k]), None), k
     if info.target is None:
         return None
-    return info.target
+    return info.target, None
 
 
 def _pose_error(
@@ -355,15 +356,17 @@ def _final(result: RunRecord, stretches: list[tuple[PhaseRecord, int, int]]) -> 
     """Final error of the true pose from the aim of the last phase that has one.
 
     The aim is a regulate target, or a track phase's last reference point (no
-    heading then); phases are searched from the last one run backwards. A hold
-    phase keeps the pose it started from, so it has no aim of its own: the
-    error of a mission ending "park, then hold" is measured from the park's
-    target.
+    heading then; where the phase ends the run, the robot is measured at that
+    point's sample, the run's last but one); phases are searched from the last
+    one run backwards. A hold phase keeps the pose it started from, so it has
+    no aim of its own: the error of a mission ending "park, then hold" is
+    measured from the park's target.
     """
     final: dict[str, Any] = {
         "position_error": None,
         "heading_error": None,
         "target": None,
+        "time": None,  # [s] of the sample measured: the last, or a track's last reference's
         "pose": None,
     }
     if result.samples == 0:
@@ -372,11 +375,17 @@ def _final(result: RunRecord, stretches: list[tuple[PhaseRecord, int, int]]) -> 
     for info, start, end in reversed(stretches):  # each phase's record, first and end sample
         if info.kind == "hold":
             continue
-        target = _phase_target(result, info, start, end)
-        if target is None:
+        aim = _phase_target(result, info, start, end)
+        if aim is None:
             continue
-        final["position_error"], final["heading_error"] = _pose_error(result, last, target)
+        target, sample = aim
+        # A track phase that ends the run has no reference point at the run's last
+        # sample (it follows the last command): the robot is measured at its last
+        # reference point's own sample, not v dt past it.
+        at = sample if sample is not None and end == result.samples else last
+        final["position_error"], final["heading_error"] = _pose_error(result, at, target)
         final["target"] = {"phase": info.name, "x": target[0], "y": target[1], "theta": target[2]}
+        final["time"] = _finite_or_none(result.t[at])
         break
     final["pose"] = {
         "x": _finite_or_none(result.x[last]),
