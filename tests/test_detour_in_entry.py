@@ -4,9 +4,9 @@
 A user's mission: a polyline at 1 m/s, a keep-out box turned 0.5 rad across
 its first leg, acceleration limits, 1 cm of noise, then a park; the robot
 starts on its path at rest. The entry under acceleration limits lasts 3.55 s
-and the box's detour runs from about 1.5 to 4.4 s: the detour's widest part,
+and the detour the box forces runs from 0.87 to 3.75 s: its widest part,
 0.53 m off the path, is in the entry. Measured after the entry alone it read
-0.187 m (0.0471 m in the first report of it)."""
+0.187 m."""
 
 from __future__ import annotations
 
