@@ -1,6 +1,7 @@
-"""How far behind its line each generated dash that fails ends, at best, for a
-robot that turns round first and for one that drives backwards
-(docs/soundness.md, the misses).
+"""How far behind its line each generated dash that failed driving forwards
+ends, at best, for a robot that turns round first and for one that drives
+backwards (docs/soundness.md, the misses; docs/paper-notes.md, "Eq. (27)
+driving backwards").
 
     python scripts/dash_reach.py
 

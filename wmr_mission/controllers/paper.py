@@ -225,7 +225,13 @@ AIM_OFFSET = 73
 # (track phases, hold_across_at_a_stop).
 PATH_STEP = 75
 TURNED_IN_PLACE = 76
-MEMORY_SIZE = 77
+# A track phase's direction of travel, decided at its first sample: 0.0 not
+# yet, 1.0 forwards, -1.0 backwards (drives_backwards).
+DIRECTION = 77
+# The mirrored robot the law tracks with while driving backwards: its pose,
+# then its previous input (mirrored_track_input).
+MIRRORED = 78
+MEMORY_SIZE = 83
 # [rad] how far past abeam (pi/2) the target must be to change the direction
 # of travel of the bearing form.
 REVERSE_HYSTERESIS = 0.2
@@ -408,9 +414,26 @@ def track_input(
         # eq. (27), "The speed while the turn is at its limit").
         if planned or omega * turn > 0.0:
             v *= max(math.cos(turn), 0.0)
-        if planned and omega * turn > 0.0:
-            reach = stopping_speed(abs(turn), robot.limits[3], dt)
-            omega = min(max(omega, -reach), reach)
+        if planned:
+            # The way turns with the path's tangent: the turn is stopped
+            # relative to the part of the path's turn rate the robot already
+            # turns at (none at a step of the path's curvature): on a spiral
+            # the turn rate was held below the path's, the heading short of
+            # the way and the robot 0.15 m off (gen-021-elliptical-spiral).
+            held = 0.0
+            moved = reference[0] != reference_now[0] or reference[1] != reference_now[1]
+            turned = reference[2] != reference_now[2] or reference[3] != reference_now[3]
+            if moved and turned and distance <= controller.error_reach:
+                tangent_turn = wrap_angle(
+                    math.atan2(reference[3], reference[2])
+                    - math.atan2(reference_now[3], reference_now[2])
+                )
+                path_turn = tangent_turn / dt
+                if path_turn * omega_prev > 0.0:
+                    held = math.copysign(min(abs(path_turn), abs(omega_prev)), path_turn)
+            if (omega - held) * turn > 0.0:
+                reach = stopping_speed(abs(turn), robot.limits[3], dt)
+                omega = held + min(max(omega - held, -reach), reach)
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, robot.limits, dt)
 
 
@@ -853,6 +876,81 @@ def regulate_input(
     u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)
 
 
+@kernel
+def turn_time(angle: float, limits: FloatArray) -> float:
+    """[s] The shortest turn through ``angle`` >= 0 from rest to rest at the
+    turn-rate limit and its acceleration limit (inf without one: at the rate)."""
+    rate = float(limits[1])
+    acceleration = float(limits[3])
+    if acceleration == math.inf:
+        return angle / rate
+    if angle >= rate * rate / acceleration:
+        return angle / rate + rate / acceleration
+    return 2.0 * math.sqrt(angle / acceleration)
+
+
+@kernel
+def distance_from_rest(time: float, limits: FloatArray) -> float:
+    """[m] How far a robot from rest drives in ``time`` >= 0 at its speed
+    acceleration limit up to its speed limit."""
+    top = float(limits[0])
+    acceleration = float(limits[2])
+    if acceleration == math.inf:
+        return top * time
+    rising = top / acceleration
+    if time <= rising:
+        return 0.5 * acceleration * time * time
+    return top * (time - 0.5 * rising)
+
+
+# How many of the law's time constants of the path's travel a robot turned
+# round may end a track phase behind its reference before the phase is
+# driven backwards instead: the law leaves exp(-3) (5 %) of an error after
+# three (drives_backwards).
+JOINING_TIME_CONSTANTS = 3.0
+
+
+@kernel
+def drives_backwards(
+    heading: float,
+    tangent_x: float,
+    tangent_y: float,
+    speed: float,
+    duration: float,
+    time_constant: float,
+    limits: FloatArray,
+) -> bool:
+    """Whether a track phase is driven backwards: its path starts more than
+    pi/2 behind the robot's heading and, turned round first (turn_time,
+    standing) and then driving after its reference from rest at the limits,
+    the robot would still be more than JOINING_TIME_CONSTANTS of the law's
+    ``time_constant`` of the path's travel behind it when the phase's
+    ``duration`` ends (inf: no known end, never). Backwards its direction of
+    travel is less than pi/2 off the path (docs/paper-notes.md, "Eq. (27)
+    driving backwards")."""
+    if duration == math.inf:
+        return False
+    off = abs(wrap_angle(math.atan2(tangent_y, tangent_x) - heading))
+    if not off > 0.5 * math.pi:  # NaN too: a resting path
+        return False
+    driving = max(duration - turn_time(off, limits), 0.0)
+    behind = speed * duration - distance_from_rest(driving, limits)
+    return behind > JOINING_TIME_CONSTANTS * time_constant * speed
+
+
+@inlined
+def mirrored(estimate: FloatArray, u_prev: FloatArray, memory: FloatArray) -> None:
+    """The mirrored robot eq. (27) tracks with while driving backwards, into
+    ``memory[MIRRORED:]``: heading theta + pi and speed -v, the same motion
+    by eq. (1), whose output ``look_ahead`` ahead of its axle is the point
+    that far behind the robot's."""
+    memory[MIRRORED] = estimate[0]
+    memory[MIRRORED + 1] = estimate[1]
+    memory[MIRRORED + 2] = wrap_angle(estimate[2] + math.pi)
+    memory[MIRRORED + 3] = -u_prev[0]
+    memory[MIRRORED + 4] = u_prev[1]
+
+
 # --- the controller as the loop runs it ----------------------------------------
 
 # Regulation forms by name (controller.regulation.form).
@@ -989,7 +1087,30 @@ def next_input(
                 aim[0] += offset_x - before_x
                 aim[1] += offset_y - before_y
             hold_across_at_a_stop(aim_now, aim, path_step, estimate, tuning, plant, memory)
-        track_input(estimate, u_prev, aim_now, aim, tuning, plant, scratch, u)
+        if memory[DIRECTION] == 0.0:
+            duration = math.inf
+            if phase.elapsed_samples >= 0 and kinds.shape[0] == 0:
+                duration = phase.elapsed_samples * plant.dt
+            speed = hypot(aim[0] - aim_now[0], aim[1] - aim_now[1]) / plant.dt
+            decay = tuning.error_decay
+            time_constant = -plant.dt / math.log(decay) if 0.0 < decay < 1.0 else 0.0
+            backwards = drives_backwards(
+                estimate[2], aim_now[2], aim_now[3], speed, duration, time_constant,
+                plant.limits,
+            )  # fmt: skip
+            memory[DIRECTION] = -1.0 if backwards else 1.0
+        # Backwards: the forward law for the mirrored robot, its speed
+        # negated back (one call of track_input, compiled inline once).
+        pose = estimate
+        before = u_prev
+        backwards = memory[DIRECTION] < 0.0
+        if backwards:
+            mirrored(estimate, u_prev, memory)
+            pose = memory[MIRRORED : MIRRORED + 3]
+            before = memory[MIRRORED + 3 : MIRRORED + 5]
+        track_input(pose, before, aim_now, aim, tuning, plant, scratch, u)
+        if backwards:
+            u[0] = -u[0]
         # The filter after the tracking law: zones win over tracking
         # (wmr_mission.controllers.constrained_tracking).
         if kinds.shape[0]:

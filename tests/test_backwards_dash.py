@@ -1,0 +1,59 @@
+"""A track phase whose path starts behind the robot, too short for it to turn
+round and join driving forwards, driven backwards (controllers/paper.py,
+``drives_backwards`` and ``mirrored``; docs/paper-notes.md,
+"Eq. (27) driving backwards")."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wmr_mission.controllers.paper import drives_backwards
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scripts"))
+
+from judge_generated import GENERATED, judge_all  # noqa: E402
+from soundness import read_trajectory  # noqa: E402
+
+# The three generated dashes a robot turned round ends behind their reference
+# (python scripts/dash_reach.py).
+DASHES = ("gen-098-dash", "gen-120-dash", "gen-129-dash")
+
+
+@pytest.mark.slow
+def test_a_dash_that_starts_behind_the_robot_is_driven_backwards(tmp_path: Path) -> None:
+    """Each failed its dash driving forwards (gen-098: along_track_lag_max,
+    turned round and 0.77 m behind at the end); backwards each succeeds, and
+    the independent judge finds it sound."""
+    judged = judge_all([GENERATED / f"{name}.yaml" for name in DASHES], tmp_path, workers=1)
+    assert [(j.mission, j.outcome, j.sound) for j in judged] == [
+        (name, "success", True) for name in DASHES
+    ]
+    for name in DASHES:
+        trajectory = read_trajectory(tmp_path / name / "trajectory.csv")
+        dash = np.asarray(trajectory.phase) == "dash"
+        assert np.all(np.asarray(trajectory["v"])[dash] <= 0.0), name
+
+
+# gen-098-dash's numbers: heading -0.086, line 3.095 at 0.776 m/s for 1 s,
+# limits 1.177 m/s, 3.339 rad/s, 1.095 m/s^2, 10.597 rad/s^2.
+LIMITS = np.array([1.177, 3.339, 1.095, 10.597])
+AHEAD = (math.cos(3.095), math.sin(3.095))
+
+
+def test_only_a_path_behind_too_short_to_turn_round_for_is_driven_backwards() -> None:
+    # time constant 0.22 s: the law's under these limits (a fifth of 1.177 / 1.095 s)
+    assert drives_backwards(-0.086, *AHEAD, 0.776, 1.0, 0.215, LIMITS)
+    # long enough to turn round and catch up: forwards
+    assert not drives_backwards(-0.086, *AHEAD, 0.776, 4.0, 0.215, LIMITS)
+    # no known end (only elapsed gives one): forwards
+    assert not drives_backwards(-0.086, *AHEAD, 0.776, math.inf, 0.215, LIMITS)
+    # the path less than pi/2 off the heading: forwards
+    assert not drives_backwards(3.095 - 1.5, *AHEAD, 0.776, 1.0, 0.215, LIMITS)
+    # a resting path (no tangent): forwards
+    assert not drives_backwards(-0.086, math.nan, math.nan, 0.0, 1.0, 0.215, LIMITS)
