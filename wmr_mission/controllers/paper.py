@@ -414,26 +414,9 @@ def track_input(
         # eq. (27), "The speed while the turn is at its limit").
         if planned or omega * turn > 0.0:
             v *= max(math.cos(turn), 0.0)
-        if planned:
-            # The way turns with the path's tangent: the turn is stopped
-            # relative to the part of the path's turn rate the robot already
-            # turns at (none at a step of the path's curvature): on a spiral
-            # the turn rate was held below the path's, the heading short of
-            # the way and the robot 0.15 m off (gen-021-elliptical-spiral).
-            held = 0.0
-            moved = reference[0] != reference_now[0] or reference[1] != reference_now[1]
-            turned = reference[2] != reference_now[2] or reference[3] != reference_now[3]
-            if moved and turned and distance <= controller.error_reach:
-                tangent_turn = wrap_angle(
-                    math.atan2(reference[3], reference[2])
-                    - math.atan2(reference_now[3], reference_now[2])
-                )
-                path_turn = tangent_turn / dt
-                if path_turn * omega_prev > 0.0:
-                    held = math.copysign(min(abs(path_turn), abs(omega_prev)), path_turn)
-            if (omega - held) * turn > 0.0:
-                reach = stopping_speed(abs(turn), robot.limits[3], dt)
-                omega = held + min(max(omega - held, -reach), reach)
+        if planned and omega * turn > 0.0:
+            reach = stopping_speed(abs(turn), robot.limits[3], dt)
+            omega = min(max(omega, -reach), reach)
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, robot.limits, dt)
 
 

@@ -348,23 +348,9 @@ def track_input(
         # towards that way at its limit (wmr_mission.controllers.paper.track_input).
         if planned or omega * turn > 0.0:
             v *= max(math.cos(turn), 0.0)
-        if planned:
-            # stopped relative to the part of the path's turn rate the robot
-            # already turns at (the way turns with the path's tangent)
-            held = 0.0
-            moved = bool(np.any(reference[:2] != reference_now[:2]))
-            turned = bool(np.any(reference[2:4] != reference_now[2:4]))
-            if moved and turned and distance <= controller.error_reach:
-                tangent_turn = wrap_angle(
-                    math.atan2(reference[3], reference[2])
-                    - math.atan2(reference_now[3], reference_now[2])
-                )
-                path_turn = tangent_turn / dt
-                if path_turn * omega_prev > 0.0:
-                    held = math.copysign(min(abs(path_turn), abs(omega_prev)), path_turn)
-            if (omega - held) * turn > 0.0:
-                reach = stopping_speed(abs(turn), float(limits[3]), dt)
-                omega = held + float(np.clip(omega - held, -reach, reach))
+        if planned and omega * turn > 0.0:
+            reach = stopping_speed(abs(turn), float(limits[3]), dt)
+            omega = float(np.clip(omega, -reach, reach))
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, limits, dt)
 
 
