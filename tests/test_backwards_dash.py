@@ -57,3 +57,47 @@ def test_only_a_path_behind_too_short_to_turn_round_for_is_driven_backwards() ->
     assert not drives_backwards(3.095 - 1.5, *AHEAD, 0.776, 1.0, 0.215, LIMITS)
     # a resting path (no tangent): forwards
     assert not drives_backwards(-0.086, math.nan, math.nan, 0.0, 1.0, 0.215, LIMITS)
+
+
+DASH = """
+version: 1
+name: backing-dash
+robot:
+  dt: 0.01
+  initial_state: {{x: 0, y: 0, theta: {theta}}}
+  limits: {{v: 2, omega: 4, acceleration: {{v: 2, omega: 8}}}}
+sensors: {{measure: [x, y, theta], noise_std: {{x: 0.01, y: 0.01, theta: 0.005}}, seed: 3}}
+phases:
+  - name: dash
+    track:
+      path: {{type: line, heading: 0, speed: 1.0}}
+    until: {{elapsed: 1.5}}
+  - name: park
+    regulate: {{target: {{x: 2, y: 0.5, theta: 0}}}}
+    until: {{settled: {{position: 0.02, heading: 0.05}}}}
+    timeout: 20
+"""
+
+
+@pytest.mark.parametrize(("theta", "backwards"), [(3.0, True), (0.0, False)])
+def test_the_run_s_table_says_a_phase_was_driven_backwards(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, theta: float, backwards: bool
+) -> None:
+    """A user's dash facing away from its line (heading 3.0, the line at 0, 1.5 s)
+    is driven backwards, and the table says so in the phase's row; facing
+    along it, the same dash drives forwards and the row says nothing."""
+    from typer.testing import CliRunner
+
+    from wmr_mission.cli import app
+
+    monkeypatch.setenv("COLUMNS", "100")
+    mission = tmp_path / "dash.yaml"
+    mission.write_text(DASH.format(theta=theta))
+    ran = CliRunner().invoke(
+        app, ["run", str(mission), "--out", str(tmp_path / "run"), "--no-plots"]
+    )
+    assert ran.exit_code == 0, ran.output
+    rows = ran.output.splitlines()
+    dash = next(i for i, line in enumerate(rows) if line.startswith("dash "))
+    assert ("backwards" in rows[dash + 1].split()[:1]) is backwards, ran.output
+    assert "backwards" not in "".join(rows[dash + 2 :]), ran.output

@@ -182,6 +182,20 @@ def _start_clearance(
     return clearance_min(result.x[at], result.y[at], result.theta[at], zones, footprint)
 
 
+def _backwards(phase: dict[str, Any], result: RunRecord | None) -> bool:
+    """Whether a track phase was driven backwards, most of its samples at a
+    negative speed (a short phase whose path starts behind the robot:
+    docs/controllers.md): said in its row, where a forward robot is assumed."""
+    if result is None or phase["kind"] != "track" or phase.get("start") is None:
+        return False
+    import numpy as np
+
+    first = int(np.searchsorted(result.t, phase["start"] - 0.5 * result.dt))
+    samples = round((phase.get("duration") or 0.0) / result.dt)
+    speed = result.v[first : first + samples]
+    return bool(speed.size) and 2 * int(np.count_nonzero(speed < 0.0)) > speed.size
+
+
 def _phase_rows(
     summary: dict[str, Any], checks: list[dict[str, Any]], result: RunRecord | None = None
 ) -> list[list[str]]:
@@ -195,7 +209,7 @@ def _phase_rows(
     return [
         [
             str(phase["name"]),
-            str(phase["kind"]),
+            str(phase["kind"]) + ("\nbackwards" if _backwards(phase, result) else ""),
             _seconds(phase.get("duration")),
             key_metric(phase, _start_clearance(phase, result, infos)),
             _at_limit(phase),
