@@ -659,18 +659,26 @@ def _bearing_round_zones(
 
 
 @kernel
+def turn_time(angle: float, limits: FloatArray) -> float:
+    """[s] The shortest turn through ``angle`` >= 0 from rest to rest at the
+    turn-rate limit and its acceleration limit (inf without one: at the rate)."""
+    rate = float(limits[1])
+    acceleration = float(limits[3])
+    if acceleration == math.inf:
+        return angle / rate
+    if angle >= rate * rate / acceleration:
+        return angle / rate + rate / acceleration
+    return 2.0 * math.sqrt(angle / acceleration)
+
+
+@kernel
 def _turns_sooner(speed: float, turn: float, limits: FloatArray) -> bool:
     """Whether a robot at ``speed`` (> 0: along its direction of travel)
     turns by ``turn`` sooner, at the turn-rate limits, than it stops and
     regains that speed the other way at its speed acceleration limit."""
     if speed <= 0.0 or limits[2] == math.inf:
         return False
-    rate, acceleration = limits[1], limits[3]
-    if turn >= rate * rate / acceleration:
-        turning = turn / rate + rate / acceleration
-    else:
-        turning = 2.0 * math.sqrt(turn / acceleration)
-    return bool(turning < 2.0 * speed / limits[2])
+    return bool(turn_time(turn, limits) < 2.0 * speed / limits[2])
 
 
 @inlined
@@ -857,19 +865,6 @@ def regulate_input(
     dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
     memory[CORRECTED] = 1.0
     u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)
-
-
-@kernel
-def turn_time(angle: float, limits: FloatArray) -> float:
-    """[s] The shortest turn through ``angle`` >= 0 from rest to rest at the
-    turn-rate limit and its acceleration limit (inf without one: at the rate)."""
-    rate = float(limits[1])
-    acceleration = float(limits[3])
-    if acceleration == math.inf:
-        return angle / rate
-    if angle >= rate * rate / acceleration:
-        return angle / rate + rate / acceleration
-    return 2.0 * math.sqrt(angle / acceleration)
 
 
 @kernel

@@ -160,6 +160,13 @@ def _phase_table(
     return _fitting_table(rows, width) or _wrapped_table(rows, width)
 
 
+def _first_sample(phase: dict[str, Any], result: RunRecord) -> int:
+    """The index of the phase's first sample in the run's columns."""
+    import numpy as np
+
+    return int(np.searchsorted(result.t, phase["start"] - 0.5 * result.dt))
+
+
 def _start_clearance(
     phase: dict[str, Any], result: RunRecord | None, infos: dict[str, PhaseRecord]
 ) -> float | None:
@@ -170,12 +177,10 @@ def _start_clearance(
         return None
     if (phase.get("constraint") or {}).get("clearance_min") is None:
         return None
-    import numpy as np
-
     from wmr_mission.verdicts.clearance import clearance_min
     from wmr_mission.verdicts.zones import zones_of
 
-    first = int(np.searchsorted(result.t, phase["start"] - 0.5 * result.dt))
+    first = _first_sample(phase, result)
     at = slice(first, first + 1)
     footprint = ((result.mission or {}).get("robot") or {}).get("footprint")
     zones = zones_of(info.constraints, result.regions)
@@ -190,7 +195,7 @@ def _backwards(phase: dict[str, Any], result: RunRecord | None) -> bool:
         return False
     import numpy as np
 
-    first = int(np.searchsorted(result.t, phase["start"] - 0.5 * result.dt))
+    first = _first_sample(phase, result)
     samples = round((phase.get("duration") or 0.0) / result.dt)
     speed = result.v[first : first + samples]
     return bool(speed.size) and 2 * int(np.count_nonzero(speed < 0.0)) > speed.size
