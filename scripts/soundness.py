@@ -608,14 +608,23 @@ class _PhaseJudge:
         excused |= detour
         # No farther from the path than the zones reach into it, plus the look-ahead
         # the law keeps and the tolerance: a detour no longer than needed, the whole
-        # of it once the robot has joined its reference (within the entry too);
-        # before, the gap the phase starts with is the entry's.
+        # of it, in the entry too while the robot tracks its path (below);
+        # otherwise the gap the phase starts with is the entry's.
         # The controller keeps off a zone by what its estimate may be out (section 3
         # allows the true robot no noise): three noise std.
         reach = max([z.reach(rx, ry) for z in self.phase.zones] + [0.0])
         detour_allowance = reach + 3 * spec.position_noise + spec.look_ahead + tolerance
-        joined = self.joined(px, py, rx, ry, tolerance)
-        wide = detour & (~entering | joined) & (cross > detour_allowance)
+        # In the entry, while the robot tracks its path with its reference point
+        # straight ahead: a robot behind its reference heads for it, and cuts a bend
+        # between the two, the entry's to excuse.
+        on_it = self.on_its_path(px, py, rx, ry, lag, cross, speed_ref, tolerance)
+        tracking = np.zeros(t.size, dtype=bool)
+        arc = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+        for k in np.flatnonzero(entering & detour.any()):
+            if chase_bend(arc, rx, ry, k, float(lag[k])) > tolerance:
+                continue
+            tracking[k] = on_it[k] or (k > 0 and tracking[k - 1])
+        wide = detour & (~entering | tracking) & (cross > detour_allowance)
         if wide.any():
             k = int(np.flatnonzero(wide)[0])
             self.problem(
@@ -647,16 +656,35 @@ class _PhaseJudge:
                 f"worst {cross[bad].max():.3g} m off, {lag[bad].max():.3g} m behind"
             )
 
-    def joined(
-        self, px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray, tolerance: float
+    def on_its_path(
+        self,
+        px: FloatArray,
+        py: FloatArray,
+        rx: FloatArray,
+        ry: FloatArray,
+        lag: FloatArray,
+        cross: FloatArray,
+        speed_ref: FloatArray,
+        tolerance: float,
     ) -> FloatArray:
-        """Whether the robot has joined its reference by each sample: been within
-        the tolerance of its reference point while moving with it, their velocities
-        apart by no more than the tolerance over the settling time (5 tau)."""
-        ex, ey = px - rx, py - ry
-        apart = np.hypot(np.gradient(ex), np.gradient(ey)) / self.dt
-        keeping_up = (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (5 * self.tau))
-        return np.logical_or.accumulate(keeping_up)
+        """Whether the robot is on its path at each sample: within the tolerance of
+        it, its velocity across the path's direction there at most the tolerance
+        over the settling time (5 tau), along it at least half the reference's
+        speed. Its lag may still be closing: the detour's width is across the path."""
+        arc = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+        place = arc - lag
+        step = 1e-3  # [m] the path's direction at the place, from points either side
+        dx = np.interp(place + step, arc, rx) - np.interp(place - step, arc, rx)
+        dy = np.interp(place + step, arc, ry) - np.interp(place - step, arc, ry)
+        size = np.hypot(dx, dy)
+        ux, uy = dx / np.where(size > 0, size, 1.0), dy / np.where(size > 0, size, 1.0)
+        vx, vy = np.gradient(px) / self.dt, np.gradient(py) / self.dt
+        on_it = (
+            (cross <= tolerance)
+            & (np.abs(vx * uy - vy * ux) <= tolerance / (5 * self.tau))
+            & (vx * ux + vy * uy >= MOVING * speed_ref)
+        )
+        return on_it
 
     def path_in_a_zone(self, rx: FloatArray, ry: FloatArray) -> FloatArray:
         """Whether each reference point is in a zone, or within the look-ahead and the
@@ -929,6 +957,22 @@ def _centred_mean(values: FloatArray, samples: int) -> FloatArray:
     return total / counts
 
 
+def chase_bend(arc: FloatArray, rx: FloatArray, ry: FloatArray, k: int, lag: float) -> float:
+    """[m] the farthest the reference's polyline (``arc``: its arc length at each
+    point) strays, between the point ``lag`` behind point ``k`` along it and point
+    ``k``, from the chord between those two points."""
+    at = arc[k] - lag
+    between = (arc > min(at, arc[k])) & (arc < max(at, arc[k]))
+    if not between.any():
+        return 0.0
+    ax, ay = np.interp(at, arc, rx), np.interp(at, arc, ry)
+    cx, cy = rx[k] - ax, ry[k] - ay
+    size = math.hypot(cx, cy)
+    if size == 0.0:
+        return 0.0
+    return float(np.abs(cx * (ry[between] - ay) - cy * (rx[between] - ax)).max() / size)
+
+
 def along_and_across(
     rx: FloatArray, ry: FloatArray, px: FloatArray, py: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
@@ -951,8 +995,12 @@ def along_and_across(
         distance = np.hypot(qx - ax - along * sx, qy - ay - along * sy)
         position = arc[:-1] + along * steps  # arc length of each segment's nearest point
         own = arc[np.arange(px.size)[part]][:, None]
-        # Ties (a closed path run round again, a path back over itself): the nearest in time.
-        near = distance <= distance.min(axis=1, keepdims=True) + 0.01
+        # Ties (a closed path run round again, a path back over itself): the nearest in
+        # time, among the path's stretches each nearest where it is (a local minimum
+        # along the path: not a point just ahead, slightly farther, on the same line).
+        padded = np.pad(distance, ((0, 0), (1, 1)), constant_values=np.inf)
+        local = (distance <= padded[:, :-2]) & (distance <= padded[:, 2:])
+        near = local & (distance <= distance.min(axis=1, keepdims=True) + 0.01)
         choice = np.where(near, np.abs(position - own), np.inf).argmin(axis=1)
         rows = np.arange(choice.size)
         cross[part] = distance[rows, choice]

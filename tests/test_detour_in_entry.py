@@ -123,12 +123,112 @@ def test_a_robot_swinging_round_in_its_entry_has_not_joined_its_path() -> None:
     """gen-048-line starts on its line turned 2.07 rad from it, at rest, under
     acceleration limits: it swings 0.69 m out past a rock before it has caught
     its reference up. That is the entry's gap, not the detour's width: the
-    detour is measured from where the robot has joined its reference (within
-    the tolerance of it, and moving with it), which this one never does before
-    its detour ends."""
+    entry's part of a detour counts while the robot is on its path and moving
+    along it, which this one never is before its detour ends."""
     mission = ROOT / "tests" / "data" / "generated" / "gen-048-line.yaml"
     run = run_mission(mission_from_text(mission.read_text()))
     tracking = _route(run)
     assert tracking["detour_time"] > 2.0
     assert tracking["detour_offset_max"] is None
     assert run.summary()["outcome"] == "success"
+
+
+POND = """
+version: 1
+name: pond-detour
+robot:
+  dt: 0.01
+  initial_state: {{x: 0, y: 0, theta: -2.0}}
+  limits: {{v: {v}, omega: {omega}, acceleration: {{v: 1.2, omega: 5}}}}
+sensors: {{measure: [x, y, theta], noise_std: {{x: 0.015, y: 0.015, theta: 0.008}}, seed: 0}}
+estimator:
+  type: constrained-observer
+  initial_estimate: {{x: 0, y: 0, theta: -2.0}}
+regions:
+  pond: {{type: circle, center: [3, 0.15], radius: {radius}}}
+phases:
+  - name: route
+    track:
+      path: {{type: polyline, points: [[0, 0], [6, 0], [6, 3]], corner_radius: 0.5, speed: 0.8}}
+    constraints: [{{stay_outside: pond}}]
+    until: {{near: {{point: [6, 3], tolerance: 0.05}}}}
+    timeout: 40
+"""
+
+
+def pond(v: float, omega: float, radius: float = 0.5) -> str:
+    return POND.format(v=v, omega=omega, radius=radius)
+
+
+@pytest.mark.parametrize(("v", "omega"), [(1.5, 2.5), (1.0, 2.0)])
+def test_a_detour_before_the_robot_catches_its_reference_up_is_measured_whole(
+    v: float, omega: float
+) -> None:
+    """A user's mission: the robot starts turned 2 rad from its path, and its
+    speed limit leaves it 0.2-0.7 m/s to catch its reference up, so it is still
+    behind it as it goes round a pond on its path's first leg, in its entry.
+    Measured from where it had caught its reference up, the detour read 0.496 m
+    (it was 0.518 m) with the speed limit 1.5 m/s, and nothing at all with 1.0
+    m/s, where the whole of it falls in the entry."""
+    run = run_mission(mission_from_text(pond(v, omega)))
+    tracking = _route(run)
+    first_leg = (run.x > 1.5) & (run.x < 5.0)  # the x axis: |y| is the cross-track error
+    widest = int(np.argmax(np.where(first_leg, np.abs(run.y), 0.0)))
+    assert run.t[widest] < tracking["entry_time"]  # premise: in the entry
+    assert abs(run.y[widest]) > 0.45
+    assert tracking["detour_offset_max"] == pytest.approx(abs(run.y[widest]), abs=1e-3)
+
+
+def test_the_independent_judge_measures_a_detour_before_the_catching_up(tmp_path: Path) -> None:
+    run = run_mission(mission_from_text(pond(1.0, 2.0)))
+    run.write(tmp_path / "run", plots=False)
+    mission = tmp_path / "pond.yaml"
+    mission.write_text(pond(1.0, 2.0))
+    verdict = judge(mission, tmp_path / "run")
+    assert verdict.sound, verdict.problems
+    assert verdict.phases[0].metrics["detour_cross_max"] == pytest.approx(
+        _route(run)["detour_offset_max"], abs=5e-3
+    )
+    # Judged against a pond half as large, the same detour is too wide, in the entry.
+    mission.write_text(pond(1.0, 2.0, radius=0.25))
+    [problem] = judge(mission, tmp_path / "run").phases[0].problems
+    assert problem.startswith("a detour wider than the zone needs: 0.4")
+    assert float(problem.rsplit("t = ", 1)[1].split()[0]) < _route(run)["entry_time"]
+
+
+BEND = """
+version: 1
+name: bend-chase
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 0}
+  limits: {v: 2, omega: 3, acceleration: {v: 0.6, omega: 6}}
+estimator:
+  type: constrained-observer
+  initial_estimate: {x: 0, y: 0, theta: 0}
+regions:
+  rock: {type: circle, center: [3.4, 0.8], radius: 0.3}
+phases:
+  - name: route
+    track:
+      path: {type: polyline, points: [[0, 0], [3, 0], [3, 4]], corner_radius: 0.3, speed: 1.5}
+    constraints: [{stay_outside: rock}]
+    until: {near: {point: [3, 4], tolerance: 0.05}}
+    timeout: 40
+"""
+
+
+def test_a_robot_behind_its_reference_that_cuts_a_bend_is_not_detouring() -> None:
+    """The robot starts on its path at rest and accelerates at 0.6 m/s^2 to the
+    path's 1.5 m/s: about 1.9 m behind its reference, it heads for it across
+    the path's corner and cuts it, in its entry, beside a rock that lies off
+    the path's outside. That cut is the entry's, not a detour's width: counted
+    from where the robot was on its path and moving along it, it read 0.51 m."""
+    run = run_mission(mission_from_text(BEND))
+    tracking = _route(run)
+    assert tracking["entry_time"] > run.t[-1]  # premise: the whole phase is its entry
+    assert tracking["detour_time"] > 1.0
+    # the corner cut: inside the corner, well off both legs
+    inside = np.minimum(3.0 - run.x, run.y)
+    assert inside.max() > 0.4
+    assert tracking["detour_offset_max"] < 0.05

@@ -29,7 +29,7 @@ tolerance of it: the tracked point runs that far ahead of the axle, and a
 robot that tracks is that far off its path. How far off the path a detour
 takes the robot is its own metric (``detour_offset_max``), over the whole
 detour, its samples in the entry included once the robot has joined its
-reference (:func:`_from_joining`), as is how long it lasts (``detour_time``).
+path (:func:`_from_joining`), as is how long it lasts (``detour_time``).
 """
 
 from __future__ import annotations
@@ -166,6 +166,18 @@ class Placement:
             place[far[better]] = at[better]
         lag = np.subtract(arc, place, out=place)
         return cross, lag
+
+    def direction_at(
+        self, samples: NDArray[np.intp], lag: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """The path's unit direction at the places ``lag`` behind the reference
+        points of ``samples`` (as :meth:`on_path` gives them)."""
+        arc, n = self.path[0], self.path[1].size
+        if self.standing:
+            return np.zeros(samples.size), np.zeros(samples.size)
+        place = arc[samples] - lag
+        segment = np.clip(np.searchsorted(arc, place, side="right") - 1, 0, n - 2)
+        return self._direction(segment)
 
     def _direction(self, segment: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
         _, _, _, sx, sy, length = self.path
@@ -422,7 +434,7 @@ def track_samples(
         kept = numbers.body if margin is None else margin
         metrics["zone_reach"] = max(0.0, reach + kept)
     if detour[:after_entry].any():  # a detour in the entry: measured from the joining on
-        cross, lag = _from_joining(placement, numbers, after_entry)
+        cross, lag = _from_joining(placement, numbers, after_entry, reference_speed)
     else:
         cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
     judged = ~excused
@@ -445,27 +457,64 @@ def track_samples(
 
 
 def _from_joining(
-    placement: Placement, numbers: MissionNumbers, after_entry: int
+    placement: Placement,
+    numbers: MissionNumbers,
+    after_entry: int,
+    reference_speed: FloatArray,
 ) -> tuple[FloatArray, FloatArray]:
-    """Cross-track error and lag [m] from the sample the robot has joined its
-    reference, or the entry's end if sooner (NaN before): a detour's whole width
-    counts from there, while the gap the phase starts with is the entry's to take
-    out. Joined: within the tracking tolerance of its own reference point, and
-    moving with it (their velocities apart by at most the tolerance over the
-    settling time, SETTLING time constants): a robot that starts on its path at
-    rest joins once it has caught up to speed; one that starts turned away, or
-    is still swinging round, has not."""
+    """Cross-track error and lag [m] of a phase whose entry holds a detour, NaN
+    where its entry's samples are the entry's alone: a detour's whole width
+    counts, while the gap the phase starts with is the entry's to take out.
+
+    The entry's samples count while the robot tracks its path with its reference
+    point straight ahead: from a sample where it is within the tracking tolerance
+    of its path, moving across it at no more than the tolerance over the settling
+    time (SETTLING time constants) and along it at MOVING of the reference's speed
+    or more, until the path bends between its place and its reference point. A
+    robot behind its reference heads for it and cuts such a bend, the entry's
+    doing (:func:`_chase_bend`); it counts again once back on its path. A robot
+    that starts on its path at rest counts once under way; one that starts turned
+    away, or is still swinging round, does not."""
     cross, lag = placement.on_path(numbers.tracking_tolerance)
-    px, py = placement.px[:after_entry], placement.py[:after_entry]
-    ex, ey = px - placement.path[1][:after_entry], py - placement.path[2][:after_entry]
-    apart = np.hypot(np.diff(ex, append=ex[-1:]), np.diff(ey, append=ey[-1:])) / numbers.dt
-    tolerance = numbers.tracking_tolerance
-    joined = np.flatnonzero(
-        (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (SETTLING * numbers.time_constant))
+    dt, tolerance = numbers.dt, numbers.tracking_tolerance
+    ahead = min(after_entry + 1, cross.size)  # each sample's velocity to the next
+    px, py = placement.px[:ahead], placement.py[:ahead]
+    vx = np.diff(px, append=px[-1]) / dt
+    vy = np.diff(py, append=py[-1]) / dt
+    ux, uy = placement.direction_at(np.arange(ahead), lag[:ahead])
+    on_it = (
+        (cross[:ahead] <= tolerance)
+        & (np.abs(vx * uy - vy * ux) <= tolerance / (SETTLING * numbers.time_constant))
+        & (vx * ux + vy * uy >= MOVING * reference_speed[:ahead])
     )
-    first = int(joined[0]) if joined.size else after_entry
-    cross[:first], lag[:first] = np.nan, np.nan
+    counts = np.zeros(after_entry, dtype=bool)
+    tracking = False
+    for k in range(int(np.argmax(on_it)) if on_it.any() else after_entry, after_entry):
+        if _chase_bend(placement, k, float(lag[k])) > tolerance:
+            tracking = False
+        elif on_it[k]:
+            tracking = True
+        counts[k] = tracking
+    cross[:after_entry][~counts], lag[:after_entry][~counts] = np.nan, np.nan
     return cross, lag
+
+
+def _chase_bend(placement: Placement, k: int, lag: float) -> float:
+    """[m] how far the path between sample ``k``'s place on it and its reference
+    point (``lag`` apart along it) strays from the straight way between the two:
+    how far off the path a robot that heads for its reference point goes without
+    a zone."""
+    arc, rx, ry = placement.path[:3]
+    if placement.standing or abs(lag) <= 0.0:
+        return 0.0
+    near, far = sorted((float(arc[k]) - lag, float(arc[k])))
+    inner = slice(int(np.searchsorted(arc, near, "right")), int(np.searchsorted(arc, far, "left")))
+    ax, ay = float(np.interp(arc[k] - lag, arc, rx)), float(np.interp(arc[k] - lag, arc, ry))
+    ux, uy = float(rx[k]) - ax, float(ry[k]) - ay
+    chord = math.hypot(ux, uy)
+    if chord == 0.0 or inner.start >= inner.stop:
+        return 0.0
+    return float(np.max(np.abs((rx[inner] - ax) * uy - (ry[inner] - ay) * ux)) / chord)
 
 
 def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
