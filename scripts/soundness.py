@@ -632,9 +632,17 @@ class _PhaseJudge:
                 f"(the zones reach {reach:.3g} m into it; at most {detour_allowance:.3g} m), "
                 f"first at t = {t[k]:.2f} s"
             )
+        # The rejoining ends once the robot has kept up with its reference for 5 tau.
+        ex, ey = px - rx, py - ry
+        apart = np.hypot(np.gradient(ex), np.gradient(ey)) / self.dt
+        with_it = (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (5 * tau))
+        held = max(1, round(5 * tau / self.dt))
+        kept_up = np.convolve(with_it, np.ones(held), "full")[: t.size] >= held
         for k in np.flatnonzero(blocked[:-1] & ~blocked[1:]) + 1:
             error = math.hypot(px[k] - rx[k], py[k] - ry[k])
-            excused |= (t >= t[k]) & (t - t[k] < recovery_time(spec, error, float(speed_ref[k])))
+            rejoining = (t >= t[k]) & (t - t[k] < recovery_time(spec, error, float(speed_ref[k])))
+            back = np.flatnonzero(rejoining & kept_up)
+            excused |= rejoining & ((t < t[back[0]]) if back.size else True)
         judged = ~excused
         judged[-1] |= ended_in_entry
         m = self.result.metrics

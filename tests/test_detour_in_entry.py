@@ -18,6 +18,7 @@ from soundness import judge
 
 from wmr_mission import mission_from_text, run_mission
 from wmr_mission.output.result import RunResult
+from wmr_mission.verdicts.numbers import mission_numbers
 from wmr_mission.verdicts.signals import run_signals
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -232,3 +233,28 @@ def test_a_robot_behind_its_reference_that_cuts_a_bend_is_not_detouring() -> Non
     inside = np.minimum(3.0 - run.x, run.y)
     assert inside.max() > 0.4
     assert tracking["detour_offset_max"] < 0.05
+
+
+def test_the_tracking_after_a_detour_is_judged_once_the_robot_has_kept_up() -> None:
+    """The pond's robot is back with its reference about a second after its
+    detour, but the least time the limits need to take out the gap the detour
+    left, counted from rest (a half turn, the speed from 0, at the 0.2 m/s the
+    speed limit leaves over the reference's), ran past the phase's end: its
+    5 s of tracking after the pond were not judged at all. The rejoining now
+    ends once the robot has kept up with its reference point for 5 tau."""
+    run = run_mission(mission_from_text(pond(1.0, 2.0)))
+    signals = run_signals(run)
+    detour, judged = signals.judged["detour"], signals.judged["cross-track error"]
+    route = np.flatnonzero(run.phase == 0)
+    end = int(np.flatnonzero(detour)[-1]) + 1
+    numbers = mission_numbers(run.mission, run.dt, run.limits)
+    gap = float(np.hypot(run.x[end] - run.x_ref[end], run.y[end] - run.y_ref[end]))
+    allowed = numbers.recovery_time(gap, 0.8)
+    assert run.t[end] + allowed > run.t[route[-1]]  # premise: the old allowance
+    tracking = _route(run)
+    first = int(np.flatnonzero(judged)[0])
+    assert run.t[first] == pytest.approx(tracking["entry_time"], abs=run.dt)
+    assert np.count_nonzero(judged[route]) > 0.4 * route.size
+    assert tracking["cross_track_error_max"] == pytest.approx(
+        float(np.nanmax(signals.lines["cross_track"]["cross-track error"][judged])), abs=1e-12
+    )

@@ -573,8 +573,29 @@ def _detours(
     moving = _mean_over(speed, window) >= MOVING * _mean_over(reference_speed, window)
     detour = blocked & moving
     rejoining = np.zeros(px.size, dtype=bool)
+    settled = _settled(px, py, rx, ry, numbers)
     for k in np.flatnonzero(blocked[:-1] & ~blocked[1:]) + 1:
         gap = math.hypot(px[k] - rx[k], py[k] - ry[k])
         needed = numbers.recovery_time(gap, float(reference_speed[k]))
-        rejoining[k : k + math.ceil(needed / numbers.dt - 1e-9)] = True
+        end = k + math.ceil(needed / numbers.dt - 1e-9)
+        back = np.flatnonzero(settled[k:end])
+        rejoining[k : k + int(back[0]) if back.size else end] = True
     return detour, rejoining
+
+
+def _settled(
+    px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray, numbers: MissionNumbers
+) -> NDArray[np.bool_]:
+    """Whether the robot has kept up with its reference point for the SETTLING
+    time constants up to each sample: within the tracking tolerance of it, their
+    velocities apart by at most the tolerance over that time."""
+    tolerance, dt = numbers.tracking_tolerance, numbers.dt
+    ex, ey = px - rx, py - ry
+    apart = np.hypot(np.diff(ex, prepend=ex[0]), np.diff(ey, prepend=ey[0])) / dt
+    with_it = (np.hypot(ex, ey) <= tolerance) & (
+        apart <= tolerance / (SETTLING * numbers.time_constant)
+    )
+    window = max(1, round(SETTLING * numbers.time_constant / dt))
+    count = np.concatenate(([0], np.cumsum(with_it, dtype=np.int64)))
+    k = np.arange(with_it.size)
+    return count[k + 1] - count[np.maximum(k + 1 - window, 0)] >= window
