@@ -590,6 +590,14 @@ class _PhaseJudge:
         gap = math.hypot(px[0] - rx[0], py[0] - ry[0])
         entry = recovery_time(spec, gap, float(speed_ref[0]))
         entering = t - t[0] < entry
+        ex, ey = px - rx, py - ry
+        apart = np.hypot(np.gradient(ex), np.gradient(ey)) / self.dt
+        with_it = (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (5 * tau))
+        held = max(1, round(5 * tau / self.dt))
+        kept_up = np.convolve(with_it, np.ones(held), "full")[: t.size] >= held
+        back = np.flatnonzero(entering & kept_up)
+        if back.size:
+            entering &= t < t[back[0]]
         excused |= entering
         # A phase that runs for a set time and ends in its entry was too short for the
         # limits to join its path, yet tracking it was all it was for: its end is judged.

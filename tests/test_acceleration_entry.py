@@ -106,6 +106,24 @@ def test_the_product_judges_tracking_from_the_end_of_the_entry(
     assert quality["cross_track_error_max"] == 0.5
 
 
+@pytest.mark.parametrize("acceleration", CASES)
+def test_the_entry_ends_once_the_robot_has_kept_up_with_its_reference(
+    acceleration: dict[str, float],
+) -> None:
+    """On its path from 1 s, then 0.5 m off it for 0.1 s at 2.5 s, inside the
+    entry the limits allow (3.5-5.4 s): the robot had kept up with its
+    reference for 5 tau, so that is a tracking error, not the entry's gap."""
+    numbers = _numbers(acceleration)
+    t = np.arange(801) * 0.01
+    px, py, rx, ry = _off_until(t, 1.0)
+    assert _entry(acceleration, gap=0.5) > 3.0  # premise
+    quality = track_quality(t, px, py, rx, ry, numbers, [])
+    assert quality["cross_track_error_max"] == 0.0
+    py = np.where((t >= 2.5) & (t < 2.6), 0.5, py)
+    quality = track_quality(t, px, py, rx, ry, numbers, [])
+    assert quality["cross_track_error_max"] == 0.5
+
+
 def test_a_lag_kept_for_good_is_a_failure_of_the_product() -> None:
     """The lag's bound is the tolerance and three time constants: what the robot
     lost while it accelerated is the entry's, not an allowance for the phase
@@ -152,6 +170,27 @@ def test_the_judge_judges_tracking_from_the_end_of_the_entry(
     assert not [p for p in go.problems if "off the path" in p], go.problems
     [go] = judge(mission, _recorded(tmp_path, mission, entry + 0.05)).phases
     assert any("0.5 m off the path" in p for p in go.problems), go.problems
+
+
+def test_the_judge_ends_the_entry_once_the_robot_has_kept_up(tmp_path: Path) -> None:
+    mission = _line({"v": 1.0, "omega": 2.0})
+    run_dir = _recorded(tmp_path, mission, 1.0)
+    [go] = judge(mission, run_dir).phases
+    assert not go.problems, go.problems
+    path = run_dir / "trajectory.csv"
+    with path.open(newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    for row in rows:
+        if 2.5 <= float(row["t"]) < 2.6:
+            row["y"] = "0.5"
+    with path.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    [go] = judge(mission, run_dir).phases
+    assert any(
+        p.startswith("0.5 m off the path (tolerance 0.1 m) at t = 2.50 s") for p in go.problems
+    ), go.problems
 
 
 def test_a_lag_kept_for_good_is_unsound(tmp_path: Path) -> None:

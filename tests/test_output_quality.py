@@ -23,7 +23,7 @@ from wmr_mission.verdicts import inputs
 from wmr_mission.verdicts.metrics import check_expectations, judge, summarize
 from wmr_mission.verdicts.numbers import mission_numbers
 from wmr_mission.verdicts.regulation import stall_time
-from wmr_mission.verdicts.tracking import place_on_path, track_quality
+from wmr_mission.verdicts.tracking import place_on_path, track_quality, track_samples
 from wmr_mission.verdicts.zones import Zone, intrusion_max
 
 NUMBERS = mission_numbers(None, 0.01, (2.0, 3.0))  # tau 0.1 s, look-ahead 0.05 m, no noise
@@ -190,9 +190,27 @@ def _detour_run(depth: float, stop: float | None = None) -> dict[str, Any]:
 
 def test_a_detour_round_a_zone_is_measured_as_one() -> None:
     quality = _detour_run(0.4)
-    # on the line wherever it is judged (the bump's first 4 cm come before the path
-    # is within the time a detour needs to start of the zone: 0.1 mm off)
-    assert quality["cross_track_error_max"] < 2e-4
+    # judged again once the robot has kept up with its reference for 5 tau (0.5 s):
+    # within the tolerance (0.1 m) of it, their velocities apart by at most
+    # 0.1 m / 5 tau (the bump's slope): on the bump's last 8 mm (its first 4 cm
+    # come before the path is within the time a detour needs to start of the
+    # zone: 0.1 mm off)
+    t = np.arange(0.0, 14.0 + 0.005, 0.01)
+    y = np.where(np.abs(t - 5) < 2.5, -0.4 * (1 + np.cos(np.pi * (t - 5) / 2.5)) / 2, 0.0)
+    slope = np.where(
+        np.abs(t - 5) < 2.5, 0.4 * np.pi / 5 * np.abs(np.sin(np.pi * (t - 5) / 2.5)), 0
+    )
+    with_it = (np.abs(y) <= 0.1) & (slope <= 0.1 / 0.5)
+    rock = Zone("rock", {"type": "circle", "center": [5.0, 0.7], "radius": 1.0}, False)
+    _, placed = track_samples(t, t.copy(), y, t.copy(), np.zeros(t.size), NUMBERS, [rock])
+    assert placed is not None
+    after = int(np.flatnonzero(placed.detour)[-1]) + 1
+    back = after + int(np.flatnonzero(with_it[after:])[0])  # with it from here on ...
+    rejoined = back + 50 - 1  # ... for 5 tau: 50 samples
+    judged = int(np.flatnonzero(placed.judged[after:])[0]) + after
+    assert abs(judged - rejoined) <= 1
+    assert quality["cross_track_error_max"] == pytest.approx(abs(y[judged]), abs=1e-9)
+    assert quality["cross_track_error_max"] < 0.01
     assert quality["along_track_lag_max"] < 1e-9
     assert quality["detour_offset_max"] == pytest.approx(0.4, abs=1e-3)
     assert 3.0 < quality["detour_time"] < 6.0

@@ -419,6 +419,12 @@ def track_samples(
         math.hypot(px[0] - rx[0], py[0] - ry[0]), float(reference_speed[0])
     )
     excused = t - t[0] < entry - 1e-9 * dt
+    # The entry ends sooner once the robot has kept up with its reference point.
+    within = int(np.count_nonzero(excused))
+    if within:
+        kept_up = _settled(px[:within], py[:within], rx[:within], ry[:within], numbers)
+        if kept_up.any():
+            excused[int(np.argmax(kept_up)) :] = False
     # The entry is a prefix, not judged; a phase that runs for a set time and ends
     # in it (too short for the limits to join the path) is judged at its end.
     after_entry = min(int(np.count_nonzero(excused)), t.size - 1)
