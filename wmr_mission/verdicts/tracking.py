@@ -420,11 +420,9 @@ def track_samples(
     )
     excused = t - t[0] < entry - 1e-9 * dt
     # The entry ends sooner once the robot has kept up with its reference point.
-    within = int(np.count_nonzero(excused))
-    if within:
-        kept_up = _settled(px[:within], py[:within], rx[:within], ry[:within], numbers)
-        if kept_up.any():
-            excused[int(np.argmax(kept_up)) :] = False
+    kept_up = _kept_up(px, py, rx, ry, numbers, 0, int(np.count_nonzero(excused)))
+    if kept_up is not None:
+        excused[kept_up:] = False
     # The entry is a prefix, not judged; a phase that runs for a set time and ends
     # in it (too short for the limits to join the path) is judged at its end.
     after_entry = min(int(np.count_nonzero(excused)), t.size - 1)
@@ -579,29 +577,46 @@ def _detours(
     moving = _mean_over(speed, window) >= MOVING * _mean_over(reference_speed, window)
     detour = blocked & moving
     rejoining = np.zeros(px.size, dtype=bool)
-    settled = _settled(px, py, rx, ry, numbers)
     for k in np.flatnonzero(blocked[:-1] & ~blocked[1:]) + 1:
         gap = math.hypot(px[k] - rx[k], py[k] - ry[k])
         needed = numbers.recovery_time(gap, float(reference_speed[k]))
-        end = k + math.ceil(needed / numbers.dt - 1e-9)
-        back = np.flatnonzero(settled[k:end])
-        rejoining[k : k + int(back[0]) if back.size else end] = True
+        end = min(int(k) + math.ceil(needed / numbers.dt - 1e-9), px.size)
+        back = _kept_up(px, py, rx, ry, numbers, int(k), end)
+        rejoining[k : end if back is None else back] = True
     return detour, rejoining
 
 
-def _settled(
-    px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray, numbers: MissionNumbers
-) -> NDArray[np.bool_]:
-    """Whether the robot has kept up with its reference point for the SETTLING
-    time constants up to each sample: within the tracking tolerance of it, their
-    velocities apart by at most the tolerance over that time."""
+def _kept_up(
+    px: FloatArray,
+    py: FloatArray,
+    rx: FloatArray,
+    ry: FloatArray,
+    numbers: MissionNumbers,
+    begin: int,
+    end: int,
+) -> int | None:
+    """The first sample of ``begin`` .. ``end`` - 1 by which the robot has kept up
+    with its reference point for SETTLING time constants: at each of those
+    samples within the tracking tolerance of it, their velocities (from the
+    sample before; none before the first) apart by at most the tolerance over
+    that time. None if there is none."""
     tolerance, dt = numbers.tracking_tolerance, numbers.dt
-    ex, ey = px - rx, py - ry
-    apart = np.hypot(np.diff(ex, prepend=ex[0]), np.diff(ey, prepend=ey[0])) / dt
-    with_it = (np.hypot(ex, ey) <= tolerance) & (
-        apart <= tolerance / (SETTLING * numbers.time_constant)
-    )
     window = max(1, round(SETTLING * numbers.time_constant / dt))
-    count = np.concatenate(([0], np.cumsum(with_it, dtype=np.int64)))
-    k = np.arange(with_it.size)
-    return count[k + 1] - count[np.maximum(k + 1 - window, 0)] >= window
+    first = max(begin - window, 0)  # the window's first sample's one before, if any
+    if end <= first:
+        return None
+    ex, ey = px[first:end] - rx[first:end], py[first:end] - ry[first:end]
+    with_it = np.hypot(ex, ey) <= tolerance
+    if np.count_nonzero(with_it) < window:  # never near it for long enough
+        return None
+    apart = np.hypot(np.diff(ex), np.diff(ey)) / dt
+    with_it[1:] &= apart <= tolerance / (SETTLING * numbers.time_constant)
+    if first > 0:  # the sample before the window: there for its first one's velocity
+        with_it[0] = False
+    # runs of samples with it: each has kept up from its start + window - 1 on
+    off = np.flatnonzero(~with_it)
+    starts = np.concatenate(([0], off + 1))
+    stops = np.concatenate((off, [with_it.size]))
+    ready = np.maximum(starts + window - 1, begin - first)
+    found = np.flatnonzero(ready < stops)
+    return first + int(ready[found[0]]) if found.size else None
