@@ -14,6 +14,7 @@ import yaml
 from wmr_mission import mission_from_dict, run_mission
 from wmr_mission.kernels.disturbances import Actuation, applied_input
 from wmr_mission.sim.plan import plan_mission
+from wmr_mission.sim.runner import previewed
 from wmr_mission.verdicts.metrics import check_expectations, judge
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 
@@ -354,3 +355,42 @@ def test_a_park_at_speed_turns_round_to_a_target_behind_it() -> None:
     assert result.v[park].min() > -0.05  # forwards all the way
     check = next(c for c in summary["expectations"] if c["metric"] == "stall_time")
     assert check["value"] == 0.0
+
+
+def test_a_coverage_route_turns_into_its_end_arcs_before_they_start() -> None:
+    """A coverage route (0.88 m/s, 2.8 rad/s and 3.6 rad/s^2, gen-087-coverage):
+    each lane's end arc starts at its full turn rate in one sample, the
+    turn-rate acceleration limit ramps the robot's turn up over 0.5 s after
+    it, and the robot ran 0.116 m wide of the arcs (0.104 allowed). Previewed,
+    the turn begins before the arc and the robot keeps to it."""
+    data = yaml.safe_load(
+        (ROOT / "tests" / "data" / "generated" / "gen-087-coverage.yaml").read_text()
+    )
+    data["phases"] = data["phases"][:1]
+    _, summary = _judged(data)
+    assert summary["outcome"] == "success", summary["message"]
+    assert summary["phases"][0]["tracking"]["cross_track_error_max"] < 0.08
+
+
+def test_the_previewed_path_turns_early_across_it_and_not_along_it() -> None:
+    """previewed: a line into a quarter circle (1 m/s, radius 1, dt 0.01):
+    the tangent turns from half the averaging time before the arc, the point
+    moves across the path only, a line stays a line, and a row is the same
+    whichever block it is sampled in."""
+    dt, half = 0.01, 20
+    t = np.arange(-100, 200) * dt
+    on_arc = t > 0.0
+    angle = np.where(on_arc, t, 0.0)
+    rows = np.empty((t.size, 4))
+    rows[:, 0] = np.where(on_arc, np.sin(angle), t)
+    rows[:, 1] = np.where(on_arc, 1.0 - np.cos(angle), 0.0)
+    rows[:, 2] = np.cos(angle)
+    rows[:, 3] = np.sin(angle)
+    block = previewed(rows, half)
+    times = t[half:-half]
+    heading = np.arctan2(block[:, 7], block[:, 6])
+    assert np.all(heading[times <= -half * dt] == 0.0)  # a line stays a line
+    assert np.all(heading[(times > -half * dt) & (times <= 0.0)] > 0.0)  # turns early
+    along = (block[:, 4] - block[:, 0]) * block[:, 2] + (block[:, 5] - block[:, 1]) * block[:, 3]
+    assert np.abs(along).max() < 1e-12  # never moved along the path
+    assert np.array_equal(previewed(rows[37:], half), block[37:])

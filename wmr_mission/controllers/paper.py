@@ -44,6 +44,7 @@ from wmr_mission.kernels.model import (
     hypot,
     input_jacobian_into,
     jacobian_terms,
+    preview_rows,
     saturate,
     step,
     stopping_speed,
@@ -198,6 +199,9 @@ class PaperTuning(NamedTuple):
     # [s] how far ahead, in the path's time, the aim's offset round the zones
     # is taken: the lag of an aim moving at the law's time constant.
     aim_lead: float = 0.0
+    # [s] how far ahead the path's turns are previewed under a turn-rate
+    # acceleration limit (0: none; kernels.model.preview_rows, anticipated).
+    preview: float = 0.0
 
 
 # Regulation forms (controller.regulation.form).
@@ -1002,6 +1006,27 @@ def hold_across_at_a_stop(
     aim[1] += across * aim[2]
 
 
+@kernel
+def anticipated(aim_now: FloatArray, aim: FloatArray, estimate: FloatArray, reach: float) -> None:
+    """The path at t_k and t_{k+1} as previewed (aim_now[4:8], aim[4:8]; the
+    runner's previewed): its turns begun early at the pace the turn-rate
+    acceleration limit follows. Not while joining the path: beyond
+    ``reach`` of it the previewed point moves in as the robot comes within
+    twice that (a robot 0.5 m behind its reference on a coverage lane's
+    end arc, turning to its early point, cut inside the arc,
+    gen-012-coverage; docs/paper-notes.md, eq. (27), "The path's turn
+    previewed")."""
+    distance = hypot(aim_now[0] - estimate[0], aim_now[1] - estimate[1])
+    share = min(max(2.0 - distance / reach, 0.0), 1.0)
+    for point in (aim_now, aim):
+        for i in range(4):
+            point[i] += share * (point[4 + i] - point[i])
+        norm = hypot(point[2], point[3])
+        if norm > 0.0:
+            point[2] /= norm
+            point[3] /= norm
+
+
 @inlined
 def next_input(
     tuning: PaperTuning,
@@ -1021,6 +1046,8 @@ def next_input(
     kinds = phase.constraint_kinds
     params = phase.constraint_params
     if phase.tracking:
+        if tuning.preview > 0.0:
+            anticipated(aim_now, aim, estimate, tuning.error_reach)
         path_x = aim_now[0]
         path_y = aim_now[1]
         if kinds.shape[0]:
@@ -1192,6 +1219,15 @@ def aim_lead(settings: PaperController, dt: float, limits: FloatArray) -> float:
     return float(settings.tracking.time_constant)
 
 
+def preview_time(settings: PaperController, dt: float, limits: FloatArray) -> float:
+    """[s] How far ahead the law previews the path's turns (preview_rows):
+    under a turn-rate acceleration limit, and not for the one-sample laws
+    and the axle law (anticipated)."""
+    if turn_acceleration(settings, dt, limits) == math.inf:
+        return 0.0
+    return preview_rows(limits, dt) * float(dt)
+
+
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
     regulation = settings.regulation
     return PaperTuning(
@@ -1208,6 +1244,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         error_reach=error_reach(settings, plant.dt, plant.limits[0], plant.limits),
         turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
         aim_lead=aim_lead(settings, plant.dt, plant.limits),
+        preview=preview_time(settings, plant.dt, plant.limits),
     )
 
 

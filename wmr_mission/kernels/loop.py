@@ -79,7 +79,9 @@ class PathBlock(NamedTuple):
     """The path of a track phase, sampled ahead by the runner."""
 
     start: int  # phase-local sample of row 0
-    rows: FloatArray  # (n, 4) x, y, unit tangent x, y (NaN where the path rests)
+    # (n, 4) x, y, unit tangent x, y (NaN where the path rests); (n, 8) under a
+    # turn-rate acceleration limit: the same, then the path as previewed
+    rows: FloatArray
 
 
 class Signals(NamedTuple):
@@ -92,8 +94,8 @@ class Signals(NamedTuple):
     measured: FloatArray  # (3,) the measurement of the sample being recorded (NaN: none)
     u: FloatArray  # (2,) u_k
     u_prev: FloatArray  # (2,) u_{k-1}
-    aim_now: FloatArray  # (4,) path point and unit tangent at t_k (tracking)
-    aim: FloatArray  # (4,) path point and unit tangent at t_{k+1} the controller aims at
+    aim_now: FloatArray  # (8,) path point and unit tangent at t_k (tracking), then previewed
+    aim: FloatArray  # (8,) the same at t_{k+1}, the point the controller aims at
     # The controller's memory within a phase (wmr_mission.controllers.registry);
     # zeroed at phase entry.
     memory: FloatArray
@@ -299,6 +301,9 @@ def run_segment(
             reference_y = path.rows[row, 1]
             path_point(path.rows, row, estimate[2], aim_now)
             path_point(path.rows, row + 1, estimate[2], aim)
+            if path.rows.shape[1] > 4:  # the path as previewed too (sim.runner.previewed)
+                path_point(path.rows[:, 4:], row, estimate[2], aim_now[4:])
+                path_point(path.rows[:, 4:], row + 1, estimate[2], aim[4:])
         x = state[0]
         y = state[1]
         theta = state[2]

@@ -110,6 +110,22 @@ def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
     return math.sqrt(half_step * half_step + 2.0 * acceleration * distance) - half_step
 
 
+# The share of the time from rest to the turn-rate limit at the turn-rate
+# acceleration limit that a path's turn is previewed by (preview_rows).
+PREVIEW_SHARE = 0.5
+
+
+def preview_rows(limits: FloatArray, dt: float) -> int:
+    """How many samples ahead (and behind) a path's turn is averaged over
+    under a turn-rate acceleration limit ``a``: PREVIEW_SHARE of
+    ``omega_max / a``, so that the turn is averaged over the time the robot
+    takes to its turn-rate limit; 0 without such a limit (docs/paper-notes.md,
+    eq. (27), "The path's turn previewed")."""
+    if not math.isfinite(float(limits[3])):
+        return 0
+    return round(PREVIEW_SHARE * float(limits[1]) / float(limits[3]) / float(dt))
+
+
 @kernel
 def braking_distance(v: float, acceleration: float, dt: float) -> float:
     """[m] Signed distance covered after the next sample while braking from

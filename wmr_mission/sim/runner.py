@@ -19,6 +19,7 @@ from enum import StrEnum
 from typing import Any
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.controllers.constrained_tracking import WAY_COLUMNS, nearest_chords, way_at
@@ -26,6 +27,7 @@ from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import ELLIPSE_ROW, max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
+from wmr_mission.kernels.model import preview_rows
 from wmr_mission.kernels.resident import LONG_RUN, give_back_compiler_pages
 from wmr_mission.output.result import RunResult
 from wmr_mission.plugins import failure_message
@@ -318,8 +320,19 @@ class PhaseRun:
         return PathBlock(local_sample, block[start - first : start - first + rows])
 
     def _sample(self, start: int, rows: int) -> FloatArray:
+        """The path's rows; under a turn-rate acceleration limit each row also
+        holds the path as previewed (previewed)."""
+        half = preview_rows(self.mission.plant.limits, self.mission.dt)
+        if half == 0:
+            return self._sample_rows(start, rows)
+        around = self._sample_rows(start - half, rows + 2 * half, at_rest_before=True)
+        return previewed(around, half)
+
+    def _sample_rows(self, start: int, rows: int, at_rest_before: bool = False) -> FloatArray:
         assert self._trajectory is not None
         t = (start + np.arange(rows, dtype=np.float64)) * self.mission.dt
+        if at_rest_before:  # before its start the path is where it starts
+            t = np.maximum(t, 0.0)
         x, y, dx, dy = self._trajectory.sample(t)
         block = np.empty((rows, 4))
         block[:, 0] = x
@@ -331,6 +344,38 @@ class PhaseRun:
         if not moving.all():  # only where it rests: numpy fills two columns slowly
             block[~moving, 2:] = np.nan
         return block
+
+
+def previewed(rows: FloatArray, half: int) -> FloatArray:
+    """The path's rows (point, unit tangent) from ``half`` rows in to
+    ``half`` from the end, each followed by the path previewed there: its
+    tangent the mean of the tangents ``half`` rows either side, its point
+    moved across the path by the mean's (along it, where the path's timing
+    puts it). A turn begins and ends half the averaging time early and late,
+    ramped at the pace the turn-rate acceleration limit follows instead of
+    stepping (docs/paper-notes.md, eq. (27), "The path's turn previewed").
+    Each row's mean is summed over its own window, in the same order
+    whichever block it is sampled in, so a run's bytes do not depend on
+    where its chunks start."""
+    width = 2 * half + 1
+    count = rows.shape[0] - 2 * half
+    tangents = np.nan_to_num(rows[:, 2:])  # a resting row's turns nothing
+    means = np.empty((count, 4))
+    means[:, :2] = sliding_window_view(rows[:, :2], width, axis=0).sum(axis=2) / width
+    means[:, 2:] = sliding_window_view(tangents, width, axis=0).sum(axis=2)
+    block = np.empty((count, 8))
+    block[:, :4] = rows[half : half + count]
+    tx, ty = block[:, 2], block[:, 3]
+    resting = np.isnan(tx)
+    across = (means[:, 1] - block[:, 1]) * tx - (means[:, 0] - block[:, 0]) * ty
+    block[:, 4] = np.where(resting, block[:, 0], block[:, 0] - across * ty)
+    block[:, 5] = np.where(resting, block[:, 1], block[:, 1] + across * tx)
+    norm = np.hypot(means[:, 2], means[:, 3])
+    turned = norm > 1e-9
+    with np.errstate(invalid="ignore", divide="ignore"):
+        block[:, 6] = np.where(turned, means[:, 2] / norm, np.nan)
+        block[:, 7] = np.where(turned, means[:, 3] / norm, np.nan)
+    return block
 
 
 # Per compiled loop, its entry point once it has one: found from the
@@ -548,8 +593,8 @@ class _Run:
             measured=np.full(3, math.nan),
             u=np.zeros(2),
             u_prev=np.zeros(2),
-            aim_now=np.zeros(4),
-            aim=np.zeros(4),
+            aim_now=np.zeros(8),
+            aim=np.zeros(8),
             memory=np.zeros(m.controller.memory_size),
             counters=np.zeros(loop.CLOCK + 1, dtype=np.int64),
             exit_value=np.zeros(1),
