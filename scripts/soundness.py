@@ -590,11 +590,8 @@ class _PhaseJudge:
         gap = math.hypot(px[0] - rx[0], py[0] - ry[0])
         entry = recovery_time(spec, gap, float(speed_ref[0]))
         entering = t - t[0] < entry
-        ex, ey = px - rx, py - ry
-        apart = np.hypot(np.gradient(ex), np.gradient(ey)) / self.dt
-        with_it = (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (5 * tau))
-        held = max(1, round(5 * tau / self.dt))
-        kept_up = np.convolve(with_it, np.ones(held), "full")[: t.size] >= held
+        # ... or less: it ends once the robot has kept up with its reference for 5 tau.
+        kept_up = self.kept_up(px, py, rx, ry, tolerance)
         back = np.flatnonzero(entering & kept_up)
         if back.size:
             entering &= t < t[back[0]]
@@ -641,11 +638,6 @@ class _PhaseJudge:
                 f"first at t = {t[k]:.2f} s"
             )
         # The rejoining ends once the robot has kept up with its reference for 5 tau.
-        ex, ey = px - rx, py - ry
-        apart = np.hypot(np.gradient(ex), np.gradient(ey)) / self.dt
-        with_it = (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (5 * tau))
-        held = max(1, round(5 * tau / self.dt))
-        kept_up = np.convolve(with_it, np.ones(held), "full")[: t.size] >= held
         for k in np.flatnonzero(blocked[:-1] & ~blocked[1:]) + 1:
             error = math.hypot(px[k] - rx[k], py[k] - ry[k])
             rejoining = (t >= t[k]) & (t - t[k] < recovery_time(spec, error, float(speed_ref[k])))
@@ -671,6 +663,19 @@ class _PhaseJudge:
                 f"{'stalled at a zone: ' if stalled else ''}{what} at t = {t[k]:.2f} s; "
                 f"worst {cross[bad].max():.3g} m off, {lag[bad].max():.3g} m behind"
             )
+
+    def kept_up(
+        self, px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray, tolerance: float
+    ) -> FloatArray:
+        """Whether the robot has kept up with its reference point for 5 tau by each
+        sample: at each sample of the last 5 tau within the tolerance of it, their
+        velocities (from the sample before; none before the first) apart by at most
+        the tolerance over 5 tau."""
+        ex, ey = px - rx, py - ry
+        apart = np.r_[0.0, np.hypot(np.diff(ex), np.diff(ey))] / self.dt
+        with_it = (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (5 * self.tau))
+        held = max(1, round(5 * self.tau / self.dt))
+        return np.convolve(with_it, np.ones(held), "full")[: px.size] >= held
 
     def on_its_path(
         self,
