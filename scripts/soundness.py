@@ -470,6 +470,8 @@ class _PhaseJudge:
         # of the turn rate: a law that turns more on noise than that amplifies it.
         self.noise_turn_rate = spec.heading_noise / self.tau
         self.noise_speed = spec.position_noise / self.tau
+        # The samples a track phase's tracking is judged at (all of a regulate phase's).
+        self.tracked = np.ones(self.t.size, dtype=bool)
 
     def problem(self, text: str) -> None:
         self.result.problems.append(text)
@@ -645,6 +647,8 @@ class _PhaseJudge:
             excused |= rejoining & ((t < t[back[0]]) if back.size else True)
         judged = ~excused
         judged[-1] |= ended_in_entry
+        self.tracked = np.zeros(self.t.size, dtype=bool)
+        self.tracked[known] = judged
         m = self.result.metrics
         m["entry_time"] = entry
         m["cross_track_max"] = float(cross[judged].max()) if judged.any() else None
@@ -837,6 +841,7 @@ class _PhaseJudge:
         self.t, self.v, self.omega = self.t[first:], self.v[first:], self.omega[first:]
         self.x, self.y = self.x[first:], self.y[first:]
         self.x_ref, self.y_ref = self.x_ref[first:], self.y_ref[first:]
+        self.tracked = self.tracked[first:]
         for name, u, limit in (
             ("v", self.v, spec.v_limit),
             ("omega", self.omega, spec.omega_limit),
@@ -927,7 +932,10 @@ class _PhaseJudge:
         """Turn-rate jitter: the spread of omega about its centred moving mean over two
         time constants (robust: 1.4826 times the median absolute deviation, so a
         manoeuvre's few steps, judged as kicks, do not count), beyond JITTER_FLOOR of
-        the limit plus what the heading noise explains (noise_turn_rate)."""
+        the limit plus what the heading noise explains (noise_turn_rate); on a path,
+        over the samples its tracking is judged at (the entry and a detour are
+        manoeuvres, each step of the turn rate in them deviating from the moving
+        mean for two time constants), or all if none is."""
         half = max(2, round(self.tau / self.dt))
         window = 2 * half + 1
         skip = round(REVERSAL_WINDOW * self.tau / self.dt)  # the law's switch at entry
@@ -936,6 +944,10 @@ class _PhaseJudge:
         mean = np.convolve(self.omega, np.ones(window) / window, mode="valid")
         deviation = self.omega[half:-half] - mean
         deviation = deviation[max(0, skip - half) :]
+        first = half + max(0, skip - half)
+        tracked = self.tracked[first : first + deviation.size]
+        if tracked.any():
+            deviation = deviation[tracked]
         value = float(ROBUST_STD * np.median(np.abs(deviation)))
         allowed = JITTER_FLOOR * self.spec.omega_limit + self.noise_turn_rate
         self.result.metrics["turn_rate_jitter"] = value

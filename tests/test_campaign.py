@@ -792,7 +792,7 @@ def test_a_row_measures_of_each_phase_only_what_its_thresholds_read(
     for name in (
         "_off_path_bound",
         "distance_to_path",
-        "track_quality",
+        "track_samples",
         "intrusion_max",
         "stall_time",
     ):

@@ -289,6 +289,28 @@ def test_turn_rate_jitter_of_known_signals() -> None:
     assert inputs.jitter(np.ones(120), NUMBERS) is None  # 1 s skipped, then too short
 
 
+def test_turn_rate_jitter_counts_the_samples_it_is_given() -> None:
+    """A track phase's jitter counts the samples its tracking is judged at: the
+    steps of an entry or a detour, each off the moving mean for two time
+    constants, filled half of a short phase and set its median."""
+    k = np.arange(300)
+    quiet = 0.02 * (-1.0) ** k  # 0.02 rad/s of chatter about zero
+    steps = quiet.copy()
+    for start in range(100, 240, 30):  # turns of 2 rad/s for 0.15 s, 0.3 s apart
+        steps[start : start + 15] += 2.0
+    manoeuvre = (k >= 90) & (k < 260)
+    expected = inputs.jitter(quiet, NUMBERS)
+    assert expected == pytest.approx(1.4826 * 0.02 * (1 - 1 / 21))
+    assert inputs.jitter(steps, NUMBERS) > 10 * expected  # the steps set the median
+    assert inputs.jitter(steps, NUMBERS, ~manoeuvre) == pytest.approx(expected)
+    deviation = inputs.jitter_deviation(steps, NUMBERS, ~manoeuvre)
+    assert np.isnan(deviation[manoeuvre]).all()
+    assert np.isfinite(deviation[260:290]).all()
+    # none counted (a phase all entry): all are, as without the mask
+    none = np.zeros(300, dtype=bool)
+    assert inputs.jitter(steps, NUMBERS, none) == inputs.jitter(steps, NUMBERS)
+
+
 def test_inputs_are_judged_from_the_estimates_first_convergence() -> None:
     t = np.arange(0.0, 1.0, 0.01)
     decay = 0.9 ** np.arange(t.size)

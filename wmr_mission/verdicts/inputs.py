@@ -22,7 +22,10 @@ still correcting):
   over two time constants, robust (1.4826 times the median absolute
   deviation: the few samples of a manoeuvre do not count), after the first
   REVERSAL_WINDOW time constants of what is judged (the law's switch at the
-  phase's entry).
+  phase's entry); in a track phase, over the samples its tracking is judged
+  at (not in the entry, a detour or its rejoining, where each step of the
+  turn rate sits off the moving mean for two time constants: such steps
+  filled half of a short route's samples), or all if it judges none.
 """
 
 from __future__ import annotations
@@ -96,8 +99,10 @@ def input_quality(
     omega: FloatArray,
     numbers: MissionNumbers,
     progress: Progress,
+    counted: NDArray[np.bool_] | None = None,
 ) -> dict[str, Any]:
-    """The input metrics of a phase's judged samples (``inputs`` in its summary)."""
+    """The input metrics of a phase's judged samples (``inputs`` in its summary);
+    ``counted``: per sample, whether the jitter counts it (None: all)."""
     tau, dt = numbers.time_constant, numbers.dt
 
     def drives(a: int, b: int) -> bool:  # half the distance driven at the limit is progress
@@ -121,7 +126,7 @@ def input_quality(
         metrics[f"{name}_jump_max"] = _finite(jumps.max()) if jumps.size else 0.0
         metrics[f"{name}_reversals"] = most_reversals(t, values, floor, REVERSAL_WINDOW * tau)
         metrics[f"{name}_fight_time"] = fight_time(values, limit, numbers, deliberate)
-    metrics["turn_rate_jitter"] = jitter(omega, numbers)
+    metrics["turn_rate_jitter"] = jitter(omega, numbers, counted)
     return metrics
 
 
@@ -197,15 +202,43 @@ def fight_time(
     return fought * numbers.dt
 
 
-def jitter(omega: FloatArray, numbers: MissionNumbers) -> float | None:
+def jitter(
+    omega: FloatArray, numbers: MissionNumbers, counted: NDArray[np.bool_] | None = None
+) -> float | None:
     """[rad/s] robust spread of ``omega`` about its centred moving mean over two
-    time constants, after the first REVERSAL_WINDOW time constants; None when
-    fewer samples are left."""
-    if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
-        spread = jit.compiled(jitter_median)(omega, *_jitter_window(numbers))
-        return _finite(ROBUST_STD * spread)  # None for too few samples too: NaN
+    time constants, after the first REVERSAL_WINDOW time constants, of the
+    samples ``counted`` (None: all; all too if it counts none of them); None
+    when fewer samples are left."""
+    if _counts_all(omega, numbers, counted):
+        if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
+            spread = jit.compiled(jitter_median)(omega, *_jitter_window(numbers))
+            return _finite(ROBUST_STD * spread)  # None for too few samples too: NaN
+        found = _deviation(omega, numbers)
+        return None if found is None else _finite(ROBUST_STD * median(np.abs(found[1])))
     found = _deviation(omega, numbers)
-    return None if found is None else _finite(ROBUST_STD * median(np.abs(found[1])))
+    if found is None:
+        return None
+    deviation = _counted(*found, counted)
+    return _finite(ROBUST_STD * median(np.abs(deviation)))
+
+
+def _counts_all(
+    omega: FloatArray, numbers: MissionNumbers, counted: NDArray[np.bool_] | None
+) -> bool:
+    """Whether ``counted`` leaves in every sample the jitter would take."""
+    if counted is None:
+        return True
+    half, skip = _jitter_window(numbers)
+    return bool(counted[max(half, skip) : omega.size - half].all())
+
+
+def _counted(first: int, deviation: FloatArray, counted: NDArray[np.bool_] | None) -> FloatArray:
+    """The ``deviation`` (from sample ``first`` on) of the samples ``counted``,
+    all of it if that is none (a phase judged on none of its samples)."""
+    if counted is None:
+        return deviation
+    kept = deviation[counted[first : first + deviation.size]]
+    return kept if kept.size else deviation
 
 
 def _jitter_window(numbers: MissionNumbers) -> tuple[int, int]:
@@ -226,14 +259,18 @@ def median(values: FloatArray) -> float:
     return float(part[half]) if values.size % 2 else float((part[half - 1] + part[half]) / 2)
 
 
-def jitter_deviation(omega: FloatArray, numbers: MissionNumbers) -> FloatArray:
+def jitter_deviation(
+    omega: FloatArray, numbers: MissionNumbers, counted: NDArray[np.bool_] | None = None
+) -> FloatArray:
     """Per sample, what :func:`jitter` takes the spread of: ``omega`` less its
     centred moving mean; NaN at the samples it does not count."""
     deviation = np.full(omega.size, np.nan)
     found = _deviation(omega, numbers)
     if found is not None:
-        first, counted = found
-        deviation[first : first + counted.size] = counted
+        first, values = found
+        deviation[first : first + values.size] = values
+        if counted is not None and _counted(first, values, counted).size < values.size:
+            deviation[~counted] = np.nan
     return deviation
 
 

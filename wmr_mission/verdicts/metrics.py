@@ -45,7 +45,7 @@ from wmr_mission.verdicts.passes import (
 from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
-from wmr_mission.verdicts.tracking import Placement, known_samples, track_quality
+from wmr_mission.verdicts.tracking import Placement, known_samples, track_samples
 from wmr_mission.verdicts.zones import intrusion_max, zones_of
 
 if TYPE_CHECKING:
@@ -480,16 +480,23 @@ class PhaseSamples:
         return temporal.placed(self.result, self.window) if self.info.kind == "track" else None
 
     @cached_value
-    def tracking(self) -> dict[str, Any] | None:
-        """Tracking against the timed reference (track phases)."""
+    def tracked(self) -> tuple[dict[str, Any], NDArray[np.bool_] | None] | None:
+        """Tracking against the timed reference, and per sample whether it is
+        judged (None: nothing measured), of a track phase."""
         if self.info.kind != "track":
             return None
         r, w = self.result, self.window
         timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
-        return track_quality(
+        found, samples = track_samples(
             r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed,
             r.constraint_margin, self.placement,
         )  # fmt: skip
+        return found, None if samples is None else samples.judged  # the errors not kept
+
+    @cached_value
+    def tracking(self) -> dict[str, Any] | None:
+        """Tracking against the timed reference (track phases)."""
+        return None if self.tracked is None else self.tracked[0]
 
     @cached_value
     def inputs(self) -> dict[str, Any]:
@@ -506,8 +513,11 @@ class PhaseSamples:
             progress = _towards_targets(self.info, first, stop, x, y)
         else:
             progress = lambda a, b: 0.0  # noqa: E731 - no aim known: nothing is progress
+        counted = None  # a track phase's jitter: the samples its tracking is judged at
+        if self.tracked is not None and self.tracked[1] is not None:
+            counted = self.tracked[1][first - self.window.start :]
         return input_metrics.input_quality(
-            r.t[judged], r.v[judged], r.omega[judged], self.numbers, progress
+            r.t[judged], r.v[judged], r.omega[judged], self.numbers, progress, counted
         )
 
     @cached_value

@@ -158,6 +158,7 @@ def run_signals(result: RunRecord) -> Signals:
         spans[info.name] = (start, end)
         w = slice(start, end)
         zones = zones_of(info.constraints, result.regions)
+        placed = None
         if info.kind == "track":
             timed = ended_by.get(info.name) in ("elapsed", "mission_time")
             _, placed = track_samples(
@@ -200,7 +201,12 @@ def run_signals(result: RunRecord) -> Signals:
                 judged[name][first + 1 : end] = True
         if first < end and "turn_rate_jitter" in metrics:
             jitter = line("jitter", "ω - moving mean")
-            jitter[first:end] = input_metrics.jitter_deviation(result.omega[first:end], numbers)
+            counted = None  # a track phase's: the samples its tracking is judged at
+            if info.kind == "track" and placed is not None:
+                counted = placed.judged[first - start :]
+            jitter[first:end] = input_metrics.jitter_deviation(
+                result.omega[first:end], numbers, counted
+            )
     if np.isfinite(result.constraint).any():
         line("constraint", "constraint value")[:] = result.constraint
         judged["constraint value"][:] = True

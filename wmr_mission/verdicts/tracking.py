@@ -443,7 +443,7 @@ def track_samples(
         cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
     judged = ~excused
     judged[-1] |= ended_in_entry
-    if zones or with_samples:
+    if zones:
         judged_cross, judged_lag = cross[judged], lag[judged]
     else:  # the entry alone is excused, a prefix: the samples after it, as views
         first = after_entry if ended_in_entry or not excused[-1] else t.size
