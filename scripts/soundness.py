@@ -623,15 +623,20 @@ class _PhaseJudge:
         detour_allowance = reach + 3 * spec.position_noise + spec.look_ahead + tolerance
         # In the entry, while the robot tracks its path with its reference point
         # straight ahead: a robot behind its reference heads for it, and cuts a bend
-        # between the two, the entry's to excuse.
+        # between the two by at most how far the path strays from the chord there,
+        # the entry's to excuse until it is back on its path.
         on_it = self.on_its_path(px, py, rx, ry, lag, cross, speed_ref, tolerance)
-        tracking = np.zeros(t.size, dtype=bool)
+        counted = ~entering
         arc = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+        tracks, cut = False, math.inf
         for k in np.flatnonzero(entering & detour.any()):
-            if chase_bend(arc, rx, ry, k, float(lag[k])) > tolerance:
-                continue
-            tracking[k] = on_it[k] or (k > 0 and tracking[k - 1])
-        wide = detour & (~entering | tracking) & (cross > detour_allowance)
+            bend = chase_bend(arc, rx, ry, k, float(lag[k]))
+            if bend > tolerance:
+                tracks, cut = False, max(cut, bend)
+            elif on_it[k]:
+                tracks, cut = True, 0.0
+            counted[k] = tracks or cross[k] > cut + tolerance
+        wide = detour & counted & (cross > detour_allowance)
         if wide.any():
             k = int(np.flatnonzero(wide)[0])
             self.problem(
@@ -654,7 +659,8 @@ class _PhaseJudge:
         m["cross_track_max"] = float(cross[judged].max()) if judged.any() else None
         m["lag_max"] = float(np.abs(lag[judged]).max()) if judged.any() else None
         m["detour_time"] = float(detour.sum() * self.dt)
-        m["detour_cross_max"] = float(cross[detour].max()) if detour.any() else None
+        measured = detour & counted
+        m["detour_cross_max"] = float(cross[measured].max()) if measured.any() else None
         bad = off & judged
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
@@ -674,10 +680,13 @@ class _PhaseJudge:
         """Whether the robot has kept up with its reference point for 5 tau by each
         sample: at each sample of the last 5 tau within the tolerance of it, their
         velocities (from the sample before; none before the first) apart by at most
-        the tolerance over 5 tau."""
+        the tolerance over 5 tau and by no more than half the reference's speed (a
+        robot at rest does not keep up with a slow reference)."""
         ex, ey = px - rx, py - ry
         apart = np.r_[0.0, np.hypot(np.diff(ex), np.diff(ey))] / self.dt
-        with_it = (np.hypot(ex, ey) <= tolerance) & (apart <= tolerance / (5 * self.tau))
+        reference = np.r_[0.0, np.hypot(np.diff(rx), np.diff(ry))] / self.dt
+        most = np.minimum(tolerance / (5 * self.tau), MOVING * reference)
+        with_it = (np.hypot(ex, ey) <= tolerance) & (apart <= most)
         held = max(1, round(5 * self.tau / self.dt))
         return np.convolve(with_it, np.ones(held), "full")[: px.size] >= held
 
@@ -703,7 +712,8 @@ class _PhaseJudge:
         dy = np.interp(place + step, arc, ry) - np.interp(place - step, arc, ry)
         size = np.hypot(dx, dy)
         ux, uy = dx / np.where(size > 0, size, 1.0), dy / np.where(size > 0, size, 1.0)
-        vx, vy = np.gradient(px) / self.dt, np.gradient(py) / self.dt
+        # the robot's velocity from the sample before
+        vx, vy = np.r_[0.0, np.diff(px)] / self.dt, np.r_[0.0, np.diff(py)] / self.dt
         on_it = (
             (cross <= tolerance)
             & (np.abs(vx * uy - vy * ux) <= tolerance / (5 * self.tau))

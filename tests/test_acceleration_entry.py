@@ -16,7 +16,7 @@ import pytest
 from judge_generated import GENERATED, judge_all
 from soundness import judge
 
-from wmr_mission import mission_from_dict, run_mission
+from wmr_mission import mission_from_dict, mission_from_text, run_mission
 from wmr_mission.verdicts.metrics import auto_threshold
 from wmr_mission.verdicts.numbers import MissionNumbers, half_turn_time, mission_numbers
 from wmr_mission.verdicts.tracking import track_quality
@@ -227,3 +227,34 @@ def test_a_timed_phase_that_ends_in_its_entry_is_judged_at_its_end(tmp_path: Pat
     [go] = judge(mission, _recorded(tmp_path, mission, 2.0)).phases
     assert go.metrics["entry_time"] > 1.0
     assert any("0.5 m off the path" in p for p in go.problems), go.problems
+
+
+SLOW_TURNED = """
+version: 1
+name: slow-turned
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 1.57}
+  limits: {v: 1.0, omega: 2.0, acceleration: {v: 0.3, omega: 0.5}}
+phases:
+  - name: route
+    track:
+      path: {type: line, start: [0, 0], heading: 0, speed: 0.19}
+    until: {elapsed: 12}
+"""
+
+
+def test_a_robot_at_rest_does_not_keep_up_with_a_slow_reference(tmp_path: Path) -> None:
+    """The robot starts on its reference, at rest, turned a quarter turn from a
+    line at 0.19 m/s: its velocity is within the tolerance over 5 tau (0.2 m/s)
+    of the reference's, but it is not moving with it. Taken as kept up, its
+    entry ended at 0.5 s and it failed 0.125 m off and 0.32 m behind (0.1 and
+    0.157 allowed), the judge alike; now it keeps up once it moves with its
+    reference, and succeeds."""
+    run = run_mission(mission_from_text(SLOW_TURNED))
+    summary = run.summary()
+    assert summary["outcome"] == "success", summary["message"]
+    mission = tmp_path / "slow.yaml"
+    mission.write_text(SLOW_TURNED)
+    run.write(tmp_path / "run", plots=False)
+    assert judge(mission, tmp_path / "run").sound

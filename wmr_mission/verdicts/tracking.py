@@ -13,10 +13,12 @@ sample's own reference point along the path. From it:
 Two stretches of a phase are not judged as tracking:
 
 - the **entry**: the least time the limits need to take out the gap to the
-  reference the phase starts with (:meth:`MissionNumbers.recovery_time`); a
-  phase that runs for a set time (``until: elapsed`` or ``mission_time``) and
-  ends before the entry does is judged at its last sample: it was too short
-  for the limits to join its path, and tracking it was all it was for;
+  reference the phase starts with (:meth:`MissionNumbers.recovery_time`), or
+  less: it ends once the robot has kept up with its reference point for
+  SETTLING time constants (:func:`_kept_up`); a phase that runs for a set
+  time (``until: elapsed`` or ``mission_time``) and ends before the entry
+  does is judged at its last sample: it was too short for the limits to join
+  its path, and tracking it was all it was for;
 - a **detour a zone forces**: where a zone lies across the straight way from
   the robot to its reference point, or the path runs into a zone within the
   time a smooth detour needs to start (half a turn at the turn-rate limit and
@@ -474,31 +476,33 @@ def _from_joining(
     point straight ahead: from a sample where it is within the tracking tolerance
     of its path, moving across it at no more than the tolerance over the settling
     time (SETTLING time constants) and along it at MOVING of the reference's speed
-    or more, until the path bends between its place and its reference point. A
-    robot behind its reference heads for it and cuts such a bend, the entry's
-    doing (:func:`_chase_bend`); it counts again once back on its path. A robot
-    that starts on its path at rest counts once under way; one that starts turned
-    away, or is still swinging round, does not."""
+    or more (its velocity from the sample before), until the path bends between
+    its place and its reference point. A robot behind its reference heads for it
+    and cuts such a bend, the entry's doing, by at most how far the path strays
+    from the straight way there (:func:`_chase_bend`): until it is back on its
+    path, a sample counts where the robot is farther off than the largest such
+    bend since it last tracked, and the tolerance. A robot that starts on its
+    path at rest counts once under way; one that starts turned away, or is still
+    swinging round, does not."""
     cross, lag = placement.on_path(numbers.tracking_tolerance)
     dt, tolerance = numbers.dt, numbers.tracking_tolerance
-    ahead = min(after_entry + 1, cross.size)  # each sample's velocity to the next
-    px, py = placement.px[:ahead], placement.py[:ahead]
-    vx = np.diff(px, append=px[-1]) / dt
-    vy = np.diff(py, append=py[-1]) / dt
-    ux, uy = placement.direction_at(np.arange(ahead), lag[:ahead])
+    px, py = placement.px[:after_entry], placement.py[:after_entry]
+    vx, vy = np.diff(px, prepend=px[:1]) / dt, np.diff(py, prepend=py[:1]) / dt
+    ux, uy = placement.direction_at(np.arange(after_entry), lag[:after_entry])
     on_it = (
-        (cross[:ahead] <= tolerance)
+        (cross[:after_entry] <= tolerance)
         & (np.abs(vx * uy - vy * ux) <= tolerance / (SETTLING * numbers.time_constant))
-        & (vx * ux + vy * uy >= MOVING * reference_speed[:ahead])
+        & (vx * ux + vy * uy >= MOVING * reference_speed[:after_entry])
     )
     counts = np.zeros(after_entry, dtype=bool)
-    tracking = False
+    tracking, cut = False, math.inf  # before it first tracks, all is the entry's
     for k in range(int(np.argmax(on_it)) if on_it.any() else after_entry, after_entry):
-        if _chase_bend(placement, k, float(lag[k])) > tolerance:
-            tracking = False
+        bend = _chase_bend(placement, k, float(lag[k]))
+        if bend > tolerance:
+            tracking, cut = False, max(cut, bend)
         elif on_it[k]:
-            tracking = True
-        counts[k] = tracking
+            tracking, cut = True, 0.0
+        counts[k] = tracking or cross[k] > cut + tolerance
     cross[:after_entry][~counts], lag[:after_entry][~counts] = np.nan, np.nan
     return cross, lag
 
@@ -599,7 +603,8 @@ def _kept_up(
     with its reference point for SETTLING time constants: at each of those
     samples within the tracking tolerance of it, their velocities (from the
     sample before; none before the first) apart by at most the tolerance over
-    that time. None if there is none."""
+    that time and by no more than MOVING of the reference's speed. None if there
+    is none."""
     tolerance, dt = numbers.tracking_tolerance, numbers.dt
     window = max(1, round(SETTLING * numbers.time_constant / dt))
     first = max(begin - window, 0)  # the window's first sample's one before, if any
@@ -609,8 +614,11 @@ def _kept_up(
     with_it = np.hypot(ex, ey) <= tolerance
     if np.count_nonzero(with_it) < window:  # never near it for long enough
         return None
-    apart = np.hypot(np.diff(ex), np.diff(ey)) / dt
-    with_it[1:] &= apart <= tolerance / (SETTLING * numbers.time_constant)
+    apart = np.hypot(np.diff(ex), np.diff(ey))
+    # ... and moving with it: apart by no more than MOVING of the reference's own
+    # speed too, or a robot at rest would keep up with a slow reference
+    moved = MOVING * np.hypot(np.diff(rx[first:end]), np.diff(ry[first:end]))
+    with_it[1:] &= apart <= np.minimum(moved, tolerance * dt / (SETTLING * numbers.time_constant))
     if first > 0:  # the sample before the window: there for its first one's velocity
         with_it[0] = False
     # runs of samples with it: each has kept up from its start + window - 1 on
