@@ -625,9 +625,9 @@ class _PhaseJudge:
         # straight ahead: a robot behind its reference heads for it, and cuts a bend
         # between the two by at most how far the path strays from the chord there,
         # the entry's to excuse until it is back on its path.
-        on_it = self.on_its_path(px, py, rx, ry, lag, cross, speed_ref, tolerance)
-        counted = ~entering
         arc = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+        on_it = self.on_its_path(px, py, arc, rx, ry, lag, cross, speed_ref, tolerance)
+        counted = ~entering
         tracks, cut = False, math.inf
         for k in np.flatnonzero(entering & detour.any()):
             bend = chase_bend(arc, rx, ry, k, float(lag[k]))
@@ -694,6 +694,7 @@ class _PhaseJudge:
         self,
         px: FloatArray,
         py: FloatArray,
+        arc: FloatArray,
         rx: FloatArray,
         ry: FloatArray,
         lag: FloatArray,
@@ -704,8 +705,8 @@ class _PhaseJudge:
         """Whether the robot is on its path at each sample: within the tolerance of
         it, its velocity across the path's direction there at most the tolerance
         over the settling time (5 tau), along it at least half the reference's
-        speed. Its lag may still be closing: the detour's width is across the path."""
-        arc = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+        speed. Its lag may still be closing: the detour's width is across the path.
+        ``arc``: the reference's arc length at each point."""
         place = arc - lag
         step = 1e-3  # [m] the path's direction at the place, from points either side
         dx = np.interp(place + step, arc, rx) - np.interp(place - step, arc, rx)

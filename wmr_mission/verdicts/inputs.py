@@ -213,13 +213,11 @@ def jitter(
         if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
             spread = jit.compiled(jitter_median)(omega, *_jitter_window(numbers))
             return _finite(ROBUST_STD * spread)  # None for too few samples too: NaN
-        found = _deviation(omega, numbers)
-        return None if found is None else _finite(ROBUST_STD * median(np.abs(found[1])))
+        counted = None
     found = _deviation(omega, numbers)
     if found is None:
         return None
-    deviation = _counted(*found, counted)
-    return _finite(ROBUST_STD * median(np.abs(deviation)))
+    return _finite(ROBUST_STD * median(np.abs(_counted(*found, counted))))
 
 
 def _counts_all(

@@ -57,6 +57,13 @@ class MissionNumbers:
         """[m] how far off its path (or behind) a robot that tracks may be, noise aside."""
         return TRACKING_TOLERANCE + self.position_noise
 
+    @property
+    def keeping_up_speed(self) -> float:
+        """[m/s] how far a robot's velocity may be from its reference's (or across
+        its path) while it keeps up: the tracking tolerance over the settling
+        time, SETTLING time constants."""
+        return self.tracking_tolerance / (SETTLING * self.time_constant)
+
     def recovery_time(self, error: float, reference_speed: float) -> float:
         """[s] the least time the limits need to take out a position error while the
         reference moves on: turn round (at most half a turn, under the turn-rate

@@ -30,8 +30,8 @@ A zone "lies across the way" when it is within the look-ahead and the tracking
 tolerance of it: the tracked point runs that far ahead of the axle, and a
 robot that tracks is that far off its path. How far off the path a detour
 takes the robot is its own metric (``detour_offset_max``), over the whole
-detour, its samples in the entry included once the robot has joined its
-path (:func:`_from_joining`), as is how long it lasts (``detour_time``).
+detour, its samples in the entry included while the robot tracks its path
+(:func:`_counted_in_entry`), as is how long it lasts (``detour_time``).
 """
 
 from __future__ import annotations
@@ -440,7 +440,7 @@ def track_samples(
         kept = numbers.body if margin is None else margin
         metrics["zone_reach"] = max(0.0, reach + kept)
     if detour[:after_entry].any():  # a detour in the entry: measured from the joining on
-        cross, lag = _from_joining(placement, numbers, after_entry, reference_speed)
+        cross, lag = _counted_in_entry(placement, numbers, after_entry, reference_speed)
     else:
         cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
     judged = ~excused
@@ -462,7 +462,7 @@ def track_samples(
     return metrics, _placed(known, size, cross, lag, judged, detour) if with_samples else None
 
 
-def _from_joining(
+def _counted_in_entry(
     placement: Placement,
     numbers: MissionNumbers,
     after_entry: int,
@@ -475,7 +475,7 @@ def _from_joining(
     The entry's samples count while the robot tracks its path with its reference
     point straight ahead: from a sample where it is within the tracking tolerance
     of its path, moving across it at no more than the tolerance over the settling
-    time (SETTLING time constants) and along it at MOVING of the reference's speed
+    time (``keeping_up_speed``) and along it at MOVING of the reference's speed
     or more (its velocity from the sample before), until the path bends between
     its place and its reference point. A robot behind its reference heads for it
     and cuts such a bend, the entry's doing, by at most how far the path strays
@@ -491,7 +491,7 @@ def _from_joining(
     ux, uy = placement.direction_at(np.arange(after_entry), lag[:after_entry])
     on_it = (
         (cross[:after_entry] <= tolerance)
-        & (np.abs(vx * uy - vy * ux) <= tolerance / (SETTLING * numbers.time_constant))
+        & (np.abs(vx * uy - vy * ux) <= numbers.keeping_up_speed)
         & (vx * ux + vy * uy >= MOVING * reference_speed[:after_entry])
     )
     counts = np.zeros(after_entry, dtype=bool)
@@ -602,9 +602,8 @@ def _kept_up(
     """The first sample of ``begin`` .. ``end`` - 1 by which the robot has kept up
     with its reference point for SETTLING time constants: at each of those
     samples within the tracking tolerance of it, their velocities (from the
-    sample before; none before the first) apart by at most the tolerance over
-    that time and by no more than MOVING of the reference's speed. None if there
-    is none."""
+    sample before; none before the first) apart by at most ``keeping_up_speed``
+    and by no more than MOVING of the reference's speed. None if there is none."""
     tolerance, dt = numbers.tracking_tolerance, numbers.dt
     window = max(1, round(SETTLING * numbers.time_constant / dt))
     first = max(begin - window, 0)  # the window's first sample's one before, if any
@@ -618,7 +617,7 @@ def _kept_up(
     # ... and moving with it: apart by no more than MOVING of the reference's own
     # speed too, or a robot at rest would keep up with a slow reference
     moved = MOVING * np.hypot(np.diff(rx[first:end]), np.diff(ry[first:end]))
-    with_it[1:] &= apart <= np.minimum(moved, tolerance * dt / (SETTLING * numbers.time_constant))
+    with_it[1:] &= apart <= np.minimum(moved, numbers.keeping_up_speed * dt)
     if first > 0:  # the sample before the window: there for its first one's velocity
         with_it[0] = False
     # runs of samples with it: each has kept up from its start + window - 1 on
