@@ -261,3 +261,31 @@ def test_the_tracking_after_a_detour_is_judged_once_the_robot_has_kept_up() -> N
     assert tracking["cross_track_error_max"] == pytest.approx(
         float(np.nanmax(signals.lines["cross_track"]["cross-track error"][judged])), abs=1e-12
     )
+
+
+def test_the_signals_figure_draws_faint_what_no_check_bounds() -> None:
+    """The pond's robot lags its reference by 0.68 m at first, twice the lag's
+    bound, in its entry, where the lag is not judged: verdicts.png draws that
+    part faint, and its lines drawn solid stay within their bounds, as the run
+    succeeded. The cross-track error beyond its bound is the detour's, which
+    its own, wider check bounds."""
+    from wmr_mission.output.figures import verdict_lines
+
+    run = run_mission(mission_from_text(pond(1.0, 2.0)))
+    assert run.succeeded
+    signals = run_signals(run)
+    tracking = _route(run)
+    numbers = mission_numbers(run.mission, run.dt, run.limits)
+    lag = signals.lines["along_track"]["along-track lag"]
+    faint = signals.unjudged("along-track lag")
+    assert faint is not None
+    assert np.nanmax(np.abs(lag)) > 0.6  # premise: far behind at first
+    assert np.nanmax(np.abs(np.where(faint, np.nan, lag))) <= tracking["along_track_lag_max"]
+    assert np.nanmax(np.abs(lag[faint])) > 2 * numbers.tracking_tolerance
+    cross = signals.lines["cross_track"]["cross-track error"]
+    solid = ~signals.unjudged("cross-track error")  # type: ignore[operator]
+    beyond = solid & (cross > tracking["cross_track_error_max"] + 1e-12)
+    assert beyond.any() and signals.judged["detour"][beyond].all()
+    drawn = verdict_lines(run)
+    assert drawn.unjudged["along-track lag"].any()
+    assert "depth into a zone" not in drawn.unjudged  # bounded wherever drawn

@@ -48,7 +48,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from wmr_mission.record import RunRecord
-    from wmr_mission.verdicts.signals import Check
+    from wmr_mission.verdicts.signals import Check, Mask
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -1175,6 +1175,7 @@ MAX_MARKS = 2000
 MAX_WORDS = 3
 FAILED_COLOR = "tab:red"
 SIGNAL_COLORS = ("tab:blue", "tab:orange", "tab:green")
+FAINT = 0.3  # a signal's samples its checks do not bound (an entry, a detour)
 
 
 @dataclass(frozen=True)
@@ -1191,6 +1192,8 @@ class VerdictLines:
     ranges: dict[str, dict[str, tuple[float, float] | None]]
     # id of a peak check -> its line's finite values at the samples marked beyond it
     marked: dict[int, FloatArray]
+    # line -> its samples at thin(0, samples) bounded by no check, drawn faint
+    unjudged: dict[str, Mask]
 
 
 def verdict_lines(result: RunRecord) -> VerdictLines:
@@ -1207,7 +1210,12 @@ def verdict_lines(result: RunRecord) -> VerdictLines:
         values = signals.lines.get(panel or "", {}).get(name)
         if check.peak and check.over.size and values is not None:
             marked[id(check)] = finite(values[check.over[thin(0, check.over.size, MAX_MARKS)]])
-    return VerdictLines(signals.checks, signals.failed(), thinned, ranges, marked)
+    unjudged = {}
+    for name in {n for lines in signals.lines.values() for n in lines}:
+        hidden = signals.unjudged(name)
+        if hidden is not None and hidden[k].any():
+            unjudged[name] = hidden[k]
+    return VerdictLines(signals.checks, signals.failed(), thinned, ranges, marked, unjudged)
 
 
 def _range(values: FloatArray) -> tuple[float, float] | None:
@@ -1256,7 +1264,13 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
     for ax, panel in zip(axes, order, strict=True):
         drawn = signals.thinned.get(panel, {})
         colors = {name: SIGNAL_COLORS[i % 3] for i, name in enumerate(drawn)}
+        faint = False
         for name, values in drawn.items():
+            hidden = signals.unjudged.get(name)
+            if hidden is not None:  # the whole line faint, its judged samples over it
+                ax.plot(t[k], values, color=colors[name], linewidth=1.0, alpha=FAINT)
+                values = np.where(hidden, np.nan, values)
+                faint = True
             ax.plot(t[k], values, color=colors[name], linewidth=1.0, label=name)
         checks = [c for c in signals.checks if panel_of(c.metric) == panel]
         bounds, bound_colors = [], []
@@ -1317,6 +1331,9 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
         if any(c.over.size for c in checks):
             handles.append(Line2D([], [], color=FAILED_COLOR, linestyle="none", marker="x"))
             labels.append("beyond it")
+        if faint:
+            handles.append(Line2D([], [], color="0.2", linewidth=1.0, alpha=FAINT))
+            labels.append("not judged")
         if handles:
             ax.legend(
                 handles,

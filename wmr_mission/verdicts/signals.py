@@ -105,6 +105,10 @@ class Check(Judged):
         return f"{where}{self.metric} = {value} ({self.side} {self.bound:.3g}{unit})"
 
 
+# The lines the judge bounds at some of their samples only (Signals.unjudged).
+PARTLY_JUDGED = ("cross-track error", "along-track lag", "distance to the path")
+
+
 @dataclass
 class Signals:
     """A run's error signals, one value per sample (NaN where not measured), by
@@ -113,6 +117,19 @@ class Signals:
     lines: dict[str, dict[str, FloatArray]]
     judged: dict[str, Mask]
     checks: list[Check]
+
+    def unjudged(self, name: str) -> Mask | None:
+        """The samples of line ``name`` drawn but bounded by no check: a track
+        phase's entry, its rejoining after a detour and, for the cross-track
+        error and the lag, its detours (the detour's own check bounds the
+        cross-track error there), and the wait before a tracking error settles;
+        None for a line bounded wherever it is drawn, or bounded by none."""
+        if name not in PARTLY_JUDGED:
+            return None
+        looked = self.judged[name]
+        if name == "cross-track error" and "detour" in self.judged:
+            looked = looked | self.judged["detour"]
+        return ~looked
 
     def failed(self) -> list[Check]:
         """The failed checks, the one failing first in time first."""
