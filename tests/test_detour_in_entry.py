@@ -285,7 +285,8 @@ def test_the_signals_figure_draws_faint_what_no_check_bounds() -> None:
     cross = signals.lines["cross_track"]["cross-track error"]
     solid = ~signals.unjudged("cross-track error")  # type: ignore[operator]
     beyond = solid & (cross > tracking["cross_track_error_max"] + 1e-12)
-    assert beyond.any() and signals.judged["detour"][beyond].all()
+    assert beyond.any()
+    assert signals.judged["detour"][beyond].all()
     drawn = verdict_lines(run)
     assert drawn.unjudged["along-track lag"].any()
     assert "depth into a zone" not in drawn.unjudged  # bounded wherever drawn

@@ -124,12 +124,13 @@ class Signals:
         error and the lag, its detours (the detour's own check bounds the
         cross-track error there), and the wait before a tracking error settles;
         None for a line bounded wherever it is drawn, or bounded by none."""
-        if name not in PARTLY_JUDGED:
+        drawn = [lines[name] for lines in self.lines.values() if name in lines]
+        if name not in PARTLY_JUDGED or not drawn:
             return None
         looked = self.judged[name]
         if name == "cross-track error" and "detour" in self.judged:
             looked = looked | self.judged["detour"]
-        return ~looked
+        return ~looked & np.isfinite(drawn[0])
 
     def failed(self) -> list[Check]:
         """The failed checks, the one failing first in time first."""
