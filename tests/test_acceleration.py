@@ -373,11 +373,13 @@ def test_a_coverage_route_turns_into_its_end_arcs_before_they_start() -> None:
 
 
 def test_the_previewed_path_turns_early_across_it_and_not_along_it() -> None:
-    """previewed: a line into a quarter circle (1 m/s, radius 1, dt 0.01):
-    the tangent turns from half the averaging time before the arc, the point
-    moves across the path only, a line stays a line, and a row is the same
-    whichever block it is sampled in."""
-    dt, half = 0.01, 20
+    """previewed: a line into a quarter circle (1 m/s, radius 1, dt 0.01,
+    a turn-rate acceleration of 5 rad/s^2): the tangent turns from half the
+    time the limit ramps 1 rad/s in (0.1 s, 10 rows) before the arc, not
+    from the whole preview's 20 rows, the point moves across the path only,
+    a line stays a line, and a row is the same whichever block it is
+    sampled in."""
+    dt, half, acceleration = 0.01, 20, 5.0
     t = np.arange(-100, 200) * dt
     on_arc = t > 0.0
     angle = np.where(on_arc, t, 0.0)
@@ -386,11 +388,57 @@ def test_the_previewed_path_turns_early_across_it_and_not_along_it() -> None:
     rows[:, 1] = np.where(on_arc, 1.0 - np.cos(angle), 0.0)
     rows[:, 2] = np.cos(angle)
     rows[:, 3] = np.sin(angle)
-    block = previewed(rows, half)
+    block = previewed(rows, half, acceleration * dt * dt)
     times = t[half:-half]
     heading = np.arctan2(block[:, 7], block[:, 6])
-    assert np.all(heading[times <= -half * dt] == 0.0)  # a line stays a line
-    assert np.all(heading[(times > -half * dt) & (times <= 0.0)] > 0.0)  # turns early
+    assert np.all(heading[times <= -0.1 + 1e-9] == 0.0)  # a line stays a line
+    assert np.all(heading[(times > -0.1 + 1e-9) & (times <= 0.0)] > 0.0)  # turns early
     along = (block[:, 4] - block[:, 0]) * block[:, 2] + (block[:, 5] - block[:, 1]) * block[:, 3]
     assert np.abs(along).max() < 1e-12  # never moved along the path
-    assert np.array_equal(previewed(rows[37:], half), block[37:])
+    assert np.array_equal(previewed(rows[37:], half, acceleration * dt * dt), block[37:])
+    # the previewed turn rate ramps up no faster than the limit
+    rate = np.diff(np.unwrap(heading)) / dt
+    assert np.abs(np.diff(rate) / dt).max() <= acceleration * 1.05
+
+
+def test_a_short_arc_is_previewed_as_the_turn_the_robot_can_fly() -> None:
+    """gen-173-polyline: a corner's arc of 0.75 rad over 0.85 m (0.3 s at
+    2.5 rad/s) at a turn-rate acceleration of 7.977 rad/s^2, dt 0.05. Its
+    turn averaged over half the time to the turn-rate limit either side
+    (0.45 s, longer than the arc) ran 0.171 m inside the arc and the robot
+    0.166 m off it (0.1 allowed); averaged over half the time the limit
+    ramps the arc's own turn rate in (0.15 s), the turn the robot can fly
+    through the arc, it keeps to it."""
+    data = yaml.safe_load(
+        (ROOT / "tests" / "data" / "generated" / "gen-173-polyline.yaml").read_text()
+    )
+    data["phases"] = data["phases"][:1]
+    _, summary = _judged(data)
+    assert summary["outcome"] == "success", summary["message"]
+    assert summary["phases"][0]["tracking"]["cross_track_error_max"] < 0.06
+
+
+def test_a_turn_is_stopped_relative_to_the_paths_own_turn() -> None:
+    """gen-021-elliptical-spiral: a spiral turning at about 1.6 rad/s under a
+    turn-rate acceleration of 4.319 rad/s^2. A turn stopped absolutely (no
+    faster than the limit stops it at the way the output must move) held
+    the heading omega^2 / (2 a) behind that way on the arc, and the robot
+    sat 0.04-0.15 m wide of the spiral after joining it (0.12 m with the
+    preview over the arc's own turn rate); stopped relative to the path's
+    own turn it keeps within 0.035 m of it from 4.5 s."""
+    data = yaml.safe_load(
+        (ROOT / "tests" / "data" / "generated" / "gen-021-elliptical-spiral.yaml").read_text()
+    )
+    data["phases"] = data["phases"][:1]
+    result, summary = _judged(data)
+    assert summary["outcome"] == "success", summary["message"]
+    joined = result.t >= 4.5
+    path = np.column_stack([result.x_ref, result.y_ref])
+    path = path[np.isfinite(path).all(axis=1)]
+    robot = np.column_stack([result.x[joined], result.y[joined]])
+    start, step = path[:-1], np.diff(path, axis=0)
+    share = np.einsum("ijk,jk->ij", robot[:, None, :] - start[None], step)
+    share = np.clip(share / np.maximum((step * step).sum(axis=1), 1e-12), 0.0, 1.0)
+    nearest = start[None] + share[..., None] * step[None]
+    off = np.hypot(*(nearest - robot[:, None, :]).transpose(2, 0, 1)).min(axis=1)
+    assert off.max() < 0.035

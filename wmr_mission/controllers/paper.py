@@ -285,6 +285,7 @@ def track_input(
     robot: Plant,
     work: Scratch,
     u_out: FloatArray,
+    path_turn: float = 0.0,
 ) -> None:
     """Case 2: ``u_k = u_{k-1} + du2_k`` with du2 of eq. (27), then the limits.
 
@@ -298,6 +299,10 @@ def track_input(
     one sample, ``error_decay`` times its error at k: the target is the path
     at t_{k+1} (its own motion, fed forward) minus that remaining error.
     ``error_decay = 0`` closes the whole error in one sample, the paper's form.
+
+    ``path_turn`` [rad/s]: the path's turn rate as previewed, which a turn
+    under a turn-rate acceleration limit is stopped relative to (0: stopped
+    absolutely, as without the preview and while joining the path).
     """
     dt = robot.dt
     look_ahead = controller.look_ahead
@@ -418,10 +423,30 @@ def track_input(
         # eq. (27), "The speed while the turn is at its limit").
         if planned or omega * turn > 0.0:
             v *= max(math.cos(turn), 0.0)
-        if planned and omega * turn > 0.0:
-            reach = stopping_speed(abs(turn), robot.limits[3], dt)
-            omega = min(max(omega, -reach), reach)
+        # Stopped relative to the path's own turn (as previewed, ramped at the
+        # acceleration limit) once on it: the way the output must move turns
+        # with the path, and a turn stopped absolutely left the heading
+        # lagging it by omega^2 / (2 a) on an arc, the robot 0.12 m wide of a
+        # spiral (gen-021-elliptical-spiral; docs/paper-notes.md, eq. (27),
+        # "The path's turn previewed over its own turn rate").
+        if planned:
+            ahead = omega - path_turn
+            if ahead * turn > 0.0:
+                reach = stopping_speed(abs(turn), robot.limits[3], dt)
+                omega = path_turn + min(max(ahead, -reach), reach)
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, robot.limits, dt)
+
+
+@kernel
+def path_turn_rate(reference_now: FloatArray, reference: FloatArray, dt: float) -> float:
+    """[rad/s] The path's turn rate from t_k to t_{k+1}: the angle between its
+    unit tangents over dt; 0 where it rests (no tangent)."""
+    cross = reference_now[2] * reference[3] - reference_now[3] * reference[2]
+    dot = reference_now[2] * reference[2] + reference_now[3] * reference[3]
+    rate: float = math.atan2(cross, dot) / dt
+    if math.isnan(rate):
+        return 0.0
+    return rate
 
 
 Gain = tuple[float, float, float, float, float, float]  # T of eq. (20), 2x3 row by row
@@ -1007,17 +1032,23 @@ def hold_across_at_a_stop(
 
 
 @kernel
-def anticipated(aim_now: FloatArray, aim: FloatArray, estimate: FloatArray, reach: float) -> None:
+def joined_share(aim_now: FloatArray, estimate: FloatArray, reach: float) -> float:
+    """How far the law follows the path as previewed (anticipated): wholly
+    within ``reach`` of the path's point, not at all beyond twice it."""
+    distance = hypot(aim_now[0] - estimate[0], aim_now[1] - estimate[1])
+    share: float = min(max(2.0 - distance / reach, 0.0), 1.0)
+    return share
+
+
+@kernel
+def anticipated(aim_now: FloatArray, aim: FloatArray, share: float) -> None:
     """The path at t_k and t_{k+1} as previewed (aim_now[4:8], aim[4:8]; the
     runner's previewed): its turns begun early at the pace the turn-rate
-    acceleration limit follows. Not while joining the path: beyond
-    ``reach`` of it the previewed point moves in as the robot comes within
-    twice that (a robot 0.5 m behind its reference on a coverage lane's
-    end arc, turning to its early point, cut inside the arc,
+    acceleration limit follows, ``share`` of the way (joined_share): not
+    while joining the path (a robot 0.5 m behind its reference on a coverage
+    lane's end arc, turning to its early point, cut inside the arc,
     gen-012-coverage; docs/paper-notes.md, eq. (27), "The path's turn
     previewed")."""
-    distance = hypot(aim_now[0] - estimate[0], aim_now[1] - estimate[1])
-    share = min(max(2.0 - distance / reach, 0.0), 1.0)
     for point in (aim_now, aim):
         for i in range(4):
             point[i] += share * (point[4 + i] - point[i])
@@ -1046,8 +1077,12 @@ def next_input(
     kinds = phase.constraint_kinds
     params = phase.constraint_params
     if phase.tracking:
+        path_turn = 0.0
         if tuning.preview > 0.0:
-            anticipated(aim_now, aim, estimate, tuning.error_reach)
+            share = joined_share(aim_now, estimate, tuning.error_reach)
+            anticipated(aim_now, aim, share)
+            if share == 1.0:  # the path as previewed wholly: the robot is on it
+                path_turn = path_turn_rate(aim_now, aim, plant.dt)
         path_x = aim_now[0]
         path_y = aim_now[1]
         if kinds.shape[0]:
@@ -1113,7 +1148,7 @@ def next_input(
             mirrored(estimate, u_prev, memory)
             pose = memory[MIRRORED : MIRRORED + 3]
             before = memory[MIRRORED + 3 : MIRRORED + 5]
-        track_input(pose, before, aim_now, aim, tuning, plant, scratch, u)
+        track_input(pose, before, aim_now, aim, tuning, plant, scratch, u, path_turn)
         if backwards:
             u[0] = -u[0]
         # The filter after the tracking law: zones win over tracking

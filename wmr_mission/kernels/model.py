@@ -111,15 +111,17 @@ def stopping_speed(distance: float, acceleration: float, dt: float) -> float:
 
 
 # The share of the time from rest to the turn-rate limit at the turn-rate
-# acceleration limit that a path's turn is previewed by (preview_rows).
+# acceleration limit that a path's turn is previewed by at most
+# (preview_rows): half, the ramp to the limit centred on a step.
 PREVIEW_SHARE = 0.5
 
 
 def preview_rows(limits: FloatArray, dt: float) -> int:
     """How many samples ahead (and behind) a path's turn is averaged over
-    under a turn-rate acceleration limit ``a``: PREVIEW_SHARE of
-    ``omega_max / a``, so that the turn is averaged over the time the robot
-    takes to its turn-rate limit; 0 without such a limit (docs/paper-notes.md,
+    at most under a turn-rate acceleration limit ``a``: PREVIEW_SHARE of
+    ``omega_max / a``, so that a step of the turn rate to its limit is ramped
+    at ``a``; each row's own window follows the path's turn rate
+    (sim.runner.turn_windows); 0 without such a limit (docs/paper-notes.md,
     eq. (27), "The path's turn previewed")."""
     if not math.isfinite(float(limits[3])):
         return 0

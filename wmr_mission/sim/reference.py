@@ -277,9 +277,12 @@ def track_input(
     robot: Plant,
     work: Scratch,
     u_out: FloatArray,
+    path_turn: float = 0.0,
 ) -> None:
     """Case 2: u_k = u_{k-1} + du2_k, du2 of eq. (27) on the look-ahead point,
-    aimed so that ``error_decay`` of the output's error at k is left at k+1."""
+    aimed so that ``error_decay`` of the output's error at k is left at k+1;
+    under a turn-rate acceleration limit the turn stopped relative to the
+    path's own, ``path_turn``."""
     look_ahead, error_decay = controller.look_ahead, controller.error_decay
     w, m = controller.w, controller.m
     limits, dt = robot.limits, robot.dt
@@ -348,9 +351,9 @@ def track_input(
         # towards that way at its limit (wmr_mission.controllers.paper.track_input).
         if planned or omega * turn > 0.0:
             v *= max(math.cos(turn), 0.0)
-        if planned and omega * turn > 0.0:
+        if planned and (omega - path_turn) * turn > 0.0:
             reach = stopping_speed(abs(turn), float(limits[3]), dt)
-            omega = float(np.clip(omega, -reach, reach))
+            omega = path_turn + float(np.clip(omega - path_turn, -reach, reach))
     u_out[0], u_out[1] = saturate(v, omega, v_prev, omega_prev, limits, dt)
 
 

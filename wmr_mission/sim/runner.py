@@ -322,11 +322,12 @@ class PhaseRun:
     def _sample(self, start: int, rows: int) -> FloatArray:
         """The path's rows; under a turn-rate acceleration limit each row also
         holds the path as previewed (previewed)."""
-        half = preview_rows(self.mission.plant.limits, self.mission.dt)
+        limits, dt = self.mission.plant.limits, self.mission.dt
+        half = preview_rows(limits, dt)
         if half == 0:
             return self._sample_rows(start, rows)
         around = self._sample_rows(start - half, rows + 2 * half, at_rest_before=True)
-        return previewed(around, half)
+        return previewed(around, half, float(limits[3]) * dt * dt)
 
     def _sample_rows(self, start: int, rows: int, at_rest_before: bool = False) -> FloatArray:
         assert self._trajectory is not None
@@ -346,23 +347,30 @@ class PhaseRun:
         return block
 
 
-def previewed(rows: FloatArray, half: int) -> FloatArray:
+def previewed(rows: FloatArray, half: int, turn_step: float) -> FloatArray:
     """The path's rows (point, unit tangent) from ``half`` rows in to
     ``half`` from the end, each followed by the path previewed there: its
-    tangent the mean of the tangents ``half`` rows either side, its point
+    tangent the mean of the tangents over a window either side, its point
     moved across the path by the mean's (along it, where the path's timing
-    puts it). A turn begins and ends half the averaging time early and late,
-    ramped at the pace the turn-rate acceleration limit follows instead of
-    stepping (docs/paper-notes.md, eq. (27), "The path's turn previewed").
-    Each row's mean is summed over its own window, in the same order
-    whichever block it is sampled in, so a run's bytes do not depend on
-    where its chunks start."""
-    width = 2 * half + 1
+    puts it). The window is half the time the turn-rate acceleration limit
+    (``turn_step``: the limit times dt^2) takes from rest to the path's
+    sharpest turn rate nearby (turn_windows): a step of the path's turn rate
+    becomes a ramp at that limit centred on the step, and a short arc the
+    trapezoid (or triangle) of turn rate that turns the arc's angle
+    (docs/paper-notes.md, eq. (27), "The path's turn previewed"). Each row's
+    mean is summed over its own window, in the same order whichever block
+    it is sampled in, so a run's bytes do not depend on where its chunks
+    start."""
     count = rows.shape[0] - 2 * half
     tangents = np.nan_to_num(rows[:, 2:])  # a resting row's turns nothing
+    windows = turn_windows(rows[:, 2:], half, turn_step)
     means = np.empty((count, 4))
-    means[:, :2] = sliding_window_view(rows[:, :2], width, axis=0).sum(axis=2) / width
-    means[:, 2:] = sliding_window_view(tangents, width, axis=0).sum(axis=2)
+    for reach in np.unique(windows).tolist():
+        at = np.flatnonzero(windows == reach)
+        width = 2 * reach + 1
+        taken = (at + half - reach)[:, None] + np.arange(width)
+        means[at, :2] = rows[taken, :2].sum(axis=1) / width
+        means[at, 2:] = tangents[taken].sum(axis=1)
     block = np.empty((count, 8))
     block[:, :4] = rows[half : half + count]
     tx, ty = block[:, 2], block[:, 3]
@@ -376,6 +384,24 @@ def previewed(rows: FloatArray, half: int) -> FloatArray:
         block[:, 6] = np.where(turned, means[:, 2] / norm, np.nan)
         block[:, 7] = np.where(turned, means[:, 3] / norm, np.nan)
     return block
+
+
+def turn_windows(tangents: FloatArray, half: int, turn_step: float) -> IntArray:
+    """Per row from ``half`` in, how many rows either side its previewed
+    tangent is averaged over: the path's sharpest turn per row within
+    ``half`` rows either side over twice ``turn_step`` (the turn-rate
+    acceleration limit times dt^2), half the rows the limit ramps the turn
+    rate from rest to it in, so that the mean ramps a step of the path's
+    turn rate at the limit, centred on the step. A line stays a line
+    whatever its window; an arc's point is moved in by the same window all
+    along it. At most ``half`` (the turn-rate limit's own ramp,
+    preview_rows), and ``half`` where the path rests within it (a turn in
+    place, or its start: no turn rate to ramp from)."""
+    tx, ty = tangents[:, 0], tangents[:, 1]
+    turns = np.arctan2(tx[:-1] * ty[1:] - ty[:-1] * tx[1:], tx[:-1] * tx[1:] + ty[:-1] * ty[1:])
+    sharpest = sliding_window_view(np.abs(turns), 2 * half, axis=0).max(axis=1)  # NaN: at rest
+    reach = np.minimum(np.rint(sharpest / (2.0 * turn_step)), half)
+    return np.where(np.isnan(sharpest), half, reach).astype(np.intp)
 
 
 # Per compiled loop, its entry point once it has one: found from the
