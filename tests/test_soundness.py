@@ -243,7 +243,7 @@ def test_the_generated_set_is_what_its_generator_writes() -> None:
 @pytest.mark.slow
 def test_a_few_generated_missions_are_run_and_judged(tmp_path: Path) -> None:
     # One of each kind of verdict the docs' table counts, judged as it says.
-    names = ("gen-028-park", "gen-000-expression", "gen-124-line")
+    names = ("gen-028-park", "gen-000-expression", "gen-078-circle")
     judged = {
         j.mission: j
         for j in judge_all([GENERATED / f"{n}.yaml" for n in names], tmp_path, workers=1)
@@ -253,17 +253,17 @@ def test_a_few_generated_missions_are_run_and_judged(tmp_path: Path) -> None:
     # 1.5 cm of position noise: its turn rate jittered by 0.20 rad/s (max 0.07) with
     # the estimator's poles at 0.9
     assert (eight.outcome, eight.sound) == ("success", True)
-    # a line past a rock under acceleration limits: its detour runs 1.59 m off
-    # the line where 1.13 m is allowed
+    # a circle past a rock under acceleration limits: its detour runs 0.37 m
+    # off the circle where 0.26 m is allowed
     assert (off.outcome, off.sound) == ("expect-failed", False)
-    assert "drive: detour_offset_max" in off.message
+    assert "orbit: detour_offset_max" in off.message
     # the margin's sign is the verdict, and names the check that sets it
     assert [j.mission for j in judged.values() if not j.margin_agrees] == []
     assert park.margin is not None
     assert 0.0 < park.margin < 1.0
     assert off.margin is not None
     assert off.margin < 0.0
-    assert off.margin_check == "drive: detour_offset_max"
+    assert off.margin_check == "orbit: detour_offset_max"
 
 
 @pytest.mark.slow

@@ -186,7 +186,7 @@ def test_a_path_that_never_moves_keeps_no_way_round_of_the_path_before() -> None
     phase = PhaseRun(plan.phases[0], plan, 0)
     phase.enter(0, np.zeros(3))
     assert phase.ways[0, 4] != 0.0  # a side decided for the line
-    phase._path_points = lambda t: (np.full(t.shape, 2.0), np.full(t.shape, 1.0))  # type: ignore[method-assign]
+    phase._path_points = lambda t: (np.full(t.shape, 2.0), np.full(t.shape, 1.0), np.zeros(t.shape))  # type: ignore[method-assign]
     phase._find_ways()  # as a new path that rests takes over
     assert (phase.ways == 0.0).all()
 
@@ -259,13 +259,16 @@ def test_the_ways_round_several_zones_are_each_zones_own() -> None:
     # zone by zone, as each was found before the path was sampled once for all
     samples = min(phase.bound, WAY_HORIZON)
     t = np.linspace(0.0, samples * plan.dt, min(samples, WAY_SAMPLES) + 1)
-    x, y = phase._path_points(t)
+    x, y, _ = phase._path_points(t)
     for i in keep_out:
         k, _ = _nearest_chord(x, y, params[i, 0], params[i, 1])
         near = np.linspace(t[max(k - 1, 0)], t[min(k + 2, t.size - 1)], WAY_SAMPLES + 1)
-        fine_x, fine_y = phase._path_points(near)
+        fine_x, fine_y, _ = phase._path_points(near)
         alone = way_at(fine_x, fine_y, *_nearest_chord(fine_x, fine_y, *params[i, :2]), params[i])
         assert alone[4] != 0.0
-        assert phase.ways[i].tobytes() == alone.tobytes()
+        assert phase.ways[i, :5].tobytes() == alone[:5].tobytes()
+        # the path's speed there; a route with rounded corners never rests
+        assert phase.ways[i, 5] == pytest.approx(1.0)
+        assert phase.ways[i, 6] == math.inf
     others = np.setdiff1d(np.arange(kinds.size), keep_out)
     assert (phase.ways[others] == 0.0).all()

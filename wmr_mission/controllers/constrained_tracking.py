@@ -479,6 +479,109 @@ def _way_round(
     return max(reach, 0.0), mx, my
 
 
+@kernel
+def _climb_stretch(rise: float, bend: float) -> float:
+    """[m] The stretch over which :func:`_climb`'s slope grows at its third
+    derivative ``bend`` (and, mirrored, falls): to RAMP_SLOPE, or, for a
+    climb too short to reach that, to the slope at its middle."""
+    return min(math.sqrt(RAMP_SLOPE / bend), math.pow(0.5 * rise / bend, 1.0 / 3.0))
+
+
+@kernel
+def _climb(distance: float, rise: float, bend: float) -> tuple[float, float]:
+    """(climbed, length) of a way across that rises by ``rise`` and starts
+    and ends straight (no slope, no curvature), ``distance`` along from its
+    start: no steeper than RAMP_SLOPE, its third derivative at most
+    ``bend`` [1/m^2], the shortest both allow. Its slope grows at ``bend``
+    over a stretch ``s`` and stops growing over another, to ``bend s^2``,
+    holds that, and the same mirrored at the top."""
+    stretch = _climb_stretch(rise, bend)
+    slope = bend * stretch * stretch
+    length = 2.0 * stretch + rise / slope
+    u = min(max(distance, 0.0), length)
+    mirrored = u > 0.5 * length
+    if mirrored:
+        u = length - u
+    if u <= stretch:
+        climbed = bend * u * u * u / 6.0
+    elif u <= 2.0 * stretch:
+        w = u - stretch
+        cube = stretch * stretch * stretch / 6.0
+        climbed = bend * (cube + 0.5 * stretch * w * (stretch + w) - w * w * w / 6.0)
+    else:
+        climbed = slope * (u - stretch)
+    return (rise - climbed if mirrored else climbed), length
+
+
+@kernel
+def _way_round_eased(
+    p: FloatArray,
+    margin: float,
+    x: float,
+    y: float,
+    way: FloatArray,
+    turn_acceleration: float,
+    room: float,
+) -> float:
+    """:func:`_way_round` under a turn-rate acceleration limit: how far the
+    aim (x, y) moves across the path to ``way[4]`` of it, round the keep-out
+    ellipse row ``p`` grown by ``margin``, on a climb the limit lets the
+    robot follow. The ramp of slope RAMP_SLOPE asks its whole turn at its
+    foot, which the turn-rate acceleration gives only over time: the robot
+    fell behind the aim as it turned onto the ramp and swung past its top
+    (gen-124-line, 1.59 m off where the top was 1.06 m). The climb to the
+    zone's reach across the path ``P`` (the top) is no steeper than the
+    ramp, and its curvature changes at most as fast as the turn rate can at
+    ``turn_acceleration`` at the path's speed where it passes the zone
+    (``way[5]``): a third derivative of ``turn_acceleration / speed^2``
+    along the path, a sideways jerk of ``speed turn_acceleration``
+    (:func:`_climb`). It ends where the ramp reaches the top's height, so
+    it keeps the aim at least as far across as the ramp, and the way down
+    is its mirror. It starts no further back than ``room``, how far the aim
+    is past where the path last rests before the zone (``way[6]``: a robot
+    at rest turns in place), steeper there, and no climb is left (-1,
+    the ramp's way) where not even the ramp fits (docs/paper-notes.md,
+    eq. (28), "The ramp eased under a turn-rate acceleration limit")."""
+    a = p[2] + margin
+    b = p[3] + margin
+    cos_phi = math.cos(p[4])
+    sin_phi = math.sin(p[4])
+    tx = way[2]
+    ty = way[3]
+    du = cos_phi * tx + sin_phi * ty
+    dw = -sin_phi * tx + cos_phi * ty
+    mx = -ty * way[4]
+    my = tx * way[4]
+    mu_ = cos_phi * mx + sin_phi * my
+    mw = -sin_phi * mx + cos_phi * my
+    sa = mu_ * mu_ * a * a + mw * mw * b * b  # m' S m
+    sb = mu_ * du * a * a + mw * dw * b * b  # m' S t
+    sc = du * du * a * a + dw * dw * b * b  # t' S t
+    top = math.sqrt(max(sa, 0.0))
+    reach = mx * (p[0] - x) + my * (p[1] - y) + top  # the zone's support across
+    if reach <= 0.0 or top == 0.0:
+        return 0.0
+    # The top (the zone's point furthest across) this far ahead of the aim,
+    # and how far before it (after it, on the way down) the ramp of slope
+    # RAMP_SLOPE reaches its height: the wedge's support h(m -+ mu t) less
+    # RAMP_SLOPE a metre until it is the top's h(m).
+    ahead = tx * (p[0] - x) + ty * (p[1] - y) + sb / top
+    sense = 1.0 if ahead >= 0.0 else -1.0
+    slope = sense * RAMP_SLOPE
+    wedge = math.sqrt(max(sa - 2.0 * slope * sb + slope * slope * sc, 0.0))
+    corner = (wedge - top) / RAMP_SLOPE + sense * sb / top
+    bend = turn_acceleration / max(way[5] * way[5], 1e-300)
+    length = _climb(0.0, reach, bend)[1]
+    if sense > 0.0 and ahead + room - corner < length:
+        # From where the path rests: the climb as long as the room allows.
+        stretch = 0.5 * (ahead + room - corner - reach / RAMP_SLOPE)
+        if not stretch > 0.0:
+            return -1.0
+        bend = max(bend, RAMP_SLOPE / (stretch * stretch))
+        length = _climb(0.0, reach, bend)[1]
+    return _climb(corner + length - abs(ahead), reach, bend)[0]
+
+
 # |m + mu t| at the ramp's ends: the factor a disc's support grows by there.
 _RAMP_NORM = math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
 
@@ -636,8 +739,10 @@ def aim_gap(look_ahead: float, speed_rate: float, margin: float) -> float:
 
 
 # The columns of a row of the ways round (ways_round): the path's point
-# nearest the zone's centre, its unit tangent there, the side.
-WAY_COLUMNS = 5
+# nearest the zone's centre, its unit tangent there, the side, the path's
+# speed there, and how far back along that tangent the path last rests
+# before it (inf: it does not, or its times are not known).
+WAY_COLUMNS = 7
 # A path within this share of a zone's size (at least 1 m) of its centre runs
 # through it, to rounding: round by the left (the validator's note names it).
 THROUGH_CENTRE = 1e-12
@@ -691,10 +796,21 @@ def ways_round(
     return ways
 
 
-def way_at(x: FloatArray, y: FloatArray, k: int, share: float, p: FloatArray) -> FloatArray:
+def way_at(
+    x: FloatArray,
+    y: FloatArray,
+    k: int,
+    share: float,
+    p: FloatArray,
+    speed: float = 0.0,
+    rest: float = math.inf,
+) -> FloatArray:
     """The way round the keep-out ellipse row ``p`` (:func:`ways_round`) where
     the polyline through (x, y) passes its centre nearest: ``share`` along
-    the chord from sample ``k`` (:func:`nearest_chords`); none for k < 0."""
+    the chord from sample ``k`` (:func:`nearest_chords`); none for k < 0.
+    ``speed`` and ``rest``: the path's speed there and the point where it
+    last rests before it (WAY_COLUMNS), as far back along its tangent as
+    that point is behind it."""
     if k < 0:
         return np.zeros(WAY_COLUMNS)
     ex = x[k + 1] - x[k]
@@ -705,7 +821,7 @@ def way_at(x: FloatArray, y: FloatArray, k: int, share: float, p: FloatArray) ->
     cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
     through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
     side = 1.0 if through or cross < 0.0 else -1.0
-    return np.array([nx, ny, ex / length, ey / length, side])
+    return np.array([nx, ny, ex / length, ey / length, side, speed, rest])
 
 
 @inlined
@@ -718,6 +834,8 @@ def aim_round_zones(
     margin: float,
     gap: float,
     lead: float = 0.0,
+    turn_acceleration: float = math.inf,
+    joined: float = 1.0,
 ) -> bool:
     """Move the point the tracked output aims at, ``aim[:2] + look_ahead *
     aim[2:]`` (x, y, unit tangent of the path), out of every row shrunk by
@@ -745,6 +863,13 @@ def aim_round_zones(
     along the path's tangent: the law follows the aim's move that late
     (paper.aim_lead). The projections onto other rows' edges are the aim's
     own: one taken ahead would hold the aim back along the path.
+
+    Under a turn-rate acceleration limit (``turn_acceleration``, the share of
+    it the law's turns follow, paper.turn_acceleration) a keep-out ellipse's
+    ramp is the climb that limit lets the robot follow
+    (``_way_round_eased``), ``joined`` of the way from the ramp: 0 while the
+    robot is joining its path, as the path's turns are previewed only once
+    it is on it (paper.next_input).
     """
     grown = look_ahead + gap + margin
     x = aim[0] + look_ahead * aim[2]
@@ -773,12 +898,17 @@ def aim_round_zones(
                         # zone: its distance along, and the rows' moves across
                         along = way[2] * (x - way[0]) + way[3] * (y - way[1]) + lead
                         across = -aim[3] * (x - start_x) + aim[2] * (y - start_y)
-                        reach, _, _ = _way_round(
-                            p, grown,
-                            way[0] + along * way[2] - across * way[3],
-                            way[1] + along * way[3] + across * way[2],
-                            way[2], way[3], way[4],
-                        )  # fmt: skip
+                        at_x = way[0] + along * way[2] - across * way[3]
+                        at_y = way[1] + along * way[3] + across * way[2]
+                        reach, _, _ = _way_round(p, grown, at_x, at_y, way[2], way[3], way[4])
+                        if turn_acceleration != math.inf and joined > 0.0:
+                            # the aim's distance past where the path rests
+                            room = along + way[6]
+                            eased = _way_round_eased(
+                                p, grown, at_x, at_y, way, turn_acceleration, room
+                            )
+                            if eased >= 0.0:
+                                reach += joined * (eased - reach)
                 if reach > 0.0:
                     moved = True
                     x += reach * nx

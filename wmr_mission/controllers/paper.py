@@ -1078,6 +1078,17 @@ def next_input(
     params = phase.constraint_params
     if phase.tracking:
         path_turn = 0.0
+        joined = 0.0
+        if kinds.shape[0] and tuning.turn_acceleration != math.inf:
+            # Within error_reach of its path's point along the path (behind
+            # it or ahead), twice that the edge: joining its path, the robot
+            # meets its zones on their ramps, not on the climbs a turn-rate
+            # acceleration limit asks for (constrained_tracking.aim_round_zones),
+            # as it tracks its path's turns previewed only once on it (anticipated).
+            along = aim_now[2] * (aim_now[0] - estimate[0]) + aim_now[3] * (
+                aim_now[1] - estimate[1]
+            )
+            joined = min(max(2.0 - abs(along) / tuning.error_reach, 0.0), 1.0)
         if tuning.preview > 0.0:
             share = joined_share(aim_now, estimate, tuning.error_reach)
             anticipated(aim_now, aim, share)
@@ -1096,8 +1107,9 @@ def next_input(
             path_step = hypot(aim[0] - path_x, aim[1] - path_y)
             lead = tuning.aim_lead * path_step / plant.dt
             aim_round_zones(
-                aim_now, kinds, params, phase.ways_round, tuning.look_ahead, margin, gap, lead
-            )
+                aim_now, kinds, params, phase.ways_round, tuning.look_ahead, margin, gap, lead,
+                tuning.turn_acceleration, joined,
+            )  # fmt: skip
             # Aimed round a zone the path crosses: the path's own motion fed
             # forward, the aim's move closed as an error, at the law's pace
             # (its kinks at the zone's edge are no jumps of the input). The

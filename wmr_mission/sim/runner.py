@@ -24,6 +24,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.controllers.constrained_tracking import WAY_COLUMNS, nearest_chords, way_at
 from wmr_mission.geometry.paths import Trajectory
+from wmr_mission.geometry.routes import TURN_CREEP
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import ELLIPSE_ROW, max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
@@ -281,26 +282,41 @@ class PhaseRun:
             return
         samples = min(self.bound, WAY_HORIZON)
         t = np.linspace(0.0, samples * self.mission.dt, min(samples, WAY_SAMPLES) + 1)
-        x, y = self._path_points(t)
+        x, y, speed = self._path_points(t)
         chords, _ = nearest_chords(x, y, params[keep_out, 0], params[keep_out, 1])
         keep_out, chords = keep_out[chords >= 0], chords[chords >= 0]
         if not keep_out.size:
             return
+        # where the path last rests before each zone, of these samples: holds
+        # its position, as a route turning in place at a stop does (creeping
+        # at TURN_CREEP)
+        resting = speed <= TURN_CREEP
+        rests = [np.flatnonzero(resting[: k + 1]) for k in chords.tolist()]
+        rest_points = [(x[r[-1]], y[r[-1]]) if r.size else None for r in rests]
         last = t.size - 1
         near = np.array(  # a row a zone
             [np.linspace(t[max(k - 1, 0)], t[min(k + 2, last)], WAY_SAMPLES + 1) for k in chords]
         )
-        x, y = (z.reshape(near.shape) for z in self._path_points(near.ravel()))
+        x, y, speed = (np.reshape(z, near.shape) for z in self._path_points(near.ravel()))
         zones = params[keep_out]
         chords, shares = nearest_chords(x, y, zones[:, 0], zones[:, 1])
         for j, i in enumerate(keep_out.tolist()):
-            self.ways[i] = way_at(x[j], y[j], int(chords[j]), float(shares[j]), params[i])
+            k, share = int(chords[j]), float(shares[j])
+            way = way_at(x[j], y[j], k, share, params[i])
+            if k >= 0:
+                way[5] = speed[j, k] + share * (speed[j, k + 1] - speed[j, k])
+                rest = rest_points[j]
+                if rest is not None:
+                    way[6] = max(way[2] * (way[0] - rest[0]) + way[3] * (way[1] - rest[1]), 0.0)
+            self.ways[i] = way
 
-    def _path_points(self, t: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def _path_points(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The path's points at its times ``t``, and its speed there."""
         assert self._trajectory is not None
         with np.errstate(all="ignore"):  # a diverging path is followed as far as it is finite
-            x, y, _, _ = self._trajectory.sample(t)
-        return x, y
+            x, y, dx, dy = self._trajectory.sample(t)
+            speed = np.hypot(dx, dy)
+        return x, y, speed
 
     @property
     def tracks_a_path(self) -> bool:
