@@ -24,6 +24,7 @@ from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.controllers.constrained_tracking import (
     aim_gap,
     aim_round_zones,
+    aimed_from_its_place,
     held_where_braking_ends,
     keep_constraints,
     ramped_offset,
@@ -1092,6 +1093,10 @@ def next_input(
                 aim[0] += offset_x - before_x
                 aim[1] += offset_y - before_y
             hold_across_at_a_stop(aim_now, aim, path_step, estimate, tuning, plant, memory)
+            aimed_from_its_place(
+                aim_now, aim, path_x, path_y, estimate, kinds, params, phase.ways_round,
+                tuning.look_ahead, margin, gap, lead,
+            )  # fmt: skip
         if memory[DIRECTION] == 0.0:
             duration = math.inf
             if phase.elapsed_samples >= 0 and kinds.shape[0] == 0:
