@@ -895,6 +895,8 @@ def aimed_from_its_place(
     from the robot's own place on the path's line instead, moved round the
     zones as an aim there would be (:func:`aim_round_zones`), the path's
     step (``aim`` - ``aim_now``) fed forward from there. True when it did.
+    ``next_input`` asks once the robot has stopped, and again each sample
+    until the way is clear: a robot still moving goes round as before.
 
     The aim moves round a zone as the path passes it, as if the robot were
     with it. A robot that fell behind (it stopped at the zone's edge under
