@@ -58,6 +58,7 @@ __all__ = [
     "AIM_GAP",
     "aim_gap",
     "aim_round_zones",
+    "aimed_from_its_place",
     "constrained_change",
     "keep_constraints",
     "nearest_chords",
@@ -929,3 +930,123 @@ def aim_round_zones(
         aim[0] = x - look_ahead * aim[2]
         aim[1] = y - look_ahead * aim[3]
     return moved
+
+
+@kernel
+def _zone_between(
+    kind: int, p: FloatArray, margin: float, ox: float, oy: float, ax: float, ay: float
+) -> bool:
+    """Whether the keep-out row ``p`` grown by ``margin`` lies across the
+    straight way from (ox, oy) to (ax, ay): the way enters it after its start
+    and leaves it before its end. An ellipse exactly (the least of its
+    quadratic along the way); a polygon with its edges moved out by
+    ``margin`` (its corners square, a little more than grown)."""
+    dx = ax - ox
+    dy = ay - oy
+    if kind == POLYGON_ROW:
+        enters = 0.0
+        leaves = 1.0
+        for i in range(int(p[0])):
+            k = HEADER + PER_VERTEX * i
+            inside = p[k + 2] * (p[k] - ox) + p[k + 3] * (p[k + 1] - oy) + margin
+            rate = p[k + 2] * dx + p[k + 3] * dy
+            if rate == 0.0:
+                if inside < 0.0:
+                    return False
+            elif rate > 0.0:
+                leaves = min(leaves, inside / rate)
+            else:
+                enters = max(enters, inside / rate)
+        return 0.0 < enters < leaves < 1.0
+    a = p[2] + margin
+    b = p[3] + margin
+    cos_phi = math.cos(p[4])
+    sin_phi = math.sin(p[4])
+    u0 = (cos_phi * (ox - p[0]) + sin_phi * (oy - p[1])) / a
+    w0 = (-sin_phi * (ox - p[0]) + cos_phi * (oy - p[1])) / b
+    du = (cos_phi * dx + sin_phi * dy) / a
+    dw = (-sin_phi * dx + cos_phi * dy) / b
+    rate2 = du * du + dw * dw
+    if rate2 == 0.0 or u0 * u0 + w0 * w0 <= 1.0:
+        return False
+    u1 = u0 + du
+    w1 = w0 + dw
+    if u1 * u1 + w1 * w1 <= 1.0:
+        return False
+    nearest = -(u0 * du + w0 * dw) / rate2
+    if not 0.0 < nearest < 1.0:
+        return False
+    un = u0 + nearest * du
+    wn = w0 + nearest * dw
+    return bool(un * un + wn * wn < 1.0)
+
+
+@kernel
+def _way_blocked(
+    aim_now: FloatArray,
+    ox: float,
+    oy: float,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    look_ahead: float,
+    margin: float,
+) -> bool:
+    """Whether a keep-out row grown by ``margin`` lies across the straight way
+    from the output (ox, oy) to the point it aims at, ``aim_now[:2] +
+    look_ahead * aim_now[2:4]``."""
+    ax = aim_now[0] + look_ahead * aim_now[2]
+    ay = aim_now[1] + look_ahead * aim_now[3]
+    for i in range(row_kinds.shape[0]):
+        p = row_params[i]
+        keep_out = row_kinds[i] == POLYGON_ROW or (row_kinds[i] == ELLIPSE_ROW and p[5] < 0.0)
+        if keep_out and _zone_between(row_kinds[i], p, margin, ox, oy, ax, ay):
+            return True
+    return False
+
+
+@inlined
+def aimed_from_its_place(
+    aim_now: FloatArray,
+    aim: FloatArray,
+    path_x: float,
+    path_y: float,
+    estimate: FloatArray,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    ways: FloatArray,
+    look_ahead: float,
+    margin: float,
+    gap: float,
+    lead: float,
+) -> bool:
+    """Where a keep-out zone lies across the straight way from the tracked
+    output to its aim (``aim_now``, moved round the zones from the path's
+    point ``path_x``, ``path_y``) while the robot is behind that point, aim
+    from the robot's own place on the path's line instead, moved round the
+    zones as an aim there would be (:func:`aim_round_zones`), the path's
+    step (``aim`` - ``aim_now``) fed forward from there. True when it did.
+    ``next_input`` asks once the robot has stopped, and again each sample
+    until the way is clear: a robot still moving goes round as before.
+
+    The aim moves round a zone as the path passes it, as if the robot were
+    with it. A robot that fell behind (it stopped at the zone's edge under
+    its acceleration limits, or started just before the zone) was left
+    aiming through the zone: every motion the filter allows leads away from
+    the aim, and the robot stood at the edge for good (a box 0.2 m ahead of
+    a robot at rest: 30 s at its edge, its reference 30 m on;
+    docs/paper-notes.md, eq. (28), "An aim beyond a zone")."""
+    ox = estimate[0] + look_ahead * math.cos(estimate[2])
+    oy = estimate[1] + look_ahead * math.sin(estimate[2])
+    tx = aim_now[2]
+    ty = aim_now[3]
+    along = tx * (estimate[0] - path_x) + ty * (estimate[1] - path_y)
+    if along >= 0.0 or not _way_blocked(aim_now, ox, oy, row_kinds, row_params, look_ahead, margin):
+        return False
+    step_x = aim[0] - aim_now[0]
+    step_y = aim[1] - aim_now[1]
+    aim_now[0] = path_x + along * tx
+    aim_now[1] = path_y + along * ty
+    aim_round_zones(aim_now, row_kinds, row_params, ways, look_ahead, margin, gap, lead)
+    aim[0] = aim_now[0] + step_x
+    aim[1] = aim_now[1] + step_y
+    return True

@@ -24,6 +24,7 @@ from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.controllers.constrained_tracking import (
     aim_gap,
     aim_round_zones,
+    aimed_from_its_place,
     held_where_braking_ends,
     keep_constraints,
     ramped_offset,
@@ -235,7 +236,12 @@ DIRECTION = 77
 # The mirrored robot the law tracks with while driving backwards: its pose,
 # then its previous input (mirrored_track_input).
 MIRRORED = 78
-MEMORY_SIZE = 83
+# 1.0 while the robot, stopped at a keep-out zone with its aim beyond it,
+# goes round from where it is (aimed_from_its_place).
+HELD_AT_ZONE = 83
+MEMORY_SIZE = 84
+# A robot slower than this share of its path's speed has stopped.
+STOPPED_SHARE = 0.1
 # [rad] how far past abeam (pi/2) the target must be to change the direction
 # of travel of the bearing form.
 REVERSE_HYSTERESIS = 0.2
@@ -1139,6 +1145,15 @@ def next_input(
                 aim[0] += offset_x - before_x
                 aim[1] += offset_y - before_y
             hold_across_at_a_stop(aim_now, aim, path_step, estimate, tuning, plant, memory)
+            # A robot stopped at a zone's edge with its aim beyond the zone
+            # goes round from where it is, until the way to its aim is clear.
+            held = memory[HELD_AT_ZONE] != 0.0
+            if held or abs(u_prev[0]) * plant.dt <= STOPPED_SHARE * path_step:
+                held = aimed_from_its_place(
+                    aim_now, aim, path_x, path_y, estimate, kinds, params, phase.ways_round,
+                    tuning.look_ahead, margin, gap, lead,
+                )  # fmt: skip
+            memory[HELD_AT_ZONE] = 1.0 if held else 0.0
         if memory[DIRECTION] == 0.0:
             duration = math.inf
             if phase.elapsed_samples >= 0 and kinds.shape[0] == 0:
