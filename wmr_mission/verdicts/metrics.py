@@ -103,7 +103,7 @@ _EVERY = np.zeros(0, dtype=bool)
 
 def _largest(
     values: FloatArray,
-    chosen: NDArray[np.bool_] = _EVERY,
+    chosen: NDArray[np.bool_] | slice = _EVERY,
     factor: float = 1.0,
     divisor: float = 1.0,
     magnitude: bool = False,
@@ -112,6 +112,8 @@ def _largest(
     ``|values|`` with ``magnitude``; every value where ``chosen`` is empty),
     for values that are never -0 or whose zero is read as +0: compiled, one
     pass with no copy (verdicts/passes.py), where the kernels are loaded."""
+    if isinstance(chosen, slice):  # a view: the same values in the same order
+        values, chosen = values[chosen], _EVERY
     if jit.judging_compiled():
         found = jit.compiled(largest_finite)(values, chosen, factor, divisor, magnitude)
         return None if math.isnan(found) else float(found)
@@ -137,6 +139,14 @@ def _violation(values: FloatArray, starts: list[int] | None = None) -> float | N
         values[starts] = np.nan
     largest = _max_or_none(values)
     return None if largest is None else max(0.0, largest)
+
+
+def _suffix(mask: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
+    """The samples ``mask`` picks: a slice where they are its last ones (the
+    samples after a settle time, time never going back), whose columns are
+    views, not copies of a long run's; else ``mask``."""
+    count = int(np.count_nonzero(mask))
+    return slice(mask.size - count, mask.size) if mask[mask.size - count :].all() else mask
 
 
 def _rms_or_none(values: FloatArray) -> float | None:
@@ -240,7 +250,6 @@ def distance_to_path(
     is exact when the nearest point lies within the window, and is at most
     about one sampling step above it otherwise.
     """
-    distance = np.full(x.shape, np.nan)
     known = np.isfinite(x_ref) & np.isfinite(y_ref)
     finite = np.isfinite(x) & np.isfinite(y)
     # Copies only where something is missing: a long run's columns are large.
@@ -248,19 +257,19 @@ def distance_to_path(
     these = known_samples(known)  # a slice (views) where they run unbroken
     px, py = x_ref[these], y_ref[these]
     if px.size == 0 or not finite.any():
-        return distance
+        return np.full(x.shape, np.nan)
     qx, qy = (x, y) if every_finite else (x[finite], y[finite])
     if px.size == 1:
-        distance[finite] = np.hypot(qx - px[0], qy - py[0])
-        return distance
+        return _where_finite(finite, np.hypot(qx - px[0], qy - py[0]))
     # each sample's reference point: the last known at or before it (else the first)
     if isinstance(these, slice):
-        own = np.minimum(np.maximum(np.arange(x.size) - these.start, 0), px.size - 1)
+        own = np.clip(np.arange(-these.start, x.size - these.start), 0, px.size - 1)
     else:
         own = np.maximum(np.cumsum(known) - 1, 0)
     own = own if every_finite else own[finite]
     steps = np.hypot(np.diff(px), np.diff(py))
-    cell = float(np.median(steps[steps > 0])) / 2 if np.any(steps > 0) else 1.0
+    moving = steps[steps > 0]
+    cell = float(np.median(moving)) / 2 if moving.size else 1.0
     # One point per cell: the first the path passes in it (a stable sort by cell).
     first = first_in_cells(px, py, cell) if jit.judging_compiled() else None  # the same, compiled
     if first is None:
@@ -270,10 +279,7 @@ def distance_to_path(
         first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
     if jit.distances_compiled():  # the same bits in one compiled pass (verdicts/path_distance.py)
         found = compiled_distances(px, py, qx, qy, own, first, cell, LOCAL_WINDOW, _NEAREST_POINTS)
-        if every_finite:
-            return found
-        distance[finite] = found
-        return distance
+        return found if every_finite else _where_finite(finite, found)
     grid = NearestPoints(px[first], py[first], cell, qx.size)
     found = np.empty(qx.size)
     last = px.size - 2  # segment i runs from point i to point i + 1
@@ -285,6 +291,12 @@ def distance_to_path(
         nearest = first[grid.nearest(qx[part], qy[part], _NEAREST_POINTS, near)]
         segments = np.clip(np.concatenate((nearest - 1, nearest), axis=1), 0, last)
         found[part] = np.minimum(near, _distance_to_segments(px, py, segments, qx[part], qy[part]))
+    return found if every_finite else _where_finite(finite, found)
+
+
+def _where_finite(finite: NDArray[np.bool_], found: FloatArray) -> FloatArray:
+    """``found`` at the ``finite`` samples, NaN at the others."""
+    distance = np.full(finite.shape, np.nan)
     distance[finite] = found
     return distance
 
@@ -443,8 +455,10 @@ class PhaseSamples:
         self.window = slice(start, end)
         self.start_time = float(result.t[start])
         self.settle_time = settle_time
-        self.settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
         self.v, self.omega = result.v[self.window], result.omega[self.window]
+        settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
+        self.settled_samples = int(np.count_nonzero(settled))
+        self.settled = _suffix(settled)  # the samples after the settle time
         self._off_path_of = off_path_of
         self.numbers = judged.numbers
         self.ended_by = judged.ended_by
@@ -670,7 +684,7 @@ def _checked_phase_summary(
     summary = {
         "name": info.name,
         "kind": info.kind,
-        "settled_samples": int(np.count_nonzero(phase.settled)),
+        "settled_samples": phase.settled_samples,
     }
     checked = [metric for metric in _applying(summary) if thresholds.get(metric.name) is not None]
     values: dict[str, Any] = _measured(phase, checked)
@@ -707,7 +721,9 @@ def _phase_summary(
             "max_from_start": _largest(phase.off_path),
             # distance from the reference point of the same sample, lag
             # included (runs.csv's reference_error_rms over the track phases)
-            "reference_error_rms": reference_error(reference_distance(x, y, x_ref, y_ref)[settled]),
+            "reference_error_rms": reference_error(
+                reference_distance(x[settled], y[settled], x_ref[settled], y_ref[settled])
+            ),
         }
 
     target_error = None
@@ -725,7 +741,7 @@ def _phase_summary(
         "end": float(t[end_sample]),
         "duration": round(float(t[end_sample]) - start_time, 9),  # no 20.000000000000004
         "settle_time": phase.settle_time,
-        "settled_samples": int(np.count_nonzero(settled)),
+        "settled_samples": phase.settled_samples,
         "tracking_error": tracking,
         "tracking": phase.tracking,
         "target_error": target_error,
@@ -952,7 +968,7 @@ def run_metrics(
     summary = _bounded_metrics(
         result, tolerance, errors, run_columns(result, mission, phases), phases
     )
-    settled = (
+    settled = _suffix(
         result.t - (result.t[0] if result.samples else 0.0)
         >= _settle_time(_expect_of(mission)) - 1e-9 * result.dt
     )

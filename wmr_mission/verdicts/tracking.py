@@ -529,9 +529,10 @@ def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
     """The samples whose reference is ``known``: a slice where they run
     unbroken (as a phase's do but its last sample), whose columns are views,
     not copies of a long run's."""
-    found = np.flatnonzero(known)
-    if found.size and int(found[-1]) - int(found[0]) + 1 == found.size:
-        return slice(int(found[0]), int(found[-1]) + 1)
+    count = int(np.count_nonzero(known))
+    first = int(np.argmax(known))  # the first known (0 if none is)
+    if count and known[first : first + count].all():
+        return slice(first, first + count)
     return known
 
 
