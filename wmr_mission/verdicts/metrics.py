@@ -41,6 +41,7 @@ from wmr_mission.verdicts.passes import (
     estimation_error_pass,
     finite_squares_sum,
     largest_finite,
+    last_unconverged,
 )
 from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
@@ -205,6 +206,12 @@ def convergence_index(
     """First sample from which every |error| stays below its state's tolerance
     to the end, else None."""
     tolerance = DEFAULT_CONVERGENCE_TOLERANCE if tolerance is None else tolerance
+    if jit.judging_compiled() and tuple(errors) == STATES:  # one compiled pass, from the end
+        size = errors["x"].size
+        bounds = (float(tolerance["x"]), float(tolerance["y"]), float(tolerance["theta"]))
+        columns = (errors["x"], errors["y"], errors["theta"])
+        last = jit.compiled(last_unconverged)(columns, bounds) if size else 0
+        return None if size == 0 or last + 1 == size else last + 1
     converged = np.ones(len(next(iter(errors.values()))), dtype=bool)
     for state, error in errors.items():  # state by state: no copy of all three
         # NaN compares False: a non-finite error is never converged.

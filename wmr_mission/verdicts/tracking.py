@@ -48,6 +48,7 @@ from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
+from wmr_mission.verdicts.passes import kept_up
 from wmr_mission.verdicts.placing import path_lengths, place_samples
 from wmr_mission.verdicts.zones import Zone, reach_across
 
@@ -607,6 +608,12 @@ def _kept_up(
     and by no more than MOVING of the reference's speed. None if there is none."""
     tolerance, dt = numbers.tracking_tolerance, numbers.dt
     window = max(1, round(SETTLING * numbers.time_constant / dt))
+    if jit.judging_compiled():  # the same sample in one compiled pass (verdicts/passes.py)
+        sample = jit.compiled(kept_up)(
+            (px, py), (rx, ry), (begin, end, window), tolerance, MOVING,
+            numbers.keeping_up_speed * dt,
+        )  # fmt: skip
+        return None if sample < 0 else sample
     first = max(begin - window, 0)  # the window's first sample's one before, if any
     if end <= first:
         return None
