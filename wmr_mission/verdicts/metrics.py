@@ -817,13 +817,15 @@ def _expect_of(mission: Mapping[str, Any] | None) -> Mapping[str, Any]:
 
 def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
     """Per phase name, the phase's `expect` thresholds in force: the mission's
-    per-phase keys, overridden by each key the phase sets itself.
+    per-phase keys, overridden by each key the phase sets itself (its
+    ``temporal`` formulas too).
 
     ``mission`` is the resolved mission (``Mission.model_dump(mode="json")``).
     """
     expect = _expect_of(mission)
     shared = {
-        key: expect.get(key) for key in ("settle_time", *(m.name for m in catalog.phase_metrics()))
+        key: expect.get(key)
+        for key in ("settle_time", "temporal", *(m.name for m in catalog.phase_metrics()))
     }
     merged = {}
     for phase in _written_phases(mission):
@@ -890,8 +892,8 @@ def summarize(result: RunRecord, mission: Mapping[str, Any] | None = None) -> di
     summary = run_metrics(result, mission, phases, errors)
     tolerance = _tolerance(mission)
     summary["phases"] = [
-        _phase_summary(result, info, p, tolerance) | _formulas(result, info, p, mission)
-        for info, p, _ in phases
+        _phase_summary(result, info, p, tolerance) | _formulas(result, info, p, mission, expect)
+        for info, p, expect in phases
     ]
     summary["compute_us_per_sample"] = compute_time_us(result.compute_ns)
     summary["loop_us_per_sample"] = loop_time_us(result)
@@ -902,12 +904,18 @@ Phases = list[tuple["PhaseRecord", "PhaseSamples", Mapping[str, Any]]]
 
 
 def _formulas(
-    result: RunRecord, info: PhaseRecord, phase: PhaseSamples, mission: Mapping[str, Any] | None
+    result: RunRecord,
+    info: PhaseRecord,
+    phase: PhaseSamples,
+    mission: Mapping[str, Any] | None,
+    expect: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """A phase's temporal formulas' robustness, ``{"temporal": {formula: rho}}``, if any."""
+    """A phase's temporal formulas' robustness, ``{"temporal": {formula: rho}}``, if
+    any; ``expect``: the phase's thresholds in force (:func:`phase_expectations`),
+    if at hand."""
     return temporal.phase_values(
         result, info, phase.window, phase.settle_time, phase.numbers, mission,
-        lambda: phase.placement,
+        lambda: phase.placement, None if expect is None else tuple(expect.get("temporal") or ()),
     )  # fmt: skip
 
 
@@ -1270,7 +1278,8 @@ def judge_run_metrics(result: RunRecord, mission: MissionTerms) -> dict[str, Any
         return summary
     del errors
     checked = [
-        _checked_phase_summary(info, phase, expect) | _formulas(result, info, phase, mission)
+        _checked_phase_summary(info, phase, expect)
+        | _formulas(result, info, phase, mission, expect)
         for info, phase, expect in phases
     ]
     numbers = phases[0][1].numbers if phases else None  # the run's dt and limits

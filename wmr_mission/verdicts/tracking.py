@@ -403,8 +403,8 @@ def track_samples(
         "reference_speed_max": None,
         "zone_reach": None,
     }
-    if not known.all():
-        these = known_samples(known)
+    these = None if known.all() else known_samples(known)
+    if these is not None:
         t = t[these]
         if placement is None:
             px, py, rx, ry = px[these], py[these], rx[these], ry[these]
@@ -460,7 +460,9 @@ def track_samples(
         "detour_offset_max": float(offset.max()) if offset.size else None,
         "reference_speed_max": float(reference_speed.max()),
     }
-    return metrics, _placed(known, size, cross, lag, judged, detour) if with_samples else None
+    if not with_samples:
+        return metrics, None
+    return metrics, _placed(these, size, cross, lag, judged, detour)
 
 
 def _counted_in_entry(
@@ -538,15 +540,16 @@ def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
 
 
 def _placed(
-    known: NDArray[np.bool_],
+    known: slice | NDArray[np.bool_] | None,
     size: int,
     cross: FloatArray,
     lag: FloatArray,
     judged: NDArray[np.bool_],
     detour: NDArray[np.bool_],
 ) -> TrackSamples:
-    """The samples with a known reference put back among all the phase's."""
-    if known.all():
+    """The samples with a known reference (``known``: :func:`known_samples`;
+    None: all) put back among all the phase's."""
+    if known is None:
         return TrackSamples(cross, lag, judged, detour)
     full_cross, full_lag = np.full(size, np.nan), np.full(size, np.nan)
     full_judged, full_detour = np.zeros(size, dtype=bool), np.zeros(size, dtype=bool)
