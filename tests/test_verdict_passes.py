@@ -247,6 +247,31 @@ def test_the_estimation_passes_have_the_numpy_forms_bits(monkeypatch: pytest.Mon
     assert found[2] is not None
 
 
+def test_the_reference_distance_pass_has_the_numpy_forms_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Each sample's distance from its reference point (NaN, infinite, and
+    squares beyond the largest float), and their RMS."""
+    from wmr_mission.verdicts import metrics
+
+    rng = np.random.default_rng(9)
+    samples = 7001
+    x, y = rng.normal(0.0, 1.0, samples), rng.normal(0.0, 1.0, samples)
+    x_ref, y_ref = x + rng.normal(0.0, 0.1, samples), y + rng.normal(0.0, 0.1, samples)
+    x[[5, 6]], y_ref[7], x_ref[8] = math.nan, math.inf, 1e300
+
+    def judged() -> list[Any]:
+        distance = metrics.reference_distance(x, y, x_ref, y_ref)
+        return [distance, metrics.reference_error(distance[10:])]
+
+    with np.errstate(over="ignore", invalid="ignore"):  # numpy's squares overflow
+        _both(monkeypatch, judged, "reference_distances")
+        found = judged()
+    assert found[0][8] == math.inf
+    assert math.isnan(found[0][5])
+    assert found[1] is not None
+
+
 def test_the_convergence_pass_has_the_numpy_forms_bits(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -42,6 +42,7 @@ from wmr_mission.verdicts.passes import (
     finite_squares_sum,
     largest_finite,
     last_unconverged,
+    reference_distances,
 )
 from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
@@ -151,6 +152,11 @@ def _suffix(mask: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
 
 
 def _rms_or_none(values: FloatArray) -> float | None:
+    if values.size == 0:
+        return None
+    mean = np.mean(values**2)
+    if math.isfinite(mean):  # every value finite: the mean of them all
+        return float(np.sqrt(mean))
     finite = np.isfinite(values)
     values = values if finite.all() else values[finite]  # a copy only where one is missing
     return float(np.sqrt(np.mean(values**2))) if values.size else None
@@ -162,7 +168,11 @@ def reference_distance(
     """[m] Distance of each position from the reference point of the same
     sample (the time-indexed one: lag included), not from the path. IEEE
     operations alone (no library hypot): the same bits on every CPU
-    (docs/reliability.md)."""
+    (docs/reliability.md); one compiled pass where the judge's passes run compiled."""
+    if jit.judging_compiled():
+        found = np.empty(x.size)
+        jit.compiled(reference_distances)((x, y), (x_ref, y_ref), found)
+        return found
     dx, dy = x - x_ref, y - y_ref
     distance: FloatArray = np.sqrt(dx * dx + dy * dy)
     return distance

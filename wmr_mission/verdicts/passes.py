@@ -14,8 +14,9 @@ operations at a time (each caller keeps that form beside its call).
   estimate is within its tolerance (wmr_mission.verdicts.inputs);
 - where a track phase's robot has kept up with its reference
   (wmr_mission.verdicts.tracking);
-- the exact sum of squares of ``reference_error_rms``
-  (wmr_mission.verdicts.metrics), the float ``math.fsum`` gives.
+- the distances to the reference points and the exact sum of their squares
+  of ``reference_error_rms`` (wmr_mission.verdicts.metrics), the float
+  ``math.fsum`` gives.
 
 The same numbers: the same operations in the same order, numpy's ``max``
 (NaN if any is) and ``searchsorted`` as loops, a square as a product (as
@@ -46,6 +47,7 @@ __all__ = [  # the passes, each compiled by `wmr-mission compile` (tests/test_st
     "kept_up",
     "largest_finite",
     "last_unconverged",
+    "reference_distances",
     "stalled_samples",
 ]
 
@@ -454,6 +456,21 @@ def _unit(squared: float) -> float:
     if value > 1.0:
         return 1.0
     return value
+
+
+@kernel
+def reference_distances(
+    position: tuple[FloatArray, FloatArray],
+    reference: tuple[FloatArray, FloatArray],
+    distance: FloatArray,
+) -> None:
+    """Each sample's distance from its reference point into ``distance``, as
+    ``metrics.reference_distance`` computes it (IEEE operations alone)."""
+    x, y = position
+    x_ref, y_ref = reference
+    for k in range(x.size):
+        dx, dy = x[k] - x_ref[k], y[k] - y_ref[k]
+        distance[k] = math.sqrt(dx * dx + dy * dy)
 
 
 @kernel

@@ -410,7 +410,8 @@ def track_samples(
             px, py, rx, ry = px[these], py[these], rx[these], ry[these]
         else:  # the same samples, kept once: a long run's columns are large
             px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
-    if t.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
+    # (a placement's positions are finite)
+    if t.size == 0 or (placement is None and not (np.isfinite(px).all() and np.isfinite(py).all())):
         return metrics, None  # no reference, or the run diverged
     dt = numbers.dt
     if placement is None:
