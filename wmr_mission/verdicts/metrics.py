@@ -279,8 +279,10 @@ def distance_to_path(
     if px.size == 1:
         return _where_finite(finite, np.hypot(qx - px[0], qy - py[0]))
     # each sample's reference point: the last known at or before it (else the first)
-    if isinstance(these, slice):
-        own = np.clip(np.arange(-these.start, x.size - these.start), 0, px.size - 1)
+    if isinstance(these, slice):  # counted from its start, held at the first and the last
+        own = np.arange(-these.start, x.size - these.start)
+        own[: these.start] = 0
+        own[these.start + px.size :] = px.size - 1
     else:
         own = np.maximum(np.cumsum(known) - 1, 0)
     own = own if every_finite else own[finite]

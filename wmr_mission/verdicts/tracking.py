@@ -338,12 +338,36 @@ class TrackSamples:
     the phase (NaN and False where the reference is unknown): the cross-track
     error and along-track lag [m] (NaN where not measured), whether the sample
     is judged (not in the entry nor in a detour or its rejoining), and whether
-    it is in a detour a zone forces."""
+    it is in a detour a zone forces; each put back among the phase's samples
+    when read (a long run's columns made only where asked for)."""
 
-    cross: FloatArray
-    lag: FloatArray
-    judged: NDArray[np.bool_]
-    detour: NDArray[np.bool_]
+    known: slice | NDArray[np.bool_] | None  # the samples with a known reference (None: all)
+    size: int  # the phase's samples
+    measured: tuple[FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.bool_]]  # of ``known``
+
+    @property
+    def cross(self) -> FloatArray:
+        return self._all(0, np.nan)
+
+    @property
+    def lag(self) -> FloatArray:
+        return self._all(1, np.nan)
+
+    @property
+    def judged(self) -> NDArray[np.bool_]:
+        return self._all(2, False)
+
+    @property
+    def detour(self) -> NDArray[np.bool_]:
+        return self._all(3, False)
+
+    def _all(self, which: int, missing: float) -> NDArray[Any]:
+        values: NDArray[Any] = self.measured[which]
+        if self.known is None:
+            return values
+        found = np.full(self.size, missing, dtype=values.dtype)
+        found[self.known] = values
+        return found
 
 
 def track_quality(
@@ -463,7 +487,7 @@ def track_samples(
     }
     if not with_samples:
         return metrics, None
-    return metrics, _placed(these, size, cross, lag, judged, detour)
+    return metrics, TrackSamples(these, size, (cross, lag, judged, detour))
 
 
 def _counted_in_entry(
@@ -538,25 +562,6 @@ def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
     if count and known[first : first + count].all():
         return slice(first, first + count)
     return known
-
-
-def _placed(
-    known: slice | NDArray[np.bool_] | None,
-    size: int,
-    cross: FloatArray,
-    lag: FloatArray,
-    judged: NDArray[np.bool_],
-    detour: NDArray[np.bool_],
-) -> TrackSamples:
-    """The samples with a known reference (``known``: :func:`known_samples`;
-    None: all) put back among all the phase's."""
-    if known is None:
-        return TrackSamples(cross, lag, judged, detour)
-    full_cross, full_lag = np.full(size, np.nan), np.full(size, np.nan)
-    full_judged, full_detour = np.zeros(size, dtype=bool), np.zeros(size, dtype=bool)
-    full_cross[known], full_lag[known] = cross, lag
-    full_judged[known], full_detour[known] = judged, detour
-    return TrackSamples(full_cross, full_lag, full_judged, full_detour)
 
 
 def _detours(
