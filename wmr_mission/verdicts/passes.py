@@ -67,10 +67,12 @@ def largest_finite(
     of two equal zeros numpy's ``max`` keeps is its own."""
     found = math.nan
     every = chosen.size == 0
+    scaled = factor != 1.0 or divisor != 1.0  # else 1.0 * value / 1.0: the value itself
     for k in range(values.size):
         if every or chosen[k]:
             value = abs(values[k]) if magnitude else values[k]
-            value = factor * value / divisor
+            if scaled:
+                value = factor * value / divisor
             if abs(value) < math.inf and not value <= found:  # found NaN: none yet
                 found = value
     return found
