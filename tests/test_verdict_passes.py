@@ -247,6 +247,102 @@ def test_the_estimation_passes_have_the_numpy_forms_bits(monkeypatch: pytest.Mon
     assert found[2] is not None
 
 
+def test_the_reference_distance_pass_has_the_numpy_forms_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Each sample's distance from its reference point (NaN, infinite, and
+    squares beyond the largest float), and their RMS."""
+    from wmr_mission.verdicts import metrics
+
+    rng = np.random.default_rng(9)
+    samples = 7001
+    x, y = rng.normal(0.0, 1.0, samples), rng.normal(0.0, 1.0, samples)
+    x_ref, y_ref = x + rng.normal(0.0, 0.1, samples), y + rng.normal(0.0, 0.1, samples)
+    x[[5, 6]], y_ref[7], x_ref[8] = math.nan, math.inf, 1e300
+
+    def judged() -> list[Any]:
+        distance = metrics.reference_distance(x, y, x_ref, y_ref)
+        return [distance, metrics.reference_error(distance[10:])]
+
+    with np.errstate(over="ignore", invalid="ignore"):  # numpy's squares overflow
+        _both(monkeypatch, judged, "reference_distances")
+        found = judged()
+    assert found[0][8] == math.inf
+    assert math.isnan(found[0][5])
+    assert found[1] is not None
+
+
+def test_the_convergence_pass_has_the_numpy_forms_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The first sample from which every estimation error stays within its
+    tolerance (never, from the first, from the last; NaN and a value on the
+    tolerance itself not within)."""
+    from wmr_mission.verdicts import metrics
+
+    rng = np.random.default_rng(8)
+    samples = 500
+    decay = np.exp(-np.arange(samples) * 0.02)
+    errors = {state: rng.normal(0.0, 1.0, samples) * decay for state in ("x", "y", "theta")}
+    tolerance = {"x": 0.01, "y": 0.02, "theta": 0.05}
+    late = {state: error.copy() for state, error in errors.items()}
+    late["theta"][400] = math.nan
+    late["y"][450] = 0.02  # on the tolerance: not below it
+    never = {state: error.copy() for state, error in errors.items()}
+    never["x"][-1] = 1.0
+    always = {state: np.zeros(10) for state in errors}
+    empty = {state: np.zeros(0) for state in errors}
+
+    def judged() -> list[Any]:
+        return [
+            metrics.convergence_index(errors, tolerance),
+            metrics.convergence_index(late, tolerance),
+            metrics.convergence_index(never, tolerance),
+            metrics.convergence_index(always, tolerance),
+            metrics.convergence_index(empty, tolerance),
+        ]
+
+    _both(monkeypatch, judged, "last_unconverged")
+    found = judged()
+    assert 0 < found[0] < found[1] == 451
+    assert found[2:] == [None, 0, None]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_kept_up_pass_has_the_numpy_forms_bits(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A robot that closes on its reference, keeps up with it a while, drifts,
+    stops and keeps up again: the first sample by which it has kept up, from
+    the start, from within a run of samples with it, and past them all."""
+    from wmr_mission.verdicts.tracking import _kept_up
+
+    rng = np.random.default_rng(seed)
+    samples = 1500
+    k = np.arange(samples)
+    rx, ry = k * 0.01 * (0.5 + 0.1 * seed), np.sin(k * 0.003)
+    gap = np.where(k < 300, 0.5 * (1.0 - k / 300.0), 0.0)
+    gap[701:800] += 0.3  # a drift off its reference
+    px, py = rx - gap + rng.normal(0.0, 2e-4, samples), ry + rng.normal(0.0, 2e-4, samples)
+    px[1000:1100] = px[1000]  # at rest while the reference moves on
+    if seed == 3:
+        px[500] = math.nan
+
+    def judged() -> list[int | None]:
+        return [
+            _kept_up(px, py, rx, ry, NUMBERS, begin, end)
+            for begin, end in ((0, samples), (0, 200), (350, samples), (720, samples),
+                               (1000, samples), (1050, 1120), (samples, samples), (10, 5))
+        ]  # fmt: skip
+
+    _both(monkeypatch, judged, "kept_up")
+    found = judged()
+    assert found[0] is not None
+    assert found[0] > 300  # the gap taken out first
+    assert found[1] is None
+    assert found[5] is None  # at rest while the reference moves on
+
+
 def test_judging_the_compile_commands_warm_up_calls_every_pass(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

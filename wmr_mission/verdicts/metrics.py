@@ -41,6 +41,8 @@ from wmr_mission.verdicts.passes import (
     estimation_error_pass,
     finite_squares_sum,
     largest_finite,
+    last_unconverged,
+    reference_distances,
 )
 from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
@@ -103,7 +105,7 @@ _EVERY = np.zeros(0, dtype=bool)
 
 def _largest(
     values: FloatArray,
-    chosen: NDArray[np.bool_] = _EVERY,
+    chosen: NDArray[np.bool_] | slice = _EVERY,
     factor: float = 1.0,
     divisor: float = 1.0,
     magnitude: bool = False,
@@ -112,6 +114,8 @@ def _largest(
     ``|values|`` with ``magnitude``; every value where ``chosen`` is empty),
     for values that are never -0 or whose zero is read as +0: compiled, one
     pass with no copy (verdicts/passes.py), where the kernels are loaded."""
+    if isinstance(chosen, slice):  # a view: the same values in the same order
+        values, chosen = values[chosen], _EVERY
     if jit.judging_compiled():
         found = jit.compiled(largest_finite)(values, chosen, factor, divisor, magnitude)
         return None if math.isnan(found) else float(found)
@@ -139,7 +143,20 @@ def _violation(values: FloatArray, starts: list[int] | None = None) -> float | N
     return None if largest is None else max(0.0, largest)
 
 
+def _suffix(mask: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
+    """The samples ``mask`` picks: a slice where they are its last ones (the
+    samples after a settle time, time never going back), whose columns are
+    views, not copies of a long run's; else ``mask``."""
+    count = int(np.count_nonzero(mask))
+    return slice(mask.size - count, mask.size) if mask[mask.size - count :].all() else mask
+
+
 def _rms_or_none(values: FloatArray) -> float | None:
+    if values.size == 0:
+        return None
+    mean = np.mean(values**2)
+    if math.isfinite(mean):  # every value finite: the mean of them all
+        return float(np.sqrt(mean))
     finite = np.isfinite(values)
     values = values if finite.all() else values[finite]  # a copy only where one is missing
     return float(np.sqrt(np.mean(values**2))) if values.size else None
@@ -151,7 +168,11 @@ def reference_distance(
     """[m] Distance of each position from the reference point of the same
     sample (the time-indexed one: lag included), not from the path. IEEE
     operations alone (no library hypot): the same bits on every CPU
-    (docs/reliability.md)."""
+    (docs/reliability.md); one compiled pass where the judge's passes run compiled."""
+    if jit.judging_compiled():
+        found = np.empty(x.size)
+        jit.compiled(reference_distances)((x, y), (x_ref, y_ref), found)
+        return found
     dx, dy = x - x_ref, y - y_ref
     distance: FloatArray = np.sqrt(dx * dx + dy * dy)
     return distance
@@ -195,6 +216,12 @@ def convergence_index(
     """First sample from which every |error| stays below its state's tolerance
     to the end, else None."""
     tolerance = DEFAULT_CONVERGENCE_TOLERANCE if tolerance is None else tolerance
+    if jit.judging_compiled() and tuple(errors) == STATES:  # one compiled pass, from the end
+        size = errors["x"].size
+        bounds = (float(tolerance["x"]), float(tolerance["y"]), float(tolerance["theta"]))
+        columns = (errors["x"], errors["y"], errors["theta"])
+        last = jit.compiled(last_unconverged)(columns, bounds) if size else 0
+        return None if size == 0 or last + 1 == size else last + 1
     converged = np.ones(len(next(iter(errors.values()))), dtype=bool)
     for state, error in errors.items():  # state by state: no copy of all three
         # NaN compares False: a non-finite error is never converged.
@@ -240,7 +267,6 @@ def distance_to_path(
     is exact when the nearest point lies within the window, and is at most
     about one sampling step above it otherwise.
     """
-    distance = np.full(x.shape, np.nan)
     known = np.isfinite(x_ref) & np.isfinite(y_ref)
     finite = np.isfinite(x) & np.isfinite(y)
     # Copies only where something is missing: a long run's columns are large.
@@ -248,19 +274,21 @@ def distance_to_path(
     these = known_samples(known)  # a slice (views) where they run unbroken
     px, py = x_ref[these], y_ref[these]
     if px.size == 0 or not finite.any():
-        return distance
+        return np.full(x.shape, np.nan)
     qx, qy = (x, y) if every_finite else (x[finite], y[finite])
     if px.size == 1:
-        distance[finite] = np.hypot(qx - px[0], qy - py[0])
-        return distance
+        return _where_finite(finite, np.hypot(qx - px[0], qy - py[0]))
     # each sample's reference point: the last known at or before it (else the first)
-    if isinstance(these, slice):
-        own = np.minimum(np.maximum(np.arange(x.size) - these.start, 0), px.size - 1)
+    if isinstance(these, slice):  # counted from its start, held at the first and the last
+        own = np.arange(-these.start, x.size - these.start)
+        own[: these.start] = 0
+        own[these.start + px.size :] = px.size - 1
     else:
         own = np.maximum(np.cumsum(known) - 1, 0)
     own = own if every_finite else own[finite]
     steps = np.hypot(np.diff(px), np.diff(py))
-    cell = float(np.median(steps[steps > 0])) / 2 if np.any(steps > 0) else 1.0
+    moving = steps[steps > 0]
+    cell = float(np.median(moving, overwrite_input=True)) / 2 if moving.size else 1.0
     # One point per cell: the first the path passes in it (a stable sort by cell).
     first = first_in_cells(px, py, cell) if jit.judging_compiled() else None  # the same, compiled
     if first is None:
@@ -270,10 +298,7 @@ def distance_to_path(
         first = order[np.r_[True, (column[1:] != column[:-1]) | (row[1:] != row[:-1])]]
     if jit.distances_compiled():  # the same bits in one compiled pass (verdicts/path_distance.py)
         found = compiled_distances(px, py, qx, qy, own, first, cell, LOCAL_WINDOW, _NEAREST_POINTS)
-        if every_finite:
-            return found
-        distance[finite] = found
-        return distance
+        return found if every_finite else _where_finite(finite, found)
     grid = NearestPoints(px[first], py[first], cell, qx.size)
     found = np.empty(qx.size)
     last = px.size - 2  # segment i runs from point i to point i + 1
@@ -285,6 +310,12 @@ def distance_to_path(
         nearest = first[grid.nearest(qx[part], qy[part], _NEAREST_POINTS, near)]
         segments = np.clip(np.concatenate((nearest - 1, nearest), axis=1), 0, last)
         found[part] = np.minimum(near, _distance_to_segments(px, py, segments, qx[part], qy[part]))
+    return found if every_finite else _where_finite(finite, found)
+
+
+def _where_finite(finite: NDArray[np.bool_], found: FloatArray) -> FloatArray:
+    """``found`` at the ``finite`` samples, NaN at the others."""
+    distance = np.full(finite.shape, np.nan)
     distance[finite] = found
     return distance
 
@@ -443,8 +474,10 @@ class PhaseSamples:
         self.window = slice(start, end)
         self.start_time = float(result.t[start])
         self.settle_time = settle_time
-        self.settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
         self.v, self.omega = result.v[self.window], result.omega[self.window]
+        settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
+        self.settled_samples = int(np.count_nonzero(settled))
+        self.settled = _suffix(settled)  # the samples after the settle time
         self._off_path_of = off_path_of
         self.numbers = judged.numbers
         self.ended_by = judged.ended_by
@@ -670,7 +703,7 @@ def _checked_phase_summary(
     summary = {
         "name": info.name,
         "kind": info.kind,
-        "settled_samples": int(np.count_nonzero(phase.settled)),
+        "settled_samples": phase.settled_samples,
     }
     checked = [metric for metric in _applying(summary) if thresholds.get(metric.name) is not None]
     values: dict[str, Any] = _measured(phase, checked)
@@ -707,7 +740,9 @@ def _phase_summary(
             "max_from_start": _largest(phase.off_path),
             # distance from the reference point of the same sample, lag
             # included (runs.csv's reference_error_rms over the track phases)
-            "reference_error_rms": reference_error(reference_distance(x, y, x_ref, y_ref)[settled]),
+            "reference_error_rms": reference_error(
+                reference_distance(x[settled], y[settled], x_ref[settled], y_ref[settled])
+            ),
         }
 
     target_error = None
@@ -725,7 +760,7 @@ def _phase_summary(
         "end": float(t[end_sample]),
         "duration": round(float(t[end_sample]) - start_time, 9),  # no 20.000000000000004
         "settle_time": phase.settle_time,
-        "settled_samples": int(np.count_nonzero(settled)),
+        "settled_samples": phase.settled_samples,
         "tracking_error": tracking,
         "tracking": phase.tracking,
         "target_error": target_error,
@@ -779,10 +814,13 @@ def compute_time_us(compute_ns: np.ndarray) -> dict[str, float | None]:
     if compute_ns.size == 0:
         return {"mean": None, "median": None, "p99": None}
     us = compute_ns.astype(np.float64) / 1000.0
+    mean = float(np.mean(us))  # before `us` is reordered: the sum's order is its own
+    # `us` selected in place, not copied: a long run's column (the same values picked)
+    median = float(np.median(us, overwrite_input=True))
     return {
-        "mean": float(np.mean(us)),
-        "median": float(np.median(us)),
-        "p99": float(np.percentile(us, 99)),
+        "mean": mean,
+        "median": median,
+        "p99": float(np.percentile(us, 99, overwrite_input=True)),
     }
 
 
@@ -794,13 +832,15 @@ def _expect_of(mission: Mapping[str, Any] | None) -> Mapping[str, Any]:
 
 def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
     """Per phase name, the phase's `expect` thresholds in force: the mission's
-    per-phase keys, overridden by each key the phase sets itself.
+    per-phase keys, overridden by each key the phase sets itself (its
+    ``temporal`` formulas too).
 
     ``mission`` is the resolved mission (``Mission.model_dump(mode="json")``).
     """
     expect = _expect_of(mission)
     shared = {
-        key: expect.get(key) for key in ("settle_time", *(m.name for m in catalog.phase_metrics()))
+        key: expect.get(key)
+        for key in ("settle_time", "temporal", *(m.name for m in catalog.phase_metrics()))
     }
     merged = {}
     for phase in _written_phases(mission):
@@ -867,8 +907,8 @@ def summarize(result: RunRecord, mission: Mapping[str, Any] | None = None) -> di
     summary = run_metrics(result, mission, phases, errors)
     tolerance = _tolerance(mission)
     summary["phases"] = [
-        _phase_summary(result, info, p, tolerance) | _formulas(result, info, p, mission)
-        for info, p, _ in phases
+        _phase_summary(result, info, p, tolerance) | _formulas(result, info, p, mission, expect)
+        for info, p, expect in phases
     ]
     summary["compute_us_per_sample"] = compute_time_us(result.compute_ns)
     summary["loop_us_per_sample"] = loop_time_us(result)
@@ -879,12 +919,18 @@ Phases = list[tuple["PhaseRecord", "PhaseSamples", Mapping[str, Any]]]
 
 
 def _formulas(
-    result: RunRecord, info: PhaseRecord, phase: PhaseSamples, mission: Mapping[str, Any] | None
+    result: RunRecord,
+    info: PhaseRecord,
+    phase: PhaseSamples,
+    mission: Mapping[str, Any] | None,
+    expect: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """A phase's temporal formulas' robustness, ``{"temporal": {formula: rho}}``, if any."""
+    """A phase's temporal formulas' robustness, ``{"temporal": {formula: rho}}``, if
+    any; ``expect``: the phase's thresholds in force (:func:`phase_expectations`),
+    if at hand."""
     return temporal.phase_values(
         result, info, phase.window, phase.settle_time, phase.numbers, mission,
-        lambda: phase.placement,
+        lambda: phase.placement, None if expect is None else tuple(expect.get("temporal") or ()),
     )  # fmt: skip
 
 
@@ -952,7 +998,7 @@ def run_metrics(
     summary = _bounded_metrics(
         result, tolerance, errors, run_columns(result, mission, phases), phases
     )
-    settled = (
+    settled = _suffix(
         result.t - (result.t[0] if result.samples else 0.0)
         >= _settle_time(_expect_of(mission)) - 1e-9 * result.dt
     )
@@ -1247,7 +1293,8 @@ def judge_run_metrics(result: RunRecord, mission: MissionTerms) -> dict[str, Any
         return summary
     del errors
     checked = [
-        _checked_phase_summary(info, phase, expect) | _formulas(result, info, phase, mission)
+        _checked_phase_summary(info, phase, expect)
+        | _formulas(result, info, phase, mission, expect)
         for info, phase, expect in phases
     ]
     numbers = phases[0][1].numbers if phases else None  # the run's dt and limits

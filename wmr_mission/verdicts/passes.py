@@ -9,11 +9,14 @@ operations at a time (each caller keeps that form beside its call).
 - the depth beyond an ellipse zone, and its bounds (wmr_mission.verdicts.zones);
 - the largest finite value of a phase's column, scaled or its magnitude
   (wmr_mission.verdicts.metrics), with no copy of it;
-- the run's estimation errors, the heading's wrapped
-  (wmr_mission.verdicts.metrics), and the first sample whose estimate is
-  within its tolerance (wmr_mission.verdicts.inputs);
-- the exact sum of squares of ``reference_error_rms``
-  (wmr_mission.verdicts.metrics), the float ``math.fsum`` gives.
+- the run's estimation errors, the heading's wrapped, and the last sample
+  not converged (wmr_mission.verdicts.metrics), and the first sample whose
+  estimate is within its tolerance (wmr_mission.verdicts.inputs);
+- where a track phase's robot has kept up with its reference
+  (wmr_mission.verdicts.tracking);
+- the distances to the reference points and the exact sum of their squares
+  of ``reference_error_rms`` (wmr_mission.verdicts.metrics), the float
+  ``math.fsum`` gives.
 
 The same numbers: the same operations in the same order, numpy's ``max``
 (NaN if any is) and ``searchsorted`` as loops, a square as a product (as
@@ -41,7 +44,10 @@ __all__ = [  # the passes, each compiled by `wmr-mission compile` (tests/test_st
     "first_within",
     "input_pass",
     "jitter_median",
+    "kept_up",
     "largest_finite",
+    "last_unconverged",
+    "reference_distances",
     "stalled_samples",
 ]
 
@@ -61,10 +67,12 @@ def largest_finite(
     of two equal zeros numpy's ``max`` keeps is its own."""
     found = math.nan
     every = chosen.size == 0
+    scaled = factor != 1.0 or divisor != 1.0  # else 1.0 * value / 1.0: the value itself
     for k in range(values.size):
         if every or chosen[k]:
             value = abs(values[k]) if magnitude else values[k]
-            value = factor * value / divisor
+            if scaled:
+                value = factor * value / divisor
             if abs(value) < math.inf and not value <= found:  # found NaN: none yet
                 found = value
     return found
@@ -86,6 +94,56 @@ def estimation_error_pass(
         ex[k] = x[k] - x_est[k]
         ey[k] = y[k] - y_est[k]
         etheta[k] = (theta[k] - theta_est[k] + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@kernel
+def last_unconverged(
+    errors: tuple[FloatArray, FloatArray, FloatArray], tolerance: tuple[float, float, float]
+) -> int:
+    """The last sample at which some |error| is not below its state's
+    tolerance (NaN is not), -1 if none: ``metrics.convergence_index``."""
+    ex, ey, etheta = errors
+    for k in range(ex.size - 1, -1, -1):
+        if not (abs(ex[k]) < tolerance[0] and abs(ey[k]) < tolerance[1]):
+            return k
+        if not abs(etheta[k]) < tolerance[2]:
+            return k
+    return -1
+
+
+@kernel
+def kept_up(
+    position: tuple[FloatArray, FloatArray],
+    reference: tuple[FloatArray, FloatArray],
+    samples: tuple[int, int, int],
+    tolerance: float,
+    moving: float,
+    apart_most: float,
+) -> int:
+    """``tracking._kept_up``: of ``samples`` (begin, end, window), the first
+    sample from ``begin`` on ending ``window`` samples in a row each within
+    ``tolerance`` of its reference point and, from the sample before (none
+    before ``max(begin - window, 0)``), moved apart from it by at most
+    ``moving`` of the reference's step and ``apart_most``; -1: none. ``hypot``
+    the C library's, as numpy's."""
+    px, py = position
+    rx, ry = reference
+    begin, end, window = samples
+    first = max(begin - window, 0)
+    run = 0  # samples with it in a row
+    for k in range(first, end):
+        ex, ey = px[k] - rx[k], py[k] - ry[k]
+        with_it = np.hypot(ex, ey) <= tolerance
+        if k > first:
+            apart = np.hypot(ex - (px[k - 1] - rx[k - 1]), ey - (py[k - 1] - ry[k - 1]))
+            moved = moving * np.hypot(rx[k] - rx[k - 1], ry[k] - ry[k - 1])
+            with_it = with_it and apart <= moved and apart <= apart_most
+        elif first > 0:  # the sample before the window: there for its first one's velocity
+            with_it = False
+        run = run + 1 if with_it else 0
+        if run >= window and k >= begin:
+            return k
+    return -1
 
 
 @kernel
@@ -400,6 +458,21 @@ def _unit(squared: float) -> float:
     if value > 1.0:
         return 1.0
     return value
+
+
+@kernel
+def reference_distances(
+    position: tuple[FloatArray, FloatArray],
+    reference: tuple[FloatArray, FloatArray],
+    distance: FloatArray,
+) -> None:
+    """Each sample's distance from its reference point into ``distance``, as
+    ``metrics.reference_distance`` computes it (IEEE operations alone)."""
+    x, y = position
+    x_ref, y_ref = reference
+    for k in range(x.size):
+        dx, dy = x[k] - x_ref[k], y[k] - y_ref[k]
+        distance[k] = math.sqrt(dx * dx + dy * dy)
 
 
 @kernel

@@ -211,14 +211,15 @@ def phase_values(
     numbers: MissionNumbers,
     mission: Mapping[str, Any] | None,
     placement: Callable[[], Placement | None] | None = None,
+    formulas: tuple[str, ...] | None = None,
 ) -> dict[str, Any]:
     """``{"temporal": {formula: rho}}`` for a phase's summary (nothing when it
-    has no formula): rho None where a signal it names is not finite at some
-    sample (a divergence) or the formula fails over an empty window; a
-    formula is left out where the phase does not measure a signal it names
-    (a mission-wide formula on a phase of another kind), or where it holds
-    over an empty window (nothing to judge)."""
-    formulas = phase_formulas(mission, info.name)
+    has no formula; ``formulas``: its :func:`phase_formulas`, if at hand): rho
+    None where a signal it names is not finite at some sample (a divergence) or
+    the formula fails over an empty window; a formula is left out where the
+    phase does not measure a signal it names (a mission-wide formula on a phase
+    of another kind), or where it holds over an empty window (nothing to judge)."""
+    formulas = phase_formulas(mission, info.name) if formulas is None else formulas
     if not formulas:
         return {}
     signals = PhaseSignals(result, info, window, numbers, placement)

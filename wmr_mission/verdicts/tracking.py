@@ -48,6 +48,7 @@ from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
+from wmr_mission.verdicts.passes import kept_up
 from wmr_mission.verdicts.placing import path_lengths, place_samples
 from wmr_mission.verdicts.zones import Zone, reach_across
 
@@ -337,12 +338,36 @@ class TrackSamples:
     the phase (NaN and False where the reference is unknown): the cross-track
     error and along-track lag [m] (NaN where not measured), whether the sample
     is judged (not in the entry nor in a detour or its rejoining), and whether
-    it is in a detour a zone forces."""
+    it is in a detour a zone forces; each put back among the phase's samples
+    when read (a long run's columns made only where asked for)."""
 
-    cross: FloatArray
-    lag: FloatArray
-    judged: NDArray[np.bool_]
-    detour: NDArray[np.bool_]
+    known: slice | NDArray[np.bool_] | None  # the samples with a known reference (None: all)
+    size: int  # the phase's samples
+    measured: tuple[FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.bool_]]  # of ``known``
+
+    @property
+    def cross(self) -> FloatArray:
+        return self._all(0, np.nan)
+
+    @property
+    def lag(self) -> FloatArray:
+        return self._all(1, np.nan)
+
+    @property
+    def judged(self) -> NDArray[np.bool_]:
+        return self._all(2, False)
+
+    @property
+    def detour(self) -> NDArray[np.bool_]:
+        return self._all(3, False)
+
+    def _all(self, which: int, missing: float) -> NDArray[Any]:
+        values: NDArray[Any] = self.measured[which]
+        if self.known is None:
+            return values
+        found = np.full(self.size, missing, dtype=values.dtype)
+        found[self.known] = values
+        return found
 
 
 def track_quality(
@@ -402,14 +427,15 @@ def track_samples(
         "reference_speed_max": None,
         "zone_reach": None,
     }
-    if not known.all():
-        these = known_samples(known)
+    these = None if known.all() else known_samples(known)
+    if these is not None:
         t = t[these]
         if placement is None:
             px, py, rx, ry = px[these], py[these], rx[these], ry[these]
         else:  # the same samples, kept once: a long run's columns are large
             px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
-    if t.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
+    # (a placement's positions are finite)
+    if t.size == 0 or (placement is None and not (np.isfinite(px).all() and np.isfinite(py).all())):
         return metrics, None  # no reference, or the run diverged
     dt = numbers.dt
     if placement is None:
@@ -459,7 +485,9 @@ def track_samples(
         "detour_offset_max": float(offset.max()) if offset.size else None,
         "reference_speed_max": float(reference_speed.max()),
     }
-    return metrics, _placed(known, size, cross, lag, judged, detour) if with_samples else None
+    if not with_samples:
+        return metrics, None
+    return metrics, TrackSamples(these, size, (cross, lag, judged, detour))
 
 
 def _counted_in_entry(
@@ -529,28 +557,11 @@ def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
     """The samples whose reference is ``known``: a slice where they run
     unbroken (as a phase's do but its last sample), whose columns are views,
     not copies of a long run's."""
-    found = np.flatnonzero(known)
-    if found.size and int(found[-1]) - int(found[0]) + 1 == found.size:
-        return slice(int(found[0]), int(found[-1]) + 1)
+    count = int(np.count_nonzero(known))
+    first = int(np.argmax(known))  # the first known (0 if none is)
+    if count and known[first : first + count].all():
+        return slice(first, first + count)
     return known
-
-
-def _placed(
-    known: NDArray[np.bool_],
-    size: int,
-    cross: FloatArray,
-    lag: FloatArray,
-    judged: NDArray[np.bool_],
-    detour: NDArray[np.bool_],
-) -> TrackSamples:
-    """The samples with a known reference put back among all the phase's."""
-    if known.all():
-        return TrackSamples(cross, lag, judged, detour)
-    full_cross, full_lag = np.full(size, np.nan), np.full(size, np.nan)
-    full_judged, full_detour = np.zeros(size, dtype=bool), np.zeros(size, dtype=bool)
-    full_cross[known], full_lag[known] = cross, lag
-    full_judged[known], full_detour[known] = judged, detour
-    return TrackSamples(full_cross, full_lag, full_judged, full_detour)
 
 
 def _detours(
@@ -606,6 +617,12 @@ def _kept_up(
     and by no more than MOVING of the reference's speed. None if there is none."""
     tolerance, dt = numbers.tracking_tolerance, numbers.dt
     window = max(1, round(SETTLING * numbers.time_constant / dt))
+    if jit.judging_compiled():  # the same sample in one compiled pass (verdicts/passes.py)
+        sample = jit.compiled(kept_up)(
+            (px, py), (rx, ry), (begin, end, window), tolerance, MOVING,
+            numbers.keeping_up_speed * dt,
+        )  # fmt: skip
+        return None if sample < 0 else sample
     first = max(begin - window, 0)  # the window's first sample's one before, if any
     if end <= first:
         return None
