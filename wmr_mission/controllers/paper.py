@@ -1038,11 +1038,10 @@ def hold_across_at_a_stop(
 
 
 @kernel
-def joined_share(aim_now: FloatArray, estimate: FloatArray, reach: float) -> float:
-    """How far the law follows the path as previewed (anticipated): wholly
-    within ``reach`` of the path's point, not at all beyond twice it."""
-    distance = hypot(aim_now[0] - estimate[0], aim_now[1] - estimate[1])
-    share: float = min(max(2.0 - distance / reach, 0.0), 1.0)
+def joined_share(gap: float, reach: float) -> float:
+    """How far the robot has joined its path, ``gap`` from its path's point:
+    wholly within ``reach`` of it, not at all beyond twice it."""
+    share: float = min(max(2.0 - gap / reach, 0.0), 1.0)
     return share
 
 
@@ -1094,9 +1093,11 @@ def next_input(
             along = aim_now[2] * (aim_now[0] - estimate[0]) + aim_now[3] * (
                 aim_now[1] - estimate[1]
             )
-            joined = min(max(2.0 - abs(along) / tuning.error_reach, 0.0), 1.0)
+            joined = joined_share(abs(along), tuning.error_reach)
         if tuning.preview > 0.0:
-            share = joined_share(aim_now, estimate, tuning.error_reach)
+            # the path as previewed followed within error_reach of its point
+            distance = hypot(aim_now[0] - estimate[0], aim_now[1] - estimate[1])
+            share = joined_share(distance, tuning.error_reach)
             anticipated(aim_now, aim, share)
             if share == 1.0:  # the path as previewed wholly: the robot is on it
                 path_turn = path_turn_rate(aim_now, aim, plant.dt)
