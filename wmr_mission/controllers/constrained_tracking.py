@@ -437,6 +437,32 @@ RAMP_SLOPE = 0.5
 
 
 @kernel
+def _support_terms(
+    p: FloatArray, margin: float, tx: float, ty: float, side: float
+) -> tuple[float, float, float]:
+    """The quadratic terms of the support function of the keep-out ellipse row
+    ``p`` grown by ``margin``, h(n) = n . centre + sqrt(n' S n) with S = R
+    diag(a^2, b^2) R', for n in the plane of m (across the path heading along
+    the unit (tx, ty), to ``side`` of it) and t (along it): (m' S m, m' S t,
+    t' S t)."""
+    a = p[2] + margin
+    b = p[3] + margin
+    cos_phi = math.cos(p[4])
+    sin_phi = math.sin(p[4])
+    # the path's direction and the way across in the ellipse's own axes
+    du = cos_phi * tx + sin_phi * ty
+    dw = -sin_phi * tx + cos_phi * ty
+    mx = -ty * side
+    my = tx * side
+    mu_ = cos_phi * mx + sin_phi * my
+    mw = -sin_phi * mx + cos_phi * my
+    sa = mu_ * mu_ * a * a + mw * mw * b * b  # m' S m
+    sb = mu_ * du * a * a + mw * dw * b * b  # m' S t
+    sc = du * du * a * a + dw * dw * b * b  # t' S t
+    return sa, sb, sc
+
+
+@kernel
 def _way_round(
     p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float, side: float
 ) -> tuple[float, float, float]:
@@ -446,26 +472,14 @@ def _way_round(
     the moved aim keeps every point of the zone outside the wedge of slope
     RAMP_SLOPE about the path's line ahead of it and behind it. (distance >= 0,
     unit side x, y); 0 where the zone lies on the other side of the wedge."""
-    a = p[2] + margin
-    b = p[3] + margin
-    cos_phi = math.cos(p[4])
-    sin_phi = math.sin(p[4])
     dx = p[0] - x  # the zone's centre from the aim
     dy = p[1] - y
-    # the path's direction in the ellipse's own axes
-    du = cos_phi * tx + sin_phi * ty
-    dw = -sin_phi * tx + cos_phi * ty
     mx = -ty * side
     my = tx * side
-    # Support function of the grown ellipse, h(n) = n . centre + sqrt(n' S n),
-    # S = R diag(a^2, b^2) R'. The reach is the least h(m + mu t) over
-    # |mu| <= RAMP_SLOPE: the largest of m . q - RAMP_SLOPE |t . q| over the
-    # zone's points q (its minimax), a convex function of mu.
-    mu_ = cos_phi * mx + sin_phi * my
-    mw = -sin_phi * mx + cos_phi * my
-    sa = mu_ * mu_ * a * a + mw * mw * b * b  # m' S m
-    sb = mu_ * du * a * a + mw * dw * b * b  # m' S t
-    sc = du * du * a * a + dw * dw * b * b  # t' S t
+    # The reach is the least support h(m + mu t) over |mu| <= RAMP_SLOPE: the
+    # largest of m . q - RAMP_SLOPE |t . q| over the zone's points q (its
+    # minimax), a convex function of mu.
+    sa, sb, sc = _support_terms(p, margin, tx, ty, side)
     along = tx * dx + ty * dy
     across = mx * dx + my * dy
     slack = max(sa - sb * sb / sc, 0.0)
@@ -543,21 +557,11 @@ def _way_round_eased(
     at rest turns in place), steeper there, and no climb is left (-1,
     the ramp's way) where not even the ramp fits (docs/paper-notes.md,
     eq. (28), "The ramp eased under a turn-rate acceleration limit")."""
-    a = p[2] + margin
-    b = p[3] + margin
-    cos_phi = math.cos(p[4])
-    sin_phi = math.sin(p[4])
     tx = way[2]
     ty = way[3]
-    du = cos_phi * tx + sin_phi * ty
-    dw = -sin_phi * tx + cos_phi * ty
     mx = -ty * way[4]
     my = tx * way[4]
-    mu_ = cos_phi * mx + sin_phi * my
-    mw = -sin_phi * mx + cos_phi * my
-    sa = mu_ * mu_ * a * a + mw * mw * b * b  # m' S m
-    sb = mu_ * du * a * a + mw * dw * b * b  # m' S t
-    sc = du * du * a * a + dw * dw * b * b  # t' S t
+    sa, sb, sc = _support_terms(p, margin, tx, ty, way[4])
     top = math.sqrt(max(sa, 0.0))
     reach = mx * (p[0] - x) + my * (p[1] - y) + top  # the zone's support across
     if reach <= 0.0 or top == 0.0:
