@@ -247,6 +247,59 @@ def test_the_estimation_passes_have_the_numpy_forms_bits(monkeypatch: pytest.Mon
     assert found[2] is not None
 
 
+# Heading differences whose value shifted by pi is at the ends of (0, 2 pi),
+# just within and just beyond them: where the passes take the shifted value
+# itself, and where the float remainder wraps it.
+_HEADING_EDGES = [
+    math.pi,
+    -math.pi,
+    float(np.nextafter(math.pi, 0.0)),
+    float(np.nextafter(-math.pi, 0.0)),
+    float(np.nextafter(math.pi, 4.0)),
+    float(np.nextafter(-math.pi, -4.0)),
+    3 * math.pi,
+    -3 * math.pi,
+    1e-300,
+    -1e-300,
+    0.0,
+    2.5,
+    -2.5,
+]
+
+
+def test_the_passes_wrap_headings_at_the_edges_as_numpy_does(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The estimation errors' and the stall's headings, compiled, take the
+    difference plus pi as its own remainder only strictly within (0, 2 pi): a
+    difference just below pi whose shift rounds to 2 pi wraps to -pi, as
+    numpy's remainder has it, not to pi."""
+    from types import SimpleNamespace
+
+    from wmr_mission.verdicts import metrics
+
+    edges = np.array(_HEADING_EDGES * 3)
+    estimate = np.repeat([0.0, 1e-3, -2.0], len(_HEADING_EDGES))
+    theta = edges + estimate
+    zeros = np.zeros(edges.size)
+    result = SimpleNamespace(x=zeros, y=zeros, theta=theta, x_est=zeros, y_est=zeros,
+                             theta_est=estimate)  # fmt: skip
+    # a robot at its target, its heading at the edges (the goal met at none)
+    far = np.full(200, 0.5)
+    heading = np.concatenate([np.full(10, value) for value in _HEADING_EDGES * 2])[:200]
+
+    def judged() -> list[Any]:
+        return [
+            metrics.estimation_errors(result),  # type: ignore[arg-type]
+            stall_time(far, far * 0.0, heading, (0.0, 0.0, 0.0), (0.01, 1e-3), NUMBERS),
+        ]
+
+    _both(monkeypatch, judged, "estimation_error_pass")
+    _both(monkeypatch, judged, "stalled_samples")
+    wrapped = judged()[0]["theta"]
+    assert wrapped[2] == -math.pi  # just below pi: its shift is 2 pi, wrapped
+
+
 def test_the_reference_distance_pass_has_the_numpy_forms_bits(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

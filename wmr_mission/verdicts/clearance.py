@@ -25,7 +25,7 @@ import numpy as np
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.geometry.regions import box_corners
-from wmr_mission.verdicts.zones import RESOLUTION, Zone
+from wmr_mission.verdicts.zones import RESOLUTION, Bounds, Zone
 
 # Decimals of a metre a clearance is given to: RESOLUTION's.
 _DIGITS = round(-math.log10(RESOLUTION))
@@ -41,17 +41,29 @@ def clearance_min(
     theta: FloatArray,
     zones: Sequence[Zone],
     footprint: Mapping[str, Any] | None,
+    bounds: Sequence[Bounds | None] | None = None,
+    finite: bool | None = None,
 ) -> float | None:
     """[m] the least clearance of the body over the poses, to any of the zones
-    (None without zones or poses, or where a pose is not finite)."""
+    (None without zones or poses, or where a pose is not finite). ``bounds``:
+    each zone's :meth:`Zone.bounds` of the positions, and ``finite``: whether
+    every pose is finite, if at hand."""
     if not zones or x.size == 0:
         return None
-    if not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(theta).all()):
+    if finite is None:
+        finite = bool(np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(theta).all())
+    if not finite:
         return None
     if footprint is None or "radius" in footprint:
         radius = 0.0 if footprint is None else float(footprint["radius"])
         # the deepest point measured alone: an ellipse's exact distance costs an iteration
-        least = min(-zone.max_depth(x, y) for zone in zones) - radius
+        least = (
+            min(
+                -zone.max_depth(x, y, bounds=None if bounds is None else bounds[i])
+                for i, zone in enumerate(zones)
+            )
+            - radius
+        )
     else:
         corners = np.asarray(footprint["polygon"], dtype=np.float64)
         least = min(_polygon_clearance(x, y, theta, corners, zone) for zone in zones)

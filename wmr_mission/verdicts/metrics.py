@@ -47,8 +47,14 @@ from wmr_mission.verdicts.passes import (
 from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
 from wmr_mission.verdicts.regulation import overshoot as target_overshoot
 from wmr_mission.verdicts.regulation import stall_time
-from wmr_mission.verdicts.tracking import Placement, known_samples, track_samples
-from wmr_mission.verdicts.zones import intrusion_max, zones_of
+from wmr_mission.verdicts.tracking import (
+    Known,
+    Placement,
+    known_samples,
+    reference_known,
+    track_samples,
+)
+from wmr_mission.verdicts.zones import Bounds, intrusion_max, zones_of
 
 if TYPE_CHECKING:
     from wmr_mission.record import PhaseRecord, RunRecord
@@ -143,11 +149,12 @@ def _violation(values: FloatArray, starts: list[int] | None = None) -> float | N
     return None if largest is None else max(0.0, largest)
 
 
-def _suffix(mask: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
+def _suffix(mask: NDArray[np.bool_], count: int | None = None) -> slice | NDArray[np.bool_]:
     """The samples ``mask`` picks: a slice where they are its last ones (the
     samples after a settle time, time never going back), whose columns are
-    views, not copies of a long run's; else ``mask``."""
-    count = int(np.count_nonzero(mask))
+    views, not copies of a long run's; else ``mask``. ``count``: how many it
+    picks, if known."""
+    count = int(np.count_nonzero(mask)) if count is None else count
     return slice(mask.size - count, mask.size) if mask[mask.size - count :].all() else mask
 
 
@@ -445,11 +452,12 @@ OffPath = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], FloatArray]
 
 @dataclass(frozen=True)
 class _Judged:
-    """What every phase of a run is judged by: the mission's numbers and when
-    [s] the estimate first came within its tolerance (None: never)."""
+    """What every phase of a run is judged by: the mission's numbers and the
+    first sample from when [s] the estimate first came within its tolerance
+    (None: never)."""
 
     numbers: MissionNumbers
-    inputs_from: float | None
+    inputs_from: int | None  # the first sample at or after that time (None: never)
     ended_by: Mapping[str, str]  # phase name -> the `until` condition that ended it
     goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
     errors: dict[str, FloatArray] | None  # the run's estimation errors, where its judge keeps them
@@ -477,18 +485,14 @@ class PhaseSamples:
         self.v, self.omega = result.v[self.window], result.omega[self.window]
         settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
         self.settled_samples = int(np.count_nonzero(settled))
-        self.settled = _suffix(settled)  # the samples after the settle time
+        self.settled = _suffix(settled, self.settled_samples)  # the samples after the settle time
         self._off_path_of = off_path_of
         self.numbers = judged.numbers
         self.ended_by = judged.ended_by
         self.goals = judged.goals
         self._run_errors = judged.errors
         # the first sample of the phase whose inputs are judged (past the end: none)
-        self.first_judged = (
-            end
-            if judged.inputs_from is None
-            else max(start, int(np.searchsorted(result.t, judged.inputs_from - 1e-9 * result.dt)))
-        )
+        self.first_judged = end if judged.inputs_from is None else max(start, judged.inputs_from)
 
     @cached_value
     def off_path(self) -> FloatArray:
@@ -510,7 +514,17 @@ class PhaseSamples:
     def placement(self) -> Placement | None:
         """The places on the path of the samples whose reference is known, for the
         tracking metrics and the formulas alike (track phases)."""
-        return temporal.placed(self.result, self.window) if self.info.kind == "track" else None
+        if self.info.kind != "track":
+            return None
+        return temporal.placed(self.result, self.window, self.reference_known)
+
+    @cached_value
+    def reference_known(self) -> Known:
+        """Whether each sample's reference point is known, and those samples
+        (:func:`reference_known`): for the places, the tracking metrics and
+        the formulas, once."""
+        r, w = self.result, self.window
+        return reference_known(r.x_ref[w], r.y_ref[w])
 
     @cached_value
     def tracked(self) -> tuple[dict[str, Any], NDArray[np.bool_] | None] | None:
@@ -522,7 +536,7 @@ class PhaseSamples:
         timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
         found, samples = track_samples(
             r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed,
-            r.constraint_margin, self.placement,
+            r.constraint_margin, self.placement, known=self.reference_known,
         )  # fmt: skip
         return found, None if samples is None else samples.judged  # the errors not kept
 
@@ -580,8 +594,9 @@ class PhaseSamples:
         if self.info.kind != "regulate":
             return None
         r, numbers = self.result, self.numbers
+        finite = True if self.pose_finite else None  # else each stretch looked at
         found = [
-            stall_time(r.x[w], r.y[w], r.theta[w], aim, self.goal, numbers, self.zones)
+            stall_time(r.x[w], r.y[w], r.theta[w], aim, self.goal, numbers, self.zones, finite)
             for w, aim in self.targets
         ]
         known = [value for value in found if value is not None]
@@ -594,7 +609,10 @@ class PhaseSamples:
         if self.info.kind != "regulate":
             return None
         r = self.result
-        found = [target_overshoot(r.x[w], r.y[w], aim, self.goal[0]) for w, aim in self.targets]
+        finite = True if self.pose_finite else None  # else each stretch looked at
+        found = [
+            target_overshoot(r.x[w], r.y[w], aim, self.goal[0], finite) for w, aim in self.targets
+        ]
         known = [value for value in found if value is not None]
         return max(known) if known else None
 
@@ -610,14 +628,36 @@ class PhaseSamples:
         }
 
     @cached_value
+    def pose_finite(self) -> bool:
+        """Whether every pose of the phase is finite (read by its zones and
+        regulation metrics, once)."""
+        r, w = self.result, self.window
+        x, y, theta = r.x[w], r.y[w], r.theta[w]
+        return bool(np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(theta).all())
+
+    @cached_value
+    def zone_bounds(self) -> list[Bounds | None]:
+        """Each zone's :meth:`Zone.bounds` of the phase's positions: computed
+        once for the intrusion and the clearance."""
+        r, w = self.result, self.window
+        return [zone.bounds(r.x[w], r.y[w]) for zone in self.zones]
+
+    @cached_value
     def clearance(self) -> float | None:
         r, w = self.result, self.window
-        return clearance_min(r.x[w], r.y[w], r.theta[w], self.zones, _footprint(r.mission))
+        if not self.zones or w.stop == w.start:
+            return None
+        return clearance_min(
+            r.x[w], r.y[w], r.theta[w], self.zones, _footprint(r.mission), self.zone_bounds,
+            self.pose_finite,
+        )  # fmt: skip
 
     @cached_value
     def intrusion(self) -> float | None:
         r, w = self.result, self.window
-        return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers)
+        if not self.zones:
+            return None
+        return intrusion_max(r.x[w], r.y[w], self.zones, self.numbers, self.zone_bounds)
 
 
 def _towards_targets(
@@ -838,17 +878,41 @@ def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str,
     ``mission`` is the resolved mission (``Mission.model_dump(mode="json")``).
     """
     expect = _expect_of(mission)
-    shared = {
-        key: expect.get(key)
-        for key in ("settle_time", "temporal", *(m.name for m in catalog.phase_metrics()))
-    }
+    shared = {key: expect.get(key) for key in _phase_keys()}
     merged = {}
     for phase in _written_phases(mission):
         own = phase.get("expect") or {}
-        merged[str(phase.get("name"))] = {
-            key: own[key] if own.get(key) is not None else value for key, value in shared.items()
+        # the shared keys in their order, each the phase sets (not null) its own
+        merged[str(phase.get("name"))] = shared | {
+            key: value for key, value in own.items() if value is not None and key in shared
         }
     return merged
+
+
+# (catalog size) -> the catalog's run metrics, read per row.
+_RUN_METRICS: dict[int, tuple[Metric, ...]] = {}
+
+
+def _run_metrics() -> tuple[Metric, ...]:
+    """:func:`catalog.run_metrics`, once per catalog."""
+    found = _RUN_METRICS.get(len(catalog.CATALOG))
+    if found is None:
+        found = _RUN_METRICS[len(catalog.CATALOG)] = tuple(catalog.run_metrics())
+    return found
+
+
+# (catalog size) -> the keys of a phase's `expect` in force: read per row, the
+# same once the models are built.
+_PHASE_KEYS: dict[int, tuple[str, ...]] = {}
+
+
+def _phase_keys() -> tuple[str, ...]:
+    """The keys :func:`phase_expectations` gives each phase, in its order."""
+    found = _PHASE_KEYS.get(len(catalog.CATALOG))
+    if found is None:
+        found = ("settle_time", "temporal", *(m.name for m in catalog.phase_metrics()))
+        _PHASE_KEYS[len(catalog.CATALOG)] = found
+    return found
 
 
 def _written_phases(mission: Mapping[str, Any] | None) -> list[Mapping[str, Any]]:
@@ -931,6 +995,7 @@ def _formulas(
     return temporal.phase_values(
         result, info, phase.window, phase.settle_time, phase.numbers, mission,
         lambda: phase.placement, None if expect is None else tuple(expect.get("temporal") or ()),
+        lambda: phase.reference_known,
     )  # fmt: skip
 
 
@@ -950,7 +1015,13 @@ def _phase_samples(
     numbers = mission_numbers(mission, result.dt, result.limits)
     kept = errors
     errors = estimation_errors(result) if errors is None else errors
-    inputs_from = input_metrics.first_judged(result.t, errors, numbers)
+    judged_from = input_metrics.first_judged(result.t, errors, numbers)
+    # its first sample, the same for every phase: found once
+    inputs_from = (
+        None
+        if judged_from is None
+        else int(np.searchsorted(result.t, judged_from - 1e-9 * result.dt))
+    )
     del errors  # not kept while the phases are measured unless the caller keeps them
     ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
     judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers), kept)
@@ -1080,6 +1151,20 @@ def summary_value(summary: Mapping[str, Any], path: tuple[str, ...]) -> float | 
     return float(value) if math.isfinite(value) else None
 
 
+def _value_of(phase: Mapping[str, Any], where: tuple[str, ...]) -> float | None:
+    """:func:`summary_value` of a phase's summary (a dict), a metric in a
+    section of it read without the general walk: most checks read one."""
+    if len(where) == 2:
+        section = phase.get(where[0])
+        if type(section) is dict:
+            value = section.get(where[1])
+            if type(value) is float or type(value) is int:  # not a bool
+                return float(value) if math.isfinite(value) else None
+            if value is None:
+                return None
+    return summary_value(phase, where)
+
+
 def _applying(phase: Mapping[str, Any]) -> tuple[Metric, ...]:
     """The catalog's phase metrics that apply to ``phase`` (its summary), in
     the catalog's order: those of its kind (catalog.Metric.kinds); of those
@@ -1154,12 +1239,12 @@ def _phase_checks(
         if metric.expect == "per-state":  # a bound per state
             for state in STATES:
                 if threshold.get(state) is not None:
-                    value = summary_value(phase, (*metric.where, state))
+                    value = _value_of(phase, (*metric.where, state))
                     checks.append(
                         Check(f"{metric.name}.{state}", name, float(threshold[state]), value)
                     )
             continue
-        value = summary_value(phase, metric.where)
+        value = _value_of(phase, metric.where)
         if metric.where_measured and value is None:
             continue
         if metric.bound == "min":  # at least so much
@@ -1217,7 +1302,7 @@ def _checks(
             raise ValueError(f"unknown expectation {key!r}; expected one of {', '.join(known)}")
     checks = [
         Check(m.name, None, float(expect[m.name]["max"]), summary_value(summary, m.where))
-        for m in catalog.run_metrics()
+        for m in _run_metrics()
         if expect.get(m.name) is not None and (m.where[0] != _REALTIME or _REALTIME in summary)
     ]
     controller = str(((mission or {}).get("controller") or {}).get("type", "paper"))

@@ -90,10 +90,28 @@ def estimation_error_pass(
     x, y, theta = true
     x_est, y_est, theta_est = estimate
     ex, ey, etheta = errors
+    wrapped = True  # every heading error + pi within (0, 2 pi): its own remainder
     for k in range(x.size):
         ex[k] = x[k] - x_est[k]
         ey[k] = y[k] - y_est[k]
-        etheta[k] = (theta[k] - theta_est[k] + math.pi) % (2.0 * math.pi) - math.pi
+        turned = theta[k] - theta_est[k] + math.pi
+        wrapped &= 0.0 < turned < 2.0 * math.pi
+        etheta[k] = turned - math.pi
+    if not wrapped:
+        _wrap_beyond(theta, theta_est, etheta)
+
+
+@inlined
+def _wrap_beyond(theta: FloatArray, theta_est: FloatArray, etheta: FloatArray) -> None:
+    """The heading errors whose shifted value is not within (0, 2 pi) wrapped
+    by the float remainder: a loop of its own, so that the C library's
+    ``fmod`` (tens of cycles) runs only where it is needed, not speculated at
+    every sample. Within (0, 2 pi) the remainder is the value itself, exactly
+    (``fmod`` is exact, and neither the sign nor a zero needs its fix-up)."""
+    for k in range(theta.size):
+        turned = theta[k] - theta_est[k] + math.pi
+        if not 0.0 < turned < 2.0 * math.pi:
+            etheta[k] = turned % (2.0 * math.pi) - math.pi
 
 
 @kernel
@@ -302,9 +320,18 @@ def stalled_samples(
     tx, ty, aim = target
     position, heading = np.empty(n), np.empty(n)
     reached = np.zeros(n + 1, dtype=np.int64)  # samples at the goal before each
+    wrapped = True  # as in estimation_error_pass: fmod only where it is needed
     for k in range(n):
         position[k] = math.hypot(x[k] - tx, y[k] - ty)
-        heading[k] = abs((theta[k] - aim + math.pi) % (2 * math.pi) - math.pi)
+        turned = theta[k] - aim + math.pi
+        wrapped &= 0.0 < turned < 2.0 * math.pi
+        heading[k] = abs(turned - math.pi)
+    if not wrapped:
+        for k in range(n):
+            turned = theta[k] - aim + math.pi
+            if not 0.0 < turned < 2.0 * math.pi:
+                heading[k] = abs(turned % (2 * math.pi) - math.pi)
+    for k in range(n):
         at_goal = position[k] <= goal[0] and heading[k] <= goal[1]
         reached[k + 1] = reached[k] + (1 if at_goal else 0)
     stalled = 0

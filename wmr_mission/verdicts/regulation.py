@@ -37,17 +37,21 @@ def stall_time(
     goal: tuple[float, float],
     numbers: MissionNumbers,
     zones: Sequence[Zone] = (),
+    finite: bool | None = None,
 ) -> float | None:
     """[s] the samples from which a whole window away from the goal (position and
     heading tolerances ``goal``) takes out neither PROGRESS of the position error
     (or of what the speed limit covers in the window) nor of the heading error;
     None for a target beyond one of the phase's zones (the robot stops as near as
-    the zone allows) or after a divergence."""
+    the zone allows) or after a divergence. ``finite``: whether every pose
+    is, if known."""
     tx, ty, heading_target = target
     point_x, point_y = np.array([tx]), np.array([ty])
     if any(zone.depth(point_x, point_y)[0] > 0.0 for zone in zones):
         return None
-    if not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(theta).all()):
+    if finite is None:
+        finite = bool(np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(theta).all())
+    if not finite:
         return None
     tau, dt = numbers.time_constant, numbers.dt
     span = max(WINDOW * tau, math.pi / numbers.omega_limit + 10.0 * tau)
@@ -74,14 +78,20 @@ def stall_time(
 
 
 def overshoot(
-    x: FloatArray, y: FloatArray, target: tuple[float, float, float], goal: float
+    x: FloatArray,
+    y: FloatArray,
+    target: tuple[float, float, float],
+    goal: float,
+    finite: bool | None = None,
 ) -> float | None:
     """[m] How far the robot went past its target: the largest distance beyond
     the target along the way from where the phase started to it (0 if never);
     None for a phase that starts within ``goal`` [m] of its target (it has no
     way in) or after a divergence. A regulator that plans its deceleration
-    stops within its goal."""
-    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+    stops within its goal. ``finite``: whether every position is, if known."""
+    if finite is None:
+        finite = bool(np.isfinite(x).all() and np.isfinite(y).all())
+    if not finite:
         return None
     tx, ty = target[0], target[1]
     way_x, way_y = tx - float(x[0]), ty - float(y[0])

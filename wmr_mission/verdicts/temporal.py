@@ -48,7 +48,7 @@ from wmr_mission.spec.temporal import (
 )
 from wmr_mission.verdicts.check import Check
 from wmr_mission.verdicts.numbers import MissionNumbers
-from wmr_mission.verdicts.tracking import Placement, known_samples
+from wmr_mission.verdicts.tracking import Known, Placement, reference_known
 from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
@@ -135,6 +135,9 @@ def _window(
     """``pick`` (np.minimum or np.maximum) of ``values[k + first .. k + last]``
     at each k, the samples past the end counted as ``empty``."""
     n = values.size
+    if first == 0 and last >= n - 1 and n:  # from each sample to the end: no padding
+        running: FloatArray = pick.accumulate(values[::-1])[::-1]  # type: ignore[attr-defined]
+        return running
     out = np.full(n, empty)
     if last < first or first >= n:
         return out
@@ -212,6 +215,7 @@ def phase_values(
     mission: Mapping[str, Any] | None,
     placement: Callable[[], Placement | None] | None = None,
     formulas: tuple[str, ...] | None = None,
+    known: Callable[[], Known] | None = None,
 ) -> dict[str, Any]:
     """``{"temporal": {formula: rho}}`` for a phase's summary (nothing when it
     has no formula; ``formulas``: its :func:`phase_formulas`, if at hand): rho
@@ -222,7 +226,7 @@ def phase_values(
     formulas = phase_formulas(mission, info.name) if formulas is None else formulas
     if not formulas:
         return {}
-    signals = PhaseSignals(result, info, window, numbers, placement)
+    signals = PhaseSignals(result, info, window, numbers, placement, known)
     values: dict[str, float | None] = {}
     for text in formulas:
         node = parse_formula(text)
@@ -270,8 +274,10 @@ class PhaseSignals:
         window: slice,
         numbers: MissionNumbers,
         placement: Callable[[], Placement | None] | None = None,
+        known: Callable[[], Known] | None = None,
     ) -> None:
         self.result, self.info, self.window, self.numbers = result, info, window, numbers
+        self._known = known  # the phase's reference_known, if at hand
         self.entry = 0.0
         self._found: dict[str, FloatArray | None] = {}
         # the places on the path of the samples whose reference is known (None:
@@ -285,10 +291,10 @@ class PhaseSignals:
 
     def _measured(self, name: str) -> dict[str, FloatArray | None]:
         r, w, info = self.result, self.window, self.info
-        zones = zones_of(info.constraints, r.regions)
         if name in ("cross_track", "lag"):
             return self._on_path()
         if name in ("zone_depth", "clearance"):
+            zones = zones_of(info.constraints, r.regions)
             if not zones:
                 return {"zone_depth": None, "clearance": None}
             depth = np.max([zone.depth(r.x[w], r.y[w]) for zone in zones], axis=0)
@@ -323,15 +329,19 @@ class PhaseSignals:
         entry's end (wmr_mission.verdicts.tracking.track_samples judges
         from it)."""
         r, w, numbers = self.result, self.window, self.numbers
-        rx, ry = r.x_ref[w], r.y_ref[w]
-        known = np.isfinite(rx) & np.isfinite(ry)
-        if self.info.kind != "track" or not known.any():
+        if self.info.kind != "track":
+            return {"cross_track": None, "lag": None}
+        if self._known is not None:
+            known, these = self._known()
+        else:
+            known, these = reference_known(r.x_ref[w], r.y_ref[w])
+        if not known.any():
             return {"cross_track": None, "lag": None}
         placement = self._placement() if self._placement is not None else placed(r, w)
         if placement is None:
             return {"cross_track": np.full(known.size, np.nan), "lag": np.full(known.size, np.nan)}
         px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
-        if known.all():  # on_path's own new arrays: no copy into the phase's
+        if these is None:  # every one known: on_path's own new arrays, no copy into the phase's
             cross, lag = placement.on_path(numbers.tracking_tolerance)
         else:
             cross, lag = np.full(known.size, np.nan), np.full(known.size, np.nan)
@@ -342,14 +352,14 @@ class PhaseSignals:
         return {"cross_track": cross, "lag": lag}
 
 
-def placed(result: RunRecord, window: slice) -> Placement | None:
+def placed(result: RunRecord, window: slice, known: Known | None = None) -> Placement | None:
     """The places on the path of a phase's samples whose reference is known
-    (None where none is, or where a position is not finite)."""
+    (None where none is, or where a position is not finite); ``known``: the
+    phase's :func:`reference_known`, if at hand."""
     rx, ry = result.x_ref[window], result.y_ref[window]
-    known = np.isfinite(rx) & np.isfinite(ry)
+    kept = reference_known(rx, ry)[1] if known is None else known[1]
     px, py = result.x[window], result.y[window]
-    if not known.all():
-        kept = known_samples(known)
+    if kept is not None:
         px, py, rx, ry = px[kept], py[kept], rx[kept], ry[kept]
     if rx.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
         return None

@@ -410,14 +410,15 @@ def track_samples(
     placement: Placement | None = None,
     *,
     with_samples: bool = True,
+    known: Known | None = None,
 ) -> tuple[dict[str, Any], TrackSamples | None]:
     """:func:`track_quality`'s metrics and the samples they come from (None when
     nothing was measured, or not ``with_samples``: a long run's four columns
     not put together for nothing). ``placement``: the places on the path of
     the samples whose reference is known, if at hand (shared with the phase's
-    formulas)."""
-    known = np.isfinite(rx) & np.isfinite(ry)
-    size = known.size
+    formulas); ``known``: the samples' :func:`reference_known`, if at hand."""
+    these = (reference_known(rx, ry) if known is None else known)[1]
+    size = rx.size
     metrics: dict[str, Any] = {
         "cross_track_error_max": None,
         "along_track_lag_max": None,
@@ -427,7 +428,6 @@ def track_samples(
         "reference_speed_max": None,
         "zone_reach": None,
     }
-    these = None if known.all() else known_samples(known)
     if these is not None:
         t = t[these]
         if placement is None:
@@ -551,6 +551,19 @@ def _chase_bend(placement: Placement, k: int, lag: float) -> float:
     if chord == 0.0 or inner.start >= inner.stop:
         return 0.0
     return float(np.max(np.abs((rx[inner] - ax) * uy - (ry[inner] - ay) * ux)) / chord)
+
+
+# Per sample, whether its reference point is known, and those samples as
+# :func:`known_samples` picks them (None: every one).
+Known = tuple[NDArray[np.bool_], slice | NDArray[np.bool_] | None]
+
+
+def reference_known(rx: FloatArray, ry: FloatArray) -> Known:
+    """Whether each reference point is known (finite), and the samples that are
+    (:func:`known_samples`; None where every one is): read by a track phase's
+    places, tracking metrics and formulas alike, once."""
+    known = np.isfinite(rx) & np.isfinite(ry)
+    return known, None if known.all() else known_samples(known)
 
 
 def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:

@@ -38,6 +38,12 @@ _NEWTON_STEPS = 100
 _FEW = 8
 
 
+# Of points and an ellipse zone: whether each is beyond it, the largest upper
+# bound of their depths, and the points whose depth may be the largest
+# (wmr_mission.verdicts.passes.ellipse_bounds).
+Bounds = tuple[NDArray[np.bool_], float, NDArray[np.intp]]
+
+
 @dataclass(frozen=True)
 class Zone:
     """A region of a phase and the side the robot keeps to."""
@@ -62,12 +68,15 @@ class Zone:
             outside = _outside_by(self.region, x, y)
         return outside if self.keep_inside else -outside
 
-    def beyond(self, x: FloatArray, y: FloatArray) -> NDArray[np.bool_]:
-        """Whether each point is on the forbidden side (its depth > 0)."""
+    def beyond(
+        self, x: FloatArray, y: FloatArray, bounds: Bounds | None = None
+    ) -> NDArray[np.bool_]:
+        """Whether each point is on the forbidden side (its depth > 0);
+        ``bounds``: the points' :meth:`bounds`, if at hand."""
         if self.region["type"] != "ellipse":
             return np.asarray(self.depth(x, y) > 0.0)
         if jit.judging_compiled():  # the same in one compiled pass (verdicts/passes.py)
-            return self._bounds(x, y)[0]
+            return (self._bounds(x, y) if bounds is None else bounds)[0]
         radius = _scaled_radius(self.region, x, y)[0]
         return np.asarray(radius > 1.0 if self.keep_inside else radius < 1.0)
 
@@ -79,17 +88,24 @@ class Zone:
         held on the edge)."""
         return self.max_depth(x, y, RESOLUTION)
 
-    def max_depth(self, x: FloatArray, y: FloatArray, resolution: float | None = None) -> float:
+    def max_depth(
+        self,
+        x: FloatArray,
+        y: FloatArray,
+        resolution: float | None = None,
+        bounds: Bounds | None = None,
+    ) -> float:
         """The largest :meth:`depth` of the points (-inf for none), found
         exactly for an ellipse only for the points that its distance bounds
         (see :func:`_ellipse`) leave in the running; where the largest upper
-        bound is within ``resolution`` of 0 (if given), that bound."""
+        bound is within ``resolution`` of 0 (if given), that bound.
+        ``bounds``: the points' :meth:`bounds`, if at hand."""
         if x.size == 0:
             return -math.inf
         if self.region["type"] != "ellipse":
             return float(np.max(self.depth(x, y)))
         if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
-            _, highest, contenders = self._bounds(x, y)
+            _, highest, contenders = self._bounds(x, y) if bounds is None else bounds
             if resolution is not None and abs(highest) <= resolution:
                 return highest
             return float(np.max(self.depth(x[contenders], y[contenders])))
@@ -103,9 +119,15 @@ class Zone:
         contenders = np.flatnonzero(most >= np.max(least))
         return float(np.max(self.depth(x[contenders], y[contenders])))
 
-    def _bounds(
-        self, x: FloatArray, y: FloatArray
-    ) -> tuple[NDArray[np.bool_], float, NDArray[np.intp]]:
+    def bounds(self, x: FloatArray, y: FloatArray) -> Bounds | None:
+        """What :meth:`beyond` and :meth:`max_depth` of the same points read
+        first, computed once for both (an ellipse's, where the judge's passes
+        run compiled; else None: nothing to share)."""
+        if self.region["type"] != "ellipse" or not jit.judging_compiled() or x.size == 0:
+            return None
+        return self._bounds(x, y)
+
+    def _bounds(self, x: FloatArray, y: FloatArray) -> Bounds:
         """An ellipse zone's :func:`wmr_mission.verdicts.passes.ellipse_bounds`."""
         beyond, highest, contenders = jit.compiled(ellipse_bounds)(
             x, y, self._frame(), self.keep_inside
@@ -136,18 +158,23 @@ def zones_of(constraints: tuple[tuple[str, str], ...], regions: Mapping[str, Any
 
 
 def intrusion_max(
-    x: FloatArray, y: FloatArray, zones: Sequence[Zone], numbers: MissionNumbers
+    x: FloatArray,
+    y: FloatArray,
+    zones: Sequence[Zone],
+    numbers: MissionNumbers,
+    bounds: Sequence[Bounds | None] | None = None,
 ) -> float | None:
     """[m] the deepest a phase's positions go beyond the edge of any of its zones
     (0 when they never do; None without zones or after a divergence). A phase
     that starts beyond a zone is given the time the limits need to leave it by
     the shortest way (:meth:`MissionNumbers.recovery_time`); if it takes longer,
-    its start counts too."""
+    its start counts too. ``bounds``: each zone's :meth:`Zone.bounds` of the
+    positions, if at hand."""
     if not zones:
         return None
     deepest = 0.0
-    for zone in zones:
-        beyond = zone.beyond(x, y)
+    for i, zone in enumerate(zones):
+        beyond = zone.beyond(x, y, None if bounds is None else bounds[i])
         if not beyond.any():
             continue
         first = 0
