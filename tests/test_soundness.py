@@ -253,16 +253,16 @@ def test_a_few_generated_missions_are_run_and_judged(tmp_path: Path) -> None:
     # 1.5 cm of position noise: its turn rate jittered by 0.20 rad/s (max 0.07) with
     # the estimator's poles at 0.9
     assert (eight.outcome, eight.sound) == ("success", True)
-    # a circle past a rock under acceleration limits: its detour runs 0.37 m
-    # off the circle where 0.26 m is allowed
-    assert (off.outcome, off.sound) == ("expect-failed", False)
-    assert "orbit: detour_offset_max" in off.message
+    # a circle past a rock under acceleration limits: its detour runs 0.24 m
+    # off the circle where 0.26 m is allowed (0.36 m, a failure, with its rows
+    # held on the braking line alone)
+    assert (off.outcome, off.sound) == ("success", True)
     # the margin's sign is the verdict, and names the check that sets it
     assert [j.mission for j in judged.values() if not j.margin_agrees] == []
     assert park.margin is not None
     assert 0.0 < park.margin < 1.0
     assert off.margin is not None
-    assert off.margin < 0.0
+    assert 0.0 < off.margin < 0.2
     assert off.margin_check == "orbit: detour_offset_max"
 
 

@@ -60,6 +60,7 @@ __all__ = [
     "aim_round_zones",
     "aimed_from_its_place",
     "constrained_change",
+    "held_on_braking_arc",
     "keep_constraints",
     "nearest_chords",
     "ramped_offset",
@@ -226,6 +227,100 @@ def held_on_braking_line(
 
 
 @kernel
+def _along_arc(
+    x: float, y: float, c: float, s: float, curvature: float, on: float
+) -> tuple[float, float, float, float]:
+    """The point ``on`` along the arc of ``curvature`` (nonzero) from (x, y)
+    heading along (c, s), and its derivative with the curvature, the
+    distance along held."""
+    turn = curvature * on
+    if abs(turn) < 1e-3:  # the closed forms below lose their digits
+        ahead = on * (1.0 - turn * turn / 6.0)
+        across = on * turn * (0.5 - turn * turn / 24.0)
+        d_ahead = -on * on * turn / 3.0
+        d_across = on * on * (0.5 - turn * turn / 8.0)
+    else:
+        half = math.sin(0.5 * turn)
+        ahead = math.sin(turn) / curvature
+        across = 2.0 * half * half / curvature
+        d_ahead = (on * math.cos(turn) - ahead) / curvature
+        d_across = (on * math.sin(turn) - across) / curvature
+    return (
+        x + c * ahead - s * across,
+        y + s * ahead + c * across,
+        c * d_ahead - s * d_across,
+        s * d_ahead + c * d_across,
+    )
+
+
+@kernel
+def held_on_braking_arc(
+    kind: int,
+    p: FloatArray,
+    margin: float,
+    x: float,
+    y: float,
+    theta: float,
+    v: float,
+    omega: float,
+    rate: float,
+    dt: float,
+) -> tuple[float, float, float, float, float, float, float, bool]:
+    """:func:`held_on_braking_line` on the arc the robot brakes along from
+    (x, y, theta) at v with its curvature ``omega / v`` kept (its turn rate
+    falling with the speed), for a half-plane or a circle row (an ellipse of
+    equal axes; found exactly: at the arc's point furthest along the row's
+    gradient, a half-plane's normal or the way to a keep-out circle's
+    centre, from the arc's centre, where that lies inside the arc, else at
+    the larger end). The line where the robot is not turning. The
+    sensitivity to (v, omega): with omega the arc turns about its start
+    over dt and bends as its curvature does (by 1 / v), with v it bends by
+    -curvature / v, and where its end is furthest in the end moves along the
+    arc as the braking distance does."""
+    if v == 0.0 or omega == 0.0:
+        return held_on_braking_line(kind, p, margin, x, y, theta, v, rate, dt)
+    ahead = braking_distance(v, rate, dt)
+    c = math.cos(theta)
+    s = math.sin(theta)
+    curvature = omega / v
+    # the arc's centre, and the way from it to the point where the row is largest
+    cx = x - s / curvature
+    cy = y + c / curvature
+    if kind == ELLIPSE_ROW:
+        wx = -p[5] * (p[0] - cx)
+        wy = -p[5] * (p[1] - cy)
+    else:
+        wx = p[0]
+        wy = p[1]
+    # that point's heading on the arc, and how far on it is (the arc's sense)
+    bend = math.copysign(1.0, curvature)
+    heading = math.atan2(bend * wx, -bend * wy)
+    turn = (heading - theta) % (2.0 * math.pi)
+    if omega < 0.0 and turn > 0.0:
+        turn -= 2.0 * math.pi
+    on = turn / curvature
+    start, gx, gy = row_value_with_margin(kind, p, margin, x, y)
+    inner = (wx != 0.0 or wy != 0.0) and abs(on) < abs(ahead)
+    if not inner:
+        on = ahead
+    px, py, kx, ky = _along_arc(x, y, c, s, curvature, on)
+    value, hx, hy = row_value_with_margin(kind, p, margin, px, py)
+    if not inner and value <= start:
+        return start, gx, gy, 0.0, 0.0, 0.0, 0.0, False
+    # the point's motion: the arc bent (k), turned about its start over dt
+    e00 = -kx * curvature / v
+    e10 = -ky * curvature / v
+    e01 = -(py - y) * dt + kx / v
+    e11 = (px - x) * dt + ky / v
+    if not inner:
+        along = abs(v) / rate - 0.5 * dt  # d ahead / dv, along the arc's end
+        end = theta + curvature * ahead
+        e00 += along * math.cos(end)
+        e10 += along * math.sin(end)
+    return value, hx, hy, e00, e01, e10, e11, inner
+
+
+@kernel
 def held_where_braking_ends(
     kind: int,
     p: FloatArray,
@@ -239,6 +334,8 @@ def held_where_braking_ends(
     sensitivity: tuple[float, float, float, float],
     rate: float,
     dt: float,
+    omega_now: float = 0.0,
+    turn_rate_rate: float = 0.0,
 ) -> tuple[float, float, float, float, float, float, float, bool]:
     """A row's barrier value at the point ``next_`` (x, y, heading at k+1, v,
     omega) and, where it is further in, on the line braking from v at
@@ -249,7 +346,17 @@ def held_where_braking_ends(
     braking line, where its value does not move with v beyond the start's.
     The whole line, not its end alone: a robot whose braking line reached
     past a zone was let on towards it, and braking on a curve carried it in
-    (docs/paper-notes.md, "Acceleration limits")."""
+    (docs/paper-notes.md, "Acceleration limits").
+
+    Where the turn-rate acceleration ``turn_rate_rate`` lets the turn rate
+    fall with the speed (``|omega / v| rate`` at most it), a half-plane or a
+    circle row is held on the better of that line and the arc braking takes
+    with the robot's curvature kept (:func:`held_on_braking_arc`; now: with
+    ``omega_now``, omega_{k-1}): the robot can brake along either. Held on
+    the line alone, a robot orbiting a circle at 3.5 m/s was held off the
+    near side of a rock its circle passes, every line 1.75 m long across it,
+    braked and turned in hard, and went 0.357 m inside its circle where 0.264
+    is allowed (docs/paper-notes.md, eq. (28), "The braking arc")."""
     s00, s01, s10, s11 = sensitivity
     braked, hx, hy, e00, e01, e10, e11, inner = held_on_braking_line(
         kind, p, margin, next_[0], next_[1], next_[2], next_[3], rate, dt
@@ -257,6 +364,24 @@ def held_where_braking_ends(
     if keep > 0.0:
         behind = held_on_braking_line(kind, p, margin, now[0], now[1], now[2], now[3], rate, dt)
         braked -= keep * behind[0]
+    v = next_[3]
+    omega = next_[4]
+    if (
+        omega != 0.0
+        and abs(omega) * rate <= turn_rate_rate * abs(v)
+        and (kind != POLYGON_ROW and (kind != ELLIPSE_ROW or p[2] == p[3]))
+    ):
+        on_arc, ax, ay, a00, a01, a10, a11, arc_inner = held_on_braking_arc(
+            kind, p, margin, next_[0], next_[1], next_[2], v, omega, rate, dt
+        )
+        if keep > 0.0:
+            arc_behind = held_on_braking_arc(
+                kind, p, margin, now[0], now[1], now[2], now[3], omega_now, rate, dt
+            )
+            on_arc -= keep * arc_behind[0]
+        if on_arc < braked:
+            braked = on_arc
+            hx, hy, e00, e01, e10, e11, inner = ax, ay, a00, a01, a10, a11, arc_inner
     if braked <= value:
         return value, gx, gy, s00, s01, s10, s11, False
     return braked, hx, hy, s00 + e00, s01 + e01, s10 + e10, s11 + e11, inner
@@ -302,6 +427,7 @@ def keep_constraints(
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the
     # rows are held at the output and also on the line braking from the input takes.
     rate = robot.limits[2]
+    turn_rate_rate = robot.limits[3]
     a, eta, h = work.d, work.eta, work.h
     # A typed zero, not the literal 0: numba compiles a kernel once per literal it gets.
     count = int(np.int64(0))
@@ -323,7 +449,7 @@ def keep_constraints(
             value, gx, gy, s00, s01, s10, s11, inner = held_where_braking_ends(
                 row_kinds[i], row_params[i], margin, keep, value, gx, gy,
                 (ox, oy, estimate[2], u_prev[0]), (qx, qy, pth, u[0], u[1]),
-                (t00, t01, t10, t11), rate, dt,
+                (t00, t01, t10, t11), rate, dt, u_prev[1], turn_rate_rate,
             )  # fmt: skip
         if value <= 0.0:
             continue
