@@ -50,11 +50,13 @@ def test_the_climb_keeps_the_aim_at_least_as_far_across_as_the_ramp() -> None:
     its right), at 3.6 m/s under 0.7 of 9.693 rad/s^2: the aim moved across
     no less than on the ramp at every point, and the climb starts earlier."""
     p = np.array([10.0, 0.2, 1.2, 1.2, 0.0, -1.0 / 1.44])
-    way = np.array([10.0, 0.0, 1.0, 0.0, -1.0, 3.6, math.inf])
+    way = np.array([10.0, 0.0, 1.0, 0.0, -1.0, 3.6, math.inf, 0.0])
     margin = 0.1
     xs = np.linspace(0.0, 20.0, 4001)
     ramp = np.array([_way_round(p, margin, x, 0.0, 1.0, 0.0, -1.0)[0] for x in xs])
-    eased = np.array([_way_round_eased(p, margin, x, 0.0, way, 0.7 * 9.693, math.inf) for x in xs])
+    eased = np.array(
+        [_way_round_eased(p, margin, x, 0.0, way, -1.0, 0.7 * 9.693, math.inf) for x in xs]
+    )
     assert (eased >= ramp - 1e-12).all()
     assert eased.max() == pytest.approx(ramp.max(), abs=1e-12)  # the same top
     assert xs[np.flatnonzero(eased > 0.0)[0]] < xs[np.flatnonzero(ramp > 0.0)[0]] - 0.5
@@ -65,15 +67,15 @@ def test_a_climb_starts_no_further_back_than_where_the_path_rests() -> None:
     start 4.46 m before it: it starts there, steeper, not before it; with
     no room even for the ramp (2 m), none (-1)."""
     p = np.array([10.0, 0.2, 1.2, 1.2, 0.0, -1.0 / 1.44])
-    way = np.array([10.0, 0.0, 1.0, 0.0, -1.0, 3.6, 4.0])
+    way = np.array([10.0, 0.0, 1.0, 0.0, -1.0, 3.6, 4.0, 0.0])
     margin = 0.1
     xs = np.linspace(4.0, 10.0, 2401)
-    free = [_way_round_eased(p, margin, x, 0.0, way, 0.7 * 9.693, math.inf) for x in xs]
+    free = [_way_round_eased(p, margin, x, 0.0, way, -1.0, 0.7 * 9.693, math.inf) for x in xs]
     assert xs[np.flatnonzero(np.array(free) > 0.0)[0]] < 5.6
-    eased = [_way_round_eased(p, margin, x, 0.0, way, 0.7 * 9.693, x - 6.0) for x in xs]
+    eased = [_way_round_eased(p, margin, x, 0.0, way, -1.0, 0.7 * 9.693, x - 6.0) for x in xs]
     started = xs[np.flatnonzero(np.array(eased) > 0.0)[0]]
     assert 6.0 <= started < 6.01
-    assert _way_round_eased(p, margin, 9.0, 0.0, way, 0.7 * 9.693, 1.0) == -1.0
+    assert _way_round_eased(p, margin, 9.0, 0.0, way, -1.0, 0.7 * 9.693, 1.0) == -1.0
 
 
 def test_gen_124_goes_round_its_rock_within_its_detour_bound(tmp_path: Path) -> None:

@@ -634,3 +634,25 @@ def test_compile_leaves_no_ready_marker_when_stopped_in_its_last_compile(
     with StopSignals(STOP_SIGNALS), pytest.raises(KeyboardInterrupt):
         compile_loop.compile_command()
     assert not (tmp_path / compile_loop.READY).exists()
+
+
+def test_a_loop_that_does_not_compile_is_not_marked_ready(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A variant whose loop fails to compile ends its warm-up run in an error
+    (kept as data, not raised): `compile` said "compiled" and marked the
+    cache ready over it. It now says so and exits 1, with no marker."""
+    from wmr_mission.record import Outcome
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(compile_loop, "is_ready", lambda directory: False)
+    monkeypatch.setattr(jit, "compiling", lambda: True)
+
+    class Failed:
+        outcome = Outcome.error
+        message = "an error inside the loop: TypingError"
+
+    monkeypatch.setattr(runner, "run_mission", lambda plan: Failed())
+    assert compile_loop.compile_command() == 1
+    assert "failed to compile" in capsys.readouterr().out
+    assert not list((tmp_path / "cache").rglob(compile_loop.READY))

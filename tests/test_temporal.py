@@ -75,6 +75,7 @@ def test_a_formula_is_read_as_written() -> None:
     ("text", "column", "words"),
     [
         ("always(cross_tack <= 0.1)", 8, "did you mean 'cross_track'"),
+        ("eventualy[0, 2](always(cross_track <= 0.05))", 1, "did you mean 'eventually'"),
         ("always(speed < 1)", 14, "write '<='"),
         ("always[2, 1](speed <= 1)", 11, "ends (1 s) before it starts (2 s)"),
         ("always[0, 10(speed <= 1)", 13, "expected ']'"),

@@ -116,10 +116,15 @@ def warm_up_missions() -> list[Mission]:
     return missions
 
 
+class CompileFailed(Exception):
+    """A variant of the loop did not compile: its run's message."""
+
+
 def compile_kernels() -> None:
     """Compile every kernel the loop runs into the cache, the EKF band's replay
     and the judge's (the distance to the path and the places on it)."""
     from wmr_mission.output.covariance import estimate_std
+    from wmr_mission.record import Outcome
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.verdicts.metrics import judge
@@ -130,6 +135,10 @@ def compile_kernels() -> None:
         if stop_owed():
             raise KeyboardInterrupt
         result = run_mission(plan_mission(mission))  # compiled
+        if result.outcome is Outcome.error:
+            # a loop that does not compile ends its run in an error, kept as
+            # data: the cache would be marked ready with nothing in it
+            raise CompileFailed(result.message)
         result.mission = mission.model_dump(mode="json")
         estimate_std(result)  # the EKF band's replay, for the estimation figure
     jit.judged(jit.JUDGED_COMPILED_FROM)  # the judge's passes compiled however short the run
@@ -158,7 +167,11 @@ def compile_command() -> int:
     # The stamp of the sources compiled, read before: an edit meanwhile
     # leaves a stale marker, never a wrong one.
     stamp = ready_stamp()
-    compile_kernels()
+    try:
+        compile_kernels()
+    except CompileFailed as failed:
+        print(f"wmr-mission: the compiled loop failed to compile, nothing marked ready: {failed}")
+        return 1
     if stop_owed():  # came inside the last compile: no marker of a cache not filled
         raise KeyboardInterrupt
     partial = directory / f"{READY}.{os.getpid()}"

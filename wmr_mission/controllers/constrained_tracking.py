@@ -661,11 +661,12 @@ def _way_round_eased(
     x: float,
     y: float,
     way: FloatArray,
+    side: float,
     turn_acceleration: float,
     room: float,
 ) -> float:
     """:func:`_way_round` under a turn-rate acceleration limit: how far the
-    aim (x, y) moves across the path to ``way[4]`` of it, round the keep-out
+    aim (x, y) moves across the path to ``side`` of it, round the keep-out
     ellipse row ``p`` grown by ``margin``, on a climb the limit lets the
     robot follow. The ramp of slope RAMP_SLOPE asks its whole turn at its
     foot, which the turn-rate acceleration gives only over time: the robot
@@ -685,9 +686,9 @@ def _way_round_eased(
     eq. (28), "The ramp eased under a turn-rate acceleration limit")."""
     tx = way[2]
     ty = way[3]
-    mx = -ty * way[4]
-    my = tx * way[4]
-    sa, sb, sc = _support_terms(p, margin, tx, ty, way[4])
+    mx = -ty * side
+    my = tx * side
+    sa, sb, sc = _support_terms(p, margin, tx, ty, side)
     top = math.sqrt(max(sa, 0.0))
     reach = mx * (p[0] - x) + my * (p[1] - y) + top  # the zone's support across
     if reach <= 0.0 or top == 0.0:
@@ -871,9 +872,17 @@ def aim_gap(look_ahead: float, speed_rate: float, margin: float) -> float:
 
 # The columns of a row of the ways round (ways_round): the path's point
 # nearest the zone's centre, its unit tangent there, the side, the path's
-# speed there, and how far back along that tangent the path last rests
-# before it (inf: it does not, or its times are not known).
-WAY_COLUMNS = 7
+# speed there, how far back along that tangent the path last rests before
+# it (inf: it does not, or its times are not known), then the pass: the
+# stretch of path about that point, PASS_POINTS points evenly along it, x
+# then y (on_another_stretch).
+WAY_HEAD = 7
+PASS_POINTS = 33
+WAY_COLUMNS = WAY_HEAD + 2 * PASS_POINTS
+# [m] How far an aim may lie from the pass and still be on it; beyond, it
+# fades onto another stretch of path heading the same way (a spiral's other
+# loop, a coverage path's other lane) over as far again.
+PASS_BAND = 0.1
 # A path within this share of a zone's size (at least 1 m) of its centre runs
 # through it, to rounding: round by the left (the validator's note names it).
 THROUGH_CENTRE = 1e-12
@@ -952,7 +961,70 @@ def way_at(
     cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
     through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
     side = 1.0 if through or cross < 0.0 else -1.0
-    return np.array([nx, ny, ex / length, ey / length, side, speed, rest])
+    way = np.zeros(WAY_COLUMNS)
+    way[:WAY_HEAD] = [nx, ny, ex / length, ey / length, side, speed, rest]
+    way[WAY_HEAD:] = np.concatenate(pass_points(x, y, k, share, pass_reach(p)))
+    return way
+
+
+def pass_reach(p: FloatArray) -> float:
+    """[m] How far along the path either side of its point nearest the
+    keep-out ellipse row ``p`` the pass reaches: as far as the aim's climb
+    round it can start, twice its ramp across the zone and a metre and a
+    half (the margins and gaps), and the zone beyond."""
+    size = max(float(p[2]), float(p[3]))
+    return 2.0 * ((2.0 * size + 1.5) / RAMP_SLOPE + size)
+
+
+def pass_points(
+    x: FloatArray, y: FloatArray, k: int, share: float, reach: float
+) -> tuple[FloatArray, FloatArray]:
+    """The pass: PASS_POINTS points evenly along the polyline through (x, y)
+    from ``reach`` before its point ``share`` along chord ``k`` to ``reach``
+    after it, as far as the polyline goes and heads the way chord ``k`` does
+    (within a quarter turn of it: where the way round applies,
+    aim_round_zones)."""
+    dx, dy = np.diff(x), np.diff(y)
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(dx, dy))])
+    here = along[k] + share * (along[k + 1] - along[k])
+    turned = np.flatnonzero(dx * dx[k] + dy * dy[k] <= 0.0)  # chords a quarter turn or more off
+    first = along[turned[turned < k].max() + 1] if (turned < k).any() else 0.0
+    last = along[turned[turned > k].min()] if (turned > k).any() else along[-1]
+    at = np.linspace(max(here - reach, first), min(here + reach, last), PASS_POINTS)
+    return np.interp(at, along, x), np.interp(at, along, y)
+
+
+@kernel
+def on_another_stretch(
+    way: FloatArray, p: FloatArray, x: float, y: float
+) -> tuple[float, float, float]:
+    """How far the aim (x, y) lies on another stretch of path than the pass
+    of the way round ``way`` (the stretch about the path's point nearest
+    the zone, WAY_COLUMNS): (share, across, side). ``share`` 0 within
+    PASS_BAND of the pass, rising to 1 at twice that; ``across`` the aim's
+    distance across the line of the way's tangent, and ``side`` the way
+    round the zone ``p`` by the side of its centre the aim is on, as the
+    pass's own side is chosen (ways_round). Measured on the pass's line alone,
+    any stretch heading the same way took the pass's detour: a lane 1.6 m
+    from a pond made the pond's detour too, and a spiral's first loop cut
+    0.33 m inside itself at a rock its second loop passes
+    (docs/paper-notes.md, eq. (28), "Another stretch of the path past a
+    zone")."""
+    near = math.inf
+    for i in range(PASS_POINTS - 1):
+        ax = way[WAY_HEAD + i]
+        ay = way[WAY_HEAD + PASS_POINTS + i]
+        ex = way[WAY_HEAD + i + 1] - ax
+        ey = way[WAY_HEAD + PASS_POINTS + i + 1] - ay
+        length2 = ex * ex + ey * ey
+        along = 0.0
+        if length2 > 0.0:
+            along = min(max(((x - ax) * ex + (y - ay) * ey) / length2, 0.0), 1.0)
+        near = min(near, math.hypot(ax + along * ex - x, ay + along * ey - y))
+    share = min(max(near / PASS_BAND - 1.0, 0.0), 1.0)
+    across = -way[3] * (x - way[0]) + way[2] * (y - way[1])
+    centre = -way[3] * (p[0] - way[0]) + way[2] * (p[1] - way[1])
+    return share, across, 1.0 if across >= centre else -1.0
 
 
 @inlined
@@ -1036,11 +1108,23 @@ def aim_round_zones(
                             # the aim's distance past where the path rests
                             room = along + way[6]
                             eased = _way_round_eased(
-                                p, grown, at_x, at_y, way, turn_acceleration, room
+                                p, grown, at_x, at_y, way, way[4], turn_acceleration, room
                             )
                             if eased >= 0.0:
                                 reach += joined * (eased - reach)
-                if reach > 0.0:
+                        # (only where the pass's own ramp reaches: elsewhere
+                        # no stretch is moved, and the pass costs nothing)
+                        share, off, side = 0.0, 0.0, way[4]
+                        if reach > 0.0:
+                            share, off, side = on_another_stretch(way, p, start_x, start_y)
+                        if share > 0.0:
+                            # another stretch: round by its own side, from
+                            # where it is across from the pass
+                            off_x = at_x - off * way[3]
+                            off_y = at_y + off * way[2]
+                            own, _, _ = _way_round(p, grown, off_x, off_y, way[2], way[3], side)
+                            reach = (1.0 - share) * reach + share * own * side * way[4]
+                if reach != 0.0:  # another stretch's own side is negative
                     moved = True
                     x += reach * nx
                     y += reach * ny

@@ -31,6 +31,7 @@ from wmr_mission.controllers.constrained_tracking import (
 )
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.fields import Flag, Model, NonNegative, Positive
+from wmr_mission.kernels.convex import HEADER, PER_VERTEX, polygon_distance
 from wmr_mission.kernels.corrective import (
     ELLIPSE_ROW,
     POLYGON_ROW,
@@ -620,15 +621,94 @@ def scheduled_gain_facing(
 
 
 @inlined
-def _keeps_out_of_an_ellipse(row_kinds: IntArray, row_params: FloatArray) -> bool:
-    """Whether a row keeps the robot out of an ellipse: one the bearing form
-    may go round (:func:`_bearing_round_zones`), which is not called without
-    one: the compiler computes the cosine and sine of the bearing it takes
-    ahead of its loop, library calls each, whatever the rows."""
+def _keeps_out_of_a_zone(row_kinds: IntArray, row_params: FloatArray) -> bool:
+    """Whether a row keeps the robot out of an ellipse, a box or a polygon:
+    one the bearing form may go round (:func:`_bearing_round_zones`), which
+    is not called without one: the compiler computes the cosine and sine of
+    the bearing it takes ahead of its loop, library calls each, whatever the
+    rows."""
     for i in range(row_kinds.shape[0]):
+        if row_kinds[i] == POLYGON_ROW:
+            return True
         if row_kinds[i] == ELLIPSE_ROW and not row_params[i, 5] > 0.0:
             return True
     return False
+
+
+@kernel
+def _segment_gap(p: FloatArray, x: float, y: float, wx: float, wy: float) -> float:
+    """The distance between the segment from (x, y) to (x + wx, y + wy) and
+    the convex polygon row ``p`` (0 where they meet): the least of its ends'
+    distances from the polygon and its vertices' from the segment, unless the
+    segment crosses an edge."""
+    gap, _, _ = polygon_distance(p, x, y)
+    end, _, _ = polygon_distance(p, x + wx, y + wy)
+    gap = min(gap, end)
+    if gap <= 0.0:
+        return 0.0
+    reach = wx * wx + wy * wy
+    for i in range(int(p[0])):
+        k = HEADER + PER_VERTEX * i
+        vx = p[k] - x
+        vy = p[k + 1] - y
+        # the edge from this vertex, along its normal turned by +90 degrees
+        ex = -p[k + 3] * p[k + 4]
+        ey = p[k + 2] * p[k + 4]
+        across = wx * ey - wy * ex
+        if across != 0.0:
+            on_way = (vx * ey - vy * ex) / across
+            on_edge = (vx * wy - vy * wx) / across
+            if 0.0 <= on_way <= 1.0 and 0.0 <= on_edge <= 1.0:
+                return 0.0
+        share = min(max((vx * wx + vy * wy) / reach, 0.0), 1.0)
+        gap = min(gap, math.hypot(vx - share * wx, vy - share * wy))
+    return gap
+
+
+@kernel
+def _polygon_tangent(
+    p: FloatArray, margin: float, x: float, y: float, wx: float, wy: float
+) -> tuple[float, float]:
+    """Where the straight way from (x, y) to (x + wx, y + wy) crosses the
+    keep-out polygon row ``p`` grown by ``margin`` (its Minkowski sum with a
+    disc of that radius): (the share of the way to the point of it nearest
+    the polygon's centre, the heading along the tangent to the grown polygon
+    on the side the way passes its centre, the left when head-on); (inf, 0)
+    where it does not cross. On the grown polygon's edge the tangent is the
+    edge's own direction, on that side."""
+    reach = wx * wx + wy * wy
+    if reach == 0.0:
+        return math.inf, 0.0
+    # The way's point nearest the disc about the vertices that holds them.
+    along = min(max(((p[1] - x) * wx + (p[2] - y) * wy) / reach, 0.0), 1.0)
+    here, gx, gy = polygon_distance(p, x, y)
+    if here <= margin and gx * wx + gy * wy >= 0.0:
+        return math.inf, 0.0  # on the grown edge, the way leading away from it
+    if _segment_gap(p, x, y, wx, wy) > margin:
+        return math.inf, 0.0
+    # the side the way passes the centre on: round by the other one (1 the
+    # left, -1 the right; the left when head-on)
+    side = -1.0 if wx * (p[2] - y) - wy * (p[1] - x) > 0.0 else 1.0
+    if here <= margin:  # on the grown edge: along it, the zone on the other side
+        return along, math.atan2(-side * gx, side * gy)
+    # the tangent from (x, y) to the discs about the vertices on that side,
+    # twice the margin wide (on the margin's own the robot met the barrier
+    # of eq. (28) heading a hair into it, and stalled there for good): the
+    # one turned furthest that way from the way's own bearing
+    clear = 2.0 * margin
+    bearing = math.atan2(wy, wx)
+    best = -math.inf
+    heading = bearing
+    for i in range(int(p[0])):
+        k = HEADER + PER_VERTEX * i
+        vx = p[k] - x
+        vy = p[k + 1] - y
+        angle = math.atan2(vy, vx) + side * math.asin(min(clear / math.hypot(vx, vy), 1.0))
+        turn = side * wrap_angle(angle - bearing)
+        if turn > best:
+            best = turn
+            heading = angle
+    return along, heading
 
 
 @kernel
@@ -657,6 +737,14 @@ def _bearing_round_zones(
     heading = bearing
     for i in range(row_kinds.shape[0]):
         p = row_params[i]
+        if row_kinds[i] == POLYGON_ROW:
+            along, way = _polygon_tangent(
+                p, margin, x, y, distance * math.cos(bearing), distance * math.sin(bearing)
+            )
+            if along < first:
+                first = along
+                heading = way
+            continue
         if row_kinds[i] != ELLIPSE_ROW or p[5] > 0.0:
             continue
         a = p[2] + margin
@@ -773,7 +861,7 @@ def regulate_input(
                 # reverse), so the lateral error the robot cannot reach at rest
                 # is turned into a heading error it can.
                 bearing = math.atan2(-ey, -ex)
-                if _keeps_out_of_an_ellipse(row_kinds, row_params):
+                if _keeps_out_of_a_zone(row_kinds, row_params):
                     way = _bearing_round_zones(
                         x, y, bearing, distance, row_kinds, row_params, robot.constraint_margin
                     )

@@ -22,7 +22,15 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.controllers.constrained_tracking import WAY_COLUMNS, nearest_chords, way_at
+from wmr_mission.controllers.constrained_tracking import (
+    PASS_POINTS,
+    WAY_COLUMNS,
+    WAY_HEAD,
+    nearest_chords,
+    pass_points,
+    pass_reach,
+    way_at,
+)
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.geometry.routes import TURN_CREEP
 from wmr_mission.kernels import jit, loop, scalar_math
@@ -73,6 +81,8 @@ RESUME_HORIZON = 120.0
 # 23 cm, then 5 mm).
 WAY_HORIZON = 2**20
 WAY_SAMPLES = 128
+# The path's samples the pass of a way round is taken from (Run._pass).
+PASS_SAMPLES = 513
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
 MAX_PRESIZED = 2_000_000
 NEVER = 2**62  # the sample a run that is not a session pauses at
@@ -308,7 +318,24 @@ class PhaseRun:
                 rest = rest_points[j]
                 if rest is not None:
                     way[6] = max(way[2] * (way[0] - rest[0]) + way[3] * (way[1] - rest[1]), 0.0)
+                t_near = near[j, k] + share * (near[j, k + 1] - near[j, k])
+                way[WAY_HEAD:] = self._pass(t_near, way, params[i])
             self.ways[i] = way
+
+    def _pass(self, t_near: float, way: FloatArray, zone: FloatArray) -> FloatArray:
+        """The pass of a way round (constrained_tracking.pass_points): the
+        path about its time ``t_near``, PASS_SAMPLES points over twice the
+        time its speed there takes to cover the pass's reach (the whole
+        bound where it rests there), then evenly along it."""
+        reach = pass_reach(zone)
+        end = min(self.bound, WAY_HORIZON) * self.mission.dt
+        span = 2.0 * reach / way[5] if way[5] > 0.0 else end
+        t = np.linspace(max(t_near - span, 0.0), min(t_near + span, end), PASS_SAMPLES)
+        x, y, _ = self._path_points(t)
+        chords, shares = nearest_chords(x, y, way[:1], way[1:2])
+        if chords[0] < 0:  # the path rests there throughout
+            return np.concatenate([np.full(PASS_POINTS, way[0]), np.full(PASS_POINTS, way[1])])
+        return np.concatenate(pass_points(x, y, int(chords[0]), float(shares[0]), reach))
 
     def _path_points(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """The path's points at its times ``t``, and its speed there."""

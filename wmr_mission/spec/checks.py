@@ -47,6 +47,7 @@ from wmr_mission.geometry.regions import (
     region_value,
     region_vertices,
 )
+from wmr_mission.geometry.routes import TURN_CREEP
 from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import catalog, graph
 from wmr_mission.spec.changes import path_pace, with_look_ahead, with_pace
@@ -912,7 +913,12 @@ def _path_within_limits(
 def _turn_rate(times: FloatArray, dx: FloatArray, dy: FloatArray, speed: FloatArray) -> FloatArray:
     """|turn of the path's direction over the next TURN_WINDOW s| / TURN_WINDOW,
     from each sample (over the whole phase when it is shorter)."""
-    moving = speed > _STANDSTILL
+    # A route turning in place creeps at TURN_CREEP along the heading it turns
+    # to: its direction turns at the route's own turn rate, which the robot
+    # follows; held at the last leg's, a corner turned at 0.2 rad/s read as a
+    # quarter turn within TURN_WINDOW, 1.57 rad/s.
+    creeping = np.abs(speed - TURN_CREEP) <= 1e-3 * TURN_CREEP
+    moving = (speed > _STANDSTILL) | creeping
     if not moving.any():
         return np.zeros(0)
     # where the path stands still its direction is the last one it had

@@ -295,7 +295,8 @@ class _Parser:
         if token.kind != "name" or token.text in _KEYWORDS:
             raise self.unexpected("a signal, 'always', 'eventually' or '('")
         if token.text not in SIGNALS:
-            close = difflib.get_close_matches(token.text, list(SIGNALS), n=1)
+            # a misspelt operator reads as a signal here: suggest either
+            close = difflib.get_close_matches(token.text, [*SIGNALS, "always", "eventually"], n=1)
             hint = f"did you mean {close[0]!r}? " if close else ""
             raise FormulaError(
                 f"unknown signal {token.text!r}; {hint}signals: {', '.join(SIGNALS)}",
