@@ -1010,17 +1010,35 @@ def on_another_stretch(
     0.33 m inside itself at a rock its second loop passes
     (docs/paper-notes.md, eq. (28), "Another stretch of the path past a
     zone")."""
+    # The pass heads within a quarter turn of the way's tangent: its points'
+    # distances along it grow, and only its chords within twice the band of
+    # the aim's own distance along can be within twice the band of the aim.
+    reach = 2.0 * PASS_BAND
+    along = way[2] * (x - way[0]) + way[3] * (y - way[1])
+    low = 0
+    high = PASS_POINTS - 1
+    while high - low > 1:  # the last point no further along than the aim less the reach
+        middle = (low + high) // 2
+        at = way[2] * (way[WAY_HEAD + middle] - way[0]) + way[3] * (
+            way[WAY_HEAD + PASS_POINTS + middle] - way[1]
+        )
+        if at <= along - reach:
+            low = middle
+        else:
+            high = middle
     near = math.inf
-    for i in range(PASS_POINTS - 1):
+    for i in range(low, PASS_POINTS - 1):
         ax = way[WAY_HEAD + i]
         ay = way[WAY_HEAD + PASS_POINTS + i]
         ex = way[WAY_HEAD + i + 1] - ax
         ey = way[WAY_HEAD + PASS_POINTS + i + 1] - ay
         length2 = ex * ex + ey * ey
-        along = 0.0
+        share = 0.0
         if length2 > 0.0:
-            along = min(max(((x - ax) * ex + (y - ay) * ey) / length2, 0.0), 1.0)
-        near = min(near, math.hypot(ax + along * ex - x, ay + along * ey - y))
+            share = min(max(((x - ax) * ex + (y - ay) * ey) / length2, 0.0), 1.0)
+        near = min(near, math.hypot(ax + share * ex - x, ay + share * ey - y))
+        if way[2] * (ax - way[0]) + way[3] * (ay - way[1]) > along + reach:
+            break  # this chord starts beyond the reach: so do the rest
     share = min(max(near / PASS_BAND - 1.0, 0.0), 1.0)
     across = -way[3] * (x - way[0]) + way[2] * (y - way[1])
     centre = -way[3] * (p[0] - way[0]) + way[2] * (p[1] - way[1])

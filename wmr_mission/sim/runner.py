@@ -82,7 +82,7 @@ RESUME_HORIZON = 120.0
 WAY_HORIZON = 2**20
 WAY_SAMPLES = 128
 # The path's samples the pass of a way round is taken from (Run._pass).
-PASS_SAMPLES = 513
+PASS_SAMPLES = 129
 # Largest recorder pre-sized from the mission's sample budget; it grows beyond.
 MAX_PRESIZED = 2_000_000
 NEVER = 2**62  # the sample a run that is not a session pauses at
