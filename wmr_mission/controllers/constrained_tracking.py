@@ -933,6 +933,9 @@ def ways_round(
     chords, shares = nearest_chords(x, y, row_params[rows, 0], row_params[rows, 1])
     for i, k, share in zip(rows.tolist(), chords.tolist(), shares.tolist(), strict=True):
         ways[i] = way_at(x, y, k, share, row_params[i])
+        if k >= 0:
+            along = pass_points(x, y, k, share, pass_reach(row_params[i]))
+            ways[i, WAY_HEAD:] = np.concatenate(along)
     return ways
 
 
@@ -961,9 +964,8 @@ def way_at(
     cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
     through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
     side = 1.0 if through or cross < 0.0 else -1.0
-    way = np.zeros(WAY_COLUMNS)
+    way = np.zeros(WAY_COLUMNS)  # the pass is left to the caller (ways_round)
     way[:WAY_HEAD] = [nx, ny, ex / length, ey / length, side, speed, rest]
-    way[WAY_HEAD:] = np.concatenate(pass_points(x, y, k, share, pass_reach(p)))
     return way
 
 
