@@ -67,6 +67,7 @@ __all__ = [
     "row_value_with_margin",
     "way_at",
     "ways_round",
+    "zone_between",
 ]
 
 
@@ -1167,7 +1168,7 @@ def aim_round_zones(
 
 
 @kernel
-def _zone_between(
+def zone_between(
     kind: int, p: FloatArray, margin: float, ox: float, oy: float, ax: float, ay: float
 ) -> bool:
     """Whether the keep-out row ``p`` grown by ``margin`` lies across the
@@ -1233,7 +1234,7 @@ def _way_blocked(
     for i in range(row_kinds.shape[0]):
         p = row_params[i]
         keep_out = row_kinds[i] == POLYGON_ROW or (row_kinds[i] == ELLIPSE_ROW and p[5] < 0.0)
-        if keep_out and _zone_between(row_kinds[i], p, margin, ox, oy, ax, ay):
+        if keep_out and zone_between(row_kinds[i], p, margin, ox, oy, ax, ay):
             return True
     return False
 

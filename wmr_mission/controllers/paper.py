@@ -28,6 +28,7 @@ from wmr_mission.controllers.constrained_tracking import (
     held_where_braking_ends,
     keep_constraints,
     ramped_offset,
+    zone_between,
 )
 from wmr_mission.controllers.registry import ControllerSettings, ControllerType
 from wmr_mission.fields import Flag, Model, NonNegative, Positive
@@ -636,36 +637,6 @@ def _keeps_out_of_a_zone(row_kinds: IntArray, row_params: FloatArray) -> bool:
 
 
 @kernel
-def _segment_gap(p: FloatArray, x: float, y: float, wx: float, wy: float) -> float:
-    """The distance between the segment from (x, y) to (x + wx, y + wy) and
-    the convex polygon row ``p`` (0 where they meet): the least of its ends'
-    distances from the polygon and its vertices' from the segment, unless the
-    segment crosses an edge."""
-    gap, _, _ = polygon_distance(p, x, y)
-    end, _, _ = polygon_distance(p, x + wx, y + wy)
-    gap = min(gap, end)
-    if gap <= 0.0:
-        return 0.0
-    reach = wx * wx + wy * wy
-    for i in range(int(p[0])):
-        k = HEADER + PER_VERTEX * i
-        vx = p[k] - x
-        vy = p[k + 1] - y
-        # the edge from this vertex, along its normal turned by +90 degrees
-        ex = -p[k + 3] * p[k + 4]
-        ey = p[k + 2] * p[k + 4]
-        across = wx * ey - wy * ex
-        if across != 0.0:
-            on_way = (vx * ey - vy * ex) / across
-            on_edge = (vx * wy - vy * wx) / across
-            if 0.0 <= on_way <= 1.0 and 0.0 <= on_edge <= 1.0:
-                return 0.0
-        share = min(max((vx * wx + vy * wy) / reach, 0.0), 1.0)
-        gap = min(gap, math.hypot(vx - share * wx, vy - share * wy))
-    return gap
-
-
-@kernel
 def _polygon_tangent(
     p: FloatArray, margin: float, x: float, y: float, wx: float, wy: float
 ) -> tuple[float, float]:
@@ -674,17 +645,19 @@ def _polygon_tangent(
     disc of that radius): (the share of the way to the point of it nearest
     the polygon's centre, the heading along the tangent to the grown polygon
     on the side the way passes its centre, the left when head-on); (inf, 0)
-    where it does not cross. On the grown polygon's edge the tangent is the
-    edge's own direction, on that side."""
+    where it does not cross (zone_between: its edges moved out by the
+    margin). On the grown polygon's edge the tangent is the edge's own
+    direction, on that side."""
     reach = wx * wx + wy * wy
     if reach == 0.0:
         return math.inf, 0.0
     # The way's point nearest the disc about the vertices that holds them.
     along = min(max(((p[1] - x) * wx + (p[2] - y) * wy) / reach, 0.0), 1.0)
     here, gx, gy = polygon_distance(p, x, y)
-    if here <= margin and gx * wx + gy * wy >= 0.0:
-        return math.inf, 0.0  # on the grown edge, the way leading away from it
-    if _segment_gap(p, x, y, wx, wy) > margin:
+    if here <= margin:  # on the grown edge: crossed where the way leads in
+        if gx * wx + gy * wy >= 0.0:
+            return math.inf, 0.0
+    elif not zone_between(POLYGON_ROW, p, margin, x, y, x + wx, y + wy):
         return math.inf, 0.0
     # the side the way passes the centre on: round by the other one (1 the
     # left, -1 the right; the left when head-on)
