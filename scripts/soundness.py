@@ -34,6 +34,7 @@ JITTER_FLOOR = 0.01  # turn-rate jitter always allowed, as a fraction of the lim
 REVERSAL_FLOOR = 0.05  # inputs below this fraction of the limit are not counted as reversing
 REVERSAL_WINDOW = 10  # time constants: the window in which reversals are counted
 MOVING = 0.5  # a detour is driven at least this fraction of the reference's speed
+RAMP_SLOPE = 0.5  # [m across / m along] the gentlest way a detour leaves its path
 DELIBERATE = 0.5  # a saturated drive turns at least this fraction of the limit into progress
 STALL_WINDOW = 20  # time constants without progress (each a 10 % gain) that make a stall
 PROGRESS = 0.1
@@ -193,21 +194,28 @@ class Zone:
         deepest point's depth, or for a keep-out box or polygon the way out a
         robot on the path has, square to the path (the shorter side): round a
         turned box that is farther than its nearest edge."""
+        return float(self.reaches(rx, ry).max())
+
+    def reaches(self, rx: FloatArray, ry: FloatArray) -> FloatArray:
+        """How far [m] the zone reaches into the path at each point (rx, ry): its
+        depth, or inside a keep-out box or polygon the way out square to the path."""
         depth = self.depth(rx, ry)
         corners = None if self.keep_inside else self.region.vertices()
         if corners is None or rx.size < 2:
-            return float(depth.max())
+            return depth
         inside = np.flatnonzero(depth > 0)
         tx, ty = np.gradient(rx)[inside], np.gradient(ry)[inside]
         norm = np.hypot(tx, ty)
         moving = norm > 0
         inside, nx, ny = inside[moving], -ty[moving] / norm[moving], tx[moving] / norm[moving]
         if inside.size == 0:
-            return float(depth.max())
+            return depth
         side = (corners[:, 0] - rx[inside, None]) * nx[:, None] + (
             corners[:, 1] - ry[inside, None]
         ) * ny[:, None]
-        return float(max(depth.max(), np.minimum(side.max(axis=1), -side.min(axis=1)).max()))
+        reaches = depth.copy()
+        reaches[inside] = np.maximum(depth[inside], np.minimum(side.max(axis=1), -side.min(axis=1)))
+        return reaches
 
     def __str__(self) -> str:
         return f"{'inside' if self.keep_inside else 'outside'} {self.region.name}"
@@ -236,6 +244,7 @@ class MissionSpec:
     heading_noise: float  # [rad]
     time_constant: float  # [s] the design's time scale
     look_ahead: float  # [m]
+    body: float  # [m] how far the robot's outline reaches from its axle's centre (0: a point)
     phases: dict[str, PhaseSpec]  # by the name trajectory.csv gives them
     regions: dict[str, Region]
     # [m/s^2, rad/s^2] the tighter of limits.acceleration and limits.*_rate (inf: none)
@@ -281,10 +290,21 @@ def read_mission(source: str | Path | Mapping[str, Any]) -> MissionSpec:
         look_ahead=(
             _number(look_ahead, "look_ahead") if look_ahead is not None else max(0.05, v_limit * dt)
         ),
+        body=_body(robot),
         phases=phases,
         regions=regions,
         accelerations=_accelerations(robot),
     )
+
+
+def _body(robot: Mapping[str, Any]) -> float:
+    """[m] how far robot.footprint reaches from the axle's centre: its radius, or
+    its polygon's farthest corner; 0 without one (the robot is a point)."""
+    footprint = _get(robot, "footprint", default={}) or {}
+    if "radius" in footprint:
+        return _number(footprint["radius"], "robot.footprint.radius")
+    corners = footprint.get("polygon") or [[0.0, 0.0]]
+    return max(math.hypot(float(x), float(y)) for x, y in corners)
 
 
 def _accelerations(robot: Mapping[str, Any]) -> tuple[float, float]:
@@ -609,6 +629,11 @@ class _PhaseJudge:
         blocked = self.blocked(px, py, rx, ry)
         ahead = round((math.pi / spec.omega_limit + 5 * tau) / self.dt)
         blocked |= _any_ahead(self.path_in_a_zone(rx, ry), ahead)
+        # ... or the robot is on the gentle ramp, 1 across in 2 along, that leaves
+        # the path before a zone and comes back after it: a slow robot's turn
+        # covers less ground than that ramp.
+        arc = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
+        blocked |= self.on_a_ramp(rx, ry, arc)
         window = max(1, round(REVERSAL_WINDOW * tau / self.dt))
         moving = _centred_mean(speed, window) >= MOVING * _centred_mean(speed_ref, window)
         detour = blocked & moving
@@ -618,14 +643,13 @@ class _PhaseJudge:
         # of it, in the entry too while the robot tracks its path (below);
         # otherwise the gap the phase starts with is the entry's.
         # The controller keeps off a zone by what its estimate may be out (section 3
-        # allows the true robot no noise): three noise std.
+        # allows the true robot no noise): three noise std; and by its body's reach.
         reach = max([z.reach(rx, ry) for z in self.phase.zones] + [0.0])
-        detour_allowance = reach + 3 * spec.position_noise + spec.look_ahead + tolerance
+        detour_allowance = reach + spec.body + 3 * spec.position_noise + spec.look_ahead + tolerance
         # In the entry, while the robot tracks its path with its reference point
         # straight ahead: a robot behind its reference heads for it, and cuts a bend
         # between the two by at most how far the path strays from the chord there,
         # the entry's to excuse until it is back on its path.
-        arc = np.r_[0.0, np.cumsum(np.hypot(np.diff(rx), np.diff(ry)))]
         on_it = self.on_its_path(px, py, arc, rx, ry, lag, cross, speed_ref, tolerance)
         counted = ~entering
         tracks, cut = False, math.inf
@@ -727,15 +751,40 @@ class _PhaseJudge:
         tracking tolerance of it."""
         near = np.zeros(rx.size, dtype=bool)
         for zone in self.phase.zones:
-            near |= zone.depth(rx, ry) > -(self.spec.look_ahead + TRACKING_TOLERANCE)
+            near |= zone.depth(rx, ry) > -self.clearance()
         return near
+
+    def clearance(self) -> float:
+        """[m] how near a zone the law may not bring the robot's axle: its look-ahead,
+        the tracking tolerance and the body's reach."""
+        return self.spec.look_ahead + TRACKING_TOLERANCE + self.spec.body
+
+    def on_a_ramp(self, rx: FloatArray, ry: FloatArray, arc: FloatArray) -> FloatArray:
+        """Whether each reference point is on the ramp of RAMP_SLOPE that takes a
+        robot round the stretch of path in or near a keep-out zone and back: within
+        (the zone's reach into the path + the clearance) / RAMP_SLOPE along the
+        path (``arc``: the distance along it) of a point of that stretch."""
+        ramp = np.zeros(rx.size, dtype=bool)
+        for zone in self.phase.zones:
+            if zone.keep_inside or zone.region.spec["type"] == "half-plane":
+                continue  # no way round it
+            near = np.r_[False, zone.depth(rx, ry) > -self.clearance(), False]
+            edges = np.flatnonzero(near[1:] != near[:-1])
+            # each point of a stretch near the zone needs its own ramp, as long
+            # as it takes to go across what the zone reaches into the path there
+            length = np.maximum(zone.reaches(rx, ry) + self.clearance(), 0.0) / RAMP_SLOPE
+            for start, stop in zip(edges[::2], edges[1::2], strict=True):
+                first = (arc[start:stop] - length[start:stop]).min()
+                last = (arc[start:stop] + length[start:stop]).max()
+                ramp |= (arc >= first) & (arc <= last)
+        return ramp
 
     def blocked(self, px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray) -> FloatArray:
         """Whether a zone lies across the way from the robot to its reference point
         (or holds the point): on the forbidden side, or within the look-ahead and the
         tracking tolerance of it, where the law cannot bring the robot."""
         blocked = np.zeros(px.size, dtype=bool)
-        clearance = self.spec.look_ahead + TRACKING_TOLERANCE
+        clearance = self.clearance()
         for fraction in np.linspace(0.0, 1.0, 9)[1:]:
             qx, qy = px + fraction * (rx - px), py + fraction * (ry - py)
             for zone in self.phase.zones:
