@@ -655,6 +655,17 @@ _ARRAYS_IMPORTED = (
     "jit._load = load_and_import\n" + _COMMAND
 )
 
+# The same with the formulas' grammar imported as the command starts (its
+# settings made, numpy imported), as every check and run did
+# (wmr_mission.spec.models.Formula imports it where a mission writes a formula).
+_GRAMMAR = (
+    "import wmr_mission.cli as cli; line = cli._command_line\n"
+    "def with_grammar(arguments):\n"
+    "    import wmr_mission.spec.temporal\n"
+    "    return line(arguments)\n"
+    "cli._command_line = with_grammar\n" + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -717,6 +728,13 @@ def cuts(pairs: int = 9) -> None:
             ("run case1 --no-plots compiled, the judge's scratch made in Python / numba's "
              "arrays imported", [py, "-c", _COMMAND, *case1], [py, "-c", _ARRAYS_IMPORTED, *case1],
              _user_env(), _user_env()),
+            ("run case1 --no-plots compiled, the formulas' grammar not imported / imported",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _GRAMMAR, *case1], _user_env(),
+             _user_env()),
+            ("validate case1, the formulas' grammar not imported / imported",
+             [py, "-c", _COMMAND, "validate", str(MISSIONS / "case1.yaml")],
+             [py, "-c", _GRAMMAR, "validate", str(MISSIONS / "case1.yaml")], _user_env(),
+             _user_env()),
         ]  # fmt: skip
         wanted = sys.argv[2:]  # `cuts WORD ...`: the cases named with one of the words
         for name, with_it, without, env_with, env_without in cases:

@@ -183,6 +183,50 @@ def test_a_section_left_out_is_its_defaults_without_its_validator_built() -> Non
         assert section.model_fields_set == set()
 
 
+# Runs the command line, then prints as it exits whether the formulas' grammar
+# (wmr_mission.spec.temporal) was imported.
+GRAMMAR_LOADED = """
+import atexit, sys
+atexit.register(lambda: print("wmr_mission.spec.temporal" in sys.modules, file=sys.__stderr__))
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import program
+program()
+"""
+
+
+def test_the_formulas_grammar_is_imported_only_for_a_mission_that_writes_one(
+    tmp_path: Path,
+) -> None:
+    """Case study 1 writes no temporal formula: neither its check nor its run
+    imports their grammar (about 4 ms, docs/performance.md, Start-up); case
+    study 2 writes two, and its check and run parse them."""
+    loaded = {}
+    for name in ("case1", "case2"):
+        mission = str(MISSIONS / f"{name}.yaml")
+        out = str(tmp_path / name)
+        for args in (["validate", mission], ["run", mission, "--no-plots", "--out", out]):
+            done = subprocess.run(
+                [sys.executable, "-c", GRAMMAR_LOADED, *args],
+                capture_output=True,
+                text=True,
+                timeout=300,
+            )
+            assert done.returncode == 0, done.stderr
+            loaded[name, args[0]] = done.stderr.strip().splitlines()[-1]
+    assert loaded == {
+        ("case1", "validate"): "False",
+        ("case1", "run"): "False",
+        ("case2", "validate"): "True",
+        ("case2", "run"): "True",
+    }
+    summary = json.loads((tmp_path / "case2" / "summary.json").read_text())
+    assert [list(phase.get("temporal", {})) for phase in summary["phases"]] == [
+        [],
+        ["eventually[0, 10](always(cross_track <= 0.02))"],
+        ["eventually[0, 10](always(target_distance <= 0.05))"],
+    ]
+
+
 def test_the_command_line_runs_numpys_blas_on_one_thread_unless_told(tmp_path: Path) -> None:
     """Its threads spin as numpy loads (about 0.05 s of CPU a process) and
     nothing here multiplies matrices large enough to share; a user's own

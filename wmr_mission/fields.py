@@ -50,6 +50,8 @@ LARGEST_SEED: Final = 2**32 - 1
 # (limits, standard deviations, weights, tolerances).
 SMALLEST_SIZE: Final = 1e-6
 SMALLEST_POSITIVE: Final = 1e-9
+# The longest temporal `expect` formula, in characters (wmr_mission.spec.temporal).
+MAX_FORMULA_LENGTH: Final = 1000
 
 
 def at_least(floor: float) -> AfterValidator:
