@@ -666,6 +666,22 @@ _GRAMMAR = (
     "cli._command_line = with_grammar\n" + _COMMAND
 )
 
+# The same with the validators and serializers built, as the command starts, of
+# the sections a mission leaves out that were made by validating them, and of the
+# built-in contingencies' tolerances (wmr_mission.fields.Model.defaults).
+_SECTIONS_VALIDATED = (
+    "import wmr_mission.cli as cli; line = cli._command_line\n"
+    "def with_validators(arguments):\n"
+    "    from wmr_mission.controllers.paper import Regulation, Tracking\n"
+    "    from wmr_mission.estimators.observer import StatePoles\n"
+    "    from wmr_mission.spec.backend import Backend\n"
+    "    from wmr_mission.spec.models import Settled\n"
+    "    for model in (Tracking, Regulation, StatePoles, Backend, Settled):\n"
+    "        model.model_rebuild(force=True)\n"
+    "    return line(arguments)\n"
+    "cli._command_line = with_validators\n" + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -734,6 +750,11 @@ def cuts(pairs: int = 9) -> None:
             ("validate case1, the formulas' grammar not imported / imported",
              [py, "-c", _COMMAND, "validate", str(MISSIONS / "case1.yaml")],
              [py, "-c", _GRAMMAR, "validate", str(MISSIONS / "case1.yaml")], _user_env(),
+             _user_env()),
+            ("validate case2, sections left out unvalidated / validated", validate,
+             [py, "-c", _SECTIONS_VALIDATED, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots compiled, sections left out unvalidated / validated",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _SECTIONS_VALIDATED, *case1], _user_env(),
              _user_env()),
         ]  # fmt: skip
         wanted = sys.argv[2:]  # `cuts WORD ...`: the cases named with one of the words

@@ -82,7 +82,7 @@ class Model(BaseModel):
         """The model with every field at its default, as ``cls()`` gives it,
         without building its validator for that (about 1 ms a model): the
         default of a section a mission leaves out. For models with no
-        validator of their own."""
+        validator of their own, or one that their defaults pass (Backend's)."""
         return typing.cast(_M, cls.model_construct())  # pydantic types it as Model
 
 

@@ -993,7 +993,8 @@ class Mission(Model):
     )
     plot: Plot = Field(default_factory=Plot, description="How the figures look.")
     backend: Backend = Field(
-        default_factory=Backend, description="The plant: our simulator, IR-SIM or ROS 2."
+        default_factory=lambda: Backend.defaults(),
+        description="The plant: our simulator, IR-SIM or ROS 2.",
     )
 
     def path_context(self) -> paths.Context:
