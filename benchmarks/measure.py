@@ -655,6 +655,33 @@ _ARRAYS_IMPORTED = (
     "jit._load = load_and_import\n" + _COMMAND
 )
 
+# The same with the formulas' grammar imported as the command starts (its
+# settings made, numpy imported), as every check and run did
+# (wmr_mission.spec.models.Formula imports it where a mission writes a formula).
+_GRAMMAR = (
+    "import wmr_mission.cli as cli; line = cli._command_line\n"
+    "def with_grammar(arguments):\n"
+    "    import wmr_mission.spec.temporal\n"
+    "    return line(arguments)\n"
+    "cli._command_line = with_grammar\n" + _COMMAND
+)
+
+# The same with the validators and serializers built, as the command starts, of
+# the sections a mission leaves out that were made by validating them, and of the
+# built-in contingencies' tolerances (wmr_mission.fields.Model.defaults).
+_SECTIONS_VALIDATED = (
+    "import wmr_mission.cli as cli; line = cli._command_line\n"
+    "def with_validators(arguments):\n"
+    "    from wmr_mission.controllers.paper import Regulation, Tracking\n"
+    "    from wmr_mission.estimators.observer import StatePoles\n"
+    "    from wmr_mission.spec.backend import Backend\n"
+    "    from wmr_mission.spec.models import Settled\n"
+    "    for model in (Tracking, Regulation, StatePoles, Backend, Settled):\n"
+    "        model.model_rebuild(force=True)\n"
+    "    return line(arguments)\n"
+    "cli._command_line = with_validators\n" + _COMMAND
+)
+
 
 def cuts(pairs: int = 9) -> None:
     """What each setting the command line makes for its own process saves
@@ -717,6 +744,18 @@ def cuts(pairs: int = 9) -> None:
             ("run case1 --no-plots compiled, the judge's scratch made in Python / numba's "
              "arrays imported", [py, "-c", _COMMAND, *case1], [py, "-c", _ARRAYS_IMPORTED, *case1],
              _user_env(), _user_env()),
+            ("run case1 --no-plots compiled, the formulas' grammar not imported / imported",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _GRAMMAR, *case1], _user_env(),
+             _user_env()),
+            ("validate case1, the formulas' grammar not imported / imported",
+             [py, "-c", _COMMAND, "validate", str(MISSIONS / "case1.yaml")],
+             [py, "-c", _GRAMMAR, "validate", str(MISSIONS / "case1.yaml")], _user_env(),
+             _user_env()),
+            ("validate case2, sections left out unvalidated / validated", validate,
+             [py, "-c", _SECTIONS_VALIDATED, *validate[3:]], _user_env(), _user_env()),
+            ("run case1 --no-plots compiled, sections left out unvalidated / validated",
+             [py, "-c", _COMMAND, *case1], [py, "-c", _SECTIONS_VALIDATED, *case1], _user_env(),
+             _user_env()),
         ]  # fmt: skip
         wanted = sys.argv[2:]  # `cuts WORD ...`: the cases named with one of the words
         for name, with_it, without, env_with, env_without in cases:

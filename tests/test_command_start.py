@@ -14,7 +14,11 @@ from pathlib import Path
 import pytest
 
 from wmr_mission.campaign.load import check_file
+from wmr_mission.controllers.paper import PaperController
+from wmr_mission.estimators.observer import ConstrainedObserver
+from wmr_mission.sim import reactions
 from wmr_mission.spec import loader
+from wmr_mission.spec.models import Settled
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 
@@ -152,35 +156,94 @@ SECTIONS_LEFT_OUT = """
 import sys
 from pydantic._internal._mock_val_ser import MockValSer
 from wmr_mission import fields
-from wmr_mission.spec import models
+from wmr_mission.controllers import paper
+from wmr_mission.estimators import observer
+from wmr_mission.sim import reactions
+from wmr_mission.spec import backend, models
 from wmr_mission.spec.loader import load_mission
 load_mission(sys.argv[1])
 left_out = (models.Disturbances, models.Slip, fields.StateStd, fields.StateOffset,
-            models.PhaseExpect, models.StateTolerance)
+            models.PhaseExpect, models.StateTolerance, paper.Tracking, paper.Regulation,
+            observer.StatePoles, backend.Backend, models.Settled)
 print(" ".join(m.__name__ for m in left_out
-               if not isinstance(m.__pydantic_validator__, MockValSer)))
+               if not isinstance(m.__pydantic_validator__, MockValSer)
+               or not isinstance(m.__pydantic_serializer__, MockValSer)))
 """
 
 
 def test_a_section_left_out_is_its_defaults_without_its_validator_built() -> None:
-    """Case study 1 writes no disturbances, sensor noise or bias, phase
-    expect nor convergence tolerance: each is its model's defaults, as the
-    model itself gives them, its validator not built for that (about 1 ms
-    each, fields.Model.defaults)."""
-    done = subprocess.run(
-        [sys.executable, "-c", SECTIONS_LEFT_OUT, str(MISSIONS / "case1.yaml")],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == []
+    """Case studies 1 and 2 write no disturbances, sensor noise or bias, phase
+    expect, convergence tolerance, tracking or regulation form, observer poles
+    nor backend: each is its model's defaults, as the model itself gives them,
+    its validator and serializer not built for that (about 1 ms each,
+    fields.Model.defaults); nor are they for the built-in contingencies'
+    settling tolerances (wmr_mission.sim.reactions)."""
+    for name in ("case1.yaml", "case2.yaml"):
+        done = subprocess.run(
+            [sys.executable, "-c", SECTIONS_LEFT_OUT, str(MISSIONS / name)],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert done.returncode == 0, done.stderr
+        assert done.stdout.split() == [], name
     mission = loader.load_mission(MISSIONS / "case1.yaml")
     written = (mission.robot.disturbances, mission.sensors.bias, mission.phases[0].expect)
-    for section in (*written, mission.expect.convergence_tolerance):
+    controller, estimator = mission.controller, mission.estimator
+    assert isinstance(controller, PaperController)
+    assert isinstance(estimator, ConstrainedObserver)
+    left_out = (controller.tracking, controller.regulation, estimator.poles, mission.backend)
+    for section in (*written, mission.expect.convergence_tolerance, *left_out):
         assert section == type(section)()
         assert section.model_dump() == type(section)().model_dump()
         assert section.model_fields_set == set()
+    settled = Settled(position=0.05, heading=0.05)
+    assert settled == reactions._SETTLED
+    assert reactions._SETTLED.model_fields_set == settled.model_fields_set
+
+
+# Runs the command line, then prints as it exits whether the formulas' grammar
+# (wmr_mission.spec.temporal) was imported.
+GRAMMAR_LOADED = """
+import atexit, sys
+atexit.register(lambda: print("wmr_mission.spec.temporal" in sys.modules, file=sys.__stderr__))
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import program
+program()
+"""
+
+
+def test_the_formulas_grammar_is_imported_only_for_a_mission_that_writes_one(
+    tmp_path: Path,
+) -> None:
+    """Case study 1 writes no temporal formula: neither its check nor its run
+    imports their grammar (about 4 ms, docs/performance.md, Start-up); case
+    study 2 writes two, and its check and run parse them."""
+    loaded = {}
+    for name in ("case1", "case2"):
+        mission = str(MISSIONS / f"{name}.yaml")
+        out = str(tmp_path / name)
+        for args in (["validate", mission], ["run", mission, "--no-plots", "--out", out]):
+            done = subprocess.run(
+                [sys.executable, "-c", GRAMMAR_LOADED, *args],
+                capture_output=True,
+                text=True,
+                timeout=300,
+            )
+            assert done.returncode == 0, done.stderr
+            loaded[name, args[0]] = done.stderr.strip().splitlines()[-1]
+    assert loaded == {
+        ("case1", "validate"): "False",
+        ("case1", "run"): "False",
+        ("case2", "validate"): "True",
+        ("case2", "run"): "True",
+    }
+    summary = json.loads((tmp_path / "case2" / "summary.json").read_text())
+    assert [list(phase.get("temporal", {})) for phase in summary["phases"]] == [
+        [],
+        ["eventually[0, 10](always(cross_track <= 0.02))"],
+        ["eventually[0, 10](always(target_distance <= 0.05))"],
+    ]
 
 
 def test_the_command_line_runs_numpys_blas_on_one_thread_unless_told(tmp_path: Path) -> None:

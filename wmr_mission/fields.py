@@ -50,6 +50,8 @@ LARGEST_SEED: Final = 2**32 - 1
 # (limits, standard deviations, weights, tolerances).
 SMALLEST_SIZE: Final = 1e-6
 SMALLEST_POSITIVE: Final = 1e-9
+# The longest temporal `expect` formula, in characters (wmr_mission.spec.temporal).
+MAX_FORMULA_LENGTH: Final = 1000
 
 
 def at_least(floor: float) -> AfterValidator:
@@ -80,7 +82,7 @@ class Model(BaseModel):
         """The model with every field at its default, as ``cls()`` gives it,
         without building its validator for that (about 1 ms a model): the
         default of a section a mission leaves out. For models with no
-        validator of their own."""
+        validator of their own, or one that their defaults pass (Backend's)."""
         return typing.cast(_M, cls.model_construct())  # pydantic types it as Model
 
 

@@ -159,8 +159,12 @@ class PaperController(ControllerSettings):
     M: tuple[Positive, Positive] = Field(
         default=(100.0, 100.0), description="Eq. (22) input weights (diagonal), > 0."
     )
-    tracking: Tracking = Field(default_factory=Tracking, description="Path tracking output.")
-    regulation: Regulation = Field(default_factory=Regulation, description="Regulation form.")
+    tracking: Tracking = Field(
+        default_factory=lambda: Tracking.defaults(), description="Path tracking output."
+    )
+    regulation: Regulation = Field(
+        default_factory=lambda: Regulation.defaults(), description="Regulation form."
+    )
 
     def position_noise_budget(self, dt: float, speed_limit: float, turn_limit: float) -> float:
         """A lateral error ``e`` of the look-ahead point closed within the time

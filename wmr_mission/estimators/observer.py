@@ -117,7 +117,7 @@ class ConstrainedObserver(EstimatorSettings):
         default="constrained-observer", description="Estimator kind (the default)."
     )
     poles: StatePoles = Field(
-        default_factory=StatePoles,
+        default_factory=lambda: StatePoles.defaults(),
         description=(
             "Observer poles, phase I (eq. 7); default 0.9, and with noisy positions (no "
             "robot.disturbances) x and y slow enough that the estimate's noise takes at most "
@@ -166,9 +166,11 @@ class ConstrainedObserver(EstimatorSettings):
         if noisy and "innovation_gate" not in self.model_fields_set:
             update["innovation_gate"] = CHI_SQUARE_GATE[noisy - 1]
         if "poles" not in self.model_fields_set:
-            written = self.poles.model_dump()
+            # read as fields, not dumped: a dump builds the model's serializer first
             poles = {
-                state: quiet_pole(measured_noise[state], position_budget, written[state])
+                state: quiet_pole(
+                    measured_noise[state], position_budget, getattr(self.poles, state)
+                )
                 for state in ("x", "y")
                 if measured_noise.get(state, 0.0) > 0.0
             }

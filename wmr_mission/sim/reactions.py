@@ -60,8 +60,9 @@ __all__ = [
 ]
 
 # The built-in contingencies' phases end settled within these tolerances, or
-# at their timeout.
-_SETTLED: Final = Settled(position=0.05, heading=0.05)
+# at their timeout. Made as validating them makes them, without building the
+# model's validator for it at every run's start (docs/performance.md, Start-up).
+_SETTLED: Final = Settled.model_construct(position=0.05, heading=0.05)
 
 Event = Literal["timeout", "breach", "verdict"]
 _EVENT_INDEX: Final = {"timeout": 0, "breach": 1, "verdict": 2}

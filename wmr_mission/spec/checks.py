@@ -64,7 +64,6 @@ from wmr_mission.spec.models import (
 )
 from wmr_mission.spec.reactions import Goto, Retry
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
-from wmr_mission.spec.temporal import SIGNALS, parse_formula, signals_of
 
 __all__ = ["MAX_SAMPLES", "DataPath", "Finding", "Severity", "check", "check_across_fields"]
 
@@ -971,6 +970,14 @@ def _measured(phase: TrackPhase | RegulatePhase | HoldPhase) -> set[str]:
     return {"every", kind, *(("zones",) if phase.constraints else ())}
 
 
+def _measured_on(formula: str) -> dict[str, str]:
+    """Where each signal ``formula`` names is measured (wmr_mission.spec.temporal.SIGNALS),
+    the grammar imported by the first mission that writes a formula."""
+    from wmr_mission.spec.temporal import SIGNALS, parse_formula, signals_of
+
+    return {signal: SIGNALS[signal].measured_on for signal in signals_of(parse_formula(formula))}
+
+
 def _formulas(mission: Mission) -> Iterator[Finding]:
     """A phase's own temporal formula names only signals the phase measures,
     and a mission-wide one signals that some phase taking it measures together
@@ -984,8 +991,7 @@ def _formulas(mission: Mission) -> Iterator[Finding]:
         if phase.expect.temporal is None:
             takers.append(measured)
         for index, text in enumerate(phase.expect.temporal or ()):
-            for signal in sorted(signals_of(parse_formula(text))):
-                where = SIGNALS[signal].measured_on
+            for signal, where in sorted(_measured_on(text).items()):
                 if where not in measured:
                     yield Finding(
                         (*run.where, "expect", "temporal", index),
@@ -994,16 +1000,15 @@ def _formulas(mission: Mission) -> Iterator[Finding]:
                         severity="warning",
                     )
     for index, text in enumerate(mission.expect.temporal or ()):
+        measured_on = _measured_on(text)
         # every phase measures speed and turn rate: the others decide
-        signals = sorted(
-            s for s in signals_of(parse_formula(text)) if SIGNALS[s].measured_on != "every"
-        )
-        if any({SIGNALS[s].measured_on for s in signals} <= measured for measured in takers):
+        signals = sorted(s for s, where in measured_on.items() if where != "every")
+        if any({measured_on[s] for s in signals} <= measured for measured in takers):
             continue
         names = " and ".join(signals) + (" together" if len(signals) > 1 else "")
-        places = "; ".join(f"{s}: {_MEASURED_WHERE[SIGNALS[s].measured_on]}" for s in signals)
+        places = "; ".join(f"{s}: {_MEASURED_WHERE[measured_on[s]]}" for s in signals)
         if len(signals) == 1:
-            places = _MEASURED_WHERE[SIGNALS[signals[0]].measured_on]
+            places = _MEASURED_WHERE[measured_on[signals[0]]]
         yield Finding(
             ("expect", "temporal", index),
             f"no phase that takes the mission's formulas measures {names} ({places}): "

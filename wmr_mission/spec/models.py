@@ -39,6 +39,7 @@ from wmr_mission.estimators.observer import ConstrainedObserver
 from wmr_mission.fields import (
     IDENTIFIER,
     LARGEST_SEED,
+    MAX_FORMULA_LENGTH,
     SMALLEST_POSITIVE,
     BurstLength,
     Duration,
@@ -65,7 +66,6 @@ from wmr_mission.geometry.routes import ROUTE_ACCELERATION_SHARE
 from wmr_mission.spec import catalog
 from wmr_mission.spec.backend import Backend
 from wmr_mission.spec.reactions import Geofence, Reaction, Then
-from wmr_mission.spec.temporal import Formula
 
 __all__ = [
     "ACTIONS",
@@ -350,6 +350,29 @@ class Sensors(Model):
 
 
 # --- expectations ----------------------------------------------------------
+
+
+def _formula(text: str) -> str:
+    """A temporal formula, parsed: its grammar (wmr_mission.spec.temporal) is
+    imported by the first mission that writes one, not by every check and run
+    (docs/performance.md, Start-up)."""
+    from wmr_mission.spec.temporal import checked_formula
+
+    return checked_formula(text)
+
+
+Formula = Annotated[
+    str,
+    Field(
+        min_length=1,
+        max_length=MAX_FORMULA_LENGTH,
+        description=(
+            "A temporal formula over the phase's signals, e.g. "
+            "'eventually[0, 10](always(cross_track <= 0.02))' (see Temporal expectations)."
+        ),
+    ),
+    AfterValidator(_formula),
+]
 
 
 class Threshold(Model):
@@ -970,7 +993,8 @@ class Mission(Model):
     )
     plot: Plot = Field(default_factory=Plot, description="How the figures look.")
     backend: Backend = Field(
-        default_factory=Backend, description="The plant: our simulator, IR-SIM or ROS 2."
+        default_factory=lambda: Backend.defaults(),
+        description="The plant: our simulator, IR-SIM or ROS 2.",
     )
 
     def path_context(self) -> paths.Context:

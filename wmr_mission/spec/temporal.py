@@ -1,5 +1,5 @@
 """Temporal `expect` formulas: their grammar, the signals they name, and the
-field that checks them.
+check of the field that holds them (wmr_mission.spec.models.Formula).
 
 A formula is one line of text, parsed here by a small recursive-descent parser
 (mission text is data: no eval, no exec), so that a mistake is reported at
@@ -26,10 +26,11 @@ import functools
 import math
 import re
 from dataclasses import dataclass
-from typing import Annotated, Final, Literal
+from typing import Final, Literal
 
-from pydantic import AfterValidator, Field
 from pydantic_core import PydanticCustomError
+
+from wmr_mission.fields import MAX_FORMULA_LENGTH
 
 __all__ = [
     "INSTANTS",
@@ -40,17 +41,16 @@ __all__ = [
     "Both",
     "Either",
     "Eventually",
-    "Formula",
     "FormulaError",
     "Node",
     "Signal",
     "Until",
     "Window",
+    "checked_formula",
     "parse_formula",
     "signals_of",
 ]
 
-MAX_FORMULA_LENGTH: Final = 1000
 MAX_NESTING_DEPTH: Final = 50
 
 
@@ -371,7 +371,9 @@ def signals_of(node: Node) -> set[str]:
     return signals_of(node.left) | signals_of(node.right)
 
 
-def _checked(text: str) -> str:
+def checked_formula(text: str) -> str:
+    """``text`` if it parses, else the mistake at its column as pydantic
+    reports a field's (the `temporal` field, wmr_mission.spec.models.Formula)."""
     try:
         parse_formula(text)
     except FormulaError as error:
@@ -381,17 +383,3 @@ def _checked(text: str) -> str:
             {"message": error.message, "column": error.column},
         ) from None
     return text
-
-
-Formula = Annotated[
-    str,
-    Field(
-        min_length=1,
-        max_length=MAX_FORMULA_LENGTH,
-        description=(
-            "A temporal formula over the phase's signals, e.g. "
-            "'eventually[0, 10](always(cross_track <= 0.02))' (see Temporal expectations)."
-        ),
-    ),
-    AfterValidator(_checked),
-]

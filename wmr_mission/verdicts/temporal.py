@@ -34,18 +34,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from wmr_mission.basics import FloatArray
-from wmr_mission.spec.temporal import (
-    SIGNALS,
-    Always,
-    Atom,
-    Both,
-    Either,
-    Eventually,
-    Node,
-    Window,
-    parse_formula,
-    signals_of,
-)
 from wmr_mission.verdicts.check import Check
 from wmr_mission.verdicts.numbers import MissionNumbers
 from wmr_mission.verdicts.tracking import Known, Placement, reference_known
@@ -53,6 +41,11 @@ from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
     from wmr_mission.record import PhaseRecord, RunRecord
+    from wmr_mission.spec.temporal import Node, Window
+
+# The formulas' grammar (wmr_mission.spec.temporal) is imported where a formula
+# is read: a run whose mission writes none never loads it (docs/performance.md,
+# Start-up).
 
 __all__ = ["PhaseSignals", "formula_checks", "panel_of", "phase_values", "robustness"]
 
@@ -68,6 +61,8 @@ def robustness(
 ) -> FloatArray:
     """The robustness of ``node`` at every sample (``signals`` of one length;
     ``instants``: the seconds ``entry`` and ``settle`` stand for)."""
+    from wmr_mission.spec.temporal import Always, Atom, Both, Either, Eventually
+
     if isinstance(node, Atom):
         values = signals[node.signal]
         rho: FloatArray = values - node.bound if node.above else node.bound - values
@@ -98,6 +93,8 @@ def robustness_at_start(
     outermost ``always`` or ``eventually`` is one pick over its window, not a
     pick at every sample (the same values picked: min and max round nothing,
     so the same bits)."""
+    from wmr_mission.spec.temporal import Always, Both, Either, Eventually
+
     if isinstance(node, Both | Either):
         left = robustness_at_start(node.left, signals, dt, instants)
         right = robustness_at_start(node.right, signals, dt, instants)
@@ -226,6 +223,8 @@ def phase_values(
     formulas = phase_formulas(mission, info.name) if formulas is None else formulas
     if not formulas:
         return {}
+    from wmr_mission.spec.temporal import parse_formula, signals_of
+
     signals = PhaseSignals(result, info, window, numbers, placement, known)
     values: dict[str, float | None] = {}
     for text in formulas:
@@ -249,6 +248,8 @@ def phase_values(
 
 def panel_of(formula: str) -> str:
     """The panel a formula's check is drawn on: its first signal's."""
+    from wmr_mission.spec.temporal import SIGNALS, Always, Atom, Eventually, parse_formula
+
     node = parse_formula(formula)
     while not isinstance(node, Atom):
         node = node.body if isinstance(node, Always | Eventually) else node.left
