@@ -12,6 +12,7 @@ from test_output_synthetic import PHASE_STARTS, RADIUS, REF_OFFSET, REGIONS, TUR
 from wmr_mission.output.result import RunResult
 from wmr_mission.record import Outcome, PhaseRecord
 from wmr_mission.verdicts.metrics import (
+    AT_LIMIT_TOLERANCE,
     LOCAL_WINDOW,
     at_limit_fraction,
     check_expectations,
@@ -514,6 +515,17 @@ def test_at_limit_fraction_counts_both_signs_at_the_limit_only() -> None:
     assert at_limit_fraction(values, 3.0) == pytest.approx(3 / 5)
     assert at_limit_fraction(values, math.inf) == 0.0
     assert at_limit_fraction(np.array([]), 3.0) is None
+
+
+def test_at_limit_fraction_counts_each_value_once_as_its_magnitude_does() -> None:
+    """Counted on either side without a column of magnitudes: the same count
+    as ``|value| >= bound``, NaN never, a zero once where the limit is 0."""
+    rng = np.random.default_rng(7)
+    values = np.concatenate((rng.uniform(-4, 4, 500), [3.0, -3.0, 0.0, -0.0, math.nan]))
+    for limit in (3.0, 0.5, 0.0):
+        bound = limit * (1.0 - AT_LIMIT_TOLERANCE)
+        expected = np.count_nonzero(np.abs(values) >= bound) / values.size
+        assert at_limit_fraction(values, limit) == expected
 
 
 def test_convergence_tolerance_per_state_in_its_unit() -> None:

@@ -293,8 +293,10 @@ def distance_to_path(
     else:
         own = np.maximum(np.cumsum(known) - 1, 0)
     own = own if every_finite else own[finite]
-    steps = np.hypot(np.diff(px), np.diff(py))
-    moving = steps[steps > 0]
+    steps = np.diff(px)
+    steps = np.hypot(steps, np.diff(py), out=steps)  # (a long run's columns: no more than needed)
+    positive = steps > 0
+    moving = steps if positive.all() else steps[positive]  # reordered by the median: not read after
     cell = float(np.median(moving, overwrite_input=True)) / 2 if moving.size else 1.0
     # One point per cell: the first the path passes in it (a stable sort by cell).
     first = first_in_cells(px, py, cell) if jit.judging_compiled() else None  # the same, compiled
@@ -347,9 +349,12 @@ def at_limit_fraction(values: FloatArray, limit: float) -> float | None:
         return None
     if not math.isfinite(limit):
         return 0.0
-    return float(np.count_nonzero(np.abs(values) >= limit * (1.0 - AT_LIMIT_TOLERANCE))) / float(
-        values.size
-    )
+    least = limit * (1.0 - AT_LIMIT_TOLERANCE)
+    if least > 0.0:  # |value| >= least on either side, no column of magnitudes made
+        at = np.count_nonzero(values >= least) + np.count_nonzero(values <= -least)
+    else:  # (a zero would count on both sides)
+        at = np.count_nonzero(np.abs(values) >= least)
+    return float(at) / float(values.size)
 
 
 def phase_segments(phase: np.ndarray) -> list[tuple[int, int, int]]:
@@ -853,7 +858,7 @@ def compute_time_us(compute_ns: np.ndarray) -> dict[str, float | None]:
     """Estimator + controller wall time per sample [us]: mean, median, 99th percentile."""
     if compute_ns.size == 0:
         return {"mean": None, "median": None, "p99": None}
-    us = compute_ns.astype(np.float64) / 1000.0
+    us = np.divide(compute_ns, 1000.0)  # each as a float, divided: no copy before
     mean = float(np.mean(us))  # before `us` is reordered: the sum's order is its own
     # `us` selected in place, not copied: a long run's column (the same values picked)
     median = float(np.median(us, overwrite_input=True))

@@ -51,6 +51,10 @@ __all__ = [  # the passes, each compiled by `wmr-mission compile` (tests/test_st
     "stalled_samples",
 ]
 
+# The jitter's moving sums added to this many at a time (16 kB: within the
+# cache while each of the window's samples is added to them).
+_BLOCK = 2048
+
 # Partials kept at most: non-overlapping doubles, each with a bit of its own
 # among the 2 098 places from 2^-1074 to 2^1023 (math.fsum grows its list).
 PARTIALS = 2100
@@ -252,11 +256,14 @@ def jitter_median(omega: FloatArray, half: int, skip: int) -> float:
     centres = omega.size - window + 1
     dropped = max(0, skip - half)
     total = np.zeros(centres - dropped)
-    for offset in range(window):  # each sum in order, the centres side by side
-        samples = omega[dropped + offset : centres + offset]
-        for c in range(total.size):
-            total[c] += samples[c]
-    spread = np.empty(centres - dropped)
+    for begin in range(0, total.size, _BLOCK):  # a block of sums kept in cache while added to
+        end = min(begin + _BLOCK, total.size)
+        block = total[begin:end]
+        for offset in range(window):  # each sum in order, the centres side by side
+            samples = omega[dropped + offset + begin : dropped + offset + end]
+            for c in range(block.size):
+                block[c] += samples[c]
+    spread = total  # each deviation in place of its sum, read just before: no second array
     for c in range(dropped, centres):
         deviation = abs(omega[half + c] - total[c - dropped] / window)
         if deviation != deviation:

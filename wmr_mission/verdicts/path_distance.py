@@ -5,7 +5,7 @@ says which segments are tried; its numpy form serves plain Python).
 Each position's distance is the least of its segments' distances, computed
 with numpy's arithmetic operation by operation, and min rounds nothing, so
 the bits are those of the numpy form (``tests/test_verdict_path_distance.py``).
-Four shortcuts change no bit:
+Five shortcuts change no bit:
 
 * the path's nearest points are found among the points listed for the
   position's cell of a second, finer grid: every point that may be among the
@@ -20,6 +20,10 @@ Four shortcuts change no bit:
   rings, among every point);
 * a segment whose nearest point is one of its ends takes no division: its
   quotient would be clamped to 0 or 1 whatever its rounding;
+* a cell's list is kept nearest its centre first, so that a position's k
+  nearest come early and the others are turned away at once (the k kept do
+  not depend on the order offered); a hypot of the same offsets as the one
+  before (a segment tried twice, the two at a corner) is not taken again;
 * ``hypot`` (the C library's, as numpy's) is taken only of the segments whose
   squared distance is within a relative 1e-6 of the least: the others'
   distances are farther by far more than their roundings.
@@ -127,7 +131,7 @@ def compiled_distances(
     with np.errstate(over="ignore", invalid="ignore"):
         # Without reference counting: loading it needs none of numba's runtime.
         jit.compiled(_distances, counted=False)(
-            px, py, qx, qy, own.astype(np.int64), tx, ty, points.astype(np.int64),
+            px, py, qx, qy, own.astype(np.int64, copy=False), tx, ty, points.astype(np.int64),
             order.astype(np.int64), starts, x0, y0, size, columns, rows, window, nearest,
             segments, dxs, dys, out, (side, slack, _LIST_REACH * side), (list_columns, list_rows),
             table, pool, used,
@@ -305,6 +309,22 @@ def _list_of_cell(
                         return  # the pool is full: the rings
                     pool[first + 1 + n] = j
                     n += 1
+    # Nearest the centre first: a position's k nearest then come early, and the
+    # others are turned away by one comparison each (_keep keeps the same k
+    # whatever the order: it orders them by squared distance, then index).
+    for a in range(first + 2, first + 1 + n):
+        j = pool[a]
+        ex, ey = tx[j] - cx, ty[j] - cy
+        squared = ex * ex + ey * ey
+        b = a
+        while b > first + 1:
+            before = pool[b - 1]
+            fx, fy = tx[before] - cx, ty[before] - cy
+            if fx * fx + fy * fy <= squared:
+                break
+            pool[b] = before
+            b -= 1
+        pool[b] = j
     pool[first] = n
     used[0] = first + 1 + n
     table[cell] = first
@@ -386,11 +406,16 @@ def _distances(
             elif squared < least:
                 least = squared
         distance = math.inf
+        taken_x, taken_y, taken = math.nan, math.nan, math.nan  # the last hypot taken
         for i in range(n):
             squared = dxs[i] * dxs[i] + dys[i] * dys[i]
             if every or squared <= least * (1.0 + _SQUARED_MARGIN) + _TINY:
-                # the C library's, as numpy's (math.hypot is CPython's own as plain Python)
-                found_distance = np.hypot(dxs[i], dys[i])
+                if dxs[i] == taken_x and dys[i] == taken_y:  # (hypot is even: -0 as 0)
+                    found_distance = taken  # a segment tried twice, or its twin at a corner
+                else:
+                    # the C library's, as numpy's (math.hypot is CPython's own as plain Python)
+                    found_distance = np.hypot(dxs[i], dys[i])
+                    taken_x, taken_y, taken = dxs[i], dys[i], found_distance
                 if found_distance != found_distance:  # numpy's min keeps a NaN
                     distance = math.nan
                     break

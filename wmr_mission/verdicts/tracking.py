@@ -161,16 +161,16 @@ class Placement:
         if first < self._from:
             self._place_samples(first, self._from)
             self._from = first
-        cross, place = self._cross.copy(), self._place.copy()
+        cross = self._cross.copy()
         cross[:first] = np.nan
-        place[:first] = np.nan
+        lag = np.subtract(arc, self._place)  # the places not copied first: a long run's column
+        lag[:first] = np.nan
         far = np.flatnonzero(cross > near)
         if far.size:
             distance, at = _nearest_anywhere(far, cross[far], self.path, px, py)
             better = distance < cross[far] - NEAR_EQUAL
             cross[far[better]] = distance[better]
-            place[far[better]] = at[better]
-        lag = np.subtract(arc, place, out=place)
+            lag[far[better]] = arc[far[better]] - at[better]
         return cross, lag
 
     def direction_at(
