@@ -1320,7 +1320,9 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         if against is not None:
             os.mkdir(f"{tmp}/then")
             envs[against] = _user_env(
-                PYTHONPATH=_checkout(against, f"{tmp}/then"), WMR_MISSION_FOREGROUND_COMPILE="1"
+                PYTHONPATH=_checkout(against, f"{tmp}/then"),
+                WMR_MISSION_FOREGROUND_COMPILE="1",
+                NUMBA_CACHE_DIR=f"{tmp}/then-kernels",  # its own: a cache of other sources
             )
         measured: dict[str, list[tuple[float, float, float, float]]] = {k: [] for k in envs}
         for round_ in range(pairs + 1):  # the first untimed: bytecode, a checkout's compile
@@ -1652,7 +1654,12 @@ def task_against(commit: str, pairs: int = 10, runs: int = 200) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         os.mkdir(f"{tmp}/then")
         then = _user_env(
-            PYTHONPATH=_checkout(commit, f"{tmp}/then"), WMR_MISSION_FOREGROUND_COMPILE="1"
+            PYTHONPATH=_checkout(commit, f"{tmp}/then"),
+            WMR_MISSION_FOREGROUND_COMPILE="1",
+            # Its own cache: kernels of other sources in the same one remove
+            # this checkout's as they are written, and the other way round
+            # (kernels.cache), so every process of each would compile again.
+            NUMBA_CACHE_DIR=f"{tmp}/then-kernels",
         )
         envs = {"now": _user_env(), commit: then}
 
