@@ -225,7 +225,7 @@ def test_literal_axle_law_with_the_case_limits_tracks_but_its_turn_rate_chatters
             # The chatter is no success: the verdict judges the turn rate's quality.
             if name == "axle":
                 assert result.outcome.value == "expect-failed"
-                assert "orbit: turn_rate_reversals" in result.message, result.message
+                assert "orbit: turn_rate_jitter" in result.message, result.message
             else:
                 assert result.outcome.value == "success", result.message
             orbit = result.phase == 1

@@ -434,7 +434,7 @@ def track_input(
         # itself, and case 1's spiral in keeps its end (docs/paper-notes.md,
         # eq. (27), "The speed while the turn is at its limit").
         if planned or omega * turn > 0.0:
-            v = math.copysign(min(abs(v), robot.limits[0]), v) * max(math.cos(turn), 0.0)
+            v *= max(math.cos(turn), 0.0)
         # Stopped relative to the path's own turn (as previewed, ramped at the
         # acceleration limit) once on it: the way the output must move turns
         # with the path, and a turn stopped absolutely left the heading
