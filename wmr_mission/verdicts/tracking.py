@@ -326,12 +326,6 @@ def _any_within(flags: NDArray[np.bool_], samples: int) -> NDArray[np.bool_]:
     return found
 
 
-def _travelled(x: FloatArray, y: FloatArray) -> FloatArray:
-    """[m] the distance along the points (x, y) from the first to each."""
-    steps = np.hypot(np.diff(x), np.diff(y))
-    return np.concatenate(([0.0], np.cumsum(steps)))
-
-
 def _ramps(near: NDArray[np.bool_], travelled: FloatArray, across: FloatArray) -> NDArray[np.bool_]:
     """The samples on a ramp of GENTLE_SLOPE that goes ``across`` [m] by a
     ``near`` sample (less where it is not as deep) before it or after it:
@@ -488,8 +482,16 @@ def track_samples(
     if zones:
         kept = numbers.body if margin is None else margin
         reaches = [reach_across(zone, rx, ry) for zone in zones]
+        # the reference's distance along its path (none for one standing still)
+        arc = placement.path[0] if not placement.standing else np.zeros(rx.size)
         detour, rejoining = _detours(
-            px, py, rx, ry, reference_speed, numbers, list(zip(zones, reaches, strict=True)), kept
+            px,
+            py,
+            (rx, ry, arc),
+            reference_speed,
+            numbers,
+            list(zip(zones, reaches, strict=True)),
+            kept,
         )
         excused |= detour | rejoining
         metrics["zone_reach"] = max(0.0, max(float(np.max(r)) for r in reaches) + kept)
@@ -608,8 +610,7 @@ def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
 def _detours(
     px: FloatArray,
     py: FloatArray,
-    rx: FloatArray,
-    ry: FloatArray,
+    reference: tuple[FloatArray, FloatArray, FloatArray],
     reference_speed: FloatArray,
     numbers: MissionNumbers,
     zones: Sequence[tuple[Zone, FloatArray]],
@@ -617,10 +618,12 @@ def _detours(
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """The samples of a detour a zone forces, and those after one that the robot
     needs to rejoin its reference; each zone with how far it reaches into the
-    path at each reference point (:func:`reach_across`). The zones grown by the body's reach too:
+    path at each reference point (:func:`reach_across`); ``reference``: its
+    points and their distance along the path. The zones grown by the body's reach too:
     the robot leaves its path that much sooner, and a polygon body's detour
     (reach 0.36 m), begun 1.4 m before its zone, was judged as tracking for
     its first 0.7 m (cross-track 0.286 m where 0.1 is allowed)."""
+    rx, ry, travelled = reference
     clearance = numbers.look_ahead + numbers.tracking_tolerance + kept
     blocked = np.zeros(px.size, dtype=bool)
     for fraction in _WAY_POINTS:
@@ -628,7 +631,6 @@ def _detours(
         for zone, _ in zones:
             blocked |= zone.depth(qx, qy, within=clearance) > -clearance
     on_the_path = np.zeros(px.size, dtype=bool)
-    travelled = _travelled(rx, ry)
     for zone, reach in zones:
         near = zone.depth(rx, ry, within=clearance) > -clearance
         on_the_path |= near
