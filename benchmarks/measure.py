@@ -13,6 +13,8 @@
     python benchmarks/measure.py cuts WORD ...   # the same, of the cases named with a word
     python benchmarks/measure.py imports    # CPU of `validate`'s imports, one by one
     python benchmarks/measure.py stages     # `run case1 --no-plots`, `validate case2`, by stage
+    python benchmarks/measure.py classes COMMIT   # the package's dataclasses made, now / at COMMIT
+    python benchmarks/measure.py llvm       # the calls into LLVM as a run loads its compiled loop
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, and by stage
@@ -817,6 +819,138 @@ def imports(repeat: int = 9) -> None:
     shown += ["(of the imports above: pydantic making the model classes)"]
     for i, name in enumerate(shown):
         print(f"{statistics.median(r[i] for r in runs) * 1000:6.1f} ms  {name}")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+# The command line, with the CPU of making each of the package's dataclasses
+# and NamedTuples (their class statements' decorators and metaclass) summed as
+# it exits: kind, classes, milliseconds.
+_CLASSES_MADE = """
+import atexit, dataclasses, sys, time, typing
+spent = {"dataclass": [0, 0.0], "NamedTuple": [0, 0.0]}
+def timed(kind, make):
+    def made(*args, **kwargs):
+        started = time.process_time()
+        try:
+            return make(*args, **kwargs)
+        finally:
+            name = args[0].__module__ if kind == "dataclass" else args[3].get("__module__", "")
+            if name.startswith("wmr_mission"):
+                spent[kind][0] += 1
+                spent[kind][1] += time.process_time() - started
+    return made
+dataclasses._process_class = timed("dataclass", dataclasses._process_class)
+typing.NamedTupleMeta.__new__ = timed("NamedTuple", typing.NamedTupleMeta.__new__)
+atexit.register(lambda: print(";".join(f"{k}={n}={s}" for k, (n, s) in spent.items()),
+                              file=sys.__stderr__))
+sys.argv[0] = "wmr-mission"
+from wmr_mission.cli import program
+program()
+"""
+
+
+def classes(repeat: int = 7) -> None:
+    """CPU of making the package's dataclasses and NamedTuples as `validate
+    missions/case2.yaml` and `run missions/case1.yaml --no-plots` import their
+    modules (as plain Python: the same modules either way), now and as at
+    COMMIT (`classes COMMIT`), in turn; medians of ``repeat`` processes. Then a
+    frozen dataclass of five fields against a NamedTuple of the same, made 200
+    times in this process."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    against = sys.argv[2] if len(sys.argv) > 2 else None
+    sides = {"now": _user_env(WMR_MISSION_NO_JIT="1")}
+    with tempfile.TemporaryDirectory() as tmp:
+        if against is not None:
+            os.mkdir(f"{tmp}/then")
+            sides[against] = {**sides["now"], "PYTHONPATH": _checkout(against, f"{tmp}/then")}
+        os.chdir(tmp)  # `python -c` puts the working directory first on the path
+        case1 = ["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out", f"{tmp}/run"]
+        commands = {"validate case2": ["validate", str(MISSIONS / "case2.yaml")],
+                    "run case1 --no-plots": case1}  # fmt: skip
+        for name, args in commands.items():
+            for side, env in sides.items():
+                found: dict[str, list[tuple[int, float]]] = {}
+                for _ in range(repeat):
+                    subprocess.run(["rm", "-rf", f"{tmp}/run"], check=True)
+                    done = subprocess.run([sys.executable, "-c", _CLASSES_MADE, *args], env=env,
+                                          capture_output=True, text=True)  # fmt: skip
+                    for part in done.stderr.strip().splitlines()[-1].split(";"):
+                        kind, count, seconds = part.split("=")
+                        found.setdefault(kind, []).append((int(count), float(seconds)))
+                shown = []
+                for kind, runs in found.items():
+                    spent = statistics.median(t for _, t in runs) * 1e3
+                    shown.append(f"{kind} {runs[0][0]} classes {spent:.1f} ms")
+                print(f"{name}, {side}: " + ", ".join(shown) + f" (CPU, medians of {repeat})")
+    code = (
+        "import dataclasses, textwrap, time, typing\n"
+        "fields = 'a: int\\nb: float\\nc: str = \"x\"\\nd: int = 0\\ne: float = 1.0\\n'\n"
+        "def made(head):\n"
+        "    statement = compile(head + textwrap.indent(fields, '    '), 'A', 'exec')\n"
+        "    started = time.process_time()\n"
+        "    for _ in range(200):\n"
+        "        exec(statement, {'dataclasses': dataclasses, 'typing': typing})\n"
+        "    return (time.process_time() - started) / 200 * 1e3\n"
+        "frozen = made('@dataclasses.dataclass(frozen=True)\\nclass A:\\n')\n"
+        "named = made('class A(typing.NamedTuple):\\n')\n"
+        "print(f'a frozen dataclass of five fields {frozen:.2f} ms, '\n"
+        "      f'a NamedTuple of the same {named:.2f} ms (CPU, each of 200)')"
+    )
+    print(subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                         text=True).stdout.strip())  # fmt: skip
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+# The first and second run_mission of a mission with the compiled loop loaded
+# from the cache, the CPU of the first's calls into LLVM counted by function
+# (llvmlite's wrapper of each, timed), and the modules the first imported.
+_LLVM_CALLS = """
+import sys, time
+import numpy
+from wmr_mission.kernels import jit
+from wmr_mission.sim import runner
+from wmr_mission.sim.plan import plan_mission
+from wmr_mission.spec.loader import load_mission
+plan = plan_mission(load_mission(sys.argv[1]))
+jit.load()
+from llvmlite.binding import ffi
+calls = {}
+call = ffi._lib_fn_wrapper.__call__
+def timed(self, *args, **kwargs):
+    started = time.process_time()
+    try:
+        return call(self, *args, **kwargs)
+    finally:
+        n, spent = calls.get(self._cfn.__name__, (0, 0.0))
+        calls[self._cfn.__name__] = (n + 1, spent + time.process_time() - started)
+ffi._lib_fn_wrapper.__call__ = timed
+before = set(sys.modules)
+started = time.process_time()
+runner.run_mission(plan)
+first = time.process_time() - started
+ffi._lib_fn_wrapper.__call__ = call
+started = time.process_time()
+runner.run_mission(plan)
+second = time.process_time() - started
+print(f"first run_mission {first * 1e3:.1f} ms, second {second * 1e3:.1f} ms (CPU)")
+print(f"calls into LLVM: {sum(n for n, _ in calls.values())}, "
+      f"{sum(s for _, s in calls.values()) * 1e3:.1f} ms")
+for name, (n, spent) in sorted(calls.items(), key=lambda item: -item[1][1])[:8]:
+    print(f"  {name}: {n} calls, {spent * 1e3:.2f} ms")
+print("imported by the first:", " ".join(sorted(set(sys.modules) - before)))
+"""
+
+
+def llvm() -> None:
+    """Where loading case study 1's compiled loop from the cache goes: the
+    first run_mission against the second, its calls into LLVM by function
+    (CPU), the modules it imports; the kernel cache warm."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    env = _user_env()
+    subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], check=True, env=env)
+    done = subprocess.run([sys.executable, "-c", _LLVM_CALLS, str(MISSIONS / "case1.yaml")],
+                          env=env, check=True, capture_output=True, text=True)  # fmt: skip
+    print(done.stdout.strip())
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -2227,7 +2361,8 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
-    jobs |= {"cuts": cuts, "imports": imports, "parts": parts}
+    jobs |= {"cuts": cuts, "imports": imports, "parts": parts, "classes": classes}
+    jobs |= {"llvm": llvm}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,

@@ -17,8 +17,7 @@ import functools
 import math
 import re
 from collections.abc import Callable, Collection, Mapping
-from dataclasses import dataclass
-from typing import Final
+from typing import Final, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -144,8 +143,7 @@ class ExpressionError(ValueError):
 _Instruction = tuple[str, float | str, int]
 
 
-@dataclass(frozen=True)
-class Expression:
+class Expression(NamedTuple):
     """A parsed expression: its text and the postfix program it compiles to."""
 
     text: str
@@ -204,8 +202,7 @@ class Expression:
         return float(self.evaluate(np.zeros(()), parameters))
 
 
-@dataclass(frozen=True)
-class _Token:
+class _Token(NamedTuple):
     kind: str  # "number" | "name" | "op" | "end"
     text: str
     start: int  # 0-based index in the text

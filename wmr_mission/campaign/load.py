@@ -14,7 +14,6 @@ import os
 import re
 import shlex
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
@@ -293,7 +292,7 @@ def _check(
 def _of_campaign(finding: Finding) -> Finding:
     """The translation names the top level "the mission"; here it is the campaign."""
     message = finding.message.replace("in the mission", "in the campaign")
-    return replace(finding, message=message)
+    return finding._replace(message=message)
 
 
 def _under(path: tuple[str | int, ...], refused: set[tuple[str | int, ...]]) -> bool:

@@ -6,7 +6,6 @@ import json
 import sys
 from collections.abc import Sequence
 from contextlib import nullcontext
-from dataclasses import asdict
 from pathlib import Path
 from typing import Literal
 
@@ -96,12 +95,12 @@ def validate_files(
         document = {
             "valid": all_valid,
             "strict": strict,
-            "problems": [asdict(d) for d in problems],
+            "problems": [d._asdict() for d in problems],
             "files": [
                 {
                     "file": name,
                     "valid": valid,
-                    "diagnostics": [asdict(d) for d in diagnostics],
+                    "diagnostics": [d._asdict() for d in diagnostics],
                 }
                 for name, valid, diagnostics in reports
             ],

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import pydantic
@@ -469,8 +469,7 @@ def goal(
     return replace(update, target=pose)
 
 
-@dataclass(frozen=True)
-class Resting:
+class Resting(NamedTuple):
     """A path that rests at one point: where a track phase holds."""
 
     x: float

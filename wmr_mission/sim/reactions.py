@@ -13,7 +13,7 @@ wmr_mission.spec.graph).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Final, Literal
+from typing import Any, Final, Literal, NamedTuple
 
 import numpy as np
 
@@ -143,8 +143,7 @@ def contingency_phases(mission: Mission) -> list[tuple[str, Phase]]:
     return phases
 
 
-@dataclass(frozen=True)
-class Zone:
+class Zone(NamedTuple):
     """A geofence zone: its region and the side the robot keeps to."""
 
     name: str
@@ -152,16 +151,14 @@ class Zone:
     keep: Literal["in", "out"]
 
 
-@dataclass(frozen=True)
-class ContingencySpan:
+class ContingencySpan(NamedTuple):
     first: int  # index of its first phase in the plan
     last: int
     then: str | Goto
     times: int
 
 
-@dataclass(frozen=True)
-class ReactionPlan:
+class ReactionPlan(NamedTuple):
     """The reactions of a planned mission, in phase indices."""
 
     main_count: int  # the mission's phases come first; contingencies' after them
@@ -245,8 +242,7 @@ def depth(zone: Zone, x: FloatArray, y: FloatArray) -> FloatArray:
     return value if zone.keep == "in" else -value
 
 
-@dataclass(frozen=True)
-class Breach:
+class Breach(NamedTuple):
     sample: int  # the first row breaching, by index in the recording
     time: float  # [s] its time
     zone: str
@@ -277,8 +273,7 @@ def breach_at(plan: ReactionPlan, floats: FloatArray, start: int, stop: int) -> 
     return first
 
 
-@dataclass(frozen=True)
-class Decision:
+class Decision(NamedTuple):
     """What follows a phase's end: enter ``enter`` (``how``: fresh, or resume its
     path), or end the run (``enter`` None) with ``failure`` (None: success)."""
 
@@ -370,9 +365,7 @@ def missed_verdicts(result: RunResult, written: dict[str, Any]) -> list[str]:
 
 
 def replace_reaction(decision: Decision, reaction: str) -> Decision:
-    from dataclasses import replace
-
-    return replace(decision, reaction=reaction)
+    return decision._replace(reaction=reaction)
 
 
 def nearest_ahead(sample: Any, left_local: int, horizon: int, dt: float, x: float, y: float) -> int:

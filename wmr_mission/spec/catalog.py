@@ -20,8 +20,7 @@ the catalog as they are made): at import, as the built-in ones are.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
-from typing import Any, Final, Literal
+from typing import Any, Final, Literal, NamedTuple
 
 __all__ = [
     "CATALOG",
@@ -44,8 +43,7 @@ REGULATE: Final = frozenset({"regulate"})
 EVERY: Final = frozenset({"track", "regulate", "hold"})
 
 
-@dataclass(frozen=True)
-class Metric:
+class Metric(NamedTuple):
     """One metric of a run (see the module's words)."""
 
     name: str

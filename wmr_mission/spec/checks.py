@@ -11,8 +11,7 @@ import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass, replace
-from typing import Any, Final, Literal
+from typing import Any, Final, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -91,8 +90,7 @@ Severity = Literal["error", "warning", "note"]
 Pose = tuple[float, float, float]
 
 
-@dataclass(frozen=True)
-class Finding:
+class Finding(NamedTuple):
     """A problem at a data path; ``position`` (line, column) overrides the path's."""
 
     path: DataPath
@@ -854,7 +852,7 @@ def _update_paths(
         for finding in _path_within_limits(mission, where, phase, times, dx, dy, assumed, path, at):
             # a speed update's finding is at its speed, not at a field of the path
             kept = finding.path if update.path is not None else at
-            yield replace(finding, severity="warning", path=kept)
+            yield finding._replace(severity="warning", path=kept)
 
 
 def _path_within_limits(

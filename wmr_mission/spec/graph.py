@@ -29,8 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable, Iterator
-from dataclasses import dataclass
-from typing import Any, Final
+from typing import Any, Final, NamedTuple
 
 from wmr_mission.basics import samples
 from wmr_mission.fields import did_you_mean
@@ -44,23 +43,20 @@ _END: Final = -1
 _FAIL: Final = -2
 
 
-@dataclass(frozen=True)
-class GraphError:
+class GraphError(NamedTuple):
     path: DataPath
     message: str
     at_key: bool = False
 
 
-@dataclass(frozen=True)
-class _Node:
+class _Node(NamedTuple):
     label: str
     phase: Phase
     where: DataPath
     contingency: str | None  # the contingency it belongs to
 
 
-@dataclass(frozen=True)
-class _Edge:
+class _Edge(NamedTuple):
     to: int
     where: DataPath | None  # the reaction that makes it (None: the phase's own order)
     # A counted edge: what counts it (a retry, a contingency) and how many times it may be taken.

@@ -17,9 +17,9 @@ import re
 import stat
 import typing
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Final, Literal
+from typing import Annotated, Any, Final, Literal, NamedTuple
 
 import yaml
 from pydantic import BaseModel, ValidationError
@@ -78,8 +78,7 @@ MAX_NESTING: Final = 32
 _MAX_NUMBER_TEXT: Final = 40
 
 
-@dataclass(frozen=True)
-class Diagnostic:
+class Diagnostic(NamedTuple):
     """One problem of a mission file, at a 1-based line and column."""
 
     file: str
@@ -638,7 +637,7 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
     finding = _translate_error(error, document, root)
     value = error.get("input")
     hint = yaml11_hint(value) if isinstance(value, str) else ""
-    return replace(finding, message=finding.message + hint) if hint else finding
+    return finding._replace(message=finding.message + hint) if hint else finding
 
 
 def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> Finding:
@@ -928,7 +927,7 @@ def _check_document(
     unique = {diagnostic(filename, document, f) for f in findings}
     if mission is not None and not findings:
         unique |= {
-            replace(diagnostic(filename, document, f), stage="semantics") for f in check(mission)
+            diagnostic(filename, document, f)._replace(stage="semantics") for f in check(mission)
         }
     diagnostics = sorted(
         unique,
@@ -1092,8 +1091,7 @@ def validate_mission(mission: Mission) -> Mission:
 # --- overrides: `--set PATH=VALUE` -------------------------------------------
 
 
-@dataclass(frozen=True)
-class Override:
+class Override(NamedTuple):
     """One field set from outside the mission text.
 
     ``path`` is a data path such as ``("robot", "dt")`` or ``("phases", 1,

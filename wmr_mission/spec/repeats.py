@@ -8,8 +8,7 @@ like any other. A phase inside a repeat is known in the run's records as
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Final
+from typing import Final, NamedTuple
 
 from wmr_mission.spec.models import Mission, Phase, RepeatPhase
 
@@ -21,8 +20,7 @@ MAX_RUN_PHASES: Final = 100_000
 DataPath = tuple[str | int, ...]
 
 
-@dataclass(frozen=True)
-class RunPhase:
+class RunPhase(NamedTuple):
     phase: Phase
     where: DataPath  # where the phase is written in the file
     lap: int | None  # 1, 2, ... inside a repeat; None outside

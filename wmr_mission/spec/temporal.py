@@ -26,7 +26,7 @@ import functools
 import math
 import re
 from dataclasses import dataclass
-from typing import Final, Literal
+from typing import Final, Literal, NamedTuple
 
 from pydantic_core import PydanticCustomError
 
@@ -54,8 +54,7 @@ __all__ = [
 MAX_NESTING_DEPTH: Final = 50
 
 
-@dataclass(frozen=True)
-class Signal:
+class Signal(NamedTuple):
     """A signal a formula may name, per sample of a phase (NaN where a phase
     does not measure it; wmr_mission.verdicts.temporal): its unit, what it is,
     where it is measured (on track phases, on phases with zones, on phases with
@@ -111,14 +110,16 @@ class FormulaError(ValueError):
         self.column = column
 
 
-@dataclass(frozen=True)
-class Window:
+class Window(NamedTuple):
     """``[start, stop]`` in seconds, or named instants."""
 
     start: Instant = 0.0
     stop: Instant = "end"
 
 
+# A formula's nodes are dataclasses, not NamedTuples (as the signals, windows and
+# tokens are): a NamedTuple equals any tuple of the same fields, and `a and b`
+# must not equal `a or b`.
 @dataclass(frozen=True)
 class Atom:
     """``signal <= bound`` (``above``: ``signal >= bound``)."""
@@ -178,8 +179,7 @@ _HINTS: Final = {
 }
 
 
-@dataclass(frozen=True)
-class _Token:
+class _Token(NamedTuple):
     kind: str  # "number" | "name" | "op" | "end"
     text: str
     column: int

@@ -19,8 +19,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -455,8 +454,7 @@ def resolved(mission: MissionTerms) -> Mapping[str, Any] | None:
 OffPath = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], FloatArray]
 
 
-@dataclass(frozen=True)
-class _Judged:
+class _Judged(NamedTuple):
     """What every phase of a run is judged by: the mission's numbers and the
     first sample from when [s] the estimate first came within its tolerance
     (None: never)."""

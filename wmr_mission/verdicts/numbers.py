@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 from wmr_mission.controllers.paper import Tracking
 from wmr_mission.spec import models
@@ -27,8 +26,7 @@ LEAST_CLOSING = 0.1
 MIN_LOOK_AHEAD = 0.05
 
 
-@dataclass(frozen=True)
-class MissionNumbers:
+class MissionNumbers(NamedTuple):
     dt: float  # [s]
     v_limit: float  # [m/s]
     omega_limit: float  # [rad/s]

@@ -38,8 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -352,8 +351,7 @@ def _speed(x: FloatArray, y: FloatArray, dt: float) -> FloatArray:
     return np.concatenate((step, step[-1:]))
 
 
-@dataclass(frozen=True)
-class TrackSamples:
+class TrackSamples(NamedTuple):
     """A track phase's samples as its verdict sees them, one value per sample of
     the phase (NaN and False where the reference is unknown): the cross-track
     error and along-track lag [m] (NaN where not measured), whether the sample

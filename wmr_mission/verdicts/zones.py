@@ -16,8 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,8 +43,7 @@ _FEW = 8
 Bounds = tuple[NDArray[np.bool_], float, NDArray[np.intp]]
 
 
-@dataclass(frozen=True)
-class Zone:
+class Zone(NamedTuple):
     """A region of a phase and the side the robot keeps to."""
 
     name: str

@@ -4,8 +4,7 @@ its geometry given or taken from an ellipse or circle region."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 from numpy.typing import ArrayLike
 from pydantic import Field, model_validator
@@ -66,8 +65,7 @@ class EllipsePath(EllipseGeometry):
     )
 
 
-@dataclass(frozen=True)
-class EllipseTrajectory:
+class EllipseTrajectory(NamedTuple):
     """eq. (31): p = c + Rot(rotation) (a cos(w t + phi0), b sin(w t + phi0)).
 
     A circle is the case a = b.

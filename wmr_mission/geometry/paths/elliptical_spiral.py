@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,8 +34,7 @@ class EllipticalSpiralPath(EllipseGeometry):
     )
 
 
-@dataclass(frozen=True)
-class EllipticalSpiralTrajectory:
+class EllipticalSpiralTrajectory(NamedTuple):
     """eq. (32): the ellipse of eq. (31) scaled by exp(-decay t)."""
 
     cx: float

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -39,8 +38,7 @@ class LinePath(Model):
         return self
 
 
-@dataclass(frozen=True)
-class LineTrajectory:
+class LineTrajectory(NamedTuple):
     """p(t) = p0 + speed * t * (cos h, sin h)."""
 
     x0: float

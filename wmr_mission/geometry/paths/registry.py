@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -61,8 +61,7 @@ def no_points(settings: Any, context: Context) -> FloatArray | None:
     return None
 
 
-@dataclass(frozen=True)
-class PathType:
+class PathType(NamedTuple):
     """One type of path a mission may follow."""
 
     settings: type[Model]

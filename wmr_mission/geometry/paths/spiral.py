@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -27,8 +26,7 @@ class SpiralPath(Model):
     start: StartAngle = Field(default=0.0, description="'current' or phi0 [rad].")
 
 
-@dataclass(frozen=True)
-class SpiralTrajectory:
+class SpiralTrajectory(NamedTuple):
     """eq. (30): radius r0 exp(growth t) at angle w t + phi0 about the centre."""
 
     cx: float
