@@ -6,9 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import yaml
 
-from wmr_mission import mission_from_dict, run_mission
+from wmr_mission import mission_from_dict, mission_from_text, run_mission
 from wmr_mission.verdicts.metrics import judge
 
 GENERATED = Path(__file__).resolve().parent / "data" / "generated"
@@ -33,6 +34,38 @@ def test_a_robot_turning_at_its_limit_slows_to_the_way_it_must_go() -> None:
     assert summary["outcome"] == "success", summary["message"]
     inputs = summary["phases"][0]["inputs"]
     assert inputs["turn_rate_fight_time"] == 0.0
+
+
+# A user's mission: the robot put down facing 2.8 rad away from its line.
+FACING_AWAY = """\
+version: 1
+name: line-facing-away
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 2.8}
+  limits: {v: 1.0, omega: 1.5}
+phases:
+  - name: go
+    track: {path: {type: line, heading: 0, speed: 0.6}}
+    until: {elapsed: 15}
+"""
+
+
+def test_a_robot_facing_away_turns_before_it_drives_even_where_the_law_asks_more_speed() -> None:
+    """The law asked up to 2 m/s, more than the 1 m/s limit, to catch its
+    reference up, and the cosine cut that speed, not the one the robot can
+    have: it drove at its limit while it still turned, and turned 3.2 rad at
+    the 1.5 rad/s limit in one stretch to come back, more than half a turn (a
+    fight, turn_rate_fight_time 2.13 s). With the speed counted no higher than
+    the limit over cos FULL_SPEED_TURN, 3.06 rad."""
+    mission = mission_from_text(FACING_AWAY)
+    result = run_mission(mission)
+    summary = judge(result, mission.model_dump(mode="json"))
+    assert summary["outcome"] == "success", summary["message"]
+    assert summary["phases"][0]["inputs"]["turn_rate_fight_time"] == 0.0
+    at_limit = np.abs(result.omega) >= 1.5
+    stretch = np.flatnonzero(~at_limit)[0]  # the first stretch at the limit, from the start
+    assert 2.8 < stretch * 0.01 * 1.5 < 3.1  # the turn it must make, and less than half a turn
 
 
 def test_a_robot_turning_away_from_its_way_at_its_limit_keeps_its_speed() -> None:

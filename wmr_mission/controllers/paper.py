@@ -88,6 +88,13 @@ ATTAINABLE_SHARE = 0.2
 TURNABLE_SHARE = 0.7
 # The least path speed, as a share of limits.v, that pace is figured at.
 TURNABLE_SPEED = 0.1
+# [rad] Within this angle of the way its tracked point must move, a robot
+# turning at its turn-rate limit keeps the speed its limit leaves; beyond it
+# that speed is cut by the cosine, none at a right angle (track_input). Cut
+# from the limit itself, a start turning 0.4 rad at the limit left the limit
+# with a jump of 1.12 rad/s, 1.04 before (docs/paper-notes.md, eq. (27),
+# "The speed while the turn is at its limit").
+FULL_SPEED_TURN = 0.3
 # The share of the turn-rate limit the linearisation of eq. (24) may cost the
 # tracking law's turn rate before eq. (27) is solved again at the input it
 # asks for: the look-ahead point off its aim by e turns it by about e / (l dt)
@@ -433,7 +440,16 @@ def track_input(
         # 2.5 rad off). Below the limit the law coordinates the two inputs
         # itself, and case 1's spiral in keeps its end (docs/paper-notes.md,
         # eq. (27), "The speed while the turn is at its limit").
+        # The speed cut is the law's, counted no higher than the limit over
+        # cos FULL_SPEED_TURN: a robot behind its reference asks more than
+        # it can have, and cut from there it drove off at its limit while it
+        # turned (put down 2.8 rad off a line, 3.2 rad at the limit in one
+        # stretch). Not in the one-sample laws (error_decay 0), whose speed
+        # is beyond the limit at every sample (the paper's eq. (27)).
         if planned or omega * turn > 0.0:
+            if error_decay > 0.0:
+                top = robot.limits[0] / math.cos(FULL_SPEED_TURN)
+                v = math.copysign(min(abs(v), top), v)
             v *= max(math.cos(turn), 0.0)
         # Stopped relative to the path's own turn (as previewed, ramped at the
         # acceleration limit) once on it: the way the output must move turns

@@ -349,7 +349,12 @@ def track_input(
         # And the speed along the way the output must move: the robot turns
         # before it drives, under acceleration limits or while it turns
         # towards that way at its limit (wmr_mission.controllers.paper.track_input).
+        # The law's speed counted no higher than the limit over cos
+        # FULL_SPEED_TURN, but in the one-sample laws.
         if planned or omega * turn > 0.0:
+            if error_decay > 0.0:
+                top = float(limits[0]) / math.cos(paper.FULL_SPEED_TURN)
+                v = math.copysign(min(abs(v), top), v)
             v *= max(math.cos(turn), 0.0)
         if planned and (omega - path_turn) * turn > 0.0:
             reach = stopping_speed(abs(turn), float(limits[3]), dt)
