@@ -28,7 +28,7 @@
     python benchmarks/measure.py campaign COMMIT   # the same, the sweep also as at COMMIT, in turn
     python benchmarks/measure.py judge      # judging a case-2 run; the 1-hour run per sample, peak
     python benchmarks/measure.py judge COMMIT   # the same, each also as at COMMIT, in turn
-    python benchmarks/measure.py judgeparts # a case-2 row's judge by part: phases, passes, formulas
+    python benchmarks/measure.py judgeparts # a case-2 row's judge by part; in its compiled passes
     python benchmarks/measure.py sweep COMMIT   # case2-headings' sweep, now and as at COMMIT
     python benchmarks/measure.py runner     # the runner's Python around the compiled loop
     python benchmarks/measure.py task       # a worker's task set up first, or run by run
@@ -1662,7 +1662,8 @@ def judge_parts(repeat: int = 7) -> None:
     once), each part of each run's phases timed apart (thread CPU time, the
     least of ``repeat``), summed over the phases, the mean over the runs; the
     kernels loaded, as a campaign's workers have them. A part a measure of a
-    phase computes on first use (its places, tracking, ...) is timed alone."""
+    phase computes on first use (its places, tracking, ...) is timed alone.
+    Last, how much of the row its compiled passes take (:func:`_in_passes`)."""
     from dataclasses import replace
 
     from wmr_mission.campaign.load import load_campaign
@@ -1711,10 +1712,55 @@ def judge_parts(repeat: int = 7) -> None:
         least = [timed(result, mission) for _ in range(repeat)]
         for key in least[0]:
             total[key] = total.get(key, 0.0) + min(found[key] for found in least) / len(runs)
+    passes = _in_passes(runs, repeat)
+    total["of the row, in its compiled passes"] = passes.pop("")
     print(f"case2-headings runs 1-40, CPU per row, the least of {repeat} each, mean over runs:")
     for key, ns in total.items():
         print(f"  {key}: {ns / 1000:.0f} us")
+    print("    " + ", ".join(f"{name} {ns / 1000:.0f}" for name, ns in passes.items()))
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def _in_passes(runs: list[tuple[Any, Any]], repeat: int) -> dict[str, float]:
+    """[ns] of a row's judge spent in its compiled passes (each call timed on
+    the thread's clock, its dispatch included), in all and by pass: the row
+    whose passes took least of ``repeat``, the mean over ``runs``. What a
+    row costs with no Python round its passes."""
+    from collections import Counter
+    from dataclasses import replace
+
+    from wmr_mission.kernels import jit
+    from wmr_mission.verdicts import metrics
+
+    spent: Counter[str] = Counter()
+    compiled = jit.compiled
+
+    def timed(fn: Any, **options: Any) -> Any:
+        made = compiled(fn, **options)
+        name = getattr(fn, "py_func", fn).__name__
+
+        def call(*arguments: Any) -> Any:
+            started = time.thread_time_ns()
+            found = made(*arguments)
+            spent[name] += time.thread_time_ns() - started
+            return found
+
+        return call
+
+    jit.compiled = timed
+    total: Counter[str] = Counter()
+    try:
+        for result, mission in runs:
+            each = []
+            for _ in range(repeat):
+                spent.clear()
+                metrics.judge_run_metrics(replace(result), mission)
+                each.append(Counter(spent))
+            least = min(each, key=lambda found: sum(found.values()))
+            total.update({name: ns / len(runs) for name, ns in least.items()})
+    finally:
+        jit.compiled = compiled
+    return {"": float(sum(total.values()))} | {name: float(ns) for name, ns in total.most_common()}
 
 
 def task(pairs: int = 14, runs: int = 130) -> None:
@@ -2001,7 +2047,7 @@ def runner_cost(repeat: int = 3) -> None:
                 dispatched.append(typed[0])
     finally:
         runner._Run._segment = segment  # type: ignore[method-assign]
-        jit.compiled = compiled  # type: ignore[assignment]
+        jit.compiled = compiled
         for name, (owner, method) in parts.items():
             setattr(owner, method, originals[name])
     rest = [w - c for w, c in zip(whole, inner, strict=True)]

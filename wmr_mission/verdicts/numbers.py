@@ -97,8 +97,9 @@ def half_turn_time(rate: float, acceleration: float) -> float:
 
 def _get(mapping: Any, *keys: str) -> Any:
     for key in keys:
-        # a resolved mission's dicts told apart without the abstract class's slower check
-        if type(mapping) is not dict and not isinstance(mapping, Mapping):
+        # a resolved mission's dicts told apart without the abstract class's slower
+        # check, and a missing key without it too (most acceleration limits are)
+        if type(mapping) is not dict and (mapping is None or not isinstance(mapping, Mapping)):
             return None
         mapping = mapping.get(key)
     return mapping

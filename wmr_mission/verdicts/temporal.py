@@ -27,9 +27,10 @@ formulas cost a few array passes, not a loop over samples.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -41,7 +42,16 @@ from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
     from wmr_mission.record import PhaseRecord, RunRecord
-    from wmr_mission.spec.temporal import Node, Window
+    from wmr_mission.spec.temporal import (
+        Always,
+        Atom,
+        Both,
+        Either,
+        Eventually,
+        Node,
+        Until,
+        Window,
+    )
 
 # The formulas' grammar (wmr_mission.spec.temporal) is imported where a formula
 # is read: a run whose mission writes none never loads it (docs/performance.md,
@@ -50,6 +60,26 @@ if TYPE_CHECKING:
 __all__ = ["PhaseSignals", "formula_checks", "panel_of", "phase_values", "robustness"]
 
 _INF = math.inf
+
+
+@functools.cache
+def _nodes() -> tuple[type[Atom], type[Both], type[Either], type[Always], type[Eventually]]:
+    """The grammar's node types, imported once where a formula is first read
+    (an import statement in a function costs 2 us at each call: a case-2 row
+    reads two formulas, each through four such functions)."""
+    from wmr_mission.spec.temporal import Always, Atom, Both, Either, Eventually
+
+    return Atom, Both, Either, Always, Eventually
+
+
+@functools.lru_cache(maxsize=256)
+def _read(text: str) -> tuple[Node, tuple[str, ...]]:
+    """A formula and the signals it names, in order: read once per text (a
+    campaign judges the same few formulas in every run)."""
+    from wmr_mission.spec.temporal import parse_formula, signals_of
+
+    node = parse_formula(text)
+    return node, tuple(sorted(signals_of(node)))
 
 
 def robustness(
@@ -61,26 +91,27 @@ def robustness(
 ) -> FloatArray:
     """The robustness of ``node`` at every sample (``signals`` of one length;
     ``instants``: the seconds ``entry`` and ``settle`` stand for)."""
-    from wmr_mission.spec.temporal import Always, Atom, Both, Either, Eventually
-
-    if isinstance(node, Atom):
+    atom, both, either, always, eventually = _nodes()
+    if isinstance(node, atom):
         values = signals[node.signal]
         rho: FloatArray = values - node.bound if node.above else node.bound - values
-        if normalised:
-            rho = rho / (abs(node.bound) or 1.0)
+        if normalised:  # in the new array: the same quotients, one array fewer
+            rho /= abs(node.bound) or 1.0
         return rho
-    if isinstance(node, Both | Either):
+    if isinstance(node, (both, either)):
         left = robustness(node.left, signals, dt, instants, normalised)
         right = robustness(node.right, signals, dt, instants, normalised)
-        found: FloatArray = (np.minimum if isinstance(node, Both) else np.maximum)(left, right)
+        found: FloatArray = (np.minimum if isinstance(node, both) else np.maximum)(left, right)
         return found
     n = len(next(iter(signals.values())))
-    first, last = _samples(node.window, dt, instants, n)
-    if isinstance(node, Always | Eventually):
+    if isinstance(node, (always, eventually)):
+        first, last = _samples(node.window, dt, instants, n)
         body = robustness(node.body, signals, dt, instants, normalised)
-        if isinstance(node, Always):
+        if isinstance(node, always):
             return _window(body, first, last, np.minimum, _INF)
         return _window(body, first, last, np.maximum, -_INF)
+    node = cast("Until", node)  # the one node left
+    first, last = _samples(node.window, dt, instants, n)
     left = robustness(node.left, signals, dt, instants, normalised)
     right = robustness(node.right, signals, dt, instants, normalised)
     return _until(left, right, first, last)
@@ -93,30 +124,28 @@ def robustness_at_start(
     outermost ``always`` or ``eventually`` is one pick over its window, not a
     pick at every sample (the same values picked: min and max round nothing,
     so the same bits)."""
-    from wmr_mission.spec.temporal import Always, Both, Either, Eventually
-
-    if isinstance(node, Both | Either):
+    _, both, either, always, eventually = _nodes()
+    if isinstance(node, (both, either)):
         left = robustness_at_start(node.left, signals, dt, instants)
         right = robustness_at_start(node.right, signals, dt, instants)
-        return float((np.minimum if isinstance(node, Both) else np.maximum)(left, right))
-    if not isinstance(node, Always | Eventually):
+        return float((np.minimum if isinstance(node, both) else np.maximum)(left, right))
+    if not isinstance(node, (always, eventually)):
         return float(robustness(node, signals, dt, instants)[0])
     n = len(next(iter(signals.values())))
     first, last = _samples(node.window, dt, instants, n)
     if last < first or first >= n:
-        return _INF if isinstance(node, Always) else -_INF
+        return _INF if isinstance(node, always) else -_INF
     body = robustness(node.body, signals, dt, instants)[first : last + 1]
-    return float(body.min() if isinstance(node, Always) else body.max())
+    return float(body.min() if isinstance(node, always) else body.max())
 
 
 def _samples(window: Window, dt: float, instants: Mapping[str, float], n: int) -> tuple[int, int]:
     """The window's first and last sample from the one it is read at (last = n:
     to the phase's end)."""
 
-    def seconds(instant: float | str) -> float:
-        return instant if isinstance(instant, float) else instants.get(instant, _INF)
-
-    start, stop = seconds(window.start), seconds(window.stop)
+    start, stop = window.start, window.stop
+    start = start if isinstance(start, float) else instants.get(start, _INF)
+    stop = stop if isinstance(stop, float) else instants.get(stop, _INF)
     first = math.ceil(start / dt - 1e-9)
     last = n if stop >= n * dt else math.floor(stop / dt + 1e-9)
     return min(first, n), min(last, n)
@@ -223,18 +252,16 @@ def phase_values(
     formulas = phase_formulas(mission, info.name) if formulas is None else formulas
     if not formulas:
         return {}
-    from wmr_mission.spec.temporal import parse_formula, signals_of
-
     signals = PhaseSignals(result, info, window, numbers, placement, known)
     values: dict[str, float | None] = {}
     for text in formulas:
-        node = parse_formula(text)
+        node, names = _read(text)
         if "entry" in text:  # the instant: measured with the track's signals
             signals.get("cross_track")
-        named = {name: signals.get(name) for name in sorted(signals_of(node))}
-        if any(values_ is None for values_ in named.values()):
-            continue
+        named = {name: signals.get(name) for name in names}
         arrays = {name: a for name, a in named.items() if a is not None}
+        if len(arrays) < len(named):  # a signal the phase does not measure
+            continue
         if not all(np.isfinite(a).all() for a in arrays.values()):
             values[text] = None
             continue

@@ -458,12 +458,14 @@ def track_samples(
     dt = numbers.dt
     if placement is None:
         placement = Placement(px, py, rx, ry)
-    steps = placement.steps
-    # [m/s] from each reference point to the next (the last repeats the one before)
-    reference_speed = np.concatenate((steps[2], steps[2][-1:])) / dt if t.size > 1 else np.zeros(1)
-    entry = numbers.recovery_time(
-        math.hypot(px[0] - rx[0], py[0] - ry[0]), float(reference_speed[0])
-    )
+    length = placement.steps[2]
+    # [m/s] the reference's first and top speed, of its steps' lengths (no array
+    # of speeds: the largest length over dt is the largest of the lengths over dt,
+    # as a division by one number keeps their order)
+    first_speed, top_speed = 0.0, 0.0
+    if t.size > 1:
+        first_speed, top_speed = float(length[0]) / dt, float(length.max()) / dt
+    entry = numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), first_speed)
     excused = t - t[0] < entry - 1e-9 * dt
     # The entry ends sooner once the robot has kept up with its reference point.
     kept_up = _kept_up(px, py, rx, ry, numbers, 0, int(np.count_nonzero(excused)))
@@ -474,11 +476,12 @@ def track_samples(
     after_entry = min(int(np.count_nonzero(excused)), t.size - 1)
     ended_in_entry = bool(excused[-1]) and timed
     if excused[-1] and not timed and not zones:  # nothing to measure
-        metrics |= {"entry_time": entry, "reference_speed_max": float(reference_speed.max())}
+        metrics |= {"entry_time": entry, "reference_speed_max": top_speed}
         return metrics, None
     detour = np.zeros(t.size, dtype=bool)
     if zones:
         kept = numbers.body if margin is None else margin
+        reference_speed = _reference_speed(length, dt)
         reaches = [reach_across(zone, rx, ry) for zone in zones]
         # the reference's distance along its path (none for one standing still)
         arc = placement.path[0] if not placement.standing else np.zeros(rx.size)
@@ -493,7 +496,7 @@ def track_samples(
         )
         excused |= detour | rejoining
         metrics["zone_reach"] = max(0.0, max(float(np.max(r)) for r in reaches) + kept)
-    if detour[:after_entry].any():  # a detour in the entry: measured from the joining on
+    if zones and detour[:after_entry].any():  # a detour in the entry: from the joining on
         cross, lag = _counted_in_entry(placement, numbers, after_entry, reference_speed)
     else:
         cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
@@ -509,13 +512,19 @@ def track_samples(
         "cross_track_error_max": float(judged_cross.max()) if judged_cross.size else None,
         "along_track_lag_max": float(np.abs(judged_lag).max()) if judged_lag.size else None,
         "entry_time": entry,
-        "detour_time": float(np.count_nonzero(detour)) * dt,
+        "detour_time": float(np.count_nonzero(detour)) * dt if zones else 0.0,
         "detour_offset_max": float(offset.max()) if offset.size else None,
-        "reference_speed_max": float(reference_speed.max()),
+        "reference_speed_max": top_speed,
     }
     if not with_samples:
         return metrics, None
     return metrics, TrackSamples(these, size, (cross, lag, judged, detour))
+
+
+def _reference_speed(length: FloatArray, dt: float) -> FloatArray:
+    """[m/s] from each reference point to the next (the last repeats the one
+    before), of the lengths of the path's steps."""
+    return np.concatenate((length, length[-1:])) / dt if length.size else np.zeros(1)
 
 
 def _counted_in_entry(
