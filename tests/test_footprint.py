@@ -149,7 +149,7 @@ def test_the_way_round_a_polygon_is_the_least_support_over_the_ramp() -> None:
         x, y = rng.uniform(-3.0, 3.0, 2).tolist()
         heading = float(rng.uniform(-3.0, 3.0))
         tx, ty = math.cos(heading), math.sin(heading)
-        reach, _, _ = _way_round_polygon(polygon_row(corners)[0], r, x, y, tx, ty)
+        reach, _, _ = _way_round_polygon(polygon_row(corners)[0], r, x, y, tx, ty, 0.0)
         offsets = corners - [x, y]
         t = np.array([tx, ty])
         m = np.array([-ty, tx])

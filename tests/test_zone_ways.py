@@ -264,7 +264,8 @@ def test_the_ways_round_several_zones_are_each_zones_own() -> None:
         k, _ = _nearest_chord(x, y, params[i, 0], params[i, 1])
         near = np.linspace(t[max(k - 1, 0)], t[min(k + 2, t.size - 1)], WAY_SAMPLES + 1)
         fine_x, fine_y, _ = phase._path_points(near)
-        alone = way_at(fine_x, fine_y, *_nearest_chord(fine_x, fine_y, *params[i, :2]), params[i])
+        chord = _nearest_chord(fine_x, fine_y, *params[i, :2])
+        alone = way_at(fine_x, fine_y, *chord, int(kinds[i]), params[i])
         assert alone[4] != 0.0
         assert phase.ways[i, :5].tobytes() == alone[:5].tobytes()
         # the path's speed there; a route with rounded corners never rests

@@ -62,6 +62,7 @@ __all__ = [
     "constrained_change",
     "held_on_braking_arc",
     "keep_constraints",
+    "kept_out",
     "nearest_chords",
     "ramped_offset",
     "row_value_with_margin",
@@ -720,16 +721,34 @@ _RAMP_NORM = math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
 
 
 @kernel
+def polygon_side(p: FloatArray, x: float, y: float, tx: float, ty: float) -> float:
+    """The shorter way across the keep-out polygon row ``p`` for a path
+    through (x, y) heading along the unit (tx, ty): 1 the left of travel, -1
+    the right; the side the polygon reaches less far into from the path's
+    line, the left where both are as far (to rounding: a path through a
+    box's middle). Along a straight path it is the same all the way."""
+    left = -math.inf
+    right = -math.inf
+    for i in range(int(p[0])):
+        k = HEADER + PER_VERTEX * i
+        side = -ty * (p[k] - x) + tx * (p[k + 1] - y)
+        left = max(left, side)
+        right = max(right, -side)
+    if left > right + 1e-9 * (abs(left) + abs(right)):
+        return -1.0
+    return 1.0
+
+
+@kernel
 def _way_round_polygon(
-    p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float
+    p: FloatArray, margin: float, x: float, y: float, tx: float, ty: float, side: float
 ) -> tuple[float, float, float]:
     """:func:`_way_round` for the keep-out polygon row ``p`` grown by ``margin``
-    (K, its Minkowski sum with a disc of that radius), about the aim a.
+    (K, its Minkowski sum with a disc of that radius), about the aim a, to
+    ``side`` of the path (1 the left of travel, -1 the right; 0 the shorter
+    way across here, :func:`polygon_side`).
 
-    The side m is the shorter way across: the one the polygon reaches less
-    far into from the path's line, the left of travel where both are as far
-    (to rounding: a path through a box's middle). Along a straight path it is
-    the same all the way, as the ellipse's. The reach is the least of K's
+    The reach is the least of K's
     support function over n = m + mu t, |mu| <= RAMP_SLOPE, as for the
     ellipse; by the minimax theorem it is the most of m.(q - a) - RAMP_SLOPE
     |t.(q - a)| over the points q of K, a concave function: its most over the
@@ -737,8 +756,10 @@ def _way_round_polygon(
     (m + s t) where that lies there, else on the line through a across the
     path, where K's farthest point along m is on an edge moved out by the
     margin or on a corner's disc. Exact, without iterating."""
-    mx = -ty  # the left of travel
-    my = tx
+    if side == 0.0:
+        side = polygon_side(p, x, y, tx, ty)
+    mx = -ty * side
+    my = tx * side
     r = margin
     # The disc about the vertices' mean that holds the polygon, grown: a line
     # that misses it leaves the zone on one side, and the wedge that misses it
@@ -750,16 +771,6 @@ def _way_round_polygon(
     if across >= held or across - RAMP_SLOPE * abs(tx * dx + ty * dy) + held * _RAMP_NORM <= 0.0:
         return 0.0, mx, my
     n = int(p[0])
-    left = -math.inf
-    right = -math.inf
-    for i in range(n):
-        k = HEADER + PER_VERTEX * i
-        side = mx * (p[k] - x) + my * (p[k + 1] - y)
-        left = max(left, side)
-        right = max(right, -side)
-    if left > right + 1e-9 * (abs(left) + abs(right)):
-        mx = -mx
-        my = -my
     reach = -math.inf
     for sense in (1.0, -1.0):  # ahead of the aim, then behind it
         ux = mx - sense * RAMP_SLOPE * tx
@@ -805,6 +816,56 @@ def _way_round_polygon(
         if low <= high:
             reach = max(reach, high)
     return max(reach, 0.0), mx, my
+
+
+@kernel
+def _polygon_round(
+    p: FloatArray,
+    way: FloatArray,
+    margin: float,
+    x: float,
+    y: float,
+    lead: float,
+    aim: FloatArray,
+    start_x: float,
+    start_y: float,
+) -> tuple[float, float, float]:
+    """How far the aim (x, y), heading along ``aim[2:4]``, moves across its
+    path round the keep-out polygon row ``p`` grown by ``margin``, and the
+    unit side it moves to (reach negative: the other side). On the pass of
+    its way round ``way`` (:func:`ways_round`, heading within a quarter turn
+    of the pass's tangent) as an ellipse's (:func:`aim_round_zones`): by the
+    side decided once for the phase, measured in the frame of the pass,
+    ``lead`` further along it, fading to the way round by the aim's own side
+    of the zone's centre, from its own place, as the aim leaves the pass for
+    another stretch of path (:func:`on_another_stretch`, from its path's
+    point ``start_x``, ``start_y``). Heading away from the pass (a lap's far
+    side), the shorter way across at the aim's own place, ``lead`` along its
+    own tangent, as before the way was decided once.
+
+    The shorter way across at each aim swings with the path's tangent on a
+    curve: a spiral through a rock went round it by the outside, then the
+    inside, then the outside again, its aim 0.7 m to either side of the
+    path (docs/paper-notes.md, eq. (28), "The way round a box or polygon,
+    decided once")."""
+    tx = aim[2]
+    ty = aim[3]
+    if way[4] == 0.0 or tx * way[2] + ty * way[3] <= 0.0:
+        return _way_round_polygon(p, margin, x + lead * tx, y + lead * ty, tx, ty, 0.0)
+    along = way[2] * (x - way[0]) + way[3] * (y - way[1]) + lead
+    across = -ty * (x - start_x) + tx * (y - start_y)
+    at_x = way[0] + along * way[2] - across * way[3]
+    at_y = way[1] + along * way[3] + across * way[2]
+    reach = _way_round_polygon(p, margin, at_x, at_y, way[2], way[3], way[4])[0]
+    nx = -ty * way[4]
+    ny = tx * way[4]
+    share, off, side = on_another_stretch(way, p[1], p[2], start_x, start_y)
+    if share > 0.0:  # another stretch: round by its own side, from its own place
+        off_x = at_x - off * way[3]
+        off_y = at_y + off * way[2]
+        own = _way_round_polygon(p, margin, off_x, off_y, way[2], way[3], side)[0]
+        reach = (1.0 - share) * reach + share * own * side * way[4]
+    return reach, nx, ny
 
 
 # The fastest the aim's offset round the zones moves, per metre of the path's
@@ -914,28 +975,41 @@ def nearest_chords(
     return k, share
 
 
+def kept_out(row_kinds: IntArray, row_params: FloatArray) -> tuple[IntArray, FloatArray]:
+    """The keep-out rows, those a way round is found for (:func:`ways_round`):
+    keep-out ellipses, boxes and polygons; and their centres, (n, 2)."""
+    polygon = row_kinds == POLYGON_ROW
+    rows = np.flatnonzero(polygon | ((row_kinds == ELLIPSE_ROW) & (row_params[:, 5] < 0.0)))
+    first = np.where(polygon[rows], 1, 0)  # a polygon's centre follows its vertex count
+    centres = row_params[rows[:, None], first[:, None] + np.arange(2)]
+    return rows, centres
+
+
 def ways_round(
     x: FloatArray, y: FloatArray, row_kinds: IntArray, row_params: FloatArray
 ) -> FloatArray:
-    """The way round each keep-out ellipse row of a path sampled at (x, y),
+    """The way round each keep-out row of a path sampled at (x, y),
     decided once for the phase (:func:`aim_round_zones`): per row, the point
     of the path (the polyline through the samples) nearest the zone's centre,
     the path's unit tangent there, and the side the aim goes round by, 1 the
     left of travel and -1 the right: the side away from the centre, the left
-    where the path runs through the centre itself (THROUGH_CENTRE).
-    Rows of other kinds, and a path that never moves, have no way (side 0).
+    where the path runs through the centre itself (THROUGH_CENTRE); a box
+    or polygon's the shorter way across there (:func:`polygon_side`), its
+    centre the one of the disc about its vertices' mean. Rows of other
+    kinds, and a path that never moves, have no way (side 0).
 
     The side the zone's edge faced where the path's tangent line entered it
     swung with the tangent on a curve or at a corner, and the aim's offset
     went over to the other side within a detour: turn-rate kicks and
     reversals (docs/paper-notes.md, eq. (28), "The way round, decided once")."""
     ways = np.zeros((row_kinds.shape[0], WAY_COLUMNS))
-    rows = np.flatnonzero((row_kinds == ELLIPSE_ROW) & (row_params[:, 5] < 0.0))
-    chords, shares = nearest_chords(x, y, row_params[rows, 0], row_params[rows, 1])
+    rows, centres = kept_out(row_kinds, row_params)
+    chords, shares = nearest_chords(x, y, centres[:, 0], centres[:, 1])
     for i, k, share in zip(rows.tolist(), chords.tolist(), shares.tolist(), strict=True):
-        ways[i] = way_at(x, y, k, share, row_params[i])
+        kind = int(row_kinds[i])
+        ways[i] = way_at(x, y, k, share, kind, row_params[i])
         if k >= 0:
-            along = pass_points(x, y, k, share, pass_reach(row_params[i]))
+            along = pass_points(x, y, k, share, pass_reach(kind, row_params[i]))
             ways[i, WAY_HEAD:] = np.concatenate(along)
     return ways
 
@@ -945,11 +1019,12 @@ def way_at(
     y: FloatArray,
     k: int,
     share: float,
+    kind: int,
     p: FloatArray,
     speed: float = 0.0,
     rest: float = math.inf,
 ) -> FloatArray:
-    """The way round the keep-out ellipse row ``p`` (:func:`ways_round`) where
+    """The way round the keep-out row ``p`` of ``kind`` (:func:`ways_round`) where
     the polyline through (x, y) passes its centre nearest: ``share`` along
     the chord from sample ``k`` (:func:`nearest_chords`); none for k < 0.
     ``speed`` and ``rest``: the path's speed there and the point where it
@@ -962,20 +1037,24 @@ def way_at(
     length = math.hypot(ex, ey)
     nx = x[k] + share * ex
     ny = y[k] + share * ey
-    cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
-    through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
-    side = 1.0 if through or cross < 0.0 else -1.0
+    if kind == POLYGON_ROW:
+        side = polygon_side(p, nx, ny, ex / length, ey / length)
+    else:
+        cross = ex * (p[1] - y[k]) - ey * (p[0] - x[k])
+        through = math.hypot(nx - p[0], ny - p[1]) <= THROUGH_CENTRE * max(p[2], 1.0)
+        side = 1.0 if through or cross < 0.0 else -1.0
     way = np.zeros(WAY_COLUMNS)  # the pass is left to the caller (ways_round)
     way[:WAY_HEAD] = [nx, ny, ex / length, ey / length, side, speed, rest]
     return way
 
 
-def pass_reach(p: FloatArray) -> float:
+def pass_reach(kind: int, p: FloatArray) -> float:
     """[m] How far along the path either side of its point nearest the
-    keep-out ellipse row ``p`` the pass reaches: as far as the aim's climb
+    keep-out row ``p`` of ``kind`` the pass reaches: as far as the aim's climb
     round it can start, twice its ramp across the zone and a metre and a
-    half (the margins and gaps), and the zone beyond."""
-    size = max(float(p[2]), float(p[3]))
+    half (the margins and gaps), and the zone beyond (a box or polygon's
+    size the radius of the disc about its vertices' mean that holds it)."""
+    size = float(p[3]) if kind == POLYGON_ROW else max(float(p[2]), float(p[3]))
     return 2.0 * ((2.0 * size + 1.5) / RAMP_SLOPE + size)
 
 
@@ -999,14 +1078,14 @@ def pass_points(
 
 @kernel
 def on_another_stretch(
-    way: FloatArray, p: FloatArray, x: float, y: float
+    way: FloatArray, cx: float, cy: float, x: float, y: float
 ) -> tuple[float, float, float]:
     """How far the aim (x, y) lies on another stretch of path than the pass
     of the way round ``way`` (the stretch about the path's point nearest
     the zone, WAY_COLUMNS): (share, across, side). ``share`` 0 within
     PASS_BAND of the pass, rising to 1 at twice that; ``across`` the aim's
     distance across the line of the way's tangent, and ``side`` the way
-    round the zone ``p`` by the side of its centre the aim is on, as the
+    round the zone centred at (cx, cy) by the side of it the aim is on, as the
     pass's own side is chosen (ways_round). Measured on the pass's line alone,
     any stretch heading the same way took the pass's detour: a lane 1.6 m
     from a pond made the pond's detour too, and a spiral's first loop cut
@@ -1044,7 +1123,7 @@ def on_another_stretch(
             break  # this chord starts beyond the reach: so do the rest
     share = min(max(near / PASS_BAND - 1.0, 0.0), 1.0)
     across = -way[3] * (x - way[0]) + way[2] * (y - way[1])
-    centre = -way[3] * (p[0] - way[0]) + way[2] * (p[1] - way[1])
+    centre = -way[3] * (cx - way[0]) + way[2] * (cy - way[1])
     return share, across, 1.0 if across >= centre else -1.0
 
 
@@ -1078,8 +1157,10 @@ def aim_round_zones(
     tangent (a lap's far side): on a curve the path's own tangent line
     swings across the zone, and neither its side nor its distance from the
     zone holds for the stretch of path that passes it. The robot goes round,
-    never stopping where two sides balance. A keep-out box or polygon goes round on the shorter way
-    across (``_way_round_polygon``). Other rows project the aim onto
+    never stopping where two sides balance. A keep-out box or polygon goes
+    round as well (``_polygon_round``), by the shorter way across where the
+    path passes its centre nearest, and by the shorter way across at the aim
+    where the path heads away from there. Other rows project the aim onto
     their edge (half-planes exactly, keep-in ellipses along the ray from the
     centre). Two passes settle an aim beyond two rows.
 
@@ -1109,8 +1190,8 @@ def aim_round_zones(
                 # Across the path, on a ramp: moving on from before the zone
                 # without a kink steeper than RAMP_SLOPE, keeping its side.
                 if row_kinds[i] == POLYGON_ROW:
-                    reach, nx, ny = _way_round_polygon(
-                        p, grown, x + lead * aim[2], y + lead * aim[3], aim[2], aim[3]
+                    reach, nx, ny = _polygon_round(
+                        p, ways[i], grown, x, y, lead, aim, start_x, start_y
                     )
                 else:
                     way = ways[i]
@@ -1137,7 +1218,7 @@ def aim_round_zones(
                         # no stretch is moved, and the pass costs nothing)
                         share, off, side = 0.0, 0.0, way[4]
                         if reach > 0.0:
-                            share, off, side = on_another_stretch(way, p, start_x, start_y)
+                            share, off, side = on_another_stretch(way, p[0], p[1], start_x, start_y)
                         if share > 0.0:
                             # another stretch: round by its own side, from
                             # where it is across from the pass

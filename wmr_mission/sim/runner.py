@@ -26,6 +26,7 @@ from wmr_mission.controllers.constrained_tracking import (
     PASS_POINTS,
     WAY_COLUMNS,
     WAY_HEAD,
+    kept_out,
     nearest_chords,
     pass_points,
     pass_reach,
@@ -34,7 +35,7 @@ from wmr_mission.controllers.constrained_tracking import (
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.geometry.routes import TURN_CREEP
 from wmr_mission.kernels import jit, loop, scalar_math
-from wmr_mission.kernels.corrective import ELLIPSE_ROW, max_row_value
+from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
 from wmr_mission.kernels.model import preview_rows
 from wmr_mission.kernels.resident import LONG_RUN, give_back_compiler_pages
@@ -287,15 +288,16 @@ class PhaseRun:
         kinds, params = self.phase.constraint_rows
         if not kinds.shape[0]:  # no zone: a campaign's run enters such phases by the thousand
             return
-        keep_out = np.flatnonzero((kinds == ELLIPSE_ROW) & (params[:, 5] < 0.0))
+        keep_out, centres = kept_out(kinds, params)
         if not keep_out.size:
             return
         samples = min(self.bound, WAY_HORIZON)
         t = np.linspace(0.0, samples * self.mission.dt, min(samples, WAY_SAMPLES) + 1)
         x, y, speed = self._path_points(t)
-        chords, shares = nearest_chords(x, y, params[keep_out, 0], params[keep_out, 1])
+        chords, shares = nearest_chords(x, y, centres[:, 0], centres[:, 1])
         moving = chords >= 0
-        keep_out, chords, shares = keep_out[moving], chords[moving], shares[moving]
+        keep_out, centres = keep_out[moving], centres[moving]
+        chords, shares = chords[moving], shares[moving]
         if not keep_out.size:
             return
         whole = (x, y, chords, shares)  # the path over the bound, for the passes
@@ -310,36 +312,35 @@ class PhaseRun:
             [np.linspace(t[max(k - 1, 0)], t[min(k + 2, last)], WAY_SAMPLES + 1) for k in chords]
         )
         x, y, speed = (np.reshape(z, near.shape) for z in self._path_points(near.ravel()))
-        zones = params[keep_out]
-        chords, shares = nearest_chords(x, y, zones[:, 0], zones[:, 1])
+        chords, shares = nearest_chords(x, y, centres[:, 0], centres[:, 1])
         for j, i in enumerate(keep_out.tolist()):
             k, share = int(chords[j]), float(shares[j])
-            way = way_at(x[j], y[j], k, share, params[i])
+            way = way_at(x[j], y[j], k, share, int(kinds[i]), params[i])
             if k >= 0:
                 way[5] = speed[j, k] + share * (speed[j, k + 1] - speed[j, k])
                 rest = rest_points[j]
                 if rest is not None:
                     way[6] = max(way[2] * (way[0] - rest[0]) + way[3] * (way[1] - rest[1]), 0.0)
                 t_near = near[j, k] + share * (near[j, k + 1] - near[j, k])
-                way[WAY_HEAD:] = self._pass(t_near, way, params[i], whole, j)
+                reach = pass_reach(int(kinds[i]), params[i])
+                way[WAY_HEAD:] = self._pass(t_near, way, reach, whole, j)
             self.ways[i] = way
 
     def _pass(
         self,
         t_near: float,
         way: FloatArray,
-        zone: FloatArray,
+        reach: float,
         whole: tuple[FloatArray, FloatArray, IntArray, FloatArray],
         j: int,
     ) -> FloatArray:
         """The pass of a way round (constrained_tracking.pass_points), evenly
         along the path: from ``whole``, the path over the bound (x, y, and
         each zone's nearest chord and share of it), where its chord there is
-        a sixteenth of the pass's reach or shorter; else from the path about
+        a sixteenth of the pass's ``reach`` or shorter; else from the path about
         its time ``t_near``, PASS_SAMPLES points over twice the time its
         speed there takes to cover that reach (the whole bound where it rests
         there). Read again, the path cost keep-out.yaml's loop 9 % more."""
-        reach = pass_reach(zone)
         x, y, chords, shares = whole
         k = int(chords[j])
         if math.hypot(x[k + 1] - x[k], y[k + 1] - y[k]) <= reach / 16.0:
