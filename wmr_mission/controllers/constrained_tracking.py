@@ -716,6 +716,10 @@ def _way_round_eased(
     return _climb(corner + length - abs(ahead), reach, bend)[0]
 
 
+# [m] A move across the path no larger than rounding leaves (a straight path
+# measured in two frames of the same line).
+ROUNDING = 1e-9
+
 # |m + mu t| at the ramp's ends: the factor a disc's support grows by there.
 _RAMP_NORM = math.sqrt(1.0 + RAMP_SLOPE * RAMP_SLOPE)
 
@@ -857,6 +861,25 @@ def _polygon_round(
     at_x = way[0] + along * way[2] - across * way[3]
     at_y = way[1] + along * way[3] + across * way[2]
     reach = _way_round_polygon(p, margin, at_x, at_y, way[2], way[3], way[4])[0]
+    # The pass's line is the path's only near the pass: on a curve the aim
+    # lies off it, and the ramp measured on it left the aim inside the zone
+    # where the path curves away from the side gone round by (0.10 m inside
+    # a box a circle of radius 2.5 m runs through; the robot stood at its
+    # corner, 0.81 m off its path, gen-025-circle-box of
+    # scripts/keep_out_shapes.py). Where the wedge at the aim's own place asks
+    # more, both in the pass's frame and along the aim's own tangent, the aim
+    # goes the lesser of those: each alone keeps it outside the zone, and far
+    # from the pass the one or the other asks far more (the aim far off the
+    # line; the tangent swung across the zone) (docs/paper-notes.md, eq.
+    # (28), "The way round a box or polygon, decided once"). Along a straight
+    # path the three agree to rounding, and the line's is kept to the byte.
+    placed = _way_round_polygon(
+        p, margin, x + lead * way[2], y + lead * way[3], way[2], way[3], way[4]
+    )[0]
+    if placed > reach + ROUNDING:
+        own = _way_round_polygon(p, margin, x + lead * tx, y + lead * ty, tx, ty, way[4])[0]
+        if own > reach + ROUNDING:
+            reach = min(placed, own)
     nx = -ty * way[4]
     ny = tx * way[4]
     share, off, side = on_another_stretch(way, p[1], p[2], start_x, start_y)
