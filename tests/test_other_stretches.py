@@ -6,21 +6,10 @@ eq. (28), "Another stretch of the path past a zone")."""
 from __future__ import annotations
 
 import numpy as np
+from aims import moved_across, spiral_past
 
 from wmr_mission import mission_from_text, run_mission
-from wmr_mission.controllers.constrained_tracking import aim_round_zones, ways_round
 from wmr_mission.geometry.regions import CircleRegion, constraint_rows
-
-
-def _moved_across(path: np.ndarray, kinds: np.ndarray, params: np.ndarray) -> np.ndarray:
-    """How far aim_round_zones moves each aim (rows x, y, tx, ty) across its path."""
-    ways = ways_round(path[:, 0], path[:, 1], kinds, params)
-    moved = []
-    for row in path:
-        aim = row.copy()
-        aim_round_zones(aim, kinds, params, ways, 0.05, 0.1, 0.05)
-        moved.append(-row[3] * (aim[0] - row[0]) + row[2] * (aim[1] - row[1]))
-    return np.array(moved)
 
 
 def test_a_lane_heading_the_same_way_past_a_pond_is_left_alone() -> None:
@@ -37,30 +26,12 @@ def test_a_lane_heading_the_same_way_past_a_pond_is_left_alone() -> None:
     path = np.vstack([lower, round_by, upper])
     pond = CircleRegion(type="circle", center=(3.0, 1.6), radius=0.3)
     kinds, params = constraint_rows(pond, "outside")
-    moved = _moved_across(path, kinds, params)
+    moved = moved_across(path, kinds, params)
     assert moved[:601].max() > 0.02  # the lower lane goes round below the pond (its left)
     assert np.abs(moved[-601:]).max() == 0.0  # the upper lane runs straight on
 
 
-SPIRAL = """\
-version: 1
-name: spiral-past-a-rock
-robot:
-  dt: 0.01
-  initial_state: {x: 0.5, y: 0, theta: 1.5708}
-  limits: {v: 1.6, omega: 2.5}
-regions:
-  rock: {type: circle, center: [-1.2, 1.1], radius: 0.4}
-  rim: {type: circle, center: [0, 0], radius: 3}
-phases:
-  - name: spiral
-    track:
-      path: {type: spiral, center: [0, 0], initial_radius: 0.5, growth_rate: 0.06,
-             angular_rate: 0.5, start: 0}
-    constraints: [{stay_outside: rock}]
-    until: {reaches: rim}
-    timeout: 60
-"""
+SPIRAL = spiral_past("{type: circle, center: [-1.2, 1.1], radius: 0.4}")
 
 
 def test_a_spirals_first_loop_does_not_go_round_a_rock_its_second_loop_passes() -> None:

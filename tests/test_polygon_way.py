@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from aims import moved_across, spiral_past
 from judge_generated import judge_all
 from keep_out_shapes import main as write_shapes
 
@@ -37,14 +38,7 @@ def test_a_spiral_through_a_rock_keeps_one_side_of_it() -> None:
     0.7 m to either side, so it jumped 1.5 m across in one step."""
     path = _spiral(np.linspace(0.0, 30.0, 3001))
     rock = PolygonRegion(type="polygon", vertices=ROCK)
-    kinds, params = constraint_rows(rock, "outside")
-    ways = ways_round(path[:, 0], path[:, 1], kinds, params)
-    moved = []
-    for row in path:
-        aim = row.copy()
-        aim_round_zones(aim, kinds, params, ways, 0.05, 0.1, 0.05)
-        moved.append(-row[3] * (aim[0] - row[0]) + row[2] * (aim[1] - row[1]))
-    across = np.array(moved)
+    across = moved_across(path, *constraint_rows(rock, "outside"))
     assert across.max() > 0.5  # round by the inside of the loop, the left
     assert across.min() >= 0.0  # and never the outside
     assert np.abs(np.diff(across)).max() < 0.1  # 0.01 s of path a step: no jump
@@ -75,25 +69,7 @@ def test_a_circle_through_a_box_keeps_its_aim_out_of_the_box() -> None:
     assert min(clearance) > look_ahead + margin + gap - 1e-6
 
 
-SPIRAL = """\
-version: 1
-name: spiral-past-a-polygon-rock
-robot:
-  dt: 0.01
-  initial_state: {x: 0.5, y: 0, theta: 1.5708}
-  limits: {v: 1.6, omega: 2.5}
-regions:
-  rock: {type: polygon, vertices: [[-1.6, 0.9], [-1.0, 0.6], [-0.8, 1.3], [-1.3, 1.6]]}
-  rim: {type: circle, center: [0, 0], radius: 3}
-phases:
-  - name: spiral
-    track:
-      path: {type: spiral, center: [0, 0], initial_radius: 0.5, growth_rate: 0.06,
-             angular_rate: 0.5, start: 0}
-    constraints: [{stay_outside: rock}]
-    until: {reaches: rim}
-    timeout: 60
-"""
+SPIRAL = spiral_past(f"{{type: polygon, vertices: {ROCK}}}")
 
 
 def test_a_spiral_past_a_polygon_rock_succeeds() -> None:
