@@ -108,7 +108,8 @@ def test_a_polygons_climb_is_an_ellipses_and_above_its_ramp() -> None:
     within the gap between the two, and round a box along the path, whose
     face is a plateau, it never falls below the box's ramp, which the robot
     swung past (docs/paper-notes.md, eq. (28), "The way round a box or
-    polygon, decided once")."""
+    polygon, decided once", The climb under a turn-rate acceleration
+    limit)."""
     angles = np.linspace(0.0, 2.0 * np.pi, 256, endpoint=False)
     corners = [[2.0 * np.cos(a), 0.5 + 2.0 * np.sin(a)] for a in angles]
     polygon = constraint_rows(PolygonRegion(type="polygon", vertices=corners), "outside")[1][0]
@@ -181,12 +182,13 @@ def test_generated_missions_past_boxes_and_polygons(shapes: Path, tmp_path: Path
 @pytest.mark.sweep
 def test_the_generated_set_past_boxes_and_polygons(shapes: Path, tmp_path: Path) -> None:
     """All 106 (docs/paper-notes.md, eq. (28), "The way round a box or
-    polygon, decided once"): 77 succeed, where 66 did with the shorter way
-    across taken at each aim and 76 with the ramp on the pass's line alone;
-    no false alarm, and at most the 2 dishonest successes named there."""
+    polygon, decided once"): 87 succeed, where 66 did with the shorter way
+    across taken at each aim, 76 with the ramp on the pass's line alone and
+    77 with the ramp under acceleration limits; no false alarm, and at most
+    the 2 dishonest successes named there."""
     judged = judge_all(sorted(shapes.glob("*.yaml")), tmp_path, workers=2)
     assert len(judged) == 106
-    assert sum(j.success for j in judged) >= 77
+    assert sum(j.success for j in judged) >= 87
     assert [j.mission for j in judged if not j.success and j.sound] == []
     dishonest = {j.mission for j in judged if j.success and not j.sound}
-    assert dishonest <= {"gen-085-line-box", "gen-093-ellipse-poly"}
+    assert dishonest <= {"gen-031-line-poly", "gen-093-ellipse-poly"}

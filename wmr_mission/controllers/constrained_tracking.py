@@ -862,7 +862,8 @@ def _way_round_polygon_eased(
     as it did round an ellipse (gen-124-line-box of
     scripts/keep_out_shapes.py: 1.66 m off its line where 1.30 m is
     allowed; docs/paper-notes.md, eq. (28), "The way round a box or
-    polygon, decided once")."""
+    polygon, decided once", The climb under a turn-rate acceleration
+    limit)."""
     tx = way[2]
     ty = way[3]
     mx = -ty * way[4]
@@ -1274,11 +1275,11 @@ def aim_round_zones(
     own: one taken ahead would hold the aim back along the path.
 
     Under a turn-rate acceleration limit (``turn_acceleration``, the share of
-    it the law's turns follow, paper.turn_acceleration) a keep-out ellipse's
-    ramp is the climb that limit lets the robot follow
-    (``_way_round_eased``), ``joined`` of the way from the ramp: 0 while the
-    robot is joining its path, as the path's turns are previewed only once
-    it is on it (paper.next_input).
+    it the law's turns follow, paper.turn_acceleration) a keep-out zone's
+    ramp is the climb that limit lets the robot follow (``_way_round_eased``,
+    a box's or polygon's ``_way_round_polygon_eased``), ``joined`` of the way
+    from the ramp: 0 while the robot is joining its path, as the path's
+    turns are previewed only once it is on it (paper.next_input).
     """
     grown = look_ahead + gap + margin
     x = aim[0] + look_ahead * aim[2]
