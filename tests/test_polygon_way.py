@@ -5,6 +5,7 @@ decided once where the path passes nearest it, as an ellipse is
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -14,11 +15,25 @@ from judge_generated import judge_all
 from keep_out_shapes import main as write_shapes
 
 from wmr_mission import mission_from_text, run_mission
-from wmr_mission.controllers.constrained_tracking import aim_round_zones, ways_round
-from wmr_mission.geometry.regions import BoxRegion, PolygonRegion, constraint_rows
+from wmr_mission.controllers.constrained_tracking import (
+    _way_round_eased,
+    _way_round_polygon,
+    _way_round_polygon_eased,
+    aim_round_zones,
+    way_at,
+    ways_round,
+)
+from wmr_mission.geometry.regions import (
+    BoxRegion,
+    CircleRegion,
+    PolygonRegion,
+    constraint_rows,
+)
 from wmr_mission.kernels.convex import polygon_distance
+from wmr_mission.kernels.corrective import POLYGON_ROW
 
 ROCK = [[-1.6, 0.9], [-1.0, 0.6], [-0.8, 1.3], [-1.3, 1.6]]
+ZONES = Path(__file__).resolve().parent / "data" / "zones"
 
 
 def _spiral(t: np.ndarray) -> np.ndarray:
@@ -87,6 +102,55 @@ def test_a_spiral_past_a_polygon_rock_succeeds() -> None:
     assert off[run.t[:-1] > 22.0].max() < 0.01  # back on its spiral
 
 
+def test_a_polygons_climb_is_an_ellipses_and_above_its_ramp() -> None:
+    """Under a turn-rate acceleration limit a polygon's aim climbs as an
+    ellipse's does: round a 256-gon on a circle its climb is the circle's
+    within the gap between the two, and round a box along the path, whose
+    face is a plateau, it never falls below the box's ramp, which the robot
+    swung past (docs/paper-notes.md, eq. (28), "The way round a box or
+    polygon, decided once", The climb under a turn-rate acceleration
+    limit)."""
+    angles = np.linspace(0.0, 2.0 * np.pi, 256, endpoint=False)
+    corners = [[2.0 * np.cos(a), 0.5 + 2.0 * np.sin(a)] for a in angles]
+    polygon = constraint_rows(PolygonRegion(type="polygon", vertices=corners), "outside")[1][0]
+    circle = constraint_rows(CircleRegion(type="circle", center=[0, 0.5], radius=2.0), "outside")
+    x = np.linspace(-12.0, 12.0, 2)
+    way = way_at(x, np.zeros(2), 0, 0.5, int(circle[0][0]), circle[1][0], 3.0)
+    xs = np.linspace(-12.0, 12.0, 481)
+    eased = [_way_round_polygon_eased(polygon, 0.1, u, 0.0, way, 6.0, u + 30.0) for u in xs]
+    disc = circle[1][0]
+    round_circle = [_way_round_eased(disc, 0.1, u, 0.0, way, -1.0, 6.0, u + 30.0) for u in xs]
+    assert max(eased) == pytest.approx(2.0 - 0.5 + 0.1, abs=1e-3)
+    assert np.abs(np.subtract(eased, round_circle)).max() < 1e-3
+    box = constraint_rows(BoxRegion(type="box", center=[0, 0.6], size=[3.0, 1.6]), "outside")[1][0]
+    box_way = way_at(x, np.zeros(2), 0, 0.5, POLYGON_ROW, box, 3.0)
+    eased = [_way_round_polygon_eased(box, 0.1, u, 0.0, box_way, 6.0, u + 30.0) for u in xs]
+    ramp = [_way_round_polygon(box, 0.1, u, 0.0, 1.0, 0.0, box_way[4])[0] for u in xs]
+    assert box_way[4] == -1.0  # the shorter way across: the right
+    assert min(np.subtract(eased, ramp)) >= -1e-12
+    plateau = np.flatnonzero(np.isclose(eased, 0.2 + 0.1))
+    assert xs[plateau].min() <= -1.5  # the box's face, held
+    assert xs[plateau].max() >= 1.5
+
+
+@pytest.mark.parametrize(
+    ("name", "bound"), [("line-box-eased", 1.30), ("line-polygon-eased", 1.12)]
+)
+def test_a_fast_line_past_a_box_keeps_its_detour_bound(
+    name: str, bound: float, tmp_path: Path
+) -> None:
+    """gen-124-line with its rock a box and a pentagon (scripts/keep_out_shapes.py):
+    at 3.6 m/s under a turn-rate acceleration limit the ramp's foot asked
+    the whole turn at once and the robot swung past the ramp's top, 1.66 m
+    off its line where the judge allows 1.30 m, and 1.51 where 1.12 is
+    allowed; on the eased climb, as round an ellipse, each keeps its bound
+    and the independent judge finds it sound."""
+    [judged] = judge_all([ZONES / f"{name}.yaml"], tmp_path, workers=1)
+    assert (judged.outcome, judged.problems) == ("success", ()), judged.message
+    summary = json.loads((tmp_path / name / "summary.json").read_text())
+    assert summary["phases"][0]["tracking"]["detour_offset_max"] < bound
+
+
 @pytest.fixture(scope="module")
 def shapes(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The generated set's keep-out circles made boxes and polygons
@@ -118,12 +182,13 @@ def test_generated_missions_past_boxes_and_polygons(shapes: Path, tmp_path: Path
 @pytest.mark.sweep
 def test_the_generated_set_past_boxes_and_polygons(shapes: Path, tmp_path: Path) -> None:
     """All 106 (docs/paper-notes.md, eq. (28), "The way round a box or
-    polygon, decided once"): 77 succeed, where 66 did with the shorter way
-    across taken at each aim and 76 with the ramp on the pass's line alone;
-    no false alarm, and at most the 2 dishonest successes named there."""
+    polygon, decided once"): 87 succeed, where 66 did with the shorter way
+    across taken at each aim, 76 with the ramp on the pass's line alone and
+    77 with the ramp under acceleration limits; no false alarm, and at most
+    the 2 dishonest successes named there."""
     judged = judge_all(sorted(shapes.glob("*.yaml")), tmp_path, workers=2)
     assert len(judged) == 106
-    assert sum(j.success for j in judged) >= 77
+    assert sum(j.success for j in judged) >= 87
     assert [j.mission for j in judged if not j.success and j.sound] == []
     dishonest = {j.mission for j in judged if j.success and not j.sound}
-    assert dishonest <= {"gen-085-line-box", "gen-093-ellipse-poly"}
+    assert dishonest <= {"gen-031-line-poly", "gen-093-ellipse-poly"}

@@ -704,9 +704,25 @@ def _way_round_eased(
     slope = sense * RAMP_SLOPE
     wedge = math.sqrt(max(sa - 2.0 * slope * sb + slope * slope * sc, 0.0))
     corner = (wedge - top) / RAMP_SLOPE + sense * sb / top
-    bend = turn_acceleration / max(way[5] * way[5], 1e-300)
+    return _climb_to_top(reach, ahead, corner, way[5], turn_acceleration, room)
+
+
+@kernel
+def _climb_to_top(
+    reach: float, ahead: float, corner: float, speed: float, turn_acceleration: float, room: float
+) -> float:
+    """How far across the aim is on the climb to the zone's top ``reach``
+    across the path (:func:`_climb`, at the third derivative
+    ``turn_acceleration / speed^2``), the top ``ahead`` of the aim (behind
+    it: negative, on the way down), the climb ending ``corner`` before the
+    top (after it, on the way down), where the ramp of slope RAMP_SLOPE
+    reaches the top's height; no further back than ``room`` before the top
+    less ``ahead`` (where the path rests), steeper there, and -1 (the ramp's
+    way) where not even the ramp fits. The ellipse's and the polygon's
+    (:func:`_way_round_eased`, :func:`_way_round_polygon_eased`)."""
+    bend = turn_acceleration / max(speed * speed, 1e-300)
     length = _climb(0.0, reach, bend)[1]
-    if sense > 0.0 and ahead + room - corner < length:
+    if ahead >= 0.0 and ahead + room - corner < length:
         # From where the path rests: the climb as long as the room allows.
         stretch = 0.5 * (ahead + room - corner - reach / RAMP_SLOPE)
         if not stretch > 0.0:
@@ -823,6 +839,62 @@ def _way_round_polygon(
 
 
 @kernel
+def _way_round_polygon_eased(
+    p: FloatArray,
+    margin: float,
+    x: float,
+    y: float,
+    way: FloatArray,
+    turn_acceleration: float,
+    room: float,
+) -> float:
+    """:func:`_way_round_eased` for the keep-out polygon row ``p`` grown by
+    ``margin`` (K), about the aim a on the line of the pass of ``way``, to
+    its side ``way[4]``: the climb to K's reach across the path ``P`` (its
+    support along m less m.a) that ends where the ramp's line reaches that
+    height, and the way down its mirror. Ahead of the aim the ramp is at
+    most K's support along m - RAMP_SLOPE t (less that of a), rising at
+    RAMP_SLOPE a metre as the aim moves on (all of K ahead of it), so it is
+    ``P`` at most from (P - h(m - RAMP_SLOPE t)) / RAMP_SLOPE ahead of the
+    aim on; behind it, mirrored, by h(m + RAMP_SLOPE t) up to as far past.
+    Between the two (a box's face along the path) the climb holds ``P``.
+    The ramp alone swung the robot past its top under acceleration limits
+    as it did round an ellipse (gen-124-line-box of
+    scripts/keep_out_shapes.py: 1.66 m off its line where 1.30 m is
+    allowed; docs/paper-notes.md, eq. (28), "The way round a box or
+    polygon, decided once", The climb under a turn-rate acceleration
+    limit)."""
+    tx = way[2]
+    ty = way[3]
+    mx = -ty * way[4]
+    my = tx * way[4]
+    r = margin
+    # the line through a that misses the disc holding K: nothing to move
+    # (as _way_round_polygon)
+    if abs(mx * (p[1] - x) + my * (p[2] - y)) >= p[3] + r:
+        return 0.0
+    top = -math.inf
+    rising = -math.inf  # h(m - s t), the ramp's line ahead of the aim
+    falling = -math.inf  # h(m + s t), behind it
+    for i in range(int(p[0])):
+        k = HEADER + PER_VERTEX * i
+        across = mx * (p[k] - x) + my * (p[k + 1] - y)
+        along = tx * (p[k] - x) + ty * (p[k + 1] - y)
+        top = max(top, across)
+        rising = max(rising, across - RAMP_SLOPE * along)
+        falling = max(falling, across + RAMP_SLOPE * along)
+    reach = top + r
+    if reach <= 0.0:
+        return 0.0
+    before = (reach - rising - r * _RAMP_NORM) / RAMP_SLOPE  # to where the rise is at P
+    after = (reach - falling - r * _RAMP_NORM) / RAMP_SLOPE  # past where the fall leaves P
+    # the plateau's middle ahead of the aim, and its half-length
+    ahead = 0.5 * (before - after)
+    corner = max(-0.5 * (before + after), 0.0)
+    return _climb_to_top(reach, ahead, corner, way[5], turn_acceleration, room)
+
+
+@kernel
 def _polygon_round(
     p: FloatArray,
     way: FloatArray,
@@ -833,6 +905,8 @@ def _polygon_round(
     aim: FloatArray,
     start_x: float,
     start_y: float,
+    turn_acceleration: float,
+    joined: float,
 ) -> tuple[float, float, float]:
     """How far the aim (x, y), heading along ``aim[2:4]``, moves across its
     path round the keep-out polygon row ``p`` grown by ``margin``, and the
@@ -861,6 +935,14 @@ def _polygon_round(
     at_x = way[0] + along * way[2] - across * way[3]
     at_y = way[1] + along * way[3] + across * way[2]
     reach = _way_round_polygon(p, margin, at_x, at_y, way[2], way[3], way[4])[0]
+    if turn_acceleration != math.inf and joined > 0.0:
+        # the climb a turn-rate acceleration limit lets the robot follow, as
+        # an ellipse's (aim_round_zones), from no further back than the rest
+        eased = _way_round_polygon_eased(
+            p, margin, at_x, at_y, way, turn_acceleration, along + way[6]
+        )
+        if eased >= 0.0:
+            reach += joined * (eased - reach)
     # The pass's line is the path's only near the pass: on a curve the aim
     # lies off it, and the ramp measured on it left the aim inside the zone
     # where the path curves away from the side gone round by (0.10 m inside
@@ -1266,11 +1348,11 @@ def aim_round_zones(
     own: one taken ahead would hold the aim back along the path.
 
     Under a turn-rate acceleration limit (``turn_acceleration``, the share of
-    it the law's turns follow, paper.turn_acceleration) a keep-out ellipse's
-    ramp is the climb that limit lets the robot follow
-    (``_way_round_eased``), ``joined`` of the way from the ramp: 0 while the
-    robot is joining its path, as the path's turns are previewed only once
-    it is on it (paper.next_input).
+    it the law's turns follow, paper.turn_acceleration) a keep-out zone's
+    ramp is the climb that limit lets the robot follow (``_way_round_eased``,
+    a box's or polygon's ``_way_round_polygon_eased``), ``joined`` of the way
+    from the ramp: 0 while the robot is joining its path, as the path's
+    turns are previewed only once it is on it (paper.next_input).
     """
     grown = look_ahead + gap + margin
     x = aim[0] + look_ahead * aim[2]
@@ -1287,8 +1369,9 @@ def aim_round_zones(
                 # without a kink steeper than RAMP_SLOPE, keeping its side.
                 if row_kinds[i] == POLYGON_ROW:
                     reach, nx, ny = _polygon_round(
-                        p, ways[i], grown, x, y, lead, aim, start_x, start_y
-                    )
+                        p, ways[i], grown, x, y, lead, aim, start_x, start_y,
+                        turn_acceleration, joined,
+                    )  # fmt: skip
                 else:
                     way = ways[i]
                     reach = 0.0
