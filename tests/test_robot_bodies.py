@@ -49,9 +49,10 @@ def test_robots_with_bodies_go_round_their_rocks(bodies: Path, tmp_path: Path) -
 
 @pytest.mark.sweep
 def test_the_generated_set_with_bodies(bodies: Path, tmp_path: Path) -> None:
-    """All 150: at least 132 succeed, no false alarm, no dishonest success
+    """All 150: at least 134 succeed (132 with the ramp down after a zone
+    measured along its pass's tangent), no false alarm, no dishonest success
     (docs/soundness.md, "Robots with bodies")."""
     judged = judge_all(sorted(bodies.glob("*.yaml")), tmp_path, workers=2)
     assert len(judged) == 150
-    assert sum(j.success for j in judged) >= 132
+    assert sum(j.success for j in judged) >= 134
     assert [j.mission for j in judged if j.success != j.sound] == []
