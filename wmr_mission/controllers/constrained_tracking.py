@@ -1042,10 +1042,17 @@ def aim_gap(look_ahead: float, speed_rate: float, margin: float) -> float:
 # speed there, how far back along that tangent the path last rests before
 # it (inf: it does not, or its times are not known), then the pass: the
 # stretch of path about that point, PASS_POINTS points evenly along it, x
-# then y (on_another_stretch).
+# then y (on_another_stretch); last, how far along the path from that point
+# the pass's first point is (<= 0) and the path's length between two of its
+# points (0 where the pass is straight: along_the_pass).
 WAY_HEAD = 7
 PASS_POINTS = 33
-WAY_COLUMNS = WAY_HEAD + 2 * PASS_POINTS
+PASS_FIRST = WAY_HEAD + 2 * PASS_POINTS
+PASS_STEP = PASS_FIRST + 1
+WAY_COLUMNS = PASS_STEP + 1
+# The widest a straight pass's points lie off its line, as a share of its
+# length (rounding): along it, distances are measured on the line.
+STRAIGHT = 1e-9
 # [m] How far an aim may lie from the pass and still be on it; beyond, it
 # fades onto another stretch of path heading the same way (a spiral's other
 # loop, a coverage path's other lane) over as far again.
@@ -1114,8 +1121,7 @@ def ways_round(
         kind = int(row_kinds[i])
         ways[i] = way_at(x, y, k, share, kind, row_params[i])
         if k >= 0:
-            along = pass_points(x, y, k, share, pass_reach(kind, row_params[i]))
-            ways[i, WAY_HEAD:] = np.concatenate(along)
+            ways[i, WAY_HEAD:] = pass_points(x, y, k, share, pass_reach(kind, row_params[i]))
     return ways
 
 
@@ -1163,14 +1169,14 @@ def pass_reach(kind: int, p: FloatArray) -> float:
     return 2.0 * ((2.0 * size + 1.5) / RAMP_SLOPE + size)
 
 
-def pass_points(
-    x: FloatArray, y: FloatArray, k: int, share: float, reach: float
-) -> tuple[FloatArray, FloatArray]:
-    """The pass: PASS_POINTS points evenly along the polyline through (x, y)
-    from ``reach`` before its point ``share`` along chord ``k`` to ``reach``
-    after it, as far as the polyline goes and heads the way chord ``k`` does
+def pass_points(x: FloatArray, y: FloatArray, k: int, share: float, reach: float) -> FloatArray:
+    """The pass of a way round, its columns from WAY_HEAD on (WAY_COLUMNS):
+    PASS_POINTS points evenly along the polyline through (x, y) from
+    ``reach`` before its point ``share`` along chord ``k`` to ``reach`` after
+    it, as far as the polyline goes and heads the way chord ``k`` does
     (within a quarter turn of it: where the way round applies,
-    aim_round_zones)."""
+    aim_round_zones), x then y; then how far along from that point the
+    first is, and the length between two (0 for a straight pass)."""
     dx, dy = np.diff(x), np.diff(y)
     along = np.concatenate([[0.0], np.cumsum(np.hypot(dx, dy))])
     here = along[k] + share * (along[k + 1] - along[k])
@@ -1178,7 +1184,74 @@ def pass_points(
     first = along[turned[turned < k].max() + 1] if (turned < k).any() else 0.0
     last = along[turned[turned > k].min()] if (turned > k).any() else along[-1]
     at = np.linspace(max(here - reach, first), min(here + reach, last), PASS_POINTS)
-    return np.interp(at, along, x), np.interp(at, along, y)
+    px, py = np.interp(at, along, x), np.interp(at, along, y)
+    length = math.hypot(dx[k], dy[k])
+    off = np.abs(dy[k] * (px - x[k]) - dx[k] * (py - y[k])) / length if length > 0.0 else px * 0.0
+    step = 0.0 if off.max() <= STRAIGHT * max(at[-1] - at[0], 1.0) else float(at[1] - at[0])
+    return np.concatenate([px, py, [float(at[0]) - here, step]])
+
+
+@kernel
+def along_the_pass(way: FloatArray, x: float, y: float) -> float:
+    """[m] How far along the path from the point of the way round ``way``
+    (the path's point nearest the zone) the point (x, y) on or beside its
+    pass lies: the pass's length to its point nearest (x, y), and beyond the
+    pass's ends on along its end chords; along the way's tangent where the
+    pass is straight. On a curve the distance along the tangent falls behind
+    the path's own: it grows no further than the curve's radius, and a
+    ramp down measured on it stretched over the quarter turn that followed
+    a rock (docs/paper-notes.md, eq. (28), "The ramp down along a curved
+    pass")."""
+    step = float(way[PASS_STEP])
+    if step == 0.0:
+        return float(way[2] * (x - way[0]) + way[3] * (y - way[1]))
+    # The pass heads within a quarter turn of the tangent: its points'
+    # distances along the tangent grow. From the chord about the point's own
+    # distance along, on to the nearer neighbour while there is one: the
+    # distance to a pass that bends less sharply than the point is far from
+    # it falls to its least and rises after.
+    along = way[2] * (x - way[0]) + way[3] * (y - way[1])
+    low = 0
+    high = PASS_POINTS - 1
+    while high - low > 1:  # the last point no further along the tangent than (x, y)
+        middle = (low + high) // 2
+        at = way[2] * (way[WAY_HEAD + middle] - way[0]) + way[3] * (
+            way[WAY_HEAD + PASS_POINTS + middle] - way[1]
+        )
+        if at <= along:
+            low = middle
+        else:
+            high = middle
+    gap, share = _from_chord(way, low, x, y)
+    for sense in (1, -1):
+        while 0 <= low + sense <= PASS_POINTS - 2:
+            next_gap, next_share = _from_chord(way, low + sense, x, y)
+            if not next_gap < gap:
+                break
+            low += sense
+            gap, share = next_gap, next_share
+    return float(way[PASS_FIRST]) + (low + share) * step
+
+
+@kernel
+def _from_chord(way: FloatArray, i: int, x: float, y: float) -> tuple[float, float]:
+    """The squared distance of (x, y) from chord ``i`` of the pass of ``way``,
+    and the share along it of its point nearest: beyond the pass's ends, on
+    along its end chords (the distance the end point's)."""
+    ax = way[WAY_HEAD + i]
+    ay = way[WAY_HEAD + PASS_POINTS + i]
+    ex = way[WAY_HEAD + i + 1] - ax
+    ey = way[WAY_HEAD + PASS_POINTS + i + 1] - ay
+    length2 = ex * ex + ey * ey
+    share = 0.0
+    if length2 > 0.0:
+        share = ((x - ax) * ex + (y - ay) * ey) / length2
+    kept = min(max(share, 0.0), 1.0)
+    gap_x = ax + kept * ex - x
+    gap_y = ay + kept * ey - y
+    if not ((i == 0 and share < 0.0) or (i == PASS_POINTS - 2 and share > 1.0)):
+        share = kept
+    return gap_x * gap_x + gap_y * gap_y, share
 
 
 @kernel
@@ -1306,8 +1379,14 @@ def aim_round_zones(
                     ny = aim[2] * way[4]
                     if way[4] != 0.0 and aim[2] * way[2] + aim[3] * way[3] > 0.0:
                         # the aim in the frame of the path where it passes the
-                        # zone: its distance along, and the rows' moves across
+                        # zone: its distance along (past that point, the
+                        # path's own on a curve: along_the_pass), and the rows'
+                        # moves across
                         along = way[2] * (x - way[0]) + way[3] * (y - way[1]) + lead
+                        past = way[2] * (start_x - way[0]) + way[3] * (start_y - way[1])
+                        if way[PASS_STEP] != 0.0 and past > 0.0:
+                            along = along_the_pass(way, start_x, start_y)
+                            along += way[2] * (x - start_x) + way[3] * (y - start_y) + lead
                         across = -aim[3] * (x - start_x) + aim[2] * (y - start_y)
                         at_x = way[0] + along * way[2] - across * way[3]
                         at_y = way[1] + along * way[3] + across * way[2]

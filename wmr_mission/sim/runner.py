@@ -344,15 +344,16 @@ class PhaseRun:
         x, y, chords, shares = whole
         k = int(chords[j])
         if math.hypot(x[k + 1] - x[k], y[k + 1] - y[k]) <= reach / 16.0:
-            return np.concatenate(pass_points(x, y, k, float(shares[j]), reach))
+            return pass_points(x, y, k, float(shares[j]), reach)
         end = min(self.bound, WAY_HORIZON) * self.mission.dt
         span = 2.0 * reach / way[5] if way[5] > 0.0 else end
         t = np.linspace(max(t_near - span, 0.0), min(t_near + span, end), PASS_SAMPLES)
         x, y, _ = self._path_points(t)
         chords, shares = nearest_chords(x, y, way[:1], way[1:2])
         if chords[0] < 0:  # the path rests there throughout
-            return np.concatenate([np.full(PASS_POINTS, way[0]), np.full(PASS_POINTS, way[1])])
-        return np.concatenate(pass_points(x, y, int(chords[0]), float(shares[0]), reach))
+            rests = [np.full(PASS_POINTS, way[0]), np.full(PASS_POINTS, way[1]), np.zeros(2)]
+            return np.concatenate(rests)
+        return pass_points(x, y, int(chords[0]), float(shares[0]), reach)
 
     def _path_points(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """The path's points at its times ``t``, and its speed there."""
