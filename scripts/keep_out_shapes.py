@@ -3,15 +3,15 @@ polygons: the same missions with the other shapes a user keeps out
 (docs/paper-notes.md, eq. (28), "The way round a box or polygon, decided
 once").
 
-    python scripts/keep_out_shapes.py OUT
+    python scripts/keep_out_shapes.py OUT [SEED]
     WMR_MISSION_NO_JIT=1 python scripts/judge_generated.py --missions OUT/*.yaml
 
 Each mission of tests/data/generated with a `stay_outside` circle or ellipse
 is written twice to OUT: `NAME-box.yaml`, each such zone a box as long as
 its diameter and 0.6 of it wide, turned by a drawn heading; and
 `NAME-poly.yaml`, a convex pentagon with its corners drawn on the zone's
-circle. The draws are seeded: the same files every time (53 missions, 106
-files)."""
+circle. The draws are seeded (SEED, 7 unless given): the same files every
+time (53 missions, 106 files)."""
 
 from __future__ import annotations
 
@@ -51,12 +51,12 @@ def _shape(region: dict[str, Any], shape: str, rng: random.Random) -> dict[str, 
 
 
 def main(argv: list[str]) -> int:
-    if len(argv) != 1:
+    if len(argv) not in (1, 2) or not (len(argv) == 1 or argv[1].isdigit()):
         print(__doc__, file=sys.stderr)
         return 2
     out = Path(argv[0])
     out.mkdir(parents=True, exist_ok=True)
-    rng = random.Random(7)
+    rng = random.Random(int(argv[1]) if len(argv) == 2 else 7)
     written = 0
     for path in sorted(GENERATED.glob("*.yaml")):
         names = _kept_out(yaml.safe_load(path.read_text()))

@@ -458,6 +458,46 @@ def test_regulate_input_matches_with_a_zone_astride_the_braking_line(
     np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.parametrize(("acceleration", "v_prev"), [(math.inf, 0.0), (20.0, 0.4)])
+def test_regulate_input_matches_where_it_moves_back_towards_the_regulators(
+    acceleration: float, v_prev: float
+) -> None:
+    """By a pentagon's corner (tests/data/zones/park-by-a-corner.yaml at 8 s,
+    where the robot stood before), the deviation form (the reference knows
+    no way round a polygon): eq. (28) alone backs the robot off at 0.08 m/s
+    where the barrier lets it on at 0.44; the input moves back towards the
+    regulator's by the share at which the row still holds, in the reference
+    as in the compiled law (controllers/paper.py, _share_kept). Under an
+    acceleration limit the row held on the braking line is checked too (there
+    it does not hold at eq. (28)'s input: no share)."""
+    from wmr_mission.geometry.regions import PolygonRegion, constraint_rows
+
+    corners = ((-3.262, 3.008), (-4.269, 2.03), (-3.738, 1.934), (-3.662, 1.954), (-3.275, 2.253))
+    kinds, params = constraint_rows(PolygonRegion(type="polygon", vertices=corners), "outside")
+    estimate = np.array([-3.21639750837, 3.0047873336, 2.89729358154])
+    limits = np.array([5.871, 8.272, acceleration, math.inf])
+    dt = 0.008
+    outputs = []
+    for regulate in (regulate_input, reference.regulate_input):
+        memory = np.zeros(paper.MEMORY_SIZE)
+        u = np.zeros(2)
+        controller = PaperTuning(
+            0.0, 0.0, np.ones(3), np.array([1.0, 0.1]), np.full(3, 100.0), np.full(2, 100.0),
+            paper.DEVIATION, 0.05, True, barrier_rate=dt / paper.BARRIER_TIME,
+        )  # fmt: skip
+        regulate(
+            estimate, estimate, np.array([v_prev, 0.0]), np.array([-7.241, 3.759, 0.346]),
+            kinds, params,
+            controller, Plant(dt, limits, constraint_margin=0.003), memory, scratch(), u,
+        )  # fmt: skip
+        outputs.append((u, memory[paper.CORRECTED]))
+    (fast, fast_corrected), (slow, slow_corrected) = outputs
+    assert fast_corrected == slow_corrected == 1.0
+    np.testing.assert_allclose(fast, slow, rtol=1e-9, atol=1e-9)
+    if v_prev == 0.0:
+        assert fast[0] == pytest.approx(0.437, abs=0.005)  # eq. (28) alone: -0.082
+
+
 @pytest.mark.parametrize(
     ("low", "high", "tolerance"),
     [

@@ -797,6 +797,103 @@ def _turns_sooner(speed: float, turn: float, limits: FloatArray) -> bool:
     return bool(turn_time(turn, limits) < 2.0 * speed / limits[2])
 
 
+@kernel
+def _row_held(
+    kind: int,
+    p: FloatArray,
+    margin: float,
+    keep: float,
+    now: tuple[float, float, float, float],
+    next_: tuple[float, float, float, float, float],
+    rate: float,
+    dt: float,
+) -> tuple[float, float, float, float, float, float, float]:
+    """A row's barrier value of eq. (28), ``c(k+1) - (1 - gamma) c(k)`` with
+    ``keep`` = 1 - gamma, the row shrunk by ``margin``, at the point ``next_``
+    (x, y, heading at k+1, v, omega) from ``now`` (x, y, heading, v at k),
+    and under an acceleration limit ``rate`` (inf: none) on the line braking
+    from v takes where further in: the value, its gradient and the sensitivity
+    of its point to (v, omega) beyond x_{k+1}'s (2x2 row by row)."""
+    x, y = now[0], now[1]
+    px, py = next_[0], next_[1]
+    if kind == POLYGON_ROW:  # a keep-out box or polygon: its signed distance
+        value, gx, gy = polygon_value(p, margin, px, py)
+        if keep > 0.0:
+            value -= keep * polygon_value(p, margin, x, y)[0]
+    else:
+        value, gx, gy = row_value_with_margin(kind, p, margin, px, py)
+        if keep > 0.0:
+            value -= keep * row_value_with_margin(kind, p, margin, x, y)[0]
+    if rate == math.inf:
+        return value, gx, gy, 0.0, 0.0, 0.0, 0.0
+    held, gx, gy, e00, e01, e10, e11, _ = held_where_braking_ends(
+        kind, p, margin, keep, value, gx, gy, now, next_, (0.0, 0.0, 0.0, 0.0), rate, dt
+    )
+    return held, gx, gy, e00, e01, e10, e11
+
+
+# Halvings of the way back from eq. (28)'s input to the regulator's
+# (_share_kept): the share found to 1/1024 of the way.
+SHARE_HALVINGS = 10
+
+
+@kernel
+def _rows_hold(
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+    keep: float,
+    now: tuple[float, float, float, float],
+    v: float,
+    omega: float,
+    rate: float,
+    dt: float,
+) -> bool:
+    """Whether every row's barrier value (:func:`_row_held`) is at most 0
+    with the input (v, omega) from ``now`` (x, y, heading, v_{k-1})."""
+    px, py, pth = step(now[0], now[1], now[2], v, omega, dt)
+    for i in range(row_kinds.shape[0]):
+        held = _row_held(
+            row_kinds[i], row_params[i], margin, keep, now, (px, py, pth, v, omega), rate, dt
+        )[0]
+        if not held <= 0.0:
+            return False
+    return True
+
+
+@kernel
+def _share_kept(
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+    keep: float,
+    now: tuple[float, float, float, float],
+    inputs: tuple[float, float, float, float],
+    rate: float,
+    dt: float,
+) -> float:
+    """The largest share (to 2^-SHARE_HALVINGS) of the way from eq. (28)'s
+    input (inputs[0], inputs[1]) to the regulator's (inputs[2], inputs[3])
+    at which every row still holds (:func:`_rows_hold`); 0 where eq. (28)'s
+    input itself does not keep them (its first order fell short), or where
+    none further on found does. Between two inputs within the limits every
+    input on the way is within them (the limits are a box)."""
+    v2, omega2, v1, omega1 = inputs
+    if not _rows_hold(row_kinds, row_params, margin, keep, now, v2, omega2, rate, dt):
+        return 0.0
+    low = 0.0
+    high = 1.0
+    for _ in range(SHARE_HALVINGS):
+        middle = 0.5 * (low + high)
+        v = v2 + middle * (v1 - v2)
+        omega = omega2 + middle * (omega1 - omega2)
+        if _rows_hold(row_kinds, row_params, margin, keep, now, v, omega, rate, dt):
+            low = middle
+        else:
+            high = middle
+    return low
+
+
 @inlined
 def regulate_input(
     estimate: FloatArray,
@@ -942,25 +1039,13 @@ def regulate_input(
     extra = (0.0, 0.0, 0.0, 0.0)
     worst = 0.0
     for i in range(row_kinds.shape[0]):
-        if row_kinds[i] == POLYGON_ROW:  # a keep-out box or polygon: its signed distance
-            value, gx, gy = polygon_value(row_params[i], margin, px, py)
-            if keep > 0.0:
-                value -= keep * polygon_value(row_params[i], margin, x, y)[0]
-        else:
-            value, gx, gy = row_value_with_margin(row_kinds[i], row_params[i], margin, px, py)
-            if keep > 0.0:
-                now, _, _ = row_value_with_margin(row_kinds[i], row_params[i], margin, x, y)
-                value -= keep * now
-        if rate != math.inf:
-            held, gx, gy, e00, e01, e10, e11, _ = held_where_braking_ends(
-                row_kinds[i], row_params[i], margin, keep, value, gx, gy,
-                (x, y, theta, v_prev), (px, py, pth, v1, omega1),
-                (0.0, 0.0, 0.0, 0.0), rate, dt,
-            )  # fmt: skip
-            if held > worst:
-                worst = held
-                extra = (e00, e01, e10, e11)
-            value = held
+        value, gx, gy, e00, e01, e10, e11 = _row_held(
+            row_kinds[i], row_params[i], margin, keep, (x, y, theta, v_prev),
+            (px, py, pth, v1, omega1), rate, dt,
+        )  # fmt: skip
+        if rate != math.inf and value > worst:
+            worst = value
+            extra = (e00, e01, e10, e11)
         if value <= 0.0:
             continue
         slot, count = kept_row_slot(value, count, eta)
@@ -980,7 +1065,22 @@ def regulate_input(
         b[1, 1] += extra[3]
     dv, dw = corrective_input(d, eta, count, b, controller.w, controller.m, robot.limits)
     memory[CORRECTED] = 1.0
-    u_out[0], u_out[1] = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)
+    v2, omega2 = saturate(v1 + dv, omega1 + dw, v_prev, omega_prev, robot.limits, dt)
+    # Eq. (28) is first order, at the point the regulator's input reaches: by
+    # a box's or a polygon's corner (a row that bends as the distance to one
+    # point) it stopped the robot where the rows let it on, for good, or
+    # turned it back (docs/paper-notes.md, eq. (28), "Back towards the
+    # regulator's input"): move back towards that input as far as the rows
+    # still hold.
+    share = _share_kept(
+        row_kinds, row_params, margin, keep, (x, y, theta, v_prev),
+        (v2, omega2, v1, omega1), rate, dt,
+    )  # fmt: skip
+    if share > 0.0:
+        v2 += share * (v1 - v2)
+        omega2 += share * (omega1 - omega2)
+    u_out[0] = v2
+    u_out[1] = omega2
 
 
 @kernel

@@ -31,6 +31,7 @@ from wmr_mission.controllers.paper import (
     INCREMENT,
     REVERSE_HYSTERESIS,
     REVERSING,
+    SHARE_HALVINGS,
     TURN_SLEW,
     TURNABLE_SPEED,
     PaperTuning,
@@ -661,33 +662,38 @@ def regulate_input(
     if row_kinds.shape[0] == 0:
         return
     # eq. (28): the rows the prediction violates, at most the two worst.
-    predicted = predict(estimate, v, omega, dt)
     margin = robot.constraint_margin
-    values, gradients = constraint_values(
-        row_kinds, shrunk(row_params, row_kinds, margin), predicted[:2], margin
-    )
-    if controller.barrier_rate < 1.0:  # the barrier c(k+1) <= (1 - gamma) c(k)
-        now, _ = constraint_values(
-            row_kinds, shrunk(row_params, row_kinds, margin), estimate[:2], margin
-        )
-        values = values - (1.0 - controller.barrier_rate) * now
+    rows = shrunk(row_params, row_kinds, margin)
     rate = float(limits[2])
-    braked = np.zeros(values.size, dtype=bool)
-    if math.isfinite(rate):
-        # also on the whole line braking from v takes (from v_{k-1} now), at
-        # its point furthest in, whichever is further in
-        rows = shrunk(row_params, row_kinds, margin)
-        on_line, line_gradients, moves, _ = largest_on_braking_line(
-            row_kinds, rows, margin, predicted[:2], float(predicted[2]), v, rate, dt
-        )
-        if controller.barrier_rate < 1.0:
-            then, _, _, _ = largest_on_braking_line(
-                row_kinds, rows, margin, estimate[:2], float(estimate[2]), v_prev, rate, dt
+
+    def held(v: float, omega: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """The rows' barrier values with the input (v, omega), their
+        gradients, whether each is held on the braking line, and that line's
+        points' sensitivities."""
+        predicted = predict(estimate, v, omega, dt)
+        values, gradients = constraint_values(row_kinds, rows, predicted[:2], margin)
+        if controller.barrier_rate < 1.0:  # the barrier c(k+1) <= (1 - gamma) c(k)
+            now, _ = constraint_values(row_kinds, rows, estimate[:2], margin)
+            values = values - (1.0 - controller.barrier_rate) * now
+        braked = np.zeros(values.size, dtype=bool)
+        moves = np.zeros((values.size, 4))
+        if math.isfinite(rate):
+            # also on the whole line braking from v takes (from v_{k-1} now), at
+            # its point furthest in, whichever is further in
+            on_line, line_gradients, moves, _ = largest_on_braking_line(
+                row_kinds, rows, margin, predicted[:2], float(predicted[2]), v, rate, dt
             )
-            on_line = on_line - (1.0 - controller.barrier_rate) * then
-        braked = ~(on_line <= values)
-        values = np.where(braked, on_line, values)
-        gradients = np.where(braked[:, None], line_gradients, gradients)
+            if controller.barrier_rate < 1.0:
+                then, _, _, _ = largest_on_braking_line(
+                    row_kinds, rows, margin, estimate[:2], float(estimate[2]), v_prev, rate, dt
+                )
+                on_line = on_line - (1.0 - controller.barrier_rate) * then
+            braked = ~(on_line <= values)
+            values = np.where(braked, on_line, values)
+            gradients = np.where(braked[:, None], line_gradients, gradients)
+        return values, gradients, braked, moves
+
+    values, gradients, braked, moves = held(v, omega)
     violated = np.flatnonzero(~(values <= 0.0))
     if violated.size == 0:
         return
@@ -698,7 +704,22 @@ def regulate_input(
         b[:2, :] += moves[worst[0]].reshape(2, 2)
     du = corrective_input(d, -values[worst], b, w, m, limits)
     memory[CORRECTED] = 1.0
-    u_out[0], u_out[1] = saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt)
+    corrected = np.array(saturate(v + du[0], omega + du[1], v_prev, omega_prev, limits, dt))
+    # eq. (28) is first order: back towards the regulator's input (v, omega)
+    # by the largest share, halved SHARE_HALVINGS times, at which the rows
+    # hold, if they hold at the corrected input at all
+    wanted = np.array([v, omega])
+    if np.all(held(*corrected)[0] <= 0.0):
+        low, high = 0.0, 1.0
+        for _ in range(SHARE_HALVINGS):
+            middle = 0.5 * (low + high)
+            if np.all(held(*(corrected + middle * (wanted - corrected)))[0] <= 0.0):
+                low = middle
+            else:
+                high = middle
+        if low > 0.0:
+            corrected = corrected + low * (wanted - corrected)
+    u_out[0], u_out[1] = corrected
 
 
 # The fast kernels and their reference forms: ``run_mission(mission,
