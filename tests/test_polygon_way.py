@@ -182,13 +182,15 @@ def test_generated_missions_past_boxes_and_polygons(shapes: Path, tmp_path: Path
 @pytest.mark.sweep
 def test_the_generated_set_past_boxes_and_polygons(shapes: Path, tmp_path: Path) -> None:
     """All 106 (docs/paper-notes.md, eq. (28), "The way round a box or
-    polygon, decided once"): 87 succeed, where 66 did with the shorter way
-    across taken at each aim, 76 with the ramp on the pass's line alone and
-    77 with the ramp under acceleration limits; no false alarm, and at most
-    the 2 dishonest successes named there."""
+    polygon, decided once"): 95 succeed, where 66 did with the shorter way
+    across taken at each aim, 76 with the ramp on the pass's line alone, 77
+    with the ramp under acceleration limits and 87 with a park by a corner
+    stopped by eq. (28)'s first order ("Back towards the regulator's
+    input"); no false alarm, and at most the 2 dishonest successes named
+    there."""
     judged = judge_all(sorted(shapes.glob("*.yaml")), tmp_path, workers=2)
     assert len(judged) == 106
-    assert sum(j.success for j in judged) >= 87
+    assert sum(j.success for j in judged) >= 95
     assert [j.mission for j in judged if not j.success and j.sound] == []
     dishonest = {j.mission for j in judged if j.success and not j.sound}
     assert dishonest <= {"gen-031-line-poly", "gen-093-ellipse-poly"}
