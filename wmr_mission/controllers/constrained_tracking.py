@@ -1210,22 +1210,11 @@ def along_the_pass(way: FloatArray, x: float, y: float) -> float:
     # distance along, on to the nearer neighbour while there is one: the
     # distance to a pass that bends less sharply than the point is far from
     # it falls to its least and rises after.
-    along = way[2] * (x - way[0]) + way[3] * (y - way[1])
-    low = 0
-    high = PASS_POINTS - 1
-    while high - low > 1:  # the last point no further along the tangent than (x, y)
-        middle = (low + high) // 2
-        at = way[2] * (way[WAY_HEAD + middle] - way[0]) + way[3] * (
-            way[WAY_HEAD + PASS_POINTS + middle] - way[1]
-        )
-        if at <= along:
-            low = middle
-        else:
-            high = middle
-    gap, share = _from_chord(way, low, x, y)
+    low = _last_pass_point_before(way, way[2] * (x - way[0]) + way[3] * (y - way[1]))
+    gap, share = _squared_off_chord(way, low, x, y)
     for sense in (1, -1):
         while 0 <= low + sense <= PASS_POINTS - 2:
-            next_gap, next_share = _from_chord(way, low + sense, x, y)
+            next_gap, next_share = _squared_off_chord(way, low + sense, x, y)
             if not next_gap < gap:
                 break
             low += sense
@@ -1234,10 +1223,30 @@ def along_the_pass(way: FloatArray, x: float, y: float) -> float:
 
 
 @kernel
-def _from_chord(way: FloatArray, i: int, x: float, y: float) -> tuple[float, float]:
-    """The squared distance of (x, y) from chord ``i`` of the pass of ``way``,
-    and the share along it of its point nearest: beyond the pass's ends, on
-    along its end chords (the distance the end point's)."""
+def _last_pass_point_before(way: FloatArray, along: float) -> int:
+    """The last of the pass's points of ``way`` no further than ``along``
+    along the way's tangent (0 if none is): the pass heads within a quarter
+    turn of the tangent, so its points' distances along it grow."""
+    low = 0
+    high = PASS_POINTS - 1
+    while high - low > 1:
+        middle = (low + high) // 2
+        at = way[2] * (way[WAY_HEAD + middle] - way[0]) + way[3] * (
+            way[WAY_HEAD + PASS_POINTS + middle] - way[1]
+        )
+        if at <= along:
+            low = middle
+        else:
+            high = middle
+    return low
+
+
+@kernel
+def _off_chord(way: FloatArray, i: int, x: float, y: float) -> tuple[float, float, float]:
+    """The offset of (x, y) from the point of chord ``i`` of the pass of
+    ``way`` nearest it, and that point's share along the chord; beyond the
+    pass's ends the share goes on along its end chords (the offset the end
+    point's)."""
     ax = way[WAY_HEAD + i]
     ay = way[WAY_HEAD + PASS_POINTS + i]
     ex = way[WAY_HEAD + i + 1] - ax
@@ -1247,11 +1256,16 @@ def _from_chord(way: FloatArray, i: int, x: float, y: float) -> tuple[float, flo
     if length2 > 0.0:
         share = ((x - ax) * ex + (y - ay) * ey) / length2
     kept = min(max(share, 0.0), 1.0)
-    gap_x = ax + kept * ex - x
-    gap_y = ay + kept * ey - y
     if not ((i == 0 and share < 0.0) or (i == PASS_POINTS - 2 and share > 1.0)):
         share = kept
-    return gap_x * gap_x + gap_y * gap_y, share
+    return ax + kept * ex - x, ay + kept * ey - y, share
+
+
+@kernel
+def _squared_off_chord(way: FloatArray, i: int, x: float, y: float) -> tuple[float, float]:
+    """:func:`_off_chord`'s offset squared, and its share."""
+    off_x, off_y, share = _off_chord(way, i, x, y)
+    return off_x * off_x + off_y * off_y, share
 
 
 @kernel
@@ -1275,28 +1289,12 @@ def on_another_stretch(
     # the aim's own distance along can be within twice the band of the aim.
     reach = 2.0 * PASS_BAND
     along = way[2] * (x - way[0]) + way[3] * (y - way[1])
-    low = 0
-    high = PASS_POINTS - 1
-    while high - low > 1:  # the last point no further along than the aim less the reach
-        middle = (low + high) // 2
-        at = way[2] * (way[WAY_HEAD + middle] - way[0]) + way[3] * (
-            way[WAY_HEAD + PASS_POINTS + middle] - way[1]
-        )
-        if at <= along - reach:
-            low = middle
-        else:
-            high = middle
     near = math.inf
-    for i in range(low, PASS_POINTS - 1):
+    for i in range(_last_pass_point_before(way, along - reach), PASS_POINTS - 1):
+        off_x, off_y, _ = _off_chord(way, i, x, y)
+        near = min(near, math.hypot(off_x, off_y))
         ax = way[WAY_HEAD + i]
         ay = way[WAY_HEAD + PASS_POINTS + i]
-        ex = way[WAY_HEAD + i + 1] - ax
-        ey = way[WAY_HEAD + PASS_POINTS + i + 1] - ay
-        length2 = ex * ex + ey * ey
-        share = 0.0
-        if length2 > 0.0:
-            share = min(max(((x - ax) * ex + (y - ay) * ey) / length2, 0.0), 1.0)
-        near = min(near, math.hypot(ax + share * ex - x, ay + share * ey - y))
         if way[2] * (ax - way[0]) + way[3] * (ay - way[1]) > along + reach:
             break  # this chord starts beyond the reach: so do the rest
     share = min(max(near / PASS_BAND - 1.0, 0.0), 1.0)
