@@ -73,7 +73,7 @@ def mission_from_dict(
 def run_mission(mission: Mission, *, seed: int | None = None) -> RunResult:
     """Check ``mission`` as a file would be checked, simulate it and judge it by its ``expect``.
 
-    ``seed`` overrides the mission's sensor-noise seed. Raises
+    ``seed`` overrides the mission's seed (of every random draw). Raises
     :class:`MissionError` when the mission is invalid (e.g. a copy made with
     ``model_copy(update=...)``, which pydantic does not validate).
     """

@@ -220,7 +220,7 @@ def run(
             metavar="N",
             min=0,
             max=2**32 - 1,
-            help="Sensor-noise seed; overrides the mission's.",
+            help="Seed of every random draw (noise and disturbances); overrides the mission's.",
         ),
     ] = None,
     set_: Annotated[
@@ -301,7 +301,7 @@ def serve_robot(
             metavar="N",
             min=0,
             max=2**32 - 1,
-            help="Sensor-noise seed; overrides the mission's.",
+            help="Seed of every random draw (noise and disturbances); overrides the mission's.",
         ),
     ] = None,
     plan_from: Annotated[
