@@ -49,10 +49,11 @@ def test_robots_with_bodies_go_round_their_rocks(bodies: Path, tmp_path: Path) -
 
 @pytest.mark.sweep
 def test_the_generated_set_with_bodies(bodies: Path, tmp_path: Path) -> None:
-    """All 150: at least 134 succeed (132 with the ramp down after a zone
-    measured along its pass's tangent), no false alarm, no dishonest success
-    (docs/soundness.md, "Robots with bodies")."""
+    """All 150: at least 136 succeed (132 with the ramp down after a zone
+    measured along its pass's tangent, 134 while a zone the phase never
+    reaches still got a way round), no false alarm, no dishonest success (docs/soundness.md,
+    "Robots with bodies")."""
     judged = judge_all(sorted(bodies.glob("*.yaml")), tmp_path, workers=2)
     assert len(judged) == 150
-    assert sum(j.success for j in judged) >= 134
+    assert sum(j.success for j in judged) >= 136
     assert [j.mission for j in judged if j.success != j.sound] == []

@@ -1097,6 +1097,20 @@ def kept_out(row_kinds: IntArray, row_params: FloatArray) -> tuple[IntArray, Flo
     return rows, centres
 
 
+def comes_near(kind: int, p: FloatArray, x: FloatArray, y: FloatArray, clear: float) -> bool:
+    """Whether a path through the points (x, y) comes within ``clear`` of the
+    keep-out row ``p`` of ``kind``: into the ellipse grown by it (its
+    semi-axes, as row_value_with_margin grows them). A box or polygon: True,
+    its way kept whatever (a zero way still goes round it by the shorter way
+    at each aim)."""
+    if kind == POLYGON_ROW:
+        return True
+    c, s = math.cos(p[4]), math.sin(p[4])
+    u = (c * (x - p[0]) + s * (y - p[1])) / (p[2] + clear)
+    w = (-s * (x - p[0]) + c * (y - p[1])) / (p[3] + clear)
+    return bool(np.any(u * u + w * w <= 1.0))
+
+
 def ways_round(
     x: FloatArray, y: FloatArray, row_kinds: IntArray, row_params: FloatArray
 ) -> FloatArray:

@@ -23,9 +23,11 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from wmr_mission.basics import FloatArray, IntArray
 from wmr_mission.controllers.constrained_tracking import (
+    AIM_GAP,
     PASS_POINTS,
     WAY_COLUMNS,
     WAY_HEAD,
+    comes_near,
     kept_out,
     nearest_chords,
     pass_points,
@@ -313,7 +315,10 @@ class PhaseRun:
         )
         x, y, speed = (np.reshape(z, near.shape) for z in self._path_points(near.ravel()))
         chords, shares = nearest_chords(x, y, centres[:, 0], centres[:, 1])
+        clear = self._clear()
         for j, i in enumerate(keep_out.tolist()):
+            if not comes_near(int(kinds[i]), params[i], x[j], y[j], clear):
+                continue  # never near over the phase's bound: no way round it
             k, share = int(chords[j]), float(shares[j])
             way = way_at(x[j], y[j], k, share, int(kinds[i]), params[i])
             if k >= 0:
@@ -325,6 +330,19 @@ class PhaseRun:
                 reach = pass_reach(int(kinds[i]), params[i])
                 way[WAY_HEAD:] = self._pass(t_near, way, reach, whole, j)
             self.ways[i] = way
+
+    def _clear(self) -> float:
+        """[m] How near a keep-out zone the phase's path may pass with no
+        way round it: the margin kept round every zone, the look-ahead of
+        the controller's tuning in force (0 for one without) and the aim's
+        gap beyond them (AIM_GAP at most). A zone the path over the phase's
+        bound stays this far from needs no ramp: on the tangent line of the
+        path's point nearest it, a zone the path reached only after the
+        phase's end was ramped towards (docs/paper-notes.md, eq. (28), "No
+        way round a zone the phase does not reach")."""
+        tuning = self.tuning if self.tuning is not None else self.mission.controller_tuning
+        look_ahead = float(getattr(tuning, "look_ahead", 0.0))
+        return float(self.mission.plant.constraint_margin) + look_ahead + AIM_GAP
 
     def _pass(
         self,
