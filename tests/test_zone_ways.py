@@ -214,9 +214,10 @@ def test_the_ways_round_several_zones_are_each_zones_own() -> None:
     (PhaseRun._find_ways, one sampling about each zone's nearest chord in
     one call): each zone's way round is the one found for it alone, from the
     path sampled about its own nearest chord (ways_round), to the bit; a
-    zone beside a circle's far side and one off its end included."""
+    zone beside a circle's far side and one off its end have none, the path
+    over the phase's bound never near them (tests/test_phase_end_zone.py)."""
     from wmr_mission import mission_from_dict
-    from wmr_mission.controllers.constrained_tracking import way_at
+    from wmr_mission.controllers.constrained_tracking import comes_near, way_at
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import WAY_HORIZON, WAY_SAMPLES, PhaseRun
 
@@ -267,9 +268,13 @@ def test_the_ways_round_several_zones_are_each_zones_own() -> None:
         chord = _nearest_chord(fine_x, fine_y, *params[i, :2])
         alone = way_at(fine_x, fine_y, *chord, int(kinds[i]), params[i])
         assert alone[4] != 0.0
+        if not comes_near(int(kinds[i]), params[i], fine_x, fine_y, phase._clear()):
+            assert (phase.ways[i] == 0.0).all()
+            continue
         assert phase.ways[i, :5].tobytes() == alone[:5].tobytes()
         # the path's speed there; a route with rounded corners never rests
         assert phase.ways[i, 5] == pytest.approx(1.0)
         assert phase.ways[i, 6] == math.inf
+    assert [phase.ways[i, 4] != 0.0 for i in keep_out] == [True, False, True, False]
     others = np.setdiff1d(np.arange(kinds.size), keep_out)
     assert (phase.ways[others] == 0.0).all()
