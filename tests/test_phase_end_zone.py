@@ -54,3 +54,35 @@ def test_a_phase_that_ends_before_its_rock_tracks_its_ellipse(tmp_path: Path) ->
     the rock, and with no way round it the robot tracks its ellipse."""
     (judged,) = judge_all([ZONES / "ellipse-rock-after-the-end.yaml"], tmp_path, workers=1)
     assert (judged.outcome, judged.sound) == ("success", True)
+
+
+def test_a_long_zone_whose_end_the_path_crosses_keeps_its_way() -> None:
+    """A long ellipse whose middle lies 3 m off a straight path and whose end
+    crosses it: the path about its point nearest the centre never comes near,
+    the path over the phase's bound does, and the zone keeps its way round."""
+    from wmr_mission import mission_from_dict
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import PhaseRun
+
+    rock = {"type": "ellipse", "center": [10, 3], "semi_axes": [8, 0.3], "rotation": 0.4}
+    data = {
+        "version": 1,
+        "name": "long-rock",
+        "robot": {"dt": 0.01, "initial_state": {"x": 0, "y": 0, "theta": 0}},
+        "regions": {"rock": rock},
+        "phases": [
+            {
+                "name": "drive",
+                "track": {"path": {"type": "line", "heading": 0.0, "speed": 1.0}},
+                "constraints": [{"stay_outside": "rock"}],
+                "until": {"elapsed": 20},
+            }
+        ],
+    }
+    plan = plan_mission(mission_from_dict(data))
+    phase = PhaseRun(plan.phases[0], plan, 0)
+    phase.enter(0, np.zeros(3))
+    kinds, params = plan.phases[0].constraint_rows
+    middle = np.linspace(9.5, 10.5, 11)
+    assert not comes_near(int(kinds[0]), params[0], middle, 0.0 * middle, phase._clear())
+    assert phase.ways[0, 4] != 0.0

@@ -253,6 +253,8 @@ class PhaseRun:
         """``update`` takes over at sample k: its path, made from the estimated
         pose x_{k|k}, restarts at its own t = 0 at sample k; its target is the
         phase's from sample k (docs/paper-notes.md, "References that change on-line")."""
+        if update.controller_tuning is not None:  # first: the ways round read its look-ahead
+            self.tuning = update.controller_tuning
         if update.make_trajectory is not None:
             pose = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
             self._trajectory = self._made = update.make_trajectory(pose)
@@ -269,8 +271,6 @@ class PhaseRun:
             self._trajectory = Retimed(self._made, *self.warp)
             self._sampled = (0, np.zeros((0, 4)))
             self.path_shift = self.entry_sample - k
-        if update.controller_tuning is not None:
-            self.tuning = update.controller_tuning
         if update.hold and self.phase.kind == "regulate":
             self.target_in_force = (float(estimate[0]), float(estimate[1]), float(estimate[2]))
             self.target[:] = self.target_in_force
@@ -317,10 +317,14 @@ class PhaseRun:
         chords, shares = nearest_chords(x, y, centres[:, 0], centres[:, 1])
         clear = self._clear()
         for j, i in enumerate(keep_out.tolist()):
-            if not comes_near(int(kinds[i]), params[i], x[j], y[j], clear):
+            kind = int(kinds[i])
+            near_and_whole = ((x[j], y[j]), whole[:2])
+            # the path about its chord nearest the zone's centre, and over the
+            # whole bound: a long zone's end may be where the path passes it
+            if not any(comes_near(kind, params[i], px, py, clear) for px, py in near_and_whole):
                 continue  # never near over the phase's bound: no way round it
             k, share = int(chords[j]), float(shares[j])
-            way = way_at(x[j], y[j], k, share, int(kinds[i]), params[i])
+            way = way_at(x[j], y[j], k, share, kind, params[i])
             if k >= 0:
                 way[5] = speed[j, k] + share * (speed[j, k + 1] - speed[j, k])
                 rest = rest_points[j]
