@@ -11,6 +11,7 @@ import re
 import shutil
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,18 @@ MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 HOUR = Path(__file__).resolve().parent.parent / "benchmarks" / "hour.yaml"
 
 pytestmark = pytest.mark.skipif(not jit.compiling(), reason="the compiled build only")
+
+
+@pytest.fixture(autouse=True)
+def _cache_directory_found_again() -> Iterator[None]:
+    """The cache directory found afresh after each test, once its monkeypatch
+    is undone: a test here that points NUMBA_CACHE_DIR at a directory of its
+    own and asks for the cache directory leaves it remembered
+    (``functools.cache``), and a later test in the process copied or compiled
+    into that directory instead of the session's (tests/test_compile_first.py
+    compiled every loop again: 119 s of CPU)."""
+    yield
+    kernel_cache.cache_directory.cache_clear()
 
 
 def _env(cache: Path, **more: str) -> dict[str, str]:
@@ -140,6 +153,8 @@ def _cache_of_this_session(tmp_path: Path) -> Path:
     run_mission(plan_mission(load_mission(MISSIONS / "fence.yaml")))
     source = kernel_cache.cache_directory()
     assert source is not None
+    # numba's own, as the package pointed it when it loaded numba
+    assert str(source) == os.environ["NUMBA_CACHE_DIR"]
     cache = tmp_path / "cache"
     shutil.copytree(
         source,
@@ -478,27 +493,23 @@ def test_an_edit_to_any_kernel_module_is_a_new_cache_directory(
     """numba judges a cached function by its own file: an edited control law
     would leave loop.py's compiled copy of it stale. Here the directory
     changes with every kernel module, and the earlier one is removed."""
-    try:
-        package = _sources(tmp_path, monkeypatch)
-        cache = tmp_path / "cache"
-        first = _chosen(cache, monkeypatch)
-        assert first.parent == cache / "wmr_mission"
-        (first / "kept").write_text("")
-        assert _chosen(cache, monkeypatch) == first  # unchanged sources: the same
-        assert (first / "kept").exists()
-        seen = {first}
-        for name in ("controllers/paper.py", "campaign/coverage.py"):
-            with open(package / name, "a") as module:
-                module.write("\n# edited\n")
-            directory = _chosen(cache, monkeypatch)
-            assert directory not in seen, name
-            seen.add(directory)
-            assert [p.name for p in directory.parent.iterdir()] == [directory.name]
-        # A process started by this one, NUMBA_CACHE_DIR inherited, takes it as it is.
-        assert _chosen(directory, monkeypatch) == directory
-    finally:
-        monkeypatch.undo()
-        kernel_cache.cache_directory.cache_clear()
+    package = _sources(tmp_path, monkeypatch)
+    cache = tmp_path / "cache"
+    first = _chosen(cache, monkeypatch)
+    assert first.parent == cache / "wmr_mission"
+    (first / "kept").write_text("")
+    assert _chosen(cache, monkeypatch) == first  # unchanged sources: the same
+    assert (first / "kept").exists()
+    seen = {first}
+    for name in ("controllers/paper.py", "campaign/coverage.py"):
+        with open(package / name, "a") as module:
+            module.write("\n# edited\n")
+        directory = _chosen(cache, monkeypatch)
+        assert directory not in seen, name
+        seen.add(directory)
+        assert [p.name for p in directory.parent.iterdir()] == [directory.name]
+    # A process started by this one, NUMBA_CACHE_DIR inherited, takes it as it is.
+    assert _chosen(directory, monkeypatch) == directory
 
 
 def test_every_module_of_kernels_is_in_the_stamp_of_the_cache() -> None:
