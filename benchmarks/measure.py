@@ -9,6 +9,7 @@
     python benchmarks/measure.py startup COMMIT   # the same, each also as at COMMIT, in turn
     python benchmarks/measure.py threshold  # where the compiled loop pays for its load, per mission
     python benchmarks/measure.py threshold SECONDS ...   # the same, hour.yaml cut to these alone
+    python benchmarks/measure.py short [COMMIT] [MISSION.yaml ...]   # short runs: chosen, compiled
     python benchmarks/measure.py cuts       # what each start-up setting of the command line saves
     python benchmarks/measure.py cuts WORD ...   # the same, of the cases named with a word
     python benchmarks/measure.py imports    # CPU of `validate`'s imports, one by one
@@ -989,6 +990,52 @@ def threshold(pairs: int = 3) -> None:
             print(f"  {name:45s} budget {budget:6d}: plain {statistics.median(plain_cpu):.2f} s, "
                   f"compiled {statistics.median(compiled_cpu):.2f} s, compiled / plain "
                   f"{_ratio(plain_cpu, compiled_cpu):.2f}")  # fmt: skip
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def _short_missions() -> list[Path]:
+    """Every tenth mission of tests/data/generated whose sample budget is at
+    most the bound under which `run` starts it as plain Python."""
+    from wmr_mission.commands.compile import PLAIN_PYTHON_SAMPLES
+    from wmr_mission.sim.plan import sample_budget
+    from wmr_mission.spec.loader import load_mission
+
+    generated = sorted((ROOT / "tests" / "data" / "generated").glob("*.yaml"))
+    short = [p for p in generated if sample_budget(load_mission(p)) <= PLAIN_PYTHON_SAMPLES]
+    return short[::10]
+
+
+def short(pairs: int = 5) -> None:
+    """`run --no-plots` of short missions (_short_missions, or the files named
+    after the commit), the kernel cache warm: as `run` chooses, and with the
+    compiled loop loaded from the start, in turn; with a commit's name (`short
+    COMMIT`), as `run` chose at that commit too. CPU seconds, medians, and the
+    ratios pair by pair."""
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    env = _user_env()
+    against = sys.argv[2] if len(sys.argv) > 2 and not sys.argv[2].endswith(".yaml") else None
+    named = [Path(p).resolve() for p in sys.argv[2 + (against is not None) :]]
+    paths = named or _short_missions()
+    subprocess.run([sys.executable, "-m", "wmr_mission", "compile"], check=True, env=env)
+    then = _compiled_at(against) if against is not None else None
+    with tempfile.TemporaryDirectory() as tmp:
+        os.chdir(tmp)  # `python -m` puts the working directory before PYTHONPATH
+        for path in paths:
+            run = ["run", str(path), "--no-plots", "--out"]
+            commands = [[sys.executable, "-m", "wmr_mission", *run, f"{tmp}/now"],
+                        [sys.executable, "-c", _RUN_COMPILED, *run, f"{tmp}/compiled"]]  # fmt: skip
+            envs = [env, env]
+            if then is not None:
+                commands.append([sys.executable, "-m", "wmr_mission", *run, f"{tmp}/then"])
+                envs.append(then)
+            times = _pairs(commands, envs, pairs)
+            line = (f"{path.stem:20s} now {statistics.median(times[0]):.2f} s, compiled from the "
+                    f"start {statistics.median(times[1]):.2f} s (now / that "
+                    f"{_ratio(times[1], times[0]):.2f})")  # fmt: skip
+            if then is not None:
+                line += (f", at {against} {statistics.median(times[2]):.2f} s (now / then "
+                         f"{_ratio(times[2], times[0]):.2f})")  # fmt: skip
+            print(line, flush=True)
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -2407,6 +2454,7 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else ""
     jobs = {"loop": loop, "startup": startup, "compile": compile_times, "memory": memory}
     jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
+    jobs |= {"short": short}
     jobs |= {"cuts": cuts, "imports": imports, "parts": parts, "classes": classes}
     jobs |= {"llvm": llvm}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
