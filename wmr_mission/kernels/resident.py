@@ -8,7 +8,9 @@
   the kernel unmaps them, and reads them back from the file (its page
   cache) should the compiler run again, a later compile in the same
   process. A mapping holding a page of its own (``Anonymous`` in
-  ``/proc/self/smaps``: relocated data) is left as it is.
+  ``/proc/self/smaps``: relocated data) is left as it is. Given back once
+  the loop is loaded, and again before a long run's figures: the judge's
+  compiled passes, loaded from the cache, run LLVM and read some back.
 * **The heap's free pages.** The C library keeps what a run's arrays freed
   for its next allocations; ``malloc_trim`` returns the free pages (the
   judge's temporaries, before the figures are drawn; a figure's, drawn).
@@ -31,7 +33,6 @@ from typing import Any
 LONG_RUN = 100_000
 _COMPILER = "/libllvmlite"
 _MADV_DONTNEED = 4  # Linux's value
-_given_back = False
 
 
 def _libc() -> Any:
@@ -46,12 +47,11 @@ def _libc() -> Any:
 
 def give_back_compiler_pages(library: str = _COMPILER) -> int:
     """Unmap the read-only file pages of the compiler (``library``: a part of
-    its path), once per process; the bytes of the mappings given back."""
-    global _given_back
+    its path); the bytes of the mappings given back. Reading the mappings
+    costs 7-12 ms: for long runs only (LONG_RUN)."""
     libc = _libc()
-    if libc is None or (_given_back and library == _COMPILER):
+    if libc is None:
         return 0
-    _given_back = _given_back or library == _COMPILER
     try:
         with open("/proc/self/smaps", encoding="ascii", errors="replace") as lines:
             spans = read_only_spans(lines, library)

@@ -32,6 +32,7 @@ from wmr_mission.geometry.regions import box_corners
 from wmr_mission.kernels.resident import (
     LONG_RUN,
     collecting_new_objects_only,
+    give_back_compiler_pages,
     give_back_freed_heap,
 )
 from wmr_mission.output.files import atomic_path
@@ -1665,6 +1666,9 @@ def draw_all(
     if not long_run:
         return _draw_each(result, directory, formats, styled, dpi or DPI, long_run)
     give_back_freed_heap()  # the judge's temporaries, freed
+    # The judge's compiled passes, loaded from the cache after the run gave the
+    # compiler's pages back, read 10 MB of them in again (the 1-hour run).
+    give_back_compiler_pages()
     with collecting_new_objects_only():
         return _draw_each(result, directory, formats, styled, dpi or DPI, long_run)
 
