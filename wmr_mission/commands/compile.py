@@ -2,8 +2,9 @@
 
 Loading the compiled loop from the cache costs a process numba's import and
 its entries (about 0.25 s of CPU and 120 MiB); compiling what case study
-2's first run needs, 27 s of CPU (:data:`jit.ONE_VARIANT` of wall time), and
-every variant, 91 s (:data:`EVERY_VARIANT`). Plain Python runs the same
+2's first run needs, about 35 s of CPU (:data:`jit.ONE_VARIANT` of wall
+time), and every variant, 84 s (:data:`EVERY_VARIANT`; docs/performance.md,
+"Compiling the loop"). Plain Python runs the same
 source with the same bytes (wmr_mission.kernels.jit) at 40-130 us a sample,
 judging included. So ``run`` runs a mission as plain Python when its sample
 budget is at most :data:`PLAIN_PYTHON_SAMPLES`, or at most

@@ -27,6 +27,7 @@ points are cached on disk where a directory can be written
 from __future__ import annotations
 
 import contextlib
+import copy
 import importlib.util
 import os
 import platform
@@ -233,7 +234,52 @@ def _set_up_for_compiling() -> None:
 
             with _without_scipy():
                 cpu_target.target_context.refresh()
+            _inlined_copies_share_their_scope()
             _state.set_up = True
+
+
+def _inlined_copies_share_their_scope() -> None:
+    """numba's inliner (``InlineWorker.inline_ir``) copies the callee's IR
+    block by block, each with a memo of its own: each block's variables name
+    the callee's scope, so each block copies the whole scope again, blocks
+    times variables. Inlined into the loop, the paper's controller (263
+    blocks, 4 272 variables once its own kernels are inlined) took 10 s of
+    the 44 s of CPU that case study 2's first run compiled for. Here the
+    blocks of one IR are copied with one memo: the scope once, the copies of
+    the blocks sharing it as the blocks did (docs/performance.md, "Compiling
+    the loop"). For :data:`LOADED_AS_IS_FOR` only, whose inliner this reads."""
+    import numba
+    from numba.core import inline_closurecall, ir
+
+    if numba.__version__.split(".")[:2] != LOADED_AS_IS_FOR.split("."):
+        return
+    namespace = vars(inline_closurecall)
+    if namespace.get("copy") is copy:  # its only use: copy.deepcopy(block)
+        namespace["copy"] = _ScopeSharingCopy(ir.Block)
+
+
+class _ScopeSharingCopy:
+    """The ``copy`` module as numba's inliner sees it: a block copied with
+    no memo of its own is copied with the memo of the other blocks of its IR
+    in the same copy, held until a block of another IR, or one copied
+    already (a new copy of the same IR), is copied."""
+
+    def __init__(self, block_type: Any) -> None:
+        self._block_type = block_type
+        self._scope: Any = None
+        self._memo: dict[int, Any] = {}
+
+    def deepcopy(self, value: Any, memo: dict[int, Any] | None = None) -> Any:
+        if memo is not None or not isinstance(value, self._block_type):
+            return copy.deepcopy(value, memo)
+        # The memo holds what it copied (copy.deepcopy keeps it alive): an id
+        # in it is that block's, copied in this copy of the IR.
+        if value.scope is not self._scope or id(value) in self._memo:
+            self._scope, self._memo = value.scope, {}
+        return copy.deepcopy(value, self._memo)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(copy, name)
 
 
 def make_runtime() -> None:
