@@ -262,7 +262,8 @@ class _ScopeSharingCopy:
     """The ``copy`` module as numba's inliner sees it: a block copied with
     no memo of its own is copied with the memo of the other blocks of its IR
     in the same copy, held until a block of another IR, or one copied
-    already (a new copy of the same IR), is copied."""
+    already (a new copy of the same IR), is copied: after the last compile
+    it keeps the last IR inlined (0.5 MB once case study 2's loop compiled)."""
 
     def __init__(self, block_type: Any) -> None:
         self._block_type = block_type

@@ -853,7 +853,7 @@ class _Run:
         _honour_stop()
         if jit.loaded() and self.m.max_samples >= LONG_RUN:
             jit.make_runtime()  # the judge's passes need it: made while the pages are in
-            give_back_compiler_pages()  # not run again (memory, docs/performance.md)
+            give_back_compiler_pages()  # the simulation runs none (memory, docs/performance.md)
         if self.ready is not None:
             self.ready()
         return (yield from self._chunks(active, phase, draws))
