@@ -1,8 +1,8 @@
 """numba's inliner copies an inlined kernel's IR with one memo for all its
 blocks (wmr_mission.kernels.jit._inlined_copies_share_their_scope): the
-callee's scope once per copy, not once per block. The compiled code is the
-same: every compiled run of the suite is checked against plain Python and
-against pinned trajectories."""
+callee's scope once per copy, not once per block. The results are the same
+here, and every compiled run of the suite is checked against plain Python
+and against pinned trajectories."""
 
 from __future__ import annotations
 

@@ -248,10 +248,9 @@ def _inlined_copies_share_their_scope() -> None:
     blocks of one IR are copied with one memo: the scope once, the copies of
     the blocks sharing it as the blocks did (docs/performance.md, "Compiling
     the loop"). For :data:`LOADED_AS_IS_FOR` only, whose inliner this reads."""
-    import numba
     from numba.core import inline_closurecall, ir
 
-    if numba.__version__.split(".")[:2] != LOADED_AS_IS_FOR.split("."):
+    if not _numba_as_read():
         return
     namespace = vars(inline_closurecall)
     if namespace.get("copy") is copy:  # its only use: copy.deepcopy(block)
@@ -297,8 +296,17 @@ def make_runtime() -> None:
     nrt.rtsys.initialize(cpu_target.target_context)
 
 
-# The numba (major.minor) whose FunctionCache.load_overload _cache_class restates.
+# The numba (major.minor) whose FunctionCache.load_overload _cache_class restates,
+# and whose inliner's copies _inlined_copies_share_their_scope reads.
 LOADED_AS_IS_FOR = "0.68"
+
+
+def _numba_as_read() -> bool:
+    """Whether the numba loaded is :data:`LOADED_AS_IS_FOR`, whose internals
+    this module restates."""
+    import numba
+
+    return bool(numba.__version__.split(".")[:2] == LOADED_AS_IS_FOR.split("."))
 
 
 def _cache_class() -> Any:
@@ -313,11 +321,10 @@ def _cache_class() -> Any:
     (numba's own cache, setting up as it loads) for another numba than
     :data:`LOADED_AS_IS_FOR`: its load_overload may do more than this one
     restates."""
-    import numba
     from numba.core.caching import FunctionCache
     from numba.core.runtime import nrt
 
-    if numba.__version__.split(".")[:2] != LOADED_AS_IS_FOR.split("."):
+    if not _numba_as_read():
         return None
 
     class LoadedAsIs(FunctionCache):
