@@ -45,7 +45,7 @@ def pytest_configure(config: pytest.Config) -> None:
     if config.option.markexpr.strip() == "smoke":
         os.environ.setdefault("WMR_MISSION_NO_JIT", "1")
     elif _the_whole_suite_on_workers(config):
-        _compile_first(config, len(config.option.tx))
+        _compile_first(config)
 
 
 def _the_whole_suite_on_workers(config: pytest.Config) -> bool:
@@ -62,22 +62,36 @@ def _the_whole_suite_on_workers(config: pytest.Config) -> bool:
     )
 
 
-def _compile_first(config: pytest.Config, workers: int) -> None:
+def _compile_first(config: pytest.Config) -> None:
     """The built-in loops compiled into the kernel cache before the workers
-    start, shared out over as many processes (tests/compile_first.py): each
-    compiled once, on every core, instead of by whichever worker's test runs
-    it first, at times by both at once. A failure here is left to the tests
-    that run the loop to report."""
-    import compile_first
+    start, by `wmr-mission compile` (on every core, each variant once)
+    instead of by whichever worker's test runs a loop first, at times by both
+    at once (numba's cache takes no lock, so neither knows the other is
+    compiling). The tests' commands then load the compiled loop where a
+    user's would after that command (`run` of a mission over 5 500 samples
+    compiled: the commands of docs/tutorial.md, tests/test_tutorial.py, take
+    35 s of CPU as plain Python, 12 s so). A failure here is left to the
+    tests that run the loop to report."""
+    import subprocess
+    import sys
 
     reporter = config.pluginmanager.get_plugin("terminalreporter")
     if reporter is not None:
-        reporter.write_line(f"compiling the built-in loops first, in {workers} processes")
+        reporter.write_line("compiling the built-in loops first (wmr-mission compile)")
     # The package the workers import (the source tree under `python -m pytest`,
-    # else the installed one), whose cache is theirs.
-    failed = compile_first.compile_all(workers, the_tests_package(dict(os.environ)))
-    if failed and reporter is not None:
-        reporter.write_line(f"compiling first failed, the tests compile instead:\n{failed}")
+    # else the installed one), whose cache is theirs; started outside the
+    # checkout's root, whose package `python -m` would import first.
+    done = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "compile"],
+        env=the_tests_package(dict(os.environ)),
+        cwd=Path(__file__).parent,
+        capture_output=True,
+        text=True,
+    )
+    if done.returncode != 0 and reporter is not None:
+        reporter.write_line(
+            f"compiling first failed, the tests compile instead:\n{done.stdout}{done.stderr}"
+        )
 
 
 # The files whose tests take longest (CPU, their subprocesses' included, in a

@@ -42,7 +42,7 @@ def _cache_directory_found_again() -> Iterator[None]:
     is undone: a test here that points NUMBA_CACHE_DIR at a directory of its
     own and asks for the cache directory leaves it remembered
     (``functools.cache``), and a later test in the process copied or compiled
-    into that directory instead of the session's (tests/test_compile_first.py
+    into that directory instead of the session's (tests/test_compile_side_by_side.py,
     compiled every loop again: 119 s of CPU)."""
     yield
     kernel_cache.cache_directory.cache_clear()
@@ -635,7 +635,7 @@ def test_compile_leaves_no_ready_marker_when_stopped_in_its_last_compile(
 
     from wmr_mission.stopping import STOP_SIGNALS, StopSignals
 
-    def stopped_at_the_end() -> None:
+    def stopped_at_the_end(processes: int) -> None:
         ctypes.CFUNCTYPE(None)(lambda: os.kill(os.getpid(), signal.SIGTERM))()
 
     monkeypatch.setattr(kernel_cache, "cache_directory", lambda: tmp_path)

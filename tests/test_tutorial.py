@@ -16,7 +16,7 @@ tutorial shows are the numbers a reader gets.
 
 The commands run as a reader's: with the compiled loop where the kernel
 cache holds it and is marked ready (after a whole-suite run's compile first,
-tests/compile_first.py, as after ``wmr-mission compile``), the sweep and the
+by ``wmr-mission compile``: tests/conftest.py), the sweep and the
 longer runs compiled, 13 s of CPU; in a cache not ready, `run` as plain
 Python and the sweep compiling its loop (``WMR_MISSION_NO_JIT=1`` in the
 environment: all as plain Python, 35 s).

@@ -401,12 +401,12 @@ def test_judging_the_compile_commands_warm_up_calls_every_pass(
 ) -> None:
     """`wmr-mission compile` judges one warm-up run (phases of 5 samples): each
     pass is called there, so each is compiled into the cache with the loop."""
-    from wmr_mission.commands.compile import warm_up_missions
+    from wmr_mission.commands.compile import first_variant, warm_up_missions
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
     from wmr_mission.verdicts.metrics import judge
 
-    mission = warm_up_missions()[0]
+    mission = warm_up_missions()[first_variant()]  # the run it judges
     with monkeypatch.context() as patch:
         patch.setattr(jit, "loaded", lambda: False)
         patch.setattr(jit, "compiled", lambda fn, **options: jit.plain(fn))

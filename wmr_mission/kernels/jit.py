@@ -92,6 +92,7 @@ class _State:
     kernels: list[Kernel] = []  # noqa: RUF012 - every declared kernel
     entries: dict[tuple[int, bool, bool], Any] = {}  # noqa: RUF012 - compiled entry points
     judged = 0  # samples judged in this process (judged())
+    save_lock: str | None = None  # the file each save to the cache locks (save_one_at_a_time)
 
 
 _state = _State()
@@ -297,7 +298,8 @@ def make_runtime() -> None:
 
 
 # The numba (major.minor) whose FunctionCache.load_overload _cache_class restates,
-# and whose inliner's copies _inlined_copies_share_their_scope reads.
+# whose inliner's copies _inlined_copies_share_their_scope reads, and whose
+# cache's saves save_one_at_a_time wraps.
 LOADED_AS_IS_FOR = "0.68"
 
 
@@ -307,6 +309,43 @@ def _numba_as_read() -> bool:
     import numba
 
     return bool(numba.__version__.split(".")[:2] == LOADED_AS_IS_FOR.split("."))
+
+
+def saves_can_take_turns() -> bool:
+    """Whether :func:`save_one_at_a_time` can make this process's saves to
+    numba's cache take turns with another's: numba is the one it wraps
+    (:data:`LOADED_AS_IS_FOR`, whose save it restates) and the system has
+    flock. Loads numba."""
+    return importlib.util.find_spec("fcntl") is not None and load() and _numba_as_read()
+
+
+def save_one_at_a_time(lock: str) -> None:
+    """Make each save to numba's on-disk cache from this process hold ``lock``
+    (a file, locked with flock) throughout (:func:`saves_can_take_turns`).
+    numba saves an entry as: read the function's index, add the entry, write
+    the index, write the entry's file, with no lock. The loop's variants are
+    entries of one function (wmr_mission.kernels.loop.run_segment), so two
+    processes compiling them side by side could each drop the other's entry
+    from the index, or number their entries' files alike
+    (tests/test_compile_side_by_side.py). The compiling itself, the minutes,
+    still runs side by side."""
+    import fcntl
+
+    from numba.core.caching import IndexDataCacheFile
+
+    first = _state.save_lock is None
+    _state.save_lock = lock  # a second call: another lock, not a second wrapper
+    if not first:
+        return
+    save: Callable[[Any, Any, Any], None] = IndexDataCacheFile.save
+
+    def save_holding_the_lock(self: Any, key: Any, data: Any) -> None:
+        assert _state.save_lock is not None
+        with open(_state.save_lock, "a") as held:
+            fcntl.flock(held, fcntl.LOCK_EX)  # released as the file closes
+            save(self, key, data)
+
+    IndexDataCacheFile.save = save_holding_the_lock  # type: ignore[method-assign]
 
 
 def _cache_class() -> Any:

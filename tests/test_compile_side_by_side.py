@@ -1,0 +1,226 @@
+"""`wmr-mission compile` on every core: the variants of the loop compiled in
+processes side by side keep every entry in numba's cache, a share that fails
+or a Ctrl-C leaves no ready marker; and the suite's set-up (tests/conftest.py)
+names its own files."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import conftest
+import pytest
+from test_start_up import _cache_of_this_session, _env
+
+from wmr_mission.commands import compile as compile_loop
+from wmr_mission.kernels import jit
+
+TESTS = Path(__file__).resolve().parent
+
+pytestmark = pytest.mark.skipif(not jit.compiling(), reason="the compiled build only")
+
+# Saves one entry of a function's cache in ``directory`` (argv[1]) under the
+# key argv[2] once told to go (a line on stdin, given to both processes when
+# both are ready), the index's write slowed as a long compile's save could be
+# while the other process reads it; the saves taking turns
+# (jit.save_one_at_a_time) when argv[3] is "locked".
+SAVE = """
+import sys, time
+from pathlib import Path
+
+from wmr_mission.kernels import jit
+
+assert jit.load()
+from numba.core.caching import IndexDataCacheFile
+
+directory, key, locked = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
+write_index = IndexDataCacheFile._save_index
+
+
+def slowly(self, overloads):
+    time.sleep(1.0)
+    write_index(self, overloads)
+
+
+IndexDataCacheFile._save_index = slowly
+if locked == "locked":
+    assert jit.saves_can_take_turns()
+    jit.save_one_at_a_time(str(directory / "save.lock"))
+print("ready", flush=True)
+sys.stdin.readline()
+IndexDataCacheFile(str(directory), "run_segment", "sources").save(key, key.encode())
+"""
+
+
+# Prints the entries of the cache in argv[1], in the order of their keys.
+READ = """
+import sys
+
+from wmr_mission.kernels import jit
+
+assert jit.load()
+from numba.core.caching import IndexDataCacheFile
+
+index = IndexDataCacheFile(sys.argv[1], "run_segment", "sources")
+for key in ("ekf-paper", "observer-paper"):
+    print(index.load(key))
+"""
+
+
+def test_two_processes_saving_at_once_keep_both_entries(tmp_path: Path) -> None:
+    """Left as numba saves, both read the index empty and the last to write it
+    keeps only its own entry (with "unlocked" below the test fails so); the
+    saves that `compile` makes take turns."""
+    saving = [
+        subprocess.Popen(
+            [sys.executable, "-c", SAVE, str(tmp_path), key, "locked"],
+            env=conftest.the_tests_package(dict(os.environ)),
+            cwd=tmp_path,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for key in ("observer-paper", "ekf-paper")
+    ]
+    for process in saving:
+        assert process.stdout is not None
+        assert process.stdout.readline() == "ready\n"
+    for process in saving:  # both told before either is waited for
+        assert process.stdin is not None
+        process.stdin.write("go\n")
+        process.stdin.flush()
+    for process in saving:
+        _, stderr = process.communicate(timeout=120)
+        assert process.returncode == 0, stderr
+    read = subprocess.run(
+        [sys.executable, "-c", READ, str(tmp_path)],
+        env=conftest.the_tests_package(dict(os.environ)),
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert read.returncode == 0, read.stderr
+    assert read.stdout.split() == ["b'ekf-paper'", "b'observer-paper'"]
+
+
+# `wmr-mission compile` on two cores, whatever this machine has; with argv[1]
+# "fails", the warm-up runs of the EKF's variants end in an error (a loop that
+# does not compile); with "waits", each variant's run in a process of the
+# compile's own waits, after saying so in the file argv[2].
+COMPILE = """
+import os, sys, time
+
+from wmr_mission.campaign import engine
+from wmr_mission.cli import main
+from wmr_mission.record import Outcome
+from wmr_mission.sim import runner
+
+engine.default_workers = lambda: 2
+how = sys.argv.pop(1)
+said = sys.argv.pop(1) if how == "waits" else None
+command = os.getpid()
+run_mission = runner.run_mission
+
+
+def run_it(plan):
+    if said is not None and os.getpid() != command:
+        with open(said, "a") as saying:
+            saying.write("compiling\\n")
+        time.sleep(600)
+    result = run_mission(plan)
+    if how == "fails" and plan.estimator.settings.__name__ == "Ekf":
+        result.outcome, result.message = Outcome.error, "an error inside the loop: TypingError"
+    return result
+
+
+runner.run_mission = run_it
+sys.argv[0] = "wmr-mission"
+main()
+"""
+
+
+def _compile(cache: Path, how: str, *more: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-c", COMPILE, how, *more, "compile"],
+        env=_env(cache),
+        cwd=cache.parent,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def test_compile_side_by_side_marks_the_cache_ready(tmp_path: Path) -> None:
+    """Two processes, here on a copy of this session's kernels so that each
+    takes seconds, not a compile: the cache holds the marker. A share whose
+    loop does not compile leaves none, and says so."""
+    cache = _cache_of_this_session(tmp_path)
+    (kernels,) = (cache / "wmr_mission").iterdir()
+    failing = _compile(cache, "fails")
+    out, err = failing.communicate(timeout=600)
+    assert failing.returncode == 1, err
+    assert "2 processes side by side" in out
+    assert "failed to compile, nothing marked ready: an error inside the loop" in out
+    assert not (kernels / compile_loop.READY).exists()
+    compiling = _compile(cache, "as-it-is")
+    out, err = compiling.communicate(timeout=600)
+    assert compiling.returncode == 0, err
+    assert "2 processes side by side" in out
+    assert (kernels / compile_loop.READY).exists()
+
+
+def test_ctrl_c_stops_every_process_of_the_compile(tmp_path: Path) -> None:
+    """Ctrl-C (to the command alone: a terminal's reaches the processes too,
+    which leave it to the command) stops the compile at once, exit 130, with
+    no marker and no process of it left compiling."""
+    cache = _cache_of_this_session(tmp_path)  # the first variant loaded, not compiled
+    said = tmp_path / "said"
+    compiling = _compile(cache, "waits", str(said))
+    waited = time.monotonic()
+    while said.read_text().count("compiling") < 2 if said.exists() else True:
+        assert compiling.poll() is None, compiling.communicate()
+        assert time.monotonic() - waited < 300, "the processes never started"
+        time.sleep(0.05)
+    shares = _children(compiling.pid)
+    assert len(shares) == 2
+    compiling.send_signal(signal.SIGINT)
+    _, err = compiling.communicate(timeout=60)
+    assert compiling.returncode == 130, err
+    assert not list(cache.rglob(compile_loop.READY))
+    for share in shares:
+        assert not Path(f"/proc/{share}").exists() or _is_zombie(share)
+
+
+def _children(pid: int) -> list[int]:
+    found = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+    return [int(child) for child in found]
+
+
+def _is_zombie(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(") ")[1].startswith("Z")
+    except FileNotFoundError:
+        return True
+
+
+def test_another_numba_compiles_in_one_process(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Its saves may differ from those jit.save_one_at_a_time wraps: one
+    process then, as before; at most one per variant after the first."""
+    assert compile_loop.side_by_side(64) == len(compile_loop.warm_up_missions()) - 1
+    assert compile_loop.side_by_side(1) == 1
+    monkeypatch.setattr(jit, "_numba_as_read", lambda: False)
+    assert compile_loop.side_by_side(2) == 1
+
+
+def test_the_files_the_set_up_names_are_the_suites() -> None:
+    """A file renamed or removed leaves neither the smoke subset nor the
+    longest-first order naming a file that is not there."""
+    files = {path.name for path in TESTS.glob("test_*.py")}
+    assert files >= conftest.SMOKE
+    assert set(conftest.LONGEST_FIRST) <= files
+    assert len(set(conftest.LONGEST_FIRST)) == len(conftest.LONGEST_FIRST)
