@@ -10,6 +10,8 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import conftest
@@ -21,7 +23,10 @@ from wmr_mission.kernels import jit
 
 TESTS = Path(__file__).resolve().parent
 
-pytestmark = pytest.mark.skipif(not jit.compiling(), reason="the compiled build only")
+pytestmark = pytest.mark.skipif(
+    not jit.compiling() or not jit._numba_as_read(),
+    reason="the compiled build, with the numba whose saves jit.save_one_at_a_time wraps",
+)
 
 # Saves one entry of a function's cache in ``directory`` (argv[1]) under the
 # key argv[2] once told to go (a line on stdin, given to both processes when
@@ -73,8 +78,9 @@ for key in ("ekf-paper", "observer-paper"):
 
 def test_two_processes_saving_at_once_keep_both_entries(tmp_path: Path) -> None:
     """Left as numba saves, both read the index empty and the last to write it
-    keeps only its own entry (with "unlocked" below the test fails so); the
-    saves that `compile` makes take turns."""
+    keeps only its own entry (run with "unlocked" below, the test fails so:
+    one entry is lost, and both entries' files are numbered 1); the saves
+    that `compile` makes take turns."""
     saving = [
         subprocess.Popen(
             [sys.executable, "-c", SAVE, str(tmp_path), key, "locked"],
@@ -108,12 +114,14 @@ def test_two_processes_saving_at_once_keep_both_entries(tmp_path: Path) -> None:
     assert read.stdout.split() == ["b'ekf-paper'", "b'observer-paper'"]
 
 
-# `wmr-mission compile` on two cores, whatever this machine has; with argv[1]
-# "fails", the warm-up runs of the EKF's variants end in an error (a loop that
-# does not compile); with "waits", each variant's run in a process of the
-# compile's own waits, after saying so in the file argv[2].
+# `wmr-mission compile` on two cores, whatever this machine has; argv[1] says
+# what each variant's run does in the compile's own processes (the command's
+# first variant runs as it is): "as-it-is"; "fails", the EKF's variants end
+# in an error at once (a loop that does not compile), the others wait;
+# "dies", the process is killed; "waits", each waits, after saying so in the
+# file argv[2].
 COMPILE = """
-import os, sys, time
+import os, signal, sys, time
 
 from wmr_mission.campaign import engine
 from wmr_mission.cli import main
@@ -128,14 +136,18 @@ run_mission = runner.run_mission
 
 
 def run_it(plan):
-    if said is not None and os.getpid() != command:
+    if os.getpid() == command or how == "as-it-is":
+        return run_mission(plan)
+    if how == "fails" and plan.estimator.settings.__name__ == "Ekf":
+        result = run_mission(plan)
+        result.outcome, result.message = Outcome.error, "an error inside the loop: TypingError"
+        return result
+    if how == "dies":
+        os.kill(os.getpid(), signal.SIGKILL)
+    if said is not None:
         with open(said, "a") as saying:
             saying.write("compiling\\n")
-        time.sleep(600)
-    result = run_mission(plan)
-    if how == "fails" and plan.estimator.settings.__name__ == "Ekf":
-        result.outcome, result.message = Outcome.error, "an error inside the loop: TypingError"
-    return result
+    time.sleep(600)
 
 
 runner.run_mission = run_it
@@ -144,31 +156,46 @@ main()
 """
 
 
-def _compile(cache: Path, how: str, *more: str) -> subprocess.Popen[str]:
-    return subprocess.Popen(
+@contextmanager
+def _compiling(cache: Path, how: str, *more: str) -> Iterator[subprocess.Popen[str]]:
+    """The command, running; killed with its processes if a test fails first."""
+    command = subprocess.Popen(
         [sys.executable, "-c", COMPILE, how, *more, "compile"],
         env=_env(cache),
         cwd=cache.parent,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        start_new_session=True,
     )
+    try:
+        yield command
+    finally:
+        if command.poll() is None:
+            os.killpg(command.pid, signal.SIGKILL)
+            command.communicate()
 
 
 def test_compile_side_by_side_marks_the_cache_ready(tmp_path: Path) -> None:
     """Two processes, here on a copy of this session's kernels so that each
-    takes seconds, not a compile: the cache holds the marker. A share whose
-    loop does not compile leaves none, and says so."""
+    takes seconds, not a compile: the cache holds the marker. A variant whose
+    loop does not compile, or a process killed, stops the compile at once
+    (the other process waits 10 minutes), says so, and leaves no marker."""
     cache = _cache_of_this_session(tmp_path)
     (kernels,) = (cache / "wmr_mission").iterdir()
-    failing = _compile(cache, "fails")
-    out, err = failing.communicate(timeout=600)
-    assert failing.returncode == 1, err
-    assert "2 processes side by side" in out
-    assert "failed to compile, nothing marked ready: an error inside the loop" in out
-    assert not (kernels / compile_loop.READY).exists()
-    compiling = _compile(cache, "as-it-is")
-    out, err = compiling.communicate(timeout=600)
+    for how, said in [
+        ("fails", "failed to compile, nothing marked ready: an error inside the loop"),
+        ("dies", "failed to compile, nothing marked ready: a process compiling a variant died"),
+    ]:
+        with _compiling(cache, how) as failing:
+            out, err = failing.communicate(timeout=300)
+        assert failing.returncode == 1, err
+        assert "2 processes side by side" in out
+        assert said in out
+        assert "Traceback" not in err
+        assert not (kernels / compile_loop.READY).exists()
+    with _compiling(cache, "as-it-is") as compiling:
+        out, err = compiling.communicate(timeout=600)
     assert compiling.returncode == 0, err
     assert "2 processes side by side" in out
     assert (kernels / compile_loop.READY).exists()
@@ -180,16 +207,16 @@ def test_ctrl_c_stops_every_process_of_the_compile(tmp_path: Path) -> None:
     no marker and no process of it left compiling."""
     cache = _cache_of_this_session(tmp_path)  # the first variant loaded, not compiled
     said = tmp_path / "said"
-    compiling = _compile(cache, "waits", str(said))
-    waited = time.monotonic()
-    while said.read_text().count("compiling") < 2 if said.exists() else True:
-        assert compiling.poll() is None, compiling.communicate()
-        assert time.monotonic() - waited < 300, "the processes never started"
-        time.sleep(0.05)
-    shares = _children(compiling.pid)
-    assert len(shares) == 2
-    compiling.send_signal(signal.SIGINT)
-    _, err = compiling.communicate(timeout=60)
+    with _compiling(cache, "waits", str(said)) as compiling:
+        waited = time.monotonic()
+        while said.read_text().count("compiling") < 2 if said.exists() else True:
+            assert compiling.poll() is None, compiling.communicate()
+            assert time.monotonic() - waited < 300, "the processes never started"
+            time.sleep(0.05)
+        shares = _children(compiling.pid)
+        assert len(shares) == 2
+        compiling.send_signal(signal.SIGINT)
+        _, err = compiling.communicate(timeout=60)
     assert compiling.returncode == 130, err
     assert not list(cache.rglob(compile_loop.READY))
     for share in shares:

@@ -3,8 +3,8 @@
 Loading the compiled loop from the cache costs a process numba's import and
 its entries (about 0.25 s of CPU and 120 MiB); compiling what case study
 2's first run needs, about 35 s of CPU (:data:`jit.ONE_VARIANT` of wall
-time), and every variant, 84 s (:data:`EVERY_VARIANT`; docs/performance.md,
-"Compiling the loop"). Plain Python runs the same
+time), and every variant, 84-102 s of CPU, on every core (:data:`EVERY_VARIANT`
+of wall time; docs/performance.md, "Compiling on every core"). Plain Python runs the same
 source with the same bytes (wmr_mission.kernels.jit) at 40-130 us a sample,
 judging included. So ``run`` runs a mission as plain Python when its sample
 budget is at most :data:`PLAIN_PYTHON_SAMPLES`, or at most
@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import os
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wmr_mission.kernels import cache, jit
@@ -134,9 +135,23 @@ def side_by_side(wanted: int) -> int:
     where numba's saves to the cache cannot be made to take turns
     (:func:`jit.saves_can_take_turns`)."""
     wanted = min(wanted, len(warm_up_missions()) - 1)
-    if wanted < 2 or cache.cache_directory() is None or not jit.saves_can_take_turns():
+    directory = cache.cache_directory()
+    if wanted < 2 or directory is None or not jit.saves_can_take_turns():
         return 1
-    return wanted
+    return wanted if _locks(directory / SAVE_LOCK) else 1
+
+
+def _locks(path: Path) -> bool:
+    """Whether the file system of ``path`` takes flock (some network and FUSE
+    file systems refuse it: each save would then fail)."""
+    import fcntl
+
+    try:
+        with open(path, "a") as held:
+            fcntl.flock(held, fcntl.LOCK_EX)
+    except OSError:
+        return False
+    return True
 
 
 def compile_kernels(processes: int = 1) -> None:
@@ -158,6 +173,11 @@ def compile_kernels(processes: int = 1) -> None:
         for variant in rest:
             compile_variant(variant)
         return
+    if stop_owed():  # came inside the first compile: no process started for the rest
+        raise KeyboardInterrupt
+    from concurrent.futures import FIRST_EXCEPTION, wait
+    from concurrent.futures.process import BrokenProcessPool
+
     from wmr_mission.campaign.engine import local_pool
 
     # Forked where the system can (where flock is, it can): each process
@@ -168,8 +188,13 @@ def compile_kernels(processes: int = 1) -> None:
         compiling = [pool.submit(compile_variant, v, True) for v in papers]
         compiling.append(pool.submit(compile_judge, first, True))
         compiling.extend(pool.submit(compile_variant, v, True) for v in others)
-        for compiled in compiling:
-            compiled.result()  # a CompileFailed is raised here
+        # The first failure as it comes (leaving local_pool stops the others)
+        done, _ = wait(compiling, return_when=FIRST_EXCEPTION)
+        for compiled in done:
+            try:
+                compiled.result()  # a CompileFailed is raised here
+            except BrokenProcessPool:  # one was killed (out of memory, kill -9)
+                raise CompileFailed("a process compiling a variant died") from None
 
 
 def first_variant() -> int:
