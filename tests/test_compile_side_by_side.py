@@ -235,12 +235,22 @@ def _is_zombie(pid: int) -> bool:
         return True
 
 
-def test_another_numba_compiles_in_one_process(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Its saves may differ from those jit.save_one_at_a_time wraps: one
-    process then, as before; at most one per variant after the first."""
+def test_another_numba_or_no_flock_compiles_in_one_process(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Another numba's saves may differ from those jit.save_one_at_a_time
+    wraps, and a file system may refuse flock: one process then, as before;
+    else at most one per variant after the first."""
     assert compile_loop.side_by_side(64) == len(compile_loop.warm_up_missions()) - 1
     assert compile_loop.side_by_side(1) == 1
-    monkeypatch.setattr(jit, "_numba_as_read", lambda: False)
+    with monkeypatch.context() as patch:
+        patch.setattr(jit, "_numba_as_read", lambda: False)
+        assert compile_loop.side_by_side(2) == 1
+
+    def refused(*_: object) -> None:
+        raise OSError(95, "Operation not supported")
+
+    monkeypatch.setattr("fcntl.flock", refused)
     assert compile_loop.side_by_side(2) == 1
 
 
