@@ -17,6 +17,7 @@
     python benchmarks/measure.py classes COMMIT   # the package's dataclasses made, now / at COMMIT
     python benchmarks/measure.py llvm       # the calls into LLVM as a run loads its compiled loop
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
+    python benchmarks/measure.py compiletasks   # `wmr-mission compile`'s tasks, one by one
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, and by stage
     python benchmarks/measure.py csv        # trajectory.csv's writer, per sample, the 1-hour run
@@ -1081,6 +1082,44 @@ def plain() -> None:
             f"({', '.join(kinds)})"
         )
     runner._Run._segment = segment  # type: ignore[method-assign]
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+def compile_tasks() -> None:
+    """The tasks of `wmr-mission compile` one after another in this process,
+    an empty cache: each task's CPU (the first variant carries what every
+    variant shares); then, in a new process, each variant's run loaded from
+    the cache they filled."""
+    import shutil
+
+    cache = tempfile.mkdtemp()
+    os.environ["NUMBA_CACHE_DIR"] = cache  # before numba loads, and for the process after
+    os.environ.pop("WMR_MISSION_NO_JIT", None)
+    from wmr_mission.commands import compile as compile_loop
+
+    missions = compile_loop.warm_up_missions()
+    first = compile_loop.first_variant()
+    order = [first, *(i for i in range(len(missions)) if i != first)]
+    for variant in order:
+        started = time.process_time()
+        result = compile_loop._compiled_run(variant)
+        mission = missions[variant]
+        name = f"{mission.estimator.type} with {mission.controller.type}"
+        print(f"compiled: {name:40s} {time.process_time() - started:5.1f} s CPU")
+        if variant == first:
+            started = time.process_time()
+            compile_loop._judge(result)
+            print(f"compiled: {'the passes of the judge':40s} "
+                  f"{time.process_time() - started:5.1f} s CPU")  # fmt: skip
+    code = (
+        "import time\n"
+        "from wmr_mission.commands import compile as c\n"
+        "for v in range(len(c.warm_up_missions())):\n"
+        "    t = time.process_time(); c._compiled_run(v)\n"
+        "    print(f'loaded in a new process: variant {v} {time.process_time() - t:.2f} s CPU')\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, env=_user_env())
+    shutil.rmtree(cache)
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -2456,7 +2495,7 @@ if __name__ == "__main__":
     jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
     jobs |= {"short": short}
     jobs |= {"cuts": cuts, "imports": imports, "parts": parts, "classes": classes}
-    jobs |= {"llvm": llvm}
+    jobs |= {"llvm": llvm, "compiletasks": compile_tasks}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,

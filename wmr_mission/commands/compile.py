@@ -162,16 +162,17 @@ def compile_kernels(processes: int = 1) -> None:
     (:func:`side_by_side`), each taking the next task as it ends one."""
     missions = warm_up_missions()
     first = first_variant()
-    _compiled_run(first)
+    result = _compiled_run(first)
     # Then the costliest tasks first, so that the processes end together: the
-    # paper's law's variants (20-24 s of CPU each), the judge's passes (15 s).
+    # paper's law's variants (18-24 s of CPU each), the judge's passes (13-15 s;
+    # `python benchmarks/measure.py compiletasks`).
     rest = [i for i in range(len(missions)) if i != first]
     papers = [i for i in rest if missions[i].controller.type == "paper"]
     others = [i for i in rest if i not in papers]
     if processes < 2:
-        compile_judge(first)
+        _judge(result)
         for variant in rest:
-            compile_variant(variant)
+            _compiled_run(variant)
         return
     if stop_owed():  # came inside the first compile: no process started for the rest
         raise KeyboardInterrupt
@@ -185,9 +186,9 @@ def compile_kernels(processes: int = 1) -> None:
     # (compiled in each, it took 1.2 times the CPU of one process). Ctrl-C
     # is this process's, which stops them (local_pool).
     with local_pool(processes) as pool:
-        compiling = [pool.submit(compile_variant, v, True) for v in papers]
-        compiling.append(pool.submit(compile_judge, first, True))
-        compiling.extend(pool.submit(compile_variant, v, True) for v in others)
+        compiling = [pool.submit(compile_variant, v) for v in papers]
+        compiling.append(pool.submit(compile_judge, first))
+        compiling.extend(pool.submit(compile_variant, v) for v in others)
         # The first failure as it comes (leaving local_pool stops the others)
         done, _ = wait(compiling, return_when=FIRST_EXCEPTION)
         for compiled in done:
@@ -199,37 +200,44 @@ def compile_kernels(processes: int = 1) -> None:
 
 def first_variant() -> int:
     """The warm-up mission compiled first, with what every variant shares, and
-    judged: the first with the law that compiles fastest (pure pursuit, 6-7 s
-    of CPU; the paper's 20-24 s)."""
+    judged: the first with the law that compiles fastest (pure pursuit, 5-7 s
+    of CPU; the paper's 18-24 s)."""
     missions = warm_up_missions()
     return next(i for i, m in enumerate(missions) if m.controller.type == "pure-pursuit")
 
 
-def compile_variant(variant: int, side_by_side: bool = False) -> None:
-    """Compile the loop of the ``variant``-th warm-up mission, and the EKF
-    band's replay; ``side_by_side`` with other processes, saving to the cache
-    in turns with them (:func:`jit.save_one_at_a_time`)."""
-    if side_by_side:
-        _save_in_turns()
+def compile_variant(variant: int) -> None:
+    """In a process side by side with others (:func:`compile_kernels`): the
+    loop of the ``variant``-th warm-up mission compiled, and the EKF band's
+    replay."""
+    _save_in_turns()
     _compiled_run(variant)
 
 
-def compile_judge(variant: int, side_by_side: bool = False) -> None:
-    """Compile the judge's passes, judging a run of the ``variant``-th warm-up
-    mission (compiled already: its kernels take no variant)."""
-    from wmr_mission.verdicts.metrics import judge
-
-    if side_by_side:
-        _save_in_turns()
-    result = _compiled_run(variant)
-    jit.judged(jit.JUDGED_COMPILED_FROM)  # the judge's passes compiled however short the run
-    judge(result, result.mission)
+def compile_judge(variant: int) -> None:
+    """In a process side by side with others: the judge's passes compiled,
+    judging a run of the ``variant``-th warm-up mission (compiled already)."""
+    _save_in_turns()
+    _judge(_compiled_run(variant))
 
 
 def _save_in_turns() -> None:
+    """This process's saves to the cache in turns with the other processes'
+    (:func:`jit.save_one_at_a_time`)."""
     directory = cache.cache_directory()
     if directory is not None:
         jit.save_one_at_a_time(str(directory / SAVE_LOCK))
+
+
+def _judge(result: RunRecord) -> None:
+    """A warm-up run judged, its passes compiled however short the run: the
+    judge's kernels take no variant."""
+    from wmr_mission.verdicts.metrics import judge
+
+    if stop_owed():  # came inside the last compile
+        raise KeyboardInterrupt
+    jit.judged(jit.JUDGED_COMPILED_FROM)
+    judge(result, result.mission)
 
 
 def _compiled_run(variant: int) -> RunRecord:
