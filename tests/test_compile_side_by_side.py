@@ -204,7 +204,7 @@ def test_compile_side_by_side_marks_the_cache_ready(tmp_path: Path) -> None:
 def test_ctrl_c_stops_every_process_of_the_compile(tmp_path: Path) -> None:
     """Ctrl-C (to the command alone: a terminal's reaches the processes too,
     which leave it to the command) stops the compile at once, exit 130, with
-    no marker and no process of it left compiling."""
+    a line that says so, no marker and no process of it left compiling."""
     cache = _cache_of_this_session(tmp_path)  # the first variant loaded, not compiled
     said = tmp_path / "said"
     with _compiling(cache, "waits", str(said)) as compiling:
@@ -216,8 +216,10 @@ def test_ctrl_c_stops_every_process_of_the_compile(tmp_path: Path) -> None:
         shares = _children(compiling.pid)
         assert len(shares) == 2
         compiling.send_signal(signal.SIGINT)
-        _, err = compiling.communicate(timeout=60)
+        out, err = compiling.communicate(timeout=60)
     assert compiling.returncode == 130, err
+    assert "compile stopped, nothing marked ready" in out
+    assert "Traceback" not in err
     assert not list(cache.rglob(compile_loop.READY))
     for share in shares:
         assert not Path(f"/proc/{share}").exists() or _is_zombie(share)

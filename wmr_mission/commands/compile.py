@@ -294,11 +294,18 @@ def compile_command() -> int:
     stamp = ready_stamp()
     try:
         compile_kernels(processes)
+        if stop_owed():  # came inside the last compile: no marker of a cache not filled
+            raise KeyboardInterrupt
     except CompileFailed as failed:
         print(f"wmr-mission: the compiled loop failed to compile, nothing marked ready: {failed}")
         return 1
-    if stop_owed():  # came inside the last compile: no marker of a cache not filled
-        raise KeyboardInterrupt
+    except KeyboardInterrupt:
+        # exit 130 as Python's; what each process had saved stays cached
+        print(
+            "wmr-mission: compile stopped, nothing marked ready; what compiled stays cached, "
+            "and `wmr-mission compile` compiles the rest"
+        )
+        raise
     partial = directory / f"{READY}.{os.getpid()}"
     partial.write_text(stamp)
     os.replace(partial, directory / READY)
