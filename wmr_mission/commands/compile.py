@@ -263,8 +263,8 @@ def _compiled_run(variant: int) -> RunRecord:
     return result
 
 
-# How long `wmr-mission compile` takes, the machine's load deciding: 58-64 s
-# of wall time on two idle cores, 92-103 s of CPU ("Compiling on every core"); at
+# How long `wmr-mission compile` takes, the machine's load deciding: 46-64 s
+# of wall time on two idle cores, 75-103 s of CPU ("Compiling on every core"); at
 # 46c19a0, in one process, 91 s of CPU and 13 min of wall time with both
 # cores busy five times over (docs/performance.md, Start-up).
 EVERY_VARIANT = "every variant: 1 to 13 minutes by the machine's load"
