@@ -15,6 +15,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -192,6 +193,41 @@ def test_a_stop_swallowed_on_its_way_still_stops_the_run() -> None:
     assert result.transitions[-1].condition == "interrupted"
     assert 0 < result.samples < 100_000
     assert np.all(np.isfinite(result.x))
+
+
+def test_a_stop_held_before_the_loop_loads_ends_the_run_before_it_compiles(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A Ctrl-C in a run's first second (held while the command starts and
+    the paths' math loads) ends the run before its loop is loaded or
+    compiled, not after a compile of tens of seconds."""
+    from wmr_mission.sim import runner
+
+    text = """version: 1
+name: short
+robot: {dt: 0.01}
+phases:
+  - name: line
+    track: {path: {type: line, heading: 0, speed: 0.3}}
+    until: {elapsed: 1}
+"""
+    mission = load_mission_text(text, "m.yaml")
+    calls: list[int] = []
+    call = runner._Run._call
+
+    def counted(self: Any, *args: Any) -> int:
+        calls.append(args[-1])
+        return call(self, *args)
+
+    monkeypatch.setattr(runner._Run, "_call", counted)
+    with StopSignals(STOP_SIGNALS, "hold"):
+        os.kill(os.getpid(), signal.SIGINT)
+        result = run_mission(mission)
+    assert result.outcome is Outcome.interrupted
+    assert result.samples == 0
+    assert calls == []  # the loop never called, so never loaded nor compiled
+    assert run_mission(mission).outcome is Outcome.success
+    assert calls[0] == 0  # the zero-sample call that loads the loop, then the chunks
 
 
 def test_a_stop_before_the_first_sample_claims_nothing() -> None:

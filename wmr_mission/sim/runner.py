@@ -844,10 +844,13 @@ class _Run:
         # zero-sample call. The paths' math first, held: loading it is numba's
         # first load, which imports compiled modules, and a KeyboardInterrupt
         # inside such an import made Python exit by SIGINT (-2) whatever the
-        # command returned. A compile takes tens of seconds: a stop ends it at once.
+        # command returned. A compile takes tens of seconds: a stop ends it at once,
+        # and a stop held until here (the command's start, the paths' math) ends
+        # the run before it, not after it.
         if any(p.tracks_a_path for p in self.phases):
             with stop_mode(HOLD):
                 scalar_math.load()
+        _honour_stop()
         with stop_mode(RAISE):
             self._call(phase, active.path_ahead(0, 0), draws.ahead(), 0)
         _honour_stop()
