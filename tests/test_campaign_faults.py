@@ -40,7 +40,7 @@ from wmr_mission import (
     run_campaign,
     run_mission,
 )
-from wmr_mission.campaign import engine, sweep
+from wmr_mission.campaign import cores, engine, sweep
 from wmr_mission.campaign.load import MAX_CAMPAIGN_BYTES, LoadedCampaign, check_campaign, check_file
 from wmr_mission.campaign.sweep import sweep_command
 from wmr_mission.cli import app
@@ -641,6 +641,38 @@ def test_more_workers_than_cores_are_capped_with_a_notice(
     assert "--workers 10000: 2 workers, one per core" in capsys.readouterr().err
     assert pools == [2]
     assert record_of(out)["workers"] == 2
+
+
+def test_a_sweep_in_a_container_of_one_cpu_runs_one_worker(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a container of one CPU's time (cgroup v2, as tests/test_cores.py lays it out)
+    root = tmp_path / "root"
+    for name, text in {
+        "proc/self/cgroup": "0::/",
+        "proc/self/mountinfo": "30 23 0:27 / /sys/fs/cgroup rw - cgroup2 cgroup2 rw",
+        "sys/fs/cgroup/cpu.max": "100000 100000",
+    }.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text + "\n", encoding="ascii")
+    monkeypatch.setattr(cores, "ROOT", root)
+    pools = []
+    real = engine.local_pool
+
+    def counted(workers: int, **options: Any) -> Any:
+        pools.append(workers)
+        return real(workers, **options)
+
+    monkeypatch.setattr(engine, "local_pool", counted)
+    out = tmp_path / "out"
+    code = sweep_command(
+        campaign_file(tmp_path, 4), out=out, workers=2, scheduler=None, plots=False
+    )
+    assert code == 0
+    if len(os.sched_getaffinity(0)) > 1:  # else one worker for the affinity alone
+        assert "--workers 2: 1 worker, one per core this sweep may use" in capsys.readouterr().err
+    assert record_of(out)["workers"] == 1
+    assert pools == []  # one worker: the runs run in the sweep's own process
 
 
 @pytest.mark.parametrize(

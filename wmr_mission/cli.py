@@ -170,7 +170,11 @@ FigureFormats = Annotated[
 Workers = Annotated[
     int | None,
     typer.Option(
-        "--workers", metavar="N", min=1, help="Local worker processes (default: every core)."
+        "--workers",
+        metavar="N",
+        min=1,
+        help="Local worker processes (default: every core this process may use, "
+        "by its CPU affinity and quota).",
     ),
 ]
 Scheduler = Annotated[

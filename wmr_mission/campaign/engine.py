@@ -23,6 +23,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolE
 from contextlib import contextmanager
 from typing import Any, Final, Protocol
 
+from wmr_mission.campaign.cores import usable_cores
 from wmr_mission.campaign.load import LoadedCampaign
 from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.rows import Row, run_row, run_rows
@@ -89,7 +90,9 @@ class _Executor(Protocol):
 
 
 def default_workers() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    """One worker per core this process may use (:func:`usable_cores`: its
+    CPU affinity, at most its container's CPU quota)."""
+    return usable_cores()
 
 
 def usable_workers(requested: int | None) -> int:

@@ -787,8 +787,8 @@ def _sweep(
     used = usable_workers(workers)
     if workers is not None and used < workers and scheduler is None:
         print(
-            f"--workers {workers}: {used} workers, one per core this sweep may use "
-            "(more would only wait for a core)",
+            f"--workers {workers}: {used} worker{'s' if used > 1 else ''}, one per core "
+            "this sweep may use, by its CPU affinity and quota (more would only wait for a core)",
             file=sys.stderr,
         )
     if scheduler is not None:
