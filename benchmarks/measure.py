@@ -1439,10 +1439,12 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
     """Where a campaign run's time goes (one process, as a sweep's worker runs
     it: the judge's passes compiled; means of CPU time over ``repeat`` runs of
     case2-headings; of run_mission, its calls of the compiled loop, and of
-    those the paths sampled ahead and what a call that runs no sample costs),
-    then `sweep --workers 2 --no-plots` of its 2000 runs end to end, the kernel
-    cache warm: the CPU of the sweep's own process and of its workers, per
-    run, and campaign.json's missions_per_second. With a commit's name (`campaign COMMIT`), the same
+    those the paths sampled ahead and what a call that runs no sample costs;
+    of those calls, each phase's), then `sweep --workers 2 --no-plots` of its
+    2000 runs end to end, the kernel cache warm: the CPU of the sweep's own
+    process and of its workers, per run, and campaign.json's
+    missions_per_second; and the same sweep of 20 runs (`--runs 20`), whose
+    CPU is what a sweep costs whatever its runs. With a commit's name (`campaign COMMIT`), the same
     sweep as at that commit too, in turn with this one, ``pairs`` times
     (after one untimed run of each: a checkout compiles its kernels once)."""
     import json
@@ -1479,6 +1481,8 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
     # which loads the loop): what a call costs beside its samples.
     calls_ns = [0]
     empty_us: list[float] = []
+    # phase number -> [its name, samples, ns] over the runs, the calls that run samples
+    by_phase: dict[int, list[Any]] = {}
     segment = runner._Run._segment
 
     def timed_segment(self: runner._Run, *args: Any) -> int:
@@ -1487,8 +1491,14 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         status = segment(self, *args)
         spent = time.thread_time_ns() - started
         calls_ns[0] += spent
-        if int(self.signals.counters[loop_module.K]) == before:
+        ran = int(self.signals.counters[loop_module.K]) - before
+        if ran == 0:
             empty_us.append(spent / 1000)
+        else:
+            number = args[0].number
+            phase = by_phase.setdefault(number, [self.phases[number].phase.name, 0, 0])
+            phase[1] += ran
+            phase[2] += spent
         return status
 
     stages: dict[str, list[float]] = {"draw": [], "plan (written)": [], "run_mission": []}
@@ -1530,6 +1540,15 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
         f" (of it, the paths sampled ahead {statistics.mean(paths_ms):.2f}); a call of the "
         f"compiled loop that runs no sample {statistics.median(empty_us):.0f} us (median)"
     )
+    print(
+        "  of the calls of the compiled loop, by phase [us a run]: "
+        + ", ".join(
+            f"{name} {ns / 1000 / repeat:.0f} ({samples / repeat:.0f} samples, "
+            f"{ns / 1000 / samples:.3f} us a sample)"
+            for name, samples, ns in by_phase.values()
+        )
+        + f"; the call that loads it {statistics.median(empty_us):.0f}"
+    )
     _set_up_as_a_task(loaded, plan, runs, repeat)
     _rows_in_the_sweeps_process(loaded)
     against = sys.argv[2] if len(sys.argv) > 2 else None
@@ -1544,6 +1563,16 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
                 WMR_MISSION_FOREGROUND_COMPILE="1",
                 NUMBA_CACHE_DIR=f"{tmp}/then-kernels",  # its own: a cache of other sources
             )
+        # The sweep's process, whatever the runs: the same sweep of 20 runs
+        few: list[tuple[float, float]] = []
+        for round_ in range(pairs + 1):
+            report = f"{tmp}/cpu"
+            command = [sys.executable, "-c", _SWEEP_CPU, "sweep", str(CAMPAIGN), "--runs", "20"]
+            command += ["--workers", "2", "--no-plots", "--out", f"{tmp}/few-{round_}"]
+            _wall(command, {**envs["now"], "WMR_CPU_REPORT": report}, check=False)
+            own, theirs = (float(x) for x in Path(report).read_text().split())
+            if round_ > 0:
+                few.append((own, theirs))
         measured: dict[str, list[tuple[float, float, float, float]]] = {k: [] for k in envs}
         for round_ in range(pairs + 1):  # the first untimed: bytecode, a checkout's compile
             for label, env in envs.items():
@@ -1567,6 +1596,10 @@ def campaign(repeat: int = 40, pairs: int = 3) -> None:
             f"{_medians([runs_done / r[2] for r in rows])} runs/s; missions_per_second "
             f"{_medians([r[3] for r in rows])}"
         )
+    print(
+        f"the same sweep of 20 runs (now, {pairs} runs): CPU [s] the sweep's process "
+        f"{_medians([r[0] for r in few])}, its workers {_medians([r[1] for r in few])}"
+    )
     if against is not None:
         now, then = measured["now"], measured[against]
         for name, index in (("the sweep's process", 0), ("its workers", 1)):
