@@ -28,21 +28,21 @@ pytestmark = pytest.mark.skipif(
     reason="the compiled build, with the numba whose saves jit.save_one_at_a_time wraps",
 )
 
-# Saves one entry of a function's cache in ``directory`` (argv[1]) under the
-# key argv[2] once told to go (a line on stdin, given to both processes when
-# both are ready), the index's write slowed as a long compile's save could be
-# while the other process reads it; the saves taking turns
-# (jit.save_one_at_a_time) when argv[3] is "locked".
+# Saves one entry, under the key argv[1], of a function's cache in the
+# kernels' directory (NUMBA_CACHE_DIR's) once told to go (a line on stdin,
+# given to both processes when both are ready), the index's write slowed as a
+# long compile's save could be while the other process reads it. Nothing but
+# numba loaded for the kernels, as in any process that compiles: a `run`, a
+# sweep's worker, one of `wmr-mission compile`'s processes.
 SAVE = """
 import sys, time
-from pathlib import Path
 
-from wmr_mission.kernels import jit
+from wmr_mission.kernels import cache, jit
 
 assert jit.load()
 from numba.core.caching import IndexDataCacheFile
 
-directory, key, locked = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
+key = sys.argv[1]
 write_index = IndexDataCacheFile._save_index
 
 
@@ -52,39 +52,39 @@ def slowly(self, overloads):
 
 
 IndexDataCacheFile._save_index = slowly
-if locked == "locked":
-    assert jit.saves_can_take_turns()
-    jit.save_one_at_a_time(str(directory / "save.lock"))
 print("ready", flush=True)
 sys.stdin.readline()
-IndexDataCacheFile(str(directory), "run_segment", "sources").save(key, key.encode())
+IndexDataCacheFile(str(cache.cache_directory()), "run_segment", "sources").save(key, key.encode())
 """
 
 
-# Prints the entries of the cache in argv[1], in the order of their keys.
+# Prints the entries of the cache in the kernels' directory, in the order of
+# their keys, and the names of their files.
 READ = """
-import sys
-
-from wmr_mission.kernels import jit
+from wmr_mission.kernels import cache, jit
 
 assert jit.load()
 from numba.core.caching import IndexDataCacheFile
 
-index = IndexDataCacheFile(sys.argv[1], "run_segment", "sources")
+index = IndexDataCacheFile(str(cache.cache_directory()), "run_segment", "sources")
 for key in ("ekf-paper", "observer-paper"):
     print(index.load(key))
+print(*sorted(index._load_index().values()))
 """
 
 
 def test_two_processes_saving_at_once_keep_both_entries(tmp_path: Path) -> None:
     """Left as numba saves, both read the index empty and the last to write it
-    keeps only its own entry (run with "unlocked" below, the test fails so:
-    one entry is lost, and both entries' files are numbered 1); the saves
-    that `compile` makes take turns."""
+    keeps only its own entry, and both entries' files are numbered 1: the
+    index could name, for one variant, the file the other's machine code was
+    written to last. The saves of every process that loads numba for the
+    kernels take turns (jit.save_one_at_a_time), two `run`s side by side as
+    much as `wmr-mission compile`'s processes."""
+    env = {**conftest.the_tests_package(dict(os.environ)), "NUMBA_CACHE_DIR": str(tmp_path)}
     saving = [
         subprocess.Popen(
-            [sys.executable, "-c", SAVE, str(tmp_path), key, "locked"],
-            env=conftest.the_tests_package(dict(os.environ)),
+            [sys.executable, "-c", SAVE, key],
+            env=env,
             cwd=tmp_path,
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
@@ -104,14 +104,12 @@ def test_two_processes_saving_at_once_keep_both_entries(tmp_path: Path) -> None:
         _, stderr = process.communicate(timeout=120)
         assert process.returncode == 0, stderr
     read = subprocess.run(
-        [sys.executable, "-c", READ, str(tmp_path)],
-        env=conftest.the_tests_package(dict(os.environ)),
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
+        [sys.executable, "-c", READ], env=env, cwd=tmp_path, capture_output=True, text=True
     )
     assert read.returncode == 0, read.stderr
-    assert read.stdout.split() == ["b'ekf-paper'", "b'observer-paper'"]
+    ekf, observer, files = read.stdout.splitlines()
+    assert (ekf, observer) == ("b'ekf-paper'", "b'observer-paper'")
+    assert len(set(files.split())) == 2  # each entry in a file of its own
 
 
 # `wmr-mission compile` on two cores, whatever this machine has; argv[1] says

@@ -121,10 +121,6 @@ def warm_up_missions() -> tuple[Mission, ...]:
     return tuple(missions)
 
 
-# Beside the kernels, the file each save to the cache locks while it saves.
-SAVE_LOCK = "save.lock"
-
-
 class CompileFailed(Exception):
     """A variant of the loop did not compile: its run's message."""
 
@@ -138,7 +134,7 @@ def side_by_side(wanted: int) -> int:
     directory = cache.cache_directory()
     if wanted < 2 or directory is None or not jit.saves_can_take_turns():
         return 1
-    return wanted if _locks(directory / SAVE_LOCK) else 1
+    return wanted if _locks(directory / jit.SAVE_LOCK) else 1
 
 
 def _locks(path: Path) -> bool:
@@ -210,23 +206,13 @@ def compile_variant(variant: int) -> None:
     """In a process side by side with others (:func:`compile_kernels`): the
     loop of the ``variant``-th warm-up mission compiled, and the EKF band's
     replay."""
-    _save_in_turns()
     _compiled_run(variant)
 
 
 def compile_judge(variant: int) -> None:
     """In a process side by side with others: the judge's passes compiled,
     judging a run of the ``variant``-th warm-up mission (compiled already)."""
-    _save_in_turns()
     _judge(_compiled_run(variant))
-
-
-def _save_in_turns() -> None:
-    """This process's saves to the cache in turns with the other processes'
-    (:func:`jit.save_one_at_a_time`)."""
-    directory = cache.cache_directory()
-    if directory is not None:
-        jit.save_one_at_a_time(str(directory / SAVE_LOCK))
 
 
 def _judge(result: RunRecord) -> None:

@@ -210,6 +210,11 @@ def _load() -> bool:
 
     _state.cached = directory is not None
     _state.cache_class = _cache_class()
+    if directory is not None and os.name == "posix" and _numba_as_read():
+        # Whatever compiles in this process (a `run` beside another, a sweep's
+        # worker meeting a variant its warm-up did not compile, `wmr-mission
+        # compile`'s processes) saves in turns with every other process.
+        save_one_at_a_time(str(directory / SAVE_LOCK))
 
     @typeof_impl.register(Kernel)
     def _typeof_kernel(value: Kernel, context: Any) -> Any:
@@ -319,16 +324,26 @@ def saves_can_take_turns() -> bool:
     return importlib.util.find_spec("fcntl") is not None and load() and _numba_as_read()
 
 
+# Beside the kernels, the file each save to the cache locks while it saves
+# (save_one_at_a_time).
+SAVE_LOCK = "save.lock"
+
+
 def save_one_at_a_time(lock: str) -> None:
     """Make each save to numba's on-disk cache from this process hold ``lock``
-    (a file, locked with flock) throughout (:func:`saves_can_take_turns`).
+    (a file, locked with flock) throughout (:func:`saves_can_take_turns`);
+    made as numba loads with a cache (:func:`_load`).
+
     numba saves an entry as: read the function's index, add the entry, write
     the index, write the entry's file, with no lock. The loop's variants are
     entries of one function (wmr_mission.kernels.loop.run_segment), so two
     processes compiling them side by side could each drop the other's entry
-    from the index, or number their entries' files alike
-    (tests/test_compile_side_by_side.py). The compiling itself, the minutes,
-    still runs side by side."""
+    from the index, or number their entries' files alike: an index could
+    then name, for one variant, the file another variant's machine code was
+    written to last (tests/test_compile_side_by_side.py). The compiling
+    itself, the minutes, still runs side by side. On a file system that
+    refuses flock (some network and FUSE ones) a save is made as numba makes
+    it; `wmr-mission compile` then compiles in one process."""
     import fcntl
 
     from numba.core.caching import IndexDataCacheFile
@@ -341,8 +356,14 @@ def save_one_at_a_time(lock: str) -> None:
 
     def save_holding_the_lock(self: Any, key: Any, data: Any) -> None:
         assert _state.save_lock is not None
-        with open(_state.save_lock, "a") as held:
-            fcntl.flock(held, fcntl.LOCK_EX)  # released as the file closes
+        try:
+            held = open(_state.save_lock, "a")  # noqa: SIM115 - closed below
+        except OSError:  # the directory gone or read-only: numba's save says so
+            save(self, key, data)
+            return
+        with held:
+            with contextlib.suppress(OSError):  # no flock here: as numba saves
+                fcntl.flock(held, fcntl.LOCK_EX)  # released as the file closes
             save(self, key, data)
 
     IndexDataCacheFile.save = save_holding_the_lock  # type: ignore[method-assign]
