@@ -112,6 +112,40 @@ def test_two_processes_saving_at_once_keep_both_entries(tmp_path: Path) -> None:
     assert len(set(files.split())) == 2  # each entry in a file of its own
 
 
+def test_every_entry_of_the_session_s_kernels_is_in_a_file_of_its_own() -> None:
+    """The suite's kernels, compiled by `wmr-mission compile` on every core as
+    the session began (tests/conftest.py) and by whatever test compiled since:
+    in each function's index, every entry names a file of its own, which is
+    there, and the loop holds every built-in variant. Read holding the save
+    lock, so that no save is half made."""
+    import fcntl
+    import pickle
+
+    from wmr_mission.kernels import cache as kernel_cache
+    from wmr_mission.sim.plan import plan_mission
+    from wmr_mission.sim.runner import run_mission
+
+    for warm_up in compile_loop.warm_up_missions():  # loaded (compiled if the compile failed)
+        run_mission(plan_mission(warm_up))
+    directory = kernel_cache.cache_directory()
+    assert directory is not None
+    loop_entries = 0
+    with open(directory / jit.SAVE_LOCK, "a") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        indexes = sorted(directory.rglob("*.nbi"))
+        for index in indexes:
+            with open(index, "rb") as file:
+                pickle.load(file)  # numba's version
+                _, entries = pickle.loads(file.read())  # the source's stamp, the entries
+            files = list(entries.values())
+            assert len(set(files)) == len(files), index
+            assert all((index.parent / name).is_file() for name in files), index
+            if ".run_segment-" in index.name:
+                loop_entries += len(files)
+    assert len(indexes) > 10
+    assert loop_entries >= len(compile_loop.warm_up_missions())
+
+
 # `wmr-mission compile` on two cores, whatever this machine has; argv[1] says
 # what each variant's run does in the compile's own processes (the command's
 # first variant runs as it is): "as-it-is"; "fails", the EKF's variants end
