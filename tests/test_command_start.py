@@ -135,6 +135,26 @@ def test_a_run_without_plots_imports_nothing_it_does_not_use(tmp_path: Path) -> 
     assert (out / "trajectory.csv").exists()
 
 
+def test_a_run_of_the_cached_loop_imports_no_package_metadata(tmp_path: Path) -> None:
+    """case1.yaml runs the compiled loop, loaded from the cache (its budget,
+    5 349 samples, is over the bound of a ready cache): numba loaded, and
+    importlib.metadata (the email parser, zipfile, csv: 0.014-0.017 s)
+    imported neither by numba (jit._ExtensionsLater) nor for the manifest's
+    versions (wmr_mission.version.installed_version)."""
+    from wmr_mission.kernels import cache, jit
+
+    out = tmp_path / "run"
+    report = _start(["run", str(MISSIONS / "case1.yaml"), "--no-plots", "--out", str(out)])
+    modules = _modules(report["modules"])
+    directory = cache.cache_directory()
+    if jit.compiling() and directory is not None and cache.is_ready(directory):
+        assert "numba" in modules
+    assert "email" not in modules
+    versions = json.loads((out / "manifest.json").read_text(encoding="utf-8"))["versions"]
+    assert versions["numba"] is not None
+    assert versions["numpy"] is not None
+
+
 def test_run_and_validate_import_numpy_at_the_command_lines_depth(tmp_path: Path) -> None:
     """Not some twenty imports down, where the recursion of numpy's typing
     aliases crossed the end of one of the interpreter's 16 KiB frame chunks

@@ -19,12 +19,12 @@ from wmr_mission.campaign.sweep import sweep_command
 from wmr_mission.output.environment import (
     environment,
     fingerprint,
-    installed_version,
     libm_digest,
     machine_record,
     own_fingerprint,
     package_versions,
 )
+from wmr_mission.version import installed_version
 
 DATA = Path(__file__).resolve().parent / "data" / "campaigns"
 WARNING = "warning: this environment's fingerprint is"
@@ -195,6 +195,48 @@ def test_a_version_read_from_the_metadatas_headers_is_importlibs() -> None:
     parses from the whole file; None for a package not installed."""
     from importlib import metadata
 
-    for package in ("numpy", "scipy", "pydantic", "numba", "matplotlib", "PyYAML", "typer"):
+    for package in (
+        "numpy",
+        "scipy",
+        "pydantic",
+        "numba",
+        "matplotlib",
+        "PyYAML",
+        "typer",
+        "wmr-mission",
+        "pydantic_core",
+    ):
         assert installed_version(package) == metadata.version(package), package
     assert installed_version("wmr-mission-no-such-package") is None
+
+
+def _distribution(directory: Path, name: str, headers: str, kind: str = "dist-info") -> None:
+    info = directory / f"{name}.{kind}"
+    info.mkdir(parents=True)
+    metadata = "METADATA" if kind == "dist-info" else "PKG-INFO"
+    (info / metadata).write_text(f"Metadata-Version: 2.1\n{headers}\n\nVersion: 9 (not a header)\n")
+
+
+def test_a_version_is_found_on_the_path_as_importlib_finds_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Names compared as importlib.metadata compares them, the first directory
+    of the path that has the distribution, an egg's metadata and a zip on the
+    path read by importlib.metadata; each the version importlib.metadata
+    gives."""
+    from importlib import metadata
+
+    first, second = tmp_path / "first", tmp_path / "second"
+    _distribution(first, "Zope.Interface-5.1", "Version: 5.1")
+    _distribution(second, "zope_interface-6.0", "Version: 6.0")  # behind the first: not taken
+    _distribution(second, "only_here-1.0", "Name: only-here\nVersion: 1.0.post0")
+    _distribution(second, "old_style-0.3", "Version: 0.3", kind="egg-info")
+    monkeypatch.setattr(sys, "path", [str(tmp_path / "missing"), str(first), str(second)])
+    for package in ("zope.interface", "Zope-Interface", "only-here", "ONLY_HERE", "old-style"):
+        assert installed_version(package) == metadata.version(package), package
+    assert installed_version("zope.interface") == "5.1"
+    assert installed_version("only-here") == "1.0.post0"
+    assert installed_version("old-style") == "0.3"
+    with pytest.raises(metadata.PackageNotFoundError):
+        metadata.version("no-such-package")
+    assert installed_version("no-such-package") is None

@@ -347,8 +347,9 @@ def test_numba_is_loaded_without_scipy() -> None:
 
 # Calls a cached compiled function (the module `doubled` in argv[1]), then
 # prints its result, whether it was loaded from the cache, whether numba's
-# target was set up (its array-math module imported) and scipy imported, and
-# whether numba's extensions were looked for (the installed entry points).
+# target was set up (its array-math module imported) and scipy imported,
+# whether importlib.metadata was imported, and whether numba's extensions
+# were looked for (the installed entry points).
 CACHED_CALL = """
 import sys
 sys.path.insert(0, sys.argv[1])
@@ -357,6 +358,7 @@ from wmr_mission.kernels import jit
 twice = jit.compiled(doubled.twice)
 print(twice(1.5), sum(twice.stats.cache_hits.values()))
 print("numba.np.arraymath" in sys.modules, "scipy" in sys.modules)
+print("importlib.metadata" in sys.modules)
 from numba.core import entrypoints
 print(entrypoints._already_initialized)
 """
@@ -368,8 +370,9 @@ def test_a_cached_function_loads_without_setting_numba_up_and_a_miss_compiles(
     """Loading from the cache needs none of numba's typing and lowering
     registries (0.12 s of a cached run, docs/performance.md, Start-up): the
     second process loads the function with its target not set up and without
-    looking for numba's extensions (0.008 s); the first, finding nothing
-    cached, sets it up (scipy refused, the extensions loaded) and compiles."""
+    looking for numba's extensions (0.008 s), nor importing importlib.metadata
+    (0.014-0.017 s); the first, finding nothing cached, sets it up (scipy
+    refused, the extensions loaded) and compiles."""
     (tmp_path / "doubled.py").write_text("def twice(x):\n    return 2.0 * x\n")
     printed = []
     for _ in range(2):
@@ -383,9 +386,55 @@ def test_a_cached_function_loads_without_setting_numba_up_and_a_miss_compiles(
         assert done.returncode == 0, done.stderr
         printed.append(done.stdout.split())
     assert printed == [
-        ["3.0", "0", "True", "False", "True"],
-        ["3.0", "1", "False", "False", "False"],
+        ["3.0", "0", "True", "False", "True", "True"],
+        ["3.0", "1", "False", "False", "False", "False"],
     ]
+
+
+# A numba extension, installed as a distribution with the entry point numba
+# looks for (numba_extensions: init), which writes the file MARK names when
+# numba loads it.
+EXTENSION = """
+import os
+
+def init():
+    with open(os.environ["MARK"], "a") as mark:
+        mark.write("loaded\\n")
+"""
+
+
+def test_numbas_extensions_load_as_it_compiles_and_only_then(tmp_path: Path) -> None:
+    """numba's module of extension entry points stands in for itself as numba
+    loads (jit._ExtensionsLater): numba loaded, an installed extension is not
+    looked for, nor importlib.metadata imported; compiling loads it, once."""
+    site = tmp_path / "site"
+    info = site / "wmr_extension_probe-1.0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text(
+        "Metadata-Version: 2.1\nName: wmr-extension-probe\nVersion: 1.0\n"
+    )
+    (info / "entry_points.txt").write_text("[numba_extensions]\ninit = wmr_extension_probe:init\n")
+    (site / "wmr_extension_probe.py").write_text(EXTENSION)
+    mark = tmp_path / "mark"
+    probe = (
+        "import os, sys; from wmr_mission.kernels import jit\n"
+        "assert jit.load()\n"
+        "print(os.path.exists(os.environ['MARK']), 'importlib.metadata' in sys.modules)\n"
+        "def twice(x):\n    return 2.0 * x\n"
+        "assert jit.compiled(twice, cached=False)(1.5) == 3.0\n"
+        "def thrice(x):\n    return 3.0 * x\n"
+        "assert jit.compiled(thrice, cached=False)(1.5) == 4.5\n"
+        "from numba.core import entrypoints\n"
+        "print(entrypoints._already_initialized, entrypoints.logger.name)\n"
+    )
+    env = {**_env(tmp_path / "cache"), "MARK": str(mark)}
+    env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")])
+    done = subprocess.run(
+        [sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["False", "False", "True", "numba.core.entrypoints"]
+    assert mark.read_text() == "loaded\n"
 
 
 def test_another_numba_loads_its_cache_its_own_way(monkeypatch: pytest.MonkeyPatch) -> None:

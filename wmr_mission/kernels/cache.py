@@ -28,6 +28,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from wmr_mission.version import installed_version
+
 PACKAGE = Path(__file__).resolve().parent.parent
 # The modules holding kernels or what they call: every module of the packages
 # of kernels, estimators and controllers (a new one is counted as it is
@@ -70,12 +72,7 @@ READY = "kernels-ready"
 def ready_stamp() -> str:
     """What the ready marker holds: what numba's cache entries depend on, the
     kernels' sources, the interpreter and numba's version."""
-    from importlib import metadata
-
-    try:
-        numba = metadata.version("numba")
-    except metadata.PackageNotFoundError:  # installed without its metadata
-        numba = "unknown"
+    numba = installed_version("numba") or "unknown"  # "unknown": installed without its metadata
     return f"{kernel_sources_stamp()} {sys.implementation.cache_tag} numba-{numba}"
 
 

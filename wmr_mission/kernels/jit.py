@@ -38,6 +38,8 @@ import types
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, TypeVar, cast
 
+from wmr_mission.version import installed_version
+
 F = TypeVar("F", bound=Callable[..., Any])
 
 NO_JIT = "WMR_MISSION_NO_JIT"
@@ -200,7 +202,7 @@ def _load() -> bool:
     directory = cache.cache_directory()
     if directory is not None:  # before numba loads: it reads its cache directory then
         cache.point_numba_at(directory)
-    with _without_scipy():
+    with _without_scipy(), _extensions_later():
         try:
             import numba
         except ImportError:  # pragma: no cover - a numba that cannot load (another numpy)
@@ -463,6 +465,71 @@ class _WithoutScipy:
 def _without_scipy() -> Iterator[None]:
     """scipy refused to this thread for the moment (:class:`_WithoutScipy`)."""
     finder = _WithoutScipy()
+    sys.meta_path.insert(0, finder)
+    try:
+        yield
+    finally:
+        sys.meta_path.remove(finder)
+
+
+# numba's module of extension entry points, stood in for as numba loads.
+ENTRY_POINTS = "numba.core.entrypoints"
+
+
+class _ExtensionsLater:
+    """An import finder and loader of numba's module of extension entry points
+    (:data:`ENTRY_POINTS`) as numba loads: a module whose ``init_all`` loads
+    numba's own, and with it importlib.metadata (the email parser, zipfile,
+    csv: 0.014-0.017 s of CPU), when first called, and then calls it; any
+    other name of it is numba's own module's. numba calls ``init_all`` to
+    compile, never to load a cached function (:func:`_dispatcher`): a run of
+    a cached loop imports importlib.metadata nowhere (docs/performance.md,
+    Start-up)."""
+
+    def find_spec(self, name: str, path: Any = None, target: Any = None) -> Any:
+        return (
+            importlib.util.spec_from_loader(name, cast(Any, self)) if name == ENTRY_POINTS else None
+        )
+
+    def create_module(self, spec: Any) -> None:
+        return None  # a plain module
+
+    def exec_module(self, module: types.ModuleType) -> None:
+        module.init_all = lambda: _numbas_entry_points().init_all()  # type: ignore[attr-defined]
+        module.__getattr__ = lambda name: getattr(_numbas_entry_points(), name)  # type: ignore[method-assign]
+
+
+_entry_points_lock = threading.Lock()
+_entry_points: list[types.ModuleType] = []
+
+
+def _numbas_entry_points() -> types.ModuleType:
+    """numba's own module of extension entry points, loaded once."""
+    with _entry_points_lock:
+        if not _entry_points:
+            import importlib.machinery
+
+            import numba.core
+
+            spec = importlib.machinery.PathFinder.find_spec(ENTRY_POINTS, numba.core.__path__)
+            assert spec is not None
+            assert spec.loader is not None
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+            _entry_points.append(module)
+        return _entry_points[0]
+
+
+@contextlib.contextmanager
+def _extensions_later() -> Iterator[None]:
+    """numba's module of extension entry points stood in for while numba
+    loads (:class:`_ExtensionsLater`), for :data:`LOADED_AS_IS_FOR` only, whose
+    module this reads."""
+    version = installed_version("numba") or ""
+    if version.split(".")[:2] != LOADED_AS_IS_FOR.split(".") or ENTRY_POINTS in sys.modules:
+        yield
+        return
+    finder = _ExtensionsLater()
     sys.meta_path.insert(0, finder)
     try:
         yield

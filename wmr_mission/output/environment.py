@@ -30,8 +30,9 @@ import re
 import struct
 import sys
 from collections.abc import Mapping
-from importlib import metadata
 from typing import Any, Final
+
+from wmr_mission.version import __version__, installed_version
 
 __all__ = [
     "FINGERPRINT_FORM",
@@ -176,10 +177,8 @@ def package_versions() -> dict[str, str | None]:
 
 @functools.cache
 def _package_versions() -> dict[str, str | None]:
-    # Read once per process (20 ms of package metadata): a campaign's worst
-    # runs, forked from the process that wrote its manifest, read none.
-    from wmr_mission.version import __version__
-
+    # Read once per process: a campaign's worst runs, forked from the process
+    # that wrote its manifest, read none.
     versions: dict[str, str | None] = {
         "python": platform.python_version(),
         "wmr-mission": __version__,
@@ -187,20 +186,3 @@ def _package_versions() -> dict[str, str | None]:
     for package in _VERSIONED_PACKAGES:
         versions[package] = installed_version(package)
     return versions
-
-
-def installed_version(package: str) -> str | None:
-    """The installed version of ``package`` (None: not installed), as
-    ``importlib.metadata.version`` gives it, read from the headers of its
-    metadata alone: that parses the whole file with the email parser, the
-    package's long description too (5-6 ms of a run's CPU for five
-    packages, docs/performance.md, Start-up)."""
-    try:
-        distribution = metadata.distribution(package)
-    except metadata.PackageNotFoundError:
-        return None
-    text = distribution.read_text("METADATA") or distribution.read_text("PKG-INFO") or ""
-    for line in text.partition("\n\n")[0].splitlines():
-        if line.startswith("Version:"):
-            return line.removeprefix("Version:").strip()
-    return distribution.version
