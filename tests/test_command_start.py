@@ -29,9 +29,12 @@ import atexit, gc, json, os, sys, traceback
 names = sys.argv.pop(1).split(",")
 class NumpysDepth:  # the depth of the stack where numpy is first imported
     depth = None
+    metadata = None  # where importlib.metadata was first imported from, if it was
     def find_spec(self, name, path=None, target=None):
         if name == "numpy" and NumpysDepth.depth is None:
             NumpysDepth.depth = len(traceback.extract_stack())
+        if name == "importlib.metadata" and NumpysDepth.metadata is None:
+            NumpysDepth.metadata = "".join(traceback.format_stack(limit=25))
 sys.meta_path.insert(0, NumpysDepth())
 def loaded():
     modules = sorted({m.split(".")[0] for m in sys.modules})  # before threadpoolctl's
@@ -45,6 +48,7 @@ def loaded():
         "frozen": gc.get_freeze_count(),
         "environment": {name: os.environ.get(name) for name in names},
         "numpy_depth": NumpysDepth.depth,
+        "metadata": NumpysDepth.metadata,
     }), file=sys.__stderr__)
 atexit.register(loaded)
 sys.argv[0] = "wmr-mission"
@@ -149,7 +153,8 @@ def test_a_run_of_the_cached_loop_imports_no_package_metadata(tmp_path: Path) ->
     directory = cache.cache_directory()
     if jit.compiling() and directory is not None and cache.is_ready(directory):
         assert "numba" in modules
-    assert "email" not in modules
+    assert "email" not in modules, report["metadata"]
+    assert report["metadata"] is None, report["metadata"]
     versions = json.loads((out / "manifest.json").read_text(encoding="utf-8"))["versions"]
     assert versions["numba"] is not None
     assert versions["numpy"] is not None

@@ -5,7 +5,9 @@ names its own files."""
 
 from __future__ import annotations
 
+import io
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -295,3 +297,43 @@ def test_the_files_the_set_up_names_are_the_suites() -> None:
     assert files >= conftest.SMOKE
     assert set(conftest.LONGEST_FIRST) <= files
     assert len(set(conftest.LONGEST_FIRST)) == len(conftest.LONGEST_FIRST)
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("processes", [1, 2])
+def test_the_compile_shows_each_task_as_it_ends_on_a_terminal(
+    monkeypatch: pytest.MonkeyPatch, processes: int
+) -> None:
+    """`wmr-mission compile` takes 1 to 13 minutes: on a terminal it shows the
+    first variant, then the count of the other tasks as each ends, and which;
+    a log gets none of it. (Each task's compile is left out here: the
+    processes run what the test hands them, forked.)"""
+    from wmr_mission.output.progress import Steps
+
+    monkeypatch.setattr(compile_loop, "_compiled_run", lambda variant: None)
+    monkeypatch.setattr(compile_loop, "_judge", lambda result: None)
+    tasks = len(compile_loop.warm_up_missions())  # the variants after the first, and the judge
+    shown = []
+    for stream in (_Terminal(), io.StringIO()):
+        steps = Steps(stream)
+        compile_loop.compile_kernels(processes, steps)
+        steps.close()
+        shown.append(stream.getvalue())
+    text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", shown[0])  # the terminal's control codes
+    said = [piece.strip() for piece in re.split(r"[\r\n]", text) if piece.startswith("compiled")]
+    missions = compile_loop.warm_up_missions()
+    first = compile_loop.first_variant()
+    variants = {f"compiled {m.estimator.type} with {m.controller.type}" for m in missions}
+    assert said[0] == (
+        f"compiled {missions[first].estimator.type} with {missions[first].controller.type}, "
+        "with what every variant shares"
+    )
+    assert sorted(said[1:]) == sorted(
+        [*(variants - {said[0].partition(",")[0]}), "compiled the judge's passes"]
+    )
+    assert f"{tasks} of {tasks}" in text
+    assert shown[1] == ""

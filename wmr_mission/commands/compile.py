@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import os
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -31,6 +32,7 @@ from wmr_mission.kernels.jit import foreground_notice
 from wmr_mission.stopping import stop_owed
 
 if TYPE_CHECKING:
+    from wmr_mission.output.progress import Steps
     from wmr_mission.record import RunRecord
     from wmr_mission.spec.models import Mission
 
@@ -150,29 +152,39 @@ def _locks(path: Path) -> bool:
     return True
 
 
-def compile_kernels(processes: int = 1) -> None:
+def compile_kernels(processes: int = 1, steps: Steps | None = None) -> None:
     """Compile every kernel the loop runs into the cache, the EKF band's replay
     and the judge's passes. First, here, one variant with what every variant
     shares (numba set up, the kernels Python calls); then the other variants
     and the judge, on ``processes`` processes side by side
-    (:func:`side_by_side`), each taking the next task as it ends one."""
+    (:func:`side_by_side`), each taking the next task as it ends one.
+    ``steps``: where to show each task as it ends (on a terminal)."""
+    from wmr_mission.output.progress import Steps
+
     missions = warm_up_missions()
     first = first_variant()
+    steps = Steps(None) if steps is None else steps
+    steps.step("the first variant")
     result = _compiled_run(first)
+    steps.say(f"compiled {_variant_name(missions[first])}, with what every variant shares")
     # Then the costliest tasks first, so that the processes end together: the
     # paper's law's variants (18-24 s of CPU each), the judge's passes (13-15 s;
     # `python benchmarks/measure.py compiletasks`).
     rest = [i for i in range(len(missions)) if i != first]
     papers = [i for i in rest if missions[i].controller.type == "paper"]
     others = [i for i in rest if i not in papers]
+    tasks = len(rest) + 1  # the judge's passes too
+    steps.step("the other variants and the judge", total=tasks)
     if processes < 2:
         _judge(result)
-        for variant in rest:
+        _ended(steps, 1, tasks, "the judge's passes")
+        for done, variant in enumerate(rest, start=2):
             _compiled_run(variant)
+            _ended(steps, done, tasks, _variant_name(missions[variant]))
         return
     if stop_owed():  # came inside the first compile: no process started for the rest
         raise KeyboardInterrupt
-    from concurrent.futures import FIRST_EXCEPTION, wait
+    from concurrent.futures import as_completed
     from concurrent.futures.process import BrokenProcessPool
 
     from wmr_mission.campaign.engine import local_pool
@@ -182,16 +194,27 @@ def compile_kernels(processes: int = 1) -> None:
     # (compiled in each, it took 1.2 times the CPU of one process). Ctrl-C
     # is this process's, which stops them (local_pool).
     with local_pool(processes) as pool:
-        compiling = [pool.submit(compile_variant, v) for v in papers]
-        compiling.append(pool.submit(compile_judge, first))
-        compiling.extend(pool.submit(compile_variant, v) for v in others)
-        # The first failure as it comes (leaving local_pool stops the others)
-        done, _ = wait(compiling, return_when=FIRST_EXCEPTION)
-        for compiled in done:
+        names = {pool.submit(compile_variant, v): _variant_name(missions[v]) for v in papers}
+        names[pool.submit(compile_judge, first)] = "the judge's passes"
+        names |= {pool.submit(compile_variant, v): _variant_name(missions[v]) for v in others}
+        # Each as it ends; the first failure as it comes (leaving local_pool
+        # stops the others)
+        for done, compiled in enumerate(as_completed(names), start=1):
             try:
                 compiled.result()  # a CompileFailed is raised here
             except BrokenProcessPool:  # one was killed (out of memory, kill -9)
                 raise CompileFailed("a process compiling a variant died") from None
+            _ended(steps, done, tasks, names[compiled])
+
+
+def _variant_name(mission: Mission) -> str:
+    """A warm-up mission's variant of the loop: its estimator and control law."""
+    return f"{mission.estimator.type} with {mission.controller.type}"
+
+
+def _ended(steps: Steps, done: int, tasks: int, name: str) -> None:
+    steps.say(f"compiled {name}")
+    steps.update(done, f"{done} of {tasks}")
 
 
 def first_variant() -> int:
@@ -278,8 +301,14 @@ def compile_command() -> int:
     # The stamp of the sources compiled, read before: an edit meanwhile
     # leaves a stale marker, never a wrong one.
     stamp = ready_stamp()
+    from wmr_mission.output.progress import Steps
+
+    steps = Steps(sys.stderr)  # on a terminal: each task as it ends
     try:
-        compile_kernels(processes)
+        try:
+            compile_kernels(processes, steps)
+        finally:
+            steps.close()
         if stop_owed():  # came inside the last compile: no marker of a cache not filled
             raise KeyboardInterrupt
     except CompileFailed as failed:
