@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import the_tests_package
 
 from wmr_mission.campaign.load import check_file
 from wmr_mission.controllers.paper import PaperController
@@ -71,7 +72,8 @@ def _start(args: list[str], **environment: str) -> dict[str, object]:
     names = ",".join(START_UP_ENVIRONMENT)
     done = subprocess.run(
         [sys.executable, "-c", COMMAND, names, *args],
-        env=env,
+        env=the_tests_package(env),
+        cwd=Path(__file__).parent,  # not the checkout's root, whose package `-c` imports first
         capture_output=True,
         text=True,
         timeout=300,

@@ -684,7 +684,7 @@ def test_compile_leaves_no_ready_marker_when_stopped_in_its_last_compile(
 
     from wmr_mission.stopping import STOP_SIGNALS, StopSignals
 
-    def stopped_at_the_end(processes: int) -> None:
+    def stopped_at_the_end(processes: int, steps: object) -> None:
         ctypes.CFUNCTYPE(None)(lambda: os.kill(os.getpid(), signal.SIGTERM))()
 
     monkeypatch.setattr(kernel_cache, "cache_directory", lambda: tmp_path)
