@@ -22,6 +22,9 @@ from wmr_mission.spec import loader
 from wmr_mission.spec.models import Settled
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
+# Where the tests start their commands: not the checkout's root, whose package
+# `python -c` would import first, not the tests' (conftest.the_tests_package).
+TESTS = Path(__file__).resolve().parent
 
 # Runs the command line, then prints as it exits the top-level packages it
 # imported and the threads of numpy's BLAS.
@@ -73,7 +76,7 @@ def _start(args: list[str], **environment: str) -> dict[str, object]:
     done = subprocess.run(
         [sys.executable, "-c", COMMAND, names, *args],
         env=the_tests_package(env),
-        cwd=Path(__file__).parent,  # not the checkout's root, whose package `-c` imports first
+        cwd=TESTS,
         capture_output=True,
         text=True,
         timeout=300,
@@ -118,7 +121,13 @@ _no_pydantic_plugin_loader()
 from pydantic.plugin._loader import get_plugins, PYDANTIC_ENTRY_POINT_GROUP
 print(list(get_plugins()), PYDANTIC_ENTRY_POINT_GROUP, "email" in sys.modules)
 """
-    done = subprocess.run([sys.executable, "-c", stood_in], capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, "-c", stood_in],
+        capture_output=True,
+        text=True,
+        env=the_tests_package(dict(os.environ)),
+        cwd=TESTS,
+    )
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["[]", "pydantic", "True"]
 
@@ -211,6 +220,8 @@ def test_a_section_left_out_is_its_defaults_without_its_validator_built() -> Non
             capture_output=True,
             text=True,
             timeout=300,
+            env=the_tests_package(dict(os.environ)),
+            cwd=TESTS,
         )
         assert done.returncode == 0, done.stderr
         assert done.stdout.split() == [], name
@@ -256,6 +267,8 @@ def test_the_formulas_grammar_is_imported_only_for_a_mission_that_writes_one(
                 capture_output=True,
                 text=True,
                 timeout=300,
+                env=the_tests_package(dict(os.environ)),
+                cwd=TESTS,
             )
             assert done.returncode == 0, done.stderr
             loaded[name, args[0]] = done.stderr.strip().splitlines()[-1]
@@ -344,7 +357,8 @@ def test_validate_and_run_make_no_other_dataclass_as_they_import(tmp_path: Path)
             capture_output=True,
             text=True,
             timeout=300,
-            env={**os.environ, "WMR_MISSION_NO_JIT": "1"},
+            env=the_tests_package({**os.environ, "WMR_MISSION_NO_JIT": "1"}),
+            cwd=TESTS,
         )
         assert done.returncode == 0, done.stderr
         made[args[0]] = set(done.stderr.strip().splitlines()[-1].split(","))
@@ -395,7 +409,11 @@ main()
 def _collections(args: list[str]) -> dict[str, object]:
     env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
     done = subprocess.run(
-        [sys.executable, "-c", COLLECTIONS, *args], env=env, capture_output=True, text=True
+        [sys.executable, "-c", COLLECTIONS, *args],
+        env=the_tests_package(dict(env)),
+        capture_output=True,
+        text=True,
+        cwd=TESTS,
     )
     assert done.returncode == 0, done.stderr
     report: dict[str, object] = json.loads(done.stderr.strip().splitlines()[-1])
@@ -431,7 +449,11 @@ program()
 def _ending(args: list[str]) -> subprocess.CompletedProcess[str]:
     env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
     return subprocess.run(
-        [sys.executable, "-c", ENDING, *args], env=env, capture_output=True, text=True
+        [sys.executable, "-c", ENDING, *args],
+        env=the_tests_package(dict(env)),
+        capture_output=True,
+        text=True,
+        cwd=TESTS,
     )
 
 
@@ -491,7 +513,12 @@ def test_the_command_line_builds_the_command_it_runs_alone(
     0.01 s of CPU for all, docs/performance.md, Start-up): the command named
     first is built alone, the whole for anything else."""
     done = subprocess.run(
-        [sys.executable, "-c", COMMANDS_BUILT, *args], capture_output=True, text=True, timeout=120
+        [sys.executable, "-c", COMMANDS_BUILT, *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=the_tests_package(dict(os.environ)),
+        cwd=TESTS,
     )
     assert done.returncode == 0, done.stderr
     names = done.stderr.strip().splitlines()[-1].split() if done.stderr.strip() else []
@@ -512,7 +539,11 @@ def test_validate_of_a_mission_builds_no_campaign_model() -> None:
     imported = {}
     for name in ("case2.yaml", "campaigns/case2-headings.yaml"):
         done = subprocess.run(
-            [sys.executable, "-c", probe, str(MISSIONS / name)], capture_output=True, text=True
+            [sys.executable, "-c", probe, str(MISSIONS / name)],
+            capture_output=True,
+            text=True,
+            env=the_tests_package(dict(os.environ)),
+            cwd=TESTS,
         )
         assert done.returncode == 0, done.stderr
         imported[name] = done.stdout.strip()
@@ -600,9 +631,10 @@ def test_main_comes_back_with_its_code_and_a_profiled_program_writes_its_profile
     env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
     twice = subprocess.run(
         [sys.executable, "-c", TWICE, str(MISSIONS / "case2.yaml"), str(bad)],
-        env=env,
+        env=the_tests_package(dict(env)),
         capture_output=True,
         text=True,
+        cwd=TESTS,
     )
     assert twice.returncode == 0, twice.stderr
     assert twice.stdout.splitlines()[-1] == "codes [0, 1]"
@@ -610,9 +642,10 @@ def test_main_comes_back_with_its_code_and_a_profiled_program_writes_its_profile
     command = ["-m", "cProfile", "-o", str(profile), "-m", "wmr_mission", "validate"]
     profiled = subprocess.run(
         [sys.executable, *command, str(MISSIONS / "case2.yaml")],
-        env=env,
+        env=the_tests_package(dict(env)),
         capture_output=True,
         text=True,
+        cwd=TESTS,
     )
     assert profiled.returncode == 0, profiled.stderr
     assert profile.stat().st_size > 0

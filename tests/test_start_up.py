@@ -430,7 +430,12 @@ def test_numbas_extensions_load_as_it_compiles_and_only_then(tmp_path: Path) -> 
     env = {**_env(tmp_path / "cache"), "MARK": str(mark)}
     env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")])
     done = subprocess.run(
-        [sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=300
+        [sys.executable, "-c", probe],
+        env=env,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["False", "False", "True", "numba.core.entrypoints"]
