@@ -461,10 +461,14 @@ class _WithoutScipy:
             raise ImportError(f"{name}: not needed by the kernels")
 
 
-@contextlib.contextmanager
-def _without_scipy() -> Iterator[None]:
+def _without_scipy() -> contextlib.AbstractContextManager[None]:
     """scipy refused to this thread for the moment (:class:`_WithoutScipy`)."""
-    finder = _WithoutScipy()
+    return _found_first(_WithoutScipy())
+
+
+@contextlib.contextmanager
+def _found_first(finder: Any) -> Iterator[None]:
+    """``finder`` asked first for every import, for the moment."""
     sys.meta_path.insert(0, finder)
     try:
         yield
@@ -520,21 +524,14 @@ def _numbas_entry_points() -> types.ModuleType:
         return _entry_points[0]
 
 
-@contextlib.contextmanager
-def _extensions_later() -> Iterator[None]:
+def _extensions_later() -> contextlib.AbstractContextManager[None]:
     """numba's module of extension entry points stood in for while numba
     loads (:class:`_ExtensionsLater`), for :data:`LOADED_AS_IS_FOR` only, whose
     module this reads."""
     version = installed_version("numba") or ""
     if version.split(".")[:2] != LOADED_AS_IS_FOR.split(".") or ENTRY_POINTS in sys.modules:
-        yield
-        return
-    finder = _ExtensionsLater()
-    sys.meta_path.insert(0, finder)
-    try:
-        yield
-    finally:
-        sys.meta_path.remove(finder)
+        return contextlib.nullcontext()
+    return _found_first(_ExtensionsLater())
 
 
 def compiled(fn: F, *, counted: bool = True, cached: bool = True) -> F:
