@@ -24,14 +24,16 @@ def usable_cores(root: Path | None = None) -> int:
     """The CPUs this process may run on, at most its CPU quota rounded up (1.5
     CPUs: 2 cores, each busy three quarters of the time); at least 1."""
     on = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    quota = cpu_quota(ROOT if root is None else root)
+    quota = cpu_quota(root)
     return max(1, min(on, math.ceil(quota))) if quota is not None else max(1, on)
 
 
-def cpu_quota(root: Path = ROOT) -> float | None:
+def cpu_quota(root: Path | None = None) -> float | None:
     """The least CPU quota, in CPUs, of this process's control group and the
-    groups above it, under ``root`` (``/``; another for tests); None where
-    there is none, or where the files are not Linux's or cannot be read."""
+    groups above it, under ``root`` (:data:`ROOT` unless given: another for
+    tests); None where there is none, or where the files are not Linux's or
+    cannot be read."""
+    root = ROOT if root is None else root
     try:
         groups = (root / "proc/self/cgroup").read_text(encoding="ascii").splitlines()
         mounts = (root / "proc/self/mountinfo").read_text(encoding="ascii").splitlines()

@@ -315,7 +315,12 @@ def _numba_as_read() -> bool:
     this module restates."""
     import numba
 
-    return bool(numba.__version__.split(".")[:2] == LOADED_AS_IS_FOR.split("."))
+    return _as_read(numba.__version__)
+
+
+def _as_read(version: str) -> bool:
+    """Whether numba's ``version`` is :data:`LOADED_AS_IS_FOR` (major.minor)."""
+    return version.split(".")[:2] == LOADED_AS_IS_FOR.split(".")
 
 
 def saves_can_take_turns() -> bool:
@@ -528,8 +533,7 @@ def _extensions_later() -> contextlib.AbstractContextManager[None]:
     """numba's module of extension entry points stood in for while numba
     loads (:class:`_ExtensionsLater`), for :data:`LOADED_AS_IS_FOR` only, whose
     module this reads."""
-    version = installed_version("numba") or ""
-    if version.split(".")[:2] != LOADED_AS_IS_FOR.split(".") or ENTRY_POINTS in sys.modules:
+    if not _as_read(installed_version("numba") or "") or ENTRY_POINTS in sys.modules:
         return contextlib.nullcontext()
     return _found_first(_ExtensionsLater())
 
