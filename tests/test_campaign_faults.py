@@ -621,6 +621,49 @@ def test_tiny_numbers_are_refused_not_internal_errors(
     assert said in line
 
 
+# A pool left by a fault while a worker it forked a moment ago has not set
+# itself up yet (engine._start_worker, slowed here): the worker still has this
+# process's handler of SIGTERM, which raises.
+POOL_LEFT_AT_ONCE = """
+import time
+
+from wmr_mission.campaign import engine
+from wmr_mission.stopping import STOP_SIGNALS, StopSignals
+
+set_up = engine._start_worker
+
+
+def slow_to_set_up(parent):
+    time.sleep(1.0)
+    set_up(parent)
+
+
+engine._start_worker = slow_to_set_up
+with StopSignals(STOP_SIGNALS):
+    try:
+        with engine.local_pool(2) as pool:
+            pool.submit(time.sleep, 0)
+            raise RuntimeError("a fault")
+    except RuntimeError:
+        print("left")
+"""
+
+
+def test_a_pool_left_at_once_stops_its_workers_without_a_traceback() -> None:
+    """`wmr-mission compile` whose variant failed at once printed a worker's
+    traceback now and then: the pool stopped its workers with SIGTERM, and a
+    worker not yet set up handled it as its parent does (a stop, raised).
+    SIGKILL stops them as they are."""
+    done = subprocess.run(
+        [sys.executable, "-c", POOL_LEFT_AT_ONCE], env=the_tests_package(dict(os.environ)),
+        cwd=ROOT / "tests", capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "left\n"
+    assert "Traceback" not in done.stderr
+    assert done.stderr == ""
+
+
 def test_more_workers_than_cores_are_capped_with_a_notice(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

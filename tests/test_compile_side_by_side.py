@@ -238,17 +238,18 @@ def test_compile_side_by_side_marks_the_cache_ready(tmp_path: Path) -> None:
 def test_ctrl_c_stops_every_process_of_the_compile(tmp_path: Path) -> None:
     """Ctrl-C (to the command alone: a terminal's reaches the processes too,
     which leave it to the command) stops the compile at once, exit 130, with
-    a line that says so, no marker and no process of it left compiling."""
+    a line that says so, no marker and no process of it left compiling: the
+    judge's, started beside the first variant, and the two of the others."""
     cache = _cache_of_this_session(tmp_path)  # the first variant loaded, not compiled
     said = tmp_path / "said"
     with _compiling(cache, "waits", str(said)) as compiling:
         waited = time.monotonic()
-        while said.read_text().count("compiling") < 2 if said.exists() else True:
+        while said.read_text().count("compiling") < 3 if said.exists() else True:
             assert compiling.poll() is None, compiling.communicate()
             assert time.monotonic() - waited < 300, "the processes never started"
             time.sleep(0.05)
         shares = _children(compiling.pid)
-        assert len(shares) == 2
+        assert len(shares) == 3
         compiling.send_signal(signal.SIGINT)
         out, err = compiling.communicate(timeout=60)
     assert compiling.returncode == 130, err
@@ -299,6 +300,39 @@ def test_the_files_the_set_up_names_are_the_suites() -> None:
     assert len(set(conftest.LONGEST_FIRST)) == len(conftest.LONGEST_FIRST)
 
 
+def test_the_judge_compiles_beside_the_first_variant(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The judge's passes need a run's record, not its loop: they compile in a
+    process of their own from a run made as plain Python, while the first
+    variant compiles (which leaves the other cores idle), not after it. Here
+    the first variant waits for the judge (each compile left out: the
+    processes run what the test hands them, forked)."""
+    judged = tmp_path / "judged"
+    seen: list[bool] = []
+
+    def judge(result: object) -> None:
+        assert result is not None  # the plain run's record
+        judged.write_text("judged")
+
+    def first_waits_for_the_judge(variant: int) -> None:
+        if not seen:  # the first variant, in the command's process
+            waited = time.monotonic()
+            while not judged.exists() and time.monotonic() - waited < 60:
+                time.sleep(0.05)
+            seen.append(judged.exists())
+
+    def plain_run(variant: int) -> object:
+        assert not jit.loaded()  # inside jit.plain_python_meanwhile
+        return object()
+
+    monkeypatch.setattr(compile_loop, "_judge", judge)
+    monkeypatch.setattr(compile_loop, "_compiled_run", first_waits_for_the_judge)
+    monkeypatch.setattr(compile_loop, "_run", plain_run)
+    compile_loop.compile_kernels(2)
+    assert seen == [True]
+
+
 class _Terminal(io.StringIO):
     def isatty(self) -> bool:
         return True
@@ -315,6 +349,7 @@ def test_the_compile_shows_each_task_as_it_ends_on_a_terminal(
     from wmr_mission.output.progress import Steps
 
     monkeypatch.setattr(compile_loop, "_compiled_run", lambda variant: None)
+    monkeypatch.setattr(compile_loop, "_run", lambda variant: None)
     monkeypatch.setattr(compile_loop, "_judge", lambda result: None)
     tasks = len(compile_loop.warm_up_missions())  # the variants after the first, and the judge
     shown = []

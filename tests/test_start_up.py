@@ -604,6 +604,26 @@ def test_the_plain_form_of_a_kernel_calls_no_compiled_code() -> None:
     np.testing.assert_array_equal(rows[0], rows[1])
 
 
+def test_a_run_made_as_plain_python_meanwhile_compiles_nothing_and_compiling_goes_on() -> None:
+    """`wmr-mission compile` judges a run made as plain Python beside the first
+    variant's compile: inside jit.plain_python_meanwhile the kernels, the
+    loop and the judge's passes are plain Python, numba loaded or not, with
+    the same bytes; after it, they are compiled again."""
+    jit.load()
+    mission = load_mission(MISSIONS / "case2.yaml")
+    compiled = run_mission(plan_mission(mission))
+    with jit.plain_python_meanwhile():
+        assert not jit.loaded()
+        assert not jit.distances_compiled()
+        assert not hasattr(jit.compiled(loop.record_sample), "signatures")
+        assert runner._Run(plan_mission(mission), None, None).ticks_are_ns  # the plain loop
+        plain = run_mission(plan_mission(mission))
+    assert jit.loaded()
+    assert hasattr(jit.compiled(loop.record_sample), "signatures")
+    for column in ("x", "y", "theta", "v", "omega", "x_est"):
+        np.testing.assert_array_equal(getattr(plain, column), getattr(compiled, column))
+
+
 def test_the_loop_is_compiled_counted_where_numba_lacks_the_option(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

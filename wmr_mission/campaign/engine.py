@@ -220,8 +220,11 @@ def local_pool(workers: int, *, writes: bool = False) -> Iterator[ProcessPoolExe
         yield pool
     except BaseException:
         if not writes:
+            # SIGKILL, not SIGTERM: a process forked a moment ago may not have
+            # run _start_worker yet, and this process's handler of SIGTERM
+            # would print a traceback from it (seen as a compile failed)
             for process in list((pool._processes or {}).values()):
-                process.terminate()
+                process.kill()
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)

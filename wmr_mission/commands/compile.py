@@ -155,8 +155,9 @@ def _locks(path: Path) -> bool:
 def compile_kernels(processes: int = 1, steps: Steps | None = None) -> None:
     """Compile every kernel the loop runs into the cache, the EKF band's replay
     and the judge's passes. First, here, one variant with what every variant
-    shares (numba set up, the kernels Python calls); then the other variants
-    and the judge, on ``processes`` processes side by side
+    shares (numba set up, the kernels Python calls), and beside it the
+    judge's passes, which need a run's record but not its loop; then the
+    other variants on ``processes`` processes side by side
     (:func:`side_by_side`), each taking the next task as it ends one.
     ``steps``: where to show each task as it ends (on a terminal)."""
     from wmr_mission.output.progress import Steps
@@ -164,47 +165,55 @@ def compile_kernels(processes: int = 1, steps: Steps | None = None) -> None:
     missions = warm_up_missions()
     first = first_variant()
     steps = Steps(None) if steps is None else steps
-    steps.step("the first variant")
-    result = _compiled_run(first)
-    steps.say(f"compiled {_variant_name(missions[first])}, with what every variant shares")
-    # Then the costliest tasks first, so that the processes end together: the
-    # paper's law's variants (18-24 s of CPU each), the judge's passes (13-15 s;
-    # `python benchmarks/measure.py compiletasks`).
     rest = [i for i in range(len(missions)) if i != first]
-    papers = [i for i in rest if missions[i].controller.type == "paper"]
-    others = [i for i in rest if i not in papers]
     tasks = len(rest) + 1  # the judge's passes too
-    steps.step("the other variants and the judge", total=tasks)
     if processes < 2:
+        steps.step("the first variant")
+        result = _compiled_run(first)
+        steps.say(f"compiled {_variant_name(missions[first])}, with what every variant shares")
+        steps.step("the other variants and the judge", total=tasks)
         _judge(result)
         _ended(steps, 1, tasks, "the judge's passes")
         for done, variant in enumerate(rest, start=2):
             _compiled_run(variant)
             _ended(steps, done, tasks, _variant_name(missions[variant]))
         return
-    if stop_owed():  # came inside the first compile: no process started for the rest
-        raise KeyboardInterrupt
-    from concurrent.futures import as_completed
+    from concurrent.futures import Future, as_completed
     from concurrent.futures.process import BrokenProcessPool
 
     from wmr_mission.campaign.engine import local_pool
 
-    # Forked where the system can (where flock is, it can): each process
-    # finds numba set up and what every variant shares compiled, in memory
-    # (compiled in each, it took 1.2 times the CPU of one process). Ctrl-C
-    # is this process's, which stops them (local_pool).
-    with local_pool(processes) as pool:
-        names = {pool.submit(compile_variant, v): _variant_name(missions[v]) for v in papers}
-        names[pool.submit(compile_judge, first)] = "the judge's passes"
-        names |= {pool.submit(compile_variant, v): _variant_name(missions[v]) for v in others}
-        # Each as it ends; the first failure as it comes (leaving local_pool
-        # stops the others)
-        for done, compiled in enumerate(as_completed(names), start=1):
-            try:
-                compiled.result()  # a CompileFailed is raised here
-            except BrokenProcessPool:  # one was killed (out of memory, kill -9)
-                raise CompileFailed("a process compiling a variant died") from None
-            _ended(steps, done, tasks, names[compiled])
+    # Forked where the system can (where flock is, it can). Ctrl-C is this
+    # process's, which stops them (local_pool).
+    with local_pool(1) as beside:
+        # The judge's passes beside the first variant, from a run made as
+        # plain Python: from nothing they cost about the CPU they cost after
+        # it (10.5 s against 13.7 s, `python benchmarks/measure.py
+        # compiletasks`), and the first variant's compile leaves a core idle.
+        names: dict[Future[None], str] = {beside.submit(compile_judge, first): "the judge's passes"}
+        steps.step("the first variant")
+        _compiled_run(first)
+        steps.say(f"compiled {_variant_name(missions[first])}, with what every variant shares")
+        if stop_owed():  # came inside the first compile: no process started for the rest
+            raise KeyboardInterrupt
+        # Then the costliest first, so that the processes end together: the
+        # paper's law's variants (15-18 s of CPU each), then the others (4-5 s).
+        papers = [i for i in rest if missions[i].controller.type == "paper"]
+        order = papers + [i for i in rest if i not in papers]
+        steps.step("the other variants and the judge", total=tasks)
+        # Forked now, each finds numba set up and what every variant shares
+        # compiled, in memory (compiled in each, it took 1.2 times the CPU of
+        # one process).
+        with local_pool(processes) as pool:
+            names |= {pool.submit(compile_variant, v): _variant_name(missions[v]) for v in order}
+            # Each as it ends; the first failure as it comes (leaving local_pool
+            # stops the others)
+            for done, compiled in enumerate(as_completed(names), start=1):
+                try:
+                    compiled.result()  # a CompileFailed is raised here
+                except BrokenProcessPool:  # one was killed (out of memory, kill -9)
+                    raise CompileFailed("a process compiling a variant died") from None
+                _ended(steps, done, tasks, names[compiled])
 
 
 def _variant_name(mission: Mission) -> str:
@@ -233,9 +242,12 @@ def compile_variant(variant: int) -> None:
 
 
 def compile_judge(variant: int) -> None:
-    """In a process side by side with others: the judge's passes compiled,
-    judging a run of the ``variant``-th warm-up mission (compiled already)."""
-    _judge(_compiled_run(variant))
+    """In a process of its own, beside the first variant's compile: the judge's
+    passes compiled, judging a run of the ``variant``-th warm-up mission made
+    as plain Python (its loop not compiled, here or there)."""
+    with jit.plain_python_meanwhile():
+        result = _run(variant)
+    _judge(result)
 
 
 def _judge(result: RunRecord) -> None:
@@ -253,6 +265,15 @@ def _compiled_run(variant: int) -> RunRecord:
     """The run of the ``variant``-th warm-up mission, its loop compiled, and the
     EKF band's replay."""
     from wmr_mission.output.covariance import estimate_std
+
+    result = _run(variant)
+    estimate_std(result)  # the EKF band's replay, for the estimation figure
+    return result
+
+
+def _run(variant: int) -> RunRecord:
+    """The run of the ``variant``-th warm-up mission (compiled, unless inside
+    :func:`jit.plain_python_meanwhile`)."""
     from wmr_mission.record import Outcome
     from wmr_mission.sim.plan import plan_mission
     from wmr_mission.sim.runner import run_mission
@@ -262,13 +283,12 @@ def _compiled_run(variant: int) -> RunRecord:
     if stop_owed():
         raise KeyboardInterrupt
     mission = warm_up_missions()[variant]
-    result = run_mission(plan_mission(mission))  # compiled
+    result = run_mission(plan_mission(mission))
     if result.outcome is Outcome.error:
         # a loop that does not compile ends its run in an error, kept as
         # data: the cache would be marked ready with nothing in it
         raise CompileFailed(result.message)
     result.mission = mission.model_dump(mode="json")
-    estimate_std(result)  # the EKF band's replay, for the estimation figure
     return result
 
 

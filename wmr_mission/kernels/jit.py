@@ -130,6 +130,20 @@ def choose_plain_python() -> None:
     _state.plain_chosen = True
 
 
+@contextlib.contextmanager
+def plain_python_meanwhile() -> Iterator[None]:
+    """Run this process's kernels and entry points as plain Python inside,
+    numba loaded or not, and compiled again after: a run's record made
+    without compiling its loop, for what compiles from a record (the judge's
+    passes, beside the loop's compile in `wmr-mission compile`)."""
+    chosen = _state.plain_chosen
+    _state.plain_chosen = True
+    try:
+        yield
+    finally:
+        _state.plain_chosen = chosen
+
+
 def compiling() -> bool:
     """Whether :func:`compiled` compiles here: numba is installed, not turned
     off by ``WMR_MISSION_NO_JIT=1``, and plain Python was not chosen."""
@@ -139,8 +153,9 @@ def compiling() -> bool:
 
 
 def loaded() -> bool:
-    """Whether this process loaded numba for its kernels."""
-    return _state.ready
+    """Whether this process loaded numba for its kernels (and runs them
+    compiled: not inside :func:`plain_python_meanwhile`)."""
+    return _state.ready and not _state.plain_chosen
 
 
 # The judge's compiled passes (wmr_mission.verdicts) cost a process about
@@ -160,7 +175,7 @@ def judging_compiled() -> bool:
     """Whether the judge's passes run compiled: numba loaded for the kernels,
     and JUDGED_COMPILED_FROM samples judged in this process, the record being
     judged included. Their numpy forms give the same bits."""
-    return _state.ready and _state.judged >= JUDGED_COMPILED_FROM
+    return loaded() and _state.judged >= JUDGED_COMPILED_FROM
 
 
 def distances_compiled() -> bool:
@@ -169,7 +184,7 @@ def distances_compiled() -> bool:
     samples judged. Its numpy form costs about 10 us a sample (0.05 s of case
     study 1's judging), its pass a few ms to load: it makes no array and needs
     no reference counting (docs/performance.md, Start-up). The same bits."""
-    return _state.ready
+    return loaded()
 
 
 def entries() -> list[str]:
@@ -187,7 +202,7 @@ def _njit() -> Any:
 def load() -> bool:
     """Load numba (once) and teach it the kernels; False when not compiling."""
     if _state.ready:
-        return True
+        return not _state.plain_chosen
     with _lock:
         return _load()
 
