@@ -18,6 +18,7 @@
     python benchmarks/measure.py llvm       # the calls into LLVM as a run loads its compiled loop
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py compiletasks   # `wmr-mission compile`'s tasks, one by one
+    python benchmarks/measure.py compileorder   # when each task ends, on two processes
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, and by stage
     python benchmarks/measure.py csv        # trajectory.csv's writer, per sample, the 1-hour run
@@ -1120,6 +1121,52 @@ def compile_tasks() -> None:
     )
     subprocess.run([sys.executable, "-c", code], check=True, env=_user_env())
     shutil.rmtree(cache)
+    # the judge's passes from nothing, as `wmr-mission compile` compiles them
+    # beside the first variant: numba loaded, a run made as plain Python, judged
+    code = (
+        "import time\n"
+        "from wmr_mission.commands import compile as c\n"
+        "from wmr_mission.kernels import jit\n"
+        "t = time.process_time(); jit.load(); c.compile_judge(c.first_variant())\n"
+        "print(f'compiled: {\"the passes of the judge, from nothing\":40s} '\n"
+        "      f'{time.process_time() - t:5.1f} s CPU (numba loaded with them)')\n"
+    )
+    env = _user_env(NUMBA_CACHE_DIR=tempfile.mkdtemp())
+    subprocess.run([sys.executable, "-c", code], check=True, env=env)
+    shutil.rmtree(env["NUMBA_CACHE_DIR"])
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
+_ORDER = """
+import time
+started = time.monotonic()
+from wmr_mission.commands import compile as c
+
+
+class Steps:  # each task's end, timed
+    def step(self, name, total=None):
+        print(f"{time.monotonic() - started:6.1f} s  {name}", flush=True)
+
+    def say(self, said):
+        print(f"{time.monotonic() - started:6.1f} s    {said}", flush=True)
+
+    def update(self, *_):
+        pass
+
+
+c.compile_kernels(2, Steps())
+print(f"{time.monotonic() - started:6.1f} s  the end", flush=True)
+"""
+
+
+def compile_order() -> None:
+    """`wmr-mission compile`'s tasks on two processes side by side, from an
+    empty cache: the moment each ends [s of wall time from the start]."""
+    import shutil
+
+    env = _user_env(NUMBA_CACHE_DIR=tempfile.mkdtemp())
+    subprocess.run([sys.executable, "-c", _ORDER], check=True, env=env, cwd=tempfile.gettempdir())
+    shutil.rmtree(env["NUMBA_CACHE_DIR"])
     print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 
@@ -2528,7 +2575,7 @@ if __name__ == "__main__":
     jobs |= {"plain": plain, "scale": scale, "threshold": threshold, "stages": stages}
     jobs |= {"short": short}
     jobs |= {"cuts": cuts, "imports": imports, "parts": parts, "classes": classes}
-    jobs |= {"llvm": llvm, "compiletasks": compile_tasks}
+    jobs |= {"llvm": llvm, "compiletasks": compile_tasks, "compileorder": compile_order}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,

@@ -98,19 +98,15 @@ def _compile_first(config: pytest.Config) -> None:
 # run of the suite from an empty kernel cache: tests/suite_costs.py), run
 # first, so that with `-n auto` no worker is left running one of them at the
 # end while the other waits (`--no-loadscope-reorder` in pyproject.toml: xdist
-# hands the files out in this order, not by their number of tests). The two
-# whose missions run in real time over ROS 2 wait most of their time (26 s of
-# 39, 12 of 27): handed out next to each other, both waited at once, a core
-# idle (the CPU of both cores 1.25 for 40 s); the first now runs beside
-# test_same_bytes.py's processes side by side, the second beside others.
+# hands the files out in this order, not by their number of tests).
 LONGEST_FIRST = (
     "test_same_bytes.py",
-    "test_ros2_plans.py",
     "test_controllers_doc.py",
     "test_start_up.py",
     "test_figure_styles.py",
-    "test_tutorial.py",
+    "test_ros2_plans.py",
     "test_backends.py",
+    "test_tutorial.py",
     "test_plugins.py",
     "test_campaign.py",
     "test_reference.py",

@@ -187,8 +187,8 @@ def compile_kernels(processes: int = 1, steps: Steps | None = None) -> None:
     # process's, which stops them (local_pool).
     with local_pool(1) as beside:
         # The judge's passes beside the first variant, from a run made as
-        # plain Python: from nothing they cost about the CPU they cost after
-        # it (10.5 s against 13.7 s, `python benchmarks/measure.py
+        # plain Python: from nothing they cost what they cost after it (11.1
+        # s of CPU against 10.9 s, `python benchmarks/measure.py
         # compiletasks`), and the first variant's compile leaves a core idle.
         names: dict[Future[None], str] = {beside.submit(compile_judge, first): "the judge's passes"}
         steps.step("the first variant")
