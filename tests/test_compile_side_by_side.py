@@ -342,7 +342,7 @@ class _Terminal(io.StringIO):
 def test_the_compile_shows_each_task_as_it_ends_on_a_terminal(
     monkeypatch: pytest.MonkeyPatch, processes: int
 ) -> None:
-    """`wmr-mission compile` takes 1 to 13 minutes: on a terminal it shows the
+    """`wmr-mission compile` takes 40 s to 13 minutes: on a terminal it shows the
     first variant, then the count of the other tasks as each ends, and which;
     a log gets none of it. (Each task's compile is left out here: the
     processes run what the test hands them, forked.)"""

@@ -644,8 +644,8 @@ def bench(
 
 @app.command(name="compile", cls=_Command)
 def compile_loop() -> None:
-    """Compile the simulation loop into the cache, on every core (1 to 13 minutes by the
-    machine's load, once per install)."""
+    """Compile the simulation loop into the cache, on every core (40 s to 13 minutes by
+    the machine's load, once per install)."""
     from wmr_mission.commands.compile import compile_command
 
     raise typer.Exit(compile_command())

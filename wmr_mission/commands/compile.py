@@ -3,7 +3,7 @@
 Loading the compiled loop from the cache costs a process numba's import and
 its entries (about 0.25 s of CPU and 120 MiB); compiling what case study
 2's first run needs, about 35 s of CPU (:data:`jit.ONE_VARIANT` of wall
-time), and every variant, 84-102 s of CPU, on every core (:data:`EVERY_VARIANT`
+time), and every variant, 74-103 s of CPU, on every core (:data:`EVERY_VARIANT`
 of wall time; docs/performance.md, "Compiling on every core"). Plain Python runs the same
 source with the same bytes (wmr_mission.kernels.jit) at 40-130 us a sample,
 judging included. So ``run`` runs a mission as plain Python when its sample
@@ -292,11 +292,12 @@ def _run(variant: int) -> RunRecord:
     return result
 
 
-# How long `wmr-mission compile` takes, the machine's load deciding: 46-64 s
-# of wall time on two idle cores, 75-103 s of CPU ("Compiling on every core"); at
-# 46c19a0, in one process, 91 s of CPU and 13 min of wall time with both
-# cores busy five times over (docs/performance.md, Start-up).
-EVERY_VARIANT = "every variant: 1 to 13 minutes by the machine's load"
+# How long `wmr-mission compile` takes, the machine's load deciding: 39-49 s
+# of wall time on two idle cores, 74-90 s of CPU ("Compiling on every core",
+# "The judge's passes beside the first variant"); at 46c19a0, in one process,
+# 91 s of CPU and 13 min of wall time with both cores busy five times over
+# (docs/performance.md, Start-up).
+EVERY_VARIANT = "every variant: 40 s to 13 minutes by the machine's load"
 
 
 def compile_command() -> int:
