@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 
 import pytest
@@ -25,6 +26,22 @@ MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 # Where the tests start their commands: not the checkout's root, whose package
 # `python -c` would import first, not the tests' (conftest.the_tests_package).
 TESTS = Path(__file__).resolve().parent
+
+
+def _python(
+    *args: str, env: Mapping[str, str] | None = None, timeout: float = 300
+) -> subprocess.CompletedProcess[str]:
+    """``python ARGS`` in ``env`` (None: this process's), started from TESTS
+    with the tests' package on the path, as every command here starts."""
+    return subprocess.run(
+        [sys.executable, *args],
+        env=the_tests_package(dict(os.environ if env is None else env)),
+        cwd=TESTS,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
 
 # Runs the command line, then prints as it exits the top-level packages it
 # imported and the threads of numpy's BLAS.
@@ -73,14 +90,7 @@ def _start(args: list[str], **environment: str) -> dict[str, object]:
     env.pop("WMR_MISSION_NO_JIT", None)
     env.update(environment)
     names = ",".join(START_UP_ENVIRONMENT)
-    done = subprocess.run(
-        [sys.executable, "-c", COMMAND, names, *args],
-        env=the_tests_package(env),
-        cwd=TESTS,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    done = _python("-c", COMMAND, names, *args, env=env)
     assert done.returncode == 0, done.stderr
     report: dict[str, object] = json.loads(done.stderr.strip().splitlines()[-1])
     return report
@@ -121,13 +131,7 @@ _no_pydantic_plugin_loader()
 from pydantic.plugin._loader import get_plugins, PYDANTIC_ENTRY_POINT_GROUP
 print(list(get_plugins()), PYDANTIC_ENTRY_POINT_GROUP, "email" in sys.modules)
 """
-    done = subprocess.run(
-        [sys.executable, "-c", stood_in],
-        capture_output=True,
-        text=True,
-        env=the_tests_package(dict(os.environ)),
-        cwd=TESTS,
-    )
+    done = _python("-c", stood_in)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["[]", "pydantic", "True"]
 
@@ -215,14 +219,7 @@ def test_a_section_left_out_is_its_defaults_without_its_validator_built() -> Non
     fields.Model.defaults); nor are they for the built-in contingencies'
     settling tolerances (wmr_mission.sim.reactions)."""
     for name in ("case1.yaml", "case2.yaml"):
-        done = subprocess.run(
-            [sys.executable, "-c", SECTIONS_LEFT_OUT, str(MISSIONS / name)],
-            capture_output=True,
-            text=True,
-            timeout=300,
-            env=the_tests_package(dict(os.environ)),
-            cwd=TESTS,
-        )
+        done = _python("-c", SECTIONS_LEFT_OUT, str(MISSIONS / name))
         assert done.returncode == 0, done.stderr
         assert done.stdout.split() == [], name
     mission = loader.load_mission(MISSIONS / "case1.yaml")
@@ -262,14 +259,7 @@ def test_the_formulas_grammar_is_imported_only_for_a_mission_that_writes_one(
         mission = str(MISSIONS / f"{name}.yaml")
         out = str(tmp_path / name)
         for args in (["validate", mission], ["run", mission, "--no-plots", "--out", out]):
-            done = subprocess.run(
-                [sys.executable, "-c", GRAMMAR_LOADED, *args],
-                capture_output=True,
-                text=True,
-                timeout=300,
-                env=the_tests_package(dict(os.environ)),
-                cwd=TESTS,
-            )
+            done = _python("-c", GRAMMAR_LOADED, *args)
             assert done.returncode == 0, done.stderr
             loaded[name, args[0]] = done.stderr.strip().splitlines()[-1]
     assert loaded == {
@@ -352,14 +342,7 @@ def test_validate_and_run_make_no_other_dataclass_as_they_import(tmp_path: Path)
     mission = str(MISSIONS / "case2.yaml")
     out = str(tmp_path / "run")
     for args in (["validate", mission], ["run", mission, "--no-plots", "--out", out]):
-        done = subprocess.run(
-            [sys.executable, "-c", DATACLASSES_MADE, *args],
-            capture_output=True,
-            text=True,
-            timeout=300,
-            env=the_tests_package({**os.environ, "WMR_MISSION_NO_JIT": "1"}),
-            cwd=TESTS,
-        )
+        done = _python("-c", DATACLASSES_MADE, *args, env={**os.environ, "WMR_MISSION_NO_JIT": "1"})
         assert done.returncode == 0, done.stderr
         made[args[0]] = set(done.stderr.strip().splitlines()[-1].split(","))
     assert made["validate"] == STILL_DATACLASSES | FORMULA_NODES
@@ -408,13 +391,7 @@ main()
 
 def _collections(args: list[str]) -> dict[str, object]:
     env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
-    done = subprocess.run(
-        [sys.executable, "-c", COLLECTIONS, *args],
-        env=the_tests_package(dict(env)),
-        capture_output=True,
-        text=True,
-        cwd=TESTS,
-    )
+    done = _python("-c", COLLECTIONS, *args, env=env)
     assert done.returncode == 0, done.stderr
     report: dict[str, object] = json.loads(done.stderr.strip().splitlines()[-1])
     return report
@@ -448,13 +425,7 @@ program()
 
 def _ending(args: list[str]) -> subprocess.CompletedProcess[str]:
     env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
-    return subprocess.run(
-        [sys.executable, "-c", ENDING, *args],
-        env=the_tests_package(dict(env)),
-        capture_output=True,
-        text=True,
-        cwd=TESTS,
-    )
+    return _python("-c", ENDING, *args, env=env)
 
 
 def test_run_and_validate_end_without_unloading_their_modules(tmp_path: Path) -> None:
@@ -512,14 +483,7 @@ def test_the_command_line_builds_the_command_it_runs_alone(
     """typer reads the options of every command it holds as it starts (about
     0.01 s of CPU for all, docs/performance.md, Start-up): the command named
     first is built alone, the whole for anything else."""
-    done = subprocess.run(
-        [sys.executable, "-c", COMMANDS_BUILT, *args],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=the_tests_package(dict(os.environ)),
-        cwd=TESTS,
-    )
+    done = _python("-c", COMMANDS_BUILT, *args, timeout=120)
     assert done.returncode == 0, done.stderr
     names = done.stderr.strip().splitlines()[-1].split() if done.stderr.strip() else []
     if built is None:
@@ -538,13 +502,7 @@ def test_validate_of_a_mission_builds_no_campaign_model() -> None:
     )
     imported = {}
     for name in ("case2.yaml", "campaigns/case2-headings.yaml"):
-        done = subprocess.run(
-            [sys.executable, "-c", probe, str(MISSIONS / name)],
-            capture_output=True,
-            text=True,
-            env=the_tests_package(dict(os.environ)),
-            cwd=TESTS,
-        )
+        done = _python("-c", probe, str(MISSIONS / name))
         assert done.returncode == 0, done.stderr
         imported[name] = done.stdout.strip()
     assert imported == {"case2.yaml": "False", "campaigns/case2-headings.yaml": "True"}
@@ -629,23 +587,11 @@ def test_main_comes_back_with_its_code_and_a_profiled_program_writes_its_profile
     bad = tmp_path / "bad.yaml"
     bad.write_text("version: 1\nname: bad\n")
     env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
-    twice = subprocess.run(
-        [sys.executable, "-c", TWICE, str(MISSIONS / "case2.yaml"), str(bad)],
-        env=the_tests_package(dict(env)),
-        capture_output=True,
-        text=True,
-        cwd=TESTS,
-    )
+    twice = _python("-c", TWICE, str(MISSIONS / "case2.yaml"), str(bad), env=env)
     assert twice.returncode == 0, twice.stderr
     assert twice.stdout.splitlines()[-1] == "codes [0, 1]"
     profile = tmp_path / "validate.prof"
     command = ["-m", "cProfile", "-o", str(profile), "-m", "wmr_mission", "validate"]
-    profiled = subprocess.run(
-        [sys.executable, *command, str(MISSIONS / "case2.yaml")],
-        env=the_tests_package(dict(env)),
-        capture_output=True,
-        text=True,
-        cwd=TESTS,
-    )
+    profiled = _python(*command, str(MISSIONS / "case2.yaml"), env=env)
     assert profiled.returncode == 0, profiled.stderr
     assert profile.stat().st_size > 0
