@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import subprocess
 import tracemalloc
 from pathlib import Path
 
@@ -178,3 +179,27 @@ def test_the_floor_reproduces_case_study_2s_tracking(monkeypatch: pytest.MonkeyP
     calls, result, _ = floor.tracking_calls()
     assert sum(call.samples for call in calls) > 2000
     assert floor.largest_difference(calls, result, floor.floor_function()) <= 1e-9
+
+
+def test_the_readme_command_script_runs_the_line_ci_runs() -> None:
+    """benchmarks/readme_command.py times the line `.ci/run` runs: its reading
+    of the README gives what `.ci/run`'s own line gives, and holds the extras
+    its ``--extras`` replaces."""
+    root = Path(__file__).resolve().parent.parent
+    spec = importlib.util.spec_from_file_location(
+        "readme_command", root / "benchmarks" / "readme_command.py"
+    )
+    assert spec is not None
+    assert spec.loader is not None
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    ci = (root / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    reading = next(line for line in ci if line.startswith("test_cmd="))
+    done = subprocess.run(
+        ["bash", "-c", f'{reading}\nprintf %s "$test_cmd"'],
+        cwd=root, capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    line = script.test_line((root / "README.md").read_text(encoding="utf-8"))
+    assert line == done.stdout
+    assert script.EXTRAS in line
+    assert "pytest" in line
