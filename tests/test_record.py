@@ -144,17 +144,51 @@ def test_no_output_is_written_over_a_falsification_s_record(
 def test_a_report_never_lands_in_another_record_s_directory(
     run_dir: Path, campaign_dir: Path, tmp_path: Path
 ) -> None:
-    """A run's report.html written into another run's (or a campaign's)
-    directory passes for that record's own."""
+    """A run's report written into another run's (or a campaign's) directory
+    passes for that record's own, under its default name or any other."""
     other = circle_run().write(tmp_path / "other", plots=False)
     for directory, source in ((other, run_dir), (campaign_dir, run_dir), (run_dir, campaign_dir)):
-        before = _fingerprint(directory)
-        target = directory / "report.html"
-        result = CliRunner().invoke(app, ["view", str(source), "--out", str(target)])
-        assert result.exit_code == 2, result.output
-        assert f"keeps its own report.html, not {source}'s" in result.stderr
-        assert _fingerprint(directory) == before
+        for name in ("report.html", "newname.html", "notes.txt"):
+            before = _fingerprint(directory)
+            target = directory / name
+            result = CliRunner().invoke(app, ["view", str(source), "--out", str(target)])
+            assert result.exit_code == 2, result.output
+            assert f"which keeps its own outputs, not {source}'s" in result.stderr
+            assert result.stderr.count("\n") == 1, result.stderr
+            assert _fingerprint(directory) == before
+    result = CliRunner().invoke(
+        app, ["export", str(run_dir), "--format", "parquet", "--out", str(other / "t.parquet")]
+    )
+    assert result.exit_code == 2, result.output
     # its own directory's report, and another name there, are written
     for target in (other / "report.html", other / "of-the-circle.html"):
         result = CliRunner().invoke(app, ["view", str(other), "--out", str(target)])
         assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize("command", ["view", "export"])
+def test_a_file_of_the_user_s_is_never_written_over(
+    command: str, run_dir: Path, tmp_path: Path
+) -> None:
+    """Outside any record, --out replaces an earlier output of the command's
+    own kind only: a mission, a table or another kind's output named by
+    mistake is kept, with one line and exit 2 (a mission written over with a
+    report was lost)."""
+    extra = ["--format", "parquet"] if command == "export" else []
+    own, other = (".parquet", ".html") if command == "export" else (".html", ".parquet")
+    for name in ("mission.yaml", "data.csv", "script.py", f"earlier{other}", "no-suffix"):
+        target = tmp_path / name
+        target.write_text("version: 1\n")
+        result = CliRunner().invoke(app, [command, str(run_dir), "--out", str(target), *extra])
+        assert result.exit_code == 2, result.output
+        assert result.stderr.count("\n") == 1, result.stderr
+        assert f"is a file already, not an earlier {own} output" in result.stderr
+        assert target.read_text() == "version: 1\n"
+    # an earlier output of its kind, and a new file of any name, are written
+    for name in (f"earlier{own}", f"EARLIER{own.upper()}", "new-file.txt"):
+        target = tmp_path / name
+        if name.startswith("earlier") or name.startswith("EARLIER"):
+            target.write_text("an earlier output")
+        result = CliRunner().invoke(app, [command, str(run_dir), "--out", str(target), *extra])
+        assert result.exit_code == 0, result.output
+        assert target.read_bytes() != b"an earlier output"

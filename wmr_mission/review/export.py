@@ -521,8 +521,9 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
 
     Exit code: 0 written; 1 the directory's files are damaged (as ``plot``);
     2 a usage error: not a run or campaign directory, MCAP asked of a campaign,
-    the extra not installed, PATH a file of a run's or campaign's record, or the
-    file cannot be written."""
+    the extra not installed, PATH a file of a record, in another record's
+    directory or a file already that is not an earlier export of the format
+    (wmr_mission.review.record), or the file cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
     from wmr_mission.review.record import record_file_refusal
 

@@ -1,11 +1,13 @@
 """A record (a run's, a campaign's, a falsification's) is never written over by
 a file the user names.
 
-``view --out`` and ``export --out`` write a file wherever they are told; this is
+``view --out`` and ``export --out`` write a file where they are told; this is
 their one check, symbolic links followed: inside a record, they write neither
 over its files, its figures nor any file it holds (a falsification's failing
-missions, a campaign's worst runs), nor their own output (``report.html``, ...)
-into another record's directory, where it would pass for that record's.
+missions, a campaign's worst runs), nor one record's output into another
+record's directory, where it would pass for that record's; outside one, they
+write over no file but an earlier output of their own kind (a report over a
+report: not a mission, a table or a script the user named by mistake).
 (``run --out`` and ``sweep --out`` name a directory, which they only ever take
 new or empty: wmr_mission.output.rundir.prepare_run_dir.)
 """
@@ -59,8 +61,9 @@ def _record_of(directory: Path) -> tuple[str, tuple[str, ...]] | None:
 
 def record_file_refusal(target: Path, source: Path, default_name: str) -> str | None:
     """One line refusing ``target`` when writing it would replace a file of a
-    record, or put the output of ``source`` (named ``default_name`` by default)
-    into another record's directory; else None."""
+    record, put the output of ``source`` (named ``default_name`` by default)
+    into another record's directory, or replace a file that is not an earlier
+    output of that kind (its suffix not ``default_name``'s); else None."""
     final = target.resolve()
     linked = final != Path(os.path.abspath(target))
     through = f" (through a symbolic link: {final})" if linked else ""
@@ -70,17 +73,23 @@ def record_file_refusal(target: Path, source: Path, default_name: str) -> str | 
             continue
         kind, names = record
         own = directory == final.parent
+        where = "" if own else f" (in {final.parent.name}/)"
         held = final.is_file() and final.suffix.lower() not in _OUTPUTS
         if held or (own and (final.name in names or final.suffix.lower() in _FIGURES)):
-            where = "" if own else f" (in {final.parent.name}/)"
             return (
                 f"{target}: is {final.name} of the {kind} in {directory}{where}{through}; "
                 "a record is never written over: choose another --out"
             )
-        if own and final.name == default_name and directory != source.resolve():
+        if directory != source.resolve():
             return (
-                f"{target}: is where the {kind} in {directory} keeps its own "
-                f"{default_name}{through}, not {source}'s; choose another --out"
+                f"{target}: is in the directory of the {kind} in {directory}{where}{through}, "
+                f"which keeps its own outputs, not {source}'s; choose another --out"
             )
-        return None
+        break
+    suffix = Path(default_name).suffix
+    if final.is_file() and final.suffix.lower() != suffix:
+        return (
+            f"{target}: is a file already, not an earlier {suffix} output{through}; "
+            "it is never written over: choose another --out, or remove it first"
+        )
     return None

@@ -571,7 +571,8 @@ def view_command(directory: Path, out: Path | None = None) -> int:
 
     Exit code: 0 written; 1 the directory's files are damaged (as ``plot``);
     2 not a run, campaign or falsification directory, FILE a file of a
-    record or another record's report.html, or the page cannot be written."""
+    record, in another record's directory or a file already that is not an
+    earlier report (wmr_mission.review.record), or the page cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
     from wmr_mission.review.falsification import falsification_meta, is_falsification_dir
     from wmr_mission.review.record import record_file_refusal
