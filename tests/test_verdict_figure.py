@@ -89,3 +89,50 @@ def test_a_run_that_meets_its_checks_says_so() -> None:
     assert "every expect check met" in figure._suptitle.get_text()
     # the fence's constraint value is drawn with its bound
     assert any("constraint" in ax.get_ylabel() for ax in figure.axes)
+
+
+def test_the_zones_panel_draws_the_body_that_clearance_min_judges() -> None:
+    """shelf.yaml's robot is a disc of 0.25 m: beside the axle's depth into the
+    shelf, the panel draws the body's (the axle's plus the radius), whose
+    highest is minus the clearance_min summary.json gives (to its 1e-6 m)."""
+    from wmr_mission.verdicts.metrics import judge
+    from wmr_mission.verdicts.signals import BODY_DEPTH
+
+    result = run_mission(load_mission(MISSIONS / "shelf.yaml"))
+    summary = judge(result, result.mission)
+    signals = run_signals(result)
+    axle, body = signals.lines["zones"]["depth into a zone"], signals.lines["zones"][BODY_DEPTH]
+    drawn = np.isfinite(axle)
+    assert drawn.any()
+    assert np.array_equal(np.isfinite(body), drawn)
+    assert np.allclose(body[drawn] - axle[drawn], 0.25, rtol=0.0, atol=1e-12)
+    least = min(
+        phase["constraint"]["clearance_min"]
+        for phase in summary["phases"]
+        if (phase.get("constraint") or {}).get("clearance_min") is not None
+    )
+    assert abs(float(np.max(body[drawn])) + least) <= 1e-6
+    assert "clearance_min" in {check.metric for check in signals.checks}
+
+
+def test_the_level_words_leave_the_signals_in_view() -> None:
+    """The words of a panel's level checks sit above its lines: shelf.yaml's
+    speed at its limit (|v| / limit = 1) was hidden behind them."""
+    result = run_mission(load_mission(MISSIONS / "shelf.yaml"))
+    fig = _figure(result, "verdicts")
+    fig.canvas.draw()
+    worded = 0
+    for ax in fig.axes:
+        for text in ax.texts:
+            if " met: " not in text.get_text():
+                continue
+            worded += 1
+            bottom = ax.transAxes.inverted().transform(text.get_window_extent().corners())[:, 1]
+            tops = [
+                ax.transAxes.inverted().transform(ax.transData.transform((0.0, np.nanmax(y))))[1]
+                for line in ax.get_lines()
+                if (y := np.asarray(line.get_ydata(), dtype=float)).size and np.isfinite(y).any()
+            ]
+            if ax.get_yscale() == "linear":
+                assert max(tops) < bottom.min(), text.get_text()
+    assert worded >= 3  # the inputs', the jitter's and the zones' panels

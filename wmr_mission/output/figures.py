@@ -1299,7 +1299,7 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
                 LineCollection(bounds, colors=bound_colors, linewidths=1.2, linestyles="--"),
                 autolim=True,
             )
-        _level_words(ax, [c for c in checks if not c.peak])
+        worded = _level_words(ax, [c for c in checks if not c.peak])
         for check in (c for c in checks if not c.met and not c.peak):
             start, end = check.span
             ax.axvspan(
@@ -1308,6 +1308,8 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
         if panel == "saturation":
             ax.axhline(1.0, color="0.2", linewidth=0.8, linestyle=":")
         _verdict_limits(ax, signals.ranges.get(panel, {}), checks)
+        if worded and panel not in ("zones", "constraint"):
+            _below_words(ax, worded)
         if panel in ("zones", "constraint"):
             # Metres far on the allowed side and millimetres beyond the edge, both
             # readable: linear within the bound of 0, logarithmic beyond.
@@ -1412,11 +1414,11 @@ def _verdict_title(
     return f"{head}\nno expect checks"
 
 
-def _level_words(ax: Axes, checks: Sequence[Any]) -> None:
+def _level_words(ax: Axes, checks: Sequence[Any]) -> int:
     """Level checks (an RMS, a share, a time) at the panel's top: the failed
-    ones in words, the met ones counted."""
+    ones in words, the met ones counted; the lines written."""
     if not checks:
-        return
+        return 0
     failed = [c for c in checks if not c.met]
     words = [f"NOT MET {c.words()}" for c in failed[:MAX_WORDS]]
     if len(failed) > MAX_WORDS:
@@ -1437,6 +1439,18 @@ def _level_words(ax: Axes, checks: Sequence[Any]) -> None:
         bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.7, "pad": 1.0},
         zorder=8,
     )
+    return len(words)
+
+
+# [share of a panel's height] a line of the level words takes, its padding included
+WORDS_LINE = 0.12
+
+
+def _below_words(ax: Axes, lines: int) -> None:
+    """The panel's top raised so that its signals and bounds stay below its
+    ``lines`` of level words (an input at its limit was hidden behind them)."""
+    low, high = ax.get_ylim()
+    ax.set_ylim(low, low + (high - low) / max(0.3, 0.94 - WORDS_LINE * lines))
 
 
 def _verdict_limits(

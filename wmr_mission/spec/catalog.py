@@ -257,7 +257,7 @@ for _entry in (
         bound="min",
         default_words="Unless set: 0 with a robot.footprint (its body may not touch a zone), "
         "else null.",
-        panel="zones",  # the body's; the panel draws the axle's depth
+        panel="zones",  # the body's: the panel draws its depth beside the axle's
         column=True,
         where_measured=True,
     ),

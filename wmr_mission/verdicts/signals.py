@@ -151,6 +151,12 @@ def expectations(result: RunRecord) -> list[dict[str, Any]]:
     return [check.record() for check in check_expectations(summarize(result, mission), mission)]
 
 
+# The zones panel's line of the body: the axle's depth plus the body's reach,
+# a round body's own depth (clearance_min is minus its least), at most a
+# polygon body's (the temporal signal ``clearance`` is minus it).
+BODY_DEPTH = "depth + the body's reach"
+
+
 def run_signals(result: RunRecord) -> Signals:
     """The error signals of ``result`` and its checks placed on them."""
     n = result.samples
@@ -207,6 +213,9 @@ def run_signals(result: RunRecord) -> Signals:
             depth = np.max([zone.depth(result.x[w], result.y[w]) for zone in zones], axis=0)
             line("zones", "depth into a zone")[w] = depth
             judged["depth into a zone"][w] = True
+            if numbers.body > 0.0:  # what clearance_min reads: the body's, not the axle's
+                line("zones", BODY_DEPTH)[w] = depth + numbers.body
+                judged[BODY_DEPTH][w] = True
         if info.kind == "regulate":  # to the target in force at each sample
             for a, b, (tx, ty, _) in info.targets_in_force(start, end):
                 to_target = line("goal", "distance to the target")
