@@ -31,7 +31,7 @@ def test_plot_of_a_directory_of_many_runs_names_it(
         text=True,
         check=False,
     )
-    assert done.returncode == 1
+    assert done.returncode == 2  # a usage error, as view's and export's of a directory
     lines = done.stderr.strip().splitlines()
     assert lines == [
         f"{tmp_path}: {kind}, not a run directory: plot draws one run's figures; "

@@ -18,18 +18,23 @@ def replot_command(
 ) -> int:
     """``wmr-mission plot RUN_DIR``: re-draw the figures from the saved data,
     sized by ``style`` (wmr_mission.output.figures.STYLES), PNGs at ``dpi``
-    (default: wmr_mission.output.figures.DPI)."""
+    (default: wmr_mission.output.figures.DPI).
+
+    Exit code: 0 drawn; 1 the run's files are damaged or cannot be drawn; 2 a
+    campaign's or falsification's directory, a usage error (as ``view`` and
+    ``export`` give for a directory they do not read)."""
     try:
         result = load_run(run_dir)
     except (RunDirError, OSError) as exc:
         many = _many_runs(run_dir)
-        said = (
-            f"{many}, not a run directory: plot draws one run's figures; "
-            f"wmr-mission view {run_dir} reports it"
-            if many is not None
-            else exc
-        )
-        print(f"{run_dir}: {said}", file=sys.stderr)
+        if many is not None:
+            print(
+                f"{run_dir}: {many}, not a run directory: plot draws one run's figures; "
+                f"wmr-mission view {run_dir} reports it",
+                file=sys.stderr,
+            )
+            return 2
+        print(f"{run_dir}: {exc}", file=sys.stderr)
         return 1
     try:
         paths = draw_all(result, run_dir, formats, style, dpi)
