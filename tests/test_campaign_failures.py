@@ -3,14 +3,23 @@
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
+from conftest import the_tests_package
 
 from wmr_mission.campaign.aggregate import WORST_PER_FAILURE, WORST_RUNS, Aggregate, failures_of
 from wmr_mission.campaign.rows import METRICS, Row
+from wmr_mission.campaign.sweep import _beyond
 from wmr_mission.verdicts.check import Check
 from wmr_mission.verdicts.metrics import unmet
 
 PATH = np.zeros((2, 0), dtype=np.float32)
+DATA = Path(__file__).parent / "data" / "campaigns"
 
 
 def _row(run: int, outcome: str, missed: tuple[Check, ...] | str = (), error: float = 0.0) -> Row:
@@ -109,3 +118,40 @@ def test_the_histograms_show_few_failures_on_a_log_scale_with_units() -> None:
     assert set(figures.UNITS) >= set(METRICS)  # every metric has its unit
     assert axes["max_constraint_violation"].get_xlabel() == "[constraint value]"
     assert axes["duration"].get_xlabel() == "[s]"
+
+
+def test_a_lower_bound_s_failure_is_said_and_written_with_min(tmp_path: Path) -> None:
+    """A formula's rho, or clearance_min, is bounded from below: the failures
+    of campaign.json and the sweep's words give its bound as ``min``, as the
+    run's summary.json does (they said ``max 0``)."""
+    missed = (Check("always(speed >= 100)", "park", 0.0, -0.97, lower=True),)
+    [failure] = failures_of(_row(1, "expect-failed", missed))
+    assert failure.side == "min"
+    assert _beyond({"phase": "park", "value": -0.97, "min": 0.0}) == " (park: -0.97, min 0)"
+    assert _beyond({"phase": None, "value": 2.5, "max": 2.0}) == " (2.5, max 2)"
+    mission = (
+        (DATA / "short.yaml")
+        .read_text()
+        .replace("expect:\n", "expect:\n  temporal: ['always(speed >= 100)']\n")
+    )
+    (tmp_path / "short.yaml").write_text(mission)
+    (tmp_path / "campaign.yaml").write_text(
+        "version: 1\nname: never-fast\nmission: short.yaml\nruns: 2\nseed: 1\n"
+        "vary:\n  robot.initial_state.theta: {uniform: [-0.5, 0.5]}\n"
+    )
+    out = tmp_path / "out"
+    done = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "sweep", str(tmp_path / "campaign.yaml"),
+         "--no-plots", "--workers", "1", "--out", str(out)],
+        capture_output=True, text=True, check=False, cwd=tmp_path,
+        env=the_tests_package(dict(os.environ)),
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr  # no success_rate expected: the sweep ran
+    [kind] = json.loads((out / "campaign.json").read_text())["failures"]
+    assert kind["failure"] == "always(speed >= 100)"
+    assert [sorted(w) for w in kind["worst"]] == [
+        ["min", "phase", "replay", "run", "seed", "value"]
+    ] * 2
+    assert all(w["min"] == 0.0 and w["value"] < 0.0 for w in kind["worst"])
+    assert ", min 0)" in done.stdout + done.stderr
+    assert ", max 0)" not in done.stdout + done.stderr

@@ -501,7 +501,7 @@ def _record(
                     "seed": f.seed,
                     "phase": f.phase,
                     "value": f.value,
-                    "max": f.bound,
+                    f.side: f.bound,  # "min" for a lower bound, as summary.json has it
                     "replay": replay_command(loaded, plan.draw(f.run)),
                 }
                 for f in worst
@@ -844,12 +844,14 @@ def _sweep(
 
 
 def _beyond(worst: dict[str, Any]) -> str:
-    """`` (south: 2.38, max 2)``: where and how far a run failed its bound."""
-    if worst.get("max") is None:
+    """`` (south: 2.38, max 2)``: where and how far a run failed its bound
+    (``min`` for a lower bound)."""
+    side = "min" if worst.get("min") is not None else "max"
+    if worst.get(side) is None:
         return ""
     value = "none" if worst["value"] is None else f"{worst['value']:.3g}"
     where = f"{worst['phase']}: " if worst.get("phase") else ""
-    return f" ({where}{value}, max {worst['max']:.3g})"
+    return f" ({where}{value}, {side} {worst[side]:.3g})"
 
 
 def _timing(record: dict[str, Any], total: float) -> str:
