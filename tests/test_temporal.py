@@ -554,3 +554,32 @@ phases:
         f"expect park: always(target_distance <= 0.5) >= 0: {check['value']:.4g} (NOT MET)"
         in done.stdout.splitlines()
     )
+
+
+def test_a_window_past_the_phase_s_end_is_said_in_the_advice(tmp_path: Path) -> None:
+    """``eventually`` over a window past its phase's end fails with -inf,
+    which summary.json holds as null, as it holds a divergence's: the phase
+    names the formula apart (``temporal_past_end``), and its check's advice
+    says why, in summary.json and in `run`'s printout."""
+    from typer.testing import CliRunner
+
+    from wmr_mission.cli import app
+
+    short = Path(__file__).parent / "data" / "campaigns" / "short.yaml"
+    late, held = "eventually[50, 60](speed <= 100)", "eventually[0, 5](speed <= 100)"
+    text = short.read_text().replace("expect:\n", f"expect:\n  temporal: ['{late}', '{held}']\n")
+    mission = tmp_path / "late.yaml"
+    mission.write_text(text)
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["run", str(mission), "--no-plots", "--out", str(out)])
+    assert result.exit_code == 1, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    [park] = summary["phases"]
+    assert park["temporal"][late] is None
+    assert park["temporal"][held] > 0.0
+    assert park["temporal_past_end"] == [late]
+    checks = {e["metric"]: e for e in summary["expectations"] if e["metric"] in (late, held)}
+    assert not checks[late]["met"]
+    assert "lies past the end of phase 'park'" in checks[late]["advice"]
+    assert "advice" not in checks[held]
+    assert f"try: {late}: a window of it lies past the end of phase 'park'" in result.stdout

@@ -254,6 +254,7 @@ def phase_values(
         return {}
     signals = PhaseSignals(result, info, window, numbers, placement, known)
     values: dict[str, float | None] = {}
+    past_end: list[str] = []  # decided by a window with no sample: it lies past the end
     for text in formulas:
         node, names = _read(text)
         if "entry" in text:  # the instant: measured with the track's signals
@@ -269,8 +270,12 @@ def phase_values(
         rho = robustness_at_start(node, arrays, numbers.dt, instants)
         if rho == _INF:
             continue
+        if rho == -_INF:  # finite signals: only a window with no sample gives -inf
+            past_end.append(text)
         values[text] = rho if math.isfinite(rho) else None
-    return {"temporal": values} if values else {}
+    if not values:
+        return {}
+    return {"temporal": values, **({PAST_END: past_end} if past_end else {})}
 
 
 def panel_of(formula: str) -> str:
@@ -283,12 +288,34 @@ def panel_of(formula: str) -> str:
     return SIGNALS[node.signal].panel
 
 
+# A phase summary's key beside ``temporal``: the formulas whose value (null)
+# a window past the phase's end decided, -inf, which JSON does not hold.
+PAST_END = "temporal_past_end"
+_PAST_END_ADVICE = (
+    "{formula}: a window of it lies past the end of phase {phase!r}, where it has no "
+    "sample and `eventually` fails (-inf); start the window within the phase, or make "
+    "the phase last longer"
+)
+
+
 def formula_checks(phase: Mapping[str, Any]) -> list[Check]:
     """A phase summary's formulas as checks: ``rho >= 0``, their value the
-    formula's rho, which is then their margin."""
+    formula's rho, which is then their margin; one a window past the phase's
+    end decided says so in its advice."""
     name = str(phase.get("name"))
     values = phase.get("temporal") or {}
-    return [Check(text, name, 0.0, value, lower=True) for text, value in values.items()]
+    past_end = set(phase.get(PAST_END) or ())
+    return [
+        Check(
+            text,
+            name,
+            0.0,
+            value,
+            _PAST_END_ADVICE.format(formula=text, phase=name) if text in past_end else None,
+            lower=True,
+        )
+        for text, value in values.items()
+    ]
 
 
 class PhaseSignals:
