@@ -184,11 +184,16 @@ def test_a_file_of_the_user_s_is_never_written_over(
         assert result.stderr.count("\n") == 1, result.stderr
         assert f"is a file already, not an earlier {own} output" in result.stderr
         assert target.read_text() == "version: 1\n"
-    # an earlier output of its kind, and a new file of any name, are written
-    for name in (f"earlier{own}", f"EARLIER{own.upper()}", "new-file.txt"):
+    # a new file of any name is written; one of the kind's suffix, written over again
+    for name, times in ((f"earlier{own}", 2), (f"EARLIER{own.upper()}", 2), ("new-file.txt", 1)):
         target = tmp_path / name
-        if name.startswith("earlier") or name.startswith("EARLIER"):
-            target.write_text("an earlier output")
-        result = CliRunner().invoke(app, [command, str(run_dir), "--out", str(target), *extra])
-        assert result.exit_code == 0, result.output
-        assert target.read_bytes() != b"an earlier output"
+        for _ in range(times):
+            result = CliRunner().invoke(app, [command, str(run_dir), "--out", str(target), *extra])
+            assert result.exit_code == 0, result.output
+    if command == "view":  # a page of the user's own is no earlier report
+        notes = tmp_path / "notes.html"
+        notes.write_text("<html><body>my notes</body></html>\n")
+        result = CliRunner().invoke(app, ["view", str(run_dir), "--out", str(notes)])
+        assert result.exit_code == 2, result.output
+        assert "is a file already, not an earlier .html output" in result.stderr
+        assert notes.read_text() == "<html><body>my notes</body></html>\n"

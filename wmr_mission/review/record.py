@@ -15,6 +15,7 @@ new or empty: wmr_mission.output.rundir.prepare_run_dir.)
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Final
 
@@ -59,11 +60,17 @@ def _record_of(directory: Path) -> tuple[str, tuple[str, ...]] | None:
     return None
 
 
-def record_file_refusal(target: Path, source: Path, default_name: str) -> str | None:
+def record_file_refusal(
+    target: Path,
+    source: Path,
+    default_name: str,
+    earlier: Callable[[Path], bool] | None = None,
+) -> str | None:
     """One line refusing ``target`` when writing it would replace a file of a
     record, put the output of ``source`` (named ``default_name`` by default)
     into another record's directory, or replace a file that is not an earlier
-    output of that kind (its suffix not ``default_name``'s); else None."""
+    output of that kind (its suffix not ``default_name``'s, or, where
+    ``earlier`` is given, a file it does not tell for one); else None."""
     final = target.resolve()
     linked = final != Path(os.path.abspath(target))
     through = f" (through a symbolic link: {final})" if linked else ""
@@ -87,7 +94,9 @@ def record_file_refusal(target: Path, source: Path, default_name: str) -> str | 
             )
         break
     suffix = Path(default_name).suffix
-    if final.is_file() and final.suffix.lower() != suffix:
+    if final.is_file() and (
+        final.suffix.lower() != suffix or (earlier is not None and not earlier(final))
+    ):
         return (
             f"{target}: is a file already, not an earlier {suffix} output{through}; "
             "it is never written over: choose another --out, or remove it first"

@@ -69,6 +69,21 @@ def _script_json(text: str) -> str:
     )
 
 
+# What every page build_page writes holds before its data: how an earlier
+# report is told from another HTML file (`view --out` writes over the first only).
+_REPORT_MAIN = '<main id="report"></main>'
+
+
+def is_report(path: Path) -> bool:
+    """Whether ``path`` is a page `view` wrote: its mark in its first 64 KB (the
+    page's style and head before it)."""
+    try:
+        with path.open("rb") as page:
+            return _REPORT_MAIN.encode() in page.read(65536)
+    except OSError:
+        return False
+
+
 def build_page(title: str, meta: dict[str, Any], series_json: str = "{}") -> str:
     """The HTML page: ``meta`` (any JSON) and ``series_json`` (numbers only) inline."""
     meta_json = _script_json(json.dumps(meta, ensure_ascii=False, allow_nan=False))
@@ -82,7 +97,7 @@ def build_page(title: str, meta: dict[str, Any], series_json: str = "{}") -> str
         '<link rel="icon" href="data:,">\n'
         f"<title>{html.escape(title)}</title>\n"
         f"<style>\n{_asset('view.css')}</style>\n</head>\n<body>\n"
-        '<main id="report"></main>\n'
+        f"{_REPORT_MAIN}\n"
         f'<script type="application/json" id="meta">{meta_json}</script>\n'
         f'<script type="application/json" id="series">{_script_json(series_json)}</script>\n'
         f"<script>\n{_asset('view.js')}</script>\n</body>\n</html>\n"
@@ -588,7 +603,7 @@ def view_command(directory: Path, out: Path | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    refusal = record_file_refusal(target, directory, REPORT_FILE)
+    refusal = record_file_refusal(target, directory, REPORT_FILE, is_report)
     if refusal is not None:
         print(refusal, file=sys.stderr)
         return 2
