@@ -88,12 +88,8 @@ class Failure:
     reason: str = field(default="", compare=False)
     margin: float | None = field(default=None, compare=False)  # the run's (Row.margin)
     margin_check: str | None = field(default=None, compare=False)
-    lower: bool = field(default=False, compare=False)  # the bound a least (clearance_min)
-
-    @property
-    def side(self) -> str:
-        """``max``, or ``min`` for a lower bound: the key of its bound (Check.side)."""
-        return "min" if self.lower else "max"
+    # the key of its bound, as summary.json has it: "min" for a lower bound (Check.side)
+    side: str = field(default="max", compare=False)
 
 
 def failures_of(row: Row) -> list[Failure]:
@@ -138,7 +134,7 @@ def failures_of(row: Row) -> list[Failure]:
             row.reason,
             row.margin,
             row.margin_check,
-            check.lower,
+            check.side,
         )
         if kind not in worst or failure > worst[kind]:
             worst[kind] = failure
