@@ -133,6 +133,65 @@ def test_a_mistake_in_a_mission_is_at_its_file_line_and_column(tmp_path: Path) -
     assert "Traceback" not in done.stderr
 
 
+def _with_formula_written(written: str) -> str:
+    """case2.yaml with its orbit's formulas written as ``written`` (after `temporal:`)."""
+    text = CASE2.read_text()
+    orbit = '      temporal: ["eventually[0, 10](always(cross_track <= 0.02))"]'
+    assert orbit in text
+    return text.replace(orbit, f"      temporal:{written}")
+
+
+@pytest.mark.parametrize(
+    ("written", "line", "column"),
+    [
+        # a folded block: the mistake on its second line
+        (
+            ">-\n        eventually[0, 10](always(cross_track"
+            "\n        <= 0.02) and cross_tack <= 1)",
+            2,
+            22,
+        ),
+        # a literal block, each line break kept
+        (
+            "|-\n        eventually[0, 10](always(cross_track <= 0.02))"
+            "\n        and cross_tack <= 1",
+            2,
+            13,
+        ),
+        # a plain text over two lines, the second indented further
+        ("eventually[0, 10](always(cross_track <= 0.02))\n          and cross_tack <= 1", 1, 15),
+    ],
+)
+def test_a_mistake_in_a_formula_over_several_lines_is_at_its_own_line(
+    written: str, line: int, column: int
+) -> None:
+    """The error points into the line of the file where the mistake is, not at
+    the text's first line or its `>-` marker."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = _with_formula_written(f"\n      - {written}")
+    _, found = check_mission_text(text, "case2.yaml")
+    (error,) = found
+    assert "unknown signal 'cross_tack'" in error.message
+    first = text.splitlines().index("      temporal:") + 2  # the line of `- ` (from 1)
+    assert (error.line, error.column) == (first + line, column)
+    assert text.splitlines()[error.line - 1][error.column - 1 :].startswith("cross_tack")
+
+
+def test_a_formula_folded_with_a_blank_line_is_placed_at_its_start() -> None:
+    """A text whose characters are not its lines joined (a blank line folds to a
+    line break) gets no guessed position: the error is at the text's start."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    formula = (
+        ">-\n        eventually[0, 10](always(cross_track\n\n        <= 0.02)) and cross_tack <= 1"
+    )
+    text = _with_formula_written(f"\n      - {formula}")
+    _, found = check_mission_text(text, "case2.yaml")
+    (error,) = found
+    assert (error.line, error.column) == (text.splitlines().index("      temporal:") + 2, 9)
+
+
 def test_a_formula_on_a_signal_its_phase_does_not_measure_is_a_warning() -> None:
     from wmr_mission.spec.loader import check_mission_text
 

@@ -228,6 +228,9 @@ class Document:
     data: Any
     values: dict[DataPath, tuple[int, int, int]] = field(default_factory=dict)
     keys: dict[DataPath, tuple[int, int]] = field(default_factory=dict)
+    # A text written over several lines: where each line's part of it starts,
+    # in the text and in the file (:func:`_text_lines`).
+    lines: dict[DataPath, tuple[tuple[int, int, int], ...]] = field(default_factory=dict)
     # Paths whose value was refused while reading; later errors under them are noise.
     refused: set[DataPath] = field(default_factory=set)
     # Paths set from outside the text, and how the user wrote each (`--set PATH=VALUE`).
@@ -258,12 +261,51 @@ class Document:
                     return source
         return None
 
-    def text_column(self, path: DataPath) -> tuple[int, int] | None:
-        """Line and column of the first character of a one-line text value."""
+    def text_position(self, path: DataPath, column: int) -> tuple[int, int] | None:
+        """Line and column in the file of the ``column``-th character (from 1)
+        of a text value: of one line, or of several folded as written
+        (:func:`_text_lines`); None where the text's characters are not the
+        file's (an escape, a folded blank line)."""
         found = self.values.get(path)
-        if found is None or found[2] < 0:
-            return None
-        return found[0], found[1] + found[2]
+        if found is not None and found[2] >= 0:
+            return found[0], found[1] + found[2] + column - 1
+        at = None
+        for start, line, first in self.lines.get(path, ()):
+            if start > column - 1:
+                break
+            at = line, first + column - 1 - start
+        return at
+
+
+def _text_lines(node: yaml.ScalarNode) -> tuple[tuple[int, int, int], ...] | None:
+    """Where each line of a text written over several lines (plain, or a
+    ``>`` or ``|`` block) starts: its index in the text, its line and column
+    in the file (from 1); None unless the text is its lines joined as YAML
+    folds them (a space, a line break in a ``|`` block) with nothing else
+    changed, so that no position is ever guessed."""
+    buffer = getattr(node.start_mark, "buffer", None)
+    if not isinstance(buffer, str) or node.style not in (None, ">", "|"):
+        return None
+    written = buffer[node.start_mark.pointer : node.end_mark.pointer].split("\n")
+    first = node.start_mark.line + 1
+    parts: list[tuple[str, int, int]] = []  # (part, line, column)
+    if node.style is None:  # a plain text: each line's own, its indentation dropped
+        parts.append((written[0].rstrip(), first, node.start_mark.column + 1))
+        for number, text in enumerate(written[1:], start=first + 1):
+            kept = text.lstrip(" ")
+            parts.append((kept.rstrip(), number, len(text) - len(kept) + 1))
+    else:  # a block: the lines after its `>-` or `|`, the first's indentation dropped
+        body = written[1:]
+        while body and not body[-1].strip():
+            body.pop()
+        indent = len(body[0]) - len(body[0].lstrip(" ")) if body else 0
+        parts = [(text[indent:], first + 1 + i, indent + 1) for i, text in enumerate(body)]
+    joined, found = "", list[tuple[int, int, int]]()
+    for part, line, column in parts:
+        joined += ("\n" if node.style == "|" else " ") if found else ""
+        found.append((len(joined), line, column))
+        joined += part
+    return tuple(found) if joined == str(node.value).rstrip("\n") else None
 
 
 def _mark(mark: yaml.Mark | None) -> tuple[int, int]:
@@ -293,6 +335,10 @@ class _Builder:
             if offset and node.end_mark.column - node.start_mark.column != len(node.value) + 2:
                 offset = -1
         self.document.values[path] = (line, column, offset)
+        if isinstance(node, yaml.ScalarNode) and not one_line:
+            found = _text_lines(node)
+            if found is not None:
+                self.document.lines[path] = found
         if isinstance(node, yaml.MappingNode):
             return self._mapping(node, path)
         if isinstance(node, yaml.SequenceNode):
@@ -735,13 +781,11 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
             type_path, f"unknown type {tag!r}{hint} (expected one of: {', '.join(tags)})"
         )
     if kind == "expression":
-        position = document.text_column(path)
         column = context.get("column")
         message = f"{where}: {error['msg']}"
-        if position is not None and isinstance(column, int):
-            # point at the offending character inside the expression
-            return Finding(path, message, position=(position[0], position[1] + column - 1))
-        return Finding(path, message)
+        # point at the offending character inside the expression
+        position = document.text_position(path, column) if isinstance(column, int) else None
+        return Finding(path, message, position=position)
     if kind == "string_pattern_mismatch":
         described = _PATTERNS.get(str(context.get("pattern")), f"match {context.get('pattern')}")
         return Finding(path, f"{where}: expected {described}, got {_shown(value)}")
@@ -948,6 +992,7 @@ def check_mission_document(
         data=copy.deepcopy(document.data),
         values=dict(document.values),
         keys=dict(document.keys),
+        lines=dict(document.lines),
         refused=set(document.refused),
         overrides=dict(document.overrides),
     )
@@ -1264,7 +1309,7 @@ def apply_override(document: Document, override: Override) -> str | None:
                 current[key] = {}  # a section the file leaves to its defaults
             current = current[key]
     written = tuple(resolved)
-    for positions in (document.values, document.keys):
+    for positions in (document.values, document.keys, document.lines):
         for known in [p for p in positions if p[: len(written)] == written]:
             del positions[known]
     document.overrides[written] = override.source
