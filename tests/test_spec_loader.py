@@ -286,6 +286,19 @@ def test_injection_in_expression_is_refused_and_not_executed(
     assert os.listdir(tmp_path) == []
 
 
+def test_a_mistake_in_an_expression_folded_over_lines_is_at_its_own_line() -> None:
+    text = MINIMAL.replace(
+        "hold: {}",
+        "track:\n      path:\n        type: expression\n        x: >-\n          2*cos(t)\n"
+        "          + foo(t)\n        y: '0'",
+    )
+    _, diagnostics = check_mission_text(text, "folded.yaml")
+    (error,) = diagnostics
+    assert "function 'foo' is not allowed" in error.message
+    assert (error.line, error.column) == (10, 13)  # the `foo` of `+ foo(t)`
+    assert text.splitlines()[error.line - 1][error.column - 1 :] == "foo(t)"
+
+
 def test_python_tag_is_refused_and_not_executed(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
