@@ -24,7 +24,8 @@ pq = pytest.importorskip("pyarrow.parquet")
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """circle_run with measurements every 5th sample, and an infinity in the constraint."""
+    """circle_run with measurements every 5th sample, an infinity in the constraint,
+    and a reference updated half-way (the `reference` column of a run with updates)."""
     result = circle_run()
     measured = np.arange(result.samples) % 5 == 1
     constraint = result.constraint.copy()
@@ -35,6 +36,7 @@ def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         y_meas=np.where(measured, result.y - 0.01, np.nan),
         theta_meas=np.where(measured, result.theta + 0.001, np.nan),
         constraint=constraint,
+        reference=(np.arange(result.samples) >= result.samples // 2).astype(np.int64),
     )
     return result.write(tmp_path_factory.mktemp("export") / "circle", plots=False)
 
@@ -97,11 +99,13 @@ def test_mcap_messages_read_back_equal_to_the_csv(run_dir: Path) -> None:
             name: cell
             if name == "phase"
             else int(cell)
-            if name == "phase2_iterations"
+            if name in ("phase2_iterations", "reference")
             else _as_json(cell)
             for name, cell in zip(header, row, strict=True)
         }
         assert message == expected
+    assert header[-1] == "reference"
+    assert {m["reference"] for _, _, m in samples} == {0, 1}
     assert samples[1700][2]["constraint"] == "inf"
 
     column = {name: [row[j] for row in rows] for j, name in enumerate(header)}

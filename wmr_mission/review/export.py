@@ -48,7 +48,7 @@ from wmr_mission.output.rundir import (
     SUMMARY_FILE,
     TRAJECTORY_FILE,
 )
-from wmr_mission.record import CSV_COLUMNS
+from wmr_mission.record import CSV_COLUMNS, REFERENCE_COLUMN, csv_columns
 from wmr_mission.review.ros2_messages import STAMP_LIMIT, write_ros2_mcap
 
 if TYPE_CHECKING:
@@ -165,10 +165,11 @@ SAMPLE: Final = {
             {"type": "string"}
             if name == "phase"
             else {"type": "integer"}
-            if name == "phase2_iterations"
+            if name in ("phase2_iterations", REFERENCE_COLUMN)
             else _NUMBER_OR_NULL
         )
-        for name in CSV_COLUMNS
+        # the reference in force, where a run has updates (csv_columns)
+        for name in (*CSV_COLUMNS, REFERENCE_COLUMN)
     },
 }
 TRANSITION: Final = {
@@ -238,22 +239,22 @@ def _pose_messages(
 
 
 def _sample_messages(result: RunResult) -> Iterator[tuple[int, bytes]]:
+    """One message a row of trajectory.csv, every column of it by name."""
     names = [p.name for p in result.phases]
+    written = csv_columns(result)
+    whole = ("phase2_iterations", REFERENCE_COLUMN)  # integers as they are
     columns = {
-        name: np.asarray(getattr(result, name)).tolist()
-        for name in CSV_COLUMNS
-        if name not in ("phase", "phase2_iterations")
+        name: np.asarray(getattr(result, name)).tolist() for name in written if name != "phase"
     }
     phase = np.asarray(result.phase).tolist()
-    iterations = np.asarray(result.phase2_iterations).tolist()
     encode = json.JSONEncoder(allow_nan=False, separators=(",", ":")).encode
     for k, t in enumerate(columns["t"]):
         row: dict[str, Any] = {}
-        for name in CSV_COLUMNS:
+        for name in written:
             if name == "phase":
                 row[name] = names[phase[k]]
-            elif name == "phase2_iterations":
-                row[name] = iterations[k]
+            elif name in whole:
+                row[name] = columns[name][k]
             else:
                 row[name] = _json_number(columns[name][k])
         yield nanoseconds(t), encode(row).encode()
