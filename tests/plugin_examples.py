@@ -125,6 +125,14 @@ def text(params: dict[str, Any], setup: Any) -> Steps:
     return Steps(lambda t: ("1", "0"))
 
 
+def one_number(params: dict[str, Any], setup: Any) -> Steps:
+    return Steps(lambda t: 0.5)
+
+
+def nothing(params: dict[str, Any], setup: Any) -> Steps:
+    return Steps(lambda t: None)
+
+
 def out_of_memory(params: dict[str, Any], setup: Any) -> Steps:
     def no_memory(t: float) -> Any:
         raise MemoryError("the plug-in's map did not fit")
@@ -220,3 +228,27 @@ class TextEstimate(Drawn):
 
 def text_estimate(params: dict[str, float], setup: Any) -> TextEstimate:
     return TextEstimate(params["blend"], setup.dt, np.array(setup.initial_estimate))
+
+
+class ColumnEstimate(Drawn):
+    """A column of three, [[x], [y], [theta]], not three numbers."""
+
+    def step(self, measurement: Any, applied: Any) -> Any:
+        return [[value] for value in super().step(measurement, applied)]
+
+
+def column_estimate(params: dict[str, float], setup: Any) -> ColumnEstimate:
+    return ColumnEstimate(params["blend"], setup.dt, np.array(setup.initial_estimate))
+
+
+class LostEstimate(Drawn):
+    """Its estimate not a number from t = 0.25 s on."""
+
+    def step(self, measurement: Any, applied: Any) -> Any:
+        x, y, theta = super().step(measurement, applied)
+        self.steps = getattr(self, "steps", 0) + 1
+        return (math.nan, y, theta) if self.steps > 25 else (x, y, theta)
+
+
+def lost_estimate(params: dict[str, float], setup: Any) -> LostEstimate:
+    return LostEstimate(params["blend"], setup.dt, np.array(setup.initial_estimate))

@@ -129,6 +129,37 @@ def test_bench_command_reports_an_invalid_mission_with_positions(
     assert "Traceback" not in captured.err
 
 
+def test_bench_says_a_plug_in_that_does_not_import_as_run_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "plugged.yaml"
+    entry = '{type: python, entry: "no_such_module:make"}'
+    path.write_text(SHORT_MISSION.replace("robot:", f"controller: {entry}\nrobot:"))
+    assert bench_command(path, repeat=1) == 1
+    err = capsys.readouterr().err
+    line, text = next(
+        (n, text) for n, text in enumerate(path.read_text().splitlines(), 1) if "no_such" in text
+    )
+    column = text.index('"no_such') + 1
+    assert f"{path}:{line}:{column}: cannot import 'no_such_module:make'" in err
+    assert "nothing to time" not in err
+
+
+def test_bench_says_a_plain_python_plug_in_ran_as_plain_python(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A plug-in of plain Python objects runs the loop as plain Python however
+    numba is: bench's table says so, not "numba-compiled"."""
+    monkeypatch.syspath_prepend(str(Path(__file__).parent))
+    path = tmp_path / "plugged.yaml"
+    entry = '{type: python, entry: "plugin_examples:plain", params: {x: 1, y: 1, theta: 1}}'
+    path.write_text(SHORT_MISSION.replace("robot:", f"controller: {entry}\nrobot:"))
+    assert bench_command(path, repeat=1) == 0
+    out = capsys.readouterr().out
+    assert "ours: plain-Python loop (the loop ran as plain Python: a plug-in" in out
+    assert "numba-compiled" not in out
+
+
 def test_cli_bench_exits_zero(tmp_path: Path) -> None:
     path = tmp_path / "short.yaml"
     path.write_text(SHORT_MISSION)

@@ -227,6 +227,14 @@ def test_validate_checks_an_entry_s_syntax_and_imports_it_only_when_asked(
             25,
             "TypeError: a controller plug-in's step returns two numbers (v, omega), not text",
         ),
+        # what the step returned cannot be read: what it returns, said so
+        (
+            "one_number",
+            25,
+            "a controller plug-in's step returns two numbers (v, omega); what it returned "
+            "cannot be read: TypeError: object of type 'float' has no len()",
+        ),
+        ("nothing", 25, "returns two numbers (v, omega); what it returned cannot be read"),
         # the plug-in's own: the run's samples, its message and summary.json kept
         ("out_of_memory", 25, "MemoryError: the plug-in's map did not fit"),
     ],
@@ -266,6 +274,49 @@ def test_an_estimator_step_returning_text_fails_the_run(tmp_path: Path) -> None:
     said = "TypeError: an estimator plug-in's step returns three numbers (x, y, theta), not text"
     assert said in str(summary["message"])
     assert said in err
+
+
+def test_an_estimator_step_returning_a_column_says_what_it_returns(tmp_path: Path) -> None:
+    estimator = '{type: python, entry: "plugin_examples:column_estimate", params: {blend: 0.5}}'
+    code, err, summary = _run(tmp_path, mission("plain", estimator))
+    assert code == 1
+    assert summary is not None
+    assert summary["outcome"] == "failed"
+    said = (
+        "an estimator plug-in's step returns three numbers (x, y, theta); what it returned "
+        "cannot be read: TypeError: float() argument must be"
+    )
+    assert said in str(summary["message"])
+    assert said in err
+
+
+def test_an_estimate_not_a_number_is_said_as_the_estimate_s(tmp_path: Path) -> None:
+    """A divergence, as docs/controllers.md says, named as the estimator's: the
+    robot's state is finite."""
+    estimator = '{type: python, entry: "plugin_examples:lost_estimate", params: {blend: 0.5}}'
+    code, err, summary = _run(tmp_path, mission("plain", estimator))
+    assert code == 1
+    assert summary is not None
+    assert summary["outcome"] == "diverged"
+    assert "the estimate is not finite (x = nan m," in err
+    assert "the state ran away" not in err
+
+
+def test_the_manifest_says_a_plain_plug_in_s_loop_ran_as_plain_python(tmp_path: Path) -> None:
+    """manifest.json's `loop` and `numba_cpu` are the run's, not the process's:
+    numba loaded, a plug-in of plain Python objects still runs the loop plain."""
+    from wmr_mission.kernels import jit
+
+    jit.load()  # as after an earlier compiled run in the same process
+    out = tmp_path / "run"
+    result = run_mission(mission_from_text(mission("plain")))
+    assert result.loop_compiled is False
+    result.write(out, plots=False)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["loop"] == "plain Python"
+    assert manifest["environment"]["numba_cpu"] is None
+    compiled = run_mission(mission_from_text(mission("compiled")))
+    assert compiled.loop_compiled is jit.compiling()
 
 
 def test_the_loop_is_compiled_for_a_jitclass_plug_in_only() -> None:

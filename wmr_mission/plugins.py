@@ -106,7 +106,23 @@ def load_entry(entry: str) -> Callable[..., Any]:
     return found  # type: ignore[no-any-return]
 
 
+# What a plug-in's step returns, by the module that reads it (a value that
+# cannot be read there is said so, not as the reader's own error).
+_RETURNS = {
+    "controllers/plugin.py": "a controller plug-in's step returns two numbers (v, omega)",
+    "estimators/plugin.py": "an estimator plug-in's step returns three numbers (x, y, theta)",
+}
+
+
 def failure_message(error: BaseException) -> str:
     """A plug-in's exception as a run's message: its type, its own message
-    and, for plain Python, where it was raised."""
+    and, for plain Python, where it was raised; an error reading what its step
+    returned (``None``, a number alone, a column) with what the step returns."""
+    frames = traceback.extract_tb(error.__traceback__)
+    if frames:
+        innermost = str(Path(frames[-1].filename).resolve())
+        for module, returns in _RETURNS.items():
+            if innermost == _PACKAGE + module.replace("/", os.sep) and returns not in str(error):
+                read = f"{type(error).__name__}: {error}"
+                return f"{returns}; what it returned cannot be read: {read}"
     return f"{type(error).__name__}: {error}{_raised_at(error)}"

@@ -180,6 +180,10 @@ class RunRecord:
     # its `expect` judges the run; None for a run of a compiled mission.
     mission: dict[str, Any] | None = None
     loop_ns: int = 0
+    # How this run's loop ran: compiled by numba (True) or as plain Python
+    # (False: a short run, a plug-in of plain Python objects, no numba); None
+    # for a run not simulated in this process (manifest.json's `loop`).
+    loop_compiled: bool | None = None
     # The number of the reference in force at each sample (0: the phase's own,
     # n: its update n took over), for a mission with updates; else None.
     reference: IntArray | None = None

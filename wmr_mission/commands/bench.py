@@ -36,7 +36,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from wmr_mission.kernels import jit
 from wmr_mission.output.result import RunResult
 from wmr_mission.record import Outcome
 from wmr_mission.sim.draws import DisturbancePlan
@@ -106,7 +105,8 @@ def bench_mission(mission: Mission | MissionPlan, repeat: int) -> dict[str, Any]
     plan = mission if isinstance(mission, MissionPlan) else plan_mission(validate_mission(mission))
     ours = _whole(run_mission(plan))  # warm-up: loads or compiles the kernels
     if not np.any(ours.compute_ns > 0):
-        raise NothingToTime(f"the mission ends at t = {ours.t[-1]:g} s, before its first step")
+        why = "" if ours.succeeded else f": {ours.outcome.value}, {ours.message}"
+        raise NothingToTime(f"the mission ends at t = {ours.t[-1]:g} s, before its first step{why}")
     # Only the timed samples of each run are kept: memory grows with the samples
     # timed, not with whole results.
     timed, loops = [], []
@@ -145,7 +145,7 @@ def bench_mission(mission: Mission | MissionPlan, repeat: int) -> dict[str, Any]
         "samples": reference.samples,
         "outcome": ours.outcome.value,
         "repeat": repeat,
-        "compiled": jit.compiling(),
+        "compiled": bool(ours.loop_compiled),  # as the timed runs ran
         "same_trajectory": _same_trajectory(ours, reference),
         "phases": phases,
         "overall": row("all", "", our_ns, ref_ns),
@@ -225,6 +225,13 @@ TARGET_WORDS = (
 )
 
 
+# Why a timed run's loop ran as plain Python (RunRecord.loop_compiled).
+PLAIN_WHY = (
+    "the loop ran as plain Python: a plug-in of plain Python objects, WMR_MISSION_NO_JIT=1 "
+    "or no numba; see docs/performance.md"
+)
+
+
 def verdict(numbers: dict[str, Any]) -> str:
     """Two plain sentences: is the step fast enough to run in real time, and how
     it compares with the plain numpy/scipy step (``wmr_mission/sim/reference.py``)."""
@@ -245,10 +252,8 @@ def verdict(numbers: dict[str, Any]) -> str:
         )
     speed = f"{ratio:.0f}x faster than the plain numpy/scipy step of the same equations"
     if ratio < TARGET_RATIO:
-        speed += (
-            f", short of the {TARGET_RATIO:.0f}x the compiled kernels reach "
-            "(is numba installed? see docs/performance.md)"
-        )
+        why = "see docs/performance.md" if numbers["compiled"] else PLAIN_WHY
+        speed += f", short of the {TARGET_RATIO:.0f}x the compiled kernels reach ({why})"
     loop = numbers["loop"]
     whole = (
         f"the whole loop {loop['ours_us']:.3g} us per sample, {loop['ratio']:.0f}x faster "
@@ -259,7 +264,7 @@ def verdict(numbers: dict[str, Any]) -> str:
 
 def format_report(numbers: dict[str, Any], source: str) -> str:
     """The table ``wmr-mission bench`` prints."""
-    built = "numba-compiled loop" if numbers["compiled"] else "pure-Python loop (no numba)"
+    built = "numba-compiled loop" if numbers["compiled"] else f"plain-Python loop ({PLAIN_WHY})"
     lines = [
         f"mission {numbers['mission']} ({source}): {numbers['samples']} samples at "
         f"dt = {numbers['dt']:g} s, outcome {numbers['outcome']}",
@@ -333,10 +338,12 @@ def bench_command(mission_path: str | Path, repeat: int) -> int:
 
 
 def _bench(mission_path: str | Path, repeat: int) -> int:
+    from wmr_mission.spec.checks import importing_entries
     from wmr_mission.spec.loader import MissionError, load_mission
 
     try:
-        mission = load_mission(mission_path)
+        with importing_entries():  # a plug-in that does not import: its line, as `run` says
+            mission = load_mission(mission_path)
     except MissionError as error:
         for diagnostic in error.diagnostics:
             print(diagnostic, file=sys.stderr)

@@ -94,10 +94,11 @@ def numpy_simd() -> list[str]:
     return [str(name) for name in umath.__cpu_dispatch__ if features.get(name)]
 
 
-def numba_cpu() -> str | None:
-    """The CPU numba compiles the loop for, when this process runs it compiled."""
+def numba_cpu(compiled: bool | None = None) -> str | None:
+    """The CPU numba compiles the loop for, when this process runs it compiled
+    (``compiled``: whether a run's loop ran so, if known)."""
     jit = sys.modules.get("wmr_mission.kernels.jit")
-    if jit is None or not jit.loaded():
+    if jit is None or not jit.loaded() or compiled is False:
         return None
     from llvmlite import binding
     from numba.core import config
@@ -127,16 +128,17 @@ def own_fingerprint() -> str:
     return fingerprint(package_versions(), _libc(), libm_digest())
 
 
-def environment() -> dict[str, Any]:
+def environment(compiled: bool | None = None) -> dict[str, Any]:
     """manifest.json's ``environment``: the fingerprint and the C library's part
     of it, with numpy's SIMD levels and numba's target CPU beside them (the
-    versions are manifest.json's ``versions``)."""
+    versions are manifest.json's ``versions``); ``compiled``: whether the
+    run it describes ran its loop compiled, if known (:func:`numba_cpu`)."""
     return {
         "fingerprint": own_fingerprint(),
         "libc": _libc(),
         "libm": libm_digest(),
         "numpy_simd": numpy_simd(),
-        "numba_cpu": numba_cpu(),
+        "numba_cpu": numba_cpu(compiled),
     }
 
 

@@ -254,24 +254,25 @@ def manifest_record(
         "seed": result.seed,
         "versions": package_versions(),
         # What else decides the bytes, and its fingerprint (wmr_mission.output.environment).
-        "environment": environment(),
+        "environment": environment(result.loop_compiled),
         # How the loop ran, known only for a run simulated in this process
         # (one rebuilt from its directory carries no timing).
-        "loop": loop_build() if result.loop_ns > 0 else None,
+        "loop": loop_build(result.loop_compiled) if result.loop_ns > 0 else None,
         "run": run_record(result),
         # Another plant than our simulator: which, its versions and settings.
         **({} if result.backend is None else {"backend": result.backend}),
     }
 
 
-def loop_build() -> str:
-    """How this process ran the loop: ``compiled`` by numba, or ``plain Python``
-    (the first runs after an install, ``WMR_MISSION_NO_JIT=1``, no numba), a
-    hundred times slower per sample: summary.json's ``loop_us_per_sample`` is
-    read against it."""
+def loop_build(compiled: bool | None = None) -> str:
+    """How a run's loop ran (``compiled``: RunRecord.loop_compiled), or with
+    None how this process runs it: ``compiled`` by numba, or ``plain Python``
+    (a short run, a plug-in of plain Python objects, ``WMR_MISSION_NO_JIT=1``,
+    no numba), a hundred times slower per sample: summary.json's
+    ``loop_us_per_sample`` is read against it."""
     from wmr_mission.kernels import jit
 
-    return "compiled" if jit.loaded() else "plain Python"
+    return "compiled" if (jit.loaded() if compiled is None else compiled) else "plain Python"
 
 
 def summary_record(result: RunRecord, mission: Mapping[str, Any] | None = None) -> dict[str, Any]:

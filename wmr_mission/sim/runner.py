@@ -1258,6 +1258,13 @@ class _Run:
                     f"beyond {self.m.plant.runaway_input:g} is no robot's)"
                 )
             return "the input is not finite"
+        state, estimate = s.state, s.estimate
+        if np.isfinite(state).all() and not np.isfinite(estimate).all():
+            return (  # the estimator's (a plug-in's NaN), not the robot's
+                f"the estimate is not finite (x = {estimate[0]:.3g} m, y = {estimate[1]:.3g} m, "
+                f"theta = {estimate[2]:.3g} rad), the state is (x = {state[0]:.3g} m, "
+                f"y = {state[1]:.3g} m)"
+            )
         return (
             f"the state ran away (x = {s.state[0]:.3g} m, y = {s.state[1]:.3g} m; "
             f"last input v = {u[0]:.3g} m/s, omega = {u[1]:.3g} rad/s)"
@@ -1329,6 +1336,7 @@ class _Run:
             regions=dict(m.regions),
             constraint_margin=float(m.plant.constraint_margin),
             loop_ns=self.loop_ns,
+            loop_compiled=not self.ticks_are_ns,
             x_meas=columns["x_meas"],
             y_meas=columns["y_meas"],
             theta_meas=columns["theta_meas"],
