@@ -385,3 +385,72 @@ phases:
     point = text.replace("  footprint: {radius: 0.25}\n", "")
     _, found = check_mission_text(point, "yard.yaml")
     assert [d for d in found if d.severity == "warning"] == []
+
+
+OVERLAP = """
+version: 1
+name: overlap
+robot:
+  initial_state: {x: 1.85, y: 0, theta: 3.14159}
+  limits: {v: 1, omega: 2}
+  footprint: BODY
+regions:
+  wall: {type: box, min: [2.0, -1], max: [2.5, 1]}
+phases:
+  - name: away
+    track: {path: {type: line, start: current, heading: 3.14159, speed: 0.5}}
+    constraints: [{stay_outside: wall}]
+    until: {elapsed: 2}
+"""
+
+
+@pytest.mark.parametrize(
+    "body", ["{radius: 0.3}", "{polygon: [[0.2, 0.3], [-0.2, 0.3], [-0.2, -0.3], [0.2, -0.3]]}"]
+)
+def test_a_failed_clearance_min_is_marked_where_the_body_was_too_near(body: str) -> None:
+    """A body that starts overlapping a wall and drives away from it: its
+    clearance_min check fails at t = 0 and until the body is clear, each
+    sample's clearance measured by shapely apart; verdicts.png's first failure
+    in time is it, drawn on the body's depth with its bound at 0."""
+    from wmr_mission.verdicts.clearance import body_clearances
+    from wmr_mission.verdicts.signals import BODY_DEPTH, mark_first_violations, run_signals
+    from wmr_mission.verdicts.zones import zones_of
+
+    run = run_mission(load_mission_text(OVERLAP.replace("BODY", body), "overlap.yaml"))
+    summary = run.summary()
+    (check,) = [c for c in run_signals(run).checks if c.metric == "clearance_min"]
+    assert not check.met
+    assert (check.line, check.level) == (BODY_DEPTH, 0.0)
+    # each pose's body against the wall, by shapely alone
+    footprint = run.mission["robot"]["footprint"]
+    wall = shapely.box(2.0, -1.0, 2.5, 1.0)
+    if "radius" in footprint:
+        body_at = [shapely.Point(x, y).buffer(0.3, 256) for x, y in zip(run.x, run.y, strict=True)]
+    else:
+        corners = np.asarray(footprint["polygon"])
+        body_at = [
+            shapely.Polygon(
+                np.column_stack(
+                    [
+                        x + math.cos(t) * corners[:, 0] - math.sin(t) * corners[:, 1],
+                        y + math.sin(t) * corners[:, 0] + math.cos(t) * corners[:, 1],
+                    ]
+                )
+            )
+            for x, y, t in zip(run.x, run.y, run.theta, strict=True)
+        ]
+    touching = np.array([body.intersects(wall) for body in body_at])
+    assert touching[0]
+    assert not touching[-1]
+    assert check.over.tolist() == np.flatnonzero(touching).tolist()
+    # the sample by sample clearance's least is summary.json's clearance_min
+    zones = zones_of(run.phases[0].constraints, run.regions)
+    each = body_clearances(run.x, run.y, run.theta, zones, footprint)
+    assert float(np.min(each)) == summary["clearance_min"]
+    far = ~touching
+    distance = np.array([body.distance(wall) for body in body_at])
+    assert np.abs(each[far] - distance[far]).max() < 1e-5  # a round body: 256 segments a quarter
+    mark_first_violations(summary, run)
+    (record,) = [c for c in summary["expectations"] if c["metric"] == "clearance_min"]
+    assert record["first_violation"] == {"time": 0.0, "sample": 0}
+    assert run_signals(run).failed()[0].metric == "clearance_min"

@@ -1199,7 +1199,7 @@ class VerdictLines:
 
 def verdict_lines(result: RunRecord) -> VerdictLines:
     """The run's error signals (verdicts.signals.run_signals) as verdicts.png draws them."""
-    from wmr_mission.verdicts.signals import line_of, panel_of, run_signals
+    from wmr_mission.verdicts.signals import panel_of, run_signals
 
     signals = run_signals(result)
     k = thin(0, result.samples)
@@ -1207,7 +1207,7 @@ def verdict_lines(result: RunRecord) -> VerdictLines:
     ranges = {p: {n: _range(v) for n, v in lines.items()} for p, lines in signals.lines.items()}
     marked = {}
     for check in signals.checks:
-        panel, name = panel_of(check.metric), str(line_of(check.metric))
+        panel, name = panel_of(check.metric), str(check.line)
         values = signals.lines.get(panel or "", {}).get(name)
         if check.peak and check.over.size and values is not None:
             marked[id(check)] = finite(values[check.over[thin(0, check.over.size, MAX_MARKS)]])
@@ -1232,7 +1232,7 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
     from matplotlib.collections import LineCollection
     from matplotlib.lines import Line2D
 
-    from wmr_mission.verdicts.signals import PANELS, line_of, panel_of
+    from wmr_mission.verdicts.signals import PANELS, panel_of
 
     if signals is None:
         signals = verdict_lines(result)
@@ -1276,12 +1276,12 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
         checks = [c for c in signals.checks if panel_of(c.metric) == panel]
         bounds, bound_colors = [], []
         for check in (c for c in checks if c.peak):
-            name = str(line_of(check.metric))
+            name = str(check.line)
             start, end = check.span
             ends = (float(t[start]), float(t[max(end - 1, start)]))
             signs = (1.0, -1.0) if check.metric == "along_track_lag_max" else (1.0,)
             for sign in signs:
-                bounds.append([(ends[0], sign * check.bound), (ends[1], sign * check.bound)])
+                bounds.append([(ends[0], sign * check.level), (ends[1], sign * check.level)])
                 bound_colors.append(FAILED_COLOR if not check.met else colors.get(name, "0.2"))
             if check.over.size and name in drawn:
                 marks = check.over[thin(0, check.over.size, MAX_MARKS)]
@@ -1313,7 +1313,7 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
         if panel in ("zones", "constraint"):
             # Metres far on the allowed side and millimetres beyond the edge, both
             # readable: linear within the bound of 0, logarithmic beyond.
-            near = min([c.bound for c in checks if c.peak and c.bound > 0], default=1e-3)
+            near = min([c.level for c in checks if c.peak and c.level > 0], default=1e-3)
             ax.set_yscale("symlog", linthresh=near, linscale=1.0)
             low, high = ax.get_ylim()
             ticks = {0.0, near}
@@ -1458,8 +1458,8 @@ def _verdict_limits(
 ) -> None:
     """The y range: the signals' (``ranges``: each line's finite least and
     largest value) and the bounds (both signs for a signed signal)."""
-    bounds = [c.bound for c in checks if c.peak]
-    signed = [c.bound for c in checks if c.metric == "along_track_lag_max"]
+    bounds = [c.level for c in checks if c.peak]
+    signed = [c.level for c in checks if c.metric == "along_track_lag_max"]
     spans = [span for span in ranges.values() if span is not None]
     if not spans and not bounds:
         return

@@ -66,13 +66,36 @@ def clearance_min(
         )
     else:
         corners = np.asarray(footprint["polygon"], dtype=np.float64)
-        least = min(_polygon_clearance(x, y, theta, corners, zone) for zone in zones)
+        least = min(float(np.min(_polygon_clearances(x, y, theta, corners, z))) for z in zones)
     return round(least, _DIGITS) + 0.0  # + 0.0: no -0.0
 
 
-def _polygon_clearance(
+def body_clearances(
+    x: FloatArray,
+    y: FloatArray,
+    theta: FloatArray,
+    zones: Sequence[Zone],
+    footprint: Mapping[str, Any] | None,
+) -> FloatArray:
+    """[m] the body's clearance at each pose (finite), to the nearest of the
+    zones (at least one), rounded as :func:`clearance_min` rounds its least:
+    where a failed ``clearance_min`` check went below its bound, sample by
+    sample (verdicts.png, ``first_violation``)."""
+    if footprint is None or "radius" in footprint:
+        radius = 0.0 if footprint is None else float(footprint["radius"])
+        depth = np.max([zone.depth(x, y) for zone in zones], axis=0)
+        found = -depth - radius
+    else:
+        corners = np.asarray(footprint["polygon"], dtype=np.float64)
+        found = np.min([_polygon_clearances(x, y, theta, corners, z) for z in zones], axis=0)
+    rounded: FloatArray = np.round(found, _DIGITS) + 0.0  # + 0.0: no -0.0
+    return rounded
+
+
+def _polygon_clearances(
     x: FloatArray, y: FloatArray, theta: FloatArray, corners: FloatArray, zone: Zone
-) -> float:
+) -> FloatArray:
+    """The polygon body's clearance to ``zone`` at each pose."""
     import shapely
 
     c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
@@ -80,23 +103,26 @@ def _polygon_clearance(
     world_y = y[:, None] + s * corners[:, 0] + c * corners[:, 1]
     bodies = shapely.polygons(np.stack([world_x, world_y], axis=-1))
     region = _allowed_complement(zone)
-    distance = shapely.distance(bodies, region)
-    least = float(np.min(distance))
-    touching = np.flatnonzero(distance <= 0.0)
+    found: FloatArray = shapely.distance(bodies, region)
+    touching = np.flatnonzero(found <= 0.0)
     if touching.size == 0:
-        return least
+        return found
     # overlapping: the deepest corner of the body in the zone, or of the zone in the body
-    deepest = float(np.max(zone.depth(world_x[touching].ravel(), world_y[touching].ravel())))
+    shape = (touching.size, corners.shape[0])
+    deepest = np.max(
+        zone.depth(world_x[touching].ravel(), world_y[touching].ravel()).reshape(shape), axis=1
+    )
     outline = np.asarray(region.exterior.coords) if zone.region["type"] != "half-plane" else None
     if outline is not None and not zone.keep_inside:
-        for k in touching:
+        for i, k in enumerate(touching):
             body = bodies[k]
             inside = shapely.contains_xy(body, outline[:, 0], outline[:, 1])
             if inside.any():
                 points = shapely.points(outline[inside])
                 depth = float(np.max(shapely.distance(body.exterior, points)))
-                deepest = max(deepest, depth)
-    return min(-deepest, -RESOLUTION)
+                deepest[i] = max(deepest[i], depth)
+    found[touching] = np.minimum(-deepest, -RESOLUTION)
+    return found
 
 
 def _allowed_complement(zone: Zone) -> Any:

@@ -651,7 +651,7 @@ class PhaseSamples:
         if not self.zones or w.stop == w.start:
             return None
         return clearance_min(
-            r.x[w], r.y[w], r.theta[w], self.zones, _footprint(r.mission), self.zone_bounds,
+            r.x[w], r.y[w], r.theta[w], self.zones, footprint_of(r.mission), self.zone_bounds,
             self.pose_finite,
         )  # fmt: skip
 
@@ -1126,7 +1126,7 @@ def _bounded_metrics(
     }
 
 
-def _footprint(mission: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
+def footprint_of(mission: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
     """The robot's footprint as written (None: a point)."""
     robot = (mission or {}).get("robot") or {}
     footprint = robot.get("footprint")

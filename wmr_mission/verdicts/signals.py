@@ -6,6 +6,8 @@ on one of these signals over a phase (or the whole run):
 
 - a **peak** check (``*_max``, jumps, the final error) bounds every judged
   sample: the samples above the bound are the failure, the first of them its time;
+  ``clearance_min`` is one on the depth of the body (minus its clearance),
+  its bound drawn at minus the clearance asked for;
 - a **level** check (an RMS, the jitter, a share of time at a limit, a count,
   a time) bounds one number made of the phase's samples: it is drawn as that
   number beside its bound.
@@ -30,10 +32,12 @@ from wmr_mission.spec import catalog, models
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.check import Check as Judged
+from wmr_mission.verdicts.clearance import body_clearances
 from wmr_mission.verdicts.metrics import (
     check_expectations,
     distance_to_path,
     estimation_errors,
+    footprint_of,
     phase_expectations,
     phase_segments,
     summarize,
@@ -87,10 +91,18 @@ class Check(Judged):
 
     span: tuple[int, int] = (0, 0)
     over: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    # the line of its panel it bounds (None: a level check, drawn as words)
+    line: str | None = None
 
     @property
     def peak(self) -> bool:
-        return line_of(self.metric) is not None
+        return self.line is not None
+
+    @property
+    def level(self) -> float:
+        """The bound where its line reads it: minus the clearance asked for on
+        the body's depth, the bound itself on every other line."""
+        return -self.bound if self.metric == "clearance_min" else self.bound
 
     @property
     def first_over(self) -> int | None:
@@ -247,7 +259,27 @@ def run_signals(result: RunRecord) -> Signals:
         if math.isfinite(limit) and limit > 0:
             line("saturation", label)[:] = np.abs(values) / limit
     checks = [_placed(c, spans, n, lines, judged) for c in checked]
+    for check in checks:
+        if check.metric == "clearance_min" and not check.met:
+            _place_clearance(check, result)
     return Signals(lines, judged, checks)
+
+
+def _place_clearance(check: Check, result: RunRecord) -> None:
+    """A failed ``clearance_min`` check's samples below its bound, each pose's
+    clearance measured as the check measures the least (exact for a polygon
+    body too, which the drawn line bounds from above)."""
+    start, end = check.span
+    w = slice(start, end)
+    x, y, theta = result.x[w], result.y[w], result.theta[w]
+    zones = zones_of(result.phases[int(result.phase[start])].constraints, result.regions)
+    finite = np.isfinite(x) & np.isfinite(y) & np.isfinite(theta)
+    if not zones or not finite.any():
+        return
+    kept = np.flatnonzero(finite)
+    footprint = footprint_of(result.mission)
+    clearance = body_clearances(x[kept], y[kept], theta[kept], zones, footprint)
+    check.over = (kept[clearance < check.bound] + start).astype(np.intp)
 
 
 def mark_first_violations(summary: dict[str, Any], result: RunRecord) -> None:
@@ -307,8 +339,11 @@ def _placed(
     placed.span = span = spans.get(phase, (0, n)) if phase is not None else (0, n)
     name = line_of(metric)
     panel = panel_of(metric)
-    if placed.met or name is None or panel is None:
-        return placed
+    if metric == "clearance_min":  # the body's depth where it has one, else the axle's
+        name = BODY_DEPTH if BODY_DEPTH in lines.get("zones", {}) else "depth into a zone"
+    placed.line = name
+    if placed.met or name is None or panel is None or metric == "clearance_min":
+        return placed  # a clearance's samples below it: _place_clearance
     values = lines.get(panel, {}).get(name)
     if values is None:
         return placed
