@@ -675,6 +675,9 @@ _PATTERNS: Final = {
 
 
 def _shown(value: Any) -> str:
+    """A value as the mission wrote it: YAML's words for a boolean and null."""
+    if isinstance(value, bool) or value is None:
+        return {True: "true", False: "false", None: "null"}[value]
     return shown(repr(value), 40)
 
 
@@ -820,6 +823,11 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     ):
         got = _shown(value) if not isinstance(value, dict | list) else type(value).__name__
         message = f"{message}, got {got}"
+        if isinstance(value, dict) and len(value) == 1 and set(value) <= {"min", "max"}:
+            # `clearance_min: {min: 0.1}`, as other bounds are written: this one is a number
+            (bound,) = value.values()
+            message += f" ({{{next(iter(value))}: ...}}): write the number alone, "
+            message += f"{path[-1]}: {_shown(bound)}"
     return Finding(path, f"{where}: {message}")
 
 
