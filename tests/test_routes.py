@@ -331,3 +331,19 @@ def together_at(route: RouteTrajectory, t: np.ndarray) -> bytes:
     every piece (so each kind of piece is computed under its mask)."""
     every = np.concatenate([route._ends - 0.5 * route.durations, [-1.0]])
     return np.array(route.sample(np.concatenate([t, every])))[:, : t.size].tobytes()
+
+
+def test_a_coverage_of_too_many_lanes_is_refused_not_built() -> None:
+    """A field of a billion metres at a micrometre's spacing: 1e15 lanes are
+    counted, never laid (validate answers in a second, tests/data/missions/
+    invalid/coverage_of_too_many_lanes.yaml); the most lanes are laid."""
+    from wmr_mission.geometry.routes import MAX_LANES, coverage_lanes, coverage_points
+
+    field = [[-5e8, -5e8], [5e8, -5e8], [5e8, 5e8], [-5e8, 5e8]]
+    rows = [[1.0, 0.0, 5e8], [0.0, 1.0, 5e8], [-1.0, 0.0, 5e8], [0.0, -1.0, 5e8]]
+    assert coverage_lanes(field, 1e-6, 0.0) == 10**15
+    with pytest.raises(ValueError, match="more than 5000"):
+        coverage_points(field, rows, 1e-6, 0.0)
+    square = [[0, 0], [MAX_LANES, 0], [MAX_LANES, 1], [0, 1]]
+    edges = [[1.0, 0.0, MAX_LANES], [0.0, 1.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
+    assert coverage_points(square, edges, 1.0, math.pi / 2).shape == (2 * MAX_LANES, 2)

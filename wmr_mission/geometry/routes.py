@@ -329,6 +329,22 @@ def polyline_route(
     )
 
 
+# Most lanes a coverage path may have: its lane ends are at most the 10 000
+# points a polyline may list (a field of a billion metres at a micrometre's
+# spacing would be built lane by lane for hours).
+MAX_LANES = 5000
+
+
+def coverage_lanes(vertices: ArrayLike, spacing: float, direction: float) -> int:
+    """How many lanes :func:`coverage_points` lays over the field of corners
+    ``vertices`` at ``spacing`` along ``direction``."""
+    corners = np.asarray(vertices, dtype=np.float64)
+    across = (-math.sin(direction), math.cos(direction))
+    offsets = corners[:, 0] * across[0] + corners[:, 1] * across[1]  # not BLAS: see _corner
+    lanes = (float(offsets.max()) - float(offsets.min())) / spacing - 1e-9
+    return max(1, math.ceil(lanes)) if math.isfinite(lanes) else MAX_LANES + 1
+
+
 def coverage_points(
     vertices: ArrayLike, rows: ArrayLike, spacing: float, direction: float
 ) -> FloatArray:
@@ -347,7 +363,9 @@ def coverage_points(
     across = np.array([-along[1], along[0]])
     offsets = corners[:, 0] * across[0] + corners[:, 1] * across[1]  # not BLAS: see _corner
     low, high = float(offsets.min()), float(offsets.max())
-    count = max(1, math.ceil((high - low) / spacing - 1e-9))
+    count = coverage_lanes(corners, spacing, direction)
+    if count > MAX_LANES:
+        raise ValueError(f"{count} lanes, more than {MAX_LANES}: widen the spacing")
     step = (high - low) / count
     ends: list[FloatArray] = []
     for lane in range(count):

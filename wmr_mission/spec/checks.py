@@ -27,6 +27,7 @@ from wmr_mission.estimators.ekf import Ekf
 from wmr_mission.estimators.observer import BOUND_NOISE_RATIO, ConstrainedObserver
 from wmr_mission.estimators.plugin import PythonEstimator
 from wmr_mission.geometry import paths
+from wmr_mission.geometry.paths import PathSettings
 from wmr_mission.geometry.paths.circle import CirclePath
 from wmr_mission.geometry.paths.coverage import CoveragePath
 from wmr_mission.geometry.paths.ellipse import EllipsePath
@@ -46,7 +47,7 @@ from wmr_mission.geometry.regions import (
     region_value,
     region_vertices,
 )
-from wmr_mission.geometry.routes import TURN_CREEP
+from wmr_mission.geometry.routes import MAX_LANES, TURN_CREEP, coverage_lanes
 from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import catalog, graph
 from wmr_mission.spec.changes import path_pace, with_look_ahead, with_pace
@@ -291,22 +292,39 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                     "only; a track phase can end on near, reaches, heading or time",
                     at_key=True,
                 )
-            path = phase.track.path
-            name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
-            region = mission.regions.get(name) if name is not None else None
-            if region is not None:
-                kinds, wanted = _PATH_REGIONS[path.type]
-                if not isinstance(region, kinds):
-                    article = "an" if path.type[0] in "aeiou" else "a"
-                    yield Finding(
-                        (*where, "track", "path", "region"),
-                        f"{article} {path.type} path needs {wanted} region, but "
-                        f"{name!r} is a {region.type}",
-                    )
+            yield from _path_on_region(mission, phase.track.path, (*where, "track", "path"))
         yield from _target_against_constraints(mission, phase, where)
         step = mission.phases[int(where[1])]
         laps = step.repeat.times if isinstance(step, RepeatPhase) else None
         yield from _update_rules(mission, phase, where, laps)
+
+
+def _path_on_region(mission: Mission, path: PathSettings, at: DataPath) -> Iterator[Finding]:
+    """A path laid on a region (at ``at``) names a region of its kind, and a
+    coverage path lays at most MAX_LANES lanes (a field in kilometres at a
+    spacing in micrometres would be built for hours, never run)."""
+    name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
+    region = mission.regions.get(name) if name is not None else None
+    if region is None:
+        return
+    kinds, wanted = _PATH_REGIONS[path.type]
+    if not isinstance(region, kinds):
+        article = "an" if path.type[0] in "aeiou" else "a"
+        yield Finding(
+            (*at, "region"),
+            f"{article} {path.type} path needs {wanted} region, but {name!r} is a {region.type}",
+        )
+        return
+    if not isinstance(path, CoveragePath):
+        return
+    lanes = coverage_lanes(region_vertices(region), path.spacing, path.direction)
+    if lanes > MAX_LANES:
+        yield Finding(
+            (*at, "spacing"),
+            f"a coverage of region {path.region!r} at a spacing of {path.spacing:g} m lays "
+            f"{lanes:.4g} lanes, more than {MAX_LANES}: widen the spacing, or cover a smaller "
+            "region",
+        )
 
 
 def _update_rules(
@@ -370,18 +388,8 @@ def _update_rules(
             yield Finding(at, f"the update gives no new {wanted}{more}", at_key=True)
         if isinstance(phase, TrackPhase):
             yield from _speed_and_look_ahead(mission, phase, number, update, at)
-        path = update.path
-        name = path.region if isinstance(path, _PATHS_ON_REGIONS) else None
-        region = mission.regions.get(name) if name is not None else None
-        if path is not None and region is not None:
-            kinds, wanted_region = _PATH_REGIONS[path.type]
-            if not isinstance(region, kinds):
-                article = "an" if path.type[0] in "aeiou" else "a"
-                yield Finding(
-                    (*at, "path", "region"),
-                    f"{article} {path.type} path needs {wanted_region} region, but "
-                    f"{name!r} is a {region.type}",
-                )
+        if update.path is not None:
+            yield from _path_on_region(mission, update.path, (*at, "path"))
 
 
 def _speed_and_look_ahead(
