@@ -197,3 +197,34 @@ def test_a_file_of_the_user_s_is_never_written_over(
         assert result.exit_code == 2, result.output
         assert "is a file already, not an earlier .html output" in result.stderr
         assert notes.read_text() == "<html><body>my notes</body></html>\n"
+
+
+def test_a_pipe_is_never_replaced_and_a_link_is_written_through(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    """`view --out` and `export --out` at a named pipe (as at /dev/null, a
+    device): refused, the pipe left a pipe. At a symbolic link to an earlier
+    report: the report it points to is written, the link kept."""
+    import os
+    import stat
+
+    pipe = tmp_path / "pipe.html"
+    os.mkfifo(pipe)
+    for arguments in (
+        ["view", str(run_dir), "--out", str(pipe)],
+        ["export", str(run_dir), "--format", "parquet", "--out", str(pipe)],
+    ):
+        result = CliRunner().invoke(app, arguments)
+        assert result.exit_code == 2, result.output
+        assert "is not a file (a device, a pipe or a socket)" in result.stderr
+        assert stat.S_ISFIFO(pipe.lstat().st_mode)
+    report = tmp_path / "reports" / "earlier.html"
+    report.parent.mkdir()
+    report.write_text('<main id="report"></main>')
+    link = tmp_path / "latest.html"
+    link.symlink_to(report)
+    result = CliRunner().invoke(app, ["view", str(run_dir), "--out", str(link)])
+    assert result.exit_code == 0, result.output
+    assert link.is_symlink()
+    assert link.resolve() == report.resolve()
+    assert len(report.read_bytes()) > 1000  # the new report, where the link points

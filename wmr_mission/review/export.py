@@ -558,7 +558,7 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
         print(f"{directory}: {error}", file=sys.stderr)
         return 1
     try:
-        with atomic_path(target) as tmp:
+        with atomic_path(target.resolve()) as tmp:  # a link written through, not replaced
             write(tmp)
     except OSError as error:
         print(f"{target}: cannot write: {error.strerror or error}", file=sys.stderr)

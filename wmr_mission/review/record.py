@@ -7,7 +7,9 @@ over its files, its figures nor any file it holds (a falsification's failing
 missions, a campaign's worst runs), nor one record's output into another
 record's directory, where it would pass for that record's; outside one, they
 write over no file but an earlier output of their own kind (a report over a
-report: not a mission, a table or a script the user named by mistake).
+report: not a mission, a table or a script the user named by mistake), and
+never a device or a pipe (``--out /dev/null``); a symbolic link is written
+through, never replaced.
 (``run --out`` and ``sweep --out`` name a directory, which they only ever take
 new or empty: wmr_mission.output.rundir.prepare_run_dir.)
 """
@@ -70,10 +72,18 @@ def record_file_refusal(
     record, put the output of ``source`` (named ``default_name`` by default)
     into another record's directory, or replace a file that is not an earlier
     output of that kind (its suffix not ``default_name``'s, or, where
-    ``earlier`` is given, a file it does not tell for one); else None."""
+    ``earlier`` is given, a file it does not tell for one), or replace what is
+    not a file at all: a device, a pipe (``/dev/null``); else None. The
+    output is written at ``target.resolve()``: through a symbolic link, never
+    in place of it."""
     final = target.resolve()
     linked = final != Path(os.path.abspath(target))
     through = f" (through a symbolic link: {final})" if linked else ""
+    if final.exists() and not (final.is_file() or final.is_dir()):
+        return (
+            f"{target}: is not a file (a device, a pipe or a socket){through}, which the "
+            "output would replace: choose another --out"
+        )
     for directory in list(final.parents)[:_DEPTH]:
         record = _record_of(directory)
         if record is None:

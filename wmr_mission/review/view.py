@@ -624,7 +624,7 @@ def view_command(directory: Path, out: Path | None = None) -> int:
         )
         return 1
     try:
-        write_bytes_atomic(target, page.encode("utf-8"))
+        write_bytes_atomic(target.resolve(), page.encode("utf-8"))  # a link written through
     except OSError as error:
         print(f"{target}: cannot write the report: {error.strerror or error}", file=sys.stderr)
         return 2
