@@ -334,6 +334,30 @@ def test_a_full_disk_after_the_runs_is_one_line_and_keeps_the_runs(
 
 
 @pytest.mark.usefixtures("campaign_figures_only")
+def test_an_out_replaced_by_a_file_at_the_end_is_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--out made a file while the runs ran (or made read-only): campaign.json
+    cannot be written there, nor the claim removed; the one line says the
+    first, never a traceback of the second."""
+    out = tmp_path / "out"
+    real = sweep.write_bytes_atomic
+
+    def replaced_first(path: Path, data: bytes) -> Path:
+        if path.name == "campaign.json" and out.is_dir():
+            shutil.rmtree(out)
+            out.write_text("x")
+        return real(path, data)
+
+    monkeypatch.setattr(sweep, "write_bytes_atomic", replaced_first)
+    code = sweep_command(campaign_file(tmp_path, 6), out=out, workers=1, scheduler=None, plots=True)
+    assert code == 2
+    line = one_line(capsys.readouterr().err)
+    assert "cannot write: Not a directory" in line
+    assert out.read_text() == "x"
+
+
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_a_fault_in_drawing_is_one_line_and_keeps_the_runs(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -52,9 +52,9 @@ from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
-    CLAIM_FILE,
     RunDirExistsError,
     default_run_dir,
+    drop_claim,
     loop_build,
     prepare_run_dir,
     release_run_dir,
@@ -382,7 +382,7 @@ def _campaign_steps(
         if runs_file is not None:
             runs_file.close()
         if out_dir is not None:
-            (out_dir / CLAIM_FILE).unlink(missing_ok=True)  # the record is written
+            drop_claim(out_dir)  # the record is written
 
 
 @dataclass

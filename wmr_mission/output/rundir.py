@@ -122,9 +122,17 @@ def _claim(run_dir: Path) -> None:
         )
 
 
+def drop_claim(directory: Path) -> None:
+    """Remove the claim of a run's, campaign's or falsification's directory,
+    its record written. A directory made read-only, or replaced, meanwhile
+    keeps it: the fault that stopped the writing is the one said, never this."""
+    with contextlib.suppress(OSError):
+        (directory / CLAIM_FILE).unlink(missing_ok=True)
+
+
 def release_run_dir(run_dir: Path) -> None:
     """Remove the claim; remove the directory too when nothing was written into it."""
-    (run_dir / CLAIM_FILE).unlink(missing_ok=True)
+    drop_claim(run_dir)
     with contextlib.suppress(OSError):  # it holds the run's files
         run_dir.rmdir()
 
@@ -340,7 +348,7 @@ def write_run(
         write_json(run_dir / TRANSITIONS_FILE, transitions_record(result.transitions)),
         write_json(run_dir / SUMMARY_FILE, summary_record(result, resolved)),
     ]
-    (run_dir / CLAIM_FILE).unlink(missing_ok=True)  # the record is complete
+    drop_claim(run_dir)  # the record is complete
     return written + write_figures(result, run_dir, plots=plots, animate=animate, formats=formats)
 
 

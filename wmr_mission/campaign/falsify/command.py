@@ -49,9 +49,9 @@ from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
-    CLAIM_FILE,
     RunDirExistsError,
     default_run_dir,
+    drop_claim,
     loop_build,
     prepare_run_dir,
 )
@@ -317,7 +317,7 @@ def _falsify(
         stop.notify = None
         progress.close()
         if out_dir is not None:
-            (out_dir / CLAIM_FILE).unlink(missing_ok=True)
+            drop_claim(out_dir)
 
 
 def _detail(seen: list[Evaluation]) -> str:
