@@ -38,3 +38,28 @@ def test_plot_of_a_directory_of_many_runs_names_it(
         f"wmr-mission view {tmp_path} reports it"
     ]
     assert sorted(path.name for path in tmp_path.iterdir()) == before  # nothing written
+
+
+def test_a_figure_plot_cannot_write_is_one_line_and_exit_2(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A full disk (or a directory made read-only) while plot draws: as `run`
+    says it, the file and the reason, exit 2, not Python's errno text."""
+    import errno
+    import os
+
+    from test_output_synthetic import circle_run
+
+    from wmr_mission.commands import plot
+
+    run_dir = circle_run().write(tmp_path / "circle", plots=False)
+
+    def full(*args: object, **kwargs: object) -> list[Path]:
+        raise OSError(errno.EFBIG, os.strerror(errno.EFBIG), str(run_dir / "verdicts.png"))
+
+    monkeypatch.setattr(plot, "draw_all", full)
+    assert plot.replot_command(run_dir) == 2
+    err = capsys.readouterr().err
+    assert (
+        err == f"{run_dir / 'verdicts.png'}: cannot write: File too large; the data are unchanged\n"
+    )

@@ -22,7 +22,8 @@ def replot_command(
 
     Exit code: 0 drawn; 1 the run's files are damaged or cannot be drawn; 2 a
     campaign's or falsification's directory, a usage error (as ``view`` and
-    ``export`` give for a directory they do not read)."""
+    ``export`` give for a directory they do not read), or a figure that cannot
+    be written (as ``run`` gives)."""
     try:
         result = load_run(run_dir)
     except (RunDirError, OSError) as exc:
@@ -38,9 +39,13 @@ def replot_command(
         return 1
     try:
         paths = draw_all(result, run_dir, formats, style, dpi)
-    except OSError as exc:
-        print(f"{run_dir}: {exc}", file=sys.stderr)
-        return 1
+    except OSError as error:  # a full disk, a directory made read-only: as `run` says it
+        print(
+            f"{error.filename or run_dir}: cannot write: {error.strerror or error}; "
+            "the data are unchanged",
+            file=sys.stderr,
+        )
+        return 2
     except Exception as error:  # a fault in drawing: one line, never a traceback
         print(
             f"{run_dir}: cannot draw the figures ({type(error).__name__}: {error}); "
