@@ -114,6 +114,26 @@ def test_missing_file_is_a_usage_error(tmp_path: Path) -> None:
     assert code == 2
 
 
+def test_a_missing_file_is_in_the_json_report_and_the_others_are_checked(
+    tmp_path: Path,
+) -> None:
+    """A CI step that reads the JSON gets it: the argument that names nothing
+    among `problems`, the files given checked all the same, exit 2."""
+    missing = tmp_path / "nope.yaml"
+    code, out, err = _validate("--format", "json", str(CASES[1]), str(missing))
+    assert code == 2
+    assert err == ""
+    report = json.loads(out)
+    assert report["valid"] is False
+    assert [(f["file"], f["valid"]) for f in report["files"]] == [(str(CASES[1]), True)]
+    assert [(p["file"], p["message"]) for p in report["problems"]] == [
+        (str(missing), "no such file or directory")
+    ]
+    code, out, _ = _validate(str(missing), str(CASES[1]))
+    assert code == 2
+    assert out.splitlines() == [f"{missing}: no such file or directory", f"{CASES[1]}: ok"]
+
+
 def test_schema_command_prints_the_checked_in_schema() -> None:
     result = CliRunner().invoke(app, ["schema"])
     assert result.exit_code == 0

@@ -481,7 +481,6 @@ def validate(
     files: Annotated[
         list[Path],
         typer.Argument(
-            exists=True,
             metavar="FILE",
             help="Mission or campaign YAML files; a directory stands for every *.yaml and "
             "*.yml below it.",

@@ -35,12 +35,20 @@ def _count(number: int, word: str) -> str:
     return f"{number} {word}{'s' if number != 1 else ''}"
 
 
+# An argument that names nothing: a usage error (exit 2), said after every
+# file given is checked.
+MISSING = "no such file or directory"
+
+
 def mission_files(paths: Sequence[Path]) -> tuple[list[Path], list[Diagnostic]]:
     """Files as given; a directory stands for every ``*.yaml`` and ``*.yml`` below
     it, in sorted order."""
     files: list[Path] = []
     problems = []
     for path in paths:
+        if not path.exists():  # said with the others, so that --format json has it
+            problems.append(Diagnostic(str(path), 0, 0, MISSING))
+            continue
         if not path.is_dir():
             files.append(path)
             continue
@@ -60,7 +68,8 @@ def validate_files(
     strict: bool = False,
 ) -> int:
     """Check every file; 0 when all are valid (warnings allowed unless
-    ``strict``; notes always), 1 otherwise.
+    ``strict``; notes always), 1 otherwise, 2 when an argument names nothing
+    (the files it does name checked all the same).
 
     A directory stands for every ``*.yaml`` and ``*.yml`` below it. A ``type:
     python`` entry is checked for its syntax only, unless ``check_entries``:
@@ -106,4 +115,6 @@ def validate_files(
             ],
         }
         sys.stdout.write(json.dumps(document, indent=2) + "\n")
+    if any(problem.message == MISSING for problem in problems):
+        return 2
     return 0 if all_valid else 1
