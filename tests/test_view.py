@@ -187,6 +187,13 @@ def test_a_damaged_runs_csv_gets_one_line(campaign_dir: Path, tmp_path: Path, ca
     (copy / "runs.csv").write_text(lines[0] + ",".join(row), encoding="utf-8")
     assert view_command(copy) == 1
     assert "runs.csv:2: run 1's seed and values are not those" in capsys.readouterr().err
+    # cut at a line's end: every row whole, but fewer than campaign.json's runs
+    runs = json.loads((campaign_dir / "campaign.json").read_text())["runs"]
+    (copy / "runs.csv").write_text("".join(lines[:5]), encoding="utf-8")
+    assert view_command(copy) == 1
+    assert capsys.readouterr().err == (
+        f"{copy}: runs.csv holds 4 runs, but campaign.json says {runs} (cut short or edited)\n"
+    )
 
 
 # --- in the browser -------------------------------------------------------------

@@ -238,6 +238,11 @@ def load_campaign_dir(directory: Path) -> CampaignDir:
     plan = _plan(manifest)
     metrics, rows = _read_rows(directory / RUNS_FILE, plan)
     values = _drawn_values(directory / RUNS_FILE, plan, rows)
+    if len(rows) != summary["runs"]:  # cut at a line's end, or rows added: not this record
+        raise RunDirError(
+            f"{RUNS_FILE} holds {len(rows)} runs, but {CAMPAIGN_FILE} says {summary['runs']} "
+            "(cut short or edited)"
+        )
     return CampaignDir(directory, plan.paths, metrics, rows, summary, manifest, values)
 
 
