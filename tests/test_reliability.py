@@ -132,6 +132,29 @@ def test_concurrent_runs_of_one_name_in_one_second_get_their_own_directories(
     assert seen == set(targets)
 
 
+def test_a_killed_run_s_claim_is_told_from_a_live_one(tmp_path: Path) -> None:
+    """A run killed by SIGKILL leaves its claim: the next run at that --out is
+    told so (the process that claimed it is gone), not that another run is
+    writing there; `plot` says the directory holds nothing but the claim."""
+    import socket
+
+    from wmr_mission.output.reader import RunDirError, load_run
+
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)  # fmt: skip
+    killed = tmp_path / "killed"
+    killed.mkdir()
+    (killed / CLAIM_FILE).write_text(f"{gone.stdout.strip()} {socket.gethostname()}\n")
+    with pytest.raises(FileExistsError, match=r"a run killed before it finished \(process "):
+        prepare_run_dir(killed)
+    with pytest.raises(RunDirError, match="holds only the claim"):
+        load_run(killed)
+    live = tmp_path / "live"
+    prepare_run_dir(live)  # this process's claim: alive
+    with pytest.raises(FileExistsError, match="another run is writing into this directory"):
+        prepare_run_dir(live)
+
+
 def test_one_directory_is_claimed_by_exactly_one_of_racing_runs(tmp_path: Path) -> None:
     target = tmp_path / "out"
     target.mkdir()  # an existing empty directory: the harder case

@@ -24,6 +24,7 @@ import numpy as np
 
 from wmr_mission.output.result import RunResult
 from wmr_mission.output.rundir import (
+    CLAIM_FILE,
     MANIFEST_FILE,
     SUMMARY_FILE,
     TRAJECTORY_FILE,
@@ -381,6 +382,11 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
     directory = Path(run_dir)
     if not directory.is_dir():
         raise RunDirError("not a directory")
+    if [entry.name for entry in directory.iterdir()] == [CLAIM_FILE]:
+        raise RunDirError(
+            f"holds only the claim ({CLAIM_FILE}) of a run that has written nothing yet: "
+            "one still running, or one killed before it could (kill -9)"
+        )
     manifest = _read_json(directory / MANIFEST_FILE)
     run = _field(manifest, "run", dict, MANIFEST_FILE)
     where = f"{MANIFEST_FILE}: run"

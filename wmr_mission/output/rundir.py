@@ -24,6 +24,7 @@ import contextlib
 import copy
 import hashlib
 import os
+import socket
 from collections.abc import Iterator, Mapping, Sequence
 from datetime import datetime
 from pathlib import Path
@@ -111,15 +112,36 @@ def _claim(run_dir: Path) -> None:
             raise RunDirExistsError("exists and is not a directory; choose another --out") from None
     claim = run_dir / CLAIM_FILE
     try:
-        os.close(os.open(claim, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        descriptor = os.open(claim, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     except FileExistsError:
-        raise RunDirExistsError("another run is writing into this directory") from None
+        raise RunDirExistsError(_claimed_by(claim)) from None
+    try:  # who claims it, for a later run to tell a live claim from a killed one's
+        os.write(descriptor, f"{os.getpid()} {socket.gethostname()}\n".encode())
+    finally:
+        os.close(descriptor)
     if any(entry.name != CLAIM_FILE for entry in run_dir.iterdir()):
         claim.unlink()
         raise RunDirExistsError(
             "run directory exists and is not empty; "
             "choose another --out or remove it (runs are never overwritten)"
         )
+
+
+def _claimed_by(claim: Path) -> str:
+    """Why a directory with ``claim`` cannot be taken: a run writing into it,
+    or one killed (``kill -9``, a machine that stopped) before it could."""
+    try:
+        pid, host = claim.read_text(encoding="utf-8").split()
+        os.kill(int(pid), 0) if host == socket.gethostname() else None
+    except ProcessLookupError:
+        return (
+            f"a run killed before it finished (process {pid} is gone) left its claim "
+            f"({CLAIM_FILE}) here, and what it had not written is lost; "
+            "choose another --out, or remove the directory"
+        )
+    except (OSError, ValueError):  # unreadable, or a claim of an older version: as before
+        pass
+    return "another run is writing into this directory"
 
 
 def drop_claim(directory: Path) -> None:
