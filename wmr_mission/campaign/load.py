@@ -330,7 +330,9 @@ def _check_against_mission(
     # and a replay runs from the campaign directory or from anywhere.
     mission_path = Path(os.path.abspath(path.parent / campaign.mission))
     if not mission_path.is_file():
-        return None, [at(("mission",), f"mission file {str(mission_path)!r} does not exist")]
+        what = "is not a file (a directory, a device or a pipe)"
+        said = what if mission_path.exists() else "does not exist"
+        return None, [at(("mission",), f"mission file {str(mission_path)!r} {said}")]
     # Read once: the text checked is the text every run and worst run runs, and
     # the one hashed into the manifests, whatever happens to the file since.
     raw, mission_diagnostics = read_source(mission_path)
