@@ -110,11 +110,18 @@ def test_run_and_sweep_never_take_a_record_s_directory(
         (["run", str(MISSION), "--out", str(run_dir / "summary.json")], run_dir),
         (["sweep", str(CAMPAIGN), "--out", str(campaign_dir)], campaign_dir),
         (["sweep", str(CAMPAIGN), "--out", str(campaign_dir / "runs.csv")], campaign_dir),
+        # nor a new directory inside a record, nor one named as its claim
+        (["run", str(MISSION), "--out", str(run_dir / "sub")], run_dir),
+        (["run", str(MISSION), "--out", str(run_dir / ".wmr-mission-run")], run_dir),
+        (["run", str(MISSION), "--out", str(campaign_dir / "worst" / "new")], campaign_dir),
+        (["sweep", str(CAMPAIGN), "--out", str(run_dir / "sub")], run_dir),
     ):
         before = _fingerprint(directory)
         result = CliRunner().invoke(app, arguments)
         assert result.exit_code == 2, result.output
         assert _fingerprint(directory) == before
+    assert not (run_dir / "sub").exists()
+    assert not (campaign_dir / "worst" / "new").exists()
 
 
 @pytest.fixture(scope="module")

@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import hashlib
+import json
 import os
 import socket
 from collections.abc import Iterator, Mapping, Sequence
@@ -91,6 +92,11 @@ def prepare_run_dir(path: str | os.PathLike[str], *, suffix_on_collision: bool =
             f"is a symbolic link to {os.readlink(run_dir)}, which does not exist; "
             "create the target or choose another --out"
         )
+    record = _record_above(run_dir)
+    if record is not None:
+        raise RunDirExistsError(
+            f"is inside the record in {record}, which keeps its own files; choose another --out"
+        )
     run_dir.parent.mkdir(parents=True, exist_ok=True)
     for number in range(1, 10_000):
         candidate = run_dir if number == 1 else run_dir.with_name(f"{run_dir.name}-{number}")
@@ -102,6 +108,23 @@ def prepare_run_dir(path: str | os.PathLike[str], *, suffix_on_collision: bool =
             continue
         return candidate
     raise RunDirExistsError("every suffix up to -9999 is taken; choose another --out")
+
+
+def _record_above(run_dir: Path) -> Path | None:
+    """The record (a run's, campaign's or falsification's directory) ``run_dir``
+    would be made in, up to two levels up (a campaign's worst/RUN), if any:
+    one being written (its claim) or written (its manifest.json, which
+    names this package among its versions)."""
+    for directory in list(run_dir.resolve().parents)[:2]:
+        if (directory / CLAIM_FILE).exists():
+            return directory
+        try:
+            versions = json.loads((directory / MANIFEST_FILE).read_text(encoding="utf-8"))
+            if "wmr-mission" in versions.get("versions", {}):
+                return directory
+        except (OSError, ValueError, AttributeError):  # none, or not one of ours
+            continue
+    return None
 
 
 def _claim(run_dir: Path) -> None:
