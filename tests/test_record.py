@@ -104,7 +104,9 @@ def test_other_files_in_a_run_directory_are_written(run_dir: Path, tmp_path: Pat
 def test_run_and_sweep_never_take_a_record_s_directory(
     run_dir: Path, campaign_dir: Path, tmp_path: Path
 ) -> None:
-    """Their --out names a directory, taken only new or empty."""
+    """Their --out names a directory, taken only new or empty, and never inside
+    a run's record (a worst run's of a campaign among them)."""
+    worst = next((campaign_dir / "worst").iterdir())
     for arguments, directory in (
         (["run", str(MISSION), "--out", str(run_dir)], run_dir),
         (["run", str(MISSION), "--out", str(run_dir / "summary.json")], run_dir),
@@ -113,7 +115,7 @@ def test_run_and_sweep_never_take_a_record_s_directory(
         # nor a new directory inside a record, nor one named as its claim
         (["run", str(MISSION), "--out", str(run_dir / "sub")], run_dir),
         (["run", str(MISSION), "--out", str(run_dir / ".wmr-mission-run")], run_dir),
-        (["run", str(MISSION), "--out", str(campaign_dir / "worst" / "new")], campaign_dir),
+        (["run", str(MISSION), "--out", str(worst / "new")], campaign_dir),
         (["sweep", str(CAMPAIGN), "--out", str(run_dir / "sub")], run_dir),
     ):
         before = _fingerprint(directory)
@@ -121,7 +123,7 @@ def test_run_and_sweep_never_take_a_record_s_directory(
         assert result.exit_code == 2, result.output
         assert _fingerprint(directory) == before
     assert not (run_dir / "sub").exists()
-    assert not (campaign_dir / "worst" / "new").exists()
+    assert not (worst / "new").exists()
 
 
 @pytest.fixture(scope="module")

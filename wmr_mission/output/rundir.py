@@ -23,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import copy
 import hashlib
-import json
 import os
 import socket
 from collections.abc import Iterator, Mapping, Sequence
@@ -111,19 +110,15 @@ def prepare_run_dir(path: str | os.PathLike[str], *, suffix_on_collision: bool =
 
 
 def _record_above(run_dir: Path) -> Path | None:
-    """The record (a run's, campaign's or falsification's directory) ``run_dir``
-    would be made in, up to two levels up (a campaign's worst/RUN), if any:
-    one being written (its claim) or written (its manifest.json, which
-    names this package among its versions)."""
+    """The record ``run_dir`` would be made in, up to two levels up, if any: a
+    run's (its trajectory.csv and manifest.json), or any being written (its
+    claim). A campaign's or falsification's directory takes runs (a replay
+    line run from it writes ``runs/...`` there)."""
     for directory in list(run_dir.resolve().parents)[:2]:
-        if (directory / CLAIM_FILE).exists():
+        if (directory / CLAIM_FILE).exists() or (
+            (directory / MANIFEST_FILE).is_file() and (directory / TRAJECTORY_FILE).is_file()
+        ):
             return directory
-        try:
-            versions = json.loads((directory / MANIFEST_FILE).read_text(encoding="utf-8"))
-            if "wmr-mission" in versions.get("versions", {}):
-                return directory
-        except (OSError, ValueError, AttributeError):  # none, or not one of ours
-            continue
     return None
 
 
