@@ -707,7 +707,8 @@ def _teach_ticks() -> None:
 ONE_VARIANT = "half a minute to 3 minutes by the machine's load"
 NOTICE = (
     "wmr-mission: loading the simulation loop, compiled first if it is not in the "
-    f"cache ({ONE_VARIANT}, once; `wmr-mission compile` compiles every variant)"
+    f"cache ({ONE_VARIANT}, once; from the cache, under a second; `wmr-mission compile` "
+    "compiles every variant and ends this line)"
 )
 
 
