@@ -716,7 +716,7 @@ def _timing(mission: Mission) -> Iterator[Finding]:
     if math.isfinite(samples) and samples > MAX_SAMPLES:  # inf: the graph's proof says why
         yield Finding(
             ("robot", "dt"),
-            f"in the worst case the mission lasts {samples * dt:g} s = {samples:.3g} samples at "
+            f"in the worst case the mission lasts {samples * dt:g} s = {samples:,.0f} samples at "
             f"dt = {dt:g} s, more than the limit of {MAX_SAMPLES:,} (every phase to its time "
             "bound, every retry and contingency as often as its count allows); shorten the "
             "timeouts, lower the counts or raise dt",
