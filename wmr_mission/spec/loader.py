@@ -813,7 +813,7 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     message = re.sub(r"^Input should be", "should be", message)
     message = re.sub(r"^Value error, ", "", message)
     # pydantic's words for YAML's: a mapping of the section's fields, a list
-    message = re.sub(r"a valid dictionary( or instance of \w+)?", "a mapping of its fields", message)
+    message = re.sub(r"a valid dictionary( or instance of \w+)?", "a mapping of fields", message)
     message = re.sub(r"a valid (tuple|list)", "a list", message)
     if kind.endswith(("_type", "_parsing")) or kind in (
         "greater_than",
