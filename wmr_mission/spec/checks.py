@@ -814,6 +814,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             )
         yield from _path_within_limits(mission, where, phase, times[:followed], dx, dy, assumed)
         yield from _through_centres(mission, phase, where, x[:followed], y[:followed])
+        yield from _inside_keep_outs(mission, phase, where, x[:followed], y[:followed])
         last = followed - 1  # the next phase starts where this one is predicted to end
         if np.isfinite(x[last]) and np.isfinite(y[last]):
             heading = (
@@ -1557,6 +1558,28 @@ def _in_time(
             "limits",
             severity="warning",
         )
+
+
+def _inside_keep_outs(
+    mission: Mission, phase: TrackPhase, where: DataPath, x: FloatArray, y: FloatArray
+) -> Iterator[Finding]:
+    """A warning where the path lies wholly inside a keep-out zone of its phase:
+    a path that crosses a zone is a detour the mission chose, one that never
+    leaves it cannot be tracked at all (the robot waits at the zone's edge)."""
+    for number, constraint in enumerate(phase.constraints):
+        zone = None if isinstance(constraint, StayInside) else constraint.stay_outside
+        region = mission.regions.get(zone) if zone is not None else None
+        if region is None or x.size == 0:
+            continue
+        with np.errstate(all="ignore"):
+            inside = region_value(region, x, y) < 0.0
+        if inside.all():
+            yield Finding(
+                (*where, "constraints", number),
+                f"the path lies wholly inside keep-out zone {zone!r}: the robot can only wait "
+                "at its edge, and the phase's tracking fails; move the path or the zone",
+                severity="warning",
+            )
 
 
 def _through_centres(
