@@ -83,7 +83,7 @@ def test_case2_on_irsim_ends_within_a_millimetre_of_ours() -> None:
     """Case 2 on IR-SIM runs every phase to its end, its final error within
     1 mm of our plant's. The mission's 1 mm bound on the constraint is not
     met there: Euler's offset, of the order of v dt (7 mm at the orbit's
-    speed), moves the true path across the ellipse by 3.4 mm
+    speed), moves the true path across the ellipse by 5.4 mm
     (docs/backends.md, "IR-SIM")."""
     ours = run_mission(load_mission(ROOT / "missions" / "case2.yaml"))
     theirs = run_on_irsim("case2")

@@ -180,8 +180,8 @@ def test_the_way_round_a_polygon_is_the_least_support_over_the_ramp() -> None:
 
 def test_the_shelf_is_kept_by_the_body_where_the_axles_rule_would_touch_it() -> None:
     """A robot of radius 0.25 m goes round the shelf with its edge clear; the
-    same mission with a point robot keeps the axle 0.13 m from the shelf, so a
-    body of 0.25 m on that rule would have gone 0.12 m into it."""
+    same mission with a point robot keeps the axle 0.14 m from the shelf, so a
+    body of 0.25 m on that rule would have gone 0.11 m into it."""
     body = run_mission(_shelf())
     assert body.succeeded, body.message
     summary = body.summary()
