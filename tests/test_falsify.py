@@ -788,15 +788,15 @@ def test_cmaes_falsifies_park_corner_on_every_seed_and_sooner_than_random() -> N
 
 
 @pytest.mark.sweep
-@pytest.mark.parametrize(("name", "share"), [("heading-band", 0.0070), ("estimate-band", 0.0161)])
+@pytest.mark.parametrize(("name", "share"), [("heading-band", 0.0070), ("estimate-band", 0.0164)])
 def test_gp_falsifies_a_band_in_a_fifth_of_randoms_runs(name: str, share: float) -> None:
     """The acceptance on the two benchmarks CMA-ES alone missed it on
     (docs/falsification.md's table): every seed of 20 falsified within 300
     runs, the median runs to the first failure at most a fifth of the median
     uniform draws need to reach a region of the stated ``share``,
     ln 2 / -ln(1 - share) (random search's own median over 20 seeds is itself
-    noisy: estimate-band's 96.5 is near twice the 43 its share predicts), and
-    of random search's median on the same seeds: 11 of 99 and 77, 7 of 43 and
+    noisy: estimate-band's 96.5 is near twice the 42 its share predicts), and
+    of random search's median on the same seeds: 11 of 99 and 77, 7 of 42 and
     96.5. estimate-band's was 16, 0.37 of 43, before the model started on the
     corners alone and scored the faces of the box."""
     campaign = BENCHMARKS / f"{name}-campaign.yaml"
