@@ -2362,7 +2362,7 @@ def drawing(repeat: int = 5) -> None:
     loaded = load_campaign(CAMPAIGN)
     aggregate = Aggregate(dict(loaded.campaign.vary))
     with StopSignals() as stop:
-        seconds = warm_up(loaded)
+        seconds = warm_up(loaded).seconds_per_run
         for rows in execute(loaded, workers=2, scheduler=None, seconds_per_run=seconds, stop=stop):
             for row in rows:
                 aggregate.add(row)

@@ -366,3 +366,27 @@ vary:
     for row in rows:
         if row["outcome"] == "failed":
             assert row["reason"].startswith("a plug-in failed at sample 25 (t = 0.25 s)")
+
+
+def test_a_campaign_s_manifest_says_a_plain_plug_in_s_loop_ran_plain(tmp_path: Path) -> None:
+    """A sweep of a mission with a plug-in of plain Python objects: its
+    manifest says the runs ran as plain Python, as each worst run's does, not
+    the compiled loop the sweep's process loaded; with a jitclass plug-in, compiled."""
+    from wmr_mission import run_campaign
+    from wmr_mission.kernels import jit
+
+    for controller, loop in (("plain", "plain Python"), ("compiled", "compiled")):
+        path = tmp_path / f"{controller}.yaml"
+        path.write_text(mission(controller), encoding="utf-8")
+        campaign = tmp_path / f"{controller}-campaign.yaml"
+        campaign.write_text(
+            f"version: 1\nname: plugged\nmission: {path}\nruns: 2\nseed: 5\n"
+            "vary:\n  robot.initial_state.theta: {uniform: [-0.1, 0.1]}\n",
+            encoding="utf-8",
+        )
+        out = tmp_path / f"{controller}-out"
+        run_campaign(campaign, workers=1, out=out)
+        manifest = json.loads((out / "manifest.json").read_text())
+        expected = loop if jit.compiling() else "plain Python"
+        assert manifest["loop"] == expected, controller
+        assert (manifest["environment"]["numba_cpu"] is None) == (expected == "plain Python")

@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable, Generator, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
 from contextlib import contextmanager
-from typing import Any, Final, Protocol
+from typing import Any, Final, NamedTuple, Protocol
 
 from wmr_mission.campaign.cores import usable_cores
 from wmr_mission.campaign.load import LoadedCampaign
@@ -111,8 +111,17 @@ def usable_workers(requested: int | None) -> int:
     return min(requested, default_workers())
 
 
-def warm_up(loaded: LoadedCampaign, workers: int | None = None) -> float:
-    """Compile the kernels in this process; return the seconds of one warm run.
+class WarmUp(NamedTuple):
+    """What a campaign's warm-up found: the seconds of one warm run, and
+    whether its loop ran compiled (a plug-in of plain Python objects runs it
+    plain; the campaign's manifest says which)."""
+
+    seconds_per_run: float
+    loop_compiled: bool | None
+
+
+def warm_up(loaded: LoadedCampaign, workers: int | None = None) -> WarmUp:
+    """Compile the kernels in this process; the seconds of one warm run.
 
     ``workers``: the local processes the runs will take (None: none here, a
     Dask cluster). Where each of them would judge enough samples for the
@@ -127,7 +136,7 @@ def warm_up(loaded: LoadedCampaign, workers: int | None = None) -> float:
         run_row(loaded, plan.draw(0))  # loads the judge's passes, outside the time
     started = time.perf_counter()
     run_row(loaded, plan.draw(min(1, len(plan) - 1)))
-    return time.perf_counter() - started
+    return WarmUp(time.perf_counter() - started, first.loop_compiled)
 
 
 def task_size(seconds_per_run: float, runs: int, workers: int) -> int:

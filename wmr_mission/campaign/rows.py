@@ -90,6 +90,9 @@ class Row:
     # margin_metric): how campaign.json counts the margins, as data
     margin_metric: str | None = None
     samples: int = 0  # the run's samples (0: not run)
+    # how its loop ran (RunRecord.loop_compiled; None: not run): the campaign's
+    # manifest says so, a plug-in of plain Python objects running it plain
+    loop_compiled: bool | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -201,6 +204,7 @@ def run_row(
         missed,
         summary["margin_metric"],
         result.samples,
+        result.loop_compiled,
     )
 
 

@@ -186,6 +186,7 @@ class _Runs:
     fault: _Fault | None
     startup_seconds: float
     runs_seconds: float
+    loop_compiled: bool | None  # how the warm-up's run ran (WarmUp), for the manifest
 
 
 def _execute(
@@ -217,7 +218,7 @@ def _execute(
     notice = jit.foreground_notice()  # a compile of a minute or more: said before it
     if notice is not None:
         progress.note(notice)
-    seconds_per_run = warm_up(loaded, None if scheduler is not None else workers)
+    seconds_per_run, loop_compiled = warm_up(loaded, None if scheduler is not None else workers)
     if stop_owed():  # raised inside numba's compiler, where it could not propagate
         raise KeyboardInterrupt  # before the first run: nothing to keep
     load_early = (
@@ -272,7 +273,15 @@ def _execute(
     elif interrupted or stop.stopped:  # also a signal after the last task: the rest is left
         interrupted = True
         stopped_by = stop.name
-    return _Runs(aggregate, stopped_by, interrupted, fault, runs_started - started, runs_seconds)
+    return _Runs(
+        aggregate,
+        stopped_by,
+        interrupted,
+        fault,
+        runs_started - started,
+        runs_seconds,
+        loop_compiled,
+    )
 
 
 def _cannot_write(error: OSError) -> str:
@@ -353,7 +362,8 @@ def _campaign_steps(
                 )
             # Again, now that the warm-up has compiled the loop (or not): the
             # manifest says how the runs ran, not how the process started.
-            manifest = _manifest(loaded, None if scheduler else workers, scheduler)
+            workers_asked = None if scheduler else workers
+            manifest = _manifest(loaded, workers_asked, scheduler, runs.loop_compiled)
             write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(manifest).encode("utf-8"))
             _write_record(out_dir, record)
         except OSError as error:
@@ -643,7 +653,14 @@ def _prepare(
     return out_dir
 
 
-def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None) -> dict[str, Any]:
+def _manifest(
+    loaded: LoadedCampaign,
+    workers: int | None,
+    scheduler: str | None,
+    compiled: bool | None = None,
+) -> dict[str, Any]:
+    """manifest.json; ``compiled``: how the campaign's runs ran its loop, if
+    known (RunRecord.loop_compiled of the warm-up's run; else this process's)."""
     return {
         "campaign_file": str(loaded.path),
         "campaign_sha256": loaded.campaign_sha256,
@@ -652,8 +669,8 @@ def _manifest(loaded: LoadedCampaign, workers: int | None, scheduler: str | None
         "resolved_campaign": loaded.campaign.model_dump(mode="json"),
         "settings": loaded.setting_texts(),
         "versions": package_versions(),
-        "environment": environment(),
-        "loop": loop_build(),
+        "environment": environment(compiled),
+        "loop": loop_build(compiled),
         "workers": workers,
         "scheduler": scheduler,
     }
