@@ -125,6 +125,15 @@ def text(params: dict[str, Any], setup: Any) -> Steps:
     return Steps(lambda t: ("1", "0"))
 
 
+class WrongSignature:
+    def step(self, t: float) -> tuple[float, float]:  # not (t, estimate, reference)
+        return (0.0, 0.0)
+
+
+def wrong_signature(params: dict[str, Any], setup: Any) -> WrongSignature:
+    return WrongSignature()
+
+
 def one_number(params: dict[str, Any], setup: Any) -> Steps:
     return Steps(lambda t: 0.5)
 
@@ -242,13 +251,18 @@ def column_estimate(params: dict[str, float], setup: Any) -> ColumnEstimate:
 
 
 class LostEstimate(Drawn):
-    """Its estimate not a number from t = 0.25 s on."""
+    """Its estimate's x ``lost`` (not a number, or a terametre off) from t = 0.25 s on."""
+
+    def __init__(self, blend: float, dt: float, x: Any, lost: float) -> None:
+        super().__init__(blend, dt, x)
+        self.lost, self.steps = lost, 0
 
     def step(self, measurement: Any, applied: Any) -> Any:
         x, y, theta = super().step(measurement, applied)
-        self.steps = getattr(self, "steps", 0) + 1
-        return (math.nan, y, theta) if self.steps > 25 else (x, y, theta)
+        self.steps += 1
+        return (self.lost, y, theta) if self.steps > 25 else (x, y, theta)
 
 
 def lost_estimate(params: dict[str, float], setup: Any) -> LostEstimate:
-    return LostEstimate(params["blend"], setup.dt, np.array(setup.initial_estimate))
+    lost = float(params["lost"])
+    return LostEstimate(params["blend"], setup.dt, np.array(setup.initial_estimate), lost)

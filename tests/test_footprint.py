@@ -454,3 +454,14 @@ def test_a_failed_clearance_min_is_marked_where_the_body_was_too_near(body: str)
     (record,) = [c for c in summary["expectations"] if c["metric"] == "clearance_min"]
     assert record["first_violation"] == {"time": 0.0, "sample": 0}
     assert run_signals(run).failed()[0].metric == "clearance_min"
+    # at least 0.2 m asked: drawn at -0.2 m of depth, marked wherever nearer than 0.2 m
+    asked = OVERLAP.replace("BODY", body).replace(
+        "phases:", "expect:\n  clearance_min: 0.2\nphases:"
+    )
+    run = run_mission(load_mission_text(asked, "overlap.yaml"))
+    (check,) = [c for c in run_signals(run).checks if c.metric == "clearance_min"]
+    assert check.level == -0.2
+    nearer = np.array([body.distance(wall) for body in body_at]) < 0.2 - 1e-5
+    assert nearer.sum() > touching.sum()  # more samples than those touching
+    assert set(np.flatnonzero(nearer)) <= set(check.over.tolist())
+    assert set(check.over.tolist()) <= set(np.flatnonzero(distance < 0.2 + 1e-5))

@@ -235,6 +235,8 @@ def test_validate_checks_an_entry_s_syntax_and_imports_it_only_when_asked(
             "cannot be read: TypeError: object of type 'float' has no len()",
         ),
         ("nothing", 25, "returns two numbers (v, omega); what it returned cannot be read"),
+        # the call itself fails: said as it is, not as what the step returned
+        ("wrong_signature", 0, "a plug-in failed at sample 0 (t = 0 s): TypeError: WrongSign"),
         # the plug-in's own: the run's samples, its message and summary.json kept
         ("out_of_memory", 25, "MemoryError: the plug-in's map did not fit"),
     ],
@@ -290,15 +292,23 @@ def test_an_estimator_step_returning_a_column_says_what_it_returns(tmp_path: Pat
     assert said in err
 
 
-def test_an_estimate_not_a_number_is_said_as_the_estimate_s(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("lost", "said"), [("nan", "nan"), ("1e12", "1e+12")])
+def test_an_estimate_that_runs_away_is_said_as_the_estimate_s(
+    tmp_path: Path, lost: str, said: str
+) -> None:
     """A divergence, as docs/controllers.md says, named as the estimator's: the
-    robot's state is finite."""
-    estimator = '{type: python, entry: "plugin_examples:lost_estimate", params: {blend: 0.5}}'
+    robot's state stays where the loop keeps running, the estimate does not
+    (not a number, or a terametre off)."""
+    estimator = (
+        '{type: python, entry: "plugin_examples:lost_estimate", '
+        f"params: {{blend: 0.5, lost: '{lost}'}}}}"
+    )
     code, err, summary = _run(tmp_path, mission("plain", estimator))
     assert code == 1
     assert summary is not None
     assert summary["outcome"] == "diverged"
-    assert "the estimate is not finite (x = nan m," in err
+    assert f"the estimate ran away (x = {said} m," in err
+    assert "the state did not (x = " in err
     assert "the state ran away" not in err
 
 

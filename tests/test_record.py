@@ -237,3 +237,12 @@ def test_a_pipe_is_never_replaced_and_a_link_is_written_through(
     assert link.is_symlink()
     assert link.resolve() == report.resolve()
     assert len(report.read_bytes()) > 1000  # the new report, where the link points
+    # a loop of links: refused, the links kept
+    loop_a, loop_b = tmp_path / "loop-a.html", tmp_path / "loop-b.html"
+    loop_a.symlink_to(loop_b)
+    loop_b.symlink_to(loop_a)
+    result = CliRunner().invoke(app, ["view", str(run_dir), "--out", str(loop_a)])
+    assert result.exit_code == 2, result.output
+    assert "is a loop of symbolic links" in result.stderr
+    assert loop_a.is_symlink()
+    assert loop_b.is_symlink()

@@ -791,3 +791,23 @@ def test_a_fault_inside_the_loop_ends_the_run_failed_and_keeps_its_samples() -> 
     assert result.message.endswith("please report it")
     assert result.samples == 299
     assert result.transitions[-1].condition == "error"
+
+
+def test_a_claim_that_cannot_be_written_is_not_left_behind(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A disk full as the claim is written: the error is said, and no empty
+    claim refuses every later run at that --out."""
+    from wmr_mission.output import rundir
+
+    real = os.write
+
+    def full(descriptor: int, data: bytes) -> int:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(rundir.os, "write", full)
+    with pytest.raises(OSError, match="No space left on device"):
+        prepare_run_dir(tmp_path / "out")
+    monkeypatch.setattr(rundir.os, "write", real)
+    assert not (tmp_path / "out" / CLAIM_FILE).exists()
+    assert prepare_run_dir(tmp_path / "out") == tmp_path / "out"

@@ -119,7 +119,8 @@ def failure_message(error: BaseException) -> str:
     and, for plain Python, where it was raised; an error reading what its step
     returned (``None``, a number alone, a column) with what the step returns."""
     frames = traceback.extract_tb(error.__traceback__)
-    if frames:
+    # raised reading the value, not calling the step (a wrong signature, no step)
+    if frames and ".step(" not in (frames[-1].line or ""):
         innermost = str(Path(frames[-1].filename).resolve())
         for module, returns in _RETURNS.items():
             if innermost == _PACKAGE + module.replace("/", os.sep) and returns not in str(error):

@@ -35,9 +35,11 @@ def _count(number: int, word: str) -> str:
     return f"{number} {word}{'s' if number != 1 else ''}"
 
 
-# An argument that names nothing: a usage error (exit 2), said after every
-# file given is checked.
+# An argument that names nothing: a usage error (exit 2), said with the
+# others; the files given are checked all the same.
 MISSING = "no such file or directory"
+# A directory without mission files: an invalid argument (exit 1), not a usage error.
+NO_FILES = "no mission files (*.yaml, *.yml) below it"
 
 
 def mission_files(paths: Sequence[Path]) -> tuple[list[Path], list[Diagnostic]]:
@@ -46,17 +48,18 @@ def mission_files(paths: Sequence[Path]) -> tuple[list[Path], list[Diagnostic]]:
     files: list[Path] = []
     problems = []
     for path in paths:
-        if not path.exists():  # said with the others, so that --format json has it
-            problems.append(Diagnostic(str(path), 0, 0, MISSING))
+        try:  # said with the others, so that --format json has it
+            path.stat()
+        except OSError as error:  # none, or not to be looked at (EACCES, a link loop)
+            why = MISSING if isinstance(error, FileNotFoundError) else error.strerror
+            problems.append(Diagnostic(str(path), 0, 0, str(why or error).lower()))
             continue
         if not path.is_dir():
             files.append(path)
             continue
         found = sorted(p for p in path.rglob("*") if p.suffix in MISSION_SUFFIXES and p.is_file())
         if not found:
-            problems.append(
-                Diagnostic(str(path), 0, 0, "no mission files (*.yaml, *.yml) below it")
-            )
+            problems.append(Diagnostic(str(path), 0, 0, NO_FILES))
         files += found
     return files, problems
 
@@ -115,6 +118,6 @@ def validate_files(
             ],
         }
         sys.stdout.write(json.dumps(document, indent=2) + "\n")
-    if any(problem.message == MISSING for problem in problems):
-        return 2
+    if any(problem.message != NO_FILES for problem in problems):
+        return 2  # a path that names nothing, or cannot be looked at: a usage error
     return 0 if all_valid else 1

@@ -114,7 +114,7 @@ def _record_above(run_dir: Path) -> Path | None:
     run's (its trajectory.csv and manifest.json), or any being written (its
     claim). A campaign's or falsification's directory takes runs (a replay
     line run from it writes ``runs/...`` there)."""
-    for directory in list(run_dir.resolve().parents)[:2]:
+    for directory in list(Path(os.path.realpath(run_dir)).parents)[:2]:  # a loop: as it is
         if (directory / CLAIM_FILE).exists() or (
             (directory / MANIFEST_FILE).is_file() and (directory / TRAJECTORY_FILE).is_file()
         ):
@@ -135,8 +135,11 @@ def _claim(run_dir: Path) -> None:
         raise RunDirExistsError(_claimed_by(claim)) from None
     try:  # who claims it, for a later run to tell a live claim from a killed one's
         os.write(descriptor, f"{os.getpid()} {socket.gethostname()}\n".encode())
-    finally:
+    except OSError:  # a full disk: no claim left behind to refuse every later run
         os.close(descriptor)
+        drop_claim(run_dir)
+        raise
+    os.close(descriptor)
     if any(entry.name != CLAIM_FILE for entry in run_dir.iterdir()):
         claim.unlink()
         raise RunDirExistsError(
@@ -157,7 +160,7 @@ def _claimed_by(claim: Path) -> str:
             f"({CLAIM_FILE}) here, and what it had not written is lost; "
             "choose another --out, or remove the directory"
         )
-    except (OSError, ValueError):  # unreadable, or a claim of an older version: as before
+    except (OSError, ValueError, OverflowError):  # unreadable, or an older version's: as before
         pass
     return "another run is writing into this directory"
 

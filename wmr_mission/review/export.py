@@ -526,7 +526,7 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
     directory or a file already that is not an earlier export of the format
     (wmr_mission.review.record), or the file cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
-    from wmr_mission.review.record import record_file_refusal
+    from wmr_mission.review.record import record_file_refusal, written_at
 
     campaign = is_campaign_dir(directory)
     if not campaign and not (directory / TRAJECTORY_FILE).is_file():
@@ -558,7 +558,7 @@ def export_command(directory: Path, fmt: str, out: Path | None = None) -> int:
         print(f"{directory}: {error}", file=sys.stderr)
         return 1
     try:
-        with atomic_path(target.resolve()) as tmp:  # a link written through, not replaced
+        with atomic_path(written_at(target)) as tmp:
             write(tmp)
     except OSError as error:
         print(f"{target}: cannot write: {error.strerror or error}", file=sys.stderr)

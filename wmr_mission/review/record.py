@@ -32,7 +32,7 @@ from wmr_mission.output.rundir import (
     TRANSITIONS_FILE,
 )
 
-__all__ = ["record_file_refusal"]
+__all__ = ["record_file_refusal", "written_at"]
 
 # Each kind of record: the files that tell it (any one), and the files it holds.
 _RUN: Final = (TRAJECTORY_FILE, SUMMARY_FILE, TRANSITIONS_FILE, MANIFEST_FILE, ANIMATION_FILE)
@@ -62,6 +62,13 @@ def _record_of(directory: Path) -> tuple[str, tuple[str, ...]] | None:
     return None
 
 
+def written_at(target: Path) -> Path:
+    """Where an output named ``target`` is written: through its symbolic links,
+    never in place of one (a loop of links left as it is: writing there fails
+    in one line)."""
+    return Path(os.path.realpath(target))
+
+
 def record_file_refusal(
     target: Path,
     source: Path,
@@ -75,8 +82,13 @@ def record_file_refusal(
     ``earlier`` is given, a file it does not tell for one), or replace what is
     not a file at all: a device, a pipe (``/dev/null``); else None. The
     output is written at ``target.resolve()``: through a symbolic link, never
-    in place of it."""
-    final = target.resolve()
+    in place of it (:func:`written_at`)."""
+    final = written_at(target)
+    if final.is_symlink():  # what realpath leaves a link is a loop of them
+        return (
+            f"{target}: is a loop of symbolic links, which the output would replace: "
+            "choose another --out"
+        )
     linked = final != Path(os.path.abspath(target))
     through = f" (through a symbolic link: {final})" if linked else ""
     if final.exists() and not (final.is_file() or final.is_dir()):

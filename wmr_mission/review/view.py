@@ -590,7 +590,7 @@ def view_command(directory: Path, out: Path | None = None) -> int:
     earlier report (wmr_mission.review.record), or the page cannot be written."""
     from wmr_mission.campaign.reader import is_campaign_dir
     from wmr_mission.review.falsification import falsification_meta, is_falsification_dir
-    from wmr_mission.review.record import record_file_refusal
+    from wmr_mission.review.record import record_file_refusal, written_at
 
     target = out if out is not None else directory / REPORT_FILE
     falsification = is_falsification_dir(directory)
@@ -624,7 +624,7 @@ def view_command(directory: Path, out: Path | None = None) -> int:
         )
         return 1
     try:
-        write_bytes_atomic(target.resolve(), page.encode("utf-8"))  # a link written through
+        write_bytes_atomic(written_at(target), page.encode("utf-8"))
     except OSError as error:
         print(f"{target}: cannot write the report: {error.strerror or error}", file=sys.stderr)
         return 2

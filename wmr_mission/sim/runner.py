@@ -616,6 +616,12 @@ def _honour_stop() -> None:
         raise KeyboardInterrupt
 
 
+def _within(pose: FloatArray, far: float) -> bool:
+    """A pose the loop keeps running at: its position within ``far`` [m] of
+    the origin on each axis, its heading finite (wmr_mission.kernels.loop)."""
+    return abs(pose[0]) < far and abs(pose[1]) < far and math.isfinite(pose[2])
+
+
 def _seconds(samples: int, dt: float) -> float:
     """``samples * dt`` without its rounding tail (53.48, not 53.480000000000004),
     for the times people read in transitions.json."""
@@ -1258,11 +1264,11 @@ class _Run:
                     f"beyond {self.m.plant.runaway_input:g} is no robot's)"
                 )
             return "the input is not finite"
-        state, estimate = s.state, s.estimate
-        if np.isfinite(state).all() and not np.isfinite(estimate).all():
-            return (  # the estimator's (a plug-in's NaN), not the robot's
-                f"the estimate is not finite (x = {estimate[0]:.3g} m, y = {estimate[1]:.3g} m, "
-                f"theta = {estimate[2]:.3g} rad), the state is (x = {state[0]:.3g} m, "
+        state, estimate, far = s.state, s.estimate, self.m.plant.runaway_position
+        if _within(state, far) and not _within(estimate, far):
+            return (  # the estimator's (a plug-in's NaN or 1e12), not the robot's
+                f"the estimate ran away (x = {estimate[0]:.3g} m, y = {estimate[1]:.3g} m, "
+                f"theta = {estimate[2]:.3g} rad), the state did not (x = {state[0]:.3g} m, "
                 f"y = {state[1]:.3g} m)"
             )
         return (

@@ -322,7 +322,7 @@ def _path_on_region(mission: Mission, path: PathSettings, at: DataPath) -> Itera
         yield Finding(
             (*at, "spacing"),
             f"a coverage of region {path.region!r} at a spacing of {path.spacing:g} m lays "
-            f"{lanes:.4g} lanes, more than {MAX_LANES}: widen the spacing, or cover a smaller "
+            f"{lanes:,} lanes, more than {MAX_LANES:,}: widen the spacing, or cover a smaller "
             "region",
         )
 

@@ -813,8 +813,9 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
     message = re.sub(r"^Input should be", "should be", message)
     message = re.sub(r"^Value error, ", "", message)
     # pydantic's words for YAML's: a mapping of the section's fields, a list
-    message = re.sub(r"a valid dictionary( or instance of \w+)?", "a mapping of fields", message)
+    message = re.sub(r"a valid dictionary( or instance of \w+)?", "a mapping", message)
     message = re.sub(r"a valid (tuple|list)", "a list", message)
+    message = re.sub(r"a valid string", "text", message)
     if kind.endswith(("_type", "_parsing")) or kind in (
         "greater_than",
         "greater_than_equal",
@@ -824,9 +825,16 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         "too_long",
         "finite_number",
     ):
-        got = _shown(value) if not isinstance(value, dict | list) else type(value).__name__
+        got = (
+            "a mapping"
+            if isinstance(value, dict)
+            else "a list"
+            if isinstance(value, list)
+            else _shown(value)
+        )
         message = f"{message}, got {got}"
-        if isinstance(value, dict) and len(value) == 1 and set(value) <= {"min", "max"}:
+        bound = isinstance(value, dict) and len(value) == 1 and set(value) <= {"min", "max"}
+        if bound and kind == "scalar_type" and isinstance(path[-1], str):
             # `clearance_min: {min: 0.1}`, as other bounds are written: this one is a number
             (bound,) = value.values()
             message += f" ({{{next(iter(value))}: ...}}): write the number alone, "

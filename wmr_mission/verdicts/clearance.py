@@ -88,8 +88,9 @@ def body_clearances(
     else:
         corners = np.asarray(footprint["polygon"], dtype=np.float64)
         found = np.min([_polygon_clearances(x, y, theta, corners, z) for z in zones], axis=0)
-    rounded: FloatArray = np.round(found, _DIGITS) + 0.0  # + 0.0: no -0.0
-    return rounded
+    # rounded as clearance_min rounds its least (Python's round, not numpy's:
+    # they differ at a tie of the decimal), + 0.0: no -0.0
+    return np.array([round(value, _DIGITS) + 0.0 for value in found.tolist()])
 
 
 def _polygon_clearances(
