@@ -133,3 +133,51 @@ def test_a_fight_is_progress_towards_the_target_in_force() -> None:
     assert inputs["speed_at_limit"] > 0.2  # it drove at its limit, ...
     assert inputs["speed_fight_time"] == pytest.approx(0.0, abs=1e-12)  # ... never in vain
     assert inputs["turn_rate_fight_time"] == pytest.approx(0.0, abs=1e-12)
+
+
+FIGHT = """
+version: 1
+name: fight
+robot: {dt: 0.01, limits: {v: 1.0, omega: 2}}
+phases:
+  - name: park
+    regulate: {target: {x: 2.3, y: 2, theta: 0}}
+    until: {settled: {position: 0.05, heading: 0.05}}
+    timeout: 30
+    updates:
+      - when: {elapsed: 2}
+        target: {x: 2.3, y: 0, theta: 0}
+"""
+
+
+def test_a_stretch_at_the_limit_that_ends_at_an_update_is_judged_by_its_own_target() -> None:
+    """At its speed limit for the 2 s before the update, the robot drove most
+    of the way to (2.3, 2): no fight, as without the update (the stretch ends
+    where the new target takes over, which judged it before)."""
+    from wmr_mission.verdicts.inputs import progress_to
+
+    result = run_mission(mission_from_text(FIGHT))
+    without = run_mission(mission_from_text(FIGHT.split("    updates:")[0]))
+    update = int(np.flatnonzero(result.reference == 1)[0])
+    assert update == 200
+    assert np.array_equal(result.x[: update + 1], without.x[: update + 1])  # the same drive
+    for run in (result, without):
+        inputs = run.summary()["phases"][0]["inputs"]
+        assert inputs["speed_fight_time"] == 0.0
+    # progress over samples 0 .. 200 towards the aim in force over them,
+    # sample by sample, as a robot sent at each to its target is judged
+    x, y = result.x[: update + 10], result.y[: update + 10]
+    aim_x = np.full(x.size, 2.3)
+    aim_y = np.where(np.arange(x.size) < update, 2.0, 0.0)
+    progress = progress_to(x, y, (aim_x, aim_y))
+    assert progress(0, update) == pytest.approx(
+        np.hypot(x[0] - 2.3, y[0] - 2.0) - np.hypot(x[update] - 2.3, y[update] - 2.0), abs=1e-12
+    )
+    across = progress(100, update + 5)  # the aim moved at sample 200
+    assert across == pytest.approx(
+        np.hypot(x[100] - 2.3, y[100] - 2.0)
+        - np.hypot(x[update] - 2.3, y[update] - 2.0)
+        + np.hypot(x[update] - 2.3, y[update])
+        - np.hypot(x[update + 5] - 2.3, y[update + 5]),
+        abs=1e-12,
+    )

@@ -30,6 +30,7 @@ still correcting):
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from typing import Any
@@ -315,16 +316,32 @@ def progress_along(x: FloatArray, y: FloatArray, rx: FloatArray, ry: FloatArray)
 def progress_to(
     x: FloatArray, y: FloatArray, aim: tuple[float, float] | tuple[FloatArray, FloatArray]
 ) -> Progress:
-    """Progress from sample a to b: how much nearer the aim the robot came; an
-    aim per sample (a target an update moved) is the one in force at b, the
-    robot's way judged by where it is being sent."""
-    aim_x = np.broadcast_to(np.asarray(aim[0], dtype=float), x.shape)
-    aim_y = np.broadcast_to(np.asarray(aim[1], dtype=float), x.shape)
+    """Progress from sample a to b: how much nearer the aim the robot came; with
+    an aim per sample (a target an update moved), the sum over the stretches of
+    each aim of the progress towards the one in force over it, the robot's way
+    judged by where it was being sent at each sample (not by a target that took
+    over at b, the sample after the stretch)."""
+    if np.ndim(aim[0]) == 0:  # one aim: the progress towards it
+        to = (float(aim[0]), float(aim[1]))
+
+        def towards(a: int, b: int) -> float:
+            end = min(b, x.size - 1)
+            before = math.hypot(float(x[a]) - to[0], float(y[a]) - to[1])
+            return before - math.hypot(float(x[end]) - to[0], float(y[end]) - to[1])
+
+        return towards
+    aim_x, aim_y = np.asarray(aim[0], dtype=float), np.asarray(aim[1], dtype=float)
 
     def progress(a: int, b: int) -> float:
         end = min(b, x.size - 1)
-        to = (float(aim_x[end]), float(aim_y[end]))
-        before = math.hypot(float(x[a]) - to[0], float(y[a]) - to[1])
-        return before - math.hypot(float(x[end]) - to[0], float(y[end]) - to[1])
+        # where the aim in force changes within the stretch
+        moved = (np.diff(aim_x[a:end]) != 0) | (np.diff(aim_y[a:end]) != 0)
+        cuts = [a, *(np.flatnonzero(moved) + a + 1).tolist(), end]
+        total = 0.0
+        for start, stop in itertools.pairwise(cuts):
+            to = (float(aim_x[start]), float(aim_y[start]))
+            before = math.hypot(float(x[start]) - to[0], float(y[start]) - to[1])
+            total += before - math.hypot(float(x[stop]) - to[0], float(y[stop]) - to[1])
+        return total
 
     return progress
