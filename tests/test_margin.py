@@ -172,3 +172,19 @@ def test_a_failed_check_says_when_it_first_failed(tmp_path: Path) -> None:
     assert failed["duration"]["first_violation"] is None
     met = [c for c in summary["expectations"] if c["met"]]
     assert all("first_violation" not in c for c in met)
+
+
+def test_a_miss_by_a_hair_is_said_with_the_digits_that_tell_it() -> None:
+    """3.0000000116 against a maximum of 3 read `3 (max 3)`, a miss that reads
+    as met: the value is given to as many digits as tell it from its bound."""
+    from wmr_mission.output.report import _missed
+    from wmr_mission.verdicts.check import Check, beside
+
+    assert beside(3.0000000116, 3.0, 3) == ("3.00000001", "3")
+    assert beside(2.3601, 10.0, 3) == ("2.36", "10")
+    assert beside(3.0, 3.0, 3) == ("3", "3")
+    assert Check("turn_rate_jump_max", "drive", 3.0, 3.0000000116).words() == (
+        "drive: turn_rate_jump_max = 3.00000001 (max 3)"
+    )
+    record = Check("turn_rate_jump_max", "drive", 3.0, 3.0000000116).record()
+    assert _missed(record) == "turn_rate_jump_max\n3.00000001 (max 3)"

@@ -64,6 +64,7 @@ from wmr_mission.spec import catalog
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import overrides_of, overrides_of_texts
 from wmr_mission.stopping import GENTLE, HOLD, RAISE, StopSignals, stop_owed
+from wmr_mission.verdicts.check import beside
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
 
@@ -866,9 +867,11 @@ def _beyond(worst: dict[str, Any]) -> str:
     side = "min" if worst.get("min") is not None else "max"
     if worst.get(side) is None:
         return ""
-    value = "none" if worst["value"] is None else f"{worst['value']:.3g}"
+    value, bound = ("none", f"{worst[side]:.3g}")
+    if worst["value"] is not None:
+        value, bound = beside(worst["value"], worst[side], 3)
     where = f"{worst['phase']}: " if worst.get("phase") else ""
-    return f" ({where}{value}, {side} {worst[side]:.3g})"
+    return f" ({where}{value}, {side} {bound})"
 
 
 def _timing(record: dict[str, Any], total: float) -> str:

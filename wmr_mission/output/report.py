@@ -15,6 +15,8 @@ import os
 import shutil
 from typing import TYPE_CHECKING, Any
 
+from wmr_mission.verdicts.check import beside
+
 if TYPE_CHECKING:
     from wmr_mission.record import PhaseRecord, RunRecord
 
@@ -114,9 +116,11 @@ def _verdicts(checks: list[dict[str, Any]]) -> dict[Any, str]:
 
 
 def _missed(check: dict[str, Any]) -> str:
-    value = "none" if check.get("value") is None else f"{check['value']:.3g}"
-    bound = f"max {check['max']:g}" if check.get("max") is not None else f"min {check['min']:g}"
-    return f"{check['metric']}\n{value} ({bound})"
+    side = "max" if check.get("max") is not None else "min"
+    if check.get("value") is None:
+        return f"{check['metric']}\nnone ({side} {check[side]:g})"
+    value, bound = beside(check["value"], check[side], 3)
+    return f"{check['metric']}\n{value} ({side} {bound})"
 
 
 def _aim(final: dict[str, Any], phases: list[dict[str, Any]]) -> str:

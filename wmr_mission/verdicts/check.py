@@ -32,11 +32,23 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Self
 
-__all__ = ["Check", "margin_fields", "run_margin"]
+__all__ = ["Check", "beside", "margin_fields", "run_margin"]
 
 # The outcomes a run's checks decide; any other (a timeout, a divergence, a
 # breach, an error) is a miss that no check measures.
 _JUDGED_OUTCOMES = ("success", "expect-failed")
+
+
+def beside(value: float, bound: float, digits: int) -> tuple[str, str]:
+    """``value`` and ``bound`` to ``digits`` significant digits, the value to
+    as many more as tell it from the bound (a miss of 3.0000000116 against 3
+    read as ``3 (max 3)``)."""
+    shown = f"{bound:.{digits}g}"
+    for more in range(digits, 18):
+        said = f"{value:.{more}g}"
+        if value == bound or said != shown:
+            return said, shown
+    return said, shown
 
 
 @dataclass
@@ -85,8 +97,10 @@ class Check:
 
     def words(self) -> str:
         """``orbit: turn_rate_at_limit = 0.974 (max 0.01)``: a miss in a message."""
-        value = "none" if self.value is None else f"{self.value:.6g}"
-        return f"{self.name} = {value} ({self.side} {self.bound:.6g})"
+        if self.value is None:
+            return f"{self.name} = none ({self.side} {self.bound:.6g})"
+        value, bound = beside(self.value, self.bound, 6)
+        return f"{self.name} = {value} ({self.side} {bound})"
 
     @property
     def side(self) -> str:
