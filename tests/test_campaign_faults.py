@@ -553,6 +553,43 @@ def test_a_scheduler_lost_during_the_runs_is_one_line(
     assert 20 <= record["runs"] == len(rows_of(out / "runs.csv")) < 100_000
 
 
+def test_a_scheduler_left_without_workers_stops_the_sweep_in_one_line(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Its only worker killed, the scheduler has none: Dask would wait for one
+    forever; the sweep stops after engine.WORKERLESS_SECONDS (2 s here), its
+    finished runs kept, exit 1, as for a lost scheduler."""
+    import dask
+    import distributed  # in the test extra
+
+    monkeypatch.setattr(engine, "WORKERLESS_SECONDS", 2.0)
+    out = tmp_path / "out"
+    path = campaign_file(tmp_path, 100_000)
+    with (
+        dask.config.set({"distributed.comm.timeouts.connect": "1s"}),
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=1, dashboard_address=None, processes=False
+        ) as cluster,
+    ):
+
+        def stop_the_worker() -> None:
+            runs_csv = out / "runs.csv"
+            while not (runs_csv.is_file() and runs_csv.read_bytes().count(b"\n") > 20):
+                time.sleep(0.05)
+            for worker in list(cluster.workers.values()):
+                cluster.sync(worker.close)
+
+        threading.Thread(target=stop_the_worker, daemon=True).start()
+        address = cluster.scheduler_address
+        code = sweep_command(path, out=out, workers=None, scheduler=address, plots=False)
+    assert code == 1
+    said = f"the Dask scheduler {address} has had no worker for 2 s"
+    assert f"interrupted ({said})" in one_line(capfd.readouterr().err)
+    record = record_of(out)
+    assert record["stopped_by"] == said
+    assert 20 <= record["runs"] == len(rows_of(out / "runs.csv")) < 100_000
+
+
 # --- 5. characters beyond the Basic Multilingual Plane -------------------------------
 
 

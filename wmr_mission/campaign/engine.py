@@ -328,8 +328,9 @@ def _on_dask(
             workers = max(1, sum(client.nthreads().values()))
             batches = tasks(seconds_per_run, runs, workers)
             try:
+                waiter = _dask_waiter(client, scheduler)
                 yield from _in_order(
-                    _DaskPool(client), _wait_dask, loaded, batches, workers, stop, paths
+                    _DaskPool(client), waiter, loaded, batches, workers, stop, paths
                 )
             except Interrupted:
                 raise
@@ -417,6 +418,33 @@ Waiter = Callable[[list[Any]], list[Any]]
 def _wait_local(futures: list[Any]) -> list[Any]:
     finished, _ = wait(futures, timeout=_POLL_SECONDS, return_when=FIRST_COMPLETED)
     return list(finished)
+
+
+# [s] a scheduler may have no worker (a nanny restarts a killed one within
+# seconds; a cluster scaling up takes longer) before the campaign stops, its
+# finished runs kept: Dask itself would wait for a worker forever.
+WORKERLESS_SECONDS: Final = 60.0
+
+
+def _dask_waiter(client: Any, scheduler: str) -> Waiter:
+    """:func:`_wait_dask`, raising :class:`SchedulerLost` once the scheduler
+    has had no worker for WORKERLESS_SECONDS (asked once a second)."""
+    seen = {"workers": time.monotonic(), "asked": 0.0}
+
+    def wait_some(futures: list[Any]) -> list[Any]:
+        now = time.monotonic()
+        if now - seen["asked"] >= 1.0:
+            seen["asked"] = now
+            if client.scheduler_info().get("workers"):
+                seen["workers"] = now
+            elif now - seen["workers"] >= WORKERLESS_SECONDS:
+                raise SchedulerLost(
+                    f"the Dask scheduler {scheduler} has had no worker for "
+                    f"{WORKERLESS_SECONDS:g} s"
+                )
+        return _wait_dask(futures)
+
+    return wait_some
 
 
 def _wait_dask(futures: list[Any]) -> list[Any]:
