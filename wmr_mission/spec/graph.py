@@ -265,7 +265,12 @@ class _Graph:
             )
 
     def order(self) -> None:
+        """Each phase's edges to what follows its end by its exit condition; a
+        phase with none (no `until`, or an empty one) never ends so: only by
+        its timeout, whose reaction (``on_timeout``) is its only way on."""
         for index in range(len(self.nodes)):
+            if not any(value is not None for _, value in self.nodes[index].phase.until):
+                continue
             for to, where in self.completed(index):
                 self.edges[index].append(_Edge(to, where))
 
@@ -457,8 +462,11 @@ def prove(mission: Mission) -> Iterator[GraphError]:
             "{retry: {times: N}} or by running a contingency (its times)",
         )
     elif not graph.reaches_end():
+        endless = [n.label for n in graph.nodes if not any(v is not None for _, v in n.phase.until)]
+        why = f" (phases without an `until`, which end only by their timeout: {', '.join(endless)})"
         yield GraphError(
             ("phases",),
-            "no path through the phases and their reactions ends in success",
+            "no path through the phases and their reactions ends in success"
+            + (why if endless else ""),
             at_key=True,
         )
