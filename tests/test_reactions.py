@@ -119,6 +119,9 @@ def test_retries_spent_fall_back_to_then() -> None:
     assert [tr.time for tr in timeouts] == pytest.approx([0.2, 0.4, 0.6])
     assert _recovery(result)["result"] == "failure"
     assert _recovery(result)["exit_code"] == 1
+    # two retries ran, then the spent one's `fail`: not three retries
+    assert _recovery(result)["reactions"] == 3
+    assert _recovery(result)["fired"] == {"fail": 1, "retry": 2}
 
 
 def test_goto_skips_to_the_named_phase() -> None:
@@ -225,6 +228,8 @@ def test_a_spent_contingency_fails_the_mission() -> None:
         "then: resume",
         "detour (spent: 1 runs)",
     ]
+    # the detour ran once; called again once spent, the mission failed
+    assert _recovery(result)["fired"] == {"detour": 1, "fail": 1}
 
 
 def test_hold_stops_where_the_breach_was_seen() -> None:

@@ -24,16 +24,18 @@ class _Transition(Protocol):  # wmr_mission.record.Transition
 
 
 def fired(transition: _Transition) -> list[str]:
-    """The reactions a transition records, by kind: ``retry``, ``goto``,
-    ``next``, ``fail`` or a contingency's name;
-    a retry whose count is spent records the retry and what followed it."""
-    if transition.reaction is None or transition.reaction.startswith("then:"):
+    """The reaction a transition records that ran, by kind: ``retry``,
+    ``goto``, ``next``, ``fail`` or a contingency's name. A retry whose count
+    is spent did not run: what followed it did (``retry: 2 spent: next`` is a
+    ``next``); a contingency whose runs are spent did not run either: the
+    mission failed (``detour (spent: 1 runs)`` is a ``fail``)."""
+    reaction = transition.reaction
+    if reaction is None or reaction.startswith("then:"):
         return []  # a contingency's end is part of the contingency
-    kinds = []
-    for part in transition.reaction.split(" spent: "):
-        word = part.split(":", 1)[0].split(" ", 1)[0]
-        kinds.append(word)
-    return kinds
+    if "(spent:" in reaction:
+        return ["fail"]
+    ran = reaction.split(" spent: ")[-1]
+    return [ran.split(":", 1)[0].split(" ", 1)[0]]
 
 
 def recovery_record(transitions: Sequence[_Transition], succeeded: bool) -> dict[str, Any]:
