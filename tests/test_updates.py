@@ -266,6 +266,7 @@ def test_a_lap_update_takes_over_at_the_entry_of_that_lap_and_each_later_one() -
         ("out#2", entries["out#2"]),
         ("out#3", entries["out#3"]),
     ]
+    assert [u.lap for u in updates] == [2, 3]  # into a phase of a repeat: its lap
     assert "lap 2" in str(updates[0].why)
     assert result.reference is not None
     for lap in (1, 2, 3):

@@ -1106,7 +1106,7 @@ class _Run:
         )
         self.transitions.append(
             Transition(_seconds(k, self.m.dt), name, name, "update", float(active.reference),
-                       None, None, why)
+                       active.phase.lap, None, why)
         )  # fmt: skip
         self.references.append((k, active.reference))
 
