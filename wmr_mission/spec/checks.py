@@ -294,6 +294,14 @@ def _phase_rules(mission: Mission) -> Iterator[Finding]:
                 )
             yield from _path_on_region(mission, phase.track.path, (*where, "track", "path"))
         yield from _target_against_constraints(mission, phase, where)
+        if phase.on_timeout is not None and phase.timeout is None:
+            yield Finding(
+                (*where, "on_timeout"),
+                "the phase has no timeout, so its on_timeout never fires; give it a timeout, "
+                "or remove on_timeout",
+                severity="warning",
+                at_key=True,
+            )
         step = mission.phases[int(where[1])]
         laps = step.repeat.times if isinstance(step, RepeatPhase) else None
         yield from _update_rules(mission, phase, where, laps)
@@ -343,6 +351,14 @@ def _update_rules(
                 f"reaches, travelled or lap), but {len(given)} are given"
                 + (f" ({', '.join(given)})" if given else ""),
                 at_key=True,
+            )
+        ends = [b for b in (phase.timeout, phase.until.elapsed) if b is not None]
+        if update.when.elapsed is not None and ends and update.when.elapsed >= min(ends):
+            yield Finding(
+                (*at, "when", "elapsed"),
+                f"the update never takes over: the phase ends by {min(ends):g} s of its own "
+                f"time, before {update.when.elapsed:g} s",
+                severity="warning",
             )
         lap = update.when.lap
         if lap is not None and laps is None:
