@@ -123,6 +123,21 @@ def test_a_long_run_is_thinned_and_its_page_stays_small() -> None:
     assert len(page.encode()) < 3_000_000
 
 
+def test_a_transition_s_reaction_and_why_reach_the_page() -> None:
+    """The report's transitions hold what fired and why, as transitions.json does."""
+    import dataclasses
+
+    result = circle_run()
+    fired = Transition(1.0, "circle", "circle", "timeout", 1.0, None, "retry: 2 (1 of 2)", "late")
+    result = dataclasses.replace(result, transitions=[fired, *result.transitions])
+    meta, _ = run_meta(result, {})
+    assert (meta["transitions"][0]["reaction"], meta["transitions"][0]["why"]) == (
+        "retry: 2 (1 of 2)",
+        "late",
+    )
+    assert meta["transitions"][1]["reaction"] is None
+
+
 def test_text_from_the_files_cannot_leave_its_script_element() -> None:
     meta = {"name": HOSTILE, "other": "</script><!-- & \u2028"}
     page = build_page(HOSTILE, meta)

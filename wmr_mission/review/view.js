@@ -438,17 +438,19 @@
     if (meta.transitions.length > shownTransitions.length) {
       root.append(el("p", { class: "note", text: `The first ${shownTransitions.length} of ${meta.transitions.length} transitions (transitions.json has them all).` }));
     }
-    root.append(table(["#", "time [s]", "from", "to", "condition", "value", "lap"],
+    root.append(table(["#", "time [s]", "from", "to", "condition", "value", "lap", "reaction"],
       shownTransitions.map((tr, k) => {
         const row = el("tr", { class: "clickable" },
           el("td", { class: "num", text: String(k + 1) }), el("td", { class: "num", text: fmt(tr.time, 6) }),
           el("td", { class: "name", text: tr.from }),
           el("td", { class: "name", text: tr.to === null ? "(end)" : tr.to }),
           el("td", { text: tr.condition }), el("td", { class: "num", text: fmt(tr.value) }),
-          el("td", { class: "num", text: tr.lap === null || tr.lap === undefined ? "" : String(tr.lap) }));
+          el("td", { class: "num", text: tr.lap === null || tr.lap === undefined ? "" : String(tr.lap) }),
+          // what fired, its why on hover
+          el("td", { text: tr.reaction || "", title: tr.why || "" }));
         row.addEventListener("click", () => { if (tr.time !== null) setCursor(nearest(S.t, tr.time)); });
         return row;
-      }), [true, true, false, false, false, true, true]));
+      }), [true, true, false, false, false, true, true, false]));
 
     setCursor(failed ? n - 1 : 0);
   }

@@ -429,6 +429,8 @@ def run_meta(result: RunResult, summary: dict[str, Any]) -> tuple[dict[str, Any]
                 "condition": change.condition,
                 "value": _finite_number(change.value),
                 "lap": change.lap,
+                "reaction": change.reaction,  # what fired, and why (None: in order)
+                "why": change.why,
                 "x": _finite_number(float(result.x[k])) if samples else None,
                 "y": _finite_number(float(result.y[k])) if samples else None,
             }
