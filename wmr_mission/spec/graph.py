@@ -49,6 +49,11 @@ class GraphError(NamedTuple):
     at_key: bool = False
 
 
+def _times_out_only(phase: Phase) -> bool:
+    """A phase without an exit condition that has a timeout: it ends by it alone."""
+    return phase.timeout is not None and not any(v is not None for _, v in phase.until)
+
+
 class _Node(NamedTuple):
     label: str
     phase: Phase
@@ -266,10 +271,11 @@ class _Graph:
 
     def order(self) -> None:
         """Each phase's edges to what follows its end by its exit condition; a
-        phase with none (no `until`, or an empty one) never ends so: only by
-        its timeout, whose reaction (``on_timeout``) is its only way on."""
+        phase with none (no `until`, or an empty one) but a timeout ends only
+        by it, whose reaction (``on_timeout``) is its only way on (one with
+        neither never ends, an error of its own)."""
         for index in range(len(self.nodes)):
-            if not any(value is not None for _, value in self.nodes[index].phase.until):
+            if _times_out_only(self.nodes[index].phase):
                 continue
             for to, where in self.completed(index):
                 self.edges[index].append(_Edge(to, where))
@@ -462,7 +468,7 @@ def prove(mission: Mission) -> Iterator[GraphError]:
             "{retry: {times: N}} or by running a contingency (its times)",
         )
     elif not graph.reaches_end():
-        endless = [n.label for n in graph.nodes if not any(v is not None for _, v in n.phase.until)]
+        endless = [n.label for n in graph.nodes if _times_out_only(n.phase)]
         why = f" (phases without an `until`, which end only by their timeout: {', '.join(endless)})"
         yield GraphError(
             ("phases",),
