@@ -439,8 +439,7 @@ def _dask_waiter(client: Any, scheduler: str) -> Waiter:
                 seen["workers"] = now
             elif now - seen["workers"] >= WORKERLESS_SECONDS:
                 raise SchedulerLost(
-                    f"the Dask scheduler {scheduler} has had no worker for "
-                    f"{WORKERLESS_SECONDS:g} s"
+                    f"the Dask scheduler {scheduler} has had no worker for {WORKERLESS_SECONDS:g} s"
                 )
         return _wait_dask(futures)
 
