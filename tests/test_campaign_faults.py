@@ -24,7 +24,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -519,15 +519,12 @@ def test_a_scheduler_that_is_not_one_is_refused_at_once_and_leaves_nothing(
     assert not (tmp_path / "api").exists()
 
 
-@pytest.mark.slow
-def test_a_scheduler_lost_during_the_runs_is_one_line(
-    tmp_path: Path, capfd: pytest.CaptureFixture[str]
-) -> None:
+@contextlib.contextmanager
+def one_worker_cluster() -> Iterator[Any]:
+    """A Dask cluster in this process: a scheduler and one worker of one thread."""
     import dask
     import distributed  # in the test extra
 
-    out = tmp_path / "out"
-    path = campaign_file(tmp_path, 100_000)
     with (
         # the cluster's own shutdown, its scheduler gone, retries for this long
         dask.config.set({"distributed.comm.timeouts.connect": "1s"}),
@@ -535,14 +532,29 @@ def test_a_scheduler_lost_during_the_runs_is_one_line(
             n_workers=1, threads_per_worker=1, dashboard_address=None, processes=False
         ) as cluster,
     ):
+        yield cluster
 
-        def stop_the_scheduler() -> None:
-            runs_csv = out / "runs.csv"
-            while not (runs_csv.is_file() and runs_csv.read_bytes().count(b"\n") > 20):
-                time.sleep(0.05)
-            cluster.sync(cluster.scheduler.close)
 
-        threading.Thread(target=stop_the_scheduler, daemon=True).start()
+def once_rows_are_written(out: Path, rows: int, then: Callable[[], object]) -> None:
+    """``then()`` in a thread of its own, once ``out``'s runs.csv holds more than ``rows`` rows."""
+
+    def wait() -> None:
+        runs_csv = out / "runs.csv"
+        while not (runs_csv.is_file() and runs_csv.read_bytes().count(b"\n") > rows):
+            time.sleep(0.05)
+        then()
+
+    threading.Thread(target=wait, daemon=True).start()
+
+
+@pytest.mark.slow
+def test_a_scheduler_lost_during_the_runs_is_one_line(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    path = campaign_file(tmp_path, 100_000)
+    with one_worker_cluster() as cluster:
+        once_rows_are_written(out, 20, lambda: cluster.sync(cluster.scheduler.close))
         address = cluster.scheduler_address
         code = sweep_command(path, out=out, workers=None, scheduler=address, plots=False)
     assert code == 1
@@ -559,27 +571,16 @@ def test_a_scheduler_left_without_workers_stops_the_sweep_in_one_line(
     """Its only worker killed, the scheduler has none: Dask would wait for one
     forever; the sweep stops after engine.WORKERLESS_SECONDS (2 s here), its
     finished runs kept, exit 1, as for a lost scheduler."""
-    import dask
-    import distributed  # in the test extra
-
     monkeypatch.setattr(engine, "WORKERLESS_SECONDS", 2.0)
     out = tmp_path / "out"
     path = campaign_file(tmp_path, 100_000)
-    with (
-        dask.config.set({"distributed.comm.timeouts.connect": "1s"}),
-        distributed.LocalCluster(
-            n_workers=1, threads_per_worker=1, dashboard_address=None, processes=False
-        ) as cluster,
-    ):
+    with one_worker_cluster() as cluster:
 
         def stop_the_worker() -> None:
-            runs_csv = out / "runs.csv"
-            while not (runs_csv.is_file() and runs_csv.read_bytes().count(b"\n") > 20):
-                time.sleep(0.05)
             for worker in list(cluster.workers.values()):
                 cluster.sync(worker.close)
 
-        threading.Thread(target=stop_the_worker, daemon=True).start()
+        once_rows_are_written(out, 20, stop_the_worker)
         address = cluster.scheduler_address
         code = sweep_command(path, out=out, workers=None, scheduler=address, plots=False)
     assert code == 1

@@ -267,27 +267,24 @@ def test_a_step_returning_a_non_finite_number_is_a_divergence(tmp_path: Path) ->
     assert summary["samples"] == 26  # the samples before it, and the one that diverged
 
 
-def test_an_estimator_step_returning_text_fails_the_run(tmp_path: Path) -> None:
-    estimator = '{type: python, entry: "plugin_examples:text_estimate", params: {blend: 0.5}}'
+@pytest.mark.parametrize(
+    ("entry", "said"),
+    [
+        ("text_estimate", "TypeError: an estimator plug-in's step returns three numbers (x, y, "
+         "theta), not text"),
+        # a column [[x], [y], [theta]]: what a step returns, said so
+        ("column_estimate", "an estimator plug-in's step returns three numbers (x, y, theta); "
+         "what it returned cannot be read: TypeError: float() argument must be"),
+    ],
+)  # fmt: skip
+def test_an_estimator_step_returning_what_is_not_three_numbers_fails_the_run(
+    tmp_path: Path, entry: str, said: str
+) -> None:
+    estimator = f'{{type: python, entry: "plugin_examples:{entry}", params: {{blend: 0.5}}}}'
     code, err, summary = _run(tmp_path, mission("plain", estimator))
     assert code == 1
     assert summary is not None
     assert summary["outcome"] == "failed"
-    said = "TypeError: an estimator plug-in's step returns three numbers (x, y, theta), not text"
-    assert said in str(summary["message"])
-    assert said in err
-
-
-def test_an_estimator_step_returning_a_column_says_what_it_returns(tmp_path: Path) -> None:
-    estimator = '{type: python, entry: "plugin_examples:column_estimate", params: {blend: 0.5}}'
-    code, err, summary = _run(tmp_path, mission("plain", estimator))
-    assert code == 1
-    assert summary is not None
-    assert summary["outcome"] == "failed"
-    said = (
-        "an estimator plug-in's step returns three numbers (x, y, theta); what it returned "
-        "cannot be read: TypeError: float() argument must be"
-    )
     assert said in str(summary["message"])
     assert said in err
 
