@@ -378,8 +378,9 @@ vary:
 def test_a_campaign_s_manifest_says_a_plain_plug_in_s_loop_ran_plain(tmp_path: Path) -> None:
     """A sweep of a mission with a plug-in of plain Python objects: its
     manifest says the runs ran as plain Python, as each worst run's does, not
-    the compiled loop the sweep's process loaded; with a jitclass plug-in, compiled."""
-    from wmr_mission import run_campaign
+    the compiled loop the sweep's process loaded; with a jitclass plug-in,
+    compiled. So does a search's (falsify)."""
+    from wmr_mission import falsify_campaign, run_campaign
     from wmr_mission.kernels import jit
 
     for controller, loop in (("plain", "plain Python"), ("compiled", "compiled")):
@@ -391,9 +392,12 @@ def test_a_campaign_s_manifest_says_a_plain_plug_in_s_loop_ran_plain(tmp_path: P
             "vary:\n  robot.initial_state.theta: {uniform: [-0.1, 0.1]}\n",
             encoding="utf-8",
         )
+        expected = loop if jit.compiling() else "plain Python"
         out = tmp_path / f"{controller}-out"
         run_campaign(campaign, workers=1, out=out)
-        manifest = json.loads((out / "manifest.json").read_text())
-        expected = loop if jit.compiling() else "plain Python"
-        assert manifest["loop"] == expected, controller
-        assert (manifest["environment"]["numba_cpu"] is None) == (expected == "plain Python")
+        searched = tmp_path / f"{controller}-falsify"
+        falsify_campaign(campaign, budget=2, method="random", workers=1, out=searched)
+        for directory in (out, searched):
+            manifest = json.loads((directory / "manifest.json").read_text())
+            assert manifest["loop"] == expected, (controller, directory)
+            assert (manifest["environment"]["numba_cpu"] is None) == (expected == "plain Python")

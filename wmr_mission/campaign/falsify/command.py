@@ -131,11 +131,13 @@ def _centre(space: Space, seed: int) -> Any:
     return draws_of(space, seed, 0, [point])[0]
 
 
-def _warm_up(loaded: LoadedCampaign, space: Space, settings: Settings) -> None:
+def _warm_up(loaded: LoadedCampaign, space: Space, settings: Settings) -> bool | None:
+    """The kernels loaded by a run of the space's centre, and ``--objective``
+    checked; whether that run's loop ran compiled (the manifest says so)."""
     draw = _centre(space, settings.seed)
+    compiled = evaluate(loaded, draw, None).loop_compiled
     if settings.objective is None:
-        evaluate(loaded, draw, None)
-        return
+        return compiled
     names = check_names(loaded, draw)
     metrics = {name.rpartition(": ")[2] for name in names}
     if settings.objective not in names and settings.objective not in metrics:
@@ -143,6 +145,7 @@ def _warm_up(loaded: LoadedCampaign, space: Space, settings: Settings) -> None:
             f"--objective {settings.objective}: the mission has no such check; its checks: "
             + (", ".join(names) or "none")
         )
+    return compiled
 
 
 def _record(
@@ -215,7 +218,8 @@ def _entry(loaded: LoadedCampaign, evaluation: Evaluation, out_dir: Path | None)
     return entry
 
 
-def _manifest(loaded: LoadedCampaign) -> dict[str, Any]:
+def _manifest(loaded: LoadedCampaign, compiled: bool | None = None) -> dict[str, Any]:
+    """manifest.json; ``compiled``: how the search's runs ran the loop, if known."""
     return {
         "campaign_file": str(loaded.path),
         "campaign_sha256": loaded.campaign_sha256,
@@ -223,8 +227,8 @@ def _manifest(loaded: LoadedCampaign) -> dict[str, Any]:
         "mission_sha256": loaded.mission_sha256,
         "resolved_campaign": loaded.campaign.model_dump(mode="json"),
         "versions": package_versions(),
-        "environment": environment(),
-        "loop": loop_build(),
+        "environment": environment(compiled),
+        "loop": loop_build(compiled),
     }
 
 
@@ -251,11 +255,12 @@ def _falsify(
         notice = jit.foreground_notice()  # a compile of a minute or more: said before it
         if notice is not None:
             progress.note(notice)
-        _warm_up(loaded, space, settings)
+        compiled = _warm_up(loaded, space, settings)
         if stop_owed():  # raised inside numba's compiler, where it could not propagate
             raise KeyboardInterrupt  # before the first run: nothing to keep
         if out_dir is not None:
-            write_bytes_atomic(out_dir / MANIFEST_FILE, json_text(_manifest(loaded)).encode())
+            manifest = json_text(_manifest(loaded, compiled))
+            write_bytes_atomic(out_dir / MANIFEST_FILE, manifest.encode())
         rows = None if out_dir is None else EvaluationsFile(out_dir / EVALUATIONS_FILE, space.paths)
         progress.step("runs", total=settings.budget)
         seen: list[Evaluation] = []

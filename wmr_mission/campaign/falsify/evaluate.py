@@ -61,6 +61,8 @@ class Evaluation:
     margin_check: str | None
     objective: float  # what the search minimises: the margin, or one check's
     reason: str
+    # how its loop ran (RunRecord.loop_compiled; None: not run): the manifest says so
+    loop_compiled: bool | None = None
 
     @property
     def ran(self) -> bool:
@@ -102,7 +104,15 @@ def evaluate(loaded: LoadedCampaign, draw: Draw, objective: str | None) -> Evalu
     value = margin if objective is None else _check_margin(result, record, objective)
     reason = "" if result.outcome is Outcome.success else result.message
     return Evaluation(
-        draw.run, draw.seed, draw.values, result.outcome.value, margin, check, value, reason
+        draw.run,
+        draw.seed,
+        draw.values,
+        result.outcome.value,
+        margin,
+        check,
+        value,
+        reason,
+        result.loop_compiled,
     )
 
 
