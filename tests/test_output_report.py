@@ -142,6 +142,35 @@ def test_table_gives_each_phase_its_verdict() -> None:
     ]
 
 
+def test_a_phase_entered_twice_gets_each_entry_s_own_verdict() -> None:
+    """A phase resumed after a contingency has two entries of one name: each
+    row says its own entry's misses, not the other's (both read NOT MET
+    before); two entries in a row are told apart by a check named again."""
+
+    def check(phase: str, metric: str, met: bool) -> dict[str, Any]:
+        return {"metric": metric, "phase": phase, "max": 3.0, "value": 2.0 if met else 4.0,
+                "met": met}  # fmt: skip
+
+    phases = [{"name": name} for name in ("drive", "sidestep", "drive", "stop")]
+    checks = [
+        {"metric": "final_position_error", "phase": None, "max": 1.0, "value": 0.1, "met": True},
+        check("drive", "turn_rate_jump_max", False),
+        check("drive", "speed_jump_max", True),
+        check("sidestep", "turn_rate_jump_max", True),
+        check("drive", "turn_rate_jump_max", True),
+        check("drive", "speed_jump_max", True),
+    ]
+    assert report._verdicts(checks, phases) == [
+        "NOT MET\nturn_rate_jump_max\n4 (max 3)",
+        "ok",
+        "ok",
+        "-",
+    ]
+    twice = [{"name": "go"}, {"name": "go"}]
+    checks = [check("go", "a", True), check("go", "b", True), check("go", "a", False)]
+    assert report._verdicts(checks, twice) == ["ok", "NOT MET\na\n4 (max 3)"]
+
+
 def test_a_stopped_run_s_table_judges_only_up_to_the_stop() -> None:
     """Stopped by a signal in its last phase so far: that phase was cut short,
     so its row says 'stopped', not a verdict; the mission's expectations were

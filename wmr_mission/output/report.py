@@ -98,20 +98,37 @@ def _convergence(phase: dict[str, Any]) -> str:
     return "never" if time is None else f"{time:.2f} s"
 
 
-def _verdicts(checks: list[dict[str, Any]]) -> dict[Any, str]:
-    """Each phase's verdict by its name: 'ok'; 'NOT MET' and, a line each, every
+def _verdicts(checks: list[dict[str, Any]], phases: list[dict[str, Any]]) -> list[str]:
+    """Each phase entry's verdict: 'ok'; 'NOT MET' and, a line each, every
     threshold missed with the phase's value (``speed_jump_max 2.33 (max 2)``); a
     phase without thresholds has none ('-'). One pass over the checks, not one
-    per phase: a run of 15,000 phases took minutes."""
-    mine: dict[Any, list[dict[str, Any]]] = {}
+    per phase: a run of 15,000 phases took minutes.
+
+    The checks come in the entries' order, each entry's a block in which every
+    check is named once: a check is its entry's until it names another phase
+    or repeats a check of the block, which starts the next entry of its name
+    (a phase resumed after a contingency has two entries of one name)."""
+    own: list[list[dict[str, Any]]] = [[] for _ in phases]
+    entry, seen = 0, set[str]()
     for check in checks:
         name = check.get("phase")
-        if name is not None:
-            mine.setdefault(name, []).append(check)
-    verdicts: dict[Any, str] = {}
-    for name, own in mine.items():
-        missed = [c for c in own if not c["met"]]
-        verdicts[name] = "\n".join(["NOT MET", *(_missed(c) for c in missed)]) if missed else "ok"
+        if name is None:
+            continue
+        if entry >= len(phases) or phases[entry]["name"] != name or check["metric"] in seen:
+            later = entry + 1 if check["metric"] in seen else entry
+            found = next((i for i in range(later, len(phases)) if phases[i]["name"] == name), None)
+            if found is None:  # not in the run's phases (a summary edited): by its name
+                found = next((i for i, p in enumerate(phases) if p["name"] == name), None)
+            if found is None:
+                continue
+            entry, seen = found, set()
+        seen.add(check["metric"])
+        own[entry].append(check)
+    verdicts = []
+    for mine in own:
+        missed = [c for c in mine if not c["met"]]
+        verdict = "NOT MET" if missed else "ok" if mine else "-"
+        verdicts.append("\n".join([verdict, *(_missed(c) for c in missed)]))
     return verdicts
 
 
@@ -210,8 +227,8 @@ def _phase_rows(
 ) -> list[list[str]]:
     """The phase table's cells, a row a phase, in :data:`_COLUMNS`' order. A
     run stopped by a signal: its last phase, cut short, is 'stopped', not judged."""
-    verdicts = _verdicts(checks)
     phases = summary.get("phases") or []
+    verdicts = _verdicts(checks, phases)
     infos = {} if result is None else {info.name: info for info in result.phases}
     # The last row: a phase entered again (a retry, a goto) has rows before it.
     stopped = len(phases) - 1 if summary.get("outcome") == "interrupted" else None
@@ -223,7 +240,7 @@ def _phase_rows(
             key_metric(phase, _start_clearance(phase, result, infos)),
             _at_limit(phase),
             _convergence(phase),
-            "stopped" if row == stopped else verdicts.get(phase["name"], "-"),
+            "stopped" if row == stopped else verdicts[row],
         ]
         for row, phase in enumerate(phases)
     ]
