@@ -335,13 +335,23 @@ def polyline_route(
 MAX_LANES = 5000
 
 
+def _across(corners: FloatArray, direction: float) -> tuple[float, float]:
+    """The least and the largest offset of the field's ``corners`` across lanes
+    along ``direction``."""
+    offsets = corners[:, 0] * -math.sin(direction) + corners[:, 1] * math.cos(direction)
+    return float(offsets.min()), float(offsets.max())  # not BLAS: see _corner
+
+
 def coverage_lanes(vertices: ArrayLike, spacing: float, direction: float) -> int:
     """How many lanes :func:`coverage_points` lays over the field of corners
     ``vertices`` at ``spacing`` along ``direction``."""
-    corners = np.asarray(vertices, dtype=np.float64)
-    across = (-math.sin(direction), math.cos(direction))
-    offsets = corners[:, 0] * across[0] + corners[:, 1] * across[1]  # not BLAS: see _corner
-    lanes = (float(offsets.max()) - float(offsets.min())) / spacing - 1e-9
+    return _lanes(*_across(np.asarray(vertices, dtype=np.float64), direction), spacing)
+
+
+def _lanes(low: float, high: float, spacing: float) -> int:
+    """Lanes across ``low .. high`` at most ``spacing`` apart (more than
+    MAX_LANES where the count is beyond a float's)."""
+    lanes = (high - low) / spacing - 1e-9
     return max(1, math.ceil(lanes)) if math.isfinite(lanes) else MAX_LANES + 1
 
 
@@ -361,9 +371,8 @@ def coverage_points(
     edges = np.asarray(rows, dtype=np.float64)
     along = np.array([math.cos(direction), math.sin(direction)])
     across = np.array([-along[1], along[0]])
-    offsets = corners[:, 0] * across[0] + corners[:, 1] * across[1]  # not BLAS: see _corner
-    low, high = float(offsets.min()), float(offsets.max())
-    count = coverage_lanes(corners, spacing, direction)
+    low, high = _across(corners, direction)
+    count = _lanes(low, high, spacing)
     if count > MAX_LANES:
         raise ValueError(f"{count} lanes, more than {MAX_LANES}: widen the spacing")
     step = (high - low) / count

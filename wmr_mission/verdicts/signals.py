@@ -100,9 +100,9 @@ class Check(Judged):
 
     @property
     def level(self) -> float:
-        """The bound where its line reads it: minus the clearance asked for on
-        the body's depth, the bound itself on every other line."""
-        return -self.bound if self.metric == "clearance_min" else self.bound
+        """The bound where its line reads it: minus a lower bound (the clearance
+        asked for, on the body's depth), an upper bound itself."""
+        return -self.bound if self.lower else self.bound
 
     @property
     def first_over(self) -> int | None:
