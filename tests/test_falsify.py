@@ -573,6 +573,53 @@ def test_objective_names_a_check_and_an_unknown_one_is_a_usage_error(
     assert not (tmp_path / "out").exists()
 
 
+def test_a_run_that_misses_a_check_besides_the_objective_is_a_failing_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--objective changes what is minimised, not what fails: the corners park
+    in more than 11 s (duration missed) while the objective, the stall time, is
+    met everywhere. Those runs are failing runs for the exit code, the report,
+    falsify.json, failing/ and view, and each fails when run."""
+    from typer.testing import CliRunner
+
+    out = tmp_path / "out"
+    code = falsify_command(
+        PARK, budget=8, method="gp", seed=0, objective="park: stall_time", first=False,
+        workers=1, scheduler=None, out=out, plots=False,
+    )  # fmt: skip
+    rows = list(csv.DictReader(_lines(out / "evaluations.csv")))
+    failed = [int(r["evaluation"]) for r in rows if r["outcome"] != "success"]
+    assert failed, rows  # some corner misses its parking time
+    assert {r["outcome"] for r in rows if int(r["evaluation"]) in failed} == {"expect-failed"}
+    assert all(float(r["objective"]) >= 0 for r in rows)  # the objective is never missed
+    assert code == 1
+    record = json.loads((out / "falsify.json").read_text(encoding="utf-8"))
+    assert record["falsified"]
+    assert record["failing_runs"] == len(failed)
+    assert record["runs_to_first_failure"] == failed[0] + 1
+    assert [f["evaluation"] for f in record["failing"]] == failed
+    written = sorted(int(p.stem) for p in (out / "failing").glob("*.yaml"))
+    assert written == failed
+    printed = capsys.readouterr().out
+    assert "no failing run" not in printed
+    first = (out / "failing" / f"{failed[0]}.yaml").resolve()
+    assert f"falsified: {len(failed)} failing runs, the first run {failed[0]} " in printed
+    assert any(
+        line.startswith(f"  {failed[0]}: ") and line.endswith(f"wmr-mission run {first}")
+        for line in printed.splitlines()
+    ), printed
+    ran = CliRunner().invoke(app, ["run", str(first), "--out", str(tmp_path / "r"), "--no-plots"])
+    assert ran.exit_code == 1, ran.output
+    viewed = CliRunner().invoke(app, ["view", str(out)])
+    assert viewed.exit_code == 0, viewed.output
+    page = (out / "report.html").read_text(encoding="utf-8")
+    meta = json.loads(
+        page.split('<script type="application/json" id="meta">')[1].split("</script>")[0]
+    )
+    assert meta["record"]["falsified"]
+    assert meta["replays"][failed[0]] == f"wmr-mission run {first}"
+
+
 def test_the_methods_and_the_default_are_named_once() -> None:
     """The command line, the Python API and falsify_campaign read the names of
     wmr_mission.campaign.falsify: the help lists them, each default is its."""

@@ -70,3 +70,26 @@ def test_margins_png_places_each_run_at_its_evaluation_number(
 def test_a_failure_at_the_first_run_is_one_run_in() -> None:
     printed = _report(_record([0]), Path("out"), 1.0).splitlines()
     assert printed[1] == "falsified: 1 failing run, the first run 0 (1 run in); lowest margin -0.5"
+
+
+def test_failing_runs_are_named_when_no_lowest_objective_run_fails() -> None:
+    """With --objective the lowest runs may all meet every check while others
+    fail: the report names the failing runs' files, never an empty list."""
+    record = _record([3])
+    record.update(
+        objective="park: stall_time",
+        failing_runs=2,
+        runs_to_first_failure=4,
+        lowest=0.5,
+        best=[{"evaluation": 1, "outcome": "success", "objective": 0.5, "replay": "r"}],
+        failing=[{"evaluation": n, "mission": f"failing/{n}.yaml"} for n in (3, 7)],
+    )
+    printed = _report(record, Path("out"), 1.0).splitlines()
+    assert printed[1] == (
+        "falsified: 2 failing runs, the first run 3 (4 runs in); lowest park: stall_time 0.5"
+    )
+    out = Path("out").resolve()
+    assert printed[2:4] == [
+        f"  3: wmr-mission run {out / 'failing' / '3.yaml'}",
+        f"  7: wmr-mission run {out / 'failing' / '7.yaml'}",
+    ]

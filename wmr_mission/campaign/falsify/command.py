@@ -523,11 +523,18 @@ def _report(record: dict[str, Any], out_dir: Path, seconds: float) -> str:
             f"{runs_in - 1} ({runs_in} run{'s' if runs_in != 1 else ''} in); "
             f"lowest {objective} {_text(record['lowest'])}"
         )
-        lines += [
+        shown = [
             f"  {b['evaluation']}: {b['outcome']}, {objective} {_text(b['objective'])}: {b['run']}"
             for b in best
             if "run" in b
         ]
+        if not shown:  # an --objective's lowest runs may all pass: name the failing ones
+            shown = [
+                f"  {f['evaluation']}: "
+                + shlex.join(["wmr-mission", "run", str((out_dir / f["mission"]).resolve())])
+                for f in record.get("failing", [])[:BEST]
+            ]
+        lines += shown
     else:
         lines.append(
             (

@@ -70,8 +70,11 @@ class Evaluation:
 
     @property
     def falsified(self) -> bool:
-        """The run fails what the search looks for: its objective below 0."""
-        return self.ran and self.objective < 0
+        """The run fails, as ``wmr-mission run`` would judge it: any outcome but a
+        success (a missed check of any phase, a timeout, ...), whatever the
+        search minimises. ``--objective`` only steers the search: a run that
+        misses another check is still a counterexample."""
+        return self.ran and (self.outcome != Outcome.success.value or self.margin < 0)
 
     def told(self) -> float:
         """The objective as the search is told it: finite."""

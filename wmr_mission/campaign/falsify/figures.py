@@ -48,7 +48,9 @@ def _margins(evaluations: Sequence[Evaluation], objective: str | None, path: Pat
     best = np.minimum.accumulate(np.where(np.isnan(value), np.inf, value)) if len(value) else value
     fig = new_figure((7.0, 3.6))
     ax = fig.add_subplot()
-    failing = value < 0
+    # a failing run, not an objective below 0: with --objective a run may fail
+    # another check with its objective above 0
+    failing = np.array([e.falsified for e in ran], dtype=bool)
     ax.scatter(index[~failing], value[~failing], s=9, color="0.45", label="run")
     ax.scatter(index[failing], value[failing], s=14, color="tab:red", label="failing run")
     ax.step(index, best, where="post", color="tab:blue", label="lowest so far")
