@@ -376,7 +376,7 @@ expect:
     record = json.loads((tmp_path / "strict" / "campaign.json").read_text(encoding="utf-8"))
     assert record["outcomes"] == {"expect-failed": 2}
     assert record["expectations"] == [
-        {"metric": "success_rate", "min": 0.5, "value": 0.0, "met": False}
+        {"metric": "success_rate", "min": 0.5, "value": 0.0, "met": False, "verdict": "not met"}
     ]
 
 

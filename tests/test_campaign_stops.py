@@ -137,3 +137,133 @@ def test_ctrl_c_during_a_search_keeps_the_finished_runs(
     assert 1 <= record["evaluations"] == len(rows) < 12
     err = capsys.readouterr().err
     assert f"interrupted (Ctrl-C); the {len(rows)} finished runs are kept" in err
+
+
+# --- an interrupted campaign's expect --------------------------------------------
+
+
+def _grid_campaign(directory: Path, least: float) -> Path:
+    """Four grid cells of one run each, in run order: a stop after the first
+    run leaves three cells without runs."""
+    path = directory / "grid.yaml"
+    path.write_text(
+        f"version: 1\nname: cells\nmission: {SHORT}\nruns: 1\nseed: 11\n"
+        "vary:\n  robot.initial_state.theta: {grid: [0.1, 0.2, 0.3, 0.4]}\n"
+        f"expect:\n  success_rate: {{min: {least}}}\n",
+        encoding="utf-8",
+    )
+    return path
+
+
+def _stopped_after_one_run(
+    path: Path, out: Path, monkeypatch: pytest.MonkeyPatch, settings: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    one_run_each = lambda _s, runs, _w: [range(i, i + 1) for i in range(runs)]  # noqa: E731
+    monkeypatch.setattr(engine, "tasks", one_run_each)
+    _stop_after_first(engine, "run_rows", monkeypatch)
+    code = sweep_command(path, out=out, workers=1, scheduler=None, plots=False, settings=settings)
+    assert code == 130
+    record: dict[str, Any] = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
+    assert record["interrupted"] is True
+    assert record["runs"] == 1
+    return record
+
+
+def test_an_interrupted_sweep_does_not_judge_its_expect_on_the_runs_done(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """One run of four, a success: 100 % of the runs done, but the campaign's
+    rate is unknown, and three grid cells have no run."""
+    out = tmp_path / "out"
+    record = _stopped_after_one_run(_grid_campaign(tmp_path, 0.9), out, monkeypatch)
+    assert record["success_rate"] == 1.0
+    assert record["expectations"] == [
+        {
+            "metric": "success_rate",
+            "min": 0.9,
+            "value": 1.0,
+            "met": None,
+            "verdict": "not judged: interrupted after 1 of 4 runs",
+        }
+    ]
+    assert record["planned_runs"] == 4
+    assert record["missing_runs"] == 3
+    assert [c["values"] for c in record["cells"]] == [{"robot.initial_state.theta": 0.1}]
+    assert record["cells_without_runs"] == [
+        {"robot.initial_state.theta": 0.2},
+        {"robot.initial_state.theta": 0.3},
+        {"robot.initial_state.theta": 0.4},
+    ]
+    assert record["cells_without_runs_count"] == 3
+    report = capsys.readouterr().out
+    assert "runs missing: 3 of the 4 planned (interrupted after 1)" in report
+    assert (
+        "grid cells with no runs (3): robot.initial_state.theta=0.2; "
+        "robot.initial_state.theta=0.3; robot.initial_state.theta=0.4"
+    ) in report
+    assert "expect success_rate (min 0.9): not judged: interrupted after 1 of 4 runs" in report
+
+    from wmr_mission.review import view
+
+    meta = view.campaign_meta(out, tmp_path / "report.html")
+    assert meta["missing_runs"] == 3
+    assert meta["cells_without_runs"] == [
+        "robot.initial_state.theta=0.2",
+        "robot.initial_state.theta=0.3",
+        "robot.initial_state.theta=0.4",
+    ]
+    assert [(e["met"], e["verdict"]) for e in meta["expectations"]] == [
+        (None, "not judged: interrupted after 1 of 4 runs")
+    ]
+
+
+def test_an_interrupted_sweep_says_an_expect_missed_whatever_the_missing_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every run times out: after one of four, even three successes would make
+    0.75 of the campaign, below its 0.9."""
+    out = tmp_path / "out"
+    path = _grid_campaign(tmp_path, 0.9)
+    record = _stopped_after_one_run(path, out, monkeypatch, ("phases.0.timeout=0.1",))
+    assert record["succeeded"] == 0
+    (expectation,) = record["expectations"]
+    assert expectation["met"] is False
+    assert expectation["verdict"] == "not met whatever the 3 missing runs give (at most 0.75)"
+    report = capsys.readouterr().out
+    assert "expect success_rate (min 0.9): not met whatever the 3 missing runs give" in report
+
+
+def test_an_interrupted_record_without_verdicts_is_viewed_not_judged(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A campaign.json that says `met` of the runs done only (no `verdict`,
+    fewer runs than planned) is not shown met."""
+    out = tmp_path / "out"
+    record = _stopped_after_one_run(_grid_campaign(tmp_path, 0.9), out, monkeypatch)
+    for key in ("missing_runs", "cells_without_runs", "cells_without_runs_count"):
+        record.pop(key, None)
+    record["expectations"] = [{"metric": "success_rate", "min": 0.9, "value": 1.0, "met": True}]
+    (out / "campaign.json").write_text(json.dumps(record), encoding="utf-8")
+
+    from wmr_mission.review import view
+
+    meta = view.campaign_meta(out, tmp_path / "report.html")
+    assert meta["missing_runs"] == 3
+    assert [(e["met"], e["verdict"]) for e in meta["expectations"]] == [
+        (None, "not judged: interrupted after 1 of 4 runs")
+    ]
+
+
+def test_a_whole_sweep_judges_its_expect_and_lists_no_missing_cell(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    code = sweep_command(
+        _grid_campaign(tmp_path, 0.5), out=out, workers=1, scheduler=None, plots=False
+    )
+    record = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
+    assert code == 0
+    assert record["interrupted"] is False
+    assert record["missing_runs"] == 0
+    assert record["cells_without_runs"] == []
+    assert record["cells_without_runs_count"] == 0
+    (expectation,) = record["expectations"]
+    assert (expectation["met"], expectation["verdict"]) == (True, "met")

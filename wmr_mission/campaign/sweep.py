@@ -43,6 +43,7 @@ from wmr_mission.campaign.engine import (
     warm_up,
 )
 from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campaign, value_text
+from wmr_mission.campaign.models import Campaign
 from wmr_mission.campaign.plan import Plan
 from wmr_mission.campaign.recovery import recovery_report
 from wmr_mission.campaign.rows import METRICS, Row, header, replay_command, simulate
@@ -64,6 +65,7 @@ from wmr_mission.spec import catalog
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import overrides_of, overrides_of_texts
 from wmr_mission.stopping import GENTLE, HOLD, RAISE, StopSignals, stop_owed
+from wmr_mission.terminal import shown
 from wmr_mission.verdicts.check import beside
 
 __all__ = ["CampaignResult", "run_campaign", "sweep_command"]
@@ -72,6 +74,8 @@ RUNS_FILE: Final = "runs.csv"
 CAMPAIGN_FILE: Final = "campaign.json"
 MANIFEST_FILE: Final = "manifest.json"
 WORST_DIR: Final = "worst"
+CELLS_LISTED: Final = 100  # grid cells without runs named in campaign.json, at most
+CELLS_SHOWN: Final = 10  # ... and in the sweep's report
 EXIT_FAILED: Final = 1  # an invalid file, an expect not met, a worker lost, a fault in drawing
 EXIT_OUTPUT: Final = 2  # a usage error: an unusable --out or scheduler, a write that fails
 INTERRUPTED_NOTICE: Final = "interrupted: stopping; the finished runs are kept"
@@ -520,30 +524,75 @@ def _record(
         }
         for kind, count, worst in aggregate.worst_by_failure()
     ]
+    missing = planned - aggregate.runs
     expectations = []
     if campaign.expect.success_rate is not None:
         least = campaign.expect.success_rate.min
         rate = statistics["success_rate"]
+        met, verdict = _success_rate_verdict(least, rate, aggregate.succeeded, missing, planned)
         expectations.append(
-            {
-                "metric": "success_rate",
-                "min": least,
-                "value": rate,
-                "met": rate is not None and rate >= least,
-            }
+            {"metric": "success_rate", "min": least, "value": rate, "met": met, "verdict": verdict}
         )
+    empty_cells, empty_count = _cells_without_runs(campaign, aggregate)
     return {
         "campaign": campaign.name,
         "interrupted": stopped_by is not None,
         "stopped_by": stopped_by,
         "planned_runs": planned,
+        "missing_runs": missing,
         **statistics,
+        "cells_without_runs": empty_cells,
+        "cells_without_runs_count": empty_count,
         "expectations": expectations,
         "worst": worst,
         "failures": failures,
         "wall_seconds": runs_seconds,
         "missions_per_second": aggregate.runs / runs_seconds if runs_seconds > 0 else None,
     }
+
+
+def _success_rate_verdict(
+    least: float, rate: float | None, succeeded: int, missing: int, planned: int
+) -> tuple[bool | None, str]:
+    """``met`` (None: not judged) and the verdict's text of ``success_rate: {min}``.
+
+    A campaign stopped early holds the first runs only (runs go cell by cell,
+    so a grid's later cells may have none): its rate says nothing of the
+    campaign's, and is not judged, unless even the missing runs all
+    succeeding would leave the rate over the planned runs below the bound."""
+    if missing <= 0:
+        met = rate is not None and rate >= least
+        return met, "met" if met else "not met"
+    done = planned - missing
+    best = (succeeded + missing) / planned
+    if best < least:
+        return False, f"not met whatever the {missing} missing runs give (at most {best:.4g})"
+    return None, f"not judged: interrupted after {done} of {planned} runs"
+
+
+def _cells_without_runs(
+    campaign: Campaign, aggregate: Aggregate
+) -> tuple[list[dict[str, Any]], int]:
+    """The grid cells that have no run (their values, as ``cells`` gives them),
+    the first CELLS_LISTED in grid order, and how many there are."""
+    grid = [(path, axis.grid) for path, axis in campaign.vary.items() if axis.grid is not None]
+    total = campaign.grid_cells()
+    if not grid or len(aggregate.cells) == total:
+        return [], 0
+    listed: list[dict[str, Any]] = []
+    # Cells with runs are at most the runs done: the loop ends within
+    # len(aggregate.cells) + CELLS_LISTED steps however many cells the grid has.
+    for flat in range(total):
+        if len(listed) >= CELLS_LISTED:
+            break
+        rest, index = flat, []
+        for _, values in reversed(grid):  # the last grid axis fastest, as Plan.draw
+            rest, i = divmod(rest, len(values))
+            index.append(i)
+        cell = tuple(reversed(index))
+        if cell not in aggregate.cells:
+            listed.append({path: values[i] for (path, values), i in zip(grid, cell, strict=True)})
+    return listed, total - len(aggregate.cells)
 
 
 def _regions(loaded: LoadedCampaign) -> dict[str, Any]:
@@ -888,6 +937,32 @@ def _timing(record: dict[str, Any], total: float) -> str:
     )
 
 
+def _missing(record: dict[str, Any]) -> list[str]:
+    """What a campaign stopped early lacks, and its expectations' verdicts,
+    which then cover only the runs done (none for a whole campaign, whose
+    missed expectations stderr says)."""
+    missing = record.get("missing_runs") or 0
+    if missing <= 0:
+        return []
+    runs, planned = record["runs"], record["planned_runs"]
+    lines = [f"runs missing: {missing} of the {planned} planned (interrupted after {runs})"]
+    count = record.get("cells_without_runs_count") or 0
+    if count:
+        listed = record["cells_without_runs"]
+        named = [
+            ", ".join(f"{path}={shown(value_text(value))}" for path, value in cell.items())
+            for cell in listed[:CELLS_SHOWN]
+        ]
+        more = f"; and {count - len(named)} more" if count > len(named) else ""
+        lines.append(f"grid cells with no runs ({count}): " + "; ".join(named) + more)
+    for expectation in record["expectations"]:
+        lines.append(
+            f"expect {expectation['metric']} (min {expectation['min']:.4g}): "
+            f"{expectation['verdict']}"
+        )
+    return lines
+
+
 def _report(record: dict[str, Any], out_dir: Path, total: float) -> str:
     lo, hi = record["success_interval"]
     rate = record["success_rate"]
@@ -897,6 +972,7 @@ def _report(record: dict[str, Any], out_dir: Path, total: float) -> str:
         "outcomes: " + ", ".join(f"{k} {v}" for k, v in record["outcomes"].items()),
         _timing(record, total),
     ]
+    lines += _missing(record)
     recovered = record.get("recovery")
     if recovered and recovered["needed"]:
         lines.append(recovery_report(recovered))

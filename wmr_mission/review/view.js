@@ -635,6 +635,17 @@
       el("p", { class: "sub", text: "outcomes: " + Object.entries(meta.outcomes).map(([k, v]) => `${k} ${v}`).join(" · ") +
         (finite(meta.missions_per_second) ? ` · ${fmt(meta.wall_seconds)} s of runs, ${fmt(meta.missions_per_second)} runs per second of simulating` : "") }),
     );
+    if (meta.missing_runs > 0) {
+      // A campaign stopped early: its figures and its rate cover the runs done only.
+      root.append(el("p", { class: "sub bad", text:
+        `runs missing: ${meta.missing_runs} of the ${meta.planned_runs} planned (interrupted after ${meta.runs})` }));
+      if (meta.cells_without_runs_count) {
+        const more = meta.cells_without_runs_count - meta.cells_without_runs.length;
+        root.append(el("p", { class: "sub bad", text:
+          `grid cells with no runs (${meta.cells_without_runs_count}): ` + meta.cells_without_runs.join("; ") +
+          (more > 0 ? `; and ${more} more` : "") }));
+      }
+    }
     if (meta.margin) {
       root.append(el("p", { class: "sub", text:
         `margins: least ${fmt(meta.margin.min)}, p1 ${fmt(meta.margin.p1)}, p5 ${fmt(meta.margin.p5)}, ` +
@@ -644,7 +655,7 @@
       root.append(table(["expectation", "min", "value", "verdict"], meta.expectations.map((e) =>
         el("tr", { class: e.met === false ? "bad" : "" }, el("td", { text: e.metric }),
           el("td", { class: "num", text: fmt(e.min) }), el("td", { class: "num", text: fmt(e.value) }),
-          el("td", { text: e.met === null ? "–" : e.met ? "met" : "NOT MET" }))), [false, true, true, false]));
+          el("td", { text: e.verdict }))), [false, true, true, false]));
     }
 
     if (meta.figures.length) {

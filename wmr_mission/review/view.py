@@ -507,6 +507,43 @@ def _table_rows(outcomes: list[str]) -> list[int]:
     return sorted(failed + succeeded)
 
 
+def _count(value: Any) -> int | None:
+    return value if isinstance(value, int) and not isinstance(value, bool) and value >= 0 else None
+
+
+def _cells_without_runs(cells: Any) -> list[str]:
+    """campaign.json's grid cells without runs, each as ``path=value, ...``."""
+    if not isinstance(cells, list):
+        return []
+    return [
+        ", ".join(f"{path}={json.dumps(value)}" for path, value in cell.items())
+        for cell in cells
+        if isinstance(cell, dict)
+    ]
+
+
+def _campaign_expectation(record: dict[str, Any], runs: int, planned: int | None) -> dict[str, Any]:
+    """One of campaign.json's expectations, each field taken only when of the
+    expected type. A record without a ``verdict`` whose runs fall short of the
+    planned ones is shown not judged: its ``met`` covers the runs done only."""
+    met = record.get("met") if isinstance(record.get("met"), bool) else None
+    verdict = _text(record.get("verdict"))
+    if verdict is None:
+        if met is True and planned is not None and runs < planned:
+            met, verdict = None, f"not judged: interrupted after {runs} of {planned} runs"
+        else:
+            verdict = "\u2013" if met is None else "met" if met else "NOT MET"
+    elif met is False:
+        verdict = verdict.replace("not met", "NOT MET", 1)
+    return {
+        "metric": _text(record.get("metric")) or "?",
+        "min": _finite_number(record.get("min")),
+        "value": _finite_number(record.get("value")),
+        "met": met,
+        "verdict": verdict,
+    }
+
+
 def campaign_meta(campaign_dir: Path, out: Path) -> dict[str, Any]:
     from urllib.parse import quote
 
@@ -532,6 +569,8 @@ def campaign_meta(campaign_dir: Path, out: Path) -> dict[str, Any]:
         for path in campaign.figures()
     ]
     metrics = summary.get("metrics")
+    planned = _count(summary.get("planned_runs"))
+    missing = max(0, planned - summary["runs"]) if planned is not None else 0
     return {
         "kind": "campaign",
         "campaign": _text(summary.get("campaign")) or campaign_dir.name,
@@ -542,13 +581,11 @@ def campaign_meta(campaign_dir: Path, out: Path) -> dict[str, Any]:
         "success_interval": [_finite_number(v) for v in summary["success_interval"]],
         "interrupted": summary.get("interrupted") is True,
         "outcomes": summary.get("outcomes", {}),
+        "missing_runs": missing,
+        "cells_without_runs": _cells_without_runs(summary.get("cells_without_runs")),
+        "cells_without_runs_count": _count(summary.get("cells_without_runs_count")),
         "expectations": [
-            {
-                "metric": _text(e.get("metric")) or "?",
-                "min": _finite_number(e.get("min")),
-                "value": _finite_number(e.get("value")),
-                "met": e.get("met") if isinstance(e.get("met"), bool) else None,
-            }
+            _campaign_expectation(e, summary["runs"], planned)
             for e in summary.get("expectations", [])
             if isinstance(e, dict)
         ]
