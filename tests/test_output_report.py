@@ -5,7 +5,9 @@ from pathlib import Path
 from typing import Any
 
 from test_output_synthetic import circle_run
+from typer.testing import CliRunner
 
+from wmr_mission.cli import app
 from wmr_mission.output import report
 from wmr_mission.output.report import format_table
 from wmr_mission.verdicts.metrics import check_expectations, judge, summarize
@@ -169,6 +171,63 @@ def test_a_phase_entered_twice_gets_each_entry_s_own_verdict() -> None:
     twice = [{"name": "go"}, {"name": "go"}]
     checks = [check("go", "a", True), check("go", "b", True), check("go", "a", False)]
     assert report._verdicts(checks, twice) == ["ok", "NOT MET\na\n4 (max 3)"]
+
+
+# Creeps at 0.1 m/s towards a point 10 m away: times out, is retried, times
+# out again and goes on; then dashes into a keep-out box: breached, the run fails.
+ENDS_BADLY = """\
+version: 1
+name: ends-badly
+robot: {limits: {v: 2, omega: 4}}
+regions:
+  wall: {type: box, min: [0.5, -1], max: [1.5, 1]}
+geofence: {keep_out: [wall]}
+phases:
+  - name: creep
+    track: {path: {type: line, heading: 0, speed: 0.1}}
+    until: {near: {point: [10, 0], tolerance: 0.1}}
+    timeout: 1
+    on_timeout: {retry: {times: 1, then: next}}
+  - name: dash
+    track: {path: {type: line, heading: 0, speed: 1}}
+    until: {near: {point: [10, 0], tolerance: 0.1}}
+    timeout: 5
+"""
+
+
+def test_a_phase_that_timed_out_or_was_breached_says_so(tmp_path: Path) -> None:
+    """A phase that ended by its timeout or a breach, not by its `until`, is not
+    'ok': its row says how it ended, whether the run ended there (the dash,
+    breached) or went on (the creep, retried once, then on to the next phase),
+    here and where the table has only the summary."""
+    mission = tmp_path / "ends-badly.yaml"
+    mission.write_text(ENDS_BADLY)
+    command = ["run", str(mission), "--no-plots", "--out", str(tmp_path / "r")]
+    result = CliRunner(env={"COLUMNS": "100"}).invoke(app, command)
+    assert result.exit_code == 1
+    rows = _rows(result.stdout.splitlines())
+    assert rows["creep"][0].endswith("  timed out 2 times")
+    assert rows["dash"][0].endswith("  breached")
+    assert "outcome: breached after " in result.stdout
+    summary = {"phases": [{"name": "go"}, {"name": "dock"}], "outcome": "timeout"}
+    assert report._ends(summary) == [[], ["timed out"]]
+    assert report._ends({**summary, "outcome": "breached"}) == [[], ["breached"]]
+    assert report._ends({**summary, "outcome": "expect-failed"}) == [[], []]
+
+
+def test_a_timed_out_phase_that_missed_a_threshold_says_both() -> None:
+    """How it ended first, then NOT MET with what it missed; met thresholds
+    beside a timeout leave no 'ok'."""
+    checks = [
+        {"metric": "stall_time", "phase": "dock", "max": 3.0, "value": 4.0, "met": False},
+        {"metric": "stall_time", "phase": "wait", "max": 3.0, "value": 2.0, "met": True},
+    ]
+    phases = [{"name": "dock"}, {"name": "wait"}]
+    assert report._verdicts(checks, phases, [["timed out"], ["breached"]]) == [
+        "timed out\nNOT MET\nstall_time\n4 (max 3)",
+        "breached",
+    ]
+    assert report._verdicts([], phases, [["timed out"], []]) == ["timed out", "-"]
 
 
 def test_a_stopped_run_s_table_judges_only_up_to_the_stop() -> None:

@@ -98,11 +98,16 @@ def _convergence(phase: dict[str, Any]) -> str:
     return "never" if time is None else f"{time:.2f} s"
 
 
-def _verdicts(checks: list[dict[str, Any]], phases: list[dict[str, Any]]) -> list[str]:
-    """Each phase entry's verdict: 'ok'; 'NOT MET' and, a line each, every
-    threshold missed with the phase's value (``speed_jump_max 2.33 (max 2)``); a
-    phase without thresholds has none ('-'). One pass over the checks, not one
-    per phase: a run of 15,000 phases took minutes.
+def _verdicts(
+    checks: list[dict[str, Any]], phases: list[dict[str, Any]], ends: list[list[str]] | None = None
+) -> list[str]:
+    """Each phase entry's verdict: first how it ended where not by its `until`
+    (``ends``, :func:`_ends`: 'timed out', 'breached'); then 'NOT MET' and, a
+    line each, every threshold missed with the phase's value
+    (``speed_jump_max 2.33 (max 2)``), or 'ok' where it met them all and ended
+    by its `until`; a phase without thresholds that ended by its `until` has
+    none ('-'). One pass over the checks, not one per phase: a run of 15,000
+    phases took minutes.
 
     The checks come in the entries' order, each entry's a block in which every
     check is named once: a check is its entry's until it names another phase
@@ -125,11 +130,54 @@ def _verdicts(checks: list[dict[str, Any]], phases: list[dict[str, Any]]) -> lis
         seen.add(check["metric"])
         own[entry].append(check)
     verdicts = []
-    for mine in own:
+    for row, mine in enumerate(own):
+        ended = [] if ends is None else ends[row]
         missed = [c for c in mine if not c["met"]]
-        verdict = "NOT MET" if missed else "ok" if mine else "-"
-        verdicts.append("\n".join([verdict, *(_missed(c) for c in missed)]))
+        verdict = ["NOT MET"] if missed else [] if ended else ["ok"] if mine else ["-"]
+        verdicts.append("\n".join([*ended, *verdict, *(_missed(c) for c in missed)]))
     return verdicts
+
+
+# A phase entry's end other than by its `until`, by its transition's condition.
+_ENDED = {"timeout": "timed out", "breach": "breached"}
+# A run's outcome that its last phase entry's end gave it.
+_ENDED_RUN = {"timeout": "timed out", "breached": "breached"}
+
+
+def _ends(summary: dict[str, Any], result: RunRecord | None = None) -> list[list[str]]:
+    """How each phase entry ended where not by its `until`, a line each:
+    'timed out' or 'breached' ('timed out 2 times': an entry retried runs on in
+    one row), whether the run ended there or went on (``on_timeout: next``, a
+    retry, a contingency). From the run's transitions, each placed in the entry
+    of its phase whose span holds its time; without the run, from the
+    summary's outcome, for its last entry only."""
+    phases = summary.get("phases") or []
+    ends: list[list[str]] = [[] for _ in phases]
+    spans = [(p.get("start"), p.get("end")) for p in phases]
+    timed = all(isinstance(a, int | float) and isinstance(b, int | float) for a, b in spans)
+    if result is None or not timed:
+        word = _ENDED_RUN.get(str(summary.get("outcome")))
+        if word is not None and phases:
+            ends[-1].append(word)
+        return ends
+    row, slack = 0, 0.5 * result.dt
+    for change in result.transitions:  # in time order, as the entries are
+        word = _ENDED.get(change.condition)
+        if word is None:
+            continue
+        while row < len(phases) and spans[row][1] < change.time - slack:
+            row += 1
+        for at in range(row, len(phases)):
+            if spans[at][0] > change.time + slack:
+                break
+            if phases[at]["name"] == change.from_phase:
+                ends[at].append(word)
+                break
+    counted: list[list[str]] = []
+    for words in ends:
+        kinds = dict.fromkeys(words)  # in the order they happened
+        counted.append([w if words.count(w) == 1 else f"{w} {words.count(w)} times" for w in kinds])
+    return counted
 
 
 def _missed(check: dict[str, Any]) -> str:
@@ -228,7 +276,7 @@ def _phase_rows(
     """The phase table's cells, a row a phase, in :data:`_COLUMNS`' order. A
     run stopped by a signal: its last phase, cut short, is 'stopped', not judged."""
     phases = summary.get("phases") or []
-    verdicts = _verdicts(checks, phases)
+    verdicts = _verdicts(checks, phases, _ends(summary, result))
     infos = {} if result is None else {info.name: info for info in result.phases}
     # The last row: a phase entered again (a retry, a goto) has rows before it.
     stopped = len(phases) - 1 if summary.get("outcome") == "interrupted" else None
