@@ -387,6 +387,70 @@ phases:
     assert [d for d in found if d.severity == "warning"] == []
 
 
+def test_validate_tells_a_polygon_body_that_overlaps_a_zone_from_its_disc_alone() -> None:
+    """A tray 0.5 m long and 0.36 m wide, its farthest corner 0.35 m from its
+    axle, parked 0.2 m short of a shelf: facing the shelf its nose overlaps
+    it; turned a quarter, its side clears it by 0.02 m, and only the disc the
+    controller keeps out of the shelf overlaps it, so the robot stops short.
+    `validate` says which, for a keep-out zone and a keep-in region alike."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = """version: 1
+name: tray
+robot:
+  limits: {v: 1, omega: 2}
+  footprint: {polygon: [[0.3, 0.18], [-0.2, 0.18], [-0.2, -0.18], [0.3, -0.18]]}
+regions:
+  shelf: {type: box, min: [1.2, -1], max: [2, 1]}
+  yard: {type: half-plane, normal: [1, 0], offset: 1.2}
+phases:
+  - name: park
+    regulate: {target: {x: 1, y: 0, theta: HEADING}}
+    constraints: [{stay_outside: shelf}]
+    until: {settled: {position: 0.02, heading: 0.02}}
+    timeout: 20
+"""
+
+    def warnings(heading: str, side: str = "stay_outside: shelf") -> list[tuple[int, str]]:
+        mission = text.replace("HEADING", heading).replace("stay_outside: shelf", side)
+        _, found = check_mission_text(mission, "tray.yaml")
+        return [(d.line, d.message) for d in found if d.severity == "warning"]
+
+    assert warnings("0") == [
+        (
+            11,
+            "the target (1, 0) is 0.2 m from keep-out zone 'shelf', nearer than the robot's "
+            "body reaches (0.35 m, robot.footprint): the body overlaps the zone there",
+        )
+    ]
+    assert warnings("1.5708") == [
+        (
+            11,
+            "the target (1, 0) is 0.2 m from keep-out zone 'shelf', nearer than the disc round "
+            "the robot's body reaches (0.35 m, robot.footprint's farthest corner): the body "
+            "itself, at heading 1.5708, clears it there, but the controller keeps that disc "
+            "out of the zone, so the robot stops short of the target",
+        )
+    ]
+    assert warnings("0", "stay_inside: yard") == [
+        (
+            11,
+            "the target (1, 0) is 0.2 m inside the edge of keep-in region 'yard', nearer than "
+            "the robot's body reaches (0.35 m, robot.footprint): the body reaches out of it "
+            "there",
+        )
+    ]
+    assert warnings("1.5708", "stay_inside: yard") == [
+        (
+            11,
+            "the target (1, 0) is 0.2 m inside the edge of keep-in region 'yard', nearer than "
+            "the disc round the robot's body reaches (0.35 m, robot.footprint's farthest "
+            "corner): the body itself, at heading 1.5708, stays inside it there, but the "
+            "controller keeps that disc inside the region, so the robot stops short of the target",
+        )
+    ]
+
+
 OVERLAP = """
 version: 1
 name: overlap

@@ -58,6 +58,7 @@ from wmr_mission.spec.models import (
     Phase,
     RegulatePhase,
     RepeatPhase,
+    RoundFootprint,
     StayInside,
     TrackPhase,
     Update,
@@ -1408,7 +1409,9 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
     a keep-out zone of its phase but nearer to it than the body reaches, or
     inside a keep-in region but nearer its edge than that. The zones are kept
     by the body (docs/mission-format.md, "The robot's body"): the robot
-    starts beyond one, or cannot reach the target."""
+    starts beyond one, or cannot reach the target. A polygon body is kept by
+    the disc round it: where the body itself, at the pose's heading, clears
+    the zone and only that disc does not, the finding says so."""
     footprint = mission.robot.footprint
     if footprint is None:
         return
@@ -1418,31 +1421,93 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
         phase, where = run.phase, run.where
         if run.lap is not None and run.lap > 1:
             continue
-        points: list[tuple[DataPath, str, float, float]] = []
+        points: list[tuple[DataPath, str, Pose]] = []
         if number == 0:
-            points.append((("robot", "initial_state"), "robot.initial_state", start.x, start.y))
+            points.append(
+                (("robot", "initial_state"), "robot.initial_state", (start.x, start.y, start.theta))
+            )
         if isinstance(phase, RegulatePhase) and phase.until.settled is not None:
             target = phase.regulate.target
-            points.append(((*where, "regulate", "target"), "the target", target.x, target.y))
-        # (the region, how much room a point has, where it is, what the body does there)
+            points.append(
+                ((*where, "regulate", "target"), "the target", (target.x, target.y, target.theta))
+            )
+        # (the region, how much room a point has, where it is, what the body
+        # does there, whether a body placed there does it, what it does
+        # otherwise, where the disc is kept)
         sides = [
-            (name, zone, _gap, "from keep-out zone", "overlaps the zone")
+            (name, zone, _gap, "from keep-out zone", "overlaps the zone", _overlaps,
+             "clears it", "out of the zone")
             for name, zone in _keep_outs(mission, phase).items()
         ] + [
-            (name, yard, _room, "inside the edge of keep-in region", "reaches out of it")
+            (name, yard, _room, "inside the edge of keep-in region", "reaches out of it",
+             _reaches_out, "stays inside it", "inside the region")
             for name, yard in _keep_ins(mission, phase).items()
-        ]
-        for name, region, room_at, edge, body in sides:
-            for path, what, x, y in points:
+        ]  # fmt: skip
+        for name, region, room_at, edge, body, does, clear, kept in sides:
+            for path, what, (x, y, theta) in points:
                 room = room_at(region, float(x), float(y))
-                if 0.0 <= room < reach:
-                    yield Finding(
-                        path,
-                        f"{what} ({x:g}, {y:g}) is {room:.3g} m {edge} {name!r}, nearer than "
+                if not 0.0 <= room < reach:
+                    continue
+                said = f"{what} ({x:g}, {y:g}) is {room:.3g} m {edge} {name!r}, nearer than "
+                if isinstance(footprint, RoundFootprint) or does(
+                    region, _body_at(footprint.polygon, x, y, theta)
+                ):
+                    said += (
                         f"the robot's body reaches ({reach:.3g} m, robot.footprint): the body "
-                        f"{body} there",
-                        severity="warning",
+                        f"{body} there"
                     )
+                else:
+                    stops = (
+                        "the robot starts with that disc beyond it"
+                        if path == ("robot", "initial_state")
+                        else "the robot stops short of the target"
+                    )
+                    said += (
+                        f"the disc round the robot's body reaches ({reach:.3g} m, "
+                        f"robot.footprint's farthest corner): the body itself, at heading "
+                        f"{theta:g}, {clear} there, but the controller keeps that disc "
+                        f"{kept}, so {stops}"
+                    )
+                yield Finding(path, said, severity="warning")
+
+
+def _outline(region: RegionSpec) -> Any:
+    """The region's outline as a shapely polygon (an ellipse or circle as one
+    of 720 corners inscribed in it); not for a half-plane."""
+    import shapely
+
+    if isinstance(region, BoxRegion | PolygonRegion):
+        return shapely.Polygon(region_vertices(region))
+    return shapely.Polygon(np.column_stack(region_outline(region, n=720)[:2])[:-1])
+
+
+def _body_at(polygon: list[tuple[float, float]], x: float, y: float, theta: float) -> FloatArray:
+    """The corners of a polygon footprint placed at the pose (x, y, theta)."""
+    corners = np.asarray(polygon, dtype=np.float64)
+    c, s = math.cos(theta), math.sin(theta)
+    return np.column_stack(
+        (x + c * corners[:, 0] - s * corners[:, 1], y + s * corners[:, 0] + c * corners[:, 1])
+    )
+
+
+def _overlaps(region: RegionSpec, body: FloatArray) -> bool:
+    """Whether the body (its corners) touches or overlaps the region, by shapely."""
+    import shapely
+
+    if isinstance(region, HalfPlaneRegion):
+        nx, ny = region.normal
+        return bool(np.min(nx * body[:, 0] + ny * body[:, 1]) <= region.offset)
+    return bool(_outline(region).intersects(shapely.Polygon(body)))
+
+
+def _reaches_out(region: RegionSpec, body: FloatArray) -> bool:
+    """Whether the body (its corners) reaches out of the region, by shapely."""
+    import shapely
+
+    if isinstance(region, HalfPlaneRegion):
+        nx, ny = region.normal
+        return bool(np.max(nx * body[:, 0] + ny * body[:, 1]) > region.offset)
+    return not _outline(region).covers(shapely.Polygon(body))
 
 
 def _gap(region: RegionSpec, x: float, y: float) -> float:
@@ -1452,11 +1517,8 @@ def _gap(region: RegionSpec, x: float, y: float) -> float:
     if isinstance(region, HalfPlaneRegion):
         nx, ny = region.normal
         return (nx * x + ny * y - region.offset) / math.hypot(nx, ny)
-    if isinstance(region, BoxRegion | PolygonRegion):
-        outline = shapely.Polygon(region_vertices(region))
-    else:
-        outline = shapely.Polygon(np.column_stack(region_outline(region, n=720)[:2])[:-1])
     point = shapely.Point(x, y)
+    outline = _outline(region)
     return -1.0 if outline.contains(point) else float(outline.distance(point))
 
 
@@ -1469,10 +1531,7 @@ def _room(region: RegionSpec, x: float, y: float) -> float:
         nx, ny = region.normal
         inside = (region.offset - nx * x - ny * y) / math.hypot(nx, ny)
         return inside if inside >= 0.0 else -1.0
-    if isinstance(region, BoxRegion | PolygonRegion):
-        outline = shapely.Polygon(region_vertices(region))
-    else:
-        outline = shapely.Polygon(np.column_stack(region_outline(region, n=720)[:2])[:-1])
+    outline = _outline(region)
     point = shapely.Point(x, y)
     return float(outline.exterior.distance(point)) if outline.covers(point) else -1.0
 
