@@ -546,18 +546,22 @@ def dotted_path(path: DataPath) -> str:
 
 
 _CONSTRAINT_KEYS: Final = ("stay_inside", "stay_outside")
+_FOOTPRINT_KEYS: Final = ("radius", "polygon")
 
 
 def _is_tag(part: str | int, current: Any, previous: str | int | None) -> bool:
     """Whether a location part is a union tag rather than a key of ``current``.
 
-    Tags are the ``type`` of a region, path or estimator, and the action key of
-    a phase or constraint (which follows the list index).
+    Tags are the ``type`` of a region, path or estimator, the action key of
+    a phase or constraint (which follows the list index), and the key of a
+    footprint (``radius`` or ``polygon``).
     """
     if not isinstance(current, dict):
         return False
     if current.get("type") == part:
         return True
+    if previous == "footprint":
+        return part in _FOOTPRINT_KEYS
     return isinstance(previous, int) and part in (*ACTIONS, "repeat", *_CONSTRAINT_KEYS)
 
 
@@ -636,8 +640,47 @@ def _selects(model: type[BaseModel], value: Any) -> bool:
     return not keys or any(k in value for k in keys)
 
 
-def _model_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> type[BaseModel] | None:
-    """The model class that reads the mapping at ``path`` (None when unknown)."""
+def _alternatives(
+    path: DataPath, data: Any, root: type[BaseModel], owner: type[BaseModel] | None, key: str
+) -> tuple[str, str] | None:
+    """The two keys, as written, of a mapping at ``path`` that has the keys of
+    two members of a union told apart by their key, not by a ``type`` (a
+    footprint's ``radius`` and ``polygon``, a constraint's ``stay_inside`` and
+    ``stay_outside``): ``key``, refused by ``owner``, and the one that chose
+    ``owner``; None where ``key`` is not another member's."""
+    kind, value = _type_at(path, data, root)
+    if owner is None or not isinstance(value, dict) or "type" in owner.model_fields:
+        return None
+    rivals = [m for m in _members(kind) if m is not owner and "type" not in m.model_fields]
+    rival = next((m for m in rivals if key in m.model_fields), None)
+    if rival is None:
+        return None
+    mine = next((k for k in value if k in owner.model_fields and k not in rival.model_fields), None)
+    if mine is None:
+        return None
+    written = list(value)
+    first, second = sorted((mine, key), key=lambda k: written.index(k) if k in written else -1)
+    return str(first), str(second)
+
+
+def _members(tp: Any) -> list[type[BaseModel]]:
+    """The models of a union type (of a union in a union, an optional one), [] for another type."""
+    origin = typing.get_origin(tp)
+    if origin is typing.Annotated:
+        return _members(typing.get_args(tp)[0])
+    if origin in (typing.Union, _UnionType):
+        found: list[type[BaseModel]] = []
+        for member in typing.get_args(tp):
+            while typing.get_origin(member) is typing.Annotated:
+                member = typing.get_args(member)[0]
+            found += [member] if _is_model(member) else _members(member)
+        return found
+    return []
+
+
+def _type_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> tuple[Any, Any]:
+    """The type that reads the value at ``path``, its unions not resolved, and
+    the value ((None, None) when unknown)."""
     tp: Any = root
     value = data
     for part in path:
@@ -645,7 +688,7 @@ def _model_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> typ
         if _is_model(tp):
             info = tp.model_fields.get(part)
             if info is None:
-                return None
+                return None, None
             tp = _field_type(info)
         else:
             origin, args = typing.get_origin(tp), typing.get_args(tp)
@@ -656,11 +699,19 @@ def _model_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> typ
             elif origin is dict:
                 tp = args[1]
             else:
-                return None
+                return None, None
         try:
             value = value[part]
         except (KeyError, IndexError, TypeError):
-            return None
+            return None, None
+    return tp, value
+
+
+def _model_at(path: DataPath, data: Any, root: type[BaseModel] = Mission) -> type[BaseModel] | None:
+    """The model class that reads the mapping at ``path`` (None when unknown)."""
+    tp, value = _type_at(path, data, root)
+    if tp is None:
+        return None
     tp = _model_class(tp, value)
     return tp if _is_model(tp) else None
 
@@ -708,6 +759,14 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
                 path,
                 f"a phase has exactly one action (track, regulate or hold), but {parent} "
                 f"also has {key!r}",
+                at_key=True,
+            )
+        both = _alternatives(path[:-1], data, root, owner, key)
+        if both is not None:
+            return Finding(
+                (*path[:-1], both[1]),
+                f"{parent}: {both[0]!r} and {both[1]!r} are alternatives: "
+                "give one or the other, not both",
                 at_key=True,
             )
         if not allowed:
