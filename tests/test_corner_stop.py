@@ -111,10 +111,11 @@ def test_at_a_stop_the_aim_is_held_where_the_output_stands_across_the_path() -> 
 
 
 def test_a_resting_reference_whose_tangent_is_the_heading_is_no_turn_in_place() -> None:
-    """A path at rest has no tangent: the robot's heading stands in
-    (kernels.loop.path_point), so where the reference rests at t_k and moves
-    off turning at t_{k+1}, its tangent changes with the point standing. That
-    is no turn of the path in place: the aims are left as they were."""
+    """A path resting since its phase began has the robot's heading there for
+    its tangent (kernels.loop.path_point), so where the reference rests at t_k
+    and moves off turning at t_{k+1}, its tangent changes with the point
+    standing. That is no turn of the path in place: the aims are left as they
+    were."""
     tuning = SimpleNamespace(look_ahead=0.05, error_reach=0.195, error_decay=0.9231)
     robot = SimpleNamespace(dt=0.008, limits=np.array([5.918, 6.969, np.inf, np.inf]))
     estimate = np.array([3.421, 4.991, 1.774])

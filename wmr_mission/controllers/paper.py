@@ -1196,8 +1196,9 @@ def hold_across_at_a_stop(
         return  # most samples; and the axle law has no output to turn round the axle
     c = math.cos(estimate[2])  # only past the test above: it runs every sample
     s = math.sin(estimate[2])
-    # A resting path has no tangent: the robot's heading stands in
-    # (kernels.loop.path_point); a tangent changing to or from it is no turn.
+    # A path resting since its phase began has the robot's heading there for
+    # its tangent (kernels.loop.path_point); a tangent changing to or from it
+    # is no turn.
     if turning and ((aim_now[2] == c and aim_now[3] == s) or (aim[2] == c and aim[3] == s)):
         turning = False
         if not (arriving or leaving):

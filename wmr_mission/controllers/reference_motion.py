@@ -6,7 +6,8 @@ The loop hands a controller the path at t_k and t_{k+1} (``aim_now``,
 pose at k is the point at t_k heading along its tangent; the feed-forward is
 the motion that takes the unicycle of eq. (1) from one to the other over one
 sample: speed = distance / dt, turn rate = heading change / dt. A path at rest
-gives zero feed-forward (the loop puts the robot's heading in its tangent).
+gives zero feed-forward (the loop puts the tangent it last moved along in its
+tangent).
 """
 
 from __future__ import annotations

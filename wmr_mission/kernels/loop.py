@@ -99,6 +99,9 @@ class Signals(NamedTuple):
     # The controller's memory within a phase (wmr_mission.controllers.registry);
     # zeroed at phase entry.
     memory: FloatArray
+    # (4,) the tangent a resting path keeps (path_point), then the previewed
+    # path's; NaN at phase entry: none yet.
+    held: FloatArray
     counters: IntArray  # K, ITERATIONS, DRAWS, CONDITION, CLOCK
     exit_value: FloatArray  # (1,) the value of the condition that fired
     commands: FloatArray  # (d + 1, 2) the last commands, for the input delay
@@ -230,17 +233,25 @@ def record_sample(
 
 
 @kernel
-def path_point(rows: FloatArray, row: int, heading: float, out: FloatArray) -> None:
-    """Point and unit tangent of the path block's ``row`` into ``out``; a path
-    at rest has no tangent: the robot's ``heading`` stands in."""
+def path_point(
+    rows: FloatArray, row: int, heading: float, held: FloatArray, out: FloatArray
+) -> None:
+    """Point and unit tangent of the path block's ``row`` into ``out``. A path
+    at rest has no tangent: the one it last moved along stands in (``held``,
+    kept there), or the robot's ``heading`` where the path has rested since
+    the phase began, held from then (docs/paper-notes.md, eq. (27), "A
+    resting path's tangent held")."""
     out[0] = rows[row, 0]
     out[1] = rows[row, 1]
     if rows[row, 2] != rows[row, 2]:
-        out[2] = math.cos(heading)
-        out[3] = math.sin(heading)
+        if held[0] != held[0]:
+            held[0] = math.cos(heading)
+            held[1] = math.sin(heading)
+        out[2] = held[0]
+        out[3] = held[1]
     else:
-        out[2] = rows[row, 2]
-        out[3] = rows[row, 3]
+        out[2] = held[0] = rows[row, 2]
+        out[3] = held[1] = rows[row, 3]
 
 
 def run_segment(
@@ -299,11 +310,12 @@ def run_segment(
             # The path point at t_k is recorded; the controller aims at t_{k+1}'s.
             reference_x = path.rows[row, 0]
             reference_y = path.rows[row, 1]
-            path_point(path.rows, row, estimate[2], aim_now)
-            path_point(path.rows, row + 1, estimate[2], aim)
+            held = signals.held
+            path_point(path.rows, row, estimate[2], held, aim_now)
+            path_point(path.rows, row + 1, estimate[2], held, aim)
             if path.rows.shape[1] > 4:  # the path as previewed too (sim.runner.previewed)
-                path_point(path.rows[:, 4:], row, estimate[2], aim_now[4:])
-                path_point(path.rows[:, 4:], row + 1, estimate[2], aim[4:])
+                path_point(path.rows[:, 4:], row, estimate[2], held[2:], aim_now[4:])
+                path_point(path.rows[:, 4:], row + 1, estimate[2], held[2:], aim[4:])
         x = state[0]
         y = state[1]
         theta = state[2]

@@ -711,6 +711,7 @@ class _Run:
             aim_now=np.zeros(8),
             aim=np.zeros(8),
             memory=np.zeros(m.controller.memory_size),
+            held=np.full(4, math.nan),
             counters=np.zeros(loop.CLOCK + 1, dtype=np.int64),
             exit_value=np.zeros(1),
             commands=np.zeros((self.actuation.input_delay + 1, 2)),
@@ -1021,6 +1022,7 @@ class _Run:
                 break
             active = to
             signals.memory[:] = 0.0
+            signals.held[:] = math.nan
             phase = self._enter(active, k)
             chunk, ran = active.first_chunk, 0
         return self._result(outcome, message)
@@ -1221,6 +1223,7 @@ class _Run:
         active.left_at = k - active.entry_sample + active.path_shift
         to = self.phases[decision.enter]
         self.signals.memory[:] = 0.0
+        self.signals.held[:] = math.nan
         resume = to.left_at if decision.how == "resume" else None
         return to, self._enter(to, k, resume)
 
