@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.geometry.regions import box_corners
 from wmr_mission.kernels import jit
 from wmr_mission.verdicts.nearest import NearestPoints
 from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
@@ -482,14 +483,15 @@ def track_samples(
     if zones:
         kept = numbers.body if margin is None else margin
         reference_speed = _reference_speed(length, dt)
-        reaches = [reach_across(zone, rx, ry) for zone in zones]
         # the reference's distance along its path (none for one standing still)
         arc = placement.path[0] if not placement.standing else np.zeros(rx.size)
+        ahead = _continued((rx, ry, arc), reference_speed, zones, numbers, kept)
+        reaches = [reach_across(zone, ahead[0], ahead[1]) for zone in zones]
         detour, rejoining = _detours(
             px,
             py,
-            (rx, ry, arc),
-            reference_speed,
+            ahead[:3],
+            ahead[3],
             numbers,
             list(zip(zones, reaches, strict=True)),
             kept,
@@ -519,6 +521,61 @@ def track_samples(
     if not with_samples:
         return metrics, None
     return metrics, TrackSamples(these, size, (cross, lag, judged, detour))
+
+
+# The most reference points a phase's path is continued by (:func:`_continued`).
+_CONTINUED_AT_MOST = 100_000
+
+
+def _continued(
+    reference: tuple[FloatArray, FloatArray, FloatArray],
+    reference_speed: FloatArray,
+    zones: Sequence[Zone],
+    numbers: MissionNumbers,
+    kept: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The phase's reference (its points, their distance along the path) and
+    its speed, continued past the phase's last sample straight on at its last
+    step, as far as a detour round the phase's zones may start before a zone
+    (its ramp, and the lead of half a turn and settling): the law aims along
+    the path beyond the phase's end, and a phase that ends on the ramp into a
+    detour, or in it, was judged as tracking there, against how far the zones
+    reach into its own stretch alone (a rock 0.5 m across the path judged by
+    the 0.12 m of it before the phase's end: a detour 0.515 m off failed its
+    bound of 0.274; a lap ending on the ramp: cross-track 0.35 m where 0.115
+    is allowed). A reference that rests at the phase's end is not continued."""
+    rx, ry, arc = reference
+    step = math.hypot(rx[-1] - rx[-2], ry[-1] - ry[-2]) if rx.size > 1 else 0.0
+    across = max(_size_across(zone) for zone in zones)
+    if step == 0.0 or across == 0.0:
+        return rx, ry, arc, reference_speed
+    clearance = numbers.look_ahead + numbers.tracking_tolerance + kept
+    lead = math.pi / numbers.omega_limit + SETTLING * numbers.time_constant
+    distance = across + (across + clearance) / GENTLE_SLOPE + lead * step / numbers.dt
+    count = min(math.ceil(distance / step), _CONTINUED_AT_MOST)
+    k = np.arange(1, count + 1, dtype=np.float64)
+    ux, uy = (rx[-1] - rx[-2]) / step, (ry[-1] - ry[-2]) / step
+    return (
+        np.concatenate((rx, rx[-1] + k * step * ux)),
+        np.concatenate((ry, ry[-1] + k * step * uy)),
+        np.concatenate((arc, arc[-1] + k * step)),
+        np.concatenate((reference_speed, np.full(count, reference_speed[-1]))),
+    )
+
+
+def _size_across(zone: Zone) -> float:
+    """[m] the most a keep-out zone can reach into a path that crosses it: its
+    largest extent (0 for a zone kept inside or a half-plane: no way round)."""
+    region = zone.region
+    kind = region["type"]
+    if zone.keep_inside or kind == "half-plane":
+        return 0.0
+    if kind == "circle":
+        return 2.0 * float(region["radius"])
+    if kind == "ellipse":
+        return 2.0 * float(max(region["semi_axes"]))
+    corners = box_corners(region) if kind == "box" else np.asarray(region["vertices"], float)
+    return float(np.hypot(*np.ptp(corners, axis=0)))
 
 
 def _reference_speed(length: FloatArray, dt: float) -> FloatArray:
@@ -631,18 +688,23 @@ def _detours(
     (reach 0.36 m), begun 1.4 m before its zone, was judged as tracking for
     its first 0.7 m (cross-track 0.286 m where 0.1 is allowed)."""
     rx, ry, travelled = reference
+    n = px.size  # the reference may go on past the positions (:func:`_continued`)
     clearance = numbers.look_ahead + numbers.tracking_tolerance + kept
-    blocked = np.zeros(px.size, dtype=bool)
+    blocked = np.zeros(rx.size, dtype=bool)
     for fraction in _WAY_POINTS:
-        qx, qy = px + fraction * (rx - px), py + fraction * (ry - py)
+        qx, qy = px + fraction * (rx[:n] - px), py + fraction * (ry[:n] - py)
         for zone, _ in zones:
-            blocked |= zone.depth(qx, qy, within=clearance) > -clearance
-    on_the_path = np.zeros(px.size, dtype=bool)
+            blocked[:n] |= zone.depth(qx, qy, within=clearance) > -clearance
+    on_the_path = np.zeros(rx.size, dtype=bool)
     for zone, reach in zones:
         near = zone.depth(rx, ry, within=clearance) > -clearance
-        on_the_path |= near
         if zone.keep_inside or zone.region["type"] == "half-plane":
-            continue  # no way round: it is kept along its edge
+            # no way round: it is kept along its edge, where the phase's own
+            # path meets it (the path goes on for the ramps round a zone)
+            near[n:] = False
+            on_the_path |= near
+            continue
+        on_the_path |= near
         # A gentle detour round a keep-out zone leaves its path, and comes back
         # to it, on a ramp of GENTLE_SLOPE: as far before and after the zone as
         # that takes to clear it. A slow robot's half turn covers less ground (a lawn mower at 0.15
@@ -652,16 +714,17 @@ def _detours(
     # A smooth detour starts before the path meets the zone: half a turn and settling ahead.
     lead = (math.pi / numbers.omega_limit + SETTLING * numbers.time_constant) / numbers.dt
     blocked |= _any_within(on_the_path, round(lead))
+    blocked = blocked[:n]
     window = max(1, round(MOVING_WINDOW * numbers.time_constant / numbers.dt))
     speed = _speed(px, py, numbers.dt)
-    moving = _mean_over(speed, window) >= MOVING * _mean_over(reference_speed, window)
+    moving = _mean_over(speed, window) >= MOVING * _mean_over(reference_speed[:n], window)
     detour = blocked & moving
-    rejoining = np.zeros(px.size, dtype=bool)
+    rejoining = np.zeros(n, dtype=bool)
     for k in np.flatnonzero(blocked[:-1] & ~blocked[1:]) + 1:
         gap = math.hypot(px[k] - rx[k], py[k] - ry[k])
         needed = numbers.recovery_time(gap, float(reference_speed[k]))
         end = min(int(k) + math.ceil(needed / numbers.dt - 1e-9), px.size)
-        back = _kept_up(px, py, rx, ry, numbers, int(k), end)
+        back = _kept_up(px, py, rx[:n], ry[:n], numbers, int(k), end)
         rejoining[k : end if back is None else back] = True
     return detour, rejoining
 
