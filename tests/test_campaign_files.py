@@ -181,3 +181,39 @@ def test_schema_command_prints_the_campaign_schema() -> None:
         check=True,
     )
     assert completed.stdout == campaign_schema_text()
+
+
+def test_a_campaign_says_its_mission_s_warnings_and_strict_fails_on_them(tmp_path: Path) -> None:
+    """`validate --strict` of a campaign passed a mission whose path cannot reach
+    its goal before the phase's timeout, which `validate --strict` of the mission
+    refuses; and a sweep of it said nothing before 0 of its runs succeeded."""
+    from typer.testing import CliRunner
+
+    from wmr_mission.cli import app
+
+    mission = tmp_path / "short.yaml"
+    mission.write_text(
+        "version: 1\nname: short\n"
+        "robot: {dt: 0.02, initial_state: {x: 0, y: 0, theta: 0}, limits: {v: 1.5, omega: 2.5}}\n"
+        "phases:\n"
+        "  - name: out\n"
+        "    track: {path: {type: polyline, points: [[6, 0]], speed: 0.8}}\n"
+        "    until: {near: {point: [6, 0], tolerance: 0.05}}\n"
+        "    timeout: 5\n",
+        encoding="utf-8",
+    )
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text(
+        "version: 1\nname: c\nmission: short.yaml\nruns: 3\n"
+        "vary:\n  robot.initial_state.theta: {uniform: [-0.5, 0.5]}\n",
+        encoding="utf-8",
+    )
+    loaded, diagnostics = check_campaign(campaign)
+    assert loaded is not None
+    [warning] = diagnostics
+    assert warning.severity == "warning" and warning.file == str(mission)
+    assert "never comes within 0.05 m of (6, 0)" in warning.message
+    done = CliRunner().invoke(app, ["validate", "--strict", str(campaign)])
+    assert done.exit_code == 1
+    assert f"{mission}:7:" in done.output
+    assert CliRunner().invoke(app, ["validate", str(campaign)]).exit_code == 0

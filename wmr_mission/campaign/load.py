@@ -378,7 +378,10 @@ def _check_against_mission(
     ]
     if problems:
         return None, problems
-    return loaded, []
+    # The mission's warnings, of its own values (each run's drawn values are
+    # checked as the run starts): `validate --strict` on a campaign fails on
+    # them as on the mission, and a sweep says them before it runs.
+    return loaded, [d for d in mission_diagnostics if d.severity == "warning"]
 
 
 def _set_and_varied(
