@@ -211,7 +211,8 @@ def test_a_campaign_says_its_mission_s_warnings_and_strict_fails_on_them(tmp_pat
     loaded, diagnostics = check_campaign(campaign)
     assert loaded is not None
     [warning] = diagnostics
-    assert warning.severity == "warning" and warning.file == str(mission)
+    assert warning.severity == "warning"
+    assert warning.file == str(mission)
     assert "never comes within 0.05 m of (6, 0)" in warning.message
     done = CliRunner().invoke(app, ["validate", "--strict", str(campaign)])
     assert done.exit_code == 1
