@@ -78,6 +78,22 @@ def test_draws_do_not_depend_on_the_number_of_runs(tmp_path: Path) -> None:
     assert other.draw(0) != small.draw(0)
 
 
+def test_with_grid_axes_a_run_is_shared_only_where_it_falls_in_the_same_cell() -> None:
+    # every_distribution.yaml (a grid of two estimators) as `sweep --runs 2` and `--runs 15` run it
+    campaign = load_campaign(EVERY).campaign
+    small, large = (Plan(campaign.model_copy(update={"runs": runs})) for runs in (2, 15))
+    for i in range(len(small)):
+        a, b = small.draw(i), large.draw(i)
+        # the seed and the random draws follow the run's index alone, the grid's values its cell
+        assert (a.seed, a.values["robot.initial_state.theta"]) == (
+            b.seed,
+            b.values["robot.initial_state.theta"],
+        )
+        assert (a == b) == (i // 2 == i // 15)
+    assert small.draw(2).values["estimator.type"] == "ekf"
+    assert large.draw(2).values["estimator.type"] == "constrained-observer"
+
+
 def test_grid_axes_give_every_cell_runs_times() -> None:
     plan = Plan(load_campaign(DATA / "valid" / "grid_only.yaml").campaign)
     cells = [tuple(plan.draw(i).values.values()) for i in range(len(plan))]
