@@ -796,6 +796,13 @@ def test_view_of_a_falsification_renders_without_a_console_error(tmp_path: Path)
         assert page.problems() == []
         assert page.evaluate("document.body.dataset.rendered") == "1"
         assert "falsification (gp)" in page.evaluate("document.querySelector('h1').textContent")
+        said = page.evaluate("document.querySelector('p.sub').textContent")
+    # the first failing run by its evaluation number, as the command and the table name it
+    record = json.loads((out / "falsify.json").read_text(encoding="utf-8"))
+    first = min(entry["evaluation"] for entry in record["failing"])
+    assert record["runs_to_first_failure"] == first + 1
+    runs_in = f"{first + 1} run{'s' if first else ''} in"
+    assert f"{record['failing_runs']} failing runs of 8; the first run {first} ({runs_in})" in said
 
 
 @pytest.mark.sweep

@@ -693,7 +693,10 @@
         el("span", { class: "badge " + (found ? "failed" : "success"),
           text: found ? "falsified" : r.interrupted ? "interrupted" : "no failure found" }),
         found
-          ? `${r.failing_runs} failing runs of ${r.evaluations}; the first at run ${r.runs_to_first_failure}`
+          // a run by its evaluation number, as the table and the command name it
+          ? `${r.failing_runs} failing run${r.failing_runs === 1 ? "" : "s"} of ${r.evaluations}; ` +
+            `the first run ${r.runs_to_first_failure - 1} ` +
+            `(${r.runs_to_first_failure} run${r.runs_to_first_failure === 1 ? "" : "s"} in)`
           : `no failing run within ${r.evaluations} runs (budget ${r.settings.budget}); lowest ${r.objective} ${fmt(Number(r.lowest))}`),
       el("p", { class: "sub", text: "settings: " + Object.entries(r.settings).map(([k, v]) => `${k} ${JSON.stringify(v)}`).join(" · ") }),
     );
