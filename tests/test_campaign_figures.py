@@ -1,5 +1,5 @@
-"""comparison.png, each grid cell side by side: named axes, and log-scale tick
-labels that never collide."""
+"""comparison.png, each grid cell side by side: named axes, log-scale tick
+labels that never collide, and its title clear of the panels' titles."""
 
 from __future__ import annotations
 
@@ -57,3 +57,21 @@ def test_comparison_axes_are_named_and_log_labels_never_collide(low: float, high
         shown.sort(key=lambda box: box.x0)
         for left, right in itertools.pairwise(shown):
             assert left.x1 < right.x0, ax.get_title()
+
+
+@pytest.mark.parametrize("cells", [2, 4])
+def test_comparison_title_stands_above_the_panels_titles(cells: int) -> None:
+    aggregate = _aggregate(0.01, 0.07)
+    aggregate.cells = dict(list(aggregate.cells.items())[:cells])
+    fig = _side_by_side(aggregate)
+    assert fig is not None
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    (title,) = (
+        text.get_window_extent(renderer)
+        for text in fig.texts
+        if text.get_text() == fig.get_suptitle()
+    )
+    assert title.y1 <= fig.bbox.y1  # within the image
+    for ax in fig.get_axes():
+        assert ax.title.get_window_extent(renderer).y1 < title.y0, ax.get_title()

@@ -315,7 +315,9 @@ def _side_by_side(aggregate: Aggregate) -> Any | None:
     names = [name.replace("$", r"\$") for name in names]  # data, never parsed as math
     positions = np.arange(len(cells))
     panels = ("success rate", *COMPARISON_METRICS)
-    fig = new_figure((3.2 * len(panels), 0.9 + 0.32 * len(cells)))
+    # the overall title above the panels' own: constrained layout keeps room for both
+    fig = new_figure((3.2 * len(panels), 1.2 + 0.32 * len(cells)))
+    fig.set_layout_engine("constrained", wspace=0.02)
     for index, panel in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), index + 1)
         if panel == "success rate":
@@ -353,7 +355,6 @@ def _side_by_side(aggregate: Aggregate) -> Any | None:
         "each metric over its runs",
         fontsize=9,
     )
-    fig.subplots_adjust(left=0.18, right=0.99, bottom=0.2, top=0.8, wspace=0.15)
     return fig
 
 
