@@ -58,11 +58,14 @@ def draw_campaign(
     out_dir: Path,
     formats: Sequence[str] = ("png",),
     bounds: dict[str, float] | None = None,
+    left_out: Sequence[str] = (),
 ) -> list[Path]:
     """The campaign's figures in ``out_dir``; ``bounds``: the mission-wide
-    `expect` bounds of the metrics, drawn on their histograms."""
+    `expect` bounds of the metrics, drawn on their histograms; ``left_out``:
+    the regions the campaign varies, not among ``regions``, named under the
+    trajectories."""
     figures = {
-        "trajectories": _trajectories(aggregate, regions),
+        "trajectories": _trajectories(aggregate, regions, left_out),
         "metrics": _histograms(aggregate, bounds or {}),
     }
     success = _success_over_axes(aggregate)
@@ -84,7 +87,9 @@ def _field_label(path: str) -> str:
     return f"{path} [{unit}]" if unit else path
 
 
-def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
+def _trajectories(
+    aggregate: Aggregate, regions: dict[str, Any], left_out: Sequence[str] = ()
+) -> Any:
     """Small multiples: the successes and the failures on panels of their own,
     each darker where more of its runs pass; neither hides the other."""
     fig = new_figure((11.0, 4.0))
@@ -136,6 +141,9 @@ def _trajectories(aggregate: Aggregate, regions: dict[str, Any]) -> Any:
         else ""
     )
     fig.suptitle(f"True paths, darker where more runs pass{cap}", fontsize=11)
+    if left_out:  # each run had its own: none drawn
+        names = ", ".join(left_out)
+        fig.text(0.5, 0.01, f"not drawn: {names}, varied by the campaign", ha="center", fontsize=9)
     return fig
 
 

@@ -684,7 +684,25 @@ def _draw(loaded: LoadedCampaign, aggregate: Aggregate, out_dir: Path, plots: bo
         from wmr_mission.campaign.figures import draw_campaign
 
         mission = _mission(loaded)
-        draw_campaign(aggregate, mission["regions"], out_dir, bounds=_bounds(mission))
+        varied = _varied_regions(loaded.campaign.vary, mission["regions"])
+        drawn = {name: r for name, r in mission["regions"].items() if name not in varied}
+        draw_campaign(aggregate, drawn, out_dir, bounds=_bounds(mission), left_out=varied)
+
+
+def _varied_regions(vary: Mapping[str, Any], regions: Mapping[str, Any]) -> list[str]:
+    """The regions a campaign varies (a field of theirs, or all of them): each
+    run has its own, and the mission's as written would show the runs'
+    paths through a zone none of them met where it is drawn."""
+    varied: list[str] = []
+    for path in vary:
+        head, _, rest = path.partition(".")
+        if head.split("[", 1)[0] != "regions":
+            continue
+        name = rest.split(".", 1)[0].split("[", 1)[0]
+        for each in regions if not name else [name]:
+            if each in regions and each not in varied:
+                varied.append(each)
+    return varied
 
 
 def _prepare(
