@@ -240,3 +240,45 @@ def test_a_version_is_found_on_the_path_as_importlib_finds_it(
     with pytest.raises(metadata.PackageNotFoundError):
         metadata.version("no-such-package")
     assert installed_version("no-such-package") is None
+
+
+def test_a_replay_carries_the_mission_s_digest_and_run_warns_when_the_file_changed(
+    tmp_path: Path,
+) -> None:
+    """A replay line ran an edited mission without a word: the campaign's
+    numbers did not come back, and nothing said why. It carries the start of
+    the mission file's sha256, and `run` says in one line when the file's
+    differs (still a run: the user may mean the edit)."""
+    import hashlib
+
+    from typer.testing import CliRunner
+
+    from wmr_mission.campaign.load import MISSION_DIGITS, replay_line
+    from wmr_mission.cli import app
+
+    mission = tmp_path / "short.yaml"
+    mission.write_bytes((DATA / "short.yaml").read_bytes())
+    digest = hashlib.sha256(mission.read_bytes()).hexdigest()
+    line = replay_line(str(mission), [], {}, 5, own_fingerprint(), digest)
+    words = shlex.split(line)
+    at = words.index("--expect-mission")
+    assert words[at + 1] == digest[:MISSION_DIGITS]
+    assert words[-2:] == ["--expect-environment", own_fingerprint()]
+
+    def replayed(out: str) -> list[str]:
+        done = CliRunner().invoke(app, [*words[1:], "--out", str(tmp_path / out), "--no-plots"])
+        assert done.exit_code in (0, 1), done.output
+        return [s for s in done.stderr.splitlines() if "not the file the command" in s]
+
+    assert replayed("same") == []
+    mission.write_text(mission.read_text(encoding="utf-8") + "# edited\n", encoding="utf-8")
+    [warning] = replayed("edited")
+    now = hashlib.sha256(mission.read_bytes()).hexdigest()
+    assert warning == (
+        f"wmr-mission: warning: {mission} is not the file the command was recorded with "
+        f"(its sha256 begins {now[:MISSION_DIGITS]}, not {digest[:MISSION_DIGITS]}): "
+        "this run does not replay the recorded one"
+    )
+    refused = CliRunner().invoke(app, ["run", str(mission), "--expect-mission", "xyz"])
+    assert refused.exit_code == 2
+    assert refused.stderr.startswith("--expect-mission xyz: not the start of a sha256")

@@ -12,6 +12,7 @@ import atexit
 import gc
 import io
 import os
+import re
 import sys
 import warnings
 from collections.abc import Sequence
@@ -250,6 +251,16 @@ def run(
             "replay commands carry it); a one-line warning when this one differs.",
         ),
     ] = None,
+    expect_mission: Annotated[
+        str | None,
+        typer.Option(
+            "--expect-mission",
+            metavar="DIGEST",
+            help="The first hexadecimal digits of the sha256 of the mission file the command "
+            "was recorded with (a campaign's replay commands carry them); a one-line warning "
+            "when MISSION's differ.",
+        ),
+    ] = None,
     backend: Annotated[
         BackendName | None,
         typer.Option(
@@ -265,6 +276,8 @@ def run(
 
     if expect_environment is not None:
         _check_fingerprint(expect_environment)
+    if expect_mission is not None:
+        _check_mission_digest(expect_mission)
 
     raise typer.Exit(
         run_command(
@@ -276,6 +289,7 @@ def run(
             overrides=set_ or (),
             formats=_formats(format),
             expected_environment=expect_environment,
+            expected_mission=expect_mission,
             backend=None if backend is None else backend.value,
         )
     )
@@ -290,6 +304,18 @@ def _check_fingerprint(text: str) -> None:
         print(
             f"--expect-environment {shown(text)}: not a fingerprint: 8 hexadecimal digits "
             "(0-9, a-f), as a campaign's replay commands write it",
+            file=sys.stderr,
+        )
+        raise typer.Exit(2)
+
+
+def _check_mission_digest(text: str) -> None:
+    """``--expect-mission`` takes the start of a sha256 as a campaign's replay
+    line writes it (8 to 64 hexadecimal digits), and nothing else (exit 2)."""
+    if re.fullmatch(r"[0-9a-f]{8,64}", text) is None:
+        print(
+            f"--expect-mission {shown(text)}: not the start of a sha256: 8 to 64 hexadecimal "
+            "digits (0-9, a-f), as a campaign's replay commands write it",
             file=sys.stderr,
         )
         raise typer.Exit(2)

@@ -153,16 +153,26 @@ def replay_line(
     values: Mapping[str, Any],
     seed: int | str,
     fingerprint: str,
+    mission_sha256: str | None = None,
 ) -> str:
     """The one-line ``wmr-mission run`` command of a campaign's run: the
-    campaign's settings (``PATH=VALUE``) first, then the run's drawn values."""
+    campaign's settings (``PATH=VALUE``) first, then the run's drawn values;
+    ``mission_sha256``: the mission file's as the campaign read it, whose first
+    MISSION_DIGITS ``run`` compares (``--expect-mission``)."""
     words = ["wmr-mission", "run", mission_file]
     for setting in settings:
         words += ["--set", setting]
     for path, value in values.items():
         words += ["--set", f"{path}={value_text(value)}"]
-    words += ["--seed", str(seed), "--expect-environment", fingerprint]
+    words += ["--seed", str(seed)]
+    if mission_sha256 is not None:
+        words += ["--expect-mission", mission_sha256[:MISSION_DIGITS]]
+    words += ["--expect-environment", fingerprint]
     return shlex.join(words)
+
+
+# The hexadecimal digits of a mission file's sha256 a replay line carries.
+MISSION_DIGITS: Final = 16
 
 
 def override(path: str, value: Any) -> Override:

@@ -13,6 +13,7 @@ import csv
 import io
 import json
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final
@@ -63,6 +64,7 @@ class CampaignDir:
             self.values[index],
             self.rows[index][1],
             str(self.manifest["environment"]["fingerprint"]),
+            _sha256(self.manifest),
         )
 
     def column_types(self) -> dict[str, str]:
@@ -255,3 +257,10 @@ def cell_value(cell: str, kind: str) -> Any:
     if kind == "bool":
         return cell == "true"
     return cell
+
+
+def _sha256(manifest: Mapping[str, Any]) -> str | None:
+    """The mission file's sha256 a campaign's manifest records (None in a
+    record without it)."""
+    found = manifest.get("mission_sha256")
+    return found if isinstance(found, str) else None

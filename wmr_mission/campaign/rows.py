@@ -258,4 +258,5 @@ def replay_command(loaded: LoadedCampaign, draw: Draw) -> str:
         draw.values,
         draw.seed,
         own_fingerprint(),
+        loaded.mission_sha256,
     )

@@ -88,6 +88,7 @@ def run_command(
     overrides: Sequence[str] = (),
     formats: Sequence[str] = ("png",),
     expected_environment: str | None = None,
+    expected_mission: str | None = None,
     backend: str | None = None,
 ) -> int:
     """Exit code: 0 success; 1 invalid mission or failed run; 2 unusable run
@@ -95,6 +96,7 @@ def run_command(
 
     ``overrides``: ``PATH=VALUE`` texts of ``--set``; ``formats``: figure formats;
     ``expected_environment``: the fingerprint of ``--expect-environment``;
+    ``expected_mission``: the start of the sha256 of ``--expect-mission``;
     ``backend``: the plant (``--backend``), else the mission's ``backend.type``.
     """
     with _stop_signals() as received:
@@ -126,6 +128,13 @@ def run_command(
             if mission is None or source is None:
                 return EXIT_FAILED
             sha256 = hashlib.sha256(source).hexdigest()
+            if expected_mission is not None and not sha256.startswith(expected_mission):
+                print(
+                    f"wmr-mission: warning: {mission_path} is not the file the command was "
+                    f"recorded with (its sha256 begins {sha256[: len(expected_mission)]}, not "
+                    f"{expected_mission}): this run does not replay the recorded one",
+                    file=sys.stderr,
+                )
             args = (mission, sha256, mission_path, out, seed, plots, animate, formats, received)
             name = backend or mission.backend.type
             code = _run(*args) if name == "sim" else _run_on_backend(name, *args)

@@ -116,7 +116,10 @@ def falsification_meta(directory: Path) -> dict[str, Any]:
             replays.append(f"wmr-mission run {mission.resolve()}")
             continue
         values = {path: _value(cell) for path, cell in zip(paths, row[3:-4], strict=True)}
-        replays.append(replay_line(str(manifest["mission_file"]), [], values, row[1], fingerprint))
+        sha256 = manifest.get("mission_sha256")
+        digest = sha256 if isinstance(sha256, str) else None
+        mission_file = str(manifest["mission_file"])
+        replays.append(replay_line(mission_file, [], values, row[1], fingerprint, digest))
     figures = [
         {"name": name, "png": base64.b64encode((directory / name).read_bytes()).decode("ascii")}
         for name in (MARGINS_FIGURE, REGION_FIGURE)

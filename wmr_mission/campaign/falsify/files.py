@@ -102,6 +102,7 @@ def replay(loaded: LoadedCampaign, evaluation: Evaluation) -> str:
         evaluation.values,
         evaluation.seed,
         own_fingerprint(),
+        loaded.mission_sha256,
     )
 
 
