@@ -68,8 +68,8 @@ def fused(
     u = signals.u
     row = signals.counters[loop.K] - phase.entry_sample - path.start
     for i in range(samples):
-        path_point(path.rows, row + i, estimate[2], signals.aim_now)
-        path_point(path.rows, row + i + 1, estimate[2], signals.aim)
+        path_point(path.rows, row + i, estimate[2], signals.held, signals.aim_now)
+        path_point(path.rows, row + i + 1, estimate[2], signals.held, signals.aim)
         started = TICKS() if timed else 0
         control_step(
             controller, phase, signals.aim_now, signals.aim, estimate, signals.estimate_prev,
