@@ -50,3 +50,67 @@ def test_a_phase_that_ends_in_a_detour_is_judged_by_the_whole_zone(first: float)
     assert offset > 0.5
     assert tracking["detour_offset_max"] == pytest.approx(offset, abs=0.02)
     assert tracking["zone_reach"] >= 0.5  # the rock's radius, through its centre
+
+
+# A line at 0.5 m/s for 6 s, ending at (3, 0) still moving; then another phase
+# turns away. ZONES and CONSTRAINTS: the first phase's.
+ENDS_MOVING = """\
+version: 1
+name: a-line-that-turns-away
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 0}
+  limits: {v: 1, omega: 2}
+regions:
+ZONES
+phases:
+  - name: a
+    track: {path: {type: line, towards: [10, 0], speed: 0.5}}
+    constraints: CONSTRAINTS
+    until: {elapsed: 6}
+  - name: b
+    track: {path: {type: line, towards: [3, -5], speed: 0.5}}
+    until: {elapsed: 8}
+"""
+
+
+def _spoiled(zones: str, constraints: str, drift: np.ndarray) -> dict[str, object]:
+    """The first phase's tracking, judged with its recorded y moved by
+    ``drift`` (a function of t): a robot that left its path there."""
+    text = ENDS_MOVING.replace("ZONES", zones).replace("CONSTRAINTS", constraints)
+    mission = mission_from_text(text)
+    result = run_mission(mission)
+    assert judge(result, mission)["outcome"] == "success"  # as driven
+    result.y[:] = result.y + drift(result.t) * (result.phase == 0)
+    return judge(result, mission)
+
+
+def test_a_zone_only_the_path_s_continuation_meets_excuses_nothing() -> None:
+    """A rock 1.2 m past the first phase's end, on its straight continuation
+    only: the law never goes round it (the next phase turns away), so a robot
+    0.5 m off its path over the phase's last second is off its path, not on
+    a detour's ramp (it was excused: a success)."""
+    summary = _spoiled(
+        "  rock: {type: circle, center: [4.2, 0], radius: 0.5}",
+        "[{stay_outside: rock}]",
+        lambda t: np.clip((t - 5.0) / 0.3, 0.0, 1.0) * 0.5,
+    )
+    assert summary["outcome"] == "expect-failed"
+    assert summary["phases"][0]["tracking"]["cross_track_error_max"] == pytest.approx(0.5)
+
+
+def test_a_keep_in_region_s_depth_past_its_edge_widens_no_detour_bound() -> None:
+    """The path continued past the first phase's end runs out of the arena it
+    keeps inside: its depth there counted as a zone's reach into the path
+    (2.985 m where the rock's is 0.35), and a detour 1.1 m wide round a rock
+    0.6 m across passed its bound."""
+    summary = _spoiled(
+        "  rock: {type: circle, center: [1.5, 0], radius: 0.3}\n"
+        "  arena: {type: box, min: [-1, -6], max: [3.3, 1]}",
+        "[{stay_outside: rock}, {stay_inside: arena}]",
+        lambda t: -1.2 * np.exp(-(((t - 4.6) / 0.4) ** 2)),
+    )
+    tracking = summary["phases"][0]["tracking"]
+    assert tracking["zone_reach"] < 0.5
+    assert summary["outcome"] == "expect-failed"
+    assert tracking["detour_offset_max"] > 1.0

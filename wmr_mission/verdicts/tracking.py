@@ -485,8 +485,21 @@ def track_samples(
         reference_speed = _reference_speed(length, dt)
         # the reference's distance along its path (none for one standing still)
         arc = placement.path[0] if not placement.standing else np.zeros(rx.size)
-        ahead = _continued((rx, ry, arc), reference_speed, zones, numbers, kept)
-        reaches = [reach_across(zone, ahead[0], ahead[1]) for zone in zones]
+        going = [_goes_round(zone, rx, ry, numbers, kept) for zone in zones]
+        ahead = _continued(
+            (rx, ry, arc),
+            reference_speed,
+            [z for z, g in zip(zones, going, strict=True) if g],
+            numbers,
+            kept,
+        )
+        # a zone's reach along the path continued only where the law goes
+        # round it: a keep-in region's depth past its edge, or a zone the
+        # phase's own path never meets, widened its bound
+        reaches = [
+            reach_across(zone, *(ahead[:2] if g else (rx, ry)))
+            for zone, g in zip(zones, going, strict=True)
+        ]
         detour, rejoining = _detours(
             px,
             py,
@@ -536,8 +549,9 @@ def _continued(
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """The phase's reference (its points, their distance along the path) and
     its speed, continued past the phase's last sample straight on at its last
-    step, as far as a detour round the phase's zones may start before a zone
-    (its ramp, and the lead of half a turn and settling): the law aims along
+    step, as far as a detour round ``zones`` (those the law goes round,
+    :func:`_goes_round`) may start before a zone (its ramp, and the lead of
+    half a turn and settling): the law aims along
     the path beyond the phase's end, and a phase that ends on the ramp into a
     detour, or in it, was judged as tracking there, against how far the zones
     reach into its own stretch alone (a rock 0.5 m across the path judged by
@@ -546,7 +560,7 @@ def _continued(
     is allowed). A reference that rests at the phase's end is not continued."""
     rx, ry, arc = reference
     step = math.hypot(rx[-1] - rx[-2], ry[-1] - ry[-2]) if rx.size > 1 else 0.0
-    across = max(_size_across(zone) for zone in zones)
+    across = max((_size_across(zone) for zone in zones), default=0.0)
     if step == 0.0 or across == 0.0:
         return rx, ry, arc, reference_speed
     clearance = numbers.look_ahead + numbers.tracking_tolerance + kept
@@ -561,6 +575,21 @@ def _continued(
         np.concatenate((arc, arc[-1] + k * step)),
         np.concatenate((reference_speed, np.full(count, reference_speed[-1]))),
     )
+
+
+def _goes_round(
+    zone: Zone, rx: FloatArray, ry: FloatArray, numbers: MissionNumbers, kept: float
+) -> bool:
+    """Whether the law goes round ``zone`` past the phase's end (the path
+    continued, :func:`_continued`): a zone with a way round that the phase's
+    own path meets (the runner finds the ways round the zones a phase's path
+    meets, and the law goes round those alone); not one only its straight
+    continuation would meet: a robot that left its path there was judged
+    as detouring round a zone it never went near."""
+    if zone.keep_inside or zone.region["type"] == "half-plane" or rx.size < 2:
+        return False
+    clearance = numbers.look_ahead + numbers.tracking_tolerance + kept
+    return bool(np.any(zone.depth(rx, ry, within=clearance) > -clearance))
 
 
 def _size_across(zone: Zone) -> float:
@@ -698,12 +727,13 @@ def _detours(
     on_the_path = np.zeros(rx.size, dtype=bool)
     for zone, reach in zones:
         near = zone.depth(rx, ry, within=clearance) > -clearance
-        if zone.keep_inside or zone.region["type"] == "half-plane":
-            # no way round: it is kept along its edge, where the phase's own
-            # path meets it (the path goes on for the ramps round a zone)
+        if reach.size == n:
+            # not gone round past the phase's end (_goes_round): where the
+            # phase's own path meets it, if it does
             near[n:] = False
+        if zone.keep_inside or zone.region["type"] == "half-plane":
             on_the_path |= near
-            continue
+            continue  # no way round: it is kept along its edge
         on_the_path |= near
         # A gentle detour round a keep-out zone leaves its path, and comes back
         # to it, on a ramp of GENTLE_SLOPE: as far before and after the zone as
