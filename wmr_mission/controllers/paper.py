@@ -1308,6 +1308,14 @@ def next_input(
             # two samples (constrained_tracking.ramped_offset).
             before_x = memory[AIM_OFFSET]
             before_y = memory[AIM_OFFSET + 1]
+            if memory[DIRECTION] == 0.0:
+                # The phase's first sample: the offset its zones ask for, not
+                # ramped up from none. A lap of a repeat entered mid-detour
+                # had its aim pulled back towards the zone it was going
+                # round: the robot crept up to it, stopped and reversed, its
+                # turn rate jumping 2.39 rad/s where 2 was allowed.
+                before_x = aim_now[0] - path_x
+                before_y = aim_now[1] - path_y
             offset_x, offset_y = ramped_offset(
                 aim_now[0] - path_x, aim_now[1] - path_y, before_x, before_y, path_step
             )
