@@ -251,3 +251,35 @@ phases:
     assert ready == []
     assert run_mission(mission, ready=lambda: ready.append(1)).outcome is Outcome.success
     assert ready == [1]
+
+
+def test_ctrl_c_among_the_command_line_s_imports_kills_without_a_traceback() -> None:
+    """The program's first module gives SIGINT its default action before the
+    command line imports anything: a Ctrl-C among those imports printed their
+    KeyboardInterrupt traceback (25 of 60 stops sent 5-150 ms into
+    `validate`). A library user's Ctrl-C stays Python's KeyboardInterrupt."""
+    from importlib.metadata import entry_points
+
+    [script] = [e for e in entry_points(group="console_scripts") if e.name == "wmr-mission"]
+    assert script.value == "wmr_mission._start:program"
+    stopped = subprocess.run(
+        [
+            sys.executable, "-c",
+            "import os, signal, time, wmr_mission._start\n"
+            "os.kill(os.getpid(), signal.SIGINT)\n"
+            "import wmr_mission.cli\n"
+            "time.sleep(30)\n",
+        ],
+        capture_output=True, text=True, timeout=60, env=the_tests_package(dict(os.environ)),
+    )  # fmt: skip
+    assert stopped.returncode == -signal.SIGINT
+    assert "Traceback" not in stopped.stderr
+    library = subprocess.run(
+        [
+            sys.executable, "-c",
+            "import signal, wmr_mission, wmr_mission.api\n"
+            "assert signal.getsignal(signal.SIGINT) is signal.default_int_handler\n",
+        ],
+        capture_output=True, text=True, timeout=60, env=the_tests_package(dict(os.environ)),
+    )  # fmt: skip
+    assert library.returncode == 0, library.stderr

@@ -1,3 +1,3 @@
-from wmr_mission.cli import program
+from wmr_mission._start import program
 
 program()
