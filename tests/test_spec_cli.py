@@ -172,3 +172,29 @@ def test_validate_does_not_import_plotting_scipy_or_numba() -> None:
     )
     assert completed.returncode == 0, completed.stderr
     assert completed.stdout.splitlines()[-1] == "0 []"
+
+
+@pytest.mark.parametrize("text", ["null\n", "~\n", "---\n", "null\n...\n"])
+def test_a_file_holding_only_null_is_no_mission_for_any_command(tmp_path: Path, text: str) -> None:
+    from wmr_mission.spec.loader import MissionError, load_mission
+
+    path = tmp_path / "n.yaml"
+    path.write_text(text, encoding="utf-8")
+    expected = f"{path}:1:1: the file holds only null: expected a mission mapping"
+    for arguments in ([], ["--strict"]):
+        code, out, _ = _validate(str(path), *arguments)
+        assert code == 1
+        assert out.splitlines()[0] == expected
+    code, out, _ = _validate(str(path), "--format", "json")
+    assert code == 1
+    assert json.loads(out)["valid"] is False
+    ran = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "run", str(path), "--out", str(tmp_path / "run")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert ran.returncode == 1
+    assert expected in ran.stderr
+    with pytest.raises(MissionError, match="expected a mission mapping"):
+        load_mission(path)

@@ -209,6 +209,10 @@ def test_warnings_do_not_stop_loading() -> None:
     ("text", "message"),
     [
         ("", "the file is empty"),
+        ("null\n", "the file holds only null: expected a mission mapping"),
+        ("~\n", "the file holds only null: expected a mission mapping"),
+        ("---\n", "the file holds only null: expected a mission mapping"),
+        ("null\n...\n", "the file holds only null: expected a mission mapping"),
         ("- 1\n- 2\n", "a mission is a mapping"),
         ("42\n", "a mission is a mapping"),
         ("version: [\n", "YAML syntax error"),

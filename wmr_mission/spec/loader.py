@@ -526,6 +526,8 @@ def read_document(text: str) -> tuple[Document | None, list[Finding]]:
     builder = _Builder(document)
     document.data = builder.build(node, ())
     findings = builder.findings
+    if document.data is None and not findings:  # `null`, `~`, `---` alone: no mission either
+        return None, [Finding((), "the file holds only null: expected a mission mapping")]
     if document.data is not None and not isinstance(document.data, dict):
         findings.append(
             Finding((), "a mission is a mapping of keys (version, name, robot, ..., phases)")
