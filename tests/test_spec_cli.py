@@ -198,3 +198,20 @@ def test_a_file_holding_only_null_is_no_mission_for_any_command(tmp_path: Path, 
     assert expected in ran.stderr
     with pytest.raises(MissionError, match="expected a mission mapping"):
         load_mission(path)
+
+
+def test_a_mission_file_that_cannot_be_read_is_an_io_fault_exit_2(tmp_path: Path) -> None:
+    device = "/dev/null"  # a character device: exists, and is no regular file
+    said = f"{device}:1:1: cannot read the file: it is a device or socket, not a regular file"
+    ran = subprocess.run(
+        [sys.executable, "-m", "wmr_mission", "run", device, "--out", str(tmp_path / "run")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert (ran.returncode, ran.stderr.strip()) == (2, said)
+    assert not (tmp_path / "run").exists()
+    code, out, _ = _validate(device, str(CASES[0]))
+    assert code == 2
+    assert out.splitlines()[0] == said
+    assert f"{CASES[0]}: ok" in out.splitlines()

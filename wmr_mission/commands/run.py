@@ -39,6 +39,7 @@ if TYPE_CHECKING:
 # Exit codes (README, docs/reliability.md).
 EXIT_FAILED = 1  # invalid mission, or the run failed
 EXIT_RUN_DIR = 2  # the run directory cannot be made or written
+EXIT_UNREADABLE = 2  # the mission file cannot be read (a device, a read error)
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
@@ -91,8 +92,9 @@ def run_command(
     expected_mission: str | None = None,
     backend: str | None = None,
 ) -> int:
-    """Exit code: 0 success; 1 invalid mission or failed run; 2 unusable run
-    directory; 130 or 143 stopped by SIGINT or SIGTERM (its record is written).
+    """Exit code: 0 success; 1 invalid mission or failed run; 2 unreadable
+    mission file or unusable run directory; 130 or 143 stopped by SIGINT or
+    SIGTERM (its record is written).
 
     ``overrides``: ``PATH=VALUE`` texts of ``--set``; ``formats``: figure formats;
     ``expected_environment``: the fingerprint of ``--expect-environment``;
@@ -103,7 +105,7 @@ def run_command(
         if expected_environment is not None:
             _check_environment(expected_environment)
         from wmr_mission.spec.checks import importing_entries
-        from wmr_mission.spec.loader import check_mission_bytes, read_source
+        from wmr_mission.spec.loader import check_mission_bytes, read_source, unreadable
 
         try:
             parsed = _overrides(overrides)
@@ -125,6 +127,8 @@ def run_command(
             for diagnostic in diagnostics:  # warnings too, as `validate` prints them
                 print(diagnostic, file=sys.stderr)
             _honour_stop()
+            if source is None and unreadable(diagnostics):
+                return EXIT_UNREADABLE
             if mission is None or source is None:
                 return EXIT_FAILED
             sha256 = hashlib.sha256(source).hexdigest()

@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from wmr_mission.commands.run import EXIT_FAILED, STOP_SIGNALS
+from wmr_mission.commands.run import EXIT_FAILED, EXIT_UNREADABLE, STOP_SIGNALS
 
 
 def serve_robot_command(
@@ -17,7 +17,7 @@ def serve_robot_command(
     updates on time are published as plans (wmr_mission.backends.robot.ScriptedPlans)."""
     from wmr_mission.backends import BackendError
     from wmr_mission.sim.plan import plan_mission
-    from wmr_mission.spec.loader import check_mission_bytes, read_source
+    from wmr_mission.spec.loader import check_mission_bytes, read_source, unreadable
     from wmr_mission.stopping import StopSignals
 
     with StopSignals(STOP_SIGNALS) as stop:
@@ -32,6 +32,8 @@ def serve_robot_command(
                     checked, diagnostics = check_mission_bytes(source, str(path), [])
                 for diagnostic in diagnostics:
                     print(diagnostic, file=sys.stderr)
+                if source is None and unreadable(diagnostics):
+                    return EXIT_UNREADABLE
                 if checked is None:
                     return EXIT_FAILED
                 missions.append(checked)

@@ -11,7 +11,7 @@ from typing import Literal
 
 from wmr_mission.commands import start_up_done
 from wmr_mission.spec.checks import importing_entries
-from wmr_mission.spec.loader import Diagnostic
+from wmr_mission.spec.loader import Diagnostic, unreadable
 
 __all__ = ["validate_files"]
 
@@ -72,7 +72,7 @@ def validate_files(
 ) -> int:
     """Check every file; 0 when all are valid (warnings allowed unless
     ``strict``; notes always), 1 otherwise, 2 when an argument names nothing
-    (the files it does name checked all the same).
+    or a file cannot be read, a device (the others checked all the same).
 
     A directory stands for every ``*.yaml`` and ``*.yml`` below it. A ``type:
     python`` entry is checked for its syntax only, unless ``check_entries``:
@@ -86,6 +86,7 @@ def validate_files(
     files, problems = mission_files(paths)
     reports = []
     all_valid = not problems
+    cannot_read = False  # a file named that cannot be read (a device): an I/O fault
     if fmt == "text":
         for problem in problems:
             sys.stdout.write(f"{problem}\n")
@@ -98,6 +99,7 @@ def validate_files(
         failing = ("error", "warning") if strict else ("error",)
         valid = not any(d.severity in failing for d in diagnostics)
         all_valid = all_valid and valid
+        cannot_read = cannot_read or unreadable(diagnostics)
         reports.append((str(path), valid, diagnostics))
         if fmt == "text":
             for diagnostic in diagnostics:
@@ -118,6 +120,6 @@ def validate_files(
             ],
         }
         sys.stdout.write(json.dumps(document, indent=2) + "\n")
-    if any(problem.message != NO_FILES for problem in problems):
-        return 2  # a path that names nothing, or cannot be looked at: a usage error
+    if cannot_read or any(problem.message != NO_FILES for problem in problems):
+        return 2  # a path that names nothing, or cannot be looked at or read: a usage error
     return 0 if all_valid else 1

@@ -64,6 +64,7 @@ __all__ = [
     "parse_override",
     "read_source",
     "resolved_path",
+    "unreadable",
     "validate_mission",
 ]
 
@@ -1082,6 +1083,16 @@ def check_mission_document(
         return None, [internal_error(filename, error)]
 
 
+# How a file that cannot be read at all (a device, a directory, a read error)
+# is said: an I/O fault (exit 2), where a file read but refused is invalid (exit 1).
+CANNOT_READ: Final = "cannot read the file"
+
+
+def unreadable(diagnostics: Sequence[Diagnostic]) -> bool:
+    """Whether ``diagnostics`` (of :func:`read_source`) say the file could not be read."""
+    return any(d.message.startswith(CANNOT_READ) for d in diagnostics)
+
+
 def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
     """The bytes of a mission file, read once: a run hashes and runs these very bytes.
 
@@ -1093,7 +1104,7 @@ def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
         info = os.stat(path)
         if not (stat.S_ISREG(info.st_mode) or stat.S_ISFIFO(info.st_mode)):
             kind = "a directory" if stat.S_ISDIR(info.st_mode) else "a device or socket"
-            message = f"cannot read the file: it is {kind}, not a regular file"
+            message = f"{CANNOT_READ}: it is {kind}, not a regular file"
             return None, [Diagnostic(filename, 1, 1, message)]
         if info.st_size > MAX_FILE_BYTES:
             return None, [
@@ -1104,9 +1115,7 @@ def read_source(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
         with os.fdopen(descriptor, "rb") as stream:
             raw = stream.read(MAX_FILE_BYTES + 1)
     except OSError as error:
-        return None, [
-            Diagnostic(filename, 1, 1, f"cannot read the file: {error.strerror or error}")
-        ]
+        return None, [Diagnostic(filename, 1, 1, f"{CANNOT_READ}: {error.strerror or error}")]
     if len(raw) > MAX_FILE_BYTES:
         return None, [
             Diagnostic(filename, 1, 1, f"file too large: more than {MAX_FILE_BYTES} bytes")
