@@ -246,3 +246,21 @@ def test_a_pipe_is_never_replaced_and_a_link_is_written_through(
     assert "is a loop of symbolic links" in result.stderr
     assert loop_a.is_symlink()
     assert loop_b.is_symlink()
+
+
+def test_an_out_below_a_file_is_said_to_be_below_no_directory(tmp_path: Path) -> None:
+    """`--out afile/sub`: the file is named as no directory, not "File exists"."""
+    afile = tmp_path / "afile"
+    afile.write_text("mine\n", encoding="utf-8")
+    park = Path(__file__).parent / "data" / "falsify" / "park-campaign.yaml"
+    for arguments in (
+        ["run", str(MISSION), "--no-plots"],
+        ["sweep", str(CAMPAIGN), "--no-plots"],
+        ["falsify", str(park), "--budget", "2", "--no-plots"],
+    ):
+        for out in (afile / "sub", afile / "new" / "sub"):
+            result = CliRunner().invoke(app, [*arguments, "--out", str(out)])
+            assert result.exit_code == 2, result.output
+            assert f"{afile} is not a directory; choose another --out" in result.output
+            assert "File exists" not in result.output
+    assert afile.read_text(encoding="utf-8") == "mine\n"

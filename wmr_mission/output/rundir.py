@@ -35,6 +35,7 @@ import numpy as np
 from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_json
 from wmr_mission.record import INTEGER_COLUMNS, csv_columns
+from wmr_mission.terminal import shown
 from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.metrics import check_expectations, summarize
 from wmr_mission.verdicts.recovery import recovery_record
@@ -96,6 +97,12 @@ def prepare_run_dir(path: str | os.PathLike[str], *, suffix_on_collision: bool =
         raise RunDirExistsError(
             f"is inside the record in {record}, which keeps its own files; choose another --out"
         )
+    for above in run_dir.parents:  # the nearest that exists: a file there is no place
+        if above.is_dir():
+            break
+        if above.exists() or above.is_symlink():
+            message = f"{shown(str(above))} is not a directory; choose another --out"
+            raise NotADirectoryError(message)
     run_dir.parent.mkdir(parents=True, exist_ok=True)
     for number in range(1, 10_000):
         candidate = run_dir if number == 1 else run_dir.with_name(f"{run_dir.name}-{number}")
