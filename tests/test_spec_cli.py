@@ -215,3 +215,27 @@ def test_a_mission_file_that_cannot_be_read_is_an_io_fault_exit_2(tmp_path: Path
     assert code == 2
     assert out.splitlines()[0] == said
     assert f"{CASES[0]}: ok" in out.splitlines()
+
+
+def test_every_file_name_validate_prints_is_escaped(tmp_path: Path) -> None:
+    """A file name holding a newline cannot forge a line `FILE: ok`."""
+    forge = tmp_path / "forge"
+    (forge / "missions").mkdir(parents=True)
+    (forge / "missions" / "patrol.yaml: ok\nbad.yaml").write_text(
+        SEVERAL_MISTAKES, encoding="utf-8"
+    )
+    (forge / "missions" / "title\x1b]0;T\x07.yaml").write_text(
+        (ROOT / "tests" / "data" / "missions" / "valid" / "minimal.yaml").read_text("utf-8"),
+        encoding="utf-8",
+    )
+    code, out, _ = _validate(str(forge))
+    assert code == 1
+    lines = out.splitlines()
+    assert f"{forge}/missions/patrol.yaml: ok" not in lines
+    assert not any(line.startswith("bad.yaml") for line in lines)
+    assert "\x1b" not in out
+    assert "\x07" not in out
+    assert lines[-1] == f"{forge}/missions/title\\x1b]0;T\\x07.yaml: ok"
+    escaped = f"{forge}/missions/patrol.yaml: ok\\x0abad.yaml"
+    summary = "2 errors, checks across fields (observability, timing, paths) run once fixed"
+    assert lines[-2] == f"{escaped}: {summary}"

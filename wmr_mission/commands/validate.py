@@ -12,6 +12,7 @@ from typing import Literal
 from wmr_mission.commands import start_up_done
 from wmr_mission.spec.checks import importing_entries
 from wmr_mission.spec.loader import Diagnostic, unreadable
+from wmr_mission.terminal import shown
 
 __all__ = ["validate_files"]
 
@@ -104,7 +105,8 @@ def validate_files(
         if fmt == "text":
             for diagnostic in diagnostics:
                 sys.stdout.write(f"{diagnostic}\n")
-            sys.stdout.write(f"{path}: {_summary(diagnostics, strict)}\n")
+            # one line, whatever the file's name holds (as the diagnostics above)
+            sys.stdout.write(f"{shown(str(path), None)}: {_summary(diagnostics, strict)}\n")
     if fmt == "json":
         document = {
             "valid": all_valid,
