@@ -376,3 +376,15 @@ print(models.Mission.__pydantic_complete__, mission.phases[0].name)
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines() == ["True ['Threshold']", "True spiral-out"]
+
+
+@pytest.mark.parametrize("side", ["stay_inside", "stay_outside"])
+def test_a_polygon_crossing_itself_is_refused_as_such_alone(side: str) -> None:
+    """Kept inside as kept outside: its edges bound nothing, so nothing else is
+    said of what is inside it (no "do not overlap", no "initial_state outside")."""
+    path = Path(__file__).parent / "data" / "missions" / "invalid"
+    text = (path / "polygon_crossing_itself_kept_inside.yaml").read_text(encoding="utf-8")
+    _, diagnostics = check_mission_text(text.replace("stay_inside", side), "bow.yaml")
+    assert [(d.line, d.column, d.message.split(":")[0]) for d in diagnostics] == [
+        (7, 15, "polygon 'bow' crosses itself, so it is not convex (or has no area)")
+    ]

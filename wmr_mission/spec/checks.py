@@ -11,7 +11,7 @@ import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from typing import Any, Final, Literal, NamedTuple
+from typing import Any, Final, Literal, NamedTuple, TypeGuard
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -260,13 +260,23 @@ def _estimator_keys(mission: Mission) -> Iterator[Finding]:
             )
 
 
+def _refused_polygon(region: Any) -> TypeGuard[PolygonRegion]:
+    """Whether ``region`` is a polygon :func:`_regions` refuses (not convex): its
+    edges bound no region, so no other check asks what is inside it."""
+    return isinstance(region, PolygonRegion) and not is_convex(region.vertices)
+
+
 def _regions(mission: Mission) -> Iterator[Finding]:
 
     for name, region in mission.regions.items():
-        if isinstance(region, PolygonRegion) and not is_convex(region.vertices):
+        if _refused_polygon(region):
+            import shapely
+
+            crossing = not shapely.LinearRing(region.vertices).is_simple
+            what = "crosses itself, so it is not convex" if crossing else "is not convex"
             yield Finding(
                 ("regions", name, "vertices"),
-                f"polygon {name!r} is not convex (or has no area): the constraint rows of a "
+                f"polygon {name!r} {what} (or has no area): the constraint rows of a "
                 "polygon are its edges, which bound a convex region only; split it or use a box",
             )
 
@@ -455,7 +465,7 @@ def _breaches(
             else constraint.stay_outside
         )
         region = mission.regions.get(name)
-        if region is None:
+        if region is None or _refused_polygon(region):
             continue
         value = float(region_value(region, np.array([x]), np.array([y]))[0])
         if (inside and value > 0) or (not inside and value < 0):
@@ -545,7 +555,7 @@ def _feasible_sets(mission: Mission) -> Iterator[Finding]:
                 else (constraint.stay_outside)
             )
             region = mission.regions.get(name)
-            if region is None:
+            if region is None or _refused_polygon(region):
                 return  # reported elsewhere
             sides.append((name, region, inside))
         if not sides:
