@@ -39,7 +39,14 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from wmr_mission.basics import FloatArray, IntArray
-from wmr_mission.fields import SMALLEST_POSITIVE, Model, Point, PositiveScalar, Scalar
+from wmr_mission.fields import (
+    SMALLEST_POSITIVE,
+    SMALLEST_SIZE,
+    Model,
+    Point,
+    PositiveScalar,
+    Scalar,
+)
 from wmr_mission.kernels.convex import HEADER, PER_VERTEX, polygon_distance
 from wmr_mission.kernels.corrective import ELLIPSE_ROW, HALF_PLANE_ROW, POLYGON_ROW
 
@@ -121,6 +128,13 @@ class BoxRegion(Model):
                 raise PydanticCustomError(
                     "box_order",
                     "a box needs min < max in both x and y (min is the lower-left corner)",
+                )
+            width, height = self.max[0] - self.min[0], self.max[1] - self.min[1]
+            if min(width, height) < SMALLEST_SIZE:  # as a size [length, width] is bounded
+                raise PydanticCustomError(
+                    "box_size",
+                    f"a box {{min, max}} of {width:g} x {height:g} m is implausibly small: "
+                    f"expected max - min at least {SMALLEST_SIZE:g} in both x and y",
                 )
         return self
 
