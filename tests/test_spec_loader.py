@@ -213,6 +213,8 @@ def test_warnings_do_not_stop_loading() -> None:
         ("~\n", "the file holds only null: expected a mission mapping"),
         ("---\n", "the file holds only null: expected a mission mapping"),
         ("null\n...\n", "the file holds only null: expected a mission mapping"),
+        ("!!str version: 1\n", "YAML tag '!!str' is not allowed"),
+        ("version: ! 1\n", "YAML tag '!' is not allowed"),
         ("- 1\n- 2\n", "a mission is a mapping"),
         ("42\n", "a mission is a mapping"),
         ("version: [\n", "YAML syntax error"),

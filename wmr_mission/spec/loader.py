@@ -145,9 +145,15 @@ class _NodeLoader(yaml.SafeLoader):
                     problem=f"nesting deeper than {MAX_NESTING} levels",
                     problem_mark=mark,
                 )
-            return super().compose_node(parent, index)
+            node: yaml.Node | None = super().compose_node(parent, index)
         finally:
             self._depth -= 1
+        tag = getattr(event, "tag", None)
+        if node is not None and tag is not None:
+            # Any tag written (`!!float 0.01`, `!custom`, `!`) is refused as
+            # written, even one naming the type the value would have anyway.
+            node.tag = "!!" + tag[len(_TAG) :] if tag.startswith(_TAG) else tag
+        return node
 
     def resolve(self, kind: Any, value: Any, implicit: Any) -> Any:
         if kind is yaml.ScalarNode and implicit[0]:
@@ -362,6 +368,12 @@ class _Builder:
                         "a key must be a plain word, not a list or mapping",
                         position=_mark(key_node.start_mark),
                     )
+                )
+                self.document.refused.add(path)
+                continue
+            if key_node.tag.startswith("!"):  # a tag written on a key
+                self.findings.append(
+                    Finding(path, _tag_message(key_node.tag), position=_mark(key_node.start_mark))
                 )
                 self.document.refused.add(path)
                 continue
