@@ -6,6 +6,11 @@ holds ``evaluations.csv`` (written batch by batch), ``falsify.json``,
 ``manifest.json``, ``failing/N.yaml`` and the figures. A signal (Ctrl-C,
 SIGTERM) stops the search after the runs under way: every finished run is in
 ``evaluations.csv`` and ``falsify.json`` says ``"interrupted": true``.
+
+A write that fails (a full disk) stops the search at the last complete row
+of ``evaluations.csv``; ``falsify.json`` is written before ``failing/`` and
+the figures, so that a fault there costs only them. Either way the fault is
+said in one line, exit 2.
 """
 
 from __future__ import annotations
@@ -63,7 +68,7 @@ __all__ = ["DEFAULT_BUDGET", "FalsifyResult", "UsageError", "falsify_campaign", 
 DEFAULT_BUDGET: Final = 300
 MAX_BUDGET: Final = 1_000_000
 EXIT_FALSIFIED: Final = 1  # a failing run found (the controller falsified), or an invalid file
-EXIT_USAGE: Final = 2  # a bad flag, an unusable --out or scheduler
+EXIT_USAGE: Final = 2  # a bad flag, an unusable --out or scheduler, a write that fails
 MANIFEST_FILE: Final = "manifest.json"
 INTERRUPTED_NOTICE: Final = "interrupted: stopping; the finished runs are kept"
 
@@ -232,6 +237,23 @@ def _manifest(loaded: LoadedCampaign, compiled: bool | None = None) -> dict[str,
     }
 
 
+@dataclass
+class Fault:
+    """What could not be written: one line for stderr, exit 2, and the error,
+    which :func:`falsify_campaign` raises once what was evaluated is kept."""
+
+    message: str
+    error: OSError
+
+
+class _RowsUnwritable(Exception):
+    """evaluations.csv took no more rows: the search stops, its rows so far kept."""
+
+
+def _cannot_write(error: OSError, where: Path) -> str:
+    return f"{error.filename or where}: cannot write: {error.strerror or error}"
+
+
 def _falsify(
     loaded: LoadedCampaign,
     settings: Settings,
@@ -243,8 +265,11 @@ def _falsify(
     stop: StopSignals,
     progress_stream: IO[str] | None,
     campaign_text: str,
-) -> tuple[Search, dict[str, Any]]:
-    """Search, writing the directory as it goes (none when ``out_dir`` is None)."""
+) -> tuple[Search, dict[str, Any], Fault | None]:
+    """Search, writing the directory as it goes (none when ``out_dir`` is None).
+
+    A write that fails before the first run raises its OSError (nothing to
+    keep); after it, what was evaluated is kept and the fault returned."""
     started = time.perf_counter()
     progress = Steps(progress_stream)
     stop.notify = lambda: progress.say(INTERRUPTED_NOTICE)
@@ -264,11 +289,18 @@ def _falsify(
         rows = None if out_dir is None else EvaluationsFile(out_dir / EVALUATIONS_FILE, space.paths)
         progress.step("runs", total=settings.budget)
         seen: list[Evaluation] = []
+        fault: Fault | None = None
 
         def on_batch(batch: list[Evaluation]) -> None:
-            seen.extend(batch)
+            nonlocal fault
             if rows is not None:
-                rows.append(batch)
+                try:
+                    rows.append(batch)
+                except OSError as error:  # the complete rows so far are kept; stop
+                    seen.extend(batch[: rows.kept])
+                    fault = Fault(_cannot_write(error, rows.path), error)
+                    raise _RowsUnwritable from error
+            seen.extend(batch)  # only what evaluations.csv holds
             progress.update(len(seen), _detail(seen))
 
         try:
@@ -288,11 +320,19 @@ def _falsify(
                     )
         except KeyboardInterrupt:  # a second signal: stop at once, keep what was written
             found = Search(list(seen), stopped=True)
+        except _RowsUnwritable:
+            found = Search(list(seen), stopped=True)
         finally:
-            stop.mode = HOLD
+            stop.mode = HOLD  # what was evaluated is written whole, whatever signal comes
             if rows is not None:
-                rows.close()
-        stopped_by = stop.name if (found.stopped or stop.stopped) else None
+                try:
+                    rows.close()
+                except OSError as error:
+                    fault = fault or Fault(_cannot_write(error, rows.path), error)
+        if fault is not None:
+            stopped_by: str | None = fault.message
+        else:
+            stopped_by = stop.name if (found.stopped or stop.stopped) else None
         record = _record(
             loaded,
             settings,
@@ -305,24 +345,73 @@ def _falsify(
             out_dir,
         )
         if out_dir is not None:
-            for evaluation in found.evaluations:
-                if evaluation.falsified:
-                    path = out_dir / FAILING_DIR / f"{evaluation.index}.yaml"
-                    path.parent.mkdir(exist_ok=True)
-                    text = mission_text(loaded, evaluation, campaign_text)
-                    write_bytes_atomic(path, text.encode("utf-8"))
-            write_bytes_atomic(out_dir / FALSIFY_FILE, json_text(record).encode("utf-8"))
-            if plots and stopped_by is None and found.evaluations:
-                progress.step("figures")
-                from wmr_mission.campaign.falsify.figures import draw_falsification
-
-                draw_falsification(found.evaluations, space, settings.objective, out_dir)
-        return found, record
+            fault = _write(
+                loaded, record, found, space, settings, out_dir, plots, stop, progress,
+                campaign_text, fault,
+            )  # fmt: skip
+        return found, record, fault
     finally:
         stop.notify = None
         progress.close()
         if out_dir is not None:
             drop_claim(out_dir)
+
+
+def _write(
+    loaded: LoadedCampaign,
+    record: dict[str, Any],
+    found: Search,
+    space: Space,
+    settings: Settings,
+    out_dir: Path,
+    plots: bool,
+    stop: StopSignals,
+    progress: Steps,
+    campaign_text: str,
+    fault: Fault | None,
+) -> Fault | None:
+    """falsify.json first (the smallest file that makes the directory a record
+    ``view`` reads), then failing/N.yaml, then the figures: a fault after
+    falsify.json costs only what comes after it."""
+    runs = record["evaluations"]
+    before = "" if fault is None else f"{fault.message}; "
+    try:
+        _write_record(out_dir, record)
+    except OSError as error:
+        message = (
+            f"{before}{_cannot_write(error, out_dir)}; "
+            f"{EVALUATIONS_FILE} holds the {runs} runs done"
+        )
+        return Fault(message, error)
+    kept = f"{EVALUATIONS_FILE} and {FALSIFY_FILE} are in {out_dir}"
+    try:
+        for evaluation in found.evaluations:
+            if evaluation.falsified:
+                path = out_dir / FAILING_DIR / f"{evaluation.index}.yaml"
+                path.parent.mkdir(exist_ok=True)
+                text = mission_text(loaded, evaluation, campaign_text)
+                write_bytes_atomic(path, text.encode("utf-8"))
+    except OSError as error:
+        return Fault(f"{before}{_cannot_write(error, out_dir)}; {kept}", error)
+    if fault is not None:  # nothing more is written to a full disk
+        message = (
+            f"{fault.message}; the search stopped after {runs} runs, "
+            f"which {EVALUATIONS_FILE} and {FALSIFY_FILE} hold"
+        )
+        return Fault(message, fault.error)
+    if plots and not record["interrupted"] and found.evaluations:
+        progress.step("figures")
+        try:
+            from wmr_mission.campaign.falsify.figures import draw_falsification
+
+            draw_falsification(found.evaluations, space, settings.objective, out_dir)
+        except OSError as error:
+            return Fault(f"{_cannot_write(error, out_dir)}; {kept}", error)
+    return None
+
+
+def _write_record(out_dir: Path, record: dict[str, Any]) -> None:
+    write_bytes_atomic(out_dir / FALSIFY_FILE, json_text(record).encode("utf-8"))
 
 
 def _detail(seen: list[Evaluation]) -> str:
@@ -380,7 +469,8 @@ def falsify_campaign(
     minimised instead of the run's; ``first``: stop after the batch holding
     the first failing run. ``out``: also write the directory (figures when
     ``plots``). Raises ``MissionError`` for an invalid file, ValueError for a
-    bad setting, ``SchedulerUnavailable`` when no Dask scheduler answers.
+    bad setting, ``SchedulerUnavailable`` when no Dask scheduler answers,
+    and the OSError of a write that failed once what was evaluated is kept.
     """
     used = usable_workers(workers)
     with importing_entries():
@@ -391,14 +481,16 @@ def falsify_campaign(
     out_dir = None if out is None else prepare_run_dir(Path(out))
     try:
         with StopSignals() as stop:
-            found, record = _falsify(
+            found, record, fault = _falsify(
                 loaded, settings, out_dir=out_dir, workers=used, scheduler=scheduler,
                 plots=plots, stop=stop, progress_stream=None, campaign_text=str(campaign),
             )  # fmt: skip
-    except (UsageError, KeyboardInterrupt):  # before the first run: nothing to keep
+    except (UsageError, KeyboardInterrupt, OSError):  # before the first run: nothing to keep
         if out_dir is not None:
             _discard(out_dir)
         raise
+    if fault is not None:  # what was evaluated is kept (fault.message says where)
+        raise fault.error
     return FalsifyResult(found.evaluations, record, out_dir)
 
 
@@ -416,8 +508,9 @@ def falsify_command(
     plots: bool,
 ) -> int:
     """Exit code: 1 a failing run found (or an invalid file), 0 none within the
-    budget, 2 a usage error (a bad flag, an unusable --out or scheduler),
-    130 or 143 stopped by SIGINT or SIGTERM (what ran is kept)."""
+    budget, 2 a usage error (a bad flag, an unusable --out or scheduler) or a
+    write that failed (a full disk: what was evaluated is kept, said in one
+    line), 130 or 143 stopped by SIGINT or SIGTERM (what ran is kept)."""
     return stoppable(
         campaign_path,
         lambda stop: _command(
@@ -478,7 +571,7 @@ def _command(
         print(f"{out_dir}: {getattr(error, 'strerror', None) or error}", file=sys.stderr)
         return EXIT_USAGE
     try:
-        _, record = _falsify(
+        _, record, fault = _falsify(
             loaded, settings, out_dir=out_dir, workers=used, scheduler=scheduler, plots=plots,
             stop=stop, progress_stream=sys.stderr, campaign_text=str(campaign_path),
         )  # fmt: skip
@@ -486,13 +579,20 @@ def _command(
         _discard(out_dir)
         print(error, file=sys.stderr)
         return EXIT_USAGE
+    except OSError as error:  # before the first run (manifest.json): nothing to keep
+        _discard(out_dir)
+        print(f"{_cannot_write(error, out_dir)}; nothing was run", file=sys.stderr)
+        return EXIT_USAGE
     except KeyboardInterrupt:  # stopped before its first run: "nothing was written"
         _discard(out_dir)
         raise
     print(_report(record, out_dir, time.perf_counter() - started))
+    if fault is not None:
+        print(fault.message, file=sys.stderr)
+        return EXIT_USAGE
     if record["interrupted"]:
         print(
-            f"{campaign_path}: interrupted ({record['stopped_by']}); "
+            f"{campaign_path}: interrupted ({stop.name}); "
             f"the {record['evaluations']} finished runs are kept in {out_dir}",
             file=sys.stderr,
         )

@@ -72,24 +72,56 @@ def cells(evaluation: Evaluation) -> list[str]:
 
 
 class EvaluationsFile:
-    """``evaluations.csv``, a batch appended as it is known (nothing lost to a stop)."""
+    """``evaluations.csv``, a batch appended as it is known (nothing lost to a
+    stop). A batch that cannot be written whole (a full disk) is cut back to
+    its last complete row, so that the file never ends inside a row;
+    :attr:`kept` says how many of the batch's rows it holds."""
 
     def __init__(self, path: Path, paths: Sequence[str]) -> None:
         self.path = path
-        self._out = path.open("w", encoding="utf-8", errors="backslashreplace", newline="")
-        self._writer = csv.writer(self._out, lineterminator="\n")
-        self._writer.writerow(columns(paths))
+        self.size = 0
+        self.kept = 0
+        self._fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
+        try:
+            self._write([columns(paths)])
+        except BaseException:
+            os.close(self._fd)
+            raise
 
     def append(self, evaluations: Sequence[Evaluation]) -> None:
-        text = io.StringIO()
-        csv.writer(text, lineterminator="\n").writerows(cells(e) for e in evaluations)
-        self._out.write(text.getvalue())
-        self._out.flush()
+        self._write([cells(e) for e in evaluations])
+
+    def _write(self, lines: list[list[str]]) -> None:
+        ends: list[int] = []  # where each row ends, in bytes from the batch's start
+        pieces: list[bytes] = []
+        for line in lines:
+            text = io.StringIO()
+            csv.writer(text, lineterminator="\n").writerow(line)
+            # A file name that is not UTF-8 (in a reason) is written escaped.
+            pieces.append(text.getvalue().encode("utf-8", "backslashreplace"))
+            ends.append((ends[-1] if ends else 0) + len(pieces[-1]))
+        data = memoryview(b"".join(pieces))
+        written = 0
+        try:
+            while written < len(data):
+                written += os.write(self._fd, data[written:])
+        except OSError as error:
+            self.kept = sum(end <= written for end in ends)
+            self.size += ends[self.kept - 1] if self.kept else 0
+            os.ftruncate(self._fd, self.size)  # back to the last complete row
+            os.lseek(self._fd, self.size, os.SEEK_SET)
+            raise OSError(error.errno, error.strerror, str(self.path)) from error
+        self.kept = len(lines)
+        self.size += written
 
     def close(self) -> None:
-        self._out.flush()
-        os.fsync(self._out.fileno())
-        self._out.close()
+        """Sync and close the file; raises OSError (naming it) when the sync fails."""
+        try:
+            os.fsync(self._fd)
+        except OSError as error:
+            raise OSError(error.errno, error.strerror, str(self.path)) from error
+        finally:
+            os.close(self._fd)
 
 
 def replay(loaded: LoadedCampaign, evaluation: Evaluation) -> str:
