@@ -1,12 +1,15 @@
 """`falsify` under faults, as `sweep` is (docs/reliability.md, "Campaigns"):
 a full disk keeps every complete row and says in one line what could not be
-written and what is kept (exit 2)."""
+written and what is kept (exit 2); a signal after the search, while the record
+is written or the figures drawn, ends the command as the signal asked (130,
+143) and draws no more."""
 
 from __future__ import annotations
 
 import errno
 import json
 import os
+import signal
 from pathlib import Path
 from typing import Any
 
@@ -101,4 +104,59 @@ def test_a_full_disk_after_the_search_is_one_line_and_keeps_the_runs(
     else:
         assert _record(out)["evaluations"] == BUDGET
         assert f"evaluations.csv and falsify.json are in {out}" in line
+    assert leftovers(out) == []
+
+
+# --- a signal after the search -----------------------------------------------------
+
+
+@pytest.mark.parametrize("number", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_while_the_record_is_written_ends_the_command_without_figures(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    number: int,
+) -> None:
+    """The signal comes as falsify.json is written (held there, so that the
+    record is whole): no figures are drawn, the record says it stopped."""
+    out = tmp_path / "out"
+    real = command.write_bytes_atomic
+
+    def signalled(path: Path, data: bytes) -> Path:
+        if path.name == "falsify.json":
+            os.kill(os.getpid(), number)
+        return real(path, data)
+
+    monkeypatch.setattr(command, "write_bytes_atomic", signalled)
+    assert _falsify(out) == 128 + number
+    record = _record(out)
+    assert record["interrupted"] is True
+    assert record["stopped_by"] == ("Ctrl-C" if number == signal.SIGINT else "SIGTERM")
+    assert record["evaluations"] == len(_rows(out)) == BUDGET
+    assert _figures(out) == []
+    err = capsys.readouterr().err
+    assert f"the {BUDGET} finished runs are kept in {out}" in err
+    assert "Traceback" not in err
+    assert leftovers(out) == []
+
+
+def test_a_signal_while_the_figures_are_drawn_stops_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    real = figures.draw_falsification
+
+    def signalled(*args: Any) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        real(*args)
+
+    monkeypatch.setattr(figures, "draw_falsification", signalled)
+    assert _falsify(out) == 143
+    record = _record(out)
+    assert record["interrupted"] is True
+    assert record["stopped_by"] == "SIGTERM"
+    assert record["evaluations"] == len(_rows(out)) == BUDGET
+    assert _figures(out) == []
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
     assert leftovers(out) == []

@@ -5,7 +5,8 @@ A directory (``--out``, default ``runs/<campaign-name>-falsify-<timestamp>``)
 holds ``evaluations.csv`` (written batch by batch), ``falsify.json``,
 ``manifest.json``, ``failing/N.yaml`` and the figures. A signal (Ctrl-C,
 SIGTERM) stops the search after the runs under way: every finished run is in
-``evaluations.csv`` and ``falsify.json`` says ``"interrupted": true``.
+``evaluations.csv`` and ``falsify.json`` says ``"interrupted": true``; after
+the search, it stops the figures at once.
 
 A write that fails (a full disk) stops the search at the last complete row
 of ``evaluations.csv``; ``falsify.json`` is written before ``failing/`` and
@@ -15,6 +16,7 @@ said in one line, exit 2.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import shlex
 import sys
@@ -61,7 +63,7 @@ from wmr_mission.output.rundir import (
     prepare_run_dir,
 )
 from wmr_mission.spec.checks import importing_entries
-from wmr_mission.stopping import GENTLE, HOLD, StopSignals, stop_owed
+from wmr_mission.stopping import GENTLE, HOLD, RAISE, StopSignals, mode, stop_owed
 
 __all__ = ["DEFAULT_BUDGET", "FalsifyResult", "UsageError", "falsify_campaign", "falsify_command"]
 
@@ -371,8 +373,8 @@ def _write(
     fault: Fault | None,
 ) -> Fault | None:
     """falsify.json first (the smallest file that makes the directory a record
-    ``view`` reads), then failing/N.yaml, then the figures: a fault after
-    falsify.json costs only what comes after it."""
+    ``view`` reads), then failing/N.yaml, then the figures: a fault or a signal
+    after falsify.json costs only what comes after it."""
     runs = record["evaluations"]
     before = "" if fault is None else f"{fault.message}; "
     try:
@@ -399,19 +401,45 @@ def _write(
             f"which {EVALUATIONS_FILE} and {FALSIFY_FILE} hold"
         )
         return Fault(message, fault.error)
-    if plots and not record["interrupted"] and found.evaluations:
+    if stop.stopped or stop_owed():  # a signal while the record was written: no figures
+        if not record["interrupted"]:
+            _stopped(record, stop, out_dir)
+        return None
+    if plots and found.evaluations:
         progress.step("figures")
-        try:
-            from wmr_mission.campaign.falsify.figures import draw_falsification
+        # Imported while stops are held: one raised inside an import becomes an
+        # ImportError that libraries may swallow.
+        from wmr_mission.campaign.falsify.figures import draw_falsification
 
-            draw_falsification(found.evaluations, space, settings.objective, out_dir)
+        try:
+            if stop_owed():
+                raise KeyboardInterrupt
+            with mode(RAISE):  # the record is written: a stop ends the drawing at once
+                draw_falsification(found.evaluations, space, settings.objective, out_dir)
+        except KeyboardInterrupt:
+            _stopped(record, stop, out_dir)
         except OSError as error:
-            return Fault(f"{_cannot_write(error, out_dir)}; {kept}", error)
+            if not stop_owed():
+                return Fault(f"{_cannot_write(error, out_dir)}; {kept}", error)
+        except Exception:
+            if not stop_owed():  # a fault in drawing, not a stop turned into another error
+                raise
+        if stop_owed() and not record["interrupted"]:  # a stop swallowed inside the drawing
+            _stopped(record, stop, out_dir)
     return None
 
 
 def _write_record(out_dir: Path, record: dict[str, Any]) -> None:
     write_bytes_atomic(out_dir / FALSIFY_FILE, json_text(record).encode("utf-8"))
+
+
+def _stopped(record: dict[str, Any], stop: StopSignals, out_dir: Path) -> None:
+    """Mark the record stopped by a signal that came after the search, and write it."""
+    stop.mode = HOLD
+    record["interrupted"] = True
+    record["stopped_by"] = stop.name
+    with contextlib.suppress(OSError):  # the record as first written stands
+        _write_record(out_dir, record)
 
 
 def _detail(seen: list[Evaluation]) -> str:
@@ -510,7 +538,8 @@ def falsify_command(
     """Exit code: 1 a failing run found (or an invalid file), 0 none within the
     budget, 2 a usage error (a bad flag, an unusable --out or scheduler) or a
     write that failed (a full disk: what was evaluated is kept, said in one
-    line), 130 or 143 stopped by SIGINT or SIGTERM (what ran is kept)."""
+    line), 130 or 143 stopped by SIGINT or SIGTERM (what ran is kept), also
+    while the record was written or the figures drawn."""
     return stoppable(
         campaign_path,
         lambda stop: _command(
@@ -590,7 +619,9 @@ def _command(
     if fault is not None:
         print(fault.message, file=sys.stderr)
         return EXIT_USAGE
-    if record["interrupted"]:
+    # A stop held while the record was written or the figures drawn counts as
+    # one during the search: the command ends as the signal asked.
+    if record["interrupted"] or stop.stopped or stop_owed():
         print(
             f"{campaign_path}: interrupted ({stop.name}); "
             f"the {record['evaluations']} finished runs are kept in {out_dir}",
