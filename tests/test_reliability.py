@@ -661,6 +661,52 @@ def test_plot_reports_a_damaged_run_directory(
     assert not (run_dir / "xy.png").exists()
 
 
+def _row_too_long(text: str) -> str:
+    """Row 5 a field longer than Python's CSV reader takes (131,072 characters)."""
+    lines = text.splitlines(keepends=True)
+    lines[4] = "1," + "9" * 200_000 + "\n"
+    return "".join(lines)
+
+
+@pytest.mark.parametrize(
+    ("file", "damage", "message"),
+    [
+        (
+            "trajectory.csv",
+            _row_too_long,
+            "trajectory.csv:5: not a row of CSV: field larger than field limit (131072)",
+        ),
+    ],
+)
+def test_a_record_no_reader_takes_is_one_line_for_plot_view_and_export(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], file: str, damage: Any, message: str
+) -> None:
+    """What Python's readers refuse (not an error of the format: a limit of the
+    reader) is the file's problem too, never a traceback nor "please report it"."""
+    from wmr_mission.review.export import export_command
+    from wmr_mission.review.view import view_command
+
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    path = run_dir / file
+    write_run(circle_run(201), run_dir, plots=False, animate=False)
+    path.write_text(damage(path.read_text(encoding="utf-8")), encoding="utf-8")
+    for command in (
+        lambda: replot_command(run_dir),
+        lambda: view_command(run_dir),
+        lambda: export_command(run_dir, "mcap-json"),
+        lambda: export_command(run_dir, "parquet"),
+    ):
+        assert command() == 1
+        assert capsys.readouterr().err == f"{run_dir}: {message}\n"
+    assert sorted(p.name for p in run_dir.iterdir()) == [
+        "manifest.json",
+        "summary.json",
+        "trajectory.csv",
+        "transitions.json",
+    ]
+
+
 def test_names_with_dollars_are_drawn_as_typed(tmp_path: Path) -> None:
     result = circle_run(200)
     result.phases[0] = type(result.phases[0])("$x", "track")

@@ -9,8 +9,6 @@ line naming the file (and line) and what is wrong, as for a run directory.
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import re
 from collections.abc import Mapping
@@ -20,7 +18,7 @@ from typing import Any, Final
 
 from wmr_mission.campaign.load import replay_line, value_text
 from wmr_mission.campaign.sweep import CAMPAIGN_FILE, MANIFEST_FILE, RUNS_FILE
-from wmr_mission.output.reader import RunDirError
+from wmr_mission.output.reader import RunDirError, csv_rows
 
 __all__ = ["CampaignDir", "is_campaign_dir", "load_campaign_dir"]
 
@@ -168,10 +166,7 @@ def _read_rows(path: Path, plan: Any) -> tuple[list[str], list[list[str]]]:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise RunDirError(f"{path.name}: cannot be read: {exc}") from None
-    try:
-        table = list(csv.reader(io.StringIO(text, newline="")))
-    except csv.Error as exc:
-        raise RunDirError(f"{path.name}: not a CSV file: {exc}") from None
+    table = csv_rows(text, path.name)
     paths = plan.paths
     header = table[0] if table else []
     first = [*FIRST_COLUMNS, *paths]

@@ -66,6 +66,22 @@ def _read_json(path: Path) -> Any:
         ) from None
 
 
+def csv_rows(text: str, name: str) -> list[list[str]]:
+    """The rows of a record's CSV file ``name``; a row the CSV reader refuses (a
+    field over its limit of 131,072 characters) is a :class:`RunDirError`
+    naming the line the row starts on."""
+    reader = csv.reader(io.StringIO(text, newline=""))
+    rows: list[list[str]] = []
+    while True:
+        line = reader.line_num + 1
+        try:
+            rows.append(next(reader))
+        except StopIteration:
+            return rows
+        except csv.Error as exc:
+            raise RunDirError(f"{name}:{line}: not a row of CSV: {exc}") from None
+
+
 def _field(record: Any, key: str, kind: type | tuple[type, ...], where: str) -> Any:
     if not isinstance(record, dict) or key not in record:
         raise RunDirError(f"{where}: '{key}' is missing")
@@ -259,8 +275,8 @@ def _lap(record: Any, where: str) -> int | None:
 
 def _read_trajectory(path: Path, phase_names: Sequence[str]) -> dict[str, np.ndarray]:
     text = _read_text(path)
-    header = next(csv.reader(io.StringIO(text[: text.find("\n") + 1], newline="")), None)
-    columns = tuple(header or ())
+    header = csv_rows(text[: text.find("\n") + 1], path.name)
+    columns = tuple(header[0] if header else ())
     if columns not in (CSV_COLUMNS, _OLDER_CSV_COLUMNS, (*CSV_COLUMNS, REFERENCE_COLUMN)):
         raise RunDirError(f"{path.name}:1: header must be exactly {','.join(CSV_COLUMNS)}")
     try:
@@ -317,7 +333,7 @@ def _parse_rows_checked(
     text: str, phase_names: Sequence[str], filename: str, columns: Sequence[str]
 ) -> dict[str, np.ndarray]:
     """Row by row, naming the first line that does not fit."""
-    rows = list(csv.reader(io.StringIO(text, newline="")))[1:]
+    rows = csv_rows(text, filename)[1:]
     for line, row in enumerate(rows, start=2):
         if len(row) != len(columns):
             raise RunDirError(

@@ -4,7 +4,6 @@ its verdict, the lowest runs with their commands, its figures and every evaluati
 from __future__ import annotations
 
 import base64
-import csv
 import json
 import math
 from pathlib import Path
@@ -18,7 +17,7 @@ from wmr_mission.campaign.falsify.files import (
     columns,
 )
 from wmr_mission.campaign.load import replay_line
-from wmr_mission.output.reader import RunDirError
+from wmr_mission.output.reader import RunDirError, csv_rows
 
 __all__ = ["falsification_meta", "is_falsification_dir"]
 
@@ -48,10 +47,10 @@ def _json(path: Path) -> dict[str, Any]:
 def _rows(path: Path) -> list[list[str]]:
     """``evaluations.csv``'s header and rows, each row as wide as the header."""
     try:
-        with path.open(encoding="utf-8", newline="") as file:
-            table = list(csv.reader(file))
-    except (UnicodeDecodeError, csv.Error) as error:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
         raise RunDirError(f"{path.name}: not a CSV table of evaluations ({error})") from None
+    table = csv_rows(text, path.name)
     if not table:
         raise RunDirError(f"{path.name}:1: empty: expected a header of columns")
     header = table[0]
