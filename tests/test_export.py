@@ -292,6 +292,29 @@ def test_usage_errors_and_damaged_files(
     assert list(damaged.glob("*.mcap")) == list(damaged.glob("*.parquet")) == []
 
 
+def test_a_campaign_json_nested_too_deeply_is_one_line(
+    campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from wmr_mission.review.view import view_command
+
+    damaged = tmp_path / "campaign"
+    damaged.mkdir()
+    for name in ("manifest.json", "runs.csv"):
+        (damaged / name).write_bytes((campaign_dir / name).read_bytes())
+    (damaged / "campaign.json").write_text('{"a":' * 50_000, encoding="utf-8")
+    for command in (lambda: export_command(damaged, "parquet"), lambda: view_command(damaged)):
+        assert command() == 1
+        assert capsys.readouterr().err == (
+            f"{damaged}: campaign.json: nested too deeply to read "
+            "(arrays and objects inside one another)\n"
+        )
+    assert sorted(p.name for p in damaged.iterdir()) == [
+        "campaign.json",
+        "manifest.json",
+        "runs.csv",
+    ]
+
+
 @pytest.mark.parametrize(("t", "said"), [("1e12", "1e+12"), ("-1", "-1")])
 def test_an_mcap_of_a_time_no_log_can_hold_is_a_positioned_error(
     run_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], t: str, said: str

@@ -676,13 +676,19 @@ def _row_too_long(text: str) -> str:
             _row_too_long,
             "trajectory.csv:5: not a row of CSV: field larger than field limit (131072)",
         ),
+        (
+            "summary.json",
+            lambda _: "[" * 100_000 + "]" * 100_000,
+            "summary.json: nested too deeply to read (arrays and objects inside one another)",
+        ),
     ],
 )
 def test_a_record_no_reader_takes_is_one_line_for_plot_view_and_export(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], file: str, damage: Any, message: str
 ) -> None:
     """What Python's readers refuse (not an error of the format: a limit of the
-    reader) is the file's problem too, never a traceback nor "please report it"."""
+    reader, nor a RecursionError of the JSON parser) is the file's problem too,
+    never a traceback nor "please report it"."""
     from wmr_mission.review.export import export_command
     from wmr_mission.review.view import view_command
 

@@ -9,7 +9,6 @@ line naming the file (and line) and what is wrong, as for a run directory.
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -18,7 +17,7 @@ from typing import Any, Final
 
 from wmr_mission.campaign.load import replay_line, value_text
 from wmr_mission.campaign.sweep import CAMPAIGN_FILE, MANIFEST_FILE, RUNS_FILE
-from wmr_mission.output.reader import RunDirError, csv_rows
+from wmr_mission.output.reader import RunDirError, csv_rows, json_value
 
 __all__ = ["CampaignDir", "is_campaign_dir", "load_campaign_dir"]
 
@@ -101,13 +100,10 @@ def _read_json(path: Path) -> dict[str, Any]:
             f"{path.name} is missing (not a campaign directory, or an interrupted one)"
         )
     try:
-        value = json.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise RunDirError(f"{path.name}: cannot be read: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise RunDirError(
-            f"{path.name}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}"
-        ) from None
+    value = json_value(text, path.name)
     if not isinstance(value, dict):
         raise RunDirError(f"{path.name}: expected a JSON object")
     return value

@@ -56,13 +56,21 @@ def _read_text(path: Path) -> str:
         raise RunDirError(f"{path.name}: cannot be read: {exc}") from None
 
 
-def _read_json(path: Path) -> Any:
-    text = _read_text(path)
+def read_json(path: Path) -> Any:
+    """A JSON file of a run directory, parsed (:func:`json_value`)."""
+    return json_value(_read_text(path), path.name)
+
+
+def json_value(text: str, name: str) -> Any:
+    """The JSON text of a record's file ``name``; what is not JSON, or is nested
+    too deeply to parse, is a :class:`RunDirError`."""
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
+        raise RunDirError(f"{name}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}") from None
+    except RecursionError:
         raise RunDirError(
-            f"{path.name}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}"
+            f"{name}: nested too deeply to read (arrays and objects inside one another)"
         ) from None
 
 
@@ -403,15 +411,15 @@ def load_run(run_dir: str | os.PathLike[str]) -> RunResult:
             f"holds only the claim ({CLAIM_FILE}) of a run that has written nothing yet: "
             "one still running, or one killed before it could (kill -9)"
         )
-    manifest = _read_json(directory / MANIFEST_FILE)
+    manifest = read_json(directory / MANIFEST_FILE)
     run = _field(manifest, "run", dict, MANIFEST_FILE)
     where = f"{MANIFEST_FILE}: run"
     phases = _phases_from(run)
     limits = _field(run, "limits", dict, where)
     bounds = _field(run, "error_bounds", dict, where)
     error_bounds = [_bound(bounds, state) for state in ("x", "y", "theta")]
-    transitions = _transitions_from(_read_json(directory / TRANSITIONS_FILE))
-    summary = _read_json(directory / SUMMARY_FILE)
+    transitions = _transitions_from(read_json(directory / TRANSITIONS_FILE))
+    summary = read_json(directory / SUMMARY_FILE)
     outcome_text = _field(summary, "outcome", str, SUMMARY_FILE)
     try:
         outcome = Outcome(outcome_text)

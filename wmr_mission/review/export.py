@@ -43,7 +43,7 @@ import numpy as np
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.output.files import atomic_path
-from wmr_mission.output.reader import RunDirError
+from wmr_mission.output.reader import RunDirError, read_json
 from wmr_mission.output.rundir import (
     SUMMARY_FILE,
     TRAJECTORY_FILE,
@@ -484,7 +484,7 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
     result = load_run(directory)
     if fmt in ("mcap", "mcap-json"):
         _check_log_times(result.t, fmt)
-        summary = json.loads((directory / SUMMARY_FILE).read_text(encoding="utf-8"))
+        summary = read_json(directory / SUMMARY_FILE)
         write = write_ros2_mcap if fmt == "mcap" else write_mcap
 
         def write_run_mcap(path: Path) -> None:

@@ -17,7 +17,7 @@ from wmr_mission.campaign.falsify.files import (
     columns,
 )
 from wmr_mission.campaign.load import replay_line
-from wmr_mission.output.reader import RunDirError, csv_rows
+from wmr_mission.output.reader import RunDirError, csv_rows, json_value
 
 __all__ = ["falsification_meta", "is_falsification_dir"]
 
@@ -32,13 +32,10 @@ def is_falsification_dir(path: Path) -> bool:
 
 def _json(path: Path) -> dict[str, Any]:
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as error:
-        raise RunDirError(
-            f"{path.name}:{error.lineno}:{error.colno}: not valid JSON: {error.msg}"
-        ) from None
+        text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as error:
         raise RunDirError(f"{path.name}: not UTF-8 text ({error.reason})") from None
+    data = json_value(text, path.name)
     if not isinstance(data, dict):
         raise RunDirError(f"{path.name}:1:1: not a JSON object")
     return data

@@ -485,11 +485,11 @@ def run_meta(result: RunResult, summary: dict[str, Any]) -> tuple[dict[str, Any]
 
 def run_page(run_dir: Path) -> tuple[str, str]:
     """The HTML of a run directory's report, and its title."""
-    from wmr_mission.output.reader import load_run
+    from wmr_mission.output.reader import load_run, read_json
 
     result = load_run(run_dir)
     # load_run has read and checked summary.json: here only the verdicts are taken.
-    summary = json.loads((run_dir / SUMMARY_FILE).read_text(encoding="utf-8"))
+    summary = read_json(run_dir / SUMMARY_FILE)
     meta, series = run_meta(result, summary if isinstance(summary, dict) else {})
     return build_page(f"{result.mission_name}: run report", meta, series), result.mission_name
 
