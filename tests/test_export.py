@@ -292,6 +292,24 @@ def test_usage_errors_and_damaged_files(
     assert list(damaged.glob("*.mcap")) == list(damaged.glob("*.parquet")) == []
 
 
+def test_a_summary_number_that_is_not_finite_is_exported_as_null(
+    run_dir: Path, tmp_path: Path
+) -> None:
+    """Python reads NaN and Infinity in summary.json (plot and view draw the run);
+    the MCAP's JSON has neither: null, the rest of the summary as it is."""
+    copy = tmp_path / "run"
+    copy.mkdir()
+    for name in ("manifest.json", "transitions.json", "trajectory.csv"):
+        (copy / name).write_bytes((run_dir / name).read_bytes())
+    summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    text = json.dumps({**summary, "duration": math.nan, "extra": [1e999, -math.inf, 2.5]})
+    (copy / "summary.json").write_text(text, encoding="utf-8")
+    for fmt in ("mcap-json", "mcap"):
+        assert export_command(copy, fmt, tmp_path / f"{fmt}.mcap") == 0
+    (_, _, exported) = _messages(tmp_path / "mcap-json.mcap")["/summary"][0]
+    assert exported == {**summary, "duration": None, "extra": [None, None, 2.5]}
+
+
 def test_a_campaign_json_nested_too_deeply_is_one_line(
     campaign_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -56,16 +56,22 @@ def _read_text(path: Path) -> str:
         raise RunDirError(f"{path.name}: cannot be read: {exc}") from None
 
 
-def read_json(path: Path) -> Any:
+def read_json(path: Path, *, finite: bool = False) -> Any:
     """A JSON file of a run directory, parsed (:func:`json_value`)."""
-    return json_value(_read_text(path), path.name)
+    return json_value(_read_text(path), path.name, finite=finite)
 
 
-def json_value(text: str, name: str) -> Any:
+def json_value(text: str, name: str, *, finite: bool = False) -> Any:
     """The JSON text of a record's file ``name``; what is not JSON, or is nested
-    too deeply to parse, is a :class:`RunDirError`."""
+    too deeply to parse, is a :class:`RunDirError`. With ``finite``, a number
+    that is not finite (``NaN``, ``Infinity``, ``1e999``: not JSON, though
+    Python reads them) is None, as the product writes it."""
+    options: dict[str, Any] = {}
+    if finite:
+        options["parse_constant"] = lambda _: None
+        options["parse_float"] = lambda text: value if math.isfinite(value := float(text)) else None
     try:
-        return json.loads(text)
+        return json.loads(text, **options)
     except json.JSONDecodeError as exc:
         raise RunDirError(f"{name}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}") from None
     except RecursionError:

@@ -484,7 +484,8 @@ def _writer(directory: Path, fmt: str, campaign: bool) -> Callable[[Path], None]
     result = load_run(directory)
     if fmt in ("mcap", "mcap-json"):
         _check_log_times(result.t, fmt)
-        summary = read_json(directory / SUMMARY_FILE)
+        # Numbers that are not finite as null, as the product writes them: JSON has none.
+        summary = read_json(directory / SUMMARY_FILE, finite=True)
         write = write_ros2_mcap if fmt == "mcap" else write_mcap
 
         def write_run_mcap(path: Path) -> None:
