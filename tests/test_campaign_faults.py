@@ -334,6 +334,44 @@ def test_a_full_disk_after_the_runs_is_one_line_and_keeps_the_runs(
 
 
 @pytest.mark.usefixtures("campaign_figures_only")
+def test_a_disk_full_among_the_worst_runs_names_each_one_and_leaves_no_empty_directory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The disk fills after the first worst run: each run not written is named,
+    with the figures, and its directory, made before the disk refused its first
+    file, is removed; view links the one written and no other."""
+    from wmr_mission.review.view import campaign_meta
+
+    out = tmp_path / "out"
+    real = sweep.write_run
+    calls: list[Path] = []
+
+    def full_after_the_first(result: Any, directory: Path, **kwargs: Any) -> Any:
+        calls.append(Path(directory))
+        if len(calls) == 1:
+            return real(result, directory, **kwargs)
+        Path(directory).mkdir(parents=True)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(directory / "trajectory.csv"))
+
+    monkeypatch.setattr(sweep, "write_run", full_after_the_first)
+    code = sweep_command(campaign_file(tmp_path, 6), out=out, workers=1, scheduler=None, plots=True)
+    assert code == 2
+    line = one_line(capsys.readouterr().err)
+    worst = [str(entry["run"]) for entry in record_of(out)["worst"]]
+    assert len(calls) == 2
+    assert len(worst) > 2
+    assert (
+        f"{calls[1] / 'trajectory.csv'}: cannot write: No space left on device; not written: "
+        f"{', '.join(f'worst/{run}' for run in worst[1:])}, the figures; "
+        f"runs.csv and campaign.json are in {out}"
+    ) == line
+    assert sorted(p.name for p in (out / "worst").iterdir()) == [worst[0]]
+    assert not list(out.glob("*.png"))
+    assert list(campaign_meta(out, out / "report.html")["worst_links"]) == [worst[0]]
+    assert leftovers(out) == []
+
+
+@pytest.mark.usefixtures("campaign_figures_only")
 def test_an_out_replaced_by_a_file_at_the_end_is_one_line(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

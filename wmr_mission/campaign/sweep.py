@@ -19,10 +19,11 @@ import csv
 import io
 import math
 import os
+import shutil
 import sys
 import time
 from collections.abc import Mapping, Sequence
-from contextlib import closing
+from contextlib import closing, suppress
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -53,6 +54,7 @@ from wmr_mission.output.environment import environment, package_versions
 from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
+    SUMMARY_FILE,
     RunDirExistsError,
     default_run_dir,
     drop_claim,
@@ -434,19 +436,41 @@ def _worst_and_figures(
 ) -> _Fault | None:
     """worst/ and the figures, after campaign.json: a fault here costs only them."""
     kept = f"runs.csv and campaign.json are in {out_dir}"
+    drawn: list[bool] = []
     try:
-        _write_worst(loaded, record, aggregate, out_dir, plots, workers)
+        _write_worst(loaded, record, aggregate, out_dir, plots, workers, drawn)
     except KeyboardInterrupt:  # every run is in runs.csv; the worst runs' directories stop
+        _not_written(record, out_dir, figures=False)
         _stopped(record, stop, out_dir)
     except OSError as error:
-        return _Fault(f"{_cannot_write(error)}; {kept}", EXIT_OUTPUT, error)
+        lost = _not_written(record, out_dir, figures=plots and bool(aggregate.runs) and not drawn)
+        return _Fault(f"{_cannot_write(error)}; {lost}{kept}", EXIT_OUTPUT, error)
     except Exception as error:  # a fault in drawing must not look like a lost campaign
+        lost = _not_written(record, out_dir, figures=plots and bool(aggregate.runs) and not drawn)
         message = (
             f"{out_dir}: cannot write the worst runs or the figures ({one_line(error)}); "
-            f"{kept}; please report it"
+            f"{lost}{kept}; please report it"
         )
         return _Fault(message, EXIT_FAILED, error)
     return None
+
+
+def _not_written(record: dict[str, Any], out_dir: Path, *, figures: bool) -> str:
+    """``not written: worst/RUN, ..., the figures; `` for what a fault left out
+    (empty where nothing was). A worst run's directory without its
+    summary.json, begun when the fault came, is removed, and worst/ where it
+    is left empty: no directory passes for a run that is not there."""
+    missing = []
+    for entry in record["worst"]:
+        directory = out_dir / WORST_DIR / str(entry["run"])
+        if not (directory / SUMMARY_FILE).is_file():
+            shutil.rmtree(directory, ignore_errors=True)
+            missing.append(f"{WORST_DIR}/{entry['run']}")
+    with suppress(OSError):
+        (out_dir / WORST_DIR).rmdir()  # only where empty
+    if figures:
+        missing.append("the figures")
+    return f"not written: {', '.join(missing)}; " if missing else ""
 
 
 def _discard(out_dir: Path) -> None:
@@ -627,10 +651,11 @@ def _write_worst(
     out_dir: Path,
     plots: bool,
     workers: int,
+    drawn: list[bool],
 ) -> None:
     """Re-simulate each worst run (same values, same seed: the same run) into
-    worst/RUN/, and draw the campaign's figures: with several workers, the runs
-    on worker processes while this one draws."""
+    worst/RUN/, and draw the campaign's figures (``drawn`` then holds True):
+    with several workers, the runs on worker processes while this one draws."""
     runs = [entry["run"] for entry in record["worst"]]
     if plots:
         _load_matplotlib()  # before the pool forks, if not yet loaded
@@ -647,6 +672,7 @@ def _write_worst(
         with local_pool(min(workers, len(pooled)), writes=True) as pool:
             written = [pool.submit(_write_run_dir, loaded, run, out_dir, plots) for run in pooled]
             _draw(loaded, aggregate, out_dir, plots)
+            drawn.append(True)
             for run in own:
                 _write_run_dir(loaded, run, out_dir, plots)
             for future in written:
@@ -655,6 +681,7 @@ def _write_worst(
     for run in runs:
         _write_run_dir(loaded, run, out_dir, plots)
     _draw(loaded, aggregate, out_dir, plots)
+    drawn.append(True)
 
 
 def _load_matplotlib() -> None:

@@ -561,7 +561,7 @@ def campaign_meta(campaign_dir: Path, out: Path) -> dict[str, Any]:
     links = {}
     for run in worst_runs:
         directory = campaign_dir / WORST_DIR / run
-        if run.isdigit() and directory.is_dir():
+        if run.isdigit() and (directory / SUMMARY_FILE).is_file():  # a run's record
             relative = os.path.relpath(directory, out.parent)
             links[run] = "/".join(quote(part) for part in Path(relative).parts) + "/"
     figures = [
