@@ -17,11 +17,16 @@ its equations to the code. The Python API (``docs/python-api.md``):
 from __future__ import annotations
 
 import importlib
-from typing import TYPE_CHECKING, Any
 
 from wmr_mission.version import __version__
 
+# Not typing's: the package's first lines run before the program's first
+# module (wmr_mission._start) gives Ctrl-C its default action, and importing
+# typing there was most of that time. Type checkers take any TYPE_CHECKING as true.
+TYPE_CHECKING = False
 if TYPE_CHECKING:
+    from typing import Any
+
     from wmr_mission.api import (
         MissionError,
         falsify_campaign,
