@@ -15,10 +15,7 @@ that the same ``--out`` can be used again.
 
 from __future__ import annotations
 
-import csv
-import io
 import math
-import os
 import shutil
 import sys
 import time
@@ -51,7 +48,7 @@ from wmr_mission.campaign.rows import METRICS, Row, header, replay_command, simu
 from wmr_mission.campaign.stops import stoppable
 from wmr_mission.kernels import jit
 from wmr_mission.output.environment import environment, package_versions
-from wmr_mission.output.files import atomic_path, json_text, write_bytes_atomic
+from wmr_mission.output.files import RowsFile, json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     SUMMARY_FILE,
@@ -123,55 +120,6 @@ def _runs_detail(aggregate: Aggregate, total: int, started: float) -> str:
     return f"{done}/{total} runs, success {rate:.1%}, {left:.0f} s left"
 
 
-class _RunsFile:
-    """``runs.csv``, written as the tasks finish: each task's rows in one piece,
-    and a piece that cannot be written whole (a full disk) taken back, so that
-    the file never ends inside a row. It stays open to the end: a file removed
-    during the sweep (with its directory) is written again from it."""
-
-    def __init__(self, path: Path, columns: list[str]) -> None:
-        self.path = path
-        self.size = 0
-        self._fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
-        try:
-            self.append([columns])
-        except BaseException:
-            os.close(self._fd)
-            raise
-
-    def append(self, lines: list[list[str]]) -> None:
-        text = io.StringIO()
-        csv.writer(text, lineterminator="\n").writerows(lines)
-        # A file name that is not UTF-8 (in a reason) is written escaped.
-        data = memoryview(text.getvalue().encode("utf-8", "backslashreplace"))
-        try:
-            while data:
-                data = data[os.write(self._fd, data) :]
-        except OSError as error:
-            os.ftruncate(self._fd, self.size)  # back to the last complete row
-            os.lseek(self._fd, self.size, os.SEEK_SET)
-            raise OSError(error.errno, error.strerror, str(self.path)) from error
-        self.size = os.lseek(self._fd, 0, os.SEEK_CUR)
-
-    def finish(self) -> bool:
-        """Sync the file; when it was removed meanwhile, write it again (and its
-        directory); return whether it was."""
-        os.fsync(self._fd)
-        if os.fstat(self._fd).st_nlink > 0:
-            return False
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(self.path) as tmp, tmp.open("wb") as out:
-            offset = 0
-            while offset < self.size:
-                piece = os.pread(self._fd, 1 << 20, offset)
-                out.write(piece)
-                offset += len(piece)
-        return True
-
-    def close(self) -> None:
-        os.close(self._fd)
-
-
 @dataclass
 class _Fault:
     """What could not be written or drawn: one line for stderr, an exit code,
@@ -199,7 +147,7 @@ class _Runs:
 def _execute(
     loaded: LoadedCampaign,
     *,
-    runs_file: _RunsFile | None,
+    runs_file: RowsFile | None,
     workers: int,
     scheduler: str | None,
     plots: bool,
@@ -257,8 +205,9 @@ def _execute(
                 if runs_file is not None:
                     try:
                         runs_file.append([row.cells() for row in rows])
-                    except OSError as error:  # the rows so far are kept; stop
+                    except OSError as error:  # the complete rows so far are kept; stop
                         fault = _Fault(_cannot_write(error), EXIT_OUTPUT, error)
+                        _take(rows[: runs_file.kept], aggregate, keep_rows, columns)
                         break
                 _take(rows, aggregate, keep_rows, columns)
                 progress.update(aggregate.runs, _runs_detail(aggregate, len(plan), runs_started))
@@ -333,7 +282,7 @@ def _campaign_steps(
     allow_mixed_cluster: bool,
 ) -> _Ended:
     plan = Plan(loaded.campaign)
-    runs_file = None if out_dir is None else _RunsFile(out_dir / RUNS_FILE, header(plan.paths))
+    runs_file = None if out_dir is None else RowsFile(out_dir / RUNS_FILE, header(plan.paths))
     try:
         try:
             runs = _execute(

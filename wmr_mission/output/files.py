@@ -1,8 +1,12 @@
 """Files written so that none is ever half-written under its final name: each
-is written to a temporary file beside it, synced, and renamed over it."""
+is written to a temporary file beside it, synced, and renamed over it; and a
+CSV file of rows appended as they come (:class:`RowsFile`), never cut inside
+a row."""
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 import math
 import os
@@ -40,6 +44,73 @@ def atomic_path(final: Path) -> Iterator[Path]:
             raise OSError(error.errno, error.strerror, str(final)) from error
         raise
     _sync_directory(final.parent)
+
+
+class RowsFile:
+    """A CSV file whose rows are appended as they are known (a campaign's
+    ``runs.csv``, a search's ``evaluations.csv``: nothing lost to a stop). A
+    piece that cannot be written whole (a full disk) is cut back to its last
+    complete row, so that the file never ends inside a row; :attr:`kept` says
+    how many of the piece's rows it holds. It stays open to the end: a file
+    removed meanwhile (with its directory) is written again from it
+    (:meth:`finish`)."""
+
+    def __init__(self, path: Path, header: list[str]) -> None:
+        self.path = path
+        self.size = 0
+        self.kept = 0
+        self._fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
+        try:
+            self.append([header])
+        except BaseException:
+            os.close(self._fd)
+            raise
+
+    def append(self, lines: list[list[str]]) -> None:
+        """Write ``lines`` as rows; raises OSError (naming the file) when not
+        all of them could be, the complete ones kept."""
+        ends: list[int] = []  # where each row ends, in bytes from the piece's start
+        pieces: list[bytes] = []
+        for line in lines:
+            text = io.StringIO()
+            csv.writer(text, lineterminator="\n").writerow(line)
+            # A file name that is not UTF-8 (in a reason) is written escaped.
+            pieces.append(text.getvalue().encode("utf-8", "backslashreplace"))
+            ends.append((ends[-1] if ends else 0) + len(pieces[-1]))
+        data = memoryview(b"".join(pieces))
+        written = 0
+        try:
+            while written < len(data):
+                written += os.write(self._fd, data[written:])
+        except OSError as error:
+            self.kept = sum(end <= written for end in ends)
+            self.size += ends[self.kept - 1] if self.kept else 0
+            os.ftruncate(self._fd, self.size)  # back to the last complete row
+            os.lseek(self._fd, self.size, os.SEEK_SET)
+            raise OSError(error.errno, error.strerror, str(self.path)) from error
+        self.kept = len(lines)
+        self.size += written
+
+    def finish(self) -> bool:
+        """Sync the file (OSError naming it when that fails); when it was removed
+        meanwhile, write it again (and its directory); return whether it was."""
+        try:
+            os.fsync(self._fd)
+        except OSError as error:
+            raise OSError(error.errno, error.strerror, str(self.path)) from error
+        if os.fstat(self._fd).st_nlink > 0:
+            return False
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(self.path) as tmp, tmp.open("wb") as out:
+            offset = 0
+            while offset < self.size:
+                piece = os.pread(self._fd, 1 << 20, offset)
+                out.write(piece)
+                offset += len(piece)
+        return True
+
+    def close(self) -> None:
+        os.close(self._fd)
 
 
 def _new_temporary(final: Path) -> Path:

@@ -42,7 +42,8 @@ from wmr_mission.campaign.falsify.files import (
     EVALUATIONS_FILE,
     FAILING_DIR,
     FALSIFY_FILE,
-    EvaluationsFile,
+    cells,
+    columns,
     mission_text,
     replay,
 )
@@ -53,7 +54,7 @@ from wmr_mission.campaign.load import LoadedCampaign, check_campaign, load_campa
 from wmr_mission.campaign.stops import stoppable
 from wmr_mission.kernels import jit
 from wmr_mission.output.environment import environment, package_versions
-from wmr_mission.output.files import json_text, write_bytes_atomic
+from wmr_mission.output.files import RowsFile, json_text, write_bytes_atomic
 from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import (
     RunDirExistsError,
@@ -288,7 +289,9 @@ def _falsify(
         if out_dir is not None:
             manifest = json_text(_manifest(loaded, compiled))
             write_bytes_atomic(out_dir / MANIFEST_FILE, manifest.encode())
-        rows = None if out_dir is None else EvaluationsFile(out_dir / EVALUATIONS_FILE, space.paths)
+        rows = (
+            None if out_dir is None else RowsFile(out_dir / EVALUATIONS_FILE, columns(space.paths))
+        )
         progress.step("runs", total=settings.budget)
         seen: list[Evaluation] = []
         fault: Fault | None = None
@@ -297,7 +300,7 @@ def _falsify(
             nonlocal fault
             if rows is not None:
                 try:
-                    rows.append(batch)
+                    rows.append([cells(e) for e in batch])
                 except OSError as error:  # the complete rows so far are kept; stop
                     seen.extend(batch[: rows.kept])
                     fault = Fault(_cannot_write(error, rows.path), error)
@@ -328,9 +331,11 @@ def _falsify(
             stop.mode = HOLD  # what was evaluated is written whole, whatever signal comes
             if rows is not None:
                 try:
-                    rows.close()
+                    rows.finish()  # synced (written again if removed meanwhile)
                 except OSError as error:
                     fault = fault or Fault(_cannot_write(error, rows.path), error)
+                finally:
+                    rows.close()
         if fault is not None:
             stopped_by: str | None = fault.message
         else:

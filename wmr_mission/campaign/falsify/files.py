@@ -8,12 +8,8 @@ with the run's values and its sensor seed in place, so that
 from __future__ import annotations
 
 import copy
-import csv
-import io
 import math
-import os
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any, Final
 
 import yaml
@@ -27,7 +23,6 @@ __all__ = [
     "EVALUATIONS_FILE",
     "FAILING_DIR",
     "FALSIFY_FILE",
-    "EvaluationsFile",
     "columns",
     "mission_text",
     "replay",
@@ -69,59 +64,6 @@ def cells(evaluation: Evaluation) -> list[str]:
         number_text(evaluation.objective),
         evaluation.reason,
     ]
-
-
-class EvaluationsFile:
-    """``evaluations.csv``, a batch appended as it is known (nothing lost to a
-    stop). A batch that cannot be written whole (a full disk) is cut back to
-    its last complete row, so that the file never ends inside a row;
-    :attr:`kept` says how many of the batch's rows it holds."""
-
-    def __init__(self, path: Path, paths: Sequence[str]) -> None:
-        self.path = path
-        self.size = 0
-        self.kept = 0
-        self._fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
-        try:
-            self._write([columns(paths)])
-        except BaseException:
-            os.close(self._fd)
-            raise
-
-    def append(self, evaluations: Sequence[Evaluation]) -> None:
-        self._write([cells(e) for e in evaluations])
-
-    def _write(self, lines: list[list[str]]) -> None:
-        ends: list[int] = []  # where each row ends, in bytes from the batch's start
-        pieces: list[bytes] = []
-        for line in lines:
-            text = io.StringIO()
-            csv.writer(text, lineterminator="\n").writerow(line)
-            # A file name that is not UTF-8 (in a reason) is written escaped.
-            pieces.append(text.getvalue().encode("utf-8", "backslashreplace"))
-            ends.append((ends[-1] if ends else 0) + len(pieces[-1]))
-        data = memoryview(b"".join(pieces))
-        written = 0
-        try:
-            while written < len(data):
-                written += os.write(self._fd, data[written:])
-        except OSError as error:
-            self.kept = sum(end <= written for end in ends)
-            self.size += ends[self.kept - 1] if self.kept else 0
-            os.ftruncate(self._fd, self.size)  # back to the last complete row
-            os.lseek(self._fd, self.size, os.SEEK_SET)
-            raise OSError(error.errno, error.strerror, str(self.path)) from error
-        self.kept = len(lines)
-        self.size += written
-
-    def close(self) -> None:
-        """Sync and close the file; raises OSError (naming it) when the sync fails."""
-        try:
-            os.fsync(self._fd)
-        except OSError as error:
-            raise OSError(error.errno, error.strerror, str(self.path)) from error
-        finally:
-            os.close(self._fd)
 
 
 def replay(loaded: LoadedCampaign, evaluation: Evaluation) -> str:
