@@ -171,6 +171,13 @@ def replay_line(
     return shlex.join(words)
 
 
+def recorded_sha256(manifest: Mapping[str, Any]) -> str | None:
+    """The mission file's sha256 a campaign's or a search's manifest records
+    (None in a record without it), for :func:`replay_line`."""
+    found = manifest.get("mission_sha256")
+    return found if isinstance(found, str) else None
+
+
 # The hexadecimal digits of a mission file's sha256 a replay line carries.
 MISSION_DIGITS: Final = 16
 

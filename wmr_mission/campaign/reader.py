@@ -10,12 +10,11 @@ line naming the file (and line) and what is wrong, as for a run directory.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final
 
-from wmr_mission.campaign.load import replay_line, value_text
+from wmr_mission.campaign.load import recorded_sha256, replay_line, value_text
 from wmr_mission.campaign.sweep import CAMPAIGN_FILE, MANIFEST_FILE, RUNS_FILE
 from wmr_mission.output.reader import RunDirError, csv_rows, json_value
 
@@ -61,7 +60,7 @@ class CampaignDir:
             self.values[index],
             self.rows[index][1],
             str(self.manifest["environment"]["fingerprint"]),
-            _sha256(self.manifest),
+            recorded_sha256(self.manifest),
         )
 
     def column_types(self) -> dict[str, str]:
@@ -248,10 +247,3 @@ def cell_value(cell: str, kind: str) -> Any:
     if kind == "bool":
         return cell == "true"
     return cell
-
-
-def _sha256(manifest: Mapping[str, Any]) -> str | None:
-    """The mission file's sha256 a campaign's manifest records (None in a
-    record without it)."""
-    found = manifest.get("mission_sha256")
-    return found if isinstance(found, str) else None

@@ -16,7 +16,7 @@ from wmr_mission.campaign.falsify.files import (
     FALSIFY_FILE,
     columns,
 )
-from wmr_mission.campaign.load import replay_line
+from wmr_mission.campaign.load import recorded_sha256, replay_line
 from wmr_mission.output.reader import RunDirError, csv_rows, json_value
 
 __all__ = ["falsification_meta", "is_falsification_dir"]
@@ -112,9 +112,8 @@ def falsification_meta(directory: Path) -> dict[str, Any]:
             replays.append(f"wmr-mission run {mission.resolve()}")
             continue
         values = {path: _value(cell) for path, cell in zip(paths, row[3:-4], strict=True)}
-        sha256 = manifest.get("mission_sha256")
-        digest = sha256 if isinstance(sha256, str) else None
         mission_file = str(manifest["mission_file"])
+        digest = recorded_sha256(manifest)
         replays.append(replay_line(mission_file, [], values, row[1], fingerprint, digest))
     figures = [
         {"name": name, "png": base64.b64encode((directory / name).read_bytes()).decode("ascii")}
