@@ -39,7 +39,7 @@ from wmr_mission.geometry.routes import TURN_CREEP
 from wmr_mission.kernels import jit, loop, scalar_math
 from wmr_mission.kernels.corrective import max_row_value
 from wmr_mission.kernels.loop import FLOAT_COLUMNS, EnteredPhase, PathBlock, Recording, Signals
-from wmr_mission.kernels.model import preview_rows
+from wmr_mission.kernels.model import preview_rows, wrap_angle
 from wmr_mission.kernels.resident import LONG_RUN, give_back_compiler_pages
 from wmr_mission.output.result import RunResult
 from wmr_mission.plugins import failure_message
@@ -972,7 +972,7 @@ class _Run:
                 missed = self._missed(reactor, active, k) if condition != "timeout" else []
                 if condition == "timeout":
                     decision = reactor.react(active.index, "timeout")
-                    why = f"phase '{active.phase.name}' timed out after {value:.6g} s"
+                    why = self._timed_out(active, value)
                 elif missed:
                     decision = reactor.react(active.index, "verdict")
                     condition, value = "verdict", float(len(missed))
@@ -993,10 +993,7 @@ class _Run:
                     Transition(_seconds(k, dt), active.phase.name, None, condition, value)
                 )
                 outcome = Outcome.timeout
-                message = (
-                    f"phase '{active.phase.name}' timed out after {value:.6g} s "
-                    f"at t = {k * dt:.6g} s"
-                )
+                message = self._timed_out(active, value, k * dt)
                 self._close(k, phase)
                 break
             active.status = Status.done
@@ -1011,7 +1008,7 @@ class _Run:
                     value,
                     None if to is None else to.phase.lap,
                     *(
-                        ("next", f"phase '{active.phase.name}' timed out after {value:.6g} s")
+                        ("next", self._timed_out(active, value))
                         if condition == "timeout"
                         else ()
                     ),
@@ -1026,6 +1023,45 @@ class _Run:
             phase = self._enter(active, k)
             chunk, ran = active.first_chunk, 0
         return self._result(outcome, message)
+
+    def _timed_out(self, active: PhaseRun, seconds: float, at: float | None = None) -> str:
+        """A phase's timeout in words, with how far its estimate was from each
+        `until` goal it has at the sample it timed out at (what the conditions
+        read: the estimate and the last input's speed): a park that timed out
+        3 rad short of its heading says so."""
+        words = f"phase '{active.phase.name}' timed out after {seconds:.6g} s"
+        if at is not None:
+            words += f" at t = {at:.6g} s"
+        estimate, speed = self.signals.estimate, float(self.signals.u_prev[0])
+        x, y, theta = float(estimate[0]), float(estimate[1]), float(estimate[2])
+        until, left = active.phase.until, []
+        target = active.target_in_force
+        if until.settled is not None and target is not None:
+            position, heading, still = until.settled
+            text = (
+                f"{math.hypot(x - target[0], y - target[1]):.3g} m and "
+                f"{abs(wrap_angle(theta - target[2])):.3g} rad from its target"
+            )
+            asked = f"{position:g} m and {heading:g} rad"
+            if abs(speed) > still:  # the speed too, where it is what is left
+                text += f", at {abs(speed):.3g} m/s"
+                asked = f"{position:g} m, {heading:g} rad and at most {still:g} m/s"
+            left.append(f"{text} (settled asks {asked})")
+        if until.near is not None:
+            px, py, tolerance = until.near
+            left.append(
+                f"{math.hypot(x - px, y - py):.3g} m from ({px:g}, {py:g}) "
+                f"(near asks {tolerance:g} m)"
+            )
+        if until.heading is not None:
+            aim, tolerance = until.heading
+            left.append(
+                f"{abs(wrap_angle(theta - aim)):.3g} rad from heading {aim:g} "
+                f"(asks {tolerance:g} rad)"
+            )
+        if not left:
+            return words
+        return f"{words}, its estimate {'; '.join(left)}"
 
     def _missed(self, reactor: Reactor, active: PhaseRun, k: int) -> list[str]:
         """The verdicts the phase just ended missed over its samples since it was

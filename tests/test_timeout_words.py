@@ -1,0 +1,51 @@
+"""A timeout says how far the phase's goal still was: a park that ran out of
+time 3 rad short of its heading said only `phase 'dock' timed out after
+6.82 s`, leaving the user to dig the pose out of trajectory.csv
+(sim/runner.py, ``_Run._timed_out``)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+from wmr_mission import mission_from_text, run_mission
+
+# A user's dock: 2.6 m away, then a turn of more than 3 rad, in too little time.
+DOCK = """\
+version: 1
+name: short-dock
+robot:
+  dt: 0.02
+  initial_state: {x: 0, y: 0, theta: 0.195}
+  limits: {v: 0.89, omega: 2.35}
+phases:
+  - name: dock
+    regulate:
+      target: {x: 1.258, y: 2.281, theta: -2.055}
+    until:
+      settled: {position: 0.03, heading: 0.03}
+    timeout: 3
+"""
+
+
+def _wrapped(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def test_a_timed_out_park_says_how_far_its_target_was() -> None:
+    result = run_mission(mission_from_text(DOCK))
+    assert result.outcome.value == "timeout"
+    found = re.fullmatch(
+        r"phase 'dock' timed out after 3 s at t = 3 s, its estimate (\S+) m and (\S+) rad "
+        r"from its target(?:, at \S+ m/s)? \(settled asks 0\.03 m(?:,| and) 0\.03 rad"
+        r"(?: and at most \S+ m/s)?\)",
+        result.message,
+    )
+    assert found is not None, result.message
+    # the numbers are the last sample's estimate, as the condition reads it
+    x, y, theta = result.x_est[-1], result.y_est[-1], result.theta_est[-1]
+    position = math.hypot(x - 1.258, y - 2.281)
+    heading = abs(_wrapped(theta + 2.055))
+    assert float(found[1]) == float(f"{position:.3g}")
+    assert float(found[2]) == float(f"{heading:.3g}")
+    assert position > 0.03 or heading > 0.03  # it did time out short of its goal
