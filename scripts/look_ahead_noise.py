@@ -13,8 +13,8 @@ bound, the worst cross-track error and the run's verdict.
 from __future__ import annotations
 
 from wmr_mission import load_mission, run_mission
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts.metrics import auto_threshold
-from wmr_mission.verdicts.numbers import mission_numbers
 
 MISSION = "missions/patrol-detour.yaml"
 LOOK_AHEADS = (None, 0.1, 0.2, 0.3, 0.5)  # None: the default, max(0.05, limits.v dt)

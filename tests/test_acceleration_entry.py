@@ -17,8 +17,8 @@ from judge_generated import GENERATED, judge_all
 from soundness import judge
 
 from wmr_mission import mission_from_dict, mission_from_text, run_mission
+from wmr_mission.spec.numbers import MissionNumbers, half_turn_time, mission_numbers
 from wmr_mission.verdicts.metrics import auto_threshold
-from wmr_mission.verdicts.numbers import MissionNumbers, half_turn_time, mission_numbers
 from wmr_mission.verdicts.tracking import track_quality
 
 SPEED = 2.0  # [m/s] of the reference along the x axis

@@ -10,8 +10,8 @@ import pytest
 
 from wmr_mission.api import load_mission, run_mission
 from wmr_mission.campaign.comparison import COMPARISON_METRICS, SETTLED_WITHIN, comparison_metrics
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts.inputs import REVERSAL_WINDOW, ROBUST_STD
-from wmr_mission.verdicts.numbers import mission_numbers
 
 FROM_BEHIND = {"robot.initial_state.theta": 3.0, "controller.type": "kanayama"}
 

@@ -22,8 +22,8 @@ from wmr_mission.controllers.constrained_tracking import (
 from wmr_mission.geometry.regions import CircleRegion, constraint_rows
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission_text
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts.metrics import auto_threshold
-from wmr_mission.verdicts.numbers import mission_numbers
 from wmr_mission.verdicts.tracking import track_quality
 from wmr_mission.verdicts.zones import zones_of
 

@@ -20,7 +20,7 @@ from soundness import judge
 
 from wmr_mission import mission_from_text, run_mission
 from wmr_mission.output.result import RunResult
-from wmr_mission.verdicts.numbers import mission_numbers
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts.signals import run_signals
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,14 +1,14 @@
 """A path faster than the robot's speed limit leaves a lag no time can take
 out: after a detour it is judged, not excused as the robot rejoining its
-reference (verdicts/numbers.py, ``MissionNumbers.recovery_time``)."""
+reference (spec/numbers.py, ``MissionNumbers.recovery_time``)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from wmr_mission import mission_from_text, run_mission
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts.metrics import judge
-from wmr_mission.verdicts.numbers import mission_numbers
 
 # A user's delivery: a line at 0.8 m/s past a rock, the robot's limit 0.62 m/s
 # (`validate` warns that the path is faster than the limit).

@@ -20,9 +20,9 @@ from wmr_mission.record import Outcome
 from wmr_mission.sim.runner import run_mission
 from wmr_mission.spec.loader import load_mission, load_mission_text
 from wmr_mission.spec.models import Mission
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts.advice import advice
 from wmr_mission.verdicts.check import Check
-from wmr_mission.verdicts.numbers import mission_numbers
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 

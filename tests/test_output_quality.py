@@ -19,9 +19,9 @@ from test_output_synthetic import circle_run
 
 from wmr_mission.record import Outcome
 from wmr_mission.spec.loader import load_mission_text
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts import inputs
 from wmr_mission.verdicts.metrics import check_expectations, judge, summarize
-from wmr_mission.verdicts.numbers import mission_numbers
 from wmr_mission.verdicts.regulation import stall_time
 from wmr_mission.verdicts.tracking import place_on_path, track_quality, track_samples
 from wmr_mission.verdicts.zones import Zone, intrusion_max

@@ -23,8 +23,8 @@ from judge_generated import GENERATED, disagreements, judge_all, table
 from soundness import Verdict, judge, read_trajectory
 
 from wmr_mission import load_mission, run_mission
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts.inputs import jitter
-from wmr_mission.verdicts.numbers import mission_numbers
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "soundness"

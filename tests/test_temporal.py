@@ -425,8 +425,8 @@ def case2_run() -> Any:
 
 
 def _phase(result: Any, name: str) -> tuple[Any, slice, Any]:
+    from wmr_mission.spec.numbers import mission_numbers
     from wmr_mission.verdicts.metrics import phase_segments
-    from wmr_mission.verdicts.numbers import mission_numbers
 
     for index, start, end in phase_segments(result.phase):
         if result.phases[index].name == name:

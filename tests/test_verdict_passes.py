@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from wmr_mission.kernels import jit
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts import passes
 from wmr_mission.verdicts.inputs import input_quality, progress_to
-from wmr_mission.verdicts.numbers import mission_numbers
 from wmr_mission.verdicts.regulation import stall_time
 from wmr_mission.verdicts.zones import Zone
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from wmr_mission.output.result import RunResult
 from wmr_mission.spec.models import DEFAULT_SETTLE_TIME
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts.inputs import jitter
 from wmr_mission.verdicts.metrics import (
     AT_LIMIT_TOLERANCE,
@@ -40,7 +41,6 @@ from wmr_mission.verdicts.metrics import (
     reference_distance,
     reference_error,
 )
-from wmr_mission.verdicts.numbers import mission_numbers
 
 # Each with its unit (runs.csv's, the figures' axes).
 COMPARISON_UNITS: Final = {

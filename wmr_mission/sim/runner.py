@@ -1007,11 +1007,7 @@ class _Run:
                     condition,
                     value,
                     None if to is None else to.phase.lap,
-                    *(
-                        ("next", self._timed_out(active, value))
-                        if condition == "timeout"
-                        else ()
-                    ),
+                    *(("next", self._timed_out(active, value)) if condition == "timeout" else ()),
                 )
             )
             if to is None:

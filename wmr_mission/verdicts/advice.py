@@ -21,8 +21,8 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from wmr_mission.spec.numbers import MissionNumbers
 from wmr_mission.verdicts.check import Check
-from wmr_mission.verdicts.numbers import MissionNumbers
 
 # The share of a jitter bound the position noise is given; the rest is the
 # heading noise's, which a longer look-ahead does not take out.

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
-from wmr_mission.verdicts.numbers import MissionNumbers
+from wmr_mission.spec.numbers import MissionNumbers
 from wmr_mission.verdicts.passes import first_within, input_pass, jitter_median
 
 # Inputs this close to their limit (relative) are at it: the runner clips exactly.

@@ -28,13 +28,13 @@ from wmr_mission.basics import STATES, FloatArray, cached_value
 from wmr_mission.kernels import jit
 from wmr_mission.spec import catalog, models
 from wmr_mission.spec.catalog import Metric
+from wmr_mission.spec.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.advice import advice
 from wmr_mission.verdicts.check import Check, margin_fields
 from wmr_mission.verdicts.clearance import clearance_min
 from wmr_mission.verdicts.nearest import NearestPoints
-from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.passes import (
     PARTIALS,
     estimation_error_pass,

@@ -18,7 +18,7 @@ import numpy as np
 
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
-from wmr_mission.verdicts.numbers import MissionNumbers
+from wmr_mission.spec.numbers import MissionNumbers
 from wmr_mission.verdicts.passes import stalled_samples
 from wmr_mission.verdicts.zones import Zone
 

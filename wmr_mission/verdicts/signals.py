@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from wmr_mission.basics import STATES, FloatArray
 from wmr_mission.spec import catalog, models
+from wmr_mission.spec.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts import temporal
 from wmr_mission.verdicts.check import Check as Judged
@@ -42,7 +43,6 @@ from wmr_mission.verdicts.metrics import (
     phase_segments,
     summarize,
 )
-from wmr_mission.verdicts.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts.tracking import track_samples
 from wmr_mission.verdicts.zones import zones_of
 

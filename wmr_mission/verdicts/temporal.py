@@ -35,8 +35,8 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.spec.numbers import MissionNumbers
 from wmr_mission.verdicts.check import Check
-from wmr_mission.verdicts.numbers import MissionNumbers
 from wmr_mission.verdicts.tracking import Known, Placement, reference_known
 from wmr_mission.verdicts.zones import zones_of
 

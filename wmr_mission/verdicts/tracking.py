@@ -46,8 +46,8 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray
 from wmr_mission.geometry.regions import box_corners
 from wmr_mission.kernels import jit
+from wmr_mission.spec.numbers import SETTLING, MissionNumbers
 from wmr_mission.verdicts.nearest import NearestPoints
-from wmr_mission.verdicts.numbers import SETTLING, MissionNumbers
 from wmr_mission.verdicts.passes import kept_up
 from wmr_mission.verdicts.placing import path_lengths, place_samples
 from wmr_mission.verdicts.zones import Zone, reach_across

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray
 from wmr_mission.geometry.regions import box_corners
 from wmr_mission.kernels import jit
-from wmr_mission.verdicts.numbers import MissionNumbers
+from wmr_mission.spec.numbers import MissionNumbers
 from wmr_mission.verdicts.passes import ellipse_bounds, ellipse_depth
 
 # [m] depths are known to this: far below any tolerance, and what a robot held on
