@@ -52,6 +52,7 @@ from wmr_mission.plugins import EntryError, load_entry
 from wmr_mission.spec import catalog, graph
 from wmr_mission.spec.changes import path_pace, with_look_ahead, with_pace
 from wmr_mission.spec.models import (
+    Disturbances,
     HeadingCondition,
     HoldPhase,
     Mission,
@@ -63,6 +64,7 @@ from wmr_mission.spec.models import (
     TrackPhase,
     Update,
 )
+from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.spec.reactions import Goto, Retry
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 
@@ -142,6 +144,7 @@ def check(mission: Mission) -> list[Finding]:
             findings.extend(_zones(mission))
             findings.extend(_body_room(mission))
             findings.extend(_reaches(mission))
+            findings.extend(_catching_up(mission))
     # a phase of a repeat is checked once per lap: say each finding once
     return list(dict.fromkeys(findings))
 
@@ -848,6 +851,87 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                 math.atan2(float(dy[last]), float(dx[last])) if dx[last] or dy[last] else pose[2]
             )
             pose = (float(x[last]), float(y[last]), heading)
+
+
+def _catching_up(mission: Mission) -> Iterator[Finding]:
+    """A warning where the mission's first phase, a track phase that ends on
+    time, ends before the robot can come near its reference point: a phase
+    that ends within its entry is judged at its end (docs/mission-format.md,
+    "Verdicts"), and there the robot, from rest at its initial state within
+    its speed and acceleration limits, is still farther from that point than
+    its cross-track and along-track bounds together allow. The distance to the
+    reference point is at most the cross-track error and the lag (their chord
+    at most the arc): such a run fails one of them, whatever the law.
+
+    Only the first phase (its start is known: the initial state, at rest),
+    without zones (a detour is excused) or disturbances (slip and process
+    noise move the robot beyond what its inputs do)."""
+    order = run_order(mission)
+    if not order or not isinstance(order[0].phase, TrackPhase):
+        return
+    phase, where = order[0].phase, order[0].where
+    if phase.constraints or mission.robot.disturbances != Disturbances.defaults():
+        return
+    bound = _bounds(phase, 0.0)
+    if not (_ends_on_time_only(phase) and "until" in _limit(mission, phase, 0.0)):
+        return  # a timeout or the robot's motion may end it: not judged at its end
+    robot, limits = mission.robot, mission.robot.limits
+    numbers = mission_numbers(mission.model_dump(mode="json"), robot.dt, (limits.v, limits.omega))
+    start = (robot.initial_state.x, robot.initial_state.y, robot.initial_state.theta)
+    try:
+        trajectory = paths.trajectory(phase.track.path, mission.path_context(), start)
+        times = np.linspace(0.0, bound, min(math.floor(bound / robot.dt) + 1, _REACH_SAMPLES))
+        with np.errstate(all="ignore"):
+            x, y, dx, dy = trajectory.sample(times)
+    except (ValueError, ArithmeticError):
+        return  # said by _reaches
+    if times.size < 2 or not np.isfinite([x[-1], y[-1]]).all():
+        return
+    speeds = np.hypot(dx, dy)
+    top = float(np.max(speeds[np.isfinite(speeds)], initial=0.0))
+    allowed = []
+    for key, auto in (
+        ("cross_track_error_max", numbers.tracking_tolerance),
+        ("along_track_lag_max", numbers.lag_allowance(top)),
+    ):
+        own = phase.expect.threshold(key)
+        threshold = own if own is not None else mission.expect.threshold(key)
+        if threshold is None:
+            return  # one not checked: the other alone proves nothing
+        allowed.append(auto if threshold == "auto" else float(threshold.max))
+    # the end's reference point, from where the robot starts, less the farthest
+    # it can go by then (the phase's last sample: the end, or a sample before)
+    gap = min(
+        math.dist(start[:2], (float(x[k]), float(y[k]))) - _farthest(float(times[k]), numbers)
+        for k in (-2, -1)
+    )
+    if gap > sum(allowed) * (1.0 + 1e-9):
+        acceleration = (
+            f" and an acceleration of {numbers.v_acceleration:g} m/s^2"
+            if math.isfinite(numbers.v_acceleration)
+            else ""
+        )
+        yield Finding(
+            (*where, "until"),
+            f"phase {phase.name!r} ends before the robot can catch its path: from rest at "
+            f"({start[0]:g}, {start[1]:g}), at limits.v = {limits.v:g} m/s{acceleration}, it "
+            f"is at least {gap:.3g} m from its reference point when the phase ends at "
+            f"{bound:g} s, where its tracking is judged; its cross-track and along-track "
+            f"bounds allow {allowed[0]:.3g} m and {allowed[1]:.3g} m, so the run fails one "
+            "of them whatever the law; lengthen the phase, start the path slower or nearer, "
+            "or raise the limits",
+            severity="warning",
+        )
+
+
+def _farthest(seconds: float, numbers: Any) -> float:
+    """[m] the farthest the robot goes in ``seconds`` from rest: up to its speed
+    limit at its acceleration limit, then at the limit."""
+    speed, rate = numbers.v_limit, numbers.v_acceleration
+    rising = speed / rate  # [s] to reach the limit (0 without an acceleration limit)
+    if seconds <= rising:
+        return 0.5 * rate * seconds * seconds
+    return 0.5 * speed * rising + speed * (seconds - rising)
 
 
 def _update_paths(

@@ -20,6 +20,9 @@ STATES = ("x", "y", "theta")
 TRACKING_TOLERANCE = 0.1
 # Five time constants leave under 1 % of an error (exp(-5) = 0.0067).
 SETTLING = 5.0
+# An `auto` along-track lag allows the distance the reference covers in this many
+# time constants: the designed error dynamics take out 95 % of an error in them.
+LAG_TIME_CONSTANTS = 3.0
 # Below this share of the limit, a gap is closed at that share at least.
 LEAST_CLOSING = 0.1
 # The look-ahead when the mission leaves it unset: max(MIN_LOOK_AHEAD, limits.v * dt).
@@ -54,6 +57,12 @@ class MissionNumbers(NamedTuple):
     def tracking_tolerance(self) -> float:
         """[m] how far off its path (or behind) a robot that tracks may be, noise aside."""
         return TRACKING_TOLERANCE + self.position_noise
+
+    def lag_allowance(self, reference_speed: float) -> float:
+        """[m] what an `auto` along_track_lag_max stands for, the reference's top
+        speed ``reference_speed``: the tracking tolerance and the distance the
+        reference covers in LAG_TIME_CONSTANTS time constants."""
+        return self.tracking_tolerance + LAG_TIME_CONSTANTS * self.time_constant * reference_speed
 
     @property
     def keeping_up_speed(self) -> float:

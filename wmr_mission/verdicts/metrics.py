@@ -75,9 +75,6 @@ _DISTANCE_CHUNK = 4096  # positions per block: bounded memory on long runs
 # An `auto` turn-rate jitter allows this share of the turn-rate limit besides
 # what the heading noise explains.
 JITTER_FLOOR = 0.01
-# An `auto` along-track lag allows the distance the reference covers in this many
-# time constants: the designed error dynamics take out 95 % of an error in them.
-LAG_TIME_CONSTANTS = 3.0
 # `expect` keys that set how metrics are measured, not thresholds.
 _SETTINGS = ("settle_time", "convergence_tolerance")
 # The run's metrics that only a real-time run has: not checked in a simulation.
@@ -1210,7 +1207,7 @@ def auto_threshold(metric: str, phase: Mapping[str, Any], numbers: MissionNumber
             return None
         # the time to accelerate to the reference's speed is the entry's
         # (MissionNumbers.recovery_time), not a lag kept for the whole phase
-        return tolerance + LAG_TIME_CONSTANTS * numbers.time_constant * float(speed)
+        return numbers.lag_allowance(float(speed))
     if metric == "detour_offset_max":
         # The filter keeps the tracked output off the zones grown by the margin
         # the controller keeps (the body's and the estimate's, in zone_reach) and
