@@ -64,7 +64,7 @@ from wmr_mission.spec.models import (
     TrackPhase,
     Update,
 )
-from wmr_mission.spec.numbers import mission_numbers
+from wmr_mission.spec.numbers import MissionNumbers, mission_numbers
 from wmr_mission.spec.reactions import Goto, Retry
 from wmr_mission.spec.repeats import MAX_RUN_PHASES, DataPath, run_count, run_order
 
@@ -924,7 +924,7 @@ def _catching_up(mission: Mission) -> Iterator[Finding]:
         )
 
 
-def _farthest(seconds: float, numbers: Any) -> float:
+def _farthest(seconds: float, numbers: MissionNumbers) -> float:
     """[m] the farthest the robot goes in ``seconds`` from rest: up to its speed
     limit at its acceleration limit, then at the limit."""
     speed, rate = numbers.v_limit, numbers.v_acceleration
