@@ -9,7 +9,7 @@ wmr_mission.geometry.paths.)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, NamedTuple
 
@@ -22,6 +22,12 @@ from wmr_mission.estimators import ESTIMATORS, EstimatorType, Measurements
 from wmr_mission.geometry import paths, regions
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.geometry.regions import RegionSpec
+from wmr_mission.kernels.corrective import (
+    ELLIPSE_ROW,
+    POLYGON_ROW,
+    polygon_value,
+    row_value_with_margin,
+)
 from wmr_mission.kernels.records import RUNAWAY_DISTANCE, RUNAWAY_INPUT, Plant
 from wmr_mission.sim.draws import DisturbancePlan
 from wmr_mission.sim.reactions import ReactionPlan, contingency_phases, reaction_plan
@@ -153,6 +159,11 @@ class PhasePlan:
     color: str | None = None  # for the figures: from the mission's plot.phase_colors
     updates: tuple[UpdatePlan, ...] = ()  # in the order they are written
     pace: float | None = None  # track: its path's written speed (or |angular_rate|)
+    # regulate: why its target is out of the controller's reach (the band it
+    # keeps round a zone holds the axle farther from it than `settled` allows),
+    # or None (docs/paper-notes.md, eq. (28), "A target within the band kept
+    # round a zone")
+    out_of_reach: str | None = None
 
 
 @dataclass(frozen=True)
@@ -378,14 +389,20 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, plant: P
         kind = "regulate"
         goal = phase.regulate.target
         target = (float(goal.x), float(goal.y), float(goal.theta))
+    until = _conditions(phase.until, mission, dt)
+    out_of_reach = None
+    if target is not None and until.settled is not None:
+        tolerance = until.settled[0]
+        out_of_reach = _out_of_reach(target, tolerance, constraints, row_parts, plant)
     return PhasePlan(
+        out_of_reach=out_of_reach,
         updates=tuple(_update(update, lap, mission, plant) for update in phase.updates),
         name=label,
         lap=lap,
         points=points,
         pace=pace,
         kind=kind,
-        until=_conditions(phase.until, mission, dt),
+        until=until,
         timeout_samples=None if phase.timeout is None else _bound(phase.timeout, dt),
         fail_on_timeout=phase.on_timeout in (None, "fail"),
         make_trajectory=make_trajectory,
@@ -394,6 +411,61 @@ def _phase(phase: Phase, label: str, lap: int | None, mission: Mission, plant: P
         constraints=tuple(constraints),
         color=mission.plot.phase_colors.get(phase.name),  # every lap of a repeat
     )
+
+
+def _out_of_reach(
+    target: tuple[float, float, float],
+    tolerance: float,
+    constraints: Sequence[tuple[str, str]],
+    row_parts: Sequence[tuple[IntArray, FloatArray]],
+    plant: Plant,
+) -> str | None:
+    """Why a regulate phase cannot settle at ``target`` within ``tolerance``
+    [m]: the first of its zones whose band the controller keeps (eq. (28),
+    each row shrunk by ``Plant.constraint_margin``: the estimate's margin and
+    the disc round the body) holds the axle farther than ``tolerance`` from
+    it; None where no zone does. The axle's nearest point kept is at least
+    ``tolerance`` away where a row shrunk by ``margin - tolerance`` is broken
+    at the target: exactly for a box, a polygon, a half-plane and a circle,
+    to ``O(margin^2 / radius of curvature)`` for an ellipse."""
+    margin = float(plant.constraint_margin)
+    if margin <= tolerance:
+        return None
+    x, y = target[0], target[1]
+    for (name, side), (kinds, params) in zip(constraints, row_parts, strict=True):
+        worst = -math.inf
+        metric = True  # a box's, a polygon's or a half-plane's value is a distance
+        for kind, p in zip(kinds, params, strict=True):
+            row = np.ascontiguousarray(p, dtype=np.float64)
+            if kind == POLYGON_ROW:
+                value = polygon_value(row, margin - tolerance, x, y)[0]
+            else:
+                value = row_value_with_margin(int(kind), row, margin - tolerance, x, y)[0]
+                metric = metric and kind != ELLIPSE_ROW
+            worst = max(worst, value)
+        if not worst > 0.0:
+            continue
+        body = float(plant.body)
+        where = (
+            f"{margin - tolerance - worst:.3g} m from keep-out zone {name!r}"
+            if side == "outside"
+            else f"{margin - tolerance - worst:.3g} m inside the edge of keep-in region {name!r}"
+        )
+        if not metric:
+            where = (
+                f"within the band kept round keep-out zone {name!r}"
+                if side == "outside"
+                else f"within the band kept inside keep-in region {name!r}"
+            )
+        kept = f"the estimate's margin {margin - body:.3g} m"
+        if body > 0.0:
+            kept = f"the disc round the robot's body {body:.3g} m and {kept}"
+        return (
+            f"its target ({x:g}, {y:g}) is {where}, and the controller keeps the axle "
+            f"{margin:.3g} m from the zone's edge ({kept}): it stops farther than the "
+            f"settled tolerance {tolerance:g} m from the target"
+        )
+    return None
 
 
 def _update(update: Update, lap: int | None, mission: Mission, plant: Plant) -> UpdatePlan:

@@ -1057,7 +1057,9 @@ class _Run:
             )
         if not left:
             return words
-        return f"{words}, its estimate {'; '.join(left)}"
+        words = f"{words}, its estimate {'; '.join(left)}"
+        why = active.phase.out_of_reach  # a target the band kept round a zone holds off
+        return words if why is None or until.settled is None else f"{words}: {why}"
 
     def _missed(self, reactor: Reactor, active: PhaseRun, k: int) -> list[str]:
         """The verdicts the phase just ended missed over its samples since it was
