@@ -254,6 +254,23 @@ def path_point(
         out[3] = held[1] = rows[row, 3]
 
 
+@kernel
+def first_tangent(aim_now: FloatArray, aim: FloatArray, most_turn: float) -> None:
+    """At a track phase's first sample: where the path's tangent turns from
+    t_0 to t_1 by more than ``most_turn`` (the robot's turn in a sample at its
+    turn-rate limit), the tangent at t_1 stands for t_0's in ``aim_now``. The
+    piece whose tangent that was is left within the sample: a route joined
+    from the robot's estimate to a first point a hair away (a lap entered
+    where the lap before rested) starts with a leg of micrometres along the
+    estimate's error (docs/paper-notes.md, eq. (27), "at a phase's first
+    sample: a tangent left within it")."""
+    cross = aim_now[2] * aim[3] - aim_now[3] * aim[2]
+    dot = aim_now[2] * aim[2] + aim_now[3] * aim[3]
+    if abs(math.atan2(cross, dot)) > most_turn:
+        aim_now[2] = aim[2]
+        aim_now[3] = aim[3]
+
+
 def run_segment(
     plant: Plant,
     actuation: Actuation,
@@ -316,6 +333,10 @@ def run_segment(
             if path.rows.shape[1] > 4:  # the path as previewed too (sim.runner.previewed)
                 path_point(path.rows[:, 4:], row, estimate[2], held[2:], aim_now[4:])
                 path_point(path.rows[:, 4:], row + 1, estimate[2], held[2:], aim[4:])
+            if k == phase.entry_sample:  # a tangent the path leaves within the sample
+                first_tangent(aim_now, aim, plant.limits[1] * dt)
+                if path.rows.shape[1] > 4:
+                    first_tangent(aim_now[4:], aim[4:], plant.limits[1] * dt)
         x = state[0]
         y = state[1]
         theta = state[2]
