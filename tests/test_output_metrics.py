@@ -10,7 +10,7 @@ import pytest
 from test_output_synthetic import PHASE_STARTS, RADIUS, REF_OFFSET, REGIONS, TURN_RATE, circle_run
 
 from wmr_mission.output.result import RunResult
-from wmr_mission.record import Outcome, PhaseRecord
+from wmr_mission.record import Outcome, PhaseRecord, Transition
 from wmr_mission.verdicts.metrics import (
     AT_LIMIT_TOLERANCE,
     LOCAL_WINDOW,
@@ -312,9 +312,19 @@ def test_diverged_run_gives_nulls_not_warnings() -> None:
     json.dumps(summary, allow_nan=False)
 
 
+def _renamed(change: Transition, old: str, new: str) -> Transition:
+    """``change`` with phase ``old`` called ``new``."""
+    return dataclasses.replace(
+        change,
+        from_phase=new if change.from_phase == old else change.from_phase,
+        to_phase=new if change.to_phase == old else change.to_phase,
+    )
+
+
 def test_hold_without_target_falls_back_to_an_earlier_phase() -> None:
     run = circle_run()
     run.phases = [*run.phases[:2], PhaseRecord("wait", "hold")]
+    run.transitions = [_renamed(tr, "park", "wait") for tr in run.transitions]
     final = summarize(run)["final"]
     assert final["target"]["phase"] == "orbit"
 
@@ -461,12 +471,15 @@ def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -
     np.testing.assert_array_equal(_off_path_bound(x, y, px, py), distance_to_path(x, y, px, py))
 
 
-def test_phase_segments_are_the_stretches_of_one_phase() -> None:
-    """(phase, first sample, one past the last) of each stretch, as a loop over
-    the samples finds them, on random phase columns and the edge cases."""
+def test_phase_segments_are_the_entries_into_phases() -> None:
+    """(phase, first sample, one past the last) of each entry in run order, as
+    the transitions made them, on random runs: a phase entered again at once (a
+    retry) starts a stretch of its own, a phase left at the sample it was
+    entered has one without samples, an update starts none; the stretches with
+    samples are the phase column's."""
     from wmr_mission.verdicts.metrics import phase_segments
 
-    def by_loop(phase: np.ndarray) -> list[tuple[int, int, int]]:
+    def column_runs(phase: np.ndarray) -> list[tuple[int, int, int]]:
         stretches: list[tuple[int, int, int]] = []
         for k, value in enumerate(phase.tolist()):
             if stretches and stretches[-1][0] == value:
@@ -476,12 +489,43 @@ def test_phase_segments_are_the_stretches_of_one_phase() -> None:
         return stretches
 
     rng = np.random.default_rng(5)
-    columns = [np.zeros(0, np.int64), np.array([4]), np.array([0, 1, 0, 1]), np.zeros(7, np.int64)]
-    columns += [np.repeat(rng.integers(0, 4, 30), rng.integers(1, 9, 30)) for _ in range(20)]
-    for phase in columns:
-        segments = phase_segments(phase)
-        assert segments == by_loop(phase)
+    base = circle_run(200)
+    phases = [PhaseRecord(name, "hold") for name in ("a", "b", "c", "d")]
+    for _ in range(30):
+        count = int(rng.integers(1, 12))
+        indices = [0, *rng.integers(0, 4, count - 1).tolist()]
+        lengths = rng.integers(0, 4, count)
+        lengths[-1] += 1  # the run's last row is its last phase's
+        ends = np.cumsum(lengths)
+        starts = ends - lengths
+        expected = list(zip(indices, starts.tolist(), ends.tolist(), strict=True))
+        samples = int(ends[-1])
+        t = base.t[:samples]
+        changes = [
+            Transition(float(t[k]), phases[i].name, phases[j].name, "elapsed", 1.0)
+            for i, j, k in zip(indices, indices[1:], starts[1:].tolist(), strict=False)
+        ]
+        update = Transition(float(t[-1]), phases[indices[-1]].name, phases[indices[-1]].name,
+                            "update", 1.0)  # fmt: skip
+        end = Transition(float(t[-1]), phases[indices[-1]].name, None, "elapsed", 1.0)
+        run = dataclasses.replace(
+            base,
+            phases=phases,
+            **{name: getattr(base, name)[:samples] for name in ("t", "x", "y", "theta")},
+            phase=np.repeat(np.array(indices, dtype=np.int64), lengths),
+            transitions=[*changes, update, end],
+        )
+        segments = phase_segments(run)
+        assert segments == expected
         assert all(type(n) is int for segment in segments for n in segment)
+        with_samples: list[tuple[int, int, int]] = []
+        for i, start, stop in (s for s in segments if s[1] < s[2]):
+            if with_samples and with_samples[-1][0] == i:  # a retry's, run on
+                with_samples[-1] = (i, with_samples[-1][1], stop)
+            else:
+                with_samples.append((i, start, stop))
+        assert with_samples == column_runs(run.phase)
+    assert phase_segments(dataclasses.replace(base, t=base.t[:0], phase=base.phase[:0])) == []
 
 
 def test_distance_to_path_of_a_track_phase_ignores_the_lag() -> None:
@@ -646,6 +690,7 @@ def test_a_phase_in_a_repeat_keeps_its_thresholds_on_every_lap() -> None:
     """A repeated phase runs as name#lap; its own expect applies to each lap."""
     run = _chattering_orbit()
     run.phases = [run.phases[0], dataclasses.replace(run.phases[1], name="orbit#1"), run.phases[2]]
+    run.transitions = [_renamed(tr, "orbit", "orbit#1") for tr in run.transitions]
     mission = {
         "expect": {"settle_time": 1.0, "turn_rate_at_limit": {"max": 0.01}},
         "phases": [

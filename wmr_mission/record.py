@@ -115,9 +115,10 @@ class PhaseRecord:
     def targets_in_force(self, start: int, end: int) -> list[tuple[int, int, Pose]]:
         """(first sample, one past the last, target) of each stretch of samples
         ``start .. end - 1`` (a stretch of the run this phase ran) over which one
-        target was in force; ``target`` over all of them without ``targets``."""
+        target was in force; ``target`` over all of them without ``targets``;
+        none over no sample."""
         if not self.targets:
-            return [] if self.target is None else [(start, end, self.target)]
+            return [] if self.target is None or start >= end else [(start, end, self.target)]
         stretches: list[tuple[int, int, Pose]] = []
         for i, (first, x, y, theta) in enumerate(self.targets):
             stop = self.targets[i + 1][0] if i + 1 < len(self.targets) else end

@@ -86,7 +86,7 @@ def _reference_error(result: RunResult, settle_time: float) -> tuple[float | Non
     settled = np.zeros(result.samples, dtype=bool)
     floor = settle_time - 1e-9 * result.dt
     first: dict[int, np.float64] = {}  # each track phase's first sample's time
-    for i, start, end in phase_segments(result.phase):
+    for i, start, end in phase_segments(result):
         if result.phases[i].kind == "track":
             tracked[start:end] = True
             settled[start:end] = t[start:end] - first.setdefault(i, t[start]) >= floor

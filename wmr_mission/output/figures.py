@@ -409,7 +409,7 @@ def _draw_path(ax: Axes, result: RunRecord, colors: list[Any]) -> None:
         label="estimate",
         zorder=3,
     )
-    segments = phase_segments(result.phase)
+    segments = phase_segments(result)
     starts = np.array([start for _, start, _ in segments], dtype=np.int64)
     # Thinned once for the whole run, each phase's first and last sample kept.
     kept = np.union1d(every, np.concatenate((starts, np.maximum(starts - 1, 0))))
@@ -867,7 +867,7 @@ def _mark_phases(axes: Sequence[Axes], result: RunRecord, colors: list[Any]) -> 
     hold it (the labels need room, so there are never more than about 50)."""
     from matplotlib.collections import LineCollection
 
-    segments = phase_segments(result.phase)
+    segments = phase_segments(result)
     t0 = float(result.t[0]) if result.samples else 0.0
     span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
     changes = result.t[[start for _, start, _ in segments[1:]]]

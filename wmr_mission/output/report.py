@@ -145,12 +145,12 @@ _ENDED_RUN = {"timeout": "timed out", "breached": "breached"}
 
 
 def _ends(summary: dict[str, Any], result: RunRecord | None = None) -> list[list[str]]:
-    """How each phase entry ended where not by its `until`, a line each:
-    'timed out' or 'breached' ('timed out 2 times': an entry retried runs on in
-    one row), whether the run ended there or went on (``on_timeout: next``, a
-    retry, a contingency). From the run's transitions, each placed in the entry
-    of its phase whose span holds its time; without the run, from the
-    summary's outcome, for its last entry only."""
+    """How each phase entry ended where not by its `until`: 'timed out' or
+    'breached' (a retry is an entry of its own, with its own row), whether
+    the run ended there or went on (``on_timeout: next``, a retry, a
+    contingency). From the run's transitions, each placed in the entry of its
+    phase whose span holds its time; without the run, from the summary's
+    outcome, for its last entry only."""
     phases = summary.get("phases") or []
     ends: list[list[str]] = [[] for _ in phases]
     spans = [(p.get("start"), p.get("end")) for p in phases]
@@ -173,11 +173,7 @@ def _ends(summary: dict[str, Any], result: RunRecord | None = None) -> list[list
             if phases[at]["name"] == change.from_phase:
                 ends[at].append(word)
                 break
-    counted: list[list[str]] = []
-    for words in ends:
-        kinds = dict.fromkeys(words)  # in the order they happened
-        counted.append([w if words.count(w) == 1 else f"{w} {words.count(w)} times" for w in kinds])
-    return counted
+    return ends
 
 
 def _missed(check: dict[str, Any]) -> str:

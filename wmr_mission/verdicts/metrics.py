@@ -353,13 +353,28 @@ def at_limit_fraction(values: FloatArray, limit: float) -> float | None:
     return float(at) / float(values.size)
 
 
-def phase_segments(phase: np.ndarray) -> list[tuple[int, int, int]]:
-    """(phase index, first sample, one past the last sample) of each stretch, in run order."""
-    if phase.size == 0:
+def phase_segments(result: RunRecord) -> list[tuple[int, int, int]]:
+    """(phase index, first sample, one past the last sample) of each entry into a
+    phase, in run order, as the run's transitions record them: its first
+    phase's at sample 0, then each phase a transition entered (an update enters
+    none). A phase entered again (a retry, a goto, a resumption) has a stretch
+    per entry, and a phase whose `until` already held when it was entered one
+    without samples (first == one past the last: the next phase's first sample
+    is the same). An entry after the last sample recorded (a run stopped
+    there) has none."""
+    n = result.samples
+    if n == 0:
         return []
-    starts = [0, *(np.flatnonzero(phase[1:] != phase[:-1]) + 1).tolist()]
-    ends = [*starts[1:], phase.size]
-    return list(zip(phase[starts].tolist(), starts, ends, strict=True))
+    number = {info.name: i for i, info in enumerate(result.phases)}
+    entered = [
+        (number[tr.to_phase], tr.time)
+        for tr in result.transitions
+        if tr.to_phase is not None and tr.condition != "update"
+    ]
+    at = np.searchsorted(result.t, np.array([time for _, time in entered]) - 0.5 * result.dt)
+    starts = [(0, 0), *((i, int(k)) for (i, _), k in zip(entered, at, strict=True) if k < n)]
+    ends = [k for _, k in starts[1:]] + [n]
+    return [(i, k, end) for (i, k), end in zip(starts, ends, strict=True)]
 
 
 def _phase_target(
@@ -1026,7 +1041,7 @@ def _phase_samples(
     ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
     judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers), kept)
     phases: Phases = []
-    for index, start, end in phase_segments(result.phase):
+    for index, start, end in phase_segments(result):
         info = result.phases[index]
         expect = per_phase.get(_written_name(info.name), _expect_of(mission))
         phase = PhaseSamples(result, info, (start, end), _settle_time(expect), off_path, judged)

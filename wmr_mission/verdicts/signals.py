@@ -183,7 +183,7 @@ def run_signals(result: RunRecord) -> Signals:
         judged.setdefault(name, np.zeros(n, dtype=bool))
         return values
 
-    segments = phase_segments(result.phase)
+    segments = phase_segments(result)
     errors = estimation_errors(result)
     inputs_from = input_metrics.first_judged(result.t, errors, numbers)
     ended_by = {tr.from_phase: tr.condition for tr in result.transitions}

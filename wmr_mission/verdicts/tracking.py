@@ -694,7 +694,7 @@ def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
     unbroken (as a phase's do but its last sample), whose columns are views,
     not copies of a long run's."""
     count = int(np.count_nonzero(known))
-    first = int(np.argmax(known))  # the first known (0 if none is)
+    first = int(np.argmax(known)) if count else 0  # the first known
     if count and known[first : first + count].all():
         return slice(first, first + count)
     return known
