@@ -472,11 +472,12 @@ def test_the_tracking_bound_of_a_row_is_never_below_the_distance_to_the_path() -
 
 
 def test_phase_segments_are_the_entries_into_phases() -> None:
-    """(phase, first sample, one past the last) of each entry in run order, as
-    the transitions made them, on random runs: a phase entered again at once (a
-    retry) starts a stretch of its own, a phase left at the sample it was
-    entered has one without samples, an update starts none; the stretches with
-    samples are the phase column's."""
+    """(phase, first sample, one past the last, what ended it) of each entry in
+    run order, as the transitions made them, on random runs: a phase entered
+    again at once (a retry) starts a stretch of its own, ended by its own
+    transition, a phase left at the sample it was entered has one without
+    samples, an update starts none; the stretches with samples are the phase
+    column's."""
     from wmr_mission.verdicts.metrics import phase_segments
 
     def column_runs(phase: np.ndarray) -> list[tuple[int, int, int]]:
@@ -498,16 +499,18 @@ def test_phase_segments_are_the_entries_into_phases() -> None:
         lengths[-1] += 1  # the run's last row is its last phase's
         ends = np.cumsum(lengths)
         starts = ends - lengths
-        expected = list(zip(indices, starts.tolist(), ends.tolist(), strict=True))
+        # what ended each entry: a change's condition, the last the run's end
+        ended = [*rng.choice(["elapsed", "timeout", "reaches"], count - 1).tolist(), "settled"]
+        expected = list(zip(indices, starts.tolist(), ends.tolist(), ended, strict=True))
         samples = int(ends[-1])
         t = base.t[:samples]
         changes = [
-            Transition(float(t[k]), phases[i].name, phases[j].name, "elapsed", 1.0)
-            for i, j, k in zip(indices, indices[1:], starts[1:].tolist(), strict=False)
+            Transition(float(t[k]), phases[i].name, phases[j].name, why, 1.0)
+            for i, j, k, why in zip(indices, indices[1:], starts[1:].tolist(), ended, strict=False)
         ]
         update = Transition(float(t[-1]), phases[indices[-1]].name, phases[indices[-1]].name,
                             "update", 1.0)  # fmt: skip
-        end = Transition(float(t[-1]), phases[indices[-1]].name, None, "elapsed", 1.0)
+        end = Transition(float(t[-1]), phases[indices[-1]].name, None, "settled", 1.0)
         run = dataclasses.replace(
             base,
             phases=phases,
@@ -517,9 +520,9 @@ def test_phase_segments_are_the_entries_into_phases() -> None:
         )
         segments = phase_segments(run)
         assert segments == expected
-        assert all(type(n) is int for segment in segments for n in segment)
+        assert all(type(n) is int for segment in segments for n in segment[:3])
         with_samples: list[tuple[int, int, int]] = []
-        for i, start, stop in (s for s in segments if s[1] < s[2]):
+        for i, start, stop, _ in (s for s in segments if s[1] < s[2]):
             if with_samples and with_samples[-1][0] == i:  # a retry's, run on
                 with_samples[-1] = (i, with_samples[-1][1], stop)
             else:

@@ -82,3 +82,17 @@ def test_a_timeout_that_goes_on_says_why_in_its_transition() -> None:
     assert first.why is not None
     assert "keep-out zone 'shelf'" in first.why
     assert run.outcome.value == "success"
+
+
+def test_a_target_an_update_moved_is_not_blamed_on_the_written_one() -> None:
+    """The written target within the band, an update moving it clear at 0.5 s,
+    and too short a timeout: the message gives the distances to the target in
+    force, and no band round the shelf, which no longer holds the robot off."""
+    text = BESIDE_A_SHELF.format(y=0.0, timeout=3, after="").replace(
+        "  until:\n",
+        "  updates:\n  - when: {elapsed: 0.5}\n    target: {x: 2.5, y: -1, theta: 0}\n  until:\n",
+    )
+    run = run_mission(mission_from_text(text))
+    assert run.outcome.value == "timeout"
+    assert "from its target" in run.message
+    assert "shelf" not in run.message

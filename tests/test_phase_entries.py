@@ -153,3 +153,31 @@ phases:
     assert resumed.outcome is Outcome.success
     assert [p["name"] for p in phases] == ["leg", "around", "leg"]
     assert [(p["name"], p["start"]) for p in phases] == _entered(resumed)
+
+
+def test_each_try_of_a_retried_phase_is_judged_by_how_it_ended() -> None:
+    """A try that timed out within its entry is not judged at its end; the try
+    that ended on time is. Keyed by the phase's name, every try was judged by
+    how the last one ended: the first try's 0.636 m lag at its timeout failed
+    a run that succeeds."""
+    text = """
+version: 1
+name: retried
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 0}
+  limits: {v: 1.2, omega: 2.0, acceleration: {v: 0.5, omega: 3.0}}
+phases:
+- name: run
+  track: {path: {type: line, heading: 0, speed: 1.0}}
+  until: {mission_time: 6}
+  timeout: 4
+  on_timeout: {retry: {times: 1}}
+"""
+    result = run_mission(mission_from_text(text))
+    phases = result.summary()["phases"]
+    assert [tr.condition for tr in result.transitions] == ["timeout", "mission_time"]
+    first, second = phases
+    assert first["tracking"]["along_track_lag_max"] is None  # ended in its entry, timed out
+    assert second["tracking"]["along_track_lag_max"] is not None  # ended on time: judged
+    assert result.outcome is Outcome.success, result.message

@@ -428,7 +428,7 @@ def _phase(result: Any, name: str) -> tuple[Any, slice, Any]:
     from wmr_mission.spec.numbers import mission_numbers
     from wmr_mission.verdicts.metrics import phase_segments
 
-    for index, start, end in phase_segments(result):
+    for index, start, end, _ in phase_segments(result):
         if result.phases[index].name == name:
             numbers = mission_numbers(result.mission, result.dt, result.limits)
             return result.phases[index], slice(start, end), numbers

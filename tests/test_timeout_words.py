@@ -37,7 +37,7 @@ def test_a_timed_out_park_says_how_far_its_target_was() -> None:
     assert result.outcome.value == "timeout"
     found = re.fullmatch(
         r"phase 'dock' timed out after 3 s at t = 3 s, its estimate (\S+) m and (\S+) rad "
-        r"from its target(?:, at \S+ m/s)? \(settled asks 0\.03 m(?:,| and) 0\.03 rad"
+        r"from its target(?:, its last input \S+ m/s)? \(settled asks 0\.03 m(?:,| and) 0\.03 rad"
         r"(?: and at most \S+ m/s)?\)",
         result.message,
     )

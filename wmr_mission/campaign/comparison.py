@@ -85,11 +85,10 @@ def _reference_error(result: RunResult, settle_time: float) -> tuple[float | Non
     tracked = np.zeros(result.samples, dtype=bool)
     settled = np.zeros(result.samples, dtype=bool)
     floor = settle_time - 1e-9 * result.dt
-    first: dict[int, np.float64] = {}  # each track phase's first sample's time
-    for i, start, end in phase_segments(result):
-        if result.phases[i].kind == "track":
+    for i, start, end, _ in phase_segments(result):  # each entry from its own start
+        if result.phases[i].kind == "track" and start < end:
             tracked[start:end] = True
-            settled[start:end] = t[start:end] - first.setdefault(i, t[start]) >= floor
+            settled[start:end] = t[start:end] - t[start] >= floor
     tracked &= np.isfinite(result.x_ref)
     if not tracked.any():
         return None, None

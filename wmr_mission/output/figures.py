@@ -410,7 +410,7 @@ def _draw_path(ax: Axes, result: RunRecord, colors: list[Any]) -> None:
         zorder=3,
     )
     segments = phase_segments(result)
-    starts = np.array([start for _, start, _ in segments], dtype=np.int64)
+    starts = np.array([entry.start for entry in segments], dtype=np.int64)
     # Thinned once for the whole run, each phase's first and last sample kept.
     kept = np.union1d(every, np.concatenate((starts, np.maximum(starts - 1, 0))))
     cuts = np.searchsorted(kept, starts[1:])
@@ -418,9 +418,7 @@ def _draw_path(ax: Axes, result: RunRecord, colors: list[Any]) -> None:
     # Each phase's line runs to the next phase's first sample, so the coloured
     # lines join; it is cut into pieces of LINE_PIECE points (for Agg's memory).
     pieces, piece_colors = [], []
-    for (index, _, _), a, b in zip(
-        segments, np.r_[0, cuts], np.r_[cuts, kept.size - 1], strict=True
-    ):
+    for (index, *_), a, b in zip(segments, np.r_[0, cuts], np.r_[cuts, kept.size - 1], strict=True):
         for start in range(a, max(a + 1, b), LINE_PIECE - 1):
             stop = min(start + LINE_PIECE, b + 1)
             pieces.append(np.column_stack((x[start:stop], y[start:stop])))
@@ -870,7 +868,7 @@ def _mark_phases(axes: Sequence[Axes], result: RunRecord, colors: list[Any]) -> 
     segments = phase_segments(result)
     t0 = float(result.t[0]) if result.samples else 0.0
     span = float(result.t[-1] - t0) if result.samples > 1 else 1.0
-    changes = result.t[[start for _, start, _ in segments[1:]]]
+    changes = result.t[[entry.start for entry in segments[1:]]]
     # At most one line per MAX_PHASE_LINES-th of the run: more would only fill it in.
     _, apart = np.unique(np.floor((changes - t0) / span * MAX_PHASE_LINES), return_index=True)
     changes = changes[apart]
@@ -889,7 +887,7 @@ def _mark_phases(axes: Sequence[Axes], result: RunRecord, colors: list[Any]) -> 
             autolim=False,
         )
     free_from = -math.inf  # where the previous label ends [s]
-    for index, start, end in segments:
+    for index, start, end, _ in segments:
         time = float(result.t[start])
         stop = float(result.t[end - 1])
         name = result.phases[index].name

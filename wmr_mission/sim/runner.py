@@ -1040,7 +1040,7 @@ class _Run:
             )
             asked = f"{position:g} m and {heading:g} rad"
             if abs(speed) > still:  # the speed too, where it is what is left
-                text += f", at {abs(speed):.3g} m/s"
+                text += f", its last input {abs(speed):.3g} m/s"
                 asked = f"{position:g} m, {heading:g} rad and at most {still:g} m/s"
             left.append(f"{text} (settled asks {asked})")
         if until.near is not None:
@@ -1058,7 +1058,8 @@ class _Run:
         if not left:
             return words
         words = f"{words}, its estimate {'; '.join(left)}"
-        why = active.phase.out_of_reach  # a target the band kept round a zone holds off
+        # why, for the target written (not one an update gave): the band kept round a zone
+        why = active.phase.out_of_reach if target == active.phase.target else None
         return words if why is None or until.settled is None else f"{words}: {why}"
 
     def _missed(self, reactor: Reactor, active: PhaseRun, k: int) -> list[str]:

@@ -863,21 +863,30 @@ def _catching_up(mission: Mission) -> Iterator[Finding]:
     reference point is at most the cross-track error and the lag (their chord
     at most the arc): such a run fails one of them, whatever the law.
 
-    Only the first phase (its start is known: the initial state, at rest),
-    without zones (a detour is excused) or disturbances (slip and process
-    noise move the robot beyond what its inputs do)."""
+    Only where the path is known before the run: the first phase, its start
+    the initial state at rest and its estimate (the path of a `start: current`
+    is made from the estimate), no updates (a path slowed or replaced may be
+    caught), no zones (a detour is excused), no disturbances (slip and process
+    noise move the robot beyond what its inputs do). The robot's reach counts
+    the sampled plant's (its first input a whole sample's acceleration) and
+    four noise std of the first estimate's position, where the path starts."""
     order = run_order(mission)
     if not order or not isinstance(order[0].phase, TrackPhase):
         return
     phase, where = order[0].phase, order[0].where
-    if phase.constraints or mission.robot.disturbances != Disturbances.defaults():
-        return
+    initial, estimated = mission.robot.initial_state, mission.estimator.initial_estimate
+    if (
+        phase.constraints
+        or phase.updates
+        or mission.robot.disturbances != Disturbances.defaults()
+        or (estimated is not None and estimated != initial)
+        or not (_ends_on_time_only(phase) and "until" in _limit(mission, phase, 0.0))
+    ):
+        return  # the path, or how the robot moves, or how the phase ends, not known
     bound = _bounds(phase, 0.0)
-    if not (_ends_on_time_only(phase) and "until" in _limit(mission, phase, 0.0)):
-        return  # a timeout or the robot's motion may end it: not judged at its end
     robot, limits = mission.robot, mission.robot.limits
     numbers = mission_numbers(mission.model_dump(mode="json"), robot.dt, (limits.v, limits.omega))
-    start = (robot.initial_state.x, robot.initial_state.y, robot.initial_state.theta)
+    start = (initial.x, initial.y, initial.theta)
     try:
         trajectory = paths.trajectory(phase.track.path, mission.path_context(), start)
         times = np.linspace(0.0, bound, min(math.floor(bound / robot.dt) + 1, _REACH_SAMPLES))
@@ -901,8 +910,12 @@ def _catching_up(mission: Mission) -> Iterator[Finding]:
         allowed.append(auto if threshold == "auto" else float(threshold.max))
     # the end's reference point, from where the robot starts, less the farthest
     # it can go by then (the phase's last sample: the end, or a sample before)
+    # and what the first estimate's noise may shift the path by
+    noise = 4.0 * math.hypot(numbers.noise["x"], numbers.noise["y"])
     gap = min(
-        math.dist(start[:2], (float(x[k]), float(y[k]))) - _farthest(float(times[k]), numbers)
+        math.dist(start[:2], (float(x[k]), float(y[k])))
+        - _farthest(float(times[k]), robot.dt, numbers)
+        - noise
         for k in (-2, -1)
     )
     if gap > sum(allowed) * (1.0 + 1e-9):
@@ -924,14 +937,17 @@ def _catching_up(mission: Mission) -> Iterator[Finding]:
         )
 
 
-def _farthest(seconds: float, numbers: MissionNumbers) -> float:
-    """[m] the farthest the robot goes in ``seconds`` from rest: up to its speed
-    limit at its acceleration limit, then at the limit."""
+def _farthest(seconds: float, dt: float, numbers: MissionNumbers) -> float:
+    """[m] the farthest the robot goes in ``seconds`` from rest, sampled every
+    ``dt``: each sample's speed a sample's acceleration above the last, up to
+    its speed limit (the first input is a whole sample's acceleration)."""
     speed, rate = numbers.v_limit, numbers.v_acceleration
-    rising = speed / rate  # [s] to reach the limit (0 without an acceleration limit)
-    if seconds <= rising:
-        return 0.5 * rate * seconds * seconds
-    return 0.5 * speed * rising + speed * (seconds - rising)
+    samples = math.ceil(seconds / dt - 1e-9)
+    rising = samples if math.isinf(rate) else min(samples, math.floor(speed / (rate * dt)))
+    if math.isinf(rate):
+        return samples * speed * dt
+    # sum over the rising samples of (i + 1) rate dt, then the rest at the limit
+    return (rate * dt * rising * (rising + 1) / 2.0 + speed * (samples - rising)) * dt
 
 
 def _update_paths(

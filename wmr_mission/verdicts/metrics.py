@@ -353,28 +353,43 @@ def at_limit_fraction(values: FloatArray, limit: float) -> float | None:
     return float(at) / float(values.size)
 
 
-def phase_segments(result: RunRecord) -> list[tuple[int, int, int]]:
-    """(phase index, first sample, one past the last sample) of each entry into a
-    phase, in run order, as the run's transitions record them: its first
-    phase's at sample 0, then each phase a transition entered (an update enters
-    none). A phase entered again (a retry, a goto, a resumption) has a stretch
-    per entry, and a phase whose `until` already held when it was entered one
-    without samples (first == one past the last: the next phase's first sample
-    is the same). An entry after the last sample recorded (a run stopped
-    there) has none."""
+class Entry(NamedTuple):
+    """One entry into a phase: its stretch of the run and what ended it."""
+
+    phase: int  # the phase's number in the run's phases
+    start: int  # its first sample
+    end: int  # one past its last sample (start: none)
+    # the condition of the transition that ended it ("elapsed", "timeout",
+    # "interrupted", ...); None where the record says none did
+    ended_by: str | None
+
+
+def phase_segments(result: RunRecord) -> list[Entry]:
+    """Each entry into a phase, in run order, as the run's transitions record
+    them: its first phase's at sample 0, then each phase a transition entered
+    (an update enters none), each ended by the transition after its start. A
+    phase entered again (a retry, a goto, a resumption) has a stretch per
+    entry, judged by how that entry ended, and a phase whose `until` already
+    held when it was entered one without samples (start == end: the next
+    phase's first sample is the same). An entry after the last sample
+    recorded (a run stopped there) has none."""
     n = result.samples
     if n == 0:
         return []
     number = {info.name: i for i, info in enumerate(result.phases)}
-    entered = [
-        (number[tr.to_phase], tr.time)
-        for tr in result.transitions
-        if tr.to_phase is not None and tr.condition != "update"
+    moves = [tr for tr in result.transitions if tr.condition != "update"]
+    entered = [tr for tr in moves if tr.to_phase is not None]
+    at = np.searchsorted(result.t, np.array([tr.time for tr in entered]) - 0.5 * result.dt)
+    starts = [(0, 0)]
+    starts += [
+        (number[str(tr.to_phase)], int(k)) for tr, k in zip(entered, at, strict=True) if k < n
     ]
-    at = np.searchsorted(result.t, np.array([time for _, time in entered]) - 0.5 * result.dt)
-    starts = [(0, 0), *((i, int(k)) for (i, _), k in zip(entered, at, strict=True) if k < n)]
     ends = [k for _, k in starts[1:]] + [n]
-    return [(i, k, end) for (i, k), end in zip(starts, ends, strict=True)]
+    # each move ends the entry it leaves: the first the first phase's, and so on
+    return [  # the j-th move ends the j-th entry: the first phase's, and so on
+        Entry(i, k, end, moves[j].condition if j < len(moves) else None)
+        for j, ((i, k), end) in enumerate(zip(starts, ends, strict=True))
+    ]
 
 
 def _phase_target(
@@ -473,7 +488,6 @@ class _Judged(NamedTuple):
 
     numbers: MissionNumbers
     inputs_from: int | None  # the first sample at or after that time (None: never)
-    ended_by: Mapping[str, str]  # phase name -> the `until` condition that ended it
     goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
     errors: dict[str, FloatArray] | None  # the run's estimation errors, where its judge keeps them
 
@@ -487,12 +501,12 @@ class PhaseSamples:
         self,
         result: RunRecord,
         info: PhaseRecord,
-        span: tuple[int, int],
+        entry: Entry,
         settle_time: float,
         off_path_of: OffPath,
         judged: _Judged,
     ) -> None:
-        start, end = span
+        start, end = entry.start, entry.end
         self.result, self.info = result, info
         self.window = slice(start, end)
         self.start_time = float(result.t[start])
@@ -503,7 +517,7 @@ class PhaseSamples:
         self.settled = _suffix(settled, self.settled_samples)  # the samples after the settle time
         self._off_path_of = off_path_of
         self.numbers = judged.numbers
-        self.ended_by = judged.ended_by
+        self.ended_by = entry.ended_by
         self.goals = judged.goals
         self._run_errors = judged.errors
         # the first sample of the phase whose inputs are judged (past the end: none)
@@ -548,7 +562,7 @@ class PhaseSamples:
         if self.info.kind != "track":
             return None
         r, w = self.result, self.window
-        timed = self.ended_by.get(self.info.name) in ("elapsed", "mission_time")
+        timed = self.ended_by in ("elapsed", "mission_time")
         found, samples = track_samples(
             r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed,
             r.constraint_margin, self.placement, known=self.reference_known,
@@ -1038,13 +1052,12 @@ def _phase_samples(
         else int(np.searchsorted(result.t, judged_from - 1e-9 * result.dt))
     )
     del errors  # not kept while the phases are measured unless the caller keeps them
-    ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
-    judged = _Judged(numbers, inputs_from, ended_by, _goals(mission, numbers), kept)
+    judged = _Judged(numbers, inputs_from, _goals(mission, numbers), kept)
     phases: Phases = []
-    for index, start, end in phase_segments(result):
-        info = result.phases[index]
+    for entry in phase_segments(result):
+        info = result.phases[entry.phase]
         expect = per_phase.get(_written_name(info.name), _expect_of(mission))
-        phase = PhaseSamples(result, info, (start, end), _settle_time(expect), off_path, judged)
+        phase = PhaseSamples(result, info, entry, _settle_time(expect), off_path, judged)
         phases.append((info, phase, expect))
     return phases
 

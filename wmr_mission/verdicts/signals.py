@@ -186,17 +186,16 @@ def run_signals(result: RunRecord) -> Signals:
     segments = phase_segments(result)
     errors = estimation_errors(result)
     inputs_from = input_metrics.first_judged(result.t, errors, numbers)
-    ended_by = {tr.from_phase: tr.condition for tr in result.transitions}
     settle = _settle_times(result.mission)
     spans: dict[str, tuple[int, int]] = {}
-    for index, start, end in segments:
+    for index, start, end, ended_by in segments:
         info = result.phases[index]
         spans[info.name] = (start, end)
         w = slice(start, end)
         zones = zones_of(info.constraints, result.regions)
         placed = None
         if info.kind == "track":
-            timed = ended_by.get(info.name) in ("elapsed", "mission_time")
+            timed = ended_by in ("elapsed", "mission_time")
             _, placed = track_samples(
                 result.t[w],
                 result.x[w],
