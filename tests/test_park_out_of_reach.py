@@ -96,3 +96,22 @@ def test_a_target_an_update_moved_is_not_blamed_on_the_written_one() -> None:
     assert run.outcome.value == "timeout"
     assert "from its target" in run.message
     assert "shelf" not in run.message
+
+
+def test_validate_warns_of_a_target_the_body_clears_within_the_band() -> None:
+    """The target 0.58 m from the shelf: beyond the body's disc (0.57 m), so
+    the body's own warning is silent, but within the band with the estimate's
+    margin (0.62 m) by more than the settled tolerance: said, and the run
+    indeed times out; 0.66 m from it, neither."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    def warned(y: float) -> list[str]:
+        text = BESIDE_A_SHELF.format(y=y, timeout=8, after="")
+        return [d.message for d in check_mission_text(text, "park.yaml")[1]]
+
+    [said] = warned(-0.31)
+    assert "0.58 m from keep-out zone 'shelf'" in said
+    assert "keeps the axle 0.62 m from that edge" in said
+    run = run_mission(mission_from_text(BESIDE_A_SHELF.format(y=-0.31, timeout=8, after="")))
+    assert run.outcome.value == "timeout"
+    assert warned(-0.39) == []

@@ -16,9 +16,9 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 import pydantic
 
-from wmr_mission.basics import STATES, FloatArray, IntArray, measurement_mask, samples
+from wmr_mission.basics import STATES, FloatArray, IntArray, samples
 from wmr_mission.controllers import CONTROLLERS, ControllerType
-from wmr_mission.estimators import ESTIMATORS, EstimatorType, Measurements
+from wmr_mission.estimators import ESTIMATORS, EstimatorType
 from wmr_mission.geometry import paths, regions
 from wmr_mission.geometry.paths import Trajectory
 from wmr_mission.geometry.regions import RegionSpec
@@ -566,14 +566,11 @@ def hold_still(when: str) -> UpdatePlan:
 def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
     """Turn a validated mission into the runner's plain form."""
     dt = float(mission.robot.dt)
-    sensors = mission.sensors
-    measured = measurement_mask(sensors.measure)
-    measured_noise = sensors.measured_noise()
-    noise_std = np.array([measured_noise.get(state, 0.0) for state in STATES])
+    told = mission.measurements()
     limits = mission.robot.limits
     dumped_regions = {name: r.model_dump(mode="json") for name, r in mission.regions.items()}
     estimator = ESTIMATORS.of(mission.estimator)
-    estimator_tuning = estimator.tuning_of(mission.estimator, Measurements(measured, noise_std, dt))
+    estimator_tuning = estimator.tuning_of(mission.estimator, told)
     controller = CONTROLLERS.of(mission.controller)
     plant = Plant(
         dt=dt,
@@ -604,9 +601,9 @@ def plan_mission(mission: Mission, seed: int | None = None) -> MissionPlan:
         plant=plant,
         initial_state=np.array([initial.x, initial.y, initial.theta], dtype=np.float64),
         initial_estimate=np.array([guess.x, guess.y, guess.theta], dtype=np.float64),
-        measured=measured,
-        noise_std=noise_std,
-        seed=sensors.seed if seed is None else seed,
+        measured=told.mask,
+        noise_std=told.noise_std,
+        seed=mission.sensors.seed if seed is None else seed,
         estimator=estimator,
         estimator_tuning=estimator_tuning,
         controller=controller,

@@ -23,6 +23,7 @@ from wmr_mission.controllers import paper
 from wmr_mission.controllers.constrained_tracking import THROUGH_CENTRE
 from wmr_mission.controllers.paper import PaperController
 from wmr_mission.controllers.plugin import PythonController
+from wmr_mission.estimators import ESTIMATORS
 from wmr_mission.estimators.ekf import Ekf
 from wmr_mission.estimators.observer import BOUND_NOISE_RATIO, ConstrainedObserver
 from wmr_mission.estimators.plugin import PythonEstimator
@@ -1521,25 +1522,44 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
     by the body (docs/mission-format.md, "The robot's body"): the robot
     starts beyond one, or cannot reach the target. A polygon body is kept by
     the disc round it: where the body itself, at the pose's heading, clears
-    the zone and only that disc does not, the finding says so."""
+    the zone and only that disc does not, the finding says so.
+
+    With or without a footprint: a settled target the body clears, but whose
+    zone the controller keeps the axle farther from than the target lies by
+    more than its `settled` tolerance: the band is the body's reach and the
+    estimate's margin (``Plant.constraint_margin``), and the robot stops at
+    its edge (docs/paper-notes.md, eq. (28), "A target within the band kept
+    round a zone")."""
     footprint = mission.robot.footprint
-    if footprint is None:
+    reach = 0.0 if footprint is None else footprint.reach()
+    margin = _estimate_margin(mission)
+    band = reach + margin
+    if band <= 0.0:
         return
-    reach = footprint.reach()
     start = mission.robot.initial_state
     for number, run in enumerate(run_order(mission)):
         phase, where = run.phase, run.where
         if run.lap is not None and run.lap > 1:
             continue
-        points: list[tuple[DataPath, str, Pose]] = []
-        if number == 0:
+        points: list[tuple[DataPath, str, Pose, float]] = []  # ..., its settled tolerance
+        if number == 0 and footprint is not None:
             points.append(
-                (("robot", "initial_state"), "robot.initial_state", (start.x, start.y, start.theta))
+                (
+                    ("robot", "initial_state"),
+                    "robot.initial_state",
+                    (start.x, start.y, start.theta),
+                    math.inf,
+                )
             )
         if isinstance(phase, RegulatePhase) and phase.until.settled is not None:
             target = phase.regulate.target
             points.append(
-                ((*where, "regulate", "target"), "the target", (target.x, target.y, target.theta))
+                (
+                    (*where, "regulate", "target"),
+                    "the target",
+                    (target.x, target.y, target.theta),
+                    float(phase.until.settled.position),
+                )
             )
         # (the region, how much room a point has, where it is, what the body
         # does there, whether a body placed there does it, what it does
@@ -1554,9 +1574,11 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
             for name, yard in _keep_ins(mission, phase).items()
         ]  # fmt: skip
         for name, region, room_at, edge, body, does, clear, kept in sides:
-            for path, what, (x, y, theta) in points:
+            for path, what, (x, y, theta), tolerance in points:
                 room = room_at(region, float(x), float(y))
-                if not 0.0 <= room < reach:
+                if footprint is None or not 0.0 <= room < reach:
+                    if 0.0 <= room < band - tolerance:
+                        yield _within_the_band(path, (x, y), room, edge, name, reach, margin)
                     continue
                 said = f"{what} ({x:g}, {y:g}) is {room:.3g} m {edge} {name!r}, nearer than "
                 if isinstance(footprint, RoundFootprint) or does(
@@ -1579,6 +1601,41 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
                         f"{kept}, so {stops}"
                     )
                 yield Finding(path, said, severity="warning")
+
+
+def _within_the_band(
+    path: DataPath,
+    target: tuple[float, float],
+    room: float,
+    edge: str,
+    name: str,
+    reach: float,
+    margin: float,
+) -> Finding:
+    """A settled target nearer a zone's edge than the band the controller keeps
+    round it, by more than its tolerance (:func:`_body_room`)."""
+    band = f"the estimate's margin {margin:.3g} m"
+    if reach > 0.0:
+        band = f"the disc round the robot's body {reach:.3g} m and {band}"
+    return Finding(
+        path,
+        f"the target ({target[0]:g}, {target[1]:g}) is {room:.3g} m {edge} {name!r}, but the "
+        f"controller keeps the axle {reach + margin:.3g} m from that edge ({band}): the robot "
+        f"stops at least {reach + margin - room:.3g} m short of the target, beyond its "
+        "settled tolerance, and the phase cannot settle",
+        severity="warning",
+    )
+
+
+def _estimate_margin(mission: Mission) -> float:
+    """[m] the estimate's share of the band the controller keeps round every
+    zone (``Plant.constraint_margin`` less the body's reach); 0 for a plug-in
+    estimator, whose code `validate` does not run."""
+    estimator = ESTIMATORS.of(mission.estimator)
+    if estimator.plugin:
+        return 0.0
+    tuning = estimator.tuning_of(mission.estimator, mission.measurements())
+    return float(estimator.constraint_margin(tuning))
 
 
 def _outline(region: RegionSpec) -> Any:

@@ -17,6 +17,7 @@ import math
 import re
 from typing import TYPE_CHECKING, Annotated, Any, Final, Literal, NoReturn
 
+import numpy as np
 from pydantic import (
     AfterValidator,
     ConfigDict,
@@ -31,10 +32,10 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
-from wmr_mission.basics import STATES, StateName
+from wmr_mission.basics import STATES, StateName, measurement_mask
 from wmr_mission.controllers import CONTROLLERS, ControllerSettings
 from wmr_mission.controllers.paper import PaperController
-from wmr_mission.estimators import ESTIMATORS, EstimatorSettings
+from wmr_mission.estimators import ESTIMATORS, EstimatorSettings, Measurements
 from wmr_mission.estimators.observer import ConstrainedObserver
 from wmr_mission.fields import (
     IDENTIFIER,
@@ -1010,6 +1011,16 @@ class Mission(Model):
             regions=self.regions,
             parameters=self.parameters,
             acceleration=ROUTE_ACCELERATION_SHARE * acceleration,
+        )
+
+    def measurements(self) -> Measurements:
+        """What the sensors tell the estimator: the states they measure, each
+        one's noise std (0 for a state not measured), the sampling period."""
+        noise = self.sensors.measured_noise()
+        return Measurements(
+            measurement_mask(self.sensors.measure),
+            np.array([noise.get(state, 0.0) for state in STATES]),
+            float(self.robot.dt),
         )
 
     @model_validator(mode="wrap")
