@@ -49,3 +49,39 @@ def test_a_timed_out_park_says_how_far_its_target_was() -> None:
     assert float(found[1]) == float(f"{position:.3g}")
     assert float(found[2]) == float(f"{heading:.3g}")
     assert position > 0.03 or heading > 0.03  # it did time out short of its goal
+
+
+def test_a_timeout_on_a_region_or_with_a_reaction_says_where_and_when() -> None:
+    """A `reaches` goal gets its distance too (it had none), and a timeout a
+    reaction takes says its mission time as a failing one does."""
+    text = """\
+version: 1
+name: seek
+robot:
+  dt: 0.02
+  initial_state: {x: 0, y: 0, theta: 0}
+  limits: {v: 1, omega: 2}
+regions:
+  goal: {type: circle, center: [6, 0], radius: 1}
+phases:
+  - name: first
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    until: {elapsed: 1}
+  - name: seek
+    track: {path: {type: line, heading: 0, speed: 1}}
+    until: {reaches: goal}
+    timeout: 2
+    on_timeout: {retry: {times: 1, then: fail}}
+"""
+    result = run_mission(mission_from_text(text))
+    assert result.outcome.value == "timeout"
+    x, y = result.x_est[-1], result.y_est[-1]
+    left = math.hypot(x - 6.0, y) - 1.0  # from the circle's edge
+    found = re.search(
+        r"at t = 5 s, its estimate (\S+) m from the edge of region 'goal'", result.message
+    )
+    assert found is not None, result.message
+    assert abs(float(found[1]) - left) < 0.01  # the edge sampled
+    retried = result.transitions[1]
+    assert retried.why is not None
+    assert retried.why.startswith("phase 'seek' timed out after 2 s at t = 3 s, its estimate")

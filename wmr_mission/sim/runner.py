@@ -55,7 +55,7 @@ from wmr_mission.sim.reactions import (
     missed_verdicts,
     nearest_ahead,
 )
-from wmr_mission.spec.checks import importing_entries
+from wmr_mission.spec.checks import distance_to, importing_entries
 from wmr_mission.spec.loader import validate_mission
 from wmr_mission.spec.models import Mission
 from wmr_mission.stopping import HOLD, RAISE, stop_owed
@@ -972,7 +972,7 @@ class _Run:
                 missed = self._missed(reactor, active, k) if condition != "timeout" else []
                 if condition == "timeout":
                     decision = reactor.react(active.index, "timeout")
-                    why = self._timed_out(active, value)
+                    why = self._timed_out(active, value, k * dt)
                 elif missed:
                     decision = reactor.react(active.index, "verdict")
                     condition, value = "verdict", float(len(missed))
@@ -1007,7 +1007,11 @@ class _Run:
                     condition,
                     value,
                     None if to is None else to.phase.lap,
-                    *(("next", self._timed_out(active, value)) if condition == "timeout" else ()),
+                    *(
+                        ("next", self._timed_out(active, value, k * dt))
+                        if condition == "timeout"
+                        else ()
+                    ),
                 )
             )
             if to is None:
@@ -1020,14 +1024,12 @@ class _Run:
             chunk, ran = active.first_chunk, 0
         return self._result(outcome, message)
 
-    def _timed_out(self, active: PhaseRun, seconds: float, at: float | None = None) -> str:
+    def _timed_out(self, active: PhaseRun, seconds: float, at: float) -> str:
         """A phase's timeout in words, with how far its estimate was from each
         `until` goal it has at the sample it timed out at (what the conditions
         read: the estimate and the last input's speed): a park that timed out
         3 rad short of its heading says so."""
-        words = f"phase '{active.phase.name}' timed out after {seconds:.6g} s"
-        if at is not None:
-            words += f" at t = {at:.6g} s"
+        words = f"phase '{active.phase.name}' timed out after {seconds:.6g} s at t = {at:.6g} s"
         estimate, speed = self.signals.estimate, float(self.signals.u_prev[0])
         x, y, theta = float(estimate[0]), float(estimate[1]), float(estimate[2])
         until, left = active.phase.until, []
@@ -1043,6 +1045,9 @@ class _Run:
                 text += f", its last input {abs(speed):.3g} m/s"
                 asked = f"{position:g} m, {heading:g} rad and at most {still:g} m/s"
             left.append(f"{text} (settled asks {asked})")
+        region = self.m.context.regions.get(until.reaches) if until.reaches else None
+        if region is not None:
+            left.append(f"{distance_to(region, x, y):.3g} m from the edge of region {until.reaches!r}")
         if until.near is not None:
             px, py, tolerance = until.near
             left.append(

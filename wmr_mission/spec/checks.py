@@ -1406,9 +1406,9 @@ def _keep_ins(mission: Mission, phase: Phase) -> dict[str, RegionSpec]:
 
 def _outside_by(region: RegionSpec, x: float, y: float) -> float:
     """[m] how far the point (x, y) is outside ``region`` (0 inside), sampled as
-    :func:`_distance_to` is."""
+    :func:`distance_to` is."""
     inside = region_value(region, np.array([x]), np.array([y]))[0] <= 0.0
-    return 0.0 if inside else _distance_to(region, x, y)
+    return 0.0 if inside else distance_to(region, x, y)
 
 
 def _apart(region: RegionSpec, other: RegionSpec) -> bool:
@@ -1722,7 +1722,7 @@ def _boundary(region: RegionSpec) -> tuple[FloatArray, FloatArray]:
     return np.array([nx * region.offset / norm**2]), np.array([ny * region.offset / norm**2])
 
 
-def _distance_to(region: RegionSpec, x: float, y: float) -> float:
+def distance_to(region: RegionSpec, x: float, y: float) -> float:
     """How far (x, y) is from the boundary of ``region`` [m] (sampled; exact for a half-plane)."""
     if isinstance(region, BoxRegion | PolygonRegion | EllipseRegion | CircleRegion):
         bx, by = _boundary(region)
@@ -1767,7 +1767,7 @@ def _in_time(
         )
     if until.reaches is not None and until.reaches in mission.regions:
         region = mission.regions[until.reaches]
-        distance = _distance_to(region, pose[0], pose[1])
+        distance = distance_to(region, pose[0], pose[1])
         least.append((distance / limits.v, f"region {until.reaches!r}, {distance:.3g} m away"))
     if until.heading is not None:
         turn = _wrapped(until.heading.target - pose[2]) - until.heading.tolerance
