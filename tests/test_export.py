@@ -25,7 +25,8 @@ pq = pytest.importorskip("pyarrow.parquet")
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """circle_run with measurements every 5th sample, an infinity in the constraint,
-    and a reference updated half-way (the `reference` column of a run with updates)."""
+    a reference updated half-way (the `reference` column of a run with updates),
+    and its first transition a reaction's, with why it fired."""
     result = circle_run()
     measured = np.arange(result.samples) % 5 == 1
     constraint = result.constraint.copy()
@@ -37,6 +38,14 @@ def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         theta_meas=np.where(measured, result.theta + 0.001, np.nan),
         constraint=constraint,
         reference=(np.arange(result.samples) >= result.samples // 2).astype(np.int64),
+        transitions=[
+            dataclasses.replace(
+                result.transitions[0],
+                reaction="retry: 1 (1 of 1)",
+                why="phase 'out' timed out after 1 s at t = 1 s",
+            ),
+            *result.transitions[1:],
+        ],
     )
     return result.write(tmp_path_factory.mktemp("export") / "circle", plots=False)
 
@@ -135,8 +144,9 @@ def test_mcap_messages_read_back_equal_to_the_csv(run_dir: Path) -> None:
 
     transitions = json.loads((run_dir / "transitions.json").read_text(encoding="utf-8"))
     assert [m for _, _, m in topics["/transitions"]] == [
-        {**t, "lap": t.get("lap")} for t in transitions
+        {"lap": None, "reaction": None, "why": None, **t} for t in transitions
     ]
+    assert any("why" in t for t in transitions)  # a reaction's, said in the export too
     assert [t for _, t, _ in topics["/transitions"]] == [
         round(t["time"] * 1e9) for t in transitions
     ]

@@ -185,7 +185,7 @@ def test_ros2_messages_read_back_equal_to_the_run(run_dir: Path) -> None:
 
     transitions = json.loads((run_dir / "transitions.json").read_text(encoding="utf-8"))
     assert [json.loads(m.data) for _, m in topics["/transitions"]] == [
-        {**t, "lap": t.get("lap")} for t in transitions
+        {"lap": None, "reaction": None, "why": None, **t} for t in transitions
     ]
     summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
     assert [(t, json.loads(m.data)) for t, m in topics["/summary"]] == [(ns[-1], summary)]

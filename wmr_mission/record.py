@@ -86,6 +86,8 @@ class Transition:
             "condition": self.condition,
             "value": self.value if math.isfinite(self.value) else None,
             "lap": self.lap,
+            "reaction": self.reaction,
+            "why": self.why,
         }
 
 

@@ -183,6 +183,8 @@ TRANSITION: Final = {
         "condition": {"type": "string"},
         "value": {"type": ["number", "null"]},
         "lap": {"type": ["integer", "null"]},
+        "reaction": {"type": ["string", "null"]},
+        "why": {"type": ["string", "null"]},
     },
 }
 SUMMARY: Final = {
