@@ -181,3 +181,36 @@ def test_a_stretch_at_the_limit_that_ends_at_an_update_is_judged_by_its_own_targ
         - np.hypot(x[update + 5] - 2.3, y[update + 5]),
         abs=1e-12,
     )
+
+
+REVERSED = """
+version: 1
+name: reversed
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 3.14159}
+  limits: {v: 1.5, omega: 2}
+phases:
+  - name: park
+    regulate: {target: {x: 6, y: 0, theta: 3.14159}}
+    updates:
+      - when: {elapsed: 2}
+        target: {x: -2, y: 0, theta: 3.14159}
+    until: {settled: {position: 0.03, heading: 0.05}}
+    timeout: 30
+"""
+
+
+def test_a_target_sent_back_the_way_it_came_reverses_at_the_limit_without_a_fight() -> None:
+    """Backing to (6, 0) at the limit, then sent to (-2, 0): the robot drives
+    forward at the limit from the next sample, its distance to the target in
+    force shrinking all the while. One stretch at the limit changing sign
+    read 4.33 s of fight; judged apart on each side of the update, none."""
+    result = run_mission(mission_from_text(REVERSED))
+    update = int(np.flatnonzero(result.reference == 1)[0])
+    limit = 1.5 * (1.0 - 1e-3)
+    assert (result.v[update - 50 : update] <= -limit).all()  # backing at the limit
+    assert (result.v[update : update + 50] >= limit).all()  # then forward at it
+    summary = result.judged
+    assert summary is not None
+    assert summary["phases"][0]["inputs"]["speed_fight_time"] == 0.0

@@ -1047,7 +1047,9 @@ class _Run:
             left.append(f"{text} (settled asks {asked})")
         region = self.m.context.regions.get(until.reaches) if until.reaches else None
         if region is not None:
-            left.append(f"{distance_to(region, x, y):.3g} m from the edge of region {until.reaches!r}")
+            left.append(
+                f"{distance_to(region, x, y):.3g} m from the edge of region {until.reaches!r}"
+            )
         if until.near is not None:
             px, py, tolerance = until.near
             left.append(

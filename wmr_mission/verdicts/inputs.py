@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -101,9 +101,14 @@ def input_quality(
     numbers: MissionNumbers,
     progress: Progress,
     counted: NDArray[np.bool_] | None = None,
+    cuts: Sequence[int] = (),
 ) -> dict[str, Any]:
     """The input metrics of a phase's judged samples (``inputs`` in its summary);
-    ``counted``: per sample, whether the jitter counts it (None: all)."""
+    ``counted``: per sample, whether the jitter counts it (None: all);
+    ``cuts``: the samples a new reference took over at (an update): a stretch
+    at a limit is judged apart on each side of one, by the reference in force
+    over it (a park sent back the way it came reverses at the limit, as it
+    should)."""
     tau, dt = numbers.time_constant, numbers.dt
 
     def drives(a: int, b: int) -> bool:  # half the distance driven at the limit is progress
@@ -121,12 +126,12 @@ def input_quality(
         if name == "turn_rate":  # three times what raw heading noise makes of the turn rate
             floor += 3.0 * numbers.heading_noise / tau
         if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
-            metrics |= _compiled_quality(name, t, values, floor, limit, numbers, deliberate)
+            metrics |= _compiled_quality(name, t, values, floor, limit, numbers, deliberate, cuts)
             continue
         jumps = np.abs(np.diff(values))
         metrics[f"{name}_jump_max"] = _finite(jumps.max()) if jumps.size else 0.0
         metrics[f"{name}_reversals"] = most_reversals(t, values, floor, REVERSAL_WINDOW * tau)
-        metrics[f"{name}_fight_time"] = fight_time(values, limit, numbers, deliberate)
+        metrics[f"{name}_fight_time"] = fight_time(values, limit, numbers, deliberate, cuts)
     metrics["turn_rate_jitter"] = jitter(omega, numbers, counted)
     return metrics
 
@@ -139,6 +144,7 @@ def _compiled_quality(
     limit: float,
     numbers: MissionNumbers,
     deliberate: Callable[[int, int], bool],
+    cuts: Sequence[int] = (),
 ) -> dict[str, Any]:
     """:func:`input_quality`'s jump, reversals and fight time of one input, by
     :func:`wmr_mission.verdicts.passes.input_pass`."""
@@ -150,7 +156,10 @@ def _compiled_quality(
     fought = 0
     if math.isfinite(limit):
         for a, b, kept in zip(starts.tolist(), ends.tolist(), one_sign.tolist(), strict=True):
-            if not (kept and deliberate(a, b)):
+            pieces = _cut(a, b, cuts)
+            if len(pieces) > 1:  # judged apart on each side of an update
+                fought += _fought(values, pieces, shortest, deliberate)
+            elif not (kept and deliberate(a, b)):
                 fought += b - a
     return {
         f"{name}_jump_max": _finite(jump),
@@ -184,9 +193,11 @@ def fight_time(
     limit: float,
     numbers: MissionNumbers,
     deliberate: Callable[[int, int], bool],
+    cuts: Sequence[int] = (),
 ) -> float:
     """[s] spent at ``limit`` in stretches of one time constant or more (two
-    samples at least) that change sign or are not ``deliberate(a, b)``."""
+    samples at least) that change sign or are not ``deliberate(a, b)``, each
+    judged apart on each side of one of ``cuts`` (an update)."""
     magnitude = np.abs(values)
     if not math.isfinite(limit) or values.size == 0 or magnitude.max() < limit * (1.0 - AT_LIMIT):
         return 0.0
@@ -195,12 +206,34 @@ def fight_time(
     shortest = max(2, round(numbers.time_constant / numbers.dt))
     fought = 0
     for a, b in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
+        if b - a >= shortest:
+            fought += _fought(values, _cut(a, b, cuts), shortest, deliberate)
+    return fought * numbers.dt
+
+
+def _cut(a: int, b: int, cuts: Sequence[int]) -> list[tuple[int, int]]:
+    """Samples ``a .. b - 1`` in pieces, cut at each of ``cuts`` inside them."""
+    inside = [c for c in cuts if a < c < b]
+    return list(zip([a, *inside], [*inside, b], strict=True))
+
+
+def _fought(
+    values: FloatArray,
+    pieces: Sequence[tuple[int, int]],
+    shortest: int,
+    deliberate: Callable[[int, int], bool],
+) -> int:
+    """The samples of ``pieces`` of a stretch at a limit that fight it: each
+    piece of ``shortest`` samples or more that changes sign or is not
+    ``deliberate``."""
+    fought = 0
+    for a, b in pieces:
         if b - a < shortest:
             continue
         one_sign = bool(np.all(values[a:b] > 0) or np.all(values[a:b] < 0))
         if not (one_sign and deliberate(a, b)):
             fought += b - a
-    return fought * numbers.dt
+    return fought
 
 
 def jitter(

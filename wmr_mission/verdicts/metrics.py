@@ -592,8 +592,12 @@ class PhaseSamples:
         counted = None  # a track phase's jitter: the samples its tracking is judged at
         if self.tracked is not None and self.tracked[1] is not None:
             counted = self.tracked[1][first - self.window.start :]
+        cuts: list[int] = []  # where an update's reference took over
+        if r.reference is not None:
+            reference = r.reference[judged]
+            cuts = (np.flatnonzero(reference[1:] != reference[:-1]) + 1).tolist()
         return input_metrics.input_quality(
-            r.t[judged], r.v[judged], r.omega[judged], self.numbers, progress, counted
+            r.t[judged], r.v[judged], r.omega[judged], self.numbers, progress, counted, cuts
         )
 
     @cached_value
