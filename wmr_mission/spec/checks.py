@@ -767,7 +767,6 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
 
     start = mission.robot.initial_state
     pose: Pose = (start.x, start.y, start.theta)
-    dt = mission.robot.dt
     mission_time = 0.0
     for run in run_order(mission):
         phase, where = run.phase, run.where
@@ -787,10 +786,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         if run.lap is None or run.lap == 1:
             yield from _update_paths(mission, phase, where, pose, bound, assumed)
         try:
-            trajectory = paths.trajectory(phase.track.path, mission.path_context(), pose)
-            times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
-            with np.errstate(all="ignore"):  # a diverging path is judged by its finite part
-                x, y, dx, dy = trajectory.sample(times)
+            times, (x, y, dx, dy) = _sampled(mission, phase.track.path, pose, bound)
         except (ValueError, ArithmeticError) as error:
             yield Finding(
                 (*where, "track", "path"),
@@ -854,6 +850,26 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             pose = (float(x[last]), float(y[last]), heading)
 
 
+def _sample_times(mission: Mission, bound: float) -> FloatArray:
+    """The times a phase's path is sampled at up to its bound [s]: every
+    sample, at most _REACH_SAMPLES."""
+    dt = mission.robot.dt
+    times: FloatArray = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
+    return times
+
+
+def _sampled(
+    mission: Mission, path: PathSettings, pose: Pose, bound: float
+) -> tuple[FloatArray, tuple[FloatArray, FloatArray, FloatArray, FloatArray]]:
+    """The times of :func:`_sample_times` and ``path``'s points and directions at
+    them, made from ``pose``; raises ValueError or ArithmeticError where it
+    cannot be sampled. A diverging path is judged by its finite part."""
+    trajectory = paths.trajectory(path, mission.path_context(), pose)
+    times = _sample_times(mission, bound)
+    with np.errstate(all="ignore"):
+        return times, trajectory.sample(times)
+
+
 def _catching_up(mission: Mission) -> Iterator[Finding]:
     """A warning where the mission's first phase, a track phase that ends on
     time, ends before the robot can come near its reference point: a phase
@@ -889,10 +905,7 @@ def _catching_up(mission: Mission) -> Iterator[Finding]:
     numbers = mission_numbers(mission.model_dump(mode="json"), robot.dt, (limits.v, limits.omega))
     start = (initial.x, initial.y, initial.theta)
     try:
-        trajectory = paths.trajectory(phase.track.path, mission.path_context(), start)
-        times = np.linspace(0.0, bound, min(math.floor(bound / robot.dt) + 1, _REACH_SAMPLES))
-        with np.errstate(all="ignore"):
-            x, y, dx, dy = trajectory.sample(times)
+        times, (x, y, dx, dy) = _sampled(mission, phase.track.path, start, bound)
     except (ValueError, ArithmeticError):
         return  # said by _reaches
     if times.size < 2 or not np.isfinite([x[-1], y[-1]]).all():
@@ -957,8 +970,7 @@ def _update_paths(
     """Each update's path as the phase's own is checked: finite, and within the
     limits, over the phase's bound, from the pose the phase is assumed to start at
     (where the update will take over is not known in advance)."""
-    dt = mission.robot.dt
-    times = np.linspace(0.0, bound, min(math.floor(bound / dt) + 1, _REACH_SAMPLES))
+    times = _sample_times(mission, bound)
     in_force = phase.track.path
     for number, update in enumerate(phase.updates):
         in_force = in_force if update.path is None else update.path
