@@ -1536,25 +1536,25 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
     the disc round it: where the body itself, at the pose's heading, clears
     the zone and only that disc does not, the finding says so.
 
-    With or without a footprint: a settled target the body clears, but whose
-    zone the controller keeps the axle farther from than the target lies by
-    more than its `settled` tolerance: the band is the body's reach and the
+    And a settled target the body clears, but whose zone the controller keeps
+    the axle farther from than the target lies by more than its `settled`
+    tolerance: the band is the body's reach and the
     estimate's margin (``Plant.constraint_margin``), and the robot stops at
     its edge (docs/paper-notes.md, eq. (28), "A target within the band kept
     round a zone")."""
     footprint = mission.robot.footprint
-    reach = 0.0 if footprint is None else footprint.reach()
+    if footprint is None:
+        return  # (a point's band, the estimate's margin alone, is a few cm: not said)
+    reach = footprint.reach()
     margin = _estimate_margin(mission)
     band = reach + margin
-    if band <= 0.0:
-        return
     start = mission.robot.initial_state
     for number, run in enumerate(run_order(mission)):
         phase, where = run.phase, run.where
         if run.lap is not None and run.lap > 1:
             continue
         points: list[tuple[DataPath, str, Pose, float]] = []  # ..., its settled tolerance
-        if number == 0 and footprint is not None:
+        if number == 0:
             points.append(
                 (
                     ("robot", "initial_state"),
@@ -1588,7 +1588,7 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
         for name, region, room_at, edge, body, does, clear, kept in sides:
             for path, what, (x, y, theta), tolerance in points:
                 room = room_at(region, float(x), float(y))
-                if footprint is None or not 0.0 <= room < reach:
+                if not 0.0 <= room < reach:
                     if 0.0 <= room < band - tolerance:
                         yield _within_the_band(path, (x, y), room, edge, name, reach, margin)
                     continue
