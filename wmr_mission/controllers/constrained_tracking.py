@@ -9,8 +9,9 @@ tracking input ``u_track`` of eq. (27) is filtered, per sample:
 
 * predict ``x_{k+1}`` with ``u_track``; evaluate every row of the phase's
   regions at the predicted tracking output (the look-ahead point, which
-  reaches a zone first), each row's allowed side shrunk by the look-ahead
-  distance, so that the axle centre behind it keeps the row itself;
+  reaches a zone first; no further ahead than the default look-ahead,
+  paper.rows_ahead), each row's allowed side shrunk by that distance, so
+  that the axle centre behind it keeps the row itself;
 * none violated: ``u = u_track``, tracking untouched;
 * otherwise ``u = u_track + du``, where ``du`` puts the (at most two) most
   violated rows on their bounds, to first order (eq. (28): ``A du = eta``,
@@ -400,34 +401,52 @@ def keep_constraints(
     work: Scratch,
     u: FloatArray,
     barrier_rate: float = 1.0,
+    held_ahead: float = math.inf,
 ) -> bool:
-    """Change the tracking input ``u`` in place so that the predicted tracking
-    output keeps the constraint rows shrunk by ``look_ahead`` (so the axle
-    centre, ``look_ahead`` behind it, keeps the rows themselves) and by the
-    estimate's margin (``robot.constraint_margin``), as a discrete-time
-    barrier: a row's value at the output may fall to ``1 - barrier_rate`` of
-    its value now and no lower (1: onto the bound in one sample); True when
-    it had to."""
+    """Change the tracking input ``u`` in place so that the predicted point
+    ``ahead = min(look_ahead, held_ahead)`` ahead of the axle (the tracking
+    output, or a point between it and the axle) keeps the constraint rows
+    shrunk by ``ahead`` (so the axle centre, ``ahead`` behind it, keeps the
+    rows themselves) and by the estimate's margin
+    (``robot.constraint_margin``), as a discrete-time barrier: a row's value
+    at that point may fall to ``1 - barrier_rate`` of its value now and no
+    lower (1: onto the bound in one sample); True when it had to. The change
+    is the smallest in the tracking output's motion (``look_ahead``).
+
+    A row held at the point ``l`` ahead and shrunk by ``l`` keeps the axle
+    up to ``2 l`` further from a zone than the row asks where the robot
+    heads along the zone's edge; between two rows on either side of it
+    (an aisle past a box) that is ``2 l`` of the way's width, and the rows
+    met nowhere at a look-ahead of 0.3 m: ``paper.rows_ahead`` holds them at
+    no more than the default look-ahead (docs/paper-notes.md, eq. (28),
+    "The rows held no further ahead than the default look-ahead")."""
     dt = robot.dt
-    margin = look_ahead + robot.constraint_margin
+    ahead = min(look_ahead, held_ahead)
+    margin = ahead + robot.constraint_margin
     keep = 1.0 - barrier_rate
-    ox = estimate[0] + look_ahead * math.cos(estimate[2])  # the output now
-    oy = estimate[1] + look_ahead * math.sin(estimate[2])
+    ox = estimate[0] + ahead * math.cos(estimate[2])  # the held point now
+    oy = estimate[1] + ahead * math.sin(estimate[2])
     px, py, pth = step(estimate[0], estimate[1], estimate[2], u[0], u[1], dt)
     c = math.cos(pth)
     s = math.sin(pth)
-    qx = px + look_ahead * c
-    qy = py + look_ahead * s
+    qx = px + ahead * c
+    qy = py + ahead * s
     # eq. (24): sensitivity of x_{k+1} to the input, at the tracking input.
     b = work.b
     input_jacobian_into(estimate[2], u[0], u[1], dt, b)
-    # D_t B: the tracking output's sensitivity to the input (eq. (26) D times B).
-    t00 = b[0, 0] - look_ahead * s * b[2, 0]
-    t01 = b[0, 1] - look_ahead * s * b[2, 1]
-    t10 = b[1, 0] + look_ahead * c * b[2, 0]
-    t11 = b[1, 1] + look_ahead * c * b[2, 1]
+    # D_t B: the held point's sensitivity to the input (eq. (26) D times B).
+    t00 = b[0, 0] - ahead * s * b[2, 0]
+    t01 = b[0, 1] - ahead * s * b[2, 1]
+    t10 = b[1, 0] + ahead * c * b[2, 0]
+    t11 = b[1, 1] + ahead * c * b[2, 1]
+    # and the tracking output's, the norm of the change (the same where the
+    # rows are held at the output)
+    o00 = b[0, 0] - look_ahead * s * b[2, 0]
+    o01 = b[0, 1] - look_ahead * s * b[2, 1]
+    o10 = b[1, 0] + look_ahead * c * b[2, 0]
+    o11 = b[1, 1] + look_ahead * c * b[2, 1]
     # Under an acceleration limit the robot stops only beyond x_{k+1}: the
-    # rows are held at the output and also on the line braking from the input takes.
+    # rows are held at the point and also on the line braking from the input takes.
     rate = robot.limits[2]
     turn_rate_rate = robot.limits[3]
     a, eta, h = work.d, work.eta, work.h
@@ -467,10 +486,10 @@ def keep_constraints(
         eta[slot] = -value  # saturate to the violated bound
     if count == 0:
         return False
-    h[0, 0] = t00 * t00 + t10 * t10
-    h[0, 1] = t00 * t01 + t10 * t11
+    h[0, 0] = o00 * o00 + o10 * o10
+    h[0, 1] = o00 * o01 + o10 * o11
     h[1, 0] = h[0, 1]
-    h[1, 1] = t01 * t01 + t11 * t11
+    h[1, 1] = o01 * o01 + o11 * o11
     # keep H invertible when the output is the axle itself (look_ahead = 0)
     floor = REGULARISATION * (h[0, 0] + h[1, 1])
     h[0, 0] += floor

@@ -1245,6 +1245,21 @@ def anticipated(aim_now: FloatArray, aim: FloatArray, share: float) -> None:
             point[3] /= norm
 
 
+@kernel
+def rows_ahead(look_ahead: float, dt: float, speed_limit: float) -> float:
+    """[m] How far ahead of the axle a track phase's zones are held
+    (constrained_tracking.keep_constraints): at the tracking output, but no
+    further ahead than the default look-ahead (``max(0.05, limits.v * dt)``,
+    where the point's one-sample sensitivity is well conditioned, look_ahead).
+    A row held ``l`` ahead is shrunk by ``l``, and with the robot heading
+    along a zone's edge keeps it up to ``2 l`` further off than the row asks:
+    at a look-ahead of 0.3 m an aisle 1.17 m wide beside a box, where a body
+    of 0.3 m needed 0.70 m, had no place for the output, and the robot stood
+    at the box's corner reversing until its timeout (docs/paper-notes.md,
+    eq. (28), "The rows held no further ahead than the default look-ahead")."""
+    return min(look_ahead, max(MIN_LOOK_AHEAD, speed_limit * dt))
+
+
 @inlined
 def next_input(
     tuning: PaperTuning,
@@ -1375,6 +1390,7 @@ def next_input(
             keep_constraints(
                 estimate, u_prev, kinds, params, tuning.look_ahead, plant, scratch, u,
                 tuning.barrier_rate,
+                rows_ahead(tuning.look_ahead, plant.dt, plant.limits[0]),
             )  # fmt: skip
     else:
         regulate_input(
