@@ -101,3 +101,20 @@ def test_the_run_s_table_says_a_phase_was_driven_backwards(
     dash = next(i for i, line in enumerate(rows) if line.startswith("dash "))
     assert ("backwards" in rows[dash + 1].split()[:1]) is backwards, ran.output
     assert "backwards" not in "".join(rows[dash + 2 :]), ran.output
+
+
+def test_a_robot_that_stood_still_after_driving_forwards_was_not_driven_backwards() -> None:
+    """Its speed after it stopped is -1e-10 (rounding) for most of the phase's
+    samples: the table said `backwards`; its travel is forwards."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from wmr_mission.output.report import _backwards
+
+    dt = 0.01
+    v = np.concatenate((np.full(300, 0.5), np.full(700, -1e-10)))  # 1.5 m, then a stand
+    result = SimpleNamespace(t=np.arange(v.size) * dt, v=v, dt=dt)
+    phase = {"kind": "track", "start": 0.0, "duration": v.size * dt}
+    assert not _backwards(phase, result)  # type: ignore[arg-type]
+    assert _backwards(phase, SimpleNamespace(t=result.t, v=-v, dt=dt))  # type: ignore[arg-type]

@@ -115,3 +115,12 @@ def test_validate_warns_of_a_target_the_body_clears_within_the_band() -> None:
     run = run_mission(mission_from_text(BESIDE_A_SHELF.format(y=-0.31, timeout=8, after="")))
     assert run.outcome.value == "timeout"
     assert warned(-0.39) == []
+
+
+def test_a_target_inside_the_zone_is_said_to_be_inside_it() -> None:
+    """Its distance from the zone was given as a negative number ('is -0.5 m
+    from keep-out zone')."""
+    run = run_mission(mission_from_text(BESIDE_A_SHELF.format(y=0.5, timeout=4, after="")))
+    assert run.outcome.value == "timeout"
+    assert "its target (2.5, 0.5) is inside keep-out zone 'shelf'" in run.message
+    assert " -0." not in run.message

@@ -253,9 +253,11 @@ def _start_clearance(
 
 
 def _backwards(phase: dict[str, Any], result: RunRecord | None) -> bool:
-    """Whether a track phase was driven backwards, most of its samples at a
+    """Whether a track phase was driven backwards, most of its travel at a
     negative speed (a short phase whose path starts behind the robot:
-    docs/controllers.md): said in its row, where a forward robot is assumed."""
+    docs/controllers.md): said in its row, where a forward robot is assumed.
+    Its travel, not its samples: a robot that drove forwards and then stood,
+    its speed -1e-10 from rounding, was said to have driven backwards."""
     if result is None or phase["kind"] != "track" or phase.get("start") is None:
         return False
     import numpy as np
@@ -263,7 +265,7 @@ def _backwards(phase: dict[str, Any], result: RunRecord | None) -> bool:
     first = _first_sample(phase, result)
     samples = round((phase.get("duration") or 0.0) / result.dt)
     speed = result.v[first : first + samples]
-    return bool(speed.size) and 2 * int(np.count_nonzero(speed < 0.0)) > speed.size
+    return bool(-float(np.sum(speed[speed < 0.0])) > float(np.sum(speed[speed > 0.0])))
 
 
 def _phase_rows(

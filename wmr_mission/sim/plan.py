@@ -451,7 +451,13 @@ def _out_of_reach(
             if side == "outside"
             else f"{margin - tolerance - worst:.3g} m inside the edge of keep-in region {name!r}"
         )
-        if not metric:
+        if margin - tolerance - worst < 0.0:  # beyond the edge itself (validate says so)
+            where = (
+                f"inside keep-out zone {name!r}"
+                if side == "outside"
+                else f"outside keep-in region {name!r}"
+            )
+        elif not metric:
             where = (
                 f"within the band kept round keep-out zone {name!r}"
                 if side == "outside"
