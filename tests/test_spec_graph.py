@@ -313,3 +313,39 @@ def test_too_many_contingencies_says_how_many() -> None:
     assert _errors(written) == [
         f"m.yaml:{first}:3: contingencies: expected at most 100 items, got 101"
     ]
+
+
+UNREACHED = """\
+version: 1
+name: unreached
+robot:
+  limits: {v: 1, omega: 2}
+phases:
+  - name: a
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    timeout: 2
+    on_timeout: {goto: GOTO}
+  - name: b
+    regulate: {target: {x: 0, y: 1, theta: 0}}
+    until: {settled: {position: 0.05, heading: 0.05}}
+    timeout: 10
+  - name: c
+    regulate: {target: {x: 1, y: 0, theta: 0}}
+    until: {settled: {position: 0.05, heading: 0.05}}
+    timeout: 10
+"""
+
+
+def test_a_phase_no_phase_goes_on_to_is_warned_of() -> None:
+    """`a` ends only by its timeout, which goes to `c`: `b` never ran, and
+    the run said `success` without a word of it."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    def warned(text: str) -> list[tuple[int, int, str]]:
+        found = check_mission_text(text, "m.yaml")[1]
+        return [(d.line, d.column, d.message) for d in found if d.severity == "warning"]
+
+    [(line, column, message)] = warned(UNREACHED.replace("GOTO", "c"))
+    assert (line, column) == (10, 5)
+    assert message.startswith("phase 'b' never runs")
+    assert warned(UNREACHED.replace("GOTO", "b")) == []  # c follows b

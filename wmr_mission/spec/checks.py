@@ -176,7 +176,10 @@ def check_across_fields(mission: Mission) -> list[Finding]:
         *_estimator_bounds(mission),
         *_phase_colors(mission),
         *_disturbances(mission),
-        *(Finding(e.path, e.message, at_key=e.at_key) for e in graph.prove(mission)),
+        *(
+            Finding(e.path, e.message, at_key=e.at_key, severity=e.severity)
+            for e in graph.prove(mission)
+        ),
     ]
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable, Iterator
-from typing import Any, Final, NamedTuple
+from typing import Any, Final, Literal, NamedTuple
 
 from wmr_mission.basics import samples
 from wmr_mission.fields import did_you_mean
@@ -47,6 +47,7 @@ class GraphError(NamedTuple):
     path: DataPath
     message: str
     at_key: bool = False
+    severity: Literal["error", "warning"] = "error"
 
 
 def _times_out_only(phase: Phase) -> bool:
@@ -368,15 +369,18 @@ class _Graph:
         return first + sum(counts.values()) + 1
 
     def reaches_end(self) -> bool:
+        return _END in self.reached()
+
+    def reached(self) -> set[int]:
+        """The nodes a run can enter from the first phase, and _END if it can end."""
         todo, seen = [0], {0}
         while todo:
             for e in self.edges[todo.pop()]:
-                if e.to == _END:
-                    return True
-                if e.to >= 0 and e.to not in seen:
+                if e.to not in seen and (e.to >= 0 or e.to == _END):
                     seen.add(e.to)
-                    todo.append(e.to)
-        return False
+                    if e.to >= 0:
+                        todo.append(e.to)
+        return seen
 
 
 def _entry_samples(phase: Phase, dt: float) -> tuple[float, float | None]:
@@ -452,6 +456,15 @@ def prove(mission: Mission) -> Iterator[GraphError]:
             )
     if graph.errors:
         return  # the cycles of a graph with a missing target mean little
+    reached = graph.reached()
+    for index, node in enumerate(graph.nodes[: graph.main_count]):
+        if index not in reached:
+            yield GraphError(
+                node.where,
+                f"phase {node.label!r} never runs: no phase goes on to it (each before it "
+                "ends by a reaction that goes elsewhere); remove it or reach it",
+                severity="warning",
+            )
     cycle = graph.unbounded_cycle()
     if cycle is not None:
         names = " -> ".join(
