@@ -390,3 +390,18 @@ def test_a_polygon_crossing_itself_is_refused_as_such_alone(side: str) -> None:
     assert [(d.line, d.column, d.message.split(":")[0]) for d in diagnostics] == [
         (7, 15, "polygon 'bow' crosses itself, so it is not convex (or has no area)")
     ]
+
+
+def test_a_key_written_a_level_too_high_is_told_where_it_belongs() -> None:
+    """`limits:` beside `robot:` was 'unknown field; expected one of: version,
+    name, ...', with no word of robot.limits."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = (
+        "version: 1\nname: m\nrobot:\n  dt: 0.01\nlimits: {v: 1, omega: 2}\n"
+        "phases:\n  - name: go\n    track: {path: {type: line, heading: 0, speed: 0.5}}\n"
+        "    until: {elapsed: 3}\n"
+    )
+    [found] = check_mission_text(text, "m.yaml")[1]
+    assert (found.line, found.column) == (5, 1)
+    assert found.message == "unknown field 'limits'; it belongs in 'robot' (robot.limits)"

@@ -755,6 +755,24 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
     return finding._replace(message=finding.message + hint) if hint else finding
 
 
+def _belongs_under(owner: type[BaseModel], key: str) -> str | None:
+    """The field of ``owner`` whose model (or one of its alternatives) has a
+    field ``key``: where a key written one level too high belongs."""
+    for name, info in owner.model_fields.items():
+        todo, seen = [info.annotation], set()
+        while todo:
+            kind = todo.pop()
+            if id(kind) in seen:
+                continue
+            seen.add(id(kind))
+            if isinstance(kind, type) and issubclass(kind, BaseModel):
+                if key in kind.model_fields:
+                    return name
+                continue
+            todo.extend(typing.get_args(kind))
+    return None
+
+
 def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> Finding:
     kind: str = error["type"]
     loc: tuple[str | int, ...] = error["loc"]
@@ -790,7 +808,12 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
                 f"unknown field {shown(repr(key))} in {parent}: it takes no fields",
                 at_key=True,
             )
-        hint = did_you_mean(key, allowed) or f"; expected one of: {', '.join(allowed)}"
+        hint = did_you_mean(key, allowed)
+        if not hint and owner is not None:
+            under = _belongs_under(owner, key)
+            if under is not None:  # `limits:` written beside `robot:`, not in it
+                hint = f"; it belongs in {under!r} ({under}.{key})"
+        hint = hint or f"; expected one of: {', '.join(allowed)}"
         return Finding(path, f"unknown field {shown(repr(key))}{hint}", at_key=True)
     if kind == "missing":
         if isinstance(loc[-1], int):
