@@ -114,3 +114,65 @@ def test_a_keep_in_region_s_depth_past_its_edge_widens_no_detour_bound() -> None
     assert tracking["zone_reach"] < 0.5
     assert summary["outcome"] == "expect-failed"
     assert tracking["detour_offset_max"] > 1.0
+
+
+# A line past a crate, split in two phases at 5 s, while the robot starts its
+# swerve round the crate: the first phase's own path ends 0.5 m before it.
+# CRATE: the crate's corners.
+SWERVE = """\
+version: 1
+name: a-line-split-on-the-ramp
+robot: {dt: 0.01, initial_state: {x: 0, y: 0, theta: 0}, limits: {v: 1.0, omega: 2.0}}
+regions:
+  crate: {type: box, CRATE}
+phases:
+  - name: first
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    constraints: [{stay_outside: crate}]
+    until: {elapsed: 5}
+  - name: second
+    track: {path: {type: line, heading: 0, speed: 0.5, start: current}}
+    constraints: [{stay_outside: crate}]
+    until: {elapsed: 6}
+"""
+
+
+@pytest.mark.parametrize(
+    "crate",
+    ["min: [3, -0.2], max: [3.5, 0.4]", "min: [3, -0.45], max: [3.5, 0.25]"],
+    ids=["round-the-right", "round-the-left"],
+)
+def test_a_phase_that_ends_on_the_ramp_into_a_zone_only_ahead_is_a_detour(crate: str) -> None:
+    """The first phase's path never comes near the crate, its continuation
+    does: the robot left its line 0.8 m before the phase's end, ramping away
+    from the crate as the law does, and was judged as tracking there:
+    `first: cross_track_error_max = 0.117 (max 0.1)`, a false failure."""
+    mission = mission_from_text(SWERVE.replace("CRATE", crate))
+    result = run_mission(mission)
+    summary = judge(result, mission)
+    assert summary["outcome"] == "success", summary["message"]
+    first = result.phase == 0
+    # the robot's widest offset from the line in the first phase, from the
+    # recorded columns alone: it had started round the crate
+    offset = float(np.max(np.abs(result.y[first])))
+    assert offset > 0.1
+    tracking = summary["phases"][0]["tracking"]
+    assert tracking["detour_time"] > 0.0
+    assert tracking["detour_offset_max"] == pytest.approx(offset, abs=0.02)
+    assert tracking["zone_reach"] > 0.1
+
+
+def test_the_ramp_into_a_zone_only_ahead_excuses_no_more_than_the_ramp() -> None:
+    """The same drive, the robot's recorded y moved 0.3 m further off over
+    the first phase's last half second, to the side it ramps to: the ramp
+    lets the aim be 0.17 m across at the phase's end, so the robot is off
+    its path, not on a detour's ramp."""
+    mission = mission_from_text(SWERVE.replace("CRATE", "min: [3, -0.2], max: [3.5, 0.4]"))
+    result = run_mission(mission)
+    assert judge(result, mission)["outcome"] == "success"  # as driven
+    drift = np.clip((result.t - 4.5) / 0.2, 0.0, 1.0) * -0.3
+    result.y[:] = result.y + drift * (result.phase == 0)
+    summary = judge(result, mission)
+    assert summary["outcome"] == "expect-failed"
+    tracking = summary["phases"][0]["tracking"]
+    assert tracking["cross_track_error_max"] > 0.3

@@ -67,6 +67,9 @@ MOVING_WINDOW = 10.0
 # [m across per m along] the gentlest ramp a detour may leave its path on:
 # it may start as far before a zone as this ramp takes to clear it.
 GENTLE_SLOPE = 0.5
+# The share of the turn-rate acceleration limit the law's climb onto a ramp
+# follows (controllers/paper.py, TURNABLE_SHARE).
+_TURNABLE = 0.7
 _CHUNK = 4096  # positions per block of the search: bounded memory on long runs
 _CANDIDATES = 1 << 15  # below this many position-segment pairs, every segment is tried
 
@@ -486,21 +489,25 @@ def track_samples(
         # the reference's distance along its path (none for one standing still)
         arc = placement.path[0] if not placement.standing else np.zeros(rx.size)
         going = [_goes_round(zone, rx, ry, numbers, kept) for zone in zones]
+        # a keep-out zone only the path continued meets: the law may start its
+        # ramp round it before the phase's end, no steeper than the ramp
+        # (:func:`_ramp_allows`)
+        only_ahead = [not g and _size_across(z) > 0.0 for z, g in zip(zones, going, strict=True)]
         ahead = _continued(
             (rx, ry, arc),
             reference_speed,
-            [z for z, g in zip(zones, going, strict=True) if g],
+            [z for z, g, o in zip(zones, going, only_ahead, strict=True) if g or o],
             numbers,
             kept,
         )
         # a zone's reach along the path continued only where the law goes
-        # round it: a keep-in region's depth past its edge, or a zone the
-        # phase's own path never meets, widened its bound
+        # round it, or may ramp towards it: a keep-in region's depth past its
+        # edge widened its bound
         reaches = [
-            reach_across(zone, *(ahead[:2] if g else (rx, ry)))
-            for zone, g in zip(zones, going, strict=True)
+            reach_across(zone, *(ahead[:2] if g or o else (rx, ry)))
+            for zone, g, o in zip(zones, going, only_ahead, strict=True)
         ]
-        detour, rejoining = _detours(
+        detour, rejoining, ramped = _detours(
             px,
             py,
             ahead[:3],
@@ -508,9 +515,15 @@ def track_samples(
             numbers,
             list(zip(zones, reaches, strict=True)),
             kept,
+            (only_ahead, placement),
         )
         excused |= detour | rejoining
-        metrics["zone_reach"] = max(0.0, max(float(np.max(r)) for r in reaches) + kept)
+        # a zone only the path continued meets counts where the ramp into it
+        # excused a sample, else it widened the bound of another zone's detour
+        counted = [r for r, o, u in zip(reaches, only_ahead, ramped, strict=True) if u or not o]
+        metrics["zone_reach"] = max(
+            0.0, max((float(np.max(r)) for r in counted), default=-math.inf) + kept
+        )
     if zones and detour[:after_entry].any():  # a detour in the entry: from the joining on
         cross, lag = _counted_in_entry(placement, numbers, after_entry, reference_speed)
     else:
@@ -550,8 +563,9 @@ def _continued(
     """The phase's reference (its points, their distance along the path) and
     its speed, continued past the phase's last sample straight on at its last
     step, as far as a detour round ``zones`` (those the law goes round,
-    :func:`_goes_round`) may start before a zone (its ramp, and the lead of
-    half a turn and settling): the law aims along
+    :func:`_goes_round`, and the keep-out zones only the path so continued
+    meets, :func:`_ramp_allows`) may start before a zone (its ramp, and the
+    lead of half a turn and settling): the law aims along
     the path beyond the phase's end, and a phase that ends on the ramp into a
     detour, or in it, was judged as tracking there, against how far the zones
     reach into its own stretch alone (a rock 0.5 m across the path judged by
@@ -585,7 +599,11 @@ def _goes_round(
     own path meets (the runner finds the ways round the zones a phase's path
     meets, and the law goes round those alone); not one only its straight
     continuation would meet: a robot that left its path there was judged
-    as detouring round a zone it never went near."""
+    as detouring round a zone it never went near. The ramp into a keep-out
+    zone only the continuation meets excuses no more than it lets the robot
+    be off its path (:func:`_ramp_allows`): a phase that ends as the robot
+    starts round such a zone (a lap ending 0.5 m before a crate) was judged
+    as tracking there, its swerve's start a cross-track error of 0.117 m."""
     if zone.keep_inside or zone.region["type"] == "half-plane" or rx.size < 2:
         return False
     clearance = numbers.look_ahead + numbers.tracking_tolerance + kept
@@ -708,29 +726,56 @@ def _detours(
     numbers: MissionNumbers,
     zones: Sequence[tuple[Zone, FloatArray]],
     kept: float = 0.0,
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    ahead_only: tuple[Sequence[bool], Placement] | None = None,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], list[bool]]:
     """The samples of a detour a zone forces, and those after one that the robot
     needs to rejoin its reference; each zone with how far it reaches into the
     path at each reference point (:func:`reach_across`); ``reference``: its
     points and their distance along the path. The zones grown by the body's reach too:
     the robot leaves its path that much sooner, and a polygon body's detour
     (reach 0.36 m), begun 1.4 m before its zone, was judged as tracking for
-    its first 0.7 m (cross-track 0.286 m where 0.1 is allowed)."""
+    its first 0.7 m (cross-track 0.286 m where 0.1 is allowed).
+
+    ``ahead_only``: per zone, whether only the path continued past the
+    phase's end meets it, and the samples' places on the path: the ramp into
+    such a zone excuses a sample only where the robot is no farther off its
+    path than the ramp lets the aim be there (:func:`_ramp_allows`). Last:
+    per zone, whether such a ramp excused a sample."""
     rx, ry, travelled = reference
     n = px.size  # the reference may go on past the positions (:func:`_continued`)
     clearance = numbers.look_ahead + numbers.tracking_tolerance + kept
+    only = [False] * len(zones) if ahead_only is None else list(ahead_only[0])
+    ramped = [False] * len(zones)
     blocked = np.zeros(rx.size, dtype=bool)
     for fraction in _WAY_POINTS:
         qx, qy = px + fraction * (rx[:n] - px), py + fraction * (ry[:n] - py)
         for zone, _ in zones:
             blocked[:n] |= zone.depth(qx, qy, within=clearance) > -clearance
     on_the_path = np.zeros(rx.size, dtype=bool)
-    for zone, reach in zones:
+    lead = (math.pi / numbers.omega_limit + SETTLING * numbers.time_constant) / numbers.dt
+    cross: FloatArray | None = None
+    # the samples on a ramp into such a zone farther off than it allows: off
+    # the path, not rejoining it after a detour
+    refused = np.zeros(n, dtype=bool)
+    for index, (zone, reach) in enumerate(zones):
         near = zone.depth(rx, ry, within=clearance) > -clearance
         if reach.size == n:
             # not gone round past the phase's end (_goes_round): where the
             # phase's own path meets it, if it does
             near[n:] = False
+        if only[index] and ahead_only is not None:
+            near[:n] = False  # (none: the phase's own path does not meet it)
+            ramp = (_ramps(near, travelled, reach + clearance) | _any_within(near, round(lead)))[:n]
+            if not ramp.any():
+                continue
+            if cross is None:  # the places of the samples at the phase's end alone
+                cross = ahead_only[1].on_path(numbers.tracking_tolerance, int(np.argmax(ramp)))[0]
+            allows = _ramp_allows(zone, reference, numbers, kept, n, float(reference_speed[n - 1]))
+            excused = ramp & (cross <= allows)
+            ramped[index] = bool(excused.any())
+            blocked[:n] |= excused
+            refused[ramp & ~excused] = True
+            continue
         if zone.keep_inside or zone.region["type"] == "half-plane":
             on_the_path |= near
             continue  # no way round: it is kept along its edge
@@ -742,7 +787,6 @@ def _detours(
         # where 0.11 is allowed; tests/test_detour_ramp.py).
         blocked |= _ramps(near, travelled, reach + clearance)
     # A smooth detour starts before the path meets the zone: half a turn and settling ahead.
-    lead = (math.pi / numbers.omega_limit + SETTLING * numbers.time_constant) / numbers.dt
     blocked |= _any_within(on_the_path, round(lead))
     blocked = blocked[:n]
     window = max(1, round(MOVING_WINDOW * numbers.time_constant / numbers.dt))
@@ -750,13 +794,94 @@ def _detours(
     moving = _mean_over(speed, window) >= MOVING * _mean_over(reference_speed[:n], window)
     detour = blocked & moving
     rejoining = np.zeros(n, dtype=bool)
-    for k in np.flatnonzero(blocked[:-1] & ~blocked[1:]) + 1:
+    for k in np.flatnonzero(blocked[:-1] & ~blocked[1:] & ~refused[1:]) + 1:
         gap = math.hypot(px[k] - rx[k], py[k] - ry[k])
         needed = numbers.recovery_time(gap, float(reference_speed[k]))
         end = min(int(k) + math.ceil(needed / numbers.dt - 1e-9), px.size)
         back = _kept_up(px, py, rx[:n], ry[:n], numbers, int(k), end)
         rejoining[k : end if back is None else back] = True
-    return detour, rejoining
+    return detour, rejoining, ramped
+
+
+def _ramp_allows(
+    zone: Zone,
+    reference: tuple[FloatArray, FloatArray, FloatArray],
+    numbers: MissionNumbers,
+    kept: float,
+    n: int,
+    speed: float,
+) -> FloatArray:
+    """[m] How far off its path a robot may be at each of the phase's ``n``
+    samples on the ramp into ``zone``, a keep-out zone only the path
+    continued past the phase's end meets (:func:`_continued`: straight on
+    from its last point, ``reference``: the points and their distance along
+    the path continued): the aim, the look-ahead and a time constant's
+    travel past the reference point, is moved across the path to the side
+    away from the zone's centre no further than the zone, grown by twice the
+    look-ahead and the margin (the filter's bound and the aim's gap beyond
+    it, at most the look-ahead), reaches out of the wedge of the ramp's
+    slope (constrained_tracking ``RAMP_SLOPE``) about the path's line, or
+    under a turn-rate acceleration limit the climb that eases it; the robot
+    tracks the aim within the tracking tolerance; no more. A robot 0.5 m
+    off its path 0.7 m before a rock's edge is off its path: the ramp lets
+    the aim be 0.16 m across there."""
+    rx, ry, travelled = reference
+    ux, uy = rx[n] - rx[n - 1], ry[n] - ry[n - 1]
+    step = math.hypot(ux, uy)
+    ux, uy = ux / step, uy / step
+    ex, ey, end = float(rx[n - 1]), float(ry[n - 1]), float(travelled[n - 1])
+    grown = 2.0 * numbers.look_ahead + kept
+    cx, cy = _zone_centre(zone)
+    # the side away from the zone's centre; through it, the left of travel
+    side = -1.0 if (cx - ex) * -uy + (cy - ey) * ux > 0.0 else 1.0
+    mx, my = -uy * side, ux * side
+    # the zone's top across the line, and the wedge's: its support across
+    # less the ramp's slope along, from the path's end
+    top = _support(zone, mx, my) - (ex * mx + ey * my) + grown
+    wx, wy = mx - GENTLE_SLOPE * ux, my - GENTLE_SLOPE * uy
+    foot = _support(zone, wx, wy) - (ex * wx + ey * wy) + grown * math.hypot(wx, wy)
+    top = max(top, 0.0)
+    # the aim's offset is taken a time constant ahead along the path
+    aim = travelled[:n] + numbers.look_ahead + numbers.time_constant * speed - end
+    if math.isfinite(numbers.omega_acceleration) and speed > 0.0 and top > 0.0:
+        # under a turn-rate acceleration limit the aim climbs as the limit
+        # lets the robot turn onto the ramp: its slope grows over a stretch
+        # at each end, so the climb starts that much sooner than the ramp
+        bend = _TURNABLE * numbers.omega_acceleration / (speed * speed)
+        stretch = min(math.sqrt(GENTLE_SLOPE / bend), (0.5 * top / bend) ** (1.0 / 3.0))
+        aim = aim + 2.0 * stretch + top / (bend * stretch * stretch) - top / GENTLE_SLOPE
+    across: FloatArray = np.clip(foot + GENTLE_SLOPE * aim, 0.0, top)
+    return across + numbers.tracking_tolerance
+
+
+def _zone_centre(zone: Zone) -> tuple[float, float]:
+    region = zone.region
+    if region["type"] in ("circle", "ellipse"):
+        return float(region["center"][0]), float(region["center"][1])
+    corners = (
+        box_corners(region) if region["type"] == "box" else np.asarray(region["vertices"], float)
+    )
+    return float(np.mean(corners[:, 0])), float(np.mean(corners[:, 1]))
+
+
+def _support(zone: Zone, nx: float, ny: float) -> float:
+    """The keep-out zone's support function along (nx, ny): the most of
+    (nx, ny) . q over its points q."""
+    region = zone.region
+    kind = region["type"]
+    if kind in ("circle", "ellipse"):
+        cx, cy = (float(v) for v in region["center"])
+        if kind == "circle":
+            a = b = float(region["radius"])
+            rotation = 0.0
+        else:
+            a, b = (float(v) for v in region["semi_axes"])
+            rotation = float(region.get("rotation") or 0.0)
+        c, s = math.cos(rotation), math.sin(rotation)
+        nu, nw = c * nx + s * ny, -s * nx + c * ny
+        return cx * nx + cy * ny + math.sqrt(a * a * nu * nu + b * b * nw * nw)
+    corners = box_corners(region) if kind == "box" else np.asarray(region["vertices"], float)
+    return float(np.max(corners[:, 0] * nx + corners[:, 1] * ny))
 
 
 def _kept_up(
