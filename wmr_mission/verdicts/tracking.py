@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.controllers.paper import TURNABLE_SHARE
 from wmr_mission.geometry.regions import box_corners
 from wmr_mission.kernels import jit
 from wmr_mission.spec.numbers import SETTLING, MissionNumbers
@@ -67,9 +68,6 @@ MOVING_WINDOW = 10.0
 # [m across per m along] the gentlest ramp a detour may leave its path on:
 # it may start as far before a zone as this ramp takes to clear it.
 GENTLE_SLOPE = 0.5
-# The share of the turn-rate acceleration limit the law's climb onto a ramp
-# follows (controllers/paper.py, TURNABLE_SHARE).
-_TURNABLE = 0.7
 _CHUNK = 4096  # positions per block of the search: bounded memory on long runs
 _CANDIDATES = 1 << 15  # below this many position-segment pairs, every segment is tried
 
@@ -847,7 +845,7 @@ def _ramp_allows(
         # under a turn-rate acceleration limit the aim climbs as the limit
         # lets the robot turn onto the ramp: its slope grows over a stretch
         # at each end, so the climb starts that much sooner than the ramp
-        bend = _TURNABLE * numbers.omega_acceleration / (speed * speed)
+        bend = TURNABLE_SHARE * numbers.omega_acceleration / (speed * speed)
         stretch = min(math.sqrt(GENTLE_SLOPE / bend), (0.5 * top / bend) ** (1.0 / 3.0))
         aim = aim + 2.0 * stretch + top / (bend * stretch * stretch) - top / GENTLE_SLOPE
     across: FloatArray = np.clip(foot + GENTLE_SLOPE * aim, 0.0, top)
