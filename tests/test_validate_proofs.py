@@ -466,3 +466,43 @@ def test_a_wall_with_room_on_one_side_is_gone_round_only_on_that_side(
     else:
         assert f"{path}:12:55: {said}" in out, out
         assert ("goes round it on the left" in out) == said.startswith("note")
+
+
+CORRIDOR = """\
+version: 1
+name: corridor
+robot:
+  dt: 0.01
+  limits: {{v: 1, omega: 2}}
+  footprint: {{radius: 0.3}}
+regions:
+  corridor: {{type: box, min: [-1, -{half}], max: [6, {half}]}}
+  pallet: {{type: box, min: [2.5, -0.9], max: [3.5, 0.9]}}
+phases:
+  - name: go
+    track: {{path: {{type: line, heading: 0, speed: 0.5}}}}
+    constraints: [{{stay_inside: corridor}}, {{stay_outside: pallet}}]
+    until: {{near: {{point: [5, 0], tolerance: 0.1}}}}
+    timeout: 20
+"""
+
+
+def test_a_gap_narrower_than_the_body_and_margin_on_each_side_blocks_the_path() -> None:
+    """A corridor leaving 0.3 m each side of a pallet, a body of 0.3 m: the
+    robot, its axle 0.35 m from each (the body and the estimate's margin),
+    stalled until its timeout while `validate --strict` said ok. Leaving
+    0.8 m, there is room: nothing said."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    def said(half: float) -> list[str]:
+        text = CORRIDOR.format(half=half)
+        return [d.message for d in check_mission_text(text, "c.yaml")[1] if d.severity != "note"]
+
+    [blocked] = said(1.2)
+    assert blocked.startswith("the path is blocked: it runs into keep-out zone 'pallet'")
+    assert "leaves less than 0.7 m to its edge" in blocked
+    from wmr_mission import mission_from_text, run_mission
+
+    run = run_mission(mission_from_text(CORRIDOR.format(half=1.2)))
+    assert run.outcome.value == "timeout"
+    assert said(1.7) == []

@@ -1858,6 +1858,20 @@ def _through_centres(
     if x.size < 2:
         return
     yards = _keep_ins(mission, phase)
+    footprint = mission.robot.footprint
+    band = (0.0 if footprint is None else footprint.reach()) + (
+        _estimate_margin(mission) if yards else 0.0
+    )
+    kept = (
+        "the estimate's margin"
+        if footprint is None
+        else "the robot's body and the estimate's margin"
+    )
+    room = (
+        f" or leaves less than {2.0 * band:.3g} m to its edge ({kept} on each side)"
+        if band > 0.0
+        else ""
+    )
     for number, constraint in enumerate(phase.constraints):
         if isinstance(constraint, StayInside):
             continue
@@ -1877,7 +1891,13 @@ def _through_centres(
         centre_on_left = bool(_left_of(x, y, nearest, np.array([cx]), np.array([cy]))[0])
         through = gap <= THROUGH_CENTRE * max(a, 1.0)
         goes_left = through or not centre_on_left  # away from the centre
-        left, right = _closed_sides(zone, yards, x, y, nearest) or (None, None)
+        left, right = _closed_sides(zone, yards, x, y, nearest, band) or (None, None)
+        # said where the band alone closes a side: the zone does not reach out there
+        narrow = (
+            room
+            if (left, right) != (_closed_sides(zone, yards, x, y, nearest) or (None, None))
+            else ""
+        )
         taken, other = (left, right) if goes_left else (right, left)
         name = constraint.stay_outside
         if taken is not None and other is not None:
@@ -1889,7 +1909,7 @@ def _through_centres(
             yield Finding(
                 (*where, "constraints", number, "stay_outside"),
                 f"the path is blocked: it runs into keep-out zone {name!r}, which reaches out "
-                f"of keep-in region {sides}, so there is no way round it during phase "
+                f"of keep-in region {sides}{narrow}, so there is no way round it during phase "
                 f"{phase.name!r}; the robot stops at its edge: leave room on one side, or move "
                 "the path or the zone",
                 severity="warning",
@@ -1901,9 +1921,9 @@ def _through_centres(
             yield Finding(
                 (*where, "constraints", number, "stay_outside"),
                 f"the robot goes round keep-out zone {name!r} on the {way} of the path "
-                f"({rule}), where the zone reaches out of keep-in region {taken!r}: there is "
-                f"no way round on that side during phase {phase.name!r}, and the robot stops "
-                f"at the zone's edge; move the path to the {away} of the zone's centre, "
+                f"({rule}), where the zone reaches out of keep-in region {taken!r}{narrow}: "
+                f"there is no way round on that side during phase {phase.name!r}, and the robot "
+                f"stops at the zone's edge; move the path to the {away} of the zone's centre, "
                 "where there is room",
                 severity="warning",
             )
@@ -1955,19 +1975,31 @@ def _closed_sides(
     x: FloatArray,
     y: FloatArray,
     nearest: int,
+    band: float = 0.0,
 ) -> tuple[str | None, str | None] | None:
     """The keep-in region that closes the way round ``zone`` on the left of the
     path, and the one on its right (split at its segment ``nearest`` the
     zone's centre), None for a side with room; None when the path does not
     run into the zone. A side is closed where a point of the zone's outline on
     it is not inside a region kept in: the robot, going round along the
-    outline, would leave it."""
+    outline, would leave it; or, for a region whose value is a distance (a
+    box, a polygon, a half-plane), is less than twice ``band`` inside it:
+    the axle, ``band`` from the zone and ``band`` inside the region (the
+    body's reach and the estimate's margin), cannot cross the gap from that
+    point to the region's edge, every point of which is nearer one of them."""
     if not yards or not np.any(region_value(zone, x, y) < 0.0):
         return None
     bx, by = _boundary(zone)
     left = _left_of(x, y, nearest, bx, by)
+
+    def closes(region: RegionSpec, s: NDArray[np.bool_]) -> bool:
+        room = 0.0 if isinstance(region, EllipseRegion | CircleRegion) else 2.0 * band
+        if room == 0.0:
+            return bool(np.any(region_value(region, bx[s], by[s]) >= 0.0))
+        # (a gap of the band itself, to rounding, is not said: a proof, not a guess)
+        return bool(np.any(region_value(region, bx[s], by[s]) > -room * (1.0 - 1e-9)))
+
     left_name, right_name = (
-        next((n for n, r in yards.items() if np.any(region_value(r, bx[s], by[s]) >= 0.0)), None)
-        for s in (left, ~left)
+        next((n for n, r in yards.items() if closes(r, s)), None) for s in (left, ~left)
     )
     return left_name, right_name
