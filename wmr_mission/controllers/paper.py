@@ -216,6 +216,9 @@ class PaperTuning(NamedTuple):
     # [s] how far ahead the path's turns are previewed under a turn-rate
     # acceleration limit (0: none; kernels.model.preview_rows, anticipated).
     preview: float = 0.0
+    # [m] how far ahead of the axle a track phase's zones are held
+    # (rows_ahead; inf: at the tracked output itself)
+    rows_ahead: float = math.inf
 
 
 # Regulation forms (controller.regulation.form).
@@ -1245,7 +1248,6 @@ def anticipated(aim_now: FloatArray, aim: FloatArray, share: float) -> None:
             point[3] /= norm
 
 
-@kernel
 def rows_ahead(look_ahead: float, dt: float, speed_limit: float) -> float:
     """[m] How far ahead of the axle a track phase's zones are held
     (constrained_tracking.keep_constraints): at the tracking output, but no
@@ -1389,8 +1391,7 @@ def next_input(
         if kinds.shape[0]:
             keep_constraints(
                 estimate, u_prev, kinds, params, tuning.look_ahead, plant, scratch, u,
-                tuning.barrier_rate,
-                rows_ahead(tuning.look_ahead, plant.dt, plant.limits[0]),
+                tuning.barrier_rate, tuning.rows_ahead,
             )  # fmt: skip
     else:
         regulate_input(
@@ -1499,8 +1500,9 @@ def preview_time(settings: PaperController, dt: float, limits: FloatArray) -> fl
 
 def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
     regulation = settings.regulation
+    ahead = look_ahead(settings, plant.dt, plant.limits[0])
     return PaperTuning(
-        look_ahead=look_ahead(settings, plant.dt, plant.limits[0]),
+        look_ahead=ahead,
         error_decay=error_decay(settings, plant.dt, plant.limits),
         q=np.array(settings.Q, dtype=np.float64),
         r=np.array(settings.R, dtype=np.float64),
@@ -1514,6 +1516,7 @@ def tuning_of(settings: PaperController, plant: Plant) -> PaperTuning:
         turn_acceleration=turn_acceleration(settings, plant.dt, plant.limits),
         aim_lead=aim_lead(settings, plant.dt, plant.limits),
         preview=preview_time(settings, plant.dt, plant.limits),
+        rows_ahead=rows_ahead(ahead, plant.dt, plant.limits[0]),
     )
 
 

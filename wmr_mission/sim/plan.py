@@ -446,23 +446,17 @@ def _out_of_reach(
         if not worst > 0.0:
             continue
         body = float(plant.body)
-        where = (
-            f"{margin - tolerance - worst:.3g} m from keep-out zone {name!r}"
-            if side == "outside"
-            else f"{margin - tolerance - worst:.3g} m inside the edge of keep-in region {name!r}"
-        )
-        if margin - tolerance - worst < 0.0:  # beyond the edge itself (validate says so)
-            where = (
-                f"inside keep-out zone {name!r}"
-                if side == "outside"
-                else f"outside keep-in region {name!r}"
-            )
-        elif not metric:
-            where = (
-                f"within the band kept round keep-out zone {name!r}"
-                if side == "outside"
-                else f"within the band kept inside keep-in region {name!r}"
-            )
+        room = margin - tolerance - worst  # [m] from the edge, where the rows are distances
+        outside = side == "outside"
+        zone = f"keep-out zone {name!r}" if outside else f"keep-in region {name!r}"
+        if not metric:
+            where = f"within the band kept {'round' if outside else 'inside'} {zone}"
+        elif room < 0.0:  # beyond the edge itself (validate says so)
+            where = f"{'inside' if outside else 'outside'} {zone}"
+        elif outside:
+            where = f"{room:.3g} m from keep-out zone {name!r}"
+        else:
+            where = f"{room:.3g} m inside the edge of keep-in region {name!r}"
         kept = f"the estimate's margin {margin - body:.3g} m"
         if body > 0.0:
             kept = f"the disc round the robot's body {body:.3g} m and {kept}"

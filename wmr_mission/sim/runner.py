@@ -1067,7 +1067,7 @@ class _Run:
         words = f"{words}, its estimate {'; '.join(left)}"
         # why, for the target written (not one an update gave): the band kept round a zone
         why = active.phase.out_of_reach if target == active.phase.target else None
-        return words if why is None or until.settled is None else f"{words}: {why}"
+        return words if why is None else f"{words}: {why}"
 
     def _missed(self, reactor: Reactor, active: PhaseRun, k: int) -> list[str]:
         """The verdicts the phase just ended missed over its samples since it was

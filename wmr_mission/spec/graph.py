@@ -372,11 +372,12 @@ class _Graph:
         return _END in self.reached()
 
     def reached(self) -> set[int]:
-        """The nodes a run can enter from the first phase, and _END if it can end."""
+        """The nodes a run can enter from the first phase, and the ends (_END, ...)
+        it can come to."""
         todo, seen = [0], {0}
         while todo:
             for e in self.edges[todo.pop()]:
-                if e.to not in seen and (e.to >= 0 or e.to == _END):
+                if e.to not in seen:
                     seen.add(e.to)
                     if e.to >= 0:
                         todo.append(e.to)

@@ -759,17 +759,10 @@ def _belongs_under(owner: type[BaseModel], key: str) -> str | None:
     """The field of ``owner`` whose model (or one of its alternatives) has a
     field ``key``: where a key written one level too high belongs."""
     for name, info in owner.model_fields.items():
-        todo, seen = [info.annotation], set()
-        while todo:
-            kind = todo.pop()
-            if id(kind) in seen:
-                continue
-            seen.add(id(kind))
-            if isinstance(kind, type) and issubclass(kind, BaseModel):
-                if key in kind.model_fields:
-                    return name
-                continue
-            todo.extend(typing.get_args(kind))
+        kind: Any = info.annotation
+        models: list[type[BaseModel]] = [kind] if _is_model(kind) else _members(kind)
+        if any(key in m.model_fields for m in models):
+            return name
     return None
 
 

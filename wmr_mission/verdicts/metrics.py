@@ -385,7 +385,6 @@ def phase_segments(result: RunRecord) -> list[Entry]:
         (number[str(tr.to_phase)], int(k)) for tr, k in zip(entered, at, strict=True) if k < n
     ]
     ends = [k for _, k in starts[1:]] + [n]
-    # each move ends the entry it leaves: the first the first phase's, and so on
     return [  # the j-th move ends the j-th entry: the first phase's, and so on
         Entry(i, k, end, moves[j].condition if j < len(moves) else None)
         for j, ((i, k), end) in enumerate(zip(starts, ends, strict=True))
