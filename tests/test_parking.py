@@ -120,3 +120,25 @@ def test_the_parks_turn_rate_moves_from_the_input_before(speed: float, bearing: 
     # from the dash's last input on: the take-over is the park's first change
     jumps = np.abs(np.diff(result.omega[entry - 1 :]))
     assert jumps.max() <= 0.5 * OMEGA_LIMIT + 1e-9
+
+
+@pytest.mark.parametrize("bearing", [math.radians(95), math.radians(100), math.radians(-100)])
+@pytest.mark.parametrize("speed", [0.0, 1.0])
+def test_a_target_just_past_abeam_is_turned_to_not_backed_from(
+    speed: float, bearing: float
+) -> None:
+    """A target more than abeam but within the hysteresis: the bearing form
+    goes forwards, yet eq. (19) gave the error along the heading, behind, a
+    negative speed: the robot backed at up to 0.35 m/s while it turned, then
+    drove on (gen-170-ellipse's park: +0.57, -0.70, +0.51 m/s in three
+    samples). No speed against the direction chosen: it turns first. Up to
+    the aligning radius the park's speed never goes negative."""
+    mission = mission_from_dict(parking(speed, bearing, 0.01))
+    result = run_mission(mission)
+    park = next(t for t in result.transitions if t.from_phase == "park")
+    assert park.condition == "settled"
+    target = mission.phases[-1].regulate.target
+    entry = int(np.flatnonzero(result.phase == result.phase[-1])[0])
+    far = np.hypot(result.x_est - target.x, result.y_est - target.y) > 0.02
+    before_aligning = np.arange(result.v.size) < np.argmin(far[entry:]) + entry
+    assert result.v[entry:][before_aligning[entry:]].min() >= 0.0

@@ -999,6 +999,13 @@ def regulate_input(
         # eq. (19) with dx the deviation from the target.
         v1 = -(gain[0, 0] * ex + gain[0, 1] * ey + gain[0, 2] * eth)
         omega1 = -(gain[1, 0] * ex + gain[1, 1] * ey + gain[1, 2] * eth)
+        if form == BEARING and memory[ALIGNING] == 0.0:
+            # No speed against the direction of travel chosen: with the target
+            # more than abeam (within the hysteresis) the error along the
+            # heading is behind, and eq. (19) backed while the robot turned,
+            # then drove on: +0.57, -0.70, +0.51 m/s in three samples
+            # (gen-170-ellipse's park). The robot turns first.
+            v1 = min(v1, 0.0) if memory[REVERSING] != 0.0 else max(v1, 0.0)
         # The deceleration planned: eq. (19) knows no acceleration limit and
         # asks for speed until the target is reached, too late to stop there.
         # No faster than the limits can stop within the error left (without

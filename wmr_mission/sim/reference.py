@@ -649,6 +649,9 @@ def regulate_input(
                 deviation[:2] = (deviation[:2] @ facing) * facing
         gain = scheduled_gain(float(estimate[2]), speed, omega_prev, dt, q, r)
         u = -gain @ deviation
+        if form == BEARING and not memory[ALIGNING]:
+            # no speed against the direction chosen: the robot turns first
+            u[0] = min(u[0], 0.0) if memory[REVERSING] else max(u[0], 0.0)
         # the deceleration planned: stopped within the error left
         reach = stopping_speed(float(np.hypot(deviation[0], deviation[1])), float(limits[2]), dt)
         turn = stopping_speed(abs(float(deviation[2])), float(limits[3]), dt)
