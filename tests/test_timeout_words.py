@@ -91,3 +91,27 @@ phases:
     retried = result.transitions[1]
     assert retried.why is not None
     assert retried.why.startswith("phase 'seek' timed out after 2 s at t = 3 s, its estimate")
+
+
+def test_a_hold_waiting_for_a_heading_says_it_keeps_its_pose() -> None:
+    """A hold keeps the pose it was entered at: a `heading` (or `near`,
+    `reaches`) that pose does not meet never holds, and the timeout said only
+    how far the heading was, as if the robot had been turning to it."""
+    text = """\
+version: 1
+name: wait-for-a-heading
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 0}
+phases:
+  - name: wait
+    hold: {}
+    until: {heading: {target: 1.57, tolerance: 0.05}}
+    timeout: 2
+"""
+    result = run_mission(mission_from_text(text))
+    assert result.outcome.value == "timeout"
+    assert result.message == (
+        "phase 'wait' timed out after 2 s at t = 2 s, its estimate 1.57 rad from heading "
+        "1.57 (heading asks 0.05 rad): a hold keeps the pose it was entered at"
+    )

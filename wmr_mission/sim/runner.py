@@ -1060,11 +1060,15 @@ class _Run:
             aim, tolerance = until.heading
             left.append(
                 f"{abs(wrap_angle(theta - aim)):.3g} rad from heading {aim:g} "
-                f"(asks {tolerance:g} rad)"
+                f"(heading asks {tolerance:g} rad)"
             )
         if not left:
             return words
         words = f"{words}, its estimate {'; '.join(left)}"
+        of_motion = until.near is not None or until.heading is not None or region is not None
+        if active.phase.kind == "hold" and of_motion:
+            # a hold never moves to meet them: they hold where it was entered, or never
+            return f"{words}: a hold keeps the pose it was entered at"
         # why, for the target written (not one an update gave): the band kept round a zone
         why = active.phase.out_of_reach if target == active.phase.target else None
         return words if why is None else f"{words}: {why}"
