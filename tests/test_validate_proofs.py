@@ -506,3 +506,51 @@ def test_a_gap_narrower_than_the_body_and_margin_on_each_side_blocks_the_path() 
     run = run_mission(mission_from_text(CORRIDOR.format(half=1.2)))
     assert run.outcome.value == "timeout"
     assert said(1.7) == []
+
+
+POSTS = """\
+version: 1
+name: two-posts
+robot:
+  dt: 0.02
+  initial_state: {{x: 0, y: 0, theta: 0}}
+  limits: {{v: 1, omega: 2}}
+  footprint: {{radius: 0.25}}
+regions:
+  a: {{type: circle, center: [3, {half}], radius: 0.35}}
+  b: {{type: {kind}, center: [3, -{half}], {size}}}
+phases:
+  - name: go
+    track: {{path: {{type: line, heading: 0, speed: 0.6}}}}
+    constraints: [{{stay_outside: a}}, {{stay_outside: b}}]
+    until: {{near: {{point: [6, 0], tolerance: 0.1}}}}
+    timeout: 25
+"""
+
+
+@pytest.mark.parametrize(
+    ("kind", "size"), [("circle", "radius: 0.35"), ("box", "size: [0.7, 0.7]")]
+)
+def test_a_path_between_two_zones_closer_than_twice_the_band_is_blocked(
+    kind: str, size: str
+) -> None:
+    """Two posts 0.2 m apart across a line, a body of 0.25 m: the controller
+    keeps 0.3 m from each (the body and the estimate's margin), goes round
+    each on the side away from its centre, into the gap, and the robot stood
+    3.6 m from its goal until its timeout while `validate --strict` said ok.
+    0.7 m apart, more than twice the band: nothing said."""
+    from wmr_mission import mission_from_text, run_mission
+    from wmr_mission.spec.loader import check_mission_text
+
+    def said(half: float) -> list[str]:
+        text = POSTS.format(half=half, kind=kind, size=size)
+        return [d.message for d in check_mission_text(text, "p.yaml")[1] if d.severity != "note"]
+
+    [blocked] = said(0.45)
+    assert blocked.startswith(
+        "the path runs between keep-out zones 'a' and 'b', 0.2 m apart, where the controller "
+        "keeps 0.3 m from each (the robot's body and the estimate's margin)"
+    ), blocked
+    run = run_mission(mission_from_text(POSTS.format(half=0.45, kind=kind, size=size)))
+    assert run.outcome.value == "timeout"
+    assert said(0.7) == []

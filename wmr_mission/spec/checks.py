@@ -7,6 +7,7 @@ offending value; the loader turns the path into a line and column.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -844,6 +845,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             )
         yield from _path_within_limits(mission, where, phase, times[:followed], dx, dy, assumed)
         yield from _through_centres(mission, phase, where, x[:followed], y[:followed])
+        yield from _between_zones(mission, phase, where, x[:followed], y[:followed])
         yield from _inside_keep_outs(mission, phase, where, x[:followed], y[:followed])
         last = followed - 1  # the next phase starts where this one is predicted to end
         if np.isfinite(x[last]) and np.isfinite(y[last]):
@@ -1945,6 +1947,99 @@ def _through_centres(
             "it should take, to choose",
             severity="note",
         )
+
+
+def _between_zones(
+    mission: Mission, phase: TrackPhase, where: DataPath, x: FloatArray, y: FloatArray
+) -> Iterator[Finding]:
+    """A warning where the path runs between two keep-out zones of its phase
+    that leave less than twice the band the controller keeps round each (the
+    body's reach and the estimate's margin): every point of the gap is nearer
+    one of them than the band, so the axle cannot pass between them. The zone
+    filter goes round each zone on the side away from its centre, into the
+    gap, and the robot stops at their edge (two posts 0.2 m apart, a body of
+    0.25 m: it stood 3.6 m from its goal until its timeout). A proof: the gap
+    is measured between the zones' sampled outlines, never nearer than the
+    outlines themselves; the path runs between them where it crosses the
+    line joining their nearest points, the zones' centres on either side."""
+    footprint = mission.robot.footprint
+    band = (0.0 if footprint is None else footprint.reach()) + _estimate_margin(mission)
+    if band == 0.0 or x.size < 2:
+        return
+    zones = [
+        (name, region)
+        for name, region in _keep_outs(mission, phase).items()
+        if not isinstance(region, HalfPlaneRegion)
+    ]
+    written = {  # each zone's place among the phase's own constraints
+        c.stay_outside: i for i, c in enumerate(phase.constraints) if not isinstance(c, StayInside)
+    }
+    for (a_name, a), (b_name, b) in itertools.combinations(zones, 2):
+        (ax, ay), (bx, by) = _boundary(a), _boundary(b)
+        i, j, gap = _nearest_points(ax, ay, bx, by)
+        if not 0.0 < gap < 2.0 * band * (1.0 - 1e-9):
+            continue
+        crossing = _crossing(x, y, (ax[i], ay[i]), (bx[j], by[j]))
+        if crossing is None:
+            continue
+        centres = np.array([_centre(a), _centre(b)])
+        sides = _left_of(x, y, crossing, centres[:, 0], centres[:, 1])
+        if sides[0] == sides[1]:
+            continue
+        kept = (
+            "the estimate's margin"
+            if footprint is None
+            else "the robot's body and the estimate's margin"
+        )
+        number = written.get(b_name, written.get(a_name))
+        yield Finding(
+            where if number is None else (*where, "constraints", number),
+            f"the path runs between keep-out zones {a_name!r} and {b_name!r}, {gap:.3g} m "
+            f"apart, where the controller keeps {band:.3g} m from each ({kept}): the robot "
+            f"cannot pass between them during phase {phase.name!r}, goes round neither and "
+            "stops at their edge; widen the gap to more than "
+            f"{2.0 * band:.3g} m, or move the path round them",
+            severity="warning",
+        )
+
+
+def _nearest_points(
+    ax: FloatArray, ay: FloatArray, bx: FloatArray, by: FloatArray
+) -> tuple[int, int, float]:
+    """The nearest pair of points (a, b) of two sampled outlines, and their
+    distance: a block of a's points at a time against all of b's (memory
+    bounded)."""
+    best = (0, 0, math.inf)
+    for start in range(0, ax.size, 256):
+        gaps = np.hypot(ax[start : start + 256, None] - bx, ay[start : start + 256, None] - by)
+        i, j = np.unravel_index(int(np.argmin(gaps)), gaps.shape)
+        if gaps[i, j] < best[2]:
+            best = (start + int(i), int(j), float(gaps[i, j]))
+    return best
+
+
+def _crossing(
+    x: FloatArray, y: FloatArray, p: tuple[float, float], q: tuple[float, float]
+) -> int | None:
+    """The first segment of the polyline through (x, y) that crosses the
+    segment from ``p`` to ``q``, None if none does."""
+    ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
+    fx, fy = q[0] - p[0], q[1] - p[1]
+    with np.errstate(all="ignore"):
+        across = ex * fy - ey * fx
+        s = ((p[0] - ax) * fy - (p[1] - ay) * fx) / across
+        t = ((p[0] - ax) * ey - (p[1] - ay) * ex) / across
+    hits = np.flatnonzero((across != 0.0) & (s >= 0.0) & (s <= 1.0) & (t >= 0.0) & (t <= 1.0))
+    return int(hits[0]) if hits.size else None
+
+
+def _centre(region: RegionSpec) -> tuple[float, float]:
+    """An ellipse's centre, a box's or a polygon's corners' mean."""
+    if isinstance(region, EllipseRegion | CircleRegion):
+        cx, cy, *_ = ellipse_geometry(region)
+        return cx, cy
+    corners = region_vertices(region)
+    return float(corners[:, 0].mean()), float(corners[:, 1].mean())
 
 
 def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float, int]:
