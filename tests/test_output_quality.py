@@ -275,6 +275,31 @@ def test_a_drive_counts_as_deliberate_when_half_of_it_is_progress() -> None:
     assert fought == pytest.approx(2.0)
 
 
+def test_a_reversal_to_the_limit_is_judged_by_the_motion_it_makes_after_the_plants_lag() -> None:
+    """A park entered at +1 m/s with its target behind: the speed goes to -2
+    m/s, its limit, for 0.17 s, but a plant with a 30 ms input delay and a 50
+    ms actuator lag rolls on forwards first. Read at the same samples, the
+    progress was a third of the distance driven at the limit, a fight (the
+    shipped disturbed mission failed so, 0.17 s). The motion a command makes
+    is read the delay and the lag later: a deliberate drive. A robot that
+    makes no progress at all still fights, lag or not."""
+    dt, delay, lag = 0.01, 0.03, 0.05
+    v = np.r_[np.full(5, 1.0), np.full(17, -2.0), np.linspace(-1.9, 0.0, 28)]
+    t = np.arange(v.size) * dt
+    moved, x = 1.0, [0.0]  # the plant: the command delayed, then a first-order lag
+    for k in range(1, v.size):
+        moved += dt / lag * (v[max(k - 1 - round(delay / dt), 0)] - moved)
+        x.append(x[-1] + moved * dt)
+    towards = inputs.progress_to(np.array(x), np.zeros(v.size), (-2.0, 0.0))
+    assert towards(5, 22) < 0.5 * 2.0 * 17 * dt  # at the same samples: under half
+    now = inputs.input_quality(t, v, 0 * t, NUMBERS, towards)["speed_fight_time"]
+    assert now == pytest.approx(0.17)
+    lagged = NUMBERS._replace(response=delay + lag)
+    assert inputs.input_quality(t, v, 0 * t, lagged, towards)["speed_fight_time"] == 0.0
+    stuck = inputs.progress_to(np.zeros(v.size), np.zeros(v.size), (-2.0, 0.0))
+    assert inputs.input_quality(t, v, 0 * t, lagged, stuck)["speed_fight_time"] == pytest.approx(0.17)
+
+
 def test_turn_rate_jitter_of_known_signals() -> None:
     k = np.arange(400)
     window = 2 * 10 + 1  # two time constants of 0.1 s at dt 0.01

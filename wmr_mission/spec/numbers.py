@@ -43,6 +43,9 @@ class MissionNumbers(NamedTuple):
     omega_acceleration: float = math.inf
     # [m] how far the robot's body reaches from the axle's centre (robot.footprint); 0: a point
     body: float = 0.0
+    # [s] how much later the motion a command makes comes: the plant's input delay
+    # and actuator time constant (robot.disturbances); 0 without them
+    response: float = 0.0
 
     @property
     def position_noise(self) -> float:
@@ -166,6 +169,10 @@ def mission_numbers(
         v_acceleration=_acceleration(mission, "v"),
         omega_acceleration=_acceleration(mission, "omega"),
         body=_body(_get(mission, "robot", "footprint")),
+        response=sum(
+            float(_get(mission, "robot", "disturbances", name) or 0.0)
+            for name in ("input_delay", "actuator_time_constant")
+        ),
     )
 
 

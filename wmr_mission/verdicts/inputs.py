@@ -16,8 +16,9 @@ still correcting):
   time constant or more that are not a deliberate drive. A stretch is
   deliberate when it keeps one sign and, for ``v``, turns at least half the
   distance it drives at the limit into progress (towards the target; on a path,
-  along it or towards the reference point, whichever is more); for ``omega``,
-  turns at most half a turn.
+  along it or towards the reference point, whichever is more), read the
+  plant's input delay and actuator time constant later (the motion a command
+  makes comes then); for ``omega``, turns at most half a turn.
 - **turn-rate jitter**: the spread of ``omega`` about its centred moving mean
   over two time constants, robust (1.4826 times the median absolute
   deviation: the few samples of a manoeuvre do not count), after the first
@@ -111,8 +112,14 @@ def input_quality(
     should)."""
     tau, dt = numbers.time_constant, numbers.dt
 
+    # The motion a command makes comes the plant's input delay and actuator lag
+    # later: a reversal to the limit first moves the robot on the old way.
+    later = round(numbers.response / dt)
+    last = t.size - 1
+
     def drives(a: int, b: int) -> bool:  # half the distance driven at the limit is progress
-        return progress(a, b) >= DELIBERATE * numbers.v_limit * (b - a) * dt
+        made = progress(min(a + later, last), b + later)
+        return made >= DELIBERATE * numbers.v_limit * (b - a) * dt
 
     def turns(a: int, b: int) -> bool:  # at most half a turn (a sample's turn for rounding)
         return (b - a) * dt * numbers.omega_limit <= math.pi + 2.0 * numbers.omega_limit * dt
