@@ -297,7 +297,8 @@ def test_a_reversal_to_the_limit_is_judged_by_the_motion_it_makes_after_the_plan
     lagged = NUMBERS._replace(response=delay + lag)
     assert inputs.input_quality(t, v, 0 * t, lagged, towards)["speed_fight_time"] == 0.0
     stuck = inputs.progress_to(np.zeros(v.size), np.zeros(v.size), (-2.0, 0.0))
-    assert inputs.input_quality(t, v, 0 * t, lagged, stuck)["speed_fight_time"] == pytest.approx(0.17)
+    fought = inputs.input_quality(t, v, 0 * t, lagged, stuck)["speed_fight_time"]
+    assert fought == pytest.approx(0.17)
 
 
 def test_turn_rate_jitter_of_known_signals() -> None:

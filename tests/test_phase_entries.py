@@ -101,21 +101,21 @@ phases:
 
 
 def test_a_retried_phase_has_an_entry_per_try_as_a_resumed_one_has() -> None:
-    # settling 3 m away takes 5.8 s: the first try times out at 4 s, the retry settles
+    # settling 3 m away takes 3.66 s: the first try times out at 2 s, the retry settles
     retried, phases = _run(
         """
 phases:
   - name: reach
     regulate: {target: {x: 3, y: 0, theta: 0}}
     until: {settled: {position: 0.05, heading: 0.05}}
-    timeout: 4
+    timeout: 2
     on_timeout: {retry: {times: 3}}
 """
     )
     assert retried.outcome is Outcome.success
     assert [(p["name"], p["start"], p["end"]) for p in phases] == [
-        ("reach", 0.0, 4.0),
-        ("reach", 4.0, retried.transitions[-1].time),
+        ("reach", 0.0, 2.0),
+        ("reach", 2.0, retried.transitions[-1].time),
     ]
     assert [(p["name"], p["start"]) for p in phases] == _entered(retried)
     # each try judged from its own entry: the retry's estimate converged at once

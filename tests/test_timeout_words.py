@@ -51,8 +51,8 @@ def test_a_timed_out_park_says_how_far_its_target_was() -> None:
     assert position > 0.03 or heading > 0.03  # it did time out short of its goal
     # as docs/run-directory.md quotes it
     assert result.message == (
-        "phase 'dock' timed out after 3 s at t = 3 s, its estimate 0.324 m and "
-        "3.06 rad from its target, its last input 0.328 m/s (settled asks 0.03 "
+        "phase 'dock' timed out after 3 s at t = 3 s, its estimate 0.158 m and "
+        "3.09 rad from its target, its last input 0.322 m/s (settled asks 0.03 "
         "m, 0.03 rad and at most 0.01 m/s)"
     )
 

@@ -42,20 +42,21 @@ def _overshoot(summary: dict[str, object]) -> dict[str, object]:
 
 
 def test_a_park_moved_back_overshooting_neither_target_passes(tmp_path: Path) -> None:
-    """Parked near (4, 0), then sent back to (2, 0) at 6 s: against its last
-    target from where it started, the way to (4, 0) read as 1.98 m past (2, 0)."""
-    mission = mission_from_text(PARK.format(a=4, when="elapsed: 6", b=2))
+    """Parked near (4, 0), then sent back to (2, 0) at 3.4 s: against its last
+    target from where it started, the way to (4, 0) read as 1.96 m past (2, 0)."""
+    mission = mission_from_text(PARK.format(a=4, when="elapsed: 3.4", b=2))
     result = run_mission(mission)
     park = result.phases[0]
     update = int(np.flatnonzero(result.reference == 1)[0])
     assert park.targets == ((0, 4.0, 0.0, 0.0), (update, 2.0, 0.0, 0.0))
-    assert result.x[:update].max() == pytest.approx(3.98, abs=0.01)  # short of 4
-    assert result.x[update:].min() >= 2.0 - 1e-9  # never behind 2
+    assert result.x[:update].max() == pytest.approx(3.96, abs=0.01)  # short of 4
+    # never behind 2 but by 14 um as it settles (the settled tolerance is 2 cm)
+    assert result.x[update:].min() >= 2.0 - 2e-5
     summary = result.judged
     assert summary is not None
     assert summary["outcome"] == "success", summary["message"]
     check = _overshoot(summary)
-    assert check["value"] == pytest.approx(0.0, abs=1e-9)
+    assert check["value"] == pytest.approx(1.4e-5, abs=1e-6)  # the 14 um above, not 1.96 m
     assert check["max"] == pytest.approx(0.02)
     # the figure's distance to the target is to the target in force
     goal = run_signals(result).lines["goal"]["distance to the target"]
@@ -63,7 +64,7 @@ def test_a_park_moved_back_overshooting_neither_target_passes(tmp_path: Path) ->
     assert goal[update] == pytest.approx(result.x[update] - 2.0, abs=1e-9)
     # written to manifest.json and read back: the run directory judges the same
     written, out = tmp_path / "park.yaml", tmp_path / "run"
-    written.write_text(PARK.format(a=4, when="elapsed: 6", b=2))
+    written.write_text(PARK.format(a=4, when="elapsed: 3.4", b=2))
     ran = CliRunner().invoke(app, ["run", str(written), "--out", str(out), "--no-plots"])
     assert ran.exit_code == 0, ran.stdout + ran.stderr
     manifest = json.loads((out / "manifest.json").read_text())
