@@ -554,3 +554,58 @@ def test_a_path_between_two_zones_closer_than_twice_the_band_is_blocked(
     run = run_mission(mission_from_text(POSTS.format(half=0.45, kind=kind, size=size)))
     assert run.outcome.value == "timeout"
     assert said(0.7) == []
+
+
+HOLD = """\
+version: 1
+name: wait-for-a-heading
+robot:
+  dt: 0.01
+  initial_state: {{x: 0, y: 0, theta: 0}}
+  limits: {{v: 1, omega: 2}}
+phases:
+{before}  - name: wait
+    hold: {{}}
+    until: {{{until}}}
+    timeout: 5
+"""
+
+
+@pytest.mark.parametrize(
+    ("before", "until", "warned"),
+    [
+        ("", "heading: {target: 1.57, tolerance: 0.05}", True),
+        ("", "heading: {target: 0.04, tolerance: 0.05}", False),
+        ("", "near: {point: [2, 0], tolerance: 0.1}", True),
+        ("", "heading: {target: 1.57, tolerance: 0.05}, elapsed: 2", False),
+        (
+            "  - name: turn\n    regulate: {target: {x: 0, y: 0, theta: 1.57}}\n"
+            "    until: {settled: {position: 0.02, heading: 0.02}}\n    timeout: 10\n",
+            "heading: {target: 1.57, tolerance: 0.05}",
+            False,
+        ),
+        (
+            "  - name: east\n    track: {path: {type: line, heading: 0, speed: 0.5}}\n"
+            "    until: {elapsed: 2}\n",
+            "heading: {target: 1.57, tolerance: 0.05}",
+            True,
+        ),
+    ],
+)
+def test_a_hold_whose_until_its_pose_never_meets_is_warned_of(
+    before: str, until: str, warned: bool
+) -> None:
+    """A hold keeps the pose it starts at: waiting there for a heading of
+    1.57 rad, facing 0, `validate --strict` said ok and the run timed out.
+    Where the pose meets a goal, or the hold also ends on time, nothing is
+    said."""
+    from wmr_mission import mission_from_text, run_mission
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = HOLD.format(before=before, until=until)
+    said = [d.message for d in check_mission_text(text, "h.yaml")[1] if d.severity != "note"]
+    assert bool(said) == warned, said
+    if warned:
+        [message] = said
+        assert "phase 'wait' holds the pose it starts at" in message
+        assert run_mission(mission_from_text(text)).outcome.value == "timeout"

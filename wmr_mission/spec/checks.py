@@ -1768,7 +1768,10 @@ def _in_time(
     and its turn over limits.omega: a robot turns while it drives (an arc), so
     their sum would not be a bound, and this check only says what it proves.
     """
-    if isinstance(phase, HoldPhase) or "timeout" not in _limit(mission, phase, start_time):
+    if isinstance(phase, HoldPhase):
+        yield from _held(mission, phase, where, pose, assumed)
+        return
+    if "timeout" not in _limit(mission, phase, start_time):
         return  # a phase that ends on time ends
     until, limits = phase.until, mission.robot.limits
     least: list[tuple[float, str]] = []
@@ -1817,6 +1820,51 @@ def _in_time(
             "limits",
             severity="warning",
         )
+
+
+def _held(
+    mission: Mission, phase: HoldPhase, where: DataPath, pose: Pose, assumed: str
+) -> Iterator[Finding]:
+    """A hold keeps the pose it starts at: a `heading`, `near` or `reaches`
+    goal of its `until` that pose does not meet never holds (four noise std of
+    the estimate aside), and with no other condition the phase ends only by
+    its timeout, or never. The run says so at its timeout; this says it
+    before."""
+    until = phase.until
+    if until.elapsed is not None or until.mission_time is not None or until.settled is not None:
+        return  # it ends on time, or settles where it holds
+    estimated = mission.estimator.initial_estimate
+    if estimated is not None and estimated != mission.robot.initial_state:
+        return  # it holds the estimate, which moves the robot as it converges
+    noise = mission.sensors.noise_std
+    slack = 4.0 * math.hypot(noise.x, noise.y)
+    far: list[str] = []
+    if until.heading is not None:
+        turn = abs(_wrapped(until.heading.target - pose[2])) - until.heading.tolerance
+        if turn <= 4.0 * noise.theta:
+            return
+        far.append(f"heading {until.heading.target:g} rad is {turn:.3g} rad of turn away")
+    if until.near is not None:
+        distance = math.dist(pose[:2], until.near.point) - until.near.tolerance
+        if distance <= slack:
+            return
+        point = until.near.point
+        far.append(f"({point[0]:g}, {point[1]:g}) is {distance:.3g} m beyond its tolerance")
+    if until.reaches is not None and until.reaches in mission.regions:
+        distance = _outside_by(mission.regions[until.reaches], pose[0], pose[1])
+        if distance <= slack:
+            return
+        far.append(f"region {until.reaches!r} is {distance:.3g} m away")
+    if not far:
+        return
+    yield Finding(
+        (*where, "until"),
+        f"phase {phase.name!r} holds the pose it starts at ({assumed}, heading "
+        f"{pose[2]:g} rad), where its `until` never holds: {'; '.join(far)}; it ends "
+        "only by its timeout. A hold does not move: track or regulate to the goal, or end "
+        "the hold on `elapsed`",
+        severity="warning",
+    )
 
 
 def _inside_keep_outs(
