@@ -299,6 +299,15 @@ def test_a_reversal_to_the_limit_is_judged_by_the_motion_it_makes_after_the_plan
     stuck = inputs.progress_to(np.zeros(v.size), np.zeros(v.size), (-2.0, 0.0))
     fought = inputs.input_quality(t, v, 0 * t, lagged, stuck)["speed_fight_time"]
     assert fought == pytest.approx(0.17)
+    # read no later than the next update or the phase's end: the motion after
+    # either is not the stretch's (an update at its end: judged as without lag)
+    cut = inputs.input_quality(t, v, 0 * t, lagged, towards, cuts=[22])["speed_fight_time"]
+    assert cut == now
+    ending = slice(0, 23)  # the phase ends at the stretch's end: judged as without lag
+    short = inputs.progress_to(np.array(x[ending]), np.zeros(23), (-2.0, 0.0))
+    for numbers in (NUMBERS, lagged):
+        made = inputs.input_quality(t[ending], v[ending], 0 * t[ending], numbers, short)
+        assert made["speed_fight_time"] == pytest.approx(0.17)
 
 
 def test_turn_rate_jitter_of_known_signals() -> None:

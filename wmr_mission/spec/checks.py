@@ -2007,31 +2007,41 @@ def _between_zones(
     filter goes round each zone on the side away from its centre, into the
     gap, and the robot stops at their edge (two posts 0.2 m apart, a body of
     0.25 m: it stood 3.6 m from its goal until its timeout). A proof: the gap
-    is measured between the zones' sampled outlines, never nearer than the
-    outlines themselves; the path runs between them where it crosses the
-    line joining their nearest points, the zones' centres on either side."""
+    is measured between points of the zones' outlines, never nearer than the
+    outlines themselves. The path runs between them where it crosses the line
+    joining those points an odd number of times, the zones' centres on either
+    side, and enters neither zone (a path into one is a detour the mission
+    chose, and the robot may go round both). The phase's own zones only: the
+    controller does not keep the geofence's."""
     footprint = mission.robot.footprint
     band = (0.0 if footprint is None else footprint.reach()) + _estimate_margin(mission)
     if band == 0.0 or x.size < 2:
         return
     zones = [
-        (name, region)
-        for name, region in _keep_outs(mission, phase).items()
-        if not isinstance(region, HalfPlaneRegion)
+        (number, c.stay_outside, mission.regions[c.stay_outside])
+        for number, c in enumerate(phase.constraints)
+        if not isinstance(c, StayInside)
+        and c.stay_outside in mission.regions
+        and not isinstance(mission.regions[c.stay_outside], HalfPlaneRegion)
     ]
-    written = {  # each zone's place among the phase's own constraints
-        c.stay_outside: i for i, c in enumerate(phase.constraints) if not isinstance(c, StayInside)
-    }
-    for (a_name, a), (b_name, b) in itertools.combinations(zones, 2):
-        (ax, ay), (bx, by) = _boundary(a), _boundary(b)
+    with np.errstate(all="ignore"):
+        zones = [z for z in zones if not np.any(region_value(z[2], x, y) < 0.0)]
+    outlines = [_boundary(region) for _, _, region in zones]
+    discs = [_disc(bx, by) for bx, by in outlines]
+    for k, m in itertools.combinations(range(len(zones)), 2):
+        (ca, ra), (cb, rb) = discs[k], discs[m]
+        if math.dist(ca, cb) - ra - rb >= 2.0 * band:
+            continue  # their discs too far apart for a gap that narrow
+        (ax, ay), (bx, by) = outlines[k], outlines[m]
         i, j, gap = _nearest_points(ax, ay, bx, by)
         if not 0.0 < gap < 2.0 * band * (1.0 - 1e-9):
             continue
-        crossing = _crossing(x, y, (ax[i], ay[i]), (bx[j], by[j]))
-        if crossing is None:
-            continue
-        centres = np.array([_centre(a), _centre(b)])
-        sides = _left_of(x, y, crossing, centres[:, 0], centres[:, 1])
+        crossings = _crossings(x, y, (ax[i], ay[i]), (bx[j], by[j]))
+        if crossings.size % 2 == 0:
+            continue  # not across, or across and back
+        sides = _left_of(
+            x, y, int(crossings[0]), np.array([ca[0], cb[0]]), np.array([ca[1], cb[1]])
+        )
         if sides[0] == sides[1]:
             continue
         kept = (
@@ -2039,55 +2049,52 @@ def _between_zones(
             if footprint is None
             else "the robot's body and the estimate's margin"
         )
-        number = written.get(b_name, written.get(a_name))
+        (_, a_name, _), (number, b_name, _) = zones[k], zones[m]
         yield Finding(
-            where if number is None else (*where, "constraints", number),
+            (*where, "constraints", number),
             f"the path runs between keep-out zones {a_name!r} and {b_name!r}, {gap:.3g} m "
             f"apart, where the controller keeps {band:.3g} m from each ({kept}): the robot "
             f"cannot pass between them during phase {phase.name!r}, goes round neither and "
-            "stops at their edge; widen the gap to more than "
-            f"{2.0 * band:.3g} m, or move the path round them",
+            f"stops at their edge; widen the gap well past {2.0 * band:.3g} m, or move the "
+            "path round them",
             severity="warning",
         )
+
+
+def _disc(x: FloatArray, y: FloatArray) -> tuple[tuple[float, float], float]:
+    """A disc holding the outline through (x, y): its points' mean, and the
+    farthest of them from it."""
+    cx, cy = float(x.mean()), float(y.mean())
+    return (cx, cy), float(np.max(np.hypot(x - cx, y - cy)))
 
 
 def _nearest_points(
     ax: FloatArray, ay: FloatArray, bx: FloatArray, by: FloatArray
 ) -> tuple[int, int, float]:
-    """The nearest pair of points (a, b) of two sampled outlines, and their
-    distance: a block of a's points at a time against all of b's (memory
-    bounded)."""
-    best = (0, 0, math.inf)
-    for start in range(0, ax.size, 256):
-        gaps = np.hypot(ax[start : start + 256, None] - bx, ay[start : start + 256, None] - by)
-        i, j = np.unravel_index(int(np.argmin(gaps)), gaps.shape)
-        if gaps[i, j] < best[2]:
-            best = (start + int(i), int(j), float(gaps[i, j]))
-    return best
+    """A near pair of points (a, b) of two sampled outlines, and their
+    distance: every eighth of a's points against all of b's, then a's points
+    round the best of them. Never nearer than the outlines' own distance, and
+    within a few of a's sample spacings of it."""
+    coarse = np.hypot(ax[::8, None] - bx, ay[::8, None] - by)
+    i, _ = np.unravel_index(int(np.argmin(coarse)), coarse.shape)
+    near = np.arange(8 * int(i) - 16, 8 * int(i) + 17) % ax.size
+    fine = np.hypot(ax[near, None] - bx, ay[near, None] - by)
+    k, j = np.unravel_index(int(np.argmin(fine)), fine.shape)
+    return int(near[k]), int(j), float(fine[k, j])
 
 
-def _crossing(
+def _crossings(
     x: FloatArray, y: FloatArray, p: tuple[float, float], q: tuple[float, float]
-) -> int | None:
-    """The first segment of the polyline through (x, y) that crosses the
-    segment from ``p`` to ``q``, None if none does."""
+) -> NDArray[np.intp]:
+    """The segments of the polyline through (x, y) that cross the segment
+    from ``p`` to ``q``, in order."""
     ax, ay, ex, ey = x[:-1], y[:-1], np.diff(x), np.diff(y)
     fx, fy = q[0] - p[0], q[1] - p[1]
     with np.errstate(all="ignore"):
         across = ex * fy - ey * fx
         s = ((p[0] - ax) * fy - (p[1] - ay) * fx) / across
         t = ((p[0] - ax) * ey - (p[1] - ay) * ex) / across
-    hits = np.flatnonzero((across != 0.0) & (s >= 0.0) & (s <= 1.0) & (t >= 0.0) & (t <= 1.0))
-    return int(hits[0]) if hits.size else None
-
-
-def _centre(region: RegionSpec) -> tuple[float, float]:
-    """An ellipse's centre, a box's or a polygon's corners' mean."""
-    if isinstance(region, EllipseRegion | CircleRegion):
-        cx, cy, *_ = ellipse_geometry(region)
-        return cx, cy
-    corners = region_vertices(region)
-    return float(corners[:, 0].mean()), float(corners[:, 1].mean())
+    return np.flatnonzero((across != 0.0) & (s >= 0.0) & (s < 1.0) & (t >= 0.0) & (t <= 1.0))
 
 
 def _passing(x: FloatArray, y: FloatArray, px: float, py: float) -> tuple[float, int]:

@@ -18,7 +18,8 @@ still correcting):
   distance it drives at the limit into progress (towards the target; on a path,
   along it or towards the reference point, whichever is more), read the
   plant's input delay and actuator time constant later (the motion a command
-  makes comes then); for ``omega``, turns at most half a turn.
+  makes comes then), but no later than the next update or the phase's end;
+  for ``omega``, turns at most half a turn.
 - **turn-rate jitter**: the spread of ``omega`` about its centred moving mean
   over two time constants, robust (1.4826 times the median absolute
   deviation: the few samples of a manoeuvre do not count), after the first
@@ -113,13 +114,16 @@ def input_quality(
     tau, dt = numbers.time_constant, numbers.dt
 
     # The motion a command makes comes the plant's input delay and actuator lag
-    # later: a reversal to the limit first moves the robot on the old way.
+    # later: a reversal to the limit first moves the robot on the old way. Read
+    # no later than the next update or the phase's end: a stretch is judged by
+    # the motion of its own target, and never by fewer samples than it has.
     later = round(numbers.response / dt)
-    last = t.size - 1
+    ends = sorted({*cuts, t.size - 1})
 
     def drives(a: int, b: int) -> bool:  # half the distance driven at the limit is progress
-        made = progress(min(a + later, last), b + later)
-        return made >= DELIBERATE * numbers.v_limit * (b - a) * dt
+        end = next((c for c in ends if c >= b), b)
+        shift = max(0, min(later, end - b))
+        return progress(a + shift, b + shift) >= DELIBERATE * numbers.v_limit * (b - a) * dt
 
     def turns(a: int, b: int) -> bool:  # at most half a turn (a sample's turn for rounding)
         return (b - a) * dt * numbers.omega_limit <= math.pi + 2.0 * numbers.omega_limit * dt
