@@ -88,6 +88,20 @@ def test_a_phase_whose_least_clearance_is_at_its_start_says_so() -> None:
     assert "clearance 0 m" in park_lines(run, with_run=False)
 
 
+def test_a_track_phase_judged_on_no_sample_says_why() -> None:
+    """Case 2's spiral ends on the ellipse within its entry (the robot still
+    closing the estimate's error): nothing of its tracking is judged, and the
+    row showed `cross-track max -` and `lag max -` with no word of why."""
+    phase = {"tracking": {"cross_track_error_max": None, "along_track_lag_max": None,
+                          "entry_time": 0.9315, "detour_time": 0.0}}  # fmt: skip
+    assert report.key_metric(phase) == "tracking not judged (entry 0.93 s)"
+    phase["tracking"]["detour_time"] = 1.5
+    assert report.key_metric(phase) == "tracking not judged (entry 0.93 s, detour 1.50 s)"
+    phase["tracking"]["along_track_lag_max"] = 0.02
+    assert report.key_metric(phase).splitlines() == ["cross-track max -", "lag max 0.02 m",
+                                                     "detour 1.50 s, - off"]  # fmt: skip
+
+
 def test_table_lists_expectations_and_leaves_a_failure_to_its_message() -> None:
     """Met ones with their values; an unmet mission-wide one NOT MET, even when
     it is the failure's message, which `run` prints once, on stderr: no phase's

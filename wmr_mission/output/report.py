@@ -54,7 +54,17 @@ def key_metric(phase: dict[str, Any], start_clearance: float | None = None) -> s
     body's clearance at the phase's first sample, where known."""
     parts = []
     tracking = phase.get("tracking")
-    if tracking is not None:
+    judged = tracking is not None and (
+        tracking.get("cross_track_error_max") is not None
+        or tracking.get("along_track_lag_max") is not None
+    )
+    if tracking is not None and not judged:
+        # every sample in the entry (or a detour): said, not shown as a bare '-'
+        left = f"entry {_seconds(tracking.get('entry_time'))}"
+        if tracking.get("detour_time"):
+            left += f", detour {_seconds(tracking['detour_time'])}"
+        parts.append(f"tracking not judged ({left})")
+    elif tracking is not None:
         parts.append(f"cross-track max {_number(tracking.get('cross_track_error_max'), ' m')}")
         parts.append(f"lag max {_number(tracking.get('along_track_lag_max'), ' m')}")
         if tracking.get("detour_time"):
