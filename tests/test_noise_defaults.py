@@ -129,6 +129,25 @@ def test_stated_disturbances_keep_the_estimator_s_own_poles() -> None:
     assert settings.innovation_gate == 30.66  # outliers are gated all the same
 
 
+def test_a_block_of_disturbances_that_disturbs_nothing_is_none() -> None:
+    """`robot.disturbances` written with every value its default (a campaign's
+    level 0, or zeros) disturbs nothing: the estimator follows the noise as
+    with no block. It kept its own poles, and a line with 1 cm of noise failed
+    its jitter (0.24 rad/s, max 0.12) where the same mission without the block
+    succeeded (0.040)."""
+    zeros = {"input_delay": 0, "actuator_time_constant": 0, "slip": {"longitudinal": 0}}
+    written = load(mission(disturbances=zeros)).estimator
+    assert written == load(mission()).estimator
+    assert isinstance(written, observer.ConstrainedObserver)
+    assert written.poles.x != 0.9
+    # the user's mission (tests/data/zero-disturbances.yaml) runs as without its block
+    text = (Path(__file__).parent / "data" / "zero-disturbances.yaml").read_text()
+    ran = run_mission(load_mission_text(text, "z.yaml"))
+    plain = run_mission(load_mission_text(text.replace("  disturbances:", "  #"), "p.yaml"))
+    assert ran.outcome is Outcome.success, ran.message
+    assert np.array_equal(ran.omega, plain.omega)
+
+
 # --- the gate --------------------------------------------------------------------
 
 

@@ -1034,12 +1034,13 @@ class Mission(Model):
         mission: Mission = handler(data)
         robot = mission.robot
 
-        # A slow estimate lags a robot the model does not hold for: under stated
+        # A slow estimate lags a robot the model does not hold for: under
         # disturbances the estimator keeps its own defaults (docs/paper-notes.md,
-        # "Eqs. (6)-(7) under position noise").
+        # "Eqs. (6)-(7) under position noise"). A block of defaults (a campaign's
+        # level 0) disturbs nothing, and is none.
         budget = (
             math.inf
-            if robot.disturbances.model_fields_set
+            if robot.disturbances != Disturbances.defaults()
             else mission.controller.position_noise_budget(
                 float(robot.dt), float(robot.limits.v), float(robot.limits.omega)
             )
