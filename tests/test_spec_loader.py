@@ -406,3 +406,18 @@ def test_a_key_written_a_level_too_high_is_told_where_it_belongs() -> None:
     [found] = check_mission_text(text, "m.yaml")[1]
     assert (found.line, found.column) == (5, 1)
     assert found.message == "unknown field 'limits'; it belongs in 'robot' (robot.limits)"
+
+
+def test_a_region_name_that_is_no_identifier_is_shown_at_its_name() -> None:
+    """A region named `post-left` was reported at the `{` of its value: the
+    name is what is wrong (region names are identifiers; phase names may
+    hold '-')."""
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = (
+        "version: 1\nname: m\nregions:\n  post-left: {type: circle, center: [3, 0], radius: 1}\n"
+        "phases:\n  - name: go\n    hold: {}\n    until: {elapsed: 1}\n"
+    )
+    [found] = check_mission_text(text, "m.yaml")[1]
+    assert (found.line, found.column) == (4, 3)
+    assert found.message.startswith("regions.post-left: expected an identifier")

@@ -881,7 +881,10 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         return Finding(path, message, position=position)
     if kind == "string_pattern_mismatch":
         described = _PATTERNS.get(str(context.get("pattern")), f"match {context.get('pattern')}")
-        return Finding(path, f"{where}: expected {described}, got {_shown(value)}")
+        # a mapping's key (a region's name): point at the key, not its value
+        return Finding(
+            path, f"{where}: expected {described}, got {_shown(value)}", at_key=loc[-1] == "[key]"
+        )
     registry = _section_registry(path[:-1], data, root) if path[-1:] == ("type",) else None
     if kind == "literal_error" and registry is not None:
         # The one type registered (the controller's): refused as a union refuses.
