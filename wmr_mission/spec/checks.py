@@ -962,9 +962,9 @@ def _farthest(seconds: float, dt: float, numbers: MissionNumbers) -> float:
     its speed limit (the first input is a whole sample's acceleration)."""
     speed, rate = numbers.v_limit, numbers.v_acceleration
     samples = math.ceil(seconds / dt - 1e-9)
-    rising = samples if math.isinf(rate) else min(samples, math.floor(speed / (rate * dt)))
     if math.isinf(rate):
         return samples * speed * dt
+    rising = min(samples, math.floor(speed / (rate * dt)))
     # sum over the rising samples of (i + 1) rate dt, then the rest at the limit
     return (rate * dt * rising * (rising + 1) / 2.0 + speed * (samples - rising)) * dt
 
@@ -1644,6 +1644,17 @@ def _within_the_band(
     )
 
 
+def _band(mission: Mission) -> tuple[float, str]:
+    """[m] The band the controller keeps round every zone (the body's reach and
+    the estimate's margin, ``Plant.constraint_margin``), and its words."""
+    footprint = mission.robot.footprint
+    if footprint is None:
+        return _estimate_margin(mission), "the estimate's margin"
+    return footprint.reach() + _estimate_margin(mission), (
+        "the robot's body and the estimate's margin"
+    )
+
+
 def _estimate_margin(mission: Mission) -> float:
     """[m] the estimate's share of the band the controller keeps round every
     zone (``Plant.constraint_margin`` less the body's reach); 0 for a plug-in
@@ -1908,15 +1919,7 @@ def _through_centres(
     if x.size < 2:
         return
     yards = _keep_ins(mission, phase)
-    footprint = mission.robot.footprint
-    band = (0.0 if footprint is None else footprint.reach()) + (
-        _estimate_margin(mission) if yards else 0.0
-    )
-    kept = (
-        "the estimate's margin"
-        if footprint is None
-        else "the robot's body and the estimate's margin"
-    )
+    band, kept = _band(mission) if yards else (0.0, "")
     room = (
         f" or leaves less than {2.0 * band:.3g} m to its edge ({kept} on each side)"
         if band > 0.0
@@ -2013,8 +2016,7 @@ def _between_zones(
     side, and enters neither zone (a path into one is a detour the mission
     chose, and the robot may go round both). The phase's own zones only: the
     controller does not keep the geofence's."""
-    footprint = mission.robot.footprint
-    band = (0.0 if footprint is None else footprint.reach()) + _estimate_margin(mission)
+    band, kept = _band(mission)
     if band == 0.0 or x.size < 2:
         return
     zones = [
@@ -2044,11 +2046,6 @@ def _between_zones(
         )
         if sides[0] == sides[1]:
             continue
-        kept = (
-            "the estimate's margin"
-            if footprint is None
-            else "the robot's body and the estimate's margin"
-        )
         (_, a_name, _), (number, b_name, _) = zones[k], zones[m]
         yield Finding(
             (*where, "constraints", number),
