@@ -30,7 +30,7 @@ from wmr_mission.spec.temporal import (
     Window,
     parse_formula,
 )
-from wmr_mission.verdicts.temporal import robustness
+from wmr_mission.verdicts.temporal import robustness, robustness_at_start
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE2 = ROOT / "missions" / "case2.yaml"
@@ -412,6 +412,46 @@ def test_windows_are_in_seconds_and_named_instants_are_the_phases() -> None:
     assert robustness(node, signals, dt, {}, normalised=False)[0] == pytest.approx(0.2)
     node = parse_formula("always[entry, 0.5](speed >= 0.25)")
     assert robustness(node, signals, dt, {"entry": 0.25}, normalised=False)[0] == pytest.approx(0)
+
+
+def _nested_formula(rng: np.random.Generator) -> Node:
+    """An atom under one or two windows (the inner one to the end, or not), as
+    a formula's value picks it without its rho at every sample, or a formula of
+    any other shape."""
+    atom = _random_formula(rng, 0, 0)
+    kinds = (Always, Eventually)
+    start = float(rng.integers(0, 8))
+    inner = kinds[rng.integers(2)](
+        Window(start, "end" if rng.random() < 0.7 else start + float(rng.integers(0, 40))), atom
+    )
+    start = float(rng.integers(0, 8))
+    outer = Window(start, "end" if rng.random() < 0.3 else start + float(rng.integers(0, 40)))
+    shape = rng.integers(3)
+    if shape == 0:
+        return kinds[rng.integers(2)](outer, inner)
+    if shape == 1:
+        return kinds[rng.integers(2)](outer, atom)
+    return _random_formula(rng, 0, int(rng.integers(1, 4)))
+
+
+def test_a_formulas_value_is_its_robustness_at_the_first_sample() -> None:
+    # The value of a window over an atom, or over a window to the end of one, is
+    # one pick over the signal: the same bits as the robustness at the first
+    # sample (a 0 the same number: its sign is the picks' own), on signals
+    # with ties, zeros of both signs and as short as one sample.
+    rng = np.random.default_rng(8)
+    for _ in range(3000):
+        n = int(rng.integers(1, 30))
+        signals = {name: np.round(rng.normal(size=n), int(rng.integers(0, 3))) for name in NAMES}
+        for values in signals.values():
+            values[rng.random(n) < 0.2] = 0.0 if rng.random() < 0.5 else -0.0
+        node = _nested_formula(rng)
+        instants = {"entry": float(rng.integers(0, 5)), "settle": float(rng.integers(0, 5))}
+        whole = robustness(node, signals, 1.0, instants)[0]
+        value = robustness_at_start(node, signals, 1.0, instants)
+        assert value == whole, node
+        if whole != 0.0:
+            assert np.float64(value).tobytes() == np.float64(whole).tobytes(), node
 
 
 # --- on runs: the shipped example and the built-in metrics it restates --------

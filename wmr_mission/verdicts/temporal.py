@@ -120,10 +120,11 @@ def robustness(
 def robustness_at_start(
     node: Node, signals: Mapping[str, FloatArray], dt: float, instants: Mapping[str, float]
 ) -> float:
-    """:func:`robustness` at the first sample alone, a formula's value: an
-    outermost ``always`` or ``eventually`` is one pick over its window, not a
-    pick at every sample (the same values picked: min and max round nothing,
-    so the same bits)."""
+    """:func:`robustness` at the first sample alone, a formula's value, over
+    finite ``signals``: an outermost ``always`` or ``eventually`` is one pick
+    over its window, not a pick at every sample (the same values picked: min
+    and max round nothing, so the same bits), and of an atom, or of a window
+    to the phase's end over one, one pick over the signal (:func:`_picked`)."""
     _, both, either, always, eventually = _nodes()
     if isinstance(node, (both, either)):
         left = robustness_at_start(node.left, signals, dt, instants)
@@ -135,8 +136,56 @@ def robustness_at_start(
     first, last = _samples(node.window, dt, instants, n)
     if last < first or first >= n:
         return _INF if isinstance(node, always) else -_INF
+    picked = _picked(node, signals, dt, instants, n, first, min(last, n - 1))
+    if picked is not None:
+        return picked
     body = robustness(node.body, signals, dt, instants)[first : last + 1]
     return float(body.min() if isinstance(node, always) else body.max())
+
+
+def _picked(
+    node: Always | Eventually,
+    signals: Mapping[str, FloatArray],
+    dt: float,
+    instants: Mapping[str, float],
+    n: int,
+    first: int,
+    last: int,
+) -> float | None:
+    """The value of ``node`` over its samples ``first .. last`` (within the
+    phase) where its body is an atom, or a window to the phase's end over one:
+    None for any other body, and for a value of 0, whose sign the picks below
+    may not keep.
+
+    An atom's rho, (c - s) / |c| or (s - c) / |c|, rounds monotonically in s:
+    its least over some samples is its rho at the signal's largest (or least),
+    one pick over the signal and no array of rho. A window to the end over an
+    atom, at sample k, picks over k + i .. n - 1: an ``always`` of it grows
+    with k, an ``eventually`` shrinks, so the outer window's pick is the inner
+    one's at its last sample (at its first where both pick alike). Only a 0
+    has two signs: each other value has one set of bits, whichever sample
+    gives it."""
+    atom, _, _, always, eventually = _nodes()
+    least = isinstance(node, always)
+    body = node.body
+    if not isinstance(body, atom):
+        inner = body
+        if not isinstance(inner, (always, eventually)) or not isinstance(inner.body, atom):
+            return None
+        start, stop = _samples(inner.window, dt, instants, n)
+        if stop < n - 1 or stop < start:
+            return None
+        inner_least = isinstance(inner, always)
+        k = first if inner_least == least else last
+        if k + start >= n:
+            return _INF if inner_least else -_INF
+        first, least, body = k + start, inner_least, inner.body
+        last = n - 1
+    values = signals[body.signal][first : last + 1]
+    # the least rho at the largest signal, unless the atom bounds it from below
+    s = float(values.max() if least != body.above else values.min())
+    rho = (s - body.bound if body.above else body.bound - s) / (abs(body.bound) or 1.0)
+    return rho if rho != 0.0 else None
 
 
 def _samples(window: Window, dt: float, instants: Mapping[str, float], n: int) -> tuple[int, int]:
@@ -225,7 +274,9 @@ def phase_formulas(mission: Mapping[str, Any] | None, phase_name: str) -> tuple[
     shared = ((mission or {}).get("expect") or {}).get("temporal")
     for step in (mission or {}).get("phases") or []:
         repeat = step.get("repeat")
-        for phase in (repeat.get("phases") or []) if isinstance(repeat, Mapping) else [step]:
+        # (None first: the test of a Mapping costs more than the rest of the step)
+        inner = repeat is not None and isinstance(repeat, Mapping)
+        for phase in (repeat.get("phases") or ()) if inner else (step,):
             if str(phase.get("name")) == written:
                 own = (phase.get("expect") or {}).get("temporal")
                 return tuple(own if own is not None else shared or ())
@@ -257,16 +308,15 @@ def phase_values(
     past_end: list[str] = []  # decided by a window with no sample: it lies past the end
     for text in formulas:
         node, names = _read(text)
-        if "entry" in text:  # the instant: measured with the track's signals
-            signals.get("cross_track")
         named = {name: signals.get(name) for name in names}
         arrays = {name: a for name, a in named.items() if a is not None}
         if len(arrays) < len(named):  # a signal the phase does not measure
             continue
-        if not all(np.isfinite(a).all() for a in arrays.values()):
+        if not all(map(_finite, arrays.values())):
             values[text] = None
             continue
-        instants = {"entry": signals.entry, "settle": settle_time}
+        # the entry's end where a window names it: measured with the track's signals
+        instants = {"entry": signals.entry if "entry" in text else 0.0, "settle": settle_time}
         rho = robustness_at_start(node, arrays, numbers.dt, instants)
         if rho == _INF:
             continue
@@ -276,6 +326,12 @@ def phase_values(
     if not values:
         return {}
     return {"temporal": values, **({PAST_END: past_end} if past_end else {})}
+
+
+def _finite(values: FloatArray) -> bool:
+    """Whether every value is finite: their sum is finite only then (or, where
+    it overflows, each is looked at)."""
+    return math.isfinite(np.add.reduce(values)) or bool(np.isfinite(values).all())
 
 
 def panel_of(formula: str) -> str:
@@ -333,16 +389,31 @@ class PhaseSignals:
     ) -> None:
         self.result, self.info, self.window, self.numbers = result, info, window, numbers
         self._known = known  # the phase's reference_known, if at hand
-        self.entry = 0.0
         self._found: dict[str, FloatArray | None] = {}
         # the places on the path of the samples whose reference is known (None:
         # none, or a position not finite), shared with the phase's metrics
         self._placement = placement
+        self._placed: Placement | None = None  # the places the cross-track error was measured at
 
     def get(self, name: str) -> FloatArray | None:
         if name not in self._found:
             self._found |= self._measured(name)
         return self._found.get(name)
+
+    @property
+    def entry(self) -> float:
+        """[s] The entry of a track phase, from its first sample
+        (wmr_mission.verdicts.tracking.track_samples judges from its end): 0
+        where the phase measures no cross-track error. Found where a formula
+        names it, not with every cross-track error."""
+        self.get("cross_track")
+        placement, numbers = self._placed, self.numbers
+        if placement is None:
+            return 0.0
+        px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
+        length = placement.steps[2]
+        speed = float(length[0]) / numbers.dt if rx.size > 1 else 0.0
+        return numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), speed)
 
     def _measured(self, name: str) -> dict[str, FloatArray | None]:
         r, w, info = self.result, self.window, self.info
@@ -380,9 +451,7 @@ class PhaseSignals:
 
     def _on_path(self) -> dict[str, FloatArray | None]:
         """The cross-track error and the lag at every sample of a track phase,
-        the entry's included (NaN where the reference is unknown), and the
-        entry's end (wmr_mission.verdicts.tracking.track_samples judges
-        from it)."""
+        the entry's included (NaN where the reference is unknown)."""
         r, w, numbers = self.result, self.window, self.numbers
         if self.info.kind != "track":
             return {"cross_track": None, "lag": None}
@@ -390,20 +459,17 @@ class PhaseSignals:
             known, these = self._known()
         else:
             known, these = reference_known(r.x_ref[w], r.y_ref[w])
-        if not known.any():
+        if not (these is None and known.size) and not known.any():  # (None: every one known)
             return {"cross_track": None, "lag": None}
         placement = self._placement() if self._placement is not None else placed(r, w)
         if placement is None:
             return {"cross_track": np.full(known.size, np.nan), "lag": np.full(known.size, np.nan)}
-        px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
+        self._placed = placement
         if these is None:  # every one known: on_path's own new arrays, no copy into the phase's
             cross, lag = placement.on_path(numbers.tracking_tolerance)
         else:
             cross, lag = np.full(known.size, np.nan), np.full(known.size, np.nan)
             cross[known], lag[known] = placement.on_path(numbers.tracking_tolerance)
-        length = placement.steps[2]
-        speed = float(length[0]) / numbers.dt if rx.size > 1 else 0.0
-        self.entry = numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), speed)
         return {"cross_track": cross, "lag": lag}
 
 
