@@ -456,3 +456,39 @@ def test_the_passes_run_compiled_once_the_process_has_judged_enough_samples(
     assert jit.judging_compiled()
     monkeypatch.setattr(jit._state, "ready", False)  # numba not loaded: numpy however many
     assert not jit.judging_compiled()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_entry_pass_has_the_numpy_forms_bits(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The samples of a track phase's entry (kept_up with times): a robot that
+    closes on its reference and keeps up, one that never does, one whose
+    entry outlasts the phase, and phases of one and two samples."""
+    from wmr_mission.verdicts.tracking import _entry_judged
+
+    rng = np.random.default_rng(seed)
+    samples = 800
+    k = np.arange(samples)
+    t = k * 0.01
+    rx, ry = k * 0.01 * (0.5 + 0.1 * seed), np.cos(k * 0.004)
+    gap = np.where(k < 200, 0.4 * (1.0 - k / 200.0), 0.0)
+    px, py = rx - gap + rng.normal(0.0, 2e-4, samples), ry + rng.normal(0.0, 2e-4, samples)
+    far = px - 1.0  # never keeps up
+    if seed == 2:
+        px[100] = math.nan
+
+    def judged() -> list[Any]:
+        found = []
+        for x in (px, far):
+            for bound in (0.0, 1.5, 5.0, 20.0, math.nan):
+                for n in (samples, 1, 2, 300):
+                    sampled = (t[:n], bound, (x[:n], py[:n]), (rx[:n], ry[:n]), NUMBERS)
+                    flags, count = _entry_judged(*sampled)
+                    found.append((flags.tolist(), count))
+        return found
+
+    _both(monkeypatch, judged, "kept_up")
+    found = judged()
+    assert 200 < found[8][1] < 500  # kept up before the bound's end (5 s)
+    assert found[20 + 8][1] == 500  # never kept up: the whole bound

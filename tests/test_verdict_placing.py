@@ -10,7 +10,7 @@ import pytest
 
 from wmr_mission.kernels import jit
 from wmr_mission.verdicts import placing
-from wmr_mission.verdicts.tracking import Placement
+from wmr_mission.verdicts.tracking import Placement, placed_known
 
 Case = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
@@ -88,3 +88,58 @@ def test_the_search_from_a_point_finds_what_numpys_searchsorted_finds() -> None:
             expected = int(np.searchsorted(arc, value, side="right"))
             for near in (0, size - 1, int(rng.integers(-3, size + 3)), expected, expected - 1):
                 assert placing._first_beyond(arc, value, near) == expected
+
+
+def _judged(case: Case) -> list[object]:
+    """A phase's places as its metrics and formulas read them: the samples
+    known and their placement, and the columns and their largest values from
+    a few samples on (none, some, all)."""
+    known, placement = placed_known(*case)
+    found: list[object] = [known[0].tolist(), None if known[1] is None else str(known[1])]
+    if placement is None:
+        return [*found, None]
+    n = placement.px.size
+    longest = placement.longest if n > 1 else None  # (a point has no segment)
+    found += [placement.finite, placement.known, placement.standing, longest]
+    for near, first, judged in ((math.inf, n // 2, n), (0.05, n // 3, n // 2), (0.05, 0, 0)):
+        cross, lag, most_cross, most_lag = placement.judged_on_path(near, first, judged)
+        found += [_bits(cross), _bits(lag), most_cross, most_lag]
+    return [_bits(np.array([v])) if isinstance(v, float) else v for v in found]
+
+
+def _cases() -> list[Case]:
+    """A reference of a few points, or of one, that stands still, that ends
+    unknown (a run's last sample), and positions not finite."""
+    rng = np.random.default_rng(7)
+    px, py, rx, ry = _path(rng, 600)
+    ended = rx.copy()
+    ended[-1] = math.nan
+    diverged = px.copy()
+    diverged[300] = math.inf
+    still = np.full(50, 1.5)
+    return [
+        (px, py, rx, ry),
+        (px, py, ended, ry),
+        (diverged, py, rx, ry),
+        (px[:50], py[:50], still, still),
+        (px[:1], py[:1], rx[:1], ry[:1]),
+        (px[:3], py[:3], rx[:3], ry[:3]),
+        (px[:3], py[:3], np.full(3, math.nan), ry[:3]),
+    ]
+
+
+def test_placing_known_samples_in_one_pass_has_the_numpy_forms_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The samples known, the path's lengths, the columns and their largest
+    values: numpy's, compiled and as plain Python."""
+    for case in _cases():
+        with monkeypatch.context() as patch:
+            patch.setattr(jit, "judging_compiled", lambda: False)
+            expected = _judged(case)
+        jit.load()
+        for compiled in (jit.compiled, jit.plain):
+            with monkeypatch.context() as patch:
+                patch.setattr(jit, "judging_compiled", lambda: True)
+                patch.setattr(jit, "compiled", compiled)
+                assert _judged(case) == expected

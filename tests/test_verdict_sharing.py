@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -127,9 +128,9 @@ def test_a_track_phase_is_placed_on_its_path_once(
     placed: list[int] = []
     place_samples = tracking.Placement._place_samples
 
-    def counted(self: Placement, begin: int, end: int) -> None:
+    def counted(self: Placement, begin: int, end: int, *columns: Any) -> tuple[int, float, float]:
         placed.append(end - begin)
-        place_samples(self, begin, end)
+        return place_samples(self, begin, end, *columns)
 
     monkeypatch.setattr(tracking.Placement, "_place_samples", counted)
     summary = judge(copy.deepcopy(result), mission)

@@ -50,6 +50,7 @@ from wmr_mission.verdicts.tracking import (
     Known,
     Placement,
     known_samples,
+    placed_known,
     reference_known,
     track_samples,
 )
@@ -545,15 +546,24 @@ class PhaseSamples:
         tracking metrics and the formulas alike (track phases)."""
         if self.info.kind != "track":
             return None
-        return temporal.placed(self.result, self.window, self.reference_known)
+        return self._placed[1]
 
     @cached_value
     def reference_known(self) -> Known:
         """Whether each sample's reference point is known, and those samples
         (:func:`reference_known`): for the places, the tracking metrics and
         the formulas, once."""
+        if self.info.kind == "track":
+            return self._placed[0]
         r, w = self.result, self.window
         return reference_known(r.x_ref[w], r.y_ref[w])
+
+    @cached_value
+    def _placed(self) -> tuple[Known, Placement | None]:
+        """:attr:`reference_known` and :attr:`placement` of a track phase, found
+        together (:func:`placed_known`)."""
+        r, w = self.result, self.window
+        return placed_known(r.x[w], r.y[w], r.x_ref[w], r.y_ref[w])
 
     @cached_value
     def tracked(self) -> tuple[dict[str, Any], NDArray[np.bool_] | None] | None:

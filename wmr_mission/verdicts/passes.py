@@ -12,8 +12,8 @@ operations at a time (each caller keeps that form beside its call).
 - the run's estimation errors, the heading's wrapped, and the last sample
   not converged (wmr_mission.verdicts.metrics), and the first sample whose
   estimate is within its tolerance (wmr_mission.verdicts.inputs);
-- where a track phase's robot has kept up with its reference
-  (wmr_mission.verdicts.tracking);
+- where a track phase's robot has kept up with its reference, and the
+  samples of its entry (wmr_mission.verdicts.tracking);
 - the distances to the reference points and the exact sum of their squares
   of ``reference_error_rms`` (wmr_mission.verdicts.metrics), the float
   ``math.fsum`` gives.
@@ -141,18 +141,30 @@ def kept_up(
     tolerance: float,
     moving: float,
     apart_most: float,
-) -> int:
+    entry: tuple[FloatArray, float, NDArray[np.bool_]],
+) -> tuple[int, int]:
     """``tracking._kept_up``: of ``samples`` (begin, end, window), the first
     sample from ``begin`` on ending ``window`` samples in a row each within
     ``tolerance`` of its reference point and, from the sample before (none
     before ``max(begin - window, 0)``), moved apart from it by at most
     ``moving`` of the reference's step and ``apart_most``; -1: none. ``hypot``
-    the C library's, as numpy's."""
+    the C library's, as numpy's. With times in ``entry`` (times, bound,
+    judged), ``tracking._entry_judged``: the samples in the entry, their time
+    since the first below the bound, up to the sample found (``end``: how
+    many are), each judged where not in it (into ``judged``), and how many
+    are in it (-1 without times)."""
     px, py = position
     rx, ry = reference
     begin, end, window = samples
+    t, bound, judged = entry
+    if t.size:
+        end = 0
+        for k in range(t.size):
+            judged[k] = not t[k] - t[0] < bound
+            end += 0 if judged[k] else 1
     first = max(begin - window, 0)
     run = 0  # samples with it in a row
+    found = -1
     for k in range(first, end):
         ex, ey = px[k] - rx[k], py[k] - ry[k]
         with_it = np.hypot(ex, ey) <= tolerance
@@ -164,8 +176,16 @@ def kept_up(
             with_it = False
         run = run + 1 if with_it else 0
         if run >= window and k >= begin:
-            return k
-    return -1
+            found = k
+            break
+    if not t.size:
+        return found, -1
+    if found >= 0:
+        end = 0
+        for k in range(t.size):
+            judged[k] = judged[k] or k >= found
+            end += 0 if judged[k] else 1
+    return found, end
 
 
 @kernel

@@ -1,6 +1,7 @@
 """Each position's place on the path in one compiled pass, where the run's
 kernels are compiled: :meth:`wmr_mission.verdicts.tracking.Placement.on_path`'s
-local search (its numpy form, in blocks of positions, serves plain Python).
+local search and the columns it gives (its numpy form, in blocks of
+positions, serves plain Python), and the path's lengths before it.
 
 The search is each position's own, so a position at a time gives the same
 numbers: the same operations in the same order, and numpy's ``searchsorted``
@@ -23,21 +24,43 @@ __all__ = ["path_lengths", "place_samples"]
 
 @kernel
 def path_lengths(
-    rx: FloatArray,
-    ry: FloatArray,
+    position: tuple[FloatArray, FloatArray],
+    reference: tuple[FloatArray, FloatArray],
     steps: tuple[FloatArray, FloatArray, FloatArray],
     arc: FloatArray,
-) -> None:
+) -> tuple[int, float, bool, bool]:
     """Each segment's step (x, y) and length into ``steps``, and the arc length
     at each point into ``arc``, as ``tracking.path_steps`` and numpy's
-    ``cumsum`` (a sum in order) compute them, without their temporaries."""
+    ``cumsum`` (a sum in order) compute them, without their temporaries; the
+    segments that move (of length > 0), the longest (numpy's ``max``: NaN if
+    any is; -inf where there is none), and whether every position and every
+    reference point is finite.
+    The lengths first, side by side, then their sum: a sum kept in the array
+    waits on its own store at each point."""
+    px, py = position
+    rx, ry = reference
     sx, sy, length = steps
-    if arc.size:
-        arc[0] = 0.0
     for i in range(rx.size - 1):
-        sx[i], sy[i] = rx[i + 1] - rx[i], ry[i + 1] - ry[i]
-        length[i] = math.sqrt(sx[i] * sx[i] + sy[i] * sy[i])
-        arc[i + 1] = arc[i] + length[i]
+        x, y = rx[i + 1] - rx[i], ry[i + 1] - ry[i]
+        sx[i], sy[i] = x, y
+        length[i] = math.sqrt(x * x + y * y)
+    total, longest, moving, unordered = 0.0, -math.inf, 0, False
+    if arc.size:
+        arc[0] = total
+    for i in range(rx.size - 1):  # (no branch: the loop waits on each sum alone)
+        step = length[i]
+        total += step
+        arc[i + 1] = total
+        moving += step > 0.0
+        unordered |= step != step
+        longest = step if step > longest else longest
+    unfinite = False
+    for k in range(px.size):
+        unfinite |= (not abs(px[k]) < math.inf) | (not abs(py[k]) < math.inf)
+    unknown = False
+    for k in range(rx.size):
+        unknown |= (not abs(rx[k]) < math.inf) | (not abs(ry[k]) < math.inf)
+    return moving, math.nan if unordered else longest, not unfinite, not unknown
 
 
 @kernel
@@ -46,21 +69,31 @@ def place_samples(
     py: FloatArray,
     path: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray],
     held: NDArray[np.intp],
-    begin: int,
-    end: int,
+    samples: tuple[int, int],
     search: int,
     steps: int,
-    cross: FloatArray,
-    place: FloatArray,
-) -> None:
-    """Cross-track error and arc length of the place of positions ``begin ..
-    end - 1`` (into ``cross`` and ``place``): on the segment the guess from the
+    places: tuple[FloatArray, FloatArray],
+    columns: tuple[int, int, float],
+    found: tuple[FloatArray, FloatArray],
+) -> tuple[int, float, float]:
+    """Cross-track error and arc length of the place of positions ``samples``
+    (begin .. end - 1, into ``places``): on the segment the guess from the
     sample's own reference point falls on if the foot of the perpendicular is
     on it; else the nearest of the ``search`` segments either side of the
     guess, and from there a Newton step along the path while it lies at their
     outer end, ``steps`` times at most. ``held``: the direction each segment
-    takes (one that stands still, the one before); empty: its own."""
+    takes (one that stands still, the one before); empty: its own.
+
+    Then, unless ``found`` is empty, ``Placement.on_path``'s columns from the
+    places found into ``found``: the cross-track error and the lag, the arc
+    length from the place to the sample's own reference point, NaN before
+    sample ``columns[0]``; how many are farther than ``columns[2]`` from their
+    place, and the largest cross-track error and |lag| from sample
+    ``columns[1]`` on, as numpy's ``max`` finds them (NaN if any is; -inf
+    where there is none)."""
     arc, rx, ry, sx, sy, length = path
+    begin, end = samples
+    cross, place = places
     n = rx.size
     last = n - 2  # segment i runs from point i to point i + 1
     for k in range(begin, end):
@@ -107,6 +140,9 @@ def place_samples(
             foot_x = rx[chosen] + (at - arc[chosen]) * ux
             foot_y = ry[chosen] + (at - arc[chosen]) * uy
             guess = at + (qx - foot_x) * ux + (qy - foot_y) * uy
+    if found[0].size == 0:
+        return 0, math.nan, math.nan
+    return _columns(arc, places, columns, found)
 
 
 @inlined
@@ -149,3 +185,36 @@ def _first_beyond(arc: FloatArray, value: float, near: int) -> int:
         else:
             low = middle + 1
     return low
+
+
+@inlined
+def _columns(
+    arc: FloatArray,
+    places: tuple[FloatArray, FloatArray],
+    columns: tuple[int, int, float],
+    found: tuple[FloatArray, FloatArray],
+) -> tuple[int, float, float]:
+    """:func:`place_samples`'s columns, as ``Placement.on_path`` makes them."""
+    cross, place = places
+    first, judged, near = columns
+    out_cross, out_lag = found
+    far = 0
+    most_cross, most_lag = -math.inf, -math.inf
+    for k in range(arc.size):
+        if k < first:
+            out_cross[k], out_lag[k] = math.nan, math.nan
+        else:
+            out_cross[k], out_lag[k] = cross[k], arc[k] - place[k]
+            far += 1 if cross[k] > near else 0
+        if k >= judged:
+            most_cross = _nan_max(most_cross, out_cross[k])
+            most_lag = _nan_max(most_lag, abs(out_lag[k]))
+    return far, most_cross, most_lag
+
+
+@inlined
+def _nan_max(found: float, value: float) -> float:
+    """numpy's ``max`` a value at a time: NaN once any is."""
+    if found != found or value != value:
+        return math.nan
+    return max(found, value)

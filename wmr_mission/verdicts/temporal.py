@@ -37,7 +37,7 @@ import numpy as np
 from wmr_mission.basics import FloatArray
 from wmr_mission.spec.numbers import MissionNumbers
 from wmr_mission.verdicts.check import Check
-from wmr_mission.verdicts.tracking import Known, Placement, reference_known
+from wmr_mission.verdicts.tracking import Known, Placement, placed_known, reference_known
 from wmr_mission.verdicts.zones import zones_of
 
 if TYPE_CHECKING:
@@ -477,11 +477,5 @@ def placed(result: RunRecord, window: slice, known: Known | None = None) -> Plac
     """The places on the path of a phase's samples whose reference is known
     (None where none is, or where a position is not finite); ``known``: the
     phase's :func:`reference_known`, if at hand."""
-    rx, ry = result.x_ref[window], result.y_ref[window]
-    kept = reference_known(rx, ry)[1] if known is None else known[1]
-    px, py = result.x[window], result.y[window]
-    if kept is not None:
-        px, py, rx, ry = px[kept], py[kept], rx[kept], ry[kept]
-    if rx.size == 0 or not (np.isfinite(px).all() and np.isfinite(py).all()):
-        return None
-    return Placement(px, py, rx, ry)
+    r = result
+    return placed_known(r.x[window], r.y[window], r.x_ref[window], r.y_ref[window], known)[1]

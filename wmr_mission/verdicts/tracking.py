@@ -70,6 +70,8 @@ MOVING_WINDOW = 10.0
 GENTLE_SLOPE = 0.5
 _CHUNK = 4096  # positions per block of the search: bounded memory on long runs
 _CANDIDATES = 1 << 15  # below this many position-segment pairs, every segment is tried
+_NO_HELD = np.zeros(0, dtype=np.intp)  # a path that never stands still: each segment its own
+_NO_PLACES = np.zeros(0)  # none placed yet, or no columns asked for (Placement)
 
 # A path as searched: the arc length at each point, the points, and each segment's
 # step and length (segment i from point i to point i + 1).
@@ -122,57 +124,105 @@ class Placement:
         steps: tuple[FloatArray, FloatArray, FloatArray] | None = None,
     ) -> None:
         self.px, self.py = px, py
-        arc = None
+        n = rx.size
+        arc, moving = None, -1  # the segments that move (-1: not counted)
+        # whether every position and every reference point is finite, and the
+        # longest segment (None: not known yet)
+        self._finite: bool | None = None
+        self._known: bool | None = None
+        self._longest: float | None = None
         if steps is None and jit.judging_compiled():  # the same bits in one compiled pass
-            arc, steps = (
-                np.empty(rx.size),
-                (np.empty(rx.size - 1), np.empty(rx.size - 1), np.empty(rx.size - 1)),
+            arc, steps = np.empty(n), (np.empty(n - 1), np.empty(n - 1), np.empty(n - 1))
+            moving, self._longest, self._finite, self._known = jit.compiled(path_lengths)(
+                (px, py), (rx, ry), steps, arc
             )
-            jit.compiled(path_lengths)(rx, ry, steps, arc)
         self.steps = path_steps(rx, ry) if steps is None else steps
         sx, sy, length = self.steps
-        n = rx.size
-        moving = length > 0
-        self.standing = not moving.any()  # a reference that stands still: a point
-        self.path: _Path = (np.zeros(1), rx, ry, sx, sy, length)
+        if moving < 0:
+            moving = int(np.count_nonzero(length > 0))
+        self.standing = moving == 0  # a reference that stands still: a point
         self._held: NDArray[np.intp] | None = None
-        # the places found (NaN where not yet), from sample self._from on
-        self._cross, self._place = np.full(n, np.nan), np.full(n, np.nan)
+        # the places found from sample self._from on (made when first asked for)
+        self._cross, self._place = _NO_PLACES, _NO_PLACES
         self._from = n
-        if self.standing:
+        if self.standing:  # no arc length along a point
+            self.path: _Path = (np.zeros(1), rx, ry, sx, sy, length)
             return
         if arc is None:
             arc = np.concatenate(([0.0], np.cumsum(length)))
         self.path = (arc, rx, ry, sx, sy, length)
         # Where the path stands still, the direction it last had (or first has).
-        if not moving.all():
-            held = np.maximum.accumulate(np.where(moving, np.arange(n - 1), -1))
-            held[held < 0] = int(np.argmax(moving))
+        if moving < n - 1:
+            held = np.maximum.accumulate(np.where(length > 0, np.arange(n - 1), -1))
+            held[held < 0] = int(np.argmax(length > 0))
             self._held = held
+
+    @property
+    def longest(self) -> float:
+        """[m] The longest segment of the path (numpy's ``max``), of two points or more."""
+        if self._longest is None:
+            self._longest = float(self.steps[2].max())
+        return self._longest
+
+    @property
+    def finite(self) -> bool:
+        """Whether every position is finite."""
+        if self._finite is None:
+            self._finite = bool(np.isfinite(self.px).all() and np.isfinite(self.py).all())
+        return self._finite
+
+    @property
+    def known(self) -> bool:
+        """Whether every reference point is finite."""
+        if self._known is None:
+            rx, ry = self.path[1], self.path[2]
+            self._known = bool(np.isfinite(rx).all() and np.isfinite(ry).all())
+        return self._known
 
     def on_path(self, near: float, first: int = 0) -> tuple[FloatArray, FloatArray]:
         """Cross-track error and along-track lag [m] of each position; NaN
         before sample ``first``."""
+        return self.judged_on_path(near, first, self.px.size)[:2]
+
+    def judged_on_path(
+        self, near: float, first: int, judged: int
+    ) -> tuple[FloatArray, FloatArray, float | None, float | None]:
+        """:meth:`on_path`, and the largest cross-track error and |lag| of the
+        samples from ``judged`` on (numpy's ``max``: NaN if any is; None
+        where there is none), found in the same pass where it is compiled."""
         px, py = self.px, self.py
         arc, rx, ry = self.path[:3]
         if self.standing:
             cross = np.hypot(px - rx[0], py - ry[0])
             cross[:first] = np.nan
-            return cross, np.where(np.isnan(cross), np.nan, 0.0)
-        if first < self._from:
-            self._place_samples(first, self._from)
-            self._from = first
-        cross = self._cross.copy()
-        cross[:first] = np.nan
-        lag = np.subtract(arc, self._place)  # the places not copied first: a long run's column
-        lag[:first] = np.nan
-        far = np.flatnonzero(cross > near)
+            return _most(cross, np.where(np.isnan(cross), np.nan, 0.0), judged)
+        if self._cross is _NO_PLACES:  # none read before self._from
+            self._cross, self._place = np.empty(px.size), np.empty(px.size)
+        begin, end = (first, self._from) if first < self._from else (first, first)
+        self._from = min(first, self._from)
+        if jit.judging_compiled():  # the same bits in one compiled pass (verdicts/placing.py)
+            cross, lag = np.empty(px.size), np.empty(px.size)
+            far_ones, most_cross, most_lag = self._place_samples(
+                begin, end, (first, judged, near), (cross, lag)
+            )
+            if far_ones == 0:  # every place within ``near``: the nearest, none searched for
+                if judged >= px.size:
+                    return cross, lag, None, None
+                return cross, lag, most_cross, most_lag
+            far = np.flatnonzero(cross > near)
+        else:
+            self._place_samples(begin, end)
+            cross = self._cross.copy()
+            cross[:first] = np.nan
+            lag = np.subtract(arc, self._place)  # the places not copied first: a long run's column
+            lag[:first] = np.nan
+            far = np.flatnonzero(cross > near)
         if far.size:
             distance, at = _nearest_anywhere(far, cross[far], self.path, px, py)
             better = distance < cross[far] - NEAR_EQUAL
             cross[far[better]] = distance[better]
             lag[far[better]] = arc[far[better]] - at[better]
-        return cross, lag
+        return _most(cross, lag, judged)
 
     def direction_at(
         self, samples: NDArray[np.intp], lag: FloatArray
@@ -191,15 +241,24 @@ class Placement:
         along = segment if self._held is None else self._held[segment]
         return sx[along] / length[along], sy[along] / length[along]
 
-    def _place_samples(self, begin: int, end: int) -> None:
-        """The places of samples ``begin .. end - 1`` by the local search."""
+    def _place_samples(
+        self,
+        begin: int,
+        end: int,
+        columns: tuple[int, int, float] = (0, 0, 0.0),
+        found: tuple[FloatArray, FloatArray] = (_NO_PLACES, _NO_PLACES),
+    ) -> tuple[int, float, float]:
+        """The places of samples ``begin .. end - 1`` by the local search; where
+        compiled, then :meth:`judged_on_path`'s columns into ``found`` (unless
+        empty) from ``columns`` (first, judged, near), as ``place_samples``
+        gives them: how many are far, and the largest."""
         px, py = self.px, self.py
         if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/placing.py)
-            held = np.zeros(0, dtype=np.intp) if self._held is None else self._held
-            jit.compiled(place_samples)(
-                px, py, self.path, held, begin, end, _SEARCH, _STEPS, self._cross, self._place
-            )
-            return
+            held = _NO_HELD if self._held is None else self._held
+            return jit.compiled(place_samples)(
+                px, py, self.path, held, (begin, end), _SEARCH, _STEPS,
+                (self._cross, self._place), columns, found,
+            )  # fmt: skip
         arc, rx, ry, sx, sy, length = self.path
         n = rx.size
         cross, place = self._cross, self._place
@@ -238,6 +297,16 @@ class Placement:
                 footy = ry[seg] + (at - arc[seg]) * uy
                 guess = at + (px[rows] - footx) * ux + (py[rows] - footy) * uy
                 pending = rows
+        return -1, math.nan, math.nan  # no columns made
+
+
+def _most(
+    cross: FloatArray, lag: FloatArray, judged: int
+) -> tuple[FloatArray, FloatArray, float | None, float | None]:
+    """The columns, and the largest cross-track error and |lag| from sample ``judged`` on."""
+    if judged >= cross.size:
+        return cross, lag, None, None
+    return cross, lag, float(cross[judged:].max()), float(np.abs(lag[judged:]).max())
 
 
 def _search(
@@ -466,18 +535,16 @@ def track_samples(
     # as a division by one number keeps their order)
     first_speed, top_speed = 0.0, 0.0
     if t.size > 1:
-        first_speed, top_speed = float(length[0]) / dt, float(length.max()) / dt
+        first_speed, top_speed = float(length[0]) / dt, placement.longest / dt
     entry = numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), first_speed)
-    excused = t - t[0] < entry - 1e-9 * dt
     # The entry ends sooner once the robot has kept up with its reference point.
-    kept_up = _kept_up(px, py, rx, ry, numbers, 0, int(np.count_nonzero(excused)))
-    if kept_up is not None:
-        excused[kept_up:] = False
+    judged, in_entry = _entry_judged(t, entry - 1e-9 * dt, (px, py), (rx, ry), numbers)
     # The entry is a prefix, not judged; a phase that runs for a set time and ends
     # in it (too short for the limits to join the path) is judged at its end.
-    after_entry = min(int(np.count_nonzero(excused)), t.size - 1)
-    ended_in_entry = bool(excused[-1]) and timed
-    if excused[-1] and not timed and not zones:  # nothing to measure
+    after_entry = min(in_entry, t.size - 1)
+    ends_in_entry = not judged[-1]
+    ended_in_entry = ends_in_entry and timed
+    if ends_in_entry and not timed and not zones:  # nothing to measure
         metrics |= {"entry_time": entry, "reference_speed_max": top_speed}
         return metrics, None
     detour = np.zeros(t.size, dtype=bool)
@@ -515,28 +582,33 @@ def track_samples(
             kept,
             (only_ahead, placement),
         )
-        excused |= detour | rejoining
+        judged &= ~(detour | rejoining)
         # a zone only the path continued meets counts where the ramp into it
         # excused a sample, else it widened the bound of another zone's detour
         counted = [r for r, o, u in zip(reaches, only_ahead, ramped, strict=True) if u or not o]
         metrics["zone_reach"] = max(
             0.0, max((float(np.max(r)) for r in counted), default=-math.inf) + kept
         )
-    if zones and detour[:after_entry].any():  # a detour in the entry: from the joining on
-        cross, lag = _counted_in_entry(placement, numbers, after_entry, reference_speed)
-    else:
-        cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
-    judged = ~excused
     judged[-1] |= ended_in_entry
-    if zones:
+    most_cross: float | None
+    most_lag: float | None
+    if not zones:  # the entry alone is excused, a prefix: the samples after it
+        first = after_entry if ended_in_entry or not ends_in_entry else t.size
+        cross, lag, most_cross, most_lag = placement.judged_on_path(
+            numbers.tracking_tolerance, after_entry, first
+        )
+    else:
+        if detour[:after_entry].any():  # a detour in the entry: from the joining on
+            cross, lag = _counted_in_entry(placement, numbers, after_entry, reference_speed)
+        else:
+            cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
         judged_cross, judged_lag = cross[judged], lag[judged]
-    else:  # the entry alone is excused, a prefix: the samples after it, as views
-        first = after_entry if ended_in_entry or not excused[-1] else t.size
-        judged_cross, judged_lag = cross[first:], lag[first:]
+        most_cross = float(judged_cross.max()) if judged_cross.size else None
+        most_lag = float(np.abs(judged_lag).max()) if judged_lag.size else None
     offset = cross[detour & ~np.isnan(cross)] if zones else cross[:0]  # no zone: no detour
     metrics |= {
-        "cross_track_error_max": float(judged_cross.max()) if judged_cross.size else None,
-        "along_track_lag_max": float(np.abs(judged_lag).max()) if judged_lag.size else None,
+        "cross_track_error_max": most_cross,
+        "along_track_lag_max": most_lag,
         "entry_time": entry,
         "detour_time": float(np.count_nonzero(detour)) * dt if zones else 0.0,
         "detour_offset_max": float(offset.max()) if offset.size else None,
@@ -703,6 +775,28 @@ def reference_known(rx: FloatArray, ry: FloatArray) -> Known:
     places, tracking metrics and formulas alike, once."""
     known = np.isfinite(rx) & np.isfinite(ry)
     return known, None if known.all() else known_samples(known)
+
+
+def placed_known(
+    px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray, known: Known | None = None
+) -> tuple[Known, Placement | None]:
+    """The samples' :func:`reference_known` (``known``, if at hand), and the
+    places on the path of those whose reference is known (None where none is,
+    or where a position is not finite)."""
+    if known is None and rx.size and jit.judging_compiled():
+        # Most often every reference point is known: the places' one compiled
+        # pass finds it, where numpy's isfinite would look at them first.
+        placement = Placement(px, py, rx, ry)
+        if placement.known:
+            every: Known = (np.ones(rx.size, dtype=bool), None)
+            return every, placement if placement.finite else None
+    known = reference_known(rx, ry) if known is None else known
+    if known[1] is not None:
+        px, py, rx, ry = px[known[1]], py[known[1]], rx[known[1]], ry[known[1]]
+    if rx.size == 0:
+        return known, None
+    placement = Placement(px, py, rx, ry)
+    return known, placement if placement.finite else None
 
 
 def known_samples(known: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
@@ -901,8 +995,8 @@ def _kept_up(
     if jit.judging_compiled():  # the same sample in one compiled pass (verdicts/passes.py)
         sample = jit.compiled(kept_up)(
             (px, py), (rx, ry), (begin, end, window), tolerance, MOVING,
-            numbers.keeping_up_speed * dt,
-        )  # fmt: skip
+            numbers.keeping_up_speed * dt, _NO_ENTRY,
+        )[0]  # fmt: skip
         return None if sample < 0 else sample
     first = max(begin - window, 0)  # the window's first sample's one before, if any
     if end <= first:
@@ -925,3 +1019,35 @@ def _kept_up(
     ready = np.maximum(starts + window - 1, begin - first)
     found = np.flatnonzero(ready < stops)
     return first + int(ready[found[0]]) if found.size else None
+
+
+# No entry to find with the sample kept up from (passes.kept_up).
+_NO_ENTRY = (np.zeros(0), 0.0, np.zeros(0, dtype=bool))
+
+
+def _entry_judged(
+    t: FloatArray,
+    bound: float,
+    position: tuple[FloatArray, FloatArray],
+    reference: tuple[FloatArray, FloatArray],
+    numbers: MissionNumbers,
+) -> tuple[NDArray[np.bool_], int]:
+    """The samples in the entry, their time since the first below ``bound`` [s]
+    until the robot has kept up with its reference point (:func:`_kept_up`):
+    whether each is judged (not in it), and how many are in it."""
+    (px, py), (rx, ry) = position, reference
+    if jit.judging_compiled():  # the same samples in one compiled pass (verdicts/passes.py)
+        tolerance, dt = numbers.tracking_tolerance, numbers.dt
+        window = max(1, round(SETTLING * numbers.time_constant / dt))
+        judged = np.empty(t.size, dtype=bool)
+        # (keeping_up_speed, its tolerance not looked up again)
+        apart_most = tolerance / (SETTLING * numbers.time_constant) * dt
+        count: int = jit.compiled(kept_up)(
+            position, reference, (0, 0, window), tolerance, MOVING, apart_most, (t, bound, judged)
+        )[1]
+        return judged, count
+    excused = t - t[0] < bound
+    kept = _kept_up(px, py, rx, ry, numbers, 0, int(np.count_nonzero(excused)))
+    if kept is not None:
+        excused[kept:] = False
+    return ~excused, int(np.count_nonzero(excused))
