@@ -17,7 +17,7 @@ from wmr_mission.kernels import jit
 from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts import passes
 from wmr_mission.verdicts.inputs import input_quality, progress_to
-from wmr_mission.verdicts.regulation import stall_time
+from wmr_mission.verdicts.regulation import WINDOW, regulated, stall_time
 from wmr_mission.verdicts.zones import Zone
 
 NUMBERS = mission_numbers(None, 0.01, (1.0, 2.0))
@@ -121,10 +121,75 @@ def test_the_stall_pass_has_the_numpy_forms_bits(
     def judged() -> float | None:
         return stall_time(x, y, theta, target, (0.05, 0.05), NUMBERS)
 
-    _both(monkeypatch, judged, "stalled_samples")
+    _both(monkeypatch, judged, "regulation_pass")
     with monkeypatch.context() as patch:
         patch.setattr(jit, "judging_compiled", lambda: False)
         assert (judged() or 0.0) > 0.0  # it stalled: the count is not trivially 0
+
+
+def _window_samples() -> int:
+    """The samples of a stall's window with NUMBERS (regulation._window)."""
+    tau = NUMBERS.time_constant
+    return max(2, round(max(WINDOW * tau, math.pi / NUMBERS.omega_limit + 10 * tau) / NUMBERS.dt))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_regulation_pass_has_the_numpy_forms_bits(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The stall and the overshoot of stretches found together: position
+    errors on the goal's edge and windows whose progress is on its share, a
+    rounding either side (where the square root of the squares and hypot may
+    part), a robot that passes its target, one that ends on it (a zero
+    overshoot), headings many turns round, poses not finite, a target beyond
+    a zone and stretches shorter than a window."""
+    rng = np.random.default_rng(seed)
+    window = _window_samples()
+    samples = 3 * window + 17
+    angle = rng.uniform(0.0, 2.0 * math.pi, samples)
+    goal = (0.05, 0.05)
+    # distances: closing in, then each window's end on its start's progress share
+    distance = np.where(np.arange(samples) < window, 2.0 - np.arange(samples) * 1e-3, 0.0)
+    for k in range(window, samples):
+        distance[k] = distance[k - window] * (1.0 - 0.1) * (1.0 + rng.integers(-3, 4) * 2.0**-52)
+    distance[::7] = goal[0] * (1.0 + rng.integers(-3, 4, distance[::7].size) * 2.0**-52)
+    x, y = 1.0 + distance * np.cos(angle), -2.0 + distance * np.sin(angle)
+    theta = rng.uniform(-1.0, 1.0, samples) * 10.0 ** (seed + 1)
+    target = (1.0, -2.0, 0.5)
+    rock = Zone("rock", {"type": "circle", "center": [1.0, -2.0], "radius": 0.3}, False)
+    passing = np.linspace(0.0, 1.5, 300)  # past a target at 1.0 by 0.5
+    landing = np.r_[np.linspace(0.0, 1.0, 250), np.full(50, 1.0)]  # on it: 0.0 beyond
+    landing_y = np.zeros(landing.size)
+    if seed == 1:
+        theta[40] = math.nan
+    if seed == 2:
+        x[window + 3] = math.inf
+    if seed == 3:  # a zero beyond where the way points back (-0.0 of each product)
+        landing, landing_y = -landing, -landing_y
+
+    def judged() -> list[Any]:
+        return [
+            regulated(x, y, theta, target, goal, NUMBERS),
+            regulated(x, y, theta, target, goal, NUMBERS, [rock]),
+            regulated(x[:window], y[:window], theta[:window], target, goal, NUMBERS),
+            regulated(x[:1], y[:1], theta[:1], target, goal, NUMBERS),
+            regulated(passing, passing * 0.0, passing, (1.0, 0.0, 0.0), goal, NUMBERS),
+            regulated(landing, landing_y, landing, (landing[-1], 0.0, 0.0), goal, NUMBERS),
+            regulated(x, y, theta, (float(x[0]), float(y[0]), 0.0), goal, NUMBERS),
+            stall_time(x[:window], y[:window], theta[:window], target, goal, NUMBERS),
+        ]
+
+    with np.errstate(invalid="ignore"):  # an infinite position's products, as plain Python
+        _both(monkeypatch, judged, "regulation_pass")
+    found = judged()
+    assert found[1][0] is None  # a target within the rock
+    assert found[3][0] == 0.0  # no whole window
+    assert found[4][1] == pytest.approx(0.5)
+    assert found[5][1] == 0.0
+    assert found[6][1] is None  # it starts at its target
+    if seed == 0:
+        assert found[0][0] is not None
+        assert found[0][0] > 0.0
 
 
 @pytest.mark.parametrize(
@@ -286,8 +351,8 @@ def test_the_passes_wrap_headings_at_the_edges_as_numpy_does(
     result = SimpleNamespace(x=zeros, y=zeros, theta=theta, x_est=zeros, y_est=zeros,
                              theta_est=estimate)  # fmt: skip
     # a robot at its target, its heading at the edges (the goal met at none)
-    far = np.full(200, 0.5)
-    heading = np.concatenate([np.full(10, value) for value in _HEADING_EDGES * 2])[:200]
+    far = np.full(400, 0.5)  # (more than a window)
+    heading = np.concatenate([np.full(10, value) for value in _HEADING_EDGES * 4])[:400]
 
     def judged() -> list[Any]:
         return [
@@ -296,7 +361,7 @@ def test_the_passes_wrap_headings_at_the_edges_as_numpy_does(
         ]
 
     _both(monkeypatch, judged, "estimation_error_pass")
-    _both(monkeypatch, judged, "stalled_samples")
+    _both(monkeypatch, judged, "regulation_pass")
     wrapped = judged()[0]["theta"]
     assert wrapped[2] == -math.pi  # just below pi: its shift is 2 pi, wrapped
 
@@ -492,3 +557,128 @@ def test_the_entry_pass_has_the_numpy_forms_bits(
     found = judged()
     assert 200 < found[8][1] < 500  # kept up before the bound's end (5 s)
     assert found[20 + 8][1] == 500  # never kept up: the whole bound
+
+
+def test_the_heading_errors_wrap_many_turns_round_as_numpy_does(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Heading errors of any number of turns either way, whole turns a
+    rounding or two either side, and beyond the few million turns whose
+    remainder the passes take apart: numpy's remainder's bits."""
+    from types import SimpleNamespace
+
+    from wmr_mission.verdicts import metrics
+
+    rng = np.random.default_rng(12)
+    turns = 2.0 * math.pi * np.arange(-3000, 3000)
+    values = [
+        rng.uniform(-1e3, 1e3, 4000),
+        rng.uniform(-2.0 * math.pi, 2.0 * math.pi, 1000),
+        rng.uniform(-1e9, 1e9, 200),
+        turns - math.pi,  # whole turns once pi is added
+        np.nextafter(turns, math.inf) - math.pi,
+        np.nextafter(turns, -math.inf) - math.pi,
+        turns * (1.0 + 2.0**-52) - math.pi,
+        turns * (1.0 - 2.0**-52) - math.pi,
+        np.array([0.0, -0.0, 1e-300, -1e-300, 2.0**26, -(2.0**26), 1e300, math.nan, -math.inf]),
+    ]
+    theta = np.concatenate(values)
+    zeros = np.zeros(theta.size)
+    result = SimpleNamespace(x=zeros, y=zeros, theta=theta, x_est=zeros, y_est=zeros,
+                             theta_est=zeros)  # fmt: skip
+
+    def judged() -> list[Any]:
+        return [metrics.estimation_errors(result)]  # type: ignore[arg-type]
+
+    with np.errstate(invalid="ignore"):  # numpy's remainder of inf warns
+        _both(monkeypatch, judged, "estimation_error_pass")
+
+
+def _phase(t: np.ndarray, x: np.ndarray, start: int, end: int) -> Any:
+    """A phase's samples of a run of sample times ``t`` and positions ``x``
+    (and y, the heading alike), its settle time 0.5 s."""
+    from types import SimpleNamespace
+
+    from wmr_mission.verdicts import metrics
+
+    result = SimpleNamespace(t=t, v=t, omega=t, dt=0.01, x=x, y=x.copy(), theta=x.copy())
+    info = SimpleNamespace(name="go", kind="track")
+    judged = metrics._Judged(NUMBERS, None, {}, None)
+    entry = metrics.Entry(0, start, end, None)
+    return metrics.PhaseSamples(result, info, entry, 0.5, metrics._off_path_bound, judged)  # type: ignore[arg-type]
+
+
+def test_the_settled_samples_pass_has_the_numpy_forms_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A phase's samples after its settle time, their count and whether they
+    are its last ones (a slice), of sample times in order, on the settle time
+    to a rounding, going back, NaN, and of phases of no sample and of all or
+    none settled."""
+    t = np.arange(300) * 0.01
+    back = t.copy()
+    back[250] = 0.1  # a time going back: the settled ones not the last ones
+    gap = t.copy()
+    gap[120] = math.nan
+    positions = np.zeros(t.size)
+
+    def judged() -> list[Any]:
+        found = []
+        for times in (t, back, gap, t + 1e-12, t - 1e-12):
+            for start, end in ((0, 300), (100, 300), (0, 40), (7, 7), (120, 175), (260, 300)):
+                phase = _phase(times, positions, start, end)
+                settled = phase.settled
+                if isinstance(settled, slice):
+                    settled = (settled.start, settled.stop)
+                found.append([phase.settled_samples, settled])
+        return found
+
+    _both(monkeypatch, judged, "settled_count")
+    found = judged()
+    assert found[0] == [250, (50, 300)]
+    assert isinstance(found[6][1], np.ndarray)  # not the last ones: the mask
+
+
+def test_the_finite_poses_pass_has_the_numpy_forms_bits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Whether every pose of a phase is finite: NaN, an infinity, and none."""
+    t = np.arange(50) * 0.01
+    x = np.linspace(0.0, 1.0, t.size)
+    x[10], x[30] = math.nan, math.inf
+
+    def judged() -> list[bool]:
+        return [
+            _phase(t, x, start, end).pose_finite
+            for start, end in ((0, 50), (11, 30), (11, 31), (0, 10), (10, 11), (5, 5))
+        ]
+
+    _both(monkeypatch, judged, "poses_finite")
+    assert judged() == [False, True, False, True, False, True]
+
+
+@pytest.mark.parametrize(
+    ("semi_axes", "rotation", "inside"),
+    [((5.5, 3.0), 0.0, True), ((2.0, 4.0), 0.7, False), ((1.5, 1.5), -2.0, True)],
+)
+def test_a_points_side_of_an_ellipse_is_its_depths(
+    semi_axes: tuple[float, float], rotation: float, inside: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Zone.holds_beyond of a point, near an ellipse's edge (a rounding off
+    it, on it) and away from it, and at its centre: whether its depth is
+    above 0, compiled and in numpy."""
+    region = {"type": "ellipse", "center": [0.5, -1.0], "semi_axes": list(semi_axes)}
+    region["rotation"] = rotation
+    zone = Zone("ellipse", region, inside)
+    rng = np.random.default_rng(3)
+    angle = rng.uniform(0, 2 * math.pi, 300)
+    scale = np.r_[rng.uniform(0.0, 2.0, 100), 1.0 + rng.integers(-4, 5, 200) * 2.0**-52]
+    a, b = semi_axes
+    u, w = a * scale * np.cos(angle), b * scale * np.sin(angle)
+    c, s = math.cos(rotation), math.sin(rotation)
+    x, y = np.r_[0.5 + c * u - s * w, 0.5, math.nan], np.r_[-1.0 + s * u + c * w, -1.0, 0.0]
+    for compiled in (False, True):
+        with _counted(monkeypatch, compiled):
+            for px, py in zip(x.tolist(), y.tolist(), strict=True):
+                depth = zone.depth(np.array([px]), np.array([py]))[0]
+                assert zone.holds_beyond(px, py) == (depth > 0.0)

@@ -124,12 +124,9 @@ def _get(mapping: Any, *keys: str) -> Any:
     return mapping
 
 
-def _acceleration(mission: Mapping[str, Any] | None, state: str) -> float:
+def _acceleration(limits: Any, state: str) -> float:
     """[m/s^2 or rad/s^2] the tighter of limits.acceleration.STATE and limits.STATE_rate."""
-    rates = [
-        _get(mission, "robot", "limits", "acceleration", state),
-        _get(mission, "robot", "limits", f"{state}_rate"),
-    ]
+    rates = [_get(limits, "acceleration", state), _get(limits, f"{state}_rate")]
     return min([float(rate) for rate in rates if rate is not None], default=math.inf)
 
 
@@ -151,10 +148,14 @@ def mission_numbers(
         look_ahead = 0.0
     elif look_ahead is None:
         look_ahead = max(MIN_LOOK_AHEAD, limits[0] * dt)
-    measured = _get(mission, "sensors", "measure") or STATES
-    noise_std = _get(mission, "sensors", "noise_std") or {}
+    sensors = _get(mission, "sensors")
+    measured = _get(sensors, "measure") or STATES
+    noise_std = _get(sensors, "noise_std") or {}
     noise = {s: float(noise_std.get(s) or 0.0) if s in measured else 0.0 for s in STATES}
     tolerance = _get(mission, "expect", "convergence_tolerance") or {}
+    robot = _get(mission, "robot")
+    robot_limits = _get(robot, "limits")
+    disturbances = _get(robot, "disturbances")
     return MissionNumbers(
         dt=dt,
         v_limit=limits[0],
@@ -166,11 +167,11 @@ def mission_numbers(
         convergence_tolerance={
             s: float(tolerance.get(s) or models.DEFAULT_CONVERGENCE_TOLERANCE) for s in STATES
         },
-        v_acceleration=_acceleration(mission, "v"),
-        omega_acceleration=_acceleration(mission, "omega"),
-        body=_body(_get(mission, "robot", "footprint")),
+        v_acceleration=_acceleration(robot_limits, "v"),
+        omega_acceleration=_acceleration(robot_limits, "omega"),
+        body=_body(_get(robot, "footprint")),
         response=sum(
-            float(_get(mission, "robot", "disturbances", name) or 0.0)
+            float(_get(disturbances, name) or 0.0)
             for name in ("input_delay", "actuator_time_constant")
         ),
     )

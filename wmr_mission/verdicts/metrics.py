@@ -41,11 +41,12 @@ from wmr_mission.verdicts.passes import (
     finite_squares_sum,
     largest_finite,
     last_unconverged,
+    poses_finite,
     reference_distances,
+    settled_count,
 )
 from wmr_mission.verdicts.path_distance import compiled_distances, first_in_cells
-from wmr_mission.verdicts.regulation import overshoot as target_overshoot
-from wmr_mission.verdicts.regulation import stall_time
+from wmr_mission.verdicts.regulation import regulated
 from wmr_mission.verdicts.tracking import (
     Known,
     Placement,
@@ -513,9 +514,21 @@ class PhaseSamples:
         self.start_time = float(result.t[start])
         self.settle_time = settle_time
         self.v, self.omega = result.v[self.window], result.omega[self.window]
-        settled = (result.t[self.window] - self.start_time) >= settle_time - 1e-9 * result.dt
-        self.settled_samples = int(np.count_nonzero(settled))
-        self.settled = _suffix(settled, self.settled_samples)  # the samples after the settle time
+        t, least = result.t[self.window], settle_time - 1e-9 * result.dt
+        # the samples after the settle time: their count, and whether they are the last
+        # ones (one compiled pass where the judge's passes run compiled: the same)
+        count, last = (
+            jit.compiled(settled_count)(t, self.start_time, least)
+            if jit.judging_compiled()
+            else (0, False)
+        )
+        self.settled: slice | NDArray[np.bool_]
+        if last:  # a slice: its columns are views
+            self.settled_samples, self.settled = count, slice(t.size - count, t.size)
+        else:
+            settled = (t - self.start_time) >= least
+            self.settled_samples = int(np.count_nonzero(settled))
+            self.settled = _suffix(settled, self.settled_samples)
         self._off_path_of = off_path_of
         self.numbers = judged.numbers
         self.ended_by = entry.ended_by
@@ -631,18 +644,25 @@ class PhaseSamples:
         return [(slice(a, b), aim) for a, b, aim in self.info.targets_in_force(w.start, w.stop)]
 
     @cached_value
+    def regulated(self) -> list[tuple[float | None, float | None]]:
+        """The stall time and the overshoot of each stretch of :attr:`targets`
+        (regulate phases), found together."""
+        if self.info.kind != "regulate":
+            return []
+        r = self.result
+        finite = True if self.pose_finite else None  # else each stretch looked at
+        return [
+            regulated(r.x[w], r.y[w], r.theta[w], aim, self.goal, self.numbers, self.zones, finite)
+            for w, aim in self.targets
+        ]
+
+    @cached_value
     def stall(self) -> float | None:
         """Time away from its goal without progress (regulate phases): the sum
         over the stretches of each target (None where none has a value)."""
         if self.info.kind != "regulate":
             return None
-        r, numbers = self.result, self.numbers
-        finite = True if self.pose_finite else None  # else each stretch looked at
-        found = [
-            stall_time(r.x[w], r.y[w], r.theta[w], aim, self.goal, numbers, self.zones, finite)
-            for w, aim in self.targets
-        ]
-        known = [value for value in found if value is not None]
+        known = [stall for stall, _ in self.regulated if stall is not None]
         return sum(known) if known else None
 
     @cached_value
@@ -651,12 +671,7 @@ class PhaseSamples:
         over the stretches of each target, each from where it took over."""
         if self.info.kind != "regulate":
             return None
-        r = self.result
-        finite = True if self.pose_finite else None  # else each stretch looked at
-        found = [
-            target_overshoot(r.x[w], r.y[w], aim, self.goal[0], finite) for w, aim in self.targets
-        ]
-        known = [value for value in found if value is not None]
+        known = [value for _, value in self.regulated if value is not None]
         return max(known) if known else None
 
     @cached_value
@@ -676,6 +691,8 @@ class PhaseSamples:
         regulation metrics, once)."""
         r, w = self.result, self.window
         x, y, theta = r.x[w], r.y[w], r.theta[w]
+        if jit.judging_compiled():  # the same in one compiled pass (verdicts/passes.py)
+            return bool(jit.compiled(poses_finite)(x, y, theta))
         return bool(np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(theta).all())
 
     @cached_value

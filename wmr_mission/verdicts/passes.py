@@ -47,8 +47,10 @@ __all__ = [  # the passes, each compiled by `wmr-mission compile` (tests/test_st
     "kept_up",
     "largest_finite",
     "last_unconverged",
+    "poses_finite",
     "reference_distances",
-    "stalled_samples",
+    "regulation_pass",
+    "settled_count",
 ]
 
 # The jitter's moving sums added to this many at a time (16 kB: within the
@@ -108,14 +110,72 @@ def estimation_error_pass(
 @inlined
 def _wrap_beyond(theta: FloatArray, theta_est: FloatArray, etheta: FloatArray) -> None:
     """The heading errors whose shifted value is not within (0, 2 pi) wrapped
-    by the float remainder: a loop of its own, so that the C library's
-    ``fmod`` (tens of cycles) runs only where it is needed, not speculated at
-    every sample. Within (0, 2 pi) the remainder is the value itself, exactly
-    (``fmod`` is exact, and neither the sign nor a zero needs its fix-up)."""
+    by the float remainder: a loop of its own, so that the remainder runs
+    only where it is needed, not speculated at every sample. Within (0, 2 pi)
+    the remainder is the value itself, exactly (``fmod`` is exact, and
+    neither the sign nor a zero needs its fix-up)."""
     for k in range(theta.size):
         turned = theta[k] - theta_est[k] + math.pi
-        if not 0.0 < turned < 2.0 * math.pi:
-            etheta[k] = turned % (2.0 * math.pi) - math.pi
+        if not 0.0 < turned < _TURN:
+            etheta[k] = _turn_remainder(turned) - math.pi
+
+
+# A turn, 2 pi, as the sum of two floats of 26 significant bits at most
+# (Veltkamp's split), whose products with a whole number below 2^26 are exact.
+_TURN = 2.0 * math.pi
+_TURN_HIGH = 134217729.0 * _TURN - (134217729.0 * _TURN - _TURN)
+_TURN_LOW = _TURN - _TURN_HIGH
+# Below this magnitude a value's whole turns are below 2^24: the products exact.
+_FEW_TURNS = 2.0**26
+
+
+@inlined
+def _turn_remainder(value: float) -> float:
+    """``value % (2 pi)``, the float remainder numpy's and Python's ``%`` give
+    (``fmod``, exact, then 2 pi added to a negative one), without the C
+    library's ``fmod`` (tens of cycles) for a value within a few million
+    turns: a heading error of a robot that has turned round a few times.
+    Within one turn either side the remainder is the value, or the value
+    plus (or minus, exactly) a turn; further, the value less its whole turns
+    taken off exactly (:func:`_whole_turns_off`)."""
+    if 0.0 < value < _TURN:
+        return value
+    if -_TURN < value < 0.0:  # fmod is the value itself, below 0: a turn added
+        return value + _TURN
+    if _TURN <= value < 2.0 * _TURN:  # exact (within a factor of 2 of a turn)
+        return value - _TURN
+    if not abs(value) < _FEW_TURNS:  # many turns, infinite or NaN
+        return value % _TURN
+    off = _whole_turns_off(abs(value))
+    if off != off:  # a difference not known exact: the C library's
+        return value % _TURN
+    if value >= 0.0 or off == 0.0:
+        return off + 0.0  # (a zero remainder is +0)
+    return _TURN - off  # fmod is minus it: a turn added
+
+
+@inlined
+def _whole_turns_off(size: float) -> float:
+    """``fmod(size, 2 pi)`` of a ``size`` within [0, _FEW_TURNS), exact; NaN
+    where it is not known exact so. The whole turns ``q``: the quotient's
+    floor, at most one above the exact one (a whole number below 2^53 is a
+    float; rounding never passes it); ``size - q 2 pi`` is then exact as
+    ``(size - q high) - q low``: both products exact, the first difference
+    exact within a factor of 2 (Sterbenz), and the second's exact value the
+    remainder (a float: fmod's is exact), or one turn below it where ``q`` was
+    one too many (then negative)."""
+    turns = float(math.floor(size / _TURN))
+    for _ in range(2):
+        if turns == 0.0:
+            return size
+        high = turns * _TURN_HIGH
+        if not 0.5 * high <= size <= 2.0 * high:
+            return math.nan
+        off = (size - high) - turns * _TURN_LOW
+        if off >= 0.0:
+            return off
+        turns -= 1.0
+    return math.nan
 
 
 @kernel
@@ -329,7 +389,7 @@ def _select(values: FloatArray, k: int) -> float:
 
 
 @kernel
-def stalled_samples(
+def regulation_pass(
     x: FloatArray,
     y: FloatArray,
     theta: FloatArray,
@@ -338,40 +398,84 @@ def stalled_samples(
     window: int,
     reach: tuple[float, float],
     progress: float,
-) -> int:
-    """The samples k from which the window k .. k + ``window`` holds no sample
-    within ``goal`` (position, heading) of ``target`` and takes out neither
-    ``progress`` of the position error (or of ``reach[0]``) nor of the heading
-    error (or of ``reach[1]``): :func:`wmr_mission.verdicts.regulation.stall_time`."""
+    way: tuple[float, float, float],
+) -> tuple[int, float, bool, bool]:
+    """Of a regulate phase's stretch: the samples k from which the window
+    k .. k + ``window`` holds no sample within ``goal`` (position, heading) of
+    ``target`` and takes out neither ``progress`` of the position error (or of
+    ``reach[0]``) nor of the heading error (or of ``reach[1]``)
+    (:func:`wmr_mission.verdicts.regulation.stall_time`); the largest distance
+    beyond the target along ``way`` (from the first position to the target,
+    and its length; NaN if any is, as numpy's ``max``;
+    :func:`wmr_mission.verdicts.regulation.overshoot`); whether every position
+    is finite, and every heading. One pass: a sample's window ends ``window``
+    samples later, where its end is at hand.
+
+    The position errors are the C library's ``hypot`` (as numpy's) where a
+    comparison's side depends on their last bits; elsewhere the square root
+    of the squares' sum, within a few roundings of it (and ten times
+    cheaper): a side that holds by more than ``_SLACK`` of the values
+    compared holds for both."""
     n = x.size
     tx, ty, aim = target
+    way_x, way_y, length = way
     position, heading = np.empty(n), np.empty(n)
-    reached = np.zeros(n + 1, dtype=np.int64)  # samples at the goal before each
-    wrapped = True  # as in estimation_error_pass: fmod only where it is needed
-    for k in range(n):
-        position[k] = math.hypot(x[k] - tx, y[k] - ty)
-        turned = theta[k] - aim + math.pi
-        wrapped &= 0.0 < turned < 2.0 * math.pi
-        heading[k] = abs(turned - math.pi)
-    if not wrapped:
-        for k in range(n):
-            turned = theta[k] - aim + math.pi
-            if not 0.0 < turned < 2.0 * math.pi:
-                heading[k] = abs(turned % (2 * math.pi) - math.pi)
-    for k in range(n):
-        at_goal = position[k] <= goal[0] and heading[k] <= goal[1]
-        reached[k + 1] = reached[k] + (1 if at_goal else 0)
+    exact = np.empty(n, dtype=np.bool_)  # whether position[k] is hypot's
+    beyond = -math.inf
+    placed, turned_finite = True, True
+    last_at_goal = -1  # the last sample within the goal so far
     stalled = 0
-    for k in range(n - window):
-        if reached[k + window + 1] - reached[k] != 0:
+    for j in range(n):
+        dx, dy = x[j] - tx, y[j] - ty
+        placed &= abs(x[j]) < math.inf and abs(y[j]) < math.inf
+        turned_finite &= abs(theta[j]) < math.inf
+        squared = dx * dx + dy * dy
+        # (squares that underflow or overflow, NaN: hypot's)
+        exact[j] = not _LEAST_SQUARED < squared < _MOST_SQUARED
+        position[j] = math.hypot(dx, dy) if exact[j] else math.sqrt(squared)
+        heading[j] = abs(_turn_remainder(theta[j] - aim + math.pi) - math.pi)
+        beyond = _nan_max(beyond, (dx * way_x + dy * way_y) / length)
+        if not exact[j] and abs(position[j] - goal[0]) <= _SLACK * position[j]:
+            _exactly(x, y, tx, ty, j, position, exact)
+        if position[j] <= goal[0] and heading[j] <= goal[1]:
+            last_at_goal = j
+        k = j - window
+        if k < 0 or last_at_goal >= k:  # no window ends here, or it is at the goal
             continue
-        start, end = position[k], position[k + window]
-        closer = start - end >= progress * min(start, reach[0])
-        turn_start, turn_end = heading[k], heading[k + window]
+        start, end = position[k], position[j]
+        taken, wanted = start - end, progress * min(start, reach[0])
+        if not (exact[k] and exact[j]) and abs(taken - wanted) <= _SLACK * (start + end):
+            start = _exactly(x, y, tx, ty, k, position, exact)
+            end = _exactly(x, y, tx, ty, j, position, exact)
+            taken, wanted = start - end, progress * min(start, reach[0])
+        closer = taken >= wanted
+        turn_start, turn_end = heading[k], heading[j]
         turned = turn_start - turn_end >= progress * min(turn_start, reach[1])
         if not closer and not turned:
             stalled += 1
-    return stalled
+    return stalled, beyond, placed, turned_finite
+
+
+# Squared distances whose square root is within a few roundings of hypot's:
+# neither square underflows beyond what the sum keeps, nor overflows.
+_LEAST_SQUARED = 1e-290
+_MOST_SQUARED = 1e290
+# A comparison of position errors known to come out as with hypot's: its
+# sides this share of the values compared apart, where the square roots are
+# within 1e-15 of them (two roundings each of the root and of hypot).
+_SLACK = 1e-12
+
+
+@inlined
+def _exactly(
+    x: FloatArray, y: FloatArray, tx: float, ty: float, k: int, position: FloatArray,
+    exact: NDArray[np.bool_],
+) -> float:  # fmt: skip
+    """Sample k's position error as hypot has it, in ``position`` from now on."""
+    if not exact[k]:
+        position[k] = math.hypot(x[k] - tx, y[k] - ty)
+        exact[k] = True
+    return float(position[k])
 
 
 @kernel
@@ -589,3 +693,26 @@ def finite_squares_sum(values: FloatArray, partials: FloatArray) -> tuple[float,
             if y == x - total:
                 total = x
     return total, count
+
+
+@kernel
+def settled_count(t: FloatArray, start_time: float, settle_time: float) -> tuple[int, bool]:
+    """Of a phase's sample times ``t``: how many are at least ``settle_time``
+    after ``start_time`` (``t - start_time >= settle_time``), and whether they
+    are its last ones (``metrics.PhaseSamples``)."""
+    count, last = 0, True
+    for k in range(t.size):
+        if t[k] - start_time >= settle_time:
+            count += 1
+        elif count:  # one before it is: not its last ones
+            last = False
+    return count, last
+
+
+@kernel
+def poses_finite(x: FloatArray, y: FloatArray, theta: FloatArray) -> bool:
+    """Whether every pose is finite (``metrics.PhaseSamples.pose_finite``)."""
+    finite = True
+    for k in range(x.size):
+        finite &= abs(x[k]) < math.inf and abs(y[k]) < math.inf and abs(theta[k]) < math.inf
+    return finite

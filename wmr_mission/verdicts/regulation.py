@@ -19,7 +19,7 @@ import numpy as np
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
 from wmr_mission.spec.numbers import MissionNumbers
-from wmr_mission.verdicts.passes import stalled_samples
+from wmr_mission.verdicts.passes import regulation_pass
 from wmr_mission.verdicts.zones import Zone
 
 # The share of its error a regulator takes out in every window, away from its goal.
@@ -27,6 +27,60 @@ PROGRESS = 0.1
 # [time constants] a window is at least this long, and at least half a turn at
 # the turn-rate limit and ten time constants (to turn round, then settle).
 WINDOW = 20.0
+
+
+def regulated(
+    x: FloatArray,
+    y: FloatArray,
+    theta: FloatArray,
+    target: tuple[float, float, float],
+    goal: tuple[float, float],
+    numbers: MissionNumbers,
+    zones: Sequence[Zone] = (),
+    finite: bool | None = None,
+) -> tuple[float | None, float | None]:
+    """:func:`stall_time` and :func:`overshoot` (its goal ``goal[0]``) of a
+    stretch of poses (at least one): one compiled pass over them where the
+    judge's passes run compiled (the same numbers). ``finite``: whether every
+    pose is, if known."""
+    if not jit.judging_compiled():
+        return (
+            stall_time(x, y, theta, target, goal, numbers, zones, finite),
+            overshoot(x, y, target, goal[0], finite),
+        )
+    tx, ty, heading_target = (float(v) for v in target)
+    way_x, way_y = tx - float(x[0]), ty - float(y[0])
+    length = math.hypot(way_x, way_y)
+    way_in = length > goal[0]  # else no overshoot: nothing beyond measured
+    window, reach = _window(numbers)
+    stalled, beyond, placed, turned = jit.compiled(regulation_pass)(
+        x, y, theta, (tx, ty, heading_target), (float(goal[0]), float(goal[1])), window, reach,
+        PROGRESS, (way_x, way_y, length) if way_in else (0.0, 0.0, 1.0),
+    )  # fmt: skip
+    stall = (
+        None
+        if not (placed and turned) or _beyond_a_zone(tx, ty, zones)
+        else float(stalled) * numbers.dt
+    )
+    if not placed or not way_in:
+        return stall, None
+    if beyond == 0.0:  # which zero numpy's max keeps, and so max(., 0.0) gives, is its own
+        return stall, overshoot(x, y, target, goal[0], True)
+    return stall, max(beyond, 0.0)
+
+
+def _window(numbers: MissionNumbers) -> tuple[int, tuple[float, float]]:
+    """The samples of a window, and what the limits cover in it (position, heading)."""
+    tau, dt = numbers.time_constant, numbers.dt
+    span = max(WINDOW * tau, math.pi / numbers.omega_limit + 10.0 * tau)
+    window = max(2, round(span / dt))
+    return window, (numbers.v_limit * window * dt, numbers.omega_limit * window * dt)
+
+
+def _beyond_a_zone(tx: float, ty: float, zones: Sequence[Zone]) -> bool:
+    """Whether a target is beyond one of the phase's zones (the robot stops as
+    near as the zone allows)."""
+    return any(zone.holds_beyond(tx, ty) for zone in zones)
 
 
 def stall_time(
@@ -46,23 +100,17 @@ def stall_time(
     the zone allows) or after a divergence. ``finite``: whether every pose
     is, if known."""
     tx, ty, heading_target = target
-    point_x, point_y = np.array([tx]), np.array([ty])
-    if any(zone.depth(point_x, point_y)[0] > 0.0 for zone in zones):
+    if _beyond_a_zone(tx, ty, zones):
         return None
     if finite is None:
         finite = bool(np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(theta).all())
     if not finite:
         return None
-    tau, dt = numbers.time_constant, numbers.dt
-    span = max(WINDOW * tau, math.pi / numbers.omega_limit + 10.0 * tau)
-    window = max(2, round(span / dt))
-    reach = (numbers.v_limit * window * dt, numbers.omega_limit * window * dt)
+    dt = numbers.dt
+    window, reach = _window(numbers)
     # (none of fewer samples than a window: the pass counts none, compiled even so)
-    if jit.judging_compiled():  # the same count in one compiled pass (verdicts/passes.py)
-        aim = (float(tx), float(ty), float(heading_target))
-        goal = (float(goal[0]), float(goal[1]))
-        found = jit.compiled(stalled_samples)(x, y, theta, aim, goal, window, reach, PROGRESS)
-        return float(found) * dt
+    if jit.judging_compiled() and x.size:  # the same count in one compiled pass (passes.py)
+        return regulated(x, y, theta, target, goal, numbers)[0]
     if x.size <= window:
         return 0.0
     position = np.hypot(x - tx, y - ty)

@@ -35,6 +35,9 @@ RESOLUTION = 1e-6
 _NEWTON_STEPS = 100
 # Points at most whose distance to an ellipse is iterated as Python numbers.
 _FEW = 8
+# A point whose scaled radius is this far from 1 is off an ellipse's edge: its
+# distance from it well above the rounding of the radius and of the distance.
+_OFF_THE_EDGE = 1e-9
 
 
 # Of points and an ellipse zone: whether each is beyond it, the largest upper
@@ -77,6 +80,19 @@ class Zone(NamedTuple):
             return (self._bounds(x, y) if bounds is None else bounds)[0]
         radius = _scaled_radius(self.region, x, y)[0]
         return np.asarray(radius > 1.0 if self.keep_inside else radius < 1.0)
+
+    def holds_beyond(self, x: float, y: float) -> bool:
+        """Whether the point (x, y) is on the forbidden side (its depth > 0).
+        An ellipse's point off its edge by more than a rounding is on the side
+        its scaled radius says (as the depth's passes compute it), its distance
+        not needed; other points' depth is found."""
+        if self.region["type"] == "ellipse":
+            cx, cy, c, s, a, b = self._frame()
+            u, w = c * (x - cx) + s * (y - cy), -s * (x - cx) + c * (y - cy)
+            radius = math.sqrt((u / a) * (u / a) + (w / b) * (w / b))
+            if abs(radius - 1.0) >= _OFF_THE_EDGE:  # (NaN: its depth)
+                return (radius < 1.0) != self.keep_inside
+        return bool(self.depth(np.array([x]), np.array([y]))[0] > 0.0)
 
     def deepest(self, x: FloatArray, y: FloatArray) -> float:
         """The largest :meth:`depth` of the points (-inf for none), to
@@ -177,15 +193,26 @@ def intrusion_max(
             continue
         first = 0
         if beyond[0]:
-            start = zone.deepest(x[:1], y[:1])
-            out = np.flatnonzero(~beyond)
-            left = int(out[0]) if out.size else x.size
-            if left * numbers.dt <= numbers.recovery_time(start, 0.0):
+            left = int(beyond.argmin()) or x.size  # the first sample not beyond (0: none)
+            if _left_in_time(zone, x, y, left * numbers.dt, numbers):
                 first = left
-        counted = np.flatnonzero(beyond[first:]) + first
-        if counted.size:
+        if first == 0 or beyond[first:].any():
+            counted = np.flatnonzero(beyond[first:]) + first
             deepest = max(deepest, zone.deepest(x[counted], y[counted]))
     return deepest if math.isfinite(deepest) else None
+
+
+def _left_in_time(
+    zone: Zone, x: FloatArray, y: FloatArray, taken: float, numbers: MissionNumbers
+) -> bool:
+    """Whether a phase that starts beyond ``zone`` left it within the time the
+    limits need to leave it from its first position (``taken`` [s]: the time it
+    took). The time needed grows with the depth, which is at least 0 beyond
+    the zone: where no depth is needed to allow it, the depth is not found."""
+    finite = math.isfinite(float(x[0])) and math.isfinite(float(y[0]))  # a depth at least 0
+    if finite and taken <= numbers.recovery_time(0.0, 0.0):
+        return True
+    return taken <= numbers.recovery_time(zone.deepest(x[:1], y[:1]), 0.0)
 
 
 def reach_across(zone: Zone, x: FloatArray, y: FloatArray) -> FloatArray:
