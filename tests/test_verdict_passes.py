@@ -213,13 +213,23 @@ def test_the_ellipse_bounds_pass_has_the_numpy_forms_bits(
     c, s = math.cos(rotation), math.sin(rotation)
     x, y = 0.5 + c * u - s * w, -1.0 + s * u + c * w
 
+    gap_x, gap_y = x.copy(), y.copy()
+    gap_x[[3, 400]], gap_y[17] = math.nan, math.inf  # (a position not finite: beyond none)
+
     def judged() -> list[Any]:
-        return [zone.beyond(x, y), zone.max_depth(x, y), zone.deepest(x[:50], y[:50])]
+        return [
+            zone.beyond(x, y),
+            zone.max_depth(x, y),
+            zone.deepest(x[:50], y[:50]),
+            zone.beyond(gap_x, gap_y),
+            zone.deepest(x[-1:], y[-1:]),
+        ]
 
     def depths() -> list[Any]:  # a few points (stepped as Python numbers), and many
         return [zone.depth(x[:6], y[:6]), zone.depth(x, y), zone.depth(x, y, within=0.3)]
 
-    _both(monkeypatch, judged, "ellipse_bounds")
+    with np.errstate(invalid="ignore"):  # numpy's products of an infinite position
+        _both(monkeypatch, judged, "ellipse_bounds")
     _both(monkeypatch, depths, "ellipse_depth")
 
 

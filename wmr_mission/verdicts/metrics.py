@@ -381,11 +381,10 @@ def phase_segments(result: RunRecord) -> list[Entry]:
     number = {info.name: i for i, info in enumerate(result.phases)}
     moves = [tr for tr in result.transitions if tr.condition != "update"]
     entered = [tr for tr in moves if tr.to_phase is not None]
-    at = np.searchsorted(result.t, np.array([tr.time for tr in entered]) - 0.5 * result.dt)
+    half = 0.5 * result.dt
+    at = np.searchsorted(result.t, [tr.time - half for tr in entered]).tolist()
     starts = [(0, 0)]
-    starts += [
-        (number[str(tr.to_phase)], int(k)) for tr, k in zip(entered, at, strict=True) if k < n
-    ]
+    starts += [(number[str(tr.to_phase)], k) for tr, k in zip(entered, at, strict=True) if k < n]
     ends = [k for _, k in starts[1:]] + [n]
     return [  # the j-th move ends the j-th entry: the first phase's, and so on
         Entry(i, k, end, moves[j].condition if j < len(moves) else None)
@@ -626,13 +625,13 @@ class PhaseSamples:
     @cached_value
     def goal(self) -> tuple[float, float]:
         """Position and heading tolerance of the phase's goal (see :func:`_goals`)."""
+        found = self.goals.get(_written_name(self.info.name))
+        if found is not None:
+            return found
         numbers = self.numbers
-        return self.goals.get(
-            _written_name(self.info.name),
-            (
-                numbers.tracking_tolerance,
-                numbers.convergence_tolerance["theta"] + numbers.heading_noise,
-            ),
+        return (
+            numbers.tracking_tolerance,
+            numbers.convergence_tolerance["theta"] + numbers.heading_noise,
         )
 
     @cached_value

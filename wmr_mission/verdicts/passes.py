@@ -494,19 +494,23 @@ def ellipse_bounds(
     major, minor = max(a, b), min(a, b)
     n = x.size
     beyond = np.empty(n, dtype=np.bool_)
-    most = np.empty(n)
-    highest, lowest = -math.inf, -math.inf
-    for k in range(n):
+    most, least = np.empty(n), np.empty(n)
+    for k in range(n):  # (no reduction: a loop the compiler runs several points at a time)
         u = c * (x[k] - cx) + s * (y[k] - cy)
         w = -s * (x[k] - cx) + c * (y[k] - cy)
         # the scaled radius; its sum's order does not matter: IEEE sums commute
         radius = math.sqrt((u / a) * (u / a) + (w / b) * (w / b))
         beyond[k] = radius > 1.0 if keep_inside else radius < 1.0
-        out = radius - 1.0 if keep_inside else 1.0 - radius
+        out = radius - 1.0 if keep_inside else 1.0 - radius  # never -0
         most[k] = out * (major if out > 0 else minor)  # the depth is at most
-        least = out * (minor if out > 0 else major)  # and at least
-        highest = _nan_max(highest, most[k])
-        lowest = _nan_max(lowest, least)
+        least[k] = out * (minor if out > 0 else major)  # and at least
+    highest, lowest = -math.inf, -math.inf
+    unknown = False  # a NaN bound: both NaN, as numpy's max gives them
+    for k in range(n):
+        unknown |= most[k] != most[k]
+        highest, lowest = max(highest, most[k]), max(lowest, least[k])
+    if unknown:
+        highest, lowest = math.nan, math.nan
     contenders = np.empty(n, dtype=np.intp)
     count = 0
     for k in range(n):  # (not np.flatnonzero: see _select)
