@@ -76,8 +76,10 @@ class Zone(NamedTuple):
         ``bounds``: the points' :meth:`bounds`, if at hand."""
         if self.region["type"] != "ellipse":
             return np.asarray(self.depth(x, y) > 0.0)
+        if bounds is not None:
+            return bounds[0]
         if jit.judging_compiled():  # the same in one compiled pass (verdicts/passes.py)
-            return (self._bounds(x, y) if bounds is None else bounds)[0]
+            return self._bounds(x, y)[0]
         radius = _scaled_radius(self.region, x, y)[0]
         return np.asarray(radius > 1.0 if self.keep_inside else radius < 1.0)
 
@@ -118,28 +120,29 @@ class Zone(NamedTuple):
             return -math.inf
         if self.region["type"] != "ellipse":
             return float(np.max(self.depth(x, y)))
-        if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
-            _, highest, contenders = self._bounds(x, y) if bounds is None else bounds
-            if resolution is not None and abs(highest) <= resolution:
-                return highest
-            return float(np.max(self.depth(x[contenders], y[contenders])))
-        radius, a, b = _scaled_radius(self.region, x, y)
-        beyond = radius - 1.0 if self.keep_inside else 1.0 - radius
-        most = beyond * np.where(beyond > 0, max(a, b), min(a, b))  # the depth is at most
-        highest = float(np.max(most))
+        if bounds is None:  # (compiled: the same numbers in one pass, verdicts/passes.py)
+            bounds = self._bounds(x, y) if jit.judging_compiled() else self._numpy_bounds(x, y)
+        _, highest, contenders = bounds
         if resolution is not None and abs(highest) <= resolution:
             return highest
-        least = beyond * np.where(beyond > 0, min(a, b), max(a, b))  # and at least this
-        contenders = np.flatnonzero(most >= np.max(least))
         return float(np.max(self.depth(x[contenders], y[contenders])))
 
     def bounds(self, x: FloatArray, y: FloatArray) -> Bounds | None:
         """What :meth:`beyond` and :meth:`max_depth` of the same points read
-        first, computed once for both (an ellipse's, where the judge's passes
-        run compiled; else None: nothing to share)."""
-        if self.region["type"] != "ellipse" or not jit.judging_compiled() or x.size == 0:
+        first, computed once for both (an ellipse's; else None: nothing to share)."""
+        if self.region["type"] != "ellipse" or x.size == 0:
             return None
-        return self._bounds(x, y)
+        return self._bounds(x, y) if jit.judging_compiled() else self._numpy_bounds(x, y)
+
+    def _numpy_bounds(self, x: FloatArray, y: FloatArray) -> Bounds:
+        """:meth:`_bounds` by numpy: the depth is at most ``most`` and at least
+        ``least`` (see :func:`_ellipse`)."""
+        radius, a, b = _scaled_radius(self.region, x, y)
+        out = radius - 1.0 if self.keep_inside else 1.0 - radius
+        most = out * np.where(out > 0, max(a, b), min(a, b))
+        least = out * np.where(out > 0, min(a, b), max(a, b))
+        beyond = radius > 1.0 if self.keep_inside else radius < 1.0
+        return beyond, float(np.max(most)), np.flatnonzero(most >= np.max(least))
 
     def _bounds(self, x: FloatArray, y: FloatArray) -> Bounds:
         """An ellipse zone's :func:`wmr_mission.verdicts.passes.ellipse_bounds`."""
