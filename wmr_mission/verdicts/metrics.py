@@ -643,7 +643,7 @@ class PhaseSamples:
         return [(slice(a, b), aim) for a, b, aim in self.info.targets_in_force(w.start, w.stop)]
 
     @cached_value
-    def regulated(self) -> list[tuple[float | None, float | None]]:
+    def stall_and_overshoot(self) -> list[tuple[float | None, float | None]]:
         """The stall time and the overshoot of each stretch of :attr:`targets`
         (regulate phases), found together."""
         if self.info.kind != "regulate":
@@ -661,7 +661,7 @@ class PhaseSamples:
         over the stretches of each target (None where none has a value)."""
         if self.info.kind != "regulate":
             return None
-        known = [stall for stall, _ in self.regulated if stall is not None]
+        known = [stall for stall, _ in self.stall_and_overshoot if stall is not None]
         return sum(known) if known else None
 
     @cached_value
@@ -670,7 +670,7 @@ class PhaseSamples:
         over the stretches of each target, each from where it took over."""
         if self.info.kind != "regulate":
             return None
-        known = [value for _, value in self.regulated if value is not None]
+        known = [value for _, value in self.stall_and_overshoot if value is not None]
         return max(known) if known else None
 
     @cached_value

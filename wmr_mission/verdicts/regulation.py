@@ -51,7 +51,7 @@ def regulated(
     tx, ty, heading_target = (float(v) for v in target)
     way_x, way_y = tx - float(x[0]), ty - float(y[0])
     length = math.hypot(way_x, way_y)
-    way_in = length > goal[0]  # else no overshoot: nothing beyond measured
+    way_in = not length <= goal[0]  # else no overshoot: nothing beyond measured
     window, reach = _window(numbers)
     stalled, beyond, placed, turned = jit.compiled(regulation_pass)(
         x, y, theta, (tx, ty, heading_target), (float(goal[0]), float(goal[1])), window, reach,
