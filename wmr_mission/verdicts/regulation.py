@@ -64,6 +64,7 @@ def regulated(
     )
     if not placed or not way_in:
         return stall, None
+    beyond = float(beyond)
     if beyond == 0.0:  # which zero numpy's max keeps, and so max(., 0.0) gives, is its own
         return stall, overshoot(x, y, target, goal[0], True)
     return stall, max(beyond, 0.0)
