@@ -230,6 +230,7 @@ def test_the_ellipse_bounds_pass_has_the_numpy_forms_bits(
 
     with np.errstate(invalid="ignore"):  # numpy's products of an infinite position
         _both(monkeypatch, judged, "ellipse_bounds")
+        _both(monkeypatch, judged, "ellipse_deepest")
     _both(monkeypatch, depths, "ellipse_depth")
 
 

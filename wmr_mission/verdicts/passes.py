@@ -38,6 +38,7 @@ from wmr_mission.kernels.jit import inlined, kernel
 
 __all__ = [  # the passes, each compiled by `wmr-mission compile` (tests/test_start_up.py)
     "ellipse_bounds",
+    "ellipse_deepest",
     "ellipse_depth",
     "estimation_error_pass",
     "finite_squares_sum",
@@ -720,3 +721,23 @@ def poses_finite(x: FloatArray, y: FloatArray, theta: FloatArray) -> bool:
     for k in range(x.size):
         finite &= abs(x[k]) < math.inf and abs(y[k]) < math.inf and abs(theta[k]) < math.inf
     return finite
+
+
+@kernel
+def ellipse_deepest(
+    x: FloatArray,
+    y: FloatArray,
+    chosen: NDArray[np.intp],
+    frame: tuple[float, float, float, float, float, float],
+    squares: tuple[float, float],
+    keep_inside: bool,
+    steps: int,
+) -> float:
+    """The largest :func:`ellipse_depth` of the ``chosen`` points (at least
+    one), their depths found together as ``Zone.max_depth`` finds them; NaN if
+    any is, as numpy's ``max``."""
+    depth = ellipse_depth(x[chosen], y[chosen], frame, squares, keep_inside, math.inf, steps)
+    found = float(depth[0])
+    for k in range(1, depth.size):
+        found = _nan_max(found, depth[k])
+    return found

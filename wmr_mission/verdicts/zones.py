@@ -25,7 +25,7 @@ from wmr_mission.basics import FloatArray
 from wmr_mission.geometry.regions import box_corners
 from wmr_mission.kernels import jit
 from wmr_mission.spec.numbers import MissionNumbers
-from wmr_mission.verdicts.passes import ellipse_bounds, ellipse_depth
+from wmr_mission.verdicts.passes import ellipse_bounds, ellipse_deepest, ellipse_depth
 
 # [m] depths are known to this: far below any tolerance, and what a robot held on
 # a zone's edge by the corrective action rounds to.
@@ -125,6 +125,12 @@ class Zone(NamedTuple):
         _, highest, contenders = bounds
         if resolution is not None and abs(highest) <= resolution:
             return highest
+        if jit.judging_compiled() and contenders.size:  # their depths and the largest, compiled
+            deepest = jit.compiled(ellipse_deepest)
+            frame, squares, inside = self._frame(), self._squares(), self.keep_inside
+            found = float(deepest(x, y, contenders, frame, squares, inside, _NEWTON_STEPS))
+            if found != 0.0:  # (which zero numpy's max keeps is its own)
+                return found
         return float(np.max(self.depth(x[contenders], y[contenders])))
 
     def bounds(self, x: FloatArray, y: FloatArray) -> Bounds | None:
