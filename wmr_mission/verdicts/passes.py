@@ -4,9 +4,12 @@ operations at a time (each caller keeps that form beside its call).
 
 - an input's jumps, reversals and stretches at its limit, and the turn
   rate's jitter (wmr_mission.verdicts.inputs);
-- a regulate phase's samples stalled away from its goal
-  (wmr_mission.verdicts.regulation);
-- the depth beyond an ellipse zone, and its bounds (wmr_mission.verdicts.zones);
+- a regulate phase's samples stalled away from its goal, and how far it
+  went past its target (wmr_mission.verdicts.regulation);
+- the depth beyond an ellipse zone, its bounds, and the deepest of some
+  points (wmr_mission.verdicts.zones);
+- a phase's samples after its settle time, and whether its poses are
+  finite (wmr_mission.verdicts.metrics);
 - the largest finite value of a phase's column, scaled or its magnitude
   (wmr_mission.verdicts.metrics), with no copy of it;
 - the run's estimation errors, the heading's wrapped, and the last sample
@@ -20,8 +23,9 @@ operations at a time (each caller keeps that form beside its call).
 
 The same numbers: the same operations in the same order, numpy's ``max``
 (NaN if any is) and ``searchsorted`` as loops, a square as a product (as
-numpy's ``** 2``), the median as the same middle values
-(``tests/test_verdict_passes.py``). No numpy function numba implements in
+numpy's ``** 2``), the median as the same middle values, a remainder by
+2 pi as the exact one ``fmod`` gives, ``hypot`` wherever its last bits
+decide a comparison (``tests/test_verdict_passes.py``). No numpy function numba implements in
 its array-math module is called: loading such a pass from the cache would
 import scipy's BLAS (``tests/test_start_up.py``).
 """
