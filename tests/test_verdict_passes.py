@@ -16,7 +16,7 @@ import pytest
 from wmr_mission.kernels import jit
 from wmr_mission.spec.numbers import mission_numbers
 from wmr_mission.verdicts import passes
-from wmr_mission.verdicts.inputs import input_quality, progress_to
+from wmr_mission.verdicts.inputs import input_quality, jitter, progress_to
 from wmr_mission.verdicts.regulation import WINDOW, regulated, stall_time
 from wmr_mission.verdicts.zones import Zone
 
@@ -91,18 +91,59 @@ def test_the_input_metrics_pass_has_the_numpy_forms_bits(
         v[10:] = 0.0  # a robot that stops: no reversal, no jump
     x, y = np.cumsum(v) * 0.01, np.zeros(v.size)
     progress = progress_to(x, y, (0.5, 0.0))
+    counted = rng.uniform(size=v.size) < 0.7  # the jitter of some samples only
+    counted[: 290 + seed] = True
     found = {}
 
     def judged() -> list[dict[str, Any]]:
         found["last"] = input_quality(t, v, omega, NUMBERS, progress)
-        # stretches at a limit cut where an update took over, judged apart
-        return [found["last"], input_quality(t, v, omega, NUMBERS, progress, None, (150, 421))]
+        return [
+            found["last"],
+            # stretches at a limit cut where an update took over, judged apart
+            input_quality(t, v, omega, NUMBERS, progress, None, (150, 421)),
+            input_quality(t, v, omega, NUMBERS, progress, counted),  # NaN at 300 counted or not
+            input_quality(t, v, omega, NUMBERS, progress, np.ones(v.size, dtype=bool)),
+            input_quality(t, v, omega, NUMBERS, progress, np.zeros(v.size, dtype=bool)),  # all
+            jitter(omega, NUMBERS, counted),  # the jitter alone, as a campaign's row takes it
+        ]
 
     _both(monkeypatch, judged, "input_pass")
-    assert "jitter_median" in passes.__all__
     if seed < 4:  # the samples reverse and fight: the metrics are not all trivial
         assert found["last"]["turn_rate_reversals"] > 0
         assert found["last"]["turn_rate_fight_time"] > 0.0
+
+
+@pytest.mark.parametrize("samples", [0, 1, 2, 3, 10, 23, 130, 131, 141, 142])
+def test_the_input_metrics_pass_of_few_samples_has_the_numpy_forms_bits(
+    samples: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Phases too short for a jump, a stretch at the limit, or the jitter
+    (1 s skipped, then 21 samples of the moving mean), and limits never
+    reached (infinite) or always (a speed that sits at it, an update inside)."""
+    rng = np.random.default_rng(samples)
+    t, v, omega = _inputs(rng, samples)
+    unlimited = mission_numbers(None, 0.01, (math.inf, math.inf))
+    progress = progress_to(np.cumsum(v) * 0.01, np.zeros(samples), (0.5, 0.0))
+    k = np.arange(samples)
+    at = k % 23 < 10  # stretches at the limits of one time constant exactly, and the rest
+    both_ways = np.where(at, 2.0, 0.5) * (-1.0) ** k
+    one_way = np.where(at, -1.0, 0.2)
+
+    def judged() -> list[Any]:
+        with np.errstate(invalid="ignore"):  # numpy's inf - inf, a NaN jump
+            endless = input_quality(t, v, np.where(at, math.inf, -math.inf), unlimited, progress)
+        return [
+            input_quality(t, v, omega, NUMBERS, progress),
+            input_quality(t, one_way, both_ways, NUMBERS, progress),
+            input_quality(t, one_way, np.abs(both_ways), NUMBERS, progress, None, (5,)),
+            input_quality(t, v, omega, unlimited, progress, None, (1, 15)),
+            endless,  # at a limit never reached: no fight
+            input_quality(t, np.full(samples, -1.0), -omega, NUMBERS, progress, None, (12,)),
+            input_quality(t, v, omega, NUMBERS, progress, np.arange(samples) % 3 == 0),
+            jitter(omega, NUMBERS),
+        ]
+
+    _both(monkeypatch, judged, "input_pass")
 
 
 @pytest.mark.parametrize("seed", range(4))

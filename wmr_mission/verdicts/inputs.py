@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 from wmr_mission.basics import FloatArray
 from wmr_mission.kernels import jit
 from wmr_mission.spec.numbers import MissionNumbers
-from wmr_mission.verdicts.passes import first_within, input_pass, jitter_median
+from wmr_mission.verdicts.passes import first_within, input_pass
 
 # Inputs this close to their limit (relative) are at it: the runner clips exactly.
 AT_LIMIT = 1e-9
@@ -60,6 +60,11 @@ ROBUST_STD = 1.4826  # times the median absolute deviation: a Gaussian's std
 _NEAR_ONE = 1e-9
 # [m] the progress made from sample a to sample b (a < b).
 Progress = Callable[[int, int], float]
+# What the compiled pass takes for no update (cuts), every sample counted, and
+# no samples judged (the jitter alone).
+_NO_CUTS = np.zeros(0, dtype=np.intp)
+_EVERY = np.zeros(0, dtype=np.bool_)
+_NO_SAMPLES = np.zeros(0)
 
 
 def first_judged(
@@ -113,32 +118,40 @@ def input_quality(
     should)."""
     tau, dt = numbers.time_constant, numbers.dt
 
-    # The motion a command makes comes the plant's input delay and actuator lag
-    # later: a reversal to the limit first moves the robot on the old way. Read
-    # no later than the next update or the phase's end: a stretch is judged by
-    # the motion of its own target, and never by fewer samples than it has.
-    later = round(numbers.response / dt)
-    ends = sorted({*cuts, t.size - 1})
-
     def drives(a: int, b: int) -> bool:  # half the distance driven at the limit is progress
-        end = next((c for c in ends if c >= b), b)
-        shift = max(0, min(later, end - b))
+        # The motion a command makes comes the plant's input delay and actuator
+        # lag later: a reversal to the limit first moves the robot on the old
+        # way. Read no later than the next update or the phase's end: a stretch
+        # is judged by the motion of its own target, and never by fewer samples
+        # than it has.
+        end = next((c for c in sorted({*cuts, t.size - 1}) if c >= b), b)
+        shift = max(0, min(round(numbers.response / dt), end - b))
         return progress(a + shift, b + shift) >= DELIBERATE * numbers.v_limit * (b - a) * dt
 
     def turns(a: int, b: int) -> bool:  # at most half a turn (a sample's turn for rounding)
         return (b - a) * dt * numbers.omega_limit <= math.pi + 2.0 * numbers.omega_limit * dt
 
+    if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
+        found = _passed(t, v, omega, numbers, counted, cuts)
+        v_jump, v_reversals, v_stretches, omega_jump, omega_reversals, omega_fought, spread = found
+        return {
+            "speed_jump_max": _finite(v_jump),
+            "speed_reversals": v_reversals,
+            # a stretch at the speed limit judged by the progress it makes, if any
+            "speed_fight_time": (
+                fight_time(v, numbers.v_limit, numbers, drives, cuts) if v_stretches else 0.0
+            ),
+            "turn_rate_jump_max": _finite(omega_jump),
+            "turn_rate_reversals": omega_reversals,
+            "turn_rate_fight_time": omega_fought * dt,
+            "turn_rate_jitter": _finite(ROBUST_STD * spread),  # None for too few samples too: NaN
+        }
+    floors = _floors(numbers)
     metrics: dict[str, Any] = {}
-    for name, values, limit, deliberate in (
-        ("speed", v, numbers.v_limit, drives),
-        ("turn_rate", omega, numbers.omega_limit, turns),
+    for name, values, limit, floor, deliberate in (
+        ("speed", v, numbers.v_limit, floors[0], drives),
+        ("turn_rate", omega, numbers.omega_limit, floors[1], turns),
     ):
-        floor = REVERSAL_FLOOR * limit
-        if name == "turn_rate":  # three times what raw heading noise makes of the turn rate
-            floor += 3.0 * numbers.heading_noise / tau
-        if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
-            metrics |= _compiled_quality(name, t, values, floor, limit, numbers, deliberate, cuts)
-            continue
         jumps = np.abs(np.diff(values))
         metrics[f"{name}_jump_max"] = _finite(jumps.max()) if jumps.size else 0.0
         metrics[f"{name}_reversals"] = most_reversals(t, values, floor, REVERSAL_WINDOW * tau)
@@ -147,36 +160,31 @@ def input_quality(
     return metrics
 
 
-def _compiled_quality(
-    name: str,
+def _floors(numbers: MissionNumbers) -> tuple[float, float]:
+    """The speed's and the turn rate's floor of reversals: REVERSAL_FLOOR of the
+    limit, and for the turn rate three times what raw heading noise makes of it."""
+    turn_rate = REVERSAL_FLOOR * numbers.omega_limit
+    turn_rate += 3.0 * numbers.heading_noise / numbers.time_constant
+    return REVERSAL_FLOOR * numbers.v_limit, turn_rate
+
+
+def _passed(
     t: FloatArray,
-    values: FloatArray,
-    floor: float,
-    limit: float,
+    v: FloatArray,
+    omega: FloatArray,
     numbers: MissionNumbers,
-    deliberate: Callable[[int, int], bool],
+    counted: NDArray[np.bool_] | None,
     cuts: Sequence[int] = (),
-) -> dict[str, Any]:
-    """:func:`input_quality`'s jump, reversals and fight time of one input, by
-    :func:`wmr_mission.verdicts.passes.input_pass`."""
-    shortest = max(2, round(numbers.time_constant / numbers.dt))
-    window = REVERSAL_WINDOW * numbers.time_constant
-    jump, reversals, starts, ends, one_sign = jit.compiled(input_pass)(
-        t, values, floor, window, limit * (1.0 - AT_LIMIT), shortest
-    )
-    fought = 0
-    if math.isfinite(limit):
-        for a, b, kept in zip(starts.tolist(), ends.tolist(), one_sign.tolist(), strict=True):
-            pieces = _cut(a, b, cuts)
-            if len(pieces) > 1:  # judged apart on each side of an update
-                fought += _fought(values, pieces, shortest, deliberate)
-            elif not (kept and deliberate(a, b)):
-                fought += b - a
-    return {
-        f"{name}_jump_max": _finite(jump),
-        f"{name}_reversals": int(reversals),
-        f"{name}_fight_time": fought * numbers.dt,
-    }
+) -> tuple[float, int, int, float, int, int, float]:
+    """:func:`wmr_mission.verdicts.passes.input_pass` of a phase's samples
+    (``t`` empty: the jitter alone)."""
+    tau, dt = numbers.time_constant, numbers.dt
+    return jit.compiled(input_pass)(
+        t, v, omega, _EVERY if counted is None else counted, _floors(numbers),
+        (numbers.v_limit, numbers.omega_limit, 1.0 - AT_LIMIT), REVERSAL_WINDOW * tau,
+        (max(2, round(tau / dt)), *_jitter_window(numbers)),
+        np.array(cuts, dtype=np.intp) if len(cuts) else _NO_CUTS, dt,
+    )  # fmt: skip
 
 
 def _finite(value: Any) -> float | None:
@@ -254,25 +262,13 @@ def jitter(
     time constants, after the first REVERSAL_WINDOW time constants, of the
     samples ``counted`` (None: all; all too if it counts none of them); None
     when fewer samples are left."""
-    if _counts_all(omega, numbers, counted):
-        if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
-            spread = jit.compiled(jitter_median)(omega, *_jitter_window(numbers))
-            return _finite(ROBUST_STD * spread)  # None for too few samples too: NaN
-        counted = None
+    if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
+        spread = _passed(_NO_SAMPLES, _NO_SAMPLES, omega, numbers, counted)[-1]
+        return _finite(ROBUST_STD * spread)  # None for too few samples too: NaN
     found = _deviation(omega, numbers)
     if found is None:
         return None
     return _finite(ROBUST_STD * median(np.abs(_counted(*found, counted))))
-
-
-def _counts_all(
-    omega: FloatArray, numbers: MissionNumbers, counted: NDArray[np.bool_] | None
-) -> bool:
-    """Whether ``counted`` leaves in every sample the jitter would take."""
-    if counted is None:
-        return True
-    half, skip = _jitter_window(numbers)
-    return bool(counted[max(half, skip) : omega.size - half].all())
 
 
 def _counted(first: int, deviation: FloatArray, counted: NDArray[np.bool_] | None) -> FloatArray:

@@ -603,14 +603,6 @@ class PhaseSamples:
         if first >= stop:
             return dict.fromkeys(_INPUT_METRICS)
         judged = slice(first, stop)
-        x, y = r.x[judged], r.y[judged]
-        progress: input_metrics.Progress
-        if self.info.kind == "track":
-            progress = input_metrics.progress_along(x, y, r.x_ref[judged], r.y_ref[judged])
-        elif self.info.target is not None:  # towards the target in force at each sample
-            progress = _towards_targets(self.info, first, stop, x, y)
-        else:
-            progress = lambda a, b: 0.0  # noqa: E731 - no aim known: nothing is progress
         counted = None  # a track phase's jitter: the samples its tracking is judged at
         if self.tracked is not None and self.tracked[1] is not None:
             counted = self.tracked[1][first - self.window.start :]
@@ -619,8 +611,27 @@ class PhaseSamples:
             reference = r.reference[judged]
             cuts = (np.flatnonzero(reference[1:] != reference[:-1]) + 1).tolist()
         return input_metrics.input_quality(
-            r.t[judged], r.v[judged], r.omega[judged], self.numbers, progress, counted, cuts
+            r.t[judged], r.v[judged], r.omega[judged], self.numbers, self._progress, counted, cuts
         )
+
+    def _progress(self, a: int, b: int) -> float:
+        """[m] the progress from judged sample a to b (:attr:`progress`)."""
+        return self.progress(a, b)
+
+    @cached_value
+    def progress(self) -> input_metrics.Progress:
+        """The progress from a judged sample to another: along the path (a
+        track phase), towards the target in force at each sample (a regulate
+        phase), none where no aim is known. Made when first asked: only a
+        stretch at the speed limit asks, and most phases have none."""
+        r, first, stop = self.result, self.first_judged, self.window.stop
+        judged = slice(first, stop)
+        x, y = r.x[judged], r.y[judged]
+        if self.info.kind == "track":
+            return input_metrics.progress_along(x, y, r.x_ref[judged], r.y_ref[judged])
+        if self.info.target is not None:  # towards the target in force at each sample
+            return _towards_targets(self.info, first, stop, x, y)
+        return lambda a, b: 0.0  # no aim known: nothing is progress
 
     @cached_value
     def goal(self) -> tuple[float, float]:
@@ -723,21 +734,12 @@ def _towards_targets(
     info: PhaseRecord, first: int, stop: int, x: FloatArray, y: FloatArray
 ) -> input_metrics.Progress:
     """:func:`input_metrics.progress_to` the target in force at each sample of
-    ``first .. stop - 1`` (``x``, ``y``: their positions), its aims put together
-    when first asked: only a stretch at the speed limit asks, and most phases
-    have none."""
-    made: list[input_metrics.Progress] = []
-
-    def progress(a: int, b: int) -> float:
-        if not made:
-            aim_x, aim_y = np.empty(x.size), np.empty(x.size)
-            for start, end, aim in info.targets_in_force(first, stop):
-                aim_x[start - first : end - first] = aim[0]
-                aim_y[start - first : end - first] = aim[1]
-            made.append(input_metrics.progress_to(x, y, (aim_x, aim_y)))
-        return made[0](a, b)
-
-    return progress
+    ``first .. stop - 1`` (``x``, ``y``: their positions)."""
+    aim_x, aim_y = np.empty(x.size), np.empty(x.size)
+    for start, end, aim in info.targets_in_force(first, stop):
+        aim_x[start - first : end - first] = aim[0]
+        aim_y[start - first : end - first] = aim[1]
+    return input_metrics.progress_to(x, y, (aim_x, aim_y))
 
 
 _INPUT_METRICS = (

@@ -48,7 +48,6 @@ __all__ = [  # the passes, each compiled by `wmr-mission compile` (tests/test_st
     "finite_squares_sum",
     "first_within",
     "input_pass",
-    "jitter_median",
     "kept_up",
     "largest_finite",
     "last_unconverged",
@@ -276,14 +275,64 @@ def first_within(
 
 @kernel
 def input_pass(
-    t: FloatArray, values: FloatArray, floor: float, window: float, at_limit: float, shortest: int
-) -> tuple[float, int, NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
-    """The largest one-sample jump of ``values`` (NaN if any is; 0 with fewer
-    than two), the most sign reversals within any ``window`` [s] of the values
-    beyond ``floor``, and the stretches at the limit (``|value| >= at_limit``)
-    of ``shortest`` samples or more: their first sample, one past their last,
-    and whether they keep one sign."""
-    n = values.size
+    t: FloatArray,
+    v: FloatArray,
+    omega: FloatArray,
+    counted: NDArray[np.bool_],
+    floors: tuple[float, float],
+    limits: tuple[float, float, float],
+    window: float,
+    samples: tuple[int, int, int],
+    cuts: NDArray[np.intp],
+    dt: float,
+) -> tuple[float, int, int, float, int, int, float]:
+    """A phase's input metrics in one call (``inputs.input_quality``). Of the
+    speed and the turn rate: the largest one-sample jump (NaN if any is; 0
+    with fewer than two), and the most sign reversals within any ``window``
+    [s] of the values beyond its floor (``floors``); the speed's stretches at
+    its limit of ``shortest`` samples or more, how many (each is judged by the
+    progress it makes, in Python); the turn rate's samples at its limit that
+    fight it (``inputs.fight_time`` by ``inputs.input_quality``'s half a turn
+    at the sample time ``dt``, its stretches cut at ``cuts``). Last, the turn
+    rate's jitter spread (:func:`_jitter_spread`). ``limits``: the speed's
+    and the turn rate's, and the share of them that is at them (``|value| >=
+    limit * share``); ``samples``: ``shortest`` and the jitter's ``half`` and
+    ``skip``; ``t`` empty: the jitter alone (of a whole run's turn rate)."""
+    v_limit, omega_limit, share = limits
+    shortest, half, skip = samples
+    times = np.empty(t.size)  # the reversals', of each input in turn
+    speed = _input_scan(
+        t, v, (floors[0], v_limit * share), window, shortest, cuts, (dt, math.inf), times
+    )
+    turn = _input_scan(
+        t, omega, (floors[1], omega_limit * share), window, shortest, cuts, (dt, omega_limit), times
+    )
+    fought = turn[3] if abs(omega_limit) < math.inf else 0  # a limit never reached: no fight
+    spread = _jitter_spread(omega, counted, half, skip)
+    return speed[0], speed[1], speed[2], turn[0], turn[1], fought, spread
+
+
+@inlined
+def _input_scan(
+    t: FloatArray,
+    values: FloatArray,
+    bounds: tuple[float, float],
+    window: float,
+    shortest: int,
+    cuts: NDArray[np.intp],
+    turn: tuple[float, float],
+    times: FloatArray,
+) -> tuple[float, int, int, int]:
+    """Of the first ``t.size`` values: the largest one-sample jump, the most
+    reversals within any ``window`` of those beyond the floor (``bounds[0]``;
+    ``times``: scratch, a sample's worth), the stretches at the limit
+    (``|value| >= bounds[1]``) of ``shortest`` samples or more, how many, and
+    their samples that fight a turn-rate limit (:func:`_fought`). The
+    reversals and the stretches are looked for only where a first pass, one
+    the compiler vectorises, found values beyond the floor of both signs and
+    values at the limit."""
+    floor, at_limit = bounds
+    n = t.size
     jump = 0.0 if n < 2 else -math.inf
     for k in range(1, n):
         step = abs(values[k] - values[k - 1])
@@ -291,10 +340,37 @@ def input_pass(
             jump = step
             break
         jump = max(jump, step)
-    # Reversals: at the sample that brings the new sign, values within floor skipped.
-    times = np.empty(n)
-    count, sign = 0, 0
+    positive, negative, at = False, False, False
     for k in range(n):
+        positive |= values[k] > floor
+        negative |= values[k] < -floor
+        at |= abs(values[k]) >= at_limit
+    most = 0
+    if positive and negative:  # else no reversal
+        most = _most_reversals(t, values, floor, window, times)
+    stretches, fought, start = 0, 0, -1
+    for k in range(n if at else 0):
+        at = abs(values[k]) >= at_limit
+        if at and start < 0:
+            start = k
+        if start >= 0 and (not at or k == n - 1):
+            end = k + 1 if at else k
+            if end - start >= shortest:
+                stretches += 1
+                fought += _fought(values, (start, end), shortest, cuts, turn)
+            start = -1
+    return jump, most, stretches, fought
+
+
+@inlined
+def _most_reversals(
+    t: FloatArray, values: FloatArray, floor: float, window: float, times: FloatArray
+) -> int:
+    """The most sign reversals of the first ``t.size`` values within any
+    ``window`` [s], at the sample that brings the new sign, values within
+    ``floor`` of zero skipped (``inputs.most_reversals``)."""
+    count, sign = 0, 0
+    for k in range(t.size):
         if abs(values[k]) > floor:
             now = 1 if values[k] > 0 else -1
             if sign != 0 and now != sign:
@@ -308,33 +384,49 @@ def input_pass(
         while end < count and times[end] <= reach:
             end += 1
         most = max(most, end - first)
-    # Stretches at the limit.
-    starts = np.empty(n, dtype=np.intp)
-    ends = np.empty(n, dtype=np.intp)
-    one_sign = np.empty(n, dtype=np.bool_)
-    found, k = 0, 0
-    while k < n:
-        if not abs(values[k]) >= at_limit:
-            k += 1
+    return most
+
+
+@inlined
+def _fought(
+    values: FloatArray,
+    stretch: tuple[int, int],
+    shortest: int,
+    cuts: NDArray[np.intp],
+    turn: tuple[float, float],
+) -> int:
+    """The samples of the ``stretch`` (first, one past the last) at a turn-rate
+    limit that fight it: each of its pieces cut at ``cuts`` (``inputs._cut``)
+    of ``shortest`` samples or more that changes sign or turns more than half
+    a turn (``inputs.input_quality``'s ``turns``; ``turn``: the sample time
+    and the limit)."""
+    start, end = stretch
+    dt, limit = turn
+    fought, a = 0, start
+    for c in range(cuts.size + 1):
+        b = cuts[c] if c < cuts.size else end
+        if c < cuts.size and not start < b < end:
             continue
-        start, positive, negative = k, 0, 0
-        while k < n and abs(values[k]) >= at_limit:
-            positive += 1 if values[k] > 0 else 0
-            negative += 1 if values[k] < 0 else 0
-            k += 1
-        if k - start >= shortest:
-            starts[found], ends[found] = start, k
-            one_sign[found] = positive == k - start or negative == k - start
-            found += 1
-    return jump, most, starts[:found], ends[:found], one_sign[:found]
+        if b - a >= shortest:
+            positive, negative = 0, 0
+            for k in range(a, b):
+                positive += 1 if values[k] > 0 else 0
+                negative += 1 if values[k] < 0 else 0
+            one_sign = positive == b - a or negative == b - a
+            if not (one_sign and (b - a) * dt * limit <= math.pi + 2.0 * limit * dt):
+                fought += b - a
+        a = b
+    return fought
 
 
-@kernel
-def jitter_median(omega: FloatArray, half: int, skip: int) -> float:
+@inlined
+def _jitter_spread(omega: FloatArray, counted: NDArray[np.bool_], half: int, skip: int) -> float:
     """The median of ``|omega - its centred moving mean|`` over ``2 half + 1``
-    samples (summed in order from 0), of the samples from ``skip`` on; NaN if
-    any is, or when fewer than ``skip + 2 half + 1`` samples are left (so a
-    short phase compiles it too, in ``wmr-mission compile``'s warm-up)."""
+    samples (summed in order from 0), of the samples from ``skip`` on that
+    ``counted`` counts (empty: all; all too where it counts none of them);
+    NaN if any of those is, or when fewer than ``skip + 2 half + 1`` samples
+    are left (so a short phase compiles it too, in ``wmr-mission compile``'s
+    warm-up)."""
     window = 2 * half + 1
     if omega.size < skip + window:
         return math.nan
@@ -348,12 +440,21 @@ def jitter_median(omega: FloatArray, half: int, skip: int) -> float:
             samples = omega[dropped + offset + begin : dropped + offset + end]
             for c in range(block.size):
                 block[c] += samples[c]
+    every = True  # none counted: all are
+    for c in range(dropped, centres if counted.size else 0):
+        if counted[half + c]:
+            every = False
+            break
+    size = 0
     spread = total  # each deviation in place of its sum, read just before: no second array
     for c in range(dropped, centres):
-        deviation = abs(omega[half + c] - total[c - dropped] / window)
-        if deviation != deviation:
-            return math.nan
-        spread[c - dropped] = deviation
+        if every or counted[half + c]:
+            deviation = abs(omega[half + c] - total[c - dropped] / window)
+            if deviation != deviation:
+                return math.nan
+            spread[size] = deviation
+            size += 1
+    spread = spread[:size]
     middle = spread.size // 2
     found = _select(spread, middle)
     if spread.size % 2:
