@@ -35,7 +35,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -116,56 +116,97 @@ def input_quality(
     at a limit is judged apart on each side of one, by the reference in force
     over it (a park sent back the way it came reverses at the limit, as it
     should)."""
-    tau, dt = numbers.time_constant, numbers.dt
-
-    def drives(a: int, b: int) -> bool:  # half the distance driven at the limit is progress
-        # The motion a command makes comes the plant's input delay and actuator
-        # lag later: a reversal to the limit first moves the robot on the old
-        # way. Read no later than the next update or the phase's end: a stretch
-        # is judged by the motion of its own target, and never by fewer samples
-        # than it has.
-        end = next((c for c in sorted({*cuts, t.size - 1}) if c >= b), b)
-        shift = max(0, min(round(numbers.response / dt), end - b))
-        return progress(a + shift, b + shift) >= DELIBERATE * numbers.v_limit * (b - a) * dt
-
-    def turns(a: int, b: int) -> bool:  # at most half a turn (a sample's turn for rounding)
-        return (b - a) * dt * numbers.omega_limit <= math.pi + 2.0 * numbers.omega_limit * dt
-
     if jit.judging_compiled():  # the same numbers in one compiled pass (verdicts/passes.py)
         found = _passed(t, v, omega, numbers, counted, cuts)
         v_jump, v_reversals, v_stretches, omega_jump, omega_reversals, omega_fought, spread = found
+        v_fought = 0.0  # each stretch at the speed limit judged by the progress it makes
+        if v_stretches:
+            drives = _drives(t.size, numbers, progress, cuts)
+            v_fought = fight_time(v, numbers.v_limit, numbers, drives, cuts)
         return {
             "speed_jump_max": _finite(v_jump),
             "speed_reversals": v_reversals,
-            # a stretch at the speed limit judged by the progress it makes, if any
-            "speed_fight_time": (
-                fight_time(v, numbers.v_limit, numbers, drives, cuts) if v_stretches else 0.0
-            ),
+            "speed_fight_time": v_fought,
             "turn_rate_jump_max": _finite(omega_jump),
             "turn_rate_reversals": omega_reversals,
-            "turn_rate_fight_time": omega_fought * dt,
+            "turn_rate_fight_time": omega_fought * numbers.dt,
             "turn_rate_jitter": _finite(ROBUST_STD * spread),  # None for too few samples too: NaN
         }
-    floors = _floors(numbers)
+    settings = _settings(numbers)
     metrics: dict[str, Any] = {}
     for name, values, limit, floor, deliberate in (
-        ("speed", v, numbers.v_limit, floors[0], drives),
-        ("turn_rate", omega, numbers.omega_limit, floors[1], turns),
+        ("speed", v, numbers.v_limit, settings.floors[0], _drives(t.size, numbers, progress, cuts)),
+        ("turn_rate", omega, numbers.omega_limit, settings.floors[1], _turns(numbers)),
     ):
         jumps = np.abs(np.diff(values))
         metrics[f"{name}_jump_max"] = _finite(jumps.max()) if jumps.size else 0.0
-        metrics[f"{name}_reversals"] = most_reversals(t, values, floor, REVERSAL_WINDOW * tau)
+        metrics[f"{name}_reversals"] = most_reversals(t, values, floor, settings.window)
         metrics[f"{name}_fight_time"] = fight_time(values, limit, numbers, deliberate, cuts)
     metrics["turn_rate_jitter"] = jitter(omega, numbers, counted)
     return metrics
 
 
-def _floors(numbers: MissionNumbers) -> tuple[float, float]:
-    """The speed's and the turn rate's floor of reversals: REVERSAL_FLOOR of the
-    limit, and for the turn rate three times what raw heading noise makes of it."""
+def _drives(
+    samples: int, numbers: MissionNumbers, progress: Progress, cuts: Sequence[int]
+) -> Callable[[int, int], bool]:
+    """Whether a stretch ``a .. b - 1`` of a phase's ``samples`` at the speed
+    limit is a deliberate drive: half the distance driven at the limit is
+    progress. The motion a command makes comes the plant's input delay and
+    actuator lag later: a reversal to the limit first moves the robot on the
+    old way. Read no later than the next update or the phase's end: a stretch
+    is judged by the motion of its own target, and never by fewer samples
+    than it has."""
+    later, ends = round(numbers.response / numbers.dt), sorted({*cuts, samples - 1})
+
+    def drives(a: int, b: int) -> bool:
+        end = next((c for c in ends if c >= b), b)
+        shift = max(0, min(later, end - b))
+        distance = DELIBERATE * numbers.v_limit * (b - a) * numbers.dt
+        return progress(a + shift, b + shift) >= distance
+
+    return drives
+
+
+def _turns(numbers: MissionNumbers) -> Callable[[int, int], bool]:
+    """Whether a stretch ``a .. b - 1`` at the turn-rate limit turns at most
+    half a turn (a sample's turn for rounding)."""
+    dt, limit = numbers.dt, numbers.omega_limit
+    return lambda a, b: (b - a) * dt * limit <= math.pi + 2.0 * limit * dt
+
+
+class _Settings(NamedTuple):
+    """What the input metrics take of a mission's numbers."""
+
+    floors: tuple[float, float]  # of the reversals: the speed's, the turn rate's
+    limits: tuple[float, float, float]  # the speed's, the turn rate's, the share at them
+    window: float  # [s] the reversals are counted in
+    samples: tuple[int, int, int]  # the shortest stretch, the jitter's half window and skip
+    dt: float  # [s]
+
+
+# The numbers last judged and their settings: a run's phases share their numbers.
+_last: list[tuple[MissionNumbers, _Settings] | None] = [None]
+
+
+def _settings(numbers: MissionNumbers) -> _Settings:
+    """The settings of ``numbers``: REVERSAL_FLOOR of each limit, and for the
+    turn rate three times what raw heading noise makes of it; the stretches
+    at a limit of one time constant or more (two samples at least)."""
+    last = _last[0]
+    if last is not None and last[0] is numbers:
+        return last[1]
+    tau, dt = numbers.time_constant, numbers.dt
     turn_rate = REVERSAL_FLOOR * numbers.omega_limit
-    turn_rate += 3.0 * numbers.heading_noise / numbers.time_constant
-    return REVERSAL_FLOOR * numbers.v_limit, turn_rate
+    turn_rate += 3.0 * numbers.heading_noise / tau
+    made = _Settings(
+        (REVERSAL_FLOOR * numbers.v_limit, turn_rate),
+        (numbers.v_limit, numbers.omega_limit, 1.0 - AT_LIMIT),
+        REVERSAL_WINDOW * tau,
+        (max(2, round(tau / dt)), *_jitter_window(numbers)),
+        dt,
+    )
+    _last[0] = (numbers, made)
+    return made
 
 
 def _passed(
@@ -178,11 +219,9 @@ def _passed(
 ) -> tuple[float, int, int, float, int, int, float]:
     """:func:`wmr_mission.verdicts.passes.input_pass` of a phase's samples
     (``t`` empty: the jitter alone)."""
-    tau, dt = numbers.time_constant, numbers.dt
+    floors, limits, window, samples, dt = _settings(numbers)
     return jit.compiled(input_pass)(
-        t, v, omega, _EVERY if counted is None else counted, _floors(numbers),
-        (numbers.v_limit, numbers.omega_limit, 1.0 - AT_LIMIT), REVERSAL_WINDOW * tau,
-        (max(2, round(tau / dt)), *_jitter_window(numbers)),
+        t, v, omega, _EVERY if counted is None else counted, floors, limits, window, samples,
         np.array(cuts, dtype=np.intp) if len(cuts) else _NO_CUTS, dt,
     )  # fmt: skip
 
