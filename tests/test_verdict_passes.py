@@ -141,6 +141,8 @@ def test_the_input_metrics_pass_of_few_samples_has_the_numpy_forms_bits(
             input_quality(t, np.full(samples, -1.0), -omega, NUMBERS, progress, None, (12,)),
             input_quality(t, v, omega, NUMBERS, progress, np.arange(samples) % 3 == 0),
             jitter(omega, NUMBERS),
+            # moving means of 11 and 7 samples: sums not made of whole threes
+            *(jitter(omega, mission_numbers(None, dt, (1.0, 2.0))) for dt in (0.02, 0.03)),
         ]
 
     _both(monkeypatch, judged, "input_pass")

@@ -434,11 +434,19 @@ def _jitter_spread(omega: FloatArray, counted: NDArray[np.bool_], half: int, ski
     dropped = max(0, skip - half)
     total = np.zeros(centres - dropped)
     for begin in range(0, total.size, _BLOCK):  # a block of sums kept in cache while added to
-        end = min(begin + _BLOCK, total.size)
-        block = total[begin:end]
-        for offset in range(window):  # each sum in order, the centres side by side
-            samples = omega[dropped + offset + begin : dropped + offset + end]
-            for c in range(block.size):
+        block = total[begin : min(begin + _BLOCK, total.size)]
+        at, n = dropped + begin, block.size
+        # Each sum in order, the centres side by side, three samples added to
+        # each between its load and its store, then the rest one by one.
+        for offset in range(0, window - 2, 3):
+            first = omega[at + offset : at + offset + n]
+            second = omega[at + offset + 1 : at + offset + 1 + n]
+            third = omega[at + offset + 2 : at + offset + 2 + n]
+            for c in range(n):
+                block[c] = ((block[c] + first[c]) + second[c]) + third[c]
+        for offset in range(window - window % 3, window):
+            samples = omega[at + offset : at + offset + n]
+            for c in range(n):
                 block[c] += samples[c]
     every = True  # none counted: all are
     for c in range(dropped, centres if counted.size else 0):
