@@ -189,21 +189,23 @@ _last: list[tuple[MissionNumbers, _Settings] | None] = [None]
 
 
 def _settings(numbers: MissionNumbers) -> _Settings:
-    """The settings of ``numbers``: REVERSAL_FLOOR of each limit, and for the
-    turn rate three times what raw heading noise makes of it; the stretches
-    at a limit of one time constant or more (two samples at least)."""
+    """What the input metrics take of ``numbers``, made once for the numbers a
+    run's phases share: the reversals' floors, REVERSAL_FLOOR of each limit
+    and for the turn rate three times what raw heading noise makes of it;
+    the stretches at a limit of one time constant or more (two samples at
+    least)."""
     last = _last[0]
     if last is not None and last[0] is numbers:
         return last[1]
     tau, dt = numbers.time_constant, numbers.dt
     turn_rate = REVERSAL_FLOOR * numbers.omega_limit
     turn_rate += 3.0 * numbers.heading_noise / tau
-    made = _Settings(
-        (REVERSAL_FLOOR * numbers.v_limit, turn_rate),
-        (numbers.v_limit, numbers.omega_limit, 1.0 - AT_LIMIT),
-        REVERSAL_WINDOW * tau,
+    made = _Settings(  # floats, whatever the run's limits are: the pass compiled once
+        (float(REVERSAL_FLOOR * numbers.v_limit), float(turn_rate)),
+        (float(numbers.v_limit), float(numbers.omega_limit), 1.0 - AT_LIMIT),
+        float(REVERSAL_WINDOW * tau),
         (max(2, round(tau / dt)), *_jitter_window(numbers)),
-        dt,
+        float(dt),
     )
     _last[0] = (numbers, made)
     return made
