@@ -138,6 +138,8 @@ def test_the_input_metrics_pass_of_few_samples_has_the_numpy_forms_bits(
             input_quality(t, one_way, np.abs(both_ways), NUMBERS, progress, None, (5,)),
             input_quality(t, v, omega, unlimited, progress, None, (1, 15)),
             endless,  # at a limit never reached: no fight
+            # both ways at the speed limit: a fight, however far it goes
+            input_quality(t, np.where(at, (-1.0) ** k, 0.2), omega, NUMBERS, lambda a, b: 1e9),
             input_quality(t, np.full(samples, -1.0), -omega, NUMBERS, progress, None, (12,)),
             input_quality(t, v, omega, NUMBERS, progress, np.arange(samples) % 3 == 0),
             jitter(omega, NUMBERS),

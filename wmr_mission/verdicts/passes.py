@@ -285,13 +285,14 @@ def input_pass(
     samples: tuple[int, int, int],
     cuts: NDArray[np.intp],
     dt: float,
-) -> tuple[float, int, int, float, int, int, float]:
+) -> tuple[float, int, tuple[int, int, int, bool], float, int, int, float]:
     """A phase's input metrics in one call (``inputs.input_quality``). Of the
     speed and the turn rate: the largest one-sample jump (NaN if any is; 0
     with fewer than two), and the most sign reversals within any ``window``
     [s] of the values beyond its floor (``floors``); the speed's stretches at
-    its limit of ``shortest`` samples or more, how many (each is judged by the
-    progress it makes, in Python); the turn rate's samples at its limit that
+    its limit of ``shortest`` samples or more, how many and the first (first
+    sample, one past the last, whether it keeps one sign: each is judged by
+    the progress it makes, in Python); the turn rate's samples at its limit that
     fight it (``inputs.fight_time`` by ``inputs.input_quality``'s half a turn
     at the sample time ``dt``, its stretches cut at ``cuts``). Last, the turn
     rate's jitter spread (:func:`_jitter_spread`). ``limits``: the speed's
@@ -322,12 +323,13 @@ def _input_scan(
     cuts: NDArray[np.intp],
     turn: tuple[float, float],
     times: FloatArray,
-) -> tuple[float, int, int, int]:
+) -> tuple[float, int, tuple[int, int, int, bool], int]:
     """Of the first ``t.size`` values: the largest one-sample jump, the most
     reversals within any ``window`` of those beyond the floor (``bounds[0]``;
     ``times``: scratch, a sample's worth), the stretches at the limit
-    (``|value| >= bounds[1]``) of ``shortest`` samples or more, how many, and
-    their samples that fight a turn-rate limit (:func:`_fought`). The
+    (``|value| >= bounds[1]``) of ``shortest`` samples or more (how many, and
+    the first: its first sample, one past its last, whether it keeps one
+    sign), and their samples that fight a turn-rate limit (:func:`_fought`). The
     reversals and the stretches are looked for only where a first pass, one
     the compiler vectorises, found values beyond the floor of both signs and
     values at the limit."""
@@ -349,6 +351,7 @@ def _input_scan(
     if positive and negative:  # else no reversal
         most = _most_reversals(t, values, floor, window, times)
     stretches, fought, start = 0, 0, -1
+    first = (0, 0, 0, False)
     for k in range(n if at else 0):
         at = abs(values[k]) >= at_limit
         if at and start < 0:
@@ -356,10 +359,12 @@ def _input_scan(
         if start >= 0 and (not at or k == n - 1):
             end = k + 1 if at else k
             if end - start >= shortest:
+                if stretches == 0:
+                    first = (stretches, start, end, _one_sign(values, start, end))
                 stretches += 1
                 fought += _fought(values, (start, end), shortest, cuts, turn)
             start = -1
-    return jump, most, stretches, fought
+    return jump, most, (stretches, first[1], first[2], first[3]), fought
 
 
 @inlined
@@ -388,6 +393,16 @@ def _most_reversals(
 
 
 @inlined
+def _one_sign(values: FloatArray, a: int, b: int) -> bool:
+    """Whether ``values[a:b]`` are all positive or all negative."""
+    positive, negative = 0, 0
+    for k in range(a, b):
+        positive += 1 if values[k] > 0 else 0
+        negative += 1 if values[k] < 0 else 0
+    return positive == b - a or negative == b - a
+
+
+@inlined
 def _fought(
     values: FloatArray,
     stretch: tuple[int, int],
@@ -407,14 +422,10 @@ def _fought(
         b = cuts[c] if c < cuts.size else end
         if c < cuts.size and not start < b < end:
             continue
-        if b - a >= shortest:
-            positive, negative = 0, 0
-            for k in range(a, b):
-                positive += 1 if values[k] > 0 else 0
-                negative += 1 if values[k] < 0 else 0
-            one_sign = positive == b - a or negative == b - a
-            if not (one_sign and (b - a) * dt * limit <= math.pi + 2.0 * limit * dt):
-                fought += b - a
+        if b - a >= shortest and not (
+            _one_sign(values, a, b) and (b - a) * dt * limit <= math.pi + 2.0 * limit * dt
+        ):
+            fought += b - a
         a = b
     return fought
 
