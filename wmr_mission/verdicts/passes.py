@@ -2,8 +2,9 @@
 run's kernels are compiled: what numpy computes for plain Python, a few array
 operations at a time (each caller keeps that form beside its call).
 
-- an input's jumps, reversals and stretches at its limit, and the turn
-  rate's jitter (wmr_mission.verdicts.inputs);
+- a phase's inputs in one pass: the speed's and the turn rate's jumps,
+  reversals and stretches at their limits, and the turn rate's jitter
+  (wmr_mission.verdicts.inputs);
 - a regulate phase's samples stalled away from its goal, and how far it
   went past its target (wmr_mission.verdicts.regulation);
 - the depth beyond an ellipse zone, its bounds, and the deepest of some
@@ -25,8 +26,8 @@ The same numbers: the same operations in the same order, numpy's ``max``
 (NaN if any is) and ``searchsorted`` as loops, a square as a product (as
 numpy's ``** 2``), the median as the same middle values, a remainder by
 2 pi as the exact one ``fmod`` gives, ``hypot`` wherever its last bits
-decide a comparison (``tests/test_verdict_passes.py``). No numpy function numba implements in
-its array-math module is called: loading such a pass from the cache would
+decide a comparison (``tests/test_verdict_passes.py``). No numpy function
+numba implements in its array-math module is called: loading such a pass from the cache would
 import scipy's BLAS (``tests/test_start_up.py``).
 """
 
@@ -351,7 +352,7 @@ def _input_scan(
     if positive and negative:  # else no reversal
         most = _most_reversals(t, values, floor, window, times)
     stretches, fought, start = 0, 0, -1
-    first = (0, 0, 0, False)
+    first, last, kept = 0, 0, False  # the first stretch
     for k in range(n if at else 0):
         at = abs(values[k]) >= at_limit
         if at and start < 0:
@@ -360,11 +361,11 @@ def _input_scan(
             end = k + 1 if at else k
             if end - start >= shortest:
                 if stretches == 0:
-                    first = (stretches, start, end, _one_sign(values, start, end))
+                    first, last, kept = start, end, _one_sign(values, start, end)
                 stretches += 1
                 fought += _fought(values, (start, end), shortest, cuts, turn)
             start = -1
-    return jump, most, (stretches, first[1], first[2], first[3]), fought
+    return jump, most, (stretches, first, last, kept), fought
 
 
 @inlined
