@@ -1841,6 +1841,8 @@ def judge_parts(repeat: int = 7) -> None:
     from wmr_mission.verdicts import metrics
 
     jit.load()
+    # as a campaign's worker after its first rows judges: by the compiled passes
+    jit.judged(jit.JUDGED_COMPILED_FROM)
     loaded = load_campaign(CAMPAIGN)
     plan = Plan(loaded.campaign)
     runs = []
