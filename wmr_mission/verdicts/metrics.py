@@ -138,13 +138,13 @@ def _violation(values: FloatArray, starts: list[int] | None = None) -> float | N
     A phase's first sample is the state it was entered in, which the phase
     before it (or the mission's initial state) produced: no input of the phase
     has acted on it yet (docs/paper-notes.md, eq. (33))."""
-    values = values.copy()
+    counted = np.isfinite(values)  # a mask, not a copy of the column
     if starts is None:  # one phase's samples
-        values[:1] = np.nan
+        counted[:1] = False
     else:
-        values[starts] = np.nan
-    largest = _max_or_none(values)
-    return None if largest is None else max(0.0, largest)
+        counted[starts] = False
+    values = values[counted]
+    return max(0.0, float(values.max())) if values.size else None
 
 
 def _suffix(mask: NDArray[np.bool_], count: int | None = None) -> slice | NDArray[np.bool_]:
