@@ -810,7 +810,7 @@ def test_a_row_measures_of_each_phase_only_what_its_thresholds_read(
         "distance_to_path",
         "track_samples",
         "intrusion_max",
-        "stall_time",
+        "regulated",  # a regulate phase's stall and overshoot
     ):
         monkeypatch.setattr(metrics, name, unread)
     monkeypatch.setattr(metrics.input_metrics, "input_quality", unread)
