@@ -583,11 +583,15 @@ class PhaseSamples:
         judged (None: nothing measured), of a track phase."""
         if self.info.kind != "track":
             return None
-        r, w = self.result, self.window
+        r, w, placement = self.result, self.window, self.placement
         timed = self.ended_by in ("elapsed", "mission_time")
+        if placement is None:
+            px, py, rx, ry = r.x[w], r.y[w], r.x_ref[w], r.y_ref[w]
+        else:  # the places' own columns: the phase's not sliced again
+            px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
         found, samples = track_samples(
-            r.t[w], r.x[w], r.y[w], r.x_ref[w], r.y_ref[w], self.numbers, self.zones, timed,
-            r.constraint_margin, self.placement, known=self.reference_known,
+            r.t[w], px, py, rx, ry, self.numbers, self.zones, timed, r.constraint_margin,
+            placement, known=self.reference_known,
         )  # fmt: skip
         return found, None if samples is None else samples.judged  # the errors not kept
 

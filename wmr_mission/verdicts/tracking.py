@@ -505,9 +505,10 @@ def track_samples(
     nothing was measured, or not ``with_samples``: a long run's four columns
     not put together for nothing). ``placement``: the places on the path of
     the samples whose reference is known, if at hand (shared with the phase's
-    formulas); ``known``: the samples' :func:`reference_known`, if at hand."""
+    formulas; its positions and reference points are read, not px .. ry);
+    ``known``: the samples' :func:`reference_known`, if at hand."""
     these = (reference_known(rx, ry) if known is None else known)[1]
-    size = rx.size
+    size = t.size
     metrics: dict[str, Any] = {
         "cross_track_error_max": None,
         "along_track_lag_max": None,
@@ -519,10 +520,10 @@ def track_samples(
     }
     if these is not None:
         t = t[these]
-        if placement is None:
-            px, py, rx, ry = px[these], py[these], rx[these], ry[these]
-        else:  # the same samples, kept once: a long run's columns are large
-            px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
+    if placement is not None:  # the same samples, kept once: a long run's columns are large
+        px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
+    elif these is not None:
+        px, py, rx, ry = px[these], py[these], rx[these], ry[these]
     # (a placement's positions are finite)
     if t.size == 0 or (placement is None and not (np.isfinite(px).all() and np.isfinite(py).all())):
         return metrics, None  # no reference, or the run diverged
@@ -589,7 +590,8 @@ def track_samples(
         metrics["zone_reach"] = max(
             0.0, max((float(np.max(r)) for r in counted), default=-math.inf) + kept
         )
-    judged[-1] |= ended_in_entry
+    if ended_in_entry:  # (an in-place or of numpy's scalar costs a microsecond)
+        judged[-1] = True
     most_cross: float | None
     most_lag: float | None
     if not zones:  # the entry alone is excused, a prefix: the samples after it
@@ -605,13 +607,14 @@ def track_samples(
         judged_cross, judged_lag = cross[judged], lag[judged]
         most_cross = float(judged_cross.max()) if judged_cross.size else None
         most_lag = float(np.abs(judged_lag).max()) if judged_lag.size else None
-    offset = cross[detour & ~np.isnan(cross)] if zones else cross[:0]  # no zone: no detour
-    metrics |= {
+    if zones:
+        offset = cross[detour & ~np.isnan(cross)]
+        metrics["detour_time"] = float(np.count_nonzero(detour)) * dt
+        metrics["detour_offset_max"] = float(offset.max()) if offset.size else None
+    metrics |= {  # (no zone: no detour)
         "cross_track_error_max": most_cross,
         "along_track_lag_max": most_lag,
         "entry_time": entry,
-        "detour_time": float(np.count_nonzero(detour)) * dt if zones else 0.0,
-        "detour_offset_max": float(offset.max()) if offset.size else None,
         "reference_speed_max": top_speed,
     }
     if not with_samples:
@@ -788,8 +791,9 @@ def placed_known(
         # pass finds it, where numpy's isfinite would look at them first.
         placement = Placement(px, py, rx, ry)
         if placement.known:
-            every: Known = (np.ones(rx.size, dtype=bool), None)
-            return every, placement if placement.finite else None
+            mask = np.empty(rx.size, dtype=bool)
+            mask.fill(True)  # (np.ones: twice the cost on a phase's column)
+            return (mask, None), placement if placement.finite else None
     known = reference_known(rx, ry) if known is None else known
     if known[1] is not None:
         px, py, rx, ry = px[known[1]], py[known[1]], rx[known[1]], ry[known[1]]
