@@ -124,10 +124,16 @@ def _get(mapping: Any, *keys: str) -> Any:
     return mapping
 
 
-def _acceleration(limits: Any, state: str) -> float:
-    """[m/s^2 or rad/s^2] the tighter of limits.acceleration.STATE and limits.STATE_rate."""
-    rates = [_get(limits, "acceleration", state), _get(limits, f"{state}_rate")]
-    return min([float(rate) for rate in rates if rate is not None], default=math.inf)
+def _acceleration(limits: Any, state: str, rate_key: str) -> float:
+    """[m/s^2 or rad/s^2] the tighter of limits.acceleration.STATE and
+    limits.STATE_rate (``rate_key``), as ``min`` of those set picks it."""
+    acceleration, rate = _get(limits, "acceleration", state), _get(limits, rate_key)
+    if acceleration is None:
+        return math.inf if rate is None else float(rate)
+    if rate is None:
+        return float(acceleration)
+    first, second = float(acceleration), float(rate)
+    return second if second < first else first
 
 
 # The tracking law's defaults (read once: a model is not made per run judged).
@@ -153,27 +159,30 @@ def mission_numbers(
     noise_std = _get(sensors, "noise_std") or {}
     noise = {s: float(noise_std.get(s) or 0.0) if s in measured else 0.0 for s in STATES}
     tolerance = _get(mission, "expect", "convergence_tolerance") or {}
+    default = models.DEFAULT_CONVERGENCE_TOLERANCE
     robot = _get(mission, "robot")
     robot_limits = _get(robot, "limits")
     disturbances = _get(robot, "disturbances")
-    return MissionNumbers(
-        dt=dt,
-        v_limit=limits[0],
-        omega_limit=limits[1],
+    return MissionNumbers(  # by position: a named tuple's keywords cost about 0.6 us
+        dt,
+        limits[0],  # v_limit
+        limits[1],  # omega_limit
         # A law cannot act faster than one sample: the one-sample laws' time constant.
-        time_constant=max(time_constant, dt),
-        look_ahead=float(look_ahead),
-        noise=noise,
-        convergence_tolerance={
-            s: float(tolerance.get(s) or models.DEFAULT_CONVERGENCE_TOLERANCE) for s in STATES
+        max(time_constant, dt),
+        float(look_ahead),
+        noise,
+        {  # convergence_tolerance
+            "x": float(tolerance.get("x") or default),
+            "y": float(tolerance.get("y") or default),
+            "theta": float(tolerance.get("theta") or default),
         },
-        v_acceleration=_acceleration(robot_limits, "v"),
-        omega_acceleration=_acceleration(robot_limits, "omega"),
-        body=_body(_get(robot, "footprint")),
-        response=sum(
-            float(_get(disturbances, name) or 0.0)
-            for name in ("input_delay", "actuator_time_constant")
-        ),
+        _acceleration(robot_limits, "v", "v_rate"),
+        _acceleration(robot_limits, "omega", "omega_rate"),
+        _body(_get(robot, "footprint")),
+        # response: the input delay and the actuator's time constant
+        0.0
+        + float(_get(disturbances, "input_delay") or 0.0)
+        + float(_get(disturbances, "actuator_time_constant") or 0.0),
     )
 
 

@@ -199,15 +199,21 @@ def reference_error(distance: FloatArray) -> float | None:
     return math.sqrt(math.fsum(distance * distance) / distance.size)
 
 
-def estimation_errors(result: RunRecord, window: slice = slice(None)) -> dict[str, FloatArray]:
+_WHOLE = slice(None)
+
+
+def estimation_errors(result: RunRecord, window: slice = _WHOLE) -> dict[str, FloatArray]:
     """True minus estimated state per sample (of ``window``), heading wrapped;
     one compiled pass where the judge's passes run compiled (the same bits)."""
     r, w = result, window
     if jit.judging_compiled():
-        true, estimate = (r.x[w], r.y[w], r.theta[w]), (r.x_est[w], r.y_est[w], r.theta_est[w])
-        errors = (np.empty(true[0].size), np.empty(true[0].size), np.empty(true[0].size))
-        jit.compiled(estimation_error_pass)(true, estimate, errors)
-        return dict(zip(STATES, errors, strict=True))
+        true, estimate = (r.x, r.y, r.theta), (r.x_est, r.y_est, r.theta_est)
+        if w != _WHOLE:  # the whole run's columns as they are
+            true = (r.x[w], r.y[w], r.theta[w])
+            estimate = (r.x_est[w], r.y_est[w], r.theta_est[w])
+        x, y, theta = np.empty((3, true[0].size))  # one block: a row a state
+        jit.compiled(estimation_error_pass)(true, estimate, (x, y, theta))
+        return {"x": x, "y": y, "theta": theta}
     return {
         "x": r.x[w] - r.x_est[w],
         "y": r.y[w] - r.y_est[w],
@@ -375,17 +381,22 @@ def phase_segments(result: RunRecord) -> list[Entry]:
     held when it was entered one without samples (start == end: the next
     phase's first sample is the same). An entry after the last sample
     recorded (a run stopped there) has none."""
-    n = result.samples
+    t = result.t
+    n = t.shape[0]
     if n == 0:
         return []
     number = {info.name: i for i, info in enumerate(result.phases)}
     moves = [tr for tr in result.transitions if tr.condition != "update"]
-    entered = [tr for tr in moves if tr.to_phase is not None]
     half = 0.5 * result.dt
-    at = np.searchsorted(result.t, [tr.time - half for tr in entered]).tolist()
     starts = [(0, 0)]
-    starts += [(number[str(tr.to_phase)], k) for tr, k in zip(entered, at, strict=True) if k < n]
-    ends = [k for _, k in starts[1:]] + [n]
+    for tr in moves:
+        if tr.to_phase is not None:
+            # the array's own method: numpy's function dispatches first (about 1 us)
+            k = int(t.searchsorted(tr.time - half))
+            if k < n:
+                starts.append((number[str(tr.to_phase)], k))
+    ends = [k for _, k in starts[1:]]
+    ends.append(n)
     return [  # the j-th move ends the j-th entry: the first phase's, and so on
         Entry(i, k, end, moves[j].condition if j < len(moves) else None)
         for j, ((i, k), end) in enumerate(zip(starts, ends, strict=True))
@@ -491,6 +502,14 @@ class _Judged(NamedTuple):
     inputs_from: int | None  # the first sample at or after that time (None: never)
     goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
     errors: dict[str, FloatArray] | None  # the run's estimation errors, where its judge keeps them
+    # the compiled settled_count where the judge's passes run compiled (None: numpy's form)
+    settled_count: Callable[[FloatArray, float, float], tuple[int, bool]] | None = None
+
+
+def _settled_pass() -> Callable[[FloatArray, float, float], tuple[int, bool]] | None:
+    """The compiled settled_count where the judge's passes run compiled (None:
+    numpy's form), found once for a run's phases."""
+    return jit.compiled(settled_count) if jit.judging_compiled() else None
 
 
 class PhaseSamples:
@@ -509,17 +528,16 @@ class PhaseSamples:
     ) -> None:
         start, end = entry.start, entry.end
         self.result, self.info = result, info
-        self.window = slice(start, end)
-        self.start_time = float(result.t[start])
+        self.window = window = slice(start, end)
+        t = result.t
+        self.start_time = start_time = float(t[start])
         self.settle_time = settle_time
-        self.v, self.omega = result.v[self.window], result.omega[self.window]
-        t, least = result.t[self.window], settle_time - 1e-9 * result.dt
+        self.v, self.omega = result.v[window], result.omega[window]
+        t, least = t[window], settle_time - 1e-9 * result.dt
         # the samples after the settle time: their count, and whether they are the last
         # ones (one compiled pass where the judge's passes run compiled: the same)
         count, last = (
-            jit.compiled(settled_count)(t, self.start_time, least)
-            if jit.judging_compiled()
-            else (0, False)
+            judged.settled_count(t, start_time, least) if judged.settled_count else (0, False)
         )
         self.settled: slice | NDArray[np.bool_]
         if last:  # a slice: its columns are views
@@ -534,7 +552,8 @@ class PhaseSamples:
         self.goals = judged.goals
         self._run_errors = judged.errors
         # the first sample of the phase whose inputs are judged (past the end: none)
-        self.first_judged = end if judged.inputs_from is None else max(start, judged.inputs_from)
+        first = judged.inputs_from
+        self.first_judged = end if first is None else first if first > start else start
 
     @cached_value
     def off_path(self) -> FloatArray:
@@ -985,7 +1004,11 @@ def _written_phases(mission: Mapping[str, Any] | None) -> list[Mapping[str, Any]
     phases: list[Mapping[str, Any]] = []
     for step in (mission or {}).get("phases") or []:
         repeat = step.get("repeat")
-        phases.extend((repeat.get("phases") or []) if isinstance(repeat, Mapping) else [step])
+        # most steps are no repeat: None told apart without the abstract class's check
+        if repeat is not None and (type(repeat) is dict or isinstance(repeat, Mapping)):
+            phases.extend(repeat.get("phases") or [])
+        else:
+            phases.append(step)
     return phases
 
 
@@ -999,7 +1022,7 @@ def _goals(
     goals = {}
     for phase in _written_phases(mission):
         settled = (phase.get("until") or {}).get("settled")
-        if isinstance(settled, Mapping):
+        if settled is not None and (type(settled) is dict or isinstance(settled, Mapping)):
             goals[str(phase.get("name"))] = (
                 float(settled["position"]) + numbers.position_noise,
                 float(settled["heading"]) + numbers.heading_noise,
@@ -1083,16 +1106,15 @@ def _phase_samples(
     judged_from = input_metrics.first_judged(result.t, errors, numbers)
     # its first sample, the same for every phase: found once
     inputs_from = (
-        None
-        if judged_from is None
-        else int(np.searchsorted(result.t, judged_from - 1e-9 * result.dt))
+        None if judged_from is None else int(result.t.searchsorted(judged_from - 1e-9 * result.dt))
     )
     del errors  # not kept while the phases are measured unless the caller keeps them
-    judged = _Judged(numbers, inputs_from, _goals(mission, numbers), kept)
+    judged = _Judged(numbers, inputs_from, _goals(mission, numbers), kept, _settled_pass())
     phases: Phases = []
+    shared = _expect_of(mission)  # a phase not written in the mission's: the mission's own
     for entry in phase_segments(result):
         info = result.phases[entry.phase]
-        expect = per_phase.get(_written_name(info.name), _expect_of(mission))
+        expect = per_phase.get(_written_name(info.name), shared)
         phase = PhaseSamples(result, info, entry, _settle_time(expect), off_path, judged)
         phases.append((info, phase, expect))
     return phases
