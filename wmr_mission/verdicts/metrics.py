@@ -965,11 +965,11 @@ def phase_expectations(mission: Mapping[str, Any] | None) -> dict[str, dict[str,
     shared = {key: expect.get(key) for key in _phase_keys()}
     merged = {}
     for phase in _written_phases(mission):
-        own = phase.get("expect") or {}
         # the shared keys in their order, each the phase sets (not null) its own
-        merged[str(phase.get("name"))] = shared | {
-            key: value for key, value in own.items() if value is not None and key in shared
-        }
+        kept = merged[str(phase.get("name"))] = shared.copy()
+        for key, value in (phase.get("expect") or {}).items():
+            if value is not None and key in shared:
+                kept[key] = value
     return merged
 
 
