@@ -669,43 +669,37 @@ class PhaseSamples:
         )
 
     @cached_value
-    def targets(self) -> list[tuple[slice, tuple[float, float, float]]]:
-        """Each stretch of a regulate phase's samples and the target in force
-        over it: the phase's own, then each an update gave (a phase is judged
-        against the target in force at each sample, not its last)."""
-        w = self.window
-        return [(slice(a, b), aim) for a, b, aim in self.info.targets_in_force(w.start, w.stop)]
-
-    @cached_value
-    def stall_and_overshoot(self) -> list[tuple[float | None, float | None]]:
-        """The stall time and the overshoot of each stretch of :attr:`targets`
-        (regulate phases), found together."""
+    def stall_and_overshoot(self) -> tuple[float | None, float | None]:
+        """The stall time and the overshoot of a regulate phase (else None),
+        found together for each stretch of its samples over which one target
+        was in force (the phase's own, then each an update gave: a phase is
+        judged against the target in force at each sample, not its last): the
+        stall time the sum over them, the overshoot the most, each from where
+        its target took over (None where none has a value)."""
         if self.info.kind != "regulate":
-            return []
-        r = self.result
+            return None, None
+        r, w = self.result, self.window
         finite = True if self.pose_finite else None  # else each stretch looked at
-        return [
-            regulated(r.x[w], r.y[w], r.theta[w], aim, self.goal, self.numbers, self.zones, finite)
-            for w, aim in self.targets
-        ]
+        stalls, overshoots = [], []
+        for a, b, aim in self.info.targets_in_force(w.start, w.stop):
+            found = regulated(
+                r.x[a:b], r.y[a:b], r.theta[a:b], aim, self.goal, self.numbers, self.zones, finite
+            )
+            if found[0] is not None:
+                stalls.append(found[0])
+            if found[1] is not None:
+                overshoots.append(found[1])
+        return (sum(stalls) if stalls else None, max(overshoots) if overshoots else None)
 
     @cached_value
     def stall(self) -> float | None:
-        """Time away from its goal without progress (regulate phases): the sum
-        over the stretches of each target (None where none has a value)."""
-        if self.info.kind != "regulate":
-            return None
-        known = [stall for stall, _ in self.stall_and_overshoot if stall is not None]
-        return sum(known) if known else None
+        """Time away from its goal without progress (regulate phases)."""
+        return self.stall_and_overshoot[0]
 
     @cached_value
     def overshoot(self) -> float | None:
-        """How far past its target the robot went (regulate phases): the most
-        over the stretches of each target, each from where it took over."""
-        if self.info.kind != "regulate":
-            return None
-        known = [value for _, value in self.stall_and_overshoot if value is not None]
-        return max(known) if known else None
+        """How far past its target the robot went (regulate phases)."""
+        return self.stall_and_overshoot[1]
 
     @cached_value
     def regulation(self) -> dict[str, Any] | None:

@@ -48,7 +48,7 @@ def regulated(
             stall_time(x, y, theta, target, goal, numbers, zones, finite),
             overshoot(x, y, target, goal[0], finite),
         )
-    tx, ty, heading_target = (float(v) for v in target)
+    tx, ty, heading_target = float(target[0]), float(target[1]), float(target[2])
     way_x, way_y = tx - float(x[0]), ty - float(y[0])
     length = math.hypot(way_x, way_y)
     way_in = not length <= goal[0]  # else no overshoot: nothing beyond measured
