@@ -163,24 +163,24 @@ def mission_numbers(
     robot = _get(mission, "robot")
     robot_limits = _get(robot, "limits")
     disturbances = _get(robot, "disturbances")
-    return MissionNumbers(  # by position: a named tuple's keywords cost about 0.6 us
-        dt,
-        limits[0],  # v_limit
-        limits[1],  # omega_limit
+    return MissionNumbers(
+        dt=dt,
+        v_limit=limits[0],
+        omega_limit=limits[1],
         # A law cannot act faster than one sample: the one-sample laws' time constant.
-        max(time_constant, dt),
-        float(look_ahead),
-        noise,
-        {  # convergence_tolerance
+        time_constant=max(time_constant, dt),
+        look_ahead=float(look_ahead),
+        noise=noise,
+        convergence_tolerance={
             "x": float(tolerance.get("x") or default),
             "y": float(tolerance.get("y") or default),
             "theta": float(tolerance.get("theta") or default),
         },
-        _acceleration(robot_limits, "v", "v_rate"),
-        _acceleration(robot_limits, "omega", "omega_rate"),
-        _body(_get(robot, "footprint")),
-        # response: the input delay and the actuator's time constant
-        0.0
+        v_acceleration=_acceleration(robot_limits, "v", "v_rate"),
+        omega_acceleration=_acceleration(robot_limits, "omega", "omega_rate"),
+        body=_body(_get(robot, "footprint")),
+        # the input delay and the actuator's time constant
+        response=0.0
         + float(_get(disturbances, "input_delay") or 0.0)
         + float(_get(disturbances, "actuator_time_constant") or 0.0),
     )

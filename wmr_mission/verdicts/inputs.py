@@ -123,7 +123,10 @@ def input_quality(
             "speed_jump_max": _finite(v_jump),
             "speed_reversals": v_reversals,
             "speed_fight_time": (
-                _drive_fight(v, numbers, progress, cuts, v_stretches) if v_stretches[0] else 0.0
+                # a limit never reached (inf) is never fought, as fight_time has it
+                _drive_fight(v, numbers, progress, cuts, v_stretches)
+                if v_stretches[0] and math.isfinite(numbers.v_limit)
+                else 0.0
             ),
             "turn_rate_jump_max": _finite(omega_jump),
             "turn_rate_reversals": omega_reversals,

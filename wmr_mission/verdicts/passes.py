@@ -294,7 +294,7 @@ def input_pass(
     its limit of ``shortest`` samples or more, how many and the first (first
     sample, one past the last, whether it keeps one sign: each is judged by
     the progress it makes, in Python); the turn rate's samples at its limit that
-    fight it (``inputs.fight_time`` by ``inputs.input_quality``'s half a turn
+    fight it (``inputs.fight_time`` by ``inputs._turns``, half a turn
     at the sample time ``dt``, its stretches cut at ``cuts``). Last, the turn
     rate's jitter spread (:func:`_jitter_spread`). ``limits``: the speed's
     and the turn rate's, and the share of them that is at them (``|value| >=
@@ -363,7 +363,8 @@ def _input_scan(
                 if stretches == 0:
                     first, last, kept = start, end, _one_sign(values, start, end)
                 stretches += 1
-                fought += _fought(values, (start, end), shortest, cuts, turn)
+                if turn[1] < math.inf:  # the speed's stretches are judged in Python
+                    fought += _fought(values, (start, end), shortest, cuts, turn)
             start = -1
     return jump, most, (stretches, first, last, kept), fought
 
@@ -414,7 +415,7 @@ def _fought(
     """The samples of the ``stretch`` (first, one past the last) at a turn-rate
     limit that fight it: each of its pieces cut at ``cuts`` (``inputs._cut``)
     of ``shortest`` samples or more that changes sign or turns more than half
-    a turn (``inputs.input_quality``'s ``turns``; ``turn``: the sample time
+    a turn (``inputs._turns``; ``turn``: the sample time
     and the limit)."""
     start, end = stretch
     dt, limit = turn

@@ -995,7 +995,7 @@ def _kept_up(
     sample before; none before the first) apart by at most ``keeping_up_speed``
     and by no more than MOVING of the reference's speed. None if there is none."""
     tolerance, dt = numbers.tracking_tolerance, numbers.dt
-    window = max(1, round(SETTLING * numbers.time_constant / dt))
+    window = _settling_window(numbers)
     if jit.judging_compiled():  # the same sample in one compiled pass (verdicts/passes.py)
         sample = jit.compiled(kept_up)(
             (px, py), (rx, ry), (begin, end, window), tolerance, MOVING,
@@ -1029,6 +1029,12 @@ def _kept_up(
 _NO_ENTRY = (np.zeros(0), 0.0, np.zeros(0, dtype=bool))
 
 
+def _settling_window(numbers: MissionNumbers) -> int:
+    """The samples of SETTLING time constants (one at least): how long a robot
+    keeps up before it has (:func:`_kept_up`)."""
+    return max(1, round(SETTLING * numbers.time_constant / numbers.dt))
+
+
 def _entry_judged(
     t: FloatArray,
     bound: float,
@@ -1041,14 +1047,11 @@ def _entry_judged(
     whether each is judged (not in it), and how many are in it."""
     (px, py), (rx, ry) = position, reference
     if jit.judging_compiled():  # the same samples in one compiled pass (verdicts/passes.py)
-        tolerance, dt = numbers.tracking_tolerance, numbers.dt
-        window = max(1, round(SETTLING * numbers.time_constant / dt))
         judged = np.empty(t.size, dtype=bool)
-        # (keeping_up_speed, its tolerance not looked up again)
-        apart_most = tolerance / (SETTLING * numbers.time_constant) * dt
         count: int = jit.compiled(kept_up)(
-            position, reference, (0, 0, window), tolerance, MOVING, apart_most, (t, bound, judged)
-        )[1]
+            position, reference, (0, 0, _settling_window(numbers)), numbers.tracking_tolerance,
+            MOVING, numbers.keeping_up_speed * numbers.dt, (t, bound, judged),
+        )[1]  # fmt: skip
         return judged, count
     excused = t - t[0] < bound
     kept = _kept_up(px, py, rx, ry, numbers, 0, int(np.count_nonzero(excused)))
