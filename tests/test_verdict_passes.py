@@ -113,6 +113,37 @@ def test_the_input_metrics_pass_has_the_numpy_forms_bits(
         assert found["last"]["turn_rate_fight_time"] > 0.0
 
 
+def test_a_speed_limit_never_reached_is_never_fought(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Limits of inf and speeds of inf beside them: a stretch "at" the limit
+    is none, and no fight, compiled, as plain Python and by numpy (fight_time
+    has it so)."""
+    t = np.arange(400) * 0.01
+    k = np.arange(400)
+    for v in (
+        np.where(k % 100 < 60, math.inf, 0.3),
+        np.where((k >= 100) & (k < 160), math.inf, 0.3),
+    ):
+        _never_fought(monkeypatch, t, v, np.where(k % 90 < 50, -math.inf, 0.2))
+
+
+def _never_fought(
+    monkeypatch: pytest.MonkeyPatch, t: np.ndarray, v: np.ndarray, omega: np.ndarray
+) -> None:
+    """:func:`test_a_speed_limit_never_reached_is_never_fought` of these inputs
+    (stretches of 60 samples at inf: several, and one alone)."""
+    unlimited = mission_numbers(None, 0.01, (math.inf, math.inf))
+    progress = progress_to(np.zeros(400), np.zeros(400), (0.5, 0.0))  # none made
+
+    def judged() -> dict[str, Any]:
+        with np.errstate(invalid="ignore"):  # inf - inf: a jump of NaN
+            return input_quality(t, v, omega, unlimited, progress)
+
+    _both(monkeypatch, judged, "input_pass")
+    found = judged()
+    assert found["speed_fight_time"] == 0.0
+    assert found["turn_rate_fight_time"] == 0.0
+
+
 @pytest.mark.parametrize("samples", [0, 1, 2, 3, 10, 23, 130, 131, 141, 142])
 def test_the_input_metrics_pass_of_few_samples_has_the_numpy_forms_bits(
     samples: int, monkeypatch: pytest.MonkeyPatch
