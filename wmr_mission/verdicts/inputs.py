@@ -122,10 +122,12 @@ def input_quality(
         return {
             "speed_jump_max": _finite(v_jump),
             "speed_reversals": v_reversals,
+            # the speed's stretches at its limit judged by the progress each makes
             "speed_fight_time": (
-                # a limit never reached (inf) is never fought, as fight_time has it
-                _drive_fight(v, numbers, progress, cuts, v_stretches)
-                if v_stretches[0] and math.isfinite(numbers.v_limit)
+                fight_time(
+                    v, numbers.v_limit, numbers, _drives(v.size, numbers, progress, cuts), cuts
+                )
+                if v_stretches
                 else 0.0
             ),
             "turn_rate_jump_max": _finite(omega_jump),
@@ -145,28 +147,6 @@ def input_quality(
         metrics[f"{name}_fight_time"] = fight_time(values, limit, numbers, deliberate, cuts)
     metrics["turn_rate_jitter"] = jitter(omega, numbers, counted)
     return metrics
-
-
-def _drive_fight(
-    v: FloatArray,
-    numbers: MissionNumbers,
-    progress: Progress,
-    cuts: Sequence[int],
-    stretches: tuple[int, int, int, bool],
-) -> float:
-    """:func:`fight_time` of the speed, by its stretches at the limit as the
-    compiled pass found them (how many, one at least, and the first: its
-    first sample, one past its last, whether it keeps one sign), each judged
-    by the progress it makes: the one most phases that reach the limit have,
-    here; more, by the numpy form."""
-    count, a, b, kept = stretches
-    drives = _drives(v.size, numbers, progress, cuts)
-    if count > 1:
-        return fight_time(v, numbers.v_limit, numbers, drives, cuts)
-    pieces = _cut(a, b, cuts)
-    if len(pieces) > 1:  # judged apart on each side of an update
-        return _fought(v, pieces, _settings(numbers).samples[0], drives) * numbers.dt
-    return (0 if kept and drives(a, b) else b - a) * numbers.dt
 
 
 def _drives(
@@ -241,7 +221,7 @@ def _passed(
     numbers: MissionNumbers,
     counted: NDArray[np.bool_] | None,
     cuts: Sequence[int] = (),
-) -> tuple[float, int, tuple[int, int, int, bool], float, int, int, float]:
+) -> tuple[float, int, int, float, int, int, float]:
     """:func:`wmr_mission.verdicts.passes.input_pass` of a phase's samples
     (``t`` empty: the jitter alone)."""
     floors, limits, window, samples, dt = _settings(numbers)

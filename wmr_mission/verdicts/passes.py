@@ -286,14 +286,13 @@ def input_pass(
     samples: tuple[int, int, int],
     cuts: NDArray[np.intp],
     dt: float,
-) -> tuple[float, int, tuple[int, int, int, bool], float, int, int, float]:
+) -> tuple[float, int, int, float, int, int, float]:
     """A phase's input metrics in one call (``inputs.input_quality``). Of the
     speed and the turn rate: the largest one-sample jump (NaN if any is; 0
     with fewer than two), and the most sign reversals within any ``window``
     [s] of the values beyond its floor (``floors``); the speed's stretches at
-    its limit of ``shortest`` samples or more, how many and the first (first
-    sample, one past the last, whether it keeps one sign: each is judged by
-    the progress it makes, in Python); the turn rate's samples at its limit that
+    its limit of ``shortest`` samples or more, how many (each is judged by the
+    progress it makes, in Python); the turn rate's samples at its limit that
     fight it (``inputs.fight_time`` by ``inputs._turns``, half a turn
     at the sample time ``dt``, its stretches cut at ``cuts``). Last, the turn
     rate's jitter spread (:func:`_jitter_spread`). ``limits``: the speed's
@@ -324,13 +323,12 @@ def _input_scan(
     cuts: NDArray[np.intp],
     turn: tuple[float, float],
     times: FloatArray,
-) -> tuple[float, int, tuple[int, int, int, bool], int]:
+) -> tuple[float, int, int, int]:
     """Of the first ``t.size`` values: the largest one-sample jump, the most
     reversals within any ``window`` of those beyond the floor (``bounds[0]``;
     ``times``: scratch, a sample's worth), the stretches at the limit
-    (``|value| >= bounds[1]``) of ``shortest`` samples or more (how many, and
-    the first: its first sample, one past its last, whether it keeps one
-    sign), and their samples that fight a turn-rate limit (:func:`_fought`). The
+    (``|value| >= bounds[1]``) of ``shortest`` samples or more (how many),
+    and their samples that fight a turn-rate limit (:func:`_fought`). The
     reversals and the stretches are looked for only where a first pass, one
     the compiler vectorises, found values beyond the floor of both signs and
     values at the limit."""
@@ -352,7 +350,6 @@ def _input_scan(
     if positive and negative:  # else no reversal
         most = _most_reversals(t, values, floor, window, times)
     stretches, fought, start = 0, 0, -1
-    first, last, kept = 0, 0, False  # the first stretch
     for k in range(n if at else 0):
         at = abs(values[k]) >= at_limit
         if at and start < 0:
@@ -360,13 +357,11 @@ def _input_scan(
         if start >= 0 and (not at or k == n - 1):
             end = k + 1 if at else k
             if end - start >= shortest:
-                if stretches == 0:
-                    first, last, kept = start, end, _one_sign(values, start, end)
                 stretches += 1
                 if turn[1] < math.inf:  # the speed's stretches are judged in Python
                     fought += _fought(values, (start, end), shortest, cuts, turn)
             start = -1
-    return jump, most, (stretches, first, last, kept), fought
+    return jump, most, stretches, fought
 
 
 @inlined
