@@ -502,14 +502,6 @@ class _Judged(NamedTuple):
     inputs_from: int | None  # the first sample at or after that time (None: never)
     goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
     errors: dict[str, FloatArray] | None  # the run's estimation errors, where its judge keeps them
-    # the compiled settled_count where the judge's passes run compiled (None: numpy's form)
-    settled_count: Callable[[FloatArray, float, float], tuple[int, bool]] | None = None
-
-
-def _settled_pass() -> Callable[[FloatArray, float, float], tuple[int, bool]] | None:
-    """The compiled settled_count where the judge's passes run compiled (None:
-    numpy's form), found once for a run's phases."""
-    return jit.compiled(settled_count) if jit.judging_compiled() else None
 
 
 class PhaseSamples:
@@ -537,7 +529,9 @@ class PhaseSamples:
         # the samples after the settle time: their count, and whether they are the last
         # ones (one compiled pass where the judge's passes run compiled: the same)
         count, last = (
-            judged.settled_count(t, start_time, least) if judged.settled_count else (0, False)
+            jit.compiled(settled_count)(t, start_time, least)
+            if jit.judging_compiled()
+            else (0, False)
         )
         self.settled: slice | NDArray[np.bool_]
         if last:  # a slice: its columns are views
@@ -1103,7 +1097,7 @@ def _phase_samples(
         None if judged_from is None else int(result.t.searchsorted(judged_from - 1e-9 * result.dt))
     )
     del errors  # not kept while the phases are measured unless the caller keeps them
-    judged = _Judged(numbers, inputs_from, _goals(mission, numbers), kept, _settled_pass())
+    judged = _Judged(numbers, inputs_from, _goals(mission, numbers), kept)
     phases: Phases = []
     shared = _expect_of(mission)  # a phase not written in the mission's: the mission's own
     for entry in phase_segments(result):
