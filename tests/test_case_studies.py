@@ -162,7 +162,9 @@ def test_a_diverging_mission_exits_1_with_its_cause_and_keeps_its_outputs(tmp_pa
         warnings
     )
     assert all(": warning: " in w for w in warnings)
-    assert failure.startswith(f"{mission}: diverged in phase 'spiral-out' at t = 0.0")
+    # at the phase it diverged in, its name (tests/test_cli_details.py)
+    line = next(n for n, said in enumerate(text.splitlines(), 1) if "- name: spiral-out" in said)
+    assert failure.startswith(f"{mission}:{line}:5: diverged in phase 'spiral-out' at t = 0.0")
     assert "the input ran away" in failure
     assert "Traceback" not in stdout + stderr
     c = read_trajectory(tmp_path / "out")

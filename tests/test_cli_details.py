@@ -250,7 +250,46 @@ def test_a_failure_is_said_once(tmp_path: Path) -> None:
     assert rows["stop"].endswith("ok")
     # the table names each threshold missed, with its value and bound
     assert result.stdout.count("turn_rate_jump_max") == 1
-    assert result.stderr.startswith(f"{mission}: expectation not met: ")
+    # located at the first threshold missed: the circle's, an `auto` bound written nowhere
+    assert result.stderr.startswith(f"{mission}:{_line_of(mission, '- name: circle')}:5: ")
+    assert ": expectation not met: " in result.stderr
+
+
+def _line_of(path: Path, text: str) -> int:
+    """The number of the first line of ``path`` that holds ``text``."""
+    lines = path.read_text(encoding="utf-8").splitlines()
+    return next(number for number, line in enumerate(lines, 1) if text in line)
+
+
+# A line driven for a second at the speed limit, and thresholds it misses (lines 8 on).
+DRIVEN = """\
+version: 1
+name: missing
+robot: {limits: {v: 0.5, omega: 4}}
+phases:
+  - name: go
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    until: {elapsed: 1}
+"""
+FORMULA = '      temporal: ["always(speed <= 0.05)"]\n'
+AT_LIMIT = "speed_at_limit: {max: 0.001}\n"  # at its limit throughout
+
+
+@pytest.mark.parametrize(
+    ("expect", "at"),
+    [
+        ("    expect:\n" + FORMULA, "9:18"),  # the formula, in the phase's `temporal` list
+        ("    expect:\n" + FORMULA + "      " + AT_LIMIT, "10:7"),  # a bound, before formulas
+        ("expect:\n  " + AT_LIMIT, "9:3"),  # the mission's, for every phase
+    ],
+)
+def test_a_missed_threshold_points_at_the_expect_that_set_it(
+    expect: str, at: str, tmp_path: Path
+) -> None:
+    mission = _write(tmp_path, DRIVEN + expect)
+    code, _, err = _invoke("run", str(mission), "--out", str(tmp_path / "r"), "--no-plots")
+    assert code == 1
+    assert err.splitlines()[-1].startswith(f"{mission}:{at}: expectation not met: "), err
 
 
 class _Terminal(io.StringIO):

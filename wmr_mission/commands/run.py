@@ -139,7 +139,7 @@ def run_command(
                     f"{expected_mission}): this run does not replay the recorded one",
                     file=sys.stderr,
                 )
-            args = (mission, sha256, mission_path, out, seed, plots, animate, formats, received)
+            args = (mission, source, mission_path, out, seed, plots, animate, formats, received)
             name = backend or mission.backend.type
             code = _run(*args) if name == "sim" else _run_on_backend(name, *args)
             if received and code != _signal_exit(received):  # it came as the run ended
@@ -156,7 +156,7 @@ def run_command(
 
 
 def _run_on_backend(
-    name: str, mission: Mission, sha256: str, mission_path: Path, out: Path | None,
+    name: str, mission: Mission, source: bytes, mission_path: Path, out: Path | None,
     seed: int | None, *args: Any,
 ) -> int:  # fmt: skip
     """``_run`` with another plant than our simulator (wmr_mission.backends):
@@ -171,10 +171,31 @@ def _run_on_backend(
         with ExitStack() as stack:
             with mode(RAISE):  # waiting for a robot: a stop ends the wait at once
                 plant = stack.enter_context(open_backend(name, plan, settings))
-            return _run(mission, sha256, mission_path, out, seed, *args, plant=plant, plan=plan)
+            return _run(mission, source, mission_path, out, seed, *args, plant=plant, plan=plan)
     except BackendError as error:
         print(f"{mission_path}: {error}", file=sys.stderr)
         return EXIT_FAILED
+
+
+def _located(mission_path: Path, source: bytes, result: RunResult) -> str:
+    """``FILE:LINE:COL`` of what a failed run failed on, as the mission wrote
+    it (wmr_mission.spec.located); ``FILE`` alone where nothing written names it."""
+    from wmr_mission.spec.loader import read_document
+    from wmr_mission.spec.located import failure_path
+
+    phase, metric = (result.phases[0].name if result.phases else None), None
+    for move in result.transitions:  # the phase the run ended in
+        if move.condition != "update":
+            phase = move.from_phase if move.to_phase is None else move.to_phase
+    missed = [c for c in (result.judged or {}).get("expectations") or () if not c.get("met")]
+    if result.outcome is Outcome.expect_failed and missed:
+        phase, metric = missed[0].get("phase"), str(missed[0].get("metric"))
+    document, _ = read_document(source.decode("utf-8", "replace"))
+    path = None if document is None else failure_path(document.data, result.outcome, phase, metric)
+    if document is None or path is None:
+        return str(mission_path)
+    line, column = document.position(path, at_key=True)
+    return f"{mission_path}:{line}:{column}" if line else str(mission_path)
 
 
 def _is_campaign(source: bytes) -> bool:
@@ -203,7 +224,7 @@ def _check_environment(expected: str) -> None:
 
 def _run(
     mission: Mission,
-    sha256: str,
+    source: bytes,
     mission_path: Path,
     out: Path | None,
     seed: int | None,
@@ -298,7 +319,7 @@ def _run(
         write_run(
             result,
             run_dir,
-            mission_sha256=sha256,
+            mission_sha256=hashlib.sha256(source).hexdigest(),
             mission_file=str(mission_path),
             plots=False,
             animate=False,
@@ -340,8 +361,9 @@ def _run(
         return _signal_exit(received)
     if result.outcome is not Outcome.success:
         # Every failure message names what happened: "diverged in phase ...",
-        # "phase ... timed out ...", "expectation not met: ...".
-        print(f"{mission_path}: {result.message}", file=sys.stderr)
+        # "phase ... timed out ...", "expectation not met: ...", and where
+        # the mission wrote what failed.
+        print(f"{_located(mission_path, source, result)}: {result.message}", file=sys.stderr)
         return EXIT_FAILED
     return drawn
 
