@@ -282,6 +282,36 @@ def test_a_narrower_table_wraps_its_cells_within_the_width() -> None:
         assert list(_rows(lines)) == ["approach", "orbit", "park"]
 
 
+def test_an_80_column_table_folds_two_columns_into_the_key_metric() -> None:
+    """On an 80-column terminal (the common default) the inputs at their
+    limits and the estimate's convergence are lines of the key metric, not
+    columns that squeeze it: no phase name or metric is wrapped inside a word."""
+    summary = summarize(circle_run())
+    wide = format_table(summary, "out", width=100).splitlines()
+    lines = format_table(summary, "out", width=80).splitlines()
+    assert (
+        max(map(len, lines[: lines.index(next(x for x in lines if x.startswith("final")))])) <= 80
+    )
+    assert lines[0].split() == ["phase", "kind", "duration", "key", "metric", "verdict"]
+    assert max(len(line) for line in lines if "at limit" in line) < 80
+    assert list(_rows(lines)) == list(_rows(wide)) == ["approach", "orbit", "park"]
+    for name in ("approach", "orbit", "park"):
+        # each of the wide table's cells whole, the two columns as lines of the key metric
+        folded = _rows(lines)[name]
+        at_limit, converged = _cells(wide, name)
+        assert f"v / omega at limit {at_limit}" in "\n".join(folded)
+        assert f"estimate converged {converged}" in "\n".join(folded)
+
+
+def _cells(lines: list[str], name: str) -> tuple[str, str]:
+    """The at-limit and converged cells of phase ``name``'s row of a wide table."""
+    header = next(line for line in lines if "converged" in line and "phase" in line)
+    row = next(line for line in lines if line.startswith(f"{name} "))
+    at, converged = header.index("v / omega"), header.index("converged")
+    verdict = header.index("verdict")
+    return row[at:converged].strip(), row[converged:verdict].strip()
+
+
 class _CountedCheck(dict):  # type: ignore[type-arg]
     """A check that counts how often the table reads it."""
 

@@ -24,7 +24,8 @@ WIDTH = 100
 # Widest the verdict column grows, so that the key metrics keep their lines.
 VERDICT_WIDTH = 21
 # (header, right-aligned): numbers right-aligned.
-_COLUMNS = (
+Columns = tuple[tuple[str, bool], ...]  # each header, and whether its cells go right
+_COLUMNS: Columns = (
     ("phase", False),
     ("kind", False),
     ("duration", True),
@@ -231,8 +232,28 @@ def _phase_table(
     width: int,
     result: RunRecord | None = None,
 ) -> list[str]:
-    rows = _phase_rows(summary, checks, result)
-    return _fitting_table(rows, width) or _wrapped_table(rows, width)
+    rows, columns = _phase_rows(summary, checks, result), _COLUMNS
+    table = _fitting_table(rows, width, columns)
+    if table is None and width < WIDTH:  # a narrow terminal: two columns folded
+        rows, columns = [_folded(row) for row in rows], _FOLDED_COLUMNS
+        table = _fitting_table(rows, width, columns)
+    return table or _wrapped_table(rows, width, columns)
+
+
+# A terminal narrower than WIDTH's columns (80 is the common default): each phase's
+# inputs at their limits and its estimate's convergence as lines of its key
+# metric, not columns of their own, so that no cell is wrapped inside a word.
+_FOLDED_COLUMNS: Columns = (*_COLUMNS[:4], _COLUMNS[-1])
+
+
+def _folded(row: list[str]) -> list[str]:
+    """A row of :data:`_COLUMNS` in :data:`_FOLDED_COLUMNS`."""
+    *first, key, at_limit, converged, verdict = row
+    return [
+        *first,
+        f"{key}\nv / omega at limit {at_limit}\nestimate converged {converged}",
+        verdict,
+    ]
 
 
 def _first_sample(phase: dict[str, Any], result: RunRecord) -> int:
@@ -302,14 +323,16 @@ def _phase_rows(
     ]
 
 
-def _fitting_table(rows: list[list[str]], width: int) -> list[str] | None:
+def _fitting_table(
+    rows: list[list[str]], width: int, columns: Columns = _COLUMNS
+) -> list[str] | None:
     """The table with every cell at its full width, laid out as rich lays it
     out (:func:`_wrapped_table`): a rule under the headers, two spaces
     between columns, a header on its column's last header line, a cell on
     its row's first lines; None when it needs more than ``width`` columns, a
     verdict more than VERDICT_WIDTH, or a cell holds other than printable
     ASCII (whose width on a terminal rich measures)."""
-    headers = [header.split("\n") for header, _ in _COLUMNS]
+    headers = [header.split("\n") for header, _ in columns]
     cells = [[cell.split("\n") for cell in row] for row in rows]
     widths = [max(map(len, lines)) for lines in headers]
     for row in cells:
@@ -322,25 +345,25 @@ def _fitting_table(rows: list[list[str]], width: int) -> list[str] | None:
     height = max(map(len, headers))
     header_lines = [[""] * (height - len(lines)) + lines for lines in headers]
     rule = "\u2500" * (sum(widths) + 2 * (len(widths) - 1))  # rich's box.SIMPLE_HEAD
-    table = [*_lines(header_lines, widths), rule]
+    table = [*_lines(header_lines, widths, columns), rule]
     for row in cells:
-        table += _lines(row, widths)
+        table += _lines(row, widths, columns)
     return [line.rstrip() for line in table if line.strip()]
 
 
-def _lines(row: list[list[str]], widths: list[int]) -> list[str]:
+def _lines(row: list[list[str]], widths: list[int], columns: Columns) -> list[str]:
     """The text lines of one row of the table, its cells' lines side by side."""
     lines = []
     for at in range(max(map(len, row))):
         parts = []
-        for (_, right), width, cell in zip(_COLUMNS, widths, row, strict=True):
+        for (_, right), width, cell in zip(columns, widths, row, strict=True):
             text = cell[at] if at < len(cell) else ""
             parts.append(text.rjust(width) if right else text.ljust(width))
         lines.append("  ".join(parts))
     return lines
 
 
-def _wrapped_table(rows: list[list[str]], width: int) -> list[str]:
+def _wrapped_table(rows: list[list[str]], width: int, columns: Columns = _COLUMNS) -> list[str]:
     """The table laid out by rich, a long cell wrapped inside its column."""
     from rich import box
     from rich.console import Console
@@ -353,7 +376,7 @@ def _wrapped_table(rows: list[list[str]], width: int) -> list[str]:
         collapse_padding=True,
         header_style=None,
     )
-    for header, right in _COLUMNS:
+    for header, right in columns:
         table.add_column(
             header,
             justify="right" if right else "left",
