@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import hashlib
+import io
 import json
 import os
 import pty
@@ -243,6 +244,9 @@ def test_a_signal_stops_the_run_and_its_samples_are_written(tmp_path: Path) -> N
         assert "Traceback" not in stderr
         assert f"by {name}; the samples up to the stop are in {run_dir}" in stderr
         summary = json.loads((run_dir / "summary.json").read_text())
+        # said at once, before the record is written
+        saving = f"{summary['message']}; saving its {summary['samples']:,} samples to {run_dir}"
+        assert stderr.index(saving) < stderr.index("the samples up to the stop are in")
         assert summary["outcome"] == "interrupted"
         assert summary["message"].endswith(f"by {name}")
         # sent once the progress line showed: after the run's first call of the loop
@@ -307,6 +311,107 @@ def test_a_stop_inside_the_first_call_keeps_whole_rows(tmp_path: Path) -> None:
     write_run(whole, tmp_path / "whole", plots=False, animate=False)
     lines = (tmp_path / "stopped" / "trajectory.csv").read_text().splitlines()
     assert lines == (tmp_path / "whole" / "trajectory.csv").read_text().splitlines()[:100]
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def _run_with_a_stop(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, stream: io.StringIO, *, during: bool | None
+) -> tuple[int, Path, Path, str]:
+    """`run` of a 10 s mission with stderr on ``stream``, SIGINT sent after its
+    first chunk of samples (``during``), or once its last sample is simulated,
+    or never (None); the exit code, the mission, the run directory and what
+    ``stream`` showed when the write of the record began."""
+    from wmr_mission.output import rundir
+
+    path = write_mission(tmp_path, mission_text("ten", elapsed=10))
+    out = tmp_path / "out"
+
+    def simulate(plan: Any, plant: Any = None, ready: Any = None) -> Any:
+        def stop(t: float, budget: float, phase: str) -> None:
+            os.kill(os.getpid(), signal.SIGINT)
+
+        result = run_mission(plan, plant=plant, ready=ready, progress=stop if during else None)
+        if during is False:
+            os.kill(os.getpid(), signal.SIGINT)  # held: the record is written whole
+        return result
+
+    write_run = rundir.write_run
+    shown_at_the_write = []
+
+    def watched(*arguments: Any, **options: Any) -> Any:
+        shown_at_the_write.append(stream.getvalue())
+        return write_run(*arguments, **options)
+
+    monkeypatch.setattr(run_command_module, "_simulate", simulate)
+    monkeypatch.setattr(rundir, "write_run", watched)
+    monkeypatch.setattr(sys, "stderr", stream)
+    code = run_command(path, out=out, seed=None, plots=False, animate=False)
+    return code, path, out, shown_at_the_write[0]
+
+
+def test_a_stopped_run_says_at_once_that_it_saves_its_samples(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A long record takes seconds to judge and write (a million rows: 13 s),
+    silent until it was saved: users pressed Ctrl-C again or killed the run.
+    One line says, before the judge and the write begin, that the samples are
+    being saved and where; a log (no terminal) gets no progress bar."""
+    stream = io.StringIO()
+    code, path, out, shown = _run_with_a_stop(tmp_path, monkeypatch, stream, during=True)
+    assert code == 130
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcome"] == "interrupted"
+    samples = summary["samples"]
+    assert samples > 0
+    assert shown.splitlines()[-1] == (
+        f"{path}: {summary['message']}; saving its {samples:,} samples to {out} "
+        "(Ctrl-C again is ignored until they are saved)"
+    )
+    assert stream.getvalue()[len(shown) :] == (
+        f"{path}: {summary['message']}; the samples up to the stop are in {out}\n"
+    )
+
+
+def test_a_signal_as_the_run_ends_is_answered_as_its_record_is_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A signal once every sample is simulated: the run is written whole, and
+    its write begins by saying so."""
+    stream = io.StringIO()
+    code, path, out, shown = _run_with_a_stop(tmp_path, monkeypatch, stream, during=False)
+    assert code == 130
+    assert json.loads((out / "summary.json").read_text())["samples"] == 1_001
+    said = stream.getvalue()[len(shown) :].splitlines()
+    assert said[0] == (
+        f"{path}: SIGINT after the simulation ended; saving the whole run, 1,001 samples, "
+        f"to {out} (Ctrl-C again is ignored until they are saved)"
+    )
+    assert said[1].startswith(f"{path}: SIGINT after the simulation ended; the run is written")
+
+
+@pytest.mark.parametrize("during", [True, None])
+def test_a_long_record_shows_the_rows_written_on_a_terminal_when_stopped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, during: bool | None
+) -> None:
+    """On a terminal, a stopped run's record of more than a moment shows the
+    rows of trajectory.csv written (here from 100 samples on); a run no signal
+    came to writes its record without a word, as before."""
+    monkeypatch.setattr(run_command_module, "LONG_RUN_SAMPLES", 100)
+    stream = _Terminal()
+    code, _, out, shown = _run_with_a_stop(tmp_path, monkeypatch, stream, during=during)
+    samples = json.loads((out / "summary.json").read_text())["samples"]
+    written = stream.getvalue()[len(shown) :]
+    if during:
+        assert code == 130
+        assert "saving trajectory.csv" in written
+        assert f"{samples:,} of {samples:,} rows" in written
+    else:
+        assert code == 0
+        assert written == ""
 
 
 def test_deleting_or_editing_the_mission_during_the_run_changes_nothing(

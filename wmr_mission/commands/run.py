@@ -10,7 +10,9 @@ A signal is held from the start (wmr_mission.stopping) and honoured at the
 next point where nothing is lost: before the run directory is claimed (the
 loop loaded or compiled: a compile stops at once), between chunks of
 samples, after the record is written. The directory is claimed just before
-the first sample, so a stop before it leaves no directory.
+the first sample, so a stop before it leaves no directory. A stop answered
+by writing the record is said at once (a long record takes seconds to
+write), with the rows written on a terminal.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from wmr_mission.output.result import RunResult
 from wmr_mission.record import Outcome
 
 if TYPE_CHECKING:
+    from wmr_mission.output.progress import Steps
     from wmr_mission.sim.plan import MissionPlan
     from wmr_mission.sim.plant_side import PlantSide
     from wmr_mission.spec.loader import Override
@@ -41,6 +44,9 @@ EXIT_FAILED = 1  # invalid mission, or the run failed
 EXIT_RUN_DIR = 2  # the run directory cannot be made or written
 EXIT_UNREADABLE = 2  # the mission file cannot be read (a device, a read error)
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# Samples from which simulating or writing them lasts more than a moment: a
+# progress bar on a terminal.
+LONG_RUN_SAMPLES = 20_000
 
 
 def _overrides(texts: Sequence[str]) -> list[Override] | int:
@@ -284,6 +290,9 @@ def _run(
     try:
         started = time.perf_counter()
         result = _simulate(compiled, plant, claim)
+        saving = _Saving(mission_path, result, claimed, received)
+        if result.outcome is Outcome.interrupted and result.samples > 0:
+            saving.say()  # before the judge: judging and writing a long record take seconds
         judge_mission(result, mission)  # a success that misses an `expect` is not one
         wall_seconds = time.perf_counter() - started
     except _Unclaimed:
@@ -316,14 +325,16 @@ def _run(
     if stopped:
         result.message = f"{result.message} by {_signal_name(received)}"
     try:  # the data and summary.json first: a figure that fails never loses them
-        write_run(
-            result,
-            run_dir,
-            mission_sha256=hashlib.sha256(source).hexdigest(),
-            mission_file=str(mission_path),
-            plots=False,
-            animate=False,
-        )
+        with saving:
+            write_run(
+                result,
+                run_dir,
+                mission_sha256=hashlib.sha256(source).hexdigest(),
+                mission_file=str(mission_path),
+                plots=False,
+                animate=False,
+                progress=saving.rows,
+            )
     except OSError as error:
         print(
             f"{error.filename or run_dir}: cannot write: {error.strerror or error}; "
@@ -409,6 +420,64 @@ class _Unclaimed(Exception):
     """The run directory could not be claimed (said in one line)."""
 
 
+class _Saving:
+    """What ``run`` says while it writes the record of a run a signal
+    stopped, or that a signal came to as it ended: at once, one line that it
+    is saving (seconds of silence over a long record made users press Ctrl-C
+    again, or kill it, and lose the record); then, for a long record on a
+    terminal, the rows of trajectory.csv written. Nothing for a run no
+    signal came to."""
+
+    def __init__(
+        self, mission_path: Path, result: RunResult, claimed: list[Path], received: list[int]
+    ) -> None:
+        self._mission_path = mission_path
+        self._result = result
+        self._claimed = claimed  # the run directory, once claimed
+        self._received = received
+        self._said = False
+        self._steps: Steps | None = None
+
+    def say(self) -> None:
+        """The line that the record of what was simulated is being saved."""
+        self._said = True
+        name, samples = _signal_name(self._received), self._result.samples
+        if self._result.outcome is Outcome.interrupted:
+            what = f"{self._result.message} by {name}; saving its {samples:,} samples"
+        else:
+            what = f"{name} after the simulation ended; saving the whole run, {samples:,} samples,"
+        again = "Ctrl-C again" if name == "SIGINT" else "a second signal"
+        where = f" to {self._claimed[0]}" if self._claimed else ""
+        print(
+            f"{self._mission_path}: {what}{where} ({again} is ignored until they are saved)",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    def rows(self, written: int) -> None:
+        """The write's progress: ``written`` rows of trajectory.csv so far."""
+        if not self._said:
+            if not self._received:  # the usual case: a run no signal came to
+                return
+            self.say()
+        samples = self._result.samples
+        if self._steps is None and samples >= LONG_RUN_SAMPLES:
+            from wmr_mission.output.progress import Steps
+            from wmr_mission.output.rundir import TRAJECTORY_FILE
+
+            self._steps = Steps(sys.stderr)  # drawn on a terminal only
+            self._steps.step(f"saving {TRAJECTORY_FILE}", total=samples)
+        if self._steps is not None:
+            self._steps.update(written, detail=f"{written:,} of {samples:,} rows")
+
+    def __enter__(self) -> _Saving:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        if self._steps is not None:  # the bar ends before what is printed next
+            self._steps.close()
+
+
 def _draw(
     result: RunResult,
     run_dir: Path,
@@ -456,7 +525,7 @@ def _simulate(
     from wmr_mission.output.progress import Steps
     from wmr_mission.sim.runner import run_mission
 
-    if plan.max_samples < 20_000 or not sys.stderr.isatty():
+    if plan.max_samples < LONG_RUN_SAMPLES or not sys.stderr.isatty():
         return run_mission(plan, plant=plant, ready=ready)
     name = plan.name
     steps = Steps(sys.stderr)

@@ -25,7 +25,7 @@ import copy
 import hashlib
 import os
 import socket
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -236,11 +236,16 @@ def trajectory_csv_text(result: RunRecord) -> str:
     return "".join(trajectory_csv_blocks(result))
 
 
-def write_trajectory(result: RunRecord, path: Path) -> Path:
-    """Write ``trajectory.csv`` block by block (atomically, like every run file)."""
+def write_trajectory(
+    result: RunRecord, path: Path, progress: Callable[[int], None] | None = None
+) -> Path:
+    """Write ``trajectory.csv`` block by block (atomically, like every run file);
+    ``progress(rows)`` after each block with the rows written so far."""
     with atomic_path(path) as tmp, tmp.open("w", encoding="utf-8", newline="") as out:
-        for block in trajectory_csv_blocks(result):
+        for number, block in enumerate(trajectory_csv_blocks(result)):  # the header first
             out.write(block)
+            if progress is not None:
+                progress(min(number * _ROWS_PER_BLOCK, result.samples))
     return path
 
 
@@ -369,6 +374,7 @@ def write_run(
     plots: bool,
     animate: bool,
     formats: Sequence[str] = ("png",),
+    progress: Callable[[int], None] | None = None,
 ) -> list[Path]:
     """Write the run directory (made by ``prepare_run_dir``); return the files written.
 
@@ -378,6 +384,7 @@ def write_run(
     ``mission_sha256`` (the mission file's hash) to the hash of that resolved
     mission's JSON. When it has an ``expect`` section, the summary also lists
     each expectation and whether it was met. Figures are written in each of ``formats``.
+    ``progress``: told the rows of ``trajectory.csv`` written (``write_trajectory``).
     """
     resolved = resolved_mission if resolved_mission is not None else (result.mission or {})
     if mission_sha256 is None:
@@ -385,7 +392,7 @@ def write_run(
     run_dir = Path(out_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     written = [
-        write_trajectory(result, run_dir / TRAJECTORY_FILE),
+        write_trajectory(result, run_dir / TRAJECTORY_FILE, progress),
         write_json(
             run_dir / MANIFEST_FILE,
             manifest_record(
