@@ -1175,6 +1175,13 @@ MAX_WORDS = 3
 FAILED_COLOR = "tab:red"
 SIGNAL_COLORS = ("tab:blue", "tab:orange", "tab:green")
 FAINT = 0.3  # a signal's samples its checks do not bound (an entry, a detour)
+# Each bound metric of a panel its own dash, in the order its checks come: a
+# track phase bounds the cross-track error twice (cross_track_error_max, and
+# detour_offset_max on its detours), the legend tells which line is which.
+BOUND_DASHES: tuple[Any, ...] = ("--", "-.", (0, (5.0, 1.5, 1.0, 1.5, 1.0, 1.5)), (0, (1.0, 1.5)))
+# Ticks of a symlog panel (depth, constraint value) at most, and their least
+# spacing as a share of the axis: the labels stay apart.
+MAX_SYMLOG_TICKS, SYMLOG_TICK_GAP = 6, 1.0 / 8.0
 
 
 @dataclass(frozen=True)
@@ -1272,7 +1279,9 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
                 faint = True
             ax.plot(t[k], values, color=colors[name], linewidth=1.0, label=name)
         checks = [c for c in signals.checks if panel_of(c.metric) == panel]
-        bounds, bound_colors = [], []
+        kinds = list(dict.fromkeys(_bound_kind(c) for c in checks if c.peak))
+        dashes = {kind: BOUND_DASHES[i % len(BOUND_DASHES)] for i, kind in enumerate(kinds)}
+        bounds, bound_colors, bound_dashes = [], [], []
         for check in (c for c in checks if c.peak):
             name = str(check.line)
             start, end = check.span
@@ -1281,6 +1290,7 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
             for sign in signs:
                 bounds.append([(ends[0], sign * check.level), (ends[1], sign * check.level)])
                 bound_colors.append(FAILED_COLOR if not check.met else colors.get(name, "0.2"))
+                bound_dashes.append(dashes[_bound_kind(check)])
             if check.over.size and name in drawn:
                 marks = check.over[thin(0, check.over.size, MAX_MARKS)]
                 ax.plot(
@@ -1294,7 +1304,9 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
                 )
         if bounds:
             ax.add_collection(
-                LineCollection(bounds, colors=bound_colors, linewidths=1.2, linestyles="--"),
+                LineCollection(
+                    bounds, colors=bound_colors, linewidths=1.2, linestyles=bound_dashes
+                ),
                 autolim=True,
             )
         worded = _level_words(ax, [c for c in checks if not c.peak])
@@ -1311,24 +1323,16 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
         if panel in ("zones", "constraint"):
             # Metres far on the allowed side and millimetres beyond the edge, both
             # readable: linear within the bound of 0, logarithmic beyond.
-            near = min([c.level for c in checks if c.peak and c.level > 0], default=1e-3)
+            levels = [c.level for c in checks if c.peak]
+            near = min([level for level in levels if level > 0], default=1e-3)
             ax.set_yscale("symlog", linthresh=near, linscale=1.0)
-            low, high = ax.get_ylim()
-            ticks = {0.0, near}
-            if low < -near:
-                ticks |= {-near, -(10.0 ** math.floor(math.log10(-low)))}
-            if high > 10.0 * near:
-                ticks.add(10.0 ** math.floor(math.log10(high)))
-            ax.set_yticks(
-                sorted(t for t in ticks if low <= t <= high),
-                [f"{t:g}" for t in sorted(t for t in ticks if low <= t <= high)],
-            )
+            _symlog_ticks(ax, levels, near)
         ax.set_ylabel(PANELS[panel], fontsize=8)
         ax.grid(True, linewidth=0.4, alpha=0.5)
         handles, labels = ax.get_legend_handles_labels()
-        if any(c.peak for c in checks):
-            handles.append(Line2D([], [], color="0.2", linestyle="--", linewidth=1.2))
-            labels.append("expect max")
+        for kind in kinds:  # each bound by its metric's name, as `expect` writes it
+            handles.append(Line2D([], [], color="0.2", linestyle=dashes[kind], linewidth=1.2))
+            labels.append(kind)
         if any(c.over.size for c in checks):
             handles.append(Line2D([], [], color=FAILED_COLOR, linestyle="none", marker="x"))
             labels.append("beyond it")
@@ -1377,6 +1381,38 @@ def _verdicts_on(fig: Figure, result: RunRecord, signals: VerdictLines | None = 
         hspace=0.35,
     )
     names_as_typed(fig)
+
+
+def _bound_kind(check: Check) -> str:
+    """The metric a peak check bounds, as the catalog names it (``detour_offset_max``)."""
+    return check.metric.split(".", 1)[0]
+
+
+def _symlog_ticks(ax: Axes, levels: Sequence[float], near: float) -> None:
+    """Ticks of a symlog y axis linear within ``near`` of 0 that read across the
+    range it shows: 0 and ``near`` where it is a bound's level, then the other
+    bounds' ``levels``, then the decades beyond ``near`` (metres far on the
+    allowed side), the farthest first, each at least SYMLOG_TICK_GAP of the
+    axis from the ticks before it, MAX_SYMLOG_TICKS in all."""
+    low, high = ax.get_ylim()
+    decades: list[float] = []
+    for side, far in ((-1.0, -low), (1.0, high)):
+        if far >= near:
+            top, bottom = math.floor(math.log10(far)), math.ceil(math.log10(near))
+            decades += [side * 10.0**e for e in range(top, bottom - 1, -1)]
+    decades.sort(key=lambda value: (-abs(value), value))
+    forced = [0.0, near] if near in levels else [0.0]
+    wanted = [*forced, *sorted(levels, key=abs), *decades]
+    wanted = [v for v in dict.fromkeys(wanted) if low <= v <= high]
+    scaled = ax.yaxis.get_transform().transform(np.array([low, high, *wanted], dtype=float))
+    gap = SYMLOG_TICK_GAP * abs(float(scaled[1] - scaled[0]))
+    kept: list[tuple[float, float]] = []
+    for value, at in zip(wanted, scaled[2:], strict=True):
+        apart = all(abs(float(at) - other) >= gap for _, other in kept)
+        if value in forced or (apart and len(kept) < MAX_SYMLOG_TICKS):
+            kept.append((value, float(at)))
+    ticks = sorted(value for value, _ in kept)
+    ax.set_yticks(ticks, [f"{value:g}" for value in ticks])
 
 
 def _zoom(result: RunRecord, first: Any) -> tuple[float, float] | None:
