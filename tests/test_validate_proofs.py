@@ -556,6 +556,43 @@ def test_a_path_between_two_zones_closer_than_twice_the_band_is_blocked(
     assert said(0.7) == []
 
 
+@pytest.mark.parametrize(
+    ("half", "controller", "warned", "outcome"),
+    [
+        (0.675, "", True, "timeout"),
+        (0.725, "", False, "success"),
+        (0.675, "controller: {type: paper, tracking: {output: axle}}\n", False, "success"),
+    ],
+)
+def test_a_gap_the_point_the_zones_are_held_at_cannot_pass_is_blocked(
+    half: float, controller: str, warned: bool, outcome: str
+) -> None:
+    """Two posts 0.65 m apart, a body of 0.25 m: more than twice the band of
+    0.3 m, and `validate` said nothing, but the filter holds the zones at a
+    point 0.05 m ahead of the axle (paper.rows_ahead), kept 0.05 m further
+    off, which needs 0.7 m: the robot stood at the posts until its timeout.
+    0.75 m apart it passes, and nothing is said; held at the axle itself
+    (tracking.output: axle), 0.65 m is passed and nothing is said either
+    (`python scripts/posts_gap.py`)."""
+    from wmr_mission import mission_from_text, run_mission
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = POSTS.format(half=half, kind="circle", size="radius: 0.35")
+    text = text.replace("regions:", controller + "regions:")
+    said = [d.message for d in check_mission_text(text, "p.yaml")[1] if d.severity != "note"]
+    if warned:
+        assert said == [
+            "the path runs between keep-out zones 'a' and 'b', 0.65 m apart, where the "
+            "controller keeps 0.3 m from each (the robot's body and the estimate's margin) at "
+            "a point 0.05 m ahead of the axle, kept 0.05 m further off: the robot cannot pass "
+            "between them during phase 'go', goes round neither and stops at their edge; widen "
+            "the gap well past 0.7 m, or move the path round them"
+        ]
+    else:
+        assert said == []
+    assert run_mission(mission_from_text(text)).outcome.value == outcome
+
+
 HOLD = """\
 version: 1
 name: wait-for-a-heading

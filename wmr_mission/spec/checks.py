@@ -2005,20 +2005,36 @@ def _between_zones(
 ) -> Iterator[Finding]:
     """A warning where the path runs between two keep-out zones of its phase
     that leave less than twice the band the controller keeps round each (the
-    body's reach and the estimate's margin): every point of the gap is nearer
-    one of them than the band, so the axle cannot pass between them. The zone
-    filter goes round each zone on the side away from its centre, into the
-    gap, and the robot stops at their edge (two posts 0.2 m apart, a body of
-    0.25 m: it stood 3.6 m from its goal until its timeout). A proof: the gap
-    is measured between points of the zones' outlines, never nearer than the
-    outlines themselves. The path runs between them where it crosses the line
-    joining those points an odd number of times, the zones' centres on either
-    side, and enters neither zone (a path into one is a detour the mission
-    chose, and the robot may go round both). The phase's own zones only: the
-    controller does not keep the geofence's."""
+    body's reach and the estimate's margin) and the distance ahead of the
+    axle it holds them at (:func:`_rows_held`): the zone filter holds each
+    zone at a point that far ahead, kept that much further off, and that
+    point must pass between the zones too; where every point of the gap is
+    nearer one of them than the band and that distance, it cannot. The filter
+    goes round each zone on the side away from its centre, into the gap, and
+    the robot stops at their edge (two posts 0.2 m apart, a body of 0.25 m:
+    it stood 3.6 m from its goal until its timeout).
+
+    Twice the band alone let gaps the held point cannot pass go unsaid:
+    posts 0.6 to 0.69 m apart, a band of 0.3 m and the zones held 0.05 m
+    ahead (a limit of 0.7 m) stalled until the timeout, with and without
+    1 cm of noise and acceleration limits, and from 0.7 m the robot passed;
+    held 0.1 m ahead (dt 0.05, limits.v 2), up to 0.78 m stalled and from
+    0.8 m it passed (docs/mission-format.md, "What `validate` checks";
+    `python scripts/posts_gap.py`).
+
+    A proof, to the first order the filter keeps its rows to (0.79 m was
+    passed without acceleration limits, 5 mm inside the held point's
+    bound): the gap is measured between points of the zones' outlines, never
+    nearer than the outlines themselves. The path runs between them where it
+    crosses the line joining those points an odd number of times, the zones'
+    centres on either side, and enters neither zone (a path into one is a
+    detour the mission chose, and the robot may go round both). The phase's
+    own zones only: the controller does not keep the geofence's."""
     band, kept = _band(mission)
     if band == 0.0 or x.size < 2:
         return
+    held = _rows_held(mission, phase)
+    needed = 2.0 * (band + held)
     zones = [
         (number, c.stay_outside, mission.regions[c.stay_outside])
         for number, c in enumerate(phase.constraints)
@@ -2032,11 +2048,11 @@ def _between_zones(
     discs = [_disc(bx, by) for bx, by in outlines]
     for k, m in itertools.combinations(range(len(zones)), 2):
         (ca, ra), (cb, rb) = discs[k], discs[m]
-        if math.dist(ca, cb) - ra - rb >= 2.0 * band:
+        if math.dist(ca, cb) - ra - rb >= needed:
             continue  # their discs too far apart for a gap that narrow
         (ax, ay), (bx, by) = outlines[k], outlines[m]
         i, j, gap = _nearest_points(ax, ay, bx, by)
-        if not 0.0 < gap < 2.0 * band * (1.0 - 1e-9):
+        if not 0.0 < gap < needed * (1.0 - 1e-9):
             continue
         crossings = _crossings(x, y, (ax[i], ay[i]), (bx[j], by[j]))
         if crossings.size % 2 == 0:
@@ -2050,12 +2066,38 @@ def _between_zones(
         yield Finding(
             (*where, "constraints", number),
             f"the path runs between keep-out zones {a_name!r} and {b_name!r}, {gap:.3g} m "
-            f"apart, where the controller keeps {band:.3g} m from each ({kept}): the robot "
-            f"cannot pass between them during phase {phase.name!r}, goes round neither and "
-            f"stops at their edge; widen the gap well past {2.0 * band:.3g} m, or move the "
-            "path round them",
+            f"apart, where the controller keeps {band:.3g} m from each ({kept})"
+            + (
+                f" at a point {held:.3g} m ahead of the axle, kept {held:.3g} m further off"
+                if held > 0.0
+                else ""
+            )
+            + f": the robot cannot pass between them during phase {phase.name!r}, goes round "
+            f"neither and stops at their edge; widen the gap well past {needed:.3g} m, or "
+            "move the path round them",
             severity="warning",
         )
+
+
+def _rows_held(mission: Mission, phase: TrackPhase) -> float:
+    """[m] How far ahead of the axle the controller holds a track phase's
+    zones (``paper.rows_ahead``), the least over the phase's look-aheads
+    (its updates may change it); 0 for any other controller, whose zones
+    `validate` does not know to be held ahead."""
+    controller = mission.controller
+    if not isinstance(controller, PaperController):
+        return 0.0
+    dt, speed = mission.robot.dt, mission.robot.limits.v
+    settings = [controller] + [
+        with_look_ahead(controller, float(update.look_ahead))
+        for update in phase.updates
+        if update.look_ahead is not None
+    ]
+    return min(
+        paper.rows_ahead(paper.look_ahead(s, dt, speed), dt, speed)
+        for s in settings
+        if isinstance(s, PaperController)
+    )
 
 
 def _disc(x: FloatArray, y: FloatArray) -> tuple[tuple[float, float], float]:
