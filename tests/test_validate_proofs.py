@@ -556,16 +556,20 @@ def test_a_path_between_two_zones_closer_than_twice_the_band_is_blocked(
     assert said(0.7) == []
 
 
+LOOK_CLOSER = "    updates: [{when: {elapsed: 1}, look_ahead: 0.02}]\n"
+
+
 @pytest.mark.parametrize(
-    ("half", "controller", "warned", "outcome"),
+    ("half", "controller", "update", "warned", "outcome"),
     [
-        (0.675, "", True, "timeout"),
-        (0.725, "", False, "success"),
-        (0.675, "controller: {type: paper, tracking: {output: axle}}\n", False, "success"),
+        (0.675, "", "", True, "timeout"),
+        (0.725, "", "", False, "success"),
+        (0.675, "controller: {type: paper, tracking: {output: axle}}\n", "", False, "success"),
+        (0.68, "", LOOK_CLOSER, False, "success"),
     ],
 )
 def test_a_gap_the_point_the_zones_are_held_at_cannot_pass_is_blocked(
-    half: float, controller: str, warned: bool, outcome: str
+    half: float, controller: str, update: str, warned: bool, outcome: str
 ) -> None:
     """Two posts 0.65 m apart, a body of 0.25 m: more than twice the band of
     0.3 m, and `validate` said nothing, but the filter holds the zones at a
@@ -573,11 +577,13 @@ def test_a_gap_the_point_the_zones_are_held_at_cannot_pass_is_blocked(
     off, which needs 0.7 m: the robot stood at the posts until its timeout.
     0.75 m apart it passes, and nothing is said; held at the axle itself
     (tracking.output: axle), 0.65 m is passed and nothing is said either
-    (`python scripts/posts_gap.py`)."""
+    (`python scripts/posts_gap.py`), nor 0.66 m where an update brings the
+    look-ahead, and the point the zones are held at, to 0.02 m before the
+    posts (a limit of 0.64 m)."""
     from wmr_mission import mission_from_text, run_mission
     from wmr_mission.spec.loader import check_mission_text
 
-    text = POSTS.format(half=half, kind="circle", size="radius: 0.35")
+    text = POSTS.format(half=half, kind="circle", size="radius: 0.35") + update
     text = text.replace("regions:", controller + "regions:")
     said = [d.message for d in check_mission_text(text, "p.yaml")[1] if d.severity != "note"]
     if warned:
