@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -67,6 +68,20 @@ def test_a_column_style_fits_its_column(keep_out: RunResult, tmp_path: Path, sty
         assert drawn <= width + 0.02, path.name
         if not _text_only(path):
             assert drawn == pytest.approx(width, abs=0.02), path.name
+
+
+def test_a_long_label_keeps_the_one_column_figure_a_column_wide(
+    keep_out: RunResult, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from wmr_mission.output import figures
+
+    # wider than half an em a character: the legend below is measured, not guessed
+    (first, *others) = keep_out.phases
+    wide = replace(keep_out, phases=[replace(first, name="M" * 32), *others])
+    monkeypatch.setattr(figures, "FIGURE_NAMES", ("xy",))
+    (path,) = draw_all(wide, tmp_path, ("png",), style="one-column")
+    with Image.open(path) as image:
+        assert image.size[0] / DPI == pytest.approx(STYLES["one-column"].width, abs=0.02)
 
 
 def _made(directory: Path) -> Path:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import textwrap
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -47,6 +47,7 @@ if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+    from matplotlib.legend import Legend
 
     from wmr_mission.record import RunRecord
     from wmr_mission.verdicts.signals import Check, Mask
@@ -133,6 +134,8 @@ HEADING_ARROWS = 16
 MAX_PHASE_LINES = 1000
 # Places of phase changes numbered on the xy figure, evenly chosen when there are more.
 MAX_CHANGE_LABELS = 40
+# The fewest characters a legend's label is wrapped to on a narrow figure.
+MIN_LABEL_CHARACTERS = 12
 
 
 def thin(start: int, stop: int, max_points: int = MAX_POINTS_PER_LINE) -> IntArray:
@@ -1611,42 +1614,67 @@ def _legends_below(fig: Figure, width: float) -> None:
     """Legends beside the axes put below them, in two columns (their labels
     wrapped to fit ``width`` [in]), and the figure's own in one: a column's
     width has no room beside."""
-
-    def wrapped(texts: Sequence[Any], columns: int) -> list[str]:
-        size = float(texts[0].get_fontsize()) if texts else 6.0
-        # half an em a character, less the room of a legend's handle
-        characters = max(12, int(width / columns * 72.0 / (0.55 * size)) - 6)
-        return [textwrap.fill(text.get_text(), characters) for text in texts]
-
     for own in list(fig.legends):
-        texts = own.get_texts()
-        handles: Any = own.legend_handles
         own.remove()
-        fig.legend(
-            handles,
-            wrapped(texts, 1),
-            loc="outside lower center",
-            ncols=1,
-            fontsize=texts[0].get_fontsize() if texts else 6,
-            frameon=False,
-        )
+
+        def below(labels: list[str], own: Any = own) -> Legend:
+            texts = own.get_texts()
+            return fig.legend(
+                own.legend_handles,
+                labels,
+                loc="outside lower center",
+                ncols=1,
+                fontsize=texts[0].get_fontsize() if texts else 6,
+                frameon=False,
+            )
+
+        _fitted(below, own.get_texts(), 1, width)
     for ax in fig.axes:
         beside = ax.get_legend()
         if beside is None or beside.get_bbox_to_anchor().x0 < ax.get_window_extent().x1:
             continue
-        legend: Any = beside
-        title = legend.get_title().get_text()
-        ax.legend(
-            legend.legend_handles,
-            wrapped(legend.get_texts(), 2),
-            loc="upper center",
-            bbox_to_anchor=(0.5, -0.15),
-            ncols=2,
-            fontsize=legend.get_texts()[0].get_fontsize() if legend.get_texts() else 6,
-            frameon=False,
-            title=title or None,
-            title_fontsize=legend.get_title().get_fontsize(),
-        )
+
+        def under(labels: list[str], ax: Axes = ax, legend: Any = beside) -> Legend:
+            title = legend.get_title()
+            return ax.legend(
+                legend.legend_handles,
+                labels,
+                loc="upper center",
+                bbox_to_anchor=(0.5, -0.15),
+                ncols=2,
+                fontsize=legend.get_texts()[0].get_fontsize() if legend.get_texts() else 6,
+                frameon=False,
+                title=title.get_text() or None,
+                title_fontsize=title.get_fontsize(),
+            )
+
+        _fitted(under, beside.get_texts(), 2, width)
+
+
+def _fitted(
+    make: Callable[[list[str]], Legend], texts: Sequence[Any], columns: int, width: float
+) -> None:
+    """The legend ``make`` draws of ``texts``' labels in ``columns``, each label
+    wrapped so that the legend is at most ``width`` [in] less the crop's margins:
+    first by half an em a character, then, measured, narrower until it fits (a
+    wider legend would leave the crop no width to reach: the figure would
+    shrink to nothing round it)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    size = float(texts[0].get_fontsize()) if texts else 6.0
+    labels = [text.get_text() for text in texts]
+    # half an em a character, less the room of a legend's handle
+    characters = max(MIN_LABEL_CHARACTERS, int(width / columns * 72.0 / (0.55 * size)) - 6)
+    while True:
+        legend = make([textwrap.fill(label, characters) for label in labels])
+        figure = legend.get_figure(root=True)
+        assert figure is not None  # drawn on this figure
+        renderer = FigureCanvasAgg(figure).get_renderer()  # type: ignore[no-untyped-call]
+        wide = legend.get_window_extent(renderer).width / figure.dpi
+        if wide <= width - 2 * PAD or characters <= MIN_LABEL_CHARACTERS:
+            return
+        legend.remove()
+        characters = max(MIN_LABEL_CHARACTERS, int(characters * 0.9))
 
 
 def _crop_to(fig: Figure, target: float) -> None:
