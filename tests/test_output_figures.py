@@ -152,8 +152,9 @@ def test_overlaid_runs_say_each_thing_once_with_their_own_label_and_colour() -> 
 
 def test_phase_changes_are_numbered_once_per_place() -> None:
     ax = plot_xy(circle_run())
-    numbers = sorted(text.get_text() for text in ax.texts)
-    assert numbers == ["2", "3"]  # the phases entered at the two changes
+    texts = sorted(text.get_text() for text in ax.texts)
+    # beside the ellipse's tab: only the park keeps it (tests/test_zone_in_some_phases.py)
+    assert texts == ["2", "3", "ellipse: kept in by phase park only"]
 
 
 def test_reference_is_drawn_over_the_path() -> None:

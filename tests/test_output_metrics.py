@@ -85,6 +85,7 @@ def test_summary_key_order_is_fixed() -> None:
         "constraint_margin",  # a run with constraints
         "max_constraint_violation",
         "clearance_min",  # [m] the body's, in a run with zones
+        "clearance_phases",  # the phases it is the least over: those with zones
         "phases",
         "compute_us_per_sample",
         "loop_us_per_sample",

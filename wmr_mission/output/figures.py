@@ -23,7 +23,7 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -136,6 +136,8 @@ MAX_PHASE_LINES = 1000
 MAX_CHANGE_LABELS = 40
 # The fewest characters a legend's label is wrapped to on a narrow figure.
 MIN_LABEL_CHARACTERS = 12
+# Phases named on a region only some phases keep; more are counted.
+MAX_KEEPERS_NAMED = 3
 
 
 def thin(start: int, stop: int, max_points: int = MAX_POINTS_PER_LINE) -> IntArray:
@@ -274,39 +276,81 @@ def _clip_half_plane(
     return np.asarray(kept, dtype=np.float64).reshape(-1, 2)
 
 
-def region_sides(result: RunRecord) -> dict[str, str]:
-    """Per constrained region (by a phase or by the geofence), the side the
-    robot keeps to: ``inside`` or ``outside`` (``both`` when they differ)."""
-    sides: dict[str, str] = {}
+class Keeping(NamedTuple):
+    """How a run keeps one region: ``side``, ``inside`` or ``outside`` (``both``
+    when its phases differ); ``phases``, the phases that keep it (as written,
+    each once, in run order) when a phase that ran does not, else None: kept
+    throughout, by every phase that ran or by the geofence."""
+
+    side: str
+    phases: tuple[str, ...] | None = None
+
+
+def region_sides(result: RunRecord) -> dict[str, Keeping]:
+    """Per constrained region (by a phase or by the geofence), how the robot keeps it."""
     fence = (result.mission or {}).get("geofence") or {}
     kept = [(name, "inside") for name in fence.get("keep_in", ())]
     kept += [(name, "outside") for name in fence.get("keep_out", ())]
+    fenced = {name for name, _ in kept}
     for info in result.phases:
         kept += list(info.constraints)
+    sides: dict[str, str] = {}
     for name, side in kept:
         sides[name] = side if sides.get(name, side) == side else "both"
-    return sides
+    ran = set(np.unique(result.phase).tolist()) if result.samples else set()
+    keeping: dict[str, Keeping] = {}
+    for name, side in sides.items():
+        keepers = [i for i, info in enumerate(result.phases) if _keeps(info.constraints, name)]
+        if name in fenced or ran <= set(keepers):
+            keeping[name] = Keeping(side)
+        else:  # a lap runs as name#lap: named once, as the mission writes it
+            written = (result.phases[i].name.split("#", 1)[0] for i in keepers)
+            keeping[name] = Keeping(side, tuple(dict.fromkeys(written)))
+    return keeping
+
+
+def _keeps(constraints: tuple[tuple[str, str], ...], region: str) -> bool:
+    return any(name == region for name, _ in constraints)
+
+
+def keeping_words(keeping: Keeping) -> str:
+    """How a region is kept, in words: ``kept out of``, ``kept in``; a region
+    only some phases keep names them, ``kept out by phase B only``."""
+    if keeping.phases is None:
+        return {"outside": "kept out of", "inside": "kept in"}.get(keeping.side, "")
+    how = {"outside": "kept out", "inside": "kept in"}.get(keeping.side, "kept in or out")
+    names = keeping.phases
+    if len(names) > MAX_KEEPERS_NAMED:
+        shown = names[: MAX_KEEPERS_NAMED - 1]
+        listed = f"{', '.join(shown)} and {len(names) - len(shown)} more"
+    else:
+        listed = ", ".join(names)
+    return f"{how} by phase{'s' if len(names) > 1 else ''} {listed} only"
 
 
 def draw_regions(
     ax: Axes,
     regions: dict[str, Any],
     view: tuple[float, float, float, float],
-    sides: Mapping[str, str] | None = None,
+    sides: Mapping[str, Keeping] | None = None,
 ) -> None:
     """Each region as a patch with its outline; a half-plane is shaded inside ``view``.
 
     ``sides`` (:func:`region_sides`): a zone kept out of is hatched and
     reddish, a zone kept in light grey, a region no phase constrains only
     outlined: a keep-out pond and a keep-in yard do not look alike. Greys and a
-    faint red, so that regions never compete with the phases' colours.
+    faint red, so that regions never compete with the phases' colours. A zone
+    only some phases keep is named on the figure with those phases
+    (``rock: kept out by phase B only``): a path that crosses it in another
+    phase broke no rule, and the hatching alone would say it did.
     """
     from matplotlib import patches
 
     sides = sides or {}
     for name, region in regions.items():
         kind = region.get("type")
-        side = sides.get(name)
+        keeping = sides.get(name)
+        side = None if keeping is None else keeping.side
         style: dict[str, Any] = {
             "facecolor": (0.5, 0.5, 0.5, 0.07 if kind == "half-plane" else 0.1),
             "edgecolor": "0.35",
@@ -349,9 +393,45 @@ def draw_regions(
             patch = patches.Polygon(inside, **style)
         else:
             continue
-        words = {"outside": " (kept out of)", "inside": " (kept in)"}.get(side or "", "")
-        patch.set_label(f"region {name}{words}")
+        words = "" if keeping is None else keeping_words(keeping)
+        patch.set_label(f"region {name}" + (f" ({words})" if words else ""))
         ax.add_patch(patch)
+        if keeping is not None and keeping.phases is not None:
+            _name_on_region(ax, region, view, f"{name}: {words}")
+
+
+def _name_on_region(
+    ax: Axes, region: dict[str, Any], view: tuple[float, float, float, float], text: str
+) -> None:
+    """``text`` as a tab on a bounded region: above its top corner on the side
+    of the view's middle, where a path round the region is not and the text
+    runs into the view (a half-plane: at the middle of its part of ``view``)."""
+    extent = region_extent(region)
+    if extent is not None and extent[0] < (view[0] + view[1]) / 2:
+        at, align, ha = (extent[0], extent[3]), "bottom", "left"
+    elif extent is not None:
+        at, align, ha = (extent[1], extent[3]), "bottom", "right"
+    else:
+        normal = (float(region["normal"][0]), float(region["normal"][1]))
+        seen = _clip_half_plane(view, normal, float(region["offset"]))
+        if seen.shape[0] < 3:
+            return
+        at, align, ha = (float(seen[:, 0].mean()), float(seen[:, 1].mean())), "center", "center"
+    tab = ax.annotate(
+        text,
+        at,
+        xytext=(0, 3 if align == "bottom" else 0),
+        textcoords="offset points",
+        ha=ha,
+        va=align,
+        fontsize=8,
+        color="0.15",
+        zorder=8,
+        bbox={"boxstyle": "round,pad=0.2", "facecolor": "white", "alpha": 0.75, "linewidth": 0},
+    )
+    # Inside the axes: a layout that made room for it would shrink the axes,
+    # and with them its room, until a narrow figure has no axes left.
+    tab.set_in_layout(False)
 
 
 # --- the path in the plane ------------------------------------------------

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -1046,13 +1046,28 @@ def summarize(result: RunRecord, mission: Mapping[str, Any] | None = None) -> di
     phases = _phase_samples(result, mission, distance_to_path, errors)
     summary = run_metrics(result, mission, phases, errors)
     tolerance = _tolerance(mission)
-    summary["phases"] = [
+    entries = [
         _phase_summary(result, info, p, tolerance) | _formulas(result, info, p, mission, expect)
         for info, p, expect in phases
     ]
+    summary["clearance_phases"] = _clearance_phases(entries)
+    summary["phases"] = entries
     summary["compute_us_per_sample"] = compute_time_us(result.compute_ns)
     summary["loop_us_per_sample"] = loop_time_us(result)
     return summary
+
+
+def _clearance_phases(entries: Sequence[Mapping[str, Any]]) -> list[str] | None:
+    """The phases (``phases[].name``, each once, in run order) the run's
+    ``clearance_min`` is the least over: those with zones and samples. A zone
+    is judged only where a phase keeps it: a phase without it may go through
+    it, and the run's least does not see it. None where none has (no zones)."""
+    names = [
+        str(entry["name"])
+        for entry in entries
+        if (entry.get("constraint") or {}).get("clearance_min") is not None
+    ]
+    return list(dict.fromkeys(names)) or None
 
 
 Phases = list[tuple["PhaseRecord", "PhaseSamples", Mapping[str, Any]]]
