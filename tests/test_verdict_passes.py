@@ -690,7 +690,7 @@ def _phase(t: np.ndarray, x: np.ndarray, start: int, end: int) -> Any:
 
     result = SimpleNamespace(t=t, v=t, omega=t, dt=0.01, x=x, y=x.copy(), theta=x.copy())
     info = SimpleNamespace(name="go", kind="track")
-    judged = metrics._Judged(NUMBERS, None, {}, None)
+    judged = metrics._Judged(NUMBERS, None, {}, None, None)
     entry = metrics.Entry(0, start, end, None)
     return metrics.PhaseSamples(result, info, entry, 0.5, metrics._off_path_bound, judged)  # type: ignore[arg-type]
 

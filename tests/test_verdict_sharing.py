@@ -21,7 +21,7 @@ from wmr_mission.spec.loader import load_mission
 from wmr_mission.spec.models import Mission
 from wmr_mission.verdicts import tracking, zones
 from wmr_mission.verdicts.clearance import clearance_min
-from wmr_mission.verdicts.metrics import judge, judge_run_metrics
+from wmr_mission.verdicts.metrics import judge, judge_mission, judge_run_metrics
 from wmr_mission.verdicts.temporal import robustness, robustness_at_start
 from wmr_mission.verdicts.tracking import Placement
 from wmr_mission.verdicts.zones import Zone
@@ -160,3 +160,22 @@ def test_a_few_points_distances_to_an_ellipse_are_the_arrays(
         with monkeypatch.context() as patched:
             patched.setattr(zones, "_FEW", 0)
             np.testing.assert_array_equal(few, zones._roots(u, w, a, b))
+
+
+def test_a_campaigns_run_is_judged_with_its_robots_body() -> None:
+    """A campaign's run carries no mission of its own (it runs a plan): its
+    judge reads the body from the mission it is handed, and gives the
+    clearance and the verdict `run` gives (the axle's was 0.53 m where the
+    body came within 0.17 m of a pallet, and a failed run counted as a success)."""
+    mission = load_mission(MISSIONS / "shelf.yaml")
+    assert mission.robot.footprint is not None
+    dumped = mission.model_dump(mode="json")
+    as_run = judge(copy.deepcopy(run_mission(plan_mission(mission))), dumped)  # a plan's run
+    assert as_run["clearance_min"] is not None
+    by_run = judge_mission(run_mission(plan_mission(mission)), mission)  # as `run` judges
+    row = judge_run_metrics(run_mission(plan_mission(mission)), dumped)  # as a row judges
+    assert as_run["clearance_min"] == by_run["clearance_min"] == row["clearance_min"]
+    # the body's clearance, not the axle's: smaller by at least the body's half-width
+    point = {**dumped, "robot": {**dumped["robot"], "footprint": None}}
+    axle = judge(copy.deepcopy(run_mission(plan_mission(mission))), point)
+    assert row["clearance_min"] < axle["clearance_min"] - 0.1

@@ -502,6 +502,9 @@ class _Judged(NamedTuple):
     inputs_from: int | None  # the first sample at or after that time (None: never)
     goals: Mapping[str, tuple[float, float]]  # phase name as written -> position, heading tolerance
     errors: dict[str, FloatArray] | None  # the run's estimation errors, where its judge keeps them
+    # the robot's footprint in the mission judged by (None: a point): a campaign's
+    # runs carry no mission of their own, and were judged on the axle
+    footprint: Mapping[str, Any] | None
 
 
 class PhaseSamples:
@@ -545,6 +548,7 @@ class PhaseSamples:
         self.ended_by = entry.ended_by
         self.goals = judged.goals
         self._run_errors = judged.errors
+        self._footprint = judged.footprint
         # the first sample of the phase whose inputs are judged (past the end: none)
         first = judged.inputs_from
         self.first_judged = end if first is None else first if first > start else start
@@ -729,7 +733,7 @@ class PhaseSamples:
         if not self.zones or w.stop == w.start:
             return None
         return clearance_min(
-            r.x[w], r.y[w], r.theta[w], self.zones, footprint_of(r.mission), self.zone_bounds,
+            r.x[w], r.y[w], r.theta[w], self.zones, self._footprint, self.zone_bounds,
             self.pose_finite,
         )  # fmt: skip
 
@@ -1112,7 +1116,8 @@ def _phase_samples(
         None if judged_from is None else int(result.t.searchsorted(judged_from - 1e-9 * result.dt))
     )
     del errors  # not kept while the phases are measured unless the caller keeps them
-    judged = _Judged(numbers, inputs_from, _goals(mission, numbers), kept)
+    body = footprint_of(mission if mission is not None else result.mission)
+    judged = _Judged(numbers, inputs_from, _goals(mission, numbers), kept, body)
     phases: Phases = []
     shared = _expect_of(mission)  # a phase not written in the mission's: the mission's own
     for entry in phase_segments(result):
