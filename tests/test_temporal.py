@@ -543,6 +543,50 @@ def test_built_in_metrics_read_as_formulas() -> None:
     assert built_in["margin"] == pytest.approx(formula["margin"], abs=1e-6 / 0.5)
 
 
+# A line joined at once by a robot held to 0.5 m/s^2 with noise, then a stop
+# (a new user's mission): it keeps up with its reference seconds before its
+# entry's allowance, and is judged from there.
+KEPT_UP_EARLY = """\
+version: 1
+name: kept-up-early
+robot:
+  dt: 0.01
+  initial_state: {x: 0, y: 0, theta: 0.1}
+  limits: {v: 1.0, omega: 1.0, acceleration: {v: 0.5, omega: 2.0}}
+sensors: {noise_std: {x: 0.015, y: 0.015, theta: 0.01}, seed: 7}
+estimator: {type: ekf}
+phases:
+  - name: run
+    track: {path: {type: line, start: [0, 0], heading: 0, speed: 0.6}}
+    until: {near: {point: [8, 0], tolerance: 0.1}}
+    timeout: 25
+    expect:
+      along_track_lag_max: {max: 0.1}
+      temporal: ["always[entry, end](lag <= 0.1 and lag >= -0.1)"]
+  - name: stop
+    regulate: {target: {x: 8.5, y: 0, theta: 0}}
+    until: {settled: {position: 0.05, heading: 0.05}}
+    timeout: 15
+"""
+
+
+def test_the_entry_a_formula_names_is_the_one_the_tracking_leaves_out() -> None:
+    """`entry` in a formula, `entry_time` in the summary and the samples the
+    tracking judges are one instant: the robot kept up at 2.8 s, and the
+    formula read its entry's allowance (6.99 s), a margin of 0.99 where the
+    built-in check had 0.65."""
+    from wmr_mission.api import run_mission
+    from wmr_mission.spec.loader import load_mission_text
+
+    summary = run_mission(load_mission_text(KEPT_UP_EARLY)).judged
+    checks = _checks(summary, "run")
+    formula = "always[entry, end](lag <= 0.1 and lag >= -0.1)"
+    lag = checks["along_track_lag_max"]
+    assert lag["margin"] == pytest.approx(checks[formula]["margin"], abs=1e-12)
+    entry = summary["phases"][0]["tracking"]["entry_time"]
+    assert 1.0 < entry < 4.0  # well within its allowance of 6.99 s
+
+
 def test_a_formula_check_is_drawn_on_its_first_signals_panel() -> None:
     from wmr_mission.verdicts.signals import panel_of
 

@@ -1090,8 +1090,14 @@ def _formulas(
     return temporal.phase_values(
         result, info, phase.window, phase.settle_time, phase.numbers, mission,
         lambda: phase.placement, None if expect is None else tuple(expect.get("temporal") or ()),
-        lambda: phase.reference_known,
+        lambda: phase.reference_known, lambda: _entry_time(phase),
     )  # fmt: skip
+
+
+def _entry_time(phase: PhaseSamples) -> float:
+    """[s] The entry a track phase's tracking leaves out (0 where none is):
+    a formula's `entry` is the same instant."""
+    return float((phase.tracking or {}).get("entry_time") or 0.0)
 
 
 def _phase_samples(

@@ -293,13 +293,16 @@ def phase_values(
     placement: Callable[[], Placement | None] | None = None,
     formulas: tuple[str, ...] | None = None,
     known: Callable[[], Known] | None = None,
+    entry: Callable[[], float] | None = None,
 ) -> dict[str, Any]:
     """``{"temporal": {formula: rho}}`` for a phase's summary (nothing when it
     has no formula; ``formulas``: its :func:`phase_formulas`, if at hand): rho
     None where a signal it names is not finite at some sample (a divergence) or
     the formula fails over an empty window; a formula is left out where the
     phase does not measure a signal it names (a mission-wide formula on a phase
-    of another kind), or where it holds over an empty window (nothing to judge)."""
+    of another kind), or where it holds over an empty window (nothing to judge).
+    ``entry``: [s] the entry its tracking leaves out (``entry_time``), where a
+    window names it (0 without)."""
     formulas = phase_formulas(mission, info.name) if formulas is None else formulas
     if not formulas:
         return {}
@@ -315,8 +318,8 @@ def phase_values(
         if not all(map(_finite, arrays.values())):
             values[text] = None
             continue
-        # the entry's end where a window names it: measured with the track's signals
-        instants = {"entry": signals.entry if "entry" in text else 0.0, "settle": settle_time}
+        # the entry's end where a window names it: the one its tracking leaves out
+        instants = {"entry": entry() if entry and "entry" in text else 0.0, "settle": settle_time}
         rho = robustness_at_start(node, arrays, numbers.dt, instants)
         if rho == _INF:
             continue
@@ -393,27 +396,11 @@ class PhaseSignals:
         # the places on the path of the samples whose reference is known (None:
         # none, or a position not finite), shared with the phase's metrics
         self._placement = placement
-        self._placed: Placement | None = None  # the places the cross-track error was measured at
 
     def get(self, name: str) -> FloatArray | None:
         if name not in self._found:
             self._found |= self._measured(name)
         return self._found.get(name)
-
-    @property
-    def entry(self) -> float:
-        """[s] The entry of a track phase, from its first sample
-        (wmr_mission.verdicts.tracking.track_samples judges from its end): 0
-        where the phase measures no cross-track error. Found where a formula
-        names it, not with every cross-track error."""
-        self.get("cross_track")
-        placement, numbers = self._placed, self.numbers
-        if placement is None:
-            return 0.0
-        px, py, rx, ry = placement.px, placement.py, placement.path[1], placement.path[2]
-        length = placement.steps[2]
-        speed = float(length[0]) / numbers.dt if rx.size > 1 else 0.0
-        return numbers.recovery_time(math.hypot(px[0] - rx[0], py[0] - ry[0]), speed)
 
     def _measured(self, name: str) -> dict[str, FloatArray | None]:
         r, w, info = self.result, self.window, self.info
@@ -464,7 +451,6 @@ class PhaseSignals:
         placement = self._placement() if self._placement is not None else placed(r, w)
         if placement is None:
             return {"cross_track": np.full(known.size, np.nan), "lag": np.full(known.size, np.nan)}
-        self._placed = placement
         if these is None:  # every one known: on_path's own new arrays, no copy into the phase's
             cross, lag = placement.on_path(numbers.tracking_tolerance)
         else:
