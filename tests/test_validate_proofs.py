@@ -652,3 +652,42 @@ def test_a_hold_whose_until_its_pose_never_meets_is_warned_of(
         [message] = said
         assert "phase 'wait' holds the pose it starts at" in message
         assert run_mission(mission_from_text(text)).outcome.value == "timeout"
+
+
+NO_HEADING = """\
+version: 1
+name: no-heading
+robot: {initial_state: {x: 0, y: 0, theta: 0}, limits: {v: 1, omega: 2}}
+phases:
+  - name: park
+    regulate: {target: {x: 2, y: 1}}
+    until: {settled: {position: 0.05, heading: 0.05}}
+    timeout: 30
+"""
+
+
+@pytest.mark.parametrize(
+    ("change", "said"),
+    [
+        ((), ["6:24"]),  # the target's
+        (("{x: 2, y: 1}}", "{x: 2, y: 1, theta: 0}}"), []),  # written: +x meant
+        (  # an update's target, the phase's written
+            (
+                "{x: 2, y: 1}}\n",
+                "{x: 2, y: 1, theta: 1}}\n    updates: [{when: {elapsed: 1}, target: {x: 3}}]\n",
+            ),
+            ["7:44"],
+        ),
+    ],
+)
+def test_a_target_without_a_heading_is_warned_of(
+    change: tuple[str, ...], said: list[str], tmp_path: Path
+) -> None:
+    """A target's heading is 0 unless written: the robot turns to +x at its
+    goal, which a mission that wrote none most likely did not mean."""
+    path = tmp_path / "m.yaml"
+    path.write_text(NO_HEADING.replace(*change) if change else NO_HEADING, encoding="utf-8")
+    code, out = _validate(str(path))
+    assert code == 0
+    warned = [line for line in out.splitlines() if "has no theta" in line]
+    assert [line.split(":")[1] + ":" + line.split(":")[2] for line in warned] == said, out

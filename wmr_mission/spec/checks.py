@@ -140,6 +140,7 @@ def check(mission: Mission) -> list[Finding]:
     if run_count(mission) <= MAX_RUN_PHASES:
         findings.extend(_feasible_sets(mission))
         findings.extend(_angles(mission))
+        findings.extend(_unwritten_headings(mission))
         findings.extend(_missing_limits(mission))
         if not any(f.severity == "error" for f in findings):
             # sampling paths needs a sound mission (regions of the right kind, bounded phases)
@@ -1378,6 +1379,32 @@ def _angles_below(value: object, path: DataPath) -> Iterator[Finding]:
     elif isinstance(value, dict):
         for key, item in value.items():
             yield from _angles_below(item, (*path, str(key)))
+
+
+def _unwritten_headings(mission: Mission) -> Iterator[Finding]:
+    """A regulate target (or an update's) without a heading has heading 0, the
+    pose's default: the robot turns to +x at its goal, and a `settled` waits
+    for it. Written nowhere, that is most likely not what was meant."""
+    for run in run_order(mission):
+        phase = run.phase
+        if not isinstance(phase, RegulatePhase) or run.lap not in (None, 1):
+            continue
+        targets = [((*run.where, "regulate", "target"), phase.regulate.target)]
+        targets += [
+            ((*run.where, "updates", number, "target"), update.target)
+            for number, update in enumerate(phase.updates)
+            if update.target is not None
+        ]
+        for where, target in targets:
+            if "theta" not in target.model_fields_set:
+                yield Finding(
+                    where,
+                    f"{_dotted(where)} has no theta: a target's heading is then 0 (+x), "
+                    f"which the robot turns to at ({target.x:g}, {target.y:g}) and a "
+                    f"`settled` waits for; write the heading it should end at (theta: 0 "
+                    "says +x is meant)",
+                    severity="warning",
+                )
 
 
 def _missing_limits(mission: Mission) -> Iterator[Finding]:
