@@ -421,3 +421,96 @@ def test_a_region_name_that_is_no_identifier_is_shown_at_its_name() -> None:
     [found] = check_mission_text(text, "m.yaml")[1]
     assert (found.line, found.column) == (4, 3)
     assert found.message.startswith("regions.post-left: expected an identifier")
+
+
+UNITS_MISSION = """\
+version: 1
+name: m
+parameters: {h: 0.5}
+robot:
+  limits: {v: 1, omega: 2}
+sensors: {noise_std: {x: 0, y: 0, theta: 0.01}, dropout: {probability: 0}}
+phases:
+  - name: go
+    track: {path: {type: expression, x: "0.5*t", y: "0"}}
+    until: {elapsed: 3}
+"""
+
+
+UNIT_CASES = [
+    (
+        "x: 0,",
+        "x: 1cm,",
+        "sensors.noise_std.x: units are not written: x is in m; write 0.01 for 1 cm",
+    ),
+    (
+        "y: 0,",
+        "y: 1 cm,",
+        "sensors.noise_std.y: units are not written: y is in m; write 0.01 for 1 cm",
+    ),
+    (
+        "omega: 2}",
+        "omega: 2 rad/s}",
+        "robot.limits.omega: units are not written: omega is in rad/s; write 2 for 2 rad/s",
+    ),
+    (
+        "v: 1,",
+        "v: 0.5m/s,",
+        "robot.limits.v: units are not written: v is in m/s; write 0.5 for 0.5 m/s",
+    ),
+    (
+        "v: 1,",
+        "v: 18 km/h,",
+        "robot.limits.v: units are not written: v is in m/s; write 5 for 18 km/h",
+    ),
+    (
+        "theta: 0.01}",
+        "theta: 90deg}",
+        "sensors.noise_std.theta: units are not written: theta is in rad; write 1.5708 for 90 deg",
+    ),
+    (
+        "v: 1,",
+        "v: 2 rad/s,",
+        "robot.limits.v: units are not written: v is in m/s; write the number alone",
+    ),
+    (
+        "probability: 0}",
+        "probability: 5 %}",
+        "sensors.dropout.probability: units are not written: write 0.05 for 5 %",
+    ),
+    (
+        'x: "0.5*t"',
+        'x: "2 m"',
+        "phases[0].track.path.x: units are not written: x is in m; write 2 for 2 m",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("field", "written", "message"), UNIT_CASES, ids=[c[1] for c in UNIT_CASES]
+)
+def test_a_number_written_with_a_unit_says_the_number_to_write(
+    field: str, written: str, message: str
+) -> None:
+    """`noise_std: {x: 1cm}` was refused with the grammar of expressions
+    ("implicit products: write 2*t") and `omega: 2 rad/s` as "should be a valid
+    number": neither said that units are not written, nor which unit the field is in."""
+    text = UNITS_MISSION.replace(field, written, 1)
+    mission, diagnostics = check_mission_text(text, "m.yaml")
+    assert mission is None
+    [found] = [str(d) for d in diagnostics]
+    value = written.split(": ")[1].rstrip(",}")
+    line = 1 + next(i for i, row in enumerate(text.splitlines()) if written in row)
+    column = 1 + text.splitlines()[line - 1].index(value)
+    assert found == f"m.yaml:{line}:{column}: {message}"
+
+
+def test_a_formula_is_not_a_number_with_a_unit() -> None:
+    """An expression is read as one, a parameter named like a unit too."""
+    valid = UNITS_MISSION.replace('"0.5*t"', '"2*h*t"').replace("x: 0,", "x: 2*h,")
+    assert check_mission_text(valid, "m.yaml")[0] is not None
+    [found] = check_mission_text(UNITS_MISSION.replace('"0.5*t"', '"2 h"'), "m.yaml")[1]
+    assert "unexpected 'h': expected an operator" in found.message
+    assert "units" not in found.message
+    [found] = check_mission_text(UNITS_MISSION.replace('"0.5*t"', '"2 apples"'), "m.yaml")[1]
+    assert "units" not in found.message
