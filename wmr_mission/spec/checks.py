@@ -34,7 +34,7 @@ from wmr_mission.geometry.paths.circle import CirclePath
 from wmr_mission.geometry.paths.coverage import CoveragePath
 from wmr_mission.geometry.paths.ellipse import EllipsePath
 from wmr_mission.geometry.paths.elliptical_spiral import EllipticalSpiralPath
-from wmr_mission.geometry.paths.line import LinePath
+from wmr_mission.geometry.paths.line import LinePath, LineTrajectory
 from wmr_mission.geometry.paths.spiral import SpiralPath
 from wmr_mission.geometry.regions import (
     BoxRegion,
@@ -147,7 +147,7 @@ def check(mission: Mission) -> list[Finding]:
             findings.extend(_zones(mission))
             findings.extend(_body_room(mission))
             findings.extend(_reaches(mission))
-            findings.extend(_catching_up(mission))
+            findings.extend(_catching_up_or_lagging(mission))
     # a phase of a repeat is checked once per lap: say each finding once
     return list(dict.fromkeys(findings))
 
@@ -876,6 +876,18 @@ def _sampled(
         return times, trajectory.sample(times)
 
 
+def _catching_up_or_lagging(mission: Mission) -> list[Finding]:
+    """The findings of :func:`_catching_up` and :func:`_lag_at_top_speed`, one a
+    phase: a phase that ends before the robot can catch its path is said to
+    (lengthening it helps), unless it lasts past its entry, so that its path is
+    too fast to be caught by then at all."""
+    caught = list(_catching_up(mission))
+    warned = {finding.path[:-1] for finding in caught}
+    lagging = list(_lag_at_top_speed(mission, warned))
+    lagged = {finding.path[:-3] for finding in lagging}
+    return [f for f in caught if f.path[:-1] not in lagged] + lagging
+
+
 def _catching_up(mission: Mission) -> Iterator[Finding]:
     """A warning where the mission's first phase, a track phase that ends on
     time, ends before the robot can come near its reference point: a phase
@@ -968,6 +980,147 @@ def _farthest(seconds: float, dt: float, numbers: MissionNumbers) -> float:
     rising = min(samples, math.floor(speed / (rate * dt)))
     # sum over the rising samples of (i + 1) rate dt, then the rest at the limit
     return (rate * dt * rising * (rising + 1) / 2.0 + speed * (samples - rising)) * dt
+
+
+def _lag_judged(
+    numbers: MissionNumbers, speed: float, ahead: float, gap: float, ends: float
+) -> tuple[float, float, bool]:
+    """[m] the least lag a robot has at the first sample its lag is judged on a
+    straight path whose reference runs at ``speed`` from ``ahead`` metres
+    before it along the path, from rest; [s] that sample's time; whether it is
+    the phase's last. That sample is the first after the entry, at its longest
+    (``gap`` at most between the tracked point and the path's start), or the
+    last before the phase's end ``ends`` if sooner: a sample the verdict
+    judges. The lag is what the reference covers less the farthest the robot
+    can go (:func:`_farthest`); the judged lag is at least this: it grows while
+    the robot is slower than its reference and shrinks after, so no sample
+    judged before this one has less."""
+    dt = numbers.dt
+    entry = numbers.recovery_time(gap, speed)
+    first, last = math.ceil(entry / dt - 1e-9), math.ceil(ends / dt - 1e-9) - 1
+    judged = min(first, last) * dt
+    lag = ahead + speed * judged - _farthest(judged, dt, numbers)
+    return lag, judged, first >= last
+
+
+def _lag_at_top_speed(mission: Mission, caught: set[DataPath]) -> Iterator[Finding]:
+    """A warning where a track phase's straight path runs too near the speed limit
+    for the robot, entering it slower, to catch up before its lag is judged:
+    the reference runs away at its speed while the robot accelerates within
+    its acceleration limit and is left ``v^2 / (2 a)`` behind from rest; the
+    entry (MissionNumbers.recovery_time) allows the time to close that gap at
+    the speed the limit leaves over the path's, a tenth of the limit at least,
+    and none at or above the limit. Where the least lag the limits leave at the
+    end of the entry (or at the phase's end, if sooner) exceeds the
+    along_track_lag_max the verdict applies, the run fails it whatever the law.
+
+    Only where all of that is known before the run: a `line` path (a curve may
+    be cut short), no updates (a path slowed may be caught), no zones (a detour
+    is excused), no disturbances, a phase that ends on time (one that ends on
+    the robot's motion within its entry is not judged), entered at rest from a
+    known place: the first phase from the initial state (its estimate the
+    same), or a phase after holds of it whose line starts at the robot
+    (`start: current`); a line made from an estimate four noise std off. A
+    phase in ``caught`` (:func:`_catching_up` warned that it ends before the
+    robot can catch its path) is left to that warning where it ends within
+    its entry."""
+    if mission.robot.disturbances != Disturbances.defaults():
+        return
+    robot, limits = mission.robot, mission.robot.limits
+    numbers = mission_numbers(mission.model_dump(mode="json"), robot.dt, (limits.v, limits.omega))
+    initial, estimated = robot.initial_state, mission.estimator.initial_estimate
+    noise = 4.0 * math.hypot(numbers.noise["x"], numbers.noise["y"])
+    order = run_order(mission)
+    for number, (phase, where, _) in enumerate(order):
+        # at rest: at the start, and after holds of the initial pose; after
+        # anything else the robot may enter at any speed up to its limit
+        at_rest = all(isinstance(step.phase, HoldPhase) for step in order[:number])
+        if (
+            not isinstance(phase, TrackPhase)
+            or not isinstance(phase.track.path, LinePath)
+            or not at_rest
+            or phase.constraints
+            or phase.updates
+            or not _ends_on_time_only(phase)
+            or (number > 0 and phase.until.mission_time is not None)  # its length not known
+        ):
+            continue
+        path = phase.track.path
+        if number == 0 and (estimated is None or estimated == initial):
+            pose = (initial.x, initial.y, initial.theta)
+            line = paths.trajectory(path, mission.path_context(), pose)
+            assert isinstance(line, LineTrajectory)
+            # how far the line's start lies ahead of the robot along the line
+            along = math.cos(line.heading) * (line.x0 - pose[0]) + math.sin(line.heading) * (
+                line.y0 - pose[1]
+            )
+            apart = math.hypot(line.x0 - pose[0], line.y0 - pose[1])
+        elif number > 0 and path.start == "current":
+            along, apart = 0.0, 0.0
+        else:
+            continue
+        # a `start: current` line starts at an estimate: four noise std off
+        ahead, gap = along - noise, apart + numbers.look_ahead + noise
+        own = phase.expect.threshold("along_track_lag_max")
+        threshold = own if own is not None else mission.expect.threshold("along_track_lag_max")
+        ends = _bounds(phase, 0.0)
+        if threshold is None or math.isinf(ends):
+            continue  # not judged, or not on time
+        speed = float(path.speed)
+        bound = numbers.lag_allowance(speed) if threshold == "auto" else float(threshold.max)
+        lag, judged, at_end = _lag_judged(numbers, speed, ahead, gap, ends)
+        if lag <= bound * (1.0 + 1e-9) or (where in caught and at_end):
+            continue
+        yield Finding(
+            (*where, "track", "path", "speed"),
+            f"phase {phase.name!r}: its path runs at {speed:g} m/s, limits.v is "
+            f"{limits.v:g} m/s; the robot, from rest and accelerating at up to "
+            f"{numbers.v_acceleration:g} m/s^2, is at least {lag:.3g} m behind its reference "
+            f"point when its lag is first judged, {judged:.3g} s into the phase, where "
+            f"along_track_lag_max allows {bound:.3g} m, so the run fails it whatever the law; "
+            + ("lengthen the phase, " if at_end else "")
+            + _lag_remedies(
+                numbers, speed, (ahead, gap), ends, None if threshold == "auto" else bound
+            ),
+            severity="warning",
+        )
+
+
+def _lag_remedies(
+    numbers: MissionNumbers,
+    speed: float,
+    start: tuple[float, float],
+    ends: float,
+    bound: float | None,
+) -> str:
+    """What lets the robot catch up in time: a slower path (in hundredths of the
+    limit), a larger acceleration limit (found by bisection, rounded up), or a
+    larger ``bound`` (None: `auto`, which follows the path's speed); ``start``
+    is :func:`_lag_judged`'s ``ahead`` and ``gap``."""
+
+    def fails(candidate: MissionNumbers, pace: float) -> bool:
+        allowed = candidate.lag_allowance(pace) if bound is None else bound
+        return _lag_judged(candidate, pace, *start, ends)[0] > allowed * (1.0 + 1e-9)
+
+    step = 0.01 * numbers.v_limit
+    slower = speed - step
+    while slower > step and fails(numbers, slower):
+        slower -= step
+    low, high = numbers.v_acceleration, 1024.0 * numbers.v_acceleration
+    for _ in range(50):
+        middle = 0.5 * (low + high)
+        if fails(numbers._replace(v_acceleration=middle), speed):
+            low = middle
+        else:
+            high = middle
+    # rounded up to three digits: a limit printed lower may not do
+    digits = 2 - math.floor(math.log10(high))
+    needed = math.ceil(high * 10.0**digits) / 10.0**digits
+    return (
+        f"slow the path to {slower:.3g} m/s, raise the acceleration limit to "
+        f"{needed:g} m/s^2, or relax along_track_lag_max (null, or a bound above the lag "
+        "the run shows)"
+    )
 
 
 def _update_paths(
