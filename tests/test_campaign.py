@@ -388,7 +388,10 @@ expect:
     )
     code = sweep_command(strict, out=tmp_path / "strict", workers=1, scheduler=None, plots=False)
     assert code == 1
-    assert "expectation not met: success_rate = 0 (min 0.5)" in capsys.readouterr().err
+    # at the campaign's own key, as a mission's messages are (line 8, its `success_rate`)
+    assert f"{strict}:8:3: expectation not met: success_rate = 0 (min 0.5)" in (
+        capsys.readouterr().err
+    )
     record = json.loads((tmp_path / "strict" / "campaign.json").read_text(encoding="utf-8"))
     assert record["outcomes"] == {"expect-failed": 2}
     assert record["expectations"] == [

@@ -75,9 +75,13 @@ class LoadedCampaign:
         campaign_sha256: str,
         mission_sha256: str,
         settings: Sequence[Override] = (),
+        positions: Mapping[DataPath, tuple[int, int]] | None = None,
     ):
         self.campaign = campaign
         self.path = path
+        # where the campaign file wrote its keys (line, column): what a message
+        # about them points at, as a mission's errors do
+        self.positions = dict(positions or {})
         self.mission_path = mission_path
         self.mission_text = mission_text
         self.campaign_sha256 = campaign_sha256
@@ -383,6 +387,7 @@ def _check_against_mission(
         campaign_sha256=campaign_sha256,
         mission_sha256=hashlib.sha256(raw).hexdigest(),
         settings=settings,
+        positions=keys,
     )
     problems = [
         at(("vary", name), problem)

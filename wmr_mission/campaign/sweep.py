@@ -895,9 +895,11 @@ def _sweep(
         )
         return stop.exit_code if ended.interrupted else EXIT_FAILED
     failed = [e for e in record["expectations"] if not e["met"]]
+    line, column = loaded.positions.get(("expect", "success_rate"), (0, 0))
+    where = f"{campaign_path}:{line}:{column}" if line else str(campaign_path)
     for expectation in failed:
         print(
-            f"{campaign_path}: expectation not met: success_rate = "
+            f"{where}: expectation not met: success_rate = "
             f"{expectation['value']:.4g} (min {expectation['min']:.4g})",
             file=sys.stderr,
         )
