@@ -261,6 +261,22 @@ def _line_of(path: Path, text: str) -> int:
     return next(number for number, line in enumerate(lines, 1) if text in line)
 
 
+def test_a_timeout_points_at_its_timeout(tmp_path: Path) -> None:
+    """A failed run's last line is FILE:LINE:COL, as a mission's errors are,
+    so that an editor or a CI log goes to what failed; a value `--set` set
+    is named as the command line wrote it, not by the file's line."""
+    mission = _write(tmp_path, SHORT_OF_GOAL)
+    code, _, err = _invoke("run", str(mission), "--out", str(tmp_path / "r"), "--no-plots")
+    assert code == 1
+    assert err.splitlines()[-1].startswith(f"{mission}:8:5: phase 'go' timed out after 2 s"), err
+    set_there = ("--set", "phases.0.timeout=1.5", "--no-plots")
+    code, _, err = _invoke("run", str(mission), "--out", str(tmp_path / "s"), *set_there)
+    assert code == 1
+    assert err.splitlines()[-1].startswith(
+        "--set phases.0.timeout=1.5: phase 'go' timed out after 1.5 s"
+    ), err
+
+
 # A line driven for a second at the speed limit, and thresholds it misses (lines 8 on).
 DRIVEN = """\
 version: 1

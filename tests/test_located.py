@@ -53,3 +53,22 @@ def test_nothing_written_points_nowhere() -> None:
     assert failure_path(None, "timeout", "out") is None
     assert failure_path({"phases": []}, "timeout", "out") is None
     assert failure_path({"phases": [{"name": "out"}]}, "expect-failed", None, "duration") is None
+
+
+def test_a_contingencys_phase_is_found_in_its_contingency() -> None:
+    text = (
+        MISSION
+        + """\
+contingencies:
+  detour:
+    phases:
+      - name: round
+        hold: {}
+        timeout: 5
+"""
+    )
+    document, _ = read_document(text)
+    assert document is not None
+    path = failure_path(document.data, "timeout", "round")
+    assert path == ("contingencies", "detour", "phases", 0, "timeout")
+    assert document.position(path, at_key=True) == (24, 9)

@@ -179,3 +179,27 @@ def test_a_campaigns_run_is_judged_with_its_robots_body() -> None:
     point = {**dumped, "robot": {**dumped["robot"], "footprint": None}}
     axle = judge(copy.deepcopy(run_mission(plan_mission(mission))), point)
     assert row["clearance_min"] < axle["clearance_min"] - 0.1
+
+
+def test_a_contingencys_phase_is_judged_by_its_own_expect() -> None:
+    """patrol-detour's round-the-pond writes settle_time: 2.0 in its `expect`;
+    its judge took the mission's (1 s) and any bound of its own was not
+    checked: a contingency's phases were missing from the phases as written."""
+    mission = load_mission(MISSIONS / "patrol-detour.yaml")
+    dumped = mission.model_dump(mode="json")
+    result = run_mission(plan_mission(mission))
+    pond = next(p for p in judge(copy.deepcopy(result), dumped)["phases"] if "pond" in p["name"])
+    assert pond["settle_time"] == 2.0
+    dumped["contingencies"]["detour"]["phases"][0]["expect"]["cross_track_error_max"] = {
+        "max": 0.0001
+    }
+    dumped["contingencies"]["detour"]["phases"][0]["expect"]["temporal"] = ["always(speed <= 0.1)"]
+    for judged in (judge, judge_run_metrics):
+        summary = judged(copy.deepcopy(result), dumped)
+        assert summary["outcome"] == "expect-failed"
+        checks = summary.get("expectations") or summary["missed"]
+        missed = {(c["phase"], c["metric"]) for c in checks if not c["met"]}
+        assert missed == {
+            ("round-the-pond", "cross_track_error_max"),
+            ("round-the-pond", "always(speed <= 0.1)"),
+        }

@@ -27,7 +27,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import ExitStack, contextmanager
 from datetime import datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from wmr_mission.output.result import RunResult
 from wmr_mission.record import Outcome
@@ -145,7 +145,8 @@ def run_command(
                     f"{expected_mission}): this run does not replay the recorded one",
                     file=sys.stderr,
                 )
-            args = (mission, source, mission_path, out, seed, plots, animate, formats, received)
+            written = Written(source, sha256, tuple(parsed))
+            args = (mission, written, mission_path, out, seed, plots, animate, formats, received)
             name = backend or mission.backend.type
             code = _run(*args) if name == "sim" else _run_on_backend(name, *args)
             if received and code != _signal_exit(received):  # it came as the run ended
@@ -162,7 +163,7 @@ def run_command(
 
 
 def _run_on_backend(
-    name: str, mission: Mission, source: bytes, mission_path: Path, out: Path | None,
+    name: str, mission: Mission, written: Written, mission_path: Path, out: Path | None,
     seed: int | None, *args: Any,
 ) -> int:  # fmt: skip
     """``_run`` with another plant than our simulator (wmr_mission.backends):
@@ -177,16 +178,26 @@ def _run_on_backend(
         with ExitStack() as stack:
             with mode(RAISE):  # waiting for a robot: a stop ends the wait at once
                 plant = stack.enter_context(open_backend(name, plan, settings))
-            return _run(mission, source, mission_path, out, seed, *args, plant=plant, plan=plan)
+            return _run(mission, written, mission_path, out, seed, *args, plant=plant, plan=plan)
     except BackendError as error:
         print(f"{mission_path}: {error}", file=sys.stderr)
         return EXIT_FAILED
 
 
-def _located(mission_path: Path, source: bytes, result: RunResult) -> str:
+class Written(NamedTuple):
+    """The mission as run: the bytes read once (hashed, checked and run), and
+    the fields ``--set`` set in it."""
+
+    source: bytes
+    sha256: str
+    overrides: tuple[Override, ...]
+
+
+def _located(mission_path: Path, written: Written, result: RunResult) -> str:
     """``FILE:LINE:COL`` of what a failed run failed on, as the mission wrote
-    it (wmr_mission.spec.located); ``FILE`` alone where nothing written names it."""
-    from wmr_mission.spec.loader import read_document
+    it (wmr_mission.spec.located); the ``--set`` that set it; ``FILE`` alone
+    where nothing written names it."""
+    from wmr_mission.spec.loader import apply_override, read_document
     from wmr_mission.spec.located import failure_path
 
     phase, metric = (result.phases[0].name if result.phases else None), None
@@ -196,10 +207,17 @@ def _located(mission_path: Path, source: bytes, result: RunResult) -> str:
     missed = [c for c in (result.judged or {}).get("expectations") or () if not c.get("met")]
     if result.outcome is Outcome.expect_failed and missed:
         phase, metric = missed[0].get("phase"), str(missed[0].get("metric"))
-    document, _ = read_document(source.decode("utf-8", "replace"))
-    path = None if document is None else failure_path(document.data, result.outcome, phase, metric)
-    if document is None or path is None:
+    document, _ = read_document(written.source.decode("utf-8", "replace"))
+    if document is None:
         return str(mission_path)
+    for setting in written.overrides:  # checked with the mission: each lands
+        apply_override(document, setting)
+    path = failure_path(document.data, result.outcome, phase, metric)
+    if path is None:
+        return str(mission_path)
+    said = document.override_of(path)
+    if said is not None:  # not the file's value: how the command line wrote it
+        return said
     line, column = document.position(path, at_key=True)
     return f"{mission_path}:{line}:{column}" if line else str(mission_path)
 
@@ -230,7 +248,7 @@ def _check_environment(expected: str) -> None:
 
 def _run(
     mission: Mission,
-    source: bytes,
+    written: Written,
     mission_path: Path,
     out: Path | None,
     seed: int | None,
@@ -329,7 +347,7 @@ def _run(
             write_run(
                 result,
                 run_dir,
-                mission_sha256=hashlib.sha256(source).hexdigest(),
+                mission_sha256=written.sha256,
                 mission_file=str(mission_path),
                 plots=False,
                 animate=False,
@@ -374,7 +392,7 @@ def _run(
         # Every failure message names what happened: "diverged in phase ...",
         # "phase ... timed out ...", "expectation not met: ...", and where
         # the mission wrote what failed.
-        print(f"{_located(mission_path, source, result)}: {result.message}", file=sys.stderr)
+        print(f"{_located(mission_path, written, result)}: {result.message}", file=sys.stderr)
         return EXIT_FAILED
     return drawn
 

@@ -1,7 +1,7 @@
-"""Where in a mission file a run's failure was written: the key a failed
-run's last line points at (``FILE:LINE:COL``), as a mission's errors do, so
-that an editor or a CI log links a timeout to its ``timeout`` and a missed
-threshold to the ``expect`` line that set it."""
+"""Where a mission wrote its phases, and what a run's failure was written
+as: the key a failed run's last line points at (``FILE:LINE:COL``), as a
+mission's errors do, so that an editor or a CI log links a timeout to its
+``timeout`` and a missed threshold to the ``expect`` line that set it."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from typing import Any
 
 from wmr_mission.spec.repeats import DataPath
 
-__all__ = ["failure_path"]
+__all__ = ["failure_path", "written_phases"]
 
 
 def failure_path(
@@ -66,19 +66,28 @@ def _expect_key(expect: Any, metric: str) -> DataPath | None:
 
 
 def _written_phases(data: Mapping[str, Any]) -> dict[str, DataPath]:
-    """Each phase's path by its name, those of a repeat group's inside it."""
-    return dict(_phases(data.get("phases"), ("phases",)))
+    """Each phase's path by its name."""
+    return {str(phase.get("name")): path for path, phase in written_phases(data)}
 
 
-def _phases(steps: Any, at: DataPath) -> Iterator[tuple[str, DataPath]]:
-    for number, step in enumerate(steps if isinstance(steps, list) else ()):
-        if not isinstance(step, Mapping):
-            continue
-        repeat = step.get("repeat")
-        if isinstance(repeat, Mapping):
-            yield from _phases(repeat.get("phases"), (*at, number, "repeat", "phases"))
-        elif isinstance(step.get("name"), str):
-            yield step["name"], (*at, number)
+def written_phases(data: Any) -> Iterator[tuple[DataPath, Mapping[str, Any]]]:
+    """Each phase of a mission as written (its plain data, or its resolved
+    form) with its data path: the mission's, those of a repeat group in its
+    place, then each contingency's (a reaction runs them)."""
+    if not isinstance(data, Mapping):
+        return
+    for number, step in enumerate(data.get("phases") or ()):
+        repeat = step.get("repeat") if isinstance(step, Mapping) else None
+        # (None first: the test of a Mapping costs more than the rest of a step)
+        if repeat is not None and isinstance(repeat, Mapping):
+            for inner, phase in enumerate(repeat.get("phases") or ()):
+                yield ("phases", number, "repeat", "phases", inner), phase
+        elif isinstance(step, Mapping):
+            yield ("phases", number), step
+    contingencies = data.get("contingencies")
+    for name, contingency in contingencies.items() if isinstance(contingencies, Mapping) else ():
+        for number, phase in enumerate(contingency.get("phases") or ()):
+            yield ("contingencies", name, "phases", number), phase
 
 
 def _at(data: Mapping[str, Any], path: DataPath) -> Mapping[str, Any]:

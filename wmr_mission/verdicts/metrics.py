@@ -28,6 +28,7 @@ from wmr_mission.basics import STATES, FloatArray, cached_value
 from wmr_mission.kernels import jit
 from wmr_mission.spec import catalog, models
 from wmr_mission.spec.catalog import Metric
+from wmr_mission.spec.located import written_phases
 from wmr_mission.spec.numbers import MissionNumbers, mission_numbers
 from wmr_mission.verdicts import inputs as input_metrics
 from wmr_mission.verdicts import temporal
@@ -992,16 +993,9 @@ def _phase_keys() -> tuple[str, ...]:
 
 
 def _written_phases(mission: Mapping[str, Any] | None) -> list[Mapping[str, Any]]:
-    """The mission's phases as written, those of each repeat group in its place."""
-    phases: list[Mapping[str, Any]] = []
-    for step in (mission or {}).get("phases") or []:
-        repeat = step.get("repeat")
-        # most steps are no repeat: None told apart without the abstract class's check
-        if repeat is not None and (type(repeat) is dict or isinstance(repeat, Mapping)):
-            phases.extend(repeat.get("phases") or [])
-        else:
-            phases.append(step)
-    return phases
+    """The mission's phases as written, those of each repeat group in its
+    place, then its contingencies' (:func:`written_phases`)."""
+    return [phase for _, phase in written_phases(mission)]
 
 
 def _goals(

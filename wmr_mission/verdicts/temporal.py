@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from wmr_mission.basics import FloatArray
+from wmr_mission.spec.located import written_phases
 from wmr_mission.spec.numbers import MissionNumbers
 from wmr_mission.verdicts.check import Check
 from wmr_mission.verdicts.tracking import Known, Placement, placed_known, reference_known
@@ -269,17 +270,13 @@ def _unbounded_until(left: FloatArray, right: FloatArray) -> FloatArray:
 
 def phase_formulas(mission: Mapping[str, Any] | None, phase_name: str) -> tuple[str, ...]:
     """The formulas in force in a phase (its name as run, ``name#lap`` in a
-    repeat): its own `expect`'s ``temporal``, else the mission's."""
+    repeat; a contingency's too): its own `expect`'s ``temporal``, else the mission's."""
     written = phase_name.split("#", 1)[0]
     shared = ((mission or {}).get("expect") or {}).get("temporal")
-    for step in (mission or {}).get("phases") or []:
-        repeat = step.get("repeat")
-        # (None first: the test of a Mapping costs more than the rest of the step)
-        inner = repeat is not None and isinstance(repeat, Mapping)
-        for phase in (repeat.get("phases") or ()) if inner else (step,):
-            if str(phase.get("name")) == written:
-                own = (phase.get("expect") or {}).get("temporal")
-                return tuple(own if own is not None else shared or ())
+    for _, phase in written_phases(mission):
+        if str(phase.get("name")) == written:
+            own = (phase.get("expect") or {}).get("temporal")
+            return tuple(own if own is not None else shared or ())
     return tuple(shared or ())
 
 
