@@ -19,6 +19,7 @@
     python benchmarks/measure.py compile    # numba's compile time per kernel, case study 2
     python benchmarks/measure.py compiletasks   # `wmr-mission compile`'s tasks, one by one
     python benchmarks/measure.py compileorder   # when each task ends, on two processes
+    python benchmarks/measure.py compilewaits   # the compiles besides the loop's, empty cache
     python benchmarks/measure.py plain      # every example mission as plain Python, per sample
     python benchmarks/measure.py memory     # peak memory of a 1-hour mission, and by stage
     python benchmarks/measure.py csv        # trajectory.csv's writer, per sample, the 1-hour run
@@ -2543,6 +2544,50 @@ def plugins(repeat: int = 7) -> None:
         print(f"{name:<22} {median:8.3f} us per sample ({median / built_in:6.1f}x built in)")
 
 
+# Each compile in a new process with an empty cache: its run made as plain
+# Python, then what it compiles timed.
+_COMPILE_WAITS = {
+    "the campaign's pixel counts": (
+        "import numpy as np; from wmr_mission.kernels import jit; jit.load(); "
+        "from wmr_mission.campaign.coverage import runs_per_pixel as timed\n"
+        "args = ([np.zeros((2, 3))], (0.0, 1.0, 0.0, 1.0), (4, 4))"
+    ),
+    "the judge's passes": (
+        "from wmr_mission.kernels import jit; from wmr_mission.commands import compile as c\n"
+        "jit.load()\n"
+        "with jit.plain_python_meanwhile():\n"
+        "    r = c._run(c.first_variant())\n"
+        "timed, args = c._judge, (r,)"
+    ),
+    "the EKF band's replay": (
+        "from wmr_mission import load_mission, run_mission; from wmr_mission.kernels import jit\n"
+        "from wmr_mission.output.covariance import estimate_std as timed\n"
+        "jit.load()\n"
+        "with jit.plain_python_meanwhile():\n"
+        f"    args = (run_mission(load_mission({str(MISSIONS / 'noisy-ekf.yaml')!r})),)"
+    ),
+}
+
+
+def compile_waits() -> None:
+    """What each compile a user may wait on besides the loop's costs from an
+    empty cache, in a process of its own: CPU and wall seconds."""
+    for name, setup in _COMPILE_WAITS.items():
+        code = (
+            f"{setup}\nimport time\nc0, w0 = time.process_time(), time.perf_counter()\n"
+            "timed(*args)\nprint(time.process_time() - c0, time.perf_counter() - w0)"
+        )
+        with tempfile.TemporaryDirectory() as cache:
+            env = {k: v for k, v in os.environ.items() if k != "WMR_MISSION_NO_JIT"}
+            env["NUMBA_CACHE_DIR"] = cache
+            done = subprocess.run(
+                [sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True
+            )
+        cpu, wall = (float(word) for word in done.stdout.split()[-2:])
+        print(f"{name:<28} {cpu:6.1f} s of CPU, {wall:6.1f} s of wall time")
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 def band(repeat: int = 5) -> None:
     """The EKF's +-3 std band of missions/noisy-ekf.yaml (wmr_mission/output/
     covariance.py): the replay in a fresh process (its compiled form loaded
@@ -2578,6 +2623,7 @@ if __name__ == "__main__":
     jobs |= {"short": short}
     jobs |= {"cuts": cuts, "imports": imports, "parts": parts, "classes": classes}
     jobs |= {"llvm": llvm, "compiletasks": compile_tasks, "compileorder": compile_order}
+    jobs |= {"compilewaits": compile_waits}
     jobs |= {"figures": figures, "distance": distance, "dare": dare, "dlqr": dlqr}
     jobs |= {
         "campaign": campaign,

@@ -13,6 +13,7 @@ import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import IO, cast
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ from wmr_mission.controllers import CONTROLLERS
 from wmr_mission.estimators import ESTIMATORS
 from wmr_mission.kernels import cache as kernel_cache
 from wmr_mission.kernels import jit, loop
+from wmr_mission.output.progress import Steps
 from wmr_mission.output.rundir import write_trajectory
 from wmr_mission.sim import runner
 from wmr_mission.sim.plan import plan_mission, sample_budget
@@ -741,3 +743,146 @@ def test_a_loop_that_does_not_compile_is_not_marked_ready(
     assert compile_loop.compile_command() == 1
     assert "failed to compile" in capsys.readouterr().out
     assert not list((tmp_path / "cache").rglob(compile_loop.READY))
+
+
+# Compiles small functions counted as the judge's (their module, tiny, put
+# in the judge's place in jit.COMPILED_WHAT): one in each of two processes
+# forked once numba is loaded, then two in the process they were forked from.
+TINY_KERNELS = """
+import multiprocessing, sys
+sys.path.insert(0, sys.argv[1])
+import tiny
+from wmr_mission.kernels import jit
+
+judges = jit.COMPILED_WHAT[1]
+assert judges[1] == "the judge's passes"
+jit.COMPILED_WHAT = (jit.COMPILED_WHAT[0], ("tiny", *judges[1:]), *jit.COMPILED_WHAT[2:])
+
+def halved():
+    jit.compiled(tiny.half)(1.0)
+
+if __name__ == "__main__":
+    jit.load()  # as a sweep's warm-up, before its workers fork
+    forked = [multiprocessing.get_context("fork").Process(target=halved) for _ in range(2)]
+    for process in forked:
+        process.start()
+    for process in forked:
+        process.join()
+        assert process.exitcode == 0
+    jit.compiled(tiny.double)(1.0)
+    jit.compiled(tiny.triple)(1.0)
+"""
+TINY = """
+def double(x):
+    return 2.0 * x
+
+def triple(x):
+    return 3.0 * x
+
+def half(x):
+    return 0.5 * x
+"""
+JUDGES_LINE = "wmr-mission: compiling the judge's passes, not in the cache yet"
+
+
+def test_a_compile_is_said_once_as_it_starts_and_not_from_a_warm_cache(tmp_path: Path) -> None:
+    """A first compile of the judge's passes says so on stderr, one line for
+    all of them and for the processes forked after numba loaded, which
+    compile the same (a campaign's worst runs, docs/performance.md,
+    Start-up); from the cache, nothing is said."""
+    (tmp_path / "tiny.py").write_text(TINY, encoding="utf-8")
+    script = tmp_path / "tiny_kernels.py"
+    script.write_text(TINY_KERNELS, encoding="utf-8")
+    env = _env(tmp_path / "cache")
+    first = subprocess.run(
+        [sys.executable, str(script), str(tmp_path)],
+        capture_output=True, text=True, timeout=300, env=env, check=False,
+    )  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    lines = first.stderr.splitlines()
+    assert [line for line in lines if "compiling" in line] == [
+        f"{JUDGES_LINE} (15 s to a minute and a half by the machine's load, once; "
+        "from the cache, under a second)"
+    ], first.stderr
+    again = subprocess.run(
+        [sys.executable, str(script), str(tmp_path)],
+        capture_output=True, text=True, timeout=300, env=env, check=False,
+    )  # fmt: skip
+    assert again.returncode == 0, again.stderr
+    assert "compiling" not in again.stderr, again.stderr
+
+
+def test_the_loops_compile_said_before_it_is_not_said_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The notice before the loop is loaded (jit.NOTICE, printed by run, sweep,
+    falsify and the library) says its compile: its misses say nothing more,
+    and the judge's, the campaign's and the EKF band's compiles each say
+    theirs once; `wmr-mission compile`, which says its own, says none."""
+    monkeypatch.setattr(jit._state, "said", jit._said_memory())
+    monkeypatch.setattr(kernel_cache, "cache_directory", lambda: tmp_path)
+    monkeypatch.setattr(jit._state, "ready", False)
+    assert jit.foreground_notice() == jit.NOTICE
+    assert jit.compiling_notice("wmr_mission.kernels.loop") is None
+    assert jit.compiling_notice("wmr_mission.kernels.scalar_math") is None
+    said = [
+        jit.compiling_notice(module)
+        for module in (
+            "wmr_mission.verdicts.passes", "wmr_mission.verdicts.path_distance",
+            "wmr_mission.campaign.coverage", "wmr_mission.campaign.coverage",
+            "wmr_mission.output.covariance",
+        )
+    ]  # fmt: skip
+    assert [line is not None for line in said] == [True, False, True, False, True]
+    assert "the campaign's pixel counts" in str(said[2])
+    assert "the EKF band's replay" in str(said[4])
+    monkeypatch.setattr(jit._state, "said", jit._said_memory())
+    jit.compiles_said_elsewhere()
+    assert jit.compiling_notice("wmr_mission.verdicts.passes") is None
+
+
+class _Terminal:
+    """A file that says it is a terminal, shared by a process and its forks."""
+
+    encoding = "utf-8"
+
+    def __init__(self, path: Path) -> None:
+        self._file = path.open("w", encoding="utf-8")
+
+    def isatty(self) -> bool:
+        return True
+
+    def write(self, text: str) -> int:
+        return self._file.write(text)
+
+    def flush(self) -> None:
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def test_a_compile_is_said_above_a_commands_steps(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """While a command's steps are drawn on a terminal (a sweep's, a run's),
+    a compile's line is printed above them, where a bare line on stderr would
+    be drawn over: this process's, and a forked one's (a campaign's worker)
+    with its copy of the steps; after the steps, on stderr."""
+    drawn = tmp_path / "terminal"
+    shared = _Terminal(drawn)
+    steps = Steps(cast(IO[str], shared))
+    steps.step("worst runs and figures")
+    jit._say("wmr-mission: compiling (here)")
+    forked = os.fork()
+    if forked == 0:
+        jit._say("wmr-mission: compiling (forked)")
+        os._exit(0)
+    assert os.waitpid(forked, 0)[1] == 0
+    steps.close()
+    shared.close()
+    jit._say("after")
+    terminal = drawn.read_text(encoding="utf-8")
+    assert "wmr-mission: compiling (here)\n" in terminal
+    assert "wmr-mission: compiling (forked)\n" in terminal
+    assert capfd.readouterr().err.splitlines() == ["after"]

@@ -322,6 +322,7 @@ def compile_command() -> int:
     # The stamp of the sources compiled, read before: an edit meanwhile
     # leaves a stale marker, never a wrong one.
     stamp = ready_stamp()
+    jit.compiles_said_elsewhere()  # the line above says them all, and the steps each
     from wmr_mission.output.progress import Steps
 
     steps = Steps(sys.stderr)  # on a terminal: each task as it ends

@@ -21,7 +21,8 @@ Python (:func:`choose_plain_python`: a short mission's run,
 wmr_mission.commands.compile), :func:`compiled` returns the plain
 form instead: slower, the same equations, the same bytes. Compiled entry
 points are cached on disk where a directory can be written
-(wmr_mission.kernels.cache).
+(wmr_mission.kernels.cache); a compile, which a miss in that cache starts,
+is said on stderr as it starts, once (:func:`compiling_notice`).
 """
 
 from __future__ import annotations
@@ -95,6 +96,8 @@ class _State:
     entries: dict[tuple[int, bool, bool], Any] = {}  # noqa: RUF012 - compiled entry points
     judged = 0  # samples judged in this process (judged())
     save_lock: str | None = None  # the file each save to the cache locks (save_one_at_a_time)
+    said: Any = None  # which compiles compiling_notice said, shared with forked processes
+    say: Callable[[str], None] | None = None  # how compiles are said (compiles_said_by)
 
 
 _state = _State()
@@ -227,6 +230,8 @@ def _load() -> bool:
 
     _state.cached = directory is not None
     _state.cache_class = _cache_class()
+    if _state.said is None:  # before any worker forks from this process: shared with them
+        _state.said = _said_memory()
     if directory is not None and os.name == "posix" and _numba_as_read():
         # Whatever compiles in this process (a `run` beside another, a sweep's
         # worker meeting a variant its warm-up did not compile, `wmr-mission
@@ -414,7 +419,10 @@ def _cache_class() -> Any:
             loaded = None
             with self._guard_against_spurious_io_errors():
                 loaded = self._load_overload(sig, target_context)
-            if loaded is None:
+            if loaded is None:  # a compile follows, seconds to minutes: said as it starts
+                notice = compiling_notice(getattr(self._py_func, "__module__", None))
+                if notice is not None:
+                    _say(notice)
                 _set_up_for_compiling()
             return loaded
 
@@ -715,7 +723,8 @@ NOTICE = (
 def foreground_notice() -> str | None:
     """The line printed before the compiled loop is loaded when the cache is
     not known to hold it (no ready marker): a compile of one variant then
-    (:data:`ONE_VARIANT`).
+    (:data:`ONE_VARIANT`); the loop's compile is then not said again
+    (:func:`compiling_notice`).
     None when the loop is loaded already, or nothing is compiled."""
     from wmr_mission.kernels import cache
 
@@ -724,4 +733,121 @@ def foreground_notice() -> str | None:
     directory = cache.cache_directory()
     if directory is not None and cache.is_ready(directory):
         return None
+    _said_already(LOOP)
     return NOTICE
+
+
+# What each module's compiled entry points are to a user, and how long their
+# compile takes from an empty cache, the machine's load deciding: the judge's
+# passes 16.5 s of CPU and 20.5 s of wall time (load average 3.1), the pixel
+# counts 0.6 s, the EKF band's replay 2.4 s (`python benchmarks/measure.py
+# compilewaits`); under the load that took the loop 157 s, the judge's about
+# 90 s (docs/performance.md, Start-up). By the first match, in this order.
+LOOP = 0
+COMPILED_WHAT: tuple[tuple[str, str, str], ...] = (
+    ("wmr_mission.kernels.", "the simulation loop", ONE_VARIANT),
+    (
+        "wmr_mission.verdicts.",
+        "the judge's passes",
+        "15 s to a minute and a half by the machine's load",
+    ),
+    ("wmr_mission.campaign.", "the campaign's pixel counts", "a second or a few"),
+    ("wmr_mission.output.", "the EKF band's replay", "a second or a few"),
+    ("", "kernels", "seconds to minutes by the machine's load"),
+)
+
+
+def compiling_notice(module: str | None) -> str | None:
+    """The line said as a compiled entry point of ``module`` starts compiling
+    (its cache missed): what compiles, once, and about how long; None where
+    this process, the process it was forked from or another forked from that
+    one has said it (or :data:`NOTICE`, for the loop). A compile of the
+    judge's passes after a campaign's runs would otherwise leave a terminal
+    silent for a minute or more; a warm cache never misses, and says nothing."""
+    group = next(
+        i for i, (prefix, _, _) in enumerate(COMPILED_WHAT) if (module or "").startswith(prefix)
+    )
+    if not _said_first(group):
+        return None
+    _, what, how_long = COMPILED_WHAT[group]
+    return (
+        f"wmr-mission: compiling {what}, not in the cache yet ({how_long}, once; "
+        "from the cache, under a second)"
+    )
+
+
+@contextlib.contextmanager
+def compiles_said_by(say: Callable[[str], None]) -> Iterator[None]:
+    """Inside, the compiles of this process and of those forked from it said
+    by ``say``: a command's steps drawn on a terminal
+    (wmr_mission.output.progress), which print the line above them where a
+    bare line would be drawn over. A forked process (a campaign's worker)
+    says it with its copy of the steps, the same rows above the same shape of
+    steps, which the command redraws as it goes on."""
+    before = _state.say
+    _state.say = say
+    try:
+        yield
+    finally:
+        _state.say = before
+
+
+def _say(line: str) -> None:
+    if _state.say is not None:
+        _state.say(line)
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
+def compiles_said_elsewhere() -> None:
+    """No compile is said (:func:`compiling_notice`) in this process and those
+    it forks from now: `wmr-mission compile` says its own."""
+    for group in range(len(COMPILED_WHAT)):
+        _said_already(group)
+
+
+def _said_memory() -> Any:
+    """Which compiles were said, a byte each, in memory shared with the
+    processes forked from this one (a campaign's workers, which would
+    otherwise each say the compile they all wait on)."""
+    import mmap
+
+    return mmap.mmap(-1, len(COMPILED_WHAT))
+
+
+def _said_already(group: int) -> None:
+    if _state.said is None:  # before numba loads: nothing forked shares it yet
+        _state.said = _said_memory()
+    _state.said[group] = 1
+
+
+def _said_first(group: int) -> bool:
+    """Whether ``group``'s compile is said here first (and now counts as said):
+    checked and set holding the cache's save lock, where there is one, so
+    that two processes missing at once do not both say it."""
+    if _state.said is None:
+        _state.said = _said_memory()
+    with _holding(_state.save_lock):
+        if _state.said[group]:
+            return False
+        _state.said[group] = 1
+        return True
+
+
+@contextlib.contextmanager
+def _holding(lock: str | None) -> Iterator[None]:
+    """``lock`` (a file) held with flock, where there is one and it can be."""
+    if lock is None:
+        yield
+        return
+    try:
+        held = open(lock, "a")  # noqa: SIM115 - closed below
+    except OSError:
+        yield
+        return
+    with held:
+        with contextlib.suppress(OSError, ImportError):
+            import fcntl
+
+            fcntl.flock(held, fcntl.LOCK_EX)  # released as the file closes
+        yield

@@ -9,6 +9,7 @@ processes while it shows, and a fork copies no other thread.
 from __future__ import annotations
 
 import time
+from contextlib import ExitStack
 from typing import IO, TYPE_CHECKING, Any
 
 from wmr_mission.output.report import WIDTH
@@ -31,6 +32,7 @@ class Steps:
         self._progress: Progress | None = None
         self._task: TaskID | None = None
         self._drawn = 0.0
+        self._compiles_said = ExitStack()
         if stream is None or not stream.isatty():
             return
         from rich.console import Console
@@ -50,6 +52,11 @@ class Steps:
             redirect_stderr=False,
         )
         self._progress.start()
+        # A compile's line (wmr_mission.kernels.jit.compiling_notice) printed
+        # above the steps while they are drawn: a bare line would be drawn over.
+        from wmr_mission.kernels import jit
+
+        self._compiles_said.enter_context(jit.compiles_said_by(self.say))
 
     def step(self, name: str, total: int | None = None) -> None:
         """End the current step and start ``name``: a count up to ``total``,
@@ -94,6 +101,7 @@ class Steps:
         self._finish()
         self._progress.stop()
         self._progress = None
+        self._compiles_said.close()
 
     def _finish(self) -> None:
         assert self._progress is not None
