@@ -154,10 +154,15 @@ def test_a_bound_that_allows_the_lag_or_none_is_not_warned() -> None:
 
 
 def test_a_phase_too_short_to_catch_up_keeps_its_own_warning() -> None:
-    """Ended within its entry, the phase is warned of at its `until` (a longer
-    phase helps), once."""
-    [warning] = _warnings(_mission(elapsed=4))
+    """Ended within its entry, the phase is warned of at its `until` where a
+    longer phase helps (0.9 of the limit: 30 s pass), once; at the limit a
+    longer phase never helps, and the lag is said instead."""
+    [warning] = _warnings(_mission(speed=0.9, elapsed=4))
     assert "phase 'line' ends before the robot can catch its path" in warning
+    assert _warnings(_mission(speed=0.9, elapsed=30)) == []
+    [warning] = _warnings(_mission(elapsed=4))
+    assert warning.startswith("phase 'line': its path runs at 1 m/s")
+    assert "lengthen" not in warning
 
 
 @pytest.mark.parametrize(
@@ -187,3 +192,16 @@ def test_the_warning_fires_exactly_where_the_run_fails_its_lag_over_the_grid() -
                     for length in (8.0, 40.0):
                         warned, lag = judge(share, acceleration, ramped, held, length)
                         assert warned == (not lag["met"]), (share, acceleration, ramped, held)
+
+
+def test_only_advice_that_helps_is_given() -> None:
+    """Within a tenth of the limit a longer phase is judged later and still
+    fails: no "lengthen the phase" (the warning of a phase that ends too soon
+    gives way); a path beyond the limit is refused as such, not told to slow
+    to a speed still above it or given an acceleration no limit reaches."""
+    _, said = check_mission_text(_mission(speed=0.99, elapsed=10), "m.yaml")
+    assert [d.message.startswith("phase 'line': its path runs at 0.99") for d in said] == [True]
+    assert "lengthen" not in said[0].message
+    _, said = check_mission_text(_mission(speed=1.2), "m.yaml")
+    assert not any("its path runs at" in d.message for d in said)
+    assert any("above robot.limits.v" in d.message for d in said)

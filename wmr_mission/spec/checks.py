@@ -1067,10 +1067,19 @@ def _lag_at_top_speed(mission: Mission, caught: set[DataPath]) -> Iterator[Findi
         if threshold is None or math.isinf(ends):
             continue  # not judged, or not on time
         speed = float(path.speed)
+        if speed > limits.v:  # beyond the limit: refused as a path the robot cannot follow
+            continue
         bound = numbers.lag_allowance(speed) if threshold == "auto" else float(threshold.max)
         lag, judged, at_end = _lag_judged(numbers, speed, ahead, gap, ends)
-        if lag <= bound * (1.0 + 1e-9) or (where in caught and at_end):
+        if lag <= bound * (1.0 + 1e-9):
             continue
+        # a phase that ends within its entry: would it pass, judged at the entry's end?
+        longer = numbers.recovery_time(gap, speed) + 2.0 * numbers.dt
+        lengthening = at_end and _lag_judged(numbers, speed, ahead, gap, longer)[0] <= bound * (
+            1.0 + 1e-9
+        )
+        if lengthening and where in caught:
+            continue  # _catching_up says to lengthen it, which is enough
         yield Finding(
             (*where, "track", "path", "speed"),
             f"phase {phase.name!r}: its path runs at {speed:g} m/s, limits.v is "
@@ -1078,7 +1087,7 @@ def _lag_at_top_speed(mission: Mission, caught: set[DataPath]) -> Iterator[Findi
             f"{numbers.v_acceleration:g} m/s^2, is at least {lag:.3g} m behind its reference "
             f"point when its lag is first judged, {judged:.3g} s into the phase, where "
             f"along_track_lag_max allows {bound:.3g} m, so the run fails it whatever the law; "
-            + ("lengthen the phase, " if at_end else "")
+            + ("lengthen the phase, " if lengthening else "")
             + _lag_remedies(
                 numbers, speed, (ahead, gap), ends, None if threshold == "auto" else bound
             ),
@@ -1103,23 +1112,25 @@ def _lag_remedies(
         return _lag_judged(candidate, pace, *start, ends)[0] > allowed * (1.0 + 1e-9)
 
     step = 0.01 * numbers.v_limit
-    slower = speed - step
+    slower = min(speed, numbers.v_limit) - step
     while slower > step and fails(numbers, slower):
         slower -= step
+    remedies = [f"slow the path to {slower:.3g} m/s"]
     low, high = numbers.v_acceleration, 1024.0 * numbers.v_acceleration
-    for _ in range(50):
-        middle = 0.5 * (low + high)
-        if fails(numbers._replace(v_acceleration=middle), speed):
-            low = middle
-        else:
-            high = middle
-    # rounded up to three digits: a limit printed lower may not do
-    digits = 2 - math.floor(math.log10(high))
-    needed = math.ceil(high * 10.0**digits) / 10.0**digits
+    if not fails(numbers._replace(v_acceleration=high), speed):  # else no limit will do
+        for _ in range(50):
+            middle = 0.5 * (low + high)
+            if fails(numbers._replace(v_acceleration=middle), speed):
+                low = middle
+            else:
+                high = middle
+        # rounded up to three digits: a limit printed lower may not do
+        digits = 2 - math.floor(math.log10(high))
+        needed = math.ceil(high * 10.0**digits) / 10.0**digits
+        remedies.append(f"raise the acceleration limit to {needed:g} m/s^2")
     return (
-        f"slow the path to {slower:.3g} m/s, raise the acceleration limit to "
-        f"{needed:g} m/s^2, or relax along_track_lag_max (null, or a bound above the lag "
-        "the run shows)"
+        ", ".join(remedies)
+        + ", or relax along_track_lag_max (null, or a bound above the lag the run shows)"
     )
 
 

@@ -611,10 +611,10 @@ def track_samples(
         offset = cross[detour & ~np.isnan(cross)]
         metrics["detour_time"] = float(np.count_nonzero(detour)) * dt
         metrics["detour_offset_max"] = float(offset.max()) if offset.size else None
-    # the entry left out: its bound, or its samples where the robot kept up before it
+    # the entry left out: its bound, or to where the robot kept up, where sooner
     left_out = entry
     if after_entry == in_entry and t[in_entry] - t[0] < entry - 1e-9 * dt:
-        left_out = in_entry * dt
+        left_out = float(t[in_entry] - t[0])
     metrics |= {  # (no zone: no detour)
         "cross_track_error_max": most_cross,
         "along_track_lag_max": most_lag,
