@@ -726,3 +726,31 @@ def test_a_window_past_the_phase_s_end_is_said_in_the_advice(tmp_path: Path) -> 
     assert "lies past the end of phase 'park'" in checks[late]["advice"]
     assert "advice" not in checks[held]
     assert f"try: {late}: a window of it lies past the end of phase 'park'" in result.stdout
+
+
+def test_a_formula_on_the_path_in_the_runs_last_phase_has_a_value() -> None:
+    """A track phase that ends the run has no reference point at the run's
+    last sample (the run follows its last command): its formulas on the path
+    are judged to its last reference point, as its tracking and its final
+    error are, not found not finite there (null, a miss of every such run)."""
+    from wmr_mission.api import run_mission
+    from wmr_mission.spec.loader import load_mission_text
+
+    text = """\
+version: 1
+name: last-formula
+robot: {limits: {v: 1, omega: 2}}
+phases:
+  - name: a
+    track: {path: {type: line, heading: 0, speed: 0.5}}
+    until: {elapsed: 3}
+  - name: b
+    track: {path: {type: line, heading: 0, speed: 0.5, start: current}}
+    until: {elapsed: 3}
+    expect:
+      temporal: ["always(lag <= 0.3)", "always(cross_track <= 0.1)", "always(speed <= 0.6)"]
+"""
+    run = run_mission(load_mission_text(text))
+    assert run.outcome.value == "success"
+    values = run.judged["phases"][1]["temporal"]
+    assert all(value is not None and value > 0.1 for value in values.values()), values

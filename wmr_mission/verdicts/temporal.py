@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from wmr_mission.basics import FloatArray
+from wmr_mission.basics import FloatArray, cached_value
 from wmr_mission.spec.located import written_phases
 from wmr_mission.spec.numbers import MissionNumbers
 from wmr_mission.verdicts.check import Check
@@ -309,7 +309,7 @@ def phase_values(
     for text in formulas:
         node, names = _read(text)
         named = {name: signals.get(name) for name in names}
-        arrays = {name: a for name, a in named.items() if a is not None}
+        arrays = {name: a[: signals.end] for name, a in named.items() if a is not None}
         if len(arrays) < len(named):  # a signal the phase does not measure
             continue
         if not all(map(_finite, arrays.values())):
@@ -393,6 +393,24 @@ class PhaseSignals:
         # the places on the path of the samples whose reference is known (None:
         # none, or a position not finite), shared with the phase's metrics
         self._placement = placement
+
+    @cached_value
+    def end(self) -> int:
+        """One past the last sample the phase's formulas judge: a track phase's
+        last whose reference point is known (one that ends the run has none
+        at the run's last sample, as its tracking and its final error have it:
+        its formulas on the path read no NaN there), else the phase's last."""
+        w = self.window
+        size = int(w.stop - w.start)
+        if self.info.kind != "track":
+            return size
+        r = self.result
+        known, these = (
+            self._known() if self._known is not None else reference_known(r.x_ref[w], r.y_ref[w])
+        )
+        if these is None or not known.size or known[-1] or not known.any():
+            return size  # every one known, or the last, or none: the whole phase
+        return int(np.flatnonzero(known)[-1]) + 1
 
     def get(self, name: str) -> FloatArray | None:
         if name not in self._found:
