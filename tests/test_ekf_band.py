@@ -85,6 +85,9 @@ estimator:
   type: ekf
   innovation_gate: 16.27
   measurement_std: {x: 0.02, y: 0.02}
+  # the heading's random walk written (the default takes none with the
+  # heading unmeasured): the band of a state that grows between measurements
+  process_std: {x: 2.25e-6, y: 2.25e-6, theta: 0.001}
 phases:
   - name: line
     track: {path: {type: line, heading: 0.3, speed: 1}}

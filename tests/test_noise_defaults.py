@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import yaml
 
+import wmr_mission as api
 from wmr_mission.estimators import ekf, observer
 from wmr_mission.kernels.model import step
 from wmr_mission.record import Outcome
@@ -320,3 +321,94 @@ def test_a_delayed_line_says_the_look_ahead_that_meets_its_jitter() -> None:
     advised = text.replace("phases:", "controller: {tracking: {look_ahead: 0.14}}\nphases:")
     after = run_mission(load_mission_text(advised, "advised.yaml"))
     assert after.outcome is Outcome.success, after.message
+
+
+# --- the heading unmeasured (a GPS) ----------------------------------------------
+
+GPS_ROUTE = Path(__file__).parent / "data" / "gps-route.yaml"
+
+
+def _cross_track_and_heading_variance(poles: tuple[float, float, float]) -> tuple[float, float]:
+    """The steady variances of the cross-track and heading estimates per unit
+    of white position noise, the heading unmeasured, driving along x at 3 cm
+    per sample: the phase-I error dynamics of eq. (7) solved as a Lyapunov
+    equation."""
+    import scipy.linalg
+
+    gain, travel = np.zeros((3, 3)), 0.03
+    observer.observer_gain(0.0, travel, np.array([1.0, 1.0, 0.0]), np.array(poles), 0.0, gain)
+    a = np.eye(3)
+    a[1, 2] = travel
+    error = (np.eye(3) - gain @ np.diag([1.0, 1.0, 0.0])) @ a
+    noise = gain[:, :2]
+    covariance = scipy.linalg.solve_discrete_lyapunov(error, noise @ noise.T)
+    return float(covariance[1, 1]), float(covariance[2, 2])
+
+
+def test_an_unmeasured_heading_s_pole_is_slowed_with_the_positions() -> None:
+    """The cross-track position and the heading are filtered as a pair whose
+    poles are (p_theta, p_pos): with the heading's at 0.9 the cross-track
+    estimate keeps 0.23 of the noise std whatever the position poles, so the
+    position poles alone never met the law's budget. Slowed as one, they do."""
+    settings = api.load_mission(GPS_ROUTE).estimator
+    assert isinstance(settings, observer.ConstrainedObserver)
+    # budget 0.01 * 1.5 rad/s * 0.05 m * 0.1 s = 7.5e-5 m of 0.02 m
+    rho = (0.01 * 1.5 * 0.05 * 0.1 / 0.02) ** 2
+    poles = (settings.poles.x, settings.poles.y, settings.poles.theta)
+    assert poles[0] == poles[1] == poles[2] > 0.99998
+    cross_track, heading = _cross_track_and_heading_variance(poles)
+    assert cross_track <= rho
+    assert cross_track == pytest.approx(observer.cross_track_share(poles[0]), rel=1e-6)
+    assert heading < 1e-6 * rho
+    # the position poles alone, the heading's at 0.9: as noisy as without them
+    single = observer.quiet_pole(0.02, 7.5e-5, 0.9)
+    assert _cross_track_and_heading_variance((single, single, 0.9))[0] > 0.05
+    # an estimate that starts at the true pose starts at its poles; one written
+    # starts at the default pace, heading too (it filters the cross-track position)
+    measurements = observer.Measurements(np.array([1.0, 1.0, 0.0]), np.full(3, 0.02), 0.05)
+    assert not observer.tuning_of(settings, measurements).ramp
+    written = api.load_mission(
+        GPS_ROUTE, overrides={"estimator.initial_estimate": {"x": 0, "y": 0, "theta": 0.3}}
+    ).estimator
+    assert isinstance(written, observer.ConstrainedObserver)
+    tuning = observer.tuning_of(written, measurements)
+    memory = observer.new_memory(tuning, np.zeros(3))
+    estimate = np.array([0.0, 0.0, 0.3])
+    observer.next_estimate(tuning, memory, estimate, 0.6, 0.0, 0.05, np.array([0.03, 0, 0]), True)
+    assert memory.poles[2] == pytest.approx(0.9)
+    # a measured heading's pole is the heading noise's own (the jitter bound counts it)
+    assert load(mission()).estimator.poles.theta == 0.9  # type: ignore[union-attr]
+
+
+def test_an_unmeasured_heading_takes_no_process_noise_in_the_ekf() -> None:
+    settings = api.load_mission(GPS_ROUTE, overrides={"estimator.type": "ekf"}).estimator
+    assert isinstance(settings, ekf.Ekf)
+    assert settings.process_std.theta == 0.0
+    assert settings.process_std.x == float(f"{7.5e-5**2 / 0.02:.3g}")
+    # starting at the true pose, the positions as certain as their budget
+    assert settings.initial_std.x == settings.initial_std.y == pytest.approx(7.5e-5)
+    written = api.load_mission(
+        GPS_ROUTE,
+        overrides={
+            "estimator.type": "ekf",
+            "estimator.initial_estimate": {"x": 0, "y": 0, "theta": 0},
+        },
+    ).estimator
+    assert isinstance(written, ekf.Ekf)
+    assert written.initial_std.x == 1.0  # an estimate written may be off: the default
+
+
+@pytest.mark.parametrize("kind", ["constrained-observer", "ekf"])
+@pytest.mark.parametrize("dt", [0.05, 0.01])
+def test_a_gps_only_route_meets_the_default_verdicts(kind: str, dt: float) -> None:
+    """A user's GPS-only robot (tests/data/gps-route.yaml). Before, with the
+    heading's pole at 0.9 (the EKF: its heading's process noise 0.001), each
+    missed its jitter and reversals: 0.211 rad/s and 12 (0.015 and 3 allowed)
+    by the observer at 0.05 s, 0.124 and 17 by the EKF at 0.01 s."""
+    result = run_mission(
+        api.load_mission(GPS_ROUTE, overrides={"estimator.type": kind, "robot.dt": dt})
+    )
+    assert result.outcome is Outcome.success, result.message
+    inputs = result.summary()["phases"][0]["inputs"]
+    assert inputs["turn_rate_jitter"] < 0.005
+    assert inputs["turn_rate_reversals"] <= 1

@@ -51,7 +51,12 @@ class Ekf(EstimatorSettings):
     type: Literal["ekf"] = Field(description="Estimator kind.")
     initial_std: StatePositiveStd = Field(
         default_factory=lambda: StatePositiveStd(x=1.0, y=1.0, theta=0.5),
-        description="Square root of the diagonal of P0 [m, m, rad], > 0.",
+        description=(
+            "Square root of the diagonal of P0 [m, m, rad], > 0; default 1, 1, 0.5, and with "
+            "noisy sensors and initial_estimate unset (the estimate starts at the true pose) a "
+            "third of each noise std (0.001 at least); with the heading unmeasured, the noisy "
+            "positions the law's budget (docs/paper-notes.md, eq. 6-7)."
+        ),
     )
     process_std: StateStd = Field(
         default_factory=lambda: StateStd(x=0.001, y=0.001, theta=0.001),
@@ -59,7 +64,7 @@ class Ekf(EstimatorSettings):
             "Process noise per sample [m, m, rad], >= 0; default 0.001, and with noisy sensors "
             "(no robot.disturbances) less: x and y so that the estimate's noise takes at most "
             "1 % of the turn-rate limit through the tracking law, theta a third of its noise "
-            "(docs/paper-notes.md, eq. 6-7)."
+            "(0 when it is not measured: docs/paper-notes.md, eq. 6-7)."
         ),
     )
     measurement_std: dict[StateName, Positive] | None = Field(
@@ -92,14 +97,29 @@ class Ekf(EstimatorSettings):
         noisy = sum(std > 0.0 for std in measured_noise.values())
         if noisy and "innovation_gate" not in self.model_fields_set:
             update["innovation_gate"] = CHI_SQUARE_GATE[noisy - 1]
+        # With the heading unmeasured it is inferred from the positions, and the
+        # cross-track estimate is as noisy as the heading lets it be
+        # (docs/paper-notes.md, "Eqs. (6)-(7) under position noise").
+        quiet_heading = (
+            "theta" not in measured_noise
+            and math.isfinite(position_budget)
+            and any(measured_noise.get(s, 0.0) > 0.0 for s in ("x", "y"))
+        )
         if noisy and self.initial_estimate is None and "initial_std" not in self.model_fields_set:
             # The estimate starts at the true pose, so the first measurement is
             # weighed as the observer's default pole weighs it (a gain of 1 - 0.9:
             # P0 = R (1 - p) / p, a third of the noise std). P0 = 1 m took it
             # whole, and its noise kicked the turn rate from limit to limit at t = 0.
+            # With the heading unmeasured, the noisy positions start as certain as
+            # their process noise keeps them (the budget), as the observer starts
+            # at its own poles there: the first seconds' noise would turn the heading.
             update["initial_std"] = StatePositiveStd(
                 **{
-                    s: max(measured_noise.get(s, 0.0), MEASUREMENT_STD_FLOOR) * INITIAL_SHARE
+                    s: (
+                        position_budget
+                        if quiet_heading and s != "theta" and measured_noise.get(s, 0.0) > 0.0
+                        else max(measured_noise.get(s, 0.0), MEASUREMENT_STD_FLOOR) * INITIAL_SHARE
+                    )
                     for s in STATES
                 }
             )
@@ -117,6 +137,12 @@ class Ekf(EstimatorSettings):
                 for state, budget in budgets.items()
                 if measured_noise.get(state, 0.0) > 0.0
             }
+            if quiet_heading:
+                # The model's heading holds exactly between samples (no stated
+                # disturbances); a heading random walk is what the positions'
+                # noise would turn into the heading, and the positions' budget
+                # leaves none for it.
+                process["theta"] = 0.0
             if process:
                 update["process_std"] = self.process_std.model_copy(update=process)
         return self.model_copy(update=update) if update else self
