@@ -968,3 +968,25 @@ def test_a_claim_that_cannot_be_written_is_not_left_behind(
     monkeypatch.setattr(rundir.os, "write", real)
     assert not (tmp_path / "out" / CLAIM_FILE).exists()
     assert prepare_run_dir(tmp_path / "out") == tmp_path / "out"
+
+
+def test_a_parent_another_run_makes_meanwhile_is_taken(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two runs in one second make `runs/` together: the one that found it
+    missing, then there, took it for a file (runs is not a directory, exit 2;
+    seen once in the four concurrent runs above)."""
+    from wmr_mission.output import rundir
+
+    parent = tmp_path / "runs"
+    exists = Path.exists
+
+    def made_meanwhile(self: Path, *args: Any, **kwargs: Any) -> bool:
+        if self == parent and not exists(parent):
+            parent.mkdir()  # by the other run, between this one's two looks
+        return exists(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "exists", made_meanwhile)
+    claimed = rundir.prepare_run_dir(parent / "same-20260102-030405")
+    assert claimed == parent / "same-20260102-030405"
+    assert claimed.is_dir()

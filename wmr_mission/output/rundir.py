@@ -100,7 +100,8 @@ def prepare_run_dir(path: str | os.PathLike[str], *, suffix_on_collision: bool =
     for above in run_dir.parents:  # the nearest that exists: a file there is no place
         if above.is_dir():
             break
-        if above.exists() or above.is_symlink():
+        # (looked at again: a run beside this one may have just made it a directory)
+        if (above.exists() or above.is_symlink()) and not above.is_dir():
             message = f"{shown(str(above))} is not a directory; choose another --out"
             raise NotADirectoryError(message)
     run_dir.parent.mkdir(parents=True, exist_ok=True)
