@@ -200,10 +200,9 @@ def _located(mission_path: Path, written: Written, result: RunResult) -> str:
     from wmr_mission.spec.loader import apply_override, read_document
     from wmr_mission.spec.located import failure_path
 
-    phase, metric = (result.phases[0].name if result.phases else None), None
-    for move in result.transitions:  # the phase the run ended in
-        if move.condition != "update":
-            phase = move.from_phase if move.to_phase is None else move.to_phase
+    # the phase of the run's last sample, the one it ended in
+    phase = result.phases[int(result.phase[-1])].name if result.samples else None
+    metric = None
     missed = [c for c in (result.judged or {}).get("expectations") or () if not c.get("met")]
     if result.outcome is Outcome.expect_failed and missed:
         phase, metric = missed[0].get("phase"), str(missed[0].get("metric"))

@@ -920,7 +920,7 @@ def _catching_up(mission: Mission) -> Iterator[Finding]:
         return  # the path, or how the robot moves, or how the phase ends, not known
     bound = _bounds(phase, 0.0)
     robot, limits = mission.robot, mission.robot.limits
-    numbers = mission_numbers(mission.model_dump(mode="json"), robot.dt, (limits.v, limits.omega))
+    numbers = _numbers(mission)
     start = (initial.x, initial.y, initial.theta)
     try:
         times, (x, y, dx, dy) = _sampled(mission, phase.track.path, start, bound)
@@ -982,6 +982,12 @@ def _farthest(seconds: float, dt: float, numbers: MissionNumbers) -> float:
     return (rate * dt * rising * (rising + 1) / 2.0 + speed * (samples - rising)) * dt
 
 
+def _numbers(mission: Mission) -> MissionNumbers:
+    """The mission's numbers at its own sampling period and limits."""
+    dt, limits = mission.robot.dt, mission.robot.limits
+    return mission_numbers(mission.model_dump(mode="json"), dt, (limits.v, limits.omega))
+
+
 def _lag_judged(
     numbers: MissionNumbers, speed: float, ahead: float, gap: float, ends: float
 ) -> tuple[float, float, bool]:
@@ -1027,7 +1033,7 @@ def _lag_at_top_speed(mission: Mission, caught: set[DataPath]) -> Iterator[Findi
     if mission.robot.disturbances != Disturbances.defaults():
         return
     robot, limits = mission.robot, mission.robot.limits
-    numbers = mission_numbers(mission.model_dump(mode="json"), robot.dt, (limits.v, limits.omega))
+    numbers = _numbers(mission)
     initial, estimated = robot.initial_state, mission.estimator.initial_estimate
     noise = 4.0 * math.hypot(numbers.noise["x"], numbers.noise["y"])
     order = run_order(mission)
