@@ -281,6 +281,10 @@ def test_keep_out_mission_goes_round_the_pond_every_lap(tmp_path: Path) -> None:
         # laps 2 and 3 start by the pond: entry, detour and rejoining fill the leg
         assert (leg["tracking"]["cross_track_error_max"] or 0.0) < 0.05
         assert leg["tracking"]["detour_time"] > 2.0
+    # the entry each leg leaves out ends where the robot kept up: a time
+    # between samples, written as `duration` is (not 0.4899999999999993)
+    entries = [p["tracking"]["entry_time"] for p in summary["phases"] if p.get("tracking")]
+    assert entries == [0.49] * 6
 
 
 @pytest.mark.slow

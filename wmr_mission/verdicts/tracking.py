@@ -612,9 +612,10 @@ def track_samples(
         metrics["detour_time"] = float(np.count_nonzero(detour)) * dt
         metrics["detour_offset_max"] = float(offset.max()) if offset.size else None
     # the entry left out: its bound, or to where the robot kept up, where sooner
+    # (a time between samples written as `duration` is: 0.49, not 0.4899999999999993)
     left_out = entry
     if after_entry == in_entry and t[in_entry] - t[0] < entry - 1e-9 * dt:
-        left_out = float(t[in_entry] - t[0])
+        left_out = round(float(t[in_entry] - t[0]), 9)
     metrics |= {  # (no zone: no detour)
         "cross_track_error_max": most_cross,
         "along_track_lag_max": most_lag,
