@@ -143,6 +143,8 @@ def test_runs_csv_and_campaign_json_carry_the_margins() -> None:
         aggregate.add(row)
     margin = aggregate.statistics()["margin"]
     assert (margin["min"], margin["max"], margin["below_zero"]) == (-0.25, 0.5, 2)
+    # the quantiles are over the 3 finite margins; the timeout missed without one
+    assert (margin["finite"], margin["minus_inf"]) == (3, 1)
     assert margin["set_by"] == {"speed_jump_max": 2, "duration": 1, "timeout": 1}
     # the worst runs by margin: the timeout (-inf), then the smaller margin
     assert [run for run, *_ in aggregate.worst_runs()][:2] == [2, 1]

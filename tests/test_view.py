@@ -544,6 +544,36 @@ def test_campaign_text_is_shown_as_text(
 
 
 @needs_chromium
+def test_campaign_margins_say_the_runs_they_are_over(browser: Browser, tmp_path: Path) -> None:
+    """Two of four runs time out (margin -inf): the least margin of the others
+    is above 0, so the line says it is of the runs with a number and that the
+    two missed without one, never a least margin above the runs that missed."""
+    from wmr_mission import run_campaign
+
+    mission = Path(__file__).parent / "data" / "campaigns" / "short.yaml"
+    path = tmp_path / "timeouts.yaml"
+    path.write_text(
+        f"version: 1\nname: timeouts\nmission: {mission}\nruns: 2\nseed: 3\n"
+        "vary:\n  phases[0].timeout: {grid: [0.2, 20]}\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "campaign"
+    summary = run_campaign(path, out=out, workers=1).summary
+    margin = summary["margin"]
+    assert summary["outcomes"] == {"success": 2, "timeout": 2}
+    assert (margin["finite"], margin["below_zero"], margin["minus_inf"]) == (2, 2, 2)
+    assert margin["min"] > 0
+    with browser.open(_view(out)) as page:
+        assert page.problems() == []
+        lines = page.evaluate("[...document.querySelectorAll('p.sub')].map(p => p.textContent)")
+        (line,) = [text for text in lines if text.startswith("margins")]
+        assert line.startswith("margins of the 2 runs with a number: least ")
+        assert line.endswith(
+            "; 2 runs below 0, 2 of them without a number (-inf: a run that did not end)"
+        )
+
+
+@needs_chromium
 def test_a_one_hour_run_loads(browser: Browser, tmp_path: Path) -> None:
     """360 001 samples: the page is thinned to MAX_DISPLAY_SAMPLES points per signal."""
     result = circle_run(360_001)

@@ -310,9 +310,12 @@ class Aggregate:
         }
 
     def margin_statistics(self) -> dict[str, Any]:
-        """The runs' margins: least, p1, p5, p50, most (over the finite ones),
-        how many runs missed (a margin below 0, -inf included), and how many
-        runs each check (by metric, or outcome) sets the margin of."""
+        """The runs' margins: least, p1, p5, p50, most (over the finite ones,
+        ``finite`` runs), how many runs missed (a margin below 0, -inf included)
+        and of those how many have no number (``minus_inf``: a run that did not
+        end, a check without a value), so that a reader of the quantiles knows
+        which runs they leave out; and how many runs each check (by metric, or
+        outcome) sets the margin of."""
         margins = np.asarray(self.margins, dtype=float)
         finite = margins[np.isfinite(margins)]
         quantiles: dict[str, float | None] = {"min": None, "p1": None, "p5": None, "p50": None}
@@ -327,7 +330,9 @@ class Aggregate:
         return {
             **quantiles,
             "max": float(finite.max()) if finite.size else None,
+            "finite": int(finite.size),
             "below_zero": int(np.count_nonzero(margins < 0.0)),
+            "minus_inf": int(np.count_nonzero(margins == -np.inf)),
             "set_by": dict(sorted(self.margin_checks.items(), key=lambda kv: (-kv[1], kv[0]))),
         }
 

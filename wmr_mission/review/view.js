@@ -33,6 +33,10 @@
 
   const percent = (v) => (finite(v) ? (100 * v).toFixed(2) + " %" : "–");
 
+  function runs(n) {
+    return `${n} run${n === 1 ? "" : "s"}`;
+  }
+
   function ticks(lo, hi, count) {
     const span = hi - lo;
     if (!(span > 0)) return { values: [lo], step: 1 };
@@ -647,9 +651,15 @@
       }
     }
     if (meta.margin) {
+      const m = meta.margin;
+      // The quantiles are over the finite margins: where runs have none (-inf: a
+      // run that did not end), the line says over how many runs they are, never
+      // a "least" above the runs that missed without a number.
+      const over = m.finite !== null && m.finite !== meta.runs ? ` of the ${runs(m.finite)} with a number` : "";
+      const none = m.minus_inf ? `, ${m.minus_inf} of them without a number (-inf: a run that did not end)` : "";
       root.append(el("p", { class: "sub", text:
-        `margins: least ${fmt(meta.margin.min)}, p1 ${fmt(meta.margin.p1)}, p5 ${fmt(meta.margin.p5)}, ` +
-        `median ${fmt(meta.margin.p50)}; ${meta.margin.below_zero} runs below 0` }));
+        `margins${over}: least ${fmt(m.min)}, p1 ${fmt(m.p1)}, p5 ${fmt(m.p5)}, ` +
+        `median ${fmt(m.p50)}; ${runs(m.below_zero)} below 0${none}` }));
     }
     if (meta.expectations.length) {
       root.append(table(["expectation", "min", "value", "verdict"], meta.expectations.map((e) =>

@@ -313,10 +313,13 @@ def _margins(record: Any) -> dict[str, Any] | None:
     """campaign.json's distribution of the runs' margins (None before it had one)."""
     if not isinstance(record, dict):
         return None
-    below = record.get("below_zero")
     return {
         **{q: _finite_number(record.get(q)) for q in ("min", "p1", "p5", "p50", "max")},
-        "below_zero": below if isinstance(below, int) and not isinstance(below, bool) else 0,
+        "below_zero": _count(record.get("below_zero")) or 0,
+        # the runs the quantiles are over, and the misses without a number they
+        # leave out (None from a campaign.json written before it said them)
+        "finite": _count(record.get("finite")),
+        "minus_inf": _count(record.get("minus_inf")),
     }
 
 
