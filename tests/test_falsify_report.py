@@ -27,6 +27,7 @@ def _record(failing: list[int]) -> dict[str, Any]:
         "lowest": -0.5,
         "best": best,
         "settings": {"budget": 40},
+        "wall_seconds": 2.61,
     }
 
 
@@ -36,6 +37,13 @@ def test_the_first_failing_run_is_named_as_its_line_and_file_are() -> None:
         "falsified: 1 failing run, the first run 21 (22 runs in); lowest margin -0.5"
     )
     assert printed[2] == "  21: expect-failed, margin -0.5: run 21.yaml"
+
+
+def test_the_search_s_time_is_falsify_json_s_and_the_command_s_is_said_apart() -> None:
+    """The runs' time printed is falsify.json's wall_seconds, not the whole
+    command's (its checks, failing/ and figures too), which follows it."""
+    printed = _report(_record([21]), Path("out"), 3.74).splitlines()
+    assert printed[0] == "falsify park (cmaes): 40 runs in 2.6 s; the command took 3.7 s"
 
 
 def test_several_failing_runs_are_counted_in_the_plural() -> None:
