@@ -543,20 +543,28 @@ def test_campaign_text_is_shown_as_text(
         assert "<img src=x onerror=alert(3)>" in page.evaluate("document.body.innerText")
 
 
-@needs_chromium
-def test_campaign_margins_say_the_runs_they_are_over(browser: Browser, tmp_path: Path) -> None:
-    """Two of four runs time out (margin -inf): the least margin of the others
-    is above 0, so the line says it is of the runs with a number and that the
-    two missed without one, never a least margin above the runs that missed."""
-    from wmr_mission import run_campaign
-
+def _timeouts_campaign(directory: Path) -> Path:
+    """Two runs of short.yaml that time out (0.2 s) and two that park."""
     mission = Path(__file__).parent / "data" / "campaigns" / "short.yaml"
-    path = tmp_path / "timeouts.yaml"
+    path = directory / "timeouts.yaml"
     path.write_text(
         f"version: 1\nname: timeouts\nmission: {mission}\nruns: 2\nseed: 3\n"
         "vary:\n  phases[0].timeout: {grid: [0.2, 20]}\n",
         encoding="utf-8",
     )
+    return path
+
+
+@needs_chromium
+def test_campaign_margins_say_the_runs_they_are_over(browser: Browser, tmp_path: Path) -> None:
+    """Two of four runs time out (margin -inf): the least margin of the others
+    is above 0, so the line says it is of the runs with a number and that the
+    two missed without one, never a least margin above the runs that missed;
+    the table shows their margin as -inf (an empty cell in runs.csv) and sorts
+    it below the others, not after them as an empty cell."""
+    from wmr_mission import run_campaign
+
+    path = _timeouts_campaign(tmp_path)
     out = tmp_path / "campaign"
     summary = run_campaign(path, out=out, workers=1).summary
     margin = summary["margin"]
@@ -571,6 +579,39 @@ def test_campaign_margins_say_the_runs_they_are_over(browser: Browser, tmp_path:
         assert line.endswith(
             "; 2 runs below 0, 2 of them without a number (-inf: a run that did not end)"
         )
+        page.evaluate(
+            "[...document.querySelectorAll('#runs th')]"
+            ".find(h => h.textContent === 'margin').click()"
+        )
+        columns = page.evaluate(
+            "[...document.querySelectorAll('#runs th')].map(h => h.textContent)"
+        )
+        at = columns.index("margin ▲")
+        shown = [(row[2], row[at]) for row in _table(page)]
+        assert shown[:2] == [("timeout", "-inf"), ("timeout", "-inf")]
+        assert [outcome for outcome, _ in shown[2:]] == ["success", "success"]
+        assert all(float(margin) > 0 for _, margin in shown[2:])
+
+
+@needs_chromium
+def test_falsification_report_shows_a_timeout_s_margin_as_minus_inf(
+    browser: Browser, tmp_path: Path
+) -> None:
+    """falsify.json writes a timeout's margin as the text "-inf": the lowest
+    runs' table says -inf, as the printed line does, not a dash."""
+    from wmr_mission import falsify_campaign
+
+    out = tmp_path / "falsify"
+    falsify_campaign(_timeouts_campaign(tmp_path), budget=4, method="random", seed=1, out=out)
+    record = json.loads((out / "falsify.json").read_text(encoding="utf-8"))
+    assert record["best"][0]["objective"] == "-inf"
+    with browser.open(_view(out)) as page:
+        assert page.problems() == []
+        lowest = page.evaluate(
+            "[...document.querySelector('table').querySelectorAll('tbody tr')]"
+            ".map(tr => tr.children[2].textContent)"
+        )
+        assert lowest[0] == "-inf"
 
 
 @needs_chromium

@@ -25,11 +25,15 @@
   const finite = (v) => typeof v === "number" && Number.isFinite(v);
 
   function fmt(v, digits = 4) {
+    if (v === Infinity || v === -Infinity) return v > 0 ? "inf" : "-inf";  // a margin without a number
     if (!finite(v)) return "–";
     const a = Math.abs(v);
     if (a !== 0 && (a >= 1e6 || a < 1e-3)) return v.toExponential(digits - 1);
     return String(Number(v.toPrecision(digits)));
   }
+
+  // a number of falsify.json, where a margin without one is the text "-inf" (or "inf")
+  const number = (v) => (v === "-inf" ? -Infinity : v === "inf" ? Infinity : Number(v));
 
   const percent = (v) => (finite(v) ? (100 * v).toFixed(2) + " %" : "–");
 
@@ -707,13 +711,13 @@
           ? `${r.failing_runs} failing run${r.failing_runs === 1 ? "" : "s"} of ${r.evaluations}; ` +
             `the first run ${r.runs_to_first_failure - 1} ` +
             `(${r.runs_to_first_failure} run${r.runs_to_first_failure === 1 ? "" : "s"} in)`
-          : `no failing run within ${r.evaluations} runs (budget ${r.settings.budget}); lowest ${r.objective} ${fmt(Number(r.lowest))}`),
+          : `no failing run within ${r.evaluations} runs (budget ${r.settings.budget}); lowest ${r.objective} ${fmt(number(r.lowest))}`),
       el("p", { class: "sub", text: "settings: " + Object.entries(r.settings).map(([k, v]) => `${k} ${JSON.stringify(v)}`).join(" · ") }),
     );
     root.append(el("h2", { text: `Lowest ${r.objective}` }));
     root.append(table(["evaluation", "outcome", r.objective, "margin check", "command"], r.best.map((b) =>
       el("tr", { class: b.outcome === "success" ? "" : "bad" }, el("td", { text: String(b.evaluation) }),
-        el("td", { text: b.outcome }), el("td", { class: "num", text: fmt(Number(b.objective)) }),
+        el("td", { text: b.outcome }), el("td", { class: "num", text: fmt(number(b.objective)) }),
         el("td", { text: b.margin_check || "" }), el("td", null, el("code", { text: b.run || b.replay })))),
     [false, false, true, false, false]));
     if (meta.figures.length) {
@@ -775,7 +779,7 @@
       let c;
       if (numeric[state.column]) {
         if (Number.isNaN(x) || Number.isNaN(y)) return Number.isNaN(x) - Number.isNaN(y);  // empty last
-        c = x - y;
+        c = x < y ? -1 : x > y ? 1 : 0;  // two -inf margins are equal (their difference is NaN)
       } else c = x < y ? -1 : x > y ? 1 : 0;
       return state.descending ? -c : c;
     }

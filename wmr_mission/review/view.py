@@ -606,13 +606,29 @@ def campaign_meta(campaign_dir: Path, out: Path) -> dict[str, Any]:
         "missions_per_second": _finite_number(summary.get("missions_per_second")),
         "columns": campaign.columns,
         "types": list(campaign.column_types().values()),
-        "rows": [campaign.rows[i] for i in kept],
+        "rows": [_margin_shown(campaign.columns, campaign.rows[i]) for i in kept],
         "replays": [campaign.replay(i) for i in kept],
         "total_rows": len(campaign.rows),
         "worst": sorted(worst_runs),
         "worst_links": links,
         "figures": figures,
     }
+
+
+def _margin_shown(columns: list[str], row: list[str]) -> list[str]:
+    """A row as the page's numbers read it: runs.csv's empty ``margin`` is -inf
+    where ``margin_check`` names what set it (an outcome, a check without a
+    value) and +inf where it is empty (no check), written as JavaScript's
+    Infinity, so that the table shows it and sorts a timeout below every run
+    with a number, as the falsification's table does."""
+    if "margin" not in columns or "margin_check" not in columns:
+        return row  # a runs.csv written before the runs had margins
+    at = columns.index("margin")
+    if row[at] != "":
+        return row
+    shown = list(row)
+    shown[at] = "-Infinity" if row[columns.index("margin_check")] else "Infinity"
+    return shown
 
 
 def campaign_page(campaign_dir: Path, out: Path) -> tuple[str, str]:
