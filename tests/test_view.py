@@ -577,7 +577,8 @@ def test_campaign_margins_say_the_runs_they_are_over(browser: Browser, tmp_path:
         (line,) = [text for text in lines if text.startswith("margins")]
         assert line.startswith("margins of the 2 runs with a number: least ")
         assert line.endswith(
-            "; 2 runs below 0, 2 of them without a number (-inf: a run that did not end)"
+            "; 2 runs below 0, 2 of them without a number"
+            " (-inf: an outcome such as a timeout, or a check without a value)"
         )
         page.evaluate(
             "[...document.querySelectorAll('#runs th')]"

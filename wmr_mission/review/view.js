@@ -657,10 +657,10 @@
     if (meta.margin) {
       const m = meta.margin;
       // The quantiles are over the finite margins: where runs have none (-inf: a
-      // run that did not end), the line says over how many runs they are, never
-      // a "least" above the runs that missed without a number.
+      // timeout, an invalid run), the line says over how many runs they are,
+      // never a "least" above the runs that missed without a number.
       const over = m.finite !== null && m.finite !== meta.runs ? ` of the ${runs(m.finite)} with a number` : "";
-      const none = m.minus_inf ? `, ${m.minus_inf} of them without a number (-inf: a run that did not end)` : "";
+      const none = m.minus_inf ? `, ${m.minus_inf} of them without a number (-inf: an outcome such as a timeout, or a check without a value)` : "";
       root.append(el("p", { class: "sub", text:
         `margins${over}: least ${fmt(m.min)}, p1 ${fmt(m.p1)}, p5 ${fmt(m.p5)}, ` +
         `median ${fmt(m.p50)}; ${runs(m.below_zero)} below 0${none}` }));
