@@ -109,7 +109,7 @@ def test_the_histograms_show_few_failures_on_a_log_scale_with_units() -> None:
         # the failures all at one value: a bin of 17 beside bins of about 70
         "duration": [*rng.uniform(30, 32, 1983), *[32.0] * 17],
     }
-    figure = figures._histograms(aggregate, {"max_constraint_violation": 0.001})
+    figure = figures._histograms(aggregate, {"max_constraint_violation": ("max", 0.001)})
     axes = {ax.get_title(): ax for ax in figure.axes}
     assert axes["max_constraint_violation"].get_yscale() == "symlog"
     assert axes["max_constraint_violation"].get_ylabel() == "runs (log scale)"
@@ -118,6 +118,31 @@ def test_the_histograms_show_few_failures_on_a_log_scale_with_units() -> None:
     assert set(figures.UNITS) >= set(METRICS)  # every metric has its unit
     assert axes["max_constraint_violation"].get_xlabel() == "[constraint value]"
     assert axes["duration"].get_xlabel() == "[s]"
+
+
+def test_the_histograms_draw_the_mission_s_clearance_min_as_a_lower_bound() -> None:
+    """`clearance_min: 0.15`, the number alone, bounds every run's clearance
+    from below: metrics.png draws it as `expect min 0.15` beside the upper
+    bounds (it was left out: only `{max: ...}` was read)."""
+    from wmr_mission.campaign import figures
+    from wmr_mission.campaign.sweep import _bounds
+
+    expect = {"clearance_min": 0.15, "final_position_error": {"max": 0.05}}
+    bounds = _bounds({"expect": expect})
+    assert bounds == {"final_position_error": ("max", 0.05), "clearance_min": ("min", 0.15)}
+    aggregate = Aggregate({})
+    aggregate.success = [True, True, False]
+    aggregate.metric_values = {
+        "clearance_min": [0.2, 0.17, 0.1],
+        "final_position_error": [0.01, 0.02, 0.03],
+    }
+    axes = {ax.get_title(): ax for ax in figures._histograms(aggregate, bounds).axes}
+    for name, label, at in (
+        ("clearance_min", "expect min 0.15", 0.15),
+        ("final_position_error", "expect max 0.05", 0.05),
+    ):
+        (line,) = [x for x in axes[name].get_lines() if x.get_label() == label]
+        assert list(line.get_xdata()) == [at, at]
 
 
 def test_a_lower_bound_s_failure_is_said_and_written_with_min(tmp_path: Path) -> None:

@@ -57,11 +57,12 @@ def draw_campaign(
     regions: dict[str, Any],
     out_dir: Path,
     formats: Sequence[str] = ("png",),
-    bounds: dict[str, float] | None = None,
+    bounds: dict[str, tuple[str, float]] | None = None,
     left_out: Sequence[str] = (),
 ) -> list[Path]:
     """The campaign's figures in ``out_dir``; ``bounds``: the mission-wide
-    `expect` bounds of the metrics, drawn on their histograms; ``left_out``:
+    `expect` bounds of the metrics (``max`` or ``min``, and the number), drawn
+    on their histograms; ``left_out``:
     the regions the campaign varies, not among ``regions``, named under the
     trajectories."""
     figures = {
@@ -160,7 +161,7 @@ def _shaded(counts: np.ndarray, colormap: str) -> np.ndarray:
     return pixels
 
 
-def _histograms(aggregate: Aggregate, bounds: dict[str, float]) -> Any:
+def _histograms(aggregate: Aggregate, bounds: dict[str, tuple[str, float]]) -> Any:
     """Per metric with values: its runs by value, failures stacked on
     successes (on a log scale, and in front, where they are few), the
     mission's bound drawn; the metrics no run has are named."""
@@ -196,13 +197,9 @@ def _histograms(aggregate: Aggregate, bounds: dict[str, float]) -> Any:
             ax.set_yscale("symlog", linthresh=1.0)
             ax.set_ylim(bottom=0.0)
         if name in bounds:
-            ax.axvline(
-                bounds[name],
-                color="black",
-                linestyle="--",
-                linewidth=1.0,
-                label=f"expect max {bounds[name]:g}",
-            )
+            side, bound = bounds[name]
+            said = f"expect {side} {bound:g}"
+            ax.axvline(bound, color="black", linestyle="--", linewidth=1.0, label=said)
         handles, labels = ax.get_legend_handles_labels()
         ax.legend(handles[::-1], labels[::-1], fontsize="x-small")
         missing = int((~finite).sum())

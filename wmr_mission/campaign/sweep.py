@@ -583,14 +583,23 @@ def _mission(loaded: LoadedCampaign) -> dict[str, Any]:
     return dumped
 
 
-def _bounds(mission: dict[str, Any]) -> dict[str, float]:
-    """The mission-wide `expect` bounds of the metrics runs.csv records."""
+CLEARANCE: Final = "clearance_min"
+
+
+def _bounds(mission: dict[str, Any]) -> dict[str, tuple[str, float]]:
+    """The mission-wide `expect` bounds of the metrics runs.csv records, each
+    with its side: ``max``, or ``min`` for `clearance_min`, a lower bound
+    written as the number alone (every phase that constrains a zone is judged
+    by it, and the row's value is the least over those phases)."""
     expect = mission.get("expect") or {}
-    return {
-        name: float(expect[name]["max"])
+    bounds = {
+        name: ("max", float(expect[name]["max"]))
         for name in (m.name for m in catalog.run_metrics())
         if isinstance(expect.get(name), dict) and expect[name].get("max") is not None
     }
+    if isinstance(expect.get(CLEARANCE), int | float):
+        bounds[CLEARANCE] = ("min", float(expect[CLEARANCE]))
+    return bounds
 
 
 def _write_worst(
