@@ -357,6 +357,16 @@ def _check_against_mission(
     # Read once: the text checked is the text every run and worst run runs, and
     # the one hashed into the manifests, whatever happens to the file since.
     raw, mission_diagnostics = read_source(mission_path)
+    if raw is not None and is_campaign_text(raw.decode("utf-8", "replace")):
+        # said in one line, as `run CAMPAIGN` says it, not as every campaign key
+        # a mission does not know
+        return None, [
+            at(
+                ("mission",),
+                f"mission file {str(mission_path)!r} is a campaign, not a mission: "
+                "name the mission file a campaign runs (that campaign's own `mission`)",
+            )
+        ]
     mission = None
     if raw is not None and settings:
         # A setting the campaign's vary would overwrite, said before what it breaks.
