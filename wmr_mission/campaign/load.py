@@ -297,7 +297,9 @@ def _check(
                     if item["type"] == "none_required":  # an optional key: absent is its None
                         continue
                     if not _under(written_path(item["loc"], document.data), document.refused):
-                        findings.append(_of_campaign(translate(item, document, Campaign)))
+                        finding = translate(item, document, Campaign)
+                        unit = _unit_of_bound(item, finding, document.data, path)
+                        findings.append(_of_campaign(unit or finding))
         diagnostics = [diagnostic(filename, document, f) for f in findings]
         if campaign is None or diagnostics:
             return None, _sorted(diagnostics)
@@ -308,6 +310,37 @@ def _check(
         return loaded, _sorted(more)
     except Exception as error:  # last resort: bad input must never show a traceback
         return None, [internal_error(filename, error)]
+
+
+_UNIT_SAID: Final = ": units are not written: "
+
+
+def _unit_of_bound(item: Any, finding: Finding, data: Any, path: Path) -> Finding | None:
+    """A uniform or normal bound written with a unit (`-30 deg`), said in the
+    varied field's unit as the mission says it and as a choice's value is said
+    (`theta is in rad; write -0.523599 for -30 deg`), where the campaign's own
+    schema knows only that a number is expected; None to keep ``finding``."""
+    at = finding.path
+    mission = data.get("mission") if isinstance(data, dict) else None
+    if _UNIT_SAID not in finding.message or len(at) != 4 or not isinstance(mission, str):
+        return None
+    if at[0] != "vary" or at[2] not in ("uniform", "normal") or not isinstance(at[1], str):
+        return None
+    mission_path = path.parent / mission
+    # a regular file only (a pipe read here would be read empty by the run);
+    # anything else keeps the campaign's own message, the mission's fault said later
+    raw = read_source(mission_path)[0] if mission_path.is_file() else None
+    document = None if raw is None else read_document(raw.decode("utf-8", "replace"))[0]
+    try:
+        field = parse_path(at[1])
+    except ValueError:
+        return None
+    if document is None:
+        return None
+    said = translate({**item, "loc": field}, document, Mission).message
+    if _UNIT_SAID not in said or said.endswith(": write the number alone"):
+        return None
+    return finding._replace(message=dotted_path(at) + _UNIT_SAID + said.split(_UNIT_SAID, 1)[1])
 
 
 def _of_campaign(finding: Finding) -> Finding:
