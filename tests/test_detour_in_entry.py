@@ -21,6 +21,7 @@ from soundness import judge
 from wmr_mission import mission_from_text, run_mission
 from wmr_mission.output.result import RunResult
 from wmr_mission.spec.numbers import mission_numbers
+from wmr_mission.verdicts.metrics import judge_mission
 from wmr_mission.verdicts.signals import run_signals
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -294,3 +295,54 @@ def test_the_signals_figure_draws_faint_what_no_check_bounds() -> None:
     drawn = verdict_lines(run)
     assert drawn.unjudged["along-track lag"].any()
     assert "depth into a zone" not in drawn.unjudged  # bounded wherever drawn
+
+
+# A user's circle at 1.18 m/s under tight acceleration limits: from rest the
+# robot cuts across its circle, far behind its reference, which runs on past a
+# keep-out ellipse; for 3 s the ellipse lies between the two, though the robot
+# never goes round it.
+BEHIND = """
+version: 1
+name: behind-its-reference
+robot:
+  dt: 0.05
+  initial_state: {x: 0.0, y: 0.0, theta: -1.571}
+  limits: {v: 2.873, omega: 1.967, acceleration: {v: 0.3, omega: 1.0}}
+  footprint: {radius: 0.272}
+regions:
+  z0: {type: ellipse, center: [-4.822, 2.162], semi_axes: [0.476, 0.329], rotation: 2.937}
+phases:
+  - name: main
+    track:
+      path:
+        type: circle
+        center: [-2.275, 0.0]
+        radius: 2.275
+        angular_rate: -0.517
+        start: current
+    until: {elapsed: 15.2}
+    constraints: [{stay_outside: z0}]
+"""
+
+
+def test_a_zone_between_a_robot_and_its_reference_is_no_detour_to_rejoin_from() -> None:
+    """The stretch with the ellipse between the robot and its reference was
+    taken for a detour's end, and its rejoining allowed for the 4.4 m gap the
+    entry left: the rest of the phase, which ended 4.08 m from its reference,
+    was excused and the run passed. A stretch the robot did not detour in is
+    not rejoined after: the samples after the entry are judged."""
+    mission = mission_from_text(BEHIND)
+    run = run_mission(mission)
+    summary = judge_mission(run, mission)
+    tracking = summary["phases"][0]["tracking"]
+    assert run.outcome.value == "expect-failed"
+    entry = tracking["entry_time"]
+    assert 10.0 < entry < run.t[-1] - 4.0  # premise: 4 s of the phase after its entry
+    # the cross-track error of the samples after it, from the circle's own
+    # geometry: the judge's path runs through the reference points, chords
+    # inside the circle by R (1 - cos(omega dt / 2)) = 0.19 mm at most
+    after = (run.t - run.t[0] >= entry) & np.isfinite(run.x_ref)
+    off = np.abs(np.hypot(run.x[after] + 2.275, run.y[after]) - 2.275)
+    sag = 2.275 * (1.0 - np.cos(0.517 * 0.05 / 2.0))
+    assert tracking["cross_track_error_max"] == pytest.approx(off.max(), abs=sag)
+    assert off.max() > 0.9  # where 0.1 is allowed
