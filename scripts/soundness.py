@@ -638,6 +638,10 @@ class _PhaseJudge:
         moving = _centred_mean(speed, window) >= MOVING * _centred_mean(speed_ref, window)
         detour = blocked & moving
         excused |= detour
+        # A robot slowed where a zone blocks its way is stalled: its lag is
+        # judged (it falls behind), its distance off the path is the detour's.
+        stalled = blocked & ~moving
+        off = (off & ~stalled) | (np.abs(lag) > lag_tolerance)
         # No farther from the path than the zones reach into it, plus the look-ahead
         # the law keeps and the tolerance: a detour no longer than needed, the whole
         # of it, in the entry too while the robot tracks its path (below);
@@ -660,7 +664,7 @@ class _PhaseJudge:
             elif on_it[k]:
                 tracks, cut = True, 0.0
             counted[k] = tracks or cross[k] > cut + tolerance
-        wide = detour & counted & (cross > detour_allowance)
+        wide = (detour | stalled) & counted & (cross > detour_allowance)
         if wide.any():
             k = int(np.flatnonzero(wide)[0])
             self.problem(
@@ -668,8 +672,12 @@ class _PhaseJudge:
                 f"(the zones reach {reach:.3g} m into it; at most {detour_allowance:.3g} m), "
                 f"first at t = {t[k]:.2f} s"
             )
-        # The rejoining ends once the robot has kept up with its reference for 5 tau.
-        for k in np.flatnonzero(blocked[:-1] & ~blocked[1:]) + 1:
+        # After a detour (a stretch the robot went round in), the rejoining; it
+        # ends once the robot has kept up with its reference for 5 tau.
+        edges = np.flatnonzero(np.diff(blocked, prepend=False, append=False))
+        for start, k in zip(edges[::2], edges[1::2], strict=True):
+            if k >= t.size or not detour[start:k].any():
+                continue
             error = math.hypot(px[k] - rx[k], py[k] - ry[k])
             rejoining = (t >= t[k]) & (t - t[k] < recovery_time(spec, error, float(speed_ref[k])))
             back = np.flatnonzero(rejoining & kept_up)
@@ -680,21 +688,21 @@ class _PhaseJudge:
         self.tracked[known] = judged
         m = self.result.metrics
         m["entry_time"] = entry
-        m["cross_track_max"] = float(cross[judged].max()) if judged.any() else None
+        crossed = judged & ~stalled
+        m["cross_track_max"] = float(cross[crossed].max()) if crossed.any() else None
         m["lag_max"] = float(np.abs(lag[judged]).max()) if judged.any() else None
         m["detour_time"] = float(detour.sum() * self.dt)
-        measured = detour & counted
+        measured = (detour | stalled) & counted
         m["detour_cross_max"] = float(cross[measured].max()) if measured.any() else None
         bad = off & judged
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
-            if cross[k] > tolerance:
+            if cross[k] > tolerance and not stalled[k]:
                 what = f"{cross[k]:.3g} m off the path (tolerance {tolerance:.3g} m)"
             else:
                 what = f"{lag[k]:.3g} m behind its reference (tolerance {lag_tolerance[k]:.3g} m)"
-            stalled = blocked[k] and not moving[k]
             self.problem(
-                f"{'stalled at a zone: ' if stalled else ''}{what} at t = {t[k]:.2f} s; "
+                f"{'stalled at a zone: ' if stalled[k] else ''}{what} at t = {t[k]:.2f} s; "
                 f"worst {cross[bad].max():.3g} m off, {lag[bad].max():.3g} m behind"
             )
 

@@ -210,7 +210,9 @@ def run_signals(result: RunRecord) -> Signals:
             if placed is not None:
                 line("cross_track", "cross-track error")[w] = placed.cross
                 line("along_track", "along-track lag")[w] = placed.lag
-                judged["cross-track error"][w] = placed.judged
+                # (a robot slowed where a zone blocks its way: its lag judged,
+                # its offset by the detour's bound, verdicts/tracking.py)
+                judged["cross-track error"][w] = placed.judged & ~placed.detour
                 judged["along-track lag"][w] = placed.judged
                 judged.setdefault("detour", np.zeros(n, dtype=bool))[w] = placed.detour
             if {"tracking_error_max", "tracking_error_rms"} & metrics:

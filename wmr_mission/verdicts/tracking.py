@@ -24,7 +24,11 @@ Two stretches of a phase are not judged as tracking:
   time a smooth detour needs to start (half a turn at the turn-rate limit and
   five time constants), while the robot keeps moving at half the reference's
   speed or more; and then the time to take out what the detour left. A robot
-  that stops where a zone blocks its way is stalled, not detouring.
+  that stops where a zone blocks its way is stalled, not detouring: it is
+  judged by its lag (it falls behind), and how far off the path it is there
+  by the detour's bound, not as tracking (a robot that slowed below half the
+  reference's speed for a moment mid-detour read its offset, 0.825 m, as a
+  cross-track error; tests/test_detour_bound.py).
 
 A zone "lies across the way" when it is within the look-ahead and the tracking
 tolerance of it: the tracked point runs that far ahead of the axle, and a
@@ -427,7 +431,9 @@ class TrackSamples(NamedTuple):
     the phase (NaN and False where the reference is unknown): the cross-track
     error and along-track lag [m] (NaN where not measured), whether the sample
     is judged (not in the entry nor in a detour or its rejoining), and whether
-    it is in a detour a zone forces; each put back among the phase's samples
+    the detour's bound judges its offset (in a detour a zone forces, or
+    slowed where a zone blocks the robot's way: its cross-track error not
+    judged, its lag judged); each put back among the phase's samples
     when read (a long run's columns made only where asked for)."""
 
     known: slice | NDArray[np.bool_] | None  # the samples with a known reference (None: all)
@@ -548,7 +554,7 @@ def track_samples(
     if ends_in_entry and not timed and not zones:  # nothing to measure
         metrics |= {"entry_time": entry, "reference_speed_max": top_speed}
         return metrics, None
-    detour = np.zeros(t.size, dtype=bool)
+    detour = stalled = np.zeros(t.size, dtype=bool)
     if zones:
         kept = numbers.body if margin is None else margin
         reference_speed = _reference_speed(length, dt)
@@ -573,7 +579,7 @@ def track_samples(
             reach_across(zone, *(ahead[:2] if g or o else (rx, ry)))
             for zone, g, o in zip(zones, going, only_ahead, strict=True)
         ]
-        detour, rejoining, ramped = _detours(
+        detour, stalled, rejoining, ramped = _detours(
             px,
             py,
             ahead[:3],
@@ -604,11 +610,13 @@ def track_samples(
             cross, lag = _counted_in_entry(placement, numbers, after_entry, reference_speed)
         else:
             cross, lag = placement.on_path(numbers.tracking_tolerance, after_entry)
-        judged_cross, judged_lag = cross[judged], lag[judged]
+        # a robot slowed where a zone blocks its way is judged by its lag (it
+        # falls behind) and its offset by the detour's bound, not as tracking
+        judged_cross, judged_lag = cross[judged & ~stalled], lag[judged]
         most_cross = float(judged_cross.max()) if judged_cross.size else None
         most_lag = float(np.abs(judged_lag).max()) if judged_lag.size else None
     if zones:
-        offset = cross[detour & ~np.isnan(cross)]
+        offset = cross[(detour | stalled) & ~np.isnan(cross)]
         metrics["detour_time"] = float(np.count_nonzero(detour)) * dt
         metrics["detour_offset_max"] = float(offset.max()) if offset.size else None
     # the entry left out: its bound, or to where the robot kept up, where sooner
@@ -624,7 +632,9 @@ def track_samples(
     }
     if not with_samples:
         return metrics, None
-    return metrics, TrackSamples(these, size, (cross, lag, judged, detour))
+    # (the samples whose offset the detour's bound judges: its own, and those
+    # the robot was slowed at where a zone blocks its way)
+    return metrics, TrackSamples(these, size, (cross, lag, judged, detour | stalled))
 
 
 # The most reference points a phase's path is continued by (:func:`_continued`).
@@ -828,9 +838,11 @@ def _detours(
     zones: Sequence[tuple[Zone, FloatArray]],
     kept: float = 0.0,
     ahead_only: tuple[Sequence[bool], Placement] | None = None,
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_], list[bool]]:
-    """The samples of a detour a zone forces, and those after one that the robot
-    needs to rejoin its reference; each zone with how far it reaches into the
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_], list[bool]]:
+    """The samples of a detour a zone forces, those the robot was slowed at
+    where a zone blocks its way (below MOVING of the reference's speed: it
+    falls behind), and those after a detour that the robot needs to rejoin
+    its reference; each zone with how far it reaches into the
     path at each reference point (:func:`reach_across`); ``reference``: its
     points and their distance along the path. The zones grown by the body's reach too:
     the robot leaves its path that much sooner, and a polygon body's detour
@@ -894,6 +906,7 @@ def _detours(
     speed = _speed(px, py, numbers.dt)
     moving = _mean_over(speed, window) >= MOVING * _mean_over(reference_speed[:n], window)
     detour = blocked & moving
+    stalled = blocked & ~moving
     rejoining = np.zeros(n, dtype=bool)
     # A stretch the robot detoured in is rejoined after it; one it did not (a
     # robot far behind its reference in its entry, a zone between the two)
@@ -908,7 +921,7 @@ def _detours(
         end = min(int(k) + math.ceil(needed / numbers.dt - 1e-9), px.size)
         back = _kept_up(px, py, rx[:n], ry[:n], numbers, int(k), end)
         rejoining[k : end if back is None else back] = True
-    return detour, rejoining, ramped
+    return detour, stalled, rejoining, ramped
 
 
 def _ramp_allows(
