@@ -174,6 +174,71 @@ def test_a_near_condition_met_ends_the_predicted_phase_there(tmp_path: Path) -> 
     assert (code, out) == (0, f"{tmp_path / 'm.yaml'}: ok\n")
 
 
+def test_a_goal_an_update_brings_within_reach_is_not_warned_of(tmp_path: Path) -> None:
+    # Each phase's own reference misses its goal, and its update meets it: both run
+    # to success (the route in 17 s of its 60, the park in 4.2 s of its 10), so a
+    # warning that the phase ends by its timeout would be false.
+    route_update = (
+        "    updates:\n      - when: {travelled: 5}\n"
+        "        path: {type: waypoints, points: [[6, 1], [7, 2]], speed: 0.4}\n"
+    )
+    park_update = (
+        "    updates:\n      - when: {elapsed: 0.1}\n        target: {x: 8, y: 2, theta: 0}\n"
+    )
+    text = (
+        "version: 1\nname: replanned\n" + LIMITS + "phases:\n"
+        "  - name: route\n    track: {path: {type: line, towards: [8, 0], speed: 0.5}}\n"
+        + route_update
+        + "    until: {near: {point: [7, 2], tolerance: 0.05}}\n    timeout: 60\n"
+        "  - name: park\n    regulate: {target: {x: 100, y: 2, theta: 0}}\n"
+        + park_update
+        + "    until: {settled: {position: 0.02, heading: 0.02}}\n    timeout: 10\n"
+    )
+    path = _write(tmp_path, text)
+    assert _validate("--strict", str(path)) == (0, f"{path}: ok\n")
+    # without its update each phase is warned of, at its own line
+    alone = text.replace(route_update, "").replace(park_update, "")
+    code, out = _validate(str(_write(tmp_path, alone)))
+    assert code == 0
+    assert f"{path}:8:19: warning: the path never comes within 0.05 m of (7, 2)" in out
+    assert f"{path}:13:14: warning: phase 'park' cannot end before its timeout of 10 s" in out
+
+
+@pytest.mark.parametrize(
+    ("constraint", "said"),
+    [
+        ("stay_outside", "keeps the robot out of region 'zone' and starts outside it"),
+        ("stay_inside", "keeps the robot inside region 'zone' and starts inside it"),
+    ],
+)
+def test_reaching_a_region_the_phase_keeps_to_one_side_of_is_warned_of(
+    tmp_path: Path, constraint: str, said: str
+) -> None:
+    # `reaches` fires where the estimate crosses the region's edge, which the
+    # phase's own constraint holds it off: the pond's run timed out 11.5 m past
+    # the pond, the yard's 0.15 m inside its edge (wmr-mission run, by hand).
+    zone = (
+        "{type: circle, center: [3, 0], radius: 0.5}"
+        if constraint == "stay_outside"
+        else "{type: box, min: [-1, -1], max: [8, 1]}"
+    )
+    text = (
+        "version: 1\nname: kept\n" + LIMITS + f"regions:\n  zone: {zone}\nphases:\n"
+        "  - name: go\n    track: {path: {type: line, heading: 0, speed: 0.5}}\n"
+        f"    constraints: [{{{constraint}: zone}}]\n"
+        "    until: {reaches: zone}\n    timeout: 30\n"
+    )
+    path = _write(tmp_path, text)
+    code, out = _validate("--strict", str(path))
+    assert code == 1
+    assert f"{path}:11:22: warning: phase 'go' {said}" in out
+    assert "until.reaches, which fires where the estimate crosses that edge, can never fire" in out
+    # without the constraint the robot crosses the edge, and nothing is said
+    free = text.replace(f"    constraints: [{{{constraint}: zone}}]\n", "")
+    code, out = _validate("--strict", str(_write(tmp_path, free)))
+    assert "can never fire" not in out
+
+
 def test_zones_that_make_an_until_or_a_start_impossible(tmp_path: Path) -> None:
     text = (
         "version: 1\nname: zones\n" + LIMITS + "regions:\n"

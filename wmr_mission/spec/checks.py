@@ -782,6 +782,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         assumed = f"assuming the robot starts the phase at ({pose[0]:g}, {pose[1]:g})"
         if run.lap is None or run.lap == 1:
             yield from _in_time(mission, phase, where, pose, bound, mission_time - bound, assumed)
+            yield from _reaches_kept(mission, phase, where, pose, assumed)
         if isinstance(phase, RegulatePhase):
             if run.lap is None or run.lap == 1:
                 yield from _across_zones(mission, phase, where, pose, assumed)
@@ -815,6 +816,8 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         name = phase.until.reaches
         region = mission.regions.get(name) if name is not None else None
         followed = times.size  # samples up to the predicted end of the phase
+        # A path replaced or re-timed by an update may meet the goal its own path misses.
+        replaced = any(u.path is not None or u.speed is not None for u in phase.updates)
         if region is not None:
             entry = np.sign(region_value(region, np.array([pose[0]]), np.array([pose[1]])))[0]
             with np.errstate(all="ignore"):
@@ -822,7 +825,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
             crossed = np.isfinite(values) & (np.sign(values) != entry)
             if np.any(crossed):
                 followed = int(np.argmax(crossed)) + 1
-            else:
+            elif not replaced:
                 yield Finding(
                     (*where, "until", "reaches"),
                     f"the path never reaches region {name!r} within the phase's bound of "
@@ -838,7 +841,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         )
         if np.any(close):
             followed = min(followed, int(np.argmax(close)) + 1)
-        elif near is not None:
+        elif near is not None and not replaced:
             yield Finding(
                 (*where, "until", "near"),
                 f"the path never comes within {near.tolerance:g} m of ({near.point[0]:g}, "
@@ -856,6 +859,38 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
                 math.atan2(float(dy[last]), float(dx[last])) if dx[last] or dy[last] else pose[2]
             )
             pose = (float(x[last]), float(y[last]), heading)
+            if replaced and near is not None and not np.any(close):
+                pose = (near.point[0], near.point[1], heading)  # where an update's path met it
+
+
+def _reaches_kept(
+    mission: Mission, phase: Phase, where: DataPath, pose: Pose, assumed: str
+) -> Iterator[Finding]:
+    """`until.reaches` of a region the phase itself keeps out of (or inside),
+    entered on the side it keeps to: the condition fires where the estimate
+    crosses the region's edge, and the zone filter holds the estimate off that
+    edge, so it never fires. Entered on the other side, leaving crosses it.
+    The geofence's zones are not counted: they are watched, not kept."""
+    name = phase.until.reaches
+    region = mission.regions.get(name) if name is not None else None
+    if region is None:
+        return
+    outs = {c.stay_outside for c in phase.constraints if not isinstance(c, StayInside)}
+    ins = {c.stay_inside for c in phase.constraints if isinstance(c, StayInside)}
+    if name not in outs | ins:
+        return
+    value = float(region_value(region, np.array([pose[0]]), np.array([pose[1]]))[0])
+    if (value > 0.0) != (name in outs) or distance_to(region, pose[0], pose[1]) == 0.0:
+        return  # it starts on the side it leaves, or on the edge
+    kept, side = ("out of", "outside") if name in outs else ("inside", "inside")
+    yield Finding(
+        (*where, "until", "reaches"),
+        f"phase {phase.name!r} keeps the robot {kept} region {name!r} and starts {side} it "
+        f"({assumed}): the estimate is held off its edge, so until.reaches, which fires where "
+        "the estimate crosses that edge, can never fire; end the phase on `near` a point by "
+        "the region, or drop the constraint",
+        severity="warning",
+    )
 
 
 def _sample_times(mission: Mission, bound: float) -> FloatArray:
@@ -2008,16 +2043,19 @@ def _in_time(
             )
         )
     if until.settled is not None and isinstance(phase, RegulatePhase):
-        target = phase.regulate.target
-        distance = math.dist(pose[:2], (target.x, target.y)) - until.settled.position
-        turn = _wrapped(target.theta - pose[2]) - until.settled.heading
-        least.append(
-            (
-                max(distance / limits.v, turn / limits.omega),
-                f"the target ({target.x:g}, {target.y:g}, {target.theta:g}), "
-                f"{max(distance, 0.0):.3g} m and {max(turn, 0.0):.3g} rad away",
+        # settled reads the target in force: an update's may be met first
+        targets = [phase.regulate.target]
+        targets += [u.target for u in phase.updates if u.target is not None]
+        for target in targets:
+            distance = math.dist(pose[:2], (target.x, target.y)) - until.settled.position
+            turn = _wrapped(target.theta - pose[2]) - until.settled.heading
+            least.append(
+                (
+                    max(distance / limits.v, turn / limits.omega),
+                    f"the target ({target.x:g}, {target.y:g}, {target.theta:g}), "
+                    f"{max(distance, 0.0):.3g} m and {max(turn, 0.0):.3g} rad away",
+                )
             )
-        )
     if not least:
         return
     seconds, goal = min(least)
