@@ -502,12 +502,7 @@ def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
                 message += f" (the construct started at {opened[0]}:{opened[1]})"
         if not isinstance(error, _Refused):
             message = f"YAML syntax error: {message}"
-        if error.problem == "mapping values are not allowed here":
-            # `description: at 0.5 m/s: it cannot` - the second ': ' starts a mapping
-            message += (
-                "; a text holding ': ' must be quoted, e.g. key: \"at 0.5 m/s: it cannot\", "
-                "or written as a block (key: >-, then the text on indented lines)"
-            )
+            line, column, message = _syntax_advice(error, text, (line, column), message)
         return line, column, message
     if isinstance(error, yaml.reader.ReaderError):
         before = text[: error.position]
@@ -515,6 +510,107 @@ def _syntax_finding(error: yaml.YAMLError, text: str) -> tuple[int, int, str]:
         column = error.position - (before.rfind("\n") + 1) + 1
         return line, column, f"character {error.character!r} is not allowed in YAML text"
     return 1, 1, f"YAML error: {error}"
+
+
+def _spaces(count: int) -> str:
+    return "1 space" if count == 1 else f"{count} spaces"
+
+
+def _indents_above(lines: list[str], line: int) -> list[int]:
+    """The indentations a line may take after the lines above it: those of the
+    keys and items that enclose the last of them (an item's content too), from
+    the innermost out."""
+    indents: list[int] = []
+    for text in reversed(lines[: line - 1]):
+        content = text.lstrip(" ")
+        if not content or content.startswith("#"):
+            continue
+        depth = len(text) - len(content)
+        if indents and depth >= indents[-1]:
+            continue
+        if content.startswith("- ") and not content[2:].lstrip().startswith("#"):
+            indents.append(depth + 2 + len(content[2:]) - len(content[2:].lstrip(" ")))
+        indents.append(depth)
+        if depth == 0:
+            break
+    return sorted(set(indents), reverse=True)
+
+
+_CLOSERS: Final = {
+    "while parsing a flow mapping": ("{", "}"),
+    "while parsing a flow sequence": ("[", "]"),
+}
+
+
+def _syntax_advice(
+    error: yaml.MarkedYAMLError, text: str, at: tuple[int, int], message: str
+) -> tuple[int, int, str]:
+    """The reader's message with what to write instead, for the mistakes of
+    hand-written YAML it words in its own terms (a tab, a line indented to no
+    block, a text or a bracket left open); one left open is placed where it was
+    opened, which the reader only finds open at the file's end."""
+    line, column = at
+    problem, context = error.problem or "", error.context or ""
+    lines = text.splitlines()
+    opened = _mark(error.context_mark)
+    ended = problem.endswith("'<stream end>'") or problem == "found unexpected end of stream"
+    if "'\\t'" in problem:
+        said = "write spaces instead of the tab (YAML indents with spaces)"
+    elif problem == "expected <block end>, but found '-'":
+        said = (
+            f"a list item ('-') where the mapping started at {opened[0]}:{opened[1]} takes a "
+            "key: indent the item as the other items of its list"
+        )
+    elif problem.startswith("expected <block end>, but found '<block"):
+        indents = [str(n) for n in _indents_above(lines, line)]
+        above = f" ({', '.join(indents[:-1])} or {indents[-1]} spaces)" if indents[1:] else ""
+        above = f" ({indents[0]} spaces)" if len(indents) == 1 else above
+        said = (
+            f"line {line} is indented {_spaces(column - 1)}, as no key or item above it "
+            f"is{above}: YAML nests by indentation, so indent it as those it belongs with"
+        )
+    elif problem == "mapping values are not allowed here":
+        said = _continued(lines, line, column) or (
+            # `description: at 0.5 m/s: it cannot` - the second ': ' starts a mapping
+            "a text holding ': ' must be quoted, e.g. key: \"at 0.5 m/s: it cannot\", "
+            "or written as a block (key: >-, then the text on indented lines)"
+        )
+    elif context == "while scanning a quoted scalar" and ended:
+        quote = lines[opened[0] - 1][opened[1] - 1 : opened[1]]
+        said = f"the text opened by this quote ({quote}) is never closed: end it with {quote}"
+        return opened[0], opened[1], f"YAML syntax error: {said}"
+    elif context in _CLOSERS:
+        start, end = _CLOSERS[context]
+        if ended:
+            said = f"this '{start}' is never closed: close it with '{end}'"
+            return opened[0], opened[1], f"YAML syntax error: {said}"
+        said = (
+            f"close the '{start}' opened at {opened[0]}:{opened[1]} with '{end}' before this, "
+            "or separate its entries with ','"
+        )
+    else:
+        return line, column, message
+    return line, column, f"{message}; {said}"
+
+
+def _continued(lines: list[str], line: int, column: int) -> str | None:
+    """Where a key (its ': ' the first of its line) is indented more than the
+    line before it, which holds a key and its value: the reader took the line
+    for more of that value, and the key for a mapping inside a text."""
+    own = lines[line - 1] if line <= len(lines) else ""
+    before = [(n, t) for n, t in enumerate(lines[: line - 1], 1) if t.strip()]
+    before = [(n, t) for n, t in before if not t.lstrip().startswith("#")]
+    if not before or ": " in own[: column - 1]:
+        return None
+    number, previous = before[-1]
+    depth = len(previous) - len(previous.lstrip(" "))
+    _, colon, value = previous.strip().partition(": ")
+    if len(own) - len(own.lstrip(" ")) <= depth or not colon or value.startswith(("#", "|", ">")):
+        return None
+    return (
+        f"line {line} is indented more than line {number} ({_spaces(depth)}) and was read as "
+        f"more of its value {value!r}: indent it {_spaces(depth)} to make it a key beside it"
+    )
 
 
 def _compose(text: str) -> yaml.Node | None:
