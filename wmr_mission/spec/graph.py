@@ -482,11 +482,18 @@ def prove(mission: Mission) -> Iterator[GraphError]:
             "{retry: {times: N}} or by running a contingency (its times)",
         )
     elif not graph.reaches_end():
-        endless = [n.label for n in graph.nodes if _times_out_only(n.phase)]
-        why = f" (phases without an `until`, which end only by their timeout: {', '.join(endless)})"
+        endless = [n for n in graph.nodes if _times_out_only(n.phase)]
+        if not endless:
+            yield GraphError(
+                ("phases",), "no path through the phases and their reactions ends in success", True
+            )
+            return
+        # at the first such phase: its empty `until`, else its name (it has none)
+        first = endless[0]
         yield GraphError(
-            ("phases",),
-            "no path through the phases and their reactions ends in success"
-            + (why if endless else ""),
+            (*first.where, "until" if "until" in first.phase.model_fields_set else "name"),
+            "no path through the phases and their reactions ends in success (phases without "
+            f"an `until`, which end only by their timeout: {', '.join(n.label for n in endless)}"
+            "); give such a phase an `until` condition, or `on_timeout: next`",
             at_key=True,
         )
