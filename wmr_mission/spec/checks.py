@@ -380,6 +380,19 @@ def _update_rules(
                 f"time, before {update.when.elapsed:g} s",
                 severity="warning",
             )
+        clock = update.when.mission_time
+        if clock is not None:
+            # the mission's longest run ends the phase by then at the latest
+            latest = graph.worst_case_samples(mission) * mission.robot.dt
+            if phase.until.mission_time is not None:
+                latest = min(latest, phase.until.mission_time)
+            if clock >= latest:
+                yield Finding(
+                    (*at, "when", "mission_time"),
+                    f"the update never takes over: the phase ends by {latest:g} s of mission "
+                    f"time at the latest, before {clock:g} s",
+                    severity="warning",
+                )
         lap = update.when.lap
         if lap is not None and laps is None:
             yield Finding(
