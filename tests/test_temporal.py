@@ -85,7 +85,15 @@ def test_a_formula_is_read_as_written() -> None:
         ("always[0, later](speed <= 1)", 11, "entry, settle, end"),
         ("speed <= 1 until lag <= 1 until lag <= 2", 27, "does not chain"),
         ("always(speed <= 1) lag <= 2", 20, "expected 'and', 'or'"),
-        ("not speed <= 1", 1, "unknown signal 'not'"),
+        ("not speed <= 1", 1, "there is no negation: compare the other way"),
+        (
+            "cross_track <= 5cm",
+            17,
+            "units are not written: cross_track is in m; write 0.05 for 5 cm",
+        ),
+        ("always(speed <= 1.8 km / h)", 21, "speed is in m/s; write 0.5 for 1.8 km / h"),
+        ("always(heading_error <= 5 deg)", 27, "heading_error is in rad; write 0.0872665"),
+        ("always(cross_track <= 1 s)", 25, "cross_track is in m; write the number alone, in m"),
         ("", 1, "empty formula"),
     ],
 )

@@ -42,6 +42,7 @@ from wmr_mission.spec.models import (
     Mission,
     Threshold,
 )
+from wmr_mission.spec.units import unit_of
 from wmr_mission.terminal import shown
 
 __all__ = [
@@ -852,43 +853,9 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
     return finding._replace(message=finding.message + hint) if hint else finding
 
 
-# A unit a number may be written with (`1 cm`, `2 rad/s`, `90deg`): what it
-# measures, named by its SI unit, and its size in that unit. A mission writes
-# numbers alone, in the field's unit ([m], [s], [rad] in the field's
-# description); a unit is refused, and the message says the number to write.
-_UNITS: Final[dict[str, tuple[str, float]]] = {
-    **dict.fromkeys(("m", "meter", "meters", "metre", "metres"), ("m", 1.0)),
-    "mm": ("m", 1e-3),
-    "cm": ("m", 1e-2),
-    "km": ("m", 1e3),
-    **dict.fromkeys(("s", "sec", "second", "seconds"), ("s", 1.0)),
-    "ms": ("s", 1e-3),
-    "min": ("s", 60.0),
-    "h": ("s", 3600.0),
-    **dict.fromkeys(("rad", "radian", "radians"), ("rad", 1.0)),
-    **dict.fromkeys(("deg", "degree", "degrees", "°"), ("rad", math.pi / 180.0)),
-    "m/s": ("m/s", 1.0),
-    "mm/s": ("m/s", 1e-3),
-    "cm/s": ("m/s", 1e-2),
-    "km/h": ("m/s", 1.0 / 3.6),
-    "rad/s": ("rad/s", 1.0),
-    **dict.fromkeys(("deg/s", "°/s"), ("rad/s", math.pi / 180.0)),
-    **dict.fromkeys(("m/s^2", "m/s2"), ("m/s^2", 1.0)),
-    **dict.fromkeys(("rad/s^2", "rad/s2"), ("rad/s^2", 1.0)),
-    **dict.fromkeys(("deg/s^2", "deg/s2", "°/s^2"), ("rad/s^2", math.pi / 180.0)),
-    **dict.fromkeys(("1/s", "hz"), ("1/s", 1.0)),
-    "1/m": ("1/m", 1.0),
-    **dict.fromkeys(("1/m^2", "1/m2"), ("1/m^2", 1.0)),
-    "%": ("", 0.01),
-}
 _WITH_UNIT: Final = re.compile(r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S.*?)\s*")
 # The errors of a field that takes a number (or a formula of constants).
 _NUMBER_ERRORS: Final = ("float_type", "int_type", "float_parsing", "int_parsing", "expression")
-
-
-def _unit_of(text: str) -> tuple[str, float] | None:
-    """What a unit as written measures and its size (``km / h``, ``m/s²``), or None."""
-    return _UNITS.get(re.sub(r"\s+", "", text).replace("²", "^2").lower())
 
 
 def _field_units(path: DataPath, data: Any, root: type[BaseModel]) -> tuple[str, list[str]]:
@@ -905,7 +872,7 @@ def _field_units(path: DataPath, data: Any, root: type[BaseModel]) -> tuple[str,
         if owner is Threshold:
             continue  # a bound's max is in the unit of the metric it bounds
         found = re.findall(r"\[([^\]]+)\]", info.description or "")
-        return key, list(dict.fromkeys(u for u in found if _unit_of(u) is not None))
+        return key, list(dict.fromkeys(u for u in found if unit_of(u) is not None))
     return "", []
 
 
@@ -917,7 +884,7 @@ def _written_unit(error: Any, document: Document, root: type[BaseModel]) -> Find
         return None
     # a long text is no number with its unit (and would cost the pattern its square)
     match = _WITH_UNIT.fullmatch(value) if len(value) <= _MAX_NUMBER_TEXT else None
-    written = None if match is None else _unit_of(match.group(2))
+    written = None if match is None else unit_of(match.group(2))
     if match is None or written is None:
         return None
     number, unit = match.groups()
@@ -929,7 +896,7 @@ def _written_unit(error: Any, document: Document, root: type[BaseModel]) -> Find
     name, units = _field_units(path, document.data, root)
     kind, size = written
     # the size of the field's unit that measures what the written one does
-    sizes = [found[1] for found in map(_unit_of, units) if found is not None and found[0] == kind]
+    sizes = [found[1] for found in map(unit_of, units) if found is not None and found[0] == kind]
     if not units and not kind:
         sizes = [1.0]  # `5 %` where a plain number (a probability, a fraction) is expected
     converted = float(number) * size / sizes[0] if sizes else math.nan

@@ -31,6 +31,7 @@ from typing import Final, Literal, NamedTuple
 from pydantic_core import PydanticCustomError
 
 from wmr_mission.fields import MAX_FORMULA_LENGTH
+from wmr_mission.spec.units import unit_of
 
 __all__ = [
     "INSTANTS",
@@ -169,11 +170,18 @@ _TOKEN = re.compile(
     r"\s*(?:(?P<number>[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)"
     r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op><=|>=|[()\[\],])|(?P<other>\S))"
 )
+# `cross_track <= 5 cm`: a bound written with a unit (`0.5 m/s`, `2 km / h`, `5cm`)
+_BOUND_WITH_UNIT: Final = re.compile(
+    r"(?P<signal>[A-Za-z_]\w*)\s*(?:<=|>=)\s*"
+    r"(?P<number>[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)"
+    r"[ \t]*(?P<unit>[^\s()\[\],]+(?:[ \t]*/[ \t]*[^\s()\[\],]+)?)"
+)
+_NEGATION: Final = "there is no negation: compare the other way ('>=' for not '<=')"
 _HINTS: Final = {
     "<": "write '<=' (a bound is met at equality)",
     ">": "write '>=' (a bound is met at equality)",
     "=": "compare with '<=' or '>='",
-    "!": "there is no negation: compare the other way ('>=' for not '<=')",
+    "!": _NEGATION,
     "&": "write 'and'",
     "|": "write 'or'",
 }
@@ -294,6 +302,8 @@ class _Parser:
         token = self.token
         if token.kind != "name" or token.text in _KEYWORDS:
             raise self.unexpected("a signal, 'always', 'eventually' or '('")
+        if token.text == "not":
+            raise FormulaError(_NEGATION, token.column)
         if token.text not in SIGNALS:
             # a misspelt operator reads as a signal here: suggest either
             close = difflib.get_close_matches(token.text, [*SIGNALS, "always", "eventually"], n=1)
@@ -359,7 +369,25 @@ def parse_formula(text: str) -> Node:
 
 @functools.lru_cache(maxsize=256)
 def _parsed(text: str) -> Node:  # a campaign reads the same few formulas for each run
+    _refuse_units(text)
     return _Parser(text).parse()
+
+
+def _refuse_units(text: str) -> None:
+    """A bound written with a unit (`cross_track <= 5 cm`), refused at the unit
+    as a field's is, with the number to write in the signal's unit."""
+    for match in _BOUND_WITH_UNIT.finditer(text):
+        written, signal = unit_of(match["unit"]), SIGNALS.get(match["signal"])
+        if written is None or signal is None:
+            continue
+        own, number = unit_of(signal.unit), match["number"]
+        write = f"write the number alone, in {signal.unit}"
+        if own is not None and own[0] == written[0]:
+            write = f"write {float(number) * written[1] / own[1]:.6g} for {number} {match['unit']}"
+        raise FormulaError(
+            f"units are not written: {match['signal']} is in {signal.unit}; {write}",
+            match.start("unit") + 1,
+        )
 
 
 def signals_of(node: Node) -> set[str]:
