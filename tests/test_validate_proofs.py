@@ -16,6 +16,7 @@ import pytest
 from pydantic import BaseModel
 from typer.testing import CliRunner
 
+from wmr_mission import load_mission, run_mission
 from wmr_mission.cli import app
 from wmr_mission.fields import Registry
 from wmr_mission.spec.checks import ANGLE_FIELDS
@@ -237,6 +238,26 @@ def test_reaching_a_region_the_phase_keeps_to_one_side_of_is_warned_of(
     free = text.replace(f"    constraints: [{{{constraint}: zone}}]\n", "")
     code, out = _validate("--strict", str(_write(tmp_path, free)))
     assert "can never fire" not in out
+
+
+@pytest.mark.parametrize("estimator", ["constrained-observer", "ekf"])
+def test_the_noise_of_an_unmeasured_state_changes_nothing(
+    monkeypatch: pytest.MonkeyPatch, estimator: str
+) -> None:
+    # what validate's warning says of it (tests/data/missions/valid/, the same mission)
+    monkeypatch.setenv("WMR_MISSION_NO_JIT", "1")
+    path = ROOT / "tests/data/missions/valid/warning_noise_of_an_unmeasured_state.yaml"
+    stated = {"estimator.type": estimator, "sensors.bias.theta": 0.1}
+    runs = [
+        run_mission(load_mission(path, overrides=stated)),
+        run_mission(
+            load_mission(
+                path, overrides={"estimator.type": estimator, "sensors.noise_std.theta": 0.0}
+            )
+        ),
+    ]
+    for name in ("x", "y", "theta", "v", "omega"):
+        assert getattr(runs[0], name).tolist() == getattr(runs[1], name).tolist()
 
 
 def test_zones_that_make_an_until_or_a_start_impossible(tmp_path: Path) -> None:

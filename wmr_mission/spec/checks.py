@@ -168,6 +168,7 @@ def check_across_fields(mission: Mission) -> list[Finding]:
         *_unique_phase_names(mission),
         *_observability(mission),
         *_estimator_keys(mission),
+        *_unmeasured_errors(mission),
         *_regions(mission),
         *_phase_rules(mission),
         *_initial_state(mission),
@@ -267,6 +268,25 @@ def _estimator_keys(mission: Mission) -> Iterator[Finding]:
                 f"(sensors.measure is [{', '.join(measured)}]): {why}",
                 at_key=True,
             )
+
+
+def _unmeasured_errors(mission: Mission) -> Iterator[Finding]:
+    """A noise or bias stated for a state the sensors do not measure changes
+    nothing: the mission meant to measure it, or states it by mistake."""
+    sensors = mission.sensors
+    stated = [("noise_std", sensors.noise_std), ("bias", sensors.bias)]
+    for field, values in stated:
+        for state in ("x", "y", "theta"):
+            value = getattr(values, state)
+            if state not in sensors.measure and value != 0.0:
+                yield Finding(
+                    ("sensors", field, state),
+                    f"sensors.{field}.{state} is {value:g}, but {state} is not measured "
+                    f"(sensors.measure is [{', '.join(sensors.measure)}]): it changes nothing; "
+                    f"measure {state}, or remove it",
+                    severity="warning",
+                    at_key=True,
+                )
 
 
 def _refused_polygon(region: Any) -> TypeGuard[PolygonRegion]:
