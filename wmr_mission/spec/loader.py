@@ -850,7 +850,24 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
     finding = _written_unit(error, document, root) or _translate_error(error, document, root)
     value = error.get("input")
     hint = yaml11_hint(value) if isinstance(value, str) else ""
+    if isinstance(value, str) and not hint and error["type"] in _NUMBER_ERRORS:
+        hint = _quoted_hint(value)
     return finding._replace(message=finding.message + hint) if hint else finding
+
+
+def _quoted_hint(text: str) -> str:
+    """A number written in quotes (`dt: "0.01"`) is a text where a number is
+    expected: said so, with the number to write; `nan` and `inf` are texts too,
+    and no number a mission takes."""
+    try:
+        number = float(text)
+    except ValueError:
+        return ""
+    if text.strip() != text:
+        return ""
+    if not math.isfinite(number):  # `nan`, `inf`: YAML 1.2 writes them .nan, .inf
+        return f" (read as the text {text!r}: numbers must be finite)"
+    return f" (a text, in quotes: write {text} without them)"
 
 
 _WITH_UNIT: Final = re.compile(r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S.*?)\s*")
