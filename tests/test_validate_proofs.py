@@ -260,6 +260,26 @@ def test_the_noise_of_an_unmeasured_state_changes_nothing(
         assert getattr(runs[0], name).tolist() == getattr(runs[1], name).tolist()
 
 
+def test_a_finding_of_a_repeat_is_said_once_whatever_lap_it_is_found_in(tmp_path: Path) -> None:
+    # each lap starts where the one before is assumed to end, so the same finding
+    # names another start on each lap: it is one mistake of one line
+    text = (
+        "version: 1\nname: laps\n" + LIMITS + "phases:\n"
+        "  - name: laps\n    repeat:\n      times: 3\n      phases:\n"
+        "        - name: east\n"
+        "          track: {path: {type: polyline, points: [[6, 0]], speed: 0.8}}\n"
+        "          until: {near: {point: [6, 0], tolerance: 0.05}}\n          timeout: 5\n"
+        "          on_timeout: next\n"
+        "        - name: back\n"
+        "          track: {path: {type: polyline, points: [[0, 0]], speed: 0.8}}\n"
+        "          until: {near: {point: [0, 0], tolerance: 0.05}}\n          timeout: 20\n"
+    )
+    path = _write(tmp_path, text)
+    code, out = _validate(str(path))
+    assert code == 0
+    assert out.count(f"{path}:12:25: warning: the path never comes within 0.05 m of (6, 0)") == 1
+
+
 def test_zones_that_make_an_until_or_a_start_impossible(tmp_path: Path) -> None:
     text = (
         "version: 1\nname: zones\n" + LIMITS + "regions:\n"

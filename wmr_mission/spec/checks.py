@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+import re
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -132,6 +133,10 @@ def _entries(mission: Mission) -> Iterator[Finding]:
                 yield Finding((section, "entry"), str(error))
 
 
+_ASSUMING: Final = "assuming the robot starts the phase at"
+_ASSUMED: Final = re.compile(rf"{_ASSUMING} \([^()]*\)")
+
+
 def check(mission: Mission) -> list[Finding]:
     """Every semantic problem of a mission that passed its schema."""
     findings = check_across_fields(mission)
@@ -148,8 +153,13 @@ def check(mission: Mission) -> list[Finding]:
             findings.extend(_body_room(mission))
             findings.extend(_reaches(mission))
             findings.extend(_catching_up_or_lagging(mission))
-    # a phase of a repeat is checked once per lap: say each finding once
-    return list(dict.fromkeys(findings))
+    # a phase of a repeat is checked once per lap: say each finding once, the
+    # same finding of a later lap differing only in the pose it starts at
+    once: dict[tuple[DataPath, str, str], Finding] = {}
+    for finding in findings:
+        said = _ASSUMED.sub("", finding.message)
+        once.setdefault((finding.path, finding.severity, said), finding)
+    return list(once.values())
 
 
 def check_across_fields(mission: Mission) -> list[Finding]:
@@ -812,7 +822,7 @@ def _reaches(mission: Mission) -> Iterator[Finding]:
         if math.isinf(bound):
             return
         mission_time += bound
-        assumed = f"assuming the robot starts the phase at ({pose[0]:g}, {pose[1]:g})"
+        assumed = f"{_ASSUMING} ({pose[0]:g}, {pose[1]:g})"
         if run.lap is None or run.lap == 1:
             yield from _in_time(mission, phase, where, pose, bound, mission_time - bound, assumed)
             yield from _reaches_kept(mission, phase, where, pose, assumed)
