@@ -640,9 +640,9 @@ def read_document(text: str) -> tuple[Document | None, list[Finding]]:
     if document.data is None and not findings:  # `null`, `~`, `---` alone: no mission either
         return None, [Finding((), "the file holds only null: expected a mission mapping")]
     if document.data is not None and not isinstance(document.data, dict):
-        findings.append(
-            Finding((), "a mission is a mapping of keys (version, name, robot, ..., phases)")
-        )
+        under = "; a list of phases goes under phases:" if isinstance(document.data, list) else ""
+        said = f"the file holds {_kind(document.data)}: a mission is a mapping of keys"
+        findings.append(Finding((), f"{said} (version, name, robot, ..., phases){under}"))
     return document, findings
 
 
@@ -836,6 +836,15 @@ _PATTERNS: Final = {
     "characters",
     IDENTIFIER: "an identifier: letters, digits and '_', not starting with a digit",
 }
+
+
+def _kind(value: Any) -> str:
+    """What a value is, in a message: a list, a text, a number."""
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, str):
+        return f"the text {shown(repr(value), 40)}"
+    return f"the value {_shown(value)}"
 
 
 def _shown(value: Any) -> str:
