@@ -447,13 +447,16 @@ class _Builder:
         except (ValueError, OverflowError):
             self.refuse(path, f"{text!r} is not a number")
             return None
-        if not math.isfinite(value):
+        if text.lstrip("+-").lower() in (".nan", ".inf"):
             self.refuse(path, f"{text!r} is not allowed: numbers must be finite")
+            return None
+        if value == 0 and re.search(r"[1-9]", text.lower().partition("e")[0]):
+            self.refuse(path, f"{text!r} is too small for a number: it reads as 0")
             return None
         # Integers up to the largest seed: the fields bound them (a seed to
         # 2^32 - 1, every other number to ABSURD).
         largest = f"{LARGEST_SEED}" if isinstance(value, int) else f"{ABSURD:g}"
-        if abs(value) > float(largest):
+        if not abs(value) <= float(largest):  # 1e400 too, which reads as inf
             self.refuse(path, f"absurd number {text}: magnitudes above {largest} are refused")
             return None
         return value
