@@ -500,6 +500,28 @@ def test_goals_outside_a_keep_in_region_are_unreachable(tmp_path: Path) -> None:
     assert "until.near can never fire" not in out
 
 
+@pytest.mark.parametrize(("low", "warned"), [("1", True), ("0.04", False)])
+def test_a_start_outside_the_geofence_s_keep_in_is_warned_of(
+    tmp_path: Path, low: str, warned: bool
+) -> None:
+    # 1 m outside the yard the run was breached at its first sample (outcome
+    # breached, t = 0.01 s); 0.04 m outside is within the fence's margin of 0.05 m
+    text = (
+        "version: 1\nname: fenced\n" + LIMITS + "regions:\n"
+        f"  yard: {{type: box, min: [{low}, -1], max: [7, 4]}}\n"
+        "geofence: {keep_in: [yard], margin: 0.05}\nphases:\n"
+        "  - name: go\n    track: {path: {type: line, towards: [6, 0], speed: 0.5}}\n"
+        "    until: {elapsed: 10}\n"
+    )
+    path = _write(tmp_path, text)
+    _, out = _validate(str(path))
+    said = (
+        f"{path}:4:3: warning: robot.initial_state (0, 0) is 1 m outside keep-in region 'yard' "
+        "of the geofence (margin 0.05 m): the run is breached at its first sample\n"
+    )
+    assert (said in out) == warned, out
+
+
 WALL = """\
 version: 1
 name: wall

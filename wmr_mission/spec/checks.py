@@ -1723,10 +1723,11 @@ def _inside(region: RegionSpec, x: ArrayLike, y: ArrayLike) -> bool:
 
 
 def _zones(mission: Mission) -> Iterator[Finding]:
-    """A start inside a geofence's keep-out zone (inside a first phase's zone is
-    an error of its own), a regulate target inside the geofence's keep-out or
-    outside its keep-in, and an `until` region or point that lies wholly
-    inside a zone kept out or wholly outside a region kept in."""
+    """A start inside a geofence's keep-out zone or beyond its margin outside
+    its keep-in (inside a first phase's zone is an error of its own), a
+    regulate target inside the geofence's keep-out or outside its keep-in, and
+    an `until` region or point that lies wholly inside a zone kept out or
+    wholly outside a region kept in."""
     start = mission.robot.initial_state
     fence = _fenced_out(mission)
     for name, zone in fence.items():
@@ -1735,6 +1736,17 @@ def _zones(mission: Mission) -> Iterator[Finding]:
                 ("robot", "initial_state"),
                 f"robot.initial_state ({start.x:g}, {start.y:g}) is inside keep-out zone "
                 f"{name!r} of the geofence: the run is breached at its first sample",
+                severity="warning",
+            )
+    margin = mission.geofence.margin if mission.geofence is not None else 0.0
+    for name, yard in _fenced_in(mission).items():
+        outside = _outside_by(yard, start.x, start.y)
+        if outside > margin:
+            yield Finding(
+                ("robot", "initial_state"),
+                f"robot.initial_state ({start.x:g}, {start.y:g}) is {outside:.3g} m outside "
+                f"keep-in region {name!r} of the geofence (margin {margin:g} m): the run is "
+                "breached at its first sample",
                 severity="warning",
             )
     for run in run_order(mission):
