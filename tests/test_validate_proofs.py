@@ -280,6 +280,33 @@ def test_a_finding_of_a_repeat_is_said_once_whatever_lap_it_is_found_in(tmp_path
     assert out.count(f"{path}:12:25: warning: the path never comes within 0.05 m of (6, 0)") == 1
 
 
+@pytest.mark.parametrize(
+    ("target", "footprint", "said"),
+    [
+        ("{x: 3, y: 0, theta: 0}", "", "is inside region 'pond', but the phase must stay"),
+        ("{x: 3.6, y: 0, theta: 0}", "  footprint: {radius: 0.25}\n", "the body overlaps the zone"),
+    ],
+    ids=["in-the-zone", "within-the-body-s-reach"],
+)
+def test_a_target_out_of_reach_that_an_update_replaces_is_not_warned_of(
+    tmp_path: Path, target: str, footprint: str, said: str
+) -> None:
+    # settled reads the target in force: re-targeted 0.5 s in, each park settled
+    # at its new target within 5.6 s (wmr-mission run, by hand)
+    update = "    updates:\n      - when: {elapsed: 0.5}\n        target: {x: 2, y: 1, theta: 0}\n"
+    text = (
+        "version: 1\nname: retargeted\n" + LIMITS + footprint + "regions:\n"
+        "  pond: {type: circle, center: [3, 0], radius: 0.5}\nphases:\n"
+        f"  - name: park\n    regulate: {{target: {target}}}\n"
+        "    constraints: [{stay_outside: pond}]\n" + update + "    until: {settled: "
+        "{position: 0.02, heading: 0.02}}\n    timeout: 20\n"
+    )
+    path = _write(tmp_path, text)
+    assert _validate("--strict", str(path)) == (0, f"{path}: ok\n")
+    _, out = _validate(str(_write(tmp_path, text.replace(update, ""))))
+    assert said in out
+
+
 def test_zones_that_make_an_until_or_a_start_impossible(tmp_path: Path) -> None:
     text = (
         "version: 1\nname: zones\n" + LIMITS + "regions:\n"

@@ -529,10 +529,15 @@ def _target_against_constraints(
     mission: Mission, phase: Phase, where: DataPath
 ) -> Iterator[Finding]:
     """A phase that ends on settling at a target beyond its own constraint never
-    settles. (Pushing a target beyond a fence for a fixed time is a fair use.)"""
+    settles. (Pushing a target beyond a fence for a fixed time is a fair use.)
+    settled reads the target in force: one an update gives that the robot
+    can reach lets it settle."""
     if not isinstance(phase, RegulatePhase) or phase.until.settled is None:
         return
     target = phase.regulate.target
+    later = [u.target for u in phase.updates if u.target is not None]
+    if any(not any(_breaches(mission, phase, t.x, t.y)) for t in later):
+        return
     for number, name, side, other in _breaches(mission, phase, target.x, target.y):
         yield Finding(
             (*where, "constraints", number),
@@ -1857,7 +1862,9 @@ def _body_room(mission: Mission) -> Iterator[Finding]:
                     math.inf,
                 )
             )
-        if isinstance(phase, RegulatePhase) and phase.until.settled is not None:
+        # (settled reads the target in force: one an update gives may be met)
+        retargeted = any(u.target is not None for u in phase.updates)
+        if isinstance(phase, RegulatePhase) and phase.until.settled is not None and not retargeted:
             target = phase.regulate.target
             points.append(
                 (
