@@ -487,6 +487,45 @@ UNIT_CASES = [
 
 
 @pytest.mark.parametrize(
+    ("written", "said"),
+    [
+        (
+            "0.1",
+            "7:34: phases[0].expect.turn_rate_jump_max: expected {max: NUMBER}, 'auto' or "
+            "null, got 0.1: write {max: 0.1}",
+        ),
+        (
+            "{max: 10cm}",
+            "7:40: phases[0].expect.turn_rate_jump_max.max: units are not written: "
+            "turn_rate_jump_max is in rad/s; write the number alone",
+        ),
+        ("{max: -1}", "7:40: phases[0].expect.turn_rate_jump_max.max: should be greater than"),
+        ("aut", "7:34: phases[0].expect.turn_rate_jump_max: expected {max: NUMBER}, 'auto' or"),
+    ],
+)
+def test_a_threshold_written_wrong_is_said_once_in_the_form_it_takes(
+    written: str, said: str
+) -> None:
+    # a threshold is {max: N}, 'auto' or null: a mapping was also told it is no
+    # 'auto', and a number that it is no mapping, at the threshold's parent
+    text = MINIMAL.replace(
+        "    until: {elapsed: 1}\n",
+        f"    until: {{elapsed: 1}}\n    expect: {{turn_rate_jump_max: {written}}}\n",
+    )
+    _, diagnostics = check_mission_text(text, "m.yaml")
+    assert len(diagnostics) == 1, diagnostics
+    assert str(diagnostics[0]).startswith(f"m.yaml:{said}")
+
+
+def test_a_mission_threshold_written_as_a_number_says_the_threshold_to_write() -> None:
+    text = MINIMAL + "expect:\n  final_position_error: 0.05\n"
+    _, diagnostics = check_mission_text(text, "m.yaml")
+    assert [str(d) for d in diagnostics] == [
+        "m.yaml:8:25: expect.final_position_error: should be a mapping, got 0.05: write {max: 0.05}"
+    ]
+
+
+@pytest.mark.parametrize(
     ("field", "written", "message"), UNIT_CASES, ids=[c[1] for c in UNIT_CASES]
 )
 def test_a_number_written_with_a_unit_says_the_number_to_write(

@@ -1139,6 +1139,43 @@ _SUGGESTION = re.compile(r"^unknown field '[^']*'; did you mean '([^']*)'\?$")
 _MISSING = re.compile(r"^missing field '([^']*)' in ")
 
 
+_AUTO: Final = "literal['auto']"
+
+
+def _threshold_errors(errors: list[Any]) -> list[Any]:
+    """An `expect` threshold is {max: N}, 'auto' or null, and pydantic refuses a
+    value once by each: a mapping chose {max: N}, whose errors alone are said
+    (not that it is no 'auto'); any other value gets one error naming the three
+    forms (not that it is no mapping)."""
+    kept = []
+    for error in errors:
+        loc = tuple(error["loc"])
+        threshold = [e for e in errors if tuple(e["loc"][: len(loc)]) == (*loc[:-1], "Threshold")]
+        if error["type"] == "literal_error" and loc[-1:] == (_AUTO,) and threshold:
+            if isinstance(error["input"], dict):
+                continue
+            error = {**error, "ctx": {"expected": "{max: NUMBER}, 'auto' or null"}}
+        elif (
+            error["type"] == "model_type"
+            and loc[-1:] == ("Threshold",)
+            and any(tuple(e["loc"]) == (*loc[:-1], _AUTO) for e in errors)
+        ):
+            continue
+        kept.append(error)
+    return kept
+
+
+def _threshold_written(error: Any, finding: Finding, data: Any) -> Finding:
+    """A number where a threshold {max: N} is expected: the threshold to write."""
+    value = error.get("input")
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return finding
+    tp, _ = _type_at(written_path(error["loc"], data), data)
+    if tp is not Threshold and Threshold not in _members(tp):
+        return finding
+    return finding._replace(message=f"{finding.message}: write {{max: {value:g}}}")
+
+
 def _without_fields_of_unknown_types(findings: list[Finding]) -> list[Finding]:
     """Drop "unknown field" in a section whose type is unknown: its fields are
     another type's."""
@@ -1257,10 +1294,11 @@ def _check_document(
             )
         except ValidationError as error:
             translated = []
-            for item in error.errors(include_url=False):
+            for item in _threshold_errors(error.errors(include_url=False)):
                 path = written_path(item["loc"], document.data)
                 if not _under(path, document.refused):
-                    translated.append(translate(item, document))
+                    finding = translate(item, document)
+                    translated.append(_threshold_written(item, finding, document.data))
             findings.extend(_without_fields_of_unknown_types(_without_implied_missing(translated)))
     unique = {diagnostic(filename, document, f) for f in findings}
     if mission is not None and not findings:
