@@ -180,6 +180,20 @@ def test_a_bad_set_names_itself_and_the_field(
     assert not (tmp_path / "r").exists()  # nothing ran
 
 
+def test_a_set_naming_a_phase_of_a_repeat_at_the_top_says_its_path(tmp_path: Path) -> None:
+    # phases.NAME finds a phase written at the top of phases; one in a repeat
+    # is named through it
+    mission = ROOT / "missions" / "keep-out.yaml"
+    code, _, err = _invoke(
+        "run", str(mission), "--out", str(tmp_path / "r"), "--set", "phases.south.timeout=3"
+    )
+    assert code == 1
+    assert err.startswith(
+        "--set phases.south.timeout=3: phases has 2 items (0 to 1), no item 'south'; 'south' is "
+        "a phase of repeat 'laps': phases.laps.repeat.phases.south\n"
+    ), err
+
+
 @pytest.mark.parametrize(("setting", "exit_code"), [("robot.dt", 2), ("robot.dt=-1", 1)])
 def test_a_sweep_set_gives_the_exit_code_a_run_set_does(
     setting: str, exit_code: int, tmp_path: Path

@@ -1613,6 +1613,20 @@ def read_value(text: str) -> tuple[Any, list[Finding]]:
     return value, builder.findings
 
 
+def _in_a_repeat(items: list[Any], name: str | int, resolved: list[str | int]) -> str:
+    """Where the phase ``name``, not one of ``items``, is in a repeat among
+    them: the path that names it ('' if none)."""
+    for item in items:
+        repeat = item.get("repeat") if isinstance(item, dict) else None
+        inner = repeat.get("phases") if isinstance(repeat, dict) else None
+        if isinstance(inner, list) and any(
+            isinstance(p, dict) and p.get("name") == name for p in inner
+        ):
+            where = _where([*resolved, str(item.get("name")), "repeat", "phases", name])
+            return f"; {name!r} is a phase of repeat {item.get('name')!r}: {where}"
+    return ""
+
+
 def apply_override(document: Document, override: Override) -> str | None:
     """Set the override's value in the document's data; a message when the path cannot hold it."""
     current = document.data
@@ -1625,6 +1639,7 @@ def apply_override(document: Document, override: Override) -> str | None:
             if index is None:
                 names = [i["name"] for i in current if isinstance(i, dict) and "name" in i]
                 hint = did_you_mean(part, map(str, names)) if isinstance(part, str) else ""
+                hint = hint or _in_a_repeat(current, part, resolved)
                 return (
                     f"{_where(resolved)} has {len(current)} items (0 to {len(current) - 1}), "
                     f"no item {part!r}{hint}"
