@@ -939,12 +939,16 @@ def _written_unit(error: Any, document: Document, root: type[BaseModel]) -> Find
 
 def _belongs_under(owner: type[BaseModel], key: str) -> str | None:
     """The field of ``owner`` whose model (or one of its alternatives) has a
-    field ``key``: where a key written one level too high belongs."""
+    field ``key``: where a key written one level too high belongs. A list of
+    such models is named as one: `constraints: [{stay_outside: ...}]`."""
     for name, info in owner.model_fields.items():
         kind: Any = info.annotation
-        models: list[type[BaseModel]] = [kind] if _is_model(kind) else _members(kind)
+        origin, args = typing.get_origin(kind), typing.get_args(kind)
+        listed = origin in (list, tuple) and bool(args)
+        item = args[0] if listed else kind
+        models: list[type[BaseModel]] = [item] if _is_model(item) else _members(item)
         if any(key in m.model_fields for m in models):
-            return name
+            return f"{name}: [{{{key}: ...}}]" if listed else name
     return None
 
 
@@ -986,8 +990,14 @@ def _translate_error(error: Any, document: Document, root: type[BaseModel]) -> F
         hint = did_you_mean(key, allowed)
         if not hint and owner is not None:
             under = _belongs_under(owner, key)
-            if under is not None:  # `limits:` written beside `robot:`, not in it
+            if under is not None and ":" in under:  # `stay_outside:` beside `constraints:`
+                hint = f"; it belongs in a list item: {under}"
+            elif under is not None:  # `limits:` written beside `robot:`, not in it
                 hint = f"; it belongs in {under!r} ({under}.{key})"
+        above = _model_at(path[:-2], data, root) if len(path) > 1 else None
+        if not hint and above is not None and key in above.model_fields:
+            # `timeout:` written in `until:`, not beside it
+            hint = f"; it belongs beside {path[-2]!r} ({dotted_path((*path[:-2], key))})"
         hint = hint or f"; expected one of: {', '.join(allowed)}"
         return Finding(path, f"unknown field {shown(repr(key))}{hint}", at_key=True)
     if kind == "missing":
