@@ -25,6 +25,7 @@ import yaml
 from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
 
+from wmr_mission import expressions
 from wmr_mission.fields import (
     ABSURD,
     IDENTIFIER,
@@ -863,8 +864,28 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
     value = error.get("input")
     hint = yaml11_hint(value) if isinstance(value, str) else ""
     if isinstance(value, str) and not hint and error["type"] in _NUMBER_ERRORS:
-        hint = _quoted_hint(value)
+        hint = _quoted_hint(value) or _expression_hint(value, document.data)
     return finding._replace(message=finding.message + hint) if hint else finding
+
+
+def _expression_hint(text: str, data: Any) -> str:
+    """A parameter or a constant expression where a field takes a plain number
+    (`dt: r`, `dt: 2*r`): such a field reads neither (those marked scalar do),
+    and its value is what to write."""
+    declared = data.get("parameters") if isinstance(data, dict) else None
+    parameters = {
+        str(name): float(value)
+        for name, value in (declared.items() if isinstance(declared, dict) else ())
+        if isinstance(value, int | float) and not isinstance(value, bool)
+    }
+    try:
+        value = expressions.parse(text, parameters, allow_t=False).constant(parameters)
+    except (expressions.ExpressionError, ArithmeticError):
+        return ""
+    if not math.isfinite(value):
+        return ""
+    what = f"{text.strip()!r} is a parameter" if text.strip() in parameters else "an expression"
+    return f" ({what}, which this field does not read: write {value:g})"
 
 
 def _quoted_hint(text: str) -> str:
