@@ -865,6 +865,11 @@ def translate(error: Any, document: Document, root: type[BaseModel] = Mission) -
     hint = yaml11_hint(value) if isinstance(value, str) else ""
     if isinstance(value, str) and not hint and error["type"] in _NUMBER_ERRORS:
         hint = _quoted_hint(value) or _expression_hint(value, document.data)
+    elif isinstance(value, str) and not hint and error["type"] == "literal_error":
+        # `version: "1"`: the number accepted, in quotes
+        expected = str((error.get("ctx") or {}).get("expected", ""))
+        if value.strip() in re.findall(r"(?<!')\b\d+\b(?!')", expected):
+            hint = _quoted_hint(value)
     return finding._replace(message=finding.message + hint) if hint else finding
 
 
