@@ -614,7 +614,8 @@ def _continued(lines: list[str], line: int, column: int) -> str | None:
         return None
     return (
         f"line {line} is indented more than line {number} ({_spaces(depth)}) and was read as "
-        f"more of its value {value!r}: indent it {_spaces(depth)} to make it a key beside it"
+        f"more of its value {value!r}: indent it {_spaces(depth)} to make it a key beside it "
+        "(or, if the ': ' is part of that text, quote the text)"
     )
 
 
