@@ -221,6 +221,33 @@ def test_a_formula_on_a_signal_its_phase_does_not_measure_is_a_warning() -> None
     )
 
 
+@pytest.mark.parametrize(
+    ("formula", "said"),
+    [
+        ("always(cross_track <= -0.1)", "cross_track <= -0.1 never holds: it is 0 or more"),
+        (
+            "eventually(speed >= 12) or always(lag <= 1)",
+            "speed >= 12 never holds: it is at most limits.v = 10",
+        ),
+        ("always(turn_rate >= 25)", "turn_rate >= 25 never holds: it is at most limits.omega = 20"),
+        ("always(lag >= -0.3)", None),  # the lag is signed: ahead is below 0
+        ("eventually(speed >= 10)", None),  # at the limit, which the robot may reach
+    ],
+)
+def test_a_comparison_no_sample_meets_is_a_warning(formula: str, said: str | None) -> None:
+    from wmr_mission.spec.loader import check_mission_text
+
+    text = _with_formula_written(f' ["{formula}"]')
+    mission, found = check_mission_text(text, "case2.yaml")
+    assert mission is not None  # a warning: the mission runs
+    messages = [d.message for d in found]
+    if said is None:
+        assert messages == []
+    else:
+        assert messages == [f"{said}; write a bound it can meet"]
+        assert found[0].severity == "warning"
+
+
 def test_a_mission_wide_formula_that_no_phase_measures_is_a_warning() -> None:
     # case study 2's orbit and return keep lists of their own: the mission's
     # formulas apply to the spiral out alone, a track phase without constraints

@@ -1386,10 +1386,44 @@ def _measured_on(formula: str) -> dict[str, str]:
     return {signal: SIGNALS[signal].measured_on for signal in signals_of(parse_formula(formula))}
 
 
+# Signals no sample takes below 0: distances, a wrapped angle, magnitudes.
+_NON_NEGATIVE: Final = ("cross_track", "target_distance", "heading_error", "speed", "turn_rate")
+
+
+def _impossible(formula: str, mission: Mission) -> Iterator[str]:
+    """The comparisons of ``formula`` no sample meets: one of _NON_NEGATIVE
+    below a negative bound, a speed or turn rate above its limit (the inputs
+    are saturated to them), a heading error above a half turn."""
+    from wmr_mission.spec.temporal import atoms_of, parse_formula
+
+    limits = mission.robot.limits
+    most = {
+        "speed": (limits.v, "limits.v"),
+        "turn_rate": (limits.omega, "limits.omega"),
+        "heading_error": (math.pi, "pi"),
+    }
+    for atom in atoms_of(parse_formula(formula)):
+        if not atom.above and atom.bound < 0.0 and atom.signal in _NON_NEGATIVE:
+            yield f"{atom.signal} <= {atom.bound:g} never holds: it is 0 or more"
+        elif atom.above and atom.signal in most and atom.bound > most[atom.signal][0]:
+            top, name = most[atom.signal]
+            yield f"{atom.signal} >= {atom.bound:g} never holds: it is at most {name} = {top:.4g}"
+
+
 def _formulas(mission: Mission) -> Iterator[Finding]:
     """A phase's own temporal formula names only signals the phase measures,
     and a mission-wide one signals that some phase taking it measures together
-    (each is checked only where all its signals are measured)."""
+    (each is checked only where all its signals are measured); no comparison
+    of a formula is one no sample can meet."""
+    written: list[tuple[DataPath, str]] = [
+        (("expect", "temporal", i), t) for i, t in enumerate(mission.expect.temporal or ())
+    ]
+    for run in run_order(mission):
+        temporal = run.phase.expect.temporal or ()
+        written += [((*run.where, "expect", "temporal", i), t) for i, t in enumerate(temporal)]
+    for path, text in dict(written).items():
+        for said in _impossible(text, mission):
+            yield Finding(path, f"{said}; write a bound it can meet", severity="warning")
     takers: list[set[str]] = []
     for run in run_order(mission):
         phase = run.phase

@@ -47,6 +47,7 @@ __all__ = [
     "Signal",
     "Until",
     "Window",
+    "atoms_of",
     "checked_formula",
     "parse_formula",
     "signals_of",
@@ -388,6 +389,15 @@ def _refuse_units(text: str) -> None:
             f"units are not written: {match['signal']} is in {signal.unit}; {write}",
             match.start("unit") + 1,
         )
+
+
+def atoms_of(node: Node) -> list[Atom]:
+    """The comparisons a formula makes, in the order written."""
+    if isinstance(node, Atom):
+        return [node]
+    if isinstance(node, Always | Eventually):
+        return atoms_of(node.body)
+    return [*atoms_of(node.left), *atoms_of(node.right)]
 
 
 def signals_of(node: Node) -> set[str]:
