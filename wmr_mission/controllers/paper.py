@@ -260,7 +260,11 @@ MIRRORED = 78
 # 1.0 while the robot, stopped at a keep-out zone with its aim beyond it,
 # goes round from where it is (aimed_from_its_place).
 HELD_AT_ZONE = 83
-MEMORY_SIZE = 84
+# The side the bearing form goes round its keep-out zones on, held while the
+# straight way to the target crosses one (_bearing_round_zones): 1.0 the
+# left of that way, -1.0 the right, 0.0 while it crosses none.
+ROUND_SIDE = 84
+MEMORY_SIZE = 85
 # A robot slower than this share of its path's speed has stopped.
 STOPPED_SHARE = 0.1
 # [rad] how far past abeam (pi/2) the target must be to change the direction
@@ -666,32 +670,35 @@ def _keeps_out_of_a_zone(row_kinds: IntArray, row_params: FloatArray) -> bool:
 
 @kernel
 def _polygon_tangent(
-    p: FloatArray, margin: float, x: float, y: float, wx: float, wy: float
-) -> tuple[float, float]:
+    p: FloatArray, margin: float, x: float, y: float, wx: float, wy: float, held: float
+) -> tuple[float, float, float]:
     """Where the straight way from (x, y) to (x + wx, y + wy) crosses the
     keep-out polygon row ``p`` grown by ``margin`` (its Minkowski sum with a
     disc of that radius): (the share of the way to the point of it nearest
     the polygon's centre, the heading along the tangent to the grown polygon
-    on the side the way passes its centre, the left when head-on); (inf, 0)
-    where it does not cross (zone_between: its edges moved out by the
-    margin). On the grown polygon's edge the tangent is the edge's own
-    direction, on that side."""
+    on the side the way passes its centre, the left when head-on, or on the
+    side ``held`` where it is not 0 (1 the left, -1 the right), that side);
+    (inf, 0, 0) where it does not cross (zone_between: its edges moved out
+    by the margin). On the grown polygon's edge the tangent is the edge's
+    own direction, on that side."""
     reach = wx * wx + wy * wy
     if reach == 0.0:
-        return math.inf, 0.0
+        return math.inf, 0.0, 0.0
     # The way's point nearest the disc about the vertices that holds them.
     along = min(max(((p[1] - x) * wx + (p[2] - y) * wy) / reach, 0.0), 1.0)
     here, gx, gy = polygon_distance(p, x, y)
     if here <= margin:  # on the grown edge: crossed where the way leads in
         if gx * wx + gy * wy >= 0.0:
-            return math.inf, 0.0
+            return math.inf, 0.0, 0.0
     elif not zone_between(POLYGON_ROW, p, margin, x, y, x + wx, y + wy):
-        return math.inf, 0.0
+        return math.inf, 0.0, 0.0
     # the side the way passes the centre on: round by the other one (1 the
-    # left, -1 the right; the left when head-on)
+    # left, -1 the right; the left when head-on), or the side held
     side = -1.0 if wx * (p[2] - y) - wy * (p[1] - x) > 0.0 else 1.0
+    if held != 0.0:
+        side = held
     if here <= margin:  # on the grown edge: along it, the zone on the other side
-        return along, math.atan2(-side * gx, side * gy)
+        return along, math.atan2(-side * gx, side * gy), side
     # the tangent from (x, y) to the discs about the vertices on that side,
     # twice the margin wide (on the margin's own the robot met the barrier
     # of eq. (28) heading a hair into it, and stalled there for good): the
@@ -709,11 +716,11 @@ def _polygon_tangent(
         if turn > best:
             best = turn
             heading = angle
-    return along, heading
+    return along, heading, side
 
 
 @kernel
-def _bearing_round_zones(
+def _round_zones_on(
     x: float,
     y: float,
     bearing: float,
@@ -721,14 +728,20 @@ def _bearing_round_zones(
     row_kinds: IntArray,
     row_params: FloatArray,
     margin: float,
-) -> float:
+    held: float,
+    skip: int,
+) -> tuple[float, float, int]:
     """The bearing the bearing form heads along from (x, y) to a target
-    ``distance`` away at ``bearing``: that one, or where the straight way
-    crosses a keep-out ellipse (grown by ``margin``), along the tangent to the
-    first one it crosses, on the side the way passes its centre (the left
-    when head-on). Heading into the zone, eq. (28) stopped the robot at its
-    edge for good (a target behind the zone: a saddle); along the tangent it
-    goes round, and on the edge the tangent is the edge's own direction.
+    ``distance`` away at ``bearing``, the side it goes round on (1 the left
+    of the way, -1 the right, 0 none) and the row it goes round (-1 none):
+    that bearing, or where the straight way crosses a keep-out ellipse
+    (grown by ``margin``) or polygon (:func:`_polygon_tangent`), along the
+    tangent to the first one it crosses but row ``skip``, on the side the
+    way passes its centre (the left when head-on), or on the side ``held``
+    where it is not 0. Heading into the zone, eq. (28) stopped the robot at
+    its edge for good (a target behind the zone: a saddle); along the
+    tangent it goes round, and on the edge the tangent is the edge's own
+    direction.
 
     In the ellipse's frame scaled to a unit circle straight lines stay
     straight and tangents tangent: from a point q outside the unit circle
@@ -736,15 +749,21 @@ def _bearing_round_zones(
     turned by +90 degrees."""
     first = 1.0
     heading = bearing
+    chosen = 0.0
+    rounded = -1
     for i in range(row_kinds.shape[0]):
+        if i == skip:
+            continue
         p = row_params[i]
         if row_kinds[i] == POLYGON_ROW:
-            along, way = _polygon_tangent(
-                p, margin, x, y, distance * math.cos(bearing), distance * math.sin(bearing)
+            along, way, side = _polygon_tangent(
+                p, margin, x, y, distance * math.cos(bearing), distance * math.sin(bearing), held
             )
             if along < first:
                 first = along
                 heading = way
+                chosen = side
+                rounded = i
             continue
         if row_kinds[i] != ELLIPSE_ROW or p[5] > 0.0:
             continue
@@ -771,15 +790,86 @@ def _bearing_round_zones(
         if nearest_x * nearest_x + nearest_y * nearest_y >= 1.0:
             continue
         first = along
-        # the side the way passes the centre on (the left when head-on)
+        # the side the way passes the centre on (here -1 the left, 1 the
+        # right; the left when head-on), or the side held
         side = -1.0 if dx * qy - dy * qx >= 0.0 else 1.0
+        if held != 0.0:
+            side = -held
+        chosen = -side
+        rounded = i
         # on the edge (or within the margin, where eq. (28) holds the robot)
         # the edge's own direction
         root = math.sqrt(max(qx * qx + qy * qy - 1.0, 0.0))
         ux = -side * qy - root * qx
         uy = side * qx - root * qy
         heading = math.atan2(s * a * ux + c * b * uy, c * a * ux - s * b * uy)
-    return heading
+    return heading, chosen, rounded
+
+
+@kernel
+def _gone_round(
+    x: float,
+    y: float,
+    bearing: float,
+    distance: float,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+    held: float,
+) -> tuple[float, float, int]:
+    """:func:`_round_zones_on`, and where the way round its zone crosses
+    another one, round that one too on the same side, and so on: (the
+    heading, the side, how many zones it goes round)."""
+    heading, side, rounded = _round_zones_on(
+        x, y, bearing, distance, row_kinds, row_params, margin, held, -1
+    )
+    zones = 0 if rounded < 0 else 1
+    for _ in range(row_kinds.shape[0] - 1):
+        if rounded < 0:
+            break
+        further, _, rounded = _round_zones_on(
+            x, y, heading, distance, row_kinds, row_params, margin, side, rounded
+        )
+        # not round a zone the way round would turn back from, more than a
+        # quarter turn off the straight way
+        if rounded < 0 or abs(wrap_angle(further - bearing)) > 0.5 * math.pi:
+            break
+        heading = further
+        zones += 1
+    return heading, side, zones
+
+
+@kernel
+def _bearing_round_zones(
+    x: float,
+    y: float,
+    bearing: float,
+    distance: float,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+    held: float,
+) -> tuple[float, float]:
+    """The heading round the zones (:func:`_gone_round`) and its side: the
+    side ``held`` from the sample before where it is not 0; else the side
+    the way passes the first zone's centre or, where the way round it
+    crosses other zones, the side whose way round them all turns less from
+    the straight way.
+
+    Chosen afresh at each sample for the zone crossed first, the way round
+    one side of a zone led into a zone next to it, closer than the robot
+    passes, whose way round on its other side led back into the first: the
+    robot drove forwards and backwards by turns, every sample, until its
+    timeout (docs/paper-notes.md, eq. (28), "The side round the zones
+    held")."""
+    heading, side, zones = _gone_round(x, y, bearing, distance, row_kinds, row_params, margin, held)
+    if held == 0.0 and zones > 1:
+        other, other_side, _ = _gone_round(
+            x, y, bearing, distance, row_kinds, row_params, margin, -side
+        )
+        if abs(wrap_angle(other - bearing)) < abs(wrap_angle(heading - bearing)):
+            return other, other_side
+    return heading, side
 
 
 @kernel
@@ -960,9 +1050,11 @@ def regulate_input(
                 # is turned into a heading error it can.
                 bearing = math.atan2(-ey, -ex)
                 if _keeps_out_of_a_zone(row_kinds, row_params):
-                    way = _bearing_round_zones(
-                        x, y, bearing, distance, row_kinds, row_params, robot.constraint_margin
-                    )
+                    way, side = _bearing_round_zones(
+                        x, y, bearing, distance, row_kinds, row_params, robot.constraint_margin,
+                        memory[ROUND_SIDE],
+                    )  # fmt: skip
+                    memory[ROUND_SIDE] = side
                     if way != bearing:
                         # round the zone: the error as far, along the way round
                         bearing = way
@@ -995,6 +1087,7 @@ def regulate_input(
                 # at a crawl the wrong way round, never turned to.
                 speed = min(v_prev, 0.0) if memory[REVERSING] != 0.0 else max(v_prev, 0.0)
             else:
+                memory[ROUND_SIDE] = 0.0  # the side chosen afresh once it leaves
                 # Aligning at the target: keep the reachable (longitudinal)
                 # part of the position error, turn to the target heading.
                 along = ex * c + ey * s

@@ -31,6 +31,7 @@ from wmr_mission.controllers.paper import (
     INCREMENT,
     REVERSE_HYSTERESIS,
     REVERSING,
+    ROUND_SIDE,
     SHARE_HALVINGS,
     TURN_SLEW,
     TURNABLE_SPEED,
@@ -470,21 +471,25 @@ def largest_on_braking_line(
     return largest, gradients, sensitivity, inner
 
 
-def way_round_zones(
+def round_ellipses_on(
     position: FloatArray,
     bearing: float,
     distance: float,
     row_kinds: IntArray,
     row_params: FloatArray,
     margin: float,
-) -> float:
+    held: float,
+    skip: int,
+) -> tuple[float, float, int]:
     """The bearing form's heading round the first keep-out ellipse (grown by
-    ``margin``) that the straight way to the target crosses: along its
-    tangent, on the side the way passes its centre (left when head-on)."""
+    ``margin``) but row ``skip`` that the straight way to the target
+    crosses: along its tangent, on the side the way passes its centre (left
+    when head-on) or on the side ``held`` (1 the left, -1 the right) where it
+    is not 0; (the heading, the side, the row; 0 and -1 where it crosses none)."""
     way = distance * np.array([math.cos(bearing), math.sin(bearing)])
-    best, heading = 1.0, bearing
-    for kind, p in zip(row_kinds, row_params, strict=True):
-        if kind != ELLIPSE_ROW or p[5] > 0.0:
+    best, heading, chosen, rounded = 1.0, bearing, 0.0, -1
+    for i, (kind, p) in enumerate(zip(row_kinds, row_params, strict=True)):
+        if i == skip or kind != ELLIPSE_ROW or p[5] > 0.0:
             continue
         rotation = np.array([[math.cos(p[4]), -math.sin(p[4])], [math.sin(p[4]), math.cos(p[4])]])
         scale = np.array([p[2] + margin, p[3] + margin])
@@ -495,12 +500,70 @@ def way_round_zones(
         along = min(-(q @ d) / (d @ d), 1.0)
         if along >= best or np.hypot(*(q + along * d)) ** 2 >= 1.0:
             continue
-        best = along
+        best, rounded = along, i
+        # here -1 the left, 1 the right
         side = -1.0 if d[0] * q[1] - d[1] * q[0] >= 0.0 else 1.0
+        if held != 0.0:
+            side = -held
+        chosen = -side
         tangent = side * np.array([-q[1], q[0]]) - math.sqrt(max(q @ q - 1.0, 0.0)) * q
         world = rotation @ (scale * tangent)
         heading = math.atan2(world[1], world[0])
-    return heading
+    return heading, chosen, rounded
+
+
+def gone_round(
+    position: FloatArray,
+    bearing: float,
+    distance: float,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+    held: float,
+) -> tuple[float, float, int]:
+    """:func:`round_ellipses_on`, and round each further zone its way round
+    crosses, on the same side, while that turns no more than a quarter turn
+    off the straight way: (the heading, the side, the zones gone round)."""
+    heading, side, rounded = round_ellipses_on(
+        position, bearing, distance, row_kinds, row_params, margin, held, -1
+    )
+    zones = int(rounded >= 0)
+    for _ in range(len(row_kinds) - 1):
+        if rounded < 0:
+            break
+        further, _, rounded = round_ellipses_on(
+            position, heading, distance, row_kinds, row_params, margin, side, rounded
+        )
+        # not round one the way would turn back for, a quarter turn off the straight way
+        if rounded < 0 or abs(wrap_angle(further - bearing)) > 0.5 * math.pi:
+            break
+        heading, zones = further, zones + 1
+    return heading, side, zones
+
+
+def way_round_zones(
+    position: FloatArray,
+    bearing: float,
+    distance: float,
+    row_kinds: IntArray,
+    row_params: FloatArray,
+    margin: float,
+    held: float,
+) -> tuple[float, float]:
+    """The bearing form's heading round the keep-out ellipses and its side:
+    the side ``held`` from the sample before where it is not 0; else the one
+    the way passes the first ellipse's centre on or, where the way round it
+    crosses others, the one whose way round them all turns less."""
+    heading, side, zones = gone_round(
+        position, bearing, distance, row_kinds, row_params, margin, held
+    )
+    if held == 0.0 and zones > 1:
+        other, other_side, _ = gone_round(
+            position, bearing, distance, row_kinds, row_params, margin, -side
+        )
+        if abs(wrap_angle(other - bearing)) < abs(wrap_angle(heading - bearing)):
+            return other, other_side
+    return heading, side
 
 
 def riccati_gain(
@@ -622,9 +685,9 @@ def regulate_input(
                 # Far from the target: head for it (or back onto it).
                 bearing = math.atan2(-deviation[1], -deviation[0])
                 if row_kinds.shape[0]:  # round a keep-out zone on the way
-                    way = way_round_zones(
+                    way, memory[ROUND_SIDE] = way_round_zones(
                         estimate[:2], bearing, distance, row_kinds, row_params,
-                        robot.constraint_margin,
+                        robot.constraint_margin, float(memory[ROUND_SIDE]),
                     )  # fmt: skip
                     if way != bearing:
                         bearing = way
@@ -644,6 +707,7 @@ def regulate_input(
                 # eq. (20) linearised at a speed of the direction chosen
                 speed = min(v_prev, 0.0) if memory[REVERSING] else max(v_prev, 0.0)
             else:
+                memory[ROUND_SIDE] = 0.0  # the way round chosen afresh after
                 # At the target: keep the position error along the heading only.
                 facing = np.array([math.cos(estimate[2]), math.sin(estimate[2])])
                 deviation[:2] = (deviation[:2] @ facing) * facing
