@@ -2223,17 +2223,22 @@ def _across_zones(
     scripts/parks_across_zones.py`; 77 of 202 and 6 of 198 with `--parks 400
     --seed 1`). A target within the band of a zone is warned of already
     (:func:`_target_against_constraints` and the body's checks): no note."""
-    import shapely
+    target = phase.regulate.target
+    zones = [
+        (number, name, region)
+        for number, c in enumerate(phase.constraints)
+        if not isinstance(c, StayInside)
+        and (name := c.stay_outside) in mission.regions
+        and not isinstance(region := mission.regions[name], HalfPlaneRegion)
+    ]
+    if not zones or (pose[0], pose[1]) == (target.x, target.y):
+        return
+    import shapely  # (only where a park keeps out of a zone: validate's start-up)
 
     band, kept = _band(mission)
-    target = phase.regulate.target
     way = shapely.LineString([(pose[0], pose[1]), (target.x, target.y)])
     end = shapely.Point(target.x, target.y)
-    for number, constraint in enumerate(phase.constraints):
-        zone = None if isinstance(constraint, StayInside) else constraint.stay_outside
-        region = mission.regions.get(zone) if zone is not None else None
-        if region is None or isinstance(region, HalfPlaneRegion) or way.length == 0.0:
-            continue
+    for number, zone, region in zones:
         outline = _outline(region)
         if outline.distance(end) <= band or outline.distance(way) > band:
             continue
