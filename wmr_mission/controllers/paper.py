@@ -816,27 +816,30 @@ def _gone_round(
     row_params: FloatArray,
     margin: float,
     held: float,
-) -> tuple[float, float, int]:
+    travel: float,
+) -> tuple[float, float]:
     """:func:`_round_zones_on`, and where the way round its zone crosses
-    another one, round that one too on the same side, and so on: (the
-    heading, the side, how many zones it goes round)."""
+    another one, round that one too on the same side, and so on while that
+    turns no more than a quarter turn off ``travel``, the heading the robot
+    drives along (its heading, or its reverse while it backs): (the heading,
+    the side)."""
     heading, side, rounded = _round_zones_on(
         x, y, bearing, distance, row_kinds, row_params, margin, held, -1
     )
-    zones = 0 if rounded < 0 else 1
     for _ in range(row_kinds.shape[0] - 1):
         if rounded < 0:
             break
         further, _, rounded = _round_zones_on(
             x, y, heading, distance, row_kinds, row_params, margin, side, rounded
         )
-        # not round a zone the way round would turn back from, more than a
-        # quarter turn off the straight way
-        if rounded < 0 or abs(wrap_angle(further - bearing)) > 0.5 * math.pi:
+        # not round a zone the robot would turn back for, more than a quarter
+        # turn off its travel: round one 1.5 rad off the straight way, a
+        # target ahead became one behind, the robot backed out of the way
+        # round and drove on into it by turns (park-381's box and circle)
+        if rounded < 0 or abs(wrap_angle(further - travel)) > 0.5 * math.pi:
             break
         heading = further
-        zones += 1
-    return heading, side, zones
+    return heading, side
 
 
 @kernel
@@ -849,12 +852,13 @@ def _bearing_round_zones(
     row_params: FloatArray,
     margin: float,
     held: float,
+    travel: float,
 ) -> tuple[float, float]:
     """The heading round the zones (:func:`_gone_round`) and its side: the
-    side ``held`` from the sample before where it is not 0; else the side
-    the way passes the first zone's centre or, where the way round it
-    crosses other zones, the side whose way round them all turns less from
-    the straight way.
+    side ``held`` from the sample before where it is not 0, else the side
+    the way passes the first zone's centre; where the held side's way round
+    turns more than a quarter turn off the straight way, the side whose way
+    round turns less off ``travel``, the heading the robot drives along.
 
     Chosen afresh at each sample for the zone crossed first, the way round
     one side of a zone led into a zone next to it, closer than the robot
@@ -862,12 +866,18 @@ def _bearing_round_zones(
     robot drove forwards and backwards by turns, every sample, until its
     timeout (docs/paper-notes.md, eq. (28), "The side round the zones
     held")."""
-    heading, side, zones = _gone_round(x, y, bearing, distance, row_kinds, row_params, margin, held)
-    if held == 0.0 and zones > 1:
-        other, other_side, _ = _gone_round(
-            x, y, bearing, distance, row_kinds, row_params, margin, -side
+    heading, side = _gone_round(
+        x, y, bearing, distance, row_kinds, row_params, margin, held, travel
+    )
+    # Held while it turned on past a quarter turn off the straight way, the
+    # way round one box led the robot away from its target, to a stop at the
+    # box's edge for good (park-134 of parks_across_zones.py's seed 1, 1.78
+    # rad off): past that the side the robot turns less for is taken.
+    if held != 0.0 and abs(wrap_angle(heading - bearing)) > 0.5 * math.pi:
+        other, other_side = _gone_round(
+            x, y, bearing, distance, row_kinds, row_params, margin, -held, travel
         )
-        if abs(wrap_angle(other - bearing)) < abs(wrap_angle(heading - bearing)):
+        if abs(wrap_angle(other - travel)) < abs(wrap_angle(heading - travel)):
             return other, other_side
     return heading, side
 
@@ -1052,7 +1062,7 @@ def regulate_input(
                 if _keeps_out_of_a_zone(row_kinds, row_params):
                     way, side = _bearing_round_zones(
                         x, y, bearing, distance, row_kinds, row_params, robot.constraint_margin,
-                        memory[ROUND_SIDE],
+                        memory[ROUND_SIDE], theta + math.pi * memory[REVERSING],
                     )  # fmt: skip
                     memory[ROUND_SIDE] = side
                     if way != bearing:

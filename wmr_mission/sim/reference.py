@@ -520,25 +520,25 @@ def gone_round(
     row_params: FloatArray,
     margin: float,
     held: float,
-) -> tuple[float, float, int]:
+    travel: float,
+) -> tuple[float, float]:
     """:func:`round_ellipses_on`, and round each further zone its way round
     crosses, on the same side, while that turns no more than a quarter turn
-    off the straight way: (the heading, the side, the zones gone round)."""
+    off the direction of travel ``travel``: (the heading, the side)."""
     heading, side, rounded = round_ellipses_on(
         position, bearing, distance, row_kinds, row_params, margin, held, -1
     )
-    zones = int(rounded >= 0)
     for _ in range(len(row_kinds) - 1):
         if rounded < 0:
             break
         further, _, rounded = round_ellipses_on(
             position, heading, distance, row_kinds, row_params, margin, side, rounded
         )
-        # not round one the way would turn back for, a quarter turn off the straight way
-        if rounded < 0 or abs(wrap_angle(further - bearing)) > 0.5 * math.pi:
+        # not round one the robot would turn back for, a quarter turn off its travel
+        if rounded < 0 or abs(wrap_angle(further - travel)) > 0.5 * math.pi:
             break
-        heading, zones = further, zones + 1
-    return heading, side, zones
+        heading = further
+    return heading, side
 
 
 def way_round_zones(
@@ -549,19 +549,21 @@ def way_round_zones(
     row_params: FloatArray,
     margin: float,
     held: float,
+    travel: float,
 ) -> tuple[float, float]:
     """The bearing form's heading round the keep-out ellipses and its side:
-    the side ``held`` from the sample before where it is not 0; else the one
-    the way passes the first ellipse's centre on or, where the way round it
-    crosses others, the one whose way round them all turns less."""
-    heading, side, zones = gone_round(
-        position, bearing, distance, row_kinds, row_params, margin, held
+    the side ``held`` from the sample before where it is not 0, else the one
+    the way passes the first ellipse's centre on; where the held side's way
+    round turns more than a quarter turn off the straight way, the one whose
+    way round turns less off ``travel``, the heading the robot drives along."""
+    heading, side = gone_round(
+        position, bearing, distance, row_kinds, row_params, margin, held, travel
     )
-    if held == 0.0 and zones > 1:
-        other, other_side, _ = gone_round(
-            position, bearing, distance, row_kinds, row_params, margin, -side
+    if held != 0.0 and abs(wrap_angle(heading - bearing)) > 0.5 * math.pi:
+        other, other_side = gone_round(
+            position, bearing, distance, row_kinds, row_params, margin, -held, travel
         )
-        if abs(wrap_angle(other - bearing)) < abs(wrap_angle(heading - bearing)):
+        if abs(wrap_angle(other - travel)) < abs(wrap_angle(heading - travel)):
             return other, other_side
     return heading, side
 
@@ -688,6 +690,7 @@ def regulate_input(
                     way, memory[ROUND_SIDE] = way_round_zones(
                         estimate[:2], bearing, distance, row_kinds, row_params,
                         robot.constraint_margin, float(memory[ROUND_SIDE]),
+                        estimate[2] + math.pi * memory[REVERSING],
                     )  # fmt: skip
                     if way != bearing:
                         bearing = way
