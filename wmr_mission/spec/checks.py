@@ -2220,7 +2220,7 @@ def _across_zones(
     no way round a zone; the filter holds it off the zone, and it may stop
     there, shake against it or overshoot: 22 of 57 generated parks whose way
     was so noted were no success, 3 of 63 whose way was clear (`python
-    scripts/parks_across_zones.py`; 77 of 202 and 6 of 198 with `--parks 400
+    scripts/parks_across_zones.py`; 58 of 202 and 8 of 198 with `--parks 400
     --seed 1`). A target within the band of a zone is warned of already
     (:func:`_target_against_constraints` and the body's checks): no note."""
     target = phase.regulate.target
