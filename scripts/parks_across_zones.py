@@ -21,10 +21,11 @@ from __future__ import annotations
 import argparse
 import math
 from collections import Counter
+from collections.abc import Iterator
 
 import numpy as np
 
-from wmr_mission import mission_from_text, run_mission
+from wmr_mission import RunResult, mission_from_text, run_mission
 from wmr_mission.spec.checks import check
 from wmr_mission.spec.loader import MissionError
 
@@ -82,13 +83,12 @@ def _park(rng: np.random.Generator, number: int) -> str:
     )
 
 
-def outcomes(parks: int, seed: int) -> dict[bool, Counter[str]]:
-    """The outcomes of ``parks`` parks `validate` does not warn of, by whether
-    it notes their straight way crossing a zone."""
+def parks(count: int, seed: int) -> Iterator[tuple[bool, RunResult]]:
+    """``count`` parks `validate` does not warn of, run: whether it notes their
+    straight way crossing a zone, and the run."""
     rng = np.random.default_rng(seed)
-    found: dict[bool, Counter[str]] = {True: Counter(), False: Counter()}
     drawn = 0
-    while drawn < parks:
+    while drawn < count:
         text = _park(rng, drawn)
         try:
             mission = mission_from_text(text)
@@ -97,10 +97,20 @@ def outcomes(parks: int, seed: int) -> dict[bool, Counter[str]]:
         findings = check(mission)
         if any(f.severity != "note" for f in findings):  # warned of already
             continue
-        crossing = any("plans no way round a zone" in f.message for f in findings)
         drawn += 1
-        found[crossing][run_mission(mission).outcome.value] += 1
+        yield any("plans no way round a zone" in f.message for f in findings), run_mission(mission)
+
+
+def outcomes(count: int, seed: int) -> dict[bool, Counter[str]]:
+    """The outcomes of :func:`parks`, by whether `validate` notes the park."""
+    found: dict[bool, Counter[str]] = {True: Counter(), False: Counter()}
+    for crossing, result in parks(count, seed):
+        found[crossing][result.outcome.value] += 1
     return found
+
+
+# Speed reversals beyond which a park shakes (the box-and-pentagon park: 1,188).
+SHAKING = 20
 
 
 def main() -> None:
@@ -108,11 +118,20 @@ def main() -> None:
     parser.add_argument("--parks", type=int, default=120)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    for crossing, found in outcomes(args.parks, args.seed).items():
-        total = sum(found.values())
-        missed = total - found["success"]
+    found: dict[bool, Counter[str]] = {True: Counter(), False: Counter()}
+    shaking: Counter[bool] = Counter()
+    for crossing, result in parks(args.parks, args.seed):
+        found[crossing][result.outcome.value] += 1
+        v = result.v  # a park that shakes: its speed's sign turned round again and again
+        shaking[crossing] += int(np.count_nonzero(np.sign(v[1:]) * np.sign(v[:-1]) < 0)) > SHAKING
+    for crossing, outcome in found.items():
+        total = sum(outcome.values())
+        missed = total - outcome["success"]
         way = "crosses a zone" if crossing else "is clear"
-        print(f"straight way {way}: {missed} of {total} not a success ({dict(found)})")
+        print(
+            f"straight way {way}: {missed} of {total} not a success ({dict(outcome)}); "
+            f"{shaking[crossing]} with more than {SHAKING} speed reversals"
+        )
 
 
 if __name__ == "__main__":
